@@ -1,0 +1,39 @@
+"""Packaging for tableclean_suite.
+
+Version pins, and why:
+- robosuite 1.5.x: the environment subclasses its ``ManipulationEnv`` and uses
+  its composite-controller configs (introduced in 1.5).
+- mujoco >= 3.3, < 3.10: robosuite 1.5.2 needs mujoco >= 3.3; mujoco 3.10 changed
+  ``mj_fullM``, 3.11 removed ``MjData.qM`` (both used by robosuite's OSC), and
+  3.12+ (and 4.x) fail robosuite's ``get_joint_qpos_addr`` with an AssertionError.
+- numba: the batched tabular learners are compiled with it (robosuite needs it too).
+"""
+
+from setuptools import find_packages, setup
+
+setup(
+    name="tableclean_suite",
+    version="0.1.0",
+    description=(
+        "A robosuite plugin and benchmark for task-level RL in a two-segment table-cleaning scenario "
+        "(Q-learning with reduced state space and reward patterns r1-r4)."
+    ),
+    long_description=open("README.md", encoding="utf-8").read(),
+    long_description_content_type="text/markdown",
+    python_requires=">=3.10",
+    packages=find_packages(include=["tableclean_suite", "tableclean_suite.*"]),
+    install_requires=[
+        "robosuite>=1.5,<1.6",
+        "mujoco>=3.3,<3.10",
+        "numpy",
+        "numba",
+        "pandas",
+        "matplotlib",
+        "gymnasium>=1.0",
+        "tqdm",
+    ],
+    extras_require={
+        "dev": ["pytest"],
+        "video": ["imageio", "imageio-ffmpeg"],
+    },
+)
