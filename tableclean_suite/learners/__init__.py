@@ -1,0 +1,17 @@
+"""Tabular learners (Q-learning, SARSA, Expected SARSA, user-defined) trained on the task.
+
+    from tableclean_suite.learners import train
+    result = train(learner="q_learning", reward="r4", runs=1000, iterations=3000)
+"""
+
+from tableclean_suite.learners.rules import (  # noqa: F401
+    EXPECTED_SARSA,
+    Q_LEARNING,
+    SARSA,
+    TabularLearner,
+    get_learner,
+    learner_names,
+    register_learner,
+)
+from tableclean_suite.learners.train import BACKENDS, TrainingResult, train, validate_hyperparameters  # noqa: F401
+from tableclean_suite.learners.transitions import CorruptTableError, TransitionTable  # noqa: F401

@@ -1,0 +1,214 @@
+"""The paper's learning-speed quantities, defined precisely, as pure functions.
+
+Inputs are :class:`~tableclean_suite.learners.TrainingResult` records (R runs x
+T iterations) or 1-D curves of length T.  Definitions:
+
+- An episode **succeeds** when it reaches the terminal state without any
+  improper action during it.
+- **Success rate** at iteration t: fraction of runs whose most recently finished
+  episode (at or before t) succeeded; a run with no finished episode counts 0.
+- **Average reward** at t: mean over runs of (return / length) of the most recently
+  finished episode; runs with no finished episode are left out (NaN if none).
+- **Plateau**: mean over the last ``plateau_fraction`` (25 %) of the window.
+- **Iterations to maximum success**: first t (1-based count) at which the success
+  curve reaches ``threshold`` (95 %) of its plateau.
+- **Average-reward convergence**: first t at or after the curve's early minimum
+  (its minimum before the plateau window) where it has covered ``threshold`` of
+  the way from that minimum to its plateau.
+- **Episodes** at t: mean over runs of episodes finished by t.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tableclean_suite.task import Outcome
+
+DEFAULT_THRESHOLD = 0.95
+DEFAULT_PLATEAU_FRACTION = 0.25
+_TERMINAL_END = 1  # kernel.EPISODE_TERMINAL
+
+
+def _episode_arrays(result):
+    """Per finished episode: run, last iteration, previous end, return, length, improper count, terminal."""
+    ends = result.episode_end != 0
+    run_index, last = np.nonzero(ends)
+    same_run = np.r_[False, run_index[1:] == run_index[:-1]]
+    previous_end = np.where(same_run, np.r_[-1, last[:-1]], -1)
+    cum_reward = np.cumsum(result.rewards, axis=1)
+    cum_improper = np.cumsum(result.outcomes == Outcome.IMPROPER, axis=1)
+
+    def span(cumulative):
+        before = np.where(previous_end >= 0, cumulative[run_index, np.maximum(previous_end, 0)], 0)
+        return cumulative[run_index, last] - before
+
+    episode_return = span(cum_reward)
+    improper = span(cum_improper)
+    length = last - previous_end
+    terminal = result.episode_end[run_index, last] == _TERMINAL_END
+    return run_index, last, previous_end, episode_return, length, improper, terminal
+
+
+def episode_table(result):
+    """One row per finished episode (pandas DataFrame); see ``TrainingResult.episodes``."""
+    import pandas as pd
+
+    run_index, last, previous_end, episode_return, length, improper, terminal = _episode_arrays(result)
+    same_run = np.r_[False, run_index[1:] == run_index[:-1]]
+    episode_number = np.zeros(len(run_index), dtype=np.int64)
+    for i in range(1, len(run_index)):
+        episode_number[i] = episode_number[i - 1] + 1 if same_run[i] else 0
+    return pd.DataFrame(
+        {
+            "run": run_index,
+            "episode": episode_number,
+            "first_iteration": previous_end + 1,
+            "last_iteration": last,
+            "length": length,
+            "return": episode_return,
+            "average_reward": episode_return / length,
+            "reached_terminal": terminal,
+            "improper_actions": improper,
+            "success": terminal & (improper == 0),
+        }
+    )
+
+
+def _forward_fill(result, values_at_ends, before_first):
+    """Spread per-episode values over iterations: value of the latest episode ended at or before t."""
+    runs, iterations = result.episode_end.shape
+    ends = result.episode_end != 0
+    run_index, last = np.nonzero(ends)
+    grid = np.full((runs, iterations), np.nan)
+    grid[run_index, last] = values_at_ends
+    latest = np.where(ends, np.arange(iterations)[None, :], -1)
+    latest = np.maximum.accumulate(latest, axis=1)
+    filled = np.take_along_axis(grid, np.maximum(latest, 0), axis=1)
+    return np.where(latest >= 0, filled, before_first)
+
+
+def success_matrix(result) -> np.ndarray:
+    """``(R, T)`` float: 1.0 if the run's latest finished episode succeeded, else 0.0."""
+    _, _, _, _, _, improper, terminal = _episode_arrays(result)
+    return _forward_fill(result, (terminal & (improper == 0)).astype(float), 0.0)
+
+
+def terminal_matrix(result) -> np.ndarray:
+    """``(R, T)`` float: 1.0 if the latest finished episode reached the terminal state (improper or not)."""
+    _, _, _, _, _, _, terminal = _episode_arrays(result)
+    return _forward_fill(result, terminal.astype(float), 0.0)
+
+
+def average_reward_matrix(result) -> np.ndarray:
+    """``(R, T)``: return / length of the latest finished episode (NaN before the first)."""
+    _, _, _, episode_return, length, _, _ = _episode_arrays(result)
+    return _forward_fill(result, episode_return / length, np.nan)
+
+
+def success_curve(result) -> np.ndarray:
+    """Success rate per iteration, shape ``(T,)``, in [0, 1]."""
+    return success_matrix(result).mean(axis=0)
+
+
+def terminal_curve(result) -> np.ndarray:
+    """Fraction of runs whose latest episode reached the terminal state, shape ``(T,)``."""
+    return terminal_matrix(result).mean(axis=0)
+
+
+def average_reward_curve(result) -> np.ndarray:
+    """Average reward per iteration, shape ``(T,)`` (NaN until some run finished an episode)."""
+    matrix = average_reward_matrix(result)
+    counts = np.sum(~np.isnan(matrix), axis=0)
+    sums = np.nansum(matrix, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+
+
+def episodes_curve(result) -> np.ndarray:
+    """Mean over runs of episodes finished by each iteration, shape ``(T,)``."""
+    return np.cumsum(result.episode_end != 0, axis=1).mean(axis=0)
+
+
+def _check_fraction(name, value, low_open=True):
+    if not (0.0 < value <= 1.0) if low_open else not (0.0 <= value <= 1.0):
+        raise ValueError(f"{name} must be in (0, 1], got {value!r}")
+
+
+def plateau(curve, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION) -> float:
+    """Mean of the last ``plateau_fraction`` of ``curve`` (NaNs ignored)."""
+    _check_fraction("plateau_fraction", plateau_fraction)
+    curve = np.asarray(curve, dtype=float)
+    window = max(1, math.ceil(len(curve) * plateau_fraction))
+    tail = curve[-window:]
+    return float(np.nanmean(tail)) if np.any(~np.isnan(tail)) else float("nan")
+
+
+def iterations_to_max_success(
+    curve, threshold: float = DEFAULT_THRESHOLD, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION
+) -> int | None:
+    """First iteration count t (1-based) with ``curve[t-1] >= threshold * plateau``; None if never."""
+    _check_fraction("threshold", threshold)
+    curve = np.asarray(curve, dtype=float)
+    level = threshold * plateau(curve, plateau_fraction)
+    if not math.isfinite(level):
+        return None
+    hits = np.nonzero(curve >= level)[0]
+    return int(hits[0]) + 1 if len(hits) else None
+
+
+def reward_convergence_iteration(
+    curve, threshold: float = DEFAULT_THRESHOLD, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION
+) -> int | None:
+    """First iteration count t (1-based), at or after the early minimum, where the curve has
+    covered ``threshold`` of the way from its early minimum to its plateau; None if never."""
+    _check_fraction("threshold", threshold)
+    curve = np.asarray(curve, dtype=float)
+    top = plateau(curve, plateau_fraction)
+    window = max(1, math.ceil(len(curve) * plateau_fraction))
+    early = curve[: max(1, len(curve) - window)]
+    if not math.isfinite(top) or np.all(np.isnan(early)):
+        return None
+    lowest = int(np.nanargmin(early))
+    level = early[lowest] + threshold * (top - early[lowest])
+    hits = np.nonzero(curve[lowest:] >= level)[0]
+    return lowest + int(hits[0]) + 1 if len(hits) else None
+
+
+def episodes_at(episodes: np.ndarray, iteration: int | None) -> float | None:
+    """Mean episodes finished by iteration count ``iteration`` (1-based), from :func:`episodes_curve`."""
+    if iteration is None:
+        return None
+    return float(episodes[iteration - 1])
+
+
+def summarize(result, threshold: float = DEFAULT_THRESHOLD, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION) -> dict:
+    """Table 3 quantities of one training result, plus the curves they came from.
+
+    Returns a dict with the scalar columns ``max_success_iterations``,
+    ``max_success_episodes``, ``reward_convergence_iterations``,
+    ``reward_convergence_episodes``, ``success_plateau``, ``max_average_reward``,
+    ``average_reward_plateau``, ``terminal_plateau`` and the curves
+    ``success``, ``average_reward``, ``terminal``, ``episodes`` (each ``(T,)``).
+    """
+    success = success_curve(result)
+    average = average_reward_curve(result)
+    episodes = episodes_curve(result)
+    terminal = terminal_curve(result)
+    success_at = iterations_to_max_success(success, threshold, plateau_fraction)
+    reward_at = reward_convergence_iteration(average, threshold, plateau_fraction)
+    return {
+        "max_success_iterations": success_at,
+        "max_success_episodes": episodes_at(episodes, success_at),
+        "reward_convergence_iterations": reward_at,
+        "reward_convergence_episodes": episodes_at(episodes, reward_at),
+        "success_plateau": plateau(success, plateau_fraction),
+        "max_average_reward": float(np.nanmax(average)) if np.any(~np.isnan(average)) else float("nan"),
+        "average_reward_plateau": plateau(average, plateau_fraction),
+        "terminal_plateau": plateau(terminal, plateau_fraction),
+        "success": success,
+        "average_reward": average,
+        "terminal": terminal,
+        "episodes": episodes,
+    }

@@ -1,0 +1,211 @@
+"""Reward patterns r1-r4 of the paper's Table 2, as data, plus a registry for user patterns.
+
+A pattern maps each :class:`~tableclean_suite.task.Outcome` to a value and may add
+the looping penalty of r4.  Everything here is pure: ``RewardPattern.reward`` is a
+function of (outcome, state, next state, state before the previous step).
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+import re
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from tableclean_suite.task import N_OUTCOMES, Outcome
+
+#: Table 2 reward levels, named.
+TERMINAL_REWARD = 1.0
+RELEVANT_CLEAN_REWARD = 1.0
+SMALL_PENALTY = -0.01
+SMALL_INCENTIVE = 0.01
+IMPROPER_PENALTY = -1.0
+
+#: Outcomes of routine actions (move/pick/place) that the looping penalty can hit.
+LOOPABLE_OUTCOMES = (Outcome.ROUTINE, Outcome.INEFFECTIVE)
+
+_NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
+
+
+class CombineMode(str, enum.Enum):
+    """How a special reward combines with the base value it applies to."""
+
+    REPLACE = "replace"  # the special value is given instead of the base value
+    ADD = "add"  # the special value is added to the base value
+
+
+#: Integer codes of the looping rule for compiled learners.
+LOOPING_OFF, LOOPING_REPLACE, LOOPING_ADD = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class RewardPattern:
+    """One row of Table 2 (a reward per outcome), plus the optional looping penalty.
+
+    Attributes:
+        name: registry key, lower_snake (e.g. ``"r4"``).
+        terminal: reward for the clean that makes both segments clean.
+        relevant_clean: reward for cleaning an unclean segment.
+        irrelevant_clean: reward for cleaning an already clean segment.
+        routine: reward for an effective move, pick or place.
+        improper: reward for an improper action (Algorithm 1's failed state).
+        ineffective: reward for a pick with nothing to pick or a place with nothing
+            held; ``None`` means "as irrelevant cleaning" (the default rule).
+        looping_penalty: reward for a routine action (move/pick/place) whose result
+            equals the state before the previous step (s_{t+1} = s_{t-1}) or leaves
+            the state unchanged; ``None`` disables it.
+        looping_mode: ``"replace"`` (default: the penalty is given instead of the
+            routine/ineffective value) or ``"add"`` (added to it).
+        terminal_mode: ``"replace"`` (default: the terminal reward replaces the
+            relevant-cleaning reward on the final clean) or ``"add"``.
+        description: one line for tables and ``--describe``.
+
+    All values must be finite floats; there is no range limit.
+    """
+
+    name: str
+    terminal: float
+    relevant_clean: float
+    irrelevant_clean: float
+    routine: float
+    improper: float
+    ineffective: float | None = None
+    looping_penalty: float | None = None
+    looping_mode: str = CombineMode.REPLACE.value
+    terminal_mode: str = CombineMode.REPLACE.value
+    description: str = field(default="", compare=False)
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not _NAME_PATTERN.match(self.name):
+            raise ValueError(f"reward pattern name must be lower_snake (e.g. 'r5' or 'my_reward'), got {self.name!r}")
+        for f in fields(self):
+            if f.name in ("name", "description", "looping_mode", "terminal_mode"):
+                continue
+            value = getattr(self, f.name)
+            if value is None and f.name in ("ineffective", "looping_penalty"):
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+                raise ValueError(f"reward pattern {self.name!r}: {f.name} must be a number, got {value!r}")
+            if not math.isfinite(float(value)):
+                raise ValueError(f"reward pattern {self.name!r}: {f.name} must be finite, got {value!r}")
+            object.__setattr__(self, f.name, float(value))
+        for mode_field in ("looping_mode", "terminal_mode"):
+            value = getattr(self, mode_field)
+            try:
+                object.__setattr__(self, mode_field, CombineMode(value).value)
+            except ValueError:
+                allowed = ", ".join(m.value for m in CombineMode)
+                raise ValueError(
+                    f"reward pattern {self.name!r}: unknown {mode_field} {value!r}; allowed: {allowed}"
+                ) from None
+        object.__setattr__(self, "_values", tuple(self._compute_outcome_values()))
+
+    # -- values ---------------------------------------------------------------
+    def outcome_values(self) -> np.ndarray:
+        """Reward per outcome, shape ``(len(Outcome),)`` float64, indexed by ``Outcome``.
+
+        The looping penalty is not included (it depends on the state history).
+        """
+        return np.array(self._values, dtype=np.float64)
+
+    def _compute_outcome_values(self) -> np.ndarray:
+        values = np.zeros(N_OUTCOMES, dtype=np.float64)
+        values[Outcome.ROUTINE] = self.routine
+        values[Outcome.INEFFECTIVE] = self.irrelevant_clean if self.ineffective is None else self.ineffective
+        values[Outcome.RELEVANT_CLEAN] = self.relevant_clean
+        values[Outcome.IRRELEVANT_CLEAN] = self.irrelevant_clean
+        values[Outcome.IMPROPER] = self.improper
+        terminal = self.terminal
+        if self.terminal_mode == CombineMode.ADD.value:
+            terminal += self.relevant_clean
+        values[Outcome.TERMINAL] = terminal
+        return values
+
+    @property
+    def looping_code(self) -> int:
+        """``LOOPING_OFF``, ``LOOPING_REPLACE`` or ``LOOPING_ADD`` for compiled learners."""
+        if self.looping_penalty is None:
+            return LOOPING_OFF
+        return LOOPING_ADD if self.looping_mode == CombineMode.ADD.value else LOOPING_REPLACE
+
+    @staticmethod
+    def is_looping(outcome: int, state: int, next_state: int, previous_state: int) -> bool:
+        """Whether a transition is a loop: a routine action returning to s_{t-1} or staying put.
+
+        States are codes; ``previous_state`` is -1 at the first step of an episode.
+        """
+        return int(outcome) in LOOPABLE_OUTCOMES and (next_state == previous_state or next_state == state)
+
+    def reward(self, outcome: int, state: int, next_state: int, previous_state: int = -1) -> float:
+        """The reward of one transition (pure).
+
+        Args:
+            outcome: the :class:`Outcome` of the action.
+            state, next_state: state codes s_t and s_{t+1}.
+            previous_state: s_{t-1}, or -1 at an episode's first step.
+        """
+        value = self._values[int(outcome)]
+        if self.looping_penalty is not None and self.is_looping(outcome, state, next_state, previous_state):
+            value = value + self.looping_penalty if self.looping_code == LOOPING_ADD else self.looping_penalty
+        return value
+
+    def as_row(self) -> dict:
+        """A Table 2 style row (``None`` for a disabled looping penalty)."""
+        return {
+            "reward": self.name,
+            "terminal_state": self.terminal,
+            "relevant_cleaning": self.relevant_clean,
+            "irrelevant_cleaning": self.irrelevant_clean,
+            "pick_place_move": self.routine,
+            "improper_actions": self.improper,
+            "looping_penalty": self.looping_penalty,
+        }
+
+
+PAPER_REWARD_PATTERNS = (
+    RewardPattern(
+        "r1", TERMINAL_REWARD, SMALL_PENALTY, SMALL_PENALTY, SMALL_PENALTY, IMPROPER_PENALTY,
+        description="reward only at the terminal state (as in Cruz et al.)",
+    ),
+    RewardPattern(
+        "r2", TERMINAL_REWARD, RELEVANT_CLEAN_REWARD, SMALL_PENALTY, SMALL_PENALTY, IMPROPER_PENALTY,
+        description="r1 plus a reward for each relevant clean (intermediate success)",
+    ),
+    RewardPattern(
+        "r3", TERMINAL_REWARD, RELEVANT_CLEAN_REWARD, SMALL_PENALTY, SMALL_INCENTIVE, IMPROPER_PENALTY,
+        description="r2 with a small incentive for routine actions",
+    ),
+    RewardPattern(
+        "r4", TERMINAL_REWARD, RELEVANT_CLEAN_REWARD, SMALL_PENALTY, SMALL_INCENTIVE, IMPROPER_PENALTY,
+        looping_penalty=SMALL_PENALTY,
+        description="r3 plus a looping penalty relating two consecutive states",
+    ),
+)
+
+_REGISTRY: dict[str, RewardPattern] = {p.name: p for p in PAPER_REWARD_PATTERNS}
+
+
+def register_reward_pattern(pattern: RewardPattern, overwrite: bool = False) -> RewardPattern:
+    """Add a user pattern to the registry so ``train(reward="name")`` and the CLI find it."""
+    if not isinstance(pattern, RewardPattern):
+        raise TypeError(f"expected a RewardPattern, got {type(pattern).__name__}")
+    if pattern.name in _REGISTRY and not overwrite:
+        raise ValueError(f"reward pattern {pattern.name!r} is already registered; pass overwrite=True to replace it")
+    _REGISTRY[pattern.name] = pattern
+    return pattern
+
+
+def reward_pattern_names() -> list[str]:
+    """Registered pattern names, in registration order."""
+    return list(_REGISTRY)
+
+
+def get_reward_pattern(reward: str | RewardPattern) -> RewardPattern:
+    """A pattern by registered name, or the pattern itself; clear error otherwise."""
+    if isinstance(reward, RewardPattern):
+        return reward
+    if isinstance(reward, str) and reward in _REGISTRY:
+        return _REGISTRY[reward]
+    raise ValueError(f"unknown reward pattern {reward!r}; allowed: {', '.join(_REGISTRY)} or a RewardPattern")
