@@ -1,0 +1,79 @@
+"""Reward patterns: Table 2 values for every outcome, the looping penalty, the registry."""
+
+import pytest
+
+from tableclean_suite.rewards import RewardPattern, get_reward_pattern, register_reward_pattern, reward_pattern_names
+from tableclean_suite.task import Outcome
+
+R, INEFF, REL, IRR, IMP, TERM = (
+    Outcome.ROUTINE, Outcome.INEFFECTIVE, Outcome.RELEVANT_CLEAN, Outcome.IRRELEVANT_CLEAN, Outcome.IMPROPER,
+    Outcome.TERMINAL,
+)
+
+# Table 2 of the paper, hand-copied: terminal, relevant, irrelevant, pick/place/move, improper
+TABLE2 = {
+    "r1": (1, -0.01, -0.01, -0.01, -1),
+    "r2": (1, 1, -0.01, -0.01, -1),
+    "r3": (1, 1, -0.01, 0.01, -1),
+    "r4": (1, 1, -0.01, 0.01, -1),
+}
+
+
+@pytest.mark.parametrize("name", sorted(TABLE2))
+def test_table2_values_for_every_outcome(name):
+    terminal, relevant, irrelevant, routine, improper = TABLE2[name]
+    pattern = get_reward_pattern(name)
+    # a non-looping transition: 0 -> 1 with previous state 5
+    assert pattern.reward(TERM, 0, 1, 5) == terminal
+    assert pattern.reward(REL, 0, 1, 5) == relevant
+    assert pattern.reward(IRR, 0, 0, 5) == irrelevant
+    assert pattern.reward(R, 0, 1, 5) == routine
+    assert pattern.reward(IMP, 0, 0, 5) == improper
+    assert pattern.reward(INEFF, 0, 0, 5) == irrelevant  # ineffective counts as irrelevant cleaning (r4: also a loop)
+
+
+def test_looping_penalty_only_in_r4():
+    # move 0 -> 1 back to the state before the previous step (s_{t+1} = s_{t-1})
+    assert get_reward_pattern("r3").reward(R, 1, 0, 0) == 0.01
+    assert get_reward_pattern("r4").reward(R, 1, 0, 0) == -0.01
+    assert get_reward_pattern("r4").reward(R, 1, 2, 0) == 0.01  # progress, no loop
+    assert get_reward_pattern("r4").reward(R, 1, 2, -1) == 0.01  # first step of an episode
+    assert get_reward_pattern("r4").reward(INEFF, 3, 3, 1) == -0.01  # staying put
+    assert get_reward_pattern("r4").reward(IMP, 3, 3, 3) == -1  # improper is not a routine action
+
+
+def test_looping_add_mode_and_terminal_add_mode():
+    looping = RewardPattern("r4_add", 1, 1, -0.01, 0.01, -1, looping_penalty=-0.01, looping_mode="add")
+    assert looping.reward(R, 1, 0, 0) == pytest.approx(0.0)
+    bonus = RewardPattern("r2_bonus", 1, 1, -0.01, -0.01, -1, terminal_mode="add")
+    assert bonus.reward(TERM, 0, 1) == 2.0
+
+
+def test_outcome_values_array():
+    assert get_reward_pattern("r2").outcome_values().tolist() == [-0.01, -0.01, 1.0, -0.01, -1.0, 1.0]
+
+
+def test_user_pattern_registration_and_errors():
+    mine = RewardPattern("test_sparse", 10, 0, 0, 0, -5)
+    register_reward_pattern(mine)
+    assert get_reward_pattern("test_sparse") is mine and "test_sparse" in reward_pattern_names()
+    with pytest.raises(ValueError, match="already registered"):
+        register_reward_pattern(mine)
+    with pytest.raises(ValueError, match="unknown reward pattern 'r9'; allowed: r1, r2, r3, r4"):
+        get_reward_pattern("r9")
+
+
+@pytest.mark.parametrize(
+    "kwargs,message",
+    [
+        ({"name": "R 5"}, "lower_snake"),
+        ({"terminal": float("nan")}, "terminal must be finite"),
+        ({"routine": "high"}, "routine must be a number"),
+        ({"looping_mode": "sometimes"}, "unknown looping_mode 'sometimes'; allowed: replace, add"),
+    ],
+)
+def test_invalid_patterns_are_rejected(kwargs, message):
+    fields = dict(name="bad", terminal=1, relevant_clean=1, irrelevant_clean=0, routine=0, improper=-1)
+    fields.update(kwargs)
+    with pytest.raises(ValueError, match=message):
+        RewardPattern(**fields)
