@@ -1,0 +1,13 @@
+"""robosuite environments of tableclean_suite.
+
+Importing this package registers :class:`TableClean` with robosuite (robosuite's ``EnvMeta``
+registers every environment class when its module is imported), so
+``robosuite.make("TableClean", robots="Panda")`` works once ``tableclean_suite`` is imported.
+"""
+
+from tableclean_suite.environments.abstraction import AbstractionError, Fault, abstract_state
+from tableclean_suite.environments.config import DEFAULT_TABLECLEAN_CONFIG
+from tableclean_suite.environments.objects import OBJECT_TYPES
+from tableclean_suite.environments.table_clean import TableClean
+
+__all__ = ["TableClean", "DEFAULT_TABLECLEAN_CONFIG", "abstract_state", "AbstractionError", "Fault", "OBJECT_TYPES"]

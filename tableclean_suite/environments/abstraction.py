@@ -1,0 +1,221 @@
+"""Physical-to-symbolic abstraction: an observation mapping -> the task model's :class:`TaskState`.
+
+This module is the only place where the physical thresholds of the task are applied.  Everything
+is a pure function of an observation-like mapping (``env.skill_info()`` is one) and a config
+(:data:`~tableclean_suite.environments.config.DEFAULT_TABLECLEAN_CONFIG` when ``None``), so it can
+be unit-tested with a hand-written dict.
+
+Observation keys (world frame, metres):
+
+Required
+    - ``"dirt_fraction"`` (2,): fraction of dirt markers still present per segment (1.0 = all dirty).
+    - ``"object_pos"`` (3,): object centre (root body position).
+    - ``"object_grasped"`` bool: both gripper finger pads touch the object.
+    - ``"eef_pos"`` (3,): gripper site position.
+    - ``"sponge_pos"`` (3,): sponge centre (only when ``check_sponge``).
+Optional (defaults from the config's scene geometry)
+    - ``"sponge_home_pos"`` (3,), ``"sponge_grasped"`` bool (default False).
+    - ``"table_top_z"`` float, ``"table_center"`` (3,), ``"table_half_size"`` (2,).
+    - ``"segment_centers"`` (2, 3), ``"segment_half_sizes"`` (2, 2).
+    - ``"object_rest_z"`` float: object centre height when it rests on the table
+      (default ``table_top_z + object_half_size[2]``); ``"object_half_size"`` (3,).
+    - ``"qvel"`` (n,): simulation velocities, checked against ``max_stable_speed``.
+
+Situations the task model has no state for raise :class:`AbstractionError` whose ``fault`` is a
+:class:`Fault`; nothing is mapped silently.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from typing import Mapping
+
+import numpy as np
+
+from tableclean_suite.environments.config import make_config, scene_geometry
+from tableclean_suite.task import N_SEGMENTS, ObjectLocation, Segment, TaskState
+
+#: Observation keys read from the physics and checked for NaN/inf by :func:`check_stability`.
+PHYSICAL_KEYS = ("object_pos", "eef_pos", "sponge_pos", "dirt_fraction", "qvel")
+#: Slack on the clean test so that e.g. 0.9 wiped of 10 markers (float 0.09999...) counts as clean.
+_FRACTION_EPS = 1e-9
+
+
+class Fault(str, enum.Enum):
+    """A physical situation the symbolic task model has no state for."""
+
+    UNSTABLE = "unstable"  # non-finite values or speeds above max_stable_speed
+    OBJECT_OFF_TABLE = "object_off_table"  # object outside the table top or below it
+    OBJECT_BETWEEN_SEGMENTS = "object_between_segments"  # on the table but on neither segment
+    OBJECT_LIFTED_NOT_GRASPED = "object_lifted_not_grasped"  # above its resting height, not held
+    ARM_NOT_OVER_SEGMENT = "arm_not_over_segment"  # gripper not above either segment
+    SPONGE_AWAY_FROM_HOME = "sponge_away_from_home"  # sponge not at its home while no skill runs
+
+
+class AbstractionError(RuntimeError):
+    """Raised when the physical state maps to no task state; ``fault`` says which :class:`Fault`."""
+
+    def __init__(self, fault: Fault, message: str):
+        super().__init__(f"{fault.value}: {message}")
+        self.fault = Fault(fault)
+
+
+_DEFAULT_CONFIG = make_config()
+
+
+def resolve_config(config: Mapping | None) -> Mapping:
+    """The full validated config: the default for ``None``, else ``config`` merged into the default."""
+    return _DEFAULT_CONFIG if config is None else make_config(config)
+
+
+def _require(obs: Mapping, *keys: str) -> None:
+    missing = [k for k in keys if k not in obs]
+    if missing:
+        raise KeyError(f"observation lacks key(s) {missing} needed by the abstraction; has {sorted(obs)}")
+
+
+def _geometry_value(obs: Mapping, key: str, config: Mapping) -> np.ndarray:
+    """``obs[key]`` as float array, else the same attribute of the config's scene geometry."""
+    if key in obs:
+        return np.asarray(obs[key], dtype=float)
+    return np.asarray(getattr(scene_geometry(config), key), dtype=float)
+
+
+# ---------------------------------------------------------------------------------------------
+# building blocks (each a pure function; the environment's success check reuses them)
+# ---------------------------------------------------------------------------------------------
+def check_stability(obs: Mapping, config: Mapping | None = None) -> None:
+    """Raise ``UNSTABLE`` when a physical reading (:data:`PHYSICAL_KEYS`) is non-finite or ``|qvel|`` is too high."""
+    config = resolve_config(config)
+    for key in PHYSICAL_KEYS:
+        if key in obs and not math.isfinite(float(np.sum(obs[key]))):  # NaN/inf propagate through the sum
+            raise AbstractionError(Fault.UNSTABLE, f"observation {key!r} is not finite: {obs[key]!r}")
+    if "qvel" in obs and len(obs["qvel"]):
+        speed = float(np.max(np.abs(obs["qvel"])))
+        if speed > config["max_stable_speed"]:
+            raise AbstractionError(
+                Fault.UNSTABLE, f"simulation speed {speed:.1f} exceeds max_stable_speed {config['max_stable_speed']}"
+            )
+
+
+def segments_clean(dirt_fraction, config: Mapping | None = None) -> np.ndarray:
+    """Bool (2,): a segment is clean when its remaining dirt fraction is <= ``1 - clean_fraction``."""
+    config = resolve_config(config)
+    dirt = np.asarray(dirt_fraction, dtype=float)
+    if dirt.shape != (N_SEGMENTS,):
+        raise ValueError(f"dirt_fraction must have shape ({N_SEGMENTS},), got {dirt.shape}")
+    return dirt <= 1.0 - config["clean_fraction"] + _FRACTION_EPS
+
+
+def segment_of_xy(xy, segment_centers, segment_half_sizes, margin: float = 0.0) -> Segment | None:
+    """The segment whose area, grown by ``margin`` [m], contains ``xy``; the nearest if both; else ``None``.
+
+    Plain float arithmetic over the two segments (faster than NumPy on arrays this small).
+    """
+    x, y = float(xy[0]), float(xy[1])
+    best, best_distance = None, math.inf
+    for segment in Segment:
+        cx, cy = float(segment_centers[segment][0]), float(segment_centers[segment][1])
+        hx, hy = float(segment_half_sizes[segment][0]), float(segment_half_sizes[segment][1])
+        if abs(x - cx) <= hx + margin and abs(y - cy) <= hy + margin:
+            distance = math.hypot(x - cx, y - cy)
+            if distance < best_distance:
+                best, best_distance = segment, distance
+    return best
+
+
+def object_location(obs: Mapping, config: Mapping | None = None) -> ObjectLocation:
+    """Where the object is: held (grasped and lifted) or lying on segment 1 or 2; raises on faults."""
+    config = resolve_config(config)
+    _require(obs, "object_pos", "object_grasped")
+    pos = np.asarray(obs["object_pos"], dtype=float)
+    top_z = float(_geometry_value(obs, "table_top_z", config))
+    if "object_rest_z" in obs:
+        rest_z = float(obs["object_rest_z"])
+    else:
+        half = obs.get("object_half_size", config["object_half_size"])
+        rest_z = top_z + float(np.asarray(half, dtype=float)[2])
+    if pos[2] < top_z:
+        raise AbstractionError(
+            Fault.OBJECT_OFF_TABLE, f"object centre at z={pos[2]:.3f} m is below the table top z={top_z:.3f} m"
+        )
+    lifted = pos[2] > rest_z + config["lift_tolerance"]
+    grasped = bool(obs["object_grasped"])
+    if lifted and grasped:
+        return ObjectLocation.IN_GRIPPER
+    if lifted:
+        raise AbstractionError(
+            Fault.OBJECT_LIFTED_NOT_GRASPED,
+            f"object centre is {pos[2] - rest_z:.3f} m above its resting height but not grasped",
+        )
+    segment = segment_of_xy(
+        pos, _geometry_value(obs, "segment_centers", config), _geometry_value(obs, "segment_half_sizes", config)
+    )
+    if segment is not None:
+        return ObjectLocation.on(segment)
+    table_center = _geometry_value(obs, "table_center", config)
+    table_half = _geometry_value(obs, "table_half_size", config)
+    if np.all(np.abs(pos[:2] - table_center[:2]) <= table_half):
+        raise AbstractionError(
+            Fault.OBJECT_BETWEEN_SEGMENTS, f"object at xy=({pos[0]:.3f}, {pos[1]:.3f}) lies on neither segment"
+        )
+    raise AbstractionError(Fault.OBJECT_OFF_TABLE, f"object at xy=({pos[0]:.3f}, {pos[1]:.3f}) is off the table")
+
+
+def arm_segment(obs: Mapping, config: Mapping | None = None) -> Segment:
+    """The segment the gripper is above (within ``arm_segment_margin``); raises ``ARM_NOT_OVER_SEGMENT``."""
+    config = resolve_config(config)
+    _require(obs, "eef_pos")
+    eef = np.asarray(obs["eef_pos"], dtype=float)
+    segment = segment_of_xy(
+        eef,
+        _geometry_value(obs, "segment_centers", config),
+        _geometry_value(obs, "segment_half_sizes", config),
+        margin=config["arm_segment_margin"],
+    )
+    if segment is None:
+        raise AbstractionError(
+            Fault.ARM_NOT_OVER_SEGMENT, f"gripper at xy=({eef[0]:.3f}, {eef[1]:.3f}) is above neither segment"
+        )
+    return segment
+
+
+def sponge_at_home(obs: Mapping, config: Mapping | None = None) -> bool:
+    """Whether the sponge is released and within ``sponge_home_tolerance`` of its home centre."""
+    config = resolve_config(config)
+    _require(obs, "sponge_pos")
+    home = _geometry_value(obs, "sponge_home_pos", config)
+    distance = float(np.linalg.norm(np.asarray(obs["sponge_pos"], dtype=float) - home))
+    return distance <= config["sponge_home_tolerance"] and not bool(obs.get("sponge_grasped", False))
+
+
+# ---------------------------------------------------------------------------------------------
+# the abstraction
+# ---------------------------------------------------------------------------------------------
+def abstract_state(obs: Mapping, config: Mapping | None = None, *, check_sponge: bool = True) -> TaskState:
+    """The symbolic :class:`TaskState` of a physical observation (keys in the module docstring).
+
+    Args:
+        obs: observation mapping, e.g. ``env.skill_info()``.
+        config: task config (full or partial overrides); ``None`` for the default.
+        check_sponge: also require the sponge at home (``SPONGE_AWAY_FROM_HOME`` otherwise).  Pass
+            ``False`` while a skill that carries the sponge (clean) is running.
+
+    Raises:
+        AbstractionError: for situations the task model has no state for (see :class:`Fault`).
+        KeyError: when a required observation key is missing.
+    """
+    config = resolve_config(config)
+    _require(obs, "dirt_fraction")
+    check_stability(obs, config)
+    clean = segments_clean(obs["dirt_fraction"], config)
+    location = object_location(obs, config)
+    segment = arm_segment(obs, config)
+    if check_sponge and not sponge_at_home(obs, config):
+        raise AbstractionError(
+            Fault.SPONGE_AWAY_FROM_HOME,
+            f"sponge at {np.round(np.asarray(obs['sponge_pos'], dtype=float), 3).tolist()} is not at its home"
+            + (" (grasped)" if obs.get("sponge_grasped", False) else ""),
+        )
+    return TaskState(bool(clean[0]), bool(clean[1]), location, segment)

@@ -1,0 +1,128 @@
+"""The table-cleaning arena: robosuite's table with two tinted segments, dirt markers and a sponge stand.
+
+Everything added here hangs off the table body of :class:`robosuite.models.arenas.TableArena`:
+
+- one tinted, visual-only patch per segment and a dark divider strip between them;
+- ``rows * cols`` dirt markers per segment: thin visual-only discs (``contype = conaffinity = 0``,
+  like robosuite's Wipe markers), hidden by the environment when wiped;
+- a small stand (a collision box) on which the sponge rests at its home, off both segments;
+- a ``tableview`` camera that sees both segments, the dirt, the object and the stand.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from robosuite.models.arenas import TableArena
+from robosuite.utils.mjcf_utils import new_geom
+
+from tableclean_suite.environments.config import SceneGeometry
+from tableclean_suite.task import Segment
+
+#: RGBA of each segment's tint (segment 1 light blue, segment 2 light orange).
+SEGMENT_RGBA = ((0.62, 0.78, 0.95, 1.0), (0.98, 0.80, 0.58, 1.0))
+DIVIDER_RGBA = (0.15, 0.15, 0.18, 1.0)
+DIRT_RGBA = (0.36, 0.24, 0.12, 1.0)
+STAND_RGBA = (0.25, 0.35, 0.55, 1.0)
+
+#: Thickness (half height) of the visual layers on the table top [m]: tint, then dirt on top of it.
+TINT_HALF_HEIGHT = 0.0003
+DIRT_HALF_HEIGHT = 0.0006
+#: Fraction of the segment gap covered by the divider strip.
+DIVIDER_WIDTH_FRACTION = 0.5
+#: Visual-only geom attributes (no collisions, rendered in robosuite's visual group 1).
+_VISUAL = dict(contype=0, conaffinity=0, group=1)
+
+#: Camera that shows the whole scene: (position, look-at point) in the table frame [m].
+TABLEVIEW_CAMERA = "tableview"
+TABLEVIEW_EYE = (0.62, -0.42, 0.62)
+TABLEVIEW_TARGET = (-0.08, 0.06, 0.02)
+TABLEVIEW_FOVY = 45
+
+
+def marker_geom_name(segment: Segment, index: int) -> str:
+    """Name of dirt marker ``index`` of ``segment`` (e.g. ``"dirt_s1_07"``)."""
+    return f"dirt_s{segment.number}_{index:02d}"
+
+
+def look_at_quat(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
+    """MuJoCo camera quaternion (w, x, y, z) looking from ``eye`` at ``target`` (camera looks along -z)."""
+    eye, target, up = (np.asarray(v, dtype=float) for v in (eye, target, up))
+    back = eye - target
+    back /= np.linalg.norm(back)
+    right = np.cross(up, back)
+    right /= np.linalg.norm(right)
+    cam_up = np.cross(back, right)
+    rot = np.stack([right, cam_up, back], axis=1)  # columns: camera x, y, z in world
+    w = np.sqrt(max(0.0, 1.0 + np.trace(rot))) / 2
+    x = (rot[2, 1] - rot[1, 2]) / (4 * w)
+    y = (rot[0, 2] - rot[2, 0]) / (4 * w)
+    z = (rot[1, 0] - rot[0, 1]) / (4 * w)
+    return np.array([w, x, y, z])
+
+
+class TableCleanArena(TableArena):
+    """A :class:`TableArena` whose top is split into two dirty segments, with a sponge stand beside them.
+
+    Args:
+        geometry: world-frame scene geometry (:func:`~tableclean_suite.environments.config.scene_geometry`).
+        marker_xy: world xy of the dirt markers, shape ``(2, markers_per_segment, 2)``.
+        marker_radius: radius of a dirt marker disc [m].
+        table_full_size, table_friction, table_offset: as for :class:`TableArena`.
+    """
+
+    def __init__(self, geometry: SceneGeometry, marker_xy: np.ndarray, marker_radius: float,
+                 table_full_size, table_friction, table_offset):
+        # configure_location() runs inside TableArena.__init__ and reads these
+        self.geometry = geometry
+        self.marker_xy = np.asarray(marker_xy, dtype=float)
+        self.marker_radius = float(marker_radius)
+        super().__init__(table_full_size=table_full_size, table_friction=table_friction, table_offset=table_offset)
+        table = np.asarray(table_offset, dtype=float)
+        self.set_camera(
+            TABLEVIEW_CAMERA,
+            pos=table + np.asarray(TABLEVIEW_EYE),
+            quat=look_at_quat(TABLEVIEW_EYE, TABLEVIEW_TARGET),
+            camera_attribs={"fovy": str(TABLEVIEW_FOVY)},
+        )
+
+    @property
+    def marker_names(self) -> list[str]:
+        """Dirt marker geom names, segment 1 first, in the order of ``marker_xy``."""
+        return [marker_geom_name(s, i) for s in Segment for i in range(self.marker_xy.shape[1])]
+
+    def configure_location(self):
+        """Places the table (superclass), then adds segments, divider, dirt and the sponge stand."""
+        super().configure_location()
+        top = self.table_half_size[2]  # table-top height in the table body's frame
+        body_xy = np.asarray(self.table_offset[:2], dtype=float)  # table body xy in the world
+        g = self.geometry
+        for segment in Segment:
+            center = g.segment_centers[segment.value, :2] - body_xy
+            self.table_body.append(new_geom(
+                f"segment{segment.number}_visual", "box",
+                size=(*g.segment_half_sizes[segment.value], TINT_HALF_HEIGHT),
+                pos=(*center, top + TINT_HALF_HEIGHT), rgba=SEGMENT_RGBA[segment.value], **_VISUAL,
+            ))
+        gap = g.segment_centers[1, 1] - g.segment_centers[0, 1] - 2 * g.segment_half_sizes[0, 1]
+        divider_center = g.segment_centers[:, :2].mean(axis=0) - body_xy
+        self.table_body.append(new_geom(
+            "segment_divider_visual", "box",
+            size=(g.segment_half_sizes[0, 0], max(gap * DIVIDER_WIDTH_FRACTION / 2, TINT_HALF_HEIGHT),
+                  TINT_HALF_HEIGHT),
+            pos=(*divider_center, top + TINT_HALF_HEIGHT), rgba=DIVIDER_RGBA, **_VISUAL,
+        ))
+        marker_z = top + 2 * TINT_HALF_HEIGHT + DIRT_HALF_HEIGHT
+        for name, xy in zip(self.marker_names, self.marker_xy.reshape(-1, 2)):
+            self.table_body.append(new_geom(
+                name, "cylinder", size=(self.marker_radius, DIRT_HALF_HEIGHT),
+                pos=(*(xy - body_xy), marker_z), rgba=DIRT_RGBA, **_VISUAL,
+            ))
+        stand_local = g.stand_center - np.array([*body_xy, g.table_top_z - top])
+        self.table_body.append(new_geom(
+            "sponge_stand", "box", size=g.stand_half_size, pos=stand_local,
+            rgba=STAND_RGBA, group=0, friction=self.table_friction,
+        ))
+        self.table_body.append(new_geom(
+            "sponge_stand_visual", "box", size=g.stand_half_size, pos=stand_local,
+            rgba=STAND_RGBA, **_VISUAL,
+        ))

@@ -1,0 +1,529 @@
+"""The ``TableClean`` robosuite environment: a two-segment dirty table, an object, a sponge and a Panda."""
+
+from __future__ import annotations
+
+from typing import Iterable, Mapping
+
+import numpy as np
+from robosuite.environments.manipulation.manipulation_env import ManipulationEnv
+from robosuite.models.tasks import ManipulationTask
+from robosuite.utils.observables import Observable, sensor
+from robosuite.utils.transform_utils import convert_quat, mat2quat
+
+from tableclean_suite.environments import abstraction, wiping
+from tableclean_suite.environments.arena import TableCleanArena
+from tableclean_suite.environments.config import (
+    DEFAULT_TABLECLEAN_CONFIG,
+    make_config,
+    marker_positions,
+    scene_geometry,
+)
+from tableclean_suite.environments.ik import site_pose, solve_site_pose
+from tableclean_suite.environments.objects import check_object_type, make_object, make_sponge
+from tableclean_suite.task import N_SEGMENTS, N_STATES, ObjectLocation, Segment, TaskState
+
+__all__ = ["TableClean", "DEFAULT_TABLECLEAN_CONFIG"]
+
+#: robosuite's name of the table's collision geom: the surface the sponge must press on.
+TABLE_TOP_GEOM = "table_collision"
+#: Value of the ``symbolic_state_index`` observable when the abstraction reports a fault.
+FAULT_INDEX = -1
+#: Height above the table top at which a dropped object is placed, so it settles without penetration [m].
+PLACEMENT_CLEARANCE = 0.001
+#: The exact contact test runs only when the sponge's lowest corner is within this of the table top [m].
+PRESS_PREFILTER_SLACK = 0.002
+
+# Un-normalised reward components (see TableClean.reward).
+SUCCESS_REWARD = 3.0
+WIPE_REWARD_PER_SEGMENT = 1.0
+OBJECT_ON_TABLE_REWARD = 0.25
+SPONGE_RETURNED_REWARD = 0.5
+
+
+def _segment_option(name: str, value) -> Segment | None:
+    """``None`` (random each reset) or the :class:`Segment` of a 1-based number; clear ``ValueError`` otherwise."""
+    if value is None:
+        return None
+    try:
+        return Segment.from_number(value)
+    except (ValueError, TypeError):
+        raise ValueError(f"{name} must be 1, 2 or None (random at each reset), got {value!r}") from None
+
+
+def _dirty_option(value: Iterable[int]) -> tuple[Segment, ...]:
+    try:
+        numbers = tuple(value)
+    except TypeError:
+        raise ValueError(f"dirty_segments must be a collection of 1 and/or 2, got {value!r}") from None
+    segments = tuple(_segment_option("dirty_segments entry", n) for n in numbers)
+    if None in segments:
+        raise ValueError(f"dirty_segments must contain only 1 and/or 2, got {value!r}")
+    return tuple(sorted(set(segments)))
+
+
+class TableClean(ManipulationEnv):
+    """Clean both segments of a table with a sponge, moving an object out of the way (one Panda arm).
+
+    ## Description
+    The table top is split along y into segment 1 (at -y, blue tint) and segment 2 (at +y, orange
+    tint), each covered with a grid of dirt markers.  A graspable object lies on one segment; a
+    sponge rests on a stand at the table's side, off both segments.  A dirt marker is wiped when the
+    sponge's underside presses on it: the sponge touches the table top and the marker lies under its
+    footprint.  This is checked at every physics substep; visuals are updated once per control step.
+
+    ## Starting State
+    The arm's gripper hovers ``arm_hover_height`` above the centre of ``arm_segment`` (pose from a
+    cached, deterministic IK solve, plus robosuite's ``initialization_noise``) with the gripper
+    open; the object lies on ``object_segment`` with ``placement_noise``; the sponge is at home;
+    the segments in ``dirty_segments`` are fully dirty, the others clean.  With the defaults and
+    ``object_segment=arm_segment=1`` :meth:`symbolic_state` is Table 1's state 4.
+
+    ## Rewards
+    See :meth:`reward`: sparse success by default, staged with ``reward_shaping=True``.
+
+    ## Episode End
+    After ``horizon`` steps unless ``ignore_done``.  :meth:`_check_success` reports task success.
+
+    ## Arguments
+    Task-specific (all others are those of
+    :class:`robosuite.environments.manipulation.manipulation_env.ManipulationEnv`, passed through):
+
+    - ``object_segment`` (1, 2 or None): segment the object starts on; None draws it at each reset.
+    - ``arm_segment`` (1, 2 or None): segment the arm starts above; None draws it at each reset.
+    - ``dirty_segments`` (collection of 1/2): segments that start dirty (default both).
+    - ``task_config`` (dict): overrides of :data:`DEFAULT_TABLECLEAN_CONFIG` (unknown keys raise).
+    - ``use_object_obs`` (bool): include object, sponge, dirt and symbolic observables.
+    - ``reward_scale`` (float or None): the maximum reward; None leaves rewards un-normalised.
+    - ``reward_shaping`` (bool): use the staged dense reward.
+
+    ## Version History
+    - v0: initial version.
+    """
+
+    def __init__(
+        self,
+        robots,
+        object_segment: int | None = None,
+        arm_segment: int | None = None,
+        dirty_segments: Iterable[int] = (1, 2),
+        task_config: Mapping | None = None,
+        env_configuration="default",
+        controller_configs=None,
+        gripper_types="default",
+        base_types="default",
+        initialization_noise="default",
+        use_camera_obs=True,
+        use_object_obs=True,
+        reward_scale=1.0,
+        reward_shaping=False,
+        has_renderer=False,
+        has_offscreen_renderer=True,
+        render_camera="frontview",
+        render_collision_mesh=False,
+        render_visual_mesh=True,
+        render_gpu_device_id=-1,
+        control_freq=20,
+        lite_physics=True,
+        horizon=1000,
+        ignore_done=False,
+        hard_reset=True,
+        camera_names="agentview",
+        camera_heights=256,
+        camera_widths=256,
+        camera_depths=False,
+        camera_segmentations=None,
+        renderer="mjviewer",
+        renderer_config=None,
+        seed=None,
+    ):
+        self.task_config = make_config(task_config)
+        check_object_type(self.task_config["object_type"])
+        self.object_segment = _segment_option("object_segment", object_segment)
+        self.arm_segment = _segment_option("arm_segment", arm_segment)
+        self.dirty_segments = _dirty_option(dirty_segments)
+        self.geometry = scene_geometry(self.task_config)
+        self.reward_scale = reward_scale
+        self.reward_shaping = reward_shaping
+        self.use_object_obs = use_object_obs
+        marker_xy = marker_positions(self.task_config)
+        self._markers_per_segment = marker_xy.shape[1]
+        self._marker_xyz = np.column_stack(
+            [marker_xy.reshape(-1, 2), np.full(marker_xy.shape[0] * marker_xy.shape[1], self.geometry.table_top_z)]
+        )
+        self._marker_present = np.ones(len(self._marker_xyz), dtype=bool)
+        self._marker_visible = self._marker_present.copy()
+        self._dirt_fraction = np.ones(N_SEGMENTS)
+        self._arm_qpos_cache: dict[Segment, np.ndarray] = {}
+        self.layout: tuple[Segment, Segment] | None = None  # (object segment, arm segment) of this episode
+        super().__init__(
+            robots=robots,
+            env_configuration=env_configuration,
+            controller_configs=controller_configs,
+            base_types=base_types,
+            gripper_types=gripper_types,
+            initialization_noise=initialization_noise,
+            use_camera_obs=use_camera_obs,
+            has_renderer=has_renderer,
+            has_offscreen_renderer=has_offscreen_renderer,
+            render_camera=render_camera,
+            render_collision_mesh=render_collision_mesh,
+            render_visual_mesh=render_visual_mesh,
+            render_gpu_device_id=render_gpu_device_id,
+            control_freq=control_freq,
+            lite_physics=lite_physics,
+            horizon=horizon,
+            ignore_done=ignore_done,
+            hard_reset=hard_reset,
+            camera_names=camera_names,
+            camera_heights=camera_heights,
+            camera_widths=camera_widths,
+            camera_depths=camera_depths,
+            camera_segmentations=camera_segmentations,
+            renderer=renderer,
+            renderer_config=renderer_config,
+            seed=seed,
+        )
+
+    # ------------------------------------------------------------------------------------------
+    # robosuite hooks
+    # ------------------------------------------------------------------------------------------
+    def reward(self, action=None):
+        """Reward function for the task (pure: reads the state, changes nothing).
+
+        Sparse un-normalised reward:
+
+            - a discrete reward of 3.0 on success (both segments clean, object on the table, sponge home)
+
+        Un-normalised components if using reward shaping (without success):
+
+            - Wiping: in [0, 2], per segment min(1, wiped fraction / clean_fraction), summed
+            - Object on the table: in {0, 0.25}, non-zero when the object lies on a segment (not held)
+            - Sponge returned: in {0, 0.5}, non-zero when a segment is clean and the sponge is home
+
+        The shaped total stays below the success reward (at most 2.75 < 3.0).  The final reward is
+        scaled by reward_scale / 3.0 so that the maximum is reward_scale.
+
+        Args:
+            action (np.array): [NOT USED]
+
+        Returns:
+            float: reward value
+        """
+        reward = 0.0
+        if self._check_success():
+            reward = SUCCESS_REWARD
+        elif self.reward_shaping:
+            reward = sum(self.staged_rewards())
+        if self.reward_scale is not None:
+            reward *= self.reward_scale / SUCCESS_REWARD
+        return reward
+
+    def staged_rewards(self) -> tuple[float, float, float]:
+        """Un-normalised shaping components ``(wiping, object_on_table, sponge_returned)`` (see :meth:`reward`)."""
+        info = self.skill_info()
+        wiped = 1.0 - info["dirt_fraction"]
+        r_wipe = WIPE_REWARD_PER_SEGMENT * float(np.minimum(1.0, wiped / self.task_config["clean_fraction"]).sum())
+        try:
+            on_table = abstraction.object_location(info, self.task_config) != ObjectLocation.IN_GRIPPER
+        except abstraction.AbstractionError:
+            on_table = False
+        r_object = OBJECT_ON_TABLE_REWARD if on_table else 0.0
+        clean = abstraction.segments_clean(info["dirt_fraction"], self.task_config)
+        returned = bool(clean.any()) and abstraction.sponge_at_home(info, self.task_config)
+        r_sponge = SPONGE_RETURNED_REWARD if returned else 0.0
+        return r_wipe, r_object, r_sponge
+
+    def _load_model(self):
+        """Loads the arena (table, segments, dirt, stand), the Panda, the object and the sponge into self.model."""
+        super()._load_model()
+        config = self.task_config
+        robot_model = self.robots[0].robot_model
+        robot_model.set_base_xpos(robot_model.base_xpos_offset["table"](config["table_full_size"][0]))
+        arena = TableCleanArena(
+            geometry=self.geometry,
+            marker_xy=self._marker_xyz[:, :2].reshape(N_SEGMENTS, self._markers_per_segment, 2),
+            marker_radius=config["marker_radius"],
+            table_full_size=config["table_full_size"],
+            table_friction=config["table_friction"],
+            table_offset=config["table_offset"],
+        )
+        arena.set_origin([0, 0, 0])
+        self.arena = arena
+        self.object = make_object(config["object_type"], config["object_half_size"])
+        self.sponge = make_sponge(config["sponge_half_size"], config["sponge_density"])
+        self.model = ManipulationTask(
+            mujoco_arena=arena,
+            mujoco_robots=[robot.robot_model for robot in self.robots],
+            mujoco_objects=[self.object, self.sponge],
+        )
+
+    def _setup_references(self):
+        """Caches ids of the object, sponge, table top and dirt markers."""
+        super()._setup_references()
+        model = self.sim.model
+        self._mj_data = self.sim.data._data
+        self.object_body_id = model.body_name2id(self.object.root_body)
+        self.sponge_body_id = model.body_name2id(self.sponge.root_body)
+        gripper = self.robots[0].gripper[self.robots[0].arms[0]]
+
+        def mask(names):
+            return wiping.geom_mask(model.ngeom, [model.geom_name2id(n) for n in names])
+
+        self._table_mask = mask([TABLE_TOP_GEOM])
+        self._sponge_mask = mask(self.sponge.contact_geoms)
+        self._object_mask = mask(self.object.contact_geoms)
+        self._finger_pad_masks = (
+            mask(gripper.important_geoms["left_fingerpad"]),
+            mask(gripper.important_geoms["right_fingerpad"]),
+        )
+        self.marker_geom_ids = np.array([model.geom_name2id(n) for n in self.arena.marker_names])
+
+    def _setup_observables(self):
+        """Object, sponge, dirt and symbolic-state observables on top of the robot's proprioception.
+
+        Returns:
+            OrderedDict: observable name -> :class:`Observable`
+        """
+        observables = super()._setup_observables()
+        if not self.use_object_obs:
+            return observables
+        modality = "object"
+
+        @sensor(modality=modality)
+        def object_pos(obs_cache):
+            return np.array(self.sim.data.body_xpos[self.object_body_id])
+
+        @sensor(modality=modality)
+        def object_quat(obs_cache):
+            return convert_quat(np.array(self.sim.data.body_xquat[self.object_body_id]), to="xyzw")
+
+        @sensor(modality=modality)
+        def sponge_pos(obs_cache):
+            return np.array(self.sim.data.body_xpos[self.sponge_body_id])
+
+        @sensor(modality=modality)
+        def sponge_quat(obs_cache):
+            return convert_quat(np.array(self.sim.data.body_xquat[self.sponge_body_id]), to="xyzw")
+
+        @sensor(modality=modality)
+        def dirt_fraction(obs_cache):
+            return self.dirt_fraction()
+
+        @sensor(modality=modality)
+        def symbolic_state_index(obs_cache):
+            return self._symbolic_index()
+
+        @sensor(modality=modality)
+        def symbolic_state_onehot(obs_cache):
+            cached = obs_cache.get("symbolic_state_index")
+            index = self._symbolic_index() if cached is None else int(cached)
+            onehot = np.zeros(N_STATES)
+            if index != FAULT_INDEX:
+                onehot[index] = 1.0
+            return onehot
+
+        sensors = [object_pos, object_quat, sponge_pos, sponge_quat, dirt_fraction]
+        arm_prefixes = self._get_arm_prefixes(self.robots[0], include_robot_name=False)
+        full_prefixes = self._get_arm_prefixes(self.robots[0])
+        sensors += [
+            self._get_obj_eef_sensor(full_pf, "object_pos", f"{arm_pf}gripper_to_object_pos", modality)
+            for arm_pf, full_pf in zip(arm_prefixes, full_prefixes)
+        ]
+        sensors += [symbolic_state_index, symbolic_state_onehot]
+        for s in sensors:
+            observables[s.__name__] = Observable(name=s.__name__, sensor=s, sampling_rate=self.control_freq)
+        return observables
+
+    def _reset_internal(self):
+        """Draws the layout, puts the arm over its segment, places object and sponge, restores the dirt."""
+        object_segment, arm_segment = self._draw_layout()
+        self.layout = (object_segment, arm_segment)
+        self.robots[0].init_qpos = self._arm_reset_qpos(arm_segment)
+        super()._reset_internal()
+        if not self.deterministic_reset:
+            self._place_object(object_segment)
+            self._place_sponge()
+        self._marker_present = np.zeros(len(self._marker_xyz), dtype=bool)
+        for segment in self.dirty_segments:
+            self._segment_slice_view(self._marker_present, segment)[:] = True
+        self._marker_visible = self._marker_present.copy()
+        self._update_dirt_fraction()
+        self.sim.model.geom_rgba[self.marker_geom_ids, 3] = self._marker_visible.astype(float)
+
+    def _pre_action(self, action, policy_step=False):
+        """Robot control (superclass), then records wiping on the state after the previous substep."""
+        super()._pre_action(action, policy_step)
+        self._record_wiping()
+
+    def _post_action(self, action):
+        """Hides the markers wiped during this control step, then reward / done (superclass)."""
+        self._show_dirt()
+        return super()._post_action(action)
+
+    def _check_success(self):
+        """Both segments clean, the object lying on a segment, the sponge at home.
+
+        Returns:
+            bool: True if the task is solved
+        """
+        if not abstraction.segments_clean(self.dirt_fraction(), self.task_config).all():
+            return False
+        info = self.skill_info()
+        try:
+            on_table = abstraction.object_location(info, self.task_config) != ObjectLocation.IN_GRIPPER
+        except abstraction.AbstractionError:
+            return False
+        return on_table and abstraction.sponge_at_home(info, self.task_config)
+
+    # ------------------------------------------------------------------------------------------
+    # public API for skills and learners
+    # ------------------------------------------------------------------------------------------
+    def dirt_fraction(self) -> np.ndarray:
+        """Shape (2,): fraction of each segment's dirt markers still present (1.0 = all dirty)."""
+        return self._dirt_fraction.copy()
+
+    def skill_info(self) -> dict:
+        """Grounding for skills and the abstraction (world frame, metres, quaternions xyzw).
+
+        Keys: ``eef_pos`` (3,), ``eef_quat`` (4,), ``gripper_qpos`` (2,), ``object_pos`` (3,),
+        ``object_quat`` (4,), ``object_half_size`` (3,) bounding half extents, ``object_rest_z``
+        object centre height when resting on the table, ``sponge_pos`` (3,), ``sponge_quat`` (4,),
+        ``sponge_half_size`` (3,), ``sponge_home_pos`` (3,), ``segment_centers`` (2, 3) table-top
+        point at each segment centre (row 0 = segment 1), ``segment_half_sizes`` (2, 2),
+        ``table_top_z`` float, ``table_center`` (3,), ``table_half_size`` (2,), ``object_grasped``
+        and ``sponge_grasped`` bool (both finger pads touch it), ``dirt_fraction`` (2,), ``qvel``
+        (nv,) all simulation velocities.
+        """
+        data = self.sim.data
+        robot = self.robots[0]
+        arm = robot.arms[0]
+        site = robot.eef_site_id[arm]
+        geometry = self.geometry
+        return {
+            "eef_pos": np.array(data.site_xpos[site]),
+            "eef_quat": mat2quat(np.array(data.site_xmat[site]).reshape(3, 3)).astype(float),
+            "gripper_qpos": np.array(data.qpos[robot._ref_gripper_joint_pos_indexes[arm]]),
+            "object_pos": np.array(data.body_xpos[self.object_body_id]),
+            "object_quat": convert_quat(np.array(data.body_xquat[self.object_body_id]), to="xyzw"),
+            "object_half_size": np.asarray(self.object.get_bounding_box_half_size(), dtype=float),
+            "object_rest_z": geometry.table_top_z - float(self.object.bottom_offset[2]),
+            "sponge_pos": np.array(data.body_xpos[self.sponge_body_id]),
+            "sponge_quat": convert_quat(np.array(data.body_xquat[self.sponge_body_id]), to="xyzw"),
+            "sponge_half_size": np.asarray(self.sponge.get_bounding_box_half_size(), dtype=float),
+            "sponge_home_pos": geometry.sponge_home_pos.copy(),
+            "segment_centers": geometry.segment_centers.copy(),
+            "segment_half_sizes": geometry.segment_half_sizes.copy(),
+            "table_top_z": geometry.table_top_z,
+            "table_center": geometry.table_center.copy(),
+            "table_half_size": geometry.table_half_size.copy(),
+            "object_grasped": self._grasped(self._object_mask),
+            "sponge_grasped": self._grasped(self._sponge_mask),
+            "dirt_fraction": self.dirt_fraction(),
+            "qvel": np.array(data.qvel),
+        }
+
+    def symbolic_state(self, check_sponge: bool = True) -> TaskState:
+        """The current :class:`TaskState` read from the physics.
+
+        Args:
+            check_sponge: require the sponge at home (pass False while a skill carries it).
+
+        Raises:
+            AbstractionError: when the physical state maps to no task state (``.fault`` names it).
+        """
+        return abstraction.abstract_state(self.skill_info(), self.task_config, check_sponge=check_sponge)
+
+    def segment_of_position(self, xy) -> Segment | None:
+        """The segment whose cleanable area contains world ``xy`` (first two entries used), else None."""
+        return abstraction.segment_of_xy(xy, self.geometry.segment_centers, self.geometry.segment_half_sizes)
+
+    def marker_present(self) -> np.ndarray:
+        """Copy of the bool (2, markers_per_segment) array of dirt markers still present."""
+        return self._marker_present.reshape(N_SEGMENTS, self._markers_per_segment).copy()
+
+    # ------------------------------------------------------------------------------------------
+    # internals
+    # ------------------------------------------------------------------------------------------
+    def _segment_slice_view(self, flat: np.ndarray, segment: Segment) -> np.ndarray:
+        return flat.reshape(N_SEGMENTS, self._markers_per_segment)[segment.value]
+
+    def _draw_layout(self) -> tuple[Segment, Segment]:
+        """(object segment, arm segment): the configured ones, or drawn from ``self.rng`` when None."""
+        draws = self.rng.integers(0, N_SEGMENTS, size=2)  # always drawn, so the rng stream is layout-independent
+        obj = self.object_segment if self.object_segment is not None else Segment(int(draws[0]))
+        arm = self.arm_segment if self.arm_segment is not None else Segment(int(draws[1]))
+        return obj, arm
+
+    def _arm_reset_qpos(self, segment: Segment) -> np.ndarray:
+        """Joint positions putting the gripper site ``arm_hover_height`` above ``segment``'s centre (cached)."""
+        if segment not in self._arm_qpos_cache:
+            robot = self.robots[0]
+            model = self.sim.model
+            qpos_addrs = [model.get_joint_qpos_addr(j) for j in robot.robot_model.joints]
+            dof_addrs = [model.get_joint_qvel_addr(j) for j in robot.robot_model.joints]
+            site_id = model.site_name2id(robot.gripper[robot.arms[0]].important_sites["grip_site"])
+            q_default = np.array(robot.robot_model.init_qpos, dtype=float)
+            _, default_mat = site_pose(model._model, qpos_addrs, site_id, q_default)
+            target = self.geometry.segment_centers[segment.value] + [0.0, 0.0, self.task_config["arm_hover_height"]]
+            self._arm_qpos_cache[segment] = solve_site_pose(
+                model._model, qpos_addrs, dof_addrs, site_id, target, default_mat, q_default
+            )
+        return self._arm_qpos_cache[segment].copy()
+
+    def _place_object(self, segment: Segment) -> None:
+        noise = self.task_config["placement_noise"]
+        yaw_noise = self.task_config["placement_yaw_noise"]
+        xy = self.geometry.segment_centers[segment.value, :2] + self.rng.uniform(-noise, noise, size=2)
+        yaw = self.rng.uniform(-yaw_noise, yaw_noise)
+        z = self.geometry.table_top_z - self.object.bottom_offset[2] + PLACEMENT_CLEARANCE
+        quat_wxyz = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
+        self.sim.data.set_joint_qpos(self.object.joints[0], np.concatenate([xy, [z], quat_wxyz]))
+
+    def _place_sponge(self) -> None:
+        self.sim.data.set_joint_qpos(self.sponge.joints[0], np.concatenate([self.geometry.sponge_home_pos, [1, 0, 0, 0]]))
+
+    def _grasped(self, object_mask: np.ndarray) -> bool:
+        """Both finger pads touch a geom of ``object_mask`` (robosuite's grasp criterion, vectorised)."""
+        data = self._mj_data
+        ncon = data.ncon
+        if ncon == 0:
+            return False
+        geom1, geom2 = data.contact.geom1[:ncon], data.contact.geom2[:ncon]
+        return all(wiping.any_contact(geom1, geom2, pad, object_mask).any() for pad in self._finger_pad_masks)
+
+    def _record_wiping(self) -> None:
+        """Removes markers under the sponge when it presses on the table top (current substep state)."""
+        data = self._mj_data
+        config = self.task_config
+        sponge_pos, sponge_mat = data.xpos[self.sponge_body_id], data.xmat[self.sponge_body_id]
+        # cheap early exit (most substeps): the sponge's lowest corner is clearly above the table
+        lowest = wiping.box_lowest_z(sponge_pos, sponge_mat, config["sponge_half_size"])
+        if lowest > self.geometry.table_top_z + max(config["wipe_contact_dist"], 0.0) + PRESS_PREFILTER_SLACK:
+            return
+        ncon = data.ncon
+        contact = data.contact
+        pressing = wiping.any_contact(contact.geom1[:ncon], contact.geom2[:ncon], self._sponge_mask, self._table_mask)
+        if not (pressing & (contact.dist[:ncon] <= config["wipe_contact_dist"])).any():
+            return
+        under = wiping.markers_under_box(self._marker_xyz, sponge_pos, sponge_mat, config["sponge_half_size"])
+        if (under & self._marker_present).any():
+            self._marker_present &= ~under
+            self._update_dirt_fraction()
+
+    def _update_dirt_fraction(self) -> None:
+        present = self._marker_present.reshape(N_SEGMENTS, self._markers_per_segment)
+        self._dirt_fraction = np.count_nonzero(present, axis=1) / self._markers_per_segment
+
+    def _show_dirt(self) -> None:
+        """Hides (alpha 0) markers wiped since the last control step."""
+        wiped = self._marker_visible & ~self._marker_present
+        if wiped.any():
+            self.sim.model.geom_rgba[self.marker_geom_ids[wiped], 3] = 0.0
+            self._marker_visible &= self._marker_present
+
+    def _symbolic_index(self) -> int:
+        """Index of :meth:`symbolic_state` without the sponge check, or ``FAULT_INDEX`` on a fault."""
+        try:
+            return self.symbolic_state(check_sponge=False).index
+        except abstraction.AbstractionError:
+            return FAULT_INDEX

@@ -1,0 +1,41 @@
+"""Vectorised contact and wiping geometry on MuJoCo's flat arrays, cheap enough for every physics substep."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def geom_mask(n_geoms: int, geom_ids) -> np.ndarray:
+    """Bool lookup (n_geoms,) that is True at ``geom_ids``."""
+    mask = np.zeros(n_geoms, dtype=bool)
+    mask[np.asarray(list(geom_ids), dtype=int)] = True
+    return mask
+
+
+def any_contact(geom1: np.ndarray, geom2: np.ndarray, mask_a: np.ndarray, mask_b: np.ndarray) -> np.ndarray:
+    """Bool (ncon,): contacts pairing a geom of ``mask_a`` with a geom of ``mask_b`` (either order).
+
+    Args:
+        geom1, geom2: MuJoCo's active-contact geom ids (``data.contact.geom1[:ncon]`` etc.).
+        mask_a, mask_b: bool lookups over all geom ids (:func:`geom_mask`).
+    """
+    return (mask_a[geom1] & mask_b[geom2]) | (mask_a[geom2] & mask_b[geom1])
+
+
+def box_lowest_z(pos: np.ndarray, mat: np.ndarray, half_size) -> float:
+    """World z of the lowest corner of a box with centre ``pos`` (3,), rotation ``mat`` (9,) row-major."""
+    return float(pos[2] - (abs(mat[6]) * half_size[0] + abs(mat[7]) * half_size[1] + abs(mat[8]) * half_size[2]))
+
+
+def markers_under_box(marker_xyz: np.ndarray, box_pos: np.ndarray, box_mat: np.ndarray,
+                      half_xy) -> np.ndarray:
+    """Bool (N,): markers whose centre projects into the box's local-xy footprint.
+
+    Args:
+        marker_xyz: (N, 3) world positions of the markers.
+        box_pos: (3,) world position of the box centre.
+        box_mat: (9,) or (3, 3) world rotation matrix of the box (row-major, as MuJoCo's ``xmat``).
+        half_xy: (2,) half extents of the footprint along the box's local x and y axes.
+    """
+    local = (marker_xyz - box_pos) @ np.reshape(box_mat, (3, 3))  # R^T p for every marker
+    return (np.abs(local[:, 0]) <= half_xy[0]) & (np.abs(local[:, 1]) <= half_xy[1])
