@@ -1,0 +1,145 @@
+"""``python -m benchmarks.run --describe``: what the task model is, as tables and text.
+
+Pure: every function returns a DataFrame or a string; :mod:`benchmarks.run` prints.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from tableclean_suite.analysis import exact_success_probability
+from tableclean_suite.learners import get_learner, learner_names
+from tableclean_suite.rewards import get_reward_pattern, reward_pattern_names
+from tableclean_suite.task import (
+    N_STATES,
+    PAPER_OPTIMAL_PLAN,
+    TABLE1_STATES,
+    Action,
+    TaskModel,
+    all_states,
+    decode,
+    table1_number,
+)
+
+
+def states_table(model: TaskModel) -> pd.DataFrame:
+    """All 24 states: code, name, Table 1 number, reachable?, terminal?, shortest plan length."""
+    reachable = {s.index for s in model.reachable_states()}
+    lengths = model.shortest_plan_lengths(all_states())
+    rows = []
+    for state in all_states():
+        number = table1_number(state)
+        rows.append(
+            {
+                "code": state.index,
+                "name": state.name,
+                "table1": "-" if number is None else number,
+                "reachable": state.index in reachable,
+                "terminal": state.is_terminal,
+                "plan_length": "-" if lengths[state.index] is None else lengths[state.index],
+            }
+        )
+    return pd.DataFrame(rows).set_index("code")
+
+
+def table1_frame(model: TaskModel) -> pd.DataFrame:
+    """Table 1 rows 1-18 mapped to the model: code, name, reachable?, shortest plan length."""
+    reachable = {s.index for s in model.reachable_states()}
+    rows = []
+    for number, state in TABLE1_STATES.items():
+        plan = model.shortest_plan(state) if not state.is_terminal else []
+        rows.append(
+            {
+                "table1": number,
+                "code": state.index,
+                "name": state.name,
+                "reachable": state.index in reachable,
+                "plan_length": len(plan) if plan is not None else "-",
+            }
+        )
+    return pd.DataFrame(rows).set_index("table1")
+
+
+def rewards_frame(names=None) -> pd.DataFrame:
+    """Registered reward patterns as the paper's Table 2 ("-" for no looping penalty)."""
+    names = reward_pattern_names() if names is None else names
+    frame = pd.DataFrame([get_reward_pattern(n).as_row() for n in names]).set_index("reward")
+    return frame.astype(object).where(frame.notna(), "-")
+
+
+def learners_frame() -> pd.DataFrame:
+    """Registered learners: name, on-policy?, description."""
+    return pd.DataFrame(
+        [{"learner": n, "on_policy": get_learner(n).on_policy, "description": get_learner(n).description}
+         for n in learner_names()]
+    ).set_index("learner")
+
+
+def shortest_plan_policy(model: TaskModel) -> np.ndarray:
+    """Greedy policy ``(24,)`` taking the first action of a shortest plan in every state (0 where none)."""
+    policy = np.zeros(N_STATES, dtype=np.int64)
+    for state in model.reachable_states():
+        plan = model.shortest_plan(state)
+        if plan:
+            policy[state.index] = int(plan[0])
+    return policy
+
+
+def _plan_text(plan) -> str:
+    return ", ".join(Action(a).name.lower() for a in plan)
+
+
+def describe(model: TaskModel, epsilon: float = 0.1, max_itr: int = 500) -> str:
+    """The full ``--describe`` report as text."""
+    reachable = model.reachable_states()
+    terminal = [s for s in reachable if s.is_terminal]
+    mapping = model.table1_mapping()
+    state4 = TABLE1_STATES[4]
+    plan4 = model.shortest_plan(state4)
+    lines = [
+        f"Task model: {model!r}",
+        f"{N_STATES} states, code = ((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment",
+        "  (object_location: 0 on segment 1, 1 on segment 2, 2 in gripper; arm_segment: 0 segment 1, 1 segment 2)",
+        "",
+        "States (table1: Table 1's number, '-' where Table 1 omits the state; plan_length: shortest plan to terminal):",
+        states_table(model).to_string(),
+        "",
+        f"Reachable from the four both-unclean starts: {len(reachable)} states = "
+        f"{len(reachable) - len(terminal)} non-terminal + {len(terminal)} terminal "
+        f"(of {N_STATES}; unreachable codes: "
+        f"{', '.join(str(s.index) for s in all_states() if s not in set(reachable))})",
+        f"Episode start(s) of this model: "
+        + "; ".join(f"{s.index} ({s.name}, Table 1 state {table1_number(s) or '-'})" for s in model.start_states()),
+        f"Shortest plan from Table 1 state 4 (code {state4.index}): {len(plan4)} actions: {_plan_text(plan4)}",
+        f"The paper's optimal plan (Sec. 2): {len(PAPER_OPTIMAL_PLAN)} actions: {_plan_text(PAPER_OPTIMAL_PLAN)}",
+        "",
+        "Table 1 of the paper mapped to the model:",
+        table1_frame(model).to_string(),
+        "",
+        f"Table 1 rows never reachable: {', '.join(map(str, mapping['unreachable_rows']))}",
+        "Reachable states Table 1 omits: "
+        + "; ".join(f"{c} ({decode(c).name})" for c in mapping["omitted_reachable"]),
+        "  of which the paper's own optimal plan from state 4 passes through: "
+        + "; ".join(f"{c} ({decode(c).name})" for c in mapping["omitted_on_paper_plan"]),
+        "",
+        "Reward patterns (the paper's Table 2; an ineffective pick/place is "
+        + ("rewarded as irrelevant cleaning):" if model.ineffective.value == "ineffective" else "improper):"),
+        rewards_frame().to_string(),
+        "",
+        "Learners:",
+        learners_frame().to_string(),
+    ]
+    lines += _exact_success_lines(model, epsilon, max_itr)
+    return "\n".join(lines)
+
+
+def _exact_success_lines(model: TaskModel, epsilon: float, max_itr: int) -> list[str]:
+    policy = shortest_plan_policy(model)
+    probability = float(exact_success_probability(policy, epsilon, max_itr, model=model))
+    return [
+        "",
+        f"Exact success probability of the shortest-plan policy under epsilon-greedy exploration "
+        f"(epsilon = {epsilon:g}, max_itr = {max_itr}, this model's start): {100 * probability:.2f}%",
+        "  (the plateau a converged learner's success curve should reach; the paper reports ~84%)",
+    ]

@@ -1,0 +1,213 @@
+"""Figures 3-7 of the paper from a long curves DataFrame: each function returns ``(fig, ax)``.
+
+Nothing here shows or saves a figure; :mod:`benchmarks.run` does.  Input is the
+long-format frame of :func:`benchmarks.tables.curves_long` (columns ``learner, reward,
+alpha, gamma, experiment, iteration, metric, value``).  Colours come from one palette
+keyed by reward pattern (:func:`reward_color`), so r4 is the same colour in every figure;
+sweep figures colour by parameter value on a sequential map.
+"""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+#: The paper's patterns get fixed colours; user patterns take the next free ones.
+REWARD_COLORS = {"r1": "#1f77b4", "r2": "#ff7f0e", "r3": "#2ca02c", "r4": "#d62728"}
+_EXTRA_COLORS = ("#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
+
+METRIC_LABELS = {
+    "success": "success rate (%)",
+    "average_reward": "average reward (return / episode length)",
+    "terminal": "terminal reached (%)",
+    "episodes": "episodes finished",
+}
+_PERCENT_METRICS = ("success", "terminal")
+LEARNER_TITLES = {"q_learning": "Q-learning", "sarsa": "SARSA", "expected_sarsa": "Expected SARSA"}
+X_LABEL = "training iterations (environment steps)"
+
+
+def reward_color(reward: str, known=()) -> str:
+    """The colour of a reward pattern; user patterns cycle through extra colours by their order in ``known``."""
+    if reward in REWARD_COLORS:
+        return REWARD_COLORS[reward]
+    others = [r for r in dict.fromkeys(known) if r not in REWARD_COLORS]
+    index = others.index(reward) if reward in others else len(others)
+    return _EXTRA_COLORS[index % len(_EXTRA_COLORS)]
+
+
+def _select(curves: pd.DataFrame, **where) -> pd.DataFrame:
+    mask = np.ones(len(curves), dtype=bool)
+    for column, value in where.items():
+        mask &= (curves[column] == value).to_numpy()
+    return curves[mask]
+
+
+def _plateau(values: np.ndarray, plateau_fraction: float) -> float:
+    window = max(1, int(np.ceil(len(values) * plateau_fraction)))
+    tail = values[-window:]
+    return float(np.nanmean(tail)) if np.any(~np.isnan(tail)) else float("nan")
+
+
+def _scale(metric: str) -> float:
+    return 100.0 if metric in _PERCENT_METRICS else 1.0
+
+
+def _format_level(level: float, metric: str) -> str:
+    return f"{level:.1f}%" if metric in _PERCENT_METRICS else f"{level:.3f}"
+
+
+def _style(ax, metric: str, title: str, legend_title: str | None):
+    ax.set_xlabel(X_LABEL)
+    ax.set_ylabel(METRIC_LABELS.get(metric, metric))
+    ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    ax.margins(x=0)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(title=legend_title, loc="lower right", fontsize="small", title_fontsize="small")
+
+
+def plot_rewards(
+    curves: pd.DataFrame,
+    learner: str,
+    metric: str,
+    experiment: str = "main",
+    plateau_fraction: float | None = 0.25,
+    ax=None,
+    title: str | None = None,
+):
+    """One line per reward pattern of ``metric`` vs iterations (Figures 3-5).
+
+    Args:
+        curves: long curves frame.
+        learner: which learner's main rows to draw.
+        metric: ``"success"`` (drawn in %), ``"average_reward"``, ...
+        experiment: which experiment's rows (default ``"main"``).
+        plateau_fraction: draw each line's plateau (mean over this last fraction) as a
+            dotted horizontal line; None for none.
+        ax: an existing axes, else a new figure.
+        title: default e.g. ``"Success rate per reward pattern (Q-learning)"``.
+
+    Returns:
+        ``(fig, ax)``.
+    """
+    fig, ax = (plt.subplots(figsize=(7, 4.2)) if ax is None else (ax.figure, ax))
+    rows = _select(curves, learner=learner, metric=metric, experiment=experiment)
+    rewards = list(dict.fromkeys(rows["reward"]))
+    for reward in rewards:
+        line = rows[rows["reward"] == reward].sort_values("iteration")
+        values = line["value"].to_numpy(dtype=float) * _scale(metric)
+        color = reward_color(reward, rewards)
+        label = reward
+        if plateau_fraction is not None:
+            level = _plateau(values, plateau_fraction)
+            ax.axhline(level, color=color, linestyle=":", linewidth=0.9, alpha=0.8)
+            label = f"{reward} (plateau {_format_level(level, metric)})"
+        ax.plot(line["iteration"].to_numpy(), values, color=color, linewidth=1.3, label=label)
+    what = METRIC_LABELS.get(metric, metric).split(" (")[0].capitalize()
+    default = f"{what} per reward pattern ({LEARNER_TITLES.get(learner, learner)})"
+    _style(ax, metric, title or default, "reward")
+    return fig, ax
+
+
+def plot_sweeps(
+    curves: pd.DataFrame,
+    metric: str,
+    experiments=("alpha_sweep", "gamma_sweep"),
+    plateau_fraction: float | None = None,
+    cmap: str = "viridis",
+    xmax: int | None = None,
+):
+    """One panel per sweep, one line per swept value of ``metric`` vs iterations (Figures 6-7).
+
+    Args:
+        curves: long curves frame.
+        metric: ``"success"`` (drawn in %), ``"average_reward"``, ...
+        experiments: sweep experiments, one panel each (those without rows are skipped).
+        plateau_fraction: draw each line's plateau as a dotted line; None for none.
+        cmap: sequential colormap over the swept values.
+        xmax: show iterations 1..xmax only (the sweeps differ early; None shows all).
+
+    Returns:
+        ``(fig, axes)`` with one axes per experiment that has rows (at least one axes).
+    """
+    present = [e for e in experiments if (curves["experiment"] == e).any()] or list(experiments[:1])
+    fig, axes = plt.subplots(1, len(present), figsize=(6.2 * len(present), 4.2), sharey=True, squeeze=False)
+    axes = axes[0]
+    colormap = matplotlib.colormaps[cmap]
+    for ax, experiment in zip(axes, present):
+        parameter = "alpha" if experiment == "alpha_sweep" else "gamma"
+        fixed = "gamma" if parameter == "alpha" else "alpha"
+        rows = _select(curves, metric=metric, experiment=experiment)
+        values_swept = sorted(rows[parameter].unique())
+        for i, value in enumerate(values_swept):
+            line = rows[rows[parameter] == value].sort_values("iteration")
+            color = colormap(0.85 * i / max(1, len(values_swept) - 1))
+            ys = line["value"].to_numpy(dtype=float) * _scale(metric)
+            ax.plot(line["iteration"].to_numpy(), ys, color=color, linewidth=1.3, label=f"{parameter} = {value:g}")
+            if plateau_fraction is not None:
+                ax.axhline(_plateau(ys, plateau_fraction), color=color, linestyle=":", linewidth=0.9)
+        title = f"{METRIC_LABELS.get(metric, metric).split(' (')[0].capitalize()}, {parameter} sweep"
+        if len(rows):
+            first = rows.iloc[0]
+            title += (
+                f" ({LEARNER_TITLES.get(first['learner'], first['learner'])}, {first['reward']}, "
+                f"{fixed} = {first[fixed]:g})"
+            )
+        _style(ax, metric, title, None)
+        if xmax is not None and len(rows) and rows["iteration"].max() > xmax:
+            ax.set_xlim(1, xmax)
+            ax.set_xlabel(f"{X_LABEL}, first {xmax}")
+    for ax in axes[1:]:
+        ax.set_ylabel("")
+        ax.tick_params(labelleft=True)
+    fig.tight_layout()
+    return fig, axes
+
+
+#: Iterations shown by the sweep figures: all the sweeps' differences lie before it at the defaults.
+SWEEP_XMAX = 1000
+
+#: The paper's figures: file stem -> (description, builder).  Builders take (curves, plateau_fraction).
+PAPER_FIGURES = {
+    "fig3_success_rate_q_learning": (
+        "Figure 3: success rate per reward (Q-learning)",
+        lambda c, p: plot_rewards(c, "q_learning", "success", plateau_fraction=p),
+    ),
+    "fig4_average_reward_q_learning": (
+        "Figure 4: average reward per reward (Q-learning)",
+        lambda c, p: plot_rewards(c, "q_learning", "average_reward", plateau_fraction=p),
+    ),
+    "fig5_average_reward_sarsa": (
+        "Figure 5: average reward per reward (SARSA)",
+        lambda c, p: plot_rewards(c, "sarsa", "average_reward", plateau_fraction=p),
+    ),
+    "fig6_success_rate_sweeps": (
+        "Figure 6: success rate, alpha and gamma sweeps",
+        lambda c, p: plot_sweeps(c, "success", xmax=SWEEP_XMAX),
+    ),
+    "fig7_average_reward_sweeps": (
+        "Figure 7: average reward, alpha and gamma sweeps",
+        lambda c, p: plot_sweeps(c, "average_reward", xmax=SWEEP_XMAX),
+    ),
+}
+
+
+def available_figures(curves: pd.DataFrame) -> list[str]:
+    """Stems of :data:`PAPER_FIGURES` that ``curves`` has data for."""
+    main = curves[curves["experiment"] == "main"]
+    learners = set(main["learner"])
+    sweeps = set(curves["experiment"]) & {"alpha_sweep", "gamma_sweep"}
+    needs = {
+        "fig3_success_rate_q_learning": "q_learning" in learners,
+        "fig4_average_reward_q_learning": "q_learning" in learners,
+        "fig5_average_reward_sarsa": "sarsa" in learners,
+        "fig6_success_rate_sweeps": bool(sweeps),
+        "fig7_average_reward_sweeps": bool(sweeps),
+    }
+    return [stem for stem, ok in needs.items() if ok]

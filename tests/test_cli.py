@@ -1,0 +1,137 @@
+"""Smoke runs of the real ``python -m benchmarks.run`` CLI on a tiny budget."""
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from benchmarks import tables
+
+ROOT = Path(__file__).resolve().parents[1]
+SMOKE = ["--runs", "20", "--iterations", "300", "--alpha-sweep", "0.3,0.5", "--gamma-sweep", "0.3"]
+#: 2 learners x 4 rewards (main), alphas 0.3/0.5 and gamma 0.3 of q_learning/r4: 11 rows, 9 distinct cells.
+EXPECTED_ROWS = (
+    [("main", l, r, 0.3, 0.3) for l in ("q_learning", "sarsa") for r in ("r1", "r2", "r3", "r4")]
+    + [("alpha_sweep", "q_learning", "r4", a, 0.3) for a in (0.3, 0.5)]
+    + [("gamma_sweep", "q_learning", "r4", 0.3, 0.3)]
+)
+FIGURES = ("fig3_success_rate_q_learning", "fig4_average_reward_q_learning", "fig5_average_reward_sarsa",
+           "fig6_success_rate_sweeps", "fig7_average_reward_sweeps")
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def cli(*args, cwd=ROOT):
+    return subprocess.run([sys.executable, "-m", "benchmarks.run", *args], cwd=cwd, capture_output=True,
+                          text=True, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def smoke(tmp_path_factory):
+    out = tmp_path_factory.mktemp("smoke") / "tmp"
+    result = cli(*SMOKE, "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    return out, result
+
+
+def test_smoke_run_writes_every_file(smoke):
+    out, result = smoke
+    for name in ("table3.csv", "table4.csv", "curves.csv", "config.json"):
+        assert (out / name).stat().st_size > 0, name
+    for stem in FIGURES:
+        data = (out / f"{stem}.png").read_bytes()
+        assert data.startswith(PNG_MAGIC) and len(data) > 5000, stem
+    assert len(list((out / "cells").glob("*.npz"))) == 9
+    assert "Table 3" in result.stdout and "Table 4" in result.stdout and "Traceback" not in result.stderr
+    config = json.loads((out / "config.json").read_text())
+    assert config["args"]["runs"] == 20 and config["package_version"] and config["paper"] and config["timestamp"]
+
+
+def test_table3_has_one_row_per_expected_cell(smoke):
+    out, _ = smoke
+    t3 = pd.read_csv(out / "table3.csv")
+    required = {"learner", "reward", "alpha", "gamma", "experiment", "max_success_iterations",
+                "max_success_episodes", "reward_convergence_iterations", "reward_convergence_episodes",
+                "success_plateau", "max_average_reward", "average_reward_plateau", "terminal_plateau",
+                "paper_reward_convergence_iterations", "paper_reward_convergence_episodes",
+                "paper_max_success_iterations", "paper_max_success_episodes", "paper_success_rate"}
+    assert required <= set(t3.columns)
+    rows = sorted(zip(t3["experiment"], t3["learner"], t3["reward"], t3["alpha"], t3["gamma"]))
+    assert rows == sorted(EXPECTED_ROWS)
+    assert t3["success_plateau"].between(0, 1).all()
+    paper_rows = t3[t3["paper_max_success_iterations"].notna()]
+    assert sorted(zip(paper_rows["learner"], paper_rows["reward"])) == [("q_learning", f"r{i}") for i in range(1, 5)]
+    assert (paper_rows["experiment"] == "main").all()
+    t4 = pd.read_csv(out / "table4.csv")
+    assert list(t4.columns) == list(tables.TABLE4_COLUMNS)
+    assert (t4["source"] == "this run").sum() == 4 and (t4["source"] == "quoted from the paper").sum() == 8
+
+
+def test_curves_long_format(smoke):
+    out, _ = smoke
+    curves = pd.read_csv(out / "curves.csv")
+    assert list(curves.columns) == ["learner", "reward", "alpha", "gamma", "experiment", "iteration", "metric",
+                                    "value"]
+    assert set(curves["metric"]) == {"success", "average_reward", "episodes"}
+    assert len(curves) == len(EXPECTED_ROWS) * 3 * 300
+    one = curves[(curves["experiment"] == "main") & (curves["learner"] == "sarsa") & (curves["reward"] == "r2")
+                 & (curves["metric"] == "success")]
+    assert list(one["iteration"]) == list(range(1, 301))
+
+
+def test_rerun_resumes_every_cell_with_identical_table(smoke, tmp_path):
+    out, _ = smoke
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    result = cli(*SMOKE, "--out", str(copy), "--no-figures")
+    assert result.returncode == 0, result.stderr
+    assert "resumed 9 cells" in result.stdout and "trained 0" in result.stdout
+    assert (copy / "table3.csv").read_bytes() == (out / "table3.csv").read_bytes()
+    assert (copy / "curves.csv").read_bytes() == (out / "curves.csv").read_bytes()
+
+
+def test_corrupt_cell_file_gives_clear_error(smoke, tmp_path):
+    out, _ = smoke
+    copy = tmp_path / "copy"
+    shutil.copytree(out / "cells", copy / "cells")
+    victim = sorted((copy / "cells").glob("sarsa-r2-*.npz"))[0]
+    victim.write_bytes(b"\x00garbage")
+    result = cli(*SMOKE, "--out", str(copy), "--no-figures")
+    assert result.returncode in (1, 2)
+    assert victim.name in result.stderr and "--fresh" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_describe_prints_model_analysis():
+    result = cli("--describe")
+    assert result.returncode == 0, result.stderr
+    text = result.stdout
+    assert "20 states = 18 non-terminal + 2 terminal" in text
+    assert "Shortest plan from Table 1 state 4 (code 0): 8 actions" in text
+    assert "Table 1 rows never reachable: 14, 15, 16, 18" in text
+    assert "r4" in text and "sarsa" in text and "q_learning" in text
+
+
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        (["--rewards", "r1,r9"], "r9"),
+        (["--learners", "dqn"], "dqn"),
+        (["--alpha", "0"], "alpha"),
+        (["--alpha", "1.5"], "1.5"),
+        (["--runs", "0"], "runs"),
+        (["--gamma", "-1"], "-1"),
+        (["--alpha-sweep", "0.3,2"], "2"),
+        (["--bogus-flag"], "--bogus-flag"),
+        (["--backend", "calibrated"], "--transitions"),
+    ],
+)
+def test_bad_input_exits_2_without_traceback(args, named, tmp_path):
+    result = cli(*args, "--out", str(tmp_path / "never"))
+    assert result.returncode == 2
+    assert named in result.stderr
+    assert "Traceback" not in result.stderr
+    assert not (tmp_path / "never").exists()

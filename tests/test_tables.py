@@ -1,0 +1,245 @@
+"""Table builders, the quoted paper values, and the cell grid/store, on tiny hand-made inputs."""
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from benchmarks import experiments, tables
+
+PAPER = Path(__file__).resolve().parents[2] / "shared" / "paper.md"
+
+
+def record(experiment="main", learner="q_learning", reward="r1", alpha=0.3, gamma=0.3, **scalars):
+    base = {
+        "max_success_iterations": 100,
+        "max_success_episodes": 5.5,
+        "reward_convergence_iterations": 120,
+        "reward_convergence_episodes": 6.25,
+        "success_plateau": 0.875,
+        "max_average_reward": 0.25,
+        "average_reward_plateau": 0.2,
+        "terminal_plateau": 0.9,
+    }
+    base.update(scalars)
+    cell = experiments.Cell(learner, reward, alpha, gamma)
+    return {"cell_id": cell.label, "learner": learner, "reward": reward, "alpha": alpha, "gamma": gamma,
+            "experiment": experiment, **base}
+
+
+# ---------------------------------------------------------------------------
+# Table 3
+# ---------------------------------------------------------------------------
+def test_table3_columns_order_and_paper_values():
+    records = [
+        record("alpha_sweep", reward="r4", alpha=0.5, max_success_iterations=None, max_success_episodes=None),
+        record("main", learner="sarsa", reward="r2"),
+        record("main", reward="r4", success_plateau=0.5),
+        record("main", reward="r1"),
+    ]
+    t3 = tables.table3(records)
+    assert list(t3.columns) == list(tables.TABLE3_COLUMNS)
+    assert list(zip(t3["experiment"], t3["learner"], t3["reward"])) == [
+        ("main", "q_learning", "r1"),
+        ("main", "q_learning", "r4"),
+        ("main", "sarsa", "r2"),
+        ("alpha_sweep", "q_learning", "r4"),
+    ]
+    r1, r4, sarsa, sweep = (t3.iloc[i] for i in range(4))
+    assert (r1["paper_reward_convergence_iterations"], r1["paper_reward_convergence_episodes"]) == (680, 31)
+    assert (r1["paper_max_success_iterations"], r1["paper_max_success_episodes"]) == (630, 25)
+    assert r1["paper_success_rate"] == pytest.approx(0.8394)
+    assert (r4["paper_max_success_iterations"], r4["paper_success_rate"]) == (140, 0.8477)
+    assert r4["success_plateau"] == 0.5 and r1["success_plateau"] == 0.875
+    for row in (sarsa, sweep):  # the paper's numbers are Q-learning main rows only
+        assert all(math.isnan(row[c]) for c in tables.PAPER_COLUMNS)
+    assert sweep["max_success_iterations"] is pd.NA and math.isnan(sweep["max_success_episodes"])
+    assert sweep["alpha"] == 0.5 and sweep["cell_id"] == "q_learning-r4-a0.5-g0.3"
+    assert str(t3["max_success_iterations"].dtype) == "Int64"
+
+
+def test_table3_rejects_records_without_scalars():
+    bad = record()
+    del bad["success_plateau"]
+    with pytest.raises(ValueError, match="success_plateau"):
+        tables.table3([bad])
+
+
+def test_table4_ours_then_quoted():
+    t3 = tables.table3([record("main", reward="r2", success_plateau=0.8125, reward_convergence_episodes=12.5,
+                               max_success_episodes=7.0),
+                        record("main", learner="sarsa", reward="r2"),
+                        record("gamma_sweep", reward="r4", gamma=0.9)])
+    t4 = tables.table4(t3)
+    assert list(t4.columns) == list(tables.TABLE4_COLUMNS)
+    assert len(t4) == 1 + 8
+    ours = t4.iloc[0]
+    assert ours["methodology"] == "This run: Q-learning with reward r2"
+    assert ours["source"] == "this run"
+    assert ours["max_success_rate_percent"] == 81.25
+    assert ours["average_reward_convergence_episodes"] == 12.5 and ours["max_success_episodes"] == 7.0
+    assert (t4["source"].iloc[1:] == "quoted from the paper").all()
+    shown = tables.display_table4(t4)
+    assert shown["methodology"].iloc[1].endswith(" *") and not shown["methodology"].iloc[0].endswith("*")
+    assert shown.iloc[2]["avg_reward_conv_episodes"] == "-"  # Classic RL [7] gives none
+
+
+def test_display_table3_pairs_ours_with_paper():
+    t3 = tables.table3([record("main", reward="r3", reward_convergence_iterations=None),
+                        record("main", learner="sarsa", reward="r3")])
+    shown = tables.display_table3(t3)
+    row = shown.loc[("q_learning", "r3")]
+    assert row[("reward conv. iterations", "ours")] == "-"
+    assert row[("reward conv. iterations", "paper")] == 2350
+    assert row[("success %", "ours")] == 87.5 and row[("success %", "paper")] == 81.08
+    assert shown.loc[("sarsa", "r3")][("max success iterations", "paper")] == "-"
+
+
+# ---------------------------------------------------------------------------
+# The quoted numbers are the paper's
+# ---------------------------------------------------------------------------
+EXPECTED_TABLE3 = {  # reward: conv. iterations, conv. episodes, max-success iterations, episodes (paper Table 3)
+    "r1": (680, 31, 630, 25),
+    "r2": (290, 21, 240, 14),
+    "r3": (2350, 70, 2350, 70),
+    "r4": (190, 15, 140, 10),
+}
+EXPECTED_TABLE4 = [  # the paper's Table 4, NaN for "-"
+    ("Classic RL [8]", 1000, 35, 1000),
+    ("Classic RL [7]", None, 4, 1000),
+    ("Affordance RL [8]", 48, 99.9, None),
+    ("Interactive RL (L=0.5) [8]", 40, None, None),
+    ("This work with reward r1", 31, 83.94, 25),
+    ("This work with reward r2", 21, 84.73, 14),
+    ("This work with reward r3", 70, 81.08, 70),
+    ("This work with reward r4", 15, 84.77, 10),
+]
+
+
+def _same(value, expected):
+    return math.isnan(value) if expected is None else value == pytest.approx(expected)
+
+
+def test_quoted_table3_values():
+    paper = tables.PAPER_TABLE3.set_index("reward")
+    for reward, numbers in EXPECTED_TABLE3.items():
+        assert tuple(paper.loc[reward, list(tables.PAPER_COLUMNS[:4])]) == numbers
+    # the success rates of Table 3's rows are those of Table 4's "This work" rows
+    rates = dict(zip(tables.PAPER_TABLE3["reward"], tables.PAPER_TABLE3["paper_success_rate"]))
+    assert rates == pytest.approx({"r1": 0.8394, "r2": 0.8473, "r3": 0.8108, "r4": 0.8477})
+
+
+def test_quoted_table4_values():
+    quoted = tables.PAPER_TABLE4
+    assert list(quoted["methodology"]) == [row[0] for row in EXPECTED_TABLE4]
+    for (_, conv, rate, episodes), (_, row) in zip(EXPECTED_TABLE4, quoted.iterrows()):
+        assert _same(row["average_reward_convergence_episodes"], conv)
+        assert _same(row["max_success_rate_percent"], rate)
+        assert _same(row["max_success_episodes"], episodes)
+
+
+def _paper_rows(title: str, first_cells) -> dict:
+    text = PAPER.read_text(encoding="utf-8")
+    section = text[text.index(f"**{title}**"):]
+    rows = {}
+    for line in section.splitlines():
+        cells = [c.strip() for c in line.split("\t")]
+        if cells[0] in first_cells:
+            rows[cells[0]] = [None if c == "-" else float(c) for c in cells[1:]]
+        if len(rows) == len(first_cells):
+            break
+    return rows
+
+
+@pytest.mark.skipif(not PAPER.exists(), reason="paper.md not next to the checkout")
+def test_quoted_values_match_paper_text():
+    table3_rows = _paper_rows("Table 3", list(EXPECTED_TABLE3))
+    for reward, numbers in EXPECTED_TABLE3.items():
+        assert table3_rows[reward] == list(numbers)
+    names = [row[0] for row in EXPECTED_TABLE4]
+    table4_rows = _paper_rows("Table 4", names)
+    for name, *numbers in EXPECTED_TABLE4:
+        assert table4_rows[name] == [None if n is None else float(n) for n in numbers], name
+
+
+# ---------------------------------------------------------------------------
+# Curves in long format
+# ---------------------------------------------------------------------------
+def test_curves_long_exact_rows_and_stride():
+    recs = [record("main", reward="r2")]
+    curves = [{"success": np.array([0.0, 0.5, 1.0]), "average_reward": np.array([1.0, 2.0, 3.0]),
+               "episodes": np.array([0.0, 1.0, 1.0])}]
+    full = tables.curves_long(recs, curves)
+    assert list(full.columns) == ["learner", "reward", "alpha", "gamma", "experiment", "iteration", "metric", "value"]
+    assert len(full) == 9
+    success = full[full["metric"] == "success"]
+    assert list(success["iteration"]) == [1, 2, 3] and list(success["value"]) == [0.0, 0.5, 1.0]
+    assert set(full["reward"]) == {"r2"} and set(full["experiment"]) == {"main"}
+    strided = tables.curves_long(recs, [{"success": np.arange(5.0)}], metrics=("success",), stride=3)
+    assert list(strided["iteration"]) == [1, 4, 5] and list(strided["value"]) == [0.0, 3.0, 4.0]
+    with pytest.raises(ValueError):
+        tables.curves_long(recs, [])
+
+
+# ---------------------------------------------------------------------------
+# Grid and cell store
+# ---------------------------------------------------------------------------
+def test_build_grid_deduplicates_cells():
+    grid = experiments.build_grid(["q_learning", "sarsa"], ["r1", "r4"], 0.3, 0.3, "q_learning", "r4",
+                                  alpha_sweep=[0.3, 0.5, 0.50], gamma_sweep=[0.30, 0.9])
+    assert [m.experiment for m in grid].count("main") == 4
+    assert [m.experiment for m in grid].count("alpha_sweep") == 2
+    assert [m.experiment for m in grid].count("gamma_sweep") == 2
+    cells = experiments.unique_cells(grid)
+    assert len(cells) == 4 + 1 + 1  # (q_learning, r4, 0.3, 0.3) shared by all three experiments
+    assert len(experiments.build_grid(["sarsa"], ["r1"], 0.3, 0.3, "q_learning", "r4", [0.5], [0.9],
+                                      sweeps=False)) == 1
+
+
+def _settings(**changes):
+    base = dict(runs=10, iterations=5, epsilon=0.1, max_itr=500, seed=0)
+    base.update(changes)
+    return experiments.Settings(**base)
+
+
+def test_config_hash_depends_on_what_determines_a_cell():
+    cell = experiments.Cell("q_learning", "r4", 0.3, 0.3)
+    digest = experiments.config_hash(experiments.cell_config(cell, _settings(), "m"))
+    assert digest == experiments.config_hash(experiments.cell_config(cell, _settings(workers=2), "m"))
+    for other in (
+        experiments.cell_config(cell, _settings(seed=1), "m"),
+        experiments.cell_config(cell, _settings(runs=11), "m"),
+        experiments.cell_config(cell, _settings(threshold=0.9), "m"),
+        experiments.cell_config(cell, _settings(), "other model"),
+        experiments.cell_config(experiments.Cell("q_learning", "r3", 0.3, 0.3), _settings(), "m"),
+        experiments.cell_config(experiments.Cell("q_learning", "r4", 0.3, 0.5), _settings(), "m"),
+    ):
+        assert experiments.config_hash(other) != digest
+
+
+def _summary(iterations=5):
+    curves = {name: np.linspace(0, 1, iterations) + i for i, name in enumerate(experiments.CURVE_NAMES)}
+    scalars = {name: 0.5 for name in experiments.SCALAR_NAMES}
+    scalars["max_success_iterations"] = None
+    scalars["reward_convergence_episodes"] = float("nan")
+    return {**scalars, **curves}
+
+
+def test_cell_store_round_trip_and_corruption(tmp_path):
+    store = experiments.CellStore(tmp_path / "cells")
+    cell = experiments.Cell("sarsa", "r2", 0.5, 0.3)
+    config = experiments.cell_config(cell, _settings(), "m")
+    assert store.load(cell, config) is None
+    path = store.save(cell, config, _summary())
+    assert path.name.startswith("sarsa-r2-a0.5-g0.3-") and path.suffix == ".npz"
+    loaded = store.load(cell, config)
+    assert loaded["max_success_iterations"] is None and math.isnan(loaded["reward_convergence_episodes"])
+    for name in experiments.CURVE_NAMES:
+        np.testing.assert_array_equal(loaded[name], _summary()[name])
+    assert store.load(cell, experiments.cell_config(cell, _settings(seed=3), "m")) is None
+    path.write_bytes(b"not an npz file")
+    with pytest.raises(experiments.CellFileError, match=re.escape(str(path)) + ".*--fresh"):
+        store.load(cell, config)
