@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from tableclean_suite.task import Outcome
@@ -29,6 +30,7 @@ from tableclean_suite.task import Outcome
 DEFAULT_THRESHOLD = 0.95
 DEFAULT_PLATEAU_FRACTION = 0.25
 _TERMINAL_END = 1  # kernel.EPISODE_TERMINAL
+_IMPROPER = int(Outcome.IMPROPER)
 
 
 def _episode_arrays(result):
@@ -107,28 +109,80 @@ def average_reward_matrix(result) -> np.ndarray:
     return _forward_fill(result, episode_return / length, np.nan)
 
 
+@numba.njit(cache=True)
+def _latest_episode_curves(rewards, outcomes, episode_end):
+    """One pass over ``(R, T)`` records -> per-iteration sums over runs of the latest
+    finished episode's success, terminal flag and average reward, the count of runs
+    with a finished episode, and episodes finished so far (all ``(T,)`` float64)."""
+    n_runs, n_iterations = rewards.shape
+    success = np.zeros(n_iterations)
+    terminal = np.zeros(n_iterations)
+    average_sum = np.zeros(n_iterations)
+    finished_runs = np.zeros(n_iterations)
+    episodes = np.zeros(n_iterations)
+    for r in range(n_runs):
+        episode_return = 0.0
+        length = 0
+        improper = 0
+        finished = 0
+        latest_success = 0.0
+        latest_terminal = 0.0
+        latest_average = 0.0
+        for t in range(n_iterations):
+            episode_return += rewards[r, t]
+            length += 1
+            if outcomes[r, t] == _IMPROPER:
+                improper += 1
+            if episode_end[r, t] != 0:
+                finished += 1
+                latest_terminal = 1.0 if episode_end[r, t] == _TERMINAL_END else 0.0
+                latest_success = latest_terminal if improper == 0 else 0.0
+                latest_average = episode_return / length
+                episode_return = 0.0
+                length = 0
+                improper = 0
+            success[t] += latest_success
+            terminal[t] += latest_terminal
+            episodes[t] += finished
+            if finished > 0:
+                average_sum[t] += latest_average
+                finished_runs[t] += 1.0
+    return success, terminal, average_sum, finished_runs, episodes
+
+
+def learning_curves(result) -> dict[str, np.ndarray]:
+    """The per-iteration curves ``success``, ``terminal``, ``average_reward``, ``episodes``, each ``(T,)``.
+
+    Same definitions as the ``*_matrix`` functions averaged over runs, computed in
+    one compiled pass without ``(R, T)`` temporaries (the harness's hot path).
+    """
+    success, terminal, average_sum, finished_runs, episodes = _latest_episode_curves(
+        result.rewards, result.outcomes, result.episode_end
+    )
+    runs = result.rewards.shape[0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        average = np.where(finished_runs > 0, average_sum / np.maximum(finished_runs, 1.0), np.nan)
+    return {"success": success / runs, "terminal": terminal / runs, "average_reward": average, "episodes": episodes / runs}
+
+
 def success_curve(result) -> np.ndarray:
     """Success rate per iteration, shape ``(T,)``, in [0, 1]."""
-    return success_matrix(result).mean(axis=0)
+    return learning_curves(result)["success"]
 
 
 def terminal_curve(result) -> np.ndarray:
     """Fraction of runs whose latest episode reached the terminal state, shape ``(T,)``."""
-    return terminal_matrix(result).mean(axis=0)
+    return learning_curves(result)["terminal"]
 
 
 def average_reward_curve(result) -> np.ndarray:
     """Average reward per iteration, shape ``(T,)`` (NaN until some run finished an episode)."""
-    matrix = average_reward_matrix(result)
-    counts = np.sum(~np.isnan(matrix), axis=0)
-    sums = np.nansum(matrix, axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+    return learning_curves(result)["average_reward"]
 
 
 def episodes_curve(result) -> np.ndarray:
     """Mean over runs of episodes finished by each iteration, shape ``(T,)``."""
-    return np.cumsum(result.episode_end != 0, axis=1).mean(axis=0)
+    return learning_curves(result)["episodes"]
 
 
 def _check_fraction(name, value, low_open=True):
@@ -192,10 +246,10 @@ def summarize(result, threshold: float = DEFAULT_THRESHOLD, plateau_fraction: fl
     ``average_reward_plateau``, ``terminal_plateau`` and the curves
     ``success``, ``average_reward``, ``terminal``, ``episodes`` (each ``(T,)``).
     """
-    success = success_curve(result)
-    average = average_reward_curve(result)
-    episodes = episodes_curve(result)
-    terminal = terminal_curve(result)
+    curves = learning_curves(result)
+    success, average, episodes, terminal = (
+        curves["success"], curves["average_reward"], curves["episodes"], curves["terminal"]
+    )
     success_at = iterations_to_max_success(success, threshold, plateau_fraction)
     reward_at = reward_convergence_iteration(average, threshold, plateau_fraction)
     return {

@@ -90,3 +90,16 @@ def test_summarize_keys(tiny):
     ):
         assert key in summary
     assert summary["success_plateau"] == pytest.approx(np.mean([0.0, 0.5]))  # last 2 of 6 iterations
+
+
+def test_compiled_curves_equal_per_run_matrices_on_real_training():
+    from tableclean_suite.learners import train
+
+    result = train("sarsa", "r4", runs=64, iterations=1500, max_itr=60, seed=4)
+    curves = metrics.learning_curves(result)
+    np.testing.assert_array_equal(curves["success"], metrics.success_matrix(result).mean(axis=0))
+    np.testing.assert_array_equal(curves["terminal"], metrics.terminal_matrix(result).mean(axis=0))
+    np.testing.assert_array_equal(curves["episodes"], np.cumsum(result.episode_end != 0, axis=1).mean(axis=0))
+    np.testing.assert_allclose(
+        curves["average_reward"], np.nanmean(metrics.average_reward_matrix(result), axis=0), rtol=1e-12, atol=1e-15
+    )
