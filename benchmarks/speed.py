@@ -1,6 +1,6 @@
 """Speed of the batched learners against a plain per-step Python loop, as ratios.
 
-    python -m benchmarks.speed [--runs 1000] [--iterations 3000] [--baseline-runs 20]
+    python -m benchmarks.speed [--runs 1000] [--iterations 3000] [--baseline-runs 20] [--skip-default-run]
 
 Both sides run in this process on the same task.  Two baselines:
 - ``plain loop``: a lean hand-written Python loop of Algorithm 1 over precomputed
@@ -8,6 +8,8 @@ Both sides run in this process on the same task.  Two baselines:
 - ``reference engine``: ``train(engine="reference")``, the library's own per-step loop
   (which also serves the physics backend and draws the same random numbers).
 The compiled learners are timed after a warm-up call (numba compilation excluded).
+It also times the whole default ``python -m benchmarks.run`` (all cells, tables,
+CSVs, figures) in this process after a warm-up run: CPU seconds and wall seconds.
 """
 
 from __future__ import annotations
@@ -93,11 +95,29 @@ def measure(runs: int, iterations: int, baseline_runs: int) -> list[dict]:
     return rows
 
 
+def time_default_run() -> dict:
+    """CPU and wall seconds of the default ``benchmarks.run``, after a warm-up run in this process."""
+    import contextlib
+    import io
+    import tempfile
+
+    from benchmarks import run
+
+    with tempfile.TemporaryDirectory() as out:
+        argv = ["--out", out, "--fresh", "--no-progress"]
+        with contextlib.redirect_stdout(io.StringIO()):
+            run.main(argv)  # warm-up: numba compilation, matplotlib font cache
+            cpu, wall = time.process_time(), time.perf_counter()
+            run.main(argv)
+            return {"cpu_s": time.process_time() - cpu, "wall_s": time.perf_counter() - wall}
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.speed", description=__doc__.split("\n\n")[0])
     parser.add_argument("--runs", type=int, default=1000, help="runs for the compiled learners (default 1000)")
     parser.add_argument("--iterations", type=int, default=3000, help="iterations per run (default 3000)")
     parser.add_argument("--baseline-runs", type=int, default=20, help="runs for the plain baselines (default 20)")
+    parser.add_argument("--skip-default-run", action="store_true", help="do not time the default benchmarks.run")
     args = parser.parse_args(argv)
     for name in ("runs", "iterations", "baseline_runs"):
         if getattr(args, name) < 1:
@@ -108,6 +128,12 @@ def main(argv=None) -> int:
     with pd.option_context("display.float_format", "{:,.1f}".format, "display.width", 160):
         print(table.to_string(index=False))
     print(f"\ngoal: >= 100x the plain loop; measured {table['ratio_vs_plain_loop'].min():.0f}x (worst learner)")
+    if not args.skip_default_run:
+        timing = time_default_run()
+        print(
+            f"default `python -m benchmarks.run` after warm-up: {timing['cpu_s']:.2f} s CPU, "
+            f"{timing['wall_s']:.2f} s wall (goal <= 5 s)"
+        )
     return 0
 
 

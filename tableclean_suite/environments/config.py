@@ -31,6 +31,7 @@ DEFAULT_TABLECLEAN_CONFIG = {
     "marker_radius": 0.011,  # radius of a (visual-only) dirt marker disc [m]
     "clean_fraction": 0.9,  # a segment counts clean once at least this fraction of its markers is wiped
     "wipe_contact_dist": 0.0,  # a sponge-table contact counts as pressing when its distance is <= this [m]
+    "wipe_marker_reach": 0.005,  # a marker is under the pressing sponge when within this of the sponge box [m]
     # --- sponge ------------------------------------------------------------------------------
     "sponge_half_size": (0.04, 0.025, 0.015),  # sponge half extents (x, y, z) [m]
     "sponge_density": 200.0,  # sponge density [kg/m^3] (light, foam-like)
@@ -65,7 +66,7 @@ _POSITIVE_KEYS = (
     "max_stable_speed",
 )
 #: Keys whose values must be non-negative.
-_NON_NEGATIVE_KEYS = ("segment_gap", "placement_noise", "placement_yaw_noise", "arm_segment_margin")
+_NON_NEGATIVE_KEYS = ("segment_gap", "wipe_marker_reach", "placement_noise", "placement_yaw_noise", "arm_segment_margin")
 
 
 class TaskConfig(dict):

@@ -505,7 +505,9 @@ class TableClean(ManipulationEnv):
         pressing = wiping.any_contact(contact.geom1[:ncon], contact.geom2[:ncon], self._sponge_mask, self._table_mask)
         if not (pressing & (contact.dist[:ncon] <= config["wipe_contact_dist"])).any():
             return
-        under = wiping.markers_under_box(self._marker_xyz, sponge_pos, sponge_mat, config["sponge_half_size"])
+        under = wiping.markers_under_box(
+            self._marker_xyz, sponge_pos, sponge_mat, config["sponge_half_size"], config["wipe_marker_reach"]
+        )
         if (under & self._marker_present).any():
             self._marker_present &= ~under
             self._update_dirt_fraction()

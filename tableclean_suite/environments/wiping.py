@@ -28,14 +28,19 @@ def box_lowest_z(pos: np.ndarray, mat: np.ndarray, half_size) -> float:
 
 
 def markers_under_box(marker_xyz: np.ndarray, box_pos: np.ndarray, box_mat: np.ndarray,
-                      half_xy) -> np.ndarray:
-    """Bool (N,): markers whose centre projects into the box's local-xy footprint.
+                      half_size, reach: float) -> np.ndarray:
+    """Bool (N,): markers whose centre lies within ``reach`` of the box (in the box's own frame).
+
+    A marker on the table under a pressing sponge lies just below its lower face; bounding
+    all three local axes (not only the footprint's x and y) keeps a sponge that tipped onto
+    a side from "covering" an unbounded strip of the table.
 
     Args:
         marker_xyz: (N, 3) world positions of the markers.
         box_pos: (3,) world position of the box centre.
         box_mat: (9,) or (3, 3) world rotation matrix of the box (row-major, as MuJoCo's ``xmat``).
-        half_xy: (2,) half extents of the footprint along the box's local x and y axes.
+        half_size: (3,) half extents of the box along its local axes [m].
+        reach: slack added to every half extent [m], >= 0.
     """
     local = (marker_xyz - box_pos) @ np.reshape(box_mat, (3, 3))  # R^T p for every marker
-    return (np.abs(local[:, 0]) <= half_xy[0]) & (np.abs(local[:, 1]) <= half_xy[1])
+    return np.all(np.abs(local) <= np.asarray(half_size) + reach, axis=1)
