@@ -1,0 +1,46 @@
+"""Skills that turn task-level actions into OSC motions, and the SkillController that runs them.
+
+Make the environment with :func:`make_skill_env` (or pass :func:`skill_controller_config`
+as ``controller_configs`` and ``ignore_done=True`` to ``robosuite.make``), then::
+
+    env = make_skill_env(object_segment=1, arm_segment=1)
+    controller = SkillController(env)
+    result = controller.execute(Action.PICK)   # -> SkillResult
+
+Add or replace skills with :func:`register_skill` (see :mod:`.registry`).
+"""
+
+from tableclean_suite.controllers.clean import CleanPhase, CleanSkill
+from tableclean_suite.controllers.make import make_skill_env
+from tableclean_suite.controllers.move import MovePhase, MoveSkill
+from tableclean_suite.controllers.osc import skill_controller_config
+from tableclean_suite.controllers.pick import PickPhase, PickSkill
+from tableclean_suite.controllers.place import PlacePhase, PlaceSkill
+from tableclean_suite.controllers.registry import SKILL_REGISTRY, get_skill_class, register_skill
+from tableclean_suite.controllers.skill import BASE_CONFIG, Skill, SkillFailure, Waypoint
+from tableclean_suite.controllers.skill_controller import SkillController, SkillResult
+
+for _skill in (MoveSkill, PickSkill, PlaceSkill, CleanSkill):
+    register_skill(_skill.action, _skill, replace=True)
+
+__all__ = [
+    "BASE_CONFIG",
+    "CleanPhase",
+    "CleanSkill",
+    "MovePhase",
+    "MoveSkill",
+    "PickPhase",
+    "PickSkill",
+    "PlacePhase",
+    "PlaceSkill",
+    "SKILL_REGISTRY",
+    "Skill",
+    "SkillController",
+    "SkillFailure",
+    "SkillResult",
+    "Waypoint",
+    "get_skill_class",
+    "make_skill_env",
+    "register_skill",
+    "skill_controller_config",
+]

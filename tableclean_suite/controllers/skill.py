@@ -1,0 +1,237 @@
+"""The skill interface: a MAPLE-style state machine over end-effector waypoints.
+
+A skill is created per execution.  Every control step :meth:`Skill.step` reads
+``env.skill_info()`` (the only grounding a skill uses), decides from the
+*achieved* pose whether the current phase's waypoint is done, advances the phase
+if so, and returns the next absolute OSC setpoint, rate-limited towards the
+waypoint.  Subclasses only say which waypoint each phase aims at
+(:meth:`Skill.waypoint`) and what follows a completed phase
+(:meth:`Skill.next_phase`); the waypoint following, rate limiting, gripper
+settling and step budget live here once.
+
+Subclasses define:
+- ``action``: the :class:`~tableclean_suite.task.Action` the skill implements,
+- ``Phase``: an :class:`enum.Enum` of phases whose last member ends the skill,
+- ``DEFAULT_CONFIG``: named constants (extending :data:`BASE_CONFIG`).
+"""
+
+from __future__ import annotations
+
+import abc
+import enum
+from dataclasses import dataclass
+from typing import Any, ClassVar, Mapping
+
+import numpy as np
+
+from tableclean_suite.controllers.geometry import gripper_yaw, wrap_angle
+from tableclean_suite.controllers.osc import compose_action, down_rotvec
+from tableclean_suite.task import Action, Outcome, Segment, TaskModel, TaskState
+
+#: Settings every skill understands; each skill's DEFAULT_CONFIG extends these.
+BASE_CONFIG: dict[str, Any] = {
+    "max_steps": 400,  # step budget (control steps) before the skill gives up
+    "speed": 0.4,  # m/s, maximum speed of the rate-limited setpoint
+    "reach_tolerance": 0.008,  # m, achieved-to-waypoint distance that counts as reached
+    "gripper_still": 2e-4,  # m per step, finger motion below which the gripper has settled
+    "hover_height": 0.12,  # m above the table top at which the gripper travels and hovers
+    "yaw_rate": 1.5,  # rad/s, maximum turning speed of the gripper-yaw setpoint (faster turns hit wrist limits)
+    "yaw_tolerance": 0.1,  # rad, achieved-to-target gripper yaw error that counts as reached
+    # rad, preferred gripper yaw when a grasp allows several: the Panda's grip site has yaw pi/2
+    # at robosuite's home pose (fingers closing along world y); yaws near 0 or pi hit wrist limits
+    "nominal_yaw": 0.5 * 3.141592653589793,
+}
+
+
+class SkillFailure(RuntimeError):
+    """Raised inside a skill when it cannot continue (e.g. the grasp was not confirmed)."""
+
+
+@dataclass(frozen=True)
+class Waypoint:
+    """A target of the current phase.
+
+    Attributes:
+        pos: (3,) world position (m) of the end-effector (grip site).
+        gripper: gripper command in [-1, 1] (-1 open, +1 closed).
+        tolerance: m; the waypoint is reached when the achieved position is this close.
+        xy_only: judge "reached" in the horizontal plane only (for pressing
+            moves whose z lies below the table surface and is never reached).
+        min_steps: control steps to spend in the phase at least (e.g. to let a grasp tighten).
+        speed: m/s cap of the setpoint's speed towards ``pos``; ``None``: the skill's ``speed``.
+    """
+
+    pos: np.ndarray
+    gripper: float
+    tolerance: float
+    xy_only: bool = False
+    min_steps: int = 0
+    speed: float | None = None
+
+
+class Skill(abc.ABC):
+    """Base class of all skills: waypoint following with phases, a budget and checks.
+
+    Args:
+        env: anything with ``skill_info() -> dict`` (see .coord/CONTRACT.md),
+            ``symbolic_state() -> TaskState`` and ``control_freq`` (Hz).
+        config: overrides of ``DEFAULT_CONFIG`` (unknown keys raise ``KeyError``).
+    """
+
+    action: ClassVar[Action]
+    Phase: ClassVar[type[enum.Enum]]
+    DEFAULT_CONFIG: ClassVar[dict[str, Any]] = BASE_CONFIG
+
+    def __init__(self, env, config: Mapping[str, Any] | None = None):
+        unknown = set(config or {}) - set(self.DEFAULT_CONFIG)
+        if unknown:
+            raise KeyError(f"unknown config keys for {type(self).__name__}: {sorted(unknown)}")
+        self.config = {**self.DEFAULT_CONFIG, **(config or {})}
+        self.env = env
+        self.dt = 1.0 / float(env.control_freq)
+        self.phase: enum.Enum = next(iter(self.Phase))
+        self.steps = 0
+        self.failure: str | None = None
+        self.state: TaskState | None = None
+        self.yaw = 0.0  # rad, target gripper yaw; the commanded yaw turns towards it at yaw_rate
+        self._yaw_setpoint = 0.0
+        self._phase_steps = 0
+        self.phase_steps: dict[str, int] = {}
+        self._setpoint = np.zeros(3)
+        self._last_fingers: np.ndarray | None = None
+
+    # -- what subclasses provide ---------------------------------------------------
+    @abc.abstractmethod
+    def waypoint(self, info: Mapping[str, Any]) -> Waypoint:
+        """The waypoint of ``self.phase``, computed from the current ``skill_info()``."""
+        raise NotImplementedError
+
+    @abc.abstractmethod
+    def next_phase(self, info: Mapping[str, Any]) -> enum.Enum:
+        """The phase after ``self.phase`` once its waypoint is done; may raise :class:`SkillFailure`."""
+        raise NotImplementedError
+
+    def on_reset(self, info: Mapping[str, Any]) -> None:
+        """Hook: per-execution set-up from the first ``skill_info()`` (after the base reset)."""
+
+    def update(self, info: Mapping[str, Any]) -> None:
+        """Hook: per-step bookkeeping from the current ``skill_info()``, before the phase is evaluated."""
+
+    def phase_ready(self, info: Mapping[str, Any]) -> bool:
+        """Hook: an extra condition for leaving ``self.phase`` (e.g. "the object is released"); default True."""
+        return True
+
+    # -- checks through the abstraction ---------------------------------------------------
+    @classmethod
+    def precondition(cls, state: TaskState, model: TaskModel) -> bool:
+        """Whether to run from the symbolic ``state``: the model calls the action neither improper nor ineffective."""
+        return model.step(state, cls.action)[1] not in (Outcome.IMPROPER, Outcome.INEFFECTIVE)
+
+    @classmethod
+    def is_success(cls, state_before: TaskState, state_after: TaskState | None, model: TaskModel) -> bool:
+        """Whether the abstraction's state after the skill is the task model's successor of ``state_before``."""
+        return state_after is not None and state_after == model.step(state_before, cls.action)[0]
+
+    # -- shared machinery ------------------------------------------------------------
+    @property
+    def final_phase(self) -> enum.Enum:
+        """The phase that ends the skill (the last member of ``Phase``)."""
+        return list(self.Phase)[-1]
+
+    @property
+    def done(self) -> bool:
+        """Whether the skill finished (reached its final phase) or failed."""
+        return self.failure is not None or self.phase == self.final_phase
+
+    @property
+    def succeeded(self) -> bool:
+        """Whether the skill's motion completed; the abstraction's check is the controller's job."""
+        return self.failure is None and self.phase == self.final_phase
+
+    @property
+    def max_steps(self) -> int:
+        """Step budget (control steps)."""
+        return int(self.config["max_steps"])
+
+    def reset(self, state: TaskState) -> None:
+        """Start an execution from the symbolic ``state`` (read through the abstraction)."""
+        info = self.env.skill_info()
+        self.state = state
+        self.phase = next(iter(self.Phase))
+        self.steps = 0
+        self.failure = None
+        self._phase_steps = 0
+        self.phase_steps = {}
+        self._setpoint = np.array(info["eef_pos"], dtype=float)
+        self._last_fingers = np.array(info["gripper_qpos"], dtype=float)
+        self.yaw = self._yaw_setpoint = gripper_yaw(info["eef_quat"])
+        self.on_reset(info)
+
+    def step(self) -> np.ndarray | None:
+        """One control step: update the phase from the achieved pose, return the env action (7,).
+
+        Returns ``None`` once the skill is done (finished, failed or out of budget).
+        """
+        if self.done:
+            return None
+        if self.steps >= self.max_steps:
+            self.failure = f"step budget of {self.max_steps} exhausted in phase {self.phase.name}"
+            return None
+        info = self.env.skill_info()
+        fingers = np.asarray(info["gripper_qpos"], dtype=float)
+        finger_motion = np.max(np.abs(fingers - self._last_fingers))
+        self._last_fingers = fingers
+        try:
+            self.update(info)
+            target = self.waypoint(info)
+            if self._phase_complete(target, info, finger_motion) and self._yaw_reached(info):
+                self.phase = self.next_phase(info)
+                self._phase_steps = 0
+                if self.done:
+                    return None
+                target = self.waypoint(info)
+        except SkillFailure as failure:
+            self.failure = f"{self.phase.name}: {failure}"
+            return None
+        self._advance_setpoint(target)
+        self.steps += 1
+        self._phase_steps += 1
+        self.phase_steps[self.phase.name] = self.phase_steps.get(self.phase.name, 0) + 1
+        return compose_action(self._setpoint, down_rotvec(self._yaw_setpoint), target.gripper)
+
+    def _phase_complete(self, target: Waypoint, info: Mapping[str, Any], finger_motion: float) -> bool:
+        error = np.asarray(info["eef_pos"], dtype=float) - target.pos
+        if target.xy_only:
+            error = error[:2]
+        reached = float(np.linalg.norm(error)) <= target.tolerance
+        settled = finger_motion <= self.config["gripper_still"] and self._phase_steps >= target.min_steps
+        return reached and settled and self.phase_ready(info)
+
+    def _yaw_reached(self, info: Mapping[str, Any]) -> bool:
+        return abs(wrap_angle(gripper_yaw(info["eef_quat"]) - self.yaw)) <= self.config["yaw_tolerance"]
+
+    def _advance_setpoint(self, target: Waypoint) -> None:
+        max_turn = self.config["yaw_rate"] * self.dt
+        turn = wrap_angle(self.yaw - self._yaw_setpoint)
+        self._yaw_setpoint = wrap_angle(self._yaw_setpoint + float(np.clip(turn, -max_turn, max_turn)))
+        speed = self.config["speed"] if target.speed is None else target.speed
+        max_move = speed * self.dt
+        delta = target.pos - self._setpoint
+        distance = float(np.linalg.norm(delta))
+        if distance > max_move:
+            delta *= max_move / distance
+        self._setpoint = self._setpoint + delta
+
+    # -- helpers for subclasses ----------------------------------------------------------
+    def hover_point(self, info: Mapping[str, Any], xy: np.ndarray) -> np.ndarray:
+        """(3,) the point ``hover_height`` above the table top at horizontal position ``xy`` (2,)."""
+        return np.array([xy[0], xy[1], float(info["table_top_z"]) + self.config["hover_height"]])
+
+    def segment_center(self, info: Mapping[str, Any], segment: Segment) -> np.ndarray:
+        """(3,) table-top surface point at the centre of ``segment``."""
+        return np.asarray(info["segment_centers"], dtype=float)[int(segment)]
+
+    def reached(self, info: Mapping[str, Any], pos: np.ndarray, tolerance: float | None = None) -> bool:
+        """Whether the achieved end-effector position is within ``tolerance`` (default: reach tolerance) of ``pos``."""
+        tol = self.config["reach_tolerance"] if tolerance is None else tolerance
+        return float(np.linalg.norm(np.asarray(info["eef_pos"], dtype=float) - pos)) <= tol

@@ -1,0 +1,158 @@
+"""SkillController: execute task-level actions in physics with the task model's semantics.
+
+``execute(action)`` reads the symbolic state through the environment's
+abstraction, refuses improper actions without moving, skips ineffective ones,
+and otherwise runs the registered skill until it finishes or exhausts its step
+budget; it then reads the symbolic state again and classifies the observed
+transition with the task model.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any, Iterable, Mapping
+
+from tableclean_suite.controllers.registry import SKILL_REGISTRY, get_skill_class
+from tableclean_suite.environments.abstraction import AbstractionError
+from tableclean_suite.task import Action, Outcome, TaskModel, TaskState, as_action
+
+
+@dataclass
+class SkillResult:
+    """What one ``SkillController.execute`` call did.
+
+    Attributes:
+        action: the executed :class:`Action`.
+        success: the symbolic state after equals the task model's successor (and the skill finished).
+        improper: the task model calls the action improper here; refused, nothing moved.
+        steps: control steps (``env.step`` calls) used; 0 for refused and ineffective actions.
+        reason: short human-readable account ("ok", "improper: ...", failure cause, ...).
+        state_before: symbolic state before the action.
+        state_after: symbolic state after it; ``None`` when the abstraction reported a fault.
+        outcome: :class:`Outcome` of the observed transition (``TaskModel.classify``); ``None`` on a fault.
+        expected: the task model's successor of ``state_before``.
+        wall_time: seconds spent in ``execute`` (including abstraction reads).
+        env_time: seconds of that spent inside ``env.step``.
+        final_phase: name of the skill's last phase ("" when no skill ran).
+        phase_steps: control steps spent per phase name (empty when no skill ran).
+    """
+
+    action: Action
+    success: bool
+    improper: bool
+    steps: int
+    reason: str
+    state_before: TaskState | None
+    state_after: TaskState | None
+    outcome: Outcome | None
+    expected: TaskState | None = None
+    wall_time: float = 0.0
+    env_time: float = 0.0
+    final_phase: str = ""
+    phase_steps: dict = field(default_factory=dict)
+
+    @property
+    def overhead_time(self) -> float:
+        """Seconds of ``wall_time`` not spent in ``env.step`` (skill logic, skill_info, abstraction)."""
+        return self.wall_time - self.env_time
+
+
+class SkillController:
+    """Runs task-level actions as skills on a robosuite env that follows .coord/CONTRACT.md.
+
+    Args:
+        env: the environment (``skill_info()``, ``symbolic_state()``, ``step()``,
+            ``control_freq``), made with :func:`~tableclean_suite.controllers.osc.skill_controller_config`.
+        model: the task model whose rules physics follows (default ``TaskModel()``).
+        registry: action -> skill class table (default: the global ``SKILL_REGISTRY``).
+        skill_configs: per-action config overrides, e.g. ``{Action.CLEAN: {"max_passes": 2}}``.
+    """
+
+    def __init__(
+        self,
+        env,
+        model: TaskModel | None = None,
+        registry: Mapping[Action, type] | None = None,
+        skill_configs: Mapping[Any, Mapping[str, Any]] | None = None,
+    ):
+        self.env = env
+        self.model = TaskModel() if model is None else model
+        self.registry = SKILL_REGISTRY if registry is None else registry
+        self.skill_configs = {as_action(a): dict(c) for a, c in (skill_configs or {}).items()}
+
+    def execute(self, action) -> SkillResult:
+        """Carry out ``action`` (Action, int or name) in physics and report what happened.
+
+        Raises ``ValueError`` for an unknown action or when the current state is
+        terminal, ``KeyError`` when no skill is registered for the action.
+        """
+        start = time.perf_counter()
+        action = as_action(action)
+        skill_class = get_skill_class(action, self.registry)
+        try:
+            before = self.env.symbolic_state()
+        except AbstractionError as fault:
+            return self._result(action, start, False, 0, f"fault before the action: {fault}", None, None)
+        expected, predicted = self.model.step(before, action)  # ValueError when terminal
+        if not skill_class.precondition(before, self.model):
+            if predicted == Outcome.IMPROPER:
+                return self._result(action, start, False, 0, "improper: refused", before, before, improper=True)
+            return self._result(action, start, True, 0, f"{predicted.name.lower()}: nothing to do", before, before)
+
+        skill = skill_class(self.env, self.skill_configs.get(action))
+        env_time = 0.0
+        reason = "ok"
+        try:
+            skill.reset(before)
+            while (command := skill.step()) is not None:
+                tick = time.perf_counter()
+                self.env.step(command)
+                env_time += time.perf_counter() - tick
+            after = self.env.symbolic_state()
+        except AbstractionError as fault:
+            reason, after = f"fault: {fault}", None
+        if skill.failure is not None:
+            reason = skill.failure
+        elif after is not None and after != expected:
+            reason = f"ended in {after.name}, expected {expected.name}"
+        success = skill.succeeded and skill_class.is_success(before, after, self.model)
+        return self._result(
+            action, start, success, skill.steps, reason, before, after,
+            env_time=env_time, final_phase=skill.phase.name, phase_steps=dict(skill.phase_steps),
+        )
+
+    def execute_plan(self, actions: Iterable, stop_on_failure: bool = True) -> list[SkillResult]:
+        """Execute ``actions`` in order; stops after the first unsuccessful one if ``stop_on_failure``.
+
+        Also stops once the symbolic state is terminal.
+        """
+        results = []
+        for action in actions:
+            result = self.execute(action)
+            results.append(result)
+            terminal = result.state_after is not None and result.state_after.is_terminal
+            if terminal or (stop_on_failure and not result.success):
+                break
+        return results
+
+    def _result(self, action, start, success, steps, reason, before, after, improper=False, **details):
+        expected = None
+        outcome = None
+        if before is not None:
+            expected = self.model.step(before, action)[0]
+            if after is not None:
+                outcome = self.model.classify(before, action, after)
+        return SkillResult(
+            action=action,
+            success=success,
+            improper=improper,
+            steps=steps,
+            reason=reason,
+            state_before=before,
+            state_after=after,
+            outcome=outcome,
+            expected=expected,
+            wall_time=time.perf_counter() - start,
+            **details,
+        )

@@ -1,0 +1,325 @@
+"""Tests of the skills and the SkillController (issue 4, sections 1 and 6).
+
+Unit tests (no physics) cover the registry, bad input, the pure geometry and the
+waypoint machinery on a kinematic fake env.  Physics tests (``slow``) run the skills on
+TableClean and compare the abstraction's state after each action with the task model's.
+"""
+
+from __future__ import annotations
+
+import enum
+
+import numpy as np
+import pytest
+
+from tableclean_suite.controllers import (
+    SKILL_REGISTRY,
+    CleanSkill,
+    MoveSkill,
+    PickSkill,
+    PlaceSkill,
+    Skill,
+    SkillController,
+    Waypoint,
+    get_skill_class,
+    register_skill,
+    skill_controller_config,
+)
+from tableclean_suite.controllers.geometry import grasp_yaw, quat_to_matrix
+from tableclean_suite.controllers.osc import ARM_PART, down_rotation, down_rotvec
+from tableclean_suite.controllers.wipe_pattern import boustrophedon
+from tableclean_suite.task import (
+    START_LAYOUTS,
+    Action,
+    ObjectLocation,
+    Outcome,
+    Segment,
+    TaskModel,
+    TaskState,
+    start_layout,
+)
+
+MODEL = TaskModel()
+
+
+# ---------------------------------------------------------------------------------------------
+# unit tests: registry, bad input, geometry
+# ---------------------------------------------------------------------------------------------
+def test_registry_maps_every_action_to_its_skill():
+    assert {a: get_skill_class(a) for a in Action} == {
+        Action.MOVE: MoveSkill,
+        Action.PICK: PickSkill,
+        Action.PLACE: PlaceSkill,
+        Action.CLEAN: CleanSkill,
+    }
+    assert get_skill_class("clean") is CleanSkill and get_skill_class(1) is PickSkill
+
+
+class _FasterMove(MoveSkill):
+    pass
+
+
+def test_register_skill_adds_and_replaces_without_touching_the_controller():
+    registry = {}
+    with pytest.raises(KeyError, match="no skill registered for MOVE; registered: none"):
+        get_skill_class(Action.MOVE, registry)
+    register_skill(Action.MOVE, MoveSkill, registry=registry)
+    with pytest.raises(ValueError, match="already has skill MoveSkill"):
+        register_skill(Action.MOVE, _FasterMove, registry=registry)
+    register_skill("move", _FasterMove, replace=True, registry=registry)
+    assert get_skill_class(Action.MOVE, registry) is _FasterMove
+    assert SKILL_REGISTRY[Action.MOVE] is MoveSkill  # the global table is untouched
+
+
+def test_register_skill_rejects_bad_input():
+    with pytest.raises(TypeError, match="must be a Skill subclass"):
+        register_skill(Action.MOVE, object, registry={})
+    with pytest.raises(ValueError, match="PickSkill implements PICK, not MOVE"):
+        register_skill(Action.MOVE, PickSkill, registry={})
+    with pytest.raises(ValueError, match="unknown action 'fly'"):
+        register_skill("fly", MoveSkill, registry={})
+
+
+class _FakeEnv:
+    """Kinematic stand-in: the end-effector jumps to each commanded position; nothing else moves.
+
+    ``frozen=True`` keeps the end-effector where it is (to exhaust step budgets).
+    """
+
+    control_freq = 20
+
+    def __init__(self, arm_segment: Segment = Segment.SEGMENT_1, frozen: bool = False):
+        self.centers = np.array([[0.0, -0.14, 0.8], [0.0, 0.14, 0.8]])
+        self.eef = self.centers[int(arm_segment)] + [0.0, 0.0, MoveSkill.DEFAULT_CONFIG["hover_height"]]
+        self.frozen = frozen
+        self.steps = 0
+
+    def skill_info(self):
+        return {
+            "eef_pos": self.eef.copy(),
+            "eef_quat": np.array([0.70710678, 0.70710678, 0.0, 0.0]),  # pointing down, yaw pi/2
+            "gripper_qpos": np.array([0.04, -0.04]),
+            "segment_centers": self.centers,
+            "table_top_z": 0.8,
+        }
+
+    def symbolic_state(self, check_sponge=True):
+        arm = Segment(int(np.argmin(np.abs(self.centers[:, 1] - self.eef[1]))))
+        return TaskState(False, False, ObjectLocation.ON_SEGMENT_2, arm)
+
+    def step(self, action):
+        self.steps += 1
+        if not self.frozen:
+            self.eef = np.asarray(action[:3], dtype=float).copy()
+
+
+def test_execute_rejects_unknown_actions_before_touching_the_env():
+    env = _FakeEnv()
+    controller = SkillController(env)
+    for bad in ("fly", 7, -1, 1.5, None, True):
+        with pytest.raises(ValueError, match="unknown action"):
+            controller.execute(bad)
+    assert env.steps == 0
+
+
+def test_skill_config_rejects_unknown_keys():
+    with pytest.raises(KeyError, match="unknown config keys for MoveSkill: \\['sped'\\]"):
+        MoveSkill(_FakeEnv(), {"sped": 1.0})
+
+
+def test_skill_base_cannot_be_instantiated_without_its_hooks():
+    class Incomplete(Skill):
+        action = Action.MOVE
+        Phase = enum.Enum("Phase", "A DONE")
+
+    with pytest.raises(TypeError, match="abstract"):
+        Incomplete(_FakeEnv())
+
+
+def test_move_skill_rate_limits_and_ends_above_the_other_segment():
+    env = _FakeEnv(Segment.SEGMENT_1)
+    controller = SkillController(env)
+    result = controller.execute(Action.MOVE)
+    assert result.success and result.reason == "ok" and result.final_phase == "DONE"
+    assert result.state_after.arm_segment == Segment.SEGMENT_2
+    np.testing.assert_allclose(env.eef[:2], env.centers[1, :2], atol=MoveSkill.DEFAULT_CONFIG["reach_tolerance"])
+    # rate limit: the setpoint never moves faster than speed / control_freq per step
+    config = MoveSkill.DEFAULT_CONFIG
+    distance = np.linalg.norm(env.centers[1, :2] - env.centers[0, :2]) - config["reach_tolerance"]
+    assert result.steps >= distance / (config["speed"] / env.control_freq)
+    assert result.outcome == Outcome.ROUTINE and result.steps == env.steps
+
+
+def test_a_skill_that_cannot_reach_its_waypoint_fails_on_its_step_budget():
+    env = _FakeEnv(frozen=True)
+    result = SkillController(env, skill_configs={Action.MOVE: {"max_steps": 15}}).execute(Action.MOVE)
+    assert not result.success and result.steps == 15
+    assert "step budget of 15 exhausted in phase TRAVEL" in result.reason
+
+
+def test_waypoint_skill_config_is_per_skill_and_named():
+    for cls in (MoveSkill, PickSkill, PlaceSkill, CleanSkill):
+        assert set(Skill.DEFAULT_CONFIG) <= set(cls.DEFAULT_CONFIG)
+        assert list(cls.Phase)[-1].name == "DONE"
+    assert Waypoint(np.zeros(3), -1.0, 0.01).xy_only is False
+
+
+def test_controller_config_is_absolute_world_osc_pose():
+    arm = skill_controller_config()["body_parts"][ARM_PART]
+    assert (arm["type"], arm["input_type"], arm["input_ref_frame"]) == ("OSC_POSE", "absolute", "world")
+    assert skill_controller_config() is not skill_controller_config()  # fresh copies
+
+
+@pytest.mark.parametrize("yaw", [0.0, 0.5 * np.pi, 2.0, -2.5])
+def test_down_rotvec_points_the_gripper_down_with_the_given_yaw(yaw):
+    from scipy.spatial.transform import Rotation  # robosuite's OSC reads the rotation vector with it
+
+    rot = Rotation.from_rotvec(down_rotvec(yaw)).as_matrix()
+    np.testing.assert_allclose(rot, down_rotation(yaw), atol=1e-12)
+    np.testing.assert_allclose(rot[:, 2], [0, 0, -1], atol=1e-12)
+    np.testing.assert_allclose(rot[:2, 0], [np.cos(yaw), np.sin(yaw)], atol=1e-12)
+
+
+def test_grasp_yaw_puts_the_fingers_across_the_short_side():
+    identity = np.array([0.0, 0.0, 0.0, 1.0])
+    long_x = np.array([0.04, 0.025, 0.015])  # the sponge: short side along y
+    yaw = grasp_yaw(identity, long_x, nominal_yaw=0.5 * np.pi)
+    closing_axis = down_rotation(yaw)[:, 0]  # fingers close along the grip site's x axis
+    assert abs(closing_axis[1]) == pytest.approx(1.0)
+    assert grasp_yaw(identity, long_x, nominal_yaw=-0.5 * np.pi) == pytest.approx(-0.5 * np.pi)
+    cube = np.full(3, 0.02)
+    assert grasp_yaw(identity, cube, nominal_yaw=0.1) == pytest.approx(0.0)
+    turned = np.array([0.0, 0.0, np.sin(0.15), np.cos(0.15)])  # cube turned 0.3 rad about z
+    assert grasp_yaw(turned, cube, nominal_yaw=0.5 * np.pi) == pytest.approx(0.3 + 0.5 * np.pi)
+    np.testing.assert_allclose(quat_to_matrix(identity), np.eye(3))
+
+
+def test_boustrophedon_sweeps_the_whole_rectangle_lane_by_lane():
+    center, half, foot = np.array([0.0, 0.14, 0.8]), np.array([0.12, 0.12]), np.array([0.04, 0.025])
+    points = boustrophedon(center, half, foot, overlap=0.4, along_x=False, edge_inset=1.0)
+    assert points.shape[1] == 2 and len(points) % 2 == 0
+    offsets = points - center[:2]
+    assert np.all(np.abs(offsets) <= half - foot + 1e-12)  # the sponge stays on the rectangle
+    lanes = np.unique(offsets[:, 0].round(9))
+    assert lanes[0] == pytest.approx(-(half[0] - foot[0])) and lanes[-1] == pytest.approx(half[0] - foot[0])
+    assert np.max(np.diff(lanes)) <= 2 * foot[0] * (1 - 0.4) + 1e-12  # no gap between lanes
+    assert np.all(offsets[::2, 0] == offsets[1::2, 0])  # each stroke runs along y
+    shifted = boustrophedon(center, half, foot, overlap=0.4, along_x=False, lane_shift=0.5)
+    assert not np.allclose(shifted, points)
+    with pytest.raises(ValueError, match="footprint"):
+        boustrophedon(center, half, np.array([0.0, 0.02]), 0.2, True)
+    with pytest.raises(ValueError, match="overlap"):
+        boustrophedon(center, half, foot, 1.0, True)
+
+
+# ---------------------------------------------------------------------------------------------
+# physics tests
+# ---------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def envs():
+    """One TableClean env per start layout, made lazily and shared by this module's tests."""
+    from tableclean_suite.controllers import make_skill_env
+
+    made = {}
+
+    def get(object_segment: int, arm_segment: int):
+        key = (object_segment, arm_segment)
+        if key not in made:
+            made[key] = make_skill_env(object_segment, arm_segment, seed=key[0] * 10 + key[1], hard_reset=False)
+        env = made[key]
+        env.reset()
+        return env
+
+    yield get
+    for env in made.values():
+        env.close()
+
+
+def _run(controller, actions):
+    """Execute ``actions``; each must succeed with the task model's successor."""
+    results = []
+    for action in actions:
+        result = controller.execute(action)
+        expected, _ = MODEL.step(result.state_before, action)
+        assert result.state_after == expected, f"{action.name}: {result.reason}"
+        assert result.success, f"{action.name}: {result.reason}"
+        results.append(result)
+    return results
+
+
+# (layout, prefix actions that reach the canonical state, the skill under test, what it checks)
+CANONICAL = {
+    "move_empty": ((1, 1), [], Action.MOVE),
+    "move_holding": ((1, 1), [Action.PICK], Action.MOVE),
+    "pick": ((1, 1), [], Action.PICK),
+    "place_other_segment": ((1, 1), [Action.PICK, Action.MOVE], Action.PLACE),
+    "clean_segment_1": ((2, 1), [], Action.CLEAN),
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", list(CANONICAL))
+def test_skill_from_its_canonical_state_reaches_the_models_successor(envs, case):
+    layout, prefix, action = CANONICAL[case]
+    env = envs(*layout)
+    assert env.symbolic_state() == start_layout(*layout)
+    controller = SkillController(env, MODEL)
+    _run(controller, prefix)
+    result = controller.execute(action)
+    expected, outcome = MODEL.step(result.state_before, action)
+    assert result.success, result.reason
+    assert env.symbolic_state() == expected == result.state_after
+    assert result.outcome == outcome and not result.improper
+    assert 0 < result.steps <= get_skill_class(action).DEFAULT_CONFIG["max_steps"]
+    if action == Action.CLEAN:
+        assert env.skill_info()["sponge_grasped"] is False  # the sponge is back and released
+        env.symbolic_state(check_sponge=True)  # no SPONGE_AWAY_FROM_HOME fault
+
+
+def _qpos(env):
+    return np.array(env.sim.data.qpos, copy=True)
+
+
+@pytest.mark.slow
+def test_improper_actions_are_refused_without_motion(envs):
+    env = envs(1, 1)
+    controller = SkillController(env, MODEL)
+    # clean where the object lies
+    before = _qpos(env)
+    result = controller.execute(Action.CLEAN)
+    assert result.improper and not result.success and result.steps == 0
+    assert result.outcome == Outcome.IMPROPER and result.state_after == result.state_before
+    np.testing.assert_array_equal(_qpos(env), before)
+    # clean while holding the object
+    _run(controller, [Action.PICK])
+    before = _qpos(env)
+    result = controller.execute(Action.CLEAN)
+    assert result.improper and result.steps == 0 and result.reason.startswith("improper")
+    np.testing.assert_array_equal(_qpos(env), before)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("layout, action", [((1, 1), Action.PLACE), ((2, 1), Action.PICK)])
+def test_ineffective_actions_do_nothing(envs, layout, action):
+    env = envs(*layout)
+    before = _qpos(env)
+    result = SkillController(env, MODEL).execute(action)
+    assert result.steps == 0 and not result.improper and result.success
+    assert result.outcome == Outcome.INEFFECTIVE and result.state_after == result.state_before
+    np.testing.assert_array_equal(_qpos(env), before)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("layout", START_LAYOUTS)
+def test_optimal_plan_reaches_the_terminal_state_in_physics(envs, layout):
+    env = envs(*layout)
+    start = env.symbolic_state()
+    assert start == start_layout(*layout)
+    plan = MODEL.shortest_plan(start)
+    results = SkillController(env, MODEL).execute_plan(plan)
+    assert [r.action for r in results] == plan
+    for result in results:
+        assert result.success, f"{result.action.name}: {result.reason}"
+        assert result.state_after == MODEL.step(result.state_before, result.action)[0]
+    assert results[-1].state_after.is_terminal and results[-1].outcome == Outcome.TERMINAL
+    assert env.symbolic_state().is_terminal
