@@ -29,7 +29,7 @@ import numpy as np
 
 import tableclean_suite
 from tableclean_suite.learners import get_learner, train
-from tableclean_suite.metrics import summarize
+from tableclean_suite.metrics import SUMMARY_SCALARS, summarize
 from tableclean_suite.rewards import get_reward_pattern
 
 #: Bump when the stored layout or the meaning of a stored field changes.
@@ -39,16 +39,6 @@ CELL_FORMAT_VERSION = 1
 CURVE_NAMES = ("success", "average_reward", "terminal", "episodes")
 
 #: Scalars stored per cell (all of ``summarize``'s scalars).
-SCALAR_NAMES = (
-    "max_success_iterations",
-    "max_success_episodes",
-    "reward_convergence_iterations",
-    "reward_convergence_episodes",
-    "success_plateau",
-    "max_average_reward",
-    "average_reward_plateau",
-    "terminal_plateau",
-)
 
 
 @dataclass(frozen=True, order=True)
@@ -213,7 +203,7 @@ class CellStore:
         problems = []
         if stored_hash != digest or config_hash(stored_config) != digest:
             problems.append("its config does not match its name")
-        if set(scalars) != set(SCALAR_NAMES):
+        if set(scalars) != set(SUMMARY_SCALARS):
             problems.append("its scalars are incomplete")
         if any(c.shape != (config["iterations"],) for c in curves.values()):
             problems.append(f"its curves are not of length {config['iterations']}")
@@ -229,7 +219,7 @@ class CellStore:
         digest = config_hash(config)
         path = self.path(cell, digest)
         self.root.mkdir(parents=True, exist_ok=True)
-        scalars = {name: _plain(summary[name]) for name in SCALAR_NAMES}
+        scalars = {name: _plain(summary[name]) for name in SUMMARY_SCALARS}
         temporary = path.with_name(path.name + ".tmp")
         with open(temporary, "wb") as handle:
             np.savez(
@@ -333,7 +323,7 @@ def cell_records(grid: list[Membership], summaries: dict) -> tuple[list[dict], l
     for member in grid:
         summary = summaries[member.cell]
         record = {"cell_id": member.cell.label, **asdict(member.cell), "experiment": member.experiment}
-        record.update({name: summary[name] for name in SCALAR_NAMES})
+        record.update({name: summary[name] for name in SUMMARY_SCALARS})
         records.append(record)
         curves.append({name: summary[name] for name in CURVE_NAMES})
     return records, curves

@@ -4,7 +4,7 @@ Nothing here trains, reads or writes files; :mod:`benchmarks.run` does that.
 
 Data contract: a *cell record* is one dict per (experiment, trained cell) with the keys
 ``learner, reward, alpha, gamma, experiment, cell_id`` plus the scalar keys of
-:func:`tableclean_suite.metrics.summarize` (:data:`SUMMARY_COLUMNS`).  Curves travel as
+:func:`tableclean_suite.metrics.summarize` (:data:`SUMMARY_SCALARS`).  Curves travel as
 ``{metric: ndarray of shape (iterations,)}`` per record (see :func:`curves_long`).
 
 The paper's numbers are quoted verbatim from its Table 3 and Table 4
@@ -19,20 +19,12 @@ import math
 import numpy as np
 import pandas as pd
 
+from tableclean_suite.metrics import SUMMARY_SCALARS
+
 #: Identifying columns of a cell record, in table order.
 KEY_COLUMNS = ("learner", "reward", "alpha", "gamma", "experiment")
 
 #: Scalar outputs of ``tableclean_suite.metrics.summarize``, in table order.
-SUMMARY_COLUMNS = (
-    "max_success_iterations",
-    "max_success_episodes",
-    "reward_convergence_iterations",
-    "reward_convergence_episodes",
-    "success_plateau",
-    "max_average_reward",
-    "average_reward_plateau",
-    "terminal_plateau",
-)
 
 #: Experiments, in table order.
 EXPERIMENTS = ("main", "alpha_sweep", "gamma_sweep")
@@ -58,7 +50,7 @@ PAPER_LEARNER = "q_learning"
 
 PAPER_COLUMNS = tuple(c for c in PAPER_TABLE3.columns if c != "reward")
 
-TABLE3_COLUMNS = ("cell_id", *KEY_COLUMNS, *SUMMARY_COLUMNS, *PAPER_COLUMNS)
+TABLE3_COLUMNS = ("cell_id", *KEY_COLUMNS, *SUMMARY_SCALARS, *PAPER_COLUMNS)
 
 TABLE4_COLUMNS = (
     "methodology",
@@ -109,7 +101,7 @@ def table3(records: list[dict] | pd.DataFrame) -> pd.DataFrame:
         nullable integers (``<NA>`` when the curve never reached its level).
     """
     frame = pd.DataFrame(records).copy()
-    missing = [c for c in ("cell_id", *KEY_COLUMNS, *SUMMARY_COLUMNS) if c not in frame.columns]
+    missing = [c for c in ("cell_id", *KEY_COLUMNS, *SUMMARY_SCALARS) if c not in frame.columns]
     if missing:
         raise ValueError(f"cell records lack columns: {', '.join(missing)}")
     frame = frame.drop(columns=[c for c in PAPER_COLUMNS if c in frame.columns])
@@ -122,7 +114,7 @@ def table3(records: list[dict] | pd.DataFrame) -> pd.DataFrame:
         ]
     for column in ("max_success_iterations", "reward_convergence_iterations"):
         frame[column] = pd.array([None if _missing(v) else int(v) for v in frame[column]], dtype="Int64")
-    for column in ("max_success_episodes", "reward_convergence_episodes", *SUMMARY_COLUMNS[4:]):
+    for column in ("max_success_episodes", "reward_convergence_episodes", *SUMMARY_SCALARS[4:]):
         frame[column] = [_NA if _missing(v) else float(v) for v in frame[column]]
     frame["alpha"] = frame["alpha"].astype(float)
     frame["gamma"] = frame["gamma"].astype(float)

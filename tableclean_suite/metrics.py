@@ -27,6 +27,18 @@ import numpy as np
 
 from tableclean_suite.task import Outcome
 
+#: Scalar outputs of :func:`summarize`, in table order.
+SUMMARY_SCALARS = (
+    "max_success_iterations",
+    "max_success_episodes",
+    "reward_convergence_iterations",
+    "reward_convergence_episodes",
+    "success_plateau",
+    "max_average_reward",
+    "average_reward_plateau",
+    "terminal_plateau",
+)
+
 DEFAULT_THRESHOLD = 0.95
 DEFAULT_PLATEAU_FRACTION = 0.25
 _TERMINAL_END = 1  # kernel.EPISODE_TERMINAL

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from tableclean_suite.registry import Registry
 from tableclean_suite.task import N_OUTCOMES, Outcome
 
 #: Table 2 reward levels, named.
@@ -184,28 +185,19 @@ PAPER_REWARD_PATTERNS = (
     ),
 )
 
-_REGISTRY: dict[str, RewardPattern] = {p.name: p for p in PAPER_REWARD_PATTERNS}
+_REGISTRY: Registry[RewardPattern] = Registry("reward pattern", RewardPattern, PAPER_REWARD_PATTERNS)
 
 
 def register_reward_pattern(pattern: RewardPattern, overwrite: bool = False) -> RewardPattern:
     """Add a user pattern to the registry so ``train(reward="name")`` and the CLI find it."""
-    if not isinstance(pattern, RewardPattern):
-        raise TypeError(f"expected a RewardPattern, got {type(pattern).__name__}")
-    if pattern.name in _REGISTRY and not overwrite:
-        raise ValueError(f"reward pattern {pattern.name!r} is already registered; pass overwrite=True to replace it")
-    _REGISTRY[pattern.name] = pattern
-    return pattern
+    return _REGISTRY.register(pattern, overwrite)
 
 
 def reward_pattern_names() -> list[str]:
     """Registered pattern names, in registration order."""
-    return list(_REGISTRY)
+    return _REGISTRY.names()
 
 
 def get_reward_pattern(reward: str | RewardPattern) -> RewardPattern:
     """A pattern by registered name, or the pattern itself; clear error otherwise."""
-    if isinstance(reward, RewardPattern):
-        return reward
-    if isinstance(reward, str) and reward in _REGISTRY:
-        return _REGISTRY[reward]
-    raise ValueError(f"unknown reward pattern {reward!r}; allowed: {', '.join(_REGISTRY)} or a RewardPattern")
+    return _REGISTRY.get(reward)

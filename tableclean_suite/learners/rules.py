@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
+from tableclean_suite.registry import Registry
+
 
 @numba.njit(cache=True)
 def greedy_action(q_row):
@@ -110,28 +112,19 @@ EXPECTED_SARSA = TabularLearner(
     "expected_sarsa", expected_sarsa_target, False, "Expected SARSA (expectation over the epsilon-greedy policy)"
 )
 
-_REGISTRY: dict[str, TabularLearner] = {l.name: l for l in (Q_LEARNING, SARSA, EXPECTED_SARSA)}
+_REGISTRY: Registry[TabularLearner] = Registry("learner", TabularLearner, (Q_LEARNING, SARSA, EXPECTED_SARSA))
 
 
 def register_learner(learner: TabularLearner, overwrite: bool = False) -> TabularLearner:
     """Add a user learner so ``train(learner="name")`` and the CLI find it."""
-    if not isinstance(learner, TabularLearner):
-        raise TypeError(f"expected a TabularLearner, got {type(learner).__name__}")
-    if learner.name in _REGISTRY and not overwrite:
-        raise ValueError(f"learner {learner.name!r} is already registered; pass overwrite=True to replace it")
-    _REGISTRY[learner.name] = learner
-    return learner
+    return _REGISTRY.register(learner, overwrite)
 
 
 def learner_names() -> list[str]:
     """Registered learner names."""
-    return list(_REGISTRY)
+    return _REGISTRY.names()
 
 
 def get_learner(learner: str | TabularLearner) -> TabularLearner:
     """A learner by registered name, or the learner itself; clear error otherwise."""
-    if isinstance(learner, TabularLearner):
-        return learner
-    if isinstance(learner, str) and learner in _REGISTRY:
-        return _REGISTRY[learner]
-    raise ValueError(f"unknown learner {learner!r}; allowed: {', '.join(_REGISTRY)} or a TabularLearner")
+    return _REGISTRY.get(learner)
