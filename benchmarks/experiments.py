@@ -38,8 +38,6 @@ CELL_FORMAT_VERSION = 1
 #: Curves stored per cell (all of ``summarize``'s curves).
 CURVE_NAMES = ("success", "average_reward", "terminal", "episodes")
 
-#: Scalars stored per cell (all of ``summarize``'s scalars).
-
 
 @dataclass(frozen=True, order=True)
 class Cell:

@@ -24,8 +24,6 @@ from tableclean_suite.metrics import SUMMARY_SCALARS
 #: Identifying columns of a cell record, in table order.
 KEY_COLUMNS = ("learner", "reward", "alpha", "gamma", "experiment")
 
-#: Scalar outputs of ``tableclean_suite.metrics.summarize``, in table order.
-
 #: Experiments, in table order.
 EXPERIMENTS = ("main", "alpha_sweep", "gamma_sweep")
 

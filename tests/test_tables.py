@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 
 from benchmarks import experiments, tables
+from tableclean_suite.metrics import SUMMARY_SCALARS
 
 PAPER = Path(__file__).resolve().parents[2] / "shared" / "paper.md"
 
@@ -222,7 +223,7 @@ def test_config_hash_depends_on_what_determines_a_cell():
 
 def _summary(iterations=5):
     curves = {name: np.linspace(0, 1, iterations) + i for i, name in enumerate(experiments.CURVE_NAMES)}
-    scalars = {name: 0.5 for name in experiments.SCALAR_NAMES}
+    scalars = {name: 0.5 for name in SUMMARY_SCALARS}
     scalars["max_success_iterations"] = None
     scalars["reward_convergence_episodes"] = float("nan")
     return {**scalars, **curves}
