@@ -14,6 +14,7 @@ SKILL_ENV_DEFAULTS = {
     "has_renderer": False,
     "has_offscreen_renderer": False,
     "use_camera_obs": False,
+    "hard_reset": False,  # resets keep the compiled model (several times faster)
 }
 
 

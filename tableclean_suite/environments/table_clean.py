@@ -20,6 +20,7 @@ from tableclean_suite.environments.config import (
 )
 from tableclean_suite.environments.ik import site_pose, solve_site_pose
 from tableclean_suite.environments.objects import check_object_type, make_object, make_sponge
+from tableclean_suite.environments.scene_state import SceneState
 from tableclean_suite.task import N_SEGMENTS, N_STATES, ObjectLocation, Segment, TaskState
 
 __all__ = ["TableClean", "DEFAULT_TABLECLEAN_CONFIG"]
@@ -436,6 +437,45 @@ class TableClean(ManipulationEnv):
     def segment_of_position(self, xy) -> Segment | None:
         """The segment whose cleanable area contains world ``xy`` (first two entries used), else None."""
         return abstraction.segment_of_xy(xy, self.geometry.segment_centers, self.geometry.segment_half_sizes)
+
+    def get_scene_state(self) -> SceneState:
+        """A copy of everything needed to put the scene back later (see :class:`SceneState`).
+
+        Used to branch several actions from one reached state without replaying the plan.
+        """
+        data = self.sim.data._data
+        return SceneState(
+            time=float(data.time),
+            qpos=data.qpos.copy(),
+            qvel=data.qvel.copy(),
+            act=data.act.copy(),
+            ctrl=data.ctrl.copy(),
+            qacc_warmstart=data.qacc_warmstart.copy(),
+            marker_present=self._marker_present.copy(),
+            gripper_commands=tuple(
+                np.array(gripper.current_action, copy=True) for robot in self.robots for gripper in robot.gripper.values()
+            ),
+        )
+
+    def set_scene_state(self, state: SceneState) -> None:
+        """Put the scene back into ``state`` (from :meth:`get_scene_state` of this env)."""
+        data = self.sim.data._data
+        if state.qpos.shape != data.qpos.shape or state.marker_present.shape != self._marker_present.shape:
+            raise ValueError("scene state comes from a different TableClean model (qpos or marker count differ)")
+        data.time = state.time
+        data.qpos[:] = state.qpos
+        data.qvel[:] = state.qvel
+        data.act[:] = state.act
+        data.ctrl[:] = state.ctrl
+        data.qacc_warmstart[:] = state.qacc_warmstart
+        self._marker_present = state.marker_present.copy()
+        self._marker_visible = self._marker_present.copy()
+        self.sim.model.geom_rgba[self.marker_geom_ids, 3] = self._marker_visible.astype(float)
+        self._update_dirt_fraction()
+        grippers = [gripper for robot in self.robots for gripper in robot.gripper.values()]
+        for gripper, command in zip(grippers, state.gripper_commands):
+            gripper.current_action = np.array(command, copy=True)
+        self.sim.forward()
 
     def marker_present(self) -> np.ndarray:
         """Copy of the bool (2, markers_per_segment) array of dirt markers still present."""
