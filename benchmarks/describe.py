@@ -109,7 +109,7 @@ def describe(model: TaskModel, epsilon: float = 0.1, max_itr: int = 500) -> str:
         f"{len(reachable) - len(terminal)} non-terminal + {len(terminal)} terminal "
         f"(of {N_STATES}; unreachable codes: "
         f"{', '.join(str(s.index) for s in all_states() if s not in set(reachable))})",
-        f"Episode start(s) of this model: "
+        "Episode start(s) of this model: "
         + "; ".join(f"{s.index} ({s.name}, Table 1 state {table1_number(s) or '-'})" for s in model.start_states()),
         f"Shortest plan from Table 1 state 4 (code {state4.index}): {len(plan4)} actions: {_plan_text(plan4)}",
         f"The paper's optimal plan (Sec. 2): {len(PAPER_OPTIMAL_PLAN)} actions: {_plan_text(PAPER_OPTIMAL_PLAN)}",

@@ -9,7 +9,6 @@ numbers (:mod:`.rng`), so they produce identical arrays.
 from __future__ import annotations
 
 import numba
-import numpy as np
 
 from tableclean_suite.learners.rng import STREAM_EXPLORE, STREAM_RANDOM_ACTION, STREAM_START, STREAM_TRANSITION, uniform
 from tableclean_suite.learners.rules import greedy_action

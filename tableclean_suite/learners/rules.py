@@ -15,7 +15,6 @@ import re
 from dataclasses import dataclass, field
 
 import numba
-import numpy as np
 
 from tableclean_suite.registry import Registry
 

@@ -1,0 +1,179 @@
+"""``TableCleanSkills-v0``: the task's four actions executed by skills in MuJoCo, as a Gymnasium env.
+
+robosuite and the skills are imported when the env is made, not when this module is imported.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tableclean_suite.gym_envs.symbolic import _NO_STATE, TableCleanBase, render_text
+from tableclean_suite.rewards import RewardPattern
+from tableclean_suite.task import Outcome, TaskModel, decode
+
+#: Default size ``(height, width)`` of the ``rgb_array`` camera frame.
+CAMERA_FRAME_SIZE = (360, 480)
+#: ``info["outcome"]`` when the abstraction reported a fault (no task state was observed).
+FAULT_OUTCOME = -1
+#: SkillResult fields that measure wall-clock time (not part of what physics did).
+_TIMING_FIELDS = ("wall_time", "env_time")
+
+
+def _comparable(result):
+    """``result`` as a SkillResult that compares equal ignoring wall-clock timings.
+
+    ``info`` must be equal for equal seeds and actions (Gymnasium's determinism check); the
+    timings of two identical executions never are.
+    """
+    from dataclasses import dataclass, fields
+
+    from tableclean_suite.controllers import SkillResult
+
+    global _InfoSkillResult
+    if _InfoSkillResult is None:
+
+        @dataclass(eq=False)
+        class InfoSkillResult(SkillResult):
+            def __eq__(self, other):
+                if not isinstance(other, SkillResult):
+                    return NotImplemented
+                return all(
+                    getattr(self, f.name) == getattr(other, f.name) for f in fields(SkillResult)
+                    if f.name not in _TIMING_FIELDS
+                )
+
+        _InfoSkillResult = InfoSkillResult
+    return _InfoSkillResult(**{f.name: getattr(result, f.name) for f in fields(result)})
+
+
+_InfoSkillResult = None
+
+
+class TableCleanSkillsEnv(TableCleanBase):
+    """The table-cleaning task with each action carried out by a Panda skill in MuJoCo.
+
+    ## Description
+    Same task, spaces and rewards as ``TableCleanSymbolic-v0``, but every action runs a skill
+    of :class:`tableclean_suite.controllers.SkillController` (move, pick, place, clean with a
+    sponge) on the ``TableClean`` robosuite scene under OSC_POSE control, and the next state is
+    read back from the physics through the environment's abstraction.  Improper actions are
+    refused without motion and ineffective ones do nothing, as in the task model.  One step
+    takes from 0 (refused) to several hundred control steps.
+
+    ## Action Space
+    ``Discrete(4)``: 0 move, 1 pick, 2 place, 3 clean.
+
+    ## Observation Space
+    ``Discrete(24)``, the state code
+    ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment``
+    (see ``TableCleanSymbolic-v0``), read from the physics.
+
+    ## Starting State
+    The model's start state (default Table 1 state 4: both unclean, object and arm over segment
+    1) staged in the scene: the robosuite env is reset with that layout (``object_segment``,
+    ``arm_segment``, dirty segments; a held object is picked up), with the object's placement
+    noise drawn from a generator seeded by ``self.np_random``.  ``reset(options={"state":
+    code})`` stages any non-terminal state.
+
+    ## Rewards
+    The reward pattern (default ``"r4"``) applied to the *observed* transition: the outcome is
+    ``TaskModel.classify(state, action, observed_next_state)``; r4's looping penalty uses the
+    env's record of s_{t-1}.  See ``TableCleanSymbolic-v0`` for the values.
+
+    ## Episode End
+    - Termination: the physics reads both segments clean.
+    - Truncation: after 500 steps (registry ``max_episode_steps``), or at once when the
+      abstraction reports a fault (the scene maps to no task state, e.g. the object was dropped
+      between the segments): the observation stays the last good state, the reward is 0,
+      ``info["fault"]`` holds the reason and ``info["outcome"]`` is -1.  Nothing is mapped to a
+      state that was not observed.
+
+    ## Information
+    As ``TableCleanSymbolic-v0`` (``"action_mask"``, ``"state_name"``, ``"outcome"``,
+    ``"outcome_name"``) plus ``"skill_result"``: the
+    :class:`~tableclean_suite.controllers.SkillResult` (success, improper, steps, reason,
+    states before/after, wall time; it compares equal ignoring the timings), and ``"fault"``
+    on a fault.
+
+    ## Arguments
+    ```python
+    gymnasium.make("TableCleanSkills-v0", reward="r4", model=None, render_mode=None,
+                   env_kwargs=None, skill_configs=None, camera="frontview", frame_size=(360, 480))
+    ```
+    - ``reward``, ``model``: as ``TableCleanSymbolic-v0``.
+    - ``render_mode``: ``"ansi"`` (text picture of the observed state) or ``"rgb_array"``
+      (offscreen camera image, ``frame_size`` = (height, width)).
+    - ``env_kwargs``: overrides of ``robosuite.make`` arguments
+      (:func:`tableclean_suite.controllers.make_skill_env`), e.g. ``task_config``.
+    - ``skill_configs``: per-action skill config overrides for the SkillController.
+    - ``camera``: camera of the ``rgb_array`` frames.
+
+    ## Version History
+    - v0: initial version.
+    """
+
+    metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 2}
+
+    def __init__(self, reward: str | RewardPattern = "r4", model: TaskModel | None = None,
+                 render_mode: str | None = None, env_kwargs: dict | None = None, skill_configs=None,
+                 camera: str = "frontview", frame_size: tuple[int, int] = CAMERA_FRAME_SIZE):
+        super().__init__(reward=reward, model=model, render_mode=render_mode)
+        if env_kwargs is not None and not isinstance(env_kwargs, dict):
+            raise TypeError(f"env_kwargs must be a dict of robosuite.make arguments, got {type(env_kwargs).__name__}")
+        if len(frame_size) != 2 or any(int(n) != n or n < 16 for n in frame_size):
+            raise ValueError(f"frame_size must be (height, width) with both >= 16, got {frame_size!r}")
+        from tableclean_suite.controllers import SkillController, make_skill_env
+
+        kwargs = dict(env_kwargs or {})
+        if render_mode == "rgb_array":
+            kwargs.setdefault("has_offscreen_renderer", True)
+        self.camera = camera
+        self.frame_size = (int(frame_size[0]), int(frame_size[1]))
+        self.sim_env = make_skill_env(**kwargs)
+        self.controller = SkillController(self.sim_env, self.model, skill_configs=skill_configs)
+        self.last_skill_result = None
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        from tableclean_suite.physics_backend import stage
+
+        super().reset(seed=seed)
+        state = self._start_state(options)
+        stage(self.sim_env, self.controller, state, seed=int(self.np_random.integers(2**63)))
+        self.s = state.index
+        self.previous = _NO_STATE
+        self.lastaction = self.last_outcome = None
+        return int(self.s), self._info()
+
+    def step(self, action):
+        action = self._check_action(action)
+        state = self.s
+        result = _comparable(self.controller.execute(action))
+        self.last_skill_result = result
+        if result.state_after is None:
+            self.lastaction, self.last_outcome = action, None
+            info = self._info()
+            info.update(outcome=FAULT_OUTCOME, outcome_name="fault", fault=result.reason, skill_result=result)
+            return int(self.s), 0.0, False, True, info
+        next_state, outcome = result.state_after.index, Outcome(result.outcome)
+        reward = self._reward(outcome, state, next_state)
+        self._advance(state, next_state, action, outcome)
+        info = self._info(outcome)
+        info["skill_result"] = result
+        return int(self.s), reward, decode(next_state).is_terminal, False, info
+
+    def _render_rgb(self) -> np.ndarray:
+        height, width = self.frame_size
+        frame = self.sim_env.sim.render(camera_name=self.camera, width=width, height=height)
+        return np.ascontiguousarray(frame[::-1])
+
+    def render(self):
+        if self.render_mode == "ansi" and self.s != _NO_STATE:
+            return render_text(decode(self.s), self.lastaction, self.last_outcome)
+        return super().render()
+
+    def close(self):
+        env = getattr(self, "sim_env", None)
+        if env is not None:
+            env.close()
+            self.sim_env = None
+        super().close()

@@ -1,0 +1,329 @@
+"""Skills in MuJoCo as a step environment for the learners (``train(backend="physics")``).
+
+:class:`PhysicsStepEnv` puts the ``TableClean`` robosuite scene into a task state
+(:func:`stage`), executes actions with the :class:`~tableclean_suite.controllers.SkillController`
+and reads the next state back through the environment's abstraction.
+:func:`train_physics` spreads runs over worker processes, each training its share with
+:func:`tableclean_suite.learners.reference.train_run`.
+
+Faults and failures (the policy, documented once here)
+------------------------------------------------------
+- *Skill failure with a readable state* (e.g. a wipe that left too much dirt): this is what
+  physics did, so the learner sees the observed state and the outcome
+  :meth:`TaskModel.classify` gives it.  Counted in ``stats["skill_failures"]``.
+- *Abstraction fault* (the scene maps to no task state: object dropped between segments,
+  sponge not back home, instability, ...): the observed result is not a task state, so it is
+  never mapped to one.  The scene is restored to the snapshot taken before the action (the
+  last good state) and the action is executed again, up to ``max_retries`` times; each fault is
+  counted in ``stats["faults"]`` (and by kind in ``stats["fault_reasons"]``).  If every retry
+  faults, :class:`PhysicsFaultError` is raised (``fault_policy="raise"`` raises at the first
+  fault).  The learner therefore only ever sees physically observed task states.
+
+The counters of the last :func:`train_physics` call are in :data:`LAST_RUN_STATS`.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+from collections import Counter
+
+import numpy as np
+
+from tableclean_suite.learners.rng import run_key
+from tableclean_suite.task import N_ACTIONS, N_STATES, Action, ObjectLocation, Segment, TaskModel, TaskState, as_state
+
+#: robosuite.make keyword arguments of every physics scene (callers may override any of them).
+FAULT_POLICIES = ("retry", "raise")
+#: Keys accepted in ``train(..., physics_options=...)``.
+PHYSICS_OPTIONS = ("env_kwargs", "skill_configs", "fault_policy", "max_retries")
+
+#: Counters of the last :func:`train_physics` call (summed over workers):
+#: ``steps`` (learner iterations), ``executions`` (skill executions incl. retries),
+#: ``skill_failures``, ``faults``, ``fault_reasons`` (dict), ``restages``, ``control_steps``,
+#: ``wall_time`` (seconds spent in physics steps), ``workers``.
+LAST_RUN_STATS: dict = {}
+
+
+class PhysicsFaultError(RuntimeError):
+    """The physics could not produce a task state for an action, even after retries."""
+
+
+class StagingError(RuntimeError):
+    """The scene could not be put into the requested task state."""
+
+
+# ---------------------------------------------------------------------------------------------
+# snapshots: branch from a reached state without re-executing the plan
+# ---------------------------------------------------------------------------------------------
+def snapshot(env):
+    """Copy the scene's state (the env's :meth:`~TableClean.get_scene_state`)."""
+    return env.get_scene_state()
+
+
+def restore(env, saved) -> None:
+    """Put the scene back into ``saved`` (physics, dirt markers, grippers' integrated commands)."""
+    env.set_scene_state(saved)
+
+
+# ---------------------------------------------------------------------------------------------
+# staging: any reachable task state from a reset
+# ---------------------------------------------------------------------------------------------
+def layout_of(state: TaskState) -> tuple[int, int, tuple[int, ...]]:
+    """``(object_segment, arm_segment, dirty_segments)`` (1-based) of the reset that stages ``state``.
+
+    A held object is staged by resetting with the object on the arm's segment and picking it.
+    """
+    arm = state.arm_segment.number
+    obj = arm if state.object_location == ObjectLocation.IN_GRIPPER else Segment(int(state.object_location)).number
+    dirty = tuple(s.number for s in Segment if not state.is_clean(s))
+    return obj, arm, dirty
+
+
+def stage(env, controller, state, seed: int | None = None) -> TaskState:
+    """Reset ``env`` so that its symbolic state is ``state`` (a held object is picked up).
+
+    ``seed`` re-seeds the env's placement randomness first (None: continue its stream).
+    Raises :class:`StagingError` when the abstraction does not read back ``state``.
+    """
+    state = as_state(state)
+    if state.is_terminal:
+        raise StagingError(f"cannot stage the terminal state {state.index} ({state.name})")
+    obj, arm, dirty = layout_of(state)
+    if seed is not None:
+        env.rng = np.random.default_rng(seed)
+    env.object_segment = Segment.from_number(obj)
+    env.arm_segment = Segment.from_number(arm)
+    env.dirty_segments = tuple(Segment.from_number(s) for s in dirty)
+    env.reset()
+    if state.holding:
+        result = controller.execute(Action.PICK)
+        if not result.success:
+            raise StagingError(f"staging {state.name}: the pick failed ({result.reason})")
+    try:
+        reached = env.symbolic_state()
+    except Exception as error:  # AbstractionError: report it as a staging problem
+        raise StagingError(f"staging {state.name}: abstraction fault ({error})") from error
+    if reached != state:
+        raise StagingError(f"staging {state.name}: the scene reads as {reached.name}")
+    return reached
+
+
+# ---------------------------------------------------------------------------------------------
+# the step environment
+# ---------------------------------------------------------------------------------------------
+class PhysicsStepEnv:
+    """Skills in MuJoCo as a step environment for :func:`~tableclean_suite.learners.reference.train_run`.
+
+    ``reset(draw)`` stages the model's start state picked by ``draw`` (a both-unclean layout
+    -> the env's ``object_segment``/``arm_segment``); ``step(state, action, draw)`` executes
+    ``action`` with the SkillController and returns ``(state_after.index, outcome)``.
+    Faults and failures: see the module docstring.
+
+    Args:
+        model: the task model (start states, rules the controller follows).
+        env_kwargs: arguments for :func:`~tableclean_suite.controllers.make_skill_env` (robosuite.make).
+        skill_configs: per-action skill config overrides for the SkillController.
+        fault_policy: ``"retry"`` (default) or ``"raise"``.
+        max_retries: re-executions of an action after a fault before giving up (>= 0).
+        env: an already made env to use instead of making one.
+    """
+
+    def __init__(self, model: TaskModel | None = None, env_kwargs: dict | None = None, skill_configs=None,
+                 fault_policy: str = "retry", max_retries: int = 3, env=None):
+        from tableclean_suite.controllers import SkillController, make_skill_env
+
+        if fault_policy not in FAULT_POLICIES:
+            raise ValueError(f"unknown fault_policy {fault_policy!r}; allowed: {', '.join(FAULT_POLICIES)}")
+        if isinstance(max_retries, bool) or not isinstance(max_retries, (int, np.integer)) or max_retries < 0:
+            raise ValueError(f"max_retries must be an integer >= 0, got {max_retries!r}")
+        self.model = model if model is not None else TaskModel()
+        self.env = env if env is not None else make_skill_env(**(env_kwargs or {}))
+        self.controller = SkillController(self.env, self.model, skill_configs=skill_configs)
+        self.fault_policy = fault_policy
+        self.max_retries = int(max_retries)
+        self.last_result = None
+        self.stats = _empty_stats()
+
+    def seed(self, seed: int) -> None:
+        """Re-seed the scene's placement randomness (object placement, arm initialisation noise)."""
+        self.env.rng = np.random.default_rng(seed)
+
+    def reset(self, draw: float) -> int:
+        state = self.model.sample_start(draw)
+        stage(self.env, self.controller, state)
+        self.stats["restages"] += 1
+        return state.index
+
+    def step(self, state: int, action: int, draw: float) -> tuple[int, int]:
+        before = as_state(state)
+        current = self._current_state()
+        if current != before:
+            raise PhysicsFaultError(f"the scene reads {current}, but the learner is in state {before.name}")
+        saved = snapshot(self.env)
+        for attempt in range(self.max_retries + 1):
+            if attempt:
+                restore(self.env, saved)
+            result = self.controller.execute(Action(int(action)))
+            self.last_result = result
+            self.stats["executions"] += 1
+            self.stats["control_steps"] += result.steps
+            self.stats["wall_time"] += result.wall_time
+            if result.state_after is not None:
+                if not result.success and not result.improper:
+                    self.stats["skill_failures"] += 1
+                return result.state_after.index, int(result.outcome)
+            self.stats["faults"] += 1
+            self.stats["fault_reasons"][_reason_kind(result.reason)] += 1
+            if self.fault_policy == "raise":
+                break
+        raise PhysicsFaultError(
+            f"{Action(int(action)).name.lower()} from {before.name}: abstraction fault on every attempt "
+            f"({result.reason})"
+        )
+
+    def _current_state(self):
+        try:
+            return self.env.symbolic_state()
+        except Exception as error:  # noqa: BLE001 - reported, never mapped
+            return f"a fault ({error})"
+
+
+def _reason_kind(reason: str) -> str:
+    """A short key of a fault reason, e.g. 'fault: object_between_segments: ...' -> 'object_between_segments'."""
+    text = reason.split("fault", 1)[-1].lstrip(": ").strip()
+    for prefix in ("before the action: ", "fault: "):
+        if text.startswith(prefix):
+            text = text[len(prefix):]
+    return text.split(":", 1)[0].strip() or "unknown"
+
+
+def _empty_stats() -> dict:
+    return {
+        "steps": 0, "executions": 0, "skill_failures": 0, "faults": 0, "fault_reasons": Counter(),
+        "restages": 0, "control_steps": 0, "wall_time": 0.0,
+    }
+
+
+def _merge_stats(parts) -> dict:
+    total = _empty_stats()
+    for part in parts:
+        for key, value in part.items():
+            if key == "fault_reasons":
+                total[key].update(value)
+            else:
+                total[key] += value
+    total["fault_reasons"] = dict(total["fault_reasons"])
+    return total
+
+
+# ---------------------------------------------------------------------------------------------
+# training
+# ---------------------------------------------------------------------------------------------
+def _check_options(options: dict) -> dict:
+    unknown = sorted(set(options) - set(PHYSICS_OPTIONS))
+    if unknown:
+        raise ValueError(f"unknown physics_options key(s) {unknown}; allowed: {', '.join(PHYSICS_OPTIONS)}")
+    return dict(options)
+
+
+def _train_share(job):
+    """Worker body: make one env, train the given runs; returns (run index, record) pairs and stats."""
+    learner, reward, model, run_indices, iterations, seed, first_run, options, hyper, queue = job
+    from tableclean_suite.learners.reference import train_run
+
+    env = PhysicsStepEnv(model, **options)
+    out = []
+    for i in run_indices:
+        run = first_run + i
+        env.seed(run_key(seed, run))  # the scene's placements depend on the run only, not on the worker
+        on_step = None if queue is None else (lambda t, q=queue: q.put(1))
+        record = train_run(env, learner, reward, iterations, seed=seed, run=run, on_step=on_step, **hyper)
+        env.stats["steps"] += iterations
+        out.append((i, record))
+    stats = dict(env.stats)
+    stats["fault_reasons"] = dict(stats["fault_reasons"])
+    env.env.close()
+    return out, stats
+
+
+def train_physics(learner, reward, model, runs, iterations, seed, first_run, workers, physics_options, progress,
+                  alpha, gamma, epsilon, max_itr) -> dict:
+    """Train ``runs`` runs with skills in physics; the records :func:`~tableclean_suite.learners.train` expects.
+
+    Run ``i`` uses the run key ``(seed, first_run + i)`` (learner draws) and a scene seeded from it,
+    whichever worker trains it.  ``workers`` defaults to ``os.cpu_count()`` (never more than
+    ``runs``); with one worker everything runs in this process.  The fault/failure counters
+    are left in :data:`LAST_RUN_STATS`.  Workers use the ``"spawn"`` start method, so a script
+    calling this with ``workers > 1`` needs the usual ``if __name__ == "__main__":`` guard.
+
+    Returns:
+        dict with ``rewards`` (R, T) float64, ``outcomes``/``states``/``actions``/``episode_end``
+        (R, T) int8 and ``q`` (R, 24, 4) float64.
+    """
+    options = _check_options(physics_options or {})
+    if workers is None:
+        workers = os.cpu_count() or 1
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    workers = min(int(workers), runs)
+    hyper = dict(alpha=alpha, gamma=gamma, epsilon=epsilon, max_itr=max_itr)
+    shares = [list(range(w, runs, workers)) for w in range(workers)]
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=runs * iterations, desc=f"{learner.name}/{reward.name} physics", leave=False)
+
+    if workers == 1:
+        on_queue = _BarQueue(bar) if bar is not None else None
+        results = [_train_share((learner, reward, model, shares[0], iterations, seed, first_run, options, hyper, on_queue))]
+    else:
+        context = multiprocessing.get_context("spawn")
+        with context.Manager() as manager:
+            queue = manager.Queue() if bar is not None else None
+            with context.Pool(workers) as pool:
+                pending = pool.map_async(
+                    _train_share,
+                    [(learner, reward, model, share, iterations, seed, first_run, options, hyper, queue) for share in shares],
+                )
+                while not pending.ready():
+                    pending.wait(0.5)
+                    _drain(queue, bar)
+                results = pending.get()
+                _drain(queue, bar)
+    if bar is not None:
+        bar.close()
+
+    records = {name: np.zeros((runs, iterations), dtype=np.int8) for name in ("outcomes", "states", "actions", "episode_end")}
+    records["rewards"] = np.zeros((runs, iterations), dtype=np.float64)
+    records["q"] = np.zeros((runs, N_STATES, N_ACTIONS), dtype=np.float64)
+    for out, _ in results:
+        for i, record in out:
+            for name in records:
+                records[name][i] = record[name]
+    stats = _merge_stats(stats for _, stats in results)
+    stats["workers"] = workers
+    LAST_RUN_STATS.clear()
+    LAST_RUN_STATS.update(stats)
+    return records
+
+
+class _BarQueue:
+    """A queue-like progress sink for the in-process path."""
+
+    def __init__(self, bar):
+        self.bar = bar
+
+    def put(self, n):
+        self.bar.update(n)
+
+
+def _drain(queue, bar) -> None:
+    if queue is None or bar is None:
+        return
+    done = 0
+    while not queue.empty():
+        done += queue.get()
+    if done:
+        bar.update(done)

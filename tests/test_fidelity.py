@@ -1,0 +1,108 @@
+"""Fidelity tables and calibration: aggregation on hand-made trials, resume checks, a tiny calibration in MuJoCo."""
+
+import json
+
+import pytest
+
+from benchmarks import calibrate, fidelity
+from benchmarks.fidelity import FAULT, TRIAL_FIELDS, ResumeError, pair_table, read_trials, skill_table, summary
+from tableclean_suite.learners import TransitionTable, train
+from tableclean_suite.task import Action, Outcome, TaskModel
+
+MODEL = TaskModel()
+
+
+def row(state, action, observed=None, outcome=None, success=1, steps=20, round_index=0):
+    expected, expected_outcome = MODEL.step(state, action)
+    observed = expected.index if observed is None else observed
+    outcome = expected_outcome.name.lower() if outcome is None else outcome
+    return {
+        "round": round_index, "seed": fidelity.round_seed(0, round_index), "layout": "1-1", "reached_by": "plan",
+        "state": state, "action": action.name.lower(), "expected_state": expected.index,
+        "expected_outcome": expected_outcome.name.lower(), "observed_state": observed, "observed_outcome": outcome,
+        "agree": int(observed == expected.index and outcome == expected_outcome.name.lower()),
+        "success": success, "improper": int(expected_outcome == Outcome.IMPROPER), "steps": steps,
+        "wall_time": 0.5, "env_time": 0.4, "reason": "ok",
+    }
+
+
+ROWS = [
+    row(0, Action.MOVE), row(0, Action.MOVE, observed=0, outcome="ineffective", success=0, round_index=1),
+    row(0, Action.CLEAN, steps=0),  # improper: refused
+    row(1, Action.CLEAN, steps=400), row(1, Action.CLEAN, observed=-1, outcome=FAULT, success=0, round_index=1),
+]
+
+
+def test_pair_and_skill_tables():
+    pairs = {(p["state"], p["action"]): p for p in pair_table(ROWS)}
+    assert pairs[(0, "move")]["trials"] == 2 and pairs[(0, "move")]["agreement_rate"] == 0.5
+    assert pairs[(0, "move")]["disagreements_seen"] == "0/ineffective"
+    assert pairs[(1, "clean")]["faults"] == 1
+    skills = {s["skill"]: s for s in skill_table(ROWS)}
+    assert skills["move"]["executions"] == 2 and skills["move"]["success_rate"] == 0.5
+    assert skills["clean"]["executions"] == 2 and skills["clean"]["refused"] == 1  # the improper clean did not run
+    assert skills["clean"]["mean_steps"] == pytest.approx(210.0)
+    result = summary(ROWS)
+    assert result["agreement"] == pytest.approx(3 / 5) and result["faults"] == 1 and result["rounds"] == 2
+
+
+def test_calibrated_table_counts_observations_and_leaves_faults_out(tmp_path):
+    table = calibrate.calibrated_table(ROWS)
+    assert sorted(table.successors(0, Action.MOVE)) == [(0, int(Outcome.INEFFECTIVE), 0.5), (1, int(Outcome.ROUTINE), 0.5)]
+    assert table.counts[1, Action.CLEAN] == 1  # the fault is not a transition
+    assert "1 abstraction faults excluded" in table.source
+    assert table.successors(5, Action.MOVE) == [(4, int(Outcome.ROUTINE), 1.0)]  # unmeasured: the model's
+    path = tmp_path / "t.json"
+    table.to_json(path)
+    loaded = TransitionTable.from_json(path)
+    assert loaded.successors(0, Action.MOVE) == table.successors(0, Action.MOVE)
+
+
+def test_trials_file_checks(tmp_path):
+    bad = tmp_path / "trials.csv"
+    bad.write_text("a,b\n1,2\n")
+    with pytest.raises(ResumeError, match="unexpected columns"):
+        read_trials(bad)
+    good = tmp_path / "good.csv"
+    fidelity.write_csv(good, ROWS[:1])
+    assert read_trials(good)[0]["state"] == 0 and list(read_trials(good)[0]) == list(TRIAL_FIELDS)
+    with pytest.raises(ResumeError, match="another --seed"):
+        fidelity.collect(1, seed=5, trials_csv=good, log=None)
+
+
+@pytest.mark.parametrize("argv", [["--trials", "0"], ["--seed", "-1"], ["--actions", "wipe"]])
+def test_fidelity_cli_rejects_bad_arguments(argv, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        fidelity.main(argv)
+    assert exit_info.value.code == 2
+    assert "error" in capsys.readouterr().err
+
+
+def test_calibrate_cli_rejects_bad_arguments(tmp_path, capsys):
+    for argv in (["--out", str(tmp_path / "t.txt")], ["--from-trials", str(tmp_path / "missing.csv")]):
+        with pytest.raises(SystemExit) as exit_info:
+            calibrate.main(argv)
+        assert exit_info.value.code == 2
+
+
+@pytest.mark.slow
+def test_tiny_calibration_trains_the_calibrated_backend(tmp_path, capsys):
+    out = tmp_path / "transitions.json"
+    # one round of the fast skills (clean left out: its pairs keep the model's successor)
+    assert calibrate.main(["--trials", "1", "--actions", "move,pick,place", "--out", str(out), "--quiet"]) == 0
+    document = json.loads(out.read_text())
+    assert document["format"] == "tableclean_suite.transition_table"
+    table = TransitionTable.from_json(out)
+    measured = table.counts.sum()
+    assert measured == 18 * 3  # every reachable non-terminal state x move/pick/place, once
+    assert table.counts[:, Action.CLEAN].sum() == 0
+    trials = read_trials(out.with_suffix(".trials.csv"))
+    assert {r["reached_by"] for r in trials} <= {"plan", "staged"} and len(trials) == 54
+    # agreement in physics: every measured successor is the model's (reported, and checked loosely)
+    agree = sum(r["agree"] for r in trials) / len(trials)
+    assert agree >= 0.9, f"physics agreed with the model on only {agree:.0%} of move/pick/place trials"
+    result = train("q_learning", "r4", runs=4, iterations=300, backend="calibrated", transitions=str(out))
+    assert result.rewards.shape == (4, 300) and "physics calibration" in result.config["transitions"]
+    # resuming: the round is already measured, so no physics runs and the same table comes out
+    assert calibrate.main(["--trials", "1", "--actions", "move,pick,place", "--out", str(out), "--quiet"]) == 0
+    assert TransitionTable.from_json(out).counts.sum() == measured

@@ -1,0 +1,121 @@
+"""Physics backend: fault policy (no physics), option checks, snapshots, and a short training run in MuJoCo."""
+
+import numpy as np
+import pytest
+
+from tableclean_suite import physics_backend
+from tableclean_suite.learners import train
+from tableclean_suite.physics_backend import PhysicsFaultError, PhysicsStepEnv, layout_of
+from tableclean_suite.task import Action, ObjectLocation, Outcome, Segment, TaskModel, TaskState, decode
+
+MODEL = TaskModel()
+
+
+def test_layout_of_stages_every_reachable_state():
+    assert layout_of(decode(0)) == (1, 1, (1, 2))
+    held = TaskState(False, True, ObjectLocation.IN_GRIPPER, Segment.SEGMENT_2)
+    assert layout_of(held) == (2, 2, (1,))  # reset with the object under the arm, then pick
+
+
+def test_bad_options_and_workers_raise_before_any_physics():
+    with pytest.raises(ValueError, match="unknown physics_options key"):
+        train(backend="physics", runs=1, iterations=1, physics_options={"speed": 2})
+    with pytest.raises(ValueError, match="workers"):
+        train(backend="physics", runs=1, iterations=1, workers=0)
+
+
+class _Result:
+    def __init__(self, after, outcome, reason="ok", success=True):
+        self.state_after, self.outcome, self.reason, self.success = after, outcome, reason, success
+        self.improper, self.steps, self.wall_time = False, 10, 0.01
+
+
+class _Controller:
+    """Scripted SkillController: returns the queued results in order."""
+
+    def __init__(self, results):
+        self.results = list(results)
+        self.calls = 0
+
+    def execute(self, action):
+        self.calls += 1
+        return self.results.pop(0)
+
+
+class _Env:
+    def symbolic_state(self):
+        return decode(0)
+
+
+def _step_env(results, monkeypatch, **kwargs):
+    monkeypatch.setattr(physics_backend, "snapshot", lambda env: "saved")
+    restored = []
+    monkeypatch.setattr(physics_backend, "restore", lambda env, snap: restored.append(snap))
+    env = PhysicsStepEnv(env=_Env(), **kwargs)
+    env.controller = _Controller(results)
+    return env, restored
+
+
+def test_fault_is_retried_from_the_restored_state_and_counted(monkeypatch):
+    fault = _Result(None, None, "fault: object_between_segments: dropped", success=False)
+    env, restored = _step_env([fault, _Result(decode(1), Outcome.ROUTINE)], monkeypatch)
+    assert env.step(0, Action.MOVE, 0.5) == (1, int(Outcome.ROUTINE))
+    assert restored == ["saved"] and env.controller.calls == 2
+    assert env.stats["faults"] == 1 and env.stats["fault_reasons"] == {"object_between_segments": 1}
+
+
+def test_persistent_fault_raises_instead_of_mapping_to_a_state(monkeypatch):
+    fault = _Result(None, None, "fault: unstable: qvel", success=False)
+    env, _ = _step_env([fault] * 3, monkeypatch, max_retries=2)
+    with pytest.raises(PhysicsFaultError, match="fault on every attempt"):
+        env.step(0, Action.MOVE, 0.5)
+    env, _ = _step_env([fault], monkeypatch, fault_policy="raise")
+    with pytest.raises(PhysicsFaultError):
+        env.step(0, Action.MOVE, 0.5)
+    with pytest.raises(ValueError, match="fault_policy"):
+        PhysicsStepEnv(env=_Env(), fault_policy="ignore")
+
+
+def test_skill_failure_with_a_readable_state_is_what_the_learner_sees(monkeypatch):
+    # a clean that left the segment dirty: observed, classified, counted, not retried
+    env, restored = _step_env([_Result(decode(1), Outcome.IRRELEVANT_CLEAN, "dirt left", success=False)], monkeypatch)
+    assert env.step(0, Action.CLEAN, 0.5) == (1, int(Outcome.IRRELEVANT_CLEAN))
+    assert env.stats["skill_failures"] == 1 and restored == []
+
+
+@pytest.mark.slow
+def test_snapshot_restore_keeps_a_grasp_and_the_dirt():
+    env = PhysicsStepEnv()
+    try:
+        held = TaskState(False, True, ObjectLocation.IN_GRIPPER, Segment.SEGMENT_1)  # segment 2 clean
+        physics_backend.stage(env.env, env.controller, held, seed=1)
+        saved = physics_backend.snapshot(env.env)
+        dirt = env.env.dirt_fraction()
+        assert env.step(held.index, Action.PLACE, 0.0)[0] == held.replace(object_location=ObjectLocation.ON_SEGMENT_1).index
+        physics_backend.restore(env.env, saved)
+        assert env.env.symbolic_state() == held and np.array_equal(env.env.dirt_fraction(), dirt)
+        # the restored grasp holds through a move (the gripper's integrated command is restored too)
+        assert env.step(held.index, Action.MOVE, 0.0)[0] == MODEL.step(held, Action.MOVE)[0].index
+    finally:
+        env.env.close()
+
+
+@pytest.mark.slow
+def test_short_physics_training_run_end_to_end():
+    result = train("q_learning", "r4", runs=2, iterations=6, epsilon=0.3, seed=1, backend="physics", workers=2)
+    assert result.rewards.shape == (2, 6) and result.rewards.dtype == np.float64
+    for name in ("outcomes", "states", "actions", "episode_end"):
+        assert getattr(result, name).shape == (2, 6) and getattr(result, name).dtype == np.int8
+    assert result.q.shape == (2, 24, 4) and result.q.dtype == np.float64
+    assert (result.states[:, 0] == 0).all()  # the paper's start, Table 1 state 4
+    for run in range(2):
+        for t in range(5):
+            if result.episode_end[run, t]:
+                continue
+            state, action, nxt = int(result.states[run, t]), int(result.actions[run, t]), int(result.states[run, t + 1])
+            # what physics did is a transition the model can classify, with the recorded outcome
+            assert result.outcomes[run, t] == MODEL.classify(state, action, nxt)
+    assert np.abs(result.q).sum() > 0
+    stats = physics_backend.LAST_RUN_STATS
+    assert stats["workers"] == 2 and stats["steps"] == 12 and stats["executions"] >= 12
+    assert result.config["backend"] == "physics"
