@@ -19,7 +19,8 @@ Faults and failures (the policy, documented once here)
   faults, :class:`PhysicsFaultError` is raised (``fault_policy="raise"`` raises at the first
   fault).  The learner therefore only ever sees physically observed task states.
 
-The counters of the last :func:`train_physics` call are in :data:`LAST_RUN_STATS`.
+The counters of a :func:`train_physics` call come back under the key ``"stats"``
+(``TrainingResult.info["physics"]`` when called through ``train``).
 """
 
 from __future__ import annotations
@@ -42,7 +43,6 @@ PHYSICS_OPTIONS = ("env_kwargs", "skill_configs", "fault_policy", "max_retries")
 #: ``steps`` (learner iterations), ``executions`` (skill executions incl. retries),
 #: ``skill_failures``, ``faults``, ``fault_reasons`` (dict), ``restages``, ``control_steps``,
 #: ``wall_time`` (seconds spent in physics steps), ``workers``.
-LAST_RUN_STATS: dict = {}
 
 
 class PhysicsFaultError(RuntimeError):
@@ -254,12 +254,12 @@ def train_physics(learner, reward, model, runs, iterations, seed, first_run, wor
     Run ``i`` uses the run key ``(seed, first_run + i)`` (learner draws) and a scene seeded from it,
     whichever worker trains it.  ``workers`` defaults to ``os.cpu_count()`` (never more than
     ``runs``); with one worker everything runs in this process.  The fault/failure counters
-    are left in :data:`LAST_RUN_STATS`.  Workers use the ``"spawn"`` start method, so a script
+    are returned under ``"stats"``.  Workers use the ``"spawn"`` start method, so a script
     calling this with ``workers > 1`` needs the usual ``if __name__ == "__main__":`` guard.
 
     Returns:
         dict with ``rewards`` (R, T) float64, ``outcomes``/``states``/``actions``/``episode_end``
-        (R, T) int8 and ``q`` (R, 24, 4) float64.
+        (R, T) int8, ``q`` (R, 24, 4) float64 and ``stats`` (counters, see the module docstring).
     """
     options = _check_options(physics_options or {})
     if workers is None:
@@ -304,8 +304,7 @@ def train_physics(learner, reward, model, runs, iterations, seed, first_run, wor
                 records[name][i] = record[name]
     stats = _merge_stats(stats for _, stats in results)
     stats["workers"] = workers
-    LAST_RUN_STATS.clear()
-    LAST_RUN_STATS.update(stats)
+    records["stats"] = stats
     return records
 
 

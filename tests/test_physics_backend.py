@@ -116,6 +116,6 @@ def test_short_physics_training_run_end_to_end():
             # what physics did is a transition the model can classify, with the recorded outcome
             assert result.outcomes[run, t] == MODEL.classify(state, action, nxt)
     assert np.abs(result.q).sum() > 0
-    stats = physics_backend.LAST_RUN_STATS
+    stats = result.info["physics"]
     assert stats["workers"] == 2 and stats["steps"] == 12 and stats["executions"] >= 12
     assert result.config["backend"] == "physics"

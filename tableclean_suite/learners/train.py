@@ -46,6 +46,8 @@ class TrainingResult:
             state, 2 = truncated at ``max_itr`` (``kernel.EPISODE_*``).
         q: ``(R, 24, 4)`` float64 final Q-tables.
         config: the arguments that produced it (JSON-serialisable).
+        info: backend diagnostics, e.g. ``info["physics"]``: skill executions, failures,
+            faults by kind, restages, control steps and wall time of the physics backend.
     """
 
     rewards: np.ndarray
@@ -55,6 +57,7 @@ class TrainingResult:
     episode_end: np.ndarray
     q: np.ndarray
     config: dict = field(default_factory=dict)
+    info: dict = field(default_factory=dict)
 
     @property
     def runs(self) -> int:
@@ -180,7 +183,8 @@ def train(
         records = train_physics(
             learner, reward, model, runs, iterations, seed, first_run, workers, physics_options or {}, progress, **hyper
         )
-        return TrainingResult(**records, config=config)
+        stats = records.pop("stats")
+        return TrainingResult(**records, config=config, info={"physics": stats})
 
     if backend == "calibrated":
         if transitions is None:
