@@ -35,10 +35,14 @@ class MoveSkill(Skill):
         self.target_segment = self.state.arm_segment.other
         self.gripper = GRIPPER_CLOSE if self.state.holding else GRIPPER_OPEN
         self.start_xy = np.array(info["eef_pos"][:2], dtype=float)
+        # m, lift target height: the hover height, or where the gripper already is if that is higher
+        # (no pointless descent before travelling, e.g. from the reset pose)
+        self.lift_z = max(float(info["eef_pos"][2]), float(info["table_top_z"]) + self.config["hover_height"])
 
     def waypoint(self, info: Mapping[str, Any]) -> Waypoint:
         if self.phase == MovePhase.LIFT:
-            return Waypoint(self.hover_point(info, self.start_xy), self.gripper, self.config["lift_tolerance"])
+            lift = np.array([self.start_xy[0], self.start_xy[1], self.lift_z])
+            return Waypoint(lift, self.gripper, self.config["lift_tolerance"])
         goal_xy = self.segment_center(info, self.target_segment)[:2]
         return Waypoint(self.hover_point(info, goal_xy), self.gripper, self.config["reach_tolerance"])
 

@@ -34,7 +34,9 @@ BASE_CONFIG: dict[str, Any] = {
     "speed": 0.4,  # m/s, maximum speed of the rate-limited setpoint
     "reach_tolerance": 0.008,  # m, achieved-to-waypoint distance that counts as reached
     "gripper_still": 2e-4,  # m per step, finger motion below which the gripper has settled
-    "hover_height": 0.12,  # m above the table top at which the gripper travels and hovers
+    # m above the table top at which the gripper travels and hovers: clears a carried object (4.5 cm cube)
+    # and the sponge stand (2 cm); measured, 0.12 cost ~6 more control steps per lift/descend pair
+    "hover_height": 0.08,
     "yaw_rate": 1.5,  # rad/s, maximum turning speed of the gripper-yaw setpoint (faster turns hit wrist limits)
     "yaw_tolerance": 0.1,  # rad, achieved-to-target gripper yaw error that counts as reached
     # rad, preferred gripper yaw when a grasp allows several: the Panda's grip site has yaw pi/2
