@@ -86,7 +86,7 @@ def measure(steps: int, rounds: int, control_freq: int, seed: int) -> dict[str, 
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.env_speed", description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=1000, help="timed env.step calls per environment")
     parser.add_argument("--rounds", type=int, default=10, help="alternating timing blocks")
     parser.add_argument("--control-freq", type=int, default=20, help="control frequency [Hz] of all envs")

@@ -54,7 +54,7 @@ def save_png(frame: np.ndarray, path: Path) -> None:
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.render_scene", description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="PNG path to write")
     parser.add_argument("--camera", default=DEFAULT_CAMERA, help="camera name (e.g. tableview, frontview)")
     parser.add_argument("--width", type=int, default=640)
