@@ -100,6 +100,9 @@ def test_compiled_curves_equal_per_run_matrices_on_real_training():
     np.testing.assert_array_equal(curves["success"], metrics.success_matrix(result).mean(axis=0))
     np.testing.assert_array_equal(curves["terminal"], metrics.terminal_matrix(result).mean(axis=0))
     np.testing.assert_array_equal(curves["episodes"], np.cumsum(result.episode_end != 0, axis=1).mean(axis=0))
+    per_run = metrics.average_reward_matrix(result)
+    started = ~np.all(np.isnan(per_run), axis=0)  # iterations at which some run has finished an episode
+    assert np.all(np.isnan(curves["average_reward"][~started]))
     np.testing.assert_allclose(
-        curves["average_reward"], np.nanmean(metrics.average_reward_matrix(result), axis=0), rtol=1e-12, atol=1e-15
+        curves["average_reward"][started], np.nanmean(per_run[:, started], axis=0), rtol=1e-12, atol=1e-15
     )
