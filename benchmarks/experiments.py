@@ -21,6 +21,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import sys
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -254,9 +255,22 @@ def train_cell(cell: Cell, settings: Settings, model, transitions=None) -> tuple
         workers=settings.workers,
     )
     trained = time.perf_counter()
+    if "physics" in result.info:
+        _report_physics(cell, result.info["physics"])
     summary = summarize(result, threshold=settings.threshold, plateau_fraction=settings.plateau_fraction)
     del result
     return summary, trained - started, time.perf_counter() - trained
+
+
+def _report_physics(cell: Cell, stats: dict) -> None:
+    """One line on stderr: how the skills fared while this cell trained in physics."""
+    faults = ", ".join(f"{kind}: {n}" for kind, n in stats["fault_reasons"].items()) or "none"
+    print(
+        f"physics {cell.label}: {stats['steps']} learner steps, {stats['executions']} skill executions, "
+        f"{stats['skill_failures']} skill failures, {stats['faults']} faults ({faults}), "
+        f"{stats['restages']} restages, {stats['control_steps']} control steps, {stats['wall_time']:.1f} s in skills",
+        file=sys.stderr,
+    )
 
 
 @dataclass
