@@ -119,3 +119,12 @@ def test_short_physics_training_run_end_to_end():
     stats = result.info["physics"]
     assert stats["workers"] == 2 and stats["steps"] == 12 and stats["executions"] >= 12
     assert result.config["backend"] == "physics"
+    # where physics did exactly what the model predicts, the learner must have walked the symbolic path
+    agreed = all(
+        MODEL.step(int(result.states[run, t]), int(result.actions[run, t]))[0].index == int(result.states[run, t + 1])
+        for run in range(2) for t in range(5) if not result.episode_end[run, t]
+    )
+    if agreed:
+        symbolic = train("q_learning", "r4", runs=2, iterations=6, epsilon=0.3, seed=1)
+        for name in ("rewards", "outcomes", "states", "actions", "episode_end", "q"):
+            assert np.array_equal(getattr(result, name), getattr(symbolic, name)), name
