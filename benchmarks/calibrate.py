@@ -26,7 +26,7 @@ import time
 from collections import Counter
 from pathlib import Path
 
-from benchmarks.fidelity import FAULT, ResumeError, action_list, collect, non_negative_int, positive_int, read_trials
+from benchmarks.fidelity import FAULT, ResumeError, add_execution_arguments, collect, read_trials
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.task import Action, Outcome, TaskModel
 
@@ -58,14 +58,10 @@ def calibrated_table(rows, model: TaskModel | None = None, description: str = ""
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.calibrate", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--trials", type=positive_int, default=5, help="executions per (state, action) pair (default 5)")
+    add_execution_arguments(parser)  # pairs of actions not executed keep the model's successor
     parser.add_argument("--out", default="transitions.json", help="JSON file to write (default transitions.json)")
-    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of the placement noise (default 0)")
     parser.add_argument("--fresh", action="store_true", help="discard earlier trials in <out>.trials.csv")
     parser.add_argument("--from-trials", metavar="CSV", help="build from an existing fidelity_trials.csv, no physics")
-    parser.add_argument("--actions", type=action_list, default=tuple(Action),
-                        help="comma-separated actions to execute (default all); the others keep the model's successor")
-    parser.add_argument("--quiet", action="store_true", help="print only the summary")
     return parser
 
 

@@ -37,6 +37,7 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+from benchmarks.cli import action_list, non_negative_int, positive_int  # noqa: E402
 from tableclean_suite.task import START_LAYOUTS, Action, Outcome, TaskModel, TaskState, decode, start_layout  # noqa: E402
 
 TRIALS_CSV = "fidelity_trials.csv"
@@ -296,48 +297,20 @@ def summary(rows: list[dict], model: TaskModel | None = None) -> dict:
 # ---------------------------------------------------------------------------------------------
 # CLI
 # ---------------------------------------------------------------------------------------------
-def positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return value
-
-
-def non_negative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
-    return value
-
-
-def action_list(text: str) -> tuple[Action, ...]:
-    """``"move,pick"`` -> (Action.MOVE, Action.PICK); argparse error for unknown names."""
-    try:
-        chosen = tuple(Action[name.strip().upper()] for name in text.split(",") if name.strip())
-    except KeyError as error:
-        raise argparse.ArgumentTypeError(
-            f"unknown action {error.args[0].lower()!r}; allowed: {', '.join(a.name.lower() for a in Action)}"
-        ) from None
-    if not chosen:
-        raise argparse.ArgumentTypeError("expected at least one action")
-    return chosen
+def add_execution_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of :func:`collect` shared by fidelity and calibrate: --trials, --seed, --actions, --quiet."""
+    parser.add_argument("--trials", type=positive_int, default=5, help="trials per (state, action) pair = rounds (default 5)")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of the placement noise (default 0)")
+    parser.add_argument("--actions", type=action_list, default=tuple(Action),
+                        help="comma-separated actions to execute (default all: move,pick,place,clean)")
+    parser.add_argument("--quiet", action="store_true", help="print only the summary")
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.fidelity", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--trials", type=positive_int, default=5, help="trials per (state, action) pair = rounds (default 5)")
+    add_execution_arguments(parser)
     parser.add_argument("--out", default="results/fidelity", help="output directory (default results/fidelity)")
-    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of the placement noise (default 0)")
     parser.add_argument("--fresh", action="store_true", help="discard earlier trials in --out and start over")
-    parser.add_argument("--actions", type=action_list, default=tuple(Action),
-                        help="comma-separated actions to execute (default all: move,pick,place,clean)")
-    parser.add_argument("--quiet", action="store_true", help="print only the summary")
     return parser
 
 

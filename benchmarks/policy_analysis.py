@@ -17,6 +17,7 @@ import sys
 
 import numpy as np
 
+from benchmarks.cli import non_negative_int, positive_int
 from tableclean_suite import analysis, metrics
 from tableclean_suite.learners import train
 from tableclean_suite.task import StartMode, TaskModel
@@ -45,16 +46,11 @@ def analyse(learner: str, reward: str, model: TaskModel, runs: int, iterations: 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.policy_analysis", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--runs", type=int, default=1000, help="runs per row (default 1000)")
-    parser.add_argument("--iterations", type=int, default=4000, help="training iterations (default 4000)")
-    parser.add_argument("--long-iterations", type=int, default=20000, help="iterations of the long r3 row (default 20000)")
-    parser.add_argument("--seed", type=int, default=0, help="seed (default 0)")
+    parser.add_argument("--runs", type=positive_int, default=1000, help="runs per row (default 1000)")
+    parser.add_argument("--iterations", type=positive_int, default=4000, help="training iterations (default 4000)")
+    parser.add_argument("--long-iterations", type=positive_int, default=20000, help="iterations of the long r3 row (default 20000)")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed (default 0)")
     args = parser.parse_args(argv)
-    for name in ("runs", "iterations", "long_iterations"):
-        if getattr(args, name) < 1:
-            parser.error(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")
-    if args.seed < 0:
-        parser.error(f"--seed must be >= 0, got {args.seed}")
     import pandas as pd
 
     epsilon, max_itr = 0.1, 500

@@ -24,6 +24,7 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+from benchmarks.cli import non_negative_int, positive_int  # noqa: E402
 from tableclean_suite.task import Action, TaskModel, TaskState, decode, start_layout  # noqa: E402
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
@@ -185,26 +186,6 @@ def run_rollout(policy: np.ndarray, start: TaskState, video: Path, fps: int, wid
     return summary
 
 
-def _positive(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return value
-
-
-def _non_negative(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
-    return value
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.rollout", description=__doc__.split("\n\n")[0])
     parser.add_argument("--reward", default="r4", help="reward pattern (default r4)")
@@ -212,14 +193,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--learner", default="q_learning", help="learner (default q_learning)")
     parser.add_argument("--object-segment", type=int, choices=(1, 2), default=1, help="start: object on segment 1 or 2")
     parser.add_argument("--arm-segment", type=int, choices=(1, 2), default=1, help="start: arm over segment 1 or 2")
-    parser.add_argument("--iterations", type=_positive, default=3000, help="training iterations per run (default 3000)")
-    parser.add_argument("--runs", type=_positive, default=5, help="training runs voting on the policy (default 5)")
-    parser.add_argument("--seed", type=_non_negative, default=0, help="training and placement seed (default 0)")
-    parser.add_argument("--fps", type=_positive, default=20, help="video frames per second (default 20)")
-    parser.add_argument("--width", type=_positive, default=480, help="frame width in pixels, even (default 480)")
-    parser.add_argument("--height", type=_positive, default=360, help="frame height in pixels, even (default 360)")
-    parser.add_argument("--frame-every", type=_positive, default=4, help="one frame per K control steps (default 4)")
-    parser.add_argument("--max-actions", type=_positive, default=20, help="stop after this many actions (default 20)")
+    parser.add_argument("--iterations", type=positive_int, default=3000, help="training iterations per run (default 3000)")
+    parser.add_argument("--runs", type=positive_int, default=5, help="training runs voting on the policy (default 5)")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="training and placement seed (default 0)")
+    parser.add_argument("--fps", type=positive_int, default=20, help="video frames per second (default 20)")
+    parser.add_argument("--width", type=positive_int, default=480, help="frame width in pixels, even (default 480)")
+    parser.add_argument("--height", type=positive_int, default=360, help="frame height in pixels, even (default 360)")
+    parser.add_argument("--frame-every", type=positive_int, default=4, help="one frame per K control steps (default 4)")
+    parser.add_argument("--max-actions", type=positive_int, default=20, help="stop after this many actions (default 20)")
     parser.add_argument("--camera", default="frontview", help="camera name (default frontview)")
     parser.add_argument("--still", help="also save one frame (PNG) taken while wiping")
     return parser

@@ -22,6 +22,7 @@ from collections import defaultdict
 
 import numpy as np
 
+from benchmarks.cli import positive_int
 from tableclean_suite.controllers import SkillController, make_skill_env
 from tableclean_suite.task import Action, TaskModel
 
@@ -31,20 +32,10 @@ EPISODE_GOAL_S = 4.0
 OVERHEAD_GOAL = 0.05
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
-    return value
-
-
 def parse_args(argv=None) -> argparse.Namespace:
     """Command-line options; argparse exits with a clear message on bad flags."""
     parser = argparse.ArgumentParser(prog="python -m benchmarks.skill_speed", description=__doc__.splitlines()[0])
-    parser.add_argument("--episodes", type=_positive_int, default=3, help="optimal episodes to run (default 3)")
+    parser.add_argument("--episodes", type=positive_int, default=3, help="optimal episodes to run (default 3)")
     parser.add_argument(
         "--layout", type=int, nargs=2, metavar=("OBJECT_SEGMENT", "ARM_SEGMENT"), default=(1, 1),
         choices=(1, 2), help="start layout, 1-based segments (default: 1 1, the paper's layout)",

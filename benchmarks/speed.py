@@ -19,6 +19,7 @@ import random
 import sys
 import time
 
+from benchmarks.cli import positive_int
 from tableclean_suite.learners import train
 from tableclean_suite.rewards import get_reward_pattern
 from tableclean_suite.task import N_ACTIONS, Outcome, TaskModel
@@ -114,14 +115,11 @@ def time_default_run() -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.speed", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--runs", type=int, default=1000, help="runs for the compiled learners (default 1000)")
-    parser.add_argument("--iterations", type=int, default=3000, help="iterations per run (default 3000)")
-    parser.add_argument("--baseline-runs", type=int, default=20, help="runs for the plain baselines (default 20)")
+    parser.add_argument("--runs", type=positive_int, default=1000, help="runs for the compiled learners (default 1000)")
+    parser.add_argument("--iterations", type=positive_int, default=3000, help="iterations per run (default 3000)")
+    parser.add_argument("--baseline-runs", type=positive_int, default=20, help="runs for the plain baselines (default 20)")
     parser.add_argument("--skip-default-run", action="store_true", help="do not time the default benchmarks.run")
     args = parser.parse_args(argv)
-    for name in ("runs", "iterations", "baseline_runs"):
-        if getattr(args, name) < 1:
-            parser.error(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")
     import pandas as pd
 
     table = pd.DataFrame(measure(args.runs, args.iterations, args.baseline_runs))
