@@ -46,25 +46,6 @@ def majority_policy(q: np.ndarray) -> np.ndarray:
     return np.argmax(votes, axis=1)
 
 
-class _FrameTap:
-    """Delegates to the env; after every ``env.step`` calls ``on_step()`` (the SkillController steps through it)."""
-
-    def __init__(self, env, on_step):
-        object.__setattr__(self, "_env", env)
-        object.__setattr__(self, "_on_step", on_step)
-
-    def step(self, action):
-        out = self._env.step(action)
-        self._on_step()
-        return out
-
-    def __getattr__(self, name):
-        return getattr(self._env, name)
-
-    def __setattr__(self, name, value):
-        setattr(self._env, name, value)
-
-
 class Recorder:
     """Renders the scene every ``frame_every`` control steps, writes annotated frames to ``writer``."""
 
@@ -141,7 +122,7 @@ def run_rollout(policy: np.ndarray, start: TaskState, video: Path, fps: int, wid
     summary = {"actions": [], "states": [start.index], "reached_terminal": False, "fault": None}
     with imageio.get_writer(video, **writer_kwargs) as writer:
         recorder = Recorder(env, writer, width, height, camera, frame_every)
-        controller = SkillController(_FrameTap(env, recorder.on_step))
+        controller = SkillController(env, on_step=recorder.on_step)
         stage(env, SkillController(env), start, seed=seed)
         state = start
         recorder.state, recorder.note = state, "(start)"

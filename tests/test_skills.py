@@ -150,6 +150,13 @@ def test_move_skill_rate_limits_and_ends_above_the_other_segment():
     assert result.outcome == Outcome.ROUTINE and result.steps == env.steps
 
 
+def test_on_step_is_called_after_every_control_step():
+    env = _FakeEnv(Segment.SEGMENT_1)
+    seen = []
+    result = SkillController(env, on_step=lambda: seen.append(env.steps)).execute(Action.MOVE)
+    assert result.steps > 0 and seen == list(range(1, result.steps + 1))
+
+
 def test_a_skill_that_cannot_reach_its_waypoint_fails_on_its_step_budget():
     env = _FakeEnv(frozen=True)
     result = SkillController(env, skill_configs={Action.MOVE: {"max_steps": 15}}).execute(Action.MOVE)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Mapping
+from typing import Any, Callable, Iterable, Mapping
 
 from tableclean_suite.controllers.registry import SKILL_REGISTRY, get_skill_class
 from tableclean_suite.environments.abstraction import AbstractionError
@@ -67,6 +67,8 @@ class SkillController:
         model: the task model whose rules physics follows (default ``TaskModel()``).
         registry: action -> skill class table (default: the global ``SKILL_REGISTRY``).
         skill_configs: per-action config overrides, e.g. ``{Action.CLEAN: {"max_passes": 2}}``.
+        on_step: called after every ``env.step`` a skill makes (e.g. to record video frames);
+            its time counts as executor overhead.
     """
 
     def __init__(
@@ -75,11 +77,13 @@ class SkillController:
         model: TaskModel | None = None,
         registry: Mapping[Action, type] | None = None,
         skill_configs: Mapping[Any, Mapping[str, Any]] | None = None,
+        on_step: Callable[[], None] | None = None,
     ):
         self.env = env
         self.model = TaskModel() if model is None else model
         self.registry = SKILL_REGISTRY if registry is None else registry
         self.skill_configs = {as_action(a): dict(c) for a, c in (skill_configs or {}).items()}
+        self.on_step = on_step
 
     def execute(self, action) -> SkillResult:
         """Carry out ``action`` (Action, int or name) in physics and report what happened.
@@ -109,6 +113,8 @@ class SkillController:
                 tick = time.perf_counter()
                 self.env.step(command)
                 env_time += time.perf_counter() - tick
+                if self.on_step is not None:
+                    self.on_step()
             after = self.env.symbolic_state()
         except AbstractionError as fault:
             reason, after = f"fault: {fault}", None
