@@ -139,10 +139,7 @@ class TableCleanSkillsEnv(TableCleanBase):
         super().reset(seed=seed)
         state = self._start_state(options)
         stage(self.sim_env, self.controller, state, seed=int(self.np_random.integers(2**63)))
-        self.s = state.index
-        self.previous = _NO_STATE
-        self.lastaction = self.last_outcome = None
-        return int(self.s), self._info()
+        return self._begin_episode(state)
 
     def step(self, action):
         action = self._check_action(action)

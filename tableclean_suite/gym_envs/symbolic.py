@@ -68,6 +68,13 @@ class TableCleanBase(gym.Env):
         """``(4,)`` int8, 1 where the action is not improper (the task model's mask; all 0 at terminal)."""
         return self.model.action_mask(self.s if state is None else state)
 
+    def _begin_episode(self, state: TaskState):
+        """Make ``state`` the current one with no history; returns ``(observation, info)`` for ``reset``."""
+        self.s = state.index
+        self.previous = _NO_STATE
+        self.lastaction = self.last_outcome = None
+        return int(self.s), self._info()
+
     def _start_state(self, options: dict | None) -> TaskState:
         """The start state: ``options["state"]`` (a code or TaskState) or the model's start draw."""
         options = options or {}
@@ -258,10 +265,7 @@ class TableCleanSymbolicEnv(TableCleanBase):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        self.s = self._start_state(options).index
-        self.previous = _NO_STATE
-        self.lastaction = self.last_outcome = None
-        return int(self.s), self._info()
+        return self._begin_episode(self._start_state(options))
 
     def step(self, action):
         action = self._check_action(action)
