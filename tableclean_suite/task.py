@@ -305,14 +305,6 @@ class StartMode(str, enum.Enum):
     UNIFORM_UNCLEAN = "uniform_unclean"  # uniform over the four both-unclean layouts
 
 
-@dataclass(frozen=True)
-class Transition:
-    """The result of one action: where it leads and what it counted as."""
-
-    next_state: TaskState
-    outcome: Outcome
-
-
 class TaskModel:
     """The paper's two-segment table-cleaning task as a deterministic model.
 
@@ -437,7 +429,7 @@ class TaskModel:
         any other action is ROUTINE when the state changed, else ineffective.
         """
         state, next_state, action = as_state(state), as_state(next_state), as_action(action)
-        predicted_next, predicted = self.step(state, action)
+        _, predicted = self.step(state, action)
         if predicted == Outcome.IMPROPER:
             return Outcome.IMPROPER
         if next_state.is_terminal and not state.is_terminal:
@@ -451,7 +443,7 @@ class TaskModel:
     def start_states(self) -> list[TaskState]:
         """The states an episode can start in (one for ``fixed``, four for ``uniform_unclean``)."""
         if self.start == StartMode.UNIFORM_UNCLEAN:
-            return [start_layout(obj, arm) for obj, arm in START_LAYOUTS]
+            return self._unclean_layouts()
         return [self.start_state]
 
     def sample_start(self, uniform: float) -> TaskState:

@@ -98,7 +98,6 @@ def train_run(
     q = [[0.0] * N_ACTIONS for _ in range(N_STATES)]
     record = {name: np.zeros(iterations, dtype=np.int8) for name in ("outcomes", "states", "actions", "episode_end")}
     record["rewards"] = np.zeros(iterations, dtype=np.float64)
-    values = reward.outcome_values().tolist()
     state = previous = pending = NO_STATE
     length = 0
     for t in range(iterations):
@@ -113,7 +112,7 @@ def train_run(
                 q[state], epsilon, uniform_py(key, t, STREAM_EXPLORE), uniform_py(key, t, STREAM_RANDOM_ACTION)
             )
         nxt, outcome = env.step(state, action, uniform_py(key, t, STREAM_TRANSITION))
-        r = reward.reward(outcome, state, nxt, previous) if reward.looping_penalty is not None else values[outcome]
+        r = reward.reward(outcome, state, nxt, previous)
         length += 1
         terminal = outcome == Outcome.TERMINAL
         pending = NO_STATE
