@@ -1,113 +1,12 @@
-"""A physics-calibrated transition model: the fidelity executions, counted into a TransitionTable.
+"""``python -m benchmarks.calibrate``: entry point of :mod:`tableclean_suite.bench.calibrate` (kept for the checkout)."""
 
-    python -m benchmarks.calibrate [--trials N] [--out transitions.json] [--seed S] [--fresh]
-    python -m benchmarks.calibrate --from-trials results/fidelity/fidelity_trials.csv --out transitions.json
-
-Every (state, action) pair is executed ``N`` times in physics exactly as
-``benchmarks.fidelity`` does (same rounds, same code: :func:`benchmarks.fidelity.collect`), and
-the observed ``(next_state, outcome)`` frequencies become the empirical successor distribution
-of the pair.  Executions that ended in an abstraction fault have no task state; they are left
-out of the counts and reported (the table's ``source`` says how many).  Pairs never executed
-(unreachable states) keep the task model's successor.  The trials are kept in
-``<out>.trials.csv`` so an interrupted calibration resumes; ``--from-trials`` converts an
-existing fidelity trials file without running physics.
-
-Train on the result at symbolic speed::
-
-    python -m benchmarks.run --backend calibrated --transitions transitions.json
-    train(backend="calibrated", transitions="transitions.json")
-"""
-
-from __future__ import annotations
-
-import argparse
+import os
 import sys
-import time
-from collections import Counter
-from pathlib import Path
 
-from benchmarks.fidelity import FAULT, ResumeError, add_execution_arguments, collect, read_trials
-from tableclean_suite.learners.transitions import TransitionTable
-from tableclean_suite.task import Action, Outcome, TaskModel
+# MuJoCo picks its GL backend when first imported, and importing the package imports it.
+os.environ.setdefault("MUJOCO_GL", "egl")
 
-
-def count_transitions(rows) -> tuple[dict, int]:
-    """``({(state, action): {(next_state, outcome): n}}, faults)`` from fidelity trial rows."""
-    counts: dict[tuple[int, int], Counter] = {}
-    faults = 0
-    for row in rows:
-        if row["observed_outcome"] == FAULT:
-            faults += 1
-            continue
-        key = (int(row["state"]), int(Action[row["action"].upper()]))
-        successor = (int(row["observed_state"]), int(Outcome[row["observed_outcome"].upper()]))
-        counts.setdefault(key, Counter())[successor] += 1
-    return {key: dict(value) for key, value in counts.items()}, faults
-
-
-def calibrated_table(rows, model: TaskModel | None = None, description: str = "") -> TransitionTable:
-    """The empirical :class:`TransitionTable` of fidelity trial rows (faults excluded, see module doc)."""
-    model = model or TaskModel()
-    counts, faults = count_transitions(rows)
-    executions = sum(sum(c.values()) for c in counts.values())
-    source = f"physics calibration: {executions} executions, {faults} abstraction faults excluded"
-    if description:
-        source += f"; {description}"
-    return TransitionTable.from_counts(counts, model, source)
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.calibrate", description=__doc__.split("\n\n")[0])
-    add_execution_arguments(parser)  # pairs of actions not executed keep the model's successor
-    parser.add_argument("--out", default="transitions.json", help="JSON file to write (default transitions.json)")
-    parser.add_argument("--fresh", action="store_true", help="discard earlier trials in <out>.trials.csv")
-    parser.add_argument("--from-trials", metavar="CSV", help="build from an existing fidelity_trials.csv, no physics")
-    return parser
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    out = Path(args.out)
-    if out.suffix.lower() != ".json":
-        parser.error(f"--out must be a .json file, got {args.out!r}")
-    started = time.perf_counter()
-    log = None if args.quiet else print
-    try:
-        if args.from_trials:
-            source = Path(args.from_trials)
-            if not source.exists():
-                parser.error(f"--from-trials: no such file {source}")
-            rows = read_trials(source)
-            if not rows:
-                parser.error(f"--from-trials: {source} holds no trials")
-            description = f"from {source.name}"
-        else:
-            rows = collect(args.trials, args.seed, out.with_suffix(".trials.csv"), fresh=args.fresh, log=log,
-                           actions=args.actions)
-            description = f"{args.trials} round(s), seed {args.seed}"
-    except ResumeError as error:
-        parser.error(str(error))
-    table = calibrated_table(rows, description=description)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    table.to_json(out)
-    model = TaskModel()
-    model_next, model_outcome = model.transition_arrays()
-    stochastic = []
-    for (state, action) in sorted({(int(r["state"]), int(Action[r["action"].upper()])) for r in rows}):
-        successors = table.successors(state, action)
-        if len(successors) > 1 or successors[0][:2] != (model_next[state, action], model_outcome[state, action]):
-            stochastic.append(table.describe_pair(state, action))
-    print(f"wrote {out}: {table.source}")
-    if stochastic:
-        print(f"{len(stochastic)} pair(s) differ from the task model:")
-        for line in stochastic:
-            print("  " + line)
-    else:
-        print("every measured pair matches the task model")
-    print(f"({time.perf_counter() - started:.0f} s)")
-    return 0
-
+from tableclean_suite.bench.calibrate import main  # noqa: E402
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -1,70 +1,11 @@
-"""``python -m benchmarks.render_scene [--out docs/images/scene.png]``: render the TableClean scene offscreen.
+"""``python -m benchmarks.render_scene``: entry point of :mod:`tableclean_suite.bench.render_scene` (kept for the checkout)."""
 
-Uses MuJoCo's EGL backend unless ``MUJOCO_GL`` is already set (it must be set before MuJoCo is
-imported).  The default camera, ``tableview``, shows both segments, the dirt, the object and the
-sponge on its stand.
-"""
-
-from __future__ import annotations
-
-import argparse
 import os
-from pathlib import Path
 
+# MuJoCo picks its GL backend when first imported, and importing the package imports it.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-import numpy as np  # noqa: E402
-
-DEFAULT_OUT = Path("docs/images/scene.png")
-DEFAULT_CAMERA = "tableview"
-
-
-def render_frame(camera: str = DEFAULT_CAMERA, width: int = 640, height: int = 480, seed: int = 0,
-                 object_segment: int = 1, arm_segment: int = 2, **env_kwargs) -> np.ndarray:
-    """An (height, width, 3) uint8 RGB frame of a freshly reset TableClean scene."""
-    import robosuite
-
-    import tableclean_suite  # noqa: F401  (registers TableClean)
-
-    env = robosuite.make(
-        "TableClean",
-        robots="Panda",
-        object_segment=object_segment,
-        arm_segment=arm_segment,
-        has_renderer=False,
-        has_offscreen_renderer=True,
-        use_camera_obs=False,
-        seed=seed,
-        **env_kwargs,
-    )
-    try:
-        env.reset()
-        frame = env.sim.render(width=width, height=height, camera_name=camera)
-    finally:
-        env.close()
-    return np.ascontiguousarray(frame[::-1])  # MuJoCo renders bottom-up
-
-
-def save_png(frame: np.ndarray, path: Path) -> None:
-    """Write an RGB uint8 frame as PNG (matplotlib's writer, a package dependency)."""
-    import matplotlib.image
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    matplotlib.image.imsave(path, frame)
-
-
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.render_scene", description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="PNG path to write")
-    parser.add_argument("--camera", default=DEFAULT_CAMERA, help="camera name (e.g. tableview, frontview)")
-    parser.add_argument("--width", type=int, default=640)
-    parser.add_argument("--height", type=int, default=480)
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args(argv)
-    frame = render_frame(args.camera, args.width, args.height, args.seed)
-    save_png(frame, args.out)
-    print(f"wrote {args.out} ({args.width}x{args.height}, camera {args.camera!r}, MUJOCO_GL={os.environ['MUJOCO_GL']})")
-
+from tableclean_suite.bench.render_scene import main  # noqa: E402
 
 if __name__ == "__main__":
     main()

@@ -9,7 +9,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from benchmarks import tables
+from tableclean_suite.bench import tables
 
 ROOT = Path(__file__).resolve().parents[1]
 SMOKE = ["--runs", "20", "--iterations", "300", "--alpha-sweep", "0.3,0.5", "--gamma-sweep", "0.3"]

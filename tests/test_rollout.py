@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from benchmarks import rollout
+from tableclean_suite.bench import rollout
 
 
 def test_majority_policy_votes_per_state_and_breaks_ties_low():

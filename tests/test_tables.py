@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from benchmarks import experiments, tables
+from tableclean_suite.bench import experiments, tables
 from tableclean_suite.metrics import SUMMARY_SCALARS
 
 PAPER = Path(__file__).resolve().parents[2] / "shared" / "paper.md"

@@ -1,0 +1,104 @@
+"""``python -m benchmarks.env_speed``: env.step rate of TableClean against robosuite's Lift.
+
+Both environments use the same robot (Panda), the same default controller, the same control
+frequency and no renderers, and run in the same process.  Timing blocks alternate between the
+environments (Lift, TableClean, TableClean-pressing, Lift, ...) so that load from other processes
+on the machine hits all of them alike; the reported ratio is TableClean rate / Lift rate (goal >= 0.9).
+
+"TableClean (pressing)" keeps the sponge resting on segment 2 so that the per-substep wiping
+check runs its full path (contact found + footprint test) at every substep.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+import robosuite
+from robosuite.controllers import load_composite_controller_config
+
+import tableclean_suite  # noqa: F401  (registers TableClean)
+from tableclean_suite.task import Segment
+
+ROBOT = "Panda"
+#: Uniform random actions are drawn in +-ACTION_SCALE (OSC delta units) so the arm stays near its start.
+ACTION_SCALE = 0.3
+
+
+def make_env(name: str, control_freq: int, seed: int, **kwargs):
+    """An environment with the shared benchmark settings (no rendering, no camera observations)."""
+    return robosuite.make(
+        name,
+        robots=ROBOT,
+        controller_configs=load_composite_controller_config(robot=ROBOT),
+        has_renderer=False,
+        has_offscreen_renderer=False,
+        use_camera_obs=False,
+        control_freq=control_freq,
+        ignore_done=True,
+        seed=seed,
+        **kwargs,
+    )
+
+
+def press_sponge(env) -> None:
+    """Rest the sponge on segment 2's centre (bottom on the table top), at rest."""
+    center = env.geometry.segment_centers[Segment.SEGMENT_2.value]
+    pos = center + np.array([0.0, 0.0, env.task_config["sponge_half_size"][2]])
+    env.sim.data.set_joint_qpos(env.sponge.joints[0], np.concatenate([pos, [1.0, 0.0, 0.0, 0.0]]))
+    env.sim.data.set_joint_qvel(env.sponge.joints[0], np.zeros(6))
+    env.sim.forward()
+
+
+def time_block(env, actions: np.ndarray, before_step=None) -> float:
+    """Seconds spent in ``env.step`` over ``actions`` (``before_step(env)`` runs untimed before each step)."""
+    total = 0.0
+    for action in actions:
+        if before_step is not None:
+            before_step(env)
+        start = time.perf_counter()
+        env.step(action)
+        total += time.perf_counter() - start
+    return total
+
+
+def measure(steps: int, rounds: int, control_freq: int, seed: int) -> dict[str, float]:
+    """Steps per second of each environment, from ``rounds`` alternating blocks of ``steps // rounds`` steps."""
+    envs = {
+        "Lift": make_env("Lift", control_freq, seed),
+        "TableClean": make_env("TableClean", control_freq, seed, object_segment=1, arm_segment=1),
+        "TableClean (pressing)": make_env("TableClean", control_freq, seed, object_segment=1, arm_segment=1),
+    }
+    hooks = {"TableClean (pressing)": press_sponge}
+    rng = np.random.default_rng(seed)
+    block = max(1, steps // rounds)
+    seconds = dict.fromkeys(envs, 0.0)
+    for env in envs.values():
+        env.reset()
+    for _ in range(rounds):
+        for name, env in envs.items():
+            actions = rng.uniform(-ACTION_SCALE, ACTION_SCALE, size=(block, env.action_dim))
+            seconds[name] += time_block(env, actions, hooks.get(name))
+    for env in envs.values():
+        env.close()
+    return {name: block * rounds / total for name, total in seconds.items()}
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.env_speed", description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=1000, help="timed env.step calls per environment")
+    parser.add_argument("--rounds", type=int, default=10, help="alternating timing blocks")
+    parser.add_argument("--control-freq", type=int, default=20, help="control frequency [Hz] of all envs")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+    rates = measure(args.steps, args.rounds, args.control_freq, args.seed)
+    lift = rates["Lift"]
+    print(f"{'environment':<24}{'steps/s':>10}{'ratio vs Lift':>16}")
+    for name, rate in rates.items():
+        print(f"{name:<24}{rate:>10.1f}{rate / lift:>16.3f}")
+    print(f"TableClean / Lift env.step rate ratio: {rates['TableClean'] / lift:.3f} (goal >= 0.9)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,353 @@
+"""Fidelity of the skills: does physics do what the task model says, from every reachable state?
+
+    python -m benchmarks.fidelity [--trials N] [--out DIR] [--seed S] [--fresh]
+
+One *round* executes every action once from every reachable non-terminal state (18 states x
+4 actions = 72 trials):
+
+- Each of the four both-unclean start layouts is reset with fresh placement noise (a seed per
+  round and layout), and the reachable states are visited depth-first by executing actions in
+  physics: a state is *reached* once, its scene is snapshotted (MuJoCo state + the env's dirt),
+  and every action is executed from a restored copy of that snapshot; the successors the
+  physics reached as the model predicts are visited next.  A state that no executed plan
+  reached in a round (because a skill failed on the way) is staged directly by a reset
+  (``reached_by = "staged"``).
+- A trial *agrees* when the abstraction reads back the model's successor and the observed
+  outcome is the model's outcome; an abstraction fault never agrees.
+
+``--trials N`` rounds give N trials per (state, action) pair.  Results go to ``DIR``:
+``fidelity_trials.csv`` (one row per execution, appended after every round, so an interrupted
+run resumes where it stopped; ``--fresh`` starts over), ``fidelity_pairs.csv`` (agreement per
+pair) and ``fidelity_skills.csv`` (success, steps and seconds per skill, over executions the
+controller did not refuse).  :func:`collect` is the execution code ``benchmarks.calibrate``
+reuses.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Callable, Iterable
+
+import numpy as np
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from tableclean_suite.bench.cli import action_list, non_negative_int, positive_int  # noqa: E402
+from tableclean_suite.task import START_LAYOUTS, Action, Outcome, TaskModel, TaskState, decode, start_layout  # noqa: E402
+
+TRIALS_CSV = "fidelity_trials.csv"
+PAIRS_CSV = "fidelity_pairs.csv"
+SKILLS_CSV = "fidelity_skills.csv"
+TRIAL_FIELDS = (
+    "round", "seed", "layout", "reached_by", "state", "action", "expected_state", "expected_outcome",
+    "observed_state", "observed_outcome", "agree", "success", "improper", "steps", "wall_time", "env_time", "reason",
+)
+#: Agreement and success goals of the issue (reported next to the measurement).
+AGREEMENT_GOAL = 0.99
+SUCCESS_GOAL = 0.995
+FAULT = "fault"
+
+
+class ResumeError(ValueError):
+    """An existing trials file does not match the requested run."""
+
+
+def round_seed(seed: int, round_index: int) -> int:
+    """The scene seed of one round (placement noise of its four start layouts)."""
+    return int(np.random.SeedSequence([int(seed), int(round_index)]).generate_state(1)[0])
+
+
+def _trial_row(round_index, seed, layout, reached_by, state: TaskState, action: Action, result, model) -> dict:
+    expected, expected_outcome = model.step(state, action)
+    observed = result.state_after
+    observed_outcome = None if result.outcome is None else Outcome(result.outcome)
+    agree = observed is not None and observed == expected and observed_outcome == expected_outcome
+    return {
+        "round": round_index,
+        "seed": seed,
+        "layout": layout,
+        "reached_by": reached_by,
+        "state": state.index,
+        "action": action.name.lower(),
+        "expected_state": expected.index,
+        "expected_outcome": expected_outcome.name.lower(),
+        "observed_state": -1 if observed is None else observed.index,
+        "observed_outcome": FAULT if observed_outcome is None else observed_outcome.name.lower(),
+        "agree": int(agree),
+        "success": int(bool(result.success)),
+        "improper": int(bool(result.improper)),
+        "steps": int(result.steps),
+        "wall_time": round(float(result.wall_time), 4),
+        "env_time": round(float(result.env_time), 4),
+        "reason": str(result.reason).replace("\n", " "),
+    }
+
+
+def run_round(session, round_index: int, seed: int, on_trial: Callable[[dict], None] | None = None,
+              actions: Iterable[Action] = tuple(Action)) -> list[dict]:
+    """One round: every action in ``actions`` once from every reachable non-terminal state.
+
+    ``session`` is a :class:`tableclean_suite.physics_backend.PhysicsStepEnv` (its env,
+    controller and model are used).  States only reachable through a left-out action are
+    staged.  Returns the trial rows in execution order.
+    """
+    actions = tuple(sorted(set(Action(a) for a in actions)))
+    from tableclean_suite.physics_backend import restore, snapshot, stage
+
+    env, controller, model = session.env, session.controller, session.model
+    targets = [s for s in model.reachable_states() if not s.is_terminal]
+    visited: set[TaskState] = set()
+    rows: list[dict] = []
+    base_seed = round_seed(seed, round_index)
+
+    def record(row):
+        rows.append(row)
+        if on_trial is not None:
+            on_trial(row)
+
+    def visit(state: TaskState, layout: str, reached_by: str) -> None:
+        visited.add(state)
+        saved = snapshot(env)
+        children = []
+        for k, action in enumerate(actions):
+            if k:
+                restore(env, saved)
+            result = controller.execute(action)
+            record(_trial_row(round_index, base_seed, layout, reached_by, state, action, result, model))
+            expected = model.step(state, action)[0]
+            if (result.state_after == expected and not expected.is_terminal and expected not in visited
+                    and expected not in (c for c, _ in children)):
+                children.append((expected, snapshot(env)))
+        for child, child_snapshot in children:
+            if child not in visited:
+                restore(env, child_snapshot)
+                visit(child, layout, "plan")
+
+    for k, (obj, arm) in enumerate(START_LAYOUTS):
+        start = start_layout(obj, arm)
+        if start in visited:
+            continue
+        stage(env, controller, start, seed=base_seed + k)
+        visit(start, f"{obj}-{arm}", "plan")
+    for k, state in enumerate(targets):
+        if state not in visited:  # a skill failed on every path to it this round
+            stage(env, controller, state, seed=base_seed + len(START_LAYOUTS) + k)
+            visit(state, "staged", "staged")
+    return rows
+
+
+def read_trials(path: Path) -> list[dict]:
+    """Rows of a trials CSV (numbers converted), ``[]`` when it does not exist."""
+    if not path.exists():
+        return []
+    with path.open(newline="") as handle:
+        reader = csv.DictReader(handle)
+        if tuple(reader.fieldnames or ()) != TRIAL_FIELDS:
+            raise ResumeError(f"{path}: unexpected columns {reader.fieldnames}; use --fresh to start over")
+        rows = []
+        for row in reader:
+            for key in ("round", "seed", "state", "expected_state", "observed_state", "agree", "success", "improper", "steps"):
+                row[key] = int(row[key])
+            for key in ("wall_time", "env_time"):
+                row[key] = float(row[key])
+            rows.append(row)
+    return rows
+
+
+def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fresh: bool = False,
+            session=None, log: Callable[[str], None] | None = print, physics_options: dict | None = None,
+            actions: Iterable[Action] = tuple(Action)) -> list[dict]:
+    """Run rounds until there are ``trials`` of them; returns all trial rows (resumed ones included).
+
+    With ``trials_csv`` every finished round is appended to it, and rounds already in it are
+    not run again (a different ``seed`` raises :class:`ResumeError`; ``fresh=True`` deletes the
+    file first).  ``session`` reuses a PhysicsStepEnv; otherwise one is made with
+    ``physics_options``.  ``actions`` limits the executed actions (e.g. leave out the slow clean).
+    """
+    actions = tuple(sorted(set(Action(a) for a in actions)))
+    path = None if trials_csv is None else Path(trials_csv)
+    if path is not None and fresh and path.exists():
+        path.unlink()
+    rows = read_trials(path) if path is not None else []
+    done_rounds = sorted({row["round"] for row in rows})
+    if rows and {row["seed"] for row in rows} != {round_seed(seed, r) for r in done_rounds}:
+        raise ResumeError(f"{path} was measured with another --seed; pass that seed or --fresh")
+    measured = {row["action"] for row in rows}
+    if rows and measured != {a.name.lower() for a in actions}:
+        raise ResumeError(f"{path} holds trials of {sorted(measured)}, not of the requested actions; use --fresh")
+    todo = [r for r in range(trials) if r not in done_rounds]
+    if done_rounds and log:
+        log(f"resuming: {len(done_rounds)} round(s) already in {path}, {len(todo)} to run")
+    if not todo:
+        return [row for row in rows if row["round"] < trials]
+    if session is None:
+        from tableclean_suite.physics_backend import PhysicsStepEnv
+
+        session = PhysicsStepEnv(**(physics_options or {}))
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    for round_index in todo:
+        start = time.perf_counter()
+        new = run_round(session, round_index, seed, actions=actions)
+        if path is not None:
+            write_header = not path.exists() or path.stat().st_size == 0
+            with path.open("a", newline="") as handle:
+                writer = csv.DictWriter(handle, fieldnames=TRIAL_FIELDS)
+                if write_header:
+                    writer.writeheader()
+                writer.writerows(new)
+        rows.extend(new)
+        if log:
+            agree = sum(r["agree"] for r in new)
+            log(f"round {round_index + 1}/{trials}: {agree}/{len(new)} agree, {time.perf_counter() - start:.1f} s")
+    return [row for row in rows if row["round"] < trials]
+
+
+# ---------------------------------------------------------------------------------------------
+# tables
+# ---------------------------------------------------------------------------------------------
+def _refused(row, model: TaskModel) -> bool:
+    """The controller did not run a skill: the model calls the action improper or ineffective."""
+    outcome = model.step(row["state"], row["action"])[1]
+    return outcome in (Outcome.IMPROPER, Outcome.INEFFECTIVE)
+
+
+def pair_table(rows: Iterable[dict]) -> list[dict]:
+    """Agreement per (state, action), sorted by state code then action."""
+    groups: dict[tuple[int, str], list[dict]] = {}
+    for row in rows:
+        groups.setdefault((row["state"], row["action"]), []).append(row)
+    order = {a.name.lower(): a.value for a in Action}
+    table = []
+    for (state, action), group in sorted(groups.items(), key=lambda kv: (kv[0][0], order[kv[0][1]])):
+        disagreements = sorted({f"{r['observed_state']}/{r['observed_outcome']}" for r in group if not r["agree"]})
+        table.append({
+            "state": state,
+            "state_name": decode(state).name,
+            "action": action,
+            "expected": f"{group[0]['expected_state']}/{group[0]['expected_outcome']}",
+            "trials": len(group),
+            "agreements": sum(r["agree"] for r in group),
+            "agreement_rate": round(sum(r["agree"] for r in group) / len(group), 4),
+            "faults": sum(r["observed_outcome"] == FAULT for r in group),
+            "disagreements_seen": " ".join(disagreements),
+        })
+    return table
+
+
+def skill_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[dict]:
+    """Per skill: executions the controller ran (not refused), success rate, mean steps and seconds."""
+    model = model or TaskModel()
+    rows = list(rows)
+    table = []
+    for action in Action:
+        mine = [r for r in rows if r["action"] == action.name.lower()]
+        ran = [r for r in mine if not _refused(r, model)]
+        n = len(ran)
+        table.append({
+            "skill": action.name.lower(),
+            "executions": n,
+            "successes": sum(r["success"] for r in ran),
+            "success_rate": round(sum(r["success"] for r in ran) / n, 4) if n else float("nan"),
+            "agreement_rate": round(sum(r["agree"] for r in ran) / n, 4) if n else float("nan"),
+            "faults": sum(r["observed_outcome"] == FAULT for r in ran),
+            "mean_steps": round(float(np.mean([r["steps"] for r in ran])), 1) if n else float("nan"),
+            "mean_seconds": round(float(np.mean([r["wall_time"] for r in ran])), 3) if n else float("nan"),
+            "refused": len(mine) - n,
+        })
+    return table
+
+
+def write_csv(path: Path, table: list[dict]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=list(table[0]) if table else ["empty"])
+        writer.writeheader()
+        writer.writerows(table)
+
+
+def format_table(table: list[dict], columns: Iterable[str]) -> str:
+    """A Markdown table of the given columns."""
+    columns = list(columns)
+    lines = ["| " + " | ".join(columns) + " |", "|" + "|".join("---" for _ in columns) + "|"]
+    for row in table:
+        lines.append("| " + " | ".join(str(row[c]) for c in columns) + " |")
+    return "\n".join(lines)
+
+
+def summary(rows: list[dict], model: TaskModel | None = None) -> dict:
+    """Overall agreement, minimum per-pair agreement and per-skill success, against the goals."""
+    pairs, skills = pair_table(rows), skill_table(rows, model)
+    total = len(rows)
+    return {
+        "trials": total,
+        "rounds": len({r["round"] for r in rows}),
+        "agreement": sum(r["agree"] for r in rows) / total if total else float("nan"),
+        "min_pair_agreement": min((p["agreement_rate"] for p in pairs), default=float("nan")),
+        "faults": sum(r["observed_outcome"] == FAULT for r in rows),
+        "skills": {s["skill"]: (s["success_rate"], s["executions"]) for s in skills},
+    }
+
+
+# ---------------------------------------------------------------------------------------------
+# CLI
+# ---------------------------------------------------------------------------------------------
+def add_execution_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of :func:`collect` shared by fidelity and calibrate: --trials, --seed, --actions, --quiet."""
+    parser.add_argument("--trials", type=positive_int, default=5, help="trials per (state, action) pair = rounds (default 5)")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of the placement noise (default 0)")
+    parser.add_argument("--actions", type=action_list, default=tuple(Action),
+                        help="comma-separated actions to execute (default all: move,pick,place,clean)")
+    parser.add_argument("--quiet", action="store_true", help="print only the summary")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.fidelity", description=__doc__.split("\n\n")[0])
+    add_execution_arguments(parser)
+    parser.add_argument("--out", default="results/fidelity", help="output directory (default results/fidelity)")
+    parser.add_argument("--fresh", action="store_true", help="discard earlier trials in --out and start over")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    model = TaskModel()
+    started = time.perf_counter()
+    try:
+        rows = collect(args.trials, args.seed, out / TRIALS_CSV, fresh=args.fresh, log=None if args.quiet else print,
+                       actions=args.actions)
+    except ResumeError as error:
+        parser.error(str(error))  # exits 2
+    pairs, skills = pair_table(rows), skill_table(rows, model)
+    write_csv(out / PAIRS_CSV, pairs)
+    write_csv(out / SKILLS_CSV, skills)
+    result = summary(rows, model)
+    if not args.quiet:
+        print("\nper (state, action):")
+        print(format_table(pairs, ("state", "action", "expected", "trials", "agreement_rate", "faults", "disagreements_seen")))
+    print("\nper skill (executions the controller ran; refused = improper/ineffective, no motion):")
+    print(format_table(skills, ("skill", "executions", "success_rate", "agreement_rate", "faults", "mean_steps", "mean_seconds", "refused")))
+    goal_agree = "meets" if result["agreement"] >= AGREEMENT_GOAL else "below"
+    print(
+        f"\n{result['trials']} trials in {result['rounds']} round(s): agreement {result['agreement']:.2%} "
+        f"({goal_agree} the {AGREEMENT_GOAL:.0%} goal), lowest pair {result['min_pair_agreement']:.2%}, "
+        f"{result['faults']} abstraction fault(s)"
+    )
+    for skill, (rate, n) in result["skills"].items():
+        if n == 0:
+            continue
+        verdict = "meets" if n >= 100 and rate >= SUCCESS_GOAL else ("too few trials for" if n < 100 else "below")
+        print(f"  {skill}: success {rate:.2%} over {n} executions ({verdict} the {SUCCESS_GOAL:.1%}/100-trial goal)")
+    print(f"CSVs in {out}/ ({time.perf_counter() - started:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,70 @@
+"""What the learners actually learned: measured plateaus against exact values, greedy success.
+
+    python -m benchmarks.policy_analysis [--runs 1000] [--iterations 4000] [--long-iterations 20000] [--seed 0]
+
+For every learner x reward pattern x start mode it trains ``--runs`` runs and prints
+- the measured success plateau (last 25 % of the window),
+- the exact epsilon-greedy success of the learned greedy policies (dynamic programming over
+  the model, averaged over runs): what the plateau should equal once the policies are stable,
+- the greedy policies' success at epsilon = 0 (do they solve the task at all?).
+It adds Q-learning with r3 at ``--long-iterations``, to show r3's looping persists.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+from tableclean_suite.bench.cli import non_negative_int, positive_int
+from tableclean_suite import analysis, metrics
+from tableclean_suite.learners import train
+from tableclean_suite.task import StartMode, TaskModel
+
+LEARNERS = ("q_learning", "sarsa")
+REWARDS = ("r1", "r2", "r3", "r4")
+
+
+def analyse(learner: str, reward: str, model: TaskModel, runs: int, iterations: int, seed: int, epsilon: float,
+            max_itr: int) -> dict:
+    """One row: measured plateau, exact epsilon-greedy and greedy success of the learned policies."""
+    result = train(learner, reward, runs=runs, iterations=iterations, seed=seed, model=model, epsilon=epsilon,
+                   max_itr=max_itr)
+    policies = analysis.greedy_policy(result.q)
+    return {
+        "learner": learner,
+        "reward": reward,
+        "start": model.start.value,
+        "iterations": iterations,
+        "success_plateau_%": 100 * metrics.summarize(result)["success_plateau"],
+        "exact_epsilon_greedy_%": 100 * float(np.mean(analysis.exact_success_probability(
+            policies, epsilon, max_itr, model=model))),
+        "greedy_success_%": 100 * float(np.mean(analysis.exact_success_probability(policies, 0.0, max_itr, model=model))),
+    }
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.policy_analysis", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--runs", type=positive_int, default=1000, help="runs per row (default 1000)")
+    parser.add_argument("--iterations", type=positive_int, default=4000, help="training iterations (default 4000)")
+    parser.add_argument("--long-iterations", type=positive_int, default=20000, help="iterations of the long r3 row (default 20000)")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed (default 0)")
+    args = parser.parse_args(argv)
+    import pandas as pd
+
+    epsilon, max_itr = 0.1, 500
+    rows = [
+        analyse(learner, reward, TaskModel(start=start.value), args.runs, args.iterations, args.seed, epsilon, max_itr)
+        for start in StartMode
+        for learner in LEARNERS
+        for reward in REWARDS
+    ]
+    rows.append(analyse("q_learning", "r3", TaskModel(), args.runs, args.long_iterations, args.seed, epsilon, max_itr))
+    with pd.option_context("display.float_format", "{:.2f}".format, "display.width", 160):
+        print(pd.DataFrame(rows).to_string(index=False))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,229 @@
+"""Watch a learned policy: train on the symbolic model, run the greedy policy with skills in physics.
+
+    python -m benchmarks.rollout --reward r4 --video out.mp4 [--learner q_learning]
+        [--object-segment 1 --arm-segment 1] [--iterations N] [--runs R] [--seed S]
+        [--fps F] [--width W --height H] [--frame-every K] [--still PATH]
+
+The learner is trained with ``train()`` on the task model (``--runs`` runs from the chosen start
+layout); the policy is the majority vote over the runs' greedy actions (ties: lowest action).
+It is then executed from the same layout in the ``TableClean`` scene with the SkillController,
+and every ``K``-th control step is written to the video (``.mp4`` through ffmpeg, or ``.gif``)
+with the current symbolic state and action printed on the frame.  ``--still`` saves one frame
+taken while the sponge wipes (the first clean), or the middle of the episode if nothing is wiped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from tableclean_suite.bench.cli import non_negative_int, positive_int  # noqa: E402
+from tableclean_suite.task import Action, TaskModel, TaskState, decode, start_layout  # noqa: E402
+
+VIDEO_SUFFIXES = (".mp4", ".gif")
+#: Frames repeated after each action so the new state can be read.
+HOLD_FRAMES = 6
+#: The still is taken once this fraction of the arm segment's dirt has been wiped in the first clean.
+STILL_WIPED_FRACTION = 0.5
+
+
+def majority_policy(q: np.ndarray) -> np.ndarray:
+    """``(24,)`` int: per state, the greedy action most runs agree on (ties towards the lowest action).
+
+    ``q`` is ``(runs, 24, 4)``; each run's greedy action is the first maximum, as the learners'.
+    """
+    greedy = np.argmax(q, axis=2)  # (runs, 24)
+    votes = np.zeros((q.shape[1], q.shape[2]), dtype=np.int64)
+    for run_greedy in greedy:
+        votes[np.arange(q.shape[1]), run_greedy] += 1
+    return np.argmax(votes, axis=1)
+
+
+class Recorder:
+    """Renders the scene every ``frame_every`` control steps, writes annotated frames to ``writer``."""
+
+    def __init__(self, env, writer, width: int, height: int, camera: str, frame_every: int):
+        from PIL import ImageFont
+
+        self.env, self.writer = env, writer
+        self.width, self.height, self.camera, self.frame_every = width, height, camera, frame_every
+        self.font = ImageFont.load_default(size=max(10, height // 26))
+        self.control_steps = 0
+        self.frames = 0
+        self.state: TaskState | None = None
+        self.action: Action | None = None
+        self.note = ""
+        self.still: np.ndarray | None = None
+        self.middle: np.ndarray | None = None
+        self._dirt_at_clean_start: float | None = None
+
+    def on_step(self) -> None:
+        self.control_steps += 1
+        if self.control_steps % self.frame_every == 0:
+            frame = self.capture()
+            if self.still is None and self.action == Action.CLEAN and self.state is not None:
+                segment = self.state.arm_segment.value
+                dirt = float(self.env.dirt_fraction()[segment])
+                if self._dirt_at_clean_start is None:
+                    self._dirt_at_clean_start = dirt
+                if self._dirt_at_clean_start - dirt >= STILL_WIPED_FRACTION * self._dirt_at_clean_start:
+                    self.still = frame
+
+    def capture(self, repeat: int = 1) -> np.ndarray:
+        from PIL import Image, ImageDraw
+
+        raw = self.env.sim.render(camera_name=self.camera, width=self.width, height=self.height)[::-1]
+        image = Image.fromarray(np.ascontiguousarray(raw))
+        draw = ImageDraw.Draw(image)
+        line_h = self.font.size + 4
+        draw.rectangle([0, 0, self.width, 2 * line_h + 6], fill=(0, 0, 0))
+        state = "?" if self.state is None else f"state {self.state.index}: {self.state.name}"
+        action = "-" if self.action is None else self.action.name.lower()
+        draw.text((6, 3), state, fill=(255, 255, 255), font=self.font)
+        draw.text((6, 3 + line_h), f"action: {action}  {self.note}".rstrip(), fill=(255, 220, 120), font=self.font)
+        frame = np.asarray(image, dtype=np.uint8)
+        for _ in range(repeat):
+            self.writer.append_data(frame)
+            self.frames += 1
+        return frame
+
+
+def train_policy(learner: str, reward: str, start: TaskState, runs: int, iterations: int, seed: int) -> np.ndarray:
+    """The majority greedy policy of ``runs`` symbolic training runs from ``start`` (``(24,)`` actions)."""
+    from tableclean_suite.learners import train
+
+    result = train(learner, reward, runs=runs, iterations=iterations, seed=seed, model=TaskModel(start_state=start))
+    return majority_policy(result.q)
+
+
+def run_rollout(policy: np.ndarray, start: TaskState, video: Path, fps: int, width: int, height: int,
+                frame_every: int = 4, max_actions: int = 20, still: Path | None = None, seed: int = 0,
+                camera: str = "frontview", log=print) -> dict:
+    """Execute ``policy`` in physics from ``start``, writing the video; returns a summary dict."""
+    import imageio.v2 as imageio
+
+    from tableclean_suite.controllers import SkillController, make_skill_env
+    from tableclean_suite.physics_backend import stage
+
+    env = make_skill_env(has_offscreen_renderer=True)
+    writer_kwargs = {"fps": fps}
+    if video.suffix.lower() == ".mp4":
+        writer_kwargs.update(codec="libx264", macro_block_size=2, quality=6)
+    else:
+        writer_kwargs = {"duration": 1000.0 / fps, "loop": 0}
+    video.parent.mkdir(parents=True, exist_ok=True)
+    summary = {"actions": [], "states": [start.index], "reached_terminal": False, "fault": None}
+    with imageio.get_writer(video, **writer_kwargs) as writer:
+        recorder = Recorder(env, writer, width, height, camera, frame_every)
+        controller = SkillController(env, on_step=recorder.on_step)
+        stage(env, SkillController(env), start, seed=seed)
+        state = start
+        recorder.state, recorder.note = state, "(start)"
+        recorder.capture(repeat=HOLD_FRAMES)
+        for _ in range(max_actions):
+            action = Action(int(policy[state.index]))
+            recorder.action, recorder.note = action, "(executing)"
+            result = controller.execute(action)
+            summary["actions"].append(action.name.lower())
+            if log:
+                log(f"{state.index:2d} {action.name.lower():5s} -> "
+                    f"{'fault' if result.state_after is None else result.state_after.index}: {result.reason} "
+                    f"({result.steps} steps, {result.wall_time:.1f} s)")
+            if result.state_after is None:
+                summary["fault"] = result.reason
+                recorder.note = "(abstraction fault: stopped)"
+                recorder.capture(repeat=HOLD_FRAMES)
+                break
+            state = result.state_after
+            summary["states"].append(state.index)
+            recorder.state = state
+            recorder.note = f"-> {result.outcome.name.lower()}" if result.outcome is not None else ""
+            frame = recorder.capture(repeat=HOLD_FRAMES)
+            if recorder.middle is None and len(summary["actions"]) >= 4:
+                recorder.middle = frame
+            if state.is_terminal:
+                summary["reached_terminal"] = True
+                recorder.note = "both segments clean"
+                recorder.capture(repeat=2 * HOLD_FRAMES)
+                break
+        summary["frames"] = recorder.frames
+        summary["control_steps"] = recorder.control_steps
+    if still is not None:
+        from PIL import Image
+
+        frame = recorder.still if recorder.still is not None else recorder.middle
+        if frame is None:
+            frame = recorder.capture()
+        still.parent.mkdir(parents=True, exist_ok=True)
+        Image.fromarray(frame).save(still)
+    env.close()
+    return summary
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.rollout", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--reward", default="r4", help="reward pattern (default r4)")
+    parser.add_argument("--video", required=True, help="output video, .mp4 or .gif")
+    parser.add_argument("--learner", default="q_learning", help="learner (default q_learning)")
+    parser.add_argument("--object-segment", type=int, choices=(1, 2), default=1, help="start: object on segment 1 or 2")
+    parser.add_argument("--arm-segment", type=int, choices=(1, 2), default=1, help="start: arm over segment 1 or 2")
+    parser.add_argument("--iterations", type=positive_int, default=3000, help="training iterations per run (default 3000)")
+    parser.add_argument("--runs", type=positive_int, default=5, help="training runs voting on the policy (default 5)")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="training and placement seed (default 0)")
+    parser.add_argument("--fps", type=positive_int, default=20, help="video frames per second (default 20)")
+    parser.add_argument("--width", type=positive_int, default=480, help="frame width in pixels, even (default 480)")
+    parser.add_argument("--height", type=positive_int, default=360, help="frame height in pixels, even (default 360)")
+    parser.add_argument("--frame-every", type=positive_int, default=4, help="one frame per K control steps (default 4)")
+    parser.add_argument("--max-actions", type=positive_int, default=20, help="stop after this many actions (default 20)")
+    parser.add_argument("--camera", default="frontview", help="camera name (default frontview)")
+    parser.add_argument("--still", help="also save one frame (PNG) taken while wiping")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    from tableclean_suite.learners.rules import get_learner
+    from tableclean_suite.rewards import get_reward_pattern
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    video = Path(args.video)
+    if video.suffix.lower() not in VIDEO_SUFFIXES:
+        parser.error(f"--video must end in {' or '.join(VIDEO_SUFFIXES)}, got {args.video!r}")
+    still = Path(args.still) if args.still else None
+    if still is not None and still.suffix.lower() not in (".png", ".jpg", ".jpeg"):
+        parser.error(f"--still must end in .png or .jpg, got {args.still!r}")
+    for name in ("width", "height"):
+        value = getattr(args, name)
+        if value < 64 or value > 4096 or value % 2:
+            parser.error(f"--{name} must be an even number of pixels in [64, 4096], got {value}")
+    try:
+        get_reward_pattern(args.reward)
+        get_learner(args.learner)
+    except (ValueError, KeyError) as error:
+        parser.error(str(error).strip("'\""))
+    if args.camera not in ("frontview", "birdview", "agentview", "sideview"):
+        parser.error(f"--camera must be one of frontview, birdview, agentview, sideview, got {args.camera!r}")
+
+    start = start_layout(args.object_segment, args.arm_segment)
+    started = time.perf_counter()
+    policy = train_policy(args.learner, args.reward, start, args.runs, args.iterations, args.seed)
+    print(f"policy from {args.runs} run(s) x {args.iterations} iterations ({args.learner}, {args.reward}): "
+          + ", ".join(f"{s}:{Action(int(policy[s])).name.lower()}" for s in range(len(policy)) if not decode(s).is_terminal))
+    summary = run_rollout(policy, start, video, args.fps, args.width, args.height, args.frame_every,
+                          args.max_actions, still, args.seed, args.camera)
+    outcome = "reached the terminal state" if summary["reached_terminal"] else (
+        f"stopped by a fault ({summary['fault']})" if summary["fault"] else f"did not finish in {args.max_actions} actions")
+    print(f"{len(summary['actions'])} actions, {outcome}; wrote {video} ({summary['frames']} frames, "
+          f"{summary['control_steps']} control steps){f' and {still}' if still else ''} in {time.perf_counter() - started:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
