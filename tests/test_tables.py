@@ -2,7 +2,6 @@
 
 import math
 import re
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -10,8 +9,6 @@ import pytest
 
 from tableclean_suite.bench import experiments, tables
 from tableclean_suite.metrics import SUMMARY_SCALARS
-
-PAPER = Path(__file__).resolve().parents[2] / "shared" / "paper.md"
 
 
 def record(experiment="main", learner="q_learning", reward="r1", alpha=0.3, gamma=0.3, **scalars):
@@ -140,30 +137,6 @@ def test_quoted_table4_values():
         assert _same(row["average_reward_convergence_episodes"], conv)
         assert _same(row["max_success_rate_percent"], rate)
         assert _same(row["max_success_episodes"], episodes)
-
-
-def _paper_rows(title: str, first_cells) -> dict:
-    text = PAPER.read_text(encoding="utf-8")
-    section = text[text.index(f"**{title}**"):]
-    rows = {}
-    for line in section.splitlines():
-        cells = [c.strip() for c in line.split("\t")]
-        if cells[0] in first_cells:
-            rows[cells[0]] = [None if c == "-" else float(c) for c in cells[1:]]
-        if len(rows) == len(first_cells):
-            break
-    return rows
-
-
-@pytest.mark.skipif(not PAPER.exists(), reason="paper.md not next to the checkout")
-def test_quoted_values_match_paper_text():
-    table3_rows = _paper_rows("Table 3", list(EXPECTED_TABLE3))
-    for reward, numbers in EXPECTED_TABLE3.items():
-        assert table3_rows[reward] == list(numbers)
-    names = [row[0] for row in EXPECTED_TABLE4]
-    table4_rows = _paper_rows("Table 4", names)
-    for name, *numbers in EXPECTED_TABLE4:
-        assert table4_rows[name] == [None if n is None else float(n) for n in numbers], name
 
 
 # ---------------------------------------------------------------------------

@@ -28,10 +28,6 @@ from pathlib import Path
 #: Above this estimated size ``curves.csv`` keeps every k-th iteration (and says so in config.json).
 CURVES_MAX_BYTES = 20_000_000
 _CURVE_BYTES_PER_ROW = 60  # measured on the defaults: ~45-55 bytes per row
-PAPER_REFERENCE = (
-    "Accelerated Task Learning Using Q-learning with Reduced State Space and Reward with "
-    "Bootstrapping Effect (../shared/paper.md), Sec. 3, Tables 3-4, Figures 3-7"
-)
 EXIT_USAGE = 2
 
 
@@ -176,6 +172,7 @@ def _config_json(args, settings, grid_run, stride: int, elapsed: float) -> dict:
     import pandas
 
     import tableclean_suite
+    from tableclean_suite.bench import paper_data
 
     options = {k: v for k, v in vars(args).items() if k not in ("parser",)}
     return {
@@ -184,7 +181,7 @@ def _config_json(args, settings, grid_run, stride: int, elapsed: float) -> dict:
         "package": "tableclean_suite",
         "package_version": tableclean_suite.__version__,
         "timestamp": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "paper": PAPER_REFERENCE,
+        "paper": paper_data.PAPER_REFERENCE,
         "transitions_sha256": settings.transitions_sha256,
         "cells": {"trained": grid_run.trained, "resumed": grid_run.resumed},
         "seconds": {"total": round(elapsed, 3), "training": round(grid_run.train_seconds, 3),

@@ -1,15 +1,13 @@
 """Tables 3 and 4 of the paper, ours beside the paper's: pure functions, DataFrames in and out.
 
-Nothing here trains, reads or writes files; :mod:`benchmarks.run` does that.
+Nothing here trains, reads or writes files; :mod:`tableclean_suite.bench.run` does that.
 
 Data contract: a *cell record* is one dict per (experiment, trained cell) with the keys
 ``learner, reward, alpha, gamma, experiment, cell_id`` plus the scalar keys of
 :func:`tableclean_suite.metrics.summarize` (:data:`SUMMARY_SCALARS`).  Curves travel as
 ``{metric: ndarray of shape (iterations,)}`` per record (see :func:`curves_long`).
 
-The paper's numbers are quoted verbatim from its Table 3 and Table 4
-(``../shared/paper.md``).  Where the paper's text disagrees with its tables
-(r3 "2360 iterations", Affordance RL "around 55 episodes") the tables are quoted.
+The paper's numbers (its Tables 3 and 4, quoted verbatim) are data in :mod:`.paper_data`.
 """
 
 from __future__ import annotations
@@ -19,6 +17,13 @@ import math
 import numpy as np
 import pandas as pd
 
+from tableclean_suite.bench.paper_data import (  # noqa: F401  (re-exported)
+    PAPER_LEARNER,
+    PAPER_TABLE3,
+    PAPER_TABLE4,
+    PAPER_TABLE4_COLUMNS,
+    SOURCE_QUOTED,
+)
 from tableclean_suite.metrics import SUMMARY_SCALARS
 
 #: Identifying columns of a cell record, in table order.
@@ -30,53 +35,16 @@ EXPERIMENTS = ("main", "alpha_sweep", "gamma_sweep")
 #: Curves written to ``curves.csv`` (the others are cheap to recompute and would triple the file).
 CURVE_METRICS = ("success", "average_reward", "episodes")
 
-#: The paper's Table 3 (Q-learning, alpha = gamma = 0.3), with the success rate each row
-#: reached (Sec. 3.1 text and Table 4), as a fraction so it compares with ``success_plateau``.
-PAPER_TABLE3 = pd.DataFrame(
-    {
-        "reward": ["r1", "r2", "r3", "r4"],
-        "paper_reward_convergence_iterations": [680, 290, 2350, 190],
-        "paper_reward_convergence_episodes": [31, 21, 70, 15],
-        "paper_max_success_iterations": [630, 240, 2350, 140],
-        "paper_max_success_episodes": [25, 14, 70, 10],
-        "paper_success_rate": [0.8394, 0.8473, 0.8108, 0.8477],
-    }
-)
-
-#: The learner whose main rows the paper's Table 3 describes.
-PAPER_LEARNER = "q_learning"
-
 PAPER_COLUMNS = tuple(c for c in PAPER_TABLE3.columns if c != "reward")
 
 TABLE3_COLUMNS = ("cell_id", *KEY_COLUMNS, *SUMMARY_SCALARS, *PAPER_COLUMNS)
 
-TABLE4_COLUMNS = (
-    "methodology",
-    "average_reward_convergence_episodes",
-    "max_success_rate_percent",
-    "max_success_episodes",
-    "source",
-)
+TABLE4_COLUMNS = (*PAPER_TABLE4_COLUMNS, "source")
 
+#: ``source`` of a row of this run in Table 4.
 SOURCE_OURS = "this run"
-SOURCE_QUOTED = "quoted from the paper"
 
 _NA = float("nan")
-
-#: The paper's Table 4, verbatim ("-" in the paper is NaN here).
-PAPER_TABLE4 = pd.DataFrame(
-    [
-        ("Classic RL [8]", 1000, 35.0, 1000),
-        ("Classic RL [7]", _NA, 4.0, 1000),
-        ("Affordance RL [8]", 48, 99.9, _NA),
-        ("Interactive RL (L=0.5) [8]", 40, _NA, _NA),
-        ("This work with reward r1", 31, 83.94, 25),
-        ("This work with reward r2", 21, 84.73, 14),
-        ("This work with reward r3", 70, 81.08, 70),
-        ("This work with reward r4", 15, 84.77, 10),
-    ],
-    columns=list(TABLE4_COLUMNS[:-1]),
-).assign(source=SOURCE_QUOTED)
 
 
 def _ordered(values, preferred):
