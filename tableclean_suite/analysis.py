@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from tableclean_suite.learners.transitions import TransitionTable
-from tableclean_suite.task import N_ACTIONS, Outcome, TaskModel, TaskState
+from tableclean_suite.task import Outcome, TaskModel, TaskState
 
 
 def greedy_policy(q: np.ndarray) -> np.ndarray:
@@ -19,13 +19,13 @@ def greedy_policy(q: np.ndarray) -> np.ndarray:
     return np.argmax(np.asarray(q), axis=-1)
 
 
-def action_probabilities(policy: np.ndarray, epsilon: float) -> np.ndarray:
-    """Epsilon-greedy action probabilities ``(..., S, A)`` of a greedy ``policy`` ``(..., S)``."""
+def action_probabilities(policy: np.ndarray, epsilon: float, n_actions: int) -> np.ndarray:
+    """Epsilon-greedy action probabilities ``(..., S, n_actions)`` of a greedy ``policy`` ``(..., S)``."""
     if not 0.0 <= epsilon <= 1.0:
         raise ValueError(f"epsilon must be in [0, 1], got {epsilon!r}")
     policy = np.asarray(policy)
-    probabilities = np.full(policy.shape + (N_ACTIONS,), epsilon / N_ACTIONS)
-    np.put_along_axis(probabilities, policy[..., None], 1.0 - epsilon + epsilon / N_ACTIONS, axis=-1)
+    probabilities = np.full(policy.shape + (n_actions,), epsilon / n_actions)
+    np.put_along_axis(probabilities, policy[..., None], 1.0 - epsilon + epsilon / n_actions, axis=-1)
     return probabilities
 
 
@@ -40,8 +40,8 @@ def exact_success_probability(
     """Probability that an episode succeeds (terminal within ``max_itr`` steps, no improper action).
 
     Args:
-        policy: greedy action per state, shape ``(S,)`` or ``(R, S)`` for R policies.
-        epsilon: exploration rate in [0, 1] (random actions uniform over all four).
+        policy: greedy action per state, shape ``(S,)`` or ``(R, S)`` for R policies (S = ``model.n_states``).
+        epsilon: exploration rate in [0, 1] (random actions uniform over the task's actions).
         max_itr: episode length limit (>= 1).
         model: the task model (rules and start states); default ``TaskModel()``.
         table: transitions to use instead of the model's (e.g. calibrated).
@@ -58,7 +58,10 @@ def exact_success_probability(
     policy = np.asarray(policy)
     single = policy.ndim == 1
     policy = np.atleast_2d(policy)
-    pi = action_probabilities(policy, epsilon)  # (R, S, A)
+    if policy.shape[-1] != model.n_states:
+        raise ValueError(f"policy has {policy.shape[-1]} states; task {model.spec.name!r} has {model.n_states}")
+    table.check_model(model)
+    pi = action_probabilities(policy, epsilon, model.n_actions)  # (R, S, A)
     probability = np.diff(table.cumulative, axis=2, prepend=0.0)  # (S, A, K)
     safe = probability * (table.outcome != Outcome.IMPROPER)
     finishing = (safe * (table.outcome == Outcome.TERMINAL)).sum(axis=2)  # (S, A)

@@ -32,7 +32,7 @@ from collections import Counter
 import numpy as np
 
 from tableclean_suite.learners.rng import run_key
-from tableclean_suite.task import N_ACTIONS, N_STATES, Action, ObjectLocation, Segment, TaskModel, TaskState, as_state
+from tableclean_suite.task import HELD, Action, TaskModel, TaskState, as_state
 
 #: robosuite.make keyword arguments of every physics scene (callers may override any of them).
 FAULT_POLICIES = ("retry", "raise")
@@ -74,9 +74,10 @@ def layout_of(state: TaskState) -> tuple[int, int, tuple[int, ...]]:
 
     A held object is staged by resetting with the object on the arm's segment and picking it.
     """
-    arm = state.arm_segment.number
-    obj = arm if state.object_location == ObjectLocation.IN_GRIPPER else Segment(int(state.object_location)).number
-    dirty = tuple(s.number for s in Segment if not state.is_clean(s))
+    (where,) = state.objects
+    arm = state.arm + 1
+    obj = arm if where == HELD else where + 1
+    dirty = tuple(k + 1 for k in range(state.n_segments) if not state.is_clean(k))
     return obj, arm, dirty
 
 
@@ -92,9 +93,9 @@ def stage(env, controller, state, seed: int | None = None) -> TaskState:
     obj, arm, dirty = layout_of(state)
     if seed is not None:
         env.rng = np.random.default_rng(seed)
-    env.object_segment = Segment.from_number(obj)
-    env.arm_segment = Segment.from_number(arm)
-    env.dirty_segments = tuple(Segment.from_number(s) for s in dirty)
+    env.object_segment = obj - 1
+    env.arm_segment = arm - 1
+    env.dirty_segments = tuple(s - 1 for s in dirty)
     env.reset()
     if state.holding:
         result = controller.execute(Action.PICK)
@@ -259,7 +260,7 @@ def train_physics(learner, reward, model, runs, iterations, seed, first_run, wor
 
     Returns:
         dict with ``rewards`` (R, T) float64, ``outcomes``/``states``/``actions``/``episode_end``
-        (R, T) int8, ``q`` (R, 24, 4) float64 and ``stats`` (counters, see the module docstring).
+        (R, T) of the model's ``record_dtype``, ``q`` (R, S, A) float64 and ``stats`` (counters, see the module docstring).
     """
     options = _check_options(physics_options or {})
     if workers is None:
@@ -295,9 +296,10 @@ def train_physics(learner, reward, model, runs, iterations, seed, first_run, wor
     if bar is not None:
         bar.close()
 
-    records = {name: np.zeros((runs, iterations), dtype=np.int8) for name in ("outcomes", "states", "actions", "episode_end")}
+    records = {name: np.zeros((runs, iterations), dtype=model.record_dtype)
+               for name in ("outcomes", "states", "actions", "episode_end")}
     records["rewards"] = np.zeros((runs, iterations), dtype=np.float64)
-    records["q"] = np.zeros((runs, N_STATES, N_ACTIONS), dtype=np.float64)
+    records["q"] = np.zeros((runs, model.n_states, model.n_actions), dtype=np.float64)
     for out, _ in results:
         for i, record in out:
             for name in records:
@@ -326,3 +328,49 @@ def _drain(queue, bar) -> None:
         done += queue.get()
     if done:
         bar.update(done)
+
+
+def check_physical_task(model: TaskModel) -> None:
+    """Raise ``ValueError`` when the physical scene cannot build ``model``'s spec yet.
+
+    The ``TableClean`` scene has the paper's two segments and one object, and skills for
+    the paper's four actions.
+    """
+    from tableclean_suite.environments.config import SCENE_SEGMENTS
+    from tableclean_suite.task import PAPER_SPEC
+
+    spec = model.spec
+    if spec.segments != SCENE_SEGMENTS or spec.n_objects != PAPER_SPEC.n_objects or spec.actions != PAPER_SPEC.actions:
+        raise ValueError(
+            f"the physical scene supports {SCENE_SEGMENTS} segments, {PAPER_SPEC.n_objects} object and the actions "
+            f"{list(PAPER_SPEC.actions)} (the 'paper' spec); task {spec.name!r} has {spec.segments} segments, "
+            f"{spec.n_objects} objects and actions {list(spec.actions)}"
+        )
+
+
+class PhysicsBackend:
+    """``train(backend="physics")``: skills in MuJoCo (see the module docstring)."""
+
+    name = "physics"
+
+    def check_options(self, model: TaskModel, options: dict) -> dict:
+        """Accepts ``physics_options`` (see :data:`PHYSICS_OPTIONS`); refuses specs the scene cannot build."""
+        unknown = sorted(set(options) - {"physics_options"})
+        if unknown:
+            raise ValueError(f"backend 'physics': unknown option(s) {unknown}; allowed: 'physics_options' "
+                             "(transitions= is only used with backend='calibrated')")
+        check_physical_task(model)
+        return {"physics_options": _check_options(options.get("physics_options") or {})}
+
+    def train(self, job):
+        from tableclean_suite.backends import BackendRecords
+
+        records = train_physics(
+            job.learner, job.reward, job.model, job.runs, job.iterations, job.seed, job.first_run, job.workers,
+            job.options["physics_options"], job.progress, **job.hyperparameters,
+        )
+        stats = records.pop("stats")
+        return BackendRecords(**records, info={"physics": stats})
+
+
+PHYSICS = PhysicsBackend()

@@ -4,18 +4,15 @@ import numpy as np
 import pytest
 
 from tableclean_suite.task import (
-    N_STATES,
+    HELD,
     PAPER_OPTIMAL_PLAN,
     PAPER_START,
     START_LAYOUTS,
     TABLE1_STATES,
     Action,
-    ObjectLocation,
     Outcome,
-    Segment,
     TaskModel,
     TaskState,
-    all_states,
     as_action,
     decode,
     encode,
@@ -23,12 +20,17 @@ from tableclean_suite.task import (
     table1_number,
 )
 
-S1, S2 = Segment.SEGMENT_1, Segment.SEGMENT_2
-ON1, ON2, HELD = ObjectLocation.ON_SEGMENT_1, ObjectLocation.ON_SEGMENT_2, ObjectLocation.IN_GRIPPER
+S1, S2 = 0, 1  # segment indices (0-based)
+ON1, ON2 = 0, 1  # object locations: lying on segment 1 / 2, or HELD
+N_STATES = TaskModel().n_states
 
 
 def state(c1, c2, obj, arm):
-    return TaskState(c1, c2, obj, arm)
+    return TaskState((c1, c2), (obj,), arm)
+
+
+def all_states():
+    return TaskModel().all_states()
 
 
 def test_encode_decode_round_trip_covers_all_codes():
@@ -39,7 +41,8 @@ def test_encode_decode_round_trip_covers_all_codes():
 
 def test_encoding_formula_matches_docstring():
     s = state(True, False, HELD, S2)
-    assert encode(s) == ((1 * 2 + 0) * 3 + 2) * 2 + 1
+    held_digit = 2  # the paper-era object_location code of "in the gripper"
+    assert encode(s) == ((1 * 2 + 0) * 3 + held_digit) * 2 + 1
 
 
 @pytest.mark.parametrize("bad", [-1, 24, 100])
@@ -58,8 +61,8 @@ def test_unique_readable_names():
 @pytest.mark.parametrize("arm", [S1, S2])
 def test_move_switches_segment_and_carries_held_object(obj, arm):
     nxt, outcome = TaskModel().step(state(False, False, obj, arm), Action.MOVE)
-    assert nxt.arm_segment == arm.other
-    assert nxt.object_location == obj  # a held object stays held; a lying one stays where it is
+    assert nxt.arm == 1 - arm
+    assert nxt.objects == (obj,)  # a held object stays held; a lying one stays where it is
     assert outcome == Outcome.ROUTINE
 
 
@@ -114,6 +117,8 @@ def test_action_mask_marks_improper_actions():
 def test_unknown_action_is_rejected_with_allowed_list(bad):
     with pytest.raises(ValueError, match="allowed: 0/move"):
         as_action(bad)
+    with pytest.raises(ValueError, match="allowed: 0/move"):
+        TaskModel().action_index(bad)
 
 
 def test_actions_by_name_and_number():
@@ -146,7 +151,7 @@ def test_reachable_counts_from_unclean_starts():
     assert sum(s.is_terminal for s in reachable) == 2
     assert sum(not s.is_terminal for s in reachable) == 18
     # every non-terminal combination of the 3 cleanliness pairs x 6 layouts is reachable
-    assert {(s.segment1_clean, s.segment2_clean) for s in reachable if not s.is_terminal} == {
+    assert {s.clean for s in reachable if not s.is_terminal} == {
         (False, False), (True, False), (False, True)
     }
 

@@ -9,7 +9,7 @@ import numpy as np
 
 from tableclean_suite.gym_envs.symbolic import _NO_STATE, TableCleanBase, render_text
 from tableclean_suite.rewards import RewardPattern
-from tableclean_suite.task import Outcome, TaskModel, decode
+from tableclean_suite.task import Outcome, TaskModel, TaskSpec
 
 #: Default size ``(height, width)`` of the ``rgb_array`` camera frame.
 CAMERA_FRAME_SIZE = (360, 480)
@@ -97,10 +97,11 @@ class TableCleanSkillsEnv(TableCleanBase):
 
     ## Arguments
     ```python
-    gymnasium.make("TableCleanSkills-v0", reward="r4", model=None, render_mode=None,
+    gymnasium.make("TableCleanSkills-v0", reward="r4", task="paper", start=None, render_mode=None,
                    env_kwargs=None, skill_configs=None, camera="frontview", frame_size=(360, 480))
     ```
-    - ``reward``, ``model``: as ``TableCleanSymbolic-v0``.
+    - ``reward``, ``task``, ``start``, ``model``: as ``TableCleanSymbolic-v0``; the physical scene
+      builds the ``paper`` spec only for now, and any other spec is refused with a ``ValueError``.
     - ``render_mode``: ``"ansi"`` (text picture of the observed state) or ``"rgb_array"``
       (offscreen camera image, ``frame_size`` = (height, width)).
     - ``env_kwargs``: overrides of ``robosuite.make`` arguments
@@ -116,8 +117,12 @@ class TableCleanSkillsEnv(TableCleanBase):
 
     def __init__(self, reward: str | RewardPattern = "r4", model: TaskModel | None = None,
                  render_mode: str | None = None, env_kwargs: dict | None = None, skill_configs=None,
-                 camera: str = "frontview", frame_size: tuple[int, int] = CAMERA_FRAME_SIZE):
-        super().__init__(reward=reward, model=model, render_mode=render_mode)
+                 camera: str = "frontview", frame_size: tuple[int, int] = CAMERA_FRAME_SIZE,
+                 task: "str | TaskSpec | None" = None, start: str | None = None):
+        super().__init__(reward=reward, model=model, render_mode=render_mode, task=task, start=start)
+        from tableclean_suite.physics_backend import check_physical_task
+
+        check_physical_task(self.model)
         if env_kwargs is not None and not isinstance(env_kwargs, dict):
             raise TypeError(f"env_kwargs must be a dict of robosuite.make arguments, got {type(env_kwargs).__name__}")
         if len(frame_size) != 2 or any(int(n) != n or n < 16 for n in frame_size):
@@ -156,7 +161,7 @@ class TableCleanSkillsEnv(TableCleanBase):
         self._advance(state, next_state, action, outcome)
         info = self._info(outcome)
         info["skill_result"] = result
-        return int(self.s), reward, decode(next_state).is_terminal, False, info
+        return int(self.s), reward, self.model.decode(next_state).is_terminal, False, info
 
     def _render_rgb(self) -> np.ndarray:
         height, width = self.frame_size
@@ -165,7 +170,7 @@ class TableCleanSkillsEnv(TableCleanBase):
 
     def render(self):
         if self.render_mode == "ansi" and self.s != _NO_STATE:
-            return render_text(decode(self.s), self.lastaction, self.last_outcome)
+            return render_text(self.model.decode(self.s), self._last_action_name(), self.last_outcome)
         return super().render()
 
     def close(self):

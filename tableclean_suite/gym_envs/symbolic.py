@@ -1,4 +1,4 @@
-"""``TableCleanSymbolic-v0``: the paper's task model as a Gymnasium environment (Taxi-style).
+"""``TableCleanSymbolic-v0``: a task spec's model as a Gymnasium environment (Taxi-style).
 
 Also holds what the physics env (:mod:`.skills`) shares with it: argument checks, the reward
 with the looping penalty's history, ``info``, and the ansi/rgb renderings of a task state.
@@ -11,19 +11,7 @@ import gymnasium as gym
 from gymnasium import spaces
 
 from tableclean_suite.rewards import RewardPattern, get_reward_pattern
-from tableclean_suite.task import (
-    N_ACTIONS,
-    N_STATES,
-    Action,
-    ObjectLocation,
-    Outcome,
-    Segment,
-    TaskModel,
-    TaskState,
-    as_action,
-    as_state,
-    decode,
-)
+from tableclean_suite.task import Outcome, TaskModel, TaskSpec, TaskState, as_task_model
 
 #: Episode length after which the registry's TimeLimit truncates (the paper-faithful max_itr default).
 MAX_EPISODE_STEPS = 500
@@ -33,7 +21,7 @@ _NO_STATE = -1
 
 # colours of the drawn frame (RGB)
 _TABLE = (205, 170, 125)
-_SEGMENT_TINT = ((190, 205, 235), (240, 205, 170))  # segment 1 blue-ish, segment 2 orange-ish
+_SEGMENT_TINT = ((190, 205, 235), (240, 205, 170))  # alternating: odd segments blue-ish, even orange-ish
 _DIRT = (110, 80, 40)
 _OBJECT = (200, 40, 40)
 _ARM = (60, 60, 60)
@@ -46,26 +34,28 @@ class TableCleanBase(gym.Env):
     metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 2}
 
     def __init__(self, reward: str | RewardPattern = "r4", model: TaskModel | None = None,
-                 render_mode: str | None = None):
+                 render_mode: str | None = None, task: "str | TaskSpec | None" = None, start: str | None = None):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"unknown render_mode {render_mode!r}; allowed: None, {', '.join(self.metadata['render_modes'])}")
-        if model is None:
-            model = TaskModel()
-        if not isinstance(model, TaskModel):
+        if model is not None and not isinstance(model, TaskModel):
             raise TypeError(f"model must be a tableclean_suite.task.TaskModel, got {type(model).__name__}")
+        if model is not None and (task is not None or start is not None):
+            raise ValueError("give either model= or task=/start=, not both")
+        if model is None:
+            model = TaskModel(spec=task, start=start)  # ValueError names the allowed specs and start modes
         self.reward_pattern = get_reward_pattern(reward)  # ValueError names the allowed patterns
         self.model = model
         self.render_mode = render_mode
-        self.action_space = spaces.Discrete(N_ACTIONS)
-        self.observation_space = spaces.Discrete(N_STATES)
+        self.action_space = spaces.Discrete(model.n_actions)
+        self.observation_space = spaces.Discrete(model.n_states)
         self.s: int = _NO_STATE  # current state code
         self.previous: int = _NO_STATE  # s_{t-1} for r4's looping penalty (-1 at an episode's first step)
-        self.lastaction: Action | None = None
+        self.lastaction: int | None = None  # index in the task's action order
         self.last_outcome: Outcome | None = None
 
     # -- helpers ---------------------------------------------------------------------------------
     def action_mask(self, state: int | None = None) -> np.ndarray:
-        """``(4,)`` int8, 1 where the action is not improper (the task model's mask; all 0 at terminal)."""
+        """``(n_actions,)`` int8, 1 where the action is not improper (the task model's mask; all 0 at terminal)."""
         return self.model.action_mask(self.s if state is None else state)
 
     def _begin_episode(self, state: TaskState):
@@ -82,32 +72,34 @@ class TableCleanBase(gym.Env):
         if unknown:
             raise ValueError(f"unknown reset option(s) {unknown}; allowed: 'state'")
         if options.get("state") is not None:
-            state = as_state(options["state"])
+            state = self.model.as_state(options["state"])
             if state.is_terminal:
                 raise ValueError(f"cannot start in the terminal state {state.index} ({state.name})")
             return state
         return self.model.sample_start(float(self.np_random.random()))
 
-    def _check_action(self, action) -> Action:
-        if not self.action_space.contains(action) and not isinstance(action, Action):
-            raise ValueError(f"action must be in Discrete({N_ACTIONS}) (0 move, 1 pick, 2 place, 3 clean), got {action!r}")
+    def _check_action(self, action) -> int:
+        """The action's index; ``ValueError`` names the allowed ones."""
+        if not self.action_space.contains(action):
+            allowed = ", ".join(f"{i} {name}" for i, name in enumerate(self.model.action_names))
+            raise ValueError(f"action must be in Discrete({self.model.n_actions}) ({allowed}), got {action!r}")
         if self.s == _NO_STATE:
             raise RuntimeError("call reset() before step()")
-        if decode(self.s).is_terminal:
-            raise RuntimeError("the episode has terminated (both segments clean); call reset()")
-        return as_action(int(action))
+        if self.model.decode(self.s).is_terminal:
+            raise RuntimeError("the episode has terminated (every segment clean); call reset()")
+        return int(action)
 
     def _reward(self, outcome: Outcome, state: int, next_state: int) -> float:
         return float(self.reward_pattern.reward(int(outcome), state, next_state, self.previous))
 
     def _info(self, outcome: Outcome | None = None) -> dict:
-        info = {"action_mask": self.action_mask(), "state_name": decode(self.s).name}
+        info = {"action_mask": self.action_mask(), "state_name": self.model.decode(self.s).name}
         if outcome is not None:
             info["outcome"] = int(outcome)
             info["outcome_name"] = outcome.name.lower()
         return info
 
-    def _advance(self, state: int, next_state: int, action: Action, outcome: Outcome) -> None:
+    def _advance(self, state: int, next_state: int, action: int, outcome: Outcome) -> None:
         self.previous, self.s = state, next_state
         self.lastaction, self.last_outcome = action, outcome
 
@@ -122,114 +114,132 @@ class TableCleanBase(gym.Env):
         if self.s == _NO_STATE:
             raise RuntimeError("call reset() before render()")
         if self.render_mode == "ansi":
-            return render_text(decode(self.s), self.lastaction, self.last_outcome)
+            return render_text(self.model.decode(self.s), self._last_action_name(), self.last_outcome)
         return self._render_rgb()
 
+    def _last_action_name(self) -> str | None:
+        return None if self.lastaction is None else self.model.action_names[self.lastaction]
+
     def _render_rgb(self) -> np.ndarray:
-        return render_image(decode(self.s), self.lastaction, self.last_outcome)
+        return render_image(self.model.decode(self.s), self._last_action_name(), self.last_outcome)
 
 
-def render_text(state: TaskState, action: Action | None = None, outcome: Outcome | None = None) -> str:
-    """A small text picture of the table, e.g.::
+def _last_text(action: str | None, outcome: Outcome | None) -> str:
+    if action is None:
+        return ""
+    return f"   last: {action}" + (f" ({outcome.name.lower()})" if outcome is not None else "")
+
+
+def _object_label(state: TaskState, j: int) -> str:
+    return "obj" if state.n_objects == 1 else f"o{j + 1}"
+
+
+def render_text(state: TaskState, action: str | None = None, outcome: Outcome | None = None) -> str:
+    """A small text picture of the table (any number of segments and objects), e.g.::
 
         +------------+------------+
         | S1 ~dirty~ | S2  clean  |
-        |    [obj]   |            |
+        |   [obj]    |            |
         |    ARM     |            |
         +------------+------------+
         state 0: S1:unclean+obj S2:unclean | arm@S1   last: move (routine)
+
+    ``action`` is the last action's name (None before the first step).
     """
     width = 12
     cells = {"status": [], "object": [], "arm": []}
-    for segment in Segment:
-        cells["status"].append(f"S{segment.number} " + ("clean" if state.is_clean(segment) else "~dirty~"))
-        cells["object"].append("[obj]" if state.object_location == ObjectLocation.on(segment) else "")
-        here = state.arm_segment == segment
-        cells["arm"].append(("ARM[obj]" if state.holding else "ARM") if here else "")
-    rule = "+" + "+".join("-" * width for _ in Segment) + "+"
+    held = [_object_label(state, j) for j in range(state.n_objects) if state.objects[j] < 0]
+    for k in range(state.n_segments):
+        cells["status"].append(f"S{k + 1} " + ("clean" if state.is_clean(k) else "~dirty~"))
+        cells["object"].append("".join(f"[{_object_label(state, j)}]" for j in state.objects_on(k)))
+        cells["arm"].append(("ARM" + "".join(f"[{h}]" for h in held)) if state.arm == k else "")
+    rule = "+" + "+".join("-" * width for _ in range(state.n_segments)) + "+"
     lines = [rule]
     for row in ("status", "object", "arm"):
         lines.append("|" + "|".join(text.center(width) for text in cells[row]) + "|")
     lines.append(rule)
-    last = "" if action is None else f"   last: {action.name.lower()}" + (f" ({outcome.name.lower()})" if outcome is not None else "")
-    lines.append(f"state {state.index}: {state.name}{last}")
+    lines.append(f"state {state.index}: {state.name}{_last_text(action, outcome)}")
     return "\n".join(lines) + "\n"
 
 
-def render_image(state: TaskState, action: Action | None = None, outcome: Outcome | None = None,
+def render_image(state: TaskState, action: str | None = None, outcome: Outcome | None = None,
                  size: tuple[int, int] = SYMBOLIC_FRAME_SIZE) -> np.ndarray:
-    """A drawn top view of the task state: ``(height, width, 3)`` uint8."""
+    """A drawn top view of the task state: ``(height, width, 3)`` uint8, one panel per segment."""
     from PIL import Image, ImageDraw
 
     height, width = size
     image = Image.new("RGB", (width, height), (245, 245, 245))
     draw = ImageDraw.Draw(image)
     margin, gap, text_h = 20, 16, 40
-    seg_w = (width - 2 * margin - gap) // 2
+    n = state.n_segments
+    seg_w = (width - 2 * margin - (n - 1) * gap) // n
     seg_h = height - 2 * margin - text_h
+    box_half = max(4, min(14, seg_w // 8))
     draw.rectangle([margin - 8, margin - 8, width - margin + 8, margin + seg_h + 8], fill=_TABLE)
-    for segment in Segment:
-        x0 = margin + segment.value * (seg_w + gap)
-        box = [x0, margin, x0 + seg_w, margin + seg_h]
-        draw.rectangle(box, fill=_SEGMENT_TINT[segment.value], outline=_TEXT)
-        if not state.is_clean(segment):
-            rng = np.random.default_rng(7 + segment.value)  # fixed speckle pattern
+    for k in range(n):
+        x0 = margin + k * (seg_w + gap)
+        draw.rectangle([x0, margin, x0 + seg_w, margin + seg_h], fill=_SEGMENT_TINT[k % len(_SEGMENT_TINT)], outline=_TEXT)
+        if not state.is_clean(k):
+            rng = np.random.default_rng(7 + k)  # fixed speckle pattern per segment
             for x, y in rng.uniform(0.08, 0.92, size=(18, 2)):
                 cx, cy = x0 + x * seg_w, margin + y * seg_h
                 draw.ellipse([cx - 4, cy - 4, cx + 4, cy + 4], fill=_DIRT)
-        draw.text((x0 + 6, margin + 4), f"S{segment.number} {'clean' if state.is_clean(segment) else 'dirty'}", fill=_TEXT)
+        draw.text((x0 + 6, margin + 4), f"S{k + 1} {'clean' if state.is_clean(k) else 'dirty'}", fill=_TEXT)
         cx, cy = x0 + seg_w / 2, margin + seg_h / 2
-        if state.object_location == ObjectLocation.on(segment):
-            draw.rectangle([cx - 14, cy + 6, cx + 14, cy + 34], fill=_OBJECT, outline=_TEXT)
-        if state.arm_segment == segment:
+        lying = state.objects_on(k)
+        for i, j in enumerate(lying):
+            ox = cx + (i - (len(lying) - 1) / 2) * (2 * box_half + 4)
+            draw.rectangle([ox - box_half, cy + 6, ox + box_half, cy + 6 + 2 * box_half], fill=_OBJECT, outline=_TEXT)
+            if state.n_objects > 1:
+                draw.text((ox - box_half + 2, cy + 8), str(j + 1), fill=_TEXT)
+        if state.arm == k:
             # gripper seen from above: a bar with two fingers, holding the object if held
             draw.rectangle([cx - 26, cy - 34, cx + 26, cy - 26], fill=_ARM)
             draw.rectangle([cx - 26, cy - 26, cx - 20, cy - 6], fill=_ARM)
             draw.rectangle([cx + 20, cy - 26, cx + 26, cy - 6], fill=_ARM)
             if state.holding:
-                draw.rectangle([cx - 14, cy - 24, cx + 14, cy + 2], fill=_OBJECT, outline=_TEXT)
-    caption = f"state {state.index}"
-    if action is not None:
-        caption += f"   last: {action.name.lower()}" + (f" ({outcome.name.lower()})" if outcome is not None else "")
+                draw.rectangle([cx - box_half, cy - 24, cx + box_half, cy + 2], fill=_OBJECT, outline=_TEXT)
+    caption = f"state {state.index}{_last_text(action, outcome)}"
     draw.text((margin, height - text_h + 4), caption, fill=_TEXT)
     draw.text((margin, height - text_h + 20), state.name, fill=_TEXT)
     return np.asarray(image, dtype=np.uint8)
 
 
 class TableCleanSymbolicEnv(TableCleanBase):
-    """The two-segment table-cleaning task of the paper as a tabular Gymnasium environment.
+    """A table-cleaning task spec (default the paper's) as a tabular Gymnasium environment.
 
     ## Description
-    A table has two segments, each clean or unclean, and one object lying on a segment or held
-    by the robot's gripper; the arm is above one segment.  The sponge has a fixed home, so it is
-    not part of the state.  The goal is to clean both segments; an object lying on a segment
-    must first be moved away from it.  This environment steps the task model
-    (:class:`tableclean_suite.task.TaskModel`); ``TableCleanSkills-v0`` executes the same
-    actions with skills in MuJoCo.
+    A table has N segments (the paper: two), each clean or unclean, and M objects (the paper:
+    one) lying on a segment or held by the robot's gripper; the arm is above one segment.  The
+    sponge has a fixed home, so it is not part of the state.  The goal is to clean every
+    segment; an object lying on a segment must first be moved away from it.  This environment
+    steps the task model (:class:`tableclean_suite.task.TaskModel`, whose docstring states every
+    rule); ``TableCleanSkills-v0`` executes the paper's actions with skills in MuJoCo.
 
     ## Action Space
-    ``Discrete(4)``:
-    - 0: move (the arm goes to the other segment, carrying a held object)
-    - 1: pick (the object on the arm's segment)
+    ``Discrete(A)``, the spec's actions in order; the paper's ``Discrete(4)``:
+    - 0: move (the arm goes to the next segment, carrying a held object)
+    - 1: pick (the lowest-numbered object on the arm's segment)
     - 2: place (the held object on the arm's segment)
     - 3: clean (the arm's segment)
 
     ## Observation Space
-    ``Discrete(24)``, the state code
-    ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment``
+    ``Discrete(S)``, the state code of :func:`tableclean_suite.task.encode`; for the paper
+    ``Discrete(24)``, ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment``
     with cleanliness 0/1, ``object_location`` 0 on segment 1, 1 on segment 2, 2 in the gripper,
-    and ``arm_segment`` 0 for segment 1, 1 for segment 2 (:func:`tableclean_suite.task.encode` /
-    ``decode``).  From the four both-unclean starts 20 states are reachable (18 non-terminal).
+    and ``arm_segment`` 0 for segment 1, 1 for segment 2 (``env.unwrapped.model.decode(code)``).
+    From the four both-unclean starts 20 states are reachable (18 non-terminal);
+    ``three_segments`` has 96 codes, 90 reachable.
 
     ## Starting State
-    The model's start (default: the paper's Table 1 state 4 = code 0, both unclean, object and
-    arm over segment 1; ``TaskModel(start="uniform_unclean")`` draws among the four
-    both-unclean layouts with ``self.np_random``).  ``reset(options={"state": code})`` starts
-    anywhere non-terminal.
+    The spec's start (default: every segment unclean, objects and arm over segment 1; for the
+    paper Table 1's state 4 = code 0); ``start="uniform_unclean"`` draws among every all-unclean
+    layout with ``self.np_random``.  ``reset(options={"state": code})`` starts anywhere
+    non-terminal.
 
     ## Rewards
     From the reward pattern (default ``"r4"``, Table 2 of the paper):
-    - +1 for the clean that makes both segments clean (terminal).
+    - +1 for the clean that makes every segment clean (terminal).
     - +1 for cleaning an unclean segment (r2-r4).
     - -0.01 for cleaning a clean segment, and for an ineffective pick/place.
     - -0.01 (r1, r2) or +0.01 (r3, r4) per move/pick/place.
@@ -239,28 +249,31 @@ class TableCleanSymbolicEnv(TableCleanBase):
       step or leaves the state unchanged (looping penalty; the env keeps s_{t-1}).
 
     ## Episode End
-    - Termination: both segments are clean.
+    - Termination: every segment is clean.
     - Truncation: after 500 steps (``max_episode_steps`` of the registry, the learners'
       ``max_itr`` default).
 
     ## Information
-    ``step`` and ``reset`` return ``info`` with ``"action_mask"`` (``(4,)`` int8, 1 where the
+    ``step`` and ``reset`` return ``info`` with ``"action_mask"`` (``(A,)`` int8, 1 where the
     action is not improper; all 0 at the terminal state), ``"state_name"``, and after a step
     ``"outcome"`` (:class:`tableclean_suite.task.Outcome` code), ``"outcome_name"`` and
     ``"prob"`` (1.0: the model is deterministic).
 
     ## Arguments
     ```python
-    gymnasium.make("TableCleanSymbolic-v0", reward="r4", model=None, render_mode=None)
+    gymnasium.make("TableCleanSymbolic-v0", reward="r4", task="paper", start=None, render_mode=None)
     ```
+    - ``task``: a registered spec name (``"paper"``, ``"three_segments"``, ...), a
+      :class:`tableclean_suite.task.TaskSpec` or a ``.json`` path.
+    - ``start``: ``"fixed"`` or ``"uniform_unclean"``; None keeps the spec's.
     - ``reward``: a registered reward pattern name (``"r1"`` .. ``"r4"`` or a user's) or a
       :class:`tableclean_suite.rewards.RewardPattern`.
-    - ``model``: a :class:`tableclean_suite.task.TaskModel` (rules for ineffective actions,
-      start states); default ``TaskModel()``.
+    - ``model``: a ready :class:`tableclean_suite.task.TaskModel` instead of ``task``/``start``.
     - ``render_mode``: ``"ansi"`` (text picture) or ``"rgb_array"`` (drawn top view).
 
     ## Version History
-    - v0: initial version.
+    - v0: initial version; ``task=`` and ``start=`` added with task specifications (the
+      paper's spec behaves as before).
     """
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):

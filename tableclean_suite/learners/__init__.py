@@ -13,5 +13,12 @@ from tableclean_suite.learners.rules import (  # noqa: F401
     learner_names,
     register_learner,
 )
-from tableclean_suite.learners.train import BACKENDS, TrainingResult, train, validate_hyperparameters  # noqa: F401
+from tableclean_suite.learners.kernel import code_digest  # noqa: F401
+from tableclean_suite.learners.train import (  # noqa: F401
+    BACKENDS,
+    TrainingResult,
+    available_backends,
+    train,
+    validate_hyperparameters,
+)
 from tableclean_suite.learners.transitions import CorruptTableError, TransitionTable  # noqa: F401

@@ -4,14 +4,23 @@ This is Algorithm 1 of the paper (with the learner's TD target plugged in),
 compiled with numba and parallel over runs.  :mod:`.reference` is the same loop
 in plain Python, one step at a time; both draw the same counter-based random
 numbers (:mod:`.rng`), so they produce identical arrays.
+
+The loop picks the built-in TD target by an integer code, so :func:`train_batch`
+takes no function argument and numba's disk cache (``cache=True``) serves it to every
+new process without recompiling.  A user learner's target gets its own compiled copy
+of the same loop (:func:`user_train_batch`), built once per process.
 """
 
 from __future__ import annotations
 
+import hashlib
+import inspect
+import types
+
 import numba
 
 from tableclean_suite.learners.rng import STREAM_EXPLORE, STREAM_RANDOM_ACTION, STREAM_START, STREAM_TRANSITION, uniform
-from tableclean_suite.learners.rules import greedy_action
+from tableclean_suite.learners.rules import TabularLearner, builtin_td_target, greedy_action
 from tableclean_suite.task import Outcome
 
 #: Codes of ``episode_end`` in training records.
@@ -64,7 +73,7 @@ def train_batch(
     outcome_values,
     loop_value,
     loop_mode,
-    td_target,
+    target_code,
     on_policy,
     alpha,
     gamma,
@@ -86,15 +95,17 @@ def train_batch(
         starts: ``(n_starts,)`` int64 start states, picked uniformly per episode.
         outcome_values: ``(n_outcomes,)`` float64 reward per outcome.
         loop_value, loop_mode: looping penalty and its mode (0 off, 1 replace, 2 add).
-        td_target: the learner's compiled target function.
+        target_code: the built-in learner's target code (``rules.Q_LEARNING_TARGET``, ...);
+            ignored by a :func:`user_train_batch` copy, which calls its own target.
         on_policy: choose the next action before the update and take it (SARSA).
         alpha, gamma, epsilon: learning rate, discount, exploration rate.
         max_itr: iterations after which an episode is truncated.
         keys: ``(R,)`` uint64 per-run random keys.
         q: ``(R, S, A)`` float64 Q-tables, updated in place.
         rewards: ``(R, T)`` float64 output, reward of each iteration.
-        outcomes, states, actions: ``(R, T)`` int8 outputs (state before the step).
-        episode_end: ``(R, T)`` int8 output, EPISODE_* code after each iteration.
+        outcomes, states, actions: ``(R, T)`` int outputs (state before the step), of the
+            task model's ``record_dtype`` (int8 for the paper's 24 states).
+        episode_end: ``(R, T)`` int output (same dtype), EPISODE_* code after each iteration.
     """
     n_runs, n_iterations = rewards.shape
     n_starts = starts.shape[0]
@@ -136,7 +147,7 @@ def train_batch(
                 pending = epsilon_greedy(
                     qr[nxt], epsilon, uniform(key, t + 1, STREAM_EXPLORE), uniform(key, t + 1, STREAM_RANDOM_ACTION)
                 )
-            target = td_target(qr[nxt], pending, reward, gamma, epsilon, terminal)
+            target = builtin_td_target(target_code, qr[nxt], pending, reward, gamma, epsilon, terminal)
             qr[state, action] += alpha * (target - qr[state, action])
             rewards[r, t] = reward
             outcomes[r, t] = outcome
@@ -152,3 +163,57 @@ def train_batch(
                 episode_end[r, t] = EPISODE_CONTINUES
                 previous = state
                 state = nxt
+
+
+_USER_KERNELS: dict = {}
+
+
+def user_train_batch(learner: TabularLearner):
+    """:func:`train_batch` compiled with ``learner.td_target`` in place of the built-in targets.
+
+    The same code object with one global swapped, so the loop is written once; compiled
+    on first use in each process (not disk-cached: numba cannot cache a loop that calls
+    a function passed in from outside).
+    """
+    target = learner.td_target
+    if target not in _USER_KERNELS:
+
+        def call_target(code, q_next, next_action, reward, gamma, epsilon, terminal):
+            return target(q_next, next_action, reward, gamma, epsilon, terminal)
+
+        source = train_batch.py_func
+        namespace = dict(source.__globals__, builtin_td_target=numba.njit(call_target))
+        function = types.FunctionType(source.__code__, namespace, f"train_batch_{learner.name}")
+        _USER_KERNELS[target] = numba.njit(parallel=True)(function)
+    return _USER_KERNELS[target]
+
+
+def kernel_for(learner: TabularLearner):
+    """The compiled loop that trains ``learner``: the cached built-in one or its own copy."""
+    from tableclean_suite.learners.rules import USER_TARGET
+
+    return user_train_batch(learner) if learner.target_code == USER_TARGET else train_batch
+
+
+def code_digest(learner: TabularLearner) -> str:
+    """SHA-256 (hex) of the code that turns a task and a seed into ``learner``'s records.
+
+    Covers this loop, the random numbers, the rules module (built-in targets, greedy
+    choice) and the learner's own target source and on-policy flag, so a cache keyed on
+    it retrains when any of them changes (e.g. a user learner re-registered with another body).
+    """
+    from tableclean_suite.learners import rng, rules
+
+    digest = hashlib.sha256()
+    for module in (rng, rules):
+        digest.update(inspect.getsource(module).encode())
+    digest.update(inspect.getsource(train_batch.py_func).encode())
+    digest.update(inspect.getsource(loop_adjusted_reward.py_func).encode())
+    digest.update(inspect.getsource(epsilon_greedy.py_func).encode())
+    target = learner.td_target.py_func
+    try:
+        digest.update(inspect.getsource(target).encode())
+    except (OSError, TypeError):
+        digest.update(repr((target.__code__.co_code, target.__code__.co_consts)).encode())
+    digest.update(f"{learner.name}|{learner.on_policy}|{learner.target_code}".encode())
+    return digest.hexdigest()

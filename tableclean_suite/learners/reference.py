@@ -27,11 +27,13 @@ from tableclean_suite.learners.rng import (
 from tableclean_suite.learners.rules import TabularLearner
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.rewards import RewardPattern
-from tableclean_suite.task import N_ACTIONS, N_STATES, Outcome, TaskModel
+from tableclean_suite.task import Outcome, TaskModel
 
 
 class StepEnv(Protocol):
-    """What the reference loop steps."""
+    """What the reference loop steps: a task model (for the sizes) and reset/step over codes."""
+
+    model: TaskModel
 
     def reset(self, draw: float) -> int:
         """Start an episode; ``draw`` in [0, 1) picks among start states. Returns the state code."""
@@ -66,10 +68,11 @@ class TableStepEnv(ModelStepEnv):
 
 
 def _epsilon_greedy(q_row, epsilon: float, explore_draw: float, action_draw: float) -> int:
+    n_actions = len(q_row)
     if explore_draw < epsilon:
-        return min(int(action_draw * N_ACTIONS), N_ACTIONS - 1)
+        return min(int(action_draw * n_actions), n_actions - 1)
     best = 0
-    for a in range(1, N_ACTIONS):
+    for a in range(1, n_actions):
         if q_row[a] > q_row[best]:
             best = a
     return best
@@ -91,12 +94,15 @@ def train_run(
     """Train one run for ``iterations`` steps; returns its record arrays and Q-table.
 
     Returns a dict with ``rewards`` (T,) float64, ``outcomes``/``states``/
-    ``actions``/``episode_end`` (T,) int8 and ``q`` (24, 4) float64.
+    ``actions``/``episode_end`` (T,) of ``env.model.record_dtype`` and ``q``
+    ``(n_states, n_actions)`` float64.
     ``on_step(t)`` is called after every iteration (progress bars).
     """
     key = run_key(seed, run)
-    q = [[0.0] * N_ACTIONS for _ in range(N_STATES)]
-    record = {name: np.zeros(iterations, dtype=np.int8) for name in ("outcomes", "states", "actions", "episode_end")}
+    model = env.model
+    q = [[0.0] * model.n_actions for _ in range(model.n_states)]
+    dtype = model.record_dtype
+    record = {name: np.zeros(iterations, dtype=dtype) for name in ("outcomes", "states", "actions", "episode_end")}
     record["rewards"] = np.zeros(iterations, dtype=np.float64)
     state = previous = pending = NO_STATE
     length = 0

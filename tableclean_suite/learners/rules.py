@@ -7,6 +7,11 @@ whether it picks the next action before updating (on-policy, as SARSA does).
 
 Users add a learner by writing a ``numba.njit`` target with the signature of
 :func:`q_learning_target` and calling :func:`register_learner`.
+
+The built-in targets are also reachable by an integer code (:func:`builtin_td_target`),
+so the compiled training loop that uses them takes no function argument and numba's
+disk cache serves it to every new process; a user target is compiled into its own
+copy of the loop once per process.
 """
 
 from __future__ import annotations
@@ -68,6 +73,21 @@ def expected_sarsa_target(q_next, next_action, reward, gamma, epsilon, terminal)
     return reward + gamma * expected
 
 
+#: Target codes of the built-in learners (:func:`builtin_td_target`); USER_TARGET for any other.
+Q_LEARNING_TARGET, SARSA_TARGET, EXPECTED_SARSA_TARGET = 0, 1, 2
+USER_TARGET = -1
+
+
+@numba.njit(cache=True)
+def builtin_td_target(code, q_next, next_action, reward, gamma, epsilon, terminal):
+    """The built-in target of ``code`` (``Q_LEARNING_TARGET``, ...), same arguments as the targets."""
+    if code == SARSA_TARGET:
+        return sarsa_target(q_next, next_action, reward, gamma, epsilon, terminal)
+    if code == EXPECTED_SARSA_TARGET:
+        return expected_sarsa_target(q_next, next_action, reward, gamma, epsilon, terminal)
+    return q_learning_target(q_next, next_action, reward, gamma, epsilon, terminal)
+
+
 _NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
 
 
@@ -83,12 +103,15 @@ class TabularLearner:
             the update) and then taken, as SARSA does; False if the next action
             is chosen afresh after the update, as Algorithm 1 does.
         description: one line for tables.
+        target_code: the built-in target's code (``Q_LEARNING_TARGET``, ...) when
+            ``td_target`` is that built-in; ``USER_TARGET`` (default) otherwise.
     """
 
     name: str
     td_target: object
     on_policy: bool = False
     description: str = field(default="", compare=False)
+    target_code: int = USER_TARGET
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not _NAME_PATTERN.match(self.name):
@@ -99,16 +122,29 @@ class TabularLearner:
                 f"(q_next, next_action, reward, gamma, epsilon, terminal) -> float, got {self.td_target!r}"
             )
         object.__setattr__(self, "on_policy", bool(self.on_policy))
+        builtin = _BUILTIN_TARGETS.get(self.target_code)
+        if self.target_code != USER_TARGET and builtin is not self.td_target:
+            raise ValueError(f"learner {self.name!r}: target_code {self.target_code} is not the code of its td_target; "
+                             f"leave it at USER_TARGET ({USER_TARGET}) for a user target")
 
     def target(self, q_next, next_action, reward, gamma, epsilon, terminal) -> float:
         """The TD target in plain Python (the reference loop's path)."""
         return self.td_target.py_func(q_next, next_action, reward, gamma, epsilon, terminal)
 
 
-Q_LEARNING = TabularLearner("q_learning", q_learning_target, False, "Q-learning (off-policy, max target)")
-SARSA = TabularLearner("sarsa", sarsa_target, True, "SARSA (on-policy, target uses the next action taken)")
+_BUILTIN_TARGETS = {
+    Q_LEARNING_TARGET: q_learning_target,
+    SARSA_TARGET: sarsa_target,
+    EXPECTED_SARSA_TARGET: expected_sarsa_target,
+}
+
+Q_LEARNING = TabularLearner(
+    "q_learning", q_learning_target, False, "Q-learning (off-policy, max target)", Q_LEARNING_TARGET
+)
+SARSA = TabularLearner("sarsa", sarsa_target, True, "SARSA (on-policy, target uses the next action taken)", SARSA_TARGET)
 EXPECTED_SARSA = TabularLearner(
-    "expected_sarsa", expected_sarsa_target, False, "Expected SARSA (expectation over the epsilon-greedy policy)"
+    "expected_sarsa", expected_sarsa_target, False, "Expected SARSA (expectation over the epsilon-greedy policy)",
+    EXPECTED_SARSA_TARGET,
 )
 
 _REGISTRY: Registry[TabularLearner] = Registry("learner", TabularLearner, (Q_LEARNING, SARSA, EXPECTED_SARSA))

@@ -1,15 +1,13 @@
-"""``train()``: the stable entry point for training tabular learners on the task.
+"""``train()``: the stable entry point for training tabular learners on a task.
 
-Backends:
-- ``"symbolic"`` (default): the task model's deterministic table, compiled and
-  batched over runs (fast).
-- ``"calibrated"``: a :class:`TransitionTable` measured from physics
-  (``benchmarks.calibrate``), also compiled.
-- ``"physics"``: skills executed in MuJoCo, one step at a time, runs spread over
-  worker processes (see :mod:`tableclean_suite.physics_backend`).
+The task is a :class:`~tableclean_suite.task.TaskSpec` (``task=``: a registered name,
+a spec, a ``.json`` path or a :class:`~tableclean_suite.task.TaskModel`; default
+``paper``).  Where the steps come from is a *backend* looked up by name in
+:mod:`tableclean_suite.backends` (``"symbolic"``, ``"calibrated"``, ``"physics"`` or a
+user's); this module imports none of them.
 
-``engine="reference"`` runs the symbolic/calibrated backends through the plain
-per-step Python loop instead of the compiled one (same numbers, much slower).
+``engine="reference"`` runs the table backends through the plain per-step Python loop
+instead of the compiled one (same numbers, much slower).
 """
 
 from __future__ import annotations
@@ -19,18 +17,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tableclean_suite.learners import kernel, reference
-from tableclean_suite.learners.rng import run_keys
+from tableclean_suite.backends import TrainingJob, backend_names, get_backend
 from tableclean_suite.learners.rules import TabularLearner, get_learner
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.rewards import RewardPattern, get_reward_pattern
-from tableclean_suite.task import N_ACTIONS, N_STATES, TaskModel
+from tableclean_suite.task import TaskModel, TaskSpec, as_task_model
 
+#: The built-in backends' names (``tableclean_suite.backends.backend_names()`` lists user ones too).
 BACKENDS = ("symbolic", "calibrated", "physics")
 ENGINES = ("compiled", "reference")
-#: Runs trained per compiled call; only affects progress granularity and peak memory, never the numbers.
-RUNS_PER_CHUNK = 256
-_RECORD_FIELDS = ("rewards", "outcomes", "states", "actions", "episode_end")
 
 
 @dataclass
@@ -39,12 +34,15 @@ class TrainingResult:
 
     Attributes (R = runs, T = iterations):
         rewards: ``(R, T)`` float64, the reward of every iteration.
-        outcomes: ``(R, T)`` int8 :class:`~tableclean_suite.task.Outcome` codes.
-        states: ``(R, T)`` int8 state code before each iteration's action.
-        actions: ``(R, T)`` int8 :class:`~tableclean_suite.task.Action` codes.
-        episode_end: ``(R, T)`` int8, 0 = episode continues, 1 = reached the terminal
+        outcomes: ``(R, T)`` :class:`~tableclean_suite.task.Outcome` codes.
+        states: ``(R, T)`` state code before each iteration's action.
+        actions: ``(R, T)`` action index (the task's action order).
+        episode_end: ``(R, T)``, 0 = episode continues, 1 = reached the terminal
             state, 2 = truncated at ``max_itr`` (``kernel.EPISODE_*``).
-        q: ``(R, 24, 4)`` float64 final Q-tables.
+        q: ``(R, S, A)`` float64 final Q-tables (S states, A actions of the task).
+
+    The integer records use the task's ``record_dtype``: int8 for the paper's 24
+    states, wider where the spec needs it.
         config: the arguments that produced it (JSON-serialisable).
         info: backend diagnostics, e.g. ``info["physics"]``: skill executions, failures,
             faults by kind, restages, control steps and wall time of the physics backend.
@@ -97,12 +95,6 @@ def validate_hyperparameters(runs, iterations, alpha, gamma, epsilon, max_itr, s
     _check_number("seed", seed, 0, 2**63 - 1, integer=True)
 
 
-def _empty_records(runs: int, iterations: int) -> dict[str, np.ndarray]:
-    records = {name: np.zeros((runs, iterations), dtype=np.int8) for name in _RECORD_FIELDS}
-    records["rewards"] = np.zeros((runs, iterations), dtype=np.float64)
-    return records
-
-
 def train(
     learner: str | TabularLearner = "q_learning",
     reward: str | RewardPattern = "r4",
@@ -121,6 +113,7 @@ def train(
     workers: int | None = None,
     physics_options: dict | None = None,
     progress: bool = False,
+    task: "TaskModel | TaskSpec | str | None" = None,
 ) -> TrainingResult:
     """Train ``runs`` independent learners for ``iterations`` environment steps each.
 
@@ -133,18 +126,20 @@ def train(
         iterations: environment steps per run, counted across episodes (>= 1).
         alpha: learning rate in (0, 1].
         gamma: discount factor in [0, 1].
-        epsilon: exploration rate in [0, 1]; random actions are uniform over all four.
+        epsilon: exploration rate in [0, 1]; random actions are uniform over the task's actions.
         max_itr: iterations after which an episode is truncated (>= 1).
         seed: non-negative integer; run ``i`` uses the key of (seed, first_run + i),
             so results do not depend on batching.
-        model: the task model (rules, start states); default ``TaskModel()``.
-        backend: ``"symbolic"``, ``"calibrated"`` or ``"physics"``.
+        model: the task model; kept for compatibility, same as ``task=`` with a model.
+        backend: a registered backend name (``"symbolic"``, ``"calibrated"``, ``"physics"``).
         transitions: for ``"calibrated"``: a :class:`TransitionTable` or a JSON path.
         engine: ``"compiled"`` (default) or ``"reference"`` (plain Python loop).
         first_run: index of the first run (to extend an experiment with more runs).
         workers: processes for the physics backend (default: CPU count).
         physics_options: keyword arguments for the physics step environment.
         progress: show a tqdm progress bar.
+        task: the task: a registered spec name, a :class:`TaskSpec`, a ``.json`` path
+            or a :class:`TaskModel` (default: ``model``, else the ``paper`` spec).
 
     Returns:
         A :class:`TrainingResult` with ``(runs, iterations)`` records and final Q-tables.
@@ -153,78 +148,46 @@ def train(
     reward = get_reward_pattern(reward)
     validate_hyperparameters(runs, iterations, alpha, gamma, epsilon, max_itr, seed)
     _check_number("first_run", first_run, 0, 2**62, integer=True)
-    if backend not in BACKENDS:
-        raise ValueError(f"unknown backend {backend!r}; allowed: {', '.join(BACKENDS)}")
     if engine not in ENGINES:
         raise ValueError(f"unknown engine {engine!r}; allowed: {', '.join(ENGINES)}")
-    model = model if model is not None else TaskModel()
-    if not isinstance(model, TaskModel):
+    if model is not None and task is not None:
+        raise ValueError("give the task as task= or model=, not both")
+    if model is not None and not isinstance(model, TaskModel):
         raise TypeError(f"model must be a TaskModel, got {type(model).__name__}")
-    runs, iterations, max_itr, seed, first_run = int(runs), int(iterations), int(max_itr), int(seed), int(first_run)
+    model = as_task_model(model if model is not None else task)
+    chosen = get_backend(backend)  # ValueError names the registered backends
+    options = {"transitions": transitions} if transitions is not None or chosen.name == "calibrated" else {}
+    if physics_options is not None:
+        options["physics_options"] = physics_options
+    options = chosen.check_options(model, options)
+    job = TrainingJob(
+        learner=learner, reward=reward, model=model, runs=int(runs), iterations=int(iterations),
+        alpha=float(alpha), gamma=float(gamma), epsilon=float(epsilon), max_itr=int(max_itr), seed=int(seed),
+        first_run=int(first_run), engine=engine, workers=workers, options=options, progress=progress,
+    )
     config = {
         "learner": learner.name,
         "reward": reward.name,
-        "runs": runs,
-        "iterations": iterations,
-        "alpha": float(alpha),
-        "gamma": float(gamma),
-        "epsilon": float(epsilon),
-        "max_itr": max_itr,
-        "seed": seed,
-        "first_run": first_run,
+        "runs": job.runs,
+        "iterations": job.iterations,
+        "alpha": job.alpha,
+        "gamma": job.gamma,
+        "epsilon": job.epsilon,
+        "max_itr": job.max_itr,
+        "seed": job.seed,
+        "first_run": job.first_run,
         "backend": backend,
         "model": repr(model),
+        "task": model.spec.to_dict(),
     }
-    hyper = dict(alpha=float(alpha), gamma=float(gamma), epsilon=float(epsilon), max_itr=max_itr)
-
-    if backend == "physics":
-        from tableclean_suite.physics_backend import train_physics
-
-        records = train_physics(
-            learner, reward, model, runs, iterations, seed, first_run, workers, physics_options or {}, progress, **hyper
-        )
-        stats = records.pop("stats")
-        return TrainingResult(**records, config=config, info={"physics": stats})
-
-    if backend == "calibrated":
-        if transitions is None:
-            raise ValueError("backend='calibrated' needs transitions= (a TransitionTable or a JSON path)")
-        table = transitions if isinstance(transitions, TransitionTable) else TransitionTable.from_json(transitions, model)
-        config["transitions"] = table.source
-    else:
-        if transitions is not None:
-            raise ValueError("transitions= is only used with backend='calibrated'")
-        table = TransitionTable.from_model(model)
-
-    if engine == "reference":
-        env = reference.ModelStepEnv(model) if backend == "symbolic" else reference.TableStepEnv(model, table)
-        per_run = [
-            reference.train_run(env, learner, reward, iterations, seed=seed, run=first_run + r, **hyper)
-            for r in _progress(range(runs), progress, "runs")
-        ]
-        records = {name: np.stack([run[name] for run in per_run]) for name in (*_RECORD_FIELDS, "q")}
-        return TrainingResult(**records, config=config)
-
-    records = _empty_records(runs, iterations)
-    q = np.zeros((runs, N_STATES, N_ACTIONS), dtype=np.float64)
-    keys = run_keys(seed, first_run, runs)
-    starts = np.array([s.index for s in model.start_states()], dtype=np.int64)
-    values = reward.outcome_values()
-    loop_value = 0.0 if reward.looping_penalty is None else reward.looping_penalty
-    chunks = range(0, runs, RUNS_PER_CHUNK)
-    for lo in _progress(chunks, progress, f"{learner.name}/{reward.name}"):
-        hi = min(lo + RUNS_PER_CHUNK, runs)
-        kernel.train_batch(
-            table.next_state, table.outcome, table.cumulative, starts, values, loop_value, reward.looping_code,
-            learner.td_target, learner.on_policy, hyper["alpha"], hyper["gamma"], hyper["epsilon"], max_itr,
-            keys[lo:hi], q[lo:hi], *(records[name][lo:hi] for name in _RECORD_FIELDS),
-        )
-    return TrainingResult(**records, q=q, config=config)
+    records = chosen.train(job)
+    config.update(records.config)
+    return TrainingResult(
+        rewards=records.rewards, outcomes=records.outcomes, states=records.states, actions=records.actions,
+        episode_end=records.episode_end, q=records.q, config=config, info=records.info,
+    )
 
 
-def _progress(iterable, enabled: bool, description: str):
-    if not enabled:
-        return iterable
-    from tqdm.auto import tqdm
-
-    return tqdm(iterable, desc=description, leave=False)
+def available_backends() -> list[str]:
+    """Registered backend names (built-in and users')."""
+    return backend_names()

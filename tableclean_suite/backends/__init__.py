@@ -1,0 +1,118 @@
+"""Training backends: where a learner's steps come from, behind one small interface.
+
+``train(backend="...")`` looks a backend up here by name.  Built in:
+
+- ``"symbolic"``: the task model's deterministic transitions, compiled and batched;
+- ``"calibrated"``: a transition table measured from physics, compiled and batched;
+- ``"physics"``: skills executed in MuJoCo (imported only when used).
+
+The registry stores import paths, so importing it (as :func:`~tableclean_suite.learners.train`
+does) imports no backend, and no backend imports the registry's user back: dependencies
+point downward only (backends -> learners -> task).  Users add a backend with
+:func:`register_backend` and any object with :class:`TrainingBackend`'s ``train`` method.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+#: Name -> ``"module:attribute"`` of the backend object, or the object itself.
+_BACKENDS: dict[str, Any] = {
+    "symbolic": "tableclean_suite.backends.tabular:SYMBOLIC",
+    "calibrated": "tableclean_suite.backends.tabular:CALIBRATED",
+    "physics": "tableclean_suite.physics_backend:PHYSICS",
+}
+
+
+@dataclass(frozen=True)
+class TrainingJob:
+    """Everything one ``train()`` call asks of a backend (validated by ``train``).
+
+    Attributes:
+        learner: the :class:`~tableclean_suite.learners.TabularLearner`.
+        reward: the :class:`~tableclean_suite.rewards.RewardPattern`.
+        model: the :class:`~tableclean_suite.task.TaskModel` (sizes, rules, starts).
+        runs, iterations: records are ``(runs, iterations)``.
+        alpha, gamma, epsilon: learning rate (0, 1], discount [0, 1], exploration [0, 1].
+        max_itr: iterations after which an episode is truncated.
+        seed, first_run: run ``i`` uses the random key of ``(seed, first_run + i)``.
+        engine: ``"compiled"`` or ``"reference"`` (plain per-step Python loop).
+        workers: processes or threads, where the backend uses them (never changes numbers).
+        options: backend-specific keyword arguments (e.g. ``transitions``).
+        progress: show a progress bar on stderr.
+    """
+
+    learner: Any
+    reward: Any
+    model: Any
+    runs: int
+    iterations: int
+    alpha: float
+    gamma: float
+    epsilon: float
+    max_itr: int
+    seed: int
+    first_run: int = 0
+    engine: str = "compiled"
+    workers: int | None = None
+    options: dict = field(default_factory=dict)
+    progress: bool = False
+
+    @property
+    def hyperparameters(self) -> dict:
+        """``alpha, gamma, epsilon, max_itr`` as keyword arguments."""
+        return dict(alpha=self.alpha, gamma=self.gamma, epsilon=self.epsilon, max_itr=self.max_itr)
+
+
+@dataclass
+class BackendRecords:
+    """What a backend returns: ``(R, T)`` records, final Q-tables, diagnostics, config additions."""
+
+    rewards: np.ndarray
+    outcomes: np.ndarray
+    states: np.ndarray
+    actions: np.ndarray
+    episode_end: np.ndarray
+    q: np.ndarray
+    info: dict = field(default_factory=dict)
+    config: dict = field(default_factory=dict)
+
+
+class TrainingBackend(Protocol):
+    """A source of learner steps."""
+
+    name: str
+
+    def check_options(self, model, options: dict) -> dict:
+        """Validate backend options (before any training); returns them normalised, or raises ``ValueError``."""
+
+    def train(self, job: TrainingJob) -> BackendRecords:
+        """Run ``job`` and return its records."""
+
+
+def backend_names() -> list[str]:
+    """Registered backend names."""
+    return list(_BACKENDS)
+
+
+def register_backend(name: str, backend: Any, overwrite: bool = False) -> None:
+    """Add a backend (an object with ``check_options`` and ``train``, or a ``"module:attribute"`` path)."""
+    if name in _BACKENDS and not overwrite:
+        raise ValueError(f"backend {name!r} is already registered; pass overwrite=True to replace it")
+    _BACKENDS[name] = backend
+
+
+def get_backend(name: str) -> TrainingBackend:
+    """The backend registered as ``name`` (imported on first use); ``ValueError`` names the allowed ones."""
+    if name not in _BACKENDS:
+        raise ValueError(f"unknown backend {name!r}; allowed: {', '.join(_BACKENDS)}")
+    backend = _BACKENDS[name]
+    if isinstance(backend, str):
+        module, attribute = backend.split(":")
+        backend = getattr(importlib.import_module(module), attribute)
+        _BACKENDS[name] = backend
+    return backend

@@ -1,0 +1,100 @@
+"""Table-driven backends: the task model's transitions (``symbolic``) or measured ones (``calibrated``).
+
+Both step a :class:`~tableclean_suite.learners.TransitionTable`, either with the compiled
+batched loop (:mod:`tableclean_suite.learners.kernel`, chunks of runs) or the plain
+per-step loop (:mod:`tableclean_suite.learners.reference`); the two give identical arrays.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tableclean_suite.backends import BackendRecords, TrainingJob
+from tableclean_suite.learners import kernel, reference
+from tableclean_suite.learners.rng import run_keys
+from tableclean_suite.learners.transitions import TransitionTable
+
+#: Runs trained per compiled call; only affects progress granularity and peak memory, never the numbers.
+RUNS_PER_CHUNK = 256
+RECORD_FIELDS = ("rewards", "outcomes", "states", "actions", "episode_end")
+
+
+def empty_records(runs: int, iterations: int, dtype) -> dict[str, np.ndarray]:
+    """Zeroed ``(runs, iterations)`` record arrays: float64 rewards, ``dtype`` codes."""
+    records = {name: np.zeros((runs, iterations), dtype=dtype) for name in RECORD_FIELDS}
+    records["rewards"] = np.zeros((runs, iterations), dtype=np.float64)
+    return records
+
+
+def progress_bar(iterable, enabled: bool, description: str):
+    """``iterable`` wrapped in a tqdm bar on stderr when ``enabled``."""
+    if not enabled:
+        return iterable
+    from tqdm.auto import tqdm
+
+    return tqdm(iterable, desc=description, leave=False)
+
+
+@dataclass(frozen=True)
+class TableBackend:
+    """Train on a transition table: the model's own (``symbolic``) or a measured one (``calibrated``)."""
+
+    name: str
+    measured: bool
+
+    def check_options(self, model, options: dict) -> dict:
+        """``calibrated`` needs ``transitions`` (a table or a JSON path, validated against the model)."""
+        unknown = sorted(set(options) - {"transitions"})
+        if unknown:
+            raise ValueError(f"backend {self.name!r}: unknown option(s) {unknown}; allowed: 'transitions'")
+        transitions = options.get("transitions")
+        if not self.measured:
+            if transitions is not None:
+                raise ValueError("transitions= is only used with backend='calibrated'")
+            return {}
+        if transitions is None:
+            raise ValueError("backend='calibrated' needs transitions= (a TransitionTable or a JSON path)")
+        if not isinstance(transitions, TransitionTable):
+            transitions = TransitionTable.from_json(transitions, model)
+        transitions.check_model(model)
+        return {"transitions": transitions}
+
+    def table(self, job: TrainingJob) -> TransitionTable:
+        """The table ``job`` steps."""
+        return job.options["transitions"] if self.measured else TransitionTable.from_model(job.model)
+
+    def train(self, job: TrainingJob) -> BackendRecords:
+        """Run ``job`` on the table with the compiled or the reference loop."""
+        table = self.table(job)
+        config = {"transitions": table.source} if self.measured else {}
+        if job.engine == "reference":
+            env = reference.TableStepEnv(job.model, table) if self.measured else reference.ModelStepEnv(job.model)
+            per_run = [
+                reference.train_run(env, job.learner, job.reward, job.iterations, seed=job.seed,
+                                    run=job.first_run + r, **job.hyperparameters)
+                for r in progress_bar(range(job.runs), job.progress, "runs")
+            ]
+            records = {name: np.stack([run[name] for run in per_run]) for name in (*RECORD_FIELDS, "q")}
+            return BackendRecords(**records, config=config)
+        model = job.model
+        records = empty_records(job.runs, job.iterations, model.record_dtype)
+        q = np.zeros((job.runs, model.n_states, model.n_actions), dtype=np.float64)
+        keys = run_keys(job.seed, job.first_run, job.runs)
+        starts = np.array([s.index for s in model.start_states()], dtype=np.int64)
+        values = job.reward.outcome_values()
+        loop_value = 0.0 if job.reward.looping_penalty is None else job.reward.looping_penalty
+        train_batch = kernel.kernel_for(job.learner)
+        for lo in progress_bar(range(0, job.runs, RUNS_PER_CHUNK), job.progress, f"{job.learner.name}/{job.reward.name}"):
+            hi = min(lo + RUNS_PER_CHUNK, job.runs)
+            train_batch(
+                table.next_state, table.outcome, table.cumulative, starts, values, loop_value, job.reward.looping_code,
+                job.learner.target_code, job.learner.on_policy, job.alpha, job.gamma, job.epsilon, job.max_itr,
+                keys[lo:hi], q[lo:hi], *(records[name][lo:hi] for name in RECORD_FIELDS),
+            )
+        return BackendRecords(**records, q=q, config=config)
+
+
+SYMBOLIC = TableBackend("symbolic", measured=False)
+CALIBRATED = TableBackend("calibrated", measured=True)

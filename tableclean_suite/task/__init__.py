@@ -1,0 +1,96 @@
+"""The symbolic table-cleaning task: specifications, states, actions and the model.
+
+Pure Python/NumPy; knows nothing of MuJoCo.  Everything else in the package
+(rewards, learners, the robosuite environment's abstraction, the skills) speaks in
+the names defined here:
+
+- :class:`TaskSpec` (:mod:`.spec`): N segments, M objects, the action list, the start;
+  named specs in a registry (``paper``, ``three_segments``, ...), or JSON files.
+- :class:`TaskState`, :class:`Outcome`, :func:`encode` (:mod:`.state`).
+- :class:`Action`, :class:`ActionRule`, :func:`register_action` (:mod:`.actions`).
+- :class:`TaskModel` (:mod:`.model`): the rules, reachability, plans, tables.
+- The paper's Table 1, start and optimal plan (:mod:`.paper`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tableclean_suite.task.actions import (  # noqa: F401
+    BUILTIN_ACTIONS,
+    Action,
+    ActionRule,
+    action_names,
+    clean_effect,
+    get_action_rule,
+    move_effect,
+    pick_effect,
+    place_effect,
+    register_action,
+)
+from tableclean_suite.task.model import ActionEffectError, StateLike, TaskModel, as_task_model  # noqa: F401
+from tableclean_suite.task.paper import (  # noqa: F401
+    PAPER_OPTIMAL_PLAN,
+    PAPER_START,
+    START_LAYOUTS,
+    TABLE1_STATES,
+    start_layout,
+    table1_number,
+)
+from tableclean_suite.task.spec import (  # noqa: F401
+    BUILTIN_SPECS,
+    PAPER_SPEC,
+    IneffectiveMode,
+    StartMode,
+    TaskSpec,
+    get_task_spec,
+    load_task_spec,
+    register_task_spec,
+    state_from_json,
+    state_to_json,
+    task_spec_names,
+)
+from tableclean_suite.task.state import (  # noqa: F401
+    CLEAN_OUTCOMES,
+    HELD,
+    NO_CHANGE_OUTCOMES,
+    N_OUTCOMES,
+    Outcome,
+    TaskState,
+    decode_code,
+    encode,
+    state_count,
+    unclean_layouts,
+)
+
+#: Names of the outcomes after which the state must be unchanged (for file validation).
+NO_CHANGE_OUTCOMES_NAMES = tuple(o.name for o in NO_CHANGE_OUTCOMES)
+
+
+def decode(code: int, task: "TaskModel | TaskSpec | str | None" = None) -> TaskState:
+    """The state of ``code`` in ``task``'s encoding (default the ``paper`` spec)."""
+    spec = task.spec if isinstance(task, TaskModel) else get_task_spec(task)
+    return decode_code(code, spec.segments, spec.n_objects)
+
+
+def as_state(state: "StateLike", task: "TaskModel | TaskSpec | str | None" = None) -> TaskState:
+    """Accept a :class:`TaskState` or its code in ``task``'s encoding (default ``paper``)."""
+    if isinstance(state, TaskState):
+        return state
+    return decode(state, task)
+
+
+def as_action(action) -> Action:
+    """A built-in :class:`Action` from itself, its index in the paper's order or its (case-insensitive) name."""
+    if isinstance(action, Action):
+        return action
+    if isinstance(action, str):
+        try:
+            return Action[action.strip().upper()]
+        except KeyError:
+            pass
+    elif isinstance(action, (int, np.integer)) and not isinstance(action, (bool, np.bool_)):
+        if 0 <= int(action) < len(Action):
+            return Action(int(action))
+    allowed = ", ".join(f"{a.value}/{a.rule_name}" for a in Action)
+    raise ValueError(f"unknown action {action!r}; allowed: {allowed}")

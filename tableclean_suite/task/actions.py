@@ -1,0 +1,132 @@
+"""Task-level actions as data: a name and a symbolic effect, in a registry users extend.
+
+An action's *effect* is a pure function ``TaskState -> (TaskState, Outcome)`` written
+for any number of segments and objects.  It reports INEFFECTIVE when nothing happens
+for lack of an object (the model turns that into IMPROPER under
+``ineffective="improper"``) and never reports TERMINAL: the model does, whenever an
+effect leaves every segment clean.  A :class:`~tableclean_suite.task.TaskSpec` lists
+its actions by registered name, in the order learners index them.
+
+Adding an action from outside the package::
+
+    from tableclean_suite.task import ActionRule, Outcome, register_action
+
+    def move_back(state):
+        return state.replace(arm=(state.arm - 1) % state.n_segments), Outcome.ROUTINE
+
+    register_action(ActionRule("move_back", move_back, "the arm goes to the previous segment"))
+"""
+
+from __future__ import annotations
+
+import enum
+import re
+from dataclasses import dataclass, field
+from typing import Callable
+
+from tableclean_suite.registry import Registry
+from tableclean_suite.task.state import HELD, Outcome, TaskState
+
+_NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
+
+Effect = Callable[[TaskState], "tuple[TaskState, Outcome]"]
+
+
+class Action(enum.IntEnum):
+    """The four built-in actions, in the paper's order (their indices in the ``paper`` spec).
+
+    The order matters: greedy action selection breaks ties towards the lowest index,
+    i.e. MOVE first, as an ``argmax`` over a zero-initialised Q-table does.  In a spec
+    with another action list, use ``TaskModel.action_index(name)`` for indices.
+    """
+
+    MOVE = 0
+    PICK = 1
+    PLACE = 2
+    CLEAN = 3
+
+    @property
+    def rule_name(self) -> str:
+        """The registered :class:`ActionRule` name (``"move"``, ...)."""
+        return self.name.lower()
+
+
+def move_effect(state: TaskState) -> tuple[TaskState, Outcome]:
+    """MOVE: the arm goes to the next segment, k -> k + 1 (N -> 1); a held object goes along."""
+    return state.replace(arm=(state.arm + 1) % state.n_segments), Outcome.ROUTINE
+
+
+def pick_effect(state: TaskState) -> tuple[TaskState, Outcome]:
+    """PICK: with nothing held, the lowest-numbered object on the arm's segment is held."""
+    lying = state.objects_on(state.arm)
+    if state.holding or not lying:
+        return state, Outcome.INEFFECTIVE
+    return state.with_object(lying[0], HELD), Outcome.ROUTINE
+
+
+def place_effect(state: TaskState) -> tuple[TaskState, Outcome]:
+    """PLACE: the held object comes to lie on the arm's segment."""
+    held = state.held_object
+    if held is None:
+        return state, Outcome.INEFFECTIVE
+    return state.with_object(held, state.arm), Outcome.ROUTINE
+
+
+def clean_effect(state: TaskState) -> tuple[TaskState, Outcome]:
+    """CLEAN: improper when holding or when any object lies on the arm's segment; else the
+    arm's segment becomes clean (relevant) or already was (irrelevant)."""
+    if state.holding or state.object_on_arm_segment:
+        return state, Outcome.IMPROPER
+    if state.is_clean(state.arm):
+        return state, Outcome.IRRELEVANT_CLEAN
+    return state.with_clean(state.arm), Outcome.RELEVANT_CLEAN
+
+
+@dataclass(frozen=True)
+class ActionRule:
+    """A task-level action.
+
+    Attributes:
+        name: registry key, lower_snake (``"move"``, ``"move_back"``).
+        effect: pure ``TaskState -> (TaskState, Outcome)`` for any N and M; the outcome
+            is one of ROUTINE, INEFFECTIVE, RELEVANT_CLEAN, IRRELEVANT_CLEAN, IMPROPER
+            (INEFFECTIVE, IRRELEVANT_CLEAN and IMPROPER must leave the state unchanged).
+        description: one line for ``--describe`` and the docs.
+    """
+
+    name: str
+    effect: Effect
+    description: str = field(default="", compare=False)
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not _NAME_PATTERN.match(self.name):
+            raise ValueError(f"action name must be lower_snake (e.g. 'move_back'), got {self.name!r}")
+        if not callable(self.effect):
+            raise TypeError(f"action {self.name!r}: effect must be callable TaskState -> (TaskState, Outcome)")
+
+
+BUILTIN_ACTIONS = (
+    ActionRule("move", move_effect, "the arm goes to the next segment (N -> 1); a held object goes along"),
+    ActionRule("pick", pick_effect, "grasp the lowest-numbered object on the arm's segment"),
+    ActionRule("place", place_effect, "put the held object down on the arm's segment"),
+    ActionRule("clean", clean_effect, "wipe the arm's segment (improper when holding or an object lies there)"),
+)
+
+_REGISTRY: Registry[ActionRule] = Registry("action", ActionRule, BUILTIN_ACTIONS)
+
+
+def register_action(rule: ActionRule, overwrite: bool = False) -> ActionRule:
+    """Add a user action so task specs can list it by name."""
+    return _REGISTRY.register(rule, overwrite)
+
+
+def action_names() -> list[str]:
+    """Registered action names, in registration order."""
+    return _REGISTRY.names()
+
+
+def get_action_rule(action: str | ActionRule) -> ActionRule:
+    """An action by registered name (or the rule itself); ``ValueError`` names the allowed ones."""
+    if isinstance(action, Action):
+        action = action.rule_name
+    return _REGISTRY.get(action)

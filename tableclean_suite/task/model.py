@@ -1,0 +1,478 @@
+"""The task model: the rules of a :class:`~tableclean_suite.task.TaskSpec`, deterministic and pure."""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+from collections import deque
+from functools import cached_property
+from pathlib import Path
+from typing import Iterable, Iterator, Sequence, Union
+
+import numpy as np
+
+from tableclean_suite.task import actions as actions_module
+from tableclean_suite.task import state as state_module
+from tableclean_suite.task.actions import Action, ActionRule, get_action_rule
+from tableclean_suite.task.spec import IneffectiveMode, StartMode, TaskSpec, get_task_spec
+from tableclean_suite.task.state import (
+    CLEAN_OUTCOMES,
+    HELD,
+    NO_CHANGE_OUTCOMES,
+    Outcome,
+    TaskState,
+    decode_code,
+    encode,
+    unclean_layouts,
+)
+
+StateLike = Union[TaskState, int, np.integer]
+
+#: Smallest signed integer dtypes, in order, for record arrays of state/action/outcome codes.
+_RECORD_DTYPES = (np.int8, np.int16, np.int32)
+
+
+class ActionEffectError(ValueError):
+    """A (user) action's effect broke the rules an effect must keep; the message names it."""
+
+
+class TaskModel:
+    """The table-cleaning task of a :class:`TaskSpec` as a deterministic model.
+
+    ## Description
+    A table has N segments (N >= 2, numbered 1..N), each clean or unclean, and M objects
+    (M >= 1), each lying on a segment or held by the gripper; the arm is above one
+    segment.  The sponge has a fixed home off the table (the paper's Sec. 2), so it is
+    not part of the state.  The goal is to clean every segment.  The paper's task is
+    the ``paper`` spec: N = 2, M = 1.
+
+    ## Action Space
+    The spec's actions in its order; the default (and the paper's) is
+    0 MOVE, 1 PICK, 2 PLACE, 3 CLEAN.  The order breaks greedy ties (lowest first).
+    Users add actions by name (:func:`~tableclean_suite.task.register_action`).
+
+    ## Observation Space
+    ``2**N * (N + 1)**M * N`` codes, a mixed radix with, most significant first, the
+    clean flag of segments 1..N (radix 2), the location of objects 1..M (radix N + 1:
+    segment index 0..N-1, or N for held) and the arm's segment (radix N)
+    (:func:`~tableclean_suite.task.encode`).  For the paper's spec that is
+    ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment``:
+    24 codes, of which 20 are reachable from the all-unclean starts (18 non-terminal,
+    2 terminal).  Codes holding two objects are never reached; ``three_segments`` has
+    96 codes and 90 reachable, ``three_segments_two_objects`` 384 and 327
+    (:meth:`reachable_states`).  Table 1 of the paper lists 18 states; its rows 14, 15,
+    16 and 18 can never be reached and it omits 6 reachable ones
+    (:meth:`table1_mapping`).
+
+    ## Rules
+    - MOVE: the arm goes to the next segment, k -> k + 1 (N -> 1); a held object goes
+      along. ROUTINE.  For N = 2 this is the paper's "other segment".
+    - PICK: nothing held and at least one object on the arm's segment -> the
+      lowest-numbered such object is held. ROUTINE.  Otherwise nothing changes:
+      INEFFECTIVE (or IMPROPER with ``ineffective="improper"``).
+    - PLACE: holding -> the held object lies on the arm's segment (several objects may
+      share a segment). ROUTINE.  Otherwise as an ineffective pick.
+    - CLEAN: IMPROPER when holding an object or when any object lies on the arm's
+      segment; the state does not change (Algorithm 1's failed state).  Otherwise
+      RELEVANT_CLEAN when the arm's segment is unclean (it becomes clean),
+      IRRELEVANT_CLEAN when it is already clean.
+    - Any action that leaves every segment clean has outcome TERMINAL.
+    - A user action follows its registered effect, with the same INEFFECTIVE and
+      TERMINAL conventions.
+
+    ## Starting State
+    ``start="fixed"`` with the spec's start state (default: every segment unclean,
+    every object on segment 1, the arm over segment 1; for the paper that is Table 1's
+    state 4), or ``start="uniform_unclean"``: uniform over every all-unclean layout with
+    nothing held (``N**M * N`` layouts; the paper's four).
+
+    ## Rewards
+    Reward patterns r1-r4 (the paper's Table 2) map outcomes to rewards
+    (:mod:`tableclean_suite.rewards`); the looping penalty compares state codes.
+
+    ## Episode End
+    Terminal when every segment is clean.  Learners also truncate after ``max_itr``
+    iterations.
+
+    ## Arguments
+    - ``spec``: a registered name (default ``"paper"``), a :class:`TaskSpec` or a
+      ``.json`` path.
+    - ``ineffective``: ``"ineffective"`` or ``"improper"``; None keeps the spec's.
+    - ``start``: ``"fixed"`` or ``"uniform_unclean"``; None keeps the spec's.
+    - ``start_state``: a :class:`TaskState` or code; only with ``start="fixed"``.
+
+    ## Version History
+    - v1: task specifications (N segments, M objects, user actions); the paper's
+      spec keeps v0's codes, rules and numbers.
+    - v0: the paper's two-segment, one-object task.
+    """
+
+    def __init__(self, ineffective: str | None = None, start: str | None = None,
+                 start_state: StateLike | None = None, *, spec: "str | Path | TaskSpec | None" = None):
+        base = get_task_spec(spec)
+        changes = {}
+        if ineffective is not None:
+            changes["ineffective"] = ineffective
+        if start is not None:
+            changes["start"] = start
+            if start_state is None:
+                changes["start_state"] = None  # a new start mode drops the spec's fixed state
+        if start_state is not None:
+            changes["start_state"] = self._decode_for(base, start_state)
+        self.spec: TaskSpec = base.replace(**changes) if changes else base
+        self.ineffective = IneffectiveMode(self.spec.ineffective)
+        self.start = StartMode(self.spec.start)
+        self.start_state: TaskState = self.spec.initial_state
+        self.n_segments: int = self.spec.segments
+        self.n_objects: int = self.spec.n_objects
+        self.actions: tuple[ActionRule, ...] = tuple(get_action_rule(a) for a in self.spec.actions)
+        self.action_names: tuple[str, ...] = self.spec.actions
+        self.n_actions: int = len(self.actions)
+        self.n_states: int = self.spec.n_states
+        self._action_index = {name: i for i, name in enumerate(self.action_names)}
+
+    @staticmethod
+    def _decode_for(spec: TaskSpec, state: StateLike) -> TaskState:
+        if isinstance(state, TaskState):
+            return state
+        return decode_code(state, spec.segments, spec.n_objects)
+
+    def __repr__(self) -> str:
+        start = self.start.value if self.start == StartMode.UNIFORM_UNCLEAN else self.start_state.name
+        if self.spec.name == "paper" and self.spec.actions == get_task_spec("paper").actions:
+            return f"TaskModel(ineffective={self.ineffective.value!r}, start={start!r})"
+        return (f"TaskModel(spec={self.spec.name!r}, segments={self.n_segments}, objects={list(self.spec.objects)}, "
+                f"actions={list(self.action_names)}, ineffective={self.ineffective.value!r}, start={start!r})")
+
+    # -- codes -----------------------------------------------------------------------
+    def encode(self, state: TaskState) -> int:
+        """The code of ``state`` (checked against the spec's sizes)."""
+        self._check_sizes(state)
+        return encode(state)
+
+    def decode(self, code: int) -> TaskState:
+        """The state of ``code``; ``ValueError`` outside ``range(n_states)``."""
+        return decode_code(code, self.n_segments, self.n_objects)
+
+    def as_state(self, state: StateLike) -> TaskState:
+        """Accept a :class:`TaskState` of this spec's sizes or its code."""
+        if isinstance(state, TaskState):
+            self._check_sizes(state)
+            return state
+        return self.decode(state)
+
+    def _check_sizes(self, state: TaskState) -> None:
+        if state.n_segments != self.n_segments or state.n_objects != self.n_objects:
+            raise ValueError(f"state {state.name} has {state.n_segments} segments and {state.n_objects} objects; "
+                             f"task {self.spec.name!r} has {self.n_segments} and {self.n_objects}")
+
+    def all_states(self) -> list[TaskState]:
+        """Every code's state, in code order (``n_states`` of them)."""
+        return [self.decode(code) for code in range(self.n_states)]
+
+    @property
+    def record_dtype(self) -> np.dtype:
+        """Smallest signed int dtype that holds every state, action and outcome code."""
+        largest = max(self.n_states, self.n_actions, len(Outcome)) - 1
+        for dtype in _RECORD_DTYPES:
+            if largest <= np.iinfo(dtype).max:
+                return np.dtype(dtype)
+        raise ValueError(f"{self.n_states} states do not fit the record dtypes")  # excluded by TaskSpec
+
+    # -- actions -----------------------------------------------------------------------
+    def action_index(self, action) -> int:
+        """Index of ``action`` (an index, a name, an :class:`Action` or an :class:`ActionRule`).
+
+        Raises ``ValueError`` naming the spec's actions.
+        """
+        if isinstance(action, Action):
+            action = action.rule_name
+        if isinstance(action, ActionRule):
+            action = action.name
+        if isinstance(action, str):
+            key = action.strip().lower()
+            if key in self._action_index:
+                return self._action_index[key]
+        elif isinstance(action, (int, np.integer)) and not isinstance(action, (bool, np.bool_)):
+            if 0 <= int(action) < self.n_actions:
+                return int(action)
+        allowed = ", ".join(f"{i}/{name}" for i, name in enumerate(self.action_names))
+        raise ValueError(f"unknown action {action!r} for task {self.spec.name!r}; allowed: {allowed}")
+
+    def action_name(self, action) -> str:
+        """The name of ``action`` (index, name or rule)."""
+        return self.action_names[self.action_index(action)]
+
+    # -- rules -------------------------------------------------------------------------
+    def step(self, state: StateLike, action) -> tuple[TaskState, Outcome]:
+        """Apply ``action`` to ``state``; returns ``(next_state, outcome)``.
+
+        Improper and ineffective actions return the same state.  Stepping a terminal
+        state raises ``ValueError`` (the episode is over).
+        """
+        next_state, outcome = self._apply(state, action)
+        if outcome == Outcome.INEFFECTIVE and self.ineffective == IneffectiveMode.IMPROPER:
+            outcome = Outcome.IMPROPER
+        if next_state.is_terminal:
+            outcome = Outcome.TERMINAL
+        return next_state, outcome
+
+    def _apply(self, state: StateLike, action) -> tuple[TaskState, Outcome]:
+        """The action's effect as its rule reports it (before the ineffective and terminal conventions)."""
+        state = self.as_state(state)
+        index = self.action_index(action)
+        if state.is_terminal:
+            raise ValueError(f"state {state.index} ({state.name}) is terminal; reset before stepping")
+        rule = self.actions[index]
+        next_state, outcome = rule.effect(state)
+        if not isinstance(next_state, TaskState) or outcome not in Outcome._value2member_map_ \
+                or Outcome(outcome) == Outcome.TERMINAL:
+            raise ActionEffectError(f"action {rule.name!r}: an effect returns (TaskState, a non-terminal Outcome), "
+                                    f"got ({next_state!r}, {outcome!r})")
+        outcome = Outcome(outcome)
+        self._check_sizes(next_state)
+        if outcome in NO_CHANGE_OUTCOMES and next_state != state:
+            raise ActionEffectError(f"action {rule.name!r}: outcome {outcome.name} must leave the state unchanged "
+                                    f"({state.name} -> {next_state.name})")
+        if next_state.objects.count(HELD) > 1:
+            raise ActionEffectError(f"action {rule.name!r}: {next_state.name} holds more than one object")
+        return next_state, outcome
+
+    def is_improper(self, state: StateLike, action) -> bool:
+        """Whether ``action`` is improper in ``state`` (a failed state, refused by the skills)."""
+        return self.step(state, action)[1] == Outcome.IMPROPER
+
+    def action_mask(self, state: StateLike) -> np.ndarray:
+        """Shape ``(n_actions,)`` int8: 1 where the action is not improper in ``state`` (all 0 at terminal)."""
+        state = self.as_state(state)
+        if state.is_terminal:
+            return np.zeros(self.n_actions, dtype=np.int8)
+        return np.array([0 if self.is_improper(state, a) else 1 for a in range(self.n_actions)], dtype=np.int8)
+
+    def classify(self, state: StateLike, action, next_state: StateLike) -> Outcome:
+        """The outcome of an *observed* transition ``state --action--> next_state``.
+
+        Used for physics, where the next state is read back from MuJoCo and may
+        differ from the model's prediction.  Improperness depends only on
+        ``(state, action)``; reaching a terminal state is TERMINAL; a cleaning action
+        (predicted RELEVANT/IRRELEVANT_CLEAN) is RELEVANT_CLEAN if some segment became
+        clean, else IRRELEVANT_CLEAN; any other action is ROUTINE when the state
+        changed, else ineffective.
+        """
+        state, next_state = self.as_state(state), self.as_state(next_state)
+        if self.step(state, action)[1] == Outcome.IMPROPER:
+            return Outcome.IMPROPER
+        if next_state.is_terminal and not state.is_terminal:
+            return Outcome.TERMINAL
+        if self._apply(state, action)[1] in CLEAN_OUTCOMES:
+            newly_clean = any(next_state.clean[k] and not state.clean[k] for k in range(self.n_segments))
+            return Outcome.RELEVANT_CLEAN if newly_clean else Outcome.IRRELEVANT_CLEAN
+        if next_state != state:
+            return Outcome.ROUTINE
+        return Outcome.IMPROPER if self.ineffective == IneffectiveMode.IMPROPER else Outcome.INEFFECTIVE
+
+    # -- starts ------------------------------------------------------------------------
+    def unclean_layouts(self) -> list[TaskState]:
+        """Every all-unclean layout with nothing held (code order)."""
+        return unclean_layouts(self.n_segments, self.n_objects)
+
+    def start_states(self) -> list[TaskState]:
+        """The states an episode can start in (one for ``fixed``, every layout for ``uniform_unclean``)."""
+        if self.start == StartMode.UNIFORM_UNCLEAN:
+            return self.unclean_layouts()
+        return [self.start_state]
+
+    def sample_start(self, uniform: float) -> TaskState:
+        """The start state picked by a uniform draw in [0, 1)."""
+        starts = self.start_states()
+        return starts[min(int(uniform * len(starts)), len(starts) - 1)]
+
+    # -- tables for fast learners ---------------------------------------------------------
+    def transition_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(next_state, outcome)`` arrays of shape ``(n_states, n_actions)`` (int64).
+
+        Terminal states map to themselves with outcome TERMINAL; learners never step
+        them.  Computed once per model (read-only copies are returned).
+        """
+        next_state, outcome = self._transition_arrays
+        return next_state.copy(), outcome.copy()
+
+    @cached_property
+    def _transition_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        next_state = np.zeros((self.n_states, self.n_actions), dtype=np.int64)
+        outcome = np.zeros((self.n_states, self.n_actions), dtype=np.int64)
+        for code in range(self.n_states):
+            state = self.decode(code)
+            if state.is_terminal:
+                next_state[code, :] = code
+                outcome[code, :] = Outcome.TERMINAL
+                continue
+            for a in range(self.n_actions):
+                nxt, out = self.step(state, a)
+                next_state[code, a] = encode(nxt)
+                outcome[code, a] = out
+        return next_state, outcome
+
+    # -- analysis ------------------------------------------------------------------------
+    def successors(self, state: StateLike) -> Iterator[tuple[int, TaskState, Outcome]]:
+        """``(action index, next_state, outcome)`` for every action from a non-terminal ``state``."""
+        state = self.as_state(state)
+        for a in range(self.n_actions):
+            nxt, out = self.step(state, a)
+            yield a, nxt, out
+
+    def reachable_states(self, starts: Iterable[StateLike] | None = None) -> list[TaskState]:
+        """States reachable from ``starts`` (default: every all-unclean layout), sorted by code.
+
+        Terminal states are included but not expanded (the episode ends there).
+        """
+        frontier = deque(self.as_state(s) for s in (starts if starts is not None else self.unclean_layouts()))
+        seen = set(frontier)
+        while frontier:
+            state = frontier.popleft()
+            if state.is_terminal:
+                continue
+            for _, nxt, _ in self.successors(state):
+                if nxt not in seen:
+                    seen.add(nxt)
+                    frontier.append(nxt)
+        return sorted(seen, key=encode)
+
+    def shortest_plan(self, state: StateLike) -> list[Action | int] | None:
+        """A shortest action sequence from ``state`` to a terminal state (``[]`` if terminal).
+
+        Breadth-first over the model, trying actions in the spec's order, so among
+        equally short plans the first in that order is returned.  Actions are
+        :class:`Action` members where the spec's order is the paper's, else indices.
+        ``None`` if no terminal state is reachable.
+        """
+        start = self.as_state(state)
+        if start.is_terminal:
+            return []
+        parent: dict[TaskState, tuple[TaskState, int] | None] = {start: None}
+        frontier = deque([start])
+        while frontier:
+            current = frontier.popleft()
+            for action, nxt, _ in self.successors(current):
+                if nxt in parent:
+                    continue
+                parent[nxt] = (current, action)
+                if nxt.is_terminal:
+                    plan = []
+                    node = nxt
+                    while parent[node] is not None:
+                        node, act = parent[node]
+                        plan.append(self._plan_action(act))
+                    return plan[::-1]
+                frontier.append(nxt)
+        return None
+
+    def _plan_action(self, index: int):
+        if self.action_names[: len(Action)] == tuple(a.rule_name for a in Action) and index < len(Action):
+            return Action(index)
+        return index
+
+    def shortest_plan_lengths(self, states: Sequence[StateLike] | None = None) -> dict[int, int | None]:
+        """Shortest plan length per state code (default: every reachable state).
+
+        One backward breadth-first search from the terminal states, so it costs
+        O(states x actions) whatever the number of states asked for.
+        """
+        reachable = self.reachable_states()
+        states = reachable if states is None else [self.as_state(s) for s in states]
+        distance = self._distances_to_terminal({*reachable, *states})
+        return {encode(s): distance.get(s) for s in states}
+
+    def _distances_to_terminal(self, universe: set[TaskState]) -> dict[TaskState, int]:
+        closure = set(universe)
+        frontier = deque(s for s in universe if not s.is_terminal)
+        while frontier:  # close the universe under successors
+            state = frontier.popleft()
+            for _, nxt, _ in self.successors(state):
+                if nxt not in closure:
+                    closure.add(nxt)
+                    if not nxt.is_terminal:
+                        frontier.append(nxt)
+        predecessors: dict[TaskState, set[TaskState]] = {s: set() for s in closure}
+        for state in closure:
+            if not state.is_terminal:
+                for _, nxt, _ in self.successors(state):
+                    predecessors[nxt].add(state)
+        distance = {s: 0 for s in closure if s.is_terminal}
+        queue = deque(distance)
+        while queue:
+            state = queue.popleft()
+            for before in predecessors[state]:
+                if before not in distance:
+                    distance[before] = distance[state] + 1
+                    queue.append(before)
+        return distance
+
+    def rollout(self, state: StateLike, actions: Iterable) -> list[TaskState]:
+        """The states visited by applying ``actions`` from ``state`` (including ``state``)."""
+        visited = [self.as_state(state)]
+        for action in actions:
+            visited.append(self.step(visited[-1], action)[0])
+        return visited
+
+    def table1_mapping(self) -> dict:
+        """How Table 1 of the paper relates to this model (the ``paper`` spec's sizes only).
+
+        Returns a dict with
+        - ``"rows"``: Table 1 number -> model state code,
+        - ``"unreachable_rows"``: Table 1 numbers never reachable from an all-unclean start,
+        - ``"omitted_reachable"``: codes of reachable states Table 1 does not list,
+        - ``"omitted_on_paper_plan"``: those among them that the paper's optimal
+          sequence from state 4 passes through.
+        """
+        from tableclean_suite.task.paper import PAPER_OPTIMAL_PLAN, PAPER_START, TABLE1_STATES
+
+        if (self.n_segments, self.n_objects) != (2, 1):
+            raise ValueError(f"Table 1 describes 2 segments and 1 object; task {self.spec.name!r} has "
+                             f"{self.n_segments} and {self.n_objects}")
+        reachable = set(self.reachable_states())
+        listed = set(TABLE1_STATES.values())
+        paper_plan_states = set(self.rollout(PAPER_START, [a.rule_name for a in PAPER_OPTIMAL_PLAN]))
+        omitted = sorted((s for s in reachable if s not in listed), key=encode)
+        return {
+            "rows": {number: state.index for number, state in TABLE1_STATES.items()},
+            "unreachable_rows": sorted(n for n, s in TABLE1_STATES.items() if s not in reachable),
+            "omitted_reachable": [s.index for s in omitted],
+            "omitted_on_paper_plan": [s.index for s in omitted if s in paper_plan_states],
+        }
+
+    # -- identity ---------------------------------------------------------------------------
+    def code_digest(self) -> str:
+        """SHA-256 (hex) of everything that determines this model's transitions.
+
+        Covers the spec (as JSON), the source of the state encoding, of this module's
+        rules and of every action effect the spec uses (a user action's too), so a
+        cache keyed on it never serves results computed under other rules.
+        """
+        import json
+
+        digest = hashlib.sha256()
+        digest.update(json.dumps(self.spec.to_dict(), sort_keys=True).encode())
+        for module in (state_module, actions_module):
+            digest.update(inspect.getsource(module).encode())
+        digest.update(inspect.getsource(TaskModel).encode())
+        for rule in self.actions:
+            digest.update(rule.name.encode())
+            digest.update(_source_of(rule.effect).encode())
+        return digest.hexdigest()
+
+
+def _source_of(function) -> str:
+    """Source text of ``function`` or, without source (e.g. built in a REPL), its bytecode."""
+    try:
+        return inspect.getsource(function)
+    except (OSError, TypeError):
+        code = getattr(function, "__code__", None)
+        return repr(code.co_code) + repr(code.co_consts) if code is not None else repr(function)
+
+
+def as_task_model(task: "TaskModel | TaskSpec | str | Path | None" = None) -> TaskModel:
+    """A model from a model, a spec, a registered name or a ``.json`` path (None: ``paper``)."""
+    if isinstance(task, TaskModel):
+        return task
+    return TaskModel(spec=task)

@@ -1,0 +1,239 @@
+"""Symbolic states of the table-cleaning task for any number of segments and objects.
+
+A :class:`TaskState` is a plain value: which segments are clean, where each object is
+(a segment or the gripper), and which segment the arm is above.  It knows its own sizes
+(``len(clean)`` segments, ``len(objects)`` objects), so its integer code needs no spec.
+Indices are 0-based here; names and the user-facing API number segments and objects
+from 1.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+from typing import Iterable
+
+import numpy as np
+
+#: Location code of an object held in the gripper (:attr:`TaskState.objects`).
+HELD = -1
+
+#: A segment is unclean (0) or clean (1): the radix of each clean flag in the state code.
+CLEAN_RADIX = 2
+
+
+class Outcome(enum.IntEnum):
+    """What an action did; reward patterns assign a value to each outcome.
+
+    - ROUTINE: an effective move, pick or place (or another action that changed the state).
+    - INEFFECTIVE: a pick with nothing to pick or a place with nothing held;
+      the state does not change.
+    - RELEVANT_CLEAN: cleaning an unclean segment that leaves another one unclean.
+    - IRRELEVANT_CLEAN: cleaning an already clean segment.
+    - IMPROPER: cleaning while holding an object or where an object lies
+      (Algorithm 1's failed state: the state does not change).
+    - TERMINAL: the action that leaves every segment clean.
+    """
+
+    ROUTINE = 0
+    INEFFECTIVE = 1
+    RELEVANT_CLEAN = 2
+    IRRELEVANT_CLEAN = 3
+    IMPROPER = 4
+    TERMINAL = 5
+
+
+N_OUTCOMES = len(Outcome)
+#: Outcomes of a cleaning action (used to classify observed transitions).
+CLEAN_OUTCOMES = (Outcome.RELEVANT_CLEAN, Outcome.IRRELEVANT_CLEAN)
+#: Outcomes after which the state must be unchanged.
+NO_CHANGE_OUTCOMES = (Outcome.INEFFECTIVE, Outcome.IRRELEVANT_CLEAN, Outcome.IMPROPER)
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+@dataclass(frozen=True, order=True)
+class TaskState:
+    """One symbolic state (0-based indices).
+
+    Attributes:
+        clean: ``(N,)`` bools, whether segment ``k`` (0-based) is clean; N >= 1.
+        objects: ``(M,)`` ints, where object ``j`` is: a segment index in ``[0, N)``, or
+            :data:`HELD` (-1) in the gripper.  Several objects may lie on one segment.
+        arm: the segment index in ``[0, N)`` the arm is above.
+
+    The task's rules allow at most one held object; a state holding two is a valid
+    value (it has a code) that no rule produces.
+    """
+
+    clean: tuple[bool, ...]
+    objects: tuple[int, ...]
+    arm: int
+
+    def __post_init__(self):
+        clean = tuple(bool(c) for c in self.clean)
+        if not clean:
+            raise ValueError("a state needs at least one segment")
+        n = len(clean)
+        objects = tuple(self.objects)
+        if not objects:
+            raise ValueError("a state needs at least one object")
+        for j, where in enumerate(objects):
+            if not _is_int(where) or not (where == HELD or 0 <= where < n):
+                raise ValueError(f"object {j + 1} location must be a segment index in [0, {n}) or HELD (-1), got {where!r}")
+        if not _is_int(self.arm) or not 0 <= self.arm < n:
+            raise ValueError(f"arm must be a segment index in [0, {n}), got {self.arm!r}")
+        object.__setattr__(self, "clean", clean)
+        object.__setattr__(self, "objects", tuple(int(o) for o in objects))
+        object.__setattr__(self, "arm", int(self.arm))
+
+    # -- sizes and derived facts --------------------------------------------------
+    @property
+    def n_segments(self) -> int:
+        """N, the number of segments."""
+        return len(self.clean)
+
+    @property
+    def n_objects(self) -> int:
+        """M, the number of objects."""
+        return len(self.objects)
+
+    def is_clean(self, segment: int) -> bool:
+        """Whether segment ``segment`` (0-based) is clean."""
+        return self.clean[int(segment)]
+
+    @property
+    def held_object(self) -> int | None:
+        """The lowest-numbered held object's index, or None when the gripper is empty."""
+        for j, where in enumerate(self.objects):
+            if where == HELD:
+                return j
+        return None
+
+    @property
+    def holding(self) -> bool:
+        """Whether the gripper holds an object."""
+        return HELD in self.objects
+
+    def objects_on(self, segment: int) -> tuple[int, ...]:
+        """Indices of the objects lying on ``segment`` (0-based), in object order."""
+        return tuple(j for j, where in enumerate(self.objects) if where == segment)
+
+    @property
+    def object_on_arm_segment(self) -> bool:
+        """Whether any object lies on the segment the arm is above."""
+        return self.arm in self.objects
+
+    @property
+    def is_terminal(self) -> bool:
+        """Every segment clean: the episode ends here."""
+        return all(self.clean)
+
+    @property
+    def index(self) -> int:
+        """The state's integer code (see :func:`encode`)."""
+        return encode(self)
+
+    @property
+    def name(self) -> str:
+        """A readable name, e.g. ``"S1:unclean+obj S2:unclean | arm@S1"``.
+
+        With one object it is ``obj``; with several, ``o1``, ``o2``, ... (1-based).
+        """
+        label = _object_labels(self.n_objects)
+        parts = []
+        for k in range(self.n_segments):
+            status = "clean" if self.clean[k] else "unclean"
+            parts.append(f"S{k + 1}:{status}" + "".join(f"+{label[j]}" for j in self.objects_on(k)))
+        held = "".join(f" holding {label[j]}" for j, where in enumerate(self.objects) if where == HELD)
+        return f"{' '.join(parts)} | arm@S{self.arm + 1}{held}"
+
+    # -- copies -------------------------------------------------------------------
+    def replace(self, **changes) -> "TaskState":
+        """A copy with the given fields (``clean``, ``objects``, ``arm``) changed."""
+        fields = dict(clean=self.clean, objects=self.objects, arm=self.arm)
+        fields.update(changes)
+        return TaskState(**fields)
+
+    def with_clean(self, segment: int) -> "TaskState":
+        """A copy in which ``segment`` (0-based) is clean."""
+        clean = list(self.clean)
+        clean[int(segment)] = True
+        return self.replace(clean=tuple(clean))
+
+    def with_object(self, obj: int, where: int) -> "TaskState":
+        """A copy in which object ``obj`` (0-based) is at ``where`` (a segment index or HELD)."""
+        objects = list(self.objects)
+        objects[int(obj)] = int(where)
+        return self.replace(objects=tuple(objects))
+
+    def __str__(self) -> str:  # pragma: no cover - trivial
+        return self.name
+
+
+def _object_labels(n_objects: int) -> list[str]:
+    return ["obj"] if n_objects == 1 else [f"o{j + 1}" for j in range(n_objects)]
+
+
+def state_count(n_segments: int, n_objects: int) -> int:
+    """Number of codes of the mixed radix: ``2**N * (N + 1)**M * N``."""
+    return CLEAN_RADIX**n_segments * (n_segments + 1) ** n_objects * n_segments
+
+
+def encode(state: TaskState) -> int:
+    """Mixed-radix code of a state, in ``range(state_count(N, M))``.
+
+    Digits, most significant first: the clean flags of segments 1..N (radix 2), the
+    locations of objects 1..M (radix N + 1: a segment index, or N for held), the arm's
+    segment (radix N).  For N = 2, M = 1 this is the paper-era code
+    ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment``.
+    """
+    n = state.n_segments
+    code = 0
+    for flag in state.clean:
+        code = code * CLEAN_RADIX + int(flag)
+    for where in state.objects:
+        code = code * (n + 1) + (n if where == HELD else where)
+    return code * n + state.arm
+
+
+def decode_code(code: int, n_segments: int, n_objects: int) -> TaskState:
+    """Inverse of :func:`encode` for N segments and M objects; ``ValueError`` outside the range."""
+    total = state_count(n_segments, n_objects)
+    if not _is_int(code):
+        raise TypeError(f"state code must be an int in [0, {total}), got {code!r}")
+    if not 0 <= int(code) < total:
+        raise ValueError(f"state code must be in [0, {total}), got {code}")
+    rest, arm = divmod(int(code), n_segments)
+    objects = []
+    for _ in range(n_objects):
+        rest, where = divmod(rest, n_segments + 1)
+        objects.append(HELD if where == n_segments else where)
+    clean = []
+    for _ in range(n_segments):
+        rest, flag = divmod(rest, CLEAN_RADIX)
+        clean.append(bool(flag))
+    return TaskState(tuple(reversed(clean)), tuple(reversed(objects)), arm)
+
+
+def unclean_layouts(n_segments: int, n_objects: int) -> list[TaskState]:
+    """Every all-unclean state with nothing held, objects-major then arm (code order).
+
+    ``n_segments ** n_objects * n_segments`` states; for the paper's task the four
+    layouts (object on 1 or 2) x (arm over 1 or 2).
+    """
+    import itertools
+
+    clean = (False,) * n_segments
+    return [
+        TaskState(clean, objects, arm)
+        for objects in itertools.product(range(n_segments), repeat=n_objects)
+        for arm in range(n_segments)
+    ]
+
+
+def iter_codes(states: Iterable[TaskState]) -> list[int]:
+    """The codes of ``states``, in order."""
+    return [encode(s) for s in states]
