@@ -70,7 +70,7 @@ class CleanSkill(Skill):
     }
 
     def on_reset(self, info: Mapping[str, Any]) -> None:
-        self.segment = self.state.arm_segment
+        self.segment = self.state.arm
         self.retries_left = self.config["grasp_retries"]
         self.passes = 0
         self.stroke_index = 0

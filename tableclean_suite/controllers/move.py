@@ -32,7 +32,7 @@ class MoveSkill(Skill):
     }
 
     def on_reset(self, info: Mapping[str, Any]) -> None:
-        self.target_segment = self.state.arm_segment.other
+        self.target_segment = (self.state.arm + 1) % self.state.n_segments
         self.gripper = GRIPPER_CLOSE if self.state.holding else GRIPPER_OPEN
         self.start_xy = np.array(info["eef_pos"][:2], dtype=float)
         # m, lift target height: the hover height, or where the gripper already is if that is higher

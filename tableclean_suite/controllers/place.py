@@ -40,7 +40,7 @@ class PlaceSkill(Skill):
         obj = np.asarray(info["object_pos"], dtype=float)
         # height of the grip site above the held object's centre, measured now (the grasp may have slipped)
         self.hold_offset_z = float(eef[2] - obj[2])
-        self.place_xy = self.segment_center(info, self.state.arm_segment)[:2]
+        self.place_xy = self.segment_center(info, self.state.arm)[:2]
 
     def waypoint(self, info: Mapping[str, Any]) -> Waypoint:
         tol = self.config["reach_tolerance"]

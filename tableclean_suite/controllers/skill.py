@@ -26,7 +26,7 @@ import numpy as np
 
 from tableclean_suite.controllers.geometry import gripper_yaw, wrap_angle
 from tableclean_suite.controllers.osc import compose_action, down_rotvec
-from tableclean_suite.task import Action, Outcome, Segment, TaskModel, TaskState
+from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
 
 #: Settings every skill understands; each skill's DEFAULT_CONFIG extends these.
 BASE_CONFIG: dict[str, Any] = {
@@ -229,8 +229,8 @@ class Skill(abc.ABC):
         """(3,) the point ``hover_height`` above the table top at horizontal position ``xy`` (2,)."""
         return np.array([xy[0], xy[1], float(info["table_top_z"]) + self.config["hover_height"]])
 
-    def segment_center(self, info: Mapping[str, Any], segment: Segment) -> np.ndarray:
-        """(3,) table-top surface point at the centre of ``segment``."""
+    def segment_center(self, info: Mapping[str, Any], segment: int) -> np.ndarray:
+        """(3,) table-top surface point at the centre of ``segment`` (0-based)."""
         return np.asarray(info["segment_centers"], dtype=float)[int(segment)]
 
     def reached(self, info: Mapping[str, Any], pos: np.ndarray, tolerance: float | None = None) -> bool:

@@ -34,7 +34,8 @@ from typing import Mapping
 import numpy as np
 
 from tableclean_suite.environments.config import make_config, scene_geometry
-from tableclean_suite.task import N_SEGMENTS, ObjectLocation, Segment, TaskState
+from tableclean_suite.environments.config import SCENE_SEGMENTS
+from tableclean_suite.task import HELD, TaskState
 
 #: Observation keys read from the physics and checked for NaN/inf by :func:`check_stability`.
 PHYSICAL_KEYS = ("object_pos", "eef_pos", "sponge_pos", "dirt_fraction", "qvel")
@@ -103,19 +104,19 @@ def segments_clean(dirt_fraction, config: Mapping | None = None) -> np.ndarray:
     """Bool (2,): a segment is clean when its remaining dirt fraction is <= ``1 - clean_fraction``."""
     config = resolve_config(config)
     dirt = np.asarray(dirt_fraction, dtype=float)
-    if dirt.shape != (N_SEGMENTS,):
-        raise ValueError(f"dirt_fraction must have shape ({N_SEGMENTS},), got {dirt.shape}")
+    if dirt.shape != (SCENE_SEGMENTS,):
+        raise ValueError(f"dirt_fraction must have shape ({SCENE_SEGMENTS},), got {dirt.shape}")
     return dirt <= 1.0 - config["clean_fraction"] + _FRACTION_EPS
 
 
-def segment_of_xy(xy, segment_centers, segment_half_sizes, margin: float = 0.0) -> Segment | None:
+def segment_of_xy(xy, segment_centers, segment_half_sizes, margin: float = 0.0) -> int | None:
     """The segment whose area, grown by ``margin`` [m], contains ``xy``; the nearest if both; else ``None``.
 
     Plain float arithmetic over the two segments (faster than NumPy on arrays this small).
     """
     x, y = float(xy[0]), float(xy[1])
     best, best_distance = None, math.inf
-    for segment in Segment:
+    for segment in range(len(segment_centers)):
         cx, cy = float(segment_centers[segment][0]), float(segment_centers[segment][1])
         hx, hy = float(segment_half_sizes[segment][0]), float(segment_half_sizes[segment][1])
         if abs(x - cx) <= hx + margin and abs(y - cy) <= hy + margin:
@@ -125,8 +126,9 @@ def segment_of_xy(xy, segment_centers, segment_half_sizes, margin: float = 0.0) 
     return best
 
 
-def object_location(obs: Mapping, config: Mapping | None = None) -> ObjectLocation:
-    """Where the object is: held (grasped and lifted) or lying on segment 1 or 2; raises on faults."""
+def object_location(obs: Mapping, config: Mapping | None = None) -> int:
+    """Where the object is: :data:`~tableclean_suite.task.HELD` (grasped and lifted) or the 0-based
+    segment it lies on; raises on faults."""
     config = resolve_config(config)
     _require(obs, "object_pos", "object_grasped")
     pos = np.asarray(obs["object_pos"], dtype=float)
@@ -143,7 +145,7 @@ def object_location(obs: Mapping, config: Mapping | None = None) -> ObjectLocati
     lifted = pos[2] > rest_z + config["lift_tolerance"]
     grasped = bool(obs["object_grasped"])
     if lifted and grasped:
-        return ObjectLocation.IN_GRIPPER
+        return HELD
     if lifted:
         raise AbstractionError(
             Fault.OBJECT_LIFTED_NOT_GRASPED,
@@ -153,7 +155,7 @@ def object_location(obs: Mapping, config: Mapping | None = None) -> ObjectLocati
         pos, _geometry_value(obs, "segment_centers", config), _geometry_value(obs, "segment_half_sizes", config)
     )
     if segment is not None:
-        return ObjectLocation.on(segment)
+        return segment
     table_center = _geometry_value(obs, "table_center", config)
     table_half = _geometry_value(obs, "table_half_size", config)
     if np.all(np.abs(pos[:2] - table_center[:2]) <= table_half):
@@ -163,8 +165,8 @@ def object_location(obs: Mapping, config: Mapping | None = None) -> ObjectLocati
     raise AbstractionError(Fault.OBJECT_OFF_TABLE, f"object at xy=({pos[0]:.3f}, {pos[1]:.3f}) is off the table")
 
 
-def arm_segment(obs: Mapping, config: Mapping | None = None) -> Segment:
-    """The segment the gripper is above (within ``arm_segment_margin``); raises ``ARM_NOT_OVER_SEGMENT``."""
+def arm_segment(obs: Mapping, config: Mapping | None = None) -> int:
+    """The 0-based segment the gripper is above (within ``arm_segment_margin``); raises ``ARM_NOT_OVER_SEGMENT``."""
     config = resolve_config(config)
     _require(obs, "eef_pos")
     eef = np.asarray(obs["eef_pos"], dtype=float)
@@ -218,4 +220,4 @@ def abstract_state(obs: Mapping, config: Mapping | None = None, *, check_sponge:
             f"sponge at {np.round(np.asarray(obs['sponge_pos'], dtype=float), 3).tolist()} is not at its home"
             + (" (grasped)" if obs.get("sponge_grasped", False) else ""),
         )
-    return TaskState(bool(clean[0]), bool(clean[1]), location, segment)
+    return TaskState(tuple(bool(c) for c in clean), (location,), segment)

@@ -16,7 +16,6 @@ from robosuite.models.arenas import TableArena
 from robosuite.utils.mjcf_utils import new_geom
 
 from tableclean_suite.environments.config import SceneGeometry
-from tableclean_suite.task import Segment
 
 #: RGBA of each segment's tint (segment 1 light blue, segment 2 light orange).
 SEGMENT_RGBA = ((0.62, 0.78, 0.95, 1.0), (0.98, 0.80, 0.58, 1.0))
@@ -39,9 +38,9 @@ TABLEVIEW_TARGET = (-0.08, 0.06, 0.02)
 TABLEVIEW_FOVY = 45
 
 
-def marker_geom_name(segment: Segment, index: int) -> str:
-    """Name of dirt marker ``index`` of ``segment`` (e.g. ``"dirt_s1_07"``)."""
-    return f"dirt_s{segment.number}_{index:02d}"
+def marker_geom_name(segment: int, index: int) -> str:
+    """Name of dirt marker ``index`` of ``segment`` (0-based; e.g. ``"dirt_s1_07"`` for segment 0)."""
+    return f"dirt_s{segment + 1}_{index:02d}"
 
 
 def look_at_quat(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
@@ -88,7 +87,7 @@ class TableCleanArena(TableArena):
     @property
     def marker_names(self) -> list[str]:
         """Dirt marker geom names, segment 1 first, in the order of ``marker_xy``."""
-        return [marker_geom_name(s, i) for s in Segment for i in range(self.marker_xy.shape[1])]
+        return [marker_geom_name(s, i) for s in range(self.marker_xy.shape[0]) for i in range(self.marker_xy.shape[1])]
 
     def configure_location(self):
         """Places the table (superclass), then adds segments, divider, dirt and the sponge stand."""
@@ -96,12 +95,12 @@ class TableCleanArena(TableArena):
         top = self.table_half_size[2]  # table-top height in the table body's frame
         body_xy = np.asarray(self.table_offset[:2], dtype=float)  # table body xy in the world
         g = self.geometry
-        for segment in Segment:
-            center = g.segment_centers[segment.value, :2] - body_xy
+        for segment in range(len(g.segment_centers)):
+            center = g.segment_centers[segment, :2] - body_xy
             self.table_body.append(new_geom(
-                f"segment{segment.number}_visual", "box",
-                size=(*g.segment_half_sizes[segment.value], TINT_HALF_HEIGHT),
-                pos=(*center, top + TINT_HALF_HEIGHT), rgba=SEGMENT_RGBA[segment.value], **_VISUAL,
+                f"segment{segment + 1}_visual", "box",
+                size=(*g.segment_half_sizes[segment], TINT_HALF_HEIGHT),
+                pos=(*center, top + TINT_HALF_HEIGHT), rgba=SEGMENT_RGBA[segment], **_VISUAL,
             ))
         gap = g.segment_centers[1, 1] - g.segment_centers[0, 1] - 2 * g.segment_half_sizes[0, 1]
         divider_center = g.segment_centers[:, :2].mean(axis=0) - body_xy

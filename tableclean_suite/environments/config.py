@@ -15,7 +15,10 @@ from typing import Mapping
 
 import numpy as np
 
-from tableclean_suite.task import N_SEGMENTS, Segment
+from tableclean_suite.task.paper import PAPER_SEGMENTS
+
+#: Segments the scene lays out (the paper's two; the task spec may not ask for more yet).
+SCENE_SEGMENTS = PAPER_SEGMENTS
 
 DEFAULT_TABLECLEAN_CONFIG = {
     # --- table -------------------------------------------------------------------------------
@@ -142,7 +145,7 @@ def scene_geometry(config: Mapping) -> SceneGeometry:
     half_size = np.asarray(config["segment_size"], dtype=float) / 2
     offset_y = config["segment_gap"] / 2 + half_size[1]
     side = np.array([-1.0, 1.0])  # segment 1 at -y, segment 2 at +y
-    segment_centers = np.zeros((N_SEGMENTS, 3))
+    segment_centers = np.zeros((SCENE_SEGMENTS, 3))
     segment_centers[:, 0] = center[0] + config["segment_x"]
     segment_centers[:, 1] = center[1] + side * offset_y
     segment_centers[:, 2] = center[2]
@@ -155,7 +158,7 @@ def scene_geometry(config: Mapping) -> SceneGeometry:
         table_center=center,
         table_half_size=np.asarray(config["table_full_size"][:2], dtype=float) / 2,
         segment_centers=segment_centers,
-        segment_half_sizes=np.tile(half_size, (N_SEGMENTS, 1)),
+        segment_half_sizes=np.tile(half_size, (SCENE_SEGMENTS, 1)),
         sponge_home_pos=sponge_home,
         stand_center=stand_center,
         stand_half_size=stand_half,
@@ -174,4 +177,4 @@ def marker_positions(config: Mapping) -> np.ndarray:
     fy = (np.arange(cols) + 0.5) / cols - 0.5
     gx, gy = np.meshgrid(fx * size[0], fy * size[1], indexing="ij")
     offsets = np.stack([gx.ravel(), gy.ravel()], axis=-1)
-    return np.stack([geometry.segment_centers[s.value, :2] + offsets for s in Segment])
+    return np.stack([geometry.segment_centers[s, :2] + offsets for s in range(SCENE_SEGMENTS)])

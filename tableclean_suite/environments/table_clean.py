@@ -21,7 +21,8 @@ from tableclean_suite.environments.config import (
 from tableclean_suite.environments.ik import site_pose, solve_site_pose
 from tableclean_suite.environments.objects import check_object_type, make_object, make_sponge
 from tableclean_suite.environments.scene_state import SceneState
-from tableclean_suite.task import N_SEGMENTS, N_STATES, ObjectLocation, Segment, TaskState
+from tableclean_suite.environments.config import SCENE_SEGMENTS
+from tableclean_suite.task import HELD, TaskModel, TaskState
 
 __all__ = ["TableClean", "DEFAULT_TABLECLEAN_CONFIG"]
 
@@ -41,17 +42,16 @@ OBJECT_ON_TABLE_REWARD = 0.25
 SPONGE_RETURNED_REWARD = 0.5
 
 
-def _segment_option(name: str, value) -> Segment | None:
-    """``None`` (random each reset) or the :class:`Segment` of a 1-based number; clear ``ValueError`` otherwise."""
+def _segment_option(name: str, value) -> int | None:
+    """``None`` (random each reset) or the 0-based index of a 1-based segment number; clear ``ValueError`` otherwise."""
     if value is None:
         return None
-    try:
-        return Segment.from_number(value)
-    except (ValueError, TypeError):
-        raise ValueError(f"{name} must be 1, 2 or None (random at each reset), got {value!r}") from None
+    if isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)) and 1 <= value <= SCENE_SEGMENTS:
+        return int(value) - 1
+    raise ValueError(f"{name} must be 1, 2 or None (random at each reset), got {value!r}")
 
 
-def _dirty_option(value: Iterable[int]) -> tuple[Segment, ...]:
+def _dirty_option(value: Iterable[int]) -> tuple[int, ...]:
     try:
         numbers = tuple(value)
     except TypeError:
@@ -153,9 +153,9 @@ class TableClean(ManipulationEnv):
         )
         self._marker_present = np.ones(len(self._marker_xyz), dtype=bool)
         self._marker_visible = self._marker_present.copy()
-        self._dirt_fraction = np.ones(N_SEGMENTS)
-        self._arm_qpos_cache: dict[Segment, np.ndarray] = {}
-        self.layout: tuple[Segment, Segment] | None = None  # (object segment, arm segment) of this episode
+        self._dirt_fraction = np.ones(SCENE_SEGMENTS)
+        self._arm_qpos_cache: dict[int, np.ndarray] = {}
+        self.layout: tuple[int, int] | None = None  # (object segment, arm segment) of this episode, 0-based
         super().__init__(
             robots=robots,
             env_configuration=env_configuration,
@@ -225,7 +225,7 @@ class TableClean(ManipulationEnv):
         wiped = 1.0 - info["dirt_fraction"]
         r_wipe = WIPE_REWARD_PER_SEGMENT * float(np.minimum(1.0, wiped / self.task_config["clean_fraction"]).sum())
         try:
-            on_table = abstraction.object_location(info, self.task_config) != ObjectLocation.IN_GRIPPER
+            on_table = abstraction.object_location(info, self.task_config) != HELD
         except abstraction.AbstractionError:
             on_table = False
         r_object = OBJECT_ON_TABLE_REWARD if on_table else 0.0
@@ -242,7 +242,7 @@ class TableClean(ManipulationEnv):
         robot_model.set_base_xpos(robot_model.base_xpos_offset["table"](config["table_full_size"][0]))
         arena = TableCleanArena(
             geometry=self.geometry,
-            marker_xy=self._marker_xyz[:, :2].reshape(N_SEGMENTS, self._markers_per_segment, 2),
+            marker_xy=self._marker_xyz[:, :2].reshape(SCENE_SEGMENTS, self._markers_per_segment, 2),
             marker_radius=config["marker_radius"],
             table_full_size=config["table_full_size"],
             table_friction=config["table_friction"],
@@ -318,7 +318,7 @@ class TableClean(ManipulationEnv):
         def symbolic_state_onehot(obs_cache):
             cached = obs_cache.get("symbolic_state_index")
             index = self._symbolic_index() if cached is None else int(cached)
-            onehot = np.zeros(N_STATES)
+            onehot = np.zeros(TaskModel().n_states)
             if index != FAULT_INDEX:
                 onehot[index] = 1.0
             return onehot
@@ -371,7 +371,7 @@ class TableClean(ManipulationEnv):
             return False
         info = self.skill_info()
         try:
-            on_table = abstraction.object_location(info, self.task_config) != ObjectLocation.IN_GRIPPER
+            on_table = abstraction.object_location(info, self.task_config) != HELD
         except abstraction.AbstractionError:
             return False
         return on_table and abstraction.sponge_at_home(info, self.task_config)
@@ -434,7 +434,7 @@ class TableClean(ManipulationEnv):
         """
         return abstraction.abstract_state(self.skill_info(), self.task_config, check_sponge=check_sponge)
 
-    def segment_of_position(self, xy) -> Segment | None:
+    def segment_of_position(self, xy) -> int | None:
         """The segment whose cleanable area contains world ``xy`` (first two entries used), else None."""
         return abstraction.segment_of_xy(xy, self.geometry.segment_centers, self.geometry.segment_half_sizes)
 
@@ -479,22 +479,22 @@ class TableClean(ManipulationEnv):
 
     def marker_present(self) -> np.ndarray:
         """Copy of the bool (2, markers_per_segment) array of dirt markers still present."""
-        return self._marker_present.reshape(N_SEGMENTS, self._markers_per_segment).copy()
+        return self._marker_present.reshape(SCENE_SEGMENTS, self._markers_per_segment).copy()
 
     # ------------------------------------------------------------------------------------------
     # internals
     # ------------------------------------------------------------------------------------------
-    def _segment_slice_view(self, flat: np.ndarray, segment: Segment) -> np.ndarray:
-        return flat.reshape(N_SEGMENTS, self._markers_per_segment)[segment.value]
+    def _segment_slice_view(self, flat: np.ndarray, segment: int) -> np.ndarray:
+        return flat.reshape(SCENE_SEGMENTS, self._markers_per_segment)[segment]
 
-    def _draw_layout(self) -> tuple[Segment, Segment]:
+    def _draw_layout(self) -> tuple[int, int]:
         """(object segment, arm segment): the configured ones, or drawn from ``self.rng`` when None."""
-        draws = self.rng.integers(0, N_SEGMENTS, size=2)  # always drawn, so the rng stream is layout-independent
-        obj = self.object_segment if self.object_segment is not None else Segment(int(draws[0]))
-        arm = self.arm_segment if self.arm_segment is not None else Segment(int(draws[1]))
+        draws = self.rng.integers(0, SCENE_SEGMENTS, size=2)  # always drawn, so the rng stream is layout-independent
+        obj = self.object_segment if self.object_segment is not None else int(draws[0])
+        arm = self.arm_segment if self.arm_segment is not None else int(draws[1])
         return obj, arm
 
-    def _arm_reset_qpos(self, segment: Segment) -> np.ndarray:
+    def _arm_reset_qpos(self, segment: int) -> np.ndarray:
         """Joint positions putting the gripper site ``arm_hover_height`` above ``segment``'s centre (cached)."""
         if segment not in self._arm_qpos_cache:
             robot = self.robots[0]
@@ -504,16 +504,16 @@ class TableClean(ManipulationEnv):
             site_id = model.site_name2id(robot.gripper[robot.arms[0]].important_sites["grip_site"])
             q_default = np.array(robot.robot_model.init_qpos, dtype=float)
             _, default_mat = site_pose(model._model, qpos_addrs, site_id, q_default)
-            target = self.geometry.segment_centers[segment.value] + [0.0, 0.0, self.task_config["arm_hover_height"]]
+            target = self.geometry.segment_centers[segment] + [0.0, 0.0, self.task_config["arm_hover_height"]]
             self._arm_qpos_cache[segment] = solve_site_pose(
                 model._model, qpos_addrs, dof_addrs, site_id, target, default_mat, q_default
             )
         return self._arm_qpos_cache[segment].copy()
 
-    def _place_object(self, segment: Segment) -> None:
+    def _place_object(self, segment: int) -> None:
         noise = self.task_config["placement_noise"]
         yaw_noise = self.task_config["placement_yaw_noise"]
-        xy = self.geometry.segment_centers[segment.value, :2] + self.rng.uniform(-noise, noise, size=2)
+        xy = self.geometry.segment_centers[segment, :2] + self.rng.uniform(-noise, noise, size=2)
         yaw = self.rng.uniform(-yaw_noise, yaw_noise)
         z = self.geometry.table_top_z - self.object.bottom_offset[2] + PLACEMENT_CLEARANCE
         quat_wxyz = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
@@ -553,7 +553,7 @@ class TableClean(ManipulationEnv):
             self._update_dirt_fraction()
 
     def _update_dirt_fraction(self) -> None:
-        present = self._marker_present.reshape(N_SEGMENTS, self._markers_per_segment)
+        present = self._marker_present.reshape(SCENE_SEGMENTS, self._markers_per_segment)
         self._dirt_fraction = np.count_nonzero(present, axis=1) / self._markers_per_segment
 
     def _show_dirt(self) -> None:
