@@ -7,13 +7,15 @@ Version pins, and why:
   ``mj_fullM``, 3.11 removed ``MjData.qM`` (both used by robosuite's OSC), and
   3.12+ (and 4.x) fail robosuite's ``get_joint_qpos_addr`` with an AssertionError.
 - numba: the batched tabular learners are compiled with it (robosuite needs it too).
+- wrapt: its post-import hook registers ``TableClean`` when robosuite is imported, so the
+  symbolic parts start without importing robosuite.
 """
 
 from setuptools import find_packages, setup
 
 setup(
     name="tableclean_suite",
-    version="0.1.0",
+    version="0.2.0",
     description=(
         "A robosuite plugin and benchmark for task-level RL in a two-segment table-cleaning scenario "
         "(Q-learning with reduced state space and reward patterns r1-r4)."
@@ -31,6 +33,7 @@ setup(
         "matplotlib",
         "gymnasium>=1.0",
         "tqdm",
+        "wrapt",  # post-import hook: TableClean registers when robosuite is imported, not before
     ],
     extras_require={
         "dev": ["pytest"],
