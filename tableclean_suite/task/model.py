@@ -28,6 +28,8 @@ from tableclean_suite.task.state import (
 
 StateLike = Union[TaskState, int, np.integer]
 
+#: The built-in actions' names in :class:`Action` order (the paper's action list).
+_BUILTIN_ORDER = tuple(a.rule_name for a in Action)
 #: Smallest signed integer dtypes, in order, for record arrays of state/action/outcome codes.
 _RECORD_DTYPES = (np.int8, np.int16, np.int32)
 
@@ -343,7 +345,7 @@ class TaskModel:
 
         Breadth-first over the model, trying actions in the spec's order, so among
         equally short plans the first in that order is returned.  Actions are
-        :class:`Action` members where the spec's order is the paper's, else indices.
+        :class:`Action` members when the spec's actions are the paper's four, else indices.
         ``None`` if no terminal state is reachable.
         """
         start = self.as_state(state)
@@ -367,10 +369,8 @@ class TaskModel:
                 frontier.append(nxt)
         return None
 
-    def _plan_action(self, index: int):
-        if self.action_names[: len(Action)] == tuple(a.rule_name for a in Action) and index < len(Action):
-            return Action(index)
-        return index
+    def _plan_action(self, index: int) -> Action | int:
+        return Action(index) if self.action_names == _BUILTIN_ORDER else index
 
     def shortest_plan_lengths(self, states: Sequence[StateLike] | None = None) -> dict[int, int | None]:
         """Shortest plan length per state code (default: every reachable state).

@@ -10,8 +10,8 @@ from 1.
 from __future__ import annotations
 
 import enum
+import itertools
 from dataclasses import dataclass
-from typing import Iterable
 
 import numpy as np
 
@@ -224,8 +224,6 @@ def unclean_layouts(n_segments: int, n_objects: int) -> list[TaskState]:
     ``n_segments ** n_objects * n_segments`` states; for the paper's task the four
     layouts (object on 1 or 2) x (arm over 1 or 2).
     """
-    import itertools
-
     clean = (False,) * n_segments
     return [
         TaskState(clean, objects, arm)
@@ -233,7 +231,3 @@ def unclean_layouts(n_segments: int, n_objects: int) -> list[TaskState]:
         for arm in range(n_segments)
     ]
 
-
-def iter_codes(states: Iterable[TaskState]) -> list[int]:
-    """The codes of ``states``, in order."""
-    return [encode(s) for s in states]
