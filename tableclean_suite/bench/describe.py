@@ -1,6 +1,7 @@
 """``python -m benchmarks.run --describe``: what the task model is, as tables and text.
 
-Pure: every function returns a DataFrame or a string; :mod:`benchmarks.run` prints.
+Pure: every function returns a DataFrame or a string; :mod:`.run` prints.  The Table 1
+sections apply to tasks of the paper's sizes (2 segments, 1 object) only.
 """
 
 from __future__ import annotations
@@ -11,25 +12,21 @@ import pandas as pd
 from tableclean_suite.analysis import exact_success_probability
 from tableclean_suite.learners import get_learner, learner_names
 from tableclean_suite.rewards import get_reward_pattern, reward_pattern_names
-from tableclean_suite.task import (
-    N_STATES,
-    PAPER_OPTIMAL_PLAN,
-    TABLE1_STATES,
-    Action,
-    TaskModel,
-    all_states,
-    decode,
-    table1_number,
-)
+from tableclean_suite.task import PAPER_OPTIMAL_PLAN, TABLE1_STATES, TaskModel, table1_number
+
+#: (segments, objects) of the paper's task, the only sizes Table 1 describes.
+PAPER_SIZES = (2, 1)
 
 
 def states_table(model: TaskModel) -> pd.DataFrame:
-    """All 24 states: code, name, Table 1 number, reachable?, terminal?, shortest plan length."""
+    """All ``model.n_states`` states: code, name, Table 1 number ("-" where Table 1 omits it or the
+    task is not of the paper's sizes), reachable?, terminal?, shortest plan length."""
     reachable = {s.index for s in model.reachable_states()}
-    lengths = model.shortest_plan_lengths(all_states())
+    states = model.all_states()
+    lengths = model.shortest_plan_lengths(states)
     rows = []
-    for state in all_states():
-        number = table1_number(state)
+    for state in states:
+        number = table1_number(state) if _paper_sized(model) else None
         rows.append(
             {
                 "code": state.index,
@@ -41,6 +38,10 @@ def states_table(model: TaskModel) -> pd.DataFrame:
             }
         )
     return pd.DataFrame(rows).set_index("code")
+
+
+def _paper_sized(model: TaskModel) -> bool:
+    return (model.n_segments, model.n_objects) == PAPER_SIZES
 
 
 def table1_frame(model: TaskModel) -> pd.DataFrame:
@@ -77,51 +78,49 @@ def learners_frame() -> pd.DataFrame:
 
 
 def shortest_plan_policy(model: TaskModel) -> np.ndarray:
-    """Greedy policy ``(24,)`` taking the first action of a shortest plan in every state (0 where none)."""
-    policy = np.zeros(N_STATES, dtype=np.int64)
+    """Greedy policy ``(n_states,)`` taking the first action of a shortest plan in every state (0 where none)."""
+    policy = np.zeros(model.n_states, dtype=np.int64)
     for state in model.reachable_states():
         plan = model.shortest_plan(state)
         if plan:
-            policy[state.index] = int(plan[0])
+            policy[state.index] = model.action_index(plan[0])
     return policy
 
 
-def _plan_text(plan) -> str:
-    return ", ".join(Action(a).name.lower() for a in plan)
+def _plan_text(model: TaskModel, plan) -> str:
+    return ", ".join(model.action_name(a).lower() for a in plan)
 
 
 def describe(model: TaskModel, epsilon: float = 0.1, max_itr: int = 500) -> str:
     """The full ``--describe`` report as text."""
     reachable = model.reachable_states()
     terminal = [s for s in reachable if s.is_terminal]
-    mapping = model.table1_mapping()
-    state4 = TABLE1_STATES[4]
-    plan4 = model.shortest_plan(state4)
+    starts = model.start_states()
     lines = [
         f"Task model: {model!r}",
-        f"{N_STATES} states, code = ((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment",
+        f"{model.n_states} states, code = ((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment",
         "  (object_location: 0 on segment 1, 1 on segment 2, 2 in gripper; arm_segment: 0 segment 1, 1 segment 2)",
+    ] if _paper_sized(model) else [
+        f"Task model: {model!r}",
+        f"{model.n_states} state codes ({model.n_segments} segments, {model.n_objects} objects; "
+        "see tableclean_suite.task.encode)",
+    ]
+    lines += [
         "",
         "States (table1: Table 1's number, '-' where Table 1 omits the state; plan_length: shortest plan to terminal):",
         states_table(model).to_string(),
         "",
-        f"Reachable from the four both-unclean starts: {len(reachable)} states = "
+        f"Reachable from the all-unclean starts: {len(reachable)} states = "
         f"{len(reachable) - len(terminal)} non-terminal + {len(terminal)} terminal "
-        f"(of {N_STATES}; unreachable codes: "
-        f"{', '.join(str(s.index) for s in all_states() if s not in set(reachable))})",
+        f"(of {model.n_states}; unreachable codes: "
+        f"{', '.join(str(s.index) for s in model.all_states() if s not in set(reachable))})",
         "Episode start(s) of this model: "
-        + "; ".join(f"{s.index} ({s.name}, Table 1 state {table1_number(s) or '-'})" for s in model.start_states()),
-        f"Shortest plan from Table 1 state 4 (code {state4.index}): {len(plan4)} actions: {_plan_text(plan4)}",
-        f"The paper's optimal plan (Sec. 2): {len(PAPER_OPTIMAL_PLAN)} actions: {_plan_text(PAPER_OPTIMAL_PLAN)}",
-        "",
-        "Table 1 of the paper mapped to the model:",
-        table1_frame(model).to_string(),
-        "",
-        f"Table 1 rows never reachable: {', '.join(map(str, mapping['unreachable_rows']))}",
-        "Reachable states Table 1 omits: "
-        + "; ".join(f"{c} ({decode(c).name})" for c in mapping["omitted_reachable"]),
-        "  of which the paper's own optimal plan from state 4 passes through: "
-        + "; ".join(f"{c} ({decode(c).name})" for c in mapping["omitted_on_paper_plan"]),
+        + "; ".join(f"{s.index} ({s.name}, Table 1 state {(table1_number(s) if _paper_sized(model) else None) or '-'})"
+                    for s in starts),
+    ]
+    if _paper_sized(model):
+        lines += _table1_lines(model)
+    lines += [
         "",
         "Reward patterns (the paper's Table 2; an ineffective pick/place is "
         + ("rewarded as irrelevant cleaning):" if model.ineffective.value == "ineffective" else "improper):"),
@@ -132,6 +131,27 @@ def describe(model: TaskModel, epsilon: float = 0.1, max_itr: int = 500) -> str:
     ]
     lines += _exact_success_lines(model, epsilon, max_itr)
     return "\n".join(lines)
+
+
+def _table1_lines(model: TaskModel) -> list[str]:
+    """Shortest and paper plans from Table 1's state 4, and Table 1 mapped to the model."""
+    mapping = model.table1_mapping()
+    state4 = TABLE1_STATES[4]
+    plan4 = model.shortest_plan(state4)
+    return [
+        f"Shortest plan from Table 1 state 4 (code {state4.index}): {len(plan4)} actions: {_plan_text(model, plan4)}",
+        f"The paper's optimal plan (Sec. 2): {len(PAPER_OPTIMAL_PLAN)} actions: "
+        f"{_plan_text(model, PAPER_OPTIMAL_PLAN)}",
+        "",
+        "Table 1 of the paper mapped to the model:",
+        table1_frame(model).to_string(),
+        "",
+        f"Table 1 rows never reachable: {', '.join(map(str, mapping['unreachable_rows']))}",
+        "Reachable states Table 1 omits: "
+        + "; ".join(f"{c} ({model.decode(c).name})" for c in mapping["omitted_reachable"]),
+        "  of which the paper's own optimal plan from state 4 passes through: "
+        + "; ".join(f"{c} ({model.decode(c).name})" for c in mapping["omitted_on_paper_plan"]),
+    ]
 
 
 def _exact_success_lines(model: TaskModel, epsilon: float, max_itr: int) -> list[str]:

@@ -22,7 +22,7 @@ import time
 from tableclean_suite.bench.cli import positive_int
 from tableclean_suite.learners import train
 from tableclean_suite.rewards import get_reward_pattern
-from tableclean_suite.task import N_ACTIONS, Outcome, TaskModel
+from tableclean_suite.task import Outcome, TaskModel
 
 LEARNERS = ("q_learning", "sarsa")
 
@@ -30,19 +30,21 @@ LEARNERS = ("q_learning", "sarsa")
 def plain_loop(learner: str, runs: int, iterations: int, alpha=0.3, gamma=0.3, epsilon=0.1, max_itr=500, seed=0):
     """Algorithm 1 as a straightforward Python loop (r2 rewards, no looping penalty). Returns updates done."""
     rng = random.Random(seed)
-    next_state, outcome = (a.tolist() for a in TaskModel().transition_arrays())
+    model = TaskModel()
+    n_actions = model.n_actions
+    next_state, outcome = (a.tolist() for a in model.transition_arrays())
     values = get_reward_pattern("r2").outcome_values().tolist()
-    start = TaskModel().start_state.index
+    start = model.start_state.index
     terminal_outcome = int(Outcome.TERMINAL)
     sarsa = learner == "sarsa"
 
     def choose(row):
         if rng.random() < epsilon:
-            return rng.randrange(N_ACTIONS)
+            return rng.randrange(n_actions)
         return row.index(max(row))
 
     for _ in range(runs):
-        q = [[0.0] * N_ACTIONS for _ in range(len(next_state))]
+        q = [[0.0] * n_actions for _ in range(len(next_state))]
         state, length, action = start, 0, None
         for _ in range(iterations):
             if action is None:
