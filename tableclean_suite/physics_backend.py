@@ -93,9 +93,7 @@ def stage(env, controller, state, seed: int | None = None) -> TaskState:
     obj, arm, dirty = layout_of(state)
     if seed is not None:
         env.rng = np.random.default_rng(seed)
-    env.object_segment = obj - 1
-    env.arm_segment = arm - 1
-    env.dirty_segments = tuple(s - 1 for s in dirty)
+    env.set_start(obj, arm, dirty)
     env.reset()
     if state.holding:
         result = controller.execute(Action.PICK)

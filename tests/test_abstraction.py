@@ -6,7 +6,7 @@ import pytest
 from tableclean_suite.environments import DEFAULT_TABLECLEAN_CONFIG, AbstractionError, Fault, abstract_state
 from tableclean_suite.environments.abstraction import segment_of_xy, segments_clean
 from tableclean_suite.environments.config import make_config, scene_geometry
-from tableclean_suite.task import ObjectLocation, Segment, TaskState, all_states
+from tableclean_suite.task import TaskModel, TaskState
 
 CONFIG = make_config()
 GEOMETRY = scene_geometry(CONFIG)
@@ -15,20 +15,21 @@ HOVER = np.array([0.0, 0.0, CONFIG["arm_hover_height"]])
 DIRTY, CLEAN = 1.0, 0.0
 
 
-def center(segment: Segment) -> np.ndarray:
-    return GEOMETRY.segment_centers[segment.value].copy()
+def center(segment: int) -> np.ndarray:
+    """(3,) table-top centre of ``segment`` (0-based)."""
+    return GEOMETRY.segment_centers[segment].copy()
 
 
 def obs_for(state: TaskState) -> dict:
     """A physically consistent observation of ``state`` (object held 10 cm above the table when in gripper)."""
-    eef = center(state.arm_segment) + HOVER
+    eef = center(state.arm) + HOVER
     if state.holding:
         object_pos, grasped = eef - np.array([0.0, 0.0, 0.01]), True
     else:
-        segment = Segment(int(state.object_location))
+        (segment,) = state.objects
         object_pos, grasped = center(segment) + [0.0, 0.0, REST_Z - GEOMETRY.table_top_z], False
     return {
-        "dirt_fraction": np.array([CLEAN if state.segment1_clean else DIRTY, CLEAN if state.segment2_clean else DIRTY]),
+        "dirt_fraction": np.array([CLEAN if clean else DIRTY for clean in state.clean]),
         "object_pos": object_pos,
         "object_grasped": grasped,
         "eef_pos": eef,
@@ -38,7 +39,7 @@ def obs_for(state: TaskState) -> dict:
     }
 
 
-PAPER_START_OBS = obs_for(TaskState(False, False, ObjectLocation.ON_SEGMENT_1, Segment.SEGMENT_1))
+PAPER_START_OBS = obs_for(TaskState((False, False), (0,), 0))
 
 
 def with_(obs: dict, **changes) -> dict:
@@ -53,7 +54,7 @@ def fault_of(obs: dict, **kwargs) -> AbstractionError:
     return info.value
 
 
-@pytest.mark.parametrize("state", all_states(), ids=lambda s: str(s.index))
+@pytest.mark.parametrize("state", TaskModel().all_states(), ids=lambda s: str(s.index))
 def test_every_state_round_trips_through_a_synthetic_observation(state):
     assert abstract_state(obs_for(state)) == state
 
@@ -68,18 +69,18 @@ def test_clean_threshold_follows_clean_fraction():
 
 def test_grasped_but_resting_object_still_lies_on_its_segment():
     obs = with_(PAPER_START_OBS, object_grasped=True)
-    assert abstract_state(obs).object_location == ObjectLocation.ON_SEGMENT_1
+    assert abstract_state(obs).objects == (0,)
 
 
 def test_arm_segment_margin_and_nearest_segment():
     margin = CONFIG["arm_segment_margin"]
-    seg2 = center(Segment.SEGMENT_2)
+    seg2 = center(1)
     half = GEOMETRY.segment_half_sizes[1]
     just_outside = seg2 + [half[0] + margin / 2, 0.0, 0.2]
-    assert abstract_state(with_(PAPER_START_OBS, eef_pos=just_outside)).arm_segment == Segment.SEGMENT_2
+    assert abstract_state(with_(PAPER_START_OBS, eef_pos=just_outside)).arm == 1
     # in the gap both grown areas contain the gripper: the nearer segment wins
     gap_y = GEOMETRY.table_center[1] + 0.001
-    assert segment_of_xy([0.0, gap_y], GEOMETRY.segment_centers, GEOMETRY.segment_half_sizes, margin) == Segment.SEGMENT_2
+    assert segment_of_xy([0.0, gap_y], GEOMETRY.segment_centers, GEOMETRY.segment_half_sizes, margin) == 1
     assert segment_of_xy([0.0, gap_y], GEOMETRY.segment_centers, GEOMETRY.segment_half_sizes) is None
 
 
@@ -105,7 +106,7 @@ def test_object_lifted_but_not_grasped_is_a_fault():
     assert "not grasped" in str(error)
     # within the tolerance it still lies on its segment
     small = PAPER_START_OBS["object_pos"] + [0.0, 0.0, CONFIG["lift_tolerance"] / 2]
-    assert abstract_state(with_(PAPER_START_OBS, object_pos=small)).object_location == ObjectLocation.ON_SEGMENT_1
+    assert abstract_state(with_(PAPER_START_OBS, object_pos=small)).objects == (0,)
 
 
 def test_arm_not_over_a_segment_is_a_fault():
@@ -148,7 +149,7 @@ def test_missing_key_raises_key_error_naming_it():
 def test_geometry_in_the_observation_overrides_the_config():
     swapped = GEOMETRY.segment_centers[::-1].copy()
     state = abstract_state(with_(PAPER_START_OBS, segment_centers=swapped))
-    assert state.object_location == ObjectLocation.ON_SEGMENT_2 and state.arm_segment == Segment.SEGMENT_2
+    assert state.objects == (1,) and state.arm == 1
 
 
 def test_unknown_or_bad_config_raises():

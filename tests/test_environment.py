@@ -7,14 +7,14 @@ import robosuite
 import tableclean_suite  # noqa: F401  (registers TableClean)
 from tableclean_suite.environments import DEFAULT_TABLECLEAN_CONFIG, TableClean
 from tableclean_suite.task import (
-    N_STATES,
     START_LAYOUTS,
     TABLE1_STATES,
-    ObjectLocation,
-    Segment,
+    TaskModel,
     TaskState,
     start_layout,
 )
+
+SEGMENT_1, SEGMENT_2 = 0, 1  # 0-based segment indices of the scene
 
 GRAVITY = 9.81
 HOVER_GAP = 0.005  # the sponge's underside 5 mm above the table top
@@ -66,10 +66,10 @@ def put_sponge(env, pos, hold=False):
     env.sim.forward()
 
 
-def raster(env, segment: Segment, underside_z: float, hold: bool):
-    """Sweep the sponge over ``segment`` with its underside at ``underside_z``, one control step per pose."""
+def raster(env, segment: int, underside_z: float, hold: bool):
+    """Sweep the sponge over ``segment`` (0-based) with its underside at ``underside_z``, one control step per pose."""
     info = env.skill_info()
-    center, half = info["segment_centers"][segment.value], info["segment_half_sizes"][segment.value]
+    center, half = info["segment_centers"][segment], info["segment_half_sizes"][segment]
     zero = np.zeros(env.action_dim)
     for x in np.arange(center[0] - half[0], center[0] + half[0] + 1e-9, WIPE_STRIDE):
         for y in np.arange(center[1] - half[1], center[1] + half[1] + 1e-9, WIPE_STRIDE):
@@ -115,7 +115,7 @@ def test_reset_symbolic_state_is_the_start_layout(object_segment, arm_segment):
 @pytest.mark.slow
 def test_paper_layout_is_table1_state_4(paper_env):
     assert paper_env.symbolic_state() == TABLE1_STATES[4]
-    assert paper_env.layout == (Segment.SEGMENT_1, Segment.SEGMENT_1)
+    assert paper_env.layout == (SEGMENT_1, SEGMENT_1)
 
 
 @pytest.mark.slow
@@ -123,7 +123,24 @@ def test_only_the_requested_segments_start_dirty():
     env = env_for(2, 1, dirty_segments=(2,))
     env.reset()
     np.testing.assert_array_equal(env.dirt_fraction(), [0.0, 1.0])
-    assert env.symbolic_state() == TaskState(True, False, ObjectLocation.ON_SEGMENT_2, Segment.SEGMENT_1)
+    assert env.symbolic_state() == TaskState((True, False), (SEGMENT_2,), SEGMENT_1)
+
+
+@pytest.mark.slow
+def test_set_start_changes_the_next_reset_and_refuses_bad_numbers_without_changing_anything():
+    env = env_for(1, 1, dirty_segments=(1, 2))
+    try:
+        env.set_start(2, 1, (2,))  # 1-based, as the constructor's arguments
+        env.reset()
+        assert env.layout == (SEGMENT_2, SEGMENT_1)
+        assert env.symbolic_state() == TaskState((True, False), (SEGMENT_2,), SEGMENT_1)
+        for bad, match in (((3, 1, (1,)), r"object_segment must be 1, 2 or None.*3"),
+                           ((1, 1, (0,)), r"dirty_segments entry must be 1, 2.*0")):
+            with pytest.raises(ValueError, match=match):
+                env.set_start(*bad)
+        assert (env.object_segment, env.arm_segment, env.dirty_segments) == (SEGMENT_2, SEGMENT_1, (SEGMENT_2,))
+    finally:
+        env.set_start(1, 1, (1, 2))
 
 
 # -- observables and grounding ---------------------------------------------------------------------
@@ -133,7 +150,7 @@ def test_observables_are_present_with_the_right_shapes(paper_env):
     expected = {
         "robot0_eef_pos": (3,), "robot0_joint_pos": (7,), "robot0_gripper_qpos": (2,),
         "object_pos": (3,), "object_quat": (4,), "sponge_pos": (3,), "sponge_quat": (4,),
-        "dirt_fraction": (2,), "gripper_to_object_pos": (3,), "symbolic_state_onehot": (N_STATES,),
+        "dirt_fraction": (2,), "gripper_to_object_pos": (3,), "symbolic_state_onehot": (TaskModel().n_states,),
     }
     for key, shape in expected.items():
         assert np.shape(obs[key]) == shape, key
@@ -158,15 +175,15 @@ def test_skill_info_has_the_contract_keys_and_shapes(paper_env):
     # eef_quat is the eef *site* orientation, as the robot's robot0_eef_quat_site observable
     site_quat = paper_env._get_observations()["robot0_eef_quat_site"]
     assert abs(abs(np.dot(info["eef_quat"], site_quat)) - 1.0) < 1e-5
-    for segment in Segment:
-        assert paper_env.segment_of_position(info["segment_centers"][segment.value][:2]) == segment
+    for segment in (SEGMENT_1, SEGMENT_2):
+        assert paper_env.segment_of_position(info["segment_centers"][segment][:2]) == segment
     assert paper_env.segment_of_position(info["sponge_home_pos"][:2]) is None
 
 
 # -- wiping ------------------------------------------------------------------------------------------
 @pytest.mark.slow
 def test_hovering_5mm_above_removes_no_dirt(paper_env):
-    raster(paper_env, Segment.SEGMENT_2, paper_env.skill_info()["table_top_z"] + HOVER_GAP, hold=True)
+    raster(paper_env, SEGMENT_2, paper_env.skill_info()["table_top_z"] + HOVER_GAP, hold=True)
     np.testing.assert_array_equal(paper_env.dirt_fraction(), [1.0, 1.0])
 
 
@@ -181,11 +198,11 @@ def test_pressing_the_sponge_cleans_that_segment_only(paper_env):
     assert 0.0 < first[1] < 1.0 and first[0] == 1.0  # some, not all, markers went with one press
     wiped = ~env.marker_present()[1]
     assert np.all(env.sim.model.geom_rgba[env.marker_geom_ids[len(wiped):][wiped], 3] == 0.0)  # hidden
-    raster(env, Segment.SEGMENT_2, top - PRESS_DEPTH, hold=False)
+    raster(env, SEGMENT_2, top - PRESS_DEPTH, hold=False)
     assert env.dirt_fraction()[0] == 1.0
     assert env.dirt_fraction()[1] <= 1.0 - DEFAULT_TABLECLEAN_CONFIG["clean_fraction"]
     env.step(np.zeros(env.action_dim))
-    assert env.symbolic_state() == TaskState(False, True, ObjectLocation.ON_SEGMENT_1, Segment.SEGMENT_1)
+    assert env.symbolic_state() == TaskState((False, True), (SEGMENT_1,), SEGMENT_1)
 
 
 @pytest.mark.slow
@@ -199,7 +216,7 @@ def test_success_and_rewards_once_every_dirty_segment_is_clean():
         # segment 1 starts clean (wiping 1.0 of 2), the object lies on the table, the sponge is home
         assert env.staged_rewards() == (pytest.approx(1.0), 0.25, 0.5)
         assert env.reward() == pytest.approx(1.75 / 3.0 * env.reward_scale)
-        raster(env, Segment.SEGMENT_2, env.skill_info()["table_top_z"] - PRESS_DEPTH, hold=False)
+        raster(env, SEGMENT_2, env.skill_info()["table_top_z"] - PRESS_DEPTH, hold=False)
         for _ in range(5):
             env.step(zero)  # let the sponge settle at home
         assert env._check_success()

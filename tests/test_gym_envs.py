@@ -122,6 +122,43 @@ def test_uniform_start_draws_the_four_layouts_and_seeding_repeats():
     assert starts == [env.reset(seed=seed)[0] for seed in range(40)]
 
 
+@pytest.mark.parametrize("task", ["three_segments", "three_segments_two_objects"])
+def test_symbolic_env_builds_any_task_spec_with_its_start_mode(task):
+    model = TaskModel(spec=task, start="uniform_unclean")
+    env = make(task=task, start="uniform_unclean")
+    check_env(env.unwrapped, skip_render_check=True)
+    assert env.action_space == gym.spaces.Discrete(model.n_actions)
+    assert env.observation_space == gym.spaces.Discrete(model.n_states)
+    assert env.unwrapped.model.spec.name == task and env.unwrapped.model.n_segments == 3
+    layouts = {s.index for s in model.start_states()}
+    starts = {env.reset(seed=seed)[0] for seed in range(20 * len(layouts))}
+    assert starts == layouts  # every all-unclean layout, nothing else
+    # a step is the spec's model, not the paper's
+    state, _ = env.reset(seed=0)
+    for action in range(model.n_actions):
+        env.reset(options={"state": state})
+        obs, _, terminated, _, info = env.step(action)
+        expected, outcome = model.step(state, action)
+        assert (obs, info["outcome"], terminated) == (expected.index, int(outcome), expected.is_terminal)
+
+
+def test_symbolic_env_refuses_unknown_task_and_start_with_the_allowed_names():
+    with pytest.raises(ValueError, match="five_segments"):
+        make(task="five_segments")
+    with pytest.raises(ValueError, match="uniform_unclean"):
+        make(task="three_segments", start="random")
+    with pytest.raises(ValueError, match="either model= or task="):
+        make(model=TaskModel(), task="three_segments")
+
+
+@pytest.mark.parametrize("kwargs", [{"task": "three_segments"}, {"task": "two_objects"},
+                                    {"model": TaskModel(spec="three_segments", start="uniform_unclean")}])
+def test_skills_env_refuses_a_spec_the_scene_cannot_build(kwargs):
+    # refused before any MuJoCo model is built (fast), with the spec's name and what is supported
+    with pytest.raises(ValueError, match=r"physical scene supports 2 segments.*'paper'.*task '(three_segments|two_objects)'"):
+        gym.make(SKILLS_ID, **kwargs)
+
+
 def test_renderings():
     env = make(render_mode="ansi")
     env.reset(options={"state": 0})

@@ -6,14 +6,14 @@ import pytest
 from tableclean_suite import physics_backend
 from tableclean_suite.learners import train
 from tableclean_suite.physics_backend import PhysicsFaultError, PhysicsStepEnv, layout_of
-from tableclean_suite.task import Action, ObjectLocation, Outcome, Segment, TaskModel, TaskState, decode
+from tableclean_suite.task import HELD, Action, Outcome, TaskModel, TaskState, decode
 
 MODEL = TaskModel()
 
 
 def test_layout_of_stages_every_reachable_state():
     assert layout_of(decode(0)) == (1, 1, (1, 2))
-    held = TaskState(False, True, ObjectLocation.IN_GRIPPER, Segment.SEGMENT_2)
+    held = TaskState((False, True), (HELD,), 1)
     assert layout_of(held) == (2, 2, (1,))  # reset with the object under the arm, then pick
 
 
@@ -87,11 +87,11 @@ def test_skill_failure_with_a_readable_state_is_what_the_learner_sees(monkeypatc
 def test_snapshot_restore_keeps_a_grasp_and_the_dirt():
     env = PhysicsStepEnv()
     try:
-        held = TaskState(False, True, ObjectLocation.IN_GRIPPER, Segment.SEGMENT_1)  # segment 2 clean
+        held = TaskState((False, True), (HELD,), 0)  # segment 2 clean
         physics_backend.stage(env.env, env.controller, held, seed=1)
         saved = physics_backend.snapshot(env.env)
         dirt = env.env.dirt_fraction()
-        assert env.step(held.index, Action.PLACE, 0.0)[0] == held.replace(object_location=ObjectLocation.ON_SEGMENT_1).index
+        assert env.step(held.index, Action.PLACE, 0.0)[0] == held.with_object(0, 0).index
         physics_backend.restore(env.env, saved)
         assert env.env.symbolic_state() == held and np.array_equal(env.env.dirt_fraction(), dirt)
         # the restored grasp holds through a move (the gripper's integrated command is restored too)

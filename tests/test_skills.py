@@ -31,9 +31,7 @@ from tableclean_suite.controllers.wipe_pattern import boustrophedon
 from tableclean_suite.task import (
     START_LAYOUTS,
     Action,
-    ObjectLocation,
     Outcome,
-    Segment,
     TaskModel,
     TaskState,
     start_layout,
@@ -88,7 +86,7 @@ class _FakeEnv:
 
     control_freq = 20
 
-    def __init__(self, arm_segment: Segment = Segment.SEGMENT_1, frozen: bool = False):
+    def __init__(self, arm_segment: int = 0, frozen: bool = False):
         self.centers = np.array([[0.0, -0.14, 0.8], [0.0, 0.14, 0.8]])
         self.eef = self.centers[int(arm_segment)] + [0.0, 0.0, MoveSkill.DEFAULT_CONFIG["hover_height"]]
         self.frozen = frozen
@@ -104,8 +102,8 @@ class _FakeEnv:
         }
 
     def symbolic_state(self, check_sponge=True):
-        arm = Segment(int(np.argmin(np.abs(self.centers[:, 1] - self.eef[1]))))
-        return TaskState(False, False, ObjectLocation.ON_SEGMENT_2, arm)
+        arm = int(np.argmin(np.abs(self.centers[:, 1] - self.eef[1])))
+        return TaskState((False, False), (1,), arm)
 
     def step(self, action):
         self.steps += 1
@@ -137,11 +135,11 @@ def test_skill_base_cannot_be_instantiated_without_its_hooks():
 
 
 def test_move_skill_rate_limits_and_ends_above_the_other_segment():
-    env = _FakeEnv(Segment.SEGMENT_1)
+    env = _FakeEnv(0)
     controller = SkillController(env)
     result = controller.execute(Action.MOVE)
     assert result.success and result.reason == "ok" and result.final_phase == "DONE"
-    assert result.state_after.arm_segment == Segment.SEGMENT_2
+    assert result.state_after.arm == 1
     np.testing.assert_allclose(env.eef[:2], env.centers[1, :2], atol=MoveSkill.DEFAULT_CONFIG["reach_tolerance"])
     # rate limit: the setpoint never moves faster than speed / control_freq per step
     config = MoveSkill.DEFAULT_CONFIG
@@ -151,7 +149,7 @@ def test_move_skill_rate_limits_and_ends_above_the_other_segment():
 
 
 def test_on_step_is_called_after_every_control_step():
-    env = _FakeEnv(Segment.SEGMENT_1)
+    env = _FakeEnv(0)
     seen = []
     result = SkillController(env, on_step=lambda: seen.append(env.steps)).execute(Action.MOVE)
     assert result.steps > 0 and seen == list(range(1, result.steps + 1))

@@ -19,11 +19,12 @@ import robosuite
 from robosuite.controllers import load_composite_controller_config
 
 import tableclean_suite  # noqa: F401  (registers TableClean)
-from tableclean_suite.task import Segment
 
 ROBOT = "Panda"
 #: Uniform random actions are drawn in +-ACTION_SCALE (OSC delta units) so the arm stays near its start.
 ACTION_SCALE = 0.3
+#: 0-based index of the segment the pressing benchmark rests the sponge on (segment 2).
+PRESS_SEGMENT = 1
 
 
 def make_env(name: str, control_freq: int, seed: int, **kwargs):
@@ -44,7 +45,7 @@ def make_env(name: str, control_freq: int, seed: int, **kwargs):
 
 def press_sponge(env) -> None:
     """Rest the sponge on segment 2's centre (bottom on the table top), at rest."""
-    center = env.geometry.segment_centers[Segment.SEGMENT_2.value]
+    center = env.geometry.segment_centers[PRESS_SEGMENT]
     pos = center + np.array([0.0, 0.0, env.task_config["sponge_half_size"][2]])
     env.sim.data.set_joint_qpos(env.sponge.joints[0], np.concatenate([pos, [1.0, 0.0, 0.0, 0.0]]))
     env.sim.data.set_joint_qvel(env.sponge.joints[0], np.zeros(6))

@@ -69,7 +69,7 @@ class Recorder:
         if self.control_steps % self.frame_every == 0:
             frame = self.capture()
             if self.still is None and self.action == Action.CLEAN and self.state is not None:
-                segment = self.state.arm_segment.value
+                segment = self.state.arm
                 dirt = float(self.env.dirt_fraction()[segment])
                 if self._dirt_at_clean_start is None:
                     self._dirt_at_clean_start = dirt

@@ -42,23 +42,28 @@ OBJECT_ON_TABLE_REWARD = 0.25
 SPONGE_RETURNED_REWARD = 0.5
 
 
+#: The 1-based segment numbers the scene accepts, as text for error messages (e.g. "1, 2").
+_SEGMENT_NUMBERS = ", ".join(str(k) for k in range(1, SCENE_SEGMENTS + 1))
+
+
 def _segment_option(name: str, value) -> int | None:
     """``None`` (random each reset) or the 0-based index of a 1-based segment number; clear ``ValueError`` otherwise."""
     if value is None:
         return None
     if isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)) and 1 <= value <= SCENE_SEGMENTS:
         return int(value) - 1
-    raise ValueError(f"{name} must be 1, 2 or None (random at each reset), got {value!r}")
+    raise ValueError(f"{name} must be {_SEGMENT_NUMBERS} or None (random at each reset), got {value!r}")
 
 
 def _dirty_option(value: Iterable[int]) -> tuple[int, ...]:
+    """Sorted 0-based indices of the 1-based segment numbers in ``value``; clear ``ValueError`` otherwise."""
     try:
         numbers = tuple(value)
     except TypeError:
-        raise ValueError(f"dirty_segments must be a collection of 1 and/or 2, got {value!r}") from None
+        raise ValueError(f"dirty_segments must be a collection of segment numbers ({_SEGMENT_NUMBERS}), got {value!r}") from None
     segments = tuple(_segment_option("dirty_segments entry", n) for n in numbers)
     if None in segments:
-        raise ValueError(f"dirty_segments must contain only 1 and/or 2, got {value!r}")
+        raise ValueError(f"dirty_segments must contain only segment numbers ({_SEGMENT_NUMBERS}), got {value!r}")
     return tuple(sorted(set(segments)))
 
 
@@ -139,9 +144,11 @@ class TableClean(ManipulationEnv):
     ):
         self.task_config = make_config(task_config)
         check_object_type(self.task_config["object_type"])
-        self.object_segment = _segment_option("object_segment", object_segment)
-        self.arm_segment = _segment_option("arm_segment", arm_segment)
-        self.dirty_segments = _dirty_option(dirty_segments)
+        # 0-based internally (None: drawn at each reset); set through set_start() with 1-based numbers
+        self.object_segment: int | None = None
+        self.arm_segment: int | None = None
+        self.dirty_segments: tuple[int, ...] = ()
+        self.set_start(object_segment, arm_segment, dirty_segments)
         self.geometry = scene_geometry(self.task_config)
         self.reward_scale = reward_scale
         self.reward_shaping = reward_shaping
@@ -379,6 +386,24 @@ class TableClean(ManipulationEnv):
     # ------------------------------------------------------------------------------------------
     # public API for skills and learners
     # ------------------------------------------------------------------------------------------
+    def set_start(self, object_segment: int | None, arm_segment: int | None, dirty_segments: Iterable[int]) -> None:
+        """The layout of the following resets, as the constructor's arguments (1-based segment numbers).
+
+        Args:
+            object_segment: segment the object starts on (1..2) or None (drawn at each reset).
+            arm_segment: segment the arm starts above (1..2) or None (drawn at each reset).
+            dirty_segments: segments that start dirty (each 1..2).
+
+        Raises ``ValueError`` naming the bad value and the allowed ones; nothing changes then.
+        Stored 0-based in ``object_segment``, ``arm_segment`` and ``dirty_segments``.
+        """
+        layout = (
+            _segment_option("object_segment", object_segment),
+            _segment_option("arm_segment", arm_segment),
+            _dirty_option(dirty_segments),
+        )
+        self.object_segment, self.arm_segment, self.dirty_segments = layout
+
     def dirt_fraction(self) -> np.ndarray:
         """Shape (2,): fraction of each segment's dirt markers still present (1.0 = all dirty)."""
         return self._dirt_fraction.copy()

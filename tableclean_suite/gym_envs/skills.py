@@ -64,9 +64,10 @@ class TableCleanSkillsEnv(TableCleanBase):
     ``Discrete(4)``: 0 move, 1 pick, 2 place, 3 clean.
 
     ## Observation Space
-    ``Discrete(24)``, the state code
-    ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment``
-    (see ``TableCleanSymbolic-v0``), read from the physics.
+    ``Discrete(24)``, the state code of the ``paper`` spec,
+    ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment`` with
+    0-based segments and object location 2 for held
+    (:func:`tableclean_suite.task.encode`; see ``TableCleanSymbolic-v0``), read from the physics.
 
     ## Starting State
     The model's start state (default Table 1 state 4: both unclean, object and arm over segment
