@@ -1,5 +1,7 @@
 """Metric functions on tiny hand-made records with hand-computed answers."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -82,14 +84,59 @@ def test_bad_fractions_are_rejected(bad):
         metrics.iterations_to_max_success([1.0, 2.0], threshold=bad)
 
 
-def test_summarize_keys(tiny):
+def test_summarize_returns_a_typed_frozen_summary(tiny):
     summary = metrics.summarize(tiny)
-    for key in (
+    assert isinstance(summary, metrics.Summary)
+    assert metrics.SUMMARY_SCALARS == (
         "max_success_iterations", "max_success_episodes", "reward_convergence_iterations",
-        "reward_convergence_episodes", "success_plateau", "max_average_reward",
-    ):
-        assert key in summary
-    assert summary["success_plateau"] == pytest.approx(np.mean([0.0, 0.5]))  # last 2 of 6 iterations
+        "reward_convergence_episodes", "success_plateau", "max_average_reward", "average_reward_plateau",
+        "terminal_plateau",
+    )
+    assert metrics.ITERATION_SCALARS == ("max_success_iterations", "reward_convergence_iterations")
+    assert metrics.CURVE_NAMES == ("success", "average_reward", "terminal", "episodes")
+    assert tuple(summary.scalars()) == metrics.SUMMARY_SCALARS and tuple(summary.curves()) == metrics.CURVE_NAMES
+    assert summary.success_plateau == pytest.approx(np.mean([0.0, 0.5]))  # last 2 of 6 iterations
+    assert summary["success_plateau"] == summary.success_plateau and "success" in summary and "nope" not in summary
+    np.testing.assert_array_equal(summary.success, metrics.success_curve(tiny))
+    assert summary.iterations == 6
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        summary.success_plateau = 1.0
+    with pytest.raises(ValueError):
+        summary.success[0] = 1.0  # curves are read-only
+    with pytest.raises(KeyError, match="not a Summary field"):
+        summary["nope"]
+
+
+def test_summary_rejects_curves_of_different_lengths():
+    scalars = dict.fromkeys(metrics.SUMMARY_SCALARS, 0.5)
+    with pytest.raises(ValueError, match="differ in length"):
+        metrics.Summary(**scalars, success=np.zeros(3), average_reward=np.zeros(3), terminal=np.zeros(3),
+                        episodes=np.zeros(4))
+
+
+def _assert_same_summary(a, b):
+    for name in metrics.SUMMARY_SCALARS:
+        x, y = getattr(a, name), getattr(b, name)
+        assert x == y or (x != x and y != y), name  # equal, or both NaN
+    for name in metrics.CURVE_NAMES:
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))  # bit-identical, NaN where NaN
+
+
+def test_curve_sums_chunk_by_chunk_equal_one_pass():
+    from tableclean_suite.learners import train
+
+    runs, settings = 37, dict(iterations=700, max_itr=60, seed=5)
+    whole = train("sarsa", "r1", runs=runs, **settings)
+    sums = metrics.CurveSums.zeros(700)
+    for first in range(0, runs, 10):  # chunks of 10, 10, 10, 7 runs, trained separately
+        sums.add(train("sarsa", "r1", runs=min(10, runs - first), first_run=first, **settings))
+    assert sums.runs == runs
+    _assert_same_summary(metrics.summarize(sums), metrics.summarize(whole))
+    assert metrics.summarize(whole).max_success_iterations is not None  # the comparison is not vacuous
+    with pytest.raises(ValueError, match="iterations"):
+        sums.add(train("sarsa", "r1", runs=1, iterations=5))
+    with pytest.raises(ValueError, match="no runs"):
+        metrics.CurveSums.zeros(3).curves()
 
 
 def test_compiled_curves_equal_per_run_matrices_on_real_training():
