@@ -197,3 +197,9 @@ def test_run_plateaus_average_to_the_summary_plateau():
     interval = scaling.bootstrap_cell(records, counts)
     low, high = interval["plateau"]
     assert records.run_plateau.min() <= low <= high <= records.run_plateau.max()
+
+
+def test_observed_order_sorts_and_names_missing_patterns():
+    rows = [{"spec": "a", "learner": "q_learning", "reward": name, "max_success_iterations": value}
+            for name, value in (("r1", 30.0), ("r2", 10.0), ("r3", math.nan), ("r4", 20.0))]
+    assert scaling.observed_order(rows, "a", "q_learning") == "r2 < r4 < r1 (not reached: r3)"

@@ -586,6 +586,16 @@ def ordering_report(rows: list[dict], infos: list[SpecInfo], learner: str, rewar
     return verdicts
 
 
+def observed_order(rows: list[dict], spec: str, learner: str) -> str:
+    """``learner``'s reward patterns on ``spec`` sorted by iterations to max success, e.g.
+    ``"r2 < r4 < r3 (not reached: r1)"``."""
+    values = {r["reward"]: r["max_success_iterations"] for r in rows if r["spec"] == spec and r["learner"] == learner}
+    reached = sorted((v, name) for name, v in values.items() if math.isfinite(v))
+    missing = sorted(name for name, v in values.items() if not math.isfinite(v))
+    text = " < ".join(name for _, name in reached)
+    return text + (f" (not reached: {', '.join(missing)})" if missing else "")
+
+
 def ordering_answer(verdicts: dict) -> str:
     """One paragraph: whether r4 < r2 < r1 < r3 holds as the task grows."""
     order = " < ".join(PAPER_ORDER)
@@ -735,6 +745,9 @@ def run_study(args) -> int:
         print(f"  {reward}: k = {fit['exponent']:.3f} [{fit['low']:.3f}, {fit['high']:.3f}] "
               f"over {fit['points']} specs")
     print(ordering_answer(verdicts))
+    print(f"Observed order ({fit_learner}, fewest iterations first):")
+    for info in infos:
+        print(f"  {info.name:<14}{info.reachable:>7}: {observed_order(rows, info.name, fit_learner)}")
     write_csv(out / "scaling.csv", rows)
     write_csv(out / "scaling_specs.csv", [asdict(s) for s in infos])
     write_figure(out / "scaling.png", rows, fit_learner, fits)
