@@ -1,9 +1,12 @@
 """Physics backend: fault policy (no physics), option checks, snapshots, and a short training run in MuJoCo."""
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
 from tableclean_suite import physics_backend
+from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.learners import train
 from tableclean_suite.physics_backend import PhysicsFaultError, PhysicsStepEnv, layout_of
 from tableclean_suite.task import HELD, Action, Outcome, TaskModel, TaskState, decode
@@ -43,6 +46,12 @@ class _Controller:
 
 
 class _Env:
+    """An env the SkillController accepts (absolute world-frame OSC_POSE arm) that reads state 0."""
+
+    action_dim = ACTION_DIM
+    robots = [SimpleNamespace(arms=["right"], part_controllers={"right": SimpleNamespace(
+        name="OSC_POSE", input_type="absolute", input_ref_frame="world")})]
+
     def symbolic_state(self):
         return decode(0)
 

@@ -8,6 +8,7 @@ TableClean and compare the abstraction's state after each action with the task m
 from __future__ import annotations
 
 import enum
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -26,7 +27,9 @@ from tableclean_suite.controllers import (
     skill_controller_config,
 )
 from tableclean_suite.controllers.geometry import grasp_yaw, quat_to_matrix
-from tableclean_suite.controllers.osc import ARM_PART, down_rotation, down_rotvec
+from tableclean_suite.controllers import make as make_module
+from tableclean_suite.controllers import osc
+from tableclean_suite.controllers.osc import ACTION_DIM, ARM_PART, check_skill_env, down_rotation, down_rotvec, skill_command_limits
 from tableclean_suite.controllers.wipe_pattern import boustrophedon
 from tableclean_suite.task import (
     START_LAYOUTS,
@@ -78,6 +81,12 @@ def test_register_skill_rejects_bad_input():
         register_skill("fly", MoveSkill, registry={})
 
 
+def _fake_robot(name: str, input_type: str, input_ref_frame: str) -> SimpleNamespace:
+    """The part of a robosuite robot that :func:`check_skill_env` reads: its arm's controller."""
+    controller = SimpleNamespace(name=name, input_type=input_type, input_ref_frame=input_ref_frame)
+    return SimpleNamespace(arms=["right"], part_controllers={"right": controller})
+
+
 class _FakeEnv:
     """Kinematic stand-in: the end-effector jumps to each commanded position; nothing else moves.
 
@@ -85,8 +94,11 @@ class _FakeEnv:
     """
 
     control_freq = 20
+    action_dim = ACTION_DIM
 
-    def __init__(self, arm_segment: int = 0, frozen: bool = False):
+    def __init__(self, arm_segment: int = 0, frozen: bool = False,
+                 arm_controller=("OSC_POSE", "absolute", "world")):
+        self.robots = [_fake_robot(*arm_controller)]
         self.centers = np.array([[0.0, -0.14, 0.8], [0.0, 0.14, 0.8]])
         self.eef = self.centers[int(arm_segment)] + [0.0, 0.0, MoveSkill.DEFAULT_CONFIG["hover_height"]]
         self.frozen = frozen
@@ -173,6 +185,63 @@ def test_controller_config_is_absolute_world_osc_pose():
     arm = skill_controller_config()["body_parts"][ARM_PART]
     assert (arm["type"], arm["input_type"], arm["input_ref_frame"]) == ("OSC_POSE", "absolute", "world")
     assert skill_controller_config() is not skill_controller_config()  # fresh copies
+    low, high = skill_command_limits()
+    assert (arm["input_min"], arm["input_max"]) == (low.tolist(), high.tolist())  # action_spec states them
+
+
+@pytest.mark.parametrize(
+    "controller, match",
+    [
+        (("OSC_POSE", "delta", "base"), r"'input_type': 'delta'.*need.*'absolute'.*make_skill_env"),
+        (("OSC_POSE", "absolute", "base"), r"'input_ref_frame': 'base'.*need.*'world'.*make_skill_env"),
+        (("OSC_POSITION", "absolute", "world"), r"'type': 'OSC_POSITION'.*make_skill_env"),
+    ],
+)
+def test_skill_controller_refuses_an_env_whose_arm_is_not_absolute_world_osc_pose(controller, match):
+    env = _FakeEnv(arm_controller=controller)
+    with pytest.raises(ValueError, match=match):
+        SkillController(env)
+    assert env.steps == 0
+
+
+def test_skill_controller_refuses_envs_without_a_robot_or_with_another_action_size():
+    class NoRobot:
+        pass
+
+    with pytest.raises(TypeError, match="NoRobot has none.*make_skill_env"):
+        SkillController(NoRobot())
+    env = _FakeEnv()
+    env.action_dim = ACTION_DIM + 1
+    with pytest.raises(ValueError, match=f"takes {ACTION_DIM + 1}-dimensional actions.*emit {ACTION_DIM}.*make_skill_env"):
+        check_skill_env(env)
+
+
+def test_make_skill_env_builds_the_controller_config_of_the_requested_robot(monkeypatch):
+    loaded, made = [], []
+    real_load = osc.load_composite_controller_config
+    monkeypatch.setattr(osc, "load_composite_controller_config", lambda robot: loaded.append(robot) or real_load(robot=robot))
+    monkeypatch.setattr(make_module.robosuite, "make", lambda name, **kwargs: made.append(kwargs))
+    make_module.make_skill_env(robots="UR5e")
+    make_module.make_skill_env(robots=["Kinova3"], task_config={"table_offset": (0.0, 0.0, 0.9)})
+    make_module.make_skill_env()
+    assert loaded == ["UR5e", "Kinova3", "Panda"]
+    assert made[0]["controller_configs"] == skill_controller_config("UR5e")
+    arm = made[1]["controller_configs"]["body_parts"][ARM_PART]
+    assert arm["input_min"][2] == pytest.approx(0.9 - osc.WORKSPACE_BELOW_TABLE)  # the scene's table height
+    custom = {"type": "BASIC"}
+    loads = len(loaded)
+    make_module.make_skill_env(robots="UR5e", controller_configs=custom)
+    assert made[-1]["controller_configs"] is custom and len(loaded) == loads  # given configs are kept
+    with pytest.raises(ValueError, match=r"robots must name one robot.*\['Panda', 'Panda'\]"):
+        make_module.make_skill_env(robots=["Panda", "Panda"])
+
+
+@pytest.mark.parametrize("yaw", np.linspace(-np.pi, np.pi, 9))
+def test_skill_command_limits_contain_every_down_pose_over_the_table(yaw):
+    low, high = skill_command_limits()
+    rotvec = down_rotvec(yaw)
+    assert np.all(low[3:] <= rotvec) and np.all(rotvec <= high[3:])
+    assert low.shape == high.shape == (6,) and np.all(low < high)
 
 
 @pytest.mark.parametrize("yaw", [0.0, 0.5 * np.pi, 2.0, -2.5])
@@ -315,13 +384,47 @@ def test_ineffective_actions_do_nothing(envs, layout, action):
 
 
 @pytest.mark.slow
+def test_plain_robosuite_env_is_refused_and_the_skill_env_action_spec_states_the_absolute_ranges():
+    import robosuite
+
+    plain = robosuite.make("TableClean", robots="Panda", has_renderer=False, has_offscreen_renderer=False,
+                           use_camera_obs=False)
+    try:
+        with pytest.raises(ValueError, match="'input_type': 'delta'.*make_skill_env"):
+            SkillController(plain)
+    finally:
+        plain.close()
+    from tableclean_suite.controllers import make_skill_env
+
+    env = make_skill_env(robots="UR5e")  # another robot's own config, switched the same way
+    try:
+        SkillController(env)  # accepted
+        low, high = env.action_spec
+        limits = skill_command_limits()
+        np.testing.assert_array_equal(low[:6], limits[0])
+        np.testing.assert_array_equal(high[:6], limits[1])
+        assert env.robots[0].name == "UR5e" and high[2] > 1.0  # not the [-1, 1] of delta commands
+    finally:
+        env.close()
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("layout", START_LAYOUTS)
 def test_optimal_plan_reaches_the_terminal_state_in_physics(envs, layout):
     env = envs(*layout)
     start = env.symbolic_state()
     assert start == start_layout(*layout)
     plan = MODEL.shortest_plan(start)
-    results = SkillController(env, MODEL).execute_plan(plan)
+    commands = []
+    env_step = env.step
+    env.step = lambda action: commands.append(np.array(action)) or env_step(action)
+    try:
+        results = SkillController(env, MODEL).execute_plan(plan)
+    finally:
+        del env.step  # back to the class's method
+    low, high = env.action_spec
+    outside = [c for c in commands if np.any(c < low) or np.any(c > high)]
+    assert commands and not outside, f"{len(outside)} commands outside action_spec, e.g. {outside[:1]}"
     assert [r.action for r in results] == plan
     for result in results:
         assert result.success, f"{result.action.name}: {result.reason}"

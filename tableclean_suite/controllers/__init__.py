@@ -13,7 +13,7 @@ Add or replace skills with :func:`register_skill` (see :mod:`.registry`).
 from tableclean_suite.controllers.clean import CleanPhase, CleanSkill
 from tableclean_suite.controllers.make import make_skill_env
 from tableclean_suite.controllers.move import MovePhase, MoveSkill
-from tableclean_suite.controllers.osc import skill_controller_config
+from tableclean_suite.controllers.osc import check_skill_env, skill_command_limits, skill_controller_config
 from tableclean_suite.controllers.pick import PickPhase, PickSkill
 from tableclean_suite.controllers.place import PlacePhase, PlaceSkill
 from tableclean_suite.controllers.registry import SKILL_REGISTRY, get_skill_class, register_skill
@@ -39,8 +39,10 @@ __all__ = [
     "SkillFailure",
     "SkillResult",
     "Waypoint",
+    "check_skill_env",
     "get_skill_class",
     "make_skill_env",
     "register_skill",
+    "skill_command_limits",
     "skill_controller_config",
 ]

@@ -19,11 +19,32 @@ SKILL_ENV_DEFAULTS = {
 
 
 def make_skill_env(object_segment: int | None = 1, arm_segment: int | None = 1, **kwargs):
-    """``robosuite.make("TableClean", ...)`` with :func:`skill_controller_config` and :data:`SKILL_ENV_DEFAULTS`.
+    """``robosuite.make("TableClean", ...)`` with :data:`SKILL_ENV_DEFAULTS` and the skills' controller.
+
+    The controller config is :func:`skill_controller_config` of the robot in ``robots``
+    (default ``"Panda"``; robosuite's default config of that robot, arm switched to absolute
+    world-frame OSC_POSE, input ranges those of the scene of ``task_config``), unless
+    ``controller_configs`` is given.
 
     Args:
         object_segment, arm_segment: start layout (1 or 2; ``None``: random at each reset).
         **kwargs: any other TableClean/robosuite argument; overrides the defaults.
+
+    Raises:
+        ValueError: ``robots`` names more than one robot (the scene has one arm).
     """
-    options = {**SKILL_ENV_DEFAULTS, "controller_configs": skill_controller_config(), **kwargs}
+    options = {**SKILL_ENV_DEFAULTS, **kwargs}
+    if "controller_configs" not in kwargs:
+        robot = _single_robot(options["robots"])
+        options["controller_configs"] = skill_controller_config(robot, options.get("task_config"))
     return robosuite.make("TableClean", object_segment=object_segment, arm_segment=arm_segment, **options)
+
+
+def _single_robot(robots) -> str:
+    """The robot name of ``robots`` (a name or a one-element sequence of names)."""
+    if isinstance(robots, str):
+        return robots
+    names = list(robots) if isinstance(robots, (list, tuple)) else []
+    if len(names) != 1 or not isinstance(names[0], str):
+        raise ValueError(f"robots must name one robot (the TableClean scene has one arm), got {robots!r}")
+    return names[0]

@@ -10,6 +10,7 @@ composite controller expects for a single Panda arm with its gripper:
 from __future__ import annotations
 
 import copy
+from typing import Mapping
 
 import numpy as np
 from robosuite import load_composite_controller_config
@@ -23,30 +24,106 @@ GRIPPER_CLOSE = 1.0
 #: Length of one skill action: position (3) + rotation vector (3) + gripper (1).
 ACTION_DIM = 7
 
-#: Overrides applied to robosuite's default OSC_POSE arm config.
-OSC_OVERRIDES = {
+#: What the skills need of the arm's controller: robosuite's controller name, input type and frame.
+SKILL_ARM_CONTROLLER = {
     "type": "OSC_POSE",
     "input_type": "absolute",  # setpoints are poses, not deltas (~30% fewer steps than delta mode)
     "input_ref_frame": "world",  # setpoints in the world frame, the frame of env.skill_info()
+}
+
+#: Overrides applied to the robot's default arm controller config (on top of :data:`SKILL_ARM_CONTROLLER`).
+OSC_OVERRIDES = {
+    **SKILL_ARM_CONTROLLER,
     # stiffness (robosuite default 150): the skills rate-limit their setpoints, so a stiffer arm only
     # shrinks the tracking lag; measured on CleanSkill, 300 halves the wiping time and keeps contact
     "kp": 300,
 }
 
+#: Workspace of the commanded grip-site position, relative to the table top (see :func:`skill_command_limits`):
+#: margin around the table top's xy extent [m],
+WORKSPACE_XY_MARGIN = 0.1
+#: lowest commanded height below the table top [m] (a pressed sponge is commanded a few mm into the table),
+WORKSPACE_BELOW_TABLE = 0.05
+#: highest commanded height above the table top [m] (the skills hover 8 cm above it; the arm resets at 15 cm).
+WORKSPACE_ABOVE_TABLE = 0.5
+#: Bound of each rotation-vector component [rad]: every orientation has a rotation vector of norm <= pi.
+ROTVEC_BOUND = np.pi
 
-def skill_controller_config(robot: str = "Panda") -> dict:
+
+def skill_command_limits(task_config: Mapping | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(low, high)``, each (6,): the range of the arm's absolute commands in the scene of ``task_config``.
+
+    Entries: grip-site position x, y, z [m, world frame] over the table top (grown by
+    :data:`WORKSPACE_XY_MARGIN`) from :data:`WORKSPACE_BELOW_TABLE` below to
+    :data:`WORKSPACE_ABOVE_TABLE` above it; rotation vector rx, ry, rz [rad] in
+    ``[-pi, pi]``.  robosuite does not clip absolute OSC inputs; these are the ranges the
+    env's ``action_spec`` reports (the gripper's [-1, 1] follows them).
+    """
+    from tableclean_suite.environments.config import make_config, scene_geometry
+
+    geometry = scene_geometry(make_config(task_config))
+    xy_low = geometry.table_center[:2] - geometry.table_half_size - WORKSPACE_XY_MARGIN
+    xy_high = geometry.table_center[:2] + geometry.table_half_size + WORKSPACE_XY_MARGIN
+    low = np.concatenate([xy_low, [geometry.table_top_z - WORKSPACE_BELOW_TABLE], np.full(3, -ROTVEC_BOUND)])
+    high = np.concatenate([xy_high, [geometry.table_top_z + WORKSPACE_ABOVE_TABLE], np.full(3, ROTVEC_BOUND)])
+    return low, high
+
+
+def skill_controller_config(robot: str = "Panda", task_config: Mapping | None = None) -> dict:
     """The composite controller config to pass as ``controller_configs=`` when making the env.
 
-    robosuite's default BASIC composite config for ``robot`` with its arm part
-    switched to absolute world-frame OSC_POSE setpoints (see :data:`OSC_OVERRIDES`).
-    Returns a fresh dict each call, so callers may modify it.
+    robosuite's default composite config for ``robot`` (``load_composite_controller_config(robot=robot)``)
+    with its arm part switched to absolute world-frame OSC_POSE setpoints (see :data:`OSC_OVERRIDES`)
+    and its input range set to :func:`skill_command_limits` of ``task_config`` (so the env's
+    ``action_spec`` states the real ranges).  Returns a fresh dict each call, so callers may modify it.
+
+    Raises ``ValueError`` when the robot's config has no :data:`ARM_PART` arm part.
     """
     config = copy.deepcopy(load_composite_controller_config(robot=robot))
     parts = config["body_parts"]
     if ARM_PART not in parts:
-        raise ValueError(f"robot {robot!r} has no {ARM_PART!r} arm part in its default controller config")
-    parts[ARM_PART].update(OSC_OVERRIDES)
+        raise ValueError(f"robot {robot!r} has no {ARM_PART!r} arm part in its default controller config "
+                         f"(parts: {sorted(parts)})")
+    low, high = skill_command_limits(task_config)
+    parts[ARM_PART].update(OSC_OVERRIDES, input_min=low.tolist(), input_max=high.tolist())
     return config
+
+
+def check_skill_env(env) -> None:
+    """Raise a clear error unless ``env`` drives its arm the way the skills command it.
+
+    The skills emit :data:`ACTION_DIM` absolute world-frame OSC_POSE commands
+    (:func:`compose_action`); an env made by plain ``robosuite.make`` uses delta commands in
+    the robot's base frame and would send the arm somewhere else.  Checks the first robot's
+    first arm controller against :data:`SKILL_ARM_CONTROLLER`, and the action size.
+
+    Raises:
+        TypeError: ``env`` has no robosuite robots.
+        ValueError: another arm controller or action size; the message names what was found,
+            what is needed, and :func:`~tableclean_suite.controllers.make_skill_env`.
+    """
+    remedy = ("make the env with tableclean_suite.controllers.make_skill_env(...) "
+              "(or pass controller_configs=skill_controller_config(robot) to robosuite.make)")
+    robots = getattr(env, "robots", None)
+    if not robots:
+        raise TypeError(f"SkillController needs a robosuite env with a robot; {type(env).__name__} has none: {remedy}")
+    robot = robots[0]
+    controller = robot.part_controllers.get(robot.arms[0])
+    found = {
+        "type": getattr(controller, "name", None),
+        "input_type": getattr(controller, "input_type", None),
+        "input_ref_frame": getattr(controller, "input_ref_frame", None),
+    }
+    if found != SKILL_ARM_CONTROLLER:
+        raise ValueError(
+            f"the arm controller of {type(env).__name__} is {found}, but the skills command absolute world-frame "
+            f"poses and need {SKILL_ARM_CONTROLLER}: {remedy}"
+        )
+    if env.action_dim != ACTION_DIM:
+        raise ValueError(
+            f"{type(env).__name__} takes {env.action_dim}-dimensional actions, but the skills emit {ACTION_DIM} "
+            f"(one arm: position, rotation vector, gripper): {remedy}"
+        )
 
 
 def down_rotation(yaw: float) -> np.ndarray:

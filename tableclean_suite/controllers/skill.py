@@ -75,7 +75,7 @@ class Skill(abc.ABC):
     """Base class of all skills: waypoint following with phases, a budget and checks.
 
     Args:
-        env: anything with ``skill_info() -> dict`` (see .coord/CONTRACT.md),
+        env: anything with ``skill_info() -> dict`` (as :meth:`tableclean_suite.environments.TableClean.skill_info`),
             ``symbolic_state() -> TaskState`` and ``control_freq`` (Hz).
         config: overrides of ``DEFAULT_CONFIG`` (unknown keys raise ``KeyError``).
     """

@@ -13,6 +13,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Mapping
 
+from tableclean_suite.controllers.osc import check_skill_env
 from tableclean_suite.controllers.registry import SKILL_REGISTRY, get_skill_class
 from tableclean_suite.environments.abstraction import AbstractionError
 from tableclean_suite.task import Action, Outcome, TaskModel, TaskState, as_action
@@ -59,11 +60,14 @@ class SkillResult:
 
 
 class SkillController:
-    """Runs task-level actions as skills on a robosuite env that follows .coord/CONTRACT.md.
+    """Runs task-level actions as skills on a ``TableClean`` robosuite env.
 
     Args:
-        env: the environment (``skill_info()``, ``symbolic_state()``, ``step()``,
-            ``control_freq``), made with :func:`~tableclean_suite.controllers.osc.skill_controller_config`.
+        env: the environment (``skill_info()`` as :meth:`tableclean_suite.environments.TableClean.skill_info`,
+            ``symbolic_state()``, ``step()``, ``control_freq``), made with
+            :func:`~tableclean_suite.controllers.make_skill_env`; checked at construction
+            (:func:`~tableclean_suite.controllers.osc.check_skill_env`: ``ValueError`` when its arm
+            controller is not absolute world-frame OSC_POSE).
         model: the task model whose rules physics follows (default ``TaskModel()``).
         registry: action -> skill class table (default: the global ``SKILL_REGISTRY``).
         skill_configs: per-action config overrides, e.g. ``{Action.CLEAN: {"max_passes": 2}}``.
@@ -79,6 +83,7 @@ class SkillController:
         skill_configs: Mapping[Any, Mapping[str, Any]] | None = None,
         on_step: Callable[[], None] | None = None,
     ):
+        check_skill_env(env)
         self.env = env
         self.model = TaskModel() if model is None else model
         self.registry = SKILL_REGISTRY if registry is None else registry
