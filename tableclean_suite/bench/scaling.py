@@ -531,7 +531,7 @@ def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None
     axes.set_yscale("log")
     axes.set_xlabel("reachable states")
     axes.set_ylabel("iterations to maximum success")
-    axes.set_title(f"{learner}: iterations to maximum success vs task size (95 % bootstrap intervals)")
+    axes.set_title(f"{learner}: iterations to max success (95 % bootstrap intervals)")
     axes.legend()
     figure.tight_layout()
     temporary = _temporary(path)
