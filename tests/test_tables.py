@@ -1,5 +1,7 @@
 """Table builders, the quoted paper values, and the cell grid/store, on tiny hand-made inputs."""
 
+import hashlib
+import inspect
 import math
 import re
 
@@ -7,8 +9,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tableclean_suite import metrics
 from tableclean_suite.bench import experiments, tables
-from tableclean_suite.metrics import SUMMARY_SCALARS
+from tableclean_suite.bench.config import RunConfig
+from tableclean_suite.learners import code_digest, get_learner
+from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, Summary
+from tableclean_suite.task import TaskModel
 
 
 def record(experiment="main", learner="q_learning", reward="r1", alpha=0.3, gamma=0.3, **scalars):
@@ -173,47 +179,101 @@ def test_build_grid_deduplicates_cells():
                                       sweeps=False)) == 1
 
 
-def _settings(**changes):
-    base = dict(runs=10, iterations=5, epsilon=0.1, max_itr=500, seed=0)
-    base.update(changes)
-    return experiments.Settings(**base)
+def _config(**changes):
+    return RunConfig(**{"runs": 10, "iterations": 5, **changes})
+
+
+PAPER_MODEL = TaskModel()
+
+
+def _key(cell=None, config=None, model=PAPER_MODEL, transitions_sha256=None):
+    cell = cell or experiments.Cell("q_learning", "r4", 0.3, 0.3)
+    return experiments.config_hash(experiments.cell_config(cell, config or _config(), model, transitions_sha256))
 
 
 def test_config_hash_depends_on_what_determines_a_cell():
-    cell = experiments.Cell("q_learning", "r4", 0.3, 0.3)
-    digest = experiments.config_hash(experiments.cell_config(cell, _settings(), "m"))
-    assert digest == experiments.config_hash(experiments.cell_config(cell, _settings(workers=2), "m"))
-    for other in (
-        experiments.cell_config(cell, _settings(seed=1), "m"),
-        experiments.cell_config(cell, _settings(runs=11), "m"),
-        experiments.cell_config(cell, _settings(threshold=0.9), "m"),
-        experiments.cell_config(cell, _settings(), "other model"),
-        experiments.cell_config(experiments.Cell("q_learning", "r3", 0.3, 0.3), _settings(), "m"),
-        experiments.cell_config(experiments.Cell("q_learning", "r4", 0.3, 0.5), _settings(), "m"),
-    ):
-        assert experiments.config_hash(other) != digest
+    digest = _key()
+    for same in (_config(workers=2), _config(out="elsewhere", fresh=True, figures=False, progress=False),
+                 _config(learners=("sarsa",), rewards=("r1",), alpha=0.9, sweeps=False)):
+        assert _key(config=same) == digest  # settings that change no number of this cell
+    others = [
+        _key(config=_config(seed=1)),
+        _key(config=_config(runs=11)),
+        _key(config=_config(iterations=6)),
+        _key(config=_config(epsilon=0.2)),
+        _key(config=_config(max_itr=50)),
+        _key(config=_config(threshold=0.9)),
+        _key(config=_config(plateau_fraction=0.5)),
+        _key(config=_config(start="uniform_unclean")),
+        _key(model=TaskModel(start="uniform_unclean")),
+        _key(model=TaskModel(ineffective="improper")),
+        _key(model=TaskModel(spec="three_segments")),
+        _key(transitions_sha256="0" * 64),
+        _key(cell=experiments.Cell("q_learning", "r3", 0.3, 0.3)),
+        _key(cell=experiments.Cell("q_learning", "r4", 0.3, 0.5)),
+        _key(cell=experiments.Cell("q_learning", "r4", 0.5, 0.3)),
+        _key(cell=experiments.Cell("sarsa", "r4", 0.3, 0.3)),
+    ]
+    assert digest not in others and len(set(others)) == len(others)
+
+
+def test_cell_key_includes_the_code():
+    config = experiments.cell_config(experiments.Cell("q_learning", "r4", 0.3, 0.3), _config(), PAPER_MODEL)
+    assert config["learner"]["code_digest"] == code_digest(get_learner("q_learning"))
+    assert config["task_digest"] == PAPER_MODEL.code_digest()
+    assert config["metrics_digest"] == hashlib.sha256(inspect.getsource(metrics).encode()).hexdigest()
 
 
 def _summary(iterations=5):
-    curves = {name: np.linspace(0, 1, iterations) + i for i, name in enumerate(experiments.CURVE_NAMES)}
+    curves = {name: np.linspace(0, 1, iterations) + i for i, name in enumerate(CURVE_NAMES)}
     scalars = {name: 0.5 for name in SUMMARY_SCALARS}
     scalars["max_success_iterations"] = None
     scalars["reward_convergence_episodes"] = float("nan")
-    return {**scalars, **curves}
+    return Summary(**scalars, **curves)
 
 
 def test_cell_store_round_trip_and_corruption(tmp_path):
     store = experiments.CellStore(tmp_path / "cells")
     cell = experiments.Cell("sarsa", "r2", 0.5, 0.3)
-    config = experiments.cell_config(cell, _settings(), "m")
+    config = experiments.cell_config(cell, _config(), PAPER_MODEL)
     assert store.load(cell, config) is None
     path = store.save(cell, config, _summary())
     assert path.name.startswith("sarsa-r2-a0.5-g0.3-") and path.suffix == ".npz"
     loaded = store.load(cell, config)
-    assert loaded["max_success_iterations"] is None and math.isnan(loaded["reward_convergence_episodes"])
-    for name in experiments.CURVE_NAMES:
-        np.testing.assert_array_equal(loaded[name], _summary()[name])
-    assert store.load(cell, experiments.cell_config(cell, _settings(seed=3), "m")) is None
+    assert isinstance(loaded, Summary)
+    assert loaded.max_success_iterations is None and math.isnan(loaded.reward_convergence_episodes)
+    assert loaded.success_plateau == 0.5
+    for name in CURVE_NAMES:
+        np.testing.assert_array_equal(getattr(loaded, name), getattr(_summary(), name))
+    assert store.load(cell, experiments.cell_config(cell, _config(seed=3), PAPER_MODEL)) is None
+    assert list(path.parent.iterdir()) == [path]  # no temporary file left behind
     path.write_bytes(b"not an npz file")
     with pytest.raises(experiments.CellFileError, match=re.escape(str(path)) + ".*--fresh"):
         store.load(cell, config)
+
+
+def test_table3_leaves_paper_columns_empty_for_another_task():
+    assert tables.is_paper_task(TaskModel()) and tables.is_paper_task(TaskModel(start="uniform_unclean"))
+    assert not tables.is_paper_task(TaskModel(spec="three_segments"))
+    t3 = tables.table3([record("main", reward="r1")], compare_with_paper=False)
+    assert all(math.isnan(t3.iloc[0][c]) for c in tables.PAPER_COLUMNS)
+    assert tables.table3([record("main", reward="r1")]).iloc[0]["paper_max_success_iterations"] == 630
+
+
+@pytest.mark.parametrize("runs_per_chunk", [1, 7])
+def test_train_cell_chunking_does_not_change_the_numbers(runs_per_chunk):
+    cell = experiments.Cell("q_learning", "r3", 0.5, 0.3)
+    config = RunConfig(runs=23, iterations=600, max_itr=80, seed=9)
+    whole, _, _ = experiments.train_cell(cell, config, PAPER_MODEL, runs_per_chunk=config.runs)
+    chunked, _, _ = experiments.train_cell(cell, config, PAPER_MODEL, runs_per_chunk=runs_per_chunk)
+    assert whole.max_success_iterations is not None
+    for name in SUMMARY_SCALARS:
+        a, b = getattr(whole, name), getattr(chunked, name)
+        assert a == b or (a != a and b != b), name
+    for name in CURVE_NAMES:
+        np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name))
+
+
+def test_chunk_runs_keeps_a_chunk_within_its_memory_budget():
+    assert experiments.chunk_runs(4000, budget_bytes=48_000 * 10) == 10
+    assert experiments.chunk_runs(10**8) == 1

@@ -1,43 +1,51 @@
 """The experiment grid of ``benchmarks.run`` and its incremental, resumable cell storage.
 
-A **cell** is one ``train()`` call: (learner, reward, alpha, gamma) at fixed run settings.
-An **experiment** is a named set of cells:
+A **cell** is one trained configuration: (learner, reward, alpha, gamma) at the shared settings
+of a :class:`~tableclean_suite.bench.config.RunConfig`.  An **experiment** is a named set of cells:
 
 - ``main``: every learner x every reward at (alpha, gamma) — the paper's Table 3 and Figures 3-5;
 - ``alpha_sweep``: the sweep learner x sweep reward at each alpha, gamma fixed — Figures 6-7;
 - ``gamma_sweep``: the same at each gamma, alpha fixed.
 
 A cell that belongs to several experiments (e.g. Q-learning/r4 at alpha = gamma = 0.3)
-is trained once.  After each cell, its summary (the scalars and curves of
-:func:`tableclean_suite.metrics.summarize`) is written to
-``OUT/cells/<label>-<hash>.npz``, where ``hash`` is a digest of everything that determines
-the cell (:func:`cell_config`).  A rerun loads the cells whose config matches instead of
-retraining them, so an interrupted run resumes where it stopped and changing one flag only
-retrains the cells it affects.
+is trained once, chunk by chunk of runs (:func:`train_cell`), so memory does not grow with
+the number of runs.  After each cell, its :class:`~tableclean_suite.metrics.Summary` is written
+to ``OUT/cells/<label>-<hash>.npz``, where ``hash`` is a digest of everything that determines
+the cell's numbers (:func:`cell_config`), the code included.  A rerun loads the cells whose
+config matches instead of retraining them, so an interrupted run resumes where it stopped and
+changing one flag only retrains the cells it affects.
 """
 
 from __future__ import annotations
 
 import hashlib
+import inspect
 import json
 import os
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
 import tableclean_suite
-from tableclean_suite.learners import get_learner, train
-from tableclean_suite.metrics import SUMMARY_SCALARS, summarize
+from tableclean_suite import metrics
+from tableclean_suite.bench.config import RunConfig
+from tableclean_suite.learners import code_digest, get_learner, train
+from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, CurveSums, Summary, summarize
 from tableclean_suite.rewards import get_reward_pattern
 
 #: Bump when the stored layout or the meaning of a stored field changes.
-CELL_FORMAT_VERSION = 1
+CELL_FORMAT_VERSION = 2
 
-#: Curves stored per cell (all of ``summarize``'s curves).
-CURVE_NAMES = ("success", "average_reward", "terminal", "episodes")
+#: Memory budget of one training chunk's records (bytes): a run of T iterations records
+#: :data:`RECORD_BYTES_PER_ITERATION` bytes per iteration, so a chunk holds about
+#: ``CHUNK_BYTES / (T * RECORD_BYTES_PER_ITERATION)`` runs (at least one).
+CHUNK_BYTES = 64_000_000
+#: reward (float64) + outcome, state, action, episode end (int8 each).
+RECORD_BYTES_PER_ITERATION = 8 + 4
 
 
 @dataclass(frozen=True, order=True)
@@ -53,29 +61,6 @@ class Cell:
     def label(self) -> str:
         """A readable file-name-safe label, e.g. ``q_learning-r4-a0.3-g0.3``."""
         return f"{self.learner}-{self.reward}-a{self.alpha:g}-g{self.gamma:g}"
-
-
-@dataclass(frozen=True)
-class Settings:
-    """Everything shared by all cells of a run.
-
-    ``transitions`` is a path (calibrated backend) and ``transitions_sha256`` its content
-    digest; ``workers`` does not change the numbers, so it is not part of a cell's config.
-    """
-
-    runs: int
-    iterations: int
-    epsilon: float
-    max_itr: int
-    seed: int
-    start: str = "fixed"
-    ineffective: str = "ineffective"
-    backend: str = "symbolic"
-    transitions: str | None = None
-    transitions_sha256: str | None = None
-    threshold: float = 0.95
-    plateau_fraction: float = 0.25
-    workers: int | None = None
 
 
 @dataclass(frozen=True)
@@ -110,17 +95,38 @@ def build_grid(
     return list(dict.fromkeys(grid))
 
 
+def config_grid(config: RunConfig) -> list[Membership]:
+    """:func:`build_grid` of a run's configuration."""
+    return build_grid(config.learners, config.rewards, config.alpha, config.gamma, config.sweep_learner,
+                      config.sweep_reward, config.alpha_sweep, config.gamma_sweep, sweeps=config.sweeps)
+
+
 def unique_cells(grid: list[Membership]) -> list[Cell]:
     """The distinct cells of a grid, in first-appearance order (each is trained once)."""
     return list(dict.fromkeys(m.cell for m in grid))
 
 
-def cell_config(cell: Cell, settings: Settings, model_repr: str) -> dict:
+@lru_cache(maxsize=1)
+def metrics_digest() -> str:
+    """SHA-256 (hex) of the source of :mod:`tableclean_suite.metrics` (how summaries are computed)."""
+    return hashlib.sha256(inspect.getsource(metrics).encode()).hexdigest()
+
+
+def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | None = None) -> dict:
     """Everything that determines a cell's stored summary (JSON-serialisable).
 
-    The reward pattern and learner are recorded by value (a re-registered user pattern
-    with the same name but other values gets a new hash); the package version is
-    included so that a new release of the learners retrains.
+    Args:
+        cell: the cell.
+        config: the run's configuration; its :meth:`~RunConfig.cell_settings` enter the key.
+        model: the :class:`~tableclean_suite.task.TaskModel` trained on.
+        transitions_sha256: digest of the calibrated transition table's file, if any.
+
+    The key includes the code as well as the values: the learner's digest
+    (:func:`tableclean_suite.learners.code_digest`: training loop, random numbers, its TD
+    target's source), the task model's (:meth:`TaskModel.code_digest`: spec and rules, user
+    actions included) and :func:`metrics_digest`.  Reward patterns are recorded by value, so a
+    user learner, action or pattern re-registered under the same name with another body or
+    other values gets a new hash and is retrained.
     """
     pattern = get_reward_pattern(cell.reward)
     learner = get_learner(cell.learner)
@@ -132,20 +138,15 @@ def cell_config(cell: Cell, settings: Settings, model_repr: str) -> dict:
         "format_version": CELL_FORMAT_VERSION,
         "package_version": tableclean_suite.__version__,
         "learner": {"name": learner.name, "on_policy": learner.on_policy,
-                    "td_target": getattr(learner.td_target, "__qualname__", repr(learner.td_target))},
+                    "td_target": getattr(learner.td_target, "__qualname__", repr(learner.td_target)),
+                    "code_digest": code_digest(learner)},
         "reward": {"name": pattern.name, **reward_values},
-        "alpha": cell.alpha,
-        "gamma": cell.gamma,
-        "runs": settings.runs,
-        "iterations": settings.iterations,
-        "epsilon": settings.epsilon,
-        "max_itr": settings.max_itr,
-        "seed": settings.seed,
-        "model": model_repr,
-        "backend": settings.backend,
-        "transitions_sha256": settings.transitions_sha256,
-        "threshold": settings.threshold,
-        "plateau_fraction": settings.plateau_fraction,
+        "cell": asdict(cell),
+        "settings": config.cell_settings(),
+        "model": repr(model),
+        "task_digest": model.code_digest(),
+        "transitions_sha256": transitions_sha256,
+        "metrics_digest": metrics_digest(),
     }
 
 
@@ -178,7 +179,7 @@ class CellStore:
     def path(self, cell: Cell, digest: str) -> Path:
         return self.root / f"{cell.label}-{digest}.npz"
 
-    def load(self, cell: Cell, config: dict) -> dict | None:
+    def load(self, cell: Cell, config: dict) -> Summary | None:
         """The stored summary of ``cell`` under ``config``, or None if there is none.
 
         Raises:
@@ -204,29 +205,30 @@ class CellStore:
             problems.append("its config does not match its name")
         if set(scalars) != set(SUMMARY_SCALARS):
             problems.append("its scalars are incomplete")
-        if any(c.shape != (config["iterations"],) for c in curves.values()):
-            problems.append(f"its curves are not of length {config['iterations']}")
+        iterations = config["settings"]["iterations"]
+        if any(c.shape != (iterations,) for c in curves.values()):
+            problems.append(f"its curves are not of length {iterations}")
         if problems:
             raise CellFileError(
                 f"cell file {path} is inconsistent ({'; '.join(problems)}). "
                 "Delete it or rerun with --fresh to retrain all cells."
             )
-        return {**scalars, **curves}
+        return Summary(**scalars, **curves)
 
-    def save(self, cell: Cell, config: dict, summary: dict) -> Path:
-        """Write ``summary`` (scalars and curves of ``summarize``) for ``cell`` atomically."""
+    def save(self, cell: Cell, config: dict, summary: Summary) -> Path:
+        """Write ``summary`` for ``cell`` atomically."""
         digest = config_hash(config)
         path = self.path(cell, digest)
         self.root.mkdir(parents=True, exist_ok=True)
-        scalars = {name: _plain(summary[name]) for name in SUMMARY_SCALARS}
-        temporary = path.with_name(path.name + ".tmp")
+        scalars = {name: _plain(value) for name, value in summary.scalars().items()}
+        temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
         with open(temporary, "wb") as handle:
             np.savez(
                 handle,
                 config=np.array(json.dumps(config, sort_keys=True)),
                 config_hash=np.array(digest),
                 scalars=np.array(json.dumps(scalars)),
-                **{name: np.asarray(summary[name], dtype=np.float64) for name in CURVE_NAMES},
+                **{name: np.asarray(curve, dtype=np.float64) for name, curve in summary.curves().items()},
             )
         os.replace(temporary, path)
         return path
@@ -241,25 +243,64 @@ def _plain(value):
     return float(value)
 
 
-def train_cell(cell: Cell, settings: Settings, model, transitions=None) -> tuple[dict, float, float]:
-    """Train one cell and summarise it; returns ``(summary, train_seconds, metrics_seconds)``.
+def chunk_runs(iterations: int, budget_bytes: int = CHUNK_BYTES) -> int:
+    """Runs per training chunk so that one chunk's records stay within ``budget_bytes`` (>= 1)."""
+    return max(1, budget_bytes // (int(iterations) * RECORD_BYTES_PER_ITERATION))
 
-    The :class:`TrainingResult` is discarded as soon as it is summarised (it is
-    ``runs x iterations`` x 5 arrays, ~50 MB at the defaults).
+
+def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
+               runs_per_chunk: int | None = None) -> tuple[Summary, float, float]:
+    """Train one cell chunk by chunk of runs and summarise it.
+
+    Each chunk is ``train(runs=chunk, first_run=lo, ...)``; its per-iteration sums are added to a
+    :class:`~tableclean_suite.metrics.CurveSums` and its records dropped, so memory is one chunk's
+    records whatever ``config.runs``.  Random numbers are counter-based per run, so the summary
+    is bit-identical whatever the chunking.
+
+    Args:
+        runs_per_chunk: runs per ``train()`` call (default :func:`chunk_runs` of the iterations).
+
+    Returns:
+        ``(summary, train_seconds, metrics_seconds)``.
     """
+    chunk = runs_per_chunk or chunk_runs(config.iterations)
+    sums = CurveSums.zeros(config.iterations)
+    train_seconds = metrics_seconds = 0.0
+    physics_stats: dict = {}
+    for first in range(0, config.runs, chunk):
+        started = time.perf_counter()
+        result = train(
+            learner=cell.learner, reward=cell.reward, runs=min(chunk, config.runs - first), first_run=first,
+            alpha=cell.alpha, gamma=cell.gamma, model=model, transitions=transitions, **config.train_kwargs(),
+        )
+        trained = time.perf_counter()
+        if "physics" in result.info:
+            physics_stats = _merge_stats(physics_stats, result.info["physics"])
+        sums.add(result)
+        del result
+        train_seconds += trained - started
+        metrics_seconds += time.perf_counter() - trained
+    if physics_stats:
+        _report_physics(cell, physics_stats)
     started = time.perf_counter()
-    result = train(
-        learner=cell.learner, reward=cell.reward, runs=settings.runs, iterations=settings.iterations,
-        alpha=cell.alpha, gamma=cell.gamma, epsilon=settings.epsilon, max_itr=settings.max_itr,
-        seed=settings.seed, model=model, backend=settings.backend, transitions=transitions,
-        workers=settings.workers,
-    )
-    trained = time.perf_counter()
-    if "physics" in result.info:
-        _report_physics(cell, result.info["physics"])
-    summary = summarize(result, threshold=settings.threshold, plateau_fraction=settings.plateau_fraction)
-    del result
-    return summary, trained - started, time.perf_counter() - trained
+    summary = summarize(sums, threshold=config.threshold, plateau_fraction=config.plateau_fraction)
+    return summary, train_seconds, metrics_seconds + time.perf_counter() - started
+
+
+def _merge_stats(total: dict, more: dict) -> dict:
+    """Physics statistics of two chunks: counts and times add up, ``workers`` is the largest."""
+    merged = dict(total)
+    for key, value in more.items():
+        if isinstance(value, dict):
+            counts = dict(merged.get(key, {}))
+            for kind, n in value.items():
+                counts[kind] = counts.get(kind, 0) + n
+            merged[key] = counts
+        elif key == "workers":
+            merged[key] = max(merged.get(key, 0) or 0, value or 0)
+        else:
+            merged[key] = merged.get(key, 0) + value
+    return merged
 
 
 def _report_physics(cell: Cell, stats: dict) -> None:
@@ -277,7 +318,7 @@ def _report_physics(cell: Cell, stats: dict) -> None:
 class GridRun:
     """What :func:`run_grid` did: summaries per cell, and how they were obtained."""
 
-    summaries: dict
+    summaries: dict = field(default_factory=dict)
     resumed: int = 0
     trained: int = 0
     train_seconds: float = 0.0
@@ -286,56 +327,60 @@ class GridRun:
 
 def run_grid(
     grid: list[Membership],
-    settings: Settings,
+    config: RunConfig,
     model,
     store: CellStore,
     transitions=None,
-    fresh: bool = False,
-    progress: bool = True,
+    transitions_sha256: str | None = None,
 ) -> GridRun:
-    """Train (or load) every distinct cell of ``grid``; each trained cell is saved at once.
+    """Load the stored cells of ``grid``, then train the others; each trained cell is saved at once.
 
     Args:
         grid: memberships from :func:`build_grid`.
-        settings: run-wide settings.
+        config: the run's configuration (``fresh``: ignore and overwrite stored cells;
+            ``progress``: a tqdm bar over cells on stderr, stored cells counted as done).
         model: the :class:`~tableclean_suite.task.TaskModel`.
         store: where summaries live.
         transitions: a loaded :class:`TransitionTable` for the calibrated backend.
-        fresh: ignore stored cells (and overwrite them).
-        progress: a tqdm bar over cells on stderr.
+        transitions_sha256: its file's digest (part of every cell's key).
 
     Raises:
         CellFileError: a stored cell matching the config is unreadable (unless ``fresh``).
     """
     from tqdm.auto import tqdm
 
-    cells = unique_cells(grid)
-    outcome = GridRun(summaries={})
-    bar = tqdm(cells, desc="cells", unit="cell", disable=not progress, leave=False)
-    for cell in bar:
-        bar.set_postfix_str(cell.label)
-        config = cell_config(cell, settings, repr(model))
-        summary = None if fresh else store.load(cell, config)
-        if summary is not None:
-            outcome.resumed += 1
+    outcome = GridRun()
+    keys = {cell: cell_config(cell, config, model, transitions_sha256) for cell in unique_cells(grid)}
+    pending = []
+    for cell, key in keys.items():
+        summary = None if config.fresh else store.load(cell, key)
+        if summary is None:
+            pending.append(cell)
         else:
-            summary, train_s, metrics_s = train_cell(cell, settings, model, transitions)
-            store.save(cell, config, summary)
-            outcome.trained += 1
-            outcome.train_seconds += train_s
-            outcome.metrics_seconds += metrics_s
+            outcome.summaries[cell] = summary
+            outcome.resumed += 1
+    bar = tqdm(total=len(keys), initial=outcome.resumed, desc="cells", unit="cell", disable=not config.progress,
+               leave=False)
+    for cell in pending:
+        bar.set_postfix_str(f"{outcome.resumed} resumed, training {cell.label}" if outcome.resumed else cell.label)
+        summary, train_s, metrics_s = train_cell(cell, config, model, transitions)
+        store.save(cell, keys[cell], summary)
         outcome.summaries[cell] = summary
+        outcome.trained += 1
+        outcome.train_seconds += train_s
+        outcome.metrics_seconds += metrics_s
+        bar.update(1)
     bar.close()
     return outcome
 
 
 def cell_records(grid: list[Membership], summaries: dict) -> tuple[list[dict], list[dict]]:
-    """Cell records (keys + scalars) and curve sets, one per membership, for :mod:`benchmarks.tables`."""
+    """Cell records (keys + scalars) and curve sets, one per membership, for :mod:`.tables`."""
     records, curves = [], []
     for member in grid:
         summary = summaries[member.cell]
         record = {"cell_id": member.cell.label, **asdict(member.cell), "experiment": member.experiment}
-        record.update({name: summary[name] for name in SUMMARY_SCALARS})
+        record.update(summary.scalars())
         records.append(record)
-        curves.append({name: summary[name] for name in CURVE_NAMES})
+        curves.append(summary.curves())
     return records, curves

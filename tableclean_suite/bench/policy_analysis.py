@@ -37,7 +37,7 @@ def analyse(learner: str, reward: str, model: TaskModel, runs: int, iterations: 
         "reward": reward,
         "start": model.start.value,
         "iterations": iterations,
-        "success_plateau_%": 100 * metrics.summarize(result)["success_plateau"],
+        "success_plateau_%": 100 * metrics.summarize(result).success_plateau,
         "exact_epsilon_greedy_%": 100 * float(np.mean(analysis.exact_success_probability(
             policies, epsilon, max_itr, model=model))),
         "greedy_success_%": 100 * float(np.mean(analysis.exact_success_probability(policies, 0.0, max_itr, model=model))),

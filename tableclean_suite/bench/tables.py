@@ -3,9 +3,10 @@
 Nothing here trains, reads or writes files; :mod:`tableclean_suite.bench.run` does that.
 
 Data contract: a *cell record* is one dict per (experiment, trained cell) with the keys
-``learner, reward, alpha, gamma, experiment, cell_id`` plus the scalar keys of
-:func:`tableclean_suite.metrics.summarize` (:data:`SUMMARY_SCALARS`).  Curves travel as
-``{metric: ndarray of shape (iterations,)}`` per record (see :func:`curves_long`).
+``learner, reward, alpha, gamma, experiment, cell_id`` plus the scalar fields of
+:class:`tableclean_suite.metrics.Summary` (:data:`SUMMARY_SCALARS`, from ``Summary.scalars()``).
+Curves travel as ``{metric: ndarray of shape (iterations,)}`` per record (``Summary.curves()``;
+see :func:`curves_long`).
 
 The paper's numbers (its Tables 3 and 4, quoted verbatim) are data in :mod:`.paper_data`.
 """
@@ -24,7 +25,7 @@ from tableclean_suite.bench.paper_data import (  # noqa: F401  (re-exported)
     PAPER_TABLE4_COLUMNS,
     SOURCE_QUOTED,
 )
-from tableclean_suite.metrics import SUMMARY_SCALARS
+from tableclean_suite.metrics import ITERATION_SCALARS, SUMMARY_SCALARS
 
 #: Identifying columns of a cell record, in table order.
 KEY_COLUMNS = ("learner", "reward", "alpha", "gamma", "experiment")
@@ -53,11 +54,22 @@ def _ordered(values, preferred):
     return [v for v in preferred if v in unique] + [v for v in unique if v not in preferred]
 
 
-def table3(records: list[dict] | pd.DataFrame) -> pd.DataFrame:
+def is_paper_task(model) -> bool:
+    """Whether ``model`` is the paper's task (2 segments, 1 object, its four actions), whatever its
+    start and ineffective modes, so that the paper's numbers can stand beside ours."""
+    from tableclean_suite.task import PAPER_SPEC
+
+    return ((model.n_segments, model.n_objects) == (PAPER_SPEC.segments, PAPER_SPEC.n_objects)
+            and tuple(model.action_names) == tuple(PAPER_SPEC.actions))
+
+
+def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) -> pd.DataFrame:
     """Table 3: one row per (experiment, cell), with the paper's values beside the main Q-learning rows.
 
     Args:
         records: cell records (see module docstring) or a DataFrame of them.
+        compare_with_paper: fill the ``paper_*`` columns (False for another task than the paper's:
+            they are then all NaN).
 
     Returns:
         A DataFrame with columns :data:`TABLE3_COLUMNS` (extra input columns are dropped),
@@ -72,16 +84,17 @@ def table3(records: list[dict] | pd.DataFrame) -> pd.DataFrame:
         raise ValueError(f"cell records lack columns: {', '.join(missing)}")
     frame = frame.drop(columns=[c for c in PAPER_COLUMNS if c in frame.columns])
     paper = PAPER_TABLE3.set_index("reward")
-    is_paper_row = (frame["experiment"] == "main") & (frame["learner"] == PAPER_LEARNER)
+    is_paper_row = (frame["experiment"] == "main") & (frame["learner"] == PAPER_LEARNER) & compare_with_paper
     for column in PAPER_COLUMNS:
         frame[column] = [
             paper.at[reward, column] if flag and reward in paper.index else _NA
             for reward, flag in zip(frame["reward"], is_paper_row)
         ]
-    for column in ("max_success_iterations", "reward_convergence_iterations"):
-        frame[column] = pd.array([None if _missing(v) else int(v) for v in frame[column]], dtype="Int64")
-    for column in ("max_success_episodes", "reward_convergence_episodes", *SUMMARY_SCALARS[4:]):
-        frame[column] = [_NA if _missing(v) else float(v) for v in frame[column]]
+    for column in SUMMARY_SCALARS:
+        if column in ITERATION_SCALARS:
+            frame[column] = pd.array([None if _missing(v) else int(v) for v in frame[column]], dtype="Int64")
+        else:
+            frame[column] = [_NA if _missing(v) else float(v) for v in frame[column]]
     frame["alpha"] = frame["alpha"].astype(float)
     frame["gamma"] = frame["gamma"].astype(float)
     sort_keys = {
