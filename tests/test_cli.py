@@ -135,3 +135,42 @@ def test_bad_input_exits_2_without_traceback(args, named, tmp_path):
     assert named in result.stderr
     assert "Traceback" not in result.stderr
     assert not (tmp_path / "never").exists()
+
+
+def _import_robosuite(quiet: bool):
+    code = ("import logging, sys\n"
+            "from tableclean_suite.bench.startup import quiet_robosuite_startup\n"
+            + ("holder = quiet_robosuite_startup()\n" if quiet else "")
+            + "import robosuite\n"
+            "logging.getLogger('robosuite_logs').warning('a later message')\n")
+    return subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300)
+
+
+def test_robosuite_start_up_warnings_are_dropped_unless_verbose():
+    quiet, verbose = _import_robosuite(quiet=True), _import_robosuite(quiet=False)
+    assert quiet.returncode == verbose.returncode == 0, quiet.stderr + verbose.stderr
+    assert "private macro file" in verbose.stderr  # what robosuite prints on import
+    assert verbose.stderr.count("[robosuite WARNING]") > 1
+    lines = [line for line in quiet.stderr.splitlines() if "[robosuite" in line]
+    assert len(lines) == 1 and "a later message" in lines[0]  # only the start-up messages are dropped
+
+
+def test_symbolic_cli_prints_no_robosuite_warnings():
+    result = cli("--describe")
+    assert result.returncode == 0 and "[robosuite" not in result.stderr
+
+
+def test_progress_bar_counts_resumed_cells_as_done(tmp_path, capsys):
+    from tableclean_suite.bench import experiments
+    from tableclean_suite.bench.config import RunConfig
+    from tableclean_suite.task import TaskModel
+
+    config = RunConfig(runs=3, iterations=40, learners=("q_learning",), rewards=("r1", "r2", "r3"), sweeps=False)
+    grid, store, model = experiments.config_grid(config), experiments.CellStore(tmp_path / "cells"), TaskModel()
+    experiments.run_grid(grid[:2], config, model, store)  # two of the three cells stored
+    capsys.readouterr()
+    outcome = experiments.run_grid(grid, config, model, store)
+    bar = capsys.readouterr().err
+    assert (outcome.resumed, outcome.trained) == (2, 1)
+    first_frame = bar.replace("\r", "\n").strip().splitlines()[0]
+    assert "2/3" in first_frame, bar  # resumed cells are done before the first trained one

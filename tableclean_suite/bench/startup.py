@@ -1,0 +1,51 @@
+"""robosuite's start-up messages: kept off the harness's output unless asked for.
+
+When robosuite is imported (by the physics backend, or by anything else that needs MuJoCo) it
+logs warnings about its own installation: no private macro file, no robosuite_models, no mink.
+They say nothing about a benchmark run, so the CLIs drop them unless ``--verbose``
+(:func:`quiet_robosuite_startup`).  Only records logged while robosuite itself is being imported
+are dropped; its later messages (e.g. about a controller) pass as usual.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+
+import wrapt
+
+#: The logger robosuite writes to.
+ROBOSUITE_LOGGER = "robosuite_logs"
+
+
+class _DropDuringImport(logging.Filter):
+    """Drops records until :meth:`stop` (robosuite's import has finished); counts what it dropped."""
+
+    def __init__(self):
+        super().__init__()
+        self.dropping = True
+        self.dropped = 0
+
+    def filter(self, record) -> bool:
+        if self.dropping:
+            self.dropped += 1
+            return False
+        return True
+
+    def stop(self, _module=None) -> None:
+        self.dropping = False
+
+
+def quiet_robosuite_startup() -> logging.Filter | None:
+    """Drop the log records robosuite emits while it is being imported (from now on).
+
+    Returns:
+        The filter (its ``dropped`` counts the records), or None when robosuite is already
+        imported (its start-up messages are then already out).
+    """
+    if "robosuite" in sys.modules:
+        return None
+    holder = _DropDuringImport()
+    logging.getLogger(ROBOSUITE_LOGGER).addFilter(holder)
+    wrapt.register_post_import_hook(holder.stop, "robosuite")
+    return holder
