@@ -23,7 +23,9 @@ setup(
     long_description=open("README.md", encoding="utf-8").read(),
     long_description_content_type="text/markdown",
     python_requires=">=3.10",
-    packages=find_packages(include=["tableclean_suite", "tableclean_suite.*"]),
+    packages=find_packages(include=["tableclean_suite", "tableclean_suite.*"]),  # tableclean_suite.bench too
+    # The benchmark harness ships with the package (its paper numbers are Python data, no data files).
+    entry_points={"console_scripts": ["tableclean-bench = tableclean_suite.bench.run:main"]},
     install_requires=[
         "robosuite>=1.5,<1.6",
         "mujoco>=3.3,<3.10",

@@ -1,0 +1,92 @@
+"""A plain (non-editable) install ships the harness: ``python -m tableclean_suite.bench.run`` and the
+``tableclean-bench`` console script run from a directory outside the checkout, without network."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SOURCES = ("setup.py", "README.md", "tableclean_suite")
+TINY = ["--runs", "5", "--iterations", "100", "--no-sweeps", "--no-figures", "--no-progress"]
+
+
+def _can_build_wheels() -> bool:
+    """Whether setuptools can build a wheel offline here (setuptools >= 70.1, or the wheel package)."""
+    import importlib.util
+
+    from setuptools import __version__ as setuptools_version
+
+    major, minor = (int(part) for part in setuptools_version.split(".")[:2])
+    return (major, minor) >= (70, 1) or importlib.util.find_spec("wheel") is not None
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory):
+    """``pip install --no-deps --no-build-isolation --target SITE`` of a copy of the checkout
+    (built from a copy so that the build leaves nothing in the checkout)."""
+    if not _can_build_wheels():
+        pytest.skip("pip cannot build the wheel offline: needs setuptools >= 70.1 or the 'wheel' package")
+    base = tmp_path_factory.mktemp("install")
+    source, site = base / "source", base / "site"
+    for name in SOURCES:
+        if (ROOT / name).is_dir():
+            shutil.copytree(ROOT / name, source / name, ignore=shutil.ignore_patterns("__pycache__", "*.nbi", "*.nbc"))
+        else:
+            source.mkdir(exist_ok=True)
+            shutil.copy(ROOT / name, source / name)
+    result = subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation", "--no-index", "--quiet",
+         "--target", str(site), str(source)],
+        capture_output=True, text=True, timeout=600,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    elsewhere = base / "elsewhere"  # the working directory: neither the checkout nor the install
+    elsewhere.mkdir()
+    env = {**os.environ, "PYTHONPATH": str(site), "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    return site, elsewhere, env
+
+
+def _check_outputs(out: Path, site: Path, env, cwd):
+    for name in ("table3.csv", "table4.csv", "curves.csv"):
+        assert (out / name).stat().st_size > 0, name
+    manifest = json.loads((out / "config.json").read_text())
+    assert manifest["args"]["runs"] == 5 and sorted(manifest["files"]) == ["curves.csv", "table3.csv", "table4.csv"]
+    check = subprocess.run(
+        [sys.executable, "-c", "from tableclean_suite.bench import outputs; import sys; "
+         f"sys.exit(len(outputs.check_outputs({str(out)!r})))"],
+        cwd=cwd, env=env, capture_output=True, text=True, timeout=120,
+    )
+    assert check.returncode == 0, check.stderr
+
+
+def test_module_runs_from_the_installed_package(installed):
+    site, elsewhere, env = installed
+    where = subprocess.run([sys.executable, "-c", "import tableclean_suite.bench.run as r; print(r.__file__)"],
+                           cwd=elsewhere, env=env, capture_output=True, text=True, timeout=120)
+    assert where.returncode == 0, where.stderr
+    assert Path(where.stdout.strip()).is_relative_to(site)  # not the checkout
+    out = elsewhere / "out_module"
+    result = subprocess.run([sys.executable, "-m", "tableclean_suite.bench.run", *TINY, "--out", str(out)],
+                            cwd=elsewhere, env=env, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    assert "Table 3" in result.stdout and "Table 4" in result.stdout
+    _check_outputs(out, site, env, elsewhere)
+
+
+def test_console_script_runs_from_the_installed_package(installed):
+    site, elsewhere, env = installed
+    script = site / "bin" / "tableclean-bench"
+    assert script.is_file()
+    out = elsewhere / "out_script"
+    result = subprocess.run([sys.executable, str(script), *TINY, "--out", str(out)], cwd=elsewhere, env=env,
+                            capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    _check_outputs(out, site, env, elsewhere)
+    usage = subprocess.run([sys.executable, str(script), "--rewards", "r9"], cwd=elsewhere, env=env,
+                           capture_output=True, text=True, timeout=120)
+    assert usage.returncode == 2 and usage.stderr.startswith("usage: tableclean-bench")
