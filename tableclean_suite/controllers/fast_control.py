@@ -1,0 +1,616 @@
+"""A fast control path for the skills: robosuite's OSC_POSE control law without its per-substep Python.
+
+robosuite's ``env.step`` spends most of its time in Python around the physics: per
+physics substep it rebuilds the arm's Jacobians and mass matrix through several
+wrapper layers, runs the OSC and the gripper controller, re-checks action limits
+and updates every observable.  :class:`FastSkillStepper` executes one control step
+of a skill env (:func:`~tableclean_suite.controllers.make.make_skill_env`) for an
+absolute world-frame command ``[x, y, z, rx, ry, rz, gripper]`` with the *same*
+control law:
+
+- once per control step (robosuite's ``policy_step``): the goal pose from the
+  command (``Rotation.from_rotvec``, as robosuite's absolute OSC), the gripper's
+  ``format_action`` (its rate-limited internal command) and its ``SimpleGripController``
+  mapping to the finger actuators' control range;
+- per physics substep, as ``MujocoEnv.step`` with ``lite_physics``: ``mj_step1``;
+  the OSC torques from MuJoCo's own mass matrix (``mj_fullM``) and grip-site
+  Jacobians (``mj_jacSite``), computed in a numba kernel that calls robosuite's own
+  compiled ``orientation_error``, ``opspace_matrices`` and ``nullspace_torques``
+  (same kp, kd, decoupling, nullspace pull towards the controller's
+  ``initial_joint``, gravity compensation, clipping to the actuators' ctrlrange);
+  the env's wiping check; ``mj_step2``.  With the native loop (default when MuJoCo's
+  shared library is found) the substeps run in one compiled function that calls
+  MuJoCo's C API directly and returns to Python only for substeps where the sponge is
+  near the table top, so the env's own wiping check (``_record_wiping``) decides;
+- once per control step at the end: the env's timestep and clock, the hidden dirt
+  markers, and the controllers' goal and refresh state, so ``env.step`` can take over.
+
+What the fast path does **not** do: it does not refresh robosuite's observables
+(``env._get_observations(force_update=True)`` does), the robot's proprioception
+history buffers (``recent_qpos``, ``recent_ee_*``), nor compute the reward.  The
+skills read none of these: ``env.skill_info()`` and ``env.symbolic_state()`` read
+the simulation data directly.
+
+Only the configuration the skills use is supported (one fixed-base arm, OSC_POSE,
+absolute world-frame input, fixed impedance, no interpolators, a simple grip
+gripper); anything else raises ``NotImplementedError`` at construction.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import glob
+import os
+
+import mujoco
+import numba
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
+from robosuite.controllers.parts.arm.osc import OperationalSpaceController
+from robosuite.controllers.parts.gripper.simple_grip import SimpleGripController
+from robosuite.utils.control_utils import nullspace_torques, opspace_matrices, orientation_error
+from scipy.spatial.transform import Rotation
+
+from tableclean_suite.controllers.osc import ACTION_DIM
+from tableclean_suite.environments.table_clean import PRESS_PREFILTER_SLACK
+
+#: Slices of the skill action (7,): position (m), rotation vector (rad), gripper command in [-1, 1].
+POS_SLICE, ROTVEC_SLICE, GRIPPER_SLICE = slice(0, 3), slice(3, 6), slice(6, 7)
+#: Extra height (m) above the env's own wiping prefilter under which the native loop hands a substep
+#: to the env's wiping check; any value >= 0 is exact (the env re-checks), larger ones cost time.
+WIPE_CHECK_MARGIN = 0.005
+#: A Cholesky pivot below this fraction of the largest diagonal entry sends the operational-space
+#: matrices to robosuite's own SVD pseudo-inverses (near a singularity, where the two would differ).
+CHOLESKY_PIVOT_RTOL = 1e-10
+
+
+@numba.njit(cache=True)
+def spd_inverse(a: np.ndarray, out: np.ndarray) -> bool:
+    """Inverse of the symmetric positive definite ``a`` (n, n) into ``out`` (n, n) by Cholesky.
+
+    Reads the lower triangle of ``a`` only.  Returns False (``out`` undefined) when a pivot
+    falls below :data:`CHOLESKY_PIVOT_RTOL` times the largest diagonal entry.
+    """
+    n = a.shape[0]
+    scale = 0.0
+    for i in range(n):
+        scale = max(scale, a[i, i])
+    low = np.zeros((n, n))
+    for j in range(n):
+        pivot = a[j, j]
+        for k in range(j):
+            pivot -= low[j, k] * low[j, k]
+        if not pivot > CHOLESKY_PIVOT_RTOL * scale:
+            return False
+        low[j, j] = np.sqrt(pivot)
+        for i in range(j + 1, n):
+            value = a[i, j]
+            for k in range(j):
+                value -= low[i, k] * low[j, k]
+            low[i, j] = value / low[j, j]
+    inv_low = np.zeros((n, n))  # L^-1, lower triangular
+    for i in range(n):
+        inv_low[i, i] = 1.0 / low[i, i]
+        for j in range(i):
+            value = 0.0
+            for k in range(j, i):
+                value -= low[i, k] * inv_low[k, j]
+            inv_low[i, j] = value / low[i, i]
+    for i in range(n):  # a^-1 = L^-T L^-1
+        for j in range(i + 1):
+            value = 0.0
+            for k in range(i, n):
+                value += inv_low[k, i] * inv_low[k, j]
+            out[i, j] = value
+            out[j, i] = value
+    return True
+
+
+@numba.njit(cache=True)
+def fast_opspace_matrices(mass: np.ndarray, j_full: np.ndarray, j_pos: np.ndarray, j_ori: np.ndarray):
+    """robosuite's ``opspace_matrices`` with Cholesky inverses of its symmetric positive definite matrices.
+
+    Same formulas (M^-1; lambda = (J M^-1 J^T)^-1 for the full, position and orientation
+    Jacobians; nullspace I - M^-1 J^T lambda J); where robosuite takes SVD pseudo-inverses the
+    matrices are positive definite, so the inverses agree to rounding.  Falls back to
+    robosuite's own function when any pivot is tiny (near a singularity).
+
+    Args:
+        mass: (n, n) arm mass matrix; j_full: (6, n); j_pos, j_ori: (3, n) Jacobians.
+
+    Returns:
+        (lambda_full (6, 6), lambda_pos (3, 3), lambda_ori (3, 3), nullspace_matrix (n, n)).
+    """
+    n = mass.shape[0]
+    mass_inv = np.empty((n, n))
+    lambda_full = np.empty((6, 6))
+    lambda_pos = np.empty((3, 3))
+    lambda_ori = np.empty((3, 3))
+    nullspace_matrix = np.empty((n, n))
+    if spd_inverse(mass, mass_inv):
+        j_minv = np.dot(j_full, mass_inv)
+        lambda_full_inv = np.dot(j_minv, j_full.T)
+        ok = spd_inverse(lambda_full_inv, lambda_full)
+        ok = ok and spd_inverse(np.ascontiguousarray(lambda_full_inv[0:3, 0:3]), lambda_pos)
+        ok = ok and spd_inverse(np.ascontiguousarray(lambda_full_inv[3:6, 3:6]), lambda_ori)
+        if ok:
+            j_bar = np.dot(j_minv.T, lambda_full)  # M^-1 J^T lambda (M^-1 symmetric)
+            nullspace_matrix[:] = np.eye(n) - np.dot(j_bar, j_full)
+            return lambda_full, lambda_pos, lambda_ori, nullspace_matrix
+    exact = opspace_matrices(mass, j_full, j_pos, j_ori)
+    lambda_full[:] = exact[0]
+    lambda_pos[:] = exact[1]
+    lambda_ori[:] = exact[2]
+    nullspace_matrix[:] = exact[3]
+    return lambda_full, lambda_pos, lambda_ori, nullspace_matrix
+
+
+@numba.njit(cache=True)
+def osc_law(
+    mass: np.ndarray,
+    j_full: np.ndarray,
+    ref_pos: np.ndarray,
+    ref_ori_mat: np.ndarray,
+    ref_vel: np.ndarray,
+    joint_pos: np.ndarray,
+    joint_vel: np.ndarray,
+    bias: np.ndarray,
+    goal_pos: np.ndarray,
+    goal_ori: np.ndarray,
+    gains: np.ndarray,
+    initial_joint: np.ndarray,
+    uncouple: bool,
+    torques: np.ndarray,
+) -> None:
+    """robosuite's ``OperationalSpaceController.run_controller`` torques for an absolute world-frame goal.
+
+    Args:
+        mass: (n, n) arm block of the joint-space mass matrix (kg m^2).
+        j_full: (6, n) grip-site Jacobian, translational rows then rotational rows.
+        ref_pos: (3,) grip-site world position (m); ref_ori_mat: (3, 3) its world rotation.
+        ref_vel: (6,) grip-site linear (m/s) and angular (rad/s) world velocity.
+        joint_pos: (n,) arm joint positions (rad); joint_vel: (n,) velocities (rad/s).
+        bias: (n,) gravity, Coriolis and centrifugal joint forces (N m), the compensation term.
+        goal_pos: (3,) goal position (m); goal_ori: (3, 3) goal rotation matrix, world frame.
+        gains: (2, 6) rows kp (1/s^2) and kd (1/s), columns x, y, z, rx, ry, rz.
+        initial_joint: (n,) arm joint configuration (rad) the nullspace term pulls towards.
+        uncouple: decouple the position and orientation wrenches (robosuite's ``uncouple_pos_ori``).
+        torques: (n,) output, arm joint torques (N m) before clipping to the actuators' range.
+
+    The base velocity term of robosuite's law is zero here: callers check that the arm's
+    base is welded to the world.
+    """
+    j_pos = np.ascontiguousarray(j_full[0:3])
+    j_ori = np.ascontiguousarray(j_full[3:6])
+    ori_error = orientation_error(goal_ori, ref_ori_mat)
+    position_error = goal_pos - ref_pos
+    desired_force = position_error * gains[0, 0:3] + (-ref_vel[0:3]) * gains[1, 0:3]
+    desired_torque = ori_error * gains[0, 3:6] + (-ref_vel[3:6]) * gains[1, 3:6]
+    lambda_full, lambda_pos, lambda_ori, nullspace_matrix = fast_opspace_matrices(mass, j_full, j_pos, j_ori)
+    wrench = np.empty(6)
+    if uncouple:
+        wrench[0:3] = np.dot(lambda_pos, desired_force)
+        wrench[3:6] = np.dot(lambda_ori, desired_torque)
+    else:
+        desired = np.empty(6)
+        desired[0:3] = desired_force
+        desired[3:6] = desired_torque
+        wrench[:] = np.dot(lambda_full, desired)
+    result = np.dot(j_full.T, wrench) + bias
+    result += nullspace_torques(mass, nullspace_matrix, initial_joint, joint_pos, joint_vel)
+    torques[:] = result
+
+
+@numba.njit(cache=True)
+def osc_torques(
+    full_mass: np.ndarray,
+    jacp: np.ndarray,
+    jacr: np.ndarray,
+    qpos: np.ndarray,
+    qvel: np.ndarray,
+    qfrc_bias: np.ndarray,
+    site_pos: np.ndarray,
+    site_mat: np.ndarray,
+    goal_pos: np.ndarray,
+    goal_ori: np.ndarray,
+    gains: np.ndarray,
+    initial_joint: np.ndarray,
+    indexes: np.ndarray,
+    uncouple: bool,
+    torques: np.ndarray,
+) -> None:
+    """:func:`osc_law` on MuJoCo's whole-model arrays, gathering the arm's entries as robosuite's ``update()``.
+
+    Args:
+        full_mass: (nv, nv) joint-space mass matrix (``mj_fullM`` of ``data.qM``).
+        jacp, jacr: (3, nv) translational / rotational Jacobians of the grip site (``mj_jacSite``).
+        qpos: (nq,) and qvel: (nv,) all joint positions (rad, m) and velocities (rad/s, m/s).
+        qfrc_bias: (nv,) gravity, Coriolis and centrifugal forces (N m).
+        site_pos: (3,) grip-site world position (m); site_mat: (9,) its row-major rotation matrix.
+        goal_pos, goal_ori, gains, initial_joint, uncouple, torques: as :func:`osc_law`.
+        indexes: (2, n) int rows: the arm's dof (qvel) indexes, then its qpos indexes.
+    """
+    dofs = indexes[0]
+    n = dofs.size
+    mass = np.empty((n, n))
+    j_full = np.empty((6, n))
+    joint_pos = np.empty(n)
+    joint_vel = np.empty(n)
+    bias = np.empty(n)
+    for i in range(n):
+        for k in range(n):
+            mass[i, k] = full_mass[dofs[i], dofs[k]]
+        for r in range(3):
+            j_full[r, i] = jacp[r, dofs[i]]
+            j_full[r + 3, i] = jacr[r, dofs[i]]
+        joint_pos[i] = qpos[indexes[1, i]]
+        joint_vel[i] = qvel[dofs[i]]
+        bias[i] = qfrc_bias[dofs[i]]
+    ref_vel = np.empty(6)
+    ref_vel[0:3] = np.dot(jacp, qvel)  # robosuite's get_site_xvelp: the full Jacobian times all velocities
+    ref_vel[3:6] = np.dot(jacr, qvel)
+    ref_ori_mat = np.ascontiguousarray(site_mat.reshape((3, 3)))
+    osc_law(mass, j_full, site_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias,
+            goal_pos, goal_ori, gains, initial_joint, uncouple, torques)
+
+
+def _c_call_codegen(n_pointers: int, trailing_int: bool):
+    """LLVM code calling ``void f(void*, ... n_pointers, [int])`` at the address in the first argument.
+
+    The address and the pointers arrive as integers, so the functions using it stay cacheable
+    (no address is baked into the compiled code).
+    """
+
+    def codegen(context, builder, sig, llvm_args):
+        void_ptr = ir.IntType(8).as_pointer()
+        params = [void_ptr] * n_pointers + ([ir.IntType(32)] if trailing_int else [])
+        fn = builder.inttoptr(llvm_args[0], ir.FunctionType(ir.VoidType(), params).as_pointer())
+        values = [builder.inttoptr(v, void_ptr) for v in llvm_args[1:1 + n_pointers]]
+        builder.call(fn, values + ([llvm_args[-1]] if trailing_int else []))
+        return context.get_dummy_value()
+
+    return codegen
+
+
+@intrinsic
+def _call_2(typingctx, fn, a, b):
+    """``fn(a, b)`` for C ``void f(void*, void*)`` (mj_step1, mj_step2); all arguments integers."""
+    return types.void(types.intp, types.intp, types.intp), _c_call_codegen(2, trailing_int=False)
+
+
+@intrinsic
+def _call_3(typingctx, fn, a, b, c):
+    """``fn(a, b, c)`` for C ``void f(void*, void*, void*)`` (mj_fullM)."""
+    return types.void(types.intp, types.intp, types.intp, types.intp), _c_call_codegen(3, trailing_int=False)
+
+
+@intrinsic
+def _call_4i(typingctx, fn, a, b, c, d, i):
+    """``fn(a, b, c, d, i)`` for C ``void f(void*, void*, void*, void*, int)`` (mj_jacSite)."""
+    signature = types.void(types.intp, types.intp, types.intp, types.intp, types.intp, types.int32)
+    return signature, _c_call_codegen(4, trailing_int=True)
+
+
+#: The MuJoCo C functions the native loop calls, in the order of :func:`mujoco_addresses`.
+NATIVE_FUNCTIONS = ("mj_step1", "mj_step2", "mj_fullM", "mj_jacSite")
+
+
+@functools.lru_cache(maxsize=None)
+def mujoco_addresses() -> tuple[int, ...]:
+    """Addresses of :data:`NATIVE_FUNCTIONS` in the MuJoCo library the Python bindings use.
+
+    Raises ``OSError`` when MuJoCo's shared library is not found next to the mujoco package.
+    """
+    paths = sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*")))
+    if not paths:
+        raise OSError("MuJoCo's shared library (libmujoco.so*) not found next to the mujoco package")
+    lib = ctypes.CDLL(paths[0])
+    return tuple(ctypes.cast(getattr(lib, name), ctypes.c_void_p).value for name in NATIVE_FUNCTIONS)
+
+
+@numba.njit(cache=True)
+def native_substeps(functions, model, data, first, count, buffers, live, goal_pos, goal_ori, gains,
+                    initial_joint, site_id, indexes, actuators, limits, uncouple, grip_ctrl, sponge, wipe_z):
+    """Run substeps ``first``..``count - 1``: step1, OSC torques, ctrl, [wiping hand-off], step2.
+
+    ``functions``: :func:`mujoco_addresses`.  ``model``, ``data``: mjModel* / mjData* addresses.
+    ``buffers``: (full mass (nv, nv), jacp (3, nv), jacr (3, nv), torques (n,)) scratch.
+    ``live``: views of mjData's qM, qpos, qvel, qfrc_bias, the grip site's xpos (3,) and xmat
+    (9,), ctrl, the sponge's xpos (3,) and xmat (9,).  ``goal_pos``, ``goal_ori``, ``gains``,
+    ``initial_joint``, ``indexes``, ``uncouple``: as :func:`osc_torques`; ``site_id``: grip site.
+    ``actuators``: (arm, gripper) actuator indexes; ``limits``: (2, n) arm ctrl range (N m);
+    ``grip_ctrl``: gripper ctrl written at substep 0.  ``sponge``: (3,) half size (m);
+    ``wipe_z``: height (m) of its lowest corner under which the caller must check wiping.
+
+    Returns ``count`` when done, or ``-(k + 1)`` after substep k's control when the caller
+    must run the env's wiping check and ``mj_step2`` for it, then call again from ``k + 1``.
+    """
+    step1, step2, full_m, jac_site = functions
+    full_mass, jacp, jacr, torques = buffers
+    q_m, qpos, qvel, qfrc_bias, site_pos, site_mat, ctrl, sponge_pos, sponge_mat = live
+    arm_act, grip_act = actuators
+    for k in range(first, count):
+        _call_2(step1, model, data)
+        _call_3(full_m, model, full_mass.ctypes.data, q_m.ctypes.data)
+        _call_4i(jac_site, model, data, jacp.ctypes.data, jacr.ctypes.data, np.int32(site_id))
+        osc_torques(full_mass, jacp, jacr, qpos, qvel, qfrc_bias, site_pos, site_mat, goal_pos, goal_ori,
+                    gains, initial_joint, indexes, uncouple, torques)
+        for i in range(arm_act.size):
+            ctrl[arm_act[i]] = min(max(torques[i], limits[0, i]), limits[1, i])
+        if k == 0:
+            for i in range(grip_act.size):
+                ctrl[grip_act[i]] = grip_ctrl[i]
+        if box_lowest_z(sponge_pos, sponge_mat, sponge) <= wipe_z:
+            return -(k + 1)  # mj_step2 of substep k is left to the caller, after the env's wiping check
+        _call_2(step2, model, data)
+    return count
+
+
+@numba.njit(cache=True)
+def box_lowest_z(pos: np.ndarray, mat: np.ndarray, half_size: np.ndarray) -> float:
+    """World z (m) of the lowest corner of a box: centre ``pos`` (3,), row-major rotation ``mat`` (9,), ``half_size`` (3,)."""
+    return pos[2] - (abs(mat[6]) * half_size[0] + abs(mat[7]) * half_size[1] + abs(mat[8]) * half_size[2])
+
+
+def native_available() -> bool:
+    """Whether the native substep loop (MuJoCo's C API called from numba) can be used here."""
+    try:
+        mujoco_addresses()
+    except OSError:
+        return False
+    return True
+
+
+def _check_supported(env) -> None:
+    """Raise ``NotImplementedError`` unless ``env`` uses the configuration the fast path reproduces."""
+    if len(env.robots) != 1 or len(env.robots[0].arms) != 1:
+        raise NotImplementedError("the fast control path supports one robot with one arm")
+    robot = env.robots[0]
+    arm = robot.arms[0]
+    controllers = robot.composite_controller.part_controllers
+    osc = controllers.get(arm)
+    grip = controllers.get(robot.get_gripper_name(arm))
+    checks = {
+        "lite_physics": env.lite_physics,
+        "an OSC arm controller": isinstance(osc, OperationalSpaceController),
+        "a simple grip gripper controller": isinstance(grip, SimpleGripController),
+    }
+    if isinstance(osc, OperationalSpaceController):
+        checks.update({
+            "OSC_POSE (orientation control)": osc.use_ori,
+            "absolute input": osc.input_type == "absolute",
+            "world-frame input": osc.input_ref_frame == "world",
+            "fixed impedance": osc.impedance_mode == "fixed",
+            "no OSC interpolators": osc.interpolator_pos is None and osc.interpolator_ori is None,
+            "no OSC goal limits": osc.position_limits is None and not np.array(osc.orientation_limits).any(),
+        })
+    if isinstance(grip, SimpleGripController):
+        checks["no gripper interpolator"] = grip.interpolator is None
+    missing = [name for name, ok in checks.items() if not ok]
+    if missing:
+        raise NotImplementedError(f"the fast control path needs {', '.join(missing)}")
+
+
+class FastSkillStepper:
+    """Executes control steps of a skill env with robosuite's OSC_POSE law, without its per-substep Python.
+
+    Args:
+        env: a TableClean env made by :func:`~tableclean_suite.controllers.make.make_skill_env`
+            (one Panda, absolute world-frame OSC_POSE; see the module docstring).
+        native: run the substeps in the compiled loop that calls MuJoCo's C API (``None``: when
+            available, see :func:`native_available`); ``False`` runs them in Python through
+            the mujoco bindings (same results, slower).
+
+    :meth:`step` replaces ``env.step(action)`` for the skills; the env keeps working with
+    ``env.step`` in between (the controllers' goals and refresh flags are kept current).
+    A hard reset (new simulation) is noticed and the cached ids and views are rebuilt.
+    """
+
+    def __init__(self, env, native: bool | None = None):
+        _check_supported(env)
+        self.env = env
+        self.native = native_available() if native is None else bool(native)
+        self._functions = mujoco_addresses() if self.native else None
+        self._sim = None
+        self._bind()
+
+    # -- set-up ------------------------------------------------------------------------------
+    def _bind(self) -> None:
+        """Cache the simulation's ids, index arrays, data views and buffers (again after a hard reset)."""
+        env = self.env
+        sim = env.sim
+        robot = env.robots[0]
+        arm = robot.arms[0]
+        controllers = robot.composite_controller.part_controllers
+        self.osc = controllers[arm]
+        self.grip_controller = controllers[robot.get_gripper_name(arm)]
+        self.gripper = robot.gripper[arm]
+        model, self.model, self.data = sim.model, sim.model._model, sim.data._data
+        base_site = model.site_name2id(f"{self.osc.naming_prefix}{self.osc.part_name}_center")
+        if self.model.body_weldid[self.model.site_bodyid[base_site]] != 0:
+            raise NotImplementedError("the fast control path needs the arm's base welded to the world")
+        self.site_id = model.site_name2id(self.osc.ref_name)
+        self.indexes = np.array([self.osc.qvel_index, self.osc.qpos_index], dtype=np.int64)
+        actuators = robot._ref_actuators_indexes_dict
+        self.arm_actuators = np.asarray(actuators[arm], dtype=np.int64)
+        self.grip_actuators = np.asarray(actuators[self.grip_controller.part_name], dtype=np.int64)
+        ctrlrange = self.model.actuator_ctrlrange
+        self.arm_limits = np.ascontiguousarray(ctrlrange[self.arm_actuators].T)  # (2, n) low, high
+        self.grip_limits = np.ascontiguousarray(ctrlrange[self.grip_actuators].T)
+        nv = self.model.nv
+        self.full_mass = np.zeros((nv, nv))
+        self.jacp = np.zeros((3, nv))
+        self.jacr = np.zeros((3, nv))
+        self.torques = np.zeros(len(self.arm_actuators))
+        self.substeps = int(env.control_timestep / env.model_timestep)
+        self._bind_native()
+        self._sim = sim
+
+    def _bind_native(self) -> None:
+        """Views of the live mjData arrays and the wiping prefilter the native loop reads."""
+        env, data = self.env, self.data
+        self._buffers = (self.full_mass, self.jacp, self.jacr, self.torques)
+        self._live = (
+            data.qM, data.qpos, data.qvel, data.qfrc_bias, data.site_xpos[self.site_id], data.site_xmat[self.site_id],
+            data.ctrl, data.xpos[env.sponge_body_id], data.xmat[env.sponge_body_id],
+        )
+        self._actuators = (self.arm_actuators, self.grip_actuators)
+        self._sponge_half = np.asarray(env.task_config["sponge_half_size"], dtype=float)
+        # the env's own early exit in _record_wiping, plus a margin: below this it must decide
+        contact = max(float(env.task_config["wipe_contact_dist"]), 0.0)
+        self._wipe_z = float(env.geometry.table_top_z) + contact + PRESS_PREFILTER_SLACK + WIPE_CHECK_MARGIN
+
+    # -- one control step --------------------------------------------------------------------
+    def goal(self, action: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Goal position (3,) m and rotation matrix (3, 3) of the absolute world-frame ``action`` (7,), as robosuite."""
+        goal_pos = np.array(action[POS_SLICE], dtype=float)
+        goal_ori = Rotation.from_rotvec(action[ROTVEC_SLICE]).as_matrix()
+        return goal_pos, goal_ori
+
+    def gripper_ctrl(self, action: np.ndarray) -> np.ndarray:
+        """Finger actuator controls (n_fingers,) for ``action``'s gripper command; advances the gripper's state.
+
+        As robosuite's policy step: ``gripper.format_action`` (rate-limited internal command),
+        ``SimpleGripController.set_goal`` (input scaling), then its ``run_controller`` mapping
+        onto the actuators' control range and the robot's clipping to it.
+        """
+        controller = self.grip_controller
+        goal_qvel = self.gripper.format_action(np.asarray(action[GRIPPER_SLICE], dtype=float))
+        if controller.use_action_scaling:
+            goal_qvel = controller.scale_action(goal_qvel)
+        controller.goal_qvel = goal_qvel
+        desired = np.array(goal_qvel, dtype=float)
+        if controller.use_action_scaling:
+            low, high = controller.actuator_min, controller.actuator_max
+            desired = 0.5 * (high + low) + 0.5 * (high - low) * desired
+        return np.clip(desired, self.grip_limits[0], self.grip_limits[1])
+
+    def gains(self) -> np.ndarray:
+        """(2, 6) rows kp (1/s^2) and kd (1/s) of robosuite's OSC, read each control step."""
+        return np.stack([self.osc.kp, self.osc.kd]).astype(float)
+
+    def arm_torques(self, goal_pos: np.ndarray, goal_ori: np.ndarray, gains: np.ndarray | None = None) -> np.ndarray:
+        """OSC torques (n,) N m, unclipped, for the current simulation data (after ``mj_step1`` or ``mj_forward``).
+
+        ``gains``: (2, 6) from :meth:`gains` (default: read now).  Fills :attr:`torques` and
+        returns it (the same array, overwritten on the next call).
+        """
+        model, data, osc = self.model, self.data, self.osc
+        mujoco.mj_fullM(model, self.full_mass, data.qM)
+        mujoco.mj_jacSite(model, data, self.jacp, self.jacr, self.site_id)
+        osc_torques(
+            self.full_mass, self.jacp, self.jacr, data.qpos, data.qvel, data.qfrc_bias,
+            data.site_xpos[self.site_id], data.site_xmat[self.site_id], goal_pos, goal_ori,
+            self.gains() if gains is None else gains, np.asarray(osc.initial_joint, dtype=float),
+            self.indexes, bool(osc.uncoupling), self.torques,
+        )
+        return self.torques
+
+    def cached_arm_torques(self, goal_pos: np.ndarray, goal_ori: np.ndarray, gains: np.ndarray | None = None) -> np.ndarray:
+        """OSC torques (n,) N m, unclipped, from the state robosuite's OSC cached at its last ``update()``.
+
+        robosuite's controller re-reads the simulation only when its ``new_update`` flag is
+        set; right after a reset it is not (the reset already read the state, before the
+        objects and fingers were placed), so the episode's first substep uses the arm state
+        cached at the reset.  This reproduces that.
+        """
+        osc = self.osc
+        ref_vel = np.concatenate([osc.ref_pos_vel, osc.ref_ori_vel])
+        bias = self.data.qfrc_bias[self.indexes[0]]  # robosuite reads the compensation live
+        osc_law(
+            np.ascontiguousarray(osc.mass_matrix), np.ascontiguousarray(osc.J_full), np.asarray(osc.ref_pos, dtype=float),
+            np.ascontiguousarray(osc.ref_ori_mat), ref_vel, np.asarray(osc.joint_pos, dtype=float),
+            np.asarray(osc.joint_vel, dtype=float), bias, goal_pos, goal_ori,
+            self.gains() if gains is None else gains,
+            np.asarray(osc.initial_joint, dtype=float), bool(osc.uncoupling), self.torques,
+        )
+        return self.torques
+
+    def step(self, action) -> None:
+        """One control step (``control_timestep`` s of physics) towards the absolute command ``action`` (7,).
+
+        Raises ``ValueError`` for a wrong action shape or when the env's episode is done (as ``env.step``).
+        """
+        env = self.env
+        if env.done:
+            raise ValueError("executing action in terminated episode")
+        action = np.asarray(action, dtype=float)
+        if action.shape != (ACTION_DIM,):
+            raise ValueError(f"action must have shape ({ACTION_DIM},), got {action.shape}")
+        if env.sim is not self._sim:
+            self._bind()
+        env.timestep += 1
+        goal_pos, goal_ori = self.goal(action)
+        grip_ctrl = self.gripper_ctrl(action)
+        gains = self.gains()
+        first = 0
+        if not self.osc.new_update:  # robosuite then reuses its cached arm state once (see cached_arm_torques)
+            self._python_substep(0, goal_pos, goal_ori, gains, grip_ctrl, cached=True)
+            first = 1
+        if self.native:
+            self._native_substeps(first, goal_pos, goal_ori, gains, grip_ctrl)
+        else:
+            for substep in range(first, self.substeps):
+                self._python_substep(substep, goal_pos, goal_ori, gains, grip_ctrl)
+        self._finish_step(goal_pos, goal_ori)
+
+    def _python_substep(self, substep: int, goal_pos, goal_ori, gains, grip_ctrl, cached: bool = False) -> None:
+        """One physics substep through the mujoco bindings: step1, control, wiping check, step2."""
+        model, data = self.model, self.data
+        mujoco.mj_step1(model, data)
+        torques = (self.cached_arm_torques if cached else self.arm_torques)(goal_pos, goal_ori, gains)
+        data.ctrl[self.arm_actuators] = np.clip(torques, self.arm_limits[0], self.arm_limits[1])
+        if substep == 0:
+            data.ctrl[self.grip_actuators] = grip_ctrl
+        self.env._record_wiping()
+        mujoco.mj_step2(model, data)
+
+    def _native_substeps(self, first: int, goal_pos, goal_ori, gains, grip_ctrl) -> None:
+        """Substeps ``first``.. of the control step in the compiled loop; the env checks wiping near the table."""
+        osc = self.osc
+        initial_joint = np.asarray(osc.initial_joint, dtype=float)
+        done = first
+        while done < self.substeps:
+            done = native_substeps(
+                self._functions, self.model._address, self.data._address, done, self.substeps, self._buffers, self._live,
+                goal_pos, goal_ori, gains, initial_joint, self.site_id, self.indexes, self._actuators,
+                self.arm_limits, bool(osc.uncoupling), grip_ctrl, self._sponge_half, self._wipe_z,
+            )
+            if done < 0:  # stopped after substep -done - 1's control: the env checks wiping, then step2
+                done = -done
+                self.env._record_wiping()
+                mujoco.mj_step2(self.model, self.data)
+
+    def _finish_step(self, goal_pos: np.ndarray, goal_ori: np.ndarray) -> None:
+        """What ``env.step`` does once per control step and later steps rely on."""
+        env = self.env
+        env.cur_time += env.control_timestep
+        env._show_dirt()
+        env.done = (env.timestep >= env.horizon) and not env.ignore_done
+        self.osc.goal_pos, self.osc.goal_ori = goal_pos, goal_ori
+        self.osc.torques = self.torques.copy()
+        # as after robosuite's run_controller: the next update() re-reads the simulation
+        self.osc.new_update = True
+        self.grip_controller.new_update = True
+
+
+#: Attribute under which :func:`attach_fast_stepper` stores an env's stepper.
+STEPPER_ATTRIBUTE = "fast_stepper"
+
+
+def attach_fast_stepper(env, native: bool | None = None) -> FastSkillStepper:
+    """Give ``env`` a :class:`FastSkillStepper` (``env.fast_stepper``), which the SkillController then uses.
+
+    Raises ``NotImplementedError`` when the env's controllers are not the ones the fast path reproduces.
+    """
+    stepper = FastSkillStepper(env, native=native)
+    setattr(env, STEPPER_ATTRIBUTE, stepper)
+    return stepper
+
+
+def fast_stepper_of(env) -> FastSkillStepper | None:
+    """The stepper :func:`attach_fast_stepper` gave ``env``, or ``None`` (then ``env.step`` is the path)."""
+    return getattr(env, STEPPER_ATTRIBUTE, None)
