@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import robosuite
+from robosuite.environments.base import MujocoEnv
 
 import tableclean_suite  # noqa: F401  (registers TableClean with robosuite)
+from tableclean_suite.controllers.fast_control import attach_fast_stepper
 from tableclean_suite.controllers.osc import skill_controller_config
 
 #: Settings the skills rely on, or that only cost time when running skills headless.
@@ -18,7 +20,7 @@ SKILL_ENV_DEFAULTS = {
 }
 
 
-def make_skill_env(object_segment: int | None = 1, arm_segment: int | None = 1, **kwargs):
+def make_skill_env(object_segment: int | None = 1, arm_segment: int | None = 1, fast_control: bool = True, **kwargs):
     """``robosuite.make("TableClean", ...)`` with :data:`SKILL_ENV_DEFAULTS` and the skills' controller.
 
     The controller config is :func:`skill_controller_config` of the robot in ``robots``
@@ -28,16 +30,24 @@ def make_skill_env(object_segment: int | None = 1, arm_segment: int | None = 1, 
 
     Args:
         object_segment, arm_segment: start layout (1 or 2; ``None``: random at each reset).
+        fast_control: give the env a :class:`~tableclean_suite.controllers.fast_control.FastSkillStepper`
+            (``env.fast_stepper``): the SkillController then runs robosuite's control law in compiled
+            code (several times faster than ``env.step``, same trajectories); ``False``: ``env.step``.
         **kwargs: any other TableClean/robosuite argument; overrides the defaults.
 
     Raises:
         ValueError: ``robots`` names more than one robot (the scene has one arm).
+        NotImplementedError: ``fast_control`` with controllers the fast path does not reproduce
+            (e.g. custom ``controller_configs``); pass ``fast_control=False``.
     """
     options = {**SKILL_ENV_DEFAULTS, **kwargs}
     if "controller_configs" not in kwargs:
         robot = _single_robot(options["robots"])
         options["controller_configs"] = skill_controller_config(robot, options.get("task_config"))
-    return robosuite.make("TableClean", object_segment=object_segment, arm_segment=arm_segment, **options)
+    env = robosuite.make("TableClean", object_segment=object_segment, arm_segment=arm_segment, **options)
+    if fast_control and isinstance(env, MujocoEnv):  # anything else (a test double) is returned as made
+        attach_fast_stepper(env)
+    return env
 
 
 def _single_robot(robots) -> str:

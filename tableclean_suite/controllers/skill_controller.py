@@ -13,6 +13,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Mapping
 
+from tableclean_suite.controllers.fast_control import fast_stepper_of
 from tableclean_suite.controllers.osc import check_skill_env
 from tableclean_suite.controllers.registry import SKILL_REGISTRY, get_skill_class
 from tableclean_suite.environments.abstraction import AbstractionError
@@ -34,7 +35,7 @@ class SkillResult:
         outcome: :class:`Outcome` of the observed transition (``TaskModel.classify``); ``None`` on a fault.
         expected: the task model's successor of ``state_before``.
         wall_time: seconds spent in ``execute`` (including abstraction reads).
-        env_time: seconds of that spent inside ``env.step``.
+        env_time: seconds of that spent inside ``env.step`` (or the env's fast stepper, see ``execute``).
         final_phase: name of the skill's last phase ("" when no skill ran).
         phase_steps: control steps spent per phase name (empty when no skill ran).
     """
@@ -93,6 +94,9 @@ class SkillController:
     def execute(self, action) -> SkillResult:
         """Carry out ``action`` (Action, int or name) in physics and report what happened.
 
+        Each control step goes through the env's fast stepper when it has one
+        (:func:`~tableclean_suite.controllers.make_skill_env` with ``fast_control=True``), else ``env.step``.
+
         Raises ``ValueError`` for an unknown action or when the current state is
         terminal, ``KeyError`` when no skill is registered for the action.
         """
@@ -110,13 +114,15 @@ class SkillController:
             return self._result(action, start, True, 0, f"{predicted.name.lower()}: nothing to do", before, before)
 
         skill = skill_class(self.env, self.skill_configs.get(action))
+        stepper = fast_stepper_of(self.env)  # set by make_skill_env(fast_control=True)
+        env_step = self.env.step if stepper is None else stepper.step
         env_time = 0.0
         reason = "ok"
         try:
             skill.reset(before)
             while (command := skill.step()) is not None:
                 tick = time.perf_counter()
-                self.env.step(command)
+                env_step(command)
                 env_time += time.perf_counter() - tick
                 if self.on_step is not None:
                     self.on_step()
