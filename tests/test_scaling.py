@@ -11,6 +11,7 @@ import pytest
 
 from tableclean_suite.analysis import action_probabilities, exact_success_probability
 from tableclean_suite.bench import scaling
+from tableclean_suite.bench.scaling import family, report, statistics, study
 from tableclean_suite.task import Outcome, TaskModel
 
 #: A tiny study: three specs, short windows, few runs and resamples.
@@ -23,27 +24,27 @@ PAPER_EPSILON, PAPER_MAX_ITR = 0.1, 500
 
 def _optimal(model):
     next_state, _ = model.transition_arrays()
-    distance = scaling.distances_to_terminal(next_state, scaling.terminal_codes(model))
-    return distance, scaling.optimal_policy(next_state, distance)
+    distance = family.distances_to_terminal(next_state, family.terminal_codes(model))
+    return distance, family.optimal_policy(next_state, distance)
 
 
 def test_family_reachable_counts_grow_and_start_at_the_paper():
-    counts = [len(TaskModel(spec=scaling.family_spec(n, scaling.DEFAULT_OBJECTS)).reachable_states())
-              for n in scaling.DEFAULT_SEGMENTS[:5]]
+    counts = [len(TaskModel(spec=family.family_spec(n, family.DEFAULT_OBJECTS)).reachable_states())
+              for n in family.DEFAULT_SEGMENTS[:5]]
     assert counts[0] == PAPER_REACHABLE
     assert all(a < b for a, b in zip(counts, counts[1:]))
-    assert scaling.family_spec(2, 1).name == "paper"
-    assert len(scaling.DEFAULT_SEGMENTS) >= 8
+    assert family.family_spec(2, 1).name == "paper"
+    assert len(family.DEFAULT_SEGMENTS) >= 8
 
 
 def test_largest_default_spec_has_over_30000_codes():
-    largest = scaling.family_spec(max(scaling.DEFAULT_SEGMENTS), scaling.DEFAULT_OBJECTS)
+    largest = family.family_spec(max(family.DEFAULT_SEGMENTS), family.DEFAULT_OBJECTS)
     assert largest.n_states > 30_000
 
 
 @pytest.mark.parametrize("segments", [2, 3, 4])
 def test_distances_match_the_models_shortest_plans(segments):
-    model = TaskModel(spec=scaling.family_spec(segments, 1))
+    model = TaskModel(spec=family.family_spec(segments, 1))
     distance, _ = _optimal(model)
     lengths = model.shortest_plan_lengths()
     assert {code: int(distance[code]) for code in lengths} == lengths
@@ -93,8 +94,8 @@ def test_optimal_policy_success_on_paper_equals_independent_dp():
 
 
 def test_plan_window_scales_with_plan_length():
-    assert scaling.plan_window(8, 8, 1000, 3.0) == (1000, scaling.BASE_MAX_ITR)
-    assert scaling.plan_window(16, 8, 1000, 3.0) == (8000, 2 * scaling.BASE_MAX_ITR)
+    assert family.plan_window(8, 8, 1000, 3.0) == (1000, family.BASE_MAX_ITR)
+    assert family.plan_window(16, 8, 1000, 3.0) == (8000, 2 * family.BASE_MAX_ITR)
 
 
 @pytest.mark.parametrize("exponent", [0.5, 1.0, 1.7])
@@ -102,7 +103,7 @@ def test_growth_exponent_fit_recovers_a_known_exponent(exponent):
     rng = np.random.default_rng(1)
     x = np.geomspace(20, 40_000, 8)
     y = 3.0 * x ** exponent * np.exp(rng.normal(0.0, 0.05, len(x)))
-    fit = scaling.fit_growth_exponent(x, y)
+    fit = statistics.fit_growth_exponent(x, y)
     assert fit["points"] == len(x)
     assert fit["exponent"] == pytest.approx(exponent, abs=0.05)
     assert fit["low"] < exponent < fit["high"]
@@ -111,24 +112,24 @@ def test_growth_exponent_fit_recovers_a_known_exponent(exponent):
 def test_growth_exponent_fit_skips_missing_points():
     x = np.array([10.0, 100.0, 1000.0, 10_000.0])
     y = np.array([5.0, math.nan, 500.0, 5000.0])
-    fit = scaling.fit_growth_exponent(x, y)
+    fit = statistics.fit_growth_exponent(x, y)
     assert fit["points"] == 3
     assert fit["exponent"] == pytest.approx(1.0)
-    assert math.isnan(scaling.fit_growth_exponent(x[:1], y[:1])["exponent"])
+    assert math.isnan(statistics.fit_growth_exponent(x[:1], y[:1])["exponent"])
 
 
 def test_plateau_verdict_flags_a_rising_curve():
     rising = np.linspace(0.0, 0.8, 1000)
     flat = np.r_[np.linspace(0.0, 0.8, 500), np.full(500, 0.8)]
-    assert scaling.plateau_verdict(rising)[0] is False
-    assert scaling.plateau_verdict(flat) == (True, "")
-    assert scaling.plateau_verdict(np.zeros(100))[0] is False
+    assert statistics.plateau_verdict(rising)[0] is False
+    assert statistics.plateau_verdict(flat) == (True, "")
+    assert statistics.plateau_verdict(np.zeros(100))[0] is False
 
 
 def test_order_holds():
-    assert scaling.order_holds({"r4": 1, "r2": 2, "r1": 3, "r3": 4}) is True
-    assert scaling.order_holds({"r4": 3, "r2": 2, "r1": 3, "r3": 4}) is False
-    assert scaling.order_holds({"r4": 1, "r2": math.nan, "r1": 3, "r3": 4}) is None
+    assert statistics.order_holds({"r4": 1, "r2": 2, "r1": 3, "r3": 4}) is True
+    assert statistics.order_holds({"r4": 3, "r2": 2, "r1": 3, "r3": 4}) is False
+    assert statistics.order_holds({"r4": 1, "r2": math.nan, "r1": 3, "r3": 4}) is None
 
 
 def test_grid_curves_match_metrics_success_matrix():
@@ -136,8 +137,8 @@ def test_grid_curves_match_metrics_success_matrix():
     from tableclean_suite.learners import train
 
     model = TaskModel(spec="paper")
-    info = scaling.describe_spec(model.spec, 8, 400, 1.0)[0]
-    records = scaling.train_cell(model, info, "q_learning", "r4", runs=5, seed=3)
+    info = family.describe_spec(model.spec, 8, 400, 1.0)[0]
+    records = study.train_cell(model, info, "q_learning", "r4", runs=5, seed=3)
     result = train(reward="r4", runs=5, iterations=info.window, max_itr=info.max_itr, seed=3, task=model)
     success = metrics.success_matrix(result)[:, records.grid]
     episodes = np.cumsum(result.episode_end != 0, axis=1)[:, records.grid]
@@ -182,19 +183,19 @@ def test_cli_bad_flag_exits_2_with_one_line(flag, tmp_path, capsys):
 
 
 def test_grid_is_increasing_and_dense_early():
-    grid = scaling.grid_indices(100_000)
+    grid = study.grid_indices(100_000)
     assert grid[0] == 0 and grid[-1] == 100_000 - 1
     assert np.all(np.diff(grid) > 0)
-    assert scaling.grid_gap(grid, 1000.0) < 0.01 * 1000
+    assert study.grid_gap(grid, 1000.0) < 0.01 * 1000
 
 
 def test_run_plateaus_average_to_the_summary_plateau():
     model = TaskModel(spec="paper")
-    info = scaling.describe_spec(model.spec, 8, 400, 1.0)[0]
-    records = scaling.train_cell(model, info, "q_learning", "r2", runs=6, seed=5)
+    info = family.describe_spec(model.spec, 8, 400, 1.0)[0]
+    records = study.train_cell(model, info, "q_learning", "r2", runs=6, seed=5)
     assert records.run_plateau.mean() == pytest.approx(records.summary.success_plateau, rel=1e-12)
-    counts = scaling.resample_counts(6, 50, seed=0)
-    interval = scaling.bootstrap_cell(records, counts)
+    counts = statistics.resample_counts(6, 50, seed=0)
+    interval = statistics.bootstrap_cell(records, counts)
     low, high = interval["plateau"]
     assert records.run_plateau.min() <= low <= high <= records.run_plateau.max()
 
@@ -202,4 +203,4 @@ def test_run_plateaus_average_to_the_summary_plateau():
 def test_observed_order_sorts_and_names_missing_patterns():
     rows = [{"spec": "a", "learner": "q_learning", "reward": name, "max_success_iterations": value}
             for name, value in (("r1", 30.0), ("r2", 10.0), ("r3", math.nan), ("r4", 20.0))]
-    assert scaling.observed_order(rows, "a", "q_learning") == "r2 < r4 < r1 (not reached: r3)"
+    assert report.observed_order(rows, "a", "q_learning") == "r2 < r4 < r1 (not reached: r3)"

@@ -1,0 +1,142 @@
+"""The scaling study's family of task specs, their exact quantities and their training windows.
+
+A spec of the family is the paper's task grown to N segments and M objects
+(:func:`family_spec`); :func:`describe_spec` gives what the study needs of it (state codes,
+reachable states, optimal plan length, exact epsilon-greedy success of an optimal policy,
+window and episode truncation, in iterations).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: The default family: segments N = 2..9 with one object (20 .. 46 062 reachable states).
+DEFAULT_SEGMENTS = tuple(range(2, 10))
+DEFAULT_OBJECTS = 1
+
+#: Iterations for the paper's spec (4x the paper's 3000: r1 and r4 approach their plateaus slowly on larger specs).
+DEFAULT_BASE_WINDOW = 12000
+#: Window growth with the optimal plan length: window = base * (L / L0) ** exponent.
+DEFAULT_WINDOW_EXPONENT = 3.0
+#: The paper's episode truncation (iterations), for the paper's spec; scaled linearly with L / L0.
+BASE_MAX_ITR = 500
+#: The paper's hyperparameters: learning rate, discount, exploration probability (all in [0, 1]).
+ALPHA, GAMMA, EPSILON = 0.3, 0.3, 0.1
+
+
+@dataclass(frozen=True)
+class SpecInfo:
+    """One spec of the family and what the study needs of it.
+
+    Attributes:
+        name: spec name (``scale_n{N}_m{M}``; ``paper`` for N = 2, M = 1).
+        segments, objects: N >= 2 and M >= 1.
+        codes: state codes, ``2**N * (N + 1)**M * N``.
+        reachable: states reachable from every all-unclean layout (terminal ones included).
+        plan_length: optimal plan length (steps) from the default start.
+        optimal_success: exact epsilon-greedy success probability of an optimal policy, in [0, 1].
+        window: iterations per run (>= 1).
+        max_itr: episode truncation (iterations, >= 1).
+    """
+
+    name: str
+    segments: int
+    objects: int
+    codes: int
+    reachable: int
+    plan_length: int
+    optimal_success: float
+    window: int
+    max_itr: int
+
+
+def family_spec(segments: int, objects: int):
+    """The family's spec with N ``segments`` and M ``objects`` boxes (the paper's for N=2, M=1)."""
+    from tableclean_suite.task import TaskSpec, get_task_spec
+
+    paper = get_task_spec("paper")
+    if (segments, objects) == (paper.segments, paper.n_objects):
+        return paper
+    return TaskSpec(f"scale_n{segments}_m{objects}", segments=segments, objects=objects,
+                    description=f"scaling study: {segments} segments, {objects} object(s)")
+
+
+def distances_to_terminal(next_state: np.ndarray, terminal: np.ndarray) -> np.ndarray:
+    """Shortest number of steps from every code to a terminal code, by value iteration.
+
+    Args:
+        next_state: ``(S, A)`` successor codes (``TaskModel.transition_arrays``).
+        terminal: ``(S,)`` bool, terminal codes.
+
+    Returns:
+        ``(S,)`` int64 distances (0 at terminal codes), -1 where no terminal is reachable.
+    """
+    unknown = np.iinfo(np.int64).max
+    distance = np.where(terminal, 0, unknown)
+    while True:
+        best = distance[next_state].min(axis=1)
+        candidate = np.where(terminal | (best == unknown), distance, np.minimum(distance, best + 1))
+        if np.array_equal(candidate, distance):
+            break
+        distance = candidate
+    return np.where(distance == unknown, -1, distance)
+
+
+def optimal_policy(next_state: np.ndarray, distance: np.ndarray) -> np.ndarray:
+    """A greedy policy that follows a shortest plan from every state.
+
+    In each state with a finite distance d > 0 it takes the first action, in the spec's order,
+    whose successor is at distance d - 1; elsewhere (terminal or hopeless codes) action 0.
+
+    Args:
+        next_state: ``(S, A)`` successor codes.
+        distance: ``(S,)`` distances of :func:`distances_to_terminal`.
+
+    Returns:
+        ``(S,)`` int64 action indices.
+    """
+    closer = (distance[next_state] == (distance - 1)[:, None]) & (distance[:, None] > 0)
+    return np.where(closer.any(axis=1), np.argmax(closer, axis=1), 0).astype(np.int64)
+
+
+def terminal_codes(model) -> np.ndarray:
+    """``(S,)`` bool: whether each code of ``model`` is terminal (every segment clean)."""
+    return np.array([model.decode(code).is_terminal for code in range(model.n_states)], dtype=bool)
+
+
+def plan_window(plan_length: int, paper_plan_length: int, base_window: int, exponent: float) -> tuple[int, int]:
+    """``(window, max_itr)`` in iterations for a spec whose optimal plan has ``plan_length`` steps.
+
+    ``window = base_window * (L / L0) ** exponent`` and ``max_itr = BASE_MAX_ITR * L / L0``,
+    both rounded up (L0 = ``paper_plan_length``).
+    """
+    ratio = plan_length / paper_plan_length
+    return math.ceil(base_window * ratio ** exponent), math.ceil(BASE_MAX_ITR * ratio)
+
+
+def paper_plan_steps() -> int:
+    """L0: the paper spec's optimal plan length from its default start (the model's own BFS)."""
+    from tableclean_suite.task import TaskModel
+
+    model = TaskModel(spec="paper")
+    return len(model.shortest_plan(model.start_state))
+
+
+def describe_spec(spec, paper_plan_length: int, base_window: int, exponent: float):
+    """``(SpecInfo, TaskModel)`` of ``spec``: sizes, optimal plan and its exact success, window."""
+    from tableclean_suite.analysis import exact_success_probability
+    from tableclean_suite.task import TaskModel
+
+    model = TaskModel(spec=spec)
+    next_state, _ = model.transition_arrays()
+    distance = distances_to_terminal(next_state, terminal_codes(model))
+    plan_length = int(distance[model.start_state.index])
+    window, max_itr = plan_window(plan_length, paper_plan_length, base_window, exponent)
+    policy = optimal_policy(next_state, distance)
+    success = float(exact_success_probability(policy, EPSILON, max_itr, model=model))
+    info = SpecInfo(spec.name, spec.segments, spec.n_objects, model.n_states, len(model.reachable_states()),
+                    plan_length, success, window, max_itr)
+    return info, model
