@@ -267,7 +267,7 @@ def run(args) -> int:
         print(f"\ninterrupted while writing {out}: it has no {outputs.MANIFEST}, so it describes no run; "
               "rerun the same command (cells are saved) to write it", file=sys.stderr)
         return EXIT_INTERRUPTED
-    _print_tables(config, table3, table4)
+    _print_tables(config, table3, table4, tables.is_paper_task(model))
     print("\nwritten:")
     for path in written:
         print(f"  {path}")
@@ -278,7 +278,7 @@ def run(args) -> int:
     return 0
 
 
-def _print_tables(config: RunConfig, table3, table4) -> None:
+def _print_tables(config: RunConfig, table3, table4, paper_task: bool) -> None:
     import pandas as pd
 
     from tableclean_suite.bench import tables
@@ -286,7 +286,9 @@ def _print_tables(config: RunConfig, table3, table4) -> None:
     with pd.option_context("display.width", 200, "display.max_columns", 50, "display.max_rows", 500):
         print(f"\nTable 3: learning speed per reward pattern (alpha = {config.alpha:g}, gamma = {config.gamma:g}, "
               f"epsilon = {config.epsilon:g}, {config.runs} runs x {config.iterations} iterations).")
-        print("  'paper' = the paper's Table 3 (Q-learning only); success % = plateau of the success curve.")
+        print("  'paper' = the paper's Table 3 (Q-learning only); success % = plateau of the success curve."
+              if paper_task else f"  Task {config.task!r} is not the paper's: no paper values beside ours; "
+              "success % = plateau of the success curve.")
         print(tables.display_table3(table3).to_string(na_rep="-"))
         sweeps = tables.display_sweeps(table3)
         if len(sweeps):
