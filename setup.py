@@ -35,10 +35,11 @@ setup(
         "matplotlib",
         "gymnasium>=1.0",
         "tqdm",
+        "scipy",  # statistics (intervals, fits); robosuite's OSC uses it too
         "wrapt",  # post-import hook: TableClean registers when robosuite is imported, not before
     ],
     extras_require={
-        "dev": ["pytest"],
+        "dev": ["pytest", "wheel"],  # wheel: the install test builds the package offline
         "video": ["imageio", "imageio-ffmpeg"],
     },
 )
