@@ -11,9 +11,9 @@ from dataclasses import asdict
 from pathlib import Path
 
 from tableclean_suite.bench.cli import positive_int
-from tableclean_suite.bench.scaling.family import (BASE_MAX_ITR, DEFAULT_BASE_WINDOW, DEFAULT_OBJECTS,
-                                                   DEFAULT_SEGMENTS, DEFAULT_WINDOW_EXPONENT, describe_spec,
-                                                   family_spec, paper_plan_steps)
+from tableclean_suite.bench.scaling.family import (BASE_MAX_ITR, DEFAULT_BASE_WINDOW, DEFAULT_OBJECT_COUNTS,
+                                                   DEFAULT_SEGMENTS, DEFAULT_WINDOW_EXPONENT, describe_family,
+                                                   family_specs, paper_plan_steps)
 from tableclean_suite.bench.scaling.report import (config_dict, json_safe, observed_order, ordering_answer,
                                                    ordering_report, print_cells, print_specs, write_atomic_text,
                                                    write_csv, write_figure)
@@ -54,15 +54,35 @@ def _choice_list(allowed, what: str):
     return parse
 
 
-def segment_list(text: str) -> tuple[int, ...]:
-    """``"2,3,5"`` -> ``(2, 3, 5)``: sorted, distinct segment counts >= 2."""
+#: Fewest segments a spec can have (a task needs a segment to move to) ...
+MIN_SEGMENTS = 2
+#: ... and fewest objects.
+MIN_OBJECTS = 1
+
+
+def _count_list(text: str, minimum: int, what: str) -> tuple[int, ...]:
+    """``"2,3,5"`` -> ``(2, 3, 5)``: sorted, distinct integers >= ``minimum``, else an argparse error."""
     try:
         values = sorted({int(part) for part in text.split(",") if part.strip()})
     except ValueError:
         values = []
-    if not values or values[0] < 2:
-        raise argparse.ArgumentTypeError(f"expected comma-separated segment counts >= 2, got {text!r}")
+    if not values or values[0] < minimum:
+        raise argparse.ArgumentTypeError(f"expected comma-separated {what} >= {minimum}, got {text!r}")
     return tuple(values)
+
+
+def segment_list(text: str) -> tuple[int, ...]:
+    """``"2,3,5"`` -> ``(2, 3, 5)``: sorted, distinct segment counts >= 2."""
+    return _count_list(text, MIN_SEGMENTS, "segment counts")
+
+
+def object_list(text: str) -> tuple[int, ...]:
+    """``"1,3"`` -> ``(1, 3)``; ``"2"`` -> ``(2,)``: sorted, distinct object counts >= 1."""
+    return _count_list(text, MIN_OBJECTS, "object counts")
+
+
+def _counts_text(values) -> str:
+    return ",".join(str(v) for v in values)
 
 
 def positive_float(text: str) -> float:
@@ -90,9 +110,11 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         default=DEFAULT_REWARDS, help=f"comma-separated reward patterns; allowed: "
                         f"{', '.join(reward_pattern_names())} (default: {','.join(DEFAULT_REWARDS)})")
     parser.add_argument("--segments", type=segment_list, default=DEFAULT_SEGMENTS,
-                        help="comma-separated segment counts N >= 2 of the family (default: 2..9)")
-    parser.add_argument("--objects", type=positive_int, default=DEFAULT_OBJECTS,
-                        help=f"objects M per spec (default: {DEFAULT_OBJECTS})")
+                        help=f"comma-separated segment counts N >= {MIN_SEGMENTS}; the family is "
+                             f"segments x objects (default: {_counts_text(DEFAULT_SEGMENTS)})")
+    parser.add_argument("--objects", type=object_list, default=DEFAULT_OBJECT_COUNTS,
+                        help=f"comma-separated object counts M >= {MIN_OBJECTS} "
+                             f"(default: {_counts_text(DEFAULT_OBJECT_COUNTS)})")
     parser.add_argument("--runs", type=positive_int, default=DEFAULT_RUNS,
                         help=f"runs per cell (default: {DEFAULT_RUNS})")
     parser.add_argument("--base-window", type=positive_int, default=DEFAULT_BASE_WINDOW,
@@ -112,11 +134,12 @@ def run_study(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     paper_plan_length = paper_plan_steps()
-    specs = [family_spec(n, args.objects) for n in args.segments]
-    described = [describe_spec(s, paper_plan_length, args.base_window, args.window_exponent) for s in specs]
+    specs = family_specs(args.segments, args.objects)
+    described = describe_family(specs, paper_plan_length, args.base_window, args.window_exponent)
     infos = [info for info, _ in described]
-    print(f"Scaling study: {len(infos)} specs x {len(args.learners)} learners x {len(args.rewards)} rewards, "
-          f"{args.runs} runs per cell.")
+    print(f"Scaling study: {len(infos)} specs (N = {_counts_text(args.segments)} segments x "
+          f"M = {_counts_text(args.objects)} objects, by reachable states) x {len(args.learners)} learners x "
+          f"{len(args.rewards)} rewards, {args.runs} runs per cell.")
     print(f"Window rule: window = {args.base_window} * (L / {paper_plan_length}) ** {args.window_exponent:g}, "
           f"max_itr = {BASE_MAX_ITR} * L / {paper_plan_length} (L: optimal plan length from the default start);")
     print(f"a cell 'not reached' has a plateau below {MIN_PLATEAU} or a success curve still rising by more than "

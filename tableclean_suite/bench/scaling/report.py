@@ -19,6 +19,8 @@ from tableclean_suite.bench.scaling.study import GEOMETRIC_GRID_POINTS, LINEAR_G
 
 #: Resolution of the PNG figure, dots per inch.
 FIGURE_DPI = 120
+#: Marker shapes of the figure's points by object count M = 1, 2, 3, ... (cycled beyond).
+OBJECT_MARKERS = ("o", "s", "^", "D", "v", "P", "X")
 
 
 # ---------------------------------------------------------------------------
@@ -53,33 +55,58 @@ def write_csv(path: Path, rows: list[dict]) -> None:
     write_atomic_text(path, pd.DataFrame(rows).to_csv(index=False))
 
 
+def object_marker(objects: int) -> str:
+    """Matplotlib marker of the specs with ``objects`` M >= 1 (circle for M = 1, as before M varied)."""
+    return OBJECT_MARKERS[(objects - 1) % len(OBJECT_MARKERS)]
+
+
 def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None:
-    """Log-log iterations to max success against reachable states, one line per reward, as PNG."""
+    """Log-log iterations to max success against reachable states, as PNG.
+
+    One line per reward pattern (``learner``'s reached cells, joined in order of reachable
+    states, with 95 % bootstrap error bars and the fitted power law dashed); the marker shape
+    gives the spec's object count M (:func:`object_marker`), so a step along the line that adds
+    an object reads apart from one that adds segments.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
     figure, axes = plt.subplots(figsize=(7, 5))
+    object_counts = sorted({r["objects"] for r in rows if r["learner"] == learner})
     for reward, fit in fits.items():
-        cells = [r for r in rows if r["learner"] == learner and r["reward"] == reward and r["reached"]]
+        cells = sorted((r for r in rows if r["learner"] == learner and r["reward"] == reward and r["reached"]),
+                       key=lambda r: (r["reachable"], r["segments"], r["objects"]))
         if not cells:
             continue
         x = np.array([r["reachable"] for r in cells], dtype=float)
         y = np.array([r["max_success_iterations"] for r in cells])
-        error = np.array([[v - r["max_success_iterations_low"], r["max_success_iterations_high"] - v]
-                          for r, v in zip(cells, y)]).T
-        line = axes.errorbar(x, y, yerr=np.clip(error, 0, None), marker="o", capsize=3,
-                             label=f"{reward} (exponent {fit['exponent']:.2f})")
+        error = np.clip(np.array([[v - r["max_success_iterations_low"], r["max_success_iterations_high"] - v]
+                                  for r, v in zip(cells, y)]).T, 0, None)  # (2, n): below, above
+        objects = np.array([r["objects"] for r in cells])
+        (line,) = axes.plot(x, y, linestyle="-", label=f"{reward} (exponent {fit['exponent']:.2f})")
+        color = line.get_color()
+        for m in object_counts:
+            chosen = objects == m
+            if chosen.any():
+                axes.errorbar(x[chosen], y[chosen], yerr=error[:, chosen], marker=object_marker(m), linestyle="none",
+                              color=color, capsize=3)
         if math.isfinite(fit["exponent"]):
             anchor = np.exp(np.mean(np.log(y)) - fit["exponent"] * np.mean(np.log(x)))
-            axes.plot(x, anchor * x ** fit["exponent"], linestyle="--", color=line[0].get_color(), alpha=0.6)
+            axes.plot(x, anchor * x ** fit["exponent"], linestyle="--", color=color, alpha=0.6)
     axes.set_xscale("log")
     axes.set_yscale("log")
     axes.set_xlabel("reachable states")
     axes.set_ylabel("iterations to maximum success")
     axes.set_title(f"{learner}: iterations to max success (95 % bootstrap intervals)")
-    axes.legend()
+    reward_legend = axes.legend(loc="upper left")
+    if len(object_counts) > 1:
+        axes.add_artist(reward_legend)
+        shapes = [Line2D([], [], marker=object_marker(m), linestyle="none", color="black",
+                         label=f"M = {m} object{'s' if m > 1 else ''}") for m in object_counts]
+        axes.legend(handles=shapes, loc="lower right")
     figure.tight_layout()
     temporary = _temporary(path)
     figure.savefig(temporary, format="png", dpi=FIGURE_DPI)
@@ -93,7 +120,7 @@ def config_dict(args, infos: list[SpecInfo], fits: dict, verdicts: dict, seconds
     return {
         "study": "scaling",
         "learners": list(args.learners), "rewards": list(args.rewards), "segments": list(args.segments),
-        "objects": args.objects, "runs": args.runs, "base_window": args.base_window,
+        "objects": list(args.objects), "runs": args.runs, "base_window": args.base_window,
         "window_exponent": args.window_exponent, "base_max_itr": BASE_MAX_ITR,
         "window_rule": "window = base_window * (L / L0) ** window_exponent, max_itr = base_max_itr * L / L0, "
                        "L = optimal plan length from the default start, L0 = the paper spec's",
