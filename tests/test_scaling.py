@@ -56,7 +56,7 @@ def test_default_family_spans_three_object_counts_and_30000_reachable_states():
     assert (largest.segments, largest.n_objects) == (max(ISSUE_SEGMENTS), max(ISSUE_OBJECTS))
     assert reachable[largest.name] == max(reachable.values()) >= ISSUE_MIN_LARGEST_REACHABLE
     # the name other modules use for the largest spec (bench.spec_speed) still builds it
-    assert family.family_spec(max(family.DEFAULT_SEGMENTS), family.DEFAULT_OBJECTS) == largest
+    assert family.family_spec(max(family.DEFAULT_SEGMENTS), max(family.DEFAULT_OBJECT_COUNTS)) == largest
 
 
 def test_describe_family_orders_specs_by_reachable_states():

@@ -77,8 +77,8 @@ Modules
 """
 
 from tableclean_suite.bench.scaling.command import EXIT_USAGE, PROG, main
-from tableclean_suite.bench.scaling.family import (DEFAULT_OBJECT_COUNTS, DEFAULT_OBJECTS, DEFAULT_SEGMENTS,
+from tableclean_suite.bench.scaling.family import (DEFAULT_OBJECT_COUNTS, DEFAULT_SEGMENTS,
                                                    family_spec, largest_default_spec)
 
-__all__ = ["DEFAULT_OBJECT_COUNTS", "DEFAULT_OBJECTS", "DEFAULT_SEGMENTS", "EXIT_USAGE", "PROG", "family_spec",
+__all__ = ["DEFAULT_OBJECT_COUNTS", "DEFAULT_SEGMENTS", "EXIT_USAGE", "PROG", "family_spec",
            "largest_default_spec", "main"]

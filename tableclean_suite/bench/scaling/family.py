@@ -20,10 +20,6 @@ import numpy as np
 DEFAULT_SEGMENTS = tuple(range(2, 6))
 #: ... x objects M = 1..3 (12 specs, 20 .. 31 320 reachable states, 24 .. 34 560 codes).
 DEFAULT_OBJECT_COUNTS = tuple(range(1, 4))
-#: The largest default object count: ``family_spec(max(DEFAULT_SEGMENTS), DEFAULT_OBJECTS)`` is
-#: the family's largest spec (reachable states grow with N and with M).  Kept as an int under
-#: this name for callers written when the family had one object count (``bench.spec_speed``).
-DEFAULT_OBJECTS = max(DEFAULT_OBJECT_COUNTS)
 
 #: Iterations for the paper's spec (4x the paper's 3000: r1 and r4 approach their plateaus slowly on larger specs).
 DEFAULT_BASE_WINDOW = 12000
