@@ -8,13 +8,20 @@ T iterations) or 1-D curves of length T.  Definitions:
 - **Success rate** at iteration t: fraction of runs whose most recently finished
   episode (at or before t) succeeded; a run with no finished episode counts 0.
 - **Average reward** at t: mean over runs of (return / length) of the most recently
-  finished episode; runs with no finished episode are left out (NaN if none).
-- **Plateau**: mean over the last ``plateau_fraction`` (25 %) of the window.
+  finished episode; runs with no finished episode are left out.  With a ``support_fraction``
+  f > 0 a point is defined (not NaN) only once at least f of the runs have finished an
+  episode, so that early points do not rest on a handful of runs (the harness uses 0.5).
+- **Plateau**: with an *asymptote* (the harness's way, :mod:`tableclean_suite.asymptotes`):
+  the exact value the curve tends to under each run's final policy, averaged over runs, which
+  the window does not change.  Without one: the mean over the last ``plateau_fraction`` (25 %)
+  of the window (the *window mean*, always reported as ``*_window_mean``), which moves with it.
 - **Iterations to maximum success**: first t (1-based count) at which the success
   curve reaches ``threshold`` (95 %) of its plateau.
 - **Average-reward convergence**: first t at or after the curve's early minimum
-  (its minimum before the plateau window) where it has covered ``threshold`` of
-  the way from that minimum to its plateau.
+  where it has covered ``threshold`` of the way from that minimum to its plateau.  The early
+  minimum is the minimum of the (supported) curve before it first reaches the plateau (with an
+  asymptote), or before the plateau window (without one).
+- **Maximum average reward**: the maximum of the (supported) curve.
 - **Episodes** at t: mean over runs of episodes finished by t.
 """
 
@@ -57,10 +64,13 @@ class Summary:
         reward_convergence_iterations: iterations (1-based count) until the average-reward curve
             has covered ``threshold`` of the way from its early minimum to its plateau, or None.
         reward_convergence_episodes: mean episodes finished by then, >= 0, or None.
-        success_plateau: plateau of the success curve, a fraction in [0, 1].
-        max_average_reward: maximum of the average-reward curve (reward units per iteration).
+        success_plateau: plateau of the success curve, a fraction in [0, 1] (the asymptote when
+            :func:`summarize` was given one, else the window mean).
+        max_average_reward: maximum of the (supported) average-reward curve (reward units per iteration).
         average_reward_plateau: plateau of the average-reward curve (reward units per iteration).
         terminal_plateau: plateau of the terminal curve, a fraction in [0, 1].
+        success_window_mean: mean of the success curve's last ``plateau_fraction``, in [0, 1].
+        average_reward_window_mean: mean of the average-reward curve's last ``plateau_fraction``.
         success: ``(T,)`` success rate per iteration, in [0, 1].
         average_reward: ``(T,)`` average reward per iteration (NaN until some run finished an episode).
         terminal: ``(T,)`` fraction of runs whose latest episode reached the terminal state.
@@ -78,6 +88,8 @@ class Summary:
     max_average_reward: float = _scalar("reward per iteration")
     average_reward_plateau: float = _scalar("reward per iteration")
     terminal_plateau: float = _scalar("fraction")
+    success_window_mean: float = _scalar("fraction")
+    average_reward_window_mean: float = _scalar("reward per iteration")
     success: np.ndarray = _curve("fraction")
     average_reward: np.ndarray = _curve("reward per iteration")
     terminal: np.ndarray = _curve("fraction")
@@ -283,19 +295,147 @@ class CurveSums:
         self.runs += int(result.rewards.shape[0])
         return self
 
-    def curves(self) -> dict[str, np.ndarray]:
-        """The curves ``success``, ``terminal``, ``average_reward``, ``episodes``, each ``(T,)``."""
+    def curves(self, support_fraction: float = 0.0) -> dict[str, np.ndarray]:
+        """The curves ``success``, ``terminal``, ``average_reward``, ``episodes``, each ``(T,)``.
+
+        Args:
+            support_fraction: the average reward at t is NaN unless at least this fraction of
+                the runs (in [0, 1]) have finished an episode by t (0: one run is enough).
+        """
         if self.runs < 1:
             raise ValueError("no runs added yet")
-        with np.errstate(invalid="ignore", divide="ignore"):
-            average = np.where(self.finished_runs > 0, self.average_sum / np.maximum(self.finished_runs, 1.0), np.nan)
-        return {"success": self.success / self.runs, "terminal": self.terminal / self.runs,
-                "average_reward": average, "episodes": self.episodes / self.runs}
+        return mean_curves(self.success, self.terminal, self.average_sum, self.finished_runs, self.episodes,
+                           self.runs, support_fraction)
+
+
+def supported(finished_runs, runs, support_fraction: float) -> np.ndarray:
+    """Where the average reward is defined: at least one run, and at least ``support_fraction`` of
+    the ``runs`` (any shape broadcasting with ``finished_runs``), have finished an episode."""
+    _check_fraction("support_fraction", support_fraction, low_open=False)
+    finished_runs = np.asarray(finished_runs, dtype=float)
+    return (finished_runs > 0) & (finished_runs >= support_fraction * np.asarray(runs, dtype=float))
+
+
+def mean_curves(success, terminal, average_sum, finished_runs, episodes, runs, support_fraction: float = 0.0):
+    """Curves from per-iteration sums over ``runs`` runs (arrays ``(..., T)``, ``runs`` broadcasting
+    as ``(..., 1)``): ``{"success", "terminal", "average_reward", "episodes"}``; see :class:`CurveSums`."""
+    runs = np.asarray(runs, dtype=float)
+    defined = supported(finished_runs, runs, support_fraction)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        average = np.where(defined, average_sum / np.maximum(finished_runs, 1.0), np.nan)
+        return {"success": success / runs, "terminal": terminal / runs, "average_reward": average,
+                "episodes": episodes / runs}
 
 
 def curve_sums(result) -> CurveSums:
     """The :class:`CurveSums` of one :class:`TrainingResult`."""
     return CurveSums.zeros(result.rewards.shape[1]).add(result)
+
+
+@numba.njit(cache=True)
+def _grouped_curves(rewards, outcomes, episode_end, first_run, success, terminal, average_sum, finished_runs,
+                    episodes, first_success):
+    """:func:`_latest_episode_curves` into ``(G, T)`` accumulators, run ``first_run + r`` adding to
+    group ``(first_run + r) % G``; ``first_success[r]`` = iteration count (1-based) at which run r
+    finished its first successful episode, 0 if it never did."""
+    n_runs, n_iterations = rewards.shape
+    n_groups = success.shape[0]
+    for r in range(n_runs):
+        g = (first_run + r) % n_groups
+        episode_return = 0.0
+        length = 0
+        improper = 0
+        finished = 0
+        latest_success = 0.0
+        latest_terminal = 0.0
+        latest_average = 0.0
+        first_success[r] = 0
+        for t in range(n_iterations):
+            episode_return += rewards[r, t]
+            length += 1
+            if outcomes[r, t] == _IMPROPER:
+                improper += 1
+            if episode_end[r, t] != 0:
+                finished += 1
+                latest_terminal = 1.0 if episode_end[r, t] == _TERMINAL_END else 0.0
+                latest_success = latest_terminal if improper == 0 else 0.0
+                if latest_success > 0.0 and first_success[r] == 0:
+                    first_success[r] = t + 1
+                latest_average = episode_return / length
+                episode_return = 0.0
+                length = 0
+                improper = 0
+            success[g, t] += latest_success
+            terminal[g, t] += latest_terminal
+            episodes[g, t] += finished
+            if finished > 0:
+                average_sum[g, t] += latest_average
+                finished_runs[g, t] += 1.0
+
+
+@dataclass
+class GroupedCurveSums:
+    """:class:`CurveSums` kept per group of runs, for bootstrap intervals over runs.
+
+    Run i adds to group ``i % G``; runs are independent, so the G group sums are independent and
+    resampling groups resamples runs in blocks (:mod:`tableclean_suite.bench.statistics`).
+    Memory is ``5 x G x T`` floats plus one integer per run, whatever the number of runs.
+
+    Attributes (``(G, T)`` float64 unless said):
+        success, terminal, average_sum, finished_runs, episodes: as in :class:`CurveSums`, per group.
+        runs_per_group: ``(G,)`` float64, runs added to each group.
+        first_success: per run added, in order, the iteration count (1-based, in [1, T]) at the end
+            of its first successful episode, 0 if none within the window (int64 list of arrays).
+    """
+
+    success: np.ndarray
+    terminal: np.ndarray
+    average_sum: np.ndarray
+    finished_runs: np.ndarray
+    episodes: np.ndarray
+    runs_per_group: np.ndarray
+    first_success: list = field(default_factory=list)
+
+    @classmethod
+    def zeros(cls, iterations: int, groups: int) -> "GroupedCurveSums":
+        """Empty sums for ``groups`` (>= 1) groups of curves of length ``iterations`` (>= 1)."""
+        if iterations < 1 or groups < 1:
+            raise ValueError(f"iterations and groups must be >= 1, got {iterations!r}, {groups!r}")
+        return cls(*(np.zeros((int(groups), int(iterations))) for _ in range(5)), np.zeros(int(groups)))
+
+    @property
+    def runs(self) -> int:
+        return int(self.runs_per_group.sum())
+
+    @property
+    def groups(self) -> int:
+        return int(self.success.shape[0])
+
+    @property
+    def iterations(self) -> int:
+        return int(self.success.shape[1])
+
+    def add(self, result) -> "GroupedCurveSums":
+        """Add the runs of a :class:`TrainingResult`, the next ones in run order; returns self."""
+        runs, iterations = result.rewards.shape
+        if iterations != self.iterations:
+            raise ValueError(f"result has {iterations} iterations, the sums {self.iterations}")
+        first = np.zeros(runs, dtype=np.int64)
+        _grouped_curves(result.rewards, result.outcomes, result.episode_end, self.runs, self.success, self.terminal,
+                        self.average_sum, self.finished_runs, self.episodes, first)
+        self.runs_per_group += np.bincount((self.runs + np.arange(runs)) % self.groups, minlength=self.groups)
+        self.first_success.append(first)
+        return self
+
+    def first_success_iterations(self) -> np.ndarray:
+        """``(R,)`` float64: iterations to each run's first successful episode, NaN if none."""
+        first = np.concatenate(self.first_success) if self.first_success else np.zeros(0, dtype=np.int64)
+        return np.where(first > 0, first, np.nan).astype(float)
+
+    def totals(self) -> CurveSums:
+        """The :class:`CurveSums` of all runs (sums over groups)."""
+        return CurveSums(self.success.sum(0), self.terminal.sum(0), self.average_sum.sum(0),
+                         self.finished_runs.sum(0), self.episodes.sum(0), self.runs)
 
 
 def learning_curves(result) -> dict[str, np.ndarray]:
@@ -342,34 +482,63 @@ def plateau(curve, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION) -> float:
 
 
 def iterations_to_max_success(
-    curve, threshold: float = DEFAULT_THRESHOLD, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION
+    curve, threshold: float = DEFAULT_THRESHOLD, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION,
+    top: float | None = None,
 ) -> int | None:
-    """First iteration count t (1-based) with ``curve[t-1] >= threshold * plateau``; None if never."""
+    """First iteration count t (1-based) with ``curve[t-1] >= threshold * plateau``; None if never.
+
+    ``top`` is the plateau (e.g. the asymptote); default the window mean of ``curve``.
+    """
     _check_fraction("threshold", threshold)
     curve = np.asarray(curve, dtype=float)
-    level = threshold * plateau(curve, plateau_fraction)
+    top = plateau(curve, plateau_fraction) if top is None else float(top)
+    return first_reaching(curve, threshold * top)
+
+
+def first_reaching(curve, level: float, start: int = 0) -> int | None:
+    """First iteration count t (1-based, > ``start``) with ``curve[t-1] >= level``; None if never
+    or if ``level`` is not finite."""
     if not math.isfinite(level):
         return None
-    hits = np.nonzero(curve >= level)[0]
-    return int(hits[0]) + 1 if len(hits) else None
+    hits = np.nonzero(np.asarray(curve, dtype=float)[start:] >= level)[0]
+    return start + int(hits[0]) + 1 if len(hits) else None
+
+
+def early_minimum(curve, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION, top: float | None = None) -> int | None:
+    """Index (0-based) of the curve's early minimum, NaNs ignored; None if there is none.
+
+    With ``top`` (an asymptote): the minimum before the curve first reaches ``top`` (the whole
+    curve if it never does), which the window does not change.  Without: the minimum before the
+    plateau window (the last ``plateau_fraction``).
+    """
+    curve = np.asarray(curve, dtype=float)
+    if top is None:
+        window = max(1, math.ceil(len(curve) * plateau_fraction))
+        end = max(1, len(curve) - window)
+    else:
+        reached = first_reaching(curve, float(top))
+        end = len(curve) if reached is None else max(1, reached - 1)
+    early = curve[:end]
+    if np.all(np.isnan(early)):
+        return None
+    return int(np.nanargmin(early))
 
 
 def reward_convergence_iteration(
-    curve, threshold: float = DEFAULT_THRESHOLD, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION
+    curve, threshold: float = DEFAULT_THRESHOLD, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION,
+    top: float | None = None,
 ) -> int | None:
     """First iteration count t (1-based), at or after the early minimum, where the curve has
-    covered ``threshold`` of the way from its early minimum to its plateau; None if never."""
+    covered ``threshold`` of the way from its early minimum (:func:`early_minimum`) to its plateau
+    (``top``, default the window mean); None if never."""
     _check_fraction("threshold", threshold)
     curve = np.asarray(curve, dtype=float)
-    top = plateau(curve, plateau_fraction)
-    window = max(1, math.ceil(len(curve) * plateau_fraction))
-    early = curve[: max(1, len(curve) - window)]
-    if not math.isfinite(top) or np.all(np.isnan(early)):
+    lowest = early_minimum(curve, plateau_fraction, top)
+    top = plateau(curve, plateau_fraction) if top is None else float(top)
+    if lowest is None or not math.isfinite(top):
         return None
-    lowest = int(np.nanargmin(early))
-    level = early[lowest] + threshold * (top - early[lowest])
-    hits = np.nonzero(curve[lowest:] >= level)[0]
-    return lowest + int(hits[0]) + 1 if len(hits) else None
+    level = curve[lowest] + threshold * (top - curve[lowest])
+    return first_reaching(curve, level, lowest)
 
 
 def episodes_at(episodes: np.ndarray, iteration: int | None) -> float | None:
@@ -379,8 +548,30 @@ def episodes_at(episodes: np.ndarray, iteration: int | None) -> float | None:
     return float(episodes[iteration - 1])
 
 
+def maximum(curve) -> float:
+    """The curve's maximum, NaNs ignored (NaN if all are)."""
+    curve = np.asarray(curve, dtype=float)
+    return float(np.nanmax(curve)) if np.any(~np.isnan(curve)) else float("nan")
+
+
+@dataclass(frozen=True)
+class Plateaus:
+    """The values the curves tend to (e.g. :mod:`tableclean_suite.asymptotes` averaged over runs).
+
+    Attributes:
+        success: success rate, in [0, 1].
+        average_reward: average reward, reward units per iteration.
+        terminal: fraction of episodes reaching the terminal state, in [0, 1].
+    """
+
+    success: float
+    average_reward: float
+    terminal: float
+
+
 def summarize(
-    result, threshold: float = DEFAULT_THRESHOLD, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION
+    result, threshold: float = DEFAULT_THRESHOLD, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION,
+    plateaus: Plateaus | None = None, support_fraction: float = 0.0,
 ) -> Summary:
     """Table 3 quantities of one training result, plus the curves they came from.
 
@@ -388,27 +579,37 @@ def summarize(
         result: a :class:`~tableclean_suite.learners.TrainingResult`, or the :class:`CurveSums`
             of one accumulated chunk by chunk (same numbers).
         threshold: fraction of the plateau that counts as reached, in (0, 1].
-        plateau_fraction: final fraction of the window averaged as the plateau, in (0, 1].
+        plateau_fraction: final fraction of the window averaged as the window mean, in (0, 1].
+        plateaus: the curves' asymptotes (:class:`Plateaus`); None: the window means stand in
+            for them (and then every figure moves with the window).
+        support_fraction: fraction of runs, in [0, 1], that must have finished an episode before
+            an average-reward point counts (0: one run is enough).
 
     Returns:
         A :class:`Summary`.
     """
     sums = result if isinstance(result, CurveSums) else curve_sums(result)
-    curves = sums.curves()
+    curves = sums.curves(support_fraction)
     success, average, episodes, terminal = (
         curves["success"], curves["average_reward"], curves["episodes"], curves["terminal"]
     )
-    success_at = iterations_to_max_success(success, threshold, plateau_fraction)
-    reward_at = reward_convergence_iteration(average, threshold, plateau_fraction)
+    window = {name: plateau(curves[name], plateau_fraction) for name in ("success", "average_reward", "terminal")}
+    top = window if plateaus is None else {name: float(getattr(plateaus, name)) for name in window}
+    given = plateaus is not None
+    success_at = iterations_to_max_success(success, threshold, plateau_fraction, top["success"])
+    reward_at = reward_convergence_iteration(average, threshold, plateau_fraction,
+                                             top["average_reward"] if given else None)
     return Summary(
         max_success_iterations=success_at,
         max_success_episodes=episodes_at(episodes, success_at),
         reward_convergence_iterations=reward_at,
         reward_convergence_episodes=episodes_at(episodes, reward_at),
-        success_plateau=plateau(success, plateau_fraction),
-        max_average_reward=float(np.nanmax(average)) if np.any(~np.isnan(average)) else float("nan"),
-        average_reward_plateau=plateau(average, plateau_fraction),
-        terminal_plateau=plateau(terminal, plateau_fraction),
+        success_plateau=top["success"],
+        max_average_reward=maximum(average),
+        average_reward_plateau=top["average_reward"],
+        terminal_plateau=top["terminal"],
+        success_window_mean=window["success"],
+        average_reward_window_mean=window["average_reward"],
         success=success,
         average_reward=average,
         terminal=terminal,

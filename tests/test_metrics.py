@@ -90,7 +90,7 @@ def test_summarize_returns_a_typed_frozen_summary(tiny):
     assert metrics.SUMMARY_SCALARS == (
         "max_success_iterations", "max_success_episodes", "reward_convergence_iterations",
         "reward_convergence_episodes", "success_plateau", "max_average_reward", "average_reward_plateau",
-        "terminal_plateau",
+        "terminal_plateau", "success_window_mean", "average_reward_window_mean",
     )
     assert metrics.ITERATION_SCALARS == ("max_success_iterations", "reward_convergence_iterations")
     assert metrics.CURVE_NAMES == ("success", "average_reward", "terminal", "episodes")
@@ -153,3 +153,65 @@ def test_compiled_curves_equal_per_run_matrices_on_real_training():
     np.testing.assert_allclose(
         curves["average_reward"][started], np.nanmean(per_run[:, started], axis=0), rtol=1e-12, atol=1e-15
     )
+
+
+def test_support_fraction_hides_points_resting_on_few_runs(tiny):
+    # run 0 finishes its first episode at t1, run 1 at t2: with half the runs required t1 counts,
+    # with all runs required only t2 on
+    half = metrics.CurveSums.zeros(6).add(tiny).curves(support_fraction=0.5)["average_reward"]
+    full = metrics.CurveSums.zeros(6).add(tiny).curves(support_fraction=1.0)["average_reward"]
+    assert np.isnan(half[0]) and not np.isnan(half[1])
+    assert np.isnan(full[:2]).all() and not np.isnan(full[2:]).any()
+    np.testing.assert_array_equal(full[2:], half[2:])  # the rule removes points, never changes them
+    with pytest.raises(ValueError, match="support_fraction"):
+        metrics.CurveSums.zeros(6).add(tiny).curves(support_fraction=1.5)
+
+
+def test_given_plateaus_replace_the_window_mean():
+    success = np.array([0.0, 0.5, 0.8, 0.9, 0.9, 1.0, 0.9, 0.9])
+    # window mean (last 2) = 0.9 -> level 0.855 first reached at index 3; asymptote 1.0 -> 0.95 at index 5
+    assert metrics.iterations_to_max_success(success) == 4
+    assert metrics.iterations_to_max_success(success, top=1.0) == 6
+    reward = np.array([0.1, -0.4, -0.2, 0.3, 0.5, 0.6, 0.9, 0.2])
+    # asymptote 0.6: reached first at index 5, early minimum -0.4 at index 1 (before it);
+    # level = -0.4 + 0.95 * (0.6 + 0.4) = 0.55 -> index 5
+    assert metrics.early_minimum(reward, top=0.6) == 1
+    assert metrics.reward_convergence_iteration(reward, top=0.6) == 6
+    # the window does not enter: a later dip (index 7) is not the early minimum
+    longer = np.r_[reward, [-5.0] * 20]
+    assert metrics.reward_convergence_iteration(longer, top=0.6) == 6
+
+
+def test_summarize_with_plateaus_and_support(tiny):
+    plateaus = metrics.Plateaus(success=0.5, average_reward=0.1, terminal=1.0)
+    summary = metrics.summarize(tiny, plateaus=plateaus, support_fraction=1.0)
+    assert summary.success_plateau == 0.5 and summary.terminal_plateau == 1.0
+    assert summary.success_window_mean == pytest.approx(0.25)
+    assert summary.max_success_iterations == 2  # 0.5 >= 0.95 * 0.5 at t = 2
+    assert np.isnan(summary.average_reward[:2]).all()
+    # max average reward over supported points only: (a0 + a1) / 2, not a0 = 0.495 at t2 (one run)
+    assert summary.max_average_reward == pytest.approx((0.99 / 2 + 0.01 / 3) / 2)
+
+
+def test_grouped_sums_total_the_plain_sums_and_record_first_successes(tiny):
+    grouped = metrics.GroupedCurveSums.zeros(6, groups=3).add(tiny)
+    plain = metrics.CurveSums.zeros(6).add(tiny)
+    totals = grouped.totals()
+    for name in ("success", "terminal", "average_sum", "finished_runs", "episodes"):
+        np.testing.assert_array_equal(getattr(totals, name), getattr(plain, name))
+    np.testing.assert_array_equal(grouped.runs_per_group, [1, 1, 0])
+    np.testing.assert_array_equal(grouped.first_success_iterations(), [2, 6])  # run 0 at t1, run 1 at t5
+
+
+def test_grouped_sums_do_not_depend_on_chunking():
+    from tableclean_suite.learners import train
+
+    settings = dict(iterations=400, max_itr=60, seed=3)
+    whole = metrics.GroupedCurveSums.zeros(400, groups=4).add(train("q_learning", "r4", runs=11, **settings))
+    chunked = metrics.GroupedCurveSums.zeros(400, groups=4)
+    for first in (0, 5):
+        chunked.add(train("q_learning", "r4", runs=min(5, 11 - first), first_run=first, **settings))
+    chunked.add(train("q_learning", "r4", runs=1, first_run=10, **settings))
+    np.testing.assert_array_equal(whole.success, chunked.success)
+    np.testing.assert_array_equal(whole.average_sum, chunked.average_sum)
+    np.testing.assert_array_equal(whole.first_success_iterations(), chunked.first_success_iterations())

@@ -1,0 +1,252 @@
+"""Exact asymptotes of the learning curves: what a run's final policy scores, by dynamic programming.
+
+The harness's plateaus used to be the mean of the last 25 % of the training window, so they (and
+every "iterations to reach 95 % of the plateau") moved with the window.  Here the plateau is the
+value the curves tend to when the run keeps acting with its **final** policy: the behaviour
+policy (epsilon-greedy on the final Q-table) is fixed and the episode's distribution is computed
+exactly, over the task's transition table, from the start distribution.
+
+For one behaviour policy pi (action probabilities per state) the quantities are, per episode
+(one episode = from a start state drawn uniformly from the task's starts until the terminal
+state or ``max_itr`` steps, as ``train()`` runs it):
+
+- ``success``: P(the episode reaches the terminal state with no improper action), in [0, 1];
+- ``terminal``: P(the episode reaches the terminal state), in [0, 1];
+- ``average_reward``: E[return / length] of the episode, reward units per iteration, with the
+  reward pattern applied exactly as the training loop does, r4's looping penalty included;
+- ``length``: E[length], iterations in [1, max_itr].
+
+These are the limits of the metrics' curves (:mod:`tableclean_suite.metrics`): the curves
+average, over runs, the run's *latest finished* episode, and in a renewal process the latest
+finished episode (unlike the one in progress) is not length-biased, so it is distributed as
+any episode of the final policy.
+
+**The looping penalty's memory.**  r4 penalises a routine/ineffective step whose next state
+equals s_{t-1} (the state before the previous step) or s_t.  The DP state is therefore the
+pair (s_t, s_{t-1}) with s_{t-1} = ``NO_STATE`` (-1) at an episode's first step.  The pairs
+that can occur are ``(start, NO_STATE)`` and ``(s', s)`` for every successor s' of a
+non-terminal s, so the successor pair of (s, s_prev) under (action a, successor k) is
+``(next_state[s, a, k], s)`` whatever s_prev; only the reward depends on s_prev.  Patterns
+without a looping penalty use the state alone.
+
+**The DP** is a forward pass over episode steps l = 1 .. max_itr carrying, per (pair, clean
+flag), the probability of being there still in the episode and the expected return so far on
+that event; an episode ending at step l adds ``return / l`` to E[return / length].  The pass
+stops when the mass still in the episode is below :data:`MASS_TOLERANCE` (so values are exact
+to about that times the largest |reward|).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from tableclean_suite.analysis import action_probabilities, greedy_policy
+from tableclean_suite.learners.transitions import TransitionTable
+from tableclean_suite.rewards import LOOPABLE_OUTCOMES, LOOPING_ADD, LOOPING_OFF, get_reward_pattern
+from tableclean_suite.task import Outcome
+
+#: The forward pass stops once less than this probability is still inside the episode.
+MASS_TOLERANCE = 1e-12
+#: s_{t-1} at an episode's first step.
+NO_STATE = -1
+
+_TERMINAL = int(Outcome.TERMINAL)
+_IMPROPER = int(Outcome.IMPROPER)
+_LOOPABLE = np.array([int(o) for o in LOOPABLE_OUTCOMES], dtype=np.int64)
+#: Index of each quantity in the DP's output row.
+SUCCESS, TERMINAL, AVERAGE_REWARD, LENGTH = 0, 1, 2, 3
+QUANTITIES = ("success", "terminal", "average_reward", "length")
+
+
+@dataclass(frozen=True)
+class Asymptotes:
+    """Per-policy episode statistics under a fixed behaviour policy (arrays of shape ``(P,)``).
+
+    Attributes:
+        success: P(terminal with no improper action), in [0, 1].
+        terminal: P(terminal within ``max_itr`` steps), in [0, 1].
+        average_reward: E[return / length], reward units per iteration.
+        length: E[length], iterations in [1, max_itr].
+    """
+
+    success: np.ndarray
+    terminal: np.ndarray
+    average_reward: np.ndarray
+    length: np.ndarray
+
+    def as_dict(self) -> dict[str, np.ndarray]:
+        return {name: getattr(self, name) for name in QUANTITIES}
+
+
+@dataclass(frozen=True)
+class EpisodeChain:
+    """The (state, previous state) chain of one task, table and reward pattern, ready for the DP.
+
+    Attributes:
+        pair_state: ``(n_pairs,)`` int64, s of each pair.
+        next_pair: ``(S, A, K)`` int64, the pair after (s, a, successor k) (-1 for terminal ones).
+        probability: ``(S, A, K)`` float64 successor probabilities.
+        outcome: ``(S, A, K)`` int64 :class:`Outcome` codes.
+        reward: ``(n_pairs, A, K)`` float64 reward of each step from each pair.
+        start_pairs: ``(n_starts,)`` int64 pairs an episode starts in (uniform).
+    """
+
+    pair_state: np.ndarray
+    next_pair: np.ndarray
+    probability: np.ndarray
+    outcome: np.ndarray
+    reward: np.ndarray
+    start_pairs: np.ndarray
+
+    @classmethod
+    def build(cls, model, reward, table: TransitionTable | None = None) -> "EpisodeChain":
+        """The chain of ``model`` (a :class:`~tableclean_suite.task.TaskModel`) under ``reward``
+        (a pattern or its registered name), stepping ``table`` (default: the model's own)."""
+        pattern = get_reward_pattern(reward) if isinstance(reward, str) else reward
+        table = table if table is not None else TransitionTable.from_model(model)
+        table.check_model(model)
+        probability = np.diff(table.cumulative, axis=2, prepend=0.0)
+        next_state, outcome = table.next_state.astype(np.int64), table.outcome.astype(np.int64)
+        n_states = next_state.shape[0]
+        starts = np.array([s.index for s in model.start_states()], dtype=np.int64)
+        looping = pattern.looping_code != LOOPING_OFF
+        continuing = (probability > 0) & (outcome != _TERMINAL)
+        if looping:
+            sources = np.broadcast_to(np.arange(n_states)[:, None, None], next_state.shape)
+            codes = np.r_[starts * (n_states + 1), (next_state * (n_states + 1) + sources + 1)[continuing]]
+        else:
+            codes = np.r_[starts, next_state[continuing]] * (n_states + 1)
+        unique, inverse = np.unique(codes, return_inverse=True)
+        pair_state, pair_previous = unique // (n_states + 1), unique % (n_states + 1) - 1
+        start_pairs = inverse[: len(starts)].astype(np.int64)
+        next_pair = np.full(next_state.shape, -1, dtype=np.int64)
+        next_pair[continuing] = inverse[len(starts):]
+        values = pattern.outcome_values()
+        base = values[outcome]  # (S, A, K)
+        reward_table = base[pair_state].copy()  # (n_pairs, A, K)
+        if looping:
+            out, nxt = outcome[pair_state], next_state[pair_state]
+            loops = (np.isin(out, _LOOPABLE)
+                     & ((nxt == pair_previous[:, None, None]) | (nxt == pair_state[:, None, None])))
+            penalty = float(pattern.looping_penalty)
+            reward_table = np.where(loops, reward_table + penalty if pattern.looping_code == LOOPING_ADD else penalty,
+                                    reward_table)
+        return cls(pair_state.astype(np.int64), next_pair, probability, outcome, reward_table, start_pairs)
+
+
+@numba.njit(cache=True)
+def _episode_statistics(pi, pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr, tolerance,
+                        result):
+    """Forward DP over episode steps for each policy; writes ``result[p] = (success, terminal, E[R/L], E[L])``.
+
+    Args:
+        pi: ``(P, S, A)`` action probabilities.
+        max_itr: episode length limit (>= 1).
+        tolerance: stop once the mass inside the episode is below it.
+    """
+    n_policies = pi.shape[0]
+    n_pairs = pair_state.shape[0]
+    n_actions, n_successors = probability.shape[1], probability.shape[2]
+    for p in range(n_policies):
+        mass = np.zeros((2, n_pairs))  # [clean flag, pair]: P(inside the episode here), 1 = no improper yet
+        gain = np.zeros((2, n_pairs))  # E[return so far ; inside the episode here]
+        for i in range(start_pairs.shape[0]):
+            mass[1, start_pairs[i]] += 1.0 / start_pairs.shape[0]
+        success = terminal = ratio = length = 0.0
+        for step in range(1, max_itr + 1):
+            new_mass = np.zeros((2, n_pairs))
+            new_gain = np.zeros((2, n_pairs))
+            last = step == max_itr
+            inside = 0.0
+            for clean in range(2):
+                for n in range(n_pairs):
+                    m = mass[clean, n]
+                    if m == 0.0:
+                        continue
+                    g = gain[clean, n]
+                    s = pair_state[n]
+                    for a in range(n_actions):
+                        w = pi[p, s, a]
+                        if w == 0.0:
+                            continue
+                        for k in range(n_successors):
+                            q = probability[s, a, k]
+                            if q == 0.0:
+                                continue
+                            step_mass = m * w * q
+                            step_gain = g * w * q + step_mass * reward[n, a, k]
+                            still_clean = clean if outcome[s, a, k] != _IMPROPER else 0
+                            if outcome[s, a, k] == _TERMINAL:
+                                terminal += step_mass
+                                if still_clean == 1:
+                                    success += step_mass
+                                ratio += step_gain / step
+                                length += step_mass * step
+                            elif last:
+                                ratio += step_gain / step
+                                length += step_mass * step
+                            else:
+                                target = next_pair[s, a, k]
+                                new_mass[still_clean, target] += step_mass
+                                new_gain[still_clean, target] += step_gain
+                                inside += step_mass
+            mass, gain = new_mass, new_gain
+            if inside < tolerance:
+                break
+        result[p, 0] = success
+        result[p, 1] = terminal
+        result[p, 2] = ratio
+        result[p, 3] = length
+
+
+def episode_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: int,
+                       tolerance: float = MASS_TOLERANCE) -> Asymptotes:
+    """:class:`Asymptotes` of behaviour policies given as action probabilities.
+
+    Args:
+        probabilities: ``(P, S, A)`` (or ``(S, A)``) probabilities of each action in each state.
+        chain: :meth:`EpisodeChain.build` of the task, table and reward pattern.
+        max_itr: episode length limit, an integer >= 1 (``train(max_itr=...)``).
+        tolerance: probability mass left inside the episode at which the pass stops, in [0, 1).
+
+    Returns:
+        :class:`Asymptotes` with arrays of shape ``(P,)`` (``()`` for a single ``(S, A)`` policy).
+    """
+    if int(max_itr) != max_itr or max_itr < 1:
+        raise ValueError(f"max_itr must be an integer >= 1, got {max_itr!r}")
+    if not 0.0 <= tolerance < 1.0:
+        raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
+    probabilities = np.asarray(probabilities, dtype=np.float64)
+    single = probabilities.ndim == 2
+    probabilities = np.ascontiguousarray(probabilities[None] if single else probabilities)
+    if probabilities.shape[1:] != chain.probability.shape[:2]:
+        raise ValueError(f"policies have shape {probabilities.shape[1:]}, the task {chain.probability.shape[:2]}")
+    result = np.zeros((probabilities.shape[0], len(QUANTITIES)))
+    _episode_statistics(probabilities, chain.pair_state, chain.next_pair, chain.probability, chain.outcome,
+                        chain.reward, chain.start_pairs, int(max_itr), float(tolerance), result)
+    columns = [result[0, i] if single else result[:, i] for i in range(len(QUANTITIES))]
+    return Asymptotes(*columns)
+
+
+def greedy_asymptotes(q: np.ndarray, epsilon: float, chain: EpisodeChain, max_itr: int) -> Asymptotes:
+    """:class:`Asymptotes` of epsilon-greedy behaviour on final Q-tables, one per run.
+
+    Args:
+        q: ``(R, S, A)`` final Q-tables (``TrainingResult.q``); greedy ties go to the first action,
+            as in training.
+        epsilon: exploration rate in [0, 1] of the final behaviour (random actions uniform).
+        chain: the task's :class:`EpisodeChain`.
+        max_itr: episode length limit (>= 1).
+
+    Returns:
+        :class:`Asymptotes` with arrays of shape ``(R,)``.  Runs sharing a greedy policy share the
+        computation (trained runs mostly converge to a few policies).
+    """
+    policies = greedy_policy(np.asarray(q))
+    unique, inverse = np.unique(policies, axis=0, return_inverse=True)
+    stats = episode_statistics(action_probabilities(unique, epsilon, q.shape[-1]), chain, max_itr)
+    inverse = np.asarray(inverse).reshape(-1)
+    return Asymptotes(*(np.asarray(getattr(stats, name))[inverse] for name in QUANTITIES))
