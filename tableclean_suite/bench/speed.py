@@ -9,7 +9,10 @@ Both sides run in this process on the same task.  Two baselines:
   (which also serves the physics backend and draws the same random numbers).
 The compiled learners are timed after a warm-up call (numba compilation excluded).
 It also times the whole default ``python -m benchmarks.run`` (all cells, tables,
-CSVs, figures) in this process after a warm-up run: CPU seconds and wall seconds.
+CSVs, figures) in this process after a warm-up run: CPU seconds and wall seconds; the
+per-update rate on the scaling study's largest spec against the paper's
+(:mod:`.spec_speed`); and the cold start: the README's command in two fresh processes
+sharing an empty numba cache (the first compiles, the second must load from disk).
 """
 
 from __future__ import annotations
@@ -121,6 +124,8 @@ def main(argv=None) -> int:
     parser.add_argument("--iterations", type=positive_int, default=3000, help="iterations per run (default 3000)")
     parser.add_argument("--baseline-runs", type=positive_int, default=20, help="runs for the plain baselines (default 20)")
     parser.add_argument("--skip-default-run", action="store_true", help="do not time the default benchmarks.run")
+    parser.add_argument("--skip-specs", action="store_true",
+                        help="do not time the largest scaling spec against the paper's, nor the cold start")
     args = parser.parse_args(argv)
     import pandas as pd
 
@@ -134,6 +139,15 @@ def main(argv=None) -> int:
             f"default `python -m benchmarks.run` after warm-up: {timing['cpu_s']:.2f} s CPU, "
             f"{timing['wall_s']:.2f} s wall (goal <= 5 s)"
         )
+    if not args.skip_specs:
+        from tableclean_suite.bench import spec_speed
+        from tableclean_suite.task import get_task_spec
+
+        paper, largest = spec_speed.measure_rates([get_task_spec("paper"), spec_speed.largest_study_spec()],
+                                                  spec_speed.DEFAULT_RUNS, spec_speed.DEFAULT_ITERATIONS,
+                                                  spec_speed.DEFAULT_REPEATS)
+        print()
+        print("\n".join(spec_speed.summary_lines(paper, largest, spec_speed.time_cold_starts())))
     return 0
 
 
