@@ -61,7 +61,7 @@ from tableclean_suite.environments.table_clean import PRESS_PREFILTER_SLACK
 POS_SLICE, ROTVEC_SLICE, GRIPPER_SLICE = slice(0, 3), slice(3, 6), slice(6, 7)
 #: Extra height (m) above the env's own wiping prefilter under which the native loop hands a substep
 #: to the env's wiping check; any value >= 0 is exact (the env re-checks), larger ones cost time.
-WIPE_CHECK_MARGIN = 0.005
+WIPE_CHECK_MARGIN = 0.0
 #: A Cholesky pivot below this fraction of the largest diagonal entry sends the operational-space
 #: matrices to robosuite's own SVD pseudo-inverses (near a singularity, where the two would differ).
 CHOLESKY_PIVOT_RTOL = 1e-10
@@ -406,7 +406,8 @@ class FastSkillStepper:
 
     :meth:`step` replaces ``env.step(action)`` for the skills; the env keeps working with
     ``env.step`` in between (the controllers' goals and refresh flags are kept current).
-    A hard reset (new simulation) is noticed and the cached ids and views are rebuilt.
+    The robot's controllers are looked up at every step (robosuite makes new ones at each
+    reset); a hard reset (new simulation) is noticed and the cached ids and views are rebuilt.
     """
 
     def __init__(self, env, native: bool | None = None):
@@ -424,10 +425,7 @@ class FastSkillStepper:
         sim = env.sim
         robot = env.robots[0]
         arm = robot.arms[0]
-        controllers = robot.composite_controller.part_controllers
-        self.osc = controllers[arm]
-        self.grip_controller = controllers[robot.get_gripper_name(arm)]
-        self.gripper = robot.gripper[arm]
+        self._find_controllers()
         model, self.model, self.data = sim.model, sim.model._model, sim.data._data
         base_site = model.site_name2id(f"{self.osc.naming_prefix}{self.osc.part_name}_center")
         if self.model.body_weldid[self.model.site_bodyid[base_site]] != 0:
@@ -448,6 +446,15 @@ class FastSkillStepper:
         self.substeps = int(env.control_timestep / env.model_timestep)
         self._bind_native()
         self._sim = sim
+
+    def _find_controllers(self) -> None:
+        """The robot's current OSC, gripper controller and gripper (robosuite makes new controllers at each reset)."""
+        robot = self.env.robots[0]
+        arm = robot.arms[0]
+        controllers = robot.composite_controller.part_controllers
+        self.osc = controllers[arm]
+        self.grip_controller = controllers[robot.get_gripper_name(arm)]
+        self.gripper = robot.gripper[arm]
 
     def _bind_native(self) -> None:
         """Views of the live mjData arrays and the wiping prefilter the native loop reads."""
@@ -542,6 +549,8 @@ class FastSkillStepper:
             raise ValueError(f"action must have shape ({ACTION_DIM},), got {action.shape}")
         if env.sim is not self._sim:
             self._bind()
+        else:
+            self._find_controllers()
         env.timestep += 1
         goal_pos, goal_ori = self.goal(action)
         grip_ctrl = self.gripper_ctrl(action)
