@@ -8,9 +8,17 @@ episodes and prints
 - per episode: control steps, wall seconds, and whether it reached the terminal state;
 - the executor overhead: wall time the SkillController spends outside ``env.step`` (skill logic,
   ``skill_info()`` reads, the abstraction before and after each action) divided by the time
-  spent inside ``env.step``, measured in the same run (goal <= 5%).
+  spent inside ``env.step``, measured in the same run (goal <= 5%);
+- the control paths compared in the same run, episode by episode alternating: control steps/s
+  of robosuite's ``env.step`` path, of the fast path (``make_skill_env(fast_control=True)``,
+  :class:`~tableclean_suite.controllers.fast_control.FastSkillStepper`) and of raw MuJoCo (the
+  fast path's recorded states, 25 ``mj_step`` per control step, nothing else), their ratios,
+  and seconds per optimal episode on each path.
+
+The tables above the comparison are those of the default (fast) path.
 
 Goals (issue 4, section 5): optimal episode <= 4 s on a 2-core machine; overhead <= 5%.
+Goal (issue 9): the fast path >= 3x robosuite's control steps/s.
 """
 
 from __future__ import annotations
@@ -20,6 +28,7 @@ import sys
 import time
 from collections import defaultdict
 
+import mujoco
 import numpy as np
 
 from tableclean_suite.bench.cli import positive_int
@@ -30,6 +39,10 @@ from tableclean_suite.task import Action, TaskModel
 EPISODE_GOAL_S = 4.0
 #: Goal for the executor's overhead over raw env.step.
 OVERHEAD_GOAL = 0.05
+#: Goal for the fast path's control steps/s over robosuite's env.step path (issue 9).
+FAST_SPEEDUP_GOAL = 3.0
+#: mjData fields a raw-MuJoCo replay restores before each control step's substeps.
+REPLAY_FIELDS = ("qpos", "qvel", "act", "ctrl", "qacc_warmstart")
 
 
 def parse_args(argv=None) -> argparse.Namespace:
@@ -44,39 +57,128 @@ def parse_args(argv=None) -> argparse.Namespace:
     return parser.parse_args(argv)
 
 
-def run(episodes: int, layout=(1, 1), seed: int = 0) -> dict:
-    """Run ``episodes`` optimal episodes; returns per-episode and per-action records.
+def run(episodes: int, layout=(1, 1), seed: int = 0, fast_control: bool = True) -> dict:
+    """Run ``episodes`` optimal episodes on one control path; returns per-episode and per-action records.
 
     Returns a dict with ``"episodes"``: list of dicts (steps, wall_s, env_s, terminal, failures)
     and ``"actions"``: list of dicts (action, steps, wall_s, env_s, success).
     """
-    env = make_skill_env(*layout, seed=seed, hard_reset=False)
-    model = TaskModel()
-    controller = SkillController(env, model)
-    episode_rows, action_rows = [], []
+    env = make_skill_env(*layout, seed=seed, hard_reset=False, fast_control=fast_control)
+    records = _empty_records()
     for _ in range(episodes):
-        env.reset()
-        plan = model.shortest_plan(env.symbolic_state())
-        start = time.perf_counter()
-        results = controller.execute_plan(plan)
-        wall = time.perf_counter() - start
-        for r in results:
-            action_rows.append(
-                dict(action=r.action, steps=r.steps, wall_s=r.wall_time, env_s=r.env_time, success=r.success)
-            )
-        final = results[-1].state_after if results else None
-        episode_rows.append(
-            dict(
-                actions=len(results),
-                steps=sum(r.steps for r in results),
-                wall_s=wall,
-                env_s=sum(r.env_time for r in results),
-                terminal=bool(final is not None and final.is_terminal),
-                failures=sum(not r.success for r in results),
-            )
-        )
+        _run_episode(env, records)
     env.close()
-    return {"episodes": episode_rows, "actions": action_rows}
+    return records
+
+
+def compare_paths(episodes: int, layout=(1, 1), seed: int = 0) -> dict:
+    """Optimal episodes on robosuite's path and the fast path, alternating, plus raw MuJoCo on the fast path's states.
+
+    Returns ``{"robosuite": records, "fast": records, "mujoco": {"steps", "seconds", "substeps"}}``
+    with records as :func:`run`'s; the raw-MuJoCo entry counts control steps of ``substeps``
+    ``mj_step`` calls each (``control_timestep / model_timestep``: 25) and the seconds spent in them.
+    """
+    envs = {path: make_skill_env(*layout, seed=seed, hard_reset=False, fast_control=path == "fast")
+            for path in ("robosuite", "fast")}
+    records = {path: _empty_records() for path in envs}
+    fast_env = envs["fast"]
+    mujoco_time = {"steps": 0, "seconds": 0.0, "substeps": int(fast_env.control_timestep / fast_env.model_timestep)}
+    for _ in range(episodes):
+        _run_episode(envs["robosuite"], records["robosuite"])
+        states = _run_episode(envs["fast"], records["fast"], record_states=True)
+        steps, seconds = _replay_mujoco(envs["fast"], states)
+        mujoco_time["steps"] += steps
+        mujoco_time["seconds"] += seconds
+    for env in envs.values():
+        env.close()
+    return {**records, "mujoco": mujoco_time}
+
+
+def _empty_records() -> dict:
+    return {"episodes": [], "actions": []}
+
+
+def _run_episode(env, records: dict, record_states: bool = False) -> list[dict]:
+    """Reset ``env``, execute the optimal plan, append its rows to ``records``.
+
+    Returns the mjData fields of :data:`REPLAY_FIELDS` before every control step when
+    ``record_states`` (for :func:`_replay_mujoco`), else an empty list.
+    """
+    model = TaskModel()
+    data = env.sim.data._data
+    states = []
+
+    def record() -> None:
+        states.append({field: getattr(data, field).copy() for field in REPLAY_FIELDS})
+
+    controller = SkillController(env, model, on_step=record if record_states else None)
+    env.reset()
+    plan = model.shortest_plan(env.symbolic_state())
+    if record_states:
+        record()
+    start = time.perf_counter()
+    results = controller.execute_plan(plan)
+    wall = time.perf_counter() - start
+    for r in results:
+        records["actions"].append(
+            dict(action=r.action, steps=r.steps, wall_s=r.wall_time, env_s=r.env_time, success=r.success)
+        )
+    final = results[-1].state_after if results else None
+    records["episodes"].append(
+        dict(
+            actions=len(results),
+            steps=sum(r.steps for r in results),
+            wall_s=wall,
+            env_s=sum(r.env_time for r in results),
+            terminal=bool(final is not None and final.is_terminal),
+            failures=sum(not r.success for r in results),
+        )
+    )
+    return states[:-1]  # the state after the last step starts no control step
+
+
+def _replay_mujoco(env, states: list[dict]) -> tuple[int, float]:
+    """(control steps, seconds): raw ``mj_step`` substeps from each recorded state, on a copy of the data."""
+    model = env.sim.model._model
+    data = mujoco.MjData(model)
+    substeps = int(env.control_timestep / env.model_timestep)
+    seconds = 0.0
+    for state in states:
+        for field, value in state.items():
+            getattr(data, field)[:] = value
+        start = time.perf_counter()
+        for _ in range(substeps):
+            mujoco.mj_step(model, data)
+        seconds += time.perf_counter() - start
+    return len(states), seconds
+
+
+def format_comparison(comparison: dict) -> str:
+    """The control-path table (plain text) of :func:`compare_paths`'s records."""
+    rates, episode_s = {}, {}
+    for path in ("robosuite", "fast"):
+        episodes = comparison[path]["episodes"]
+        steps = sum(ep["steps"] for ep in episodes)
+        rates[path] = steps / max(sum(ep["env_s"] for ep in episodes), np.finfo(float).tiny)
+        episode_s[path] = float(np.mean([ep["wall_s"] for ep in episodes]))
+    raw = comparison["mujoco"]
+    rates["raw MuJoCo"] = raw["steps"] / max(raw["seconds"], np.finfo(float).tiny)
+    n = len(comparison["fast"]["episodes"])
+    lines = [
+        f"control paths (same run, alternating episode by episode; {n} optimal episode(s) each)",
+        f"{'path':12s} {'steps/s':>8s} {'ms/step':>8s} {'s/episode':>10s}",
+    ]
+    for path, rate in rates.items():
+        seconds = f"{episode_s[path]:10.2f}" if path in episode_s else f"{'-':>10s}"
+        lines.append(f"{path:12s} {rate:8.0f} {1000 / rate:8.3f} {seconds}")
+    speedup = rates["fast"] / rates["robosuite"]
+    lines += [
+        f"fast / robosuite: {speedup:.2f}x (goal >= {FAST_SPEEDUP_GOAL:.0f}x: {'met' if speedup >= FAST_SPEEDUP_GOAL else 'NOT met'})",
+        f"fast / raw MuJoCo: {rates['fast'] / rates['raw MuJoCo']:.2f} "
+        f"(robosuite / raw MuJoCo: {rates['robosuite'] / rates['raw MuJoCo']:.2f}); "
+        f"raw MuJoCo = {raw['substeps']} mj_step per control step from the fast path's states",
+    ]
+    return "\n".join(lines)
 
 
 def format_report(records: dict) -> str:
@@ -115,9 +217,12 @@ def format_report(records: dict) -> str:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    records = run(args.episodes, tuple(args.layout), args.seed)
-    print(format_report(records))
-    return 0 if all(ep["terminal"] for ep in records["episodes"]) else 1
+    comparison = compare_paths(args.episodes, tuple(args.layout), args.seed)
+    print(format_report(comparison["fast"]))
+    print()
+    print(format_comparison(comparison))
+    episodes = comparison["fast"]["episodes"] + comparison["robosuite"]["episodes"]
+    return 0 if all(ep["terminal"] for ep in episodes) else 1
 
 
 if __name__ == "__main__":
