@@ -15,9 +15,12 @@ control law:
 - per physics substep, as ``MujocoEnv.step`` with ``lite_physics``: ``mj_step1``;
   the OSC torques from MuJoCo's own mass matrix (``mj_fullM``) and grip-site
   Jacobians (``mj_jacSite``), computed in a numba kernel that calls robosuite's own
-  compiled ``orientation_error``, ``opspace_matrices`` and ``nullspace_torques``
-  (same kp, kd, decoupling, nullspace pull towards the controller's
-  ``initial_joint``, gravity compensation, clipping to the actuators' ctrlrange);
+  compiled ``orientation_error`` and ``nullspace_torques`` and mirrors its
+  ``opspace_matrices`` with Cholesky inverses of the positive definite matrices
+  (robosuite's SVD pseudo-inverses near a singularity): same kp, kd, decoupling,
+  nullspace pull towards the controller's ``initial_joint``, gravity compensation,
+  clipping to the actuators' ctrlrange, and robosuite's reuse of the reset-time arm
+  state on an episode's first substep (:meth:`FastSkillStepper.cached_arm_torques`);
   the env's wiping check; ``mj_step2``.  With the native loop (default when MuJoCo's
   shared library is found) the substeps run in one compiled function that calls
   MuJoCo's C API directly and returns to Python only for substeps where the sponge is
@@ -30,6 +33,9 @@ What the fast path does **not** do: it does not refresh robosuite's observables
 history buffers (``recent_qpos``, ``recent_ee_*``), nor compute the reward.  The
 skills read none of these: ``env.skill_info()`` and ``env.symbolic_state()`` read
 the simulation data directly.
+
+The kernels are compiled by numba on first use (~20 s) and cached in ``__pycache__``
+(later processes load them in ~0.2 s).
 
 Only the configuration the skills use is supported (one fixed-base arm, OSC_POSE,
 absolute world-frame input, fixed impedance, no interpolators, a simple grip
