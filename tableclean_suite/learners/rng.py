@@ -5,6 +5,17 @@ Every draw is a pure function of ``(seed, run, iteration, stream)``: SplitMix64
 key.  So results do not depend on how runs are batched, split over threads or
 processes, or whether the compiled or the plain loop draws them: same seed,
 same numbers, bit for bit.
+
+The four streams of the *main lane* (the run key itself) and their counter layout are
+fixed: they produce the paper's numbers.  Draws that only some learners need come from
+*side lanes*: a second key per lane, derived from the run key with a fixed salt
+(:func:`lane_key`), counted independently of the main lane, so adding them changes no
+main-lane draw:
+
+- ``LANE_LEARNER``: ``uniform(lane key, iteration, STREAM_DOUBLE_TABLE)``, which table a
+  double-Q update changes;
+- ``LANE_PLANNING``: ``uniform_at(lane key, iteration * planning_steps + j)``, the pair of
+  Dyna-Q's j-th planning update after that iteration.
 """
 
 from __future__ import annotations
@@ -18,6 +29,14 @@ STREAM_RANDOM_ACTION = 1  # which random action, uniform over all actions
 STREAM_START = 2  # which start state, when there are several
 STREAM_TRANSITION = 3  # which successor, for stochastic (calibrated) transitions
 N_STREAMS = 4
+
+#: Side lanes (keys derived from the run key, see :func:`lane_key`); the main lane is 0.
+LANE_LEARNER = 1
+LANE_PLANNING = 2
+#: Streams of the learner lane (same ``iteration * N_STREAMS + stream`` layout as the main lane).
+STREAM_DOUBLE_TABLE = 0  # u < 0.5 -> a double-Q step updates table A, else table B
+#: Odd 64-bit constant that separates the lanes' keys (fixed: changing it changes the side draws).
+LANE_SALT = 0xD1B54A32D192ED03
 
 _MASK64 = (1 << 64) - 1
 _GOLDEN = 0x9E3779B97F4A7C15
@@ -45,9 +64,18 @@ def run_keys(seed: int, first_run: int, runs: int) -> np.ndarray:
 
 def uniform_py(key: int, iteration: int, stream: int) -> float:
     """A uniform draw in [0, 1) (plain Python)."""
-    counter = (iteration * N_STREAMS + stream) & _MASK64
-    z = _mix_py((key + counter * _GOLDEN) & _MASK64)
+    return uniform_at_py(key, iteration * N_STREAMS + stream)
+
+
+def uniform_at_py(key: int, counter: int) -> float:
+    """The uniform draw in [0, 1) at a raw ``counter`` (>= 0) of ``key`` (plain Python)."""
+    z = _mix_py((key + (counter & _MASK64) * _GOLDEN) & _MASK64)
     return (z >> 11) * _TO_UNIT
+
+
+def lane_key_py(key: int, lane: int) -> int:
+    """The key of side lane ``lane`` (>= 1) of the run key ``key`` (plain Python)."""
+    return _mix_py((key ^ ((lane * LANE_SALT) & _MASK64)) & _MASK64)
 
 
 _G = np.uint64(_GOLDEN)
@@ -57,12 +85,31 @@ _S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(
 _NS = np.uint64(N_STREAMS)
 
 
+_SALT = np.uint64(LANE_SALT)
+
+
 @numba.njit(cache=True, inline="always")
 def uniform(key, iteration, stream):
     """A uniform draw in [0, 1) (compiled); identical to :func:`uniform_py`."""
-    counter = np.uint64(iteration) * _NS + np.uint64(stream)
-    z = key + counter * _G + _G
+    return uniform_at(key, np.uint64(iteration) * _NS + np.uint64(stream))
+
+
+@numba.njit(cache=True, inline="always")
+def _mix(z):
+    """SplitMix64's finaliser of ``z + golden`` (compiled, uint64 wrap-around)."""
+    z = z + _G
     z = (z ^ (z >> _S30)) * _M1
     z = (z ^ (z >> _S27)) * _M2
-    z = z ^ (z >> _S31)
-    return np.float64(z >> _S11) * _TO_UNIT
+    return z ^ (z >> _S31)
+
+
+@numba.njit(cache=True, inline="always")
+def uniform_at(key, counter):
+    """The uniform draw in [0, 1) at a raw ``counter`` of ``key`` (compiled); identical to :func:`uniform_at_py`."""
+    return np.float64(_mix(key + np.uint64(counter) * _G) >> _S11) * _TO_UNIT
+
+
+@numba.njit(cache=True, inline="always")
+def lane_key(key, lane):
+    """The key of side lane ``lane`` (>= 1) of the run key ``key`` (compiled); identical to :func:`lane_key_py`."""
+    return _mix(key ^ (np.uint64(lane) * _SALT))
