@@ -3,6 +3,10 @@
 Both step a :class:`~tableclean_suite.learners.TransitionTable`, either with the compiled
 batched loop (:mod:`tableclean_suite.learners.kernel`, chunks of runs) or the plain
 per-step loop (:mod:`tableclean_suite.learners.reference`); the two give identical arrays.
+
+The learner carries its update rule, parameters, initial value (``q_init``) and exploration
+(:class:`~tableclean_suite.learners.TabularLearner`).  Double Q-learning's result ``q`` is the
+average of its two tables; both are in ``info["double_q_tables"]``, shape ``(R, 2, S, A)``.
 """
 
 from __future__ import annotations
@@ -13,7 +17,9 @@ import numpy as np
 
 from tableclean_suite.backends import BackendRecords, TrainingJob
 from tableclean_suite.learners import kernel, reference
+from tableclean_suite.learners.reference import DOUBLE_Q_TABLES
 from tableclean_suite.learners.rng import run_keys
+from tableclean_suite.learners.rules import METHOD_DOUBLE_Q
 from tableclean_suite.learners.transitions import TransitionTable
 
 #: Runs trained per compiled call; only affects progress granularity and peak memory, never the numbers.
@@ -77,22 +83,34 @@ class TableBackend:
                 for r in progress_bar(range(job.runs), job.progress, "runs")
             ]
             records = {name: np.stack([run[name] for run in per_run]) for name in (*RECORD_FIELDS, "q")}
-            return BackendRecords(**records, config=config)
+            info = {}
+            if DOUBLE_Q_TABLES in per_run[0]:
+                info[DOUBLE_Q_TABLES] = np.stack([run[DOUBLE_Q_TABLES] for run in per_run])
+            return BackendRecords(**records, config=config, info=info)
         model = job.model
+        learner = job.learner
         records = empty_records(job.runs, job.iterations, model.record_dtype)
-        q = np.zeros((job.runs, model.n_states, model.n_actions), dtype=np.float64)
+        q = np.full((job.runs, model.n_states, model.n_actions), learner.q_init, dtype=np.float64)
+        double = learner.method == METHOD_DOUBLE_Q
+        q_second = np.full(q.shape if double else (job.runs, 0, 0), learner.q_init, dtype=np.float64)
         keys = run_keys(job.seed, job.first_run, job.runs)
         starts = np.array([s.index for s in model.start_states()], dtype=np.int64)
         values = job.reward.outcome_values()
         loop_value = 0.0 if job.reward.looping_penalty is None else job.reward.looping_penalty
-        train_batch = kernel.kernel_for(job.learner)
-        for lo in progress_bar(range(0, job.runs, RUNS_PER_CHUNK), job.progress, f"{job.learner.name}/{job.reward.name}"):
+        learner_parameters = learner.kernel_parameters()
+        explore_parameters = learner.exploration.kernel_parameters(job.epsilon)
+        train_batch = kernel.kernel_for(learner)
+        for lo in progress_bar(range(0, job.runs, RUNS_PER_CHUNK), job.progress, f"{learner.name}/{job.reward.name}"):
             hi = min(lo + RUNS_PER_CHUNK, job.runs)
             train_batch(
                 table.next_state, table.outcome, table.cumulative, starts, values, loop_value, job.reward.looping_code,
-                job.learner.target_code, job.learner.on_policy, job.alpha, job.gamma, job.epsilon, job.max_itr,
-                keys[lo:hi], q[lo:hi], *(records[name][lo:hi] for name in RECORD_FIELDS),
+                learner.target_code, learner.on_policy, learner.method, learner_parameters, job.alpha, job.gamma,
+                learner.exploration.code, explore_parameters, job.max_itr,
+                keys[lo:hi], q[lo:hi], q_second[lo:hi], *(records[name][lo:hi] for name in RECORD_FIELDS),
             )
+        if double:
+            return BackendRecords(**records, q=(q + q_second) * kernel.HALF, config=config,
+                                  info={DOUBLE_Q_TABLES: np.stack((q, q_second), axis=1)})
         return BackendRecords(**records, q=q, config=config)
 
 

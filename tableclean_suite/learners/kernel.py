@@ -5,10 +5,16 @@ compiled with numba and parallel over runs.  :mod:`.reference` is the same loop
 in plain Python, one step at a time; both draw the same counter-based random
 numbers (:mod:`.rng`), so they produce identical arrays.
 
-The loop picks the built-in TD target by an integer code, so :func:`train_batch`
+The loop picks the built-in TD target, the update rule (one-step, double Q, eligibility
+traces, Dyna planning) and the exploration by integer codes, so :func:`train_batch`
 takes no function argument and numba's disk cache (``cache=True``) serves it to every
 new process without recompiling.  A user learner's target gets its own compiled copy
 of the same loop (:func:`user_train_batch`), built once per process.
+
+Per-step cost: one-step and double-Q updates are O(A); trace learners touch only the
+pairs with a non-zero trace (a per-run list of the pairs visited in the current episode,
+pruned when a trace is cut or underflows to 0), which gives exactly the dense S x A sweep's
+numbers; Dyna-Q adds ``planning_steps`` O(A) updates.
 """
 
 from __future__ import annotations
@@ -18,27 +24,57 @@ import inspect
 import types
 
 import numba
+import numpy as np
 
-from tableclean_suite.learners.rng import STREAM_EXPLORE, STREAM_RANDOM_ACTION, STREAM_START, STREAM_TRANSITION, uniform
-from tableclean_suite.learners.rules import TabularLearner, builtin_td_target, greedy_action
+from tableclean_suite.learners.exploration import (
+    EPSILON_GREEDY_CODE,
+    P_START,
+    SOFTMAX_CODE,
+    VISIT_DECAY_CODE,
+    choose_action,
+    epsilon_greedy,  # noqa: F401  (re-exported: the paper's policy)
+    exploration_parameter,
+)
+from tableclean_suite.learners.rng import (
+    LANE_LEARNER,
+    LANE_PLANNING,
+    STREAM_DOUBLE_TABLE,
+    STREAM_EXPLORE,
+    STREAM_RANDOM_ACTION,
+    STREAM_START,
+    STREAM_TRANSITION,
+    lane_key,
+    uniform,
+    uniform_at,
+)
+from tableclean_suite.learners.rules import (
+    EXPECTED_SARSA_TARGET,
+    METHOD_DOUBLE_Q,
+    METHOD_DYNA,
+    METHOD_TRACES,
+    PARAM_ACCUMULATE,
+    PARAM_LAMBDA,
+    PARAM_PLANNING,
+    TabularLearner,
+    builtin_td_target,
+    double_q_target,
+    greedy_action,
+    q_learning_target,
+    softmax_expected_sarsa_target,
+)
 from tableclean_suite.task import Outcome
 
 #: Codes of ``episode_end`` in training records.
 EPISODE_CONTINUES, EPISODE_TERMINAL, EPISODE_TRUNCATED = 0, 1, 2
 NO_STATE = -1  # no previous state (first step of an episode) / no pending action
+#: A double-Q step updates table A when its side-lane draw is below this, else table B.
+DOUBLE_Q_SPLIT = 0.5
+HALF = 0.5
 
 _ROUTINE = int(Outcome.ROUTINE)
 _INEFFECTIVE = int(Outcome.INEFFECTIVE)
 _TERMINAL = int(Outcome.TERMINAL)
 _LOOPING_ADD = 2
-
-
-@numba.njit(cache=True)
-def epsilon_greedy(q_row, epsilon, explore_draw, action_draw):
-    """Epsilon-greedy action: random (uniform over all actions) when ``explore_draw < epsilon``."""
-    if explore_draw < epsilon:
-        return min(int(action_draw * q_row.shape[0]), q_row.shape[0] - 1)
-    return greedy_action(q_row)
 
 
 @numba.njit(cache=True)
@@ -64,6 +100,158 @@ def loop_adjusted_reward(reward, outcome, state, next_state, previous_state, loo
     return loop_value
 
 
+# -- behaviour ------------------------------------------------------------------------------
+@numba.njit(cache=True, inline="always")
+def behaviour_row(q_a, q_b, state, double, row):
+    """The Q row the policy acts on: ``q_a[state]``, or for double Q ``(q_a + q_b) / 2`` written into ``row``."""
+    if not double:
+        return q_a[state]
+    for a in range(row.shape[0]):
+        row[a] = (q_a[state, a] + q_b[state, a]) * HALF
+    return row
+
+
+@numba.njit(cache=True, inline="always")
+def visit_count(visits, state):
+    """Earlier visits of ``state`` (0 when the exploration does not count them: ``visits`` is empty)."""
+    if visits.shape[0] == 0:
+        return 0
+    return visits[state]
+
+
+@numba.njit(cache=True, inline="always")
+def act(q_a, q_b, row, state, plain, double, explore_code, explore_parameters, key, iteration, visits):
+    """The behaviour policy's action in ``state`` at ``iteration`` (main-lane draws of that iteration).
+
+    ``plain``: constant epsilon-greedy on ``q_a`` (the paper's policy, taken without the
+    general path's per-step schedule and row work: same action, fewer instructions).
+    """
+    explore_draw = uniform(key, iteration, STREAM_EXPLORE)
+    action_draw = uniform(key, iteration, STREAM_RANDOM_ACTION)
+    if plain:
+        return epsilon_greedy(q_a[state], explore_parameters[P_START], explore_draw, action_draw)
+    parameter = exploration_parameter(explore_code, explore_parameters, iteration, visit_count(visits, state))
+    return choose_action(behaviour_row(q_a, q_b, state, double, row), explore_code, parameter, explore_draw, action_draw)
+
+
+@numba.njit(cache=True)
+def is_exploratory(q_row, action):
+    """True when ``action``'s value is below the row's maximum (a tie with the greedy action is not)."""
+    return q_row[action] < q_row[greedy_action(q_row)]
+
+
+# -- update rules -----------------------------------------------------------------------------
+@numba.njit(cache=True)
+def double_q_update(q_a, q_b, state, action, next_state, reward, alpha, gamma, terminal, draw):
+    """Double Q-learning: update A (``draw < DOUBLE_Q_SPLIT``) evaluated by B, or B evaluated by A."""
+    if draw < DOUBLE_Q_SPLIT:
+        updated, other = q_a, q_b
+    else:
+        updated, other = q_b, q_a
+    target = double_q_target(updated[next_state], other[next_state], reward, gamma, terminal)
+    updated[state, action] += alpha * (target - updated[state, action])
+
+
+@numba.njit(cache=True)
+def trace_update(q, traces, pairs, n_pairs, state, action, delta, alpha, decay, accumulate, cut):
+    """One eligibility-trace step; returns the new number of listed pairs.
+
+    Visits (state, action) (``e = 1``, or ``e += 1`` when ``accumulate``), then for every
+    pair with a non-zero trace ``Q += (alpha * delta) * e`` and ``e *= decay`` (``e = 0``
+    for all when ``cut``).  ``pairs[:n_pairs]`` lists exactly the pairs with ``e != 0``
+    (codes ``s * A + a``), so this equals the dense sweep over all S x A pairs.
+
+    Args:
+        q, traces: ``(S, A)`` float64 Q-table and traces, updated in place.
+        pairs: ``(S * A,)`` int64 pair list, updated in place.
+        decay: gamma * lambda in [0, 1].
+    """
+    n_actions = q.shape[1]
+    if traces[state, action] == 0.0:
+        pairs[n_pairs] = state * n_actions + action
+        n_pairs += 1
+        traces[state, action] = 1.0
+    elif accumulate:
+        traces[state, action] += 1.0
+    else:
+        traces[state, action] = 1.0
+    step = alpha * delta
+    kept = 0
+    for i in range(n_pairs):
+        pair = pairs[i]
+        s = pair // n_actions
+        a = pair - s * n_actions
+        q[s, a] += step * traces[s, a]
+        trace = 0.0 if cut else traces[s, a] * decay
+        traces[s, a] = trace
+        if trace != 0.0:
+            pairs[kept] = pair
+            kept += 1
+    return kept
+
+
+@numba.njit(cache=True)
+def clear_traces(traces, pairs, n_pairs):
+    """Zero the listed traces (episode start); returns 0, the new list length."""
+    n_actions = traces.shape[1]
+    for i in range(n_pairs):
+        traces[pairs[i] // n_actions, pairs[i] % n_actions] = 0.0
+    return 0
+
+
+@numba.njit(cache=True)
+def remember(model_next, model_reward, model_terminal, observed, n_observed, state, action, next_state, reward,
+             terminal):
+    """Dyna's model: store the last (next state, reward, terminal) of (state, action); returns pairs observed."""
+    if model_next[state, action] == NO_STATE:
+        observed[n_observed] = state * model_next.shape[1] + action
+        n_observed += 1
+    model_next[state, action] = next_state
+    model_reward[state, action] = reward
+    model_terminal[state, action] = terminal
+    return n_observed
+
+
+@numba.njit(cache=True)
+def plan(q, model_next, model_reward, model_terminal, observed, n_observed, planning_key, iteration, planning_steps,
+         alpha, gamma):
+    """Dyna-Q's planning after ``iteration``: ``planning_steps`` Q-learning updates on modelled pairs.
+
+    The j-th pair is ``observed[floor(u * n_observed)]`` with ``u`` the planning lane's draw
+    at counter ``iteration * planning_steps + j``.
+    """
+    n_actions = q.shape[1]
+    for j in range(planning_steps):
+        draw = uniform_at(planning_key, iteration * planning_steps + j)
+        pair = observed[min(int(draw * n_observed), n_observed - 1)]
+        s = pair // n_actions
+        a = pair - s * n_actions
+        target = q_learning_target(q[model_next[s, a]], NO_STATE, model_reward[s, a], gamma, 0.0, model_terminal[s, a])
+        q[s, a] += alpha * (target - q[s, a])
+
+
+# -- per-run working memory ---------------------------------------------------------------------
+@numba.njit(cache=True)
+def run_memory(n_states, n_actions, double, traced, counting, modelling):
+    """Per-run arrays, empty when the learner or exploration does not use them.
+
+    Returns (behaviour row ``(A,)``, visits ``(S,)``, traces ``(S, A)``, trace pairs ``(S*A,)``,
+    model next states ``(S, A)`` (NO_STATE = unseen), model rewards, model terminal flags,
+    observed pairs ``(S*A,)``).
+    """
+    row = np.empty(n_actions if double else 0)
+    visits = np.zeros(n_states if counting else 0, dtype=np.int64)
+    n_traced = n_states if traced else 0
+    traces = np.zeros((n_traced, n_actions))
+    pairs = np.empty(n_traced * n_actions, dtype=np.int64)
+    n_modelled = n_states if modelling else 0
+    model_next = np.full((n_modelled, n_actions), NO_STATE, dtype=np.int64)
+    model_reward = np.zeros((n_modelled, n_actions))
+    model_terminal = np.zeros((n_modelled, n_actions), dtype=np.bool_)
+    observed = np.empty(n_modelled * n_actions, dtype=np.int64)
+    return row, visits, traces, pairs, model_next, model_reward, model_terminal, observed
+
+
 @numba.njit(cache=True, parallel=True)
 def train_batch(
     next_state_table,
@@ -75,12 +263,16 @@ def train_batch(
     loop_mode,
     target_code,
     on_policy,
+    method,
+    learner_parameters,
     alpha,
     gamma,
-    epsilon,
+    explore_code,
+    explore_parameters,
     max_itr,
     keys,
     q,
+    q_second,
     rewards,
     outcomes,
     states,
@@ -98,21 +290,46 @@ def train_batch(
         target_code: the built-in learner's target code (``rules.Q_LEARNING_TARGET``, ...);
             ignored by a :func:`user_train_batch` copy, which calls its own target.
         on_policy: choose the next action before the update and take it (SARSA).
-        alpha, gamma, epsilon: learning rate, discount, exploration rate.
+        method: update rule (``rules.METHOD_*``).
+        learner_parameters: ``(N_LEARNER_PARAMETERS,)`` float64, ``TabularLearner.kernel_parameters()``.
+        alpha, gamma: learning rate, discount.
+        explore_code, explore_parameters: the exploration's code and ``(N_PARAMETERS,)`` float64
+            parameters (:mod:`.exploration`).
         max_itr: iterations after which an episode is truncated.
         keys: ``(R,)`` uint64 per-run random keys.
-        q: ``(R, S, A)`` float64 Q-tables, updated in place.
+        q: ``(R, S, A)`` float64 Q-tables (table A for double Q), initialised, updated in place.
+        q_second: ``(R, S, A)`` float64 table B for double Q, else ``(R, 0, 0)``.
         rewards: ``(R, T)`` float64 output, reward of each iteration.
         outcomes, states, actions: ``(R, T)`` int outputs (state before the step), of the
             task model's ``record_dtype`` (int8 for the paper's 24 states).
         episode_end: ``(R, T)`` int output (same dtype), EPISODE_* code after each iteration.
     """
     n_runs, n_iterations = rewards.shape
+    n_states, n_actions = q.shape[1], q.shape[2]
     n_starts = starts.shape[0]
     n_successors = next_state_table.shape[2]
+    double = method == METHOD_DOUBLE_Q
+    traced = method == METHOD_TRACES
+    modelling = method == METHOD_DYNA
+    choose_first = on_policy or traced
+    watkins = traced and not on_policy
+    decay = gamma * learner_parameters[PARAM_LAMBDA]
+    accumulate = learner_parameters[PARAM_ACCUMULATE] != 0.0
+    planning_steps = int(learner_parameters[PARAM_PLANNING])
+    counting = explore_code == VISIT_DECAY_CODE
+    plain = explore_code == EPSILON_GREEDY_CODE and not double
+    softmax_expected = explore_code == SOFTMAX_CODE and target_code == EXPECTED_SARSA_TARGET
     for r in numba.prange(n_runs):
         key = keys[r]
+        side_key = lane_key(key, LANE_LEARNER)
+        planning_key = lane_key(key, LANE_PLANNING)
         qr = q[r]
+        qb = q_second[r]
+        row, visits, traces, pairs, model_next, model_reward, model_terminal, observed = run_memory(
+            n_states, n_actions, double, traced, counting, modelling
+        )
+        n_pairs = 0
+        n_observed = 0
         state = NO_STATE
         previous = NO_STATE
         pending = NO_STATE
@@ -126,12 +343,12 @@ def train_batch(
                 previous = NO_STATE
                 pending = NO_STATE
                 length = 0
+                if traced:
+                    n_pairs = clear_traces(traces, pairs, n_pairs)
             if pending != NO_STATE:
                 action = pending
             else:
-                action = epsilon_greedy(
-                    qr[state], epsilon, uniform(key, t, STREAM_EXPLORE), uniform(key, t, STREAM_RANDOM_ACTION)
-                )
+                action = act(qr, qb, row, state, plain, double, explore_code, explore_parameters, key, t, visits)
             k = 0
             if n_successors > 1:
                 k = sample_index(cumulative_table[state, action], uniform(key, t, STREAM_TRANSITION))
@@ -142,13 +359,31 @@ def train_batch(
             )
             length += 1
             terminal = outcome == _TERMINAL
+            if counting:
+                visits[state] += 1
             pending = NO_STATE
-            if on_policy and not terminal:
-                pending = epsilon_greedy(
-                    qr[nxt], epsilon, uniform(key, t + 1, STREAM_EXPLORE), uniform(key, t + 1, STREAM_RANDOM_ACTION)
-                )
-            target = builtin_td_target(target_code, qr[nxt], pending, reward, gamma, epsilon, terminal)
-            qr[state, action] += alpha * (target - qr[state, action])
+            if choose_first and not terminal:
+                pending = act(qr, qb, row, nxt, plain, double, explore_code, explore_parameters, key, t + 1, visits)
+            if double:
+                double_q_update(qr, qb, state, action, nxt, reward, alpha, gamma, terminal,
+                                uniform(side_key, t, STREAM_DOUBLE_TABLE))
+            else:
+                behaviour = exploration_parameter(explore_code, explore_parameters, t + 1, visit_count(visits, nxt))
+                if softmax_expected:
+                    target = softmax_expected_sarsa_target(qr[nxt], reward, gamma, behaviour, terminal)
+                else:
+                    target = builtin_td_target(target_code, qr[nxt], pending, reward, gamma, behaviour, terminal)
+                if traced:
+                    cut = watkins and pending != NO_STATE and is_exploratory(qr[nxt], pending)
+                    n_pairs = trace_update(qr, traces, pairs, n_pairs, state, action, target - qr[state, action],
+                                           alpha, decay, accumulate, cut)
+                else:
+                    qr[state, action] += alpha * (target - qr[state, action])
+                if modelling:
+                    n_observed = remember(model_next, model_reward, model_terminal, observed, n_observed, state, action,
+                                          nxt, reward, terminal)
+                    plan(qr, model_next, model_reward, model_terminal, observed, n_observed, planning_key, t,
+                         planning_steps, alpha, gamma)
             rewards[r, t] = reward
             outcomes[r, t] = outcome
             states[r, t] = state
@@ -198,22 +433,23 @@ def kernel_for(learner: TabularLearner):
 def code_digest(learner: TabularLearner) -> str:
     """SHA-256 (hex) of the code that turns a task and a seed into ``learner``'s records.
 
-    Covers this loop, the random numbers, the rules module (built-in targets, greedy
-    choice) and the learner's own target source and on-policy flag, so a cache keyed on
-    it retrains when any of them changes (e.g. a user learner re-registered with another body).
+    Covers this module (the loop and its update rules), the random numbers, the rules
+    module (built-in targets) and the explorations, and the learner's own target source,
+    on-policy flag, update rule, parameters, initial value and exploration, so a cache
+    keyed on it retrains when any of them changes (e.g. a user learner re-registered
+    with another body).
     """
-    from tableclean_suite.learners import rng, rules
+    import sys
+
+    from tableclean_suite.learners import exploration, rng, rules
 
     digest = hashlib.sha256()
-    for module in (rng, rules):
+    for module in (rng, rules, exploration, sys.modules[__name__]):
         digest.update(inspect.getsource(module).encode())
-    digest.update(inspect.getsource(train_batch.py_func).encode())
-    digest.update(inspect.getsource(loop_adjusted_reward.py_func).encode())
-    digest.update(inspect.getsource(epsilon_greedy.py_func).encode())
     target = learner.td_target.py_func
     try:
         digest.update(inspect.getsource(target).encode())
     except (OSError, TypeError):
         digest.update(repr((target.__code__.co_code, target.__code__.co_consts)).encode())
-    digest.update(f"{learner.name}|{learner.on_policy}|{learner.target_code}".encode())
+    digest.update(f"{learner.name}|{learner.on_policy}|{learner.target_code}|{learner.settings()}".encode())
     return digest.hexdigest()

@@ -7,27 +7,48 @@ model itself (:class:`ModelStepEnv`), a measured transition table
 exactly the arrays of the compiled :func:`~.kernel.train_batch` (same random
 draws, same arithmetic); it is the baseline of ``benchmarks.speed`` and the
 loop of the physics backend.
+
+Every learner has its plain twin here (:class:`_Agent`), written independently of the
+compiled functions: double Q's two tables, eligibility traces as the dense S x A sweep
+of their definition, Dyna-Q's model and planning, and each exploration's schedule
+(:meth:`~.exploration.Exploration.parameter_at`) and softmax sampler.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Protocol
 
 import numpy as np
 
 from tableclean_suite.learners.kernel import EPISODE_CONTINUES, EPISODE_TERMINAL, EPISODE_TRUNCATED, NO_STATE
 from tableclean_suite.learners.rng import (
+    LANE_LEARNER,
+    LANE_PLANNING,
+    STREAM_DOUBLE_TABLE,
     STREAM_EXPLORE,
     STREAM_RANDOM_ACTION,
     STREAM_START,
     STREAM_TRANSITION,
+    lane_key_py,
     run_key,
+    uniform_at_py,
     uniform_py,
 )
-from tableclean_suite.learners.rules import TabularLearner
+from tableclean_suite.learners.rules import (
+    EXPECTED_SARSA_TARGET,
+    METHOD_DOUBLE_Q,
+    METHOD_DYNA,
+    METHOD_TRACES,
+    TabularLearner,
+)
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.rewards import RewardPattern
 from tableclean_suite.task import Outcome, TaskModel
+
+
+#: Key of double Q-learning's two tables in a record / ``TrainingResult.info``: ``(..., 2, S, A)``.
+DOUBLE_Q_TABLES = "double_q_tables"
 
 
 class StepEnv(Protocol):
@@ -67,15 +88,155 @@ class TableStepEnv(ModelStepEnv):
         return self.table.sample(state, action, draw)
 
 
+def _greedy(q_row) -> int:
+    best = 0
+    for a in range(1, len(q_row)):
+        if q_row[a] > q_row[best]:
+            best = a
+    return best
+
+
 def _epsilon_greedy(q_row, epsilon: float, explore_draw: float, action_draw: float) -> int:
     n_actions = len(q_row)
     if explore_draw < epsilon:
         return min(int(action_draw * n_actions), n_actions - 1)
-    best = 0
-    for a in range(1, n_actions):
-        if q_row[a] > q_row[best]:
-            best = a
-    return best
+    return _greedy(q_row)
+
+
+def _softmax_weights(q_row, temperature: float) -> list[float]:
+    """``exp((Q - max Q) / temperature)`` per action, in action order."""
+    best = max(q_row)
+    return [math.exp((value - best) / temperature) for value in q_row]
+
+
+def _softmax_action(q_row, temperature: float, draw: float) -> int:
+    weights = _softmax_weights(q_row, temperature)
+    total = 0.0
+    for weight in weights:
+        total += weight
+    threshold, running = draw * total, 0.0
+    for a, weight in enumerate(weights):
+        running += weight
+        if threshold < running:
+            return a
+    return len(q_row) - 1
+
+
+def _softmax_expected_target(q_row, reward: float, gamma: float, temperature: float, terminal: bool) -> float:
+    if terminal:
+        return reward
+    total = weighted = 0.0
+    for weight, value in zip(_softmax_weights(q_row, temperature), q_row):
+        total += weight
+        weighted += weight * value
+    return reward + gamma * (weighted / total)
+
+
+class _Agent:
+    """One run's learner in plain Python: tables, traces (dense, S x A), Dyna's model, visit counts.
+
+    The dense trace sweep here is the definition the compiled loop's sparse pair list
+    must reproduce exactly.
+    """
+
+    def __init__(self, learner: TabularLearner, n_states: int, n_actions: int, alpha: float, gamma: float,
+                 epsilon: float, key: int):
+        self.learner, self.alpha, self.gamma, self.epsilon, self.key = learner, alpha, gamma, epsilon, key
+        self.exploration = learner.exploration
+        self.double = learner.method == METHOD_DOUBLE_Q
+        self.traced = learner.method == METHOD_TRACES
+        self.planning = learner.method == METHOD_DYNA
+        self.choose_first = learner.on_policy or self.traced
+        self.q = self._table(n_states, n_actions, learner.q_init)
+        self.q_b = self._table(n_states, n_actions, learner.q_init) if self.double else None
+        self.traces = self._table(n_states, n_actions, 0.0) if self.traced else None
+        self.decay = gamma * learner.lambda_
+        self.visits = [0] * n_states
+        self.model: dict[tuple[int, int], tuple[int, float, bool]] = {}
+        self.observed: list[tuple[int, int]] = []
+        self.side_key = lane_key_py(key, LANE_LEARNER)
+        self.planning_key = lane_key_py(key, LANE_PLANNING)
+
+    @staticmethod
+    def _table(n_states, n_actions, value):
+        return [[value] * n_actions for _ in range(n_states)]
+
+    def begin_episode(self) -> None:
+        if self.traced:
+            for row in self.traces:
+                row[:] = [0.0] * len(row)
+
+    def row(self, state: int) -> list[float]:
+        """The Q row the behaviour policy acts on (double Q: the tables' average)."""
+        if not self.double:
+            return self.q[state]
+        return [(a + b) * 0.5 for a, b in zip(self.q[state], self.q_b[state])]
+
+    def act(self, state: int, t: int) -> int:
+        parameter = self.exploration.parameter_at(self.epsilon, t, self.visits[state])
+        if self.exploration.softmax:
+            return _softmax_action(self.row(state), parameter, uniform_py(self.key, t, STREAM_RANDOM_ACTION))
+        return _epsilon_greedy(
+            self.row(state), parameter, uniform_py(self.key, t, STREAM_EXPLORE), uniform_py(self.key, t, STREAM_RANDOM_ACTION)
+        )
+
+    def learn(self, t: int, state: int, action: int, reward: float, nxt: int, pending: int, terminal: bool) -> None:
+        if self.double:
+            self._learn_double(t, state, action, reward, nxt, terminal)
+            return
+        target = self._target(t, reward, nxt, pending, terminal)
+        if self.traced:
+            exploratory = pending != NO_STATE and self.q[nxt][pending] < max(self.q[nxt])
+            self._learn_traces(state, action, target - self.q[state][action], exploratory and not self.learner.on_policy)
+        else:
+            self.q[state][action] += self.alpha * (target - self.q[state][action])
+        if self.planning:
+            self._remember_and_plan(t, state, action, reward, nxt, terminal)
+
+    def _target(self, t, reward, nxt, pending, terminal) -> float:
+        behaviour = self.exploration.parameter_at(self.epsilon, t + 1, self.visits[nxt])
+        if self.exploration.softmax and self.learner.target_code == EXPECTED_SARSA_TARGET:
+            return _softmax_expected_target(self.q[nxt], reward, self.gamma, behaviour, terminal)
+        return self.learner.target(np.asarray(self.q[nxt]), pending, reward, self.gamma, behaviour, terminal)
+
+    def _learn_double(self, t, state, action, reward, nxt, terminal) -> None:
+        if uniform_py(self.side_key, t, STREAM_DOUBLE_TABLE) < 0.5:
+            updated, other = self.q, self.q_b
+        else:
+            updated, other = self.q_b, self.q
+        target = reward if terminal else reward + self.gamma * other[nxt][_greedy(updated[nxt])]
+        updated[state][action] += self.alpha * (target - updated[state][action])
+
+    def _learn_traces(self, state, action, delta, cut) -> None:
+        """The dense definition: every (s, a) gets ``Q += (alpha delta) e``, then ``e *= gamma lambda`` (or 0)."""
+        traces = self.traces
+        accumulating = self.learner.trace == "accumulating"
+        traces[state][action] = traces[state][action] + 1.0 if accumulating else 1.0
+        step = self.alpha * delta
+        for q_row, trace_row in zip(self.q, traces):
+            for a, trace in enumerate(trace_row):
+                q_row[a] += step * trace
+                trace_row[a] = 0.0 if cut else trace * self.decay
+
+    def _remember_and_plan(self, t, state, action, reward, nxt, terminal) -> None:
+        if (state, action) not in self.model:
+            self.observed.append((state, action))
+        self.model[(state, action)] = (nxt, reward, terminal)
+        steps = self.learner.planning_steps
+        for j in range(steps):
+            draw = uniform_at_py(self.planning_key, t * steps + j)
+            s, a = self.observed[min(int(draw * len(self.observed)), len(self.observed) - 1)]
+            s_next, r, end = self.model[(s, a)]
+            target = r if end else r + self.gamma * max(self.q[s_next])
+            self.q[s][a] += self.alpha * (target - self.q[s][a])
+
+    def tables(self) -> dict[str, np.ndarray]:
+        """``q`` ``(S, A)`` (double Q: the average of A and B) and, for double Q, both ``(2, S, A)``."""
+        q = np.asarray(self.q, dtype=np.float64)
+        if not self.double:
+            return {"q": q}
+        q_b = np.asarray(self.q_b, dtype=np.float64)
+        return {"q": (q + q_b) * 0.5, DOUBLE_Q_TABLES: np.stack((q, q_b))}
 
 
 def train_run(
@@ -93,14 +254,18 @@ def train_run(
 ) -> dict[str, np.ndarray]:
     """Train one run for ``iterations`` steps; returns its record arrays and Q-table.
 
+    The learner brings its update rule, parameters, ``q_init`` and exploration
+    (``epsilon`` is the exploration's start value).
+
     Returns a dict with ``rewards`` (T,) float64, ``outcomes``/``states``/
     ``actions``/``episode_end`` (T,) of ``env.model.record_dtype`` and ``q``
-    ``(n_states, n_actions)`` float64.
+    ``(n_states, n_actions)`` float64 (double Q: the average of its tables, which are
+    under ``"double_q_tables"``, shape ``(2, S, A)``).
     ``on_step(t)`` is called after every iteration (progress bars).
     """
     key = run_key(seed, run)
     model = env.model
-    q = [[0.0] * model.n_actions for _ in range(model.n_states)]
+    agent = _Agent(learner, model.n_states, model.n_actions, alpha, gamma, epsilon, key)
     dtype = model.record_dtype
     record = {name: np.zeros(iterations, dtype=dtype) for name in ("outcomes", "states", "actions", "episode_end")}
     record["rewards"] = np.zeros(iterations, dtype=np.float64)
@@ -111,23 +276,15 @@ def train_run(
             state = env.reset(uniform_py(key, t, STREAM_START))
             previous = pending = NO_STATE
             length = 0
-        if pending != NO_STATE:
-            action = pending
-        else:
-            action = _epsilon_greedy(
-                q[state], epsilon, uniform_py(key, t, STREAM_EXPLORE), uniform_py(key, t, STREAM_RANDOM_ACTION)
-            )
+            agent.begin_episode()
+        action = pending if pending != NO_STATE else agent.act(state, t)
         nxt, outcome = env.step(state, action, uniform_py(key, t, STREAM_TRANSITION))
         r = reward.reward(outcome, state, nxt, previous)
         length += 1
         terminal = outcome == Outcome.TERMINAL
-        pending = NO_STATE
-        if learner.on_policy and not terminal:
-            pending = _epsilon_greedy(
-                q[nxt], epsilon, uniform_py(key, t + 1, STREAM_EXPLORE), uniform_py(key, t + 1, STREAM_RANDOM_ACTION)
-            )
-        target = learner.target(np.asarray(q[nxt]), pending, r, gamma, epsilon, terminal)
-        q[state][action] += alpha * (target - q[state][action])
+        agent.visits[state] += 1
+        pending = agent.act(nxt, t + 1) if agent.choose_first and not terminal else NO_STATE
+        agent.learn(t, state, action, r, nxt, pending, terminal)
         record["rewards"][t] = r
         record["outcomes"][t] = outcome
         record["states"][t] = state
@@ -143,5 +300,5 @@ def train_run(
             previous, state = state, nxt
         if on_step is not None:
             on_step(t)
-    record["q"] = np.asarray(q, dtype=np.float64)
+    record.update(agent.tables())
     return record

@@ -1,12 +1,38 @@
-"""Tabular learners: one temporal-difference target per algorithm, and their registry.
+"""Tabular learners: one temporal-difference target per algorithm, an update rule, and their registry.
 
 Q-learning and SARSA differ only in the target of equation (2) of the paper; the
-shared loop (epsilon-greedy, episodes, recording) lives in :mod:`.kernel` and
-:mod:`.reference`.  A learner is data: a name, a compiled target function and
-whether it picks the next action before updating (on-policy, as SARSA does).
+shared loop (exploration, episodes, recording) lives in :mod:`.kernel` and
+:mod:`.reference`.  A learner is data: a name, a compiled target function, whether it
+picks the next action before updating (on-policy, as SARSA does), an *update rule*
+(:data:`METHODS`) with its parameters, the initial Q value and the exploration it acts with:
+
+================== ========================= ===============================================
+learner            update rule               target
+================== ========================= ===============================================
+q_learning         one step                  r + gamma max_a Q(s', a)
+sarsa              one step, on-policy       r + gamma Q(s', a')
+expected_sarsa     one step                  r + gamma E_pi Q(s', .) (pi: the behaviour policy)
+double_q_learning  double (tables A and B)   r + gamma Q_B(s', argmax Q_A(s')) into A, or A<->B
+q_lambda           traces, Watkins's cut     r + gamma max_a Q(s', a)
+sarsa_lambda       traces, on-policy         r + gamma Q(s', a')
+dyna_q             one step + n planning     r + gamma max_a Q(s', a), also on modelled steps
+================== ========================= ===============================================
+
+Traces (:data:`METHOD_TRACES`) are *replacing* by default (``e(s, a) = 1`` on a visit;
+``trace="accumulating"``: ``e(s, a) += 1``).  Per step, with delta = target - Q(s, a):
+every pair gets ``Q += (alpha * delta) * e`` and then ``e *= gamma * lambda_``, or ``e = 0``
+for all pairs after an exploratory next action when the learner is off-policy (Watkins's
+Q(lambda); an action is exploratory when its Q value is below its row's maximum, so a
+tie with the greedy action is not).  Traces reset at every episode start.  Dyna-Q keeps
+the last observed (next state, reward, terminal?) per (s, a) and, after every real step,
+makes ``planning_steps`` Q-learning updates on pairs drawn uniformly from those observed
+so far in the run.  Double Q-learning keeps two tables; a side-lane draw (:mod:`.rng`)
+picks the one to update, the other evaluates; it acts on their average, whose greedy
+action is that of their sum, and reports the average as its Q-table.
 
 Users add a learner by writing a ``numba.njit`` target with the signature of
-:func:`q_learning_target` and calling :func:`register_learner`.
+:func:`q_learning_target` and calling :func:`register_learner`; it may use the one-step
+or the trace update rule.
 
 The built-in targets are also reachable by an integer code (:func:`builtin_td_target`),
 so the compiled training loop that uses them takes no function argument and numba's
@@ -16,22 +42,16 @@ copy of the loop once per process.
 
 from __future__ import annotations
 
+import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numba
+import numpy as np
 
+from tableclean_suite.learners.checks import check_number
+from tableclean_suite.learners.exploration import EPSILON_GREEDY, Exploration, greedy_action, softmax_expectation
 from tableclean_suite.registry import Registry
-
-
-@numba.njit(cache=True)
-def greedy_action(q_row):
-    """Index of the largest value in ``q_row`` (shape ``(n_actions,)``), ties to the first."""
-    best = 0
-    for a in range(1, q_row.shape[0]):
-        if q_row[a] > q_row[best]:
-            best = a
-    return best
 
 
 @numba.njit(cache=True)
@@ -61,7 +81,10 @@ def sarsa_target(q_next, next_action, reward, gamma, epsilon, terminal):
 
 @numba.njit(cache=True)
 def expected_sarsa_target(q_next, next_action, reward, gamma, epsilon, terminal):
-    """Expected SARSA: ``r + gamma * E_pi[Q(s', .)]`` under the epsilon-greedy policy."""
+    """Expected SARSA: ``r + gamma * E_pi[Q(s', .)]`` under the epsilon-greedy policy.
+
+    (Under ``softmax`` exploration the loop uses :func:`softmax_expected_sarsa_target` instead.)
+    """
     if terminal:
         return reward
     n_actions = q_next.shape[0]
@@ -71,6 +94,14 @@ def expected_sarsa_target(q_next, next_action, reward, gamma, epsilon, terminal)
     expected *= epsilon / n_actions
     expected += (1.0 - epsilon) * q_next[greedy_action(q_next)]
     return reward + gamma * expected
+
+
+@numba.njit(cache=True)
+def softmax_expected_sarsa_target(q_next, reward, gamma, temperature, terminal):
+    """Expected SARSA under a Boltzmann policy at ``temperature``: ``r + gamma * sum_a P(a) Q(s', a)``."""
+    if terminal:
+        return reward
+    return reward + gamma * softmax_expectation(q_next, temperature)
 
 
 #: Target codes of the built-in learners (:func:`builtin_td_target`); USER_TARGET for any other.
@@ -88,23 +119,62 @@ def builtin_td_target(code, q_next, next_action, reward, gamma, epsilon, termina
     return q_learning_target(q_next, next_action, reward, gamma, epsilon, terminal)
 
 
+@numba.njit(cache=True)
+def double_q_target(q_select, q_evaluate, reward, gamma, terminal):
+    """The double estimator: ``r + gamma * Q_evaluate(s', argmax_a Q_select(s', a))``; ``r`` at a terminal state.
+
+    Args:
+        q_select: ``(n_actions,)`` row of the table being updated (picks the action).
+        q_evaluate: ``(n_actions,)`` row of the other table (values it).
+    """
+    if terminal:
+        return reward
+    return reward + gamma * q_evaluate[greedy_action(q_select)]
+
+
+#: Update rules (``TabularLearner.method``): one-step TD, double Q, eligibility traces, Dyna planning.
+METHOD_ONE_STEP, METHOD_DOUBLE_Q, METHOD_TRACES, METHOD_DYNA = 0, 1, 2, 3
+METHODS = {"one_step": METHOD_ONE_STEP, "double_q": METHOD_DOUBLE_Q, "traces": METHOD_TRACES, "dyna": METHOD_DYNA}
+#: Learner options (``train(learner_options=...)``) each update rule takes.
+METHOD_OPTIONS = {METHOD_ONE_STEP: (), METHOD_DOUBLE_Q: (), METHOD_TRACES: ("lambda_", "trace"),
+                  METHOD_DYNA: ("planning_steps",)}
+TRACE_KINDS = ("replacing", "accumulating")
+MAX_PLANNING_STEPS = 10_000
+#: Indices of the kernel's learner-parameter array (:meth:`TabularLearner.kernel_parameters`).
+PARAM_LAMBDA, PARAM_ACCUMULATE, PARAM_PLANNING = 0, 1, 2
+N_LEARNER_PARAMETERS = 3
+
+
 _NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
 
 
 @dataclass(frozen=True)
 class TabularLearner:
-    """A tabular TD learner.
+    """A tabular TD learner: target, update rule and its parameters, initial values, exploration.
 
     Attributes:
         name: registry key, lower_snake.
         td_target: ``numba.njit`` function ``(q_next, next_action, reward, gamma,
-            epsilon, terminal) -> float`` (see :func:`q_learning_target`).
-        on_policy: True if the next action is chosen (epsilon-greedy on Q before
+            epsilon, terminal) -> float`` (see :func:`q_learning_target`).  ``epsilon`` is the
+            behaviour policy's parameter at s' for the next step: epsilon at that iteration
+            (and state, for ``visit_decay``), or the temperature under ``softmax``.
+        on_policy: True if the next action is chosen (by the exploration, on Q before
             the update) and then taken, as SARSA does; False if the next action
-            is chosen afresh after the update, as Algorithm 1 does.
+            is chosen afresh after the update, as Algorithm 1 does.  (Trace learners
+            always choose it first, to know whether to cut; off-policy ones cut.)
         description: one line for tables.
         target_code: the built-in target's code (``Q_LEARNING_TARGET``, ...) when
             ``td_target`` is that built-in; ``USER_TARGET`` (default) otherwise.
+        method: update rule, one of :data:`METHODS`' codes (default one-step TD).
+            ``METHOD_DOUBLE_Q`` and ``METHOD_DYNA`` need the Q-learning target, off-policy.
+        lambda_: trace decay lambda in [0, 1] (``METHOD_TRACES``; traces decay by gamma * lambda_).
+        trace: ``"replacing"`` (e = 1 on a visit, default) or ``"accumulating"`` (e += 1).
+        planning_steps: Dyna planning updates per real step, integer in [0, 10000] (``METHOD_DYNA``).
+        q_init: initial value of every Q entry (any finite float; above the best return it is optimistic).
+        exploration: the behaviour policy (:mod:`.exploration`; default constant epsilon-greedy).
+
+    ``train()`` sets the last five from ``learner_options=``, ``q_init=`` and ``exploration=``
+    (:meth:`configured`), so every backend, the physics one included, trains what was asked.
     """
 
     name: str
@@ -112,6 +182,12 @@ class TabularLearner:
     on_policy: bool = False
     description: str = field(default="", compare=False)
     target_code: int = USER_TARGET
+    method: int = METHOD_ONE_STEP
+    lambda_: float = 0.0
+    trace: str = TRACE_KINDS[0]
+    planning_steps: int = 0
+    q_init: float = 0.0
+    exploration: Exploration = EPSILON_GREEDY
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not _NAME_PATTERN.match(self.name):
@@ -126,6 +202,62 @@ class TabularLearner:
         if self.target_code != USER_TARGET and builtin is not self.td_target:
             raise ValueError(f"learner {self.name!r}: target_code {self.target_code} is not the code of its td_target; "
                              f"leave it at USER_TARGET ({USER_TARGET}) for a user target")
+        self._check_method()
+        self._check_parameters()
+
+    def _check_method(self) -> None:
+        if self.method not in METHOD_OPTIONS:
+            raise ValueError(f"learner {self.name!r}: unknown method {self.method!r}; allowed codes: "
+                             + ", ".join(f"{code} ({name})" for name, code in METHODS.items()))
+        needs_max = self.method in (METHOD_DOUBLE_Q, METHOD_DYNA)
+        if needs_max and (self.target_code != Q_LEARNING_TARGET or self.on_policy):
+            raise ValueError(f"learner {self.name!r}: the {self.method_name} update rule needs the built-in "
+                             f"Q-learning target (target_code {Q_LEARNING_TARGET}) and on_policy=False")
+
+    def _check_parameters(self) -> None:
+        what = f"learner {self.name!r}"
+        check_number(f"{what}: lambda_", self.lambda_, 0, 1)
+        if self.trace not in TRACE_KINDS:
+            raise ValueError(f"{what}: trace must be one of {', '.join(TRACE_KINDS)}, got {self.trace!r}")
+        check_number(f"{what}: planning_steps", self.planning_steps, 0, MAX_PLANNING_STEPS, integer=True)
+        check_number(f"{what}: q_init", self.q_init, -math.inf, math.inf)
+        if not isinstance(self.exploration, Exploration):
+            raise TypeError(f"{what}: exploration must be an Exploration, got {self.exploration!r}")
+        object.__setattr__(self, "lambda_", float(self.lambda_))
+        object.__setattr__(self, "planning_steps", int(self.planning_steps))
+        object.__setattr__(self, "q_init", float(self.q_init) + 0.0)  # -0.0 -> 0.0
+
+    @property
+    def method_name(self) -> str:
+        """The update rule's name (a key of :data:`METHODS`)."""
+        return next(name for name, code in METHODS.items() if code == self.method)
+
+    def configured(self, options: dict | None = None, q_init: float | None = None,
+                   exploration: Exploration | None = None) -> "TabularLearner":
+        """A copy with ``options`` (this update rule's parameters, see :data:`METHOD_OPTIONS`),
+        ``q_init`` and ``exploration`` replaced (``None``: keep).  ``ValueError`` names
+        options this learner does not take and out-of-range values."""
+        options = dict(options or {})
+        allowed = METHOD_OPTIONS[self.method]
+        unknown = sorted(set(options) - set(allowed))
+        if unknown:
+            takes = f"takes {', '.join(allowed)}" if allowed else "takes no learner_options"
+            raise ValueError(f"learner {self.name!r} ({self.method_name} update) {takes}; got {unknown}")
+        if q_init is not None:
+            options["q_init"] = q_init
+        if exploration is not None:
+            options["exploration"] = exploration
+        return replace(self, **options) if options else self
+
+    def kernel_parameters(self) -> np.ndarray:
+        """``(N_LEARNER_PARAMETERS,)`` float64 ``[lambda_, accumulate (0/1), planning_steps]``."""
+        return np.array([self.lambda_, float(self.trace == "accumulating"), float(self.planning_steps)])
+
+    def settings(self) -> dict:
+        """What besides name and target changes the numbers (JSON-serialisable), e.g. for cache keys."""
+        settings = {"method": self.method_name, "q_init": self.q_init, "exploration": self.exploration.to_dict()}
+        settings.update({name: getattr(self, name) for name in METHOD_OPTIONS[self.method]})
+        return settings
 
     def target(self, q_next, next_action, reward, gamma, epsilon, terminal) -> float:
         """The TD target in plain Python (the reference loop's path)."""
@@ -143,11 +275,31 @@ Q_LEARNING = TabularLearner(
 )
 SARSA = TabularLearner("sarsa", sarsa_target, True, "SARSA (on-policy, target uses the next action taken)", SARSA_TARGET)
 EXPECTED_SARSA = TabularLearner(
-    "expected_sarsa", expected_sarsa_target, False, "Expected SARSA (expectation over the epsilon-greedy policy)",
+    "expected_sarsa", expected_sarsa_target, False, "Expected SARSA (expectation over the behaviour policy)",
     EXPECTED_SARSA_TARGET,
 )
+DOUBLE_Q_LEARNING = TabularLearner(
+    "double_q_learning", q_learning_target, False,
+    "Double Q-learning (two tables; a draw picks the one updated, the other evaluates)", Q_LEARNING_TARGET,
+    method=METHOD_DOUBLE_Q,
+)
+Q_LAMBDA = TabularLearner(
+    "q_lambda", q_learning_target, False, "Watkins's Q(lambda) (eligibility traces, cut after exploratory actions)",
+    Q_LEARNING_TARGET, method=METHOD_TRACES, lambda_=0.9,
+)
+SARSA_LAMBDA = TabularLearner(
+    "sarsa_lambda", sarsa_target, True, "SARSA(lambda) (on-policy, eligibility traces)", SARSA_TARGET,
+    method=METHOD_TRACES, lambda_=0.9,
+)
+DYNA_Q = TabularLearner(
+    "dyna_q", q_learning_target, False, "Dyna-Q (Q-learning + planning on a learned deterministic model)",
+    Q_LEARNING_TARGET, method=METHOD_DYNA, planning_steps=5,
+)
 
-_REGISTRY: Registry[TabularLearner] = Registry("learner", TabularLearner, (Q_LEARNING, SARSA, EXPECTED_SARSA))
+_REGISTRY: Registry[TabularLearner] = Registry(
+    "learner", TabularLearner,
+    (Q_LEARNING, SARSA, EXPECTED_SARSA, DOUBLE_Q_LEARNING, Q_LAMBDA, SARSA_LAMBDA, DYNA_Q),
+)
 
 
 def register_learner(learner: TabularLearner, overwrite: bool = False) -> TabularLearner:

@@ -12,12 +12,14 @@ instead of the compiled one (same numbers, much slower).
 
 from __future__ import annotations
 
-import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from tableclean_suite.backends import TrainingJob, backend_names, get_backend
+from tableclean_suite.learners.checks import check_number
+from tableclean_suite.learners.exploration import Exploration, as_exploration
 from tableclean_suite.learners.rules import TabularLearner, get_learner
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.rewards import RewardPattern, get_reward_pattern
@@ -74,14 +76,7 @@ class TrainingResult:
         return episode_table(self)
 
 
-def _check_number(name, value, low, high, low_open=False, integer=False):
-    allowed = f"{'(' if low_open else '['}{low}, {high}]"
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name} must be a number in {allowed}, got {value!r}")
-    if integer and int(value) != value:
-        raise ValueError(f"{name} must be an integer in {allowed}, got {value!r}")
-    if not math.isfinite(float(value)) or value < low or value > high or (low_open and value == low):
-        raise ValueError(f"{name} must be in {allowed}, got {value!r}")
+_check_number = check_number
 
 
 def validate_hyperparameters(runs, iterations, alpha, gamma, epsilon, max_itr, seed) -> None:
@@ -114,6 +109,9 @@ def train(
     physics_options: dict | None = None,
     progress: bool = False,
     task: "TaskModel | TaskSpec | str | None" = None,
+    learner_options: dict | None = None,
+    q_init: float | None = None,
+    exploration: "str | Exploration | Mapping | None" = None,
 ) -> TrainingResult:
     """Train ``runs`` independent learners for ``iterations`` environment steps each.
 
@@ -140,6 +138,16 @@ def train(
         progress: show a tqdm progress bar.
         task: the task: a registered spec name, a :class:`TaskSpec`, a ``.json`` path
             or a :class:`TaskModel` (default: ``model``, else the ``paper`` spec).
+        learner_options: the learner's update-rule parameters: ``q_lambda`` / ``sarsa_lambda``
+            take ``lambda_`` (in [0, 1], default 0.9) and ``trace`` (``"replacing"``, default,
+            or ``"accumulating"``); ``dyna_q`` takes ``planning_steps`` (integer in [0, 10000],
+            default 5).  Others take none (``ValueError`` names what is allowed).
+        q_init: initial value of every Q entry, any finite float (default: the learner's,
+            0.0 for the registered ones, the paper's); larger than the best return is optimistic.
+        exploration: the behaviour policy, independent of the learner: a registered name
+            (``"epsilon_greedy"`` default, ``"linear_decay"``, ``"exponential_decay"``,
+            ``"visit_decay"``, ``"softmax"``), an :class:`~tableclean_suite.learners.exploration.Exploration`
+            or a mapping ``{"name": ..., **parameters}``.  Epsilon schedules start at ``epsilon``.
 
     Returns:
         A :class:`TrainingResult` with ``(runs, iterations)`` records and final Q-tables.
@@ -147,6 +155,7 @@ def train(
     learner = get_learner(learner)
     reward = get_reward_pattern(reward)
     validate_hyperparameters(runs, iterations, alpha, gamma, epsilon, max_itr, seed)
+    learner = configure_learner(learner, learner_options, q_init, exploration, epsilon)
     _check_number("first_run", first_run, 0, 2**62, integer=True)
     if engine not in ENGINES:
         raise ValueError(f"unknown engine {engine!r}; allowed: {', '.join(ENGINES)}")
@@ -167,6 +176,7 @@ def train(
     )
     config = {
         "learner": learner.name,
+        "learner_settings": learner.settings(),
         "reward": reward.name,
         "runs": job.runs,
         "iterations": job.iterations,
@@ -186,6 +196,19 @@ def train(
         rewards=records.rewards, outcomes=records.outcomes, states=records.states, actions=records.actions,
         episode_end=records.episode_end, q=records.q, config=config, info=records.info,
     )
+
+
+def configure_learner(learner: TabularLearner, learner_options: dict | None, q_init: float | None,
+                      exploration, epsilon: float) -> TabularLearner:
+    """``learner`` with ``train()``'s ``learner_options``, ``q_init`` and ``exploration`` applied and validated."""
+    if learner_options is not None and not isinstance(learner_options, Mapping):
+        raise ValueError(f"learner_options must be a dict of option -> value, got {learner_options!r}")
+    if q_init is not None:
+        check_number("q_init", q_init, -np.inf, np.inf)
+    chosen = None if exploration is None else as_exploration(exploration)
+    learner = learner.configured(learner_options, q_init, chosen)
+    learner.exploration.check(float(epsilon))
+    return learner
 
 
 def available_backends() -> list[str]:
