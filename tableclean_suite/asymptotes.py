@@ -138,64 +138,71 @@ class EpisodeChain:
 
 
 @numba.njit(cache=True)
-def _episode_statistics(pi, pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr, tolerance,
-                        result):
-    """Forward DP over episode steps for each policy; writes ``result[p] = (success, terminal, E[R/L], E[L])``.
-
-    Args:
-        pi: ``(P, S, A)`` action probabilities.
-        max_itr: episode length limit (>= 1).
-        tolerance: stop once the mass inside the episode is below it.
-    """
-    n_policies = pi.shape[0]
+def _one_policy(pi, pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr, tolerance):
+    """Forward DP over episode steps for one policy ``pi`` ``(S, A)``; returns
+    ``(success, terminal, E[return / length], E[length])``."""
     n_pairs = pair_state.shape[0]
     n_actions, n_successors = probability.shape[1], probability.shape[2]
-    for p in range(n_policies):
-        mass = np.zeros((2, n_pairs))  # [clean flag, pair]: P(inside the episode here), 1 = no improper yet
-        gain = np.zeros((2, n_pairs))  # E[return so far ; inside the episode here]
-        for i in range(start_pairs.shape[0]):
-            mass[1, start_pairs[i]] += 1.0 / start_pairs.shape[0]
-        success = terminal = ratio = length = 0.0
-        for step in range(1, max_itr + 1):
-            new_mass = np.zeros((2, n_pairs))
-            new_gain = np.zeros((2, n_pairs))
-            last = step == max_itr
-            inside = 0.0
-            for clean in range(2):
-                for n in range(n_pairs):
-                    m = mass[clean, n]
-                    if m == 0.0:
+    mass = np.zeros((2, n_pairs))  # [clean flag, pair]: P(inside the episode here), 1 = no improper yet
+    gain = np.zeros((2, n_pairs))  # E[return so far ; inside the episode here]
+    for i in range(start_pairs.shape[0]):
+        mass[1, start_pairs[i]] += 1.0 / start_pairs.shape[0]
+    success = 0.0
+    terminal = 0.0
+    ratio = 0.0
+    length = 0.0
+    for step in range(1, max_itr + 1):
+        new_mass = np.zeros((2, n_pairs))
+        new_gain = np.zeros((2, n_pairs))
+        last = step == max_itr
+        inside = 0.0
+        for clean in range(2):
+            for n in range(n_pairs):
+                m = mass[clean, n]
+                if m == 0.0:
+                    continue
+                g = gain[clean, n]
+                s = pair_state[n]
+                for a in range(n_actions):
+                    w = pi[s, a]
+                    if w == 0.0:
                         continue
-                    g = gain[clean, n]
-                    s = pair_state[n]
-                    for a in range(n_actions):
-                        w = pi[p, s, a]
-                        if w == 0.0:
+                    for k in range(n_successors):
+                        q = probability[s, a, k]
+                        if q == 0.0:
                             continue
-                        for k in range(n_successors):
-                            q = probability[s, a, k]
-                            if q == 0.0:
-                                continue
-                            step_mass = m * w * q
-                            step_gain = g * w * q + step_mass * reward[n, a, k]
-                            still_clean = clean if outcome[s, a, k] != _IMPROPER else 0
-                            if outcome[s, a, k] == _TERMINAL:
-                                terminal += step_mass
-                                if still_clean == 1:
-                                    success += step_mass
-                                ratio += step_gain / step
-                                length += step_mass * step
-                            elif last:
-                                ratio += step_gain / step
-                                length += step_mass * step
-                            else:
-                                target = next_pair[s, a, k]
-                                new_mass[still_clean, target] += step_mass
-                                new_gain[still_clean, target] += step_gain
-                                inside += step_mass
-            mass, gain = new_mass, new_gain
-            if inside < tolerance:
-                break
+                        step_mass = m * w * q
+                        step_gain = g * w * q + step_mass * reward[n, a, k]
+                        still_clean = clean if outcome[s, a, k] != _IMPROPER else 0
+                        if outcome[s, a, k] == _TERMINAL:
+                            terminal += step_mass
+                            if still_clean == 1:
+                                success += step_mass
+                            ratio += step_gain / step
+                            length += step_mass * step
+                        elif last:
+                            ratio += step_gain / step
+                            length += step_mass * step
+                        else:
+                            target = next_pair[s, a, k]
+                            new_mass[still_clean, target] += step_mass
+                            new_gain[still_clean, target] += step_gain
+                            inside += step_mass
+        mass = new_mass
+        gain = new_gain
+        if inside < tolerance:
+            break
+    return success, terminal, ratio, length
+
+
+@numba.njit(cache=True, parallel=True)
+def _episode_statistics(pi, pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr, tolerance,
+                        result):
+    """:func:`_one_policy` for each policy of ``pi`` ``(P, S, A)`` (in parallel); writes
+    ``result[p] = (success, terminal, E[R/L], E[L])``."""
+    for p in numba.prange(pi.shape[0]):
+        success, terminal, ratio, length = _one_policy(pi[p], pair_state, next_pair, probability, outcome, reward,
+                                                       start_pairs, max_itr, tolerance)
         result[p, 0] = success
         result[p, 1] = terminal
         result[p, 2] = ratio
@@ -246,6 +253,9 @@ def greedy_asymptotes(q: np.ndarray, epsilon: float, chain: EpisodeChain, max_it
         computation (trained runs mostly converge to a few policies).
     """
     policies = greedy_policy(np.asarray(q))
+    visited = np.zeros(policies.shape[-1], dtype=bool)
+    visited[chain.pair_state] = True
+    policies = np.where(visited, policies, 0)  # states no episode visits do not matter: share more policies
     unique, inverse = np.unique(policies, axis=0, return_inverse=True)
     stats = episode_statistics(action_probabilities(unique, epsilon, q.shape[-1]), chain, max_itr)
     inverse = np.asarray(inverse).reshape(-1)

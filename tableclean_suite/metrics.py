@@ -505,36 +505,80 @@ def first_reaching(curve, level: float, start: int = 0) -> int | None:
 
 
 def early_minimum(curve, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION, top: float | None = None) -> int | None:
-    """Index (0-based) of the curve's early minimum, NaNs ignored; None if there is none.
+    """Index (0-based) of the curve's early extreme, NaNs ignored; None if there is none.
 
-    With ``top`` (an asymptote): the minimum before the curve first reaches ``top`` (the whole
-    curve if it never does), which the window does not change.  Without: the minimum before the
-    plateau window (the last ``plateau_fraction``).
+    With ``top`` (an asymptote): the point furthest from ``top`` among the defined points before
+    the curve first reaches ``top`` from its starting side (the whole curve if it never does):
+    the early minimum of a curve that rises to ``top``, the early maximum of one that starts above
+    it and falls.  The window does not change it.  Without ``top``: the minimum before the plateau
+    window (the last ``plateau_fraction``).
     """
     curve = np.asarray(curve, dtype=float)
     if top is None:
         window = max(1, math.ceil(len(curve) * plateau_fraction))
-        end = max(1, len(curve) - window)
-    else:
-        reached = first_reaching(curve, float(top))
-        end = len(curve) if reached is None else max(1, reached - 1)
-    early = curve[:end]
-    if np.all(np.isnan(early)):
-        return None
-    return int(np.nanargmin(early))
+        early = curve[: max(1, len(curve) - window)]
+        return None if np.all(np.isnan(early)) else int(np.nanargmin(early))
+    index = _extremes(curve[None, :], np.array([float(top)]))[0]
+    return None if index < 0 else int(index)
+
+
+def _sides(curves: np.ndarray, tops: np.ndarray):
+    """Per row of ``(B, T)`` curves: first defined index (-1 if none) and the side the curve starts
+    on relative to its top (+1 above, -1 at or below)."""
+    defined = ~np.isnan(curves)
+    first = np.where(defined.any(axis=1), np.argmax(defined, axis=1), -1)
+    start = curves[np.arange(len(curves)), np.maximum(first, 0)]
+    return first, np.where(start > tops, 1.0, -1.0)
+
+
+def _extremes(curves: np.ndarray, tops: np.ndarray) -> np.ndarray:
+    """:func:`early_minimum` with tops, row by row of ``(B, T)`` curves; -1 where undefined."""
+    first, side = _sides(curves, tops)
+    t = np.arange(curves.shape[1])[None, :]
+    with np.errstate(invalid="ignore"):
+        deviation = side[:, None] * (curves - tops[:, None])
+        crossed = (deviation <= 0) & (t >= first[:, None])
+    crossing = np.where(crossed.any(axis=1), np.argmax(crossed, axis=1), curves.shape[1])
+    segment = (t >= first[:, None]) & (t < np.maximum(crossing, first + 1)[:, None]) & ~np.isnan(curves)
+    extreme = np.argmax(np.where(segment, deviation, -np.inf), axis=1)
+    return np.where(first >= 0, extreme, -1)
+
+
+def convergence_iterations(curves: np.ndarray, tops: np.ndarray, threshold: float = DEFAULT_THRESHOLD) -> np.ndarray:
+    """Average-reward convergence of each row of ``(B, T)`` curves towards its top ``(B,)``:
+    the first iteration count (1-based), at or after the early extreme (:func:`early_minimum`),
+    at which the curve has covered ``threshold`` of the way from the extreme to the top.
+
+    Returns:
+        ``(B,)`` float64 iteration counts, NaN where never reached or undefined.
+    """
+    _check_fraction("threshold", threshold)
+    curves, tops = np.atleast_2d(np.asarray(curves, dtype=float)), np.atleast_1d(np.asarray(tops, dtype=float))
+    extreme = _extremes(curves, tops)
+    _, side = _sides(curves, tops)
+    rows = np.arange(len(curves))
+    value = curves[rows, np.maximum(extreme, 0)]
+    level = value + threshold * (tops - value)
+    with np.errstate(invalid="ignore"):
+        hit = (np.arange(curves.shape[1])[None, :] >= extreme[:, None]) & (side[:, None] * (curves - level[:, None]) <= 0)
+    found = hit.any(axis=1) & (extreme >= 0) & np.isfinite(tops)
+    return np.where(found, np.argmax(hit, axis=1) + 1.0, np.nan)
 
 
 def reward_convergence_iteration(
     curve, threshold: float = DEFAULT_THRESHOLD, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION,
     top: float | None = None,
 ) -> int | None:
-    """First iteration count t (1-based), at or after the early minimum, where the curve has
-    covered ``threshold`` of the way from its early minimum (:func:`early_minimum`) to its plateau
-    (``top``, default the window mean); None if never."""
+    """First iteration count t (1-based), at or after the early extreme, where the curve has
+    covered ``threshold`` of the way from its early extreme (:func:`early_minimum`) to its plateau
+    (``top``, default the window mean, for which the extreme is the early minimum); None if never."""
     _check_fraction("threshold", threshold)
     curve = np.asarray(curve, dtype=float)
-    lowest = early_minimum(curve, plateau_fraction, top)
-    top = plateau(curve, plateau_fraction) if top is None else float(top)
+    if top is not None:
+        found = convergence_iterations(curve[None, :], np.array([float(top)]), threshold)[0]
+        return None if np.isnan(found) else int(found)
+    lowest = early_minimum(curve, plateau_fraction)
+    top = plateau(curve, plateau_fraction)
     if lowest is None or not math.isfinite(top):
         return None
     level = curve[lowest] + threshold * (top - curve[lowest])
@@ -615,3 +659,63 @@ def summarize(
         terminal=terminal,
         episodes=episodes,
     )
+
+
+def batch_scalars(sums: dict, runs: np.ndarray, plateaus: dict, threshold: float = DEFAULT_THRESHOLD,
+                  plateau_fraction: float = DEFAULT_PLATEAU_FRACTION, support_fraction: float = 0.0,
+                  keep=None, episode_sums=None) -> tuple[dict, dict]:
+    """:func:`summarize` of B sets of sums at once (e.g. bootstrap replicates), same definitions.
+
+    Args:
+        sums: ``{"success", "average_sum", "finished_runs": (B, T)}`` and, unless ``episode_sums``
+            is given, ``"episodes": (B, T)``.
+        runs: ``(B,)`` runs behind each set.
+        plateaus: ``{"success", "average_reward", "terminal": (B,)}`` asymptotes.
+        keep: iteration indices of the curves to return (default all).
+        episode_sums: ``f(indices (B,) int) -> (B,)`` episode sums of each set at its index (so
+            that the ``(B, T)`` episode sums need not be built).
+
+    Returns:
+        ``({scalar: (B,) float64, NaN where None}, {"success", "average_reward": (B, len(keep))}``.
+    """
+    runs = np.asarray(runs, dtype=float)
+    rows = np.arange(len(runs))
+    if episode_sums is None:
+        episode_sums = lambda index: sums["episodes"][rows, index]  # noqa: E731
+    with np.errstate(invalid="ignore", divide="ignore"):
+        average = np.where(supported(sums["finished_runs"], runs[:, None], support_fraction),
+                           sums["average_sum"] / np.maximum(sums["finished_runs"], 1.0), np.nan)
+    curves = {"success": sums["success"] / runs[:, None], "average_reward": average}
+    tops = {name: np.asarray(plateaus[name], dtype=float) for name in ("success", "average_reward", "terminal")}
+    window = max(1, math.ceil(curves["success"].shape[1] * plateau_fraction))
+
+    def window_mean(curve):
+        tail = curve[:, -window:]
+        defined = ~np.isnan(tail)
+        with np.errstate(invalid="ignore"):
+            return np.where(defined.any(axis=1), np.nansum(tail, axis=1) / np.maximum(defined.sum(axis=1), 1), np.nan)
+
+    with np.errstate(invalid="ignore"):
+        reached = curves["success"] >= (threshold * tops["success"])[:, None]
+    success_at = np.where(reached.any(axis=1) & np.isfinite(tops["success"]), np.argmax(reached, axis=1) + 1.0, np.nan)
+    reward_at = convergence_iterations(curves["average_reward"], tops["average_reward"], threshold)
+
+    def episodes(at):
+        return np.where(np.isnan(at), np.nan, episode_sums(np.nan_to_num(at, nan=1).astype(int) - 1) / runs)
+
+    defined = ~np.isnan(average)
+    scalars = {
+        "max_success_iterations": success_at,
+        "max_success_episodes": episodes(success_at),
+        "reward_convergence_iterations": reward_at,
+        "reward_convergence_episodes": episodes(reward_at),
+        "success_plateau": tops["success"],
+        "max_average_reward": np.where(defined.any(axis=1), np.max(np.where(defined, average, -np.inf), axis=1),
+                                       np.nan),
+        "average_reward_plateau": tops["average_reward"],
+        "terminal_plateau": tops["terminal"],
+        "success_window_mean": window_mean(curves["success"]),
+        "average_reward_window_mean": window_mean(average),
+    }
+    keep = slice(None) if keep is None else keep
+    return scalars, {"success": curves["success"][:, keep], "average_reward": average[:, keep]}

@@ -127,5 +127,5 @@ def test_cli_outputs_agree_with_their_manifest(tmp_path):
     assert result.returncode == 0, result.stderr
     assert outputs.check_outputs(out) == []
     manifest = json.loads((out / outputs.MANIFEST).read_text())
-    assert sorted(manifest["files"]) == sorted(DATA_FILES)
+    assert sorted(manifest["files"]) == sorted((*DATA_FILES, "comparisons.csv"))
     assert manifest["args"]["runs"] == 5 and manifest["args"]["rewards"] == ["r4"]

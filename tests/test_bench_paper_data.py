@@ -17,7 +17,8 @@ def test_reference_is_a_plain_citation():
 
 def test_tables_use_the_packaged_paper_data():
     assert tables.PAPER_TABLE3 is paper_data.PAPER_TABLE3 and tables.PAPER_TABLE4 is paper_data.PAPER_TABLE4
-    assert list(tables.TABLE4_COLUMNS[:-1]) == list(paper_data.PAPER_TABLE4_COLUMNS)
+    numbers = [c for c in tables.TABLE4_COLUMNS[:-1] if not c.endswith((tables.LOW, tables.HIGH))]
+    assert numbers == list(paper_data.PAPER_TABLE4_COLUMNS)
 
 
 def test_no_code_or_test_refers_to_files_outside_the_repository():

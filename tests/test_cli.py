@@ -74,12 +74,37 @@ def test_curves_long_format(smoke):
     out, _ = smoke
     curves = pd.read_csv(out / "curves.csv")
     assert list(curves.columns) == ["learner", "reward", "alpha", "gamma", "experiment", "iteration", "metric",
-                                    "value"]
+                                    "value", "low", "high"]
     assert set(curves["metric"]) == {"success", "average_reward", "episodes"}
     assert len(curves) == len(EXPECTED_ROWS) * 3 * 300
     one = curves[(curves["experiment"] == "main") & (curves["learner"] == "sarsa") & (curves["reward"] == "r2")
                  & (curves["metric"] == "success")]
     assert list(one["iteration"]) == list(range(1, 301))
+
+
+def test_every_number_has_an_interval_printed_and_in_the_csvs(smoke):
+    out, result = smoke
+    t3, t4 = pd.read_csv(out / "table3.csv"), pd.read_csv(out / "table4.csv")
+    for name in ("max_success_iterations", "reward_convergence_episodes", "success_plateau", "max_average_reward"):
+        columns = list(t3.columns)
+        assert columns[columns.index(name) + 1: columns.index(name) + 3] == [name + "_low", name + "_high"]
+        defined = t3[[name, name + "_low", name + "_high"]].dropna()
+        assert len(defined) > 0, name
+        assert (defined[name + "_low"] <= defined[name + "_high"]).all(), name
+    plateau = t3[["success_plateau", "success_plateau_low", "success_plateau_high"]].dropna()
+    assert ((plateau["success_plateau_low"] <= plateau["success_plateau"] + 1e-12)
+            & (plateau["success_plateau"] <= plateau["success_plateau_high"] + 1e-12)).all()
+    ours = t4[t4["source"] == "this run"]
+    assert ours["max_success_rate_percent_low"].notna().all() and ours["max_success_rate_percent_high"].notna().all()
+    assert "[95% CI]" in result.stdout or "95% percentile bootstrap" in result.stdout
+    assert "Probability of improvement" in result.stdout and "interquartile mean" in result.stdout
+    row = next(line for line in result.stdout.splitlines() if line.split()[:2] == ["q_learning", "r1"])
+    assert row.count("[") >= 6  # every quantity of the row printed with its interval
+    comparisons = pd.read_csv(out / "comparisons.csv")
+    assert comparisons["probability_of_improvement"].between(0, 1).all() and len(comparisons) == 2 * (6 * 2 + 4)
+    curves = pd.read_csv(out / "curves.csv")
+    banded = curves[curves["metric"] == "success"].dropna(subset=["low", "high"])
+    assert len(banded) > 0 and (banded["low"] <= banded["high"]).all()
 
 
 def test_rerun_resumes_every_cell_with_identical_table(smoke, tmp_path):
@@ -91,6 +116,7 @@ def test_rerun_resumes_every_cell_with_identical_table(smoke, tmp_path):
     assert "resumed 9 cells" in result.stdout and "trained 0" in result.stdout
     assert (copy / "table3.csv").read_bytes() == (out / "table3.csv").read_bytes()
     assert (copy / "curves.csv").read_bytes() == (out / "curves.csv").read_bytes()
+    assert (copy / "comparisons.csv").read_bytes() == (out / "comparisons.csv").read_bytes()
 
 
 def test_corrupt_cell_file_gives_clear_error(smoke, tmp_path):

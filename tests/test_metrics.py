@@ -215,3 +215,31 @@ def test_grouped_sums_do_not_depend_on_chunking():
     np.testing.assert_array_equal(whole.success, chunked.success)
     np.testing.assert_array_equal(whole.average_sum, chunked.average_sum)
     np.testing.assert_array_equal(whole.first_success_iterations(), chunked.first_success_iterations())
+
+
+def test_batch_scalars_equal_summarize_row_by_row():
+    from tableclean_suite.learners import train
+
+    rows = []
+    for seed in (1, 2, 3):  # three "replicates": independent trainings, each summarised both ways
+        sums = metrics.curve_sums(train("sarsa", "r4", runs=30, iterations=900, max_itr=80, seed=seed))
+        rows.append(sums)
+    plateaus = metrics.Plateaus(success=0.4, average_reward=0.05, terminal=0.9)
+    stacked = {name: np.stack([getattr(r, name) for r in rows]) for name in
+               ("success", "average_sum", "finished_runs", "episodes")}
+    tops = {name: np.full(3, getattr(plateaus, name)) for name in ("success", "average_reward", "terminal")}
+    batch, _ = metrics.batch_scalars(stacked, np.array([30, 30, 30]), tops, support_fraction=0.5)
+    for b, sums in enumerate(rows):
+        single = metrics.summarize(sums, plateaus=plateaus, support_fraction=0.5).scalars()
+        for name, value in single.items():
+            expected = np.nan if value is None else value
+            np.testing.assert_allclose(batch[name][b], expected, rtol=1e-12, equal_nan=True, err_msg=name)
+    assert np.isfinite(batch["reward_convergence_iterations"]).any()  # not vacuous
+
+
+def test_reward_convergence_of_a_falling_curve_starts_from_its_early_maximum():
+    # starts above its asymptote 0.2 and falls: early extreme = maximum 1.0 at index 1;
+    # level = 1.0 + 0.95 * (0.2 - 1.0) = 0.24; first at or below it: index 4
+    curve = [np.nan, 1.0, 0.8, 0.5, 0.22, 0.2, 0.21]
+    assert metrics.early_minimum(curve, top=0.2) == 1
+    assert metrics.reward_convergence_iteration(curve, top=0.2) == 5

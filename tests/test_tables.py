@@ -96,9 +96,16 @@ def test_display_table3_pairs_ours_with_paper():
                         record("main", learner="sarsa", reward="r3")])
     shown = tables.display_table3(t3)
     row = shown.loc[("q_learning", "r3")]
+    assert tables.display_table3(t3).shape[1] == 12  # 5 quantities x (ours, paper) + 2 of ours alone
     assert row[("reward conv. iterations", "ours")] == "-"
     assert row[("reward conv. iterations", "paper")] == 2350
-    assert row[("success %", "ours")] == 87.5 and row[("success %", "paper")] == 81.08
+    assert row[("success %", "ours")] == "87.50" and row[("success %", "paper")] == 81.08
+    with_bounds = tables.table3([record("main", reward="r3", success_plateau=0.875, success_plateau_low=0.8,
+                                        success_plateau_high=0.9, max_success_iterations=100,
+                                        max_success_iterations_low=90, max_success_iterations_high=130)])
+    bounded = tables.display_table3(with_bounds).loc[("q_learning", "r3")]
+    assert bounded[("success %", "ours")] == "87.50 [80.00, 90.00]"
+    assert bounded[("max success iterations", "ours")] == "100 [90, 130]"
     assert shown.loc[("sarsa", "r3")][("max success iterations", "paper")] == "-"
 
 
@@ -153,7 +160,12 @@ def test_curves_long_exact_rows_and_stride():
     curves = [{"success": np.array([0.0, 0.5, 1.0]), "average_reward": np.array([1.0, 2.0, 3.0]),
                "episodes": np.array([0.0, 1.0, 1.0])}]
     full = tables.curves_long(recs, curves)
-    assert list(full.columns) == ["learner", "reward", "alpha", "gamma", "experiment", "iteration", "metric", "value"]
+    assert list(full.columns) == ["learner", "reward", "alpha", "gamma", "experiment", "iteration", "metric", "value",
+                                  "low", "high"]
+    assert full["low"].isna().all()  # no bands given
+    banded = tables.curves_long(recs, [{**curves[0], "success_low": np.array([0.0, 0.25, 0.5]),
+                                        "success_high": np.array([0.5, 0.75, 1.0])}], metrics=("success",))
+    assert list(banded["low"]) == [0.0, 0.25, 0.5] and list(banded["high"]) == [0.5, 0.75, 1.0]
     assert len(full) == 9
     success = full[full["metric"] == "success"]
     assert list(success["iteration"]) == [1, 2, 3] and list(success["value"]) == [0.0, 0.5, 1.0]
@@ -221,7 +233,11 @@ def test_cell_key_includes_the_code():
     config = experiments.cell_config(experiments.Cell("q_learning", "r4", 0.3, 0.3), _config(), PAPER_MODEL)
     assert config["learner"]["code_digest"] == code_digest(get_learner("q_learning"))
     assert config["task_digest"] == PAPER_MODEL.code_digest()
-    assert config["metrics_digest"] == hashlib.sha256(inspect.getsource(metrics).encode()).hexdigest()
+    from tableclean_suite import analysis, asymptotes
+    from tableclean_suite.bench import statistics
+
+    sources = "".join(inspect.getsource(m) for m in (metrics, asymptotes, analysis, statistics))
+    assert config["metrics_digest"] == hashlib.sha256(sources.encode()).hexdigest()
 
 
 def _summary(iterations=5):
@@ -232,14 +248,32 @@ def _summary(iterations=5):
     return Summary(**scalars, **curves)
 
 
+def _statistics(runs):
+    from tableclean_suite.bench.statistics import CellStatistics
+
+    intervals = {name: (0.25, 0.75) for name in SUMMARY_SCALARS}
+    intervals["max_success_iterations"] = (float("nan"), float("nan"))
+    return CellStatistics(intervals=intervals, bands={"success": (np.zeros(3), np.ones(3)),
+                                                      "average_reward": (np.zeros(3), np.ones(3))},
+                          band_stride=2, runs={"success_asymptote": np.linspace(0, 1, runs),
+                                               "first_success_iterations": np.r_[np.nan, np.arange(runs - 1.0)]},
+                          scores={"success_asymptote": (0.5, 0.4, 0.6), "first_success_iterations": (3.0, 2.0, 4.0)})
+
+
 def test_cell_store_round_trip_and_corruption(tmp_path):
     store = experiments.CellStore(tmp_path / "cells")
     cell = experiments.Cell("sarsa", "r2", 0.5, 0.3)
     config = experiments.cell_config(cell, _config(), PAPER_MODEL)
     assert store.load(cell, config) is None
-    path = store.save(cell, config, _summary())
+    runs = config["settings"]["runs"]
+    path = store.save(cell, config, _summary(), _statistics(runs))
     assert path.name.startswith("sarsa-r2-a0.5-g0.3-") and path.suffix == ".npz"
-    loaded = store.load(cell, config)
+    loaded, stats = store.load(cell, config)
+    assert stats.intervals["success_plateau"] == (0.25, 0.75)
+    assert all(math.isnan(v) for v in stats.intervals["max_success_iterations"])
+    assert stats.scores["first_success_iterations"] == (3.0, 2.0, 4.0) and stats.band_stride == 2
+    np.testing.assert_array_equal(stats.runs["first_success_iterations"], _statistics(runs).runs["first_success_iterations"])
+    np.testing.assert_array_equal(stats.bands["success"][1], np.ones(3))
     assert isinstance(loaded, Summary)
     assert loaded.max_success_iterations is None and math.isnan(loaded.reward_convergence_episodes)
     assert loaded.success_plateau == 0.5
@@ -264,12 +298,16 @@ def test_table3_leaves_paper_columns_empty_for_another_task():
 def test_train_cell_chunking_does_not_change_the_numbers(runs_per_chunk):
     cell = experiments.Cell("q_learning", "r3", 0.5, 0.3)
     config = RunConfig(runs=23, iterations=600, max_itr=80, seed=9)
-    whole, _, _ = experiments.train_cell(cell, config, PAPER_MODEL, runs_per_chunk=config.runs)
-    chunked, _, _ = experiments.train_cell(cell, config, PAPER_MODEL, runs_per_chunk=runs_per_chunk)
+    whole, whole_stats, _, _ = experiments.train_cell(cell, config, PAPER_MODEL, runs_per_chunk=config.runs)
+    chunked, chunked_stats, _, _ = experiments.train_cell(cell, config, PAPER_MODEL, runs_per_chunk=runs_per_chunk)
     assert whole.max_success_iterations is not None
     for name in SUMMARY_SCALARS:
         a, b = getattr(whole, name), getattr(chunked, name)
         assert a == b or (a != a and b != b), name
+    assert whole_stats.intervals == chunked_stats.intervals or all(
+        np.allclose(whole_stats.intervals[n], chunked_stats.intervals[n], equal_nan=True) for n in SUMMARY_SCALARS)
+    for name, values in whole_stats.runs.items():
+        np.testing.assert_array_equal(chunked_stats.runs[name], values)
     for name in CURVE_NAMES:
         np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name))
 

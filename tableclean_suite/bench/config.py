@@ -18,7 +18,13 @@ import math
 from dataclasses import asdict, dataclass, fields
 from typing import ClassVar
 
+from tableclean_suite.bench.statistics import DEFAULT_CONFIDENCE, DEFAULT_SAMPLES
 from tableclean_suite.metrics import DEFAULT_PLATEAU_FRACTION, DEFAULT_THRESHOLD
+
+#: Fraction of the runs that must have finished an episode for an average-reward point to count.
+DEFAULT_SUPPORT_FRACTION = 0.5
+#: Largest ``bootstrap_samples``.
+MAX_BOOTSTRAP_SAMPLES = 100_000
 
 #: Episode start modes and ineffective-action modes a task spec can be overridden with.
 START_MODES = ("fixed", "uniform_unclean")
@@ -89,7 +95,14 @@ class RunConfig:
     threshold: float = DEFAULT_THRESHOLD
     """Fraction of the plateau that counts as reached, in (0, 1]."""
     plateau_fraction: float = DEFAULT_PLATEAU_FRACTION
-    """Final fraction of the window averaged as the plateau, in (0, 1]."""
+    """Final fraction of the window averaged as the window mean (shown beside the plateau, which is
+    the exact asymptote of the runs' final policies), in (0, 1]."""
+    support_fraction: float = DEFAULT_SUPPORT_FRACTION
+    """Fraction of the runs that must have finished an episode before an average-reward point counts, in [0, 1]."""
+    bootstrap_samples: int = DEFAULT_SAMPLES
+    """Bootstrap replicates behind each interval and band, an integer in [1, 100000]."""
+    confidence: float = DEFAULT_CONFIDENCE
+    """Coverage of the intervals, in (0, 1)."""
     backend: str = "symbolic"
     """Training backend: symbolic model, calibrated transition table, or skills in MuJoCo physics."""
     transitions: str | None = None
@@ -147,6 +160,14 @@ class RunConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and 0.0 < value <= 1.0):
                 raise ConfigError(name, f"{name} must be in (0, 1], got {value!r}")
+        if not (isinstance(self.support_fraction, (int, float)) and 0.0 <= self.support_fraction <= 1.0):
+            raise ConfigError("support_fraction", f"support_fraction must be in [0, 1], got {self.support_fraction!r}")
+        if not (isinstance(self.confidence, (int, float)) and 0.0 < self.confidence < 1.0):
+            raise ConfigError("confidence", f"confidence must be in (0, 1), got {self.confidence!r}")
+        if (isinstance(self.bootstrap_samples, bool) or not isinstance(self.bootstrap_samples, int)
+                or not 1 <= self.bootstrap_samples <= MAX_BOOTSTRAP_SAMPLES):
+            raise ConfigError("bootstrap_samples", "bootstrap_samples must be an integer in "
+                              f"[1, {MAX_BOOTSTRAP_SAMPLES}], got {self.bootstrap_samples!r}")
         self.task_spec()
         for name, allowed in (("start", START_MODES), ("ineffective", INEFFECTIVE_MODES)):
             value = getattr(self, name)

@@ -9,7 +9,9 @@ of a :class:`~tableclean_suite.bench.config.RunConfig`.  An **experiment** is a 
 
 A cell that belongs to several experiments (e.g. Q-learning/r4 at alpha = gamma = 0.3)
 is trained once, chunk by chunk of runs (:func:`train_cell`), so memory does not grow with
-the number of runs.  After each cell, its :class:`~tableclean_suite.metrics.Summary` is written
+the number of runs.  After each cell, its :class:`~tableclean_suite.metrics.Summary` and its
+:class:`~tableclean_suite.bench.statistics.CellStatistics` (intervals, curve bands, per-run scores:
+a few floats per run, never ``runs x iterations`` records) are written
 to ``OUT/cells/<label>-<hash>.npz``, where ``hash`` is a digest of everything that determines
 the cell's numbers (:func:`cell_config`), the code included.  A rerun loads the cells whose
 config matches instead of retraining them, so an interrupted run resumes where it stopped and
@@ -31,14 +33,17 @@ from pathlib import Path
 import numpy as np
 
 import tableclean_suite
-from tableclean_suite import metrics
+from tableclean_suite import analysis, asymptotes, metrics
+from tableclean_suite.bench import statistics
 from tableclean_suite.bench.config import RunConfig
+from tableclean_suite.bench.statistics import CellStatistics
 from tableclean_suite.learners import code_digest, get_learner, train
-from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, CurveSums, Summary, summarize
+from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, GroupedCurveSums, Plateaus, Summary, summarize
 from tableclean_suite.rewards import get_reward_pattern
 
 #: Bump when the stored layout or the meaning of a stored field changes.
-CELL_FORMAT_VERSION = 2
+#: 3: plateaus are the runs' exact asymptotes; intervals, bands and per-run scores stored.
+CELL_FORMAT_VERSION = 3
 
 #: Memory budget of one training chunk's records (bytes): a run of T iterations records
 #: :data:`RECORD_BYTES_PER_ITERATION` bytes per iteration, so a chunk holds about
@@ -108,8 +113,11 @@ def unique_cells(grid: list[Membership]) -> list[Cell]:
 
 @lru_cache(maxsize=1)
 def metrics_digest() -> str:
-    """SHA-256 (hex) of the source of :mod:`tableclean_suite.metrics` (how summaries are computed)."""
-    return hashlib.sha256(inspect.getsource(metrics).encode()).hexdigest()
+    """SHA-256 (hex) of the sources that compute a summary from records: :mod:`tableclean_suite.metrics`,
+    :mod:`tableclean_suite.asymptotes` (and the :mod:`~tableclean_suite.analysis` it calls) and
+    :mod:`.statistics`."""
+    text = "".join(inspect.getsource(module) for module in (metrics, asymptotes, analysis, statistics))
+    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | None = None) -> dict:
@@ -179,8 +187,8 @@ class CellStore:
     def path(self, cell: Cell, digest: str) -> Path:
         return self.root / f"{cell.label}-{digest}.npz"
 
-    def load(self, cell: Cell, config: dict) -> Summary | None:
-        """The stored summary of ``cell`` under ``config``, or None if there is none.
+    def load(self, cell: Cell, config: dict) -> tuple[Summary, CellStatistics] | None:
+        """The stored summary and statistics of ``cell`` under ``config``, or None if there are none.
 
         Raises:
             CellFileError: the file exists but is unreadable or inconsistent.
@@ -195,6 +203,10 @@ class CellStore:
                 stored_hash = str(data["config_hash"])
                 scalars = json.loads(str(data["scalars"]))
                 curves = {name: np.array(data[name], dtype=np.float64) for name in CURVE_NAMES}
+                facts = json.loads(str(data["statistics"]))
+                bands = {name: (np.array(data[f"band_{name}_low"]), np.array(data[f"band_{name}_high"]))
+                         for name in statistics.BAND_CURVES}
+                runs = {name: np.array(data[f"run_{name}"], dtype=np.float64) for name in statistics.RUN_SCORES}
         except Exception as error:  # any read/parse failure means the file is damaged
             raise CellFileError(
                 f"cannot read cell file {path} (damaged, or not a cell file: {type(error).__name__}: {error}). "
@@ -203,35 +215,60 @@ class CellStore:
         problems = []
         if stored_hash != digest or config_hash(stored_config) != digest:
             problems.append("its config does not match its name")
-        if set(scalars) != set(SUMMARY_SCALARS):
+        if set(scalars) != set(SUMMARY_SCALARS) or set(facts["intervals"]) != set(SUMMARY_SCALARS):
             problems.append("its scalars are incomplete")
         iterations = config["settings"]["iterations"]
         if any(c.shape != (iterations,) for c in curves.values()):
             problems.append(f"its curves are not of length {iterations}")
+        if any(len(values) != config["settings"]["runs"] for values in runs.values()):
+            problems.append("its per-run scores are not one per run")
         if problems:
             raise CellFileError(
                 f"cell file {path} is inconsistent ({'; '.join(problems)}). "
                 "Delete it or rerun with --fresh to retrain all cells."
             )
-        return Summary(**scalars, **curves)
+        cell_stats = CellStatistics(
+            intervals={name: tuple(_number(v) for v in bounds) for name, bounds in facts["intervals"].items()},
+            bands=bands, band_stride=int(facts["band_stride"]), runs=runs,
+            scores={name: tuple(_number(v) for v in values) for name, values in facts["scores"].items()},
+        )
+        return Summary(**scalars, **curves), cell_stats
 
-    def save(self, cell: Cell, config: dict, summary: Summary) -> Path:
-        """Write ``summary`` for ``cell`` atomically."""
+    def save(self, cell: Cell, config: dict, summary: Summary, cell_stats: CellStatistics) -> Path:
+        """Write ``summary`` and ``cell_stats`` for ``cell`` atomically."""
         digest = config_hash(config)
         path = self.path(cell, digest)
         self.root.mkdir(parents=True, exist_ok=True)
         scalars = {name: _plain(value) for name, value in summary.scalars().items()}
+        facts = {"intervals": {name: [_plain(v) for v in bounds] for name, bounds in cell_stats.intervals.items()},
+                 "scores": {name: [_plain(v) for v in values] for name, values in cell_stats.scores.items()},
+                 "band_stride": cell_stats.band_stride}
+        bands = {f"band_{name}_{side}": np.asarray(bounds[i], dtype=np.float64)
+                 for name, bounds in cell_stats.bands.items() for i, side in enumerate(("low", "high"))}
+        runs = {f"run_{name}": np.asarray(values, dtype=np.float64) for name, values in cell_stats.runs.items()}
         temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        with open(temporary, "wb") as handle:
-            np.savez(
-                handle,
-                config=np.array(json.dumps(config, sort_keys=True)),
-                config_hash=np.array(digest),
-                scalars=np.array(json.dumps(scalars)),
-                **{name: np.asarray(curve, dtype=np.float64) for name, curve in summary.curves().items()},
-            )
-        os.replace(temporary, path)
+        try:
+            with open(temporary, "wb") as handle:
+                np.savez(
+                    handle,
+                    config=np.array(json.dumps(config, sort_keys=True)),
+                    config_hash=np.array(digest),
+                    scalars=np.array(json.dumps(scalars)),
+                    statistics=np.array(json.dumps(facts)),
+                    **{name: np.asarray(curve, dtype=np.float64) for name, curve in summary.curves().items()},
+                    **bands,
+                    **runs,
+                )
+            os.replace(temporary, path)
+        except BaseException:
+            temporary.unlink(missing_ok=True)
+            raise
         return path
+
+
+def _number(value) -> float:
+    """A stored bound: None (JSON null) reads as NaN."""
+    return float("nan") if value is None else float(value)
 
 
 def _plain(value):
@@ -249,22 +286,29 @@ def chunk_runs(iterations: int, budget_bytes: int = CHUNK_BYTES) -> int:
 
 
 def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
-               runs_per_chunk: int | None = None) -> tuple[Summary, float, float]:
-    """Train one cell chunk by chunk of runs and summarise it.
+               runs_per_chunk: int | None = None) -> tuple[Summary, CellStatistics, float, float]:
+    """Train one cell chunk by chunk of runs and summarise it, with intervals.
 
     Each chunk is ``train(runs=chunk, first_run=lo, ...)``; its per-iteration sums are added to a
-    :class:`~tableclean_suite.metrics.CurveSums` and its records dropped, so memory is one chunk's
-    records whatever ``config.runs``.  Random numbers are counter-based per run, so the summary
-    is bit-identical whatever the chunking.
+    :class:`~tableclean_suite.metrics.GroupedCurveSums`, its final Q-tables give each run's exact
+    asymptotes (:func:`tableclean_suite.asymptotes.greedy_asymptotes`), and its records are
+    dropped, so memory is one chunk's records whatever ``config.runs``.  Random numbers are
+    counter-based per run, so the summary is the same whatever the chunking.
+
+    The plateaus are the runs' asymptotes averaged over runs (over the calibrated table with
+    ``--backend calibrated``; over the task model's table for ``symbolic`` and, as an
+    approximation of the skills, ``physics``).
 
     Args:
         runs_per_chunk: runs per ``train()`` call (default :func:`chunk_runs` of the iterations).
 
     Returns:
-        ``(summary, train_seconds, metrics_seconds)``.
+        ``(summary, statistics, train_seconds, metrics_seconds)``.
     """
     chunk = runs_per_chunk or chunk_runs(config.iterations)
-    sums = CurveSums.zeros(config.iterations)
+    grouped = GroupedCurveSums.zeros(config.iterations, statistics.bootstrap_groups(config.runs, config.iterations))
+    chain = asymptotes.EpisodeChain.build(model, cell.reward, transitions)
+    per_run = {name: [] for name in ("success", "average_reward", "terminal")}
     train_seconds = metrics_seconds = 0.0
     physics_stats: dict = {}
     for first in range(0, config.runs, chunk):
@@ -276,15 +320,25 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
         trained = time.perf_counter()
         if "physics" in result.info:
             physics_stats = _merge_stats(physics_stats, result.info["physics"])
-        sums.add(result)
+        grouped.add(result)
+        final = asymptotes.greedy_asymptotes(result.q, config.epsilon, chain, config.max_itr)
+        for name, values in per_run.items():
+            values.append(getattr(final, name))
         del result
         train_seconds += trained - started
         metrics_seconds += time.perf_counter() - trained
     if physics_stats:
         _report_physics(cell, physics_stats)
     started = time.perf_counter()
-    summary = summarize(sums, threshold=config.threshold, plateau_fraction=config.plateau_fraction)
-    return summary, train_seconds, metrics_seconds + time.perf_counter() - started
+    per_run = {name: np.concatenate(values) for name, values in per_run.items()}
+    plateaus = Plateaus(**{name: float(values.mean()) for name, values in per_run.items()})
+    summary = summarize(grouped.totals(), threshold=config.threshold, plateau_fraction=config.plateau_fraction,
+                        plateaus=plateaus, support_fraction=config.support_fraction)
+    cell_stats = statistics.cell_statistics(
+        grouped, per_run, statistics.bootstrap_rng(config.seed, cell.label), config.threshold, config.plateau_fraction,
+        config.support_fraction, config.bootstrap_samples, config.confidence,
+    )
+    return summary, cell_stats, train_seconds, metrics_seconds + time.perf_counter() - started
 
 
 def _merge_stats(total: dict, more: dict) -> dict:
@@ -319,6 +373,7 @@ class GridRun:
     """What :func:`run_grid` did: summaries per cell, and how they were obtained."""
 
     summaries: dict = field(default_factory=dict)
+    statistics: dict = field(default_factory=dict)
     resumed: int = 0
     trained: int = 0
     train_seconds: float = 0.0
@@ -353,19 +408,20 @@ def run_grid(
     keys = {cell: cell_config(cell, config, model, transitions_sha256) for cell in unique_cells(grid)}
     pending = []
     for cell, key in keys.items():
-        summary = None if config.fresh else store.load(cell, key)
-        if summary is None:
+        stored = None if config.fresh else store.load(cell, key)
+        if stored is None:
             pending.append(cell)
         else:
-            outcome.summaries[cell] = summary
+            outcome.summaries[cell], outcome.statistics[cell] = stored
             outcome.resumed += 1
     bar = tqdm(total=len(keys), initial=outcome.resumed, desc="cells", unit="cell", disable=not config.progress,
                leave=False)
     for cell in pending:
         bar.set_postfix_str(f"{outcome.resumed} resumed, training {cell.label}" if outcome.resumed else cell.label)
-        summary, train_s, metrics_s = train_cell(cell, config, model, transitions)
-        store.save(cell, keys[cell], summary)
+        summary, cell_stats, train_s, metrics_s = train_cell(cell, config, model, transitions)
+        store.save(cell, keys[cell], summary, cell_stats)
         outcome.summaries[cell] = summary
+        outcome.statistics[cell] = cell_stats
         outcome.trained += 1
         outcome.train_seconds += train_s
         outcome.metrics_seconds += metrics_s
@@ -374,13 +430,27 @@ def run_grid(
     return outcome
 
 
-def cell_records(grid: list[Membership], summaries: dict) -> tuple[list[dict], list[dict]]:
-    """Cell records (keys + scalars) and curve sets, one per membership, for :mod:`.tables`."""
+def cell_records(grid: list[Membership], summaries: dict, cell_statistics: dict | None = None
+                 ) -> tuple[list[dict], list[dict]]:
+    """Cell records (keys + scalars, with ``_low``/``_high`` bounds and per-run-score IQMs when
+    ``cell_statistics`` are given) and curve sets (with ``<curve>_low``/``_high`` bands), one per
+    membership, for :mod:`.tables`."""
     records, curves = [], []
     for member in grid:
         summary = summaries[member.cell]
         record = {"cell_id": member.cell.label, **asdict(member.cell), "experiment": member.experiment}
         record.update(summary.scalars())
+        curve_set = dict(summary.curves())
+        stats = (cell_statistics or {}).get(member.cell)
+        if stats is not None:
+            for name, (low, high) in stats.intervals.items():
+                record[f"{name}_low"], record[f"{name}_high"] = low, high
+            for name, (value, low, high) in stats.scores.items():
+                record[f"{name}_iqm"], record[f"{name}_iqm_low"], record[f"{name}_iqm_high"] = value, low, high
+            iterations = np.arange(1, summary.iterations + 1)
+            for name in stats.bands:
+                curve_set[f"{name}_low"], curve_set[f"{name}_high"] = stats.band_at(name, iterations,
+                                                                                      summary.iterations)
         records.append(record)
-        curves.append(summary.curves())
+        curves.append(curve_set)
     return records, curves

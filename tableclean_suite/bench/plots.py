@@ -2,7 +2,8 @@
 
 Nothing here shows or saves a figure; :mod:`benchmarks.run` does.  Input is the
 long-format frame of :func:`benchmarks.tables.curves_long` (columns ``learner, reward,
-alpha, gamma, experiment, iteration, metric, value``).  Colours come from one palette
+alpha, gamma, experiment, iteration, metric, value`` and, when present, the 95 % band
+``low, high``, shaded on every figure).  Colours come from one palette
 keyed by reward pattern (:func:`reward_color`), so r4 is the same colour in every figure;
 sweep figures colour by parameter value on a sequential map.
 """
@@ -72,6 +73,19 @@ def _style(ax, metric: str, title: str, legend_title: str | None):
         ax.legend(title=legend_title, loc="lower right", fontsize="small", title_fontsize="small")
 
 
+#: Opacity of the 95 % bands.
+BAND_ALPHA = 0.2
+
+
+def _band(ax, line: pd.DataFrame, metric: str, color) -> None:
+    """Shade the line's ``low``-``high`` band when the frame has one."""
+    if "low" not in line.columns or line["low"].isna().all():
+        return
+    ax.fill_between(line["iteration"].to_numpy(), line["low"].to_numpy(dtype=float) * _scale(metric),
+                    line["high"].to_numpy(dtype=float) * _scale(metric), color=color, alpha=BAND_ALPHA,
+                    linewidth=0)
+
+
 def plot_rewards(
     curves: pd.DataFrame,
     learner: str,
@@ -80,18 +94,22 @@ def plot_rewards(
     plateau_fraction: float | None = 0.25,
     ax=None,
     title: str | None = None,
+    levels: dict | None = None,
 ):
-    """One line per reward pattern of ``metric`` vs iterations (Figures 3-5).
+    """One line per reward pattern of ``metric`` vs iterations (Figures 3-5), with its 95 % band
+    shaded where the frame has ``low``/``high``.
 
     Args:
         curves: long curves frame.
         learner: which learner's main rows to draw.
         metric: ``"success"`` (drawn in %), ``"average_reward"``, ...
         experiment: which experiment's rows (default ``"main"``).
-        plateau_fraction: draw each line's plateau (mean over this last fraction) as a
-            dotted horizontal line; None for none.
+        plateau_fraction: draw each line's plateau as a dotted horizontal line (the mean over
+            this last fraction, unless ``levels`` gives it); None for none.
         ax: an existing axes, else a new figure.
         title: default e.g. ``"Success rate per reward pattern (Q-learning)"``.
+        levels: ``{reward: plateau}`` in the metric's units (fractions for success), e.g. the
+            exact asymptotes; drawn instead of the window means and labelled "asymptote".
 
     Returns:
         ``(fig, ax)``.
@@ -104,10 +122,16 @@ def plot_rewards(
         values = line["value"].to_numpy(dtype=float) * _scale(metric)
         color = reward_color(reward, rewards)
         label = reward
-        if plateau_fraction is not None:
-            level = _plateau(values, plateau_fraction)
+        if levels is not None and reward in levels:
+            level, kind = float(levels[reward]) * _scale(metric), "asymptote"
+        elif plateau_fraction is not None:
+            level, kind = _plateau(values, plateau_fraction), "plateau"
+        else:
+            level = kind = None
+        if level is not None:
             ax.axhline(level, color=color, linestyle=":", linewidth=0.9, alpha=0.8)
-            label = f"{reward} (plateau {_format_level(level, metric)})"
+            label = f"{reward} ({kind} {_format_level(level, metric)})"
+        _band(ax, line, metric, color)
         ax.plot(line["iteration"].to_numpy(), values, color=color, linewidth=1.3, label=label)
     what = METRIC_LABELS.get(metric, metric).split(" (")[0].capitalize()
     default = f"{what} per reward pattern ({LEARNER_TITLES.get(learner, learner)})"
@@ -149,6 +173,7 @@ def plot_sweeps(
             line = rows[rows[parameter] == value].sort_values("iteration")
             color = colormap(0.85 * i / max(1, len(values_swept) - 1))
             ys = line["value"].to_numpy(dtype=float) * _scale(metric)
+            _band(ax, line, metric, color)
             ax.plot(line["iteration"].to_numpy(), ys, color=color, linewidth=1.3, label=f"{parameter} = {value:g}")
             if plateau_fraction is not None:
                 ax.axhline(_plateau(ys, plateau_fraction), color=color, linestyle=":", linewidth=0.9)
@@ -173,27 +198,40 @@ def plot_sweeps(
 #: Iterations shown by the sweep figures: all the sweeps' differences lie before it at the defaults.
 SWEEP_XMAX = 1000
 
-#: The paper's figures: file stem -> (description, builder).  Builders take (curves, plateau_fraction).
+def plateau_levels(table, learner: str, metric: str) -> dict | None:
+    """``{reward: plateau}`` of ``learner``'s main rows of a Table 3 frame (``success_plateau`` or
+    ``average_reward_plateau``), for :func:`plot_rewards`'s ``levels``; None without a table."""
+    if table is None:
+        return None
+    rows = table[(table["experiment"] == "main") & (table["learner"] == learner)]
+    return dict(zip(rows["reward"], rows[f"{metric}_plateau"].astype(float)))
+
+
+#: The paper's figures: file stem -> (description, builder).  Builders take (curves, plateau_fraction)
+#: and optionally a Table 3 frame whose plateaus (the exact asymptotes) are drawn.
 PAPER_FIGURES = {
     "fig3_success_rate_q_learning": (
         "Figure 3: success rate per reward (Q-learning)",
-        lambda c, p: plot_rewards(c, "q_learning", "success", plateau_fraction=p),
+        lambda c, p, t=None: plot_rewards(c, "q_learning", "success", plateau_fraction=p,
+                                          levels=plateau_levels(t, "q_learning", "success")),
     ),
     "fig4_average_reward_q_learning": (
         "Figure 4: average reward per reward (Q-learning)",
-        lambda c, p: plot_rewards(c, "q_learning", "average_reward", plateau_fraction=p),
+        lambda c, p, t=None: plot_rewards(c, "q_learning", "average_reward", plateau_fraction=p,
+                                          levels=plateau_levels(t, "q_learning", "average_reward")),
     ),
     "fig5_average_reward_sarsa": (
         "Figure 5: average reward per reward (SARSA)",
-        lambda c, p: plot_rewards(c, "sarsa", "average_reward", plateau_fraction=p),
+        lambda c, p, t=None: plot_rewards(c, "sarsa", "average_reward", plateau_fraction=p,
+                                          levels=plateau_levels(t, "sarsa", "average_reward")),
     ),
     "fig6_success_rate_sweeps": (
         "Figure 6: success rate, alpha and gamma sweeps",
-        lambda c, p: plot_sweeps(c, "success", xmax=SWEEP_XMAX),
+        lambda c, p, t=None: plot_sweeps(c, "success", xmax=SWEEP_XMAX),
     ),
     "fig7_average_reward_sweeps": (
         "Figure 7: average reward, alpha and gamma sweeps",
-        lambda c, p: plot_sweeps(c, "average_reward", xmax=SWEEP_XMAX),
+        lambda c, p, t=None: plot_sweeps(c, "average_reward", xmax=SWEEP_XMAX),
     ),
 }
 

@@ -8,8 +8,10 @@ Installed (no checkout needed): ``python -m tableclean_suite.bench.run`` or ``ta
 
 Trains every learner x reward at (alpha, gamma) ("main"), plus the sweep learner x
 sweep reward at each alpha of ``--alpha-sweep`` and each gamma of ``--gamma-sweep``,
-prints Table 3 (ours beside the paper's), the sweep table and Table 4, and writes to
-``--out``: ``table3.csv``, ``table4.csv``, ``curves.csv``, the figures ``fig3..fig7*.png``,
+prints Table 3 (ours beside the paper's, with 95 % intervals), the sweep table, the per-run
+IQMs, the probabilities of improvement and Table 4, and writes to ``--out``: ``table3.csv``,
+``table4.csv`` (each number followed by ``_low``/``_high``), ``comparisons.csv``, ``curves.csv``
+(with ``low``/``high`` bands), the figures ``fig3..fig7*.png`` (bands shaded),
 ``config.json`` (written last: the run's configuration, a run id and the SHA-256 of each of
 those files; see :mod:`.outputs`) and ``cells/`` (one file per trained cell; a rerun with the
 same settings and code loads them instead of retraining — ``--fresh`` retrains).
@@ -113,6 +115,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     add(task, "ineffective", choices=INEFFECTIVE_MODES)
     add(task, "threshold", type=float)
     add(task, "plateau_fraction", type=float)
+    add(task, "support_fraction", type=float)
+    statistics = parser.add_argument_group("statistics")
+    add(statistics, "bootstrap_samples", type=int)
+    add(statistics, "confidence", type=float)
     backend = parser.add_argument_group("backend")
     add(backend, "backend", choices=backend_names())
     add(backend, "transitions", metavar="PATH")
@@ -246,19 +252,21 @@ def run(args) -> int:
           f"trained {grid_run.trained} (training {grid_run.train_seconds:.2f} s, "
           f"metrics {grid_run.metrics_seconds:.2f} s)")
 
-    records, curves = experiments.cell_records(grid, grid_run.summaries)
+    records, curves = experiments.cell_records(grid, grid_run.summaries, grid_run.statistics)
     table3 = tables.table3(records, compare_with_paper=tables.is_paper_task(model))
     table4 = tables.table4(table3)
+    comparisons = _comparisons(grid, grid_run, config)
     stride = _curves_stride(len(records) * len(tables.CURVE_METRICS), config.iterations)
     curves_frame = tables.curves_long(records, curves, stride=stride)
 
     writers = {
         "table3.csv": lambda path: table3.to_csv(path, index=False),
         "table4.csv": lambda path: table4.to_csv(path, index=False),
+        "comparisons.csv": lambda path: comparisons.to_csv(path, index=False),
         "curves.csv": lambda path: curves_frame.to_csv(path, index=False, float_format="%.6g"),
     }
     if config.figures:
-        writers.update(_figure_writers(curves_frame, config.plateau_fraction))
+        writers.update(_figure_writers(curves_frame, config.plateau_fraction, table3))
     elapsed = time.perf_counter() - started
     try:
         written = outputs.publish(out, writers, _manifest(config, model, transitions_sha256, grid_run, stride,
@@ -267,7 +275,7 @@ def run(args) -> int:
         print(f"\ninterrupted while writing {out}: it has no {outputs.MANIFEST}, so it describes no run; "
               "rerun the same command (cells are saved) to write it", file=sys.stderr)
         return EXIT_INTERRUPTED
-    _print_tables(config, table3, table4, tables.is_paper_task(model))
+    _print_tables(config, table3, table4, tables.is_paper_task(model), comparisons)
     print("\nwritten:")
     for path in written:
         print(f"  {path}")
@@ -278,18 +286,37 @@ def run(args) -> int:
     return 0
 
 
-def _print_tables(config: RunConfig, table3, table4, paper_task: bool) -> None:
+def _comparisons(grid, grid_run, config: RunConfig):
+    """Probabilities of improvement between the main cells (see :func:`.statistics.comparisons`)."""
+    from tableclean_suite.bench import statistics
+
+    main = [m.cell for m in grid if m.experiment == "main"]
+    cells = [{"learner": c.learner, "reward": c.reward, "runs": grid_run.statistics[c].runs} for c in main]
+    return statistics.comparisons(cells, config.confidence, config.bootstrap_samples, config.seed)
+
+
+def _print_tables(config: RunConfig, table3, table4, paper_task: bool, comparisons=None) -> None:
     import pandas as pd
 
     from tableclean_suite.bench import tables
 
-    with pd.option_context("display.width", 200, "display.max_columns", 50, "display.max_rows", 500):
+    level = f"{100 * config.confidence:g}%"
+    with pd.option_context("display.width", 250, "display.max_columns", 50, "display.max_rows", 500):
         print(f"\nTable 3: learning speed per reward pattern (alpha = {config.alpha:g}, gamma = {config.gamma:g}, "
               f"epsilon = {config.epsilon:g}, {config.runs} runs x {config.iterations} iterations).")
-        print("  'paper' = the paper's Table 3 (Q-learning only); success % = plateau of the success curve."
-              if paper_task else f"  Task {config.task!r} is not the paper's: no paper values beside ours; "
-              "success % = plateau of the success curve.")
+        print("  'paper' = the paper's Table 3 (Q-learning only)." if paper_task
+              else f"  Task {config.task!r} is not the paper's: no paper values beside ours.")
+        print(f"  success % and avg reward plateau = exact asymptotes of the runs' final epsilon-greedy policies "
+              f"(mean over runs); iterations = first reaching {100 * config.threshold:g}% of them; average-reward "
+              f"points count once {100 * config.support_fraction:g}% of the runs have finished an episode.")
+        print(f"  [..] = {level} percentile bootstrap interval over runs ({config.bootstrap_samples} replicates; "
+              "runs resampled in blocks, see tableclean_suite.bench.statistics).")
         print(tables.display_table3(table3).to_string(na_rep="-"))
+        print(f"\nPer-run scores, interquartile mean over runs [{level} CI]:")
+        print(tables.display_scores(table3).to_string(index=False))
+        if comparisons is not None and len(comparisons):
+            print("\nProbability of improvement (a run of X beats a run of Y; 0.5 = no difference):")
+            print(tables.display_comparisons(comparisons).to_string(index=False))
         sweeps = tables.display_sweeps(table3)
         if len(sweeps):
             print("\nSweeps (Figures 6-7; the paper gives no table for them):")
@@ -300,15 +327,15 @@ def _print_tables(config: RunConfig, table3, table4, paper_task: bool) -> None:
         print(shown.to_string(index=False, formatters={"methodology": f"{{:<{width}}}".format}))
 
 
-def _figure_writers(curves_frame, plateau_fraction: float) -> dict:
-    """``{file name: write(path)}`` of the figures the curves allow."""
+def _figure_writers(curves_frame, plateau_fraction: float, table3=None) -> dict:
+    """``{file name: write(path)}`` of the figures the curves allow (plateau lines from ``table3``)."""
     from tableclean_suite.bench import plots
 
     def writer(builder):
         def write(path: Path) -> None:
             import matplotlib.pyplot as plt
 
-            fig, _ = builder(curves_frame, plateau_fraction)
+            fig, _ = builder(curves_frame, plateau_fraction, table3)
             try:
                 fig.savefig(path, dpi=FIGURE_DPI, bbox_inches="tight", format="png")
             finally:

@@ -25,6 +25,7 @@ from tableclean_suite.bench.paper_data import (  # noqa: F401  (re-exported)
     PAPER_TABLE4_COLUMNS,
     SOURCE_QUOTED,
 )
+from tableclean_suite.bench.statistics import RUN_SCORES
 from tableclean_suite.metrics import ITERATION_SCALARS, SUMMARY_SCALARS
 
 #: Identifying columns of a cell record, in table order.
@@ -38,9 +39,27 @@ CURVE_METRICS = ("success", "average_reward", "episodes")
 
 PAPER_COLUMNS = tuple(c for c in PAPER_TABLE3.columns if c != "reward")
 
-TABLE3_COLUMNS = ("cell_id", *KEY_COLUMNS, *SUMMARY_SCALARS, *PAPER_COLUMNS)
+#: Scalars a cell record may lack (added after records of this shape existed; NaN when missing).
+OPTIONAL_SCALARS = ("success_window_mean", "average_reward_window_mean")
 
-TABLE4_COLUMNS = (*PAPER_TABLE4_COLUMNS, "source")
+#: Suffixes of an interval's bounds, next to the number they bound.
+LOW, HIGH = "_low", "_high"
+
+#: Per-run scores whose IQM Table 3 reports (see :mod:`.statistics`).
+IQM_COLUMNS = tuple(f"{score}_iqm{suffix}" for score in RUN_SCORES for suffix in ("", LOW, HIGH))
+
+#: Each scalar followed by its interval's bounds.
+SCALAR_COLUMNS = tuple(c for name in SUMMARY_SCALARS for c in (name, name + LOW, name + HIGH))
+
+TABLE3_COLUMNS = ("cell_id", *KEY_COLUMNS, *SCALAR_COLUMNS, *IQM_COLUMNS, *PAPER_COLUMNS)
+
+#: Table 4's numbers that carry intervals (ours; the quoted rows have none).
+TABLE4_NUMBERS = PAPER_TABLE4_COLUMNS[1:]
+TABLE4_COLUMNS = (PAPER_TABLE4_COLUMNS[0], *(c for name in TABLE4_NUMBERS for c in (name, name + LOW, name + HIGH)),
+                  "source")
+
+#: Label of our numbers in the printed Table 3.
+OURS = "ours"
 
 #: ``source`` of a row of this run in Table 4.
 SOURCE_OURS = "this run"
@@ -72,16 +91,21 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
             they are then all NaN).
 
     Returns:
-        A DataFrame with columns :data:`TABLE3_COLUMNS` (extra input columns are dropped),
+        A DataFrame with columns :data:`TABLE3_COLUMNS` (extra input columns are dropped; the
+        ``_low``/``_high`` bounds and IQM columns are NaN when the records carry none),
         sorted by experiment (main, alpha_sweep, gamma_sweep), learner, reward, alpha, gamma.
         ``paper_*`` columns are NaN except on ``experiment == "main"`` rows of
         :data:`PAPER_LEARNER` with a reward the paper reports.  Iteration columns are
         nullable integers (``<NA>`` when the curve never reached its level).
     """
     frame = pd.DataFrame(records).copy()
-    missing = [c for c in ("cell_id", *KEY_COLUMNS, *SUMMARY_SCALARS) if c not in frame.columns]
+    missing = [c for c in ("cell_id", *KEY_COLUMNS, *SUMMARY_SCALARS)
+               if c not in frame.columns and c not in OPTIONAL_SCALARS]
     if missing:
         raise ValueError(f"cell records lack columns: {', '.join(missing)}")
+    for column in OPTIONAL_SCALARS:
+        if column not in frame.columns:
+            frame[column] = _NA
     frame = frame.drop(columns=[c for c in PAPER_COLUMNS if c in frame.columns])
     paper = PAPER_TABLE3.set_index("reward")
     is_paper_row = (frame["experiment"] == "main") & (frame["learner"] == PAPER_LEARNER) & compare_with_paper
@@ -95,6 +119,10 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
             frame[column] = pd.array([None if _missing(v) else int(v) for v in frame[column]], dtype="Int64")
         else:
             frame[column] = [_NA if _missing(v) else float(v) for v in frame[column]]
+    for column in (*SCALAR_COLUMNS, *IQM_COLUMNS):  # bounds: NaN when the records carry none
+        if column not in SUMMARY_SCALARS:
+            values = frame[column] if column in frame.columns else [_NA] * len(frame)
+            frame[column] = [_NA if _missing(v) else float(v) for v in values]
     frame["alpha"] = frame["alpha"].astype(float)
     frame["gamma"] = frame["gamma"].astype(float)
     sort_keys = {
@@ -131,28 +159,41 @@ def table4(table: pd.DataFrame) -> pd.DataFrame:
     Returns:
         Columns :data:`TABLE4_COLUMNS`.  Our rows are named
         ``"This run: Q-learning with reward rN"``, with ``max_success_rate_percent``
-        = 100 x ``success_plateau`` and ``source == "this run"``.
+        = 100 x ``success_plateau`` and ``source == "this run"``; each number is followed by its
+        interval's ``_low``/``_high`` bounds (NaN on the quoted rows).
     """
     ours = table[(table["experiment"] == "main") & (table["learner"] == PAPER_LEARNER)]
-    rows = pd.DataFrame(
-        {
-            "methodology": [f"This run: Q-learning with reward {r}" for r in ours["reward"]],
-            "average_reward_convergence_episodes": ours["reward_convergence_episodes"].astype(float).to_numpy(),
-            "max_success_rate_percent": 100.0 * ours["success_plateau"].astype(float).to_numpy(),
-            "max_success_episodes": ours["max_success_episodes"].astype(float).to_numpy(),
-            "source": SOURCE_OURS,
-        }
-    )
-    quoted = PAPER_TABLE4.astype({c: float for c in TABLE4_COLUMNS[1:-1]})
+    sources = {"average_reward_convergence_episodes": ("reward_convergence_episodes", 1.0),
+               "max_success_rate_percent": ("success_plateau", 100.0),
+               "max_success_episodes": ("max_success_episodes", 1.0)}
+    data = {"methodology": [f"This run: Q-learning with reward {r}" for r in ours["reward"]]}
+    for name, (column, scale) in sources.items():
+        for suffix in ("", LOW, HIGH):
+            data[name + suffix] = scale * ours[column + suffix].astype(float).to_numpy()
+    rows = pd.DataFrame({**data, "source": SOURCE_OURS})
+    quoted = PAPER_TABLE4.astype({c: float for c in TABLE4_NUMBERS})
+    for name in TABLE4_NUMBERS:
+        quoted[name + LOW] = quoted[name + HIGH] = _NA
     return pd.concat([rows, quoted], ignore_index=True)[list(TABLE4_COLUMNS)]
 
 
+def with_interval(value, low, high, digits: int = 0, scale: float = 1.0) -> str:
+    """``"222 [205, 240]"``: a number and its interval, rounded to ``digits``; "-" when missing."""
+    if _missing(value):
+        return "-"
+    text = lambda v: f"{scale * float(v):.{digits}f}"  # noqa: E731
+    if _missing(low) or _missing(high):
+        return text(value)
+    return f"{text(value)} [{text(low)}, {text(high)}]"
+
+
 def display_table3(table: pd.DataFrame) -> pd.DataFrame:
-    """The main rows of Table 3 for printing: ours beside the paper's.
+    """The main rows of Table 3 for printing: ours (``"value [low, high]"``, or the value alone
+    when there is no interval) beside the paper's.
 
     Index (learner, reward); two-level columns (quantity, ``ours``/``paper``) for the
     reward-convergence and max-success iterations and episodes and the success rate in %,
-    plus our maximum average reward.
+    plus our maximum average reward and average-reward plateau.
     """
     rows = main_rows(table)
     pairs = {
@@ -165,13 +206,45 @@ def display_table3(table: pd.DataFrame) -> pd.DataFrame:
     data = {}
     for title, (ours, paper, digits) in pairs.items():
         scale = 100.0 if title == "success %" else 1.0
-        for label, column in (("ours", ours), ("paper", paper)):
-            values = (scale * rows[column].astype(float)).round(digits)
-            data[(title, label)] = values.astype("Int64") if digits == 0 else values
-    data[("max avg reward", "ours")] = rows["max_average_reward"].astype(float).round(3)
+        data[(title, OURS)] = [with_interval(v, lo, hi, digits, scale) for v, lo, hi in
+                                          zip(rows[ours], rows[ours + LOW], rows[ours + HIGH])]
+        paper_values = (scale * rows[paper].astype(float)).round(digits)
+        data[(title, "paper")] = paper_values.astype("Int64") if digits == 0 else paper_values
+    for title, column in (("max avg reward", "max_average_reward"), ("avg reward plateau", "average_reward_plateau")):
+        data[(title, OURS)] = [with_interval(v, lo, hi, 3) for v, lo, hi in
+                                          zip(rows[column], rows[column + LOW], rows[column + HIGH])]
     frame = pd.DataFrame(data)
     frame.index = pd.MultiIndex.from_arrays([rows["learner"], rows["reward"]], names=["learner", "reward"])
     return _dashes(frame)
+
+
+def display_scores(table: pd.DataFrame) -> pd.DataFrame:
+    """IQMs of the per-run scores of the main rows, with their intervals, for printing."""
+    rows = main_rows(table)
+    data = {"learner": rows["learner"], "reward": rows["reward"]}
+    for score, digits, scale, title in (("success_asymptote", 2, 100.0, "IQM asymptotic success %"),
+                                        ("first_success_iterations", 0, 1.0, "IQM iterations to first success")):
+        column = f"{score}_iqm"
+        data[title] = [with_interval(v, lo, hi, digits, scale)
+                       for v, lo, hi in zip(rows[column], rows[column + LOW], rows[column + HIGH])]
+    return pd.DataFrame(data)
+
+
+def display_comparisons(frame: pd.DataFrame) -> pd.DataFrame:
+    """Probabilities of improvement for printing: "X over Y", the score, P [95 % CI]."""
+    def name(learner, reward, other_learner, other_reward):
+        return reward if learner == other_learner else learner
+
+    return pd.DataFrame({
+        "comparison": [f"{name(lx, rx, ly, ry)} over {name(ly, ry, lx, rx)}"
+                       + (f" ({lx})" if lx == ly else f" ({rx})")
+                       for lx, rx, ly, ry in zip(frame["learner_x"], frame["reward_x"], frame["learner_y"],
+                                                 frame["reward_y"])],
+        "score": frame["score"],
+        "P(improvement) [95% CI]": [with_interval(p, lo, hi, 2) for p, lo, hi in zip(
+            frame["probability_of_improvement"], frame["probability_of_improvement_low"],
+            frame["probability_of_improvement_high"])],
+    })
 
 
 def _dashes(frame: pd.DataFrame) -> pd.DataFrame:
@@ -196,23 +269,36 @@ def display_sweeps(table: pd.DataFrame) -> pd.DataFrame:
             "reward": rows["reward"],
             "alpha": rows["alpha"],
             "gamma": rows["gamma"],
-            "conv_itr": rows["reward_convergence_iterations"],
+            "conv_itr [95% CI]": _intervals(rows, "reward_convergence_iterations", 0),
             "conv_eps": rows["reward_convergence_episodes"].round(1),
-            "succ_itr": rows["max_success_iterations"],
+            "succ_itr [95% CI]": _intervals(rows, "max_success_iterations", 0),
             "succ_eps": rows["max_success_episodes"].round(1),
-            "success_%": (100 * rows["success_plateau"]).round(2),
+            "success_% [95% CI]": _intervals(rows, "success_plateau", 2, 100.0),
             "max_avg_r": rows["max_average_reward"].round(3),
         }
     ).pipe(_dashes)
 
 
+def _intervals(rows: pd.DataFrame, column: str, digits: int, scale: float = 1.0) -> list[str]:
+    return [with_interval(v, lo, hi, digits, scale) for v, lo, hi in zip(rows[column], rows[column + LOW],
+                                                                          rows[column + HIGH])]
+
+
+def _quoted_text(value, digits: int) -> str:
+    """A number without interval as the paper prints it: "-" if missing, no trailing ".0"."""
+    if _missing(value):
+        return "-"
+    return f"{round(float(value), digits):g}"
+
+
 def display_table4(table4_frame: pd.DataFrame) -> pd.DataFrame:
     """Table 4 for printing: numbers rounded, "-" where the paper gives none, quoted rows marked."""
     frame = table4_frame.copy()
-    frame["average_reward_convergence_episodes"] = frame["average_reward_convergence_episodes"].round(1)
-    frame["max_success_rate_percent"] = frame["max_success_rate_percent"].round(2)
-    frame["max_success_episodes"] = frame["max_success_episodes"].round(1)
-    frame = _dashes(frame)
+    for name, digits in (("average_reward_convergence_episodes", 1), ("max_success_rate_percent", 2),
+                         ("max_success_episodes", 1)):
+        frame[name] = [_quoted_text(v, digits) if _missing(lo) or _missing(hi) else with_interval(v, lo, hi, digits)
+                       for v, lo, hi in zip(frame[name], frame[name + LOW], frame[name + HIGH])]
+    frame = frame.drop(columns=[name + suffix for name in TABLE4_NUMBERS for suffix in (LOW, HIGH)])
     frame["methodology"] = [
         m + (" *" if s == SOURCE_QUOTED else "") for m, s in zip(frame["methodology"], frame["source"])
     ]
@@ -235,8 +321,9 @@ def curves_long(records: list[dict], curves: list[dict], metrics=CURVE_METRICS, 
         stride: keep iterations 1, 1 + stride, ... (and always the last).
 
     Returns:
-        Columns ``learner, reward, alpha, gamma, experiment, iteration, metric, value``;
-        ``iteration`` is the 1-based iteration count, as on the figures' x axes.
+        Columns ``learner, reward, alpha, gamma, experiment, iteration, metric, value, low, high``;
+        ``iteration`` is the 1-based iteration count, as on the figures' x axes; ``low``/``high``
+        bound the curve's 95 % band where the curve set has ``<metric>_low``/``_high`` (else NaN).
     """
     if len(records) != len(curves):
         raise ValueError(f"{len(records)} records but {len(curves)} curve sets")
@@ -249,11 +336,14 @@ def curves_long(records: list[dict], curves: list[dict], metrics=CURVE_METRICS, 
             keep = np.arange(0, len(values), stride)
             if len(values) and keep[-1] != len(values) - 1:
                 keep = np.r_[keep, len(values) - 1]
-            part = pd.DataFrame({"iteration": keep + 1, "metric": metric, "value": values[keep]})
+            bounds = {side: np.asarray(curve_set.get(f"{metric}_{side}", np.full(len(values), np.nan)), dtype=float)
+                      for side in ("low", "high")}
+            part = pd.DataFrame({"iteration": keep + 1, "metric": metric, "value": values[keep],
+                                 "low": bounds["low"][keep], "high": bounds["high"][keep]})
             for key in reversed(KEY_COLUMNS):
                 part.insert(0, key, record[key])
             parts.append(part)
-    columns = [*KEY_COLUMNS, "iteration", "metric", "value"]
+    columns = [*KEY_COLUMNS, "iteration", "metric", "value", "low", "high"]
     if not parts:
         return pd.DataFrame(columns=columns)
     return pd.concat(parts, ignore_index=True)[columns]

@@ -1,0 +1,304 @@
+"""Intervals, IQMs and probabilities of improvement for the harness's tables and figures.
+
+**Intervals on Table 3-4 numbers and curve bands** (percentile bootstrap over runs, in blocks).
+Runs are independent; run i is summed into group ``i % G`` as it trains
+(:class:`~tableclean_suite.metrics.GroupedCurveSums`, G = :func:`bootstrap_groups`, 100 at the
+defaults, i.e. blocks of 10 of the 1000 runs), so memory stays ``G x T`` however many runs.  A
+replicate draws G groups with replacement (multinomial counts, seeded), rebuilds the mean curves
+and the mean asymptote from the drawn groups' sums and recomputes every Table 3 number from them
+with the same definitions (:func:`tableclean_suite.metrics.batch_scalars`, all replicates at once).  The interval is the
+(2.5 %, 97.5 %) percentile of :data:`DEFAULT_SAMPLES` replicates; curve bands are the same
+percentiles per iteration.  A number that some replicates leave undefined (never reached) gets
+its interval from the replicates that define it and is flagged by NaN bounds when fewer than
+half do.
+
+**Per-run scores** (exact per run): the asymptotic success of the run's final policy
+(:mod:`tableclean_suite.asymptotes`) and the iterations to its first successful episode.  Their
+**IQM** (mean of the middle 50 %, ``scipy.stats.trim_mean(x, 0.25)`` as rliable) comes with a
+percentile bootstrap interval over runs (``scipy.stats.bootstrap``).  Runs that never succeed
+count as +infinity for the IQM of first-success iterations; the IQM is NaN when more than 25 %
+of the runs never succeed (it would rest on them).
+
+**Probability of improvement** of X over Y (rliable): P(x > y) + P(x = y) / 2 for a run x of X and
+a run y of Y (x < y when lower is better), with a stratified bootstrap interval (runs of X and of Y
+resampled separately).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats as scipy_stats
+
+from tableclean_suite import metrics
+from tableclean_suite.metrics import SUMMARY_SCALARS, GroupedCurveSums, Plateaus
+
+#: Bootstrap replicates per interval.
+DEFAULT_SAMPLES = 500
+#: Two-sided coverage of the intervals.
+DEFAULT_CONFIDENCE = 0.95
+#: Groups of runs the curve bootstrap resamples (fewer when runs are fewer or the window is long).
+MAX_GROUPS = 100
+#: Fewest groups for which curve intervals are computed (below: NaN intervals).
+MIN_GROUPS = 20
+#: Memory allowed for the grouped sums of one cell, bytes (5 float64 arrays of G x T).
+GROUP_BYTES = 256_000_000
+#: Replicates rebuilt at once (bounds the replicate curves' memory: 5 x batch x T floats).
+REPLICATE_BATCH = 100
+#: Curve bands are kept at most at this many iterations (every k-th beyond).
+BAND_POINTS = 1000
+#: Fraction of the runs trimmed at each end by the IQM.
+IQM_TRIM = 0.25
+#: Fraction of replicates that must define a number for its interval to be given.
+MIN_DEFINED = 0.5
+#: Curves that get bands (the ones the figures draw).
+BAND_CURVES = ("success", "average_reward")
+#: Per-run scores: name -> whether higher is better.
+RUN_SCORES = {"success_asymptote": True, "first_success_iterations": False}
+
+
+def bootstrap_groups(runs: int, iterations: int) -> int:
+    """G, the number of run groups: at most :data:`MAX_GROUPS`, at most ``runs``, and within
+    :data:`GROUP_BYTES` for 5 arrays of ``G x iterations`` float64."""
+    fits = GROUP_BYTES // (5 * 8 * max(1, int(iterations)))
+    return int(max(1, min(MAX_GROUPS, runs, fits)))
+
+
+def bootstrap_rng(seed: int, label: str) -> np.random.Generator:
+    """A generator for one cell's bootstrap: seeded by the run's seed and the cell's label."""
+    digest = int.from_bytes(hashlib.sha256(label.encode()).digest()[:8], "little")
+    return np.random.default_rng([int(seed), digest])
+
+
+def percentile_interval(samples, confidence: float = DEFAULT_CONFIDENCE) -> tuple[float, float]:
+    """``(low, high)``: the central ``confidence`` percentile interval of ``samples`` (NaNs ignored;
+    NaN bounds when fewer than :data:`MIN_DEFINED` of them are defined)."""
+    samples = np.asarray(samples, dtype=float)
+    defined = samples[~np.isnan(samples)]
+    if len(samples) == 0 or len(defined) < MIN_DEFINED * len(samples):
+        return float("nan"), float("nan")
+    tail = 50.0 * (1.0 - confidence)
+    low, high = np.percentile(defined, [tail, 100.0 - tail])
+    return float(low), float(high)
+
+
+def iqm(values) -> float:
+    """Interquartile mean: mean of the middle 50 % (``trim_mean(values, 0.25)``); +inf values count
+    as largest, and the IQM is NaN if they reach into the middle 50 %."""
+    values = np.sort(np.asarray(values, dtype=float))
+    if len(values) == 0:
+        return float("nan")
+    result = float(scipy_stats.trim_mean(values, IQM_TRIM))
+    return result if np.isfinite(result) else float("nan")
+
+
+def _iqm_axis(values, axis=-1):
+    values = np.sort(np.asarray(values, dtype=float), axis=axis)
+    result = scipy_stats.trim_mean(values, IQM_TRIM, axis=axis)
+    return np.where(np.isfinite(result), result, np.nan)
+
+
+def iqm_interval(values, confidence: float = DEFAULT_CONFIDENCE, samples: int = DEFAULT_SAMPLES,
+                 rng: np.random.Generator | None = None) -> tuple[float, float, float]:
+    """``(IQM, low, high)``, the interval a percentile bootstrap over the values (scipy)."""
+    values = np.asarray(values, dtype=float)
+    point = iqm(values)
+    if len(values) < 2 or not np.isfinite(point):
+        return point, float("nan"), float("nan")
+    replicates = scipy_stats.bootstrap((values,), _iqm_axis, n_resamples=samples, confidence_level=confidence,
+                                       method="percentile", vectorized=True,
+                                       random_state=rng if rng is not None else np.random.default_rng(0))
+    low, high = percentile_interval(replicates.bootstrap_distribution, confidence)
+    return point, low, high
+
+
+def probability_of_improvement(x, y, higher_is_better: bool = True) -> float:
+    """P(a run of X beats a run of Y) + P(tie) / 2, over all pairs (rliable's definition)."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if not higher_is_better:
+        x, y = -x, -y
+    y = np.sort(y)
+    below = np.searchsorted(y, x, side="left")
+    not_above = np.searchsorted(y, x, side="right")
+    return float((below + 0.5 * (not_above - below)).sum() / (len(x) * len(y)))
+
+
+def probability_of_improvement_interval(x, y, higher_is_better: bool = True, confidence: float = DEFAULT_CONFIDENCE,
+                                        samples: int = DEFAULT_SAMPLES, rng: np.random.Generator | None = None):
+    """``(P, low, high)`` with a stratified percentile bootstrap (X's and Y's runs resampled apart).
+
+    Replicates are computed from counts: both samples are ranked on their pooled distinct values,
+    each replicate draws multinomial counts of X's and of Y's runs, and P is the count-weighted
+    share of (x, y) pairs with x above y plus half the ties.
+    """
+    rng = rng if rng is not None else np.random.default_rng(0)
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    point = probability_of_improvement(x, y, higher_is_better)
+    if not higher_is_better:
+        x, y = -x, -y
+    values, ranks = np.unique(np.r_[x, y], return_inverse=True)
+    ranks = np.asarray(ranks).reshape(-1)
+    distinct = len(values)
+
+    def replicate_counts(rank):
+        counts = rng.multinomial(len(rank), np.full(len(rank), 1.0 / len(rank)), size=samples)
+        rows = np.repeat(np.arange(samples), len(rank))
+        return np.bincount(rows * distinct + np.tile(rank, samples), weights=counts.ravel(),
+                           minlength=samples * distinct).reshape(samples, distinct)
+
+    cx, cy = replicate_counts(ranks[:len(x)]), replicate_counts(ranks[len(x):])
+    below = np.cumsum(cy, axis=1) - cy
+    replicates = (cx * (below + 0.5 * cy)).sum(axis=1) / (len(x) * len(y))
+    low, high = percentile_interval(replicates, confidence)
+    return point, low, high
+
+
+@dataclass
+class CellStatistics:
+    """A cell's intervals, curve bands and per-run scores.
+
+    Attributes:
+        intervals: ``{scalar: (low, high)}`` for every :data:`SUMMARY_SCALARS` name (NaN if undefined).
+        bands: ``{curve: (low, high)}``, each ``(ceil(T / band_stride),)`` at iteration counts
+            ``1, 1 + band_stride, ...`` for the curves in :data:`BAND_CURVES`.
+        band_stride: iterations between band points (>= 1).
+        runs: ``{score: (R,) array}`` per-run scores (:data:`RUN_SCORES`; first-success iterations
+            NaN for a run that never succeeded).
+        scores: ``{score: (IQM, low, high)}``.
+    """
+
+    intervals: dict = field(default_factory=dict)
+    bands: dict = field(default_factory=dict)
+    band_stride: int = 1
+    runs: dict = field(default_factory=dict)
+    scores: dict = field(default_factory=dict)
+
+    def band_iterations(self, iterations: int) -> np.ndarray:
+        """Iteration counts (1-based) of the band points for curves of length ``iterations``."""
+        return np.arange(0, iterations, self.band_stride) + 1
+
+    def band_at(self, curve: str, iterations: np.ndarray, length: int) -> tuple[np.ndarray, np.ndarray]:
+        """The band of ``curve`` at the given iteration counts (interpolated between band points)."""
+        grid = self.band_iterations(length)
+        low, high = self.bands[curve]
+        return (np.interp(iterations, grid, low, left=np.nan, right=np.nan),
+                np.interp(iterations, grid, high, left=np.nan, right=np.nan))
+
+
+def replicate_scalars(grouped: GroupedCurveSums, asymptote_sums: dict, weights: np.ndarray, threshold: float,
+                      plateau_fraction: float, support_fraction: float, keep: np.ndarray):
+    """Table 3 scalars and band curves of bootstrap replicates.
+
+    Args:
+        grouped: the cell's grouped sums (G groups).
+        asymptote_sums: ``{"success", "average_reward", "terminal": (G,) sums of per-run asymptotes}``.
+        weights: ``(B, G)`` multinomial counts of each group in each replicate.
+        keep: iteration indices of the band curves.
+
+    Returns:
+        :func:`tableclean_suite.metrics.batch_scalars` of the replicates.
+    """
+    runs = weights @ grouped.runs_per_group
+    sums = {name: weights @ getattr(grouped, name) for name in ("success", "average_sum", "finished_runs")}
+    tops = {name: weights @ values / runs for name, values in asymptote_sums.items()}
+
+    def episode_sums(index):
+        return np.einsum("bg,gb->b", weights, grouped.episodes[:, index])
+
+    return metrics.batch_scalars(sums, runs, tops, threshold, plateau_fraction, support_fraction, keep,
+                                 episode_sums)
+
+
+def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Generator, threshold: float,
+                    plateau_fraction: float, support_fraction: float, samples: int = DEFAULT_SAMPLES,
+                    confidence: float = DEFAULT_CONFIDENCE) -> CellStatistics:
+    """Intervals, bands and per-run scores of one cell (see the module docstring).
+
+    Args:
+        grouped: the cell's :class:`~tableclean_suite.metrics.GroupedCurveSums`.
+        per_run: ``{"success", "average_reward", "terminal": (R,)}`` per-run asymptotes, in run order.
+        rng: the cell's generator (:func:`bootstrap_rng`).
+        samples: bootstrap replicates (>= 1).
+        confidence: interval coverage in (0, 1).
+    """
+    iterations, groups = grouped.iterations, grouped.groups
+    group_of = np.arange(grouped.runs) % groups
+    asymptote_sums = {name: np.bincount(group_of, weights=values, minlength=groups) for name, values in per_run.items()}
+    stride = max(1, -(-iterations // BAND_POINTS))
+    kept = np.arange(0, iterations, stride)
+    scalars = {name: np.full(samples, np.nan) for name in SUMMARY_SCALARS}
+    curves = {name: np.full((samples, len(kept)), np.nan) for name in BAND_CURVES}
+    if groups >= MIN_GROUPS:
+        weights = rng.multinomial(groups, np.full(groups, 1.0 / groups), size=samples).astype(float)
+        for lo in range(0, samples, REPLICATE_BATCH):
+            batch = slice(lo, lo + REPLICATE_BATCH)
+            values, bands = replicate_scalars(grouped, asymptote_sums, weights[batch], threshold, plateau_fraction,
+                                              support_fraction, kept)
+            for name in SUMMARY_SCALARS:
+                scalars[name][batch] = values[name]
+            for name in BAND_CURVES:
+                curves[name][batch] = bands[name]
+    intervals = {name: percentile_interval(values, confidence) for name, values in scalars.items()}
+    bands = {name: _bands(values, confidence) for name, values in curves.items()}
+    first = grouped.first_success_iterations()
+    runs = {"success_asymptote": np.asarray(per_run["success"], dtype=float), "first_success_iterations": first}
+    scores = {name: iqm_interval(np.where(np.isnan(values), np.inf, values), confidence, samples, rng)
+              for name, values in runs.items()}
+    return CellStatistics(intervals, bands, stride, runs, scores)
+
+
+def _bands(replicates: np.ndarray, confidence: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per-column percentile bounds of ``(B, n)`` replicate curves (NaN-aware where needed)."""
+    tail = 50.0 * (1.0 - confidence)
+    replicates = np.ascontiguousarray(replicates.T).T  # percentiles per column read columns
+    low = np.full(replicates.shape[1], np.nan)
+    high = np.full(replicates.shape[1], np.nan)
+    undefined = np.isnan(replicates)
+    clean = ~undefined.any(axis=0)
+    if clean.any():
+        low[clean], high[clean] = np.percentile(replicates[:, clean], [tail, 100.0 - tail], axis=0)
+    partial = ~clean & (undefined.mean(axis=0) <= 1.0 - MIN_DEFINED)
+    if partial.any():
+        low[partial], high[partial] = np.nanpercentile(replicates[:, partial], [tail, 100.0 - tail], axis=0)
+    return low, high
+
+
+def comparisons(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, samples: int = DEFAULT_SAMPLES,
+                seed: int = 0):
+    """Probabilities of improvement between reward patterns (same learner) and between learners
+    (same reward), on every per-run score.
+
+    Args:
+        cells: ``{"learner", "reward", "runs": {score: (R,)}}`` of the main cells.
+
+    Returns:
+        A DataFrame with columns ``comparison, learner_x, reward_x, learner_y, reward_y, score,
+        higher_is_better, probability_of_improvement, probability_of_improvement_low,
+        probability_of_improvement_high`` (X improves on Y with that probability).
+    """
+    import pandas as pd
+
+    rows = []
+    rng = np.random.default_rng(seed)
+    for i, x in enumerate(cells):
+        for y in cells[i + 1:]:
+            same_learner, same_reward = x["learner"] == y["learner"], x["reward"] == y["reward"]
+            if same_learner == same_reward:
+                continue
+            for score, higher in RUN_SCORES.items():
+                a = np.where(np.isnan(x["runs"][score]), np.inf, x["runs"][score])
+                b = np.where(np.isnan(y["runs"][score]), np.inf, y["runs"][score])
+                p, low, high = probability_of_improvement_interval(a, b, higher, confidence, samples, rng)
+                rows.append({"comparison": "reward" if same_learner else "learner",
+                             "learner_x": x["learner"], "reward_x": x["reward"], "learner_y": y["learner"],
+                             "reward_y": y["reward"], "score": score, "higher_is_better": higher,
+                             "probability_of_improvement": p, "probability_of_improvement_low": low,
+                             "probability_of_improvement_high": high})
+    return pd.DataFrame(rows, columns=COMPARISON_COLUMNS)
+
+
+COMPARISON_COLUMNS = ("comparison", "learner_x", "reward_x", "learner_y", "reward_y", "score", "higher_is_better",
+                      "probability_of_improvement", "probability_of_improvement_low",
+                      "probability_of_improvement_high")

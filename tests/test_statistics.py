@@ -1,0 +1,54 @@
+"""Statistics on hand-made samples with known answers (rliable's definitions)."""
+
+import numpy as np
+import pytest
+
+from tableclean_suite.bench import statistics
+
+
+def test_iqm_is_the_mean_of_the_middle_half():
+    assert statistics.iqm(np.arange(1, 9)) == pytest.approx(4.5)  # mean of 3, 4, 5, 6
+    assert statistics.iqm([10.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]) == pytest.approx(4.5)  # order-free, outlier-free
+    # never-succeeding runs (inf) in the outer quarter leave it finite; in the middle they make it NaN
+    assert statistics.iqm([1, 2, 3, 4, 5, 6, 7, np.inf]) == pytest.approx(4.5)
+    assert np.isnan(statistics.iqm([1, 2, 3, np.inf, np.inf, np.inf, np.inf, np.inf]))
+
+
+def test_probability_of_improvement_counts_pairs_and_half_ties():
+    # pairs (x, y): 3 > 1, 3 > 2, 2 > 1, 2 = 2 (half) -> (3 + 0.5) / 4
+    assert statistics.probability_of_improvement([3, 2], [1, 2]) == pytest.approx(0.875)
+    assert statistics.probability_of_improvement([1, 2], [3, 2]) == pytest.approx(0.125)
+    assert statistics.probability_of_improvement([1, 2], [3, 2], higher_is_better=False) == pytest.approx(0.875)
+    assert statistics.probability_of_improvement([5], [5]) == 0.5
+
+
+def test_probability_of_improvement_interval_brackets_and_is_seeded():
+    rng = np.random.default_rng(1)
+    x, y = rng.normal(1.0, 1.0, 300), rng.normal(0.0, 1.0, 300)
+    p, low, high = statistics.probability_of_improvement_interval(x, y, rng=np.random.default_rng(7))
+    again = statistics.probability_of_improvement_interval(x, y, rng=np.random.default_rng(7))
+    assert (p, low, high) == again
+    # P(N(1,1) > N(0,1)) = Phi(1 / sqrt 2) = 0.760
+    assert low < 0.760 < high and low < p < high and high - low < 0.12
+
+
+def test_bootstrap_interval_of_a_mean_matches_the_normal_approximation():
+    sample = np.r_[np.zeros(50), np.ones(50)]  # mean 0.5, standard error 0.05
+    rng = np.random.default_rng(3)
+    replicates = [rng.choice(sample, len(sample)).mean() for _ in range(4000)]
+    low, high = statistics.percentile_interval(replicates)
+    assert low == pytest.approx(0.5 - 1.96 * 0.05, abs=0.015) and high == pytest.approx(0.5 + 1.96 * 0.05, abs=0.015)
+    assert np.isnan(statistics.percentile_interval([1.0, np.nan, np.nan])[0])  # mostly undefined: no interval
+
+
+def test_iqm_interval_contains_the_iqm_and_is_reproducible():
+    values = np.random.default_rng(2).exponential(size=400)
+    point, low, high = statistics.iqm_interval(values, rng=np.random.default_rng(5))
+    assert (point, low, high) == statistics.iqm_interval(values, rng=np.random.default_rng(5))
+    assert low < point < high
+
+
+def test_bootstrap_groups_respect_runs_and_memory():
+    assert statistics.bootstrap_groups(1000, 4000) == statistics.MAX_GROUPS
+    assert statistics.bootstrap_groups(7, 4000) == 7
+    assert statistics.bootstrap_groups(1000, 10**8) == 1
