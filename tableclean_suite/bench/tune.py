@@ -1,0 +1,311 @@
+"""``python -m benchmarks.tune``: search a learner's hyperparameters with Optuna (TPE + median pruning).
+
+    python -m benchmarks.tune --trials 40 --learner q_learning --reward r4
+    python -m benchmarks.tune --trials 20          # a second call resumes the same study
+
+Searches alpha, gamma, epsilon and the exploration schedule (``train(exploration=...)``:
+constant epsilon-greedy, linear or exponential decay to a floor) of one learner on one reward
+pattern and task.
+
+**Objective** (minimised, iterations): iterations to maximum success, i.e. the first iteration at
+which the success curve reaches ``threshold`` (95 %) of the trial's exact success asymptote
+(:mod:`tableclean_suite.asymptotes`, the runs' final policies under the final epsilon), subject
+to that asymptote: a trial whose asymptote is more than ``--tolerance`` (absolute, default 0.01)
+below the paper configuration's (alpha = gamma = 0.3, constant epsilon = 0.1, same learner,
+reward, task, runs, iterations and seed; computed once per study and stored in it) scores
+``iterations x (1 + shortfall)``, worse than any trial that meets the constraint (a trial never
+reaching the level scores ``iterations`` too, before the penalty).
+
+**Pruning**: a trial trains its runs in :data:`STAGES` stages of runs; after each stage it reports
+the objective on the runs so far, and Optuna's :class:`~optuna.pruners.MedianPruner` stops it when
+that is worse than the median of earlier trials at the same stage.
+
+**Storage**: an Optuna RDB URL, default ``sqlite:///OUT/study.db`` (``--out`` default
+``results/tune``), so a study resumes across invocations and several processes or machines can
+share it (with a shared database).  Each invocation rewrites ``OUT/best.json`` (best trial vs the
+paper's configuration) and ``OUT/trials.csv`` atomically.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+#: Exploration schedules searched, as ``train(exploration=...)`` names (see ``learners.exploration``).
+SCHEDULES = ("epsilon_greedy", "linear_decay", "exponential_decay")
+#: Search ranges.
+ALPHA_RANGE = (0.05, 1.0)
+GAMMA_RANGE = (0.0, 0.99)
+EPSILON_RANGE = (0.01, 0.3)
+EPSILON_MIN_RANGE = (0.0, 0.1)
+#: Decay horizon / time constant as a fraction of the training window.
+DECAY_FRACTION_RANGE = (0.05, 1.0)
+#: The paper's configuration, the reference of the success constraint.
+PAPER_SETTINGS = {"alpha": 0.3, "gamma": 0.3, "epsilon": 0.1, "exploration": "epsilon_greedy"}
+#: Stages of runs per trial (intermediate values for the pruner).
+STAGES = 4
+#: Allowed shortfall of a trial's success asymptote below the paper configuration's (absolute).
+DEFAULT_TOLERANCE = 0.01
+#: Trials the pruner lets finish before it prunes, and stages it waits within a trial.
+PRUNER_STARTUP_TRIALS = 5
+PRUNER_WARMUP_STEPS = 1
+#: User attribute of the study holding the paper configuration's result.
+REFERENCE_ATTR = "paper_reference"
+
+
+def trial_settings(trial) -> dict:
+    """The hyperparameters of an Optuna trial: alpha, gamma, epsilon and the exploration schedule."""
+    settings = {
+        "alpha": trial.suggest_float("alpha", *ALPHA_RANGE),
+        "gamma": trial.suggest_float("gamma", *GAMMA_RANGE),
+        "epsilon": trial.suggest_float("epsilon", *EPSILON_RANGE, log=True),
+        "exploration": trial.suggest_categorical("exploration", SCHEDULES),
+    }
+    if settings["exploration"] != "epsilon_greedy":
+        settings["epsilon_min"] = trial.suggest_float("epsilon_min", *EPSILON_MIN_RANGE)
+        settings["decay_fraction"] = trial.suggest_float("decay_fraction", *DECAY_FRACTION_RANGE, log=True)
+    return settings
+
+
+def exploration_of(settings: dict, iterations: int):
+    """``train(exploration=...)`` and the epsilon of the final behaviour for ``settings``."""
+    name = settings["exploration"]
+    if name == "epsilon_greedy":
+        return None, settings["epsilon"]
+    from tableclean_suite.learners.exploration import as_exploration
+
+    floor = min(settings["epsilon_min"], settings["epsilon"])
+    span = max(1, round(settings["decay_fraction"] * iterations))
+    if name == "linear_decay":
+        exploration = {"name": name, "epsilon_min": floor, "horizon": int(span)}
+    else:
+        exploration = {"name": name, "epsilon_min": floor, "rate": 1.0 / span}
+    final = float(as_exploration(exploration).parameter_at(settings["epsilon"], iterations))
+    return exploration, final
+
+
+class Evaluation:
+    """Trains one configuration stage by stage and scores it (see the module docstring)."""
+
+    def __init__(self, args, model, settings: dict):
+        from tableclean_suite import asymptotes
+        from tableclean_suite.metrics import GroupedCurveSums
+
+        self.args, self.model, self.settings = args, model, settings
+        self.exploration, self.final_epsilon = exploration_of(settings, args.iterations)
+        self.chain = asymptotes.EpisodeChain.build(model, args.reward)
+        self.sums = GroupedCurveSums.zeros(args.iterations, 1)
+        self.success: list[np.ndarray] = []
+
+    def stages(self):
+        """Train the runs in :data:`STAGES` stages; yields after each stage."""
+        from tableclean_suite import asymptotes
+        from tableclean_suite.learners import train
+
+        bounds = np.linspace(0, self.args.runs, STAGES + 1).round().astype(int)
+        for step, (lo, hi) in enumerate(zip(bounds[:-1], bounds[1:])):
+            if hi <= lo:
+                continue
+            result = train(self.args.learner, self.args.reward, runs=int(hi - lo), first_run=int(lo),
+                           iterations=self.args.iterations, alpha=self.settings["alpha"],
+                           gamma=self.settings["gamma"], epsilon=self.settings["epsilon"], max_itr=self.args.max_itr,
+                           seed=self.args.seed, model=self.model, exploration=self.exploration)
+            self.sums.add(result)
+            final = asymptotes.greedy_asymptotes(result.q, self.final_epsilon, self.chain, self.args.max_itr)
+            self.success.append(np.asarray(final.success))
+            yield step
+
+    def result(self) -> dict:
+        """``{"max_success_iterations", "success_asymptote"}`` of the runs trained so far."""
+        from tableclean_suite import metrics
+
+        asymptote = float(np.concatenate(self.success).mean())
+        curve = self.sums.totals().curves()["success"]
+        reached = metrics.iterations_to_max_success(curve, self.args.threshold, top=asymptote)
+        return {"max_success_iterations": reached, "success_asymptote": asymptote}
+
+
+def objective_value(result: dict, reference: float | None, iterations: int, tolerance: float) -> float:
+    """The minimised score: iterations to maximum success (``iterations`` if never), times
+    ``1 + shortfall`` when the success asymptote falls short of ``reference - tolerance``."""
+    value = float(result["max_success_iterations"] or iterations)
+    if reference is not None and result["success_asymptote"] < reference - tolerance:
+        value = iterations * (1.0 + (reference - result["success_asymptote"]))
+    return value
+
+
+def _reference(study, args, model) -> dict:
+    """The paper configuration's result, computed once per study and stored as a user attribute."""
+    stored = study.user_attrs.get(REFERENCE_ATTR)
+    if stored is not None:
+        return stored
+    evaluation = Evaluation(args, model, dict(PAPER_SETTINGS))
+    for _ in evaluation.stages():
+        pass
+    reference = evaluation.result()
+    study.set_user_attr(REFERENCE_ATTR, reference)
+    return reference
+
+
+def build_parser(prog: str = "python -m benchmarks.tune") -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
+    parser.add_argument("--trials", type=int, default=30, help="trials to add to the study (default: 30)")
+    parser.add_argument("--learner", default="q_learning", help="registered learner (default: q_learning)")
+    parser.add_argument("--reward", default="r4", help="registered reward pattern (default: r4)")
+    parser.add_argument("--task", default="paper", help="task spec name or JSON path (default: paper)")
+    parser.add_argument("--runs", type=int, default=200, help="runs per trial (default: 200)")
+    parser.add_argument("--iterations", type=int, default=2000, help="iterations per run (default: 2000)")
+    parser.add_argument("--max-itr", type=int, default=500, help="episode length limit (default: 500)")
+    parser.add_argument("--threshold", type=float, default=0.95,
+                        help="fraction of the success asymptote that counts as reached (default: 0.95)")
+    parser.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE,
+                        help="allowed shortfall of the success asymptote below the paper configuration's "
+                             f"(absolute fraction, default: {DEFAULT_TOLERANCE})")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the training runs and of the sampler (default: 0)")
+    parser.add_argument("--out", default="results/tune", help="output directory (default: results/tune)")
+    parser.add_argument("--storage", default=None,
+                        help="Optuna storage URL (default: sqlite:///OUT/study.db); share it to tune from several "
+                             "processes or machines")
+    parser.add_argument("--study-name", default=None,
+                        help="study name (default: LEARNER-REWARD-TASK-RUNSxITERATIONS)")
+    return parser
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    """Parse and check the command line; a bad value exits 2 naming it."""
+    from tableclean_suite.bench.config import ConfigError, RunConfig
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.trials < 0:
+        parser.error(f"--trials must be >= 0, got {args.trials}")
+    if not 0.0 <= args.tolerance <= 1.0:
+        parser.error(f"--tolerance must be in [0, 1], got {args.tolerance}")
+    try:
+        config = RunConfig(learners=(args.learner,), rewards=(args.reward,), runs=args.runs, iterations=args.iterations,
+                           max_itr=args.max_itr, seed=args.seed, task=args.task, threshold=args.threshold,
+                           sweep_learner=args.learner, sweep_reward=args.reward, sweeps=False)
+    except ConfigError as error:
+        parser.error(error.message_for("--" + error.field.replace("_", "-")))
+    args.model = config.task_model()
+    out = Path(args.out)
+    args.storage = args.storage or f"sqlite:///{(out / 'study.db').as_posix()}"
+    args.study_name = args.study_name or f"{args.learner}-{args.reward}-{Path(args.task).stem}-{args.runs}x{args.iterations}"
+    return args
+
+
+def trials_frame(study):
+    """One row per trial: number, state, value, hyperparameters and measured results."""
+    import pandas as pd
+
+    rows = []
+    for trial in study.trials:
+        rows.append({"number": trial.number, "state": trial.state.name, "value": trial.value,
+                     **{f"param_{k}": v for k, v in trial.params.items()},
+                     **{k: v for k, v in trial.user_attrs.items()}})
+    return pd.DataFrame(rows)
+
+
+def best_report(study, args) -> dict:
+    """``best.json``: the best trial's configuration and results beside the paper configuration's."""
+    reference = study.user_attrs.get(REFERENCE_ATTR)
+    completed = [t for t in study.trials if t.value is not None and t.state.name == "COMPLETE"]
+    best = min(completed, key=lambda t: t.value) if completed else None
+    return {
+        "study": args.study_name, "storage": args.storage, "learner": args.learner, "reward": args.reward,
+        "task": args.task, "runs": args.runs, "iterations": args.iterations, "seed": args.seed,
+        "threshold": args.threshold, "tolerance": args.tolerance, "trials": len(study.trials),
+        "completed": len(completed), "pruned": sum(t.state.name == "PRUNED" for t in study.trials),
+        "objective": "iterations to maximum success; x (1 + shortfall) when the success asymptote is more than "
+                     "tolerance below the paper configuration's",
+        "paper": {"settings": PAPER_SETTINGS, **(reference or {}),
+                  "objective": None if reference is None else objective_value(reference, None, args.iterations, 0.0)},
+        "best": None if best is None else {"trial": best.number, "objective": best.value, "settings": best.params,
+                                           **best.user_attrs},
+    }
+
+
+def run(args) -> int:
+    import optuna
+
+    from tableclean_suite.bench.outputs import atomic_write, atomic_write_text, check_writable
+
+    out = Path(args.out)
+    problem = check_writable(out)
+    if problem:
+        print(f"python -m benchmarks.tune: error: --out {problem}", file=sys.stderr)
+        return 2
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    sampler_seed = args.seed + _trials_so_far(args)  # a resumed call does not replay the first call's proposals
+    study = optuna.create_study(
+        study_name=args.study_name, storage=args.storage, direction="minimize", load_if_exists=True,
+        sampler=optuna.samplers.TPESampler(seed=sampler_seed),
+        pruner=optuna.pruners.MedianPruner(n_startup_trials=PRUNER_STARTUP_TRIALS,
+                                           n_warmup_steps=PRUNER_WARMUP_STEPS),
+    )
+    started = time.perf_counter()
+    reference = _reference(study, args, args.model)
+
+    def objective(trial):
+        evaluation = Evaluation(args, args.model, trial_settings(trial))
+        for step in evaluation.stages():
+            value = objective_value(evaluation.result(), reference["success_asymptote"], args.iterations,
+                                    args.tolerance)
+            trial.report(value, step)
+            if trial.should_prune():
+                raise optuna.TrialPruned()
+        result = evaluation.result()
+        for key, value in result.items():
+            trial.set_user_attr(key, value)
+        trial.set_user_attr("final_epsilon", evaluation.final_epsilon)
+        return objective_value(result, reference["success_asymptote"], args.iterations, args.tolerance)
+
+    study.optimize(objective, n_trials=args.trials)
+    report = best_report(study, args)
+    frame = trials_frame(study)
+    atomic_write(out / "trials.csv", lambda path: frame.to_csv(path, index=False))
+    atomic_write_text(out / "best.json", json.dumps(report, indent=2, default=_json_default))
+    paper, best = report["paper"], report["best"]
+    print(f"study {args.study_name!r} in {args.storage}: {report['trials']} trials ({report['completed']} complete, "
+          f"{report['pruned']} pruned), {time.perf_counter() - started:.1f} s this call")
+    print(f"paper (alpha = gamma = 0.3, epsilon = 0.1): {paper.get('max_success_iterations')} iterations to maximum "
+          f"success, success asymptote {100 * paper.get('success_asymptote', float('nan')):.2f} %")
+    if best is not None:
+        print(f"best trial {best['trial']}: objective {best['objective']:.0f}, "
+              f"{best.get('max_success_iterations')} iterations, success asymptote "
+              f"{100 * best.get('success_asymptote', float('nan')):.2f} %, settings {best['settings']}")
+    print(f"written: {out / 'best.json'}, {out / 'trials.csv'}")
+    return 0
+
+
+def _trials_so_far(args) -> int:
+    """Trials the study already has in its storage (0 for a new study)."""
+    import optuna
+
+    try:
+        return len(optuna.load_study(study_name=args.study_name, storage=args.storage).trials)
+    except KeyError:
+        return 0
+
+
+def _json_default(value):
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    if isinstance(value, (np.floating,)):
+        return float(value)
+    raise TypeError(f"not JSON-serialisable: {value!r}")
+
+
+def main(argv=None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    args = parse_args(argv)
+    return run(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,84 @@
+"""The expected-average-reward DP against a hand-computed chain, a Monte-Carlo estimate and analysis.py."""
+
+import numpy as np
+import pytest
+
+from tableclean_suite import analysis, asymptotes
+from tableclean_suite.learners import TransitionTable, train
+from tableclean_suite.rewards import get_reward_pattern
+from tableclean_suite.task import Outcome, TaskModel
+
+MODEL = TaskModel()
+
+
+def _chain(pattern="r4"):
+    return asymptotes.EpisodeChain.build(MODEL, pattern)
+
+
+def test_hand_computed_two_state_chain():
+    # pairs 0 -> 1 -> terminal; from pair 0: action 0 goes on (reward 0.5), action 1 is improper and stays (-1);
+    # from pair 1 every action ends the episode (reward 1).  pi(action 0 | pair 0) = p.
+    p = 0.75
+    chain = asymptotes.EpisodeChain(
+        pair_state=np.array([0, 1]), next_pair=np.array([[[1], [0]], [[-1], [-1]]]),
+        probability=np.ones((2, 2, 1)),
+        outcome=np.array([[[int(Outcome.ROUTINE)], [int(Outcome.IMPROPER)]], [[int(Outcome.TERMINAL)]] * 2]),
+        reward=np.array([[[0.5], [-1.0]], [[1.0], [1.0]]]), start_pairs=np.array([0]))
+    pi = np.array([[p, 1 - p], [0.5, 0.5]])
+    # k improper steps first (probability (1-p)^k p), then length k + 2, return 1.5 - k
+    k = np.arange(400)
+    weights = (1 - p) ** k * p
+    expected_ratio = float((weights * (1.5 - k) / (k + 2)).sum())
+    stats = asymptotes.episode_statistics(pi, chain, max_itr=500)
+    assert stats.terminal == pytest.approx(1.0)
+    assert stats.success == pytest.approx(p)  # only k = 0 has no improper action
+    assert stats.average_reward == pytest.approx(expected_ratio, rel=1e-10)
+    assert stats.length == pytest.approx(float((weights * (k + 2)).sum()))
+    truncated = asymptotes.episode_statistics(pi, chain, max_itr=2)  # k >= 1 is cut at 2 steps
+    assert truncated.terminal == pytest.approx(p)
+    assert truncated.average_reward == pytest.approx(p * 1.5 / 2 + (1 - p) * p * (-0.5) / 2 + (1 - p) ** 2 * -1.0)
+
+
+def _monte_carlo(policy, pattern, epsilon, episodes, seed=0):
+    rng, table = np.random.default_rng(seed), TransitionTable.from_model(MODEL)
+    starts = [s.index for s in MODEL.start_states()]
+    ratios, successes = [], []
+    for _ in range(episodes):
+        state, previous, total, length, clean = starts[rng.integers(len(starts))], -1, 0.0, 0, True
+        while True:
+            action = policy[state] if rng.random() >= epsilon else rng.integers(MODEL.n_actions)
+            nxt, outcome = int(table.next_state[state, action, 0]), int(table.outcome[state, action, 0])
+            total += pattern.reward(outcome, state, nxt, previous)
+            length += 1
+            clean &= outcome != Outcome.IMPROPER
+            if outcome == Outcome.TERMINAL or length >= 500:
+                break
+            previous, state = state, nxt
+        ratios.append(total / length)
+        successes.append(clean and outcome == Outcome.TERMINAL)
+    return np.mean(ratios), np.std(ratios) / np.sqrt(episodes), np.mean(successes)
+
+
+@pytest.mark.parametrize("reward", ["r1", "r4"])
+def test_average_reward_matches_monte_carlo_with_the_looping_penalty(reward):
+    q = train("q_learning", reward, runs=1, iterations=2000, seed=3, task=MODEL).q
+    stats = asymptotes.greedy_asymptotes(q, 0.2, _chain(reward), 500)
+    mean, error, success = _monte_carlo(analysis.greedy_policy(q[0]), get_reward_pattern(reward), 0.2, 6000)
+    assert abs(stats.average_reward[0] - mean) < 4 * error
+    assert abs(stats.success[0] - success) < 4 * np.sqrt(0.25 / 6000)
+
+
+def test_looping_penalty_changes_the_average_reward():
+    # r3 and r4 differ only by the looping penalty: with exploration some steps loop, so r4 is lower
+    q = np.zeros((1, MODEL.n_states, MODEL.n_actions))
+    r3 = asymptotes.greedy_asymptotes(q, 0.5, _chain("r3"), 500).average_reward[0]
+    r4 = asymptotes.greedy_asymptotes(q, 0.5, _chain("r4"), 500).average_reward[0]
+    assert r4 < r3 - 1e-3
+
+
+def test_success_equals_analysis_exact_success_probability():
+    q = train("sarsa", "r2", runs=30, iterations=1500, seed=2, task=MODEL).q
+    stats = asymptotes.greedy_asymptotes(q, 0.1, _chain("r2"), 500)
+    exact = analysis.exact_success_probability(analysis.greedy_policy(q), 0.1, 500, MODEL)
+    np.testing.assert_allclose(stats.success, exact, atol=1e-9)
+    assert stats.success.shape == (30,) and (stats.terminal >= stats.success - 1e-12).all()

@@ -1,0 +1,55 @@
+"""``python -m benchmarks.tune`` on a tiny budget: the study is stored, resumed, and reported."""
+
+import json
+
+import pytest
+
+optuna = pytest.importorskip("optuna")
+
+from tableclean_suite.bench import tune  # noqa: E402
+
+TINY = ["--runs", "8", "--iterations", "300", "--learner", "q_learning", "--reward", "r4", "--seed", "1"]
+
+
+def test_tune_writes_its_study_and_a_second_call_resumes_it(tmp_path):
+    out = tmp_path / "tune"
+    assert tune.main([*TINY, "--trials", "2", "--out", str(out)]) == 0
+    storage = f"sqlite:///{(out / 'study.db').as_posix()}"
+    assert (out / "study.db").stat().st_size > 0
+    name = "q_learning-r4-paper-8x300"
+    study = optuna.load_study(study_name=name, storage=storage)
+    assert len(study.trials) == 2
+    assert study.user_attrs[tune.REFERENCE_ATTR]["success_asymptote"] > 0  # the paper's configuration, stored
+    best = json.loads((out / "best.json").read_text())
+    assert best["trials"] == 2 and best["best"]["settings"]["alpha"] > 0
+    assert best["best"]["objective"] == min(t.value for t in study.trials if t.value is not None)
+    assert best["paper"]["settings"] == tune.PAPER_SETTINGS
+    assert (out / "trials.csv").read_text().count("\n") == 1 + 2
+
+    assert tune.main([*TINY, "--trials", "1", "--out", str(out)]) == 0
+    assert len(optuna.load_study(study_name=name, storage=storage).trials) == 3
+    assert json.loads((out / "best.json").read_text())["trials"] == 3
+
+
+def test_objective_penalises_a_success_asymptote_below_the_paper_configuration():
+    iterations, reference = 1000, 0.87
+    fast_but_worse = {"max_success_iterations": 50, "success_asymptote": 0.80}
+    slower_and_good = {"max_success_iterations": 400, "success_asymptote": 0.865}
+    never = {"max_success_iterations": None, "success_asymptote": 0.9}
+    assert tune.objective_value(slower_and_good, reference, iterations, 0.01) == 400
+    assert tune.objective_value(fast_but_worse, reference, iterations, 0.01) == pytest.approx(1000 * 1.07)
+    assert tune.objective_value(never, reference, iterations, 0.01) == iterations
+    assert tune.objective_value(fast_but_worse, reference, iterations, 0.1) == 50  # within a loose tolerance
+
+
+def test_decay_schedules_report_their_final_epsilon():
+    _, constant = tune.exploration_of({"exploration": "epsilon_greedy", "epsilon": 0.1}, 1000)
+    spec, linear = tune.exploration_of({"exploration": "linear_decay", "epsilon": 0.2, "epsilon_min": 0.05,
+                                        "decay_fraction": 0.5}, 1000)
+    assert constant == 0.1 and spec["horizon"] == 500 and linear == pytest.approx(0.05)
+
+
+def test_bad_arguments_exit_2():
+    with pytest.raises(SystemExit) as exit_info:
+        tune.parse_args(["--reward", "r9"])
+    assert exit_info.value.code == 2
