@@ -5,6 +5,9 @@ Everything added here hangs off the table body of :class:`robosuite.models.arena
 - one tinted, visual-only patch per segment and a dark divider strip between them;
 - ``rows * cols`` dirt markers per segment: thin visual-only discs (``contype = conaffinity = 0``,
   like robosuite's Wipe markers), hidden by the environment when wiped;
+- one dirt-state body per segment, without geometry, on a horizontal slide joint whose position
+  records which of the segment's markers are wiped (:mod:`.dirt_state`), so the dirt is part of
+  MuJoCo's ``qpos``;
 - a small stand (a collision box) on which the sponge rests at its home, off both segments;
 - a ``tableview`` camera that sees both segments, the dirt, the object and the stand.
 """
@@ -13,9 +16,10 @@ from __future__ import annotations
 
 import numpy as np
 from robosuite.models.arenas import TableArena
-from robosuite.utils.mjcf_utils import new_geom
+from robosuite.utils.mjcf_utils import new_body, new_geom, new_inertial, new_joint
 
 from tableclean_suite.environments.config import SceneGeometry
+from tableclean_suite.environments.dirt_state import dirt_state_joint_name
 
 #: RGBA of each segment's tint (segment 1 light blue, segment 2 light orange).
 SEGMENT_RGBA = ((0.62, 0.78, 0.95, 1.0), (0.98, 0.80, 0.58, 1.0))
@@ -30,6 +34,15 @@ DIRT_HALF_HEIGHT = 0.0006
 DIVIDER_WIDTH_FRACTION = 0.5
 #: Visual-only geom attributes (no collisions, rendered in robosuite's visual group 1).
 _VISUAL = dict(contype=0, conaffinity=0, group=1)
+
+#: Mass [kg] and principal inertia [kg m^2] of a dirt-state body (MuJoCo needs both > 0 on a moving body).
+DIRT_STATE_MASS = 1e-3
+DIRT_STATE_INERTIA = 1e-9
+#: Damping of a dirt-state joint [N s/m]: any stray velocity dies within a physics step (MuJoCo's
+#: Euler integrator treats joint damping implicitly, so a large value is stable and costs nothing).
+DIRT_STATE_DAMPING = 1e6
+#: Slide axis of a dirt-state joint (horizontal: gravity has no component along it).
+DIRT_STATE_AXIS = "1 0 0"
 
 #: Camera that shows the whole scene: (position, look-at point) in the table frame [m].
 TABLEVIEW_CAMERA = "tableview"
@@ -89,6 +102,11 @@ class TableCleanArena(TableArena):
         """Dirt marker geom names, segment 1 first, in the order of ``marker_xy``."""
         return [marker_geom_name(s, i) for s in range(self.marker_xy.shape[0]) for i in range(self.marker_xy.shape[1])]
 
+    @property
+    def dirt_state_joint_names(self) -> list[str]:
+        """The dirt-state slide joints, one per segment, segment 1 first (see :mod:`.dirt_state`)."""
+        return [dirt_state_joint_name(s) for s in range(self.marker_xy.shape[0])]
+
     def configure_location(self):
         """Places the table (superclass), then adds segments, divider, dirt and the sponge stand."""
         super().configure_location()
@@ -116,6 +134,11 @@ class TableCleanArena(TableArena):
                 name, "cylinder", size=(self.marker_radius, DIRT_HALF_HEIGHT),
                 pos=(*(xy - body_xy), marker_z), rgba=DIRT_RGBA, **_VISUAL,
             ))
+        for joint in self.dirt_state_joint_names:
+            body = new_body(joint.replace("_joint", "_body"), pos=(0.0, 0.0, 0.0))
+            body.append(new_inertial(mass=DIRT_STATE_MASS, diaginertia=(DIRT_STATE_INERTIA,) * 3))
+            body.append(new_joint(joint, type="slide", axis=DIRT_STATE_AXIS, limited="false", damping=DIRT_STATE_DAMPING))
+            self.table_body.append(body)
         stand_local = g.stand_center - np.array([*body_xy, g.table_top_z - top])
         self.table_body.append(new_geom(
             "sponge_stand", "box", size=g.stand_half_size, pos=stand_local,

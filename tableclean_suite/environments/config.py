@@ -15,6 +15,7 @@ from typing import Mapping
 
 import numpy as np
 
+from tableclean_suite.environments.dirt_state import MAX_MARKERS_PER_SEGMENT
 from tableclean_suite.task.paper import PAPER_SEGMENTS
 
 #: Segments the scene lays out (the paper's two; the task spec may not ask for more yet).
@@ -30,7 +31,7 @@ DEFAULT_TABLECLEAN_CONFIG = {
     "segment_gap": 0.04,  # width along y of the divider strip between the two segments [m]
     "segment_x": 0.0,  # x of both segment centres in the table frame [m]
     # --- dirt --------------------------------------------------------------------------------
-    "marker_grid": (5, 5),  # dirt markers per segment as (rows along x, columns along y)
+    "marker_grid": (5, 5),  # dirt markers per segment as (rows along x, columns along y); at most 52 in all
     "marker_radius": 0.011,  # radius of a (visual-only) dirt marker disc [m]
     "clean_fraction": 0.9,  # a segment counts clean once at least this fraction of its markers is wiped
     "wipe_contact_dist": 0.0,  # a sponge-table contact counts as pressing when its distance is <= this [m]
@@ -105,6 +106,9 @@ def _validate(config: dict) -> None:
     grid = config["marker_grid"]
     if len(grid) != 2 or any(isinstance(n, bool) or int(n) != n or n < 1 for n in grid):
         raise ValueError(f"task_config['marker_grid'] must be two integers >= 1, got {grid!r}")
+    if int(grid[0]) * int(grid[1]) > MAX_MARKERS_PER_SEGMENT:
+        raise ValueError(f"task_config['marker_grid'] {grid!r} has {int(grid[0]) * int(grid[1])} markers per segment; "
+                         f"at most {MAX_MARKERS_PER_SEGMENT} fit in a segment's dirt-state joint")
     half_y = config["table_full_size"][1] / 2
     reach_y = config["segment_gap"] / 2 + config["segment_size"][1]
     if reach_y > half_y:

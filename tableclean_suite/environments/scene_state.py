@@ -1,4 +1,4 @@
-"""A restorable copy of a ``TableClean`` scene: MuJoCo state, dirt markers, gripper commands."""
+"""A restorable copy of a ``TableClean`` scene: MuJoCo state (dirt markers included) and gripper commands."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ class SceneState:
 
     Attributes:
         time: simulation time [s].
-        qpos, qvel, act, ctrl, qacc_warmstart: copies of MuJoCo's ``MjData`` arrays.
-        marker_present: bool ``(2 * markers_per_segment,)``, dirt markers not yet wiped.
+        qpos, qvel, act, ctrl, qacc_warmstart: copies of MuJoCo's ``MjData`` arrays; ``qpos``
+            holds the dirt markers' wiped flags (their slide joints).
         gripper_commands: each gripper's integrated command (robosuite's Panda gripper
             integrates its input, so a restored grasp would open without it).
 
@@ -28,5 +28,4 @@ class SceneState:
     act: np.ndarray
     ctrl: np.ndarray
     qacc_warmstart: np.ndarray
-    marker_present: np.ndarray
     gripper_commands: tuple

@@ -10,7 +10,7 @@ from robosuite.models.tasks import ManipulationTask
 from robosuite.utils.observables import Observable, sensor
 from robosuite.utils.transform_utils import convert_quat, mat2quat
 
-from tableclean_suite.environments import abstraction, wiping
+from tableclean_suite.environments import abstraction, dirt_state, wiping
 from tableclean_suite.environments.arena import TableCleanArena
 from tableclean_suite.environments.config import (
     DEFAULT_TABLECLEAN_CONFIG,
@@ -67,6 +67,17 @@ def _dirty_option(value: Iterable[int]) -> tuple[int, ...]:
     return tuple(sorted(set(segments)))
 
 
+def _jsonable(value):
+    """``value`` with tuples and NumPy values turned into lists and Python scalars (for JSON)."""
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
 class TableClean(ManipulationEnv):
     """Clean both segments of a table with a sponge, moving an object out of the way (one Panda arm).
 
@@ -75,7 +86,12 @@ class TableClean(ManipulationEnv):
     tint), each covered with a grid of dirt markers.  A graspable object lies on one segment; a
     sponge rests on a stand at the table's side, off both segments.  A dirt marker is wiped when the
     sponge's underside presses on it: the sponge touches the table top and the marker lies under its
-    footprint.  This is checked at every physics substep; visuals are updated once per control step.
+    footprint.  This is checked at every physics substep.  The wiped flags are MuJoCo state: each
+    segment's dirt-state joint encodes them in its position (:mod:`.dirt_state`), so
+    ``sim.get_state()`` / ``sim.set_state_from_flattened()`` (robosuite's ``DataCollectionWrapper``
+    and its playback, robomimic's ``dataset_states_to_obs``) save and restore the cleaning with the
+    object and the arm.  Wiped markers are hidden (alpha 0) once per control step, and whenever
+    observations are made or the env renders, from that state.
 
     ## Starting State
     The arm's gripper hovers ``arm_hover_height`` above the centre of ``arm_segment`` (pose from a
@@ -103,6 +119,9 @@ class TableClean(ManipulationEnv):
     - ``reward_shaping`` (bool): use the staged dense reward.
 
     ## Version History
+    - v1: the wiped flags are MuJoCo state (one dirt-state joint per segment: ``qpos`` and ``qvel``
+      gain one entry per segment, so states recorded with v0 do not load); ``get_ep_meta()``
+      records the task spec, the task config and the start layout.
     - v0: initial version.
     """
 
@@ -158,9 +177,8 @@ class TableClean(ManipulationEnv):
         self._marker_xyz = np.column_stack(
             [marker_xy.reshape(-1, 2), np.full(marker_xy.shape[0] * marker_xy.shape[1], self.geometry.table_top_z)]
         )
-        self._marker_present = np.ones(len(self._marker_xyz), dtype=bool)
-        self._marker_visible = self._marker_present.copy()
-        self._dirt_fraction = np.ones(SCENE_SEGMENTS)
+        self._n_task_states = TaskModel().n_states  # size of the symbolic_state_onehot observable
+        self._shown_dirt: tuple | None = None  # the dirt-state joint positions the marker visuals show
         self._arm_qpos_cache: dict[int, np.ndarray] = {}
         self.layout: tuple[int, int] | None = None  # (object segment, arm segment) of this episode, 0-based
         super().__init__(
@@ -285,6 +303,12 @@ class TableClean(ManipulationEnv):
             mask(gripper.important_geoms["right_fingerpad"]),
         )
         self.marker_geom_ids = np.array([model.geom_name2id(n) for n in self.arena.marker_names])
+        self._dirt_joints = tuple(self.arena.dirt_state_joint_names)  # one per segment
+        self._dirt_qpos_addr = tuple(int(model.get_joint_qpos_addr(j)) for j in self._dirt_joints)
+        self._dirt_qvel_addr = tuple(int(model.get_joint_qvel_addr(j)) for j in self._dirt_joints)
+        self._shown_dirt = None  # a new model shows every marker: synchronise at the next chance
+        self._present_cache: tuple | None = None  # (dirt-state joint positions, decoded present mask)
+        self._fraction_cache: tuple | None = None  # (dirt-state joint positions, dirt_fraction())
 
     def _setup_observables(self):
         """Object, sponge, dirt and symbolic-state observables on top of the robot's proprioception.
@@ -325,7 +349,7 @@ class TableClean(ManipulationEnv):
         def symbolic_state_onehot(obs_cache):
             cached = obs_cache.get("symbolic_state_index")
             index = self._symbolic_index() if cached is None else int(cached)
-            onehot = np.zeros(TaskModel().n_states)
+            onehot = np.zeros(self._n_task_states)
             if index != FAULT_INDEX:
                 onehot[index] = 1.0
             return onehot
@@ -343,7 +367,7 @@ class TableClean(ManipulationEnv):
         return observables
 
     def _reset_internal(self):
-        """Draws the layout, puts the arm over its segment, places object and sponge, restores the dirt."""
+        """Draws the layout, puts the arm over its segment, places object and sponge, lays out the dirt."""
         object_segment, arm_segment = self._draw_layout()
         self.layout = (object_segment, arm_segment)
         self.robots[0].init_qpos = self._arm_reset_qpos(arm_segment)
@@ -351,12 +375,11 @@ class TableClean(ManipulationEnv):
         if not self.deterministic_reset:
             self._place_object(object_segment)
             self._place_sponge()
-        self._marker_present = np.zeros(len(self._marker_xyz), dtype=bool)
+        dirty = np.zeros(len(self._marker_xyz), dtype=bool)
         for segment in self.dirty_segments:
-            self._segment_slice_view(self._marker_present, segment)[:] = True
-        self._marker_visible = self._marker_present.copy()
-        self._update_dirt_fraction()
-        self.sim.model.geom_rgba[self.marker_geom_ids, 3] = self._marker_visible.astype(float)
+            self._segment_slice_view(dirty, segment)[:] = True
+        self._write_marker_present(dirty)
+        self._show_dirt()
 
     def _pre_action(self, action, policy_step=False):
         """Robot control (superclass), then records wiping on the state after the previous substep."""
@@ -367,6 +390,16 @@ class TableClean(ManipulationEnv):
         """Hides the markers wiped during this control step, then reward / done (superclass)."""
         self._show_dirt()
         return super()._post_action(action)
+
+    def _get_observations(self, force_update=False):
+        """The markers' visuals follow the dirt state first (it may have been restored), then the observations."""
+        self._show_dirt()
+        return super()._get_observations(force_update)
+
+    def render(self):
+        """The markers' visuals follow the dirt state first (it may have been restored), then robosuite's render."""
+        self._show_dirt()
+        return super().render()
 
     def _check_success(self):
         """Both segments clean, the object lying on a segment, the sponge at home.
@@ -405,8 +438,17 @@ class TableClean(ManipulationEnv):
         self.object_segment, self.arm_segment, self.dirty_segments = layout
 
     def dirt_fraction(self) -> np.ndarray:
-        """Shape (2,): fraction of each segment's dirt markers still present (1.0 = all dirty)."""
-        return self._dirt_fraction.copy()
+        """Shape (2,): fraction of each segment's dirt markers still present (1.0 = all dirty), read from qpos.
+
+        Raises :class:`~tableclean_suite.environments.dirt_state.DirtStateError` when a dirt-state
+        joint holds no valid code (e.g. a state from another model was restored).
+        """
+        qpos, k = self._mj_data.qpos, self._markers_per_segment
+        positions = tuple(float(qpos[a]) for a in self._dirt_qpos_addr)
+        if self._fraction_cache is None or self._fraction_cache[0] != positions:
+            wiped = [dirt_state.wiped_count(x, k, j) for x, j in zip(positions, self._dirt_joints)]
+            self._fraction_cache = (positions, (k - np.array(wiped, dtype=float)) / k)
+        return self._fraction_cache[1].copy()
 
     def skill_info(self) -> dict:
         """Grounding for skills and the abstraction (world frame, metres, quaternions xyzw).
@@ -476,7 +518,6 @@ class TableClean(ManipulationEnv):
             act=data.act.copy(),
             ctrl=data.ctrl.copy(),
             qacc_warmstart=data.qacc_warmstart.copy(),
-            marker_present=self._marker_present.copy(),
             gripper_commands=tuple(
                 np.array(gripper.current_action, copy=True) for robot in self.robots for gripper in robot.gripper.values()
             ),
@@ -485,30 +526,70 @@ class TableClean(ManipulationEnv):
     def set_scene_state(self, state: SceneState) -> None:
         """Put the scene back into ``state`` (from :meth:`get_scene_state` of this env)."""
         data = self.sim.data._data
-        if state.qpos.shape != data.qpos.shape or state.marker_present.shape != self._marker_present.shape:
-            raise ValueError("scene state comes from a different TableClean model (qpos or marker count differ)")
+        if state.qpos.shape != data.qpos.shape:
+            raise ValueError(f"scene state comes from a different TableClean model: qpos has shape {state.qpos.shape}, "
+                             f"this model's {data.qpos.shape}")
         data.time = state.time
         data.qpos[:] = state.qpos
         data.qvel[:] = state.qvel
         data.act[:] = state.act
         data.ctrl[:] = state.ctrl
         data.qacc_warmstart[:] = state.qacc_warmstart
-        self._marker_present = state.marker_present.copy()
-        self._marker_visible = self._marker_present.copy()
-        self.sim.model.geom_rgba[self.marker_geom_ids, 3] = self._marker_visible.astype(float)
-        self._update_dirt_fraction()
         grippers = [gripper for robot in self.robots for gripper in robot.gripper.values()]
         for gripper, command in zip(grippers, state.gripper_commands):
             gripper.current_action = np.array(command, copy=True)
+        self._show_dirt()
         self.sim.forward()
 
     def marker_present(self) -> np.ndarray:
-        """Copy of the bool (2, markers_per_segment) array of dirt markers still present."""
-        return self._marker_present.reshape(SCENE_SEGMENTS, self._markers_per_segment).copy()
+        """Bool (2, markers_per_segment): the dirt markers still present (not wiped), read from qpos (a copy)."""
+        return self._marker_present().reshape(SCENE_SEGMENTS, self._markers_per_segment).copy()
+
+    def get_ep_meta(self) -> dict:
+        """robosuite's episode metadata plus what the recorded episode is an instance of (JSON-serialisable).
+
+        Keys added: ``task_spec`` (the task specification this scene builds, as
+        ``TaskSpec.to_dict()``), ``task_config`` (the full physical config) and ``start``
+        (``object_segment``, ``arm_segment`` and ``dirty_segments`` as 1-based numbers;
+        None: drawn at each reset).  ``DataCollectionWrapper`` stores it as ``ep_meta.json``.
+        """
+        meta = super().get_ep_meta()
+        meta.update(
+            task_spec=TaskModel().spec.to_dict(),
+            task_config=_jsonable(self.task_config),
+            start={
+                "object_segment": None if self.object_segment is None else self.object_segment + 1,
+                "arm_segment": None if self.arm_segment is None else self.arm_segment + 1,
+                "dirty_segments": [k + 1 for k in self.dirty_segments],
+            },
+        )
+        return meta
 
     # ------------------------------------------------------------------------------------------
     # internals
     # ------------------------------------------------------------------------------------------
+    def _marker_present(self) -> np.ndarray:
+        """Bool (2 * markers_per_segment,), read-only: markers not wiped, decoded from the dirt-state joints' qpos.
+
+        The decoded mask is cached per joint positions: the wiping check asks at every substep.
+        """
+        qpos, k = self._mj_data.qpos, self._markers_per_segment
+        positions = tuple(float(qpos[a]) for a in self._dirt_qpos_addr)
+        if self._present_cache is None or self._present_cache[0] != positions:
+            wiped = [dirt_state.decode(x, k, j) for x, j in zip(positions, self._dirt_joints)]
+            present = ~np.concatenate(wiped)
+            present.flags.writeable = False
+            self._present_cache = (positions, present)
+        return self._present_cache[1]
+
+    def _write_marker_present(self, present: np.ndarray) -> None:
+        """Record bool (2 * markers_per_segment,) ``present`` in the dirt-state joints (qpos; velocities zeroed)."""
+        data = self._mj_data
+        per_segment = np.asarray(present, dtype=bool).reshape(SCENE_SEGMENTS, self._markers_per_segment)
+        for qpos_addr, qvel_addr, flags in zip(self._dirt_qpos_addr, self._dirt_qvel_addr, per_segment):
+            data.qpos[qpos_addr] = dirt_state.encode(~flags)
+            data.qvel[qvel_addr] = 0.0
+
     def _segment_slice_view(self, flat: np.ndarray, segment: int) -> np.ndarray:
         return flat.reshape(SCENE_SEGMENTS, self._markers_per_segment)[segment]
 
@@ -573,20 +654,21 @@ class TableClean(ManipulationEnv):
         under = wiping.markers_under_box(
             self._marker_xyz, sponge_pos, sponge_mat, config["sponge_half_size"], config["wipe_marker_reach"]
         )
-        if (under & self._marker_present).any():
-            self._marker_present &= ~under
-            self._update_dirt_fraction()
-
-    def _update_dirt_fraction(self) -> None:
-        present = self._marker_present.reshape(SCENE_SEGMENTS, self._markers_per_segment)
-        self._dirt_fraction = np.count_nonzero(present, axis=1) / self._markers_per_segment
+        present = self._marker_present()
+        if (under & present).any():
+            self._write_marker_present(present & ~under)
 
     def _show_dirt(self) -> None:
-        """Hides (alpha 0) markers wiped since the last control step."""
-        wiped = self._marker_visible & ~self._marker_present
-        if wiped.any():
-            self.sim.model.geom_rgba[self.marker_geom_ids[wiped], 3] = 0.0
-            self._marker_visible &= self._marker_present
+        """Marker visuals follow the dirt state: alpha 0 for wiped markers, 1 for present ones.
+
+        Cheap when nothing changed since the last call (compares the dirt-state joint positions).
+        """
+        qpos = self._mj_data.qpos
+        positions = tuple(float(qpos[a]) for a in self._dirt_qpos_addr)
+        if positions == self._shown_dirt:
+            return
+        self.sim.model.geom_rgba[self.marker_geom_ids, 3] = self._marker_present().astype(float)
+        self._shown_dirt = positions
 
     def _symbolic_index(self) -> int:
         """Index of :meth:`symbolic_state` without the sponge check, or ``FAULT_INDEX`` on a fault."""

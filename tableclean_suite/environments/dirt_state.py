@@ -1,0 +1,76 @@
+"""The dirt markers' wiped flags as MuJoCo state: one slide-joint position per segment encodes them.
+
+robosuite saves and restores a scene with ``sim.get_state()`` / ``sim.set_state_from_flattened()``
+(time, ``qpos``, ``qvel``): that is what ``DataCollectionWrapper`` records and what playback and
+robomimic's ``dataset_states_to_obs`` restore.  So that the cleaning is restored with the object
+and the arm, each segment has a *dirt-state joint* (:func:`dirt_state_joint_name`): a horizontal
+slide joint of a geometry-less body whose position is the segment's wiped flags as a binary
+fraction,
+
+    qpos = sum_i wiped_i * 2**i / 2**k        (k markers, marker i -> bit i; in [0, 1) metres)
+
+which a float64 holds exactly for k <= :data:`MAX_MARKERS_PER_SEGMENT`.  A joint per marker would
+say the same with one body per marker, but robosuite's scene simulates air (fluid forces on every
+body with mass) and the 50 extra bodies and degrees of freedom cost ~10% of ``env.step``; two
+bodies cost nothing measurable.  The joint is horizontal (gravity has no component along it),
+carries no geometry (nothing touches it) and is heavily damped, so its position stays exactly
+where it is written.
+
+Pure functions here; :class:`~tableclean_suite.environments.TableClean` reads and writes the joints.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Largest number of markers per segment one float64 joint position encodes exactly (its mantissa).
+MAX_MARKERS_PER_SEGMENT = 52
+#: A decoded position may sit at most this far [in code units] from an integer code; further is a fault.
+CODE_TOLERANCE = 1e-6
+
+
+class DirtStateError(ValueError):
+    """A dirt-state joint holds a position that encodes no set of wiped flags (the message names it)."""
+
+
+def dirt_state_joint_name(segment: int) -> str:
+    """Name of the dirt-state slide joint of ``segment`` (0-based; e.g. ``"dirt_state_s1_joint"`` for segment 0)."""
+    return f"dirt_state_s{segment + 1}_joint"
+
+
+def _check_count(n_markers: int) -> int:
+    if isinstance(n_markers, bool) or not isinstance(n_markers, (int, np.integer)) or not 1 <= n_markers <= MAX_MARKERS_PER_SEGMENT:
+        raise ValueError(f"markers per segment must be an integer in [1, {MAX_MARKERS_PER_SEGMENT}], got {n_markers!r}")
+    return int(n_markers)
+
+
+def encode(wiped: np.ndarray) -> float:
+    """The joint position [m, in [0, 1)] of the bool ``(k,)`` wiped flags of one segment's markers."""
+    flags = np.asarray(wiped, dtype=bool)
+    k = _check_count(flags.size)
+    code = int(np.dot(flags.astype(np.int64), np.left_shift(np.int64(1), np.arange(k, dtype=np.int64))))
+    return code / float(1 << k)
+
+
+def decode_code(position: float, n_markers: int, joint: str = "dirt-state joint") -> int:
+    """The integer code (bit i = marker i wiped) of a joint ``position``; :class:`DirtStateError` if it is none."""
+    k = _check_count(n_markers)
+    scaled = float(position) * float(1 << k)
+    code = round(scaled) if np.isfinite(scaled) else -1
+    if not 0 <= code < (1 << k) or abs(scaled - code) > CODE_TOLERANCE:
+        raise DirtStateError(
+            f"{joint} is at {position!r}, which encodes no wiped flags of {k} markers "
+            f"(allowed: multiples of 2**-{k} in [0, 1))"
+        )
+    return int(code)
+
+
+def decode(position: float, n_markers: int, joint: str = "dirt-state joint") -> np.ndarray:
+    """Bool ``(k,)`` wiped flags of a joint ``position`` (inverse of :func:`encode`)."""
+    code = decode_code(position, n_markers, joint)
+    return ((code >> np.arange(int(n_markers))) & 1).astype(bool)
+
+
+def wiped_count(position: float, n_markers: int, joint: str = "dirt-state joint") -> int:
+    """How many of the segment's markers a joint ``position`` says are wiped."""
+    return decode_code(position, n_markers, joint).bit_count()
