@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tableclean_suite.learners.exploration import EpsilonGreedy, VisitDecay, as_exploration
+from tableclean_suite.learners.exploration import EpsilonGreedy, VisitDecay, as_exploration, softmax_probabilities
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.task import Outcome, TaskModel, TaskState
 
@@ -76,9 +76,9 @@ def behaviour_probabilities(policy, epsilon, n_actions, exploration=None, q=None
         q = q[None] if q.ndim == 2 else q
         if policy is None:
             policy = greedy_policy(q)
+    if policy is None and not exploration.softmax:
+        raise ValueError("give the greedy policy (policy=) or the Q-tables (q=)")
     if isinstance(exploration, EpsilonGreedy):
-        if policy is None:
-            raise ValueError("give the greedy policy (policy=) or the Q-tables (q=)")
         return action_probabilities(np.atleast_2d(policy), epsilon, n_actions)
     exploration.check(float(epsilon))
     if iteration is None and not isinstance(exploration, VisitDecay):
@@ -87,15 +87,12 @@ def behaviour_probabilities(policy, epsilon, n_actions, exploration=None, q=None
     if exploration.softmax:
         if q is None:
             raise ValueError("exploration 'softmax' needs the final Q-tables (q=): its policy is their softmax")
-        return exploration.action_probabilities(q, epsilon, iteration)
+        return softmax_probabilities(q, exploration.parameter_at(float(epsilon), iteration))
     if isinstance(exploration, VisitDecay) and visits is None:
         raise ValueError("exploration 'visit_decay' needs visits= (per state, e.g. visit_counts(result.states, S))")
     policy = np.atleast_2d(policy)
     counts = np.zeros(policy.shape) if visits is None else np.broadcast_to(np.atleast_2d(visits), policy.shape)
-    epsilon_per_state = np.vectorize(
-        lambda n: exploration.parameter_at(float(epsilon), iteration or 0, int(n)), otypes=[np.float64]
-    )(counts)
-    return action_probabilities(policy, epsilon_per_state, n_actions)
+    return action_probabilities(policy, exploration.parameter_array(float(epsilon), iteration or 0, counts), n_actions)
 
 
 def exact_success_probability(

@@ -167,23 +167,9 @@ class Exploration:
         """``{"name": ..., **parameters}`` (JSON-serialisable; :func:`as_exploration` reads it back)."""
         return {"name": self.name, **asdict(self)}
 
-    def action_probabilities(self, q: np.ndarray, epsilon: float, iteration: int, visits=None) -> np.ndarray:
-        """The behaviour policy's action distribution, shape of ``q`` ``(..., S, A)``.
-
-        Args:
-            q: Q-tables ``(..., S, A)``.
-            epsilon: ``train(epsilon=...)``.
-            iteration: the iteration whose epsilon / temperature to use (>= 0).
-            visits: ``(..., S)`` earlier visits per state (``visit_decay`` only; default zeros).
-        """
-        q = np.asarray(q, dtype=np.float64)
-        n_actions = q.shape[-1]
-        counts = np.zeros(q.shape[:-1]) if visits is None else np.broadcast_to(np.asarray(visits), q.shape[:-1])
-        rate = np.vectorize(lambda n: self.parameter_at(epsilon, iteration, int(n)), otypes=[np.float64])(counts)
-        probabilities = np.broadcast_to(rate[..., None] / n_actions, q.shape).copy()
-        greedy = np.argmax(q, axis=-1)[..., None]
-        np.put_along_axis(probabilities, greedy, 1.0 - rate[..., None] + rate[..., None] / n_actions, axis=-1)
-        return probabilities
+    def parameter_array(self, epsilon: float, iteration: int, visits) -> np.ndarray:
+        """:meth:`parameter_at` for every entry of ``visits`` (any shape) -> float64 array of that shape."""
+        return np.vectorize(lambda n: self.parameter_at(epsilon, iteration, int(n)), otypes=[np.float64])(visits)
 
 
 def _check_epsilon_floor(exploration, epsilon: float) -> None:
@@ -326,9 +312,6 @@ class Softmax(Exploration):
 
     def parameter_at(self, epsilon, iteration, visits=0):
         return max(self.temperature_min, self.temperature * math.exp(-self.rate * iteration))
-
-    def action_probabilities(self, q, epsilon, iteration, visits=None):
-        return softmax_probabilities(q, self.parameter_at(epsilon, iteration))
 
 
 def softmax_probabilities(q: np.ndarray, temperature: float) -> np.ndarray:

@@ -21,7 +21,14 @@ from typing import Protocol
 
 import numpy as np
 
-from tableclean_suite.learners.kernel import EPISODE_CONTINUES, EPISODE_TERMINAL, EPISODE_TRUNCATED, NO_STATE
+from tableclean_suite.learners.kernel import (
+    DOUBLE_Q_SPLIT,
+    EPISODE_CONTINUES,
+    EPISODE_TERMINAL,
+    EPISODE_TRUNCATED,
+    HALF,
+    NO_STATE,
+)
 from tableclean_suite.learners.rng import (
     LANE_LEARNER,
     LANE_PLANNING,
@@ -170,7 +177,7 @@ class _Agent:
         """The Q row the behaviour policy acts on (double Q: the tables' average)."""
         if not self.double:
             return self.q[state]
-        return [(a + b) * 0.5 for a, b in zip(self.q[state], self.q_b[state])]
+        return [(a + b) * HALF for a, b in zip(self.q[state], self.q_b[state])]
 
     def act(self, state: int, t: int) -> int:
         parameter = self.exploration.parameter_at(self.epsilon, t, self.visits[state])
@@ -200,7 +207,7 @@ class _Agent:
         return self.learner.target(np.asarray(self.q[nxt]), pending, reward, self.gamma, behaviour, terminal)
 
     def _learn_double(self, t, state, action, reward, nxt, terminal) -> None:
-        if uniform_py(self.side_key, t, STREAM_DOUBLE_TABLE) < 0.5:
+        if uniform_py(self.side_key, t, STREAM_DOUBLE_TABLE) < DOUBLE_Q_SPLIT:
             updated, other = self.q, self.q_b
         else:
             updated, other = self.q_b, self.q
@@ -236,7 +243,7 @@ class _Agent:
         if not self.double:
             return {"q": q}
         q_b = np.asarray(self.q_b, dtype=np.float64)
-        return {"q": (q + q_b) * 0.5, DOUBLE_Q_TABLES: np.stack((q, q_b))}
+        return {"q": (q + q_b) * HALF, DOUBLE_Q_TABLES: np.stack((q, q_b))}
 
 
 def train_run(

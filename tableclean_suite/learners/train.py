@@ -76,18 +76,17 @@ class TrainingResult:
         return episode_table(self)
 
 
-_check_number = check_number
 
 
 def validate_hyperparameters(runs, iterations, alpha, gamma, epsilon, max_itr, seed) -> None:
     """Raise ``ValueError`` naming the first out-of-range argument and its allowed range."""
-    _check_number("runs", runs, 1, 10**7, integer=True)
-    _check_number("iterations", iterations, 1, 10**8, integer=True)
-    _check_number("alpha", alpha, 0, 1, low_open=True)
-    _check_number("gamma", gamma, 0, 1)
-    _check_number("epsilon", epsilon, 0, 1)
-    _check_number("max_itr", max_itr, 1, 10**8, integer=True)
-    _check_number("seed", seed, 0, 2**63 - 1, integer=True)
+    check_number("runs", runs, 1, 10**7, integer=True)
+    check_number("iterations", iterations, 1, 10**8, integer=True)
+    check_number("alpha", alpha, 0, 1, low_open=True)
+    check_number("gamma", gamma, 0, 1)
+    check_number("epsilon", epsilon, 0, 1)
+    check_number("max_itr", max_itr, 1, 10**8, integer=True)
+    check_number("seed", seed, 0, 2**63 - 1, integer=True)
 
 
 def train(
@@ -156,7 +155,7 @@ def train(
     reward = get_reward_pattern(reward)
     validate_hyperparameters(runs, iterations, alpha, gamma, epsilon, max_itr, seed)
     learner = configure_learner(learner, learner_options, q_init, exploration, epsilon)
-    _check_number("first_run", first_run, 0, 2**62, integer=True)
+    check_number("first_run", first_run, 0, 2**62, integer=True)
     if engine not in ENGINES:
         raise ValueError(f"unknown engine {engine!r}; allowed: {', '.join(ENGINES)}")
     if model is not None and task is not None:
