@@ -39,7 +39,8 @@ setup(
         "wrapt",  # post-import hook: TableClean registers when robosuite is imported, not before
     ],
     extras_require={
-        "dev": ["pytest", "wheel"],  # wheel: the install test builds the package offline
+        "dev": ["pytest", "wheel", "optuna"],  # wheel: the install test builds offline; optuna: the tune tests
         "video": ["imageio", "imageio-ffmpeg"],
+        "tune": ["optuna"],  # python -m benchmarks.tune
     },
 )
