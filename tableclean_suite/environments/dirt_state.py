@@ -11,8 +11,9 @@ fraction,
 
 which a float64 holds exactly for k <= :data:`MAX_MARKERS_PER_SEGMENT`.  A joint per marker would
 say the same with one body per marker, but robosuite's scene simulates air (fluid forces on every
-body with mass) and the 50 extra bodies and degrees of freedom cost ~10% of ``env.step``; two
-bodies cost nothing measurable.  The joint is horizontal (gravity has no component along it),
+body with mass) and the 50 extra bodies and degrees of freedom cost ~10% of ``env.step``; with two
+bodies the CPU time per step relative to robosuite's Lift stayed within measurement noise
+(0.89-0.92 before and after, ``benchmarks.env_speed``-style alternating blocks).  The joint is horizontal (gravity has no component along it),
 carries no geometry (nothing touches it) and is heavily damped, so its position stays exactly
 where it is written.
 
