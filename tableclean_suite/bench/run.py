@@ -263,7 +263,8 @@ def run(args) -> int:
         "table3.csv": lambda path: table3.to_csv(path, index=False),
         "table4.csv": lambda path: table4.to_csv(path, index=False),
         "comparisons.csv": lambda path: comparisons.to_csv(path, index=False),
-        "curves.csv": lambda path: curves_frame.to_csv(path, index=False, float_format="%.6g"),
+        "curves.csv": lambda path: path.write_text(tables.csv_text(curves_frame, tables.CURVES_FLOAT_FORMAT),
+                                                   encoding="utf-8", newline=""),
     }
     if config.figures:
         writers.update(_figure_writers(curves_frame, config.plateau_fraction, table3))
