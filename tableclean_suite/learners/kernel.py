@@ -453,3 +453,21 @@ def code_digest(learner: TabularLearner) -> str:
         digest.update(repr((target.__code__.co_code, target.__code__.co_consts)).encode())
     digest.update(f"{learner.name}|{learner.on_policy}|{learner.target_code}|{learner.settings()}".encode())
     return digest.hexdigest()
+
+
+def _guard_disk_cache() -> None:
+    """Recompile the cached kernel when any module it inlines has changed (see :mod:`.cache_guard`)."""
+    import sys
+
+    from tableclean_suite.learners import cache_guard
+
+    package = "tableclean_suite.learners"
+    modules = [sys.modules[f"{package}.{name}"] for name in ("kernel", "rng", "rules", "exploration")]
+    dispatchers = [value for value in vars(sys.modules[__name__]).values()
+                   if isinstance(value, numba.core.registry.CPUDispatcher)]
+    for module in modules[1:]:
+        dispatchers += [value for value in vars(module).values() if isinstance(value, numba.core.registry.CPUDispatcher)]
+    cache_guard.guard("learners.kernel", dispatchers, modules)
+
+
+_guard_disk_cache()

@@ -1,0 +1,72 @@
+"""Keep numba's disk cache honest when a compiled function's *dependencies* change.
+
+numba keys a cached function on its own bytecode and its file's timestamp, not on the
+functions it calls from other modules: edit :mod:`.rules` or :mod:`.exploration` and a
+process would load the kernel compiled against the old code.  :func:`guard` stores a
+digest of the dependency modules' sources beside numba's cache and, when it no longer
+matches, empties the listed functions' cache indexes before anything loads from them,
+so they are recompiled once against the current code.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import os
+from pathlib import Path
+from types import ModuleType
+
+#: Name of the digest file written into each guarded cache directory (one per guard name).
+STAMP_SUFFIX = ".deps.sha256"
+
+
+def source_digest(modules: list[ModuleType]) -> str:
+    """SHA-256 (hex) of the modules' source texts, in order."""
+    digest = hashlib.sha256()
+    for module in modules:
+        digest.update(module.__name__.encode())
+        digest.update(inspect.getsource(module).encode())
+    return digest.hexdigest()
+
+
+def guard(name: str, dispatchers: list, modules: list[ModuleType]) -> bool:
+    """Invalidate the disk cache of ``dispatchers`` if ``modules`` changed since it was written.
+
+    Args:
+        name: a file-name-safe label for this group (e.g. ``"learners.kernel"``).
+        dispatchers: ``numba.njit(cache=True)`` functions whose compiled code depends on ``modules``.
+        modules: every module whose source the compiled code depends on (including the
+            dispatchers' own).
+
+    Returns:
+        True when the cache was invalidated (the next call compiles), else False.  Does
+        nothing when caching is off or the cache directory cannot be written (numba then
+        compiles in every process anyway).
+    """
+    caches = [getattr(d, "_cache", None) for d in dispatchers]
+    paths = {Path(c._cache_path) for c in caches if c is not None and hasattr(c, "_cache_path")}
+    if not paths:
+        return False
+    current = source_digest(modules)
+    invalidated = False
+    for path in paths:
+        stamp = path / f"{name}{STAMP_SUFFIX}"
+        try:
+            previous = stamp.read_text().strip() if stamp.exists() else None
+        except OSError:
+            continue
+        if previous == current:
+            continue
+        if previous is not None or any(path.glob("*.nbi")):
+            for cache in caches:
+                if cache is not None and Path(cache._cache_path) == path:
+                    cache.flush()
+            invalidated = True
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+            temporary = stamp.with_name(stamp.name + f".{os.getpid()}.tmp")
+            temporary.write_text(current)
+            os.replace(temporary, stamp)
+        except OSError:
+            continue
+    return invalidated
