@@ -195,18 +195,117 @@ def _one_policy(pi, pair_state, next_pair, probability, outcome, reward, start_p
     return success, terminal, ratio, length
 
 
-@numba.njit(cache=True, parallel=True)
-def _episode_statistics(pi, pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr, tolerance,
+def _episode_statistics_reference(pi, pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr,
+                                  tolerance, result):
+    """:func:`_one_policy` for each policy of ``pi`` ``(P, S, A)``, one after the other; writes
+    ``result[p] = (success, terminal, E[R/L], E[L])``.  The plain per-policy DP that
+    :func:`_episode_statistics` must reproduce bit for bit (kept for the tests)."""
+    for p in range(pi.shape[0]):
+        result[p] = _one_policy(pi[p], pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr,
+                                tolerance)
+
+
+@numba.njit(cache=True)
+def _retire(p, active, order, acc, inside, mass, gain, pi_t, result):
+    """Write policy slot ``p``'s results to ``result[order[p]]`` and move the last active slot
+    (``active - 1``) into ``p``; returns the new number of active slots."""
+    for j in range(acc.shape[0]):
+        result[order[p], j] = acc[j, p]
+    active -= 1
+    if p != active:
+        order[p] = order[active]
+        inside[p] = inside[active]
+        for j in range(acc.shape[0]):
+            acc[j, p] = acc[j, active]
+        for c in range(mass.shape[0]):
+            for n in range(mass.shape[1]):
+                mass[c, n, p] = mass[c, n, active]
+                gain[c, n, p] = gain[c, n, active]
+        for s in range(pi_t.shape[0]):
+            for a in range(pi_t.shape[1]):
+                pi_t[s, a, p] = pi_t[s, a, active]
+    return active
+
+
+@numba.njit(cache=True)
+def _episode_statistics(pi_t, pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr, tolerance,
                         result):
-    """:func:`_one_policy` for each policy of ``pi`` ``(P, S, A)`` (in parallel); writes
-    ``result[p] = (success, terminal, E[R/L], E[L])``."""
-    for p in numba.prange(pi.shape[0]):
-        success, terminal, ratio, length = _one_policy(pi[p], pair_state, next_pair, probability, outcome, reward,
-                                                       start_pairs, max_itr, tolerance)
-        result[p, 0] = success
-        result[p, 1] = terminal
-        result[p, 2] = ratio
-        result[p, 3] = length
+    """:func:`_one_policy` of every policy at once, bit for bit; writes ``result[p] = (success,
+    terminal, E[R/L], E[L])`` for ``p`` in ``range(P)``.
+
+    ``pi_t`` is ``(S, A, P)`` (policy last; overwritten: slots are reordered).  The policies step
+    in lockstep with the policy index innermost, so each step of the DP is a vectorisable loop
+    over policies; each policy's arithmetic is the one of :func:`_one_policy`, operation for
+    operation and in the same order.  The only differences are additions of exact zeros (a pair
+    with no mass, an action with probability 0 are not skipped: they add +0.0 to sums that are
+    never -0.0) and the bookkeeping: a policy whose mass inside the episode drops below
+    ``tolerance`` is retired (its results written, the last active policy moved into its slot).
+    """
+    n_pairs = pair_state.shape[0]
+    n_actions, n_successors = probability.shape[1], probability.shape[2]
+    n_policies = pi_t.shape[2]
+    order = np.arange(n_policies)  # slot -> policy
+    mass = np.zeros((2, n_pairs, n_policies))  # [clean flag, pair, slot]
+    gain = np.zeros((2, n_pairs, n_policies))
+    new_mass = np.zeros((2, n_pairs, n_policies))
+    new_gain = np.zeros((2, n_pairs, n_policies))
+    acc = np.zeros((len(QUANTITIES), n_policies))  # [quantity, slot]
+    inside = np.zeros(n_policies)
+    for i in range(start_pairs.shape[0]):
+        for p in range(n_policies):
+            mass[1, start_pairs[i], p] += 1.0 / start_pairs.shape[0]
+    active = n_policies
+    for step in range(1, max_itr + 1):
+        last = step == max_itr
+        new_mass[:, :, :active] = 0.0
+        new_gain[:, :, :active] = 0.0
+        inside[:active] = 0.0
+        for clean in range(2):
+            for n in range(n_pairs):
+                s = pair_state[n]
+                m, g = mass[clean, n], gain[clean, n]
+                for a in range(n_actions):
+                    w = pi_t[s, a]
+                    for k in range(n_successors):
+                        q = probability[s, a, k]
+                        if q == 0.0:
+                            continue
+                        r = reward[n, a, k]
+                        still_clean = clean if outcome[s, a, k] != _IMPROPER else 0
+                        if outcome[s, a, k] == _TERMINAL:
+                            for p in range(active):
+                                step_mass = m[p] * w[p] * q
+                                step_gain = g[p] * w[p] * q + step_mass * r
+                                acc[TERMINAL, p] += step_mass
+                                if still_clean == 1:
+                                    acc[SUCCESS, p] += step_mass
+                                acc[AVERAGE_REWARD, p] += step_gain / step
+                                acc[LENGTH, p] += step_mass * step
+                        elif last:
+                            for p in range(active):
+                                step_mass = m[p] * w[p] * q
+                                step_gain = g[p] * w[p] * q + step_mass * r
+                                acc[AVERAGE_REWARD, p] += step_gain / step
+                                acc[LENGTH, p] += step_mass * step
+                        else:
+                            target_mass = new_mass[still_clean, next_pair[s, a, k]]
+                            target_gain = new_gain[still_clean, next_pair[s, a, k]]
+                            for p in range(active):
+                                step_mass = m[p] * w[p] * q
+                                step_gain = g[p] * w[p] * q + step_mass * r
+                                target_mass[p] += step_mass
+                                target_gain[p] += step_gain
+                                inside[p] += step_mass
+        mass, new_mass = new_mass, mass
+        gain, new_gain = new_gain, gain
+        p = 0
+        while p < active:
+            if last or inside[p] < tolerance:
+                active = _retire(p, active, order, acc, inside, mass, gain, pi_t, result)
+            else:
+                p += 1
+        if active == 0:
+            break
 
 
 def episode_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: int,
@@ -232,7 +331,7 @@ def episode_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: 
     if probabilities.shape[1:] != chain.probability.shape[:2]:
         raise ValueError(f"policies have shape {probabilities.shape[1:]}, the task {chain.probability.shape[:2]}")
     result = np.zeros((probabilities.shape[0], len(QUANTITIES)))
-    _episode_statistics(probabilities, chain.pair_state, chain.next_pair, chain.probability, chain.outcome,
+    _episode_statistics(np.ascontiguousarray(probabilities.transpose(1, 2, 0)), chain.pair_state, chain.next_pair, chain.probability, chain.outcome,
                         chain.reward, chain.start_pairs, int(max_itr), float(tolerance), result)
     columns = [result[0, i] if single else result[:, i] for i in range(len(QUANTITIES))]
     return Asymptotes(*columns)

@@ -82,3 +82,27 @@ def test_success_equals_analysis_exact_success_probability():
     exact = analysis.exact_success_probability(analysis.greedy_policy(q), 0.1, 500, MODEL)
     np.testing.assert_allclose(stats.success, exact, atol=1e-9)
     assert stats.success.shape == (30,) and (stats.terminal >= stats.success - 1e-12).all()
+
+
+@pytest.mark.parametrize("pattern", ["r1", "r4"])
+@pytest.mark.parametrize("max_itr", [3, 40, 500])
+def test_lockstep_dp_equals_the_per_policy_dp_bit_for_bit(pattern, max_itr):
+    """The policies-in-lockstep kernel against the plain per-policy DP it replaced (exact equality):
+    random, deterministic (probability-0 actions) and epsilon-greedy policies, so that policies
+    retire at different steps, out of order, and some only at ``max_itr``."""
+    chain = _chain(pattern)
+    rng = np.random.default_rng(7)
+    n_states, n_actions = chain.probability.shape[:2]
+    random_policies = rng.dirichlet(np.ones(n_actions), size=(5, n_states))
+    greedy = rng.integers(n_actions, size=(12, n_states))
+    pi = np.concatenate([random_policies, analysis.action_probabilities(greedy, 0.0, n_actions),
+                         analysis.action_probabilities(greedy, 0.1, n_actions)])
+    expected = np.zeros((len(pi), len(asymptotes.QUANTITIES)))
+    asymptotes._episode_statistics_reference(pi, chain.pair_state, chain.next_pair, chain.probability, chain.outcome,
+                                             chain.reward, chain.start_pairs, max_itr, asymptotes.MASS_TOLERANCE,
+                                             expected)
+    stats = asymptotes.episode_statistics(pi, chain, max_itr)
+    actual = np.stack([stats.success, stats.terminal, stats.average_reward, stats.length], axis=1)
+    assert np.array_equal(actual.view(np.int64), expected.view(np.int64))
+    single = asymptotes.episode_statistics(pi[-1], chain, max_itr)
+    assert single.average_reward.tobytes() == expected[-1, asymptotes.AVERAGE_REWARD].tobytes()
