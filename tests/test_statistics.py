@@ -52,3 +52,21 @@ def test_bootstrap_groups_respect_runs_and_memory():
     assert statistics.bootstrap_groups(1000, 4000) == statistics.MAX_GROUPS
     assert statistics.bootstrap_groups(7, 4000) == 7
     assert statistics.bootstrap_groups(1000, 10**8) == 1
+
+
+@pytest.mark.parametrize("n, d, size", [(1000, 1000, 20), (100, 100, 50), (7, 7, 30), (1, 1, 3), (5, 40, 10),
+                                        (1000, 3, 10), (60, 2, 10)])
+def test_uniform_multinomial_is_numpys_multinomial_bit_for_bit(n, d, size):
+    """Same counts and same generator state after (BTPE cases included: n >> d)."""
+    ours, theirs = np.random.default_rng(11), np.random.default_rng(11)
+    for _ in range(2):  # the second call reuses the set-up table
+        assert np.array_equal(statistics.uniform_multinomial(ours, n, d, size),
+                              theirs.multinomial(n, np.full(d, 1.0 / d), size=size))
+    assert ours.bit_generator.state == theirs.bit_generator.state
+
+
+def test_uniform_multinomial_without_a_table(monkeypatch):
+    monkeypatch.setattr(statistics, "SETUP_TABLE_ENTRIES", 0)
+    ours, theirs = np.random.default_rng(2), np.random.default_rng(2)
+    assert np.array_equal(statistics.uniform_multinomial(ours, 300, 300, 40),
+                          theirs.multinomial(300, np.full(300, 1.0 / 300), size=40))

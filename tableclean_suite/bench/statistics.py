@@ -29,6 +29,7 @@ from __future__ import annotations
 import hashlib
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 from scipy import stats as scipy_stats
 
@@ -57,6 +58,93 @@ MIN_DEFINED = 0.5
 BAND_CURVES = ("success", "average_reward")
 #: Per-run scores: name -> whether higher is better.
 RUN_SCORES = {"success_asymptote": True, "first_success_iterations": False}
+
+
+#: numpy's binomial sampler inverts the CDF when n * min(p, 1 - p) is at most this (else BTPE).
+_INVERSION_LIMIT = 30.0
+#: numpy's inversion gives up (and redraws) past mean + this many standard deviations (roughly).
+_INVERSION_SPREAD = 10.0
+#: Largest (categories x (draws + 1)) table of inversion set-ups :func:`uniform_multinomial` keeps.
+SETUP_TABLE_ENTRIES = 4_000_000
+#: Shapes whose tables are kept at once (a run uses two: runs x runs and groups x groups).
+SETUP_TABLES = 2
+_setup_tables: dict = {}
+
+
+@numba.njit(cache=True)
+def _uniform_multinomial(rng, n, d, size, use_table, qn_table, bound_table, out):
+    """``out[:] = rng.multinomial(n, np.full(d, 1.0 / d), size)``, the same numbers and the same
+    generator state after, by numpy's own algorithm (``random_multinomial``: a binomial per
+    category on what is left, inverted from the CDF as ``random_binomial_inversion``).
+
+    ``out`` is ``(size, d)`` int64 zeros.  The binomial's set-up (P(X = 0) = q**n and the
+    inversion bound) depends only on (category, draws left), so with ``use_table`` it is kept in
+    ``qn_table``/``bound_table`` (``(d, n + 1)``, NaN = not yet computed) instead of recomputed per
+    draw; BTPE cases (never met by n = d uniform draws in practice) call ``rng.binomial``.
+    """
+    share = 1.0 / d
+    category_p = np.empty(d)
+    remaining = 1.0
+    for j in range(d):
+        category_p[j] = share / remaining
+        remaining -= share
+    for i in range(size):
+        left = n
+        for j in range(d - 1):
+            p = category_p[j]
+            x = 0
+            if left != 0 and p != 0.0:
+                flip = p > 0.5
+                r = 1.0 - p if flip else p
+                if r * left > _INVERSION_LIMIT:
+                    x = rng.binomial(left, p)
+                    flip = False
+                else:
+                    q = 1.0 - r
+                    qn = qn_table[j, left] if use_table else np.nan
+                    if qn != qn:
+                        qn = np.exp(left * np.log(q))
+                        mean = left * r
+                        bound = min(left, mean + _INVERSION_SPREAD * np.sqrt(mean * q + 1))
+                        if use_table:
+                            qn_table[j, left] = qn
+                            bound_table[j, left] = bound
+                    else:
+                        bound = bound_table[j, left]
+                    px = qn
+                    u = rng.random()
+                    while u > px:
+                        x += 1
+                        if x > bound:
+                            x = 0
+                            px = qn
+                            u = rng.random()
+                        else:
+                            u -= px
+                            px = ((left - x + 1) * r * px) / (x * q)
+                if flip:
+                    x = left - x
+            out[i, j] = x
+            left -= x
+            if left <= 0:
+                break
+        if left > 0:
+            out[i, d - 1] = left
+
+
+def uniform_multinomial(rng: np.random.Generator, n: int, d: int, size: int) -> np.ndarray:
+    """``rng.multinomial(n, np.full(d, 1.0 / d), size=size)`` (int64 ``(size, d)``), bit for bit and
+    leaving ``rng`` in the same state, about twice as fast (see :func:`_uniform_multinomial`)."""
+    out = np.zeros((int(size), int(d)), dtype=np.int64)
+    use_table = int(d) * (int(n) + 1) <= SETUP_TABLE_ENTRIES
+    key = (int(n), int(d))
+    if use_table and key not in _setup_tables:
+        if len(_setup_tables) >= SETUP_TABLES:
+            _setup_tables.clear()
+        _setup_tables[key] = (np.full((d, n + 1), np.nan), np.zeros((d, n + 1)))
+    qn_table, bound_table = _setup_tables[key] if use_table else (np.empty((1, 1)), np.empty((1, 1)))
+    _uniform_multinomial(rng, int(n), int(d), int(size), use_table, qn_table, bound_table, out)
+    return out
 
 
 def bootstrap_groups(runs: int, iterations: int) -> int:
@@ -143,7 +231,7 @@ def probability_of_improvement_interval(x, y, higher_is_better: bool = True, con
     distinct = len(values)
 
     def replicate_counts(rank):
-        counts = rng.multinomial(len(rank), np.full(len(rank), 1.0 / len(rank)), size=samples)
+        counts = uniform_multinomial(rng, len(rank), len(rank), samples)
         rows = np.repeat(np.arange(samples), len(rank))
         return np.bincount(rows * distinct + np.tile(rank, samples), weights=counts.ravel(),
                            minlength=samples * distinct).reshape(samples, distinct)
@@ -231,7 +319,7 @@ def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Gen
     scalars = {name: np.full(samples, np.nan) for name in SUMMARY_SCALARS}
     curves = {name: np.full((samples, len(kept)), np.nan) for name in BAND_CURVES}
     if groups >= MIN_GROUPS:
-        weights = rng.multinomial(groups, np.full(groups, 1.0 / groups), size=samples).astype(float)
+        weights = uniform_multinomial(rng, groups, groups, samples).astype(float)
         for lo in range(0, samples, REPLICATE_BATCH):
             batch = slice(lo, lo + REPLICATE_BATCH)
             values, bands = replicate_scalars(grouped, asymptote_sums, weights[batch], threshold, plateau_fraction,
