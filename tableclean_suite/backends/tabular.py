@@ -4,8 +4,9 @@ Both step a :class:`~tableclean_suite.learners.TransitionTable`, either with the
 batched loop (:mod:`tableclean_suite.learners.kernel`, chunks of runs) or the plain
 per-step loop (:mod:`tableclean_suite.learners.reference`); the two give identical arrays.
 
-The learner carries its update rule, parameters, initial value (``q_init``) and exploration
-(:class:`~tableclean_suite.learners.TabularLearner`).  Double Q-learning's result ``q`` is the
+The learner carries its update rule, parameters, initial value (``q_init``), exploration and
+Cruz et al.'s assistance (affordances, advisor; :class:`~tableclean_suite.learners.TabularLearner`).
+Double Q-learning's result ``q`` is the
 average of its two tables; both are in ``info["double_q_tables"]``, shape ``(R, 2, S, A)``.
 """
 
@@ -16,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tableclean_suite.backends import BackendRecords, TrainingJob
-from tableclean_suite.learners import kernel, reference
+from tableclean_suite.learners import assist, kernel, reference
 from tableclean_suite.learners.reference import DOUBLE_Q_TABLES
 from tableclean_suite.learners.rng import run_keys
 from tableclean_suite.learners.rules import METHOD_DOUBLE_Q
@@ -41,6 +42,18 @@ def progress_bar(iterable, enabled: bool, description: str):
     from tqdm.auto import tqdm
 
     return tqdm(iterable, desc=description, leave=False)
+
+
+def assistance_arrays(learner, model) -> tuple[np.ndarray, np.ndarray]:
+    """The kernel's ``afforded`` ``(S, A)`` int8 (the model's affordances when the learner uses
+    them given, else ``(0, 0)``) and ``advisor`` ``(S,)`` int64 (the optimal advisor when the learner
+    is advised, else ``(0,)``): see :mod:`tableclean_suite.learners.assist`."""
+    if learner.affordance_code == assist.AFFORD_GIVEN:
+        afforded = assist.given_affordances(model)
+    else:
+        afforded = np.zeros((0, 0), dtype=np.int8)
+    advisor = assist.advisor_policy(model) if learner.advised else np.zeros(0, dtype=np.int64)
+    return afforded, advisor
 
 
 @dataclass(frozen=True)
@@ -99,13 +112,16 @@ class TableBackend:
         loop_value = 0.0 if job.reward.looping_penalty is None else job.reward.looping_penalty
         learner_parameters = learner.kernel_parameters()
         explore_parameters = learner.exploration.kernel_parameters(job.epsilon)
+        afforded, advisor = assistance_arrays(learner, model)
+        advice = learner.advice_parameters()
         train_batch = kernel.kernel_for(learner)
         for lo in progress_bar(range(0, job.runs, RUNS_PER_CHUNK), job.progress, f"{learner.name}/{job.reward.name}"):
             hi = min(lo + RUNS_PER_CHUNK, job.runs)
             train_batch(
                 table.next_state, table.outcome, table.cumulative, starts, values, loop_value, job.reward.looping_code,
                 learner.target_code, learner.on_policy, learner.method, learner_parameters, job.alpha, job.gamma,
-                learner.exploration.code, explore_parameters, job.max_itr,
+                learner.exploration.code, explore_parameters, learner.affordance_code, afforded, advisor, advice,
+                job.max_itr,
                 keys[lo:hi], q[lo:hi], q_second[lo:hi], *(records[name][lo:hi] for name in RECORD_FIELDS),
             )
         if double:

@@ -14,7 +14,9 @@ of the same loop (:func:`user_train_batch`), built once per process.
 Per-step cost: one-step and double-Q updates are O(A); trace learners touch only the
 pairs with a non-zero trace (a per-run list of the pairs visited in the current episode,
 pruned when a trace is cut or underflows to 0), which gives exactly the dense S x A sweep's
-numbers; Dyna-Q adds ``planning_steps`` O(A) updates.
+numbers; Dyna-Q adds ``planning_steps`` O(A) updates.  Cruz et al.'s assistance
+(:mod:`.assist`) adds O(A) per step with affordances (choices and the target's max over the
+afforded actions) and up to three advice-lane draws per action with an advisor.
 """
 
 from __future__ import annotations
@@ -26,6 +28,16 @@ import types
 import numba
 import numpy as np
 
+from tableclean_suite.learners.assist import (
+    AFFORD_LEARNED,
+    AFFORD_NONE,
+    NO_ADVICE,
+    NOT_AFFORDED,
+    advice_action,
+    afforded_choice,
+    afforded_max_target,
+    run_masks,
+)
 from tableclean_suite.learners.exploration import (
     EPSILON_GREEDY_CODE,
     P_START,
@@ -36,6 +48,7 @@ from tableclean_suite.learners.exploration import (
     exploration_parameter,
 )
 from tableclean_suite.learners.rng import (
+    LANE_ADVICE,
     LANE_LEARNER,
     LANE_PLANNING,
     STREAM_DOUBLE_TABLE,
@@ -55,6 +68,7 @@ from tableclean_suite.learners.rules import (
     PARAM_ACCUMULATE,
     PARAM_LAMBDA,
     PARAM_PLANNING,
+    Q_LEARNING_TARGET,
     TabularLearner,
     builtin_td_target,
     double_q_target,
@@ -73,6 +87,7 @@ HALF = 0.5
 
 _ROUTINE = int(Outcome.ROUTINE)
 _INEFFECTIVE = int(Outcome.INEFFECTIVE)
+_IMPROPER = int(Outcome.IMPROPER)
 _TERMINAL = int(Outcome.TERMINAL)
 _LOOPING_ADD = 2
 
@@ -120,18 +135,28 @@ def visit_count(visits, state):
 
 
 @numba.njit(cache=True, inline="always")
-def act(q_a, q_b, row, state, plain, double, explore_code, explore_parameters, key, iteration, visits):
+def act(q_a, q_b, row, state, plain, double, explore_code, explore_parameters, key, iteration, visits,
+        affordance, masks, advisor, advice, advice_key):
     """The behaviour policy's action in ``state`` at ``iteration`` (main-lane draws of that iteration).
 
-    ``plain``: constant epsilon-greedy on ``q_a`` (the paper's policy, taken without the
-    general path's per-step schedule and row work: same action, fewer instructions).
+    ``plain``: constant epsilon-greedy on ``q_a`` without affordances (the paper's policy, taken
+    without the general path's per-step schedule and row work: same action, fewer instructions).
+    An advisor (``advisor`` non-empty) is asked first (advice-lane draws); with affordances
+    (``affordance`` != AFFORD_NONE) the choice is restricted to ``masks[state]`` (:mod:`.assist`).
     """
+    if advisor.shape[0] > 0:
+        advised = advice_action(advisor, advice, advice_key, iteration, state, q_a.shape[1])
+        if advised != NO_ADVICE:
+            return advised
     explore_draw = uniform(key, iteration, STREAM_EXPLORE)
     action_draw = uniform(key, iteration, STREAM_RANDOM_ACTION)
     if plain:
         return epsilon_greedy(q_a[state], explore_parameters[P_START], explore_draw, action_draw)
     parameter = exploration_parameter(explore_code, explore_parameters, iteration, visit_count(visits, state))
-    return choose_action(behaviour_row(q_a, q_b, state, double, row), explore_code, parameter, explore_draw, action_draw)
+    q_row = behaviour_row(q_a, q_b, state, double, row)
+    if affordance != AFFORD_NONE:
+        return afforded_choice(q_row, masks[state], explore_code, parameter, explore_draw, action_draw)
+    return choose_action(q_row, explore_code, parameter, explore_draw, action_draw)
 
 
 @numba.njit(cache=True)
@@ -269,6 +294,10 @@ def train_batch(
     gamma,
     explore_code,
     explore_parameters,
+    affordance,
+    afforded,
+    advisor,
+    advice,
     max_itr,
     keys,
     q,
@@ -295,6 +324,10 @@ def train_batch(
         alpha, gamma: learning rate, discount.
         explore_code, explore_parameters: the exploration's code and ``(N_PARAMETERS,)`` float64
             parameters (:mod:`.exploration`).
+        affordance: ``assist.AFFORD_*`` code (none, given, learned).
+        afforded: ``(S, A)`` int8 the given affordances (1 = afforded; used with AFFORD_GIVEN).
+        advisor: ``(S,)`` int64 the advisor's action per state, or ``(0,)`` for no advisor.
+        advice: ``(2,)`` float64 ``[L, C]`` advice probability and consistency, each in [0, 1].
         max_itr: iterations after which an episode is truncated.
         keys: ``(R,)`` uint64 per-run random keys.
         q: ``(R, S, A)`` float64 Q-tables (table A for double Q), initialised, updated in place.
@@ -317,12 +350,16 @@ def train_batch(
     accumulate = learner_parameters[PARAM_ACCUMULATE] != 0.0
     planning_steps = int(learner_parameters[PARAM_PLANNING])
     counting = explore_code == VISIT_DECAY_CODE
-    plain = explore_code == EPSILON_GREEDY_CODE and not double
+    plain = explore_code == EPSILON_GREEDY_CODE and not double and affordance == AFFORD_NONE
+    learning_affordances = affordance == AFFORD_LEARNED
+    afforded_max = affordance != AFFORD_NONE and target_code == Q_LEARNING_TARGET
     softmax_expected = explore_code == SOFTMAX_CODE and target_code == EXPECTED_SARSA_TARGET
     for r in numba.prange(n_runs):
         key = keys[r]
         side_key = lane_key(key, LANE_LEARNER)
         planning_key = lane_key(key, LANE_PLANNING)
+        advice_key = lane_key(key, LANE_ADVICE)
+        masks = run_masks(afforded, affordance, n_states, n_actions)
         qr = q[r]
         qb = q_second[r]
         row, visits, traces, pairs, model_next, model_reward, model_terminal, observed = run_memory(
@@ -348,7 +385,8 @@ def train_batch(
             if pending != NO_STATE:
                 action = pending
             else:
-                action = act(qr, qb, row, state, plain, double, explore_code, explore_parameters, key, t, visits)
+                action = act(qr, qb, row, state, plain, double, explore_code, explore_parameters, key, t, visits,
+                             affordance, masks, advisor, advice, advice_key)
             k = 0
             if n_successors > 1:
                 k = sample_index(cumulative_table[state, action], uniform(key, t, STREAM_TRANSITION))
@@ -361,9 +399,12 @@ def train_batch(
             terminal = outcome == _TERMINAL
             if counting:
                 visits[state] += 1
+            if learning_affordances and outcome == _IMPROPER:
+                masks[state, action] = NOT_AFFORDED
             pending = NO_STATE
             if choose_first and not terminal:
-                pending = act(qr, qb, row, nxt, plain, double, explore_code, explore_parameters, key, t + 1, visits)
+                pending = act(qr, qb, row, nxt, plain, double, explore_code, explore_parameters, key, t + 1, visits,
+                              affordance, masks, advisor, advice, advice_key)
             if double:
                 double_q_update(qr, qb, state, action, nxt, reward, alpha, gamma, terminal,
                                 uniform(side_key, t, STREAM_DOUBLE_TABLE))
@@ -371,6 +412,8 @@ def train_batch(
                 behaviour = exploration_parameter(explore_code, explore_parameters, t + 1, visit_count(visits, nxt))
                 if softmax_expected:
                     target = softmax_expected_sarsa_target(qr[nxt], reward, gamma, behaviour, terminal)
+                elif afforded_max:
+                    target = afforded_max_target(qr[nxt], masks[nxt], reward, gamma, terminal)
                 else:
                     target = builtin_td_target(target_code, qr[nxt], pending, reward, gamma, behaviour, terminal)
                 if traced:
@@ -441,10 +484,10 @@ def code_digest(learner: TabularLearner) -> str:
     """
     import sys
 
-    from tableclean_suite.learners import exploration, rng, rules
+    from tableclean_suite.learners import assist, exploration, rng, rules
 
     digest = hashlib.sha256()
-    for module in (rng, rules, exploration, sys.modules[__name__]):
+    for module in (rng, rules, exploration, assist, sys.modules[__name__]):
         digest.update(inspect.getsource(module).encode())
     target = learner.td_target.py_func
     try:
@@ -462,7 +505,7 @@ def _guard_disk_cache() -> None:
     from tableclean_suite.learners import cache_guard
 
     package = "tableclean_suite.learners"
-    modules = [sys.modules[f"{package}.{name}"] for name in ("kernel", "rng", "rules", "exploration")]
+    modules = [sys.modules[f"{package}.{name}"] for name in ("kernel", "rng", "rules", "exploration", "assist")]
     dispatchers = [value for value in vars(sys.modules[__name__]).values()
                    if isinstance(value, numba.core.registry.CPUDispatcher)]
     for module in modules[1:]:

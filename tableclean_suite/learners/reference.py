@@ -11,7 +11,8 @@ loop of the physics backend.
 Every learner has its plain twin here (:class:`_Agent`), written independently of the
 compiled functions: double Q's two tables, eligibility traces as the dense S x A sweep
 of their definition, Dyna-Q's model and planning, and each exploration's schedule
-(:meth:`~.exploration.Exploration.parameter_at`) and softmax sampler.
+(:meth:`~.exploration.Exploration.parameter_at`) and softmax sampler, and Cruz et al.'s
+affordances (a set of blocked pairs) and simulated advisor (:mod:`.assist`).
 """
 
 from __future__ import annotations
@@ -29,9 +30,14 @@ from tableclean_suite.learners.kernel import (
     HALF,
     NO_STATE,
 )
+from tableclean_suite.learners.assist import advisor_policy, given_affordances
 from tableclean_suite.learners.rng import (
+    LANE_ADVICE,
     LANE_LEARNER,
     LANE_PLANNING,
+    STREAM_ADVICE_ACTION,
+    STREAM_ADVISE,
+    STREAM_CONSISTENT,
     STREAM_DOUBLE_TABLE,
     STREAM_EXPLORE,
     STREAM_RANDOM_ACTION,
@@ -44,6 +50,7 @@ from tableclean_suite.learners.rng import (
 )
 from tableclean_suite.learners.rules import (
     EXPECTED_SARSA_TARGET,
+    Q_LEARNING_TARGET,
     METHOD_DOUBLE_Q,
     METHOD_DYNA,
     METHOD_TRACES,
@@ -139,6 +146,70 @@ def _softmax_expected_target(q_row, reward: float, gamma: float, temperature: fl
     return reward + gamma * (weighted / total)
 
 
+class _Assistance:
+    """Cruz et al.'s affordances and advisor for one run, in plain Python.
+
+    ``blocked`` holds the (state, action) pairs not afforded: the model's improper pairs
+    (``given``), or those observed improper so far (``learned``).  The advisor acts through
+    :meth:`advice` with the advice lane's draws.
+    """
+
+    def __init__(self, learner: TabularLearner, model: TaskModel, key: int):
+        self.affordance = learner.affordance
+        self.n_actions = model.n_actions
+        self.blocked: set[tuple[int, int]] = set()
+        if self.affordance == "given":
+            self.blocked = {(int(s), int(a)) for s, a in zip(*np.nonzero(given_affordances(model) == 0))}
+        self.advisor = [int(a) for a in advisor_policy(model)] if learner.advised else None
+        self.probability, self.consistency = learner.advice_probability, learner.advice_consistency
+        self.key = lane_key_py(key, LANE_ADVICE)
+
+    def afforded(self, state: int) -> list[int]:
+        """The afforded actions of ``state`` in action order (all of them when none is)."""
+        actions = [a for a in range(self.n_actions) if (state, a) not in self.blocked]
+        return actions or list(range(self.n_actions))
+
+    def observe(self, state: int, action: int, outcome: int) -> None:
+        """Learned affordances: an improper outcome blocks (state, action) from now on."""
+        if self.affordance == "learned" and outcome == Outcome.IMPROPER:
+            self.blocked.add((state, action))
+
+    def advice(self, state: int, t: int) -> int:
+        """The advisor's action at iteration ``t``, or NO_STATE (no advisor, no advice, or none for this state)."""
+        if self.advisor is None or uniform_py(self.key, t, STREAM_ADVISE) >= self.probability:
+            return NO_STATE
+        if self.advisor[state] == NO_STATE:
+            return NO_STATE
+        if uniform_py(self.key, t, STREAM_CONSISTENT) < self.consistency:
+            return self.advisor[state]
+        return min(int(uniform_py(self.key, t, STREAM_ADVICE_ACTION) * self.n_actions), self.n_actions - 1)
+
+
+def _afforded_greedy(q_row, afforded: list[int]) -> int:
+    best = afforded[0]
+    for a in afforded[1:]:
+        if q_row[a] > q_row[best]:
+            best = a
+    return best
+
+
+def _afforded_action(q_row, afforded: list[int], softmax: bool, parameter: float, explore_draw: float,
+                     action_draw: float) -> int:
+    """The behaviour policy over the afforded actions only (softmax, or epsilon-greedy with uniform exploration)."""
+    if softmax:
+        best = q_row[_afforded_greedy(q_row, afforded)]
+        weights = [math.exp((q_row[a] - best) / parameter) for a in afforded]
+        threshold, running = action_draw * sum(weights), 0.0
+        for a, weight in zip(afforded, weights):
+            running += weight
+            if threshold < running:
+                return a
+        return afforded[-1]
+    if explore_draw < parameter:
+        return afforded[min(int(action_draw * len(afforded)), len(afforded) - 1)]
+    return _afforded_greedy(q_row, afforded)
+
+
 class _Agent:
     """One run's learner in plain Python: tables, traces (dense, S x A), Dyna's model, visit counts.
 
@@ -147,7 +218,7 @@ class _Agent:
     """
 
     def __init__(self, learner: TabularLearner, n_states: int, n_actions: int, alpha: float, gamma: float,
-                 epsilon: float, key: int):
+                 epsilon: float, key: int, assistance: _Assistance | None = None):
         self.learner, self.alpha, self.gamma, self.epsilon, self.key = learner, alpha, gamma, epsilon, key
         self.exploration = learner.exploration
         self.double = learner.method == METHOD_DOUBLE_Q
@@ -163,6 +234,8 @@ class _Agent:
         self.observed: list[tuple[int, int]] = []
         self.side_key = lane_key_py(key, LANE_LEARNER)
         self.planning_key = lane_key_py(key, LANE_PLANNING)
+        self.assistance = assistance
+        self.affording = learner.affordance != "none"
 
     @staticmethod
     def _table(n_states, n_actions, value):
@@ -180,7 +253,15 @@ class _Agent:
         return [(a + b) * HALF for a, b in zip(self.q[state], self.q_b[state])]
 
     def act(self, state: int, t: int) -> int:
+        if self.assistance is not None:
+            advised = self.assistance.advice(state, t)
+            if advised != NO_STATE:
+                return advised
         parameter = self.exploration.parameter_at(self.epsilon, t, self.visits[state])
+        if self.affording:
+            return _afforded_action(self.row(state), self.assistance.afforded(state), self.exploration.softmax,
+                                    parameter, uniform_py(self.key, t, STREAM_EXPLORE),
+                                    uniform_py(self.key, t, STREAM_RANDOM_ACTION))
         if self.exploration.softmax:
             return _softmax_action(self.row(state), parameter, uniform_py(self.key, t, STREAM_RANDOM_ACTION))
         return _epsilon_greedy(
@@ -204,6 +285,10 @@ class _Agent:
         behaviour = self.exploration.parameter_at(self.epsilon, t + 1, self.visits[nxt])
         if self.exploration.softmax and self.learner.target_code == EXPECTED_SARSA_TARGET:
             return _softmax_expected_target(self.q[nxt], reward, self.gamma, behaviour, terminal)
+        if self.affording and self.learner.target_code == Q_LEARNING_TARGET:
+            if terminal:
+                return reward
+            return reward + self.gamma * self.q[nxt][_afforded_greedy(self.q[nxt], self.assistance.afforded(nxt))]
         return self.learner.target(np.asarray(self.q[nxt]), pending, reward, self.gamma, behaviour, terminal)
 
     def _learn_double(self, t, state, action, reward, nxt, terminal) -> None:
@@ -272,7 +357,8 @@ def train_run(
     """
     key = run_key(seed, run)
     model = env.model
-    agent = _Agent(learner, model.n_states, model.n_actions, alpha, gamma, epsilon, key)
+    assistance = _Assistance(learner, model, key) if learner.assisted else None
+    agent = _Agent(learner, model.n_states, model.n_actions, alpha, gamma, epsilon, key, assistance)
     dtype = model.record_dtype
     record = {name: np.zeros(iterations, dtype=dtype) for name in ("outcomes", "states", "actions", "episode_end")}
     record["rewards"] = np.zeros(iterations, dtype=np.float64)
@@ -290,6 +376,8 @@ def train_run(
         length += 1
         terminal = outcome == Outcome.TERMINAL
         agent.visits[state] += 1
+        if assistance is not None:
+            assistance.observe(state, action, outcome)
         pending = agent.act(nxt, t + 1) if agent.choose_first and not terminal else NO_STATE
         agent.learn(t, state, action, r, nxt, pending, terminal)
         record["rewards"][t] = r

@@ -16,7 +16,17 @@ double_q_learning  double (tables A and B)   r + gamma Q_B(s', argmax Q_A(s')) i
 q_lambda           traces, Watkins's cut     r + gamma max_a Q(s', a)
 sarsa_lambda       traces, on-policy         r + gamma Q(s', a')
 dyna_q             one step + n planning     r + gamma max_a Q(s', a), also on modelled steps
+affordance_q_learning  one step, given        r + gamma max_{a afforded} Q(s', a)
+                   affordances (Cruz et al.)
+learned_affordance_q_learning  one step,      r + gamma max_{a afforded} Q(s', a)
+                   learned affordances
+interactive_q_learning  one step + advisor   r + gamma max_a Q(s', a)
+                   (L = 0.5, C = 1)
 ================== ========================= ===============================================
+
+Every learner also takes Cruz et al.'s assistance (:mod:`.assist`) through ``learner_options``:
+``affordance`` (``"none"``, ``"given"``, ``"learned"``; one-step Q-learning or SARSA targets
+only) and a simulated advisor's ``advice_probability`` L and ``advice_consistency`` C.
 
 Traces (:data:`METHOD_TRACES`) are *replacing* by default (``e(s, a) = 1`` on a visit;
 ``trace="accumulating"``: ``e(s, a) += 1``).  Per step, with delta = target - Q(s, a):
@@ -49,6 +59,7 @@ from dataclasses import dataclass, field, replace
 import numba
 import numpy as np
 
+from tableclean_suite.learners.assist import AFFORD_NONE, AFFORDANCES
 from tableclean_suite.learners.checks import check_number
 from tableclean_suite.learners.exploration import EPSILON_GREEDY, Exploration, greedy_action, softmax_expectation
 from tableclean_suite.registry import Registry
@@ -139,6 +150,11 @@ METHODS = {"one_step": METHOD_ONE_STEP, "double_q": METHOD_DOUBLE_Q, "traces": M
 METHOD_OPTIONS = {METHOD_ONE_STEP: (), METHOD_DOUBLE_Q: (), METHOD_TRACES: ("lambda_", "trace"),
                   METHOD_DYNA: ("planning_steps",)}
 TRACE_KINDS = ("replacing", "accumulating")
+#: Learner options every update rule takes: Cruz et al.'s affordances and simulated advisor (:mod:`.assist`).
+ASSIST_OPTIONS = ("affordance", "advice_probability", "advice_consistency")
+#: Cruz et al.'s advice probability L (their interactive RL row) and the consistency C assumed here.
+CRUZ_ADVICE_PROBABILITY = 0.5
+DEFAULT_ADVICE_CONSISTENCY = 1.0
 MAX_PLANNING_STEPS = 10_000
 #: Indices of the kernel's learner-parameter array (:meth:`TabularLearner.kernel_parameters`).
 PARAM_LAMBDA, PARAM_ACCUMULATE, PARAM_PLANNING = 0, 1, 2
@@ -172,8 +188,16 @@ class TabularLearner:
         planning_steps: Dyna planning updates per real step, integer in [0, 10000] (``METHOD_DYNA``).
         q_init: initial value of every Q entry (any finite float; above the best return it is optimistic).
         exploration: the behaviour policy (:mod:`.exploration`; default constant epsilon-greedy).
+        affordance: ``"none"`` (default), ``"given"`` (the task model's ``action_mask``) or
+            ``"learned"`` (an action observed improper in a state is not afforded there from then
+            on); actions not afforded are never taken (:mod:`.assist`).  Needs the one-step
+            update rule and the built-in Q-learning or SARSA target.
+        advice_probability: L in [0, 1], per-step probability that the simulated advisor advises
+            the action (0 = no advisor, default).
+        advice_consistency: C in [0, 1], probability that advice is the advisor's own (optimal)
+            action rather than a uniformly random one (default 1).
 
-    ``train()`` sets the last five from ``learner_options=``, ``q_init=`` and ``exploration=``
+    ``train()`` sets the last eight from ``learner_options=``, ``q_init=`` and ``exploration=``
     (:meth:`configured`), so every backend, the physics one included, trains what was asked.
     """
 
@@ -188,6 +212,9 @@ class TabularLearner:
     planning_steps: int = 0
     q_init: float = 0.0
     exploration: Exploration = EPSILON_GREEDY
+    affordance: str = "none"
+    advice_probability: float = 0.0
+    advice_consistency: float = DEFAULT_ADVICE_CONSISTENCY
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not _NAME_PATTERN.match(self.name):
@@ -204,6 +231,7 @@ class TabularLearner:
                              f"leave it at USER_TARGET ({USER_TARGET}) for a user target")
         self._check_method()
         self._check_parameters()
+        self._check_assistance()
 
     def _check_method(self) -> None:
         if self.method not in METHOD_OPTIONS:
@@ -227,6 +255,39 @@ class TabularLearner:
         object.__setattr__(self, "planning_steps", int(self.planning_steps))
         object.__setattr__(self, "q_init", float(self.q_init) + 0.0)  # -0.0 -> 0.0
 
+    def _check_assistance(self) -> None:
+        what = f"learner {self.name!r}"
+        if self.affordance not in AFFORDANCES:
+            raise ValueError(f"{what}: affordance must be one of {', '.join(AFFORDANCES)}, got {self.affordance!r}")
+        if self.affordance != "none" and (self.method != METHOD_ONE_STEP
+                                          or self.target_code not in (Q_LEARNING_TARGET, SARSA_TARGET)):
+            raise ValueError(f"{what}: affordance {self.affordance!r} needs the one_step update rule and the built-in "
+                             f"Q-learning or SARSA target, not the {self.method_name} rule with target code "
+                             f"{self.target_code}")
+        check_number(f"{what}: advice_probability", self.advice_probability, 0, 1)
+        check_number(f"{what}: advice_consistency", self.advice_consistency, 0, 1)
+        object.__setattr__(self, "advice_probability", float(self.advice_probability))
+        object.__setattr__(self, "advice_consistency", float(self.advice_consistency))
+
+    @property
+    def affordance_code(self) -> int:
+        """The kernel code of :attr:`affordance` (``assist.AFFORD_*``)."""
+        return AFFORDANCES[self.affordance]
+
+    @property
+    def advised(self) -> bool:
+        """Whether a simulated advisor ever advises (``advice_probability > 0``)."""
+        return self.advice_probability > 0.0
+
+    @property
+    def assisted(self) -> bool:
+        """Whether affordances or an advisor change the behaviour policy."""
+        return self.affordance_code != AFFORD_NONE or self.advised
+
+    def advice_parameters(self) -> np.ndarray:
+        """``(N_ADVICE_PARAMETERS,)`` float64 ``[advice_probability, advice_consistency]``."""
+        return np.array([self.advice_probability, self.advice_consistency], dtype=np.float64)
+
     @property
     def method_name(self) -> str:
         """The update rule's name (a key of :data:`METHODS`)."""
@@ -238,10 +299,10 @@ class TabularLearner:
         ``q_init`` and ``exploration`` replaced (``None``: keep).  ``ValueError`` names
         options this learner does not take and out-of-range values."""
         options = dict(options or {})
-        allowed = METHOD_OPTIONS[self.method]
+        allowed = METHOD_OPTIONS[self.method] + ASSIST_OPTIONS
         unknown = sorted(set(options) - set(allowed))
         if unknown:
-            takes = f"takes {', '.join(allowed)}" if allowed else "takes no learner_options"
+            takes = f"takes {', '.join(allowed)}"
             raise ValueError(f"learner {self.name!r} ({self.method_name} update) {takes}; got {unknown}")
         if q_init is not None:
             options["q_init"] = q_init
@@ -257,6 +318,10 @@ class TabularLearner:
         """What besides name and target changes the numbers (JSON-serialisable), e.g. for cache keys."""
         settings = {"method": self.method_name, "q_init": self.q_init, "exploration": self.exploration.to_dict()}
         settings.update({name: getattr(self, name) for name in METHOD_OPTIONS[self.method]})
+        if self.affordance_code != AFFORD_NONE:
+            settings["affordance"] = self.affordance
+        if self.advised:
+            settings.update(advice_probability=self.advice_probability, advice_consistency=self.advice_consistency)
         return settings
 
     def target(self, q_next, next_action, reward, gamma, epsilon, terminal) -> float:
@@ -296,9 +361,26 @@ DYNA_Q = TabularLearner(
     Q_LEARNING_TARGET, method=METHOD_DYNA, planning_steps=5,
 )
 
+AFFORDANCE_Q_LEARNING = TabularLearner(
+    "affordance_q_learning", q_learning_target, False,
+    "Affordance-based Q-learning (Cruz et al.): the task model's affordances, improper actions never taken",
+    Q_LEARNING_TARGET, affordance="given",
+)
+LEARNED_AFFORDANCE_Q_LEARNING = TabularLearner(
+    "learned_affordance_q_learning", q_learning_target, False,
+    "Affordance-based Q-learning, affordances learned: an action seen improper in a state is not taken there again",
+    Q_LEARNING_TARGET, affordance="learned",
+)
+INTERACTIVE_Q_LEARNING = TabularLearner(
+    "interactive_q_learning", q_learning_target, False,
+    "Interactive Q-learning (Cruz et al.): an optimal simulated advisor advises with L = 0.5, consistency C = 1",
+    Q_LEARNING_TARGET, advice_probability=CRUZ_ADVICE_PROBABILITY, advice_consistency=DEFAULT_ADVICE_CONSISTENCY,
+)
+
 _REGISTRY: Registry[TabularLearner] = Registry(
     "learner", TabularLearner,
-    (Q_LEARNING, SARSA, EXPECTED_SARSA, DOUBLE_Q_LEARNING, Q_LAMBDA, SARSA_LAMBDA, DYNA_Q),
+    (Q_LEARNING, SARSA, EXPECTED_SARSA, DOUBLE_Q_LEARNING, Q_LAMBDA, SARSA_LAMBDA, DYNA_Q,
+     AFFORDANCE_Q_LEARNING, LEARNED_AFFORDANCE_Q_LEARNING, INTERACTIVE_Q_LEARNING),
 )
 
 
