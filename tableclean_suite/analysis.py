@@ -11,12 +11,21 @@ action at iteration ``iteration`` (pass the training's ``iterations``, the step 
 last one) from the final Q-tables, i.e. epsilon (or the temperature) of that iteration,
 per-state epsilon from the visits counted over the whole training (``visit_decay``), or
 the softmax of the final Q-table.  :func:`final_behaviour` reads these from a training result.
+
+Cruz et al.'s assisted learners (:mod:`tableclean_suite.learners.assist`) change that final
+distribution, and :func:`final_probabilities` accounts for them: with affordances the greedy
+action and the exploration are restricted to the afforded actions (the model's, or for learned
+affordances each run's improper pairs observed over the whole training), and with an advisor
+the policy is ``L * advisor + (1 - L) * learner``, the advisor's own part being
+``C * its action + (1 - C) * uniform``.  :func:`final_asymptotes` gives the exact asymptotes of
+that final behaviour (the plateaus the harness reports).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from tableclean_suite.learners.assist import NO_ADVICE, advisor_policy, given_affordances
 from tableclean_suite.learners.exploration import EpsilonGreedy, VisitDecay, as_exploration, softmax_probabilities
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.task import Outcome, TaskModel, TaskState
@@ -154,3 +163,133 @@ def exact_success_probability(
     codes = [s.index for s in starts]
     result = value[:, codes].mean(axis=1)
     return result[0] if single else result
+
+
+# ---------------------------------------------------------------------------------------------
+# Cruz et al.'s assisted learners: affordances and a simulated advisor
+# ---------------------------------------------------------------------------------------------
+def learned_affordances(states: np.ndarray, actions: np.ndarray, outcomes: np.ndarray, n_states: int,
+                        n_actions: int) -> np.ndarray:
+    """Per-run affordances learned from experience: ``(R, S, A)`` bool, False where the run observed
+    the pair improper.
+
+    Args:
+        states, actions, outcomes: ``(R, T)`` records (``TrainingResult.states`` ...).
+        n_states, n_actions: the task's sizes.
+    """
+    states, actions, outcomes = (np.atleast_2d(np.asarray(a, dtype=np.int64)) for a in (states, actions, outcomes))
+    masks = np.ones((states.shape[0], n_states, n_actions), dtype=bool)
+    runs, steps = np.nonzero(outcomes == int(Outcome.IMPROPER))
+    masks[runs, states[runs, steps], actions[runs, steps]] = False
+    return masks
+
+
+def afforded_probabilities(q: np.ndarray, masks: np.ndarray, parameter, softmax: bool = False) -> np.ndarray:
+    """Action probabilities ``(R, S, A)`` of the behaviour policy restricted to afforded actions.
+
+    Args:
+        q: ``(R, S, A)`` Q-tables.
+        masks: ``(S, A)`` or ``(R, S, A)`` bool, True = afforded; an all-False row allows every action.
+        parameter: epsilon in [0, 1] (or the softmax temperature > 0), a number or ``(R, S)``.
+        softmax: Boltzmann over the afforded actions instead of epsilon-greedy.
+
+    Epsilon-greedy: the afforded action of largest Q (ties to the first) gets ``1 - epsilon``
+    more, every afforded action ``epsilon / n_afforded``.
+    """
+    q = np.asarray(q, dtype=np.float64)
+    q = q[None] if q.ndim == 2 else q
+    masks = np.broadcast_to(np.asarray(masks, dtype=bool), q.shape)
+    masks = masks | ~masks.any(axis=-1, keepdims=True)
+    blocked = np.where(masks, q, -np.inf)
+    rate = np.broadcast_to(np.asarray(parameter, dtype=np.float64), q.shape[:2])[..., None]
+    if softmax:
+        weights = np.where(masks, np.exp((q - blocked.max(axis=-1, keepdims=True)) / rate), 0.0)
+        return weights / weights.sum(axis=-1, keepdims=True)
+    if not np.all((rate >= 0.0) & (rate <= 1.0)):
+        raise ValueError(f"epsilon must be in [0, 1], got {np.unique(rate).tolist()!r}")
+    probabilities = masks * (rate / masks.sum(axis=-1, keepdims=True))
+    greedy = np.argmax(blocked, axis=-1)[..., None]
+    np.put_along_axis(probabilities, greedy, np.take_along_axis(probabilities, greedy, axis=-1) + (1.0 - rate),
+                      axis=-1)
+    return probabilities
+
+
+def advised_probabilities(probabilities: np.ndarray, advisor: np.ndarray, advice_probability: float,
+                          consistency: float) -> np.ndarray:
+    """Mix a learner's action probabilities ``(..., S, A)`` with a simulated advisor's.
+
+    Args:
+        advisor: ``(S,)`` the advisor's action per state (``NO_ADVICE``: it never advises there).
+        advice_probability: L in [0, 1].
+        consistency: C in [0, 1].
+
+    Returns ``L * (C * onehot(advisor) + (1 - C) / A) + (1 - L) * probabilities`` where the
+    advisor has an action, ``probabilities`` elsewhere.
+    """
+    for name, value in (("advice_probability", advice_probability), ("consistency", consistency)):
+        if not 0.0 <= value <= 1.0:
+            raise ValueError(f"{name} must be in [0, 1], got {value!r}")
+    probabilities = np.asarray(probabilities, dtype=np.float64)
+    advisor = np.asarray(advisor, dtype=np.int64)
+    n_actions = probabilities.shape[-1]
+    advising = advisor != NO_ADVICE
+    own = np.zeros((advisor.shape[0], n_actions))
+    own[np.nonzero(advising)[0], advisor[advising]] = 1.0
+    advice = consistency * own + (1.0 - consistency) / n_actions
+    mixed = advice_probability * advice + (1.0 - advice_probability) * probabilities
+    return np.where(advising[:, None], mixed, probabilities)
+
+
+def final_probabilities(result, model: TaskModel | None = None) -> np.ndarray:
+    """The final behaviour policy of every run of a training ``result``: ``(R, S, A)`` probabilities.
+
+    Exploration at the end of training (:func:`final_behaviour`), restricted to the afforded
+    actions for affordance learners and mixed with the advisor for advised ones (module
+    docstring).  ``model``: the task model trained on (default ``TaskModel()``).
+    """
+    model = model if model is not None else TaskModel()
+    assist = _assist_options(result.config.get("learner_settings", {}))
+    behaviour = final_behaviour(result)
+    exploration, q = behaviour["exploration"], behaviour["q"]
+    epsilon = float(result.config["epsilon"])
+    affordance = assist.get("affordance", "none")
+    if affordance == "none":
+        probabilities = behaviour_probabilities(None, epsilon, model.n_actions, **behaviour)
+    else:
+        masks = (given_affordances(model) != 0 if affordance == "given"
+                 else learned_affordances(result.states, result.actions, result.outcomes, model.n_states,
+                                          model.n_actions))
+        parameter = exploration.parameter_array(epsilon, behaviour["iteration"], behaviour["visits"])
+        probabilities = afforded_probabilities(q, masks, np.broadcast_to(parameter, q.shape[:2]), exploration.softmax)
+    if assist.get("advice_probability", 0.0) > 0.0:
+        probabilities = advised_probabilities(probabilities, advisor_policy(model), assist["advice_probability"],
+                                              assist["advice_consistency"])
+    return probabilities
+
+
+def _assist_options(settings: dict) -> dict:
+    """The assistance options recorded in ``learner_settings`` (``TabularLearner.settings()``)."""
+    return {name: settings[name] for name in ("affordance", "advice_probability", "advice_consistency")
+            if name in settings}
+
+
+def final_asymptotes(result, chain, max_itr: int, model: TaskModel | None = None):
+    """Exact :class:`~tableclean_suite.asymptotes.Asymptotes` (one per run) of ``result``'s final
+    behaviour (:func:`final_probabilities`) over ``chain`` (:meth:`EpisodeChain.build`).
+
+    For the paper's constant epsilon-greedy without assistance this is
+    :func:`~tableclean_suite.asymptotes.greedy_asymptotes` itself (same numbers as before).
+    """
+    from tableclean_suite import asymptotes
+
+    settings = result.config.get("learner_settings", {})
+    plain = (as_exploration(settings.get("exploration")).name == EpsilonGreedy.name
+             and not _assist_options(settings))
+    if plain:
+        return asymptotes.greedy_asymptotes(result.q, float(result.config["epsilon"]), chain, max_itr)
+    probabilities = final_probabilities(result, model)
+    flat = probabilities.reshape(probabilities.shape[0], -1)
+    unique, inverse = np.unique(flat, axis=0, return_inverse=True)
+    stats = asymptotes.episode_statistics(unique.reshape((-1,) + probabilities.shape[1:]), chain, max_itr)
+    inverse = np.asarray(inverse).reshape(-1)
+    return asymptotes.Asymptotes(*(np.atleast_1d(getattr(stats, name))[inverse] for name in asymptotes.QUANTITIES))
