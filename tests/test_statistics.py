@@ -70,3 +70,17 @@ def test_uniform_multinomial_without_a_table(monkeypatch):
     ours, theirs = np.random.default_rng(2), np.random.default_rng(2)
     assert np.array_equal(statistics.uniform_multinomial(ours, 300, 300, 40),
                           theirs.multinomial(300, np.full(300, 1.0 / 300), size=40))
+
+
+def test_iqm_interval_equals_scipys_bootstrap_bit_for_bit():
+    """The scipy-free bootstrap of the IQM against the scipy.stats.bootstrap call it replaced."""
+    scipy_stats = pytest.importorskip("scipy.stats")
+    values = np.random.default_rng(4).choice(np.r_[np.linspace(0.0, 1.0, 37) ** 3, np.inf], size=301)
+    point, low, high = statistics.iqm_interval(values, 0.9, 200, np.random.default_rng(9))
+    reference = scipy_stats.bootstrap((values,), statistics._iqm_axis, n_resamples=200, confidence_level=0.9,
+                                      method="percentile", vectorized=True, random_state=np.random.default_rng(9))
+    assert (low, high) == statistics.percentile_interval(reference.bootstrap_distribution, 0.9)
+    assert point == float(scipy_stats.trim_mean(np.sort(values), statistics.IQM_TRIM))
+    grid = np.random.default_rng(1).normal(size=(13, 41))
+    for axis in (0, -1):
+        assert np.array_equal(statistics.trim_mean(grid, 0.25, axis), scipy_stats.trim_mean(grid, 0.25, axis=axis))
