@@ -70,9 +70,10 @@ def restore(env, saved) -> None:
 # staging: any reachable task state from a reset
 # ---------------------------------------------------------------------------------------------
 def layout_of(state: TaskState) -> tuple[int, int, tuple[int, ...]]:
-    """``(object_segment, arm_segment, dirty_segments)`` (1-based) of the reset that stages ``state``.
+    """``(object_segment, arm_segment, dirty_segments)`` (1-based) of the reset that stages a one-object ``state``.
 
     A held object is staged by resetting with the object on the arm's segment and picking it.
+    (Any number of objects: :func:`start_of`.)
     """
     (where,) = state.objects
     arm = state.arm + 1
@@ -81,24 +82,55 @@ def layout_of(state: TaskState) -> tuple[int, int, tuple[int, ...]]:
     return obj, arm, dirty
 
 
-def stage(env, controller, state, seed: int | None = None) -> TaskState:
-    """Reset ``env`` so that its symbolic state is ``state`` (a held object is picked up).
+def start_of(state: TaskState) -> tuple[tuple[int, ...], int, tuple[int, ...], tuple[int, ...]]:
+    """``(object_segments, arm_segment, dirty_segments, deferred)`` of the reset that stages ``state``.
 
-    ``seed`` re-seeds the env's placement randomness first (None: continue its stream).
-    Raises :class:`StagingError` when the abstraction does not read back ``state``.
+    Segment numbers are 1-based.  A held object starts on the arm's segment and is picked
+    after the reset; PICK takes the lowest-numbered object there, so the objects numbered
+    below it that lie on the arm's segment start on the next segment instead and are put
+    back onto the arm's segment after the pick (``deferred``, 0-based object indices).
     """
-    state = as_state(state)
+    arm = state.arm
+    held = state.held_object
+    other = (arm + 1) % state.n_segments
+    segments, deferred = [], []
+    for j, where in enumerate(state.objects):
+        if where == HELD:
+            segments.append(arm + 1)
+        elif held is not None and where == arm and j < held:
+            segments.append(other + 1)
+            deferred.append(j)
+        else:
+            segments.append(where + 1)
+    dirty = tuple(k + 1 for k in range(state.n_segments) if not state.is_clean(k))
+    return tuple(segments), arm + 1, dirty, tuple(deferred)
+
+
+def stage(env, controller, state, seed: int | None = None) -> TaskState:
+    """Reset ``env`` so that its symbolic state is ``state`` (a held object is picked up; see :func:`start_of`).
+
+    ``state`` is a :class:`TaskState` or a code of the controller's model.  ``seed`` re-seeds the
+    env's placement randomness first (None: continue its stream).  Raises :class:`StagingError`
+    when the abstraction does not read back ``state``.
+    """
+    model = getattr(controller, "model", None)
+    state = model.as_state(state) if isinstance(model, TaskModel) else as_state(state)
     if state.is_terminal:
         raise StagingError(f"cannot stage the terminal state {state.index} ({state.name})")
-    obj, arm, dirty = layout_of(state)
+    objects, arm, dirty, deferred = start_of(state)
     if seed is not None:
         env.rng = np.random.default_rng(seed)
-    env.set_start(obj, arm, dirty)
+    if state.n_objects == 1:
+        env.set_start(objects[0], arm, dirty)  # the paper-era call (also for envs without object_segments)
+    else:
+        env.set_start(None, arm, dirty, object_segments=objects)
     env.reset()
     if state.holding:
         result = controller.execute(Action.PICK)
         if not result.success:
             raise StagingError(f"staging {state.name}: the pick failed ({result.reason})")
+        for j in deferred:
+            env.put_object(j, state.arm)
     try:
         reached = env.symbolic_state()
     except Exception as error:  # AbstractionError: report it as a staging problem
@@ -137,7 +169,10 @@ class PhysicsStepEnv:
         if isinstance(max_retries, bool) or not isinstance(max_retries, (int, np.integer)) or max_retries < 0:
             raise ValueError(f"max_retries must be an integer >= 0, got {max_retries!r}")
         self.model = model if model is not None else TaskModel()
-        self.env = env if env is not None else make_skill_env(**(env_kwargs or {}))
+        check_physical_task(self.model)
+        kwargs = dict(env_kwargs or {})
+        kwargs.setdefault("task", self.model.spec)
+        self.env = env if env is not None else make_skill_env(**kwargs)
         self.controller = SkillController(self.env, self.model, skill_configs=skill_configs)
         self.fault_policy = fault_policy
         self.max_retries = int(max_retries)
@@ -155,7 +190,7 @@ class PhysicsStepEnv:
         return state.index
 
     def step(self, state: int, action: int, draw: float) -> tuple[int, int]:
-        before = as_state(state)
+        before = self.model.as_state(state)
         current = self._current_state()
         if current != before:
             raise PhysicsFaultError(f"the scene reads {current}, but the learner is in state {before.name}")
@@ -163,7 +198,7 @@ class PhysicsStepEnv:
         for attempt in range(self.max_retries + 1):
             if attempt:
                 restore(self.env, saved)
-            result = self.controller.execute(Action(int(action)))
+            result = self.controller.execute(int(action))
             self.last_result = result
             self.stats["executions"] += 1
             self.stats["control_steps"] += result.steps
@@ -177,7 +212,7 @@ class PhysicsStepEnv:
             if self.fault_policy == "raise":
                 break
         raise PhysicsFaultError(
-            f"{Action(int(action)).name.lower()} from {before.name}: abstraction fault on every attempt "
+            f"{self.model.action_name(int(action))} from {before.name}: abstraction fault on every attempt "
             f"({result.reason})"
         )
 
@@ -328,22 +363,42 @@ def _drain(queue, bar) -> None:
         bar.update(done)
 
 
-def check_physical_task(model: TaskModel) -> None:
-    """Raise ``ValueError`` when the physical scene cannot build ``model``'s spec yet.
+def check_physical_task(model: TaskModel, task_config: dict | None = None) -> None:
+    """Raise ``ValueError`` when the ``TableClean`` scene cannot build and run ``model``'s spec.
 
-    The ``TableClean`` scene has the paper's two segments and one object, and skills for
-    the paper's four actions.
+    The scene lays out up to :func:`~tableclean_suite.environments.config.max_segments`
+    segments (4 with the default config), builds objects of registered types
+    (:func:`~tableclean_suite.environments.objects.object_type_names`) that must fit side by
+    side on one segment, and runs every action of the spec with a registered skill
+    (:func:`~tableclean_suite.controllers.register_skill`).
     """
-    from tableclean_suite.environments.config import SCENE_SEGMENTS
-    from tableclean_suite.task import PAPER_SPEC
+    from tableclean_suite.controllers.registry import get_skill_class
+    from tableclean_suite.environments.config import LayoutError, make_config, scene_geometry
+    from tableclean_suite.environments.objects import get_object_type
+    from tableclean_suite.environments.table_clean import check_objects_fit
 
     spec = model.spec
-    if spec.segments != SCENE_SEGMENTS or spec.n_objects != PAPER_SPEC.n_objects or spec.actions != PAPER_SPEC.actions:
-        raise ValueError(
-            f"the physical scene supports {SCENE_SEGMENTS} segments, {PAPER_SPEC.n_objects} object and the actions "
-            f"{list(PAPER_SPEC.actions)} (the 'paper' spec); task {spec.name!r} has {spec.segments} segments, "
-            f"{spec.n_objects} objects and actions {list(spec.actions)}"
-        )
+    config = make_config(task_config)
+    try:
+        geometry = scene_geometry(config, spec.segments)
+    except LayoutError as error:
+        raise ValueError(f"task {spec.name!r}: {error}") from None
+    try:
+        kinds = [get_object_type(config["object_type"] or kind) for kind in spec.objects]
+        check_objects_fit(kinds, geometry, config)
+    except ValueError as error:
+        raise ValueError(f"task {spec.name!r}: {error}") from None
+    missing = []
+    for name in spec.actions:
+        try:
+            get_skill_class(name)
+        except KeyError:
+            missing.append(name)
+    if missing:
+        from tableclean_suite.controllers.registry import SKILL_REGISTRY
+
+        raise ValueError(f"task {spec.name!r}: no skill registered for action(s) {missing} (skills: "
+                         f"{', '.join(SKILL_REGISTRY)}); add one with tableclean_suite.controllers.register_skill")
 
 
 class PhysicsBackend:

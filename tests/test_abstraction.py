@@ -63,8 +63,9 @@ def test_clean_threshold_follows_clean_fraction():
     threshold = 1.0 - CONFIG["clean_fraction"]
     assert segments_clean([threshold, threshold + 0.01]).tolist() == [True, False]
     assert segments_clean([0.5, 0.51], {"clean_fraction": 0.5}).tolist() == [True, False]
+    assert segments_clean([0.0, 1.0, 0.0]).tolist() == [True, False, True]  # any number of segments
     with pytest.raises(ValueError, match="shape"):
-        segments_clean([0.0, 0.0, 0.0])
+        segments_clean([[0.0, 0.0]])
 
 
 def test_grasped_but_resting_object_still_lies_on_its_segment():

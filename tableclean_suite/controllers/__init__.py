@@ -7,7 +7,8 @@ as ``controller_configs`` and ``ignore_done=True`` to ``robosuite.make``), then:
     controller = SkillController(env)
     result = controller.execute(Action.PICK)   # -> SkillResult
 
-Add or replace skills with :func:`register_skill` (see :mod:`.registry`).
+Add or replace skills with :func:`register_skill` (see :mod:`.registry`); skills are built from the
+primitives of :mod:`.primitives` (reach, grasp, release, wipe).
 """
 
 from tableclean_suite.controllers.clean import CleanPhase, CleanSkill
@@ -16,8 +17,10 @@ from tableclean_suite.controllers.move import MovePhase, MoveSkill
 from tableclean_suite.controllers.osc import check_skill_env, skill_command_limits, skill_controller_config
 from tableclean_suite.controllers.pick import PickPhase, PickSkill
 from tableclean_suite.controllers.place import PlacePhase, PlaceSkill
-from tableclean_suite.controllers.registry import SKILL_REGISTRY, get_skill_class, register_skill
-from tableclean_suite.controllers.skill import BASE_CONFIG, Skill, SkillFailure, Waypoint
+from tableclean_suite.controllers.primitives import Body, Grasp, Primitive, PrimitiveSkill, Reach, Release
+from tableclean_suite.controllers.clean import Wipe
+from tableclean_suite.controllers.registry import SKILL_REGISTRY, action_key, get_skill_class, register_skill
+from tableclean_suite.controllers.skill import BASE_CONFIG, Skill, SkillEnv, SkillFailure, Waypoint
 from tableclean_suite.controllers.skill_controller import SkillController, SkillResult
 
 for _skill in (MoveSkill, PickSkill, PlaceSkill, CleanSkill):
@@ -25,6 +28,15 @@ for _skill in (MoveSkill, PickSkill, PlaceSkill, CleanSkill):
 
 __all__ = [
     "BASE_CONFIG",
+    "Body",
+    "Grasp",
+    "Primitive",
+    "PrimitiveSkill",
+    "Reach",
+    "Release",
+    "SkillEnv",
+    "Wipe",
+    "action_key",
     "CleanPhase",
     "CleanSkill",
     "MovePhase",

@@ -1,4 +1,9 @@
-"""CleanSkill: fetch the sponge, wipe the arm's segment until clean (bounded), bring the sponge home."""
+"""CleanSkill: fetch the sponge, wipe the arm's segment until clean (bounded), bring the sponge home.
+
+Built from primitives: :class:`~.primitives.Grasp` (the sponge), :class:`Wipe` (the arm's
+segment, wherever it lies), :class:`~.primitives.Release` (the sponge at its home) and a
+:class:`~.primitives.Reach` back above the segment.
+"""
 
 from __future__ import annotations
 
@@ -7,10 +12,11 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from tableclean_suite.controllers.geometry import box_lowest_z, grasp_yaw, world_footprint
+from tableclean_suite.controllers.geometry import box_lowest_z, world_footprint
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
-from tableclean_suite.controllers.pick import GRASP_CONFIG, grasp_point
-from tableclean_suite.controllers.skill import BASE_CONFIG, Skill, SkillFailure, Waypoint
+from tableclean_suite.controllers.pick import GRASP_CONFIG
+from tableclean_suite.controllers.primitives import SPONGE, Grasp, Primitive, PrimitiveSkill, Reach, Release
+from tableclean_suite.controllers.skill import BASE_CONFIG, SkillFailure, Waypoint
 from tableclean_suite.controllers.wipe_pattern import boustrophedon
 from tableclean_suite.task import Action
 
@@ -18,7 +24,7 @@ from tableclean_suite.task import Action
 class CleanPhase(enum.Enum):
     """Phases of a clean, in order (PRESS -> WIPE -> SHIFT repeats over the strokes and passes)."""
 
-    TO_SPONGE = enum.auto()  # hover above the sponge, gripper open
+    SPONGE_HOVER = enum.auto()  # hover above the sponge, gripper open
     SPONGE_DESCEND = enum.auto()  # down to the sponge's grasp point
     SPONGE_CLOSE = enum.auto()  # close, then confirm the sponge is grasped
     SPONGE_LIFT = enum.auto()  # up to the hover height
@@ -27,64 +33,41 @@ class CleanPhase(enum.Enum):
     WIPE = enum.auto()  # drag the pressed sponge to the stroke's end
     SHIFT = enum.auto()  # sponge just off the table, over to the next stroke's start (next lane or pass)
     WIPE_LIFT = enum.auto()  # up to the hover height
-    TO_HOME = enum.auto()  # hover above the sponge home
+    HOME_ALIGN = enum.auto()  # hover above the sponge home
     HOME_DESCEND = enum.auto()  # lower the sponge to its home
-    RELEASE = enum.auto()  # open until the fingers settle
+    HOME_RELEASE = enum.auto()  # open until the fingers settle
     HOME_RETREAT = enum.auto()  # up to the hover height
     RETURN = enum.auto()  # hover above the arm's segment centre
     DONE = enum.auto()
 
 
-class CleanSkill(Skill):
-    """Wipe the segment the arm is above with the sponge from its home, then return it."""
+class Wipe(Primitive):
+    """Sweep ``segment`` with the held sponge: boustrophedon strokes, pressed, pass after pass while dirty.
 
-    action = Action.CLEAN
-    Phase = CleanPhase
-    DEFAULT_CONFIG = {
-        **BASE_CONFIG,
-        **GRASP_CONFIG,
-        "max_steps": 900,
-        "press_depth": 0.006,  # m the sponge's bottom is commanded below the table top (firm contact)
-        "press_gain": 5.0,  # 1/s, integral gain pushing deeper while the sponge's lowest corner is above the table
-        "max_extra_press": 0.015,  # m, bound of that extra depth
-        "contact_slack": 0.0005,  # m; the sponge counts as touching when its lowest corner is this close
-        "wipe_speed": 0.25,  # m/s along the strokes
-        "wipe_tolerance": 0.02,  # m (xy); table friction keeps the pressed sponge a little behind its setpoint
-        # fraction of the sponge's half extent its centre keeps inside the segment's edges; 1 with no
-        # overlap makes the lanes tile the segment exactly (3 lanes on the default 0.24 m segment)
-        "edge_inset": 1.0,
-        "repeat_lane_shift": 0.5,  # repeated passes shift the lanes by this fraction of the lane spacing
-        # fraction of the sponge width shared by neighbouring lanes; the sponge's own footprint plus the
-        # env's wipe reach already covers the seams, and every extra lane costs ~25 control steps
-        "wipe_overlap": 0.0,
-        # m the sponge's bottom is lifted above the table while it shifts to the next stroke: dragged
-        # across the fingers' closing axis the pressed sponge tips and slides up into the hand, after
-        # which the fingertips, not the sponge, touch the table
-        "shift_clearance": 0.005,
-        # control steps after which a stroke starts even if no contact was sensed (a sponge slid up in
-        # the hand can leave the fingertips on the table); WIPE's integral press then deepens the contact
-        "press_max_steps": 12,
-        "max_passes": 3,  # wipe passes at most; a pass is repeated only while the segment is dirty
-        "place_clearance": 0.004,  # m above its home at which the sponge is released
-        "release_min_steps": 3,  # control steps to keep opening before checking the fingers settled
-    }
+    The skill's config supplies the wiping constants (see :class:`CleanSkill`'s ``DEFAULT_CONFIG``).
+    """
 
-    def on_reset(self, info: Mapping[str, Any]) -> None:
-        self.segment = self.state.arm
-        self.retries_left = self.config["grasp_retries"]
+    PHASES = ("TO_SEGMENT", "PRESS", "WIPE", "SHIFT", "WIPE_LIFT")
+
+    def __init__(self, segment: int):
+        self.segment = int(segment)
+
+    def start(self, skill, info):
+        self.config = skill.config
         self.passes = 0
         self.stroke_index = 0
-        self.strokes = np.zeros((0, 2))
         self.extra_press = 0.0
-        self.hold_offset = np.zeros(3)
-        self.yaw = grasp_yaw(info["sponge_quat"], info["sponge_half_size"], self.config["nominal_yaw"])
+        # grip-site minus sponge-centre position (m), measured once the sponge is held and lifted
+        self.hold_offset = np.asarray(info["eef_pos"], dtype=float) - np.asarray(info["sponge_pos"], dtype=float)
+        self.yaw = skill.yaw
+        self.dt = skill.dt
+        self.strokes = self._pattern(info, 0)
 
-    # -- geometry -------------------------------------------------------------------
     def _pattern(self, info: Mapping[str, Any], pass_index: int) -> np.ndarray:
         # the held sponge's footprint in world axes (computed once it is grasped)
         footprint = world_footprint(info["sponge_quat"], info["sponge_half_size"])
         return boustrophedon(
-            self.segment_center(info, self.segment),
+            np.asarray(info["segment_centers"], dtype=float)[self.segment],
             np.asarray(info["segment_half_sizes"], dtype=float)[int(self.segment)],
             footprint,
             self.config["wipe_overlap"],
@@ -118,91 +101,103 @@ class CleanSkill(Skill):
         lowest = box_lowest_z(info["sponge_pos"], info["sponge_quat"], info["sponge_half_size"])
         return lowest - float(info["table_top_z"])
 
-    def update(self, info: Mapping[str, Any]) -> None:
+    def update(self, skill, info: Mapping[str, Any], phase: str) -> None:
         """Integral contact control while wiping: press deeper while the sponge's lowest corner is off the table."""
-        if self.phase != CleanPhase.WIPE:
+        if phase != "WIPE":
             return
         gap = self._sponge_gap(info) - self.config["contact_slack"]
         extra = self.extra_press + self.config["press_gain"] * self.dt * gap
         self.extra_press = float(np.clip(extra, 0.0, self.config["max_extra_press"]))
 
-    # -- state machine -----------------------------------------------------------------
-    def waypoint(self, info: Mapping[str, Any]) -> Waypoint:
+    def waypoint(self, skill, info: Mapping[str, Any], phase: str) -> Waypoint:
         tol = self.config["reach_tolerance"]
-        phase = self.phase
-        if phase == CleanPhase.TO_SPONGE:
-            return Waypoint(self.hover_point(info, info["sponge_pos"][:2]), GRIPPER_OPEN, tol)
-        if phase == CleanPhase.SPONGE_DESCEND:
-            grasp = grasp_point(np.asarray(info["sponge_pos"]), info["sponge_half_size"], self.config)
-            return Waypoint(grasp, GRIPPER_OPEN, tol, speed=self.config["descend_speed"])
-        if phase in (CleanPhase.SPONGE_CLOSE, CleanPhase.RELEASE):
-            gripper = GRIPPER_CLOSE if phase == CleanPhase.SPONGE_CLOSE else GRIPPER_OPEN
-            key = "close_min_steps" if phase == CleanPhase.SPONGE_CLOSE else "release_min_steps"
-            return Waypoint(self._setpoint.copy(), gripper, np.inf, min_steps=self.config[key])
-        if phase == CleanPhase.SPONGE_LIFT:
-            return Waypoint(self.hover_point(info, info["eef_pos"][:2]), GRIPPER_CLOSE, tol)
-        if phase == CleanPhase.TO_SEGMENT:
-            return Waypoint(self.hover_point(info, self.strokes[0]), GRIPPER_CLOSE, tol)
-        if phase == CleanPhase.PRESS:
+        if phase == "TO_SEGMENT":
+            return Waypoint(skill.hover_point(info, self.strokes[0]), GRIPPER_CLOSE, tol)
+        if phase == "PRESS":
             pos = self._wipe_target(info, self.strokes[self.stroke_index])
-            # judged in xy only: the height is judged by contact (phase_ready); a sponge sliding up in
+            # judged in xy only: the height is judged by contact (ready); a sponge sliding up in
             # the hand moves this target down, so it may never be reached
             return Waypoint(pos, GRIPPER_CLOSE, self.config["wipe_tolerance"], xy_only=True,
                             speed=self.config["descend_speed"])
-        if phase == CleanPhase.SHIFT:
+        if phase == "SHIFT":
             pos = self._wipe_target(info, self.strokes[self.stroke_index], -self.config["shift_clearance"])
             return Waypoint(pos, GRIPPER_CLOSE, self.config["wipe_tolerance"], xy_only=True)
-        if phase == CleanPhase.WIPE:
+        if phase == "WIPE":
             pos = self._wipe_target(info, self.strokes[self.stroke_index])
-            wipe_tol = self.config["wipe_tolerance"]
-            return Waypoint(pos, GRIPPER_CLOSE, wipe_tol, xy_only=True, speed=self.config["wipe_speed"])
-        if phase == CleanPhase.WIPE_LIFT:
-            return Waypoint(self.hover_point(info, self.strokes[-1]), GRIPPER_CLOSE, tol)
-        home = np.asarray(info["sponge_home_pos"], dtype=float)
-        if phase == CleanPhase.TO_HOME:
-            return Waypoint(self.hover_point(info, home[:2]), GRIPPER_CLOSE, tol)
-        if phase == CleanPhase.HOME_DESCEND:
-            z = float(home[2]) + self.config["place_clearance"] + float(self.hold_offset[2])
-            return Waypoint(np.array([home[0], home[1], z]), GRIPPER_CLOSE, tol, speed=self.config["descend_speed"])
-        if phase == CleanPhase.HOME_RETREAT:
-            return Waypoint(self.hover_point(info, home[:2]), GRIPPER_OPEN, tol)
-        # RETURN
-        center = self.segment_center(info, self.segment)
-        return Waypoint(self.hover_point(info, center[:2]), GRIPPER_OPEN, tol)
+            return Waypoint(pos, GRIPPER_CLOSE, self.config["wipe_tolerance"], xy_only=True,
+                            speed=self.config["wipe_speed"])
+        return Waypoint(skill.hover_point(info, self.strokes[-1]), GRIPPER_CLOSE, tol)  # WIPE_LIFT
 
-    def next_phase(self, info: Mapping[str, Any]) -> CleanPhase:
-        phase = self.phase
-        if phase == CleanPhase.SPONGE_CLOSE:
-            if not info["sponge_grasped"]:
-                if self.retries_left <= 0:
-                    raise SkillFailure("sponge grasp not confirmed")
-                self.retries_left -= 1
-                return CleanPhase.TO_SPONGE
-            # grip-site minus sponge-centre position (m), measured once the sponge is held
-            self.hold_offset = np.asarray(info["eef_pos"], dtype=float) - np.asarray(info["sponge_pos"], dtype=float)
-            self.strokes = self._pattern(info, self.passes)
-        elif phase == CleanPhase.PRESS:
+    def next(self, skill, info: Mapping[str, Any], phase: str) -> str | None:
+        if phase == "PRESS":
             self.stroke_index += 1  # the stroke's end
-        elif phase == CleanPhase.WIPE:
+            return "WIPE"
+        if phase == "WIPE":
             if not info["sponge_grasped"]:
                 raise SkillFailure("sponge lost while wiping")
             if self.stroke_index + 1 < len(self.strokes):
                 self.stroke_index += 1  # the next stroke's start
-                return CleanPhase.SHIFT
+                return "SHIFT"
             self.passes += 1
             # "dirt remains" is the abstraction's call (the sponge is in hand, so it is not checked)
-            still_dirty = not self.env.symbolic_state(check_sponge=False).is_clean(self.segment)
+            still_dirty = not skill.env.symbolic_state(check_sponge=False).is_clean(self.segment)
             if self.passes < self.config["max_passes"] and still_dirty:
                 self.strokes = self._pattern(info, self.passes)
                 self.stroke_index = 0
-                return CleanPhase.SHIFT
-            return CleanPhase.WIPE_LIFT
-        elif phase == CleanPhase.SHIFT:
-            return CleanPhase.PRESS
-        return CleanPhase(phase.value + 1)
+                return "SHIFT"
+            return "WIPE_LIFT"
+        if phase == "SHIFT":
+            return "PRESS"
+        return super().next(skill, info, phase)
 
-    def phase_ready(self, info: Mapping[str, Any]) -> bool:
-        if self.phase == CleanPhase.PRESS:  # a stroke starts once the sponge really touches (or on timeout)
+    def ready(self, skill, info: Mapping[str, Any], phase: str) -> bool:
+        if phase == "PRESS":  # a stroke starts once the sponge really touches (or on timeout)
             touching = self._sponge_gap(info) <= self.config["contact_slack"]
-            return touching or self._phase_steps >= self.config["press_max_steps"]
-        return self.phase != CleanPhase.RELEASE or not info["sponge_grasped"]
+            return touching or skill._phase_steps >= self.config["press_max_steps"]
+        return True
+
+
+class CleanSkill(PrimitiveSkill):
+    """Wipe the segment the arm is above with the sponge from its home, then return it."""
+
+    action = Action.CLEAN
+    Phase = CleanPhase
+    DEFAULT_CONFIG = {
+        **BASE_CONFIG,
+        **GRASP_CONFIG,
+        "max_steps": 900,
+        "press_depth": 0.006,  # m the sponge's bottom is commanded below the table top (firm contact)
+        "press_gain": 5.0,  # 1/s, integral gain pushing deeper while the sponge's lowest corner is above the table
+        "max_extra_press": 0.015,  # m, bound of that extra depth
+        "contact_slack": 0.0005,  # m; the sponge counts as touching when its lowest corner is this close
+        "wipe_speed": 0.25,  # m/s along the strokes
+        "wipe_tolerance": 0.02,  # m (xy); table friction keeps the pressed sponge a little behind its setpoint
+        # fraction of the sponge's half extent its centre keeps inside the segment's edges; 1 with no
+        # overlap makes the lanes tile the segment exactly (3 lanes on the default 0.24 m segment)
+        "edge_inset": 1.0,
+        "repeat_lane_shift": 0.5,  # repeated passes shift the lanes by this fraction of the lane spacing
+        # fraction of the sponge width shared by neighbouring lanes; the sponge's own footprint plus the
+        # env's wipe reach already covers the seams, and every extra lane costs ~25 control steps
+        "wipe_overlap": 0.0,
+        # m the sponge's bottom is lifted above the table while it shifts to the next stroke: dragged
+        # across the fingers' closing axis the pressed sponge tips and slides up into the hand, after
+        # which the fingertips, not the sponge, touch the table
+        "shift_clearance": 0.005,
+        # control steps after which a stroke starts even if no contact was sensed (a sponge slid up in
+        # the hand can leave the fingertips on the table); WIPE's integral press then deepens the contact
+        "press_max_steps": 12,
+        "max_passes": 3,  # wipe passes at most; a pass is repeated only while the segment is dirty
+        "place_clearance": 0.004,  # m above its home at which the sponge is released
+        "release_min_steps": 3,  # control steps to keep opening before checking the fingers settled
+    }
+
+    def build(self, info: Mapping[str, Any]):
+        self.segment = self.state.arm
+        home = np.asarray(info["sponge_home_pos"], dtype=float)
+        return [
+            ("SPONGE_", Grasp(SPONGE, "sponge grasp")),
+            ("", Wipe(self.segment)),
+            ("HOME_", Release(SPONGE, lambda skill, info: home[:2], lambda skill, info: float(home[2]))),
+            ("", Reach("RETURN", lambda skill, info: skill.hover_point(
+                info, skill.segment_center(info, self.segment)[:2]), GRIPPER_OPEN)),
+        ]

@@ -24,7 +24,7 @@ control law:
   the env's wiping check; ``mj_step2``.  With the native loop (default when MuJoCo's
   shared library is found) the substeps run in one compiled function that calls
   MuJoCo's C API directly and returns to Python only for substeps where the sponge is
-  near the table top, so the env's own wiping check (``_record_wiping``) decides;
+  near the table top, so the env's own wiping check (``record_wiping_substep()``) decides;
 - once per control step at the end: the env's timestep and clock, the hidden dirt
   markers, and the controllers' goal and refresh state, so ``env.step`` can take over.
 
@@ -472,7 +472,7 @@ class FastSkillStepper:
         )
         self._actuators = (self.arm_actuators, self.grip_actuators)
         self._sponge_half = np.asarray(env.task_config["sponge_half_size"], dtype=float)
-        # the env's own early exit in _record_wiping, plus a margin: below this it must decide
+        # the env's own early exit in record_wiping_substep, plus a margin: below this it must decide
         contact = max(float(env.task_config["wipe_contact_dist"]), 0.0)
         self._wipe_z = float(env.geometry.table_top_z) + contact + PRESS_PREFILTER_SLACK + WIPE_CHECK_MARGIN
 
@@ -580,7 +580,7 @@ class FastSkillStepper:
         data.ctrl[self.arm_actuators] = np.clip(torques, self.arm_limits[0], self.arm_limits[1])
         if substep == 0:
             data.ctrl[self.grip_actuators] = grip_ctrl
-        self.env._record_wiping()
+        self.env.record_wiping_substep()
         mujoco.mj_step2(model, data)
 
     def _native_substeps(self, first: int, goal_pos, goal_ori, gains, grip_ctrl) -> None:
@@ -596,14 +596,14 @@ class FastSkillStepper:
             )
             if done < 0:  # stopped after substep -done - 1's control: the env checks wiping, then step2
                 done = -done
-                self.env._record_wiping()
+                self.env.record_wiping_substep()
                 mujoco.mj_step2(self.model, self.data)
 
     def _finish_step(self, goal_pos: np.ndarray, goal_ori: np.ndarray) -> None:
         """What ``env.step`` does once per control step and later steps rely on."""
         env = self.env
         env.cur_time += env.control_timestep
-        env._show_dirt()
+        env.show_dirt()
         env.done = (env.timestep >= env.horizon) and not env.ignore_done
         self.osc.goal_pos, self.osc.goal_ori = goal_pos, goal_ori
         self.osc.torques = self.torques.copy()

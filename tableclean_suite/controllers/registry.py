@@ -1,49 +1,96 @@
 """Which skill class carries out which task-level action.
 
-``SKILL_REGISTRY`` maps :class:`~tableclean_suite.task.Action` to a
-:class:`~tableclean_suite.controllers.skill.Skill` subclass.  Users add or swap
-skills with :func:`register_skill` without touching the controller::
+``SKILL_REGISTRY`` maps action names (``"move"``, ...; :class:`~tableclean_suite.task.Action`
+members and the paper-order ints are accepted as keys too) to a
+:class:`~tableclean_suite.controllers.skill.Skill` subclass.  Users add or swap skills with
+:func:`register_skill` without touching the controller, also for actions they registered
+with :func:`tableclean_suite.task.register_action`::
 
     register_skill(Action.CLEAN, MyFasterCleanSkill, replace=True)
+    register_skill("move_back", MoveBackSkill)        # after register_action(ActionRule("move_back", ...))
 """
 
 from __future__ import annotations
 
+import numpy as np
+
 from tableclean_suite.controllers.skill import Skill
-from tableclean_suite.task import Action, as_action
+from tableclean_suite.task import Action, as_action, get_action_rule
+
+
+def action_key(action) -> str:
+    """The registered action name of ``action`` (an Action, a paper-order int or a name).
+
+    Raises ``ValueError`` naming the registered actions when it is none of these.
+    """
+    if isinstance(action, Action):
+        return action.rule_name
+    if isinstance(action, str):
+        key = action.strip().lower()
+        if key.upper() in Action.__members__:
+            return key
+        return get_action_rule(key).name  # ValueError: unknown action ..., allowed: ...
+    if isinstance(action, (int, np.integer)) and not isinstance(action, (bool, np.bool_)):
+        return as_action(action).rule_name
+    return as_action(action).rule_name  # raises the ValueError naming the allowed actions
+
+
+class SkillTable(dict):
+    """A ``dict`` from action name to skill class whose keys may be given as Actions, ints or names."""
+
+    def __getitem__(self, action):
+        return super().__getitem__(action_key(action))
+
+    def __setitem__(self, action, cls):
+        super().__setitem__(action_key(action), cls)
+
+    def __contains__(self, action):
+        try:
+            return super().__contains__(action_key(action))
+        except ValueError:
+            return False
+
+    def get(self, action, default=None):
+        return self[action] if action in self else default
+
 
 #: The global action -> skill class table used by default by SkillController.
-SKILL_REGISTRY: dict[Action, type[Skill]] = {}
+SKILL_REGISTRY: SkillTable = SkillTable()
+
+
+def _label(key: str) -> str:
+    return key.upper()
 
 
 def register_skill(action, cls: type[Skill], *, replace: bool = False, registry: dict | None = None) -> type[Skill]:
-    """Register ``cls`` as the skill for ``action`` (an Action, its int value or name).
+    """Register ``cls`` as the skill for ``action`` (an Action, its int value or a registered action name).
 
     Raises ``TypeError`` if ``cls`` is not a Skill subclass, ``ValueError`` if the
     action is unknown, if ``cls.action`` names a different action, or if the
     action already has a skill and ``replace`` is False.  Returns ``cls``.
     """
-    action = as_action(action)
+    key = action_key(action)
     if not (isinstance(cls, type) and issubclass(cls, Skill)):
-        raise TypeError(f"skill for {action.name} must be a Skill subclass, got {cls!r}")
+        raise TypeError(f"skill for {_label(key)} must be a Skill subclass, got {cls!r}")
     declared = getattr(cls, "action", None)
-    if declared is not None and as_action(declared) != action:
-        raise ValueError(f"{cls.__name__} implements {as_action(declared).name}, not {action.name}")
+    if declared is not None and action_key(declared) != key:
+        raise ValueError(f"{cls.__name__} implements {_label(action_key(declared))}, not {_label(key)}")
     table = SKILL_REGISTRY if registry is None else registry
-    if action in table and table[action] is not cls and not replace:
-        raise ValueError(
-            f"{action.name} already has skill {table[action].__name__}; pass replace=True to override"
-        )
-    table[action] = cls
+    existing = {action_key(k): v for k, v in table.items()}
+    if key in existing and existing[key] is not cls and not replace:
+        raise ValueError(f"{_label(key)} already has skill {existing[key].__name__}; pass replace=True to override")
+    for old in [k for k in table if action_key(k) == key]:
+        del table[old]
+    dict.__setitem__(table, key, cls) if isinstance(table, SkillTable) else table.__setitem__(key, cls)
     return cls
 
 
 def get_skill_class(action, registry: dict | None = None) -> type[Skill]:
     """The skill class registered for ``action``; ``KeyError`` naming the registered actions if none."""
-    action = as_action(action)
+    key = action_key(action)
     table = SKILL_REGISTRY if registry is None else registry
-    try:
-        return table[action]
-    except KeyError:
-        known = ", ".join(a.name for a in table) or "none"
-        raise KeyError(f"no skill registered for {action.name}; registered: {known}") from None
+    for name, cls in table.items():
+        if action_key(name) == key:
+            return cls
+    known = ", ".join(_label(action_key(a)) for a in table) or "none"
+    raise KeyError(f"no skill registered for {_label(key)}; registered: {known}")

@@ -20,7 +20,7 @@ from __future__ import annotations
 import abc
 import enum
 from dataclasses import dataclass
-from typing import Any, ClassVar, Mapping
+from typing import Any, ClassVar, Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -42,7 +42,31 @@ BASE_CONFIG: dict[str, Any] = {
     # rad, preferred gripper yaw when a grasp allows several: the Panda's grip site has yaw pi/2
     # at robosuite's home pose (fingers closing along world y); yaws near 0 or pi hit wrist limits
     "nominal_yaw": 0.5 * 3.141592653589793,
+    # m the open fingertips stay above the tallest lying object's top when hovering (raised per object
+    # type by its registered approach_clearance); the paper's 4.5 cm cube never raises the hover height
+    "fingertip_depth": 0.0135,  # m, lowest point of the Panda's finger collision meshes below its grip site
+    "carry_clearance": 0.01,  # m a carried body's bottom stays above the tallest lying object's top
 }
+
+
+@runtime_checkable
+class SkillEnv(Protocol):
+    """What skills and the :class:`~tableclean_suite.controllers.SkillController` need from an env.
+
+    ``TableClean`` made by :func:`~tableclean_suite.controllers.make_skill_env` is one; test
+    doubles implement these members only.
+    """
+
+    control_freq: float  # Hz, control steps per second
+
+    def skill_info(self) -> dict:
+        """Grounding in the world frame (keys as ``TableClean.skill_info``)."""
+
+    def symbolic_state(self, check_sponge: bool = True) -> TaskState:
+        """The current task state through the abstraction (raises ``AbstractionError`` on a fault)."""
+
+    def step(self, action): 
+        """One control step with the (7,) absolute OSC_POSE + gripper command."""
 
 
 class SkillFailure(RuntimeError):
@@ -84,7 +108,7 @@ class Skill(abc.ABC):
     Phase: ClassVar[type[enum.Enum]]
     DEFAULT_CONFIG: ClassVar[dict[str, Any]] = BASE_CONFIG
 
-    def __init__(self, env, config: Mapping[str, Any] | None = None):
+    def __init__(self, env: SkillEnv, config: Mapping[str, Any] | None = None):
         unknown = set(config or {}) - set(self.DEFAULT_CONFIG)
         if unknown:
             raise KeyError(f"unknown config keys for {type(self).__name__}: {sorted(unknown)}")
@@ -226,8 +250,38 @@ class Skill(abc.ABC):
 
     # -- helpers for subclasses ----------------------------------------------------------
     def hover_point(self, info: Mapping[str, Any], xy: np.ndarray) -> np.ndarray:
-        """(3,) the point ``hover_height`` above the table top at horizontal position ``xy`` (2,)."""
-        return np.array([xy[0], xy[1], float(info["table_top_z"]) + self.config["hover_height"]])
+        """(3,) the travel point above horizontal position ``xy`` (2,) at :meth:`hover_z`."""
+        return np.array([xy[0], xy[1], self.hover_z(info)])
+
+    def hover_z(self, info: Mapping[str, Any]) -> float:
+        """World z [m] at which the gripper travels: ``hover_height`` above the table top, raised when needed.
+
+        Raised so that the open fingertips stay each lying object's ``approach_clearance``
+        (its registered type's) above its top, and a carried body (a grasped object or the
+        sponge) keeps its bottom ``carry_clearance`` above every lying object's top.  Only
+        objects listed in ``info`` (``objects_pos`` ...) count.
+        """
+        z = float(info["table_top_z"]) + self.config["hover_height"]
+        if "objects_pos" not in info:
+            return z
+        positions = np.asarray(info["objects_pos"], dtype=float)
+        halves = np.asarray(info["objects_half_size"], dtype=float)
+        grasped = np.asarray(info["objects_grasped"], dtype=bool)
+        eef_z = float(info["eef_pos"][2])
+        drop = None  # how far the carried body's bottom hangs below the grip site
+        if grasped.any():
+            j = int(np.argmax(grasped))
+            drop = eef_z - (positions[j, 2] - halves[j, 2])
+        elif bool(info.get("sponge_grasped", False)):
+            drop = eef_z - (float(info["sponge_pos"][2]) - float(info["sponge_half_size"][2]))
+        for j in np.flatnonzero(~grasped):
+            top = positions[j, 2] + halves[j, 2]
+            if drop is None:
+                clearance = self.config["fingertip_depth"] + info["object_types"][j].approach_clearance
+            else:
+                clearance = max(drop, 0.0) + self.config["carry_clearance"]
+            z = max(z, top + clearance)
+        return z
 
     def segment_center(self, info: Mapping[str, Any], segment: int) -> np.ndarray:
         """(3,) table-top surface point at the centre of ``segment`` (0-based)."""

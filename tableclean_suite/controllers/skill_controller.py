@@ -15,9 +15,10 @@ from typing import Any, Callable, Iterable, Mapping
 
 from tableclean_suite.controllers.fast_control import fast_stepper_of
 from tableclean_suite.controllers.osc import check_skill_env
-from tableclean_suite.controllers.registry import SKILL_REGISTRY, get_skill_class
+from tableclean_suite.controllers.registry import SKILL_REGISTRY, action_key, get_skill_class
+from tableclean_suite.controllers.skill import SkillEnv
 from tableclean_suite.environments.abstraction import AbstractionError
-from tableclean_suite.task import Action, Outcome, TaskModel, TaskState, as_action
+from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
 
 
 @dataclass
@@ -25,7 +26,7 @@ class SkillResult:
     """What one ``SkillController.execute`` call did.
 
     Attributes:
-        action: the executed :class:`Action`.
+        action: the executed :class:`Action` (a built-in action), or the name of a user action.
         success: the symbolic state after equals the task model's successor (and the skill finished).
         improper: the task model calls the action improper here; refused, nothing moved.
         steps: control steps (``env.step`` calls) used; 0 for refused and ineffective actions.
@@ -40,7 +41,7 @@ class SkillResult:
         phase_steps: control steps spent per phase name (empty when no skill ran).
     """
 
-    action: Action
+    action: "Action | str"
     success: bool
     improper: bool
     steps: int
@@ -61,7 +62,7 @@ class SkillResult:
 
 
 class SkillController:
-    """Runs task-level actions as skills on a ``TableClean`` robosuite env.
+    """Runs task-level actions as skills on a ``TableClean`` robosuite env (any task spec it builds).
 
     Args:
         env: the environment (``skill_info()`` as :meth:`tableclean_suite.environments.TableClean.skill_info`,
@@ -69,7 +70,8 @@ class SkillController:
             :func:`~tableclean_suite.controllers.make_skill_env`; checked at construction
             (:func:`~tableclean_suite.controllers.osc.check_skill_env`: ``ValueError`` when its arm
             controller is not absolute world-frame OSC_POSE).
-        model: the task model whose rules physics follows (default ``TaskModel()``).
+        model: the task model whose rules physics follows (default: the env's ``task_model``, else
+            ``TaskModel()``); ints passed to :meth:`execute` index its action list.
         registry: action -> skill class table (default: the global ``SKILL_REGISTRY``).
         skill_configs: per-action config overrides, e.g. ``{Action.CLEAN: {"max_passes": 2}}``.
         on_step: called after every ``env.step`` a skill makes (e.g. to record video frames);
@@ -78,7 +80,7 @@ class SkillController:
 
     def __init__(
         self,
-        env,
+        env: SkillEnv,
         model: TaskModel | None = None,
         registry: Mapping[Action, type] | None = None,
         skill_configs: Mapping[Any, Mapping[str, Any]] | None = None,
@@ -86,22 +88,45 @@ class SkillController:
     ):
         check_skill_env(env)
         self.env = env
-        self.model = TaskModel() if model is None else model
+        if model is None:
+            model = getattr(env, "task_model", None)
+            model = model if isinstance(model, TaskModel) else TaskModel()
+        self.model = model
         self.registry = SKILL_REGISTRY if registry is None else registry
-        self.skill_configs = {as_action(a): dict(c) for a, c in (skill_configs or {}).items()}
+        self.skill_configs = {action_key(a): dict(c) for a, c in (skill_configs or {}).items()}
         self.on_step = on_step
 
-    def execute(self, action) -> SkillResult:
-        """Carry out ``action`` (Action, int or name) in physics and report what happened.
+    def resolve(self, action) -> "Action | str":
+        """``action`` (an Action, a name, or an index into the model's action list) as the model's action:
+        the :class:`Action` member for a built-in action, else its name.  ``ValueError`` names the allowed ones."""
+        name = self.model.action_name(action)
+        return Action[name.upper()] if name.upper() in Action.__members__ else name
 
-        Each control step goes through the env's fast stepper when it has one
-        (:func:`~tableclean_suite.controllers.make_skill_env` with ``fast_control=True``), else ``env.step``.
+    def _stepper(self):
+        """The fast stepper's ``step`` when this controller's env owns one, else ``env.step``.
+
+        A wrapper (e.g. robosuite's ``DataCollectionWrapper``) forwards attribute lookups to the
+        env it wraps, so the inner env's stepper is visible through it; using it would bypass
+        the wrapper's own ``step()`` (and its recording).  The stepper is used only when its env
+        *is* the controller's env.
+        """
+        stepper = fast_stepper_of(self.env)  # set by make_skill_env(fast_control=True)
+        if stepper is None or getattr(stepper, "env", None) is not self.env:
+            return self.env.step
+        return stepper.step
+
+    def execute(self, action) -> SkillResult:
+        """Carry out ``action`` (Action, index into the model's actions, or name) in physics and report what happened.
+
+        Each control step goes through the env's fast stepper when the env owns one
+        (:func:`~tableclean_suite.controllers.make_skill_env` with ``fast_control=True``), else
+        ``env.step`` (always through a wrapper, so that its ``step()`` runs).
 
         Raises ``ValueError`` for an unknown action or when the current state is
         terminal, ``KeyError`` when no skill is registered for the action.
         """
         start = time.perf_counter()
-        action = as_action(action)
+        action = self.resolve(action)
         skill_class = get_skill_class(action, self.registry)
         try:
             before = self.env.symbolic_state()
@@ -113,9 +138,8 @@ class SkillController:
                 return self._result(action, start, False, 0, "improper: refused", before, before, improper=True)
             return self._result(action, start, True, 0, f"{predicted.name.lower()}: nothing to do", before, before)
 
-        skill = skill_class(self.env, self.skill_configs.get(action))
-        stepper = fast_stepper_of(self.env)  # set by make_skill_env(fast_control=True)
-        env_step = self.env.step if stepper is None else stepper.step
+        skill = skill_class(self.env, self.skill_configs.get(action_key(action)))
+        env_step = self._stepper()
         env_time = 0.0
         reason = "ok"
         try:

@@ -8,15 +8,16 @@ be unit-tested with a hand-written dict.
 Observation keys (world frame, metres):
 
 Required
-    - ``"dirt_fraction"`` (2,): fraction of dirt markers still present per segment (1.0 = all dirty).
-    - ``"object_pos"`` (3,): object centre (root body position).
-    - ``"object_grasped"`` bool: both gripper finger pads touch the object.
+    - ``"dirt_fraction"`` (N,): fraction of dirt markers still present per segment (1.0 = all dirty).
+    - ``"object_pos"`` (3,): object centre (root body position), and ``"object_grasped"`` bool: both
+      gripper finger pads touch the object; or, for M objects, ``"objects_pos"`` (M, 3) and
+      ``"objects_grasped"`` (M,) (with optional ``"objects_rest_z"`` (M,)), which take precedence.
     - ``"eef_pos"`` (3,): gripper site position.
     - ``"sponge_pos"`` (3,): sponge centre (only when ``check_sponge``).
 Optional (defaults from the config's scene geometry)
     - ``"sponge_home_pos"`` (3,), ``"sponge_grasped"`` bool (default False).
     - ``"table_top_z"`` float, ``"table_center"`` (3,), ``"table_half_size"`` (2,).
-    - ``"segment_centers"`` (2, 3), ``"segment_half_sizes"`` (2, 2).
+    - ``"segment_centers"`` (N, 3), ``"segment_half_sizes"`` (N, 2) (N = 2 by default).
     - ``"object_rest_z"`` float: object centre height when it rests on the table
       (default ``table_top_z + object_half_size[2]``); ``"object_half_size"`` (3,).
     - ``"qvel"`` (n,): simulation velocities, checked against ``max_stable_speed``.
@@ -34,7 +35,6 @@ from typing import Mapping
 import numpy as np
 
 from tableclean_suite.environments.config import make_config, scene_geometry
-from tableclean_suite.environments.config import SCENE_SEGMENTS
 from tableclean_suite.task import HELD, TaskState
 
 #: Observation keys read from the physics and checked for NaN/inf by :func:`check_stability`.
@@ -50,7 +50,8 @@ class Fault(str, enum.Enum):
     OBJECT_OFF_TABLE = "object_off_table"  # object outside the table top or below it
     OBJECT_BETWEEN_SEGMENTS = "object_between_segments"  # on the table but on neither segment
     OBJECT_LIFTED_NOT_GRASPED = "object_lifted_not_grasped"  # above its resting height, not held
-    ARM_NOT_OVER_SEGMENT = "arm_not_over_segment"  # gripper not above either segment
+    ARM_NOT_OVER_SEGMENT = "arm_not_over_segment"  # gripper not above any segment
+    OBJECTS_HELD = "objects_held"  # more than one object grasped and lifted at once
     SPONGE_AWAY_FROM_HOME = "sponge_away_from_home"  # sponge not at its home while no skill runs
 
 
@@ -77,7 +78,7 @@ def _require(obs: Mapping, *keys: str) -> None:
 
 
 def _geometry_value(obs: Mapping, key: str, config: Mapping) -> np.ndarray:
-    """``obs[key]`` as float array, else the same attribute of the config's scene geometry."""
+    """``obs[key]`` as float array, else the same attribute of the config's (two-segment) scene geometry."""
     if key in obs:
         return np.asarray(obs[key], dtype=float)
     return np.asarray(getattr(scene_geometry(config), key), dtype=float)
@@ -101,18 +102,18 @@ def check_stability(obs: Mapping, config: Mapping | None = None) -> None:
 
 
 def segments_clean(dirt_fraction, config: Mapping | None = None) -> np.ndarray:
-    """Bool (2,): a segment is clean when its remaining dirt fraction is <= ``1 - clean_fraction``."""
+    """Bool (N,): a segment is clean when its remaining dirt fraction is <= ``1 - clean_fraction``."""
     config = resolve_config(config)
     dirt = np.asarray(dirt_fraction, dtype=float)
-    if dirt.shape != (SCENE_SEGMENTS,):
-        raise ValueError(f"dirt_fraction must have shape ({SCENE_SEGMENTS},), got {dirt.shape}")
+    if dirt.ndim != 1 or dirt.size < 1:
+        raise ValueError(f"dirt_fraction must have shape (N,) with N >= 1 segments, got {dirt.shape}")
     return dirt <= 1.0 - config["clean_fraction"] + _FRACTION_EPS
 
 
 def segment_of_xy(xy, segment_centers, segment_half_sizes, margin: float = 0.0) -> int | None:
-    """The segment whose area, grown by ``margin`` [m], contains ``xy``; the nearest if both; else ``None``.
+    """The segment whose area, grown by ``margin`` [m], contains ``xy``; the nearest if several; else ``None``.
 
-    Plain float arithmetic over the two segments (faster than NumPy on arrays this small).
+    Plain float arithmetic over the N segments (faster than NumPy on arrays this small).
     """
     x, y = float(xy[0]), float(xy[1])
     best, best_distance = None, math.inf
@@ -127,29 +128,50 @@ def segment_of_xy(xy, segment_centers, segment_half_sizes, margin: float = 0.0) 
 
 
 def object_location(obs: Mapping, config: Mapping | None = None) -> int:
-    """Where the object is: :data:`~tableclean_suite.task.HELD` (grasped and lifted) or the 0-based
+    """Where the (first) object is: :data:`~tableclean_suite.task.HELD` (grasped and lifted) or the 0-based
     segment it lies on; raises on faults."""
+    return object_locations(obs, config)[0]
+
+
+def object_locations(obs: Mapping, config: Mapping | None = None) -> tuple[int, ...]:
+    """Where each object is (HELD or a 0-based segment), from ``objects_*`` keys or the single ``object_*`` ones.
+
+    Raises :class:`AbstractionError` on the first object the model has no location for.
+    """
     config = resolve_config(config)
-    _require(obs, "object_pos", "object_grasped")
-    pos = np.asarray(obs["object_pos"], dtype=float)
-    top_z = float(_geometry_value(obs, "table_top_z", config))
-    if "object_rest_z" in obs:
-        rest_z = float(obs["object_rest_z"])
+    if "objects_pos" in obs:
+        _require(obs, "objects_pos", "objects_grasped")
+        positions = np.asarray(obs["objects_pos"], dtype=float).reshape(-1, 3)
+        grasped = [bool(g) for g in np.asarray(obs["objects_grasped"]).reshape(-1)]
+        rest = obs.get("objects_rest_z")
+        rest = [None] * len(positions) if rest is None else [float(z) for z in np.asarray(rest).reshape(-1)]
+        labels = [f"object {j + 1}" for j in range(len(positions))]
     else:
+        _require(obs, "object_pos", "object_grasped")
+        positions = [np.asarray(obs["object_pos"], dtype=float)]
+        grasped = [bool(obs["object_grasped"])]
+        rest = [float(obs["object_rest_z"]) if "object_rest_z" in obs else None]
+        labels = ["object"]
+    return tuple(_one_location(p, g, z, label, obs, config) for p, g, z, label in zip(positions, grasped, rest, labels))
+
+
+def _one_location(pos: np.ndarray, grasped: bool, rest_z: float | None, label: str, obs: Mapping,
+                  config: Mapping) -> int:
+    top_z = float(_geometry_value(obs, "table_top_z", config))
+    if rest_z is None:
         half = obs.get("object_half_size", config["object_half_size"])
         rest_z = top_z + float(np.asarray(half, dtype=float)[2])
     if pos[2] < top_z:
         raise AbstractionError(
-            Fault.OBJECT_OFF_TABLE, f"object centre at z={pos[2]:.3f} m is below the table top z={top_z:.3f} m"
+            Fault.OBJECT_OFF_TABLE, f"{label} centre at z={pos[2]:.3f} m is below the table top z={top_z:.3f} m"
         )
     lifted = pos[2] > rest_z + config["lift_tolerance"]
-    grasped = bool(obs["object_grasped"])
     if lifted and grasped:
         return HELD
     if lifted:
         raise AbstractionError(
             Fault.OBJECT_LIFTED_NOT_GRASPED,
-            f"object centre is {pos[2] - rest_z:.3f} m above its resting height but not grasped",
+            f"{label} centre is {pos[2] - rest_z:.3f} m above its resting height but not grasped",
         )
     segment = segment_of_xy(
         pos, _geometry_value(obs, "segment_centers", config), _geometry_value(obs, "segment_half_sizes", config)
@@ -159,10 +181,12 @@ def object_location(obs: Mapping, config: Mapping | None = None) -> int:
     table_center = _geometry_value(obs, "table_center", config)
     table_half = _geometry_value(obs, "table_half_size", config)
     if np.all(np.abs(pos[:2] - table_center[:2]) <= table_half):
+        n = len(_geometry_value(obs, "segment_centers", config))
         raise AbstractionError(
-            Fault.OBJECT_BETWEEN_SEGMENTS, f"object at xy=({pos[0]:.3f}, {pos[1]:.3f}) lies on neither segment"
+            Fault.OBJECT_BETWEEN_SEGMENTS,
+            f"{label} at xy=({pos[0]:.3f}, {pos[1]:.3f}) lies on {'neither' if n == 2 else 'no'} segment"
         )
-    raise AbstractionError(Fault.OBJECT_OFF_TABLE, f"object at xy=({pos[0]:.3f}, {pos[1]:.3f}) is off the table")
+    raise AbstractionError(Fault.OBJECT_OFF_TABLE, f"{label} at xy=({pos[0]:.3f}, {pos[1]:.3f}) is off the table")
 
 
 def arm_segment(obs: Mapping, config: Mapping | None = None) -> int:
@@ -177,8 +201,10 @@ def arm_segment(obs: Mapping, config: Mapping | None = None) -> int:
         margin=config["arm_segment_margin"],
     )
     if segment is None:
+        n = len(_geometry_value(obs, "segment_centers", config))
         raise AbstractionError(
-            Fault.ARM_NOT_OVER_SEGMENT, f"gripper at xy=({eef[0]:.3f}, {eef[1]:.3f}) is above neither segment"
+            Fault.ARM_NOT_OVER_SEGMENT,
+            f"gripper at xy=({eef[0]:.3f}, {eef[1]:.3f}) is above {'neither' if n == 2 else 'no'} segment"
         )
     return segment
 
@@ -212,7 +238,10 @@ def abstract_state(obs: Mapping, config: Mapping | None = None, *, check_sponge:
     _require(obs, "dirt_fraction")
     check_stability(obs, config)
     clean = segments_clean(obs["dirt_fraction"], config)
-    location = object_location(obs, config)
+    locations = object_locations(obs, config)
+    held = [j + 1 for j, where in enumerate(locations) if where == HELD]
+    if len(held) > 1:
+        raise AbstractionError(Fault.OBJECTS_HELD, f"objects {held} are grasped and lifted at once")
     segment = arm_segment(obs, config)
     if check_sponge and not sponge_at_home(obs, config):
         raise AbstractionError(
@@ -220,4 +249,4 @@ def abstract_state(obs: Mapping, config: Mapping | None = None, *, check_sponge:
             f"sponge at {np.round(np.asarray(obs['sponge_pos'], dtype=float), 3).tolist()} is not at its home"
             + (" (grasped)" if obs.get("sponge_grasped", False) else ""),
         )
-    return TaskState(tuple(bool(c) for c in clean), (location,), segment)
+    return TaskState(tuple(bool(c) for c in clean), locations, segment)

@@ -1,8 +1,8 @@
-"""The table-cleaning arena: robosuite's table with two tinted segments, dirt markers and a sponge stand.
+"""The table-cleaning arena: robosuite's table with N tinted segments, dirt markers and a sponge stand.
 
 Everything added here hangs off the table body of :class:`robosuite.models.arenas.TableArena`:
 
-- one tinted, visual-only patch per segment and a dark divider strip between them;
+- one tinted, visual-only patch per segment and a dark divider strip between neighbouring segments;
 - ``rows * cols`` dirt markers per segment: thin visual-only discs (``contype = conaffinity = 0``,
   like robosuite's Wipe markers), hidden by the environment when wiped;
 - one dirt-state body per segment, without geometry, on a horizontal slide joint whose position
@@ -21,8 +21,8 @@ from robosuite.utils.mjcf_utils import new_body, new_geom, new_inertial, new_joi
 from tableclean_suite.environments.config import SceneGeometry
 from tableclean_suite.environments.dirt_state import dirt_state_joint_name
 
-#: RGBA of each segment's tint (segment 1 light blue, segment 2 light orange).
-SEGMENT_RGBA = ((0.62, 0.78, 0.95, 1.0), (0.98, 0.80, 0.58, 1.0))
+#: RGBA of each segment's tint (segment 1 light blue, 2 light orange, 3 light green, 4 light violet; cycled).
+SEGMENT_RGBA = ((0.62, 0.78, 0.95, 1.0), (0.98, 0.80, 0.58, 1.0), (0.70, 0.90, 0.62, 1.0), (0.84, 0.72, 0.95, 1.0))
 DIVIDER_RGBA = (0.15, 0.15, 0.18, 1.0)
 DIRT_RGBA = (0.36, 0.24, 0.12, 1.0)
 STAND_RGBA = (0.25, 0.35, 0.55, 1.0)
@@ -73,11 +73,11 @@ def look_at_quat(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
 
 
 class TableCleanArena(TableArena):
-    """A :class:`TableArena` whose top is split into two dirty segments, with a sponge stand beside them.
+    """A :class:`TableArena` whose top is split into N dirty segments, with a sponge stand beside them.
 
     Args:
         geometry: world-frame scene geometry (:func:`~tableclean_suite.environments.config.scene_geometry`).
-        marker_xy: world xy of the dirt markers, shape ``(2, markers_per_segment, 2)``.
+        marker_xy: world xy of the dirt markers, shape ``(N, markers_per_segment, 2)``.
         marker_radius: radius of a dirt marker disc [m].
         table_full_size, table_friction, table_offset: as for :class:`TableArena`.
     """
@@ -118,16 +118,19 @@ class TableCleanArena(TableArena):
             self.table_body.append(new_geom(
                 f"segment{segment + 1}_visual", "box",
                 size=(*g.segment_half_sizes[segment], TINT_HALF_HEIGHT),
-                pos=(*center, top + TINT_HALF_HEIGHT), rgba=SEGMENT_RGBA[segment], **_VISUAL,
+                pos=(*center, top + TINT_HALF_HEIGHT), rgba=SEGMENT_RGBA[segment % len(SEGMENT_RGBA)], **_VISUAL,
             ))
-        gap = g.segment_centers[1, 1] - g.segment_centers[0, 1] - 2 * g.segment_half_sizes[0, 1]
-        divider_center = g.segment_centers[:, :2].mean(axis=0) - body_xy
-        self.table_body.append(new_geom(
-            "segment_divider_visual", "box",
-            size=(g.segment_half_sizes[0, 0], max(gap * DIVIDER_WIDTH_FRACTION / 2, TINT_HALF_HEIGHT),
-                  TINT_HALF_HEIGHT),
-            pos=(*divider_center, top + TINT_HALF_HEIGHT), rgba=DIVIDER_RGBA, **_VISUAL,
-        ))
+        for index, (a, b) in enumerate(_neighbours(g)):
+            ca, cb = g.segment_centers[a, :2], g.segment_centers[b, :2]
+            axis = int(np.argmax(np.abs(cb - ca)))  # the strip lies across this axis
+            gap = abs(cb[axis] - ca[axis]) - 2 * g.segment_half_sizes[a, axis]
+            half = np.array(g.segment_half_sizes[a], dtype=float)
+            half[axis] = max(gap * DIVIDER_WIDTH_FRACTION / 2, TINT_HALF_HEIGHT)
+            name = "segment_divider_visual" if index == 0 else f"segment_divider{index + 1}_visual"
+            self.table_body.append(new_geom(
+                name, "box", size=(*half, TINT_HALF_HEIGHT),
+                pos=(*((ca + cb) / 2 - body_xy), top + TINT_HALF_HEIGHT), rgba=DIVIDER_RGBA, **_VISUAL,
+            ))
         marker_z = top + 2 * TINT_HALF_HEIGHT + DIRT_HALF_HEIGHT
         for name, xy in zip(self.marker_names, self.marker_xy.reshape(-1, 2)):
             self.table_body.append(new_geom(
@@ -148,3 +151,17 @@ class TableCleanArena(TableArena):
             "sponge_stand_visual", "box", size=g.stand_half_size, pos=stand_local,
             rgba=STAND_RGBA, **_VISUAL,
         ))
+
+
+def _neighbours(geometry: SceneGeometry) -> list[tuple[int, int]]:
+    """Pairs ``(a, b)`` of segments side by side (centres one segment side plus a gap apart along x or y)."""
+    centers, half = geometry.segment_centers[:, :2], geometry.segment_half_sizes
+    pairs = []
+    for a in range(len(centers)):
+        for b in range(a + 1, len(centers)):
+            delta = np.abs(centers[b] - centers[a])
+            axis = int(np.argmax(delta))
+            aligned = delta[1 - axis] < half[a, 1 - axis]
+            if aligned and delta[axis] < 2 * (half[a, axis] + half[b, axis]):
+                pairs.append((a, b))
+    return pairs

@@ -6,6 +6,16 @@ All physical constants of the task live in :data:`DEFAULT_TABLECLEAN_CONFIG` (ro
 
 Frames and units: metres, world frame.  "Table frame" offsets are relative to the centre of the
 table top.  Segment 1 lies at negative y (left in the ``frontview`` camera), segment 2 at positive y.
+
+Layout of N segments (:func:`segment_layout`): rows of ``segment_columns`` segments along y,
+rows stacked along x inside the band ``reach_x`` the Panda reaches with a downward gripper
+pressing the sponge.  Segments are numbered along a U: the first row (nearest the robot) from -y
+to +y, the next row back from +y to -y, so MOVE (k -> k + 1, N -> 1) always goes to a
+neighbouring segment.  One row (N <= 2) keeps the paper's ``segment_size``; with R rows the
+side shrinks to what fits in the band, and a layout whose segments would be smaller than
+``min_segment_size`` is refused: with the defaults at most :data:`MAX_SCENE_SEGMENTS` = 4
+(two rows of two 0.18 m segments; a third row leaves 0.107 m segments, too small for two
+objects side by side and a sponge lane).
 """
 
 from __future__ import annotations
@@ -18,7 +28,7 @@ import numpy as np
 from tableclean_suite.environments.dirt_state import MAX_MARKERS_PER_SEGMENT
 from tableclean_suite.task.paper import PAPER_SEGMENTS
 
-#: Segments the scene lays out (the paper's two; the task spec may not ask for more yet).
+#: Segments of the default scene (the paper's two); a task spec may ask for up to :func:`max_segments`.
 SCENE_SEGMENTS = PAPER_SEGMENTS
 
 DEFAULT_TABLECLEAN_CONFIG = {
@@ -29,7 +39,12 @@ DEFAULT_TABLECLEAN_CONFIG = {
     # --- segments ----------------------------------------------------------------------------
     "segment_size": (0.24, 0.24),  # (x, y) extent of each segment's cleanable area [m]
     "segment_gap": 0.04,  # width along y of the divider strip between the two segments [m]
-    "segment_x": 0.0,  # x of both segment centres in the table frame [m]
+    "segment_x": 0.0,  # x of the segment rows' centre in the table frame [m] (one row: its x)
+    "segment_columns": 2,  # segments per row (along y); further segments start a new row further along x
+    # table-frame x band [m] in which the Panda presses the sponge onto the table with a downward gripper
+    # (measured by IK: the grip site 2 cm above the table top is reachable for |x| <= 0.2 at |y| <= 0.2)
+    "reach_x": (-0.2, 0.2),
+    "min_segment_size": 0.15,  # smallest segment side [m]: two objects side by side plus a sponge lane
     # --- dirt --------------------------------------------------------------------------------
     "marker_grid": (5, 5),  # dirt markers per segment as (rows along x, columns along y); at most 52 in all
     "marker_radius": 0.011,  # radius of a (visual-only) dirt marker disc [m]
@@ -43,10 +58,14 @@ DEFAULT_TABLECLEAN_CONFIG = {
     "stand_half_size": (0.06, 0.04, 0.01),  # half extents of the stand the sponge rests on at home [m]
     "sponge_home_tolerance": 0.03,  # the sponge counts as home within this distance of its home centre [m]
     # --- object ------------------------------------------------------------------------------
-    "object_type": "cube",  # graspable object: one of tableclean_suite.environments.objects.OBJECT_TYPES
+    # None: each object's type from the task spec (TaskSpec.objects); a registered name overrides every
+    # object's type (the paper-era option; see tableclean_suite.environments.objects.object_type_names())
+    "object_type": None,
     "object_half_size": (0.0225, 0.0225, 0.0225),  # half extents of "cube"/"box" ("cylinder": r, r, h) [m]
     "placement_noise": 0.03,  # object xy placement noise, uniform in +-this around its segment centre [m]
     "placement_yaw_noise": 0.0,  # object yaw noise, uniform in +-this [rad]
+    "object_spacing": 0.08,  # distance between the spots of objects sharing a segment (centre to centre) [m]
+    "object_clearance": 0.01,  # least gap between two objects' footprints on a segment [m]
     # --- arm ---------------------------------------------------------------------------------
     "arm_hover_height": 0.15,  # gripper-site height above the table top at reset [m]
     "arm_segment_margin": 0.06,  # the arm is over a segment when its eef xy is within this of the segment [m]
@@ -65,12 +84,15 @@ _POSITIVE_KEYS = (
     "stand_half_size",
     "sponge_home_tolerance",
     "object_half_size",
+    "min_segment_size",
+    "object_spacing",
     "arm_hover_height",
     "lift_tolerance",
     "max_stable_speed",
 )
 #: Keys whose values must be non-negative.
-_NON_NEGATIVE_KEYS = ("segment_gap", "wipe_marker_reach", "placement_noise", "placement_yaw_noise", "arm_segment_margin")
+_NON_NEGATIVE_KEYS = ("segment_gap", "wipe_marker_reach", "placement_noise", "placement_yaw_noise", "arm_segment_margin",
+                      "object_clearance")
 
 
 class TaskConfig(dict):
@@ -109,6 +131,16 @@ def _validate(config: dict) -> None:
     if int(grid[0]) * int(grid[1]) > MAX_MARKERS_PER_SEGMENT:
         raise ValueError(f"task_config['marker_grid'] {grid!r} has {int(grid[0]) * int(grid[1])} markers per segment; "
                          f"at most {MAX_MARKERS_PER_SEGMENT} fit in a segment's dirt-state joint")
+    columns = config["segment_columns"]
+    if isinstance(columns, bool) or int(columns) != columns or not 1 <= columns <= MAX_SEGMENT_COLUMNS:
+        raise ValueError(f"task_config['segment_columns'] must be an integer in 1..{MAX_SEGMENT_COLUMNS}, got {columns!r}")
+    low, high = (float(v) for v in config["reach_x"])
+    if not low < high:
+        raise ValueError(f"task_config['reach_x'] must be (low, high) with low < high, got {config['reach_x']!r}")
+    if config["object_type"] is not None:
+        from tableclean_suite.environments.objects import check_object_type
+
+        check_object_type(config["object_type"])
     half_y = config["table_full_size"][1] / 2
     reach_y = config["segment_gap"] / 2 + config["segment_size"][1]
     if reach_y > half_y:
@@ -116,6 +148,55 @@ def _validate(config: dict) -> None:
             f"segments (gap {config['segment_gap']} + 2 x {config['segment_size'][1]} m along y) "
             f"do not fit on a table {config['table_full_size'][1]} m wide"
         )
+
+
+#: Most segments per row: a third column along y would reach the sponge stand's side of the table.
+MAX_SEGMENT_COLUMNS = 2
+
+
+class LayoutError(ValueError):
+    """The scene cannot lay out the requested number of segments (the message names the limit)."""
+
+
+def segment_layout(config: Mapping, n_segments: int) -> tuple[np.ndarray, float]:
+    """Table-frame centres ``(N, 2)`` and the side [m] of N square-ish segments (see the module docstring).
+
+    Raises :class:`LayoutError` naming :func:`max_segments` when N segments do not fit.
+    """
+    if isinstance(n_segments, bool) or not isinstance(n_segments, (int, np.integer)) or n_segments < 2:
+        raise LayoutError(f"the scene needs an integer number of segments >= 2, got {n_segments!r}")
+    columns = int(config["segment_columns"])
+    rows = -(-int(n_segments) // columns)
+    gap = float(config["segment_gap"])
+    size = np.asarray(config["segment_size"], dtype=float)
+    low, high = (float(v) for v in config["reach_x"])
+    fit = (high - low - (rows - 1) * gap) / rows  # the side that R rows leave inside the reach band
+    side = min(float(size.min()), fit) if rows > 1 else None
+    limit = max_segments(config)
+    if n_segments > limit:
+        raise LayoutError(
+            f"the TableClean scene lays out at most {limit} segments, got {n_segments}: rows of "
+            f"{columns} segments must fit in the Panda's reach band x in [{low}, {high}] m of the table centre "
+            f"with sides >= min_segment_size {config['min_segment_size']} m (a row more leaves {fit:.3f} m)")
+    half = size / 2 if side is None else np.array([side / 2, side / 2])
+    centers = np.zeros((int(n_segments), 2))
+    row_x = config["segment_x"] + (np.arange(rows) - (rows - 1) / 2) * (2 * half[0] + gap)
+    col_y = (np.arange(columns) - (columns - 1) / 2) * (2 * half[1] + gap)
+    for k in range(int(n_segments)):
+        row, col = divmod(k, columns)
+        if row % 2:  # U-shaped numbering: odd rows run back along -y
+            col = columns - 1 - col
+        centers[k] = (row_x[row], col_y[col])
+    return centers, half
+
+
+def max_segments(config: Mapping) -> int:
+    """The largest N :func:`segment_layout` accepts with ``config`` (4 with the defaults)."""
+    columns = int(config["segment_columns"])
+    gap = float(config["segment_gap"])
+    low, high = (float(v) for v in config["reach_x"])
+    rows = int(np.floor((high - low + gap) / (float(config["min_segment_size"]) + gap) + 1e-9))
+    return max(rows, 1) * columns
 
 
 @dataclass(frozen=True)
@@ -126,8 +207,8 @@ class SceneGeometry:
         table_top_z: height of the table top.
         table_center: (3,) centre of the table top.
         table_half_size: (2,) half extents (x, y) of the table top.
-        segment_centers: (2, 3) table-top point at each segment centre (row 0 = segment 1).
-        segment_half_sizes: (2, 2) half extents (x, y) of each segment's cleanable area.
+        segment_centers: (N, 3) table-top point at each segment centre (row 0 = segment 1).
+        segment_half_sizes: (N, 2) half extents (x, y) of each segment's cleanable area.
         sponge_home_pos: (3,) centre of the sponge when it rests on its stand.
         stand_center: (3,) centre of the stand box.
         stand_half_size: (3,) half extents of the stand box.
@@ -142,16 +223,18 @@ class SceneGeometry:
     stand_center: np.ndarray
     stand_half_size: np.ndarray
 
+    @property
+    def n_segments(self) -> int:
+        """N, the number of segments."""
+        return len(self.segment_centers)
 
-def scene_geometry(config: Mapping) -> SceneGeometry:
-    """The world-frame :class:`SceneGeometry` of a (merged) config."""
+
+def scene_geometry(config: Mapping, n_segments: int = SCENE_SEGMENTS) -> SceneGeometry:
+    """The world-frame :class:`SceneGeometry` of a (merged) config with ``n_segments`` segments."""
     center = np.asarray(config["table_offset"], dtype=float)
-    half_size = np.asarray(config["segment_size"], dtype=float) / 2
-    offset_y = config["segment_gap"] / 2 + half_size[1]
-    side = np.array([-1.0, 1.0])  # segment 1 at -y, segment 2 at +y
-    segment_centers = np.zeros((SCENE_SEGMENTS, 3))
-    segment_centers[:, 0] = center[0] + config["segment_x"]
-    segment_centers[:, 1] = center[1] + side * offset_y
+    table_xy, half_size = segment_layout(config, n_segments)
+    segment_centers = np.zeros((int(n_segments), 3))
+    segment_centers[:, :2] = center[:2] + table_xy
     segment_centers[:, 2] = center[2]
     stand_half = np.asarray(config["stand_half_size"], dtype=float)
     home_xy = center[:2] + np.asarray(config["sponge_home_xy"], dtype=float)
@@ -162,23 +245,27 @@ def scene_geometry(config: Mapping) -> SceneGeometry:
         table_center=center,
         table_half_size=np.asarray(config["table_full_size"][:2], dtype=float) / 2,
         segment_centers=segment_centers,
-        segment_half_sizes=np.tile(half_size, (SCENE_SEGMENTS, 1)),
+        segment_half_sizes=np.tile(half_size, (int(n_segments), 1)),
         sponge_home_pos=sponge_home,
         stand_center=stand_center,
         stand_half_size=stand_half,
     )
 
 
-def marker_positions(config: Mapping) -> np.ndarray:
-    """World xy of every dirt marker, shape ``(2, rows * cols, 2)``: segment, marker, (x, y).
+def marker_positions(config: Mapping, n_segments: int = SCENE_SEGMENTS) -> np.ndarray:
+    """World xy of every dirt marker, shape ``(N, rows * cols, 2)``: segment, marker, (x, y).
 
     Markers sit at the centres of a regular ``marker_grid`` of cells covering each segment.
     """
-    geometry = scene_geometry(config)
+    geometry = scene_geometry(config, n_segments)
     rows, cols = (int(n) for n in config["marker_grid"])
-    size = np.asarray(config["segment_size"], dtype=float)
+    size = 2 * geometry.segment_half_sizes[0]
     fx = (np.arange(rows) + 0.5) / rows - 0.5
     fy = (np.arange(cols) + 0.5) / cols - 0.5
     gx, gy = np.meshgrid(fx * size[0], fy * size[1], indexing="ij")
     offsets = np.stack([gx.ravel(), gy.ravel()], axis=-1)
-    return np.stack([geometry.segment_centers[s, :2] + offsets for s in range(SCENE_SEGMENTS)])
+    return np.stack([geometry.segment_centers[s, :2] + offsets for s in range(n_segments)])
+
+
+#: The largest number of segments the default config lays out (see the module docstring).
+MAX_SCENE_SEGMENTS = max_segments(DEFAULT_TABLECLEAN_CONFIG)

@@ -1,4 +1,4 @@
-"""The ``TableClean`` robosuite environment: a two-segment dirty table, an object, a sponge and a Panda."""
+"""The ``TableClean`` robosuite environment: an N-segment dirty table, M objects, a sponge and a Panda."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from robosuite.utils.transform_utils import convert_quat, mat2quat
 
 from tableclean_suite.environments import abstraction, dirt_state, wiping
 from tableclean_suite.environments.arena import TableCleanArena
+from tableclean_suite.environments import placement
 from tableclean_suite.environments.config import (
     DEFAULT_TABLECLEAN_CONFIG,
     make_config,
@@ -19,10 +20,9 @@ from tableclean_suite.environments.config import (
     scene_geometry,
 )
 from tableclean_suite.environments.ik import site_pose, solve_site_pose
-from tableclean_suite.environments.objects import check_object_type, make_object, make_sponge
+from tableclean_suite.environments.objects import get_object_type, make_object, make_sponge, object_names
 from tableclean_suite.environments.scene_state import SceneState
-from tableclean_suite.environments.config import SCENE_SEGMENTS
-from tableclean_suite.task import HELD, TaskModel, TaskState
+from tableclean_suite.task import HELD, TaskModel, TaskSpec, TaskState, get_task_spec
 
 __all__ = ["TableClean", "DEFAULT_TABLECLEAN_CONFIG"]
 
@@ -40,30 +40,36 @@ SUCCESS_REWARD = 3.0
 WIPE_REWARD_PER_SEGMENT = 1.0
 OBJECT_ON_TABLE_REWARD = 0.25
 SPONGE_RETURNED_REWARD = 0.5
+#: The wiping component spans [0, this] (the paper's two segments) whatever the number of segments.
+PAPER_REWARD_SEGMENTS = 2
 
 
-#: The 1-based segment numbers the scene accepts, as text for error messages (e.g. "1, 2").
-_SEGMENT_NUMBERS = ", ".join(str(k) for k in range(1, SCENE_SEGMENTS + 1))
+def _segment_numbers(n_segments: int) -> str:
+    """The 1-based segment numbers of the scene, as text for error messages (e.g. "1, 2")."""
+    return ", ".join(str(k) for k in range(1, n_segments + 1))
 
 
-def _segment_option(name: str, value) -> int | None:
+def _segment_option(name: str, value, n_segments: int) -> int | None:
     """``None`` (random each reset) or the 0-based index of a 1-based segment number; clear ``ValueError`` otherwise."""
     if value is None:
         return None
-    if isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)) and 1 <= value <= SCENE_SEGMENTS:
+    if isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)) and 1 <= value <= n_segments:
         return int(value) - 1
-    raise ValueError(f"{name} must be {_SEGMENT_NUMBERS} or None (random at each reset), got {value!r}")
+    raise ValueError(f"{name} must be {_segment_numbers(n_segments)} or None (random at each reset), got {value!r}")
 
 
-def _dirty_option(value: Iterable[int]) -> tuple[int, ...]:
-    """Sorted 0-based indices of the 1-based segment numbers in ``value``; clear ``ValueError`` otherwise."""
+def _dirty_option(value: Iterable[int] | None, n_segments: int) -> tuple[int, ...]:
+    """Sorted 0-based indices of the 1-based segment numbers in ``value`` (None: all); clear ``ValueError`` otherwise."""
+    if value is None:
+        return tuple(range(n_segments))
+    allowed = _segment_numbers(n_segments)
     try:
         numbers = tuple(value)
     except TypeError:
-        raise ValueError(f"dirty_segments must be a collection of segment numbers ({_SEGMENT_NUMBERS}), got {value!r}") from None
-    segments = tuple(_segment_option("dirty_segments entry", n) for n in numbers)
+        raise ValueError(f"dirty_segments must be a collection of segment numbers ({allowed}), got {value!r}") from None
+    segments = tuple(_segment_option("dirty_segments entry", n, n_segments) for n in numbers)
     if None in segments:
-        raise ValueError(f"dirty_segments must contain only segment numbers ({_SEGMENT_NUMBERS}), got {value!r}")
+        raise ValueError(f"dirty_segments must contain only segment numbers ({allowed}), got {value!r}")
     return tuple(sorted(set(segments)))
 
 
@@ -78,13 +84,32 @@ def _jsonable(value):
     return value
 
 
+def check_objects_fit(kinds, geometry, config: Mapping) -> None:
+    """Raise ``ValueError`` unless the objects of ``kinds`` (ObjectTypes) fit side by side on one segment.
+
+    Every spec can bring all its objects onto one segment, so all M must fit there
+    (:mod:`.placement`'s grid of spots).
+    """
+    radii = [kind.footprint_radius for kind in kinds]
+    pitch = placement.slot_pitch(radii, config["object_spacing"], config["object_clearance"])
+    offsets = placement.slot_offsets(len(radii), pitch)
+    half = geometry.segment_half_sizes[0]
+    if np.any(np.abs(offsets) + max(radii) > half + 1e-9):
+        raise ValueError(f"{len(radii)} objects ({', '.join(k.name for k in kinds)}) do not fit side by side on one "
+                         f"{2 * half[0]:.3f} m segment (spot pitch {pitch:.3f} m); use fewer or smaller objects")
+
+
 class TableClean(ManipulationEnv):
-    """Clean both segments of a table with a sponge, moving an object out of the way (one Panda arm).
+    """Clean every segment of a table with a sponge, moving objects out of the way (one Panda arm).
 
     ## Description
-    The table top is split along y into segment 1 (at -y, blue tint) and segment 2 (at +y, orange
-    tint), each covered with a grid of dirt markers.  A graspable object lies on one segment; a
-    sponge rests on a stand at the table's side, off both segments.  A dirt marker is wiped when the
+    The scene builds a task spec (``task``, default ``paper``): N segments and M objects of the
+    spec's types (:mod:`.objects` registry).  For the paper's N = 2 the table top is split along y
+    into segment 1 (at -y, blue tint) and segment 2 (at +y, orange tint); N = 3, 4 lay out two
+    rows of two smaller segments within the Panda's reach (:func:`.config.segment_layout`; larger
+    N raise a ``ValueError`` naming the limit).  Each segment is covered with a grid of dirt
+    markers.  The objects lie on segments, apart (:mod:`.placement`); a sponge rests on a stand
+    at the table's side, off every segment.  A dirt marker is wiped when the
     sponge's underside presses on it: the sponge touches the table top and the marker lies under its
     footprint.  This is checked at every physics substep.  The wiped flags are MuJoCo state: each
     segment's dirt-state joint encodes them in its position (:mod:`.dirt_state`), so
@@ -110,15 +135,21 @@ class TableClean(ManipulationEnv):
     Task-specific (all others are those of
     :class:`robosuite.environments.manipulation.manipulation_env.ManipulationEnv`, passed through):
 
-    - ``object_segment`` (1, 2 or None): segment the object starts on; None draws it at each reset.
-    - ``arm_segment`` (1, 2 or None): segment the arm starts above; None draws it at each reset.
-    - ``dirty_segments`` (collection of 1/2): segments that start dirty (default both).
+    - ``task`` (name, :class:`~tableclean_suite.task.TaskSpec` or ``.json`` path; default ``"paper"``):
+      the task spec the scene builds (N segments, the objects' types).
+    - ``object_segment`` (1..N or None): segment every object starts on; None draws each at each reset.
+    - ``object_segments`` (sequence of M entries 1..N or None): per-object start segments; overrides
+      ``object_segment``.
+    - ``arm_segment`` (1..N or None): segment the arm starts above; None draws it at each reset.
+    - ``dirty_segments`` (collection of 1..N, None = all): segments that start dirty (default all).
     - ``task_config`` (dict): overrides of :data:`DEFAULT_TABLECLEAN_CONFIG` (unknown keys raise).
     - ``use_object_obs`` (bool): include object, sponge, dirt and symbolic observables.
     - ``reward_scale`` (float or None): the maximum reward; None leaves rewards un-normalised.
     - ``reward_shaping`` (bool): use the staged dense reward.
 
     ## Version History
+    - v2: ``task=``: N segments and M objects of registered types from the task spec (the paper spec
+      builds v1's scene: same layout, names and ``qpos``).
     - v1: the wiped flags are MuJoCo state (one dirt-state joint per segment: ``qpos`` and ``qvel``
       gain one entry per segment, so states recorded with v0 do not load); ``get_ep_meta()``
       records the task spec, the task config and the start layout.
@@ -130,8 +161,10 @@ class TableClean(ManipulationEnv):
         robots,
         object_segment: int | None = None,
         arm_segment: int | None = None,
-        dirty_segments: Iterable[int] = (1, 2),
+        dirty_segments: Iterable[int] | None = None,
         task_config: Mapping | None = None,
+        task: "str | TaskSpec | None" = None,
+        object_segments: Iterable[int | None] | None = None,
         env_configuration="default",
         controller_configs=None,
         gripper_types="default",
@@ -162,25 +195,34 @@ class TableClean(ManipulationEnv):
         seed=None,
     ):
         self.task_config = make_config(task_config)
-        check_object_type(self.task_config["object_type"])
+        self.task_spec: TaskSpec = get_task_spec(task)
+        self.task_model = TaskModel(spec=self.task_spec)
+        self.n_segments: int = self.task_spec.segments
+        self.n_objects: int = self.task_spec.n_objects
+        override = self.task_config["object_type"]
+        #: the objects' registered types (ObjectType), object 1 first
+        self.object_types = tuple(get_object_type(override or kind) for kind in self.task_spec.objects)
+        self.geometry = scene_geometry(self.task_config, self.n_segments)  # ValueError naming the largest N
+        check_objects_fit(self.object_types, self.geometry, self.task_config)
         # 0-based internally (None: drawn at each reset); set through set_start() with 1-based numbers
         self.object_segment: int | None = None
+        self.object_segments: tuple[int | None, ...] = (None,) * self.n_objects
         self.arm_segment: int | None = None
         self.dirty_segments: tuple[int, ...] = ()
-        self.set_start(object_segment, arm_segment, dirty_segments)
-        self.geometry = scene_geometry(self.task_config)
+        self.set_start(object_segment, arm_segment, dirty_segments, object_segments=object_segments)
         self.reward_scale = reward_scale
         self.reward_shaping = reward_shaping
         self.use_object_obs = use_object_obs
-        marker_xy = marker_positions(self.task_config)
+        marker_xy = marker_positions(self.task_config, self.n_segments)
         self._markers_per_segment = marker_xy.shape[1]
         self._marker_xyz = np.column_stack(
             [marker_xy.reshape(-1, 2), np.full(marker_xy.shape[0] * marker_xy.shape[1], self.geometry.table_top_z)]
         )
-        self._n_task_states = TaskModel().n_states  # size of the symbolic_state_onehot observable
+        self._n_task_states = self.task_model.n_states  # size of the symbolic_state_onehot observable
         self._shown_dirt: tuple | None = None  # the dirt-state joint positions the marker visuals show
         self._arm_qpos_cache: dict[int, np.ndarray] = {}
-        self.layout: tuple[int, int] | None = None  # (object segment, arm segment) of this episode, 0-based
+        # (object segment, arm segment) of this episode, 0-based; with M > 1 objects (object segments, arm segment)
+        self.layout: tuple | None = None
         super().__init__(
             robots=robots,
             env_configuration=env_configuration,
@@ -218,12 +260,12 @@ class TableClean(ManipulationEnv):
 
         Sparse un-normalised reward:
 
-            - a discrete reward of 3.0 on success (both segments clean, object on the table, sponge home)
+            - a discrete reward of 3.0 on success (every segment clean, objects on the table, sponge home)
 
         Un-normalised components if using reward shaping (without success):
 
-            - Wiping: in [0, 2], per segment min(1, wiped fraction / clean_fraction), summed
-            - Object on the table: in {0, 0.25}, non-zero when the object lies on a segment (not held)
+            - Wiping: in [0, 2], per segment min(1, wiped fraction / clean_fraction), averaged over the N segments, times 2
+            - Object on the table: in {0, 0.25}, non-zero when every object lies on a segment (none held)
             - Sponge returned: in {0, 0.5}, non-zero when a segment is clean and the sponge is home
 
         The shaped total stays below the success reward (at most 2.75 < 3.0).  The final reward is
@@ -248,9 +290,11 @@ class TableClean(ManipulationEnv):
         """Un-normalised shaping components ``(wiping, object_on_table, sponge_returned)`` (see :meth:`reward`)."""
         info = self.skill_info()
         wiped = 1.0 - info["dirt_fraction"]
-        r_wipe = WIPE_REWARD_PER_SEGMENT * float(np.minimum(1.0, wiped / self.task_config["clean_fraction"]).sum())
+        # scaled to the paper's two segments' range [0, 2] whatever N is, so the total stays below success
+        per_segment = np.minimum(1.0, wiped / self.task_config["clean_fraction"])
+        r_wipe = WIPE_REWARD_PER_SEGMENT * float(per_segment.mean()) * PAPER_REWARD_SEGMENTS
         try:
-            on_table = abstraction.object_location(info, self.task_config) != HELD
+            on_table = HELD not in abstraction.object_locations(info, self.task_config)
         except abstraction.AbstractionError:
             on_table = False
         r_object = OBJECT_ON_TABLE_REWARD if on_table else 0.0
@@ -267,7 +311,7 @@ class TableClean(ManipulationEnv):
         robot_model.set_base_xpos(robot_model.base_xpos_offset["table"](config["table_full_size"][0]))
         arena = TableCleanArena(
             geometry=self.geometry,
-            marker_xy=self._marker_xyz[:, :2].reshape(SCENE_SEGMENTS, self._markers_per_segment, 2),
+            marker_xy=self._marker_xyz[:, :2].reshape(self.n_segments, self._markers_per_segment, 2),
             marker_radius=config["marker_radius"],
             table_full_size=config["table_full_size"],
             table_friction=config["table_friction"],
@@ -275,12 +319,15 @@ class TableClean(ManipulationEnv):
         )
         arena.set_origin([0, 0, 0])
         self.arena = arena
-        self.object = make_object(config["object_type"], config["object_half_size"])
+        #: the M task objects (robosuite MujocoObjects), object 1 first; ``self.object`` is object 1
+        self.objects = [make_object(kind.name, config, name)
+                        for kind, name in zip(self.object_types, object_names(self.n_objects))]
+        self.object = self.objects[0]
         self.sponge = make_sponge(config["sponge_half_size"], config["sponge_density"])
         self.model = ManipulationTask(
             mujoco_arena=arena,
             mujoco_robots=[robot.robot_model for robot in self.robots],
-            mujoco_objects=[self.object, self.sponge],
+            mujoco_objects=[*self.objects, self.sponge],
         )
 
     def _setup_references(self):
@@ -288,7 +335,8 @@ class TableClean(ManipulationEnv):
         super()._setup_references()
         model = self.sim.model
         self._mj_data = self.sim.data._data
-        self.object_body_id = model.body_name2id(self.object.root_body)
+        self.object_body_ids = np.array([model.body_name2id(o.root_body) for o in self.objects])
+        self.object_body_id = int(self.object_body_ids[0])
         self.sponge_body_id = model.body_name2id(self.sponge.root_body)
         gripper = self.robots[0].gripper[self.robots[0].arms[0]]
 
@@ -297,7 +345,11 @@ class TableClean(ManipulationEnv):
 
         self._table_mask = mask([TABLE_TOP_GEOM])
         self._sponge_mask = mask(self.sponge.contact_geoms)
-        self._object_mask = mask(self.object.contact_geoms)
+        self._object_masks = tuple(mask(o.contact_geoms) for o in self.objects)
+        self._object_mask = self._object_masks[0]
+        self._object_rest_z = np.array([self.geometry.table_top_z - float(o.bottom_offset[2]) for o in self.objects])
+        self._object_half_sizes = np.array([o.get_bounding_box_half_size() for o in self.objects], dtype=float)
+        self._object_footprints = np.array([kind.footprint_radius for kind in self.object_types])
         self._finger_pad_masks = (
             mask(gripper.important_geoms["left_fingerpad"]),
             mask(gripper.important_geoms["right_fingerpad"]),
@@ -355,6 +407,18 @@ class TableClean(ManipulationEnv):
             return onehot
 
         sensors = [object_pos, object_quat, sponge_pos, sponge_quat, dirt_fraction]
+        if self.n_objects > 1:
+
+            @sensor(modality=modality)
+            def objects_pos(obs_cache):
+                return np.array(self.sim.data.body_xpos[self.object_body_ids]).ravel()
+
+            @sensor(modality=modality)
+            def objects_quat(obs_cache):
+                quats = np.array(self.sim.data.body_xquat[self.object_body_ids])
+                return np.concatenate([convert_quat(q, to="xyzw") for q in quats])
+
+            sensors += [objects_pos, objects_quat]
         arm_prefixes = self._get_arm_prefixes(self.robots[0], include_robot_name=False)
         full_prefixes = self._get_arm_prefixes(self.robots[0])
         sensors += [
@@ -367,42 +431,42 @@ class TableClean(ManipulationEnv):
         return observables
 
     def _reset_internal(self):
-        """Draws the layout, puts the arm over its segment, places object and sponge, lays out the dirt."""
-        object_segment, arm_segment = self._draw_layout()
-        self.layout = (object_segment, arm_segment)
+        """Draws the layout, puts the arm over its segment, places objects and sponge, lays out the dirt."""
+        objects, arm_segment = self._draw_layout()
+        self.layout = (objects[0] if self.n_objects == 1 else objects, arm_segment)
         self.robots[0].init_qpos = self._arm_reset_qpos(arm_segment)
         super()._reset_internal()
         if not self.deterministic_reset:
-            self._place_object(object_segment)
+            self._place_objects(objects)
             self._place_sponge()
         dirty = np.zeros(len(self._marker_xyz), dtype=bool)
         for segment in self.dirty_segments:
             self._segment_slice_view(dirty, segment)[:] = True
         self._write_marker_present(dirty)
-        self._show_dirt()
+        self.show_dirt()
 
     def _pre_action(self, action, policy_step=False):
         """Robot control (superclass), then records wiping on the state after the previous substep."""
         super()._pre_action(action, policy_step)
-        self._record_wiping()
+        self.record_wiping_substep()
 
     def _post_action(self, action):
         """Hides the markers wiped during this control step, then reward / done (superclass)."""
-        self._show_dirt()
+        self.show_dirt()
         return super()._post_action(action)
 
     def _get_observations(self, force_update=False):
         """The markers' visuals follow the dirt state first (it may have been restored), then the observations."""
-        self._show_dirt()
+        self.show_dirt()
         return super()._get_observations(force_update)
 
     def render(self):
         """The markers' visuals follow the dirt state first (it may have been restored), then robosuite's render."""
-        self._show_dirt()
+        self.show_dirt()
         return super().render()
 
     def _check_success(self):
-        """Both segments clean, the object lying on a segment, the sponge at home.
+        """Every segment clean, every object lying on a segment, the sponge at home.
 
         Returns:
             bool: True if the task is solved
@@ -411,7 +475,7 @@ class TableClean(ManipulationEnv):
             return False
         info = self.skill_info()
         try:
-            on_table = abstraction.object_location(info, self.task_config) != HELD
+            on_table = HELD not in abstraction.object_locations(info, self.task_config)
         except abstraction.AbstractionError:
             return False
         return on_table and abstraction.sponge_at_home(info, self.task_config)
@@ -419,26 +483,76 @@ class TableClean(ManipulationEnv):
     # ------------------------------------------------------------------------------------------
     # public API for skills and learners
     # ------------------------------------------------------------------------------------------
-    def set_start(self, object_segment: int | None, arm_segment: int | None, dirty_segments: Iterable[int]) -> None:
+    def set_start(self, object_segment: int | None, arm_segment: int | None,
+                  dirty_segments: Iterable[int] | None = None, *,
+                  object_segments: Iterable[int | None] | None = None) -> None:
         """The layout of the following resets, as the constructor's arguments (1-based segment numbers).
 
         Args:
-            object_segment: segment the object starts on (1..2) or None (drawn at each reset).
-            arm_segment: segment the arm starts above (1..2) or None (drawn at each reset).
-            dirty_segments: segments that start dirty (each 1..2).
+            object_segment: segment every object starts on (1..N) or None (each drawn at each reset).
+            arm_segment: segment the arm starts above (1..N) or None (drawn at each reset).
+            dirty_segments: segments that start dirty (each 1..N); None: all.
+            object_segments: M entries (1..N or None), one per object; overrides ``object_segment``.
 
         Raises ``ValueError`` naming the bad value and the allowed ones; nothing changes then.
-        Stored 0-based in ``object_segment``, ``arm_segment`` and ``dirty_segments``.
+        Stored 0-based in ``object_segment``, ``object_segments``, ``arm_segment`` and ``dirty_segments``.
         """
+        n = self.n_segments
+        single = _segment_option("object_segment", object_segment, n)
+        if object_segments is None:
+            per_object = (single,) * self.n_objects
+        else:
+            try:
+                entries = tuple(object_segments)
+            except TypeError:
+                raise ValueError(f"object_segments must be {self.n_objects} segment numbers, got {object_segments!r}") from None
+            if len(entries) != self.n_objects:
+                raise ValueError(f"object_segments must have one entry per object ({self.n_objects}), got {object_segments!r}")
+            per_object = tuple(_segment_option(f"object_segments[{j}]", v, n) for j, v in enumerate(entries))
         layout = (
-            _segment_option("object_segment", object_segment),
-            _segment_option("arm_segment", arm_segment),
-            _dirty_option(dirty_segments),
+            single if object_segments is None else (per_object[0] if len(set(per_object)) == 1 else None),
+            per_object,
+            _segment_option("arm_segment", arm_segment, n),
+            _dirty_option(dirty_segments, n),
         )
-        self.object_segment, self.arm_segment, self.dirty_segments = layout
+        self.object_segment, self.object_segments, self.arm_segment, self.dirty_segments = layout
+
+    def set_start_state(self, state: TaskState) -> None:
+        """The following resets start in the task state ``state`` (objects lying, none held).
+
+        A held object is staged by resetting with it on the arm's segment and picking it
+        (:func:`tableclean_suite.physics_backend.stage`).  Raises ``ValueError`` for a state of
+        another size or one holding an object.
+        """
+        state = self.task_model.as_state(state)
+        if state.holding:
+            raise ValueError(f"set_start_state takes states with every object lying; {state.name} holds one "
+                             "(tableclean_suite.physics_backend.stage picks it up after a reset)")
+        self.set_start(None, state.arm + 1, [k + 1 for k in range(state.n_segments) if not state.is_clean(k)],
+                       object_segments=[where + 1 for where in state.objects])
+
+    def put_object(self, obj: int, segment: int) -> None:
+        """Teleport object ``obj`` (0-based), at rest, onto a free spot of ``segment`` (0-based).
+
+        The spot is :func:`.placement.free_spot` among the objects lying there (as the place
+        skill chooses it).  Used by staging; the physics is forwarded, not stepped.
+        """
+        info = self.skill_info()
+        others = [(info["objects_pos"][k], float(self._object_footprints[k])) for k in range(self.n_objects)
+                  if k != obj and self._lies_on(info, k, segment)]
+        xy = placement.free_spot(self.geometry.segment_centers[segment], self.geometry.segment_half_sizes[segment],
+                                 float(self._object_footprints[obj]), others, self.task_config["object_spacing"],
+                                 self.task_config["object_clearance"])
+        self._set_object_pose(obj, xy, 0.0)
+        self.sim.forward()
+
+    def _lies_on(self, info: Mapping, obj: int, segment: int) -> bool:
+        pos = info["objects_pos"][obj]
+        near_rest = pos[2] <= info["objects_rest_z"][obj] + self.task_config["lift_tolerance"]
+        return near_rest and self.segment_of_position(pos) == segment
 
     def dirt_fraction(self) -> np.ndarray:
-        """Shape (2,): fraction of each segment's dirt markers still present (1.0 = all dirty), read from qpos.
+        """Shape (N,): fraction of each segment's dirt markers still present (1.0 = all dirty), read from qpos.
 
         Raises :class:`~tableclean_suite.environments.dirt_state.DirtStateError` when a dirt-state
         joint holds no valid code (e.g. a state from another model was restored).
@@ -455,26 +569,41 @@ class TableClean(ManipulationEnv):
 
         Keys: ``eef_pos`` (3,), ``eef_quat`` (4,), ``gripper_qpos`` (2,), ``object_pos`` (3,),
         ``object_quat`` (4,), ``object_half_size`` (3,) bounding half extents, ``object_rest_z``
-        object centre height when resting on the table, ``sponge_pos`` (3,), ``sponge_quat`` (4,),
-        ``sponge_half_size`` (3,), ``sponge_home_pos`` (3,), ``segment_centers`` (2, 3) table-top
-        point at each segment centre (row 0 = segment 1), ``segment_half_sizes`` (2, 2),
-        ``table_top_z`` float, ``table_center`` (3,), ``table_half_size`` (2,), ``object_grasped``
-        and ``sponge_grasped`` bool (both finger pads touch it), ``dirt_fraction`` (2,), ``qvel``
-        (nv,) all simulation velocities.
+        object centre height when resting on the table (these four: object 1), ``objects_pos``
+        (M, 3), ``objects_quat`` (M, 4), ``objects_half_size`` (M, 3), ``objects_rest_z`` (M,),
+        ``objects_grasped`` (M,) bool, ``object_types`` (M,) the objects'
+        :class:`~tableclean_suite.environments.objects.ObjectType` (grasp and footprint),
+        ``sponge_pos`` (3,), ``sponge_quat`` (4,), ``sponge_half_size`` (3,), ``sponge_home_pos`` (3,),
+        ``segment_centers`` (N, 3) table-top point at each segment centre (row 0 = segment 1),
+        ``segment_half_sizes`` (N, 2), ``table_top_z`` float, ``table_center`` (3,),
+        ``table_half_size`` (2,), ``object_grasped`` (object 1) and ``sponge_grasped`` bool (both
+        finger pads touch it), ``dirt_fraction`` (N,), ``qvel`` (nv,) all simulation velocities,
+        ``object_spacing`` and ``object_clearance`` (the config's, for the place skill's free spot).
         """
         data = self.sim.data
         robot = self.robots[0]
         arm = robot.arms[0]
         site = robot.eef_site_id[arm]
         geometry = self.geometry
+        objects_pos = np.array(data.body_xpos[self.object_body_ids])
+        objects_quat = np.array([convert_quat(q, to="xyzw") for q in data.body_xquat[self.object_body_ids]])
+        objects_grasped = np.array([self._grasped(m) for m in self._object_masks])
         return {
             "eef_pos": np.array(data.site_xpos[site]),
             "eef_quat": mat2quat(np.array(data.site_xmat[site]).reshape(3, 3)).astype(float),
             "gripper_qpos": np.array(data.qpos[robot._ref_gripper_joint_pos_indexes[arm]]),
-            "object_pos": np.array(data.body_xpos[self.object_body_id]),
-            "object_quat": convert_quat(np.array(data.body_xquat[self.object_body_id]), to="xyzw"),
-            "object_half_size": np.asarray(self.object.get_bounding_box_half_size(), dtype=float),
-            "object_rest_z": geometry.table_top_z - float(self.object.bottom_offset[2]),
+            "object_pos": objects_pos[0].copy(),
+            "object_quat": objects_quat[0].copy(),
+            "object_half_size": self._object_half_sizes[0].copy(),
+            "object_rest_z": float(self._object_rest_z[0]),
+            "objects_pos": objects_pos,
+            "objects_quat": objects_quat,
+            "objects_half_size": self._object_half_sizes.copy(),
+            "objects_rest_z": self._object_rest_z.copy(),
+            "objects_grasped": objects_grasped,
+            "object_types": self.object_types,
+            "object_spacing": float(self.task_config["object_spacing"]),
+            "object_clearance": float(self.task_config["object_clearance"]),
             "sponge_pos": np.array(data.body_xpos[self.sponge_body_id]),
             "sponge_quat": convert_quat(np.array(data.body_xquat[self.sponge_body_id]), to="xyzw"),
             "sponge_half_size": np.asarray(self.sponge.get_bounding_box_half_size(), dtype=float),
@@ -484,7 +613,7 @@ class TableClean(ManipulationEnv):
             "table_top_z": geometry.table_top_z,
             "table_center": geometry.table_center.copy(),
             "table_half_size": geometry.table_half_size.copy(),
-            "object_grasped": self._grasped(self._object_mask),
+            "object_grasped": bool(objects_grasped[0]),
             "sponge_grasped": self._grasped(self._sponge_mask),
             "dirt_fraction": self.dirt_fraction(),
             "qvel": np.array(data.qvel),
@@ -538,38 +667,46 @@ class TableClean(ManipulationEnv):
         grippers = [gripper for robot in self.robots for gripper in robot.gripper.values()]
         for gripper, command in zip(grippers, state.gripper_commands):
             gripper.current_action = np.array(command, copy=True)
-        self._show_dirt()
+        self.show_dirt()
         self.sim.forward()
 
     def marker_present(self) -> np.ndarray:
-        """Bool (2, markers_per_segment): the dirt markers still present (not wiped), read from qpos (a copy)."""
-        return self._marker_present().reshape(SCENE_SEGMENTS, self._markers_per_segment).copy()
+        """Bool (N, markers_per_segment): the dirt markers still present (not wiped), read from qpos (a copy)."""
+        return self._marker_present().reshape(self.n_segments, self._markers_per_segment).copy()
 
     def get_ep_meta(self) -> dict:
         """robosuite's episode metadata plus what the recorded episode is an instance of (JSON-serialisable).
 
         Keys added: ``task_spec`` (the task specification this scene builds, as
-        ``TaskSpec.to_dict()``), ``task_config`` (the full physical config) and ``start``
-        (``object_segment``, ``arm_segment`` and ``dirty_segments`` as 1-based numbers;
-        None: drawn at each reset).  ``DataCollectionWrapper`` stores it as ``ep_meta.json``.
+        ``TaskSpec.to_dict()``), ``object_types`` (the built types' names), ``task_config`` (the
+        full physical config) and ``start`` (``object_segment``, ``arm_segment``, ``dirty_segments``
+        and, with M > 1 objects, ``object_segments``, as 1-based numbers; None: drawn at each reset).
+        ``DataCollectionWrapper`` stores it as ``ep_meta.json``.
         """
         meta = super().get_ep_meta()
+
+        def number(segment):
+            return None if segment is None else segment + 1
+
         meta.update(
-            task_spec=TaskModel().spec.to_dict(),
+            task_spec=self.task_spec.to_dict(),
+            object_types=[kind.name for kind in self.object_types],
             task_config=_jsonable(self.task_config),
             start={
-                "object_segment": None if self.object_segment is None else self.object_segment + 1,
-                "arm_segment": None if self.arm_segment is None else self.arm_segment + 1,
+                "object_segment": number(self.object_segment),
+                "arm_segment": number(self.arm_segment),
                 "dirty_segments": [k + 1 for k in self.dirty_segments],
             },
         )
+        if self.n_objects > 1:  # one entry per object (the paper scene's meta keeps its v1 keys)
+            meta["start"]["object_segments"] = [number(k) for k in self.object_segments]
         return meta
 
     # ------------------------------------------------------------------------------------------
     # internals
     # ------------------------------------------------------------------------------------------
     def _marker_present(self) -> np.ndarray:
-        """Bool (2 * markers_per_segment,), read-only: markers not wiped, decoded from the dirt-state joints' qpos.
+        """Bool (N * markers_per_segment,), read-only: markers not wiped, decoded from the dirt-state joints' qpos.
 
         The decoded mask is cached per joint positions: the wiping check asks at every substep.
         """
@@ -583,22 +720,24 @@ class TableClean(ManipulationEnv):
         return self._present_cache[1]
 
     def _write_marker_present(self, present: np.ndarray) -> None:
-        """Record bool (2 * markers_per_segment,) ``present`` in the dirt-state joints (qpos; velocities zeroed)."""
+        """Record bool (N * markers_per_segment,) ``present`` in the dirt-state joints (qpos; velocities zeroed)."""
         data = self._mj_data
-        per_segment = np.asarray(present, dtype=bool).reshape(SCENE_SEGMENTS, self._markers_per_segment)
+        per_segment = np.asarray(present, dtype=bool).reshape(self.n_segments, self._markers_per_segment)
         for qpos_addr, qvel_addr, flags in zip(self._dirt_qpos_addr, self._dirt_qvel_addr, per_segment):
             data.qpos[qpos_addr] = dirt_state.encode(~flags)
             data.qvel[qvel_addr] = 0.0
 
     def _segment_slice_view(self, flat: np.ndarray, segment: int) -> np.ndarray:
-        return flat.reshape(SCENE_SEGMENTS, self._markers_per_segment)[segment]
+        return flat.reshape(self.n_segments, self._markers_per_segment)[segment]
 
-    def _draw_layout(self) -> tuple[int, int]:
-        """(object segment, arm segment): the configured ones, or drawn from ``self.rng`` when None."""
-        draws = self.rng.integers(0, SCENE_SEGMENTS, size=2)  # always drawn, so the rng stream is layout-independent
-        obj = self.object_segment if self.object_segment is not None else int(draws[0])
-        arm = self.arm_segment if self.arm_segment is not None else int(draws[1])
-        return obj, arm
+    def _draw_layout(self) -> tuple[tuple[int, ...], int]:
+        """(object segments (M,), arm segment): the configured ones, or drawn from ``self.rng`` when None."""
+        # always drawn (objects, then the arm), so the rng stream is layout-independent; for the paper's
+        # N = 2, M = 1 this is the v1 draw of (object, arm)
+        draws = self.rng.integers(0, self.n_segments, size=self.n_objects + 1)
+        objects = tuple(int(d) if k is None else k for k, d in zip(self.object_segments, draws[:-1]))
+        arm = self.arm_segment if self.arm_segment is not None else int(draws[-1])
+        return objects, arm
 
     def _arm_reset_qpos(self, segment: int) -> np.ndarray:
         """Joint positions putting the gripper site ``arm_hover_height`` above ``segment``'s centre (cached)."""
@@ -616,14 +755,37 @@ class TableClean(ManipulationEnv):
             )
         return self._arm_qpos_cache[segment].copy()
 
-    def _place_object(self, segment: int) -> None:
-        noise = self.task_config["placement_noise"]
-        yaw_noise = self.task_config["placement_yaw_noise"]
-        xy = self.geometry.segment_centers[segment, :2] + self.rng.uniform(-noise, noise, size=2)
-        yaw = self.rng.uniform(-yaw_noise, yaw_noise)
-        z = self.geometry.table_top_z - self.object.bottom_offset[2] + PLACEMENT_CLEARANCE
+    def _place_objects(self, segments: tuple[int, ...]) -> None:
+        """Put object j on ``segments[j]`` (0-based) following :mod:`.placement` (grid spots plus capped noise).
+
+        Raises ``ValueError`` when the objects sharing a segment do not fit on it.
+        """
+        config = self.task_config
+        for segment in sorted(set(segments)):
+            here = [j for j, k in enumerate(segments) if k == segment]
+            radii = [float(self._object_footprints[j]) for j in here]
+            pitch = placement.slot_pitch(radii, config["object_spacing"], config["object_clearance"])
+            offsets = placement.slot_offsets(len(here), pitch)
+            half = self.geometry.segment_half_sizes[segment]
+            if np.any(np.abs(offsets) + np.array(radii)[:, None] > half + 1e-9):
+                raise ValueError(f"objects {[j + 1 for j in here]} do not fit side by side on segment {segment + 1} "
+                                 f"({2 * half[0]:.3f} m square, spot pitch {pitch:.3f} m)")
+            bounds = placement.noise_bound(offsets, radii, half, config["placement_noise"], pitch,
+                                           config["object_clearance"])
+            for j, offset, bound in zip(here, offsets, bounds):
+                # the draws of the v1 scene for one object: xy noise, then yaw noise
+                noise = self.rng.uniform(-config["placement_noise"], config["placement_noise"], size=2)
+                noise = np.clip(noise, -bound, bound)
+                yaw = self.rng.uniform(-config["placement_yaw_noise"], config["placement_yaw_noise"])
+                self._set_object_pose(j, self.geometry.segment_centers[segment, :2] + offset + noise, yaw)
+
+    def _set_object_pose(self, obj: int, xy, yaw: float) -> None:
+        """Object ``obj`` at rest on the table at world ``xy`` with ``yaw`` [rad] (qpos set, qvel zeroed)."""
+        z = self.geometry.table_top_z - self.objects[obj].bottom_offset[2] + PLACEMENT_CLEARANCE
         quat_wxyz = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
-        self.sim.data.set_joint_qpos(self.object.joints[0], np.concatenate([xy, [z], quat_wxyz]))
+        joint = self.objects[obj].joints[0]
+        self.sim.data.set_joint_qpos(joint, np.concatenate([np.asarray(xy, dtype=float)[:2], [z], quat_wxyz]))
+        self.sim.data.set_joint_qvel(joint, np.zeros(6))
 
     def _place_sponge(self) -> None:
         self.sim.data.set_joint_qpos(self.sponge.joints[0], np.concatenate([self.geometry.sponge_home_pos, [1, 0, 0, 0]]))
@@ -637,8 +799,13 @@ class TableClean(ManipulationEnv):
         geom1, geom2 = data.contact.geom1[:ncon], data.contact.geom2[:ncon]
         return all(wiping.any_contact(geom1, geom2, pad, object_mask).any() for pad in self._finger_pad_masks)
 
-    def _record_wiping(self) -> None:
-        """Removes markers under the sponge when it presses on the table top (current substep state)."""
+    def record_wiping_substep(self) -> None:
+        """Removes markers under the sponge when it presses on the table top (current substep state).
+
+        The per-physics-substep hook: ``env.step`` calls it after each substep's control, and so
+        does a fast stepper (:mod:`tableclean_suite.controllers.fast_control`) that runs the
+        substeps itself.  Cheap when the sponge is clearly above the table.
+        """
         data = self._mj_data
         config = self.task_config
         sponge_pos, sponge_mat = data.xpos[self.sponge_body_id], data.xmat[self.sponge_body_id]
@@ -658,9 +825,10 @@ class TableClean(ManipulationEnv):
         if (under & present).any():
             self._write_marker_present(present & ~under)
 
-    def _show_dirt(self) -> None:
+    def show_dirt(self) -> None:
         """Marker visuals follow the dirt state: alpha 0 for wiped markers, 1 for present ones.
 
+        The per-control-step hook (``env.step`` and a fast stepper call it once per control step).
         Cheap when nothing changed since the last call (compares the dirt-state joint positions).
         """
         qpos = self._mj_data.qpos
@@ -669,6 +837,10 @@ class TableClean(ManipulationEnv):
             return
         self.sim.model.geom_rgba[self.marker_geom_ids, 3] = self._marker_present().astype(float)
         self._shown_dirt = positions
+
+    # the v1 private names of the two hooks
+    _record_wiping = record_wiping_substep
+    _show_dirt = show_dirt
 
     def _symbolic_index(self) -> int:
         """Index of :meth:`symbolic_state` without the sponge check, or ``FAULT_INDEX`` on a fault."""

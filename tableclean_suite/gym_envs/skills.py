@@ -1,4 +1,4 @@
-"""``TableCleanSkills-v0``: the task's four actions executed by skills in MuJoCo, as a Gymnasium env.
+"""``TableCleanSkills-v0``: the task's actions executed by skills in MuJoCo, as a Gymnasium env (any spec the scene builds).
 
 robosuite and the skills are imported when the env is made, not when this module is imported.
 """
@@ -61,10 +61,10 @@ class TableCleanSkillsEnv(TableCleanBase):
     takes from 0 (refused) to several hundred control steps.
 
     ## Action Space
-    ``Discrete(4)``: 0 move, 1 pick, 2 place, 3 clean.
+    ``Discrete(A)``, the spec's actions in its order; the paper's: 0 move, 1 pick, 2 place, 3 clean.
 
     ## Observation Space
-    ``Discrete(24)``, the state code of the ``paper`` spec,
+    ``Discrete(n_states)`` of the spec; for the ``paper`` spec ``Discrete(24)``, the state code
     ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment`` with
     0-based segments and object location 2 for held
     (:func:`tableclean_suite.task.encode`; see ``TableCleanSymbolic-v0``), read from the physics.
@@ -102,7 +102,9 @@ class TableCleanSkillsEnv(TableCleanBase):
                    env_kwargs=None, skill_configs=None, camera="frontview", frame_size=(360, 480))
     ```
     - ``reward``, ``task``, ``start``, ``model``: as ``TableCleanSymbolic-v0``; the physical scene
-      builds the ``paper`` spec only for now, and any other spec is refused with a ``ValueError``.
+      builds N <= 4 segments, objects of registered types, and actions with registered skills
+      (:func:`tableclean_suite.physics_backend.check_physical_task`); other specs are refused
+      with a ``ValueError`` naming the limit.
     - ``render_mode``: ``"ansi"`` (text picture of the observed state) or ``"rgb_array"``
       (offscreen camera image, ``frame_size`` = (height, width)).
     - ``env_kwargs``: overrides of ``robosuite.make`` arguments
@@ -111,7 +113,7 @@ class TableCleanSkillsEnv(TableCleanBase):
     - ``camera``: camera of the ``rgb_array`` frames.
 
     ## Version History
-    - v0: initial version.
+    - v0: initial version (v0 also builds any spec the scene can: N <= 4 segments, M objects).
     """
 
     metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 2}
@@ -123,7 +125,7 @@ class TableCleanSkillsEnv(TableCleanBase):
         super().__init__(reward=reward, model=model, render_mode=render_mode, task=task, start=start)
         from tableclean_suite.physics_backend import check_physical_task
 
-        check_physical_task(self.model)
+        check_physical_task(self.model, (env_kwargs or {}).get("task_config") if isinstance(env_kwargs, dict) else None)
         if env_kwargs is not None and not isinstance(env_kwargs, dict):
             raise TypeError(f"env_kwargs must be a dict of robosuite.make arguments, got {type(env_kwargs).__name__}")
         if len(frame_size) != 2 or any(int(n) != n or n < 16 for n in frame_size):
@@ -131,6 +133,7 @@ class TableCleanSkillsEnv(TableCleanBase):
         from tableclean_suite.controllers import SkillController, make_skill_env
 
         kwargs = dict(env_kwargs or {})
+        kwargs.setdefault("task", self.model.spec)
         if render_mode == "rgb_array":
             kwargs.setdefault("has_offscreen_renderer", True)
         self.camera = camera

@@ -1,0 +1,266 @@
+"""Small parameterised motion primitives that the skills are built from.
+
+A :class:`Primitive` is a short sequence of named phases over end-effector waypoints.  A
+:class:`PrimitiveSkill` runs a list of primitives one after the other; its phase names are
+``prefix + local phase`` (e.g. the sponge grasp of the clean skill has phases
+``SPONGE_HOVER``, ``SPONGE_DESCEND``, ...).  The primitives:
+
+- :class:`Reach`: go to one point (a function of ``skill_info()``) with a given gripper command.
+- :class:`Grasp`: hover over a body, open, descend to its grasp point, close, confirm, lift
+  (pick grasps an object with its type's grasp parameters; clean grasps the sponge).
+- :class:`Release`: hover over a spot, descend until the carried body is just above its
+  resting height, open until released, retreat (place puts an object down; clean returns the sponge).
+- :class:`Wipe` (in :mod:`.clean`): press the held sponge and sweep a segment.
+
+What differs per object type (grasp depth, approach clearance, yaw rule, footprint) comes
+from the object registry through ``skill_info()["object_types"]``; no primitive branches on
+a type name.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+from typing import Any, Callable, ClassVar, Mapping
+
+import numpy as np
+
+from tableclean_suite.controllers.geometry import grasp_yaw, gripper_yaw
+from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
+from tableclean_suite.controllers.skill import Skill, SkillFailure, Waypoint
+
+Info = Mapping[str, Any]
+
+
+@dataclass(frozen=True)
+class Body:
+    """How a primitive reads a graspable body from ``skill_info()``.
+
+    Attributes:
+        pos: ``info -> (3,)`` world centre [m].
+        quat: ``info -> (4,)`` xyzw orientation.
+        half_size: ``info -> (3,)`` bounding half extents [m].
+        grasped: ``info -> bool`` both finger pads touch it.
+        grasp_depth: m below the centre at which the grip site closes (raised so the fingertips
+            keep ``tip_clearance`` above the body's bottom); None: the skill's ``grasp_depth``.
+        yaw_rule: ``"short_side"`` (fingers across the shorter horizontal side) or ``"any"``
+            (keep the gripper's current yaw).
+    """
+
+    pos: Callable[[Info], np.ndarray]
+    quat: Callable[[Info], np.ndarray]
+    half_size: Callable[[Info], np.ndarray]
+    grasped: Callable[[Info], bool]
+    grasp_depth: float | None = None
+    yaw_rule: str = "short_side"
+
+
+def object_body(obj: int) -> Body:
+    """The task object ``obj`` (0-based) with its registered type's grasp parameters (read at use)."""
+    return Body(
+        pos=lambda info: np.asarray(info["objects_pos"][obj], dtype=float),
+        quat=lambda info: np.asarray(info["objects_quat"][obj], dtype=float),
+        half_size=lambda info: np.asarray(info["objects_half_size"][obj], dtype=float),
+        grasped=lambda info: bool(info["objects_grasped"][obj]),
+    )
+
+
+def object_grasp(info: Info, obj: int) -> dict:
+    """Grasp parameters of object ``obj``'s registered type (``grasp_depth``, ``approach_clearance``, ``yaw_rule``)."""
+    return info["object_types"][obj].grasp()
+
+
+SPONGE = Body(
+    pos=lambda info: np.asarray(info["sponge_pos"], dtype=float),
+    quat=lambda info: np.asarray(info["sponge_quat"], dtype=float),
+    half_size=lambda info: np.asarray(info["sponge_half_size"], dtype=float),
+    grasped=lambda info: bool(info["sponge_grasped"]),
+)
+
+
+def grasp_point(box_pos: np.ndarray, box_half_size: np.ndarray, config: Mapping[str, Any],
+                depth: float | None = None) -> np.ndarray:
+    """(3,) grip-site target to grasp an upright body resting at ``box_pos`` (its centre, m).
+
+    ``depth`` (default ``config["grasp_depth"]``) below the centre, raised if needed so that the
+    fingertips stay ``tip_clearance`` above the body's bottom: a flat box (the sponge) is
+    gripped high, so the fingers never drag on the surface it rests on.
+    """
+    depth = config["grasp_depth"] if depth is None else depth
+    bottom = float(box_pos[2]) - float(box_half_size[2])
+    floor = bottom + config["fingertip_depth"] + config["tip_clearance"]
+    z = max(float(box_pos[2]) - depth, floor)
+    return np.array([box_pos[0], box_pos[1], z])
+
+
+class Primitive:
+    """A named sequence of phases; subclasses set ``PHASES`` and implement :meth:`waypoint`.
+
+    Hooks receive the running :class:`PrimitiveSkill` (its config, setpoint and helpers) and
+    the current ``skill_info()``.
+    """
+
+    PHASES: ClassVar[tuple[str, ...]] = ()
+
+    def start(self, skill: "PrimitiveSkill", info: Info) -> None:
+        """Per-execution set-up when the primitive begins."""
+
+    def waypoint(self, skill: "PrimitiveSkill", info: Info, phase: str) -> Waypoint:
+        raise NotImplementedError
+
+    def next(self, skill: "PrimitiveSkill", info: Info, phase: str) -> str | None:
+        """The phase after ``phase`` (default: the next in ``PHASES``; None ends the primitive)."""
+        index = self.PHASES.index(phase) + 1
+        return self.PHASES[index] if index < len(self.PHASES) else None
+
+    def ready(self, skill: "PrimitiveSkill", info: Info, phase: str) -> bool:
+        """An extra condition for leaving ``phase`` (default True)."""
+        return True
+
+    def update(self, skill: "PrimitiveSkill", info: Info, phase: str) -> None:
+        """Per-step bookkeeping before the phase is evaluated."""
+
+
+class Reach(Primitive):
+    """One phase: go to ``target(skill, info)`` with ``gripper``; reached within ``tolerance`` (default the skill's)."""
+
+    def __init__(self, name: str, target: Callable[["PrimitiveSkill", Info], np.ndarray], gripper: float,
+                 tolerance: float | None = None):
+        self.PHASES = (name,)
+        self.target, self.gripper, self.tolerance = target, gripper, tolerance
+
+    def waypoint(self, skill, info, phase):
+        tol = skill.config["reach_tolerance"] if self.tolerance is None else self.tolerance
+        return Waypoint(np.asarray(self.target(skill, info), dtype=float), self.gripper, tol)
+
+
+class Grasp(Primitive):
+    """Hover over ``body`` (gripper open), descend to its grasp point, close, confirm the grasp, lift.
+
+    Re-approaches up to ``grasp_retries`` times when the grasp is not confirmed, then fails.
+    Sets the skill's target yaw from ``body.yaw_rule`` when it starts.
+    """
+
+    PHASES = ("HOVER", "DESCEND", "CLOSE", "LIFT")
+
+    def __init__(self, body: Body, what: str = "grasp"):
+        self.body, self.what = body, what
+
+    def start(self, skill, info):
+        self.retries_left = skill.config["grasp_retries"]
+        if self.body.yaw_rule == "short_side":
+            skill.yaw = grasp_yaw(self.body.quat(info), self.body.half_size(info), skill.config["nominal_yaw"])
+        else:
+            skill.yaw = gripper_yaw(info["eef_quat"])
+
+    def waypoint(self, skill, info, phase):
+        pos = self.body.pos(info)
+        tol = skill.config["reach_tolerance"]
+        if phase == "HOVER":
+            return Waypoint(skill.hover_point(info, pos[:2]), GRIPPER_OPEN, tol)
+        if phase == "DESCEND":
+            grasp = grasp_point(pos, self.body.half_size(info), skill.config, self.body.grasp_depth)
+            return Waypoint(grasp, GRIPPER_OPEN, tol, speed=skill.config["descend_speed"])
+        if phase == "CLOSE":
+            return Waypoint(skill.setpoint, GRIPPER_CLOSE, np.inf, min_steps=skill.config["close_min_steps"])
+        return Waypoint(skill.hover_point(info, pos[:2]), GRIPPER_CLOSE, tol)
+
+    def next(self, skill, info, phase):
+        if phase == "CLOSE" and not self.body.grasped(info):
+            if self.retries_left <= 0:
+                raise SkillFailure(f"{self.what} not confirmed")
+            self.retries_left -= 1
+            return "HOVER"
+        return super().next(skill, info, phase)
+
+
+class Release(Primitive):
+    """Hover over ``spot(skill, info)`` (2,), lower the carried ``body`` to ``rest_z`` + clearance, open, retreat.
+
+    ``rest_z(skill, info)``: the height [m] of the body's centre when it rests at the spot.  The
+    grip-site-to-body offset is measured when the primitive starts (the grasp may have slipped).
+    """
+
+    PHASES = ("ALIGN", "DESCEND", "RELEASE", "RETREAT")
+
+    def __init__(self, body: Body, spot: Callable[["PrimitiveSkill", Info], np.ndarray],
+                 rest_z: Callable[["PrimitiveSkill", Info], float]):
+        self.body, self.spot, self.rest_z = body, spot, rest_z
+
+    def start(self, skill, info):
+        self.hold_offset_z = float(np.asarray(info["eef_pos"], dtype=float)[2] - self.body.pos(info)[2])
+        self.xy = np.asarray(self.spot(skill, info), dtype=float)[:2]
+
+    def waypoint(self, skill, info, phase):
+        tol = skill.config["reach_tolerance"]
+        if phase == "ALIGN":
+            return Waypoint(skill.hover_point(info, self.xy), GRIPPER_CLOSE, tol)
+        if phase == "DESCEND":
+            z = float(self.rest_z(skill, info)) + skill.config["place_clearance"] + self.hold_offset_z
+            return Waypoint(np.array([*self.xy, z]), GRIPPER_CLOSE, tol, speed=skill.config["descend_speed"])
+        if phase == "RELEASE":
+            return Waypoint(skill.setpoint, GRIPPER_OPEN, np.inf, min_steps=skill.config["release_min_steps"])
+        return Waypoint(skill.hover_point(info, self.xy), GRIPPER_OPEN, tol)
+
+    def ready(self, skill, info, phase):
+        return phase != "RELEASE" or not self.body.grasped(info)
+
+
+class PrimitiveSkill(Skill):
+    """A skill that runs a list of ``(prefix, Primitive)`` built by :meth:`build` at each execution.
+
+    The class's ``Phase`` enum must have one member per ``prefix + phase`` of its primitives
+    (in order) and a final member (e.g. ``DONE``); :meth:`build` is checked against it.
+    """
+
+    def build(self, info: Info) -> list[tuple[str, Primitive]]:
+        """The primitives of this execution (``self.state`` is the symbolic state before it)."""
+        raise NotImplementedError
+
+    @property
+    def setpoint(self) -> np.ndarray:
+        """(3,) a copy of the current rate-limited position setpoint [m] (hold still there)."""
+        return self._setpoint.copy()
+
+    def on_reset(self, info: Info) -> None:
+        self.plan = self.build(info)
+        names = {m.name for m in self.Phase}
+        for prefix, primitive in self.plan:
+            missing = [prefix + p for p in primitive.PHASES if prefix + p not in names]
+            if missing:
+                raise TypeError(f"{type(self).__name__}.Phase lacks the phases {missing} of {type(primitive).__name__}")
+        self.stage = 0
+        self._enter(0, info)
+
+    def _enter(self, index: int, info: Info) -> enum.Enum:
+        self.stage = index
+        if index >= len(self.plan):
+            self.phase = self.final_phase
+            return self.phase
+        prefix, primitive = self.plan[index]
+        primitive.start(self, info)
+        self.phase = self.Phase[prefix + primitive.PHASES[0]]
+        return self.phase
+
+    def _current(self) -> tuple[Primitive, str]:
+        prefix, primitive = self.plan[self.stage]
+        return primitive, self.phase.name[len(prefix):]
+
+    def waypoint(self, info: Info) -> Waypoint:
+        primitive, local = self._current()
+        return primitive.waypoint(self, info, local)
+
+    def next_phase(self, info: Info) -> enum.Enum:
+        primitive, local = self._current()
+        following = primitive.next(self, info, local)
+        if following is None:
+            return self._enter(self.stage + 1, info)
+        return self.Phase[self.plan[self.stage][0] + following]
+
+    def phase_ready(self, info: Info) -> bool:
+        primitive, local = self._current()
+        return primitive.ready(self, info, local)
+
+    def update(self, info: Info) -> None:
+        primitive, local = self._current()
+        primitive.update(self, info, local)
