@@ -106,3 +106,43 @@ def test_tiny_calibration_trains_the_calibrated_backend(tmp_path, capsys):
     # resuming: the round is already measured, so no physics runs and the same table comes out
     assert calibrate.main(["--trials", "1", "--actions", "move,pick,place", "--out", str(out), "--quiet"]) == 0
     assert TransitionTable.from_json(out).counts.sum() == measured
+
+
+def test_fidelity_and_calibrate_cli_reject_bad_tasks_and_actions(capsys):
+    for argv in (["--task", "nope"], ["--task", "three_segments", "--actions", "move_back"]):
+        with pytest.raises(SystemExit) as exit_info:
+            fidelity.main(argv)
+        assert exit_info.value.code == 2
+        assert "error: --" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_info:
+        calibrate.main(["--task", "nope", "--out", "x.json"])
+    assert exit_info.value.code == 2 and "unknown task spec 'nope'" in capsys.readouterr().err
+
+
+def test_tables_use_the_specs_action_names_and_state_names():
+    model = TaskModel(spec="three_segments_two_objects")
+    start = model.start_state
+    rows = [{
+        "round": 0, "seed": 0, "layout": "1.1-1", "reached_by": "plan", "state": start.index, "action": "pick",
+        "expected_state": model.step(start, "pick")[0].index, "expected_outcome": "routine",
+        "observed_state": model.step(start, "pick")[0].index, "observed_outcome": "routine", "agree": 1,
+        "success": 1, "improper": 0, "steps": 20, "wall_time": 0.1, "env_time": 0.1, "reason": "ok"}]
+    (pair,) = fidelity.pair_table(rows, model)
+    assert pair["state_name"] == start.name and "o1" in pair["state_name"]
+    skills = {s["skill"]: s for s in skill_table(rows, model)}
+    assert skills["pick"]["executions"] == 1 and skills["clean"]["executions"] == 0
+    counts, faults = calibrate.count_transitions(rows, model)
+    assert counts == {(start.index, model.action_index("pick")): {(rows[0]["observed_state"], int(Outcome.ROUTINE)): 1}}
+
+
+@pytest.mark.slow
+def test_small_fidelity_sweep_on_three_segments_two_objects(tmp_path):
+    model = TaskModel(spec="three_segments_two_objects")
+    rows = fidelity.collect(1, seed=1, trials_csv=tmp_path / "trials.csv", log=None, actions=("pick", "place"),
+                            model=model)
+    non_terminal = [s for s in model.reachable_states() if not s.is_terminal]
+    assert len(rows) == 2 * len(non_terminal)
+    result = summary(rows, model)
+    ran = {skill: n for skill, (rate, n) in result["skills"].items() if n}
+    assert set(ran) == {"pick", "place"} and min(ran.values()) >= 50
+    assert result["agreement"] >= 0.97, f"agreement {result['agreement']:.2%}"

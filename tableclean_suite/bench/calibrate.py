@@ -1,6 +1,6 @@
 """A physics-calibrated transition model: the fidelity executions, counted into a TransitionTable.
 
-    python -m benchmarks.calibrate [--trials N] [--out transitions.json] [--seed S] [--fresh]
+    python -m benchmarks.calibrate [--task SPEC] [--trials N] [--out transitions.json] [--seed S] [--fresh]
     python -m benchmarks.calibrate --from-trials results/fidelity/fidelity_trials.csv --out transitions.json
 
 Every (state, action) pair is executed ``N`` times in physics exactly as
@@ -26,20 +26,28 @@ import time
 from collections import Counter
 from pathlib import Path
 
-from tableclean_suite.bench.fidelity import FAULT, ResumeError, add_execution_arguments, collect, read_trials
+from tableclean_suite.bench.fidelity import (
+    FAULT,
+    ResumeError,
+    add_execution_arguments,
+    collect,
+    parse_task_and_actions,
+    read_trials,
+)
 from tableclean_suite.learners.transitions import TransitionTable
-from tableclean_suite.task import Action, Outcome, TaskModel
+from tableclean_suite.task import Outcome, TaskModel
 
 
-def count_transitions(rows) -> tuple[dict, int]:
-    """``({(state, action): {(next_state, outcome): n}}, faults)`` from fidelity trial rows."""
+def count_transitions(rows, model: TaskModel | None = None) -> tuple[dict, int]:
+    """``({(state, action index): {(next_state, outcome): n}}, faults)`` from fidelity trial rows (default ``paper``)."""
+    model = model or TaskModel()
     counts: dict[tuple[int, int], Counter] = {}
     faults = 0
     for row in rows:
         if row["observed_outcome"] == FAULT:
             faults += 1
             continue
-        key = (int(row["state"]), int(Action[row["action"].upper()]))
+        key = (int(row["state"]), model.action_index(row["action"]))
         successor = (int(row["observed_state"]), int(Outcome[row["observed_outcome"].upper()]))
         counts.setdefault(key, Counter())[successor] += 1
     return {key: dict(value) for key, value in counts.items()}, faults
@@ -48,7 +56,7 @@ def count_transitions(rows) -> tuple[dict, int]:
 def calibrated_table(rows, model: TaskModel | None = None, description: str = "") -> TransitionTable:
     """The empirical :class:`TransitionTable` of fidelity trial rows (faults excluded, see module doc)."""
     model = model or TaskModel()
-    counts, faults = count_transitions(rows)
+    counts, faults = count_transitions(rows, model)
     executions = sum(sum(c.values()) for c in counts.values())
     source = f"physics calibration: {executions} executions, {faults} abstraction faults excluded"
     if description:
@@ -68,6 +76,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    model, actions = parse_task_and_actions(parser, args)
     out = Path(args.out)
     if out.suffix.lower() != ".json":
         parser.error(f"--out must be a .json file, got {args.out!r}")
@@ -84,17 +93,16 @@ def main(argv: list[str] | None = None) -> int:
             description = f"from {source.name}"
         else:
             rows = collect(args.trials, args.seed, out.with_suffix(".trials.csv"), fresh=args.fresh, log=log,
-                           actions=args.actions)
+                           actions=actions, model=model)
             description = f"{args.trials} round(s), seed {args.seed}"
     except ResumeError as error:
         parser.error(str(error))
-    table = calibrated_table(rows, description=description)
+    table = calibrated_table(rows, model, description=description)
     out.parent.mkdir(parents=True, exist_ok=True)
     table.to_json(out)
-    model = TaskModel()
     model_next, model_outcome = model.transition_arrays()
     stochastic = []
-    for (state, action) in sorted({(int(r["state"]), int(Action[r["action"].upper()])) for r in rows}):
+    for (state, action) in sorted({(int(r["state"]), model.action_index(r["action"])) for r in rows}):
         successors = table.successors(state, action)
         if len(successors) > 1 or successors[0][:2] != (model_next[state, action], model_outcome[state, action]):
             stochastic.append(table.describe_pair(state, action))

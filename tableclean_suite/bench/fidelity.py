@@ -1,12 +1,13 @@
 """Fidelity of the skills: does physics do what the task model says, from every reachable state?
 
-    python -m benchmarks.fidelity [--trials N] [--out DIR] [--seed S] [--fresh]
+    python -m benchmarks.fidelity [--task SPEC] [--trials N] [--out DIR] [--seed S] [--fresh]
 
-One *round* executes every action once from every reachable non-terminal state (18 states x
-4 actions = 72 trials):
+One *round* executes every action of the spec (``--task``, default ``paper``) once from every
+reachable non-terminal state (paper: 18 states x 4 actions = 72 trials;
+``three_segments_two_objects``: 315 x 4 = 1260):
 
-- Each of the four both-unclean start layouts is reset with fresh placement noise (a seed per
-  round and layout), and the reachable states are visited depth-first by executing actions in
+- Each all-unclean start layout (``N**M * N``: the paper's four) is reset with fresh placement
+  noise (a seed per round and layout), and the reachable states are visited depth-first by executing actions in
   physics: a state is *reached* once, its scene is snapshotted (MuJoCo state + the env's dirt),
   and every action is executed from a restored copy of that snapshot; the successors the
   physics reached as the model predicts are visited next.  A state that no executed plan
@@ -37,12 +38,14 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from tableclean_suite.bench.cli import action_list, non_negative_int, positive_int  # noqa: E402
-from tableclean_suite.task import START_LAYOUTS, Action, Outcome, TaskModel, TaskState, decode, start_layout  # noqa: E402
+from tableclean_suite.bench.cli import non_negative_int, positive_int  # noqa: E402
+from tableclean_suite.task import Outcome, TaskModel, TaskState, get_task_spec, task_spec_names  # noqa: E402
 
 TRIALS_CSV = "fidelity_trials.csv"
 PAIRS_CSV = "fidelity_pairs.csv"
 SKILLS_CSV = "fidelity_skills.csv"
+#: Output directory of the ``paper`` spec (other specs: ``<this>_<spec name>``).
+DEFAULT_OUT = "results/fidelity"
 TRIAL_FIELDS = (
     "round", "seed", "layout", "reached_by", "state", "action", "expected_state", "expected_outcome",
     "observed_state", "observed_outcome", "agree", "success", "improper", "steps", "wall_time", "env_time", "reason",
@@ -62,7 +65,7 @@ def round_seed(seed: int, round_index: int) -> int:
     return int(np.random.SeedSequence([int(seed), int(round_index)]).generate_state(1)[0])
 
 
-def _trial_row(round_index, seed, layout, reached_by, state: TaskState, action: Action, result, model) -> dict:
+def _trial_row(round_index, seed, layout, reached_by, state: TaskState, action: str, result, model) -> dict:
     expected, expected_outcome = model.step(state, action)
     observed = result.state_after
     observed_outcome = None if result.outcome is None else Outcome(result.outcome)
@@ -73,7 +76,7 @@ def _trial_row(round_index, seed, layout, reached_by, state: TaskState, action: 
         "layout": layout,
         "reached_by": reached_by,
         "state": state.index,
-        "action": action.name.lower(),
+        "action": model.action_name(action),
         "expected_state": expected.index,
         "expected_outcome": expected_outcome.name.lower(),
         "observed_state": -1 if observed is None else observed.index,
@@ -88,16 +91,30 @@ def _trial_row(round_index, seed, layout, reached_by, state: TaskState, action: 
     }
 
 
+def action_names(model: TaskModel, actions: Iterable | None = None) -> tuple[str, ...]:
+    """The names of ``actions`` (names, Actions or indices; None: all) in the model's order, without repeats."""
+    if actions is None:
+        return tuple(model.action_names)
+    chosen = {model.action_name(a) for a in actions}
+    return tuple(name for name in model.action_names if name in chosen)
+
+
+def layout_label(state: TaskState) -> str:
+    """``"1-1"`` (object segment, arm segment; 1-based) for one object, ``"1.2-3"`` for objects 1, 2 and the arm."""
+    return ".".join(str(o + 1) for o in state.objects) + f"-{state.arm + 1}"
+
+
 def run_round(session, round_index: int, seed: int, on_trial: Callable[[dict], None] | None = None,
-              actions: Iterable[Action] = tuple(Action)) -> list[dict]:
-    """One round: every action in ``actions`` once from every reachable non-terminal state.
+              actions: Iterable | None = None) -> list[dict]:
+    """One round: every action in ``actions`` (default: the model's) once from every reachable non-terminal state.
 
     ``session`` is a :class:`tableclean_suite.physics_backend.PhysicsStepEnv` (its env,
     controller and model are used).  States only reachable through a left-out action are
     staged.  Returns the trial rows in execution order.
     """
-    actions = tuple(sorted(set(Action(a) for a in actions)))
     from tableclean_suite.physics_backend import restore, snapshot, stage
+
+    actions = action_names(session.model, actions)
 
     env, controller, model = session.env, session.controller, session.model
     targets = [s for s in model.reachable_states() if not s.is_terminal]
@@ -128,15 +145,15 @@ def run_round(session, round_index: int, seed: int, on_trial: Callable[[dict], N
                 restore(env, child_snapshot)
                 visit(child, layout, "plan")
 
-    for k, (obj, arm) in enumerate(START_LAYOUTS):
-        start = start_layout(obj, arm)
+    starts = model.unclean_layouts()
+    for k, start in enumerate(starts):
         if start in visited:
             continue
         stage(env, controller, start, seed=base_seed + k)
-        visit(start, f"{obj}-{arm}", "plan")
+        visit(start, layout_label(start), "plan")
     for k, state in enumerate(targets):
         if state not in visited:  # a skill failed on every path to it this round
-            stage(env, controller, state, seed=base_seed + len(START_LAYOUTS) + k)
+            stage(env, controller, state, seed=base_seed + len(starts) + k)
             visit(state, "staged", "staged")
     return rows
 
@@ -161,15 +178,17 @@ def read_trials(path: Path) -> list[dict]:
 
 def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fresh: bool = False,
             session=None, log: Callable[[str], None] | None = print, physics_options: dict | None = None,
-            actions: Iterable[Action] = tuple(Action)) -> list[dict]:
+            actions: Iterable | None = None, model: TaskModel | None = None) -> list[dict]:
     """Run rounds until there are ``trials`` of them; returns all trial rows (resumed ones included).
 
     With ``trials_csv`` every finished round is appended to it, and rounds already in it are
     not run again (a different ``seed`` raises :class:`ResumeError`; ``fresh=True`` deletes the
     file first).  ``session`` reuses a PhysicsStepEnv; otherwise one is made with
     ``physics_options``.  ``actions`` limits the executed actions (e.g. leave out the slow clean).
+    ``model`` is the task (default: the session's, else ``paper``).
     """
-    actions = tuple(sorted(set(Action(a) for a in actions)))
+    model = session.model if session is not None else (model or TaskModel())
+    actions = action_names(model, actions)
     path = None if trials_csv is None else Path(trials_csv)
     if path is not None and fresh and path.exists():
         path.unlink()
@@ -178,7 +197,7 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
     if rows and {row["seed"] for row in rows} != {round_seed(seed, r) for r in done_rounds}:
         raise ResumeError(f"{path} was measured with another --seed; pass that seed or --fresh")
     measured = {row["action"] for row in rows}
-    if rows and measured != {a.name.lower() for a in actions}:
+    if rows and measured != set(actions):
         raise ResumeError(f"{path} holds trials of {sorted(measured)}, not of the requested actions; use --fresh")
     todo = [r for r in range(trials) if r not in done_rounds]
     if done_rounds and log:
@@ -188,7 +207,7 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
     if session is None:
         from tableclean_suite.physics_backend import PhysicsStepEnv
 
-        session = PhysicsStepEnv(**(physics_options or {}))
+        session = PhysicsStepEnv(model, **(physics_options or {}))
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
     for round_index in todo:
@@ -217,18 +236,19 @@ def _refused(row, model: TaskModel) -> bool:
     return outcome in (Outcome.IMPROPER, Outcome.INEFFECTIVE)
 
 
-def pair_table(rows: Iterable[dict]) -> list[dict]:
-    """Agreement per (state, action), sorted by state code then action."""
+def pair_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[dict]:
+    """Agreement per (state, action), sorted by state code then action (``model``: default ``paper``)."""
+    model = model or TaskModel()
     groups: dict[tuple[int, str], list[dict]] = {}
     for row in rows:
         groups.setdefault((row["state"], row["action"]), []).append(row)
-    order = {a.name.lower(): a.value for a in Action}
+    order = {name: k for k, name in enumerate(model.action_names)}
     table = []
     for (state, action), group in sorted(groups.items(), key=lambda kv: (kv[0][0], order[kv[0][1]])):
         disagreements = sorted({f"{r['observed_state']}/{r['observed_outcome']}" for r in group if not r["agree"]})
         table.append({
             "state": state,
-            "state_name": decode(state).name,
+            "state_name": model.decode(state).name,
             "action": action,
             "expected": f"{group[0]['expected_state']}/{group[0]['expected_outcome']}",
             "trials": len(group),
@@ -245,12 +265,12 @@ def skill_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[di
     model = model or TaskModel()
     rows = list(rows)
     table = []
-    for action in Action:
-        mine = [r for r in rows if r["action"] == action.name.lower()]
+    for action in model.action_names:
+        mine = [r for r in rows if r["action"] == action]
         ran = [r for r in mine if not _refused(r, model)]
         n = len(ran)
         table.append({
-            "skill": action.name.lower(),
+            "skill": action,
             "executions": n,
             "successes": sum(r["success"] for r in ran),
             "success_rate": round(sum(r["success"] for r in ran) / n, 4) if n else float("nan"),
@@ -282,7 +302,7 @@ def format_table(table: list[dict], columns: Iterable[str]) -> str:
 
 def summary(rows: list[dict], model: TaskModel | None = None) -> dict:
     """Overall agreement, minimum per-pair agreement and per-skill success, against the goals."""
-    pairs, skills = pair_table(rows), skill_table(rows, model)
+    pairs, skills = pair_table(rows, model), skill_table(rows, model)
     total = len(rows)
     return {
         "trials": total,
@@ -298,18 +318,41 @@ def summary(rows: list[dict], model: TaskModel | None = None) -> dict:
 # CLI
 # ---------------------------------------------------------------------------------------------
 def add_execution_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of :func:`collect` shared by fidelity and calibrate: --trials, --seed, --actions, --quiet."""
+    """The options of :func:`collect` shared by fidelity and calibrate: --task, --trials, --seed, --actions, --quiet."""
+    parser.add_argument("--task", default="paper",
+                        help=f"task spec: a registered name ({', '.join(task_spec_names())}) or a .json path (default paper)")
     parser.add_argument("--trials", type=positive_int, default=5, help="trials per (state, action) pair = rounds (default 5)")
     parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of the placement noise (default 0)")
-    parser.add_argument("--actions", type=action_list, default=tuple(Action),
-                        help="comma-separated actions to execute (default all: move,pick,place,clean)")
+    parser.add_argument("--actions", default=None,
+                        help="comma-separated actions to execute (default all of the spec's, e.g. move,pick,place,clean)")
     parser.add_argument("--quiet", action="store_true", help="print only the summary")
+
+
+def parse_task_and_actions(parser: argparse.ArgumentParser, args) -> tuple[TaskModel, tuple[str, ...]]:
+    """The model of ``--task`` (checked against the physical scene) and the names of ``--actions``; exits 2 on bad input."""
+    from tableclean_suite.physics_backend import check_physical_task
+
+    try:
+        model = TaskModel(spec=get_task_spec(args.task))
+        check_physical_task(model)
+    except (ValueError, OSError) as error:
+        parser.error(f"--task: {error}")
+    if args.actions is None:
+        return model, tuple(model.action_names)
+    names = [part.strip() for part in str(args.actions).split(",") if part.strip()]
+    if not names:
+        parser.error("--actions: expected at least one action")
+    try:
+        return model, action_names(model, names)
+    except ValueError as error:
+        parser.error(f"--actions: {error}")
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.fidelity", description=__doc__.split("\n\n")[0])
     add_execution_arguments(parser)
-    parser.add_argument("--out", default="results/fidelity", help="output directory (default results/fidelity)")
+    parser.add_argument("--out", default=None,
+                        help=f"output directory (default {DEFAULT_OUT}, or {DEFAULT_OUT}_<task> for another spec)")
     parser.add_argument("--fresh", action="store_true", help="discard earlier trials in --out and start over")
     return parser
 
@@ -317,15 +360,15 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    out = Path(args.out)
-    model = TaskModel()
+    model, actions = parse_task_and_actions(parser, args)
+    out = Path(args.out if args.out is not None else DEFAULT_OUT + ("" if model.spec.name == "paper" else f"_{model.spec.name}"))
     started = time.perf_counter()
     try:
         rows = collect(args.trials, args.seed, out / TRIALS_CSV, fresh=args.fresh, log=None if args.quiet else print,
-                       actions=args.actions)
+                       actions=actions, model=model)
     except ResumeError as error:
         parser.error(str(error))  # exits 2
-    pairs, skills = pair_table(rows), skill_table(rows, model)
+    pairs, skills = pair_table(rows, model), skill_table(rows, model)
     write_csv(out / PAIRS_CSV, pairs)
     write_csv(out / SKILLS_CSV, skills)
     result = summary(rows, model)
@@ -336,7 +379,7 @@ def main(argv: list[str] | None = None) -> int:
     print(format_table(skills, ("skill", "executions", "success_rate", "agreement_rate", "faults", "mean_steps", "mean_seconds", "refused")))
     goal_agree = "meets" if result["agreement"] >= AGREEMENT_GOAL else "below"
     print(
-        f"\n{result['trials']} trials in {result['rounds']} round(s): agreement {result['agreement']:.2%} "
+        f"\n{model.spec.name}: {result['trials']} trials in {result['rounds']} round(s): agreement {result['agreement']:.2%} "
         f"({goal_agree} the {AGREEMENT_GOAL:.0%} goal), lowest pair {result['min_pair_agreement']:.2%}, "
         f"{result['faults']} abstraction fault(s)"
     )
