@@ -55,7 +55,8 @@ def _check_outputs(out: Path, site: Path, env, cwd):
     for name in ("table3.csv", "table4.csv", "curves.csv"):
         assert (out / name).stat().st_size > 0, name
     manifest = json.loads((out / "config.json").read_text())
-    assert manifest["args"]["runs"] == 5 and sorted(manifest["files"]) == ["curves.csv", "table3.csv", "table4.csv"]
+    assert manifest["args"]["runs"] == 5
+    assert sorted(manifest["files"]) == ["comparisons.csv", "curves.csv", "table3.csv", "table4.csv"]
     check = subprocess.run(
         [sys.executable, "-c", "from tableclean_suite.bench import outputs; import sys; "
          f"sys.exit(len(outputs.check_outputs({str(out)!r})))"],
