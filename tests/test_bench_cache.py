@@ -43,6 +43,7 @@ first_action_target = target
 
 out = sys.argv[1]
 argv = ["--learners", "mine", "--rewards", "r1", "--runs", "20", "--iterations", "300", "--no-sweeps",
+        "--no-literature",
         "--no-figures", "--no-progress", "--out", out]
 register_learner(TabularLearner("mine", greedy_target))
 assert main(argv) == 0

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import ast
 import inspect
+import json
 import math
 from dataclasses import asdict, dataclass, fields
 from typing import ClassVar
@@ -29,6 +30,9 @@ MAX_BOOTSTRAP_SAMPLES = 100_000
 #: Episode start modes and ineffective-action modes a task spec can be overridden with.
 START_MODES = ("fixed", "uniform_unclean")
 INEFFECTIVE_MODES = ("ineffective", "improper")
+
+#: Cruz et al.'s methods run on this task for Table 4's "run here" rows (``literature`` cells).
+LITERATURE_LEARNERS = ("affordance_q_learning", "learned_affordance_q_learning", "interactive_q_learning")
 
 
 class ConfigError(ValueError):
@@ -69,7 +73,18 @@ class RunConfig:
     gamma: float = 0.3
     """Discount factor of the main cells, in [0, 1]."""
     epsilon: float = 0.1
-    """Epsilon-greedy exploration rate, in [0, 1]."""
+    """Epsilon-greedy exploration rate, in [0, 1] (the start value of an epsilon schedule)."""
+    exploration: str = "epsilon_greedy"
+    """Behaviour policy of every cell: a registered exploration, optionally with parameters as
+    name:key=value,... (e.g. linear_decay:epsilon_min=0.01,horizon=2000); schedules start at
+    --epsilon. The plateaus are the exact asymptotes of the final behaviour."""
+    q_init: float | None = None
+    """Initial value of every Q entry (any finite number; above the best return it is optimistic);
+    default: each learner's own (0)."""
+    learner_options: str | None = None
+    """Update-rule and assistance options as JSON ({"planning_steps": 20}) or key=value,...
+    (planning_steps=20,lambda_=0.8); each main and sweep learner gets the options it takes (an
+    option none takes is an error); the literature cells keep Cruz et al.'s definitions."""
     max_itr: int = 500
     """Iterations after which an episode is truncated; an integer in [1, 10**8]."""
     seed: int = 0
@@ -84,6 +99,11 @@ class RunConfig:
     """Registered reward pattern of the sweeps."""
     sweeps: bool = True
     """Train the alpha and gamma sweeps."""
+    literature: bool = True
+    """Train Cruz et al.'s methods on this task (affordance-based and interactive Q-learning) at
+    --literature-reward for Table 4's "run here" rows."""
+    literature_reward: str = "r4"
+    """Registered reward pattern of the literature cells."""
     task: str = "paper"
     """Task spec: a registered name or the path of a JSON spec file (tableclean_suite.task.TaskSpec)."""
     start: str | None = None
@@ -125,7 +145,8 @@ class RunConfig:
     #: (the model's code digest, the table file's SHA-256), not by name or path.
     NOT_IN_CELL_KEY: ClassVar[tuple[str, ...]] = (
         "learners", "rewards", "alpha", "gamma", "alpha_sweep", "gamma_sweep", "sweep_learner", "sweep_reward",
-        "sweeps", "task", "transitions", "workers", "out", "figures", "fresh", "progress", "verbose",
+        "sweeps", "literature", "literature_reward", "task", "transitions", "workers", "out", "figures", "fresh",
+        "progress", "verbose",
     )
     #: Name lists de-duplicated in order; value lists too (compared as floats).
     _LISTS: ClassVar[tuple[str, ...]] = ("learners", "rewards", "alpha_sweep", "gamma_sweep")
@@ -148,8 +169,9 @@ class RunConfig:
         learners, rewards = learner_names(), reward_pattern_names()
         for name in ("learners", "sweep_learner"):
             _check_names(name, getattr(self, name), learners)
-        for name in ("rewards", "sweep_reward"):
+        for name in ("rewards", "sweep_reward", "literature_reward"):
             _check_names(name, getattr(self, name), rewards)
+        self._validate_learning()
         hyper = dict(runs=self.runs, iterations=self.iterations, alpha=self.alpha, gamma=self.gamma,
                      epsilon=self.epsilon, max_itr=self.max_itr, seed=self.seed)
         _call(validate_hyperparameters, **hyper)
@@ -184,6 +206,71 @@ class RunConfig:
         if self.backend != "calibrated" and self.transitions is not None:
             raise ConfigError("transitions", "only used with backend calibrated")
 
+    def _validate_learning(self) -> None:
+        """Check and normalise ``exploration``, ``q_init`` and ``learner_options``."""
+        from tableclean_suite.learners.exploration import parse_exploration
+
+        if not isinstance(self.exploration, str):
+            raise ConfigError("exploration", f"exploration must be text like linear_decay:horizon=2000, "
+                                             f"got {self.exploration!r}")
+        try:
+            parse_exploration(self.exploration).check(float(self.epsilon))
+        except ValueError as error:
+            raise ConfigError("exploration", str(error)) from None
+        if self.q_init is not None:
+            object.__setattr__(self, "q_init", _number("q_init", self.q_init))
+            if not math.isfinite(self.q_init):
+                raise ConfigError("q_init", f"q_init must be a finite number, got {self.q_init!r}")
+        options = parse_learner_options(self.learner_options)
+        object.__setattr__(self, "learner_options", json.dumps(options, sort_keys=True) if options else None)
+        taken = set()
+        for name in self.trained_learners():
+            try:
+                learner = self.learner(name)
+            except ValueError as error:
+                raise ConfigError("learner_options", str(error)) from None
+            taken |= set(self._options_for(name, options))
+            learner.exploration.check(float(self.epsilon))
+        unused = sorted(set(options) - taken)
+        if unused:
+            raise ConfigError("learner_options", f"no learner of this run takes {unused} "
+                                                 f"(learners: {', '.join(self.trained_learners())})")
+
+    def trained_learners(self) -> tuple[str, ...]:
+        """Every learner a cell of this run trains: main, sweep, literature (in that order)."""
+        names = list(self.learners)
+        if self.sweeps:
+            names.append(self.sweep_learner)
+        if self.literature:
+            names.extend(LITERATURE_LEARNERS)
+        return tuple(dict.fromkeys(names))
+
+    def _options_for(self, name: str, options: dict) -> dict:
+        """The subset of ``options`` the registered learner ``name`` takes; none for a learner that
+        trains only literature cells (Cruz et al.'s methods keep their definitions)."""
+        from tableclean_suite.learners import get_learner
+        from tableclean_suite.learners.rules import ASSIST_OPTIONS, METHOD_OPTIONS
+
+        if name not in self.learners and not (self.sweeps and name == self.sweep_learner):
+            return {}
+        accepted = METHOD_OPTIONS[get_learner(name).method] + ASSIST_OPTIONS
+        return {key: value for key, value in options.items() if key in accepted}
+
+    def learner_kwargs(self, name: str) -> dict:
+        """``train()``'s ``learner_options``, ``q_init`` and ``exploration`` for learner ``name``."""
+        from tableclean_suite.learners.exploration import parse_exploration
+
+        options = self._options_for(name, parse_learner_options(self.learner_options))
+        return dict(learner_options=options or None, q_init=self.q_init,
+                    exploration=parse_exploration(self.exploration))
+
+    def learner(self, name: str):
+        """The :class:`~tableclean_suite.learners.TabularLearner` ``name`` as this run trains it."""
+        from tableclean_suite.learners import get_learner
+
+        kwargs = self.learner_kwargs(name)
+        return get_learner(name).configured(kwargs["learner_options"], kwargs["q_init"], kwargs["exploration"])
+
     def task_spec(self):
         """The :class:`~tableclean_suite.task.TaskSpec` named by ``task`` (read from disk for a path)."""
         from tableclean_suite.task import get_task_spec
@@ -213,6 +300,35 @@ class RunConfig:
     def to_json(self) -> dict:
         """All fields, JSON-serialisable (tuples as lists)."""
         return {name: list(value) if isinstance(value, tuple) else value for name, value in asdict(self).items()}
+
+
+def parse_learner_options(text: str | None) -> dict:
+    """``'{"planning_steps": 20}'`` or ``"planning_steps=20,lambda_=0.8"`` -> a dict (``{}`` for None/"").
+
+    ``key=value`` values are read as JSON where they parse (numbers, true/false), else as text
+    (``trace=accumulating``).  ``ConfigError`` on anything else.
+    """
+    if text is None or not str(text).strip():
+        return {}
+    text = str(text).strip()
+    if text.startswith("{"):
+        try:
+            options = json.loads(text)
+        except json.JSONDecodeError as error:
+            raise ConfigError("learner_options", f"learner_options is not valid JSON ({error}): {text!r}") from None
+        if not isinstance(options, dict):
+            raise ConfigError("learner_options", f"learner_options must be a JSON object, got {text!r}")
+        return options
+    options = {}
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError("learner_options", f"learner_options item {item!r} must be key=value")
+        try:
+            options[key.strip()] = json.loads(value.strip())
+        except json.JSONDecodeError:
+            options[key.strip()] = value.strip()
+    return options
 
 
 def backend_names() -> list[str]:

@@ -5,7 +5,10 @@ of a :class:`~tableclean_suite.bench.config.RunConfig`.  An **experiment** is a 
 
 - ``main``: every learner x every reward at (alpha, gamma) — the paper's Table 3 and Figures 3-5;
 - ``alpha_sweep``: the sweep learner x sweep reward at each alpha, gamma fixed — Figures 6-7;
-- ``gamma_sweep``: the same at each gamma, alpha fixed.
+- ``gamma_sweep``: the same at each gamma, alpha fixed;
+- ``literature``: Cruz et al.'s methods run on this task (affordance-based Q-learning with the
+  given and with learned affordances, interactive Q-learning with a simulated advisor) at the
+  literature reward and (alpha, gamma) — Table 4's "run here" rows.
 
 A cell that belongs to several experiments (e.g. Q-learning/r4 at alpha = gamma = 0.3)
 is trained once, chunk by chunk of runs (:func:`train_cell`), so memory does not grow with
@@ -35,9 +38,9 @@ import numpy as np
 import tableclean_suite
 from tableclean_suite import analysis, asymptotes, metrics
 from tableclean_suite.bench import statistics
-from tableclean_suite.bench.config import RunConfig
+from tableclean_suite.bench.config import LITERATURE_LEARNERS, RunConfig
 from tableclean_suite.bench.statistics import CellStatistics
-from tableclean_suite.learners import code_digest, get_learner, train
+from tableclean_suite.learners import code_digest, train
 from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, GroupedCurveSums, Plateaus, Summary, summarize
 from tableclean_suite.rewards import get_reward_pattern
 
@@ -86,6 +89,8 @@ def build_grid(
     alpha_sweep=(),
     gamma_sweep=(),
     sweeps: bool = True,
+    literature_learners=(),
+    literature_reward: str = "r4",
 ) -> list[Membership]:
     """The (experiment, cell) memberships of a run, in table order, without duplicates.
 
@@ -97,13 +102,16 @@ def build_grid(
     if sweeps:
         grid += [Membership("alpha_sweep", Cell(sweep_learner, sweep_reward, float(a), gamma)) for a in alpha_sweep]
         grid += [Membership("gamma_sweep", Cell(sweep_learner, sweep_reward, alpha, float(g))) for g in gamma_sweep]
+    grid += [Membership("literature", Cell(l, literature_reward, alpha, gamma)) for l in literature_learners]
     return list(dict.fromkeys(grid))
 
 
 def config_grid(config: RunConfig) -> list[Membership]:
     """:func:`build_grid` of a run's configuration."""
     return build_grid(config.learners, config.rewards, config.alpha, config.gamma, config.sweep_learner,
-                      config.sweep_reward, config.alpha_sweep, config.gamma_sweep, sweeps=config.sweeps)
+                      config.sweep_reward, config.alpha_sweep, config.gamma_sweep, sweeps=config.sweeps,
+                      literature_learners=LITERATURE_LEARNERS if config.literature else (),
+                      literature_reward=config.literature_reward)
 
 
 def unique_cells(grid: list[Membership]) -> list[Cell]:
@@ -134,10 +142,13 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
     target's source), the task model's (:meth:`TaskModel.code_digest`: spec and rules, user
     actions included) and :func:`metrics_digest`.  Reward patterns are recorded by value, so a
     user learner, action or pattern re-registered under the same name with another body or
-    other values gets a new hash and is retrained.
+    other values gets a new hash and is retrained.  The learner is recorded as the run trains it
+    (:meth:`RunConfig.learner`), with its :meth:`~tableclean_suite.learners.TabularLearner.settings`
+    (update rule and its options, ``q_init``, exploration, affordances, advisor), so cells trained
+    with other learner settings never share a key.
     """
     pattern = get_reward_pattern(cell.reward)
-    learner = get_learner(cell.learner)
+    learner = config.learner(cell.learner)
     reward_values = {k: getattr(pattern, k) for k in (
         "terminal", "relevant_clean", "irrelevant_clean", "routine", "improper",
         "ineffective", "looping_penalty", "looping_mode", "terminal_mode",
@@ -147,7 +158,7 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
         "package_version": tableclean_suite.__version__,
         "learner": {"name": learner.name, "on_policy": learner.on_policy,
                     "td_target": getattr(learner.td_target, "__qualname__", repr(learner.td_target)),
-                    "code_digest": code_digest(learner)},
+                    "settings": learner.settings(), "code_digest": code_digest(learner)},
         "reward": {"name": pattern.name, **reward_values},
         "cell": asdict(cell),
         "settings": config.cell_settings(),
@@ -291,13 +302,16 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
 
     Each chunk is ``train(runs=chunk, first_run=lo, ...)``; its per-iteration sums are added to a
     :class:`~tableclean_suite.metrics.GroupedCurveSums`, its final Q-tables give each run's exact
-    asymptotes (:func:`tableclean_suite.asymptotes.greedy_asymptotes`), and its records are
+    asymptotes (:func:`tableclean_suite.analysis.final_asymptotes`), and its records are
     dropped, so memory is one chunk's records whatever ``config.runs``.  Random numbers are
     counter-based per run, so the summary is the same whatever the chunking.
 
-    The plateaus are the runs' asymptotes averaged over runs (over the calibrated table with
-    ``--backend calibrated``; over the task model's table for ``symbolic`` and, as an
-    approximation of the skills, ``physics``).
+    The plateaus are the runs' asymptotes averaged over runs: the exact asymptotes of each run's
+    final behaviour (:func:`tableclean_suite.analysis.final_asymptotes`: epsilon-greedy on the final
+    Q-table, or the exploration's final distribution, restricted to afforded actions / mixed with
+    the advisor for Cruz et al.'s learners), over the calibrated table with
+    ``--backend calibrated``, over the task model's table for ``symbolic`` and, as an
+    approximation of the skills, ``physics``.
 
     Args:
         runs_per_chunk: runs per ``train()`` call (default :func:`chunk_runs` of the iterations).
@@ -316,12 +330,13 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
         result = train(
             learner=cell.learner, reward=cell.reward, runs=min(chunk, config.runs - first), first_run=first,
             alpha=cell.alpha, gamma=cell.gamma, model=model, transitions=transitions, **config.train_kwargs(),
+            **config.learner_kwargs(cell.learner),
         )
         trained = time.perf_counter()
         if "physics" in result.info:
             physics_stats = _merge_stats(physics_stats, result.info["physics"])
         grouped.add(result)
-        final = asymptotes.greedy_asymptotes(result.q, config.epsilon, chain, config.max_itr)
+        final = analysis.final_asymptotes(result, chain, config.max_itr, model)
         for name, values in per_run.items():
             values.append(getattr(final, name))
         del result

@@ -7,7 +7,9 @@
 Installed (no checkout needed): ``python -m tableclean_suite.bench.run`` or ``tableclean-bench``.
 
 Trains every learner x reward at (alpha, gamma) ("main"), plus the sweep learner x
-sweep reward at each alpha of ``--alpha-sweep`` and each gamma of ``--gamma-sweep``,
+sweep reward at each alpha of ``--alpha-sweep`` and each gamma of ``--gamma-sweep``, plus
+Cruz et al.'s methods (affordance-based and interactive Q-learning) at ``--literature-reward``
+for Table 4's "run here" rows (``--no-literature`` skips them),
 prints Table 3 (ours beside the paper's, with 95 % intervals), the sweep table, the per-run
 IQMs, the probabilities of improvement and Table 4, and writes to ``--out``: ``table3.csv``,
 ``table4.csv`` (each number followed by ``_low``/``_high``), ``comparisons.csv``, ``curves.csv``
@@ -43,7 +45,8 @@ PROG = "python -m benchmarks.run"
 FIGURE_DPI = 120
 
 #: Command-line flag of each :class:`RunConfig` field whose flag is not ``--field-name``.
-FLAGS = {"sweeps": "--no-sweeps", "figures": "--no-figures", "progress": "--no-progress"}
+FLAGS = {"sweeps": "--no-sweeps", "figures": "--no-figures", "progress": "--no-progress",
+         "literature": "--no-literature"}
 
 
 def flag_of(field: str) -> str:
@@ -67,7 +70,7 @@ def invoked_as(argv0: str | None = None) -> str:
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line; defaults and help texts come from :class:`RunConfig`."""
     from tableclean_suite.bench.config import backend_names
-    from tableclean_suite.learners import learner_names
+    from tableclean_suite.learners import exploration_names, learner_names
     from tableclean_suite.rewards import reward_pattern_names
     from tableclean_suite.task import task_spec_names
 
@@ -103,6 +106,13 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     for field, kind in (("runs", int), ("iterations", int), ("alpha", float), ("gamma", float),
                         ("epsilon", float), ("max_itr", int), ("seed", int)):
         add(grid, field, type=kind)
+    learning = parser.add_argument_group("learner settings (every cell)")
+    add(learning, "exploration", ", ".join(exploration_names()), metavar="NAME[:KEY=VALUE,...]")
+    add(learning, "q_init", type=float)
+    add(learning, "learner_options", metavar="JSON|KEY=VALUE,...")
+    literature = parser.add_argument_group("Cruz et al.'s methods run here (Table 4)")
+    add(literature, "literature_reward", rewards)
+    add_switch(literature, "literature", "do not train them")
     sweeps = parser.add_argument_group("alpha/gamma sweeps (Figures 6-7)")
     add_list(sweeps, "alpha_sweep")
     add_list(sweeps, "gamma_sweep")
@@ -322,7 +332,9 @@ def _print_tables(config: RunConfig, table3, table4, paper_task: bool, compariso
         if len(sweeps):
             print("\nSweeps (Figures 6-7; the paper gives no table for them):")
             print(sweeps.to_string(index=False, na_rep="-"))
-        print("\nTable 4: comparison with the literature (* = quoted from the paper, not run here).")
+        print("\nTable 4: comparison with the literature. 'run here' = trained by this run on this task (reward, "
+              f"alpha, gamma, epsilon as above; [..] = {level} intervals); 'quoted' = the paper's Table 4 verbatim "
+              "([7], [8]: measured on other tasks, not run here).")
         shown = tables.display_table4(table4)
         width = max(map(len, shown["methodology"]))
         print(shown.to_string(index=False, formatters={"methodology": f"{{:<{width}}}".format}))
