@@ -13,11 +13,15 @@ from tableclean_suite.bench import tables
 
 ROOT = Path(__file__).resolve().parents[1]
 SMOKE = ["--runs", "20", "--iterations", "300", "--alpha-sweep", "0.3,0.5", "--gamma-sweep", "0.3"]
-#: 2 learners x 4 rewards (main), alphas 0.3/0.5 and gamma 0.3 of q_learning/r4: 11 rows, 9 distinct cells.
+#: Cruz et al.'s methods run here (Table 4), at r4.
+LITERATURE = ("affordance_q_learning", "learned_affordance_q_learning", "interactive_q_learning")
+#: 2 learners x 4 rewards (main), alphas 0.3/0.5 and gamma 0.3 of q_learning/r4, the 3 literature
+#: learners at r4: 14 rows, 12 distinct cells.
 EXPECTED_ROWS = (
     [("main", l, r, 0.3, 0.3) for l in ("q_learning", "sarsa") for r in ("r1", "r2", "r3", "r4")]
     + [("alpha_sweep", "q_learning", "r4", a, 0.3) for a in (0.3, 0.5)]
     + [("gamma_sweep", "q_learning", "r4", 0.3, 0.3)]
+    + [("literature", l, "r4", 0.3, 0.3) for l in LITERATURE]
 )
 FIGURES = ("fig3_success_rate_q_learning", "fig4_average_reward_q_learning", "fig5_average_reward_sarsa",
            "fig6_success_rate_sweeps", "fig7_average_reward_sweeps")
@@ -44,7 +48,7 @@ def test_smoke_run_writes_every_file(smoke):
     for stem in FIGURES:
         data = (out / f"{stem}.png").read_bytes()
         assert data.startswith(PNG_MAGIC) and len(data) > 5000, stem
-    assert len(list((out / "cells").glob("*.npz"))) == 9
+    assert len(list((out / "cells").glob("*.npz"))) == 12
     assert "Table 3" in result.stdout and "Table 4" in result.stdout and "Traceback" not in result.stderr
     config = json.loads((out / "config.json").read_text())
     assert config["args"]["runs"] == 20 and config["package_version"] and config["paper"] and config["timestamp"]
@@ -67,7 +71,18 @@ def test_table3_has_one_row_per_expected_cell(smoke):
     assert (paper_rows["experiment"] == "main").all()
     t4 = pd.read_csv(out / "table4.csv")
     assert list(t4.columns) == list(tables.TABLE4_COLUMNS)
-    assert (t4["source"] == "this run").sum() == 4 and (t4["source"] == "quoted from the paper").sum() == 8
+    assert (t4["source"] == "this run").sum() == 4 + 3 and (t4["source"] == "quoted from the paper").sum() == 8
+    run_here = t4[t4["source"] == "this run"]["methodology"]
+    assert run_here.str.contains("Affordance RL, given").sum() == 1 and run_here.str.contains("Interactive RL").sum() == 1
+
+
+def test_table4_marks_every_row_run_here_or_quoted(smoke):
+    _, result = smoke
+    table4 = result.stdout.split("Table 4:")[1].split("written:")[0]
+    rows = [line for line in table4.splitlines()[2:] if line.strip()]
+    assert len(rows) == 4 + 3 + 8
+    assert sum(line.lstrip().startswith("run here ") for line in rows) == 7
+    assert sum(line.lstrip().startswith("quoted ") for line in rows) == 8
 
 
 def test_curves_long_format(smoke):
@@ -113,7 +128,7 @@ def test_rerun_resumes_every_cell_with_identical_table(smoke, tmp_path):
     shutil.copytree(out, copy)
     result = cli(*SMOKE, "--out", str(copy), "--no-figures")
     assert result.returncode == 0, result.stderr
-    assert "resumed 9 cells" in result.stdout and "trained 0" in result.stdout
+    assert "resumed 12 cells" in result.stdout and "trained 0" in result.stdout
     assert (copy / "table3.csv").read_bytes() == (out / "table3.csv").read_bytes()
     assert (copy / "curves.csv").read_bytes() == (out / "curves.csv").read_bytes()
     assert (copy / "comparisons.csv").read_bytes() == (out / "comparisons.csv").read_bytes()
@@ -191,7 +206,8 @@ def test_progress_bar_counts_resumed_cells_as_done(tmp_path, capsys):
     from tableclean_suite.bench.config import RunConfig
     from tableclean_suite.task import TaskModel
 
-    config = RunConfig(runs=3, iterations=40, learners=("q_learning",), rewards=("r1", "r2", "r3"), sweeps=False)
+    config = RunConfig(runs=3, iterations=40, learners=("q_learning",), rewards=("r1", "r2", "r3"), sweeps=False,
+                       literature=False)
     grid, store, model = experiments.config_grid(config), experiments.CellStore(tmp_path / "cells"), TaskModel()
     experiments.run_grid(grid[:2], config, model, store)  # two of the three cells stored
     capsys.readouterr()

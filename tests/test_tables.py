@@ -87,7 +87,7 @@ def test_table4_ours_then_quoted():
     assert ours["average_reward_convergence_episodes"] == 12.5 and ours["max_success_episodes"] == 7.0
     assert (t4["source"].iloc[1:] == "quoted from the paper").all()
     shown = tables.display_table4(t4)
-    assert shown["methodology"].iloc[1].endswith(" *") and not shown["methodology"].iloc[0].endswith("*")
+    assert list(shown["source"].iloc[:2]) == ["run here", "quoted"]
     assert shown.iloc[2]["avg_reward_conv_episodes"] == "-"  # Classic RL [7] gives none
 
 
@@ -337,3 +337,21 @@ def test_csv_text_matches_to_csv_on_curves_long():
     curve["success_low"] = np.r_[np.nan, np.linspace(0.0, 1.0, 6)]
     frame = tables.curves_long([record(), record(reward="r2")], [curve, curve], stride=2)
     assert tables.csv_text(frame) == frame.to_csv(index=False, float_format=tables.CURVES_FLOAT_FORMAT)
+
+
+def test_table4_adds_the_literature_cells_run_here():
+    t3 = tables.table3([record("main", reward="r4"),
+                        record("literature", learner="affordance_q_learning", reward="r4", success_plateau=1.0,
+                               success_plateau_low=0.99, success_plateau_high=1.0),
+                        record("literature", learner="interactive_q_learning", reward="r4")])
+    t4 = tables.table4(t3)
+    ours = t4[t4["source"] == tables.SOURCE_OURS]
+    assert list(ours["methodology"]) == [
+        "This run: Q-learning with reward r4",
+        "This run: Affordance RL, given affordances (Q-learning) with reward r4",
+        "This run: Interactive RL, optimal advisor L=0.5 C=1 (Q-learning) with reward r4",
+    ]
+    assert ours.iloc[1]["max_success_rate_percent"] == 100.0 and ours.iloc[1]["max_success_rate_percent_low"] == 99.0
+    shown = tables.display_table4(t4)
+    assert shown.iloc[1]["max_success_%"] == "100.00 [99.00, 100.00]" and shown.iloc[1]["source"] == "run here"
+    assert (shown["source"].iloc[3:] == "quoted").all()

@@ -70,11 +70,23 @@ def rewards_frame(names=None) -> pd.DataFrame:
 
 
 def learners_frame() -> pd.DataFrame:
-    """Registered learners: name, on-policy?, description."""
+    """Registered learners: name, on-policy?, update rule, Cruz et al.'s assistance, description."""
     return pd.DataFrame(
-        [{"learner": n, "on_policy": get_learner(n).on_policy, "description": get_learner(n).description}
+        [{"learner": n, "on_policy": get_learner(n).on_policy, "update": get_learner(n).method_name,
+          "assistance": assistance_text(get_learner(n)), "description": get_learner(n).description}
          for n in learner_names()]
     ).set_index("learner")
+
+
+def assistance_text(learner) -> str:
+    """``"affordances: given"``, ``"advisor L=0.5 C=1"``, both, or ``"-"``
+    (see :mod:`tableclean_suite.learners.assist`)."""
+    parts = []
+    if learner.affordance != "none":
+        parts.append(f"affordances: {learner.affordance}")
+    if learner.advised:
+        parts.append(f"advisor L={learner.advice_probability:g} C={learner.advice_consistency:g}")
+    return ", ".join(parts) or "-"
 
 
 def shortest_plan_policy(model: TaskModel) -> np.ndarray:

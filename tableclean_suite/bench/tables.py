@@ -63,6 +63,15 @@ OURS = "ours"
 
 #: ``source`` of a row of this run in Table 4.
 SOURCE_OURS = "this run"
+#: How the printed Table 4 marks a row trained here and a row quoted from the paper.
+MARK_RUN_HERE, MARK_QUOTED = "run here", "quoted"
+
+#: Table 4 names of Cruz et al.'s methods run here (``literature`` cells), by learner.
+LITERATURE_METHODS = {
+    "affordance_q_learning": "Affordance RL, given affordances (Q-learning)",
+    "learned_affordance_q_learning": "Affordance RL, learned affordances (Q-learning)",
+    "interactive_q_learning": "Interactive RL, optimal advisor L={L:g} C={C:g} (Q-learning)",
+}
 
 _NA = float("nan")
 
@@ -150,23 +159,39 @@ def sweep_rows(table: pd.DataFrame) -> pd.DataFrame:
     return table[table["experiment"].isin(["alpha_sweep", "gamma_sweep"])].reset_index(drop=True)
 
 
+def literature_method(learner: str, reward: str) -> str:
+    """Table 4's name of a ``literature`` cell, e.g. ``"This run: Affordance RL, given affordances
+    (Q-learning) with reward r4"`` (the advisor's L and C are the registered learner's)."""
+    from tableclean_suite.learners import get_learner
+
+    template = LITERATURE_METHODS.get(learner, learner)
+    registered = get_learner(learner) if learner in LITERATURE_METHODS else None
+    name = template.format(L=registered.advice_probability, C=registered.advice_consistency) if registered else template
+    return f"This run: {name} with reward {reward}"
+
+
 def table4(table: pd.DataFrame) -> pd.DataFrame:
-    """Table 4: our main Q-learning rows, then the paper's rows (all quoted and marked so).
+    """Table 4: our main Q-learning rows and Cruz et al.'s methods run here, then the paper's rows
+    (all quoted and marked so).
 
     Args:
         table: a :func:`table3` frame.
 
     Returns:
         Columns :data:`TABLE4_COLUMNS`.  Our rows are named
-        ``"This run: Q-learning with reward rN"``, with ``max_success_rate_percent``
+        ``"This run: Q-learning with reward rN"`` (main Q-learning cells) and
+        :func:`literature_method` (``literature`` cells), with ``max_success_rate_percent``
         = 100 x ``success_plateau`` and ``source == "this run"``; each number is followed by its
         interval's ``_low``/``_high`` bounds (NaN on the quoted rows).
     """
-    ours = table[(table["experiment"] == "main") & (table["learner"] == PAPER_LEARNER)]
+    main = table[(table["experiment"] == "main") & (table["learner"] == PAPER_LEARNER)]
+    literature = table[table["experiment"] == "literature"]
+    ours = pd.concat([main, literature], ignore_index=True)
     sources = {"average_reward_convergence_episodes": ("reward_convergence_episodes", 1.0),
                "max_success_rate_percent": ("success_plateau", 100.0),
                "max_success_episodes": ("max_success_episodes", 1.0)}
-    data = {"methodology": [f"This run: Q-learning with reward {r}" for r in ours["reward"]]}
+    data = {"methodology": [f"This run: Q-learning with reward {r}" for r in main["reward"]]
+            + [literature_method(l, r) for l, r in zip(literature["learner"], literature["reward"])]}
     for name, (column, scale) in sources.items():
         for suffix in ("", LOW, HIGH):
             data[name + suffix] = scale * ours[column + suffix].astype(float).to_numpy()
@@ -292,17 +317,17 @@ def _quoted_text(value, digits: int) -> str:
 
 
 def display_table4(table4_frame: pd.DataFrame) -> pd.DataFrame:
-    """Table 4 for printing: numbers rounded, "-" where the paper gives none, quoted rows marked."""
+    """Table 4 for printing: numbers rounded (ours with their intervals), "-" where the paper gives
+    none, a ``source`` column saying "run here" or "quoted" on every row."""
     frame = table4_frame.copy()
     for name, digits in (("average_reward_convergence_episodes", 1), ("max_success_rate_percent", 2),
                          ("max_success_episodes", 1)):
         frame[name] = [_quoted_text(v, digits) if _missing(lo) or _missing(hi) else with_interval(v, lo, hi, digits)
                        for v, lo, hi in zip(frame[name], frame[name + LOW], frame[name + HIGH])]
     frame = frame.drop(columns=[name + suffix for name in TABLE4_NUMBERS for suffix in (LOW, HIGH)])
-    frame["methodology"] = [
-        m + (" *" if s == SOURCE_QUOTED else "") for m, s in zip(frame["methodology"], frame["source"])
-    ]
-    return frame.drop(columns="source").rename(
+    frame["source"] = [MARK_QUOTED if s == SOURCE_QUOTED else MARK_RUN_HERE for s in frame["source"]]
+    frame = frame[["source", *(c for c in frame.columns if c != "source")]]
+    return frame.rename(
         columns={
             "average_reward_convergence_episodes": "avg_reward_conv_episodes",
             "max_success_rate_percent": "max_success_%",
