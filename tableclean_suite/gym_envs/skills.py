@@ -5,11 +5,13 @@ robosuite and the skills are imported when the env is made, not when this module
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field, fields
+
 import numpy as np
 
 from tableclean_suite.gym_envs.symbolic import _NO_STATE, TableCleanBase, render_text
 from tableclean_suite.rewards import RewardPattern
-from tableclean_suite.task import Outcome, TaskModel, TaskSpec
+from tableclean_suite.task import Action, Outcome, TaskModel, TaskSpec, TaskState
 
 #: Default size ``(height, width)`` of the ``rgb_array`` camera frame.
 CAMERA_FRAME_SIZE = (360, 480)
@@ -19,34 +21,59 @@ FAULT_OUTCOME = -1
 _TIMING_FIELDS = ("wall_time", "env_time")
 
 
-def _comparable(result):
-    """``result`` as a SkillResult that compares equal ignoring wall-clock timings.
+@dataclass(frozen=True, eq=False)
+class SkillReport:
+    """A picklable snapshot of a :class:`~tableclean_suite.controllers.SkillResult` (``info["skill_result"]``).
 
-    ``info`` must be equal for equal seeds and actions (Gymnasium's determinism check); the
-    timings of two identical executions never are.
+    Same fields as ``SkillResult`` (kept equal by a test): ``action``, ``success``,
+    ``improper``, ``steps`` (control steps, >= 0), ``reason``, ``state_before``, ``state_after``
+    (``None`` on a fault), ``outcome``, ``expected``, ``wall_time`` and ``env_time`` (seconds),
+    ``final_phase`` and ``phase_steps``.  Defined at module level without importing robosuite,
+    so ``info`` crosses process boundaries (Gymnasium's ``AsyncVectorEnv``).
+
+    It compares equal to another report or ``SkillResult`` ignoring the wall-clock timings:
+    ``info`` must be equal for equal seeds and actions (Gymnasium's determinism check), and
+    the timings of two identical executions never are.
     """
-    from dataclasses import dataclass, fields
 
-    from tableclean_suite.controllers import SkillResult
+    action: "Action | str"
+    success: bool
+    improper: bool
+    steps: int
+    reason: str
+    state_before: TaskState | None
+    state_after: TaskState | None
+    outcome: Outcome | None
+    expected: TaskState | None = None
+    wall_time: float = 0.0
+    env_time: float = 0.0
+    final_phase: str = ""
+    phase_steps: dict = field(default_factory=dict)
 
-    global _InfoSkillResult
-    if _InfoSkillResult is None:
+    __hash__ = None  # phase_steps is a dict
 
-        @dataclass(eq=False)
-        class InfoSkillResult(SkillResult):
-            def __eq__(self, other):
-                if not isinstance(other, SkillResult):
-                    return NotImplemented
-                return all(
-                    getattr(self, f.name) == getattr(other, f.name) for f in fields(SkillResult)
-                    if f.name not in _TIMING_FIELDS
-                )
+    @classmethod
+    def of(cls, result) -> "SkillReport":
+        """The report of a ``SkillResult`` (``phase_steps`` copied)."""
+        values = {f.name: getattr(result, f.name) for f in fields(cls)}
+        values["phase_steps"] = dict(values["phase_steps"])
+        return cls(**values)
 
-        _InfoSkillResult = InfoSkillResult
-    return _InfoSkillResult(**{f.name: getattr(result, f.name) for f in fields(result)})
+    @property
+    def overhead_time(self) -> float:
+        """Seconds of ``wall_time`` not spent in ``env.step`` (skill logic, skill_info, abstraction)."""
+        return self.wall_time - self.env_time
+
+    def __eq__(self, other):
+        names = [f.name for f in fields(self) if f.name not in _TIMING_FIELDS]
+        if not all(hasattr(other, name) for name in names):
+            return NotImplemented
+        return all(getattr(self, name) == getattr(other, name) for name in names)
 
 
-_InfoSkillResult = None
+def _comparable(result) -> SkillReport:
+    """``result`` as a :class:`SkillReport` (picklable; equal ignoring wall-clock timings)."""
+    return SkillReport.of(result)
 
 
 class TableCleanSkillsEnv(TableCleanBase):
@@ -91,10 +118,11 @@ class TableCleanSkillsEnv(TableCleanBase):
 
     ## Information
     As ``TableCleanSymbolic-v0`` (``"action_mask"``, ``"state_name"``, ``"outcome"``,
-    ``"outcome_name"``) plus ``"skill_result"``: the
-    :class:`~tableclean_suite.controllers.SkillResult` (success, improper, steps, reason,
-    states before/after, wall time; it compares equal ignoring the timings), and ``"fault"``
-    on a fault.
+    ``"outcome_name"``) plus ``"skill_result"``: a :class:`SkillReport`, the picklable
+    snapshot of the :class:`~tableclean_suite.controllers.SkillResult` (success, improper,
+    steps, reason, states before/after, wall time; it compares equal ignoring the timings), and
+    ``"fault"`` on a fault.  Everything in ``info`` pickles (``AsyncVectorEnv`` works);
+    ``action_masks()`` gives the mask as bools for sb3-contrib's MaskablePPO.
 
     ## Arguments
     ```python

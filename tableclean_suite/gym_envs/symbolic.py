@@ -58,6 +58,17 @@ class TableCleanBase(gym.Env):
         """``(n_actions,)`` int8, 1 where the action is not improper (the task model's mask; all 0 at terminal)."""
         return self.model.action_mask(self.s if state is None else state)
 
+    def action_masks(self) -> np.ndarray:
+        """``(n_actions,)`` bool, True where the action is not improper in the current state.
+
+        The interface of sb3-contrib's ``MaskablePPO`` (``env.action_masks()``; through wrappers
+        and vector envs with ``get_wrapper_attr`` / ``call("action_masks")``).  All False at the
+        terminal state, where the episode has ended; ``RuntimeError`` before ``reset()``.
+        """
+        if self.s == _NO_STATE:
+            raise RuntimeError("call reset() before action_masks()")
+        return self.action_mask().astype(bool)
+
     def _begin_episode(self, state: TaskState):
         """Make ``state`` the current one with no history; returns ``(observation, info)`` for ``reset``."""
         self.s = state.index
@@ -257,7 +268,8 @@ class TableCleanSymbolicEnv(TableCleanBase):
     ``step`` and ``reset`` return ``info`` with ``"action_mask"`` (``(A,)`` int8, 1 where the
     action is not improper; all 0 at the terminal state), ``"state_name"``, and after a step
     ``"outcome"`` (:class:`tableclean_suite.task.Outcome` code), ``"outcome_name"`` and
-    ``"prob"`` (1.0: the model is deterministic).
+    ``"prob"`` (1.0: the model is deterministic).  Everything in ``info`` is plain picklable
+    data.  ``action_masks()`` returns the mask as ``(A,)`` bool (sb3-contrib's MaskablePPO).
 
     ## Arguments
     ```python
