@@ -34,6 +34,10 @@ HOLD_FRAMES = 6
 STILL_WIPED_FRACTION = 0.5
 
 
+#: Reachable states whose policy action is printed (the rest are elided).
+POLICY_PRINT_STATES = 24
+
+
 def majority_policy(q: np.ndarray) -> np.ndarray:
     """``(24,)`` int: per state, the greedy action most runs agree on (ties towards the lowest action).
 
@@ -68,7 +72,7 @@ class Recorder:
         self.control_steps += 1
         if self.control_steps % self.frame_every == 0:
             frame = self.capture()
-            if self.still is None and self.action == Action.CLEAN and self.state is not None:
+            if self.still is None and self.action in (Action.CLEAN, "clean") and self.state is not None:
                 segment = self.state.arm
                 dirt = float(self.env.dirt_fraction()[segment])
                 if self._dirt_at_clean_start is None:
@@ -85,7 +89,7 @@ class Recorder:
         line_h = self.font.size + 4
         draw.rectangle([0, 0, self.width, 2 * line_h + 6], fill=(0, 0, 0))
         state = "?" if self.state is None else f"state {self.state.index}: {self.state.name}"
-        action = "-" if self.action is None else self.action.name.lower()
+        action = "-" if self.action is None else getattr(self.action, "rule_name", self.action)
         draw.text((6, 3), state, fill=(255, 255, 255), font=self.font)
         draw.text((6, 3 + line_h), f"action: {action}  {self.note}".rstrip(), fill=(255, 220, 120), font=self.font)
         frame = np.asarray(image, dtype=np.uint8)
@@ -95,24 +99,27 @@ class Recorder:
         return frame
 
 
-def train_policy(learner: str, reward: str, start: TaskState, runs: int, iterations: int, seed: int) -> np.ndarray:
+def train_policy(learner: str, reward: str, start: TaskState, runs: int, iterations: int, seed: int,
+                 spec=None) -> np.ndarray:
     """The majority greedy policy of ``runs`` symbolic training runs from ``start`` (``(24,)`` actions)."""
     from tableclean_suite.learners import train
 
-    result = train(learner, reward, runs=runs, iterations=iterations, seed=seed, model=TaskModel(start_state=start))
+    result = train(learner, reward, runs=runs, iterations=iterations, seed=seed, model=TaskModel(start_state=start, spec=spec))
     return majority_policy(result.q)
 
 
 def run_rollout(policy: np.ndarray, start: TaskState, video: Path, fps: int, width: int, height: int,
                 frame_every: int = 4, max_actions: int = 20, still: Path | None = None, seed: int = 0,
-                camera: str = "frontview", log=print) -> dict:
-    """Execute ``policy`` in physics from ``start``, writing the video; returns a summary dict."""
+                camera: str = "frontview", log=print, spec=None) -> dict:
+    """Execute ``policy`` in physics from ``start`` (a state of ``spec``, default ``paper``), writing the video;
+    returns a summary dict."""
     import imageio.v2 as imageio
 
     from tableclean_suite.controllers import SkillController, make_skill_env
     from tableclean_suite.physics_backend import stage
 
-    env = make_skill_env(has_offscreen_renderer=True)
+    model = TaskModel(spec=spec)
+    env = make_skill_env(has_offscreen_renderer=True, task=model.spec)
     writer_kwargs = {"fps": fps}
     if video.suffix.lower() == ".mp4":
         writer_kwargs.update(codec="libx264", macro_block_size=2, quality=6)
@@ -122,18 +129,18 @@ def run_rollout(policy: np.ndarray, start: TaskState, video: Path, fps: int, wid
     summary = {"actions": [], "states": [start.index], "reached_terminal": False, "fault": None}
     with imageio.get_writer(video, **writer_kwargs) as writer:
         recorder = Recorder(env, writer, width, height, camera, frame_every)
-        controller = SkillController(env, on_step=recorder.on_step)
-        stage(env, SkillController(env), start, seed=seed)
+        controller = SkillController(env, model, on_step=recorder.on_step)
+        stage(env, SkillController(env, model), start, seed=seed)
         state = start
         recorder.state, recorder.note = state, "(start)"
         recorder.capture(repeat=HOLD_FRAMES)
         for _ in range(max_actions):
-            action = Action(int(policy[state.index]))
+            action = model.action_name(int(policy[state.index]))
             recorder.action, recorder.note = action, "(executing)"
             result = controller.execute(action)
-            summary["actions"].append(action.name.lower())
+            summary["actions"].append(action)
             if log:
-                log(f"{state.index:2d} {action.name.lower():5s} -> "
+                log(f"{state.index:2d} {action:5s} -> "
                     f"{'fault' if result.state_after is None else result.state_after.index}: {result.reason} "
                     f"({result.steps} steps, {result.wall_time:.1f} s)")
             if result.state_after is None:
@@ -150,7 +157,7 @@ def run_rollout(policy: np.ndarray, start: TaskState, video: Path, fps: int, wid
                 recorder.middle = frame
             if state.is_terminal:
                 summary["reached_terminal"] = True
-                recorder.note = "both segments clean"
+                recorder.note = "every segment clean"
                 recorder.capture(repeat=2 * HOLD_FRAMES)
                 break
         summary["frames"] = recorder.frames
@@ -170,10 +177,14 @@ def run_rollout(policy: np.ndarray, start: TaskState, video: Path, fps: int, wid
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.rollout", description=__doc__.split("\n\n")[0])
     parser.add_argument("--reward", default="r4", help="reward pattern (default r4)")
-    parser.add_argument("--video", required=True, help="output video, .mp4 or .gif")
+    parser.add_argument("--video", default=None,
+                        help="output video, .mp4 or .gif (required unless --task is given: then results/rollout_<task>.mp4)")
+    parser.add_argument("--task", default=None,
+                        help="task spec: a registered name or a .json path (default paper); with no --still, the still "
+                             "goes to docs/images/rollout_<task>.png")
     parser.add_argument("--learner", default="q_learning", help="learner (default q_learning)")
-    parser.add_argument("--object-segment", type=int, choices=(1, 2), default=1, help="start: object on segment 1 or 2")
-    parser.add_argument("--arm-segment", type=int, choices=(1, 2), default=1, help="start: arm over segment 1 or 2")
+    parser.add_argument("--object-segment", type=int, default=1, help="start: every object on this segment (1..N, default 1)")
+    parser.add_argument("--arm-segment", type=int, default=1, help="start: arm over this segment (1..N, default 1)")
     parser.add_argument("--iterations", type=positive_int, default=3000, help="training iterations per run (default 3000)")
     parser.add_argument("--runs", type=positive_int, default=5, help="training runs voting on the policy (default 5)")
     parser.add_argument("--seed", type=non_negative_int, default=0, help="training and placement seed (default 0)")
@@ -193,6 +204,24 @@ def main(argv: list[str] | None = None) -> int:
 
     parser = build_parser()
     args = parser.parse_args(argv)
+    from tableclean_suite.physics_backend import check_physical_task
+    from tableclean_suite.task import get_task_spec
+
+    try:
+        spec = get_task_spec(args.task)
+        model = TaskModel(spec=spec)
+        check_physical_task(model)
+    except (ValueError, OSError) as error:
+        parser.error(f"--task: {error}")
+    if args.video is None:
+        if args.task is None:
+            parser.error("--video is required (or give --task to write results/rollout_<task>.mp4)")
+        args.video = f"results/rollout_{spec.name}.mp4"
+        if args.still is None:
+            args.still = f"docs/images/rollout_{spec.name}.png"
+    for flag, value in (("--object-segment", args.object_segment), ("--arm-segment", args.arm_segment)):
+        if not 1 <= value <= spec.segments:
+            parser.error(f"{flag} must be a segment number in 1..{spec.segments} for task {spec.name!r}, got {value}")
     video = Path(args.video)
     if video.suffix.lower() not in VIDEO_SUFFIXES:
         parser.error(f"--video must end in {' or '.join(VIDEO_SUFFIXES)}, got {args.video!r}")
@@ -211,13 +240,16 @@ def main(argv: list[str] | None = None) -> int:
     if args.camera not in ("frontview", "birdview", "agentview", "sideview"):
         parser.error(f"--camera must be one of frontview, birdview, agentview, sideview, got {args.camera!r}")
 
-    start = start_layout(args.object_segment, args.arm_segment)
+    start = TaskState((False,) * spec.segments, (args.object_segment - 1,) * spec.n_objects, args.arm_segment - 1)
     started = time.perf_counter()
-    policy = train_policy(args.learner, args.reward, start, args.runs, args.iterations, args.seed)
-    print(f"policy from {args.runs} run(s) x {args.iterations} iterations ({args.learner}, {args.reward}): "
-          + ", ".join(f"{s}:{Action(int(policy[s])).name.lower()}" for s in range(len(policy)) if not decode(s).is_terminal))
+    policy = train_policy(args.learner, args.reward, start, args.runs, args.iterations, args.seed, spec)
+    reachable = model.reachable_states([start])
+    print(f"policy from {args.runs} run(s) x {args.iterations} iterations ({args.learner}, {args.reward}) on {spec.name}: "
+          + ", ".join(f"{s.index}:{model.action_name(int(policy[s.index]))}"
+                      for s in reachable[:POLICY_PRINT_STATES] if not s.is_terminal)
+          + (" ..." if len(reachable) > POLICY_PRINT_STATES else ""))
     summary = run_rollout(policy, start, video, args.fps, args.width, args.height, args.frame_every,
-                          args.max_actions, still, args.seed, args.camera)
+                          args.max_actions, still, args.seed, args.camera, spec=spec)
     outcome = "reached the terminal state" if summary["reached_terminal"] else (
         f"stopped by a fault ({summary['fault']})" if summary["fault"] else f"did not finish in {args.max_actions} actions")
     print(f"{len(summary['actions'])} actions, {outcome}; wrote {video} ({summary['frames']} frames, "

@@ -33,7 +33,7 @@ import numpy as np
 
 from tableclean_suite.bench.cli import positive_int
 from tableclean_suite.controllers import SkillController, make_skill_env
-from tableclean_suite.task import Action, TaskModel
+from tableclean_suite.task import TaskModel
 
 #: Goal for one optimal episode's wall time (s).
 EPISODE_GOAL_S = 4.0
@@ -51,19 +51,32 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--episodes", type=positive_int, default=3, help="optimal episodes to run (default 3)")
     parser.add_argument(
         "--layout", type=int, nargs=2, metavar=("OBJECT_SEGMENT", "ARM_SEGMENT"), default=(1, 1),
-        choices=(1, 2), help="start layout, 1-based segments (default: 1 1, the paper's layout)",
+        help="start layout, 1-based segments (every object on OBJECT_SEGMENT; default: 1 1, the paper's layout)",
     )
     parser.add_argument("--seed", type=int, default=0, help="environment seed (default 0)")
-    return parser.parse_args(argv)
+    parser.add_argument("--task", default="paper", help="task spec: a registered name or a .json path (default paper)")
+    args = parser.parse_args(argv)
+    from tableclean_suite.physics_backend import check_physical_task
+    from tableclean_suite.task import get_task_spec
+
+    try:
+        args.task = get_task_spec(args.task)
+        check_physical_task(TaskModel(spec=args.task))
+    except (ValueError, OSError) as error:
+        parser.error(f"--task: {error}")
+    n = args.task.segments
+    if any(not 1 <= k <= n for k in args.layout):
+        parser.error(f"--layout: segments must be in 1..{n} for task {args.task.name!r}, got {list(args.layout)}")
+    return args
 
 
-def run(episodes: int, layout=(1, 1), seed: int = 0, fast_control: bool = True) -> dict:
+def run(episodes: int, layout=(1, 1), seed: int = 0, fast_control: bool = True, task=None) -> dict:
     """Run ``episodes`` optimal episodes on one control path; returns per-episode and per-action records.
 
     Returns a dict with ``"episodes"``: list of dicts (steps, wall_s, env_s, terminal, failures)
     and ``"actions"``: list of dicts (action, steps, wall_s, env_s, success).
     """
-    env = make_skill_env(*layout, seed=seed, hard_reset=False, fast_control=fast_control)
+    env = make_skill_env(*layout, seed=seed, hard_reset=False, fast_control=fast_control, task=task)
     records = _empty_records()
     for _ in range(episodes):
         _run_episode(env, records)
@@ -71,14 +84,14 @@ def run(episodes: int, layout=(1, 1), seed: int = 0, fast_control: bool = True) 
     return records
 
 
-def compare_paths(episodes: int, layout=(1, 1), seed: int = 0) -> dict:
+def compare_paths(episodes: int, layout=(1, 1), seed: int = 0, task=None) -> dict:
     """Optimal episodes on robosuite's path and the fast path, alternating, plus raw MuJoCo on the fast path's states.
 
     Returns ``{"robosuite": records, "fast": records, "mujoco": {"steps", "seconds", "substeps"}}``
     with records as :func:`run`'s; the raw-MuJoCo entry counts control steps of ``substeps``
     ``mj_step`` calls each (``control_timestep / model_timestep``: 25) and the seconds spent in them.
     """
-    envs = {path: make_skill_env(*layout, seed=seed, hard_reset=False, fast_control=path == "fast")
+    envs = {path: make_skill_env(*layout, seed=seed, hard_reset=False, fast_control=path == "fast", task=task)
             for path in ("robosuite", "fast")}
     records = {path: _empty_records() for path in envs}
     fast_env = envs["fast"]
@@ -104,7 +117,7 @@ def _run_episode(env, records: dict, record_states: bool = False) -> list[dict]:
     Returns the mjData fields of :data:`REPLAY_FIELDS` before every control step when
     ``record_states`` (for :func:`_replay_mujoco`), else an empty list.
     """
-    model = TaskModel()
+    model = env.task_model
     data = env.sim.data._data
     states = []
 
@@ -121,7 +134,7 @@ def _run_episode(env, records: dict, record_states: bool = False) -> list[dict]:
     wall = time.perf_counter() - start
     for r in results:
         records["actions"].append(
-            dict(action=r.action, steps=r.steps, wall_s=r.wall_time, env_s=r.env_time, success=r.success)
+            dict(action=model.action_name(r.action), steps=r.steps, wall_s=r.wall_time, env_s=r.env_time, success=r.success)
         )
     final = results[-1].state_after if results else None
     records["episodes"].append(
@@ -187,12 +200,9 @@ def format_report(records: dict) -> str:
     by_action = defaultdict(list)
     for row in records["actions"]:
         by_action[row["action"]].append(row)
-    for action in Action:
-        rows = by_action.get(action)
-        if not rows:
-            continue
+    for action, rows in by_action.items():
         lines.append(
-            f"{action.name.lower():8s} {len(rows):5d} {np.mean([r['steps'] for r in rows]):7.1f} "
+            f"{action:8s} {len(rows):5d} {np.mean([r['steps'] for r in rows]):7.1f} "
             f"{np.mean([r['wall_s'] for r in rows]):8.3f} {np.mean([r['env_s'] for r in rows]):8.3f} "
             f"{sum(not r['success'] for r in rows):6d}"
         )
@@ -217,7 +227,8 @@ def format_report(records: dict) -> str:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    comparison = compare_paths(args.episodes, tuple(args.layout), args.seed)
+    comparison = compare_paths(args.episodes, tuple(args.layout), args.seed, task=args.task)
+    print(f"task {args.task.name}, layout {tuple(args.layout)}")
     print(format_report(comparison["fast"]))
     print()
     print(format_comparison(comparison))
