@@ -1,0 +1,140 @@
+"""Tasks in local processes (``concurrent.futures`` with the spawn start method), or in this
+process when ``workers == 1``.
+
+Spawned workers import ``function``'s module afresh (a script that uses more than one worker
+needs the usual ``if __name__ == "__main__":`` guard).  At most ``workers`` tasks are in
+flight at a time, so a worker crash breaks the pool while only those tasks run: each of them is
+charged one attempt (the pool cannot tell which one crashed it), the pool is restarted and they
+are run again.
+"""
+
+from __future__ import annotations
+
+import heapq
+import multiprocessing
+import os
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from typing import Callable, Iterable, Iterator
+
+from tableclean_suite.executors.base import (DEFAULT_MAX_RETRIES, RetryableError, TaskFailedError, check_count,
+                                             check_function)
+
+#: Start method of the worker processes: a fresh interpreter (no fork of a threaded parent).
+START_METHOD = "spawn"
+
+
+class LocalExecutor:
+    """Runs tasks in ``workers`` spawned processes of this machine (in this process if 1).
+
+    Args:
+        workers: processes, >= 1; None: one per core (``os.cpu_count()``).
+        max_retries: extra runs of a task after :class:`RetryableError` or a worker crash, >= 0.
+    """
+
+    def __init__(self, workers: int | None = 1, max_retries: int = DEFAULT_MAX_RETRIES):
+        check_count("workers", workers, 1, allow_none=True)
+        check_count("max_retries", max_retries, 0)
+        self.workers = workers if workers is not None else (os.cpu_count() or 1)
+        self.max_retries = max_retries
+        self._pool: ProcessPoolExecutor | None = None
+
+    def __repr__(self) -> str:
+        return f"LocalExecutor(workers={self.workers}, max_retries={self.max_retries})"
+
+    @property
+    def in_process(self) -> bool:
+        """True when tasks run in the calling process (``workers == 1``)."""
+        return self.workers == 1
+
+    def start(self) -> None:
+        """Start the worker processes (nothing to start in-process); idempotent."""
+        if not self.in_process and self._pool is None:
+            self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context(START_METHOD))
+
+    def close(self) -> None:
+        """Stop the workers; queued tasks are cancelled, running ones are waited for."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+    def __enter__(self) -> "LocalExecutor":
+        self.start()
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.close()
+
+    def map(self, function: Callable, tasks: Iterable) -> Iterator:
+        """``function(task)`` for each task, in task order (see :class:`~.base.Executor`)."""
+        check_function(function)
+        tasks = list(tasks)
+        if self.in_process:
+            return (self._run_here(function, task) for task in tasks)
+        return self._run_pool(function, tasks)
+
+    def _run_here(self, function: Callable, task):
+        for attempt in range(1, self.max_retries + 2):
+            try:
+                return function(task)
+            except RetryableError as error:
+                if attempt > self.max_retries:
+                    raise TaskFailedError(task, attempt, error) from error
+            except Exception as error:
+                raise TaskFailedError(task, attempt, error) from error
+
+    def _run_pool(self, function: Callable, tasks: list) -> Iterator:
+        owned = self._pool is None
+        self.start()
+        waiting = list(range(len(tasks)))  # a heap of task indices not yet submitted, lowest first
+        running, finished, attempts = {}, {}, [0] * len(tasks)
+        try:
+            for index in range(len(tasks)):
+                while index not in finished:
+                    while waiting and len(running) < self.workers:
+                        queued = heapq.heappop(waiting)
+                        attempts[queued] += 1
+                        running[self._pool.submit(function, tasks[queued])] = queued
+                    done, _ = wait(running, return_when=FIRST_COMPLETED)
+                    broken, failure = self._collect(done, running, finished, waiting, tasks, attempts)
+                    if broken:  # every task of the dead pool fails: collect them all, then restart
+                        more = self._collect(wait(running).done, running, finished, waiting, tasks, attempts)[1]
+                        failure = failure or more
+                        self._restart()
+                    if failure is not None:
+                        raise failure
+                yield finished.pop(index)
+        finally:
+            for future in running:
+                future.cancel()
+            if owned:
+                self.close()
+
+    def _restart(self) -> None:
+        """Replace a broken pool (a worker died) by a new one."""
+        self._pool.shutdown(wait=True, cancel_futures=True)
+        self._pool = None
+        self.start()
+
+    def _collect(self, done, running: dict, finished: dict, waiting: list, tasks: list,
+                 attempts: list) -> tuple[bool, TaskFailedError | None]:
+        """Move the ``done`` futures out of ``running``: results to ``finished``, retryable failures
+        back to ``waiting``.  Returns whether the pool broke (a worker died) and the first task
+        that failed for good, if any."""
+        broken, failure = False, None
+        for future in done:
+            index = running.pop(future)
+            error = future.exception()
+            if error is None:
+                finished[index] = future.result()
+                continue
+            crashed = isinstance(error, BrokenProcessPool)
+            broken |= crashed
+            if not (crashed or isinstance(error, RetryableError)) or attempts[index] > self.max_retries:
+                if failure is None:
+                    reason = "a worker process died while running it" if crashed else error
+                    failure = TaskFailedError(tasks[index], attempts[index], reason)
+                    failure.__cause__ = error
+            else:
+                heapq.heappush(waiting, index)
+        return broken, failure

@@ -1,0 +1,144 @@
+"""Tasks as Ray tasks: on a local Ray started on loopback, or on an existing Ray cluster.
+
+Ray is imported only when the executor starts; without it the error names the ``cluster``
+extra (``pip install "tableclean_suite[cluster]"``).  Retries are Ray's own: a task is run
+again after a worker or node failure, or after :class:`~.base.RetryableError`, at most
+``max_retries`` times.  Every machine of a cluster needs the same version of this package (and
+of any module that registers learners, rewards or task specs the tasks use) installed.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Callable, Iterable, Iterator
+
+from tableclean_suite.executors.base import (DEFAULT_MAX_RETRIES, RetryableError, TaskFailedError, check_count,
+                                             check_function)
+
+#: Address a locally started Ray binds to: this machine only.
+LOOPBACK = "127.0.0.1"
+#: CPUs Ray reserves for each task (a task is single-threaded: numba threads = 1 inside it).
+CPUS_PER_TASK = 1
+#: Turn Ray's usage statistics off for a Ray this executor starts (it would contact Ray's servers).
+USAGE_STATS_VARIABLE = "RAY_USAGE_STATS_ENABLED"
+
+
+class MissingRayError(ImportError):
+    """Ray is not installed; the message says how to install it."""
+
+
+def import_ray():
+    """The ``ray`` module, or :class:`MissingRayError` naming the ``cluster`` extra."""
+    try:
+        import ray
+    except ImportError as error:
+        raise MissingRayError(
+            f"the ray executor needs Ray ({error}); install it with "
+            "pip install \"tableclean_suite[cluster]\" (or pip install ray)") from None
+    return ray
+
+
+class RayExecutor:
+    """Runs tasks as Ray tasks.
+
+    Args:
+        address: None starts a private Ray on this machine, bound to loopback
+            (:data:`LOOPBACK`), stopped by :meth:`close`; ``"HOST:PORT"`` (a head started with
+            ``ray start --head``) or ``"auto"`` (the cluster this machine belongs to) connects
+            to a running cluster and only disconnects on :meth:`close`.
+        workers: most tasks in flight at once, >= 1; None: all (Ray queues them and runs as
+            many as the cluster has CPUs, :data:`CPUS_PER_TASK` each).
+        max_retries: extra runs of a task after :class:`RetryableError` or a worker crash, >= 0.
+        num_cpus: CPUs of a private Ray (``address=None``), >= 1; None: every core.
+    """
+
+    def __init__(self, address: str | None = None, workers: int | None = None,
+                 max_retries: int = DEFAULT_MAX_RETRIES, num_cpus: int | None = None):
+        if address is not None and (not isinstance(address, str) or not address.strip()):
+            raise ValueError(f"address must be HOST:PORT, 'auto' or None, got {address!r}")
+        check_count("workers", workers, 1, allow_none=True)
+        check_count("max_retries", max_retries, 0)
+        check_count("num_cpus", num_cpus, 1, allow_none=True)
+        self.address = address.strip() if address else None
+        self.workers = workers
+        self.max_retries = max_retries
+        self.num_cpus = num_cpus
+        self._ray = None
+
+    def __repr__(self) -> str:
+        return (f"RayExecutor(address={self.address!r}, workers={self.workers}, "
+                f"max_retries={self.max_retries})")
+
+    def start(self) -> None:
+        """Start or join Ray (idempotent; a Ray already initialised in this process is used as is)."""
+        if self._ray is not None:
+            return
+        ray = import_ray()
+        if not ray.is_initialized():
+            if self.address is None:
+                os.environ.setdefault(USAGE_STATS_VARIABLE, "0")
+                ray.init(num_cpus=self.num_cpus, include_dashboard=False, _node_ip_address=LOOPBACK)
+            else:
+                ray.init(address=self.address)
+            self._owned = True
+        else:
+            self._owned = False
+        self._ray = ray
+
+    def close(self) -> None:
+        """Stop the private Ray, or disconnect from the cluster (a Ray initialised by the caller is kept)."""
+        if self._ray is not None and self._owned:
+            self._ray.shutdown()
+        self._ray = None
+
+    def __enter__(self) -> "RayExecutor":
+        self.start()
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.close()
+
+    def map(self, function: Callable, tasks: Iterable) -> Iterator:
+        """``function(task)`` for each task, in task order (see :class:`~.base.Executor`)."""
+        check_function(function)
+        return self._run(function, list(tasks))
+
+    def _run(self, function: Callable, tasks: list) -> Iterator:
+        owned = self._ray is None
+        self.start()
+        ray = self._ray
+        remote = ray.remote(num_cpus=CPUS_PER_TASK, max_retries=self.max_retries,
+                            retry_exceptions=[RetryableError])(function)
+        limit = self.workers or len(tasks)
+        refs, submitted = {}, 0
+        try:
+            for index in range(len(tasks)):
+                while submitted < len(tasks) and submitted - index < limit:
+                    refs[submitted] = remote.remote(tasks[submitted])
+                    submitted += 1
+                try:
+                    result = ray.get(refs.pop(index))
+                except ray.exceptions.RayError as error:
+                    raise TaskFailedError(tasks[index], _attempts(error, self.max_retries),
+                                          _reason(error)) from error
+                yield result
+        finally:
+            for ref in refs.values():
+                ray.cancel(ref)
+            if owned:
+                self.close()
+
+
+def _attempts(error, max_retries: int) -> int:
+    """Runs behind a failure Ray reports: all of them if it retries that kind, else one."""
+    cause = getattr(error, "cause", None)
+    retried = isinstance(cause, RetryableError) or not isinstance(cause, Exception)
+    return max_retries + 1 if retried else 1
+
+
+def _reason(error) -> str:
+    """The task's own exception if Ray wraps one, else Ray's error (e.g. the worker died)."""
+    cause = getattr(error, "cause", None)
+    if isinstance(cause, Exception):
+        return f"{type(cause).__name__}: {cause}"
+    return f"{type(error).__name__}: {str(error).splitlines()[0] if str(error) else ''}"
