@@ -125,8 +125,11 @@ def test_a_user_backend_is_found_by_name():
 
 
 def test_physics_backend_refuses_a_spec_the_scene_cannot_build():
-    with pytest.raises(ValueError, match="the physical scene supports 2 segments"):
-        train(runs=1, iterations=1, backend="physics", task="three_segments")
+    """Refused before any physics is built: too many segments, an object type nobody registered."""
+    with pytest.raises(ValueError, match="lays out at most 4 segments, got 5"):
+        train(runs=1, iterations=1, backend="physics", task=TaskSpec("five_segments", segments=5))
+    with pytest.raises(ValueError, match="unknown object_type 'teapot'; allowed: box"):
+        train(runs=1, iterations=1, backend="physics", task=TaskSpec("teapot", objects=("teapot",)))
 
 
 def test_second_process_uses_the_numba_disk_cache(tmp_path):
