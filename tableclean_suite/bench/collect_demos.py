@@ -1,0 +1,258 @@
+"""Collect skill demonstrations in robomimic's hdf5 layout.
+
+    python -m benchmarks.collect_demos --task SPEC --episodes N [--robots Panda]
+        [--policy optimal|learned] [--seed S] [--out FILE.hdf5]
+        [--iterations I --runs R --max-actions A] [--valid-fraction F]
+
+Each episode starts from a random all-unclean layout of the spec (objects and arm on drawn
+segments, placement noise seeded), then the SkillController executes, in the ``TableClean``
+scene, either the model's shortest plan from that start (``optimal``, the default) or the
+greedy policy of Q-learning with reward r4 trained on the symbolic model (``learned``: the
+majority vote of ``--runs`` runs of ``--iterations`` steps from the same random starts).
+Every control step is recorded (state before it, absolute OSC command), also on the fast
+control path, which bypasses ``env.step``.  Episodes whose skills fail, fault or do not reach
+the goal are discarded and replaced by new draws (at most ``MAX_ATTEMPTS_PER_EPISODE`` draws
+per requested demo).  The file layout is in :mod:`tableclean_suite.demos`; it is written
+atomically (temporary file, then rename).
+
+Exit codes: 0 all demos written, 1 fewer successful demos than requested (those found are
+written), 2 bad flags.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from tableclean_suite.bench.cli import non_negative_int, positive_int  # noqa: E402
+
+POLICIES = ("optimal", "learned")
+#: Single-arm fixed-base robosuite robots the scene can hold (the skills are tuned on the Panda).
+ROBOTS = ("Panda", "Sawyer", "IIWA", "Jaco", "Kinova3", "UR5e", "XArm7")
+OUT_SUFFIXES = (".hdf5", ".h5")
+#: Start-layout draws per requested demo before giving up (failed executions are redrawn).
+MAX_ATTEMPTS_PER_EPISODE = 3
+#: The learned policy's learner and reward pattern (the paper's best configuration).
+LEARNER, REWARD = "q_learning", "r4"
+DEFAULT_EPISODES = 10
+DEFAULT_ITERATIONS = 20000  # the paper, three_segments and two_objects from every start (5 runs, seed 0)
+DEFAULT_RUNS = 5
+DEFAULT_MAX_ACTIONS = 50
+#: Bound of the per-episode placement seeds drawn from ``--seed`` (exclusive).
+PLACEMENT_SEED_BOUND = 2**31
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse, but a bad flag prints one line (``prog: error: ...``) and exits 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = OneLineParser(prog="python -m benchmarks.collect_demos", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--task", default="paper", help="task spec: a registered name or a .json path (default paper)")
+    parser.add_argument("--episodes", type=positive_int, default=DEFAULT_EPISODES,
+                        help=f"successful demos to record (default {DEFAULT_EPISODES})")
+    parser.add_argument("--robots", default="Panda", choices=ROBOTS, metavar="ROBOT",
+                        help=f"the arm, one of {', '.join(ROBOTS)} (default Panda)")
+    parser.add_argument("--policy", default="optimal", choices=POLICIES,
+                        help="optimal: the shortest plan; learned: greedy Q-learning r4 policy (default optimal)")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="start layouts, placement and training seed (default 0)")
+    parser.add_argument("--out", default=None, help="output .hdf5 (default results/demos_<task>_<policy>.hdf5)")
+    parser.add_argument("--iterations", type=positive_int, default=DEFAULT_ITERATIONS,
+                        help=f"learned: training iterations per run (default {DEFAULT_ITERATIONS})")
+    parser.add_argument("--runs", type=positive_int, default=DEFAULT_RUNS,
+                        help=f"learned: training runs voting on the policy (default {DEFAULT_RUNS})")
+    parser.add_argument("--max-actions", type=positive_int, default=DEFAULT_MAX_ACTIONS,
+                        help=f"learned: actions per episode before it counts as failed (default {DEFAULT_MAX_ACTIONS})")
+    parser.add_argument("--valid-fraction", type=float, default=None,
+                        help="fraction of the demos in mask/valid, in [0, 1) (default 0.1)")
+    return parser
+
+
+def majority_policy(q: np.ndarray) -> np.ndarray:
+    """``(S,)`` int: per state the greedy action (first maximum) most runs agree on; ties: lowest action.
+
+    ``q`` is ``(runs, S, A)``.
+    """
+    greedy = np.argmax(q, axis=2)
+    votes = np.zeros(q.shape[1:], dtype=np.int64)
+    for run_greedy in greedy:
+        votes[np.arange(q.shape[1]), run_greedy] += 1
+    return np.argmax(votes, axis=1)
+
+
+def learned_policy(model, iterations: int, runs: int, seed: int) -> np.ndarray:
+    """The majority greedy policy of ``runs`` Q-learning (r4) runs on the symbolic ``model``."""
+    from tableclean_suite.learners import train
+
+    result = train(LEARNER, REWARD, runs=runs, iterations=iterations, seed=seed, task=model)
+    return majority_policy(result.q)
+
+
+def symbolic_actions(model, start, policy: np.ndarray | None, max_actions: int) -> list[int] | None:
+    """Action indices the policy takes from ``start`` in the task model (the shortest plan when
+    ``policy`` is None); ``None`` when it does not reach a terminal state within ``max_actions``."""
+    if policy is None:
+        plan = model.shortest_plan(start)
+        return None if plan is None else [model.action_index(a) for a in plan]
+    state, actions = start, []
+    while not state.is_terminal:
+        if len(actions) >= max_actions:
+            return None
+        action = int(policy[state.index])
+        actions.append(action)
+        state = model.step(state, action)[0]
+    return actions
+
+
+def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "optimal", seed: int = 0,
+            iterations: int = DEFAULT_ITERATIONS, runs: int = DEFAULT_RUNS, max_actions: int = DEFAULT_MAX_ACTIONS,
+            log=print) -> tuple[list, dict, dict]:
+    """Record up to ``episodes`` successful demos; returns ``(demos, env_args, data_attrs)``.
+
+    ``task`` is a registered spec name or a ``.json`` path; ``robot`` one of :data:`ROBOTS`;
+    ``policy_name`` one of :data:`POLICIES`.  The learned policy acts closed-loop on the state
+    the physics reads back; the optimal plan is the model's from the start.
+    """
+    import json
+
+    from tableclean_suite.controllers import SkillController, make_skill_env, skill_controller_config
+    from tableclean_suite.demos import EpisodeRecorder, env_args_of, recording_controller
+    from tableclean_suite.physics_backend import StagingError, stage
+    from tableclean_suite.task import TaskModel, get_task_spec
+
+    spec = get_task_spec(task)
+    model = TaskModel(spec=spec, start="uniform_unclean")
+    rng = np.random.default_rng(seed)
+    policy = None
+    if policy_name == "learned":
+        started = time.perf_counter()
+        policy = learned_policy(model, iterations, runs, seed)
+        solved = sum(symbolic_actions(model, s, policy, max_actions) is not None for s in model.start_states())
+        log(f"trained {LEARNER} {REWARD} on {spec.name}: {runs} run(s) x {iterations} iterations "
+            f"in {time.perf_counter() - started:.1f} s; its greedy policy reaches the goal from {solved} of "
+            f"{len(model.start_states())} start layouts in the model")
+        if not solved:
+            log("no start layout to record from; train longer (--iterations, --runs)")
+            return [], {}, {}
+    try:
+        env = make_skill_env(task=spec, robots=robot)
+    except NotImplementedError:  # the fast path does not reproduce this robot's controller
+        env = make_skill_env(task=spec, robots=robot, fast_control=False)
+    controller_configs = skill_controller_config(robot, None)
+    env_args = env_args_of(env, task, controller_configs)
+    staging = SkillController(env, model)
+    demos, discarded = [], 0
+    try:
+        for attempt in range(episodes * MAX_ATTEMPTS_PER_EPISODE):
+            if len(demos) == episodes:
+                break
+            start = model.sample_start(float(rng.random()))
+            placement_seed = int(rng.integers(PLACEMENT_SEED_BOUND))
+            planned = symbolic_actions(model, start, policy, max_actions)
+            if planned is None:
+                discarded += 1
+                log(f"attempt {attempt}: the {policy_name} policy does not reach the goal from {start.name}; skipped")
+                continue
+            try:
+                stage(env, staging, start, seed=placement_seed)
+            except StagingError as error:
+                discarded += 1
+                log(f"attempt {attempt}: {error}; skipped")
+                continue
+            started = time.perf_counter()
+            recorder = EpisodeRecorder(env)
+            controller = recording_controller(env, model, recorder)
+            state, problem = start, None
+            for step in range(max_actions if policy is not None else len(planned)):
+                action = int(policy[state.index]) if policy is not None else planned[step]
+                recorder.begin(model.action_name(action), action)
+                result = controller.execute(action)
+                if result.state_after is None:
+                    problem = f"fault after {model.action_name(action)}: {result.reason}"
+                    break
+                if policy is None and not result.success:
+                    problem = f"{model.action_name(action)} failed: {result.reason}"
+                    break
+                state = result.state_after
+                if state.is_terminal:
+                    break
+            demo = recorder.finish(attrs={"start_state": start.index, "start_state_name": start.name,
+                                          "placement_seed": placement_seed, "policy": policy_name})
+            if problem is None and not demo.attrs["success"]:
+                problem = f"ended in {state.name} without success"
+            if problem is not None:
+                discarded += 1
+                log(f"attempt {attempt}: {start.name}: {problem}; discarded")
+                continue
+            log(f"demo_{len(demos)}: {start.name}: {len(demo.attrs['plan'])} actions, {demo.num_samples} control steps "
+                f"in {time.perf_counter() - started:.1f} s")
+            demos.append(demo)
+    finally:
+        env.close()
+    attrs = {
+        "task_spec": spec.to_dict(),
+        "action_names": list(model.action_names),
+        "policy": policy_name,
+        "seed": seed,
+        "discarded": discarded,
+    }
+    if policy is not None:
+        attrs.update(learner=LEARNER, reward=REWARD, iterations=iterations, runs=runs,
+                     learned_policy=json.dumps([int(a) for a in policy]))
+    return demos, env_args, attrs
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    from tableclean_suite.demos import VALID_FRACTION, write_dataset
+    from tableclean_suite.physics_backend import check_physical_task
+    from tableclean_suite.task import TaskModel, get_task_spec
+
+    try:
+        spec = get_task_spec(args.task)
+        check_physical_task(TaskModel(spec=spec))
+    except (ValueError, OSError) as error:
+        parser.error(f"--task: {error}")
+    valid_fraction = VALID_FRACTION if args.valid_fraction is None else args.valid_fraction
+    if not 0.0 <= valid_fraction < 1.0:
+        parser.error(f"--valid-fraction must be in [0, 1), got {args.valid_fraction!r}")
+    out = Path(args.out if args.out is not None else f"results/demos_{spec.name}_{args.policy}.hdf5")
+    if out.suffix.lower() not in OUT_SUFFIXES:
+        parser.error(f"--out must end in {' or '.join(OUT_SUFFIXES)}, got {str(out)!r}")
+    if out.is_dir():
+        parser.error(f"--out {str(out)!r} is a directory; give a file name ending in .hdf5")
+    try:
+        import h5py  # noqa: F401
+    except ImportError:
+        parser.error("collecting demos needs h5py: pip install 'tableclean_suite[demos]' (or pip install h5py)")
+    out.parent.mkdir(parents=True, exist_ok=True)
+
+    started = time.perf_counter()
+    demos, env_args, attrs = collect(args.task, args.episodes, args.robots, args.policy, args.seed,
+                                     args.iterations, args.runs, args.max_actions)
+    if not demos:
+        print(f"no successful demo in {args.episodes * MAX_ATTEMPTS_PER_EPISODE} attempts; nothing written", file=sys.stderr)
+        return 1
+    write_dataset(out, demos, env_args, attrs, valid_fraction=valid_fraction, seed=args.seed)
+    total = sum(d.num_samples for d in demos)
+    print(f"wrote {out}: {len(demos)} demo(s), {total} samples ({attrs['discarded']} attempt(s) discarded) "
+          f"in {time.perf_counter() - started:.0f} s")
+    if len(demos) < args.episodes:
+        print(f"only {len(demos)} of {args.episodes} demos succeeded", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,429 @@
+"""Demonstration datasets of the skills in robomimic's hdf5 layout: record, write (atomically), read, rebuild.
+
+A dataset holds skill executions in the ``TableClean`` scene, one *sample* per control step::
+
+    data                               group
+        .attrs["env_args"]             JSON {"env_name": "TableClean", "env_version": robosuite's,
+                                       "type": 1 (robomimic's EnvType.ROBOSUITE_TYPE), "env_kwargs": {...}}:
+                                       robosuite.make(env_name, **env_kwargs) rebuilds the scene
+        .attrs["total"]                samples over all demos
+        .attrs["env"], ["env_info"]    robosuite's playback script's names (env name; JSON of robots,
+                                       controller_configs, task, task_config)
+        .attrs["task_spec"]            JSON of the task spec (TaskSpec.to_dict())
+        .attrs["action_names"]         JSON list: the spec's actions (skill_action indexes it)
+        .attrs["policy"], ["seed"], ["date"], ["repository_version"], ["tableclean_version"]
+        demo_k                         group, k = 0, 1, ...
+            .attrs["num_samples"]      T, control steps of the demo
+            .attrs["model_file"]       MuJoCo XML of the scene (robosuite's playback resets from it)
+            .attrs["ep_meta"]          JSON of TableClean.get_ep_meta() (spec, config, start layout)
+            .attrs["plan"]             JSON list of the executed actions' names, in order (K entries)
+            .attrs["start_state"]      task-state code of the start; ["final_symbolic_state"]: of the end
+            .attrs["success"]          the last state is terminal and _check_success() holds
+            .attrs["placement_seed"]   the seed the start layout's placement noise was drawn with
+            states                     (T, D) float64, sim.get_state().flatten() *before* each action
+                                       (robosuite's convention: states[0] is the start)
+            actions                    (T, 7) float64, absolute world-frame OSC_POSE command
+                                       [x, y, z (m), rx, ry, rz (axis-angle, rad), gripper in [-1, 1]]
+            rewards                    (T,) float64, 1.0 where the state after the action is a success
+            dones                      (T,) int64, 1 at the last sample
+            obs/<key>, next_obs/<key>  (T, k) float64 env observables at states[t] / after action t
+                                       (robot0_eef_pos (3), robot0_eef_quat (4, xyzw),
+                                       robot0_gripper_qpos (2), object_pos (3), object_quat (4),
+                                       sponge_pos (3), dirt_fraction (N), symbolic_state_index (1);
+                                       with M > 1 objects also objects_pos (3M), objects_quat (4M))
+            symbolic_states            (T,) int64, task-state code read from states[t] by the abstraction
+                                       (sponge check off, -1 = maps to no task state, e.g. mid-motion)
+            skill_index                (T,) int64, index in ``plan`` of the action executing at sample t
+            skill_action               (T,) int64, that action's index in ``action_names``
+            skill_bounds               (K, 2) int64, [first, end) samples of each plan entry
+                                       (first == end: refused or ineffective, no motion)
+            final_state                (D,) float64, the state after the last action
+    mask/train, mask/valid             byte strings: demo keys of the train / validation split
+
+Only recording needs robosuite and MuJoCo; :func:`read_demo` and :func:`read_env_args` need h5py only.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+#: robomimic's ``EnvType.ROBOSUITE_TYPE`` (``env_args["type"]``).
+ROBOSUITE_ENV_TYPE = 1
+#: The robosuite environment the demos are recorded in.
+ENV_NAME = "TableClean"
+#: Length of a skill command: absolute OSC_POSE (position m, axis-angle rad) + gripper.
+ACTION_DIM = 7
+#: Environment observables written under ``obs/`` and ``next_obs/`` (those the env has).
+OBS_KEYS = ("robot0_eef_pos", "robot0_eef_quat", "robot0_gripper_qpos", "object_pos", "object_quat",
+            "objects_pos", "objects_quat", "sponge_pos", "dirt_fraction", "symbolic_state_index")
+#: Code of ``symbolic_states`` for a state that maps to no task state (TableClean's ``FAULT_INDEX``).
+NO_TASK_STATE = -1
+#: Fraction of the demos in ``mask/valid`` (at least one when there are two or more demos).
+VALID_FRACTION = 0.1
+#: Per-demo datasets of one entry per sample (checked to have ``num_samples`` rows).
+PER_SAMPLE_DATASETS = ("states", "actions", "rewards", "dones", "symbolic_states", "skill_index", "skill_action")
+
+
+@dataclass
+class Demo:
+    """One recorded demonstration (T samples = control steps, K plan entries, D = state size).
+
+    Attributes:
+        states: (T, D) float64, flattened MuJoCo state before each action.
+        actions: (T, 7) float64 absolute commands.
+        rewards: (T,) float64; dones: (T,) int64.
+        obs, next_obs: key -> (T, k) float64.
+        symbolic_states: (T,) int64 task-state codes (-1: none).
+        skill_index, skill_action: (T,) int64.
+        skill_bounds: (K, 2) int64.
+        final_state: (D,) float64.
+        attrs: the demo group's attributes (JSON values are decoded when read).
+    """
+
+    states: np.ndarray
+    actions: np.ndarray
+    rewards: np.ndarray
+    dones: np.ndarray
+    obs: dict
+    next_obs: dict
+    symbolic_states: np.ndarray
+    skill_index: np.ndarray
+    skill_action: np.ndarray
+    skill_bounds: np.ndarray
+    final_state: np.ndarray
+    attrs: dict = field(default_factory=dict)
+
+    @property
+    def num_samples(self) -> int:
+        """T, the number of control steps."""
+        return int(len(self.actions))
+
+    def check(self) -> None:
+        """``ValueError`` naming the first array whose shape does not fit ``num_samples`` and the others."""
+        n = self.num_samples
+        if self.actions.shape != (n, ACTION_DIM):
+            raise ValueError(f"actions must have shape (T, {ACTION_DIM}), got {self.actions.shape}")
+        if self.states.ndim != 2 or self.final_state.shape != self.states.shape[1:]:
+            raise ValueError(f"states must be (T, D) and final_state (D,), got {self.states.shape} and {self.final_state.shape}")
+        for name in PER_SAMPLE_DATASETS:
+            if len(getattr(self, name)) != n:
+                raise ValueError(f"{name} has {len(getattr(self, name))} rows, expected num_samples = {n}")
+        for group in ("obs", "next_obs"):
+            for key, value in getattr(self, group).items():
+                if len(value) != n:
+                    raise ValueError(f"{group}/{key} has {len(value)} rows, expected num_samples = {n}")
+        if self.skill_bounds.ndim != 2 or self.skill_bounds.shape[1] != 2:
+            raise ValueError(f"skill_bounds must have shape (K, 2), got {self.skill_bounds.shape}")
+
+
+# ---------------------------------------------------------------------------------------------
+# env_args: what rebuilds the scene
+# ---------------------------------------------------------------------------------------------
+def env_args_of(env, task: str, controller_configs: dict) -> dict:
+    """robomimic's ``env_args`` of a skill env made by :func:`~tableclean_suite.controllers.make_skill_env`.
+
+    ``task`` is what ``TableClean(task=...)`` accepts: a registered spec name or a ``.json`` path;
+    ``controller_configs`` the env's (``skill_controller_config(robot, task_config)`` by default).
+    ``env_kwargs`` holds the robot, its controller config (absolute world-frame OSC_POSE), the
+    task, the full ``task_config`` and the skill env's settings, so ``robosuite.make("TableClean",
+    **env_kwargs)`` rebuilds the same model (states load into it).
+    """
+    import robosuite
+
+    from tableclean_suite.controllers.make import SKILL_ENV_DEFAULTS
+
+    meta = env.get_ep_meta()
+    kwargs = dict(SKILL_ENV_DEFAULTS)
+    kwargs.update(
+        robots=[robot.name for robot in env.robots][0],
+        controller_configs=_jsonable(controller_configs),
+        task=str(task),
+        task_config=meta["task_config"],
+        control_freq=float(env.control_freq),
+        use_object_obs=bool(env.use_object_obs),
+        object_segment=1,
+        arm_segment=1,
+    )
+    return {"env_name": ENV_NAME, "env_version": robosuite.__version__, "type": ROBOSUITE_ENV_TYPE, "env_kwargs": kwargs}
+
+
+def make_env_from_args(env_args: dict, **overrides):
+    """``robosuite.make(env_args["env_name"], **env_args["env_kwargs"], **overrides)`` (registers TableClean first)."""
+    import robosuite
+
+    import tableclean_suite  # noqa: F401  (registers TableClean)
+
+    if env_args.get("type") != ROBOSUITE_ENV_TYPE:
+        raise ValueError(f"env_args['type'] must be {ROBOSUITE_ENV_TYPE} (robosuite), got {env_args.get('type')!r}")
+    return robosuite.make(env_args["env_name"], **{**env_args["env_kwargs"], **overrides})
+
+
+def _jsonable(value):
+    """``value`` with numpy arrays and scalars, tuples and paths turned into JSON types."""
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+# ---------------------------------------------------------------------------------------------
+# recording
+# ---------------------------------------------------------------------------------------------
+class EpisodeRecorder:
+    """Records every control step a :class:`RecordingSkillController` makes: state before and command.
+
+    ``begin(plan_index, action_index)`` marks the plan entry that executes next;
+    :meth:`finish` turns the recording into a :class:`Demo` (observables and symbolic codes
+    are read by restoring each recorded state in the env, so they are what a replay reads).
+    """
+
+    def __init__(self, env):
+        self.env = env
+        self.states: list[np.ndarray] = []
+        self.actions: list[np.ndarray] = []
+        self.skill_index: list[int] = []
+        self.skill_action: list[int] = []
+        self.bounds: list[list[int]] = []
+        self.plan: list[str] = []
+        self.hook_steps = 0  # control steps seen by the controller's on_step hook (a cross-check)
+        self._current = (-1, -1)
+
+    def begin(self, action_name: str, action_index: int) -> None:
+        """The next control steps belong to a new plan entry executing ``action_name``."""
+        self._current = (len(self.plan), int(action_index))
+        self.plan.append(action_name)
+        self.bounds.append([len(self.actions), len(self.actions)])
+
+    def before_step(self, command) -> None:
+        """Called with each command just before the control step runs."""
+        self.states.append(np.array(self.env.sim.get_state().flatten()))
+        self.actions.append(np.array(command, dtype=float))
+        self.skill_index.append(self._current[0])
+        self.skill_action.append(self._current[1])
+        if self.bounds:
+            self.bounds[-1][1] = len(self.actions)
+
+    def on_step(self) -> None:
+        """The SkillController's ``on_step`` hook (after each control step)."""
+        self.hook_steps += 1
+
+    def finish(self, attrs: dict | None = None) -> Demo:
+        """The :class:`Demo` of the steps so far; the env is left in the final state (forwarded).
+
+        Raises ``RuntimeError`` when the hook saw a different number of control steps than were
+        recorded (a control path that bypasses the recording).
+        """
+        from tableclean_suite.environments.abstraction import AbstractionError
+
+        if self.hook_steps != len(self.actions):
+            raise RuntimeError(f"recorded {len(self.actions)} commands but the controller made {self.hook_steps} "
+                               "control steps: a control path bypassed the recorder")
+        env = self.env
+        final_state = np.array(env.sim.get_state().flatten())
+        all_states = self.states + [final_state]
+        observations: dict[str, list] = {}
+        codes, success = [], []
+        for index, state in enumerate(all_states):
+            env.sim.set_state_from_flattened(state)
+            env.sim.forward()
+            obs = env._get_observations(force_update=True)
+            for key in OBS_KEYS:
+                if key in obs:
+                    observations.setdefault(key, []).append(np.atleast_1d(np.asarray(obs[key], dtype=float)))
+            try:
+                codes.append(env.symbolic_state(check_sponge=False).index)
+            except AbstractionError:
+                codes.append(NO_TASK_STATE)
+            success.append(bool(env._check_success()) if index > 0 else False)
+        n = len(self.actions)
+        stacked = {key: np.stack(values) for key, values in observations.items()}
+        dones = np.zeros(n, dtype=np.int64)
+        if n:
+            dones[-1] = 1
+        demo_attrs = dict(attrs or {})
+        demo_attrs.update(
+            plan=list(self.plan),
+            final_symbolic_state=int(codes[-1]),
+            success=bool(success[-1]) and codes[-1] != NO_TASK_STATE and env.task_model.decode(codes[-1]).is_terminal,
+            model_file=env.sim.model.get_xml(),
+            ep_meta=_jsonable(env.get_ep_meta()),
+        )
+        state_dim = final_state.shape[0]
+        return Demo(
+            states=np.array(self.states, dtype=float).reshape(n, state_dim),
+            actions=np.array(self.actions, dtype=float).reshape(n, ACTION_DIM),
+            rewards=np.array(success[1:], dtype=float),
+            dones=dones,
+            obs={key: value[:-1] for key, value in stacked.items()},
+            next_obs={key: value[1:] for key, value in stacked.items()},
+            symbolic_states=np.array(codes[:-1], dtype=np.int64),
+            skill_index=np.array(self.skill_index, dtype=np.int64),
+            skill_action=np.array(self.skill_action, dtype=np.int64),
+            skill_bounds=np.array(self.bounds, dtype=np.int64).reshape(-1, 2),
+            final_state=final_state,
+            attrs=demo_attrs,
+        )
+
+
+def recording_controller(env, model, recorder: EpisodeRecorder):
+    """A :class:`~tableclean_suite.controllers.SkillController` whose every control step ``recorder`` sees.
+
+    With the fast control path (``make_skill_env(fast_control=True)``) the controller bypasses
+    ``env.step`` (so robosuite's ``DataCollectionWrapper`` would see nothing): the recorder wraps
+    whatever step function the controller uses, and its ``on_step`` hook cross-checks the count.
+    """
+    from tableclean_suite.controllers import SkillController
+
+    class RecordingSkillController(SkillController):
+        def _stepper(self):
+            step = super()._stepper()
+
+            def recorded_step(command):
+                recorder.before_step(command)
+                return step(command)
+
+            return recorded_step
+
+    return RecordingSkillController(env, model, on_step=recorder.on_step)
+
+
+# ---------------------------------------------------------------------------------------------
+# writing and reading
+# ---------------------------------------------------------------------------------------------
+def split_keys(keys: Sequence[str], valid_fraction: float = VALID_FRACTION, seed: int = 0) -> tuple[list[str], list[str]]:
+    """``(train, valid)`` demo keys: ``round(valid_fraction * n)`` (at least 1 when n >= 2) drawn with ``seed``."""
+    if not 0.0 <= valid_fraction < 1.0:
+        raise ValueError(f"valid_fraction must be in [0, 1), got {valid_fraction!r}")
+    keys = list(keys)
+    n_valid = int(round(valid_fraction * len(keys)))
+    if len(keys) >= 2 and valid_fraction > 0:
+        n_valid = max(1, n_valid)
+    chosen = set(np.random.default_rng(seed).choice(len(keys), size=n_valid, replace=False).tolist()) if n_valid else set()
+    return [k for i, k in enumerate(keys) if i not in chosen], [k for i, k in enumerate(keys) if i in chosen]
+
+
+def write_dataset(path, demos: Sequence[Demo], env_args: dict, attrs: dict | None = None,
+                  valid_fraction: float = VALID_FRACTION, seed: int = 0) -> Path:
+    """Write ``demos`` to ``path`` (hdf5, the layout of this module's docstring), atomically.
+
+    ``attrs`` are extra ``data`` attributes (dicts and lists are stored as JSON).  The file is
+    written under a temporary name in the same folder and renamed, so ``path`` is at any moment
+    either absent, the old file or the complete new one.  Returns ``path``.
+    """
+    import h5py
+    import robosuite
+
+    import tableclean_suite
+    from tableclean_suite.bench.outputs import atomic_write
+
+    for index, demo in enumerate(demos):
+        try:
+            demo.check()
+        except ValueError as error:
+            raise ValueError(f"demo {index}: {error}") from None
+    keys = [f"demo_{k}" for k in range(len(demos))]
+    train, valid = split_keys(keys, valid_fraction, seed)
+    env_info = {"env_name": env_args["env_name"]}
+    env_info.update({k: env_args["env_kwargs"][k] for k in ("robots", "controller_configs", "task", "task_config")})
+
+    def write(temporary: Path) -> None:
+        with h5py.File(temporary, "w") as f:
+            data = f.create_group("data")
+            data.attrs["env_args"] = json.dumps(env_args)
+            data.attrs["env"] = env_args["env_name"]
+            data.attrs["env_info"] = json.dumps(env_info)
+            data.attrs["total"] = int(sum(d.num_samples for d in demos))
+            data.attrs["date"] = datetime.datetime.now().isoformat(timespec="seconds")
+            data.attrs["repository_version"] = robosuite.__version__
+            data.attrs["tableclean_version"] = getattr(tableclean_suite, "__version__", "")
+            for name, value in (attrs or {}).items():
+                data.attrs[name] = _attr_value(value)
+            for key, demo in zip(keys, demos):
+                group = data.create_group(key)
+                group.attrs["num_samples"] = demo.num_samples
+                for name, value in demo.attrs.items():
+                    group.attrs[name] = _attr_value(value)
+                for name in PER_SAMPLE_DATASETS + ("skill_bounds", "final_state"):
+                    group.create_dataset(name, data=getattr(demo, name))
+                for obs_group in ("obs", "next_obs"):
+                    sub = group.create_group(obs_group)
+                    for name, value in getattr(demo, obs_group).items():
+                        sub.create_dataset(name, data=value)
+            mask = f.create_group("mask")
+            mask.create_dataset("train", data=np.array(train, dtype="S"))
+            mask.create_dataset("valid", data=np.array(valid, dtype="S"))
+
+    return atomic_write(Path(path), write)
+
+
+def _attr_value(value):
+    """An hdf5 attribute value: dicts and lists as JSON text, None as "null", the rest as is."""
+    if value is None or isinstance(value, (dict, list, tuple)):
+        return json.dumps(_jsonable(value))
+    return value
+
+
+#: Demo attributes stored as JSON text (decoded by :func:`read_demo`).
+JSON_DEMO_ATTRS = ("ep_meta", "plan")
+
+
+def read_env_args(path) -> dict:
+    """``data.attrs["env_args"]`` of the dataset at ``path``, decoded."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        return json.loads(f["data"].attrs["env_args"])
+
+
+def demo_keys(path) -> list[str]:
+    """The demo groups of ``path`` in numeric order (``demo_0``, ``demo_1``, ...)."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        return sorted(f["data"].keys(), key=lambda k: int(k.split("_")[-1]))
+
+
+def read_demo(path, key: str = "demo_0") -> Demo:
+    """The demo ``key`` of the dataset at ``path`` (``KeyError`` naming the demos there)."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        data = f["data"]
+        if key not in data:
+            raise KeyError(f"no demo {key!r} in {path}; demos: {', '.join(sorted(data.keys()))}")
+        group = data[key]
+        attrs = {}
+        for name, value in group.attrs.items():
+            attrs[name] = json.loads(value) if name in JSON_DEMO_ATTRS else (value.item() if isinstance(value, np.generic) else value)
+        arrays = {name: group[name][()] for name in PER_SAMPLE_DATASETS + ("skill_bounds", "final_state")}
+        obs = {name: group["obs"][name][()] for name in group["obs"]}
+        next_obs = {name: group["next_obs"][name][()] for name in group["next_obs"]}
+    return Demo(obs=obs, next_obs=next_obs, attrs=attrs, **arrays)
+
+
+def action_names_of(path) -> list[str]:
+    """The spec's action names the dataset's ``skill_action`` indexes."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        return json.loads(f["data"].attrs["action_names"])
+
+
+__all__ = [
+    "ACTION_DIM", "Demo", "ENV_NAME", "EpisodeRecorder", "NO_TASK_STATE", "OBS_KEYS", "ROBOSUITE_ENV_TYPE",
+    "VALID_FRACTION", "action_names_of", "demo_keys", "env_args_of", "make_env_from_args", "read_demo",
+    "read_env_args", "recording_controller", "split_keys", "write_dataset",
+]

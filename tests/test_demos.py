@@ -1,0 +1,198 @@
+"""Demonstration datasets: robomimic's layout, replay of the recorded states, the command line."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+h5py = pytest.importorskip("h5py")
+
+from tableclean_suite.bench import collect_demos  # noqa: E402
+from tableclean_suite.demos import (  # noqa: E402
+    ACTION_DIM, NO_TASK_STATE, Demo, demo_keys, read_demo, read_env_args, split_keys, write_dataset,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+#: Demos recorded by the physics fixture (two: a train and a valid one).
+EPISODES = 2
+#: Keys of robomimic's ``env_args`` and the env_kwargs that rebuild the scene.
+ENV_ARGS_KEYS = {"env_name", "type", "env_kwargs"}
+REBUILD_KWARGS = {"robots", "controller_configs", "task", "task_config", "control_freq"}
+#: Observables every demo of the paper spec has (one object).
+PAPER_OBS = {"robot0_eef_pos", "robot0_eef_quat", "robot0_gripper_qpos", "object_pos", "object_quat", "sponge_pos",
+             "dirt_fraction", "symbolic_state_index"}
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory):
+    out = tmp_path_factory.mktemp("demos") / "paper.hdf5"
+    code = collect_demos.main(["--task", "paper", "--episodes", str(EPISODES), "--seed", "3", "--out", str(out)])
+    assert code == 0 and out.exists()
+    assert not list(out.parent.glob(".*.tmp"))  # the temporary file was renamed
+    return out
+
+
+@pytest.mark.slow
+def test_layout_is_robomimics(dataset):
+    with h5py.File(dataset, "r") as f:
+        assert set(f) == {"data", "mask"}
+        data = f["data"]
+        env_args = json.loads(data.attrs["env_args"])
+        assert ENV_ARGS_KEYS <= set(env_args) and env_args["env_name"] == "TableClean" and env_args["type"] == 1
+        assert REBUILD_KWARGS <= set(env_args["env_kwargs"]) and env_args["env_kwargs"]["task"] == "paper"
+        assert json.loads(data.attrs["env_info"])["env_name"] == data.attrs["env"] == "TableClean"
+        action_names = json.loads(data.attrs["action_names"])
+        assert action_names == ["move", "pick", "place", "clean"]
+        keys = sorted(data.keys())
+        assert keys == [f"demo_{k}" for k in range(EPISODES)]
+        total = 0
+        for key in keys:
+            demo = data[key]
+            n = int(demo.attrs["num_samples"])
+            total += n
+            assert n > 0
+            states = demo["states"]
+            assert states.ndim == 2 and states.shape[0] == n and demo["final_state"].shape == states.shape[1:]
+            assert demo["actions"].shape == (n, ACTION_DIM)
+            assert demo["rewards"].shape == demo["dones"].shape == (n,)
+            assert demo["dones"][()].tolist() == [0] * (n - 1) + [1]
+            assert demo["rewards"][-1] == 1.0 and set(np.unique(demo["rewards"][()])) <= {0.0, 1.0}
+            assert set(demo["obs"]) == set(demo["next_obs"]) == PAPER_OBS
+            for name in PAPER_OBS:
+                assert demo["obs"][name].shape[0] == demo["next_obs"][name].shape[0] == n
+                np.testing.assert_array_equal(demo["obs"][name][1:], demo["next_obs"][name][:-1])
+            for name in ("symbolic_states", "skill_index", "skill_action"):
+                assert demo[name].shape == (n,)
+            # skill boundaries: consecutive, covering every sample, matching skill_index/skill_action and the plan
+            plan = json.loads(demo.attrs["plan"])
+            bounds = demo["skill_bounds"][()]
+            assert bounds.shape == (len(plan), 2) and bounds[0, 0] == 0 and bounds[-1, 1] == n
+            assert (bounds[1:, 0] == bounds[:-1, 1]).all()
+            for index, (first, end) in enumerate(bounds):
+                assert (demo["skill_index"][first:end] == index).all()
+                assert (demo["skill_action"][first:end] == action_names.index(plan[index])).all()
+            assert demo.attrs["success"] and isinstance(demo.attrs["model_file"], str)
+            assert json.loads(demo.attrs["ep_meta"])["task_spec"]["name"] == "paper"
+        assert data.attrs["total"] == total
+        train = [k.decode() for k in f["mask/train"][()]]
+        valid = [k.decode() for k in f["mask/valid"][()]]
+        assert sorted(train + valid) == keys and len(valid) == 1
+
+
+@pytest.mark.slow
+def test_replayed_states_read_the_recorded_symbolic_states(dataset):
+    import robosuite
+
+    import tableclean_suite  # noqa: F401  (registers TableClean)
+    from tableclean_suite.environments.abstraction import AbstractionError
+
+    env_args = read_env_args(dataset)
+    env = robosuite.make(env_args["env_name"], **env_args["env_kwargs"])  # as robomimic rebuilds it
+    try:
+        demo = read_demo(dataset, demo_keys(dataset)[0])
+        model = env.task_model
+        codes = []
+        for t, state in enumerate(demo.states):
+            env.sim.set_state_from_flattened(state)
+            env.sim.forward()
+            try:
+                codes.append(env.symbolic_state(check_sponge=False).index)
+            except AbstractionError:
+                codes.append(NO_TASK_STATE)
+            if t % 50 == 0:
+                np.testing.assert_allclose(env.skill_info()["eef_pos"], demo.obs["robot0_eef_pos"][t])
+        assert codes == demo.symbolic_states.tolist()
+        assert codes[0] == demo.attrs["start_state"] and not model.decode(codes[0]).is_terminal
+        # dirt lives in the state: the demo starts all dirty and the restored states read the cleaning
+        assert demo.obs["dirt_fraction"][0].tolist() == [1.0, 1.0]
+        cleaned = [model.decode(c).clean for c in codes if c != NO_TASK_STATE]
+        assert (True, False) in cleaned or (False, True) in cleaned
+        env.sim.set_state_from_flattened(demo.final_state)
+        env.sim.forward()
+        final = env.symbolic_state()
+        assert final.is_terminal and final.index == demo.attrs["final_symbolic_state"] and env._check_success()
+        assert env.dirt_fraction().max() < 1.0
+    finally:
+        env.close()
+
+
+def _tiny_demo(n: int = 3, state_dim: int = 5, plan=("move", "clean")) -> Demo:
+    return Demo(
+        states=np.arange(n * state_dim, dtype=float).reshape(n, state_dim),
+        actions=np.ones((n, ACTION_DIM)),
+        rewards=np.array([0.0] * (n - 1) + [1.0]),
+        dones=np.array([0] * (n - 1) + [1]),
+        obs={"robot0_eef_pos": np.zeros((n, 3))},
+        next_obs={"robot0_eef_pos": np.ones((n, 3))},
+        symbolic_states=np.array([0] * n),
+        skill_index=np.array([0] + [1] * (n - 1)),
+        skill_action=np.array([0] + [3] * (n - 1)),
+        skill_bounds=np.array([[0, 1], [1, n]]),
+        final_state=np.full(state_dim, 7.0),
+        attrs={"plan": list(plan), "success": True, "start_state": 0},
+    )
+
+
+ENV_ARGS = {"env_name": "TableClean", "type": 1, "env_kwargs": {"robots": "Panda", "controller_configs": {},
+                                                                 "task": "paper", "task_config": {}}}
+
+
+def test_write_read_roundtrip_and_split(tmp_path):
+    path = write_dataset(tmp_path / "tiny.hdf5", [_tiny_demo(), _tiny_demo(4)], ENV_ARGS, {"action_names": ["move"]})
+    assert demo_keys(path) == ["demo_0", "demo_1"] and read_env_args(path) == ENV_ARGS
+    demo = read_demo(path, "demo_1")
+    assert demo.num_samples == 4 and demo.attrs["plan"] == ["move", "clean"] and demo.attrs["num_samples"] == 4
+    np.testing.assert_array_equal(demo.states, _tiny_demo(4).states)
+    with h5py.File(path, "r") as f:
+        assert f["data"].attrs["total"] == 7
+    with pytest.raises(KeyError, match="demo_0, demo_1"):
+        read_demo(path, "demo_9")
+    train, valid = split_keys([f"demo_{k}" for k in range(20)], 0.1, seed=0)
+    assert len(valid) == 2 and len(train) == 18 and not set(train) & set(valid)
+    assert split_keys(["demo_0"], 0.1) == (["demo_0"], [])
+    with pytest.raises(ValueError, match=r"\[0, 1\)"):
+        split_keys(["demo_0"], 1.0)
+
+
+def test_write_is_atomic_and_checks_shapes(tmp_path):
+    path = write_dataset(tmp_path / "keep.hdf5", [_tiny_demo()], ENV_ARGS)
+    before = path.read_bytes()
+    bad = _tiny_demo()
+    bad.attrs["unstorable"] = object()  # h5py fails in the middle of writing
+    with pytest.raises(TypeError):
+        write_dataset(path, [_tiny_demo(), bad], ENV_ARGS)
+    assert path.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["keep.hdf5"]
+    wrong = _tiny_demo()
+    wrong.rewards = np.zeros(2)
+    with pytest.raises(ValueError, match="demo 0: rewards has 2 rows, expected num_samples = 3"):
+        write_dataset(tmp_path / "wrong.hdf5", [wrong], ENV_ARGS)
+    assert not (tmp_path / "wrong.hdf5").exists()
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["--policy", "greedy"], "choose from optimal, learned"),
+    (["--robots", "Baxter"], "choose from Panda, Sawyer"),
+    (["--task", "nosuch"], "allowed: paper"),
+    (["--task", "paper", "--out", "demos.txt"], "--out must end in .hdf5 or .h5"),
+    (["--episodes", "0"], "expected a positive integer, got '0'"),
+    (["--valid-fraction", "1.5"], "--valid-fraction must be in [0, 1), got 1.5"),
+])
+def test_bad_flags_exit_2_with_one_line(argv, expected, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        collect_demos.main(argv)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert expected in err.replace("'", "") if "choose" in expected else expected in err  # argparse may quote choices
+
+
+def test_bad_flag_from_the_command_line_has_no_traceback(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "benchmarks.collect_demos", "--policy", "best"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    (line,) = done.stderr.strip().splitlines()
+    assert line.startswith("python -m benchmarks.collect_demos: error: argument --policy: invalid choice")
+    assert "best" in line and "optimal" in line and "learned" in line
