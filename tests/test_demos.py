@@ -196,3 +196,37 @@ def test_bad_flag_from_the_command_line_has_no_traceback(tmp_path):
     (line,) = done.stderr.strip().splitlines()
     assert line.startswith("python -m benchmarks.collect_demos: error: argument --policy: invalid choice")
     assert "best" in line and "optimal" in line and "learned" in line
+
+
+def test_recorder_refuses_a_recording_that_missed_control_steps():
+    from tableclean_suite.demos import EpisodeRecorder
+
+    recorder = EpisodeRecorder(env=None)
+    recorder.on_step()  # the controller made a step the recorder never saw
+    with pytest.raises(RuntimeError, match="bypassed the recorder"):
+        recorder.finish()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fast_control", [True, False])
+def test_recording_sees_every_control_step_on_both_control_paths(fast_control):
+    from tableclean_suite.controllers import make_skill_env
+    from tableclean_suite.demos import EpisodeRecorder, recording_controller
+    from tableclean_suite.task import Action, TaskModel
+
+    env = make_skill_env(task="paper", fast_control=fast_control)
+    try:
+        env.reset()
+        model = TaskModel()
+        recorder = EpisodeRecorder(env)
+        controller = recording_controller(env, model, recorder)
+        recorder.begin("move", model.action_index("move"))
+        result = controller.execute(Action.MOVE)
+        assert result.success and result.steps > 0
+        demo = recorder.finish({"start_state": 0})
+        assert demo.num_samples == result.steps == recorder.hook_steps
+        assert demo.skill_bounds.tolist() == [[0, result.steps]]
+        assert demo.symbolic_states[0] == 0 and demo.attrs["final_symbolic_state"] == 1
+        assert not demo.attrs["success"]  # nothing cleaned yet
+    finally:
+        env.close()

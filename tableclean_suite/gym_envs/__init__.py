@@ -8,6 +8,12 @@ Both truncate after 500 steps (``max_episode_steps``)::
 
     import gymnasium, tableclean_suite
     env = gymnasium.make("TableCleanSymbolic-v0", reward="r4", render_mode="ansi")
+
+Both run in parallel processes (``info`` is plain picklable data) and expose ``action_masks()``
+(``(A,)`` bool, sb3-contrib's MaskablePPO interface)::
+
+    envs = gymnasium.make_vec("TableCleanSkills-v0", num_envs=2, vectorization_mode="async")
+    masks = envs.call("action_masks")
 """
 
 from gymnasium.envs.registration import register, registry
