@@ -174,7 +174,7 @@ def test_write_is_atomic_and_checks_shapes(tmp_path):
 
 @pytest.mark.parametrize("argv, expected", [
     (["--policy", "greedy"], "choose from optimal, learned"),
-    (["--robots", "Baxter"], "choose from Panda, Sawyer"),
+    (["--robots", "Sawyer"], "choose from Panda"),
     (["--task", "nosuch"], "allowed: paper"),
     (["--task", "paper", "--out", "demos.txt"], "--out must end in .hdf5 or .h5"),
     (["--episodes", "0"], "expected a positive integer, got '0'"),
@@ -185,7 +185,9 @@ def test_bad_flags_exit_2_with_one_line(argv, expected, capsys):
         collect_demos.main(argv)
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "Traceback" not in err
+    assert "Traceback" not in err
+    # robosuite logs its own warnings to stderr when --task first imports it; ours is one line
+    (err,) = [line for line in err.splitlines() if not line.startswith("[robosuite")]
     assert expected in err.replace("'", "") if "choose" in expected else expected in err  # argparse may quote choices
 
 
