@@ -64,6 +64,7 @@ class RayExecutor:
         self.max_retries = max_retries
         self.num_cpus = num_cpus
         self._ray = None
+        self._in_context = False
 
     def __repr__(self) -> str:
         return (f"RayExecutor(address={self.address!r}, workers={self.workers}, "
@@ -92,10 +93,12 @@ class RayExecutor:
         self._ray = None
 
     def __enter__(self) -> "RayExecutor":
-        self.start()
+        """Ray starts (or is joined) on the first :meth:`map`, so a run with nothing to do costs nothing."""
+        self._in_context = True
         return self
 
     def __exit__(self, *exc_info) -> None:
+        self._in_context = False
         self.close()
 
     def map(self, function: Callable, tasks: Iterable) -> Iterator:
@@ -104,7 +107,7 @@ class RayExecutor:
         return self._run(function, list(tasks))
 
     def _run(self, function: Callable, tasks: list) -> Iterator:
-        owned = self._ray is None
+        owned = self._ray is None and not self._in_context
         self.start()
         ray = self._ray
         remote = ray.remote(num_cpus=CPUS_PER_TASK, max_retries=self.max_retries,
