@@ -168,6 +168,9 @@ def test_describe_prints_model_analysis():
         (["--alpha-sweep", "0.3,2"], "2"),
         (["--bogus-flag"], "--bogus-flag"),
         (["--backend", "calibrated"], "--transitions"),
+        (["--executor", "spark"], "--executor"),
+        (["--ray-address", "auto"], "--ray-address"),
+        (["--executor", "ray", "--workers", "0"], "--workers"),
     ],
 )
 def test_bad_input_exits_2_without_traceback(args, named, tmp_path):

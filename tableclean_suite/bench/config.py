@@ -128,7 +128,16 @@ class RunConfig:
     transitions: str | None = None
     """Transition table JSON (from python -m benchmarks.calibrate); only with --backend calibrated."""
     workers: int | None = None
-    """Processes (physics backend) or compiled threads (other backends), >= 1; default: all cores."""
+    """Workers, >= 1. Local executor: processes training one cell each with one compiled thread
+    (1: cells in this process with one thread; physics backend: cells in this process, each cell's
+    runs over this many processes); ray executor: most cells in flight. Default: cells in this
+    process, compiled threads (physics: processes) on all cores; ray: as many as the cluster runs."""
+    executor: str = "local"
+    """Where cells train: local (this machine) or ray (a private Ray on loopback, or the cluster at
+    --ray-address). Results are the same bit for bit."""
+    ray_address: str | None = None
+    """Ray cluster to run the cells on: HOST:PORT of its head (ray start --head) or auto; default:
+    a private Ray on this machine. Only with --executor ray."""
     out: str = "results"
     """Output directory (created if missing)."""
     figures: bool = True
@@ -145,8 +154,8 @@ class RunConfig:
     #: (the model's code digest, the table file's SHA-256), not by name or path.
     NOT_IN_CELL_KEY: ClassVar[tuple[str, ...]] = (
         "learners", "rewards", "alpha", "gamma", "alpha_sweep", "gamma_sweep", "sweep_learner", "sweep_reward",
-        "sweeps", "literature", "literature_reward", "task", "transitions", "workers", "out", "figures", "fresh",
-        "progress", "verbose",
+        "sweeps", "literature", "literature_reward", "task", "transitions", "workers", "executor", "ray_address",
+        "out", "figures", "fresh", "progress", "verbose",
     )
     #: Name lists de-duplicated in order; value lists too (compared as floats).
     _LISTS: ClassVar[tuple[str, ...]] = ("learners", "rewards", "alpha_sweep", "gamma_sweep")
@@ -198,6 +207,7 @@ class RunConfig:
         if self.workers is not None and (isinstance(self.workers, bool) or not isinstance(self.workers, int)
                                          or self.workers < 1):
             raise ConfigError("workers", f"workers must be an integer >= 1, got {self.workers!r}")
+        self._validate_executor()
         backends = backend_names()
         if self.backend not in backends:
             raise ConfigError("backend", f"unknown {self.backend!r}; allowed: {', '.join(backends)}")
@@ -205,6 +215,18 @@ class RunConfig:
             raise ConfigError("transitions", "needed by backend calibrated (a table from benchmarks.calibrate)")
         if self.backend != "calibrated" and self.transitions is not None:
             raise ConfigError("transitions", "only used with backend calibrated")
+
+    def _validate_executor(self) -> None:
+        """Check ``executor`` and ``ray_address``."""
+        from tableclean_suite.executors import EXECUTOR_NAMES
+
+        if self.executor not in EXECUTOR_NAMES:
+            raise ConfigError("executor", f"unknown {self.executor!r}; allowed: {', '.join(EXECUTOR_NAMES)}")
+        if self.ray_address is not None:
+            if self.executor != "ray":
+                raise ConfigError("ray_address", "only used with executor ray")
+            if not isinstance(self.ray_address, str) or not self.ray_address.strip():
+                raise ConfigError("ray_address", f"give HOST:PORT or auto, got {self.ray_address!r}")
 
     def _validate_learning(self) -> None:
         """Check and normalise ``exploration``, ``q_init`` and ``learner_options``."""

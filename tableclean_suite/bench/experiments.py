@@ -29,7 +29,7 @@ import json
 import os
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -383,6 +383,77 @@ def _report_physics(cell: Cell, stats: dict) -> None:
     )
 
 
+#: Compiled (numba) threads of a cell trained by an executor's worker: the workers, not the
+#: threads, share the cores.
+WORKER_NUMBA_THREADS = 1
+#: Physics processes of a cell trained by an executor's worker (its runs in that worker).
+WORKER_PHYSICS_PROCESSES = 1
+
+
+class CellKeyMismatchError(RuntimeError):
+    """A worker computes another cell key than the driver (other code, registrations or files there)."""
+
+
+@dataclass(frozen=True)
+class CellTask:
+    """One cell to train in an executor's worker: plain values only (the worker builds the task
+    model and reads the transition table itself).
+
+    Attributes:
+        cell: the cell.
+        config: the run's configuration (``workers``: the physics processes of this cell).
+        key_hash: :func:`config_hash` of the driver's :func:`cell_config`; the worker checks it
+            computes the same.
+        numba_threads: compiled threads in the worker, >= 1 (None: leave numba's setting).
+    """
+
+    cell: Cell
+    config: RunConfig
+    key_hash: str
+    numba_threads: int | None = WORKER_NUMBA_THREADS
+
+    @property
+    def label(self) -> str:
+        """The cell's label (how executor errors name the task)."""
+        return self.cell.label
+
+
+def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, float]:
+    """:func:`train_cell` of a :class:`CellTask`, in whatever process runs it.
+
+    Raises:
+        CellKeyMismatchError: the worker's cell key differs from the driver's (e.g. another
+            version of the code, a learner or reward registered only in the driver, or another
+            transition table file at the same path on a cluster node).
+    """
+    if task.numba_threads is not None:
+        import numba
+
+        numba.set_num_threads(min(task.numba_threads, numba.config.NUMBA_NUM_THREADS))
+    config = task.config
+    model = config.task_model()
+    transitions = transitions_sha256 = None
+    if config.backend == "calibrated":
+        from tableclean_suite.learners import TransitionTable
+
+        transitions = TransitionTable.from_json(config.transitions, model)
+        transitions_sha256 = file_sha256(config.transitions)
+    digest = config_hash(cell_config(task.cell, config, model, transitions_sha256))
+    if digest != task.key_hash:
+        raise CellKeyMismatchError(
+            f"cell {task.cell.label}: this worker's cell key {digest} differs from the driver's {task.key_hash}; "
+            "install the same code (and the modules registering its learners, rewards and tasks) and the same "
+            "transition table on every machine")
+    return train_cell(task.cell, config, model, transitions)
+
+
+def cell_tasks(cells, keys: dict, config: RunConfig) -> list[CellTask]:
+    """The :class:`CellTask` of each cell (``keys``: cell -> :func:`cell_config`), each worker
+    training its cell single-threaded (physics: its runs in one process)."""
+    worker_config = replace(config, workers=WORKER_PHYSICS_PROCESSES) if config.backend == "physics" else config
+    return [CellTask(cell, worker_config, config_hash(keys[cell])) for cell in cells]
+
+
 @dataclass
 class GridRun:
     """What :func:`run_grid` did: summaries per cell, and how they were obtained."""
@@ -402,6 +473,7 @@ def run_grid(
     store: CellStore,
     transitions=None,
     transitions_sha256: str | None = None,
+    executor=None,
 ) -> GridRun:
     """Load the stored cells of ``grid``, then train the others; each trained cell is saved at once.
 
@@ -413,9 +485,13 @@ def run_grid(
         store: where summaries live.
         transitions: a loaded :class:`TransitionTable` for the calibrated backend.
         transitions_sha256: its file's digest (part of every cell's key).
+        executor: an :class:`~tableclean_suite.executors.Executor` that trains the cells, one
+            :class:`CellTask` each (:func:`train_cell_task`); results, saved in grid order as they
+            arrive, are bit-identical to training in this process.  None: train in this process.
 
     Raises:
         CellFileError: a stored cell matching the config is unreadable (unless ``fresh``).
+        tableclean_suite.executors.TaskFailedError: a cell failed in the executor (named).
     """
     from tqdm.auto import tqdm
 
@@ -431,9 +507,18 @@ def run_grid(
             outcome.resumed += 1
     bar = tqdm(total=len(keys), initial=outcome.resumed, desc="cells", unit="cell", disable=not config.progress,
                leave=False)
-    for cell in pending:
-        bar.set_postfix_str(f"{outcome.resumed} resumed, training {cell.label}" if outcome.resumed else cell.label)
-        summary, cell_stats, train_s, metrics_s = train_cell(cell, config, model, transitions)
+
+    def train_here():
+        for cell in pending:
+            bar.set_postfix_str(f"{outcome.resumed} resumed, training {cell.label}" if outcome.resumed else cell.label)
+            yield train_cell(cell, config, model, transitions)
+
+    if executor is None or not pending:
+        results = train_here()
+    else:
+        bar.set_postfix_str(f"{outcome.resumed} resumed, training {len(pending)} on {executor!r}")
+        results = executor.map(train_cell_task, cell_tasks(pending, keys, config))
+    for cell, (summary, cell_stats, train_s, metrics_s) in zip(pending, results):
         store.save(cell, keys[cell], summary, cell_stats)
         outcome.summaries[cell] = summary
         outcome.statistics[cell] = cell_stats

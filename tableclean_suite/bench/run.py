@@ -25,6 +25,7 @@ the command line into one and is the only module of the harness that touches the
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime
 import math
 import platform
@@ -38,6 +39,8 @@ from tableclean_suite.bench.config import INEFFECTIVE_MODES, START_MODES, Config
 CURVES_MAX_BYTES = 20_000_000
 _CURVE_BYTES_PER_ROW = 60  # measured on the defaults: ~45-55 bytes per row
 EXIT_USAGE = 2
+#: A cell failed to train (the executor names it).
+EXIT_FAILED = 1
 EXIT_INTERRUPTED = 130
 #: How the checkout's entry point is invoked (the default program name).
 PROG = "python -m benchmarks.run"
@@ -70,6 +73,7 @@ def invoked_as(argv0: str | None = None) -> str:
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line; defaults and help texts come from :class:`RunConfig`."""
     from tableclean_suite.bench.config import backend_names
+    from tableclean_suite.executors import EXECUTOR_NAMES
     from tableclean_suite.learners import exploration_names, learner_names
     from tableclean_suite.rewards import reward_pattern_names
     from tableclean_suite.task import task_spec_names
@@ -133,6 +137,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     add(backend, "backend", choices=backend_names())
     add(backend, "transitions", metavar="PATH")
     add(backend, "workers", type=int)
+    add(backend, "executor", choices=EXECUTOR_NAMES)
+    add(backend, "ray_address", metavar="HOST:PORT|auto")
     output = parser.add_argument_group("output")
     add(output, "out", metavar="DIR")
     add_switch(output, "figures", "do not draw the PNG figures")
@@ -231,6 +237,7 @@ def _manifest(config: RunConfig, model, transitions_sha256, grid_run, stride: in
 def run(args) -> int:
     """Train/load the grid, print the tables, write files and figures; returns the exit code."""
     from tableclean_suite.bench import experiments, outputs, tables
+    from tableclean_suite.executors import MissingRayError, TaskFailedError
 
     started = time.perf_counter()
     config: RunConfig = args.config
@@ -242,17 +249,25 @@ def run(args) -> int:
         print(f"{args.parser.prog}: error: --out {problem}", file=sys.stderr)
         return EXIT_USAGE
     transitions_sha256 = experiments.file_sha256(config.transitions) if transitions is not None else None
-    if config.workers is not None and config.backend != "physics":
+    executor = cell_executor(config)
+    if executor is None and config.workers is not None and config.backend != "physics":
         import numba
 
         numba.set_num_threads(min(config.workers, numba.config.NUMBA_NUM_THREADS))
     grid = experiments.config_grid(config)
     store = experiments.CellStore(out / "cells")
     try:
-        grid_run = experiments.run_grid(grid, config, model, store, transitions, transitions_sha256)
+        with executor if executor is not None else contextlib.nullcontext():
+            grid_run = experiments.run_grid(grid, config, model, store, transitions, transitions_sha256, executor)
     except experiments.CellFileError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
+    except (MissingRayError, ConnectionError) as error:
+        print(f"{args.parser.prog}: error: --executor {config.executor}: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    except TaskFailedError as error:
+        print(f"error: {error}; finished cells are saved in {store.root}", file=sys.stderr)
+        return EXIT_FAILED
     except KeyboardInterrupt:
         print(f"\ninterrupted: finished cells are saved in {store.root}; rerun the same command to resume",
               file=sys.stderr)
@@ -295,6 +310,24 @@ def run(args) -> int:
         print(f"  (curves.csv keeps every {stride}th iteration to stay under {CURVES_MAX_BYTES // 1_000_000} MB)")
     print(f"done in {time.perf_counter() - started:.1f} s")
     return 0
+
+
+def cell_executor(config: RunConfig):
+    """The executor that trains the run's cells, or None to train them in this process.
+
+    ``--executor ray``: a :class:`~tableclean_suite.executors.RayExecutor` (``--ray-address``,
+    ``--workers`` cells in flight).  ``--executor local``: a
+    :class:`~tableclean_suite.executors.LocalExecutor` of ``--workers`` processes when that is
+    above 1 and the backend is not physics (whose runs already spread over ``--workers``
+    processes), else None.
+    """
+    from tableclean_suite.executors import LocalExecutor, RayExecutor
+
+    if config.executor == "ray":
+        return RayExecutor(address=config.ray_address, workers=config.workers)
+    if config.workers is None or config.workers == 1 or config.backend == "physics":
+        return None
+    return LocalExecutor(workers=config.workers)
 
 
 def _comparisons(grid, grid_run, config: RunConfig):
