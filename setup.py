@@ -39,8 +39,12 @@ setup(
         "wrapt",  # post-import hook: TableClean registers when robosuite is imported, not before
     ],
     extras_require={
-        "dev": ["pytest", "wheel", "optuna"],  # wheel: the install test builds offline; optuna: the tune tests
+        # dev: everything the test suite exercises (wheel: the install test builds offline; optuna: tuning;
+        # h5py: demonstration datasets)
+        "dev": ["pytest", "wheel", "optuna", "h5py"],
         "video": ["imageio", "imageio-ffmpeg"],
         "tune": ["optuna"],  # python -m benchmarks.tune
+        "demos": ["h5py"],  # python -m benchmarks.collect_demos, tableclean_suite.demos
+        "sb3": ["stable-baselines3", "sb3-contrib"],  # optional: MaskablePPO on the Gym envs (pulls torch)
     },
 )
