@@ -40,11 +40,12 @@ setup(
     ],
     extras_require={
         # dev: everything the test suite exercises (wheel: the install test builds offline; optuna: tuning;
-        # h5py: demonstration datasets)
-        "dev": ["pytest", "wheel", "optuna", "h5py"],
+        # h5py: demonstration datasets; ray: the executor tests start a local Ray on loopback)
+        "dev": ["pytest", "wheel", "optuna", "h5py", "ray"],
         "video": ["imageio", "imageio-ffmpeg"],
         "tune": ["optuna"],  # python -m benchmarks.tune
         "demos": ["h5py"],  # python -m benchmarks.collect_demos, tableclean_suite.demos
+        "cluster": ["ray"],  # --executor ray: the harness's cells on a Ray cluster
         "sb3": ["stable-baselines3", "sb3-contrib"],  # optional: MaskablePPO on the Gym envs (pulls torch)
     },
 )

@@ -84,3 +84,24 @@ def test_iqm_interval_equals_scipys_bootstrap_bit_for_bit():
     grid = np.random.default_rng(1).normal(size=(13, 41))
     for axis in (0, -1):
         assert np.array_equal(statistics.trim_mean(grid, 0.25, axis), scipy_stats.trim_mean(grid, 0.25, axis=axis))
+
+
+def test_weighted_group_sums_have_the_same_bits_for_any_thread_count():
+    """The bootstrap's weighted sums must not depend on threads (a BLAS product's last bits do)."""
+    import numba
+
+    rng = np.random.default_rng(3)
+    weights = rng.multinomial(100, np.full(100, 0.01), size=64).astype(float)
+    values = rng.random((100, 257))
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = statistics.weighted_group_sums(weights, values)
+        numba.set_num_threads(max(2, before))
+        many = statistics.weighted_group_sums(weights, values)
+    finally:
+        numba.set_num_threads(before)
+    assert np.array_equal(one, many)
+    assert np.array_equal(one, np.einsum("bg,gt->bt", weights, values))  # groups summed in order
+    np.testing.assert_allclose(one, weights @ values, rtol=1e-12)
+    np.testing.assert_array_equal(statistics.weighted_group_sums(weights, values[:, 0]), one[:, 0])

@@ -134,8 +134,7 @@ class RunConfig:
     process, compiled threads (physics: processes) on all cores; ray: as many as the cluster runs."""
     executor: str = "local"
     """Where cells train: local (this machine) or ray (a private Ray on loopback, or the cluster at
-    --ray-address). Results are the same bit for bit at the same BLAS thread count (Ray gives each
-    task one thread; the intervals' last bits follow BLAS's threads)."""
+    --ray-address). Results are the same bit for bit whatever the executor, workers or threads."""
     ray_address: str | None = None
     """Ray cluster to run the cells on: HOST:PORT of its head (ray start --head) or auto; default:
     a private Ray on this machine. Only with --executor ray."""

@@ -259,6 +259,39 @@ def probability_of_improvement_interval(x, y, higher_is_better: bool = True, con
     return point, low, high
 
 
+
+@numba.njit(cache=True, parallel=True)
+def _weighted_rows(weights, values):
+    out = np.zeros((weights.shape[0], values.shape[1]))
+    for b in numba.prange(weights.shape[0]):
+        for g in range(weights.shape[1]):
+            w = weights[b, g]
+            if w != 0.0:
+                for t in range(values.shape[1]):
+                    out[b, t] += w * values[g, t]
+    return out
+
+
+def weighted_group_sums(weights: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """``weights @ values`` summed in a fixed order (groups ascending, per output element).
+
+    A BLAS matrix product's last bits depend on its thread count (OpenBLAS splits the sum), so a
+    cell bootstrapped on a 1-thread Ray worker differed from the same cell on 2 threads; this sum
+    gives the same bits for any thread count, process or executor (and equals ``np.einsum``).
+
+    Args:
+        weights: ``(B, G)`` replicate counts of each group.
+        values: ``(G,)`` or ``(G, T)`` per-group sums.
+
+    Returns:
+        ``(B,)`` or ``(B, T)`` float64.
+    """
+    weights = np.ascontiguousarray(weights, dtype=np.float64)
+    values = np.asarray(values, dtype=np.float64)
+    if values.ndim == 1:
+        return _weighted_rows(weights, np.ascontiguousarray(values[:, None]))[:, 0]
+    return _weighted_rows(weights, np.ascontiguousarray(values))
+
 @dataclass
 class CellStatistics:
     """A cell's intervals, curve bands and per-run scores.
@@ -304,9 +337,10 @@ def replicate_scalars(grouped: GroupedCurveSums, asymptote_sums: dict, weights: 
     Returns:
         :func:`tableclean_suite.metrics.batch_scalars` of the replicates.
     """
-    runs = weights @ grouped.runs_per_group
-    sums = {name: weights @ getattr(grouped, name) for name in ("success", "average_sum", "finished_runs")}
-    tops = {name: weights @ values / runs for name, values in asymptote_sums.items()}
+    runs = weighted_group_sums(weights, grouped.runs_per_group)
+    sums = {name: weighted_group_sums(weights, getattr(grouped, name))
+            for name in ("success", "average_sum", "finished_runs")}
+    tops = {name: weighted_group_sums(weights, values) / runs for name, values in asymptote_sums.items()}
 
     def episode_sums(index):
         return np.einsum("bg,gb->b", weights, grouped.episodes[:, index])

@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from tableclean_suite.bench.statistics import weighted_group_sums
+
 if TYPE_CHECKING:
     from tableclean_suite.bench.scaling.study import CellRecords
 
@@ -74,9 +76,9 @@ def bootstrap_cell(records: "CellRecords", counts: np.ndarray) -> dict:
     """
     runs = records.success.shape[0]
     weights = counts.astype(np.float64) / runs
-    success = weights @ records.success.astype(np.float64)  # (B, G)
-    episodes = weights @ records.episodes.astype(np.float64)
-    top = weights @ records.run_plateau  # (B,), exact: each run's full-resolution plateau-window mean
+    success = weighted_group_sums(weights, records.success)  # (B, G); thread-count independent bits
+    episodes = weighted_group_sums(weights, records.episodes)
+    top = weighted_group_sums(weights, records.run_plateau)  # (B,): each run's full-resolution plateau-window mean
     hit = success >= THRESHOLD * top[:, None]
     first = np.where(hit.any(axis=1), np.argmax(hit, axis=1), len(records.grid) - 1)
     iterations = records.grid[first] + 1.0
