@@ -64,10 +64,43 @@ def test_trials_file_checks(tmp_path):
     with pytest.raises(ResumeError, match="unexpected columns"):
         read_trials(bad)
     good = tmp_path / "good.csv"
-    fidelity.write_csv(good, ROWS[:1])
+    per_round = fidelity.trials_per_round(TaskModel(), [a.rule_name for a in Action])
+    fidelity.write_csv(good, ROWS[:1] * per_round)  # one complete round (as far as counts go)
     assert read_trials(good)[0]["state"] == 0 and list(read_trials(good)[0]) == list(TRIAL_FIELDS)
     with pytest.raises(ResumeError, match="another --seed"):
         fidelity.collect(1, seed=5, trials_csv=good, log=None)
+
+
+def test_a_truncated_last_line_and_a_partial_round_are_dropped_not_reported(tmp_path):
+    """An interrupted write: the damaged line goes, the incomplete round runs again, nothing crashes."""
+    from tableclean_suite.bench import trial_store
+
+    path = tmp_path / "trials.csv"
+    pairs = [(s.index, a) for s in MODEL.reachable_states() if not s.is_terminal for a in Action]
+    complete = [row(s, a, round_index=0) for s, a in pairs]
+    partial = [row(s, a, round_index=1) for s, a in pairs[:62]]
+    trial_store.write_rows(path, complete + partial)
+    text = path.read_text()
+    path.write_text(text + "2,7,1-1,plan,0,mo")  # a row cut off mid-write
+    messages = []
+    rows = read_trials(path, messages.append)
+    assert len(rows) == 72 + 62 and "damaged last line" in messages[0]
+    kept = trial_store.complete_rounds(rows, 72, messages.append)
+    assert {row["round"] for row in kept} == {0} and "rounds [1] are incomplete" in messages[1]
+    calibrate.main(["--from-trials", str(path), "--out", str(tmp_path / "t.json"), "--quiet"])  # no TypeError
+    assert TransitionTable.from_json(tmp_path / "t.json").counts.sum() == 72
+
+
+def test_a_damaged_line_before_the_end_is_an_error_naming_it(tmp_path):
+    from tableclean_suite.bench import trial_store
+
+    path = tmp_path / "trials.csv"
+    trial_store.write_rows(path, [ROWS[0]] * 3)
+    lines = path.read_text().splitlines()
+    lines[2] = lines[2].replace(",0,", ",zero,", 1)
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ResumeError, match=r"trials.csv:3: column .* is 'zero', not an integer"):
+        read_trials(path)
 
 
 @pytest.mark.parametrize("argv", [["--trials", "0"], ["--seed", "-1"], ["--actions", "wipe"]])
@@ -133,6 +166,22 @@ def test_tables_use_the_specs_action_names_and_state_names():
     assert skills["pick"]["executions"] == 1 and skills["clean"]["executions"] == 0
     counts, faults = calibrate.count_transitions(rows, model)
     assert counts == {(start.index, model.action_index("pick")): {(rows[0]["observed_state"], int(Outcome.ROUTINE)): 1}}
+
+
+@pytest.mark.slow
+def test_rounds_on_two_workers_equal_the_serial_rounds(tmp_path):
+    """Rounds are independent tasks: two processes give the same trials as one (timings aside)."""
+    from tableclean_suite.executors import LocalExecutor
+
+    def essentials(rows):
+        return [{k: v for k, v in row.items() if k not in ("wall_time", "env_time")} for row in rows]
+
+    kwargs = dict(trials=2, seed=3, log=None, actions=("move", "pick"))
+    serial = fidelity.collect(trials_csv=tmp_path / "serial.csv", **kwargs)
+    with LocalExecutor(workers=2) as executor:
+        parallel = fidelity.collect(trials_csv=tmp_path / "parallel.csv", executor=executor, **kwargs)
+    assert len(serial) == 2 * 18 * 2 and essentials(parallel) == essentials(serial)
+    assert essentials(read_trials(tmp_path / "parallel.csv")) == essentials(serial)
 
 
 @pytest.mark.slow

@@ -26,13 +26,16 @@ import time
 from collections import Counter
 from pathlib import Path
 
+from tableclean_suite.bench import trial_store
 from tableclean_suite.bench.fidelity import (
     FAULT,
     ResumeError,
     add_execution_arguments,
     collect,
+    make_round_executor,
     parse_task_and_actions,
     read_trials,
+    trials_per_round,
 )
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.task import Outcome, TaskModel
@@ -87,13 +90,16 @@ def main(argv: list[str] | None = None) -> int:
             source = Path(args.from_trials)
             if not source.exists():
                 parser.error(f"--from-trials: no such file {source}")
-            rows = read_trials(source)
+            rows = read_trials(source, log)
+            measured_actions = {row["action"] for row in rows}  # a file may hold a subset of the actions
+            rows = trial_store.complete_rounds(rows, trials_per_round(model, measured_actions), log)
             if not rows:
                 parser.error(f"--from-trials: {source} holds no trials")
             description = f"from {source.name}"
         else:
-            rows = collect(args.trials, args.seed, out.with_suffix(".trials.csv"), fresh=args.fresh, log=log,
-                           actions=actions, model=model)
+            with make_round_executor(parser, args) as executor:
+                rows = collect(args.trials, args.seed, out.with_suffix(".trials.csv"), fresh=args.fresh, log=log,
+                               actions=actions, model=model, executor=executor)
             description = f"{args.trials} round(s), seed {args.seed}"
     except ResumeError as error:
         parser.error(str(error))

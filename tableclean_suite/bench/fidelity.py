@@ -16,12 +16,15 @@ reachable non-terminal state (paper: 18 states x 4 actions = 72 trials;
 - A trial *agrees* when the abstraction reads back the model's successor and the observed
   outcome is the model's outcome; an abstraction fault never agrees.
 
-``--trials N`` rounds give N trials per (state, action) pair.  Results go to ``DIR``:
-``fidelity_trials.csv`` (one row per execution, appended after every round, so an interrupted
-run resumes where it stopped; ``--fresh`` starts over), ``fidelity_pairs.csv`` (agreement per
-pair) and ``fidelity_skills.csv`` (success, steps and seconds per skill, over executions the
-controller did not refuse).  :func:`collect` is the execution code ``benchmarks.calibrate``
-reuses.
+``--trials N`` rounds give N trials per (state, action) pair.  Rounds are independent (each
+has its own seed), so they run in parallel: ``--workers N`` processes on this machine, or
+``--executor ray [--ray-address HOST:PORT]`` (:mod:`tableclean_suite.executors`); every worker
+builds its own scene and the rows are stored in round order.  Results go to ``DIR``:
+``fidelity_trials.csv`` (one row per execution; rewritten atomically after every finished
+round, so an interrupted run resumes where it stopped and never keeps a partial round:
+:mod:`.trial_store`; ``--fresh`` starts over), ``fidelity_pairs.csv`` (agreement per pair) and
+``fidelity_skills.csv`` (success, steps and seconds per skill, over executions the controller
+did not refuse).  :func:`collect` is the execution code ``benchmarks.calibrate`` reuses.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ import csv
 import os
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterable
 
@@ -38,7 +42,9 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+from tableclean_suite.bench import trial_store  # noqa: E402
 from tableclean_suite.bench.cli import non_negative_int, positive_int  # noqa: E402
+from tableclean_suite.bench.trial_store import TRIAL_FIELDS  # noqa: E402, F401  (re-exported)
 from tableclean_suite.task import Outcome, TaskModel, TaskState, get_task_spec, task_spec_names  # noqa: E402
 
 TRIALS_CSV = "fidelity_trials.csv"
@@ -46,10 +52,6 @@ PAIRS_CSV = "fidelity_pairs.csv"
 SKILLS_CSV = "fidelity_skills.csv"
 #: Output directory of the ``paper`` spec (other specs: ``<this>_<spec name>``).
 DEFAULT_OUT = "results/fidelity"
-TRIAL_FIELDS = (
-    "round", "seed", "layout", "reached_by", "state", "action", "expected_state", "expected_outcome",
-    "observed_state", "observed_outcome", "agree", "success", "improper", "steps", "wall_time", "env_time", "reason",
-)
 #: Agreement and success goals of the issue (reported next to the measurement).
 AGREEMENT_GOAL = 0.99
 SUCCESS_GOAL = 0.995
@@ -158,41 +160,86 @@ def run_round(session, round_index: int, seed: int, on_trial: Callable[[dict], N
     return rows
 
 
-def read_trials(path: Path) -> list[dict]:
-    """Rows of a trials CSV (numbers converted), ``[]`` when it does not exist."""
-    if not path.exists():
-        return []
-    with path.open(newline="") as handle:
-        reader = csv.DictReader(handle)
-        if tuple(reader.fieldnames or ()) != TRIAL_FIELDS:
-            raise ResumeError(f"{path}: unexpected columns {reader.fieldnames}; use --fresh to start over")
-        rows = []
-        for row in reader:
-            for key in ("round", "seed", "state", "expected_state", "observed_state", "agree", "success", "improper", "steps"):
-                row[key] = int(row[key])
-            for key in ("wall_time", "env_time"):
-                row[key] = float(row[key])
-            rows.append(row)
-    return rows
+def read_trials(path: Path, log: Callable[[str], None] | None = None) -> list[dict]:
+    """Rows of a trials CSV (numbers converted), ``[]`` when it does not exist.
+
+    A damaged last line (an interrupted write) is dropped; any other damage, or unexpected
+    columns, raises :class:`ResumeError` naming the line.
+    """
+    try:
+        return trial_store.read_rows(Path(path), log)
+    except trial_store.TrialStoreError as error:
+        raise ResumeError(str(error)) from None
+
+
+def trials_per_round(model: TaskModel, actions: Iterable) -> int:
+    """Trials of one complete round: every executed action from every reachable non-terminal state."""
+    return sum(not s.is_terminal for s in model.reachable_states()) * len(tuple(actions))
+
+
+@dataclass(frozen=True)
+class FidelityRound:
+    """One round as a task for an executor: plain values only (the worker builds its own scene).
+
+    Attributes:
+        spec: the task spec as JSON (``TaskSpec.to_dict()``).
+        round_index: 0-based round number; with ``seed`` it fixes the round's placements.
+        seed: the run's base seed (``--seed``).
+        actions: names of the executed actions.
+        physics_options: keyword arguments of the worker's ``PhysicsStepEnv`` (plain values).
+    """
+
+    spec: tuple
+    round_index: int
+    seed: int
+    actions: tuple
+    physics_options: tuple = ()
+
+    @property
+    def label(self) -> str:
+        return f"fidelity round {self.round_index + 1}"
+
+
+_SESSIONS: dict = {}
+
+
+def run_round_task(task: FidelityRound) -> list[dict]:
+    """Run one :class:`FidelityRound` in this process (the scene is built once per process and spec)."""
+    import json
+
+    from tableclean_suite.physics_backend import PhysicsStepEnv
+    from tableclean_suite.task import TaskSpec
+
+    key = (task.spec, task.physics_options)
+    if key not in _SESSIONS:
+        spec = TaskSpec.from_dict(json.loads(task.spec[0]))
+        _SESSIONS[key] = PhysicsStepEnv(TaskModel(spec=spec), **dict(task.physics_options))
+    return run_round(_SESSIONS[key], task.round_index, task.seed, actions=task.actions)
 
 
 def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fresh: bool = False,
             session=None, log: Callable[[str], None] | None = print, physics_options: dict | None = None,
-            actions: Iterable | None = None, model: TaskModel | None = None) -> list[dict]:
+            actions: Iterable | None = None, model: TaskModel | None = None, executor=None) -> list[dict]:
     """Run rounds until there are ``trials`` of them; returns all trial rows (resumed ones included).
 
-    With ``trials_csv`` every finished round is appended to it, and rounds already in it are
-    not run again (a different ``seed`` raises :class:`ResumeError`; ``fresh=True`` deletes the
-    file first).  ``session`` reuses a PhysicsStepEnv; otherwise one is made with
-    ``physics_options``.  ``actions`` limits the executed actions (e.g. leave out the slow clean).
-    ``model`` is the task (default: the session's, else ``paper``).
+    With ``trials_csv`` every finished round is stored (atomically, whole rounds only), and
+    complete rounds already in it are not run again (a different ``seed`` raises
+    :class:`ResumeError`; ``fresh=True`` deletes the file first; incomplete rounds run again).
+    ``session`` reuses a PhysicsStepEnv in this process; otherwise ``executor`` (a
+    :mod:`tableclean_suite.executors` executor; default: this process) runs the rounds, each
+    worker building its scene with ``physics_options``.  ``actions`` limits the executed
+    actions (e.g. leave out the slow clean).  ``model`` is the task (default: the session's,
+    else ``paper``).
     """
+    import json
+
     model = session.model if session is not None else (model or TaskModel())
     actions = action_names(model, actions)
+    per_round = trials_per_round(model, actions)
     path = None if trials_csv is None else Path(trials_csv)
     if path is not None and fresh and path.exists():
         path.unlink()
-    rows = read_trials(path) if path is not None else []
+    rows = trial_store.complete_rounds(read_trials(path, log) if path is not None else [], per_round, log)
     done_rounds = sorted({row["round"] for row in rows})
     if rows and {row["seed"] for row in rows} != {round_seed(seed, r) for r in done_rounds}:
         raise ResumeError(f"{path} was measured with another --seed; pass that seed or --fresh")
@@ -204,26 +251,26 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
         log(f"resuming: {len(done_rounds)} round(s) already in {path}, {len(todo)} to run")
     if not todo:
         return [row for row in rows if row["round"] < trials]
-    if session is None:
-        from tableclean_suite.physics_backend import PhysicsStepEnv
+    started = time.perf_counter()
+    if session is not None:
+        results = (run_round(session, r, seed, actions=actions) for r in todo)
+    else:
+        from tableclean_suite.executors import LocalExecutor
 
-        session = PhysicsStepEnv(model, **(physics_options or {}))
-    if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-    for round_index in todo:
-        start = time.perf_counter()
-        new = run_round(session, round_index, seed, actions=actions)
-        if path is not None:
-            write_header = not path.exists() or path.stat().st_size == 0
-            with path.open("a", newline="") as handle:
-                writer = csv.DictWriter(handle, fieldnames=TRIAL_FIELDS)
-                if write_header:
-                    writer.writeheader()
-                writer.writerows(new)
+        executor = executor if executor is not None else LocalExecutor(workers=1)
+        spec = (json.dumps(model.spec.to_dict(), sort_keys=True),)
+        tasks = [FidelityRound(spec, r, seed, tuple(actions), tuple(sorted((physics_options or {}).items())))
+                 for r in todo]
+        results = executor.map(run_round_task, tasks)
+    for round_index, new in zip(todo, results):
+        if len(new) != per_round:
+            raise ResumeError(f"round {round_index + 1} produced {len(new)} trials, not {per_round}")
         rows.extend(new)
+        if path is not None:
+            trial_store.write_rows(path, sorted(rows, key=lambda row: row["round"]))
         if log:
             agree = sum(r["agree"] for r in new)
-            log(f"round {round_index + 1}/{trials}: {agree}/{len(new)} agree, {time.perf_counter() - start:.1f} s")
+            log(f"round {round_index + 1}/{trials}: {agree}/{len(new)} agree, {time.perf_counter() - started:.1f} s")
     return [row for row in rows if row["round"] < trials]
 
 
@@ -326,6 +373,22 @@ def add_execution_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--actions", default=None,
                         help="comma-separated actions to execute (default all of the spec's, e.g. move,pick,place,clean)")
     parser.add_argument("--quiet", action="store_true", help="print only the summary")
+    parser.add_argument("--workers", type=positive_int, default=1,
+                        help="rounds run in parallel: processes of this machine, or most Ray tasks in flight "
+                             "(default 1: this process)")
+    parser.add_argument("--executor", choices=("local", "ray"), default="local",
+                        help="where rounds run: local processes, or Ray (the cluster extra) (default local)")
+    parser.add_argument("--ray-address", default=None, metavar="HOST:PORT|auto",
+                        help="Ray cluster to join (default: a private Ray on 127.0.0.1); only with --executor ray")
+
+
+def make_round_executor(parser: argparse.ArgumentParser, args):
+    """The executor of ``--executor/--workers/--ray-address``; exits 2 on a bad combination."""
+    from tableclean_suite.executors import make_executor
+
+    if args.ray_address is not None and args.executor != "ray":
+        parser.error("--ray-address is only used with --executor ray")
+    return make_executor(args.executor, workers=args.workers, address=args.ray_address)
 
 
 def parse_task_and_actions(parser: argparse.ArgumentParser, args) -> tuple[TaskModel, tuple[str, ...]]:
@@ -363,9 +426,11 @@ def main(argv: list[str] | None = None) -> int:
     model, actions = parse_task_and_actions(parser, args)
     out = Path(args.out if args.out is not None else DEFAULT_OUT + ("" if model.spec.name == "paper" else f"_{model.spec.name}"))
     started = time.perf_counter()
+    executor = make_round_executor(parser, args)
     try:
-        rows = collect(args.trials, args.seed, out / TRIALS_CSV, fresh=args.fresh, log=None if args.quiet else print,
-                       actions=actions, model=model)
+        with executor:
+            rows = collect(args.trials, args.seed, out / TRIALS_CSV, fresh=args.fresh,
+                           log=None if args.quiet else print, actions=actions, model=model, executor=executor)
     except ResumeError as error:
         parser.error(str(error))  # exits 2
     pairs, skills = pair_table(rows, model), skill_table(rows, model)
