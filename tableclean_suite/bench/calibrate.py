@@ -27,6 +27,7 @@ from collections import Counter
 from pathlib import Path
 
 from tableclean_suite.bench import trial_store
+from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 from tableclean_suite.bench.fidelity import (
     FAULT,
     ResumeError,
@@ -69,6 +70,7 @@ def calibrated_table(rows, model: TaskModel | None = None, description: str = ""
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.calibrate", description=__doc__.split("\n\n")[0])
+    add_verbose_flag(parser)
     add_execution_arguments(parser)  # pairs of actions not executed keep the model's successor
     parser.add_argument("--out", default="transitions.json", help="JSON file to write (default transitions.json)")
     parser.add_argument("--fresh", action="store_true", help="discard earlier trials in <out>.trials.csv")
@@ -79,6 +81,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    apply_verbosity(args.verbose)
     model, actions = parse_task_and_actions(parser, args)
     out = Path(args.out)
     if out.suffix.lower() != ".json":

@@ -32,6 +32,7 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench.cli import non_negative_int, positive_int  # noqa: E402
+from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 
 POLICIES = ("optimal", "learned")
 #: Arms whose skills reach the goal.  The skills are tuned on the Panda; the scene also builds with
@@ -60,6 +61,7 @@ class OneLineParser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(prog="python -m benchmarks.collect_demos", description=__doc__.split("\n\n")[0])
+    add_verbose_flag(parser)
     parser.add_argument("--task", default="paper", help="task spec: a registered name or a .json path (default paper)")
     parser.add_argument("--episodes", type=positive_int, default=DEFAULT_EPISODES,
                         help=f"successful demos to record (default {DEFAULT_EPISODES})")
@@ -217,6 +219,7 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    apply_verbosity(args.verbose)
     from tableclean_suite.demos import VALID_FRACTION, write_dataset
     from tableclean_suite.physics_backend import check_physical_task
     from tableclean_suite.task import TaskModel, get_task_spec

@@ -15,10 +15,9 @@ import argparse
 import time
 
 import numpy as np
-import robosuite
-from robosuite.controllers import load_composite_controller_config
 
-import tableclean_suite  # noqa: F401  (registers TableClean)
+import tableclean_suite  # noqa: F401  (registers TableClean when robosuite is imported)
+from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity
 
 ROBOT = "Panda"
 #: Uniform random actions are drawn in +-ACTION_SCALE (OSC delta units) so the arm stays near its start.
@@ -29,6 +28,9 @@ PRESS_SEGMENT = 1
 
 def make_env(name: str, control_freq: int, seed: int, **kwargs):
     """An environment with the shared benchmark settings (no rendering, no camera observations)."""
+    import robosuite
+    from robosuite.controllers import load_composite_controller_config
+
     return robosuite.make(
         name,
         robots=ROBOT,
@@ -88,11 +90,13 @@ def measure(steps: int, rounds: int, control_freq: int, seed: int) -> dict[str, 
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.env_speed", description=__doc__.splitlines()[0])
+    add_verbose_flag(parser)
     parser.add_argument("--steps", type=int, default=1000, help="timed env.step calls per environment")
     parser.add_argument("--rounds", type=int, default=10, help="alternating timing blocks")
     parser.add_argument("--control-freq", type=int, default=20, help="control frequency [Hz] of all envs")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
+    apply_verbosity(args.verbose)
     rates = measure(args.steps, args.rounds, args.control_freq, args.seed)
     lift = rates["Lift"]
     print(f"{'environment':<24}{'steps/s':>10}{'ratio vs Lift':>16}")

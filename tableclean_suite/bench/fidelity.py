@@ -43,6 +43,7 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import trial_store  # noqa: E402
+from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 from tableclean_suite.bench.cli import non_negative_int, positive_int  # noqa: E402
 from tableclean_suite.bench.trial_store import TRIAL_FIELDS  # noqa: E402, F401  (re-exported)
 from tableclean_suite.task import Outcome, TaskModel, TaskState, get_task_spec, task_spec_names  # noqa: E402
@@ -413,6 +414,7 @@ def parse_task_and_actions(parser: argparse.ArgumentParser, args) -> tuple[TaskM
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.fidelity", description=__doc__.split("\n\n")[0])
+    add_verbose_flag(parser)
     add_execution_arguments(parser)
     parser.add_argument("--out", default=None,
                         help=f"output directory (default {DEFAULT_OUT}, or {DEFAULT_OUT}_<task> for another spec)")
@@ -423,6 +425,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    apply_verbosity(args.verbose)
     model, actions = parse_task_and_actions(parser, args)
     out = Path(args.out if args.out is not None else DEFAULT_OUT + ("" if model.spec.name == "paper" else f"_{model.spec.name}"))
     started = time.perf_counter()

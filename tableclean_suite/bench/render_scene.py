@@ -16,6 +16,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np  # noqa: E402
 
+from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
+
 DEFAULT_OUT = Path("docs/images/scene.png")
 DEFAULT_CAMERA = "tableview"
 
@@ -57,6 +59,7 @@ def save_png(frame: np.ndarray, path: Path) -> None:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.render_scene", description=__doc__.splitlines()[0])
+    add_verbose_flag(parser)
     parser.add_argument("--out", type=Path, default=None,
                         help=f"PNG path to write (default {DEFAULT_OUT}, or docs/images/scene_<task>.png for another spec)")
     parser.add_argument("--task", default="paper", help="task spec: a registered name or a .json path (default paper)")
@@ -65,6 +68,7 @@ def main(argv=None) -> None:
     parser.add_argument("--height", type=int, default=480)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
+    apply_verbosity(args.verbose)
     from tableclean_suite.physics_backend import check_physical_task
     from tableclean_suite.task import TaskModel, get_task_spec
 

@@ -25,6 +25,7 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench.cli import non_negative_int, positive_int  # noqa: E402
+from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 from tableclean_suite.task import Action, TaskModel, TaskState, decode, start_layout  # noqa: E402
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
@@ -176,6 +177,7 @@ def run_rollout(policy: np.ndarray, start: TaskState, video: Path, fps: int, wid
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.rollout", description=__doc__.split("\n\n")[0])
+    add_verbose_flag(parser)
     parser.add_argument("--reward", default="r4", help="reward pattern (default r4)")
     parser.add_argument("--video", default=None,
                         help="output video, .mp4 or .gif (required unless --task is given: then results/rollout_<task>.mp4)")
@@ -204,6 +206,7 @@ def main(argv: list[str] | None = None) -> int:
 
     parser = build_parser()
     args = parser.parse_args(argv)
+    apply_verbosity(args.verbose)
     from tableclean_suite.physics_backend import check_physical_task
     from tableclean_suite.task import get_task_spec
 

@@ -32,6 +32,7 @@ import mujoco
 import numpy as np
 
 from tableclean_suite.bench.cli import positive_int
+from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 from tableclean_suite.controllers import SkillController, make_skill_env
 from tableclean_suite.task import TaskModel
 
@@ -48,6 +49,7 @@ REPLAY_FIELDS = ("qpos", "qvel", "act", "ctrl", "qacc_warmstart")
 def parse_args(argv=None) -> argparse.Namespace:
     """Command-line options; argparse exits with a clear message on bad flags."""
     parser = argparse.ArgumentParser(prog="python -m benchmarks.skill_speed", description=__doc__.splitlines()[0])
+    add_verbose_flag(parser)
     parser.add_argument("--episodes", type=positive_int, default=3, help="optimal episodes to run (default 3)")
     parser.add_argument(
         "--layout", type=int, nargs=2, metavar=("OBJECT_SEGMENT", "ARM_SEGMENT"), default=(1, 1),
@@ -56,6 +58,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--seed", type=int, default=0, help="environment seed (default 0)")
     parser.add_argument("--task", default="paper", help="task spec: a registered name or a .json path (default paper)")
     args = parser.parse_args(argv)
+    apply_verbosity(args.verbose)
     from tableclean_suite.physics_backend import check_physical_task
     from tableclean_suite.task import get_task_spec
 

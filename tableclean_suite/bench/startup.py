@@ -49,3 +49,24 @@ def quiet_robosuite_startup() -> logging.Filter | None:
     logging.getLogger(ROBOSUITE_LOGGER).addFilter(holder)
     wrapt.register_post_import_hook(holder.stop, "robosuite")
     return holder
+
+
+class _DropBelowWarning(logging.Filter):
+    """Drops robosuite's INFO/DEBUG records (e.g. "Loading controller configuration" at every env)."""
+
+    def filter(self, record) -> bool:
+        return record.levelno >= logging.WARNING
+
+
+def add_verbose_flag(parser) -> None:
+    """``--verbose``: show robosuite's start-up warnings and its informational messages."""
+    parser.add_argument("--verbose", action="store_true",
+                        help="show robosuite's start-up warnings and informational messages (hidden by default)")
+
+
+def apply_verbosity(verbose: bool) -> None:
+    """Unless ``verbose``: drop robosuite's import-time warnings and its INFO messages from now on."""
+    if verbose:
+        return
+    quiet_robosuite_startup()
+    logging.getLogger(ROBOSUITE_LOGGER).addFilter(_DropBelowWarning())
