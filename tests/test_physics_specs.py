@@ -239,3 +239,18 @@ def test_data_collection_wrapper_records_with_the_fast_stepper_on(tmp_path):
     (episode,) = [p for p in Path(tmp_path).iterdir() if p.is_dir()]
     states = np.concatenate([np.load(f, allow_pickle=True)["states"] for f in sorted(episode.glob("state_*.npz"))])
     assert len(states) == result.steps + 1  # every control step went through the wrapper's step()
+
+
+@pytest.mark.slow
+def test_physics_backend_trains_on_a_larger_spec_and_follows_the_model():
+    """train(backend="physics") on three segments and two objects: where physics agrees with the
+    model (no faults, no skill failures), the records equal the symbolic backend's, value for value."""
+    from tableclean_suite.learners import train
+
+    kwargs = dict(learner="q_learning", reward="r2", runs=1, iterations=12, seed=0, task="three_segments_two_objects")
+    physics = train(backend="physics", workers=1, **kwargs)
+    assert physics.q.shape == (1, 384, 4)
+    assert physics.info["physics"]["faults"] == 0 and physics.info["physics"]["skill_failures"] == 0
+    symbolic = train(**kwargs)
+    for name in ("states", "actions", "outcomes", "rewards", "episode_end"):
+        np.testing.assert_array_equal(getattr(physics, name), getattr(symbolic, name))
