@@ -213,6 +213,12 @@ def run_round_task(task: FidelityRound) -> list[dict]:
 
     key = (task.spec, task.physics_options)
     if key not in _SESSIONS:
+        import multiprocessing
+
+        if multiprocessing.parent_process() is not None:  # a worker process: robosuite's start-up lines are noise
+            from tableclean_suite.bench.startup import apply_verbosity
+
+            apply_verbosity(False)
         spec = TaskSpec.from_dict(json.loads(task.spec[0]))
         _SESSIONS[key] = PhysicsStepEnv(TaskModel(spec=spec), **dict(task.physics_options))
     return run_round(_SESSIONS[key], task.round_index, task.seed, actions=task.actions)
