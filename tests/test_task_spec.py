@@ -229,3 +229,13 @@ def test_code_digest_changes_with_the_rules_and_the_spec():
     register_action(ActionRule("test_digest", lambda s: (s, Outcome.INEFFECTIVE)), overwrite=True)
     assert TaskModel(spec=spec).code_digest() != before
     assert TaskModel(spec="three_segments").code_digest() != TaskModel(spec="paper").code_digest()
+
+
+def test_the_shipped_example_specs_load():
+    from pathlib import Path
+
+    specs = sorted((Path(__file__).resolve().parents[1] / "examples" / "specs").glob("*.json"))
+    assert specs, "examples/specs holds the JSON specs the README uses"
+    for path in specs:
+        spec = load_task_spec(path)
+        assert spec.name == path.stem and TaskModel(spec=str(path)).n_states == spec.n_states
