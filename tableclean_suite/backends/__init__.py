@@ -70,7 +70,23 @@ class TrainingJob:
 
 @dataclass
 class BackendRecords:
-    """What a backend returns: ``(R, T)`` records, final Q-tables, diagnostics, config additions."""
+    """What a backend returns, and (with the call's config merged in) what ``train()`` returns.
+
+    Attributes (R = runs, T = iterations):
+        rewards: ``(R, T)`` float64, the reward of every iteration.
+        outcomes: ``(R, T)`` :class:`~tableclean_suite.task.Outcome` codes.
+        states: ``(R, T)`` state code before each iteration's action.
+        actions: ``(R, T)`` action index (the task's action order).
+        episode_end: ``(R, T)``, 0 = episode continues, 1 = reached the terminal
+            state, 2 = truncated at ``max_itr`` (``kernel.EPISODE_*``).
+        q: ``(R, S, A)`` float64 final Q-tables (S states, A actions of the task).
+        config: the arguments that produced it (JSON-serialisable); a backend adds its own keys.
+        info: backend diagnostics, e.g. ``info["physics"]``: skill executions, failures,
+            faults by kind, restages, control steps and wall time of the physics backend.
+
+    The integer records use the task's ``record_dtype``: int8 for the paper's 24 states,
+    wider where the spec needs it.
+    """
 
     rewards: np.ndarray
     outcomes: np.ndarray
@@ -78,8 +94,8 @@ class BackendRecords:
     actions: np.ndarray
     episode_end: np.ndarray
     q: np.ndarray
-    info: dict = field(default_factory=dict)
     config: dict = field(default_factory=dict)
+    info: dict = field(default_factory=dict)
 
 
 class TrainingBackend(Protocol):

@@ -26,7 +26,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench.cli import non_negative_int, positive_int  # noqa: E402
 from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
-from tableclean_suite.task import Action, TaskModel, TaskState, decode, start_layout  # noqa: E402
+from tableclean_suite.task import Action, TaskModel, TaskState  # noqa: E402
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 #: Frames repeated after each action so the new state can be read.

@@ -33,7 +33,7 @@ import numba
 import numpy as np
 
 from tableclean_suite import metrics
-from tableclean_suite.metrics import SUMMARY_SCALARS, GroupedCurveSums, Plateaus
+from tableclean_suite.metrics import SUMMARY_SCALARS, GroupedCurveSums
 
 #: Bootstrap replicates per interval.
 DEFAULT_SAMPLES = 500

@@ -11,7 +11,7 @@ import gymnasium as gym
 from gymnasium import spaces
 
 from tableclean_suite.rewards import RewardPattern, get_reward_pattern
-from tableclean_suite.task import Outcome, TaskModel, TaskSpec, TaskState, as_task_model
+from tableclean_suite.task import Outcome, TaskModel, TaskSpec, TaskState
 
 #: Episode length after which the registry's TimeLimit truncates (the paper-faithful max_itr default).
 MAX_EPISODE_STEPS = 500

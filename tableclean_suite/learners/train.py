@@ -13,11 +13,11 @@ instead of the compiled one (same numbers, much slower).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from tableclean_suite.backends import TrainingJob, backend_names, get_backend
+from tableclean_suite.backends import BackendRecords, TrainingJob, backend_names, get_backend
 from tableclean_suite.learners.checks import check_number
 from tableclean_suite.learners.exploration import Exploration, as_exploration
 from tableclean_suite.learners.rules import TabularLearner, get_learner
@@ -31,33 +31,11 @@ ENGINES = ("compiled", "reference")
 
 
 @dataclass
-class TrainingResult:
-    """Everything one ``train()`` call recorded.
-
-    Attributes (R = runs, T = iterations):
-        rewards: ``(R, T)`` float64, the reward of every iteration.
-        outcomes: ``(R, T)`` :class:`~tableclean_suite.task.Outcome` codes.
-        states: ``(R, T)`` state code before each iteration's action.
-        actions: ``(R, T)`` action index (the task's action order).
-        episode_end: ``(R, T)``, 0 = episode continues, 1 = reached the terminal
-            state, 2 = truncated at ``max_itr`` (``kernel.EPISODE_*``).
-        q: ``(R, S, A)`` float64 final Q-tables (S states, A actions of the task).
-
-    The integer records use the task's ``record_dtype``: int8 for the paper's 24
-    states, wider where the spec needs it.
-        config: the arguments that produced it (JSON-serialisable).
-        info: backend diagnostics, e.g. ``info["physics"]``: skill executions, failures,
-            faults by kind, restages, control steps and wall time of the physics backend.
+class TrainingResult(BackendRecords):
+    """Everything one ``train()`` call recorded: the fields of
+    :class:`~tableclean_suite.backends.BackendRecords` (records, Q-tables, ``config``, ``info``),
+    with the call's arguments in ``config``.
     """
-
-    rewards: np.ndarray
-    outcomes: np.ndarray
-    states: np.ndarray
-    actions: np.ndarray
-    episode_end: np.ndarray
-    q: np.ndarray
-    config: dict = field(default_factory=dict)
-    info: dict = field(default_factory=dict)
 
     @property
     def runs(self) -> int:
@@ -190,11 +168,7 @@ def train(
         "task": model.spec.to_dict(),
     }
     records = chosen.train(job)
-    config.update(records.config)
-    return TrainingResult(
-        rewards=records.rewards, outcomes=records.outcomes, states=records.states, actions=records.actions,
-        episode_end=records.episode_end, q=records.q, config=config, info=records.info,
-    )
+    return TrainingResult(**{**vars(records), "config": {**config, **records.config}})
 
 
 def configure_learner(learner: TabularLearner, learner_options: dict | None, q_init: float | None,
