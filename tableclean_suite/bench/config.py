@@ -148,6 +148,9 @@ class RunConfig:
     """Show a progress bar over cells on stderr."""
     verbose: bool = False
     """Show the warnings robosuite logs when it is imported (physics backend)."""
+    plugins: tuple[str, ...] = ()
+    """Modules (names or .py paths) imported first, to register actions, learners, rewards, specs
+    or objects; executor workers import them too."""
 
     #: Fields that never change a cell's numbers as such: a cell's own learner, reward, alpha and
     #: gamma enter its key as the cell; the task and the transition table enter by content
@@ -155,7 +158,7 @@ class RunConfig:
     NOT_IN_CELL_KEY: ClassVar[tuple[str, ...]] = (
         "learners", "rewards", "alpha", "gamma", "alpha_sweep", "gamma_sweep", "sweep_learner", "sweep_reward",
         "sweeps", "literature", "literature_reward", "task", "transitions", "workers", "executor", "ray_address",
-        "out", "figures", "fresh", "progress", "verbose",
+        "out", "figures", "fresh", "progress", "verbose", "plugins",
     )
     #: Name lists de-duplicated in order; value lists too (compared as floats).
     _LISTS: ClassVar[tuple[str, ...]] = ("learners", "rewards", "alpha_sweep", "gamma_sweep")

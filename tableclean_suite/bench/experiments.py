@@ -431,6 +431,10 @@ def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, flo
 
         numba.set_num_threads(min(task.numba_threads, numba.config.NUMBA_NUM_THREADS))
     config = task.config
+    if config.plugins:
+        from tableclean_suite.bench.plugins import load_plugins
+
+        load_plugins(config.plugins)  # what the driver registered, registered here too
     model = config.task_model()
     transitions = transitions_sha256 = None
     if config.backend == "calibrated":

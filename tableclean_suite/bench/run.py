@@ -147,6 +147,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     add_switch(output, "progress", "no progress bar on stderr")
     output.add_argument("--verbose", dest="verbose", action="store_true", default=argparse.SUPPRESS,
                         help=docs.get("verbose", ""))
+    output.add_argument("--plugins", dest="plugins", default=argparse.SUPPRESS, metavar="MODULE|FILE.py,...",
+                        help=docs.get("plugins", "").replace("%", "%%"))
     output.add_argument("--describe", action="store_true",
                         help="print the task model analysis (states, Table 1 mapping, Table 2, learners) and exit")
     return parser
@@ -176,8 +178,14 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
         A namespace with ``config`` (a :class:`RunConfig`), ``describe`` and ``parser``.  Any bad
         flag or value exits with code 2 and a message naming it and what is allowed.
     """
-    parser = build_parser(prog or invoked_as())
+    from tableclean_suite.bench.plugins import preload, split_plugins
+
+    prog = prog or invoked_as()
+    preload(argv if argv is not None else sys.argv[1:], prog)  # before the names are checked
+    parser = build_parser(prog)
     parsed = vars(parser.parse_args(argv))
+    if "plugins" in parsed:
+        parsed["plugins"] = split_plugins(parsed["plugins"])
     describe = parsed.pop("describe")
     for field in ("learners", "rewards"):
         if field in parsed:
