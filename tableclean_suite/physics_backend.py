@@ -25,9 +25,9 @@ The counters of a :func:`train_physics` call come back under the key ``"stats"``
 
 from __future__ import annotations
 
-import multiprocessing
 import os
 from collections import Counter
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -281,15 +281,73 @@ def _train_share(job):
     return out, stats
 
 
+@dataclass(frozen=True)
+class PhysicsRun:
+    """One run of physics training as an executor task: plain values (the worker builds its own scene).
+
+    Attributes:
+        learner, reward: the configured :class:`TabularLearner` and :class:`RewardPattern` (picklable).
+        spec: the task spec as JSON text (``TaskSpec.to_dict()``).
+        index: the run's index in this call (0-based); its random key is ``(seed, first_run + index)``.
+        iterations, seed, first_run: as :func:`train_physics`.
+        options: the ``PhysicsStepEnv`` options (``physics_options``) as sorted items.
+        hyper: ``alpha, gamma, epsilon, max_itr`` as sorted items.
+    """
+
+    learner: object
+    reward: object
+    spec: str
+    index: int
+    iterations: int
+    seed: int
+    first_run: int
+    options: tuple
+    hyper: tuple
+
+    @property
+    def label(self) -> str:
+        return f"physics run {self.first_run + self.index} ({self.learner.name}/{self.reward.name})"
+
+
+_RUN_ENVS: dict = {}
+
+
+def run_physics_task(task: PhysicsRun):
+    """Train one :class:`PhysicsRun` in this process; returns ``(index, record, stats of this run)``.
+
+    The scene is built once per process and spec (and reseeded per run, so the result does not
+    depend on which worker ran it or what it ran before).
+    """
+    import json
+
+    from tableclean_suite.learners.reference import train_run
+    from tableclean_suite.task import TaskSpec
+
+    key = (task.spec, repr(task.options))
+    if key not in _RUN_ENVS:
+        _RUN_ENVS[key] = PhysicsStepEnv(TaskModel(spec=TaskSpec.from_dict(json.loads(task.spec))), **dict(task.options))
+    env = _RUN_ENVS[key]
+    env.stats = _empty_stats()
+    run = task.first_run + task.index
+    env.seed(run_key(task.seed, run))
+    record = train_run(env, task.learner, task.reward, task.iterations, seed=task.seed, run=run, **dict(task.hyper))
+    env.stats["steps"] += task.iterations
+    stats = dict(env.stats)
+    stats["fault_reasons"] = dict(stats["fault_reasons"])
+    return task.index, record, stats
+
+
 def train_physics(learner, reward, model, runs, iterations, seed, first_run, workers, physics_options, progress,
-                  alpha, gamma, epsilon, max_itr) -> dict:
+                  alpha, gamma, epsilon, max_itr, executor=None) -> dict:
     """Train ``runs`` runs with skills in physics; the records :func:`~tableclean_suite.learners.train` expects.
 
     Run ``i`` uses the run key ``(seed, first_run + i)`` (learner draws) and a scene seeded from it,
     whichever worker trains it.  ``workers`` defaults to ``os.cpu_count()`` (never more than
     ``runs``); with one worker everything runs in this process.  The fault/failure counters
-    are returned under ``"stats"``.  Workers use the ``"spawn"`` start method, so a script
-    calling this with ``workers > 1`` needs the usual ``if __name__ == "__main__":`` guard.
+    are returned under ``"stats"``.  With several workers each run is a :class:`PhysicsRun` task
+    of ``executor`` (a :mod:`tableclean_suite.executors` executor, e.g. a ``RayExecutor`` for a
+    cluster; default: ``LocalExecutor(workers)``, spawned processes, so a script calling this with
+    ``workers > 1`` needs the usual ``if __name__ == "__main__":`` guard).
 
     Returns:
         dict with ``rewards`` (R, T) float64, ``outcomes``/``states``/``actions``/``episode_end``
@@ -309,23 +367,23 @@ def train_physics(learner, reward, model, runs, iterations, seed, first_run, wor
 
         bar = tqdm(total=runs * iterations, desc=f"{learner.name}/{reward.name} physics", leave=False)
 
-    if workers == 1:
+    if workers == 1 and executor is None:
         on_queue = _BarQueue(bar) if bar is not None else None
         results = [_train_share((learner, reward, model, shares[0], iterations, seed, first_run, options, hyper, on_queue))]
     else:
-        context = multiprocessing.get_context("spawn")
-        with context.Manager() as manager:
-            queue = manager.Queue() if bar is not None else None
-            with context.Pool(workers) as pool:
-                pending = pool.map_async(
-                    _train_share,
-                    [(learner, reward, model, share, iterations, seed, first_run, options, hyper, queue) for share in shares],
-                )
-                while not pending.ready():
-                    pending.wait(0.5)
-                    _drain(queue, bar)
-                results = pending.get()
-                _drain(queue, bar)
+        import json
+
+        from tableclean_suite.executors import LocalExecutor
+
+        spec = json.dumps(model.spec.to_dict(), sort_keys=True)
+        tasks = [PhysicsRun(learner, reward, spec, i, iterations, seed, first_run, tuple(sorted(options.items())),
+                            tuple(sorted(hyper.items()))) for i in range(runs)]
+        results = []
+        with (executor if executor is not None else LocalExecutor(workers=workers)) as running:
+            for index, record, run_stats in running.map(run_physics_task, tasks):
+                results.append(([(index, record)], run_stats))
+                if bar is not None:
+                    bar.update(iterations)
     if bar is not None:
         bar.close()
 
@@ -351,16 +409,6 @@ class _BarQueue:
 
     def put(self, n):
         self.bar.update(n)
-
-
-def _drain(queue, bar) -> None:
-    if queue is None or bar is None:
-        return
-    done = 0
-    while not queue.empty():
-        done += queue.get()
-    if done:
-        bar.update(done)
 
 
 def check_physical_task(model: TaskModel, task_config: dict | None = None) -> None:
@@ -420,7 +468,7 @@ class PhysicsBackend:
 
         records = train_physics(
             job.learner, job.reward, job.model, job.runs, job.iterations, job.seed, job.first_run, job.workers,
-            job.options["physics_options"], job.progress, **job.hyperparameters,
+            job.options["physics_options"], job.progress, **job.hyperparameters, executor=job.executor,
         )
         stats = records.pop("stats")
         return BackendRecords(**records, info={"physics": stats})

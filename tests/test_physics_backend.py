@@ -137,3 +137,17 @@ def test_short_physics_training_run_end_to_end():
         symbolic = train("q_learning", "r4", runs=2, iterations=6, epsilon=0.3, seed=1)
         for name in ("rewards", "outcomes", "states", "actions", "episode_end", "q"):
             assert np.array_equal(getattr(result, name), getattr(symbolic, name)), name
+
+
+@pytest.mark.slow
+def test_physics_runs_on_ray_equal_the_runs_in_this_process():
+    """Each run is an executor task with its own seeds: a local Ray (loopback) gives this process's records."""
+    from tableclean_suite.executors import RayExecutor
+
+    kwargs = dict(learner="q_learning", reward="r4", runs=2, iterations=5, epsilon=0.3, seed=4, backend="physics")
+    here = train(workers=1, **kwargs)
+    with RayExecutor(workers=2) as executor:
+        on_ray = train(executor=executor, **kwargs)
+    for name in ("rewards", "outcomes", "states", "actions", "episode_end", "q"):
+        np.testing.assert_array_equal(getattr(on_ray, name), getattr(here, name))
+    assert on_ray.info["physics"]["steps"] == here.info["physics"]["steps"] == 10

@@ -44,6 +44,8 @@ class TrainingJob:
         workers: processes or threads, where the backend uses them (never changes numbers).
         options: backend-specific keyword arguments (e.g. ``transitions``).
         progress: show a progress bar on stderr.
+        executor: a :mod:`tableclean_suite.executors` executor for backends that spread work
+            over processes or a cluster (the physics backend); None: the backend's default.
     """
 
     learner: Any
@@ -61,6 +63,7 @@ class TrainingJob:
     workers: int | None = None
     options: dict = field(default_factory=dict)
     progress: bool = False
+    executor: Any = None
 
     @property
     def hyperparameters(self) -> dict:

@@ -89,6 +89,7 @@ def train(
     learner_options: dict | None = None,
     q_init: float | None = None,
     exploration: "str | Exploration | Mapping | None" = None,
+    executor=None,
 ) -> TrainingResult:
     """Train ``runs`` independent learners for ``iterations`` environment steps each.
 
@@ -125,6 +126,8 @@ def train(
             (``"epsilon_greedy"`` default, ``"linear_decay"``, ``"exponential_decay"``,
             ``"visit_decay"``, ``"softmax"``), an :class:`~tableclean_suite.learners.exploration.Exploration`
             or a mapping ``{"name": ..., **parameters}``.  Epsilon schedules start at ``epsilon``.
+        executor: a :mod:`tableclean_suite.executors` executor for the physics backend's runs
+            (e.g. ``RayExecutor(address=...)``); default: ``workers`` local processes.
 
     Returns:
         A :class:`TrainingResult` with ``(runs, iterations)`` records and final Q-tables.
@@ -150,6 +153,7 @@ def train(
         learner=learner, reward=reward, model=model, runs=int(runs), iterations=int(iterations),
         alpha=float(alpha), gamma=float(gamma), epsilon=float(epsilon), max_itr=int(max_itr), seed=int(seed),
         first_run=int(first_run), engine=engine, workers=workers, options=options, progress=progress,
+        executor=executor,
     )
     config = {
         "learner": learner.name,
