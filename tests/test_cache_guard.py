@@ -25,8 +25,11 @@ MAIN = textwrap.dedent("""
 
 def _run(folder: Path) -> str:
     env_path = f"{folder}:{ROOT}"
+    # no .pyc: Python validates one by the source's whole-second mtime and size, so a rewrite within
+    # the same second would run stale bytecode and the test would measure Python, not numba
+    env = {"PYTHONPATH": env_path, "PATH": "/usr/bin:/bin", "PYTHONDONTWRITEBYTECODE": "1"}
     result = subprocess.run([sys.executable, str(folder / "main.py")], cwd=folder, capture_output=True, text=True,
-                            env={"PYTHONPATH": env_path, "PATH": "/usr/bin:/bin"}, timeout=300)
+                            env=env, timeout=300)
     assert result.returncode == 0, result.stderr
     return result.stdout.strip()
 
