@@ -42,3 +42,14 @@ def action_list(text: str) -> tuple[Action, ...]:
     if not chosen:
         raise argparse.ArgumentTypeError("expected at least one action")
     return tuple(chosen)
+
+
+#: Exit code of a command line used wrongly (argparse's).
+EXIT_USAGE = 2
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse, but a bad flag prints one line (``prog: error: ...``, no usage block) and exits 2."""
+
+    def error(self, message: str):
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")

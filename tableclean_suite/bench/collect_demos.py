@@ -31,7 +31,7 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from tableclean_suite.bench.cli import non_negative_int, positive_int  # noqa: E402
+from tableclean_suite.bench.cli import OneLineParser, non_negative_int, positive_int  # noqa: E402
 from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 
 POLICIES = ("optimal", "learned")
@@ -50,13 +50,6 @@ DEFAULT_RUNS = 5
 DEFAULT_MAX_ACTIONS = 50
 #: Bound of the per-episode placement seeds drawn from ``--seed`` (exclusive).
 PLACEMENT_SEED_BOUND = 2**31
-
-
-class OneLineParser(argparse.ArgumentParser):
-    """argparse, but a bad flag prints one line (``prog: error: ...``) and exits 2."""
-
-    def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message}\n")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -36,10 +36,11 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from tableclean_suite.bench.cli import positive_int
+from tableclean_suite.bench import cli
+from tableclean_suite.bench.cli import OneLineParser, positive_int
 
 PROG = "python -m benchmarks.spec_speed"
-EXIT_USAGE = 2
+EXIT_USAGE = cli.EXIT_USAGE
 #: The learner's per-update rate on the largest spec should stay within this factor of the paper spec's.
 TARGET_SLOWDOWN = 2.0
 DEFAULT_RUNS = 64
@@ -187,15 +188,9 @@ def summary_lines(paper: Rate, largest: Rate, cold: list[ColdStart]) -> list[str
     return lines
 
 
-class _OneLineParser(argparse.ArgumentParser):
-    def error(self, message):
-        print(f"{self.prog}: error: {message}", file=sys.stderr)
-        sys.exit(EXIT_USAGE)
-
-
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line."""
-    parser = _OneLineParser(prog=prog, description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=positive_int, default=DEFAULT_RUNS,
                         help=f"runs per timed call (default: {DEFAULT_RUNS})")
     parser.add_argument("--iterations", type=positive_int, default=DEFAULT_ITERATIONS,

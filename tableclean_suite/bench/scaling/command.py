@@ -5,12 +5,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 import time
 from dataclasses import asdict
 from pathlib import Path
 
-from tableclean_suite.bench.cli import positive_int
+from tableclean_suite.bench import cli
+from tableclean_suite.bench.cli import OneLineParser, positive_int
 from tableclean_suite.bench.scaling.family import (BASE_MAX_ITR, DEFAULT_BASE_WINDOW, DEFAULT_OBJECT_COUNTS,
                                                    DEFAULT_SEGMENTS, DEFAULT_WINDOW_EXPONENT, describe_family,
                                                    family_specs, paper_plan_steps)
@@ -23,7 +23,7 @@ from tableclean_suite.bench.scaling.study import cell_row, train_cell
 
 #: Program name of the checkout's entry point.
 PROG = "python -m benchmarks.scaling"
-EXIT_USAGE = 2
+EXIT_USAGE = cli.EXIT_USAGE
 DEFAULT_OUT = Path("results") / "scaling"
 
 DEFAULT_LEARNERS = ("q_learning", "sarsa")
@@ -33,14 +33,6 @@ FIT_LEARNER = "q_learning"
 #: Runs per cell (independent learners), enough for 95 % bootstrap intervals.
 DEFAULT_RUNS = 100
 DEFAULT_SEED = 0
-
-
-class _OneLineParser(argparse.ArgumentParser):
-    """An ``ArgumentParser`` whose errors are one line on stderr and exit code 2."""
-
-    def error(self, message):
-        print(f"{self.prog}: error: {message}", file=sys.stderr)
-        sys.exit(EXIT_USAGE)
 
 
 def _choice_list(allowed, what: str):
@@ -102,7 +94,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     from tableclean_suite.learners import learner_names
     from tableclean_suite.rewards import reward_pattern_names
 
-    parser = _OneLineParser(prog=prog, description=scaling.__doc__.splitlines()[0])
+    parser = OneLineParser(prog=prog, description=scaling.__doc__.splitlines()[0])
     parser.add_argument("--learners", type=_choice_list(learner_names(), "learner"), default=DEFAULT_LEARNERS,
                         help=f"comma-separated learners; allowed: {', '.join(learner_names())} "
                              f"(default: {','.join(DEFAULT_LEARNERS)})")
