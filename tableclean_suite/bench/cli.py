@@ -27,6 +27,43 @@ def _bounded_int(text: str, minimum: int, what: str) -> int:
     return value
 
 
+def add_executor_arguments(parser: argparse.ArgumentParser, tasks: str) -> None:
+    """``--workers``, ``--executor``, ``--ray-address``: where the command's independent ``tasks``
+    (e.g. ``"rounds"``, ``"episodes"``) run (:mod:`tableclean_suite.executors`); read them back
+    with :func:`executor_from_args`."""
+    from tableclean_suite.executors import EXECUTOR_NAMES
+
+    parser.add_argument("--workers", type=positive_int, default=1,
+                        help=f"{tasks} run in parallel: processes of this machine, or most Ray tasks in flight "
+                             "(default 1: this process)")
+    parser.add_argument("--executor", choices=EXECUTOR_NAMES, default="local",
+                        help=f"where {tasks} run: local processes, or Ray (the cluster extra) (default local)")
+    parser.add_argument("--ray-address", default=None, metavar="HOST:PORT|auto",
+                        help="Ray cluster to join (default: a private Ray on 127.0.0.1); only with --executor ray")
+
+
+def executor_from_args(parser: argparse.ArgumentParser, args):
+    """The executor of :func:`add_executor_arguments`' options (not started yet).
+
+    Exits 2 (``parser.error``) on ``--ray-address`` without ``--executor ray``, or on
+    ``--executor ray`` where Ray is not installed (the message names the ``cluster`` extra).
+    """
+    from tableclean_suite.executors import MissingRayError, make_executor
+    from tableclean_suite.executors.ray_executor import import_ray
+
+    if args.ray_address is not None and args.executor != "ray":
+        parser.error("--ray-address is only used with --executor ray")
+    if args.executor == "ray":
+        try:
+            import_ray()
+        except MissingRayError as error:
+            parser.error(f"--executor ray: {error}")
+    try:
+        return make_executor(args.executor, workers=args.workers, address=args.ray_address)
+    except ValueError as error:
+        parser.error(f"--executor {args.executor}: {error}")
+
+
 def action_list(text: str) -> tuple[Action, ...]:
     """``"move,pick"`` -> ``(Action.MOVE, Action.PICK)``, in the given order, without repeats."""
     chosen = []

@@ -44,7 +44,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import trial_store  # noqa: E402
 from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
-from tableclean_suite.bench.cli import non_negative_int, positive_int  # noqa: E402
+from tableclean_suite.bench.cli import (add_executor_arguments, executor_from_args, non_negative_int,  # noqa: E402
+                                        positive_int)
 from tableclean_suite.bench.trial_store import TRIAL_FIELDS  # noqa: E402, F401  (re-exported)
 from tableclean_suite.task import Outcome, TaskModel, TaskState, get_task_spec, task_spec_names  # noqa: E402
 
@@ -380,22 +381,12 @@ def add_execution_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--actions", default=None,
                         help="comma-separated actions to execute (default all of the spec's, e.g. move,pick,place,clean)")
     parser.add_argument("--quiet", action="store_true", help="print only the summary")
-    parser.add_argument("--workers", type=positive_int, default=1,
-                        help="rounds run in parallel: processes of this machine, or most Ray tasks in flight "
-                             "(default 1: this process)")
-    parser.add_argument("--executor", choices=("local", "ray"), default="local",
-                        help="where rounds run: local processes, or Ray (the cluster extra) (default local)")
-    parser.add_argument("--ray-address", default=None, metavar="HOST:PORT|auto",
-                        help="Ray cluster to join (default: a private Ray on 127.0.0.1); only with --executor ray")
+    add_executor_arguments(parser, "rounds")  # --workers, --executor, --ray-address
 
 
 def make_round_executor(parser: argparse.ArgumentParser, args):
     """The executor of ``--executor/--workers/--ray-address``; exits 2 on a bad combination."""
-    from tableclean_suite.executors import make_executor
-
-    if args.ray_address is not None and args.executor != "ray":
-        parser.error("--ray-address is only used with --executor ray")
-    return make_executor(args.executor, workers=args.workers, address=args.ray_address)
+    return executor_from_args(parser, args)
 
 
 def parse_task_and_actions(parser: argparse.ArgumentParser, args) -> tuple[TaskModel, tuple[str, ...]]:
