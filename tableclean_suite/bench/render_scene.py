@@ -3,7 +3,8 @@
 Uses MuJoCo's EGL backend unless ``MUJOCO_GL`` is already set (it must be set before MuJoCo is
 imported).  The default camera, ``tableview``, shows every segment, the dirt, the objects and the
 sponge on its stand.  ``--task`` builds another spec's scene (default ``paper``; the default
-output is then ``docs/images/scene_<task>.png``).
+output is then ``results/images/scene_<task>.png``).  The README's pictures in ``docs/images`` are
+copies of these outputs: a reproduction never writes over tracked files.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import numpy as np  # noqa: E402
 
 from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 
-DEFAULT_OUT = Path("docs/images/scene.png")
+DEFAULT_OUT = Path("results/images/scene.png")
 DEFAULT_CAMERA = "tableview"
 
 
@@ -61,7 +62,7 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.render_scene", description=__doc__.splitlines()[0])
     add_verbose_flag(parser)
     parser.add_argument("--out", type=Path, default=None,
-                        help=f"PNG path to write (default {DEFAULT_OUT}, or docs/images/scene_<task>.png for another spec)")
+                        help=f"PNG path to write (default {DEFAULT_OUT}, or results/images/scene_<task>.png for another spec)")
     parser.add_argument("--task", default="paper", help="task spec: a registered name or a .json path (default paper)")
     parser.add_argument("--camera", default=DEFAULT_CAMERA, help="camera name (e.g. tableview, frontview)")
     parser.add_argument("--width", type=int, default=640)

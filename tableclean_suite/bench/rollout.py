@@ -183,7 +183,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="output video, .mp4 or .gif (required unless --task is given: then results/rollout_<task>.mp4)")
     parser.add_argument("--task", default=None,
                         help="task spec: a registered name or a .json path (default paper); with no --still, the still "
-                             "goes to docs/images/rollout_<task>.png")
+                             "goes to results/images/rollout_<task>.png")
     parser.add_argument("--learner", default="q_learning", help="learner (default q_learning)")
     parser.add_argument("--object-segment", type=int, default=1, help="start: every object on this segment (1..N, default 1)")
     parser.add_argument("--arm-segment", type=int, default=1, help="start: arm over this segment (1..N, default 1)")
@@ -221,7 +221,7 @@ def main(argv: list[str] | None = None) -> int:
             parser.error("--video is required (or give --task to write results/rollout_<task>.mp4)")
         args.video = f"results/rollout_{spec.name}.mp4"
         if args.still is None:
-            args.still = f"docs/images/rollout_{spec.name}.png"
+            args.still = f"results/images/rollout_{spec.name}.png"
     for flag, value in (("--object-segment", args.object_segment), ("--arm-segment", args.arm_segment)):
         if not 1 <= value <= spec.segments:
             parser.error(f"{flag} must be a segment number in 1..{spec.segments} for task {spec.name!r}, got {value}")
