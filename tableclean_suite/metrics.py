@@ -214,43 +214,6 @@ def average_reward_matrix(result) -> np.ndarray:
     return _forward_fill(result, episode_return / length, np.nan)
 
 
-@numba.njit(cache=True)
-def _latest_episode_curves(rewards, outcomes, episode_end, success, terminal, average_sum, finished_runs, episodes):
-    """One pass over ``(R, T)`` records, adding per iteration, run by run in order, the latest
-    finished episode's success, terminal flag and average reward, the count of runs with a
-    finished episode, and episodes finished so far into the ``(T,)`` float64 accumulators.
-
-    Runs are added in order, so feeding runs 0..R-1 in several calls gives bit-identical sums."""
-    n_runs, n_iterations = rewards.shape
-    for r in range(n_runs):
-        episode_return = 0.0
-        length = 0
-        improper = 0
-        finished = 0
-        latest_success = 0.0
-        latest_terminal = 0.0
-        latest_average = 0.0
-        for t in range(n_iterations):
-            episode_return += rewards[r, t]
-            length += 1
-            if outcomes[r, t] == _IMPROPER:
-                improper += 1
-            if episode_end[r, t] != 0:
-                finished += 1
-                latest_terminal = 1.0 if episode_end[r, t] == _TERMINAL_END else 0.0
-                latest_success = latest_terminal if improper == 0 else 0.0
-                latest_average = episode_return / length
-                episode_return = 0.0
-                length = 0
-                improper = 0
-            success[t] += latest_success
-            terminal[t] += latest_terminal
-            episodes[t] += finished
-            if finished > 0:
-                average_sum[t] += latest_average
-                finished_runs[t] += 1.0
-
-
 @dataclass
 class CurveSums:
     """Per-iteration sums over runs, from which the curves follow; fed chunk by chunk of runs.
@@ -290,8 +253,10 @@ class CurveSums:
         """Add the runs of a :class:`TrainingResult` (the next ones in run order); returns self."""
         if result.rewards.shape[1] != self.iterations:
             raise ValueError(f"result has {result.rewards.shape[1]} iterations, the sums {self.iterations}")
-        _latest_episode_curves(result.rewards, result.outcomes, result.episode_end, self.success,
-                               self.terminal, self.average_sum, self.finished_runs, self.episodes)
+        one_group = [a[None, :] for a in (self.success, self.terminal, self.average_sum, self.finished_runs,
+                                          self.episodes)]  # views: the single group is this sums' arrays
+        first_success = np.zeros(result.rewards.shape[0], dtype=np.int64)
+        _grouped_curves(result.rewards, result.outcomes, result.episode_end, 0, *one_group, first_success)
         self.runs += int(result.rewards.shape[0])
         return self
 
@@ -335,9 +300,13 @@ def curve_sums(result) -> CurveSums:
 @numba.njit(cache=True)
 def _grouped_curves(rewards, outcomes, episode_end, first_run, success, terminal, average_sum, finished_runs,
                     episodes, first_success):
-    """:func:`_latest_episode_curves` into ``(G, T)`` accumulators, run ``first_run + r`` adding to
-    group ``(first_run + r) % G``; ``first_success[r]`` = iteration count (1-based) at which run r
-    finished its first successful episode, 0 if it never did."""
+    """One pass over ``(R, T)`` records, adding per iteration, run by run in order, the latest
+    finished episode's success, terminal flag and average reward, the count of runs with a
+    finished episode, and episodes finished so far into ``(G, T)`` float64 accumulators, run
+    ``first_run + r`` adding to group ``(first_run + r) % G``; ``first_success[r]`` = iteration
+    count (1-based) at which run r finished its first successful episode, 0 if it never did.
+
+    Runs are added in order, so feeding runs 0..R-1 in several calls gives bit-identical sums."""
     n_runs, n_iterations = rewards.shape
     n_groups = success.shape[0]
     for r in range(n_runs):
