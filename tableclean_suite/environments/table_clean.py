@@ -21,6 +21,11 @@ from tableclean_suite.environments.config import (
 )
 from tableclean_suite.environments.ik import site_pose, solve_site_pose
 from tableclean_suite.environments.objects import get_object_type, make_object, make_sponge, object_names
+from tableclean_suite.environments.randomization import (
+    DynamicsRandomization,
+    DynamicsSample,
+    resolve_randomization,
+)
 from tableclean_suite.environments.scene_state import SceneState
 from tableclean_suite.task import HELD, TaskModel, TaskSpec, TaskState, get_task_spec
 
@@ -146,8 +151,16 @@ class TableClean(ManipulationEnv):
     - ``use_object_obs`` (bool): include object, sponge, dirt and symbolic observables.
     - ``reward_scale`` (float or None): the maximum reward; None leaves rewards un-normalised.
     - ``reward_shaping`` (bool): use the staged dense reward.
+    - ``randomization`` (None/"off", "on", a
+      :class:`~tableclean_suite.environments.randomization.DynamicsRandomization` or a mapping of
+      its fields): randomised dynamics drawn at every reset from ``self.rng`` (object and sponge
+      mass and size, friction, arm joint damping, OSC gains, object yaw and sponge start noise;
+      ranges and units in :mod:`.randomization`).  Default off: the unrandomised scene.  The
+      reset's draw is ``self.dynamics_sample``; ``self.task_config`` then holds the episode's
+      sponge size (``self.base_task_config`` the configured one).
 
     ## Version History
+    - v3: ``randomization=`` (off by default: v2's scene, draws and ``get_ep_meta()``).
     - v2: ``task=``: N segments and M objects of registered types from the task spec (the paper spec
       builds v1's scene: same layout, names and ``qpos``).
     - v1: the wiped flags are MuJoCo state (one dirt-state joint per segment: ``qpos`` and ``qvel``
@@ -165,6 +178,7 @@ class TableClean(ManipulationEnv):
         task_config: Mapping | None = None,
         task: "str | TaskSpec | None" = None,
         object_segments: Iterable[int | None] | None = None,
+        randomization: "DynamicsRandomization | str | Mapping | bool | None" = None,
         env_configuration="default",
         controller_configs=None,
         gripper_types="default",
@@ -194,7 +208,16 @@ class TableClean(ManipulationEnv):
         renderer_config=None,
         seed=None,
     ):
-        self.task_config = make_config(task_config)
+        #: the configured task config; ``task_config`` is this episode's (randomised sizes, see randomization=)
+        self.base_task_config = make_config(task_config)
+        self.task_config = self.base_task_config
+        #: the ranges drawn at every reset (:data:`~.randomization.OFF`: none)
+        self.randomization: DynamicsRandomization = resolve_randomization(randomization)
+        #: the values of this episode's draw (None while randomisation is off)
+        self.dynamics_sample: DynamicsSample | None = None
+        self._rebuilt_model = False  # a reset rebuilt the model with hard_reset=False: refresh the observables
+        self._nominal_sim = None  # the simulation whose unrandomised values _nominal holds
+        self._nominal: dict = {}
         self.task_spec: TaskSpec = get_task_spec(task)
         self.task_model = TaskModel(spec=self.task_spec)
         self.n_segments: int = self.task_spec.segments
@@ -204,6 +227,7 @@ class TableClean(ManipulationEnv):
         self.object_types = tuple(get_object_type(override or kind) for kind in self.task_spec.objects)
         self.geometry = scene_geometry(self.task_config, self.n_segments)  # ValueError naming the largest N
         check_objects_fit(self.object_types, self.geometry, self.task_config)
+        self._check_randomization_fits()
         # 0-based internally (None: drawn at each reset); set through set_start() with 1-based numbers
         self.object_segment: int | None = None
         self.object_segments: tuple[int | None, ...] = (None,) * self.n_objects
@@ -306,6 +330,8 @@ class TableClean(ManipulationEnv):
     def _load_model(self):
         """Loads the arena (table, segments, dirt, stand), the Panda, the object and the sponge into self.model."""
         super()._load_model()
+        if self.randomization.enabled and self.dynamics_sample is None:  # the constructor's scene
+            self._draw_dynamics()
         config = self.task_config
         robot_model = self.robots[0].robot_model
         robot_model.set_base_xpos(robot_model.base_xpos_offset["table"](config["table_full_size"][0]))
@@ -320,8 +346,8 @@ class TableClean(ManipulationEnv):
         arena.set_origin([0, 0, 0])
         self.arena = arena
         #: the M task objects (robosuite MujocoObjects), object 1 first; ``self.object`` is object 1
-        self.objects = [make_object(kind.name, config, name)
-                        for kind, name in zip(self.object_types, object_names(self.n_objects))]
+        self.objects = [make_object(kind.name, self._object_build_config(j), name)
+                        for j, (kind, name) in enumerate(zip(self.object_types, object_names(self.n_objects)))]
         self.object = self.objects[0]
         self.sponge = make_sponge(config["sponge_half_size"], config["sponge_density"])
         self.model = ManipulationTask(
@@ -361,6 +387,9 @@ class TableClean(ManipulationEnv):
         self._shown_dirt = None  # a new model shows every marker: synchronise at the next chance
         self._present_cache: tuple | None = None  # (dirt-state joint positions, decoded present mask)
         self._fraction_cache: tuple | None = None  # (dirt-state joint positions, dirt_fraction())
+        if self.sim is not self._nominal_sim:  # a new model: remember its unrandomised values
+            self._nominal_sim = self.sim
+            self._nominal = self._read_nominal()
 
     def _setup_observables(self):
         """Object, sponge, dirt and symbolic-state observables on top of the robot's proprioception.
@@ -436,6 +465,8 @@ class TableClean(ManipulationEnv):
         self.layout = (objects[0] if self.n_objects == 1 else objects, arm_segment)
         self.robots[0].init_qpos = self._arm_reset_qpos(arm_segment)
         super()._reset_internal()
+        if self.dynamics_sample is not None:
+            self._apply_dynamics(self.dynamics_sample)
         if not self.deterministic_reset:
             self._place_objects(objects)
             self._place_sponge()
@@ -444,6 +475,31 @@ class TableClean(ManipulationEnv):
             self._segment_slice_view(dirty, segment)[:] = True
         self._write_marker_present(dirty)
         self.show_dirt()
+
+    def reset(self):
+        """robosuite's reset, after drawing this episode's randomised dynamics (when ``randomization`` is on).
+
+        A draw that changes a size rebuilds the MuJoCo model first, also with ``hard_reset=False``.
+        """
+        if self.randomization.enabled and not self.deterministic_reset:
+            built = self._built_sizes()
+            self._draw_dynamics()
+            if self._built_sizes() != built and not self.hard_reset:
+                if self.renderer == "mujoco":
+                    self._destroy_viewer()
+                    self._destroy_sim()
+                self._load_model()
+                self._initialize_sim()
+                self._rebuilt_model = True
+        return super().reset()
+
+    def _reset_observables(self):
+        """robosuite's, plus the sensor re-binding of a hard reset after a rebuild of :meth:`reset`."""
+        rebuilt, self._rebuilt_model = self._rebuilt_model, False
+        if not rebuilt or self.hard_reset:
+            return super()._reset_observables()
+        for name, observable in self._setup_observables().items():
+            self.modify_observable(observable_name=name, attribute="sensor", modifier=observable._sensor)
 
     def _pre_action(self, action, policy_step=False):
         """Robot control (superclass), then records wiping on the state after the previous substep."""
@@ -700,6 +756,9 @@ class TableClean(ManipulationEnv):
         )
         if self.n_objects > 1:  # one entry per object (the paper scene's meta keeps its v1 keys)
             meta["start"]["object_segments"] = [number(k) for k in self.object_segments]
+        if self.randomization.enabled:  # the unrandomised scene's meta keeps its v2 keys
+            meta["randomization"] = self.randomization.to_dict()
+            meta["dynamics_sample"] = None if self.dynamics_sample is None else self.dynamics_sample.to_dict()
         return meta
 
     # ------------------------------------------------------------------------------------------
@@ -788,7 +847,96 @@ class TableClean(ManipulationEnv):
         self.sim.data.set_joint_qvel(joint, np.zeros(6))
 
     def _place_sponge(self) -> None:
-        self.sim.data.set_joint_qpos(self.sponge.joints[0], np.concatenate([self.geometry.sponge_home_pos, [1, 0, 0, 0]]))
+        """The sponge at rest on its home, offset and turned by this episode's draw (if randomised)."""
+        pos, yaw = self.geometry.sponge_home_pos.copy(), 0.0
+        if self.dynamics_sample is not None:
+            pos[:2] += self.dynamics_sample.sponge_home_offset
+            yaw = self.dynamics_sample.sponge_yaw
+        quat_wxyz = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
+        self.sim.data.set_joint_qpos(self.sponge.joints[0], np.concatenate([pos, quat_wxyz]))
+
+    # -- randomised dynamics (see tableclean_suite.environments.randomization) -------------------
+    def _check_randomization_fits(self) -> None:
+        """``ValueError`` when the randomisation could move the sponge's start out of its home tolerance."""
+        corner = self.randomization.sponge_home_noise * np.sqrt(2.0)
+        if corner > self.base_task_config["sponge_home_tolerance"]:
+            raise ValueError(f"randomization sponge_home_noise {self.randomization.sponge_home_noise} m can put the "
+                             f"sponge {corner:.4f} m from home, beyond sponge_home_tolerance "
+                             f"{self.base_task_config['sponge_home_tolerance']} m")
+
+    def _draw_dynamics(self) -> None:
+        """Draw this episode's :class:`DynamicsSample` from ``self.rng``; the episode's config and geometry follow."""
+        n_joints = len(self.robots[0].robot_model.joints)
+        sample = self.randomization.sample(self.rng, self.n_objects, n_joints)
+        self.dynamics_sample = sample
+        base = self.base_task_config
+        sponge = np.asarray(base["sponge_half_size"], dtype=float) * sample.sponge_size_scale
+        yaw_noise = max(float(base["placement_yaw_noise"]), sample.object_yaw_noise)
+        self.task_config = make_config({**base, "sponge_half_size": tuple(float(h) for h in sponge),
+                                        "placement_yaw_noise": yaw_noise})
+        self.geometry = scene_geometry(self.task_config, self.n_segments)
+
+    def _object_build_config(self, obj: int) -> Mapping:
+        """The config object ``obj`` (0-based) is built from: the episode's, its half size scaled by the draw."""
+        if self.dynamics_sample is None:
+            return self.task_config
+        half = np.asarray(self.base_task_config["object_half_size"], dtype=float)
+        return {**self.task_config, "object_half_size": half * self.dynamics_sample.object_size_scale[obj]}
+
+    def _built_sizes(self) -> tuple:
+        """The size scales the current model was (or the next one will be) built with."""
+        sample = self.dynamics_sample
+        return (None, None) if sample is None else (sample.object_size_scale, sample.sponge_size_scale)
+
+    def _arm_dofs(self) -> np.ndarray:
+        return np.asarray(self.robots[0]._ref_joint_vel_indexes, dtype=int)
+
+    def _randomized_geoms(self) -> dict:
+        """Geom ids per friction group: ``table`` (1,), ``objects`` (one array per object), ``sponge``."""
+        model = self.sim.model
+        return {
+            "table": np.array([model.geom_name2id(TABLE_TOP_GEOM)]),
+            "objects": [np.array([model.geom_name2id(n) for n in o.contact_geoms]) for o in self.objects],
+            "sponge": np.array([model.geom_name2id(n) for n in self.sponge.contact_geoms]),
+        }
+
+    def _read_nominal(self) -> dict:
+        """Copies of the model values the randomisation scales (read from a freshly built model)."""
+        model = self.sim.model
+        bodies = np.append(self.object_body_ids, self.sponge_body_id)
+        geoms = self._randomized_geoms()
+        return {
+            "body_mass": model.body_mass[bodies].copy(),
+            "body_inertia": model.body_inertia[bodies].copy(),
+            "table_friction": model.geom_friction[geoms["table"], 0].copy(),
+            "object_friction": [model.geom_friction[g, 0].copy() for g in geoms["objects"]],
+            "sponge_friction": model.geom_friction[geoms["sponge"], 0].copy(),
+            "dof_damping": model.dof_damping[self._arm_dofs()].copy(),
+        }
+
+    def _apply_dynamics(self, sample: DynamicsSample) -> None:
+        """Write ``sample``'s masses, frictions and damping into the model and its gains into the arm's OSC.
+
+        Scales multiply the nominal values of the built model (so soft resets do not compound).
+        """
+        model, nominal = self.sim.model, self._nominal
+        bodies = np.append(self.object_body_ids, self.sponge_body_id)
+        mass_scale = np.array([*sample.object_mass_scale, sample.sponge_mass_scale])
+        model.body_mass[bodies] = nominal["body_mass"] * mass_scale
+        model.body_inertia[bodies] = nominal["body_inertia"] * mass_scale[:, None]
+        geoms = self._randomized_geoms()
+        model.geom_friction[geoms["table"], 0] = nominal["table_friction"] * sample.table_friction_scale
+        for ids, values, scale in zip(geoms["objects"], nominal["object_friction"], sample.object_friction_scale):
+            model.geom_friction[ids, 0] = values * scale
+        model.geom_friction[geoms["sponge"], 0] = nominal["sponge_friction"] * sample.sponge_friction_scale
+        model.dof_damping[self._arm_dofs()] = nominal["dof_damping"] * np.asarray(sample.joint_damping_scale)
+        robot = self.robots[0]
+        osc = robot.composite_controller.part_controllers.get(robot.arms[0])
+        if osc is not None and hasattr(osc, "kp") and hasattr(osc, "kd"):  # robosuite made it anew at this reset
+            kp = np.asarray(osc.kp, dtype=float)
+            ratio = np.asarray(osc.kd, dtype=float) / (2.0 * np.sqrt(kp))  # the controller's damping ratio
+            osc.kp = kp * sample.osc_kp_scale
+            osc.kd = 2.0 * np.sqrt(osc.kp) * ratio * sample.osc_damping_ratio_scale
 
     def _grasped(self, object_mask: np.ndarray) -> bool:
         """Both finger pads touch a geom of ``object_mask`` (robosuite's grasp criterion, vectorised)."""

@@ -1,0 +1,251 @@
+"""Randomised dynamics of the ``TableClean`` scene, drawn at every reset from the env's seeded ``rng``.
+
+``robosuite.make("TableClean", ..., randomization=...)`` (and ``make_skill_env(randomization=...)``)
+takes a :class:`DynamicsRandomization`: the ranges, one named field each, from which every reset
+draws a :class:`DynamicsSample`:
+
+=============================  ======  ===============  ================  ==========================================
+field                          unit    ``OFF`` (paper)  ``DEFAULT_ON``    applied to
+=============================  ======  ===============  ================  ==========================================
+``object_mass_scale``          factor  (1, 1)           (0.7, 1.5)        each object's mass and inertia
+``sponge_mass_scale``          factor  (1, 1)           (0.7, 1.5)        the sponge's mass and inertia
+``object_size_scale``          factor  (1, 1)           (0.9, 1.1)        each object's half extents (box, cube,
+                                                                          cylinder: ``object_half_size``)
+``sponge_size_scale``          factor  (1, 1)           (0.9, 1.1)        the sponge's half extents
+``friction_scale``             factor  (1, 1)           (0.7, 1.3)        sliding friction of the table top, each
+                                                                          object and the sponge (drawn apart)
+``joint_damping_scale``        factor  (1, 1)           (0.5, 2.0)        each arm joint's damping (drawn apart)
+``osc_kp_scale``               factor  (1, 1)           (0.8, 1.2)        the OSC stiffness kp (all six axes)
+``osc_damping_ratio_scale``    factor  (1, 1)           (0.8, 1.2)        the OSC damping ratio (kd = 2 sqrt(kp) r)
+``object_yaw_noise``           rad     0                0.3               objects' start yaw, uniform in +-this
+``sponge_home_noise``          m       0                0.01              sponge start xy on its stand, +-this
+``sponge_yaw_noise``           rad     0                0.15              sponge start yaw, uniform in +-this
+=============================  ======  ===============  ================  ==========================================
+
+Scales multiply the value the scene builds (masses: the density's mass of the resized body).
+Every range is ``(low, high)`` with ``low <= high`` inside :data:`ALLOWED_SCALE` (sizes:
+:data:`ALLOWED_SIZE_SCALE`); noises are half-widths >= 0 up to :data:`MAX_YAW_NOISE` /
+:data:`MAX_SPONGE_HOME_NOISE`.  Anything else raises ``ValueError`` naming the field.
+
+Seeding: the sample of a reset is drawn from ``env.rng`` at the start of ``env.reset()`` (in a
+fixed order, before the layout), so re-seeding ``env.rng`` (or ``robosuite.make(..., seed=S)``)
+reproduces the scene exactly.  ``OFF`` draws nothing: the scene and its random stream are the
+unrandomised ones.  Sizes need a new MuJoCo model; the env rebuilds it at a reset that changes
+them even with ``hard_reset=False`` (about 0.13 s); masses, frictions, damping and gains are
+written into the live model and controller.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+from typing import Any, Mapping
+
+import numpy as np
+
+__all__ = ["DynamicsRandomization", "DynamicsSample", "OFF", "DEFAULT_ON", "resolve_randomization",
+           "ALLOWED_SCALE", "ALLOWED_SIZE_SCALE", "MAX_YAW_NOISE", "MAX_SPONGE_HOME_NOISE", "RANGE_FIELDS",
+           "NOISE_FIELDS"]
+
+#: Bounds [factor] every scale range must lie in (outside it the scene stops being the task).
+ALLOWED_SCALE = (0.25, 4.0)
+#: Bounds [factor] of the size scales: the Panda's fingers open 8 cm; objects must still fit a segment.
+ALLOWED_SIZE_SCALE = (0.75, 1.25)
+#: Largest yaw noise half-width [rad] (a quarter turn covers every box orientation).
+MAX_YAW_NOISE = math.pi / 4
+#: Largest sponge-home xy noise half-width [m]: the corner of the noise square stays inside the
+#: default 0.03 m ``sponge_home_tolerance`` (0.02 * sqrt(2) = 0.028 m).
+MAX_SPONGE_HOME_NOISE = 0.02
+
+#: (low, high) range fields and their allowed bounds.
+RANGE_FIELDS = {
+    "object_mass_scale": ALLOWED_SCALE,
+    "sponge_mass_scale": ALLOWED_SCALE,
+    "object_size_scale": ALLOWED_SIZE_SCALE,
+    "sponge_size_scale": ALLOWED_SIZE_SCALE,
+    "friction_scale": ALLOWED_SCALE,
+    "joint_damping_scale": ALLOWED_SCALE,
+    "osc_kp_scale": ALLOWED_SCALE,
+    "osc_damping_ratio_scale": ALLOWED_SCALE,
+}
+#: Half-width fields and their largest allowed value.
+NOISE_FIELDS = {
+    "object_yaw_noise": MAX_YAW_NOISE,
+    "sponge_home_noise": MAX_SPONGE_HOME_NOISE,
+    "sponge_yaw_noise": MAX_YAW_NOISE,
+}
+#: The names users may say for "no randomisation" and "the documented default ranges".
+OFF_NAMES = ("off", "paper", "none")
+ON_NAMES = ("on", "default")
+
+Range = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class DynamicsSample:
+    """The values one reset drew (see :class:`DynamicsRandomization` for units).
+
+    Attributes:
+        object_mass_scale, object_size_scale, object_friction_scale: (M,) per object.
+        sponge_mass_scale, sponge_size_scale, sponge_friction_scale, table_friction_scale: floats.
+        joint_damping_scale: (n_joints,) per arm joint.
+        osc_kp_scale, osc_damping_ratio_scale: floats.
+        object_yaw_noise: rad, the yaw half-width the placement used (its draw is the placement's).
+        sponge_home_offset: (2,) m, the sponge's start xy offset from its home.
+        sponge_yaw: rad, the sponge's start yaw.
+    """
+
+    object_mass_scale: tuple[float, ...]
+    sponge_mass_scale: float
+    object_size_scale: tuple[float, ...]
+    sponge_size_scale: float
+    table_friction_scale: float
+    object_friction_scale: tuple[float, ...]
+    sponge_friction_scale: float
+    joint_damping_scale: tuple[float, ...]
+    osc_kp_scale: float
+    osc_damping_ratio_scale: float
+    object_yaw_noise: float
+    sponge_home_offset: tuple[float, float]
+    sponge_yaw: float
+
+    def to_dict(self) -> dict:
+        """Plain JSON-serialisable values (lists for the tuples)."""
+        return {f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v) for f in fields(self)}
+
+
+@dataclass(frozen=True)
+class DynamicsRandomization:
+    """Ranges of the randomised dynamics (the table in the module docstring).
+
+    ``DynamicsRandomization()`` is :data:`OFF` (the paper's scene); :data:`DEFAULT_ON` is the
+    documented default range set.  Ranges are ``(low, high)`` tuples, noises half-widths.
+    """
+
+    object_mass_scale: Range = (1.0, 1.0)
+    sponge_mass_scale: Range = (1.0, 1.0)
+    object_size_scale: Range = (1.0, 1.0)
+    sponge_size_scale: Range = (1.0, 1.0)
+    friction_scale: Range = (1.0, 1.0)
+    joint_damping_scale: Range = (1.0, 1.0)
+    osc_kp_scale: Range = (1.0, 1.0)
+    osc_damping_ratio_scale: Range = (1.0, 1.0)
+    object_yaw_noise: float = 0.0
+    sponge_home_noise: float = 0.0
+    sponge_yaw_noise: float = 0.0
+
+    def __post_init__(self):
+        for name, (lowest, highest) in RANGE_FIELDS.items():
+            value = getattr(self, name)
+            try:
+                low, high = (float(v) for v in value)
+            except (TypeError, ValueError):
+                raise ValueError(f"randomization {name} must be a (low, high) pair of numbers, got {value!r}") from None
+            if not (math.isfinite(low) and math.isfinite(high) and lowest <= low <= high <= highest):
+                raise ValueError(f"randomization {name} must be (low, high) with {lowest} <= low <= high <= {highest}, "
+                                 f"got {value!r}")
+            object.__setattr__(self, name, (low, high))
+        for name, largest in NOISE_FIELDS.items():
+            value = getattr(self, name)
+            try:
+                width = float(value)
+            except (TypeError, ValueError):
+                raise ValueError(f"randomization {name} must be a number, got {value!r}") from None
+            if isinstance(value, bool) or not 0.0 <= width <= largest:
+                raise ValueError(f"randomization {name} must be a half-width in [0, {largest:.4g}], got {value!r}")
+            object.__setattr__(self, name, width)
+
+    @property
+    def enabled(self) -> bool:
+        """Whether any range is wider than a point or any noise is non-zero (``OFF``: False)."""
+        return any(getattr(self, n)[0] != getattr(self, n)[1] or getattr(self, n)[0] != 1.0 for n in RANGE_FIELDS) or \
+            any(getattr(self, n) > 0 for n in NOISE_FIELDS)
+
+    def to_dict(self) -> dict:
+        """The ranges as plain values (lists for the pairs)."""
+        return {f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v) for f in fields(self)}
+
+    def sample(self, rng: np.random.Generator, n_objects: int, n_joints: int) -> DynamicsSample:
+        """Draw one :class:`DynamicsSample` for ``n_objects`` objects and ``n_joints`` arm joints.
+
+        The draws come from ``rng`` in a fixed order (so a seed reproduces them); a point range
+        still consumes its draws, so narrowing one range leaves the others' values unchanged.
+        """
+
+        def draw(name, size=None):
+            low, high = getattr(self, name)
+            return rng.uniform(low, high, size=size)
+
+        object_mass = draw("object_mass_scale", n_objects)
+        sponge_mass = draw("sponge_mass_scale")
+        object_size = draw("object_size_scale", n_objects)
+        sponge_size = draw("sponge_size_scale")
+        table_friction = draw("friction_scale")
+        object_friction = draw("friction_scale", n_objects)
+        sponge_friction = draw("friction_scale")
+        damping = draw("joint_damping_scale", n_joints)
+        kp = draw("osc_kp_scale")
+        ratio = draw("osc_damping_ratio_scale")
+        home = rng.uniform(-self.sponge_home_noise, self.sponge_home_noise, size=2)
+        yaw = rng.uniform(-self.sponge_yaw_noise, self.sponge_yaw_noise)
+
+        def floats(values):
+            return tuple(float(v) for v in np.atleast_1d(values))
+
+        return DynamicsSample(
+            object_mass_scale=floats(object_mass), sponge_mass_scale=float(sponge_mass),
+            object_size_scale=floats(object_size), sponge_size_scale=float(sponge_size),
+            table_friction_scale=float(table_friction), object_friction_scale=floats(object_friction),
+            sponge_friction_scale=float(sponge_friction), joint_damping_scale=floats(damping),
+            osc_kp_scale=float(kp), osc_damping_ratio_scale=float(ratio), object_yaw_noise=self.object_yaw_noise,
+            sponge_home_offset=(float(home[0]), float(home[1])), sponge_yaw=float(yaw),
+        )
+
+
+#: No randomisation: the paper's scene (the default everywhere).
+OFF = DynamicsRandomization()
+#: The documented default ranges (the module docstring's table).
+DEFAULT_ON = DynamicsRandomization(
+    object_mass_scale=(0.7, 1.5),
+    sponge_mass_scale=(0.7, 1.5),
+    object_size_scale=(0.9, 1.1),
+    sponge_size_scale=(0.9, 1.1),
+    friction_scale=(0.7, 1.3),
+    joint_damping_scale=(0.5, 2.0),
+    osc_kp_scale=(0.8, 1.2),
+    osc_damping_ratio_scale=(0.8, 1.2),
+    object_yaw_noise=0.3,
+    sponge_home_noise=0.01,
+    sponge_yaw_noise=0.15,
+)
+
+
+def resolve_randomization(value: Any) -> DynamicsRandomization:
+    """The :class:`DynamicsRandomization` of a user value; ``ValueError`` naming it and what is allowed.
+
+    Accepts ``None``/``False`` or ``"off"``/``"paper"``/``"none"`` (:data:`OFF`), ``True`` or
+    ``"on"``/``"default"`` (:data:`DEFAULT_ON`), a :class:`DynamicsRandomization`, or a mapping of
+    field overrides on top of :data:`OFF` (e.g. ``{"friction_scale": (0.8, 1.2)}``).
+    """
+    if value is None or value is False:
+        return OFF
+    if value is True:
+        return DEFAULT_ON
+    if isinstance(value, DynamicsRandomization):
+        return value
+    if isinstance(value, str):
+        name = value.strip().lower()
+        if name in OFF_NAMES:
+            return OFF
+        if name in ON_NAMES:
+            return DEFAULT_ON
+        raise ValueError(f"unknown randomization {value!r}; allowed: {', '.join(OFF_NAMES + ON_NAMES)}, "
+                         "a DynamicsRandomization or a mapping of its fields")
+    if isinstance(value, Mapping):
+        known = {f.name for f in fields(DynamicsRandomization)}
+        unknown = sorted(set(map(str, value)) - known)
+        if unknown:
+            raise ValueError(f"unknown randomization field(s) {unknown}; allowed: {sorted(known)}")
+        return replace(OFF, **dict(value))
+    raise ValueError(f"randomization must be None, True/False, {', '.join(OFF_NAMES + ON_NAMES)}, a DynamicsRandomization "
+                     f"or a mapping of its fields, got {value!r}")
