@@ -10,55 +10,16 @@ transition with the task model.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Mapping
 
 from tableclean_suite.controllers.fast_control import fast_stepper_of
 from tableclean_suite.controllers.osc import check_skill_env
 from tableclean_suite.controllers.registry import SKILL_REGISTRY, action_key, get_skill_class
+from tableclean_suite.controllers.robot_configs import skill_overrides
 from tableclean_suite.controllers.skill import SkillEnv
 from tableclean_suite.environments.abstraction import AbstractionError
+from tableclean_suite.skill_result import SkillResult
 from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
-
-
-@dataclass
-class SkillResult:
-    """What one ``SkillController.execute`` call did.
-
-    Attributes:
-        action: the executed :class:`Action` (a built-in action), or the name of a user action.
-        success: the symbolic state after equals the task model's successor (and the skill finished).
-        improper: the task model calls the action improper here; refused, nothing moved.
-        steps: control steps (``env.step`` calls) used; 0 for refused and ineffective actions.
-        reason: short human-readable account ("ok", "improper: ...", failure cause, ...).
-        state_before: symbolic state before the action.
-        state_after: symbolic state after it; ``None`` when the abstraction reported a fault.
-        outcome: :class:`Outcome` of the observed transition (``TaskModel.classify``); ``None`` on a fault.
-        expected: the task model's successor of ``state_before``.
-        wall_time: seconds spent in ``execute`` (including abstraction reads).
-        env_time: seconds of that spent inside ``env.step`` (or the env's fast stepper, see ``execute``).
-        final_phase: name of the skill's last phase ("" when no skill ran).
-        phase_steps: control steps spent per phase name (empty when no skill ran).
-    """
-
-    action: "Action | str"
-    success: bool
-    improper: bool
-    steps: int
-    reason: str
-    state_before: TaskState | None
-    state_after: TaskState | None
-    outcome: Outcome | None
-    expected: TaskState | None = None
-    wall_time: float = 0.0
-    env_time: float = 0.0
-    final_phase: str = ""
-    phase_steps: dict = field(default_factory=dict)
-
-    @property
-    def overhead_time(self) -> float:
-        """Seconds of ``wall_time`` not spent in ``env.step`` (skill logic, skill_info, abstraction)."""
-        return self.wall_time - self.env_time
 
 
 class SkillController:
@@ -73,7 +34,8 @@ class SkillController:
         model: the task model whose rules physics follows (default: the env's ``task_model``, else
             ``TaskModel()``); ints passed to :meth:`execute` index its action list.
         registry: action -> skill class table (default: the global ``SKILL_REGISTRY``).
-        skill_configs: per-action config overrides, e.g. ``{Action.CLEAN: {"max_passes": 2}}``.
+        skill_configs: per-action config overrides, e.g. ``{Action.CLEAN: {"max_passes": 2}}``; they apply
+            on top of the robot's registered overrides (:mod:`.robot_configs`, by ``env.robots[0].name``).
         on_step: called after every ``env.step`` a skill makes (e.g. to record video frames);
             its time counts as executor overhead.
     """
@@ -94,7 +56,14 @@ class SkillController:
         self.model = model
         self.registry = SKILL_REGISTRY if registry is None else registry
         self.skill_configs = {action_key(a): dict(c) for a, c in (skill_configs or {}).items()}
+        #: robosuite's name of the env's robot, whose registered skill overrides apply (see :meth:`skill_config`)
+        self.robot = getattr(env.robots[0], "name", "")
         self.on_step = on_step
+
+    def skill_config(self, action) -> dict:
+        """The config overrides the skill of ``action`` runs with: the robot's, then this controller's."""
+        key = action_key(action)
+        return {**skill_overrides(self.robot, key), **self.skill_configs.get(key, {})}
 
     def resolve(self, action) -> "Action | str":
         """``action`` (an Action, a name, or an index into the model's action list) as the model's action:
@@ -138,7 +107,7 @@ class SkillController:
                 return self._result(action, start, False, 0, "improper: refused", before, before, improper=True)
             return self._result(action, start, True, 0, f"{predicted.name.lower()}: nothing to do", before, before)
 
-        skill = skill_class(self.env, self.skill_configs.get(action_key(action)))
+        skill = skill_class(self.env, self.skill_config(action))
         env_step = self._stepper()
         env_time = 0.0
         reason = "ok"

@@ -5,70 +5,17 @@ robosuite and the skills are imported when the env is made, not when this module
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
-
 import numpy as np
 
 from tableclean_suite.gym_envs.symbolic import _NO_STATE, TableCleanBase, render_text
 from tableclean_suite.rewards import RewardPattern
+from tableclean_suite.skill_result import SkillReport
 from tableclean_suite.task import Action, Outcome, TaskModel, TaskSpec, TaskState
 
 #: Default size ``(height, width)`` of the ``rgb_array`` camera frame.
 CAMERA_FRAME_SIZE = (360, 480)
 #: ``info["outcome"]`` when the abstraction reported a fault (no task state was observed).
 FAULT_OUTCOME = -1
-#: SkillResult fields that measure wall-clock time (not part of what physics did).
-_TIMING_FIELDS = ("wall_time", "env_time")
-
-
-@dataclass(frozen=True, eq=False)
-class SkillReport:
-    """A picklable snapshot of a :class:`~tableclean_suite.controllers.SkillResult` (``info["skill_result"]``).
-
-    Same fields as ``SkillResult`` (kept equal by a test): ``action``, ``success``,
-    ``improper``, ``steps`` (control steps, >= 0), ``reason``, ``state_before``, ``state_after``
-    (``None`` on a fault), ``outcome``, ``expected``, ``wall_time`` and ``env_time`` (seconds),
-    ``final_phase`` and ``phase_steps``.  Defined at module level without importing robosuite,
-    so ``info`` crosses process boundaries (Gymnasium's ``AsyncVectorEnv``).
-
-    It compares equal to another report or ``SkillResult`` ignoring the wall-clock timings:
-    ``info`` must be equal for equal seeds and actions (Gymnasium's determinism check), and
-    the timings of two identical executions never are.
-    """
-
-    action: "Action | str"
-    success: bool
-    improper: bool
-    steps: int
-    reason: str
-    state_before: TaskState | None
-    state_after: TaskState | None
-    outcome: Outcome | None
-    expected: TaskState | None = None
-    wall_time: float = 0.0
-    env_time: float = 0.0
-    final_phase: str = ""
-    phase_steps: dict = field(default_factory=dict)
-
-    __hash__ = None  # phase_steps is a dict
-
-    @classmethod
-    def of(cls, result) -> "SkillReport":
-        """The report of a ``SkillResult`` (``phase_steps`` copied)."""
-        values = {f.name: getattr(result, f.name) for f in fields(cls)}
-        values["phase_steps"] = dict(values["phase_steps"])
-        return cls(**values)
-
-    @property
-    def overhead_time(self) -> float:
-        """Seconds of ``wall_time`` not spent in ``env.step`` (skill logic, skill_info, abstraction)."""
-        return self.wall_time - self.env_time
-
-    def __eq__(self, other):
-        names = [f.name for f in fields(self) if f.name not in _TIMING_FIELDS]
-        if not all(hasattr(other, name) for name in names):
-            return NotImplemented
-        return all(getattr(self, name) == getattr(other, name) for name in names)
 
 
 def _comparable(result) -> SkillReport:
