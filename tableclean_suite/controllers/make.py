@@ -8,6 +8,7 @@ from robosuite.environments.base import MujocoEnv
 import tableclean_suite  # noqa: F401  (registers TableClean with robosuite)
 from tableclean_suite.controllers.fast_control import attach_fast_stepper
 from tableclean_suite.controllers.osc import skill_controller_config
+from tableclean_suite.controllers.robot_configs import check_robot
 
 #: Settings the skills rely on, or that only cost time when running skills headless.
 SKILL_ENV_DEFAULTS = {
@@ -36,25 +37,19 @@ def make_skill_env(object_segment: int | None = 1, arm_segment: int | None = 1, 
         **kwargs: any other TableClean/robosuite argument; overrides the defaults.
 
     Raises:
-        ValueError: ``robots`` names more than one robot (the scene has one arm).
+        ValueError: ``robots`` names more than one robot (the scene has one arm), or a robot without
+            a registered skill config (the message lists the supported ones,
+            :func:`~tableclean_suite.controllers.robot_configs.supported_robots`); checked before
+            anything is built.
         NotImplementedError: ``fast_control`` with controllers the fast path does not reproduce
             (e.g. custom ``controller_configs``); pass ``fast_control=False``.
     """
     options = {**SKILL_ENV_DEFAULTS, **kwargs}
+    robot = check_robot(options["robots"])
     if "controller_configs" not in kwargs:
-        robot = _single_robot(options["robots"])
         options["controller_configs"] = skill_controller_config(robot, options.get("task_config"))
     env = robosuite.make("TableClean", object_segment=object_segment, arm_segment=arm_segment, **options)
     if fast_control and isinstance(env, MujocoEnv):  # anything else (a test double) is returned as made
         attach_fast_stepper(env)
     return env
 
-
-def _single_robot(robots) -> str:
-    """The robot name of ``robots`` (a name or a one-element sequence of names)."""
-    if isinstance(robots, str):
-        return robots
-    names = list(robots) if isinstance(robots, (list, tuple)) else []
-    if len(names) != 1 or not isinstance(names[0], str):
-        raise ValueError(f"robots must name one robot (the TableClean scene has one arm), got {robots!r}")
-    return names[0]

@@ -85,7 +85,9 @@ def skill_controller_config(robot: str = "Panda", task_config: Mapping | None = 
         raise ValueError(f"robot {robot!r} has no {ARM_PART!r} arm part in its default controller config "
                          f"(parts: {sorted(parts)})")
     low, high = skill_command_limits(task_config)
-    parts[ARM_PART].update(OSC_OVERRIDES, input_min=low.tolist(), input_max=high.tolist())
+    from tableclean_suite.controllers.robot_configs import osc_overrides
+
+    parts[ARM_PART].update(OSC_OVERRIDES, **osc_overrides(robot), input_min=low.tolist(), input_max=high.tolist())
     return config
 
 

@@ -18,6 +18,7 @@ Subclasses define:
 from __future__ import annotations
 
 import abc
+import collections
 import enum
 from dataclasses import dataclass
 from typing import Any, ClassVar, Mapping, Protocol, runtime_checkable
@@ -33,7 +34,16 @@ BASE_CONFIG: dict[str, Any] = {
     "max_steps": 400,  # step budget (control steps) before the skill gives up
     "speed": 0.4,  # m/s, maximum speed of the rate-limited setpoint
     "reach_tolerance": 0.008,  # m, achieved-to-waypoint distance that counts as reached
-    "gripper_still": 2e-4,  # m per step, finger motion below which the gripper has settled
+    # finger joint motion per control step below which the gripper has settled (joint units: m for the
+    # Panda's slide fingers, rad for hinged ones); see Skill.gripper_settled for the other two rules
+    "gripper_still": 2e-4,
+    # control steps of each of the two windows whose mean finger positions are compared; None: rule off
+    # (grippers whose fingers jitter without ever stopping, e.g. the Robotiq 85's linkage, need it)
+    "gripper_window": None,
+    # finger joint units per control step: the windowed mean position drifting slower than this has settled
+    "gripper_drift": 0.0,
+    # control steps in a phase after which the gripper counts as settled whatever it does; None: never
+    "gripper_timeout": None,
     # m above the table top at which the gripper travels and hovers: clears a carried object (4.5 cm cube)
     # and the sponge stand (2 cm); measured, 0.12 cost ~6 more control steps per lift/descend pair
     "hover_height": 0.08,
@@ -125,6 +135,10 @@ class Skill(abc.ABC):
         self.phase_steps: dict[str, int] = {}
         self._setpoint = np.zeros(3)
         self._last_fingers: np.ndarray | None = None
+        window = self.config["gripper_window"]
+        if window is not None and (isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 1):
+            raise ValueError(f"gripper_window must be None or an int >= 1 (control steps), got {window!r}")
+        self._finger_history: collections.deque = collections.deque(maxlen=2 * int(window or 0))
 
     # -- what subclasses provide ---------------------------------------------------
     @abc.abstractmethod
@@ -190,6 +204,7 @@ class Skill(abc.ABC):
         self.phase_steps = {}
         self._setpoint = np.array(info["eef_pos"], dtype=float)
         self._last_fingers = np.array(info["gripper_qpos"], dtype=float)
+        self._finger_history.clear()
         self.yaw = self._yaw_setpoint = gripper_yaw(info["eef_quat"])
         self.on_reset(info)
 
@@ -207,6 +222,8 @@ class Skill(abc.ABC):
         fingers = np.asarray(info["gripper_qpos"], dtype=float)
         finger_motion = np.max(np.abs(fingers - self._last_fingers))
         self._last_fingers = fingers
+        if self._finger_history.maxlen:
+            self._finger_history.append(fingers)
         try:
             self.update(info)
             target = self.waypoint(info)
@@ -230,8 +247,36 @@ class Skill(abc.ABC):
         if target.xy_only:
             error = error[:2]
         reached = float(np.linalg.norm(error)) <= target.tolerance
-        settled = finger_motion <= self.config["gripper_still"] and self._phase_steps >= target.min_steps
+        settled = self.gripper_settled(finger_motion) and self._phase_steps >= target.min_steps
         return reached and settled and self.phase_ready(info)
+
+    def gripper_settled(self, finger_motion: float) -> bool:
+        """Whether the fingers have settled, by any of three rules (per-robot settings in the config).
+
+        1. ``finger_motion`` (the largest finger joint change over the last control step, joint
+           units: m or rad) is at most ``gripper_still``: fingers that come to rest (the Panda's).
+        2. Windowed drift (``gripper_window`` = W steps, not None): the mean finger positions of the
+           last W steps and of the W steps before differ by at most ``gripper_drift`` * W in every
+           joint.  Some grippers never stop: the Robotiq 85's under-actuated linkage keeps
+           jittering by ~0.01 rad per step around a fixed pose, open or closed on an object, so rule
+           1 never holds; the jitter averages out of the window means, while a gripper still
+           opening or closing (a steady motion) keeps a drift of its whole speed.  The history spans
+           phases, so a gripper command that changed at the phase start is seen moving.
+        3. Timeout (``gripper_timeout`` steps in the current phase, not None): a backstop for a gripper
+           whose jitter outgrows the drift bound; the phase's other conditions (position reached,
+           ``min_steps``, the primitive's own check such as "the body is grasped") still apply.
+        """
+        if finger_motion <= self.config["gripper_still"]:
+            return True
+        history = self._finger_history
+        if history.maxlen and len(history) == history.maxlen:
+            window = history.maxlen // 2
+            samples = np.asarray(history)
+            drift = np.max(np.abs(samples[window:].mean(axis=0) - samples[:window].mean(axis=0))) / window
+            if drift <= self.config["gripper_drift"]:
+                return True
+        timeout = self.config["gripper_timeout"]
+        return timeout is not None and self._phase_steps >= timeout
 
     def _yaw_reached(self, info: Mapping[str, Any]) -> bool:
         return abs(wrap_angle(gripper_yaw(info["eef_quat"]) - self.yaw)) <= self.config["yaw_tolerance"]

@@ -21,6 +21,7 @@ from tableclean_suite.environments.config import (
 )
 from tableclean_suite.environments.ik import site_pose, solve_site_pose
 from tableclean_suite.environments.objects import get_object_type, make_object, make_sponge, object_names
+from tableclean_suite.environments.robot_support import check_scene_robot, exclude_parent_contacts, scene_gripper
 from tableclean_suite.environments.randomization import (
     DynamicsRandomization,
     DynamicsSample,
@@ -140,6 +141,10 @@ class TableClean(ManipulationEnv):
     Task-specific (all others are those of
     :class:`robosuite.environments.manipulation.manipulation_env.ManipulationEnv`, passed through):
 
+    - ``robots``: one robot name with a registered skill config
+      (:func:`tableclean_suite.controllers.robot_configs.supported_robots`, e.g. ``"Panda"``);
+      others raise a ``ValueError`` naming the supported ones.  ``gripper_types="default"`` mounts the
+      gripper the robot's config names (UR5e, Kinova3: the Panda gripper), else robosuite's default.
     - ``task`` (name, :class:`~tableclean_suite.task.TaskSpec` or ``.json`` path; default ``"paper"``):
       the task spec the scene builds (N segments, the objects' types).
     - ``object_segment`` (1..N or None): segment every object starts on; None draws each at each reset.
@@ -208,6 +213,9 @@ class TableClean(ManipulationEnv):
         renderer_config=None,
         seed=None,
     ):
+        #: robosuite's name of the arm; ValueError naming the supported robots before anything is built
+        self.robot_name: str = check_scene_robot(robots)
+        gripper_types = scene_gripper(self.robot_name, gripper_types)  # some arms get another gripper (robot configs)
         #: the configured task config; ``task_config`` is this episode's (randomised sizes, see randomization=)
         self.base_task_config = make_config(task_config)
         self.task_config = self.base_task_config
@@ -335,6 +343,7 @@ class TableClean(ManipulationEnv):
         config = self.task_config
         robot_model = self.robots[0].robot_model
         robot_model.set_base_xpos(robot_model.base_xpos_offset["table"](config["table_full_size"][0]))
+        exclude_parent_contacts(robot_model)  # a fixed base's first link must not collide with it (Sawyer)
         arena = TableCleanArena(
             geometry=self.geometry,
             marker_xy=self._marker_xyz[:, :2].reshape(self.n_segments, self._markers_per_segment, 2),
