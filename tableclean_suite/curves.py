@@ -1,0 +1,335 @@
+"""Learning curves from training records: per iteration, averaged over runs.
+
+The definitions (which the scalar metrics of :mod:`tableclean_suite.metrics` build on):
+
+- An episode **succeeds** when it reaches the terminal state without any improper action.
+- **Success rate** at iteration t: fraction of runs whose most recently finished episode (at or
+  before t) succeeded; a run with no finished episode counts 0.
+- **Terminal rate** at t: the same for reaching the terminal state, improper actions or not.
+- **Average reward** at t: mean over runs of (return / length) of the most recently finished
+  episode; runs with no finished episode are left out, and with a ``support_fraction`` f > 0 the
+  point is NaN until at least f of the runs have finished an episode.
+- **Episodes** at t: mean over runs of episodes finished by t.
+
+Inputs are :class:`~tableclean_suite.learners.TrainingResult` records (R runs x T iterations).
+:class:`CurveSums` accumulates the per-iteration sums chunk by chunk of runs in one compiled pass
+(memory ``5 x T`` whatever R); :class:`GroupedCurveSums` keeps them per group of runs for the
+bootstrap.  The ``*_matrix`` functions are the ``(R, T)`` per-run versions, for tests and tables.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from tableclean_suite.task import Outcome
+
+_TERMINAL_END = 1  # kernel.EPISODE_TERMINAL
+_IMPROPER = int(Outcome.IMPROPER)
+
+
+def check_fraction(name: str, value: float, low_open: bool = True) -> None:
+    """``ValueError`` naming ``name`` unless ``value`` is in (0, 1] (``low_open``) or [0, 1]."""
+    if not (0.0 < value <= 1.0) if low_open else not (0.0 <= value <= 1.0):
+        raise ValueError(f"{name} must be in (0, 1], got {value!r}")
+
+
+
+def _episode_arrays(result):
+    """Per finished episode: run, last iteration, previous end, return, length, improper count, terminal."""
+    ends = result.episode_end != 0
+    run_index, last = np.nonzero(ends)
+    same_run = np.r_[False, run_index[1:] == run_index[:-1]]
+    previous_end = np.where(same_run, np.r_[-1, last[:-1]], -1)
+    cum_reward = np.cumsum(result.rewards, axis=1)
+    cum_improper = np.cumsum(result.outcomes == Outcome.IMPROPER, axis=1)
+
+    def span(cumulative):
+        before = np.where(previous_end >= 0, cumulative[run_index, np.maximum(previous_end, 0)], 0)
+        return cumulative[run_index, last] - before
+
+    episode_return = span(cum_reward)
+    improper = span(cum_improper)
+    length = last - previous_end
+    terminal = result.episode_end[run_index, last] == _TERMINAL_END
+    return run_index, last, previous_end, episode_return, length, improper, terminal
+
+
+def episode_table(result):
+    """One row per finished episode (pandas DataFrame); see ``TrainingResult.episodes``."""
+    import pandas as pd
+
+    run_index, last, previous_end, episode_return, length, improper, terminal = _episode_arrays(result)
+    same_run = np.r_[False, run_index[1:] == run_index[:-1]]
+    episode_number = np.zeros(len(run_index), dtype=np.int64)
+    for i in range(1, len(run_index)):
+        episode_number[i] = episode_number[i - 1] + 1 if same_run[i] else 0
+    return pd.DataFrame(
+        {
+            "run": run_index,
+            "episode": episode_number,
+            "first_iteration": previous_end + 1,
+            "last_iteration": last,
+            "length": length,
+            "return": episode_return,
+            "average_reward": episode_return / length,
+            "reached_terminal": terminal,
+            "improper_actions": improper,
+            "success": terminal & (improper == 0),
+        }
+    )
+
+
+def _forward_fill(result, values_at_ends, before_first):
+    """Spread per-episode values over iterations: value of the latest episode ended at or before t."""
+    runs, iterations = result.episode_end.shape
+    ends = result.episode_end != 0
+    run_index, last = np.nonzero(ends)
+    grid = np.full((runs, iterations), np.nan)
+    grid[run_index, last] = values_at_ends
+    latest = np.where(ends, np.arange(iterations)[None, :], -1)
+    latest = np.maximum.accumulate(latest, axis=1)
+    filled = np.take_along_axis(grid, np.maximum(latest, 0), axis=1)
+    return np.where(latest >= 0, filled, before_first)
+
+
+def success_matrix(result) -> np.ndarray:
+    """``(R, T)`` float: 1.0 if the run's latest finished episode succeeded, else 0.0."""
+    _, _, _, _, _, improper, terminal = _episode_arrays(result)
+    return _forward_fill(result, (terminal & (improper == 0)).astype(float), 0.0)
+
+
+def terminal_matrix(result) -> np.ndarray:
+    """``(R, T)`` float: 1.0 if the latest finished episode reached the terminal state (improper or not)."""
+    _, _, _, _, _, _, terminal = _episode_arrays(result)
+    return _forward_fill(result, terminal.astype(float), 0.0)
+
+
+def average_reward_matrix(result) -> np.ndarray:
+    """``(R, T)``: return / length of the latest finished episode (NaN before the first)."""
+    _, _, _, episode_return, length, _, _ = _episode_arrays(result)
+    return _forward_fill(result, episode_return / length, np.nan)
+
+
+@dataclass
+class CurveSums:
+    """Per-iteration sums over runs, from which the curves follow; fed chunk by chunk of runs.
+
+    Memory is ``5 x T`` floats whatever the number of runs, so a cell's curves can be built from
+    ``train(runs=chunk, first_run=lo, ...)`` calls without keeping their records.  Runs must be
+    added in order (0, 1, ...) for the sums to be bit-identical to a single pass.
+
+    Attributes (all ``(T,)`` float64 except ``runs``):
+        success: sum over runs of the latest finished episode's success (0 or 1).
+        terminal: sum over runs of whether the latest finished episode reached the terminal state.
+        average_sum: sum, over runs with a finished episode, of its return / length.
+        finished_runs: number of runs with at least one finished episode.
+        episodes: sum over runs of episodes finished so far.
+        runs: runs added so far (>= 0).
+    """
+
+    success: np.ndarray
+    terminal: np.ndarray
+    average_sum: np.ndarray
+    finished_runs: np.ndarray
+    episodes: np.ndarray
+    runs: int = 0
+
+    @classmethod
+    def zeros(cls, iterations: int) -> "CurveSums":
+        """Empty sums for curves of length ``iterations`` (>= 1)."""
+        if iterations < 1:
+            raise ValueError(f"iterations must be >= 1, got {iterations!r}")
+        return cls(*(np.zeros(int(iterations)) for _ in range(5)))
+
+    @property
+    def iterations(self) -> int:
+        return len(self.success)
+
+    def add(self, result) -> "CurveSums":
+        """Add the runs of a :class:`TrainingResult` (the next ones in run order); returns self."""
+        if result.rewards.shape[1] != self.iterations:
+            raise ValueError(f"result has {result.rewards.shape[1]} iterations, the sums {self.iterations}")
+        one_group = [a[None, :] for a in (self.success, self.terminal, self.average_sum, self.finished_runs,
+                                          self.episodes)]  # views: the single group is this sums' arrays
+        first_success = np.zeros(result.rewards.shape[0], dtype=np.int64)
+        _grouped_curves(result.rewards, result.outcomes, result.episode_end, 0, *one_group, first_success)
+        self.runs += int(result.rewards.shape[0])
+        return self
+
+    def curves(self, support_fraction: float = 0.0) -> dict[str, np.ndarray]:
+        """The curves ``success``, ``terminal``, ``average_reward``, ``episodes``, each ``(T,)``.
+
+        Args:
+            support_fraction: the average reward at t is NaN unless at least this fraction of
+                the runs (in [0, 1]) have finished an episode by t (0: one run is enough).
+        """
+        if self.runs < 1:
+            raise ValueError("no runs added yet")
+        return mean_curves(self.success, self.terminal, self.average_sum, self.finished_runs, self.episodes,
+                           self.runs, support_fraction)
+
+
+def supported(finished_runs, runs, support_fraction: float) -> np.ndarray:
+    """Where the average reward is defined: at least one run, and at least ``support_fraction`` of
+    the ``runs`` (any shape broadcasting with ``finished_runs``), have finished an episode."""
+    check_fraction("support_fraction", support_fraction, low_open=False)
+    finished_runs = np.asarray(finished_runs, dtype=float)
+    return (finished_runs > 0) & (finished_runs >= support_fraction * np.asarray(runs, dtype=float))
+
+
+def mean_curves(success, terminal, average_sum, finished_runs, episodes, runs, support_fraction: float = 0.0):
+    """Curves from per-iteration sums over ``runs`` runs (arrays ``(..., T)``, ``runs`` broadcasting
+    as ``(..., 1)``): ``{"success", "terminal", "average_reward", "episodes"}``; see :class:`CurveSums`."""
+    runs = np.asarray(runs, dtype=float)
+    defined = supported(finished_runs, runs, support_fraction)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        average = np.where(defined, average_sum / np.maximum(finished_runs, 1.0), np.nan)
+        return {"success": success / runs, "terminal": terminal / runs, "average_reward": average,
+                "episodes": episodes / runs}
+
+
+def curve_sums(result) -> CurveSums:
+    """The :class:`CurveSums` of one :class:`TrainingResult`."""
+    return CurveSums.zeros(result.rewards.shape[1]).add(result)
+
+
+@numba.njit(cache=True)
+def _grouped_curves(rewards, outcomes, episode_end, first_run, success, terminal, average_sum, finished_runs,
+                    episodes, first_success):
+    """One pass over ``(R, T)`` records, adding per iteration, run by run in order, the latest
+    finished episode's success, terminal flag and average reward, the count of runs with a
+    finished episode, and episodes finished so far into ``(G, T)`` float64 accumulators, run
+    ``first_run + r`` adding to group ``(first_run + r) % G``; ``first_success[r]`` = iteration
+    count (1-based) at which run r finished its first successful episode, 0 if it never did.
+
+    Runs are added in order, so feeding runs 0..R-1 in several calls gives bit-identical sums."""
+    n_runs, n_iterations = rewards.shape
+    n_groups = success.shape[0]
+    for r in range(n_runs):
+        g = (first_run + r) % n_groups
+        episode_return = 0.0
+        length = 0
+        improper = 0
+        finished = 0
+        latest_success = 0.0
+        latest_terminal = 0.0
+        latest_average = 0.0
+        first_success[r] = 0
+        for t in range(n_iterations):
+            episode_return += rewards[r, t]
+            length += 1
+            if outcomes[r, t] == _IMPROPER:
+                improper += 1
+            if episode_end[r, t] != 0:
+                finished += 1
+                latest_terminal = 1.0 if episode_end[r, t] == _TERMINAL_END else 0.0
+                latest_success = latest_terminal if improper == 0 else 0.0
+                if latest_success > 0.0 and first_success[r] == 0:
+                    first_success[r] = t + 1
+                latest_average = episode_return / length
+                episode_return = 0.0
+                length = 0
+                improper = 0
+            success[g, t] += latest_success
+            terminal[g, t] += latest_terminal
+            episodes[g, t] += finished
+            if finished > 0:
+                average_sum[g, t] += latest_average
+                finished_runs[g, t] += 1.0
+
+
+@dataclass
+class GroupedCurveSums:
+    """:class:`CurveSums` kept per group of runs, for bootstrap intervals over runs.
+
+    Run i adds to group ``i % G``; runs are independent, so the G group sums are independent and
+    resampling groups resamples runs in blocks (:mod:`tableclean_suite.bench.statistics`).
+    Memory is ``5 x G x T`` floats plus one integer per run, whatever the number of runs.
+
+    Attributes (``(G, T)`` float64 unless said):
+        success, terminal, average_sum, finished_runs, episodes: as in :class:`CurveSums`, per group.
+        runs_per_group: ``(G,)`` float64, runs added to each group.
+        first_success: per run added, in order, the iteration count (1-based, in [1, T]) at the end
+            of its first successful episode, 0 if none within the window (int64 list of arrays).
+    """
+
+    success: np.ndarray
+    terminal: np.ndarray
+    average_sum: np.ndarray
+    finished_runs: np.ndarray
+    episodes: np.ndarray
+    runs_per_group: np.ndarray
+    first_success: list = field(default_factory=list)
+
+    @classmethod
+    def zeros(cls, iterations: int, groups: int) -> "GroupedCurveSums":
+        """Empty sums for ``groups`` (>= 1) groups of curves of length ``iterations`` (>= 1)."""
+        if iterations < 1 or groups < 1:
+            raise ValueError(f"iterations and groups must be >= 1, got {iterations!r}, {groups!r}")
+        return cls(*(np.zeros((int(groups), int(iterations))) for _ in range(5)), np.zeros(int(groups)))
+
+    @property
+    def runs(self) -> int:
+        return int(self.runs_per_group.sum())
+
+    @property
+    def groups(self) -> int:
+        return int(self.success.shape[0])
+
+    @property
+    def iterations(self) -> int:
+        return int(self.success.shape[1])
+
+    def add(self, result) -> "GroupedCurveSums":
+        """Add the runs of a :class:`TrainingResult`, the next ones in run order; returns self."""
+        runs, iterations = result.rewards.shape
+        if iterations != self.iterations:
+            raise ValueError(f"result has {iterations} iterations, the sums {self.iterations}")
+        first = np.zeros(runs, dtype=np.int64)
+        _grouped_curves(result.rewards, result.outcomes, result.episode_end, self.runs, self.success, self.terminal,
+                        self.average_sum, self.finished_runs, self.episodes, first)
+        self.runs_per_group += np.bincount((self.runs + np.arange(runs)) % self.groups, minlength=self.groups)
+        self.first_success.append(first)
+        return self
+
+    def first_success_iterations(self) -> np.ndarray:
+        """``(R,)`` float64: iterations to each run's first successful episode, NaN if none."""
+        first = np.concatenate(self.first_success) if self.first_success else np.zeros(0, dtype=np.int64)
+        return np.where(first > 0, first, np.nan).astype(float)
+
+    def totals(self) -> CurveSums:
+        """The :class:`CurveSums` of all runs (sums over groups)."""
+        return CurveSums(self.success.sum(0), self.terminal.sum(0), self.average_sum.sum(0),
+                         self.finished_runs.sum(0), self.episodes.sum(0), self.runs)
+
+
+def learning_curves(result) -> dict[str, np.ndarray]:
+    """The per-iteration curves ``success``, ``terminal``, ``average_reward``, ``episodes``, each ``(T,)``.
+
+    Same definitions as the ``*_matrix`` functions averaged over runs, computed in
+    one compiled pass without ``(R, T)`` temporaries (the harness's hot path).
+    """
+    return curve_sums(result).curves()
+
+
+def success_curve(result) -> np.ndarray:
+    """Success rate per iteration, shape ``(T,)``, in [0, 1]."""
+    return learning_curves(result)["success"]
+
+
+def terminal_curve(result) -> np.ndarray:
+    """Fraction of runs whose latest episode reached the terminal state, shape ``(T,)``."""
+    return learning_curves(result)["terminal"]
+
+
+def average_reward_curve(result) -> np.ndarray:
+    """Average reward per iteration, shape ``(T,)`` (NaN until some run finished an episode)."""
+    return learning_curves(result)["average_reward"]
+
+
+def episodes_curve(result) -> np.ndarray:
+    """Mean over runs of episodes finished by each iteration, shape ``(T,)``."""
+    return learning_curves(result)["episodes"]
