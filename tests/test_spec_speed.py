@@ -51,6 +51,25 @@ def test_summary_names_the_verdict():
     assert "compiled 1" in text and "loaded from disk cache 3" in text
 
 
+def test_summary_labels_the_three_cold_start_processes_and_the_goal():
+    paper = spec_speed.Rate("paper", 24, 1000, 1.0)
+    (first, _), (warm, _), (off, _) = spec_speed.COLD_START_PROCESSES
+    cold = [spec_speed.ColdStart(30.0, 39, 0, 0, first, 0), spec_speed.ColdStart(1.3, 0, 0, 0, warm, 17),
+            spec_speed.ColdStart(9.0, 0, 5, 0, off, 0)]
+    text = "\n".join(spec_speed.summary_lines(paper, paper, cold))
+    assert "#1 first process (empty numba and result caches): 30.00 s" in text
+    assert "#2 second process (warm numba and result caches): 1.30 s" in text and "cells resumed 17" in text
+    assert "#3 second process, result caches off (numba cache only): 9.00 s" in text
+    assert "within 3 s: yes" in text
+    slow = [cold[0], spec_speed.ColdStart(3.5, 0, 0, 0, warm, 17), cold[2]]
+    assert "within 3 s: NO" in "\n".join(spec_speed.summary_lines(paper, paper, slow))
+
+
+def test_cold_start_processes_share_the_warm_out_but_not_the_uncached_one():
+    outs = [out for _, out in spec_speed.COLD_START_PROCESSES]
+    assert outs[0] == outs[1] != outs[2]
+
+
 def test_bad_flag_exits_2(capsys):
     with pytest.raises(SystemExit) as stop:
         spec_speed.main(["--runs", "-3"])

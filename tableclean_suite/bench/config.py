@@ -143,7 +143,8 @@ class RunConfig:
     figures: bool = True
     """Draw the PNG figures."""
     fresh: bool = False
-    """Retrain every cell, ignoring (and overwriting) the saved ones."""
+    """Retrain every cell and recompute the cached comparisons and figures, ignoring (and overwriting)
+    the saved ones."""
     progress: bool = True
     """Show a progress bar over cells on stderr."""
     verbose: bool = False

@@ -128,7 +128,8 @@ def metrics_digest() -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | None = None) -> dict:
+def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | None = None,
+                task_digest: str | None = None) -> dict:
     """Everything that determines a cell's stored summary (JSON-serialisable).
 
     Args:
@@ -136,6 +137,8 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
         config: the run's configuration; its :meth:`~RunConfig.cell_settings` enter the key.
         model: the :class:`~tableclean_suite.task.TaskModel` trained on.
         transitions_sha256: digest of the calibrated transition table's file, if any.
+        task_digest: ``model.code_digest()`` when the caller has it already (it reads the task
+            rules' sources: ~15 ms, so :func:`run_grid` computes it once for all its cells).
 
     The key includes the code as well as the values: the learner's digest
     (:func:`tableclean_suite.learners.code_digest`: training loop, random numbers, its TD
@@ -163,7 +166,7 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
         "cell": asdict(cell),
         "settings": config.cell_settings(),
         "model": repr(model),
-        "task_digest": model.code_digest(),
+        "task_digest": model.code_digest() if task_digest is None else task_digest,
         "transitions_sha256": transitions_sha256,
         "metrics_digest": metrics_digest(),
     }
@@ -500,7 +503,8 @@ def run_grid(
     from tqdm.auto import tqdm
 
     outcome = GridRun()
-    keys = {cell: cell_config(cell, config, model, transitions_sha256) for cell in unique_cells(grid)}
+    task_digest = model.code_digest()
+    keys = {cell: cell_config(cell, config, model, transitions_sha256, task_digest) for cell in unique_cells(grid)}
     pending = []
     for cell, key in keys.items():
         stored = None if config.fresh else store.load(cell, key)

@@ -1,6 +1,9 @@
 """Figures 3-7 of the paper from a long curves DataFrame: each function returns ``(fig, ax)``.
 
-Nothing here shows or saves a figure; :mod:`benchmarks.run` does.  Input is the
+Nothing here shows or writes a figure to a file (:func:`render_png` returns a figure's PNG bytes;
+:mod:`tableclean_suite.bench.run` writes them).  matplotlib is imported when a figure is first
+drawn, not with this module (``benchmarks.run`` loads unchanged figures from its cache without
+it, see :mod:`.derived`).  Input is the
 long-format frame of :func:`benchmarks.tables.curves_long` (columns ``learner, reward,
 alpha, gamma, experiment, iteration, metric, value`` and, when present, the 95 % band
 ``low, high``, shaded on every figure).  Colours come from one palette
@@ -10,13 +13,10 @@ sweep figures colour by parameter value on a sequential map.
 
 from __future__ import annotations
 
-import matplotlib
+import io
 
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+import numpy as np
+import pandas as pd
 
 #: The paper's patterns get fixed colours; user patterns take the next free ones.
 REWARD_COLORS = {"r1": "#1f77b4", "r2": "#ff7f0e", "r3": "#2ca02c", "r4": "#d62728"}
@@ -31,6 +31,16 @@ METRIC_LABELS = {
 _PERCENT_METRICS = ("success", "terminal")
 LEARNER_TITLES = {"q_learning": "Q-learning", "sarsa": "SARSA", "expected_sarsa": "Expected SARSA"}
 X_LABEL = "training iterations (environment steps)"
+
+
+def pyplot():
+    """``matplotlib.pyplot`` on the Agg backend (imported on first use: ~0.6 s)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def reward_color(reward: str, known=()) -> str:
@@ -114,7 +124,7 @@ def plot_rewards(
     Returns:
         ``(fig, ax)``.
     """
-    fig, ax = (plt.subplots(figsize=(7, 4.2)) if ax is None else (ax.figure, ax))
+    fig, ax = (pyplot().subplots(figsize=(7, 4.2)) if ax is None else (ax.figure, ax))
     rows = _select(curves, learner=learner, metric=metric, experiment=experiment)
     rewards = list(dict.fromkeys(rows["reward"]))
     for reward in rewards:
@@ -161,8 +171,11 @@ def plot_sweeps(
         ``(fig, axes)`` with one axes per experiment that has rows (at least one axes).
     """
     present = [e for e in experiments if (curves["experiment"] == e).any()] or list(experiments[:1])
+    plt = pyplot()
     fig, axes = plt.subplots(1, len(present), figsize=(6.2 * len(present), 4.2), sharey=True, squeeze=False)
     axes = axes[0]
+    import matplotlib
+
     colormap = matplotlib.colormaps[cmap]
     for ax, experiment in zip(axes, present):
         parameter = "alpha" if experiment == "alpha_sweep" else "gamma"
@@ -238,9 +251,9 @@ PAPER_FIGURES = {
 
 def available_figures(curves: pd.DataFrame) -> list[str]:
     """Stems of :data:`PAPER_FIGURES` that ``curves`` has data for."""
-    main = curves[curves["experiment"] == "main"]
-    learners = set(main["learner"])
-    sweeps = set(curves["experiment"]) & {"alpha_sweep", "gamma_sweep"}
+    experiments = set(curves["experiment"].unique().tolist())
+    learners = set(curves.loc[curves["experiment"] == "main", "learner"].unique().tolist())
+    sweeps = experiments & {"alpha_sweep", "gamma_sweep"}
     needs = {
         "fig3_success_rate_q_learning": "q_learning" in learners,
         "fig4_average_reward_q_learning": "q_learning" in learners,
@@ -249,3 +262,20 @@ def available_figures(curves: pd.DataFrame) -> list[str]:
         "fig7_average_reward_sweeps": bool(sweeps),
     }
     return [stem for stem, ok in needs.items() if ok]
+
+
+#: How :func:`render_png` saves a figure (beside the dpi it is given).
+SAVEFIG_OPTIONS = {"bbox_inches": "tight", "format": "png"}
+
+
+def render_png(stem: str, curves: pd.DataFrame, plateau_fraction: float, table3=None, dpi: int = 100) -> bytes:
+    """The PNG bytes of the paper's figure ``stem`` (:data:`PAPER_FIGURES`) drawn from ``curves``
+    (plateau lines from ``table3`` when given), at ``dpi`` dots per inch."""
+    plt = pyplot()
+    fig, _ = PAPER_FIGURES[stem][1](curves, plateau_fraction, table3)
+    try:
+        buffer = io.BytesIO()
+        fig.savefig(buffer, dpi=dpi, **SAVEFIG_OPTIONS)
+        return buffer.getvalue()
+    finally:
+        plt.close(fig)

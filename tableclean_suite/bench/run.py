@@ -16,7 +16,10 @@ IQMs, the probabilities of improvement and Table 4, and writes to ``--out``: ``t
 (with ``low``/``high`` bands), the figures ``fig3..fig7*.png`` (bands shaded),
 ``config.json`` (written last: the run's configuration, a run id and the SHA-256 of each of
 those files; see :mod:`.outputs`) and ``cells/`` (one file per trained cell; a rerun with the
-same settings and code loads them instead of retraining — ``--fresh`` retrains).
+same settings and code loads them instead of retraining — ``--fresh`` retrains).  The
+probabilities of improvement and the figures are cached too, in ``cells/derived/``, keyed by
+their inputs and code (:mod:`.derived`): a rerun with unchanged cells copies them instead of
+recomputing them (``--fresh`` recomputes them), and writes the same bytes either way.
 
 The run's settings are a :class:`~tableclean_suite.bench.config.RunConfig`; this module turns
 the command line into one and is the only module of the harness that touches the filesystem.
@@ -46,6 +49,8 @@ EXIT_INTERRUPTED = 130
 PROG = "python -m benchmarks.run"
 #: Resolution of the PNG figures, dots per inch.
 FIGURE_DPI = 120
+#: Where, under the cell store, results derived from the cells are cached (see :mod:`.derived`).
+DERIVED_DIR = "derived"
 
 #: Command-line flag of each :class:`RunConfig` field whose flag is not ``--field-name``.
 FLAGS = {"sweeps": "--no-sweeps", "figures": "--no-figures", "progress": "--no-progress",
@@ -244,7 +249,7 @@ def _manifest(config: RunConfig, model, transitions_sha256, grid_run, stride: in
 
 def run(args) -> int:
     """Train/load the grid, print the tables, write files and figures; returns the exit code."""
-    from tableclean_suite.bench import experiments, outputs, tables
+    from tableclean_suite.bench import derived, experiments, outputs, tables
     from tableclean_suite.executors import MissingRayError, TaskFailedError
 
     started = time.perf_counter()
@@ -288,9 +293,15 @@ def run(args) -> int:
     records, curves = experiments.cell_records(grid, grid_run.summaries, grid_run.statistics)
     table3 = tables.table3(records, compare_with_paper=tables.is_paper_task(model))
     table4 = tables.table4(table3)
-    comparisons = _comparisons(grid, grid_run, config)
+    results = derived.DerivedStore(store.root / DERIVED_DIR, read=not config.fresh)
+    comparisons, comparisons_cached = _comparisons(grid, grid_run, config, results)
     stride = _curves_stride(len(records) * len(tables.CURVE_METRICS), config.iterations)
     curves_frame = tables.curves_long(records, curves, stride=stride)
+    figures = (derived.figures(results, curves_frame, config.plateau_fraction, table3, FIGURE_DPI)
+               if config.figures else [])
+    drawn = sum(not figure.cached for figure in figures)
+    print(f"derived results in {results.root}: comparisons {'loaded' if comparisons_cached else 'computed'}, "
+          f"figures {len(figures) - drawn} loaded, {drawn} drawn")
 
     writers = {
         "table3.csv": lambda path: table3.to_csv(path, index=False),
@@ -299,12 +310,13 @@ def run(args) -> int:
         "curves.csv": lambda path: path.write_text(tables.csv_text(curves_frame, tables.CURVES_FLOAT_FORMAT),
                                                    encoding="utf-8", newline=""),
     }
-    if config.figures:
-        writers.update(_figure_writers(curves_frame, config.plateau_fraction, table3))
+    writers.update({figure.name: (lambda path, png=figure.png: path.write_bytes(png)) for figure in figures})
     elapsed = time.perf_counter() - started
+    manifest = _manifest(config, model, transitions_sha256, grid_run, stride, elapsed)
+    manifest["derived"] = {"comparisons": "loaded" if comparisons_cached else "computed",
+                           "figures": {figure.name: "loaded" if figure.cached else "drawn" for figure in figures}}
     try:
-        written = outputs.publish(out, writers, _manifest(config, model, transitions_sha256, grid_run, stride,
-                                                          elapsed))
+        written = outputs.publish(out, writers, manifest)
     except KeyboardInterrupt:
         print(f"\ninterrupted while writing {out}: it has no {outputs.MANIFEST}, so it describes no run; "
               "rerun the same command (cells are saved) to write it", file=sys.stderr)
@@ -338,13 +350,14 @@ def cell_executor(config: RunConfig):
     return LocalExecutor(workers=config.workers)
 
 
-def _comparisons(grid, grid_run, config: RunConfig):
-    """Probabilities of improvement between the main cells (see :func:`.statistics.comparisons`)."""
-    from tableclean_suite.bench import statistics
+def _comparisons(grid, grid_run, config: RunConfig, results):
+    """Probabilities of improvement between the main cells (see :func:`.statistics.comparisons`), from
+    the derived-results cache ``results`` when it holds them; ``(frame, cached)``."""
+    from tableclean_suite.bench import derived
 
     main = [m.cell for m in grid if m.experiment == "main"]
     cells = [{"learner": c.learner, "reward": c.reward, "runs": grid_run.statistics[c].runs} for c in main]
-    return statistics.comparisons(cells, config.confidence, config.bootstrap_samples, config.seed)
+    return derived.comparisons(results, cells, config.confidence, config.bootstrap_samples, config.seed)
 
 
 def _print_tables(config: RunConfig, table3, table4, paper_task: bool, comparisons=None) -> None:
@@ -379,24 +392,6 @@ def _print_tables(config: RunConfig, table3, table4, paper_task: bool, compariso
         shown = tables.display_table4(table4)
         width = max(map(len, shown["methodology"]))
         print(shown.to_string(index=False, formatters={"methodology": f"{{:<{width}}}".format}))
-
-
-def _figure_writers(curves_frame, plateau_fraction: float, table3=None) -> dict:
-    """``{file name: write(path)}`` of the figures the curves allow (plateau lines from ``table3``)."""
-    from tableclean_suite.bench import plots
-
-    def writer(builder):
-        def write(path: Path) -> None:
-            import matplotlib.pyplot as plt
-
-            fig, _ = builder(curves_frame, plateau_fraction, table3)
-            try:
-                fig.savefig(path, dpi=FIGURE_DPI, bbox_inches="tight", format="png")
-            finally:
-                plt.close(fig)
-        return write
-
-    return {f"{stem}.png": writer(plots.PAPER_FIGURES[stem][1]) for stem in plots.available_figures(curves_frame)}
 
 
 def main(argv=None, prog: str | None = None) -> int:

@@ -414,10 +414,23 @@ def comparisons(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, sampl
     Returns:
         A DataFrame with columns ``comparison, learner_x, reward_x, learner_y, reward_y, score,
         higher_is_better, probability_of_improvement, probability_of_improvement_low,
-        probability_of_improvement_high`` (X improves on Y with that probability).
+        probability_of_improvement_high`` (X improves on Y with that probability):
+        :func:`comparisons_frame` of :func:`comparison_rows`.
     """
+    return comparisons_frame(comparison_rows(cells, confidence, samples, seed))
+
+
+def comparisons_frame(rows: list[dict]):
+    """The DataFrame of :func:`comparisons` from its rows (columns :data:`COMPARISON_COLUMNS`)."""
     import pandas as pd
 
+    return pd.DataFrame(rows, columns=COMPARISON_COLUMNS)
+
+
+def comparison_rows(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, samples: int = DEFAULT_SAMPLES,
+                    seed: int = 0) -> list[dict]:
+    """The rows of :func:`comparisons` as plain values (str, bool, float): JSON-serialisable, so
+    that ``benchmarks.run`` can cache them (:mod:`.derived`)."""
     rows = []
     rng = np.random.default_rng(seed)
     for i, x in enumerate(cells):
@@ -434,7 +447,7 @@ def comparisons(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, sampl
                              "reward_y": y["reward"], "score": score, "higher_is_better": higher,
                              "probability_of_improvement": p, "probability_of_improvement_low": low,
                              "probability_of_improvement_high": high})
-    return pd.DataFrame(rows, columns=COMPARISON_COLUMNS)
+    return rows
 
 
 COMPARISON_COLUMNS = ("comparison", "learner_x", "reward_x", "learner_y", "reward_y", "score", "higher_is_better",

@@ -383,13 +383,13 @@ _CSV_SPECIAL = (",", '"', "\n", "\r")
 def _formatted_floats(values: np.ndarray, float_format: str, na_rep: str) -> list[str]:
     """``values`` (float64) as ``to_csv`` writes them: ``float_format % v``, ``na_rep`` for NaN.
 
-    Each distinct bit pattern is formatted once (curves repeat values a lot); identical bits give
-    identical text, so -0.0 and 0.0 stay apart.
+    Each distinct bit pattern is formatted once (curves repeat values a lot; found by hashing, not
+    sorting); identical bits give identical text, so -0.0 and 0.0 stay apart.
     """
     values = np.ascontiguousarray(values, dtype=np.float64)
-    bits, inverse = np.unique(values.view(np.int64), return_inverse=True)
-    texts = [na_rep if v != v else float_format % v for v in bits.view(np.float64).tolist()]
-    return np.asarray(texts, dtype=object)[np.asarray(inverse).reshape(-1)].tolist()
+    codes, bits = pd.factorize(values.view(np.int64))
+    texts = [na_rep if v != v else float_format % v for v in np.asarray(bits, dtype=np.int64).view(np.float64).tolist()]
+    return np.asarray(texts, dtype=object)[codes].tolist()
 
 
 def csv_text(frame: pd.DataFrame, float_format: str = CURVES_FLOAT_FORMAT, na_rep: str = "") -> str:
@@ -420,5 +420,6 @@ def csv_text(frame: pd.DataFrame, float_format: str = CURVES_FLOAT_FORMAT, na_re
     names = [str(name) for name in frame.columns]
     if not all(type(n) is str and not any(c in n for c in _CSV_SPECIAL) for n in frame.columns) or not names:
         return frame.to_csv(index=False, float_format=float_format, na_rep=na_rep)
-    rows = map(",".join, zip(*columns))
-    return ",".join(names) + "\n" + "".join(row + "\n" for row in rows)
+    if not len(frame):
+        return ",".join(names) + "\n"
+    return ",".join(names) + "\n" + "\n".join(map(",".join, zip(*columns))) + "\n"
