@@ -37,6 +37,7 @@ import numpy as np
 
 import tableclean_suite
 from tableclean_suite import analysis, asymptotes, metrics
+from tableclean_suite import curves as curve_sums
 from tableclean_suite.bench import statistics
 from tableclean_suite.bench.config import LITERATURE_LEARNERS, RunConfig
 from tableclean_suite.bench.statistics import CellStatistics
@@ -121,10 +122,11 @@ def unique_cells(grid: list[Membership]) -> list[Cell]:
 
 @lru_cache(maxsize=1)
 def metrics_digest() -> str:
-    """SHA-256 (hex) of the sources that compute a summary from records: :mod:`tableclean_suite.metrics`,
+    """SHA-256 (hex) of the sources that compute a summary from records: :mod:`tableclean_suite.curves`
+    (the curves accumulated from records), :mod:`tableclean_suite.metrics`,
     :mod:`tableclean_suite.asymptotes` (and the :mod:`~tableclean_suite.analysis` it calls) and
     :mod:`.statistics`."""
-    text = "".join(inspect.getsource(module) for module in (metrics, asymptotes, analysis, statistics))
+    text = "".join(inspect.getsource(module) for module in (curve_sums, metrics, asymptotes, analysis, statistics))
     return hashlib.sha256(text.encode()).hexdigest()
 
 
