@@ -178,6 +178,9 @@ def test_write_is_atomic_and_checks_shapes(tmp_path):
     (["--task", "paper", "--out", "demos.txt"], "--out must end in .hdf5 or .h5"),
     (["--episodes", "0"], "expected a positive integer, got '0'"),
     (["--valid-fraction", "1.5"], "--valid-fraction must be in [0, 1), got 1.5"),
+    (["--workers", "0"], "argument --workers: expected a positive integer, got '0'"),
+    (["--executor", "spark"], "choose from local, ray"),
+    (["--ray-address", "127.0.0.1:6379"], "--ray-address is only used with --executor ray"),
 ])
 def test_bad_flags_exit_2_with_one_line(argv, expected, capsys):
     with pytest.raises(SystemExit) as exit_info:
@@ -231,3 +234,101 @@ def test_recording_sees_every_control_step_on_both_control_paths(fast_control):
         assert not demo.attrs["success"]  # nothing cleaned yet
     finally:
         env.close()
+
+
+# --- attempts as executor tasks -------------------------------------------------------------------
+
+
+def test_attempts_draw_their_start_and_placement_from_seed_and_index_alone():
+    from tableclean_suite.task import TaskModel
+
+    model = TaskModel(start="uniform_unclean")
+    draws = [collect_demos.attempt_draws(model, 5, k) for k in range(12)]
+    assert draws == [collect_demos.attempt_draws(model, 5, k) for k in range(12)]  # no hidden stream
+    assert all(start in model.start_states() for start, _ in draws)
+    assert len({placement for _, placement in draws}) == 12 and len({start for start, _ in draws}) > 1
+    assert collect_demos.attempt_draws(model, 6, 0) != draws[0]
+    assert all(0 <= placement < collect_demos.PLACEMENT_SEED_BOUND for _, placement in draws)
+
+
+#: Attempts the stand-in recorder fails, and the tasks it was given (in this process).
+FAILING_ATTEMPTS = {1, 2, 4}
+SEEN_TASKS: list = []
+
+
+def _stand_in_record_attempt(task):
+    """record_attempt without physics: fails the attempts in FAILING_ATTEMPTS, else a tiny demo naming its attempt."""
+    SEEN_TASKS.append(task)
+    if task.attempt in FAILING_ATTEMPTS:
+        return collect_demos.AttemptResult(task.attempt, "S", None, "failed on purpose", {"env_name": "TableClean"})
+    demo = _tiny_demo()
+    demo.attrs["attempt"] = task.attempt
+    return collect_demos.AttemptResult(task.attempt, "S", demo, None, {"env_name": "TableClean"})
+
+
+def test_failed_attempts_are_replaced_in_waves_and_demos_keep_attempt_order(monkeypatch):
+    monkeypatch.setattr(collect_demos, "record_attempt", _stand_in_record_attempt)
+    SEEN_TASKS.clear()
+    lines = []
+    demos, env_args, attrs = collect_demos.collect("paper", 3, seed=9, log=lines.append)
+    # 3 demos wanted: attempts 0-2 (1 and 2 fail), then 3-4 (4 fails), then 5
+    assert [task.attempt for task in SEEN_TASKS] == [0, 1, 2, 3, 4, 5]
+    assert {task.seed for task in SEEN_TASKS} == {9} and SEEN_TASKS[0].policy is None
+    assert [demo.attrs["attempt"] for demo in demos] == [0, 3, 5]
+    assert attrs["discarded"] == 3 and env_args == {"env_name": "TableClean"}
+    assert lines[1] == "attempt 1: S: failed on purpose; discarded" and lines[-1].startswith("demo_2: S:")
+
+    SEEN_TASKS.clear()
+    monkeypatch.setattr(sys.modules[__name__], "FAILING_ATTEMPTS", set(range(100)))  # every attempt fails
+    demos, _, attrs = collect_demos.collect("paper", 2, seed=9, log=lines.append)
+    assert demos == [] and attrs["discarded"] == 2 * collect_demos.MAX_ATTEMPTS_PER_EPISODE
+    assert [task.attempt for task in SEEN_TASKS] == list(range(2 * collect_demos.MAX_ATTEMPTS_PER_EPISODE))
+
+
+def test_an_attempt_that_raises_is_named(monkeypatch):
+    from tableclean_suite.executors import TaskFailedError
+
+    monkeypatch.setattr(collect_demos, "record_attempt", _raise_in_attempt)
+    with pytest.raises(TaskFailedError, match="task demo attempt 0 failed after 1 attempt: RuntimeError: the scene"):
+        collect_demos.collect("paper", 1, log=lambda line: None)
+
+
+def _raise_in_attempt(task):
+    raise RuntimeError("the scene exploded")
+
+
+def test_dataset_differences_sees_every_dataset_and_attribute(tmp_path):
+    from tableclean_suite.demos import dataset_differences
+
+    first = write_dataset(tmp_path / "a.hdf5", [_tiny_demo(), _tiny_demo(4)], ENV_ARGS, {"seed": 1})
+    same = write_dataset(tmp_path / "b.hdf5", [_tiny_demo(), _tiny_demo(4)], ENV_ARGS, {"seed": 1})
+    assert dataset_differences(first, same) == []  # the write date is not content
+    assert dataset_differences(first, same, ignore_attrs=()) in ([], ["data@date differs"])
+    changed = _tiny_demo(4)
+    changed.states[2, 1] += 1e-12
+    changed.attrs["success"] = False
+    other = write_dataset(tmp_path / "c.hdf5", [_tiny_demo(), changed], ENV_ARGS, {"seed": 2})
+    assert dataset_differences(first, other) == ["data/demo_1/states differs", "data/demo_1@success differs",
+                                                 "data@seed differs"]
+    shorter = write_dataset(tmp_path / "d.hdf5", [_tiny_demo()], ENV_ARGS, {"seed": 1})
+    differences = dataset_differences(first, shorter)
+    assert f"only in {first}: data/demo_1/states" in differences and "data@total differs" in differences
+    as_float = _tiny_demo()
+    as_float.dones = as_float.dones.astype(float)  # same numbers, another dtype
+    assert "data/demo_0/dones differs" in dataset_differences(write_dataset(tmp_path / "e.hdf5", [as_float], ENV_ARGS),
+                                                              write_dataset(tmp_path / "f.hdf5", [_tiny_demo()], ENV_ARGS))
+
+
+@pytest.mark.slow
+def test_two_workers_record_the_same_dataset_as_one(dataset, tmp_path, monkeypatch):
+    """Each attempt is an executor task seeded by (seed, attempt): two processes write the fixture's data,
+    also when they start with one BLAS thread (as Ray's workers do) and this process has more."""
+    from tableclean_suite.demos import dataset_differences
+
+    monkeypatch.setenv("OMP_NUM_THREADS", "1")  # the spawned workers' OpenBLAS starts on one thread
+    out = tmp_path / "two_workers.hdf5"
+    code = collect_demos.main(["--task", "paper", "--episodes", str(EPISODES), "--seed", "3", "--out", str(out),
+                               "--workers", "2"])
+    assert code == 0
+    assert dataset_differences(dataset, out) == []
+    assert len(demo_keys(out)) == EPISODES

@@ -3,16 +3,24 @@ of workers, retries of failed tasks, errors naming the task, and the harness's c
 (bit-identical files).  Ray runs on a private cluster bound to loopback with 2 CPUs."""
 
 import builtins
+import csv
 import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
-import ray  # the dev extra installs it: these tests run wherever the README's set-up ran
+
+try:
+    import ray  # the dev extra installs it: these tests run wherever the README's set-up ran
+except ImportError:
+    ray = None
 
 from tableclean_suite.executors import (LocalExecutor, MissingRayError, RayExecutor, TaskFailedError, make_executor)
 from tableclean_suite.executors.probes import ProbeTask, run_probe
+
+#: The Ray tests run wherever Ray imports (the dev and cluster extras install it, so CI runs them).
+needs_ray = pytest.mark.skipif(ray is None, reason="Ray is not installed: pip install -e '.[dev]' (or '.[cluster]')")
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Probes per map: more than the workers, so tasks queue.
@@ -121,6 +129,7 @@ def local_ray():
     ray.shutdown()
 
 
+@needs_ray
 @pytest.mark.parametrize("workers", [None, 1, 2])
 def test_ray_gives_the_local_results(local_ray, workers):
     with RayExecutor(workers=workers) as executor:
@@ -128,6 +137,7 @@ def test_ray_gives_the_local_results(local_ray, workers):
     assert ray.is_initialized()  # a Ray the caller started is left running
 
 
+@needs_ray
 @pytest.mark.parametrize("mode", ["retry_once", "crash_once"])
 def test_ray_retries_a_task_that_fails_once(local_ray, mode, tmp_path):
     tasks = probes()
@@ -136,6 +146,7 @@ def test_ray_retries_a_task_that_fails_once(local_ray, mode, tmp_path):
         assert list(executor.map(run_probe, tasks)) == expected()
 
 
+@needs_ray
 @pytest.mark.parametrize("mode, attempts", [("retry_always", 2), ("crash_always", 2), ("error", 1)])
 def test_ray_raises_naming_a_task_that_keeps_failing(local_ray, mode, attempts):
     tasks = probes()
@@ -173,7 +184,8 @@ def serial_sweep(tmp_path_factory):
     return out, run_cli(out)
 
 
-@pytest.mark.parametrize("args", [("--workers", "2"), ("--workers", "3"), ("--executor", "ray", "--workers", "2")],
+@pytest.mark.parametrize("args", [("--workers", "2"), ("--workers", "3"),
+                                  pytest.param(("--executor", "ray", "--workers", "2"), marks=needs_ray)],
                          ids=["local-2", "local-3", "ray"])
 def test_cells_through_an_executor_are_bit_identical_to_the_serial_run(serial_sweep, args, tmp_path):
     serial_out, serial = serial_sweep
@@ -183,3 +195,81 @@ def test_cells_through_an_executor_are_bit_identical_to_the_serial_run(serial_sw
     assert cell_files(tmp_path) == cell_files(serial_out) and len(cell_files(serial_out)) == 4
     assert printed_tables(result, tmp_path) == printed_tables(serial, serial_out)
     assert "Traceback" not in result.stderr
+
+
+# --- physics workloads on Ray: the same results as the local executor ------------------------------
+
+
+#: The smallest fidelity run: 2 rounds (2 tasks) of the move skill from the paper's 18 states.
+FIDELITY = ["--trials", "2", "--actions", "move", "--seed", "5", "--quiet"]
+#: Columns that measure time, not what happened.
+TIMING_COLUMNS = ("wall_time", "env_time", "mean_seconds")
+
+
+def run_fidelity(out, *args):
+    env = {key: value for key, value in os.environ.items() if key != "RAY_ADDRESS"}  # --executor ray: a private Ray
+    result = subprocess.run([sys.executable, "-m", "benchmarks.fidelity", *FIDELITY, *args, "--out", str(out)],
+                            cwd=ROOT, env={**env, **LOCAL_RAY}, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    assert "Traceback" not in result.stderr
+    return result
+
+
+def csv_rows(path) -> list[dict]:
+    with open(path, newline="") as handle:
+        return [{k: v for k, v in row.items() if k not in TIMING_COLUMNS} for row in csv.DictReader(handle)]
+
+
+@pytest.mark.slow
+@needs_ray
+def test_fidelity_rounds_on_a_private_ray_give_the_local_results(tmp_path):
+    """``--executor ray`` without an address starts a private Ray on loopback: same trials, pairs and skills."""
+    run_fidelity(tmp_path / "local")
+    on_ray = run_fidelity(tmp_path / "ray", "--executor", "ray", "--workers", "2")
+    assert "36 trials in 2 round(s)" in on_ray.stdout
+    pairs = (tmp_path / "ray" / "fidelity_pairs.csv").read_bytes()
+    assert pairs == (tmp_path / "local" / "fidelity_pairs.csv").read_bytes()
+    assert len(csv_rows(tmp_path / "ray" / "fidelity_pairs.csv")) == 18
+    for name in ("fidelity_trials.csv", "fidelity_skills.csv"):
+        ray_rows, local_rows = csv_rows(tmp_path / "ray" / name), csv_rows(tmp_path / "local" / name)
+        assert ray_rows == local_rows and ray_rows, name
+    assert {row["round"] for row in csv_rows(tmp_path / "ray" / "fidelity_trials.csv")} == {"0", "1"}
+
+
+@pytest.mark.slow
+@needs_ray
+def test_demo_collection_on_ray_writes_the_local_dataset(local_ray, tmp_path):
+    """Each demo attempt is a task seeded by (seed, attempt): Ray's file holds this process's data."""
+    pytest.importorskip("h5py", reason="demo collection needs h5py (the demos and dev extras)")
+    from tableclean_suite.bench import collect_demos
+    from tableclean_suite.demos import dataset_differences, demo_keys
+
+    common = ["--task", "paper", "--episodes", "2", "--seed", "11"]
+    assert collect_demos.main([*common, "--out", str(tmp_path / "local.hdf5")]) == 0
+    assert collect_demos.main([*common, "--executor", "ray", "--workers", "2", "--out", str(tmp_path / "ray.hdf5")]) == 0
+    assert ray.is_initialized()  # the caller's Ray is left running
+    assert dataset_differences(tmp_path / "local.hdf5", tmp_path / "ray.hdf5") == []
+    assert demo_keys(tmp_path / "ray.hdf5") == ["demo_0", "demo_1"]
+
+
+# --- one BLAS thread inside physics tasks ----------------------------------------------------------
+
+
+def test_single_blas_thread_pins_every_loaded_openblas_and_restores_it():
+    import numpy  # noqa: F401  (its wheel loads OpenBLAS)
+    import scipy.linalg  # noqa: F401  (so does scipy's)
+
+    from tableclean_suite.executors.blas import blas_threads, loaded_openblas, single_blas_thread
+
+    libraries = loaded_openblas()
+    assert libraries, "numpy's and scipy's wheels ship OpenBLAS: none was found in /proc/self/maps"
+    for _, _, setter in libraries:
+        setter(2)
+    before = blas_threads()
+    with single_blas_thread():
+        assert set(blas_threads().values()) == {1} and set(blas_threads()) == set(before)
+    assert blas_threads() == before
+    with pytest.raises(ZeroDivisionError):
+        with single_blas_thread():
+            1 / 0
+    assert blas_threads() == before

@@ -3,6 +3,7 @@
     python -m benchmarks.collect_demos --task SPEC --episodes N [--robots Panda]
         [--policy optimal|learned] [--seed S] [--out FILE.hdf5]
         [--iterations I --runs R --max-actions A] [--valid-fraction F]
+        [--workers N] [--executor local|ray] [--ray-address HOST:PORT|auto]
 
 Each episode starts from a random all-unclean layout of the spec (objects and arm on drawn
 segments, placement noise seeded), then the SkillController executes, in the ``TableClean``
@@ -15,23 +16,35 @@ the goal are discarded and replaced by new draws (at most ``MAX_ATTEMPTS_PER_EPI
 per requested demo).  The file layout is in :mod:`tableclean_suite.demos`; it is written
 atomically (temporary file, then rename).
 
+Every *attempt* (a drawn start layout and its execution) is an executor task
+(:class:`DemoAttempt`, :func:`record_attempt`; :mod:`tableclean_suite.executors`): attempt
+``k`` draws its start and placement seed from ``(--seed, k)`` alone and the worker builds its
+own scene, so ``--workers N`` processes of this machine or ``--executor ray [--ray-address
+HOST:PORT]`` record the same demos as one process (BLAS runs on one thread inside an attempt,
+since its thread count changes the last bits).  Attempts run in waves (``--episodes`` of them,
+then as many new ones as demos are still missing), and the demos are the successful attempts
+in attempt order: the file holds the same data whatever the executor or the number of workers.
+
 Exit codes: 0 all demos written, 1 fewer successful demos than requested (those found are
-written), 2 bad flags.
+written) or an attempt that raised (nothing written; the error names the attempt), 2 bad flags.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from tableclean_suite.bench.cli import OneLineParser, non_negative_int, positive_int  # noqa: E402
+from tableclean_suite.bench.cli import (OneLineParser, add_executor_arguments, executor_from_args,  # noqa: E402
+                                        non_negative_int, positive_int)
 from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 
 POLICIES = ("optimal", "learned")
@@ -72,6 +85,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help=f"learned: actions per episode before it counts as failed (default {DEFAULT_MAX_ACTIONS})")
     parser.add_argument("--valid-fraction", type=float, default=None,
                         help="fraction of the demos in mask/valid, in [0, 1) (default 0.1)")
+    add_executor_arguments(parser, "episodes")  # --workers, --executor, --ray-address (as benchmarks.fidelity)
     return parser
 
 
@@ -111,25 +125,170 @@ def symbolic_actions(model, start, policy: np.ndarray | None, max_actions: int) 
     return actions
 
 
+def attempt_draws(model, seed: int, attempt: int):
+    """``(start state, placement seed)`` of attempt ``attempt`` (0-based) of a run seeded ``seed``.
+
+    Drawn from ``(seed, attempt)`` alone, so an attempt is the same whichever worker runs it and
+    whatever ran before it.
+    """
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), int(attempt)]))
+    start = model.sample_start(float(rng.random()))
+    return start, int(rng.integers(PLACEMENT_SEED_BOUND))
+
+
+@dataclass(frozen=True)
+class DemoAttempt:
+    """One attempt as an executor task: plain values only (the worker builds its own scene).
+
+    Attributes:
+        spec: the task spec as JSON text (``TaskSpec.to_dict()``).
+        task: ``--task`` as given (a name or a .json path; stored in ``env_args``).
+        robot: the arm, one of :data:`ROBOTS`.
+        policy_name: one of :data:`POLICIES`.
+        policy: the learned policy's action per state code, or None for the shortest plan.
+        max_actions: actions before a learned-policy episode counts as failed.
+        seed: the run's seed (``--seed``); with ``attempt`` it fixes the start and the placement.
+        attempt: the attempt's 0-based number.
+    """
+
+    spec: str
+    task: str
+    robot: str
+    policy_name: str
+    policy: tuple | None
+    max_actions: int
+    seed: int
+    attempt: int
+
+    @property
+    def label(self) -> str:
+        return f"demo attempt {self.attempt}"
+
+
+@dataclass
+class AttemptResult:
+    """What :func:`record_attempt` returns: the demo (None when discarded) and what to log."""
+
+    attempt: int
+    start_name: str
+    demo: object | None
+    problem: str | None
+    env_args: dict = field(default_factory=dict)
+    seconds: float = 0.0
+
+
+#: Scenes of this process, by (spec, task, robot): ``(env, staging controller, model, env_args)``.
+_SCENES: dict = {}
+
+
+def _scene(task: DemoAttempt):
+    """The scene of ``task`` in this process (built on first use, kept for the next attempts)."""
+    key = (task.spec, task.task, task.robot)
+    if key not in _SCENES:
+        import multiprocessing
+
+        from tableclean_suite.controllers import SkillController, make_skill_env, skill_controller_config
+        from tableclean_suite.demos import env_args_of
+        from tableclean_suite.task import TaskModel, TaskSpec
+
+        if multiprocessing.parent_process() is not None:  # a worker process: robosuite's start-up lines are noise
+            apply_verbosity(False)
+        spec = TaskSpec.from_dict(json.loads(task.spec))
+        model = TaskModel(spec=spec, start="uniform_unclean")
+        try:
+            env = make_skill_env(task=spec, robots=task.robot)
+        except NotImplementedError:  # the fast path does not reproduce this robot's controller
+            env = make_skill_env(task=spec, robots=task.robot, fast_control=False)
+        env_args = env_args_of(env, task.task, skill_controller_config(task.robot, None))
+        _SCENES[key] = (env, SkillController(env, model), model, env_args)
+    return _SCENES[key]
+
+
+def close_scenes() -> None:
+    """Close the scenes :func:`record_attempt` built in this process."""
+    while _SCENES:
+        env = _SCENES.popitem()[1][0]
+        env.close()
+
+
+def record_attempt(task: DemoAttempt) -> AttemptResult:
+    """Run one :class:`DemoAttempt` in this process: draw its start, stage it, execute and record.
+
+    BLAS runs on one thread meanwhile (:func:`~tableclean_suite.executors.blas.single_blas_thread`):
+    its thread count changes the trajectories' last bits, and it differs between this process,
+    local workers and Ray's (which start with ``OMP_NUM_THREADS=1``).
+    """
+    from tableclean_suite.executors.blas import single_blas_thread
+
+    with single_blas_thread():
+        return _record_attempt(task)
+
+
+def _record_attempt(task: DemoAttempt) -> AttemptResult:
+    from tableclean_suite.demos import EpisodeRecorder, recording_controller
+    from tableclean_suite.physics_backend import StagingError, stage
+
+    env, staging, model, env_args = _scene(task)
+    policy = None if task.policy is None else np.asarray(task.policy, dtype=np.int64)
+    start, placement_seed = attempt_draws(model, task.seed, task.attempt)
+
+    def discarded(problem: str) -> AttemptResult:
+        return AttemptResult(task.attempt, start.name, None, problem, env_args)
+
+    planned = symbolic_actions(model, start, policy, task.max_actions)
+    if planned is None:
+        return discarded(f"the {task.policy_name} policy does not reach the goal from {start.name}")
+    try:
+        stage(env, staging, start, seed=placement_seed)
+    except StagingError as error:
+        return discarded(str(error))
+    started = time.perf_counter()
+    recorder = EpisodeRecorder(env)
+    controller = recording_controller(env, model, recorder)
+    state, problem = start, None
+    for step in range(task.max_actions if policy is not None else len(planned)):
+        action = int(policy[state.index]) if policy is not None else planned[step]
+        recorder.begin(model.action_name(action), action)
+        result = controller.execute(action)
+        if result.state_after is None:
+            problem = f"fault after {model.action_name(action)}: {result.reason}"
+            break
+        if policy is None and not result.success:
+            problem = f"{model.action_name(action)} failed: {result.reason}"
+            break
+        state = result.state_after
+        if state.is_terminal:
+            break
+    demo = recorder.finish(attrs={"start_state": start.index, "start_state_name": start.name,
+                                  "placement_seed": placement_seed, "policy": task.policy_name})
+    if problem is None and not demo.attrs["success"]:
+        problem = f"ended in {state.name} without success"
+    seconds = time.perf_counter() - started
+    if problem is not None:
+        return AttemptResult(task.attempt, start.name, None, problem, env_args, seconds)
+    return AttemptResult(task.attempt, start.name, demo, None, env_args, seconds)
+
+
 def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "optimal", seed: int = 0,
             iterations: int = DEFAULT_ITERATIONS, runs: int = DEFAULT_RUNS, max_actions: int = DEFAULT_MAX_ACTIONS,
-            log=print) -> tuple[list, dict, dict]:
+            log=print, executor=None) -> tuple[list, dict, dict]:
     """Record up to ``episodes`` successful demos; returns ``(demos, env_args, data_attrs)``.
 
     ``task`` is a registered spec name or a ``.json`` path; ``robot`` one of :data:`ROBOTS`;
     ``policy_name`` one of :data:`POLICIES`.  The learned policy acts closed-loop on the state
-    the physics reads back; the optimal plan is the model's from the start.
-    """
-    import json
+    the physics reads back; the optimal plan is the model's from the start.  Each attempt is a
+    :class:`DemoAttempt` task of ``executor`` (a :mod:`tableclean_suite.executors` executor;
+    default: this process); the demos are the first ``episodes`` successful attempts in attempt
+    order, the same whatever the executor.
 
-    from tableclean_suite.controllers import SkillController, make_skill_env, skill_controller_config
-    from tableclean_suite.demos import EpisodeRecorder, env_args_of, recording_controller
-    from tableclean_suite.physics_backend import StagingError, stage
+    Raises:
+        tableclean_suite.executors.TaskFailedError: an attempt raised (naming it).
+    """
+    from tableclean_suite.executors import LocalExecutor
     from tableclean_suite.task import TaskModel, get_task_spec
 
     spec = get_task_spec(task)
     model = TaskModel(spec=spec, start="uniform_unclean")
-    rng = np.random.default_rng(seed)
     policy = None
     if policy_name == "learned":
         started = time.perf_counter()
@@ -141,61 +300,30 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
         if not solved:
             log("no start layout to record from; train longer (--iterations, --runs)")
             return [], {}, {}
+    executor = executor if executor is not None else LocalExecutor(workers=1)
+    spec_json = json.dumps(spec.to_dict(), sort_keys=True)
+    policy_values = None if policy is None else tuple(int(a) for a in policy)
+    demos, discarded, env_args = [], 0, {}
+    limit = episodes * MAX_ATTEMPTS_PER_EPISODE
+    next_attempt = 0
     try:
-        env = make_skill_env(task=spec, robots=robot)
-    except NotImplementedError:  # the fast path does not reproduce this robot's controller
-        env = make_skill_env(task=spec, robots=robot, fast_control=False)
-    controller_configs = skill_controller_config(robot, None)
-    env_args = env_args_of(env, task, controller_configs)
-    staging = SkillController(env, model)
-    demos, discarded = [], 0
-    try:
-        for attempt in range(episodes * MAX_ATTEMPTS_PER_EPISODE):
-            if len(demos) == episodes:
-                break
-            start = model.sample_start(float(rng.random()))
-            placement_seed = int(rng.integers(PLACEMENT_SEED_BOUND))
-            planned = symbolic_actions(model, start, policy, max_actions)
-            if planned is None:
-                discarded += 1
-                log(f"attempt {attempt}: the {policy_name} policy does not reach the goal from {start.name}; skipped")
-                continue
-            try:
-                stage(env, staging, start, seed=placement_seed)
-            except StagingError as error:
-                discarded += 1
-                log(f"attempt {attempt}: {error}; skipped")
-                continue
-            started = time.perf_counter()
-            recorder = EpisodeRecorder(env)
-            controller = recording_controller(env, model, recorder)
-            state, problem = start, None
-            for step in range(max_actions if policy is not None else len(planned)):
-                action = int(policy[state.index]) if policy is not None else planned[step]
-                recorder.begin(model.action_name(action), action)
-                result = controller.execute(action)
-                if result.state_after is None:
-                    problem = f"fault after {model.action_name(action)}: {result.reason}"
-                    break
-                if policy is None and not result.success:
-                    problem = f"{model.action_name(action)} failed: {result.reason}"
-                    break
-                state = result.state_after
-                if state.is_terminal:
-                    break
-            demo = recorder.finish(attrs={"start_state": start.index, "start_state_name": start.name,
-                                          "placement_seed": placement_seed, "policy": policy_name})
-            if problem is None and not demo.attrs["success"]:
-                problem = f"ended in {state.name} without success"
-            if problem is not None:
-                discarded += 1
-                log(f"attempt {attempt}: {start.name}: {problem}; discarded")
-                continue
-            log(f"demo_{len(demos)}: {start.name}: {len(demo.attrs['plan'])} actions, {demo.num_samples} control steps "
-                f"in {time.perf_counter() - started:.1f} s")
-            demos.append(demo)
+        while len(demos) < episodes and next_attempt < limit:
+            wave = range(next_attempt, min(next_attempt + episodes - len(demos), limit))
+            tasks = [DemoAttempt(spec_json, str(task), robot, policy_name, policy_values, max_actions, seed, attempt)
+                     for attempt in wave]
+            for result in executor.map(record_attempt, tasks):
+                env_args = env_args or result.env_args
+                if result.demo is None:
+                    discarded += 1
+                    log(f"attempt {result.attempt}: {result.start_name}: {result.problem}; discarded")
+                    continue
+                demo = result.demo
+                log(f"demo_{len(demos)}: {result.start_name}: {len(demo.attrs['plan'])} actions, "
+                    f"{demo.num_samples} control steps in {result.seconds:.1f} s")
+                demos.append(demo)
+            next_attempt = wave.stop
     finally:
-        env.close()
+        close_scenes()  # those of an in-process executor (workers == 1)
     attrs = {
         "task_spec": spec.to_dict(),
         "action_names": list(model.action_names),
@@ -234,11 +362,21 @@ def main(argv: list[str] | None = None) -> int:
         import h5py  # noqa: F401
     except ImportError:
         parser.error("collecting demos needs h5py: pip install 'tableclean_suite[demos]' (or pip install h5py)")
+    executor = executor_from_args(parser, args)
     out.parent.mkdir(parents=True, exist_ok=True)
 
+    from tableclean_suite.executors import MissingRayError, TaskFailedError
+
     started = time.perf_counter()
-    demos, env_args, attrs = collect(args.task, args.episodes, args.robots, args.policy, args.seed,
-                                     args.iterations, args.runs, args.max_actions)
+    try:
+        with executor:
+            demos, env_args, attrs = collect(args.task, args.episodes, args.robots, args.policy, args.seed,
+                                             args.iterations, args.runs, args.max_actions, executor=executor)
+    except (MissingRayError, ConnectionError) as error:  # no Ray, or no cluster at --ray-address
+        parser.error(f"--executor {args.executor}: {error}")
+    except TaskFailedError as error:
+        print(f"{parser.prog}: {error}", file=sys.stderr)
+        return 1
     if not demos:
         print(f"no successful demo in {args.episodes * MAX_ATTEMPTS_PER_EPISODE} attempts; nothing written", file=sys.stderr)
         return 1

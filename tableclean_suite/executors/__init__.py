@@ -35,7 +35,14 @@ simulator and no harness):
   task, actions, ...)`` with the round's seed from ``round_seed(seed, round_index)``; the
   function builds its own session and returns the round's rows, which the caller appends to
   the trials CSV in round order (``map`` yields in task order);
-- demo collection: one task per episode index with its own seed.
+- demo collection (``python -m benchmarks.collect_demos --workers N --executor ray``): one task
+  per attempt, ``DemoAttempt(spec, ..., seed, attempt)`` with its start and placement drawn from
+  ``(seed, attempt)``; failed attempts are replaced in waves and the demos kept in attempt order.
+
+A physics task whose numbers must match bit for bit runs under
+:func:`~tableclean_suite.executors.blas.single_blas_thread`: OpenBLAS's thread count (Ray starts
+workers with ``OMP_NUM_THREADS=1``, local processes inherit the caller's) changes the last bits
+of a trajectory.
 
 Raise :class:`RetryableError` inside such a function for a failure worth another try (e.g. a
 MuJoCo instability); let anything else propagate (it fails the task at once).
