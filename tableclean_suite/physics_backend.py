@@ -153,7 +153,9 @@ class PhysicsStepEnv:
 
     Args:
         model: the task model (start states, rules the controller follows).
-        env_kwargs: arguments for :func:`~tableclean_suite.controllers.make_skill_env` (robosuite.make).
+        env_kwargs: arguments for :func:`~tableclean_suite.controllers.make_skill_env` (robosuite.make),
+            e.g. ``{"robots": "UR5e"}`` (robots with a registered skill config,
+            :func:`~tableclean_suite.controllers.robot_configs.supported_robots`).
         skill_configs: per-action skill config overrides for the SkillController.
         fault_policy: ``"retry"`` (default) or ``"raise"``.
         max_retries: re-executions of an action after a fault before giving up (>= 0).
@@ -255,9 +257,18 @@ def _merge_stats(parts) -> dict:
 # training
 # ---------------------------------------------------------------------------------------------
 def _check_options(options: dict) -> dict:
+    """``options`` checked before any scene is built: known keys, and ``env_kwargs["robots"]`` (when given)
+    a robot with a registered skill config (``ValueError`` naming the supported robots)."""
     unknown = sorted(set(options) - set(PHYSICS_OPTIONS))
     if unknown:
         raise ValueError(f"unknown physics_options key(s) {unknown}; allowed: {', '.join(PHYSICS_OPTIONS)}")
+    env_kwargs = options.get("env_kwargs") or {}
+    if not isinstance(env_kwargs, dict):
+        raise ValueError(f"physics_options env_kwargs must be a dict of make_skill_env arguments, got {env_kwargs!r}")
+    if "robots" in env_kwargs:
+        from tableclean_suite.controllers.robot_configs import check_robot
+
+        check_robot(env_kwargs["robots"])
     return dict(options)
 
 

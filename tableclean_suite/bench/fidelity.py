@@ -1,6 +1,6 @@
 """Fidelity of the skills: does physics do what the task model says, from every reachable state?
 
-    python -m benchmarks.fidelity [--task SPEC] [--trials N] [--out DIR] [--seed S] [--fresh]
+    python -m benchmarks.fidelity [--task SPEC] [--robots ROBOT] [--trials N] [--out DIR] [--seed S] [--fresh]
 
 One *round* executes every action of the spec (``--task``, default ``paper``) once from every
 reachable non-terminal state (paper: 18 states x 4 actions = 72 trials;
@@ -43,6 +43,7 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import trial_store  # noqa: E402
+from tableclean_suite.bench.robot_args import add_robots_argument, parse_robot  # noqa: E402
 from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 from tableclean_suite.bench.cli import (add_executor_arguments, executor_from_args, non_negative_int,  # noqa: E402
                                         positive_int)
@@ -212,7 +213,7 @@ def run_round_task(task: FidelityRound) -> list[dict]:
     from tableclean_suite.physics_backend import PhysicsStepEnv
     from tableclean_suite.task import TaskSpec
 
-    key = (task.spec, task.physics_options)
+    key = (task.spec, repr(task.physics_options))  # plain values, possibly dicts (env_kwargs): keyed by their repr
     if key not in _SESSIONS:
         import multiprocessing
 
@@ -416,6 +417,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", default=None,
                         help=f"output directory (default {DEFAULT_OUT}, or {DEFAULT_OUT}_<task> for another spec)")
     parser.add_argument("--fresh", action="store_true", help="discard earlier trials in --out and start over")
+    add_robots_argument(parser)
     return parser
 
 
@@ -424,13 +426,16 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     apply_verbosity(args.verbose)
     model, actions = parse_task_and_actions(parser, args)
-    out = Path(args.out if args.out is not None else DEFAULT_OUT + ("" if model.spec.name == "paper" else f"_{model.spec.name}"))
+    robot = parse_robot(parser, args)
+    suffix = ("" if model.spec.name == "paper" else f"_{model.spec.name}") + ("" if robot == "Panda" else f"_{robot}")
+    out = Path(args.out if args.out is not None else DEFAULT_OUT + suffix)
     started = time.perf_counter()
     executor = make_round_executor(parser, args)
     try:
         with executor:
             rows = collect(args.trials, args.seed, out / TRIALS_CSV, fresh=args.fresh,
-                           log=None if args.quiet else print, actions=actions, model=model, executor=executor)
+                           log=None if args.quiet else print, actions=actions, model=model, executor=executor,
+                           physics_options={"env_kwargs": {"robots": robot}})
     except ResumeError as error:
         parser.error(str(error))  # exits 2
     pairs, skills = pair_table(rows, model), skill_table(rows, model)
@@ -444,7 +449,7 @@ def main(argv: list[str] | None = None) -> int:
     print(format_table(skills, ("skill", "executions", "success_rate", "agreement_rate", "faults", "mean_steps", "mean_seconds", "refused")))
     goal_agree = "meets" if result["agreement"] >= AGREEMENT_GOAL else "below"
     print(
-        f"\n{model.spec.name}: {result['trials']} trials in {result['rounds']} round(s): agreement {result['agreement']:.2%} "
+        f"\n{model.spec.name} on {robot}: {result['trials']} trials in {result['rounds']} round(s): agreement {result['agreement']:.2%} "
         f"({goal_agree} the {AGREEMENT_GOAL:.0%} goal), lowest pair {result['min_pair_agreement']:.2%}, "
         f"{result['faults']} abstraction fault(s)"
     )

@@ -25,6 +25,7 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench.cli import non_negative_int, positive_int  # noqa: E402
+from tableclean_suite.bench.robot_args import add_robots_argument, parse_robot  # noqa: E402
 from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 from tableclean_suite.task import Action, TaskModel, TaskState  # noqa: E402
 
@@ -111,16 +112,16 @@ def train_policy(learner: str, reward: str, start: TaskState, runs: int, iterati
 
 def run_rollout(policy: np.ndarray, start: TaskState, video: Path, fps: int, width: int, height: int,
                 frame_every: int = 4, max_actions: int = 20, still: Path | None = None, seed: int = 0,
-                camera: str = "frontview", log=print, spec=None) -> dict:
-    """Execute ``policy`` in physics from ``start`` (a state of ``spec``, default ``paper``), writing the video;
-    returns a summary dict."""
+                camera: str = "frontview", log=print, spec=None, robots: str = "Panda") -> dict:
+    """Execute ``policy`` in physics from ``start`` (a state of ``spec``, default ``paper``) with the arm
+    ``robots`` (a robot with a registered skill config), writing the video; returns a summary dict."""
     import imageio.v2 as imageio
 
     from tableclean_suite.controllers import SkillController, make_skill_env
     from tableclean_suite.physics_backend import stage
 
     model = TaskModel(spec=spec)
-    env = make_skill_env(has_offscreen_renderer=True, task=model.spec)
+    env = make_skill_env(has_offscreen_renderer=True, task=model.spec, robots=robots)
     writer_kwargs = {"fps": fps}
     if video.suffix.lower() == ".mp4":
         writer_kwargs.update(codec="libx264", macro_block_size=2, quality=6)
@@ -197,6 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--max-actions", type=positive_int, default=20, help="stop after this many actions (default 20)")
     parser.add_argument("--camera", default="frontview", help="camera name (default frontview)")
     parser.add_argument("--still", help="also save one frame (PNG) taken while wiping")
+    add_robots_argument(parser)
     return parser
 
 
@@ -222,6 +224,7 @@ def main(argv: list[str] | None = None) -> int:
         args.video = f"results/rollout_{spec.name}.mp4"
         if args.still is None:
             args.still = f"results/images/rollout_{spec.name}.png"
+    robot = parse_robot(parser, args)  # before training: exits 2 naming the supported robots
     for flag, value in (("--object-segment", args.object_segment), ("--arm-segment", args.arm_segment)):
         if not 1 <= value <= spec.segments:
             parser.error(f"{flag} must be a segment number in 1..{spec.segments} for task {spec.name!r}, got {value}")
@@ -252,7 +255,7 @@ def main(argv: list[str] | None = None) -> int:
                       for s in reachable[:POLICY_PRINT_STATES] if not s.is_terminal)
           + (" ..." if len(reachable) > POLICY_PRINT_STATES else ""))
     summary = run_rollout(policy, start, video, args.fps, args.width, args.height, args.frame_every,
-                          args.max_actions, still, args.seed, args.camera, spec=spec)
+                          args.max_actions, still, args.seed, args.camera, spec=spec, robots=robot)
     outcome = "reached the terminal state" if summary["reached_terminal"] else (
         f"stopped by a fault ({summary['fault']})" if summary["fault"] else f"did not finish in {args.max_actions} actions")
     print(f"{len(summary['actions'])} actions, {outcome}; wrote {video} ({summary['frames']} frames, "

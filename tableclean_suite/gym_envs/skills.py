@@ -74,7 +74,8 @@ class TableCleanSkillsEnv(TableCleanBase):
     ## Arguments
     ```python
     gymnasium.make("TableCleanSkills-v0", reward="r4", task="paper", start=None, render_mode=None,
-                   env_kwargs=None, skill_configs=None, camera="frontview", frame_size=(360, 480))
+                   env_kwargs=None, skill_configs=None, camera="frontview", frame_size=(360, 480),
+                   robots=None)
     ```
     - ``reward``, ``task``, ``start``, ``model``: as ``TableCleanSymbolic-v0``; the physical scene
       builds N <= 4 segments, objects of registered types, and actions with registered skills
@@ -86,6 +87,10 @@ class TableCleanSkillsEnv(TableCleanBase):
       (:func:`tableclean_suite.controllers.make_skill_env`), e.g. ``task_config``.
     - ``skill_configs``: per-action skill config overrides for the SkillController.
     - ``camera``: camera of the ``rgb_array`` frames.
+    - ``robots``: the arm (a robot with a registered skill config,
+      :func:`tableclean_suite.controllers.robot_configs.supported_robots`; default ``env_kwargs``'s,
+      else Panda); checked before the scene is built (``ValueError`` naming the supported ones);
+      giving it both here and in ``env_kwargs`` with different values is a ``ValueError``.
 
     ## Version History
     - v0: initial version (v0 also builds any spec the scene can: N <= 4 segments, M objects).
@@ -96,8 +101,15 @@ class TableCleanSkillsEnv(TableCleanBase):
     def __init__(self, reward: str | RewardPattern = "r4", model: TaskModel | None = None,
                  render_mode: str | None = None, env_kwargs: dict | None = None, skill_configs=None,
                  camera: str = "frontview", frame_size: tuple[int, int] = CAMERA_FRAME_SIZE,
-                 task: "str | TaskSpec | None" = None, start: str | None = None):
+                 task: "str | TaskSpec | None" = None, start: str | None = None, robots=None):
         super().__init__(reward=reward, model=model, render_mode=render_mode, task=task, start=start)
+        from tableclean_suite.controllers.robot_configs import check_robot
+
+        if robots is not None:
+            given = (env_kwargs or {}).get("robots") if isinstance(env_kwargs, dict) else None
+            if given is not None and given != robots:
+                raise ValueError(f"robots={robots!r} and env_kwargs['robots']={given!r} disagree; give one")
+            env_kwargs = {**(env_kwargs or {}), "robots": check_robot(robots)}
         from tableclean_suite.physics_backend import check_physical_task
 
         check_physical_task(self.model, (env_kwargs or {}).get("task_config") if isinstance(env_kwargs, dict) else None)

@@ -1,0 +1,207 @@
+"""The skills on several arms: fidelity and optimal-episode success per robot x task spec.
+
+    python -m benchmarks.robot_table [--robots Panda,Sawyer,UR5e,Kinova3] [--tasks paper,three_segments_two_objects]
+                                     [--episodes E] [--fidelity-trials T] [--seed S] [--out DIR]
+
+For every (robot, spec) cell:
+
+- **fidelity**: :func:`tableclean_suite.bench.fidelity.collect` with ``T`` rounds (every action from
+  every reachable non-terminal state, ``T`` times; a trial agrees when physics ends in the model's
+  successor with the model's outcome); the trials are stored in
+  ``<fidelity-dir>/<robot>_<spec>/fidelity_trials.csv`` (resumable, as ``benchmarks.fidelity``);
+- **episodes**: ``E`` episodes from random start layouts (every object and the arm on a segment
+  drawn at each reset, all segments dirty, placement noise), each executing the task model's
+  shortest plan with the compiled control path; an episode succeeds when every skill succeeds and
+  the symbolic state read back at the end is terminal.  Seconds per episode are wall-clock
+  (reset and plan).
+
+Writes ``DIR/robot_table.csv`` (one row per cell, rewritten after every cell) and prints a
+markdown table with the trial and episode counts.  ``T = 0`` or ``E = 0`` skips that part.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from tableclean_suite.bench.cli import non_negative_int  # noqa: E402
+from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
+
+#: Default arms: the Panda and the three others with shipped skill configs.
+DEFAULT_ROBOTS = ("Panda", "Sawyer", "UR5e", "Kinova3")
+#: Default task specs.
+DEFAULT_TASKS = ("paper", "three_segments_two_objects")
+#: Default output directory of the table, and of the fidelity trials.
+DEFAULT_OUT = "results/robots"
+DEFAULT_FIDELITY_DIR = "results/fidelity_robots"
+#: File name of the table.
+TABLE_CSV = "robot_table.csv"
+#: Columns of the table, in order.
+COLUMNS = ("robot", "task", "fidelity_trials", "fidelity_rounds", "fidelity_agreement", "fidelity_faults",
+           "episodes", "episode_successes", "episode_success_rate", "seconds_per_episode")
+#: Goal of the issue: fidelity and episode success at least this, on at least four arms.
+GOAL_RATE = 0.99
+
+
+def run_episodes(robot: str, task: str, episodes: int, seed: int = 0, log=print) -> dict:
+    """``episodes`` optimal-plan episodes of ``task`` on ``robot`` from random start layouts.
+
+    Returns ``{"episodes", "successes", "seconds"}`` (seconds: total wall-clock time of the
+    episodes, resets included; the scene build is not counted) and ``"failures"``: up to a few
+    ``(episode, reason)`` of failed episodes.
+    """
+    from tableclean_suite.controllers import SkillController, make_skill_env
+
+    env = make_skill_env(None, None, robots=robot, task=task, seed=seed)
+    failures = []
+    successes = 0
+    seconds = 0.0
+    try:
+        controller = SkillController(env)
+        model = controller.model
+        for episode in range(episodes):
+            started = time.perf_counter()
+            env.reset()
+            try:
+                start = env.symbolic_state()
+                results = controller.execute_plan(model.shortest_plan(start))
+                final = env.symbolic_state()
+                ok = all(r.success for r in results) and final.is_terminal
+                reason = "; ".join(f"{r.action}: {r.reason}" for r in results if not r.success)
+            except Exception as error:  # an abstraction fault at the start or end: a failed episode
+                ok, reason = False, f"{type(error).__name__}: {error}"
+            seconds += time.perf_counter() - started
+            successes += ok
+            if not ok:
+                failures.append((episode, reason or "not terminal"))
+                if log:
+                    log(f"  {robot} {task} episode {episode}: FAILED ({reason or 'not terminal'})")
+    finally:
+        env.close()
+    return {"episodes": episodes, "successes": successes, "seconds": seconds, "failures": failures}
+
+
+def run_fidelity(robot: str, task: str, trials: int, seed: int, out: Path, log=print) -> dict:
+    """Fidelity rounds of ``task`` on ``robot`` (trials stored under ``out``); the :func:`~.fidelity.summary` dict."""
+    from tableclean_suite.bench import fidelity
+    from tableclean_suite.task import TaskModel, get_task_spec
+
+    model = TaskModel(spec=get_task_spec(task))
+    rows = fidelity.collect(trials, seed, out / fidelity.TRIALS_CSV, log=log, model=model,
+                            physics_options={"env_kwargs": {"robots": robot}})
+    fidelity.write_csv(out / fidelity.PAIRS_CSV, fidelity.pair_table(rows, model))
+    fidelity.write_csv(out / fidelity.SKILLS_CSV, fidelity.skill_table(rows, model))
+    return fidelity.summary(rows, model)
+
+
+def table_row(robot: str, task: str, fid: dict | None, eps: dict | None) -> dict:
+    """One row of the table (:data:`COLUMNS`); empty strings for a part that was skipped."""
+    row = {"robot": robot, "task": task}
+    if fid is not None:
+        row.update(fidelity_trials=fid["trials"], fidelity_rounds=fid["rounds"],
+                   fidelity_agreement=round(fid["agreement"], 6), fidelity_faults=fid["faults"])
+    if eps is not None and eps["episodes"]:
+        row.update(episodes=eps["episodes"], episode_successes=eps["successes"],
+                   episode_success_rate=round(eps["successes"] / eps["episodes"], 6),
+                   seconds_per_episode=round(eps["seconds"] / eps["episodes"], 3))
+    return {column: row.get(column, "") for column in COLUMNS}
+
+
+def write_table(path: Path, rows: list[dict]) -> None:
+    """Write ``rows`` (:data:`COLUMNS`) to ``path`` atomically."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    with open(tmp, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
+    tmp.replace(path)
+
+
+def markdown(rows: list[dict]) -> str:
+    """The table as markdown: fidelity agreement (trials), episode success (episodes), seconds per episode."""
+    lines = ["| robot | task | fidelity (trials) | faults | optimal episodes: success (episodes) | s / episode |",
+             "|---|---|---|---|---|---|"]
+    for row in rows:
+        fid = f"{row['fidelity_agreement']:.2%} ({row['fidelity_trials']})" if row["fidelity_trials"] != "" else "-"
+        eps = (f"{row['episode_success_rate']:.2%} ({row['episodes']})" if row["episodes"] != "" else "-")
+        secs = f"{row['seconds_per_episode']:.2f}" if row["seconds_per_episode"] != "" else "-"
+        faults = row["fidelity_faults"] if row["fidelity_faults"] != "" else "-"
+        lines.append(f"| {row['robot']} | {row['task']} | {fid} | {faults} | {eps} | {secs} |")
+    return "\n".join(lines)
+
+
+def _names(parser, flag: str, text: str) -> list[str]:
+    names = [part.strip() for part in str(text).split(",") if part.strip()]
+    if not names:
+        parser.error(f"{flag}: expected at least one name, got {text!r}")
+    return names
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.robot_table", description=__doc__.split("\n\n")[0])
+    add_verbose_flag(parser)
+    parser.add_argument("--robots", default=",".join(DEFAULT_ROBOTS),
+                        help=f"comma-separated robots with registered skill configs (default {','.join(DEFAULT_ROBOTS)})")
+    parser.add_argument("--tasks", default=",".join(DEFAULT_TASKS),
+                        help=f"comma-separated task specs (default {','.join(DEFAULT_TASKS)})")
+    parser.add_argument("--episodes", type=non_negative_int, default=30,
+                        help="optimal-plan episodes from random layouts per cell (default 30; 0 skips)")
+    parser.add_argument("--fidelity-trials", type=non_negative_int, default=2,
+                        help="fidelity rounds (trials per (state, action) pair) per cell (default 2; 0 skips)")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of placements and layouts (default 0)")
+    parser.add_argument("--out", default=DEFAULT_OUT, help=f"directory of {TABLE_CSV} (default {DEFAULT_OUT})")
+    parser.add_argument("--fidelity-dir", default=DEFAULT_FIDELITY_DIR,
+                        help=f"directory of the fidelity trials, one <robot>_<task> folder per cell (default {DEFAULT_FIDELITY_DIR})")
+    parser.add_argument("--quiet", action="store_true", help="print only the table")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    apply_verbosity(args.verbose)
+    from tableclean_suite.controllers.robot_configs import check_robot
+    from tableclean_suite.physics_backend import check_physical_task
+    from tableclean_suite.task import TaskModel, get_task_spec
+
+    robots, tasks = _names(parser, "--robots", args.robots), _names(parser, "--tasks", args.tasks)
+    for robot in robots:  # every name checked before anything runs
+        try:
+            check_robot(robot)
+        except ValueError as error:
+            parser.error(f"--robots: {error}")
+    for task in tasks:
+        try:
+            check_physical_task(TaskModel(spec=get_task_spec(task)))
+        except (ValueError, OSError) as error:
+            parser.error(f"--tasks: {error}")
+    log = None if args.quiet else print
+    rows = []
+    started = time.perf_counter()
+    for robot in robots:
+        for task in tasks:
+            fid = eps = None
+            if args.fidelity_trials:
+                fid = run_fidelity(robot, task, args.fidelity_trials, args.seed,
+                                   Path(args.fidelity_dir) / f"{robot}_{task}", log=log)
+            if args.episodes:
+                eps = run_episodes(robot, task, args.episodes, args.seed, log=log)
+            rows.append(table_row(robot, task, fid, eps))
+            write_table(Path(args.out) / TABLE_CSV, rows)
+            if log:
+                log(f"{robot} x {task} done ({time.perf_counter() - started:.0f} s)")
+    print(markdown(rows))
+    print(f"\n{Path(args.out) / TABLE_CSV} ({time.perf_counter() - started:.0f} s); goal: >= {GOAL_RATE:.0%} "
+          f"fidelity and episode success per cell")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
