@@ -17,7 +17,8 @@ computed in :mod:`tableclean_suite.curves`.  The quantities read off them:
   where it has covered ``threshold`` of the way from that minimum to its plateau.  The early
   minimum is the minimum of the (supported) curve before it first reaches the plateau (with an
   asymptote), or before the plateau window (without one).
-- **Maximum average reward**: the maximum of the (supported) curve.
+- **Maximum average reward**: the maximum of the (supported) curve; its bootstrap interval is that
+  of the curve's value at the maximising iteration (:func:`batch_scalars`' ``peak``).
 - **Episodes** at an iteration: the episodes curve there.
 """
 
@@ -274,6 +275,12 @@ def maximum(curve) -> float:
     return float(np.nanmax(curve)) if np.any(~np.isnan(curve)) else float("nan")
 
 
+def peak_index(curve) -> int | None:
+    """0-based index of the curve's first maximum, NaNs ignored (None if all are NaN)."""
+    curve = np.asarray(curve, dtype=float)
+    return int(np.nanargmax(curve)) if np.any(~np.isnan(curve)) else None
+
+
 @dataclass(frozen=True)
 class Plateaus:
     """The values the curves tend to (e.g. :mod:`tableclean_suite.asymptotes` averaged over runs).
@@ -339,7 +346,7 @@ def summarize(
 
 def batch_scalars(sums: dict, runs: np.ndarray, plateaus: dict, threshold: float = DEFAULT_THRESHOLD,
                   plateau_fraction: float = DEFAULT_PLATEAU_FRACTION, support_fraction: float = 0.0,
-                  keep=None, episode_sums=None) -> tuple[dict, dict]:
+                  keep=None, episode_sums=None, peak: int | None = None) -> tuple[dict, dict]:
     """:func:`summarize` of B sets of sums at once (e.g. bootstrap replicates), same definitions.
 
     Args:
@@ -350,6 +357,11 @@ def batch_scalars(sums: dict, runs: np.ndarray, plateaus: dict, threshold: float
         keep: iteration indices of the curves to return (default all).
         episode_sums: ``f(indices (B,) int) -> (B,)`` episode sums of each set at its index (so
             that the ``(B, T)`` episode sums need not be built).
+        peak: 0-based iteration index at which the point estimate's average-reward curve has its
+            maximum (:func:`peak_index`); given, each set's ``max_average_reward`` is its curve's
+            value there (bootstrap replicates: the maximum of a resampled curve picks its noise
+            and is biased upward, so its interval could exclude the point); None: each set's own
+            maximum.
 
     Returns:
         ``({scalar: (B,) float64, NaN where None}, {"success", "average_reward": (B, len(keep))}``.
@@ -386,8 +398,9 @@ def batch_scalars(sums: dict, runs: np.ndarray, plateaus: dict, threshold: float
         "reward_convergence_iterations": reward_at,
         "reward_convergence_episodes": episodes(reward_at),
         "success_plateau": tops["success"],
-        "max_average_reward": np.where(defined.any(axis=1), np.max(np.where(defined, average, -np.inf), axis=1),
-                                       np.nan),
+        "max_average_reward": (average[:, peak] if peak is not None else
+                               np.where(defined.any(axis=1), np.max(np.where(defined, average, -np.inf), axis=1),
+                                        np.nan)),
         "average_reward_plateau": tops["average_reward"],
         "terminal_plateau": tops["terminal"],
         "success_window_mean": window_mean(curves["success"]),

@@ -105,3 +105,20 @@ def test_weighted_group_sums_have_the_same_bits_for_any_thread_count():
     assert np.array_equal(one, np.einsum("bg,gt->bt", weights, values))  # groups summed in order
     np.testing.assert_allclose(one, weights @ values, rtol=1e-12)
     np.testing.assert_array_equal(statistics.weighted_group_sums(weights, values[:, 0]), one[:, 0])
+
+
+def test_max_average_reward_interval_contains_its_point():
+    """The interval is the curve's value at the maximising iteration, so it brackets the maximum
+    (the maximum of each resampled curve would be biased upward and could miss it)."""
+    from tableclean_suite import metrics
+    from tableclean_suite.curves import GroupedCurveSums
+    from tableclean_suite.learners import train
+
+    runs, iterations, groups = 1000, 4000, 100  # the harness default: a long flat plateau of noisy points
+    result = train("q_learning", reward="r4", runs=runs, iterations=iterations, seed=3)
+    grouped = GroupedCurveSums.zeros(iterations, groups).add(result)
+    per_run = {name: np.full(runs, 0.5) for name in ("success", "average_reward", "terminal")}
+    stats = statistics.cell_statistics(grouped, per_run, np.random.default_rng(0), 0.95, 0.25, 0.5, samples=200)
+    point = metrics.maximum(grouped.totals().curves(0.5)["average_reward"])
+    low, high = stats.intervals["max_average_reward"]
+    assert low <= point <= high and low < high

@@ -8,7 +8,9 @@ replicate draws G groups with replacement (multinomial counts, seeded), rebuilds
 and the mean asymptote from the drawn groups' sums and recomputes every Table 3 number from them
 with the same definitions (:func:`tableclean_suite.metrics.batch_scalars`, all replicates at once).  The interval is the
 (2.5 %, 97.5 %) percentile of :data:`DEFAULT_SAMPLES` replicates; curve bands are the same
-percentiles per iteration.  A number that some replicates leave undefined (never reached) gets
+percentiles per iteration.  "Max average reward" is the exception: a replicate contributes its
+curve's value at the iteration where the point curve peaks, not its own maximum (which picks the
+replicate's noise, is biased upward, and left the point below the interval).  A number that some replicates leave undefined (never reached) gets
 its interval from the replicates that define it and is flagged by NaN bounds when fewer than
 half do.
 
@@ -325,7 +327,7 @@ class CellStatistics:
 
 
 def replicate_scalars(grouped: GroupedCurveSums, asymptote_sums: dict, weights: np.ndarray, threshold: float,
-                      plateau_fraction: float, support_fraction: float, keep: np.ndarray):
+                      plateau_fraction: float, support_fraction: float, keep: np.ndarray, peak: int | None = None):
     """Table 3 scalars and band curves of bootstrap replicates.
 
     Args:
@@ -333,6 +335,7 @@ def replicate_scalars(grouped: GroupedCurveSums, asymptote_sums: dict, weights: 
         asymptote_sums: ``{"success", "average_reward", "terminal": (G,) sums of per-run asymptotes}``.
         weights: ``(B, G)`` multinomial counts of each group in each replicate.
         keep: iteration indices of the band curves.
+        peak: index of the point curve's maximum average reward (``metrics.batch_scalars``).
 
     Returns:
         :func:`tableclean_suite.metrics.batch_scalars` of the replicates.
@@ -346,7 +349,7 @@ def replicate_scalars(grouped: GroupedCurveSums, asymptote_sums: dict, weights: 
         return np.einsum("bg,gb->b", weights, grouped.episodes[:, index])
 
     return metrics.batch_scalars(sums, runs, tops, threshold, plateau_fraction, support_fraction, keep,
-                                 episode_sums)
+                                 episode_sums, peak)
 
 
 def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Generator, threshold: float,
@@ -369,11 +372,12 @@ def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Gen
     scalars = {name: np.full(samples, np.nan) for name in SUMMARY_SCALARS}
     curves = {name: np.full((samples, len(kept)), np.nan) for name in BAND_CURVES}
     if groups >= MIN_GROUPS:
+        peak = metrics.peak_index(grouped.totals().curves(support_fraction)["average_reward"])
         weights = uniform_multinomial(rng, groups, groups, samples).astype(float)
         for lo in range(0, samples, REPLICATE_BATCH):
             batch = slice(lo, lo + REPLICATE_BATCH)
             values, bands = replicate_scalars(grouped, asymptote_sums, weights[batch], threshold, plateau_fraction,
-                                              support_fraction, kept)
+                                              support_fraction, kept, peak)
             for name in SUMMARY_SCALARS:
                 scalars[name][batch] = values[name]
             for name in BAND_CURVES:
