@@ -10,6 +10,7 @@ from __future__ import annotations
 import enum
 from typing import Any, Mapping
 
+import mujoco
 import numpy as np
 
 from tableclean_suite.controllers.geometry import box_lowest_z, world_footprint
@@ -29,9 +30,9 @@ class CleanPhase(enum.Enum):
     SPONGE_CLOSE = enum.auto()  # close, then confirm the sponge is grasped
     SPONGE_LIFT = enum.auto()  # up to the hover height
     TO_SEGMENT = enum.auto()  # hover above the first stroke's start
-    PRESS = enum.auto()  # down at a stroke's start until the sponge touches the table
+    PRESS = enum.auto()  # down at a stroke's start until a sponge-table contact force is measured
     WIPE = enum.auto()  # drag the pressed sponge to the stroke's end
-    SHIFT = enum.auto()  # sponge just off the table, over to the next stroke's start (next lane or pass)
+    SHIFT = enum.auto()  # lift until no contact force is measured, then just off the table over to the next stroke's start
     WIPE_LIFT = enum.auto()  # up to the hover height
     HOME_ALIGN = enum.auto()  # hover above the sponge home
     HOME_DESCEND = enum.auto()  # lower the sponge to its home
@@ -41,10 +42,49 @@ class CleanPhase(enum.Enum):
     DONE = enum.auto()
 
 
+#: Name of robosuite's table-top collision geom (the surface the sponge presses on).
+TABLE_TOP_GEOM = "table_collision"
+#: Entries of ``mujoco.mj_contactForce``'s output: normal force first, then two tangential, three torques.
+CONTACT_WRENCH_SIZE = 6
+
+
+def press_force(env) -> float:
+    """Normal force [N] (>= 0) the sponge presses on the table top: the sum over their MuJoCo contacts.
+
+    Read from the env's current simulation data (``mj_contactForce``); the geom ids are cached per
+    simulation (a reset that rebuilds the model makes a new one).
+    """
+    sim = env.sim
+    cache = getattr(env, "_press_force_geoms", None)
+    if cache is None or cache[0] is not sim:
+        model = sim.model
+        sponge = frozenset(model.geom_name2id(n) for n in env.sponge.contact_geoms)
+        cache = (sim, sponge, model.geom_name2id(TABLE_TOP_GEOM))
+        env._press_force_geoms = cache
+    _, sponge, table = cache
+    model, data = sim.model._model, sim.data._data
+    ncon = data.ncon
+    if ncon == 0:
+        return 0.0
+    geom1, geom2 = data.contact.geom1[:ncon], data.contact.geom2[:ncon]
+    wrench = np.zeros(CONTACT_WRENCH_SIZE)
+    total = 0.0
+    for i in np.flatnonzero(((geom1 == table) | (geom2 == table))):
+        if int(geom1[i]) in sponge or int(geom2[i]) in sponge:
+            mujoco.mj_contactForce(model, data, int(i), wrench)
+            total += float(wrench[0])
+    return max(total, 0.0)
+
+
 class Wipe(Primitive):
     """Sweep ``segment`` with the held sponge: boustrophedon strokes, pressed, pass after pass while dirty.
 
-    The skill's config supplies the wiping constants (see :class:`CleanSkill`'s ``DEFAULT_CONFIG``).
+    The press closes its loop on the measured sponge-table contact force (:func:`press_force`),
+    not on a depth: the commanded depth of the sponge's bottom below the table top is integrated
+    from the force error (``press_force`` target, ``press_force_gain``) while the sponge is on the
+    table, and a stroke starts once ``touch_force`` is measured.  A different sponge size, mass,
+    friction, arm damping or gains thus end at the same pressing force.  The skill's config
+    supplies the wiping constants (see :class:`CleanSkill`'s ``DEFAULT_CONFIG``).
     """
 
     PHASES = ("TO_SEGMENT", "PRESS", "WIPE", "SHIFT", "WIPE_LIFT")
@@ -56,7 +96,12 @@ class Wipe(Primitive):
         self.config = skill.config
         self.passes = 0
         self.stroke_index = 0
-        self.extra_press = 0.0
+        #: m the sponge's bottom is commanded below the table top (negative: above), from the force loop
+        self.depth = float(self.config["press_start_depth"])
+        self.force = 0.0  # N, the last measured pressing force
+        self.lift_point = None  # (2,) where a SHIFT lifts the sponge off the table before it moves on
+        self.lifted = False  # the SHIFT measured the sponge off the table
+        self.env = skill.env
         # grip-site minus sponge-centre position (m), measured once the sponge is held and lifted
         self.hold_offset = np.asarray(info["eef_pos"], dtype=float) - np.asarray(info["sponge_pos"], dtype=float)
         self.yaw = skill.yaw
@@ -73,10 +118,29 @@ class Wipe(Primitive):
             self.config["wipe_overlap"],
             # stroke along the fingers' closing axis (grip-site x): dragging across it would twist
             # the sponge about the finger contact line
-            along_x=abs(np.cos(self.yaw)) > abs(np.sin(self.yaw)),
+            along_x=self._stroke_axis() == 0,
             lane_shift=self.config["repeat_lane_shift"] * (pass_index % 2),
             edge_inset=self.config["edge_inset"],
         )
+
+    def _stroke_axis(self) -> int:
+        """World axis (0: x, 1: y) the strokes run along: the fingers' closing axis (grip-site x at ``yaw``)."""
+        return 0 if abs(np.cos(self.yaw)) > abs(np.sin(self.yaw)) else 1
+
+    def _drift(self, info: Mapping[str, Any]) -> np.ndarray:
+        """(2,) m: how far the sponge trails its grasp-time place in the hand along the strokes (bounded).
+
+        Dragged along the fingers' closing axis, table friction pushes the sponge and the yielding
+        fingers back by up to ~2 cm, so a stroke would stop short of the segment's edge; the wipe
+        target leads by the measured drift, at most ``max_drift_correction``.  Only the stroke axis
+        is corrected (across it a pivoting sponge would run away with its own target).
+        """
+        live = np.asarray(info["eef_pos"], dtype=float)[:2] - np.asarray(info["sponge_pos"], dtype=float)[:2]
+        drift = np.zeros(2)
+        axis = self._stroke_axis()
+        bound = self.config["max_drift_correction"]
+        drift[axis] = float(np.clip(live[axis] - self.hold_offset[axis], -bound, bound))
+        return drift
 
     def _wipe_target(self, info: Mapping[str, Any], stroke_point: np.ndarray, depth: float | None = None) -> np.ndarray:
         """(3,) grip-site target that puts the held sponge's centre over ``stroke_point`` (2,, m).
@@ -86,11 +150,11 @@ class Wipe(Primitive):
         with its own target and is lost in ~1 of 3 cleans.)
 
         ``depth``: m the sponge's bottom is commanded below the table top (negative: above);
-        default: pressing (``press_depth`` plus the integral extra depth).
+        default: the force loop's :attr:`depth`.
         """
         offset = self.hold_offset
         if depth is None:
-            depth = self.config["press_depth"] + self.extra_press
+            depth = self.depth
         half_z = float(info["sponge_half_size"][2])
         z = float(info["table_top_z"]) - depth + half_z + float(offset[2])
         return np.array([*(stroke_point + offset[:2]), z])
@@ -102,12 +166,42 @@ class Wipe(Primitive):
         return lowest - float(info["table_top_z"])
 
     def update(self, skill, info: Mapping[str, Any], phase: str) -> None:
-        """Integral contact control while wiping: press deeper while the sponge's lowest corner is off the table."""
-        if phase != "WIPE":
+        """Integral force control while pressing and wiping: the depth follows the contact-force error.
+
+        ``d depth / dt = press_force_gain * (press_force - force) + gap_gain * max(gap - contact_slack, 0)``:
+        the measured force sets the depth; the measured gap of the sponge's lowest corner above
+        the table (while wiping) only speeds up the way back down after the sponge lost contact.  While pressing
+        down the depth integrates only once the rate-limited setpoint has arrived at the commanded
+        height or the sponge touches (so the descent itself winds nothing up).
+        """
+        if phase == "SHIFT":
+            self._update_lift(skill, info)
             return
-        gap = self._sponge_gap(info) - self.config["contact_slack"]
-        extra = self.extra_press + self.config["press_gain"] * self.dt * gap
-        self.extra_press = float(np.clip(extra, 0.0, self.config["max_extra_press"]))
+        if phase not in ("PRESS", "WIPE"):
+            return
+        self.force = press_force(self.env)
+        target_z = self._wipe_target(info, self.strokes[self.stroke_index])[2]
+        arrived = abs(float(skill.setpoint[2]) - target_z) <= self.config["setpoint_arrival"]
+        if phase == "PRESS" and self.force <= 0.0 and not arrived:
+            return
+        error = self.config["press_force"] - self.force
+        # the gap term only while wiping: while pressing down the sponge is still on its way
+        gap = max(self._sponge_gap(info) - self.config["contact_slack"], 0.0) if phase == "WIPE" else 0.0
+        rate = self.config["press_force_gain"] * error + self.config["gap_gain"] * gap
+        depth = self.depth + rate * self.dt
+        self.depth = float(np.clip(depth, self.config["min_press_depth"], self.config["max_press_depth"]))
+
+    def _update_lift(self, skill, info: Mapping[str, Any]) -> None:
+        """A SHIFT moves on once no contact force is measured and the sponge's lowest corner is off the table.
+
+        Dragged sideways while still pressed (across the fingers' closing axis) the sponge tips in
+        the hand; a shift therefore lifts straight up first (or moves on after ``lift_max_steps``).
+        """
+        if self.lifted:
+            return
+        self.force = press_force(self.env)
+        clear = self.force <= 0.0 and self._sponge_gap(info) > self.config["contact_slack"]
+        self.lifted = clear or skill._phase_steps >= self.config["lift_max_steps"]
 
     def waypoint(self, skill, info: Mapping[str, Any], phase: str) -> Waypoint:
         tol = self.config["reach_tolerance"]
@@ -120,10 +214,12 @@ class Wipe(Primitive):
             return Waypoint(pos, GRIPPER_CLOSE, self.config["wipe_tolerance"], xy_only=True,
                             speed=self.config["descend_speed"])
         if phase == "SHIFT":
-            pos = self._wipe_target(info, self.strokes[self.stroke_index], -self.config["shift_clearance"])
+            point = self.strokes[self.stroke_index] if self.lifted else self.lift_point
+            pos = self._wipe_target(info, point, -self.config["shift_clearance"])
             return Waypoint(pos, GRIPPER_CLOSE, self.config["wipe_tolerance"], xy_only=True)
         if phase == "WIPE":
             pos = self._wipe_target(info, self.strokes[self.stroke_index])
+            pos[:2] += self._drift(info)
             return Waypoint(pos, GRIPPER_CLOSE, self.config["wipe_tolerance"], xy_only=True,
                             speed=self.config["wipe_speed"])
         return Waypoint(skill.hover_point(info, self.strokes[-1]), GRIPPER_CLOSE, tol)  # WIPE_LIFT
@@ -135,6 +231,7 @@ class Wipe(Primitive):
         if phase == "WIPE":
             if not info["sponge_grasped"]:
                 raise SkillFailure("sponge lost while wiping")
+            self.lift_point, self.lifted = self.strokes[self.stroke_index], False
             if self.stroke_index + 1 < len(self.strokes):
                 self.stroke_index += 1  # the next stroke's start
                 return "SHIFT"
@@ -151,9 +248,10 @@ class Wipe(Primitive):
         return super().next(skill, info, phase)
 
     def ready(self, skill, info: Mapping[str, Any], phase: str) -> bool:
-        if phase == "PRESS":  # a stroke starts once the sponge really touches (or on timeout)
-            touching = self._sponge_gap(info) <= self.config["contact_slack"]
-            return touching or skill._phase_steps >= self.config["press_max_steps"]
+        if phase == "PRESS":  # a stroke starts once a contact force is measured (or on timeout)
+            return self.force >= self.config["touch_force"] or skill._phase_steps >= self.config["press_max_steps"]
+        if phase == "SHIFT":  # first up off the table at the stroke's end, then over to the next start
+            return self.lifted
         return True
 
 
@@ -166,10 +264,19 @@ class CleanSkill(PrimitiveSkill):
         **BASE_CONFIG,
         **GRASP_CONFIG,
         "max_steps": 900,
-        "press_depth": 0.006,  # m the sponge's bottom is commanded below the table top (firm contact)
-        "press_gain": 5.0,  # 1/s, integral gain pushing deeper while the sponge's lowest corner is above the table
-        "max_extra_press": 0.015,  # m, bound of that extra depth
-        "contact_slack": 0.0005,  # m; the sponge counts as touching when its lowest corner is this close
+        # m the fingertips stay above the sponge's bottom (GRASP_CONFIG's 0.010 for objects): gripped
+        # lower, the table's drag on the pressed sponge has a shorter lever about the finger pads
+        "tip_clearance": 0.004,
+        # the press closes on the measured sponge-table normal force (Wipe, press_force()), not on a depth
+        "press_force": 8.0,  # N, the pressing force the depth loop holds while wiping
+        "touch_force": 1.0,  # N; a stroke starts once at least this contact force is measured
+        "press_force_gain": 0.0005,  # m/(N s), integral gain from the force error to the commanded depth
+        "gap_gain": 5.0,  # 1/s, extra descent rate per m the sponge's lowest corner is above the table
+        "contact_slack": 0.0005,  # m of that gap that count as touching
+        "press_start_depth": 0.002,  # m below the table top the first press aims at before any force is measured
+        "min_press_depth": -0.01,  # m, the depth loop's bounds (negative: above the table top, a sponge slid up
+        "max_press_depth": 0.02,  # in the hand) ...  and below it
+        "setpoint_arrival": 1e-4,  # m; the press integrates once the rate-limited setpoint is this close to its height
         "wipe_speed": 0.25,  # m/s along the strokes
         "wipe_tolerance": 0.02,  # m (xy); table friction keeps the pressed sponge a little behind its setpoint
         # fraction of the sponge's half extent its centre keeps inside the segment's edges; 1 with no
@@ -183,9 +290,11 @@ class CleanSkill(PrimitiveSkill):
         # across the fingers' closing axis the pressed sponge tips and slides up into the hand, after
         # which the fingertips, not the sponge, touch the table
         "shift_clearance": 0.005,
-        # control steps after which a stroke starts even if no contact was sensed (a sponge slid up in
-        # the hand can leave the fingertips on the table); WIPE's integral press then deepens the contact
+        # control steps after which a stroke starts even if no force was measured (a sponge slid up in
+        # the hand can leave the fingertips on the table); WIPE's force loop then deepens the contact
         "press_max_steps": 12,
+        "lift_max_steps": 10,
+        "max_drift_correction": 0.02,  # m, bound of the wipe target's lead over the sponge's measured drift (Wipe._drift)  # control steps a SHIFT lifts at most before moving on (see Wipe._update_lift)
         "max_passes": 3,  # wipe passes at most; a pass is repeated only while the segment is dirty
         "place_clearance": 0.004,  # m above its home at which the sponge is released
         "release_min_steps": 3,  # control steps to keep opening before checking the fingers settled
