@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tableclean_suite.executors.blas import single_blas_thread
 from tableclean_suite.learners.rng import run_key
 from tableclean_suite.task import HELD, Action, TaskModel, TaskState, as_state
 
@@ -283,7 +284,8 @@ def _train_share(job):
         run = first_run + i
         env.seed(run_key(seed, run))  # the scene's placements depend on the run only, not on the worker
         on_step = None if queue is None else (lambda t, q=queue: q.put(1))
-        record = train_run(env, learner, reward, iterations, seed=seed, run=run, on_step=on_step, **hyper)
+        with single_blas_thread():  # the same bits in this process, a local worker or a Ray worker
+            record = train_run(env, learner, reward, iterations, seed=seed, run=run, on_step=on_step, **hyper)
         env.stats["steps"] += iterations
         out.append((i, record))
     stats = dict(env.stats)
@@ -341,7 +343,9 @@ def run_physics_task(task: PhysicsRun):
     env.stats = _empty_stats()
     run = task.first_run + task.index
     env.seed(run_key(task.seed, run))
-    record = train_run(env, task.learner, task.reward, task.iterations, seed=task.seed, run=run, **dict(task.hyper))
+    with single_blas_thread():  # the same bits in this process, a local worker or a Ray worker
+        record = train_run(env, task.learner, task.reward, task.iterations, seed=task.seed, run=run,
+                           **dict(task.hyper))
     env.stats["steps"] += task.iterations
     stats = dict(env.stats)
     stats["fault_reasons"] = dict(stats["fault_reasons"])

@@ -142,6 +142,7 @@ def test_short_physics_training_run_end_to_end():
 @pytest.mark.slow
 def test_physics_runs_on_ray_equal_the_runs_in_this_process():
     """Each run is an executor task with its own seeds: a local Ray (loopback) gives this process's records."""
+    pytest.importorskip("ray", reason="Ray is not installed: pip install -e '.[dev]' (or '.[cluster]')")
     from tableclean_suite.executors import RayExecutor
 
     kwargs = dict(learner="q_learning", reward="r4", runs=2, iterations=5, epsilon=0.3, seed=4, backend="physics")

@@ -48,6 +48,7 @@ from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # 
 from tableclean_suite.bench.cli import (add_executor_arguments, executor_from_args, non_negative_int,  # noqa: E402
                                         positive_int)
 from tableclean_suite.bench.trial_store import TRIAL_FIELDS  # noqa: E402, F401  (re-exported)
+from tableclean_suite.executors.blas import single_blas_thread  # noqa: E402
 from tableclean_suite.task import Outcome, TaskModel, TaskState, get_task_spec, task_spec_names  # noqa: E402
 
 TRIALS_CSV = "fidelity_trials.csv"
@@ -109,6 +110,7 @@ def layout_label(state: TaskState) -> str:
     return ".".join(str(o + 1) for o in state.objects) + f"-{state.arm + 1}"
 
 
+@single_blas_thread()  # the same bits in this process, a local worker or a Ray worker
 def run_round(session, round_index: int, seed: int, on_trial: Callable[[dict], None] | None = None,
               actions: Iterable | None = None) -> list[dict]:
     """One round: every action in ``actions`` (default: the model's) once from every reachable non-terminal state.
