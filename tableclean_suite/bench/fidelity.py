@@ -1,6 +1,7 @@
 """Fidelity of the skills: does physics do what the task model says, from every reachable state?
 
     python -m benchmarks.fidelity [--task SPEC] [--robots ROBOT] [--trials N] [--out DIR] [--seed S] [--fresh]
+                                  [--randomize]
 
 One *round* executes every action of the spec (``--task``, default ``paper``) once from every
 reachable non-terminal state (paper: 18 states x 4 actions = 72 trials;
@@ -25,6 +26,10 @@ round, so an interrupted run resumes where it stopped and never keeps a partial 
 :mod:`.trial_store`; ``--fresh`` starts over), ``fidelity_pairs.csv`` (agreement per pair) and
 ``fidelity_skills.csv`` (success, steps and seconds per skill, over executions the controller
 did not refuse).  :func:`collect` is the execution code ``benchmarks.calibrate`` reuses.
+
+``--randomize`` runs the scene with randomised dynamics (``randomization="on"``: the documented
+ranges of :mod:`tableclean_suite.environments.randomization`), drawn anew at every staged reset
+from that reset's seed; its results go to ``DIR_randomized`` by default.
 """
 
 from __future__ import annotations
@@ -56,6 +61,8 @@ PAIRS_CSV = "fidelity_pairs.csv"
 SKILLS_CSV = "fidelity_skills.csv"
 #: Output directory of the ``paper`` spec (other specs: ``<this>_<spec name>``).
 DEFAULT_OUT = "results/fidelity"
+#: Suffix of the default output directory with ``--randomize``.
+RANDOMIZED_SUFFIX = "_randomized"
 #: Agreement and success goals of the issue (reported next to the measurement).
 AGREEMENT_GOAL = 0.99
 SUCCESS_GOAL = 0.995
@@ -420,6 +427,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help=f"output directory (default {DEFAULT_OUT}, or {DEFAULT_OUT}_<task> for another spec)")
     parser.add_argument("--fresh", action="store_true", help="discard earlier trials in --out and start over")
     add_robots_argument(parser)
+    parser.add_argument("--randomize", action="store_true",
+                        help="randomised dynamics (mass, size, friction, damping, OSC gains, start noise; the ranges "
+                             "of tableclean_suite.environments.randomization), drawn at every reset; the default "
+                             f"--out gets the suffix {RANDOMIZED_SUFFIX}")
     return parser
 
 
@@ -430,6 +441,8 @@ def main(argv: list[str] | None = None) -> int:
     model, actions = parse_task_and_actions(parser, args)
     robot = parse_robot(parser, args)
     suffix = ("" if model.spec.name == "paper" else f"_{model.spec.name}") + ("" if robot == "Panda" else f"_{robot}")
+    suffix += RANDOMIZED_SUFFIX if args.randomize else ""
+    env_kwargs = {"robots": robot, **({"randomization": "on"} if args.randomize else {})}
     out = Path(args.out if args.out is not None else DEFAULT_OUT + suffix)
     started = time.perf_counter()
     executor = make_round_executor(parser, args)
@@ -437,7 +450,7 @@ def main(argv: list[str] | None = None) -> int:
         with executor:
             rows = collect(args.trials, args.seed, out / TRIALS_CSV, fresh=args.fresh,
                            log=None if args.quiet else print, actions=actions, model=model, executor=executor,
-                           physics_options={"env_kwargs": {"robots": robot}})
+                           physics_options={"env_kwargs": env_kwargs})
     except ResumeError as error:
         parser.error(str(error))  # exits 2
     pairs, skills = pair_table(rows, model), skill_table(rows, model)
