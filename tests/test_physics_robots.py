@@ -252,3 +252,17 @@ def _short_run(robot: str, fast: bool) -> np.ndarray:
 def test_fast_path_reproduces_robosuite_on_another_arm():
     robot = "Kinova3"  # its own OSC stiffness from the robot config, and another arm's kinematics
     np.testing.assert_allclose(_short_run(robot, fast=True), _short_run(robot, fast=False), rtol=0, atol=STATE_ATOL)
+
+
+def test_robot_table_appends_cells_of_other_runs(tmp_path):
+    from tableclean_suite.bench.robot_table import COLUMNS, markdown, merge_rows, table_row, write_table
+
+    path = tmp_path / "robot_table.csv"
+    eps = {"episodes": 4, "successes": 3, "seconds": 8.0}
+    write_table(path, [table_row("Panda", "paper", None, eps), table_row("UR5e", "paper", None, eps)])
+    again = table_row("UR5e", "paper", {"trials": 72, "rounds": 1, "agreement": 1.0, "faults": 0}, None)
+    rows = merge_rows(path, [again, table_row("Sawyer", "paper", None, eps)])
+    assert [(r["robot"], r["fidelity_trials"]) for r in rows] == [("Panda", ""), ("UR5e", 72), ("Sawyer", "")]
+    assert set(rows[0]) == set(COLUMNS) and rows[0]["episode_success_rate"] == "0.75"  # read back as text
+    text = markdown(rows)
+    assert "| Panda | paper | - | - | 75.00% (4) | 2.00 |" in text and "| UR5e | paper | 100.00% (72) | 0 | - | - |" in text

@@ -15,8 +15,9 @@ For every (robot, spec) cell:
   the symbolic state read back at the end is terminal.  Seconds per episode are wall-clock
   (reset and plan).
 
-Writes ``DIR/robot_table.csv`` (one row per cell, rewritten after every cell) and prints a
-markdown table with the trial and episode counts.  ``T = 0`` or ``E = 0`` skips that part.
+Writes ``DIR/robot_table.csv`` (one row per cell, rewritten after every cell; ``--append`` keeps
+the cells of earlier runs, e.g. of robots measured in another process) and prints a markdown
+table with the trial and episode counts.  ``T = 0`` or ``E = 0`` skips that part.
 """
 
 from __future__ import annotations
@@ -124,15 +125,33 @@ def write_table(path: Path, rows: list[dict]) -> None:
     tmp.replace(path)
 
 
+def merge_rows(path: Path, rows: list[dict]) -> list[dict]:
+    """The rows already in ``path`` (if any) with the cells of ``rows`` replaced or added, in the file's order."""
+    merged: dict[tuple, dict] = {}
+    if path.exists():
+        with open(path, newline="") as handle:
+            for row in csv.DictReader(handle):
+                merged[(row["robot"], row["task"])] = {column: row.get(column, "") for column in COLUMNS}
+    for row in rows:
+        merged[(row["robot"], row["task"])] = row
+    return list(merged.values())
+
+
+def _number(value):
+    """A CSV cell as read back (strings) or as written (numbers): a float, or "" for an empty cell."""
+    return "" if value == "" else float(value)
+
+
 def markdown(rows: list[dict]) -> str:
     """The table as markdown: fidelity agreement (trials), episode success (episodes), seconds per episode."""
     lines = ["| robot | task | fidelity (trials) | faults | optimal episodes: success (episodes) | s / episode |",
              "|---|---|---|---|---|---|"]
     for row in rows:
-        fid = f"{row['fidelity_agreement']:.2%} ({row['fidelity_trials']})" if row["fidelity_trials"] != "" else "-"
-        eps = (f"{row['episode_success_rate']:.2%} ({row['episodes']})" if row["episodes"] != "" else "-")
+        row = {key: (value if key in ("robot", "task") else _number(value)) for key, value in row.items()}
+        fid = f"{row['fidelity_agreement']:.2%} ({row['fidelity_trials']:.0f})" if row["fidelity_trials"] != "" else "-"
+        eps = (f"{row['episode_success_rate']:.2%} ({row['episodes']:.0f})" if row["episodes"] != "" else "-")
         secs = f"{row['seconds_per_episode']:.2f}" if row["seconds_per_episode"] != "" else "-"
-        faults = row["fidelity_faults"] if row["fidelity_faults"] != "" else "-"
+        faults = f"{row['fidelity_faults']:.0f}" if row["fidelity_faults"] != "" else "-"
         lines.append(f"| {row['robot']} | {row['task']} | {fid} | {faults} | {eps} | {secs} |")
     return "\n".join(lines)
 
@@ -159,6 +178,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", default=DEFAULT_OUT, help=f"directory of {TABLE_CSV} (default {DEFAULT_OUT})")
     parser.add_argument("--fidelity-dir", default=DEFAULT_FIDELITY_DIR,
                         help=f"directory of the fidelity trials, one <robot>_<task> folder per cell (default {DEFAULT_FIDELITY_DIR})")
+    parser.add_argument("--append", action="store_true",
+                        help=f"keep the other cells already in {TABLE_CSV} (this run's cells replace theirs)")
     parser.add_argument("--quiet", action="store_true", help="print only the table")
     return parser
 
@@ -194,10 +215,12 @@ def main(argv: list[str] | None = None) -> int:
             if args.episodes:
                 eps = run_episodes(robot, task, args.episodes, args.seed, log=log)
             rows.append(table_row(robot, task, fid, eps))
-            write_table(Path(args.out) / TABLE_CSV, rows)
+            table = Path(args.out) / TABLE_CSV
+            write_table(table, merge_rows(table, rows) if args.append else rows)
             if log:
                 log(f"{robot} x {task} done ({time.perf_counter() - started:.0f} s)")
-    print(markdown(rows))
+    table = Path(args.out) / TABLE_CSV
+    print(markdown(merge_rows(table, []) if args.append else rows))
     print(f"\n{Path(args.out) / TABLE_CSV} ({time.perf_counter() - started:.0f} s); goal: >= {GOAL_RATE:.0%} "
           f"fidelity and episode success per cell")
     return 0

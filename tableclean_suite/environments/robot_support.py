@@ -13,6 +13,7 @@
   parent-child pair restores MuJoCo's usual parent filtering for those pairs too; for all other
   pairs it changes nothing (MuJoCo filters them already).
 - :func:`scene_gripper`: the gripper the robot's config mounts in place of robosuite's default.
+- :func:`scene_base_shift`: how far the robot's config moves its base from robosuite's table-side position.
 """
 
 from __future__ import annotations
@@ -32,6 +33,13 @@ def scene_gripper(robot: str, gripper_types):
     from tableclean_suite.controllers.robot_configs import scene_gripper_types
 
     return scene_gripper_types(robot, gripper_types)
+
+
+def scene_base_shift(robot: str) -> tuple[float, float, float]:
+    """(3,) m added to the robot's table-side base position (its config's ``base_shift``)."""
+    from tableclean_suite.controllers.robot_configs import base_shift
+
+    return base_shift(robot)
 
 
 def exclude_parent_contacts(robot_model) -> int:

@@ -21,7 +21,12 @@ from tableclean_suite.environments.config import (
 )
 from tableclean_suite.environments.ik import site_pose, solve_site_pose
 from tableclean_suite.environments.objects import get_object_type, make_object, make_sponge, object_names
-from tableclean_suite.environments.robot_support import check_scene_robot, exclude_parent_contacts, scene_gripper
+from tableclean_suite.environments.robot_support import (
+    check_scene_robot,
+    exclude_parent_contacts,
+    scene_base_shift,
+    scene_gripper,
+)
 from tableclean_suite.environments.randomization import (
     DynamicsRandomization,
     DynamicsSample,
@@ -342,7 +347,8 @@ class TableClean(ManipulationEnv):
             self._draw_dynamics()
         config = self.task_config
         robot_model = self.robots[0].robot_model
-        robot_model.set_base_xpos(robot_model.base_xpos_offset["table"](config["table_full_size"][0]))
+        robot_model.set_base_xpos(np.add(robot_model.base_xpos_offset["table"](config["table_full_size"][0]),
+                                          scene_base_shift(self.robot_name)))  # some arms sit closer (robot configs)
         exclude_parent_contacts(robot_model)  # a fixed base's first link must not collide with it (Sawyer)
         arena = TableCleanArena(
             geometry=self.geometry,
