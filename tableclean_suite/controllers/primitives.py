@@ -6,8 +6,9 @@ A :class:`Primitive` is a short sequence of named phases over end-effector waypo
 ``SPONGE_HOVER``, ``SPONGE_DESCEND``, ...).  The primitives:
 
 - :class:`Reach`: go to one point (a function of ``skill_info()``) with a given gripper command.
-- :class:`Grasp`: hover over a body, open, descend to its grasp point, close, confirm, lift
-  (pick grasps an object with its type's grasp parameters; clean grasps the sponge).
+- :class:`Grasp`: hover over a body, open, descend to its grasp point, close, confirm by contact,
+  lift, confirm by contact and slip (pick grasps an object with its type's grasp parameters;
+  clean grasps the sponge).
 - :class:`Release`: hover over a spot, descend until the carried body is just above its
   resting height, open until released, retreat (place puts an object down; clean returns the sponge).
 - :class:`Wipe` (in :mod:`.clean`): press the held sponge and sweep a segment.
@@ -30,6 +31,10 @@ from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.skill import Skill, SkillFailure, Waypoint
 
 Info = Mapping[str, Any]
+
+#: A lifted body may trail the grip site's rise by at most this [m] before the grasp counts as
+#: slipping (a skill config may override it with the key ``grasp_slip_tolerance``).
+GRASP_SLIP_TOLERANCE = 0.01
 
 
 @dataclass(frozen=True)
@@ -135,10 +140,13 @@ class Reach(Primitive):
 
 
 class Grasp(Primitive):
-    """Hover over ``body`` (gripper open), descend to its grasp point, close, confirm the grasp, lift.
+    """Hover over ``body`` (gripper open), descend to its grasp point, close, confirm the grasp, lift, confirm again.
 
-    Re-approaches up to ``grasp_retries`` times when the grasp is not confirmed, then fails.
-    Sets the skill's target yaw from ``body.yaw_rule`` when it starts.
+    The grasp is confirmed by what is measured, twice: after closing, both finger pads touch the
+    body (contact); after lifting, they still do and the body rose with the grip site, trailing
+    it by at most ``grasp_slip_tolerance`` m (:data:`GRASP_SLIP_TOLERANCE`; slip).  Either failure
+    re-approaches the body from its measured pose, up to ``grasp_retries`` times in all, then
+    fails.  Sets the skill's target yaw from ``body.yaw_rule`` when it starts.
     """
 
     PHASES = ("HOVER", "DESCEND", "CLOSE", "LIFT")
@@ -148,6 +156,11 @@ class Grasp(Primitive):
 
     def start(self, skill, info):
         self.retries_left = skill.config["grasp_retries"]
+        self.closed_at = None  # (grip-site z, body z) [m] when the closed grasp was confirmed by contact
+        self._aim(skill, info)
+
+    def _aim(self, skill, info) -> None:
+        """The target yaw for (re-)approaching the body as it lies now."""
         if self.body.yaw_rule == "short_side":
             skill.yaw = grasp_yaw(self.body.quat(info), self.body.half_size(info), skill.config["nominal_yaw"])
         else:
@@ -165,12 +178,32 @@ class Grasp(Primitive):
             return Waypoint(skill.setpoint, GRIPPER_CLOSE, np.inf, min_steps=skill.config["close_min_steps"])
         return Waypoint(skill.hover_point(info, pos[:2]), GRIPPER_CLOSE, tol)
 
+    def slipped(self, skill, info) -> float:
+        """How far [m] the body trailed the grip site's rise since the grasp closed (0 when it kept up)."""
+        eef_z0, body_z0 = self.closed_at
+        rise = float(np.asarray(info["eef_pos"], dtype=float)[2]) - eef_z0
+        carried = float(self.body.pos(info)[2]) - body_z0
+        return max(rise - carried, 0.0)
+
+    def _retry(self, skill, info, failure: str) -> str:
+        if self.retries_left <= 0:
+            raise SkillFailure(failure)
+        self.retries_left -= 1
+        self._aim(skill, info)
+        return "HOVER"
+
     def next(self, skill, info, phase):
-        if phase == "CLOSE" and not self.body.grasped(info):
-            if self.retries_left <= 0:
-                raise SkillFailure(f"{self.what} not confirmed")
-            self.retries_left -= 1
-            return "HOVER"
+        if phase == "CLOSE":
+            if not self.body.grasped(info):
+                return self._retry(skill, info, f"{self.what} not confirmed")
+            self.closed_at = (float(np.asarray(info["eef_pos"], dtype=float)[2]), float(self.body.pos(info)[2]))
+        if phase == "LIFT":
+            tolerance = skill.config.get("grasp_slip_tolerance", GRASP_SLIP_TOLERANCE)
+            if not self.body.grasped(info):
+                return self._retry(skill, info, f"{self.what} lost while lifting")
+            slip = self.slipped(skill, info)
+            if slip > tolerance:
+                return self._retry(skill, info, f"{self.what} slipped {slip * 1000:.0f} mm while lifting")
         return super().next(skill, info, phase)
 
 
