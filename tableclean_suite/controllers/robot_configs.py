@@ -13,13 +13,20 @@ nowhere in the skill code:
   :data:`~.osc.OSC_OVERRIDES`;
 - :class:`~tableclean_suite.environments.TableClean` and
   :func:`~.make.make_skill_env` refuse a robot that is not registered here
-  (:func:`check_robot`: a ``ValueError`` naming :func:`supported_robots`).
+  (:func:`check_robot`: a ``ValueError`` naming :func:`supported_robots`), and the scene mounts
+  the config's ``gripper`` and moves the base by its ``base_shift``.
+
+Shipped: Panda (the reference), Sawyer, UR5e and Kinova3.  The three others carry robosuite's
+Panda gripper: their own grippers cannot hold the sponge in robosuite's models (see
+:data:`SWAP_GRIPPER`).  The windowed and timeout settling rules of
+:meth:`~.skill.Skill.gripper_settled` (``gripper_window``, ``gripper_drift``,
+``gripper_timeout``) are for grippers whose fingers never stop, such as the Robotiq 85.
 
 Users add an arm with :func:`register_robot_config`::
 
     register_robot_config(RobotSkillConfig("MyArm", skills={"*": {"fingertip_depth": 0.02}}))
 
-This module imports neither robosuite nor MuJoCo (the environment imports it while it is built).
+This module itself imports neither robosuite nor MuJoCo (the environment imports it while it is built).
 """
 
 from __future__ import annotations
