@@ -43,6 +43,8 @@ TABLE_TOP_GEOM = "table_collision"
 FAULT_INDEX = -1
 #: Height above the table top at which a dropped object is placed, so it settles without penetration [m].
 PLACEMENT_CLEARANCE = 0.001
+#: A randomised sponge start keeps its footprint this far inside its stand's edges [m].
+STAND_EDGE_MARGIN = 0.002
 #: The exact contact test runs only when the sponge's lowest corner is within this of the table top [m].
 PRESS_PREFILTER_SLACK = 0.002
 
@@ -865,8 +867,13 @@ class TableClean(ManipulationEnv):
         """The sponge at rest on its home, offset and turned by this episode's draw (if randomised)."""
         pos, yaw = self.geometry.sponge_home_pos.copy(), 0.0
         if self.dynamics_sample is not None:
-            pos[:2] += self.dynamics_sample.sponge_home_offset
             yaw = self.dynamics_sample.sponge_yaw
+            # clipped so the turned sponge rests wholly on its stand, STAND_EDGE_MARGIN inside its edges
+            # (MuJoCo's box-box test reports a bogus deep contact when the two boxes' edges coincide)
+            half = np.asarray(self.task_config["sponge_half_size"], dtype=float)
+            footprint = np.abs(np.cos(yaw)) * half[:2] + np.abs(np.sin(yaw)) * half[1::-1]
+            room = np.maximum(self.geometry.stand_half_size[:2] - footprint - STAND_EDGE_MARGIN, 0.0)
+            pos[:2] += np.clip(self.dynamics_sample.sponge_home_offset, -room, room)
         quat_wxyz = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
         self.sim.data.set_joint_qpos(self.sponge.joints[0], np.concatenate([pos, quat_wxyz]))
 
