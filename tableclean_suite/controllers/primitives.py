@@ -176,7 +176,10 @@ class Grasp(Primitive):
             return Waypoint(grasp, GRIPPER_OPEN, tol, speed=skill.config["descend_speed"])
         if phase == "CLOSE":
             return Waypoint(skill.setpoint, GRIPPER_CLOSE, np.inf, min_steps=skill.config["close_min_steps"])
-        return Waypoint(skill.hover_point(info, pos[:2]), GRIPPER_CLOSE, tol)
+        # straight up from where the grasp closed: a carried body hanging off-centre would otherwise move
+        # the target with every step the arm makes towards it (measured on UR5e and Kinova3: the lift
+        # chased the body out to the arm's reach limit and ran out of budget)
+        return Waypoint(skill.hover_point(info, self.lift_xy), GRIPPER_CLOSE, tol)
 
     def slipped(self, skill, info) -> float:
         """How far [m] the body trailed the grip site's rise since the grasp closed (0 when it kept up)."""
@@ -197,6 +200,7 @@ class Grasp(Primitive):
             if not self.body.grasped(info):
                 return self._retry(skill, info, f"{self.what} not confirmed")
             self.closed_at = (float(np.asarray(info["eef_pos"], dtype=float)[2]), float(self.body.pos(info)[2]))
+            self.lift_xy = np.asarray(info["eef_pos"], dtype=float)[:2].copy()  # (2,) m, where LIFT rises
         if phase == "LIFT":
             tolerance = skill.config.get("grasp_slip_tolerance", GRASP_SLIP_TOLERANCE)
             if not self.body.grasped(info):
