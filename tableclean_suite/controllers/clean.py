@@ -220,8 +220,9 @@ class Wipe(Primitive):
         if phase == "WIPE":
             pos = self._wipe_target(info, self.strokes[self.stroke_index])
             pos[:2] += self._drift(info)
-            return Waypoint(pos, GRIPPER_CLOSE, self.config["wipe_tolerance"], xy_only=True,
-                            speed=self.config["wipe_speed"])
+            # a stroke the arm cannot finish (a corner at the edge of its reach) ends after stroke_max_steps
+            tol = np.inf if skill._phase_steps >= self.config["stroke_max_steps"] else self.config["wipe_tolerance"]
+            return Waypoint(pos, GRIPPER_CLOSE, tol, xy_only=True, speed=self.config["wipe_speed"])
         return Waypoint(skill.hover_point(info, self.strokes[-1]), GRIPPER_CLOSE, tol)  # WIPE_LIFT
 
     def next(self, skill, info: Mapping[str, Any], phase: str) -> str | None:
@@ -294,6 +295,8 @@ class CleanSkill(PrimitiveSkill):
         # the hand can leave the fingertips on the table); WIPE's force loop then deepens the contact
         "press_max_steps": 12,
         "lift_max_steps": 10,
+        # control steps after which a stroke ends wherever the sponge got (a stroke takes ~20 at wipe_speed)
+        "stroke_max_steps": 40,
         "max_drift_correction": 0.02,  # m, bound of the wipe target's lead over the sponge's measured drift (Wipe._drift)  # control steps a SHIFT lifts at most before moving on (see Wipe._update_lift)
         "max_passes": 3,  # wipe passes at most; a pass is repeated only while the segment is dirty
         "place_clearance": 0.004,  # m above its home at which the sponge is released
