@@ -32,7 +32,7 @@ class CleanPhase(enum.Enum):
     TO_SEGMENT = enum.auto()  # hover above the first stroke's start
     PRESS = enum.auto()  # down at a stroke's start until a sponge-table contact force is measured
     WIPE = enum.auto()  # drag the pressed sponge to the stroke's end
-    SHIFT = enum.auto()  # lift until no contact force is measured, then just off the table over to the next stroke's start
+    SHIFT = enum.auto()  # lift until no contact force is measured, then just off the table to the next stroke's start
     WIPE_LIFT = enum.auto()  # up to the hover height
     HOME_ALIGN = enum.auto()  # hover above the sponge home
     HOME_DESCEND = enum.auto()  # lower the sponge to its home
@@ -294,10 +294,10 @@ class CleanSkill(PrimitiveSkill):
         # control steps after which a stroke starts even if no force was measured (a sponge slid up in
         # the hand can leave the fingertips on the table); WIPE's force loop then deepens the contact
         "press_max_steps": 12,
-        "lift_max_steps": 10,
+        "lift_max_steps": 10,  # control steps a SHIFT lifts at most before moving on (see Wipe._update_lift)
         # control steps after which a stroke ends wherever the sponge got (a stroke takes ~20 at wipe_speed)
         "stroke_max_steps": 40,
-        "max_drift_correction": 0.02,  # m, bound of the wipe target's lead over the sponge's measured drift (Wipe._drift)  # control steps a SHIFT lifts at most before moving on (see Wipe._update_lift)
+        "max_drift_correction": 0.02,  # m, bound of the wipe target's lead over the sponge's drift (Wipe._drift)
         "max_passes": 3,  # wipe passes at most; a pass is repeated only while the segment is dirty
         "place_clearance": 0.004,  # m above its home at which the sponge is released
         "release_min_steps": 3,  # control steps to keep opening before checking the fingers settled

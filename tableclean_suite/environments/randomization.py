@@ -22,7 +22,9 @@ field                          unit    ``OFF`` (paper)  ``DEFAULT_ON``    applie
 ``sponge_yaw_noise``           rad     0                0.15              sponge start yaw, uniform in +-this
 =============================  ======  ===============  ================  ==========================================
 
-Scales multiply the value the scene builds (masses: the density's mass of the resized body).
+Scales multiply the value the scene builds (masses: the density's mass of the resized body; sizes
+apply to the types built from ``object_half_size``: box, cube, cylinder; robosuite's mesh objects,
+can and bread, keep theirs).
 Every range is ``(low, high)`` with ``low <= high`` inside :data:`ALLOWED_SCALE` (sizes:
 :data:`ALLOWED_SIZE_SCALE`); noises are half-widths >= 0 up to :data:`MAX_YAW_NOISE` /
 :data:`MAX_SPONGE_HOME_NOISE`.  Anything else raises ``ValueError`` naming the field.
@@ -247,5 +249,5 @@ def resolve_randomization(value: Any) -> DynamicsRandomization:
         if unknown:
             raise ValueError(f"unknown randomization field(s) {unknown}; allowed: {sorted(known)}")
         return replace(OFF, **dict(value))
-    raise ValueError(f"randomization must be None, True/False, {', '.join(OFF_NAMES + ON_NAMES)}, a DynamicsRandomization "
-                     f"or a mapping of its fields, got {value!r}")
+    raise ValueError(f"randomization must be None, True/False, {', '.join(OFF_NAMES + ON_NAMES)}, "
+                     f"a DynamicsRandomization or a mapping of its fields, got {value!r}")
