@@ -874,6 +874,9 @@ class TableClean(ManipulationEnv):
             footprint = np.abs(np.cos(yaw)) * half[:2] + np.abs(np.sin(yaw)) * half[1::-1]
             room = np.maximum(self.geometry.stand_half_size[:2] - footprint - STAND_EDGE_MARGIN, 0.0)
             pos[:2] += np.clip(self.dynamics_sample.sponge_home_offset, -room, room)
+            # and it settles from just above, as the objects do: a turned box resting exactly on another
+            # can also get a bogus deep contact from MuJoCo's box-box test
+            pos[2] += PLACEMENT_CLEARANCE
         quat_wxyz = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
         self.sim.data.set_joint_qpos(self.sponge.joints[0], np.concatenate([pos, quat_wxyz]))
 
