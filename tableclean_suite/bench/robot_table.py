@@ -1,7 +1,7 @@
 """The skills on several arms: fidelity and optimal-episode success per robot x task spec.
 
     python -m benchmarks.robot_table [--robots Panda,Sawyer,UR5e,Kinova3] [--tasks paper,three_segments_two_objects]
-                                     [--episodes E] [--fidelity-trials T] [--seed S] [--out DIR]
+                                     [--episodes E] [--fidelity-trials T] [--seed S] [--out DIR] [--randomize]
 
 For every (robot, spec) cell:
 
@@ -14,6 +14,11 @@ For every (robot, spec) cell:
   shortest plan with the compiled control path; an episode succeeds when every skill succeeds and
   the symbolic state read back at the end is terminal.  Seconds per episode are wall-clock
   (reset and plan).
+
+With ``--randomize`` both run with the scene's randomised dynamics
+(:data:`tableclean_suite.environments.randomization.DEFAULT_ON`, drawn at every reset from the
+seeded ``env.rng``); the row's ``dynamics`` column says ``randomized`` (else ``nominal``) and its
+fidelity trials go to ``<fidelity-dir>/<robot>_<spec>_randomized``.
 
 Writes ``DIR/robot_table.csv`` (one row per cell, rewritten after every cell; ``--append`` keeps
 the cells of earlier runs, e.g. of robots measured in another process) and prints a markdown
@@ -44,22 +49,27 @@ DEFAULT_FIDELITY_DIR = "results/fidelity_robots"
 #: File name of the table.
 TABLE_CSV = "robot_table.csv"
 #: Columns of the table, in order.
-COLUMNS = ("robot", "task", "fidelity_trials", "fidelity_rounds", "fidelity_agreement", "fidelity_faults",
+COLUMNS = ("robot", "task", "dynamics", "fidelity_trials", "fidelity_rounds", "fidelity_agreement", "fidelity_faults",
            "episodes", "episode_successes", "episode_success_rate", "seconds_per_episode")
+#: ``dynamics`` of a row: the scene as built, or randomised at every reset.
+NOMINAL, RANDOMIZED = "nominal", "randomized"
+#: Columns that identify a cell (a later run's row replaces an earlier one with the same key).
+CELL_KEY = ("robot", "task", "dynamics")
 #: Goal of the issue: fidelity and episode success at least this, on at least four arms.
 GOAL_RATE = 0.99
 
 
-def run_episodes(robot: str, task: str, episodes: int, seed: int = 0, log=print) -> dict:
+def run_episodes(robot: str, task: str, episodes: int, seed: int = 0, log=print, randomization=None) -> dict:
     """``episodes`` optimal-plan episodes of ``task`` on ``robot`` from random start layouts.
 
     Returns ``{"episodes", "successes", "seconds"}`` (seconds: total wall-clock time of the
     episodes, resets included; the scene build is not counted) and ``"failures"``: up to a few
-    ``(episode, reason)`` of failed episodes.
+    ``(episode, reason)`` of failed episodes.  ``randomization``: the scene's ``randomization=``
+    (None: nominal dynamics).
     """
     from tableclean_suite.controllers import SkillController, make_skill_env
 
-    env = make_skill_env(None, None, robots=robot, task=task, seed=seed)
+    env = make_skill_env(None, None, robots=robot, task=task, seed=seed, randomization=randomization)
     failures = []
     successes = 0
     seconds = 0.0
@@ -88,22 +98,22 @@ def run_episodes(robot: str, task: str, episodes: int, seed: int = 0, log=print)
     return {"episodes": episodes, "successes": successes, "seconds": seconds, "failures": failures}
 
 
-def run_fidelity(robot: str, task: str, trials: int, seed: int, out: Path, log=print) -> dict:
+def run_fidelity(robot: str, task: str, trials: int, seed: int, out: Path, log=print, randomization=None) -> dict:
     """Fidelity rounds of ``task`` on ``robot`` (trials stored under ``out``); the :func:`~.fidelity.summary` dict."""
     from tableclean_suite.bench import fidelity
     from tableclean_suite.task import TaskModel, get_task_spec
 
     model = TaskModel(spec=get_task_spec(task))
     rows = fidelity.collect(trials, seed, out / fidelity.TRIALS_CSV, log=log, model=model,
-                            physics_options={"env_kwargs": {"robots": robot}})
+                            physics_options={"env_kwargs": {"robots": robot, "randomization": randomization}})
     fidelity.write_csv(out / fidelity.PAIRS_CSV, fidelity.pair_table(rows, model))
     fidelity.write_csv(out / fidelity.SKILLS_CSV, fidelity.skill_table(rows, model))
     return fidelity.summary(rows, model)
 
 
-def table_row(robot: str, task: str, fid: dict | None, eps: dict | None) -> dict:
+def table_row(robot: str, task: str, fid: dict | None, eps: dict | None, dynamics: str = NOMINAL) -> dict:
     """One row of the table (:data:`COLUMNS`); empty strings for a part that was skipped."""
-    row = {"robot": robot, "task": task}
+    row = {"robot": robot, "task": task, "dynamics": dynamics}
     if fid is not None:
         row.update(fidelity_trials=fid["trials"], fidelity_rounds=fid["rounds"],
                    fidelity_agreement=round(fid["agreement"], 6), fidelity_faults=fid["faults"])
@@ -131,9 +141,11 @@ def merge_rows(path: Path, rows: list[dict]) -> list[dict]:
     if path.exists():
         with open(path, newline="") as handle:
             for row in csv.DictReader(handle):
-                merged[(row["robot"], row["task"])] = {column: row.get(column, "") for column in COLUMNS}
+                row = {column: row.get(column, "") for column in COLUMNS}
+                row["dynamics"] = row["dynamics"] or NOMINAL  # tables written before the column
+                merged[tuple(row[key] for key in CELL_KEY)] = row
     for row in rows:
-        merged[(row["robot"], row["task"])] = row
+        merged[tuple(row[key] for key in CELL_KEY)] = row
     return list(merged.values())
 
 
@@ -144,15 +156,15 @@ def _number(value):
 
 def markdown(rows: list[dict]) -> str:
     """The table as markdown: fidelity agreement (trials), episode success (episodes), seconds per episode."""
-    lines = ["| robot | task | fidelity (trials) | faults | optimal episodes: success (episodes) | s / episode |",
-             "|---|---|---|---|---|---|"]
+    lines = ["| robot | task | dynamics | fidelity (trials) | faults | optimal episodes: success (episodes) | s / episode |",
+             "|---|---|---|---|---|---|---|"]
     for row in rows:
-        row = {key: (value if key in ("robot", "task") else _number(value)) for key, value in row.items()}
+        row = {key: (value if key in CELL_KEY else _number(value)) for key, value in row.items()}
         fid = f"{row['fidelity_agreement']:.2%} ({row['fidelity_trials']:.0f})" if row["fidelity_trials"] != "" else "-"
         eps = (f"{row['episode_success_rate']:.2%} ({row['episodes']:.0f})" if row["episodes"] != "" else "-")
         secs = f"{row['seconds_per_episode']:.2f}" if row["seconds_per_episode"] != "" else "-"
         faults = f"{row['fidelity_faults']:.0f}" if row["fidelity_faults"] != "" else "-"
-        lines.append(f"| {row['robot']} | {row['task']} | {fid} | {faults} | {eps} | {secs} |")
+        lines.append(f"| {row['robot']} | {row['task']} | {row['dynamics']} | {fid} | {faults} | {eps} | {secs} |")
     return "\n".join(lines)
 
 
@@ -180,6 +192,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help=f"directory of the fidelity trials, one <robot>_<task> folder per cell (default {DEFAULT_FIDELITY_DIR})")
     parser.add_argument("--append", action="store_true",
                         help=f"keep the other cells already in {TABLE_CSV} (this run's cells replace theirs)")
+    parser.add_argument("--randomize", action="store_true",
+                        help="randomised dynamics at every reset (the scene's documented default ranges)")
     parser.add_argument("--quiet", action="store_true", help="print only the table")
     return parser
 
@@ -204,17 +218,19 @@ def main(argv: list[str] | None = None) -> int:
         except (ValueError, OSError) as error:
             parser.error(f"--tasks: {error}")
     log = None if args.quiet else print
+    randomization, dynamics = ("on", RANDOMIZED) if args.randomize else (None, NOMINAL)
     rows = []
     started = time.perf_counter()
     for robot in robots:
         for task in tasks:
             fid = eps = None
             if args.fidelity_trials:
-                fid = run_fidelity(robot, task, args.fidelity_trials, args.seed,
-                                   Path(args.fidelity_dir) / f"{robot}_{task}", log=log)
+                folder = f"{robot}_{task}" + ("_randomized" if args.randomize else "")
+                fid = run_fidelity(robot, task, args.fidelity_trials, args.seed, Path(args.fidelity_dir) / folder,
+                                   log=log, randomization=randomization)
             if args.episodes:
-                eps = run_episodes(robot, task, args.episodes, args.seed, log=log)
-            rows.append(table_row(robot, task, fid, eps))
+                eps = run_episodes(robot, task, args.episodes, args.seed, log=log, randomization=randomization)
+            rows.append(table_row(robot, task, fid, eps, dynamics))
             table = Path(args.out) / TABLE_CSV
             write_table(table, merge_rows(table, rows) if args.append else rows)
             if log:
