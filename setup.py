@@ -42,7 +42,7 @@ setup(
         # dev: everything the test suite exercises (wheel: the install test builds offline; optuna: tuning;
         # h5py: demonstration datasets; ray: the executor tests start a local Ray on loopback)
         "dev": ["pytest", "wheel", "optuna", "h5py", "ray"],
-        "video": ["imageio", "imageio-ffmpeg"],
+        "video": ["imageio", "imageio-ffmpeg", "moviepy"],  # moviepy: Gymnasium's RecordVideo
         "tune": ["optuna"],  # python -m benchmarks.tune
         "demos": ["h5py"],  # python -m benchmarks.collect_demos, tableclean_suite.demos
         "cluster": ["ray"],  # --executor ray: the harness's cells on a Ray cluster

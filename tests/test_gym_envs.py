@@ -222,3 +222,19 @@ def test_skills_env_passes_check_env_and_steps_physics():
         env.close()
     with pytest.raises(ValueError, match="frame_size"):
         gym.make(SKILLS_ID, frame_size=(0, 10))
+
+
+def test_record_video_writes_an_episode_with_the_video_extra(tmp_path):
+    """Gymnasium's RecordVideo works on the envs' rgb_array frames (the video extra brings moviepy)."""
+    from gymnasium.wrappers import RecordVideo
+
+    folder = tmp_path / "videos"
+    env = RecordVideo(gym.make(SYMBOLIC_ID, render_mode="rgb_array"), str(folder), episode_trigger=lambda k: k == 0,
+                      disable_logger=True)
+    env.reset(seed=0)
+    for action in PAPER_OPTIMAL_PLAN:
+        terminated = env.step(int(action))[2]
+    env.close()
+    assert terminated
+    videos = list(folder.glob("*.mp4"))
+    assert len(videos) == 1 and videos[0].stat().st_size > 0
