@@ -173,7 +173,7 @@ def test_write_is_atomic_and_checks_shapes(tmp_path):
 
 @pytest.mark.parametrize("argv, expected", [
     (["--policy", "greedy"], "choose from optimal, learned"),
-    (["--robots", "Sawyer"], "choose from Panda"),
+    (["--robots", "XArm7"], "supported robots: Kinova3, Panda, Sawyer, UR5e"),
     (["--task", "nosuch"], "allowed: paper"),
     (["--task", "paper", "--out", "demos.txt"], "--out must end in .hdf5 or .h5"),
     (["--episodes", "0"], "expected a positive integer, got '0'"),

@@ -45,13 +45,10 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench.cli import (OneLineParser, add_executor_arguments, executor_from_args,  # noqa: E402
                                         non_negative_int, positive_int)
+from tableclean_suite.bench.robot_args import add_robots_argument, parse_robot  # noqa: E402
 from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 
 POLICIES = ("optimal", "learned")
-#: Arms whose skills reach the goal.  The skills are tuned on the Panda; the scene also builds with
-#: other single-arm robosuite robots, but e.g. with the Sawyer the move and clean skills exhaust
-#: their step budgets (seed 0), so those are not offered.
-ROBOTS = ("Panda",)
 OUT_SUFFIXES = (".hdf5", ".h5")
 #: Start-layout draws per requested demo before giving up (failed executions are redrawn).
 MAX_ATTEMPTS_PER_EPISODE = 3
@@ -71,8 +68,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--task", default="paper", help="task spec: a registered name or a .json path (default paper)")
     parser.add_argument("--episodes", type=positive_int, default=DEFAULT_EPISODES,
                         help=f"successful demos to record (default {DEFAULT_EPISODES})")
-    parser.add_argument("--robots", default="Panda", choices=ROBOTS, metavar="ROBOT",
-                        help=f"the arm: {', '.join(ROBOTS)} (default Panda; the skills are tuned on it)")
+    add_robots_argument(parser)
     parser.add_argument("--policy", default="optimal", choices=POLICIES,
                         help="optimal: the shortest plan; learned: greedy Q-learning r4 policy (default optimal)")
     parser.add_argument("--seed", type=non_negative_int, default=0, help="start layouts, placement and training seed (default 0)")
@@ -143,7 +139,8 @@ class DemoAttempt:
     Attributes:
         spec: the task spec as JSON text (``TaskSpec.to_dict()``).
         task: ``--task`` as given (a name or a .json path; stored in ``env_args``).
-        robot: the arm, one of :data:`ROBOTS`.
+        robot: the arm, a robot with a registered skill config
+            (:func:`tableclean_suite.controllers.robot_configs.supported_robots`).
         policy_name: one of :data:`POLICIES`.
         policy: the learned policy's action per state code, or None for the shortest plan.
         max_actions: actions before a learned-policy episode counts as failed.
@@ -274,7 +271,7 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
             log=print, executor=None) -> tuple[list, dict, dict]:
     """Record up to ``episodes`` successful demos; returns ``(demos, env_args, data_attrs)``.
 
-    ``task`` is a registered spec name or a ``.json`` path; ``robot`` one of :data:`ROBOTS`;
+    ``task`` is a registered spec name or a ``.json`` path; ``robot`` a robot with a registered skill config;
     ``policy_name`` one of :data:`POLICIES`.  The learned policy acts closed-loop on the state
     the physics reads back; the optimal plan is the model's from the start.  Each attempt is a
     :class:`DemoAttempt` task of ``executor`` (a :mod:`tableclean_suite.executors` executor;
@@ -350,6 +347,7 @@ def main(argv: list[str] | None = None) -> int:
         check_physical_task(TaskModel(spec=spec))
     except (ValueError, OSError) as error:
         parser.error(f"--task: {error}")
+    robot = parse_robot(parser, args)
     valid_fraction = VALID_FRACTION if args.valid_fraction is None else args.valid_fraction
     if not 0.0 <= valid_fraction < 1.0:
         parser.error(f"--valid-fraction must be in [0, 1), got {args.valid_fraction!r}")
@@ -370,7 +368,7 @@ def main(argv: list[str] | None = None) -> int:
     started = time.perf_counter()
     try:
         with executor:
-            demos, env_args, attrs = collect(args.task, args.episodes, args.robots, args.policy, args.seed,
+            demos, env_args, attrs = collect(args.task, args.episodes, robot, args.policy, args.seed,
                                              args.iterations, args.runs, args.max_actions, executor=executor)
     except (MissingRayError, ConnectionError) as error:  # no Ray, or no cluster at --ray-address
         parser.error(f"--executor {args.executor}: {error}")
