@@ -195,3 +195,34 @@ def test_small_fidelity_sweep_on_three_segments_two_objects(tmp_path):
     ran = {skill: n for skill, (rate, n) in result["skills"].items() if n}
     assert set(ran) == {"pick", "place"} and min(ran.values()) >= 50
     assert result["agreement"] >= 0.97, f"agreement {result['agreement']:.2%}"
+
+
+def test_stored_trials_of_another_robot_or_randomisation_are_not_resumed(tmp_path):
+    """The trials CSV records the spec and scene options it was measured with; resuming it under
+    other options is refused before any scene is built, and --fresh starts over."""
+    from tableclean_suite.bench import trial_store
+
+    path = tmp_path / fidelity.TRIALS_CSV
+    trial_store.write_rows(path, [])
+    panda = {"env_kwargs": {"robots": "Panda"}}
+    fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), panda), log=None)
+    record = path.with_name("fidelity_trials" + fidelity.CONFIGURATION_SUFFIX)
+    assert json.loads(record.read_text())["physics_options"] == panda
+    fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), panda), log=None)  # same: resumes
+    for options in ({"env_kwargs": {"robots": "Sawyer"}}, {"env_kwargs": {"robots": "Panda", "randomization": "on"}}):
+        with pytest.raises(ResumeError, match="measured with another physics_options"):
+            fidelity.collect(1, trials_csv=path, log=None, physics_options=options)
+    with pytest.raises(ResumeError, match="another task"):
+        fidelity.collect(1, trials_csv=path, log=None, physics_options=panda,
+                         model=TaskModel(spec="three_segments_two_objects"))
+
+
+def test_trials_without_a_configuration_record_are_resumed_with_a_message(tmp_path):
+    from tableclean_suite.bench import trial_store
+
+    path = tmp_path / fidelity.TRIALS_CSV
+    trial_store.write_rows(path, [])
+    messages = []
+    fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), None), log=messages.append)
+    assert len(messages) == 1 and "no fidelity_trials.config.json" in messages[0]
+    assert path.with_name("fidelity_trials" + fidelity.CONFIGURATION_SUFFIX).exists()

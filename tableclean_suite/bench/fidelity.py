@@ -48,6 +48,7 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import trial_store  # noqa: E402
+from tableclean_suite.bench.outputs import atomic_write  # noqa: E402
 from tableclean_suite.bench.robot_args import add_robots_argument, parse_robot  # noqa: E402
 from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 from tableclean_suite.bench.cli import (add_executor_arguments, executor_from_args, non_negative_int,  # noqa: E402
@@ -235,6 +236,44 @@ def run_round_task(task: FidelityRound) -> list[dict]:
     return run_round(_SESSIONS[key], task.round_index, task.seed, actions=task.actions)
 
 
+#: Suffix (after the trials CSV's stem) of the file recording what the stored trials were run with.
+CONFIGURATION_SUFFIX = ".config.json"
+
+
+def run_configuration(model: TaskModel, physics_options: dict | None, session=None) -> dict:
+    """What determines a trial besides its round and seed: the task spec and the scene's options
+    (robot, randomisation, ...); JSON values, anything else by ``repr``."""
+    import json
+
+    options = "a given session" if session is not None else (physics_options or {})
+    return json.loads(json.dumps({"task": model.spec.to_dict(), "physics_options": options}, sort_keys=True,
+                                 default=repr))
+
+
+def check_configuration(trials_csv: Path, configuration: dict, log: Callable[[str], None] | None = None) -> None:
+    """Refuse to resume trials stored under another configuration; record this run's beside the CSV.
+
+    The record is ``<trials stem>.config.json``.  Stored trials without one (written before it
+    existed) are resumed with a message saying so.  Raises :class:`ResumeError` naming the keys
+    that differ.
+    """
+    import json
+
+    record = trials_csv.with_name(trials_csv.stem + CONFIGURATION_SUFFIX)
+    if trials_csv.exists():
+        if record.exists():
+            stored = json.loads(record.read_text())
+            differing = sorted(key for key in set(stored) | set(configuration) if stored.get(key) != configuration.get(key))
+            if differing:
+                raise ResumeError(f"{trials_csv} was measured with another {' and '.join(differing)} "
+                                  f"({record}); pass the same options, another --out, or --fresh")
+            return
+        if log:
+            log(f"note: {trials_csv} has no {record.name}: resuming it as if it were measured with these options")
+    trials_csv.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write(record, lambda temporary: temporary.write_text(json.dumps(configuration, sort_keys=True, indent=1)))
+
+
 def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fresh: bool = False,
             session=None, log: Callable[[str], None] | None = print, physics_options: dict | None = None,
             actions: Iterable | None = None, model: TaskModel | None = None, executor=None) -> list[dict]:
@@ -257,6 +296,8 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
     path = None if trials_csv is None else Path(trials_csv)
     if path is not None and fresh and path.exists():
         path.unlink()
+    if path is not None:
+        check_configuration(path, run_configuration(model, physics_options, session), log)
     rows = trial_store.complete_rounds(read_trials(path, log) if path is not None else [], per_round, log)
     done_rounds = sorted({row["round"] for row in rows})
     if rows and {row["seed"] for row in rows} != {round_seed(seed, r) for r in done_rounds}:
