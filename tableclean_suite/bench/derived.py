@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from tableclean_suite.bench import plots
+from tableclean_suite.bench.outputs import atomic_write
 
 #: Bump when an entry's layout or the meaning of a stored payload changes.
 FORMAT_VERSION = 1
@@ -103,15 +104,8 @@ class DerivedStore:
         path = self.path(name, key)
         header = {"key": _key_text(key), "sha256": hashlib.sha256(payload).hexdigest(), "bytes": len(payload)}
         self.root.mkdir(parents=True, exist_ok=True)
-        temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        try:
-            with open(temporary, "wb") as handle:
-                handle.write(MAGIC + json.dumps(header, sort_keys=True).encode() + b"\n" + payload)
-            os.replace(temporary, path)
-        except BaseException:
-            temporary.unlink(missing_ok=True)
-            raise
-        return path
+        data = MAGIC + json.dumps(header, sort_keys=True).encode() + b"\n" + payload
+        return atomic_write(path, lambda temporary: temporary.write_bytes(data))
 
 
 def source_digest(*modules: str) -> str:

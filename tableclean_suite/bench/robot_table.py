@@ -37,6 +37,7 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench.cli import non_negative_int  # noqa: E402
+from tableclean_suite.bench.outputs import atomic_write  # noqa: E402
 from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 
 #: Default arms: the Panda and the three others with shipped skill configs.
@@ -126,13 +127,14 @@ def table_row(robot: str, task: str, fid: dict | None, eps: dict | None, dynamic
 
 def write_table(path: Path, rows: list[dict]) -> None:
     """Write ``rows`` (:data:`COLUMNS`) to ``path`` atomically."""
+    def write(temporary: Path) -> None:
+        with open(temporary, "w", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+            writer.writeheader()
+            writer.writerows(rows)
+
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    with open(tmp, "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=COLUMNS)
-        writer.writeheader()
-        writer.writerows(rows)
-    tmp.replace(path)
+    atomic_write(path, write)
 
 
 def merge_rows(path: Path, rows: list[dict]) -> list[dict]:

@@ -15,10 +15,11 @@ from __future__ import annotations
 
 import csv
 import io
-import os
 from collections import Counter
 from pathlib import Path
 from typing import Callable, Iterable
+
+from tableclean_suite.bench.outputs import atomic_write
 
 #: Columns of the trials CSV, in order.
 TRIAL_FIELDS = (
@@ -86,11 +87,12 @@ def complete_rounds(rows: list[dict], per_round: int, log: Callable[[str], None]
 
 def write_rows(path: Path, rows: Iterable[dict]) -> None:
     """Write ``rows`` (whole rounds) to ``path`` atomically: a temporary file, then a rename."""
+    def write(temporary: Path) -> None:
+        with temporary.open("w", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=TRIAL_FIELDS)
+            writer.writeheader()
+            writer.writerows(rows)
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f"{path.name}.{os.getpid()}.tmp")
-    with temporary.open("w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=TRIAL_FIELDS)
-        writer.writeheader()
-        writer.writerows(rows)
-    os.replace(temporary, path)
+    atomic_write(path, write)
