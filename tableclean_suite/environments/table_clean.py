@@ -957,7 +957,12 @@ class TableClean(ManipulationEnv):
         model.dof_damping[self._arm_dofs()] = nominal["dof_damping"] * np.asarray(sample.joint_damping_scale)
         robot = self.robots[0]
         osc = robot.composite_controller.part_controllers.get(robot.arms[0])
-        if osc is not None and hasattr(osc, "kp") and hasattr(osc, "kd"):  # robosuite made it anew at this reset
+        scales_gains = sample.osc_kp_scale != 1.0 or sample.osc_damping_ratio_scale != 1.0
+        if not (hasattr(osc, "kp") and hasattr(osc, "kd")):  # not an OSC: its gains cannot be scaled
+            if scales_gains:
+                raise ValueError(f"randomization scales OSC gains (osc_kp_scale, osc_damping_ratio_scale), but the "
+                                 f"arm's controller {type(osc).__name__} has no kp/kd; set both ranges to (1, 1)")
+        else:  # robosuite made the controller anew at this reset: scaling does not compound
             kp = np.asarray(osc.kp, dtype=float)
             ratio = np.asarray(osc.kd, dtype=float) / (2.0 * np.sqrt(kp))  # the controller's damping ratio
             osc.kp = kp * sample.osc_kp_scale
