@@ -468,6 +468,9 @@ class PhysicsBackend:
     """``train(backend="physics")``: skills in MuJoCo (see the module docstring)."""
 
     name = "physics"
+    #: Physics is seeded per run but not bit-reproducible, and a replay costs as much as the run:
+    #: the harness does not replay a prefix to measure settling.
+    deterministic_prefix = False
 
     def check_options(self, model: TaskModel, options: dict) -> dict:
         """Accepts ``physics_options`` (see :data:`PHYSICS_OPTIONS`); refuses specs the scene cannot build."""

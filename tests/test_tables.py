@@ -14,6 +14,7 @@ from tableclean_suite.bench import experiments, tables
 from tableclean_suite.bench.config import RunConfig
 from tableclean_suite.learners import code_digest, get_learner
 from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, Summary
+from tableclean_suite.settling import Settling
 from tableclean_suite.task import TaskModel
 
 
@@ -96,7 +97,8 @@ def test_display_table3_pairs_ours_with_paper():
                         record("main", learner="sarsa", reward="r3")])
     shown = tables.display_table3(t3)
     row = shown.loc[("q_learning", "r3")]
-    assert tables.display_table3(t3).shape[1] == 12  # 5 quantities x (ours, paper) + 2 of ours alone
+    assert tables.display_table3(t3).shape[1] == 14  # 5 quantities x (ours, paper) + 4 of ours alone
+    assert (row[("settled", tables.OURS)], row[(tables.DRIFT_TITLE, tables.OURS)]) == ("-", "-")  # not measured
     assert row[("reward conv. iterations", "ours")] == "-"
     assert row[("reward conv. iterations", "paper")] == 2350
     assert row[("success %", "ours")] == "87.50" and row[("success %", "paper")] == 81.08
@@ -233,11 +235,11 @@ def test_cell_key_includes_the_code():
     config = experiments.cell_config(experiments.Cell("q_learning", "r4", 0.3, 0.3), _config(), PAPER_MODEL)
     assert config["learner"]["code_digest"] == code_digest(get_learner("q_learning"))
     assert config["task_digest"] == PAPER_MODEL.code_digest()
-    from tableclean_suite import analysis, asymptotes, curves
+    from tableclean_suite import analysis, asymptotes, curves, settling
     from tableclean_suite.bench import statistics
 
-    # curves: the accumulation of the curves from records moved there from metrics
-    sources = "".join(inspect.getsource(m) for m in (curves, metrics, asymptotes, analysis, statistics))
+    # curves: the accumulation of the curves from records moved there from metrics; settling: the drift
+    sources = "".join(inspect.getsource(m) for m in (curves, metrics, asymptotes, analysis, settling, statistics))
     assert config["metrics_digest"] == hashlib.sha256(sources.encode()).hexdigest()
 
 
@@ -258,7 +260,8 @@ def _statistics(runs):
                                                       "average_reward": (np.zeros(3), np.ones(3))},
                           band_stride=2, runs={"success_asymptote": np.linspace(0, 1, runs),
                                                "first_success_iterations": np.r_[np.nan, np.arange(runs - 1.0)]},
-                          scores={"success_asymptote": (0.5, 0.4, 0.6), "first_success_iterations": (3.0, 2.0, 4.0)})
+                          scores={"success_asymptote": (0.5, 0.4, 0.6), "first_success_iterations": (3.0, 2.0, 4.0)},
+                          settling=Settling(0.02, 0.015, 0.025, 75))
 
 
 def test_cell_store_round_trip_and_corruption(tmp_path):
@@ -273,6 +276,7 @@ def test_cell_store_round_trip_and_corruption(tmp_path):
     assert stats.intervals["success_plateau"] == (0.25, 0.75)
     assert all(math.isnan(v) for v in stats.intervals["max_success_iterations"])
     assert stats.scores["first_success_iterations"] == (3.0, 2.0, 4.0) and stats.band_stride == 2
+    assert stats.settling == Settling(0.02, 0.015, 0.025, 75) and not stats.settling.settled(0.01)
     np.testing.assert_array_equal(stats.runs["first_success_iterations"], _statistics(runs).runs["first_success_iterations"])
     np.testing.assert_array_equal(stats.bands["success"][1], np.ones(3))
     assert isinstance(loaded, Summary)

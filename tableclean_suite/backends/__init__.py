@@ -105,6 +105,9 @@ class TrainingBackend(Protocol):
     """A source of learner steps."""
 
     name: str
+    #: Optional (default False): training the first k iterations reproduces the first k iterations
+    #: of a longer run bit for bit, cheaply; the harness then measures settling (tableclean_suite.settling).
+    deterministic_prefix: bool
 
     def check_options(self, model, options: dict) -> dict:
         """Validate backend options (before any training); returns them normalised, or raises ``ValueError``."""

@@ -62,6 +62,9 @@ class TableBackend:
 
     name: str
     measured: bool
+    #: Training the first k iterations reproduces the first k iterations of a longer run bit for bit
+    #: (counter-based random numbers), cheaply enough to replay (the harness's settling check).
+    deterministic_prefix: bool = True
 
     def check_options(self, model, options: dict) -> dict:
         """``calibrated`` needs ``transitions`` (a table or a JSON path, validated against the model)."""

@@ -21,6 +21,7 @@ from typing import ClassVar
 
 from tableclean_suite.bench.statistics import DEFAULT_CONFIDENCE, DEFAULT_SAMPLES
 from tableclean_suite.metrics import DEFAULT_PLATEAU_FRACTION, DEFAULT_THRESHOLD
+from tableclean_suite.settling import DEFAULT_SETTLE_TOLERANCE
 
 #: Fraction of the runs that must have finished an episode for an average-reward point to count.
 DEFAULT_SUPPORT_FRACTION = 0.5
@@ -117,6 +118,10 @@ class RunConfig:
     plateau_fraction: float = DEFAULT_PLATEAU_FRACTION
     """Final fraction of the window averaged as the window mean (shown beside the plateau, which is
     the exact asymptote of the runs' final policies), in (0, 1]."""
+    settle_tolerance: float = DEFAULT_SETTLE_TOLERANCE
+    """Largest behaviour drift (mean per-run change of the success asymptote over the window's last
+    quarter, a fraction) for which a cell counts as settled, in [0, 1]; cells above it are marked in
+    Table 3 because their figures depend on the window (tableclean_suite.settling)."""
     support_fraction: float = DEFAULT_SUPPORT_FRACTION
     """Fraction of the runs that must have finished an episode before an average-reward point counts, in [0, 1]."""
     bootstrap_samples: int = DEFAULT_SAMPLES
@@ -159,7 +164,7 @@ class RunConfig:
     NOT_IN_CELL_KEY: ClassVar[tuple[str, ...]] = (
         "learners", "rewards", "alpha", "gamma", "alpha_sweep", "gamma_sweep", "sweep_learner", "sweep_reward",
         "sweeps", "literature", "literature_reward", "task", "transitions", "workers", "executor", "ray_address",
-        "out", "figures", "fresh", "progress", "verbose", "plugins",
+        "out", "figures", "fresh", "progress", "verbose", "plugins", "settle_tolerance",
     )
     #: Name lists de-duplicated in order; value lists too (compared as floats).
     _LISTS: ClassVar[tuple[str, ...]] = ("learners", "rewards", "alpha_sweep", "gamma_sweep")
@@ -195,6 +200,8 @@ class RunConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and 0.0 < value <= 1.0):
                 raise ConfigError(name, f"{name} must be in (0, 1], got {value!r}")
+        if not (isinstance(self.settle_tolerance, (int, float)) and 0.0 <= self.settle_tolerance <= 1.0):
+            raise ConfigError("settle_tolerance", f"settle_tolerance must be in [0, 1], got {self.settle_tolerance!r}")
         if not (isinstance(self.support_fraction, (int, float)) and 0.0 <= self.support_fraction <= 1.0):
             raise ConfigError("support_fraction", f"support_fraction must be in [0, 1], got {self.support_fraction!r}")
         if not (isinstance(self.confidence, (int, float)) and 0.0 < self.confidence < 1.0):

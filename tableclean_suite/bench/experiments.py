@@ -36,11 +36,13 @@ from pathlib import Path
 import numpy as np
 
 import tableclean_suite
-from tableclean_suite import analysis, asymptotes, metrics
+from tableclean_suite import analysis, asymptotes, metrics, settling
 from tableclean_suite import curves as curve_sums
+from tableclean_suite.backends import get_backend
 from tableclean_suite.bench import statistics
 from tableclean_suite.bench.config import LITERATURE_LEARNERS, RunConfig
 from tableclean_suite.bench.statistics import CellStatistics
+from tableclean_suite.settling import DEFAULT_SETTLE_TOLERANCE, Settling
 from tableclean_suite.learners import code_digest, train
 from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, GroupedCurveSums, Plateaus, Summary, summarize
 from tableclean_suite.rewards import get_reward_pattern
@@ -124,9 +126,10 @@ def unique_cells(grid: list[Membership]) -> list[Cell]:
 def metrics_digest() -> str:
     """SHA-256 (hex) of the sources that compute a summary from records: :mod:`tableclean_suite.curves`
     (the curves accumulated from records), :mod:`tableclean_suite.metrics`,
-    :mod:`tableclean_suite.asymptotes` (and the :mod:`~tableclean_suite.analysis` it calls) and
-    :mod:`.statistics`."""
-    text = "".join(inspect.getsource(module) for module in (curve_sums, metrics, asymptotes, analysis, statistics))
+    :mod:`tableclean_suite.asymptotes` (and the :mod:`~tableclean_suite.analysis` it calls),
+    :mod:`tableclean_suite.settling` and :mod:`.statistics`."""
+    text = "".join(inspect.getsource(module)
+                   for module in (curve_sums, metrics, asymptotes, analysis, settling, statistics))
     return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -231,7 +234,8 @@ class CellStore:
         problems = []
         if stored_hash != digest or config_hash(stored_config) != digest:
             problems.append("its config does not match its name")
-        if set(scalars) != set(SUMMARY_SCALARS) or set(facts["intervals"]) != set(SUMMARY_SCALARS):
+        if (set(scalars) != set(SUMMARY_SCALARS) or set(facts["intervals"]) != set(SUMMARY_SCALARS)
+                or len(facts.get("settling", ())) != SETTLING_FIELDS):
             problems.append("its scalars are incomplete")
         iterations = config["settings"]["iterations"]
         if any(c.shape != (iterations,) for c in curves.values()):
@@ -247,6 +251,7 @@ class CellStore:
             intervals={name: tuple(_number(v) for v in bounds) for name, bounds in facts["intervals"].items()},
             bands=bands, band_stride=int(facts["band_stride"]), runs=runs,
             scores={name: tuple(_number(v) for v in values) for name, values in facts["scores"].items()},
+            settling=Settling(*(_number(v) for v in facts["settling"][:3]), int(facts["settling"][3])),
         )
         return Summary(**scalars, **curves), cell_stats
 
@@ -258,7 +263,9 @@ class CellStore:
         scalars = {name: _plain(value) for name, value in summary.scalars().items()}
         facts = {"intervals": {name: [_plain(v) for v in bounds] for name, bounds in cell_stats.intervals.items()},
                  "scores": {name: [_plain(v) for v in values] for name, values in cell_stats.scores.items()},
-                 "band_stride": cell_stats.band_stride}
+                 "band_stride": cell_stats.band_stride,
+                 "settling": [*(_plain(v) for v in (cell_stats.settling.drift, cell_stats.settling.low,
+                                                     cell_stats.settling.high)), cell_stats.settling.checkpoint]}
         bands = {f"band_{name}_{side}": np.asarray(bounds[i], dtype=np.float64)
                  for name, bounds in cell_stats.bands.items() for i, side in enumerate(("low", "high"))}
         runs = {f"run_{name}": np.asarray(values, dtype=np.float64) for name, values in cell_stats.runs.items()}
@@ -280,6 +287,10 @@ class CellStore:
             temporary.unlink(missing_ok=True)
             raise
         return path
+
+
+#: Stored settling: drift, low, high, checkpoint.
+SETTLING_FIELDS = 4
 
 
 def _number(value) -> float:
@@ -318,6 +329,10 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     ``--backend calibrated``, over the task model's table for ``symbolic`` and, as an
     approximation of the skills, ``physics``.
 
+    Settling (:mod:`tableclean_suite.settling`): on a backend with ``deterministic_prefix``, each
+    chunk is trained again up to the checkpoint (3/4 of the window) and each run's success asymptote
+    there is compared with its final one; the statistics carry the mean drift with its interval.
+
     Args:
         runs_per_chunk: runs per ``train()`` call (default :func:`chunk_runs` of the iterations).
 
@@ -328,6 +343,9 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     grouped = GroupedCurveSums.zeros(config.iterations, statistics.bootstrap_groups(config.runs, config.iterations))
     chain = asymptotes.EpisodeChain.build(model, cell.reward, transitions)
     per_run = {name: [] for name in ("success", "average_reward", "terminal")}
+    replays_prefix = getattr(get_backend(config.backend), "deterministic_prefix", False)
+    checkpoint = settling.checkpoint_iteration(config.iterations) if replays_prefix else 0
+    drifts = []
     train_seconds = metrics_seconds = 0.0
     physics_stats: dict = {}
     for first in range(0, config.runs, chunk):
@@ -345,6 +363,17 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
         for name, values in per_run.items():
             values.append(getattr(final, name))
         del result
+        if checkpoint:
+            started = time.perf_counter()
+            early = train(
+                learner=cell.learner, reward=cell.reward, runs=min(chunk, config.runs - first), first_run=first,
+                alpha=cell.alpha, gamma=cell.gamma, model=model, transitions=transitions,
+                **{**config.train_kwargs(), "iterations": checkpoint}, **config.learner_kwargs(cell.learner),
+            )
+            train_seconds += time.perf_counter() - started
+            early_success = analysis.final_asymptotes(early, chain, config.max_itr, model).success
+            drifts.append(settling.behaviour_drift(final.success, early_success))
+            del early
         train_seconds += trained - started
         metrics_seconds += time.perf_counter() - trained
     if physics_stats:
@@ -357,6 +386,7 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     cell_stats = statistics.cell_statistics(
         grouped, per_run, statistics.bootstrap_rng(config.seed, cell.label), config.threshold, config.plateau_fraction,
         config.support_fraction, config.bootstrap_samples, config.confidence,
+        drift=np.concatenate(drifts) if checkpoint else None, checkpoint=checkpoint,
     )
     return summary, cell_stats, train_seconds, metrics_seconds + time.perf_counter() - started
 
@@ -540,11 +570,15 @@ def run_grid(
     return outcome
 
 
-def cell_records(grid: list[Membership], summaries: dict, cell_statistics: dict | None = None
-                 ) -> tuple[list[dict], list[dict]]:
-    """Cell records (keys + scalars, with ``_low``/``_high`` bounds and per-run-score IQMs when
-    ``cell_statistics`` are given) and curve sets (with ``<curve>_low``/``_high`` bands), one per
-    membership, for :mod:`.tables`."""
+def cell_records(grid: list[Membership], summaries: dict, cell_statistics: dict | None = None,
+                 settle_tolerance: float = DEFAULT_SETTLE_TOLERANCE) -> tuple[list[dict], list[dict]]:
+    """Cell records (keys + scalars, with ``_low``/``_high`` bounds, per-run-score IQMs and settling
+    when ``cell_statistics`` are given) and curve sets (with ``<curve>_low``/``_high`` bands), one
+    per membership, for :mod:`.tables`.
+
+    Settling columns: ``behaviour_drift`` (+ ``_low``/``_high``; a fraction, NaN when not
+    measured), ``checkpoint_iteration`` and ``settled`` (drift <= ``settle_tolerance``; None when
+    not measured)."""
     records, curves = [], []
     for member in grid:
         summary = summaries[member.cell]
@@ -557,6 +591,10 @@ def cell_records(grid: list[Membership], summaries: dict, cell_statistics: dict 
                 record[f"{name}_low"], record[f"{name}_high"] = low, high
             for name, (value, low, high) in stats.scores.items():
                 record[f"{name}_iqm"], record[f"{name}_iqm_low"], record[f"{name}_iqm_high"] = value, low, high
+            settled = stats.settling
+            record.update(behaviour_drift=settled.drift, behaviour_drift_low=settled.low,
+                          behaviour_drift_high=settled.high, checkpoint_iteration=settled.checkpoint,
+                          settled=settled.settled(settle_tolerance))
             iterations = np.arange(1, summary.iterations + 1)
             for name in stats.bands:
                 curve_set[f"{name}_low"], curve_set[f"{name}_high"] = stats.band_at(name, iterations,

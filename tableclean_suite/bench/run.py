@@ -134,6 +134,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     add(task, "ineffective", choices=INEFFECTIVE_MODES)
     add(task, "threshold", type=float)
     add(task, "plateau_fraction", type=float)
+    add(task, "settle_tolerance", type=float)
     add(task, "support_fraction", type=float)
     statistics = parser.add_argument_group("statistics")
     add(statistics, "bootstrap_samples", type=int)
@@ -290,7 +291,8 @@ def run(args) -> int:
           f"trained {grid_run.trained} (training {grid_run.train_seconds:.2f} s, "
           f"metrics {grid_run.metrics_seconds:.2f} s)")
 
-    records, curves = experiments.cell_records(grid, grid_run.summaries, grid_run.statistics)
+    records, curves = experiments.cell_records(grid, grid_run.summaries, grid_run.statistics,
+                                             config.settle_tolerance)
     table3 = tables.table3(records, compare_with_paper=tables.is_paper_task(model))
     table4 = tables.table4(table3)
     results = derived.DerivedStore(store.root / DERIVED_DIR, read=not config.fresh)
@@ -371,9 +373,13 @@ def _print_tables(config: RunConfig, table3, table4, paper_task: bool, compariso
               f"epsilon = {config.epsilon:g}, {config.runs} runs x {config.iterations} iterations).")
         print("  'paper' = the paper's Table 3 (Q-learning only)." if paper_task
               else f"  Task {config.task!r} is not the paper's: no paper values beside ours.")
-        print(f"  success % and avg reward plateau = exact asymptotes of the runs' final epsilon-greedy policies "
-              f"(mean over runs); iterations = first reaching {100 * config.threshold:g}% of them; average-reward "
-              f"points count once {100 * config.support_fraction:g}% of the runs have finished an episode.")
+        print(f"  success % and avg reward plateau = exact asymptotes of the runs' final behaviour (greedy policy "
+              f"under the exploration; mean over runs); iterations = first reaching {100 * config.threshold:g}% of "
+              f"them; average-reward points count once {100 * config.support_fraction:g}% of the runs have finished "
+              "an episode.")
+        print(f"  drift pp = mean change of a run's success asymptote over the window's last quarter; settled = "
+              f"drift <= {100 * config.settle_tolerance:g} pp (NO: the plateau is still moving, so the iteration "
+              "figures depend on the window; see tableclean_suite.settling).")
         print(f"  [..] = {level} percentile bootstrap interval over runs ({config.bootstrap_samples} replicates; "
               "runs resampled in blocks, see tableclean_suite.bench.statistics).")
         print(tables.display_table3(table3).to_string(na_rep="-"))

@@ -36,6 +36,7 @@ import numpy as np
 
 from tableclean_suite import metrics
 from tableclean_suite.metrics import SUMMARY_SCALARS, GroupedCurveSums
+from tableclean_suite.settling import Settling
 
 #: Bootstrap replicates per interval.
 DEFAULT_SAMPLES = 500
@@ -306,6 +307,7 @@ class CellStatistics:
         runs: ``{score: (R,) array}`` per-run scores (:data:`RUN_SCORES`; first-success iterations
             NaN for a run that never succeeded).
         scores: ``{score: (IQM, low, high)}``.
+        settling: the behaviour drift over the window's last quarter (:mod:`tableclean_suite.settling`).
     """
 
     intervals: dict = field(default_factory=dict)
@@ -313,6 +315,7 @@ class CellStatistics:
     band_stride: int = 1
     runs: dict = field(default_factory=dict)
     scores: dict = field(default_factory=dict)
+    settling: Settling = field(default_factory=Settling.not_measured)
 
     def band_iterations(self, iterations: int) -> np.ndarray:
         """Iteration counts (1-based) of the band points for curves of length ``iterations``."""
@@ -354,7 +357,8 @@ def replicate_scalars(grouped: GroupedCurveSums, asymptote_sums: dict, weights: 
 
 def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Generator, threshold: float,
                     plateau_fraction: float, support_fraction: float, samples: int = DEFAULT_SAMPLES,
-                    confidence: float = DEFAULT_CONFIDENCE) -> CellStatistics:
+                    confidence: float = DEFAULT_CONFIDENCE, drift: np.ndarray | None = None,
+                    checkpoint: int = 0) -> CellStatistics:
     """Intervals, bands and per-run scores of one cell (see the module docstring).
 
     Args:
@@ -363,6 +367,9 @@ def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Gen
         rng: the cell's generator (:func:`bootstrap_rng`).
         samples: bootstrap replicates (>= 1).
         confidence: interval coverage in (0, 1).
+        drift: per-run behaviour drift ``(R,)`` (:func:`tableclean_suite.settling.behaviour_drift`),
+            resampled with the same replicates as the scalars; None: not measured.
+        checkpoint: the iteration ``drift`` compares with (>= 1 when ``drift`` is given).
     """
     iterations, groups = grouped.iterations, grouped.groups
     group_of = np.arange(grouped.runs) % groups
@@ -371,6 +378,7 @@ def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Gen
     kept = np.arange(0, iterations, stride)
     scalars = {name: np.full(samples, np.nan) for name in SUMMARY_SCALARS}
     curves = {name: np.full((samples, len(kept)), np.nan) for name in BAND_CURVES}
+    drift_replicates = np.full(samples, np.nan)
     if groups >= MIN_GROUPS:
         peak = metrics.peak_index(grouped.totals().curves(support_fraction)["average_reward"])
         weights = uniform_multinomial(rng, groups, groups, samples).astype(float)
@@ -382,13 +390,19 @@ def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Gen
                 scalars[name][batch] = values[name]
             for name in BAND_CURVES:
                 curves[name][batch] = bands[name]
+        if drift is not None:
+            drift_sums = np.bincount(group_of, weights=np.asarray(drift, dtype=np.float64), minlength=groups)
+            drift_replicates = (weights @ drift_sums) / (weights @ grouped.runs_per_group)
     intervals = {name: percentile_interval(values, confidence) for name, values in scalars.items()}
     bands = {name: _bands(values, confidence) for name, values in curves.items()}
     first = grouped.first_success_iterations()
     runs = {"success_asymptote": np.asarray(per_run["success"], dtype=float), "first_success_iterations": first}
     scores = {name: iqm_interval(np.where(np.isnan(values), np.inf, values), confidence, samples, rng)
               for name, values in runs.items()}
-    return CellStatistics(intervals, bands, stride, runs, scores)
+    settled = Settling.not_measured()
+    if drift is not None:
+        settled = Settling(float(np.mean(drift)), *percentile_interval(drift_replicates, confidence), int(checkpoint))
+    return CellStatistics(intervals, bands, stride, runs, scores, settled)
 
 
 def _bands(replicates: np.ndarray, confidence: float) -> tuple[np.ndarray, np.ndarray]:

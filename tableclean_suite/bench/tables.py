@@ -51,12 +51,21 @@ IQM_COLUMNS = tuple(f"{score}_iqm{suffix}" for score in RUN_SCORES for suffix in
 #: Each scalar followed by its interval's bounds.
 SCALAR_COLUMNS = tuple(c for name in SUMMARY_SCALARS for c in (name, name + LOW, name + HIGH))
 
-TABLE3_COLUMNS = ("cell_id", *KEY_COLUMNS, *SCALAR_COLUMNS, *IQM_COLUMNS, *PAPER_COLUMNS)
+#: Settling of each cell (:mod:`tableclean_suite.settling`): mean behaviour drift over the window's
+#: last quarter (a fraction) with its interval, the checkpoint iteration (0: not measured) and
+#: whether the drift is within the run's tolerance (empty when not measured).
+DRIFT = "behaviour_drift"
+SETTLING_COLUMNS = (DRIFT, DRIFT + LOW, DRIFT + HIGH, "checkpoint_iteration", "settled")
+
+TABLE3_COLUMNS = ("cell_id", *KEY_COLUMNS, *SCALAR_COLUMNS, *IQM_COLUMNS, *SETTLING_COLUMNS, *PAPER_COLUMNS)
 
 #: Table 4's numbers that carry intervals (ours; the quoted rows have none).
 TABLE4_NUMBERS = PAPER_TABLE4_COLUMNS[1:]
 TABLE4_COLUMNS = (PAPER_TABLE4_COLUMNS[0], *(c for name in TABLE4_NUMBERS for c in (name, name + LOW, name + HIGH)),
                   "source")
+
+#: Title of the behaviour drift in the printed Table 3 (percentage points of success).
+DRIFT_TITLE = "drift pp"
 
 #: Label of our numbers in the printed Table 3.
 OURS = "ours"
@@ -132,6 +141,13 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
         if column not in SUMMARY_SCALARS:
             values = frame[column] if column in frame.columns else [_NA] * len(frame)
             frame[column] = [_NA if _missing(v) else float(v) for v in values]
+    for column in (DRIFT, DRIFT + LOW, DRIFT + HIGH):
+        values = frame[column] if column in frame.columns else [_NA] * len(frame)
+        frame[column] = [_NA if _missing(v) else float(v) for v in values]
+    checkpoints = frame["checkpoint_iteration"] if "checkpoint_iteration" in frame.columns else [0] * len(frame)
+    frame["checkpoint_iteration"] = [0 if _missing(v) else int(v) for v in checkpoints]
+    settled = frame["settled"] if "settled" in frame.columns else [None] * len(frame)
+    frame["settled"] = pd.array([None if _missing(v) else bool(v) for v in settled], dtype="boolean")
     frame["alpha"] = frame["alpha"].astype(float)
     frame["gamma"] = frame["gamma"].astype(float)
     sort_keys = {
@@ -218,7 +234,8 @@ def display_table3(table: pd.DataFrame) -> pd.DataFrame:
 
     Index (learner, reward); two-level columns (quantity, ``ours``/``paper``) for the
     reward-convergence and max-success iterations and episodes and the success rate in %,
-    plus our maximum average reward and average-reward plateau.
+    plus our maximum average reward and average-reward plateau, the behaviour drift (percentage
+    points) and whether the cell settled (``NO``: its figures depend on the window).
     """
     rows = main_rows(table)
     pairs = {
@@ -238,6 +255,9 @@ def display_table3(table: pd.DataFrame) -> pd.DataFrame:
     for title, column in (("max avg reward", "max_average_reward"), ("avg reward plateau", "average_reward_plateau")):
         data[(title, OURS)] = [with_interval(v, lo, hi, 3) for v, lo, hi in
                                           zip(rows[column], rows[column + LOW], rows[column + HIGH])]
+    data[(DRIFT_TITLE, OURS)] = [with_interval(v, lo, hi, 2, 100.0) for v, lo, hi in
+                                 zip(rows[DRIFT], rows[DRIFT + LOW], rows[DRIFT + HIGH])]
+    data[("settled", OURS)] = ["-" if flag is pd.NA else ("yes" if flag else "NO") for flag in rows["settled"]]
     frame = pd.DataFrame(data)
     frame.index = pd.MultiIndex.from_arrays([rows["learner"], rows["reward"]], names=["learner", "reward"])
     return _dashes(frame)

@@ -1,0 +1,80 @@
+"""Has a cell's behaviour settled inside its training window?
+
+Table 3's plateaus are the exact asymptotes of each run's *final* behaviour
+(:mod:`tableclean_suite.asymptotes`).  They describe where the curves are going only if that
+behaviour has stopped changing; a learner whose greedy policy keeps drifting (SARSA at a constant
+alpha and epsilon on this task) has no plateau, and its iteration figures move with the window.
+This module measures that drift so the tables can say which figures rest on a settled plateau.
+
+- **Checkpoint**: ``checkpoint_iteration(T)`` = floor(``CHECKPOINT_FRACTION`` x T), at least 1.
+  With counter-based random numbers, training for the checkpoint's iterations reproduces the first
+  iterations of the T-iteration run bit for bit, so its final Q-tables are the run's Q-tables at
+  the checkpoint (backends whose ``deterministic_prefix`` is true).
+- **Behaviour drift** of a run: ``|success asymptote at T - success asymptote at the checkpoint|``,
+  a fraction in [0, 1] (reported in percentage points).  A cell's drift is the mean over runs,
+  with a percentile bootstrap interval over runs.
+- **Settled**: the cell's drift is at most ``tolerance`` (default ``DEFAULT_SETTLE_TOLERANCE``,
+  one percentage point of success).  A cell that has not settled has figures that depend on the
+  window; train longer (``--iterations``) or read them as provisional.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Where the checkpoint lies in the window (a fraction in (0, 1)): the last quarter is compared.
+CHECKPOINT_FRACTION = 0.75
+#: Largest mean per-run change of the success asymptote over the last quarter of the window that
+#: counts as settled (a fraction of episodes: 0.01 = one percentage point).
+DEFAULT_SETTLE_TOLERANCE = 0.01
+
+
+def checkpoint_iteration(iterations: int, fraction: float = CHECKPOINT_FRACTION) -> int:
+    """The checkpoint of a window of ``iterations`` (>= 1) steps: floor(fraction x iterations), >= 1."""
+    if not 0.0 < fraction < 1.0:
+        raise ValueError(f"checkpoint fraction must be in (0, 1), got {fraction!r}")
+    if int(iterations) < 1:
+        raise ValueError(f"iterations must be >= 1, got {iterations!r}")
+    return max(1, math.floor(fraction * int(iterations)))
+
+
+def behaviour_drift(final_success, checkpoint_success) -> np.ndarray:
+    """Per-run drift ``|final - checkpoint|`` of two ``(R,)`` arrays of success asymptotes in [0, 1]."""
+    final = np.asarray(final_success, dtype=np.float64)
+    checkpoint = np.asarray(checkpoint_success, dtype=np.float64)
+    if final.shape != checkpoint.shape or final.ndim != 1:
+        raise ValueError(f"need two (R,) arrays of the same length, got {final.shape} and {checkpoint.shape}")
+    return np.abs(final - checkpoint)
+
+
+@dataclass(frozen=True)
+class Settling:
+    """A cell's behaviour drift over the window's last quarter.
+
+    Attributes:
+        drift: mean over runs of the per-run drift, a fraction in [0, 1] (NaN: not measured).
+        low, high: its percentile bootstrap interval over runs (NaN: not measured).
+        checkpoint: the iteration the final behaviour was compared with (0: not measured).
+    """
+
+    drift: float
+    low: float
+    high: float
+    checkpoint: int
+
+    @classmethod
+    def not_measured(cls) -> "Settling":
+        """For a backend that cannot replay a prefix cheaply and exactly (e.g. physics)."""
+        return cls(float("nan"), float("nan"), float("nan"), 0)
+
+    @property
+    def measured(self) -> bool:
+        return self.checkpoint > 0 and not math.isnan(self.drift)
+
+    def settled(self, tolerance: float = DEFAULT_SETTLE_TOLERANCE) -> bool | None:
+        """True if the mean drift is at most ``tolerance`` (a fraction); None if not measured."""
+        if not self.measured:
+            return None
+        return bool(self.drift <= tolerance)
