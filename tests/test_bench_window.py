@@ -1,8 +1,12 @@
-"""Table 3's iteration figures do not move with the training window (the plateau is an asymptote)."""
+"""Table 3's iteration figures do not move with the training window (the plateau is an asymptote),
+for cells whose behaviour has settled; ``benchmarks.window_invariance`` measures it."""
 
+import math
+
+import pandas as pd
 import pytest
 
-from tableclean_suite.bench import experiments
+from tableclean_suite.bench import experiments, window_invariance
 from tableclean_suite.bench.config import RunConfig
 from tableclean_suite.task import TaskModel
 
@@ -14,7 +18,8 @@ TOLERANCE = 0.05
 def _cell(reward, iterations):
     cell = experiments.Cell("q_learning", reward, 0.3, 0.3)
     config = RunConfig(runs=200, iterations=iterations, bootstrap_samples=20, seed=0)
-    summary, *_ = experiments.train_cell(cell, config, TaskModel())
+    summary, stats, *_ = experiments.train_cell(cell, config, TaskModel())
+    assert stats.settling.settled(), (reward, iterations, stats.settling)
     return summary
 
 
@@ -25,3 +30,51 @@ def test_iteration_figures_agree_between_a_window_and_one_three_times_longer(rew
         a, b = getattr(short, name), getattr(long, name)
         assert a is not None and b is not None, name
         assert abs(a - b) <= TOLERANCE * b, (name, a, b)
+
+
+def test_relative_change_treats_not_reached_as_a_value():
+    assert window_invariance.relative_change(200, 210) == pytest.approx(0.05)
+    assert window_invariance.relative_change(None, float("nan")) == 0.0
+    assert math.isinf(window_invariance.relative_change(200, None))
+    assert math.isinf(window_invariance.relative_change(0, 3)) and window_invariance.relative_change(0, 0) == 0.0
+
+
+def test_figure_changes_pairs_cells_and_needs_both_windows_settled():
+    def table(value, settled):
+        return pd.DataFrame([{"learner": "q_learning", "reward": "r4", "settled": settled,
+                              **{f: value for f in window_invariance.FIGURES}}])
+
+    changes = window_invariance.figure_changes(table(100, True), table(110, "True"))
+    assert list(changes["figure"]) == list(window_invariance.FIGURES)
+    assert changes["change"].tolist() == pytest.approx([0.1] * 4) and changes["settled"].all()
+    assert not window_invariance.figure_changes(table(100, True), table(100, float("nan")))["settled"].any()
+    lines = window_invariance.summary_lines(changes, 0.05, (1, 2))
+    assert "NOT met" in lines[0] and "q_learning r4" in lines[0]
+    with pytest.raises(ValueError, match="no .* in common"):
+        window_invariance.figure_changes(table(1, True), table(1, True).assign(reward="r1"))
+
+
+def test_window_invariance_command_writes_its_comparison(tmp_path, capsys):
+    out = tmp_path / "wi"
+    code = window_invariance.main(["--windows", "1000", "3000", "--learners", "q_learning", "--rewards", "r2",
+                                   "--runs", "40", "--bootstrap-samples", "20", "--no-literature", "--out", str(out)])
+    assert code == 0
+    frame = pd.read_csv(out / window_invariance.RESULT_FILE)
+    assert len(frame) == len(window_invariance.FIGURES) and set(frame["cell"]) == {"q_learning r2"}
+    short = pd.read_csv(out / "w1000" / "table3.csv").iloc[0]
+    assert frame["short"].iloc[0] == short["reward_convergence_iterations"]
+    assert "goal <= 5.0 %" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--windows", "900", "300"], "SHORT < LONG"),
+    (["--iterations", "10"], "--iterations: set by this command"),
+    (["--goal", "2"], "--goal"),
+    (["--runs", "0"], "runs"),
+])
+def test_window_invariance_refuses_bad_flags_with_exit_2(tmp_path, capsys, argv, message):
+    with pytest.raises(SystemExit) as stop:
+        code = window_invariance.main([*argv, "--out", str(tmp_path / "wi")])
+        raise SystemExit(code)
+    assert stop.value.code == 2
+    assert message in capsys.readouterr().err

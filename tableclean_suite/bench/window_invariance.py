@@ -1,0 +1,163 @@
+"""``python -m benchmarks.window_invariance``: do Table 3's iteration figures move with the window?
+
+    python -m benchmarks.window_invariance                      # 4000 vs 12000 iterations
+    python -m benchmarks.window_invariance --windows 2000 6000 --learners q_learning --runs 200
+
+Runs ``python -m benchmarks.run`` (no sweeps, no figures; any other of its flags may follow) once
+per window, each into ``OUT/w<iterations>/`` (so a rerun resumes from the saved cells), and
+compares the main rows of the two ``table3.csv`` files figure by figure:
+
+- **change** of a figure = ``|long - short| / short`` (0 when both windows say "not reached",
+  infinite when only one does);
+- a cell is **settled** when its behaviour drift is within tolerance in both windows
+  (:mod:`tableclean_suite.settling`): its plateau is no longer moving, so its figures should not;
+- the **goal** (``--goal``, default 5 %) is checked on the settled cells; unsettled cells are
+  listed with their changes, because their plateau depends on where the window ends.
+
+Writes ``OUT/window_invariance.csv`` (one row per cell and figure) atomically and prints it with a
+summary.  Exit code 0 whether or not the goal holds (the summary says which); 2 on bad flags.
+"""
+from __future__ import annotations
+
+import contextlib
+import math
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+from tableclean_suite.bench import outputs, run
+from tableclean_suite.bench.cli import EXIT_USAGE, OneLineParser
+from tableclean_suite.bench.tables import main_rows
+
+#: Windows compared by default (iterations): the paper's and three times as long.
+DEFAULT_WINDOWS = (4000, 12000)
+#: Largest relative change of a settled cell's figure that meets the goal.
+DEFAULT_GOAL = 0.05
+#: Flags this command sets itself for each window.
+OWN_RUN_FLAGS = ("--iterations", "--out", "--sweeps", "--no-sweeps", "--figures", "--no-figures")
+RESULT_FILE = "window_invariance.csv"
+#: Table 3's iteration figures (columns of ``table3.csv``).
+FIGURES = ("reward_convergence_iterations", "reward_convergence_episodes", "max_success_iterations",
+           "max_success_episodes")
+
+
+def relative_change(short: float, long: float) -> float:
+    """``|long - short| / |short|``; 0 if both are missing ("not reached"), inf if one is or short is 0."""
+    missing = [value is None or pd.isna(value) for value in (short, long)]
+    if all(missing):
+        return 0.0
+    if any(missing) or short == 0:
+        return 0.0 if short == long else math.inf
+    return abs(float(long) - float(short)) / abs(float(short))
+
+
+def figure_changes(short: pd.DataFrame, long: pd.DataFrame) -> pd.DataFrame:
+    """One row per (learner, reward) cell present in both main-row frames and per figure of
+    :data:`FIGURES`: ``cell, figure, short, long, change`` and ``settled`` (True only if the cell's
+    ``settled`` column is true in both; a cell without a settling measurement is not settled).
+
+    Raises:
+        ValueError: the frames have no cell in common.
+    """
+    keys = ["learner", "reward"]
+    both = short.merge(long, on=keys, suffixes=("_short", "_long"))
+    if both.empty:
+        raise ValueError("the two tables have no (learner, reward) cell in common")
+    rows = []
+    for _, cell in both.iterrows():
+        settled = all(_true(cell[f"settled_{side}"]) for side in ("short", "long"))
+        for figure in FIGURES:
+            a, b = cell[f"{figure}_short"], cell[f"{figure}_long"]
+            rows.append({"cell": f"{cell['learner']} {cell['reward']}", "figure": figure, "short": a, "long": b,
+                         "change": relative_change(a, b), "settled": settled})
+    return pd.DataFrame(rows)
+
+
+def _true(value) -> bool:
+    """A ``settled`` entry read back from CSV: True, "True" or 1 count; empty (not measured) does not."""
+    return not pd.isna(value) and str(value).strip().lower() in ("true", "1", "1.0")
+
+
+def parse_args(argv=None):
+    parser = OneLineParser(prog="python -m benchmarks.window_invariance", description=__doc__.split("\n")[0])
+    parser.add_argument("--windows", type=int, nargs=2, default=DEFAULT_WINDOWS, metavar=("SHORT", "LONG"),
+                        help="the two training windows, iterations (SHORT < LONG). (default: %(default)s)")
+    parser.add_argument("--goal", type=float, default=DEFAULT_GOAL,
+                        help="largest relative change of a settled cell's figure, in (0, 1). (default: %(default)s)")
+    parser.add_argument("--out", default="results/window_invariance",
+                        help="output directory. (default: %(default)s)")
+    args, passthrough = parser.parse_known_args(argv)
+    short, long = args.windows
+    if not 1 <= short < long:
+        parser.error(f"--windows: need 1 <= SHORT < LONG, got {short} {long}")
+    if not 0.0 < args.goal < 1.0:
+        parser.error(f"--goal: must be in (0, 1), got {args.goal!r}")
+    own = [flag for flag in passthrough if flag.split("=")[0] in OWN_RUN_FLAGS]
+    if own:
+        parser.error(f"{', '.join(own)}: set by this command (use --windows and --out)")
+    return args, passthrough
+
+
+def run_window(iterations: int, out: Path, passthrough: list[str]) -> pd.DataFrame:
+    """Run the harness at ``iterations`` into ``out`` (its stdout to ``out/stdout.txt``) and return the
+    main rows of its Table 3.  Raises ``SystemExit`` with the harness's exit code if it fails."""
+    out.mkdir(parents=True, exist_ok=True)
+    argv = [*passthrough, "--iterations", str(iterations), "--out", str(out), "--no-sweeps", "--no-figures",
+            "--no-progress"]
+    log = out / "stdout.txt"
+    with open(log, "w", encoding="utf-8") as handle, contextlib.redirect_stdout(handle):
+        code = run.main(argv, prog="python -m benchmarks.window_invariance")
+    if code != 0:
+        print(f"benchmarks.run at {iterations} iterations exited with {code}; its output: {log}", file=sys.stderr)
+        raise SystemExit(code)
+    return main_rows(pd.read_csv(out / "table3.csv"))
+
+
+def summary_lines(changes: pd.DataFrame, goal: float, windows) -> list[str]:
+    """One line for the settled cells (goal met or not, largest change) and one for the others."""
+    short, long = windows
+    settled = changes[changes["settled"]]
+    lines = []
+    if len(settled):
+        worst = settled.loc[settled["change"].idxmax()]
+        verdict = "met" if worst["change"] <= goal else "NOT met"
+        lines.append(f"settled cells ({settled['cell'].nunique()}): largest change {_percent(worst['change'])} "
+                     f"({worst['cell']}, {worst['figure']}); goal <= {_percent(goal)}: {verdict}")
+    else:
+        lines.append("no cell settled in both windows")
+    unsettled = changes[~changes["settled"]]
+    if len(unsettled):
+        worst = unsettled.groupby("cell")["change"].max()
+        listed = ", ".join(f"{cell} (up to {_percent(value)})" for cell, value in worst.items())
+        lines.append(f"not settled in both windows ({len(worst)}; plateau still moving between {short} and {long} "
+                     f"iterations, figures depend on the window): {listed}")
+    return lines
+
+
+def _percent(value: float) -> str:
+    return "inf" if math.isinf(value) else f"{100 * value:.1f} %"
+
+
+def main(argv=None) -> int:
+    args, passthrough = parse_args(argv)
+    out = Path(args.out)
+    problem = outputs.check_writable(out)
+    if problem:
+        print(f"python -m benchmarks.window_invariance: error: --out: {problem}", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        short, long = (run_window(w, out / f"w{w}", passthrough) for w in args.windows)
+    except SystemExit as stop:
+        return int(stop.code or 0)
+    changes = figure_changes(short, long)
+    outputs.atomic_write(out / RESULT_FILE, lambda path: changes.to_csv(path, index=False))
+    shown = changes.assign(change=[_percent(v) for v in changes["change"]])
+    with pd.option_context("display.width", 200, "display.max_rows", 500):
+        print(f"Table 3's iteration figures at {args.windows[0]} and {args.windows[1]} iterations "
+              f"({', '.join(FIGURES)}):")
+        print(shown.to_string(index=False, na_rep="not reached", float_format=lambda v: f"{v:.1f}"))
+    for line in summary_lines(changes, args.goal, args.windows):
+        print(line)
+    print(f"written: {out / RESULT_FILE}")
+    return 0
