@@ -348,14 +348,18 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     drifts = []
     train_seconds = metrics_seconds = 0.0
     physics_stats: dict = {}
+    def train_chunk(first: int, iterations: int):
+        return train(
+            learner=cell.learner, reward=cell.reward, runs=min(chunk, config.runs - first), first_run=first,
+            alpha=cell.alpha, gamma=cell.gamma, model=model, transitions=transitions,
+            **{**config.train_kwargs(), "iterations": iterations}, **config.learner_kwargs(cell.learner),
+        )
+
     for first in range(0, config.runs, chunk):
         started = time.perf_counter()
-        result = train(
-            learner=cell.learner, reward=cell.reward, runs=min(chunk, config.runs - first), first_run=first,
-            alpha=cell.alpha, gamma=cell.gamma, model=model, transitions=transitions, **config.train_kwargs(),
-            **config.learner_kwargs(cell.learner),
-        )
-        trained = time.perf_counter()
+        result = train_chunk(first, config.iterations)
+        train_seconds += time.perf_counter() - started
+        started = time.perf_counter()
         if "physics" in result.info:
             physics_stats = _merge_stats(physics_stats, result.info["physics"])
         grouped.add(result)
@@ -363,19 +367,16 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
         for name, values in per_run.items():
             values.append(getattr(final, name))
         del result
+        metrics_seconds += time.perf_counter() - started
         if checkpoint:
             started = time.perf_counter()
-            early = train(
-                learner=cell.learner, reward=cell.reward, runs=min(chunk, config.runs - first), first_run=first,
-                alpha=cell.alpha, gamma=cell.gamma, model=model, transitions=transitions,
-                **{**config.train_kwargs(), "iterations": checkpoint}, **config.learner_kwargs(cell.learner),
-            )
+            early = train_chunk(first, checkpoint)
             train_seconds += time.perf_counter() - started
+            started = time.perf_counter()
             early_success = analysis.final_asymptotes(early, chain, config.max_itr, model).success
             drifts.append(settling.behaviour_drift(final.success, early_success))
             del early
-        train_seconds += trained - started
-        metrics_seconds += time.perf_counter() - trained
+            metrics_seconds += time.perf_counter() - started
     if physics_stats:
         _report_physics(cell, physics_stats)
     started = time.perf_counter()
