@@ -78,3 +78,15 @@ def test_window_invariance_refuses_bad_flags_with_exit_2(tmp_path, capsys, argv,
         raise SystemExit(code)
     assert stop.value.code == 2
     assert message in capsys.readouterr().err
+
+
+def test_window_invariance_entry_point_exits_2_without_a_traceback(tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    done = subprocess.run([sys.executable, "-m", "benchmarks.window_invariance", "--windows", "5", "1",
+                           "--out", str(tmp_path / "wi")], cwd=root, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert "SHORT < LONG" in done.stderr and not (tmp_path / "wi").exists()
