@@ -79,3 +79,14 @@ def test_table3_without_settling_leaves_it_empty():
     records, _ = experiments.cell_records([experiments.Membership("main", cell)], {cell: summary})
     row = tables.table3(records).iloc[0]
     assert math.isnan(row["behaviour_drift"]) and row["checkpoint_iteration"] == 0 and row["settled"] is pd.NA
+
+
+def test_sweep_table_marks_settled_unsettled_and_unmeasured_rows():
+    def row(alpha, settled):
+        cell = experiments.Cell("q_learning", "r4", alpha, 0.3)
+        scalars = {name: 1.0 for name in tables.SUMMARY_SCALARS}
+        return {"cell_id": cell.label, "learner": "q_learning", "reward": "r4", "alpha": alpha, "gamma": 0.3,
+                "experiment": "alpha_sweep", "settled": settled, **scalars}
+
+    shown = tables.display_sweeps(tables.table3([row(0.3, True), row(0.5, False), row(0.7, None)]))
+    assert shown["settled"].tolist() == ["yes", "NO", "-"]

@@ -257,7 +257,7 @@ def display_table3(table: pd.DataFrame) -> pd.DataFrame:
                                           zip(rows[column], rows[column + LOW], rows[column + HIGH])]
     data[(DRIFT_TITLE, OURS)] = [with_interval(v, lo, hi, 2, 100.0) for v, lo, hi in
                                  zip(rows[DRIFT], rows[DRIFT + LOW], rows[DRIFT + HIGH])]
-    data[("settled", OURS)] = ["-" if flag is pd.NA else ("yes" if flag else "NO") for flag in rows["settled"]]
+    data[("settled", OURS)] = _settled_marks(rows["settled"])
     frame = pd.DataFrame(data)
     frame.index = pd.MultiIndex.from_arrays([rows["learner"], rows["reward"]], names=["learner", "reward"])
     return _dashes(frame)
@@ -320,8 +320,14 @@ def display_sweeps(table: pd.DataFrame) -> pd.DataFrame:
             "succ_eps": rows["max_success_episodes"].round(1),
             "success_% [95% CI]": _intervals(rows, "success_plateau", 2, 100.0),
             "max_avg_r": rows["max_average_reward"].round(3),
+            "settled": _settled_marks(rows["settled"]),
         }
     ).pipe(_dashes)
+
+
+def _settled_marks(flags) -> list[str]:
+    """``yes``/``NO`` per settled flag, ``-`` where settling was not measured."""
+    return ["-" if flag is pd.NA else ("yes" if flag else "NO") for flag in flags]
 
 
 def _intervals(rows: pd.DataFrame, column: str, digits: int, scale: float = 1.0) -> list[str]:
