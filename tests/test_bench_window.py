@@ -71,6 +71,7 @@ def test_window_invariance_command_writes_its_comparison(tmp_path, capsys):
     (["--iterations", "10"], "--iterations: set by this command"),
     (["--goal", "2"], "--goal"),
     (["--runs", "0"], "runs"),
+    (["--describe"], "--describe: writes no Table 3"),
 ])
 def test_window_invariance_refuses_bad_flags_with_exit_2(tmp_path, capsys, argv, message):
     with pytest.raises(SystemExit) as stop:

@@ -36,6 +36,8 @@ DEFAULT_WINDOWS = (4000, 12000)
 DEFAULT_GOAL = 0.05
 #: Flags this command sets itself for each window.
 OWN_RUN_FLAGS = ("--iterations", "--out", "--sweeps", "--no-sweeps", "--figures", "--no-figures")
+#: ``benchmarks.run`` flags that would make it write no Table 3 to compare.
+NO_TABLE_FLAGS = ("--describe",)
 RESULT_FILE = "window_invariance.csv"
 #: Table 3's iteration figures (columns of ``table3.csv``).
 FIGURES = ("reward_convergence_iterations", "reward_convergence_episodes", "max_success_iterations",
@@ -96,6 +98,9 @@ def parse_args(argv=None):
     own = [flag for flag in passthrough if flag.split("=")[0] in OWN_RUN_FLAGS]
     if own:
         parser.error(f"{', '.join(own)}: set by this command (use --windows and --out)")
+    no_table = [flag for flag in passthrough if flag.split("=")[0] in NO_TABLE_FLAGS]
+    if no_table:
+        parser.error(f"{', '.join(no_table)}: writes no Table 3 to compare (use python -m benchmarks.run for it)")
     return args, passthrough
 
 
