@@ -42,7 +42,6 @@ from tableclean_suite.backends import get_backend
 from tableclean_suite.bench import statistics
 from tableclean_suite.bench.config import LITERATURE_LEARNERS, RunConfig
 from tableclean_suite.bench.statistics import CellStatistics
-from tableclean_suite.settling import DEFAULT_SETTLE_TOLERANCE, Settling
 from tableclean_suite.learners import code_digest, train
 from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, GroupedCurveSums, Plateaus, Summary, summarize
 from tableclean_suite.rewards import get_reward_pattern
@@ -251,7 +250,7 @@ class CellStore:
             intervals={name: tuple(_number(v) for v in bounds) for name, bounds in facts["intervals"].items()},
             bands=bands, band_stride=int(facts["band_stride"]), runs=runs,
             scores={name: tuple(_number(v) for v in values) for name, values in facts["scores"].items()},
-            settling=Settling(*(_number(v) for v in facts["settling"][:3]), int(facts["settling"][3])),
+            settling=settling.Settling(*(_number(v) for v in facts["settling"][:3]), int(facts["settling"][3])),
         )
         return Summary(**scalars, **curves), cell_stats
 
@@ -348,6 +347,7 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     drifts = []
     train_seconds = metrics_seconds = 0.0
     physics_stats: dict = {}
+
     def train_chunk(first: int, iterations: int):
         return train(
             learner=cell.learner, reward=cell.reward, runs=min(chunk, config.runs - first), first_run=first,
@@ -572,7 +572,7 @@ def run_grid(
 
 
 def cell_records(grid: list[Membership], summaries: dict, cell_statistics: dict | None = None,
-                 settle_tolerance: float = DEFAULT_SETTLE_TOLERANCE) -> tuple[list[dict], list[dict]]:
+                 settle_tolerance: float = settling.DEFAULT_SETTLE_TOLERANCE) -> tuple[list[dict], list[dict]]:
     """Cell records (keys + scalars, with ``_low``/``_high`` bounds, per-run-score IQMs and settling
     when ``cell_statistics`` are given) and curve sets (with ``<curve>_low``/``_high`` bands), one
     per membership, for :mod:`.tables`.

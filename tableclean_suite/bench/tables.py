@@ -137,13 +137,10 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
             frame[column] = pd.array([None if _missing(v) else int(v) for v in frame[column]], dtype="Int64")
         else:
             frame[column] = [_NA if _missing(v) else float(v) for v in frame[column]]
-    for column in (*SCALAR_COLUMNS, *IQM_COLUMNS):  # bounds: NaN when the records carry none
+    for column in (*SCALAR_COLUMNS, *IQM_COLUMNS, *SETTLING_COLUMNS[:3]):  # NaN when the records carry none
         if column not in SUMMARY_SCALARS:
             values = frame[column] if column in frame.columns else [_NA] * len(frame)
             frame[column] = [_NA if _missing(v) else float(v) for v in values]
-    for column in (DRIFT, DRIFT + LOW, DRIFT + HIGH):
-        values = frame[column] if column in frame.columns else [_NA] * len(frame)
-        frame[column] = [_NA if _missing(v) else float(v) for v in values]
     checkpoints = frame["checkpoint_iteration"] if "checkpoint_iteration" in frame.columns else [0] * len(frame)
     frame["checkpoint_iteration"] = [0 if _missing(v) else int(v) for v in checkpoints]
     settled = frame["settled"] if "settled" in frame.columns else [None] * len(frame)
