@@ -25,6 +25,7 @@ The counters of a :func:`train_physics` call come back under the key ``"stats"``
 
 from __future__ import annotations
 
+import contextlib
 import os
 from collections import Counter
 from dataclasses import dataclass
@@ -394,7 +395,9 @@ def train_physics(learner, reward, model, runs, iterations, seed, first_run, wor
         tasks = [PhysicsRun(learner, reward, spec, i, iterations, seed, first_run, tuple(sorted(options.items())),
                             tuple(sorted(hyper.items()))) for i in range(runs)]
         results = []
-        with (executor if executor is not None else LocalExecutor(workers=workers)) as running:
+        # a caller's executor stays open for the caller's next call (map starts what it needs)
+        owned = LocalExecutor(workers=workers) if executor is None else contextlib.nullcontext(executor)
+        with owned as running:
             for index, record, run_stats in running.map(run_physics_task, tasks):
                 results.append(([(index, record)], run_stats))
                 if bar is not None:

@@ -103,18 +103,18 @@ class TableCleanSkillsEnv(TableCleanBase):
                  camera: str = "frontview", frame_size: tuple[int, int] = CAMERA_FRAME_SIZE,
                  task: "str | TaskSpec | None" = None, start: str | None = None, robots=None):
         super().__init__(reward=reward, model=model, render_mode=render_mode, task=task, start=start)
-        from tableclean_suite.controllers.robot_configs import check_robot
-
-        if robots is not None:
-            given = (env_kwargs or {}).get("robots") if isinstance(env_kwargs, dict) else None
-            if given is not None and given != robots:
-                raise ValueError(f"robots={robots!r} and env_kwargs['robots']={given!r} disagree; give one")
-            env_kwargs = {**(env_kwargs or {}), "robots": check_robot(robots)}
-        from tableclean_suite.physics_backend import check_physical_task
-
-        check_physical_task(self.model, (env_kwargs or {}).get("task_config") if isinstance(env_kwargs, dict) else None)
         if env_kwargs is not None and not isinstance(env_kwargs, dict):
             raise TypeError(f"env_kwargs must be a dict of robosuite.make arguments, got {type(env_kwargs).__name__}")
+        if robots is not None:
+            from tableclean_suite.controllers.robot_configs import robot_name
+
+            given = (env_kwargs or {}).get("robots")
+            if given is not None and robot_name(given) != robot_name(robots):
+                raise ValueError(f"robots={robots!r} and env_kwargs['robots']={given!r} disagree; give one")
+            env_kwargs = {**(env_kwargs or {}), "robots": robots}  # checked by make_skill_env, before it builds
+        from tableclean_suite.physics_backend import check_physical_task
+
+        check_physical_task(self.model, (env_kwargs or {}).get("task_config"))
         if len(frame_size) != 2 or any(int(n) != n or n < 16 for n in frame_size):
             raise ValueError(f"frame_size must be (height, width) with both >= 16, got {frame_size!r}")
         from tableclean_suite.controllers import SkillController, make_skill_env
