@@ -24,7 +24,7 @@ from tableclean_suite.controllers.robot_configs import (
     skill_overrides,
     supported_robots,
 )
-from tableclean_suite.task import Outcome, TaskModel, TaskState, start_layout
+from tableclean_suite.task import Action, Outcome, TaskModel, TaskState, start_layout
 
 #: Arms the issue asks for besides the Panda (at least three).
 OTHER_ARMS = ("Sawyer", "UR5e", "Kinova3")
@@ -161,6 +161,28 @@ def test_bad_window_is_refused():
         MoveSkill(_JitterEnv(), {"gripper_window": 0})
 
 
+@pytest.mark.parametrize("config, message", [
+    ({"gripper_timeout": 0}, "gripper_timeout must be None or an int >= 1"),
+    ({"gripper_timeout": "5"}, "gripper_timeout must be None or an int >= 1"),
+    ({"gripper_drift": -0.1}, "gripper_drift must be a number >= 0"),
+    ({"gripper_drift": float("nan")}, "gripper_drift must be a number >= 0"),
+])
+def test_bad_timeout_and_drift_are_refused(config, message):
+    with pytest.raises(ValueError, match=message):
+        MoveSkill(_JitterEnv(), config)
+
+
+def test_per_action_keys_are_stored_as_registered_action_names(monkeypatch):
+    monkeypatch.setattr(robot_configs, "ROBOT_CONFIGS", dict(robot_configs.ROBOT_CONFIGS))
+    register_robot_config(RobotSkillConfig("Test", skills={Action.CLEAN: {"press_force": 6.0}, "Pick": {"max_steps": 9}}))
+    assert robot_configs.skill_overrides("Test", "clean") == {"press_force": 6.0}
+    assert robot_configs.skill_overrides("Test", "pick") == {"max_steps": 9}
+    with pytest.raises(ValueError, match="both name 'clean'"):
+        register_robot_config(RobotSkillConfig("Other", skills={"Clean": {}, Action.CLEAN: {}}))
+    with pytest.raises(ValueError, match="unknown action 'fly'"):
+        register_robot_config(RobotSkillConfig("Other", skills={"fly": {}}))
+
+
 # ---------------------------------------------------------------------------------------------
 # bad robot names at every entry point (before anything is built)
 # ---------------------------------------------------------------------------------------------
@@ -188,6 +210,11 @@ def test_physics_options_and_gym_refuse_an_unsupported_arm():
         gymnasium.make("TableCleanSkills-v0", robots=UNSUPPORTED)
     with pytest.raises(ValueError, match="disagree"):
         gymnasium.make("TableCleanSkills-v0", robots="UR5e", env_kwargs={"robots": "Sawyer"})
+    # a name and a one-name list agree: the refusal is the robot's, not a disagreement
+    with pytest.raises(ValueError, match=r"'XArm7' is not supported"):
+        gymnasium.make("TableCleanSkills-v0", robots=UNSUPPORTED, env_kwargs={"robots": [UNSUPPORTED]})
+    with pytest.raises(TypeError, match="env_kwargs must be a dict"):
+        gymnasium.make("TableCleanSkills-v0", robots="Panda", env_kwargs=["robots", "Panda"])
 
 
 @pytest.mark.parametrize("module", ["fidelity", "rollout", "robot_table"])

@@ -6,7 +6,14 @@ import enum
 from dataclasses import replace
 from typing import Any, Mapping
 
-from tableclean_suite.controllers.primitives import Grasp, PrimitiveSkill, grasp_point, object_body, object_grasp
+from tableclean_suite.controllers.primitives import (
+    GRASP_SLIP_TOLERANCE,
+    Grasp,
+    PrimitiveSkill,
+    grasp_point,
+    object_body,
+    object_grasp,
+)
 from tableclean_suite.controllers.skill import BASE_CONFIG, SkillFailure
 from tableclean_suite.task import Action
 
@@ -20,6 +27,7 @@ GRASP_CONFIG = {
     "close_min_steps": 4,  # control steps to keep closing before checking the fingers settled
     "descend_speed": 0.25,  # m/s, slower final approach
     "grasp_retries": 1,  # re-approaches after a grasp that was not confirmed
+    "grasp_slip_tolerance": GRASP_SLIP_TOLERANCE,  # m a lifted body may trail the grip site's rise
 }
 
 

@@ -33,7 +33,7 @@ from tableclean_suite.controllers.skill import Skill, SkillFailure, Waypoint
 Info = Mapping[str, Any]
 
 #: A lifted body may trail the grip site's rise by at most this [m] before the grasp counts as
-#: slipping (a skill config may override it with the key ``grasp_slip_tolerance``).
+#: slipping (the default of the skill config key ``grasp_slip_tolerance``, see ``pick.GRASP_CONFIG``).
 GRASP_SLIP_TOLERANCE = 0.01
 
 
@@ -202,7 +202,7 @@ class Grasp(Primitive):
             self.closed_at = (float(np.asarray(info["eef_pos"], dtype=float)[2]), float(self.body.pos(info)[2]))
             self.lift_xy = np.asarray(info["eef_pos"], dtype=float)[:2].copy()  # (2,) m, where LIFT rises
         if phase == "LIFT":
-            tolerance = skill.config.get("grasp_slip_tolerance", GRASP_SLIP_TOLERANCE)
+            tolerance = skill.config["grasp_slip_tolerance"]
             if not self.body.grasped(info):
                 return self._retry(skill, info, f"{self.what} lost while lifting")
             slip = self.slipped(skill, info)

@@ -31,6 +31,7 @@ This module itself imports neither robosuite nor MuJoCo (the environment imports
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
@@ -79,16 +80,29 @@ _FIXED_OSC_KEYS = ("type", "input_type", "input_ref_frame")
 def register_robot_config(config: RobotSkillConfig, *, replace: bool = False) -> RobotSkillConfig:
     """Add ``config`` to :data:`ROBOT_CONFIGS` under ``config.robot``; returns it.
 
+    The per-action keys of ``config.skills`` may be anything :func:`~.registry.action_key` reads
+    (an :class:`~tableclean_suite.task.Action`, a paper-order int, a name in any case); the stored
+    config has them as registered action names, the keys :func:`skill_overrides` looks up.
+
     Raises:
         TypeError: ``config`` is not a :class:`RobotSkillConfig`.
-        ValueError: the robot is already registered and ``replace`` is False; an
-            :data:`ALL_SKILLS` key that is not a key of ``BASE_CONFIG``; an OSC override of
-            ``type``, ``input_type`` or ``input_ref_frame``.
+        ValueError: the robot is already registered and ``replace`` is False; a skills key that
+            is neither :data:`ALL_SKILLS` nor a registered action, or two keys naming the same
+            action; an :data:`ALL_SKILLS` key that is not a key of ``BASE_CONFIG``; an OSC
+            override of ``type``, ``input_type`` or ``input_ref_frame``.
     """
+    from tableclean_suite.controllers.registry import action_key
     from tableclean_suite.controllers.skill import BASE_CONFIG
 
     if not isinstance(config, RobotSkillConfig):
         raise TypeError(f"register_robot_config needs a RobotSkillConfig, got {config!r}")
+    skills = {}
+    for key, values in config.skills.items():
+        name = key if key == ALL_SKILLS else action_key(key)
+        if name in skills:
+            raise ValueError(f"robot {config.robot!r}: skills keys {key!r} and another both name {name!r}")
+        skills[name] = values
+    config = dataclasses.replace(config, skills=skills)
     if config.robot in ROBOT_CONFIGS and not replace:
         raise ValueError(f"robot {config.robot!r} already has a skill config; pass replace=True to override")
     unknown = sorted(set(config.skills.get(ALL_SKILLS, {})) - set(BASE_CONFIG))
@@ -129,11 +143,6 @@ def check_robot(robots) -> str:
                          f"{', '.join(supported_robots())} (add one with "
                          f"tableclean_suite.controllers.robot_configs.register_robot_config)")
     return name
-
-
-def get_robot_config(robots) -> RobotSkillConfig:
-    """The registered config of the robot in ``robots`` (``ValueError`` naming the supported ones if none)."""
-    return ROBOT_CONFIGS[check_robot(robots)]
 
 
 def skill_overrides(robot: str, action_name: str) -> dict[str, Any]:
