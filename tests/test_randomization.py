@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from tableclean_suite.controllers import SkillController, make_skill_env
-from tableclean_suite.controllers.clean import press_force
 from tableclean_suite.controllers.fast_control import fast_stepper_of
 from tableclean_suite.controllers.primitives import GRASP_SLIP_TOLERANCE, Body, Grasp
 from tableclean_suite.controllers.skill import SkillFailure
@@ -43,6 +42,9 @@ def test_off_is_the_default_and_draws_nothing_on():
     ("object_mass_scale", (0.0, 1.0)),  # below the allowed scale
     ("sponge_size_scale", (0.5, 1.0)),  # below the allowed size scale
     ("osc_kp_scale", "fast"),  # not a pair
+    ("friction_scale", "12"),  # a two-character string is not a pair of numbers
+    ("object_mass_scale", (True, True)),  # bools are not scales
+    ("friction_scale", {0.9: 1, 1.1: 2}),  # a two-key mapping is not a pair
     ("joint_damping_scale", (1.0, float("nan"))),
     ("sponge_home_noise", -0.01),  # a negative half-width
     ("object_yaw_noise", 2.0),  # beyond a quarter turn
@@ -87,7 +89,7 @@ def test_samples_lie_in_the_ranges_and_a_seed_reproduces_them():
 # the grasp's slip check (a hand-written body and skill, no physics)
 # --------------------------------------------------------------------------------------------
 class _Skill:
-    config = {"grasp_retries": 1, "nominal_yaw": 0.0}
+    config = {"grasp_retries": 1, "nominal_yaw": 0.0, "grasp_slip_tolerance": GRASP_SLIP_TOLERANCE}
     yaw = 0.0
 
 
@@ -218,7 +220,7 @@ def test_bad_randomization_is_refused_naming_it():
 
 def test_press_force_measures_the_resting_sponge_weight(envs):
     env = _reset(envs("off", None), 0)
-    assert press_force(env) == 0.0  # at home, on its stand
+    assert env.sponge_press_force() == 0.0  # at home, on its stand
     info = env.skill_info()
     centre = info["segment_centers"][0] + [0.0, 0.0, info["sponge_half_size"][2]]
     env.sim.data.set_joint_qpos(env.sponge.joints[0], np.concatenate([centre, [1, 0, 0, 0]]))
@@ -226,7 +228,7 @@ def test_press_force_measures_the_resting_sponge_weight(envs):
     for _ in range(SETTLE_STEPS):
         env.sim.step()
     weight = env.sim.model.body_mass[env.sponge_body_id] * GRAVITY
-    assert press_force(env) == pytest.approx(weight, rel=WEIGHT_TOLERANCE)
+    assert env.sponge_press_force() == pytest.approx(weight, rel=WEIGHT_TOLERANCE)
 
 
 @pytest.mark.slow

@@ -10,7 +10,6 @@ from __future__ import annotations
 import enum
 from typing import Any, Mapping
 
-import mujoco
 import numpy as np
 
 from tableclean_suite.controllers.geometry import box_lowest_z, world_footprint
@@ -42,44 +41,11 @@ class CleanPhase(enum.Enum):
     DONE = enum.auto()
 
 
-#: Name of robosuite's table-top collision geom (the surface the sponge presses on).
-TABLE_TOP_GEOM = "table_collision"
-#: Entries of ``mujoco.mj_contactForce``'s output: normal force first, then two tangential, three torques.
-CONTACT_WRENCH_SIZE = 6
-
-
-def press_force(env) -> float:
-    """Normal force [N] (>= 0) the sponge presses on the table top: the sum over their MuJoCo contacts.
-
-    Read from the env's current simulation data (``mj_contactForce``); the geom ids are cached per
-    simulation (a reset that rebuilds the model makes a new one).
-    """
-    sim = env.sim
-    cache = getattr(env, "_press_force_geoms", None)
-    if cache is None or cache[0] is not sim:
-        model = sim.model
-        sponge = frozenset(model.geom_name2id(n) for n in env.sponge.contact_geoms)
-        cache = (sim, sponge, model.geom_name2id(TABLE_TOP_GEOM))
-        env._press_force_geoms = cache
-    _, sponge, table = cache
-    model, data = sim.model._model, sim.data._data
-    ncon = data.ncon
-    if ncon == 0:
-        return 0.0
-    geom1, geom2 = data.contact.geom1[:ncon], data.contact.geom2[:ncon]
-    wrench = np.zeros(CONTACT_WRENCH_SIZE)
-    total = 0.0
-    for i in np.flatnonzero(((geom1 == table) | (geom2 == table))):
-        if int(geom1[i]) in sponge or int(geom2[i]) in sponge:
-            mujoco.mj_contactForce(model, data, int(i), wrench)
-            total += float(wrench[0])
-    return max(total, 0.0)
-
-
 class Wipe(Primitive):
     """Sweep ``segment`` with the held sponge: boustrophedon strokes, pressed, pass after pass while dirty.
 
-    The press closes its loop on the measured sponge-table contact force (:func:`press_force`),
+    The press closes its loop on the measured sponge-table contact force (the env's
+    ``sponge_press_force()``),
     not on a depth: the commanded depth of the sponge's bottom below the table top is integrated
     from the force error (``press_force`` target, ``press_force_gain``) while the sponge is on the
     table, and a stroke starts once ``touch_force`` is measured.  A different sponge size, mass,
@@ -101,7 +67,6 @@ class Wipe(Primitive):
         self.force = 0.0  # N, the last measured pressing force
         self.lift_point = None  # (2,) where a SHIFT lifts the sponge off the table before it moves on
         self.lifted = False  # the SHIFT measured the sponge off the table
-        self.env = skill.env
         # grip-site minus sponge-centre position (m), measured once the sponge is held and lifted
         self.hold_offset = np.asarray(info["eef_pos"], dtype=float) - np.asarray(info["sponge_pos"], dtype=float)
         self.yaw = skill.yaw
@@ -179,7 +144,7 @@ class Wipe(Primitive):
             return
         if phase not in ("PRESS", "WIPE"):
             return
-        self.force = press_force(self.env)
+        self.force = skill.env.sponge_press_force()
         target_z = self._wipe_target(info, self.strokes[self.stroke_index])[2]
         arrived = abs(float(skill.setpoint[2]) - target_z) <= self.config["setpoint_arrival"]
         if phase == "PRESS" and self.force <= 0.0 and not arrived:
@@ -199,7 +164,7 @@ class Wipe(Primitive):
         """
         if self.lifted:
             return
-        self.force = press_force(self.env)
+        self.force = skill.env.sponge_press_force()
         clear = self.force <= 0.0 and self._sponge_gap(info) > self.config["contact_slack"]
         self.lifted = clear or skill._phase_steps >= self.config["lift_max_steps"]
 
@@ -268,7 +233,7 @@ class CleanSkill(PrimitiveSkill):
         # m the fingertips stay above the sponge's bottom (GRASP_CONFIG's 0.010 for objects): gripped
         # lower, the table's drag on the pressed sponge has a shorter lever about the finger pads
         "tip_clearance": 0.004,
-        # the press closes on the measured sponge-table normal force (Wipe, press_force()), not on a depth
+        # the press closes on the measured sponge-table normal force (Wipe, the env's sponge_press_force()), not on a depth
         "press_force": 8.0,  # N, the pressing force the depth loop holds while wiping
         "touch_force": 1.0,  # N; a stroke starts once at least this contact force is measured
         "press_force_gain": 0.0005,  # m/(N s), integral gain from the force error to the commanded depth

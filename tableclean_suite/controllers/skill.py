@@ -72,6 +72,9 @@ class SkillEnv(Protocol):
     def skill_info(self) -> dict:
         """Grounding in the world frame (keys as ``TableClean.skill_info``)."""
 
+    def sponge_press_force(self) -> float:
+        """N (>= 0) the sponge presses on the table top (the clean skill's force loop)."""
+
     def symbolic_state(self, check_sponge: bool = True) -> TaskState:
         """The current task state through the abstraction (raises ``AbstractionError`` on a fault)."""
 
@@ -135,9 +138,13 @@ class Skill(abc.ABC):
         self.phase_steps: dict[str, int] = {}
         self._setpoint = np.zeros(3)
         self._last_fingers: np.ndarray | None = None
-        window = self.config["gripper_window"]
-        if window is not None and (isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 1):
-            raise ValueError(f"gripper_window must be None or an int >= 1 (control steps), got {window!r}")
+        window, timeout = self.config["gripper_window"], self.config["gripper_timeout"]
+        for name, steps in (("gripper_window", window), ("gripper_timeout", timeout)):
+            if steps is not None and (isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1):
+                raise ValueError(f"{name} must be None or an int >= 1 (control steps), got {steps!r}")
+        drift = self.config["gripper_drift"]
+        if isinstance(drift, bool) or not isinstance(drift, (int, float, np.integer, np.floating)) or not drift >= 0:
+            raise ValueError(f"gripper_drift must be a number >= 0 (finger joint units per step), got {drift!r}")
         self._finger_history: collections.deque = collections.deque(maxlen=2 * int(window or 0))
 
     # -- what subclasses provide ---------------------------------------------------

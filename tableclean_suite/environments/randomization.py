@@ -83,6 +83,11 @@ ON_NAMES = ("on", "default")
 Range = tuple[float, float]
 
 
+def _plain_fields(instance) -> dict:
+    """A dataclass's fields as plain JSON-serialisable values (lists for the tuples)."""
+    return {f.name: (list(v) if isinstance(v := getattr(instance, f.name), tuple) else v) for f in fields(instance)}
+
+
 @dataclass(frozen=True)
 class DynamicsSample:
     """The values one reset drew (see :class:`DynamicsRandomization` for units).
@@ -113,7 +118,7 @@ class DynamicsSample:
 
     def to_dict(self) -> dict:
         """Plain JSON-serialisable values (lists for the tuples)."""
-        return {f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v) for f in fields(self)}
+        return _plain_fields(self)
 
 
 @dataclass(frozen=True)
@@ -139,10 +144,11 @@ class DynamicsRandomization:
     def __post_init__(self):
         for name, (lowest, highest) in RANGE_FIELDS.items():
             value = getattr(self, name)
-            try:
-                low, high = (float(v) for v in value)
-            except (TypeError, ValueError):
-                raise ValueError(f"randomization {name} must be a (low, high) pair of numbers, got {value!r}") from None
+            if not (isinstance(value, (tuple, list)) and len(value) == 2
+                    and all(isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+                            for v in value)):
+                raise ValueError(f"randomization {name} must be a (low, high) pair of numbers, got {value!r}")
+            low, high = (float(v) for v in value)
             if not (math.isfinite(low) and math.isfinite(high) and lowest <= low <= high <= highest):
                 raise ValueError(f"randomization {name} must be (low, high) with {lowest} <= low <= high <= {highest}, "
                                  f"got {value!r}")
@@ -159,13 +165,12 @@ class DynamicsRandomization:
 
     @property
     def enabled(self) -> bool:
-        """Whether any range is wider than a point or any noise is non-zero (``OFF``: False)."""
-        return any(getattr(self, n)[0] != getattr(self, n)[1] or getattr(self, n)[0] != 1.0 for n in RANGE_FIELDS) or \
-            any(getattr(self, n) > 0 for n in NOISE_FIELDS)
+        """Whether anything is randomised: some range other than (1, 1) or some noise above 0 (``OFF``: False)."""
+        return self != OFF
 
     def to_dict(self) -> dict:
         """The ranges as plain values (lists for the pairs)."""
-        return {f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v) for f in fields(self)}
+        return _plain_fields(self)
 
     def sample(self, rng: np.random.Generator, n_objects: int, n_joints: int) -> DynamicsSample:
         """Draw one :class:`DynamicsSample` for ``n_objects`` objects and ``n_joints`` arm joints.

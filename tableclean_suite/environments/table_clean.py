@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Iterable, Mapping
 
+import mujoco
 import numpy as np
 from robosuite.environments.manipulation.manipulation_env import ManipulationEnv
 from robosuite.models.tasks import ManipulationTask
@@ -39,6 +40,8 @@ __all__ = ["TableClean", "DEFAULT_TABLECLEAN_CONFIG"]
 
 #: robosuite's name of the table's collision geom: the surface the sponge must press on.
 TABLE_TOP_GEOM = "table_collision"
+#: Entries of ``mujoco.mj_contactForce``'s output: normal force first, then two tangential, three torques.
+CONTACT_WRENCH_SIZE = 6
 #: Value of the ``symbolic_state_index`` observable when the abstraction reports a fault.
 FAULT_INDEX = -1
 #: Height above the table top at which a dropped object is placed, so it settles without penetration [m].
@@ -97,19 +100,21 @@ def _jsonable(value):
     return value
 
 
-def check_objects_fit(kinds, geometry, config: Mapping) -> None:
+def check_objects_fit(kinds, geometry, config: Mapping, size_scale: float = 1.0) -> None:
     """Raise ``ValueError`` unless the objects of ``kinds`` (ObjectTypes) fit side by side on one segment.
 
     Every spec can bring all its objects onto one segment, so all M must fit there
-    (:mod:`.placement`'s grid of spots).
+    (:mod:`.placement`'s grid of spots).  ``size_scale`` (> 0) multiplies every footprint: the
+    largest ``object_size_scale`` a randomisation can draw.
     """
-    radii = [kind.footprint_radius for kind in kinds]
+    radii = [kind.footprint_radius * size_scale for kind in kinds]
     pitch = placement.slot_pitch(radii, config["object_spacing"], config["object_clearance"])
     offsets = placement.slot_offsets(len(radii), pitch)
     half = geometry.segment_half_sizes[0]
     if np.any(np.abs(offsets) + max(radii) > half + 1e-9):
+        scaled = f" at object size scale {size_scale:g}" if size_scale != 1.0 else ""
         raise ValueError(f"{len(radii)} objects ({', '.join(k.name for k in kinds)}) do not fit side by side on one "
-                         f"{2 * half[0]:.3f} m segment (spot pitch {pitch:.3f} m); use fewer or smaller objects")
+                         f"{2 * half[0]:.3f} m segment{scaled} (spot pitch {pitch:.3f} m); use fewer or smaller objects")
 
 
 class TableClean(ManipulationEnv):
@@ -230,7 +235,6 @@ class TableClean(ManipulationEnv):
         self.randomization: DynamicsRandomization = resolve_randomization(randomization)
         #: the values of this episode's draw (None while randomisation is off)
         self.dynamics_sample: DynamicsSample | None = None
-        self._rebuilt_model = False  # a reset rebuilt the model with hard_reset=False: refresh the observables
         self._nominal_sim = None  # the simulation whose unrandomised values _nominal holds
         self._nominal: dict = {}
         self.task_spec: TaskSpec = get_task_spec(task)
@@ -243,6 +247,11 @@ class TableClean(ManipulationEnv):
         self.geometry = scene_geometry(self.task_config, self.n_segments)  # ValueError naming the largest N
         check_objects_fit(self.object_types, self.geometry, self.task_config)
         self._check_randomization_fits()
+        #: (M, 3) m bounding half extents of the objects built from the unrandomised config: a drawn
+        #: object_size_scale grows each footprint by the ratio of its built extents to these
+        self._nominal_object_half_sizes = np.array(
+            [make_object(kind.name, self.task_config, name).get_bounding_box_half_size()
+             for kind, name in zip(self.object_types, object_names(self.n_objects))], dtype=float)
         # 0-based internally (None: drawn at each reset); set through set_start() with 1-based numbers
         self.object_segment: int | None = None
         self.object_segments: tuple[int | None, ...] = (None,) * self.n_objects
@@ -392,7 +401,9 @@ class TableClean(ManipulationEnv):
         self._object_mask = self._object_masks[0]
         self._object_rest_z = np.array([self.geometry.table_top_z - float(o.bottom_offset[2]) for o in self.objects])
         self._object_half_sizes = np.array([o.get_bounding_box_half_size() for o in self.objects], dtype=float)
-        self._object_footprints = np.array([kind.footprint_radius for kind in self.object_types])
+        # footprints grow with the drawn size (types sized by object_half_size; others keep theirs)
+        growth = np.max(self._object_half_sizes[:, :2] / self._nominal_object_half_sizes[:, :2], axis=1)
+        self._object_footprints = np.array([kind.footprint_radius for kind in self.object_types]) * growth
         self._finger_pad_masks = (
             mask(gripper.important_geoms["left_fingerpad"]),
             mask(gripper.important_geoms["right_fingerpad"]),
@@ -498,25 +509,18 @@ class TableClean(ManipulationEnv):
 
         A draw that changes a size rebuilds the MuJoCo model first, also with ``hard_reset=False``.
         """
-        if self.randomization.enabled and not self.deterministic_reset:
-            built = self._built_sizes()
-            self._draw_dynamics()
-            if self._built_sizes() != built and not self.hard_reset:
-                if self.renderer == "mujoco":
-                    self._destroy_viewer()
-                    self._destroy_sim()
-                self._load_model()
-                self._initialize_sim()
-                self._rebuilt_model = True
-        return super().reset()
-
-    def _reset_observables(self):
-        """robosuite's, plus the sensor re-binding of a hard reset after a rebuild of :meth:`reset`."""
-        rebuilt, self._rebuilt_model = self._rebuilt_model, False
-        if not rebuilt or self.hard_reset:
-            return super()._reset_observables()
-        for name, observable in self._setup_observables().items():
-            self.modify_observable(observable_name=name, attribute="sensor", modifier=observable._sensor)
+        if not (self.randomization.enabled and not self.deterministic_reset):
+            return super().reset()
+        built = self._built_sizes()
+        self._draw_dynamics()
+        hard_reset = self.hard_reset
+        # robosuite's own hard reset rebuilds the model and re-binds the observables' sensors
+        # (the idiom of robosuite's VisualizationWrapper)
+        self.hard_reset = hard_reset or self._built_sizes() != built
+        try:
+            return super().reset()
+        finally:
+            self.hard_reset = hard_reset
 
     def _pre_action(self, action, policy_step=False):
         """Robot control (superclass), then records wiping on the state after the previous substep."""
@@ -882,7 +886,11 @@ class TableClean(ManipulationEnv):
 
     # -- randomised dynamics (see tableclean_suite.environments.randomization) -------------------
     def _check_randomization_fits(self) -> None:
-        """``ValueError`` when the randomisation could move the sponge's start out of its home tolerance."""
+        """``ValueError`` when the randomisation could move the sponge's start out of its home tolerance,
+        or draw objects too large to fit side by side on one segment."""
+        largest = self.randomization.object_size_scale[1]
+        if largest > 1.0:
+            check_objects_fit(self.object_types, self.geometry, self.task_config, largest)
         corner = self.randomization.sponge_home_noise * np.sqrt(2.0)
         if corner > self.base_task_config["sponge_home_tolerance"]:
             raise ValueError(f"randomization sponge_home_noise {self.randomization.sponge_home_noise} m can put the "
@@ -916,26 +924,16 @@ class TableClean(ManipulationEnv):
     def _arm_dofs(self) -> np.ndarray:
         return np.asarray(self.robots[0]._ref_joint_vel_indexes, dtype=int)
 
-    def _randomized_geoms(self) -> dict:
-        """Geom ids per friction group: ``table`` (1,), ``objects`` (one array per object), ``sponge``."""
-        model = self.sim.model
-        return {
-            "table": np.array([model.geom_name2id(TABLE_TOP_GEOM)]),
-            "objects": [np.array([model.geom_name2id(n) for n in o.contact_geoms]) for o in self.objects],
-            "sponge": np.array([model.geom_name2id(n) for n in self.sponge.contact_geoms]),
-        }
-
     def _read_nominal(self) -> dict:
         """Copies of the model values the randomisation scales (read from a freshly built model)."""
         model = self.sim.model
         bodies = np.append(self.object_body_ids, self.sponge_body_id)
-        geoms = self._randomized_geoms()
         return {
             "body_mass": model.body_mass[bodies].copy(),
             "body_inertia": model.body_inertia[bodies].copy(),
-            "table_friction": model.geom_friction[geoms["table"], 0].copy(),
-            "object_friction": [model.geom_friction[g, 0].copy() for g in geoms["objects"]],
-            "sponge_friction": model.geom_friction[geoms["sponge"], 0].copy(),
+            "table_friction": model.geom_friction[self._table_mask, 0].copy(),
+            "object_friction": [model.geom_friction[mask, 0].copy() for mask in self._object_masks],
+            "sponge_friction": model.geom_friction[self._sponge_mask, 0].copy(),
             "dof_damping": model.dof_damping[self._arm_dofs()].copy(),
         }
 
@@ -949,11 +947,10 @@ class TableClean(ManipulationEnv):
         mass_scale = np.array([*sample.object_mass_scale, sample.sponge_mass_scale])
         model.body_mass[bodies] = nominal["body_mass"] * mass_scale
         model.body_inertia[bodies] = nominal["body_inertia"] * mass_scale[:, None]
-        geoms = self._randomized_geoms()
-        model.geom_friction[geoms["table"], 0] = nominal["table_friction"] * sample.table_friction_scale
-        for ids, values, scale in zip(geoms["objects"], nominal["object_friction"], sample.object_friction_scale):
-            model.geom_friction[ids, 0] = values * scale
-        model.geom_friction[geoms["sponge"], 0] = nominal["sponge_friction"] * sample.sponge_friction_scale
+        model.geom_friction[self._table_mask, 0] = nominal["table_friction"] * sample.table_friction_scale
+        for mask, values, scale in zip(self._object_masks, nominal["object_friction"], sample.object_friction_scale):
+            model.geom_friction[mask, 0] = values * scale
+        model.geom_friction[self._sponge_mask, 0] = nominal["sponge_friction"] * sample.sponge_friction_scale
         model.dof_damping[self._arm_dofs()] = nominal["dof_damping"] * np.asarray(sample.joint_damping_scale)
         robot = self.robots[0]
         osc = robot.composite_controller.part_controllers.get(robot.arms[0])
@@ -976,6 +973,23 @@ class TableClean(ManipulationEnv):
             return False
         geom1, geom2 = data.contact.geom1[:ncon], data.contact.geom2[:ncon]
         return all(wiping.any_contact(geom1, geom2, pad, object_mask).any() for pad in self._finger_pad_masks)
+
+    def sponge_press_force(self) -> float:
+        """Normal force [N] (>= 0) the sponge presses on the table top: the sum over their MuJoCo
+        contacts (``mj_contactForce``) in the current simulation data."""
+        data = self._mj_data
+        ncon = data.ncon
+        if ncon == 0:
+            return 0.0
+        contact = data.contact
+        pressing = wiping.any_contact(contact.geom1[:ncon], contact.geom2[:ncon], self._sponge_mask, self._table_mask)
+        model = self.sim.model._model
+        wrench = np.zeros(CONTACT_WRENCH_SIZE)
+        total = 0.0
+        for i in np.flatnonzero(pressing):
+            mujoco.mj_contactForce(model, data, int(i), wrench)
+            total += float(wrench[0])
+        return max(total, 0.0)
 
     def record_wiping_substep(self) -> None:
         """Removes markers under the sponge when it presses on the table top (current substep state).
