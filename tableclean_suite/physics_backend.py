@@ -183,6 +183,10 @@ class PhysicsStepEnv:
         self.last_result = None
         self.stats = _empty_stats()
 
+    def close(self) -> None:
+        """Close the scene (its MuJoCo simulation and renderers)."""
+        self.env.close()
+
     def seed(self, seed: int) -> None:
         """Re-seed the scene's placement randomness (object placement, arm initialisation noise)."""
         self.env.rng = np.random.default_rng(seed)
@@ -291,7 +295,7 @@ def _train_share(job):
         out.append((i, record))
     stats = dict(env.stats)
     stats["fault_reasons"] = dict(stats["fault_reasons"])
-    env.env.close()
+    env.close()
     return out, stats
 
 
@@ -323,7 +327,33 @@ class PhysicsRun:
         return f"physics run {self.first_run + self.index} ({self.learner.name}/{self.reward.name})"
 
 
-_RUN_ENVS: dict = {}
+#: PhysicsStepEnvs built in this process by executor tasks, by (spec JSON, options as sorted JSON).
+_SESSIONS: dict = {}
+
+
+def process_session(spec_json: str, options: dict) -> "PhysicsStepEnv":
+    """The PhysicsStepEnv of ``spec_json`` (``TaskSpec.to_dict()`` as JSON) and ``options`` in this
+    process: built on first use and kept for the process's next tasks (in a worker process,
+    robosuite's start-up lines are silenced).  :func:`close_sessions` closes them."""
+    import json
+    import multiprocessing
+
+    from tableclean_suite.task import TaskSpec
+
+    key = (spec_json, json.dumps(options, sort_keys=True, default=repr))
+    if key not in _SESSIONS:
+        if multiprocessing.parent_process() is not None:  # a worker process: robosuite's start-up lines are noise
+            from tableclean_suite.bench.startup import apply_verbosity
+
+            apply_verbosity(False)
+        _SESSIONS[key] = PhysicsStepEnv(TaskModel(spec=TaskSpec.from_dict(json.loads(spec_json))), **options)
+    return _SESSIONS[key]
+
+
+def close_sessions() -> None:
+    """Close the scenes :func:`process_session` built in this process."""
+    while _SESSIONS:
+        _SESSIONS.popitem()[1].close()
 
 
 def run_physics_task(task: PhysicsRun):
@@ -332,15 +362,9 @@ def run_physics_task(task: PhysicsRun):
     The scene is built once per process and spec (and reseeded per run, so the result does not
     depend on which worker ran it or what it ran before).
     """
-    import json
-
     from tableclean_suite.learners.reference import train_run
-    from tableclean_suite.task import TaskSpec
 
-    key = (task.spec, repr(task.options))
-    if key not in _RUN_ENVS:
-        _RUN_ENVS[key] = PhysicsStepEnv(TaskModel(spec=TaskSpec.from_dict(json.loads(task.spec))), **dict(task.options))
-    env = _RUN_ENVS[key]
+    env = process_session(task.spec, dict(task.options))
     env.stats = _empty_stats()
     run = task.first_run + task.index
     env.seed(run_key(task.seed, run))

@@ -27,13 +27,13 @@ from collections import Counter
 from pathlib import Path
 
 from tableclean_suite.bench import trial_store
+from tableclean_suite.bench.cli import executor_from_args
 from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 from tableclean_suite.bench.fidelity import (
     FAULT,
     ResumeError,
     add_execution_arguments,
     collect,
-    make_round_executor,
     parse_task_and_actions,
     read_trials,
     trials_per_round,
@@ -100,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
                 parser.error(f"--from-trials: {source} holds no trials")
             description = f"from {source.name}"
         else:
-            with make_round_executor(parser, args) as executor:
+            with executor_from_args(parser, args) as executor:
                 rows = collect(args.trials, args.seed, out.with_suffix(".trials.csv"), fresh=args.fresh, log=log,
                                actions=actions, model=model, executor=executor)
             description = f"{args.trials} round(s), seed {args.seed}"

@@ -48,7 +48,7 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import trial_store  # noqa: E402
-from tableclean_suite.bench.outputs import atomic_write  # noqa: E402
+from tableclean_suite.bench.outputs import atomic_write_text  # noqa: E402
 from tableclean_suite.bench.robot_args import add_robots_argument, parse_robot  # noqa: E402
 from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 from tableclean_suite.bench.cli import (add_executor_arguments, executor_from_args, non_negative_int,  # noqa: E402
@@ -213,27 +213,13 @@ class FidelityRound:
         return f"fidelity round {self.round_index + 1}"
 
 
-_SESSIONS: dict = {}
-
-
 def run_round_task(task: FidelityRound) -> list[dict]:
-    """Run one :class:`FidelityRound` in this process (the scene is built once per process and spec)."""
-    import json
+    """Run one :class:`FidelityRound` in this process (the scene is built once per process, spec and
+    options: :func:`tableclean_suite.physics_backend.process_session`)."""
+    from tableclean_suite.physics_backend import process_session
 
-    from tableclean_suite.physics_backend import PhysicsStepEnv
-    from tableclean_suite.task import TaskSpec
-
-    key = (task.spec, repr(task.physics_options))  # plain values, possibly dicts (env_kwargs): keyed by their repr
-    if key not in _SESSIONS:
-        import multiprocessing
-
-        if multiprocessing.parent_process() is not None:  # a worker process: robosuite's start-up lines are noise
-            from tableclean_suite.bench.startup import apply_verbosity
-
-            apply_verbosity(False)
-        spec = TaskSpec.from_dict(json.loads(task.spec[0]))
-        _SESSIONS[key] = PhysicsStepEnv(TaskModel(spec=spec), **dict(task.physics_options))
-    return run_round(_SESSIONS[key], task.round_index, task.seed, actions=task.actions)
+    session = process_session(task.spec[0], dict(task.physics_options))
+    return run_round(session, task.round_index, task.seed, actions=task.actions)
 
 
 #: Suffix (after the trials CSV's stem) of the file recording what the stored trials were run with.
@@ -271,7 +257,7 @@ def check_configuration(trials_csv: Path, configuration: dict, log: Callable[[st
         if log:
             log(f"note: {trials_csv} has no {record.name}: resuming it as if it were measured with these options")
     trials_csv.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write(record, lambda temporary: temporary.write_text(json.dumps(configuration, sort_keys=True, indent=1)))
+    atomic_write_text(record, json.dumps(configuration, sort_keys=True, indent=1))
 
 
 def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fresh: bool = False,
@@ -311,25 +297,32 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
     if not todo:
         return [row for row in rows if row["round"] < trials]
     started = time.perf_counter()
+    owned = session is None and executor is None  # this process's default: its scenes close when the rounds are done
     if session is not None:
         results = (run_round(session, r, seed, actions=actions) for r in todo)
     else:
         from tableclean_suite.executors import LocalExecutor
 
-        executor = executor if executor is not None else LocalExecutor(workers=1)
+        executor = LocalExecutor(workers=1) if owned else executor
         spec = (json.dumps(model.spec.to_dict(), sort_keys=True),)
         tasks = [FidelityRound(spec, r, seed, tuple(actions), tuple(sorted((physics_options or {}).items())))
                  for r in todo]
         results = executor.map(run_round_task, tasks)
-    for round_index, new in zip(todo, results):
-        if len(new) != per_round:
-            raise ResumeError(f"round {round_index + 1} produced {len(new)} trials, not {per_round}")
-        rows.extend(new)
-        if path is not None:
-            trial_store.write_rows(path, sorted(rows, key=lambda row: row["round"]))
-        if log:
-            agree = sum(r["agree"] for r in new)
-            log(f"round {round_index + 1}/{trials}: {agree}/{len(new)} agree, {time.perf_counter() - started:.1f} s")
+    try:
+        for round_index, new in zip(todo, results):
+            if len(new) != per_round:
+                raise ResumeError(f"round {round_index + 1} produced {len(new)} trials, not {per_round}")
+            rows.extend(new)
+            if path is not None:
+                trial_store.write_rows(path, sorted(rows, key=lambda row: row["round"]))
+            if log:
+                agree = sum(r["agree"] for r in new)
+                log(f"round {round_index + 1}/{trials}: {agree}/{len(new)} agree, {time.perf_counter() - started:.1f} s")
+    finally:
+        if owned:
+            from tableclean_suite.physics_backend import close_sessions
+
+            close_sessions()
     return [row for row in rows if row["round"] < trials]
 
 
@@ -435,9 +428,10 @@ def add_execution_arguments(parser: argparse.ArgumentParser) -> None:
     add_executor_arguments(parser, "rounds")  # --workers, --executor, --ray-address
 
 
-def make_round_executor(parser: argparse.ArgumentParser, args):
-    """The executor of ``--executor/--workers/--ray-address``; exits 2 on a bad combination."""
-    return executor_from_args(parser, args)
+def scene_env_kwargs(robot: str, randomize: bool) -> dict:
+    """The scene options of a fidelity run on ``robot`` (randomised dynamics ``"on"`` if ``randomize``):
+    one form for every command, so their stored trials' configurations compare equal."""
+    return {"robots": robot, **({"randomization": "on"} if randomize else {})}
 
 
 def parse_task_and_actions(parser: argparse.ArgumentParser, args) -> tuple[TaskModel, tuple[str, ...]]:
@@ -483,10 +477,10 @@ def main(argv: list[str] | None = None) -> int:
     robot = parse_robot(parser, args)
     suffix = ("" if model.spec.name == "paper" else f"_{model.spec.name}") + ("" if robot == "Panda" else f"_{robot}")
     suffix += RANDOMIZED_SUFFIX if args.randomize else ""
-    env_kwargs = {"robots": robot, **({"randomization": "on"} if args.randomize else {})}
+    env_kwargs = scene_env_kwargs(robot, args.randomize)
     out = Path(args.out if args.out is not None else DEFAULT_OUT + suffix)
     started = time.perf_counter()
-    executor = make_round_executor(parser, args)
+    executor = executor_from_args(parser, args)
     try:
         with executor:
             rows = collect(args.trials, args.seed, out / TRIALS_CSV, fresh=args.fresh,
