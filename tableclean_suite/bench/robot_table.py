@@ -36,8 +36,9 @@ from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from tableclean_suite.bench.cli import non_negative_int  # noqa: E402
-from tableclean_suite.bench.outputs import atomic_write  # noqa: E402
+from tableclean_suite.bench import fidelity, trial_store  # noqa: E402
+from tableclean_suite.bench.cli import OneLineParser, non_negative_int  # noqa: E402
+from tableclean_suite.bench.run import split_list  # noqa: E402
 from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 
 #: Default arms: the Panda and the three others with shipped skill configs.
@@ -99,14 +100,16 @@ def run_episodes(robot: str, task: str, episodes: int, seed: int = 0, log=print,
     return {"episodes": episodes, "successes": successes, "seconds": seconds, "failures": failures}
 
 
-def run_fidelity(robot: str, task: str, trials: int, seed: int, out: Path, log=print, randomization=None) -> dict:
-    """Fidelity rounds of ``task`` on ``robot`` (trials stored under ``out``); the :func:`~.fidelity.summary` dict."""
-    from tableclean_suite.bench import fidelity
+def run_fidelity(robot: str, task: str, trials: int, seed: int, out: Path, log=print, randomize: bool = False,
+                 fresh: bool = False) -> dict:
+    """Fidelity rounds of ``task`` on ``robot`` (trials stored under ``out``, as ``benchmarks.fidelity``
+    stores them: the same scene options, so either command resumes the other's); the
+    :func:`~.fidelity.summary` dict.  ``fresh`` discards earlier trials."""
     from tableclean_suite.task import TaskModel, get_task_spec
 
     model = TaskModel(spec=get_task_spec(task))
-    rows = fidelity.collect(trials, seed, out / fidelity.TRIALS_CSV, log=log, model=model,
-                            physics_options={"env_kwargs": {"robots": robot, "randomization": randomization}})
+    rows = fidelity.collect(trials, seed, out / fidelity.TRIALS_CSV, fresh=fresh, log=log, model=model,
+                            physics_options={"env_kwargs": fidelity.scene_env_kwargs(robot, randomize)})
     fidelity.write_csv(out / fidelity.PAIRS_CSV, fidelity.pair_table(rows, model))
     fidelity.write_csv(out / fidelity.SKILLS_CSV, fidelity.skill_table(rows, model))
     return fidelity.summary(rows, model)
@@ -127,14 +130,7 @@ def table_row(robot: str, task: str, fid: dict | None, eps: dict | None, dynamic
 
 def write_table(path: Path, rows: list[dict]) -> None:
     """Write ``rows`` (:data:`COLUMNS`) to ``path`` atomically."""
-    def write(temporary: Path) -> None:
-        with open(temporary, "w", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=COLUMNS)
-            writer.writeheader()
-            writer.writerows(rows)
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write(path, write)
+    trial_store.write_rows(path, rows, COLUMNS)
 
 
 def merge_rows(path: Path, rows: list[dict]) -> list[dict]:
@@ -171,14 +167,15 @@ def markdown(rows: list[dict]) -> str:
 
 
 def _names(parser, flag: str, text: str) -> list[str]:
-    names = [part.strip() for part in str(text).split(",") if part.strip()]
+    """The comma-separated names of ``text``, in order, each once; exits 2 when there is none."""
+    names = list(dict.fromkeys(split_list(text)))
     if not names:
         parser.error(f"{flag}: expected at least one name, got {text!r}")
     return names
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.robot_table", description=__doc__.split("\n\n")[0])
+    parser = OneLineParser(prog="python -m benchmarks.robot_table", description=__doc__.split("\n\n")[0])
     add_verbose_flag(parser)
     parser.add_argument("--robots", default=",".join(DEFAULT_ROBOTS),
                         help=f"comma-separated robots with registered skill configs (default {','.join(DEFAULT_ROBOTS)})")
@@ -194,6 +191,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help=f"directory of the fidelity trials, one <robot>_<task> folder per cell (default {DEFAULT_FIDELITY_DIR})")
     parser.add_argument("--append", action="store_true",
                         help=f"keep the other cells already in {TABLE_CSV} (this run's cells replace theirs)")
+    parser.add_argument("--fresh", action="store_true", help="discard the earlier fidelity trials of this run's cells")
     parser.add_argument("--randomize", action="store_true",
                         help="randomised dynamics at every reset (the scene's documented default ranges)")
     parser.add_argument("--quiet", action="store_true", help="print only the table")
@@ -219,17 +217,36 @@ def main(argv: list[str] | None = None) -> int:
             check_physical_task(TaskModel(spec=get_task_spec(task)))
         except (ValueError, OSError) as error:
             parser.error(f"--tasks: {error}")
+    if not (args.fidelity_trials or args.episodes):
+        parser.error("--fidelity-trials and --episodes are both 0: nothing to measure")
     log = None if args.quiet else print
     randomization, dynamics = ("on", RANDOMIZED) if args.randomize else (None, NOMINAL)
+
+    def fidelity_dir(robot: str, task: str) -> Path:
+        return Path(args.fidelity_dir) / (f"{robot}_{task}" + (fidelity.RANDOMIZED_SUFFIX if args.randomize else ""))
+
+    if args.fidelity_trials and not args.fresh:  # stored trials of other options: refused before anything runs
+        for robot in robots:
+            for task in tasks:
+                trials_csv = fidelity_dir(robot, task) / fidelity.TRIALS_CSV
+                configuration = fidelity.run_configuration(
+                    TaskModel(spec=get_task_spec(task)),
+                    {"env_kwargs": fidelity.scene_env_kwargs(robot, args.randomize)})
+                try:
+                    fidelity.check_configuration(trials_csv, configuration, log)
+                except fidelity.ResumeError as error:
+                    parser.error(f"{error} (robot_table: --fresh, or another --fidelity-dir)")
     rows = []
     started = time.perf_counter()
     for robot in robots:
         for task in tasks:
             fid = eps = None
             if args.fidelity_trials:
-                folder = f"{robot}_{task}" + ("_randomized" if args.randomize else "")
-                fid = run_fidelity(robot, task, args.fidelity_trials, args.seed, Path(args.fidelity_dir) / folder,
-                                   log=log, randomization=randomization)
+                try:
+                    fid = run_fidelity(robot, task, args.fidelity_trials, args.seed, fidelity_dir(robot, task),
+                                       log=log, randomize=args.randomize, fresh=args.fresh)
+                except fidelity.ResumeError as error:  # e.g. trials of another --seed
+                    parser.error(f"{error} (robot_table: --fresh, or another --fidelity-dir)")
             if args.episodes:
                 eps = run_episodes(robot, task, args.episodes, args.seed, log=log, randomization=randomization)
             rows.append(table_row(robot, task, fid, eps, dynamics))

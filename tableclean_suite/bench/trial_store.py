@@ -85,11 +85,12 @@ def complete_rounds(rows: list[dict], per_round: int, log: Callable[[str], None]
     return [row for row in rows if counts[row["round"]] == per_round]
 
 
-def write_rows(path: Path, rows: Iterable[dict]) -> None:
-    """Write ``rows`` (whole rounds) to ``path`` atomically: a temporary file, then a rename."""
+def write_rows(path: Path, rows: Iterable[dict], fieldnames: tuple[str, ...] = TRIAL_FIELDS) -> None:
+    """Write ``rows`` (whole rounds; or any rows of ``fieldnames``) to ``path`` as CSV atomically: a
+    temporary file, then a rename (the directory is created if missing)."""
     def write(temporary: Path) -> None:
         with temporary.open("w", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=TRIAL_FIELDS)
+            writer = csv.DictWriter(handle, fieldnames=fieldnames)
             writer.writeheader()
             writer.writerows(rows)
 
