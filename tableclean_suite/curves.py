@@ -33,7 +33,7 @@ _IMPROPER = int(Outcome.IMPROPER)
 def check_fraction(name: str, value: float, low_open: bool = True) -> None:
     """``ValueError`` naming ``name`` unless ``value`` is in (0, 1] (``low_open``) or [0, 1]."""
     if not (0.0 < value <= 1.0) if low_open else not (0.0 <= value <= 1.0):
-        raise ValueError(f"{name} must be in (0, 1], got {value!r}")
+        raise ValueError(f"{name} must be in {'(0, 1]' if low_open else '[0, 1]'}, got {value!r}")
 
 
 

@@ -19,7 +19,7 @@ from tableclean_suite.controllers.robot_configs import skill_overrides
 from tableclean_suite.controllers.skill import SkillEnv
 from tableclean_suite.environments.abstraction import AbstractionError
 from tableclean_suite.skill_result import SkillResult
-from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
+from tableclean_suite.task import Action, Outcome, TaskModel
 
 
 class SkillController:

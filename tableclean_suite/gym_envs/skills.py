@@ -10,7 +10,7 @@ import numpy as np
 from tableclean_suite.gym_envs.symbolic import _NO_STATE, TableCleanBase, render_text
 from tableclean_suite.rewards import RewardPattern
 from tableclean_suite.skill_result import SkillReport
-from tableclean_suite.task import Action, Outcome, TaskModel, TaskSpec, TaskState
+from tableclean_suite.task import Outcome, TaskModel, TaskSpec
 
 #: Default size ``(height, width)`` of the ``rgb_array`` camera frame.
 CAMERA_FRAME_SIZE = (360, 480)
