@@ -298,3 +298,12 @@ def test_robot_table_appends_cells_of_other_runs(tmp_path):
     rows = merge_rows(path, [table_row("Panda", "paper", None, eps, "randomized")])
     assert [(r["robot"], r["dynamics"]) for r in rows] == [("Panda", "nominal"), ("UR5e", "nominal"),
                                                           ("Panda", "randomized")]
+
+
+def test_robot_table_refuses_nothing_to_measure_and_measures_a_repeated_name_once(capsys):
+    from tableclean_suite.bench.robot_table import _names, build_parser, main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--robots", "Panda", "--tasks", "paper", "--episodes", "0", "--fidelity-trials", "0"])
+    assert stop.value.code == 2 and "nothing to measure" in capsys.readouterr().err
+    assert _names(build_parser(), "--robots", "Panda, UR5e,Panda,") == ["Panda", "UR5e"]

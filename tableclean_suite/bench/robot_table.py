@@ -1,6 +1,6 @@
 """The skills on several arms: fidelity and optimal-episode success per robot x task spec.
 
-    python -m benchmarks.robot_table [--robots Panda,Sawyer,UR5e,Kinova3] [--tasks paper,three_segments_two_objects]
+    python -m benchmarks.robot_table [--robots Panda,Sawyer,UR5e,Kinova3] [--tasks paper,three_segments_two_objects] [--fresh]
                                      [--episodes E] [--fidelity-trials T] [--seed S] [--out DIR] [--randomize]
 
 For every (robot, spec) cell:
