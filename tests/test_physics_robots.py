@@ -9,14 +9,14 @@ robosuite's ``env.step`` on another arm.
 
 from __future__ import annotations
 
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from kinematic_env import KinematicEnv, fake_robot
 from tableclean_suite.controllers import MoveSkill, SkillController, make_skill_env
 from tableclean_suite.controllers import robot_configs
-from tableclean_suite.controllers.osc import ACTION_DIM, skill_controller_config
+from tableclean_suite.controllers.osc import skill_controller_config
 from tableclean_suite.controllers.robot_configs import (
     RobotSkillConfig,
     check_robot,
@@ -24,7 +24,7 @@ from tableclean_suite.controllers.robot_configs import (
     skill_overrides,
     supported_robots,
 )
-from tableclean_suite.task import Action, Outcome, TaskModel, TaskState, start_layout
+from tableclean_suite.task import Action, Outcome, TaskModel, start_layout
 
 #: Arms the issue asks for besides the Panda (at least three).
 OTHER_ARMS = ("Sawyer", "UR5e", "Kinova3")
@@ -86,42 +86,19 @@ def test_overrides_flow_into_the_skills_and_the_osc(monkeypatch):
 # ---------------------------------------------------------------------------------------------
 # gripper settling
 # ---------------------------------------------------------------------------------------------
-class _JitterEnv:
+class _JitterEnv(KinematicEnv):
     """Kinematic env: the grip site jumps to each command; the fingers jitter, close steadily, or rest."""
 
-    control_freq = 20
-    action_dim = ACTION_DIM
-
     def __init__(self, fingers: str = "jitter", robot: str = "Panda"):
-        controller = SimpleNamespace(name="OSC_POSE", input_type="absolute", input_ref_frame="world")
-        self.robots = [SimpleNamespace(name=robot, arms=["right"], part_controllers={"right": controller})]
-        self.centers = np.array([[0.0, -0.14, 0.8], [0.0, 0.14, 0.8]])
-        self.eef = self.centers[0] + [0.0, 0.0, MoveSkill.DEFAULT_CONFIG["hover_height"]]
+        super().__init__(robot=fake_robot(robot=robot))
         self.fingers = fingers
-        self.steps = 0
 
-    def skill_info(self):
+    def finger_position(self) -> float:
         if self.fingers == "jitter":
-            q = JITTER * (-1) ** self.steps
-        elif self.fingers == "closing":
-            q = CLOSING_SPEED * self.steps
-        else:
-            q = 0.0
-        return {
-            "eef_pos": self.eef.copy(),
-            "eef_quat": np.array([0.70710678, 0.70710678, 0.0, 0.0]),  # pointing down, yaw pi/2
-            "gripper_qpos": np.array([q, -q]),
-            "segment_centers": self.centers,
-            "table_top_z": 0.8,
-        }
-
-    def symbolic_state(self, check_sponge=True):
-        arm = int(np.argmin(np.abs(self.centers[:, 1] - self.eef[1])))
-        return TaskState((False, False), (1,), arm)
-
-    def step(self, action):
-        self.steps += 1
-        self.eef = np.asarray(action[:3], dtype=float).copy()
+            return JITTER * (-1) ** self.steps
+        if self.fingers == "closing":
+            return CLOSING_SPEED * self.steps
+        return 0.0
 
 
 def _run_move(fingers: str, config: dict) -> MoveSkill:

@@ -8,11 +8,11 @@ TableClean and compare the abstraction's state after each action with the task m
 from __future__ import annotations
 
 import enum
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from kinematic_env import KinematicEnv, fake_robot
 from tableclean_suite.controllers import (
     SKILL_REGISTRY,
     CleanSkill,
@@ -36,7 +36,6 @@ from tableclean_suite.task import (
     Action,
     Outcome,
     TaskModel,
-    TaskState,
     start_layout,
 )
 
@@ -81,46 +80,12 @@ def test_register_skill_rejects_bad_input():
         register_skill("fly", MoveSkill, registry={})
 
 
-def _fake_robot(name: str, input_type: str, input_ref_frame: str) -> SimpleNamespace:
-    """The part of a robosuite robot that :func:`check_skill_env` reads: its arm's controller."""
-    controller = SimpleNamespace(name=name, input_type=input_type, input_ref_frame=input_ref_frame)
-    return SimpleNamespace(arms=["right"], part_controllers={"right": controller})
-
-
-class _FakeEnv:
-    """Kinematic stand-in: the end-effector jumps to each commanded position; nothing else moves.
-
-    ``frozen=True`` keeps the end-effector where it is (to exhaust step budgets).
-    """
-
-    control_freq = 20
-    action_dim = ACTION_DIM
+class _FakeEnv(KinematicEnv):
+    """:class:`KinematicEnv` whose arm controller is ``arm_controller`` (name, input type, reference frame)."""
 
     def __init__(self, arm_segment: int = 0, frozen: bool = False,
                  arm_controller=("OSC_POSE", "absolute", "world")):
-        self.robots = [_fake_robot(*arm_controller)]
-        self.centers = np.array([[0.0, -0.14, 0.8], [0.0, 0.14, 0.8]])
-        self.eef = self.centers[int(arm_segment)] + [0.0, 0.0, MoveSkill.DEFAULT_CONFIG["hover_height"]]
-        self.frozen = frozen
-        self.steps = 0
-
-    def skill_info(self):
-        return {
-            "eef_pos": self.eef.copy(),
-            "eef_quat": np.array([0.70710678, 0.70710678, 0.0, 0.0]),  # pointing down, yaw pi/2
-            "gripper_qpos": np.array([0.04, -0.04]),
-            "segment_centers": self.centers,
-            "table_top_z": 0.8,
-        }
-
-    def symbolic_state(self, check_sponge=True):
-        arm = int(np.argmin(np.abs(self.centers[:, 1] - self.eef[1])))
-        return TaskState((False, False), (1,), arm)
-
-    def step(self, action):
-        self.steps += 1
-        if not self.frozen:
-            self.eef = np.asarray(action[:3], dtype=float).copy()
+        super().__init__(arm_segment, frozen, fake_robot(*arm_controller))
 
 
 def test_execute_rejects_unknown_actions_before_touching_the_env():
