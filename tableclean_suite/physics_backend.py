@@ -176,6 +176,8 @@ class PhysicsStepEnv:
         check_physical_task(self.model)
         kwargs = dict(env_kwargs or {})
         kwargs.setdefault("task", self.model.spec)
+        if not {"object_segment", "arm_segment", "object_segments"} & set(kwargs):  # reset() stages each start
+            kwargs.update(object_segment=1, arm_segment=1)
         self.env = env if env is not None else make_skill_env(**kwargs)
         self.controller = SkillController(self.env, self.model, skill_configs=skill_configs)
         self.fault_policy = fault_policy

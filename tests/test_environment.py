@@ -10,6 +10,7 @@ from tableclean_suite.task import (
     START_LAYOUTS,
     TABLE1_STATES,
     TaskModel,
+    TaskSpec,
     TaskState,
     start_layout,
 )
@@ -269,3 +270,59 @@ def test_offscreen_frame_is_not_blank():
     assert frame.shape == (120, 160, 3)
     assert frame.std() > 10  # a real scene, not a uniform colour
     assert len(np.unique(frame.reshape(-1, 3), axis=0)) > 100
+
+
+# -- the scene starts where the task spec says (v4) ----------------------------------------------
+THREE_SEGMENTS_FIXED = TaskSpec("three_fixed", segments=3, objects=("box", "cylinder"),
+                                start_state=TaskState((False, True, False), (2, 0), 1))
+
+
+def test_task_spec_fixed_start_is_the_reset_state_in_robosuite_make_and_make_skill_env():
+    from tableclean_suite.controllers import make_skill_env
+
+    for env in (make(task=THREE_SEGMENTS_FIXED), make_skill_env(task=THREE_SEGMENTS_FIXED, seed=0)):
+        try:
+            for _ in range(2):
+                env.reset()
+                assert env.symbolic_state() == THREE_SEGMENTS_FIXED.start_state
+        finally:
+            env.close()
+
+
+def test_uniform_unclean_spec_draws_all_unclean_layouts_at_each_reset():
+    spec = TaskSpec("three_uniform", segments=3, objects=("box",), start="uniform_unclean")
+    env = make(task=spec)
+    try:
+        seen = set()
+        for _ in range(12):
+            env.reset()
+            state = env.symbolic_state()
+            assert not any(state.clean) and not state.holding
+            seen.add(state.index)
+        assert len(seen) >= 4  # 9 layouts; a fixed start would give one
+    finally:
+        env.close()
+
+
+def test_an_explicit_layout_wins_over_the_spec_and_no_task_keeps_drawing():
+    env = make(task=THREE_SEGMENTS_FIXED, object_segment=2, arm_segment=3)
+    try:
+        env.reset()
+        state = env.symbolic_state()
+        assert state.objects == (1, 1) and state.arm == 2 and not any(state.clean)
+    finally:
+        env.close()
+    plain = env_for(None, None)
+    arms = set()
+    for _ in range(8):
+        plain.reset()
+        arms.add(plain.symbolic_state().arm)
+    assert arms == {0, 1}
+
+
+def test_a_spec_starting_with_a_held_object_is_refused_by_the_scene_naming_the_remedy():
+    from tableclean_suite.task import HELD
+
+    spec = TaskSpec("held_start", start_state=TaskState((False, False), (HELD,), 0))
+    with pytest.raises(ValueError, match="held_start.*holds an object.*physics_backend.stage"):
+        make(task=spec)

@@ -9,6 +9,7 @@ import tableclean_suite  # noqa: F401  (registers TableClean with robosuite)
 from tableclean_suite.controllers.fast_control import attach_fast_stepper
 from tableclean_suite.controllers.osc import skill_controller_config
 from tableclean_suite.controllers.robot_configs import check_robot
+from tableclean_suite.environments.table_clean import FROM_SPEC
 
 #: Settings the skills rely on, or that only cost time when running skills headless.
 SKILL_ENV_DEFAULTS = {
@@ -21,7 +22,12 @@ SKILL_ENV_DEFAULTS = {
 }
 
 
-def make_skill_env(object_segment: int | None = 1, arm_segment: int | None = 1, fast_control: bool = True, **kwargs):
+#: Start layout ``(object_segment, arm_segment)`` when neither a layout nor ``task`` is given (1-based).
+DEFAULT_LAYOUT = (1, 1)
+
+
+def make_skill_env(object_segment: int | None = FROM_SPEC, arm_segment: int | None = FROM_SPEC,
+                   fast_control: bool = True, **kwargs):
     """``robosuite.make("TableClean", ...)`` with :data:`SKILL_ENV_DEFAULTS` and the skills' controller.
 
     The controller config is :func:`skill_controller_config` of the robot in ``robots``
@@ -30,7 +36,11 @@ def make_skill_env(object_segment: int | None = 1, arm_segment: int | None = 1, 
     ``controller_configs`` is given.
 
     Args:
-        object_segment, arm_segment: start layout (1 or 2; ``None``: random at each reset).
+        object_segment, arm_segment: start layout (1..N; ``None``: random at each reset).  When
+            neither is given (nor ``object_segments`` / ``dirty_segments``), the scene starts where
+            ``task``'s spec says (its fixed ``start_state`` or a ``uniform_unclean`` draw at each
+            reset, see :class:`~tableclean_suite.environments.table_clean.TableClean`); without
+            ``task``, at :data:`DEFAULT_LAYOUT`.
         fast_control: give the env a :class:`~tableclean_suite.controllers.fast_control.FastSkillStepper`
             (``env.fast_stepper``): the SkillController then runs robosuite's control law in compiled
             code (several times faster than ``env.step``, same trajectories); ``False``: ``env.step``.
@@ -48,6 +58,10 @@ def make_skill_env(object_segment: int | None = 1, arm_segment: int | None = 1, 
     robot = check_robot(options["robots"])
     if "controller_configs" not in kwargs:
         options["controller_configs"] = skill_controller_config(robot, options.get("task_config"))
+    layout_given = any(options.get(key, FROM_SPEC) is not FROM_SPEC for key in ("object_segments", "dirty_segments"))
+    layout_given = layout_given or object_segment is not FROM_SPEC or arm_segment is not FROM_SPEC
+    if options.get("task") is None and not layout_given:
+        object_segment, arm_segment = DEFAULT_LAYOUT
     env = robosuite.make("TableClean", object_segment=object_segment, arm_segment=arm_segment, **options)
     if fast_control and isinstance(env, MujocoEnv):  # anything else (a test double) is returned as made
         attach_fast_stepper(env)

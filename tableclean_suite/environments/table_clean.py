@@ -34,7 +34,7 @@ from tableclean_suite.environments.randomization import (
     resolve_randomization,
 )
 from tableclean_suite.environments.scene_state import SceneState
-from tableclean_suite.task import HELD, TaskModel, TaskSpec, TaskState, get_task_spec
+from tableclean_suite.task import HELD, StartMode, TaskModel, TaskSpec, TaskState, get_task_spec
 
 __all__ = ["TableClean", "DEFAULT_TABLECLEAN_CONFIG"]
 
@@ -58,6 +58,10 @@ OBJECT_ON_TABLE_REWARD = 0.25
 SPONGE_RETURNED_REWARD = 0.5
 #: The wiping component spans [0, this] (the paper's two segments) whatever the number of segments.
 PAPER_REWARD_SEGMENTS = 2
+#: Default of the layout arguments: with ``task=`` given, the layout comes from the spec's start
+#: (``start_state`` for ``fixed``, a fresh draw at each reset for ``uniform_unclean``); without it,
+#: each is drawn at each reset (v3's default).
+FROM_SPEC = "from_spec"
 
 
 def _segment_numbers(n_segments: int) -> str:
@@ -159,6 +163,12 @@ class TableClean(ManipulationEnv):
       gripper the robot's config names (UR5e, Kinova3: the Panda gripper), else robosuite's default.
     - ``task`` (name, :class:`~tableclean_suite.task.TaskSpec` or ``.json`` path; default ``"paper"``):
       the task spec the scene builds (N segments, the objects' types).
+    - Layout (``object_segment``, ``object_segments``, ``arm_segment``, ``dirty_segments``): when
+      none is given and ``task`` is, the scene starts where the spec says: its ``start_state``
+      (``start="fixed"``; a state holding an object is refused, stage it with
+      :func:`tableclean_suite.physics_backend.stage`) or a uniform draw over every all-unclean
+      layout at each reset (``start="uniform_unclean"``).  Any layout argument given wins over
+      the spec (the others then keep their defaults below); without ``task`` every layout is drawn.
     - ``object_segment`` (1..N or None): segment every object starts on; None draws each at each reset.
     - ``object_segments`` (sequence of M entries 1..N or None): per-object start segments; overrides
       ``object_segment``.
@@ -177,6 +187,7 @@ class TableClean(ManipulationEnv):
       sponge size (``self.base_task_config`` the configured one).
 
     ## Version History
+    - v4: ``task=`` without layout arguments starts in the spec's start (v3 drew the layout).
     - v3: ``randomization=`` (off by default: v2's scene, draws and ``get_ep_meta()``).
     - v2: ``task=``: N segments and M objects of registered types from the task spec (the paper spec
       builds v1's scene: same layout, names and ``qpos``).
@@ -189,12 +200,12 @@ class TableClean(ManipulationEnv):
     def __init__(
         self,
         robots,
-        object_segment: int | None = None,
-        arm_segment: int | None = None,
-        dirty_segments: Iterable[int] | None = None,
+        object_segment: int | None = FROM_SPEC,
+        arm_segment: int | None = FROM_SPEC,
+        dirty_segments: Iterable[int] | None = FROM_SPEC,
         task_config: Mapping | None = None,
         task: "str | TaskSpec | None" = None,
-        object_segments: Iterable[int | None] | None = None,
+        object_segments: Iterable[int | None] | None = FROM_SPEC,
         randomization: "DynamicsRandomization | str | Mapping | bool | None" = None,
         env_configuration="default",
         controller_configs=None,
@@ -257,7 +268,13 @@ class TableClean(ManipulationEnv):
         self.object_segments: tuple[int | None, ...] = (None,) * self.n_objects
         self.arm_segment: int | None = None
         self.dirty_segments: tuple[int, ...] = ()
-        self.set_start(object_segment, arm_segment, dirty_segments, object_segments=object_segments)
+        layout = (object_segment, arm_segment, dirty_segments, object_segments)
+        if task is not None and all(value is FROM_SPEC for value in layout):
+            self._start_from_spec()
+        else:
+            object_segment, arm_segment, dirty_segments, object_segments = (
+                None if value is FROM_SPEC else value for value in layout)
+            self.set_start(object_segment, arm_segment, dirty_segments, object_segments=object_segments)
         self.reward_scale = reward_scale
         self.reward_shaping = reward_shaping
         self.use_object_obs = use_object_obs
@@ -607,6 +624,18 @@ class TableClean(ManipulationEnv):
                              "(tableclean_suite.physics_backend.stage picks it up after a reset)")
         self.set_start(None, state.arm + 1, [k + 1 for k in range(state.n_segments) if not state.is_clean(k)],
                        object_segments=[where + 1 for where in state.objects])
+
+    def _start_from_spec(self) -> None:
+        """The layout of the spec's start: its fixed ``start_state``, or every layout drawn at each reset."""
+        if self.task_model.start != StartMode.FIXED:  # uniform_unclean: all dirty, each position drawn uniformly
+            self.set_start(None, None, None)
+            return
+        state = self.task_model.start_state
+        if state.holding:
+            raise ValueError(f"task {self.task_spec.name!r} starts in {state.name}, which holds an object; TableClean "
+                             "resets with every object lying: pass a layout (object_segment=..., arm_segment=...) "
+                             "and stage the held start with tableclean_suite.physics_backend.stage")
+        self.set_start_state(state)
 
     def put_object(self, obj: int, segment: int) -> None:
         """Teleport object ``obj`` (0-based), at rest, onto a free spot of ``segment`` (0-based).
