@@ -25,30 +25,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from tableclean_suite import asymptotes
 from tableclean_suite.learners.assist import NO_ADVICE, advisor_policy, given_affordances
 from tableclean_suite.learners.exploration import EpsilonGreedy, VisitDecay, as_exploration, softmax_probabilities
 from tableclean_suite.learners.transitions import TransitionTable
+from tableclean_suite.policy import action_probabilities, greedy_policy  # noqa: F401  (re-exported)
 from tableclean_suite.task import Outcome, TaskModel, TaskState
-
-
-def greedy_policy(q: np.ndarray) -> np.ndarray:
-    """Greedy actions of Q-tables ``(..., S, A)`` -> ``(..., S)`` int64, ties to the first action."""
-    return np.argmax(np.asarray(q), axis=-1)
-
-
-def action_probabilities(policy: np.ndarray, epsilon, n_actions: int) -> np.ndarray:
-    """Epsilon-greedy action probabilities ``(..., S, n_actions)`` of a greedy ``policy`` ``(..., S)``.
-
-    ``epsilon``: in [0, 1], a number or an array broadcastable to ``policy`` (per-state epsilon).
-    """
-    epsilon = np.asarray(epsilon, dtype=np.float64)
-    if not np.all((epsilon >= 0.0) & (epsilon <= 1.0)):
-        raise ValueError(f"epsilon must be in [0, 1], got {epsilon.tolist()!r}")
-    policy = np.asarray(policy)
-    rate = np.broadcast_to(epsilon, policy.shape)[..., None]
-    probabilities = np.broadcast_to(rate / n_actions, policy.shape + (n_actions,)).copy()
-    np.put_along_axis(probabilities, policy[..., None], 1.0 - rate + rate / n_actions, axis=-1)
-    return probabilities
 
 
 def visit_counts(states: np.ndarray, n_states: int) -> np.ndarray:
@@ -280,8 +262,6 @@ def final_asymptotes(result, chain, max_itr: int, model: TaskModel | None = None
     For the paper's constant epsilon-greedy without assistance this is
     :func:`~tableclean_suite.asymptotes.greedy_asymptotes` itself (same numbers as before).
     """
-    from tableclean_suite import asymptotes
-
     settings = result.config.get("learner_settings", {})
     plain = (as_exploration(settings.get("exploration")).name == EpsilonGreedy.name
              and not _assist_options(settings))
@@ -293,3 +273,45 @@ def final_asymptotes(result, chain, max_itr: int, model: TaskModel | None = None
     stats = asymptotes.episode_statistics(unique.reshape((-1,) + probabilities.shape[1:]), chain, max_itr)
     inverse = np.asarray(inverse).reshape(-1)
     return asymptotes.Asymptotes(*(np.atleast_1d(getattr(stats, name))[inverse] for name in asymptotes.QUANTITIES))
+
+
+def final_greedy_success(result, chain, max_itr: int, model: TaskModel | None = None) -> np.ndarray:
+    """``(R,)`` exact success of each run's final *greedy* behaviour (no exploration, epsilon = 0).
+
+    The learner's own greedy action on its final Q-table, restricted to the afforded actions for
+    affordance learners; an advisor's advice is left out (it is not the learner's policy).
+    """
+    settings = result.config.get("learner_settings", {})
+    assist = _assist_options(settings)
+    q = np.asarray(result.q, dtype=np.float64)
+    q = q[None] if q.ndim == 2 else q
+    affordance = assist.get("affordance", "none")
+    if affordance == "none":
+        return np.atleast_1d(asymptotes.greedy_asymptotes(q, 0.0, chain, max_itr).success)
+    model = model if model is not None else TaskModel()
+    masks = (given_affordances(model) != 0 if affordance == "given"
+             else learned_affordances(result.states, result.actions, result.outcomes, model.n_states, model.n_actions))
+    probabilities = afforded_probabilities(q, masks, 0.0)
+    flat = probabilities.reshape(probabilities.shape[0], -1)
+    unique, inverse = np.unique(flat, axis=0, return_inverse=True)
+    stats = asymptotes.episode_statistics(unique.reshape((-1,) + probabilities.shape[1:]), chain, max_itr)
+    return np.atleast_1d(stats.success)[np.asarray(inverse).reshape(-1)]
+
+
+def never_terminal(result) -> np.ndarray:
+    """``(R,)`` float64, 1.0 for each run that never reached the terminal state in its window
+    (so never received the terminal reward), else 0.0."""
+    outcomes = np.atleast_2d(np.asarray(result.outcomes))
+    return (~(outcomes == int(Outcome.TERMINAL)).any(axis=1)).astype(np.float64)
+
+
+def final_run_facts(result, chain, max_itr: int, model: TaskModel | None = None) -> dict[str, np.ndarray]:
+    """Per run of ``result``, every quantity behind :class:`~tableclean_suite.metrics.Plateaus`
+    (``metrics.PLATEAU_NAMES``), each ``(R,)``: the exact asymptotes of the final behaviour
+    (:func:`final_asymptotes`), the final greedy policy's success (:func:`final_greedy_success`)
+    and whether the run never reached the terminal state (:func:`never_terminal`)."""
+    final = final_asymptotes(result, chain, max_itr, model)
+    return {"success": np.atleast_1d(final.success), "average_reward": np.atleast_1d(final.average_reward),
+            "terminal": np.atleast_1d(final.terminal),
+            "greedy_success": final_greedy_success(result, chain, max_itr, model),
+            "never_terminal": never_terminal(result)}

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from tableclean_suite.analysis import action_probabilities, greedy_policy
+from tableclean_suite.policy import action_probabilities, greedy_policy
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.rewards import LOOPABLE_OUTCOMES, LOOPING_ADD, LOOPING_OFF, get_reward_pattern
 from tableclean_suite.task import Outcome

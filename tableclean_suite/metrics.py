@@ -11,8 +11,18 @@ computed in :mod:`tableclean_suite.curves`.  The quantities read off them:
   does not move with the window once the runs' policies have settled (Q-learning's do; SARSA's,
   at the paper's constant alpha and epsilon, keep changing).  Without one: the mean over the last ``plateau_fraction`` (25 %)
   of the window (the *window mean*, always reported as ``*_window_mean``), which moves with it.
-- **Iterations to maximum success**: first t (1-based count) at which the success
-  curve reaches ``threshold`` (95 %) of its plateau.
+- **Iterations to maximum success** (the paper-definition column, *first touch*): first t
+  (1-based count) at which the success curve reaches ``threshold`` (95 %) of its plateau.  A
+  noisy curve can touch the level and fall back below it for hundreds of iterations.
+- **Iterations to held success** (``held_success_iterations``, *reaching*): first t at which the
+  success curve reaches ``threshold`` of its plateau and stays at or above it for the ``hold``
+  iterations t .. t + hold - 1 (default :data:`DEFAULT_HOLD`); None when no such t leaves a full
+  hold inside the window.
+- **Greedy success** (``greedy_success_plateau``): the exact success of each run's final *greedy*
+  policy (epsilon = 0), averaged over runs; the success plateau is the same policy under the
+  exploration, so the two separate what the learner learned from what exploring costs.
+- **Never-terminal share** (``never_terminal_share``): the fraction of runs that never reached
+  the terminal state (never received the terminal reward) in the whole window.
 - **Average-reward convergence**: first t at or after the curve's early minimum
   where it has covered ``threshold`` of the way from that minimum to its plateau.  The early
   minimum is the minimum of the (supported) curve before it first reaches the plateau (with an
@@ -50,6 +60,9 @@ from tableclean_suite.curves import (  # noqa: F401
 
 DEFAULT_THRESHOLD = 0.95
 DEFAULT_PLATEAU_FRACTION = 0.25
+#: Iterations the success curve must stay at or above its level for "held" reaching (the paper's
+#: fastest figure is 140 iterations, so a hold of 200 outlasts a lucky touch at that scale).
+DEFAULT_HOLD = 200
 
 _SCALAR, _CURVE = "scalar", "curve"
 
@@ -82,6 +95,13 @@ class Summary:
         terminal_plateau: plateau of the terminal curve, a fraction in [0, 1].
         success_window_mean: mean of the success curve's last ``plateau_fraction``, in [0, 1].
         average_reward_window_mean: mean of the average-reward curve's last ``plateau_fraction``.
+        held_success_iterations: iterations (1-based count) until the success curve reaches
+            ``threshold`` of its plateau and stays there for ``hold`` iterations, or None.
+        held_success_episodes: mean episodes finished by then, >= 0, or None.
+        greedy_success_plateau: exact success of the runs' final greedy policies (epsilon = 0),
+            mean over runs, in [0, 1] (NaN without asymptotes).
+        never_terminal_share: fraction of runs that never reached the terminal state in the
+            window, in [0, 1] (NaN without asymptotes).
         success: ``(T,)`` success rate per iteration, in [0, 1].
         average_reward: ``(T,)`` average reward per iteration (NaN until some run finished an episode).
         terminal: ``(T,)`` fraction of runs whose latest episode reached the terminal state.
@@ -101,6 +121,10 @@ class Summary:
     terminal_plateau: float = _scalar("fraction")
     success_window_mean: float = _scalar("fraction")
     average_reward_window_mean: float = _scalar("reward per iteration")
+    held_success_iterations: int | None = _scalar("iterations")
+    held_success_episodes: float | None = _scalar("episodes")
+    greedy_success_plateau: float = _scalar("fraction")
+    never_terminal_share: float = _scalar("fraction")
     success: np.ndarray = _curve("fraction")
     average_reward: np.ndarray = _curve("reward per iteration")
     terminal: np.ndarray = _curve("fraction")
@@ -179,6 +203,37 @@ def first_reaching(curve, level: float, start: int = 0) -> int | None:
         return None
     hits = np.nonzero(np.asarray(curve, dtype=float)[start:] >= level)[0]
     return start + int(hits[0]) + 1 if len(hits) else None
+
+
+def held_reaching(curves, levels, hold: int = DEFAULT_HOLD) -> np.ndarray:
+    """First iteration count t (1-based) at which each row of ``curves`` reaches its level and
+    stays at or above it for ``hold`` iterations (t .. t + hold - 1, all inside the window).
+
+    Args:
+        curves: ``(B, T)`` or ``(T,)`` curves (NaN counts as below the level).
+        levels: ``(B,)`` or scalar levels.
+        hold: iterations the curve must stay at or above the level, >= 1 (1: first touch).
+
+    Returns:
+        ``(B,)`` float64 iteration counts (``()`` for one curve), NaN where no t leaves a full hold
+        inside the window or the level is not finite.
+    """
+    if int(hold) != hold or hold < 1:
+        raise ValueError(f"hold must be an integer >= 1 (iterations), got {hold!r}")
+    hold = int(hold)
+    single = np.ndim(curves) == 1
+    curves = np.atleast_2d(np.asarray(curves, dtype=float))
+    levels = np.broadcast_to(np.asarray(levels, dtype=float), curves.shape[:1])
+    length = curves.shape[1]
+    if length < hold:
+        found = np.full(len(curves), np.nan)
+        return found[0] if single else found
+    with np.errstate(invalid="ignore"):
+        below = ~(curves >= levels[:, None])
+    misses = np.concatenate([np.zeros((len(curves), 1)), np.cumsum(below, axis=1)], axis=1)
+    clean = (misses[:, hold:] - misses[:, :length - hold + 1]) == 0  # (B, T - hold + 1): start t0 holds
+    found = np.where(clean.any(axis=1) & np.isfinite(levels), np.argmax(clean, axis=1) + 1.0, np.nan)
+    return found[0] if single else found
 
 
 def early_minimum(curve, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION, top: float | None = None) -> int | None:
@@ -289,16 +344,24 @@ class Plateaus:
         success: success rate, in [0, 1].
         average_reward: average reward, reward units per iteration.
         terminal: fraction of episodes reaching the terminal state, in [0, 1].
+        greedy_success: success of the final greedy policies (epsilon = 0), in [0, 1] (NaN: unknown).
+        never_terminal: fraction of runs that never reached the terminal state, in [0, 1] (NaN: unknown).
     """
 
     success: float
     average_reward: float
     terminal: float
+    greedy_success: float = math.nan
+    never_terminal: float = math.nan
+
+
+#: The per-run quantities behind :class:`Plateaus` (one field each), in field order.
+PLATEAU_NAMES = ("success", "average_reward", "terminal", "greedy_success", "never_terminal")
 
 
 def summarize(
     result, threshold: float = DEFAULT_THRESHOLD, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION,
-    plateaus: Plateaus | None = None, support_fraction: float = 0.0,
+    plateaus: Plateaus | None = None, support_fraction: float = 0.0, hold: int = DEFAULT_HOLD,
 ) -> Summary:
     """Table 3 quantities of one training result, plus the curves they came from.
 
@@ -311,6 +374,7 @@ def summarize(
             for them (and then every figure moves with the window).
         support_fraction: fraction of runs, in [0, 1], that must have finished an episode before
             an average-reward point counts (0: one run is enough).
+        hold: iterations the success curve must stay at its level for ``held_success_iterations``.
 
     Returns:
         A :class:`Summary`.
@@ -324,6 +388,8 @@ def summarize(
     top = window if plateaus is None else {name: float(getattr(plateaus, name)) for name in window}
     given = plateaus is not None
     success_at = iterations_to_max_success(success, threshold, plateau_fraction, top["success"])
+    held = float(held_reaching(success, threshold * top["success"], hold))
+    held_at = None if math.isnan(held) else int(held)
     reward_at = reward_convergence_iteration(average, threshold, plateau_fraction,
                                              top["average_reward"] if given else None)
     return Summary(
@@ -337,6 +403,10 @@ def summarize(
         terminal_plateau=top["terminal"],
         success_window_mean=window["success"],
         average_reward_window_mean=window["average_reward"],
+        held_success_iterations=held_at,
+        held_success_episodes=episodes_at(episodes, held_at),
+        greedy_success_plateau=float(plateaus.greedy_success) if given else math.nan,
+        never_terminal_share=float(plateaus.never_terminal) if given else math.nan,
         success=success,
         average_reward=average,
         terminal=terminal,
@@ -346,14 +416,16 @@ def summarize(
 
 def batch_scalars(sums: dict, runs: np.ndarray, plateaus: dict, threshold: float = DEFAULT_THRESHOLD,
                   plateau_fraction: float = DEFAULT_PLATEAU_FRACTION, support_fraction: float = 0.0,
-                  keep=None, episode_sums=None, peak: int | None = None) -> tuple[dict, dict]:
+                  keep=None, episode_sums=None, peak: int | None = None,
+                  hold: int = DEFAULT_HOLD) -> tuple[dict, dict]:
     """:func:`summarize` of B sets of sums at once (e.g. bootstrap replicates), same definitions.
 
     Args:
         sums: ``{"success", "average_sum", "finished_runs": (B, T)}`` and, unless ``episode_sums``
             is given, ``"episodes": (B, T)``.
         runs: ``(B,)`` runs behind each set.
-        plateaus: ``{"success", "average_reward", "terminal": (B,)}`` asymptotes.
+        plateaus: ``{"success", "average_reward", "terminal": (B,)}`` asymptotes, optionally with
+            ``"greedy_success"`` and ``"never_terminal"`` (NaN when absent).
         keep: iteration indices of the curves to return (default all).
         episode_sums: ``f(indices (B,) int) -> (B,)`` episode sums of each set at its index (so
             that the ``(B, T)`` episode sums need not be built).
@@ -374,7 +446,8 @@ def batch_scalars(sums: dict, runs: np.ndarray, plateaus: dict, threshold: float
         average = np.where(supported(sums["finished_runs"], runs[:, None], support_fraction),
                            sums["average_sum"] / np.maximum(sums["finished_runs"], 1.0), np.nan)
     curves = {"success": sums["success"] / runs[:, None], "average_reward": average}
-    tops = {name: np.asarray(plateaus[name], dtype=float) for name in ("success", "average_reward", "terminal")}
+    tops = {name: np.asarray(plateaus[name], dtype=float) if name in plateaus else np.full(len(runs), np.nan)
+            for name in PLATEAU_NAMES}
     window = max(1, math.ceil(curves["success"].shape[1] * plateau_fraction))
 
     def window_mean(curve):
@@ -387,6 +460,7 @@ def batch_scalars(sums: dict, runs: np.ndarray, plateaus: dict, threshold: float
         reached = curves["success"] >= (threshold * tops["success"])[:, None]
     success_at = np.where(reached.any(axis=1) & np.isfinite(tops["success"]), np.argmax(reached, axis=1) + 1.0, np.nan)
     reward_at = convergence_iterations(curves["average_reward"], tops["average_reward"], threshold)
+    held_at = held_reaching(curves["success"], threshold * tops["success"], hold)
 
     def episodes(at):
         return np.where(np.isnan(at), np.nan, episode_sums(np.nan_to_num(at, nan=1).astype(int) - 1) / runs)
@@ -405,6 +479,10 @@ def batch_scalars(sums: dict, runs: np.ndarray, plateaus: dict, threshold: float
         "terminal_plateau": tops["terminal"],
         "success_window_mean": window_mean(curves["success"]),
         "average_reward_window_mean": window_mean(average),
+        "held_success_iterations": held_at,
+        "held_success_episodes": episodes(held_at),
+        "greedy_success_plateau": tops["greedy_success"],
+        "never_terminal_share": tops["never_terminal"],
     }
     keep = slice(None) if keep is None else keep
     return scalars, {"success": curves["success"][:, keep], "average_reward": average[:, keep]}

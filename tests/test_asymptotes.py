@@ -106,3 +106,22 @@ def test_lockstep_dp_equals_the_per_policy_dp_bit_for_bit(pattern, max_itr):
     assert np.array_equal(actual.view(np.int64), expected.view(np.int64))
     single = asymptotes.episode_statistics(pi[-1], chain, max_itr)
     assert single.average_reward.tobytes() == expected[-1, asymptotes.AVERAGE_REWARD].tobytes()
+
+
+def test_final_run_facts_greedy_success_and_never_terminal():
+    """Greedy success is the epsilon = 0 success (1 for a run that learned the plan, 0 for a fresh
+    Q-table whose greedy action loops); never-terminal marks the runs with no terminal outcome."""
+    chain = _chain("r3")
+    learned = train("q_learning", reward="r3", runs=3, iterations=3000, seed=1, gamma=0.9, model=MODEL)
+    facts = analysis.final_run_facts(learned, chain, 500, MODEL)
+    assert set(facts) == {"success", "average_reward", "terminal", "greedy_success", "never_terminal"}
+    exact = analysis.exact_success_probability(analysis.greedy_policy(learned.q), 0.0, 500, model=MODEL)
+    np.testing.assert_allclose(facts["greedy_success"], exact, atol=1e-9)
+    fresh = train("q_learning", reward="r3", runs=2, iterations=1, seed=1, model=MODEL)
+    np.testing.assert_array_equal(analysis.never_terminal(fresh), [1.0, 1.0])
+    episodes = learned.episodes()
+    reached = episodes.groupby("run")["reached_terminal"].any().reindex(range(3), fill_value=False)
+    np.testing.assert_array_equal(facts["never_terminal"], (~reached.to_numpy()).astype(float))
+    assert facts["never_terminal"].sum() == 1  # seed 1: one run of three never finishes (the check is not vacuous)
+    zero = analysis.final_greedy_success(fresh, chain, 500, MODEL)
+    np.testing.assert_array_equal(zero, [0.0, 0.0])  # ties go to the first action, which never finishes

@@ -90,9 +90,11 @@ def test_summarize_returns_a_typed_frozen_summary(tiny):
     assert metrics.SUMMARY_SCALARS == (
         "max_success_iterations", "max_success_episodes", "reward_convergence_iterations",
         "reward_convergence_episodes", "success_plateau", "max_average_reward", "average_reward_plateau",
-        "terminal_plateau", "success_window_mean", "average_reward_window_mean",
+        "terminal_plateau", "success_window_mean", "average_reward_window_mean", "held_success_iterations",
+        "held_success_episodes", "greedy_success_plateau", "never_terminal_share",
     )
-    assert metrics.ITERATION_SCALARS == ("max_success_iterations", "reward_convergence_iterations")
+    assert metrics.ITERATION_SCALARS == ("max_success_iterations", "reward_convergence_iterations",
+                                         "held_success_iterations")
     assert metrics.CURVE_NAMES == ("success", "average_reward", "terminal", "episodes")
     assert tuple(summary.scalars()) == metrics.SUMMARY_SCALARS and tuple(summary.curves()) == metrics.CURVE_NAMES
     assert summary.success_plateau == pytest.approx(np.mean([0.0, 0.5]))  # last 2 of 6 iterations
@@ -243,3 +245,30 @@ def test_reward_convergence_of_a_falling_curve_starts_from_its_early_maximum():
     curve = [np.nan, 1.0, 0.8, 0.5, 0.22, 0.2, 0.21]
     assert metrics.early_minimum(curve, top=0.2) == 1
     assert metrics.reward_convergence_iteration(curve, top=0.2) == 5
+
+
+def test_held_reaching_waits_until_the_curve_stays_above_its_level():
+    #        t: 1    2    3    4    5    6    7    8
+    curve = [0.0, 0.9, 0.5, 0.9, 0.9, 0.9, 0.4, 0.9]
+    assert metrics.first_reaching(curve, 0.8) == 2  # first touch
+    assert metrics.held_reaching(curve, 0.8, hold=1) == 2  # hold 1 is first touch
+    assert metrics.held_reaching(curve, 0.8, hold=3) == 4  # 4, 5, 6 stay above; 2 falls back at 3
+    assert np.isnan(metrics.held_reaching(curve, 0.8, hold=4))  # no four in a row inside the window
+    assert np.isnan(metrics.held_reaching(curve, 0.8, hold=9))  # longer than the window
+    rows = metrics.held_reaching(np.array([curve, [1.0] * 8]), np.array([0.8, 2.0]), hold=3)
+    assert rows[0] == 4 and np.isnan(rows[1])  # per-row levels; a level never reached is NaN
+    with pytest.raises(ValueError, match="hold must be an integer >= 1"):
+        metrics.held_reaching(curve, 0.8, hold=0)
+
+
+def test_summarize_reports_held_reaching_and_the_mechanism_plateaus(tiny):
+    plateaus = metrics.Plateaus(success=0.5, average_reward=0.1, terminal=0.5, greedy_success=0.75,
+                                never_terminal=0.25)
+    summary = metrics.summarize(tiny, threshold=1.0, plateaus=plateaus, hold=1)
+    assert summary.held_success_iterations == summary.max_success_iterations == 2  # hold 1 = first touch
+    # success [0, .5, .5, .5, 0, .5]: at the level for t = 2, 3, 4 (three in a row), then below at t = 5
+    assert metrics.summarize(tiny, threshold=1.0, plateaus=plateaus, hold=3).held_success_iterations == 2
+    held = metrics.summarize(tiny, threshold=1.0, plateaus=plateaus, hold=4)
+    assert held.held_success_iterations is None and held.held_success_episodes is None
+    assert (summary.greedy_success_plateau, summary.never_terminal_share) == (0.75, 0.25)
+    assert np.isnan(metrics.summarize(tiny).greedy_success_plateau)  # window means: not known

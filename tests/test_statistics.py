@@ -122,3 +122,67 @@ def test_max_average_reward_interval_contains_its_point():
     point = metrics.maximum(grouped.totals().curves(0.5)["average_reward"])
     low, high = stats.intervals["max_average_reward"]
     assert low <= point <= high and low < high
+
+
+def test_percentile_interval_is_extended_to_hold_its_point():
+    replicates = np.arange(100.0)  # percentile interval [2.475, 96.525]
+    low, high = statistics.percentile_interval(replicates)
+    assert statistics.percentile_interval(replicates, point=50.0) == (low, high)  # inside: unchanged
+    assert statistics.percentile_interval(replicates, point=99.5) == (low, 99.5)  # above: the top end moves
+    assert statistics.percentile_interval(replicates, point=-1.0) == (-1.0, high)
+    assert statistics.extended_side(replicates, 99.5) and not statistics.extended_side(replicates, 50.0)
+    assert statistics.percentile_interval(replicates, point=float("nan")) == (low, high)  # no point: plain
+
+
+def _pairwise_probability(x, y, margin):
+    wins = sum(1.0 if a > b + margin else 0.5 if abs(a - b) <= margin else 0.0 for a in x for b in y)
+    return wins / (len(x) * len(y))
+
+
+def test_probability_of_improvement_counts_differences_within_the_margin_as_ties():
+    x, y = [0.8714, 0.8710, 0.80], [0.8712, 0.7, 0.8714]
+    assert statistics.probability_of_improvement(x, y) == pytest.approx(_pairwise_probability(x, y, 0.0))
+    tied = statistics.probability_of_improvement(x, y, margin=0.01)
+    assert tied == pytest.approx(_pairwise_probability(x, y, 0.01))
+    assert tied != statistics.probability_of_improvement(x, y)  # 0.04 pp differences no longer decide
+    assert statistics.probability_of_improvement([0.87101], [0.87142], margin=0.01) == 0.5
+    with pytest.raises(ValueError, match="margin must be a number >= 0"):
+        statistics.probability_of_improvement(x, y, margin=-0.1)
+
+
+def test_probability_of_improvement_interval_replicates_are_the_pairwise_definition():
+    """Each replicate is P of the resampled runs: check one replicate's counts by brute force."""
+    rng = np.random.default_rng(4)
+    x, y = np.round(rng.normal(0.87, 0.01, 40), 3), np.round(rng.normal(0.868, 0.01, 30), 3)
+    for margin in (0.0, 0.0055):  # ties at margin 0 (rounded values); no difference on a margin boundary
+        p, low, high = statistics.probability_of_improvement_interval(x, y, samples=1, rng=np.random.default_rng(9),
+                                                                      margin=margin)
+        draw = np.random.default_rng(9)
+        cx = statistics.uniform_multinomial(draw, len(x), len(x), 1)[0]
+        cy = statistics.uniform_multinomial(draw, len(y), len(y), 1)[0]
+        replicate = _pairwise_probability(np.repeat(x, cx), np.repeat(y, cy), margin)
+        assert p == pytest.approx(_pairwise_probability(x, y, margin))
+        assert min(replicate, p) == pytest.approx(low) and max(replicate, p) == pytest.approx(high)
+
+
+def test_every_interval_of_the_harness_tables_holds_its_point(tmp_path):
+    """One test over every ``X``/``X_low``/``X_high`` column of Table 3, Table 4 and the
+    comparisons that a (small) harness run writes: no reported number lies outside its interval."""
+    import pandas as pd
+
+    from tableclean_suite.bench import run
+
+    out = tmp_path / "run"
+    assert run.main(["--runs", "40", "--iterations", "600", "--bootstrap-samples", "60", "--no-literature",
+                     "--out", str(out), "--fresh"]) == 0
+    checked = 0
+    for name in ("table3.csv", "table4.csv", "comparisons.csv"):
+        frame = pd.read_csv(out / name)
+        for column in frame.columns:
+            if f"{column}_low" not in frame.columns:
+                continue
+            value, low, high = (frame[c].astype(float) for c in (column, f"{column}_low", f"{column}_high"))
+            defined = value.notna() & low.notna()
+            assert ((low[defined] <= value[defined]) & (value[defined] <= high[defined])).all(), (name, column)
+            checked += int(defined.sum())
+    assert checked > 200  # the check is not vacuous

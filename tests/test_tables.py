@@ -97,7 +97,7 @@ def test_display_table3_pairs_ours_with_paper():
                         record("main", learner="sarsa", reward="r3")])
     shown = tables.display_table3(t3)
     row = shown.loc[("q_learning", "r3")]
-    assert tables.display_table3(t3).shape[1] == 14  # 5 quantities x (ours, paper) + 4 of ours alone
+    assert tables.display_table3(t3).shape[1] == 17  # 5 quantities x (ours, paper) + 7 of ours alone
     assert (row[("settled", tables.OURS)], row[(tables.DRIFT_TITLE, tables.OURS)]) == ("-", "-")  # not measured
     assert row[("reward conv. iterations", "ours")] == "-"
     assert row[("reward conv. iterations", "paper")] == 2350

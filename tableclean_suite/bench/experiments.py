@@ -341,7 +341,7 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     chunk = runs_per_chunk or chunk_runs(config.iterations)
     grouped = GroupedCurveSums.zeros(config.iterations, statistics.bootstrap_groups(config.runs, config.iterations))
     chain = asymptotes.EpisodeChain.build(model, cell.reward, transitions)
-    per_run = {name: [] for name in ("success", "average_reward", "terminal")}
+    per_run = {name: [] for name in metrics.PLATEAU_NAMES}
     replays_prefix = getattr(get_backend(config.backend), "deterministic_prefix", False)
     checkpoint = settling.checkpoint_iteration(config.iterations) if replays_prefix else 0
     drifts = []
@@ -363,9 +363,9 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
         if "physics" in result.info:
             physics_stats = _merge_stats(physics_stats, result.info["physics"])
         grouped.add(result)
-        final = analysis.final_asymptotes(result, chain, config.max_itr, model)
+        final = analysis.final_run_facts(result, chain, config.max_itr, model)
         for name, values in per_run.items():
-            values.append(getattr(final, name))
+            values.append(final[name])
         del result
         metrics_seconds += time.perf_counter() - started
         if checkpoint:
@@ -374,7 +374,7 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
             train_seconds += time.perf_counter() - started
             started = time.perf_counter()
             early_success = analysis.final_asymptotes(early, chain, config.max_itr, model).success
-            drifts.append(settling.behaviour_drift(final.success, early_success))
+            drifts.append(settling.behaviour_drift(final["success"], early_success))
             del early
             metrics_seconds += time.perf_counter() - started
     if physics_stats:
@@ -387,7 +387,7 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     cell_stats = statistics.cell_statistics(
         grouped, per_run, statistics.bootstrap_rng(config.seed, cell.label), config.threshold, config.plateau_fraction,
         config.support_fraction, config.bootstrap_samples, config.confidence,
-        drift=np.concatenate(drifts) if checkpoint else None, checkpoint=checkpoint,
+        drift=np.concatenate(drifts) if checkpoint else None, checkpoint=checkpoint, point=summary.scalars(),
     )
     return summary, cell_stats, train_seconds, metrics_seconds + time.perf_counter() - started
 

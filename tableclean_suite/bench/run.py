@@ -366,6 +366,7 @@ def _print_tables(config: RunConfig, table3, table4, paper_task: bool, compariso
     import pandas as pd
 
     from tableclean_suite.bench import tables
+    from tableclean_suite.metrics import DEFAULT_HOLD
 
     level = f"{100 * config.confidence:g}%"
     with pd.option_context("display.width", 250, "display.max_columns", 50, "display.max_rows", 500):
@@ -382,11 +383,12 @@ def _print_tables(config: RunConfig, table3, table4, paper_task: bool, compariso
               "figures depend on the window; see tableclean_suite.settling).")
         print(f"  [..] = {level} percentile bootstrap interval over runs ({config.bootstrap_samples} replicates; "
               "runs resampled in blocks, see tableclean_suite.bench.statistics).")
+        print(tables.table3_notes(config.threshold, DEFAULT_HOLD))
         print(tables.display_table3(table3).to_string(na_rep="-"))
         print(f"\nPer-run scores, interquartile mean over runs [{level} CI]:")
         print(tables.display_scores(table3).to_string(index=False))
         if comparisons is not None and len(comparisons):
-            print("\nProbability of improvement (a run of X beats a run of Y; 0.5 = no difference):")
+            print("\n" + tables.comparisons_title())
             print(tables.display_comparisons(comparisons).to_string(index=False))
         sweeps = tables.display_sweeps(table3)
         if len(sweeps):

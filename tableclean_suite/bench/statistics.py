@@ -21,9 +21,17 @@ percentile bootstrap interval over runs (``scipy.stats.bootstrap``).  Runs that 
 count as +infinity for the IQM of first-success iterations; the IQM is NaN when more than 25 %
 of the runs never succeed (it would rest on them).
 
-**Probability of improvement** of X over Y (rliable): P(x > y) + P(x = y) / 2 for a run x of X and
-a run y of Y (x < y when lower is better), with a stratified bootstrap interval (runs of X and of Y
-resampled separately).
+**Probability of improvement** of X over Y (rliable's, with a practical-equivalence margin m):
+P(x > y + m) + P(|x - y| <= m) / 2 for a run x of X and a run y of Y (signs flipped when lower is
+better), with a stratified bootstrap interval (runs of X and of Y resampled separately).  m is
+:data:`EQUIVALENCE_MARGINS`: one percentage point for success asymptotes, 0 for iteration counts.
+
+**Every interval holds its point by construction**: it is the percentile interval of the
+bootstrap replicates of the *same estimator* as the point (Table 3's numbers are recomputed from
+the resampled sums with :func:`tableclean_suite.metrics.batch_scalars`, the function whose
+unit-weight case is the point), extended to the point where the replicates lie wholly on one side
+of it (:func:`percentile_interval`).  Not BCa: BCa's bias correction can itself move both ends
+past the point when most replicates lie on one side, which is the case to be handled.
 """
 
 from __future__ import annotations
@@ -60,6 +68,11 @@ MIN_DEFINED = 0.5
 BAND_CURVES = ("success", "average_reward")
 #: Per-run scores: name -> whether higher is better.
 RUN_SCORES = {"success_asymptote": True, "first_success_iterations": False}
+#: Practical-equivalence margin of each per-run score for probabilities of improvement (score
+#: units): runs whose success asymptotes differ by at most one percentage point tie (the settling
+#: tolerance; the default cells' asymptotes differ by ~0.04 pp between converged runs, exploration
+#: noise, not learning); iteration counts are integers and tie only when equal.
+EQUIVALENCE_MARGINS = {"success_asymptote": 0.01, "first_success_iterations": 0.0}
 
 
 #: numpy's binomial sampler inverts the CDF when n * min(p, 1 - p) is at most this (else BTPE).
@@ -162,16 +175,34 @@ def bootstrap_rng(seed: int, label: str) -> np.random.Generator:
     return np.random.default_rng([int(seed), digest])
 
 
-def percentile_interval(samples, confidence: float = DEFAULT_CONFIDENCE) -> tuple[float, float]:
+def percentile_interval(samples, confidence: float = DEFAULT_CONFIDENCE, point: float | None = None
+                        ) -> tuple[float, float]:
     """``(low, high)``: the central ``confidence`` percentile interval of ``samples`` (NaNs ignored;
-    NaN bounds when fewer than :data:`MIN_DEFINED` of them are defined)."""
+    NaN bounds when fewer than :data:`MIN_DEFINED` of them are defined), extended to ``point``.
+
+    With ``point`` (the estimate the replicates bootstrap, computed by the same estimator) the
+    interval is the smallest one holding both the percentile interval and the point, so every
+    reported number lies inside its interval by construction.  The extension happens where the
+    replicates' distribution sits wholly on one side of the point (first-crossing times and the
+    episodes read off them are discrete and biased in resamples); it only widens the interval.
+    :func:`extended_side` says whether it did.
+    """
     samples = np.asarray(samples, dtype=float)
     defined = samples[~np.isnan(samples)]
     if len(samples) == 0 or len(defined) < MIN_DEFINED * len(samples):
         return float("nan"), float("nan")
     tail = 50.0 * (1.0 - confidence)
-    low, high = np.percentile(defined, [tail, 100.0 - tail])
-    return float(low), float(high)
+    low, high = (float(v) for v in np.percentile(defined, [tail, 100.0 - tail]))
+    if point is not None and np.isfinite(point):
+        low, high = min(low, float(point)), max(high, float(point))
+    return low, high
+
+
+def extended_side(samples, point, confidence: float = DEFAULT_CONFIDENCE) -> bool:
+    """Whether :func:`percentile_interval` had to extend the percentile interval of ``samples`` to
+    hold ``point`` (False when either is undefined)."""
+    low, high = percentile_interval(samples, confidence)
+    return bool(np.isfinite(point) and np.isfinite(low) and not low <= point <= high)
 
 
 def trim_mean(values: np.ndarray, proportion: float = IQM_TRIM, axis: int = -1) -> np.ndarray:
@@ -217,48 +248,61 @@ def iqm_interval(values, confidence: float = DEFAULT_CONFIDENCE, samples: int = 
         return point, float("nan"), float("nan")
     rng = rng if rng is not None else np.random.default_rng(0)
     resamples = values[rng.integers(0, len(values), (samples, len(values)))]
-    low, high = percentile_interval(_iqm_axis(resamples, axis=-1), confidence)
+    low, high = percentile_interval(_iqm_axis(resamples, axis=-1), confidence, point)
     return point, low, high
 
 
-def probability_of_improvement(x, y, higher_is_better: bool = True) -> float:
-    """P(a run of X beats a run of Y) + P(tie) / 2, over all pairs (rliable's definition)."""
+def _beaten_and_tied(x: np.ndarray, y_sorted: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per x: how many of the sorted y it beats by more than ``margin`` (``y < x - margin``) and
+    how many it does not (``y <= x + margin``): ``(below, not_above)`` index arrays into y."""
+    with np.errstate(invalid="ignore"):
+        below = np.searchsorted(y_sorted, x - margin, side="left")
+        not_above = np.searchsorted(y_sorted, x + margin, side="right")
+    return below, not_above
+
+
+def probability_of_improvement(x, y, higher_is_better: bool = True, margin: float = 0.0) -> float:
+    """P(a run of X beats a run of Y) + P(tie) / 2, over all pairs (rliable's definition for
+    ``margin = 0``).
+
+    With a practical-equivalence ``margin`` (>= 0, in the score's units) a pair is a tie when
+    ``|x - y| <= margin`` and x beats y only by more than that: differences nobody would act on
+    count as ties, not as wins.
+    """
+    if not margin >= 0:
+        raise ValueError(f"margin must be a number >= 0 (score units), got {margin!r}")
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if not higher_is_better:
         x, y = -x, -y
-    y = np.sort(y)
-    below = np.searchsorted(y, x, side="left")
-    not_above = np.searchsorted(y, x, side="right")
+    below, not_above = _beaten_and_tied(x, np.sort(y), margin)
     return float((below + 0.5 * (not_above - below)).sum() / (len(x) * len(y)))
 
 
 def probability_of_improvement_interval(x, y, higher_is_better: bool = True, confidence: float = DEFAULT_CONFIDENCE,
-                                        samples: int = DEFAULT_SAMPLES, rng: np.random.Generator | None = None):
-    """``(P, low, high)`` with a stratified percentile bootstrap (X's and Y's runs resampled apart).
+                                        samples: int = DEFAULT_SAMPLES, rng: np.random.Generator | None = None,
+                                        margin: float = 0.0):
+    """``(P, low, high)`` with a stratified percentile bootstrap (X's and Y's runs resampled apart),
+    P as :func:`probability_of_improvement` with the same ``margin``.
 
-    Replicates are computed from counts: both samples are ranked on their pooled distinct values,
-    each replicate draws multinomial counts of X's and of Y's runs, and P is the count-weighted
-    share of (x, y) pairs with x above y plus half the ties.
+    Replicates are computed from counts: each replicate draws multinomial counts of X's runs and
+    of Y's runs (:func:`uniform_multinomial`), and P is the count-weighted share of (x, y) pairs
+    where x beats y by more than ``margin``, plus half the pairs within it.  The interval holds P
+    (:func:`percentile_interval` with the point).
     """
     rng = rng if rng is not None else np.random.default_rng(0)
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
-    point = probability_of_improvement(x, y, higher_is_better)
+    point = probability_of_improvement(x, y, higher_is_better, margin)
     if not higher_is_better:
         x, y = -x, -y
-    values, ranks = np.unique(np.r_[x, y], return_inverse=True)
-    ranks = np.asarray(ranks).reshape(-1)
-    distinct = len(values)
-
-    def replicate_counts(rank):
-        counts = uniform_multinomial(rng, len(rank), len(rank), samples)
-        rows = np.repeat(np.arange(samples), len(rank))
-        return np.bincount(rows * distinct + np.tile(rank, samples), weights=counts.ravel(),
-                           minlength=samples * distinct).reshape(samples, distinct)
-
-    cx, cy = replicate_counts(ranks[:len(x)]), replicate_counts(ranks[len(x):])
-    below = np.cumsum(cy, axis=1) - cy
-    replicates = (cx * (below + 0.5 * cy)).sum(axis=1) / (len(x) * len(y))
-    low, high = percentile_interval(replicates, confidence)
+    order = np.argsort(y, kind="stable")
+    below, not_above = _beaten_and_tied(x, y[order], margin)
+    cx = uniform_multinomial(rng, len(x), len(x), samples).astype(np.float64)
+    cy = uniform_multinomial(rng, len(y), len(y), samples)[:, order].astype(np.float64)
+    cumulative = np.concatenate([np.zeros((samples, 1)), np.cumsum(cy, axis=1)], axis=1)  # (B, ny + 1)
+    wins = cumulative[:, below]
+    ties = cumulative[:, not_above] - wins
+    replicates = (cx * (wins + 0.5 * ties)).sum(axis=1) / (len(x) * len(y))
+    low, high = percentile_interval(replicates, confidence, point)
     return point, low, high
 
 
@@ -358,7 +402,7 @@ def replicate_scalars(grouped: GroupedCurveSums, asymptote_sums: dict, weights: 
 def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Generator, threshold: float,
                     plateau_fraction: float, support_fraction: float, samples: int = DEFAULT_SAMPLES,
                     confidence: float = DEFAULT_CONFIDENCE, drift: np.ndarray | None = None,
-                    checkpoint: int = 0) -> CellStatistics:
+                    checkpoint: int = 0, point: dict | None = None) -> CellStatistics:
     """Intervals, bands and per-run scores of one cell (see the module docstring).
 
     Args:
@@ -370,6 +414,9 @@ def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Gen
         drift: per-run behaviour drift ``(R,)`` (:func:`tableclean_suite.settling.behaviour_drift`),
             resampled with the same replicates as the scalars; None: not measured.
         checkpoint: the iteration ``drift`` compares with (>= 1 when ``drift`` is given).
+        point: ``{scalar: value}`` the point estimates (``Summary.scalars()``, the same estimator the
+            replicates recompute); each interval is extended to hold its point
+            (:func:`percentile_interval`).  None: plain percentile intervals.
     """
     iterations, groups = grouped.iterations, grouped.groups
     group_of = np.arange(grouped.runs) % groups
@@ -393,7 +440,9 @@ def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Gen
         if drift is not None:
             drift_sums = np.bincount(group_of, weights=np.asarray(drift, dtype=np.float64), minlength=groups)
             drift_replicates = (weights @ drift_sums) / (weights @ grouped.runs_per_group)
-    intervals = {name: percentile_interval(values, confidence) for name, values in scalars.items()}
+    point = point or {}
+    intervals = {name: percentile_interval(values, confidence, _number(point.get(name)))
+                 for name, values in scalars.items()}
     bands = {name: _bands(values, confidence) for name, values in curves.items()}
     first = grouped.first_success_iterations()
     runs = {"success_asymptote": np.asarray(per_run["success"], dtype=float), "first_success_iterations": first}
@@ -401,8 +450,14 @@ def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Gen
               for name, values in runs.items()}
     settled = Settling.not_measured()
     if drift is not None:
-        settled = Settling(float(np.mean(drift)), *percentile_interval(drift_replicates, confidence), int(checkpoint))
+        mean_drift = float(np.mean(drift))
+        settled = Settling(mean_drift, *percentile_interval(drift_replicates, confidence, mean_drift), int(checkpoint))
     return CellStatistics(intervals, bands, stride, runs, scores, settled)
+
+
+def _number(value) -> float | None:
+    """``value`` as a float, None when it is missing (None or NaN)."""
+    return None if value is None or value != value else float(value)
 
 
 def _bands(replicates: np.ndarray, confidence: float) -> tuple[np.ndarray, np.ndarray]:
@@ -431,8 +486,9 @@ def comparisons(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, sampl
 
     Returns:
         A DataFrame with columns ``comparison, learner_x, reward_x, learner_y, reward_y, score,
-        higher_is_better, probability_of_improvement, probability_of_improvement_low,
-        probability_of_improvement_high`` (X improves on Y with that probability):
+        higher_is_better, margin, probability_of_improvement, probability_of_improvement_low,
+        probability_of_improvement_high`` (X improves on Y by more than ``margin``, the score's
+        :data:`EQUIVALENCE_MARGINS` entry, with that probability; pairs within it count half):
         :func:`comparisons_frame` of :func:`comparison_rows`.
     """
     return comparisons_frame(comparison_rows(cells, confidence, samples, seed))
@@ -459,15 +515,16 @@ def comparison_rows(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, s
             for score, higher in RUN_SCORES.items():
                 a = np.where(np.isnan(x["runs"][score]), np.inf, x["runs"][score])
                 b = np.where(np.isnan(y["runs"][score]), np.inf, y["runs"][score])
-                p, low, high = probability_of_improvement_interval(a, b, higher, confidence, samples, rng)
+                margin = EQUIVALENCE_MARGINS[score]
+                p, low, high = probability_of_improvement_interval(a, b, higher, confidence, samples, rng, margin)
                 rows.append({"comparison": "reward" if same_learner else "learner",
                              "learner_x": x["learner"], "reward_x": x["reward"], "learner_y": y["learner"],
                              "reward_y": y["reward"], "score": score, "higher_is_better": higher,
-                             "probability_of_improvement": p, "probability_of_improvement_low": low,
+                             "margin": margin, "probability_of_improvement": p, "probability_of_improvement_low": low,
                              "probability_of_improvement_high": high})
     return rows
 
 
 COMPARISON_COLUMNS = ("comparison", "learner_x", "reward_x", "learner_y", "reward_y", "score", "higher_is_better",
-                      "probability_of_improvement", "probability_of_improvement_low",
+                      "margin", "probability_of_improvement", "probability_of_improvement_low",
                       "probability_of_improvement_high")

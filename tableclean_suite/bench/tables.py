@@ -25,7 +25,7 @@ from tableclean_suite.bench.paper_data import (  # noqa: F401  (re-exported)
     PAPER_TABLE4_COLUMNS,
     SOURCE_QUOTED,
 )
-from tableclean_suite.bench.statistics import RUN_SCORES
+from tableclean_suite.bench.statistics import EQUIVALENCE_MARGINS, RUN_SCORES
 from tableclean_suite.metrics import ITERATION_SCALARS, SUMMARY_SCALARS
 
 #: Identifying columns of a cell record, in table order.
@@ -40,7 +40,8 @@ CURVE_METRICS = ("success", "average_reward", "episodes")
 PAPER_COLUMNS = tuple(c for c in PAPER_TABLE3.columns if c != "reward")
 
 #: Scalars a cell record may lack (added after records of this shape existed; NaN when missing).
-OPTIONAL_SCALARS = ("success_window_mean", "average_reward_window_mean")
+OPTIONAL_SCALARS = ("success_window_mean", "average_reward_window_mean", "held_success_iterations",
+                    "held_success_episodes", "greedy_success_plateau", "never_terminal_share")
 
 #: Suffixes of an interval's bounds, next to the number they bound.
 LOW, HIGH = "_low", "_high"
@@ -66,6 +67,15 @@ TABLE4_COLUMNS = (PAPER_TABLE4_COLUMNS[0], *(c for name in TABLE4_NUMBERS for c 
 
 #: Title of the behaviour drift in the printed Table 3 (percentage points of success).
 DRIFT_TITLE = "drift pp"
+
+#: Printed Table 3 columns beside the paper's definitions (no paper value): title, column, digits,
+#: scale.  Held reaching (:func:`tableclean_suite.metrics.held_reaching`), the final greedy
+#: policies' success and the share of runs that never reached the terminal state.
+HELD_AND_MECHANISM_COLUMNS = (
+    ("held success iterations", "held_success_iterations", 0, 1.0),
+    ("greedy success %", "greedy_success_plateau", 2, 100.0),
+    ("never terminal %", "never_terminal_share", 1, 100.0),
+)
 
 #: Label of our numbers in the printed Table 3.
 OURS = "ours"
@@ -249,6 +259,9 @@ def display_table3(table: pd.DataFrame) -> pd.DataFrame:
                                           zip(rows[ours], rows[ours + LOW], rows[ours + HIGH])]
         paper_values = (scale * rows[paper].astype(float)).round(digits)
         data[(title, "paper")] = paper_values.astype("Int64") if digits == 0 else paper_values
+    for title, column, digits, scale in HELD_AND_MECHANISM_COLUMNS:
+        data[(title, OURS)] = [with_interval(v, lo, hi, digits, scale) for v, lo, hi in
+                               zip(rows[column], rows[column + LOW], rows[column + HIGH])]
     for title, column in (("max avg reward", "max_average_reward"), ("avg reward plateau", "average_reward_plateau")):
         data[(title, OURS)] = [with_interval(v, lo, hi, 3) for v, lo, hi in
                                           zip(rows[column], rows[column + LOW], rows[column + HIGH])]
@@ -258,6 +271,22 @@ def display_table3(table: pd.DataFrame) -> pd.DataFrame:
     frame = pd.DataFrame(data)
     frame.index = pd.MultiIndex.from_arrays([rows["learner"], rows["reward"]], names=["learner", "reward"])
     return _dashes(frame)
+
+
+def table3_notes(threshold: float, hold: int) -> str:
+    """The printed Table 3's legend for the columns beside the paper's definitions (two lines)."""
+    return (f"  held success iterations = first iteration after which the success curve stays >= "
+            f"{100 * threshold:g}% of the plateau for {hold} iterations (the paper-definition column, max success "
+            "iterations, is the first touch); greedy success % = the final greedy policies' exact success "
+            "(epsilon = 0);\n  never terminal % = runs that never reached the terminal state in the window.  Every "
+            "interval holds its point (same-estimator percentile bootstrap, extended to the point where needed).")
+
+
+def comparisons_title() -> str:
+    """The heading of the printed probabilities of improvement, with their equivalence margins."""
+    margins = ", ".join(f"{score} {margin:g}" for score, margin in EQUIVALENCE_MARGINS.items())
+    return (f"Probability of improvement (a run of X beats a run of Y by more than the margin; pairs within it "
+            f"count half; 0.5 = no difference; margins: {margins}):")
 
 
 def display_scores(table: pd.DataFrame) -> pd.DataFrame:
@@ -315,6 +344,7 @@ def display_sweeps(table: pd.DataFrame) -> pd.DataFrame:
             "conv_eps": rows["reward_convergence_episodes"].round(1),
             "succ_itr [95% CI]": _intervals(rows, "max_success_iterations", 0),
             "succ_eps": rows["max_success_episodes"].round(1),
+            "held_itr [95% CI]": _intervals(rows, "held_success_iterations", 0),
             "success_% [95% CI]": _intervals(rows, "success_plateau", 2, 100.0),
             "max_avg_r": rows["max_average_reward"].round(3),
             "settled": _settled_marks(rows["settled"]),
