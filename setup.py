@@ -40,8 +40,11 @@ setup(
     ],
     extras_require={
         # dev: everything the test suite exercises (wheel: the install test builds offline; optuna: tuning;
-        # h5py: demonstration datasets; ray: the executor tests start a local Ray on loopback)
-        "dev": ["pytest", "wheel", "optuna", "h5py", "ray"],
+        # h5py: demonstration datasets; ray: the executor tests start a local Ray on loopback; filelock,
+        # psutil: file locks and the memory check; the docs extra: tests/test_docs.py builds the site)
+        "dev": ["pytest", "wheel", "optuna", "h5py", "ray", "filelock", "psutil",
+                "mkdocs", "mkdocs-material", "mkdocstrings[python]"],
+        "docs": ["mkdocs", "mkdocs-material", "mkdocstrings[python]"],  # mkdocs serve / mkdocs build --strict
         "video": ["imageio", "imageio-ffmpeg", "moviepy"],  # moviepy: Gymnasium's RecordVideo
         "tune": ["optuna"],  # python -m benchmarks.tune
         "demos": ["h5py"],  # python -m benchmarks.collect_demos, tableclean_suite.demos
