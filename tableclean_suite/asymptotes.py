@@ -29,6 +29,11 @@ non-terminal s, so the successor pair of (s, s_prev) under (action a, successor 
 ``(next_state[s, a, k], s)`` whatever s_prev; only the reward depends on s_prev.  Patterns
 without a looping penalty use the state alone.
 
+**A looping rule with a longer memory** (``RewardPattern.looping_memory`` other than the paper's 2,
+e.g. ``r4_cycle``) makes the reward depend on the episode's whole history, which this DP does not
+carry: the chain then has NaN rewards, so ``average_reward`` is NaN (unknown, not guessed) while
+``success``, ``terminal`` and ``length``, which do not depend on the reward, stay exact.
+
 **The DP** is a forward pass over episode steps l = 1 .. max_itr carrying, per (pair, clean
 flag), the probability of being there still in the episode and the expected return so far on
 that event; an episode ending at step l adds ``return / l`` to E[return / length].  The pass
@@ -112,7 +117,8 @@ class EpisodeChain:
         next_state, outcome = table.next_state.astype(np.int64), table.outcome.astype(np.int64)
         n_states = next_state.shape[0]
         starts = np.array([s.index for s in model.start_states()], dtype=np.int64)
-        looping = pattern.looping_code != LOOPING_OFF
+        looping = pattern.looping_code != LOOPING_OFF and pattern.paper_looping
+        unknown_reward = pattern.looping_code != LOOPING_OFF and not pattern.paper_looping
         continuing = (probability > 0) & (outcome != _TERMINAL)
         if looping:
             sources = np.broadcast_to(np.arange(n_states)[:, None, None], next_state.shape)
@@ -134,6 +140,8 @@ class EpisodeChain:
             penalty = float(pattern.looping_penalty)
             reward_table = np.where(loops, reward_table + penalty if pattern.looping_code == LOOPING_ADD else penalty,
                                     reward_table)
+        if unknown_reward:  # the reward depends on the whole episode so far: no exact average reward
+            reward_table = np.full(reward_table.shape, np.nan)
         return cls(pair_state.astype(np.int64), next_pair, probability, outcome, reward_table, start_pairs)
 
 

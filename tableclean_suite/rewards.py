@@ -40,6 +40,13 @@ class CombineMode(str, enum.Enum):
 #: Integer codes of the looping rule for compiled learners.
 LOOPING_OFF, LOOPING_REPLACE, LOOPING_ADD = 0, 1, 2
 
+#: The paper's looping memory: a routine step is looping when its next state is one of the last
+#: two states of the episode, s_t (staying put) or s_{t-1} (switching back).
+PAPER_LOOPING_MEMORY = 2
+#: ``looping_memory`` meaning the whole episode so far: any routine step that returns to a state
+#: the episode already visited (it completes a cycle, of any length).
+EPISODE_LOOPING_MEMORY = 0
+
 
 @dataclass(frozen=True)
 class RewardPattern:
@@ -59,6 +66,12 @@ class RewardPattern:
             the state unchanged; ``None`` disables it.
         looping_mode: ``"replace"`` (default: the penalty is given instead of the
             routine/ineffective value) or ``"add"`` (added to it).
+        looping_memory: how far back the looping rule looks, in states of the episode: a
+            routine/ineffective step is looping when its next state is one of the episode's last
+            ``looping_memory`` states s_t, s_{t-1}, ..., s_{t-k+1} (an int >= 2; 2, the default,
+            is the paper's rule), or any state the episode visited (``EPISODE_LOOPING_MEMORY``, 0).
+            With N >= 3 segments MOVE goes round a ring of N arm positions, which the paper's
+            rule never sees; memory 0 catches every cycle.
         terminal_mode: ``"replace"`` (default: the terminal reward replaces the
             relevant-cleaning reward on the final clean) or ``"add"``.
         description: one line for tables and ``--describe``.
@@ -77,12 +90,13 @@ class RewardPattern:
     looping_mode: str = CombineMode.REPLACE.value
     terminal_mode: str = CombineMode.REPLACE.value
     description: str = field(default="", compare=False)
+    looping_memory: int = PAPER_LOOPING_MEMORY
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not _NAME_PATTERN.match(self.name):
             raise ValueError(f"reward pattern name must be lower_snake (e.g. 'r5' or 'my_reward'), got {self.name!r}")
         for f in fields(self):
-            if f.name in ("name", "description", "looping_mode", "terminal_mode"):
+            if f.name in ("name", "description", "looping_mode", "terminal_mode", "looping_memory"):
                 continue
             value = getattr(self, f.name)
             if value is None and f.name in ("ineffective", "looping_penalty"):
@@ -101,6 +115,13 @@ class RewardPattern:
                 raise ValueError(
                     f"reward pattern {self.name!r}: unknown {mode_field} {value!r}; allowed: {allowed}"
                 ) from None
+        memory = self.looping_memory
+        if isinstance(memory, bool) or not isinstance(memory, (int, np.integer)) or not (
+                memory == EPISODE_LOOPING_MEMORY or memory >= PAPER_LOOPING_MEMORY):
+            raise ValueError(f"reward pattern {self.name!r}: looping_memory must be an integer >= "
+                             f"{PAPER_LOOPING_MEMORY} (states of the episode) or {EPISODE_LOOPING_MEMORY} (the whole "
+                             f"episode), got {memory!r}")
+        object.__setattr__(self, "looping_memory", int(memory))
         object.__setattr__(self, "_values", tuple(self._compute_outcome_values()))
 
     # -- values ---------------------------------------------------------------
@@ -131,24 +152,48 @@ class RewardPattern:
             return LOOPING_OFF
         return LOOPING_ADD if self.looping_mode == CombineMode.ADD.value else LOOPING_REPLACE
 
+    @property
+    def paper_looping(self) -> bool:
+        """Whether the looping rule (if any) is the paper's: memory of s_t and s_{t-1} only."""
+        return self.looping_memory == PAPER_LOOPING_MEMORY
+
     @staticmethod
     def is_looping(outcome: int, state: int, next_state: int, previous_state: int) -> bool:
-        """Whether a transition is a loop: a routine action returning to s_{t-1} or staying put.
+        """Whether a transition is a loop by the paper's rule: a routine action returning to
+        s_{t-1} or staying put.
 
         States are codes; ``previous_state`` is -1 at the first step of an episode.
         """
         return int(outcome) in LOOPABLE_OUTCOMES and (next_state == previous_state or next_state == state)
 
-    def reward(self, outcome: int, state: int, next_state: int, previous_state: int = -1) -> float:
+    def loops(self, outcome: int, next_state: int, history) -> bool:
+        """Whether a transition is a loop by this pattern's memory: a routine action whose next
+        state is among the last ``looping_memory`` states of ``history`` (the episode's states
+        s_0 .. s_t, s_t last; all of them for ``EPISODE_LOOPING_MEMORY``)."""
+        recent = history if self.looping_memory == EPISODE_LOOPING_MEMORY else history[-self.looping_memory:]
+        return int(outcome) in LOOPABLE_OUTCOMES and next_state in recent
+
+    def reward(self, outcome: int, state: int, next_state: int, previous_state: int = -1, history=None) -> float:
         """The reward of one transition (pure).
 
         Args:
             outcome: the :class:`Outcome` of the action.
             state, next_state: state codes s_t and s_{t+1}.
             previous_state: s_{t-1}, or -1 at an episode's first step.
+            history: the episode's states s_0 .. s_t (s_t last); needed when the pattern's
+                ``looping_memory`` is not the paper's (which ``previous_state`` covers).
         """
         value = self._values[int(outcome)]
-        if self.looping_penalty is not None and self.is_looping(outcome, state, next_state, previous_state):
+        if self.looping_penalty is None:
+            return value
+        if self.paper_looping:
+            looping = self.is_looping(outcome, state, next_state, previous_state)
+        elif history is None:
+            raise ValueError(f"reward pattern {self.name!r} looks back {self.looping_memory or 'the whole episode'} "
+                             "states for its looping penalty: pass history= (the episode's states so far)")
+        else:
+            looping = self.loops(outcome, next_state, history)
+        if looping:
             value = value + self.looping_penalty if self.looping_code == LOOPING_ADD else self.looping_penalty
         return value
 
@@ -185,7 +230,16 @@ PAPER_REWARD_PATTERNS = (
     ),
 )
 
-_REGISTRY: Registry[RewardPattern] = Registry("reward pattern", RewardPattern, PAPER_REWARD_PATTERNS)
+#: r4 with the looping rule for any N (not the paper's): the penalty for every routine step that
+#: returns to a state the episode already visited, so a MOVE round the ring of N >= 3 segments
+#: is caught too.  Registered beside the paper's patterns; the paper's r4 is unchanged.
+R4_CYCLE = RewardPattern(
+    "r4_cycle", TERMINAL_REWARD, RELEVANT_CLEAN_REWARD, SMALL_PENALTY, SMALL_INCENTIVE, IMPROPER_PENALTY,
+    looping_penalty=SMALL_PENALTY, looping_memory=EPISODE_LOOPING_MEMORY,
+    description="r4 with the looping penalty for any return to a state visited in the episode (any N)",
+)
+
+_REGISTRY: Registry[RewardPattern] = Registry("reward pattern", RewardPattern, (*PAPER_REWARD_PATTERNS, R4_CYCLE))
 
 
 def register_reward_pattern(pattern: RewardPattern, overwrite: bool = False) -> RewardPattern:

@@ -125,3 +125,11 @@ def test_final_run_facts_greedy_success_and_never_terminal():
     assert facts["never_terminal"].sum() == 1  # seed 1: one run of three never finishes (the check is not vacuous)
     zero = analysis.final_greedy_success(fresh, chain, 500, MODEL)
     np.testing.assert_array_equal(zero, [0.0, 0.0])  # ties go to the first action, which never finishes
+
+
+def test_a_longer_looping_memory_leaves_the_average_reward_unknown_and_the_success_exact():
+    q = train("q_learning", reward="r4", runs=2, iterations=800, seed=2, model=MODEL).q
+    paper, cycle = (asymptotes.greedy_asymptotes(q, 0.1, _chain(name), 500) for name in ("r4", "r4_cycle"))
+    np.testing.assert_allclose(paper.success, cycle.success, rtol=1e-12)  # pair chain vs state chain
+    np.testing.assert_allclose(paper.length, cycle.length, rtol=1e-12)
+    assert np.isnan(cycle.average_reward).all() and np.isfinite(paper.average_reward).all()

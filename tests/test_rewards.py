@@ -1,5 +1,6 @@
 """Reward patterns: Table 2 values for every outcome, the looping penalty, the registry."""
 
+import numpy as np
 import pytest
 
 from tableclean_suite.rewards import RewardPattern, get_reward_pattern, register_reward_pattern, reward_pattern_names
@@ -77,3 +78,43 @@ def test_invalid_patterns_are_rejected(kwargs, message):
     fields.update(kwargs)
     with pytest.raises(ValueError, match=message):
         RewardPattern(**fields)
+
+
+def test_looping_memory_catches_a_ring_the_paper_rule_misses():
+    from tableclean_suite.rewards import (EPISODE_LOOPING_MEMORY, PAPER_LOOPING_MEMORY, R4_CYCLE, SMALL_INCENTIVE,
+                                          SMALL_PENALTY)
+
+    r4, routine = get_reward_pattern("r4"), int(Outcome.ROUTINE)
+    assert r4.looping_memory == PAPER_LOOPING_MEMORY and R4_CYCLE.looping_memory == EPISODE_LOOPING_MEMORY
+    ring = [10, 11, 12]  # three MOVEs round three arm positions: 10 -> 11 -> 12 -> 10
+    assert r4.reward(routine, 12, 10, previous_state=11) == SMALL_INCENTIVE  # s_{t+1} = s_{t-2}: not seen
+    assert R4_CYCLE.reward(routine, 12, 10, 11, history=ring) == SMALL_PENALTY
+    assert R4_CYCLE.reward(routine, 12, 13, 11, history=ring) == SMALL_INCENTIVE  # a new state: no loop
+    assert R4_CYCLE.reward(int(Outcome.RELEVANT_CLEAN), 12, 10, 11, history=ring) == r4.relevant_clean
+    three = RewardPattern("ring3", 1, 1, -0.01, 0.01, -1, looping_penalty=-0.5, looping_memory=3)
+    assert three.reward(routine, 12, 10, 11, history=ring) == -0.5  # s_{t-2} is within 3 states
+    assert three.reward(routine, 12, 10, 11, history=[10, 9, 11, 12]) == 0.01  # 4 states back: outside
+    with pytest.raises(ValueError, match="pass history="):
+        R4_CYCLE.reward(routine, 12, 10, 11)
+    with pytest.raises(ValueError, match="looping_memory must be an integer >= 2"):
+        RewardPattern("bad_memory", 1, 1, -0.01, 0.01, -1, looping_penalty=-0.01, looping_memory=1)
+
+
+@pytest.mark.parametrize("learner", ["q_learning", "sarsa"])
+@pytest.mark.parametrize("memory", [0, 3])
+def test_compiled_equals_plain_loop_with_a_longer_looping_memory(learner, memory):
+    """The compiled kernel's looping memory and the reference loop's history give the same runs
+    (three segments, so MOVE goes round a ring the paper's rule does not see)."""
+    from tableclean_suite.learners import train
+    from tableclean_suite.task import TaskModel, TaskSpec
+
+    pattern = RewardPattern(f"ring_memory_{memory}", 1, 1, -0.01, 0.01, -1, looping_penalty=-0.01,
+                            looping_memory=memory)
+    model = TaskModel(spec=TaskSpec("ring_three", segments=3, objects=1))
+    kwargs = dict(runs=3, iterations=600, seed=5, model=model)
+    fast = train(learner, pattern, **kwargs)
+    plain = train(learner, pattern, engine="reference", **kwargs)
+    for name in ("rewards", "outcomes", "states", "actions", "episode_end", "q"):
+        np.testing.assert_array_equal(getattr(fast, name), getattr(plain, name), err_msg=name)
+    paper_rule = train(learner, RewardPattern("ring_paper", 1, 1, -0.01, 0.01, -1, looping_penalty=-0.01), **kwargs)
+    assert (fast.rewards == -0.01).sum() > (paper_rule.rewards == -0.01).sum()  # it penalises more loops

@@ -122,6 +122,7 @@ class TableBackend:
             hi = min(lo + RUNS_PER_CHUNK, job.runs)
             train_batch(
                 table.next_state, table.outcome, table.cumulative, starts, values, loop_value, job.reward.looping_code,
+                job.reward.looping_memory,
                 learner.target_code, learner.on_policy, learner.method, learner_parameters, job.alpha, job.gamma,
                 learner.exploration.code, explore_parameters, learner.affordance_code, afforded, advisor, advice,
                 job.max_itr,

@@ -76,6 +76,7 @@ from tableclean_suite.learners.rules import (
     q_learning_target,
     softmax_expected_sarsa_target,
 )
+from tableclean_suite.rewards import PAPER_LOOPING_MEMORY
 from tableclean_suite.task import Outcome
 
 #: Codes of ``episode_end`` in training records.
@@ -109,6 +110,26 @@ def loop_adjusted_reward(reward, outcome, state, next_state, previous_state, loo
     if outcome != _ROUTINE and outcome != _INEFFECTIVE:
         return reward
     if next_state != previous_state and next_state != state:
+        return reward
+    if loop_mode == _LOOPING_ADD:
+        return reward + loop_value
+    return loop_value
+
+
+@numba.njit(cache=True)
+def memory_adjusted_reward(reward, outcome, next_state, entered, t, episode_start, memory, loop_value, loop_mode):
+    """Apply a looping penalty that looks back ``memory`` states (0: the whole episode).
+
+    ``entered[s]`` is the iteration at which state s was last entered (the current state s_t at
+    ``t``), so s_{t+1} is among the episode's last ``memory`` states s_t .. s_{t-memory+1} when
+    ``entered[s_{t+1}] > t - memory`` and it was entered in this episode (>= ``episode_start``).
+    """
+    if loop_mode == 0:
+        return reward
+    if outcome != _ROUTINE and outcome != _INEFFECTIVE:
+        return reward
+    last = entered[next_state]
+    if last < episode_start or (memory != 0 and last <= t - memory):
         return reward
     if loop_mode == _LOOPING_ADD:
         return reward + loop_value
@@ -286,6 +307,7 @@ def train_batch(
     outcome_values,
     loop_value,
     loop_mode,
+    loop_memory,
     target_code,
     on_policy,
     method,
@@ -316,6 +338,8 @@ def train_batch(
         starts: ``(n_starts,)`` int64 start states, picked uniformly per episode.
         outcome_values: ``(n_outcomes,)`` float64 reward per outcome.
         loop_value, loop_mode: looping penalty and its mode (0 off, 1 replace, 2 add).
+        loop_memory: states of the episode the looping rule looks back (``RewardPattern.looping_memory``:
+            2 = the paper's s_t and s_{t-1}; 0 = the whole episode).
         target_code: the built-in learner's target code (``rules.Q_LEARNING_TARGET``, ...);
             ignored by a :func:`user_train_batch` copy, which calls its own target.
         on_policy: choose the next action before the update and take it (SARSA).
@@ -354,7 +378,10 @@ def train_batch(
     learning_affordances = affordance == AFFORD_LEARNED
     afforded_max = affordance != AFFORD_NONE and target_code == Q_LEARNING_TARGET
     softmax_expected = explore_code == SOFTMAX_CODE and target_code == EXPECTED_SARSA_TARGET
+    long_memory = loop_mode != 0 and loop_memory != PAPER_LOOPING_MEMORY
     for r in numba.prange(n_runs):
+        entered = np.full(n_states if long_memory else 0, -1, dtype=np.int64)
+        episode_start = 0
         key = keys[r]
         side_key = lane_key(key, LANE_LEARNER)
         planning_key = lane_key(key, LANE_PLANNING)
@@ -380,6 +407,7 @@ def train_batch(
                 previous = NO_STATE
                 pending = NO_STATE
                 length = 0
+                episode_start = t
                 if traced:
                     n_pairs = clear_traces(traces, pairs, n_pairs)
             if pending != NO_STATE:
@@ -392,9 +420,14 @@ def train_batch(
                 k = sample_index(cumulative_table[state, action], uniform(key, t, STREAM_TRANSITION))
             nxt = next_state_table[state, action, k]
             outcome = outcome_table[state, action, k]
-            reward = loop_adjusted_reward(
-                outcome_values[outcome], outcome, state, nxt, previous, loop_value, loop_mode
-            )
+            if long_memory:
+                entered[state] = t
+                reward = memory_adjusted_reward(outcome_values[outcome], outcome, nxt, entered, t, episode_start,
+                                                loop_memory, loop_value, loop_mode)
+            else:
+                reward = loop_adjusted_reward(
+                    outcome_values[outcome], outcome, state, nxt, previous, loop_value, loop_mode
+                )
             length += 1
             terminal = outcome == _TERMINAL
             if counting:

@@ -364,15 +364,18 @@ def train_run(
     record["rewards"] = np.zeros(iterations, dtype=np.float64)
     state = previous = pending = NO_STATE
     length = 0
+    history: list[int] = []  # the episode's states s_0 .. s_t, for a looping rule that looks further back
     for t in range(iterations):
         if state == NO_STATE:
             state = env.reset(uniform_py(key, t, STREAM_START))
             previous = pending = NO_STATE
             length = 0
+            history = []
             agent.begin_episode()
+        history.append(state)
         action = pending if pending != NO_STATE else agent.act(state, t)
         nxt, outcome = env.step(state, action, uniform_py(key, t, STREAM_TRANSITION))
-        r = reward.reward(outcome, state, nxt, previous)
+        r = reward.reward(outcome, state, nxt, previous, history)
         length += 1
         terminal = outcome == Outcome.TERMINAL
         agent.visits[state] += 1
