@@ -1,8 +1,8 @@
-"""``python -m benchmarks.collect_demos``: entry point of :mod:`tableclean_suite.bench.collect_demos` (kept for the checkout)."""
+"""``python -m benchmarks.collect_demos``: ``tableclean-bench demos`` (kept for the checkout)."""
 
 import sys
 
-from tableclean_suite.bench.collect_demos import main
+from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_alias("demos", "python -m benchmarks.collect_demos"))

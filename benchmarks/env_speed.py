@@ -1,6 +1,9 @@
-"""``python -m benchmarks.env_speed``: entry point of :mod:`tableclean_suite.bench.env_speed` (kept for the checkout)."""
+"""``python -m benchmarks.env_speed``: ``tableclean-bench speed --sections environment``,
+with the old command's flags (kept for the checkout)."""
 
-from tableclean_suite.bench.env_speed import main
+import sys
+
+from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_alias("speed", "python -m benchmarks.env_speed", alias="env_speed"))

@@ -1,8 +1,9 @@
-"""``python -m benchmarks.learner_speed``: entry point of :mod:`tableclean_suite.bench.learner_speed` (kept for the checkout)."""
+"""``python -m benchmarks.learner_speed``: ``tableclean-bench speed --sections learners``,
+with the old command's flags (kept for the checkout)."""
 
 import sys
 
-from tableclean_suite.bench.learner_speed import main
+from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_alias("speed", "python -m benchmarks.learner_speed", alias="learner_speed"))

@@ -1,8 +1,8 @@
-"""``python -m benchmarks.policy_analysis``: entry point of :mod:`tableclean_suite.bench.policy_analysis` (kept for the checkout)."""
+"""``python -m benchmarks.policy_analysis``: ``tableclean-bench policy-analysis`` (kept for the checkout)."""
 
 import sys
 
-from tableclean_suite.bench.policy_analysis import main
+from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_alias("policy-analysis", "python -m benchmarks.policy_analysis"))

@@ -1,11 +1,8 @@
-"""``python -m benchmarks.render_scene``: entry point of :mod:`tableclean_suite.bench.render_scene` (kept for the checkout)."""
+"""``python -m benchmarks.render_scene``: ``tableclean-bench render`` (kept for the checkout)."""
 
-import os
+import sys
 
-# MuJoCo picks its GL backend when first imported, and importing the package imports it.
-os.environ.setdefault("MUJOCO_GL", "egl")
-
-from tableclean_suite.bench.render_scene import main  # noqa: E402
+from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_alias("render", "python -m benchmarks.render_scene"))

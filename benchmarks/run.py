@@ -1,8 +1,8 @@
-"""``python -m benchmarks.run``: entry point of :mod:`tableclean_suite.bench.run` (kept for the checkout)."""
+"""``python -m benchmarks.run``: ``tableclean-bench run`` (kept for the checkout)."""
 
 import sys
 
-from tableclean_suite.bench.run import main
+from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_alias("run", "python -m benchmarks.run"))

@@ -1,8 +1,8 @@
-"""``python -m benchmarks.scaling``: entry point of :mod:`tableclean_suite.bench.scaling` (kept for the checkout)."""
+"""``python -m benchmarks.scaling``: ``tableclean-bench scaling`` (kept for the checkout)."""
 
 import sys
 
-from tableclean_suite.bench.scaling import main
+from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_alias("scaling", "python -m benchmarks.scaling"))

@@ -1,8 +1,9 @@
-"""``python -m benchmarks.spec_speed``: entry point of :mod:`tableclean_suite.bench.spec_speed` (kept for the checkout)."""
+"""``python -m benchmarks.spec_speed``: ``tableclean-bench speed --sections specs,cold-start``,
+with the old command's flags (kept for the checkout)."""
 
 import sys
 
-from tableclean_suite.bench.spec_speed import main
+from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_alias("speed", "python -m benchmarks.spec_speed", alias="spec_speed"))

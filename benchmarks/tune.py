@@ -1,8 +1,8 @@
-"""``python -m benchmarks.tune``: entry point of :mod:`tableclean_suite.bench.tune` (kept for the checkout)."""
+"""``python -m benchmarks.tune``: ``tableclean-bench tune`` (kept for the checkout)."""
 
 import sys
 
-from tableclean_suite.bench.tune import main
+from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_alias("tune", "python -m benchmarks.tune"))

@@ -90,4 +90,4 @@ def test_console_script_runs_from_the_installed_package(installed):
     _check_outputs(out, site, env, elsewhere)
     usage = subprocess.run([sys.executable, str(script), "--rewards", "r9"], cwd=elsewhere, env=env,
                            capture_output=True, text=True, timeout=120)
-    assert usage.returncode == 2 and usage.stderr.startswith("usage: tableclean-bench")
+    assert usage.returncode == 2 and usage.stderr.startswith("tableclean-bench: error:") and "r9" in usage.stderr

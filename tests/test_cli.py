@@ -173,12 +173,22 @@ def test_describe_prints_model_analysis():
         (["--executor", "ray", "--workers", "0"], "--workers"),
     ],
 )
-def test_bad_input_exits_2_without_traceback(args, named, tmp_path):
-    result = cli(*args, "--out", str(tmp_path / "never"))
-    assert result.returncode == 2
-    assert named in result.stderr
-    assert "Traceback" not in result.stderr
+def test_bad_input_exits_2_with_one_line(args, named, tmp_path, capsys):
+    from tableclean_suite.bench.run import main
+
+    with pytest.raises(SystemExit) as stop:
+        main([*args, "--out", str(tmp_path / "never")])
+    assert stop.value.code == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("tableclean-bench run: error:") and named in line
     assert not (tmp_path / "never").exists()
+
+
+def test_bad_input_from_the_entry_point_has_no_traceback(tmp_path):
+    result = cli("--rewards", "r1,r9", "--out", str(tmp_path / "never"))
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    (line,) = result.stderr.strip().splitlines()
+    assert line.startswith("python -m benchmarks.run: error:") and "r9" in line
 
 
 def _import_robosuite(quiet: bool):

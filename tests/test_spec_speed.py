@@ -71,7 +71,18 @@ def test_cold_start_processes_share_the_warm_out_but_not_the_uncached_one():
 
 
 def test_bad_flag_exits_2(capsys):
+    from tableclean_suite.bench import speed
+
     with pytest.raises(SystemExit) as stop:
-        spec_speed.main(["--runs", "-3"])
-    assert stop.value.code == spec_speed.EXIT_USAGE
+        speed.main(["--runs", "-3"], alias="spec_speed")
+    assert stop.value.code == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_cold_start_lines_are_empty_without_processes_and_name_the_warm_goal():
+    (_, _), (warm, _), (_, _) = spec_speed.COLD_START_PROCESSES
+    assert spec_speed.cold_start_lines([]) == []
+    process = spec_speed.ColdStart(2.0, 0, 3, 0, warm, 17)
+    assert spec_speed.warm_process([process]) is process and spec_speed.warm_within_target(process)
+    assert not spec_speed.warm_within_target(spec_speed.ColdStart(2.0, 0, 3, 1, warm, 17))  # failed: not met
+    assert spec_speed.cold_start_lines([process])[-1].endswith("within 3 s: yes")

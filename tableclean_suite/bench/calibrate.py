@@ -26,9 +26,7 @@ import time
 from collections import Counter
 from pathlib import Path
 
-from tableclean_suite.bench import trial_store
-from tableclean_suite.bench.cli import executor_from_args
-from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
+from tableclean_suite.bench import cli, trial_store
 from tableclean_suite.bench.fidelity import (
     FAULT,
     ResumeError,
@@ -68,20 +66,24 @@ def calibrated_table(rows, model: TaskModel | None = None, description: str = ""
     return TransitionTable.from_counts(counts, model, source)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.calibrate", description=__doc__.split("\n\n")[0])
-    add_verbose_flag(parser)
+#: The program name in messages unless the caller gives one.
+PROG = "tableclean-bench calibrate"
+DEFAULT_OUT = "transitions.json"
+
+
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The command line: the shared options of :mod:`.cli`, fidelity's execution options and calibrate's own."""
+    parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     add_execution_arguments(parser)  # pairs of actions not executed keep the model's successor
-    parser.add_argument("--out", default="transitions.json", help="JSON file to write (default transitions.json)")
+    cli.add_out_argument(parser, cli.FILE, DEFAULT_OUT, "JSON file to write")
     parser.add_argument("--fresh", action="store_true", help="discard earlier trials in <out>.trials.csv")
     parser.add_argument("--from-trials", metavar="CSV", help="build from an existing fidelity_trials.csv, no physics")
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    apply_verbosity(args.verbose)
+def main(argv: list[str] | None = None, prog: str | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    parser, args = cli.parse_command(build_parser, argv, prog or PROG)
     model, actions = parse_task_and_actions(parser, args)
     out = Path(args.out)
     if out.suffix.lower() != ".json":
@@ -100,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
                 parser.error(f"--from-trials: {source} holds no trials")
             description = f"from {source.name}"
         else:
-            with executor_from_args(parser, args) as executor:
+            with cli.executor_from_args(parser, args) as executor:
                 rows = collect(args.trials, args.seed, out.with_suffix(".trials.csv"), fresh=args.fresh, log=log,
                                actions=actions, model=model, executor=executor)
             description = f"{args.trials} round(s), seed {args.seed}"
@@ -127,4 +129,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(prog="python -m tableclean_suite.bench.calibrate"))

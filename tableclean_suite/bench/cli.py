@@ -1,12 +1,42 @@
-"""Argument types shared by the benchmark command lines (argparse turns their errors into exit code 2)."""
+"""The options every benchmark command shares, defined once, and the parser they all use.
+
+Every command (:mod:`.commands`: ``tableclean-bench COMMAND``) builds its parser with
+:func:`command_parser` (a :class:`OneLineParser` that already has ``--plugins`` and
+``--verbose``) and adds the shared options it uses with the ``add_*`` functions below, so that
+``--task``, ``--seed``, ``--out``, ``--robots``, ``--workers``/``--executor``/``--ray-address``
+are spelled, typed and checked the same way everywhere.  :func:`parse_command` imports the
+``--plugins`` before the parser is built (so the names they register are allowed and listed by
+``--help``) and applies ``--verbose``.  Every bad value exits 2 with one line naming the flag,
+the value and what is allowed.
+"""
 
 from __future__ import annotations
 
 import argparse
+import math
+import sys
+from pathlib import Path
 
 from tableclean_suite.task import Action, as_action
 
+#: Exit code of a command line used wrongly (argparse's).
+EXIT_USAGE = 2
+#: Output kinds of :func:`add_out_argument`: a folder the command fills, or one file it writes.
+DIRECTORY, FILE = "directory", "file"
+#: Robot the single-arm commands build their scene with.
+DEFAULT_ROBOT = "Panda"
 
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse, but a bad flag prints one line (``prog: error: ...``, no usage block) and exits 2."""
+
+    def error(self, message: str):
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+
+
+# ---------------------------------------------------------------------------------------------
+# value types (argparse turns their ArgumentTypeError into a one-line error, exit 2)
+# ---------------------------------------------------------------------------------------------
 def positive_int(text: str) -> int:
     """An integer >= 1."""
     return _bounded_int(text, 1, "a positive integer")
@@ -27,41 +57,28 @@ def _bounded_int(text: str, minimum: int, what: str) -> int:
     return value
 
 
-def add_executor_arguments(parser: argparse.ArgumentParser, tasks: str) -> None:
-    """``--workers``, ``--executor``, ``--ray-address``: where the command's independent ``tasks``
-    (e.g. ``"rounds"``, ``"episodes"``) run (:mod:`tableclean_suite.executors`); read them back
-    with :func:`executor_from_args`."""
-    from tableclean_suite.executors import EXECUTOR_NAMES
-
-    parser.add_argument("--workers", type=positive_int, default=1,
-                        help=f"{tasks} run in parallel: processes of this machine, or most Ray tasks in flight "
-                             "(default 1: this process)")
-    parser.add_argument("--executor", choices=EXECUTOR_NAMES, default="local",
-                        help=f"where {tasks} run: local processes, or Ray (the cluster extra) (default local)")
-    parser.add_argument("--ray-address", default=None, metavar="HOST:PORT|auto",
-                        help="Ray cluster to join (default: a private Ray on 127.0.0.1); only with --executor ray")
-
-
-def executor_from_args(parser: argparse.ArgumentParser, args):
-    """The executor of :func:`add_executor_arguments`' options (not started yet).
-
-    Exits 2 (``parser.error``) on ``--ray-address`` without ``--executor ray``, or on
-    ``--executor ray`` where Ray is not installed (the message names the ``cluster`` extra).
-    """
-    from tableclean_suite.executors import MissingRayError, make_executor
-    from tableclean_suite.executors.ray_executor import import_ray
-
-    if args.ray_address is not None and args.executor != "ray":
-        parser.error("--ray-address is only used with --executor ray")
-    if args.executor == "ray":
+def int_in(low: int, high: int, what: str = "an integer"):
+    """A type: an integer in ``[low, high]``."""
+    def parse(text: str) -> int:
         try:
-            import_ray()
-        except MissingRayError as error:
-            parser.error(f"--executor ray: {error}")
+            value = int(text)
+        except ValueError:
+            value = low - 1
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"expected {what} in [{low}, {high}], got {text!r}")
+        return value
+    return parse
+
+
+def positive_float(text: str) -> float:
+    """A finite number > 0."""
     try:
-        return make_executor(args.executor, workers=args.workers, address=args.ray_address)
-    except ValueError as error:
-        parser.error(f"--executor {args.executor}: {error}")
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
 
 
 def action_list(text: str) -> tuple[Action, ...]:
@@ -81,12 +98,172 @@ def action_list(text: str) -> tuple[Action, ...]:
     return tuple(chosen)
 
 
-#: Exit code of a command line used wrongly (argparse's).
-EXIT_USAGE = 2
+def name_list(text: str) -> tuple[str, ...]:
+    """``"a, b,a,"`` -> ``("a", "b")``: comma-separated names, in order, each once (at least one)."""
+    names = tuple(dict.fromkeys(part.strip() for part in str(text).split(",") if part.strip()))
+    if not names:
+        raise argparse.ArgumentTypeError(f"expected at least one comma-separated name, got {text!r}")
+    return names
 
 
-class OneLineParser(argparse.ArgumentParser):
-    """argparse, but a bad flag prints one line (``prog: error: ...``, no usage block) and exits 2."""
+def output_path(kind: str):
+    """A type: an output path of ``kind`` (:data:`DIRECTORY` or :data:`FILE`), refused before any work
+    when it is empty, when it or one of its parents is an existing file (a directory output), or
+    when it is an existing directory (a file output)."""
+    def parse(text: str) -> str:
+        if not str(text).strip():
+            raise argparse.ArgumentTypeError(f"expected a {kind} path, got {text!r} (empty)")
+        path = Path(text)
+        if kind == FILE and path.is_dir():
+            raise argparse.ArgumentTypeError(f"{text!r} is a directory; give a file name")
+        for parent in (path, *path.parents) if kind == DIRECTORY else path.parents:
+            if parent.exists():
+                if not parent.is_dir():
+                    where = "is a file" if parent == path else f"is under {str(parent)!r}, which is a file"
+                    raise argparse.ArgumentTypeError(f"{text!r} {where}, not a directory")
+                break
+        return str(text)
+    return parse
 
-    def error(self, message: str):
-        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+
+# ---------------------------------------------------------------------------------------------
+# the shared options
+# ---------------------------------------------------------------------------------------------
+def command_parser(prog: str, description: str, epilog: str | None = None) -> OneLineParser:
+    """A command's parser: one-line errors, and the options every command has (``--plugins``, ``--verbose``)."""
+    from tableclean_suite.bench.plugins import FLAG, split_plugins
+
+    parser = OneLineParser(prog=prog, description=description, epilog=epilog,
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument(FLAG, type=split_plugins, default=(), metavar="MODULE|FILE.py,...",
+                        help="modules (names or .py paths, comma separated) imported first, to register actions, "
+                             "learners, rewards, specs, objects or skills by name; executor workers import them too")
+    parser.add_argument("--verbose", action="store_true",
+                        help="show robosuite's start-up warnings and informational messages (hidden by default)")
+    return parser
+
+
+def add_task_argument(parser, default="paper", **options) -> None:
+    """``--task NAME|FILE.json``: a registered task spec or a JSON spec file (checked by the command)."""
+    from tableclean_suite.task import task_spec_names
+
+    help_text = options.pop("help", None) or (
+        f"task spec: a registered name ({', '.join(task_spec_names())}) or a .json path (default {default})")
+    parser.add_argument("--task", default=default, metavar="NAME|FILE.json", help=help_text, **options)
+
+
+def add_seed_argument(parser, what: str, default=0, **options) -> None:
+    """``--seed S``: an integer >= 0 seeding ``what``."""
+    shown = "" if default is argparse.SUPPRESS else f" (default {default})"
+    parser.add_argument("--seed", type=non_negative_int, default=default, metavar="S",
+                        help=f"seed of {what}, an integer >= 0{shown}", **options)
+
+
+def add_out_argument(parser, kind: str, default, what: str, flags=("--out",), **options) -> None:
+    """``--out PATH``: where the command writes (``kind``: a directory or a file), checked at parse time
+    (:func:`output_path`)."""
+    shown = "" if default is argparse.SUPPRESS else f" (default {default})"
+    metavar = "DIR" if kind == DIRECTORY else "FILE"
+    parser.add_argument(*flags, dest="out", type=output_path(kind), default=default, metavar=metavar,
+                        help=f"{what}{shown}", **options)
+
+
+def add_robots_argument(parser, many: bool = False, default: str = DEFAULT_ROBOT) -> None:
+    """``--robots NAME[,NAME...]``: the arm(s) the scene is built with, each with a registered skill config
+    (checked by :func:`parse_robots` once the plugins are imported; single-arm commands take one)."""
+    what = "comma-separated robot arms" if many else "robot arm"
+    parser.add_argument("--robots", type=name_list, default=default, metavar="NAME" + (",..." if many else ""),
+                        help=f"{what} with a registered skill config: Panda, Sawyer, UR5e, Kinova3 ship "
+                             f"(tableclean_suite.controllers.robot_configs; default {default})")
+
+
+def parse_robots(parser: argparse.ArgumentParser, args) -> tuple[str, ...]:
+    """The checked ``--robots`` names; exits 2 naming the supported robots when one has no skill config."""
+    from tableclean_suite.controllers.robot_configs import check_robot
+
+    names = name_list(args.robots) if isinstance(args.robots, str) else args.robots
+    try:
+        return tuple(check_robot(name) for name in names)
+    except ValueError as error:
+        parser.error(f"--robots: {error}")
+
+
+def parse_robot(parser: argparse.ArgumentParser, args) -> str:
+    """The one checked ``--robots`` name of a single-arm command; exits 2 otherwise."""
+    robots = parse_robots(parser, args)
+    if len(robots) != 1:
+        parser.error(f"--robots: this command builds one scene; give one robot, got {','.join(robots)!r}")
+    return robots[0]
+
+
+def add_executor_arguments(parser, tasks: str, helps: dict | None = None, suppress: bool = False) -> None:
+    """``--workers``, ``--executor``, ``--ray-address``: where the command's independent ``tasks``
+    (e.g. ``"rounds"``, ``"episodes"``) run (:mod:`tableclean_suite.executors`); read them back
+    with :func:`executor_from_args`.  ``helps`` replaces help texts by dest; ``suppress`` leaves an
+    option out of the namespace when it is not given (a caller with defaults of its own)."""
+    from tableclean_suite.executors import EXECUTOR_NAMES
+
+    helps = helps or {}
+
+    def default(value):
+        return argparse.SUPPRESS if suppress else value
+
+    parser.add_argument("--workers", type=positive_int, default=default(1),
+                        help=helps.get("workers", f"{tasks} run in parallel: processes of this machine, or most Ray "
+                                                  "tasks in flight (default 1: this process)"))
+    parser.add_argument("--executor", choices=EXECUTOR_NAMES, default=default("local"),
+                        help=helps.get("executor", f"where {tasks} run: local processes, or Ray (the cluster extra) "
+                                                   "(default local)"))
+    parser.add_argument("--ray-address", default=default(None), metavar="HOST:PORT|auto",
+                        help=helps.get("ray_address", "Ray cluster to join (default: a private Ray on 127.0.0.1); "
+                                                      "only with --executor ray"))
+
+
+def executor_from_args(parser: argparse.ArgumentParser, args):
+    """The executor of :func:`add_executor_arguments`' options (not started yet); its workers import
+    the command's ``--plugins`` before every task (:class:`~.plugins.PluginExecutor`).
+
+    Exits 2 (``parser.error``) on ``--ray-address`` without ``--executor ray``, or on
+    ``--executor ray`` where Ray is not installed (the message names the ``cluster`` extra).
+    """
+    from tableclean_suite.bench.plugins import with_plugins
+    from tableclean_suite.executors import MissingRayError, make_executor
+    from tableclean_suite.executors.ray_executor import import_ray
+
+    if args.ray_address is not None and args.executor != "ray":
+        parser.error("--ray-address is only used with --executor ray")
+    if args.executor == "ray":
+        try:
+            import_ray()
+        except MissingRayError as error:
+            parser.error(f"--executor ray: {error}")
+    try:
+        executor = make_executor(args.executor, workers=args.workers, address=args.ray_address)
+    except ValueError as error:
+        parser.error(f"--executor {args.executor}: {error}")
+    return with_plugins(executor, getattr(args, "plugins", ()))
+
+
+# ---------------------------------------------------------------------------------------------
+# parsing
+# ---------------------------------------------------------------------------------------------
+def parse_command(build_parser, argv, prog: str, known: bool = False):
+    """Parse a command line: apply ``--verbose``, import the ``--plugins`` (exit 2 naming a plugin that
+    fails), then build the parser with ``build_parser(prog)`` and parse ``argv`` with it.
+
+    Returns:
+        ``(parser, args)``; with ``known``, ``(parser, args, rest)`` (arguments the parser does not know).
+    """
+    from tableclean_suite.bench.plugins import preload
+    from tableclean_suite.bench.startup import apply_verbosity
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    early = OneLineParser(prog=prog, add_help=False)
+    early.add_argument("--verbose", action="store_true")
+    apply_verbosity(early.parse_known_args(argv)[0].verbose)  # before a plugin imports robosuite
+    preload(argv, prog)
+    parser = build_parser(prog)
+    if known:
+        args, rest = parser.parse_known_args(argv)
+        return parser, args, rest
+    return parser, parser.parse_args(argv)

@@ -43,10 +43,9 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from tableclean_suite.bench.cli import (OneLineParser, add_executor_arguments, executor_from_args,  # noqa: E402
-                                        non_negative_int, positive_int)
-from tableclean_suite.bench.robot_args import add_robots_argument, parse_robot  # noqa: E402
-from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
+from tableclean_suite.bench import cli  # noqa: E402
+from tableclean_suite.bench.cli import positive_int  # noqa: E402
+from tableclean_suite.bench.startup import apply_verbosity  # noqa: E402
 
 POLICIES = ("optimal", "learned")
 OUT_SUFFIXES = (".hdf5", ".h5")
@@ -62,17 +61,21 @@ DEFAULT_MAX_ACTIONS = 50
 PLACEMENT_SEED_BOUND = 2**31
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = OneLineParser(prog="python -m benchmarks.collect_demos", description=__doc__.split("\n\n")[0])
-    add_verbose_flag(parser)
-    parser.add_argument("--task", default="paper", help="task spec: a registered name or a .json path (default paper)")
+#: The program name in messages unless the caller gives one.
+PROG = "tableclean-bench demos"
+
+
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The command line: the shared options of :mod:`.cli` and the collection's own."""
+    parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
+    cli.add_task_argument(parser)
     parser.add_argument("--episodes", type=positive_int, default=DEFAULT_EPISODES,
                         help=f"successful demos to record (default {DEFAULT_EPISODES})")
-    add_robots_argument(parser)
+    cli.add_robots_argument(parser)
     parser.add_argument("--policy", default="optimal", choices=POLICIES,
                         help="optimal: the shortest plan; learned: greedy Q-learning r4 policy (default optimal)")
-    parser.add_argument("--seed", type=non_negative_int, default=0, help="start layouts, placement and training seed (default 0)")
-    parser.add_argument("--out", default=None, help="output .hdf5 (default results/demos_<task>_<policy>.hdf5)")
+    cli.add_seed_argument(parser, "the start layouts, the placement noise and the training")
+    cli.add_out_argument(parser, cli.FILE, None, "output .hdf5 (results/demos_<task>_<policy>.hdf5 when not given)")
     parser.add_argument("--iterations", type=positive_int, default=DEFAULT_ITERATIONS,
                         help=f"learned: training iterations per run (default {DEFAULT_ITERATIONS})")
     parser.add_argument("--runs", type=positive_int, default=DEFAULT_RUNS,
@@ -81,7 +84,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help=f"learned: actions per episode before it counts as failed (default {DEFAULT_MAX_ACTIONS})")
     parser.add_argument("--valid-fraction", type=float, default=None,
                         help="fraction of the demos in mask/valid, in [0, 1) (default 0.1)")
-    add_executor_arguments(parser, "episodes")  # --workers, --executor, --ray-address (as benchmarks.fidelity)
+    cli.add_executor_arguments(parser, "episodes")  # --workers, --executor, --ray-address (as fidelity)
     return parser
 
 
@@ -334,10 +337,9 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
     return demos, env_args, attrs
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    apply_verbosity(args.verbose)
+def main(argv: list[str] | None = None, prog: str | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code (see the module doc)."""
+    parser, args = cli.parse_command(build_parser, argv, prog or PROG)
     from tableclean_suite.demos import VALID_FRACTION, write_dataset
     from tableclean_suite.physics_backend import check_physical_task
     from tableclean_suite.task import TaskModel, get_task_spec
@@ -347,7 +349,7 @@ def main(argv: list[str] | None = None) -> int:
         check_physical_task(TaskModel(spec=spec))
     except (ValueError, OSError) as error:
         parser.error(f"--task: {error}")
-    robot = parse_robot(parser, args)
+    robot = cli.parse_robot(parser, args)
     valid_fraction = VALID_FRACTION if args.valid_fraction is None else args.valid_fraction
     if not 0.0 <= valid_fraction < 1.0:
         parser.error(f"--valid-fraction must be in [0, 1), got {args.valid_fraction!r}")
@@ -360,7 +362,7 @@ def main(argv: list[str] | None = None) -> int:
         import h5py  # noqa: F401
     except ImportError:
         parser.error("collecting demos needs h5py: pip install 'tableclean_suite[demos]' (or pip install h5py)")
-    executor = executor_from_args(parser, args)
+    executor = cli.executor_from_args(parser, args)
     out.parent.mkdir(parents=True, exist_ok=True)
 
     from tableclean_suite.executors import MissingRayError, TaskFailedError
@@ -389,4 +391,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(prog="python -m tableclean_suite.bench.collect_demos"))

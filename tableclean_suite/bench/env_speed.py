@@ -1,4 +1,5 @@
-"""``python -m benchmarks.env_speed``: env.step rate of TableClean against robosuite's Lift.
+"""env.step rate of TableClean against robosuite's Lift: the ``environment`` section of
+``tableclean-bench speed`` (:mod:`.speed`; ``python -m benchmarks.env_speed`` is its alias).
 
 Both environments use the same robot (Panda), the same default controller, the same control
 frequency and no renderers, and run in the same process.  Timing blocks alternate between the
@@ -11,15 +12,17 @@ check runs its full path (contact found + footprint test) at every substep.
 
 from __future__ import annotations
 
-import argparse
 import time
 
 import numpy as np
 
 import tableclean_suite  # noqa: F401  (registers TableClean when robosuite is imported)
-from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity
 
 ROBOT = "Panda"
+#: Goal: TableClean's env.step rate at least this fraction of Lift's.
+RATIO_GOAL = 0.9
+#: Defaults of the section: timed steps per environment, alternating blocks, control frequency (Hz).
+DEFAULT_STEPS, DEFAULT_ROUNDS, DEFAULT_CONTROL_FREQ = 1000, 10, 20
 #: Uniform random actions are drawn in +-ACTION_SCALE (OSC delta units) so the arm stays near its start.
 ACTION_SCALE = 0.3
 #: 0-based index of the segment the pressing benchmark rests the sponge on (segment 2).
@@ -67,7 +70,14 @@ def time_block(env, actions: np.ndarray, before_step=None) -> float:
 
 
 def measure(steps: int, rounds: int, control_freq: int, seed: int) -> dict[str, float]:
-    """Steps per second of each environment, from ``rounds`` alternating blocks of ``steps // rounds`` steps."""
+    """Steps per second of each environment, from ``rounds`` alternating blocks of ``steps // rounds`` steps.
+
+    Raises:
+        ValueError: ``rounds`` or ``control_freq`` below 1, or ``steps`` below ``rounds`` (a block of no step).
+    """
+    if rounds < 1 or control_freq < 1 or steps < rounds:
+        raise ValueError(f"need rounds >= 1, control_freq >= 1 and steps >= rounds; got steps={steps}, "
+                         f"rounds={rounds}, control_freq={control_freq}")
     envs = {
         "Lift": make_env("Lift", control_freq, seed),
         "TableClean": make_env("TableClean", control_freq, seed, object_segment=1, arm_segment=1),
@@ -75,7 +85,7 @@ def measure(steps: int, rounds: int, control_freq: int, seed: int) -> dict[str, 
     }
     hooks = {"TableClean (pressing)": press_sponge}
     rng = np.random.default_rng(seed)
-    block = max(1, steps // rounds)
+    block = steps // rounds
     seconds = dict.fromkeys(envs, 0.0)
     for env in envs.values():
         env.reset()
@@ -88,22 +98,15 @@ def measure(steps: int, rounds: int, control_freq: int, seed: int) -> dict[str, 
     return {name: block * rounds / total for name, total in seconds.items()}
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.env_speed", description=__doc__.splitlines()[0])
-    add_verbose_flag(parser)
-    parser.add_argument("--steps", type=int, default=1000, help="timed env.step calls per environment")
-    parser.add_argument("--rounds", type=int, default=10, help="alternating timing blocks")
-    parser.add_argument("--control-freq", type=int, default=20, help="control frequency [Hz] of all envs")
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args(argv)
-    apply_verbosity(args.verbose)
-    rates = measure(args.steps, args.rounds, args.control_freq, args.seed)
+def rate_ratio(rates: dict[str, float]) -> float:
+    """TableClean's env.step rate over Lift's."""
+    return rates["TableClean"] / rates["Lift"]
+
+
+def report_lines(rates: dict[str, float]) -> list[str]:
+    """The printed table: steps per second of each environment and its ratio to Lift's."""
     lift = rates["Lift"]
-    print(f"{'environment':<24}{'steps/s':>10}{'ratio vs Lift':>16}")
-    for name, rate in rates.items():
-        print(f"{name:<24}{rate:>10.1f}{rate / lift:>16.3f}")
-    print(f"TableClean / Lift env.step rate ratio: {rates['TableClean'] / lift:.3f} (goal >= 0.9)")
-
-
-if __name__ == "__main__":
-    main()
+    lines = [f"{'environment':<24}{'steps/s':>10}{'ratio vs Lift':>16}"]
+    lines += [f"{name:<24}{rate:>10.1f}{rate / lift:>16.3f}" for name, rate in rates.items()]
+    lines.append(f"TableClean / Lift env.step rate ratio: {rate_ratio(rates):.3f} (goal >= {RATIO_GOAL:g})")
+    return lines

@@ -49,13 +49,10 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import trial_store  # noqa: E402
 from tableclean_suite.bench.outputs import atomic_write_text  # noqa: E402
-from tableclean_suite.bench.robot_args import add_robots_argument, parse_robot  # noqa: E402
-from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
-from tableclean_suite.bench.cli import (add_executor_arguments, executor_from_args, non_negative_int,  # noqa: E402
-                                        positive_int)
+from tableclean_suite.bench import cli  # noqa: E402
 from tableclean_suite.bench.trial_store import TRIAL_FIELDS  # noqa: E402, F401  (re-exported)
 from tableclean_suite.executors.blas import single_blas_thread  # noqa: E402
-from tableclean_suite.task import Outcome, TaskModel, TaskState, get_task_spec, task_spec_names  # noqa: E402
+from tableclean_suite.task import Outcome, TaskModel, TaskState, get_task_spec  # noqa: E402
 
 TRIALS_CSV = "fidelity_trials.csv"
 PAIRS_CSV = "fidelity_pairs.csv"
@@ -417,15 +414,16 @@ def summary(rows: list[dict], model: TaskModel | None = None) -> dict:
 # CLI
 # ---------------------------------------------------------------------------------------------
 def add_execution_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of :func:`collect` shared by fidelity and calibrate: --task, --trials, --seed, --actions, --quiet."""
-    parser.add_argument("--task", default="paper",
-                        help=f"task spec: a registered name ({', '.join(task_spec_names())}) or a .json path (default paper)")
-    parser.add_argument("--trials", type=positive_int, default=5, help="trials per (state, action) pair = rounds (default 5)")
-    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of the placement noise (default 0)")
+    """The options of :func:`collect` shared by fidelity and calibrate: --task, --trials, --seed, --actions,
+    --quiet and where the rounds run."""
+    cli.add_task_argument(parser)
+    parser.add_argument("--trials", type=cli.positive_int, default=5,
+                        help="trials per (state, action) pair = rounds (default 5)")
+    cli.add_seed_argument(parser, "the placement noise")
     parser.add_argument("--actions", default=None,
                         help="comma-separated actions to execute (default all of the spec's, e.g. move,pick,place,clean)")
     parser.add_argument("--quiet", action="store_true", help="print only the summary")
-    add_executor_arguments(parser, "rounds")  # --workers, --executor, --ray-address
+    cli.add_executor_arguments(parser, "rounds")  # --workers, --executor, --ray-address
 
 
 def scene_env_kwargs(robot: str, randomize: bool) -> dict:
@@ -454,14 +452,18 @@ def parse_task_and_actions(parser: argparse.ArgumentParser, args) -> tuple[TaskM
         parser.error(f"--actions: {error}")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.fidelity", description=__doc__.split("\n\n")[0])
-    add_verbose_flag(parser)
+#: The program name in messages unless the caller gives one.
+PROG = "tableclean-bench fidelity"
+
+
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The command line: the shared options of :mod:`.cli` and fidelity's own."""
+    parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     add_execution_arguments(parser)
-    parser.add_argument("--out", default=None,
-                        help=f"output directory (default {DEFAULT_OUT}, or {DEFAULT_OUT}_<task> for another spec)")
+    cli.add_out_argument(parser, cli.DIRECTORY, None, f"output directory ({DEFAULT_OUT} when not given, or "
+                                                      f"{DEFAULT_OUT}_<task> for another spec)")
     parser.add_argument("--fresh", action="store_true", help="discard earlier trials in --out and start over")
-    add_robots_argument(parser)
+    cli.add_robots_argument(parser)
     parser.add_argument("--randomize", action="store_true",
                         help="randomised dynamics (mass, size, friction, damping, OSC gains, start noise; the ranges "
                              "of tableclean_suite.environments.randomization), drawn at every reset; the default "
@@ -469,18 +471,17 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    apply_verbosity(args.verbose)
+def main(argv: list[str] | None = None, prog: str | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    parser, args = cli.parse_command(build_parser, argv, prog or PROG)
     model, actions = parse_task_and_actions(parser, args)
-    robot = parse_robot(parser, args)
+    robot = cli.parse_robot(parser, args)
     suffix = ("" if model.spec.name == "paper" else f"_{model.spec.name}") + ("" if robot == "Panda" else f"_{robot}")
     suffix += RANDOMIZED_SUFFIX if args.randomize else ""
     env_kwargs = scene_env_kwargs(robot, args.randomize)
     out = Path(args.out if args.out is not None else DEFAULT_OUT + suffix)
     started = time.perf_counter()
-    executor = executor_from_args(parser, args)
+    executor = cli.executor_from_args(parser, args)
     try:
         with executor:
             rows = collect(args.trials, args.seed, out / TRIALS_CSV, fresh=args.fresh,
@@ -513,4 +514,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(prog="python -m tableclean_suite.bench.fidelity"))

@@ -1,6 +1,7 @@
 """Speed of every registered learner (and exploration) next to Q-learning, on the paper spec.
 
-    python -m benchmarks.learner_speed [--runs 1000] [--iterations 3000] [--repeat 3] [--reward r4]
+The ``learners`` section of ``tableclean-bench speed`` (:mod:`.speed`; ``python -m benchmarks.learner_speed``
+is its alias):
 
 All learners train the same runs x iterations of the ``paper`` spec in this process, after a
 warm-up call each (numba compilation excluded); each time is the best of ``--repeat`` wall-clock
@@ -13,11 +14,8 @@ A second table times Q-learning under every registered exploration.
 
 from __future__ import annotations
 
-import argparse
-import sys
 import time
 
-from tableclean_suite.bench.cli import positive_int
 from tableclean_suite.learners import exploration_names, get_learner, learner_names, train
 
 BASELINE = "q_learning"
@@ -67,37 +65,8 @@ def exploration_rows(reward: str, runs: int, iterations: int, repeat: int) -> li
              "time per update vs epsilon_greedy": elapsed / base} for name, elapsed in seconds.items()]
 
 
-def verdict(rows: list[dict]) -> str:
-    """One line: the slowest learner per real update (Dyna-Q exempt) against :data:`SLOWDOWN_GOAL`."""
+def slowest(rows: list[dict]) -> tuple[str, float]:
+    """``(learner, ratio)``: the learner slowest per real update relative to Q-learning (Dyna-Q exempt)."""
     checked = [row for row in rows if row["learner"] not in EXEMPT]
     worst = max(checked, key=lambda row: row["time per real update vs Q-learning"])
-    ratio = worst["time per real update vs Q-learning"]
-    status = "met" if ratio <= SLOWDOWN_GOAL else "NOT met"
-    return (f"goal: no learner but Dyna-Q more than {SLOWDOWN_GOAL:g}x slower per update than Q-learning: {status} "
-            f"(slowest: {worst['learner']}, {ratio:.2f}x)")
-
-
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.learner_speed", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--runs", type=positive_int, default=1000, help="runs per learner (default 1000)")
-    parser.add_argument("--iterations", type=positive_int, default=3000, help="iterations per run (default 3000)")
-    parser.add_argument("--repeat", type=positive_int, default=3, help="timed calls per learner, best kept (default 3)")
-    parser.add_argument("--reward", default="r4", help="reward pattern (default r4)")
-    parser.add_argument("--skip-explorations", action="store_true", help="do not time the explorations")
-    args = parser.parse_args(argv)
-    import pandas as pd
-
-    print(f"paper spec, reward {args.reward}, {args.runs} runs x {args.iterations} iterations, "
-          f"best of {args.repeat} (wall clock, all cores)\n")
-    rows = learner_rows(args.reward, args.runs, args.iterations, args.repeat)
-    with pd.option_context("display.float_format", "{:,.2f}".format, "display.width", 200):
-        print(pd.DataFrame(rows).to_string(index=False))
-        print("\n" + verdict(rows))
-        if not args.skip_explorations:
-            print()
-            print(pd.DataFrame(exploration_rows(args.reward, args.runs, args.iterations, args.repeat)).to_string(index=False))
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+    return worst["learner"], worst["time per real update vs Q-learning"]

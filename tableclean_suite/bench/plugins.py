@@ -4,16 +4,18 @@ Registries are per process, so a command line cannot see what a user's script re
 ``--plugins my_package.my_module,path/to/extras.py`` imports each entry before the other flags
 are checked (a module name, or a path to a ``.py`` file), so every name it registers is allowed
 on the command line and listed by ``--help``; executor workers import the same entries before
-they train.
+each task (:func:`with_plugins`).  A plugin that raises, or exits (``sys.exit``), is a
+:class:`PluginError` naming it.
 """
 
 from __future__ import annotations
 
-import argparse
 import importlib
 import importlib.util
 import sys
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Callable, Iterable, Iterator
 
 #: The flag, and the suffix that marks an entry as a file rather than a module name.
 FLAG = "--plugins"
@@ -45,14 +47,20 @@ def load_plugin(entry: str):
         sys.modules[name] = module
         try:
             spec.loader.exec_module(module)
-        except Exception as error:  # a plugin may fail in any way; say which and why
+        except (Exception, SystemExit) as error:  # a plugin may fail (or exit) in any way; say which and why
             del sys.modules[name]
-            raise PluginError(f"plugin {entry!r} failed to import: {type(error).__name__}: {error}") from None
+            raise PluginError(_failure(entry, error)) from None
         return module
     try:
         return importlib.import_module(entry)
-    except Exception as error:  # as above
-        raise PluginError(f"plugin {entry!r} failed to import: {type(error).__name__}: {error}") from None
+    except (Exception, SystemExit) as error:  # as above
+        raise PluginError(_failure(entry, error)) from None
+
+
+def _failure(entry: str, error: BaseException) -> str:
+    if isinstance(error, SystemExit):
+        return f"plugin {entry!r} called sys.exit({error.code!r}) while being imported"
+    return f"plugin {entry!r} failed to import: {type(error).__name__}: {error}"
 
 
 def load_plugins(entries) -> list:
@@ -62,7 +70,9 @@ def load_plugins(entries) -> list:
 
 def preload(argv, prog: str) -> tuple[str, ...]:
     """Import the ``--plugins`` of ``argv`` before the full command line is parsed; exit 2 on failure."""
-    early = argparse.ArgumentParser(prog=prog, add_help=False)
+    from tableclean_suite.bench.cli import OneLineParser
+
+    early = OneLineParser(prog=prog, add_help=False)
     early.add_argument(FLAG, default=None)
     known, _ = early.parse_known_args(argv)
     entries = split_plugins(known.plugins)
@@ -71,3 +81,68 @@ def preload(argv, prog: str) -> tuple[str, ...]:
     except PluginError as error:
         early.error(f"{FLAG}: {error}")
     return entries
+
+
+def portable(entries: Iterable[str]) -> tuple[str, ...]:
+    """``entries`` as another process sees them: ``.py`` paths made absolute (a worker may run elsewhere)."""
+    return tuple(str(Path(entry).resolve()) if entry.endswith(SOURCE_SUFFIX) else entry for entry in entries)
+
+
+@dataclass(frozen=True)
+class PluginTask:
+    """A task of another executor's ``map``, run after importing ``plugins`` in the process that runs it.
+
+    Attributes:
+        function: the module-level task function.
+        task: its task.
+        plugins: :func:`portable` plugin entries.
+    """
+
+    function: Callable
+    task: Any
+    plugins: tuple[str, ...]
+
+    @property
+    def label(self) -> str:
+        """How executor errors name it: as the wrapped task."""
+        from tableclean_suite.executors.base import task_name
+
+        return task_name(self.task)
+
+
+def run_plugin_task(wrapped: PluginTask):
+    """Import ``wrapped.plugins`` (once per process), then ``wrapped.function(wrapped.task)``."""
+    load_plugins(wrapped.plugins)
+    return wrapped.function(wrapped.task)
+
+
+class PluginExecutor:
+    """An executor whose every task first imports the command's plugins in the process that runs it
+    (local worker processes and Ray workers alike); everything else is the wrapped executor's."""
+
+    def __init__(self, executor, plugins: Iterable[str]):
+        self.executor = executor
+        self.plugins = portable(plugins)
+
+    def __getattr__(self, name: str):
+        return getattr(self.executor, name)
+
+    def __repr__(self) -> str:
+        return f"PluginExecutor({self.executor!r}, plugins={list(self.plugins)})"
+
+    def __enter__(self) -> "PluginExecutor":
+        self.executor.__enter__()
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.executor.__exit__(*exc_info)
+
+    def map(self, function: Callable, tasks: Iterable) -> Iterator:
+        """``function(task)`` for every task, in task order, each after importing the plugins."""
+        return self.executor.map(run_plugin_task, [PluginTask(function, task, self.plugins) for task in tasks])
+
+
+def with_plugins(executor, plugins: Iterable[str]):
+    """``executor``, wrapped in a :class:`PluginExecutor` when there are ``plugins``."""
+    plugins = tuple(plugins or ())
+    return PluginExecutor(executor, plugins) if plugins else executor

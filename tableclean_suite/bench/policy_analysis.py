@@ -17,11 +17,14 @@ import sys
 
 import numpy as np
 
-from tableclean_suite.bench.cli import non_negative_int, positive_int
+from tableclean_suite.bench import cli
+from tableclean_suite.bench.cli import positive_int
 from tableclean_suite import analysis, metrics
 from tableclean_suite.learners import train
 from tableclean_suite.task import StartMode, TaskModel
 
+#: The program name in messages unless the caller gives one.
+PROG = "tableclean-bench policy-analysis"
 LEARNERS = ("q_learning", "sarsa")
 REWARDS = ("r1", "r2", "r3", "r4")
 
@@ -44,13 +47,19 @@ def analyse(learner: str, reward: str, model: TaskModel, runs: int, iterations: 
     }
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.policy_analysis", description=__doc__.split("\n\n")[0])
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The command line: the shared options of :mod:`.cli` and the analysis' own."""
+    parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     parser.add_argument("--runs", type=positive_int, default=1000, help="runs per row (default 1000)")
     parser.add_argument("--iterations", type=positive_int, default=4000, help="training iterations (default 4000)")
     parser.add_argument("--long-iterations", type=positive_int, default=20000, help="iterations of the long r3 row (default 20000)")
-    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed (default 0)")
-    args = parser.parse_args(argv)
+    cli.add_seed_argument(parser, "the training runs")
+    return parser
+
+
+def main(argv=None, prog: str | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    _, args = cli.parse_command(build_parser, argv, prog or PROG)
     import pandas as pd
 
     epsilon, max_itr = 0.1, 500
@@ -67,4 +76,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(prog="python -m tableclean_suite.bench.policy_analysis"))

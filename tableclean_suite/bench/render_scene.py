@@ -1,4 +1,4 @@
-"""``python -m benchmarks.render_scene [--task SPEC] [--out PNG]``: render the TableClean scene offscreen.
+"""``tableclean-bench render [--task SPEC] [--out PNG]``: render the TableClean scene offscreen.
 
 Uses MuJoCo's EGL backend unless ``MUJOCO_GL`` is already set (it must be set before MuJoCo is
 imported).  The default camera, ``tableview``, shows every segment, the dirt, the objects and the
@@ -11,16 +11,28 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np  # noqa: E402
 
-from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
+from tableclean_suite.bench import cli  # noqa: E402
 
 DEFAULT_OUT = Path("results/images/scene.png")
 DEFAULT_CAMERA = "tableview"
+#: The program name in messages unless the caller gives one.
+PROG = "tableclean-bench render"
+#: Frame sizes, pixels per side (MuJoCo's offscreen buffer grows to the request; larger frames
+#: exhaust the GL driver's buffers or the memory).
+MIN_PIXELS, MAX_PIXELS = 1, 8192
+DEFAULT_WIDTH, DEFAULT_HEIGHT = 640, 480
+PNG_SUFFIX = ".png"
+
+
+class UnknownCameraError(ValueError):
+    """A camera the scene does not have; the message lists those it has."""
 
 
 def render_frame(camera: str = DEFAULT_CAMERA, width: int = 640, height: int = 480, seed: int = 0,
@@ -43,6 +55,9 @@ def render_frame(camera: str = DEFAULT_CAMERA, width: int = 640, height: int = 4
         **env_kwargs,
     )
     try:
+        cameras = tuple(env.sim.model.camera_names)
+        if camera not in cameras:
+            raise UnknownCameraError(f"unknown camera {camera!r}; the scene has {', '.join(cameras)}")
         env.reset()
         frame = env.sim.render(width=width, height=height, camera_name=camera)
     finally:
@@ -58,18 +73,24 @@ def save_png(frame: np.ndarray, path: Path) -> None:
     matplotlib.image.imsave(path, frame)
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.render_scene", description=__doc__.splitlines()[0])
-    add_verbose_flag(parser)
-    parser.add_argument("--out", type=Path, default=None,
-                        help=f"PNG path to write (default {DEFAULT_OUT}, or results/images/scene_<task>.png for another spec)")
-    parser.add_argument("--task", default="paper", help="task spec: a registered name or a .json path (default paper)")
-    parser.add_argument("--camera", default=DEFAULT_CAMERA, help="camera name (e.g. tableview, frontview)")
-    parser.add_argument("--width", type=int, default=640)
-    parser.add_argument("--height", type=int, default=480)
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args(argv)
-    apply_verbosity(args.verbose)
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The command line: the shared options of :mod:`.cli` and the picture's own."""
+    parser = cli.command_parser(prog, __doc__.splitlines()[0])
+    cli.add_out_argument(parser, cli.FILE, None, f"PNG path to write ({DEFAULT_OUT} when not given, or "
+                                                 "results/images/scene_<task>.png for another spec)")
+    cli.add_task_argument(parser)
+    parser.add_argument("--camera", default=DEFAULT_CAMERA,
+                        help=f"camera of the scene, e.g. tableview, frontview, birdview (default {DEFAULT_CAMERA})")
+    for side, default in (("width", DEFAULT_WIDTH), ("height", DEFAULT_HEIGHT)):
+        parser.add_argument(f"--{side}", type=cli.int_in(MIN_PIXELS, MAX_PIXELS, "pixels"), default=default,
+                            help=f"frame {side} in pixels, {MIN_PIXELS}..{MAX_PIXELS} (default {default})")
+    cli.add_seed_argument(parser, "the placement noise")
+    return parser
+
+
+def main(argv=None, prog: str | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    parser, args = cli.parse_command(build_parser, argv, prog or PROG)
     from tableclean_suite.physics_backend import check_physical_task
     from tableclean_suite.task import TaskModel, get_task_spec
 
@@ -80,10 +101,16 @@ def main(argv=None) -> None:
         parser.error(f"--task: {error}")
     if args.out is None:
         args.out = DEFAULT_OUT if spec.name == "paper" else DEFAULT_OUT.with_name(f"scene_{spec.name}.png")
-    frame = render_frame(args.camera, args.width, args.height, args.seed, task=spec)
-    save_png(frame, args.out)
+    if Path(args.out).suffix.lower() != PNG_SUFFIX:
+        parser.error(f"--out must end in {PNG_SUFFIX}, got {str(args.out)!r}")
+    try:
+        frame = render_frame(args.camera, args.width, args.height, args.seed, task=spec)
+    except UnknownCameraError as error:
+        parser.error(f"--camera: {error}")
+    save_png(frame, Path(args.out))
     print(f"wrote {args.out} ({args.width}x{args.height}, camera {args.camera!r}, MUJOCO_GL={os.environ['MUJOCO_GL']})")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main(prog="python -m tableclean_suite.bench.render_scene"))

@@ -36,10 +36,9 @@ from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from tableclean_suite.bench import fidelity, trial_store  # noqa: E402
-from tableclean_suite.bench.cli import OneLineParser, non_negative_int  # noqa: E402
+from tableclean_suite.bench import cli, fidelity, trial_store  # noqa: E402
+from tableclean_suite.bench.cli import non_negative_int  # noqa: E402
 from tableclean_suite.bench.run import split_list  # noqa: E402
-from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 
 #: Default arms: the Panda and the three others with shipped skill configs.
 DEFAULT_ROBOTS = ("Panda", "Sawyer", "UR5e", "Kinova3")
@@ -174,19 +173,22 @@ def _names(parser, flag: str, text: str) -> list[str]:
     return names
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = OneLineParser(prog="python -m benchmarks.robot_table", description=__doc__.split("\n\n")[0])
-    add_verbose_flag(parser)
-    parser.add_argument("--robots", default=",".join(DEFAULT_ROBOTS),
-                        help=f"comma-separated robots with registered skill configs (default {','.join(DEFAULT_ROBOTS)})")
+#: The program name in messages unless the caller gives one.
+PROG = "tableclean-bench robots"
+
+
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The command line: the shared options of :mod:`.cli` and the table's own."""
+    parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
+    cli.add_robots_argument(parser, many=True, default=",".join(DEFAULT_ROBOTS))
     parser.add_argument("--tasks", default=",".join(DEFAULT_TASKS),
                         help=f"comma-separated task specs (default {','.join(DEFAULT_TASKS)})")
     parser.add_argument("--episodes", type=non_negative_int, default=30,
                         help="optimal-plan episodes from random layouts per cell (default 30; 0 skips)")
     parser.add_argument("--fidelity-trials", type=non_negative_int, default=2,
                         help="fidelity rounds (trials per (state, action) pair) per cell (default 2; 0 skips)")
-    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of placements and layouts (default 0)")
-    parser.add_argument("--out", default=DEFAULT_OUT, help=f"directory of {TABLE_CSV} (default {DEFAULT_OUT})")
+    cli.add_seed_argument(parser, "the placements and layouts")
+    cli.add_out_argument(parser, cli.DIRECTORY, DEFAULT_OUT, f"directory of {TABLE_CSV}")
     parser.add_argument("--fidelity-dir", default=DEFAULT_FIDELITY_DIR,
                         help=f"directory of the fidelity trials, one <robot>_<task> folder per cell (default {DEFAULT_FIDELITY_DIR})")
     parser.add_argument("--append", action="store_true",
@@ -198,20 +200,14 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    apply_verbosity(args.verbose)
-    from tableclean_suite.controllers.robot_configs import check_robot
+def main(argv: list[str] | None = None, prog: str | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    parser, args = cli.parse_command(build_parser, argv, prog or PROG)
     from tableclean_suite.physics_backend import check_physical_task
     from tableclean_suite.task import TaskModel, get_task_spec
 
-    robots, tasks = _names(parser, "--robots", args.robots), _names(parser, "--tasks", args.tasks)
-    for robot in robots:  # every name checked before anything runs
-        try:
-            check_robot(robot)
-        except ValueError as error:
-            parser.error(f"--robots: {error}")
+    robots = cli.parse_robots(parser, args)  # every name checked before anything runs
+    tasks = _names(parser, "--tasks", args.tasks)
     for task in tasks:
         try:
             check_physical_task(TaskModel(spec=get_task_spec(task)))
@@ -262,4 +258,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(prog="python -m tableclean_suite.bench.robot_table"))

@@ -24,9 +24,8 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from tableclean_suite.bench.cli import non_negative_int, positive_int  # noqa: E402
-from tableclean_suite.bench.robot_args import add_robots_argument, parse_robot  # noqa: E402
-from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
+from tableclean_suite.bench import cli  # noqa: E402
+from tableclean_suite.bench.cli import positive_int  # noqa: E402
 from tableclean_suite.task import Action, TaskModel, TaskState  # noqa: E402
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
@@ -176,39 +175,46 @@ def run_rollout(policy: np.ndarray, start: TaskState, video: Path, fps: int, wid
     return summary
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.rollout", description=__doc__.split("\n\n")[0])
-    add_verbose_flag(parser)
+#: The program name in messages unless the caller gives one.
+PROG = "tableclean-bench rollout"
+#: Cameras a rollout can be filmed from (robosuite's arena cameras of the TableClean scene).
+CAMERAS = ("frontview", "birdview", "agentview", "sideview")
+#: Frame sizes a rollout video can have, pixels (even: the video encoders need it).
+MIN_PIXELS, MAX_PIXELS = 64, 4096
+
+
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The command line: the shared options of :mod:`.cli` and the rollout's own."""
+    parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     parser.add_argument("--reward", default="r4", help="reward pattern (default r4)")
-    parser.add_argument("--video", default=None,
-                        help="output video, .mp4 or .gif (required unless --task is given: then results/rollout_<task>.mp4)")
-    parser.add_argument("--task", default=None,
-                        help="task spec: a registered name or a .json path (default paper); with no --still, the still "
-                             "goes to results/images/rollout_<task>.png")
+    cli.add_out_argument(parser, cli.FILE, None, "output video, .mp4 or .gif (required unless --task is given: "
+                         "then results/rollout_<task>.mp4)", flags=("--out", "--video"))
+    cli.add_task_argument(parser, default=None,
+                          help="task spec: a registered name or a .json path (default paper); with no --still, the "
+                               "still goes to results/images/rollout_<task>.png")
     parser.add_argument("--learner", default="q_learning", help="learner (default q_learning)")
     parser.add_argument("--object-segment", type=int, default=1, help="start: every object on this segment (1..N, default 1)")
     parser.add_argument("--arm-segment", type=int, default=1, help="start: arm over this segment (1..N, default 1)")
     parser.add_argument("--iterations", type=positive_int, default=3000, help="training iterations per run (default 3000)")
     parser.add_argument("--runs", type=positive_int, default=5, help="training runs voting on the policy (default 5)")
-    parser.add_argument("--seed", type=non_negative_int, default=0, help="training and placement seed (default 0)")
+    cli.add_seed_argument(parser, "the training runs and the placement noise")
     parser.add_argument("--fps", type=positive_int, default=20, help="video frames per second (default 20)")
     parser.add_argument("--width", type=positive_int, default=480, help="frame width in pixels, even (default 480)")
     parser.add_argument("--height", type=positive_int, default=360, help="frame height in pixels, even (default 360)")
     parser.add_argument("--frame-every", type=positive_int, default=4, help="one frame per K control steps (default 4)")
     parser.add_argument("--max-actions", type=positive_int, default=20, help="stop after this many actions (default 20)")
-    parser.add_argument("--camera", default="frontview", help="camera name (default frontview)")
+    parser.add_argument("--camera", default=CAMERAS[0], choices=CAMERAS, help=f"camera (default {CAMERAS[0]})")
     parser.add_argument("--still", help="also save one frame (PNG) taken while wiping")
-    add_robots_argument(parser)
+    cli.add_robots_argument(parser)
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, prog: str | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     from tableclean_suite.learners.rules import get_learner
     from tableclean_suite.rewards import get_reward_pattern
 
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    apply_verbosity(args.verbose)
+    parser, args = cli.parse_command(build_parser, argv, prog or PROG)
     from tableclean_suite.physics_backend import check_physical_task
     from tableclean_suite.task import get_task_spec
 
@@ -218,33 +224,31 @@ def main(argv: list[str] | None = None) -> int:
         check_physical_task(model)
     except (ValueError, OSError) as error:
         parser.error(f"--task: {error}")
-    if args.video is None:
+    if args.out is None:
         if args.task is None:
-            parser.error("--video is required (or give --task to write results/rollout_<task>.mp4)")
-        args.video = f"results/rollout_{spec.name}.mp4"
+            parser.error("--video (or --out) is required (or give --task to write results/rollout_<task>.mp4)")
+        args.out = f"results/rollout_{spec.name}.mp4"
         if args.still is None:
             args.still = f"results/images/rollout_{spec.name}.png"
-    robot = parse_robot(parser, args)  # before training: exits 2 naming the supported robots
+    robot = cli.parse_robot(parser, args)  # before training: exits 2 naming the supported robots
     for flag, value in (("--object-segment", args.object_segment), ("--arm-segment", args.arm_segment)):
         if not 1 <= value <= spec.segments:
             parser.error(f"{flag} must be a segment number in 1..{spec.segments} for task {spec.name!r}, got {value}")
-    video = Path(args.video)
+    video = Path(args.out)
     if video.suffix.lower() not in VIDEO_SUFFIXES:
-        parser.error(f"--video must end in {' or '.join(VIDEO_SUFFIXES)}, got {args.video!r}")
+        parser.error(f"--video must end in {' or '.join(VIDEO_SUFFIXES)}, got {args.out!r}")
     still = Path(args.still) if args.still else None
     if still is not None and still.suffix.lower() not in (".png", ".jpg", ".jpeg"):
         parser.error(f"--still must end in .png or .jpg, got {args.still!r}")
     for name in ("width", "height"):
         value = getattr(args, name)
-        if value < 64 or value > 4096 or value % 2:
-            parser.error(f"--{name} must be an even number of pixels in [64, 4096], got {value}")
+        if value < MIN_PIXELS or value > MAX_PIXELS or value % 2:
+            parser.error(f"--{name} must be an even number of pixels in [{MIN_PIXELS}, {MAX_PIXELS}], got {value}")
     try:
         get_reward_pattern(args.reward)
         get_learner(args.learner)
     except (ValueError, KeyError) as error:
         parser.error(str(error).strip("'\""))
-    if args.camera not in ("frontview", "birdview", "agentview", "sideview"):
-        parser.error(f"--camera must be one of frontview, birdview, agentview, sideview, got {args.camera!r}")
 
     start = TaskState((False,) * spec.segments, (args.object_segment - 1,) * spec.n_objects, args.arm_segment - 1)
     started = time.perf_counter()
@@ -264,4 +268,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(prog="python -m tableclean_suite.bench.rollout"))

@@ -4,7 +4,8 @@
     python -m benchmarks.run --describe           # the task model, Table 1 mapping, Table 2
     python -m benchmarks.run --runs 200 --rewards r2 r4 --no-sweeps --out results/quick
 
-Installed (no checkout needed): ``python -m tableclean_suite.bench.run`` or ``tableclean-bench``.
+Installed (no checkout needed): ``tableclean-bench run`` (or bare ``tableclean-bench``), or
+``python -m tableclean_suite.bench run``.
 
 Trains every learner x reward at (alpha, gamma) ("main"), plus the sweep learner x
 sweep reward at each alpha of ``--alpha-sweep`` and each gamma of ``--gamma-sweep``, plus
@@ -45,8 +46,8 @@ EXIT_USAGE = 2
 #: A cell failed to train (the executor names it).
 EXIT_FAILED = 1
 EXIT_INTERRUPTED = 130
-#: How the checkout's entry point is invoked (the default program name).
-PROG = "python -m benchmarks.run"
+#: The program name in messages unless the caller gives one.
+PROG = "tableclean-bench run"
 #: Resolution of the PNG figures, dots per inch.
 FIGURE_DPI = 120
 #: Where, under the cell store, results derived from the cells are cached (see :mod:`.derived`).
@@ -66,19 +67,10 @@ def _shown(value) -> str:
     return " ".join(map(str, value)) if isinstance(value, tuple) else str(value)
 
 
-def invoked_as(argv0: str | None = None) -> str:
-    """The program name users typed: ``python -m benchmarks.run``, ``python -m
-    tableclean_suite.bench.run`` or the console script's name."""
-    path = Path(argv0 if argv0 is not None else (sys.argv[0] if sys.argv and sys.argv[0] else PROG))
-    if path.name != "run.py":
-        return path.name if path.name not in ("", "-c") else PROG
-    return PROG if path.parent.name == "benchmarks" else "python -m tableclean_suite.bench.run"
-
-
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line; defaults and help texts come from :class:`RunConfig`."""
+    from tableclean_suite.bench import cli
     from tableclean_suite.bench.config import backend_names
-    from tableclean_suite.executors import EXECUTOR_NAMES
     from tableclean_suite.learners import exploration_names, learner_names
     from tableclean_suite.rewards import reward_pattern_names
     from tableclean_suite.task import task_spec_names
@@ -92,11 +84,9 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
             text += f" (default: {_shown(default[field])})"
         return text.replace("%", "%%")
 
-    parser = argparse.ArgumentParser(
-        prog=prog,
-        description="Reproduce the paper's Tables 3-4 and Figures 3-7 (task-level RL for table cleaning). "
-                    "List flags take space- or comma-separated values (--rewards r1 r2 or --rewards r1,r2).",
-    )
+    parser = cli.command_parser(
+        prog, "Reproduce the paper's Tables 3-4 and Figures 3-7 (task-level RL for table cleaning). "
+              "List flags take space- or comma-separated values (--rewards r1 r2 or --rewards r1,r2).")
 
     def add(group, field: str, extra: str = "", **options):
         group.add_argument(flag_of(field), dest=field, default=argparse.SUPPRESS,
@@ -113,8 +103,9 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     add_list(grid, "learners", learners)
     add_list(grid, "rewards", rewards)
     for field, kind in (("runs", int), ("iterations", int), ("alpha", float), ("gamma", float),
-                        ("epsilon", float), ("max_itr", int), ("seed", int)):
+                        ("epsilon", float), ("max_itr", int)):
         add(grid, field, type=kind)
+    cli.add_seed_argument(grid, "the runs, the bootstraps and the comparisons", default=argparse.SUPPRESS)
     learning = parser.add_argument_group("learner settings (every cell)")
     add(learning, "exploration", ", ".join(exploration_names()), metavar="NAME[:KEY=VALUE,...]")
     add(learning, "q_init", type=float)
@@ -129,7 +120,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     add(sweeps, "sweep_learner", learners)
     add_switch(sweeps, "sweeps", "skip the sweeps")
     task = parser.add_argument_group("task model and metrics")
-    add(task, "task", f"{', '.join(task_spec_names())}, or a path to a .json spec", metavar="NAME|FILE.json")
+    cli.add_task_argument(task, default=argparse.SUPPRESS,
+                          help=helped("task", f"{', '.join(task_spec_names())}, or a path to a .json spec"))
     add(task, "start", choices=START_MODES)
     add(task, "ineffective", choices=INEFFECTIVE_MODES)
     add(task, "threshold", type=float)
@@ -142,19 +134,14 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     backend = parser.add_argument_group("backend")
     add(backend, "backend", choices=backend_names())
     add(backend, "transitions", metavar="PATH")
-    add(backend, "workers", type=int)
-    add(backend, "executor", choices=EXECUTOR_NAMES)
-    add(backend, "ray_address", metavar="HOST:PORT|auto")
+    cli.add_executor_arguments(backend, "cells", suppress=True,
+                               helps={field: helped(field) for field in ("workers", "executor", "ray_address")})
     output = parser.add_argument_group("output")
-    add(output, "out", metavar="DIR")
+    cli.add_out_argument(output, cli.DIRECTORY, argparse.SUPPRESS, helped("out"))
     add_switch(output, "figures", "do not draw the PNG figures")
     output.add_argument("--fresh", dest="fresh", action="store_true", default=argparse.SUPPRESS,
                         help=docs.get("fresh", ""))
     add_switch(output, "progress", "no progress bar on stderr")
-    output.add_argument("--verbose", dest="verbose", action="store_true", default=argparse.SUPPRESS,
-                        help=docs.get("verbose", ""))
-    output.add_argument("--plugins", dest="plugins", default=argparse.SUPPRESS, metavar="MODULE|FILE.py,...",
-                        help=docs.get("plugins", "").replace("%", "%%"))
     output.add_argument("--describe", action="store_true",
                         help="print the task model analysis (states, Table 1 mapping, Table 2, learners) and exit")
     return parser
@@ -184,14 +171,10 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
         A namespace with ``config`` (a :class:`RunConfig`), ``describe`` and ``parser``.  Any bad
         flag or value exits with code 2 and a message naming it and what is allowed.
     """
-    from tableclean_suite.bench.plugins import preload, split_plugins
+    from tableclean_suite.bench.cli import parse_command
 
-    prog = prog or invoked_as()
-    preload(argv if argv is not None else sys.argv[1:], prog)  # before the names are checked
-    parser = build_parser(prog)
-    parsed = vars(parser.parse_args(argv))
-    if "plugins" in parsed:
-        parsed["plugins"] = split_plugins(parsed["plugins"])
+    parser, namespace = parse_command(build_parser, argv, prog or PROG)  # plugins imported before names are checked
+    parsed = vars(namespace)
     describe = parsed.pop("describe")
     for field in ("learners", "rewards"):
         if field in parsed:
@@ -405,13 +388,9 @@ def _print_tables(config: RunConfig, table3, table4, paper_task: bool, compariso
 def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code.
 
-    ``prog`` is the program name in messages (default: as invoked, see :func:`invoked_as`).
+    ``prog`` is the program name in messages (default :data:`PROG`).
     """
-    from tableclean_suite.bench.startup import quiet_robosuite_startup
-
     args = parse_args(argv, prog)
-    if not args.config.verbose:
-        quiet_robosuite_startup()
     try:
         if args.describe:
             from tableclean_suite.bench.describe import describe
@@ -427,4 +406,4 @@ def main(argv=None, prog: str | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(prog="python -m tableclean_suite.bench.run"))

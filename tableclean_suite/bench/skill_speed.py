@@ -1,4 +1,5 @@
-"""``python -m benchmarks.skill_speed``: control steps and wall time of the skills in physics.
+"""Control steps and wall time of the skills in physics: the ``skills`` section of
+``tableclean-bench speed`` (:mod:`.speed`; ``python -m benchmarks.skill_speed`` is its alias).
 
 Runs the task model's optimal plan from a start layout (default: the paper's layout, object and
 arm over segment 1, whose optimal plan is the 8-action sequence of Sec. 2) for ``--episodes``
@@ -23,18 +24,13 @@ Goal (issue 9): the fast path >= 3x robosuite's control steps/s.
 
 from __future__ import annotations
 
-import argparse
-import sys
 import time
 from collections import defaultdict
 
 import mujoco
 import numpy as np
 
-from tableclean_suite.bench.cli import positive_int
-from tableclean_suite.bench.startup import add_verbose_flag, apply_verbosity  # noqa: E402
 from tableclean_suite.controllers import SkillController, make_skill_env
-from tableclean_suite.task import TaskModel
 
 #: Goal for one optimal episode's wall time (s).
 EPISODE_GOAL_S = 4.0
@@ -44,33 +40,6 @@ OVERHEAD_GOAL = 0.05
 FAST_SPEEDUP_GOAL = 3.0
 #: mjData fields a raw-MuJoCo replay restores before each control step's substeps.
 REPLAY_FIELDS = ("qpos", "qvel", "act", "ctrl", "qacc_warmstart")
-
-
-def parse_args(argv=None) -> argparse.Namespace:
-    """Command-line options; argparse exits with a clear message on bad flags."""
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.skill_speed", description=__doc__.splitlines()[0])
-    add_verbose_flag(parser)
-    parser.add_argument("--episodes", type=positive_int, default=3, help="optimal episodes to run (default 3)")
-    parser.add_argument(
-        "--layout", type=int, nargs=2, metavar=("OBJECT_SEGMENT", "ARM_SEGMENT"), default=(1, 1),
-        help="start layout, 1-based segments (every object on OBJECT_SEGMENT; default: 1 1, the paper's layout)",
-    )
-    parser.add_argument("--seed", type=int, default=0, help="environment seed (default 0)")
-    parser.add_argument("--task", default="paper", help="task spec: a registered name or a .json path (default paper)")
-    args = parser.parse_args(argv)
-    apply_verbosity(args.verbose)
-    from tableclean_suite.physics_backend import check_physical_task
-    from tableclean_suite.task import get_task_spec
-
-    try:
-        args.task = get_task_spec(args.task)
-        check_physical_task(TaskModel(spec=args.task))
-    except (ValueError, OSError) as error:
-        parser.error(f"--task: {error}")
-    n = args.task.segments
-    if any(not 1 <= k <= n for k in args.layout):
-        parser.error(f"--layout: segments must be in 1..{n} for task {args.task.name!r}, got {list(args.layout)}")
-    return args
 
 
 def run(episodes: int, layout=(1, 1), seed: int = 0, fast_control: bool = True, task=None) -> dict:
@@ -228,16 +197,18 @@ def format_report(records: dict) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> int:
-    args = parse_args(argv)
-    comparison = compare_paths(args.episodes, tuple(args.layout), args.seed, task=args.task)
-    print(f"task {args.task.name}, layout {tuple(args.layout)}")
-    print(format_report(comparison["fast"]))
-    print()
-    print(format_comparison(comparison))
-    episodes = comparison["fast"]["episodes"] + comparison["robosuite"]["episodes"]
-    return 0 if all(ep["terminal"] for ep in episodes) else 1
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+def goal_numbers(comparison: dict) -> dict[str, float]:
+    """The goals' measurements of :func:`compare_paths`' records: ``episode_s`` (mean wall seconds of
+    an optimal episode on the fast path), ``overhead`` (the executor's time outside ``env.step``
+    over its time inside, fast path) and ``speedup`` (fast path's control steps/s over robosuite's)."""
+    fast = comparison["fast"]["episodes"]
+    wall = sum(ep["wall_s"] for ep in fast)
+    env_s = sum(ep["env_s"] for ep in fast)
+    rates = {}
+    for path in ("robosuite", "fast"):
+        episodes = comparison[path]["episodes"]
+        rates[path] = sum(ep["steps"] for ep in episodes) / max(sum(ep["env_s"] for ep in episodes),
+                                                                np.finfo(float).tiny)
+    return {"episode_s": wall / len(fast),
+            "overhead": (wall - env_s) / env_s if env_s > 0 else float("nan"),
+            "speedup": rates["fast"] / rates["robosuite"]}

@@ -1,9 +1,10 @@
-"""``python -m benchmarks.spec_speed``: does the compiled learner keep its speed on large task specs?
+"""Does the compiled learner keep its speed on large task specs, and how fast is a cold start?
 
-    python -m benchmarks.spec_speed                 # ~1 minute: per-update rates and the cold start
-    python -m benchmarks.spec_speed --no-cold-start # only the per-update rates
+The ``specs`` and ``cold-start`` sections of ``tableclean-bench speed`` (:mod:`.speed`;
+``python -m benchmarks.spec_speed`` is their alias):
 
-Two measurements, printed as one summary block:
+    tableclean-bench speed --sections specs,cold-start   # ~1 minute
+    tableclean-bench speed --sections specs              # only the per-update rates
 
 Per-update rate
     ``train()`` of the compiled Q-learning (r4) with the same runs and iterations on the
@@ -16,7 +17,7 @@ Per-update rate
     goal is a largest/paper rate ratio of at least ``1 / TARGET_SLOWDOWN``.
 
 Cold start
-    Wall time of the README's ``python -m benchmarks.run --no-progress --out DIR`` (defaults,
+    Wall time of the README's run command, ``--no-progress --out DIR`` (defaults,
     figures included) in three fresh processes sharing one numba cache directory
     (``NUMBA_CACHE_DIR``), new and empty at the start:
 
@@ -35,7 +36,6 @@ Cold start
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import re
@@ -46,19 +46,15 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from tableclean_suite.bench import cli
-from tableclean_suite.bench.cli import OneLineParser, positive_int
-
-PROG = "python -m benchmarks.spec_speed"
-EXIT_USAGE = cli.EXIT_USAGE
 #: The learner's per-update rate on the largest spec should stay within this factor of the paper spec's.
 TARGET_SLOWDOWN = 2.0
 DEFAULT_RUNS = 64
 DEFAULT_ITERATIONS = 50_000
 DEFAULT_REPEATS = 9
 LEARNER, REWARD = "q_learning", "r4"
-#: The harness command timed for the cold start (``--out`` is appended).
-COLD_START_COMMAND = ("-m", "benchmarks.run", "--no-progress")  # the README's command (figures included)
+#: The harness command timed for the cold start (``--out`` is appended): the README's run command (figures
+#: included), through the module entry point so that it runs from an installed package too.
+COLD_START_COMMAND = ("-m", "tableclean_suite.bench", "run", "--no-progress")
 #: The cold-start processes, in order: (label, output directory name; the same name = the same result caches).
 COLD_START_PROCESSES = (
     ("first process (empty numba and result caches)", "run1"),
@@ -183,10 +179,9 @@ def time_cold_starts(processes=None) -> list[ColdStart]:
     after the other, sharing a new, empty numba cache and, where they name the same output
     directory, its result caches."""
     processes = COLD_START_PROCESSES if processes is None else processes
-    checkout = Path(__file__).resolve().parents[2]
     with tempfile.TemporaryDirectory(prefix="spec_speed_") as folder:
         cache = Path(folder) / "numba_cache"
-        return [time_cold_start(Path(folder) / out, checkout, cache, label) for label, out in processes]
+        return [time_cold_start(Path(folder) / out, Path(folder), cache, label) for label, out in processes]
 
 
 def rate_ratio(largest: Rate, paper: Rate) -> float:
@@ -200,7 +195,7 @@ def within_target(ratio: float, slowdown: float = TARGET_SLOWDOWN) -> bool:
 
 
 def summary_lines(paper: Rate, largest: Rate, cold: list[ColdStart]) -> list[str]:
-    """The printed summary block."""
+    """The printed summary block: the rates, then (if any) the cold-start processes."""
     ratio = rate_ratio(largest, paper)
     verdict = "yes" if within_target(ratio) else "NO"
     lines = [
@@ -210,47 +205,33 @@ def summary_lines(paper: Rate, largest: Rate, cold: list[ColdStart]) -> list[str
         f"({largest.seconds:.3f} s)",
         f"  ratio largest/paper: {ratio:.2f} (within {TARGET_SLOWDOWN:g}x of the paper's rate: {verdict})",
     ]
-    if cold:
-        command = "python " + " ".join(COLD_START_COMMAND) + " --out DIR"
-        lines.append(f"  cold start of `{command}`, fresh processes sharing one numba cache, in this order:")
+    return lines + cold_start_lines(cold)
+
+
+def cold_start_lines(cold: list[ColdStart]) -> list[str]:
+    """The cold-start block: one line per process, and the goal on the warm one (nothing if ``cold`` is empty)."""
+    if not cold:
+        return []
+    command = "python " + " ".join(COLD_START_COMMAND) + " --out DIR"
+    lines = [f"  cold start of `{command}`, fresh processes sharing one numba cache, in this order:"]
     for number, process in enumerate(cold, 1):
         status = "" if process.returncode == 0 else f", EXIT CODE {process.returncode}"
         resumed = "" if process.resumed is None else f", cells resumed {process.resumed}"
         label = process.label or f"process {number}"
         lines.append(f"    #{number} {label}: {process.seconds:.2f} s (numba kernels compiled {process.compiled}, "
                      f"loaded from disk cache {process.loaded}{resumed}{status})")
-    warm = [p for p in cold if p.label == WARM_PROCESS]
-    if warm:
-        verdict = "yes" if warm[0].seconds <= TARGET_SECOND_PROCESS and warm[0].returncode == 0 else "NO"
+    warm = warm_process(cold)
+    if warm is not None:
+        verdict = "yes" if warm_within_target(warm) else "NO"
         lines.append(f"  second process with warm caches within {TARGET_SECOND_PROCESS:g} s: {verdict}")
     return lines
 
 
-def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line."""
-    parser = OneLineParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument("--runs", type=positive_int, default=DEFAULT_RUNS,
-                        help=f"runs per timed call (default: {DEFAULT_RUNS})")
-    parser.add_argument("--iterations", type=positive_int, default=DEFAULT_ITERATIONS,
-                        help=f"iterations per run (default: {DEFAULT_ITERATIONS})")
-    parser.add_argument("--repeats", type=positive_int, default=DEFAULT_REPEATS,
-                        help=f"timed calls per spec, the fastest kept (default: {DEFAULT_REPEATS})")
-    parser.add_argument("--no-cold-start", dest="cold_start", action="store_false",
-                        help="skip the three fresh-process timings of benchmarks.run")
-    return parser
+def warm_process(cold: list[ColdStart]) -> ColdStart | None:
+    """The process of ``cold`` with warm numba and result caches (:data:`WARM_PROCESS`), if it ran."""
+    return next((process for process in cold if process.label == WARM_PROCESS), None)
 
 
-def main(argv=None, prog: str = PROG) -> int:
-    """Measure and print the summary block; returns 0 (1 if a cold-start process failed)."""
-    from tableclean_suite.task import get_task_spec
-
-    args = build_parser(prog).parse_args(argv)
-    paper, largest = measure_rates([get_task_spec("paper"), largest_study_spec()], args.runs, args.iterations,
-                                   args.repeats)
-    cold = time_cold_starts() if args.cold_start else []
-    print("\n".join(summary_lines(paper, largest, cold)))
-    return 0 if all(process.returncode == 0 for process in cold) else 1
-
-
-if __name__ == "__main__":
-    sys.exit(main(prog="python -m tableclean_suite.bench.spec_speed"))
+def warm_within_target(process: ColdStart) -> bool:
+    """Whether the warm process succeeded within :data:`TARGET_SECOND_PROCESS` seconds."""
+    return process.seconds <= TARGET_SECOND_PROCESS and process.returncode == 0

@@ -1,8 +1,33 @@
-"""Speed of the batched learners against a plain per-step Python loop, as ratios.
+"""``tableclean-bench speed``: every speed goal of the suite, measured in sections, each goal named and checked.
 
-    python -m benchmarks.speed [--runs 1000] [--iterations 3000] [--baseline-runs 20] [--skip-default-run]
+    tableclean-bench speed                                   # every section (several minutes)
+    tableclean-bench speed --sections learners,specs         # some of them
+    tableclean-bench speed --sections environment --steps 200 --rounds 4
 
-Both sides run in this process on the same task.  Two baselines:
+Sections (``--sections``, comma separated, default all), in this order:
+
+``learners``
+    the compiled learners against a plain per-step Python loop (goal: >= :data:`PLAIN_LOOP_GOAL`
+    times faster), every registered learner against Q-learning (:mod:`.learner_speed`), every
+    exploration, and the default run after a warm-up (goal: <= :data:`DEFAULT_RUN_GOAL_S` s);
+``specs``
+    the compiled learner's per-update rate on the scaling study's largest spec against the
+    paper's (:mod:`.spec_speed`);
+``cold-start``
+    the README's command in three fresh processes sharing one numba cache (:mod:`.spec_speed`);
+``environment``
+    ``env.step`` rate of TableClean against robosuite's Lift (:mod:`.env_speed`);
+``skills``
+    control steps and wall time of the skills in physics, and the fast control path against
+    robosuite's (:mod:`.skill_speed`).
+
+The report ends with one line per goal: what was measured and whether the goal is met.  Exit
+code 0 whatever the goals say; 1 when a measurement itself failed (a cold-start process that
+exited non-zero, a skill episode that did not reach the terminal state); 2 on bad flags.
+The old commands (``python -m benchmarks.speed``, ``learner_speed``, ``spec_speed``,
+``env_speed``, ``skill_speed``) are aliases selecting sections (:data:`ALIASES`) with their old flags.
+
+Learners section, in detail.  Both sides run in this process on the same task.  Two baselines:
 - ``plain loop``: a lean hand-written Python loop of Algorithm 1 over precomputed
   transition lists with ``random.random()`` (the fastest plain Python we could write),
 - ``reference engine``: ``train(engine="reference")``, the library's own per-step loop
@@ -24,13 +49,23 @@ import argparse
 import random
 import sys
 import time
+from dataclasses import dataclass, field
 
+from tableclean_suite.bench import cli
 from tableclean_suite.bench.cli import positive_int
 from tableclean_suite.learners import train
 from tableclean_suite.rewards import get_reward_pattern
 from tableclean_suite.task import Outcome, TaskModel
 
 LEARNERS = ("q_learning", "sarsa")
+#: Goal: the compiled learners at least this many times the plain loop's updates per second.
+PLAIN_LOOP_GOAL = 100.0
+#: Goal: the default run, after a warm-up in the same process, within this many wall seconds.
+DEFAULT_RUN_GOAL_S = 5.0
+#: The program name in messages unless the caller gives one.
+PROG = "tableclean-bench speed"
+#: The sections, in the order they run and report.
+SECTIONS = ("learners", "specs", "cold-start", "environment", "skills")
 
 
 def plain_loop(learner: str, runs: int, iterations: int, alpha=0.3, gamma=0.3, epsilon=0.1, max_itr=500, seed=0):
@@ -121,38 +156,310 @@ def time_default_run() -> dict:
             return {"cpu_s": time.process_time() - cpu, "wall_s": time.perf_counter() - wall}
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.speed", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--runs", type=positive_int, default=1000, help="runs for the compiled learners (default 1000)")
-    parser.add_argument("--iterations", type=positive_int, default=3000, help="iterations per run (default 3000)")
-    parser.add_argument("--baseline-runs", type=positive_int, default=20, help="runs for the plain baselines (default 20)")
-    parser.add_argument("--skip-default-run", action="store_true", help="do not time the default benchmarks.run")
-    parser.add_argument("--skip-specs", action="store_true",
-                        help="do not time the largest scaling spec against the paper's, nor the cold start")
-    args = parser.parse_args(argv)
+
+# ---------------------------------------------------------------------------------------------
+# the report: sections and goals
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Goal:
+    """One speed goal and its measurement.
+
+    Attributes:
+        section: the section (of :data:`SECTIONS`) that measured it.
+        goal: what is asked, e.g. ``"TableClean / Lift env.step rate >= 0.9"``.
+        measured: what was measured, e.g. ``"0.93"``.
+        met: whether the measurement meets the goal.
+    """
+
+    section: str
+    goal: str
+    measured: str
+    met: bool
+
+    def line(self) -> str:
+        """``section: goal: measured -> met`` for the report."""
+        return f"  {self.section:<12} {self.goal}: {self.measured} -> {'met' if self.met else 'NOT met'}"
+
+
+@dataclass
+class SectionResult:
+    """What a section printed, its goals, and whether its measurement itself succeeded."""
+
+    goals: list[Goal] = field(default_factory=list)
+    failed: bool = False
+
+
+def _table(rows: list[dict], float_format: str) -> str:
     import pandas as pd
 
-    table = pd.DataFrame(measure(args.runs, args.iterations, args.baseline_runs))
-    with pd.option_context("display.float_format", "{:,.1f}".format, "display.width", 160):
-        print(table.to_string(index=False))
-    print(f"\ngoal: >= 100x the plain loop; measured {table['ratio_vs_plain_loop'].min():.0f}x (worst learner)")
+    with pd.option_context("display.float_format", float_format.format, "display.width", 200):
+        return pd.DataFrame(rows).to_string(index=False)
+
+
+def learners_section(args) -> SectionResult:
+    """The compiled learners against the plain loop, every learner and exploration, the default run."""
+    from tableclean_suite.bench import learner_speed
+
+    result = SectionResult()
+    rows = measure(args.runs, args.iterations, args.baseline_runs)
+    print(_table(rows, "{:,.1f}"))
+    worst = min(row["ratio_vs_plain_loop"] for row in rows)
+    result.goals.append(Goal("learners", f"compiled learners >= {PLAIN_LOOP_GOAL:g}x the plain Python loop",
+                             f"{worst:.0f}x (worst learner)", worst >= PLAIN_LOOP_GOAL))
+    print(f"\nevery learner: paper spec, reward {args.reward}, {args.runs} runs x {args.iterations} iterations, "
+          f"best of {args.repeat} (wall clock, all cores)")
+    learner_rows = learner_speed.learner_rows(args.reward, args.runs, args.iterations, args.repeat)
+    print(_table(learner_rows, "{:,.2f}"))
+    name, ratio = learner_speed.slowest(learner_rows)
+    result.goals.append(Goal("learners", f"no learner but Dyna-Q more than {learner_speed.SLOWDOWN_GOAL:g}x slower "
+                             "per update than Q-learning", f"slowest {name}, {ratio:.2f}x",
+                             ratio <= learner_speed.SLOWDOWN_GOAL))
+    if not args.skip_explorations:
+        print()
+        print(_table(learner_speed.exploration_rows(args.reward, args.runs, args.iterations, args.repeat),
+                     "{:,.2f}"))
     if not args.skip_default_run:
         timing = time_default_run()
-        print(
-            f"default `python -m benchmarks.run --fresh` after warm-up: {timing['cpu_s']:.2f} s CPU, "
-            f"{timing['wall_s']:.2f} s wall (goal <= 5 s)"
-        )
-    if not args.skip_specs:
-        from tableclean_suite.bench import spec_speed
+        print(f"\ndefault `tableclean-bench run --fresh` after warm-up: {timing['cpu_s']:.2f} s CPU, "
+              f"{timing['wall_s']:.2f} s wall")
+        result.goals.append(Goal("learners", f"default run after warm-up <= {DEFAULT_RUN_GOAL_S:g} s wall",
+                                 f"{timing['wall_s']:.2f} s", timing["wall_s"] <= DEFAULT_RUN_GOAL_S))
+    return result
+
+
+def specs_section(args) -> SectionResult:
+    """The compiled learner's rate on the largest scaling spec against the paper's."""
+    from tableclean_suite.bench import spec_speed
+    from tableclean_suite.task import get_task_spec
+
+    paper, largest = spec_speed.measure_rates([get_task_spec("paper"), spec_speed.largest_study_spec()],
+                                              args.spec_runs, args.spec_iterations, args.spec_repeats)
+    print("\n".join(spec_speed.summary_lines(paper, largest, [])))
+    ratio = spec_speed.rate_ratio(largest, paper)
+    return SectionResult([Goal("specs", f"largest spec's rate within {spec_speed.TARGET_SLOWDOWN:g}x of the paper's",
+                               f"ratio {ratio:.2f}", spec_speed.within_target(ratio))])
+
+
+def cold_start_section(args) -> SectionResult:
+    """The README's command in three fresh processes sharing one numba cache."""
+    from tableclean_suite.bench import spec_speed
+
+    cold = spec_speed.time_cold_starts()
+    print("\n".join(spec_speed.cold_start_lines(cold)))
+    warm = spec_speed.warm_process(cold)
+    result = SectionResult(failed=any(process.returncode != 0 for process in cold))
+    if warm is not None:
+        result.goals.append(Goal("cold-start", f"second process with warm caches <= "
+                                 f"{spec_speed.TARGET_SECOND_PROCESS:g} s", f"{warm.seconds:.2f} s",
+                                 spec_speed.warm_within_target(warm)))
+    return result
+
+
+def environment_section(args) -> SectionResult:
+    """``env.step`` rate of TableClean against robosuite's Lift."""
+    from tableclean_suite.bench import env_speed
+
+    rates = env_speed.measure(args.steps, args.rounds, args.control_freq, args.seed)
+    print("\n".join(env_speed.report_lines(rates)))
+    ratio = env_speed.rate_ratio(rates)
+    return SectionResult([Goal("environment", f"TableClean / Lift env.step rate >= {env_speed.RATIO_GOAL:g}",
+                               f"{ratio:.3f}", ratio >= env_speed.RATIO_GOAL)])
+
+
+def skills_section(args) -> SectionResult:
+    """Optimal episodes of the skills, on robosuite's control path and the fast one."""
+    from tableclean_suite.bench import skill_speed
+
+    spec = args.task_spec
+    comparison = skill_speed.compare_paths(args.episodes, tuple(args.layout), args.seed, task=spec)
+    print(f"task {spec.name}, layout {tuple(args.layout)}")
+    print(skill_speed.format_report(comparison["fast"]))
+    print()
+    print(skill_speed.format_comparison(comparison))
+    numbers = skill_speed.goal_numbers(comparison)
+    episodes = comparison["fast"]["episodes"] + comparison["robosuite"]["episodes"]
+    return SectionResult([
+        Goal("skills", f"optimal episode <= {skill_speed.EPISODE_GOAL_S:g} s (mean, fast path)",
+             f"{numbers['episode_s']:.2f} s", numbers["episode_s"] <= skill_speed.EPISODE_GOAL_S),
+        Goal("skills", f"executor overhead over env.step <= {skill_speed.OVERHEAD_GOAL:.0%}",
+             f"{numbers['overhead']:.2%}", numbers["overhead"] <= skill_speed.OVERHEAD_GOAL),
+        Goal("skills", f"fast path >= {skill_speed.FAST_SPEEDUP_GOAL:g}x robosuite's control steps/s",
+             f"{numbers['speedup']:.2f}x", numbers["speedup"] >= skill_speed.FAST_SPEEDUP_GOAL),
+    ], failed=not all(episode["terminal"] for episode in episodes))
+
+
+#: Each section's function, by name.
+SECTION_RUNNERS = {"learners": learners_section, "specs": specs_section, "cold-start": cold_start_section,
+                   "environment": environment_section, "skills": skills_section}
+
+
+# ---------------------------------------------------------------------------------------------
+# the command line
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Alias:
+    """An old speed command: the sections it selects and its flags' old spellings.
+
+    Attributes:
+        sections: sections it runs.
+        flags: ``{option dest: old flag}`` for options it spelled differently.
+    """
+
+    sections: tuple[str, ...]
+    flags: dict = field(default_factory=dict)
+
+
+#: The old commands, as sections of this one (``python -m benchmarks.NAME`` keeps working).
+ALIASES = {
+    "speed": Alias(("learners", "specs", "cold-start")),
+    "learner_speed": Alias(("learners",)),
+    "spec_speed": Alias(("specs", "cold-start"), {"spec_runs": "--runs", "spec_iterations": "--iterations",
+                                                   "spec_repeats": "--repeats"}),
+    "env_speed": Alias(("environment",)),
+    "skill_speed": Alias(("skills",)),
+}
+
+
+def section_list(text: str) -> tuple[str, ...]:
+    """``"specs,learners"`` -> ``("learners", "specs")``: known section names, in report order."""
+    chosen = set(cli.name_list(text))
+    unknown = sorted(chosen - set(SECTIONS))
+    if unknown:
+        raise argparse.ArgumentTypeError(f"unknown section {', '.join(map(repr, unknown))}; allowed: "
+                                         f"{', '.join(SECTIONS)} (comma separated)")
+    return tuple(name for name in SECTIONS if name in chosen)
+
+
+def reward_name(text: str) -> str:
+    """A registered reward pattern's name."""
+    from tableclean_suite.rewards import reward_pattern_names
+
+    if text not in reward_pattern_names():
+        raise argparse.ArgumentTypeError(f"unknown reward pattern {text!r}; allowed: {', '.join(reward_pattern_names())}")
+    return text
+
+
+def build_parser(prog: str = PROG, alias: str | None = None) -> argparse.ArgumentParser:
+    """The command line; ``alias`` (a key of :data:`ALIASES`) builds an old command's: only its sections'
+    options, spelled as it spelled them, and no ``--sections``."""
+    from tableclean_suite.bench import env_speed, spec_speed
+
+    chosen = ALIASES[alias] if alias is not None else None
+    sections = chosen.sections if chosen is not None else SECTIONS
+    flags = chosen.flags if chosen is not None else {}
+    parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
+    if chosen is None:
+        parser.add_argument("--sections", type=section_list, default=SECTIONS, metavar="NAME,...",
+                            help=f"sections to measure, comma separated: {', '.join(SECTIONS)} (default all)")
+
+    def option(group, dest: str, flag: str, **options):
+        group.add_argument(flags.get(dest, flag), dest=dest, **options)
+
+    if "learners" in sections:
+        group = parser.add_argument_group("learners")
+        option(group, "runs", "--runs", type=positive_int, default=1000, help="runs per timed call (default 1000)")
+        option(group, "iterations", "--iterations", type=positive_int, default=3000,
+               help="iterations per run (default 3000)")
+        option(group, "baseline_runs", "--baseline-runs", type=positive_int, default=20,
+               help="runs of the plain baselines (default 20)")
+        option(group, "repeat", "--repeat", type=positive_int, default=3,
+               help="timed calls per learner, the fastest kept (default 3)")
+        option(group, "reward", "--reward", type=reward_name, default="r4",
+               help="reward pattern of the every-learner table (default r4)")
+        option(group, "skip_explorations", "--skip-explorations", action="store_true",
+               help="do not time the explorations")
+        option(group, "skip_default_run", "--skip-default-run", action="store_true",
+               help="do not time the default run")
+    if "specs" in sections:
+        group = parser.add_argument_group("specs")
+        option(group, "spec_runs", "--spec-runs", type=positive_int, default=spec_speed.DEFAULT_RUNS,
+               help=f"runs per timed call (default {spec_speed.DEFAULT_RUNS})")
+        option(group, "spec_iterations", "--spec-iterations", type=positive_int, default=spec_speed.DEFAULT_ITERATIONS,
+               help=f"iterations per run (default {spec_speed.DEFAULT_ITERATIONS})")
+        option(group, "spec_repeats", "--spec-repeats", type=positive_int, default=spec_speed.DEFAULT_REPEATS,
+               help=f"timed calls per spec, the fastest kept (default {spec_speed.DEFAULT_REPEATS})")
+        option(group, "skip_specs", "--skip-specs", action="store_true",
+               help="skip the specs and cold-start sections (as the old speed command)")
+    if "cold-start" in sections:
+        group = parser.add_argument_group("cold start")
+        option(group, "no_cold_start", "--no-cold-start", action="store_true",
+               help="skip the three fresh-process timings of the run command")
+    if "environment" in sections:
+        group = parser.add_argument_group("environment")
+        option(group, "steps", "--steps", type=positive_int, default=env_speed.DEFAULT_STEPS,
+               help=f"timed env.step calls per environment, >= --rounds (default {env_speed.DEFAULT_STEPS})")
+        option(group, "rounds", "--rounds", type=positive_int, default=env_speed.DEFAULT_ROUNDS,
+               help=f"alternating timing blocks (default {env_speed.DEFAULT_ROUNDS})")
+        option(group, "control_freq", "--control-freq", type=positive_int, default=env_speed.DEFAULT_CONTROL_FREQ,
+               help=f"control frequency of every env, Hz (default {env_speed.DEFAULT_CONTROL_FREQ})")
+    if "skills" in sections:
+        group = parser.add_argument_group("skills")
+        option(group, "episodes", "--episodes", type=positive_int, default=3,
+               help="optimal episodes per control path (default 3)")
+        option(group, "layout", "--layout", type=positive_int, nargs=2, metavar=("OBJECT_SEGMENT", "ARM_SEGMENT"),
+               default=(1, 1), help="start layout, 1-based segments (every object on OBJECT_SEGMENT; default: 1 1, "
+                                    "the paper's layout)")
+        cli.add_task_argument(group, help="task spec of the skills section: a registered name or a .json path "
+                                          "(default paper)")
+    if "environment" in sections or "skills" in sections:
+        cli.add_seed_argument(parser, "the environments and their random actions")
+    return parser
+
+
+def _selected(args, alias: str | None) -> tuple[str, ...]:
+    sections = list(ALIASES[alias].sections if alias is not None else args.sections)
+    if getattr(args, "skip_specs", False):
+        sections = [name for name in sections if name not in ("specs", "cold-start")]
+    if getattr(args, "no_cold_start", False):
+        sections = [name for name in sections if name != "cold-start"]
+    return tuple(sections)
+
+
+def _check(parser, args, sections) -> None:
+    """Checks that need more than one flag, or a registry; exits 2 naming the flag."""
+    if "environment" in sections and args.steps < args.rounds:
+        parser.error(f"--steps {args.steps} is below --rounds {args.rounds}: every round times at least one step")
+    if "skills" in sections:
+        from tableclean_suite.physics_backend import check_physical_task
         from tableclean_suite.task import get_task_spec
 
-        paper, largest = spec_speed.measure_rates([get_task_spec("paper"), spec_speed.largest_study_spec()],
-                                                  spec_speed.DEFAULT_RUNS, spec_speed.DEFAULT_ITERATIONS,
-                                                  spec_speed.DEFAULT_REPEATS)
+        try:
+            args.task_spec = get_task_spec(args.task)
+            check_physical_task(TaskModel(spec=args.task_spec))
+        except (ValueError, OSError) as error:
+            parser.error(f"--task: {error}")
+        segments = args.task_spec.segments
+        if any(not 1 <= k <= segments for k in args.layout):
+            parser.error(f"--layout: segments must be in 1..{segments} for task {args.task_spec.name!r}, "
+                         f"got {list(args.layout)}")
+
+
+def main(argv=None, prog: str | None = None, alias: str | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code (see the module doc).
+
+    ``alias``: run as one of the old commands (:data:`ALIASES`).
+    """
+    if alias is not None and alias not in ALIASES:
+        raise ValueError(f"unknown speed alias {alias!r}; allowed: {', '.join(ALIASES)}")
+    parser, args = cli.parse_command(lambda name: build_parser(name, alias), argv,
+                                     prog or (f"python -m benchmarks.{alias}" if alias else PROG))
+    sections = _selected(args, alias)
+    if not sections:
+        parser.error("no section left to measure")
+    _check(parser, args, sections)
+    goals, failed = [], False
+    for name in sections:
+        print(f"== {name} ==")
+        result = SECTION_RUNNERS[name](args)
+        goals += result.goals
+        failed = failed or result.failed
         print()
-        print("\n".join(spec_speed.summary_lines(paper, largest, spec_speed.time_cold_starts())))
-    return 0
+    print("goals:")
+    for goal in goals:
+        print(goal.line())
+    print(f"{sum(goal.met for goal in goals)} of {len(goals)} goals met")
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(prog="python -m tableclean_suite.bench.speed"))

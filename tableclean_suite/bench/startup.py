@@ -2,7 +2,7 @@
 
 When robosuite is imported (by the physics backend, or by anything else that needs MuJoCo) it
 logs warnings about its own installation: no private macro file, no robosuite_models, no mink.
-They say nothing about a benchmark run, so the CLIs drop them unless ``--verbose``
+They say nothing about a benchmark run, so the commands drop them unless ``--verbose``
 (:func:`quiet_robosuite_startup`).  Only records logged while robosuite itself is being imported
 are dropped; its later messages (e.g. about a controller) pass as usual.
 """
@@ -56,12 +56,6 @@ class _DropBelowWarning(logging.Filter):
 
     def filter(self, record) -> bool:
         return record.levelno >= logging.WARNING
-
-
-def add_verbose_flag(parser) -> None:
-    """``--verbose``: show robosuite's start-up warnings and its informational messages."""
-    parser.add_argument("--verbose", action="store_true",
-                        help="show robosuite's start-up warnings and informational messages (hidden by default)")
 
 
 def apply_verbosity(verbose: bool) -> None:

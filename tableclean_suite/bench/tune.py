@@ -152,12 +152,22 @@ def _reference(study, args, model) -> dict:
     return reference
 
 
-def build_parser(prog: str = "python -m benchmarks.tune") -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
-    parser.add_argument("--trials", type=int, default=30, help="trials to add to the study (default: 30)")
+#: The program name in messages unless the caller gives one.
+PROG = "tableclean-bench tune"
+#: Default output folder (the study's database, best.json, trials.csv).
+DEFAULT_OUT = "results/tune"
+
+
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The command line: the shared options of :mod:`.cli` and the study's own."""
+    from tableclean_suite.bench import cli
+
+    parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
+    parser.add_argument("--trials", type=cli.non_negative_int, default=30,
+                        help="trials to add to the study (default: 30)")
     parser.add_argument("--learner", default="q_learning", help="registered learner (default: q_learning)")
     parser.add_argument("--reward", default="r4", help="registered reward pattern (default: r4)")
-    parser.add_argument("--task", default="paper", help="task spec name or JSON path (default: paper)")
+    cli.add_task_argument(parser)
     parser.add_argument("--runs", type=int, default=200, help="runs per trial (default: 200)")
     parser.add_argument("--iterations", type=int, default=2000, help="iterations per run (default: 2000)")
     parser.add_argument("--max-itr", type=int, default=500, help="episode length limit (default: 500)")
@@ -166,8 +176,8 @@ def build_parser(prog: str = "python -m benchmarks.tune") -> argparse.ArgumentPa
     parser.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE,
                         help="allowed shortfall of the success asymptote below the paper configuration's "
                              f"(absolute fraction, default: {DEFAULT_TOLERANCE})")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the training runs and of the sampler (default: 0)")
-    parser.add_argument("--out", default="results/tune", help="output directory (default: results/tune)")
+    cli.add_seed_argument(parser, "the training runs and of the sampler")
+    cli.add_out_argument(parser, cli.DIRECTORY, DEFAULT_OUT, "output directory")
     parser.add_argument("--storage", default=None,
                         help="Optuna storage URL (default: sqlite:///OUT/study.db); share it to tune from several "
                              "processes or machines")
@@ -176,20 +186,20 @@ def build_parser(prog: str = "python -m benchmarks.tune") -> argparse.ArgumentPa
     return parser
 
 
-def parse_args(argv=None) -> argparse.Namespace:
+def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
     """Parse and check the command line; a bad value exits 2 naming it."""
+    from tableclean_suite.bench.cli import parse_command
     from tableclean_suite.bench.config import ConfigError, RunConfig
 
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if args.trials < 0:
-        parser.error(f"--trials must be >= 0, got {args.trials}")
+    parser, args = parse_command(build_parser, argv, prog or PROG)
+    args.prog = parser.prog
     if not 0.0 <= args.tolerance <= 1.0:
         parser.error(f"--tolerance must be in [0, 1], got {args.tolerance}")
     try:
         config = RunConfig(learners=(args.learner,), rewards=(args.reward,), runs=args.runs, iterations=args.iterations,
                            max_itr=args.max_itr, seed=args.seed, task=args.task, threshold=args.threshold,
-                           sweep_learner=args.learner, sweep_reward=args.reward, sweeps=False)
+                           sweep_learner=args.learner, sweep_reward=args.reward, sweeps=False,
+                           plugins=args.plugins)
     except ConfigError as error:
         parser.error(error.message_for("--" + error.field.replace("_", "-")))
     args.model = config.task_model()
@@ -238,7 +248,7 @@ def run(args) -> int:
     out = Path(args.out)
     problem = check_writable(out)
     if problem:
-        print(f"python -m benchmarks.tune: error: --out {problem}", file=sys.stderr)
+        print(f"{getattr(args, 'prog', PROG)}: error: --out {problem}", file=sys.stderr)
         return 2
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     sampler_seed = args.seed + _trials_so_far(args)  # a resumed call does not replay the first call's proposals
@@ -301,11 +311,11 @@ def _json_default(value):
     raise TypeError(f"not JSON-serialisable: {value!r}")
 
 
-def main(argv=None) -> int:
+def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
-    args = parse_args(argv)
+    args = parse_args(argv, prog)
     return run(args)
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(prog="python -m tableclean_suite.bench.tune"))

@@ -1,9 +1,9 @@
-"""``python -m benchmarks.window_invariance``: do Table 3's iteration figures move with the window?
+"""``tableclean-bench window-invariance``: do Table 3's iteration figures move with the window?
 
-    python -m benchmarks.window_invariance                      # 4000 vs 12000 iterations
-    python -m benchmarks.window_invariance --windows 2000 6000 --learners q_learning --runs 200
+    tableclean-bench window-invariance                      # 4000 vs 12000 iterations
+    tableclean-bench window-invariance --windows 2000 6000 --learners q_learning --runs 200
 
-Runs ``python -m benchmarks.run`` (no sweeps, no figures; any other of its flags may follow) once
+Runs ``tableclean-bench run`` (no sweeps, no figures; any other of its flags may follow) once
 per window, each into ``OUT/w<iterations>/`` (so a rerun resumes from the saved cells), and
 compares the main rows of the two ``table3.csv`` files figure by figure:
 
@@ -26,8 +26,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from tableclean_suite.bench import outputs, run
-from tableclean_suite.bench.cli import EXIT_USAGE, OneLineParser
+from tableclean_suite.bench import cli, outputs, run
+from tableclean_suite.bench.cli import EXIT_USAGE
 from tableclean_suite.bench.tables import main_rows
 
 #: Windows compared by default (iterations): the paper's and three times as long.
@@ -39,6 +39,9 @@ OWN_RUN_FLAGS = ("--iterations", "--out", "--sweeps", "--no-sweeps", "--figures"
 #: ``benchmarks.run`` flags that would make it write no Table 3 to compare.
 NO_TABLE_FLAGS = ("--describe",)
 RESULT_FILE = "window_invariance.csv"
+#: The program name in messages unless the caller gives one.
+PROG = "tableclean-bench window-invariance"
+DEFAULT_OUT = "results/window_invariance"
 #: Table 3's iteration figures (columns of ``table3.csv``).
 FIGURES = ("reward_convergence_iterations", "reward_convergence_episodes", "max_success_iterations",
            "max_success_episodes")
@@ -81,15 +84,24 @@ def _true(value) -> bool:
     return not pd.isna(value) and str(value).strip().lower() in ("true", "1", "1.0")
 
 
-def parse_args(argv=None):
-    parser = OneLineParser(prog="python -m benchmarks.window_invariance", description=__doc__.split("\n")[0])
+def build_parser(prog: str = PROG):
+    """The command's own options; any other flag is the run command's (``--task``, ``--seed``, ...)."""
+    parser = cli.command_parser(prog, __doc__.split("\n")[0],
+                                epilog="Any other flag is passed to the run command for both windows "
+                                       "(e.g. --task, --seed, --learners, --runs).")
     parser.add_argument("--windows", type=int, nargs=2, default=DEFAULT_WINDOWS, metavar=("SHORT", "LONG"),
                         help="the two training windows, iterations (SHORT < LONG). (default: %(default)s)")
     parser.add_argument("--goal", type=float, default=DEFAULT_GOAL,
                         help="largest relative change of a settled cell's figure, in (0, 1). (default: %(default)s)")
-    parser.add_argument("--out", default="results/window_invariance",
-                        help="output directory. (default: %(default)s)")
-    args, passthrough = parser.parse_known_args(argv)
+    cli.add_out_argument(parser, cli.DIRECTORY, DEFAULT_OUT, "output directory")
+    return parser
+
+
+def parse_args(argv=None, prog: str | None = None):
+    """``(args, passthrough)``: this command's options, and the flags passed on to the run command
+    (with this command's ``--plugins`` and ``--verbose``)."""
+    parser, args, passthrough = cli.parse_command(build_parser, argv, prog or PROG, known=True)
+    args.prog = parser.prog
     short, long = args.windows
     if not 1 <= short < long:
         parser.error(f"--windows: need 1 <= SHORT < LONG, got {short} {long}")
@@ -100,11 +112,13 @@ def parse_args(argv=None):
         parser.error(f"{', '.join(own)}: set by this command (use --windows and --out)")
     no_table = [flag for flag in passthrough if flag.split("=")[0] in NO_TABLE_FLAGS]
     if no_table:
-        parser.error(f"{', '.join(no_table)}: writes no Table 3 to compare (use python -m benchmarks.run for it)")
+        parser.error(f"{', '.join(no_table)}: writes no Table 3 to compare (use the run command for it)")
+    passthrough += ["--plugins", ",".join(args.plugins)] if args.plugins else []
+    passthrough += ["--verbose"] if args.verbose else []
     return args, passthrough
 
 
-def run_window(iterations: int, out: Path, passthrough: list[str]) -> pd.DataFrame:
+def run_window(iterations: int, out: Path, passthrough: list[str], prog: str = PROG) -> pd.DataFrame:
     """Run the harness at ``iterations`` into ``out`` (its stdout to ``out/stdout.txt``) and return the
     main rows of its Table 3.  Raises ``SystemExit`` with the harness's exit code if it fails."""
     out.mkdir(parents=True, exist_ok=True)
@@ -112,9 +126,9 @@ def run_window(iterations: int, out: Path, passthrough: list[str]) -> pd.DataFra
             "--no-progress"]
     log = out / "stdout.txt"
     with open(log, "w", encoding="utf-8") as handle, contextlib.redirect_stdout(handle):
-        code = run.main(argv, prog="python -m benchmarks.window_invariance")
+        code = run.main(argv, prog=prog)
     if code != 0:
-        print(f"benchmarks.run at {iterations} iterations exited with {code}; its output: {log}", file=sys.stderr)
+        print(f"the run command at {iterations} iterations exited with {code}; its output: {log}", file=sys.stderr)
         raise SystemExit(code)
     return main_rows(pd.read_csv(out / "table3.csv"))
 
@@ -144,15 +158,16 @@ def _percent(value: float) -> str:
     return "inf" if math.isinf(value) else f"{100 * value:.1f} %"
 
 
-def main(argv=None) -> int:
-    args, passthrough = parse_args(argv)
+def main(argv=None, prog: str | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    args, passthrough = parse_args(argv, prog)
     out = Path(args.out)
     problem = outputs.check_writable(out)
     if problem:
-        print(f"python -m benchmarks.window_invariance: error: --out: {problem}", file=sys.stderr)
+        print(f"{args.prog}: error: --out: {problem}", file=sys.stderr)
         return EXIT_USAGE
     try:
-        short, long = (run_window(w, out / f"w{w}", passthrough) for w in args.windows)
+        short, long = (run_window(w, out / f"w{w}", passthrough, args.prog) for w in args.windows)
     except SystemExit as stop:
         return int(stop.code or 0)
     changes = figure_changes(short, long)
@@ -166,3 +181,7 @@ def main(argv=None) -> int:
         print(line)
     print(f"written: {out / RESULT_FILE}")
     return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(prog="python -m tableclean_suite.bench.window_invariance"))

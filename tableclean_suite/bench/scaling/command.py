@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import time
 from dataclasses import asdict
 from pathlib import Path
 
 from tableclean_suite.bench import cli
-from tableclean_suite.bench.cli import OneLineParser, positive_int
+from tableclean_suite.bench.cli import positive_float, positive_int
 from tableclean_suite.bench.scaling.family import (BASE_MAX_ITR, DEFAULT_BASE_WINDOW, DEFAULT_OBJECT_COUNTS,
                                                    DEFAULT_SEGMENTS, DEFAULT_WINDOW_EXPONENT, describe_family,
                                                    family_specs, paper_plan_steps)
@@ -21,8 +20,8 @@ from tableclean_suite.bench.scaling.statistics import (CONFIDENCE, DEFAULT_RESAM
                                                        PLATEAU_RISE_TOLERANCE, fit_growth_exponent, resample_counts)
 from tableclean_suite.bench.scaling.study import cell_row, train_cell
 
-#: Program name of the checkout's entry point.
-PROG = "python -m benchmarks.scaling"
+#: The program name in messages unless the caller gives one.
+PROG = "tableclean-bench scaling"
 EXIT_USAGE = cli.EXIT_USAGE
 DEFAULT_OUT = Path("results") / "scaling"
 
@@ -77,24 +76,13 @@ def _counts_text(values) -> str:
     return ",".join(str(v) for v in values)
 
 
-def positive_float(text: str) -> float:
-    """A finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not math.isfinite(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
-
-
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line of the study."""
     from tableclean_suite.bench import scaling
     from tableclean_suite.learners import learner_names
     from tableclean_suite.rewards import reward_pattern_names
 
-    parser = OneLineParser(prog=prog, description=scaling.__doc__.splitlines()[0])
+    parser = cli.command_parser(prog, scaling.__doc__.splitlines()[0])
     parser.add_argument("--learners", type=_choice_list(learner_names(), "learner"), default=DEFAULT_LEARNERS,
                         help=f"comma-separated learners; allowed: {', '.join(learner_names())} "
                              f"(default: {','.join(DEFAULT_LEARNERS)})")
@@ -115,8 +103,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         help=f"window = base * (L / L0) ** exponent (default: {DEFAULT_WINDOW_EXPONENT})")
     parser.add_argument("--resamples", type=positive_int, default=DEFAULT_RESAMPLES,
                         help=f"bootstrap resamples (default: {DEFAULT_RESAMPLES})")
-    parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"training seed (default: {DEFAULT_SEED})")
-    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"output folder (default: {DEFAULT_OUT})")
+    cli.add_seed_argument(parser, "the training runs and the bootstrap", default=DEFAULT_SEED)
+    cli.add_out_argument(parser, cli.DIRECTORY, str(DEFAULT_OUT), "output folder")
     return parser
 
 
@@ -171,7 +159,7 @@ def run_study(args) -> int:
     return 0
 
 
-def main(argv=None, prog: str = PROG) -> int:
+def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
-    args = build_parser(prog).parse_args(argv)
+    _, args = cli.parse_command(build_parser, argv, prog or PROG)
     return run_study(args)

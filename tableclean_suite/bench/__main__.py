@@ -1,0 +1,8 @@
+"""``python -m tableclean_suite.bench COMMAND``: every benchmark command (see :mod:`.commands`)."""
+
+import sys
+
+from tableclean_suite.bench.commands import main
+
+if __name__ == "__main__":
+    sys.exit(main(prog="python -m tableclean_suite.bench"))

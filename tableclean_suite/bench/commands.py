@@ -1,0 +1,186 @@
+"""``tableclean-bench COMMAND``: one entry point for every benchmark command.
+
+    tableclean-bench                       # the paper's run (as `tableclean-bench run`)
+    tableclean-bench run --runs 200 --out results/quick
+    tableclean-bench fidelity --task three_segments --trials 2
+    tableclean-bench COMMAND --help
+    python -m tableclean_suite.bench COMMAND ...   # the same, without the console script
+
+Each command lives in its own module, which builds its parser (``build_parser(prog)``: the
+shared options of :mod:`.cli` plus its own) and runs it (``main(argv=None, prog=None) -> int``).
+This module only knows their names: :data:`COMMANDS`.  Flags given without a command (``tableclean-bench
+--runs 5``) go to ``run``, as before there were commands.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from tableclean_suite.bench.cli import EXIT_USAGE, OneLineParser
+
+#: The console script's name (setup.py's entry point).
+CONSOLE_SCRIPT = "tableclean-bench"
+#: The command a bare ``tableclean-bench`` (or one given only flags) runs.
+DEFAULT_COMMAND = "run"
+HELP_FLAGS = ("-h", "--help")
+
+
+@dataclass(frozen=True)
+class Command:
+    """One command of :data:`COMMANDS`.
+
+    Attributes:
+        module: the module with its ``build_parser(prog)`` and ``main(argv, prog)``.
+        summary: one line for the command list.
+        physics: whether it builds MuJoCo scenes (``MUJOCO_GL`` defaults to ``egl`` first).
+    """
+
+    module: str
+    summary: str
+    physics: bool = False
+
+    def load(self):
+        """The command's module (``MUJOCO_GL`` set before a physics command imports MuJoCo)."""
+        if self.physics:
+            os.environ.setdefault("MUJOCO_GL", "egl")
+        return importlib.import_module(self.module)
+
+
+#: Every command, in the order ``--help`` lists them.
+COMMANDS: dict[str, Command] = {
+    "run": Command("tableclean_suite.bench.run", "reproduce the paper's Tables 3-4 and Figures 3-7 (the default)"),
+    "scaling": Command("tableclean_suite.bench.scaling.command",
+                       "scaling study: N segments x M objects, learners x rewards, growth exponents"),
+    "tune": Command("tableclean_suite.bench.tune", "search a learner's hyperparameters with Optuna"),
+    "window-invariance": Command("tableclean_suite.bench.window_invariance",
+                                 "do Table 3's iteration figures move with the training window?"),
+    "fidelity": Command("tableclean_suite.bench.fidelity",
+                        "does physics do what the task model says, from every reachable state?", physics=True),
+    "calibrate": Command("tableclean_suite.bench.calibrate",
+                         "a physics-calibrated transition table (for run --backend calibrated)", physics=True),
+    "rollout": Command("tableclean_suite.bench.rollout", "video of a learned policy executed by the skills",
+                       physics=True),
+    "render": Command("tableclean_suite.bench.render_scene", "render the TableClean scene to a PNG", physics=True),
+    "demos": Command("tableclean_suite.bench.collect_demos", "collect skill demonstrations (robomimic hdf5)",
+                     physics=True),
+    "robots": Command("tableclean_suite.bench.robot_table",
+                      "fidelity and episode success per robot arm x task spec", physics=True),
+    "objects": Command("tableclean_suite.bench.object_table", "the skills on every registered object type",
+                       physics=True),
+    "speed": Command("tableclean_suite.bench.speed",
+                     "speed goals: learners, specs, cold start, environment, skills", physics=True),
+    "policy-analysis": Command("tableclean_suite.bench.policy_analysis",
+                               "measured plateaus against exact values of the learned policies"),
+}
+
+
+class CommandUnavailable(RuntimeError):
+    """A registered command whose module is not part of this installation."""
+
+
+def _module(name: str):
+    """The module of command ``name``; :class:`CommandUnavailable` when it is not installed."""
+    command = COMMANDS[name]
+    try:
+        return command.load()
+    except ModuleNotFoundError as error:
+        if error.name != command.module:
+            raise
+        raise CommandUnavailable(f"command {name!r} is not available in this installation "
+                                 f"({command.module} is missing)") from None
+
+
+def invoked_as(argv0: str | None = None) -> str:
+    """The program name users typed: the console script's name, or ``python -m tableclean_suite.bench``."""
+    name = Path(argv0 if argv0 is not None else (sys.argv[0] if sys.argv and sys.argv[0] else "")).name
+    return CONSOLE_SCRIPT if name in ("", "-c", "__main__.py", "-m") else name
+
+
+def command_parser(name: str, prog: str = CONSOLE_SCRIPT) -> argparse.ArgumentParser:
+    """The fully built parser of command ``name``, as ``prog name`` (for ``--help`` and the docs)."""
+    return _module(name).build_parser(f"{prog} {name}")
+
+
+def command_parsers(prog: str = CONSOLE_SCRIPT) -> dict[str, argparse.ArgumentParser]:
+    """``{command: its parser}`` for every available command (the generated command reference)."""
+    parsers = {}
+    for name in COMMANDS:
+        try:
+            parsers[name] = command_parser(name, prog)
+        except CommandUnavailable:
+            continue
+    return parsers
+
+
+def build_parser(prog: str = CONSOLE_SCRIPT) -> argparse.ArgumentParser:
+    """The whole command line: one subcommand per available command, each with its own options."""
+    parser = OneLineParser(
+        prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Benchmarks of task-level RL for table cleaning. Without a command: run.",
+        epilog=f"'{prog} COMMAND --help' lists a command's options.")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
+    for name, parser_of_command in command_parsers(prog).items():
+        commands.add_parser(name, parents=[parser_of_command], add_help=False, help=COMMANDS[name].summary,
+                            description=parser_of_command.description,
+                            formatter_class=argparse.RawDescriptionHelpFormatter)
+    return parser
+
+
+def _usage_error(prog: str, message: str) -> int:
+    print(f"{prog}: error: {message}", file=sys.stderr)
+    return EXIT_USAGE
+
+
+def _exit_code(code) -> int:
+    """A ``SystemExit`` code as an exit status (``None`` -> 0, a message -> 1 after printing it)."""
+    if code is None:
+        return 0
+    if isinstance(code, int):
+        return code
+    print(code, file=sys.stderr)
+    return 1
+
+
+def main(argv=None, prog: str | None = None) -> int:
+    """Run ``prog COMMAND ARGS...`` (default ``sys.argv[1:]``); returns the exit code.
+
+    No command, or flags first: ``run``.  ``-h``/``--help`` alone lists the commands.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    prog = prog or invoked_as()
+    if argv and argv[0] in HELP_FLAGS:
+        build_parser(prog).print_help()
+        return 0
+    if not argv or argv[0].startswith("-"):
+        name, rest, command_prog = DEFAULT_COMMAND, argv, prog
+    else:
+        name, rest, command_prog = argv[0], argv[1:], f"{prog} {argv[0]}"
+    if name not in COMMANDS:
+        return _usage_error(prog, f"unknown command {name!r}; allowed: {', '.join(COMMANDS)} "
+                                  f"(or no command: {DEFAULT_COMMAND})")
+    try:
+        module = _module(name)
+    except CommandUnavailable as error:
+        return _usage_error(prog, str(error))
+    try:
+        return _exit_code(module.main(rest, prog=command_prog))
+    except SystemExit as stop:
+        return _exit_code(stop.code)
+
+
+def run_alias(name: str, prog: str, argv=None, **options) -> int:
+    """Run command ``name`` as an old entry point (``python -m benchmarks.X``) called ``prog``;
+    ``options`` go to its ``main`` (e.g. the speed command's ``alias``)."""
+    try:
+        return _exit_code(_module(name).main(argv, prog=prog, **options))
+    except SystemExit as stop:
+        return _exit_code(stop.code)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,205 @@
+"""``tableclean-bench COMMAND``: the registry, the shared options and their checks, in process (fast)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import pytest
+
+from tableclean_suite.bench import cli, commands, plugins, speed
+
+#: Every command with each shared option (the parsers say which they have).
+PARSERS = commands.command_parsers()
+
+
+def _commands_with(flag: str) -> list[str]:
+    return [name for name, parser in PARSERS.items() if flag in parser._option_string_actions]
+
+
+def _run(argv, capsys, prog="tableclean-bench"):
+    """``commands.main(argv)``: its exit code and stderr's lines (robosuite's own log lines left out)."""
+    code = commands.main(argv, prog=prog)
+    err = [line for line in capsys.readouterr().err.splitlines() if not line.startswith("[robosuite")]
+    return code, err
+
+
+def test_every_registered_command_has_a_parser_with_the_shared_options():
+    available = set(PARSERS)
+    assert available >= set(commands.COMMANDS) - {"objects"}  # objects: its module may not be installed yet
+    for name, parser in PARSERS.items():
+        assert isinstance(parser, cli.OneLineParser), name
+        assert parser.prog == f"tableclean-bench {name}"
+        assert {"--plugins", "--verbose", "-h"} <= set(parser._option_string_actions), name
+        assert parser.format_help().startswith(f"usage: tableclean-bench {name}")
+
+
+def test_shared_options_have_one_type_everywhere():
+    for flag, kind in (("--seed", cli.non_negative_int), ("--workers", cli.positive_int)):
+        users = _commands_with(flag)
+        assert len(users) >= 3, flag
+        for name in users:
+            assert PARSERS[name]._option_string_actions[flag].type is kind, (name, flag)
+    for name in _commands_with("--out"):
+        action = PARSERS[name]._option_string_actions["--out"]
+        assert action.dest == "out" and action.type.__qualname__.startswith("output_path"), name
+
+
+def test_the_top_level_parser_lists_every_command(capsys):
+    assert commands.main(["--help"], prog="tableclean-bench") == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: tableclean-bench")
+    for name in PARSERS:
+        assert name in out
+    sub = commands.build_parser()._subparsers._group_actions[0].choices
+    assert set(sub) == set(PARSERS)
+    assert "--seed" in sub["fidelity"].format_help()
+
+
+def test_unknown_command_is_one_line_naming_the_commands(capsys):
+    code, err = _run(["fidelty"], capsys)
+    assert code == 2 and len(err) == 1
+    assert err[0].startswith("tableclean-bench: error: unknown command 'fidelty'") and "fidelity" in err[0]
+
+
+def test_flags_without_a_command_go_to_run_and_a_command_name_prefixes_the_usage(capsys):
+    code, err = _run(["--rewards", "r9"], capsys)
+    assert code == 2 and len(err) == 1 and err[0].startswith("tableclean-bench: error:") and "r9" in err[0]
+    code, err = _run(["run", "--rewards", "r9"], capsys, prog="python -m tableclean_suite.bench")
+    assert code == 2 and err[0].startswith("python -m tableclean_suite.bench run: error:")
+
+
+def test_an_alias_names_the_old_entry_point(capsys):
+    assert commands.run_alias("render", "python -m benchmarks.render_scene", ["--width", "0"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("python -m benchmarks.render_scene: error: argument --width")
+
+
+def test_a_tiny_run_through_the_command(tmp_path, capsys):
+    out = tmp_path / "run"
+    code = commands.main(["run", "--learners", "q_learning", "--rewards", "r4", "--runs", "3", "--iterations", "60",
+                          "--no-sweeps", "--no-literature", "--no-figures", "--no-progress", "--out", str(out)])
+    assert code == 0, capsys.readouterr().err
+    assert json.loads((out / "config.json").read_text())["args"]["runs"] == 3
+
+
+@pytest.mark.parametrize("name", _commands_with("--seed"))
+def test_a_negative_seed_is_refused_before_any_work(name, capsys):
+    code, err = _run([name, "--seed", "-1"], capsys)
+    assert code == 2 and len(err) == 1
+    assert err[0] == f"tableclean-bench {name}: error: argument --seed: expected an integer >= 0, got '-1'"
+
+
+@pytest.mark.parametrize("name", _commands_with("--out"))
+def test_an_empty_out_is_refused_before_any_work(name, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code, err = _run([name, "--out", ""], capsys)
+    assert code == 2 and len(err) == 1 and "argument --out" in err[0] and "empty" in err[0]
+    assert list(tmp_path.iterdir()) == []  # nothing written into the working directory
+
+
+@pytest.mark.parametrize("name", _commands_with("--out"))
+def test_an_unusable_out_is_refused_before_any_work(name, capsys, tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("keep me")
+    directory = PARSERS[name]._option_string_actions["--out"].metavar == "DIR"
+    target = blocker if directory else tmp_path  # a file where a folder goes, a folder where a file goes
+    code, err = _run([name, "--out", str(target / "x") if directory else str(target)], capsys)
+    assert code == 2 and len(err) == 1 and "argument --out" in err[0], err
+    assert blocker.read_text() == "keep me"
+
+
+@pytest.mark.parametrize("name", list(PARSERS))
+@pytest.mark.parametrize("body, named", [("raise RuntimeError('no licence')\n", "RuntimeError: no licence"),
+                                         ("import sys\nsys.exit(0)\n", "called sys.exit(0)")])
+def test_a_plugin_that_raises_or_exits_is_one_line_naming_it(name, body, named, capsys, tmp_path):
+    plugin = tmp_path / "bad_plugin.py"
+    plugin.write_text(body)
+    code, err = _run([name, "--plugins", str(plugin)], capsys)
+    assert code == 2 and len(err) == 1
+    assert "--plugins: plugin" in err[0] and "bad_plugin.py" in err[0] and named in err[0]
+
+
+@pytest.mark.parametrize("argv, named", [
+    (["--width", "0"], "--width"), (["--height", "-5"], "--height"), (["--width", "100000"], "--width"),
+    (["--width", "wide"], "--width"), (["--out", "scene.jpg"], ".png")])
+def test_render_refuses_bad_sizes_before_building_a_scene(argv, named, capsys, tmp_path):
+    code, err = _run(["render", *argv], capsys)
+    assert code == 2 and len(err) == 1 and named in err[0]
+
+
+@pytest.mark.parametrize("argv, named", [
+    (["--steps", "0"], "--steps"), (["--rounds", "0"], "--rounds"), (["--control-freq", "0"], "--control-freq"),
+    (["--steps", "3", "--rounds", "4"], "--steps 3 is below --rounds 4"), (["--runs", "0"], "--runs"),
+    (["--iterations", "0"], "--iterations"), (["--episodes", "0"], "--episodes"), (["--spec-runs", "0"], "--spec-runs"),
+    (["--reward", "r9"], "unknown reward pattern 'r9'"), (["--sections", "learners,gpu"], "unknown section 'gpu'"),
+    (["--sections", "skills", "--layout", "1", "9"], "--layout"), (["--sections", "skills", "--task", "nope"], "--task"),
+    (["--sections", "specs", "--skip-specs"], "no section left"),
+])
+def test_speed_refuses_zero_sized_and_unknown_inputs(argv, named, capsys):
+    code, err = _run(["speed", *argv], capsys)
+    assert code == 2 and len(err) == 1 and named in err[0], err
+
+
+@pytest.mark.parametrize("alias, argv, named", [
+    ("env_speed", ["--rounds", "0"], "--rounds"), ("env_speed", ["--control-freq", "0"], "--control-freq"),
+    ("env_speed", ["--steps", "0"], "--steps"), ("learner_speed", ["--reward", "r9"], "'r9'"),
+    ("spec_speed", ["--runs", "-3"], "--runs"), ("skill_speed", ["--seed", "-1"], "--seed"),
+    ("speed", ["--baseline-runs", "0"], "--baseline-runs"),
+])
+def test_the_old_speed_commands_keep_their_flags_and_refuse_the_same(alias, argv, named, capsys):
+    code = commands.run_alias("speed", f"python -m benchmarks.{alias}", argv, alias=alias)
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and line.startswith(f"python -m benchmarks.{alias}: error:") and named in line
+
+
+def test_the_old_speed_flags_map_onto_sections():
+    spec = speed.build_parser("x", alias="spec_speed").parse_args(["--runs", "7", "--iterations", "9",
+                                                                    "--repeats", "2", "--no-cold-start"])
+    assert (spec.spec_runs, spec.spec_iterations, spec.spec_repeats) == (7, 9, 2)
+    assert speed._selected(spec, "spec_speed") == ("specs",)
+    old = speed.build_parser("x", alias="speed").parse_args(["--skip-specs"])
+    assert speed._selected(old, "speed") == ("learners",)
+    new = speed.build_parser("x").parse_args(["--sections", "skills,learners"])
+    assert speed._selected(new, None) == ("learners", "skills")  # report order, not the order given
+    with pytest.raises(SystemExit):
+        speed.build_parser("x", alias="env_speed").parse_args(["--runs", "5"])  # not a section of env_speed
+
+
+def test_the_speed_report_names_every_goal_and_whether_it_is_met(capsys, monkeypatch):
+    goals = [speed.Goal("specs", "rate within 2x", "ratio 0.40", False), speed.Goal("specs", "other", "1", True)]
+    monkeypatch.setitem(speed.SECTION_RUNNERS, "specs", lambda args: speed.SectionResult(goals))
+    assert speed.main(["--sections", "specs"]) == 0
+    out = capsys.readouterr().out
+    assert "specs        rate within 2x: ratio 0.40 -> NOT met" in out and "other: 1 -> met" in out
+    assert "1 of 2 goals met" in out
+    monkeypatch.setitem(speed.SECTION_RUNNERS, "specs", lambda args: speed.SectionResult(goals, failed=True))
+    assert speed.main(["--sections", "specs"]) == 1
+
+
+def test_single_arm_commands_take_one_robot(capsys):
+    code, err = _run(["fidelity", "--robots", "Panda,UR5e"], capsys)
+    assert code == 2 and "give one robot" in err[-1]
+    code, err = _run(["robots", "--robots", "Panda,Nao", "--episodes", "1"], capsys)
+    assert code == 2 and "Nao" in err[-1] and "supported robots" in err[-1]
+
+
+def test_output_path_type():
+    directory, file = cli.output_path(cli.DIRECTORY), cli.output_path(cli.FILE)
+    assert directory("results/x") == "results/x" and file("x.json") == "x.json"
+    for parse, text in ((directory, ""), (directory, "  "), (file, "")):
+        with pytest.raises(argparse.ArgumentTypeError):
+            parse(text)
+
+
+def test_plugin_executor_imports_the_plugins_in_spawned_workers(tmp_path):
+    from tableclean_suite.executors import LocalExecutor
+    from tableclean_suite.task import get_task_spec
+
+    plugin = tmp_path / "spec_plugin.py"
+    plugin.write_text("from tableclean_suite.task import TaskSpec, register_task_spec\n"
+                      "register_task_spec(TaskSpec('plugin_worker_spec', segments=3), overwrite=True)\n")
+    with plugins.with_plugins(LocalExecutor(workers=2), [str(plugin)]) as executor:
+        specs = list(executor.map(get_task_spec, ["plugin_worker_spec", "paper"]))
+    assert [spec.name for spec in specs] == ["plugin_worker_spec", "paper"] and specs[0].segments == 3
+    assert plugins.with_plugins(LocalExecutor(workers=1), ()).__class__ is LocalExecutor  # nothing to wrap
