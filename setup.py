@@ -17,15 +17,16 @@ setup(
     name="tableclean_suite",
     version="0.2.0",
     description=(
-        "A robosuite plugin and benchmark for task-level RL in a two-segment table-cleaning scenario "
-        "(Q-learning with reduced state space and reward patterns r1-r4)."
+        "A robosuite plugin and benchmark suite for task-level RL in table cleaning: N segments x M objects, "
+        "tabular learners with reduced state spaces and reward patterns, skills in MuJoCo physics."
     ),
     long_description=open("README.md", encoding="utf-8").read(),
     long_description_content_type="text/markdown",
     python_requires=">=3.10",
     packages=find_packages(include=["tableclean_suite", "tableclean_suite.*"]),  # tableclean_suite.bench too
-    # The benchmark harness ships with the package (its paper numbers are Python data, no data files).
-    entry_points={"console_scripts": ["tableclean-bench = tableclean_suite.bench.run:main"]},
+    # The benchmark commands ship with the package (its paper numbers are Python data, no data files):
+    # tableclean-bench COMMAND (bare: the paper's run).
+    entry_points={"console_scripts": ["tableclean-bench = tableclean_suite.bench.commands:main"]},
     install_requires=[
         "robosuite>=1.5,<1.6",
         "mujoco>=3.3,<3.10",
@@ -46,8 +47,8 @@ setup(
                 "mkdocs", "mkdocs-material", "mkdocstrings[python]"],
         "docs": ["mkdocs", "mkdocs-material", "mkdocstrings[python]"],  # mkdocs serve / mkdocs build --strict
         "video": ["imageio", "imageio-ffmpeg", "moviepy"],  # moviepy: Gymnasium's RecordVideo
-        "tune": ["optuna"],  # python -m benchmarks.tune
-        "demos": ["h5py"],  # python -m benchmarks.collect_demos, tableclean_suite.demos
+        "tune": ["optuna"],  # tableclean-bench tune
+        "demos": ["h5py"],  # tableclean-bench demos, tableclean_suite.demos
         "cluster": ["ray"],  # --executor ray: the harness's cells on a Ray cluster
         "sb3": ["stable-baselines3", "sb3-contrib"],  # optional: MaskablePPO on the Gym envs (pulls torch)
     },

@@ -1,5 +1,5 @@
-"""A plain (non-editable) install ships the harness: ``python -m tableclean_suite.bench.run`` and the
-``tableclean-bench`` console script run from a directory outside the checkout, without network."""
+"""A plain (non-editable) install ships every command: ``tableclean-bench COMMAND`` (the console script)
+and ``python -m tableclean_suite.bench COMMAND`` run from a directory outside the checkout, without network."""
 
 import json
 import os
@@ -9,6 +9,8 @@ import sys
 from pathlib import Path
 
 import pytest
+
+pytestmark = pytest.mark.install
 
 ROOT = Path(__file__).resolve().parents[1]
 SOURCES = ("setup.py", "README.md", "tableclean_suite")
@@ -91,3 +93,37 @@ def test_console_script_runs_from_the_installed_package(installed):
     usage = subprocess.run([sys.executable, str(script), "--rewards", "r9"], cwd=elsewhere, env=env,
                            capture_output=True, text=True, timeout=120)
     assert usage.returncode == 2 and usage.stderr.startswith("tableclean-bench: error:") and "r9" in usage.stderr
+
+
+def test_every_command_helps_through_the_installed_console_script(installed):
+    site, elsewhere, env = installed
+    script = site / "bin" / "tableclean-bench"
+    listing = subprocess.run([sys.executable, str(script), "--help"], cwd=elsewhere, env=env, capture_output=True,
+                             text=True, timeout=120)
+    assert listing.returncode == 0 and listing.stdout.startswith("usage: tableclean-bench"), listing.stderr
+    # every command's --help in one process of the installed package (one interpreter start, not thirteen)
+    code = ("import contextlib, io, sys\n"
+            "from tableclean_suite.bench import commands\n"
+            "for name in commands.command_parsers():\n"
+            "    text = io.StringIO()\n"
+            "    with contextlib.redirect_stdout(text):\n"
+            "        assert commands.main([name, '--help'], prog='tableclean-bench') == 0, name\n"
+            "    assert text.getvalue().startswith(f'usage: tableclean-bench {name}'), name\n"
+            "    print(name)\n")
+    helped = subprocess.run([sys.executable, "-c", code], cwd=elsewhere, env=env, capture_output=True, text=True,
+                            timeout=300)
+    assert helped.returncode == 0, helped.stderr
+    names = helped.stdout.split()
+    assert {"run", "scaling", "tune", "fidelity", "demos", "render", "robots", "speed"} <= set(names)
+    for name in names:
+        assert name in listing.stdout
+
+
+def test_a_second_command_runs_through_the_installed_console_script(installed):
+    site, elsewhere, env = installed
+    script = site / "bin" / "tableclean-bench"
+    result = subprocess.run([sys.executable, str(script), "speed", "--sections", "specs", "--spec-runs", "2",
+                             "--spec-iterations", "50", "--spec-repeats", "1"], cwd=elsewhere, env=env,
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert "ratio largest/paper" in result.stdout and "goals met" in result.stdout

@@ -8,6 +8,9 @@ import textwrap
 from pathlib import Path
 
 import pandas as pd
+import pytest
+
+pytestmark = pytest.mark.cli  # each test runs the command line in new processes
 
 ROOT = Path(__file__).resolve().parents[1]
 PLUGIN = textwrap.dedent("""

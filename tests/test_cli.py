@@ -1,4 +1,5 @@
-"""Smoke runs of the real ``python -m benchmarks.run`` CLI on a tiny budget."""
+"""Smoke runs of the real ``python -m benchmarks.run`` CLI on a tiny budget (``cli``: new processes),
+and its flag checks in process."""
 
 import json
 import shutil
@@ -41,6 +42,7 @@ def smoke(tmp_path_factory):
     return out, result
 
 
+@pytest.mark.cli
 def test_smoke_run_writes_every_file(smoke):
     out, result = smoke
     for name in ("table3.csv", "table4.csv", "curves.csv", "config.json"):
@@ -54,6 +56,7 @@ def test_smoke_run_writes_every_file(smoke):
     assert config["args"]["runs"] == 20 and config["package_version"] and config["paper"] and config["timestamp"]
 
 
+@pytest.mark.cli
 def test_table3_has_one_row_per_expected_cell(smoke):
     out, _ = smoke
     t3 = pd.read_csv(out / "table3.csv")
@@ -76,6 +79,7 @@ def test_table3_has_one_row_per_expected_cell(smoke):
     assert run_here.str.contains("Affordance RL, given").sum() == 1 and run_here.str.contains("Interactive RL").sum() == 1
 
 
+@pytest.mark.cli
 def test_table4_marks_every_row_run_here_or_quoted(smoke):
     _, result = smoke
     table4 = result.stdout.split("Table 4:")[1].split("written:")[0]
@@ -85,6 +89,7 @@ def test_table4_marks_every_row_run_here_or_quoted(smoke):
     assert sum(line.lstrip().startswith("quoted ") for line in rows) == 8
 
 
+@pytest.mark.cli
 def test_curves_long_format(smoke):
     out, _ = smoke
     curves = pd.read_csv(out / "curves.csv")
@@ -97,6 +102,7 @@ def test_curves_long_format(smoke):
     assert list(one["iteration"]) == list(range(1, 301))
 
 
+@pytest.mark.cli
 def test_every_number_has_an_interval_printed_and_in_the_csvs(smoke):
     out, result = smoke
     t3, t4 = pd.read_csv(out / "table3.csv"), pd.read_csv(out / "table4.csv")
@@ -122,6 +128,7 @@ def test_every_number_has_an_interval_printed_and_in_the_csvs(smoke):
     assert len(banded) > 0 and (banded["low"] <= banded["high"]).all()
 
 
+@pytest.mark.cli
 def test_rerun_resumes_every_cell_with_identical_table(smoke, tmp_path):
     out, _ = smoke
     copy = tmp_path / "copy"
@@ -134,6 +141,7 @@ def test_rerun_resumes_every_cell_with_identical_table(smoke, tmp_path):
     assert (copy / "comparisons.csv").read_bytes() == (out / "comparisons.csv").read_bytes()
 
 
+@pytest.mark.cli
 def test_corrupt_cell_file_gives_clear_error(smoke, tmp_path):
     out, _ = smoke
     copy = tmp_path / "copy"
@@ -146,6 +154,7 @@ def test_corrupt_cell_file_gives_clear_error(smoke, tmp_path):
     assert "Traceback" not in result.stderr
 
 
+@pytest.mark.cli
 def test_describe_prints_model_analysis():
     result = cli("--describe")
     assert result.returncode == 0, result.stderr
@@ -184,6 +193,7 @@ def test_bad_input_exits_2_with_one_line(args, named, tmp_path, capsys):
     assert not (tmp_path / "never").exists()
 
 
+@pytest.mark.cli
 def test_bad_input_from_the_entry_point_has_no_traceback(tmp_path):
     result = cli("--rewards", "r1,r9", "--out", str(tmp_path / "never"))
     assert result.returncode == 2 and "Traceback" not in result.stderr
@@ -200,6 +210,7 @@ def _import_robosuite(quiet: bool):
     return subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.cli
 def test_robosuite_start_up_warnings_are_dropped_unless_verbose():
     quiet, verbose = _import_robosuite(quiet=True), _import_robosuite(quiet=False)
     assert quiet.returncode == verbose.returncode == 0, quiet.stderr + verbose.stderr
@@ -209,6 +220,7 @@ def test_robosuite_start_up_warnings_are_dropped_unless_verbose():
     assert len(lines) == 1 and "a later message" in lines[0]  # only the start-up messages are dropped
 
 
+@pytest.mark.cli
 def test_symbolic_cli_prints_no_robosuite_warnings():
     result = cli("--describe")
     assert result.returncode == 0 and "[robosuite" not in result.stderr
