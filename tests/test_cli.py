@@ -241,3 +241,24 @@ def test_progress_bar_counts_resumed_cells_as_done(tmp_path, capsys):
     assert (outcome.resumed, outcome.trained) == (2, 1)
     first_frame = bar.replace("\r", "\n").strip().splitlines()[0]
     assert "2/3" in first_frame, bar  # resumed cells are done before the first trained one
+
+
+def test_tables_name_a_json_spec_and_quote_the_papers_own_rows_only_beside_the_paper(tmp_path, capsys):
+    from tableclean_suite.bench.run import main
+
+    spec = tmp_path / "file_name_not_shown.json"
+    spec.write_text(json.dumps({"name": "json_named_task", "segments": 3, "objects": 1}))
+    tiny = ["--learners", "q_learning", "--rewards", "r4", "--runs", "3", "--iterations", "60", "--no-sweeps",
+            "--no-literature", "--no-figures", "--no-progress"]
+    assert main([*tiny, "--task", str(spec), "--out", str(tmp_path / "json")]) == 0
+    printed = capsys.readouterr().out
+    assert "Table 3: learning speed per reward pattern on task 'json_named_task'" in printed
+    assert "Table 4: comparison with the literature on task 'json_named_task'" in printed
+    assert "file_name_not_shown" not in printed
+    quoted = pd.read_csv(tmp_path / "json" / "table4.csv")
+    quoted = quoted[quoted["source"] != "this run"]["methodology"]
+    assert len(quoted) == 4 and not quoted.str.startswith(tables.PAPER_OWN_ROWS).any()
+    assert main([*tiny, "--out", str(tmp_path / "paper")]) == 0
+    assert "on task" not in capsys.readouterr().out  # the paper's run prints as before
+    quoted = pd.read_csv(tmp_path / "paper" / "table4.csv")
+    assert quoted["methodology"].str.startswith(tables.PAPER_OWN_ROWS).sum() == 4

@@ -48,6 +48,8 @@ EXIT_FAILED = 1
 EXIT_INTERRUPTED = 130
 #: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench run"
+#: The paper's spec name: its tables need no task label.
+PAPER_TASK = "paper"
 #: Resolution of the PNG figures, dots per inch.
 FIGURE_DPI = 120
 #: Where, under the cell store, results derived from the cells are cached (see :mod:`.derived`).
@@ -277,7 +279,7 @@ def run(args) -> int:
     records, curves = experiments.cell_records(grid, grid_run.summaries, grid_run.statistics,
                                              config.settle_tolerance)
     table3 = tables.table3(records, compare_with_paper=tables.is_paper_task(model))
-    table4 = tables.table4(table3)
+    table4 = tables.table4(table3, paper_task=tables.is_paper_task(model))
     results = derived.DerivedStore(store.root / DERIVED_DIR, read=not config.fresh)
     comparisons, comparisons_cached = _comparisons(grid, grid_run, config, results)
     stride = _curves_stride(len(records) * len(tables.CURVE_METRICS), config.iterations)
@@ -306,7 +308,7 @@ def run(args) -> int:
         print(f"\ninterrupted while writing {out}: it has no {outputs.MANIFEST}, so it describes no run; "
               "rerun the same command (cells are saved) to write it", file=sys.stderr)
         return EXIT_INTERRUPTED
-    _print_tables(config, table3, table4, tables.is_paper_task(model), comparisons)
+    _print_tables(config, table3, table4, model.spec.name, tables.is_paper_task(model), comparisons)
     print("\nwritten:")
     for path in written:
         print(f"  {path}")
@@ -345,7 +347,8 @@ def _comparisons(grid, grid_run, config: RunConfig, results):
     return derived.comparisons(results, cells, config.confidence, config.bootstrap_samples, config.seed)
 
 
-def _print_tables(config: RunConfig, table3, table4, paper_task: bool, comparisons=None) -> None:
+def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task: bool, comparisons=None) -> None:
+    """Print Tables 3-4, the scores, comparisons and sweeps; ``task_name``: the spec's name (not its file's)."""
     import pandas as pd
 
     from tableclean_suite.bench import tables
@@ -353,10 +356,12 @@ def _print_tables(config: RunConfig, table3, table4, paper_task: bool, compariso
 
     level = f"{100 * config.confidence:g}%"
     with pd.option_context("display.width", 250, "display.max_columns", 50, "display.max_rows", 500):
-        print(f"\nTable 3: learning speed per reward pattern (alpha = {config.alpha:g}, gamma = {config.gamma:g}, "
-              f"epsilon = {config.epsilon:g}, {config.runs} runs x {config.iterations} iterations).")
+        on_task = "" if task_name == PAPER_TASK else f" on task {task_name!r}"
+        print(f"\nTable 3: learning speed per reward pattern{on_task} (alpha = {config.alpha:g}, "
+              f"gamma = {config.gamma:g}, epsilon = {config.epsilon:g}, {config.runs} runs x {config.iterations} "
+              "iterations).")
         print("  'paper' = the paper's Table 3 (Q-learning only)." if paper_task
-              else f"  Task {config.task!r} is not the paper's: no paper values beside ours.")
+              else f"  Task {task_name!r} is not the paper's: no paper values beside ours.")
         print(f"  success % and avg reward plateau = exact asymptotes of the runs' final behaviour (greedy policy "
               f"under the exploration; mean over runs); iterations = first reaching {100 * config.threshold:g}% of "
               f"them; average-reward points count once {100 * config.support_fraction:g}% of the runs have finished "
@@ -377,8 +382,11 @@ def _print_tables(config: RunConfig, table3, table4, paper_task: bool, compariso
         if len(sweeps):
             print("\nSweeps (Figures 6-7; the paper gives no table for them):")
             print(sweeps.to_string(index=False, na_rep="-"))
-        print("\nTable 4: comparison with the literature. 'run here' = trained by this run on this task (reward, "
-              f"alpha, gamma, epsilon as above; [..] = {level} intervals); 'quoted' = the paper's Table 4 verbatim "
+        quoted = ("the paper's Table 4 verbatim" if paper_task else
+                  f"the literature's rows of the paper's Table 4 (its own '{tables.PAPER_OWN_ROWS}' rows are on the "
+                  "paper's task, so not beside this one)")
+        print(f"\nTable 4: comparison with the literature{on_task}. 'run here' = trained by this run on "
+              f"this task (reward, alpha, gamma, epsilon as above; [..] = {level} intervals); 'quoted' = {quoted} "
               "([7], [8]: measured on other tasks, not run here).")
         shown = tables.display_table4(table4)
         width = max(map(len, shown["methodology"]))

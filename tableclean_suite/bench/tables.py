@@ -193,12 +193,19 @@ def literature_method(learner: str, reward: str) -> str:
     return f"This run: {name} with reward {reward}"
 
 
-def table4(table: pd.DataFrame) -> pd.DataFrame:
+#: How the paper's Table 4 names its own rows (quoted only beside a run of the paper's task).
+PAPER_OWN_ROWS = "This work"
+
+
+def table4(table: pd.DataFrame, paper_task: bool = True) -> pd.DataFrame:
     """Table 4: our main Q-learning rows and Cruz et al.'s methods run here, then the paper's rows
     (all quoted and marked so).
 
     Args:
         table: a :func:`table3` frame.
+        paper_task: whether the run was on the paper's task (:func:`is_paper_task`); if not, the
+            paper's own rows (:data:`PAPER_OWN_ROWS`, measured on its task) are left out and only
+            the literature's quoted rows stay.
 
     Returns:
         Columns :data:`TABLE4_COLUMNS`.  Our rows are named
@@ -220,6 +227,8 @@ def table4(table: pd.DataFrame) -> pd.DataFrame:
             data[name + suffix] = scale * ours[column + suffix].astype(float).to_numpy()
     rows = pd.DataFrame({**data, "source": SOURCE_OURS})
     quoted = PAPER_TABLE4.astype({c: float for c in TABLE4_NUMBERS})
+    if not paper_task:
+        quoted = quoted[~quoted["methodology"].str.startswith(PAPER_OWN_ROWS)]
     for name in TABLE4_NUMBERS:
         quoted[name + LOW] = quoted[name + HIGH] = _NA
     return pd.concat([rows, quoted], ignore_index=True)[list(TABLE4_COLUMNS)]
