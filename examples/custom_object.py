@@ -7,15 +7,14 @@ shortest plan from the start with the skills in MuJoCo:
     python examples/custom_object.py            # ~10 s
     python examples/custom_object.py --json
 
-Nothing in the package is edited: an object type is data (how to build it, its grasp and its
-footprint) in the object registry, and the scene, the abstraction and the skills read it.
+Nothing in the package is edited: registering an object type is one line (how to build it);
+its grasp, footprint and resting height are read from its collision geometry in MuJoCo.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import sys
 
@@ -32,19 +31,15 @@ FLAT_BOX_HALF_SIZE = (0.03, 0.02, 0.015)
 FLAT_BOX_RGBA = (0.15, 0.6, 0.25, 1.0)
 
 
-def flat_box(name: str, config) -> BoxObject:
-    """The robosuite object of the ``flat_box`` type (``config`` is the env's task config, unused)."""
+def flat_box(name: str) -> BoxObject:
+    """The robosuite object of the ``flat_box`` type named ``name``."""
     return BoxObject(name=name, size=list(FLAT_BOX_HALF_SIZE), rgba=list(FLAT_BOX_RGBA))
 
 
 def register() -> ObjectType:
-    """Register ``flat_box``: fingers across its short side, a footprint disc over its corners."""
-    return register_object(ObjectType(
-        "flat_box", flat_box,
-        footprint_radius=math.hypot(FLAT_BOX_HALF_SIZE[0], FLAT_BOX_HALF_SIZE[1]),
-        grasp_depth=0.0, approach_clearance=0.01, yaw_rule="short_side",
-        description="a flat 6 x 4 x 3 cm box (examples/custom_object.py)",
-    ), overwrite=True)
+    """Register ``flat_box``; the skills close the fingers across its 4 cm side (read from its geometry)."""
+    return register_object("flat_box", flat_box, description="a flat 6 x 4 x 3 cm box (examples/custom_object.py)",
+                           overwrite=True)
 
 
 def spec() -> TaskSpec:

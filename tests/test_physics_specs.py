@@ -65,8 +65,10 @@ def test_a_spec_whose_action_has_no_skill_is_refused():
 
 
 def test_object_registry_ships_the_types_and_refuses_bad_ones():
-    assert {"box", "cylinder", "can", "bread"} <= set(object_type_names())
-    assert get_object_type("cylinder").yaw_rule == "any"
+    catalog = {"box", "cylinder", "can", "bread", "bottle", "lemon", "milk", "cereal", "tall_box", "tower_box",
+               "tall_cylinder"}
+    assert catalog <= set(object_type_names())
+    assert get_object_type("cylinder").yaw_rule is None  # derived from the geometry: round
     with pytest.raises(ValueError, match=r"unknown object_type 'banana'; allowed: .*bread.*cylinder"):
         get_object_type("banana")
     with pytest.raises(ValueError, match="footprint_radius"):
@@ -154,7 +156,7 @@ def test_scene_builds_every_registered_spec(name):
         assert info["segment_centers"].shape == (spec.segments, 3) and info["objects_pos"].shape == (spec.n_objects, 3)
         # objects sharing segment 1 do not overlap
         pos = info["objects_pos"]
-        radii = [k.footprint_radius for k in env.object_types]
+        radii = info["objects_footprint"]
         for a in range(len(pos)):
             for b in range(a + 1, len(pos)):
                 assert np.linalg.norm(pos[a, :2] - pos[b, :2]) >= radii[a] + radii[b]

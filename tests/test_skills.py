@@ -26,7 +26,10 @@ from tableclean_suite.controllers import (
     register_skill,
     skill_controller_config,
 )
-from tableclean_suite.controllers.geometry import grasp_yaw, quat_to_matrix
+from tableclean_suite.controllers.geometry import gripper_yaw, quat_to_matrix
+from tableclean_suite.controllers.primitives import box_geometry
+from tableclean_suite.environments.object_geometry import ObjectGeometry
+from tableclean_suite.environments.object_geometry import grasp_yaw as geometry_grasp_yaw
 from tableclean_suite.controllers import make as make_module
 from tableclean_suite.controllers import osc
 from tableclean_suite.controllers.osc import ACTION_DIM, ARM_PART, check_skill_env, down_rotation, down_rotvec, skill_command_limits
@@ -219,6 +222,11 @@ def test_down_rotvec_points_the_gripper_down_with_the_given_yaw(yaw):
     np.testing.assert_allclose(rot[:2, 0], [np.cos(yaw), np.sin(yaw)], atol=1e-12)
 
 
+def grasp_yaw(quat, half_size, nominal_yaw):
+    """The grasp yaw of an upright box of ``half_size`` turned by ``quat`` (xyzw)."""
+    return geometry_grasp_yaw(box_geometry(half_size), gripper_yaw(quat), nominal_yaw)
+
+
 def test_grasp_yaw_puts_the_fingers_across_the_short_side():
     identity = np.array([0.0, 0.0, 0.0, 1.0])
     long_x = np.array([0.04, 0.025, 0.015])  # the sponge: short side along y
@@ -231,6 +239,19 @@ def test_grasp_yaw_puts_the_fingers_across_the_short_side():
     turned = np.array([0.0, 0.0, np.sin(0.15), np.cos(0.15)])  # cube turned 0.3 rad about z
     assert grasp_yaw(turned, cube, nominal_yaw=0.5 * np.pi) == pytest.approx(0.3 + 0.5 * np.pi)
     np.testing.assert_allclose(quat_to_matrix(identity), np.eye(3))
+
+
+def test_geometry_finds_the_narrow_side_of_any_shape_and_calls_a_disc_round():
+    angles = np.linspace(0, 2 * np.pi, 64, endpoint=False)
+    disc = ObjectGeometry(np.column_stack([0.03 * np.cos(angles), 0.03 * np.sin(angles), np.zeros(64)]))
+    assert disc.is_round and disc.narrow_width == pytest.approx(0.06, abs=1e-3)
+    # a right triangle's narrowest width is its height onto the hypotenuse, not a bounding-box side
+    triangle = ObjectGeometry(np.array([[0.0, 0.0, 0.0], [0.06, 0.0, 0.0], [0.0, 0.06, 0.0]]))
+    assert not triangle.is_round
+    assert triangle.narrow_width == pytest.approx(0.06 / np.sqrt(2), abs=1e-4)
+    long_box = box_geometry([0.05, 0.015, 0.075])  # robosuite's cereal box: fingers across its 3 cm side
+    assert long_box.narrow_width == pytest.approx(0.03) and long_box.footprint_radius == pytest.approx(np.hypot(0.05, 0.015))
+    assert long_box.narrow_side() == (0.5 * np.pi, np.pi)
 
 
 def test_boustrophedon_sweeps_the_whole_rectangle_lane_by_lane():

@@ -67,6 +67,9 @@ class Wipe(Primitive):
         self.force = 0.0  # N, the last measured pressing force
         self.lift_point = None  # (2,) where a SHIFT lifts the sponge off the table before it moves on
         self.lifted = False  # the SHIFT measured the sponge off the table
+        # control steps a PRESS may take beyond press_max_steps: its descent from above hover_height
+        # (tall objects raise the travel height) before the timeout starts counting
+        self.press_grace = 0
         # grip-site minus sponge-centre position (m), measured once the sponge is held and lifted
         self.hold_offset = np.asarray(info["eef_pos"], dtype=float) - np.asarray(info["sponge_pos"], dtype=float)
         self.yaw = skill.yaw
@@ -191,6 +194,11 @@ class Wipe(Primitive):
         return Waypoint(skill.hover_point(info, self.strokes[-1]), GRIPPER_CLOSE, tol)  # WIPE_LIFT
 
     def next(self, skill, info: Mapping[str, Any], phase: str) -> str | None:
+        if phase == "TO_SEGMENT":  # the first PRESS descends from the travel height
+            extra = float(info["eef_pos"][2]) - (float(info["table_top_z"]) + self.config["hover_height"])
+            self.press_grace = int(max(extra, 0.0) // (self.config["descend_speed"] * skill.dt))
+        if phase == "SHIFT":
+            self.press_grace = 0
         if phase == "PRESS":
             self.stroke_index += 1  # the stroke's end
             return "WIPE"
@@ -215,7 +223,8 @@ class Wipe(Primitive):
 
     def ready(self, skill, info: Mapping[str, Any], phase: str) -> bool:
         if phase == "PRESS":  # a stroke starts once a contact force is measured (or on timeout)
-            return self.force >= self.config["touch_force"] or skill._phase_steps >= self.config["press_max_steps"]
+            timeout = self.config["press_max_steps"] + self.press_grace
+            return self.force >= self.config["touch_force"] or skill._phase_steps >= timeout
         if phase == "SHIFT":  # first up off the table at the stroke's end, then over to the next start
             return self.lifted
         return True

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import enum
-from dataclasses import replace
 from typing import Any, Mapping
 
 from tableclean_suite.controllers.primitives import (
@@ -12,7 +11,6 @@ from tableclean_suite.controllers.primitives import (
     PrimitiveSkill,
     grasp_point,
     object_body,
-    object_grasp,
 )
 from tableclean_suite.controllers.skill import BASE_CONFIG, SkillFailure
 from tableclean_suite.task import Action
@@ -21,9 +19,10 @@ __all__ = ["GRASP_CONFIG", "PickPhase", "PickSkill", "grasp_point"]
 
 #: Settings shared by every skill that grasps from above (PickSkill, CleanSkill's sponge grasp).
 GRASP_CONFIG = {
-    "grasp_depth": 0.0,  # m below the sponge's centre at which the grip site closes (objects: their type's)
+    "grasp_depth": 0.0,  # m below the sponge's centre at which the grip site closes (objects: the holding height)
     "fingertip_depth": BASE_CONFIG["fingertip_depth"],  # m, lowest point of the finger meshes below the grip site
     "tip_clearance": 0.010,  # m the fingertips stay above the body's bottom (and so above the table)
+    "palm_clearance": 0.005,  # m a grasped object's top stays below the hand (the gripper's measured palm height)
     "close_min_steps": 4,  # control steps to keep closing before checking the fingers settled
     "descend_speed": 0.25,  # m/s, slower final approach
     "grasp_retries": 1,  # re-approaches after a grasp that was not confirmed
@@ -42,7 +41,7 @@ class PickPhase(enum.Enum):
 
 
 class PickSkill(PrimitiveSkill):
-    """Pick the lowest-numbered object lying on the arm's segment, with its type's grasp parameters."""
+    """Pick the lowest-numbered object lying on the arm's segment, across its narrow side at its holding height."""
 
     action = Action.PICK
     Phase = PickPhase
@@ -53,6 +52,4 @@ class PickSkill(PrimitiveSkill):
         if not lying:
             raise SkillFailure(f"no object lies on segment {self.state.arm + 1}")
         self.target = lying[0]
-        grasp = object_grasp(info, self.target)
-        body = replace(object_body(self.target), grasp_depth=grasp["grasp_depth"], yaw_rule=grasp["yaw_rule"])
-        return [("", Grasp(body, "grasp"))]
+        return [("", Grasp(object_body(self.target, info), "grasp"))]

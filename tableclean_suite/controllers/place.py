@@ -42,10 +42,10 @@ class PlaceSkill(PrimitiveSkill):
         if held is None:
             raise SkillFailure("nothing is held")
         segment = self.state.arm
-        kinds = info["object_types"]
-        others = [(np.asarray(info["objects_pos"][j], dtype=float), kinds[j].footprint_radius)
+        radii = info["objects_footprint"]
+        others = [(np.asarray(info["objects_pos"][j], dtype=float), float(radii[j]))
                   for j in self.state.objects_on(segment)]
         self.place_xy = free_spot(info["segment_centers"][segment], info["segment_half_sizes"][segment],
-                                  kinds[held].footprint_radius, others, info["object_spacing"], info["object_clearance"])
+                                  float(radii[held]), others, info["object_spacing"], info["object_clearance"])
         rest_z = float(info["objects_rest_z"][held])
         return [("", Release(object_body(held), lambda skill, info: self.place_xy, lambda skill, info: rest_z))]

@@ -13,9 +13,11 @@ A :class:`Primitive` is a short sequence of named phases over end-effector waypo
   resting height, open until released, retreat (place puts an object down; clean returns the sponge).
 - :class:`Wipe` (in :mod:`.clean`): press the held sponge and sweep a segment.
 
-What differs per object type (grasp depth, approach clearance, yaw rule, footprint) comes
-from the object registry through ``skill_info()["object_types"]``; no primitive branches on
-a type name.
+Every height, depth and yaw comes from the scene at run time: the body's collision geometry in
+its own frame (``skill_info()["objects_geometry"]``, :mod:`tableclean_suite.environments.object_geometry`)
+at its current pose, and the gripper's measures (``gripper_palm_height``).  An object type's
+registered overrides (``grasp_depth``, ``yaw_rule``) win where given; no primitive branches on a
+type name.
 """
 
 from __future__ import annotations
@@ -26,9 +28,15 @@ from typing import Any, Callable, ClassVar, Mapping
 
 import numpy as np
 
-from tableclean_suite.controllers.geometry import grasp_yaw, gripper_yaw
+from tableclean_suite.controllers.geometry import gripper_yaw, quat_to_matrix
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.skill import Skill, SkillFailure, Waypoint
+from tableclean_suite.environments.object_geometry import (
+    ObjectGeometry,
+    grasp_yaw,
+    world_highest_z,
+    world_lowest_z,
+)
 
 Info = Mapping[str, Any]
 
@@ -47,9 +55,11 @@ class Body:
         half_size: ``info -> (3,)`` bounding half extents [m].
         grasped: ``info -> bool`` both finger pads touch it.
         grasp_depth: m below the centre at which the grip site closes (raised so the fingertips
-            keep ``tip_clearance`` above the body's bottom); None: the skill's ``grasp_depth``.
-        yaw_rule: ``"short_side"`` (fingers across the shorter horizontal side) or ``"any"``
-            (keep the gripper's current yaw).
+            keep ``tip_clearance`` above the body's bottom); None: the holding depth from
+            ``geometry`` (:func:`holding_z`), or the skill's ``grasp_depth`` without one.
+        yaw_rule: ``"short_side"`` (fingers across the narrowest side) or ``"any"`` (keep the
+            gripper's current yaw); None: ``"any"`` for a round ``geometry``, else ``"short_side"``.
+        geometry: ``info -> ObjectGeometry`` of the body in its own frame; None: a box of ``half_size``.
     """
 
     pos: Callable[[Info], np.ndarray]
@@ -57,22 +67,48 @@ class Body:
     half_size: Callable[[Info], np.ndarray]
     grasped: Callable[[Info], bool]
     grasp_depth: float | None = None
-    yaw_rule: str = "short_side"
+    yaw_rule: str | None = "short_side"
+    geometry: Callable[[Info], ObjectGeometry] | None = None
+
+    def shape(self, info: Info) -> ObjectGeometry:
+        """The body's collision geometry in its own frame (a box of ``half_size`` without ``geometry``)."""
+        return box_geometry(self.half_size(info)) if self.geometry is None else self.geometry(info)
 
 
-def object_body(obj: int) -> Body:
-    """The task object ``obj`` (0-based) with its registered type's grasp parameters (read at use)."""
+def object_body(obj: int, info: Info | None = None) -> Body:
+    """The task object ``obj`` (0-based): its pose and geometry read at use; with ``info``, its
+    registered type's overrides (``grasp_depth``, ``yaw_rule``; None: derived from the geometry)."""
+    kind = None if info is None or "object_types" not in info else info["object_types"][obj]
     return Body(
         pos=lambda info: np.asarray(info["objects_pos"][obj], dtype=float),
         quat=lambda info: np.asarray(info["objects_quat"][obj], dtype=float),
         half_size=lambda info: np.asarray(info["objects_half_size"][obj], dtype=float),
         grasped=lambda info: bool(info["objects_grasped"][obj]),
+        grasp_depth=None if kind is None else kind.grasp_depth,
+        yaw_rule=None if kind is None else kind.yaw_rule,
+        geometry=lambda info: info["objects_geometry"][obj] if "objects_geometry" in info
+        else box_geometry(info["objects_half_size"][obj]),
     )
 
 
-def object_grasp(info: Info, obj: int) -> dict:
-    """Grasp parameters of object ``obj``'s registered type (``grasp_depth``, ``approach_clearance``, ``yaw_rule``)."""
-    return info["object_types"][obj].grasp()
+def box_geometry(half_size) -> ObjectGeometry:
+    """The geometry of an origin-centred box of half extents ``half_size`` (3,) [m] (its 8 corners)."""
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+    return ObjectGeometry(signs * np.asarray(half_size, dtype=float))
+
+
+def holding_z(pos, rot, geometry: ObjectGeometry, config: Mapping[str, Any], palm_height: float) -> float:
+    """World z [m] of the grip site that holds an upright body at ``pos`` (3,) with rotation ``rot`` (3, 3).
+
+    The body's mid-height, raised so that its top stays ``palm_clearance`` below the hand
+    (``palm_height`` m above the grip site) and so that the fingertips stay ``tip_clearance``
+    above its bottom.
+    """
+    low = world_lowest_z(geometry, pos, rot)
+    top = world_highest_z(geometry, pos, rot)
+    floor = low + config["fingertip_depth"] + config["tip_clearance"]
+    below_palm = top - (palm_height - config["palm_clearance"])
+    return max(0.5 * (low + top), below_palm, floor)
 
 
 SPONGE = Body(
@@ -160,11 +196,25 @@ class Grasp(Primitive):
         self._aim(skill, info)
 
     def _aim(self, skill, info) -> None:
-        """The target yaw for (re-)approaching the body as it lies now."""
-        if self.body.yaw_rule == "short_side":
-            skill.yaw = grasp_yaw(self.body.quat(info), self.body.half_size(info), skill.config["nominal_yaw"])
+        """The target yaw for (re-)approaching the body as it lies now: across its narrow side, or
+        the current one for a round body (or its type's ``yaw_rule``)."""
+        shape = self.body.shape(info)
+        rule = self.body.yaw_rule
+        if rule is None:
+            rule = "any" if shape.is_round else "short_side"
+        if rule == "short_side":
+            skill.yaw = grasp_yaw(shape, gripper_yaw(self.body.quat(info)), skill.config["nominal_yaw"])
         else:
             skill.yaw = gripper_yaw(info["eef_quat"])
+
+    def grasp_target(self, skill, info) -> np.ndarray:
+        """(3,) grip-site target: the type's ``grasp_depth`` below the centre, else the holding height."""
+        pos = self.body.pos(info)
+        if self.body.grasp_depth is not None or self.body.geometry is None or "gripper_palm_height" not in info:
+            return grasp_point(pos, self.body.half_size(info), skill.config, self.body.grasp_depth)
+        z = holding_z(pos, quat_to_matrix(self.body.quat(info)), self.body.shape(info), skill.config,
+                      float(info["gripper_palm_height"]))
+        return np.array([pos[0], pos[1], z])
 
     def waypoint(self, skill, info, phase):
         pos = self.body.pos(info)
@@ -172,7 +222,7 @@ class Grasp(Primitive):
         if phase == "HOVER":
             return Waypoint(skill.hover_point(info, pos[:2]), GRIPPER_OPEN, tol)
         if phase == "DESCEND":
-            grasp = grasp_point(pos, self.body.half_size(info), skill.config, self.body.grasp_depth)
+            grasp = self.grasp_target(skill, info)
             return Waypoint(grasp, GRIPPER_OPEN, tol, speed=skill.config["descend_speed"])
         if phase == "CLOSE":
             return Waypoint(skill.setpoint, GRIPPER_CLOSE, np.inf, min_steps=skill.config["close_min_steps"])

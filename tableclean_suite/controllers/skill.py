@@ -25,7 +25,9 @@ from typing import Any, ClassVar, Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
-from tableclean_suite.controllers.geometry import gripper_yaw, wrap_angle
+from tableclean_suite.controllers.geometry import box_lowest_z, gripper_yaw, quat_to_matrix, wrap_angle
+from tableclean_suite.environments.object_geometry import world_highest_z, world_lowest_z
+from tableclean_suite.environments.objects import APPROACH_CLEARANCE
 from tableclean_suite.controllers.osc import compose_action, down_rotvec
 from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
 
@@ -52,11 +54,29 @@ BASE_CONFIG: dict[str, Any] = {
     # rad, preferred gripper yaw when a grasp allows several: the Panda's grip site has yaw pi/2
     # at robosuite's home pose (fingers closing along world y); yaws near 0 or pi hit wrist limits
     "nominal_yaw": 0.5 * 3.141592653589793,
-    # m the open fingertips stay above the tallest lying object's top when hovering (raised per object
-    # type by its registered approach_clearance); the paper's 4.5 cm cube never raises the hover height
+    # m the open fingertips stay above the tallest lying object's top when hovering (raised by the object's
+    # approach clearance); the paper's 4.5 cm cube never raises the hover height
     "fingertip_depth": 0.0135,  # m, lowest point of the Panda's finger collision meshes below its grip site
     "carry_clearance": 0.01,  # m a carried body's bottom stays above the tallest lying object's top
+    # m a carried body's bottom stays above the table top: clears the 2 cm sponge stand and lifts an object
+    # beyond the abstraction's 1.5 cm lift tolerance (the paper's cube, gripped at its centre, never needs it)
+    "carry_lift": 0.03,
 }
+
+
+def object_heights(info: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+    """``(tops, bottoms)`` (M,) world z [m] of each object's highest and lowest collision point as it lies now
+    (its ``objects_geometry`` at its pose; its bounding half size about its centre without geometry)."""
+    positions = np.asarray(info["objects_pos"], dtype=float)
+    if "objects_geometry" not in info:
+        halves = np.asarray(info["objects_half_size"], dtype=float)
+        return positions[:, 2] + halves[:, 2], positions[:, 2] - halves[:, 2]
+    tops, bottoms = [], []
+    for pos, quat, shape in zip(positions, info["objects_quat"], info["objects_geometry"]):
+        rot = quat_to_matrix(quat)
+        tops.append(world_highest_z(shape, pos, rot))
+        bottoms.append(world_lowest_z(shape, pos, rot))
+    return np.asarray(tops), np.asarray(bottoms)
 
 
 @runtime_checkable
@@ -308,31 +328,34 @@ class Skill(abc.ABC):
     def hover_z(self, info: Mapping[str, Any]) -> float:
         """World z [m] at which the gripper travels: ``hover_height`` above the table top, raised when needed.
 
-        Raised so that the open fingertips stay each lying object's ``approach_clearance``
-        (its registered type's) above its top, and a carried body (a grasped object or the
-        sponge) keeps its bottom ``carry_clearance`` above every lying object's top.  Only
-        objects listed in ``info`` (``objects_pos`` ...) count.
+        Read from the scene at every call: the open fingertips (``fingertip_depth`` below the grip
+        site) stay each lying object's approach clearance above its top; a carried body (a grasped
+        object or the sponge) keeps its lowest point ``carry_lift`` above the table top and
+        ``carry_clearance`` above every lying object's top.  Tops and bottoms are the objects'
+        collision geometry at their current poses (``objects_geometry``; bounding boxes without it).
         """
-        z = float(info["table_top_z"]) + self.config["hover_height"]
+        table = float(info["table_top_z"])
+        z = table + self.config["hover_height"]
         if "objects_pos" not in info:
             return z
-        positions = np.asarray(info["objects_pos"], dtype=float)
-        halves = np.asarray(info["objects_half_size"], dtype=float)
+        tops, bottoms = object_heights(info)
         grasped = np.asarray(info["objects_grasped"], dtype=bool)
         eef_z = float(info["eef_pos"][2])
-        drop = None  # how far the carried body's bottom hangs below the grip site
+        drop = None  # how far the carried body's lowest point hangs below the grip site
         if grasped.any():
-            j = int(np.argmax(grasped))
-            drop = eef_z - (positions[j, 2] - halves[j, 2])
+            drop = eef_z - bottoms[int(np.argmax(grasped))]
         elif bool(info.get("sponge_grasped", False)):
-            drop = eef_z - (float(info["sponge_pos"][2]) - float(info["sponge_half_size"][2]))
+            drop = eef_z - box_lowest_z(info["sponge_pos"], info["sponge_quat"], info["sponge_half_size"])
+        if drop is not None:
+            z = max(z, table + max(drop, 0.0) + self.config["carry_lift"])
+        kinds = info.get("object_types")
         for j in np.flatnonzero(~grasped):
-            top = positions[j, 2] + halves[j, 2]
             if drop is None:
-                clearance = self.config["fingertip_depth"] + info["object_types"][j].approach_clearance
+                approach = kinds[j].clearance() if kinds is not None else APPROACH_CLEARANCE
+                clearance = self.config["fingertip_depth"] + approach
             else:
                 clearance = max(drop, 0.0) + self.config["carry_clearance"]
-            z = max(z, top + clearance)
+            z = max(z, tops[j] + clearance)
         return z
 
     def segment_center(self, info: Mapping[str, Any], segment: int) -> np.ndarray:

@@ -1,36 +1,46 @@
 """Graspable object types (a registry users extend) and the sponge.
 
-A task spec names its objects' types (``TaskSpec.objects``, e.g. ``("box", "cylinder")``); the
-scene builds each from this registry.  An :class:`ObjectType` says everything that differs
-between object types, so no skill or scene code branches on a type name:
+A task spec names its objects' types (``TaskSpec.objects``, e.g. ``("box", "milk")``); the scene
+builds each from this registry.  An object type is how to build a robosuite
+:class:`~robosuite.models.objects.MujocoObject`; everything the scene and the skills need to
+know about its shape (extent, footprint, narrow side, resting height, where to grip it) is
+read from its collision geometry in MuJoCo (:mod:`.object_geometry`), so registering one is
+one line::
 
-- ``build(name, config)``: a robosuite :class:`~robosuite.models.objects.MujocoObject` named
-  ``name`` (``config`` is the env's task config, e.g. for ``object_half_size``);
-- the grasp: ``grasp_depth`` (m below the object's centre at which the grip site closes),
-  ``approach_clearance`` (m the open fingertips stay above the object's top while hovering
-  over it), ``yaw_rule`` (:data:`YAW_RULES`: ``"short_side"`` closes the fingers across the
-  shorter horizontal side, ``"any"`` keeps the gripper's nominal yaw, for round objects);
-- the footprint: ``footprint_radius`` (m, the radius of a disc covering the object seen from
-  above), used to place objects apart and to find a free spot for a place.
+    from robosuite.models.objects import MilkObject
+    from tableclean_suite.environments.objects import register_object
 
-Adding a type from outside the package::
+    register_object("my_milk", MilkObject)                    # a MujocoObject class
+    register_object("tall_box", lambda name: BoxObject(name=name, size=[0.02, 0.02, 0.05]))
+    register_object("mug", xml="mug.xml")                      # an MJCF file in robosuite's object layout
 
-    from robosuite.models.objects import BoxObject
-    from tableclean_suite.environments.objects import ObjectType, register_object
-
-    register_object(ObjectType("flat_box", lambda name, config: BoxObject(name=name, size=[0.03, 0.02, 0.015]),
-                               footprint_radius=0.036))
+What geometry cannot tell can still be given (:class:`ObjectType` overrides): ``footprint_radius``
+(m, a disc covering the object seen from above), ``grasp_depth`` (m below the object's centre at
+which the grip site closes), ``approach_clearance`` (m the open fingertips stay above its top while
+hovering) and ``yaw_rule`` (:data:`YAW_RULES`).  ``None`` (the default) derives each from the geometry.
+The scene refuses, when it is made, an object the gripper cannot hold or that does not fit a segment.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
 import numpy as np
-from robosuite.models.objects import BoxObject, BreadObject, CanObject, CylinderObject, MujocoObject
+from robosuite.models.objects import (
+    BottleObject,
+    BoxObject,
+    BreadObject,
+    CanObject,
+    CerealObject,
+    CylinderObject,
+    LemonObject,
+    MilkObject,
+    MujocoObject,
+)
 from robosuite.utils.mjcf_utils import CustomMaterial
 
 from tableclean_suite.registry import Registry
@@ -50,6 +60,12 @@ OBJECT_RGBA = (0.85, 0.1, 0.1, 1.0)
 CYLINDER_RGBA = (0.1, 0.35, 0.85, 1.0)
 #: Gripper yaw rules an object type may name.
 YAW_RULES = ("short_side", "any")
+#: m the open fingertips stay above a lying object's top while the gripper hovers over it.
+APPROACH_CLEARANCE = 0.01
+#: m the object's narrowest width must stay below the open gripper's pad gap to be grasped.
+GRASP_WIDTH_MARGIN = 0.01
+#: Free joint of objects built from a user's MJCF file (robosuite's default for its XML objects).
+XML_OBJECT_JOINTS = ({"type": "free", "damping": "0.0005"},)
 
 _NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
 
@@ -63,20 +79,24 @@ class ObjectType:
     Attributes:
         name: registry key, lower_snake (``"box"``).
         build: ``(mujoco_name, task_config) -> MujocoObject`` with one free joint.
-        footprint_radius: m, radius of a disc covering the object seen from above (> 0).
-        grasp_depth: m below the object's centre at which the grip site closes (raised by the
-            skills so the fingertips stay clear of the table).
-        approach_clearance: m between the open fingertips and the object's top while hovering.
-        yaw_rule: one of :data:`YAW_RULES`.
+        footprint_radius: m (> 0), radius of a disc covering the object seen from above; None:
+            from its collision geometry (:attr:`.object_geometry.ObjectGeometry.footprint_radius`).
+        grasp_depth: m below the object's centre at which the grip site closes (raised so the
+            fingertips stay clear of the table); None: the holding depth the grasp derives from
+            the geometry and the gripper (``controllers.primitives.grasp_point``).
+        approach_clearance: m between the open fingertips and the object's top while hovering;
+            None: :data:`APPROACH_CLEARANCE`.
+        yaw_rule: one of :data:`YAW_RULES`; None: ``"any"`` for a round footprint, else
+            ``"short_side"`` (fingers across the narrowest width).
         description: one line for listings.
     """
 
     name: str
     build: Builder
-    footprint_radius: float
-    grasp_depth: float = 0.0
-    approach_clearance: float = 0.01
-    yaw_rule: str = "short_side"
+    footprint_radius: float | None = None
+    grasp_depth: float | None = None
+    approach_clearance: float | None = None
+    yaw_rule: str | None = None
     description: str = field(default="", compare=False)
 
     def __post_init__(self):
@@ -84,18 +104,20 @@ class ObjectType:
             raise ValueError(f"object type name must be lower_snake (e.g. 'flat_box'), got {self.name!r}")
         if not callable(self.build):
             raise TypeError(f"object type {self.name!r}: build must be callable (name, task_config) -> MujocoObject")
-        if not (isinstance(self.footprint_radius, (int, float)) and self.footprint_radius > 0):
-            raise ValueError(f"object type {self.name!r}: footprint_radius must be > 0 m, got {self.footprint_radius!r}")
+        radius = self.footprint_radius
+        if radius is not None and not (isinstance(radius, (int, float)) and math.isfinite(radius) and radius > 0):
+            raise ValueError(f"object type {self.name!r}: footprint_radius must be > 0 m or None, got {radius!r}")
         for key in ("grasp_depth", "approach_clearance"):
-            if not isinstance(getattr(self, key), (int, float)) or not math.isfinite(getattr(self, key)):
-                raise ValueError(f"object type {self.name!r}: {key} must be a finite number [m], got {getattr(self, key)!r}")
-        if self.yaw_rule not in YAW_RULES:
-            raise ValueError(f"object type {self.name!r}: unknown yaw_rule {self.yaw_rule!r}; allowed: {', '.join(YAW_RULES)}")
+            value = getattr(self, key)
+            if value is not None and (not isinstance(value, (int, float)) or not math.isfinite(value)):
+                raise ValueError(f"object type {self.name!r}: {key} must be a finite number [m] or None, got {value!r}")
+        if self.yaw_rule is not None and self.yaw_rule not in YAW_RULES:
+            raise ValueError(f"object type {self.name!r}: unknown yaw_rule {self.yaw_rule!r}; allowed: "
+                             f"{', '.join(YAW_RULES)} or None (from the geometry)")
 
-    def grasp(self) -> dict:
-        """The grasp parameters the skills read (``grasp_depth``, ``approach_clearance``, ``yaw_rule``)."""
-        return {"grasp_depth": self.grasp_depth, "approach_clearance": self.approach_clearance,
-                "yaw_rule": self.yaw_rule}
+    def clearance(self) -> float:
+        """m the open fingertips stay above the object's top while hovering (override or :data:`APPROACH_CLEARANCE`)."""
+        return APPROACH_CLEARANCE if self.approach_clearance is None else float(self.approach_clearance)
 
 
 def _red_wood() -> CustomMaterial:
@@ -126,27 +148,95 @@ def _cylinder(name: str, config: Mapping) -> MujocoObject:
     return CylinderObject(name=name, size=[float(half[0]), float(half[2])], rgba=list(CYLINDER_RGBA))
 
 
-#: Disc radius covering the default 4.5 cm cube seen from above (half diagonal) [m].
-_CUBE_FOOTPRINT = 0.0225 * math.sqrt(2)
+def _fixed_box(half_size, rgba=OBJECT_RGBA) -> Builder:
+    return lambda name, config: BoxObject(name=name, size=list(half_size), rgba=list(rgba), material=_red_wood())
+
+
+def _fixed_cylinder(radius: float, half_height: float) -> Builder:
+    return lambda name, config: CylinderObject(name=name, size=[radius, half_height], rgba=list(CYLINDER_RGBA))
+
+
+def _robosuite(cls) -> Builder:
+    return lambda name, config: cls(name=name)
+
 
 BUILTIN_OBJECTS = (
-    ObjectType("box", _box, _CUBE_FOOTPRINT, description="today's red wooden cube (object_half_size)"),
-    ObjectType("cube", _cube, _CUBE_FOOTPRINT, description="alias of box with equal sides (the paper-era name)"),
-    ObjectType("cylinder", _cylinder, 0.0225, yaw_rule="any",
+    ObjectType("box", _box, description="today's red wooden cube (object_half_size)"),
+    ObjectType("cube", _cube, description="alias of box with equal sides (the paper-era name)"),
+    ObjectType("cylinder", _cylinder,
                description="upright blue cylinder, radius object_half_size[0], half height object_half_size[2]"),
-    # robosuite's can: 5 cm across, 12 cm tall; gripped 1 cm above its centre so the carried can clears the table
-    ObjectType("can", lambda name, config: CanObject(name=name), 0.025, grasp_depth=-0.01, yaw_rule="any",
-               description="robosuite's CanObject (5 cm diameter, 12 cm tall)"),
-    ObjectType("bread", lambda name, config: BreadObject(name=name), 0.03 * math.sqrt(2),
-               description="robosuite's BreadObject (6 x 6 x 9 cm bounding box)"),
+    ObjectType("can", _robosuite(CanObject), description="robosuite's CanObject (5 cm diameter, 8 cm tall)"),
+    ObjectType("bread", _robosuite(BreadObject), description="robosuite's BreadObject (5 x 4 x 5 cm)"),
+    ObjectType("bottle", _robosuite(BottleObject), description="robosuite's BottleObject (5.5 x 5.9 x 16 cm)"),
+    ObjectType("lemon", _robosuite(LemonObject), description="robosuite's LemonObject (6.8 x 4 x 4 cm)"),
+    ObjectType("milk", _robosuite(MilkObject), description="robosuite's MilkObject (4 x 4 x 14.4 cm)"),
+    ObjectType("cereal", _robosuite(CerealObject), description="robosuite's CerealObject (10 x 3 x 15 cm)"),
+    ObjectType("tall_box", _fixed_box((0.02, 0.02, 0.05)), description="a 4 x 4 x 10 cm box"),
+    ObjectType("tower_box", _fixed_box((0.02, 0.02, 0.075)), description="a 4 x 4 x 15 cm box"),
+    ObjectType("tall_cylinder", _fixed_cylinder(0.02, 0.075), description="a cylinder 4 cm across, 15 cm tall"),
 )
 
 _REGISTRY: Registry[ObjectType] = Registry("object type", ObjectType, BUILTIN_OBJECTS)
 
 
-def register_object(object_type: ObjectType, overwrite: bool = False) -> ObjectType:
-    """Add an object type so task specs can name it (``TaskSpec(objects=("my_type", ...))``)."""
-    return _REGISTRY.register(object_type, overwrite)
+def _builder_of(name: str, builder) -> Builder:
+    """``(mujoco_name, task_config) -> MujocoObject`` from a MujocoObject class or a ``name -> MujocoObject`` callable."""
+    if isinstance(builder, type):
+        if not issubclass(builder, MujocoObject):
+            raise TypeError(f"object {name!r}: builder class {builder.__name__} is not a robosuite MujocoObject")
+        return lambda mujoco_name, config: builder(name=mujoco_name)
+    if not callable(builder):
+        raise TypeError(f"object {name!r}: builder must be a MujocoObject class or a callable name -> MujocoObject, "
+                        f"got {builder!r}")
+    return lambda mujoco_name, config: builder(mujoco_name)
+
+
+def xml_object_builder(path) -> Builder:
+    """A builder of robosuite ``MujocoXMLObject``s from the MJCF file ``path`` in robosuite's object layout
+    (an ``object`` body and ``bottom_site``, ``top_site``, ``horizontal_radius_site``); checked by
+    building it once (``ValueError`` naming the file and what is wrong)."""
+    from robosuite.models.objects import MujocoXMLObject
+
+    fname = os.path.abspath(os.fspath(path))
+    if not os.path.isfile(fname):
+        raise ValueError(f"object xml {fname!r} does not exist")
+
+    def build(name: str, config: Mapping) -> MujocoObject:
+        return MujocoXMLObject(fname, name=name, joints=[dict(j) for j in XML_OBJECT_JOINTS], obj_type="all",
+                               duplicate_collision_geoms=True)
+
+    try:
+        build("check", {})
+    except Exception as error:  # robosuite asserts / KeyErrors on a file outside its layout
+        raise ValueError(f"object xml {fname!r} is not in robosuite's object layout (an 'object' body, bottom_site, "
+                         f"top_site, horizontal_radius_site): {type(error).__name__}: {error}") from None
+    return build
+
+
+def register_object(object_type, builder=None, *, xml=None, overwrite: bool = False, **overrides) -> ObjectType:
+    """Add an object type so task specs can name it (``TaskSpec(objects=("my_type", ...))``).
+
+    Three forms:
+
+    - ``register_object("name", MujocoObjectClass_or_callable)``: ``builder`` is a robosuite
+      ``MujocoObject`` class (made with ``name=``) or a callable ``mujoco_name -> MujocoObject``;
+    - ``register_object("name", xml="my_object.xml")``: a user's MJCF file in robosuite's object layout;
+    - ``register_object(ObjectType(...))``: a full type (``build(name, task_config)``).
+
+    ``overrides``: :class:`ObjectType` fields (``footprint_radius``, ``grasp_depth``,
+    ``approach_clearance``, ``yaw_rule``, ``description``) for what geometry cannot tell.
+    Returns the registered type; ``ValueError`` when the name is taken and ``overwrite`` is False.
+    """
+    if isinstance(object_type, ObjectType):
+        if builder is not None or xml is not None or overrides:
+            raise TypeError("register_object(ObjectType(...)) takes no builder, xml or overrides; set them on the ObjectType")
+        return _REGISTRY.register(object_type, overwrite)
+    if not isinstance(object_type, str):
+        raise TypeError(f"register_object needs an ObjectType or a name, got {object_type!r}")
+    if (builder is None) == (xml is None):
+        raise TypeError(f"register_object({object_type!r}, ...): give exactly one of a builder and xml=")
+    build = xml_object_builder(xml) if xml is not None else _builder_of(object_type, builder)
+    return _REGISTRY.register(ObjectType(object_type, build, **overrides), overwrite)
 
 
 def object_type_names() -> list[str]:
@@ -212,3 +302,33 @@ def make_sponge(half_size, density: float) -> MujocoObject:
         solref=list(SPONGE_SOLREF),
         rgba=list(SPONGE_RGBA),
     )
+
+
+#: MuJoCo name of the copy of an object built only to read its geometry.
+PROBE_NAME = "probe"
+
+
+def type_geometry(object_type, config):
+    """The collision geometry (:class:`.object_geometry.ObjectGeometry`) of ``object_type`` built from task ``config``."""
+    from tableclean_suite.environments.object_geometry import object_geometry
+
+    return object_geometry(make_object(object_type, config, PROBE_NAME))
+
+
+def footprint_radius(object_type, geometry) -> float:
+    """m, the type's ``footprint_radius`` override, else the footprint of its collision ``geometry``."""
+    kind = get_object_type(object_type)
+    return geometry.footprint_radius if kind.footprint_radius is None else float(kind.footprint_radius)
+
+
+def check_holdable(object_type, geometry, open_width: float, gripper: str = "gripper") -> None:
+    """``ValueError`` naming the object, its narrowest width and the limit when the open ``gripper`` cannot take it.
+
+    The limit is ``open_width`` (m, the open finger pads' gap) less :data:`GRASP_WIDTH_MARGIN`.
+    """
+    kind = get_object_type(object_type)
+    limit = open_width - GRASP_WIDTH_MARGIN
+    if geometry.narrow_width > limit:
+        raise ValueError(f"object {kind.name!r} cannot be grasped: its narrowest horizontal width is "
+                         f"{geometry.narrow_width * 100:.1f} cm, the open {gripper}'s pad gap {open_width * 100:.1f} cm "
+                         f"less a {GRASP_WIDTH_MARGIN * 100:.0f} cm margin allows at most {limit * 100:.1f} cm")

@@ -21,7 +21,17 @@ from tableclean_suite.environments.config import (
     scene_geometry,
 )
 from tableclean_suite.environments.ik import site_pose, solve_site_pose
-from tableclean_suite.environments.objects import get_object_type, make_object, make_sponge, object_names
+from tableclean_suite.environments.gripper_geometry import measure_gripper
+from tableclean_suite.environments.object_geometry import object_geometry
+from tableclean_suite.environments.objects import (
+    check_holdable,
+    footprint_radius,
+    get_object_type,
+    make_object,
+    make_sponge,
+    object_names,
+    type_geometry,
+)
 from tableclean_suite.environments.robot_support import (
     check_scene_robot,
     exclude_parent_contacts,
@@ -48,6 +58,9 @@ FAULT_INDEX = -1
 PLACEMENT_CLEARANCE = 0.001
 #: A randomised sponge start keeps its footprint this far inside its stand's edges [m].
 STAND_EDGE_MARGIN = 0.002
+#: At reset the grip site hovers at least this far above the tallest object's top [m] (the open
+#: fingertips hang ~1.4 cm below it on the Panda gripper), so a tall object is not knocked over.
+RESET_OBJECT_CLEARANCE = 0.05
 #: The exact contact test runs only when the sponge's lowest corner is within this of the table top [m].
 PRESS_PREFILTER_SLACK = 0.002
 
@@ -111,7 +124,14 @@ def check_objects_fit(kinds, geometry, config: Mapping, size_scale: float = 1.0)
     (:mod:`.placement`'s grid of spots).  ``size_scale`` (> 0) multiplies every footprint: the
     largest ``object_size_scale`` a randomisation can draw.
     """
-    radii = [kind.footprint_radius * size_scale for kind in kinds]
+    radii = []
+    for kind in kinds:
+        radius = footprint_radius(kind, type_geometry(kind, config)) * size_scale
+        side = 2 * float(np.min(geometry.segment_half_sizes[0]))
+        if 2 * radius > side:
+            raise ValueError(f"object {kind.name!r} does not fit a segment: its footprint is {2 * radius * 100:.1f} cm "
+                             f"across (any yaw), a segment {side * 100:.1f} cm")
+        radii.append(radius)
     pitch = placement.slot_pitch(radii, config["object_spacing"], config["object_clearance"])
     offsets = placement.slot_offsets(len(radii), pitch)
     half = geometry.segment_half_sizes[0]
@@ -258,11 +278,10 @@ class TableClean(ManipulationEnv):
         self.geometry = scene_geometry(self.task_config, self.n_segments)  # ValueError naming the largest N
         check_objects_fit(self.object_types, self.geometry, self.task_config)
         self._check_randomization_fits()
-        #: (M, 3) m bounding half extents of the objects built from the unrandomised config: a drawn
-        #: object_size_scale grows each footprint by the ratio of its built extents to these
-        self._nominal_object_half_sizes = np.array(
-            [make_object(kind.name, self.task_config, name).get_bounding_box_half_size()
-             for kind, name in zip(self.object_types, object_names(self.n_objects))], dtype=float)
+        #: (M,) m footprints of the objects' geometry built from the unrandomised config: a drawn
+        #: object_size_scale grows an overridden footprint by the ratio of the built one to these
+        self._nominal_footprints = np.array(
+            [type_geometry(kind, self.task_config).footprint_radius for kind in self.object_types], dtype=float)
         # 0-based internally (None: drawn at each reset); set through set_start() with 1-based numbers
         self.object_segment: int | None = None
         self.object_segments: tuple[int | None, ...] = (None,) * self.n_objects
@@ -285,7 +304,7 @@ class TableClean(ManipulationEnv):
         )
         self._n_task_states = self.task_model.n_states  # size of the symbolic_state_onehot observable
         self._shown_dirt: tuple | None = None  # the dirt-state joint positions the marker visuals show
-        self._arm_qpos_cache: dict[int, np.ndarray] = {}
+        self._arm_qpos_cache: dict[tuple, np.ndarray] = {}
         # (object segment, arm segment) of this episode, 0-based; with M > 1 objects (object segments, arm segment)
         self.layout: tuple | None = None
         super().__init__(
@@ -316,6 +335,7 @@ class TableClean(ManipulationEnv):
             renderer_config=renderer_config,
             seed=seed,
         )
+        self._check_holdable()
 
     # ------------------------------------------------------------------------------------------
     # robosuite hooks
@@ -392,6 +412,8 @@ class TableClean(ManipulationEnv):
         self.objects = [make_object(kind.name, self._object_build_config(j), name)
                         for j, (kind, name) in enumerate(zip(self.object_types, object_names(self.n_objects)))]
         self.object = self.objects[0]
+        #: the objects' collision geometry in their own frames (read from MuJoCo, :mod:`.object_geometry`)
+        self.object_geometries = tuple(object_geometry(o) for o in self.objects)
         self.sponge = make_sponge(config["sponge_half_size"], config["sponge_density"])
         self.model = ManipulationTask(
             mujoco_arena=arena,
@@ -416,11 +438,15 @@ class TableClean(ManipulationEnv):
         self._sponge_mask = mask(self.sponge.contact_geoms)
         self._object_masks = tuple(mask(o.contact_geoms) for o in self.objects)
         self._object_mask = self._object_masks[0]
-        self._object_rest_z = np.array([self.geometry.table_top_z - float(o.bottom_offset[2]) for o in self.objects])
-        self._object_half_sizes = np.array([o.get_bounding_box_half_size() for o in self.objects], dtype=float)
-        # footprints grow with the drawn size (types sized by object_half_size; others keep theirs)
-        growth = np.max(self._object_half_sizes[:, :2] / self._nominal_object_half_sizes[:, :2], axis=1)
-        self._object_footprints = np.array([kind.footprint_radius for kind in self.object_types]) * growth
+        shapes = self.object_geometries
+        self._object_rest_z = np.array([self.geometry.table_top_z - float(g.lower[2]) for g in shapes])
+        self._object_half_sizes = np.array([g.half_size for g in shapes], dtype=float)
+        # an overridden footprint grows with the drawn size as the geometry's does
+        growth = np.array([g.footprint_radius for g in shapes]) / self._nominal_footprints
+        self._object_footprints = np.array([footprint_radius(kind, g) for kind, g in zip(self.object_types, shapes)])
+        self._object_footprints *= np.where([k.footprint_radius is None for k in self.object_types], 1.0, growth)
+        self.gripper_geometry = measure_gripper(model._model, self._mj_data.qpos.copy(), gripper,
+                                                gripper.important_sites["grip_site"])
         self._finger_pad_masks = (
             mask(gripper.important_geoms["left_fingerpad"]),
             mask(gripper.important_geoms["right_fingerpad"]),
@@ -678,7 +704,10 @@ class TableClean(ManipulationEnv):
         object centre height when resting on the table (these four: object 1), ``objects_pos``
         (M, 3), ``objects_quat`` (M, 4), ``objects_half_size`` (M, 3), ``objects_rest_z`` (M,),
         ``objects_grasped`` (M,) bool, ``object_types`` (M,) the objects'
-        :class:`~tableclean_suite.environments.objects.ObjectType` (grasp and footprint),
+        :class:`~tableclean_suite.environments.objects.ObjectType` (overrides), ``objects_geometry``
+        (M,) their :class:`~.object_geometry.ObjectGeometry` (collision extent in their own frames),
+        ``objects_footprint`` (M,) m footprint radii, ``gripper_open_width`` m (open pad gap) and
+        ``gripper_palm_height`` m (hand's lowest point above the grip site, :mod:`.gripper_geometry`),
         ``sponge_pos`` (3,), ``sponge_quat`` (4,), ``sponge_half_size`` (3,), ``sponge_home_pos`` (3,),
         ``segment_centers`` (N, 3) table-top point at each segment centre (row 0 = segment 1),
         ``segment_half_sizes`` (N, 2), ``table_top_z`` float, ``table_center`` (3,),
@@ -708,6 +737,10 @@ class TableClean(ManipulationEnv):
             "objects_rest_z": self._object_rest_z.copy(),
             "objects_grasped": objects_grasped,
             "object_types": self.object_types,
+            "objects_geometry": self.object_geometries,
+            "objects_footprint": self._object_footprints.copy(),
+            "gripper_open_width": self.gripper_geometry.open_width,
+            "gripper_palm_height": self.gripper_geometry.palm_height,
             "object_spacing": float(self.task_config["object_spacing"]),
             "object_clearance": float(self.task_config["object_clearance"]),
             "sponge_pos": np.array(data.body_xpos[self.sponge_body_id]),
@@ -849,8 +882,12 @@ class TableClean(ManipulationEnv):
         return objects, arm
 
     def _arm_reset_qpos(self, segment: int) -> np.ndarray:
-        """Joint positions putting the gripper site ``arm_hover_height`` above ``segment``'s centre (cached)."""
-        if segment not in self._arm_qpos_cache:
+        """Joint positions putting the gripper site ``arm_hover_height`` above ``segment``'s centre, or
+        :data:`RESET_OBJECT_CLEARANCE` above the tallest object's top when that is higher (cached)."""
+        tallest = max(float(g.height) for g in self.object_geometries)
+        height = max(float(self.task_config["arm_hover_height"]), tallest + RESET_OBJECT_CLEARANCE)
+        key = (segment, height)
+        if key not in self._arm_qpos_cache:
             robot = self.robots[0]
             model = self.sim.model
             qpos_addrs = [model.get_joint_qpos_addr(j) for j in robot.robot_model.joints]
@@ -858,11 +895,11 @@ class TableClean(ManipulationEnv):
             site_id = model.site_name2id(robot.gripper[robot.arms[0]].important_sites["grip_site"])
             q_default = np.array(robot.robot_model.init_qpos, dtype=float)
             _, default_mat = site_pose(model._model, qpos_addrs, site_id, q_default)
-            target = self.geometry.segment_centers[segment] + [0.0, 0.0, self.task_config["arm_hover_height"]]
-            self._arm_qpos_cache[segment] = solve_site_pose(
+            target = self.geometry.segment_centers[segment] + [0.0, 0.0, height]
+            self._arm_qpos_cache[key] = solve_site_pose(
                 model._model, qpos_addrs, dof_addrs, site_id, target, default_mat, q_default
             )
-        return self._arm_qpos_cache[segment].copy()
+        return self._arm_qpos_cache[key].copy()
 
     def _place_objects(self, segments: tuple[int, ...]) -> None:
         """Put object j on ``segments[j]`` (0-based) following :mod:`.placement` (grid spots plus capped noise).
@@ -890,7 +927,7 @@ class TableClean(ManipulationEnv):
 
     def _set_object_pose(self, obj: int, xy, yaw: float) -> None:
         """Object ``obj`` at rest on the table at world ``xy`` with ``yaw`` [rad] (qpos set, qvel zeroed)."""
-        z = self.geometry.table_top_z - self.objects[obj].bottom_offset[2] + PLACEMENT_CLEARANCE
+        z = self.geometry.table_top_z - float(self.object_geometries[obj].lower[2]) + PLACEMENT_CLEARANCE
         quat_wxyz = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
         joint = self.objects[obj].joints[0]
         self.sim.data.set_joint_qpos(joint, np.concatenate([np.asarray(xy, dtype=float)[:2], [z], quat_wxyz]))
@@ -914,6 +951,15 @@ class TableClean(ManipulationEnv):
         self.sim.data.set_joint_qpos(self.sponge.joints[0], np.concatenate([pos, quat_wxyz]))
 
     # -- randomised dynamics (see tableclean_suite.environments.randomization) -------------------
+    def _check_holdable(self) -> None:
+        """``ValueError`` (the scene closed) naming an object whose narrowest width the open gripper cannot take."""
+        try:
+            for kind, shape in zip(self.object_types, self.object_geometries):
+                check_holdable(kind, shape, self.gripper_geometry.open_width, f"{self.robot_name} gripper")
+        except ValueError:
+            self.close()
+            raise
+
     def _check_randomization_fits(self) -> None:
         """``ValueError`` when the randomisation could move the sponge's start out of its home tolerance,
         or draw objects too large to fit side by side on one segment."""

@@ -1,0 +1,64 @@
+"""What the mounted gripper's model says: how wide it opens, and how far its fingers reach below the hand.
+
+Read from the compiled scene (a copy of its kinematics), never from per-gripper constants:
+
+- ``open_width`` [m]: the largest gap between the two finger pads (``mj_geomDistance``) over the
+  ends of the finger joints' ranges: what an object's narrow side must pass between;
+- ``palm_height`` [m]: how far above the grip site the lowest collision point of the gripper's
+  non-finger geoms (the hand) lies: an object's top must stay below it while the fingers close.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from tableclean_suite.environments.object_geometry import collision_points
+
+#: Largest gap [m] ``mj_geomDistance`` looks for between the finger pads (far beyond any gripper's opening).
+MAX_PAD_GAP = 0.5
+#: At most this many finger joints are tried at every end of their ranges (2^n poses).
+MAX_FINGER_JOINTS = 6
+
+
+@dataclass(frozen=True)
+class GripperGeometry:
+    """Attributes: ``open_width`` [m] between the open pads; ``palm_height`` [m] of the hand's lowest
+    point above the grip site."""
+
+    open_width: float
+    palm_height: float
+
+
+def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site: str) -> GripperGeometry:
+    """The :class:`GripperGeometry` of robosuite gripper model ``gripper`` mounted in ``model`` (arm at ``qpos``)."""
+    data = mujoco.MjData(model)
+    data.qpos[:] = qpos
+    joints = [model.joint(name).id for name in gripper.joints][:MAX_FINGER_JOINTS]
+    ranges = [model.jnt_range[j] for j in joints]
+    left = [model.geom(n).id for n in gripper.important_geoms["left_fingerpad"]]
+    right = [model.geom(n).id for n in gripper.important_geoms["right_fingerpad"]]
+    fromto = np.zeros(6)
+    widest = 0.0
+    for ends in itertools.product((0, 1), repeat=len(joints)):
+        for joint, limits, end in zip(joints, ranges, ends):
+            data.qpos[model.jnt_qposadr[joint]] = limits[end]
+        mujoco.mj_kinematics(model, data)
+        gap = min(mujoco.mj_geomDistance(model, data, a, b, MAX_PAD_GAP, fromto) for a in left for b in right)
+        widest = max(widest, float(gap))
+    data.qpos[:] = qpos
+    mujoco.mj_kinematics(model, data)
+    site = model.site(grip_site).id
+    fingers = {model.geom(n).id for key in ("left_finger", "right_finger") for n in gripper.important_geoms[key]}
+    hand = [g for g in range(model.ngeom) if model.geom(g).name.startswith(gripper.naming_prefix)
+            and g not in fingers and (model.geom_contype[g] or model.geom_conaffinity[g])]
+    lowest = []
+    for geom in hand:
+        body = int(model.geom_bodyid[geom])
+        local = collision_points(model, data, body, [geom])  # in the geom's body frame
+        lowest.append(float((data.xpos[body] + local @ data.xmat[body].reshape(3, 3).T)[:, 2].min()))
+    palm = min(lowest) - float(data.site_xpos[site][2])
+    return GripperGeometry(open_width=widest, palm_height=palm)

@@ -1,0 +1,218 @@
+"""What an object's collision geometry says: its extent, footprint, narrow side and resting height.
+
+Everything here is read from MuJoCo's compiled model (geom types and sizes, mesh vertices, the
+geoms' poses in the object's root body), never from per-type numbers or robosuite's
+``bottom_site`` / ``top_site`` (which robosuite's mesh objects place up to 2 cm off their meshes).
+
+- :func:`collision_points`: (K, 3) points on the collision geoms of a body subtree, in the root
+  body's frame [m] (box corners, mesh vertices, sampled circles of round geoms);
+- :class:`ObjectGeometry`: the object's extent in its own frame (``lower``, ``upper``), its
+  footprint radius, and the gripper yaw that closes across its narrow side (:meth:`ObjectGeometry.grasp_yaw`);
+- :func:`object_geometry`: the geometry of a robosuite ``MujocoObject`` (compiled on its own, cached).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import mujoco
+import numpy as np
+
+#: Points sampled on each circle of a round geom (sphere, cylinder, capsule, ellipsoid); the
+#: sampled extent falls short of the true one by at most r (1 - cos(pi / this)): 0.5 % of the radius.
+CIRCLE_POINTS = 32
+#: Horizontal directions [rad] over a half turn at which the object's width across the fingers is
+#: measured to find its narrow side (every 1 degree).
+WIDTH_DIRECTIONS = 180
+#: Two widths [m] closer than this count as equal: a square footprint (two narrow sides) or a round
+#: one (every side narrow: any gripper yaw will do).
+EQUAL_WIDTH = 1e-3
+
+
+def _circle(radius_x: float, radius_y: float, z: float) -> np.ndarray:
+    angles = np.linspace(0.0, 2.0 * np.pi, CIRCLE_POINTS, endpoint=False)
+    return np.column_stack([radius_x * np.cos(angles), radius_y * np.sin(angles), np.full(CIRCLE_POINTS, z)])
+
+
+def _geom_local_points(model: mujoco.MjModel, geom: int) -> np.ndarray:
+    """(K, 3) points on geom ``geom`` in its own frame [m]."""
+    kind, size = int(model.geom_type[geom]), model.geom_size[geom]
+    if kind == mujoco.mjtGeom.mjGEOM_BOX:
+        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+        return signs * size
+    if kind == mujoco.mjtGeom.mjGEOM_MESH:
+        mesh = int(model.geom_dataid[geom])
+        start, count = int(model.mesh_vertadr[mesh]), int(model.mesh_vertnum[mesh])
+        return np.array(model.mesh_vert[start:start + count], dtype=float)
+    if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+        r = float(size[0])
+        return np.vstack([_circle(r, r, 0.0), [[0, 0, r], [0, 0, -r]]])
+    if kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
+        r, h = float(size[0]), float(size[1])
+        return np.vstack([_circle(r, r, h), _circle(r, r, -h)])
+    if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        r, h = float(size[0]), float(size[1])
+        return np.vstack([_circle(r, r, h), _circle(r, r, -h), [[0, 0, h + r], [0, 0, -h - r]]])
+    if kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
+        a, b, c = (float(s) for s in size)
+        return np.vstack([_circle(a, b, 0.0), [[0, 0, c], [0, 0, -c]]])
+    # planes, height fields, SDFs: fall back on MuJoCo's own bounding box of the geom
+    center, half = model.geom_aabb[geom, :3], model.geom_aabb[geom, 3:]
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+    return center + signs * half
+
+
+def subtree_bodies(model: mujoco.MjModel, root: int) -> np.ndarray:
+    """Ids of body ``root`` and every body below it."""
+    ids = [root]
+    for body in range(root + 1, model.nbody):
+        if int(model.body_parentid[body]) in ids:
+            ids.append(body)
+    return np.asarray(ids, dtype=int)
+
+
+def collision_geoms(model: mujoco.MjModel, root: int) -> np.ndarray:
+    """Ids of the colliding geoms (``contype`` or ``conaffinity`` non-zero) of body ``root``'s subtree."""
+    bodies = subtree_bodies(model, root)
+    colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    return np.flatnonzero(np.isin(model.geom_bodyid, bodies) & colliding)
+
+
+def collision_points(model: mujoco.MjModel, data: mujoco.MjData, root: int, geoms=None) -> np.ndarray:
+    """(K, 3) points [m] on the collision geoms of body ``root``'s subtree (or on ``geoms``), in ``root``'s frame.
+
+    ``data`` must hold the kinematics (``mj_kinematics`` or a step) of any pose: the object is rigid.
+    """
+    geoms = collision_geoms(model, root) if geoms is None else np.asarray(geoms, dtype=int)
+    body_pos, body_rot = data.xpos[root], data.xmat[root].reshape(3, 3)
+    parts = []
+    for geom in geoms:
+        local = _geom_local_points(model, int(geom))
+        world = data.geom_xpos[geom] + local @ data.geom_xmat[geom].reshape(3, 3).T
+        parts.append((world - body_pos) @ body_rot)
+    if not parts:
+        raise ValueError(f"body {model.body(root).name!r} has no colliding geom")
+    return np.vstack(parts)
+
+
+@dataclass(frozen=True, eq=False)
+class ObjectGeometry:
+    """An object's collision geometry in its own (root body) frame.
+
+    Attributes:
+        points: (K, 3) points on its collision geoms [m], root-body frame.
+    """
+
+    points: np.ndarray
+
+    @property
+    def lower(self) -> np.ndarray:
+        """(3,) smallest x, y, z of the collision geometry in the object's frame [m]."""
+        return self.points.min(axis=0)
+
+    @property
+    def upper(self) -> np.ndarray:
+        """(3,) largest x, y, z of the collision geometry in the object's frame [m]."""
+        return self.points.max(axis=0)
+
+    @property
+    def half_size(self) -> np.ndarray:
+        """(3,) half extents [m] of the smallest origin-centred box holding the geometry."""
+        return np.maximum(np.abs(self.lower), np.abs(self.upper))
+
+    @property
+    def height(self) -> float:
+        """Vertical extent [m] of the upright object."""
+        return float(self.upper[2] - self.lower[2])
+
+    @property
+    def footprint_radius(self) -> float:
+        """Radius [m] of the disc about the object's origin covering it seen from above (any yaw)."""
+        return float(np.max(np.linalg.norm(self.points[:, :2], axis=1)))
+
+    def widths(self) -> np.ndarray:
+        """(WIDTH_DIRECTIONS,) widths [m] of the upright object along the directions ``k pi / WIDTH_DIRECTIONS``
+        of its own frame (what closing fingers along that direction span)."""
+        angles = np.arange(WIDTH_DIRECTIONS) * (np.pi / WIDTH_DIRECTIONS)
+        projections = self.points[:, :2] @ np.stack([np.cos(angles), np.sin(angles)])
+        return projections.max(axis=0) - projections.min(axis=0)
+
+    @property
+    def narrow_width(self) -> float:
+        """Smallest horizontal width [m] of the upright object: what the fingers close across."""
+        return float(self.widths().min())
+
+    @property
+    def is_round(self) -> bool:
+        """Whether every horizontal width is the same within :data:`EQUAL_WIDTH` (any gripper yaw grasps it)."""
+        widths = self.widths()
+        return float(widths.max() - widths.min()) <= EQUAL_WIDTH
+
+    def narrow_side(self) -> tuple[float, float]:
+        """``(direction, period)`` [rad]: a direction in the object's frame along which the fingers close
+        across its narrowest width, and the turn after which another equally narrow one follows
+        (``pi / 2`` for a square footprint, else ``pi``)."""
+        widths = self.widths()
+        k = int(np.argmin(widths))
+        quarter = (k + WIDTH_DIRECTIONS // 2) % WIDTH_DIRECTIONS
+        direction = (k / (WIDTH_DIRECTIONS // 2)) * (0.5 * np.pi)  # a quarter turn exactly at k = W / 2
+        period = 0.5 * np.pi if abs(widths[quarter] - widths[k]) <= EQUAL_WIDTH else np.pi
+        return direction, period
+
+
+def _wrap(angle: float) -> float:
+    return float((angle + np.pi) % (2 * np.pi) - np.pi)
+
+
+def grasp_yaw(geometry: ObjectGeometry, object_yaw: float, preferred_yaw: float) -> float:
+    """Gripper yaw [rad] (fingers closing along the grip site's x axis) across the object's narrow side.
+
+    Of the equally narrow yaws the one nearest ``preferred_yaw`` is returned, so the wrist never
+    winds up.  ``object_yaw``: the upright object's heading [rad].
+    """
+    direction, period = geometry.narrow_side()
+    base = object_yaw + direction
+    turns = np.round(_wrap(preferred_yaw - base) / period)
+    return _wrap(base + turns * period)
+
+
+@lru_cache(maxsize=256)
+def _compiled_points(world_xml: str, root_name: str) -> np.ndarray:
+    model = mujoco.MjModel.from_xml_string(world_xml)
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    points = collision_points(model, data, model.body(root_name).id)
+    points.flags.writeable = False
+    return points
+
+
+def object_geometry(obj) -> ObjectGeometry:
+    """The collision geometry of robosuite ``MujocoObject`` ``obj``, compiled on its own (cached per model text)."""
+    from robosuite.models.world import MujocoWorldBase
+
+    world = MujocoWorldBase()
+    world.merge_assets(obj)
+    world.worldbody.append(obj.get_obj())
+    return ObjectGeometry(_compiled_points(world.get_xml(), obj.root_body))
+
+
+def geometry_of_body(model: mujoco.MjModel, root: int) -> ObjectGeometry:
+    """The collision geometry of body ``root``'s subtree in a compiled model (a fresh kinematics pass)."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    return ObjectGeometry(collision_points(model, data, root))
+
+
+def world_lowest_z(geometry: ObjectGeometry, pos, rot) -> float:
+    """World z [m] of the lowest collision point of the object at ``pos`` (3,) with rotation matrix ``rot`` (3, 3)."""
+    return float(pos[2] + np.min(geometry.points @ np.asarray(rot)[2]))
+
+
+def world_highest_z(geometry: ObjectGeometry, pos, rot) -> float:
+    """World z [m] of the highest collision point of the object at ``pos`` (3,) with rotation matrix ``rot`` (3, 3)."""
+    return float(pos[2] + np.max(geometry.points @ np.asarray(rot)[2]))
+
+
+__all__ = ["ObjectGeometry", "object_geometry", "geometry_of_body", "collision_points", "collision_geoms",
+           "grasp_yaw", "world_lowest_z", "world_highest_z", "CIRCLE_POINTS", "EQUAL_WIDTH", "WIDTH_DIRECTIONS"]

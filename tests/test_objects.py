@@ -1,0 +1,104 @@
+"""Registering objects in one line (a MujocoObject class, a callable, a user's MJCF file) and the
+scene's refusal of objects the gripper cannot hold or a segment cannot take."""
+
+import numpy as np
+import pytest
+import robosuite
+from robosuite.models.objects import BoxObject, MilkObject
+
+import tableclean_suite  # noqa: F401  (registers TableClean)
+from tableclean_suite.environments.object_geometry import object_geometry
+from tableclean_suite.environments.objects import (
+    GRASP_WIDTH_MARGIN,
+    ObjectType,
+    get_object_type,
+    make_object,
+    register_object,
+    type_geometry,
+)
+from tableclean_suite.task import TaskSpec
+
+#: A user's MJCF object in robosuite's layout: a 3 x 5 x 8 cm box with its sites.
+USER_XML = """<mujoco model="user_block">
+  <worldbody>
+    <body>
+      <body name="object">
+        <geom name="block" type="box" size="0.015 0.025 0.04" pos="0 0 0" group="0" density="500"
+              friction="1 0.005 0.0001" rgba="0.2 0.7 0.3 1"/>
+      </body>
+      <site rgba="0 0 0 0" size="0.005" pos="0 0 -0.04" name="bottom_site"/>
+      <site rgba="0 0 0 0" size="0.005" pos="0 0 0.04" name="top_site"/>
+      <site rgba="0 0 0 0" size="0.005" pos="0.025 0.025 0" name="horizontal_radius_site"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def _scene(spec: TaskSpec):
+    return robosuite.make("TableClean", robots="Panda", task=spec, has_renderer=False, has_offscreen_renderer=False,
+                          use_camera_obs=False, ignore_done=True, seed=0)
+
+
+def test_register_object_takes_a_class_a_callable_or_a_full_type():
+    by_class = register_object("test_milk_class", MilkObject, overwrite=True)
+    assert isinstance(make_object(by_class.name, {}, "m"), MilkObject)
+    by_callable = register_object("test_slab", lambda name: BoxObject(name=name, size=[0.02, 0.03, 0.01]),
+                                  yaw_rule="short_side", overwrite=True)
+    assert by_callable.yaw_rule == "short_side" and by_callable.footprint_radius is None
+    np.testing.assert_allclose(type_geometry(by_callable, {}).half_size, [0.02, 0.03, 0.01])
+    full = register_object(ObjectType("test_full", lambda name, config: BoxObject(name=name, size=[0.02] * 3),
+                                      footprint_radius=0.05), overwrite=True)
+    assert get_object_type("test_full") is full
+    with pytest.raises(TypeError, match="exactly one of a builder and xml"):
+        register_object("test_none")
+    with pytest.raises(TypeError, match="not a robosuite MujocoObject"):
+        register_object("test_bad_class", dict)
+
+
+def test_geometry_comes_from_the_collision_meshes_not_robosuites_sites():
+    milk = MilkObject(name="milk")
+    shape = object_geometry(milk)
+    # robosuite's bottom_site says 8.5 cm below the origin; the mesh ends 6.1 cm below it
+    assert milk.bottom_offset[2] == pytest.approx(-0.085)
+    assert shape.lower[2] == pytest.approx(-0.061, abs=1e-3) and shape.height == pytest.approx(0.144, abs=2e-3)
+    assert shape.narrow_width == pytest.approx(0.0397, abs=1e-3)
+
+
+def test_a_users_mjcf_file_registers_in_one_line_and_builds_in_the_scene(tmp_path):
+    path = tmp_path / "user_block.xml"
+    path.write_text(USER_XML)
+    kind = register_object("test_user_block", xml=path, overwrite=True)
+    shape = type_geometry(kind, {})
+    np.testing.assert_allclose(shape.lower, [-0.015, -0.025, -0.04], atol=1e-9)
+    assert shape.narrow_width == pytest.approx(0.03)
+    env = _scene(TaskSpec("user_block_scene", objects=("test_user_block",)))
+    try:
+        env.reset()
+        info = env.skill_info()
+        assert info["objects_rest_z"][0] == pytest.approx(info["table_top_z"] + 0.04)
+        assert env.symbolic_state() == env.task_model.start_state
+    finally:
+        env.close()
+    with pytest.raises(ValueError, match="does not exist"):
+        register_object("test_missing", xml=tmp_path / "missing.xml")
+    broken = tmp_path / "broken.xml"
+    broken.write_text(USER_XML.replace('name="object"', 'name="thing"'))
+    with pytest.raises(ValueError, match="not in robosuite's object layout"):
+        register_object("test_broken", xml=broken)
+
+
+def test_the_scene_refuses_an_object_too_wide_for_the_open_gripper_naming_measure_and_limit():
+    register_object("test_wide_box", lambda name: BoxObject(name=name, size=[0.04, 0.04, 0.02]), overwrite=True)
+    with pytest.raises(ValueError) as error:
+        _scene(TaskSpec("wide_box_scene", objects=("test_wide_box",)))
+    message = str(error.value)
+    assert "'test_wide_box' cannot be grasped" in message and "8.0 cm" in message
+    # the limit is the Panda gripper's measured pad gap (7.9 cm) less the margin
+    assert f"less a {GRASP_WIDTH_MARGIN * 100:.0f} cm margin allows at most 6.9 cm" in message
+
+
+def test_the_scene_refuses_an_object_larger_than_a_segment():
+    register_object("test_plank", lambda name: BoxObject(name=name, size=[0.2, 0.02, 0.02]), overwrite=True)
+    with pytest.raises(ValueError, match=r"'test_plank' does not fit a segment: its footprint is 40\.2 cm across \(any yaw\), a segment 24\.0 cm"):
+        _scene(TaskSpec("plank_scene", objects=("test_plank",)))
