@@ -203,3 +203,61 @@ def test_plugin_executor_imports_the_plugins_in_spawned_workers(tmp_path):
         specs = list(executor.map(get_task_spec, ["plugin_worker_spec", "paper"]))
     assert [spec.name for spec in specs] == ["plugin_worker_spec", "paper"] and specs[0].segments == 3
     assert plugins.with_plugins(LocalExecutor(workers=1), ()).__class__ is LocalExecutor  # nothing to wrap
+
+
+#: A user's plugin module: an object type and a skill (MOVE, which logs each build to $PLUGIN_SKILL_LOG).
+PHYSICS_PLUGIN = '''
+import os
+
+from robosuite.models.objects import BoxObject
+
+from tableclean_suite.controllers import register_skill
+from tableclean_suite.controllers.move import MoveSkill
+from tableclean_suite.environments import register_object
+
+register_object("plugin_cube", lambda name: BoxObject(name=name, size=[0.02, 0.02, 0.02], rgba=[0.9, 0.8, 0.1, 1]),
+                description="a 4 cm cube from a plugin", overwrite=True)
+
+
+class LoggedMove(MoveSkill):
+    def build(self, info):
+        with open(os.environ["PLUGIN_SKILL_LOG"], "a") as handle:
+            handle.write("move\\n")
+        return super().build(info)
+
+
+register_skill("move", LoggedMove, replace=True)
+'''
+#: Each physics command on a tiny budget (fidelity's rounds in two spawned workers).
+PHYSICS_COMMANDS = {
+    "demos": ["--episodes", "1", "--out", "demos.hdf5"],
+    "fidelity": ["--trials", "2", "--actions", "move", "--workers", "2", "--quiet", "--out", "fidelity"],
+    "rollout": ["--iterations", "300", "--runs", "1", "--max-actions", "2", "--width", "64", "--height", "64",
+                "--frame-every", "20", "--out", "rollout.gif"],
+}
+
+
+@pytest.mark.slow
+@pytest.mark.cli
+@pytest.mark.parametrize("name", list(PHYSICS_COMMANDS))
+def test_a_plugins_object_type_and_skill_reach_the_physics_commands(name, tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "my_objects.py").write_text(PHYSICS_PLUGIN)
+    (tmp_path / "cube_task.json").write_text(json.dumps({"name": "plugin_cube_task", "segments": 2,
+                                                         "objects": ["plugin_cube"]}))
+    log = tmp_path / "skill.log"
+    env = {**os.environ, "PLUGIN_SKILL_LOG": str(log), "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+
+    def command(*extra):
+        return subprocess.run([sys.executable, "-m", "tableclean_suite.bench", name, "--task", "cube_task.json",
+                               *extra, *PHYSICS_COMMANDS[name]], cwd=tmp_path, env=env, capture_output=True,
+                              text=True, timeout=600)
+
+    refused = command()
+    assert refused.returncode == 2 and "unknown object_type 'plugin_cube'" in refused.stderr
+    done = command("--plugins", "my_objects.py")
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert log.read_text().count("move") >= 1  # the plugin's skill ran (in the workers, for fidelity)
