@@ -102,3 +102,29 @@ def test_the_scene_refuses_an_object_larger_than_a_segment():
     register_object("test_plank", lambda name: BoxObject(name=name, size=[0.2, 0.02, 0.02]), overwrite=True)
     with pytest.raises(ValueError, match=r"'test_plank' does not fit a segment: its footprint is 40\.2 cm across \(any yaw\), a segment 24\.0 cm"):
         _scene(TaskSpec("plank_scene", objects=("test_plank",)))
+
+
+def test_object_table_refuses_unknown_types_and_settings_with_one_line_and_exit_2(capsys):
+    from tableclean_suite.bench import object_table
+
+    for argv, what in ((["--objects", "banana"], "unknown object type 'banana'"),
+                       (["--settings", "upside_down"], "unknown 'upside_down'; allowed: alone, mixed"),
+                       (["--episodes", "0"], "expected a positive integer")):
+        with pytest.raises(SystemExit) as stop:
+            object_table.main(argv, prog="objects")
+        err = capsys.readouterr().err
+        assert stop.value.code == 2 and what in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.slow
+def test_object_table_measures_each_skill_and_writes_its_csv(tmp_path, capsys):
+    import csv
+
+    from tableclean_suite.bench import object_table
+
+    assert object_table.main(["--objects", "milk", "--settings", "alone", "--episodes", "1", "--out", str(tmp_path),
+                              "--quiet"], prog="objects") == 0
+    rows = list(csv.DictReader((tmp_path / object_table.TABLE_CSV).open()))
+    assert {row["skill"] for row in rows} >= {"pick", "place", "clean"}
+    assert all(row["object"] == "milk" and int(row["executions"]) >= 1 for row in rows)
+    assert "| milk | alone | " in capsys.readouterr().out
