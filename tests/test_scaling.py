@@ -16,7 +16,7 @@ from tableclean_suite.task import Outcome, TaskModel
 
 #: A tiny study: 2 x 2 specs (20, 50, 90 and 327 reachable states), short windows, few runs and resamples.
 TINY_ARGS = ["--segments", "3,2", "--objects", "2,1", "--runs", "4", "--base-window", "300", "--resamples", "20",
-             "--learners", "q_learning", "--rewards", "r2,r4"]
+             "--fixed-plan-objects", "1,2", "--learners", "q_learning", "--rewards", "r2,r4"]
 #: The paper's reachable states (from every all-unclean layout).
 PAPER_REACHABLE = 20
 PAPER_EPSILON, PAPER_MAX_ITR = 0.1, 500
@@ -63,8 +63,9 @@ def test_describe_family_orders_specs_by_reachable_states():
     specs = family.family_specs((3, 2), (2, 1))
     assert [(s.segments, s.n_objects) for s in specs] == [(3, 2), (3, 1), (2, 2), (2, 1)]
     infos = [info for info, _ in family.describe_family(specs, 8, 100, 1.0)]
-    assert [(i.segments, i.objects) for i in infos] == [(2, 1), (2, 2), (3, 1), (3, 2)]
-    assert [i.reachable for i in infos] == sorted(i.reachable for i in infos)
+    assert [(i.segments, i.objects) for i in infos][0] == (2, 1) and len(infos) == 4
+    assert [i.reachable_from_start for i in infos] == sorted(i.reachable_from_start for i in infos)
+    assert all(i.family == family.PRODUCT_FAMILY for i in infos)
 
 
 @pytest.mark.parametrize(("segments", "objects"), [(2, 1), (3, 1), (4, 1), (2, 2), (3, 3)])
@@ -124,52 +125,101 @@ def test_plan_window_scales_with_plan_length():
 
 
 @pytest.mark.parametrize("exponent", [0.5, 1.0, 1.7])
-def test_growth_exponent_fit_recovers_a_known_exponent(exponent):
+def test_censored_fit_recovers_a_known_exponent(exponent):
     rng = np.random.default_rng(1)
-    x = np.geomspace(20, 40_000, 8)
-    y = 3.0 * x ** exponent * np.exp(rng.normal(0.0, 0.05, len(x)))
-    fit = statistics.fit_growth_exponent(x, y)
-    assert fit["points"] == len(x)
-    assert fit["exponent"] == pytest.approx(exponent, abs=0.05)
+    x = np.geomspace(20, 40_000, 10)
+    y = 3.0 * x ** exponent * np.exp(rng.normal(0.0, 0.1, len(x)))
+    fit = statistics.fit_censored_power_law(x, y, np.zeros(len(x), bool), np.full(len(x), 0.05))
+    assert fit["points"] == len(x) and fit["censored"] == 0
+    assert fit["exponent"] == pytest.approx(exponent, abs=0.1)
     assert fit["low"] < exponent < fit["high"]
 
 
-def test_growth_exponent_fit_skips_missing_points():
+def test_censored_points_pull_the_exponent_up_instead_of_being_dropped():
+    """Dropping the censored (slowest) points flattens the fit; the censored likelihood does not."""
+    x = np.geomspace(20, 20_000, 8)
+    truth = 5.0 * x ** 1.2
+    window = np.full(len(x), 3.0 * 5.0 * 20_000 ** 0.9)  # the largest specs do not get there in time
+    censored = truth > window
+    assert 2 <= censored.sum() < len(x) - 2
+    y = np.where(censored, window, truth)
+    se = np.full(len(x), 0.05)
+    with_censoring = statistics.fit_censored_power_law(x, y, censored, se)
+    dropped = statistics.fit_censored_power_law(x[~censored], y[~censored], censored[~censored], se[~censored])
+    naive = statistics.fit_censored_power_law(x, y, np.zeros(len(x), bool), se)  # censored read as reached
+    assert with_censoring["censored"] == censored.sum()
+    assert with_censoring["exponent"] == pytest.approx(1.2, abs=0.1)
+    assert naive["exponent"] < 1.1 and with_censoring["exponent"] > naive["exponent"]
+    assert dropped["points"] == (~censored).sum()
+    assert math.isnan(statistics.fit_censored_power_law(x[:1], y[:1], [False], [0.1])["exponent"])
+
+
+def test_a_points_own_uncertainty_weights_the_fit():
     x = np.array([10.0, 100.0, 1000.0, 10_000.0])
-    y = np.array([5.0, math.nan, 500.0, 5000.0])
-    fit = statistics.fit_growth_exponent(x, y)
-    assert fit["points"] == 3
-    assert fit["exponent"] == pytest.approx(1.0)
-    assert math.isnan(statistics.fit_growth_exponent(x[:1], y[:1])["exponent"])
+    y = np.array([10.0, 100.0, 1000.0, 100.0])  # the last point breaks the line ...
+    loose = statistics.fit_censored_power_law(x, y, np.zeros(4, bool), [0.01, 0.01, 0.01, 5.0])
+    tight = statistics.fit_censored_power_law(x, y, np.zeros(4, bool), [0.01, 0.01, 0.01, 0.01])
+    assert loose["exponent"] == pytest.approx(1.0, abs=0.05)  # ... but it is known only within a factor e**5
+    assert tight["exponent"] < 0.8
 
 
-def test_plateau_verdict_flags_a_rising_curve():
-    rising = np.linspace(0.0, 0.8, 1000)
-    flat = np.r_[np.linspace(0.0, 0.8, 500), np.full(500, 0.8)]
-    assert statistics.plateau_verdict(rising)[0] is False
-    assert statistics.plateau_verdict(flat) == (True, "")
-    assert statistics.plateau_verdict(np.zeros(100))[0] is False
+def test_log_standard_error_reads_the_interval():
+    z = 1.959963984540054
+    assert statistics.log_standard_error(100.0, 50.0, 200.0) == pytest.approx(math.log(4) / (2 * z))
+    assert statistics.log_standard_error(100.0, 50.0, math.inf) == pytest.approx(math.log(2) / z)  # one-sided
+    assert math.isnan(statistics.log_standard_error(math.nan, 1.0, 2.0))
+
+
+def test_held_to_end_and_censoring():
+    curves = np.array([[0.1, 0.9, 0.5, 0.9, 0.95, 0.9],   # dips at block 2: held from block 3
+                       [0.1, 0.9, 0.9, 0.9, 0.9, 0.5],    # ends below: censored
+                       [0.9, 0.9, 0.9, 0.9, 0.9, 0.9]])   # held from the start
+    np.testing.assert_array_equal(statistics.held_to_end(curves, 0.8), [3, -1, 0])
+    np.testing.assert_array_equal(statistics.held_to_end(curves, [0.8, 0.4, 0.95]), [3, 1, -1])
 
 
 def test_order_holds():
     assert statistics.order_holds({"r4": 1, "r2": 2, "r1": 3, "r3": 4}) is True
     assert statistics.order_holds({"r4": 3, "r2": 2, "r1": 3, "r3": 4}) is False
+    assert statistics.order_holds({"r4": 1, "r2": 2, "r1": 3, "r3": math.inf}) is True  # censored sorts last
     assert statistics.order_holds({"r4": 1, "r2": math.nan, "r1": 3, "r3": 4}) is None
 
 
-def test_grid_curves_match_metrics_success_matrix():
+def test_block_sums_match_the_success_matrix():
     from tableclean_suite import metrics
     from tableclean_suite.learners import train
 
     model = TaskModel(spec="paper")
     info = family.describe_spec(model.spec, 8, 400, 1.0)[0]
-    records = study.train_cell(model, info, "q_learning", "r4", runs=5, seed=3)
+    records = study.train_cell(model, info, "q_learning", "r4", runs=5, seed=3, gamma=0.3)
     result = train(reward="r4", runs=5, iterations=info.window, max_itr=info.max_itr, seed=3, task=model)
-    success = metrics.success_matrix(result)[:, records.grid]
-    episodes = np.cumsum(result.episode_end != 0, axis=1)[:, records.grid]
-    np.testing.assert_array_equal(records.success, success)
-    np.testing.assert_array_equal(records.episodes, episodes)
-    np.testing.assert_allclose(records.summary.success, metrics.learning_curves(result)["success"])
+    success = metrics.success_matrix(result)
+    starts = np.r_[0, records.edges[:-1] + 1]
+    np.testing.assert_array_equal(records.block_success, np.add.reduceat(success, starts, axis=1))
+    np.testing.assert_array_equal(records.episodes, np.cumsum(result.episode_end != 0, axis=1)[:, records.edges])
+    tail = study.plateau_start(info.window)
+    np.testing.assert_allclose(records.tail_success, success[:, tail:].mean(axis=1))
+    reached = (result.outcomes == int(Outcome.TERMINAL)).any(axis=1)
+    np.testing.assert_array_equal(records.never_terminal, (~reached).astype(float))
+    assert records.tail_success.mean() == pytest.approx(
+        metrics.plateau(metrics.success_curve(result), metrics.DEFAULT_PLATEAU_FRACTION), rel=1e-12)
+
+
+def test_the_point_is_the_all_ones_resample_and_inside_its_interval():
+    model = TaskModel(spec="paper")
+    info = family.describe_spec(model.spec, 8, 1500, 1.0)[0]
+    records = study.train_cell(model, info, "q_learning", "r2", runs=30, seed=5, gamma=0.3)
+    counts = statistics.resample_counts(30, 200, seed=0)
+    row = study.cell_row(info, "q_learning", "r2", 0.3, records, counts)
+    assert not row["censored"]
+    figures = statistics.cell_figures(np.ones((1, 30)), records.block_success, statistics.block_widths(records.edges),
+                                      records.edges, records.episodes, records.tail_success, records.never_terminal,
+                                      row["yardstick_level"])
+    assert row["yardstick_iterations"] == figures["yardstick_iterations"][0]
+    for name in study.INTERVAL_FIGURES:
+        assert row[name + "_low"] <= row[name] <= row[name + "_high"], name
+    np.testing.assert_array_equal(statistics.resample_counts(30, 200, seed=0),
+                                  np.random.default_rng(0).multinomial(30, np.full(30, 1 / 30), size=200))
 
 
 def test_cli_tiny_budget_writes_consistent_files(tmp_path, capsys):
@@ -181,23 +231,34 @@ def test_cli_tiny_budget_writes_consistent_files(tmp_path, capsys):
     cells = pd.read_csv(tmp_path / "scaling.csv")
     specs = pd.read_csv(tmp_path / "scaling_specs.csv")
     config = json.loads((tmp_path / "config.json").read_text())
-    assert len(cells) == len(specs) * 1 * 2 and len(specs) == 2 * 2
-    assert list(specs["reachable"]) == sorted(specs["reachable"]) and specs["reachable"].iloc[0] == PAPER_REACHABLE
-    assert set(zip(specs["segments"], specs["objects"])) == {(2, 1), (2, 2), (3, 1), (3, 2)}
+    assert len(specs) == 2 * 2 + 2 and len(cells) == len(specs) * 2 * 1 * 2  # specs x gammas x learners x rewards
+    product = specs[specs["family"] == family.PRODUCT_FAMILY]
+    assert list(product["reachable_from_start"]) == sorted(product["reachable_from_start"])
+    assert product["reachable"].iloc[0] == PAPER_REACHABLE
+    assert set(zip(product["segments"], product["objects"])) == {(2, 1), (2, 2), (3, 1), (3, 2)}
+    fixed = specs[specs["family"] == family.FIXED_PLAN_FAMILY]
+    assert set(fixed["plan_length"]) == {8} and fixed["reachable_from_start"].is_monotonic_increasing
     assert set(cells["spec"]) == set(specs["name"]) and set(cells["reward"]) == {"r2", "r4"}
-    for column in ("max_success_iterations", "max_success_episodes", "success_plateau"):
+    assert set(cells["gamma"]) == {0.3, 0.9}
+    for column in study.INTERVAL_FIGURES:
         assert {f"{column}_low", f"{column}_high"} <= set(cells.columns)
-    reached = cells[cells["reached"]]
-    assert (reached["max_success_iterations"] <= reached["window"]).all()
-    assert cells.loc[~cells["reached"], "max_success_iterations"].isna().all()
+        defined = cells[column].notna()
+        assert (cells.loc[defined, f"{column}_low"] <= cells.loc[defined, column]).all()
+        assert (cells.loc[defined, column] <= cells.loc[defined, f"{column}_high"]).all()
+    reached = cells[~cells["censored"]]
+    assert (reached["yardstick_iterations"] <= reached["window"]).all()
+    assert cells.loc[cells["censored"], "yardstick_iterations"].isna().all()
+    assert (cells["yardstick_level"] == 0.9 * cells["optimal_success"]).all()
     assert config["runs"] == 4 and config["segments"] == [2, 3] and config["objects"] == [1, 2]
-    assert [s["reachable"] for s in config["specs"]] == list(specs["reachable"])
-    assert set(config["growth_exponents"]) == {"r2", "r4"}
+    assert config["gammas"] == [0.3, 0.9] and config["fixed_plan_objects"] == [1, 2]
+    assert [s["name"] for s in config["specs"]] == list(specs["name"])
+    assert set(config["growth_exponents"]) == {"0.3", "0.9"} and set(config["growth_exponents"]["0.3"]) == {"r2", "r4"}
     assert "Does r4 < r2 < r1 < r3 hold" in printed
 
 
 @pytest.mark.parametrize("flag", [["--rewards", "r9"], ["--learners", "td_lambda"], ["--runs", "0"],
-                                  ["--segments", "1,2"], ["--objects", "0,1"], ["--objects", "two"]])
+                                  ["--segments", "1,2"], ["--objects", "0,1"], ["--objects", "two"],
+                                  ["--gammas", "0"], ["--gammas", "0.3,1.5"], ["--fixed-plan-objects", "0"]])
 def test_cli_bad_flag_exits_2_with_one_line(flag, tmp_path, capsys):
     with pytest.raises(SystemExit) as stop:
         scaling.main(flag + ["--out", str(tmp_path)])
@@ -208,28 +269,17 @@ def test_cli_bad_flag_exits_2_with_one_line(flag, tmp_path, capsys):
         assert "allowed:" in error
 
 
-def test_grid_is_increasing_and_dense_early():
-    grid = study.grid_indices(100_000)
-    assert grid[0] == 0 and grid[-1] == 100_000 - 1
-    assert np.all(np.diff(grid) > 0)
-    assert study.grid_gap(grid, 1000.0) < 0.01 * 1000
-
-
-def test_run_plateaus_average_to_the_summary_plateau():
-    model = TaskModel(spec="paper")
-    info = family.describe_spec(model.spec, 8, 400, 1.0)[0]
-    records = study.train_cell(model, info, "q_learning", "r2", runs=6, seed=5)
-    assert records.run_plateau.mean() == pytest.approx(records.summary.success_plateau, rel=1e-12)
-    counts = statistics.resample_counts(6, 50, seed=0)
-    interval = statistics.bootstrap_cell(records, counts)
-    low, high = interval["plateau"]
-    assert records.run_plateau.min() <= low <= high <= records.run_plateau.max()
+def test_blocks_are_increasing_end_at_the_window_and_are_fine_early():
+    edges = statistics.block_edges(100_000)
+    assert edges[-1] == 100_000 - 1 and np.all(np.diff(edges) > 0)
+    widths = statistics.block_widths(edges)
+    assert widths.sum() == 100_000 and widths[:20].max() <= 2 and widths.max() <= 100_000 / statistics.LINEAR_BLOCKS
 
 
 def test_observed_order_sorts_and_names_missing_patterns():
-    rows = [{"spec": "a", "learner": "q_learning", "reward": name, "max_success_iterations": value}
+    rows = [{"spec": "a", "learner": "q_learning", "reward": name, "gamma": 0.3, "yardstick_iterations": value}
             for name, value in (("r1", 30.0), ("r2", 10.0), ("r3", math.nan), ("r4", 20.0))]
-    assert report.observed_order(rows, "a", "q_learning") == "r2 < r4 < r1 (not reached: r3)"
+    assert report.observed_order(rows, "a", "q_learning", 0.3) == "r2 < r4 < r1 (censored: r3)"
 
 
 @pytest.mark.parametrize(("text", "expected"), [("2", (2,)), ("3,1,3", (1, 3)), ("1, 2,3", (1, 2, 3))])
@@ -239,12 +289,14 @@ def test_objects_flag_takes_one_count_or_a_list(text, expected):
     assert command.build_parser().parse_args([]).objects == family.DEFAULT_OBJECT_COUNTS
 
 
-def test_figure_marks_object_counts(tmp_path):
-    rows = [{"learner": "q_learning", "reward": "r2", "reached": True, "reachable": reach, "segments": n,
-             "objects": m, "max_success_iterations": it, "max_success_iterations_low": it * 0.9,
-             "max_success_iterations_high": it * 1.1} for n, m, reach, it in
-            ((2, 1, 20, 200.0), (2, 2, 50, 400.0), (3, 1, 90, 500.0), (3, 2, 327, 900.0))]
-    fit = statistics.fit_growth_exponent([r["reachable"] for r in rows], [r["max_success_iterations"] for r in rows])
-    report.write_figure(tmp_path / "f.png", rows, "q_learning", {"r2": fit})
+def test_figure_draws_reached_and_censored_cells(tmp_path):
+    rows = [{"learner": "q_learning", "reward": "r2", "gamma": g, "family": fam, "reachable_from_start": reach,
+             "censored": censored, "window": 1000, "yardstick_iterations": math.nan if censored else it,
+             "yardstick_iterations_low": it * 0.9, "yardstick_iterations_high": math.inf if reach > 90 else it * 1.1,
+             "window_mean_over_optimum": 0.95}
+            for g in (0.3, 0.9) for fam, reach, it, censored in
+            ((family.PRODUCT_FAMILY, 20, 200.0, False), (family.PRODUCT_FAMILY, 50, 400.0, False),
+             (family.PRODUCT_FAMILY, 327, 900.0, True), (family.FIXED_PLAN_FAMILY, 40, 300.0, False))]
+    fit = {"exponent": 0.8, "intercept": 1.0}
+    report.write_figure(tmp_path / "f.png", rows, "q_learning", {"0.3": {"r2": fit}, "0.9": {"r2": fit}})
     assert (tmp_path / "f.png").stat().st_size > 0
-    assert report.object_marker(1) != report.object_marker(2) != report.object_marker(3)

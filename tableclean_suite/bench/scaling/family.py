@@ -1,9 +1,15 @@
-"""The scaling study's family of task specs, their exact quantities and their training windows.
+"""The scaling study's families of task specs, their exact quantities and their training windows.
 
-A spec of the family is the paper's task grown to N segments and M objects
-(:func:`family_spec`); the family is the product of a list of N and a list of M
-(:func:`family_specs`; default N = 2..5 x M = 1..3, 12 specs from the paper's 20 reachable
-states to 31 320 at N = 5, M = 3).  :func:`describe_spec` gives what the study needs of a
+**The product family**: the paper's task grown to N segments and M objects (:func:`family_spec`),
+the product of a list of N and a list of M (:func:`family_specs`; default N = 2..5 x M = 1..3,
+12 specs from the paper's 20 reachable states to 31 320 at N = 5, M = 3).  Its plans grow with
+the states (8 to 31 steps), so it cannot separate the two.
+
+**The fixed-plan family** (:func:`fixed_plan_spec`): N = 3 segments, segments 1 and 2 unclean and
+segment 3 clean, object 1 and the arm on segment 1, and objects 2..M parked on the clean segment
+3.  The optimal plan is 8 steps for every M (the paper's length; the parked objects never need to
+move), while the reachable states grow from 40 (M = 1) to 5 410 (M = 5): the state count grows
+with the plan held fixed, the reduction the paper credits.  :func:`describe_spec` gives what the study needs of a
 spec (state codes, reachable states, optimal plan length, exact epsilon-greedy success of an
 optimal policy, window and episode truncation, in iterations); :func:`describe_family`
 describes every spec and orders them by reachable states, the study's measure of size.
@@ -28,7 +34,16 @@ DEFAULT_WINDOW_EXPONENT = 3.0
 #: The paper's episode truncation (iterations), for the paper's spec; scaled linearly with L / L0.
 BASE_MAX_ITR = 500
 #: The paper's hyperparameters: learning rate, discount, exploration probability (all in [0, 1]).
-ALPHA, GAMMA, EPSILON = 0.3, 0.3, 0.1
+ALPHA, PAPER_GAMMA, EPSILON = 0.3, 0.3, 0.1
+#: Discounts the study trains at: the paper's and a long-horizon one (0.3**L vanishes for long plans).
+DEFAULT_GAMMAS = (PAPER_GAMMA, 0.9)
+
+#: The fixed-plan family's segments, its clean parking segment (0-based) and default object counts.
+FIXED_PLAN_SEGMENTS = 3
+FIXED_PLAN_PARKING = 2
+DEFAULT_FIXED_PLAN_OBJECTS = tuple(range(1, 6))
+#: Names of the two families (``SpecInfo.family``, ``scaling.csv``'s ``family`` column).
+PRODUCT_FAMILY, FIXED_PLAN_FAMILY = "product", "fixed_plan"
 
 
 @dataclass(frozen=True)
@@ -36,21 +51,26 @@ class SpecInfo:
     """One spec of the family and what the study needs of it.
 
     Attributes:
-        name: spec name (``scale_n{N}_m{M}``; ``paper`` for N = 2, M = 1).
+        family: :data:`PRODUCT_FAMILY` or :data:`FIXED_PLAN_FAMILY`.
+        name: spec name (``scale_n{N}_m{M}``, ``paper`` for N = 2, M = 1; ``fixed_plan_m{M}``).
         segments, objects: N >= 2 and M >= 1.
         codes: state codes, ``2**N * (N + 1)**M * N``.
         reachable: states reachable from every all-unclean layout (terminal ones included).
+        reachable_from_start: states reachable from the spec's start state (what training can visit;
+            the study's measure of size).
         plan_length: optimal plan length (steps) from the default start.
         optimal_success: exact epsilon-greedy success probability of an optimal policy, in [0, 1].
         window: iterations per run (>= 1).
         max_itr: episode truncation (iterations, >= 1).
     """
 
+    family: str
     name: str
     segments: int
     objects: int
     codes: int
     reachable: int
+    reachable_from_start: int
     plan_length: int
     optimal_success: float
     window: int
@@ -71,6 +91,17 @@ def family_spec(segments: int, objects: int):
 def family_specs(segments, objects) -> list:
     """The family's specs for every ``(N, M)`` in ``segments x objects`` (N >= 2, M >= 1), N-major."""
     return [family_spec(n, m) for n in segments for m in objects]
+
+
+def fixed_plan_spec(objects: int):
+    """The fixed-plan family's spec with M ``objects`` (module docstring): 8-step plan for any M."""
+    from tableclean_suite.task import TaskSpec
+    from tableclean_suite.task.state import TaskState
+
+    clean = (False, False) + (True,) * (FIXED_PLAN_SEGMENTS - 2)
+    start = TaskState(clean, (0,) + (FIXED_PLAN_PARKING,) * (objects - 1), 0)
+    return TaskSpec(f"fixed_plan_m{objects}", segments=FIXED_PLAN_SEGMENTS, objects=objects, start_state=start,
+                    description=f"scaling study, fixed plan: {objects - 1} object(s) parked on the clean segment")
 
 
 def largest_default_spec():
@@ -139,7 +170,7 @@ def paper_plan_steps() -> int:
     return len(model.shortest_plan(model.start_state))
 
 
-def describe_spec(spec, paper_plan_length: int, base_window: int, exponent: float):
+def describe_spec(spec, paper_plan_length: int, base_window: int, exponent: float, family: str = PRODUCT_FAMILY):
     """``(SpecInfo, TaskModel)`` of ``spec``: sizes, optimal plan and its exact success, window."""
     from tableclean_suite.analysis import exact_success_probability
     from tableclean_suite.task import TaskModel
@@ -151,13 +182,14 @@ def describe_spec(spec, paper_plan_length: int, base_window: int, exponent: floa
     window, max_itr = plan_window(plan_length, paper_plan_length, base_window, exponent)
     policy = optimal_policy(next_state, distance)
     success = float(exact_success_probability(policy, EPSILON, max_itr, model=model))
-    info = SpecInfo(spec.name, spec.segments, spec.n_objects, model.n_states, len(model.reachable_states()),
-                    plan_length, success, window, max_itr)
+    info = SpecInfo(family, spec.name, spec.segments, spec.n_objects, model.n_states, len(model.reachable_states()),
+                    len(model.reachable_states([model.start_state])), plan_length, success, window, max_itr)
     return info, model
 
 
-def describe_family(specs, paper_plan_length: int, base_window: int, exponent: float) -> list:
-    """:func:`describe_spec` of every spec, as ``[(SpecInfo, TaskModel)]`` ordered by reachable states
-    (ties by N, then M), so "as the task grows" reads top to bottom whatever the product order."""
-    described = [describe_spec(s, paper_plan_length, base_window, exponent) for s in specs]
-    return sorted(described, key=lambda pair: (pair[0].reachable, pair[0].segments, pair[0].objects))
+def describe_family(specs, paper_plan_length: int, base_window: int, exponent: float,
+                    family: str = PRODUCT_FAMILY) -> list:
+    """:func:`describe_spec` of every spec, as ``[(SpecInfo, TaskModel)]`` ordered by states reachable
+    from the start (ties by N, then M), so "as the task grows" reads top to bottom."""
+    described = [describe_spec(s, paper_plan_length, base_window, exponent, family) for s in specs]
+    return sorted(described, key=lambda pair: (pair[0].reachable_from_start, pair[0].segments, pair[0].objects))

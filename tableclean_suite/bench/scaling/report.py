@@ -7,20 +7,17 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 
-from tableclean_suite.bench.scaling.family import ALPHA, BASE_MAX_ITR, EPSILON, GAMMA, SpecInfo
-from tableclean_suite.bench.scaling.statistics import (CONFIDENCE, MIN_PLATEAU, PAPER_ORDER, PLATEAU_FRACTION,
-                                                       PLATEAU_RISE_TOLERANCE, THRESHOLD, order_holds)
-from tableclean_suite.bench.scaling.study import GEOMETRIC_GRID_POINTS, LINEAR_GRID_POINTS
+from tableclean_suite.bench.scaling.family import FIXED_PLAN_FAMILY, PRODUCT_FAMILY, SpecInfo
+from tableclean_suite.bench.scaling.statistics import PAPER_ORDER, YARDSTICK_FRACTION, order_holds
 
 #: Resolution of the PNG figure, dots per inch.
 FIGURE_DPI = 120
-#: Marker shapes of the figure's points by object count M = 1, 2, 3, ... (cycled beyond).
-OBJECT_MARKERS = ("o", "s", "^", "D", "v", "P", "X")
+#: Marker shapes of the figure's families.
+FAMILY_MARKERS = {PRODUCT_FAMILY: "o", FIXED_PLAN_FAMILY: "s"}
 
 
 # ---------------------------------------------------------------------------
@@ -55,58 +52,72 @@ def write_csv(path: Path, rows: list[dict]) -> None:
     write_atomic_text(path, pd.DataFrame(rows).to_csv(index=False))
 
 
-def object_marker(objects: int) -> str:
-    """Matplotlib marker of the specs with ``objects`` M >= 1 (circle for M = 1, as before M varied)."""
-    return OBJECT_MARKERS[(objects - 1) % len(OBJECT_MARKERS)]
-
-
 def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None:
-    """Log-log iterations to max success against reachable states, as PNG.
+    """Two rows of panels, one column per gamma, for ``learner``.
 
-    One line per reward pattern (``learner``'s reached cells, joined in order of reachable
-    states, with 95 % bootstrap error bars and the fitted power law dashed); the marker shape
-    gives the spec's object count M (:func:`object_marker`), so a step along the line that adds
-    an object reads apart from one that adds segments.
+    Top: iterations to the yardstick against states reachable from the start (log-log), one colour
+    per reward pattern; filled markers = reached (with 95 % bootstrap error bars), hollow markers
+    with an upward arrow at the window = censored (not held within the window); circles = the
+    product family, squares = the fixed-plan family; dashed = the fitted power law (product family).
+    Bottom: the success curve's window mean over the optimal policy's exact success, with the
+    yardstick's level (a dotted line at ``YARDSTICK_FRACTION``).
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
 
-    figure, axes = plt.subplots(figsize=(7, 5))
-    object_counts = sorted({r["objects"] for r in rows if r["learner"] == learner})
-    for reward, fit in fits.items():
-        cells = sorted((r for r in rows if r["learner"] == learner and r["reward"] == reward and r["reached"]),
-                       key=lambda r: (r["reachable"], r["segments"], r["objects"]))
-        if not cells:
-            continue
-        x = np.array([r["reachable"] for r in cells], dtype=float)
-        y = np.array([r["max_success_iterations"] for r in cells])
-        error = np.clip(np.array([[v - r["max_success_iterations_low"], r["max_success_iterations_high"] - v]
-                                  for r, v in zip(cells, y)]).T, 0, None)  # (2, n): below, above
-        objects = np.array([r["objects"] for r in cells])
-        (line,) = axes.plot(x, y, linestyle="-", label=f"{reward} (exponent {fit['exponent']:.2f})")
-        color = line.get_color()
-        for m in object_counts:
-            chosen = objects == m
-            if chosen.any():
-                axes.errorbar(x[chosen], y[chosen], yerr=error[:, chosen], marker=object_marker(m), linestyle="none",
-                              color=color, capsize=3)
-        if math.isfinite(fit["exponent"]):
-            anchor = np.exp(np.mean(np.log(y)) - fit["exponent"] * np.mean(np.log(x)))
-            axes.plot(x, anchor * x ** fit["exponent"], linestyle="--", color=color, alpha=0.6)
-    axes.set_xscale("log")
-    axes.set_yscale("log")
-    axes.set_xlabel("reachable states")
-    axes.set_ylabel("iterations to maximum success")
-    axes.set_title(f"{learner}: iterations to max success (95 % bootstrap intervals)")
-    reward_legend = axes.legend(loc="upper left")
-    if len(object_counts) > 1:
-        axes.add_artist(reward_legend)
-        shapes = [Line2D([], [], marker=object_marker(m), linestyle="none", color="black",
-                         label=f"M = {m} object{'s' if m > 1 else ''}") for m in object_counts]
-        axes.legend(handles=shapes, loc="lower right")
+    gammas = sorted({r["gamma"] for r in rows if r["learner"] == learner})
+    rewards = list(dict.fromkeys(r["reward"] for r in rows if r["learner"] == learner))
+    colours = {reward: f"C{i}" for i, reward in enumerate(rewards)}
+    figure, axes = plt.subplots(2, max(1, len(gammas)), figsize=(6.5 * max(1, len(gammas)), 9), squeeze=False)
+    for column, gamma in enumerate(gammas):
+        top, bottom = axes[0, column], axes[1, column]
+        for reward in rewards:
+            cells = [r for r in rows if r["learner"] == learner and r["reward"] == reward and r["gamma"] == gamma]
+            colour = colours[reward]
+            for family, marker in FAMILY_MARKERS.items():
+                chosen = sorted((r for r in cells if r["family"] == family), key=lambda r: r["reachable_from_start"])
+                reached = [r for r in chosen if not r["censored"]]
+                censored = [r for r in chosen if r["censored"]]
+                if reached:
+                    x = np.array([r["reachable_from_start"] for r in reached], dtype=float)
+                    y = np.array([r["yardstick_iterations"] for r in reached])
+                    high = np.array([r["yardstick_iterations_high"] for r in reached])
+                    high = np.where(np.isfinite(high), high, [r["window"] for r in reached])
+                    error = np.clip(np.vstack([y - np.array([r["yardstick_iterations_low"] for r in reached]),
+                                               high - y]), 0, None)
+                    top.errorbar(x, y, yerr=error, marker=marker, linestyle="-" if family == PRODUCT_FAMILY else ":",
+                                 color=colour, capsize=2, markersize=5)
+                if censored:
+                    x = np.array([r["reachable_from_start"] for r in censored], dtype=float)
+                    top.scatter(x, [r["window"] for r in censored], marker=marker, facecolors="none",
+                                edgecolors=colour, s=40)
+                    top.scatter(x, [1.25 * r["window"] for r in censored], marker="^", color=colour, s=14)
+                ratio = [r["window_mean_over_optimum"] for r in chosen]
+                bottom.plot([r["reachable_from_start"] for r in chosen], ratio, marker=marker, color=colour,
+                            linestyle="-" if family == PRODUCT_FAMILY else ":")
+            fit = fits.get(f"{gamma:g}", {}).get(reward)
+            product = sorted((r for r in cells if r["family"] == PRODUCT_FAMILY), key=lambda r: r["reachable_from_start"])
+            if fit and math.isfinite(fit["exponent"]) and math.isfinite(fit.get("intercept", math.nan)) and product:
+                x = np.array([r["reachable_from_start"] for r in product], dtype=float)
+                top.plot(x, np.exp(fit["intercept"]) * x ** fit["exponent"], linestyle="--", color=colour, alpha=0.5)
+        top.plot([], [], color="black", marker="o", linestyle="-", label="product family (N x M)")
+        top.plot([], [], color="black", marker="s", linestyle=":", label="fixed plan (8 steps)")
+        top.scatter([], [], marker="o", facecolors="none", edgecolors="black", label="censored (at the window)")
+        for reward in rewards:
+            top.plot([], [], color=colours[reward], label=reward)
+        top.set_xscale("log")
+        top.set_yscale("log")
+        top.set_xlabel("states reachable from the start")
+        top.set_ylabel(f"iterations to hold {YARDSTICK_FRACTION:.0%} of the optimal success")
+        top.set_title(f"{learner}, gamma = {gamma:g}")
+        top.legend(fontsize=7, loc="upper left")
+        bottom.axhline(YARDSTICK_FRACTION, color="grey", linestyle=":")
+        bottom.set_xscale("log")
+        bottom.set_ylim(0, 1.1)
+        bottom.set_xlabel("states reachable from the start")
+        bottom.set_ylabel("window mean / optimal success")
     figure.tight_layout()
     temporary = _temporary(path)
     figure.savefig(temporary, format="png", dpi=FIGURE_DPI)
@@ -114,82 +125,87 @@ def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None
     os.replace(temporary, path)
 
 
-def config_dict(args, infos: list[SpecInfo], fits: dict, verdicts: dict, seconds: float, fit_learner: str) -> dict:
+def config_dict(args, infos: list[SpecInfo], fits: dict, verdicts: dict, seconds: float, fit_learner: str,
+                constants: dict) -> dict:
     """The content of ``config.json``: the command line, every constant of the method, the fits,
     the reward-order verdicts, the specs and the wall time (``seconds``)."""
+    from dataclasses import asdict
+
     return {
         "study": "scaling",
         "learners": list(args.learners), "rewards": list(args.rewards), "segments": list(args.segments),
-        "objects": list(args.objects), "runs": args.runs, "base_window": args.base_window,
-        "window_exponent": args.window_exponent, "base_max_itr": BASE_MAX_ITR,
-        "window_rule": "window = base_window * (L / L0) ** window_exponent, max_itr = base_max_itr * L / L0, "
-                       "L = optimal plan length from the default start, L0 = the paper spec's",
-        "alpha": ALPHA, "gamma": GAMMA, "epsilon": EPSILON, "seed": args.seed,
-        "threshold": THRESHOLD, "plateau_fraction": PLATEAU_FRACTION,
-        "plateau_rise_tolerance": PLATEAU_RISE_TOLERANCE, "min_plateau": MIN_PLATEAU,
-        "bootstrap": f"percentile bootstrap over run indices, {args.resamples} resamples, recomputing each figure "
-                     f"from the resampled mean curve sampled at {LINEAR_GRID_POINTS} evenly and {GEOMETRIC_GRID_POINTS} "
-                     f"geometrically spaced iterations (plateau: exact per-run plateau-window means)",
-        "confidence": CONFIDENCE, "fit_learner": fit_learner, "growth_exponents": fits,
-        "paper_order": list(PAPER_ORDER), "order_holds": verdicts,
-        "specs": [asdict(s) for s in infos], "seconds": seconds,
+        "objects": list(args.objects), "fixed_plan_objects": list(args.fixed_plan_objects),
+        "gammas": list(args.gammas), "runs": args.runs, "base_window": args.base_window,
+        "window_exponent": args.window_exponent, "seed": args.seed, "resamples": args.resamples,
+        **constants, "fit_learner": fit_learner, "growth_exponents": fits, "paper_order": list(PAPER_ORDER),
+        "order_holds": verdicts, "specs": [asdict(s) for s in infos], "seconds": seconds,
     }
 
 
 # ---------------------------------------------------------------------------
 # Printing
 # ---------------------------------------------------------------------------
-def _interval_text(value, low, high, digits: int = 0) -> str:
-    if not math.isfinite(value):
-        return "not reached"
-    return f"{value:.{digits}f} [{low:.{digits}f}, {high:.{digits}f}]"
+def interval_text(value, low, high, digits: int = 0) -> str:
+    """``"value [low, high]"``; ``"censored"`` for a missing value; an infinite top reads ``>window``."""
+    if value is None or not math.isfinite(value):
+        return "censored"
+    top = f"{high:.{digits}f}" if math.isfinite(high) else ">window"
+    return f"{value:.{digits}f} [{low:.{digits}f}, {top}]"
 
 
 def print_specs(infos: list[SpecInfo]) -> None:
     """The per-spec table: sizes, plan length, exact optimal success, window."""
-    print(f"{'spec':<14}{'N':>3}{'M':>3}{'codes':>8}{'reachable':>10}{'plan':>6}{'opt.success':>12}"
-          f"{'window':>9}{'max_itr':>8}")
+    print(f"{'spec':<15}{'family':<11}{'N':>3}{'M':>3}{'codes':>8}{'reachable':>10}{'from start':>11}{'plan':>6}"
+          f"{'opt.success':>12}{'window':>9}{'max_itr':>8}")
     for s in infos:
-        print(f"{s.name:<14}{s.segments:>3}{s.objects:>3}{s.codes:>8}{s.reachable:>10}{s.plan_length:>6}"
-              f"{s.optimal_success:>12.4f}{s.window:>9}{s.max_itr:>8}")
+        print(f"{s.name:<15}{s.family:<11}{s.segments:>3}{s.objects:>3}{s.codes:>8}{s.reachable:>10}"
+              f"{s.reachable_from_start:>11}{s.plan_length:>6}{s.optimal_success:>12.4f}{s.window:>9}{s.max_itr:>8}")
 
 
 def print_cells(rows: list[dict]) -> None:
-    """The per-cell table: iterations and episodes to max success and the plateau, with intervals."""
-    print(f"{'spec':<14}{'reach':>7} {'learner':<11}{'rw':<4}{'iterations to max success':>30}"
-          f"{'episodes':>24}{'plateau':>24}")
+    """The per-cell table: iterations and episodes to the yardstick, the window mean against the
+    optimum and the share of runs that never reached the terminal state, with intervals."""
+    print(f"{'spec':<15}{'from':>6} {'gamma':>5} {'learner':<11}{'reward':<9}{'iterations to yardstick':>28}"
+          f"{'episodes':>24}{'window mean / opt':>26}{'never terminal':>22}")
     for r in rows:
-        iterations = _interval_text(r["max_success_iterations"], r["max_success_iterations_low"],
-                                    r["max_success_iterations_high"])
-        episodes = _interval_text(r["max_success_episodes"], r["max_success_episodes_low"],
-                                  r["max_success_episodes_high"], 1)
-        top = _interval_text(r["success_plateau"], r["success_plateau_low"], r["success_plateau_high"], 3)
-        note = "" if r["reached"] else f"  ({r['not_reached_reason']})"
-        print(f"{r['spec']:<14}{r['reachable']:>7} {r['learner']:<11}{r['reward']:<4}{iterations:>30}"
-              f"{episodes:>24}{top:>24}{note}")
+        iterations = interval_text(r["yardstick_iterations"], r["yardstick_iterations_low"],
+                                   r["yardstick_iterations_high"])
+        episodes = interval_text(r["yardstick_episodes"], r["yardstick_episodes_low"], r["yardstick_episodes_high"], 1)
+        mean = interval_text(r["success_window_mean"], r["success_window_mean_low"], r["success_window_mean_high"], 3)
+        never = interval_text(r["never_terminal_share"], r["never_terminal_share_low"],
+                              r["never_terminal_share_high"], 2)
+        against = f"{mean} / {r['optimal_success']:.3f}"
+        print(f"{r['spec']:<15}{r['reachable_from_start']:>6} {r['gamma']:>5g} {r['learner']:<11}{r['reward']:<9}"
+              f"{iterations:>28}{episodes:>24}{against:>26}{never:>22}")
 
 
-def ordering_report(rows: list[dict], infos: list[SpecInfo], learner: str, rewards) -> dict:
-    """Per spec, whether ``learner``'s iterations to max success follow :data:`PAPER_ORDER`.
+def ordering_report(rows: list[dict], infos: list[SpecInfo], learner: str, rewards, gamma: float) -> dict:
+    """Per spec, whether ``learner``'s iterations to the yardstick at ``gamma`` follow
+    :data:`PAPER_ORDER` (a censored cell counts as slower than any reached one).
 
-    Returns ``{spec name: True / False / None}`` (None: a pattern missing or not reached).
+    Returns ``{spec name: True / False / None}`` (None: a pattern missing).
     """
     verdicts = {}
     for info in infos:
-        values = {r["reward"]: r["max_success_iterations"] for r in rows
-                  if r["spec"] == info.name and r["learner"] == learner}
+        values = {r["reward"]: _yardstick_or_inf(r) for r in rows
+                  if r["spec"] == info.name and r["learner"] == learner and r["gamma"] == gamma}
         verdicts[info.name] = order_holds(values) if set(PAPER_ORDER) <= set(rewards) else None
     return verdicts
 
 
-def observed_order(rows: list[dict], spec: str, learner: str) -> str:
-    """``learner``'s reward patterns on ``spec`` sorted by iterations to max success, e.g.
-    ``"r2 < r4 < r3 (not reached: r1)"``."""
-    values = {r["reward"]: r["max_success_iterations"] for r in rows if r["spec"] == spec and r["learner"] == learner}
+def _yardstick_or_inf(row: dict) -> float:
+    return math.inf if row["censored"] else row["yardstick_iterations"]
+
+
+def observed_order(rows: list[dict], spec: str, learner: str, gamma: float) -> str:
+    """``learner``'s reward patterns on ``spec`` at ``gamma`` sorted by iterations to the yardstick,
+    e.g. ``"r2 < r4 < r3 (censored: r1)"``."""
+    values = {r["reward"]: r["yardstick_iterations"] for r in rows
+              if r["spec"] == spec and r["learner"] == learner and r["gamma"] == gamma}
     reached = sorted((v, name) for name, v in values.items() if math.isfinite(v))
     missing = sorted(name for name, v in values.items() if not math.isfinite(v))
     text = " < ".join(name for _, name in reached)
-    return text + (f" (not reached: {', '.join(missing)})" if missing else "")
+    return text + (f" (censored: {', '.join(missing)})" if missing else "")
 
 
 def ordering_answer(verdicts: dict) -> str:
@@ -200,12 +216,11 @@ def ordering_answer(verdicts: dict) -> str:
     held = [name for name, v in verdicts.items() if v]
     decided = [v for v in verdicts.values() if v is not None]
     if not decided:
-        verdict = "cannot be decided (a pattern is missing or did not reach its plateau)"
+        verdict = "cannot be decided (a pattern is missing)"
     elif all(decided):
-        verdict = "holds for every spec where all four patterns reached their plateau"
+        verdict = "holds for every spec"
     elif not held:
         verdict = "holds for no spec"
     else:
-        largest_held = held[-1]
-        verdict = f"holds only for {', '.join(held)} (largest: {largest_held}) and breaks as the task grows"
+        verdict = f"holds only for {', '.join(held)}"
     return f"Does {order} hold as the task grows? It {verdict}.\n  per spec: {shown}"
