@@ -1,10 +1,10 @@
 """A physics-calibrated transition model: the fidelity executions, counted into a TransitionTable.
 
-    python -m benchmarks.calibrate [--task SPEC] [--trials N] [--out transitions.json] [--seed S] [--fresh]
-    python -m benchmarks.calibrate --from-trials results/fidelity/fidelity_trials.csv --out transitions.json
+    tableclean-bench calibrate [--task SPEC] [--trials N] [--out transitions.json] [--seed S] [--fresh]
+    tableclean-bench calibrate --from-trials results/fidelity/fidelity_trials.csv --out transitions.json
 
 Every (state, action) pair is executed ``N`` times in physics exactly as
-``benchmarks.fidelity`` does (same rounds, same code: :func:`benchmarks.fidelity.collect`), and
+``tableclean-bench fidelity`` does (same rounds, same code: :func:`.fidelity.collect`), and
 the observed ``(next_state, outcome)`` frequencies become the empirical successor distribution
 of the pair.  Executions that ended in an abstraction fault have no task state; they are left
 out of the counts and reported (the table's ``source`` says how many).  Pairs never executed
@@ -14,7 +14,7 @@ existing fidelity trials file without running physics.
 
 Train on the result at symbolic speed::
 
-    python -m benchmarks.run --backend calibrated --transitions transitions.json
+    tableclean-bench run --backend calibrated --transitions transitions.json
     train(backend="calibrated", transitions="transitions.json")
 """
 

@@ -1,6 +1,6 @@
 """Collect skill demonstrations in robomimic's hdf5 layout.
 
-    python -m benchmarks.collect_demos --task SPEC --episodes N [--robots Panda]
+    tableclean-bench demos --task SPEC --episodes N [--robots Panda]
         [--policy optimal|learned] [--seed S] [--out FILE.hdf5]
         [--iterations I --runs R --max-actions A] [--valid-fraction F]
         [--workers N] [--executor local|ray] [--ray-address HOST:PORT|auto]

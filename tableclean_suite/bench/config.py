@@ -131,7 +131,7 @@ class RunConfig:
     backend: str = "symbolic"
     """Training backend: symbolic model, calibrated transition table, or skills in MuJoCo physics."""
     transitions: str | None = None
-    """Transition table JSON (from python -m benchmarks.calibrate); only with --backend calibrated."""
+    """Transition table JSON (from tableclean-bench calibrate); only with --backend calibrated."""
     workers: int | None = None
     """Workers, >= 1. Local executor: processes training one cell each with one compiled thread
     (1: cells in this process with one thread; physics backend: cells in this process, each cell's
@@ -223,7 +223,7 @@ class RunConfig:
         if self.backend not in backends:
             raise ConfigError("backend", f"unknown {self.backend!r}; allowed: {', '.join(backends)}")
         if self.backend == "calibrated" and self.transitions is None:
-            raise ConfigError("transitions", "needed by backend calibrated (a table from benchmarks.calibrate)")
+            raise ConfigError("transitions", "needed by backend calibrated (a table from tableclean-bench calibrate)")
         if self.backend != "calibrated" and self.transitions is not None:
             raise ConfigError("transitions", "only used with backend calibrated")
 

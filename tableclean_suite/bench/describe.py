@@ -1,4 +1,4 @@
-"""``python -m benchmarks.run --describe``: what the task model is, as tables and text.
+"""``tableclean-bench run --describe``: what the task model is, as tables and text.
 
 Pure: every function returns a DataFrame or a string; :mod:`.run` prints.  The Table 1
 sections apply to tasks of the paper's sizes (2 segments, 1 object) only.

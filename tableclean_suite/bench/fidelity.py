@@ -1,6 +1,6 @@
 """Fidelity of the skills: does physics do what the task model says, from every reachable state?
 
-    python -m benchmarks.fidelity [--task SPEC] [--robots ROBOT] [--trials N] [--out DIR] [--seed S] [--fresh]
+    tableclean-bench fidelity [--task SPEC] [--robots ROBOT] [--trials N] [--out DIR] [--seed S] [--fresh]
                                   [--randomize]
 
 One *round* executes every action of the spec (``--task``, default ``paper``) once from every
@@ -25,7 +25,7 @@ builds its own scene and the rows are stored in round order.  Results go to ``DI
 round, so an interrupted run resumes where it stopped and never keeps a partial round:
 :mod:`.trial_store`; ``--fresh`` starts over), ``fidelity_pairs.csv`` (agreement per pair) and
 ``fidelity_skills.csv`` (success, steps and seconds per skill, over executions the controller
-did not refuse).  :func:`collect` is the execution code ``benchmarks.calibrate`` reuses.
+did not refuse).  :func:`collect` is the execution code ``tableclean-bench calibrate`` reuses.
 
 ``--randomize`` runs the scene with randomised dynamics (``randomization="on"``: the documented
 ranges of :mod:`tableclean_suite.environments.randomization`), drawn anew at every staged reset

@@ -1,6 +1,6 @@
 """What the learners actually learned: measured plateaus against exact values, greedy success.
 
-    python -m benchmarks.policy_analysis [--runs 1000] [--iterations 4000] [--long-iterations 20000] [--seed 0]
+    tableclean-bench policy-analysis [--runs 1000] [--iterations 4000] [--long-iterations 20000] [--seed 0]
 
 For every learner x reward pattern x start mode it trains ``--runs`` runs and prints
 - the measured success plateau (last 25 % of the window),

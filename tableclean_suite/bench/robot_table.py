@@ -1,6 +1,6 @@
 """The skills on several arms: fidelity and optimal-episode success per robot x task spec.
 
-    python -m benchmarks.robot_table [--robots Panda,Sawyer,UR5e,Kinova3] [--tasks paper,three_segments_two_objects] [--fresh]
+    tableclean-bench robots [--robots Panda,Sawyer,UR5e,Kinova3] [--tasks paper,three_segments_two_objects] [--fresh]
                                      [--episodes E] [--fidelity-trials T] [--seed S] [--out DIR] [--randomize]
 
 For every (robot, spec) cell:
@@ -8,7 +8,7 @@ For every (robot, spec) cell:
 - **fidelity**: :func:`tableclean_suite.bench.fidelity.collect` with ``T`` rounds (every action from
   every reachable non-terminal state, ``T`` times; a trial agrees when physics ends in the model's
   successor with the model's outcome); the trials are stored in
-  ``<fidelity-dir>/<robot>_<spec>/fidelity_trials.csv`` (resumable, as ``benchmarks.fidelity``);
+  ``<fidelity-dir>/<robot>_<spec>/fidelity_trials.csv`` (resumable, as ``tableclean-bench fidelity``);
 - **episodes**: ``E`` episodes from random start layouts (every object and the arm on a segment
   drawn at each reset, all segments dirty, placement noise), each executing the task model's
   shortest plan with the compiled control path; an episode succeeds when every skill succeeds and
@@ -101,7 +101,7 @@ def run_episodes(robot: str, task: str, episodes: int, seed: int = 0, log=print,
 
 def run_fidelity(robot: str, task: str, trials: int, seed: int, out: Path, log=print, randomize: bool = False,
                  fresh: bool = False) -> dict:
-    """Fidelity rounds of ``task`` on ``robot`` (trials stored under ``out``, as ``benchmarks.fidelity``
+    """Fidelity rounds of ``task`` on ``robot`` (trials stored under ``out``, as ``tableclean-bench fidelity``
     stores them: the same scene options, so either command resumes the other's); the
     :func:`~.fidelity.summary` dict.  ``fresh`` discards earlier trials."""
     from tableclean_suite.task import TaskModel, get_task_spec

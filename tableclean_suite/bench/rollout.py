@@ -1,6 +1,6 @@
 """Watch a learned policy: train on the symbolic model, run the greedy policy with skills in physics.
 
-    python -m benchmarks.rollout --reward r4 --video out.mp4 [--learner q_learning]
+    tableclean-bench rollout --reward r4 --video out.mp4 [--learner q_learning]
         [--object-segment 1 --arm-segment 1] [--iterations N] [--runs R] [--seed S]
         [--fps F] [--width W --height H] [--frame-every K] [--still PATH]
 

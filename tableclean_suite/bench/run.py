@@ -1,8 +1,8 @@
-"""``python -m benchmarks.run``: reproduce the paper's Tables 3-4 and Figures 3-7.
+"""``tableclean-bench run``: reproduce the paper's Tables 3-4 and Figures 3-7.
 
-    python -m benchmarks.run                      # defaults reproduce the paper (~seconds)
-    python -m benchmarks.run --describe           # the task model, Table 1 mapping, Table 2
-    python -m benchmarks.run --runs 200 --rewards r2 r4 --no-sweeps --out results/quick
+    tableclean-bench run                      # defaults reproduce the paper (~seconds)
+    tableclean-bench run --describe           # the task model, Table 1 mapping, Table 2
+    tableclean-bench run --runs 200 --rewards r2 r4 --no-sweeps --out results/quick
 
 Installed (no checkout needed): ``tableclean-bench run`` (or bare ``tableclean-bench``), or
 ``python -m tableclean_suite.bench run``.

@@ -33,7 +33,7 @@ Learners section, in detail.  Both sides run in this process on the same task.  
 - ``reference engine``: ``train(engine="reference")``, the library's own per-step loop
   (which also serves the physics backend and draws the same random numbers).
 The compiled learners are timed after a warm-up call (numba compilation excluded).
-It also times the whole default ``python -m benchmarks.run --fresh`` (all cells trained,
+It also times the whole default ``tableclean-bench run --fresh`` (all cells trained,
 bootstraps, tables, CSVs, figures drawn: no result cache) in this process after a warm-up run:
 CPU seconds and wall seconds; the per-update rate on the scaling study's largest spec against
 the paper's (:mod:`.spec_speed`); and the cold start, measured in one go
@@ -140,7 +140,7 @@ def measure(runs: int, iterations: int, baseline_runs: int) -> list[dict]:
 
 
 def time_default_run() -> dict:
-    """CPU and wall seconds of the default ``benchmarks.run``, after a warm-up run in this process."""
+    """CPU and wall seconds of the default ``tableclean-bench run``, after a warm-up run in this process."""
     import contextlib
     import io
     import tempfile

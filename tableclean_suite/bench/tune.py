@@ -1,7 +1,7 @@
-"""``python -m benchmarks.tune``: search a learner's hyperparameters with Optuna (TPE + median pruning).
+"""``tableclean-bench tune``: search a learner's hyperparameters with Optuna (TPE + median pruning).
 
-    python -m benchmarks.tune --trials 40 --learner q_learning --reward r4
-    python -m benchmarks.tune --trials 20          # a second call resumes the same study
+    tableclean-bench tune --trials 40 --learner q_learning --reward r4
+    tableclean-bench tune --trials 20          # a second call resumes the same study
 
 Searches alpha, gamma, epsilon and the exploration schedule (``train(exploration=...)``:
 constant epsilon-greedy, linear or exponential decay to a floor) of one learner on one reward

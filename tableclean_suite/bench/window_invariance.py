@@ -36,7 +36,7 @@ DEFAULT_WINDOWS = (4000, 12000)
 DEFAULT_GOAL = 0.05
 #: Flags this command sets itself for each window.
 OWN_RUN_FLAGS = ("--iterations", "--out", "--sweeps", "--no-sweeps", "--figures", "--no-figures")
-#: ``benchmarks.run`` flags that would make it write no Table 3 to compare.
+#: ``tableclean-bench run`` flags that would make it write no Table 3 to compare.
 NO_TABLE_FLAGS = ("--describe",)
 RESULT_FILE = "window_invariance.csv"
 #: The program name in messages unless the caller gives one.
