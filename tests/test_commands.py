@@ -261,3 +261,15 @@ def test_a_plugins_object_type_and_skill_reach_the_physics_commands(name, tmp_pa
     done = command("--plugins", "my_objects.py")
     assert done.returncode == 0, done.stdout + done.stderr
     assert log.read_text().count("move") >= 1  # the plugin's skill ran (in the workers, for fidelity)
+
+
+@pytest.mark.slow
+def test_render_refuses_a_camera_the_scene_lacks_naming_those_it_has(capsys, tmp_path):
+    code, err = _run(["render", "--camera", "ceiling", "--width", "32", "--height", "32",
+                      "--out", str(tmp_path / "scene.png")], capsys)
+    assert code == 2 and len(err) == 1, err
+    assert "--camera: unknown camera 'ceiling'" in err[0] and "tableview" in err[0] and "frontview" in err[0]
+    assert not (tmp_path / "scene.png").exists()
+    assert _run(["render", "--camera", "frontview", "--width", "32", "--height", "32",
+                 "--out", str(tmp_path / "scene.png")], capsys)[0] == 0
+    assert (tmp_path / "scene.png").read_bytes().startswith(b"\x89PNG")
