@@ -315,3 +315,83 @@ def final_run_facts(result, chain, max_itr: int, model: TaskModel | None = None)
             "terminal": np.atleast_1d(final.terminal),
             "greedy_success": final_greedy_success(result, chain, max_itr, model),
             "never_terminal": never_terminal(result)}
+
+
+# ---------------------------------------------------------------------------------------------
+# Exact fixed points: what Q-learning and SARSA converge to on the task's own table
+# ---------------------------------------------------------------------------------------------
+#: Value-iteration sweeps stop once no Q-value changes by more than this (reward units).
+VALUE_TOLERANCE = 1e-13
+#: At most this many sweeps (gamma <= 0.99 converges to VALUE_TOLERANCE well within it).
+MAX_SWEEPS = 100_000
+
+
+def _backup(chain, q: np.ndarray, gamma: float, probabilities: np.ndarray | None) -> np.ndarray:
+    """One Bellman backup of pair-action values ``q`` ``(n_pairs, A)``: the max over actions
+    (``probabilities`` None) or the expectation under ``probabilities`` ``(n_pairs, A)``."""
+    value = q.max(axis=1) if probabilities is None else (probabilities * q).sum(axis=1)
+    following = np.where(chain.next_pair >= 0, value[np.maximum(chain.next_pair, 0)], 0.0)  # (S, A, K)
+    return (chain.probability[chain.pair_state] * (chain.reward + gamma * following[chain.pair_state])).sum(axis=2)
+
+
+def fixed_point_q(chain, gamma: float, epsilon: float | None = None) -> np.ndarray:
+    """Exact action values over the chain's (state, previous state) pairs, ``(n_pairs, A)``.
+
+    Args:
+        chain: :meth:`tableclean_suite.asymptotes.EpisodeChain.build` of the task, table and reward
+            (r4's looping penalty makes the pair the Markov state; for the other patterns a pair is
+            a state).  A longer looping memory (NaN rewards) is refused.
+        gamma: discount in [0, 1).
+        epsilon: None for Q* (the fixed point of Q-learning's update, value iteration); a number
+            in [0, 1] for the on-policy fixed point of SARSA / expected SARSA under epsilon-greedy
+            behaviour on its own Q (Q = Q^pi with pi epsilon-greedy on Q: policy iteration that
+            re-derives pi after every evaluation until pi stops changing).
+
+    Returns:
+        ``(n_pairs, A)`` float64; episodes are not truncated (the discounted values of an endless
+        episode).
+    """
+    if not 0.0 <= gamma < 1.0:
+        raise ValueError(f"gamma must be in [0, 1) for a finite fixed point, got {gamma!r}")
+    if np.isnan(chain.reward).any():
+        raise ValueError("the chain's rewards are unknown (a looping memory longer than the paper's); "
+                         "no exact fixed point")
+    n_actions = chain.probability.shape[1]
+    q = np.zeros((len(chain.pair_state), n_actions))
+    policy = None
+    for _ in range(MAX_SWEEPS):
+        probabilities = None if epsilon is None else action_probabilities(greedy_policy(q), epsilon, n_actions)
+        evaluated = q
+        for _ in range(MAX_SWEEPS):
+            updated = _backup(chain, evaluated, gamma, probabilities)
+            done = np.max(np.abs(updated - evaluated)) <= VALUE_TOLERANCE
+            evaluated = updated
+            if done:
+                break
+        q = evaluated
+        if epsilon is None:
+            return q
+        greedy = greedy_policy(q)
+        if policy is not None and np.array_equal(greedy, policy):
+            return q
+        policy = greedy
+    raise RuntimeError(f"no fixed point within {MAX_SWEEPS} policy updates")
+
+
+def greedy_gap(q: np.ndarray, pairs: np.ndarray | None = None) -> float:
+    """Smallest difference between the best and the second-best action value over ``pairs``
+    (default all rows of ``q``): how firmly the greedy policy is decided (0: a tie)."""
+    rows = np.sort(np.asarray(q)[pairs if pairs is not None else slice(None)], axis=1)
+    return float(np.min(rows[:, -1] - rows[:, -2]))
+
+
+def state_policy(chain, q: np.ndarray, n_states: int) -> np.ndarray:
+    """``(S,)`` the greedy action of each state from pair values, when every pair of a state
+    agrees (always, without a looping penalty); -1 where they disagree or the state has no pair."""
+    greedy = greedy_policy(q)
+    policy = np.full(n_states, -1, dtype=np.int64)
+    for state in np.unique(chain.pair_state):
+        actions = np.unique(greedy[chain.pair_state == state])
+        if len(actions) == 1:
+            policy[state] = actions[0]
+    return policy

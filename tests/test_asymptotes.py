@@ -133,3 +133,57 @@ def test_a_longer_looping_memory_leaves_the_average_reward_unknown_and_the_succe
     np.testing.assert_allclose(paper.success, cycle.success, rtol=1e-12)  # pair chain vs state chain
     np.testing.assert_allclose(paper.length, cycle.length, rtol=1e-12)
     assert np.isnan(cycle.average_reward).all() and np.isfinite(paper.average_reward).all()
+
+
+def _bellman_by_hand(model, pattern, q, gamma, epsilon=None):
+    """max |Q - T Q| over reachable non-terminal states, T written out with model.step (no chain)."""
+    reward = get_reward_pattern(pattern)
+    worst = 0.0
+    for state in model.reachable_states():
+        if state.is_terminal:
+            continue
+        for action in range(model.n_actions):
+            nxt, outcome = model.step(state, action)
+            target = reward.reward(outcome, state.index, nxt.index)
+            if outcome != Outcome.TERMINAL:
+                row = q[nxt.index]
+                if epsilon is None:
+                    target += gamma * row.max()
+                else:
+                    pi = np.full(len(row), epsilon / len(row))
+                    pi[np.argmax(row)] += 1 - epsilon
+                    target += gamma * float(pi @ row)
+            worst = max(worst, abs(q[state.index, action] - target))
+    return worst
+
+
+@pytest.mark.parametrize("pattern", ["r1", "r3"])
+def test_fixed_points_satisfy_their_bellman_equations(pattern):
+    chain = _chain(pattern)
+    assert np.array_equal(chain.pair_state, np.unique(chain.pair_state))  # no looping penalty: a pair is a state
+    for gamma, epsilon in ((0.3, None), (0.9, None), (0.3, 0.1), (0.9, 0.1)):
+        q = np.zeros((MODEL.n_states, MODEL.n_actions))
+        q[chain.pair_state] = analysis.fixed_point_q(chain, gamma, epsilon)
+        assert _bellman_by_hand(MODEL, pattern, q, gamma, epsilon) < 1e-10
+
+
+def test_q_star_is_the_optimal_plan_and_sarsa_fails_only_at_gamma_0_3():
+    """The mechanism the findings page states: r3's Q* greedy is the optimal plan (no looping
+    optimum at gamma 0.3); SARSA's on-policy fixed point fails at gamma 0.3 and is optimal at 0.9."""
+    reachable = [s.index for s in MODEL.reachable_states() if not s.is_terminal]
+    optimal = analysis.exact_success_probability(
+        analysis.state_policy(_chain("r3"), analysis.fixed_point_q(_chain("r3"), 0.9), MODEL.n_states), 0.1, 500,
+        model=MODEL)
+    for pattern, gamma, epsilon, solved in (("r3", 0.3, None, True), ("r1", 0.3, 0.1, False),
+                                            ("r1", 0.9, 0.1, True), ("r3", 0.3, 0.1, False)):
+        chain = _chain(pattern)
+        policy = analysis.state_policy(chain, analysis.fixed_point_q(chain, gamma, epsilon), MODEL.n_states)
+        assert (policy[reachable] >= 0).all()
+        greedy = float(analysis.exact_success_probability(np.maximum(policy, 0), 0.0, 500, model=MODEL))
+        explored = float(analysis.exact_success_probability(np.maximum(policy, 0), 0.1, 500, model=MODEL))
+        assert (greedy == pytest.approx(1.0)) is solved, (pattern, gamma, epsilon)
+        assert (explored == pytest.approx(float(optimal))) is solved
+    with pytest.raises(ValueError, match="gamma must be in"):
+        analysis.fixed_point_q(_chain("r1"), 1.0)
+    with pytest.raises(ValueError, match="unknown"):
+        analysis.fixed_point_q(_chain("r4_cycle"), 0.3)
