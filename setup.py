@@ -38,6 +38,8 @@ setup(
         "tqdm",
         "scipy",  # statistics (intervals, fits); robosuite's OSC uses it too
         "wrapt",  # post-import hook: TableClean registers when robosuite is imported, not before
+        "filelock",  # a run's lock on its output folder (tableclean_suite.bench.outputs)
+        "psutil",  # available memory for the resource guard (tableclean_suite.resources); workers die with their parent
     ],
     extras_require={
         # dev: everything the test suite exercises (wheel: the install test builds offline; optuna: tuning;

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tableclean_suite import resources
 from tableclean_suite.backends import BackendRecords, TrainingJob
 from tableclean_suite.learners import assist, kernel, reference
 from tableclean_suite.learners.reference import DOUBLE_Q_TABLES
@@ -56,6 +57,20 @@ def assistance_arrays(learner, model) -> tuple[np.ndarray, np.ndarray]:
     return afforded, advisor
 
 
+def check_job_resources(job: TrainingJob, measured: bool) -> None:
+    """Refuse ``job`` before allocating when it cannot fit or would run too long (see :mod:`tableclean_suite.resources`)."""
+    model = job.model
+    successors = job.options["transitions"].max_successors if measured else 1
+    q_tables = 2 if job.learner.method == METHOD_DOUBLE_Q else 1
+    what = (f"training {job.learner.name!r} on task {model.spec.name!r} ({model.n_states} states x "
+            f"{model.n_actions} actions, {job.runs} runs x {job.iterations} iterations)")
+    resources.require_memory(resources.training_memory(model.n_states, model.n_actions, job.runs, job.iterations,
+                                                       q_tables, successors, model.record_dtype.itemsize), what)
+    steps = job.runs * job.iterations
+    resources.require_time(steps / resources.STEPS_PER_SECOND, what,
+                           f"{steps:.3g} learner steps at {resources.STEPS_PER_SECOND:.3g} steps/s")
+
+
 @dataclass(frozen=True)
 class TableBackend:
     """Train on a transition table: the model's own (``symbolic``) or a measured one (``calibrated``)."""
@@ -88,7 +103,13 @@ class TableBackend:
         return job.options["transitions"] if self.measured else TransitionTable.from_model(job.model)
 
     def train(self, job: TrainingJob) -> BackendRecords:
-        """Run ``job`` on the table with the compiled or the reference loop."""
+        """Run ``job`` on the table with the compiled or the reference loop.
+
+        Raises :class:`~tableclean_suite.resources.ResourceError` (before allocating) when its
+        records, Q-tables and tables would not fit in the available memory, or its steps would
+        take longer than :data:`~tableclean_suite.resources.MAX_TRAINING_SECONDS`.
+        """
+        check_job_resources(job, self.measured)
         table = self.table(job)
         config = {"transitions": table.source} if self.measured else {}
         if job.engine == "reference":

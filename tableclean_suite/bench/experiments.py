@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 import tableclean_suite
-from tableclean_suite import analysis, asymptotes, metrics, settling
+from tableclean_suite import analysis, asymptotes, metrics, resources, settling
 from tableclean_suite import curves as curve_sums
 from tableclean_suite.backends import get_backend
 from tableclean_suite.bench import statistics
@@ -306,9 +306,61 @@ def _plain(value):
     return float(value)
 
 
-def chunk_runs(iterations: int, budget_bytes: int = CHUNK_BYTES) -> int:
-    """Runs per training chunk so that one chunk's records stay within ``budget_bytes`` (>= 1)."""
-    return max(1, budget_bytes // (int(iterations) * RECORD_BYTES_PER_ITERATION))
+def chunk_runs(iterations: int, budget_bytes: int = CHUNK_BYTES, q_table_bytes: int = 0) -> int:
+    """Runs per training chunk so that one chunk's records and final Q-tables (``q_table_bytes``
+    per run: S x A float64) stay within ``budget_bytes`` (>= 1)."""
+    return max(1, budget_bytes // (int(iterations) * RECORD_BYTES_PER_ITERATION + int(q_table_bytes)))
+
+
+def q_table_bytes(model) -> int:
+    """Bytes of one run's final Q-table of ``model``: S x A float64."""
+    return int(model.n_states) * int(model.n_actions) * resources.WORD_BYTES
+
+
+#: Estimated seconds above which :func:`run_grid` says on stderr how long its training will take.
+LONG_GRID_SECONDS = 600
+#: Bytes per (state, action) pair of a chunk's asymptote analysis (the episode chain and the exact
+#: DP's arrays): measured ~270 B peak on a 10-segment, 2-object task (1.24 M states).
+ANALYSIS_BYTES_PER_PAIR = 256
+#: (state, action) pairs the asymptote DP visits per second, per DP step (measured ~6e6 on a
+#: 10-segment, 2-object task); it runs up to ``max_itr`` steps per chunk.
+ANALYSIS_PAIRS_PER_SECOND = 6_000_000
+
+
+def check_grid_resources(cells, config: RunConfig, model) -> float:
+    """Refuse (before training) a grid whose cells cannot fit in memory or would run too long;
+    returns the estimated seconds of training and analysis (0 without cells).
+
+    Memory: one chunk's records and Q-tables (:func:`chunk_runs`), the tables and the chunk's
+    asymptote analysis (:data:`ANALYSIS_BYTES_PER_PAIR`).  Time: every cell's learner steps
+    (``runs x iterations``, twice up to the settling checkpoint) at
+    :data:`tableclean_suite.resources.STEPS_PER_SECOND` plus one asymptote DP per chunk.
+
+    Raises:
+        tableclean_suite.resources.ResourceError: one line naming the estimate, what is available
+            and the override (:data:`tableclean_suite.resources.OVERRIDE_ENV`).
+    """
+    cells = list(cells)
+    if not cells:
+        return 0.0
+    pairs = int(model.n_states) * int(model.n_actions)
+    chunk = min(config.runs, chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model)))
+    memory = resources.training_memory(model.n_states, model.n_actions, chunk, config.iterations,
+                                      code_bytes=model.record_dtype.itemsize)
+    memory += resources.MemoryEstimate({"asymptote analysis": pairs * ANALYSIS_BYTES_PER_PAIR,
+                                        "per-run scores": config.runs * len(statistics.RUN_SCORES)
+                                        * resources.WORD_BYTES})
+    what = (f"a cell of task {model.spec.name!r} ({model.n_states} states x {model.n_actions} actions, "
+            f"{chunk} of {config.runs} runs x {config.iterations} iterations at a time)")
+    resources.require_memory(memory, what)
+    steps = 2 * len(cells) * config.runs * config.iterations
+    chunks = len(cells) * -(-config.runs // chunk)
+    analysis_steps = chunks * config.max_itr * pairs
+    seconds = steps / resources.STEPS_PER_SECOND + analysis_steps / ANALYSIS_PAIRS_PER_SECOND
+    resources.require_time(seconds, f"training {len(cells)} cell(s) of task {model.spec.name!r}",
+                           f"{steps:.3g} learner steps at {resources.STEPS_PER_SECOND:.3g}/s and {chunks} asymptote "
+                           f"analyses of {config.max_itr} x {pairs} pairs at {ANALYSIS_PAIRS_PER_SECOND:.3g}/s")
+    return seconds
 
 
 def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
@@ -338,7 +390,7 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     Returns:
         ``(summary, statistics, train_seconds, metrics_seconds)``.
     """
-    chunk = runs_per_chunk or chunk_runs(config.iterations)
+    chunk = runs_per_chunk or chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model))
     grouped = GroupedCurveSums.zeros(config.iterations, statistics.bootstrap_groups(config.runs, config.iterations))
     chain = asymptotes.EpisodeChain.build(model, cell.reward, transitions)
     per_run = {name: [] for name in metrics.PLATEAU_NAMES}
@@ -531,6 +583,8 @@ def run_grid(
 
     Raises:
         CellFileError: a stored cell matching the config is unreadable (unless ``fresh``).
+        tableclean_suite.resources.ResourceError: the cells to train would not fit in memory or would
+            run too long (:func:`check_grid_resources`), refused before any is trained.
         tableclean_suite.executors.TaskFailedError: a cell failed in the executor (named).
     """
     from tqdm.auto import tqdm
@@ -546,6 +600,10 @@ def run_grid(
         else:
             outcome.summaries[cell], outcome.statistics[cell] = stored
             outcome.resumed += 1
+    estimate = check_grid_resources(pending, config, model)
+    if estimate > LONG_GRID_SECONDS:
+        print(f"note: training {len(pending)} cell(s) is estimated to take about {resources.format_seconds(estimate)}",
+              file=sys.stderr)
     bar = tqdm(total=len(keys), initial=outcome.resumed, desc="cells", unit="cell", disable=not config.progress,
                leave=False)
 

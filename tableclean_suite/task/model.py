@@ -301,6 +301,42 @@ class TaskModel:
 
     @cached_property
     def _transition_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """Built-in actions from every code at once (:mod:`.batch_rules`); user actions state by state.
+
+        Raises :class:`~tableclean_suite.resources.ResourceError` before allocating when the arrays
+        would not fit in the available memory, or when user actions' Python effects would be
+        called more than :data:`~tableclean_suite.resources.MAX_USER_EFFECT_CALLS` times.
+        """
+        from tableclean_suite import resources
+        from tableclean_suite.task import batch_rules
+
+        what = f"the transition table of task {self.spec.name!r} ({self.n_states} states x {self.n_actions} actions)"
+        resources.require_memory(resources.table_memory(self.n_states, self.n_actions), what)
+        user = [a for a, rule in enumerate(self.actions) if not batch_rules.is_vectorised(rule.effect)]
+        resources.require_effect_calls(self.n_states * len(user), what)
+        next_state = np.empty((self.n_states, self.n_actions), dtype=np.int64)
+        outcome = np.empty((self.n_states, self.n_actions), dtype=np.int64)
+        digits = batch_rules.StateDigits(self.n_segments, self.n_objects, self.n_states)
+        improper = self.ineffective == IneffectiveMode.IMPROPER
+        for a, rule in enumerate(self.actions):
+            if a not in user:
+                next_state[:, a], outcome[:, a] = batch_rules.batch_step(digits, rule.effect, improper)
+        terminal = digits.terminal
+        del digits
+        if user:
+            next_state[terminal, :] = np.flatnonzero(terminal)[:, None]
+            outcome[terminal, :] = Outcome.TERMINAL
+            for code in np.flatnonzero(~terminal):
+                state = self.decode(int(code))
+                for a in user:
+                    nxt, out = self.step(state, a)
+                    next_state[code, a] = encode(nxt)
+                    outcome[code, a] = out
+        return next_state, outcome
+
+    def _transition_arrays_by_rules(self) -> tuple[np.ndarray, np.ndarray]:
+        """The same arrays stepped state by state through :meth:`step` (slow; the reference the
+        vectorised build is tested against)."""
         next_state = np.zeros((self.n_states, self.n_actions), dtype=np.int64)
         outcome = np.zeros((self.n_states, self.n_actions), dtype=np.int64)
         for code in range(self.n_states):

@@ -1,0 +1,189 @@
+"""The resource guard: estimate what a task spec and a budget need before allocating, refuse what
+cannot fit.
+
+Every large allocation of the symbolic path is sized by the spec (S state codes, A actions) and
+the budget (R runs, T iterations): the model's transition arrays and the table the learners step
+(a few int64/float64 per (state, action) pair), the Q-tables (R x S x A float64), the records
+(R x T: a float64 reward and four integer codes per iteration) and a run's training time
+(R x T steps).  :func:`require_memory` compares an estimate with the memory the operating
+system reports as available (:mod:`psutil`) and raises :class:`InsufficientMemoryError`, whose
+one-line message names the estimate, its parts, what is available and the override.
+:func:`require_time` does the same for an estimated wall time longer than
+:data:`MAX_TRAINING_SECONDS`.
+
+The override is explicit: set the environment variable :data:`OVERRIDE_ENV` to ``1`` (executor
+workers inherit it), or call with ``override=True``.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+#: Environment variable that, set to one of :data:`TRUE_WORDS`, turns the guard's refusals off.
+OVERRIDE_ENV = "TABLECLEAN_IGNORE_RESOURCE_CHECK"
+#: Values of :data:`OVERRIDE_ENV` that mean "on" (case-insensitive).
+TRUE_WORDS = ("1", "true", "yes", "on")
+#: Fraction of the available memory (bytes) that an estimate may take; the rest is headroom for
+#: the interpreter, libraries and what the estimate leaves out.
+USABLE_FRACTION = 0.8
+#: Bytes of a float64 or an int64.
+WORD_BYTES = 8
+#: Bytes per (state, action) pair of building the model's table and the table the learners step:
+#: the model's cached next-state and outcome arrays (2 int64), the copies the table takes of them
+#: (2 int64), its cumulative probabilities (float64) and its execution counts (int64).
+TABLE_BYTES_PER_PAIR = 6 * WORD_BYTES
+#: Bytes per state code of the vectorised rule build (:mod:`tableclean_suite.task.batch_rules`):
+#: the codes, the clean digits, the next codes and outcomes of one action (int64 each) and
+#: temporaries of the same size.
+BUILD_BYTES_PER_STATE = 8 * WORD_BYTES
+#: Integer record arrays per (run, iteration): outcome, state, action, episode end (each of the
+#: task's record dtype, ``TaskModel.record_dtype``); a float64 reward comes with them.
+RECORD_CODE_ARRAYS = 4
+#: Symbolic learner steps per second assumed by time estimates (a fast machine's compiled loop on
+#: the paper's task, so the estimate errs towards allowing).
+STEPS_PER_SECOND = 50_000_000
+#: Longest estimated training (and analysis) a command may need before it is refused: seconds (1 day).
+MAX_TRAINING_SECONDS = 24 * 3600
+#: Calls of a user action's Python effect that building a table may make (about 8.5 us each,
+#: so ~4 s); larger specs with user actions are refused (the built-in actions are vectorised).
+MAX_USER_EFFECT_CALLS = 500_000
+
+_UNITS = ("B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB")
+_UNIT_STEP = 1024
+
+
+class ResourceError(ValueError):
+    """A request the guard refuses; the message is one line naming the estimate and the override."""
+
+
+class InsufficientMemoryError(ResourceError):
+    """An allocation estimated to need more memory than is available."""
+
+
+class TooMuchWorkError(ResourceError):
+    """A build or a training estimated to run for longer than the guard allows."""
+
+
+def format_bytes(n: float) -> str:
+    """``1536`` -> ``'1.5 KiB'`` (binary units)."""
+    value = float(n)
+    for unit in _UNITS:
+        if abs(value) < _UNIT_STEP or unit == _UNITS[-1]:
+            return f"{value:.0f} {unit}" if unit == "B" else f"{value:.1f} {unit}"
+        value /= _UNIT_STEP
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def format_seconds(seconds: float) -> str:
+    """``90000`` -> ``'1.0 days'``; seconds, hours or days."""
+    if seconds < 3600:
+        return f"{seconds:.0f} s"
+    if seconds < 24 * 3600:
+        return f"{seconds / 3600:.1f} hours"
+    return f"{seconds / (24 * 3600):.1f} days"
+
+
+@dataclass(frozen=True)
+class MemoryEstimate:
+    """Bytes an allocation needs, by part (e.g. ``{"Q-tables": ..., "records": ...}``)."""
+
+    parts: dict = field(default_factory=dict)
+
+    @property
+    def total(self) -> int:
+        """Sum of the parts, bytes."""
+        return int(sum(self.parts.values()))
+
+    def __add__(self, other: "MemoryEstimate") -> "MemoryEstimate":
+        merged = dict(self.parts)
+        for name, size in other.parts.items():
+            merged[name] = merged.get(name, 0) + size
+        return MemoryEstimate(merged)
+
+    def describe(self) -> str:
+        """``'3.1 GiB (Q-tables 2.0 GiB, records 1.1 GiB)'`` (parts above zero, largest first)."""
+        parts = sorted(((size, name) for name, size in self.parts.items() if size > 0), reverse=True)
+        inner = ", ".join(f"{name} {format_bytes(size)}" for size, name in parts)
+        return f"{format_bytes(self.total)} ({inner})" if inner else format_bytes(self.total)
+
+
+def override_enabled() -> bool:
+    """Whether :data:`OVERRIDE_ENV` turns the guard off."""
+    return os.environ.get(OVERRIDE_ENV, "").strip().lower() in TRUE_WORDS
+
+
+def available_bytes() -> int:
+    """Memory the operating system can give this process now without swapping (psutil), bytes."""
+    import psutil
+
+    return int(psutil.virtual_memory().available)
+
+
+def table_memory(n_states: int, n_actions: int, max_successors: int = 1) -> MemoryEstimate:
+    """Building a task model's table and the table learners step (S states, A actions, K successors)."""
+    pairs = int(n_states) * int(n_actions)
+    return MemoryEstimate({"transition tables": pairs * TABLE_BYTES_PER_PAIR * max(1, int(max_successors)),
+                           "rule build": int(n_states) * BUILD_BYTES_PER_STATE})
+
+
+def training_memory(n_states: int, n_actions: int, runs: int, iterations: int, q_tables: int = 1,
+                    max_successors: int = 1, code_bytes: int = 4) -> MemoryEstimate:
+    """One ``train()`` call on a table backend: ``runs`` x (S x A) Q-tables (``q_tables`` per run:
+    2 for double Q-learning, whose result also stacks both), ``runs`` x ``iterations`` records
+    (a float64 reward and :data:`RECORD_CODE_ARRAYS` codes of ``code_bytes`` each) and the tables
+    (:func:`table_memory`)."""
+    pairs = int(n_states) * int(n_actions)
+    q_bytes = int(runs) * pairs * WORD_BYTES * (1 if q_tables <= 1 else 2 * int(q_tables))
+    step_bytes = WORD_BYTES + RECORD_CODE_ARRAYS * int(code_bytes)
+    return table_memory(n_states, n_actions, max_successors) + MemoryEstimate(
+        {"Q-tables": q_bytes, "records": int(runs) * int(iterations) * step_bytes})
+
+
+def require_memory(estimate: MemoryEstimate, what: str, available: int | None = None,
+                   override: bool = False) -> None:
+    """Raise :class:`InsufficientMemoryError` when ``estimate`` exceeds :data:`USABLE_FRACTION` of
+    the available memory (``available``: bytes, default :func:`available_bytes`).
+
+    Args:
+        estimate: what the allocation needs.
+        what: what is being allocated, for the message (e.g. ``"training 'q_learning' on task 'big'"``).
+        override: skip the check (as does :data:`OVERRIDE_ENV`).
+    """
+    if override or override_enabled():
+        return
+    available = available_bytes() if available is None else int(available)
+    if estimate.total > USABLE_FRACTION * available:
+        raise InsufficientMemoryError(
+            f"{what} needs about {estimate.describe()}, but only {format_bytes(available)} of memory is "
+            f"available (at most {USABLE_FRACTION:.0%} of it may be used); use a smaller task or budget, or set "
+            f"{OVERRIDE_ENV}=1 to try anyway")
+
+
+def require_time(seconds: float, what: str, detail: str = "", override: bool = False) -> None:
+    """Raise :class:`TooMuchWorkError` when an estimate of ``seconds`` exceeds :data:`MAX_TRAINING_SECONDS`.
+
+    Args:
+        seconds: the estimated wall time.
+        what: what would take that long, for the message.
+        detail: how the estimate was made (e.g. ``"1e15 learner steps at 5e7 steps/s"``).
+    """
+    if override or override_enabled():
+        return
+    if seconds > MAX_TRAINING_SECONDS:
+        how = f" ({detail})" if detail else ""
+        raise TooMuchWorkError(
+            f"{what} would take about {format_seconds(seconds)}{how}, more than the "
+            f"{format_seconds(MAX_TRAINING_SECONDS)} allowed; use fewer runs, iterations or a smaller task, or set "
+            f"{OVERRIDE_ENV}=1 to try anyway")
+
+
+def require_effect_calls(calls: int, what: str, override: bool = False) -> None:
+    """Raise :class:`TooMuchWorkError` when building a table would call user action effects more
+    than :data:`MAX_USER_EFFECT_CALLS` times (pure Python, about 8.5 us each)."""
+    if override or override_enabled():
+        return
+    if int(calls) > MAX_USER_EFFECT_CALLS:
+        raise TooMuchWorkError(
+            f"{what} calls user action effects {int(calls)} times (pure Python; at most {MAX_USER_EFFECT_CALLS} are "
+            f"allowed, a few seconds); use fewer segments or objects, or set {OVERRIDE_ENV}=1 to try anyway")

@@ -1,0 +1,130 @@
+"""The resource guard: estimates before allocating, one-line refusals naming estimate and availability,
+an explicit override, and vectorised table builds so large accepted specs build in seconds."""
+
+import numpy as np
+import pytest
+
+from tableclean_suite import resources
+from tableclean_suite.bench import experiments
+from tableclean_suite.bench.config import RunConfig
+from tableclean_suite.learners import train
+from tableclean_suite.task import ActionRule, Outcome, TaskModel, TaskSpec, register_action
+from tableclean_suite.task.model import TaskModel as ModelClass
+
+GIB = 1024**3
+
+
+def _move_back(state):
+    return state.replace(arm=(state.arm - 1) % state.n_segments), Outcome.ROUTINE
+
+
+def _user_action() -> str:
+    name = "faults_move_back"
+    register_action(ActionRule(name, _move_back, "test action"), overwrite=True)
+    return name
+
+
+SPECS = [
+    dict(segments=2, objects=1),
+    dict(segments=3, objects=2),
+    dict(segments=4, objects=3),
+    dict(segments=3, objects=2, ineffective="improper"),
+    dict(segments=5, objects=2, actions=("clean", "place", "move", "pick")),
+    dict(segments=3, objects=1, start="uniform_unclean"),
+]
+
+
+@pytest.mark.parametrize("fields", SPECS, ids=lambda f: "-".join(f"{k}{v}" for k, v in f.items()))
+def test_vectorised_table_equals_the_rules_state_by_state(fields):
+    model = TaskModel(spec=TaskSpec("faults_spec", **fields))
+    fast, slow = model.transition_arrays(), model._transition_arrays_by_rules()
+    assert all(np.array_equal(a, b) for a, b in zip(fast, slow))
+
+
+def test_a_spec_with_a_user_action_mixes_both_builds_and_matches_the_rules():
+    spec = TaskSpec("faults_user", segments=3, objects=2, actions=("move", _user_action(), "pick", "place", "clean"))
+    model = TaskModel(spec=spec)
+    fast, slow = model.transition_arrays(), model._transition_arrays_by_rules()
+    assert all(np.array_equal(a, b) for a, b in zip(fast, slow))
+
+
+def test_built_in_actions_never_step_state_by_state(monkeypatch):
+    def refuse(*args, **kwargs):
+        raise AssertionError("the per-state rules were called")
+
+    model = TaskModel(spec=TaskSpec("faults_wide", segments=9, objects=2))  # 460800 codes
+    monkeypatch.setattr(ModelClass, "step", refuse)
+    next_state, outcome = model.transition_arrays()
+    assert next_state.shape == (model.n_states, 4) and (outcome == Outcome.TERMINAL).any()
+
+
+def test_a_large_spec_with_a_user_action_is_refused_before_its_loop():
+    spec = TaskSpec("faults_user_big", segments=10, objects=2, actions=("move", _user_action(), "clean"))
+    with pytest.raises(resources.TooMuchWorkError, match=f"{resources.MAX_USER_EFFECT_CALLS}.*{resources.OVERRIDE_ENV}"):
+        TaskModel(spec=spec).transition_arrays()
+
+
+def test_require_memory_names_the_estimate_what_is_available_and_the_override(monkeypatch):
+    monkeypatch.delenv(resources.OVERRIDE_ENV, raising=False)
+    estimate = resources.MemoryEstimate({"Q-tables": 3 * GIB, "records": GIB})
+    with pytest.raises(resources.InsufficientMemoryError) as caught:
+        resources.require_memory(estimate, "the test allocation", available=2 * GIB)
+    message = str(caught.value)
+    assert "4.0 GiB" in message and "Q-tables 3.0 GiB" in message and "2.0 GiB" in message
+    assert resources.OVERRIDE_ENV in message and "\n" not in message
+    resources.require_memory(estimate, "fits", available=10 * GIB)
+    resources.require_memory(estimate, "overridden", available=GIB, override=True)
+    monkeypatch.setenv(resources.OVERRIDE_ENV, "1")
+    resources.require_memory(estimate, "overridden by the environment", available=GIB)
+
+
+def test_require_time_refuses_beyond_the_limit(monkeypatch):
+    monkeypatch.delenv(resources.OVERRIDE_ENV, raising=False)
+    resources.require_time(resources.MAX_TRAINING_SECONDS, "at the limit")
+    with pytest.raises(resources.TooMuchWorkError, match="days"):
+        resources.require_time(resources.MAX_TRAINING_SECONDS * 3, "beyond it")
+
+
+@pytest.mark.parametrize("budget", [dict(runs=10**7, iterations=10**8), dict(runs=10**5, iterations=10**6)])
+def test_train_refuses_a_budget_whose_records_cannot_fit(monkeypatch, budget):
+    monkeypatch.delenv(resources.OVERRIDE_ENV, raising=False)
+    monkeypatch.setattr(resources, "available_bytes", lambda: 16 * GIB)
+    with pytest.raises(resources.InsufficientMemoryError, match="records .*16.0 GiB"):
+        train(**budget)
+
+
+def test_train_refuses_a_spec_whose_q_tables_cannot_fit(monkeypatch):
+    monkeypatch.delenv(resources.OVERRIDE_ENV, raising=False)
+    monkeypatch.setattr(resources, "available_bytes", lambda: 16 * GIB)
+    spec = TaskSpec("faults_many", segments=12, objects=2)  # 8.3 M codes: 266 MB per Q-table
+    with pytest.raises(resources.InsufficientMemoryError, match="Q-tables"):
+        train(task=spec, runs=100, iterations=10)
+
+
+def test_the_chunk_counts_the_q_tables_too():
+    assert experiments.chunk_runs(1000) == experiments.CHUNK_BYTES // (1000 * experiments.RECORD_BYTES_PER_ITERATION)
+    assert experiments.chunk_runs(1000, q_table_bytes=experiments.CHUNK_BYTES) == 1
+    assert experiments.chunk_runs(1000, q_table_bytes=10**6) < experiments.chunk_runs(1000)
+
+
+@pytest.mark.parametrize("case", ["22 segments", "huge budget"])
+def test_a_grid_is_refused_before_any_cell_trains(monkeypatch, case):
+    monkeypatch.delenv(resources.OVERRIDE_ENV, raising=False)
+    if case == "22 segments":
+        config = RunConfig(task=None, out="unused")
+        model = TaskModel(spec=TaskSpec("faults_huge", segments=22, objects=1))
+        error = resources.InsufficientMemoryError
+    else:
+        config = RunConfig(runs=10**7, iterations=10**8, out="unused")
+        model = config.task_model()
+        error = resources.TooMuchWorkError
+    cells = experiments.unique_cells(experiments.config_grid(config))
+    with pytest.raises(error):
+        experiments.check_grid_resources(cells, config, model)
+
+
+def test_the_paper_default_grid_passes_the_guard():
+    config = RunConfig(out="unused")
+    model = config.task_model()
+    cells = experiments.unique_cells(experiments.config_grid(config))
+    assert 0 < experiments.check_grid_resources(cells, config, model) < experiments.LONG_GRID_SECONDS
