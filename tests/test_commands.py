@@ -25,8 +25,7 @@ def _run(argv, capsys, prog="tableclean-bench"):
 
 
 def test_every_registered_command_has_a_parser_with_the_shared_options():
-    available = set(PARSERS)
-    assert available >= set(commands.COMMANDS) - {"objects"}  # objects: its module may not be installed yet
+    assert set(PARSERS) == set(commands.COMMANDS)
     for name, parser in PARSERS.items():
         assert isinstance(parser, cli.OneLineParser), name
         assert parser.prog == f"tableclean-bench {name}"
@@ -228,12 +227,17 @@ class LoggedMove(MoveSkill):
 
 register_skill("move", LoggedMove, replace=True)
 '''
-#: Each physics command on a tiny budget (fidelity's rounds in two spawned workers).
+#: Each physics command on a tiny budget with the plugin's object (fidelity's rounds in two spawned workers),
+#: and how it refuses the object without the plugin.
+TASK = ["--task", "cube_task.json"]
 PHYSICS_COMMANDS = {
-    "demos": ["--episodes", "1", "--out", "demos.hdf5"],
-    "fidelity": ["--trials", "2", "--actions", "move", "--workers", "2", "--quiet", "--out", "fidelity"],
-    "rollout": ["--iterations", "300", "--runs", "1", "--max-actions", "2", "--width", "64", "--height", "64",
-                "--frame-every", "20", "--out", "rollout.gif"],
+    "demos": ([*TASK, "--episodes", "1", "--out", "demos.hdf5"], "unknown object_type 'plugin_cube'"),
+    "fidelity": ([*TASK, "--trials", "2", "--actions", "move", "--workers", "2", "--quiet", "--out", "fidelity"],
+                 "unknown object_type 'plugin_cube'"),
+    "rollout": ([*TASK, "--iterations", "300", "--runs", "1", "--max-actions", "2", "--width", "64", "--height", "64",
+                 "--frame-every", "20", "--out", "rollout.gif"], "unknown object_type 'plugin_cube'"),
+    "objects": (["--objects", "plugin_cube", "--settings", "alone", "--episodes", "1", "--quiet", "--out", "objects"],
+                "unknown object type 'plugin_cube'"),
 }
 
 
@@ -241,6 +245,7 @@ PHYSICS_COMMANDS = {
 @pytest.mark.cli
 @pytest.mark.parametrize("name", list(PHYSICS_COMMANDS))
 def test_a_plugins_object_type_and_skill_reach_the_physics_commands(name, tmp_path):
+    """demos, fidelity, rollout and objects see a plugin's object type and run its skill."""
     import os
     import subprocess
     import sys
@@ -251,13 +256,14 @@ def test_a_plugins_object_type_and_skill_reach_the_physics_commands(name, tmp_pa
     log = tmp_path / "skill.log"
     env = {**os.environ, "PLUGIN_SKILL_LOG": str(log), "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
 
+    argv, refusal = PHYSICS_COMMANDS[name]
+
     def command(*extra):
-        return subprocess.run([sys.executable, "-m", "tableclean_suite.bench", name, "--task", "cube_task.json",
-                               *extra, *PHYSICS_COMMANDS[name]], cwd=tmp_path, env=env, capture_output=True,
-                              text=True, timeout=600)
+        return subprocess.run([sys.executable, "-m", "tableclean_suite.bench", name, *extra, *argv], cwd=tmp_path,
+                              env=env, capture_output=True, text=True, timeout=600)
 
     refused = command()
-    assert refused.returncode == 2 and "unknown object_type 'plugin_cube'" in refused.stderr
+    assert refused.returncode == 2 and refusal in refused.stderr, refused.stderr
     done = command("--plugins", "my_objects.py")
     assert done.returncode == 0, done.stdout + done.stderr
     assert log.read_text().count("move") >= 1  # the plugin's skill ran (in the workers, for fidelity)
@@ -273,3 +279,11 @@ def test_render_refuses_a_camera_the_scene_lacks_naming_those_it_has(capsys, tmp
     assert _run(["render", "--camera", "frontview", "--width", "32", "--height", "32",
                  "--out", str(tmp_path / "scene.png")], capsys)[0] == 0
     assert (tmp_path / "scene.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_a_command_whose_module_is_missing_is_one_line(capsys, monkeypatch):
+    monkeypatch.setitem(commands.COMMANDS, "ghost", commands.Command("tableclean_suite.bench.no_such_module", "gone"))
+    code, err = _run(["ghost"], capsys)
+    assert code == 2 and err == ["tableclean-bench: error: command 'ghost' is not available in this installation "
+                                 "(tableclean_suite.bench.no_such_module is missing)"]
+    assert "ghost" not in commands.command_parsers()
