@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
 
-from tableclean_suite.task import Action, Outcome, TaskState
+from tableclean_suite.task import Outcome, TaskState
 
 #: SkillResult fields that measure wall-clock time (not part of what physics did).
 TIMING_FIELDS = ("wall_time", "env_time")
@@ -21,7 +21,8 @@ class SkillResult:
     """What one ``SkillController.execute`` call did (a record: immutable).
 
     Attributes:
-        action: the executed :class:`Action` (a built-in action), or the name of a user action.
+        action: the executed action's registered name (``"pick"``, ``"transfer"``), for built-in and
+            user actions alike (``TaskModel.action_index`` turns it into the spec's index).
         success: the symbolic state after equals the task model's successor (and the skill finished).
         improper: the task model calls the action improper here; refused, nothing moved.
         steps: control steps (``env.step`` calls) used; 0 for refused and ineffective actions.
@@ -36,7 +37,7 @@ class SkillResult:
         phase_steps: control steps spent per phase name (empty when no skill ran).
     """
 
-    action: "Action | str"
+    action: str
     success: bool
     improper: bool
     steps: int

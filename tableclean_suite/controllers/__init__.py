@@ -8,7 +8,8 @@ as ``controller_configs`` and ``ignore_done=True`` to ``robosuite.make``), then:
     result = controller.execute(Action.PICK)   # -> SkillResult
 
 Add or replace skills with :func:`register_skill` (see :mod:`.registry`); skills are built from the
-primitives of :mod:`.primitives` (reach, grasp, release, wipe).
+primitives of :mod:`.primitives` (reach, grasp, release, wipe).  A new action's skill is a short
+list of those steps with targets named by meaning (:func:`compose_skill`, :mod:`.authoring`).
 """
 
 from tableclean_suite.controllers.clean import CleanPhase, CleanSkill
@@ -22,6 +23,7 @@ from tableclean_suite.controllers.clean import Wipe
 from tableclean_suite.controllers.registry import SKILL_REGISTRY, action_key, get_skill_class, register_skill
 from tableclean_suite.controllers.skill import BASE_CONFIG, Skill, SkillEnv, SkillFailure, Waypoint
 from tableclean_suite.controllers.skill_controller import SkillController, SkillResult
+from tableclean_suite.controllers.authoring import compose_skill
 
 for _skill in (MoveSkill, PickSkill, PlaceSkill, CleanSkill):
     register_skill(_skill.action, _skill, replace=True)
@@ -52,6 +54,7 @@ __all__ = [
     "SkillResult",
     "Waypoint",
     "check_skill_env",
+    "compose_skill",
     "get_skill_class",
     "make_skill_env",
     "register_skill",

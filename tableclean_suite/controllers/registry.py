@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from tableclean_suite.controllers.skill import Skill
-from tableclean_suite.task import Action, as_action, get_action_rule
+from tableclean_suite.task import Action, ActionRule, action_names, as_action, get_action_rule, register_action
 
 
 def action_key(action) -> str:
@@ -65,10 +65,20 @@ def _label(key: str) -> str:
 def register_skill(action, cls: type[Skill], *, replace: bool = False, registry: dict | None = None) -> type[Skill]:
     """Register ``cls`` as the skill for ``action`` (an Action, its int value or a registered action name).
 
+    A skill made by :func:`~tableclean_suite.controllers.authoring.compose_skill` carries its
+    action's symbolic rule (``cls.rule``): it is registered with
+    :func:`~tableclean_suite.task.register_action` first when the action is unknown (or replaced
+    along with the skill when ``replace``).
+
     Raises ``TypeError`` if ``cls`` is not a Skill subclass, ``ValueError`` if the
     action is unknown, if ``cls.action`` names a different action, or if the
     action already has a skill and ``replace`` is False.  Returns ``cls``.
     """
+    rule = getattr(cls, "rule", None)
+    if isinstance(rule, ActionRule) and isinstance(action, str) and rule.name == action.strip().lower():
+        known = rule.name in action_names()
+        if not known or (replace and get_action_rule(rule.name) is not rule):
+            register_action(rule, overwrite=known)
     key = action_key(action)
     if not (isinstance(cls, type) and issubclass(cls, Skill)):
         raise TypeError(f"skill for {_label(key)} must be a Skill subclass, got {cls!r}")

@@ -65,11 +65,11 @@ class SkillController:
         key = action_key(action)
         return {**skill_overrides(self.robot, key), **self.skill_configs.get(key, {})}
 
-    def resolve(self, action) -> "Action | str":
-        """``action`` (an Action, a name, or an index into the model's action list) as the model's action:
-        the :class:`Action` member for a built-in action, else its name.  ``ValueError`` names the allowed ones."""
-        name = self.model.action_name(action)
-        return Action[name.upper()] if name.upper() in Action.__members__ else name
+    def resolve(self, action) -> str:
+        """``action`` (an Action, a name, or an index into the model's action list) as the model's action
+        name (``"pick"``, ``"transfer"``: one kind for built-in and user actions).  ``ValueError`` names the
+        allowed ones."""
+        return self.model.action_name(action)
 
     def _stepper(self):
         """The fast stepper's ``step`` when this controller's env owns one, else ``env.step``.
