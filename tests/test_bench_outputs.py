@@ -31,7 +31,8 @@ def test_publish_writes_data_files_then_a_manifest_with_their_digests(tmp_path):
     for name in DATA_FILES:
         assert manifest["files"][name]["sha256"] == outputs.sha256_file(tmp_path / name)
     assert outputs.check_outputs(tmp_path) == []
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([*DATA_FILES, outputs.MANIFEST])  # no temporaries
+    left = sorted(p.name for p in tmp_path.iterdir() if p.name != outputs.LOCK_FILE)
+    assert left == sorted([*DATA_FILES, outputs.MANIFEST])  # no temporaries
     second = outputs.publish(tmp_path, _writers("B"), {})
     assert json.loads(second[-1].read_text())["run_id"] != manifest["run_id"]
 
@@ -66,6 +67,84 @@ def test_a_crash_between_two_replaces_leaves_no_false_claim(tmp_path, monkeypatc
     for name in DATA_FILES:  # each data file is entirely run A's or entirely run B's
         assert (tmp_path / name).read_text() == f"{name} of run {'B' if name in replaced else 'A'}\n"
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+
+
+def _publication(out: Path) -> dict:
+    return {p.name: p.read_bytes() for p in out.iterdir() if p.is_file() and p.name != outputs.LOCK_FILE}
+
+
+@pytest.mark.parametrize("errno_name", ["ENOSPC", "EROFS", "EACCES"])
+@pytest.mark.parametrize("failing", range(len(DATA_FILES)))
+def test_a_file_system_error_while_writing_keeps_the_last_publication(tmp_path, errno_name, failing):
+    import errno
+
+    outputs.publish(tmp_path, _writers("A"), {})
+    before = _publication(tmp_path)
+    writers = _writers("B")
+    name = DATA_FILES[failing]
+
+    def full_disk(path):
+        path.write_text("partial")
+        code = getattr(errno, errno_name)
+        raise OSError(code, os.strerror(code))
+
+    writers[name] = full_disk
+    with pytest.raises(outputs.OutputError) as caught:
+        outputs.publish(tmp_path, writers, {})
+    message = str(caught.value)
+    assert name in message and os.strerror(getattr(errno, errno_name)) in message and "\n" not in message
+    assert _publication(tmp_path) == before and outputs.check_outputs(tmp_path) == []
+
+
+def test_a_folder_where_a_data_file_goes_is_one_error_and_keeps_the_publication(tmp_path):
+    outputs.publish(tmp_path, {"table3.csv": lambda p: p.write_text("A")}, {})
+    before = _publication(tmp_path)
+    (tmp_path / "table4.csv").mkdir()
+    with pytest.raises(outputs.OutputError, match="table4.csv"):
+        outputs.publish(tmp_path, _writers("B"), {})
+    assert _publication(tmp_path) == before and (tmp_path / "table4.csv").is_dir()
+
+
+@pytest.mark.parametrize("foreign", ['{"name": "my project"}', "not json at all", ""])
+def test_publish_never_deletes_a_config_json_it_did_not_write(tmp_path, foreign):
+    (tmp_path / outputs.MANIFEST).write_text(foreign)
+    with pytest.raises(outputs.OutputError, match="not written by tableclean_suite"):
+        outputs.publish(tmp_path, _writers("A"), {})
+    assert (tmp_path / outputs.MANIFEST).read_text() == foreign
+    assert not (tmp_path / "table3.csv").exists()
+
+
+@pytest.mark.parametrize("out", ["", "   ", None])
+def test_an_empty_out_is_refused_not_the_current_directory(tmp_path, monkeypatch, out):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(outputs.OutputError, match="empty"):
+        outputs.publish(out, _writers("A"), {})
+    assert "empty" in outputs.check_writable(out)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.cli
+def test_a_second_writer_is_refused_while_the_folder_is_locked(tmp_path):
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sys, time; from tableclean_suite.bench import outputs\n"
+         f"with outputs.output_lock({str(tmp_path)!r}):\n    print('held', flush=True); time.sleep(60)"],
+        stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        with pytest.raises(outputs.OutputBusyError, match="in use by another run"):
+            outputs.publish(tmp_path, _writers("A"), {}, wait=0.2)
+        assert not (tmp_path / "table3.csv").exists()
+    finally:
+        holder.kill()
+        holder.wait()
+    outputs.publish(tmp_path, _writers("A"), {}, wait=5)  # the lock dies with its holder
+    assert outputs.check_outputs(tmp_path) == []
+
+
+def test_the_lock_is_reentrant_within_a_process(tmp_path):
+    with outputs.output_lock(tmp_path):
+        outputs.publish(tmp_path, _writers("A"), {}, wait=0)
+    assert outputs.check_outputs(tmp_path) == []
 
 
 def test_a_failing_writer_keeps_the_old_file(tmp_path):
@@ -111,6 +190,7 @@ def _unusable_outs(tmp_path):
     return outs
 
 
+@pytest.mark.cli
 def test_unusable_out_exits_2_before_training(tmp_path):
     for what, out in _unusable_outs(tmp_path):
         result = cli("--runs", "5", "--iterations", "50", "--no-sweeps", "--no-figures", "--out", str(out))
@@ -120,6 +200,7 @@ def test_unusable_out_exits_2_before_training(tmp_path):
         assert "Traceback" not in result.stderr and "cells" not in result.stdout, what
 
 
+@pytest.mark.cli
 def test_cli_outputs_agree_with_their_manifest(tmp_path):
     out = tmp_path / "out"
     result = cli("--runs", "5", "--iterations", "80", "--rewards", "r4", "--learners", "q_learning", "--no-sweeps",
@@ -129,3 +210,57 @@ def test_cli_outputs_agree_with_their_manifest(tmp_path):
     manifest = json.loads((out / outputs.MANIFEST).read_text())
     assert sorted(manifest["files"]) == sorted((*DATA_FILES, "comparisons.csv"))
     assert manifest["args"]["runs"] == 5 and manifest["args"]["rewards"] == ["r4"]
+
+
+def test_a_cell_store_that_cannot_write_raises_one_output_error(tmp_path):
+    from tableclean_suite.bench import experiments
+
+    (tmp_path / "cells").write_text("")
+    store = experiments.CellStore(tmp_path / "cells")
+    with pytest.raises(outputs.OutputError, match="cannot create the cell folder"):
+        store.save(experiments.Cell("q_learning", "r4", 0.3, 0.3), {"x": 1}, None, None)
+
+
+QUICK_RUN = ("--runs", "5", "--iterations", "50", "--rewards", "r4", "--learners", "q_learning", "--no-sweeps",
+             "--no-literature", "--no-figures", "--no-progress")
+
+
+def _one_line_exit_2(result, *needles):
+    lines = result.stderr.strip().splitlines()
+    assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr
+    assert all(needle in lines[-1] for needle in needles), result.stderr
+
+
+@pytest.mark.cli
+def test_run_refuses_a_foreign_config_json_before_training_and_keeps_it(tmp_path):
+    (tmp_path / outputs.MANIFEST).write_text('{"my": "project"}')
+    result = cli(*QUICK_RUN, "--out", str(tmp_path))
+    _one_line_exit_2(result, "not written by tableclean_suite")
+    assert (tmp_path / outputs.MANIFEST).read_text() == '{"my": "project"}' and "cells" not in result.stdout
+
+
+@pytest.mark.cli
+def test_run_refuses_a_file_where_its_cell_folder_goes(tmp_path):
+    (tmp_path / "cells").write_text("")
+    _one_line_exit_2(cli(*QUICK_RUN, "--out", str(tmp_path)), "cells", "is a file")
+
+
+@pytest.mark.cli
+def test_a_second_run_into_a_busy_out_exits_2_and_the_first_publishes_alone(tmp_path):
+    first = subprocess.Popen([sys.executable, "-m", "benchmarks.run", *QUICK_RUN[:-1], "--runs", "200",
+                              "--iterations", "3000", "--seed", "1", "--out", str(tmp_path)], cwd=ROOT,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = 60
+        import time
+
+        while not (tmp_path / outputs.LOCK_FILE).exists() and deadline > 0:
+            time.sleep(0.2)
+            deadline -= 0.2
+        second = cli(*QUICK_RUN, "--seed", "2", "--out", str(tmp_path))
+    finally:
+        out, err = first.communicate(timeout=300)
+    assert first.returncode == 0, err
+    _one_line_exit_2(second, "in use by another run")
+    assert outputs.check_outputs(tmp_path) == []
+    assert json.loads((tmp_path / outputs.MANIFEST).read_text())["args"]["seed"] == 1

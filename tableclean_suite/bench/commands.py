@@ -23,6 +23,9 @@ from pathlib import Path
 
 from tableclean_suite.bench.cli import EXIT_USAGE, OneLineParser
 
+#: Exit status of a command stopped by Ctrl-C (128 + SIGINT).
+EXIT_INTERRUPTED = 130
+
 #: The console script's name (setup.py's entry point).
 CONSOLE_SCRIPT = "tableclean-bench"
 #: The command a bare ``tableclean-bench`` (or one given only flags) runs.
@@ -171,6 +174,11 @@ def main(argv=None, prog: str | None = None) -> int:
         return _exit_code(module.main(rest, prog=command_prog))
     except SystemExit as stop:
         return _exit_code(stop.code)
+    except _refusals() as error:  # the resource guard, an unusable output folder: one line, exit 2
+        return _usage_error(command_prog, str(error))
+    except KeyboardInterrupt:
+        print(f"{command_prog}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 def run_alias(name: str, prog: str, argv=None, **options) -> int:
@@ -180,6 +188,21 @@ def run_alias(name: str, prog: str, argv=None, **options) -> int:
         return _exit_code(_module(name).main(argv, prog=prog, **options))
     except SystemExit as stop:
         return _exit_code(stop.code)
+    except _refusals() as error:
+        return _usage_error(prog, str(error))
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+def _refusals() -> tuple:
+    """Library errors a command reports as one line with exit 2: the resource guard's
+    (:class:`~tableclean_suite.resources.ResourceError`) and the output folder's
+    (:class:`~tableclean_suite.bench.outputs.OutputError`: full disk, read-only, busy, a file in the way)."""
+    from tableclean_suite.bench.outputs import OutputError
+    from tableclean_suite.resources import ResourceError
+
+    return ResourceError, OutputError
 
 
 if __name__ == "__main__":

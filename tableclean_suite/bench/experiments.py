@@ -41,6 +41,7 @@ from tableclean_suite import curves as curve_sums
 from tableclean_suite.backends import get_backend
 from tableclean_suite.bench import statistics
 from tableclean_suite.bench.config import LITERATURE_LEARNERS, RunConfig
+from tableclean_suite.bench.outputs import OutputError, describe_os_error
 from tableclean_suite.bench.statistics import CellStatistics
 from tableclean_suite.learners import code_digest, train
 from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, GroupedCurveSums, Plateaus, Summary, summarize
@@ -255,10 +256,18 @@ class CellStore:
         return Summary(**scalars, **curves), cell_stats
 
     def save(self, cell: Cell, config: dict, summary: Summary, cell_stats: CellStatistics) -> Path:
-        """Write ``summary`` and ``cell_stats`` for ``cell`` atomically."""
+        """Write ``summary`` and ``cell_stats`` for ``cell`` atomically.
+
+        Raises:
+            tableclean_suite.bench.outputs.OutputError: the file cannot be written (full disk,
+                read-only folder, a file where the cell folder goes); no partial file is left.
+        """
         digest = config_hash(config)
         path = self.path(cell, digest)
-        self.root.mkdir(parents=True, exist_ok=True)
+        try:
+            self.root.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise OutputError(f"cannot create the cell folder {str(self.root)!r}: {describe_os_error(error)}") from None
         scalars = {name: _plain(value) for name, value in summary.scalars().items()}
         facts = {"intervals": {name: [_plain(v) for v in bounds] for name, bounds in cell_stats.intervals.items()},
                  "scores": {name: [_plain(v) for v in values] for name, values in cell_stats.scores.items()},
@@ -282,6 +291,9 @@ class CellStore:
                     **runs,
                 )
             os.replace(temporary, path)
+        except OSError as error:
+            temporary.unlink(missing_ok=True)
+            raise OutputError(f"cannot write cell file {str(path)!r}: {describe_os_error(error)}") from None
         except BaseException:
             temporary.unlink(missing_ok=True)
             raise

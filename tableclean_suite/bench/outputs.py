@@ -1,18 +1,23 @@
 """Writing a run's output files so that they always describe one run, whatever interrupts it.
 
-Protocol of :func:`publish` (``OUT`` is the output directory):
+Protocol of :func:`publish` (``OUT`` is the output directory), under the folder's lock
+(:func:`output_lock`: one writer at a time):
 
-1. ``OUT/config.json`` is deleted.  From here until step 3 no file claims to describe a run.
-2. Each data file (``table3.csv``, ``table4.csv``, ``curves.csv``, the figures) is written to a
-   temporary name in ``OUT`` (``.NAME.PID.tmp``) and moved over the old one with
-   :func:`os.replace`, so each is at any moment either entirely the old or entirely the new one.
-3. ``config.json`` is written last, the same way, with a fresh ``run_id`` and, under ``files``,
-   the SHA-256 and size of every data file of the run.
+1. Each data file (``table3.csv``, ``table4.csv``, ``curves.csv``, the figures) and then
+   ``config.json`` (the run's configuration, a fresh ``run_id`` and, under ``files``, the SHA-256
+   and size of every data file) are written to temporary names in ``OUT`` (``.NAME.PID.tmp``).
+   If any write fails (a full disk, a read-only mount, a folder where a file goes), the
+   temporaries are removed and ``OUT`` keeps its last complete publication untouched.
+2. ``OUT/config.json`` is deleted, each data file is moved over the old one with
+   :func:`os.replace` (a rename: no space needed) and ``config.json`` is moved in last.
 
 Hence: when ``config.json`` exists, the data files it lists are the ones of its run
-(:func:`check_outputs` verifies the digests); when it is missing, the last run did not finish
-writing and the directory describes no run.  An interrupted run leaves at most temporary
-files behind (removed when their writer fails in Python; a killed process can leave one).
+(:func:`check_outputs` verifies the digests); when it is missing, the last run was interrupted
+between its renames and the directory describes no run.  A ``config.json`` this suite did not
+write (no ``run_id``/``files``) is never deleted: :func:`publish` refuses the folder instead.
+
+Every file-system failure surfaces as :class:`OutputError` (an ``OSError``) whose message is one
+line naming the path and the reason; the command line turns it into exit code 2.
 """
 
 from __future__ import annotations
@@ -21,14 +26,42 @@ import hashlib
 import json
 import os
 import uuid
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable
 
 #: The manifest: the run's configuration, its id and the digests of its data files.
 MANIFEST = "config.json"
+#: The lock file a writer holds in an output folder (:func:`output_lock`).
+LOCK_FILE = ".tableclean.lock"
+#: Seconds :func:`output_lock` waits for another writer before giving up (0: give up at once).
+DEFAULT_LOCK_WAIT = 0.0
 
 #: Bytes read at a time when hashing a file.
 _HASH_BLOCK = 1 << 20
+#: Keys that mark a manifest as written by :func:`publish`.
+_MANIFEST_KEYS = ("run_id", "files")
+
+
+class OutputError(OSError):
+    """An output folder or file that cannot be used or written; the message names it and why."""
+
+
+class OutputBusyError(OutputError):
+    """Another process holds the output folder's lock (:func:`output_lock`)."""
+
+
+def describe_os_error(error: OSError) -> str:
+    """``'No space left on device'``-style reason of an ``OSError`` (its strerror, else its text)."""
+    return error.strerror or str(error) or type(error).__name__
+
+
+def check_out_path(out) -> Path:
+    """``out`` as a :class:`Path`; :class:`OutputError` for an empty or blank name (which would
+    otherwise mean the current directory)."""
+    if out is None or (isinstance(out, str) and not out.strip()):
+        raise OutputError(f"output folder {out!r} is empty; name a folder (e.g. results/run1)")
+    return Path(out)
 
 
 def temporary_path(path: Path) -> Path:
@@ -45,17 +78,29 @@ def atomic_write(path, write: Callable[[Path], None]) -> Path:
 
     Returns:
         ``path``.  If ``write`` or the replace fails, ``path`` is unchanged and the temporary
-        file is removed.
+        file is removed; a file-system failure is raised as :class:`OutputError`.
     """
     path = Path(path)
     temporary = temporary_path(path)
     try:
         write(temporary)
         os.replace(temporary, path)
+    except OSError as error:
+        _remove_quietly(temporary)
+        if isinstance(error, OutputError):
+            raise
+        raise OutputError(f"cannot write {str(path)!r}: {describe_os_error(error)}") from None
     except BaseException:
-        temporary.unlink(missing_ok=True)
+        _remove_quietly(temporary)
         raise
     return path
+
+
+def _remove_quietly(path: Path) -> None:
+    try:
+        path.unlink(missing_ok=True)
+    except OSError:
+        pass  # e.g. the temporary's name is a directory: nothing of ours to remove
 
 
 def atomic_write_text(path, text: str) -> Path:
@@ -72,27 +117,129 @@ def sha256_file(path) -> str:
     return digest.hexdigest()
 
 
-def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict) -> list[Path]:
+_HELD_LOCKS: dict = {}
+
+
+@contextmanager
+def output_lock(out, wait: float = DEFAULT_LOCK_WAIT):
+    """Hold ``OUT/.tableclean.lock`` (:mod:`filelock`) while writing into ``out``.
+
+    Re-entrant within a process (a run holding its folder can :func:`publish` into it).  The
+    lock is the operating system's, so it is released when the holder exits or is killed.
+
+    Args:
+        out: the output folder (created if missing).
+        wait: seconds to wait for another holder (0: refuse at once).
+
+    Raises:
+        OutputBusyError: another process holds it after ``wait`` seconds.
+        OutputError: the folder cannot hold a lock file.
+    """
+    import filelock
+
+    out = check_out_path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise OutputError(f"output folder {str(out)!r} cannot be created: {describe_os_error(error)}") from None
+    key = os.path.realpath(out)
+    lock = _HELD_LOCKS.get(key)
+    if lock is None:
+        lock = _HELD_LOCKS[key] = filelock.FileLock(str(out / LOCK_FILE))
+    try:
+        lock.acquire(timeout=wait)
+    except filelock.Timeout:
+        raise OutputBusyError(f"output folder {str(out)!r} is in use by another run (it holds {LOCK_FILE}); wait "
+                              f"for it to finish or choose another output folder") from None
+    except OSError as error:
+        raise OutputError(f"output folder {str(out)!r} cannot be locked: {describe_os_error(error)}") from None
+    try:
+        yield out
+    finally:
+        lock.release()
+
+
+def is_own_manifest(path) -> bool:
+    """Whether ``path`` is a ``config.json`` written by :func:`publish` (a JSON object with
+    ``run_id`` and ``files``); False for anything else, unreadable files included."""
+    try:
+        document = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(document, dict) and all(key in document for key in _MANIFEST_KEYS)
+
+
+def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict, wait: float = 60.0) -> list[Path]:
     """Write a run's data files and its manifest following the module's protocol.
 
     Args:
-        out: the output directory (must exist).
+        out: the output directory (must exist; not empty).
         writers: ``{file name: write(path)}`` of the data files, written in this order.
         manifest: the run's description; ``run_id`` and ``files`` are added to it.
+        wait: seconds to wait for another writer's lock (:func:`output_lock`).
 
     Returns:
         The paths written, data files first and ``config.json`` last.
+
+    Raises:
+        OutputError: a file cannot be written (the last publication is left as it was), or
+            ``OUT/config.json`` exists and was not written by this suite (it is not deleted).
     """
-    out = Path(out)
-    (out / MANIFEST).unlink(missing_ok=True)
-    written, files = [], {}
-    for name, write in writers.items():
-        path = atomic_write(out / name, write)
-        files[name] = {"sha256": sha256_file(path), "bytes": path.stat().st_size}
-        written.append(path)
-    document = {**manifest, "run_id": uuid.uuid4().hex, "files": files}
-    written.append(atomic_write_text(out / MANIFEST, json.dumps(document, indent=2)))
-    return written
+    out = check_out_path(out)
+    with output_lock(out, wait):
+        manifest_path = out / MANIFEST
+        if manifest_path.exists() and not is_own_manifest(manifest_path):
+            raise OutputError(f"{str(manifest_path)!r} exists and was not written by tableclean_suite; it is left "
+                              f"alone: choose another output folder")
+        staged: list[tuple[Path, Path]] = []
+        try:
+            files = {}
+            for name, write in writers.items():
+                path = out / name
+                temporary = _stage(path, write)
+                staged.append((temporary, path))
+                files[name] = {"sha256": sha256_file(temporary), "bytes": temporary.stat().st_size}
+            document = {**manifest, "run_id": uuid.uuid4().hex, "files": files}
+            text = json.dumps(document, indent=2)
+            staged.append((_stage(manifest_path, lambda t: t.write_text(text, encoding="utf-8")), manifest_path))
+            _unlink(manifest_path)
+            for temporary, path in staged:
+                _replace(temporary, path)
+        finally:
+            for temporary, _ in staged:
+                _remove_quietly(temporary)
+    return [path for _, path in staged]
+
+
+def _stage(path: Path, write: Callable[[Path], None]) -> Path:
+    """Write ``path``'s temporary; :class:`OutputError` (temporary removed) if it cannot be, or if
+    ``path`` is a folder (checked before anything is replaced)."""
+    if path.is_dir():
+        raise OutputError(f"cannot write {str(path)!r}: it is a folder; remove it or choose another output folder")
+    temporary = temporary_path(path)
+    try:
+        write(temporary)
+    except OSError as error:
+        _remove_quietly(temporary)
+        raise OutputError(f"cannot write {str(path)!r}: {describe_os_error(error)}") from None
+    except BaseException:
+        _remove_quietly(temporary)
+        raise
+    return temporary
+
+
+def _unlink(path: Path) -> None:
+    try:
+        path.unlink(missing_ok=True)
+    except OSError as error:
+        raise OutputError(f"cannot replace {str(path)!r}: {describe_os_error(error)}") from None
+
+
+def _replace(temporary: Path, path: Path) -> None:
+    try:
+        os.replace(temporary, path)
+    except OSError as error:
+        raise OutputError(f"cannot write {str(path)!r}: {describe_os_error(error)}") from None
 
 
 def check_outputs(out) -> list[str]:
@@ -126,6 +273,8 @@ def check_writable(out) -> str | None:
     Creates ``out`` (and its parents) if missing and writes and removes a probe file in it, so
     the answer is the file system's, permissions, read-only mounts and full disks included.
     """
+    if out is None or (isinstance(out, str) and not out.strip()):
+        return f"{out!r} is empty (it would mean the current directory); name a folder"
     out = Path(out)
     for parent in (out, *out.parents):
         if parent.exists():
@@ -139,5 +288,18 @@ def check_writable(out) -> str | None:
         probe.write_bytes(b"")
         probe.unlink()
     except OSError as error:
-        return f"{str(out)!r} is not writable ({error.strerror or error})"
+        return f"{str(out)!r} is not writable ({describe_os_error(error)})"
     return None
+
+
+def check_publishable(out, folders=()) -> str | None:
+    """Why :func:`publish` could not use ``out``, or None: :func:`check_writable` of ``out`` and of
+    each of its sub-``folders`` (e.g. ``("cells",)``), and a ``config.json`` there that this suite
+    did not write (which :func:`publish` never deletes).  Call it before any work."""
+    problem = check_writable(out)
+    for folder in folders:
+        problem = problem or check_writable(Path(out) / folder)
+    if problem is None and (Path(out) / MANIFEST).exists() and not is_own_manifest(Path(out) / MANIFEST):
+        problem = (f"{str(Path(out) / MANIFEST)!r} exists and was not written by tableclean_suite; it is left alone: "
+                   "choose another output folder")
+    return problem

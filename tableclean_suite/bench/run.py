@@ -234,6 +234,19 @@ def _manifest(config: RunConfig, model, transitions_sha256, grid_run, stride: in
 
 
 def run(args) -> int:
+    """:func:`train_and_publish` holding ``--out``'s lock (:func:`.outputs.output_lock`), so a second
+    run into the same folder exits 2 instead of mixing its files with this one's."""
+    from tableclean_suite.bench import outputs
+
+    problem = outputs.check_publishable(args.config.out, folders=("cells",))
+    if problem:
+        print(f"{args.parser.prog}: error: --out {problem}", file=sys.stderr)
+        return EXIT_USAGE
+    with outputs.output_lock(args.config.out):
+        return train_and_publish(args)
+
+
+def train_and_publish(args) -> int:
     """Train/load the grid, print the tables, write files and figures; returns the exit code."""
     from tableclean_suite.bench import derived, experiments, outputs, tables
     from tableclean_suite.executors import MissingRayError, TaskFailedError
