@@ -207,7 +207,17 @@ class RewardPattern:
             "pick_place_move": self.routine,
             "improper_actions": self.improper,
             "looping_penalty": self.looping_penalty,
+            "looping_rule": self.looping_rule_text() if self.looping_penalty is not None else None,
         }
+
+    def looping_rule_text(self) -> str:
+        """What the looping rule compares s_{t+1} with: ``"s_t, s_t-1"`` (the paper's),
+        ``"last k states"`` or ``"the episode"``."""
+        if self.paper_looping:
+            return "s_t, s_t-1"
+        if self.looping_memory == EPISODE_LOOPING_MEMORY:
+            return "the episode"
+        return f"last {self.looping_memory} states"
 
 
 PAPER_REWARD_PATTERNS = (

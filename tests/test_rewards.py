@@ -94,6 +94,9 @@ def test_looping_memory_catches_a_ring_the_paper_rule_misses():
     three = RewardPattern("ring3", 1, 1, -0.01, 0.01, -1, looping_penalty=-0.5, looping_memory=3)
     assert three.reward(routine, 12, 10, 11, history=ring) == -0.5  # s_{t-2} is within 3 states
     assert three.reward(routine, 12, 10, 11, history=[10, 9, 11, 12]) == 0.01  # 4 states back: outside
+    assert (r4.as_row()["looping_rule"], R4_CYCLE.as_row()["looping_rule"], three.as_row()["looping_rule"]) == (
+        "s_t, s_t-1", "the episode", "last 3 states")
+    assert get_reward_pattern("r3").as_row()["looping_rule"] is None
     with pytest.raises(ValueError, match="pass history="):
         R4_CYCLE.reward(routine, 12, 10, 11)
     with pytest.raises(ValueError, match="looping_memory must be an integer >= 2"):
