@@ -1,8 +1,10 @@
-"""The benchmark harness: reproduce the paper's Tables 3-4 and Figures 3-7, and measure the skills.
+"""The benchmark commands: reproduce the paper's Tables 3-4 and Figures 3-7, and measure the skills.
 
-Ships with the package, so an installed ``tableclean_suite`` runs it without the source checkout::
+Ships with the package, so an installed ``tableclean_suite`` runs them without the source checkout::
 
-    python -m tableclean_suite.bench.run --help
+    tableclean-bench --help                    # the commands (python -m tableclean_suite.bench --help)
+    tableclean-bench COMMAND --help
 
-The checkout's ``benchmarks/`` folder keeps thin ``python -m benchmarks.X`` entry points to these modules.
+:mod:`.commands` is the registry; the checkout's ``benchmarks/`` folder keeps thin
+``python -m benchmarks.X`` aliases of the commands.
 """
