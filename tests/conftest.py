@@ -1,24 +1,130 @@
-"""Test configuration: headless MuJoCo rendering before robosuite is imported, and the quick tier.
+"""Test configuration: headless MuJoCo rendering before robosuite is imported, and the test tiers.
 
 Markers (registered in pytest.ini): ``slow`` (MuJoCo physics, full-size runs), ``cli`` (a command
 line in a new process), ``install`` (pip builds and installs the package), ``ray`` (a local Ray
-cluster).  Every test that carries none of them is marked ``quick`` here, so
-``python -m pytest -m quick`` is the development tier; ``python -m pytest`` still runs everything.
+cluster), ``jit`` (compiles a numba kernel no disk cache serves).  Test files mark ``slow``
+themselves; the others are given here, from :data:`HEAVY_TESTS`, so one table says which tests
+leave the process or compile.  Every test that carries none
+of them is marked ``quick``: ``python -m pytest -m quick`` is the development tier (about 90 s on 2
+cores), and ``python -m pytest`` still runs everything.  (A test file may also mark its own tests, as
+tests/test_docs.py does per code block.)
+
+The quick tier stays quick: a ``quick`` test that starts a process (``subprocess``, so also pip,
+Ray or a command line) fails, naming the command and the markers to give it.
 """
 
+from __future__ import annotations
+
 import os
+import subprocess
+from pathlib import Path
 
 import pytest
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen rendering without a display (osmesa also works where installed)
 
 #: Markers that keep a test out of the quick tier.
-HEAVY_MARKERS = ("slow", "cli", "install", "ray")
+HEAVY_MARKERS = ("slow", "cli", "install", "ray", "jit")
+
+#: Marker -> tests that carry it: a test file ("test_cli.py": all its tests) or one test
+#: ("test_demos.py::test_bad_policy_exits_2", parametrised ids included).
+HEAVY_TESTS: dict[str, tuple[str, ...]] = {
+    "cli": (
+        "test_bench_cache.py",
+        "test_bench_config.py::test_help_lists_the_allowed_names",
+        "test_bench_config.py::test_bad_names_exit_2_with_the_allowed_ones",
+        "test_bench_derived.py::test_warm_fresh_and_empty_caches_write_identical_files_and_tables",
+        "test_bench_derived.py::test_a_changed_setting_is_not_served_from_the_caches",
+        "test_bench_outputs.py::test_unusable_out_exits_2_before_training",
+        "test_bench_outputs.py::test_cli_outputs_agree_with_their_manifest",
+        "test_bench_window.py::test_window_invariance_entry_point_exits_2_without_a_traceback",
+        "test_cache_guard.py",
+        "test_demos.py::test_bad_flag_from_the_command_line_has_no_traceback",
+        "test_examples.py",
+        "test_executors.py::test_cells_through_an_executor_are_bit_identical_to_the_serial_run",
+        "test_gym_envs.py::test_import_does_not_load_the_physics_env",
+        "test_gym_envs.py::test_record_video_writes_an_episode_with_the_video_extra",  # ffmpeg
+        "test_learners_spec.py::test_second_process_uses_the_numba_disk_cache",
+        "test_package.py",
+    ),
+    "install": ("test_bench_install.py",),
+    "ray": (
+        "test_executors.py::test_ray_gives_the_local_results",
+        "test_executors.py::test_ray_retries_a_task_that_fails_once",
+        "test_executors.py::test_ray_raises_naming_a_task_that_keeps_failing",
+        "test_executors.py::test_cells_through_an_executor_are_bit_identical_to_the_serial_run",
+        "test_physics_backend.py::test_physics_runs_on_ray_equal_the_runs_in_this_process",
+    ),
+    "jit": (  # a user's learner gets its own compiled copy of the training loop, which no disk cache serves
+        "test_learners.py::test_user_defined_learner_object_and_registration",
+        "test_learners_extra.py::test_a_user_target_with_the_trace_rule_gets_the_same_numbers",
+        "test_learners_spec.py::test_user_learner_gets_its_own_compiled_loop_with_the_same_numbers",
+    ),
+}
+
+
+def _table_marker(nodeid: str) -> list[str]:
+    """The markers :data:`HEAVY_TESTS` gives the test ``nodeid`` (``tests/test_x.py::test_y[id]``)."""
+    path, _, name = nodeid.partition("::")
+    file = path.rsplit("/", 1)[-1]
+    function = name.split("[", 1)[0]
+    return [marker for marker, entries in HEAVY_TESTS.items()
+            if file in entries or f"{file}::{function}" in entries]
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest's own -m selection reads the markers
 def pytest_collection_modifyitems(config, items):
-    """Mark every test without a heavy marker ``quick``."""
+    """Give the tests of :data:`HEAVY_TESTS` their markers, then mark every other test ``quick``."""
+    modules = {}
     for item in items:
+        for marker in _table_marker(item.nodeid):
+            item.add_marker(getattr(pytest.mark, marker))
         if not any(item.get_closest_marker(name) for name in HEAVY_MARKERS):
             item.add_marker(pytest.mark.quick)
+        if getattr(item, "module", None) is not None:
+            modules[item.nodeid.partition("::")[0].rsplit("/", 1)[-1]] = item.module
+    here = Path(__file__).parent
+    stale = [entry for entries in HEAVY_TESTS.values() for entry in entries
+             if not (here / entry.split("::")[0]).exists()
+             or ("::" in entry and entry.split("::")[0] in modules
+                 and not hasattr(modules[entry.split("::")[0]], entry.split("::")[1]))]
+    if stale:
+        raise pytest.UsageError(f"tests/conftest.py HEAVY_TESTS names tests that do not exist: {', '.join(stale)}")
+
+
+class _ProcessInQuickTest(RuntimeError):
+    pass
+
+
+def _refuse_processes(nodeid: str):
+    original = subprocess.Popen.__init__
+
+    def refuse(self, args, *rest, **kwargs):
+        shown = " ".join(map(str, args)) if isinstance(args, (list, tuple)) else str(args)
+        raise _ProcessInQuickTest(f"{nodeid} is a quick test but starts a process ({shown[:120]}); "
+                                  "give it a marker in tests/conftest.py HEAVY_TESTS (cli, install or ray)")
+
+    subprocess.Popen.__init__ = refuse
+    return original
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_setup(item):
+    """A quick test's fixtures may not start processes."""
+    return (yield from _guarded(item))
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_call(item):
+    """Nor may a quick test itself."""
+    return (yield from _guarded(item))
+
+
+def _guarded(item):
+    if item.get_closest_marker("quick") is None:
+        return (yield)
+    original = _refuse_processes(item.nodeid)
+    try:
+        return (yield)
+    finally:
+        subprocess.Popen.__init__ = original

@@ -7,7 +7,6 @@ it (at a fixed width of :data:`HELP_WIDTH` columns, so the page does not depend 
 
 from __future__ import annotations
 
-import logging
 import os
 from contextlib import contextmanager
 
@@ -15,8 +14,6 @@ MARKER = "<!-- commands: generated from the parsers -->"
 PAGE = "commands.md"
 HELP_WIDTH = 100  # columns argparse wraps the help at
 COMMANDS_MODULE = "tableclean_suite.bench.commands"
-
-log = logging.getLogger("mkdocs.hooks.command_reference")
 
 
 @contextmanager
@@ -50,22 +47,10 @@ def reference_markdown(helps: dict[str, str]) -> str:
     return "\n".join(sections)
 
 
-def _missing_registry_markdown() -> str:
-    return ('!!! warning "Not generated"\n'
-            f"    `{COMMANDS_MODULE}` is not importable in this checkout, so the reference could not be rendered.\n")
-
-
 def on_page_markdown(markdown, page, config, files):
     """Replace the marker on the command reference page with the rendered help of every command."""
     if page.file.src_uri != PAGE:
         return markdown
     if MARKER not in markdown:
         raise ValueError(f"{PAGE} lost its marker {MARKER!r}; the command reference would not be generated")
-    try:
-        helps = command_helps()
-    except ModuleNotFoundError as error:
-        if error.name != COMMANDS_MODULE:
-            raise
-        log.info("%s is not importable; the command reference is not generated", COMMANDS_MODULE)
-        return markdown.replace(MARKER, _missing_registry_markdown())
-    return markdown.replace(MARKER, reference_markdown(helps))
+    return markdown.replace(MARKER, reference_markdown(command_helps()))
