@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -55,6 +56,7 @@ assert main(argv) == 0
 '''
 
 
+@pytest.mark.cli
 def test_reregistered_learner_retrains_into_the_same_out(tmp_path):
     driver = tmp_path / "driver.py"
     driver.write_text(DRIVER)
@@ -73,3 +75,73 @@ def test_reregistered_learner_retrains_into_the_same_out(tmp_path):
     columns = ["reward_convergence_iterations", "max_success_iterations", "success_plateau", "max_average_reward"]
     assert not first[columns].equals(second[columns])  # the numbers changed with the code
     assert len(list((out / "cells").glob("mine-r1-*.npz"))) == 2
+
+
+HELPER = "SCALE = {scale}\n\ndef scaled(value):\n    return SCALE * value\n"
+PLUGIN = """
+from tableclean_suite.rewards import RewardPattern, register_reward_pattern
+import {helper} as helper
+
+BONUS = {bonus}
+register_reward_pattern(RewardPattern("{name}", terminal=helper.scaled(BONUS), relevant_clean=1.0,
+                                      irrelevant_clean=-1.0, routine=-0.1, improper=-2.0), overwrite=True)
+"""
+
+
+def _write_plugin(folder: Path, tag: str, bonus: float, scale: float) -> Path:
+    helper = f"faults_helper_{tag}"
+    (folder / f"{helper}.py").write_text(HELPER.format(scale=scale))
+    plugin = folder / f"faults_plugin_{tag}.py"
+    plugin.write_text(PLUGIN.format(helper=helper, bonus=bonus, name=f"faults_{tag}"))
+    return plugin
+
+
+@pytest.mark.parametrize("edit", ["plugin constant", "imported helper"])
+def test_the_plugin_sources_digest_follows_edits_to_the_plugin_and_its_helpers(tmp_path, monkeypatch, edit):
+    from tableclean_suite.bench import plugins
+
+    monkeypatch.syspath_prepend(str(tmp_path))
+    tag = edit.replace(" ", "_")
+    plugin = _write_plugin(tmp_path, tag, bonus=10, scale=1)
+    sources = plugins.loaded_plugin_sources([str(plugin)])
+    assert {Path(p).name for p in sources} == {plugin.name, f"faults_helper_{tag}.py"}
+    before = plugins.plugin_sources_digest([str(plugin)])
+    assert before == plugins.plugin_sources_digest([str(plugin)])  # stable
+    if edit == "plugin constant":
+        plugin.write_text(plugin.read_text().replace("BONUS = 10", "BONUS = 11"))
+    else:
+        (tmp_path / f"faults_helper_{tag}.py").write_text(HELPER.format(scale=2))
+    assert plugins.plugin_sources_digest([str(plugin)]) != before
+    assert plugins.plugin_sources_digest([]) is None
+
+
+def test_installed_and_package_modules_are_not_plugin_sources():
+    import numpy
+
+    from tableclean_suite.bench import plugins
+    from tableclean_suite.task import model
+
+    assert not plugins._is_user_file(numpy.__file__) and not plugins._is_user_file(model.__file__)
+    assert not plugins._is_user_file(os.__file__) and plugins._is_user_file(__file__)
+
+
+@pytest.mark.cli
+def test_editing_a_plugin_retrains_its_cells_into_the_same_out(tmp_path):
+    plugin = _write_plugin(tmp_path, "cli", bonus=10, scale=1)
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(tmp_path), str(ROOT),
+                                                                      os.environ.get("PYTHONPATH")]))}
+
+    def run():
+        result = subprocess.run(
+            [sys.executable, "-m", "benchmarks.run", "--plugins", str(plugin), "--rewards", "faults_cli",
+             "--learners", "q_learning", "--runs", "10", "--iterations", "200", "--no-sweeps", "--no-literature",
+             "--no-figures", "--no-progress", "--out", str(out)],
+            cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+        assert result.returncode == 0, result.stderr
+        return next(line for line in result.stdout.splitlines() if line.startswith("cells:"))
+
+    assert "trained 1" in run()
+    assert "resumed 1 cells" in run()
+    (tmp_path / "faults_helper_cli.py").write_text(HELPER.format(scale=3))  # only the helper changes
+    assert "resumed 0 cells" in run()

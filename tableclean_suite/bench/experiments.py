@@ -153,7 +153,8 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
     other values gets a new hash and is retrained.  The learner is recorded as the run trains it
     (:meth:`RunConfig.learner`), with its :meth:`~tableclean_suite.learners.TabularLearner.settings`
     (update rule and its options, ``q_init``, exploration, affordances, advisor), so cells trained
-    with other learner settings never share a key.
+    with other learner settings never share a key.  With ``--plugins``, the plugin modules' sources
+    (and those of the user modules they refer to) enter the key too (:func:`_plugins_key`).
     """
     pattern = get_reward_pattern(cell.reward)
     learner = config.learner(cell.learner)
@@ -174,7 +175,19 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
         "task_digest": model.code_digest() if task_digest is None else task_digest,
         "transitions_sha256": transitions_sha256,
         "metrics_digest": metrics_digest(),
+        **_plugins_key(config),
     }
+
+
+def _plugins_key(config: RunConfig) -> dict:
+    """``{"plugins_digest": ...}``: the SHA-256 of the ``--plugins`` modules' sources and of the user
+    modules they refer to (:func:`tableclean_suite.bench.plugins.plugin_sources_digest`), so editing a
+    plugin retrains the cells it may affect; ``{}`` without plugins (keys as before)."""
+    if not config.plugins:
+        return {}
+    from tableclean_suite.bench.plugins import plugin_sources_digest
+
+    return {"plugins_digest": plugin_sources_digest(config.plugins)}
 
 
 def config_hash(config: dict) -> str:

@@ -146,3 +146,68 @@ def with_plugins(executor, plugins: Iterable[str]):
     """``executor``, wrapped in a :class:`PluginExecutor` when there are ``plugins``."""
     plugins = tuple(plugins or ())
     return PluginExecutor(executor, plugins) if plugins else executor
+
+
+def _is_user_file(path: str | None) -> bool:
+    """Whether ``path`` is a user's source file: not in the standard library, not in an installed
+    package (site-packages, the interpreter's prefix) and not in ``tableclean_suite`` itself (whose
+    code the caches digest separately)."""
+    import sysconfig
+
+    if not path or not path.endswith(SOURCE_SUFFIX):
+        return False
+    resolved = Path(path).resolve()
+    package = Path(__file__).resolve().parents[1]
+    roots = {Path(p).resolve() for p in (sys.prefix, sys.base_prefix, sys.exec_prefix,
+                                         sysconfig.get_paths().get("stdlib"), sysconfig.get_paths().get("purelib"))
+             if p}
+    return not any(resolved.is_relative_to(root) for root in (*roots, package))
+
+
+def _user_modules(modules) -> list:
+    """``modules`` and, transitively, every user module (:func:`_is_user_file`) their globals refer
+    to: a module imported by name, or a function, class or constant's defining module."""
+    seen, pending = {}, list(modules)
+    while pending:
+        module = pending.pop()
+        path = getattr(module, "__file__", None)
+        if not _is_user_file(path) or path in seen:
+            continue
+        seen[path] = module
+        for value in list(vars(module).values()):
+            if isinstance(value, type(sys)):
+                pending.append(value)
+            else:
+                owner = sys.modules.get(getattr(value, "__module__", None) or "")
+                if owner is not None:
+                    pending.append(owner)
+    return [seen[path] for path in sorted(seen)]
+
+
+def loaded_plugin_sources(entries: Iterable[str]) -> dict[str, str]:
+    """``{module file: SHA-256 of its bytes}`` of the plugin ``entries`` (imported if they are not
+    yet) and of every user module they refer to, however deep (not the standard library, installed
+    packages or ``tableclean_suite``): what a cache of results computed with the plugins must key on,
+    so that editing a plugin, or a helper module it imports, invalidates the cache.
+
+    Raises:
+        PluginError: an entry cannot be imported.
+    """
+    import hashlib
+
+    sources = {}
+    for module in _user_modules(load_plugins(entries)):
+        path = str(Path(module.__file__).resolve())
+        sources[path] = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    return sources
+
+
+def plugin_sources_digest(entries: Iterable[str]) -> str | None:
+    """One SHA-256 over the contents of :func:`loaded_plugin_sources` (independent of where the files
+    are, so a cluster node with the same code in another folder agrees); None without entries."""
+    import hashlib
+
+    entries = tuple(entries or ())
+    if not entries:
+        return None
+    return hashlib.sha256("".join(sorted(loaded_plugin_sources(entries).values())).encode()).hexdigest()
