@@ -159,6 +159,18 @@ def add_seed_argument(parser, what: str, default=0, **options) -> None:
                         help=f"seed of {what}, an integer >= 0{shown}", **options)
 
 
+def add_runs_argument(parser, default: int, what: str, **options) -> None:
+    """``--runs R``: independent training runs (an integer >= 1), ``what`` they are for."""
+    parser.add_argument("--runs", type=positive_int, default=default, metavar="R",
+                        help=f"{what}, an integer >= 1 (default {default})", **options)
+
+
+def add_iterations_argument(parser, default: int, what: str, **options) -> None:
+    """``--iterations I``: training iterations per run (an integer >= 1), ``what`` they are for."""
+    parser.add_argument("--iterations", type=positive_int, default=default, metavar="I",
+                        help=f"{what}, an integer >= 1 (default {default})", **options)
+
+
 def add_out_argument(parser, kind: str, default, what: str, flags=("--out",), **options) -> None:
     """``--out PATH``: where the command writes (``kind``: a directory or a file), checked at parse time
     (:func:`output_path`)."""

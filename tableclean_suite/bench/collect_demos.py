@@ -76,10 +76,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         help="optimal: the shortest plan; learned: greedy Q-learning r4 policy (default optimal)")
     cli.add_seed_argument(parser, "the start layouts, the placement noise and the training")
     cli.add_out_argument(parser, cli.FILE, None, "output .hdf5 (results/demos_<task>_<policy>.hdf5 when not given)")
-    parser.add_argument("--iterations", type=positive_int, default=DEFAULT_ITERATIONS,
-                        help=f"learned: training iterations per run (default {DEFAULT_ITERATIONS})")
-    parser.add_argument("--runs", type=positive_int, default=DEFAULT_RUNS,
-                        help=f"learned: training runs voting on the policy (default {DEFAULT_RUNS})")
+    cli.add_iterations_argument(parser, DEFAULT_ITERATIONS, "learned: training iterations per run")
+    cli.add_runs_argument(parser, DEFAULT_RUNS, "learned: training runs voting on the policy")
     parser.add_argument("--max-actions", type=positive_int, default=DEFAULT_MAX_ACTIONS,
                         help=f"learned: actions per episode before it counts as failed (default {DEFAULT_MAX_ACTIONS})")
     parser.add_argument("--valid-fraction", type=float, default=None,

@@ -50,8 +50,8 @@ def analyse(learner: str, reward: str, model: TaskModel, runs: int, iterations: 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line: the shared options of :mod:`.cli` and the analysis' own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
-    parser.add_argument("--runs", type=positive_int, default=1000, help="runs per row (default 1000)")
-    parser.add_argument("--iterations", type=positive_int, default=4000, help="training iterations (default 4000)")
+    cli.add_runs_argument(parser, 1000, "runs per row")
+    cli.add_iterations_argument(parser, 4000, "training iterations")
     parser.add_argument("--long-iterations", type=positive_int, default=20000, help="iterations of the long r3 row (default 20000)")
     cli.add_seed_argument(parser, "the training runs")
     return parser

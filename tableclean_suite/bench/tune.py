@@ -168,8 +168,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser.add_argument("--learner", default="q_learning", help="registered learner (default: q_learning)")
     parser.add_argument("--reward", default="r4", help="registered reward pattern (default: r4)")
     cli.add_task_argument(parser)
-    parser.add_argument("--runs", type=int, default=200, help="runs per trial (default: 200)")
-    parser.add_argument("--iterations", type=int, default=2000, help="iterations per run (default: 2000)")
+    cli.add_runs_argument(parser, 200, "runs per trial")
+    cli.add_iterations_argument(parser, 2000, "iterations per run")
     parser.add_argument("--max-itr", type=int, default=500, help="episode length limit (default: 500)")
     parser.add_argument("--threshold", type=float, default=0.95,
                         help="fraction of the success asymptote that counts as reached (default: 0.95)")
