@@ -52,3 +52,33 @@ def test_bad_arguments_exit_2():
     with pytest.raises(SystemExit) as exit_info:
         tune.parse_args(["--reward", "r9"])
     assert exit_info.value.code == 2
+
+
+@pytest.mark.parametrize("change", [["--reward", "r2"], ["--seed", "2"], ["--tolerance", "0.2"],
+                                    ["--iterations", "250"]])
+def test_a_study_name_is_bound_to_its_configuration(tmp_path, capsys, change):
+    out = tmp_path / "tune"
+    assert tune.main([*TINY, "--trials", "1", "--out", str(out), "--study-name", "shared"]) == 0
+    best = (out / "best.json").read_text()
+    flag, value = change
+    changed = list(TINY)
+    if flag in changed:
+        changed[changed.index(flag) + 1] = value
+    else:
+        changed += [flag, value]
+    capsys.readouterr()
+    assert tune.main([*changed, "--trials", "1", "--out", str(out), "--study-name", "shared"]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    key = {"--reward": "reward", "--seed": "seed", "--tolerance": "tolerance", "--iterations": "iterations"}[flag]
+    assert len(error) == 1 and "shared" in error[0] and f"{key}=" in error[0] and "--study-name" in error[0], error
+    assert (out / "best.json").read_text() == best  # nothing ranked or rewritten
+    study = optuna.load_study(study_name="shared", storage=f"sqlite:///{(out / 'study.db').as_posix()}")
+    assert len(study.trials) == 1
+
+
+@pytest.mark.parametrize("storage", ["foo://x", "not a url", "sqlite:////nonexistent-faults-dir/x/study.db",
+                                     "mysql://user@127.0.0.1:1/db", "redis://localhost"])
+def test_a_bad_storage_url_is_one_line_and_exit_2(tmp_path, capsys, storage):
+    code = tune.main([*TINY, "--trials", "1", "--out", str(tmp_path / "tune"), "--storage", storage])
+    error = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(error) == 1 and "--storage" in error[0] and repr(storage) in error[0], error

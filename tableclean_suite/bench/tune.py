@@ -56,6 +56,53 @@ PRUNER_STARTUP_TRIALS = 5
 PRUNER_WARMUP_STEPS = 1
 #: User attribute of the study holding the paper configuration's result.
 REFERENCE_ATTR = "paper_reference"
+#: User attribute of the study holding the configuration it was created for (:func:`study_configuration`).
+CONFIGURATION_ATTR = "configuration"
+#: Exit status of a refused call (a bad --storage, a study of another configuration).
+EXIT_USAGE = 2
+
+
+class StudyError(ValueError):
+    """A study that cannot be opened or does not belong to this call's configuration (one line)."""
+
+
+def study_configuration(args) -> dict:
+    """What a study's trials and its paper reference depend on: learner, reward, the task spec (as
+    JSON), runs, iterations, max_itr, seed, threshold, tolerance and the ``--plugins`` sources."""
+    from tableclean_suite.bench.plugins import plugin_sources_digest
+
+    return {"learner": args.learner, "reward": args.reward, "task": args.model.spec.to_dict(), "runs": args.runs,
+            "iterations": args.iterations, "max_itr": args.max_itr, "seed": args.seed, "threshold": args.threshold,
+            "tolerance": args.tolerance, "plugins_digest": plugin_sources_digest(getattr(args, "plugins", ()))}
+
+
+def bind_configuration(study, args) -> None:
+    """Record this call's configuration in a new study; refuse a study made for another one.
+
+    Raises:
+        StudyError: the study holds another configuration (both are named), or trials without a
+            recorded configuration (made by an older version).
+    """
+    wanted = json.loads(json.dumps(study_configuration(args)))
+    stored = study.user_attrs.get(CONFIGURATION_ATTR)
+    if stored is None:
+        if study.trials or study.user_attrs.get(REFERENCE_ATTR) is not None:
+            raise StudyError(f"study {args.study_name!r} in {args.storage} has {len(study.trials)} trials of an "
+                             "unrecorded configuration; use another --study-name")
+        study.set_user_attr(CONFIGURATION_ATTR, wanted)
+        return
+    if stored != wanted:
+        keys = sorted(k for k in set(stored) | set(wanted) if stored.get(k) != wanted.get(k))
+        shown = {k: ("<spec>" if k == "task" else None) for k in keys}
+        before = ", ".join(f"{k}={shown[k] or stored.get(k)!r}" for k in keys)
+        now = ", ".join(f"{k}={shown[k] or wanted.get(k)!r}" for k in keys)
+        raise StudyError(f"study {args.study_name!r} in {args.storage} was created with {before}; this call asks "
+                         f"for {now}; use another --study-name (or the study's settings)")
+
+
+def _storage_failure(args, error: Exception) -> StudyError:
+    reason = (str(error).strip().splitlines() or [type(error).__name__])[0]
+    return StudyError(f"--storage {args.storage!r} cannot be opened: {type(error).__name__}: {reason}")
 
 
 def trial_settings(trial) -> dict:
@@ -251,13 +298,11 @@ def run(args) -> int:
         print(f"{getattr(args, 'prog', PROG)}: error: --out {problem}", file=sys.stderr)
         return 2
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    sampler_seed = args.seed + _trials_so_far(args)  # a resumed call does not replay the first call's proposals
-    study = optuna.create_study(
-        study_name=args.study_name, storage=args.storage, direction="minimize", load_if_exists=True,
-        sampler=optuna.samplers.TPESampler(seed=sampler_seed),
-        pruner=optuna.pruners.MedianPruner(n_startup_trials=PRUNER_STARTUP_TRIALS,
-                                           n_warmup_steps=PRUNER_WARMUP_STEPS),
-    )
+    try:
+        study = open_study(args)
+    except StudyError as error:
+        print(f"{getattr(args, 'prog', PROG)}: error: {error}", file=sys.stderr)
+        return EXIT_USAGE
     started = time.perf_counter()
     reference = _reference(study, args, args.model)
 
@@ -291,6 +336,29 @@ def run(args) -> int:
               f"{100 * best.get('success_asymptote', float('nan')):.2f} %, settings {best['settings']}")
     print(f"written: {out / 'best.json'}, {out / 'trials.csv'}")
     return 0
+
+
+def open_study(args):
+    """The study of ``args`` (created or resumed), bound to its configuration (:func:`bind_configuration`).
+
+    Raises:
+        StudyError: ``--storage`` cannot be opened (one line with the driver's reason), or the
+            study belongs to another configuration.
+    """
+    import optuna
+
+    try:
+        sampler_seed = args.seed + _trials_so_far(args)  # a resumed call does not replay the first call's proposals
+        study = optuna.create_study(
+            study_name=args.study_name, storage=args.storage, direction="minimize", load_if_exists=True,
+            sampler=optuna.samplers.TPESampler(seed=sampler_seed),
+            pruner=optuna.pruners.MedianPruner(n_startup_trials=PRUNER_STARTUP_TRIALS,
+                                               n_warmup_steps=PRUNER_WARMUP_STEPS),
+        )
+    except Exception as error:  # any storage backend's failure (sqlalchemy, a missing driver, optuna)
+        raise _storage_failure(args, error) from None
+    bind_configuration(study, args)
+    return study
 
 
 def _trials_so_far(args) -> int:
