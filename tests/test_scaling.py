@@ -252,7 +252,9 @@ def test_cli_tiny_budget_writes_consistent_files(tmp_path, capsys):
     assert config["runs"] == 4 and config["segments"] == [2, 3] and config["objects"] == [1, 2]
     assert config["gammas"] == [0.3, 0.9] and config["fixed_plan_objects"] == [1, 2]
     assert [s["name"] for s in config["specs"]] == list(specs["name"])
-    assert set(config["growth_exponents"]) == {"0.3", "0.9"} and set(config["growth_exponents"]["0.3"]) == {"r2", "r4"}
+    assert set(config["growth_exponents"]) == {family.PRODUCT_FAMILY, family.FIXED_PLAN_FAMILY}
+    product_fits = config["growth_exponents"][family.PRODUCT_FAMILY]
+    assert set(product_fits) == {"0.3", "0.9"} and set(product_fits["0.3"]) == {"r2", "r4"}
     assert "Does r4 < r2 < r1 < r3 hold" in printed
 
 

@@ -22,6 +22,8 @@ from tableclean_suite.bench.scaling.statistics import (CONFIDENCE, GEOMETRIC_BLO
                                                        fit_censored_power_law, log_standard_error, resample_counts)
 from tableclean_suite.bench.scaling.study import cell_row, train_cell
 
+#: How the printed fits describe the fixed-plan family's plans.
+FIXED_PLAN_LENGTH_TEXT = "fixed at the paper's 8 steps"
 #: Learner whose cells feed the figure and the growth-exponent fit (when it is trained).
 FIT_LEARNER = "q_learning"
 
@@ -110,6 +112,7 @@ def run_study(args) -> int:
               flush=True)
     fit_learner = FIT_LEARNER if FIT_LEARNER in args.learners else args.learners[0]
     fits = growth_fits(rows, fit_learner, args.rewards, args.gammas)
+    fixed_fits = growth_fits(rows, fit_learner, args.rewards, args.gammas, FIXED_PLAN_FAMILY)
     product = [info for info in infos if info.family == PRODUCT_FAMILY]
     verdicts = {f"{gamma:g}": ordering_report(rows, product, fit_learner, args.rewards, gamma) for gamma in args.gammas}
     print()
@@ -120,6 +123,11 @@ def run_study(args) -> int:
         for reward, fit in fits[f"{gamma:g}"].items():
             print(f"  {reward}: k = {fit['exponent']:.3f} [{fit['low']:.3f}, {fit['high']:.3f}] over {fit['points']} "
                   f"specs ({fit['censored']} censored)")
+        if args.fixed_plan_objects:
+            print(f"  fixed-plan family (plan length {FIXED_PLAN_LENGTH_TEXT}):")
+            for reward, fit in fixed_fits[f"{gamma:g}"].items():
+                print(f"    {reward}: k = {fit['exponent']:.3f} [{fit['low']:.3f}, {fit['high']:.3f}] over "
+                      f"{fit['points']} specs ({fit['censored']} censored)")
         print(ordering_answer(verdicts[f"{gamma:g}"]))
         print(f"Observed order ({fit_learner}, gamma {gamma:g}, fewest iterations first):")
         for info in infos:
@@ -129,7 +137,8 @@ def run_study(args) -> int:
     write_figure(out / "scaling.png", rows, fit_learner, fits)
     seconds = time.perf_counter() - started
     write_atomic_text(out / "config.json", json.dumps(json_safe(
-        config_dict(args, infos, fits, verdicts, seconds, fit_learner, method_constants(args))), indent=2,
+        config_dict(args, infos, {PRODUCT_FAMILY: fits, FIXED_PLAN_FAMILY: fixed_fits}, verdicts, seconds,
+                    fit_learner, method_constants(args))), indent=2,
         allow_nan=False) + "\n")
     print(f"\nWrote {out}/scaling.csv, scaling_specs.csv, scaling.png, config.json in {seconds:.1f} s wall.")
     return 0
