@@ -16,6 +16,8 @@ from tableclean_suite.bench.scaling.statistics import PAPER_ORDER, YARDSTICK_FRA
 
 #: Resolution of the PNG figure, dots per inch.
 FIGURE_DPI = 120
+#: The figure's iteration axis spans the data times / divided by this factor.
+Y_MARGIN = 3.0
 #: Marker shapes of the figure's families.
 FAMILY_MARKERS = {PRODUCT_FAMILY: "o", FIXED_PLAN_FAMILY: "s"}
 
@@ -102,6 +104,10 @@ def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None
             if fit and math.isfinite(fit["exponent"]) and math.isfinite(fit.get("intercept", math.nan)) and product:
                 x = np.array([r["reachable_from_start"] for r in product], dtype=float)
                 top.plot(x, np.exp(fit["intercept"]) * x ** fit["exponent"], linestyle="--", color=colour, alpha=0.5)
+        shown = [r["yardstick_iterations"] for r in rows if r["learner"] == learner and r["gamma"] == gamma
+                 and not r["censored"]] + [r["window"] for r in rows if r["learner"] == learner and r["gamma"] == gamma]
+        if shown:  # the fitted lines may not stretch the axis beyond the data (a steep fit would flatten it)
+            top.set_ylim(min(shown) / Y_MARGIN, max(shown) * Y_MARGIN)
         top.plot([], [], color="black", marker="o", linestyle="-", label="product family (N x M)")
         top.plot([], [], color="black", marker="s", linestyle=":", label="fixed plan (8 steps)")
         top.scatter([], [], marker="o", facecolors="none", edgecolors="black", label="censored (at the window)")
