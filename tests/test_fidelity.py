@@ -58,6 +58,12 @@ def test_calibrated_table_counts_observations_and_leaves_faults_out(tmp_path):
     assert loaded.successors(0, Action.MOVE) == table.successors(0, Action.MOVE)
 
 
+def _record(trials_csv, model=MODEL, physics_options=None):
+    """The configuration record fidelity writes beside its trials."""
+    fidelity.configuration_path(trials_csv).write_text(
+        json.dumps(fidelity.run_configuration(model, physics_options)))
+
+
 def test_trials_file_checks(tmp_path):
     bad = tmp_path / "trials.csv"
     bad.write_text("a,b\n1,2\n")
@@ -67,6 +73,9 @@ def test_trials_file_checks(tmp_path):
     per_round = fidelity.trials_per_round(TaskModel(), [a.rule_name for a in Action])
     fidelity.write_csv(good, ROWS[:1] * per_round)  # one complete round (as far as counts go)
     assert read_trials(good)[0]["state"] == 0 and list(read_trials(good)[0]) == list(TRIAL_FIELDS)
+    with pytest.raises(ResumeError, match="options they were measured with .* are unknown"):
+        fidelity.collect(1, seed=5, trials_csv=good, log=None)  # no configuration beside the trials
+    _record(good)
     with pytest.raises(ResumeError, match="another --seed"):
         fidelity.collect(1, seed=5, trials_csv=good, log=None)
 
@@ -87,6 +96,7 @@ def test_a_truncated_last_line_and_a_partial_round_are_dropped_not_reported(tmp_
     assert len(rows) == 72 + 62 and "damaged last line" in messages[0]
     kept = trial_store.complete_rounds(rows, 72, messages.append)
     assert {row["round"] for row in kept} == {0} and "rounds [1] are incomplete" in messages[1]
+    _record(path)
     calibrate.main(["--from-trials", str(path), "--out", str(tmp_path / "t.json"), "--quiet"])  # no TypeError
     assert TransitionTable.from_json(tmp_path / "t.json").counts.sum() == 72
 
@@ -217,12 +227,14 @@ def test_stored_trials_of_another_robot_or_randomisation_are_not_resumed(tmp_pat
                          model=TaskModel(spec="three_segments_two_objects"))
 
 
-def test_trials_without_a_configuration_record_are_resumed_with_a_message(tmp_path):
+def test_trials_without_a_configuration_record_are_refused_and_an_empty_file_is_adopted(tmp_path):
     from tableclean_suite.bench import trial_store
 
     path = tmp_path / fidelity.TRIALS_CSV
-    trial_store.write_rows(path, [])
-    messages = []
-    fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), None), log=messages.append)
-    assert len(messages) == 1 and "no fidelity_trials.config.json" in messages[0]
-    assert path.with_name("fidelity_trials" + fidelity.CONFIGURATION_SUFFIX).exists()
+    trial_store.write_rows(path, [ROWS[0]] * 3)  # e.g. its config.json was deleted
+    with pytest.raises(ResumeError, match="fidelity_trials.config.json is missing"):
+        fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), None))
+    assert not fidelity.configuration_path(path).exists()
+    trial_store.write_rows(path, [])  # a header only: nothing to mix up
+    fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), None))
+    assert fidelity.configuration_path(path).exists()

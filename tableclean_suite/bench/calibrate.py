@@ -33,26 +33,78 @@ from tableclean_suite.bench.fidelity import (
     add_execution_arguments,
     collect,
     parse_task_and_actions,
+    read_configuration,
     read_trials,
     trials_per_round,
 )
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.task import Outcome, TaskModel
+from tableclean_suite.task.state import NO_CHANGE_OUTCOMES
+
+
+class CalibrationError(ValueError):
+    """A trial that cannot enter a transition table; the message names the trial and the value."""
+
+
+def _check_transition(state: int, action: str, next_state: int, outcome_name: str, model: TaskModel,
+                      where: str) -> tuple[int, int, int]:
+    """``(state, action index, outcome)`` of an observed transition, checked as a transition table
+    checks its pairs: codes in range, a non-terminal start, a known action and outcome, TERMINAL
+    exactly with a terminal successor, and no-change outcomes leaving the state unchanged."""
+    if not 0 <= state < model.n_states or model.decode(state).is_terminal:
+        raise CalibrationError(f"{where}: state {state} is not a non-terminal state of task {model.spec.name!r} "
+                               f"(codes 0..{model.n_states - 1})")
+    try:
+        index = model.action_index(action)
+    except ValueError as error:
+        raise CalibrationError(f"{where}: {error}") from None
+    if not 0 <= next_state < model.n_states:
+        raise CalibrationError(f"{where}: observed state {next_state} is outside task {model.spec.name!r}'s codes "
+                               f"0..{model.n_states - 1}")
+    if str(outcome_name).upper() not in Outcome.__members__:
+        allowed = ", ".join(o.name.lower() for o in Outcome)
+        raise CalibrationError(f"{where}: unknown observed outcome {outcome_name!r}; allowed: {allowed}, {FAULT}")
+    outcome = Outcome[str(outcome_name).upper()]
+    if model.decode(next_state).is_terminal != (outcome == Outcome.TERMINAL):
+        raise CalibrationError(f"{where}: outcome {outcome.name.lower()} with observed state {next_state}; TERMINAL "
+                               "goes with, and only with, a terminal state")
+    if outcome in NO_CHANGE_OUTCOMES and next_state != state:
+        raise CalibrationError(f"{where}: outcome {outcome.name.lower()} leaves the state unchanged, but the observed "
+                               f"state {next_state} != {state}")
+    return state, index, int(outcome)
 
 
 def count_transitions(rows, model: TaskModel | None = None) -> tuple[dict, int]:
-    """``({(state, action index): {(next_state, outcome): n}}, faults)`` from fidelity trial rows (default ``paper``)."""
+    """``({(state, action index): {(next_state, outcome): n}}, faults)`` from fidelity trial rows (default ``paper``).
+
+    Raises:
+        CalibrationError: a trial whose state, action, observed state or outcome does not fit the task
+            (see :func:`_check_transition`), so no table that ``run --backend calibrated`` refuses is written.
+    """
     model = model or TaskModel()
     counts: dict[tuple[int, int], Counter] = {}
     faults = 0
-    for row in rows:
+    for position, row in enumerate(rows):
         if row["observed_outcome"] == FAULT:
             faults += 1
             continue
-        key = (int(row["state"]), model.action_index(row["action"]))
-        successor = (int(row["observed_state"]), int(Outcome[row["observed_outcome"].upper()]))
-        counts.setdefault(key, Counter())[successor] += 1
+        where = f"trial {position + 1} (round {row.get('round')})"
+        state, action, outcome = _check_transition(int(row["state"]), row["action"], int(row["observed_state"]),
+                                                   row["observed_outcome"], model, where)
+        counts.setdefault((state, action), Counter())[(int(row["observed_state"]), outcome)] += 1
     return {key: dict(value) for key, value in counts.items()}, faults
+
+
+def measured_with(configuration: dict | None) -> str:
+    """How the trials' scene was set up, for the table's ``source``: robot and randomisation of their
+    recorded configuration (:func:`.fidelity.read_configuration`), or that it is unknown."""
+    if configuration is None:
+        return "scene options unknown (no configuration recorded beside the trials)"
+    options = configuration.get("physics_options") or {}
+    env = options.get("env_kwargs", {}) if isinstance(options, dict) else {}
+    robot = env.get("robots", "Panda") if isinstance(env, dict) else "Panda"
+    randomization = env.get("randomization", "off") if isinstance(env, dict) else "off"
+    return f"robot {robot}, randomization {randomization}"
 
 
 def calibrated_table(rows, model: TaskModel | None = None, description: str = "") -> TransitionTable:
@@ -64,6 +116,17 @@ def calibrated_table(rows, model: TaskModel | None = None, description: str = ""
     if description:
         source += f"; {description}"
     return TransitionTable.from_counts(counts, model, source)
+
+
+def check_trials_task(configuration: dict | None, model: TaskModel, source) -> None:
+    """Refuse trials recorded on another task than ``model``'s (naming both); None: nothing recorded."""
+    if configuration is None:
+        return
+    recorded = configuration.get("task")
+    if recorded != model.spec.to_dict():
+        name = recorded.get("name") if isinstance(recorded, dict) else recorded
+        raise CalibrationError(f"{source} holds trials of task {name!r} (its {source.stem}.config.json), not of "
+                               f"{model.spec.name!r}; pass --task with that spec")
 
 
 #: The program name in messages unless the caller gives one.
@@ -95,20 +158,27 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
             source = Path(args.from_trials)
             if not source.exists():
                 parser.error(f"--from-trials: no such file {source}")
+            configuration = read_configuration(source)
+            check_trials_task(configuration, model, source)
             rows = read_trials(source, log)
             measured_actions = {row["action"] for row in rows}  # a file may hold a subset of the actions
+            unknown = sorted(measured_actions - set(model.action_names))
+            if unknown:
+                raise CalibrationError(f"{source} holds trials of action(s) {unknown}, which task "
+                                       f"{model.spec.name!r} does not have ({', '.join(model.action_names)})")
             rows = trial_store.complete_rounds(rows, trials_per_round(model, measured_actions), log)
             if not rows:
-                parser.error(f"--from-trials: {source} holds no trials")
-            description = f"from {source.name}"
+                parser.error(f"--from-trials: {source} holds no complete round of task {model.spec.name!r}")
+            description = f"from {source.name}; {measured_with(configuration)}"
         else:
             with cli.executor_from_args(parser, args) as executor:
-                rows = collect(args.trials, args.seed, out.with_suffix(".trials.csv"), fresh=args.fresh, log=log,
+                trials_csv = out.with_suffix(".trials.csv")
+                rows = collect(args.trials, args.seed, trials_csv, fresh=args.fresh, log=log,
                                actions=actions, model=model, executor=executor)
-            description = f"{args.trials} round(s), seed {args.seed}"
-    except ResumeError as error:
+            description = f"{args.trials} round(s), seed {args.seed}; {measured_with(read_configuration(trials_csv))}"
+        table = calibrated_table(rows, model, description=description)
+    except (ResumeError, CalibrationError) as error:
         parser.error(str(error))
-    table = calibrated_table(rows, model, description=description)
     out.parent.mkdir(parents=True, exist_ok=True)
     table.to_json(out)
     model_next, model_outcome = model.transition_arrays()

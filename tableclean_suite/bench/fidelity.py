@@ -233,28 +233,92 @@ def run_configuration(model: TaskModel, physics_options: dict | None, session=No
                                  default=repr))
 
 
-def check_configuration(trials_csv: Path, configuration: dict, log: Callable[[str], None] | None = None) -> None:
-    """Refuse to resume trials stored under another configuration; record this run's beside the CSV.
+def configuration_path(trials_csv: Path) -> Path:
+    """Where the options of the trials in ``trials_csv`` are recorded: ``<trials stem>.config.json``."""
+    trials_csv = Path(trials_csv)
+    return trials_csv.with_name(trials_csv.stem + CONFIGURATION_SUFFIX)
 
-    The record is ``<trials stem>.config.json``.  Stored trials without one (written before it
-    existed) are resumed with a message saying so.  Raises :class:`ResumeError` naming the keys
-    that differ.
+
+def read_configuration(trials_csv: Path) -> dict | None:
+    """The recorded options of ``trials_csv``'s trials (:func:`run_configuration`), None without a record.
+
+    Raises:
+        ResumeError: the record is unreadable, not JSON, or not an object with ``task``.
     """
     import json
 
-    record = trials_csv.with_name(trials_csv.stem + CONFIGURATION_SUFFIX)
+    record = configuration_path(trials_csv)
+    if not record.exists():
+        return None
+    try:
+        stored = json.loads(record.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as error:  # UnicodeDecodeError and JSONDecodeError are ValueErrors
+        raise ResumeError(f"{record} is unreadable ({type(error).__name__}: {error}); pass --fresh or another "
+                          "--out") from None
+    if not isinstance(stored, dict) or "task" not in stored:
+        raise ResumeError(f"{record} is not a trials configuration (no 'task'); pass --fresh or another --out")
+    return stored
+
+
+def _has_trials(trials_csv: Path) -> bool:
+    """Whether ``trials_csv`` holds more than a header line."""
+    try:
+        with open(trials_csv, "rb") as handle:
+            return len(handle.read(1 << 16).splitlines()) > 1
+    except OSError:
+        return False
+
+
+def check_configuration(trials_csv: Path, configuration: dict, log: Callable[[str], None] | None = None) -> None:
+    """Refuse to resume trials stored under another, or an unknown, configuration; record this run's
+    beside the CSV (``<trials stem>.config.json``).
+
+    Raises:
+        ResumeError: the record names other options (the keys that differ are named), or the CSV
+            holds trials but the record is missing (their options are unknown: a robot, a
+            randomisation or a task other than this run's would be mixed in) or unreadable.
+    """
+    import json
+
+    record = configuration_path(trials_csv)
     if trials_csv.exists():
-        if record.exists():
-            stored = json.loads(record.read_text())
+        stored = read_configuration(trials_csv)
+        if stored is not None:
             differing = sorted(key for key in set(stored) | set(configuration) if stored.get(key) != configuration.get(key))
             if differing:
                 raise ResumeError(f"{trials_csv} was measured with another {' and '.join(differing)} "
                                   f"({record}); pass the same options, another --out, or --fresh")
             return
-        if log:
-            log(f"note: {trials_csv} has no {record.name}: resuming it as if it were measured with these options")
+        if _has_trials(trials_csv):
+            raise ResumeError(f"{trials_csv} holds trials but {record.name} is missing, so the options they were "
+                              "measured with (task, robot, randomisation) are unknown; pass --fresh or another --out")
     trials_csv.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(record, json.dumps(configuration, sort_keys=True, indent=1))
+
+
+def check_trial_rows(rows, model: TaskModel, source) -> None:
+    """Refuse stored trials that do not belong to ``model``: a state or observed state outside its
+    codes, a terminal start state, an action it does not have or an unknown outcome.
+
+    Raises:
+        ResumeError: naming the file, the row (round and position) and the value.
+    """
+    outcomes = {o.name.lower() for o in Outcome} | {FAULT}
+    for position, row in enumerate(rows):
+        where = f"{source}: round {row.get('round')}, trial {position + 1}"
+        state = row["state"]
+        if not 0 <= state < model.n_states or model.decode(state).is_terminal:
+            raise ResumeError(f"{where}: state {state} is not a non-terminal state of task {model.spec.name!r} "
+                              f"(codes 0..{model.n_states - 1})")
+        if row["action"] not in model.action_names:
+            raise ResumeError(f"{where}: action {row['action']!r} is not one of task {model.spec.name!r}'s "
+                              f"({', '.join(model.action_names)})")
+        if row["observed_outcome"] not in outcomes:
+            raise ResumeError(f"{where}: observed outcome {row['observed_outcome']!r} is not one of "
+                              f"{', '.join(sorted(outcomes))}")
+        if row["observed_outcome"] != FAULT and not 0 <= row["observed_state"] < model.n_states:
+            raise ResumeError(f"{where}: observed state {row['observed_state']} is outside task "
+                              f"{model.spec.name!r}'s codes 0..{model.n_states - 1}")
 
 
 def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fresh: bool = False,
@@ -282,6 +346,7 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
     if path is not None:
         check_configuration(path, run_configuration(model, physics_options, session), log)
     rows = trial_store.complete_rounds(read_trials(path, log) if path is not None else [], per_round, log)
+    check_trial_rows(rows, model, path)
     done_rounds = sorted({row["round"] for row in rows})
     if rows and {row["seed"] for row in rows} != {round_seed(seed, r) for r in done_rounds}:
         raise ResumeError(f"{path} was measured with another --seed; pass that seed or --fresh")

@@ -132,15 +132,64 @@ def write_table(path: Path, rows: list[dict]) -> None:
     trial_store.write_rows(path, rows, COLUMNS)
 
 
+class TableFileError(ValueError):
+    """An existing robot table that cannot be merged into; the message names the file, line and value."""
+
+
+def read_table(path: Path) -> list[dict]:
+    """The rows of an existing table (``[]`` when there is none), each checked: the header holds every
+    column of :data:`COLUMNS` (``dynamics`` may be missing in tables written before it), a row has a
+    robot and a task, and the other cells are numbers or empty.
+
+    Raises:
+        TableFileError: naming the file, the line and the bad value (so ``--append`` never
+            republishes garbage).
+    """
+    path = Path(path)
+    if not path.exists():
+        return []
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as error:
+        raise TableFileError(f"{path}: not a UTF-8 text file (byte {error.start}); remove it or leave out "
+                             "--append") from None
+    except OSError as error:
+        raise TableFileError(f"{path}: cannot be read ({error.strerror or error})") from None
+    try:
+        reader = csv.DictReader(text.splitlines())
+        header = reader.fieldnames or []
+        missing = [c for c in COLUMNS if c not in header and c != "dynamics"]
+        if missing:
+            raise TableFileError(f"{path}: not a robot table (columns {missing} are missing); remove it or leave "
+                                 "out --append")
+        rows = []
+        for line, raw in enumerate(reader, start=2):
+            if None in raw or any(raw.get(c) is None for c in header):
+                raise TableFileError(f"{path}:{line}: the row does not have the header's {len(header)} columns")
+            row = {column: raw.get(column, "") for column in COLUMNS}
+            row["dynamics"] = row["dynamics"] or NOMINAL  # tables written before the column
+            if not row["robot"] or not row["task"] or row["dynamics"] not in (NOMINAL, RANDOMIZED):
+                raise TableFileError(f"{path}:{line}: robot {row['robot']!r}, task {row['task']!r} and dynamics "
+                                     f"{row['dynamics']!r} must name a cell")
+            for column in COLUMNS:
+                if column not in CELL_KEY and row[column] != "":
+                    try:
+                        float(row[column])
+                    except ValueError:
+                        raise TableFileError(f"{path}:{line}: column {column!r} is {row[column]!r}, not a "
+                                             "number") from None
+            rows.append(row)
+    except csv.Error as error:
+        raise TableFileError(f"{path}: not a CSV table ({error}); remove it or leave out --append") from None
+    return rows
+
+
 def merge_rows(path: Path, rows: list[dict]) -> list[dict]:
-    """The rows already in ``path`` (if any) with the cells of ``rows`` replaced or added, in the file's order."""
+    """The rows already in ``path`` (if any; :func:`read_table`) with the cells of ``rows`` replaced or
+    added, in the file's order."""
     merged: dict[tuple, dict] = {}
-    if path.exists():
-        with open(path, newline="") as handle:
-            for row in csv.DictReader(handle):
-                row = {column: row.get(column, "") for column in COLUMNS}
-                row["dynamics"] = row["dynamics"] or NOMINAL  # tables written before the column
-                merged[tuple(row[key] for key in CELL_KEY)] = row
+    for row in read_table(path):
+        merged[tuple(row[key] for key in CELL_KEY)] = row
     for row in rows:
         merged[tuple(row[key] for key in CELL_KEY)] = row
     return list(merged.values())
@@ -217,6 +266,11 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         parser.error("--fidelity-trials and --episodes are both 0: nothing to measure")
     log = None if args.quiet else print
     randomization, dynamics = ("on", RANDOMIZED) if args.randomize else (None, NOMINAL)
+    if args.append:  # a table that cannot be merged into is refused before anything runs
+        try:
+            read_table(Path(args.out) / TABLE_CSV)
+        except TableFileError as error:
+            parser.error(f"--append: {error}")
 
     def fidelity_dir(robot: str, task: str) -> Path:
         return Path(args.fidelity_dir) / (f"{robot}_{task}" + (fidelity.RANDOMIZED_SUFFIX if args.randomize else ""))

@@ -57,17 +57,32 @@ def read_rows(path: Path, log: Callable[[str], None] | None = None) -> list[dict
     path = Path(path)
     if not path.exists():
         return []
-    lines = path.read_text().splitlines()
+    try:
+        lines = path.read_text(encoding="utf-8").splitlines()
+    except UnicodeDecodeError as error:
+        raise TrialStoreError(f"{path}: not a UTF-8 text file (byte {error.start}: {error.reason}); use --fresh to "
+                              "start over") from None
+    except OSError as error:
+        raise TrialStoreError(f"{path}: cannot be read ({error.strerror or error})") from None
     if not lines:
         return []
-    header = next(csv.reader([lines[0]]))
+    try:
+        header = next(csv.reader([lines[0]]))
+    except csv.Error as error:
+        raise TrialStoreError(f"{path}:1: not a CSV header ({error}); use --fresh to start over") from None
     if tuple(header) != TRIAL_FIELDS:
         raise TrialStoreError(f"{path}: unexpected columns {header}; use --fresh to start over")
     rows = []
     for number, text in enumerate(lines[1:], start=2):
-        row = next(csv.DictReader(io.StringIO(text), fieldnames=TRIAL_FIELDS))
         try:
+            row = next(csv.DictReader(io.StringIO(text), fieldnames=TRIAL_FIELDS))
             rows.append(_parse(row, number, path))
+        except csv.Error as error:
+            damaged = TrialStoreError(f"{path}:{number}: not a CSV row ({error})")
+            if number != len(lines):
+                raise damaged from None
+            if log:
+                log(f"dropping the damaged last line of {path} (an interrupted write): {damaged}")
         except TrialStoreError as error:
             if number != len(lines):
                 raise
