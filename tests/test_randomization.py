@@ -34,7 +34,9 @@ def test_off_is_the_default_and_draws_nothing_on():
     assert DEFAULT_ON.enabled
     assert resolve_randomization(None) is OFF and resolve_randomization("paper") is OFF
     assert resolve_randomization("on") is DEFAULT_ON and resolve_randomization(True) is DEFAULT_ON
-    assert resolve_randomization({"friction_scale": (0.8, 1.2)}) == replace(OFF, friction_scale=(0.8, 1.2))
+    # a partial mapping starts from the documented defaults, not from "off" (which would silently stop the rest)
+    assert resolve_randomization({"friction_scale": (0.8, 1.2)}) == replace(DEFAULT_ON, friction_scale=(0.8, 1.2))
+    assert resolve_randomization({"base": "off", "friction_scale": (0.8, 1.2)}) == replace(OFF, friction_scale=(0.8, 1.2))
 
 
 @pytest.mark.parametrize("field, value", [
@@ -48,6 +50,10 @@ def test_off_is_the_default_and_draws_nothing_on():
     ("joint_damping_scale", (1.0, float("nan"))),
     ("sponge_home_noise", -0.01),  # a negative half-width
     ("object_yaw_noise", 2.0),  # beyond a quarter turn
+    ("object_yaw_noise", "0.2"),  # a string is refused like string ranges
+    ("sponge_yaw_noise", True),
+    ("friction_scale", (0.3, 2.0)),  # beyond what the skills were checked on (they lose the sponge)
+    ("friction_scale", (1.5, 4.0)),
 ])
 def test_bad_ranges_raise_naming_the_field(field, value):
     with pytest.raises(ValueError, match=field):
@@ -61,6 +67,13 @@ def test_bad_user_values_raise_naming_them():
         resolve_randomization({"gravity": (0.9, 1.1)})
     with pytest.raises(ValueError, match="randomization must be"):
         resolve_randomization(3.0)
+    with pytest.raises(ValueError, match="'base' must be one of"):
+        resolve_randomization({"base": "wild", "friction_scale": (0.8, 1.2)})
+
+
+def test_friction_beyond_the_checked_range_names_the_reason():
+    with pytest.raises(ValueError, match="checked up to this"):
+        resolve_randomization({"friction_scale": (0.3, 2.0)})
 
 
 def test_samples_lie_in_the_ranges_and_a_seed_reproduces_them():

@@ -74,6 +74,18 @@ DEFAULT_TABLECLEAN_CONFIG = {
     "max_stable_speed": 20.0,  # any |qvel| above this [rad/s or m/s] counts as simulation instability
 }
 
+#: Most segments per row: a third column along y would reach the sponge stand's side of the table.
+MAX_SEGMENT_COLUMNS = 2
+#: Shape of each numeric key: None for one number, k for a sequence of k numbers.
+_SHAPES = {
+    "table_full_size": 3, "table_offset": 3, "table_friction": 3, "segment_size": 2, "segment_gap": None,
+    "segment_x": None, "segment_columns": None, "reach_x": 2, "min_segment_size": None, "marker_grid": 2,
+    "marker_radius": None, "clean_fraction": None, "wipe_contact_dist": None, "wipe_marker_reach": None,
+    "sponge_half_size": 3, "sponge_density": None, "sponge_home_xy": 2, "stand_half_size": 3,
+    "sponge_home_tolerance": None, "object_half_size": 3, "placement_noise": None, "placement_yaw_noise": None,
+    "object_spacing": None, "object_clearance": None, "arm_hover_height": None, "arm_segment_margin": None,
+    "lift_tolerance": None, "max_stable_speed": None,
+}
 #: Keys whose values must be positive numbers or sequences of positive numbers.
 _POSITIVE_KEYS = (
     "table_full_size",
@@ -92,7 +104,9 @@ _POSITIVE_KEYS = (
 )
 #: Keys whose values must be non-negative.
 _NON_NEGATIVE_KEYS = ("segment_gap", "wipe_marker_reach", "placement_noise", "placement_yaw_noise", "arm_segment_margin",
-                      "object_clearance")
+                      "object_clearance", "table_friction")
+#: Largest object yaw noise [rad]: +-pi already covers every orientation.
+MAX_YAW_NOISE = float(np.pi)
 
 
 class TaskConfig(dict):
@@ -100,12 +114,18 @@ class TaskConfig(dict):
 
 
 def make_config(task_config: Mapping | None = None) -> TaskConfig:
-    """The default config updated with ``task_config``; raises ``ValueError`` on unknown keys or bad values."""
+    """The default config updated with ``task_config``; raises ``ValueError`` on unknown keys or bad values.
+
+    Every message names the key, the value given and what is allowed (e.g.
+    ``task_config['marker_grid'] = 0: expected 2 integers >= 1``).
+    """
     if isinstance(task_config, TaskConfig):
         return task_config
+    if task_config is not None and not isinstance(task_config, Mapping):
+        raise ValueError(f"task_config must be a dict of key -> value, got {type(task_config).__name__}")
     config = TaskConfig(DEFAULT_TABLECLEAN_CONFIG)
     if task_config:
-        unknown = sorted(set(task_config) - set(DEFAULT_TABLECLEAN_CONFIG))
+        unknown = sorted(set(task_config) - set(DEFAULT_TABLECLEAN_CONFIG), key=str)
         if unknown:
             raise ValueError(
                 f"unknown task_config key(s) {unknown}; allowed: {sorted(DEFAULT_TABLECLEAN_CONFIG)}"
@@ -115,43 +135,86 @@ def make_config(task_config: Mapping | None = None) -> TaskConfig:
     return config
 
 
+#: What a key allows, where more than its shape (:data:`_SHAPES`) says.
+_ALLOWED = {"marker_grid": "2 integers >= 1 (rows, columns)", "segment_columns": f"an integer in 1..{MAX_SEGMENT_COLUMNS}",
+            "clean_fraction": "a number in (0, 1]", "reach_x": "2 numbers (low, high) with low < high"}
+
+
+def _shape_text(shape, key: str | None = None) -> str:
+    if key in _ALLOWED:
+        return _ALLOWED[key]
+    return "a number" if shape is None else f"{shape} numbers"
+
+
+def _numbers(key: str, value, shape) -> np.ndarray:
+    """``value`` as float64 of ``shape`` (None: a scalar), all finite; ``ValueError`` naming key, value and shape."""
+    def refuse(why: str = ""):
+        raise ValueError(f"task_config[{key!r}] = {value!r}: expected {_shape_text(shape, key)}{why}")
+
+    items = [value] if shape is None else value
+    if isinstance(value, (str, bytes, Mapping)) or (shape is not None and not isinstance(value, (list, tuple,
+                                                                                                   np.ndarray))):
+        refuse()
+    if shape is None and isinstance(value, (list, tuple, np.ndarray)):
+        refuse()
+    if any(isinstance(item, (bool, np.bool_, str, bytes)) or item is None for item in np.ravel(np.asarray(
+            items, dtype=object))):
+        refuse()
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        refuse()
+    if array.shape != (() if shape is None else (shape,)):
+        refuse()
+    if not np.all(np.isfinite(array)):
+        refuse(", all finite")
+    return array
+
+
 def _validate(config: dict) -> None:
+    arrays = {key: _numbers(key, config[key], shape) for key, shape in _SHAPES.items()}
     for key in _POSITIVE_KEYS:
-        values = np.atleast_1d(np.asarray(config[key], dtype=float))
-        if not np.all(values > 0):
-            raise ValueError(f"task_config[{key!r}] must be positive, got {config[key]!r}")
+        if not np.all(arrays[key] > 0):
+            what = "a positive number" if _SHAPES[key] is None else f"{_SHAPES[key]} positive numbers"
+            raise ValueError(f"task_config[{key!r}] = {config[key]!r}: expected {what}")
     for key in _NON_NEGATIVE_KEYS:
-        if not float(config[key]) >= 0:
-            raise ValueError(f"task_config[{key!r}] must be >= 0, got {config[key]!r}")
+        if not np.all(arrays[key] >= 0):
+            raise ValueError(f"task_config[{key!r}] = {config[key]!r}: expected {_shape_text(_SHAPES[key])} >= 0")
+    if not arrays["table_friction"][0] > 0:
+        raise ValueError(f"task_config['table_friction'] = {config['table_friction']!r}: the sliding friction (first) "
+                         "must be > 0")
     if not 0.0 < float(config["clean_fraction"]) <= 1.0:
-        raise ValueError(f"task_config['clean_fraction'] must be in (0, 1], got {config['clean_fraction']!r}")
-    grid = config["marker_grid"]
-    if len(grid) != 2 or any(isinstance(n, bool) or int(n) != n or n < 1 for n in grid):
-        raise ValueError(f"task_config['marker_grid'] must be two integers >= 1, got {grid!r}")
+        raise ValueError(f"task_config['clean_fraction'] = {config['clean_fraction']!r}: expected a number in (0, 1]")
+    if not float(config["placement_yaw_noise"]) <= MAX_YAW_NOISE:
+        raise ValueError(f"task_config['placement_yaw_noise'] = {config['placement_yaw_noise']!r}: expected a number "
+                         f"in [0, {MAX_YAW_NOISE:.4f}] rad")
+    grid = arrays["marker_grid"]
+    if np.any(grid != np.round(grid)) or np.any(grid < 1):
+        raise ValueError(f"task_config['marker_grid'] = {config['marker_grid']!r}: expected 2 integers >= 1")
     if int(grid[0]) * int(grid[1]) > MAX_MARKERS_PER_SEGMENT:
-        raise ValueError(f"task_config['marker_grid'] {grid!r} has {int(grid[0]) * int(grid[1])} markers per segment; "
-                         f"at most {MAX_MARKERS_PER_SEGMENT} fit in a segment's dirt-state joint")
-    columns = config["segment_columns"]
-    if isinstance(columns, bool) or int(columns) != columns or not 1 <= columns <= MAX_SEGMENT_COLUMNS:
-        raise ValueError(f"task_config['segment_columns'] must be an integer in 1..{MAX_SEGMENT_COLUMNS}, got {columns!r}")
-    low, high = (float(v) for v in config["reach_x"])
+        raise ValueError(f"task_config['marker_grid'] = {config['marker_grid']!r}: {int(grid[0]) * int(grid[1])} "
+                         f"markers per segment; at most {MAX_MARKERS_PER_SEGMENT} fit in a segment's dirt-state joint")
+    columns = float(arrays["segment_columns"])
+    if columns != round(columns) or not 1 <= columns <= MAX_SEGMENT_COLUMNS:
+        raise ValueError(f"task_config['segment_columns'] = {config['segment_columns']!r}: expected an integer in "
+                         f"1..{MAX_SEGMENT_COLUMNS}")
+    low, high = arrays["reach_x"]
     if not low < high:
-        raise ValueError(f"task_config['reach_x'] must be (low, high) with low < high, got {config['reach_x']!r}")
+        raise ValueError(f"task_config['reach_x'] = {config['reach_x']!r}: expected (low, high) with low < high")
     if config["object_type"] is not None:
         from tableclean_suite.environments.objects import check_object_type
 
+        if not isinstance(config["object_type"], str):
+            raise ValueError(f"task_config['object_type'] = {config['object_type']!r}: expected None or a registered "
+                             "object type name")
         check_object_type(config["object_type"])
-    half_y = config["table_full_size"][1] / 2
-    reach_y = config["segment_gap"] / 2 + config["segment_size"][1]
+    half_y = arrays["table_full_size"][1] / 2
+    reach_y = float(arrays["segment_gap"]) / 2 + arrays["segment_size"][1]
     if reach_y > half_y:
         raise ValueError(
             f"segments (gap {config['segment_gap']} + 2 x {config['segment_size'][1]} m along y) "
             f"do not fit on a table {config['table_full_size'][1]} m wide"
         )
-
-
-#: Most segments per row: a third column along y would reach the sponge stand's side of the table.
-MAX_SEGMENT_COLUMNS = 2
 
 
 class LayoutError(ValueError):

@@ -141,6 +141,50 @@ def check_objects_fit(kinds, geometry, config: Mapping, size_scale: float = 1.0)
                          f"{2 * half[0]:.3f} m segment{scaled} (spot pitch {pitch:.3f} m); use fewer or smaller objects")
 
 
+#: Non-finite action entries an error message lists.
+MAX_NAMED_ENTRIES = 4
+
+
+def check_finite_action(action) -> None:
+    """``ValueError`` unless ``action`` is a flat sequence of finite numbers (the entries that are not are named)."""
+    try:
+        values = np.asarray(action, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"action must be a sequence of numbers, got {action!r}") from None
+    bad = np.flatnonzero(~np.isfinite(values.ravel()))
+    if bad.size:
+        shown = ", ".join(f"[{i}] = {values.ravel()[i]}" for i in bad[:MAX_NAMED_ENTRIES])
+        raise ValueError(f"action has {bad.size} non-finite entr{'y' if bad.size == 1 else 'ies'} ({shown}); "
+                         "every entry must be a finite number")
+
+
+def check_episode_settings(horizon, control_freq) -> None:
+    """``ValueError`` naming ``horizon`` (an integer >= 1, control steps) or ``control_freq`` (a number > 0, Hz)."""
+    if isinstance(horizon, bool) or not isinstance(horizon, (int, np.integer)) or horizon < 1:
+        raise ValueError(f"horizon must be an integer >= 1 (control steps per episode), got {horizon!r}")
+    if isinstance(control_freq, bool) or not isinstance(control_freq, (int, float, np.number)) \
+            or not np.isfinite(control_freq) or control_freq <= 0:
+        raise ValueError(f"control_freq must be a number > 0 (Hz), got {control_freq!r}")
+
+
+def check_controller_configs(controller_configs) -> None:
+    """``ValueError`` for a controller config robosuite would refuse with an assertion: not a dict, or a
+    ``type`` that is not one of robosuite's composite or part controllers (named)."""
+    if controller_configs is None:
+        return
+    from robosuite.controllers import ALL_COMPOSITE_CONTROLLERS, ALL_PART_CONTROLLERS
+
+    allowed = [*ALL_COMPOSITE_CONTROLLERS, *ALL_PART_CONTROLLERS]
+    configs = controller_configs if isinstance(controller_configs, (list, tuple)) else [controller_configs]
+    for config in configs:
+        if not isinstance(config, Mapping):
+            raise ValueError(f"controller_configs must be a dict (e.g. robosuite.load_composite_controller_config"
+                             f"(controller='BASIC')), got {config!r}")
+        kind = config.get("type")
+        if kind not in allowed:
+            raise ValueError(f"unknown controller type {kind!r}; allowed: {', '.join(allowed)}")
+
+
 class TableClean(ManipulationEnv):
     """Clean every segment of a table with a sponge, moving objects out of the way (one Panda arm).
 
@@ -200,7 +244,7 @@ class TableClean(ManipulationEnv):
     - ``reward_shaping`` (bool): use the staged dense reward.
     - ``randomization`` (None/"off", "on", a
       :class:`~tableclean_suite.environments.randomization.DynamicsRandomization` or a mapping of
-      its fields): randomised dynamics drawn at every reset from ``self.rng`` (object and sponge
+      its fields, overriding the "on" ranges unless it says ``"base": "off"``): randomised dynamics drawn at every reset from ``self.rng`` (object and sponge
       mass and size, friction, arm joint damping, OSC gains, object yaw and sponge start noise;
       ranges and units in :mod:`.randomization`).  Default off: the unrandomised scene.  The
       reset's draw is ``self.dynamics_sample``; ``self.task_config`` then holds the episode's
@@ -258,6 +302,8 @@ class TableClean(ManipulationEnv):
     ):
         #: robosuite's name of the arm; ValueError naming the supported robots before anything is built
         self.robot_name: str = check_scene_robot(robots)
+        check_episode_settings(horizon, control_freq)
+        check_controller_configs(controller_configs)
         gripper_types = scene_gripper(self.robot_name, gripper_types)  # some arms get another gripper (robot configs)
         #: the configured task config; ``task_config`` is this episode's (randomised sizes, see randomization=)
         self.base_task_config = make_config(task_config)
@@ -564,6 +610,12 @@ class TableClean(ManipulationEnv):
             return super().reset()
         finally:
             self.hard_reset = hard_reset
+
+    def step(self, action):
+        """robosuite's step, after refusing an action that is not all finite numbers: ``ValueError``
+        naming the bad entries (NaN or Inf would reach the controller and the simulation)."""
+        check_finite_action(action)
+        return super().step(action)
 
     def _pre_action(self, action, policy_step=False):
         """Robot control (superclass), then records wiping on the state after the previous substep."""
