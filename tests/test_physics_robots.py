@@ -16,6 +16,7 @@ import pytest
 from kinematic_env import KinematicEnv, fake_robot
 from tableclean_suite.controllers import MoveSkill, SkillController, make_skill_env
 from tableclean_suite.controllers import robot_configs
+from tableclean_suite.environments import robot_registry
 from tableclean_suite.controllers.osc import skill_controller_config
 from tableclean_suite.controllers.robot_configs import (
     RobotSkillConfig,
@@ -72,7 +73,7 @@ def test_registration_checks_its_keys_and_can_be_replaced():
 
 
 def test_overrides_flow_into_the_skills_and_the_osc(monkeypatch):
-    monkeypatch.setitem(robot_configs.ROBOT_CONFIGS, "Test", RobotSkillConfig(
+    monkeypatch.setitem(robot_registry.ROBOT_CONFIGS, "Test", RobotSkillConfig(
         "Test", skills={"*": {"speed": 0.2}, "move": {"max_steps": 77}}, osc={"kp": 123}))
     assert skill_overrides("Test", "move") == {"speed": 0.2, "max_steps": 77}
     assert skill_overrides("Test", "pick") == {"speed": 0.2}
@@ -150,7 +151,7 @@ def test_bad_timeout_and_drift_are_refused(config, message):
 
 
 def test_per_action_keys_are_stored_as_registered_action_names(monkeypatch):
-    monkeypatch.setattr(robot_configs, "ROBOT_CONFIGS", dict(robot_configs.ROBOT_CONFIGS))
+    monkeypatch.setattr(robot_registry, "ROBOT_CONFIGS", dict(robot_registry.ROBOT_CONFIGS))
     register_robot_config(RobotSkillConfig("Test", skills={Action.CLEAN: {"press_force": 6.0}, "Pick": {"max_steps": 9}}))
     assert robot_configs.skill_overrides("Test", "clean") == {"press_force": 6.0}
     assert robot_configs.skill_overrides("Test", "pick") == {"max_steps": 9}

@@ -15,6 +15,9 @@ from typing import Mapping
 import numpy as np
 from robosuite import load_composite_controller_config
 
+from tableclean_suite.environments.config import make_config, scene_geometry
+from tableclean_suite.environments.robot_registry import osc_overrides
+
 #: Name of the arm part in robosuite's BASIC composite config for single-arm robots.
 ARM_PART = "right"
 #: Gripper command that opens the fingers fully.
@@ -59,8 +62,6 @@ def skill_command_limits(task_config: Mapping | None = None) -> tuple[np.ndarray
     ``[-pi, pi]``.  robosuite does not clip absolute OSC inputs; these are the ranges the
     env's ``action_spec`` reports (the gripper's [-1, 1] follows them).
     """
-    from tableclean_suite.environments.config import make_config, scene_geometry
-
     geometry = scene_geometry(make_config(task_config))
     xy_low = geometry.table_center[:2] - geometry.table_half_size - WORKSPACE_XY_MARGIN
     xy_high = geometry.table_center[:2] + geometry.table_half_size + WORKSPACE_XY_MARGIN
@@ -85,8 +86,6 @@ def skill_controller_config(robot: str = "Panda", task_config: Mapping | None = 
         raise ValueError(f"robot {robot!r} has no {ARM_PART!r} arm part in its default controller config "
                          f"(parts: {sorted(parts)})")
     low, high = skill_command_limits(task_config)
-    from tableclean_suite.controllers.robot_configs import osc_overrides
-
     parts[ARM_PART].update(OSC_OVERRIDES, **osc_overrides(robot), input_min=low.tolist(), input_max=high.tolist())
     return config
 

@@ -4,8 +4,9 @@ Read from the compiled scene (a copy of its kinematics), never from per-gripper 
 
 - ``open_width`` [m]: the largest gap between the two finger pads (``mj_geomDistance``) over the
   ends of the finger joints' ranges: what an object's narrow side must pass between;
-- ``palm_height`` [m]: how far above the grip site the lowest collision point of the gripper's
-  non-finger geoms (the hand) lies: an object's top must stay below it while the fingers close.
+- ``palm_height`` [m]: how far above the grip site (along its approach axis, pointing down) the
+  lowest collision point of the gripper's non-finger geoms (the hand) lies: an object's top must
+  stay below it while the fingers close.
 """
 
 from __future__ import annotations
@@ -55,10 +56,13 @@ def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site:
     fingers = {model.geom(n).id for key in ("left_finger", "right_finger") for n in gripper.important_geoms[key]}
     hand = [g for g in range(model.ngeom) if model.geom(g).name.startswith(gripper.naming_prefix)
             and g not in fingers and (model.geom_contype[g] or model.geom_conaffinity[g])]
-    lowest = []
+    # heights above the grip site along its approach axis (its z axis, which points down when the skills grasp)
+    approach = data.site_xmat[site].reshape(3, 3)[:, 2]
+    heights = []
     for geom in hand:
         body = int(model.geom_bodyid[geom])
         local = collision_points(model, data, body, [geom])  # in the geom's body frame
-        lowest.append(float((data.xpos[body] + local @ data.xmat[body].reshape(3, 3).T)[:, 2].min()))
-    palm = min(lowest) - float(data.site_xpos[site][2])
+        world = data.xpos[body] + local @ data.xmat[body].reshape(3, 3).T
+        heights.append(float(np.min(-(world - data.site_xpos[site]) @ approach)))
+    palm = min(heights)
     return GripperGeometry(open_width=widest, palm_height=palm)

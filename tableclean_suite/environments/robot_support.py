@@ -1,7 +1,7 @@
 """Which arms the TableClean scene builds, and the one scene fix some of them need.
 
 - :func:`check_scene_robot`: the scene and its skills are tuned per robot
-  (:mod:`tableclean_suite.controllers.robot_configs`); a robot without a registered config is
+  (the robot registry, :mod:`.robot_registry`); a robot without a registered config is
   refused before robosuite builds anything, with a ``ValueError`` listing the supported ones
   (rather than a MuJoCo name lookup error deep inside the build, e.g. XArm7's gripper has no
   finger-pad geoms for the grasp check).
@@ -20,25 +20,21 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 
+from tableclean_suite.environments.robot_registry import base_shift, check_robot, scene_gripper_types
+
 
 def check_scene_robot(robots) -> str:
     """The robot name of ``robots`` when the scene supports it; ``ValueError`` naming the supported ones otherwise."""
-    from tableclean_suite.controllers.robot_configs import check_robot  # the controllers import the env
-
     return check_robot(robots)
 
 
 def scene_gripper(robot: str, gripper_types):
     """``gripper_types`` with ``"default"`` replaced by the robot config's gripper, if it names one."""
-    from tableclean_suite.controllers.robot_configs import scene_gripper_types
-
     return scene_gripper_types(robot, gripper_types)
 
 
 def scene_base_shift(robot: str) -> tuple[float, float, float]:
     """(3,) m added to the robot's table-side base position (its config's ``base_shift``)."""
-    from tableclean_suite.controllers.robot_configs import base_shift
-
     return base_shift(robot)
 
 

@@ -1,0 +1,219 @@
+"""The robot registry (a leaf module): per-robot skill configuration, what differs between the arms.
+
+The skills are written once (:mod:`.skill`, :mod:`.primitives`, ...) against named constants
+(each skill's ``DEFAULT_CONFIG``, extending :data:`~.skill.BASE_CONFIG`) and the OSC settings
+of :data:`~.osc.OSC_OVERRIDES`.  An arm with another gripper, other dynamics or another
+reach needs other values for some of them (finger geometry, gripper settling rule, OSC gains,
+step budgets).  Those values live here, in a registry ``robot name -> RobotSkillConfig``, and
+nowhere in the skill code:
+
+- :class:`~.skill_controller.SkillController` merges :func:`skill_overrides` of the env's robot
+  under the caller's own ``skill_configs`` for every skill it runs;
+- :func:`~.osc.skill_controller_config` merges :func:`osc_overrides` of the robot over
+  :data:`~.osc.OSC_OVERRIDES`;
+- :class:`~tableclean_suite.environments.TableClean` and
+  :func:`~.make.make_skill_env` refuse a robot that is not registered here
+  (:func:`check_robot`: a ``ValueError`` naming :func:`supported_robots`), and the scene mounts
+  the config's ``gripper`` and moves the base by its ``base_shift``.
+
+Shipped: Panda (the reference), Sawyer, UR5e and Kinova3.  The three others carry robosuite's
+Panda gripper: their own grippers cannot hold the sponge in robosuite's models (see
+:data:`SWAP_GRIPPER`).  The windowed and timeout settling rules of
+:meth:`~.skill.Skill.gripper_settled` (``gripper_window``, ``gripper_drift``,
+``gripper_timeout``) are for grippers whose fingers never stop, such as the Robotiq 85.
+
+Users add an arm with :func:`tableclean_suite.controllers.robot_configs.register_robot_config`
+(which also checks the ``"*"`` keys against the skills' ``BASE_CONFIG``)::
+
+    add_robot_config(RobotSkillConfig("MyArm", skills={"*": {"fingertip_depth": 0.02}}))
+
+This module imports only the task package (no robosuite, no MuJoCo, nothing of
+``controllers`` or ``environments``): the scene and the controllers both read it, and it reads neither.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+#: Key of :attr:`RobotSkillConfig.skills` whose overrides apply to every skill (keys of ``BASE_CONFIG``).
+ALL_SKILLS = "*"
+
+
+@dataclass(frozen=True)
+class RobotSkillConfig:
+    """How the skills run on one robosuite robot.
+
+    Attributes:
+        robot: robosuite's robot name (``robosuite.ALL_ROBOTS``), e.g. ``"UR5e"``.
+        skills: config overrides per skill: key :data:`ALL_SKILLS` (``"*"``) for every skill (its
+            keys must be keys of :data:`~.skill.BASE_CONFIG`, checked at registration), or a
+            registered action name (``"move"``, ``"pick"``, ``"place"``, ``"clean"``, ...) for that
+            action's skill (keys checked by the skill when it is built).  Units as in the skills'
+            ``DEFAULT_CONFIG``.
+        osc: overrides of the arm controller's config on top of :data:`~.osc.OSC_OVERRIDES`
+            (robosuite OSC keys, e.g. ``{"kp": 300}``); may not change what the skills rely on
+            (``type``, ``input_type``, ``input_ref_frame``).
+        gripper: robosuite's name of the gripper the scene mounts when the env is made with
+            ``gripper_types="default"`` (None: the robot's own default gripper); for arms whose own
+            gripper cannot do the task (see :data:`SWAP_GRIPPER`).  An explicit ``gripper_types``
+            wins.
+        base_shift: (3,) m added to robosuite's table-side base position of the robot (its
+            ``base_xpos_offset["table"]``), for an arm whose reach does not cover the scene from there.
+        note: why these values (measurements), for the reader.
+    """
+
+    robot: str
+    skills: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    osc: Mapping[str, Any] = field(default_factory=dict)
+    gripper: str | None = None
+    base_shift: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    note: str = ""
+
+
+#: The registry: robot name -> its config (add with ``controllers.robot_configs.register_robot_config``).
+ROBOT_CONFIGS: dict[str, RobotSkillConfig] = {}
+
+#: The OSC settings the skills rely on; a robot config may not override them.
+_FIXED_OSC_KEYS = ("type", "input_type", "input_ref_frame")
+
+
+def action_name(key) -> str:
+    """The registered action name of ``key`` (an :class:`~tableclean_suite.task.Action`, a paper-order int or a
+    name in any case); ``ValueError`` naming the registered actions otherwise."""
+    from tableclean_suite.task import Action, as_action, get_action_rule
+
+    if isinstance(key, Action):
+        return key.rule_name
+    if isinstance(key, str):
+        name = key.strip().lower()
+        return name if name.upper() in Action.__members__ else get_action_rule(name).name
+    return as_action(key).rule_name
+
+
+def add_robot_config(config: RobotSkillConfig, *, replace: bool = False) -> RobotSkillConfig:
+    """Add ``config`` to :data:`ROBOT_CONFIGS` under ``config.robot`` with its per-action keys stored as
+    registered action names; returns the stored config (see
+    :func:`tableclean_suite.controllers.robot_configs.register_robot_config`, which users call).
+
+    Raises:
+        TypeError: ``config`` is not a :class:`RobotSkillConfig`.
+        ValueError: the robot is already registered and ``replace`` is False; a skills key that
+            is neither :data:`ALL_SKILLS` nor a registered action, or two keys naming the same
+            action; an OSC override of ``type``, ``input_type`` or ``input_ref_frame``.
+    """
+    if not isinstance(config, RobotSkillConfig):
+        raise TypeError(f"register_robot_config needs a RobotSkillConfig, got {config!r}")
+    skills = {}
+    for key, values in config.skills.items():
+        name = key if key == ALL_SKILLS else action_name(key)
+        if name in skills:
+            raise ValueError(f"robot {config.robot!r}: skills keys {key!r} and another both name {name!r}")
+        skills[name] = values
+    config = dataclasses.replace(config, skills=skills)
+    if config.robot in ROBOT_CONFIGS and not replace:
+        raise ValueError(f"robot {config.robot!r} already has a skill config; pass replace=True to override")
+    fixed = sorted(set(config.osc) & set(_FIXED_OSC_KEYS))
+    if fixed:
+        raise ValueError(f"robot {config.robot!r}: the OSC keys {fixed} are what the skills rely on and cannot be overridden")
+    ROBOT_CONFIGS[config.robot] = config
+    return config
+
+
+def supported_robots() -> tuple[str, ...]:
+    """Names of the robots with a registered skill config, sorted."""
+    return tuple(sorted(ROBOT_CONFIGS))
+
+
+def robot_name(robots) -> str:
+    """The one robot name in ``robots`` (a name, or a one-element list/tuple of names).
+
+    Raises ``ValueError`` naming the value when it is not exactly one name (the scene has one arm).
+    """
+    if isinstance(robots, str):
+        return robots
+    names = list(robots) if isinstance(robots, (list, tuple)) else []
+    if len(names) != 1 or not isinstance(names[0], str):
+        raise ValueError(f"robots must name one robot (the TableClean scene has one arm), got {robots!r}; "
+                         f"supported: {', '.join(supported_robots())}")
+    return names[0]
+
+
+def check_robot(robots) -> str:
+    """The robot name of ``robots`` if it has a registered config; else ``ValueError`` naming the supported ones."""
+    name = robot_name(robots)
+    if name not in ROBOT_CONFIGS:
+        raise ValueError(f"robot {name!r} is not supported by the TableClean scene and skills; supported robots: "
+                         f"{', '.join(supported_robots())} (add one with "
+                         f"tableclean_suite.controllers.robot_configs.register_robot_config)")
+    return name
+
+
+def skill_overrides(robot: str, action_name: str) -> dict[str, Any]:
+    """Config overrides of ``robot`` for the skill of ``action_name``: its ``"*"`` entries, then the action's.
+
+    An unregistered robot has none (``{}``): a test double or a user's env keeps the skills' defaults.
+    """
+    config = ROBOT_CONFIGS.get(robot)
+    if config is None:
+        return {}
+    return {**config.skills.get(ALL_SKILLS, {}), **config.skills.get(action_name, {})}
+
+
+def scene_gripper_types(robot: str, gripper_types):
+    """``gripper_types`` for the env: the robot config's :attr:`~RobotSkillConfig.gripper` in place of ``"default"``."""
+    config = ROBOT_CONFIGS.get(robot)
+    if gripper_types == "default" and config is not None and config.gripper is not None:
+        return config.gripper
+    return gripper_types
+
+
+def base_shift(robot: str) -> tuple[float, float, float]:
+    """(3,) m the scene moves ``robot``'s base from robosuite's table-side position; zeros if unregistered."""
+    config = ROBOT_CONFIGS.get(robot)
+    return tuple(config.base_shift) if config is not None else (0.0, 0.0, 0.0)
+
+
+def osc_overrides(robot: str) -> dict[str, Any]:
+    """OSC config overrides of ``robot`` (on top of :data:`~.osc.OSC_OVERRIDES`); ``{}`` if unregistered."""
+    config = ROBOT_CONFIGS.get(robot)
+    return dict(config.osc) if config is not None else {}
+
+
+# ---------------------------------------------------------------------------------------------
+# the arms robosuite 1.5 ships that the skills are tuned for
+# ---------------------------------------------------------------------------------------------
+add_robot_config(RobotSkillConfig(
+    "Panda",
+    note="the reference arm: the skills' DEFAULT_CONFIGs and OSC_OVERRIDES were tuned on it",
+))
+
+#: robosuite's gripper the scene mounts on arms whose own gripper cannot grasp the sponge.  robosuite's
+#: Robotiq 85 model (UR5e's and Kinova3's default) collides with itself and stops closing at 0.42 of its
+#: 0.8 rad range, 6.2 cm between the pads (measured in free air), wider than the sponge's 5 cm short
+#: side; excluding those self-contacts makes its linkage unstable (measured: the simulation diverges).
+SWAP_GRIPPER = "PandaGripper"
+
+#: The same for Sawyer's Rethink gripper: it closes on the 5 cm sponge with ~8.5 N per finger (position
+#: actuators, kp 1000 N/m, 8.5 mm short of their closed limit) against the Panda gripper's 20 N, and the
+#: pressed sponge dragged along the closing axis pushes both fingers sideways until it slips out
+#: (measured: sponge lost while wiping in 9 of 10 paper episodes, also at 2 N pressing and 0.1 m/s).
+add_robot_config(RobotSkillConfig(
+    "Sawyer", gripper=SWAP_GRIPPER,
+    note="Panda gripper instead of the Rethink gripper; the scene excludes the contact between the base and "
+         "the first link (environments.robot_support), which otherwise stalls the OSC 3.7 cm short over segment 2",
+))
+add_robot_config(RobotSkillConfig("UR5e", gripper=SWAP_GRIPPER, note="Panda gripper instead of the Robotiq 85"))
+add_robot_config(RobotSkillConfig(
+    "Kinova3", gripper=SWAP_GRIPPER,
+    # stiffness (1/s^2; the skills' default 300): at 300 the pressed sponge twists in the hand while wiping
+    # segment 2 and is put down off the stand in 2 of 10 paper episodes; 450 (or wiping at 0.18 m/s) put it home
+    # in 10 of 10 (measured, random layouts, seed 0)
+    osc={"kp": 450},
+    # m: from robosuite's table-side position the far row of three_segments_two_objects (x up to 0.2 m) lies at
+    # the edge of the arm's 0.9 m reach: a carried object's lift stalls 2 cm low with the elbow straight (5 of 10
+    # episodes failed); 8 cm closer, 10 of 10 (and 10 of 10 on paper) succeeded (measured, seed 0)
+    base_shift=(0.08, 0.0, 0.0),
+    note="Panda gripper instead of the Robotiq 85; stiffer OSC; base 8 cm closer to the table",
+))
