@@ -75,11 +75,17 @@ def test_an_alias_names_the_old_entry_point(capsys):
     assert line.startswith("python -m benchmarks.render_scene: error: argument --width")
 
 
-def test_a_tiny_run_through_the_command(tmp_path, capsys):
+@pytest.mark.cli
+def test_a_tiny_run_through_the_package_entry_point(tmp_path):
+    import subprocess
+    import sys
+
     out = tmp_path / "run"
-    code = commands.main(["run", "--learners", "q_learning", "--rewards", "r4", "--runs", "3", "--iterations", "60",
-                          "--no-sweeps", "--no-literature", "--no-figures", "--no-progress", "--out", str(out)])
-    assert code == 0, capsys.readouterr().err
+    done = subprocess.run([sys.executable, "-m", "tableclean_suite.bench", "run", "--learners", "q_learning",
+                           "--rewards", "r4", "--runs", "3", "--iterations", "60", "--no-sweeps", "--no-literature",
+                           "--no-figures", "--no-progress", "--out", str(out)], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
     assert json.loads((out / "config.json").read_text())["args"]["runs"] == 3
 
 
@@ -177,6 +183,7 @@ def test_the_speed_report_names_every_goal_and_whether_it_is_met(capsys, monkeyp
     assert speed.main(["--sections", "specs"]) == 1
 
 
+@pytest.mark.slow  # checking a robot name imports robosuite
 def test_single_arm_commands_take_one_robot(capsys):
     code, err = _run(["fidelity", "--robots", "Panda,UR5e"], capsys)
     assert code == 2 and "give one robot" in err[-1]
@@ -288,3 +295,12 @@ def test_a_command_whose_module_is_missing_is_one_line(capsys, monkeypatch):
     assert code == 2 and err == ["tableclean-bench: error: command 'ghost' is not available in this installation "
                                  "(tableclean_suite.bench.no_such_module is missing)"]
     assert "ghost" not in commands.command_parsers()
+
+
+def test_plugin_files_are_kept_as_absolute_paths_for_workers_elsewhere(tmp_path, monkeypatch):
+    from pathlib import Path
+
+    monkeypatch.chdir(tmp_path)
+    args = cli.command_parser("x", "y").parse_args(["--plugins", "extras.py, my_package.objects,extras.py"])
+    assert args.plugins == (str(tmp_path / "extras.py"), "my_package.objects")
+    assert Path(args.plugins[0]).is_absolute()

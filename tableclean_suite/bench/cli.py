@@ -131,11 +131,11 @@ def output_path(kind: str):
 # ---------------------------------------------------------------------------------------------
 def command_parser(prog: str, description: str, epilog: str | None = None) -> OneLineParser:
     """A command's parser: one-line errors, and the options every command has (``--plugins``, ``--verbose``)."""
-    from tableclean_suite.bench.plugins import FLAG, split_plugins
+    from tableclean_suite.bench.plugins import FLAG, plugin_entries
 
     parser = OneLineParser(prog=prog, description=description, epilog=epilog,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument(FLAG, type=split_plugins, default=(), metavar="MODULE|FILE.py,...",
+    parser.add_argument(FLAG, type=plugin_entries, default=(), metavar="MODULE|FILE.py,...",
                         help="modules (names or .py paths, comma separated) imported first, to register actions, "
                              "learners, rewards, specs, objects or skills by name; executor workers import them too")
     parser.add_argument("--verbose", action="store_true",

@@ -88,6 +88,12 @@ def portable(entries: Iterable[str]) -> tuple[str, ...]:
     return tuple(str(Path(entry).resolve()) if entry.endswith(SOURCE_SUFFIX) else entry for entry in entries)
 
 
+def plugin_entries(text: str | None) -> tuple[str, ...]:
+    """The ``--plugins`` value as a command keeps it: :func:`split_plugins`, ``.py`` paths made absolute
+    (:func:`portable`), so executor workers with another working directory import the same files."""
+    return portable(split_plugins(text))
+
+
 @dataclass(frozen=True)
 class PluginTask:
     """A task of another executor's ``map``, run after importing ``plugins`` in the process that runs it.

@@ -91,6 +91,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     parser, args = cli.parse_command(build_parser, argv, prog or PROG)
+    if args.out is not None and Path(args.out).suffix.lower() != PNG_SUFFIX:  # before MuJoCo is imported
+        parser.error(f"--out must end in {PNG_SUFFIX}, got {str(args.out)!r}")
     from tableclean_suite.physics_backend import check_physical_task
     from tableclean_suite.task import TaskModel, get_task_spec
 
@@ -101,8 +103,6 @@ def main(argv=None, prog: str | None = None) -> int:
         parser.error(f"--task: {error}")
     if args.out is None:
         args.out = DEFAULT_OUT if spec.name == "paper" else DEFAULT_OUT.with_name(f"scene_{spec.name}.png")
-    if Path(args.out).suffix.lower() != PNG_SUFFIX:
-        parser.error(f"--out must end in {PNG_SUFFIX}, got {str(args.out)!r}")
     try:
         frame = render_frame(args.camera, args.width, args.height, args.seed, task=spec)
     except UnknownCameraError as error:

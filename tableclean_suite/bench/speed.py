@@ -420,18 +420,22 @@ def _check(parser, args, sections) -> None:
     if "environment" in sections and args.steps < args.rounds:
         parser.error(f"--steps {args.steps} is below --rounds {args.rounds}: every round times at least one step")
     if "skills" in sections:
-        from tableclean_suite.physics_backend import check_physical_task
         from tableclean_suite.task import get_task_spec
 
         try:
             args.task_spec = get_task_spec(args.task)
-            check_physical_task(TaskModel(spec=args.task_spec))
         except (ValueError, OSError) as error:
             parser.error(f"--task: {error}")
         segments = args.task_spec.segments
         if any(not 1 <= k <= segments for k in args.layout):
             parser.error(f"--layout: segments must be in 1..{segments} for task {args.task_spec.name!r}, "
                          f"got {list(args.layout)}")
+        from tableclean_suite.physics_backend import check_physical_task  # imports MuJoCo: after the cheap checks
+
+        try:
+            check_physical_task(TaskModel(spec=args.task_spec))
+        except ValueError as error:
+            parser.error(f"--task: {error}")
 
 
 def main(argv=None, prog: str | None = None, alias: str | None = None) -> int:
