@@ -131,7 +131,8 @@ def run_study(args) -> int:
         print(ordering_answer(verdicts[f"{gamma:g}"]))
         print(f"Observed order ({fit_learner}, gamma {gamma:g}, fewest iterations first):")
         for info in infos:
-            print(f"  {info.name:<15}{info.reachable_from_start:>7}: {observed_order(rows, info.name, fit_learner, gamma)}")
+            order = observed_order(rows, info.name, fit_learner, gamma)
+            print(f"  {info.name:<15}{info.reachable_from_start:>7}: {order}")
     write_csv(out / "scaling.csv", rows)
     write_csv(out / "scaling_specs.csv", [asdict(s) for s in infos])
     write_figure(out / "scaling.png", rows, fit_learner, fits)

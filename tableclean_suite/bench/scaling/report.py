@@ -100,7 +100,8 @@ def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None
                 bottom.plot([r["reachable_from_start"] for r in chosen], ratio, marker=marker, color=colour,
                             linestyle="-" if family == PRODUCT_FAMILY else ":")
             fit = fits.get(f"{gamma:g}", {}).get(reward)
-            product = sorted((r for r in cells if r["family"] == PRODUCT_FAMILY), key=lambda r: r["reachable_from_start"])
+            product = sorted((r for r in cells if r["family"] == PRODUCT_FAMILY),
+                             key=lambda r: r["reachable_from_start"])
             if fit and math.isfinite(fit["exponent"]) and math.isfinite(fit.get("intercept", math.nan)) and product:
                 x = np.array([r["reachable_from_start"] for r in product], dtype=float)
                 top.plot(x, np.exp(fit["intercept"]) * x ** fit["exponent"], linestyle="--", color=colour, alpha=0.5)
