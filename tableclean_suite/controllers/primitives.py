@@ -262,10 +262,14 @@ class Grasp(Primitive):
 
 
 class Release(Primitive):
-    """Hover over ``spot(skill, info)`` (2,), lower the carried ``body`` to ``rest_z`` + clearance, open, retreat.
+    """Hover over ``spot(skill, info)`` (2,), lower the carried ``body`` until it rests, open, retreat.
 
     ``rest_z(skill, info)``: the height [m] of the body's centre when it rests at the spot.  The
-    grip-site-to-body offset is measured when the primitive starts (the grasp may have slipped).
+    grip-site-to-body offset is measured when the primitive starts (the grasp may have slipped):
+    the grip site aims so that the body's centre (not the hand) comes over the spot, and lowers it
+    to ``rest_z`` + ``place_clearance``.  A body with a geometry also counts as lowered once its
+    lowest point, at its current pose, is within ``place_clearance`` of the surface it rests on
+    (a body hanging tilted in the hand touches down before the grip site reaches its target).
     """
 
     PHASES = ("ALIGN", "DESCEND", "RELEASE", "RETREAT")
@@ -275,14 +279,28 @@ class Release(Primitive):
         self.body, self.spot, self.rest_z = body, spot, rest_z
 
     def start(self, skill, info):
-        self.hold_offset_z = float(np.asarray(info["eef_pos"], dtype=float)[2] - self.body.pos(info)[2])
-        self.xy = np.asarray(self.spot(skill, info), dtype=float)[:2]
+        offset = np.asarray(info["eef_pos"], dtype=float) - self.body.pos(info)
+        self.hold_offset_z = float(offset[2])
+        # the body's centre over the spot (for the sponge, the grip site, as it was tuned)
+        shift = offset[:2] if self.body.geometry is not None else np.zeros(2)
+        self.xy = np.asarray(self.spot(skill, info), dtype=float)[:2] + shift
+
+    def rests(self, skill, info) -> bool:
+        """Whether the body's lowest point is within ``place_clearance`` of the surface it rests on at ``rest_z``."""
+        if self.body.geometry is None:
+            return False
+        shape = self.body.shape(info)
+        surface = float(self.rest_z(skill, info)) + float(shape.lower[2])
+        lowest = world_lowest_z(shape, self.body.pos(info), quat_to_matrix(self.body.quat(info)))
+        return lowest <= surface + skill.config["place_clearance"]
 
     def waypoint(self, skill, info, phase):
         tol = skill.config["reach_tolerance"]
         if phase == "ALIGN":
             return Waypoint(skill.hover_point(info, self.xy), GRIPPER_CLOSE, tol)
         if phase == "DESCEND":
+            if self.rests(skill, info):  # touched down: no lower
+                return Waypoint(skill.setpoint, GRIPPER_CLOSE, np.inf)
             z = float(self.rest_z(skill, info)) + skill.config["place_clearance"] + self.hold_offset_z
             return Waypoint(np.array([*self.xy, z]), GRIPPER_CLOSE, tol, speed=skill.config["descend_speed"])
         if phase == "RELEASE":
