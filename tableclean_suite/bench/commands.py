@@ -198,11 +198,13 @@ def run_alias(name: str, prog: str, argv=None, **options) -> int:
 def _refusals() -> tuple:
     """Library errors a command reports as one line with exit 2: the resource guard's
     (:class:`~tableclean_suite.resources.ResourceError`) and the output folder's
-    (:class:`~tableclean_suite.bench.outputs.OutputError`: full disk, read-only, busy, a file in the way)."""
+    (:class:`~tableclean_suite.bench.outputs.OutputError`: full disk, read-only, busy, a file in the way) and
+    an unreachable Ray cluster (:class:`~tableclean_suite.executors.ray_executor.ClusterUnreachableError`)."""
     from tableclean_suite.bench.outputs import OutputError
+    from tableclean_suite.executors.ray_executor import ClusterUnreachableError
     from tableclean_suite.resources import ResourceError
 
-    return ResourceError, OutputError
+    return ResourceError, OutputError, ClusterUnreachableError
 
 
 if __name__ == "__main__":

@@ -53,13 +53,13 @@ from __future__ import annotations
 from tableclean_suite.executors.base import (DEFAULT_MAX_RETRIES, Executor, RetryableError, TaskFailedError,
                                              task_name)
 from tableclean_suite.executors.local import LocalExecutor
-from tableclean_suite.executors.ray_executor import MissingRayError, RayExecutor
+from tableclean_suite.executors.ray_executor import ClusterUnreachableError, MissingRayError, RayExecutor
 
 #: Executor names accepted by :func:`make_executor` (and ``--executor``).
 EXECUTOR_NAMES = ("local", "ray")
 
-__all__ = ["DEFAULT_MAX_RETRIES", "EXECUTOR_NAMES", "Executor", "LocalExecutor", "MissingRayError", "RayExecutor",
-           "RetryableError", "TaskFailedError", "make_executor", "task_name"]
+__all__ = ["ClusterUnreachableError", "DEFAULT_MAX_RETRIES", "EXECUTOR_NAMES", "Executor", "LocalExecutor",
+           "MissingRayError", "RayExecutor", "RetryableError", "TaskFailedError", "make_executor", "task_name"]
 
 
 def make_executor(name: str = "local", workers: int | None = None, address: str | None = None,

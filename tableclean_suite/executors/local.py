@@ -5,7 +5,8 @@ Spawned workers import ``function``'s module afresh (a script that uses more tha
 needs the usual ``if __name__ == "__main__":`` guard).  At most ``workers`` tasks are in
 flight at a time, so a worker crash breaks the pool while only those tasks run: each of them is
 charged one attempt (the pool cannot tell which one crashed it), the pool is restarted and they
-are run again.
+are run again.  Every worker watches its parent (:func:`watch_parent`) and exits within a second
+of its death, so nothing is left running after the parent is killed.
 """
 
 from __future__ import annotations
@@ -22,6 +23,65 @@ from tableclean_suite.executors.base import (DEFAULT_MAX_RETRIES, RetryableError
 
 #: Start method of the worker processes: a fresh interpreter (no fork of a threaded parent).
 START_METHOD = "spawn"
+#: Seconds between a worker's checks that its parent is still alive (:func:`watch_parent`).
+PARENT_CHECK_SECONDS = 1.0
+#: Exit status of a worker whose parent died.
+ORPHAN_EXIT_STATUS = 1
+
+
+def _parent_alive(parent_pid: int) -> bool:
+    """Whether the process that started this worker still runs (not re-parented, not gone)."""
+    if os.getppid() != parent_pid:
+        return False
+    try:
+        os.kill(parent_pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # alive, owned by someone else
+        return True
+    return True
+
+
+def watch_parent(parent_pid: int, interval: float = PARENT_CHECK_SECONDS) -> None:
+    """Worker initializer: a daemon thread that ends this worker (``os._exit``) within ``interval``
+    seconds of its parent's death, so a killed run (``kill -9``) leaves no worker behind blocked on
+    a dead pipe (and the resource tracker, whose pipe the workers hold, exits with them).
+
+    The worker also ignores Ctrl-C (SIGINT, which a terminal sends to the whole process group): the
+    parent handles it and stops its workers (:meth:`LocalExecutor.__exit__`), so an interrupt prints
+    the parent's one line, not a traceback per worker.
+    """
+    import signal
+    import threading
+    import time
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def watch():
+        while _parent_alive(parent_pid):
+            time.sleep(interval)
+        os._exit(ORPHAN_EXIT_STATUS)
+
+    threading.Thread(target=watch, name="tableclean-parent-watch", daemon=True).start()
+
+
+def main_guard_hint() -> str:
+    """``""``, or why spawned workers die: the main script has no ``if __name__ == "__main__":`` guard,
+    so each worker re-runs it on import and tries to start workers of its own."""
+    import re
+    import sys
+
+    path = getattr(sys.modules.get("__main__"), "__file__", None)
+    if not path or not str(path).endswith(".py"):
+        return ""
+    try:
+        source = open(path, encoding="utf-8").read()
+    except (OSError, UnicodeDecodeError):
+        return ""
+    if re.search(r"""if\s+__name__\s*==\s*['"]__main__['"]""", source):
+        return ""
+    return (f" (likely cause: {path} has no `if __name__ == \"__main__\":` guard; spawned workers import the "
+            "script and re-run its top level: put the code that trains under that guard)")
 
 
 class LocalExecutor:
@@ -50,20 +110,25 @@ class LocalExecutor:
     def start(self) -> None:
         """Start the worker processes (nothing to start in-process); idempotent."""
         if not self.in_process and self._pool is None:
-            self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context(START_METHOD))
+            self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context(START_METHOD),
+                                             initializer=watch_parent, initargs=(os.getpid(),))
 
-    def close(self) -> None:
-        """Stop the workers; queued tasks are cancelled, running ones are waited for."""
+    def close(self, wait: bool = True) -> None:
+        """Stop the workers; queued tasks are cancelled, running ones are waited for (``wait``) or
+        their workers terminated (``wait=False``, e.g. after Ctrl-C)."""
         if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
+            pool, self._pool = self._pool, None
+            if not wait:
+                for process in list((getattr(pool, "_processes", None) or {}).values()):
+                    process.terminate()
+            pool.shutdown(wait=wait, cancel_futures=True)
 
     def __enter__(self) -> "LocalExecutor":
         self.start()
         return self
 
-    def __exit__(self, *exc_info) -> None:
-        self.close()
+    def __exit__(self, exc_type, *exc_info) -> None:
+        self.close(wait=not (exc_type is not None and issubclass(exc_type, KeyboardInterrupt)))
 
     def map(self, function: Callable, tasks: Iterable) -> Iterator:
         """``function(task)`` for each task, in task order (see :class:`~.base.Executor`)."""
@@ -88,6 +153,7 @@ class LocalExecutor:
         self.start()
         waiting = list(range(len(tasks)))  # a heap of task indices not yet submitted, lowest first
         running, finished, attempts = {}, {}, [0] * len(tasks)
+        interrupted = False
         try:
             for index in range(len(tasks)):
                 while index not in finished:
@@ -104,11 +170,14 @@ class LocalExecutor:
                     if failure is not None:
                         raise failure
                 yield finished.pop(index)
+        except KeyboardInterrupt:
+            interrupted = True
+            raise
         finally:
             for future in running:
                 future.cancel()
             if owned:
-                self.close()
+                self.close(wait=not interrupted)
 
     def _restart(self) -> None:
         """Replace a broken pool (a worker died) by a new one."""
@@ -132,7 +201,7 @@ class LocalExecutor:
             broken |= crashed
             if not (crashed or isinstance(error, RetryableError)) or attempts[index] > self.max_retries:
                 if failure is None:
-                    reason = "a worker process died while running it" if crashed else error
+                    reason = f"a worker process died while running it{main_guard_hint()}" if crashed else error
                     failure = TaskFailedError(tasks[index], attempts[index], reason)
                     failure.__cause__ = error
             else:

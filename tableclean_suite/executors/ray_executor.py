@@ -23,8 +23,47 @@ CPUS_PER_TASK = 1
 USAGE_STATS_VARIABLE = "RAY_USAGE_STATS_ENABLED"
 
 
+#: Seconds :class:`RayExecutor` waits for a cluster's head (``address="HOST:PORT"``) to accept a
+#: connection before giving up (Ray itself retries without end).
+DEFAULT_CONNECT_TIMEOUT = 30.0
+#: Scheme prefix of Ray Client addresses (``ray://HOST:PORT``).
+CLIENT_SCHEME = "ray://"
+
+
 class MissingRayError(ImportError):
     """Ray is not installed; the message says how to install it."""
+
+
+class ClusterUnreachableError(ConnectionError):
+    """The Ray cluster's address does not accept connections; the message names it and the wait."""
+
+
+def host_and_port(address: str) -> tuple[str, int] | None:
+    """``("10.0.0.5", 6379)`` of ``"10.0.0.5:6379"`` or ``"ray://10.0.0.5:10001"``; None for ``"auto"``
+    or anything that is not HOST:PORT."""
+    text = address[len(CLIENT_SCHEME):] if address.startswith(CLIENT_SCHEME) else address
+    host, _, port = text.rpartition(":")
+    if not host or not port.isdigit():
+        return None
+    return host.strip("[]"), int(port)
+
+
+def check_reachable(address: str, timeout: float = DEFAULT_CONNECT_TIMEOUT) -> None:
+    """Raise :class:`ClusterUnreachableError` unless ``address`` (HOST:PORT) accepts a TCP connection
+    within ``timeout`` seconds; addresses that are not HOST:PORT (``"auto"``) are left to Ray."""
+    import socket
+
+    target = host_and_port(address)
+    if target is None:
+        return
+    try:
+        with socket.create_connection(target, timeout=timeout):
+            pass
+    except OSError as error:
+        reason = "timed out" if isinstance(error, TimeoutError) else (error.strerror or str(error))
+        raise ClusterUnreachableError(
+            f"cannot reach the Ray cluster at {address!r} within {timeout:g} s ({reason}); start its head with "
+            "`ray start --head` or pass the address it printed") from None
 
 
 def import_ray():
@@ -50,10 +89,13 @@ class RayExecutor:
             many as the cluster has CPUs, :data:`CPUS_PER_TASK` each).
         max_retries: extra runs of a task after :class:`RetryableError` or a worker crash, >= 0.
         num_cpus: CPUs of a private Ray (``address=None``), >= 1; None: every core.
+        connect_timeout: seconds to wait for ``address`` to accept a connection before
+            :class:`ClusterUnreachableError` (which names the address), > 0.
     """
 
     def __init__(self, address: str | None = None, workers: int | None = None,
-                 max_retries: int = DEFAULT_MAX_RETRIES, num_cpus: int | None = None):
+                 max_retries: int = DEFAULT_MAX_RETRIES, num_cpus: int | None = None,
+                 connect_timeout: float = DEFAULT_CONNECT_TIMEOUT):
         if address is not None and (not isinstance(address, str) or not address.strip()):
             raise ValueError(f"address must be HOST:PORT, 'auto' or None, got {address!r}")
         check_count("workers", workers, 1, allow_none=True)
@@ -63,6 +105,10 @@ class RayExecutor:
         self.workers = workers
         self.max_retries = max_retries
         self.num_cpus = num_cpus
+        if isinstance(connect_timeout, bool) or not isinstance(connect_timeout, (int, float)) \
+                or not 0 < connect_timeout < float("inf"):
+            raise ValueError(f"connect_timeout must be a number of seconds > 0, got {connect_timeout!r}")
+        self.connect_timeout = float(connect_timeout)
         self._ray = None
         self._in_context = False
 
@@ -80,6 +126,7 @@ class RayExecutor:
                 os.environ.setdefault(USAGE_STATS_VARIABLE, "0")
                 ray.init(num_cpus=self.num_cpus, include_dashboard=False, _node_ip_address=LOOPBACK)
             else:
+                check_reachable(self.address, self.connect_timeout)
                 ray.init(address=self.address)
             self._owned = True
         else:
