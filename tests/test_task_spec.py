@@ -239,3 +239,41 @@ def test_the_shipped_example_specs_load():
     for path in specs:
         spec = load_task_spec(path)
         assert spec.name == path.stem and TaskModel(spec=str(path)).n_states == spec.n_states
+
+
+@pytest.mark.parametrize("document, named", [
+    ({"name": "x", "segments": "3"}, "segments"),
+    ({"name": "x", "segments": "3", "start_state": {"clean": [False] * 3, "objects": [1], "arm": 1}}, "segments"),
+    ({"name": "x", "segments": 3.0}, "segments"),
+    ({"name": "x", "objects": "2"}, "objects"),
+    ({"name": "x", "objects": [["box"]]}, "object type"),
+    ({"name": "x", "actions": "move"}, "actions"),
+    ({"name": "x", "description": 5}, "description"),
+    ({"name": "x", "start_state": {"clean": [False, False], "objects": [1], "arm": "1"}}, "arm"),
+    ({"name": 5}, "name"),
+])
+def test_a_json_spec_of_wrong_types_is_one_value_error(document, named):
+    from tableclean_suite.task import TaskSpec
+
+    with pytest.raises(ValueError, match=named):
+        TaskSpec.from_dict(document)
+
+
+@pytest.mark.parametrize("text", ['{"name": "x", "objects": ' + "[" * 100000 + "]" * 100000 + "}",
+                                  "\udcff", '{"name": "x", "segments": ' + "{" * 5000])
+def test_a_deeply_nested_or_undecodable_spec_file_is_one_value_error(tmp_path, text):
+    from tableclean_suite.task.spec import load_task_spec
+
+    path = tmp_path / "spec.json"
+    path.write_bytes(text.encode("utf-8", "surrogateescape"))
+    with pytest.raises(ValueError, match="spec.json"):
+        load_task_spec(path)
+
+
+def test_a_deeply_nested_transition_table_is_a_corrupt_table(tmp_path):
+    from tableclean_suite.learners.transitions import CorruptTableError, TransitionTable
+
+    path = tmp_path / "t.json"
+    path.write_text("[" * 100000 + "]" * 100000)
+    with pytest.raises(CorruptTableError, match="nested too deeply"):
+        TransitionTable.from_json(path)

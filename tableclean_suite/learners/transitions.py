@@ -196,9 +196,11 @@ class TransitionTable:
         """
         path = Path(path)
         try:
-            document = json.loads(path.read_text())
+            document = json.loads(path.read_text(encoding="utf-8"))
         except FileNotFoundError:
             raise
+        except RecursionError:
+            raise CorruptTableError(f"{path}: nested too deeply to be a transition table") from None
         except (OSError, ValueError) as error:
             raise CorruptTableError(f"{path}: not a JSON transition table ({error})") from None
         if not isinstance(document, dict) or document.get("format") != FORMAT_NAME:

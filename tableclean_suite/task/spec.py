@@ -195,7 +195,11 @@ class TaskSpec:
         start_state = data.get("start_state")
         if start_state is not None:
             segments = data.get("segments", 2)
+            if isinstance(segments, bool) or not isinstance(segments, int) or segments < 2:
+                raise ValueError(f"{source}: segments must be an integer >= 2, got {segments!r}")
             data["start_state"] = state_from_json(start_state, segments, f"{source}: start_state")
+        if not isinstance(data.get("description", ""), str):
+            raise ValueError(f"{source}: description must be a string, got {data['description']!r}")
         try:
             return cls(**data)
         except (TypeError, ValueError) as error:
@@ -271,9 +275,11 @@ def load_task_spec(path: str | Path) -> TaskSpec:
     """Read a spec from a JSON file; ``ValueError`` names the file and the problem."""
     path = Path(path)
     try:
-        data = json.loads(path.read_text())
+        data = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ValueError(f"task spec file {str(path)!r} does not exist") from None
+    except RecursionError:
+        raise ValueError(f"task spec file {str(path)!r} is nested too deeply to be a task spec") from None
     except (OSError, ValueError) as error:
         raise ValueError(f"task spec file {str(path)!r} is not readable JSON ({error})") from None
     return TaskSpec.from_dict(data, source=str(path))
