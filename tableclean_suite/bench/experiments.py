@@ -677,7 +677,8 @@ def cell_records(grid: list[Membership], summaries: dict, cell_statistics: dict 
                 record[f"{name}_iqm"], record[f"{name}_iqm_low"], record[f"{name}_iqm_high"] = value, low, high
             settled = stats.settling
             record.update(behaviour_drift=settled.drift, behaviour_drift_low=settled.low,
-                          behaviour_drift_high=settled.high, checkpoint_iteration=settled.checkpoint,
+                          behaviour_drift_high=settled.high,
+                          checkpoint_iteration=settled.checkpoint or None,  # None: not measured (e.g. physics)
                           settled=settled.settled(settle_tolerance))
             iterations = np.arange(1, summary.iterations + 1)
             for name in stats.bands:

@@ -85,7 +85,7 @@ def run_episodes(robot: str, task: str, episodes: int, seed: int = 0, log=print,
                 results = controller.execute_plan(model.shortest_plan(start))
                 final = env.symbolic_state()
                 ok = all(r.success for r in results) and final.is_terminal
-                reason = "; ".join(f"{r.action}: {r.reason}" for r in results if not r.success)
+                reason = "; ".join(f"{model.action_name(r.action)}: {r.reason}" for r in results if not r.success)
             except Exception as error:  # an abstraction fault at the start or end: a failed episode
                 ok, reason = False, f"{type(error).__name__}: {error}"
             seconds += time.perf_counter() - started

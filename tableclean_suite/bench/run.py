@@ -372,7 +372,7 @@ def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task:
         on_task = "" if task_name == PAPER_TASK else f" on task {task_name!r}"
         print(f"\nTable 3: learning speed per reward pattern{on_task} (alpha = {config.alpha:g}, "
               f"gamma = {config.gamma:g}, epsilon = {config.epsilon:g}, {config.runs} runs x {config.iterations} "
-              "iterations).")
+              f"iterations, {config.backend} backend).")
         print("  'paper' = the paper's Table 3 (Q-learning only)." if paper_task
               else f"  Task {task_name!r} is not the paper's: no paper values beside ours.")
         print(f"  success % and avg reward plateau = exact asymptotes of the runs' final behaviour (greedy policy "

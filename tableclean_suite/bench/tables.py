@@ -151,8 +151,9 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
         if column not in SUMMARY_SCALARS:
             values = frame[column] if column in frame.columns else [_NA] * len(frame)
             frame[column] = [_NA if _missing(v) else float(v) for v in values]
-    checkpoints = frame["checkpoint_iteration"] if "checkpoint_iteration" in frame.columns else [0] * len(frame)
-    frame["checkpoint_iteration"] = [0 if _missing(v) else int(v) for v in checkpoints]
+    checkpoints = frame["checkpoint_iteration"] if "checkpoint_iteration" in frame.columns else [None] * len(frame)
+    frame["checkpoint_iteration"] = pd.array([None if _missing(v) or int(v) == 0 else int(v) for v in checkpoints],
+                                             dtype="Int64")  # empty, not 0, where no checkpoint was measured
     settled = frame["settled"] if "settled" in frame.columns else [None] * len(frame)
     frame["settled"] = pd.array([None if _missing(v) else bool(v) for v in settled], dtype="boolean")
     frame["alpha"] = frame["alpha"].astype(float)
