@@ -146,3 +146,24 @@ def test_robot_table_append_keeps_a_valid_table(tmp_path):
     robot_table.write_table(table, [row])
     merged = robot_table.merge_rows(table, [])
     assert len(merged) == 1 and merged[0]["robot"] == "Panda" and float(merged[0]["fidelity_trials"]) == 72
+
+
+@pytest.mark.cli
+def test_a_second_fidelity_run_into_a_busy_folder_is_refused(tmp_path):
+    import subprocess
+    import sys
+
+    from tableclean_suite.bench import outputs
+
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import time; from tableclean_suite.bench import outputs\n"
+         f"with outputs.output_lock({str(tmp_path)!r}):\n    print('held', flush=True); time.sleep(60)"],
+        stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        with pytest.raises(outputs.OutputBusyError, match="in use by another run"):
+            fidelity.collect(1, trials_csv=tmp_path / fidelity.TRIALS_CSV, log=None, model=MODEL)
+        assert not (tmp_path / fidelity.TRIALS_CSV).exists()
+    finally:
+        holder.kill()
+        holder.wait()

@@ -35,6 +35,7 @@ from that reset's seed; its results go to ``DIR_randomized`` by default.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import os
 import sys
@@ -48,7 +49,7 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import trial_store  # noqa: E402
-from tableclean_suite.bench.outputs import atomic_write_text  # noqa: E402
+from tableclean_suite.bench.outputs import atomic_write_text, output_lock  # noqa: E402
 from tableclean_suite.bench import cli  # noqa: E402
 from tableclean_suite.bench.trial_store import TRIAL_FIELDS  # noqa: E402, F401  (re-exported)
 from tableclean_suite.executors.blas import single_blas_thread  # noqa: E402
@@ -333,7 +334,9 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
     :mod:`tableclean_suite.executors` executor; default: this process) runs the rounds, each
     worker building its scene with ``physics_options``.  ``actions`` limits the executed
     actions (e.g. leave out the slow clean).  ``model`` is the task (default: the session's,
-    else ``paper``).
+    else ``paper``).  The trials' folder is locked while rounds run
+    (:func:`~tableclean_suite.bench.outputs.output_lock`): a second run into it raises
+    :class:`~tableclean_suite.bench.outputs.OutputBusyError`.
     """
     import json
 
@@ -341,51 +344,54 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
     actions = action_names(model, actions)
     per_round = trials_per_round(model, actions)
     path = None if trials_csv is None else Path(trials_csv)
-    if path is not None and fresh and path.exists():
-        path.unlink()
-    if path is not None:
-        check_configuration(path, run_configuration(model, physics_options, session), log)
-    rows = trial_store.complete_rounds(read_trials(path, log) if path is not None else [], per_round, log)
-    check_trial_rows(rows, model, path)
-    done_rounds = sorted({row["round"] for row in rows})
-    if rows and {row["seed"] for row in rows} != {round_seed(seed, r) for r in done_rounds}:
-        raise ResumeError(f"{path} was measured with another --seed; pass that seed or --fresh")
-    measured = {row["action"] for row in rows}
-    if rows and measured != set(actions):
-        raise ResumeError(f"{path} holds trials of {sorted(measured)}, not of the requested actions; use --fresh")
-    todo = [r for r in range(trials) if r not in done_rounds]
-    if done_rounds and log:
-        log(f"resuming: {len(done_rounds)} round(s) already in {path}, {len(todo)} to run")
-    if not todo:
+    with contextlib.ExitStack() as held:
+        if path is not None:  # one writer per trials folder: a second run exits 2, never mixes rounds
+            held.enter_context(output_lock(path.parent))
+        if path is not None and fresh and path.exists():
+            path.unlink()
+        if path is not None:
+            check_configuration(path, run_configuration(model, physics_options, session), log)
+        rows = trial_store.complete_rounds(read_trials(path, log) if path is not None else [], per_round, log)
+        check_trial_rows(rows, model, path)
+        done_rounds = sorted({row["round"] for row in rows})
+        if rows and {row["seed"] for row in rows} != {round_seed(seed, r) for r in done_rounds}:
+            raise ResumeError(f"{path} was measured with another --seed; pass that seed or --fresh")
+        measured = {row["action"] for row in rows}
+        if rows and measured != set(actions):
+            raise ResumeError(f"{path} holds trials of {sorted(measured)}, not of the requested actions; use --fresh")
+        todo = [r for r in range(trials) if r not in done_rounds]
+        if done_rounds and log:
+            log(f"resuming: {len(done_rounds)} round(s) already in {path}, {len(todo)} to run")
+        if not todo:
+            return [row for row in rows if row["round"] < trials]
+        started = time.perf_counter()
+        owned = session is None and executor is None  # this process's default: its scenes close when the rounds are done
+        if session is not None:
+            results = (run_round(session, r, seed, actions=actions) for r in todo)
+        else:
+            from tableclean_suite.executors import LocalExecutor
+
+            executor = LocalExecutor(workers=1) if owned else executor
+            spec = (json.dumps(model.spec.to_dict(), sort_keys=True),)
+            tasks = [FidelityRound(spec, r, seed, tuple(actions), tuple(sorted((physics_options or {}).items())))
+                     for r in todo]
+            results = executor.map(run_round_task, tasks)
+        try:
+            for round_index, new in zip(todo, results):
+                if len(new) != per_round:
+                    raise ResumeError(f"round {round_index + 1} produced {len(new)} trials, not {per_round}")
+                rows.extend(new)
+                if path is not None:
+                    trial_store.write_rows(path, sorted(rows, key=lambda row: row["round"]))
+                if log:
+                    agree = sum(r["agree"] for r in new)
+                    log(f"round {round_index + 1}/{trials}: {agree}/{len(new)} agree, {time.perf_counter() - started:.1f} s")
+        finally:
+            if owned:
+                from tableclean_suite.physics_backend import close_sessions
+
+                close_sessions()
         return [row for row in rows if row["round"] < trials]
-    started = time.perf_counter()
-    owned = session is None and executor is None  # this process's default: its scenes close when the rounds are done
-    if session is not None:
-        results = (run_round(session, r, seed, actions=actions) for r in todo)
-    else:
-        from tableclean_suite.executors import LocalExecutor
-
-        executor = LocalExecutor(workers=1) if owned else executor
-        spec = (json.dumps(model.spec.to_dict(), sort_keys=True),)
-        tasks = [FidelityRound(spec, r, seed, tuple(actions), tuple(sorted((physics_options or {}).items())))
-                 for r in todo]
-        results = executor.map(run_round_task, tasks)
-    try:
-        for round_index, new in zip(todo, results):
-            if len(new) != per_round:
-                raise ResumeError(f"round {round_index + 1} produced {len(new)} trials, not {per_round}")
-            rows.extend(new)
-            if path is not None:
-                trial_store.write_rows(path, sorted(rows, key=lambda row: row["round"]))
-            if log:
-                agree = sum(r["agree"] for r in new)
-                log(f"round {round_index + 1}/{trials}: {agree}/{len(new)} agree, {time.perf_counter() - started:.1f} s")
-    finally:
-        if owned:
-            from tableclean_suite.physics_backend import close_sessions
-
-            close_sessions()
-    return [row for row in rows if row["round"] < trials]
 
 
 # ---------------------------------------------------------------------------------------------
