@@ -330,3 +330,41 @@ def test_command_reference_shows_every_commands_help(site):
     missing = [name for name, text in helps.items() if text not in shown]
     assert not missing, f"commands whose --help is not on the page (or differs): {', '.join(missing)}"
     assert command_reference.MARKER not in page
+
+
+# ---- the README's links into the docs ---------------------------------------------------------
+
+LINK = re.compile(r"\]\((?P<target>[^)\s]+)\)")
+
+
+def _slug(heading: str) -> str:
+    """The anchor MkDocs' toc extension gives a heading (lower case, punctuation dropped, spaces to -)."""
+    text = re.sub(r"[^\w\s-]", "", heading.strip().lower())
+    return re.sub(r"[\s]+", "-", text)
+
+
+def _anchors(page: Path) -> set[str]:
+    headings = [line.lstrip("#").strip() for line in page.read_text(encoding="utf-8").splitlines()
+                if re.match(r"#{1,6} ", line)]
+    return {_slug(heading) for heading in headings}
+
+
+def test_readme_links_point_at_files_and_headings_that_exist():
+    readme = REPO / "README.md"
+    broken = []
+    for match in LINK.finditer(readme.read_text(encoding="utf-8")):
+        target = match["target"]
+        if target.startswith(("http://", "https://", "mailto:")):
+            continue
+        path, _, anchor = target.partition("#")
+        file = readme if not path else REPO / path
+        if not file.exists():
+            broken.append(target)
+        elif anchor and file.suffix == ".md" and anchor not in _anchors(file):
+            broken.append(target)
+    assert not broken, f"README links to missing files or headings: {', '.join(broken)}"
+
+
+def test_heading_slugs_match_mkdocs():
+    assert _slug("Cruz et al.'s methods, run here (Table 4)") == "cruz-et-als-methods-run-here-table-4"
+    assert _slug("The paper's task model") == "the-papers-task-model"
