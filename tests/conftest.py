@@ -19,6 +19,7 @@ import os
 import subprocess
 from pathlib import Path
 
+import numpy.testing  # noqa: F401  (runs `lscpu` once on import; numba's first cached kernel imports it)
 import pytest
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen rendering without a display (osmesa also works where installed)

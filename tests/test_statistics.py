@@ -107,6 +107,22 @@ def test_weighted_group_sums_have_the_same_bits_for_any_thread_count():
     np.testing.assert_array_equal(statistics.weighted_group_sums(weights, values[:, 0]), one[:, 0])
 
 
+def test_weighted_group_sums_of_counts_take_the_exact_product_with_the_ordered_sums_bits():
+    """Integer counts (success, finished runs) go through the matrix product: exact, so the same
+    bits as the ordered sum; fractional values and sums past 2**53 keep the ordered sum."""
+    rng = np.random.default_rng(4)
+    weights = rng.multinomial(100, np.full(100, 0.01), size=64).astype(float)
+    counts = rng.integers(0, 11, (100, 257)).astype(float)
+    assert statistics._exact_integer_product(weights, counts)
+    ordered = statistics._weighted_rows(weights, counts)
+    fast = statistics.weighted_group_sums(weights, counts)
+    assert np.array_equal(fast.view(np.int64), ordered.view(np.int64))  # bits, signs of zeros included
+    negative_zeros = statistics.weighted_group_sums(weights, -np.zeros((100, 3)))
+    assert not np.signbit(negative_zeros).any()
+    assert not statistics._exact_integer_product(weights, counts + 0.5)
+    assert not statistics._exact_integer_product(weights, counts * 2.0 ** 50)
+
+
 def test_max_average_reward_interval_contains_its_point():
     """The interval is the curve's value at the maximising iteration, so it brackets the maximum
     (the maximum of each resampled curve would be biased upward and could miss it)."""
