@@ -28,9 +28,9 @@ from typing import Any, Callable, ClassVar, Mapping
 
 import numpy as np
 
-from tableclean_suite.controllers.geometry import gripper_yaw, quat_to_matrix
+from tableclean_suite.controllers.geometry import gripper_yaw, quat_to_matrix, wrap_angle
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
-from tableclean_suite.controllers.skill import Skill, SkillFailure, Waypoint
+from tableclean_suite.controllers.skill import Skill, SkillFailure, Waypoint, object_heights
 from tableclean_suite.environments.object_geometry import (
     ObjectGeometry,
     grasp_yaw,
@@ -284,6 +284,29 @@ class Release(Primitive):
         # the body's centre over the spot (for the sponge, the grip site, as it was tuned)
         shift = offset[:2] if self.body.geometry is not None else np.zeros(2)
         self.xy = np.asarray(self.spot(skill, info), dtype=float)[:2] + shift
+        self._turn_hand_away(skill, info)
+
+    def _turn_hand_away(self, skill, info) -> None:
+        """Turn the hand's long (finger) axis across the direction of the nearest lying object whose top the
+        hand would reach at release (within ``gripper_hand_reach`` of the spot): the hand's narrow side then
+        faces it.  No such object (the paper's scenes): the yaw stays."""
+        if self.body.geometry is None or "gripper_hand_reach" not in info or "objects_pos" not in info:
+            return
+        hand_bottom = (float(self.rest_z(skill, info)) + skill.config["place_clearance"] + self.hold_offset_z
+                       + float(info["gripper_palm_height"]))
+        tops, _ = object_heights(info)
+        positions = np.asarray(info["objects_pos"], dtype=float)
+        lying = ~np.asarray(info["objects_grasped"], dtype=bool)
+        gaps = np.linalg.norm(positions[:, :2] - self.xy, axis=1)
+        near = np.flatnonzero(lying & (tops > hand_bottom) & (gaps < float(info["gripper_hand_reach"])
+                                                               + np.asarray(info["objects_footprint"])))
+        if near.size == 0:
+            return
+        j = near[np.argmin(gaps[near])]
+        toward = positions[j, :2] - self.xy
+        across = float(np.arctan2(toward[1], toward[0])) + 0.5 * np.pi
+        turns = np.round(wrap_angle(skill.yaw - across) / np.pi)  # the equivalent yaw nearest the current one
+        skill.yaw = wrap_angle(across + turns * np.pi)
 
     def rests(self, skill, info) -> bool:
         """Whether the body's lowest point is within ``place_clearance`` of the surface it rests on at ``rest_z``."""

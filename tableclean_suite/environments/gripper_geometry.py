@@ -28,10 +28,11 @@ MAX_FINGER_JOINTS = 6
 @dataclass(frozen=True)
 class GripperGeometry:
     """Attributes: ``open_width`` [m] between the open pads; ``palm_height`` [m] of the hand's lowest
-    point above the grip site."""
+    point above the grip site; ``hand_reach`` [m], how far the hand reaches sideways from the grip site's axis."""
 
     open_width: float
     palm_height: float
+    hand_reach: float
 
 
 def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site: str) -> GripperGeometry:
@@ -58,11 +59,14 @@ def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site:
             and g not in fingers and (model.geom_contype[g] or model.geom_conaffinity[g])]
     # heights above the grip site along its approach axis (its z axis, which points down when the skills grasp)
     approach = data.site_xmat[site].reshape(3, 3)[:, 2]
-    heights = []
+    heights, reaches = [], []
     for geom in hand:
         body = int(model.geom_bodyid[geom])
         local = collision_points(model, data, body, [geom])  # in the geom's body frame
         world = data.xpos[body] + local @ data.xmat[body].reshape(3, 3).T
-        heights.append(float(np.min(-(world - data.site_xpos[site]) @ approach)))
+        relative = world - data.site_xpos[site]
+        heights.append(float(np.min(-relative @ approach)))
+        sideways = relative - np.outer(relative @ approach, approach)
+        reaches.append(float(np.max(np.linalg.norm(sideways, axis=1))))
     palm = min(heights)
-    return GripperGeometry(open_width=widest, palm_height=palm)
+    return GripperGeometry(open_width=widest, palm_height=palm, hand_reach=max(reaches))

@@ -759,7 +759,8 @@ class TableClean(ManipulationEnv):
         :class:`~tableclean_suite.environments.objects.ObjectType` (overrides), ``objects_geometry``
         (M,) their :class:`~.object_geometry.ObjectGeometry` (collision extent in their own frames),
         ``objects_footprint`` (M,) m footprint radii, ``gripper_open_width`` m (open pad gap) and
-        ``gripper_palm_height`` m (hand's lowest point above the grip site, :mod:`.gripper_geometry`),
+        ``gripper_palm_height`` m (hand's lowest point above the grip site) and ``gripper_hand_reach`` m
+        (how far the hand reaches sideways from the grip site, :mod:`.gripper_geometry`),
         ``sponge_pos`` (3,), ``sponge_quat`` (4,), ``sponge_half_size`` (3,), ``sponge_home_pos`` (3,),
         ``segment_centers`` (N, 3) table-top point at each segment centre (row 0 = segment 1),
         ``segment_half_sizes`` (N, 2), ``table_top_z`` float, ``table_center`` (3,),
@@ -793,6 +794,7 @@ class TableClean(ManipulationEnv):
             "objects_footprint": self._object_footprints.copy(),
             "gripper_open_width": self.gripper_geometry.open_width,
             "gripper_palm_height": self.gripper_geometry.palm_height,
+            "gripper_hand_reach": self.gripper_geometry.hand_reach,
             "object_spacing": float(self.task_config["object_spacing"]),
             "object_clearance": float(self.task_config["object_clearance"]),
             "sponge_pos": np.array(data.body_xpos[self.sponge_body_id]),
