@@ -52,6 +52,27 @@ def test_harness_drift_is_the_mean_change_between_the_checkpoint_and_the_end():
     assert stats.settling.low <= stats.settling.drift <= stats.settling.high
 
 
+@pytest.mark.parametrize("learner", ["q_learning", "sarsa", "double_q_learning", "q_lambda", "dyna_q",
+                                     "learned_affordance_q_learning", "interactive_q_learning"])
+def test_checkpoint_q_tables_of_one_pass_are_those_of_the_shorter_training(learner):
+    """train(checkpoint=k) keeps, from the same pass, the Q-tables a k-iteration training ends with."""
+    from tableclean_suite.backends import CHECKPOINT_Q
+
+    common = dict(learner=learner, reward="r4", runs=7, alpha=0.3, gamma=0.3, epsilon=0.1, max_itr=40, seed=3,
+                  model=MODEL)
+    full = train(iterations=300, checkpoint=211, **common)
+    short = train(iterations=211, **common)
+    assert np.array_equal(full.info[CHECKPOINT_Q], short.q)
+    early = experiments.checkpoint_result(full, 211)
+    assert np.array_equal(early.states, short.states) and early.iterations == 211
+    chain = asymptotes.EpisodeChain.build(MODEL, "r4")
+    assert np.array_equal(analysis.final_asymptotes(early, chain, 40, MODEL).success,
+                          analysis.final_asymptotes(short, chain, 40, MODEL).success)
+    assert CHECKPOINT_Q not in train(iterations=300, **common).info
+    with pytest.raises(ValueError, match="checkpoint"):
+        train(iterations=300, checkpoint=301, **common)
+
+
 def test_converged_q_learning_settles_and_drifting_sarsa_does_not():
     q, s = _stats("q_learning", "r2"), _stats("sarsa", "r4")
     assert q.settling.settled() is True, q.settling
@@ -78,7 +99,7 @@ def test_table3_without_settling_leaves_it_empty():
     summary, *_ = experiments.train_cell(cell, config, MODEL)
     records, _ = experiments.cell_records([experiments.Membership("main", cell)], {cell: summary})
     row = tables.table3(records).iloc[0]
-    assert math.isnan(row["behaviour_drift"]) and row["checkpoint_iteration"] == 0 and row["settled"] is pd.NA
+    assert math.isnan(row["behaviour_drift"]) and row["checkpoint_iteration"] is pd.NA and row["settled"] is pd.NA
 
 
 def test_sweep_table_marks_settled_unsettled_and_unmeasured_rows():

@@ -28,6 +28,11 @@ _BACKENDS: dict[str, Any] = {
 }
 
 
+#: ``BackendRecords.info`` key of the Q-tables after ``TrainingJob.checkpoint`` iterations
+#: (``(R, S, A)``; for double Q the average of its two tables, as ``q``).
+CHECKPOINT_Q = "checkpoint_q"
+
+
 @dataclass(frozen=True)
 class TrainingJob:
     """Everything one ``train()`` call asks of a backend (validated by ``train``).
@@ -46,6 +51,9 @@ class TrainingJob:
         progress: show a progress bar on stderr.
         executor: a :mod:`tableclean_suite.executors` executor for backends that spread work
             over processes or a cluster (the physics backend); None: the backend's default.
+        checkpoint: also keep the Q-tables after this many iterations, in [1, iterations]
+            (0: none); a backend that can puts them in ``info[CHECKPOINT_Q]`` ``(R, S, A)`` (the
+            table backends' compiled loop), one that cannot leaves them out.
     """
 
     learner: Any
@@ -64,6 +72,7 @@ class TrainingJob:
     options: dict = field(default_factory=dict)
     progress: bool = False
     executor: Any = None
+    checkpoint: int = 0
 
     @property
     def hyperparameters(self) -> dict:

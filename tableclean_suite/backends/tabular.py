@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tableclean_suite import resources
-from tableclean_suite.backends import BackendRecords, TrainingJob
+from tableclean_suite.backends import CHECKPOINT_Q, BackendRecords, TrainingJob
 from tableclean_suite.learners import assist, kernel, reference
 from tableclean_suite.learners.reference import DOUBLE_Q_TABLES
 from tableclean_suite.learners.rng import run_keys
@@ -139,6 +139,9 @@ class TableBackend:
         afforded, advisor = assistance_arrays(learner, model)
         advice = learner.advice_parameters()
         train_batch = kernel.kernel_for(learner)
+        snapshot_at = job.checkpoint if 0 < job.checkpoint <= job.iterations else kernel.NO_SNAPSHOT
+        q_snapshot = np.zeros(q.shape if snapshot_at != kernel.NO_SNAPSHOT else (job.runs, 0, 0))
+        q_second_snapshot = np.zeros(q_second.shape if snapshot_at != kernel.NO_SNAPSHOT else (job.runs, 0, 0))
         for lo in progress_bar(range(0, job.runs, RUNS_PER_CHUNK), job.progress, f"{learner.name}/{job.reward.name}"):
             hi = min(lo + RUNS_PER_CHUNK, job.runs)
             train_batch(
@@ -148,11 +151,15 @@ class TableBackend:
                 learner.exploration.code, explore_parameters, learner.affordance_code, afforded, advisor, advice,
                 job.max_itr,
                 keys[lo:hi], q[lo:hi], q_second[lo:hi], *(records[name][lo:hi] for name in RECORD_FIELDS),
+                snapshot_at, q_snapshot[lo:hi], q_second_snapshot[lo:hi],
             )
+        info = {}
+        if snapshot_at != kernel.NO_SNAPSHOT:
+            info[CHECKPOINT_Q] = (q_snapshot + q_second_snapshot) * kernel.HALF if double else q_snapshot
         if double:
             return BackendRecords(**records, q=(q + q_second) * kernel.HALF, config=config,
-                                  info={DOUBLE_Q_TABLES: np.stack((q, q_second), axis=1)})
-        return BackendRecords(**records, q=q, config=config)
+                                  info={DOUBLE_Q_TABLES: np.stack((q, q_second), axis=1), **info})
+        return BackendRecords(**records, q=q, config=config, info=info)
 
 
 SYMBOLIC = TableBackend("symbolic", measured=False)

@@ -38,7 +38,7 @@ import numpy as np
 import tableclean_suite
 from tableclean_suite import analysis, asymptotes, metrics, resources, settling
 from tableclean_suite import curves as curve_sums
-from tableclean_suite.backends import get_backend
+from tableclean_suite.backends import CHECKPOINT_Q, get_backend
 from tableclean_suite.bench import statistics
 from tableclean_suite.bench.config import LITERATURE_LEARNERS, RunConfig
 from tableclean_suite.bench.outputs import OutputError, describe_os_error
@@ -406,8 +406,10 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     approximation of the skills, ``physics``.
 
     Settling (:mod:`tableclean_suite.settling`): on a backend with ``deterministic_prefix``, each
-    chunk is trained again up to the checkpoint (3/4 of the window) and each run's success asymptote
-    there is compared with its final one; the statistics carry the mean drift with its interval.
+    run's Q-tables at the checkpoint (3/4 of the window) are kept by the same training pass
+    (:func:`checkpoint_result`; a backend that cannot keep them trains the prefix again) and each
+    run's success asymptote there is compared with its final one; the statistics carry the mean
+    drift with its interval.
 
     Args:
         runs_per_chunk: runs per ``train()`` call (default :func:`chunk_runs` of the iterations).
@@ -425,16 +427,17 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     train_seconds = metrics_seconds = 0.0
     physics_stats: dict = {}
 
-    def train_chunk(first: int, iterations: int):
+    def train_chunk(first: int, iterations: int, keep: int = 0):
         return train(
             learner=cell.learner, reward=cell.reward, runs=min(chunk, config.runs - first), first_run=first,
             alpha=cell.alpha, gamma=cell.gamma, model=model, transitions=transitions,
             **{**config.train_kwargs(), "iterations": iterations}, **config.learner_kwargs(cell.learner),
+            checkpoint=keep,
         )
 
     for first in range(0, config.runs, chunk):
         started = time.perf_counter()
-        result = train_chunk(first, config.iterations)
+        result = train_chunk(first, config.iterations, checkpoint)
         train_seconds += time.perf_counter() - started
         started = time.perf_counter()
         if "physics" in result.info:
@@ -443,12 +446,14 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
         final = analysis.final_run_facts(result, chain, config.max_itr, model)
         for name, values in per_run.items():
             values.append(final[name])
+        early = checkpoint_result(result, checkpoint) if checkpoint else None
         del result
         metrics_seconds += time.perf_counter() - started
         if checkpoint:
-            started = time.perf_counter()
-            early = train_chunk(first, checkpoint)
-            train_seconds += time.perf_counter() - started
+            if early is None:  # the backend kept no checkpoint Q-tables: train the prefix again
+                started = time.perf_counter()
+                early = train_chunk(first, checkpoint)
+                train_seconds += time.perf_counter() - started
             started = time.perf_counter()
             early_success = analysis.final_asymptotes(early, chain, config.max_itr, model).success
             drifts.append(settling.behaviour_drift(final["success"], early_success))
@@ -467,6 +472,20 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
         drift=np.concatenate(drifts) if checkpoint else None, checkpoint=checkpoint, point=summary.scalars(),
     )
     return summary, cell_stats, train_seconds, metrics_seconds + time.perf_counter() - started
+
+
+def checkpoint_result(result, checkpoint: int):
+    """The :class:`~tableclean_suite.learners.TrainingResult` of the same runs trained for
+    ``checkpoint`` iterations, read off ``result`` (trained with ``train(checkpoint=...)``): its
+    records' first ``checkpoint`` iterations (views) and the Q-tables the backend kept then
+    (``info["checkpoint_q"]``); None when the backend kept none (then train the prefix again).
+    """
+    q = result.info.get(CHECKPOINT_Q)
+    if q is None:
+        return None
+    prefix = {name: getattr(result, name)[:, :checkpoint]
+              for name in ("rewards", "outcomes", "states", "actions", "episode_end")}
+    return type(result)(**prefix, q=q, config={**result.config, "iterations": int(checkpoint)})
 
 
 def _merge_stats(total: dict, more: dict) -> dict:

@@ -82,6 +82,8 @@ from tableclean_suite.task import Outcome
 #: Codes of ``episode_end`` in training records.
 EPISODE_CONTINUES, EPISODE_TERMINAL, EPISODE_TRUNCATED = 0, 1, 2
 NO_STATE = -1  # no previous state (first step of an episode) / no pending action
+#: ``train_batch``'s ``snapshot_at`` when no Q-table snapshot is taken.
+NO_SNAPSHOT = -1
 #: A double-Q step updates table A when its side-lane draw is below this, else table B.
 DOUBLE_Q_SPLIT = 0.5
 HALF = 0.5
@@ -276,6 +278,14 @@ def plan(q, model_next, model_reward, model_terminal, observed, n_observed, plan
         q[s, a] += alpha * (target - q[s, a])
 
 
+@numba.njit(cache=True)
+def copy_tables(q_a, q_b, snapshot_a, snapshot_b, double):
+    """Copy a run's Q-table (and, for double Q, table B) into its snapshot arrays."""
+    snapshot_a[:, :] = q_a
+    if double:
+        snapshot_b[:, :] = q_b
+
+
 # -- per-run working memory ---------------------------------------------------------------------
 @numba.njit(cache=True)
 def run_memory(n_states, n_actions, double, traced, counting, modelling):
@@ -329,6 +339,9 @@ def train_batch(
     states,
     actions,
     episode_end,
+    snapshot_at,
+    q_snapshot,
+    q_second_snapshot,
 ):
     """Train ``len(keys)`` runs for ``rewards.shape[1]`` iterations, in place.
 
@@ -360,6 +373,11 @@ def train_batch(
         outcomes, states, actions: ``(R, T)`` int outputs (state before the step), of the
             task model's ``record_dtype`` (int8 for the paper's 24 states).
         episode_end: ``(R, T)`` int output (same dtype), EPISODE_* code after each iteration.
+        snapshot_at: iterations after which the Q-tables are copied into ``q_snapshot`` (and
+            ``q_second_snapshot`` for double Q), in [0, T]; :data:`NO_SNAPSHOT`: no copy.  The copy is the final
+            Q-tables of the same runs trained for ``snapshot_at`` iterations (the loop is a prefix:
+            counter-based random numbers), so one pass gives both.
+        q_snapshot, q_second_snapshot: ``(R, S, A)`` float64 outputs, or ``(R, 0, 0)`` when unused.
     """
     n_runs, n_iterations = rewards.shape
     n_states, n_actions = q.shape[1], q.shape[2]
@@ -399,6 +417,8 @@ def train_batch(
         pending = NO_STATE
         length = 0
         for t in range(n_iterations):
+            if t == snapshot_at:
+                copy_tables(qr, qb, q_snapshot[r], q_second_snapshot[r], double)
             if state == NO_STATE:
                 if n_starts == 1:
                     state = starts[0]
@@ -474,6 +494,8 @@ def train_batch(
                 episode_end[r, t] = EPISODE_CONTINUES
                 previous = state
                 state = nxt
+        if snapshot_at == n_iterations:
+            copy_tables(qr, qb, q_snapshot[r], q_second_snapshot[r], double)
 
 
 _USER_KERNELS: dict = {}

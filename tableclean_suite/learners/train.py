@@ -90,6 +90,7 @@ def train(
     q_init: float | None = None,
     exploration: "str | Exploration | Mapping | None" = None,
     executor=None,
+    checkpoint: int = 0,
 ) -> TrainingResult:
     """Train ``runs`` independent learners for ``iterations`` environment steps each.
 
@@ -128,6 +129,11 @@ def train(
             or a mapping ``{"name": ..., **parameters}``.  Epsilon schedules start at ``epsilon``.
         executor: a :mod:`tableclean_suite.executors` executor for the physics backend's runs
             (e.g. ``RayExecutor(address=...)``); default: ``workers`` local processes.
+        checkpoint: also keep each run's Q-tables after this many iterations, an integer in
+            [0, iterations] (0: none), in ``result.info["checkpoint_q"]`` ``(runs, S, A)``: the
+            final Q-tables of the same call with ``iterations=checkpoint``, from the same pass.
+            The table backends' compiled loop keeps them; other backends and the reference
+            engine leave the key out.
 
     Returns:
         A :class:`TrainingResult` with ``(runs, iterations)`` records and final Q-tables.
@@ -137,6 +143,7 @@ def train(
     validate_hyperparameters(runs, iterations, alpha, gamma, epsilon, max_itr, seed)
     learner = configure_learner(learner, learner_options, q_init, exploration, epsilon)
     check_number("first_run", first_run, 0, 2**62, integer=True)
+    check_number("checkpoint", checkpoint, 0, iterations, integer=True)
     if engine not in ENGINES:
         raise ValueError(f"unknown engine {engine!r}; allowed: {', '.join(ENGINES)}")
     if model is not None and task is not None:
@@ -153,7 +160,7 @@ def train(
         learner=learner, reward=reward, model=model, runs=int(runs), iterations=int(iterations),
         alpha=float(alpha), gamma=float(gamma), epsilon=float(epsilon), max_itr=int(max_itr), seed=int(seed),
         first_run=int(first_run), engine=engine, workers=workers, options=options, progress=progress,
-        executor=executor,
+        executor=executor, checkpoint=int(checkpoint),
     )
     config = {
         "learner": learner.name,
