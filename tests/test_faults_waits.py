@@ -172,3 +172,20 @@ def test_close_without_waiting_terminates_running_workers():
     for process in processes:
         process.join(timeout=10)
     assert time.monotonic() - started < 10 and not any(p.is_alive() for p in processes)
+
+
+def test_an_address_that_accepts_but_is_not_a_ray_head_is_one_error(monkeypatch):
+    pytest.importorskip("ray")
+    import ray
+
+    from tableclean_suite.executors import ray_executor
+
+    def refuse(**kwargs):
+        raise ConnectionError("Failed to connect to Ray cluster at 10.0.0.9:6379\nmore lines")
+
+    monkeypatch.setattr(ray_executor, "check_reachable", lambda address, timeout: None)
+    monkeypatch.setattr(ray, "init", refuse)
+    monkeypatch.setattr(ray, "is_initialized", lambda: False)
+    with pytest.raises(ClusterUnreachableError, match=r"'10\.0\.0\.9:6379': Failed to connect") as caught:
+        RayExecutor(address="10.0.0.9:6379").start()
+    assert "\n" not in str(caught.value)

@@ -82,3 +82,19 @@ def test_a_bad_storage_url_is_one_line_and_exit_2(tmp_path, capsys, storage):
     code = tune.main([*TINY, "--trials", "1", "--out", str(tmp_path / "tune"), "--storage", storage])
     error = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(error) == 1 and "--storage" in error[0] and repr(storage) in error[0], error
+
+
+def test_a_study_that_cannot_fit_is_refused_before_its_tables_are_built(tmp_path, monkeypatch):
+    from tableclean_suite import resources
+    from tableclean_suite.task import TaskModel
+
+    monkeypatch.delenv(resources.OVERRIDE_ENV, raising=False)
+    monkeypatch.setattr(resources, "available_bytes", lambda: 1024**3)
+
+    def never(self):
+        raise AssertionError("the transition table was built")
+
+    monkeypatch.setattr(TaskModel, "transition_arrays", never)
+    with pytest.raises(resources.InsufficientMemoryError, match="a tuning stage"):
+        tune.main(["--runs", "100000", "--iterations", "4000", "--trials", "1", "--out", str(tmp_path / "tune")])
+    assert not (tmp_path / "tune" / "study.db").exists()

@@ -100,6 +100,26 @@ def bind_configuration(study, args) -> None:
                          f"for {now}; use another --study-name (or the study's settings)")
 
 
+def check_resources(args) -> None:
+    """Refuse a study whose stages cannot fit in memory, before the task's tables are built: one
+    stage's runs (records, Q-tables), the tables and its asymptote analysis (the estimates of
+    :mod:`tableclean_suite.resources` and :func:`tableclean_suite.bench.experiments.check_grid_resources`).
+
+    Raises:
+        tableclean_suite.resources.ResourceError: one line naming the estimate and the override.
+    """
+    from tableclean_suite import resources
+    from tableclean_suite.bench.experiments import ANALYSIS_BYTES_PER_PAIR
+
+    model = args.model
+    stage_runs = -(-args.runs // STAGES)
+    memory = resources.training_memory(model.n_states, model.n_actions, stage_runs, args.iterations,
+                                       code_bytes=model.record_dtype.itemsize)
+    memory += resources.MemoryEstimate({"asymptote analysis": model.n_states * model.n_actions * ANALYSIS_BYTES_PER_PAIR})
+    resources.require_memory(memory, f"a tuning stage of task {model.spec.name!r} ({model.n_states} states x "
+                                     f"{model.n_actions} actions, {stage_runs} runs x {args.iterations} iterations)")
+
+
 def _storage_failure(args, error: Exception) -> StudyError:
     reason = (str(error).strip().splitlines() or [type(error).__name__])[0]
     return StudyError(f"--storage {args.storage!r} cannot be opened: {type(error).__name__}: {reason}")
@@ -298,6 +318,7 @@ def run(args) -> int:
         print(f"{getattr(args, 'prog', PROG)}: error: --out {problem}", file=sys.stderr)
         return 2
     optuna.logging.set_verbosity(optuna.logging.WARNING)
+    check_resources(args)
     try:
         study = open_study(args)
     except StudyError as error:

@@ -127,7 +127,11 @@ class RayExecutor:
                 ray.init(num_cpus=self.num_cpus, include_dashboard=False, _node_ip_address=LOOPBACK)
             else:
                 check_reachable(self.address, self.connect_timeout)
-                ray.init(address=self.address)
+                try:
+                    ray.init(address=self.address)
+                except (ConnectionError, TimeoutError, RuntimeError) as error:  # something listens, not a Ray head
+                    reason = (str(error).strip().splitlines() or [type(error).__name__])[0]
+                    raise ClusterUnreachableError(f"cannot join the Ray cluster at {self.address!r}: {reason}") from None
             self._owned = True
         else:
             self._owned = False
