@@ -187,3 +187,21 @@ def require_effect_calls(calls: int, what: str, override: bool = False) -> None:
         raise TooMuchWorkError(
             f"{what} calls user action effects {int(calls)} times (pure Python; at most {MAX_USER_EFFECT_CALLS} are "
             f"allowed, a few seconds); use fewer segments or objects, or set {OVERRIDE_ENV}=1 to try anyway")
+
+
+#: Python rule steps (state x action, about 8.5 us each) a per-state walk of a task may take: the
+#: reachable-state search, plan lengths and listings (about 17 s); larger specs are refused.
+MAX_PYTHON_RULE_STEPS = 2_000_000
+
+
+def require_python_steps(steps: int, what: str, override: bool = False) -> None:
+    """Raise :class:`TooMuchWorkError` when a pure-Python walk over a task's states would step its
+    rules more than :data:`MAX_PYTHON_RULE_STEPS` times."""
+    if override or override_enabled():
+        return
+    if int(steps) > MAX_PYTHON_RULE_STEPS:
+        raise TooMuchWorkError(
+            f"{what} steps the task's rules state by state up to {int(steps)} times (pure Python, about "
+            f"{format_seconds(int(steps) * 8.5e-6)}; at most {MAX_PYTHON_RULE_STEPS} are allowed); use fewer segments "
+            f"or objects, or set {OVERRIDE_ENV}=1 to try anyway")
+

@@ -128,3 +128,13 @@ def test_the_paper_default_grid_passes_the_guard():
     model = config.task_model()
     cells = experiments.unique_cells(experiments.config_grid(config))
     assert 0 < experiments.check_grid_resources(cells, config, model) < experiments.LONG_GRID_SECONDS
+
+
+def test_per_state_python_walks_of_a_huge_spec_are_refused_at_once(monkeypatch):
+    monkeypatch.delenv(resources.OVERRIDE_ENV, raising=False)
+    model = TaskModel(spec=TaskSpec("faults_walk", segments=12, objects=2))
+    for walk in (model.reachable_states, model.all_states, model.shortest_plan_lengths):
+        with pytest.raises(resources.TooMuchWorkError, match="state by state"):
+            walk()
+    small = TaskModel(spec=TaskSpec("faults_small", segments=3, objects=2))
+    assert len(small.reachable_states()) == 327  # the documented count, unaffected

@@ -169,8 +169,19 @@ class TaskModel:
                              f"task {self.spec.name!r} has {self.n_segments} and {self.n_objects}")
 
     def all_states(self) -> list[TaskState]:
-        """Every code's state, in code order (``n_states`` of them)."""
+        """Every code's state, in code order (``n_states`` of them).
+
+        Raises :class:`~tableclean_suite.resources.ResourceError` for specs too large to list in Python.
+        """
+        self._require_python_walk("listing every state")
         return [self.decode(code) for code in range(self.n_states)]
+
+    def _require_python_walk(self, what: str) -> None:
+        """Refuse a per-state Python walk of a spec too large for it (:func:`~tableclean_suite.resources.require_python_steps`)."""
+        from tableclean_suite import resources
+
+        resources.require_python_steps(self.n_states * self.n_actions,
+                                       f"{what} of task {self.spec.name!r} ({self.n_states} states)")
 
     @property
     def record_dtype(self) -> np.dtype:
@@ -362,8 +373,10 @@ class TaskModel:
     def reachable_states(self, starts: Iterable[StateLike] | None = None) -> list[TaskState]:
         """States reachable from ``starts`` (default: every all-unclean layout), sorted by code.
 
-        Terminal states are included but not expanded (the episode ends there).
+        Terminal states are included but not expanded (the episode ends there).  Raises
+        :class:`~tableclean_suite.resources.ResourceError` for specs too large to search in Python.
         """
+        self._require_python_walk("the reachable-state search")
         frontier = deque(self.as_state(s) for s in (starts if starts is not None else self.unclean_layouts()))
         seen = set(frontier)
         while frontier:
