@@ -160,3 +160,26 @@ def test_figure_key_covers_matplotlib_settings_and_plotting_code(tmp_path):
                   derived.figure_key("fig3_success_rate_q_learning", "c" * 64, "t" * 64, 0.5, 120, base),
                   derived.figure_key("fig4_average_reward_q_learning", "c" * 64, "t" * 64, 0.25, 120, base)):
         assert derived.key_hash(other) != derived.key_hash(key)
+
+
+def test_figures_drawn_in_forked_processes_are_the_bytes_drawn_here(tmp_path):
+    """start_figures' forked drawing (the default run's) writes the PNG bytes serial drawing does,
+    stores them, and a second start loads them without drawing."""
+    from tableclean_suite.bench import experiments, tables
+    from tableclean_suite.bench.config import RunConfig
+    from tableclean_suite.task import TaskModel
+
+    cell = experiments.Cell("q_learning", "r1", 0.3, 0.3)
+    config = RunConfig(runs=12, iterations=150, bootstrap_samples=20, seed=0)
+    summary, stats, *_ = experiments.train_cell(cell, config, TaskModel())
+    records, curves = experiments.cell_records([experiments.Membership("main", cell)], {cell: summary}, {cell: stats})
+    table3 = tables.table3(records)
+    frame = tables.curves_long(records, curves)
+    serial = derived.figures(derived.DerivedStore(tmp_path / "serial"), frame, 0.25, table3, 60, processes=1)
+    store = derived.DerivedStore(tmp_path / "forked")
+    forked = derived.start_figures(store, frame, 0.25, table3, 60, processes=2).result()
+    assert [f.name for f in forked] == [f.name for f in serial] == ["fig3_success_rate_q_learning.png",
+                                                                    "fig4_average_reward_q_learning.png"]
+    assert [f.png for f in forked] == [f.png for f in serial] and not any(f.cached for f in forked)
+    again = derived.start_figures(store, frame, 0.25, table3, 60, processes=2).result()
+    assert all(f.cached for f in again) and [f.png for f in again] == [f.png for f in serial]

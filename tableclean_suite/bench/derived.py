@@ -228,22 +228,82 @@ class Figure:
     cached: bool
 
 
-def figures(store: DerivedStore, curves, plateau_fraction: float, table3=None, dpi: int = 120) -> list[Figure]:
+def figures(store: DerivedStore, curves, plateau_fraction: float, table3=None, dpi: int = 120,
+            processes: int = 1) -> list[Figure]:
     """The paper's figures that ``curves`` allows, each from ``store`` when it holds it, else drawn
-    (:func:`.plots.render_png`, pyplot imported then) and stored."""
+    (:func:`.plots.render_png`, pyplot imported then) and stored: :func:`start_figures`, finished."""
+    return start_figures(store, curves, plateau_fraction, table3, dpi, processes).result()
+
+
+#: Most processes that draw a run's figures at once (one per core of the paper's 2-core machine).
+FIGURE_PROCESSES = 2
+#: What the forked drawing processes read (set just before they are forked, so they inherit it
+#: instead of receiving a pickled copy of the curves): ``(curves, plateau_fraction, table3, dpi)``.
+_DRAWING_INPUTS: tuple | None = None
+
+
+def _draw(stem: str) -> bytes:
+    """:func:`.plots.render_png` of ``stem`` from the inherited :data:`_DRAWING_INPUTS`."""
+    curves, plateau_fraction, table3, dpi = _DRAWING_INPUTS
+    return plots.render_png(stem, curves, plateau_fraction, table3, dpi)
+
+
+class PendingFigures:
+    """Figures being drawn (:func:`start_figures`); :meth:`result` waits for them, stores the
+    drawn ones and returns every :class:`Figure` in the order of :func:`.plots.available_figures`."""
+
+    def __init__(self, store: DerivedStore, stems: list, keys: dict, loaded: dict, drawing, pool):
+        self._store, self._stems, self._keys, self._loaded = store, stems, keys, loaded
+        self._drawing, self._pool = drawing, pool
+
+    def result(self) -> list[Figure]:
+        global _DRAWING_INPUTS
+        try:
+            drawn = dict(self._drawing()) if self._drawing is not None else {}
+        finally:
+            if self._pool is not None:
+                self._pool.close()
+                self._pool.join()
+            _DRAWING_INPUTS = None
+        figures = []
+        for stem in self._stems:
+            if stem in drawn:
+                self._store.save(stem, self._keys[stem], drawn[stem])
+                figures.append(Figure(f"{stem}.png", drawn[stem], False))
+            else:
+                figures.append(Figure(f"{stem}.png", self._loaded[stem], True))
+        return figures
+
+
+def start_figures(store: DerivedStore, curves, plateau_fraction: float, table3=None, dpi: int = 120,
+                  processes: int = 1) -> PendingFigures:
+    """Start drawing the figures ``store`` does not hold; the caller works on meanwhile.
+
+    With ``processes`` > 1 on a platform that forks (Linux), up to that many forked processes
+    (at most :data:`FIGURE_PROCESSES`) draw them while this one goes on; they inherit the inputs
+    and run the same code on the same matplotlib configuration, so the PNG bytes are those drawn
+    here (the cache key names that configuration).  Otherwise they are drawn here, on
+    :meth:`PendingFigures.result`.
+    """
+    global _DRAWING_INPUTS
+    import multiprocessing
+
     stems = plots.available_figures(curves)
     if not stems:
-        return []
+        return PendingFigures(store, [], {}, {}, None, None)
     curves_sha256 = frame_digest(curves)
     table3_sha256 = frame_digest(table3) if table3 is not None else None
     config = matplotlib_config()
-    result = []
-    for stem in stems:
-        key = figure_key(stem, curves_sha256, table3_sha256, plateau_fraction, dpi, config)
-        png = store.load(stem, key)
-        cached = png is not None
-        if not cached:
-            png = plots.render_png(stem, curves, plateau_fraction, table3, dpi)
-            store.save(stem, key, png)
-        result.append(Figure(f"{stem}.png", png, cached))
-    return result
+    keys = {stem: figure_key(stem, curves_sha256, table3_sha256, plateau_fraction, dpi, config) for stem in stems}
+    loaded = {stem: store.load(stem, keys[stem]) for stem in stems}
+    missing = [stem for stem in stems if loaded[stem] is None]
+    _DRAWING_INPUTS = (curves, plateau_fraction, table3, dpi)
+    forks = "fork" in multiprocessing.get_all_start_methods() and sys.platform.startswith("linux")
+    workers = min(int(processes), FIGURE_PROCESSES, len(missing))
+    if not missing:
+        return PendingFigures(store, stems, keys, loaded, None, None)
+    if workers < 2 or not forks:
+        return PendingFigures(store, stems, keys, loaded, lambda: [(stem, _draw(stem)) for stem in missing], None)
+    pool = multiprocessing.get_context("fork").Pool(workers)
+    pending = pool.map_async(_draw, missing, chunksize=1)
+    return PendingFigures(store, stems, keys, loaded, lambda: zip(missing, pending.get()), pool)

@@ -294,11 +294,12 @@ def train_and_publish(args) -> int:
     table3 = tables.table3(records, compare_with_paper=tables.is_paper_task(model))
     table4 = tables.table4(table3, paper_task=tables.is_paper_task(model))
     results = derived.DerivedStore(store.root / DERIVED_DIR, read=not config.fresh)
-    comparisons, comparisons_cached = _comparisons(grid, grid_run, config, results)
     stride = _curves_stride(len(records) * len(tables.CURVE_METRICS), config.iterations)
     curves_frame = tables.curves_long(records, curves, stride=stride)
-    figures = (derived.figures(results, curves_frame, config.plateau_fraction, table3, FIGURE_DPI)
-               if config.figures else [])
+    drawing = (derived.start_figures(results, curves_frame, config.plateau_fraction, table3, FIGURE_DPI,
+                                     processes=derived.FIGURE_PROCESSES) if config.figures else None)
+    comparisons, comparisons_cached = _comparisons(grid, grid_run, config, results)  # while the figures are drawn
+    figures = drawing.result() if drawing is not None else []
     drawn = sum(not figure.cached for figure in figures)
     print(f"derived results in {results.root}: comparisons {'loaded' if comparisons_cached else 'computed'}, "
           f"figures {len(figures) - drawn} loaded, {drawn} drawn")
