@@ -9,6 +9,7 @@ of any module that registers learners, rewards or task specs the tasks use) inst
 
 from __future__ import annotations
 
+import logging
 import os
 from typing import Callable, Iterable, Iterator
 
@@ -128,7 +129,7 @@ class RayExecutor:
             else:
                 check_reachable(self.address, self.connect_timeout)
                 try:
-                    ray.init(address=self.address)
+                    ray.init(address=self.address, logging_level=logging.WARNING)  # no INFO lines
                 except (ConnectionError, TimeoutError, RuntimeError) as error:  # something listens, not a Ray head
                     reason = (str(error).strip().splitlines() or [type(error).__name__])[0]
                     raise ClusterUnreachableError(f"cannot join the Ray cluster at {self.address!r}: {reason}") from None
