@@ -6,10 +6,15 @@
   both paths, with grip-site positions per control step within :data:`TRAJECTORY_TOLERANCE`;
 - the native loop (MuJoCo's C API from numba) and the Python loop give the same states;
 - switching from the fast path back to ``env.step`` continues as robosuite would;
-- envs whose controllers the fast path does not reproduce are refused.
+- envs whose controllers the fast path does not reproduce are refused;
+- robosuite / MuJoCo versions outside the adapter's checked set refuse the stepper (naming them),
+  and a skill env then runs on robosuite's own ``env.step`` path, warned once, with the right outcomes.
 """
 
 from __future__ import annotations
+
+import re
+import warnings
 
 import mujoco
 import numpy as np
@@ -19,6 +24,7 @@ from scipy.spatial.transform import Rotation
 
 from tableclean_suite.controllers import SkillController, make_skill_env
 from tableclean_suite.controllers.fast_control import FastSkillStepper, fast_stepper_of, native_available
+from tableclean_suite import robosuite_adapter
 from tableclean_suite.task import START_LAYOUTS, TaskModel, start_layout
 
 MODEL = TaskModel()
@@ -60,7 +66,7 @@ def recorded():
     env.reset()
     robot = env.robots[0]
     osc = robot.part_controllers[robot.arms[0]]
-    data = env.sim.data._data
+    data = robosuite_adapter.mj_data(env.sim)
     records = []
     original = robot.control
 
@@ -83,12 +89,12 @@ def recorded():
 def test_torques_equal_robosuites_on_recorded_states(recorded):
     env, records = recorded
     stepper = FastSkillStepper(env)
-    data = env.sim.data._data
+    data = robosuite_adapter.mj_data(env.sim)
     assert len(records) > 1000  # every substep of a MOVE and a CLEAN
     worst = 0.0
     for (qpos, qvel, act), action, torques in records:
         data.qpos[:], data.qvel[:], data.act[:] = qpos, qvel, act
-        mujoco.mj_forward(env.sim.model._model, data)
+        mujoco.mj_forward(robosuite_adapter.mj_model(env.sim), data)
         mine = stepper.arm_torques(*stepper.goal(action))
         worst = max(worst, float(np.max(np.abs(mine - torques)) / np.max(np.abs(torques))))
     print(f"max relative torque error over {len(records)} substeps: {worst:.2e}")
@@ -104,7 +110,7 @@ def test_first_substep_after_reset_uses_robosuites_cached_state():
         osc = robot.part_controllers[robot.arms[0]]
         action = _command_sequence(env)[-1]
         assert not osc.new_update  # robosuite will not re-read the simulation on this substep
-        mujoco.mj_step1(env.sim.model._model, env.sim.data._data)
+        mujoco.mj_step1(robosuite_adapter.mj_model(env.sim), robosuite_adapter.mj_data(env.sim))
         cached = stepper.cached_arm_torques(*stepper.goal(action)).copy()
         fresh = stepper.arm_torques(*stepper.goal(action)).copy()
         robot.control(action, policy_step=True)
@@ -211,5 +217,46 @@ def test_step_refuses_a_wrong_action_size():
         env.reset()
         with pytest.raises(ValueError, match=r"shape \(7,\)"):
             fast_stepper_of(env).step(np.zeros(6))
+    finally:
+        env.close()
+
+
+#: A MuJoCo version outside the adapter's checked set (the release that changed ``mj_fullM``).
+UNCHECKED_MUJOCO = "3.10.0"
+
+
+def test_the_installed_versions_are_the_checked_ones():
+    assert robosuite_adapter.unchecked_versions() == []
+    assert robosuite_adapter.unchecked_versions({"robosuite": "1.5.2", "mujoco": UNCHECKED_MUJOCO}) == [
+        f"mujoco {UNCHECKED_MUJOCO} (checked: {', '.join(robosuite_adapter.CHECKED_VERSIONS['mujoco'])})"
+    ]
+
+
+def test_an_unchecked_version_refuses_the_stepper_naming_it(monkeypatch):
+    monkeypatch.setattr(mujoco, "__version__", UNCHECKED_MUJOCO)
+    with pytest.raises(robosuite_adapter.UncheckedVersionError, match=rf"mujoco {re.escape(UNCHECKED_MUJOCO)} \(checked: "):
+        FastSkillStepper(object())  # refused before the env is looked at
+
+
+def test_an_unchecked_version_falls_back_to_env_step_said_once(monkeypatch):
+    monkeypatch.setattr(mujoco, "__version__", UNCHECKED_MUJOCO)
+    monkeypatch.setattr(robosuite_adapter, "_warned", set())
+    with pytest.warns(RuntimeWarning, match=rf"mujoco {re.escape(UNCHECKED_MUJOCO)}.*robosuite's own env.step path"):
+        env = make_skill_env(1, 1, seed=3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a second env is not warned about again
+        make_skill_env(1, 1, seed=3).close()
+    try:
+        assert fast_stepper_of(env) is None
+        calls = []
+        original = env.step
+        env.step = lambda action: (calls.append(1), original(action))[1]
+        env.reset()
+        start = env.symbolic_state()
+        plan = MODEL.shortest_plan(start)[:2]
+        results = SkillController(env, MODEL).execute_plan(plan)
+        assert [r.success for r in results] == [True, True], [r.reason for r in results]
+        assert [r.state_after for r in results] == MODEL.rollout(start, plan)[1:]
+        assert len(calls) == sum(r.steps for r in results) > 0  # every control step went through env.step
     finally:
         env.close()

@@ -31,6 +31,7 @@ import mujoco
 import numpy as np
 
 from tableclean_suite.controllers import SkillController, make_skill_env
+from tableclean_suite.robosuite_adapter import mj_data, mj_model
 
 #: Goal for one optimal episode's wall time (s).
 EPISODE_GOAL_S = 4.0
@@ -90,7 +91,7 @@ def _run_episode(env, records: dict, record_states: bool = False) -> list[dict]:
     ``record_states`` (for :func:`_replay_mujoco`), else an empty list.
     """
     model = env.task_model
-    data = env.sim.data._data
+    data = mj_data(env.sim)
     states = []
 
     def record() -> None:
@@ -124,7 +125,7 @@ def _run_episode(env, records: dict, record_states: bool = False) -> list[dict]:
 
 def _replay_mujoco(env, states: list[dict]) -> tuple[int, float]:
     """(control steps, seconds): raw ``mj_step`` substeps from each recorded state, on a copy of the data."""
-    model = env.sim.model._model
+    model = mj_model(env.sim)
     data = mujoco.MjData(model)
     substeps = int(env.control_timestep / env.model_timestep)
     seconds = 0.0

@@ -44,11 +44,6 @@ gripper); anything else raises ``NotImplementedError`` at construction.
 
 from __future__ import annotations
 
-import ctypes
-import functools
-import glob
-import os
-
 import mujoco
 import numba
 import numpy as np
@@ -62,6 +57,18 @@ from scipy.spatial.transform import Rotation
 
 from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.environments.table_clean import PRESS_PREFILTER_SLACK
+from tableclean_suite.robosuite_adapter import (
+    actuator_indexes,
+    advance_clock,
+    c_address,
+    controller_needs_update,
+    fast_path_allowed,
+    hand_back_controller_state,
+    mj_data,
+    mj_model,
+    mujoco_function_addresses,
+    require_checked_versions,
+)
 
 #: Slices of the skill action (7,): position (m), rotation vector (rad), gripper command in [-1, 1].
 POS_SLICE, ROTVEC_SLICE, GRIPPER_SLICE = slice(0, 3), slice(3, 6), slice(6, 7)
@@ -300,29 +307,12 @@ def _call_4i(typingctx, fn, a, b, c, d, i):
     return signature, _c_call_codegen(4, trailing_int=True)
 
 
-#: The MuJoCo C functions the native loop calls, in the order of :func:`mujoco_addresses`.
-NATIVE_FUNCTIONS = ("mj_step1", "mj_step2", "mj_fullM", "mj_jacSite")
-
-
-@functools.lru_cache(maxsize=None)
-def mujoco_addresses() -> tuple[int, ...]:
-    """Addresses of :data:`NATIVE_FUNCTIONS` in the MuJoCo library the Python bindings use.
-
-    Raises ``OSError`` when MuJoCo's shared library is not found next to the mujoco package.
-    """
-    paths = sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*")))
-    if not paths:
-        raise OSError("MuJoCo's shared library (libmujoco.so*) not found next to the mujoco package")
-    lib = ctypes.CDLL(paths[0])
-    return tuple(ctypes.cast(getattr(lib, name), ctypes.c_void_p).value for name in NATIVE_FUNCTIONS)
-
-
 @numba.njit(cache=True)
 def native_substeps(functions, model, data, first, count, buffers, live, goal_pos, goal_ori, gains,
                     initial_joint, site_id, indexes, actuators, limits, uncouple, grip_ctrl, sponge, wipe_z):
     """Run substeps ``first``..``count - 1``: step1, OSC torques, ctrl, [wiping hand-off], step2.
 
-    ``functions``: :func:`mujoco_addresses`.  ``model``, ``data``: mjModel* / mjData* addresses.
+    ``functions``: :func:`~tableclean_suite.robosuite_adapter.mujoco_function_addresses`.  ``model``, ``data``: mjModel* / mjData* addresses.
     ``buffers``: (full mass (nv, nv), jacp (3, nv), jacr (3, nv), torques (n,)) scratch.
     ``live``: views of mjData's qM, qpos, qvel, qfrc_bias, the grip site's xpos (3,) and xmat
     (9,), ctrl, the sponge's xpos (3,) and xmat (9,).  ``goal_pos``, ``goal_ori``, ``gains``,
@@ -364,7 +354,7 @@ def box_lowest_z(pos: np.ndarray, mat: np.ndarray, half_size: np.ndarray) -> flo
 def native_available() -> bool:
     """Whether the native substep loop (MuJoCo's C API called from numba) can be used here."""
     try:
-        mujoco_addresses()
+        mujoco_function_addresses()
     except OSError:
         return False
     return True
@@ -417,10 +407,11 @@ class FastSkillStepper:
     """
 
     def __init__(self, env, native: bool | None = None):
+        require_checked_versions()
         _check_supported(env)
         self.env = env
         self.native = native_available() if native is None else bool(native)
-        self._functions = mujoco_addresses() if self.native else None
+        self._functions = mujoco_function_addresses() if self.native else None
         self._sim = None
         self._bind()
 
@@ -432,15 +423,14 @@ class FastSkillStepper:
         robot = env.robots[0]
         arm = robot.arms[0]
         self._find_controllers()
-        model, self.model, self.data = sim.model, sim.model._model, sim.data._data
+        model, self.model, self.data = sim.model, mj_model(sim), mj_data(sim)
         base_site = model.site_name2id(f"{self.osc.naming_prefix}{self.osc.part_name}_center")
         if self.model.body_weldid[self.model.site_bodyid[base_site]] != 0:
             raise NotImplementedError("the fast control path needs the arm's base welded to the world")
         self.site_id = model.site_name2id(self.osc.ref_name)
         self.indexes = np.array([self.osc.qvel_index, self.osc.qpos_index], dtype=np.int64)
-        actuators = robot._ref_actuators_indexes_dict
-        self.arm_actuators = np.asarray(actuators[arm], dtype=np.int64)
-        self.grip_actuators = np.asarray(actuators[self.grip_controller.part_name], dtype=np.int64)
+        self.arm_actuators = np.asarray(actuator_indexes(robot, arm), dtype=np.int64)
+        self.grip_actuators = np.asarray(actuator_indexes(robot, self.grip_controller.part_name), dtype=np.int64)
         ctrlrange = self.model.actuator_ctrlrange
         self.arm_limits = np.ascontiguousarray(ctrlrange[self.arm_actuators].T)  # (2, n) low, high
         self.grip_limits = np.ascontiguousarray(ctrlrange[self.grip_actuators].T)
@@ -562,7 +552,7 @@ class FastSkillStepper:
         grip_ctrl = self.gripper_ctrl(action)
         gains = self.gains()
         first = 0
-        if not self.osc.new_update:  # robosuite then reuses its cached arm state once (see cached_arm_torques)
+        if not controller_needs_update(self.osc):  # robosuite then reuses its cached arm state once (see cached_arm_torques)
             self._python_substep(0, goal_pos, goal_ori, gains, grip_ctrl, cached=True)
             first = 1
         if self.native:
@@ -590,7 +580,7 @@ class FastSkillStepper:
         done = first
         while done < self.substeps:
             done = native_substeps(
-                self._functions, self.model._address, self.data._address, done, self.substeps, self._buffers, self._live,
+                self._functions, c_address(self.model), c_address(self.data), done, self.substeps, self._buffers, self._live,
                 goal_pos, goal_ori, gains, initial_joint, self.site_id, self.indexes, self._actuators,
                 self.arm_limits, bool(osc.uncoupling), grip_ctrl, self._sponge_half, self._wipe_z,
             )
@@ -602,25 +592,27 @@ class FastSkillStepper:
     def _finish_step(self, goal_pos: np.ndarray, goal_ori: np.ndarray) -> None:
         """What ``env.step`` does once per control step and later steps rely on."""
         env = self.env
-        env.cur_time += env.control_timestep
+        advance_clock(env, env.control_timestep)
         env.show_dirt()
         env.done = (env.timestep >= env.horizon) and not env.ignore_done
-        self.osc.goal_pos, self.osc.goal_ori = goal_pos, goal_ori
-        self.osc.torques = self.torques.copy()
         # as after robosuite's run_controller: the next update() re-reads the simulation
-        self.osc.new_update = True
-        self.grip_controller.new_update = True
+        hand_back_controller_state(self.osc, self.grip_controller, goal_pos, goal_ori, self.torques)
 
 
 #: Attribute under which :func:`attach_fast_stepper` stores an env's stepper.
 STEPPER_ATTRIBUTE = "fast_stepper"
 
 
-def attach_fast_stepper(env, native: bool | None = None) -> FastSkillStepper:
+def attach_fast_stepper(env, native: bool | None = None) -> FastSkillStepper | None:
     """Give ``env`` a :class:`FastSkillStepper` (``env.fast_stepper``), which the SkillController then uses.
 
+    On robosuite / MuJoCo versions the adapter was not checked against
+    (:data:`~tableclean_suite.robosuite_adapter.CHECKED_VERSIONS`) attaches nothing, warns once per
+    process, and returns ``None``: the env then runs on robosuite's own ``env.step`` path.
     Raises ``NotImplementedError`` when the env's controllers are not the ones the fast path reproduces.
     """
+    if not fast_path_allowed():
+        return None
     stepper = FastSkillStepper(env, native=native)
     setattr(env, STEPPER_ATTRIBUTE, stepper)
     return stepper

@@ -44,6 +44,7 @@ from tableclean_suite.environments.randomization import (
     resolve_randomization,
 )
 from tableclean_suite.environments.scene_state import SceneState
+from tableclean_suite.robosuite_adapter import gripper_joint_pos_indexes, joint_vel_indexes, mj_data, mj_model
 from tableclean_suite.task import HELD, StartMode, TaskModel, TaskSpec, TaskState, get_task_spec
 
 __all__ = ["TableClean", "DEFAULT_TABLECLEAN_CONFIG"]
@@ -471,7 +472,7 @@ class TableClean(ManipulationEnv):
         """Caches ids of the object, sponge, table top and dirt markers."""
         super()._setup_references()
         model = self.sim.model
-        self._mj_data = self.sim.data._data
+        self._mj_data = mj_data(self.sim)
         self.object_body_ids = np.array([model.body_name2id(o.root_body) for o in self.objects])
         self.object_body_id = int(self.object_body_ids[0])
         self.sponge_body_id = model.body_name2id(self.sponge.root_body)
@@ -491,7 +492,7 @@ class TableClean(ManipulationEnv):
         growth = np.array([g.footprint_radius for g in shapes]) / self._nominal_footprints
         self._object_footprints = np.array([footprint_radius(kind, g) for kind, g in zip(self.object_types, shapes)])
         self._object_footprints *= np.where([k.footprint_radius is None for k in self.object_types], 1.0, growth)
-        self.gripper_geometry = measure_gripper(model._model, self._mj_data.qpos.copy(), gripper,
+        self.gripper_geometry = measure_gripper(mj_model(self.sim), self._mj_data.qpos.copy(), gripper,
                                                 gripper.important_sites["grip_site"])
         self._finger_pad_masks = (
             mask(gripper.important_geoms["left_fingerpad"]),
@@ -779,7 +780,7 @@ class TableClean(ManipulationEnv):
         return {
             "eef_pos": np.array(data.site_xpos[site]),
             "eef_quat": mat2quat(np.array(data.site_xmat[site]).reshape(3, 3)).astype(float),
-            "gripper_qpos": np.array(data.qpos[robot._ref_gripper_joint_pos_indexes[arm]]),
+            "gripper_qpos": np.array(data.qpos[gripper_joint_pos_indexes(robot, arm)]),
             "object_pos": objects_pos[0].copy(),
             "object_quat": objects_quat[0].copy(),
             "object_half_size": self._object_half_sizes[0].copy(),
@@ -832,7 +833,7 @@ class TableClean(ManipulationEnv):
 
         Used to branch several actions from one reached state without replaying the plan.
         """
-        data = self.sim.data._data
+        data = mj_data(self.sim)
         return SceneState(
             time=float(data.time),
             qpos=data.qpos.copy(),
@@ -847,7 +848,7 @@ class TableClean(ManipulationEnv):
 
     def set_scene_state(self, state: SceneState) -> None:
         """Put the scene back into ``state`` (from :meth:`get_scene_state` of this env)."""
-        data = self.sim.data._data
+        data = mj_data(self.sim)
         if state.qpos.shape != data.qpos.shape:
             raise ValueError(f"scene state comes from a different TableClean model: qpos has shape {state.qpos.shape}, "
                              f"this model's {data.qpos.shape}")
@@ -948,10 +949,10 @@ class TableClean(ManipulationEnv):
             dof_addrs = [model.get_joint_qvel_addr(j) for j in robot.robot_model.joints]
             site_id = model.site_name2id(robot.gripper[robot.arms[0]].important_sites["grip_site"])
             q_default = np.array(robot.robot_model.init_qpos, dtype=float)
-            _, default_mat = site_pose(model._model, qpos_addrs, site_id, q_default)
+            _, default_mat = site_pose(mj_model(self.sim), qpos_addrs, site_id, q_default)
             target = self.geometry.segment_centers[segment] + [0.0, 0.0, height]
             self._arm_qpos_cache[key] = solve_site_pose(
-                model._model, qpos_addrs, dof_addrs, site_id, target, default_mat, q_default
+                mj_model(self.sim), qpos_addrs, dof_addrs, site_id, target, default_mat, q_default
             )
         return self._arm_qpos_cache[key].copy()
 
@@ -1051,7 +1052,7 @@ class TableClean(ManipulationEnv):
         return (None, None) if sample is None else (sample.object_size_scale, sample.sponge_size_scale)
 
     def _arm_dofs(self) -> np.ndarray:
-        return np.asarray(self.robots[0]._ref_joint_vel_indexes, dtype=int)
+        return np.asarray(joint_vel_indexes(self.robots[0]), dtype=int)
 
     def _read_nominal(self) -> dict:
         """Copies of the model values the randomisation scales (read from a freshly built model)."""
@@ -1112,7 +1113,7 @@ class TableClean(ManipulationEnv):
             return 0.0
         contact = data.contact
         pressing = wiping.any_contact(contact.geom1[:ncon], contact.geom2[:ncon], self._sponge_mask, self._table_mask)
-        model = self.sim.model._model
+        model = mj_model(self.sim)
         wrench = np.zeros(CONTACT_WRENCH_SIZE)
         total = 0.0
         for i in np.flatnonzero(pressing):

@@ -1,0 +1,157 @@
+"""The one place that touches robosuite's and MuJoCo's internals, with the versions it was checked against.
+
+robosuite 1.5 exposes no public accessor for some things the package needs: the raw
+``mujoco.MjModel`` / ``MjData`` behind its ``MjSim`` wrappers, the robot's actuator and
+joint index lists, the env's clock, the OSC's refresh flag and result.  The compiled
+control path (:mod:`tableclean_suite.controllers.fast_control`) also calls MuJoCo's C
+functions by address.  Each of these is one small function here, so a robosuite or MuJoCo
+upgrade has one module to re-check.
+
+The fast control path writes robosuite's controller state and calls MuJoCo's C API, so it
+runs only on the versions in :data:`CHECKED_VERSIONS`:
+
+- :func:`require_checked_versions` raises :class:`UncheckedVersionError` naming the installed
+  and the checked versions (constructing a ``FastSkillStepper`` directly);
+- :func:`fast_path_allowed` returns ``False`` and warns once per process (making a skill env
+  with ``fast_control=True``: the env then runs on robosuite's own ``env.step`` path).
+
+The read-only accessors (:func:`mj_model`, :func:`mj_data`, the index lists) follow
+robosuite 1.5's ``binding_utils`` and robot classes, which ``setup.py`` pins (``>=1.5,<1.6``).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import glob
+import os
+import warnings
+
+#: Versions the internals used here were checked against (package name -> exact versions).
+CHECKED_VERSIONS: dict[str, tuple[str, ...]] = {
+    "robosuite": ("1.5.2",),
+    "mujoco": ("3.9.0",),
+}
+#: The MuJoCo C functions the compiled control loop calls, in the order of :func:`mujoco_function_addresses`.
+NATIVE_FUNCTIONS = ("mj_step1", "mj_step2", "mj_fullM", "mj_jacSite")
+
+_warned: set[tuple[str, ...]] = set()  # the unchecked-version messages already warned about (said once)
+
+
+class UncheckedVersionError(RuntimeError):
+    """The installed robosuite or MuJoCo is not a version :data:`CHECKED_VERSIONS` lists."""
+
+
+def installed_versions() -> dict[str, str]:
+    """The installed versions of the packages in :data:`CHECKED_VERSIONS` (their ``__version__``)."""
+    import mujoco
+    import robosuite
+
+    return {"robosuite": str(robosuite.__version__), "mujoco": str(mujoco.__version__)}
+
+
+def unchecked_versions(installed: dict[str, str] | None = None) -> list[str]:
+    """One line per installed package whose version is not checked, e.g. ``"mujoco 3.10.0 (checked: 3.9.0)"``.
+
+    ``installed``: package name -> version (default: :func:`installed_versions`).  Empty when all are checked.
+    """
+    installed = installed_versions() if installed is None else installed
+    return [
+        f"{name} {installed[name]} (checked: {', '.join(checked)})"
+        for name, checked in CHECKED_VERSIONS.items()
+        if installed.get(name) not in checked
+    ]
+
+
+def _unchecked_message(lines: list[str]) -> str:
+    return "robosuite/MuJoCo internals were not checked against the installed " + "; ".join(lines)
+
+
+def require_checked_versions() -> None:
+    """Raise :class:`UncheckedVersionError` naming the installed and checked versions unless all are checked."""
+    lines = unchecked_versions()
+    if lines:
+        raise UncheckedVersionError(_unchecked_message(lines) + "; use fast_control=False (robosuite's env.step)")
+
+
+def fast_path_allowed() -> bool:
+    """Whether the fast control path may run here; on unchecked versions warns once (``RuntimeWarning``) and says no."""
+    lines = unchecked_versions()
+    if not lines:
+        return True
+    key = tuple(lines)
+    if key not in _warned:
+        _warned.add(key)
+        warnings.warn(_unchecked_message(lines) + "; the skills run on robosuite's own env.step path instead",
+                      RuntimeWarning, stacklevel=2)
+    return False
+
+
+# -- raw MuJoCo objects ------------------------------------------------------------------------
+def mj_model(sim):
+    """The ``mujoco.MjModel`` behind robosuite's ``MjSim`` ``sim`` (its ``model._model``)."""
+    return sim.model._model
+
+
+def mj_data(sim):
+    """The ``mujoco.MjData`` behind robosuite's ``MjSim`` ``sim`` (its ``data._data``)."""
+    return sim.data._data
+
+
+def c_address(mujoco_struct) -> int:
+    """Address of the C ``mjModel`` / ``mjData`` behind a ``mujoco.MjModel`` / ``MjData`` (the bindings' ``_address``)."""
+    return int(mujoco_struct._address)
+
+
+@functools.lru_cache(maxsize=None)
+def mujoco_function_addresses() -> tuple[int, ...]:
+    """Addresses of :data:`NATIVE_FUNCTIONS` in the MuJoCo library the Python bindings use.
+
+    Raises ``OSError`` when MuJoCo's shared library is not found next to the mujoco package.
+    """
+    import mujoco
+
+    paths = sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*")))
+    if not paths:
+        raise OSError("MuJoCo's shared library (libmujoco.so*) not found next to the mujoco package")
+    lib = ctypes.CDLL(paths[0])
+    return tuple(ctypes.cast(getattr(lib, name), ctypes.c_void_p).value for name in NATIVE_FUNCTIONS)
+
+
+# -- the robot's index lists -----------------------------------------------------------------
+def actuator_indexes(robot, part: str):
+    """Actuator indexes (ints) of ``robot``'s part ``part`` (an arm or a gripper name)."""
+    return robot._ref_actuators_indexes_dict[part]
+
+
+def gripper_joint_pos_indexes(robot, arm: str):
+    """qpos indexes (ints) of the finger joints of ``robot``'s gripper on ``arm``."""
+    return robot._ref_gripper_joint_pos_indexes[arm]
+
+
+def joint_vel_indexes(robot):
+    """qvel indexes (ints) of ``robot``'s arm joints."""
+    return robot._ref_joint_vel_indexes
+
+
+# -- env and controller state the fast path hands back ----------------------------------------
+def advance_clock(env, seconds: float) -> None:
+    """Advance ``env``'s simulation clock (``cur_time``, s) by ``seconds``, as ``MujocoEnv.step`` does."""
+    env.cur_time += seconds
+
+
+def controller_needs_update(controller) -> bool:
+    """Whether robosuite's ``controller`` re-reads the simulation on its next ``update()`` (``new_update``)."""
+    return bool(controller.new_update)
+
+
+def hand_back_controller_state(osc, grip, goal_pos, goal_ori, torques) -> None:
+    """Leave robosuite's OSC ``osc`` and gripper controller ``grip`` as after ``run_controller``.
+
+    ``goal_pos`` (3,) m and ``goal_ori`` (3, 3) the OSC's goal; ``torques`` (n,) N m its last
+    torques (copied).  Both controllers re-read the simulation at their next ``update()``.
+    """
+    osc.goal_pos, osc.goal_ori = goal_pos, goal_ori
+    osc.torques = torques.copy()
+    osc.new_update = True
+    grip.new_update = True
