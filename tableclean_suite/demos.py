@@ -53,6 +53,8 @@ from typing import Sequence
 
 import numpy as np
 
+from tableclean_suite.robosuite_adapter import fresh_observations
+
 #: robomimic's ``EnvType.ROBOSUITE_TYPE`` (``env_args["type"]``).
 ROBOSUITE_ENV_TYPE = 1
 #: The robosuite environment the demos are recorded in.
@@ -239,7 +241,7 @@ class EpisodeRecorder:
         for index, state in enumerate(all_states):
             env.sim.set_state_from_flattened(state)
             env.sim.forward()
-            obs = env._get_observations(force_update=True)
+            obs = fresh_observations(env)
             for key in OBS_KEYS:
                 if key in obs:
                     observations.setdefault(key, []).append(np.atleast_1d(np.asarray(obs[key], dtype=float)))

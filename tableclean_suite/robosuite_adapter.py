@@ -134,6 +134,12 @@ def joint_vel_indexes(robot):
     return robot._ref_joint_vel_indexes
 
 
+# -- the env -------------------------------------------------------------------------------
+def fresh_observations(env) -> dict:
+    """``env``'s observations recomputed from the current simulation state (``_get_observations(force_update=True)``)."""
+    return env._get_observations(force_update=True)
+
+
 # -- env and controller state the fast path hands back ----------------------------------------
 def advance_clock(env, seconds: float) -> None:
     """Advance ``env``'s simulation clock (``cur_time``, s) by ``seconds``, as ``MujocoEnv.step`` does."""
