@@ -39,12 +39,11 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from tableclean_suite.controllers.clean import CleanSkill, Wipe
+from tableclean_suite.controllers.clean import Wipe
+from tableclean_suite.controllers.configs import CleanConfig, ComposedConfig
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
-from tableclean_suite.controllers.pick import GRASP_CONFIG
-from tableclean_suite.controllers.place import PlaceSkill
 from tableclean_suite.controllers.primitives import SPONGE, Grasp, PrimitiveSkill, Reach, Release, object_body
-from tableclean_suite.controllers.skill import BASE_CONFIG, SkillFailure
+from tableclean_suite.controllers.skill import SkillFailure
 from tableclean_suite.environments.placement import free_spot as placement_free_spot
 from tableclean_suite.task import ActionRule, TaskState
 
@@ -206,8 +205,9 @@ def compose_skill(name: str, rule: Callable[[TaskState], tuple], steps: Sequence
     The class carries ``rule`` (an :class:`~tableclean_suite.task.ActionRule`):
     :func:`~tableclean_suite.controllers.register_skill` registers the action with it when the
     action is not registered yet.  Its phases are ``<KIND><i>_<phase>`` (e.g. ``GRASP1_DESCEND``).
-    Its config: the place and grasp settings (the clean skill's when a step wipes), ``max_steps``
-    and ``config`` overrides (keys of those only).
+    Its config: :class:`~.configs.ComposedConfig` (the grasp and release settings), or
+    :class:`~.configs.CleanConfig` when a step wipes, with ``max_steps`` and ``config`` on top
+    (keys of that type only: ``KeyError``; values checked against its ranges: ``ValueError``).
     """
     if not steps:
         raise ValueError(f"skill {name!r}: give at least one step (reach, grasp, release, wipe)")
@@ -219,13 +219,12 @@ def compose_skill(name: str, rule: Callable[[TaskState], tuple], steps: Sequence
         prefixes.append(prefix)
         members += [prefix + phase for phase in step.phases]
     phase_enum = enum.Enum(f"{_camel(name)}Phase", [*members, "DONE"])
-    defaults = {**BASE_CONFIG, **GRASP_CONFIG, **{k: v for k, v in PlaceSkill.DEFAULT_CONFIG.items()}}
-    if any(step.kind == "WIPE" for step in steps):
-        defaults.update(CleanSkill.DEFAULT_CONFIG)
-    unknown = sorted(set(config or {}) - set(defaults))
+    config_type = CleanConfig if any(step.kind == "WIPE" for step in steps) else ComposedConfig
+    unknown = sorted(set(config or {}) - set(config_type.keys()))
     if unknown:
         raise KeyError(f"skill {name!r}: unknown config keys {unknown}")
-    defaults.update({"max_steps": int(max_steps), **(config or {})})
+    # validated here (ValueError naming the field, the value and its range), not when the skill first runs
+    defaults = config_type(**{"max_steps": max_steps, **(config or {})}).as_dict()
 
     def build(self, info: Info):
         ctx = Context(self.state)
@@ -235,7 +234,7 @@ def compose_skill(name: str, rule: Callable[[TaskState], tuple], steps: Sequence
         return plan
 
     return type(f"{_camel(name)}Skill", (PrimitiveSkill,), {
-        "action": name, "Phase": phase_enum, "DEFAULT_CONFIG": defaults, "build": build,
+        "action": name, "Phase": phase_enum, "Config": config_type, "DEFAULT_CONFIG": defaults, "build": build,
         "rule": ActionRule(name, rule, description), "__doc__": description or f"The composed skill of {name!r}.",
     })
 

@@ -12,11 +12,11 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from tableclean_suite.controllers.configs import CleanConfig
 from tableclean_suite.controllers.geometry import box_lowest_z, world_footprint
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
-from tableclean_suite.controllers.pick import GRASP_CONFIG
 from tableclean_suite.controllers.primitives import SPONGE, Grasp, Primitive, PrimitiveSkill, Reach, Release
-from tableclean_suite.controllers.skill import BASE_CONFIG, SkillFailure, Waypoint
+from tableclean_suite.controllers.skill import SkillFailure, Waypoint
 from tableclean_suite.controllers.wipe_pattern import boustrophedon
 from tableclean_suite.task import Action
 
@@ -50,7 +50,7 @@ class Wipe(Primitive):
     from the force error (``press_force`` target, ``press_force_gain``) while the sponge is on the
     table, and a stroke starts once ``touch_force`` is measured.  A different sponge size, mass,
     friction, arm damping or gains thus end at the same pressing force.  The skill's config
-    supplies the wiping constants (see :class:`CleanSkill`'s ``DEFAULT_CONFIG``).
+    supplies the wiping constants (:class:`~.configs.WipeConfig`, units and ranges in its fields).
     """
 
     PHASES = ("TO_SEGMENT", "PRESS", "WIPE", "SHIFT", "WIPE_LIFT")
@@ -235,47 +235,8 @@ class CleanSkill(PrimitiveSkill):
 
     action = Action.CLEAN
     Phase = CleanPhase
-    DEFAULT_CONFIG = {
-        **BASE_CONFIG,
-        **GRASP_CONFIG,
-        "max_steps": 900,
-        # m the fingertips stay above the sponge's bottom (GRASP_CONFIG's 0.010 for objects): gripped
-        # lower, the table's drag on the pressed sponge has a shorter lever about the finger pads
-        "tip_clearance": 0.004,
-        # the press closes on the measured sponge-table normal force (Wipe, the env's sponge_press_force()), not on a depth
-        "press_force": 8.0,  # N, the pressing force the depth loop holds while wiping
-        "touch_force": 1.0,  # N; a stroke starts once at least this contact force is measured
-        "press_force_gain": 0.0005,  # m/(N s), integral gain from the force error to the commanded depth
-        "gap_gain": 5.0,  # 1/s, extra descent rate per m the sponge's lowest corner is above the table
-        "contact_slack": 0.0005,  # m of that gap that count as touching
-        "press_start_depth": 0.002,  # m below the table top the first press aims at before any force is measured
-        "min_press_depth": -0.01,  # m, the depth loop's bounds (negative: above the table top, a sponge slid up
-        "max_press_depth": 0.02,  # in the hand) ...  and below it
-        "setpoint_arrival": 1e-4,  # m; the press integrates once the rate-limited setpoint is this close to its height
-        "wipe_speed": 0.25,  # m/s along the strokes
-        "wipe_tolerance": 0.02,  # m (xy); table friction keeps the pressed sponge a little behind its setpoint
-        # fraction of the sponge's half extent its centre keeps inside the segment's edges; 1 with no
-        # overlap makes the lanes tile the segment exactly (3 lanes on the default 0.24 m segment)
-        "edge_inset": 1.0,
-        "repeat_lane_shift": 0.5,  # repeated passes shift the lanes by this fraction of the lane spacing
-        # fraction of the sponge width shared by neighbouring lanes; the sponge's own footprint plus the
-        # env's wipe reach already covers the seams, and every extra lane costs ~25 control steps
-        "wipe_overlap": 0.0,
-        # m the sponge's bottom is lifted above the table while it shifts to the next stroke: dragged
-        # across the fingers' closing axis the pressed sponge tips and slides up into the hand, after
-        # which the fingertips, not the sponge, touch the table
-        "shift_clearance": 0.005,
-        # control steps after which a stroke starts even if no force was measured (a sponge slid up in
-        # the hand can leave the fingertips on the table); WIPE's force loop then deepens the contact
-        "press_max_steps": 12,
-        "lift_max_steps": 10,  # control steps a SHIFT lifts at most before moving on (see Wipe._update_lift)
-        # control steps after which a stroke ends wherever the sponge got (a stroke takes ~20 at wipe_speed)
-        "stroke_max_steps": 40,
-        "max_drift_correction": 0.02,  # m, bound of the wipe target's lead over the sponge's drift (Wipe._drift)
-        "max_passes": 3,  # wipe passes at most; a pass is repeated only while the segment is dirty
-        "place_clearance": 0.004,  # m above its home at which the sponge is released
-        "release_min_steps": 3,  # control steps to keep opening before checking the fingers settled
-    }
+    Config = CleanConfig
+    DEFAULT_CONFIG = CleanConfig().as_dict()
 
     def build(self, info: Mapping[str, Any]):
         self.segment = self.state.arm

@@ -7,9 +7,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from tableclean_suite.controllers.configs import MoveConfig
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.primitives import PrimitiveSkill, Reach
-from tableclean_suite.controllers.skill import BASE_CONFIG
 from tableclean_suite.task import Action
 
 
@@ -29,11 +29,8 @@ class MoveSkill(PrimitiveSkill):
 
     action = Action.MOVE
     Phase = MovePhase
-    DEFAULT_CONFIG = {
-        **BASE_CONFIG,
-        "max_steps": 200,
-        "lift_tolerance": 0.03,  # m; the lift only needs to clear the table, not be exact
-    }
+    Config = MoveConfig
+    DEFAULT_CONFIG = MoveConfig().as_dict()
 
     def target_segment(self) -> int:
         """The 0-based segment to end above: the next one, k -> k + 1 (N -> 1)."""

@@ -5,8 +5,8 @@ from __future__ import annotations
 import enum
 from typing import Any, Mapping
 
+from tableclean_suite.controllers.configs import GraspConfig, PickConfig
 from tableclean_suite.controllers.primitives import (
-    GRASP_SLIP_TOLERANCE,
     Grasp,
     PrimitiveSkill,
     grasp_point,
@@ -17,17 +17,10 @@ from tableclean_suite.task import Action
 
 __all__ = ["GRASP_CONFIG", "PickPhase", "PickSkill", "grasp_point"]
 
-#: Settings shared by every skill that grasps from above (PickSkill, CleanSkill's sponge grasp).
-GRASP_CONFIG = {
-    "grasp_depth": 0.0,  # m below the sponge's centre at which the grip site closes (objects: the holding height)
-    "fingertip_depth": BASE_CONFIG["fingertip_depth"],  # m, lowest point of the finger meshes below the grip site
-    "tip_clearance": 0.010,  # m the fingertips stay above the body's bottom (and so above the table)
-    "palm_clearance": 0.005,  # m a grasped object's top stays below the hand (the gripper's measured palm height)
-    "close_min_steps": 4,  # control steps to keep closing before checking the fingers settled
-    "descend_speed": 0.25,  # m/s, slower final approach
-    "grasp_retries": 1,  # re-approaches after a grasp that was not confirmed
-    "grasp_slip_tolerance": GRASP_SLIP_TOLERANCE,  # m a lifted body may trail the grip site's rise
-}
+#: The dict form of the Grasp primitive's own settings (:class:`~.configs.GraspConfig`'s fields beyond
+#: :class:`~.configs.SkillConfig`'s, plus ``fingertip_depth``): shared by every skill that grasps from above.
+GRASP_CONFIG = {key: value for key, value in GraspConfig().as_dict().items()
+                if key not in BASE_CONFIG or key == "fingertip_depth"}
 
 
 class PickPhase(enum.Enum):
@@ -45,7 +38,8 @@ class PickSkill(PrimitiveSkill):
 
     action = Action.PICK
     Phase = PickPhase
-    DEFAULT_CONFIG = {**BASE_CONFIG, **GRASP_CONFIG, "max_steps": 250}
+    Config = PickConfig
+    DEFAULT_CONFIG = PickConfig().as_dict()
 
     def build(self, info: Mapping[str, Any]):
         lying = self.state.objects_on(self.state.arm)

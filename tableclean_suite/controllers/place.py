@@ -7,8 +7,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from tableclean_suite.controllers.configs import PlaceConfig
 from tableclean_suite.controllers.primitives import PrimitiveSkill, Release, object_body
-from tableclean_suite.controllers.skill import BASE_CONFIG, SkillFailure
+from tableclean_suite.controllers.skill import SkillFailure
 from tableclean_suite.environments.placement import free_spot
 from tableclean_suite.task import Action
 
@@ -29,13 +30,8 @@ class PlaceSkill(PrimitiveSkill):
 
     action = Action.PLACE
     Phase = PlacePhase
-    DEFAULT_CONFIG = {
-        **BASE_CONFIG,
-        "max_steps": 250,
-        "place_clearance": 0.006,  # m between the object's bottom and the table top at release
-        "descend_speed": 0.25,  # m/s, slower final approach
-        "release_min_steps": 3,  # control steps to keep opening before checking the fingers settled
-    }
+    Config = PlaceConfig
+    DEFAULT_CONFIG = PlaceConfig().as_dict()
 
     def build(self, info: Mapping[str, Any]):
         held = self.state.held_object

@@ -28,6 +28,7 @@ from typing import Any, Callable, ClassVar, Mapping
 
 import numpy as np
 
+from tableclean_suite.controllers.configs import GRASP_SLIP_TOLERANCE  # noqa: F401  (re-exported)
 from tableclean_suite.controllers.geometry import gripper_yaw, quat_to_matrix, wrap_angle
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.skill import Skill, SkillFailure, Waypoint, object_heights
@@ -40,9 +41,6 @@ from tableclean_suite.environments.object_geometry import (
 
 Info = Mapping[str, Any]
 
-#: A lifted body may trail the grip site's rise by at most this [m] before the grasp counts as
-#: slipping (the default of the skill config key ``grasp_slip_tolerance``, see ``pick.GRASP_CONFIG``).
-GRASP_SLIP_TOLERANCE = 0.01
 
 
 @dataclass(frozen=True)

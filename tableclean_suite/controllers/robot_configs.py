@@ -11,6 +11,7 @@ under the caller's own ``skill_configs``; :func:`~.osc.skill_controller_config` 
 
 from __future__ import annotations
 
+from tableclean_suite.controllers.configs import SkillConfig
 from tableclean_suite.controllers.skill import BASE_CONFIG
 from tableclean_suite.environments.robot_registry import (  # noqa: F401  (the registry's public names)
     ALL_SKILLS,
@@ -40,7 +41,8 @@ def register_robot_config(config: RobotSkillConfig, *, replace: bool = False) ->
         TypeError: ``config`` is not a :class:`RobotSkillConfig`.
         ValueError: the robot is already registered and ``replace`` is False; a skills key that
             is neither :data:`ALL_SKILLS` nor a registered action, or two keys naming the same
-            action; an :data:`ALL_SKILLS` key that is not a key of ``BASE_CONFIG``; an OSC
+            action; an :data:`ALL_SKILLS` key that is not a key of ``BASE_CONFIG`` or its value
+            outside the range of :class:`~.configs.SkillConfig`'s field; an OSC
             override of ``type``, ``input_type`` or ``input_ref_frame``.
     """
     if isinstance(config, RobotSkillConfig):
@@ -48,4 +50,5 @@ def register_robot_config(config: RobotSkillConfig, *, replace: bool = False) ->
         if unknown:
             raise ValueError(f"robot {config.robot!r}: keys {unknown} under {ALL_SKILLS!r} are not BASE_CONFIG keys "
                              f"(allowed: {sorted(BASE_CONFIG)}); put skill-specific keys under the action's name")
+        SkillConfig(**config.skills.get(ALL_SKILLS, {}))  # its values in range (ValueError naming the field)
     return add_robot_config(config, replace=replace)

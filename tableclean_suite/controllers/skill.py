@@ -12,7 +12,9 @@ settling and step budget live here once.
 Subclasses define:
 - ``action``: the :class:`~tableclean_suite.task.Action` the skill implements,
 - ``Phase``: an :class:`enum.Enum` of phases whose last member ends the skill,
-- ``DEFAULT_CONFIG``: named constants (extending :data:`BASE_CONFIG`).
+- ``Config``: its typed, frozen settings (a :class:`~.configs.SkillConfig` subclass, units and
+  ranges in its field docstrings) and ``DEFAULT_CONFIG``, their defaults as a dict
+  (``Config().as_dict()``, extending :data:`BASE_CONFIG`).
 """
 
 from __future__ import annotations
@@ -21,47 +23,21 @@ import abc
 import collections
 import enum
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Any, ClassVar, Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
+from tableclean_suite.controllers.configs import SkillConfig
 from tableclean_suite.controllers.geometry import box_lowest_z, gripper_yaw, quat_to_matrix, wrap_angle
 from tableclean_suite.environments.object_geometry import world_highest_z, world_lowest_z
 from tableclean_suite.environments.objects import APPROACH_CLEARANCE
 from tableclean_suite.controllers.osc import compose_action, down_rotvec
 from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
 
-#: Settings every skill understands; each skill's DEFAULT_CONFIG extends these.
-BASE_CONFIG: dict[str, Any] = {
-    "max_steps": 400,  # step budget (control steps) before the skill gives up
-    "speed": 0.4,  # m/s, maximum speed of the rate-limited setpoint
-    "reach_tolerance": 0.008,  # m, achieved-to-waypoint distance that counts as reached
-    # finger joint motion per control step below which the gripper has settled (joint units: m for the
-    # Panda's slide fingers, rad for hinged ones); see Skill.gripper_settled for the other two rules
-    "gripper_still": 2e-4,
-    # control steps of each of the two windows whose mean finger positions are compared; None: rule off
-    # (grippers whose fingers jitter without ever stopping, e.g. the Robotiq 85's linkage, need it)
-    "gripper_window": None,
-    # finger joint units per control step: the windowed mean position drifting slower than this has settled
-    "gripper_drift": 0.0,
-    # control steps in a phase after which the gripper counts as settled whatever it does; None: never
-    "gripper_timeout": None,
-    # m above the table top at which the gripper travels and hovers: clears a carried object (4.5 cm cube)
-    # and the sponge stand (2 cm); measured, 0.12 cost ~6 more control steps per lift/descend pair
-    "hover_height": 0.08,
-    "yaw_rate": 1.5,  # rad/s, maximum turning speed of the gripper-yaw setpoint (faster turns hit wrist limits)
-    "yaw_tolerance": 0.1,  # rad, achieved-to-target gripper yaw error that counts as reached
-    # rad, preferred gripper yaw when a grasp allows several: the Panda's grip site has yaw pi/2
-    # at robosuite's home pose (fingers closing along world y); yaws near 0 or pi hit wrist limits
-    "nominal_yaw": 0.5 * 3.141592653589793,
-    # m the open fingertips stay above the tallest lying object's top when hovering (raised by the object's
-    # approach clearance); the paper's 4.5 cm cube never raises the hover height
-    "fingertip_depth": 0.0135,  # m, lowest point of the Panda's finger collision meshes below its grip site
-    "carry_clearance": 0.01,  # m a carried body's bottom stays above the tallest lying object's top
-    # m a carried body's bottom stays above the table top: clears the 2 cm sponge stand and lifts an object
-    # beyond the abstraction's 1.5 cm lift tolerance (the paper's cube, gripped at its centre, never needs it)
-    "carry_lift": 0.03,
-}
+#: The dict form of :class:`~.configs.SkillConfig`'s defaults: the settings every skill understands
+#: (units and ranges in its field docstrings); each skill's ``DEFAULT_CONFIG`` extends these.
+BASE_CONFIG: dict[str, Any] = SkillConfig().as_dict()
 
 
 def object_heights(info: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
@@ -134,18 +110,27 @@ class Skill(abc.ABC):
     Args:
         env: anything with ``skill_info() -> dict`` (as :meth:`tableclean_suite.environments.TableClean.skill_info`),
             ``symbolic_state() -> TaskState`` and ``control_freq`` (Hz).
-        config: overrides of ``DEFAULT_CONFIG`` (unknown keys raise ``KeyError``).
+        config: overrides of ``DEFAULT_CONFIG`` (unknown keys raise ``KeyError``; a value outside its
+            field's range in ``Config`` raises ``ValueError`` naming the field, the value and the range).
+
+    Attributes:
+        settings: the validated, frozen ``Config`` the skill runs with.
+        config: the same values as a read-only mapping (``skill.config["speed"]``).
     """
 
     action: ClassVar[Action]
     Phase: ClassVar[type[enum.Enum]]
+    Config: ClassVar[type[SkillConfig]] = SkillConfig
     DEFAULT_CONFIG: ClassVar[dict[str, Any]] = BASE_CONFIG
 
     def __init__(self, env: SkillEnv, config: Mapping[str, Any] | None = None):
         unknown = set(config or {}) - set(self.DEFAULT_CONFIG)
         if unknown:
             raise KeyError(f"unknown config keys for {type(self).__name__}: {sorted(unknown)}")
-        self.config = {**self.DEFAULT_CONFIG, **(config or {})}
+        merged = {**self.DEFAULT_CONFIG, **(config or {})}
+        # validated once; keys of a subclass's DEFAULT_CONFIG that its Config lacks pass through unchecked
+        self.settings = self.Config(**{key: merged[key] for key in self.Config.keys() if key in merged})
+        self.config = MappingProxyType(merged)
         self.env = env
         self.dt = 1.0 / float(env.control_freq)
         self.phase: enum.Enum = next(iter(self.Phase))
@@ -158,13 +143,7 @@ class Skill(abc.ABC):
         self.phase_steps: dict[str, int] = {}
         self._setpoint = np.zeros(3)
         self._last_fingers: np.ndarray | None = None
-        window, timeout = self.config["gripper_window"], self.config["gripper_timeout"]
-        for name, steps in (("gripper_window", window), ("gripper_timeout", timeout)):
-            if steps is not None and (isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1):
-                raise ValueError(f"{name} must be None or an int >= 1 (control steps), got {steps!r}")
-        drift = self.config["gripper_drift"]
-        if isinstance(drift, bool) or not isinstance(drift, (int, float, np.integer, np.floating)) or not drift >= 0:
-            raise ValueError(f"gripper_drift must be a number >= 0 (finger joint units per step), got {drift!r}")
+        window = self.config["gripper_window"]
         self._finger_history: collections.deque = collections.deque(maxlen=2 * int(window or 0))
 
     # -- what subclasses provide ---------------------------------------------------
