@@ -7,10 +7,16 @@ import pytest
 from tableclean_suite.controllers import (
     BASE_CONFIG,
     CleanSkill,
+    Grasp,
     MoveSkill,
+    PickPhase,
     PickSkill,
     PlaceSkill,
+    PrimitiveSkill,
+    Reach,
+    Release,
     SkillController,
+    Wipe,
     compose_skill,
 )
 from tableclean_suite.controllers.authoring import grasp, lying_object
@@ -26,6 +32,7 @@ from tableclean_suite.controllers.configs import (
     WipeConfig,
 )
 from tableclean_suite.controllers.pick import GRASP_CONFIG
+from tableclean_suite.controllers.primitives import SPONGE
 from tableclean_suite.controllers.robot_configs import register_robot_config
 from tableclean_suite.environments.robot_registry import ROBOT_CONFIGS, RobotSkillConfig
 from tableclean_suite.task import Action, Outcome
@@ -132,3 +139,20 @@ def test_composed_skill_config_type_and_checks():
         compose_skill("config_probe", rule, [grasp(lying_object())], max_steps=0)
     with pytest.raises(KeyError, match=r"unknown config keys \['press_force'\]"):
         compose_skill("config_probe", rule, [grasp(lying_object())], config={"press_force": 8.0})
+
+
+def test_a_skill_whose_config_lacks_a_primitives_settings_is_refused_when_it_starts():
+    class NoGraspSettings(PrimitiveSkill):
+        action = Action.PICK
+        Phase = PickPhase  # DEFAULT_CONFIG: BASE_CONFIG only
+
+        def build(self, info):
+            return [("", Grasp(SPONGE, "grasp"))]
+
+    env = KinematicEnv()
+    skill = NoGraspSettings(env)
+    with pytest.raises(TypeError, match=r"NoGraspSettings's config lacks the settings \['grasp_depth', .*\] of Grasp "
+                                        r"\(its Config: GraspConfig\)"):
+        skill.on_reset(env.skill_info())
+    assert (Grasp.Config, Release.Config, Wipe.Config, Reach.Config) == (GraspConfig, ReleaseConfig, WipeConfig,
+                                                                         SkillConfig)

@@ -12,7 +12,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from tableclean_suite.controllers.configs import CleanConfig
+from tableclean_suite.controllers.configs import CleanConfig, WipeConfig
 from tableclean_suite.controllers.geometry import box_lowest_z, world_footprint
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.primitives import SPONGE, Grasp, Primitive, PrimitiveSkill, Reach, Release
@@ -54,6 +54,7 @@ class Wipe(Primitive):
     """
 
     PHASES = ("TO_SEGMENT", "PRESS", "WIPE", "SHIFT", "WIPE_LIFT")
+    Config = WipeConfig
 
     def __init__(self, segment: int):
         self.segment = int(segment)

@@ -28,7 +28,12 @@ from typing import Any, Callable, ClassVar, Mapping
 
 import numpy as np
 
-from tableclean_suite.controllers.configs import GRASP_SLIP_TOLERANCE  # noqa: F401  (re-exported)
+from tableclean_suite.controllers.configs import (  # noqa: F401  (GRASP_SLIP_TOLERANCE re-exported)
+    GRASP_SLIP_TOLERANCE,
+    GraspConfig,
+    ReleaseConfig,
+    SkillConfig,
+)
 from tableclean_suite.controllers.geometry import gripper_yaw, quat_to_matrix, wrap_angle
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.skill import Skill, SkillFailure, Waypoint, object_heights
@@ -140,6 +145,8 @@ class Primitive:
     """
 
     PHASES: ClassVar[tuple[str, ...]] = ()
+    #: The settings the primitive reads from its skill's config (a skill running it must have them all).
+    Config: ClassVar[type[SkillConfig]] = SkillConfig
 
     def start(self, skill: "PrimitiveSkill", info: Info) -> None:
         """Per-execution set-up when the primitive begins."""
@@ -184,6 +191,7 @@ class Grasp(Primitive):
     """
 
     PHASES = ("HOVER", "DESCEND", "CLOSE", "LIFT")
+    Config = GraspConfig
 
     def __init__(self, body: Body, what: str = "grasp"):
         self.body, self.what = body, what
@@ -271,6 +279,7 @@ class Release(Primitive):
     """
 
     PHASES = ("ALIGN", "DESCEND", "RELEASE", "RETREAT")
+    Config = ReleaseConfig
 
     def __init__(self, body: Body, spot: Callable[["PrimitiveSkill", Info], np.ndarray],
                  rest_z: Callable[["PrimitiveSkill", Info], float]):
@@ -355,6 +364,10 @@ class PrimitiveSkill(Skill):
             missing = [prefix + p for p in primitive.PHASES if prefix + p not in names]
             if missing:
                 raise TypeError(f"{type(self).__name__}.Phase lacks the phases {missing} of {type(primitive).__name__}")
+            lacking = [key for key in primitive.Config.keys() if key not in self.config]
+            if lacking:
+                raise TypeError(f"{type(self).__name__}'s config lacks the settings {lacking} of "
+                                f"{type(primitive).__name__} (its Config: {primitive.Config.__name__})")
         self.stage = 0
         self._enter(0, info)
 
