@@ -24,7 +24,8 @@ control law:
   the env's wiping check; ``mj_step2``.  With the native loop (default when MuJoCo's
   shared library is found) the substeps run in one compiled function that calls
   MuJoCo's C API directly and returns to Python only for substeps where the sponge is
-  near the table top, so the env's own wiping check (``record_wiping_substep()``) decides;
+  near the table top over a marker not yet wiped, so the env's own wiping check
+  (``record_wiping_substep()``) decides (elsewhere that check changes nothing);
 - once per control step at the end: the env's timestep and clock, the hidden dirt
   markers, and the controllers' goal and refresh state, so ``env.step`` can take over.
 
@@ -78,6 +79,9 @@ WIPE_CHECK_MARGIN = 0.0
 #: A Cholesky pivot below this fraction of the largest diagonal entry sends the operational-space
 #: matrices to robosuite's own SVD pseudo-inverses (near a singularity, where the two would differ).
 CHOLESKY_PIVOT_RTOL = 1e-10
+#: Slack (m) added to the env's marker reach when the native loop asks whether a present marker lies
+#: under the sponge: a superset of the env's own test despite rounding, so the env still decides.
+MARKER_REACH_SLACK = 1e-9
 
 
 @numba.njit(cache=True)
@@ -309,7 +313,8 @@ def _call_4i(typingctx, fn, a, b, c, d, i):
 
 @numba.njit(cache=True)
 def native_substeps(functions, model, data, first, count, buffers, live, goal_pos, goal_ori, gains,
-                    initial_joint, site_id, indexes, actuators, limits, uncouple, grip_ctrl, sponge, wipe_z):
+                    initial_joint, site_id, indexes, actuators, limits, uncouple, grip_ctrl, sponge, wipe_z,
+                    markers, present, reach):
     """Run substeps ``first``..``count - 1``: step1, OSC torques, ctrl, [wiping hand-off], step2.
 
     ``functions``: :func:`~tableclean_suite.robosuite_adapter.mujoco_function_addresses`.  ``model``, ``data``: mjModel* / mjData* addresses.
@@ -320,6 +325,9 @@ def native_substeps(functions, model, data, first, count, buffers, live, goal_po
     ``actuators``: (arm, gripper) actuator indexes; ``limits``: (2, n) arm ctrl range (N m);
     ``grip_ctrl``: gripper ctrl written at substep 0.  ``sponge``: (3,) half size (m);
     ``wipe_z``: height (m) of its lowest corner under which the caller must check wiping.
+    ``markers``: (N, 3) dirt marker world positions (m); ``present``: (N,) bool, not yet wiped;
+    ``reach``: the env's marker reach (m).  The env's wiping check changes something only for
+    a present marker under the sponge, so only then is the substep handed to it.
 
     Returns ``count`` when done, or ``-(k + 1)`` after substep k's control when the caller
     must run the env's wiping check and ``mj_step2`` for it, then call again from ``k + 1``.
@@ -339,10 +347,34 @@ def native_substeps(functions, model, data, first, count, buffers, live, goal_po
         if k == 0:
             for i in range(grip_act.size):
                 ctrl[grip_act[i]] = grip_ctrl[i]
-        if box_lowest_z(sponge_pos, sponge_mat, sponge) <= wipe_z:
+        if (box_lowest_z(sponge_pos, sponge_mat, sponge) <= wipe_z
+                and present_marker_under_box(markers, present, sponge_pos, sponge_mat, sponge, reach)):
             return -(k + 1)  # mj_step2 of substep k is left to the caller, after the env's wiping check
         _call_2(step2, model, data)
     return count
+
+
+@numba.njit(cache=True)
+def present_marker_under_box(markers, present, pos, mat, half_size, reach) -> bool:
+    """Whether a ``present`` (N,) marker of ``markers`` (N, 3) m lies within ``reach`` (m) of the box.
+
+    The box: centre ``pos`` (3,), row-major rotation ``mat`` (9,), ``half_size`` (3,) m.  The
+    env's ``markers_under_box`` test in the box frame, widened by :data:`MARKER_REACH_SLACK`.
+    """
+    for m in range(markers.shape[0]):
+        if not present[m]:
+            continue
+        inside = True
+        for axis in range(3):
+            local = 0.0
+            for r in range(3):
+                local += (markers[m, r] - pos[r]) * mat[3 * r + axis]
+            if abs(local) > half_size[axis] + reach + MARKER_REACH_SLACK:
+                inside = False
+                break
+        if inside:
+            return True
+    return False
 
 
 @numba.njit(cache=True)
@@ -464,6 +496,7 @@ class FastSkillStepper:
         self._sponge_half = np.asarray(env.task_config["sponge_half_size"], dtype=float)
         # the env's own early exit in record_wiping_substep, plus a margin: below this it must decide
         contact = max(float(env.task_config["wipe_contact_dist"]), 0.0)
+        self._marker_reach = float(env.task_config["wipe_marker_reach"])
         self._wipe_z = float(env.geometry.table_top_z) + contact + PRESS_PREFILTER_SLACK + WIPE_CHECK_MARGIN
 
     # -- one control step --------------------------------------------------------------------
@@ -578,11 +611,14 @@ class FastSkillStepper:
         osc = self.osc
         initial_joint = np.asarray(osc.initial_joint, dtype=float)
         done = first
+        markers = np.ascontiguousarray(self.env._marker_xyz, dtype=float)
         while done < self.substeps:
+            present = np.ascontiguousarray(self.env._marker_present())  # changes only in the env's wiping check
             done = native_substeps(
                 self._functions, c_address(self.model), c_address(self.data), done, self.substeps, self._buffers, self._live,
                 goal_pos, goal_ori, gains, initial_joint, self.site_id, self.indexes, self._actuators,
                 self.arm_limits, bool(osc.uncoupling), grip_ctrl, self._sponge_half, self._wipe_z,
+                markers, present, self._marker_reach,
             )
             if done < 0:  # stopped after substep -done - 1's control: the env checks wiping, then step2
                 done = -done
