@@ -156,3 +156,15 @@ def test_a_skill_whose_config_lacks_a_primitives_settings_is_refused_when_it_sta
         skill.on_reset(env.skill_info())
     assert (Grasp.Config, Release.Config, Wipe.Config, Reach.Config) == (GraspConfig, ReleaseConfig, WipeConfig,
                                                                          SkillConfig)
+
+
+@pytest.mark.parametrize("skills, message", [
+    ({"pick": {"grasp_slip_tolerance": -0.01}}, r"grasp_slip_tolerance must be a number > 0 \(m\), got -0\.01 "
+                                                r"\(PickConfig\)"),
+    ({Action.CLEAN: {"wipe_overlap": 2.0}}, r"wipe_overlap must be a number in \[0, 1\]"),
+    ({"place": {"press_force": 8.0}}, r"robot 'ConfigTestArm3': keys \['press_force'\] for PlaceSkill are not keys"),
+])
+def test_robot_per_action_overrides_are_checked_against_the_skills_config(skills, message):
+    with pytest.raises(ValueError, match=message):
+        register_robot_config(RobotSkillConfig("ConfigTestArm3", skills=skills))
+    assert "ConfigTestArm3" not in ROBOT_CONFIGS

@@ -12,7 +12,8 @@ under the caller's own ``skill_configs``; :func:`~.osc.skill_controller_config` 
 from __future__ import annotations
 
 from tableclean_suite.controllers.configs import SkillConfig
-from tableclean_suite.controllers.skill import BASE_CONFIG
+from tableclean_suite.controllers.registry import SKILL_REGISTRY
+from tableclean_suite.controllers.skill import BASE_CONFIG, Skill
 from tableclean_suite.environments.robot_registry import (  # noqa: F401  (the registry's public names)
     ALL_SKILLS,
     ROBOT_CONFIGS,
@@ -30,6 +31,17 @@ from tableclean_suite.environments.robot_registry import (  # noqa: F401  (the r
 )
 
 
+def _check_action_overrides(robot: str, skill: type[Skill], overrides: dict) -> None:
+    """Refuse the merged robot ``overrides`` (``"*"`` then per-action) for ``skill`` that it would refuse
+    when made: keys outside its ``DEFAULT_CONFIG``, or values outside its ``Config``'s ranges."""
+    unknown = sorted(set(overrides) - set(skill.DEFAULT_CONFIG))
+    if unknown:
+        raise ValueError(f"robot {robot!r}: keys {unknown} for {skill.__name__} are not keys of its config "
+                         f"(allowed: {sorted(skill.DEFAULT_CONFIG)})")
+    merged = {**skill.DEFAULT_CONFIG, **overrides}
+    skill.Config(**{key: merged[key] for key in skill.Config.keys() if key in merged})
+
+
 def register_robot_config(config: RobotSkillConfig, *, replace: bool = False) -> RobotSkillConfig:
     """Add ``config`` to the robot registry under ``config.robot``; returns the stored config.
 
@@ -42,7 +54,9 @@ def register_robot_config(config: RobotSkillConfig, *, replace: bool = False) ->
         ValueError: the robot is already registered and ``replace`` is False; a skills key that
             is neither :data:`ALL_SKILLS` nor a registered action, or two keys naming the same
             action; an :data:`ALL_SKILLS` key that is not a key of ``BASE_CONFIG`` or its value
-            outside the range of :class:`~.configs.SkillConfig`'s field; an OSC
+            outside the range of :class:`~.configs.SkillConfig`'s field; per-action overrides for an
+            action whose skill is registered that it would refuse (unknown keys, values outside its
+            ``Config``'s ranges); an OSC
             override of ``type``, ``input_type`` or ``input_ref_frame``.
     """
     if isinstance(config, RobotSkillConfig):
@@ -51,4 +65,8 @@ def register_robot_config(config: RobotSkillConfig, *, replace: bool = False) ->
             raise ValueError(f"robot {config.robot!r}: keys {unknown} under {ALL_SKILLS!r} are not BASE_CONFIG keys "
                              f"(allowed: {sorted(BASE_CONFIG)}); put skill-specific keys under the action's name")
         SkillConfig(**config.skills.get(ALL_SKILLS, {}))  # its values in range (ValueError naming the field)
+        for key, overrides in config.skills.items():
+            if key != ALL_SKILLS and key in SKILL_REGISTRY:
+                _check_action_overrides(config.robot, SKILL_REGISTRY[key],
+                                        {**config.skills.get(ALL_SKILLS, {}), **overrides})
     return add_robot_config(config, replace=replace)
