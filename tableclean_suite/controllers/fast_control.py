@@ -54,7 +54,6 @@ from numba.extending import intrinsic
 from robosuite.controllers.parts.arm.osc import OperationalSpaceController
 from robosuite.controllers.parts.gripper.simple_grip import SimpleGripController
 from robosuite.utils.control_utils import nullspace_torques, opspace_matrices, orientation_error
-from scipy.spatial.transform import Rotation
 
 from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.environments.table_clean import PRESS_PREFILTER_SLACK
@@ -82,6 +81,30 @@ CHOLESKY_PIVOT_RTOL = 1e-10
 #: Slack (m) added to the env's marker reach when the native loop asks whether a present marker lies
 #: under the sponge: a superset of the env's own test despite rounding, so the env still decides.
 MARKER_REACH_SLACK = 1e-9
+#: Rotation angle (rad) under which :func:`rotvec_matrix` uses the Taylor series of sin(a/2)/a (as scipy).
+ROTVEC_SMALL_ANGLE = 1e-3
+
+
+@numba.njit(cache=True)
+def rotvec_matrix(rotvec: np.ndarray, out: np.ndarray) -> None:
+    """Rotation matrix (3, 3) into ``out`` of the rotation vector ``rotvec`` (3,) rad.
+
+    scipy's ``Rotation.from_rotvec(rotvec).as_matrix()`` (robosuite's absolute OSC goal) with
+    the same operations: the unit quaternion (Taylor series of sin(a/2)/a below
+    :data:`ROTVEC_SMALL_ANGLE`), then its matrix; bit-identical on scipy 1.17.
+    """
+    angle = np.sqrt(rotvec[0] * rotvec[0] + rotvec[1] * rotvec[1] + rotvec[2] * rotvec[2])
+    if angle <= ROTVEC_SMALL_ANGLE:
+        angle2 = angle * angle
+        scale = 0.5 - angle2 / 48 + angle2 * angle2 / 3840
+    else:
+        scale = np.sin(angle / 2) / angle
+    x, y, z, w = scale * rotvec[0], scale * rotvec[1], scale * rotvec[2], np.cos(angle / 2)
+    x2, y2, z2, w2 = x * x, y * y, z * z, w * w
+    xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
+    out[0, 0], out[1, 0], out[2, 0] = x2 - y2 - z2 + w2, 2 * (xy + zw), 2 * (xz - yw)
+    out[0, 1], out[1, 1], out[2, 1] = 2 * (xy - zw), -x2 + y2 - z2 + w2, 2 * (yz + xw)
+    out[0, 2], out[1, 2], out[2, 2] = 2 * (xz + yw), 2 * (yz - xw), -x2 - y2 + z2 + w2
 
 
 @numba.njit(cache=True)
@@ -503,7 +526,8 @@ class FastSkillStepper:
     def goal(self, action: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Goal position (3,) m and rotation matrix (3, 3) of the absolute world-frame ``action`` (7,), as robosuite."""
         goal_pos = np.array(action[POS_SLICE], dtype=float)
-        goal_ori = Rotation.from_rotvec(action[ROTVEC_SLICE]).as_matrix()
+        goal_ori = np.empty((3, 3))
+        rotvec_matrix(np.ascontiguousarray(action[ROTVEC_SLICE], dtype=float), goal_ori)
         return goal_pos, goal_ori
 
     def gripper_ctrl(self, action: np.ndarray) -> np.ndarray:
