@@ -37,10 +37,15 @@ def test_skill_speed_goal_numbers_divide_what_the_records_hold():
     assert goals["episode_s"] == pytest.approx(1.1)
     assert goals["overhead"] == pytest.approx(0.1)  # (2.2 - 2.0) / 2.0
     assert goals["speedup"] == pytest.approx(3.0)  # 600 steps/s against 200 steps/s
+    assert goals["raw_ratio"] == pytest.approx(0.5)  # 600 steps/s against 1200 steps/s
     table = skill_speed.format_comparison(comparison)
-    assert "fast / robosuite: 3.00x (goal >= 3x: met)" in table
-    comparison["fast"]["episodes"][0]["env_s"] = 5.0
-    assert "NOT met" in skill_speed.format_comparison(comparison)
+    assert "fast / robosuite: 3.00x (goal >= 5x: NOT met)" in table
+    assert "fast / raw MuJoCo: 0.50 (goal >= 0.8: NOT met)" in table
+    for episode in comparison["fast"]["episodes"]:
+        episode["env_s"] = 0.5  # 1200 steps/s: 6x robosuite's, raw MuJoCo's rate
+    table = skill_speed.format_comparison(comparison)
+    assert "fast / robosuite: 6.00x (goal >= 5x: met)" in table
+    assert "fast / raw MuJoCo: 1.00 (goal >= 0.8: met)" in table
 
 
 def test_skill_speed_report_counts_failures_and_terminal_episodes():

@@ -291,6 +291,8 @@ def skills_section(args) -> SectionResult:
              f"{numbers['overhead']:.2%}", numbers["overhead"] <= skill_speed.OVERHEAD_GOAL),
         Goal("skills", f"fast path >= {skill_speed.FAST_SPEEDUP_GOAL:g}x robosuite's control steps/s",
              f"{numbers['speedup']:.2f}x", numbers["speedup"] >= skill_speed.FAST_SPEEDUP_GOAL),
+        Goal("skills", f"fast path >= {skill_speed.RAW_MUJOCO_GOAL:g} of raw MuJoCo's control steps/s",
+             f"{numbers['raw_ratio']:.2f}", numbers["raw_ratio"] >= skill_speed.RAW_MUJOCO_GOAL),
     ], failed=not all(episode["terminal"] for episode in episodes))
 
 
