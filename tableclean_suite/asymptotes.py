@@ -306,7 +306,7 @@ def _episode_statistics(pi_t, pair_state, next_pair, probability, outcome, rewar
                                 inside[p] += step_mass
         mass, new_mass = new_mass, mass
         gain, new_gain = new_gain, gain
-        p = 0
+        p = np.int64(0)  # not a bare 0: a literal argument makes numba compile _retire twice
         while p < active:
             if last or inside[p] < tolerance:
                 active = _retire(p, active, order, acc, inside, mass, gain, pi_t, result)

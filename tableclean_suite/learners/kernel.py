@@ -274,7 +274,7 @@ def plan(q, model_next, model_reward, model_terminal, observed, n_observed, plan
         pair = observed[min(int(draw * n_observed), n_observed - 1)]
         s = pair // n_actions
         a = pair - s * n_actions
-        target = q_learning_target(q[model_next[s, a]], NO_STATE, model_reward[s, a], gamma, 0.0, model_terminal[s, a])
+        target = q_learning_target(q[model_next[s, a]], np.int64(NO_STATE), model_reward[s, a], gamma, 0.0, model_terminal[s, a])
         q[s, a] += alpha * (target - q[s, a])
 
 
@@ -312,167 +312,6 @@ def run_memory(n_states, n_actions, double, traced, counting, modelling):
     model_terminal = np.zeros((n_modelled, n_actions), dtype=np.bool_)
     observed = np.empty(n_modelled * n_actions, dtype=np.int64)
     return row, visits, traces, pairs, model_next, model_reward, model_terminal, observed
-
-
-@numba.njit(cache=True)
-def train_run(
-    r,
-    next_state_table,
-    outcome_table,
-    cumulative_table,
-    starts,
-    outcome_values,
-    loop_value,
-    loop_mode,
-    loop_memory,
-    target_code,
-    on_policy,
-    method,
-    learner_parameters,
-    alpha,
-    gamma,
-    explore_code,
-    explore_parameters,
-    affordance,
-    afforded,
-    advisor,
-    advice,
-    max_itr,
-    keys,
-    q,
-    q_second,
-    rewards,
-    outcomes,
-    states,
-    actions,
-    episode_end,
-    snapshot_at,
-    q_snapshot,
-    q_second_snapshot,
-):
-    """Train run ``r`` of :func:`train_batch` (its arguments, the same meaning) for ``rewards.shape[1]``
-    iterations, in place.
-
-    A plain compiled function called once per run from :func:`train_batch`'s parallel loop: numba's
-    parallel transform then handles a one-line loop instead of this whole body (the first process
-    compiles it in a fraction of the time; the compiled arithmetic is the same).
-    """
-    n_iterations = rewards.shape[1]
-    n_states, n_actions = q.shape[1], q.shape[2]
-    n_starts = starts.shape[0]
-    n_successors = next_state_table.shape[2]
-    double = method == METHOD_DOUBLE_Q
-    traced = method == METHOD_TRACES
-    modelling = method == METHOD_DYNA
-    choose_first = on_policy or traced
-    watkins = traced and not on_policy
-    decay = gamma * learner_parameters[PARAM_LAMBDA]
-    accumulate = learner_parameters[PARAM_ACCUMULATE] != 0.0
-    planning_steps = int(learner_parameters[PARAM_PLANNING])
-    counting = explore_code == VISIT_DECAY_CODE
-    plain = explore_code == EPSILON_GREEDY_CODE and not double and affordance == AFFORD_NONE
-    learning_affordances = affordance == AFFORD_LEARNED
-    afforded_max = affordance != AFFORD_NONE and target_code == Q_LEARNING_TARGET
-    softmax_expected = explore_code == SOFTMAX_CODE and target_code == EXPECTED_SARSA_TARGET
-    long_memory = loop_mode != 0 and loop_memory != PAPER_LOOPING_MEMORY
-    entered = np.full(n_states if long_memory else 0, -1, dtype=np.int64)
-    episode_start = 0
-    key = keys[r]
-    side_key = lane_key(key, LANE_LEARNER)
-    planning_key = lane_key(key, LANE_PLANNING)
-    advice_key = lane_key(key, LANE_ADVICE)
-    masks = run_masks(afforded, affordance, n_states, n_actions)
-    qr = q[r]
-    qb = q_second[r]
-    row, visits, traces, pairs, model_next, model_reward, model_terminal, observed = run_memory(
-        n_states, n_actions, double, traced, counting, modelling
-    )
-    n_pairs = 0
-    n_observed = 0
-    state = NO_STATE
-    previous = NO_STATE
-    pending = NO_STATE
-    length = 0
-    for t in range(n_iterations):
-        if t == snapshot_at:
-            copy_tables(qr, qb, q_snapshot[r], q_second_snapshot[r], double)
-        if state == NO_STATE:
-            if n_starts == 1:
-                state = starts[0]
-            else:
-                state = starts[min(int(uniform(key, t, STREAM_START) * n_starts), n_starts - 1)]
-            previous = NO_STATE
-            pending = NO_STATE
-            length = 0
-            episode_start = t
-            if traced:
-                n_pairs = clear_traces(traces, pairs, n_pairs)
-        if pending != NO_STATE:
-            action = pending
-        else:
-            action = act(qr, qb, row, state, plain, double, explore_code, explore_parameters, key, t, visits,
-                         affordance, masks, advisor, advice, advice_key)
-        k = 0
-        if n_successors > 1:
-            k = sample_index(cumulative_table[state, action], uniform(key, t, STREAM_TRANSITION))
-        nxt = next_state_table[state, action, k]
-        outcome = outcome_table[state, action, k]
-        if long_memory:
-            entered[state] = t
-            reward = memory_adjusted_reward(outcome_values[outcome], outcome, nxt, entered, t, episode_start,
-                                            loop_memory, loop_value, loop_mode)
-        else:
-            reward = loop_adjusted_reward(
-                outcome_values[outcome], outcome, state, nxt, previous, loop_value, loop_mode
-            )
-        length += 1
-        terminal = outcome == _TERMINAL
-        if counting:
-            visits[state] += 1
-        if learning_affordances and outcome == _IMPROPER:
-            masks[state, action] = NOT_AFFORDED
-        pending = NO_STATE
-        if choose_first and not terminal:
-            pending = act(qr, qb, row, nxt, plain, double, explore_code, explore_parameters, key, t + 1, visits,
-                          affordance, masks, advisor, advice, advice_key)
-        if double:
-            double_q_update(qr, qb, state, action, nxt, reward, alpha, gamma, terminal,
-                            uniform(side_key, t, STREAM_DOUBLE_TABLE))
-        else:
-            behaviour = exploration_parameter(explore_code, explore_parameters, t + 1, visit_count(visits, nxt))
-            if softmax_expected:
-                target = softmax_expected_sarsa_target(qr[nxt], reward, gamma, behaviour, terminal)
-            elif afforded_max:
-                target = afforded_max_target(qr[nxt], masks[nxt], reward, gamma, terminal)
-            else:
-                target = builtin_td_target(target_code, qr[nxt], pending, reward, gamma, behaviour, terminal)
-            if traced:
-                cut = watkins and pending != NO_STATE and is_exploratory(qr[nxt], pending)
-                n_pairs = trace_update(qr, traces, pairs, n_pairs, state, action, target - qr[state, action],
-                                       alpha, decay, accumulate, cut)
-            else:
-                qr[state, action] += alpha * (target - qr[state, action])
-            if modelling:
-                n_observed = remember(model_next, model_reward, model_terminal, observed, n_observed, state, action,
-                                      nxt, reward, terminal)
-                plan(qr, model_next, model_reward, model_terminal, observed, n_observed, planning_key, t,
-                     planning_steps, alpha, gamma)
-        rewards[r, t] = reward
-        outcomes[r, t] = outcome
-        states[r, t] = state
-        actions[r, t] = action
-        if terminal:
-            episode_end[r, t] = EPISODE_TERMINAL
-            state = NO_STATE
-        elif length >= max_itr:
-            episode_end[r, t] = EPISODE_TRUNCATED
-            state = NO_STATE
-        else:
-            episode_end[r, t] = EPISODE_CONTINUES
-            previous = state
-            state = nxt
-    if snapshot_at == n_iterations:
-        copy_tables(qr, qb, q_snapshot[r], q_second_snapshot[r], double)
 
 
 @numba.njit(cache=True, parallel=True)
@@ -546,42 +385,125 @@ def train_batch(
             counter-based random numbers), so one pass gives both.
         q_snapshot, q_second_snapshot: ``(R, S, A)`` float64 outputs, or ``(R, 0, 0)`` when unused.
     """
-    for r in numba.prange(rewards.shape[0]):
-        train_run(
-            np.int64(r),  # one signature: the parallel loop's index is uint64 inside, int64 while typing
-            next_state_table,
-            outcome_table,
-            cumulative_table,
-            starts,
-            outcome_values,
-            loop_value,
-            loop_mode,
-            loop_memory,
-            target_code,
-            on_policy,
-            method,
-            learner_parameters,
-            alpha,
-            gamma,
-            explore_code,
-            explore_parameters,
-            affordance,
-            afforded,
-            advisor,
-            advice,
-            max_itr,
-            keys,
-            q,
-            q_second,
-            rewards,
-            outcomes,
-            states,
-            actions,
-            episode_end,
-            snapshot_at,
-            q_snapshot,
-            q_second_snapshot,
+    n_runs, n_iterations = rewards.shape
+    n_states, n_actions = q.shape[1], q.shape[2]
+    n_starts = starts.shape[0]
+    n_successors = next_state_table.shape[2]
+    double = method == METHOD_DOUBLE_Q
+    traced = method == METHOD_TRACES
+    modelling = method == METHOD_DYNA
+    choose_first = on_policy or traced
+    watkins = traced and not on_policy
+    decay = gamma * learner_parameters[PARAM_LAMBDA]
+    accumulate = learner_parameters[PARAM_ACCUMULATE] != 0.0
+    planning_steps = int(learner_parameters[PARAM_PLANNING])
+    counting = explore_code == VISIT_DECAY_CODE
+    plain = explore_code == EPSILON_GREEDY_CODE and not double and affordance == AFFORD_NONE
+    learning_affordances = affordance == AFFORD_LEARNED
+    afforded_max = affordance != AFFORD_NONE and target_code == Q_LEARNING_TARGET
+    softmax_expected = explore_code == SOFTMAX_CODE and target_code == EXPECTED_SARSA_TARGET
+    long_memory = loop_mode != 0 and loop_memory != PAPER_LOOPING_MEMORY
+    for r in numba.prange(n_runs):
+        entered = np.full(n_states if long_memory else 0, -1, dtype=np.int64)
+        episode_start = 0
+        key = keys[r]
+        side_key = lane_key(key, LANE_LEARNER)
+        planning_key = lane_key(key, LANE_PLANNING)
+        advice_key = lane_key(key, LANE_ADVICE)
+        masks = run_masks(afforded, affordance, n_states, n_actions)
+        qr = q[r]
+        qb = q_second[r]
+        row, visits, traces, pairs, model_next, model_reward, model_terminal, observed = run_memory(
+            n_states, n_actions, double, traced, counting, modelling
         )
+        # np.int64(...), not bare constants: a literal argument makes numba compile a callee twice (for the
+        # literal type while inferring types, then for int64), about 0.3 s each in a first process.
+        n_pairs = np.int64(0)
+        n_observed = np.int64(0)
+        state = np.int64(NO_STATE)
+        previous = np.int64(NO_STATE)
+        pending = np.int64(NO_STATE)
+        length = 0
+        for t in range(n_iterations):
+            if t == snapshot_at:
+                copy_tables(qr, qb, q_snapshot[r], q_second_snapshot[r], double)
+            if state == NO_STATE:
+                if n_starts == 1:
+                    state = starts[0]
+                else:
+                    state = starts[min(int(uniform(key, t, STREAM_START) * n_starts), n_starts - 1)]
+                previous = np.int64(NO_STATE)
+                pending = np.int64(NO_STATE)
+                length = 0
+                episode_start = t
+                if traced:
+                    n_pairs = clear_traces(traces, pairs, n_pairs)
+            if pending != NO_STATE:
+                action = pending
+            else:
+                action = act(qr, qb, row, state, plain, double, explore_code, explore_parameters, key, t, visits,
+                             affordance, masks, advisor, advice, advice_key)
+            k = 0
+            if n_successors > 1:
+                k = sample_index(cumulative_table[state, action], uniform(key, t, STREAM_TRANSITION))
+            nxt = next_state_table[state, action, k]
+            outcome = outcome_table[state, action, k]
+            if long_memory:
+                entered[state] = t
+                reward = memory_adjusted_reward(outcome_values[outcome], outcome, nxt, entered, t, episode_start,
+                                                loop_memory, loop_value, loop_mode)
+            else:
+                reward = loop_adjusted_reward(
+                    outcome_values[outcome], outcome, state, nxt, previous, loop_value, loop_mode
+                )
+            length += 1
+            terminal = outcome == _TERMINAL
+            if counting:
+                visits[state] += 1
+            if learning_affordances and outcome == _IMPROPER:
+                masks[state, action] = NOT_AFFORDED
+            pending = NO_STATE
+            if choose_first and not terminal:
+                pending = act(qr, qb, row, nxt, plain, double, explore_code, explore_parameters, key, t + 1, visits,
+                              affordance, masks, advisor, advice, advice_key)
+            if double:
+                double_q_update(qr, qb, state, action, nxt, reward, alpha, gamma, terminal,
+                                uniform(side_key, t, STREAM_DOUBLE_TABLE))
+            else:
+                behaviour = exploration_parameter(explore_code, explore_parameters, t + 1, visit_count(visits, nxt))
+                if softmax_expected:
+                    target = softmax_expected_sarsa_target(qr[nxt], reward, gamma, behaviour, terminal)
+                elif afforded_max:
+                    target = afforded_max_target(qr[nxt], masks[nxt], reward, gamma, terminal)
+                else:
+                    target = builtin_td_target(target_code, qr[nxt], pending, reward, gamma, behaviour, terminal)
+                if traced:
+                    cut = watkins and pending != NO_STATE and is_exploratory(qr[nxt], pending)
+                    n_pairs = trace_update(qr, traces, pairs, n_pairs, state, action, target - qr[state, action],
+                                           alpha, decay, accumulate, cut)
+                else:
+                    qr[state, action] += alpha * (target - qr[state, action])
+                if modelling:
+                    n_observed = remember(model_next, model_reward, model_terminal, observed, n_observed, state, action,
+                                          nxt, reward, terminal)
+                    plan(qr, model_next, model_reward, model_terminal, observed, n_observed, planning_key, t,
+                         planning_steps, alpha, gamma)
+            rewards[r, t] = reward
+            outcomes[r, t] = outcome
+            states[r, t] = state
+            actions[r, t] = action
+            if terminal:
+                episode_end[r, t] = EPISODE_TERMINAL
+                state = NO_STATE
+            elif length >= max_itr:
+                episode_end[r, t] = EPISODE_TRUNCATED
+                state = NO_STATE
+            else:
+                episode_end[r, t] = EPISODE_CONTINUES
+                previous = state
+                state = nxt
+        if snapshot_at == n_iterations:
+            copy_tables(qr, qb, q_snapshot[r], q_second_snapshot[r], double)
 
 
 _USER_KERNELS: dict = {}
@@ -590,8 +512,7 @@ _USER_KERNELS: dict = {}
 def user_train_batch(learner: TabularLearner):
     """:func:`train_batch` compiled with ``learner.td_target`` in place of the built-in targets.
 
-    The same code objects with one global swapped in each (the target in :func:`train_run`, that
-    copy of :func:`train_run` in :func:`train_batch`), so the loop is written once; compiled
+    The same code object with one global swapped, so the loop is written once; compiled
     on first use in each process (not disk-cached: numba cannot cache a loop that calls
     a function passed in from outside).
     """
@@ -601,11 +522,8 @@ def user_train_batch(learner: TabularLearner):
         def call_target(code, q_next, next_action, reward, gamma, epsilon, terminal):
             return target(q_next, next_action, reward, gamma, epsilon, terminal)
 
-        run_source = train_run.py_func
-        run_namespace = dict(run_source.__globals__, builtin_td_target=numba.njit(call_target))
-        run = numba.njit(types.FunctionType(run_source.__code__, run_namespace, f"train_run_{learner.name}"))
         source = train_batch.py_func
-        namespace = dict(source.__globals__, train_run=run)
+        namespace = dict(source.__globals__, builtin_td_target=numba.njit(call_target))
         function = types.FunctionType(source.__code__, namespace, f"train_batch_{learner.name}")
         _USER_KERNELS[target] = numba.njit(parallel=True)(function)
     return _USER_KERNELS[target]
