@@ -68,21 +68,6 @@ def load_plugins(entries) -> list:
     return [load_plugin(entry) for entry in entries]
 
 
-def preload(argv, prog: str) -> tuple[str, ...]:
-    """Import the ``--plugins`` of ``argv`` before the full command line is parsed; exit 2 on failure."""
-    from tableclean_suite.bench.cli import OneLineParser
-
-    early = OneLineParser(prog=prog, add_help=False)
-    early.add_argument(FLAG, default=None)
-    known, _ = early.parse_known_args(argv)
-    entries = split_plugins(known.plugins)
-    try:
-        load_plugins(entries)
-    except PluginError as error:
-        early.error(f"{FLAG}: {error}")
-    return entries
-
-
 def portable(entries: Iterable[str]) -> tuple[str, ...]:
     """``entries`` as another process sees them: ``.py`` paths made absolute (a worker may run elsewhere)."""
     return tuple(str(Path(entry).resolve()) if entry.endswith(SOURCE_SUFFIX) else entry for entry in entries)
