@@ -160,7 +160,7 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
     learner = config.learner(cell.learner)
     reward_values = {k: getattr(pattern, k) for k in (
         "terminal", "relevant_clean", "irrelevant_clean", "routine", "improper",
-        "ineffective", "looping_penalty", "looping_mode", "terminal_mode",
+        "ineffective", "looping_penalty", "looping_mode", "looping_memory", "terminal_mode",
     )}
     return {
         "format_version": CELL_FORMAT_VERSION,
