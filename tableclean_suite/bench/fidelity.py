@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import csv
 import os
 import sys
 import time
@@ -451,11 +450,8 @@ def skill_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[di
 
 
 def write_csv(path: Path, table: list[dict]) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=list(table[0]) if table else ["empty"])
-        writer.writeheader()
-        writer.writerows(table)
+    """Write ``table`` (rows of one shape) to ``path`` as CSV atomically (:func:`.trial_store.write_rows`)."""
+    trial_store.write_rows(path, table, tuple(table[0]) if table else ("empty",))
 
 
 def format_table(table: list[dict], columns: Iterable[str]) -> str:
