@@ -163,6 +163,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
             trial_store.write_rows(table, rows, COLUMNS)
             if log:
                 log(f"{kind} x {setting} done ({time.perf_counter() - started:.0f} s)")
+    trial_store.write_rows(table, rows, COLUMNS)  # also when every cell was refused: the file the report names exists
     print(markdown(rows))
     print(f"\n{table} ({time.perf_counter() - started:.0f} s); goal: >= {GOAL_RATE:.0%} success and fidelity "
           "per object and skill")
