@@ -238,3 +238,18 @@ def test_record_video_writes_an_episode_with_the_video_extra(tmp_path):
     assert terminated
     videos = list(folder.glob("*.mp4"))
     assert len(videos) == 1 and videos[0].stat().st_size > 0
+
+
+def test_symbolic_env_applies_a_looping_rule_that_looks_back_a_whole_episode():
+    """r4_cycle penalises MOVE round a ring of three segments once it returns to a visited state
+    (the env keeps the episode's history for it; the paper's r4 would not see the cycle)."""
+    from tableclean_suite.task import TaskSpec
+
+    rewards = {}
+    for pattern in ("r4", "r4_cycle"):
+        env = gym.make("TableCleanSymbolic-v0", reward=pattern, task=TaskSpec("ring", segments=3)).unwrapped
+        env.reset(seed=0)
+        move = env.model.action_names.index("move")
+        rewards[pattern] = [env.step(move)[1] for _ in range(4)]
+    assert rewards["r4_cycle"][:2] == [0.01, 0.01] and rewards["r4_cycle"][2:] == [-0.01, -0.01]
+    assert rewards["r4"] == [0.01] * 4

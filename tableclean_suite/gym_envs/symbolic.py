@@ -50,6 +50,7 @@ class TableCleanBase(gym.Env):
         self.observation_space = spaces.Discrete(model.n_states)
         self.s: int = _NO_STATE  # current state code
         self.previous: int = _NO_STATE  # s_{t-1} for r4's looping penalty (-1 at an episode's first step)
+        self.history: list[int] = []  # the episode's states s_0 .. s_t, for looping rules that look further back
         self.lastaction: int | None = None  # index in the task's action order
         self.last_outcome: Outcome | None = None
 
@@ -73,6 +74,7 @@ class TableCleanBase(gym.Env):
         """Make ``state`` the current one with no history; returns ``(observation, info)`` for ``reset``."""
         self.s = state.index
         self.previous = _NO_STATE
+        self.history = [self.s]
         self.lastaction = self.last_outcome = None
         return int(self.s), self._info()
 
@@ -101,7 +103,7 @@ class TableCleanBase(gym.Env):
         return int(action)
 
     def _reward(self, outcome: Outcome, state: int, next_state: int) -> float:
-        return float(self.reward_pattern.reward(int(outcome), state, next_state, self.previous))
+        return float(self.reward_pattern.reward(int(outcome), state, next_state, self.previous, self.history))
 
     def _info(self, outcome: Outcome | None = None) -> dict:
         info = {"action_mask": self.action_mask(), "state_name": self.model.decode(self.s).name}
@@ -112,6 +114,7 @@ class TableCleanBase(gym.Env):
 
     def _advance(self, state: int, next_state: int, action: int, outcome: Outcome) -> None:
         self.previous, self.s = state, next_state
+        self.history.append(next_state)
         self.lastaction, self.last_outcome = action, outcome
 
     # -- rendering ---------------------------------------------------------------------------------
