@@ -569,6 +569,7 @@ def _guard_disk_cache() -> None:
 
     package = "tableclean_suite.learners"
     modules = [sys.modules[f"{package}.{name}"] for name in ("kernel", "rng", "rules", "exploration", "assist")]
+    modules.append(sys.modules["tableclean_suite.rewards"])  # PAPER_LOOPING_MEMORY is compiled in as a constant
     dispatchers = [value for value in vars(sys.modules[__name__]).values()
                    if isinstance(value, numba.core.registry.CPUDispatcher)]
     for module in modules[1:]:
