@@ -6,11 +6,11 @@ Every file is written atomically (a temporary file in the same folder, then ``os
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 
+from tableclean_suite.bench.outputs import atomic_write, atomic_write_text
 from tableclean_suite.bench.scaling.family import FIXED_PLAN_FAMILY, PRODUCT_FAMILY, SpecInfo
 from tableclean_suite.bench.scaling.statistics import PAPER_ORDER, YARDSTICK_FRACTION, order_holds
 
@@ -36,15 +36,9 @@ def json_safe(value):
     return value
 
 
-def _temporary(path: Path) -> Path:
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
-
-
 def write_atomic_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` via a temporary file and ``os.replace``."""
-    temporary = _temporary(path)
-    temporary.write_text(text)
-    os.replace(temporary, path)
+    """Write ``text`` to ``path`` atomically (:func:`.outputs.atomic_write_text`)."""
+    atomic_write_text(path, text)
 
 
 def write_csv(path: Path, rows: list[dict]) -> None:
@@ -126,10 +120,10 @@ def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None
         bottom.set_xlabel("states reachable from the start")
         bottom.set_ylabel("window mean / optimal success")
     figure.tight_layout()
-    temporary = _temporary(path)
-    figure.savefig(temporary, format="png", dpi=FIGURE_DPI)
-    plt.close(figure)
-    os.replace(temporary, path)
+    try:
+        atomic_write(path, lambda temporary: figure.savefig(temporary, format="png", dpi=FIGURE_DPI))
+    finally:
+        plt.close(figure)
 
 
 def config_dict(args, infos: list[SpecInfo], fits: dict, verdicts: dict, seconds: float, fit_learner: str,
