@@ -30,9 +30,6 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import cli, trial_store  # noqa: E402
 
-#: The object types measured by default: the shipped catalog.
-DEFAULT_OBJECTS = ("box", "cylinder", "can", "bread", "bottle", "lemon", "milk", "cereal", "tall_box",
-                   "tower_box", "tall_cylinder")
 #: Settings: the object alone on the paper-shaped spec, or mixed with another type on three segments.
 SETTINGS = ("alone", "mixed")
 #: Segments of the mixed setting.
@@ -123,8 +120,9 @@ def markdown(rows: list[dict]) -> str:
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line: the shared options of :mod:`.cli` and the table's own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
-    parser.add_argument("--objects", type=cli.name_list, default=DEFAULT_OBJECTS, metavar="TYPE,...",
-                        help=f"comma-separated registered object types (default the catalog: {','.join(DEFAULT_OBJECTS)})")
+    parser.add_argument("--objects", type=cli.name_list, default=None, metavar="TYPE,...",
+                        help="comma-separated registered object types (default every registered type: the "
+                             "catalog and those your --plugins register)")
     parser.add_argument("--settings", type=cli.name_list, default=SETTINGS, metavar="SETTING,...",
                         help=f"comma-separated settings among {', '.join(SETTINGS)} (default both)")
     parser.add_argument("--mix-with", default="box", metavar="TYPE",
@@ -143,7 +141,8 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     from tableclean_suite.environments.objects import object_type_names
 
     known = object_type_names()
-    for name in (*args.objects, args.mix_with):
+    objects = args.objects or tuple(known)
+    for name in (*objects, args.mix_with):
         if name not in known:
             parser.error(f"unknown object type {name!r}; registered: {', '.join(known)} (add yours with --plugins)")
     bad = [s for s in args.settings if s not in SETTINGS]
@@ -153,7 +152,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     rows: list[dict] = []
     table = Path(args.out) / TABLE_CSV
     started = time.perf_counter()
-    for kind in args.objects:
+    for kind in objects:
         for setting in args.settings:
             try:
                 rows += run_cell(kind, setting, args.episodes, args.seed, args.mix_with, log=log)
