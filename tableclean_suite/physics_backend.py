@@ -282,7 +282,7 @@ def _check_options(options: dict) -> dict:
 
 def _train_share(job):
     """Worker body: make one env, train the given runs; returns (run index, record) pairs and stats."""
-    learner, reward, model, run_indices, iterations, seed, first_run, options, hyper, queue = job
+    learner, reward, model, run_indices, iterations, seed, first_run, options, hyper, queue, checkpoint = job
     from tableclean_suite.learners.reference import train_run
 
     env = PhysicsStepEnv(model, **options)
@@ -292,7 +292,8 @@ def _train_share(job):
         env.seed(run_key(seed, run))  # the scene's placements depend on the run only, not on the worker
         on_step = None if queue is None else (lambda t, q=queue: q.put(1))
         with single_blas_thread():  # the same bits in this process, a local worker or a Ray worker
-            record = train_run(env, learner, reward, iterations, seed=seed, run=run, on_step=on_step, **hyper)
+            record = train_run(env, learner, reward, iterations, seed=seed, run=run, on_step=on_step,
+                               checkpoint=checkpoint, **hyper)
         env.stats["steps"] += iterations
         out.append((i, record))
     stats = dict(env.stats)
@@ -312,6 +313,7 @@ class PhysicsRun:
         iterations, seed, first_run: as :func:`train_physics`.
         options: the ``PhysicsStepEnv`` options (``physics_options``) as sorted items.
         hyper: ``alpha, gamma, epsilon, max_itr`` as sorted items.
+        checkpoint: also keep the Q-table after this many iterations (0: none), as :func:`train_physics`.
     """
 
     learner: object
@@ -323,6 +325,7 @@ class PhysicsRun:
     first_run: int
     options: tuple
     hyper: tuple
+    checkpoint: int = 0
 
     @property
     def label(self) -> str:
@@ -372,7 +375,7 @@ def run_physics_task(task: PhysicsRun):
     env.seed(run_key(task.seed, run))
     with single_blas_thread():  # the same bits in this process, a local worker or a Ray worker
         record = train_run(env, task.learner, task.reward, task.iterations, seed=task.seed, run=run,
-                           **dict(task.hyper))
+                           checkpoint=task.checkpoint, **dict(task.hyper))
     env.stats["steps"] += task.iterations
     stats = dict(env.stats)
     stats["fault_reasons"] = dict(stats["fault_reasons"])
@@ -380,7 +383,7 @@ def run_physics_task(task: PhysicsRun):
 
 
 def train_physics(learner, reward, model, runs, iterations, seed, first_run, workers, physics_options, progress,
-                  alpha, gamma, epsilon, max_itr, executor=None) -> dict:
+                  alpha, gamma, epsilon, max_itr, executor=None, checkpoint: int = 0) -> dict:
     """Train ``runs`` runs with skills in physics; the records :func:`~tableclean_suite.learners.train` expects.
 
     Run ``i`` uses the run key ``(seed, first_run + i)`` (learner draws) and a scene seeded from it,
@@ -391,10 +394,16 @@ def train_physics(learner, reward, model, runs, iterations, seed, first_run, wor
     cluster; default: ``LocalExecutor(workers)``, spawned processes, so a script calling this with
     ``workers > 1`` needs the usual ``if __name__ == "__main__":`` guard).
 
+    ``checkpoint`` in [1, iterations] also keeps each run's Q-table after that many iterations
+    (0: none).
+
     Returns:
         dict with ``rewards`` (R, T) float64, ``outcomes``/``states``/``actions``/``episode_end``
-        (R, T) of the model's ``record_dtype``, ``q`` (R, S, A) float64 and ``stats`` (counters, see the module docstring).
+        (R, T) of the model's ``record_dtype``, ``q`` (R, S, A) float64, with a ``checkpoint``
+        ``checkpoint_q`` (R, S, A) float64, and ``stats`` (counters, see the module docstring).
     """
+    from tableclean_suite.learners.reference import CHECKPOINT_Q as RUN_CHECKPOINT_Q
+
     options = _check_options(physics_options or {})
     if workers is None:
         workers = os.cpu_count() or 1
@@ -411,7 +420,8 @@ def train_physics(learner, reward, model, runs, iterations, seed, first_run, wor
 
     if workers == 1 and executor is None:
         on_queue = _BarQueue(bar) if bar is not None else None
-        results = [_train_share((learner, reward, model, shares[0], iterations, seed, first_run, options, hyper, on_queue))]
+        results = [_train_share((learner, reward, model, shares[0], iterations, seed, first_run, options, hyper, on_queue,
+                                 checkpoint))]
     else:
         import json
 
@@ -419,7 +429,7 @@ def train_physics(learner, reward, model, runs, iterations, seed, first_run, wor
 
         spec = json.dumps(model.spec.to_dict(), sort_keys=True)
         tasks = [PhysicsRun(learner, reward, spec, i, iterations, seed, first_run, tuple(sorted(options.items())),
-                            tuple(sorted(hyper.items()))) for i in range(runs)]
+                            tuple(sorted(hyper.items())), checkpoint) for i in range(runs)]
         results = []
         # a caller's executor stays open for the caller's next call (map starts what it needs)
         owned = LocalExecutor(workers=workers) if executor is None else contextlib.nullcontext(executor)
@@ -435,6 +445,8 @@ def train_physics(learner, reward, model, runs, iterations, seed, first_run, wor
                for name in ("outcomes", "states", "actions", "episode_end")}
     records["rewards"] = np.zeros((runs, iterations), dtype=np.float64)
     records["q"] = np.zeros((runs, model.n_states, model.n_actions), dtype=np.float64)
+    if checkpoint:
+        records[RUN_CHECKPOINT_Q] = np.zeros_like(records["q"])
     for out, _ in results:
         for i, record in out:
             for name in records:
@@ -511,14 +523,19 @@ class PhysicsBackend:
         return {"physics_options": _check_options(options.get("physics_options") or {})}
 
     def train(self, job):
-        from tableclean_suite.backends import BackendRecords
+        from tableclean_suite.backends import CHECKPOINT_Q, BackendRecords
+        from tableclean_suite.learners.reference import CHECKPOINT_Q as RUN_CHECKPOINT_Q
 
         records = train_physics(
             job.learner, job.reward, job.model, job.runs, job.iterations, job.seed, job.first_run, job.workers,
             job.options["physics_options"], job.progress, **job.hyperparameters, executor=job.executor,
+            checkpoint=job.checkpoint,
         )
         stats = records.pop("stats")
-        return BackendRecords(**records, info={"physics": stats})
+        info = {"physics": stats}
+        if RUN_CHECKPOINT_Q in records:
+            info[CHECKPOINT_Q] = records.pop(RUN_CHECKPOINT_Q)
+        return BackendRecords(**records, info=info)
 
 
 PHYSICS = PhysicsBackend()

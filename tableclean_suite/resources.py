@@ -9,7 +9,7 @@ the budget (R runs, T iterations): the model's transition arrays and the table t
 system reports as available (:mod:`psutil`) and raises :class:`InsufficientMemoryError`, whose
 one-line message names the estimate, its parts, what is available and the override.
 :func:`require_time` does the same for an estimated wall time longer than
-:data:`MAX_TRAINING_SECONDS`.
+:data:`MAX_TRAINING_SECONDS`, at the engine's own rate (:func:`steps_per_second`).
 
 The override is explicit: set the environment variable :data:`OVERRIDE_ENV` to ``1`` (executor
 workers inherit it), or call with ``override=True``.
@@ -43,6 +43,22 @@ RECORD_CODE_ARRAYS = 4
 #: Symbolic learner steps per second assumed by time estimates (a fast machine's compiled loop on
 #: the paper's task, so the estimate errs towards allowing).
 STEPS_PER_SECOND = 50_000_000
+#: Learner steps per second of the plain-Python reference loop (``engine="reference"``): measured
+#: ~80 000 on a shared 2-core machine (the compiled loop ~12 M there); a fast machine's, so the
+#: estimate errs towards allowing.
+REFERENCE_STEPS_PER_SECOND = 300_000
+#: Engine name -> learner steps per second assumed by time estimates.
+ENGINE_STEPS_PER_SECOND = {"compiled": STEPS_PER_SECOND, "reference": REFERENCE_STEPS_PER_SECOND}
+#: Bytes per (state, action) pair of a Q entry in the reference loop's Python tables: a list slot
+#: (8), a float object (24) and a share of its row list's header (56 per row).
+PYTHON_ENTRY_BYTES = 6 * WORD_BYTES
+#: Bytes per (state, action) pair of one run's working memory in the compiled loop
+#: (``kernel.run_memory``), by what the learner uses: eligibility traces (a float64 trace and an
+#: int64 pair index), Dyna's model (int64 next state, float64 reward, bool terminal flag, int64
+#: observed pair) and learned affordances (an int8 mask).
+TRACE_BYTES_PER_PAIR = 2 * WORD_BYTES
+DYNA_BYTES_PER_PAIR = 3 * WORD_BYTES + 1
+LEARNED_AFFORDANCE_BYTES_PER_PAIR = 1
 #: Longest estimated training (and analysis) a command may need before it is refused: seconds (1 day).
 MAX_TRAINING_SECONDS = 24 * 3600
 #: Calls of a user action's Python effect that building a table may make (about 8.5 us each,
@@ -127,17 +143,95 @@ def table_memory(n_states: int, n_actions: int, max_successors: int = 1) -> Memo
                            "rule build": int(n_states) * BUILD_BYTES_PER_STATE})
 
 
+def q_table_copies(q_tables: int = 1, checkpoint: bool = False) -> int:
+    """(S x A) float64 tables per run a compiled ``train()`` holds at its peak.
+
+    One learner table (``q_tables=1``): the table, and its snapshot with a ``checkpoint``.  Two
+    (double Q-learning): tables A and B, the result's average of both and their ``(2, S, A)``
+    stack (5), and with a ``checkpoint`` the snapshots of A and B and their average (3 more).
+    """
+    tables = max(1, int(q_tables))
+    copies = tables if tables == 1 else 2 * tables + 1
+    if checkpoint:
+        copies += tables if tables == 1 else tables + 1
+    return copies
+
+
+def run_working_bytes(learner, reward, n_states: int, n_actions: int) -> int:
+    """Bytes of one run's working arrays in the compiled loop (``kernel.run_memory`` and the
+    looping rule's memory): eligibility traces, Dyna's model, learned affordance masks, visit
+    counts (S int64) and, for a looping rule that looks further back than the paper's, the
+    states' entry times (S int64); 0 for the paper's learners."""
+    from tableclean_suite.learners.assist import AFFORD_LEARNED
+    from tableclean_suite.learners.exploration import VISIT_DECAY_CODE
+    from tableclean_suite.learners.rules import METHOD_DYNA, METHOD_TRACES
+    from tableclean_suite.rewards import PAPER_LOOPING_MEMORY
+
+    per_pair = {METHOD_TRACES: TRACE_BYTES_PER_PAIR, METHOD_DYNA: DYNA_BYTES_PER_PAIR}.get(learner.method, 0)
+    if learner.affordance_code == AFFORD_LEARNED:
+        per_pair += LEARNED_AFFORDANCE_BYTES_PER_PAIR
+    per_state_words = int(learner.exploration.code == VISIT_DECAY_CODE)
+    per_state_words += int(reward.looping_code != 0 and reward.looping_memory != PAPER_LOOPING_MEMORY)
+    return int(n_states) * int(n_actions) * per_pair + int(n_states) * per_state_words * WORD_BYTES
+
+
 def training_memory(n_states: int, n_actions: int, runs: int, iterations: int, q_tables: int = 1,
-                    max_successors: int = 1, code_bytes: int = 4) -> MemoryEstimate:
-    """One ``train()`` call on a table backend: ``runs`` x (S x A) Q-tables (``q_tables`` per run:
-    2 for double Q-learning, whose result also stacks both), ``runs`` x ``iterations`` records
-    (a float64 reward and :data:`RECORD_CODE_ARRAYS` codes of ``code_bytes`` each) and the tables
-    (:func:`table_memory`)."""
+                    max_successors: int = 1, code_bytes: int = 4, checkpoint: bool = False,
+                    engine: str = "compiled", run_bytes: int = 0, concurrent_runs: int = 1) -> MemoryEstimate:
+    """One ``train()`` call on a table backend, bytes by part.
+
+    Args:
+        n_states, n_actions: the task's S state codes and A actions.
+        runs, iterations: the budget, R runs x T iterations.
+        q_tables: learner tables per run (2 for double Q-learning); the copies held at the peak are
+            :func:`q_table_copies`.
+        max_successors: K successors per (state, action) pair of the stepped table.
+        code_bytes: bytes of a record code (``TaskModel.record_dtype.itemsize``).
+        checkpoint: the call keeps the Q-tables after ``checkpoint`` iterations (snapshots).
+        engine: ``"compiled"``, or ``"reference"``, whose per-run arrays are stacked into the
+            result (records and Q-tables twice) and whose learner tables are Python lists
+            (:data:`PYTHON_ENTRY_BYTES` per entry, one run at a time).
+        run_bytes: one run's working arrays in the compiled loop (:func:`run_working_bytes`).
+        concurrent_runs: runs the compiled loop trains at once (its threads, at most ``runs``).
+    """
     pairs = int(n_states) * int(n_actions)
-    q_bytes = int(runs) * pairs * WORD_BYTES * (1 if q_tables <= 1 else 2 * int(q_tables))
-    step_bytes = WORD_BYTES + RECORD_CODE_ARRAYS * int(code_bytes)
-    return table_memory(n_states, n_actions, max_successors) + MemoryEstimate(
-        {"Q-tables": q_bytes, "records": int(runs) * int(iterations) * step_bytes})
+    tables = max(1, int(q_tables))
+    copies = q_table_copies(tables, checkpoint)
+    records = int(runs) * int(iterations) * (WORD_BYTES + RECORD_CODE_ARRAYS * int(code_bytes))
+    if engine == "reference":
+        stacked = 2  # each run's arrays, then the result's stack of them
+        parts = {"Q-tables": stacked * int(runs) * pairs * WORD_BYTES * (1 + (tables if tables > 1 else 0)
+                                                                         + int(bool(checkpoint))),
+                 "records": stacked * records,
+                 "run working memory": pairs * (tables * PYTHON_ENTRY_BYTES + (2 * tables + 1) * WORD_BYTES)}
+    else:
+        parts = {"Q-tables": int(runs) * pairs * WORD_BYTES * copies, "records": records,
+                 "run working memory": int(run_bytes) * max(1, min(int(runs), int(concurrent_runs)))}
+    return table_memory(n_states, n_actions, max_successors) + MemoryEstimate(parts)
+
+
+def learner_training_memory(model, learner, reward, runs: int, iterations: int, checkpoint: bool = False,
+                            engine: str = "compiled", max_successors: int = 1) -> MemoryEstimate:
+    """:func:`training_memory` of ``train()``-ing ``learner`` (a ``TabularLearner``) with ``reward``
+    (a ``RewardPattern``) on ``model`` (a ``TaskModel``): two tables per run for double Q-learning,
+    the learner's run working memory (:func:`run_working_bytes`) in each of numba's threads."""
+    import numba
+
+    from tableclean_suite.learners.rules import METHOD_DOUBLE_Q
+
+    return training_memory(
+        model.n_states, model.n_actions, runs, iterations, q_tables=2 if learner.method == METHOD_DOUBLE_Q else 1,
+        max_successors=max_successors, code_bytes=model.record_dtype.itemsize, checkpoint=checkpoint, engine=engine,
+        run_bytes=run_working_bytes(learner, reward, model.n_states, model.n_actions),
+        concurrent_runs=numba.get_num_threads())
+
+
+def steps_per_second(engine: str) -> float:
+    """Learner steps per second assumed for ``engine`` (:data:`ENGINE_STEPS_PER_SECOND`); ``ValueError``
+    names the engines allowed."""
+    if engine not in ENGINE_STEPS_PER_SECOND:
+        raise ValueError(f"unknown engine {engine!r}; allowed: {', '.join(ENGINE_STEPS_PER_SECOND)}")
+    return float(ENGINE_STEPS_PER_SECOND[engine])
 
 
 def require_memory(estimate: MemoryEstimate, what: str, available: int | None = None,

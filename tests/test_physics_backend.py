@@ -152,3 +152,59 @@ def test_physics_runs_on_ray_equal_the_runs_in_this_process():
     for name in ("rewards", "outcomes", "states", "actions", "episode_end", "q"):
         np.testing.assert_array_equal(getattr(on_ray, name), getattr(here, name))
     assert on_ray.info["physics"]["steps"] == here.info["physics"]["steps"] == 10
+
+
+class _TableStand(physics_backend.PhysicsStepEnv):
+    """The physics step environment's interface on the task model's rules (no MuJoCo)."""
+
+    def __init__(self, model=None, **options):
+        from tableclean_suite.learners.reference import ModelStepEnv
+
+        self.model = model
+        self.rules = ModelStepEnv(model)
+        self.stats = physics_backend._empty_stats()
+
+    def seed(self, seed):
+        pass
+
+    def reset(self, draw):
+        return self.rules.reset(draw)
+
+    def step(self, state, action, draw):
+        return self.rules.step(state, action, draw)
+
+    def close(self):
+        pass
+
+
+def test_physics_keeps_the_checkpoint_q_tables(monkeypatch):
+    """backend="physics" honours checkpoint= (it dropped it, silently): the Q-tables after k iterations."""
+    from tableclean_suite.backends import CHECKPOINT_Q, TrainingJob
+    from tableclean_suite.learners import get_learner
+    from tableclean_suite.rewards import get_reward_pattern
+
+    monkeypatch.setattr(physics_backend, "PhysicsStepEnv", _TableStand)
+
+    def job(iterations, checkpoint=0):
+        return TrainingJob(learner=get_learner("q_learning"), reward=get_reward_pattern("r4"), model=MODEL, runs=2,
+                           iterations=iterations, alpha=0.3, gamma=0.3, epsilon=0.1, max_itr=40, seed=5, workers=1,
+                           options={"physics_options": {}}, checkpoint=checkpoint)
+
+    full = physics_backend.PHYSICS.train(job(90, checkpoint=60))
+    assert full.info[CHECKPOINT_Q].shape == full.q.shape
+    assert np.array_equal(full.info[CHECKPOINT_Q], physics_backend.PHYSICS.train(job(60)).q)
+    assert not np.array_equal(full.info[CHECKPOINT_Q], full.q)
+    assert CHECKPOINT_Q not in physics_backend.PHYSICS.train(job(90)).info
+    import json
+
+    from tableclean_suite.learners.reference import CHECKPOINT_Q as RUN_CHECKPOINT_Q
+
+    hyper = tuple(sorted(dict(alpha=0.3, gamma=0.3, epsilon=0.1, max_itr=40).items()))
+    task = physics_backend.PhysicsRun(get_learner("q_learning"), get_reward_pattern("r4"),
+                                      json.dumps(MODEL.spec.to_dict(), sort_keys=True), 1, 90, 5, 0, (), hyper,
+                                      checkpoint=60)
+    try:
+        index, record, _ = physics_backend.run_physics_task(task)  # an executor worker's body
+    finally:
+        physics_backend.close_sessions()
+    assert index == 1 and np.array_equal(record[RUN_CHECKPOINT_Q], full.info[CHECKPOINT_Q][1])

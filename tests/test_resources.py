@@ -138,3 +138,98 @@ def test_per_state_python_walks_of_a_huge_spec_are_refused_at_once(monkeypatch):
             walk()
     small = TaskModel(spec=TaskSpec("faults_small", segments=3, objects=2))
     assert len(small.reachable_states()) == 327  # the documented count, unaffected
+
+
+# -- the estimates count what training really allocates ----------------------------------------------
+MEASURED_MODEL = TaskModel(spec=TaskSpec("faults_measured", segments=6, objects=2))  # 18816 codes x 4 actions
+#: How far above the traced peak an estimate may be: the compiled loop's arrays are counted exactly
+#: (the slack is the table build); the reference loop's Python tables are counted for a fully learned table.
+ESTIMATE_FACTOR = {"compiled": 1.5, "reference": 2.5}
+
+
+@pytest.mark.parametrize("learner, checkpoint, engine, runs", [
+    ("q_learning", 0, "compiled", 16), ("q_learning", 150, "compiled", 16),
+    ("double_q_learning", 0, "compiled", 16), ("double_q_learning", 150, "compiled", 16),
+    ("dyna_q", 0, "compiled", 16), ("q_lambda", 150, "compiled", 16),
+    ("q_learning", 150, "reference", 2), ("double_q_learning", 150, "reference", 2),
+])
+def test_the_memory_estimate_covers_the_traced_peak_of_training(learner, checkpoint, engine, runs):
+    """tracemalloc sees numpy's and the compiled loop's (numba's runtime) allocations alike."""
+    import tracemalloc
+
+    from tableclean_suite.learners import get_learner
+    from tableclean_suite.rewards import get_reward_pattern
+
+    iterations = 200
+    train(learner=learner, model=MEASURED_MODEL, runs=1, iterations=10)  # compiled and the tables built outside the trace
+    tracemalloc.start()
+    try:
+        base = tracemalloc.get_traced_memory()[0]
+        result = train(learner=learner, model=MEASURED_MODEL, runs=runs, iterations=iterations, checkpoint=checkpoint,
+                       engine=engine)
+        peak = tracemalloc.get_traced_memory()[1] - base
+    finally:
+        tracemalloc.stop()
+    del result
+    estimate = resources.learner_training_memory(MEASURED_MODEL, get_learner(learner), get_reward_pattern("r4"), runs,
+                                                 iterations, checkpoint=checkpoint > 0, engine=engine)
+    assert peak <= estimate.total <= ESTIMATE_FACTOR[engine] * peak, (peak, estimate.describe())
+
+
+def test_double_q_and_checkpoints_count_every_table_they_keep():
+    assert [resources.q_table_copies(1), resources.q_table_copies(1, checkpoint=True)] == [1, 2]
+    assert [resources.q_table_copies(2), resources.q_table_copies(2, checkpoint=True)] == [5, 8]
+
+
+@pytest.mark.parametrize("learner", ["q_lambda", "dyna_q", "learned_affordance_q_learning", "q_learning"])
+def test_the_run_working_memory_covers_the_compiled_loops_per_run_arrays(learner):
+    from tableclean_suite.learners import get_learner
+    from tableclean_suite.learners.assist import AFFORD_LEARNED
+    from tableclean_suite.learners.kernel import run_memory
+    from tableclean_suite.learners.rules import METHOD_DOUBLE_Q, METHOD_DYNA, METHOD_TRACES
+    from tableclean_suite.rewards import get_reward_pattern
+
+    chosen = get_learner(learner)
+    s, a = 50, 4
+    arrays = run_memory(s, a, chosen.method == METHOD_DOUBLE_Q, chosen.method == METHOD_TRACES, False,
+                        chosen.method == METHOD_DYNA)
+    masks = s * a if chosen.affordance_code == AFFORD_LEARNED else 0
+    actual = sum(x.nbytes for x in arrays) + masks
+    assert actual - a * resources.WORD_BYTES <= resources.run_working_bytes(chosen, get_reward_pattern("r4"), s, a) <= actual
+
+
+def _job(engine: str, runs: int, iterations: int):
+    from tableclean_suite.backends import TrainingJob
+    from tableclean_suite.learners import get_learner
+    from tableclean_suite.rewards import get_reward_pattern
+
+    return TrainingJob(learner=get_learner("q_learning"), reward=get_reward_pattern("r4"), model=TaskModel(),
+                       runs=runs, iterations=iterations, alpha=0.3, gamma=0.3, epsilon=0.1, max_itr=500, seed=0,
+                       engine=engine)
+
+
+def test_the_time_guard_uses_the_engines_own_rate(monkeypatch):
+    from tableclean_suite.backends.tabular import check_job_resources
+
+    monkeypatch.delenv(resources.OVERRIDE_ENV, raising=False)
+    monkeypatch.setattr(resources, "available_bytes", lambda: 2**62)  # only the time guard decides
+    steps = 2 * resources.MAX_TRAINING_SECONDS * resources.REFERENCE_STEPS_PER_SECOND  # 2 days in Python, minutes compiled
+    runs = 10**4
+    check_job_resources(_job("compiled", runs, steps // runs), measured=False)
+    with pytest.raises(resources.TooMuchWorkError, match="reference engine"):
+        check_job_resources(_job("reference", runs, steps // runs), measured=False)
+    assert resources.steps_per_second("reference") < resources.steps_per_second("compiled")
+    with pytest.raises(ValueError, match="unknown engine 'fast'.*compiled, reference"):
+        resources.steps_per_second("fast")
+
+
+def test_the_grid_estimate_counts_double_q_and_the_settling_snapshots(monkeypatch):
+    seen = []
+    monkeypatch.setattr(resources, "require_memory", lambda estimate, what: seen.append(estimate.parts["Q-tables"]))
+    model = TaskModel()
+    for learners, backend in ((("q_learning",), "physics"), (("q_learning",), "symbolic"),
+                              (("q_learning", "double_q_learning"), "symbolic")):
+        config = RunConfig(learners=learners, rewards=("r4",), out="unused", backend=backend)
+        experiments.check_grid_resources(experiments.unique_cells(experiments.config_grid(config)), config, model)
+    plain, settling, double = seen
+    assert settling == 2 * plain and double == 8 * plain  # the checkpoint copy; double Q's 5 tables and 3 snapshots

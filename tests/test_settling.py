@@ -111,3 +111,15 @@ def test_sweep_table_marks_settled_unsettled_and_unmeasured_rows():
 
     shown = tables.display_sweeps(tables.table3([row(0.3, True), row(0.5, False), row(0.7, None)]))
     assert shown["settled"].tolist() == ["yes", "NO", "-"]
+
+
+@pytest.mark.parametrize("learner", ["q_learning", "double_q_learning"])
+def test_the_reference_engine_keeps_the_checkpoint_q_tables_too(learner):
+    """engine="reference" honours checkpoint= (it left the key out, silently) with the compiled loop's tables."""
+    from tableclean_suite.backends import CHECKPOINT_Q
+
+    common = dict(learner=learner, reward="r4", runs=3, max_itr=40, seed=3, model=MODEL)
+    full = train(iterations=120, checkpoint=77, engine="reference", **common)
+    assert np.array_equal(full.info[CHECKPOINT_Q], train(iterations=77, engine="reference", **common).q)
+    assert np.array_equal(full.info[CHECKPOINT_Q], train(iterations=120, checkpoint=77, **common).info[CHECKPOINT_Q])
+    assert CHECKPOINT_Q not in train(iterations=120, engine="reference", **common).info

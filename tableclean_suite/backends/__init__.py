@@ -53,7 +53,7 @@ class TrainingJob:
             over processes or a cluster (the physics backend); None: the backend's default.
         checkpoint: also keep the Q-tables after this many iterations, in [1, iterations]
             (0: none); a backend that can puts them in ``info[CHECKPOINT_Q]`` ``(R, S, A)`` (the
-            table backends' compiled loop), one that cannot leaves them out.
+            built-in ones, on both engines), one that cannot leaves them out.
     """
 
     learner: Any

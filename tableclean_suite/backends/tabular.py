@@ -31,9 +31,8 @@ RECORD_FIELDS = ("rewards", "outcomes", "states", "actions", "episode_end")
 
 def empty_records(runs: int, iterations: int, dtype) -> dict[str, np.ndarray]:
     """Zeroed ``(runs, iterations)`` record arrays: float64 rewards, ``dtype`` codes."""
-    records = {name: np.zeros((runs, iterations), dtype=dtype) for name in RECORD_FIELDS}
-    records["rewards"] = np.zeros((runs, iterations), dtype=np.float64)
-    return records
+    return {name: np.zeros((runs, iterations), dtype=np.float64 if name == "rewards" else dtype)
+            for name in RECORD_FIELDS}
 
 
 def progress_bar(iterable, enabled: bool, description: str):
@@ -61,14 +60,14 @@ def check_job_resources(job: TrainingJob, measured: bool) -> None:
     """Refuse ``job`` before allocating when it cannot fit or would run too long (see :mod:`tableclean_suite.resources`)."""
     model = job.model
     successors = job.options["transitions"].max_successors if measured else 1
-    q_tables = 2 if job.learner.method == METHOD_DOUBLE_Q else 1
     what = (f"training {job.learner.name!r} on task {model.spec.name!r} ({model.n_states} states x "
             f"{model.n_actions} actions, {job.runs} runs x {job.iterations} iterations)")
-    resources.require_memory(resources.training_memory(model.n_states, model.n_actions, job.runs, job.iterations,
-                                                       q_tables, successors, model.record_dtype.itemsize), what)
+    resources.require_memory(resources.learner_training_memory(
+        model, job.learner, job.reward, job.runs, job.iterations, checkpoint=job.checkpoint > 0, engine=job.engine,
+        max_successors=successors), what)
     steps = job.runs * job.iterations
-    resources.require_time(steps / resources.STEPS_PER_SECOND, what,
-                           f"{steps:.3g} learner steps at {resources.STEPS_PER_SECOND:.3g} steps/s")
+    rate = resources.steps_per_second(job.engine)
+    resources.require_time(steps / rate, what, f"{steps:.3g} learner steps at {rate:.3g} steps/s ({job.engine} engine)")
 
 
 @dataclass(frozen=True)
@@ -116,13 +115,15 @@ class TableBackend:
             env = reference.TableStepEnv(job.model, table) if self.measured else reference.ModelStepEnv(job.model)
             per_run = [
                 reference.train_run(env, job.learner, job.reward, job.iterations, seed=job.seed,
-                                    run=job.first_run + r, **job.hyperparameters)
+                                    run=job.first_run + r, checkpoint=job.checkpoint, **job.hyperparameters)
                 for r in progress_bar(range(job.runs), job.progress, "runs")
             ]
             records = {name: np.stack([run[name] for run in per_run]) for name in (*RECORD_FIELDS, "q")}
             info = {}
             if DOUBLE_Q_TABLES in per_run[0]:
                 info[DOUBLE_Q_TABLES] = np.stack([run[DOUBLE_Q_TABLES] for run in per_run])
+            if reference.CHECKPOINT_Q in per_run[0]:
+                info[CHECKPOINT_Q] = np.stack([run[reference.CHECKPOINT_Q] for run in per_run])
             return BackendRecords(**records, config=config, info=info)
         model = job.model
         learner = job.learner

@@ -43,7 +43,7 @@ from tableclean_suite.bench import statistics
 from tableclean_suite.bench.config import LITERATURE_LEARNERS, RunConfig
 from tableclean_suite.bench.outputs import OutputError, describe_os_error
 from tableclean_suite.bench.statistics import CellStatistics
-from tableclean_suite.learners import code_digest, train
+from tableclean_suite.learners import code_digest, get_learner, train
 from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, GroupedCurveSums, Plateaus, Summary, summarize
 from tableclean_suite.rewards import get_reward_pattern
 
@@ -370,8 +370,10 @@ def check_grid_resources(cells, config: RunConfig, model) -> float:
         return 0.0
     pairs = int(model.n_states) * int(model.n_actions)
     chunk = min(config.runs, chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model)))
-    memory = resources.training_memory(model.n_states, model.n_actions, chunk, config.iterations,
-                                      code_bytes=model.record_dtype.itemsize)
+    settles = getattr(get_backend(config.backend), "deterministic_prefix", False)  # keeps checkpoint Q-tables
+    memory = max((resources.learner_training_memory(model, get_learner(cell.learner), get_reward_pattern(cell.reward),
+                                                    chunk, config.iterations, checkpoint=settles) for cell in cells),
+                 key=lambda estimate: estimate.total)
     memory += resources.MemoryEstimate({"asymptote analysis": pairs * ANALYSIS_BYTES_PER_PAIR,
                                         "per-run scores": config.runs * len(statistics.RUN_SCORES)
                                         * resources.WORD_BYTES})

@@ -63,6 +63,8 @@ from tableclean_suite.task import Outcome, TaskModel
 
 #: Key of double Q-learning's two tables in a record / ``TrainingResult.info``: ``(..., 2, S, A)``.
 DOUBLE_Q_TABLES = "double_q_tables"
+#: Key of a run's Q-table after ``train_run(checkpoint=k)``'s k iterations, ``(S, A)``.
+CHECKPOINT_Q = "checkpoint_q"
 
 
 class StepEnv(Protocol):
@@ -343,6 +345,7 @@ def train_run(
     seed: int,
     run: int,
     on_step=None,
+    checkpoint: int = 0,
 ) -> dict[str, np.ndarray]:
     """Train one run for ``iterations`` steps; returns its record arrays and Q-table.
 
@@ -353,7 +356,8 @@ def train_run(
     ``actions``/``episode_end`` (T,) of ``env.model.record_dtype`` and ``q``
     ``(n_states, n_actions)`` float64 (double Q: the average of its tables, which are
     under ``"double_q_tables"``, shape ``(2, S, A)``).
-    ``on_step(t)`` is called after every iteration (progress bars).
+    ``on_step(t)`` is called after every iteration (progress bars).  ``checkpoint`` in [1, iterations]
+    also keeps the Q-table after that many iterations under ``"checkpoint_q"`` ``(S, A)`` (as ``q``).
     """
     key = run_key(seed, run)
     model = env.model
@@ -396,6 +400,8 @@ def train_run(
         else:
             record["episode_end"][t] = EPISODE_CONTINUES
             previous, state = state, nxt
+        if t + 1 == checkpoint:
+            record[CHECKPOINT_Q] = agent.tables()["q"]
         if on_step is not None:
             on_step(t)
     record.update(agent.tables())

@@ -132,8 +132,8 @@ def train(
         checkpoint: also keep each run's Q-tables after this many iterations, an integer in
             [0, iterations] (0: none), in ``result.info["checkpoint_q"]`` ``(runs, S, A)``: the
             final Q-tables of the same call with ``iterations=checkpoint``, from the same pass.
-            The table backends' compiled loop keeps them; other backends and the reference
-            engine leave the key out.
+            The built-in backends and both engines keep them; a user's backend that cannot
+            leaves the key out.
 
     Returns:
         A :class:`TrainingResult` with ``(runs, iterations)`` records and final Q-tables.
