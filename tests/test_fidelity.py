@@ -238,3 +238,21 @@ def test_trials_without_a_configuration_record_are_refused_and_an_empty_file_is_
     trial_store.write_rows(path, [])  # a header only: nothing to mix up
     fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), None))
     assert fidelity.configuration_path(path).exists()
+
+
+def test_trials_measured_with_other_plugin_code_are_not_resumed(tmp_path):
+    """The configuration record keys on the --plugins sources: an edited skill or object type
+    measures other trials, so resuming them is refused (the record without plugins is as before)."""
+    from tableclean_suite.bench import trial_store
+
+    plugin = tmp_path / "fidelity_plugin_extras.py"
+    plugin.write_text("GRIP_FORCE = 10\n")
+    path = tmp_path / fidelity.TRIALS_CSV
+    trial_store.write_rows(path, [])
+    fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), None, plugins=(str(plugin),)))
+    assert "plugins_digest" in json.loads(fidelity.configuration_path(path).read_text())
+    fidelity.collect(0, trials_csv=path, log=None, plugins=(str(plugin),))  # the same code: resumes
+    plugin.write_text("GRIP_FORCE = 11\n")
+    with pytest.raises(ResumeError, match="another plugins_digest"):
+        fidelity.collect(0, trials_csv=path, log=None, plugins=(str(plugin),))
+    assert "plugins_digest" not in fidelity.run_configuration(TaskModel(), None)

@@ -174,7 +174,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
             with cli.executor_from_args(parser, args) as executor:
                 trials_csv = out.with_suffix(".trials.csv")
                 rows = collect(args.trials, args.seed, trials_csv, fresh=args.fresh, log=log,
-                               actions=actions, model=model, executor=executor)
+                               actions=actions, model=model, executor=executor, plugins=args.plugins)
             description = f"{args.trials} round(s), seed {args.seed}; {measured_with(read_configuration(trials_csv))}"
         table = calibrated_table(rows, model, description=description)
     except (ResumeError, CalibrationError) as error:

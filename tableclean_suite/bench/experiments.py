@@ -134,7 +134,7 @@ def metrics_digest() -> str:
 
 
 def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | None = None,
-                task_digest: str | None = None) -> dict:
+                task_digest: str | None = None, plugins_key: dict | None = None) -> dict:
     """Everything that determines a cell's stored summary (JSON-serialisable).
 
     Args:
@@ -144,6 +144,8 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
         transitions_sha256: digest of the calibrated transition table's file, if any.
         task_digest: ``model.code_digest()`` when the caller has it already (it reads the task
             rules' sources: ~15 ms, so :func:`run_grid` computes it once for all its cells).
+        plugins_key: :func:`_plugins_key` of ``config`` when the caller has it already (it hashes the
+            plugin modules' files, so :func:`run_grid` computes it once for all its cells).
 
     The key includes the code as well as the values: the learner's digest
     (:func:`tableclean_suite.learners.code_digest`: training loop, random numbers, its TD
@@ -175,7 +177,7 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
         "task_digest": model.code_digest() if task_digest is None else task_digest,
         "transitions_sha256": transitions_sha256,
         "metrics_digest": metrics_digest(),
-        **_plugins_key(config),
+        **(_plugins_key(config) if plugins_key is None else plugins_key),
     }
 
 
@@ -637,7 +639,9 @@ def run_grid(
 
     outcome = GridRun()
     task_digest = model.code_digest()
-    keys = {cell: cell_config(cell, config, model, transitions_sha256, task_digest) for cell in unique_cells(grid)}
+    plugins_key = _plugins_key(config)
+    keys = {cell: cell_config(cell, config, model, transitions_sha256, task_digest, plugins_key)
+            for cell in unique_cells(grid)}
     pending = []
     for cell, key in keys.items():
         stored = None if config.fresh else store.load(cell, key)

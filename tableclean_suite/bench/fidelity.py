@@ -223,14 +223,22 @@ def run_round_task(task: FidelityRound) -> list[dict]:
 CONFIGURATION_SUFFIX = ".config.json"
 
 
-def run_configuration(model: TaskModel, physics_options: dict | None, session=None) -> dict:
-    """What determines a trial besides its round and seed: the task spec and the scene's options
-    (robot, randomisation, ...); JSON values, anything else by ``repr``."""
+def run_configuration(model: TaskModel, physics_options: dict | None, session=None, plugins: Iterable[str] = ()) -> dict:
+    """What determines a trial besides its round and seed: the task spec, the scene's options
+    (robot, randomisation, ...) and, with ``plugins`` (``--plugins`` entries), the SHA-256 of their
+    sources and of the user modules they refer to
+    (:func:`~tableclean_suite.bench.plugins.plugin_sources_digest`: an edited skill or object type
+    measures other trials); JSON values, anything else by ``repr``."""
     import json
 
+    from tableclean_suite.bench.plugins import plugin_sources_digest
+
     options = "a given session" if session is not None else (physics_options or {})
-    return json.loads(json.dumps({"task": model.spec.to_dict(), "physics_options": options}, sort_keys=True,
-                                 default=repr))
+    configuration = {"task": model.spec.to_dict(), "physics_options": options}
+    digest = plugin_sources_digest(plugins)
+    if digest is not None:  # without plugins the record is as before, so stored trials still resume
+        configuration["plugins_digest"] = digest
+    return json.loads(json.dumps(configuration, sort_keys=True, default=repr))
 
 
 def configuration_path(trials_csv: Path) -> Path:
@@ -323,7 +331,8 @@ def check_trial_rows(rows, model: TaskModel, source) -> None:
 
 def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fresh: bool = False,
             session=None, log: Callable[[str], None] | None = print, physics_options: dict | None = None,
-            actions: Iterable | None = None, model: TaskModel | None = None, executor=None) -> list[dict]:
+            actions: Iterable | None = None, model: TaskModel | None = None, executor=None,
+            plugins: Iterable[str] = ()) -> list[dict]:
     """Run rounds until there are ``trials`` of them; returns all trial rows (resumed ones included).
 
     With ``trials_csv`` every finished round is stored (atomically, whole rounds only), and
@@ -335,7 +344,9 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
     actions (e.g. leave out the slow clean).  ``model`` is the task (default: the session's,
     else ``paper``).  The trials' folder is locked while rounds run
     (:func:`~tableclean_suite.bench.outputs.output_lock`): a second run into it raises
-    :class:`~tableclean_suite.bench.outputs.OutputBusyError`.
+    :class:`~tableclean_suite.bench.outputs.OutputBusyError`.  ``plugins`` (``--plugins`` entries)
+    enter the trials' configuration (:func:`run_configuration`): resuming after a plugin was edited
+    raises :class:`ResumeError`.
     """
     import json
 
@@ -349,7 +360,7 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
         if path is not None and fresh and path.exists():
             path.unlink()
         if path is not None:
-            check_configuration(path, run_configuration(model, physics_options, session), log)
+            check_configuration(path, run_configuration(model, physics_options, session, plugins), log)
         rows = trial_store.complete_rounds(read_trials(path, log) if path is not None else [], per_round, log)
         check_trial_rows(rows, model, path)
         done_rounds = sorted({row["round"] for row in rows})
@@ -553,7 +564,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         with executor:
             rows = collect(args.trials, args.seed, out / TRIALS_CSV, fresh=args.fresh,
                            log=None if args.quiet else print, actions=actions, model=model, executor=executor,
-                           physics_options={"env_kwargs": env_kwargs})
+                           physics_options={"env_kwargs": env_kwargs}, plugins=args.plugins)
     except ResumeError as error:
         parser.error(str(error))  # exits 2
     pairs, skills = pair_table(rows, model), skill_table(rows, model)
