@@ -304,3 +304,36 @@ def test_plugin_files_are_kept_as_absolute_paths_for_workers_elsewhere(tmp_path,
     args = cli.command_parser("x", "y").parse_args(["--plugins", "extras.py, my_package.objects,extras.py"])
     assert args.plugins == (str(tmp_path / "extras.py"), "my_package.objects")
     assert Path(args.plugins[0]).is_absolute()
+
+
+@pytest.mark.parametrize("raised, code, line", [
+    (SystemExit(3), 3, None), (SystemExit("stopped: a message"), 1, "stopped: a message"),
+    (KeyboardInterrupt(), commands.EXIT_INTERRUPTED, "{prog}: interrupted"),
+    ("resource", 2, "{prog}: error: too big for the test"),
+])
+def test_the_command_line_and_the_old_entry_points_end_a_command_alike(raised, code, line, capsys, monkeypatch):
+    import sys
+    import types
+
+    from tableclean_suite.resources import ResourceError
+
+    module = types.ModuleType("tableclean_faults_fake_command")
+
+    def main(argv=None, prog=None):
+        raise ResourceError("too big for the test") if raised == "resource" else raised
+
+    module.main = main
+    monkeypatch.setitem(sys.modules, module.__name__, module)
+    monkeypatch.setitem(commands.COMMANDS, "fake", commands.Command(module.__name__, "a test command"))
+    assert _run(["fake"], capsys) == (code, [] if line is None else [line.format(prog="tableclean-bench fake")])
+    assert commands.run_alias("fake", "python -m benchmarks.fake") == code
+    err = capsys.readouterr().err.splitlines()
+    assert err == ([] if line is None else [line.format(prog="python -m benchmarks.fake")])
+
+
+def test_an_old_entry_point_of_a_missing_command_is_one_line(capsys, monkeypatch):
+    monkeypatch.setitem(commands.COMMANDS, "ghost", commands.Command("tableclean_suite.bench.no_such_module", "gone"))
+    assert commands.run_alias("ghost", "python -m benchmarks.ghost") == 2
+    assert capsys.readouterr().err.splitlines() == [
+        "python -m benchmarks.ghost: error: command 'ghost' is not available in this installation "
+        "(tableclean_suite.bench.no_such_module is missing)"]

@@ -166,29 +166,29 @@ def main(argv=None, prog: str | None = None) -> int:
     if name not in COMMANDS:
         return _usage_error(prog, f"unknown command {name!r}; allowed: {', '.join(COMMANDS)} "
                                   f"(or no command: {DEFAULT_COMMAND})")
-    try:
-        module = _module(name)
-    except CommandUnavailable as error:
-        return _usage_error(prog, str(error))
-    try:
-        return _exit_code(module.main(rest, prog=command_prog))
-    except SystemExit as stop:
-        return _exit_code(stop.code)
-    except _refusals() as error:  # the resource guard, an unusable output folder: one line, exit 2
-        return _usage_error(command_prog, str(error))
-    except KeyboardInterrupt:
-        print(f"{command_prog}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    return _run(name, rest, command_prog, unavailable_prog=prog)
 
 
 def run_alias(name: str, prog: str, argv=None, **options) -> int:
     """Run command ``name`` as an old entry point (``python -m benchmarks.X``) called ``prog``;
     ``options`` go to its ``main`` (e.g. the speed command's ``alias``)."""
+    return _run(name, argv, prog, **options)
+
+
+def _run(name: str, argv, prog: str, unavailable_prog: str | None = None, **options) -> int:
+    """``main(argv, prog=prog, **options)`` of command ``name``'s module, as an exit status: the one
+    place where a command's ``SystemExit``, refusals (:func:`_refusals`: one line, exit 2) and Ctrl-C
+    (exit :data:`EXIT_INTERRUPTED`) become exit codes.  A command not installed is one line, exit 2,
+    under ``unavailable_prog`` (default ``prog``)."""
     try:
-        return _exit_code(_module(name).main(argv, prog=prog, **options))
+        module = _module(name)
+    except CommandUnavailable as error:
+        return _usage_error(unavailable_prog or prog, str(error))
+    try:
+        return _exit_code(module.main(argv, prog=prog, **options))
     except SystemExit as stop:
         return _exit_code(stop.code)
-    except _refusals() as error:
+    except _refusals() as error:  # the resource guard, an unusable output folder: one line, exit 2
         return _usage_error(prog, str(error))
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
