@@ -302,3 +302,16 @@ def test_figure_draws_reached_and_censored_cells(tmp_path):
     fit = {"exponent": 0.8, "intercept": 1.0}
     report.write_figure(tmp_path / "f.png", rows, "q_learning", {"0.3": {"r2": fit}, "0.9": {"r2": fit}})
     assert (tmp_path / "f.png").stat().st_size > 0
+
+
+def test_a_study_into_a_folder_another_run_holds_exits_2_before_training(tmp_path, capsys):
+    import filelock
+
+    from tableclean_suite.bench import commands, outputs
+
+    other = filelock.FileLock(str(tmp_path / outputs.LOCK_FILE))  # another writer's hold (its own open file)
+    with other:
+        code = commands.main(["scaling", *TINY_ARGS, "--out", str(tmp_path)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "in use by another run" in err[0], err
+    assert not (tmp_path / "scaling.csv").exists()

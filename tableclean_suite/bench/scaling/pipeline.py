@@ -81,10 +81,22 @@ def method_constants(args) -> dict:
 
 
 def run_study(args) -> int:
-    """Describe the specs, train every cell, print and write everything; returns 0."""
+    """Describe the specs, train every cell, print and write everything; returns 0.
+
+    Holds ``--out``'s lock while it runs (:func:`~tableclean_suite.bench.outputs.output_lock`, as
+    ``run`` does): a second study into the same folder raises
+    :class:`~tableclean_suite.bench.outputs.OutputBusyError` (the command line: one line, exit 2)
+    instead of interleaving its files with this one's.
+    """
+    from tableclean_suite.bench import outputs
+
+    with outputs.output_lock(args.out) as out:
+        return _study(args, Path(out))
+
+
+def _study(args, out: Path) -> int:
+    """:func:`run_study`'s work, into the locked folder ``out``."""
     started = time.perf_counter()
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     paper_plan_length = paper_plan_steps()
     described = describe_family(family_specs(args.segments, args.objects), paper_plan_length, args.base_window,
                                 args.window_exponent)
