@@ -145,6 +145,25 @@ def stage(env, controller, state, seed: int | None = None) -> TaskState:
 # ---------------------------------------------------------------------------------------------
 # the step environment
 # ---------------------------------------------------------------------------------------------
+#: ``make_skill_env`` arguments that give a start layout (:func:`staging_env_kwargs`).
+LAYOUT_ARGUMENTS = ("object_segment", "arm_segment", "object_segments")
+
+
+def staging_env_kwargs(model: TaskModel, env_kwargs: dict | None) -> dict:
+    """The ``make_skill_env`` arguments of a scene whose every reset stages the start itself
+    (:func:`stage`; this module's :class:`PhysicsStepEnv`, the skills Gym env): a copy of
+    ``env_kwargs`` with ``task`` defaulting to ``model``'s spec and, when it gives no layout
+    (:data:`LAYOUT_ARGUMENTS`), :data:`~tableclean_suite.controllers.make.DEFAULT_LAYOUT` (the spec's
+    own start may hold an object, which the scene's start refuses)."""
+    from tableclean_suite.controllers.make import DEFAULT_LAYOUT
+
+    kwargs = dict(env_kwargs or {})
+    kwargs.setdefault("task", model.spec)
+    if not set(LAYOUT_ARGUMENTS) & set(kwargs):
+        kwargs.update(zip(("object_segment", "arm_segment"), DEFAULT_LAYOUT))
+    return kwargs
+
+
 class PhysicsStepEnv:
     """Skills in MuJoCo as a step environment for :func:`~tableclean_suite.learners.reference.train_run`.
 
@@ -174,11 +193,7 @@ class PhysicsStepEnv:
             raise ValueError(f"max_retries must be an integer >= 0, got {max_retries!r}")
         self.model = model if model is not None else TaskModel()
         check_physical_task(self.model)
-        kwargs = dict(env_kwargs or {})
-        kwargs.setdefault("task", self.model.spec)
-        if not {"object_segment", "arm_segment", "object_segments"} & set(kwargs):  # reset() stages each start
-            kwargs.update(object_segment=1, arm_segment=1)
-        self.env = env if env is not None else make_skill_env(**kwargs)
+        self.env = env if env is not None else make_skill_env(**staging_env_kwargs(self.model, env_kwargs))
         self.controller = SkillController(self.env, self.model, skill_configs=skill_configs)
         self.fault_policy = fault_policy
         self.max_retries = int(max_retries)

@@ -137,7 +137,7 @@ def test_composed_skill_config_type_and_checks():
     assert skill.DEFAULT_CONFIG == ComposedConfig(max_steps=300, palm_clearance=0.01).as_dict()
     with pytest.raises(ValueError, match="max_steps must be an int >= 1"):
         compose_skill("config_probe", rule, [grasp(lying_object())], max_steps=0)
-    with pytest.raises(KeyError, match=r"unknown config keys \['press_force'\]"):
+    with pytest.raises(KeyError, match=r"unknown config keys for skill 'config_probe': \['press_force'\]"):
         compose_skill("config_probe", rule, [grasp(lying_object())], config={"press_force": 8.0})
 
 
@@ -162,7 +162,8 @@ def test_a_skill_whose_config_lacks_a_primitives_settings_is_refused_when_it_sta
     ({"pick": {"grasp_slip_tolerance": -0.01}}, r"grasp_slip_tolerance must be a number > 0 \(m\), got -0\.01 "
                                                 r"\(PickConfig\)"),
     ({Action.CLEAN: {"wipe_overlap": 2.0}}, r"wipe_overlap must be a number in \[0, 1\]"),
-    ({"place": {"press_force": 8.0}}, r"robot 'ConfigTestArm3': keys \['press_force'\] for PlaceSkill are not keys"),
+    ({"place": {"press_force": 8.0}}, r"unknown config keys for PlaceSkill \(robot 'ConfigTestArm3'\): "
+                                      r"\['press_force'\]"),
 ])
 def test_robot_per_action_overrides_are_checked_against_the_skills_config(skills, message):
     with pytest.raises(ValueError, match=message):

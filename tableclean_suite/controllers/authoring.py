@@ -40,6 +40,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from tableclean_suite.controllers.clean import Wipe
+from tableclean_suite.controllers.config_check import checked_skill_config
 from tableclean_suite.controllers.configs import CleanConfig, ComposedConfig
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.primitives import SPONGE, Grasp, PrimitiveSkill, Reach, Release, object_body
@@ -207,7 +208,8 @@ def compose_skill(name: str, rule: Callable[[TaskState], tuple], steps: Sequence
     action is not registered yet.  Its phases are ``<KIND><i>_<phase>`` (e.g. ``GRASP1_DESCEND``).
     Its config: :class:`~.configs.ComposedConfig` (the grasp and release settings), or
     :class:`~.configs.CleanConfig` when a step wipes, with ``max_steps`` and ``config`` on top
-    (keys of that type only: ``KeyError``; values checked against its ranges: ``ValueError``).
+    (keys of that type only, values in its ranges: :class:`~.config_check.SkillConfigError`, a
+    ``KeyError`` and a ``ValueError``, naming the skill, the key and the allowed keys or range).
     """
     if not steps:
         raise ValueError(f"skill {name!r}: give at least one step (reach, grasp, release, wipe)")
@@ -220,11 +222,9 @@ def compose_skill(name: str, rule: Callable[[TaskState], tuple], steps: Sequence
         members += [prefix + phase for phase in step.phases]
     phase_enum = enum.Enum(f"{_camel(name)}Phase", [*members, "DONE"])
     config_type = CleanConfig if any(step.kind == "WIPE" for step in steps) else ComposedConfig
-    unknown = sorted(set(config or {}) - set(config_type.keys()))
-    if unknown:
-        raise KeyError(f"skill {name!r}: unknown config keys {unknown}")
-    # validated here (ValueError naming the field, the value and its range), not when the skill first runs
-    defaults = config_type(**{"max_steps": max_steps, **(config or {})}).as_dict()
+    # validated here (the check the skill's constructor runs), not when the skill first runs
+    defaults = checked_skill_config(f"skill {name!r}", config_type, config_type().as_dict(),
+                                    {"max_steps": max_steps, **(config or {})})[1].as_dict()
 
     def build(self, info: Info):
         ctx = Context(self.state)

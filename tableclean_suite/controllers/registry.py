@@ -67,29 +67,37 @@ def register_skill(action, cls: type[Skill], *, replace: bool = False, registry:
 
     A skill made by :func:`~tableclean_suite.controllers.authoring.compose_skill` carries its
     action's symbolic rule (``cls.rule``): it is registered with
-    :func:`~tableclean_suite.task.register_action` first when the action is unknown (or replaced
-    along with the skill when ``replace``).
+    :func:`~tableclean_suite.task.register_action` when the action is unknown (or replaced along
+    with the skill when ``replace``), once the checks below passed: a refused skill registers nothing.
 
     Raises ``TypeError`` if ``cls`` is not a Skill subclass, ``ValueError`` if the
     action is unknown, if ``cls.action`` names a different action, or if the
     action already has a skill and ``replace`` is False.  Returns ``cls``.
     """
     rule = getattr(cls, "rule", None)
-    if isinstance(rule, ActionRule) and isinstance(action, str) and rule.name == action.strip().lower():
-        known = rule.name in action_names()
-        if not known or (replace and get_action_rule(rule.name) is not rule):
-            register_action(rule, overwrite=known)
-    key = action_key(action)
+    carried = rule if isinstance(rule, ActionRule) and isinstance(action, str) and rule.name == action.strip().lower() \
+        else None
+
+    def key_of(named) -> str:  # the carried rule's action is a key before its rule is registered
+        if carried is not None and isinstance(named, str) and named.strip().lower() == carried.name:
+            return carried.name
+        return action_key(named)
+
+    key = key_of(action)
     if not (isinstance(cls, type) and issubclass(cls, Skill)):
         raise TypeError(f"skill for {_label(key)} must be a Skill subclass, got {cls!r}")
     declared = getattr(cls, "action", None)
-    if declared is not None and action_key(declared) != key:
-        raise ValueError(f"{cls.__name__} implements {_label(action_key(declared))}, not {_label(key)}")
+    if declared is not None and key_of(declared) != key:
+        raise ValueError(f"{cls.__name__} implements {_label(key_of(declared))}, not {_label(key)}")
     table = SKILL_REGISTRY if registry is None else registry
-    existing = {action_key(k): v for k, v in table.items()}
+    existing = {key_of(k): v for k, v in table.items()}
     if key in existing and existing[key] is not cls and not replace:
         raise ValueError(f"{_label(key)} already has skill {existing[key].__name__}; pass replace=True to override")
-    for old in [k for k in table if action_key(k) == key]:
+    if carried is not None:  # every check passed: a failed registration leaves no action behind
+        known = carried.name in action_names()
+        if not known or (replace and get_action_rule(carried.name) is not carried):
+            register_action(carried, overwrite=known)
+    for old in [k for k in table if key_of(k) == key]:
         del table[old]
     dict.__setitem__(table, key, cls) if isinstance(table, SkillTable) else table.__setitem__(key, cls)
     return cls

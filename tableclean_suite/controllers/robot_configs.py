@@ -11,6 +11,7 @@ under the caller's own ``skill_configs``; :func:`~.osc.skill_controller_config` 
 
 from __future__ import annotations
 
+from tableclean_suite.controllers.config_check import checked_skill_config
 from tableclean_suite.controllers.configs import SkillConfig
 from tableclean_suite.controllers.registry import SKILL_REGISTRY
 from tableclean_suite.controllers.skill import BASE_CONFIG, Skill
@@ -33,13 +34,8 @@ from tableclean_suite.environments.robot_registry import (  # noqa: F401  (the r
 
 def _check_action_overrides(robot: str, skill: type[Skill], overrides: dict) -> None:
     """Refuse the merged robot ``overrides`` (``"*"`` then per-action) for ``skill`` that it would refuse
-    when made: keys outside its ``DEFAULT_CONFIG``, or values outside its ``Config``'s ranges."""
-    unknown = sorted(set(overrides) - set(skill.DEFAULT_CONFIG))
-    if unknown:
-        raise ValueError(f"robot {robot!r}: keys {unknown} for {skill.__name__} are not keys of its config "
-                         f"(allowed: {sorted(skill.DEFAULT_CONFIG)})")
-    merged = {**skill.DEFAULT_CONFIG, **overrides}
-    skill.Config(**{key: merged[key] for key in skill.Config.keys() if key in merged})
+    when made (:func:`~.config_check.checked_skill_config`, the check its constructor runs)."""
+    checked_skill_config(f"{skill.__name__} (robot {robot!r})", skill.Config, skill.DEFAULT_CONFIG, overrides)
 
 
 def register_robot_config(config: RobotSkillConfig, *, replace: bool = False) -> RobotSkillConfig:
@@ -56,7 +52,7 @@ def register_robot_config(config: RobotSkillConfig, *, replace: bool = False) ->
             action; an :data:`ALL_SKILLS` key that is not a key of ``BASE_CONFIG`` or its value
             outside the range of :class:`~.configs.SkillConfig`'s field; per-action overrides for an
             action whose skill is registered that it would refuse (unknown keys, values outside its
-            ``Config``'s ranges); an OSC
+            ``Config``'s ranges: :class:`~.config_check.SkillConfigError`, a ``ValueError``); an OSC
             override of ``type``, ``input_type`` or ``input_ref_frame``.
     """
     if isinstance(config, RobotSkillConfig):

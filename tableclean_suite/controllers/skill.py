@@ -28,6 +28,7 @@ from typing import Any, ClassVar, Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
+from tableclean_suite.controllers.config_check import checked_skill_config
 from tableclean_suite.controllers.configs import SkillConfig
 from tableclean_suite.controllers.geometry import box_lowest_z, gripper_yaw, quat_to_matrix, wrap_angle
 from tableclean_suite.environments.object_geometry import world_highest_z, world_lowest_z
@@ -110,8 +111,9 @@ class Skill(abc.ABC):
     Args:
         env: anything with ``skill_info() -> dict`` (as :meth:`tableclean_suite.environments.TableClean.skill_info`),
             ``symbolic_state() -> TaskState`` and ``control_freq`` (Hz).
-        config: overrides of ``DEFAULT_CONFIG`` (unknown keys raise ``KeyError``; a value outside its
-            field's range in ``Config`` raises ``ValueError`` naming the field, the value and the range).
+        config: overrides of ``DEFAULT_CONFIG`` (an unknown key, or a value outside its field's range in
+            ``Config``, raises :class:`~.config_check.SkillConfigError`, a ``KeyError`` and a ``ValueError``,
+            naming the skill, the key and the allowed keys or range).
 
     Attributes:
         settings: the validated, frozen ``Config`` the skill runs with.
@@ -124,12 +126,8 @@ class Skill(abc.ABC):
     DEFAULT_CONFIG: ClassVar[dict[str, Any]] = BASE_CONFIG
 
     def __init__(self, env: SkillEnv, config: Mapping[str, Any] | None = None):
-        unknown = set(config or {}) - set(self.DEFAULT_CONFIG)
-        if unknown:
-            raise KeyError(f"unknown config keys for {type(self).__name__}: {sorted(unknown)}")
-        merged = {**self.DEFAULT_CONFIG, **(config or {})}
         # validated once; keys of a subclass's DEFAULT_CONFIG that its Config lacks pass through unchecked
-        self.settings = self.Config(**{key: merged[key] for key in self.Config.keys() if key in merged})
+        merged, self.settings = checked_skill_config(type(self).__name__, self.Config, self.DEFAULT_CONFIG, config)
         self.config = MappingProxyType(merged)
         self.env = env
         self.dt = 1.0 / float(env.control_freq)

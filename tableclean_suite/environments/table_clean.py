@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import enum
 from typing import Iterable, Mapping
 
 import mujoco
@@ -72,10 +73,20 @@ OBJECT_ON_TABLE_REWARD = 0.25
 SPONGE_RETURNED_REWARD = 0.5
 #: The wiping component spans [0, this] (the paper's two segments) whatever the number of segments.
 PAPER_REWARD_SEGMENTS = 2
+class _LayoutDefault(enum.Enum):
+    """:data:`FROM_SPEC`'s type: a sentinel compared by identity (a string spelled ``"from_spec"`` is a
+    layout value, not the default) and kept through pickling."""
+
+    FROM_SPEC = "from_spec"
+
+    def __repr__(self) -> str:
+        return self.name
+
+
 #: Default of the layout arguments: with ``task=`` given, the layout comes from the spec's start
 #: (``start_state`` for ``fixed``, a fresh draw at each reset for ``uniform_unclean``); without it,
 #: each is drawn at each reset (v3's default).
-FROM_SPEC = "from_spec"
+FROM_SPEC = _LayoutDefault.FROM_SPEC
 
 
 def _segment_numbers(n_segments: int) -> str:

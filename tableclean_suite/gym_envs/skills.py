@@ -118,13 +118,9 @@ class TableCleanSkillsEnv(TableCleanBase):
         if len(frame_size) != 2 or any(int(n) != n or n < 16 for n in frame_size):
             raise ValueError(f"frame_size must be (height, width) with both >= 16, got {frame_size!r}")
         from tableclean_suite.controllers import SkillController, make_skill_env
-        from tableclean_suite.controllers.make import DEFAULT_LAYOUT
+        from tableclean_suite.physics_backend import staging_env_kwargs
 
-        kwargs = dict(env_kwargs or {})
-        kwargs.setdefault("task", self.model.spec)
-        if not {"object_segment", "arm_segment", "object_segments"} & set(kwargs):
-            # every reset stages the start itself (a held start too, which the scene's own start refuses)
-            kwargs.update(zip(("object_segment", "arm_segment"), DEFAULT_LAYOUT))
+        kwargs = staging_env_kwargs(self.model, env_kwargs)  # every reset stages the start itself
         if render_mode == "rgb_array":
             kwargs.setdefault("has_offscreen_renderer", True)
         self.camera = camera

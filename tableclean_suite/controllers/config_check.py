@@ -1,0 +1,51 @@
+"""The one check of a skill's settings: the keys it knows, the ranges of its ``Config`` (a leaf
+module: it imports nothing of the package, so :mod:`.skill`, :mod:`.robot_configs` and
+:mod:`.authoring` all call it).
+
+:func:`checked_skill_config` is what a skill's constructor, a robot's per-action overrides
+(:func:`~.robot_configs.register_robot_config`) and :func:`~.authoring.compose_skill` run, so
+each refuses the same settings with the same :class:`SkillConfigError`.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+
+class SkillConfigError(KeyError, ValueError):
+    """Settings a skill refuses: a key it does not know, or a value outside its ``Config``'s range.
+
+    A ``KeyError`` and a ``ValueError`` both (callers caught one or the other before there was one
+    check); the message is one line naming the skill, the key and the allowed keys or range.
+    """
+
+    def __str__(self) -> str:  # a KeyError would quote the message
+        return str(self.args[0]) if self.args else ""
+
+
+def checked_skill_config(owner: str, config_type, defaults: Mapping[str, Any],
+                         overrides: Mapping[str, Any] | None = None):
+    """``({**defaults, **overrides}, the config_type instance of them)``, both checked.
+
+    Args:
+        owner: the skill as the message names it (e.g. ``"PickSkill"``, ``"skill 'transfer'"``).
+        config_type: the skill's :class:`~.configs.SkillConfig` subclass (its ``keys()`` and ranges).
+        defaults: the skill's settings before ``overrides`` (its ``DEFAULT_CONFIG``); their keys
+            are the keys allowed (keys ``config_type`` lacks pass through unchecked).
+        overrides: the values to put on top.
+
+    Raises:
+        SkillConfigError: a key of ``overrides`` not in ``defaults`` (naming the keys and the allowed
+            ones), or a merged value outside ``config_type``'s range (naming the field, the value
+            and the range).
+    """
+    overrides = dict(overrides or {})
+    unknown = sorted(set(overrides) - set(defaults))
+    if unknown:
+        raise SkillConfigError(f"unknown config keys for {owner}: {unknown} (allowed: {sorted(defaults)})")
+    merged = {**defaults, **overrides}
+    try:
+        settings = config_type(**{key: merged[key] for key in config_type.keys() if key in merged})
+    except ValueError as error:
+        raise SkillConfigError(f"{owner}: {error}") from None
+    return merged, settings
