@@ -3,9 +3,10 @@ cannot fit.
 
 Every large allocation of the symbolic path is sized by the spec (S state codes, A actions) and
 the budget (R runs, T iterations): the model's transition arrays and the table the learners step
-(a few int64/float64 per (state, action) pair), the Q-tables (R x S x A float64), the records
-(R x T: a float64 reward and four integer codes per iteration) and a run's training time
-(R x T steps).  :func:`require_memory` compares an estimate with the memory the operating
+(a few int64/float64 per (state, action) pair), the Q-tables (R x S x A float64, as many copies as
+the learner and a checkpoint keep: :func:`q_table_copies`), each running run's working arrays
+(:func:`run_working_bytes`), the records (R x T: a float64 reward and four integer codes per
+iteration) and a run's training time (R x T steps at the engine's rate).  :func:`require_memory` compares an estimate with the memory the operating
 system reports as available (:mod:`psutil`) and raises :class:`InsufficientMemoryError`, whose
 one-line message names the estimate, its parts, what is available and the override.
 :func:`require_time` does the same for an estimated wall time longer than
