@@ -5,6 +5,8 @@
 - trajectories: the optimal plan from each start layout ends in the same symbolic states on
   both paths, with grip-site positions per control step within :data:`TRAJECTORY_TOLERANCE`;
 - the native loop (MuJoCo's C API from numba) and the Python loop give the same states;
+- the compiled phase loop (fixed-waypoint phases in one compiled call) and the per-step path give
+  bit-identical episodes: control steps per phase, states, logged per-step states, clock;
 - switching from the fast path back to ``env.step`` continues as robosuite would;
 - envs whose controllers the fast path does not reproduce are refused;
 - robosuite / MuJoCo versions outside the adapter's checked set refuse the stepper (naming them),
@@ -24,7 +26,9 @@ from scipy.spatial.transform import Rotation
 
 from tableclean_suite.controllers import SkillController, make_skill_env
 from tableclean_suite.controllers.fast_control import (
+    LOG_FIELDS,
     ROTVEC_SMALL_ANGLE,
+    ControlStepLog,
     FastSkillStepper,
     fast_stepper_of,
     native_available,
@@ -280,3 +284,46 @@ def test_goal_rotation_is_scipys_bit_for_bit():
     for rotvec in rotvecs:
         rotvec_matrix(rotvec, out)
         np.testing.assert_array_equal(out, Rotation.from_rotvec(rotvec).as_matrix())
+
+
+def _episode(phase_loop: bool) -> dict:
+    """An optimal episode from the paper's layout on the fast path, with or without the compiled phase loop."""
+    env = make_skill_env(1, 1, seed=1, hard_reset=False)
+    try:
+        env.reset()
+        stepper = fast_stepper_of(env)
+        stepper.phase_loop = phase_loop
+        stepper.state_log = ControlStepLog(stepper)
+        in_loop = []
+        run_phase = stepper.run_phase
+        stepper.run_phase = lambda *args: in_loop.append(run_phase(*args)) or in_loop[-1]
+        results = SkillController(env, MODEL).execute_plan(MODEL.shortest_plan(env.symbolic_state()))
+        data = robosuite_adapter.mj_data(env.sim)
+        gripper = env.robots[0].gripper[env.robots[0].arms[0]]
+        return dict(
+            states=[r.state_after for r in results], phase_steps=[r.phase_steps for r in results],
+            steps=sum(r.steps for r in results), in_loop=sum(in_loop),
+            final={f: getattr(data, f).copy() for f in LOG_FIELDS}, log=stepper.state_log,
+            clock=(env.timestep, env.cur_time), gripper=np.array(gripper.current_action),
+        )
+    finally:
+        env.close()
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not native_available(), reason="MuJoCo's shared library not found")
+def test_phase_loop_matches_the_per_step_path():
+    per_step, compiled = _episode(phase_loop=False), _episode(phase_loop=True)
+    assert per_step["in_loop"] == 0
+    assert compiled["in_loop"] > 0  # the fixed-waypoint phases (close, release) ran in the compiled loop
+    print(f"{compiled['in_loop']} of {compiled['steps']} control steps in the compiled phase loop")
+    assert compiled["states"] == per_step["states"] and compiled["states"][-1].is_terminal
+    assert compiled["phase_steps"] == per_step["phase_steps"]
+    assert compiled["clock"] == per_step["clock"]
+    np.testing.assert_array_equal(compiled["gripper"], per_step["gripper"])
+    for field in LOG_FIELDS:  # bit for bit, at the end and at the start of every control step
+        np.testing.assert_array_equal(compiled["final"][field], per_step["final"][field])
+    assert compiled["log"].rows == per_step["log"].rows == compiled["steps"]
+    for mine, theirs in zip(compiled["log"].states(), per_step["log"].states()):
+        for field in LOG_FIELDS:
+            np.testing.assert_array_equal(mine[field], theirs[field])

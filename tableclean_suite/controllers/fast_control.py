@@ -55,10 +55,14 @@ from robosuite.controllers.parts.arm.osc import OperationalSpaceController
 from robosuite.controllers.parts.gripper.simple_grip import SimpleGripController
 from robosuite.utils.control_utils import nullspace_torques, opspace_matrices, orientation_error
 
+from robosuite.models.grippers.panda_gripper import PandaGripper
+
 from tableclean_suite.controllers.osc import ACTION_DIM
+from tableclean_suite.controllers.setpoint import GRIPPER_INDEX, advance_command
 from tableclean_suite.environments.table_clean import PRESS_PREFILTER_SLACK
 from tableclean_suite.robosuite_adapter import (
     actuator_indexes,
+    gripper_joint_pos_indexes,
     advance_clock,
     c_address,
     controller_needs_update,
@@ -83,6 +87,17 @@ CHOLESKY_PIVOT_RTOL = 1e-10
 MARKER_REACH_SLACK = 1e-9
 #: Rotation angle (rad) under which :func:`rotvec_matrix` uses the Taylor series of sin(a/2)/a (as scipy).
 ROTVEC_SMALL_ANGLE = 1e-3
+#: Relative slack of the phase loop's "this step cannot complete the phase" test on the position error: the
+#: skill's own check (``np.linalg.norm``) may round differently, so the loop stops a little early and the skill decides.
+POSITION_CHECK_RTOL = 1e-9
+#: The phase loop's stop reasons (:func:`phase_loop`): a step whose completion check might pass (left to
+#: the skill), the skill's step budget, the caller's step limit, a substep handed to the env's wiping check.
+PHASE_MAYBE_COMPLETE, PHASE_BUDGET, PHASE_LIMIT, PHASE_WIPE = 0, 1, 2, 3
+#: Most gripper control steps the phase loop tabulates ahead (robosuite's rate-limited gripper command
+#: reaches its fixed point within 1 / 0.2 = 5 steps per unit of command change, 10 at most for the Panda).
+GRIP_TABLE_ROWS = 32
+#: mjData fields :class:`ControlStepLog` records at the start of every control step (enough to replay it).
+LOG_FIELDS = ("qpos", "qvel", "act", "ctrl", "qacc_warmstart")
 
 
 @numba.njit(cache=True)
@@ -406,6 +421,128 @@ def box_lowest_z(pos: np.ndarray, mat: np.ndarray, half_size: np.ndarray) -> flo
     return pos[2] - (abs(mat[6]) * half_size[0] + abs(mat[7]) * half_size[1] + abs(mat[8]) * half_size[2])
 
 
+@numba.njit(cache=True)
+def phase_loop(functions, model, data, substeps, buffers, live, gains, initial_joint, site_id, indexes, actuators,
+               limits, uncouple, sponge, wipe_z, markers, present, reach, eef_pos, finger_index, setpoint, floats,
+               ints, last_fingers, target, grip_table, grip_row, action, goal_pos, goal_ori, log_live, log, log_row,
+               limit):
+    """Control steps of a skill phase whose waypoint is fixed, as ``Skill.step`` + ``FastSkillStepper.step``.
+
+    Per control step: stop if the step budget is spent or if the phase's completion check might
+    pass (position within ``tolerance`` (+ :data:`POSITION_CHECK_RTOL`), at least ``min_steps`` in
+    the phase, fingers settled by ``gripper_still`` or the timeout); else record the finger
+    positions, advance the setpoint (:func:`~tableclean_suite.controllers.setpoint.advance_command`),
+    take the goal of the command and the gripper control of row ``grip_row + k`` of
+    ``grip_table`` (its last row beyond), log the state, run the substeps (:func:`native_substeps`).
+
+    Args:
+        functions .. reach: as :func:`native_substeps` (``substeps``: per control step).
+        eef_pos: (3,) live grip-site position (m, the skill's ``eef_pos``); ``finger_index``: (F,) qpos
+            indexes of the finger joints.
+        setpoint: (3,) position setpoint (m), advanced in place.
+        floats: (7,) [yaw setpoint (rad, updated), target yaw (rad), max move (m/step), max turn
+            (rad/step), gripper command, tolerance (m), gripper_still]; ``ints``: (6,) [steps (updated),
+            max steps, steps in the phase (updated), min_steps, gripper timeout (-1: none), xy_only].
+        last_fingers: (F,) finger positions at the last step (updated); ``target``: (3,) waypoint (m).
+        grip_table: (R, G) gripper actuator controls per step; ``grip_row``: row of this call's first step.
+        action: (7,) output, the last command; ``goal_pos`` (3,), ``goal_ori`` (3, 3): its goal.
+        log_live: mjData views of :data:`LOG_FIELDS`; ``log``: (rows, size) arrays receiving them at
+            the start of each step from row ``log_row`` (no logging when they have no rows).
+        limit: most control steps to run.
+
+    Returns:
+        (stop reason, control steps started, substep): with :data:`PHASE_WIPE` the last step
+        stopped after substep's control (the caller runs the env's wiping check, ``mj_step2`` and
+        the remaining substeps); otherwise every started step is complete.
+    """
+    yaw_setpoint, yaw, max_move, max_turn = floats[0], floats[1], floats[2], floats[3]
+    gripper, tolerance, still = floats[4], floats[5], floats[6]
+    steps, max_steps, phase_steps, min_steps, timeout, xy_only = ints[0], ints[1], ints[2], ints[3], ints[4], ints[5]
+    qpos = live[1]
+    logging = log[0].shape[0] > 0
+    ran = 0
+    status = PHASE_LIMIT
+    substep = 0
+    while ran < limit:
+        if steps >= max_steps:
+            status = PHASE_BUDGET
+            break
+        motion = 0.0
+        for i in range(finger_index.size):
+            motion = max(motion, abs(qpos[finger_index[i]] - last_fingers[i]))
+        settled = motion <= still or (timeout >= 0 and phase_steps >= timeout)
+        if settled and phase_steps >= min_steps:
+            e0, e1, e2 = eef_pos[0] - target[0], eef_pos[1] - target[1], eef_pos[2] - target[2]
+            distance = np.sqrt(e0 * e0 + e1 * e1 + (0.0 if xy_only else e2 * e2))
+            if not distance * (1.0 - POSITION_CHECK_RTOL) > tolerance:
+                status = PHASE_MAYBE_COMPLETE
+                break
+        for i in range(finger_index.size):
+            last_fingers[i] = qpos[finger_index[i]]
+        yaw_setpoint = advance_command(setpoint, yaw_setpoint, yaw, target, max_move, max_turn, gripper, action)
+        steps += 1
+        phase_steps += 1
+        goal_pos[:] = action[0:3]
+        rotvec_matrix(action[3:6], goal_ori)
+        grip = grip_table[min(grip_row + ran, grip_table.shape[0] - 1)]
+        if logging:
+            for f in range(len(log_live)):
+                log[f][log_row + ran, :] = log_live[f]
+        done = native_substeps(functions, model, data, 0, substeps, buffers, live, goal_pos, goal_ori, gains,
+                               initial_joint, site_id, indexes, actuators, limits, uncouple, grip, sponge, wipe_z,
+                               markers, present, reach)
+        ran += 1
+        if done < 0:
+            status = PHASE_WIPE
+            substep = -done - 1
+            break
+    floats[0] = yaw_setpoint
+    ints[0] = steps
+    ints[2] = phase_steps
+    return status, ran, substep
+
+
+class ControlStepLog:
+    """The simulation state (mjData's :data:`LOG_FIELDS`) at the start of every control step a stepper runs.
+
+    Give one to a :class:`FastSkillStepper` (``stepper.state_log = ControlStepLog(stepper)``): the
+    per-step path and the compiled phase loop both append a row per control step.
+    """
+
+    def __init__(self, stepper: "FastSkillStepper"):
+        self._data = stepper.data
+        self.rows = 0
+        self._arrays = tuple(np.empty((0, getattr(self._data, f).size)) for f in LOG_FIELDS)
+
+    def reserve(self, rows: int) -> tuple[np.ndarray, ...]:
+        """The (capacity, size) arrays, grown to hold at least ``rows`` more rows."""
+        need = self.rows + rows
+        if need > self._arrays[0].shape[0]:
+            capacity = max(need, 2 * self._arrays[0].shape[0])
+            grown = []
+            for old in self._arrays:
+                new = np.empty((capacity, old.shape[1]))
+                new[: self.rows] = old[: self.rows]
+                grown.append(new)
+            self._arrays = tuple(grown)
+        return self._arrays
+
+    def live(self) -> tuple[np.ndarray, ...]:
+        """Views of the logged mjData fields."""
+        return tuple(getattr(self._data, f) for f in LOG_FIELDS)
+
+    def append(self) -> None:
+        """Record the current state as the next row."""
+        arrays = self.reserve(1)
+        for array, value in zip(arrays, self.live()):
+            array[self.rows] = value
+        self.rows += 1
+
+    def states(self) -> list[dict[str, np.ndarray]]:
+        """One dict per logged control step: field name -> the field's values (copies)."""
+        return [{f: array[row].copy() for f, array in zip(LOG_FIELDS, self._arrays)} for row in range(self.rows)]
+
+
 def native_available() -> bool:
     """Whether the native substep loop (MuJoCo's C API called from numba) can be used here."""
     try:
@@ -461,11 +598,16 @@ class FastSkillStepper:
     reset); a hard reset (new simulation) is noticed and the cached ids and views are rebuilt.
     """
 
-    def __init__(self, env, native: bool | None = None):
+    def __init__(self, env, native: bool | None = None, phase_loop: bool = True):
         require_checked_versions()
         _check_supported(env)
         self.env = env
         self.native = native_available() if native is None else bool(native)
+        #: whether :meth:`run_phase` runs a fixed-waypoint phase in the compiled :func:`phase_loop` (needs
+        #: ``native``); ``False`` leaves every control step to the skill and :meth:`step` (same results)
+        self.phase_loop = bool(phase_loop)
+        #: a :class:`ControlStepLog` receiving the state at the start of every control step, or None
+        self.state_log: ControlStepLog | None = None
         self._functions = mujoco_function_addresses() if self.native else None
         self._sim = None
         self._bind()
@@ -495,6 +637,8 @@ class FastSkillStepper:
         self.jacr = np.zeros((3, nv))
         self.torques = np.zeros(len(self.arm_actuators))
         self.substeps = int(env.control_timestep / env.model_timestep)
+        self.eef_site_id = robot.eef_site_id[arm]
+        self.finger_index = np.asarray(gripper_joint_pos_indexes(robot, arm), dtype=np.int64)
         self._bind_native()
         self._sim = sim
 
@@ -516,6 +660,7 @@ class FastSkillStepper:
             data.ctrl, data.xpos[env.sponge_body_id], data.xmat[env.sponge_body_id],
         )
         self._actuators = (self.arm_actuators, self.grip_actuators)
+        self._addresses = (c_address(self.model), c_address(self.data)) if self.native else None
         self._sponge_half = np.asarray(env.task_config["sponge_half_size"], dtype=float)
         # the env's own early exit in record_wiping_substep, plus a margin: below this it must decide
         contact = max(float(env.task_config["wipe_contact_dist"]), 0.0)
@@ -546,11 +691,11 @@ class FastSkillStepper:
         if controller.use_action_scaling:
             low, high = controller.actuator_min, controller.actuator_max
             desired = 0.5 * (high + low) + 0.5 * (high - low) * desired
-        return np.clip(desired, self.grip_limits[0], self.grip_limits[1])
+        return np.minimum(np.maximum(desired, self.grip_limits[0]), self.grip_limits[1])  # np.clip, cheaper
 
     def gains(self) -> np.ndarray:
         """(2, 6) rows kp (1/s^2) and kd (1/s) of robosuite's OSC, read each control step."""
-        return np.stack([self.osc.kp, self.osc.kd]).astype(float)
+        return np.array((self.osc.kp, self.osc.kd), dtype=float)
 
     def arm_torques(self, goal_pos: np.ndarray, goal_ori: np.ndarray, gains: np.ndarray | None = None) -> np.ndarray:
         """OSC torques (n,) N m, unclipped, for the current simulation data (after ``mj_step1`` or ``mj_forward``).
@@ -605,6 +750,8 @@ class FastSkillStepper:
         else:
             self._find_controllers()
         env.timestep += 1
+        if self.state_log is not None:
+            self.state_log.append()
         goal_pos, goal_ori = self.goal(action)
         grip_ctrl = self.gripper_ctrl(action)
         gains = self.gains()
@@ -618,6 +765,95 @@ class FastSkillStepper:
             for substep in range(first, self.substeps):
                 self._python_substep(substep, goal_pos, goal_ori, gains, grip_ctrl)
         self._finish_step(goal_pos, goal_ori)
+
+    # -- a fixed-waypoint phase in compiled code ------------------------------------------------
+    def run_phase(self, setpoint: np.ndarray, floats: np.ndarray, ints: np.ndarray, last_fingers: np.ndarray,
+                  target: np.ndarray) -> int:
+        """Run control steps of a skill phase with a fixed waypoint in :func:`phase_loop`; returns how many ran.
+
+        The arguments are the skill's state (:meth:`~tableclean_suite.controllers.skill.Skill.run_fixed_phase`
+        packs them; see :func:`phase_loop`), updated in place.  Returns to Python only at the phase's
+        boundaries (a step whose completion check might pass, the budget, the env's horizon) and for
+        substeps the env's wiping check must see, after which the loop resumes.  Runs nothing (returns 0)
+        without the native loop, with :attr:`phase_loop` off, for a gripper other than the Panda's
+        (whose rate-limited command it tabulates), on the first step after a reset (robosuite's cached
+        arm state, see :meth:`cached_arm_torques`) or when the episode is done.
+        """
+        env = self.env
+        if not (self.native and self.phase_loop) or env.done:
+            return 0
+        if env.sim is not self._sim:
+            self._bind()
+        else:
+            self._find_controllers()
+        if type(self.gripper).format_action is not PandaGripper.format_action or not controller_needs_update(self.osc):
+            return 0
+        limit = np.iinfo(np.int64).max if env.ignore_done else env.horizon - env.timestep
+        table, states, settled = self._grip_table(float(floats[4]))
+        if not settled:
+            limit = min(limit, len(table))
+        gains = self.gains()
+        initial_joint = np.asarray(self.osc.initial_joint, dtype=float)
+        markers = np.ascontiguousarray(env._marker_xyz, dtype=float)
+        model, data = self._addresses
+        action, goal_pos, goal_ori = np.empty(ACTION_DIM), np.empty(3), np.empty((3, 3))
+        log = self.state_log
+        no_log = tuple(np.empty((0, getattr(self.data, f).size)) for f in LOG_FIELDS)
+        live_log = tuple(getattr(self.data, f) for f in LOG_FIELDS)
+        total = 0
+        while total < limit:
+            present = np.ascontiguousarray(env._marker_present())  # changes only in the env's wiping check
+            arrays = no_log if log is None else log.reserve(min(limit - total, int(ints[1] - ints[0])))
+            status, ran, substep = phase_loop(
+                self._functions, model, data, self.substeps, self._buffers, self._live, gains, initial_joint,
+                self.site_id, self.indexes, self._actuators, self.arm_limits, bool(self.osc.uncoupling),
+                self._sponge_half, self._wipe_z, markers, present, self._marker_reach,
+                self.data.site_xpos[self.eef_site_id], self.finger_index, setpoint, floats, ints, last_fingers,
+                target, table, total, action, goal_pos, goal_ori, live_log, arrays, 0 if log is None else log.rows,
+                limit - total,
+            )
+            if log is not None:
+                log.rows += ran
+            if status == PHASE_WIPE:  # finish that step: the env's wiping check, mj_step2, the other substeps
+                env.record_wiping_substep()
+                mujoco.mj_step2(self.model, self.data)
+                self._native_substeps(substep + 1, goal_pos, goal_ori, gains, table[min(total + ran - 1, len(table) - 1)])
+            for _ in range(ran):
+                env.timestep += 1
+                advance_clock(env, env.control_timestep)
+            env.show_dirt()
+            total += ran
+            if status != PHASE_WIPE:
+                break
+        if total:
+            current_action, goal_qvel = states[min(total, len(states)) - 1]
+            self.gripper.current_action = current_action.copy()
+            self.grip_controller.goal_qvel = goal_qvel.copy()
+            env.done = (env.timestep >= env.horizon) and not env.ignore_done
+            hand_back_controller_state(self.osc, self.grip_controller, goal_pos, goal_ori, self.torques)
+        return total
+
+    def _grip_table(self, command: float) -> tuple[np.ndarray, list, bool]:
+        """Gripper actuator controls (rows, G) of the next control steps under the constant gripper ``command``.
+
+        Runs robosuite's own gripper code (:meth:`gripper_ctrl`) ahead, then restores the gripper's
+        state.  Returns (rows, the gripper's (current_action, goal_qvel) after each row, settled):
+        ``settled`` when the last row repeats forever (the rate-limited command reached its fixed
+        point), else the table covers only its :data:`GRIP_TABLE_ROWS` steps.
+        """
+        gripper, controller = self.gripper, self.grip_controller
+        saved = (np.array(gripper.current_action, dtype=float), controller.goal_qvel)
+        action = np.zeros(ACTION_DIM)
+        action[GRIPPER_INDEX] = command
+        rows, states, settled = [], [], False
+        for _ in range(GRIP_TABLE_ROWS):
+            rows.append(self.gripper_ctrl(action))
+            states.append((np.array(gripper.current_action, dtype=float), np.array(controller.goal_qvel, dtype=float)))
+            if len(rows) > 1 and np.array_equal(rows[-1], rows[-2]) and np.array_equal(states[-1][0], states[-2][0]):
+                settled = True
+                break
+        gripper.current_action, controller.goal_qvel = saved
+        return np.ascontiguousarray(rows, dtype=float), states, settled
 
     def _python_substep(self, substep: int, goal_pos, goal_ori, gains, grip_ctrl, cached: bool = False) -> None:
         """One physics substep through the mujoco bindings: step1, control, wiping check, step2."""
@@ -636,10 +872,11 @@ class FastSkillStepper:
         initial_joint = np.asarray(osc.initial_joint, dtype=float)
         done = first
         markers = np.ascontiguousarray(self.env._marker_xyz, dtype=float)
+        model, data = self._addresses
         while done < self.substeps:
             present = np.ascontiguousarray(self.env._marker_present())  # changes only in the env's wiping check
             done = native_substeps(
-                self._functions, c_address(self.model), c_address(self.data), done, self.substeps, self._buffers, self._live,
+                self._functions, model, data, done, self.substeps, self._buffers, self._live,
                 goal_pos, goal_ori, gains, initial_joint, self.site_id, self.indexes, self._actuators,
                 self.arm_limits, bool(osc.uncoupling), grip_ctrl, self._sponge_half, self._wipe_z,
                 markers, present, self._marker_reach,

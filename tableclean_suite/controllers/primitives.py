@@ -231,7 +231,7 @@ class Grasp(Primitive):
             grasp = self.grasp_target(skill, info)
             return Waypoint(grasp, GRIPPER_OPEN, tol, speed=skill.config["descend_speed"])
         if phase == "CLOSE":
-            return Waypoint(skill.setpoint, GRIPPER_CLOSE, np.inf, min_steps=skill.config["close_min_steps"])
+            return Waypoint(skill.setpoint, GRIPPER_CLOSE, np.inf, min_steps=skill.config["close_min_steps"], fixed=True)
         # straight up from where the grasp closed: a carried body hanging off-centre would otherwise move
         # the target with every step the arm makes towards it (measured on UR5e and Kinova3: the lift
         # chased the body out to the arm's reach limit and ran out of budget)
@@ -334,7 +334,7 @@ class Release(Primitive):
             z = float(self.rest_z(skill, info)) + skill.config["place_clearance"] + self.hold_offset_z
             return Waypoint(np.array([*self.xy, z]), GRIPPER_CLOSE, tol, speed=skill.config["descend_speed"])
         if phase == "RELEASE":
-            return Waypoint(skill.setpoint, GRIPPER_OPEN, np.inf, min_steps=skill.config["release_min_steps"])
+            return Waypoint(skill.setpoint, GRIPPER_OPEN, np.inf, min_steps=skill.config["release_min_steps"], fixed=True)
         return Waypoint(skill.hover_point(info, self.xy), GRIPPER_OPEN, tol)
 
     def ready(self, skill, info, phase):

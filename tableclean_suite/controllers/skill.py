@@ -22,6 +22,8 @@ from __future__ import annotations
 import abc
 import collections
 import enum
+import functools
+import math
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, ClassVar, Mapping, Protocol, runtime_checkable
@@ -33,7 +35,8 @@ from tableclean_suite.controllers.configs import SkillConfig
 from tableclean_suite.controllers.geometry import box_lowest_z, gripper_yaw, quat_to_matrix, wrap_angle
 from tableclean_suite.environments.object_geometry import world_highest_z, world_lowest_z
 from tableclean_suite.environments.objects import APPROACH_CLEARANCE
-from tableclean_suite.controllers.osc import compose_action, down_rotvec
+from tableclean_suite.controllers.osc import ACTION_DIM
+from tableclean_suite.controllers.setpoint import advance_command
 from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
 
 #: The dict form of :class:`~.configs.SkillConfig`'s defaults: the settings every skill understands
@@ -54,6 +57,12 @@ def object_heights(info: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
         tops.append(world_highest_z(shape, pos, rot))
         bottoms.append(world_lowest_z(shape, pos, rot))
     return np.asarray(tops), np.asarray(bottoms)
+
+
+@functools.lru_cache(maxsize=None)
+def _last_member(phases: type[enum.Enum]) -> enum.Enum:
+    """The last member of the enum ``phases`` (asked every control step: cached per enum)."""
+    return list(phases)[-1]
 
 
 @runtime_checkable
@@ -95,6 +104,9 @@ class Waypoint:
             moves whose z lies below the table surface and is never reached).
         min_steps: control steps to spend in the phase at least (e.g. to let a grasp tighten).
         speed: m/s cap of the setpoint's speed towards ``pos``; ``None``: the skill's ``speed``.
+        fixed: the primitive promises that this waypoint stays the same until the phase ends and that
+            its ``update()`` changes nothing meanwhile, so a compiled loop may run the phase's control
+            steps without asking again (:meth:`Skill.run_fixed_phase`); the completion check stays exact.
     """
 
     pos: np.ndarray
@@ -103,6 +115,7 @@ class Waypoint:
     xy_only: bool = False
     min_steps: int = 0
     speed: float | None = None
+    fixed: bool = False
 
 
 class Skill(abc.ABC):
@@ -141,6 +154,7 @@ class Skill(abc.ABC):
         self.phase_steps: dict[str, int] = {}
         self._setpoint = np.zeros(3)
         self._last_fingers: np.ndarray | None = None
+        self.fixed_waypoint: Waypoint | None = None  # the last step's waypoint when fixed (see run_fixed_phase)
         window = self.config["gripper_window"]
         self._finger_history: collections.deque = collections.deque(maxlen=2 * int(window or 0))
 
@@ -180,7 +194,7 @@ class Skill(abc.ABC):
     @property
     def final_phase(self) -> enum.Enum:
         """The phase that ends the skill (the last member of ``Phase``)."""
-        return list(self.Phase)[-1]
+        return _last_member(self.Phase)
 
     @property
     def done(self) -> bool:
@@ -215,15 +229,17 @@ class Skill(abc.ABC):
     def step(self) -> np.ndarray | None:
         """One control step: update the phase from the achieved pose, return the env action (7,).
 
-        Returns ``None`` once the skill is done (finished, failed or out of budget).
+        Returns ``None`` once the skill is done (finished, failed or out of budget).  Afterwards
+        :attr:`fixed_waypoint` is the step's waypoint when it is ``fixed`` (else ``None``).
         """
+        self.fixed_waypoint = None
         if self.done:
             return None
         if self.steps >= self.max_steps:
             self.failure = f"step budget of {self.max_steps} exhausted in phase {self.phase.name}"
             return None
         info = self.env.skill_info()
-        fingers = np.asarray(info["gripper_qpos"], dtype=float)
+        fingers = np.array(info["gripper_qpos"], dtype=float)
         finger_motion = np.max(np.abs(fingers - self._last_fingers))
         self._last_fingers = fingers
         if self._finger_history.maxlen:
@@ -240,19 +256,54 @@ class Skill(abc.ABC):
         except SkillFailure as failure:
             self.failure = f"{self.phase.name}: {failure}"
             return None
-        self._advance_setpoint(target)
+        action = self._advance_setpoint(target)
         self.steps += 1
         self._phase_steps += 1
-        self.phase_steps[self.phase.name] = self.phase_steps.get(self.phase.name, 0) + 1
-        return compose_action(self._setpoint, down_rotvec(self._yaw_setpoint), target.gripper)
+        name = self.phase.name
+        self.phase_steps[name] = self.phase_steps.get(name, 0) + 1
+        if target.fixed:
+            self.fixed_waypoint = target
+        return action
+
+    def run_fixed_phase(self, stepper) -> int:
+        """Hand the current phase's next control steps to ``stepper``'s compiled phase loop; returns how many ran.
+
+        Only after a :meth:`step` whose waypoint was ``fixed`` (:attr:`fixed_waypoint`) and without the
+        windowed gripper rule (``gripper_window``); otherwise runs nothing.  ``stepper`` is a
+        :class:`~tableclean_suite.controllers.fast_control.FastSkillStepper`: it runs control steps
+        exactly as :meth:`step` followed by ``stepper.step`` would, stopping before any step whose
+        completion check might pass (that step is left to :meth:`step`), at the step budget, and
+        at the env's horizon.
+        """
+        target = self.fixed_waypoint
+        self.fixed_waypoint = None
+        if target is None or self._finger_history.maxlen:
+            return 0
+        speed = self.config["speed"] if target.speed is None else target.speed
+        timeout = self.config["gripper_timeout"]
+        floats = np.array([self._yaw_setpoint, self.yaw, speed * self.dt, self.config["yaw_rate"] * self.dt,
+                           target.gripper, target.tolerance, self.config["gripper_still"]], dtype=float)
+        ints = np.array([self.steps, self.max_steps, self._phase_steps, target.min_steps,
+                         -1 if timeout is None else timeout, target.xy_only], dtype=np.int64)
+        ran = stepper.run_phase(self._setpoint, floats, ints, self._last_fingers,
+                               np.ascontiguousarray(target.pos, dtype=float))
+        if ran:
+            self._yaw_setpoint = float(floats[0])
+            self.steps += ran
+            self._phase_steps += ran
+            name = self.phase.name
+            self.phase_steps[name] = self.phase_steps.get(name, 0) + ran
+        return ran
 
     def _phase_complete(self, target: Waypoint, info: Mapping[str, Any], finger_motion: float) -> bool:
+        """Whether the phase of ``target`` is done: position reached, at least ``min_steps`` in the phase,
+        fingers settled and the skill's :meth:`phase_ready` (asked last: it may read contacts)."""
         error = np.asarray(info["eef_pos"], dtype=float) - target.pos
         if target.xy_only:
             error = error[:2]
-        reached = float(np.linalg.norm(error)) <= target.tolerance
-        settled = self.gripper_settled(finger_motion) and self._phase_steps >= target.min_steps
-        return reached and settled and self.phase_ready(info)
+        if not (self._phase_steps >= target.min_steps and math.sqrt(error.dot(error)) <= target.tolerance):
+            return False
+        return self.gripper_settled(finger_motion) and self.phase_ready(info)
 
     def gripper_settled(self, finger_motion: float) -> bool:
         """Whether the fingers have settled, by any of three rules (per-robot settings in the config).
@@ -285,17 +336,18 @@ class Skill(abc.ABC):
     def _yaw_reached(self, info: Mapping[str, Any]) -> bool:
         return abs(wrap_angle(gripper_yaw(info["eef_quat"]) - self.yaw)) <= self.config["yaw_tolerance"]
 
-    def _advance_setpoint(self, target: Waypoint) -> None:
-        max_turn = self.config["yaw_rate"] * self.dt
-        turn = wrap_angle(self.yaw - self._yaw_setpoint)
-        self._yaw_setpoint = wrap_angle(self._yaw_setpoint + float(np.clip(turn, -max_turn, max_turn)))
+    def _advance_setpoint(self, target: Waypoint) -> np.ndarray:
+        """Move the setpoint (and the yaw setpoint) one control step towards ``target``; returns the env action (7,).
+
+        The compiled :func:`~tableclean_suite.controllers.setpoint.advance_command`, which the
+        compiled phase loop also runs: both give bit-identical commands.
+        """
         speed = self.config["speed"] if target.speed is None else target.speed
-        max_move = speed * self.dt
-        delta = target.pos - self._setpoint
-        distance = float(np.linalg.norm(delta))
-        if distance > max_move:
-            delta *= max_move / distance
-        self._setpoint = self._setpoint + delta
+        action = np.empty(ACTION_DIM)
+        self._yaw_setpoint = advance_command(
+            self._setpoint, float(self._yaw_setpoint), float(self.yaw), np.ascontiguousarray(target.pos, dtype=float),
+            float(speed * self.dt), float(self.config["yaw_rate"] * self.dt), float(target.gripper), action)
+        return action
 
     # -- helpers for subclasses ----------------------------------------------------------
     def hover_point(self, info: Mapping[str, Any], xy: np.ndarray) -> np.ndarray:

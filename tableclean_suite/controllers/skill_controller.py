@@ -37,7 +37,8 @@ class SkillController:
         skill_configs: per-action config overrides, e.g. ``{Action.CLEAN: {"max_passes": 2}}``; they apply
             on top of the robot's registered overrides (:mod:`.robot_configs`, by ``env.robots[0].name``).
         on_step: called after every ``env.step`` a skill makes (e.g. to record video frames);
-            its time counts as executor overhead.
+            its time counts as executor overhead.  With it every control step runs through
+            ``skill.step()`` (the compiled phase loop, which calls no Python per step, is not used).
     """
 
     def __init__(
@@ -72,7 +73,7 @@ class SkillController:
         return self.model.action_name(action)
 
     def _stepper(self):
-        """The fast stepper's ``step`` when this controller's env owns one, else ``env.step``.
+        """The env's fast stepper when this controller's env owns one, else ``None`` (then ``env.step``).
 
         A wrapper (e.g. robosuite's ``DataCollectionWrapper``) forwards attribute lookups to the
         env it wraps, so the inner env's stepper is visible through it; using it would bypass
@@ -81,15 +82,18 @@ class SkillController:
         """
         stepper = fast_stepper_of(self.env)  # set by make_skill_env(fast_control=True)
         if stepper is None or getattr(stepper, "env", None) is not self.env:
-            return self.env.step
-        return stepper.step
+            return None
+        return stepper
 
     def execute(self, action) -> SkillResult:
         """Carry out ``action`` (Action, index into the model's actions, or name) in physics and report what happened.
 
         Each control step goes through the env's fast stepper when the env owns one
         (:func:`~tableclean_suite.controllers.make_skill_env` with ``fast_control=True``), else
-        ``env.step`` (always through a wrapper, so that its ``step()`` runs).
+        ``env.step`` (always through a wrapper, so that its ``step()`` runs).  With a fast stepper
+        and no ``on_step``, a phase whose waypoint is fixed continues in the stepper's compiled
+        phase loop (:meth:`~tableclean_suite.controllers.skill.Skill.run_fixed_phase`); its time
+        counts as time in ``env.step`` (it is the physics, plus the skill's compiled per-step checks).
 
         Raises ``ValueError`` for an unknown action or when the current state is
         terminal, ``KeyError`` when no skill is registered for the action.
@@ -108,7 +112,10 @@ class SkillController:
             return self._result(action, start, True, 0, f"{predicted.name.lower()}: nothing to do", before, before)
 
         skill = skill_class(self.env, self.skill_config(action))
-        env_step = self._stepper()
+        stepper = self._stepper()
+        env_step = self.env.step if stepper is None else stepper.step
+        # a fixed-waypoint phase's further steps run in the stepper's compiled loop (no per-step Python)
+        phases = stepper if self.on_step is None else None
         env_time = 0.0
         reason = "ok"
         try:
@@ -116,6 +123,8 @@ class SkillController:
             while (command := skill.step()) is not None:
                 tick = time.perf_counter()
                 env_step(command)
+                if phases is not None and getattr(skill, "fixed_waypoint", None) is not None:
+                    skill.run_fixed_phase(phases)
                 env_time += time.perf_counter() - tick
                 if self.on_step is not None:
                     self.on_step()
