@@ -65,6 +65,8 @@ STAND_EDGE_MARGIN = 0.002
 RESET_OBJECT_CLEARANCE = 0.05
 #: The exact contact test runs only when the sponge's lowest corner is within this of the table top [m].
 PRESS_PREFILTER_SLACK = 0.002
+#: Column order turning MuJoCo's wxyz quaternions into robosuite's xyzw (its ``convert_quat(q, to="xyzw")``).
+WXYZ_TO_XYZW = [1, 2, 3, 0]
 
 # Un-normalised reward components (see TableClean.reward).
 SUCCESS_REWARD = 3.0
@@ -780,14 +782,15 @@ class TableClean(ManipulationEnv):
         finger pads touch it), ``dirt_fraction`` (N,), ``qvel`` (nv,) all simulation velocities,
         ``object_spacing`` and ``object_clearance`` (the config's, for the place skill's free spot).
         """
-        data = self.sim.data
+        data = self._mj_data
         robot = self.robots[0]
         arm = robot.arms[0]
         site = robot.eef_site_id[arm]
         geometry = self.geometry
-        objects_pos = np.array(data.body_xpos[self.object_body_ids])
-        objects_quat = np.array([convert_quat(q, to="xyzw") for q in data.body_xquat[self.object_body_ids]])
-        objects_grasped = np.array([self._grasped(m) for m in self._object_masks])
+        objects_pos = data.xpos[self.object_body_ids]  # fancy indexing copies
+        objects_quat = data.xquat[self.object_body_ids][:, WXYZ_TO_XYZW]  # robosuite's convert_quat, all rows at once
+        grasped = self._grasped_bodies()
+        objects_grasped = grasped[:-1]
         return {
             "eef_pos": np.array(data.site_xpos[site]),
             "eef_quat": mat2quat(np.array(data.site_xmat[site]).reshape(3, 3)).astype(float),
@@ -809,8 +812,8 @@ class TableClean(ManipulationEnv):
             "gripper_hand_reach": self.gripper_geometry.hand_reach,
             "object_spacing": float(self.task_config["object_spacing"]),
             "object_clearance": float(self.task_config["object_clearance"]),
-            "sponge_pos": np.array(data.body_xpos[self.sponge_body_id]),
-            "sponge_quat": convert_quat(np.array(data.body_xquat[self.sponge_body_id]), to="xyzw"),
+            "sponge_pos": np.array(data.xpos[self.sponge_body_id]),
+            "sponge_quat": data.xquat[self.sponge_body_id][WXYZ_TO_XYZW],
             "sponge_half_size": np.asarray(self.sponge.get_bounding_box_half_size(), dtype=float),
             "sponge_home_pos": geometry.sponge_home_pos.copy(),
             "segment_centers": geometry.segment_centers.copy(),
@@ -819,10 +822,36 @@ class TableClean(ManipulationEnv):
             "table_center": geometry.table_center.copy(),
             "table_half_size": geometry.table_half_size.copy(),
             "object_grasped": bool(objects_grasped[0]),
-            "sponge_grasped": self._grasped(self._sponge_mask),
+            "sponge_grasped": bool(grasped[-1]),
             "dirt_fraction": self.dirt_fraction(),
             "qvel": np.array(data.qvel),
         }
+
+    def _grasped_bodies(self) -> np.ndarray:
+        """Bool (M + 1,): for each object, then the sponge, whether both finger pads touch it.
+
+        :meth:`_grasped` for all of them in one compiled pass over the contacts (:meth:`skill_info`
+        asks every control step), each contact's geoms mapped to the body they belong to.
+        """
+        masks = (self._object_masks, self._sponge_mask)
+        cached = getattr(self, "_grasp_groups", None)  # (object masks, sponge mask, geom -> body), per model
+        if cached is None or cached[0] is not masks[0] or cached[1] is not masks[1]:
+            group = np.full(masks[1].size, -1, dtype=np.int64)  # geom -> body (-1: neither)
+            for j, mask in enumerate(masks[0]):
+                group[mask] = j
+            group[masks[1]] = len(masks[0])
+            self._grasp_groups = cached = (masks[0], masks[1], group)
+        from tableclean_suite.environments.contact_kernels import bodies_touched_by_both  # compiled: physics only
+
+        group = cached[2]
+        bodies = len(masks[0]) + 1
+        data = self._mj_data
+        ncon = data.ncon
+        if ncon == 0:
+            return np.zeros(bodies, dtype=bool)
+        contact = data.contact
+        pad_a, pad_b = self._finger_pad_masks
+        return bodies_touched_by_both(contact.geom1[:ncon], contact.geom2[:ncon], pad_a, pad_b, group, bodies)
 
     def symbolic_state(self, check_sponge: bool = True) -> TaskState:
         """The current :class:`TaskState` read from the physics.

@@ -1,0 +1,31 @@
+"""Compiled contact queries the skills ask every control step (imported by the physics path only)."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True)
+def bodies_touched_by_both(geom1: np.ndarray, geom2: np.ndarray, pad_a: np.ndarray, pad_b: np.ndarray,
+                           group: np.ndarray, bodies: int) -> np.ndarray:
+    """Bool (bodies,): which bodies both finger pads touch (robosuite's grasp criterion).
+
+    Args:
+        geom1, geom2: (ncon,) geom ids of MuJoCo's active contacts.
+        pad_a, pad_b: bool lookups over all geom ids, the two finger pads' geoms.
+        group: (ngeom,) int, the body (0 .. bodies - 1) each geom belongs to, -1 for none.
+        bodies: number of bodies.
+    """
+    touched_a = np.zeros(bodies, dtype=np.bool_)
+    touched_b = np.zeros(bodies, dtype=np.bool_)
+    for i in range(geom1.size):
+        g1, g2 = geom1[i], geom2[i]
+        body1, body2 = group[g1], group[g2]
+        if body2 >= 0:
+            touched_a[body2] |= pad_a[g1]
+            touched_b[body2] |= pad_b[g1]
+        if body1 >= 0:
+            touched_a[body1] |= pad_a[g2]
+            touched_b[body1] |= pad_b[g2]
+    return touched_a & touched_b
