@@ -9,7 +9,12 @@ episodes and prints
 - per episode: control steps, wall seconds, and whether it reached the terminal state;
 - the executor overhead: wall time the SkillController spends outside ``env.step`` (skill logic,
   ``skill_info()`` reads, the abstraction before and after each action) divided by the time
-  spent inside ``env.step``, measured in the same run (goal <= 5%);
+  spent inside ``env.step``, measured in the same run (goal <= 5%).  On the fast path "inside
+  ``env.step``" is the stepper's ``step`` and its compiled phase loop (a fixed-waypoint phase's
+  further control steps, physics plus the skill's compiled per-step checks).  The states the
+  raw-MuJoCo replay needs are logged by the stepper (:class:`~tableclean_suite.controllers.fast_control.ControlStepLog`,
+  five mjData arrays copied per control step, inside the timed step); an ``on_step`` callback
+  would have charged that bench instrumentation to the executor's overhead;
 - the control paths compared in the same run, episode by episode alternating: control steps/s
   of robosuite's ``env.step`` path, of the fast path (``make_skill_env(fast_control=True)``,
   :class:`~tableclean_suite.controllers.fast_control.FastSkillStepper`) and of raw MuJoCo (the
@@ -31,7 +36,8 @@ import mujoco
 import numpy as np
 
 from tableclean_suite.controllers import SkillController, make_skill_env
-from tableclean_suite.robosuite_adapter import mj_data, mj_model
+from tableclean_suite.controllers.fast_control import LOG_FIELDS, ControlStepLog, fast_stepper_of
+from tableclean_suite.robosuite_adapter import mj_model
 
 #: Goal for one optimal episode's wall time (s).
 EPISODE_GOAL_S = 4.0
@@ -42,7 +48,7 @@ FAST_SPEEDUP_GOAL = 5.0
 #: Goal for the fast path's control steps/s over raw MuJoCo's (25 mj_step per control step, issue 16).
 RAW_MUJOCO_GOAL = 0.8
 #: mjData fields a raw-MuJoCo replay restores before each control step's substeps.
-REPLAY_FIELDS = ("qpos", "qvel", "act", "ctrl", "qacc_warmstart")
+REPLAY_FIELDS = LOG_FIELDS
 
 
 def run(episodes: int, layout=(1, 1), seed: int = 0, fast_control: bool = True, task=None) -> dict:
@@ -89,21 +95,19 @@ def _empty_records() -> dict:
 def _run_episode(env, records: dict, record_states: bool = False) -> list[dict]:
     """Reset ``env``, execute the optimal plan, append its rows to ``records``.
 
-    Returns the mjData fields of :data:`REPLAY_FIELDS` before every control step when
-    ``record_states`` (for :func:`_replay_mujoco`), else an empty list.
+    Returns the mjData fields of :data:`REPLAY_FIELDS` at the start of every control step when
+    ``record_states`` (for :func:`_replay_mujoco`; needs ``env``'s fast stepper, which logs them),
+    else an empty list.
     """
     model = env.task_model
-    data = mj_data(env.sim)
-    states = []
-
-    def record() -> None:
-        states.append({field: getattr(data, field).copy() for field in REPLAY_FIELDS})
-
-    controller = SkillController(env, model, on_step=record if record_states else None)
+    stepper = fast_stepper_of(env)
+    if record_states:
+        if stepper is None:
+            raise ValueError("recording the control steps' states needs a fast stepper (make_skill_env(fast_control=True))")
+        stepper.state_log = ControlStepLog(stepper)
+    controller = SkillController(env, model)
     env.reset()
     plan = model.shortest_plan(env.symbolic_state())
-    if record_states:
-        record()
     start = time.perf_counter()
     results = controller.execute_plan(plan)
     wall = time.perf_counter() - start
@@ -122,7 +126,10 @@ def _run_episode(env, records: dict, record_states: bool = False) -> list[dict]:
             failures=sum(not r.success for r in results),
         )
     )
-    return states[:-1]  # the state after the last step starts no control step
+    if not record_states:
+        return []
+    states, stepper.state_log = stepper.state_log.states(), None
+    return states
 
 
 def _replay_mujoco(env, states: list[dict]) -> tuple[int, float]:

@@ -1,0 +1,40 @@
+"""The skills' speed bench (:mod:`tableclean_suite.bench.skill_speed`) on a real episode: the fast path logs
+the state at the start of every control step for the raw-MuJoCo replay, without an ``on_step`` callback
+(whose time would count as executor overhead and which would keep the compiled phase loop out)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tableclean_suite.bench import skill_speed
+from tableclean_suite.controllers import make_skill_env
+from tableclean_suite.controllers.fast_control import fast_stepper_of
+
+
+@pytest.mark.slow
+def test_fast_episode_logs_every_control_steps_state_for_the_replay():
+    env = make_skill_env(1, 1, seed=1, hard_reset=False)
+    try:
+        records = skill_speed._empty_records()
+        states = skill_speed._run_episode(env, records, record_states=True)
+        episode = records["episodes"][-1]
+        assert episode["terminal"] and episode["steps"] == len(states) > 0
+        assert fast_stepper_of(env).state_log is None  # the log is handed over, the stepper no longer logs
+        sizes = {field: getattr(env.sim.data, field).size for field in skill_speed.REPLAY_FIELDS}
+        assert all({f: s[f].size for f in skill_speed.REPLAY_FIELDS} == sizes for s in states)
+        moved = [not np.array_equal(a["qpos"], b["qpos"]) for a, b in zip(states, states[1:])]
+        assert all(moved)  # one row per control step, each after the previous step's physics
+        steps, seconds = skill_speed._replay_mujoco(env, states)
+        assert steps == len(states) and seconds > 0
+    finally:
+        env.close()
+
+
+def test_recording_states_needs_the_fast_stepper():
+    env = make_skill_env(1, 1, seed=1, fast_control=False)
+    try:
+        with pytest.raises(ValueError, match="fast stepper"):
+            skill_speed._run_episode(env, skill_speed._empty_records(), record_states=True)
+    finally:
+        env.close()
