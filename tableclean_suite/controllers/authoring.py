@@ -45,7 +45,7 @@ from tableclean_suite.controllers.configs import CleanConfig, ComposedConfig
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.primitives import SPONGE, Grasp, PrimitiveSkill, Reach, Release, object_body
 from tableclean_suite.controllers.skill import SkillFailure
-from tableclean_suite.environments.placement import free_spot as placement_free_spot
+from tableclean_suite.environments.placement import free_spot as placement_free_spot, other_segments
 from tableclean_suite.task import ActionRule, TaskState
 
 Info = Mapping[str, Any]
@@ -131,7 +131,8 @@ def free_spot(which: Segment | None = None) -> Spot:
                   for j in ctx.state.objects_on(k) if j != ctx.held]
         mine = float(radii[ctx.held]) if ctx.held is not None else 0.0
         return placement_free_spot(info["segment_centers"][k], info["segment_half_sizes"][k], mine, others,
-                                   info["object_spacing"], info["object_clearance"])
+                                   info["object_spacing"], info["object_clearance"],
+                                   other_segments(info["segment_centers"], info["segment_half_sizes"], k))
     return resolve
 
 

@@ -13,12 +13,51 @@ from typing import Any, Mapping
 import numpy as np
 
 from tableclean_suite.controllers.configs import CleanConfig, WipeConfig
-from tableclean_suite.controllers.geometry import box_lowest_z, world_footprint
+from tableclean_suite.controllers.geometry import box_lowest_z, quat_to_matrix, world_footprint
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.primitives import SPONGE, Grasp, Primitive, PrimitiveSkill, Reach, Release
 from tableclean_suite.controllers.skill import SkillFailure, Waypoint
-from tableclean_suite.controllers.wipe_pattern import boustrophedon
+from tableclean_suite.controllers.wipe_pattern import boustrophedon, clear_area
 from tableclean_suite.task import Action
+
+#: m kept between the wiping hand and every object standing near the segment, horizontally (the wipe
+#: area shrinks by it) and vertically (an object whose top comes within it of the hand's underside counts).
+HAND_CLEARANCE = 0.01
+
+
+def _rotation(angle: float) -> np.ndarray:
+    """(2, 2) rotation by ``angle`` rad about the world z axis."""
+    c, sn = np.cos(angle), np.sin(angle)
+    return np.array([[c, -sn], [sn, c]])
+
+
+def hand_obstacles(info: Mapping[str, Any], hand_bottom_z: float, clearance: float = HAND_CLEARANCE) -> np.ndarray:
+    """(K, 4) world boxes ``[x_min, y_min, x_max, y_max]`` [m] of the lying objects a hand at ``hand_bottom_z`` meets.
+
+    Read from the scene: each lying (not grasped) object's collision points at its current pose
+    (``objects_geometry``); the box covers those whose height comes within ``clearance`` of
+    ``hand_bottom_z`` (world z, m).  Without geometry, an object's footprint disc and bounding
+    half height stand in.
+    """
+    if "objects_pos" not in info:
+        return np.zeros((0, 4))
+    positions = np.asarray(info["objects_pos"], dtype=float)
+    grasped = np.asarray(info["objects_grasped"], dtype=bool)
+    shapes = info.get("objects_geometry")
+    boxes = []
+    for j in np.flatnonzero(~grasped):
+        pos = positions[j]
+        if shapes is not None:
+            world = pos + shapes[j].points @ quat_to_matrix(info["objects_quat"][j]).T
+            high = world[world[:, 2] >= hand_bottom_z - clearance]
+            if len(high):
+                boxes.append([*high[:, :2].min(axis=0), *high[:, :2].max(axis=0)])
+            continue
+        top = pos[2] + float(np.asarray(info["objects_half_size"], dtype=float)[j, 2])
+        if top >= hand_bottom_z - clearance:
+            radius = float(np.asarray(info["objects_footprint"], dtype=float)[j])
+            boxes.append([pos[0] - radius, pos[1] - radius, pos[0] + radius, pos[1] + radius])
+    return np.asarray(boxes, dtype=float).reshape(-1, 4)
 
 
 class CleanPhase(enum.Enum):
@@ -77,12 +116,51 @@ class Wipe(Primitive):
         self.dt = skill.dt
         self.strokes = self._pattern(info, 0)
 
+    def _hand_half(self, info: Mapping[str, Any]) -> np.ndarray:
+        """(2,) m: world-axis half extents of the hand's box about the grip site while wiping.
+
+        The gripper's measures (``gripper_hand_reach`` along the fingers' closing axis,
+        ``gripper_hand_half_width`` across it) turned to the hand's yaw.  (The wipe target's lead
+        over a lagging sponge, ``max_drift_correction``, is clipped to :attr:`hand_bounds` instead.)"""
+        if "gripper_hand_reach" not in info:
+            return np.zeros(2)
+        extent = np.array([float(info["gripper_hand_reach"]), float(info.get("gripper_hand_half_width",
+                                                                              info["gripper_hand_reach"]))])
+        return np.abs(_rotation(self.yaw)) @ extent
+
+    def _wipe_area(self, info: Mapping[str, Any], footprint: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(center, half_size)`` (2,), (2,) m of the sponge-centre rectangle the strokes may use.
+
+        The segment inset by ``edge_inset`` of the sponge's footprint, shrunk (:func:`clear_area`) so
+        that the hand stays :data:`HAND_CLEARANCE` away from every object whose top reaches its
+        underside at the lowest wiping height (objects on the neighbouring segments, read from their
+        collision geometry).  Between two lanes and two passes the sponge moves inside it too.
+        Sets :attr:`hand_bounds`, the (2, 2) ``[low, high]`` world xy the grip site may reach while
+        wiping: the shrunk sides exactly, the others with ``max_drift_correction`` to spare.
+        """
+        center = np.asarray(info["segment_centers"], dtype=float)[self.segment][:2]
+        half = np.asarray(info["segment_half_sizes"], dtype=float)[self.segment]
+        reach = np.maximum(half - self.config["edge_inset"] * footprint, 0.0)
+        spare = self.config["max_drift_correction"]
+        self.hand_bounds = np.array([center - reach - spare, center + reach + spare]) + self.hold_offset[:2]
+        if "gripper_palm_height" not in info:
+            return center, reach
+        lowest = self._wipe_target(info, center, self.config["max_press_depth"])[2]
+        obstacles = hand_obstacles(info, lowest + float(info["gripper_palm_height"]))
+        clear_center, clear_reach = clear_area(center, reach, self.hold_offset[:2], self._hand_half(info), obstacles,
+                                               HAND_CLEARANCE)
+        low, high = clear_center - clear_reach, clear_center + clear_reach
+        shrunk = ~np.isclose(np.array([low, high]), np.array([center - reach, center + reach]))
+        self.hand_bounds[shrunk] = (np.array([low, high]) + self.hold_offset[:2])[shrunk]
+        return clear_center, clear_reach
+
     def _pattern(self, info: Mapping[str, Any], pass_index: int) -> np.ndarray:
         # the held sponge's footprint in world axes (computed once it is grasped)
         footprint = world_footprint(info["sponge_quat"], info["sponge_half_size"])
+        center, reach = self._wipe_area(info, footprint)
         return boustrophedon(
-            np.asarray(info["segment_centers"], dtype=float)[self.segment],
-            np.asarray(info["segment_half_sizes"], dtype=float)[int(self.segment)],
+            center,
+            reach + self.config["edge_inset"] * footprint,  # boustrophedon insets the sponge centre by this again
             footprint,
             self.config["wipe_overlap"],
             # stroke along the fingers' closing axis (grip-site x): dragging across it would twist
@@ -188,7 +266,8 @@ class Wipe(Primitive):
             return Waypoint(pos, GRIPPER_CLOSE, self.config["wipe_tolerance"], xy_only=True)
         if phase == "WIPE":
             pos = self._wipe_target(info, self.strokes[self.stroke_index])
-            pos[:2] += self._drift(info)
+            # the lead over a lagging sponge, but never beyond the sides shrunk for the objects around
+            pos[:2] = np.clip(pos[:2] + self._drift(info), self.hand_bounds[0], self.hand_bounds[1])
             # a stroke the arm cannot finish (a corner at the edge of its reach) ends after stroke_max_steps
             tol = np.inf if skill._phase_steps >= self.config["stroke_max_steps"] else self.config["wipe_tolerance"]
             return Waypoint(pos, GRIPPER_CLOSE, tol, xy_only=True, speed=self.config["wipe_speed"])

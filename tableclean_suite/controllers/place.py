@@ -10,7 +10,7 @@ import numpy as np
 from tableclean_suite.controllers.configs import PlaceConfig
 from tableclean_suite.controllers.primitives import PrimitiveSkill, Release, object_body
 from tableclean_suite.controllers.skill import SkillFailure
-from tableclean_suite.environments.placement import free_spot
+from tableclean_suite.environments.placement import free_spot, other_segments
 from tableclean_suite.task import Action
 
 
@@ -42,6 +42,7 @@ class PlaceSkill(PrimitiveSkill):
         others = [(np.asarray(info["objects_pos"][j], dtype=float), float(radii[j]))
                   for j in self.state.objects_on(segment)]
         self.place_xy = free_spot(info["segment_centers"][segment], info["segment_half_sizes"][segment],
-                                  float(radii[held]), others, info["object_spacing"], info["object_clearance"])
+                                  float(radii[held]), others, info["object_spacing"], info["object_clearance"],
+                                  other_segments(info["segment_centers"], info["segment_half_sizes"], segment))
         rest_z = float(info["objects_rest_z"][held])
         return [("", Release(object_body(held), lambda skill, info: self.place_xy, lambda skill, info: rest_z))]

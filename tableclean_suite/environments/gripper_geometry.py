@@ -28,11 +28,13 @@ MAX_FINGER_JOINTS = 6
 @dataclass(frozen=True)
 class GripperGeometry:
     """Attributes: ``open_width`` [m] between the open pads; ``palm_height`` [m] of the hand's lowest
-    point above the grip site; ``hand_reach`` [m], how far the hand reaches sideways from the grip site's axis."""
+    point above the grip site; ``hand_reach`` [m], how far the hand reaches sideways from the grip site's axis;
+    ``hand_half_width`` [m], how far it reaches across the fingers' closing axis (along the grip site's y)."""
 
     open_width: float
     palm_height: float
     hand_reach: float
+    hand_half_width: float
 
 
 def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site: str) -> GripperGeometry:
@@ -59,7 +61,8 @@ def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site:
             and g not in fingers and (model.geom_contype[g] or model.geom_conaffinity[g])]
     # heights above the grip site along its approach axis (its z axis, which points down when the skills grasp)
     approach = data.site_xmat[site].reshape(3, 3)[:, 2]
-    heights, reaches = [], []
+    across = data.site_xmat[site].reshape(3, 3)[:, 1]
+    heights, reaches, widths = [], [], []
     for geom in hand:
         body = int(model.geom_bodyid[geom])
         local = collision_points(model, data, body, [geom])  # in the geom's body frame
@@ -68,5 +71,6 @@ def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site:
         heights.append(float(np.min(-relative @ approach)))
         sideways = relative - np.outer(relative @ approach, approach)
         reaches.append(float(np.max(np.linalg.norm(sideways, axis=1))))
+        widths.append(float(np.max(np.abs(relative @ across))))
     palm = min(heights)
-    return GripperGeometry(open_width=widest, palm_height=palm, hand_reach=max(reaches))
+    return GripperGeometry(open_width=widest, palm_height=palm, hand_reach=max(reaches), hand_half_width=max(widths))

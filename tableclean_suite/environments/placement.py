@@ -3,16 +3,22 @@
 The rule (used by the env's reset and by the place skill, so both agree):
 
 - The ``c`` objects starting on one segment take the spots of :func:`slot_offsets`: a grid of
-  ``ceil(sqrt(c))`` columns along y (one spot, the centre, for ``c = 1``), its pitch the larger
+  ``ceil(sqrt(c))`` columns along x (one spot, the centre, for ``c = 1``), its pitch the larger
   of ``object_spacing`` and the two largest footprint diameters plus ``object_clearance``.
   Each object is then shifted by uniform noise of at most ``placement_noise`` per axis, capped
   so that two footprints stay ``object_clearance`` apart and every footprint stays inside the
   segment (:func:`noise_bound`).  No rejection sampling: a layout is never retried.
 - A place puts the held object on the *free spot* of the arm's segment
-  (:func:`free_spot`): among the candidate spots (the centre first, then the grid spots of up
-  to :data:`MAX_SPOTS` objects, then a :data:`LATTICE_STEP` lattice over the segment, nearest
-  the centre first) the first whose footprint keeps ``object_clearance`` from every object
-  lying there and stays inside the segment; if none does, the spot farthest from them.
+  (:func:`free_spot`): the centre if its footprint keeps ``object_clearance`` from every object
+  lying there; else, of the spots of a :data:`LATTICE_STEP` lattice over the segment whose
+  footprint keeps that clearance and stays inside the segment, the one farthest from the other
+  segments (``away_from``; ties: nearest the centre); if none fits, the spot farthest from the
+  objects.  Away from the other segments, because the hand wiping a neighbouring segment reaches
+  ~10 cm beyond the sponge along its long axis: an object standing near the shared edge would
+  shrink that segment's wipe area (:mod:`tableclean_suite.controllers.wipe_pattern`) until its
+  edge row of dirt stays.
+- The grid of the reset lays its spots along x first (:func:`slot_offsets`), across the wiping
+  hand's long axis at the skills' nominal yaw (world y), for the same reason.
 """
 
 from __future__ import annotations
@@ -22,14 +28,14 @@ from typing import Sequence
 
 import numpy as np
 
-#: Largest number of objects whose grid spots are tried by :func:`free_spot`.
-MAX_SPOTS = 4
-#: Spacing [m] of the fallback lattice of spots :func:`free_spot` tries after the grid spots.
+#: Spacing [m] of the lattice of spots :func:`free_spot` tries when the centre is taken.
 LATTICE_STEP = 0.01
+#: Distances [m] to the other segments closer than this count as equal in :func:`free_spot` (then: nearest the centre).
+DISTANCE_RESOLUTION = 1e-6
 
 
 def slot_offsets(count: int, pitch: float) -> np.ndarray:
-    """(count, 2) offsets from the segment centre of a centred grid with ``ceil(sqrt(count))`` columns along y."""
+    """(count, 2) offsets from the segment centre of a centred grid with ``ceil(sqrt(count))`` columns along x."""
     if count < 1:
         return np.zeros((0, 2))
     columns = math.ceil(math.sqrt(count))
@@ -37,7 +43,7 @@ def slot_offsets(count: int, pitch: float) -> np.ndarray:
     offsets = []
     for k in range(count):
         row, col = divmod(k, columns)
-        offsets.append(((row - (rows - 1) / 2) * pitch, (col - (columns - 1) / 2) * pitch))
+        offsets.append(((col - (columns - 1) / 2) * pitch, (row - (rows - 1) / 2) * pitch))
     return np.asarray(offsets, dtype=float)
 
 
@@ -60,8 +66,23 @@ def noise_bound(offsets: np.ndarray, radii: Sequence[float], half_size, noise: f
     return np.asarray(bounds)
 
 
+def other_segments(centers, half_sizes, segment: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``(center (2,), half_size (2,))`` [m] of every segment but ``segment`` (0-based), for :func:`free_spot`."""
+    return [(np.asarray(centers[k], dtype=float)[:2], np.asarray(half_sizes[k], dtype=float))
+            for k in range(len(centers)) if k != int(segment)]
+
+
+def _distance_to_rectangles(points: np.ndarray, rectangles) -> np.ndarray:
+    """(K,) distance [m] of each of ``points`` (K, 2) to the nearest of ``rectangles`` (inf without any)."""
+    nearest = np.full(len(points), np.inf)
+    for center, half in rectangles:
+        outside = np.maximum(np.abs(points - np.asarray(center, dtype=float)[:2]) - np.asarray(half, dtype=float), 0.0)
+        nearest = np.minimum(nearest, np.linalg.norm(outside, axis=1))
+    return nearest
+
+
 def free_spot(center, half_size, radius: float, others: Sequence[tuple[np.ndarray, float]], spacing: float,
-              clearance: float) -> np.ndarray:
+              clearance: float, away_from: Sequence[tuple[np.ndarray, np.ndarray]] = ()) -> np.ndarray:
     """(2,) world xy where an object of footprint ``radius`` fits on a segment (see the module docstring).
 
     Args:
@@ -69,29 +90,36 @@ def free_spot(center, half_size, radius: float, others: Sequence[tuple[np.ndarra
         half_size: (2,) segment half extents.
         radius: footprint radius of the object to place.
         others: ``(xy, radius)`` of the objects lying on the segment.
-        spacing, clearance: the config's ``object_spacing`` and ``object_clearance``.
+        spacing, clearance: the config's ``object_spacing`` (unused since spots come from the
+            lattice; kept for callers) and ``object_clearance``.
+        away_from: ``(center, half_size)`` of the other segments (:func:`other_segments`); the spot
+            keeps as far from them as it can when the centre is taken.
     """
+    del spacing
     center = np.asarray(center, dtype=float)[:2]
     half = np.asarray(half_size, dtype=float)
-    radii = [radius] + [r for _, r in others]
-    pitch = slot_pitch(radii, spacing, clearance)
-    candidates = [np.zeros(2)]
-    for count in range(2, MAX_SPOTS + 1):
-        candidates.extend(slot_offsets(count, pitch))
+
+    def gaps(offsets: np.ndarray) -> np.ndarray:
+        xy = center + offsets
+        gap = np.full(len(offsets), np.inf)
+        for p, r in others:
+            gap = np.minimum(gap, np.linalg.norm(xy - np.asarray(p, dtype=float)[:2], axis=1) - radius - r)
+        return gap
+
+    if gaps(np.zeros((1, 2)))[0] >= clearance:
+        return center.copy()
     reach = np.maximum(half - radius, 0.0)
     gx = np.arange(-reach[0], reach[0] + 1e-9, LATTICE_STEP)
     gy = np.arange(-reach[1], reach[1] + 1e-9, LATTICE_STEP)
     lattice = np.stack(np.meshgrid(gx, gy, indexing="ij"), axis=-1).reshape(-1, 2)
-    candidates.extend(lattice[np.argsort(np.linalg.norm(lattice, axis=1), kind="stable")])
-    best, best_gap = center, -math.inf
-    for offset in candidates:
-        xy = center + offset
-        if np.any(np.abs(offset) + radius > half + 1e-9):
-            continue
-        gap = min((float(np.linalg.norm(xy - np.asarray(p, dtype=float)[:2])) - radius - r for p, r in others),
-                  default=math.inf)
-        if gap >= clearance:
-            return xy
-        if gap > best_gap:
-            best, best_gap = xy, gap
-    return best
+    lattice = lattice[np.all(np.abs(lattice) + radius <= half + 1e-9, axis=1)]
+    if len(lattice) == 0:
+        return center.copy()
+    gap = gaps(lattice)
+    fits = gap >= clearance
+    if not fits.any():
+        return center + lattice[int(np.argmax(gap))]
+    spots = lattice[fits]
+    far = np.round(_distance_to_rectangles(center + spots, away_from) / DISTANCE_RESOLUTION)
+    order = np.lexsort((np.linalg.norm(spots, axis=1), -far))
+    return center + spots[order[0]]

@@ -740,7 +740,9 @@ class TableClean(ManipulationEnv):
                   if k != obj and self._lies_on(info, k, segment)]
         xy = placement.free_spot(self.geometry.segment_centers[segment], self.geometry.segment_half_sizes[segment],
                                  float(self._object_footprints[obj]), others, self.task_config["object_spacing"],
-                                 self.task_config["object_clearance"])
+                                 self.task_config["object_clearance"],
+                                 placement.other_segments(self.geometry.segment_centers,
+                                                          self.geometry.segment_half_sizes, segment))
         self._set_object_pose(obj, xy, 0.0)
         self.sim.forward()
 
@@ -775,6 +777,7 @@ class TableClean(ManipulationEnv):
         ``objects_footprint`` (M,) m footprint radii, ``gripper_open_width`` m (open pad gap) and
         ``gripper_palm_height`` m (hand's lowest point above the grip site) and ``gripper_hand_reach`` m
         (how far the hand reaches sideways from the grip site, :mod:`.gripper_geometry`),
+        ``gripper_hand_half_width`` m (how far it reaches across the fingers' closing axis),
         ``sponge_pos`` (3,), ``sponge_quat`` (4,), ``sponge_half_size`` (3,), ``sponge_home_pos`` (3,),
         ``segment_centers`` (N, 3) table-top point at each segment centre (row 0 = segment 1),
         ``segment_half_sizes`` (N, 2), ``table_top_z`` float, ``table_center`` (3,),
@@ -810,6 +813,7 @@ class TableClean(ManipulationEnv):
             "gripper_open_width": self.gripper_geometry.open_width,
             "gripper_palm_height": self.gripper_geometry.palm_height,
             "gripper_hand_reach": self.gripper_geometry.hand_reach,
+            "gripper_hand_half_width": self.gripper_geometry.hand_half_width,
             "object_spacing": float(self.task_config["object_spacing"]),
             "object_clearance": float(self.task_config["object_clearance"]),
             "sponge_pos": np.array(data.xpos[self.sponge_body_id]),
