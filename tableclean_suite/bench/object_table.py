@@ -8,13 +8,18 @@ and the arm on a segment drawn at each reset, placement noise), each executing t
 shortest plan with the skills in MuJoCo (Panda, compiled control path):
 
 - ``alone``: the ``paper``-shaped spec with the object (2 segments, 1 object);
-- ``mixed``: 3 segments, the object and one of ``--mix-with`` (default ``box``; ``cylinder`` for the box).
+- ``mixed``: 3 segments, the object and a partner: ``--mix-with`` (default ``box``), or
+  ``cylinder`` (:data:`FALLBACK_PARTNER`) when that is the measured type itself; the partner
+  actually used is the ``partner`` column of the CSV and of the printed table.
 
 Per skill, *success* is the skill's own report (its motion completed and the abstraction's
 state afterwards is the model's successor), *fidelity* the share of executions whose observed
-state is the model's prediction (a skill can succeed by its motion and still disagree).  An
-episode stops at the first failed skill.  Writes ``DIR/object_table.csv`` atomically (one row per
-object x setting x skill, rewritten after every cell) and prints a markdown table with the counts.
+state is the model's prediction (a skill can succeed by its motion and still disagree).  Each
+rate comes with its one-sided 95 % Clopper-Pearson lower bound (:func:`lower_bound`); the goal
+``>= 99 %`` is shown met (``ok``) when that bound is at least :data:`GOAL_RATE` (0 failures in 299
+or more executions).  An episode stops at the first failed skill.  Writes ``DIR/object_table.csv``
+atomically (one row per object x setting x skill, rewritten after every cell) and prints a
+markdown table with the counts.
 Objects registered by ``--plugins`` modules are measured like the catalog's.
 """
 
@@ -40,22 +45,46 @@ FALLBACK_PARTNER = "cylinder"
 DEFAULT_OUT = "results/object_table"
 TABLE_CSV = "object_table.csv"
 #: Columns of the CSV, in order.
-COLUMNS = ("object", "setting", "skill", "executions", "successes", "success_rate", "agreements", "fidelity",
-           "episodes", "episode_successes", "seconds")
+COLUMNS = ("object", "setting", "partner", "skill", "executions", "successes", "success_rate", "success_lower",
+           "agreements", "fidelity", "fidelity_lower", "episodes", "episode_successes", "seconds")
 #: Goal of the issue: skill success and fidelity at least this per object and skill.
 GOAL_RATE = 0.99
+#: Confidence of the one-sided lower bound of every rate (:func:`lower_bound`).
+CONFIDENCE = 0.95
 #: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench objects"
 
 
+def partner_for(kind: str, setting: str, partner: str) -> str:
+    """The partner type actually used with ``kind`` in ``setting``: ``""`` alone, ``partner`` mixed unless it is
+    ``kind`` itself (then :data:`FALLBACK_PARTNER`)."""
+    if setting == "alone":
+        return ""
+    return partner if partner != kind else FALLBACK_PARTNER
+
+
 def spec_for(kind: str, setting: str, partner: str):
-    """The task spec of one cell (uniform all-unclean starts)."""
+    """The task spec of one cell (uniform all-unclean starts); the partner is :func:`partner_for`'s."""
     from tableclean_suite.task import TaskSpec
 
     if setting == "alone":
         return TaskSpec(f"objects_{kind}_alone", objects=(kind,), start="uniform_unclean")
-    other = partner if partner != kind else FALLBACK_PARTNER
+    other = partner_for(kind, setting, partner)
     return TaskSpec(f"objects_{kind}_mixed", segments=MIXED_SEGMENTS, objects=(kind, other), start="uniform_unclean")
+
+
+def lower_bound(successes: int, executions: int, confidence: float = CONFIDENCE) -> float:
+    """One-sided exact (Clopper-Pearson, scipy's ``binomtest``) lower bound of a rate, in [0, 1].
+
+    With ``confidence`` 0.95 the rate is at least this with 95 % confidence; 0 failures in ``n``
+    executions give ``0.05 ** (1 / n)`` (0.990 at n = 299).  ``executions`` 0 gives 0.
+    """
+    from scipy.stats import binomtest
+
+    if executions == 0:
+        return 0.0
+    return float(binomtest(int(successes), int(executions), alternative="greater")
+                 .proportion_ci(confidence_level=confidence).low)
 
 
 def run_cell(kind: str, setting: str, episodes: int, seed: int, partner: str, log=None) -> list[dict]:
@@ -91,17 +120,21 @@ def run_cell(kind: str, setting: str, episodes: int, seed: int, partner: str, lo
     seconds = time.perf_counter() - started
     rows = []
     for name, (n, success, agree) in counts.items():
-        rows.append({"object": kind, "setting": setting, "skill": name, "executions": n, "successes": success,
-                     "success_rate": success / n, "agreements": agree, "fidelity": agree / n,
+        rows.append({"object": kind, "setting": setting, "partner": partner_for(kind, setting, partner), "skill": name,
+                     "executions": n, "successes": success, "success_rate": success / n,
+                     "success_lower": round(lower_bound(success, n), 4), "agreements": agree, "fidelity": agree / n,
+                     "fidelity_lower": round(lower_bound(agree, n), 4),
                      "episodes": episodes, "episode_successes": wins, "seconds": round(seconds, 1)})
     return rows
 
 
 def markdown(rows: list[dict]) -> str:
-    """Object x skill table: ``success % / fidelity % (executions)`` per cell, one line per object x setting."""
+    """Object x skill table, one line per object x setting; per skill ``successes/executions``, the success
+    rate's and the fidelity's lower bounds (:func:`lower_bound`, computed from the counts) and ``ok`` when both
+    reach :data:`GOAL_RATE` (``below`` otherwise)."""
     skills = list(dict.fromkeys(row["skill"] for row in rows))
-    lines = ["| object | setting | episodes ok | " + " | ".join(skills) + " |",
-             "|---|---|---|" + "---|" * len(skills)]
+    lines = ["| object | setting | partner | episodes ok | " + " | ".join(skills) + " |",
+             "|---|---|---|---|" + "---|" * len(skills)]
     cells: dict[tuple, dict] = {}
     for row in rows:
         cells.setdefault((row["object"], row["setting"]), {})[row["skill"]] = row
@@ -110,9 +143,15 @@ def markdown(rows: list[dict]) -> str:
         entries = []
         for skill in skills:
             row = by_skill.get(skill)
-            entries.append("-" if row is None else
-                           f"{row['success_rate']:.0%} / {row['fidelity']:.0%} ({row['executions']})")
-        lines.append(f"| {kind} | {setting} | {first['episode_successes']}/{first['episodes']} | "
+            if row is None:
+                entries.append("-")
+                continue
+            n, success, agree = int(row["executions"]), int(row["successes"]), int(row["agreements"])
+            low_success, low_fidelity = lower_bound(success, n), lower_bound(agree, n)
+            verdict = "ok" if min(low_success, low_fidelity) >= GOAL_RATE else "below"
+            entries.append(f"{success}/{n}, fid {agree}/{n}: >= {100 * low_success:.1f} % / "
+                           f"{100 * low_fidelity:.1f} % {verdict}")
+        lines.append(f"| {kind} | {setting} | {first.get('partner') or '-'} | {first['episode_successes']}/{first['episodes']} | "
                      + " | ".join(entries) + " |")
     return "\n".join(lines)
 
@@ -126,7 +165,9 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser.add_argument("--settings", type=cli.name_list, default=SETTINGS, metavar="SETTING,...",
                         help=f"comma-separated settings among {', '.join(SETTINGS)} (default both)")
     parser.add_argument("--mix-with", default="box", metavar="TYPE",
-                        help=f"the other object type of the mixed setting (default box; {FALLBACK_PARTNER} for the box)")
+                        help=f"the other object type of the mixed setting (default box); when it is the measured "
+                             f"type itself, {FALLBACK_PARTNER} is used instead (the partner column of the table and "
+                             "CSV names the partner actually used)")
     parser.add_argument("--episodes", type=cli.positive_int, default=30,
                         help="optimal-plan episodes per object x setting (default 30)")
     cli.add_seed_argument(parser, "the placements and layouts")
@@ -154,6 +195,9 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     started = time.perf_counter()
     for kind in objects:
         for setting in args.settings:
+            used = partner_for(kind, setting, args.mix_with)
+            if used and used != args.mix_with:
+                print(f"{kind} {setting}: partner {used} (--mix-with {args.mix_with} is the measured type itself)")
             try:
                 rows += run_cell(kind, setting, args.episodes, args.seed, args.mix_with, log=log)
             except ValueError as error:  # refused by the scene (cannot be held, does not fit): a finding, not a crash

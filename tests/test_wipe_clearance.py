@@ -1,0 +1,117 @@
+"""The wipe keeps the hand clear of objects around the segment; placement keeps objects away from neighbours."""
+
+import numpy as np
+import pytest
+
+from tableclean_suite.bench.object_table import FALLBACK_PARTNER, markdown, partner_for
+from tableclean_suite.controllers.clean import HAND_CLEARANCE, hand_obstacles
+from tableclean_suite.controllers.wipe_pattern import boustrophedon, clear_area
+from tableclean_suite.environments.object_geometry import ObjectGeometry
+from tableclean_suite.environments.placement import free_spot, other_segments, slot_offsets
+
+CENTER = np.array([0.0, 0.0])
+REACH = np.array([0.05, 0.065])  # sponge-centre half extents of an 18 cm segment, m
+HAND = np.array([0.032, 0.104])  # the Panda hand's half extents with its long axis along y, m
+
+
+def _hand_boxes(points, offset=np.zeros(2), hand=HAND):
+    return [(p + offset - hand, p + offset + hand) for p in points]
+
+
+def _gap(box_a, box_b):
+    """Separation [m] of two axis-aligned boxes (negative: overlap depth along the shallower axis)."""
+    (la, ha), (lb, hb) = box_a, box_b
+    return float(np.max(np.maximum(lb - ha, la - hb)))
+
+
+def test_clear_area_cuts_off_an_obstacle_beyond_a_strokes_end_and_keeps_the_margin():
+    obstacle = np.array([[-0.02, -0.17, 0.02, -0.13]])  # a 4 cm object 4 cm beyond the segment's -y edge (at -0.09)
+    center, half = clear_area(CENTER, REACH, np.zeros(2), HAND, obstacle, HAND_CLEARANCE)
+    low, high = center - half, center + half
+    assert high[1] == pytest.approx(REACH[1]) and low[0] == pytest.approx(-REACH[0])  # the other sides stay
+    assert low[1] == pytest.approx(-0.13 + HAND[1] + HAND_CLEARANCE)  # the -y side moved just enough
+    corners = np.array([[x, y] for x in (low[0], high[0]) for y in (low[1], high[1])])
+    for box in _hand_boxes(corners):
+        assert _gap(box, (obstacle[0, :2], obstacle[0, 2:])) >= HAND_CLEARANCE - 1e-12
+
+
+def test_clear_area_ignores_objects_out_of_reach_and_beside_the_lanes_costs_little():
+    far = np.array([[0.3, 0.3, 0.34, 0.34]])
+    center, half = clear_area(CENTER, REACH, np.zeros(2), HAND, far, HAND_CLEARANCE)
+    assert np.allclose(center, CENTER) and np.allclose(half, REACH)
+    beside = np.array([[0.13, -0.02, 0.17, 0.02]])  # beside the lanes (x): the hand's narrow side faces it
+    center, half = clear_area(CENTER, REACH, np.zeros(2), HAND, beside, HAND_CLEARANCE)
+    assert np.allclose(half, REACH)  # 0.05 + 0.032 + 0.01 < 0.13: nothing to cut
+
+
+def test_clear_area_follows_the_hand_offset_and_refuses_bad_sizes():
+    obstacle = np.array([[-0.02, 0.13, 0.02, 0.17]])
+    _, plain = clear_area(CENTER, REACH, np.zeros(2), HAND, obstacle, HAND_CLEARANCE)
+    _, shifted = clear_area(CENTER, REACH, np.array([0.0, 0.01]), HAND, obstacle, HAND_CLEARANCE)
+    assert (plain[1] * 2) - (shifted[1] * 2) == pytest.approx(0.01)  # a hand 1 cm further toward it: 1 cm less
+    with pytest.raises(ValueError, match="margin"):
+        clear_area(CENTER, REACH, np.zeros(2), HAND, obstacle, -0.01)
+    with pytest.raises(ValueError, match="half extents"):
+        clear_area(CENTER, np.array([-0.1, 0.1]), np.zeros(2), HAND, obstacle, 0.0)
+
+
+def test_every_point_of_a_pattern_in_the_clear_area_keeps_the_hand_clear():
+    obstacles = np.array([[-0.05, -0.17, -0.01, -0.12], [0.12, 0.0, 0.16, 0.04]])
+    center, half = clear_area(CENTER, REACH, np.zeros(2), HAND, obstacles, HAND_CLEARANCE)
+    footprint = np.array([0.04, 0.025])
+    points = boustrophedon(center, half + footprint, footprint, 0.0, along_x=False)
+    assert np.all(np.abs(points - center) <= half + 1e-12)
+    for box in _hand_boxes(points):
+        for obstacle in obstacles:
+            assert _gap(box, (obstacle[:2], obstacle[2:])) >= HAND_CLEARANCE - 1e-12
+
+
+def test_hand_obstacles_counts_only_objects_reaching_the_hands_underside():
+    cube = ObjectGeometry(np.array([[sx, sy, sz] for sx in (-0.02, 0.02) for sy in (-0.02, 0.02)
+                                    for sz in (-0.02, 0.02)]))
+    info = {"objects_pos": np.array([[0.0, 0.2, 0.82], [0.1, 0.2, 0.90]]), "objects_grasped": np.array([False, False]),
+            "objects_quat": np.array([[0.0, 0.0, 0.0, 1.0]] * 2), "objects_geometry": (cube, cube)}
+    boxes = hand_obstacles(info, hand_bottom_z=0.86)  # the low cube's top (0.84) is 2 cm below: not in the way
+    assert boxes.shape == (1, 4) and np.allclose(boxes[0], [0.08, 0.18, 0.12, 0.22])
+    info["objects_grasped"] = np.array([False, True])  # a held object is no obstacle
+    assert hand_obstacles(info, hand_bottom_z=0.86).shape == (0, 4)
+
+
+def test_free_spot_takes_the_centre_else_the_spot_farthest_from_the_other_segments():
+    center, half = np.array([-0.11, 0.11]), np.array([0.09, 0.09])
+    assert np.allclose(free_spot(center, half, 0.03, [], 0.08, 0.01), center)
+    others = [(np.array([-0.11, 0.11, 0.82]), 0.03)]
+    # segment 2 of three: segment 1 below it (-y), segment 3 to its right (+x)
+    neighbours = other_segments([[-0.11, -0.11], [-0.11, 0.11], [0.11, 0.11]], [[0.09, 0.09]] * 3, 1)
+    spot = free_spot(center, half, 0.03, others, 0.08, 0.01, neighbours)
+    assert spot[0] < center[0] and spot[1] > center[1]  # the corner away from both neighbours
+    assert np.linalg.norm(spot - center) >= 0.03 + 0.03 + 0.01 - 1e-9
+    assert np.all(np.abs(spot - center) + 0.03 <= half + 1e-9)
+
+
+def test_reset_spots_run_along_x_across_the_wiping_hand():
+    offsets = slot_offsets(2, 0.1)
+    assert np.allclose(offsets, [[-0.05, 0.0], [0.05, 0.0]])
+
+
+def test_the_partner_actually_used_is_named_in_the_table():
+    assert partner_for("milk", "mixed", "box") == "box"
+    assert partner_for("box", "mixed", "box") == FALLBACK_PARTNER
+    assert partner_for("box", "alone", "box") == ""
+    row = {"object": "box", "setting": "mixed", "partner": FALLBACK_PARTNER, "skill": "pick", "executions": 2,
+           "successes": 2, "success_rate": 1.0, "agreements": 2, "fidelity": 1.0, "episodes": 1,
+           "episode_successes": 1, "seconds": 1.0}
+    assert f"| box | mixed | {FALLBACK_PARTNER} | 1/1 |" in markdown([row])
+
+
+def test_the_lower_bound_is_clopper_pearsons_and_the_verdict_needs_it_at_the_goal():
+    from tableclean_suite.bench.object_table import GOAL_RATE, lower_bound
+
+    assert lower_bound(300, 300) == pytest.approx(0.05 ** (1 / 300))  # no failure: the exact closed form
+    assert lower_bound(0, 0) == 0.0
+    assert lower_bound(299, 300) < lower_bound(300, 300) < 1.0
+    row = {"object": "can", "setting": "alone", "partner": "", "skill": "pick", "episodes": 300, "episode_successes": 300}
+    met = markdown([dict(row, executions=300, successes=300, agreements=300)])
+    short = markdown([dict(row, executions=100, successes=100, agreements=100)])
+    assert lower_bound(300, 300) >= GOAL_RATE and "300/300" in met and met.rstrip(" |").endswith("ok")
+    assert short.rstrip(" |").endswith("below")  # 100 of 100 is too few to claim 99 %
