@@ -50,6 +50,8 @@ STEPS_PER_SECOND = 50_000_000
 REFERENCE_STEPS_PER_SECOND = 300_000
 #: Engine name -> learner steps per second assumed by time estimates.
 ENGINE_STEPS_PER_SECOND = {"compiled": STEPS_PER_SECOND, "reference": REFERENCE_STEPS_PER_SECOND}
+#: The engine ``train()`` uses unless told otherwise (the benchmark grid and ``tune`` never choose another).
+DEFAULT_ENGINE = "compiled"
 #: Bytes per (state, action) pair of a Q entry in the reference loop's Python tables: a list slot
 #: (8), a float object (24) and a share of its row list's header (56 per row).
 PYTHON_ENTRY_BYTES = 6 * WORD_BYTES
@@ -178,7 +180,7 @@ def run_working_bytes(learner, reward, n_states: int, n_actions: int) -> int:
 
 def training_memory(n_states: int, n_actions: int, runs: int, iterations: int, q_tables: int = 1,
                     max_successors: int = 1, code_bytes: int = 4, checkpoint: bool = False,
-                    engine: str = "compiled", run_bytes: int = 0, concurrent_runs: int = 1) -> MemoryEstimate:
+                    engine: str = DEFAULT_ENGINE, run_bytes: int = 0, concurrent_runs: int = 1) -> MemoryEstimate:
     """One ``train()`` call on a table backend, bytes by part.
 
     Args:
@@ -212,7 +214,7 @@ def training_memory(n_states: int, n_actions: int, runs: int, iterations: int, q
 
 
 def learner_training_memory(model, learner, reward, runs: int, iterations: int, checkpoint: bool = False,
-                            engine: str = "compiled", max_successors: int = 1) -> MemoryEstimate:
+                            engine: str = DEFAULT_ENGINE, max_successors: int = 1) -> MemoryEstimate:
     """:func:`training_memory` of ``train()``-ing ``learner`` (a ``TabularLearner``) with ``reward``
     (a ``RewardPattern``) on ``model`` (a ``TaskModel``): two tables per run for double Q-learning,
     the learner's run working memory (:func:`run_working_bytes`) in each of numba's threads."""

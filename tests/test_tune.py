@@ -98,3 +98,58 @@ def test_a_study_that_cannot_fit_is_refused_before_its_tables_are_built(tmp_path
     with pytest.raises(resources.InsufficientMemoryError, match="a tuning stage"):
         tune.main(["--runs", "100000", "--iterations", "4000", "--trials", "1", "--out", str(tmp_path / "tune")])
     assert not (tmp_path / "tune" / "study.db").exists()
+
+
+def test_a_double_q_study_is_sized_by_its_own_tables_and_refused_before_any_trial(tmp_path, monkeypatch, capsys):
+    """The old estimate (one Q-table per run, whatever the learner) let double Q-learning's five
+    tables per run through; the learner's own estimate refuses it, one line, exit 2, nothing trained."""
+    from tableclean_suite import resources
+    from tableclean_suite.bench import commands
+    from tableclean_suite.bench.experiments import ANALYSIS_BYTES_PER_PAIR
+    from tableclean_suite.learners import get_learner
+    from tableclean_suite.rewards import get_reward_pattern
+    from tableclean_suite.task import TaskModel, TaskSpec
+
+    model = TaskModel(spec=TaskSpec("faults_tune_big", segments=10, objects=2))  # 1.24 M codes x 4 actions
+    spec_path = tmp_path / "big.json"
+    spec_path.write_text(json.dumps(model.spec.to_dict()))
+    runs, iterations = 40, 10
+    stage_runs = -(-runs // tune.STAGES)
+    analysis = resources.MemoryEstimate({"asymptote analysis": model.n_states * model.n_actions * ANALYSIS_BYTES_PER_PAIR})
+    old = resources.training_memory(model.n_states, model.n_actions, stage_runs, iterations,
+                                    code_bytes=model.record_dtype.itemsize) + analysis
+    real = resources.learner_training_memory(model, get_learner("double_q_learning"), get_reward_pattern("r4"),
+                                             stage_runs, iterations) + analysis
+    available = (old.total + real.total) / 2 / resources.USABLE_FRACTION  # the old estimate fits, the real one not
+    assert old.total < resources.USABLE_FRACTION * available < real.total
+
+    monkeypatch.delenv(resources.OVERRIDE_ENV, raising=False)
+    monkeypatch.setattr(resources, "available_bytes", lambda: int(available))
+
+    def never(*args, **kwargs):
+        raise AssertionError("a trial was trained")
+
+    monkeypatch.setattr(tune.Evaluation, "stages", never)
+    monkeypatch.setattr(TaskModel, "transition_arrays", never)
+    out = tmp_path / "tune"
+    code = commands.main(["tune", "--task", str(spec_path), "--learner", "double_q_learning", "--reward", "r4",
+                          "--runs", str(runs), "--iterations", str(iterations), "--trials", "1", "--out", str(out)],
+                         prog="tableclean-bench")
+    error = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(error) == 1, error
+    assert "double_q_learning" in error[0] and "Q-tables" in error[0] and resources.OVERRIDE_ENV in error[0], error
+    assert not (out / "study.db").exists()
+
+
+def test_a_study_that_would_run_too_long_is_refused_before_any_trial(tmp_path, monkeypatch):
+    from tableclean_suite import resources
+
+    monkeypatch.delenv(resources.OVERRIDE_ENV, raising=False)
+    monkeypatch.setattr(tune.Evaluation, "stages", lambda self: pytest.fail("a trial was trained"))
+    rate = resources.steps_per_second(resources.DEFAULT_ENGINE)
+    runs, iterations = 100, 1000
+    trials = int(2 * resources.MAX_TRAINING_SECONDS * rate) // (runs * iterations)  # two days of steps
+    with pytest.raises(resources.TooMuchWorkError, match="learner steps at"):
+        tune.main([*TINY[4:], "--runs", str(runs), "--iterations", str(iterations), "--trials", str(trials),
+                   "--out", str(tmp_path / "tune")])
+    assert not (tmp_path / "tune" / "study.db").exists()

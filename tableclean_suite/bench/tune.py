@@ -101,23 +101,44 @@ def bind_configuration(study, args) -> None:
 
 
 def check_resources(args) -> None:
-    """Refuse a study whose stages cannot fit in memory, before the task's tables are built: one
-    stage's runs (records, Q-tables), the tables and its asymptote analysis (the estimates of
-    :mod:`tableclean_suite.resources` and :func:`tableclean_suite.bench.experiments.check_grid_resources`).
+    """Refuse a study that cannot fit in memory or would run too long, before the task's tables are
+    built and before any trial trains (the estimates of :mod:`tableclean_suite.resources`, as
+    :func:`tableclean_suite.bench.experiments.check_grid_resources` makes them for a grid).
+
+    Memory: one stage's runs of the tuned learner (:func:`tableclean_suite.resources.learner_training_memory`:
+    double Q-learning's tables, its run working arrays; trials keep no checkpoint), the tables and
+    the stage's asymptote analysis.  Time: at most ``--trials`` trials and the paper configuration's
+    reference (computed once per study), each ``runs x iterations`` learner steps at the engine's rate
+    (:func:`tableclean_suite.resources.steps_per_second`) and one asymptote DP per stage; a pruned
+    trial stops early.
 
     Raises:
         tableclean_suite.resources.ResourceError: one line naming the estimate and the override.
     """
     from tableclean_suite import resources
-    from tableclean_suite.bench.experiments import ANALYSIS_BYTES_PER_PAIR
+    from tableclean_suite.bench.experiments import ANALYSIS_BYTES_PER_PAIR, ANALYSIS_PAIRS_PER_SECOND
+    from tableclean_suite.learners import get_learner
+    from tableclean_suite.rewards import get_reward_pattern
 
     model = args.model
+    pairs = model.n_states * model.n_actions
     stage_runs = -(-args.runs // STAGES)
-    memory = resources.training_memory(model.n_states, model.n_actions, stage_runs, args.iterations,
-                                       code_bytes=model.record_dtype.itemsize)
-    memory += resources.MemoryEstimate({"asymptote analysis": model.n_states * model.n_actions * ANALYSIS_BYTES_PER_PAIR})
-    resources.require_memory(memory, f"a tuning stage of task {model.spec.name!r} ({model.n_states} states x "
-                                     f"{model.n_actions} actions, {stage_runs} runs x {args.iterations} iterations)")
+    memory = resources.learner_training_memory(model, get_learner(args.learner), get_reward_pattern(args.reward),
+                                               stage_runs, args.iterations, checkpoint=False,
+                                               engine=resources.DEFAULT_ENGINE)
+    memory += resources.MemoryEstimate({"asymptote analysis": pairs * ANALYSIS_BYTES_PER_PAIR})
+    resources.require_memory(memory, f"a tuning stage of {args.learner!r} on task {model.spec.name!r} "
+                                     f"({model.n_states} states x {model.n_actions} actions, {stage_runs} runs x "
+                                     f"{args.iterations} iterations)")
+    evaluations = args.trials + 1  # the trials and the paper configuration's reference
+    steps = evaluations * args.runs * args.iterations
+    analyses = evaluations * STAGES
+    rate = resources.steps_per_second(resources.DEFAULT_ENGINE)
+    seconds = steps / rate + analyses * args.max_itr * pairs / ANALYSIS_PAIRS_PER_SECOND
+    resources.require_time(seconds, f"tuning {args.trials} trial(s) of {args.learner!r} on task {model.spec.name!r}",
+                           f"{steps:.3g} learner steps at {rate:.3g}/s ({resources.DEFAULT_ENGINE} engine) and "
+                           f"{analyses} asymptote analyses of {args.max_itr} x {pairs} pairs at "
+                           f"{ANALYSIS_PAIRS_PER_SECOND:.3g}/s")
 
 
 def _storage_failure(args, error: Exception) -> StudyError:
