@@ -233,3 +233,25 @@ def test_the_grid_estimate_counts_double_q_and_the_settling_snapshots(monkeypatc
         experiments.check_grid_resources(experiments.unique_cells(experiments.config_grid(config)), config, model)
     plain, settling, double = seen
     assert settling == 2 * plain and double == 8 * plain  # the checkpoint copy; double Q's 5 tables and 3 snapshots
+
+
+def _grid_seconds(backend: str) -> tuple[float, int]:
+    """(estimated seconds, learner steps) of a two-learner grid on the paper task with ``backend``."""
+    config = RunConfig(learners=("q_learning", "double_q_learning"), rewards=("r4",), runs=500, iterations=4000,
+                       out="unused", backend=backend)
+    cells = experiments.unique_cells(experiments.config_grid(config))
+    return experiments.check_grid_resources(cells, config, TaskModel()), len(cells) * config.runs * config.iterations
+
+
+def test_the_grid_time_counts_training_once_with_settling_and_the_checkpoints_analysis(monkeypatch):
+    """Settling (symbolic) keeps the checkpoint's Q-tables in the same training pass as without it
+    (physics): the same learner steps at the engine's rate; only its asymptote analysis is extra."""
+    monkeypatch.delenv(resources.OVERRIDE_ENV, raising=False)
+    monkeypatch.setattr(experiments, "ANALYSIS_PAIRS_PER_SECOND", float("inf"))  # training time only
+    (settling, steps), (plain, same_steps) = _grid_seconds("symbolic"), _grid_seconds("physics")
+    assert steps == same_steps
+    assert settling == plain == steps / resources.steps_per_second(resources.DEFAULT_ENGINE)
+    monkeypatch.setattr(experiments, "ANALYSIS_PAIRS_PER_SECOND", 6e6)
+    monkeypatch.setitem(resources.ENGINE_STEPS_PER_SECOND, resources.DEFAULT_ENGINE, float("inf"))  # analyses only
+    (settling, _), (plain, _) = _grid_seconds("symbolic"), _grid_seconds("physics")
+    assert settling == 2 * plain > 0  # the final Q-tables' asymptotes and the checkpoint's

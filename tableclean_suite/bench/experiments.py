@@ -360,8 +360,9 @@ def check_grid_resources(cells, config: RunConfig, model) -> float:
 
     Memory: one chunk's records and Q-tables (:func:`chunk_runs`), the tables and the chunk's
     asymptote analysis (:data:`ANALYSIS_BYTES_PER_PAIR`).  Time: every cell's learner steps
-    (``runs x iterations``, twice up to the settling checkpoint) at
-    :data:`tableclean_suite.resources.STEPS_PER_SECOND` plus one asymptote DP per chunk.
+    (``runs x iterations``, once: the settling checkpoint is kept by the same pass) at the engine's
+    rate (:func:`tableclean_suite.resources.steps_per_second`) plus one asymptote DP per chunk, and
+    one more for the checkpoint's Q-tables when the backend settles.
 
     Raises:
         tableclean_suite.resources.ResourceError: one line naming the estimate, what is available
@@ -382,12 +383,13 @@ def check_grid_resources(cells, config: RunConfig, model) -> float:
     what = (f"a cell of task {model.spec.name!r} ({model.n_states} states x {model.n_actions} actions, "
             f"{chunk} of {config.runs} runs x {config.iterations} iterations at a time)")
     resources.require_memory(memory, what)
-    steps = 2 * len(cells) * config.runs * config.iterations
-    chunks = len(cells) * -(-config.runs // chunk)
-    analysis_steps = chunks * config.max_itr * pairs
-    seconds = steps / resources.STEPS_PER_SECOND + analysis_steps / ANALYSIS_PAIRS_PER_SECOND
+    steps = len(cells) * config.runs * config.iterations
+    rate = resources.steps_per_second(resources.DEFAULT_ENGINE)
+    analyses = len(cells) * -(-config.runs // chunk) * (1 + int(settles))  # final (and checkpoint) asymptotes
+    analysis_steps = analyses * config.max_itr * pairs
+    seconds = steps / rate + analysis_steps / ANALYSIS_PAIRS_PER_SECOND
     resources.require_time(seconds, f"training {len(cells)} cell(s) of task {model.spec.name!r}",
-                           f"{steps:.3g} learner steps at {resources.STEPS_PER_SECOND:.3g}/s and {chunks} asymptote "
+                           f"{steps:.3g} learner steps at {rate:.3g}/s and {analyses} asymptote "
                            f"analyses of {config.max_itr} x {pairs} pairs at {ANALYSIS_PAIRS_PER_SECOND:.3g}/s")
     return seconds
 
