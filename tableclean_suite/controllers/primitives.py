@@ -17,7 +17,9 @@ Every height, depth and yaw comes from the scene at run time: the body's collisi
 its own frame (``skill_info()["objects_geometry"]``, :mod:`tableclean_suite.environments.object_geometry`)
 at its current pose, and the gripper's measures (``gripper_palm_height``).  An object type's
 registered overrides (``grasp_depth``, ``yaw_rule``) win where given; no primitive branches on a
-type name.
+type name.  Of equivalent yaws (a narrow side's, a turn away from a neighbour) a primitive aims at
+the one within a quarter turn of the config's ``nominal_yaw`` (:func:`line_yaw`), so the wrist
+never winds towards its joint limits.
 """
 
 from __future__ import annotations
@@ -46,6 +48,10 @@ from tableclean_suite.environments.object_geometry import (
 
 Info = Mapping[str, Any]
 
+#: rad; a grasp's finger line (the grip site's x axis) closer than this to the direction of a lying
+#: neighbour the hand would reach is turned away from it (at 45 degrees the open Panda fingers, about
+#: 4.5 cm out, pass a neighbour 7 cm away by about 5 cm, more than a 2.5 cm footprint and a finger).
+FINGER_LINE_CLEARANCE = 0.25 * np.pi
 
 
 @dataclass(frozen=True)
@@ -63,6 +69,7 @@ class Body:
         yaw_rule: ``"short_side"`` (fingers across the narrowest side) or ``"any"`` (keep the
             gripper's current yaw); None: ``"any"`` for a round ``geometry``, else ``"short_side"``.
         geometry: ``info -> ObjectGeometry`` of the body in its own frame; None: a box of ``half_size``.
+        index: the body's 0-based index among ``skill_info()``'s objects (None: not a task object, e.g. the sponge).
     """
 
     pos: Callable[[Info], np.ndarray]
@@ -72,6 +79,7 @@ class Body:
     grasp_depth: float | None = None
     yaw_rule: str | None = "short_side"
     geometry: Callable[[Info], ObjectGeometry] | None = None
+    index: int | None = None
 
     def shape(self, info: Info) -> ObjectGeometry:
         """The body's collision geometry in its own frame (a box of ``half_size`` without ``geometry``)."""
@@ -91,6 +99,7 @@ def object_body(obj: int, info: Info | None = None) -> Body:
         yaw_rule=None if kind is None else kind.yaw_rule,
         geometry=lambda info: info["objects_geometry"][obj] if "objects_geometry" in info
         else box_geometry(info["objects_half_size"][obj]),
+        index=obj,
     )
 
 
@@ -112,6 +121,38 @@ def holding_z(pos, rot, geometry: ObjectGeometry, config: Mapping[str, Any], pal
     floor = low + config["fingertip_depth"] + config["tip_clearance"]
     below_palm = top - (palm_height - config["palm_clearance"])
     return max(0.5 * (low + top), below_palm, floor)
+
+
+def line_angle(a: float, b: float) -> float:
+    """Angle [rad, in [0, pi/2]] between the horizontal lines of directions ``a`` and ``b`` [rad]."""
+    turn = abs(wrap_angle(a - b))
+    return min(turn, np.pi - turn)
+
+
+def line_yaw(direction: float, preferred: float) -> float:
+    """Of the two yaws [rad] along the line of ``direction`` (pi apart), the one nearest ``preferred``.
+
+    The skills aim every yaw within a quarter turn of the config's ``nominal_yaw`` this way, so
+    that successive turns never wind the wrist towards its joint limit (measured: a place that
+    chose the yaw nearest the current one left the Panda's hand 2.1 rad from nominal, and the next
+    pick's half turn drove joint 6 into its limit, 1.7 cm short of the hover point).
+    """
+    turns = np.round(wrap_angle(preferred - direction) / np.pi)
+    return wrap_angle(direction + turns * np.pi)
+
+
+def nearest_neighbour(info: Info, xy, above_z: float, exclude: int | None = None) -> int | None:
+    """The nearest lying object (not ``exclude``) whose top is above ``above_z`` [m] and that the hand would reach
+    over ``xy`` (2,) [m]: its footprint within ``gripper_hand_reach`` of ``xy``; None when there is none."""
+    tops, _ = object_heights(info)
+    positions = np.asarray(info["objects_pos"], dtype=float)
+    lying = ~np.asarray(info["objects_grasped"], dtype=bool)
+    if exclude is not None:
+        lying[exclude] = False
+    gaps = np.linalg.norm(positions[:, :2] - np.asarray(xy, dtype=float)[:2], axis=1)
+    near = np.flatnonzero(lying & (tops > above_z) & (gaps < float(info["gripper_hand_reach"])
+                                                     + np.asarray(info["objects_footprint"], dtype=float)))
+    return None if near.size == 0 else int(near[np.argmin(gaps[near])])
 
 
 SPONGE = Body(
@@ -187,7 +228,8 @@ class Grasp(Primitive):
     body (contact); after lifting, they still do and the body rose with the grip site, trailing
     it by at most ``grasp_slip_tolerance`` m (:data:`GRASP_SLIP_TOLERANCE`; slip).  Either failure
     re-approaches the body from its measured pose, up to ``grasp_retries`` times in all, then
-    fails.  Sets the skill's target yaw from ``body.yaw_rule`` when it starts.
+    fails.  Sets the skill's target yaw from ``body.yaw_rule`` when it starts, with the finger line
+    turned off a lying neighbour the hand would reach (:data:`FINGER_LINE_CLEARANCE`).
     """
 
     PHASES = ("HOVER", "DESCEND", "CLOSE", "LIFT")
@@ -203,15 +245,50 @@ class Grasp(Primitive):
 
     def _aim(self, skill, info) -> None:
         """The target yaw for (re-)approaching the body as it lies now: across its narrow side, or
-        the current one for a round body (or its type's ``yaw_rule``)."""
+        the current one for a round body (or its type's ``yaw_rule``); turned when the open fingers
+        would come down on a lying neighbour (:meth:`_clear_of_neighbour`)."""
         shape = self.body.shape(info)
         rule = self.body.yaw_rule
         if rule is None:
             rule = "any" if shape.is_round else "short_side"
+        nominal = skill.config["nominal_yaw"]
         if rule == "short_side":
-            skill.yaw = grasp_yaw(shape, gripper_yaw(self.body.quat(info)), skill.config["nominal_yaw"])
+            object_yaw = gripper_yaw(self.body.quat(info))
+            skill.yaw = grasp_yaw(shape, object_yaw, nominal)
+            direction, period = shape.narrow_side()
+            lines = [object_yaw + direction + k * period for k in range(int(round(np.pi / period)))]
         else:
             skill.yaw = gripper_yaw(info["eef_quat"])
+            lines = None  # any yaw grasps it
+        self._clear_of_neighbour(skill, info, lines)
+
+    def _clear_of_neighbour(self, skill, info, lines: list[float] | None) -> None:
+        """Turn the finger line (the grip site's x axis) away from the nearest lying neighbour the hand would
+        reach at the grasp, when it points within :data:`FINGER_LINE_CLEARANCE` of it: to the allowed finger
+        line of ``lines`` (rad) most across the neighbour, or (``lines`` None: any yaw grasps the body) to the
+        line just :data:`FINGER_LINE_CLEARANCE` from it nearer the current aim; at the yaw nearest ``nominal_yaw``.
+
+        Measured: a box grasped with its fingers along the line to a cylinder 6.8 cm away landed a
+        finger on the cylinder's top, 2.5 cm above the grasp point, and the descent ran out of budget.
+        No neighbour, a body without geometry (the sponge) or a test double's info without the
+        scene's keys: the yaw stays."""
+        if self.body.geometry is None or self.body.index is None or "gripper_hand_reach" not in info:
+            return
+        pos = self.body.pos(info)
+        fingertips = float(self.grasp_target(skill, info)[2]) - skill.config["fingertip_depth"]
+        j = nearest_neighbour(info, pos[:2], fingertips, exclude=self.body.index)
+        if j is None:
+            return
+        toward_vec = np.asarray(info["objects_pos"][j], dtype=float)[:2] - pos[:2]
+        toward = float(np.arctan2(toward_vec[1], toward_vec[0]))
+        if line_angle(skill.yaw, toward) >= FINGER_LINE_CLEARANCE:
+            return
+        nominal = skill.config["nominal_yaw"]
+        if lines is None:  # just far enough, on the side nearer the current aim: the smaller turn
+            options = [line_yaw(toward + side * FINGER_LINE_CLEARANCE, nominal) for side in (-1.0, 1.0)]
+            skill.yaw = min(options, key=lambda yaw: abs(wrap_angle(yaw - skill.yaw)))
+        else:
+            skill.yaw = line_yaw(max(lines, key=lambda line: line_angle(line, toward)), nominal)
 
     def grasp_target(self, skill, info) -> np.ndarray:
         """(3,) grip-site target: the type's ``grasp_depth`` below the centre, else the holding height."""
@@ -301,19 +378,12 @@ class Release(Primitive):
             return
         hand_bottom = (float(self.rest_z(skill, info)) + skill.config["place_clearance"] + self.hold_offset_z
                        + float(info["gripper_palm_height"]))
-        tops, _ = object_heights(info)
-        positions = np.asarray(info["objects_pos"], dtype=float)
-        lying = ~np.asarray(info["objects_grasped"], dtype=bool)
-        gaps = np.linalg.norm(positions[:, :2] - self.xy, axis=1)
-        near = np.flatnonzero(lying & (tops > hand_bottom) & (gaps < float(info["gripper_hand_reach"])
-                                                               + np.asarray(info["objects_footprint"])))
-        if near.size == 0:
+        j = nearest_neighbour(info, self.xy, hand_bottom)
+        if j is None:
             return
-        j = near[np.argmin(gaps[near])]
-        toward = positions[j, :2] - self.xy
+        toward = np.asarray(info["objects_pos"][j], dtype=float)[:2] - self.xy
         across = float(np.arctan2(toward[1], toward[0])) + 0.5 * np.pi
-        turns = np.round(wrap_angle(skill.yaw - across) / np.pi)  # the equivalent yaw nearest the current one
-        skill.yaw = wrap_angle(across + turns * np.pi)
+        skill.yaw = line_yaw(across, skill.config["nominal_yaw"])  # not the current one's: no wind-up
 
     def rests(self, skill, info) -> bool:
         """Whether the body's lowest point is within ``place_clearance`` of the surface it rests on at ``rest_z``."""
