@@ -31,7 +31,6 @@ from tableclean_suite.controllers.configs import (
     SkillConfig,
     WipeConfig,
 )
-from tableclean_suite.controllers.pick import GRASP_CONFIG
 from tableclean_suite.controllers.primitives import SPONGE
 from tableclean_suite.controllers.robot_configs import register_robot_config
 from tableclean_suite.environments.robot_registry import ROBOT_CONFIGS, RobotSkillConfig
@@ -66,7 +65,7 @@ def test_skill_defaults_are_the_config_types_defaults():
         assert skill.Config is config_type
         assert skill.DEFAULT_CONFIG == config_type().as_dict()
         assert set(BASE_CONFIG) <= set(skill.DEFAULT_CONFIG)
-    assert set(GRASP_CONFIG) <= set(PickSkill.DEFAULT_CONFIG) and set(GRASP_CONFIG) <= set(CleanSkill.DEFAULT_CONFIG)
+    assert set(GraspConfig.keys()) <= set(PickSkill.DEFAULT_CONFIG) and set(GraspConfig.keys()) <= set(CleanSkill.DEFAULT_CONFIG)
     # the paper's tuned numbers (an optimal episode's control steps depend on them)
     assert (MoveConfig().max_steps, PickConfig().max_steps, PlaceConfig().max_steps, CleanConfig().max_steps) \
         == (200, 250, 250, 900)

@@ -5,22 +5,17 @@ from __future__ import annotations
 import enum
 from typing import Any, Mapping
 
-from tableclean_suite.controllers.configs import GraspConfig, PickConfig
+from tableclean_suite.controllers.configs import PickConfig
 from tableclean_suite.controllers.primitives import (
     Grasp,
     PrimitiveSkill,
     grasp_point,
     object_body,
 )
-from tableclean_suite.controllers.skill import BASE_CONFIG, SkillFailure
+from tableclean_suite.controllers.skill import SkillFailure
 from tableclean_suite.task import Action
 
-__all__ = ["GRASP_CONFIG", "PickPhase", "PickSkill", "grasp_point"]
-
-#: The dict form of the Grasp primitive's own settings (:class:`~.configs.GraspConfig`'s fields beyond
-#: :class:`~.configs.SkillConfig`'s, plus ``fingertip_depth``): shared by every skill that grasps from above.
-GRASP_CONFIG = {key: value for key, value in GraspConfig().as_dict().items()
-                if key not in BASE_CONFIG or key == "fingertip_depth"}
+__all__ = ["PickPhase", "PickSkill", "grasp_point"]
 
 
 class PickPhase(enum.Enum):
