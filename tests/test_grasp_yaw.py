@@ -7,6 +7,8 @@ the config's ``nominal_yaw`` (a wrist wound further made the Panda's next half t
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -51,6 +53,7 @@ def _info(shapes, xys, eef_yaw=NOMINAL, grasped=None) -> dict:
         "objects_quat": np.tile([0.0, 0.0, 0.0, 1.0], (len(shapes), 1)),
         "objects_half_size": np.array([s.half_size for s in shapes]),
         "objects_geometry": list(shapes),
+        "object_types": [SimpleNamespace(grasp_depth=None, yaw_rule=None)] * len(shapes),  # no overrides
         "objects_grasped": np.zeros(len(shapes), dtype=bool) if grasped is None else np.asarray(grasped),
         "objects_footprint": np.array([s.footprint_radius for s in shapes]),
         "gripper_hand_reach": HAND_REACH,

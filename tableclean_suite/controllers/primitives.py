@@ -42,8 +42,8 @@ from tableclean_suite.controllers.skill import Skill, SkillFailure, Waypoint, ob
 from tableclean_suite.environments.object_geometry import (
     ObjectGeometry,
     grasp_yaw,
-    world_highest_z,
     world_lowest_z,
+    world_z_range,
 )
 
 Info = Mapping[str, Any]
@@ -87,9 +87,11 @@ class Body:
 
 
 def object_body(obj: int, info: Info | None = None) -> Body:
-    """The task object ``obj`` (0-based): its pose and geometry read at use; with ``info``, its
-    registered type's overrides (``grasp_depth``, ``yaw_rule``; None: derived from the geometry)."""
-    kind = None if info is None or "object_types" not in info else info["object_types"][obj]
+    """The task object ``obj`` (0-based): its pose and geometry (``objects_geometry``) read at use; with
+    ``info``, its registered type's overrides (``info["object_types"]``: ``grasp_depth``, ``yaw_rule``; None:
+    derived from the geometry).  The keys are :meth:`~tableclean_suite.environments.TableClean.skill_info`'s
+    (a missing one raises ``KeyError`` naming it)."""
+    kind = None if info is None else info["object_types"][obj]
     return Body(
         pos=lambda info: np.asarray(info["objects_pos"][obj], dtype=float),
         quat=lambda info: np.asarray(info["objects_quat"][obj], dtype=float),
@@ -97,8 +99,7 @@ def object_body(obj: int, info: Info | None = None) -> Body:
         grasped=lambda info: bool(info["objects_grasped"][obj]),
         grasp_depth=None if kind is None else kind.grasp_depth,
         yaw_rule=None if kind is None else kind.yaw_rule,
-        geometry=lambda info: info["objects_geometry"][obj] if "objects_geometry" in info
-        else box_geometry(info["objects_half_size"][obj]),
+        geometry=lambda info: info["objects_geometry"][obj],
         index=obj,
     )
 
@@ -116,8 +117,7 @@ def holding_z(pos, rot, geometry: ObjectGeometry, config: Mapping[str, Any], pal
     (``palm_height`` m above the grip site) and so that the fingertips stay ``tip_clearance``
     above its bottom.
     """
-    low = world_lowest_z(geometry, pos, rot)
-    top = world_highest_z(geometry, pos, rot)
+    low, top = world_z_range(geometry, pos, rot)
     floor = low + config["fingertip_depth"] + config["tip_clearance"]
     below_palm = top - (palm_height - config["palm_clearance"])
     return max(0.5 * (low + top), below_palm, floor)
@@ -270,9 +270,8 @@ class Grasp(Primitive):
 
         Measured: a box grasped with its fingers along the line to a cylinder 6.8 cm away landed a
         finger on the cylinder's top, 2.5 cm above the grasp point, and the descent ran out of budget.
-        No neighbour, a body without geometry (the sponge) or a test double's info without the
-        scene's keys: the yaw stays."""
-        if self.body.geometry is None or self.body.index is None or "gripper_hand_reach" not in info:
+        No neighbour or a body that is no task object (the sponge): the yaw stays."""
+        if self.body.geometry is None or self.body.index is None:
             return
         pos = self.body.pos(info)
         fingertips = float(self.grasp_target(skill, info)[2]) - skill.config["fingertip_depth"]
@@ -293,7 +292,7 @@ class Grasp(Primitive):
     def grasp_target(self, skill, info) -> np.ndarray:
         """(3,) grip-site target: the type's ``grasp_depth`` below the centre, else the holding height."""
         pos = self.body.pos(info)
-        if self.body.grasp_depth is not None or self.body.geometry is None or "gripper_palm_height" not in info:
+        if self.body.grasp_depth is not None or self.body.geometry is None:
             return grasp_point(pos, self.body.half_size(info), skill.config, self.body.grasp_depth)
         z = holding_z(pos, quat_to_matrix(self.body.quat(info)), self.body.shape(info), skill.config,
                       float(info["gripper_palm_height"]))
@@ -374,7 +373,7 @@ class Release(Primitive):
         """Turn the hand's long (finger) axis across the direction of the nearest lying object whose top the
         hand would reach at release (within ``gripper_hand_reach`` of the spot): the hand's narrow side then
         faces it.  No such object (the paper's scenes): the yaw stays."""
-        if self.body.geometry is None or "gripper_hand_reach" not in info or "objects_pos" not in info:
+        if self.body.geometry is None:
             return
         hand_bottom = (float(self.rest_z(skill, info)) + skill.config["place_clearance"] + self.hold_offset_z
                        + float(info["gripper_palm_height"]))

@@ -33,8 +33,7 @@ import numpy as np
 from tableclean_suite.controllers.config_check import checked_skill_config
 from tableclean_suite.controllers.configs import SkillConfig
 from tableclean_suite.controllers.geometry import box_lowest_z, gripper_yaw, quat_to_matrix, wrap_angle
-from tableclean_suite.environments.object_geometry import world_highest_z, world_lowest_z
-from tableclean_suite.environments.objects import APPROACH_CLEARANCE
+from tableclean_suite.environments.object_geometry import world_z_range
 from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.controllers.setpoint import advance_command
 from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
@@ -53,9 +52,9 @@ def object_heights(info: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
         return positions[:, 2] + halves[:, 2], positions[:, 2] - halves[:, 2]
     tops, bottoms = [], []
     for pos, quat, shape in zip(positions, info["objects_quat"], info["objects_geometry"]):
-        rot = quat_to_matrix(quat)
-        tops.append(world_highest_z(shape, pos, rot))
-        bottoms.append(world_lowest_z(shape, pos, rot))
+        bottom, top = world_z_range(shape, pos, quat_to_matrix(quat))  # one projection of its points for both
+        tops.append(top)
+        bottoms.append(bottom)
     return np.asarray(tops), np.asarray(bottoms)
 
 
@@ -373,15 +372,14 @@ class Skill(abc.ABC):
         drop = None  # how far the carried body's lowest point hangs below the grip site
         if grasped.any():
             drop = eef_z - bottoms[int(np.argmax(grasped))]
-        elif bool(info.get("sponge_grasped", False)):
+        elif bool(info["sponge_grasped"]):
             drop = eef_z - box_lowest_z(info["sponge_pos"], info["sponge_quat"], info["sponge_half_size"])
         if drop is not None:
             z = max(z, table + max(drop, 0.0) + self.config["carry_lift"])
-        kinds = info.get("object_types")
+        kinds = info["object_types"]
         for j in np.flatnonzero(~grasped):
             if drop is None:
-                approach = kinds[j].clearance() if kinds is not None else APPROACH_CLEARANCE
-                clearance = self.config["fingertip_depth"] + approach
+                clearance = self.config["fingertip_depth"] + kinds[j].clearance()
             else:
                 clearance = max(drop, 0.0) + self.config["carry_clearance"]
             z = max(z, tops[j] + clearance)

@@ -21,7 +21,8 @@ from tableclean_suite.environments.object_geometry import collision_points
 
 #: Largest gap [m] ``mj_geomDistance`` looks for between the finger pads (far beyond any gripper's opening).
 MAX_PAD_GAP = 0.5
-#: At most this many finger joints are tried at every end of their ranges (2^n poses).
+#: Most finger joints a gripper may have: each is tried at both ends of its range (2^n poses);
+#: robosuite's two-finger grippers have 2 (Panda, Rethink) to 6 (Robotiq 85 and 140, xArm7).
 MAX_FINGER_JOINTS = 6
 
 
@@ -38,10 +39,17 @@ class GripperGeometry:
 
 
 def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site: str) -> GripperGeometry:
-    """The :class:`GripperGeometry` of robosuite gripper model ``gripper`` mounted in ``model`` (arm at ``qpos``)."""
+    """The :class:`GripperGeometry` of robosuite gripper model ``gripper`` mounted in ``model`` (arm at ``qpos``).
+
+    Raises ``ValueError`` naming the gripper when it has more than :data:`MAX_FINGER_JOINTS` finger joints
+    (a hand, not a two-finger gripper: its open width would be measured over some of its joints only).
+    """
+    if len(gripper.joints) > MAX_FINGER_JOINTS:
+        raise ValueError(f"gripper {type(gripper).__name__} has {len(gripper.joints)} finger joints; the skills "
+                         f"measure grippers with at most {MAX_FINGER_JOINTS} (two-finger grippers)")
     data = mujoco.MjData(model)
     data.qpos[:] = qpos
-    joints = [model.joint(name).id for name in gripper.joints][:MAX_FINGER_JOINTS]
+    joints = [model.joint(name).id for name in gripper.joints]
     ranges = [model.jnt_range[j] for j in joints]
     left = [model.geom(n).id for n in gripper.important_geoms["left_fingerpad"]]
     right = [model.geom(n).id for n in gripper.important_geoms["right_fingerpad"]]

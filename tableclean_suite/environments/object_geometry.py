@@ -14,7 +14,7 @@ geoms' poses in the object's root body), never from per-type numbers or robosuit
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import mujoco
 import numpy as np
@@ -100,50 +100,63 @@ def collision_points(model: mujoco.MjModel, data: mujoco.MjData, root: int, geom
 class ObjectGeometry:
     """An object's collision geometry in its own (root body) frame.
 
+    The measures derived from ``points`` (extents, widths) are computed once, on first use, and
+    kept (read-only arrays): skills read them every control step.
+
     Attributes:
-        points: (K, 3) points on its collision geoms [m], root-body frame.
+        points: (K, 3) points on its collision geoms [m], root-body frame (never changed after construction).
     """
 
     points: np.ndarray
 
-    @property
+    @cached_property
     def lower(self) -> np.ndarray:
         """(3,) smallest x, y, z of the collision geometry in the object's frame [m]."""
-        return self.points.min(axis=0)
+        return _frozen(self.points.min(axis=0))
 
-    @property
+    @cached_property
     def upper(self) -> np.ndarray:
         """(3,) largest x, y, z of the collision geometry in the object's frame [m]."""
-        return self.points.max(axis=0)
+        return _frozen(self.points.max(axis=0))
 
-    @property
+    @cached_property
     def half_size(self) -> np.ndarray:
         """(3,) half extents [m] of the smallest origin-centred box holding the geometry."""
-        return np.maximum(np.abs(self.lower), np.abs(self.upper))
+        return _frozen(np.maximum(np.abs(self.lower), np.abs(self.upper)))
 
     @property
     def height(self) -> float:
         """Vertical extent [m] of the upright object."""
         return float(self.upper[2] - self.lower[2])
 
-    @property
+    @cached_property
     def footprint_radius(self) -> float:
         """Radius [m] of the disc about the object's origin covering it seen from above (any yaw)."""
         return float(np.max(np.linalg.norm(self.points[:, :2], axis=1)))
 
     def widths(self) -> np.ndarray:
         """(WIDTH_DIRECTIONS,) widths [m] of the upright object along the directions ``k pi / WIDTH_DIRECTIONS``
-        of its own frame (what closing fingers along that direction span)."""
+        of its own frame (what closing fingers along that direction span; read-only)."""
+        return self._widths
+
+    @cached_property
+    def _widths(self) -> np.ndarray:
         angles = np.arange(WIDTH_DIRECTIONS) * (np.pi / WIDTH_DIRECTIONS)
         projections = self.points[:, :2] @ np.stack([np.cos(angles), np.sin(angles)])
-        return projections.max(axis=0) - projections.min(axis=0)
+        return _frozen(projections.max(axis=0) - projections.min(axis=0))
 
-    @property
+    def z_range(self, rot) -> tuple[float, float]:
+        """``(lowest, highest)`` height [m] of the collision points above the object's origin when it is turned
+        by rotation matrix ``rot`` (3, 3): one projection of the points for both."""
+        heights = self.points @ np.asarray(rot)[2]
+        return float(np.min(heights)), float(np.max(heights))
+
+    @cached_property
     def narrow_width(self) -> float:
         """Smallest horizontal width [m] of the upright object: what the fingers close across."""
         return float(self.widths().min())
 
-    @property
+    @cached_property
     def is_round(self) -> bool:
         """Whether every horizontal width is the same within :data:`EQUAL_WIDTH` (any gripper yaw grasps it)."""
         widths = self.widths()
@@ -159,6 +172,11 @@ class ObjectGeometry:
         direction = (k / (WIDTH_DIRECTIONS // 2)) * (0.5 * np.pi)  # a quarter turn exactly at k = W / 2
         period = 0.5 * np.pi if abs(widths[quarter] - widths[k]) <= EQUAL_WIDTH else np.pi
         return direction, period
+
+
+def _frozen(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
 
 
 def _wrap(angle: float) -> float:
@@ -214,5 +232,12 @@ def world_highest_z(geometry: ObjectGeometry, pos, rot) -> float:
     return float(pos[2] + np.max(geometry.points @ np.asarray(rot)[2]))
 
 
+def world_z_range(geometry: ObjectGeometry, pos, rot) -> tuple[float, float]:
+    """``(lowest, highest)`` world z [m] of the object's collision points at ``pos`` (3,) with rotation matrix
+    ``rot`` (3, 3): :func:`world_lowest_z` and :func:`world_highest_z` from one projection."""
+    low, high = geometry.z_range(rot)
+    return float(pos[2] + low), float(pos[2] + high)
+
+
 __all__ = ["ObjectGeometry", "object_geometry", "geometry_of_body", "collision_points", "collision_geoms",
-           "grasp_yaw", "world_lowest_z", "world_highest_z", "CIRCLE_POINTS", "EQUAL_WIDTH", "WIDTH_DIRECTIONS"]
+           "grasp_yaw", "world_lowest_z", "world_highest_z", "world_z_range", "CIRCLE_POINTS", "EQUAL_WIDTH", "WIDTH_DIRECTIONS"]
