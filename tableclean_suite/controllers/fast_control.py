@@ -422,6 +422,33 @@ def box_lowest_z(pos: np.ndarray, mat: np.ndarray, half_size: np.ndarray) -> flo
 
 
 @numba.njit(cache=True)
+def panda_gripper_control(current, command, speed, params, new_current, goal_qvel, ctrl) -> None:
+    """robosuite's Panda gripper ``format_action`` and ``SimpleGripController`` mapping for one control step.
+
+    Args:
+        current: (2,) the gripper's rate-limited command (``current_action``); ``command``: the skill's
+            gripper command in [-1, 1]; ``speed``: its change per control step (the gripper's ``speed``).
+        params: (9, 2) rows: input min, input max, input centre, scale, output centre (``scale_action``),
+            actuator min, actuator max, ctrl range low, high; all (2,) per finger actuator.
+        new_current: (2,) output, the new ``current_action``; ``goal_qvel``: (2,) output, the
+            controller's goal; ``ctrl``: (2,) output, the finger actuator controls.
+
+    The same elementwise operations in the same order as robosuite's numpy code, so bit-identical.
+    """
+    sign = np.sign(command)
+    for i in range(2):
+        step = (-1.0 if i == 0 else 1.0) * speed * sign
+        value = min(max(current[i] + step, -1.0), 1.0)
+        new_current[i] = value
+        scaled = min(max(value, params[0, i]), params[1, i])
+        scaled = (scaled - params[2, i]) * params[3, i] + params[4, i]
+        goal_qvel[i] = scaled
+        high, low = params[6, i], params[5, i]
+        desired = 0.5 * (high + low) + 0.5 * (high - low) * scaled
+        ctrl[i] = min(max(desired, params[7, i]), params[8, i])
+
+
+@numba.njit(cache=True)
 def phase_loop(functions, model, data, substeps, buffers, live, gains, initial_joint, site_id, indexes, actuators,
                limits, uncouple, sponge, wipe_z, markers, present, reach, eef_pos, finger_index, setpoint, floats,
                ints, last_fingers, target, grip_table, grip_row, action, goal_pos, goal_ori, log_live, log, log_row,
@@ -488,7 +515,8 @@ def phase_loop(functions, model, data, substeps, buffers, live, gains, initial_j
         if logging:
             for f in range(len(log_live)):
                 log[f][log_row + ran, :] = log_live[f]
-        done = native_substeps(functions, model, data, 0, substeps, buffers, live, goal_pos, goal_ori, gains,
+        # np.int64(0), not the literal 0: a literal argument would compile a second specialisation of native_substeps
+        done = native_substeps(functions, model, data, np.int64(0), substeps, buffers, live, goal_pos, goal_ori, gains,
                                initial_joint, site_id, indexes, actuators, limits, uncouple, grip, sponge, wipe_z,
                                markers, present, reach)
         ran += 1
@@ -637,6 +665,7 @@ class FastSkillStepper:
         self.jacr = np.zeros((3, nv))
         self.torques = np.zeros(len(self.arm_actuators))
         self.substeps = int(env.control_timestep / env.model_timestep)
+        self._grip_params = None  # (controller, its panda_gripper_control parameters), see _panda_grip_params
         self.eef_site_id = robot.eef_site_id[arm]
         self.finger_index = np.asarray(gripper_joint_pos_indexes(robot, arm), dtype=np.int64)
         self._bind_native()
@@ -683,6 +712,14 @@ class FastSkillStepper:
         onto the actuators' control range and the robot's clipping to it.
         """
         controller = self.grip_controller
+        params = self._panda_grip_params()
+        if params is not None:
+            new_current, goal_qvel, ctrl = np.empty(2), np.empty(2), np.empty(2)
+            panda_gripper_control(np.asarray(self.gripper.current_action, dtype=float), float(action[GRIPPER_INDEX]),
+                                  float(self.gripper.speed), params, new_current, goal_qvel, ctrl)
+            self.gripper.current_action = new_current
+            controller.goal_qvel = goal_qvel
+            return ctrl
         goal_qvel = self.gripper.format_action(np.asarray(action[GRIPPER_SLICE], dtype=float))
         if controller.use_action_scaling:
             goal_qvel = controller.scale_action(goal_qvel)
@@ -692,6 +729,25 @@ class FastSkillStepper:
             low, high = controller.actuator_min, controller.actuator_max
             desired = 0.5 * (high + low) + 0.5 * (high - low) * desired
         return np.minimum(np.maximum(desired, self.grip_limits[0]), self.grip_limits[1])  # np.clip, cheaper
+
+    def _panda_grip_params(self) -> np.ndarray | None:
+        """(9, 2) parameters of :func:`panda_gripper_control` for the current gripper controller, or None
+        (not robosuite's Panda gripper with action scaling: :meth:`gripper_ctrl` then runs robosuite's code)."""
+        controller = self.grip_controller
+        cached = self._grip_params
+        if cached is not None and cached[0] is controller:
+            return cached[1]
+        params = None
+        if (type(self.gripper).format_action is PandaGripper.format_action and controller.use_action_scaling
+                and self.grip_actuators.size == 2):
+            if controller.action_scale is None:
+                controller.scale_action(np.zeros(self.grip_actuators.size))  # robosuite sets its transforms lazily
+            rows = (controller.input_min, controller.input_max, controller.action_input_transform,
+                    controller.action_scale, controller.action_output_transform, controller.actuator_min,
+                    controller.actuator_max, self.grip_limits[0], self.grip_limits[1])
+            params = np.ascontiguousarray([np.broadcast_to(np.asarray(r, dtype=float), (2,)) for r in rows])
+        self._grip_params = (controller, params)
+        return params
 
     def gains(self) -> np.ndarray:
         """(2, 6) rows kp (1/s^2) and kd (1/s) of robosuite's OSC, read each control step."""
