@@ -29,14 +29,25 @@ control law:
 - once per control step at the end: the env's timestep and clock, the hidden dirt
   markers, and the controllers' goal and refresh state, so ``env.step`` can take over.
 
+A phase whose waypoint is fixed (``Waypoint.fixed``: the grasp's CLOSE, the release's
+RELEASE) goes further: after the skill's first Python step in it, :meth:`FastSkillStepper.run_phase`
+runs its control steps in one compiled call (:func:`phase_loop`): the skill's setpoint and
+command (:func:`~tableclean_suite.controllers.setpoint.advance_command`, the function the
+skill's own step uses), the gripper control (robosuite's rate-limited command tabulated
+ahead), the substeps as above, and a state log (:class:`ControlStepLog`).  It returns to Python
+only at the phase's boundary: before a step whose completion check might pass (the skill
+then decides exactly), at the step budget or the env's horizon, and for substeps the env's
+wiping check must see (then it resumes).  The results are bit-identical to the per-step path
+(``FastSkillStepper.phase_loop = False``).
+
 What the fast path does **not** do: it does not refresh robosuite's observables
 (``env._get_observations(force_update=True)`` does), the robot's proprioception
 history buffers (``recent_qpos``, ``recent_ee_*``), nor compute the reward.  The
 skills read none of these: ``env.skill_info()`` and ``env.symbolic_state()`` read
 the simulation data directly.
 
-The kernels are compiled by numba on first use (~20 s) and cached in ``__pycache__``
-(later processes load them in ~0.2 s).
+The kernels are compiled by numba on first use (~20-25 s, the phase loop included) and cached
+in ``__pycache__`` (later processes load them in ~0.2 s).
 
 Only the configuration the skills use is supported (one fixed-base arm, OSC_POSE,
 absolute world-frame input, fixed impedance, no interpolators, a simple grip
