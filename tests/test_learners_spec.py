@@ -140,7 +140,7 @@ def test_second_process_uses_the_numba_disk_cache(tmp_path):
 
     def run():
         subprocess.run([sys.executable, "-c", script], cwd=ROOT, env=env, check=True, capture_output=True, timeout=300)
-        return {p: p.stat().st_mtime_ns for p in cache.rglob("*kernel*train_run*")}
+        return {p: p.stat().st_mtime_ns for p in cache.rglob("*kernel*train_batch*")}
 
     first = run()
     assert any(p.suffix == ".nbc" for p in first), "the kernel was not cached at all"

@@ -1,13 +1,12 @@
 """The batched, compiled training loop: many independent runs, one step per run per iteration.
 
 This is Algorithm 1 of the paper (with the learner's TD target plugged in),
-compiled with numba (:func:`train_run`, one run) and spread over threads by runs
-(:func:`train_batch`).  :mod:`.reference` is the same loop
+compiled with numba and parallel over runs.  :mod:`.reference` is the same loop
 in plain Python, one step at a time; both draw the same counter-based random
 numbers (:mod:`.rng`), so they produce identical arrays.
 
 The loop picks the built-in TD target, the update rule (one-step, double Q, eligibility
-traces, Dyna planning) and the exploration by integer codes, so :func:`train_runs`
+traces, Dyna planning) and the exploration by integer codes, so :func:`train_batch`
 takes no function argument and numba's disk cache (``cache=True``) serves it to every
 new process without recompiling.  A user learner's target gets its own compiled copy
 of the same loop (:func:`user_train_batch`), built once per process.
@@ -140,7 +139,7 @@ def memory_adjusted_reward(reward, outcome, next_state, entered, t, episode_star
 
 
 # -- behaviour ------------------------------------------------------------------------------
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def behaviour_row(q_a, q_b, state, double, row):
     """The Q row the policy acts on: ``q_a[state]``, or for double Q ``(q_a + q_b) / 2`` written into ``row``."""
     if not double:
@@ -150,7 +149,7 @@ def behaviour_row(q_a, q_b, state, double, row):
     return row
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def visit_count(visits, state):
     """Earlier visits of ``state`` (0 when the exploration does not count them: ``visits`` is empty)."""
     if visits.shape[0] == 0:
@@ -158,7 +157,7 @@ def visit_count(visits, state):
     return visits[state]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def act(q_a, q_b, row, state, plain, double, explore_code, explore_parameters, key, iteration, visits,
         affordance, masks, advisor, advice, advice_key):
     """The behaviour policy's action in ``state`` at ``iteration`` (main-lane draws of that iteration).
@@ -315,6 +314,7 @@ def run_memory(n_states, n_actions, double, traced, counting, modelling):
     return row, visits, traces, pairs, model_next, model_reward, model_terminal, observed
 
 
+@numba.njit(cache=True, parallel=True)
 def train_batch(
     next_state_table,
     outcome_table,
@@ -349,9 +349,7 @@ def train_batch(
     q_snapshot,
     q_second_snapshot,
 ):
-    """Train ``len(keys)`` runs for ``rewards.shape[1]`` iterations, in place, on ``numba.get_num_threads()``
-    threads (:func:`run_in_threads` of :func:`train_runs`: each run is independent, so any split of the
-    runs over threads gives the same arrays).
+    """Train ``len(keys)`` runs for ``rewards.shape[1]`` iterations, in place.
 
     Args:
         next_state_table, outcome_table: ``(S, A, K)`` int64 successors and outcomes.
@@ -387,141 +385,7 @@ def train_batch(
             counter-based random numbers), so one pass gives both.
         q_snapshot, q_second_snapshot: ``(R, S, A)`` float64 outputs, or ``(R, 0, 0)`` when unused.
     """
-    run_in_threads(train_runs, keys.shape[0], (
-        next_state_table, outcome_table, cumulative_table, starts, outcome_values, loop_value, loop_mode,
-        loop_memory, target_code, on_policy, method, learner_parameters, alpha, gamma, explore_code,
-        explore_parameters, affordance, afforded, advisor, advice, max_itr, keys, q, q_second, rewards,
-        outcomes, states, actions, episode_end, snapshot_at, q_snapshot, q_second_snapshot))
-
-
-#: Slices of the runs per thread in :func:`run_in_threads` (runs differ in cost: several slices per
-#: thread, taken in turn, keep the threads busy until the end).
-SLICES_PER_THREAD = 8
-
-
-def run_in_threads(runs_kernel, n_runs: int, arguments: tuple) -> None:
-    """``runs_kernel(lo, hi, *arguments)`` over slices covering runs ``0 .. n_runs``, on up to
-    ``numba.get_num_threads()`` threads (in this thread when that is 1).
-
-    ``runs_kernel`` is compiled with ``nogil=True``, so the threads run it at once.  Plain threads,
-    not a numba parallel loop: compiling a parallel loop around the training step cost the first
-    process several seconds on top of compiling the step itself.
-    """
-    import threading
-
-    threads = max(1, min(numba.get_num_threads(), n_runs))
-    if threads == 1:
-        runs_kernel(0, n_runs, *arguments)
-        return
-    bounds = np.linspace(0, n_runs, threads * SLICES_PER_THREAD + 1).astype(np.int64)
-    slices = iter([(int(lo), int(hi)) for lo, hi in zip(bounds[:-1], bounds[1:]) if hi > lo])
-    taking = threading.Lock()
-    errors = []
-
-    def work():
-        while not errors:
-            with taking:
-                piece = next(slices, None)
-            if piece is None:
-                return
-            try:
-                runs_kernel(piece[0], piece[1], *arguments)
-            except BaseException as error:  # noqa: BLE001  (re-raised in the caller's thread)
-                errors.append(error)
-
-    helpers = [threading.Thread(target=work, daemon=True) for _ in range(threads - 1)]
-    for helper in helpers:
-        helper.start()
-    work()
-    for helper in helpers:
-        helper.join()
-    if errors:
-        raise errors[0]
-
-
-@numba.njit(cache=True, nogil=True)
-def train_runs(
-    lo,
-    hi,
-    next_state_table,
-    outcome_table,
-    cumulative_table,
-    starts,
-    outcome_values,
-    loop_value,
-    loop_mode,
-    loop_memory,
-    target_code,
-    on_policy,
-    method,
-    learner_parameters,
-    alpha,
-    gamma,
-    explore_code,
-    explore_parameters,
-    affordance,
-    afforded,
-    advisor,
-    advice,
-    max_itr,
-    keys,
-    q,
-    q_second,
-    rewards,
-    outcomes,
-    states,
-    actions,
-    episode_end,
-    snapshot_at,
-    q_snapshot,
-    q_second_snapshot,
-):
-    """Train runs ``lo .. hi - 1`` of :func:`train_batch` (same arguments), in place, without the GIL."""
-    for r in range(lo, hi):
-        train_run(r, next_state_table, outcome_table, cumulative_table, starts, outcome_values, loop_value, loop_mode,
-                  loop_memory, target_code, on_policy, method, learner_parameters, alpha, gamma, explore_code,
-                  explore_parameters, affordance, afforded, advisor, advice, max_itr, keys, q, q_second, rewards,
-                  outcomes, states, actions, episode_end, snapshot_at, q_snapshot, q_second_snapshot)
-
-
-@numba.njit(cache=True)
-def train_run(
-    r,
-    next_state_table,
-    outcome_table,
-    cumulative_table,
-    starts,
-    outcome_values,
-    loop_value,
-    loop_mode,
-    loop_memory,
-    target_code,
-    on_policy,
-    method,
-    learner_parameters,
-    alpha,
-    gamma,
-    explore_code,
-    explore_parameters,
-    affordance,
-    afforded,
-    advisor,
-    advice,
-    max_itr,
-    keys,
-    q,
-    q_second,
-    rewards,
-    outcomes,
-    states,
-    actions,
-    episode_end,
-    snapshot_at,
-    q_snapshot,
-    q_second_snapshot,
-):
-    """Train run ``r`` of :func:`train_batch` (same arguments) for ``rewards.shape[1]`` iterations, in place."""
-    n_iterations = rewards.shape[1]
+    n_runs, n_iterations = rewards.shape
     n_states, n_actions = q.shape[1], q.shape[2]
     n_starts = starts.shape[0]
     n_successors = next_state_table.shape[2]
@@ -539,118 +403,118 @@ def train_run(
     afforded_max = affordance != AFFORD_NONE and target_code == Q_LEARNING_TARGET
     softmax_expected = explore_code == SOFTMAX_CODE and target_code == EXPECTED_SARSA_TARGET
     long_memory = loop_mode != 0 and loop_memory != PAPER_LOOPING_MEMORY
-    entered = np.full(n_states if long_memory else 0, -1, dtype=np.int64)
-    episode_start = 0
-    key = keys[r]
-    side_key = lane_key(key, LANE_LEARNER)
-    planning_key = lane_key(key, LANE_PLANNING)
-    advice_key = lane_key(key, LANE_ADVICE)
-    masks = run_masks(afforded, affordance, n_states, n_actions)
-    qr = q[r]
-    qb = q_second[r]
-    row, visits, traces, pairs, model_next, model_reward, model_terminal, observed = run_memory(
-        n_states, n_actions, double, traced, counting, modelling
-    )
-    # np.int64(...), not bare constants: a literal argument makes numba compile a callee twice (for the
-    # literal type while inferring types, then for int64), about 0.3 s each in a first process.
-    n_pairs = np.int64(0)
-    n_observed = np.int64(0)
-    state = np.int64(NO_STATE)
-    previous = np.int64(NO_STATE)
-    pending = np.int64(NO_STATE)
-    length = 0
-    for t in range(n_iterations):
-        if t == snapshot_at:
+    for r in numba.prange(n_runs):
+        entered = np.full(n_states if long_memory else 0, -1, dtype=np.int64)
+        episode_start = 0
+        key = keys[r]
+        side_key = lane_key(key, LANE_LEARNER)
+        planning_key = lane_key(key, LANE_PLANNING)
+        advice_key = lane_key(key, LANE_ADVICE)
+        masks = run_masks(afforded, affordance, n_states, n_actions)
+        qr = q[r]
+        qb = q_second[r]
+        row, visits, traces, pairs, model_next, model_reward, model_terminal, observed = run_memory(
+            n_states, n_actions, double, traced, counting, modelling
+        )
+        # np.int64(...), not bare constants: a literal argument makes numba compile a callee twice (for the
+        # literal type while inferring types, then for int64), about 0.3 s each in a first process.
+        n_pairs = np.int64(0)
+        n_observed = np.int64(0)
+        state = np.int64(NO_STATE)
+        previous = np.int64(NO_STATE)
+        pending = np.int64(NO_STATE)
+        length = 0
+        for t in range(n_iterations):
+            if t == snapshot_at:
+                copy_tables(qr, qb, q_snapshot[r], q_second_snapshot[r], double)
+            if state == NO_STATE:
+                if n_starts == 1:
+                    state = starts[0]
+                else:
+                    state = starts[min(int(uniform(key, t, STREAM_START) * n_starts), n_starts - 1)]
+                previous = np.int64(NO_STATE)
+                pending = np.int64(NO_STATE)
+                length = 0
+                episode_start = t
+                if traced:
+                    n_pairs = clear_traces(traces, pairs, n_pairs)
+            if pending != NO_STATE:
+                action = pending
+            else:
+                action = act(qr, qb, row, state, plain, double, explore_code, explore_parameters, key, t, visits,
+                             affordance, masks, advisor, advice, advice_key)
+            k = 0
+            if n_successors > 1:
+                k = sample_index(cumulative_table[state, action], uniform(key, t, STREAM_TRANSITION))
+            nxt = next_state_table[state, action, k]
+            outcome = outcome_table[state, action, k]
+            if long_memory:
+                entered[state] = t
+                reward = memory_adjusted_reward(outcome_values[outcome], outcome, nxt, entered, t, episode_start,
+                                                loop_memory, loop_value, loop_mode)
+            else:
+                reward = loop_adjusted_reward(
+                    outcome_values[outcome], outcome, state, nxt, previous, loop_value, loop_mode
+                )
+            length += 1
+            terminal = outcome == _TERMINAL
+            if counting:
+                visits[state] += 1
+            if learning_affordances and outcome == _IMPROPER:
+                masks[state, action] = NOT_AFFORDED
+            pending = NO_STATE
+            if choose_first and not terminal:
+                pending = act(qr, qb, row, nxt, plain, double, explore_code, explore_parameters, key, t + 1, visits,
+                              affordance, masks, advisor, advice, advice_key)
+            if double:
+                double_q_update(qr, qb, state, action, nxt, reward, alpha, gamma, terminal,
+                                uniform(side_key, t, STREAM_DOUBLE_TABLE))
+            else:
+                behaviour = exploration_parameter(explore_code, explore_parameters, t + 1, visit_count(visits, nxt))
+                if softmax_expected:
+                    target = softmax_expected_sarsa_target(qr[nxt], reward, gamma, behaviour, terminal)
+                elif afforded_max:
+                    target = afforded_max_target(qr[nxt], masks[nxt], reward, gamma, terminal)
+                else:
+                    target = builtin_td_target(target_code, qr[nxt], pending, reward, gamma, behaviour, terminal)
+                if traced:
+                    cut = watkins and pending != NO_STATE and is_exploratory(qr[nxt], pending)
+                    n_pairs = trace_update(qr, traces, pairs, n_pairs, state, action, target - qr[state, action],
+                                           alpha, decay, accumulate, cut)
+                else:
+                    qr[state, action] += alpha * (target - qr[state, action])
+                if modelling:
+                    n_observed = remember(model_next, model_reward, model_terminal, observed, n_observed, state, action,
+                                          nxt, reward, terminal)
+                    plan(qr, model_next, model_reward, model_terminal, observed, n_observed, planning_key, t,
+                         planning_steps, alpha, gamma)
+            rewards[r, t] = reward
+            outcomes[r, t] = outcome
+            states[r, t] = state
+            actions[r, t] = action
+            if terminal:
+                episode_end[r, t] = EPISODE_TERMINAL
+                state = NO_STATE
+            elif length >= max_itr:
+                episode_end[r, t] = EPISODE_TRUNCATED
+                state = NO_STATE
+            else:
+                episode_end[r, t] = EPISODE_CONTINUES
+                previous = state
+                state = nxt
+        if snapshot_at == n_iterations:
             copy_tables(qr, qb, q_snapshot[r], q_second_snapshot[r], double)
-        if state == NO_STATE:
-            if n_starts == 1:
-                state = starts[0]
-            else:
-                state = starts[min(int(uniform(key, t, STREAM_START) * n_starts), n_starts - 1)]
-            previous = np.int64(NO_STATE)
-            pending = np.int64(NO_STATE)
-            length = 0
-            episode_start = t
-            if traced:
-                n_pairs = clear_traces(traces, pairs, n_pairs)
-        if pending != NO_STATE:
-            action = pending
-        else:
-            action = act(qr, qb, row, state, plain, double, explore_code, explore_parameters, key, t, visits,
-                         affordance, masks, advisor, advice, advice_key)
-        k = 0
-        if n_successors > 1:
-            k = sample_index(cumulative_table[state, action], uniform(key, t, STREAM_TRANSITION))
-        nxt = next_state_table[state, action, k]
-        outcome = outcome_table[state, action, k]
-        if long_memory:
-            entered[state] = t
-            reward = memory_adjusted_reward(outcome_values[outcome], outcome, nxt, entered, t, episode_start,
-                                            loop_memory, loop_value, loop_mode)
-        else:
-            reward = loop_adjusted_reward(
-                outcome_values[outcome], outcome, state, nxt, previous, loop_value, loop_mode
-            )
-        length += 1
-        terminal = outcome == _TERMINAL
-        if counting:
-            visits[state] += 1
-        if learning_affordances and outcome == _IMPROPER:
-            masks[state, action] = NOT_AFFORDED
-        pending = NO_STATE
-        if choose_first and not terminal:
-            pending = act(qr, qb, row, nxt, plain, double, explore_code, explore_parameters, key, t + 1, visits,
-                          affordance, masks, advisor, advice, advice_key)
-        if double:
-            double_q_update(qr, qb, state, action, nxt, reward, alpha, gamma, terminal,
-                            uniform(side_key, t, STREAM_DOUBLE_TABLE))
-        else:
-            behaviour = exploration_parameter(explore_code, explore_parameters, t + 1, visit_count(visits, nxt))
-            if softmax_expected:
-                target = softmax_expected_sarsa_target(qr[nxt], reward, gamma, behaviour, terminal)
-            elif afforded_max:
-                target = afforded_max_target(qr[nxt], masks[nxt], reward, gamma, terminal)
-            else:
-                target = builtin_td_target(target_code, qr[nxt], pending, reward, gamma, behaviour, terminal)
-            if traced:
-                cut = watkins and pending != NO_STATE and is_exploratory(qr[nxt], pending)
-                n_pairs = trace_update(qr, traces, pairs, n_pairs, state, action, target - qr[state, action],
-                                       alpha, decay, accumulate, cut)
-            else:
-                qr[state, action] += alpha * (target - qr[state, action])
-            if modelling:
-                n_observed = remember(model_next, model_reward, model_terminal, observed, n_observed, state, action,
-                                      nxt, reward, terminal)
-                plan(qr, model_next, model_reward, model_terminal, observed, n_observed, planning_key, t,
-                     planning_steps, alpha, gamma)
-        rewards[r, t] = reward
-        outcomes[r, t] = outcome
-        states[r, t] = state
-        actions[r, t] = action
-        if terminal:
-            episode_end[r, t] = EPISODE_TERMINAL
-            state = NO_STATE
-        elif length >= max_itr:
-            episode_end[r, t] = EPISODE_TRUNCATED
-            state = NO_STATE
-        else:
-            episode_end[r, t] = EPISODE_CONTINUES
-            previous = state
-            state = nxt
-    if snapshot_at == n_iterations:
-        copy_tables(qr, qb, q_snapshot[r], q_second_snapshot[r], double)
 
 
 _USER_KERNELS: dict = {}
 
 
 def user_train_batch(learner: TabularLearner):
-    """:func:`train_batch` with ``learner.td_target`` in place of the built-in targets.
+    """:func:`train_batch` compiled with ``learner.td_target`` in place of the built-in targets.
 
-    The same code objects with one global swapped (a copy of :func:`train_run` calls the learner's
-    target, a copy of :func:`train_runs` that copy), so the loop is written once; compiled on first
-    use in each process (not disk-cached: numba cannot cache a loop that calls a function passed in
-    from outside).
+    The same code object with one global swapped, so the loop is written once; compiled
+    on first use in each process (not disk-cached: numba cannot cache a loop that calls
+    a function passed in from outside).
     """
     target = learner.td_target
     if target not in _USER_KERNELS:
@@ -658,22 +522,11 @@ def user_train_batch(learner: TabularLearner):
         def call_target(code, q_next, next_action, reward, gamma, epsilon, terminal):
             return target(q_next, next_action, reward, gamma, epsilon, terminal)
 
-        run_source, runs_source = train_run.py_func, train_runs.py_func
-        run_namespace = dict(run_source.__globals__, builtin_td_target=numba.njit(call_target))
-        run = numba.njit(types.FunctionType(run_source.__code__, run_namespace, f"train_run_{learner.name}"))
-        runs_namespace = dict(runs_source.__globals__, train_run=run)
-        runs = numba.njit(nogil=True)(types.FunctionType(runs_source.__code__, runs_namespace,
-                                                         f"train_runs_{learner.name}"))
-
-        def batch(*arguments):
-            run_in_threads(runs, arguments[KEYS_ARGUMENT].shape[0], arguments)
-
-        _USER_KERNELS[target] = batch
+        source = train_batch.py_func
+        namespace = dict(source.__globals__, builtin_td_target=numba.njit(call_target))
+        function = types.FunctionType(source.__code__, namespace, f"train_batch_{learner.name}")
+        _USER_KERNELS[target] = numba.njit(parallel=True)(function)
     return _USER_KERNELS[target]
-
-
-#: Position of ``keys`` among :func:`train_batch`'s arguments.
-KEYS_ARGUMENT = 21
 
 
 def kernel_for(learner: TabularLearner):
