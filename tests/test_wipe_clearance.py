@@ -115,3 +115,10 @@ def test_the_lower_bound_is_clopper_pearsons_and_the_verdict_needs_it_at_the_goa
     short = markdown([dict(row, executions=100, successes=100, agreements=100)])
     assert lower_bound(300, 300) >= GOAL_RATE and "300/300" in met and met.rstrip(" |").endswith("ok")
     assert short.rstrip(" |").endswith("below")  # 100 of 100 is too few to claim 99 %
+
+
+def test_a_bound_just_under_the_goal_is_never_shown_as_the_goal():
+    row = {"object": "milk", "setting": "mixed", "partner": "box", "skill": "clean", "episodes": 155,
+           "episode_successes": 154, "executions": 464, "successes": 463, "agreements": 463}
+    line = markdown([row])
+    assert "98.9 %" in line and line.rstrip(" |").endswith("below")  # 0.98977: not rounded up to 99.0

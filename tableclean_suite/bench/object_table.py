@@ -26,6 +26,7 @@ Objects registered by ``--plugins`` modules are measured like the catalog's.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
@@ -128,6 +129,11 @@ def run_cell(kind: str, setting: str, episodes: int, seed: int, partner: str, lo
     return rows
 
 
+def _percent_down(rate: float) -> str:
+    """``rate`` (in [0, 1]) as a percentage rounded down to 0.1 % (a lower bound is never shown higher)."""
+    return f"{math.floor(rate * 1000 + 1e-9) / 10:.1f} %"
+
+
 def markdown(rows: list[dict]) -> str:
     """Object x skill table, one line per object x setting; per skill ``successes/executions``, the success
     rate's and the fidelity's lower bounds (:func:`lower_bound`, computed from the counts) and ``ok`` when both
@@ -149,8 +155,8 @@ def markdown(rows: list[dict]) -> str:
             n, success, agree = int(row["executions"]), int(row["successes"]), int(row["agreements"])
             low_success, low_fidelity = lower_bound(success, n), lower_bound(agree, n)
             verdict = "ok" if min(low_success, low_fidelity) >= GOAL_RATE else "below"
-            entries.append(f"{success}/{n}, fid {agree}/{n}: >= {100 * low_success:.1f} % / "
-                           f"{100 * low_fidelity:.1f} % {verdict}")
+            entries.append(f"{success}/{n}, fid {agree}/{n}: >= {_percent_down(low_success)} / "
+                           f"{_percent_down(low_fidelity)} {verdict}")
         lines.append(f"| {kind} | {setting} | {first.get('partner') or '-'} | {first['episode_successes']}/{first['episodes']} | "
                      + " | ".join(entries) + " |")
     return "\n".join(lines)
