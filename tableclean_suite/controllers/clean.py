@@ -3,6 +3,12 @@
 Built from primitives: :class:`~.primitives.Grasp` (the sponge), :class:`Wipe` (the arm's
 segment, wherever it lies), :class:`~.primitives.Release` (the sponge at its home) and a
 :class:`~.primitives.Reach` back above the segment.
+
+The wipe never touches what stands around the segment: its strokes stay inside the segment's
+area shrunk until the hand (the gripper's measured box, long along the strokes) keeps
+:data:`HAND_CLEARANCE` from every lying object whose top reaches the hand's underside
+(:func:`hand_obstacles`, :func:`~.wipe_pattern.clear_area`); travel above the segment and to the
+sponge's home is at the skill's travel height, which clears every lying object's top.
 """
 
 from __future__ import annotations
