@@ -37,12 +37,14 @@ past the point when most replicates lie on one side, which is the case to be han
 from __future__ import annotations
 
 import hashlib
+import threading
 from dataclasses import dataclass, field
 
 import numba
 import numpy as np
 
 from tableclean_suite import metrics
+from tableclean_suite.learners.threads import run_in_threads
 from tableclean_suite.metrics import SUMMARY_SCALARS, GroupedCurveSums
 from tableclean_suite.settling import Settling
 
@@ -73,6 +75,8 @@ RUN_SCORES = {"success_asymptote": True, "first_success_iterations": False}
 #: tolerance; the default cells' asymptotes differ by ~0.04 pp between converged runs, exploration
 #: noise, not learning); iteration counts are integers and tie only when equal.
 EQUIVALENCE_MARGINS = {"success_asymptote": 0.01, "first_success_iterations": 0.0}
+#: Weight of a tied pair in a probability of improvement.
+HALF = 0.5
 
 
 #: numpy's binomial sampler inverts the CDF when n * min(p, 1 - p) is at most this (else BTPE).
@@ -83,60 +87,63 @@ _INVERSION_SPREAD = 10.0
 SETUP_TABLE_ENTRIES = 4_000_000
 #: Shapes whose tables are kept at once (a run uses two: runs x runs and groups x groups).
 SETUP_TABLES = 2
-_setup_tables: dict = {}
+#: Those tables, per thread (comparisons may be drawn in a thread while cells are bootstrapped).
+_setup_tables = threading.local()
 
 
-@numba.njit(cache=True)
-def _uniform_multinomial(rng, n, d, size, use_table, qn_table, bound_table, out):
-    """``out[:] = rng.multinomial(n, np.full(d, 1.0 / d), size)``, the same numbers and the same
-    generator state after, by numpy's own algorithm (``random_multinomial``: a binomial per
-    category on what is left, inverted from the CDF as ``random_binomial_inversion``).
+@numba.njit(cache=True, nogil=True)
+def _uniform_multinomial(rng, n, d, size, category_p, use_table, qn_table, bound_table, out, row, column, left):
+    """Fill ``out`` as ``rng.multinomial(n, np.full(d, 1.0 / d), size)`` does, from row ``row``,
+    category ``column`` with ``left`` draws not yet assigned in that row, by numpy's own algorithm
+    (``random_multinomial``: a binomial per category on what is left, inverted from the CDF as
+    ``random_binomial_inversion``), drawing the same numbers from ``rng``.
 
-    ``out`` is ``(size, d)`` int64 zeros.  The binomial's set-up (P(X = 0) = q**n and the
+    ``out`` is ``(size, d)`` int64 zeros; ``category_p[j]`` the probability of category ``j`` given
+    the draws left (:func:`uniform_multinomial`).  The binomial's set-up (P(X = 0) = q**n and the
     inversion bound) depends only on (category, draws left), so with ``use_table`` it is kept in
     ``qn_table``/``bound_table`` (``(d, n + 1)``, NaN = not yet computed) instead of recomputed per
-    draw; BTPE cases (never met by n = d uniform draws in practice) call ``rng.binomial``.
+    draw.
+
+    Returns:
+        ``(-1, 0, 0)`` when ``out`` is complete, else ``(row, column, left)`` of a binomial numpy
+        draws with BTPE instead (never met by n = d uniform draws in practice): the caller draws
+        it with numpy and calls again from the next category (numba's copy of BTPE took a first
+        process ~3 s to compile).
     """
-    share = 1.0 / d
-    category_p = np.empty(d)
-    remaining = 1.0
-    for j in range(d):
-        category_p[j] = share / remaining
-        remaining -= share
-    for i in range(size):
-        left = n
-        for j in range(d - 1):
+    for i in range(row, size):
+        if i > row:
+            column = 0
+            left = n
+        for j in range(column, d - 1):
             p = category_p[j]
             x = 0
             if left != 0 and p != 0.0:
                 flip = p > 0.5
                 r = 1.0 - p if flip else p
                 if r * left > _INVERSION_LIMIT:
-                    x = rng.binomial(left, p)
-                    flip = False
+                    return i, j, left
+                q = 1.0 - r
+                qn = qn_table[j, left] if use_table else np.nan
+                if qn != qn:
+                    qn = np.exp(left * np.log(q))
+                    mean = left * r
+                    bound = min(left, mean + _INVERSION_SPREAD * np.sqrt(mean * q + 1))
+                    if use_table:
+                        qn_table[j, left] = qn
+                        bound_table[j, left] = bound
                 else:
-                    q = 1.0 - r
-                    qn = qn_table[j, left] if use_table else np.nan
-                    if qn != qn:
-                        qn = np.exp(left * np.log(q))
-                        mean = left * r
-                        bound = min(left, mean + _INVERSION_SPREAD * np.sqrt(mean * q + 1))
-                        if use_table:
-                            qn_table[j, left] = qn
-                            bound_table[j, left] = bound
+                    bound = bound_table[j, left]
+                px = qn
+                u = rng.random()
+                while u > px:
+                    x += 1
+                    if x > bound:
+                        x = 0
+                        px = qn
+                        u = rng.random()
                     else:
-                        bound = bound_table[j, left]
-                    px = qn
-                    u = rng.random()
-                    while u > px:
-                        x += 1
-                        if x > bound:
-                            x = 0
-                            px = qn
-                            u = rng.random()
-                        else:
-                            u -= px
-                            px = ((left - x + 1) * r * px) / (x * q)
+                        u -= px
+                        px = ((left - x + 1) * r * px) / (x * q)
                 if flip:
                     x = left - x
             out[i, j] = x
@@ -145,21 +152,44 @@ def _uniform_multinomial(rng, n, d, size, use_table, qn_table, bound_table, out)
                 break
         if left > 0:
             out[i, d - 1] = left
+    return -1, 0, 0
 
 
 def uniform_multinomial(rng: np.random.Generator, n: int, d: int, size: int) -> np.ndarray:
     """``rng.multinomial(n, np.full(d, 1.0 / d), size=size)`` (int64 ``(size, d)``), bit for bit and
     leaving ``rng`` in the same state, about twice as fast (see :func:`_uniform_multinomial`)."""
-    out = np.zeros((int(size), int(d)), dtype=np.int64)
-    use_table = int(d) * (int(n) + 1) <= SETUP_TABLE_ENTRIES
-    key = (int(n), int(d))
-    if use_table and key not in _setup_tables:
-        if len(_setup_tables) >= SETUP_TABLES:
-            _setup_tables.clear()
-        _setup_tables[key] = (np.full((d, n + 1), np.nan), np.zeros((d, n + 1)))
-    qn_table, bound_table = _setup_tables[key] if use_table else (np.empty((1, 1)), np.empty((1, 1)))
-    _uniform_multinomial(rng, int(n), int(d), int(size), use_table, qn_table, bound_table, out)
-    return out
+    n, d, size = int(n), int(d), int(size)
+    out = np.zeros((size, d), dtype=np.int64)
+    share = 1.0 / d
+    category_p = np.empty(d)
+    remaining = 1.0
+    for j in range(d):  # numpy's pix[j] / remaining_p, the same operations in the same order
+        category_p[j] = share / remaining
+        remaining -= share
+    use_table = d * (n + 1) <= SETUP_TABLE_ENTRIES
+    key = (n, d)
+    tables = _setup_tables.__dict__.setdefault("by_shape", {})
+    if use_table and key not in tables:
+        if len(tables) >= SETUP_TABLES:
+            tables.clear()
+        tables[key] = (np.full((d, n + 1), np.nan), np.zeros((d, n + 1)))
+    qn_table, bound_table = tables[key] if use_table else (np.empty((1, 1)), np.empty((1, 1)))
+    row, column, left = 0, 0, n
+    while True:
+        row, column, left = _uniform_multinomial(rng, n, d, size, category_p, use_table, qn_table, bound_table,
+                                                 out, row, column, left)
+        if row < 0:
+            return out
+        x = int(rng.binomial(left, category_p[column]))  # numpy's BTPE, as its multinomial draws it
+        out[row, column] = x
+        left -= x
+        column += 1
+        if column == d - 1 or left <= 0:  # the row is complete: the rest to the last category
+            if left > 0:
+                out[row, d - 1] = left
+            row, column, left = row + 1, 0, n
+            if row == size:
+                return out
 
 
 def bootstrap_groups(runs: int, iterations: int) -> int:
@@ -275,7 +305,7 @@ def probability_of_improvement(x, y, higher_is_better: bool = True, margin: floa
     if not higher_is_better:
         x, y = -x, -y
     below, not_above = _beaten_and_tied(x, np.sort(y), margin)
-    return float((below + 0.5 * (not_above - below)).sum() / (len(x) * len(y)))
+    return float((below + HALF * (not_above - below)).sum() / (len(x) * len(y)))
 
 
 def probability_of_improvement_interval(x, y, higher_is_better: bool = True, confidence: float = DEFAULT_CONFIDENCE,
@@ -296,26 +326,67 @@ def probability_of_improvement_interval(x, y, higher_is_better: bool = True, con
         x, y = -x, -y
     order = np.argsort(y, kind="stable")
     below, not_above = _beaten_and_tied(x, y[order], margin)
-    cx = uniform_multinomial(rng, len(x), len(x), samples).astype(np.float64)
-    cy = uniform_multinomial(rng, len(y), len(y), samples)[:, order].astype(np.float64)
-    cumulative = np.concatenate([np.zeros((samples, 1)), np.cumsum(cy, axis=1)], axis=1)  # (B, ny + 1)
-    wins = cumulative[:, below]
-    ties = cumulative[:, not_above] - wins
-    replicates = (cx * (wins + 0.5 * ties)).sum(axis=1) / (len(x) * len(y))
+    cx = uniform_multinomial(rng, len(x), len(x), samples)
+    cy = uniform_multinomial(rng, len(y), len(y), samples)
+    replicates = _improvement_replicates(cx, cy, order, below, not_above)
     low, high = percentile_interval(replicates, confidence, point)
     return point, low, high
 
 
+@numba.njit(cache=True, nogil=True)
+def _improvement_replicates(cx, cy, order, below, not_above):
+    """``(B,)``: each replicate's count-weighted share of (x, y) pairs where x wins, ties counting half.
 
-@numba.njit(cache=True, parallel=True)
-def _weighted_rows(weights, values):
-    out = np.zeros((weights.shape[0], values.shape[1]))
-    for b in numba.prange(weights.shape[0]):
+    Replicate b: ``cumulative[k]`` = how many of the resampled y (counts ``cy[b]``, taken in
+    ``order``, i.e. sorted) are among the k smallest; x_i's run (count ``cx[b, i]``) beats
+    ``cumulative[below[i]]`` of them and ties ``cumulative[not_above[i]] - cumulative[below[i]]``.
+    Every term and partial sum is a multiple of 1/2 far below 2**52, so the sum is exact in any
+    order (the same bits as summing the ``(B, nx)`` array of terms with numpy).
+    """
+    samples, n_x, n_y = cx.shape[0], cx.shape[1], cy.shape[1]
+    replicates = np.empty(samples)
+    cumulative = np.empty(n_y + 1)
+    for b in range(samples):
+        cumulative[0] = 0.0
+        for k in range(n_y):
+            cumulative[k + 1] = cumulative[k] + cy[b, order[k]]
+        total = 0.0
+        for i in range(n_x):
+            count = cx[b, i]
+            if count != 0:
+                wins = cumulative[below[i]]
+                total += count * (wins + HALF * (cumulative[not_above[i]] - wins))
+        replicates[b] = total / (n_x * n_y)
+    return replicates
+
+
+
+@numba.njit(cache=True, nogil=True)
+def _weighted_row_range(lo, hi, weights, values, out):
+    """Rows ``lo .. hi - 1`` of :func:`_weighted_rows` into ``out``, groups summed in ascending order."""
+    for b in range(lo, hi):
         for g in range(weights.shape[1]):
             w = weights[b, g]
             if w != 0.0:
                 for t in range(values.shape[1]):
                     out[b, t] += w * values[g, t]
+
+
+#: Fewest products (B x G x T) for which :func:`_weighted_rows` spreads its rows over threads
+#: (below, starting the threads costs more than they save: the per-group sums of asymptotes).
+THREADED_PRODUCTS = 1_000_000
+
+
+def _weighted_rows(weights: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """``(B, T)``: row b is the sum over groups g (ascending) of ``weights[b, g] * values[g]``, rows
+    spread over threads when the sums are large (each row is summed by one thread, so the bits do
+    not depend on them).  Threads rather than a numba parallel loop: the loop's compilation cost a
+    first process ~1-2 s, and this loop takes no rows of arrays (no reference counting)."""
+    out = np.zeros((weights.shape[0], values.shape[1]))
+    if weights.size * values.shape[1] < THREADED_PRODUCTS:
+        _weighted_row_range(0, weights.shape[0], weights, values, out)
+    else:
+        run_in_threads(_weighted_row_range, weights.shape[0], (weights, values, out))
     return out
 
 
