@@ -14,10 +14,11 @@ control law:
   mapping to the finger actuators' control range;
 - per physics substep, as ``MujocoEnv.step`` with ``lite_physics``: ``mj_step1``;
   the OSC torques from MuJoCo's own mass matrix (``mj_fullM``) and grip-site
-  Jacobians (``mj_jacSite``), computed in a numba kernel that calls robosuite's own
-  compiled ``orientation_error`` and ``nullspace_torques`` and mirrors its
-  ``opspace_matrices`` with Cholesky inverses of the positive definite matrices
-  (robosuite's SVD pseudo-inverses near a singularity): same kp, kd, decoupling,
+  Jacobians (``mj_jacSite``), computed in a numba kernel that writes out robosuite's
+  ``orientation_error`` and ``nullspace_torques`` and mirrors its ``opspace_matrices``
+  with Cholesky inverses of the positive definite matrices (robosuite's SVD
+  pseudo-inverses near a singularity), small products in plain loops and few
+  temporaries (numpy's ``dot`` per product and the allocations cost more than the arithmetic): same kp, kd, decoupling,
   nullspace pull towards the controller's ``initial_joint``, gravity compensation,
   clipping to the actuators' ctrlrange, and robosuite's reuse of the reset-time arm
   state on an episode's first substep (:meth:`FastSkillStepper.cached_arm_torques`);
@@ -64,7 +65,7 @@ from numba import types
 from numba.extending import intrinsic
 from robosuite.controllers.parts.arm.osc import OperationalSpaceController
 from robosuite.controllers.parts.gripper.simple_grip import SimpleGripController
-from robosuite.utils.control_utils import nullspace_torques, opspace_matrices, orientation_error
+from robosuite.utils.control_utils import opspace_matrices
 
 from robosuite.models.grippers.panda_gripper import PandaGripper
 
@@ -96,6 +97,8 @@ CHOLESKY_PIVOT_RTOL = 1e-10
 #: Slack (m) added to the env's marker reach when the native loop asks whether a present marker lies
 #: under the sponge: a superset of the env's own test despite rounding, so the env still decides.
 MARKER_REACH_SLACK = 1e-9
+#: Joint stiffness (1/s^2) of robosuite's nullspace posture term (``nullspace_torques``' default ``joint_kp``).
+NULLSPACE_JOINT_KP = 10.0
 #: Rotation angle (rad) under which :func:`rotvec_matrix` uses the Taylor series of sin(a/2)/a (as scipy).
 ROTVEC_SMALL_ANGLE = 1e-3
 #: Relative slack of the phase loop's "this step cannot complete the phase" test on the position error: the
@@ -134,17 +137,17 @@ def rotvec_matrix(rotvec: np.ndarray, out: np.ndarray) -> None:
 
 
 @numba.njit(cache=True)
-def spd_inverse(a: np.ndarray, out: np.ndarray) -> bool:
+def spd_inverse(a: np.ndarray, out: np.ndarray, low: np.ndarray, inv_low: np.ndarray) -> bool:
     """Inverse of the symmetric positive definite ``a`` (n, n) into ``out`` (n, n) by Cholesky.
 
-    Reads the lower triangle of ``a`` only.  Returns False (``out`` undefined) when a pivot
-    falls below :data:`CHOLESKY_PIVOT_RTOL` times the largest diagonal entry.
+    Reads the lower triangle of ``a`` only; ``low`` and ``inv_low``: (>= n, >= n) scratch.  Returns
+    False (``out`` undefined) when a pivot falls below :data:`CHOLESKY_PIVOT_RTOL` times the largest
+    diagonal entry.
     """
     n = a.shape[0]
     scale = 0.0
     for i in range(n):
         scale = max(scale, a[i, i])
-    low = np.zeros((n, n))
     for j in range(n):
         pivot = a[j, j]
         for k in range(j):
@@ -157,8 +160,7 @@ def spd_inverse(a: np.ndarray, out: np.ndarray) -> bool:
             for k in range(j):
                 value -= low[i, k] * low[j, k]
             low[i, j] = value / low[j, j]
-    inv_low = np.zeros((n, n))  # L^-1, lower triangular
-    for i in range(n):
+    for i in range(n):  # L^-1, lower triangular
         inv_low[i, i] = 1.0 / low[i, i]
         for j in range(i):
             value = 0.0
@@ -176,7 +178,32 @@ def spd_inverse(a: np.ndarray, out: np.ndarray) -> bool:
 
 
 @numba.njit(cache=True)
-def fast_opspace_matrices(mass: np.ndarray, j_full: np.ndarray, j_pos: np.ndarray, j_ori: np.ndarray):
+def small_matmul(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+    """``out = a @ b`` for small matrices, (n, k) times (k, m), in plain loops (numpy's dot calls BLAS per product)."""
+    n, k = a.shape
+    m = b.shape[1]
+    for i in range(n):
+        for j in range(m):
+            out[i, j] = 0.0
+        for p in range(k):
+            factor = a[i, p]
+            for j in range(m):
+                out[i, j] += factor * b[p, j]
+
+
+@numba.njit(cache=True)
+def small_matvec(a: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
+    """``out = a @ x`` for a small matrix (n, k) and vector (k,), in plain loops."""
+    n, k = a.shape
+    for i in range(n):
+        value = 0.0
+        for p in range(k):
+            value += a[i, p] * x[p]
+        out[i] = value
+
+
+@numba.njit(cache=True)
+def fast_opspace_matrices(mass: np.ndarray, j_full: np.ndarray):
     """robosuite's ``opspace_matrices`` with Cholesky inverses of its symmetric positive definite matrices.
 
     Same formulas (M^-1; lambda = (J M^-1 J^T)^-1 for the full, position and orientation
@@ -185,28 +212,37 @@ def fast_opspace_matrices(mass: np.ndarray, j_full: np.ndarray, j_pos: np.ndarra
     robosuite's own function when any pivot is tiny (near a singularity).
 
     Args:
-        mass: (n, n) arm mass matrix; j_full: (6, n); j_pos, j_ori: (3, n) Jacobians.
+        mass: (n, n) arm mass matrix; j_full: (6, n) Jacobian, translational rows then rotational rows.
 
     Returns:
         (lambda_full (6, 6), lambda_pos (3, 3), lambda_ori (3, 3), nullspace_matrix (n, n)).
     """
     n = mass.shape[0]
+    size = max(n, 6)
+    low = np.empty((size, size))
+    inv_low = np.empty((size, size))
     mass_inv = np.empty((n, n))
     lambda_full = np.empty((6, 6))
     lambda_pos = np.empty((3, 3))
     lambda_ori = np.empty((3, 3))
     nullspace_matrix = np.empty((n, n))
-    if spd_inverse(mass, mass_inv):
-        j_minv = np.dot(j_full, mass_inv)
-        lambda_full_inv = np.dot(j_minv, j_full.T)
-        ok = spd_inverse(lambda_full_inv, lambda_full)
-        ok = ok and spd_inverse(np.ascontiguousarray(lambda_full_inv[0:3, 0:3]), lambda_pos)
-        ok = ok and spd_inverse(np.ascontiguousarray(lambda_full_inv[3:6, 3:6]), lambda_ori)
+    if spd_inverse(mass, mass_inv, low, inv_low):
+        j_minv = np.empty((6, n))
+        small_matmul(j_full, mass_inv, j_minv)
+        lambda_full_inv = np.empty((6, 6))
+        small_matmul(j_minv, j_full.T, lambda_full_inv)
+        ok = spd_inverse(lambda_full_inv, lambda_full, low, inv_low)
+        ok = ok and spd_inverse(lambda_full_inv[0:3, 0:3], lambda_pos, low, inv_low)
+        ok = ok and spd_inverse(lambda_full_inv[3:6, 3:6], lambda_ori, low, inv_low)
         if ok:
-            j_bar = np.dot(j_minv.T, lambda_full)  # M^-1 J^T lambda (M^-1 symmetric)
-            nullspace_matrix[:] = np.eye(n) - np.dot(j_bar, j_full)
+            j_bar = np.empty((n, 6))
+            small_matmul(j_minv.T, lambda_full, j_bar)  # M^-1 J^T lambda (M^-1 symmetric)
+            small_matmul(j_bar, j_full, nullspace_matrix)
+            for i in range(n):
+                for j in range(n):
+                    nullspace_matrix[i, j] = (1.0 if i == j else 0.0) - nullspace_matrix[i, j]
             return lambda_full, lambda_pos, lambda_ori, nullspace_matrix
-    exact = opspace_matrices(mass, j_full, j_pos, j_ori)
+    exact = opspace_matrices(mass, j_full, np.ascontiguousarray(j_full[0:3]), np.ascontiguousarray(j_full[3:6]))
     lambda_full[:] = exact[0]
     lambda_pos[:] = exact[1]
     lambda_ori[:] = exact[2]
@@ -247,27 +283,42 @@ def osc_law(
         torques: (n,) output, arm joint torques (N m) before clipping to the actuators' range.
 
     The base velocity term of robosuite's law is zero here: callers check that the arm's
-    base is welded to the world.
+    base is welded to the world.  robosuite's ``orientation_error`` and ``nullspace_torques``
+    (joint kp :data:`NULLSPACE_JOINT_KP`, critical damping) are written out with the same
+    formulas, without temporaries; the small products run in plain loops (:func:`small_matmul`).
     """
-    j_pos = np.ascontiguousarray(j_full[0:3])
-    j_ori = np.ascontiguousarray(j_full[3:6])
-    ori_error = orientation_error(goal_ori, ref_ori_mat)
-    position_error = goal_pos - ref_pos
-    desired_force = position_error * gains[0, 0:3] + (-ref_vel[0:3]) * gains[1, 0:3]
-    desired_torque = ori_error * gains[0, 3:6] + (-ref_vel[3:6]) * gains[1, 3:6]
-    lambda_full, lambda_pos, lambda_ori, nullspace_matrix = fast_opspace_matrices(mass, j_full, j_pos, j_ori)
+    n = mass.shape[0]
+    desired = np.empty(6)  # desired force (3) and torque (3)
+    for r in range(3):
+        desired[r] = (goal_pos[r] - ref_pos[r]) * gains[0, r] + (-ref_vel[r]) * gains[1, r]
+    error = np.zeros(3)  # robosuite's orientation_error: half the sum of the columns' cross products
+    for c in range(3):
+        a0, a1, a2 = ref_ori_mat[0, c], ref_ori_mat[1, c], ref_ori_mat[2, c]
+        b0, b1, b2 = goal_ori[0, c], goal_ori[1, c], goal_ori[2, c]
+        error[0] += a1 * b2 - a2 * b1
+        error[1] += a2 * b0 - a0 * b2
+        error[2] += a0 * b1 - a1 * b0
+    for r in range(3):
+        desired[3 + r] = 0.5 * error[r] * gains[0, 3 + r] + (-ref_vel[3 + r]) * gains[1, 3 + r]
+    lambda_full, lambda_pos, lambda_ori, nullspace_matrix = fast_opspace_matrices(mass, j_full)
     wrench = np.empty(6)
     if uncouple:
-        wrench[0:3] = np.dot(lambda_pos, desired_force)
-        wrench[3:6] = np.dot(lambda_ori, desired_torque)
+        small_matvec(lambda_pos, desired[0:3], wrench[0:3])
+        small_matvec(lambda_ori, desired[3:6], wrench[3:6])
     else:
-        desired = np.empty(6)
-        desired[0:3] = desired_force
-        desired[3:6] = desired_torque
-        wrench[:] = np.dot(lambda_full, desired)
-    result = np.dot(j_full.T, wrench) + bias
-    result += nullspace_torques(mass, nullspace_matrix, initial_joint, joint_pos, joint_vel)
-    torques[:] = result
+        small_matvec(lambda_full, desired, wrench)
+    small_matvec(j_full.T, wrench, torques)
+    joint_kv = np.sqrt(NULLSPACE_JOINT_KP) * 2
+    posture = np.empty(n)
+    for i in range(n):
+        posture[i] = NULLSPACE_JOINT_KP * (initial_joint[i] - joint_pos[i]) - joint_kv * joint_vel[i]
+    pose_torques = np.empty(n)
+    small_matvec(mass, posture, pose_torques)
+    for i in range(n):
+        value = 0.0
+        for k in range(n):
+            value += nullspace_matrix[k, i] * pose_torques[k]
+        torques[i] = (torques[i] + bias[i]) + value
 
 
 @numba.njit(cache=True)
@@ -316,8 +367,8 @@ def osc_torques(
         joint_vel[i] = qvel[dofs[i]]
         bias[i] = qfrc_bias[dofs[i]]
     ref_vel = np.empty(6)
-    ref_vel[0:3] = np.dot(jacp, qvel)  # robosuite's get_site_xvelp: the full Jacobian times all velocities
-    ref_vel[3:6] = np.dot(jacr, qvel)
+    small_matvec(jacp, qvel, ref_vel[0:3])  # robosuite's get_site_xvelp: the full Jacobian times all velocities
+    small_matvec(jacr, qvel, ref_vel[3:6])
     ref_ori_mat = np.ascontiguousarray(site_mat.reshape((3, 3)))
     osc_law(mass, j_full, site_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias,
             goal_pos, goal_ori, gains, initial_joint, uncouple, torques)
