@@ -25,6 +25,7 @@ replaced.  ``--fresh`` ignores stored entries (and overwrites them).
 
 from __future__ import annotations
 
+import gc
 import hashlib
 import importlib.util
 import json
@@ -304,6 +305,10 @@ def start_figures(store: DerivedStore, curves, plateau_fraction: float, table3=N
         return PendingFigures(store, stems, keys, loaded, None, None)
     if workers < 2 or not forks:
         return PendingFigures(store, stems, keys, loaded, lambda: [(stem, _draw(stem)) for stem in missing], None)
-    pool = multiprocessing.get_context("fork").Pool(workers)
+    gc.freeze()  # the forked processes' collections then leave this process's objects (and pages) alone
+    try:
+        pool = multiprocessing.get_context("fork").Pool(workers)
+    finally:
+        gc.unfreeze()
     pending = pool.map_async(_draw, missing, chunksize=1)
     return PendingFigures(store, stems, keys, loaded, lambda: zip(missing, pending.get()), pool)

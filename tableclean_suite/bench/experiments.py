@@ -616,6 +616,7 @@ def run_grid(
     transitions=None,
     transitions_sha256: str | None = None,
     executor=None,
+    on_cell=None,
 ) -> GridRun:
     """Load the stored cells of ``grid``, then train the others; each trained cell is saved at once.
 
@@ -630,6 +631,8 @@ def run_grid(
         executor: an :class:`~tableclean_suite.executors.Executor` that trains the cells, one
             :class:`CellTask` each (:func:`train_cell_task`); results, saved in grid order as they
             arrive, are bit-identical to training in this process.  None: train in this process.
+        on_cell: called with the :class:`GridRun` so far after each cell is loaded or trained and
+            saved (e.g. to start work on some cells while the others train); None: nothing.
 
     Raises:
         CellFileError: a stored cell matching the config is unreadable (unless ``fresh``).
@@ -652,6 +655,8 @@ def run_grid(
         else:
             outcome.summaries[cell], outcome.statistics[cell] = stored
             outcome.resumed += 1
+            if on_cell is not None:
+                on_cell(outcome)
     estimate = check_grid_resources(pending, config, model)
     if estimate > LONG_GRID_SECONDS:
         print(f"note: training {len(pending)} cell(s) is estimated to take about {resources.format_seconds(estimate)}",
@@ -677,6 +682,8 @@ def run_grid(
         outcome.train_seconds += train_s
         outcome.metrics_seconds += metrics_s
         bar.update(1)
+        if on_cell is not None:
+            on_cell(outcome)
     bar.close()
     return outcome
 

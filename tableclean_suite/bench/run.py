@@ -269,9 +269,12 @@ def train_and_publish(args) -> int:
         numba.set_num_threads(min(config.workers, numba.config.NUMBA_NUM_THREADS))
     grid = experiments.config_grid(config)
     store = experiments.CellStore(out / "cells")
+    results = derived.DerivedStore(store.root / DERIVED_DIR, read=not config.fresh)
+    comparing = BackgroundComparisons(grid, config, results)
     try:
         with executor if executor is not None else contextlib.nullcontext():
-            grid_run = experiments.run_grid(grid, config, model, store, transitions, transitions_sha256, executor)
+            grid_run = experiments.run_grid(grid, config, model, store, transitions, transitions_sha256, executor,
+                                            on_cell=comparing.start_when_ready)
     except experiments.CellFileError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
@@ -294,12 +297,11 @@ def train_and_publish(args) -> int:
                                              config.settle_tolerance)
     table3 = tables.table3(records, compare_with_paper=tables.is_paper_task(model))
     table4 = tables.table4(table3, paper_task=tables.is_paper_task(model))
-    results = derived.DerivedStore(store.root / DERIVED_DIR, read=not config.fresh)
     stride = _curves_stride(len(records) * len(tables.CURVE_METRICS), config.iterations)
     curves_frame = tables.curves_long(records, curves, stride=stride)
+    comparisons, comparisons_cached = comparing.result(grid_run)  # finished before the figures' processes fork
     drawing = (derived.start_figures(results, curves_frame, config.plateau_fraction, table3, FIGURE_DPI,
                                      processes=derived.FIGURE_PROCESSES) if config.figures else None)
-    comparisons, comparisons_cached = _comparisons(grid, grid_run, config, results)  # while the figures are drawn
     figures = drawing.result() if drawing is not None else []
     drawn = sum(not figure.cached for figure in figures)
     print(f"derived results in {results.root}: comparisons {'loaded' if comparisons_cached else 'computed'}, "
@@ -367,14 +369,55 @@ def cell_executor(config: RunConfig):
     return LocalExecutor(workers=config.workers)
 
 
-def _comparisons(grid, grid_run, config: RunConfig, results):
-    """Probabilities of improvement between the main cells (see :func:`.statistics.comparisons`), from
-    the derived-results cache ``results`` when it holds them; ``(frame, cached)``."""
-    from tableclean_suite.bench import derived
+class BackgroundComparisons:
+    """The probabilities of improvement between the main cells (:func:`.derived.comparisons`),
+    computed on a thread as soon as every main cell is trained or loaded, while the other cells
+    train: the bootstrap draws run compiled without the GIL, on the core the cells' statistics
+    leave free.  Same numbers as computing them afterwards (one seeded generator, same order).
 
-    main = [m.cell for m in grid if m.experiment == "main"]
-    cells = [{"learner": c.learner, "reward": c.reward, "runs": grid_run.statistics[c].runs} for c in main]
-    return derived.comparisons(results, cells, config.confidence, config.bootstrap_samples, config.seed)
+    Args:
+        grid: the run's memberships (the ``main`` ones are compared).
+        config: the run's configuration (confidence, replicates, seed).
+        results: the derived-results cache.
+    """
+
+    def __init__(self, grid, config: RunConfig, results):
+        self._main = [m.cell for m in grid if m.experiment == "main"]
+        self._config, self._results = config, results
+        self._thread = None
+        self._outcome: dict = {}
+
+    def _inputs(self, grid_run) -> list[dict]:
+        return [{"learner": c.learner, "reward": c.reward, "runs": grid_run.statistics[c].runs} for c in self._main]
+
+    def _compute(self, cells: list[dict]) -> None:
+        from tableclean_suite.bench import derived
+
+        try:
+            config = self._config
+            self._outcome["value"] = derived.comparisons(self._results, cells, config.confidence,
+                                                         config.bootstrap_samples, config.seed)
+        except BaseException as error:  # noqa: BLE001  (raised again by result())
+            self._outcome["error"] = error
+
+    def start_when_ready(self, grid_run) -> None:
+        """Start the thread once every main cell has its statistics (``run_grid``'s ``on_cell``)."""
+        import threading
+
+        if self._thread is None and all(c in grid_run.statistics for c in self._main):
+            self._thread = threading.Thread(target=self._compute, args=(self._inputs(grid_run),), daemon=True,
+                                            name="comparisons")
+            self._thread.start()
+
+    def result(self, grid_run):
+        """``(frame, cached)`` as :func:`.derived.comparisons`: the thread's, waited for, or computed now."""
+        if self._thread is None:
+            self._compute(self._inputs(grid_run))
+        else:
+            self._thread.join()
+        if "error" in self._outcome:
+            raise self._outcome["error"]
+        return self._outcome["value"]
 
 
 def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task: bool, comparisons=None) -> None:
