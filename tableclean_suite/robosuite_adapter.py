@@ -2,9 +2,9 @@
 
 robosuite 1.5 exposes no public accessor for some things the package needs: the raw
 ``mujoco.MjModel`` / ``MjData`` behind its ``MjSim`` wrappers, the robot's actuator and
-joint index lists, the env's clock, the OSC's refresh flag and result.  The compiled
-control path (:mod:`tableclean_suite.controllers.fast_control`) also calls MuJoCo's C
-functions by address.  Each of these is one small function here, so a robosuite or MuJoCo
+joint index lists, the env's clock, the OSC's refresh flag and result, the gripper's
+rate-limited command.  The compiled control path
+(:mod:`tableclean_suite.controllers.fast_control`) also calls MuJoCo's C functions by address.  Each of these is one small function here, so a robosuite or MuJoCo
 upgrade has one module to re-check.
 
 The fast control path writes robosuite's controller state and calls MuJoCo's C API, so it
@@ -149,6 +149,13 @@ def advance_clock(env, seconds: float) -> None:
 def controller_needs_update(controller) -> bool:
     """Whether robosuite's ``controller`` re-reads the simulation on its next ``update()`` (``new_update``)."""
     return bool(controller.new_update)
+
+
+def set_gripper_state(gripper, grip, current_action, goal_qvel) -> None:
+    """Set robosuite's gripper model ``gripper``'s rate-limited command (``current_action``, (2,) in [-1, 1]) and
+    its controller ``grip``'s goal (``goal_qvel``), as after ``format_action`` and ``set_goal`` (the arrays are kept)."""
+    gripper.current_action = current_action
+    grip.goal_qvel = goal_qvel
 
 
 def hand_back_controller_state(osc, grip, goal_pos, goal_ori, torques) -> None:

@@ -84,6 +84,7 @@ from tableclean_suite.robosuite_adapter import (
     mj_model,
     mujoco_function_addresses,
     require_checked_versions,
+    set_gripper_state,
 )
 
 #: Slices of the skill action (7,): position (m), rotation vector (rad), gripper command in [-1, 1].
@@ -779,8 +780,7 @@ class FastSkillStepper:
             new_current, goal_qvel, ctrl = np.empty(2), np.empty(2), np.empty(2)
             panda_gripper_control(np.asarray(self.gripper.current_action, dtype=float), float(action[GRIPPER_INDEX]),
                                   float(self.gripper.speed), params, new_current, goal_qvel, ctrl)
-            self.gripper.current_action = new_current
-            controller.goal_qvel = goal_qvel
+            set_gripper_state(self.gripper, controller, new_current, goal_qvel)
             return ctrl
         goal_qvel = self.gripper.format_action(np.asarray(action[GRIPPER_SLICE], dtype=float))
         if controller.use_action_scaling:
@@ -945,8 +945,7 @@ class FastSkillStepper:
                 break
         if total:
             current_action, goal_qvel = states[min(total, len(states)) - 1]
-            self.gripper.current_action = current_action.copy()
-            self.grip_controller.goal_qvel = goal_qvel.copy()
+            set_gripper_state(self.gripper, self.grip_controller, current_action.copy(), goal_qvel.copy())
             env.done = (env.timestep >= env.horizon) and not env.ignore_done
             hand_back_controller_state(self.osc, self.grip_controller, goal_pos, goal_ori, self.torques)
         return total
@@ -970,7 +969,7 @@ class FastSkillStepper:
             if len(rows) > 1 and np.array_equal(rows[-1], rows[-2]) and np.array_equal(states[-1][0], states[-2][0]):
                 settled = True
                 break
-        gripper.current_action, controller.goal_qvel = saved
+        set_gripper_state(gripper, controller, *saved)
         return np.ascontiguousarray(rows, dtype=float), states, settled
 
     def _python_substep(self, substep: int, goal_pos, goal_ori, gains, grip_ctrl, cached: bool = False) -> None:
