@@ -222,25 +222,23 @@ def advised_probabilities(probabilities: np.ndarray, advisor: np.ndarray, advice
     return np.where(advising[:, None], mixed, probabilities)
 
 
-def final_probabilities(result, model: TaskModel | None = None) -> np.ndarray:
+def final_probabilities(result, model: TaskModel | None = None, masks: np.ndarray | None = None) -> np.ndarray:
     """The final behaviour policy of every run of a training ``result``: ``(R, S, A)`` probabilities.
 
     Exploration at the end of training (:func:`final_behaviour`), restricted to the afforded
     actions for affordance learners and mixed with the advisor for advised ones (module
-    docstring).  ``model``: the task model trained on (default ``TaskModel()``).
+    docstring).  ``model``: the task model trained on (default ``TaskModel()``); ``masks``: its
+    :func:`affordance_masks` when the caller has them already (None: computed here).
     """
     model = model if model is not None else TaskModel()
     assist = _assist_options(result.config.get("learner_settings", {}))
     behaviour = final_behaviour(result)
     exploration, q = behaviour["exploration"], behaviour["q"]
     epsilon = float(result.config["epsilon"])
-    affordance = assist.get("affordance", "none")
-    if affordance == "none":
+    masks = affordance_masks(result, model) if masks is None else masks
+    if masks is None:
         probabilities = behaviour_probabilities(None, epsilon, model.n_actions, **behaviour)
     else:
-        masks = (given_affordances(model) != 0 if affordance == "given"
-                 else learned_affordances(result.states, result.actions, result.outcomes, model.n_states,
-                                          model.n_actions))
         parameter = exploration.parameter_array(epsilon, behaviour["iteration"], behaviour["visits"])
         probabilities = afforded_probabilities(q, masks, np.broadcast_to(parameter, q.shape[:2]), exploration.softmax)
     if assist.get("advice_probability", 0.0) > 0.0:
@@ -249,25 +247,20 @@ def final_probabilities(result, model: TaskModel | None = None) -> np.ndarray:
     return probabilities
 
 
-def _assist_options(settings: dict) -> dict:
-    """The assistance options recorded in ``learner_settings`` (``TabularLearner.settings()``)."""
-    return {name: settings[name] for name in ("affordance", "advice_probability", "advice_consistency")
-            if name in settings}
+def affordance_masks(result, model: TaskModel) -> np.ndarray | None:
+    """The afforded actions ``result``'s learner chooses among: ``(S, A)`` bool for ``given``
+    affordances, ``(R, S, A)`` for ``learned`` ones (from each run's records), None without."""
+    affordance = _assist_options(result.config.get("learner_settings", {})).get("affordance", "none")
+    if affordance == "none":
+        return None
+    if affordance == "given":
+        return given_affordances(model) != 0
+    return learned_affordances(result.states, result.actions, result.outcomes, model.n_states, model.n_actions)
 
 
-def final_asymptotes(result, chain, max_itr: int, model: TaskModel | None = None):
-    """Exact :class:`~tableclean_suite.asymptotes.Asymptotes` (one per run) of ``result``'s final
-    behaviour (:func:`final_probabilities`) over ``chain`` (:meth:`EpisodeChain.build`).
-
-    For the paper's constant epsilon-greedy without assistance this is
-    :func:`~tableclean_suite.asymptotes.greedy_asymptotes` itself (same numbers as before).
-    """
-    settings = result.config.get("learner_settings", {})
-    plain = (as_exploration(settings.get("exploration")).name == EpsilonGreedy.name
-             and not _assist_options(settings))
-    if plain:
-        return asymptotes.greedy_asymptotes(result.q, float(result.config["epsilon"]), chain, max_itr)
-    probabilities = final_probabilities(result, model)
+def _per_run_asymptotes(probabilities: np.ndarray, chain, max_itr: int):
+    """:class:`~tableclean_suite.asymptotes.Asymptotes` per run of ``(R, S, A)`` policies, each
+    distinct policy analysed once."""
     flat = probabilities.reshape(probabilities.shape[0], -1)
     unique, inverse = np.unique(flat, axis=0, return_inverse=True)
     stats = asymptotes.episode_statistics(unique.reshape((-1,) + probabilities.shape[1:]), chain, max_itr)
@@ -275,27 +268,44 @@ def final_asymptotes(result, chain, max_itr: int, model: TaskModel | None = None
     return asymptotes.Asymptotes(*(np.atleast_1d(getattr(stats, name))[inverse] for name in asymptotes.QUANTITIES))
 
 
-def final_greedy_success(result, chain, max_itr: int, model: TaskModel | None = None) -> np.ndarray:
+def _assist_options(settings: dict) -> dict:
+    """The assistance options recorded in ``learner_settings`` (``TabularLearner.settings()``)."""
+    return {name: settings[name] for name in ("affordance", "advice_probability", "advice_consistency")
+            if name in settings}
+
+
+def final_asymptotes(result, chain, max_itr: int, model: TaskModel | None = None,
+                     masks: np.ndarray | None = None):
+    """Exact :class:`~tableclean_suite.asymptotes.Asymptotes` (one per run) of ``result``'s final
+    behaviour (:func:`final_probabilities`) over ``chain`` (:meth:`EpisodeChain.build`).
+
+    For the paper's constant epsilon-greedy without assistance this is
+    :func:`~tableclean_suite.asymptotes.greedy_asymptotes` itself (same numbers as before).
+    ``masks``: :func:`affordance_masks` when the caller has them already.
+    """
+    settings = result.config.get("learner_settings", {})
+    plain = (as_exploration(settings.get("exploration")).name == EpsilonGreedy.name
+             and not _assist_options(settings))
+    if plain:
+        return asymptotes.greedy_asymptotes(result.q, float(result.config["epsilon"]), chain, max_itr)
+    return _per_run_asymptotes(final_probabilities(result, model, masks), chain, max_itr)
+
+
+def final_greedy_success(result, chain, max_itr: int, model: TaskModel | None = None,
+                         masks: np.ndarray | None = None) -> np.ndarray:
     """``(R,)`` exact success of each run's final *greedy* behaviour (no exploration, epsilon = 0).
 
     The learner's own greedy action on its final Q-table, restricted to the afforded actions for
     affordance learners; an advisor's advice is left out (it is not the learner's policy).
+    ``masks``: :func:`affordance_masks` when the caller has them already.
     """
-    settings = result.config.get("learner_settings", {})
-    assist = _assist_options(settings)
     q = np.asarray(result.q, dtype=np.float64)
     q = q[None] if q.ndim == 2 else q
-    affordance = assist.get("affordance", "none")
-    if affordance == "none":
-        return np.atleast_1d(asymptotes.greedy_asymptotes(q, 0.0, chain, max_itr).success)
     model = model if model is not None else TaskModel()
-    masks = (given_affordances(model) != 0 if affordance == "given"
-             else learned_affordances(result.states, result.actions, result.outcomes, model.n_states, model.n_actions))
-    probabilities = afforded_probabilities(q, masks, 0.0)
-    flat = probabilities.reshape(probabilities.shape[0], -1)
-    unique, inverse = np.unique(flat, axis=0, return_inverse=True)
-    stats = asymptotes.episode_statistics(unique.reshape((-1,) + probabilities.shape[1:]), chain, max_itr)
-    return np.atleast_1d(stats.success)[np.asarray(inverse).reshape(-1)]
+    masks = affordance_masks(result, model) if masks is None else masks
+    if masks is None:
+        return np.atleast_1d(asymptotes.greedy_asymptotes(q, 0.0, chain, max_itr).success)
+    return _per_run_asymptotes(afforded_probabilities(q, masks, 0.0), chain, max_itr).success
 
 
 def never_terminal(result) -> np.ndarray:
@@ -310,10 +320,12 @@ def final_run_facts(result, chain, max_itr: int, model: TaskModel | None = None)
     (``metrics.PLATEAU_NAMES``), each ``(R,)``: the exact asymptotes of the final behaviour
     (:func:`final_asymptotes`), the final greedy policy's success (:func:`final_greedy_success`)
     and whether the run never reached the terminal state (:func:`never_terminal`)."""
-    final = final_asymptotes(result, chain, max_itr, model)
+    model = model if model is not None else TaskModel()
+    masks = affordance_masks(result, model)  # once for both analyses
+    final = final_asymptotes(result, chain, max_itr, model, masks)
     return {"success": np.atleast_1d(final.success), "average_reward": np.atleast_1d(final.average_reward),
             "terminal": np.atleast_1d(final.terminal),
-            "greedy_success": final_greedy_success(result, chain, max_itr, model),
+            "greedy_success": final_greedy_success(result, chain, max_itr, model, masks),
             "never_terminal": never_terminal(result)}
 
 

@@ -302,6 +302,7 @@ def train_and_publish(args) -> int:
     comparisons, comparisons_cached = comparing.result(grid_run)  # finished before the figures' processes fork
     drawing = (derived.start_figures(results, curves_frame, config.plateau_fraction, table3, FIGURE_DPI,
                                      processes=derived.FIGURE_PROCESSES) if config.figures else None)
+    curves_text = tables.csv_text(curves_frame, tables.CURVES_FLOAT_FORMAT)  # while the figures are drawn
     figures = drawing.result() if drawing is not None else []
     drawn = sum(not figure.cached for figure in figures)
     print(f"derived results in {results.root}: comparisons {'loaded' if comparisons_cached else 'computed'}, "
@@ -311,8 +312,7 @@ def train_and_publish(args) -> int:
         "table3.csv": lambda path: table3.to_csv(path, index=False),
         "table4.csv": lambda path: table4.to_csv(path, index=False),
         "comparisons.csv": lambda path: comparisons.to_csv(path, index=False),
-        "curves.csv": lambda path: path.write_text(tables.csv_text(curves_frame, tables.CURVES_FLOAT_FORMAT),
-                                                   encoding="utf-8", newline=""),
+        "curves.csv": lambda path: path.write_text(curves_text, encoding="utf-8", newline=""),
     }
     writers.update({figure.name: (lambda path, png=figure.png: path.write_bytes(png)) for figure in figures})
     elapsed = time.perf_counter() - started
