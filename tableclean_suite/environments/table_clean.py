@@ -65,8 +65,12 @@ STAND_EDGE_MARGIN = 0.002
 RESET_OBJECT_CLEARANCE = 0.05
 #: The exact contact test runs only when the sponge's lowest corner is within this of the table top [m].
 PRESS_PREFILTER_SLACK = 0.002
-#: Column order turning MuJoCo's wxyz quaternions into robosuite's xyzw (its ``convert_quat(q, to="xyzw")``).
-WXYZ_TO_XYZW = [1, 2, 3, 0]
+
+
+def wxyz_to_xyzw(quats: np.ndarray) -> np.ndarray:
+    """MuJoCo's wxyz quaternions (..., 4) as robosuite's xyzw (a new array; ``convert_quat(q, to="xyzw")``, row by row)."""
+    return np.concatenate((quats[..., 1:], quats[..., :1]), axis=-1)
+
 
 # Un-normalised reward components (see TableClean.reward).
 SUCCESS_REWARD = 3.0
@@ -791,13 +795,13 @@ class TableClean(ManipulationEnv):
         site = robot.eef_site_id[arm]
         geometry = self.geometry
         objects_pos = data.xpos[self.object_body_ids]  # fancy indexing copies
-        objects_quat = data.xquat[self.object_body_ids][:, WXYZ_TO_XYZW]  # robosuite's convert_quat, all rows at once
+        objects_quat = wxyz_to_xyzw(data.xquat[self.object_body_ids])
         grasped = self._grasped_bodies()
         objects_grasped = grasped[:-1]
         return {
             "eef_pos": np.array(data.site_xpos[site]),
             "eef_quat": mat2quat(np.array(data.site_xmat[site]).reshape(3, 3)).astype(float),
-            "gripper_qpos": np.array(data.qpos[gripper_joint_pos_indexes(robot, arm)]),
+            "gripper_qpos": data.qpos[self._finger_qpos_index(robot, arm)],
             "object_pos": objects_pos[0].copy(),
             "object_quat": objects_quat[0].copy(),
             "object_half_size": self._object_half_sizes[0].copy(),
@@ -817,7 +821,7 @@ class TableClean(ManipulationEnv):
             "object_spacing": float(self.task_config["object_spacing"]),
             "object_clearance": float(self.task_config["object_clearance"]),
             "sponge_pos": np.array(data.xpos[self.sponge_body_id]),
-            "sponge_quat": data.xquat[self.sponge_body_id][WXYZ_TO_XYZW],
+            "sponge_quat": wxyz_to_xyzw(data.xquat[self.sponge_body_id]),
             "sponge_half_size": np.asarray(self.sponge.get_bounding_box_half_size(), dtype=float),
             "sponge_home_pos": geometry.sponge_home_pos.copy(),
             "segment_centers": geometry.segment_centers.copy(),
@@ -830,6 +834,15 @@ class TableClean(ManipulationEnv):
             "dirt_fraction": self.dirt_fraction(),
             "qvel": np.array(data.qvel),
         }
+
+    def _finger_qpos_index(self, robot, arm) -> np.ndarray:
+        """qpos indexes (int array) of ``robot``'s finger joints on ``arm``, kept per robot and simulation (read
+        every control step; a hard reset builds a new simulation, whose layout may differ)."""
+        cached = getattr(self, "_finger_index_cache", None)
+        if cached is None or cached[0] is not robot or cached[1] != arm or cached[2] is not self.sim:
+            index = np.asarray(gripper_joint_pos_indexes(robot, arm), dtype=int)
+            cached = self._finger_index_cache = (robot, arm, self.sim, index)
+        return cached[3]
 
     def _grasped_bodies(self) -> np.ndarray:
         """Bool (M + 1,): for each object, then the sponge, whether both finger pads touch it.
