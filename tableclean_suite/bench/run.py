@@ -369,11 +369,24 @@ def cell_executor(config: RunConfig):
     return LocalExecutor(workers=config.workers)
 
 
+def _preload_pyplot() -> None:
+    """Import pyplot (Agg) here, so the processes forked to draw the figures inherit it instead of
+    each importing it (~0.6 s each); a failure is left to them to report."""
+    from tableclean_suite.bench import plots
+
+    try:
+        plots.pyplot()
+    except Exception:  # noqa: BLE001  (the drawing processes raise it again, with context)
+        pass
+
+
 class BackgroundComparisons:
     """The probabilities of improvement between the main cells (:func:`.derived.comparisons`),
     computed on a thread as soon as every main cell is trained or loaded, while the other cells
     train: the bootstrap draws run compiled without the GIL, on the core the cells' statistics
     leave free.  Same numbers as computing them afterwards (one seeded generator, same order).
+    With ``--fresh`` figures the thread then imports pyplot for the drawing processes
+    (:func:`_preload_pyplot`; a cached run loads its figures without it).
 
     Args:
         grid: the run's memberships (the ``main`` ones are compared).
@@ -399,6 +412,8 @@ class BackgroundComparisons:
                                                          config.bootstrap_samples, config.seed)
         except BaseException as error:  # noqa: BLE001  (raised again by result())
             self._outcome["error"] = error
+        if self._config.figures and self._config.fresh:
+            _preload_pyplot()
 
     def start_when_ready(self, grid_run) -> None:
         """Start the thread once every main cell has its statistics (``run_grid``'s ``on_cell``)."""
