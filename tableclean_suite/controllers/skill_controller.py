@@ -72,7 +72,7 @@ class SkillController:
         allowed ones."""
         return self.model.action_name(action)
 
-    def _stepper(self):
+    def _fast_stepper(self):
         """The env's fast stepper when this controller's env owns one, else ``None`` (then ``env.step``).
 
         A wrapper (e.g. robosuite's ``DataCollectionWrapper``) forwards attribute lookups to the
@@ -84,6 +84,22 @@ class SkillController:
         if stepper is None or getattr(stepper, "env", None) is not self.env:
             return None
         return stepper
+
+    def _stepper(self):
+        """The function each control step's command goes to: the fast stepper's ``step``, else ``env.step``.
+
+        Subclasses may wrap it to see every control step (e.g. demo recording); the compiled
+        phase loop is then not used (:meth:`_phase_stepper`).
+        """
+        stepper = self._fast_stepper()
+        return self.env.step if stepper is None else stepper.step
+
+    def _phase_stepper(self):
+        """The fast stepper whose compiled phase loop may run a fixed-waypoint phase's further steps, or ``None``:
+        only without ``on_step`` and when :meth:`_stepper` is not overridden (both must see every step)."""
+        if self.on_step is not None or type(self)._stepper is not SkillController._stepper:
+            return None
+        return self._fast_stepper()
 
     def execute(self, action) -> SkillResult:
         """Carry out ``action`` (Action, index into the model's actions, or name) in physics and report what happened.
@@ -112,10 +128,8 @@ class SkillController:
             return self._result(action, start, True, 0, f"{predicted.name.lower()}: nothing to do", before, before)
 
         skill = skill_class(self.env, self.skill_config(action))
-        stepper = self._stepper()
-        env_step = self.env.step if stepper is None else stepper.step
-        # a fixed-waypoint phase's further steps run in the stepper's compiled loop (no per-step Python)
-        phases = stepper if self.on_step is None else None
+        env_step = self._stepper()
+        phases = self._phase_stepper()  # runs a fixed-waypoint phase's further steps in compiled code
         env_time = 0.0
         reason = "ok"
         try:
