@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from tableclean_suite.bench.object_table import FALLBACK_PARTNER, markdown, partner_for
-from tableclean_suite.controllers.clean import HAND_CLEARANCE, hand_obstacles
+from tableclean_suite.controllers.clean import HAND_CLEARANCE, Wipe, hand_obstacles
 from tableclean_suite.controllers.wipe_pattern import boustrophedon, clear_area
 from tableclean_suite.environments.object_geometry import ObjectGeometry
 from tableclean_suite.environments.placement import free_spot, other_segments, slot_offsets
@@ -75,6 +75,33 @@ def test_hand_obstacles_counts_only_objects_reaching_the_hands_underside():
     assert boxes.shape == (1, 4) and np.allclose(boxes[0], [0.08, 0.18, 0.12, 0.22])
     info["objects_grasped"] = np.array([False, True])  # a held object is no obstacle
     assert hand_obstacles(info, hand_bottom_z=0.86).shape == (0, 4)
+
+
+def _wipe_area_beside(object_top: float) -> np.ndarray:
+    """(2,) half extents [m] of the wipe area of an 18 cm segment with an object of top ``object_top``
+    (m above the table) 3.6 cm beyond its +y edge (examples/custom_object.py's scene), for a Panda hand."""
+    table_z = 0.8
+    wipe = Wipe(0)
+    wipe.config = {"edge_inset": 1.0, "max_drift_correction": 0.01, "max_press_depth": 0.02}
+    wipe.yaw = np.pi / 2  # strokes along y: the hand's long (closing) axis along y
+    wipe.hold_offset = np.array([0.0, 0.0, 0.002])
+    half_z = object_top / 2
+    info = {"segment_centers": np.array([[-0.11, -0.11, table_z]]), "segment_half_sizes": np.array([[0.09, 0.09]]),
+            "table_top_z": table_z, "sponge_half_size": np.array([0.04, 0.025, 0.015]),
+            "gripper_palm_height": 0.031, "gripper_hand_reach": 0.104, "gripper_hand_half_width": 0.032,
+            "objects_pos": np.array([[-0.167, 0.058, table_z + half_z]]), "objects_grasped": np.array([False]),
+            "objects_half_size": np.array([[0.03, 0.02, half_z]]), "objects_footprint": np.array([0.036]),
+            "objects_quat": np.array([[0.0, 0.0, 0.0, 1.0]])}
+    _, half = wipe._wipe_area(info, np.array([0.04, 0.025]))
+    return half
+
+
+def test_the_palm_passes_over_an_object_lower_than_its_underside_but_not_a_taller_one():
+    # wiping, the Panda palm's underside is ~4.5 cm above the table (sponge half height 1.5 cm + grip
+    # offset + palm 3.1 cm): a 3 cm flat box beside the segment leaves the whole segment to the sponge
+    assert np.allclose(_wipe_area_beside(0.03), [0.05, 0.065])
+    # a 4.4 cm cube at the same spot reaches the palm: the +y side shrinks (the hand keeps its clearance)
+    assert _wipe_area_beside(0.044)[1] < 0.065 - 0.005
 
 
 def test_free_spot_takes_the_centre_else_the_spot_farthest_from_the_other_segments():

@@ -29,6 +29,9 @@ from tableclean_suite.task import Action
 #: m kept between the wiping hand and every object standing near the segment, horizontally (the wipe
 #: area shrinks by it) and vertically (an object whose top comes within it of the hand's underside counts).
 HAND_CLEARANCE = 0.01
+#: m the grip site may come below its height with the held sponge resting flat on the table top while
+#: it presses and wipes (the sponge's soft contact and its tilt in the fingers; Panda at 8 N: <= 4 mm).
+PRESS_SINK = 0.005
 
 
 def _rotation(angle: float) -> np.ndarray:
@@ -64,6 +67,19 @@ def hand_obstacles(info: Mapping[str, Any], hand_bottom_z: float, clearance: flo
             radius = float(np.asarray(info["objects_footprint"], dtype=float)[j])
             boxes.append([pos[0] - radius, pos[1] - radius, pos[0] + radius, pos[1] + radius])
     return np.asarray(boxes, dtype=float).reshape(-1, 4)
+
+
+def wiping_hand_underside_z(info: Mapping[str, Any], hold_offset_z: float) -> float:
+    """World z [m] of the hand's underside (its palm, ``gripper_palm_height`` above the grip site) while wiping.
+
+    The held sponge's bottom cannot go below the table top, so the grip site stays about
+    ``sponge half height + hold_offset_z`` (m, grip site minus sponge centre) above it, down to
+    :data:`PRESS_SINK` lower.  (Not the commanded target: the force loop may command the sponge
+    ``max_press_depth`` into the table, a setpoint the hand never reaches.)  Only the fingers,
+    closed on the sponge, come lower.
+    """
+    grip_z = float(info["table_top_z"]) + float(info["sponge_half_size"][2]) + float(hold_offset_z) - PRESS_SINK
+    return grip_z + float(info["gripper_palm_height"])
 
 
 class CleanPhase(enum.Enum):
@@ -139,8 +155,9 @@ class Wipe(Primitive):
 
         The segment inset by ``edge_inset`` of the sponge's footprint, shrunk (:func:`clear_area`) so
         that the hand stays :data:`HAND_CLEARANCE` away from every object whose top reaches its
-        underside at the lowest wiping height (objects on the neighbouring segments, read from their
-        collision geometry).  Between two lanes and two passes the sponge moves inside it too.
+        underside while wiping (:func:`wiping_hand_underside_z`; objects on the neighbouring segments,
+        read from their collision geometry; the palm passes over lower ones).  Between two lanes and
+        two passes the sponge moves inside it too.
         Sets :attr:`hand_bounds`, the (2, 2) ``[low, high]`` world xy the grip site may reach while
         wiping: the shrunk sides exactly, the others with ``max_drift_correction`` to spare.
         """
@@ -151,8 +168,7 @@ class Wipe(Primitive):
         self.hand_bounds = np.array([center - reach - spare, center + reach + spare]) + self.hold_offset[:2]
         if "gripper_palm_height" not in info:
             return center, reach
-        lowest = self._wipe_target(info, center, self.config["max_press_depth"])[2]
-        obstacles = hand_obstacles(info, lowest + float(info["gripper_palm_height"]))
+        obstacles = hand_obstacles(info, wiping_hand_underside_z(info, self.hold_offset[2]))
         clear_center, clear_reach = clear_area(center, reach, self.hold_offset[:2], self._hand_half(info), obstacles,
                                                HAND_CLEARANCE)
         low, high = clear_center - clear_reach, clear_center + clear_reach
