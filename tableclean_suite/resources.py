@@ -160,24 +160,6 @@ def q_table_copies(q_tables: int = 1, checkpoint: bool = False) -> int:
     return copies
 
 
-def run_working_bytes(learner, reward, n_states: int, n_actions: int) -> int:
-    """Bytes of one run's working arrays in the compiled loop (``kernel.run_memory`` and the
-    looping rule's memory): eligibility traces, Dyna's model, learned affordance masks, visit
-    counts (S int64) and, for a looping rule that looks further back than the paper's, the
-    states' entry times (S int64); 0 for the paper's learners."""
-    from tableclean_suite.learners.assist import AFFORD_LEARNED
-    from tableclean_suite.learners.exploration import VISIT_DECAY_CODE
-    from tableclean_suite.learners.rules import METHOD_DYNA, METHOD_TRACES
-    from tableclean_suite.rewards import PAPER_LOOPING_MEMORY
-
-    per_pair = {METHOD_TRACES: TRACE_BYTES_PER_PAIR, METHOD_DYNA: DYNA_BYTES_PER_PAIR}.get(learner.method, 0)
-    if learner.affordance_code == AFFORD_LEARNED:
-        per_pair += LEARNED_AFFORDANCE_BYTES_PER_PAIR
-    per_state_words = int(learner.exploration.code == VISIT_DECAY_CODE)
-    per_state_words += int(reward.looping_code != 0 and reward.looping_memory != PAPER_LOOPING_MEMORY)
-    return int(n_states) * int(n_actions) * per_pair + int(n_states) * per_state_words * WORD_BYTES
-
-
 def training_memory(n_states: int, n_actions: int, runs: int, iterations: int, q_tables: int = 1,
                     max_successors: int = 1, code_bytes: int = 4, checkpoint: bool = False,
                     engine: str = DEFAULT_ENGINE, run_bytes: int = 0, concurrent_runs: int = 1) -> MemoryEstimate:
@@ -194,7 +176,8 @@ def training_memory(n_states: int, n_actions: int, runs: int, iterations: int, q
         engine: ``"compiled"``, or ``"reference"``, whose per-run arrays are stacked into the
             result (records and Q-tables twice) and whose learner tables are Python lists
             (:data:`PYTHON_ENTRY_BYTES` per entry, one run at a time).
-        run_bytes: one run's working arrays in the compiled loop (:func:`run_working_bytes`).
+        run_bytes: one run's working arrays in the compiled loop
+            (:func:`tableclean_suite.learners.memory.run_working_bytes`).
         concurrent_runs: runs the compiled loop trains at once (its threads, at most ``runs``).
     """
     pairs = int(n_states) * int(n_actions)
@@ -211,22 +194,6 @@ def training_memory(n_states: int, n_actions: int, runs: int, iterations: int, q
         parts = {"Q-tables": int(runs) * pairs * WORD_BYTES * copies, "records": records,
                  "run working memory": int(run_bytes) * max(1, min(int(runs), int(concurrent_runs)))}
     return table_memory(n_states, n_actions, max_successors) + MemoryEstimate(parts)
-
-
-def learner_training_memory(model, learner, reward, runs: int, iterations: int, checkpoint: bool = False,
-                            engine: str = DEFAULT_ENGINE, max_successors: int = 1) -> MemoryEstimate:
-    """:func:`training_memory` of ``train()``-ing ``learner`` (a ``TabularLearner``) with ``reward``
-    (a ``RewardPattern``) on ``model`` (a ``TaskModel``): two tables per run for double Q-learning,
-    the learner's run working memory (:func:`run_working_bytes`) in each of numba's threads."""
-    import numba
-
-    from tableclean_suite.learners.rules import METHOD_DOUBLE_Q
-
-    return training_memory(
-        model.n_states, model.n_actions, runs, iterations, q_tables=2 if learner.method == METHOD_DOUBLE_Q else 1,
-        max_successors=max_successors, code_bytes=model.record_dtype.itemsize, checkpoint=checkpoint, engine=engine,
-        run_bytes=run_working_bytes(learner, reward, model.n_states, model.n_actions),
-        concurrent_runs=numba.get_num_threads())
 
 
 def steps_per_second(engine: str) -> float:

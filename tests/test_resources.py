@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from tableclean_suite import resources
+from tableclean_suite.learners import memory
 from tableclean_suite.bench import experiments
 from tableclean_suite.bench.config import RunConfig
 from tableclean_suite.learners import train
@@ -171,7 +172,7 @@ def test_the_memory_estimate_covers_the_traced_peak_of_training(learner, checkpo
     finally:
         tracemalloc.stop()
     del result
-    estimate = resources.learner_training_memory(MEASURED_MODEL, get_learner(learner), get_reward_pattern("r4"), runs,
+    estimate = memory.learner_training_memory(MEASURED_MODEL, get_learner(learner), get_reward_pattern("r4"), runs,
                                                  iterations, checkpoint=checkpoint > 0, engine=engine)
     assert peak <= estimate.total <= ESTIMATE_FACTOR[engine] * peak, (peak, estimate.describe())
 
@@ -195,7 +196,7 @@ def test_the_run_working_memory_covers_the_compiled_loops_per_run_arrays(learner
                         chosen.method == METHOD_DYNA)
     masks = s * a if chosen.affordance_code == AFFORD_LEARNED else 0
     actual = sum(x.nbytes for x in arrays) + masks
-    assert actual - a * resources.WORD_BYTES <= resources.run_working_bytes(chosen, get_reward_pattern("r4"), s, a) <= actual
+    assert actual - a * resources.WORD_BYTES <= memory.run_working_bytes(chosen, get_reward_pattern("r4"), s, a) <= actual
 
 
 def _job(engine: str, runs: int, iterations: int):

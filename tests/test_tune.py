@@ -118,8 +118,10 @@ def test_a_double_q_study_is_sized_by_its_own_tables_and_refused_before_any_tria
     analysis = resources.MemoryEstimate({"asymptote analysis": model.n_states * model.n_actions * ANALYSIS_BYTES_PER_PAIR})
     old = resources.training_memory(model.n_states, model.n_actions, stage_runs, iterations,
                                     code_bytes=model.record_dtype.itemsize) + analysis
-    real = resources.learner_training_memory(model, get_learner("double_q_learning"), get_reward_pattern("r4"),
-                                             stage_runs, iterations) + analysis
+    from tableclean_suite.learners.memory import learner_training_memory
+
+    real = learner_training_memory(model, get_learner("double_q_learning"), get_reward_pattern("r4"),
+                                   stage_runs, iterations) + analysis
     available = (old.total + real.total) / 2 / resources.USABLE_FRACTION  # the old estimate fits, the real one not
     assert old.total < resources.USABLE_FRACTION * available < real.total
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tableclean_suite import resources
+from tableclean_suite.learners.memory import learner_training_memory
 from tableclean_suite.backends import CHECKPOINT_Q, BackendRecords, TrainingJob
 from tableclean_suite.learners import assist, kernel, reference
 from tableclean_suite.learners.reference import DOUBLE_Q_TABLES
@@ -62,7 +63,7 @@ def check_job_resources(job: TrainingJob, measured: bool) -> None:
     successors = job.options["transitions"].max_successors if measured else 1
     what = (f"training {job.learner.name!r} on task {model.spec.name!r} ({model.n_states} states x "
             f"{model.n_actions} actions, {job.runs} runs x {job.iterations} iterations)")
-    resources.require_memory(resources.learner_training_memory(
+    resources.require_memory(learner_training_memory(
         model, job.learner, job.reward, job.runs, job.iterations, checkpoint=job.checkpoint > 0, engine=job.engine,
         max_successors=successors), what)
     steps = job.runs * job.iterations

@@ -38,6 +38,7 @@ import numpy as np
 import tableclean_suite
 from tableclean_suite import analysis, asymptotes, metrics, resources, settling
 from tableclean_suite import curves as curve_sums
+from tableclean_suite.learners.memory import learner_training_memory
 from tableclean_suite.backends import CHECKPOINT_Q, get_backend
 from tableclean_suite.bench import statistics
 from tableclean_suite.bench.config import LITERATURE_LEARNERS, RunConfig
@@ -374,7 +375,7 @@ def check_grid_resources(cells, config: RunConfig, model) -> float:
     pairs = int(model.n_states) * int(model.n_actions)
     chunk = min(config.runs, chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model)))
     settles = getattr(get_backend(config.backend), "deterministic_prefix", False)  # keeps checkpoint Q-tables
-    memory = max((resources.learner_training_memory(model, get_learner(cell.learner), get_reward_pattern(cell.reward),
+    memory = max((learner_training_memory(model, get_learner(cell.learner), get_reward_pattern(cell.reward),
                                                     chunk, config.iterations, checkpoint=settles) for cell in cells),
                  key=lambda estimate: estimate.total)
     memory += resources.MemoryEstimate({"asymptote analysis": pairs * ANALYSIS_BYTES_PER_PAIR,

@@ -105,7 +105,7 @@ def check_resources(args) -> None:
     built and before any trial trains (the estimates of :mod:`tableclean_suite.resources`, as
     :func:`tableclean_suite.bench.experiments.check_grid_resources` makes them for a grid).
 
-    Memory: one stage's runs of the tuned learner (:func:`tableclean_suite.resources.learner_training_memory`:
+    Memory: one stage's runs of the tuned learner (:func:`tableclean_suite.learners.memory.learner_training_memory`:
     double Q-learning's tables, its run working arrays; trials keep no checkpoint), the tables and
     the stage's asymptote analysis.  Time: at most ``--trials`` trials and the paper configuration's
     reference (computed once per study), each ``runs x iterations`` learner steps at the engine's rate
@@ -116,6 +116,7 @@ def check_resources(args) -> None:
         tableclean_suite.resources.ResourceError: one line naming the estimate and the override.
     """
     from tableclean_suite import resources
+    from tableclean_suite.learners.memory import learner_training_memory
     from tableclean_suite.bench.experiments import ANALYSIS_BYTES_PER_PAIR, ANALYSIS_PAIRS_PER_SECOND
     from tableclean_suite.learners import get_learner
     from tableclean_suite.rewards import get_reward_pattern
@@ -123,7 +124,7 @@ def check_resources(args) -> None:
     model = args.model
     pairs = model.n_states * model.n_actions
     stage_runs = -(-args.runs // STAGES)
-    memory = resources.learner_training_memory(model, get_learner(args.learner), get_reward_pattern(args.reward),
+    memory = learner_training_memory(model, get_learner(args.learner), get_reward_pattern(args.reward),
                                                stage_runs, args.iterations, checkpoint=False,
                                                engine=resources.DEFAULT_ENGINE)
     memory += resources.MemoryEstimate({"asymptote analysis": pairs * ANALYSIS_BYTES_PER_PAIR})

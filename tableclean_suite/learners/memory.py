@@ -1,0 +1,45 @@
+"""Memory a learner's training allocates, from what the learner is: the estimate the resource guard checks.
+
+The generic accounting (tables, records, the refusal) lives in :mod:`tableclean_suite.resources`, a
+leaf module; what a learner adds to it (double Q's tables, traces, Dyna's model, learned
+affordance masks, visit counts, a long looping memory) is read here, next to the learners, so the
+guard does not import the learners back.
+"""
+
+from __future__ import annotations
+
+import numba
+
+from tableclean_suite import resources
+from tableclean_suite.learners.assist import AFFORD_LEARNED
+from tableclean_suite.learners.exploration import VISIT_DECAY_CODE
+from tableclean_suite.learners.rules import METHOD_DOUBLE_Q, METHOD_DYNA, METHOD_TRACES
+from tableclean_suite.rewards import PAPER_LOOPING_MEMORY
+
+
+def run_working_bytes(learner, reward, n_states: int, n_actions: int) -> int:
+    """Bytes of one run's working arrays in the compiled loop (``kernel.run_memory`` and the
+    looping rule's memory): eligibility traces, Dyna's model, learned affordance masks, visit
+    counts (S int64) and, for a looping rule that looks further back than the paper's, the
+    states' entry times (S int64); 0 for the paper's learners."""
+    per_pair = {METHOD_TRACES: resources.TRACE_BYTES_PER_PAIR,
+                METHOD_DYNA: resources.DYNA_BYTES_PER_PAIR}.get(learner.method, 0)
+    if learner.affordance_code == AFFORD_LEARNED:
+        per_pair += resources.LEARNED_AFFORDANCE_BYTES_PER_PAIR
+    per_state_words = int(learner.exploration.code == VISIT_DECAY_CODE)
+    per_state_words += int(reward.looping_code != 0 and reward.looping_memory != PAPER_LOOPING_MEMORY)
+    return int(n_states) * int(n_actions) * per_pair + int(n_states) * per_state_words * resources.WORD_BYTES
+
+
+def learner_training_memory(model, learner, reward, runs: int, iterations: int, checkpoint: bool = False,
+                            engine: str = resources.DEFAULT_ENGINE,
+                            max_successors: int = 1) -> resources.MemoryEstimate:
+    """:func:`tableclean_suite.resources.training_memory` of ``train()``-ing ``learner`` (a
+    ``TabularLearner``) with ``reward`` (a ``RewardPattern``) on ``model`` (a ``TaskModel``): two
+    tables per run for double Q-learning, the learner's run working memory
+    (:func:`run_working_bytes`) in each of numba's threads."""
+    return resources.training_memory(
+        model.n_states, model.n_actions, runs, iterations, q_tables=2 if learner.method == METHOD_DOUBLE_Q else 1,
+        max_successors=max_successors, code_bytes=model.record_dtype.itemsize, checkpoint=checkpoint, engine=engine,
+        run_bytes=run_working_bytes(learner, reward, model.n_states, model.n_actions),
+        concurrent_runs=numba.get_num_threads())
