@@ -32,8 +32,7 @@ import numpy as np
 
 from tableclean_suite.controllers.config_check import checked_skill_config
 from tableclean_suite.controllers.configs import SkillConfig
-from tableclean_suite.controllers.geometry import box_lowest_z, gripper_yaw, quat_to_matrix, wrap_angle
-from tableclean_suite.environments.object_geometry import world_z_range
+from tableclean_suite.controllers.geometry import box_lowest_z, gripper_yaw, quat_z_row, wrap_angle
 from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.controllers.setpoint import advance_command
 from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
@@ -50,12 +49,20 @@ def object_heights(info: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
     if "objects_geometry" not in info:
         halves = np.asarray(info["objects_half_size"], dtype=float)
         return positions[:, 2] + halves[:, 2], positions[:, 2] - halves[:, 2]
-    tops, bottoms = [], []
-    for pos, quat, shape in zip(positions, info["objects_quat"], info["objects_geometry"]):
-        bottom, top = world_z_range(shape, pos, quat_to_matrix(quat))  # one projection of its points for both
-        tops.append(top)
-        bottoms.append(bottom)
+    tops, bottoms = _geometry_heights(positions, info)
     return np.asarray(tops), np.asarray(bottoms)
+
+
+def _geometry_heights(positions: np.ndarray, info: Mapping[str, Any]) -> tuple[list[float], list[float]]:
+    """:func:`object_heights` from ``objects_geometry`` as lists of floats (``positions`` (M, 3) [m])."""
+    tops, bottoms = [], []
+    for z, quat, shape in zip(positions[:, 2].tolist(), info["objects_quat"], info["objects_geometry"]):
+        # one projection of its points for both: world_z_range's, on the rotation's z row alone (asked
+        # every control step the skills travel; the same bits as through the full quat_to_matrix)
+        heights = shape.points @ quat_z_row(quat)
+        bottoms.append(z + float(heights.min()))
+        tops.append(z + float(heights.max()))
+    return tops, bottoms
 
 
 @functools.lru_cache(maxsize=None)
@@ -239,7 +246,7 @@ class Skill(abc.ABC):
             return None
         info = self.env.skill_info()
         fingers = np.array(info["gripper_qpos"], dtype=float)
-        finger_motion = np.max(np.abs(fingers - self._last_fingers))
+        finger_motion = np.abs(fingers - self._last_fingers).max()  # the method: np.max's dispatch costs ~3 us
         self._last_fingers = fingers
         if self._finger_history.maxlen:
             self._finger_history.append(fingers)
@@ -362,27 +369,34 @@ class Skill(abc.ABC):
         ``carry_clearance`` above every lying object's top.  Tops and bottoms are the objects'
         collision geometry at their current poses (``objects_geometry``; bounding boxes without it).
         """
+        config = self.config
         table = float(info["table_top_z"])
-        z = table + self.config["hover_height"]
+        z = table + config["hover_height"]
         if "objects_pos" not in info:
             return z
-        tops, bottoms = object_heights(info)
-        grasped = np.asarray(info["objects_grasped"], dtype=bool)
+        # Python scalars from here on (asked every control step the skills travel; same values as numpy's)
+        if "objects_geometry" in info:
+            tops, bottoms = _geometry_heights(np.asarray(info["objects_pos"], dtype=float), info)
+        else:
+            tops, bottoms = (heights.tolist() for heights in object_heights(info))
+        grasped = np.asarray(info["objects_grasped"], dtype=bool).tolist()
         eef_z = float(info["eef_pos"][2])
         drop = None  # how far the carried body's lowest point hangs below the grip site
-        if grasped.any():
-            drop = eef_z - bottoms[int(np.argmax(grasped))]
+        if True in grasped:
+            drop = eef_z - bottoms[grasped.index(True)]
         elif bool(info["sponge_grasped"]):
             drop = eef_z - box_lowest_z(info["sponge_pos"], info["sponge_quat"], info["sponge_half_size"])
         if drop is not None:
-            z = max(z, table + max(drop, 0.0) + self.config["carry_lift"])
-        kinds = info["object_types"]
-        for j in np.flatnonzero(~grasped):
-            if drop is None:
-                clearance = self.config["fingertip_depth"] + kinds[j].clearance()
-            else:
-                clearance = max(drop, 0.0) + self.config["carry_clearance"]
-            z = max(z, tops[j] + clearance)
+            z = max(z, table + max(drop, 0.0) + config["carry_lift"])
+            carried_clearance = max(drop, 0.0) + config["carry_clearance"]
+        else:
+            fingertip_depth = config["fingertip_depth"]
+            kinds = info["object_types"]
+        for j, (held, top) in enumerate(zip(grasped, tops)):
+            if held:
+                continue
+            clearance = fingertip_depth + kinds[j].clearance() if drop is None else carried_clearance
+            z = max(z, top + clearance)
         return z
 
     def segment_center(self, info: Mapping[str, Any], segment: int) -> np.ndarray:
