@@ -86,12 +86,13 @@ def _wipe_area_beside(object_top: float) -> np.ndarray:
     wipe.yaw = np.pi / 2  # strokes along y: the hand's long (closing) axis along y
     wipe.hold_offset = np.array([0.0, 0.0, 0.002])
     half_z = object_top / 2
+    box = ObjectGeometry(np.array([[sx, sy, sz] for sx in (-0.03, 0.03) for sy in (-0.02, 0.02)
+                                   for sz in (-half_z, half_z)]))  # the example's 6 x 4 cm box, object_top tall
     info = {"segment_centers": np.array([[-0.11, -0.11, table_z]]), "segment_half_sizes": np.array([[0.09, 0.09]]),
             "table_top_z": table_z, "sponge_half_size": np.array([0.04, 0.025, 0.015]),
             "gripper_palm_height": 0.031, "gripper_hand_reach": 0.104, "gripper_hand_half_width": 0.032,
             "objects_pos": np.array([[-0.167, 0.058, table_z + half_z]]), "objects_grasped": np.array([False]),
-            "objects_half_size": np.array([[0.03, 0.02, half_z]]), "objects_footprint": np.array([0.036]),
-            "objects_quat": np.array([[0.0, 0.0, 0.0, 1.0]])}
+            "objects_quat": np.array([[0.0, 0.0, 0.0, 1.0]]), "objects_geometry": (box,)}
     _, half = wipe._wipe_area(info, np.array([0.04, 0.025]))
     return half
 

@@ -45,27 +45,17 @@ def hand_obstacles(info: Mapping[str, Any], hand_bottom_z: float, clearance: flo
 
     Read from the scene: each lying (not grasped) object's collision points at its current pose
     (``objects_geometry``); the box covers those whose height comes within ``clearance`` of
-    ``hand_bottom_z`` (world z, m).  Without geometry, an object's footprint disc and bounding
-    half height stand in.
+    ``hand_bottom_z`` (world z, m).  A missing key of ``info`` is a ``KeyError`` naming it.
     """
-    if "objects_pos" not in info:
-        return np.zeros((0, 4))
     positions = np.asarray(info["objects_pos"], dtype=float)
     grasped = np.asarray(info["objects_grasped"], dtype=bool)
-    shapes = info.get("objects_geometry")
+    shapes = info["objects_geometry"]
     boxes = []
     for j in np.flatnonzero(~grasped):
-        pos = positions[j]
-        if shapes is not None:
-            world = pos + shapes[j].points @ quat_to_matrix(info["objects_quat"][j]).T
-            high = world[world[:, 2] >= hand_bottom_z - clearance]
-            if len(high):
-                boxes.append([*high[:, :2].min(axis=0), *high[:, :2].max(axis=0)])
-            continue
-        top = pos[2] + float(np.asarray(info["objects_half_size"], dtype=float)[j, 2])
-        if top >= hand_bottom_z - clearance:
-            radius = float(np.asarray(info["objects_footprint"], dtype=float)[j])
-            boxes.append([pos[0] - radius, pos[1] - radius, pos[0] + radius, pos[1] + radius])
+        world = positions[j] + shapes[j].points @ quat_to_matrix(info["objects_quat"][j]).T
+        high = world[world[:, 2] >= hand_bottom_z - clearance]
+        if len(high):
+            boxes.append([*high[:, :2].min(axis=0), *high[:, :2].max(axis=0)])
     return np.asarray(boxes, dtype=float).reshape(-1, 4)
 
 
@@ -144,10 +134,7 @@ class Wipe(Primitive):
         The gripper's measures (``gripper_hand_reach`` along the fingers' closing axis,
         ``gripper_hand_half_width`` across it) turned to the hand's yaw.  (The wipe target's lead
         over a lagging sponge, ``max_drift_correction``, is clipped to :attr:`hand_bounds` instead.)"""
-        if "gripper_hand_reach" not in info:
-            return np.zeros(2)
-        extent = np.array([float(info["gripper_hand_reach"]), float(info.get("gripper_hand_half_width",
-                                                                              info["gripper_hand_reach"]))])
+        extent = np.array([float(info["gripper_hand_reach"]), float(info["gripper_hand_half_width"])])
         return np.abs(_rotation(self.yaw)) @ extent
 
     def _wipe_area(self, info: Mapping[str, Any], footprint: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -166,8 +153,6 @@ class Wipe(Primitive):
         reach = np.maximum(half - self.config["edge_inset"] * footprint, 0.0)
         spare = self.config["max_drift_correction"]
         self.hand_bounds = np.array([center - reach - spare, center + reach + spare]) + self.hold_offset[:2]
-        if "gripper_palm_height" not in info:
-            return center, reach
         obstacles = hand_obstacles(info, wiping_hand_underside_z(info, self.hold_offset[2]))
         clear_center, clear_reach = clear_area(center, reach, self.hold_offset[:2], self._hand_half(info), obstacles,
                                                HAND_CLEARANCE)
