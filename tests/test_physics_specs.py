@@ -83,9 +83,9 @@ def test_object_registry_ships_the_types_and_refuses_bad_ones():
 
 def test_free_spot_keeps_clear_of_the_objects_lying_there():
     center, half = np.array([0.0, 0.0, 0.8]), np.array([0.09, 0.09])
-    assert np.allclose(free_spot(center, half, 0.03, [], 0.08, 0.01), [0.0, 0.0])
+    assert np.allclose(free_spot(center, half, 0.03, [], 0.01), [0.0, 0.0])
     others = [(np.array([0.0, 0.0, 0.82]), 0.032)]
-    spot = free_spot(center, half, 0.03, others, 0.08, 0.01)
+    spot = free_spot(center, half, 0.03, others, 0.01)
     assert np.linalg.norm(spot) >= 0.03 + 0.032 + 0.01 - 1e-9
     assert np.all(np.abs(spot) + 0.03 <= half + 1e-9)
 

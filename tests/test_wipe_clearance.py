@@ -107,11 +107,11 @@ def test_the_palm_passes_over_an_object_lower_than_its_underside_but_not_a_talle
 
 def test_free_spot_takes_the_centre_else_the_spot_farthest_from_the_other_segments():
     center, half = np.array([-0.11, 0.11]), np.array([0.09, 0.09])
-    assert np.allclose(free_spot(center, half, 0.03, [], 0.08, 0.01), center)
+    assert np.allclose(free_spot(center, half, 0.03, [], 0.01), center)
     others = [(np.array([-0.11, 0.11, 0.82]), 0.03)]
     # segment 2 of three: segment 1 below it (-y), segment 3 to its right (+x)
     neighbours = other_segments([[-0.11, -0.11], [-0.11, 0.11], [0.11, 0.11]], [[0.09, 0.09]] * 3, 1)
-    spot = free_spot(center, half, 0.03, others, 0.08, 0.01, neighbours)
+    spot = free_spot(center, half, 0.03, others, 0.01, neighbours)
     assert spot[0] < center[0] and spot[1] > center[1]  # the corner away from both neighbours
     assert np.linalg.norm(spot - center) >= 0.03 + 0.03 + 0.01 - 1e-9
     assert np.all(np.abs(spot - center) + 0.03 <= half + 1e-9)

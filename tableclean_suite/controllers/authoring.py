@@ -131,7 +131,7 @@ def free_spot(which: Segment | None = None) -> Spot:
                   for j in ctx.state.objects_on(k) if j != ctx.held]
         mine = float(radii[ctx.held]) if ctx.held is not None else 0.0
         return placement_free_spot(info["segment_centers"][k], info["segment_half_sizes"][k], mine, others,
-                                   info["object_spacing"], info["object_clearance"],
+                                   info["object_clearance"],
                                    other_segments(info["segment_centers"], info["segment_half_sizes"], k))
     return resolve
 

@@ -42,7 +42,7 @@ class PlaceSkill(PrimitiveSkill):
         others = [(np.asarray(info["objects_pos"][j], dtype=float), float(radii[j]))
                   for j in self.state.objects_on(segment)]
         self.place_xy = free_spot(info["segment_centers"][segment], info["segment_half_sizes"][segment],
-                                  float(radii[held]), others, info["object_spacing"], info["object_clearance"],
+                                  float(radii[held]), others, info["object_clearance"],
                                   other_segments(info["segment_centers"], info["segment_half_sizes"], segment))
         rest_z = float(info["objects_rest_z"][held])
         return [("", Release(object_body(held), lambda skill, info: self.place_xy, lambda skill, info: rest_z))]

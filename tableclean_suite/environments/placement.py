@@ -81,8 +81,8 @@ def _distance_to_rectangles(points: np.ndarray, rectangles) -> np.ndarray:
     return nearest
 
 
-def free_spot(center, half_size, radius: float, others: Sequence[tuple[np.ndarray, float]], spacing: float,
-              clearance: float, away_from: Sequence[tuple[np.ndarray, np.ndarray]] = ()) -> np.ndarray:
+def free_spot(center, half_size, radius: float, others: Sequence[tuple[np.ndarray, float]], clearance: float,
+              away_from: Sequence[tuple[np.ndarray, np.ndarray]] = ()) -> np.ndarray:
     """(2,) world xy where an object of footprint ``radius`` fits on a segment (see the module docstring).
 
     Args:
@@ -90,12 +90,10 @@ def free_spot(center, half_size, radius: float, others: Sequence[tuple[np.ndarra
         half_size: (2,) segment half extents.
         radius: footprint radius of the object to place.
         others: ``(xy, radius)`` of the objects lying on the segment.
-        spacing, clearance: the config's ``object_spacing`` (unused since spots come from the
-            lattice; kept for callers) and ``object_clearance``.
+        clearance: the config's ``object_clearance`` [m] kept between two footprints.
         away_from: ``(center, half_size)`` of the other segments (:func:`other_segments`); the spot
             keeps as far from them as it can when the centre is taken.
     """
-    del spacing
     center = np.asarray(center, dtype=float)[:2]
     half = np.asarray(half_size, dtype=float)
 

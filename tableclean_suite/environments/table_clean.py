@@ -743,8 +743,7 @@ class TableClean(ManipulationEnv):
         others = [(info["objects_pos"][k], float(self._object_footprints[k])) for k in range(self.n_objects)
                   if k != obj and self._lies_on(info, k, segment)]
         xy = placement.free_spot(self.geometry.segment_centers[segment], self.geometry.segment_half_sizes[segment],
-                                 float(self._object_footprints[obj]), others, self.task_config["object_spacing"],
-                                 self.task_config["object_clearance"],
+                                 float(self._object_footprints[obj]), others, self.task_config["object_clearance"],
                                  placement.other_segments(self.geometry.segment_centers,
                                                           self.geometry.segment_half_sizes, segment))
         self._set_object_pose(obj, xy, 0.0)
@@ -787,7 +786,8 @@ class TableClean(ManipulationEnv):
         ``segment_half_sizes`` (N, 2), ``table_top_z`` float, ``table_center`` (3,),
         ``table_half_size`` (2,), ``object_grasped`` (object 1) and ``sponge_grasped`` bool (both
         finger pads touch it), ``dirt_fraction`` (N,), ``qvel`` (nv,) all simulation velocities,
-        ``object_spacing`` and ``object_clearance`` (the config's, for the place skill's free spot).
+        ``object_spacing`` (the config's reset-grid pitch) and ``object_clearance`` (the config's,
+        for the place skill's free spot).
         """
         data = self._mj_data
         robot = self.robots[0]
