@@ -29,3 +29,38 @@ def bodies_touched_by_both(geom1: np.ndarray, geom2: np.ndarray, pad_a: np.ndarr
             touched_a[body1] |= pad_a[g2]
             touched_b[body1] |= pad_b[g2]
     return touched_a & touched_b
+
+
+@numba.njit(cache=True)
+def contacts_between(geom1: np.ndarray, geom2: np.ndarray, mask_a: np.ndarray, mask_b: np.ndarray) -> np.ndarray:
+    """Indexes (int64, ascending) of the contacts pairing a geom of ``mask_a`` with a geom of ``mask_b`` (either order).
+
+    :func:`~tableclean_suite.environments.wiping.any_contact`'s contacts in one compiled pass (its
+    four numpy lookups cost ~5 us).
+
+    Args:
+        geom1, geom2: (ncon,) geom ids of MuJoCo's active contacts.
+        mask_a, mask_b: bool lookups over all geom ids.
+    """
+    found = np.empty(geom1.size, dtype=np.int64)
+    count = 0
+    for i in range(geom1.size):
+        g1, g2 = geom1[i], geom2[i]
+        if (mask_a[g1] and mask_b[g2]) or (mask_a[g2] and mask_b[g1]):
+            found[count] = i
+            count += 1
+    return found[:count]
+
+
+@numba.njit(cache=True)
+def contact_within(geom1: np.ndarray, geom2: np.ndarray, dist: np.ndarray, mask_a: np.ndarray, mask_b: np.ndarray,
+                   max_dist: float) -> bool:
+    """Whether a contact pairing a geom of ``mask_a`` with one of ``mask_b`` has ``dist`` <= ``max_dist`` [m].
+
+    ``dist``: (ncon,) MuJoCo's contact distances (m, negative: penetration); the rest as :func:`contacts_between`.
+    """
+    for i in range(geom1.size):
+        g1, g2 = geom1[i], geom2[i]
+        if ((mask_a[g1] and mask_b[g2]) or (mask_a[g2] and mask_b[g1])) and dist[i] <= max_dist:
+            return True
+    return False
