@@ -355,6 +355,16 @@ ANALYSIS_BYTES_PER_PAIR = 256
 ANALYSIS_PAIRS_PER_SECOND = 6_000_000
 
 
+def chunk_memory(cells, config: RunConfig, model) -> resources.MemoryEstimate:
+    """The largest estimate, over ``cells`` (at least one), of what training one chunk of runs
+    allocates (records, Q-tables, the settling checkpoint's, working arrays)."""
+    chunk = min(config.runs, chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model)))
+    settles = getattr(get_backend(config.backend), "deterministic_prefix", False)  # keeps checkpoint Q-tables
+    return max((learner_training_memory(model, get_learner(cell.learner), get_reward_pattern(cell.reward),
+                                        chunk, config.iterations, checkpoint=settles) for cell in cells),
+               key=lambda estimate: estimate.total)
+
+
 def check_grid_resources(cells, config: RunConfig, model) -> float:
     """Refuse (before training) a grid whose cells cannot fit in memory or would run too long;
     returns the estimated seconds of training and analysis (0 without cells).
@@ -375,9 +385,7 @@ def check_grid_resources(cells, config: RunConfig, model) -> float:
     pairs = int(model.n_states) * int(model.n_actions)
     chunk = min(config.runs, chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model)))
     settles = getattr(get_backend(config.backend), "deterministic_prefix", False)  # keeps checkpoint Q-tables
-    memory = max((learner_training_memory(model, get_learner(cell.learner), get_reward_pattern(cell.reward),
-                                                    chunk, config.iterations, checkpoint=settles) for cell in cells),
-                 key=lambda estimate: estimate.total)
+    memory = chunk_memory(cells, config, model)
     memory += resources.MemoryEstimate({"asymptote analysis": pairs * ANALYSIS_BYTES_PER_PAIR,
                                         "per-run scores": config.runs * len(statistics.RUN_SCORES)
                                         * resources.WORD_BYTES})
@@ -395,8 +403,39 @@ def check_grid_resources(cells, config: RunConfig, model) -> float:
     return seconds
 
 
+def cell_chunks(cell: Cell, config: RunConfig, model, transitions=None, runs_per_chunk: int | None = None):
+    """Train ``cell``'s chunks of runs in order: yields ``(first run, result, seconds)`` per ``train()``
+    (the :class:`~tableclean_suite.learners.TrainingResult`, with the settling checkpoint's
+    Q-tables when the backend keeps them, and its wall time).  :func:`train_cell` summarises them;
+    :func:`run_grid` may train them on a thread ahead of the summaries (:class:`TrainingAhead`)."""
+    chunk = runs_per_chunk or chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model))
+    checkpoint = _checkpoint(config)
+    for first in range(0, config.runs, chunk):
+        started = time.perf_counter()
+        result = _train_chunk(cell, config, model, transitions, chunk, first, config.iterations, checkpoint)
+        yield first, result, time.perf_counter() - started
+        del result  # not kept alive while the next chunk trains
+
+
+def _checkpoint(config: RunConfig) -> int:
+    """The settling checkpoint's iteration, 0 when the backend cannot replay a prefix."""
+    replays_prefix = getattr(get_backend(config.backend), "deterministic_prefix", False)
+    return settling.checkpoint_iteration(config.iterations) if replays_prefix else 0
+
+
+def _train_chunk(cell: Cell, config: RunConfig, model, transitions, chunk: int, first: int, iterations: int,
+                 keep: int = 0):
+    """``train()`` of the chunk of runs starting at ``first``, for ``iterations``, keeping the Q-tables at ``keep``."""
+    return train(
+        learner=cell.learner, reward=cell.reward, runs=min(chunk, config.runs - first), first_run=first,
+        alpha=cell.alpha, gamma=cell.gamma, model=model, transitions=transitions,
+        **{**config.train_kwargs(), "iterations": iterations}, **config.learner_kwargs(cell.learner),
+        checkpoint=keep,
+    )
+
+
 def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
-               runs_per_chunk: int | None = None) -> tuple[Summary, CellStatistics, float, float]:
+               runs_per_chunk: int | None = None, chunks=None) -> tuple[Summary, CellStatistics, float, float]:
     """Train one cell chunk by chunk of runs and summarise it, with intervals.
 
     Each chunk is ``train(runs=chunk, first_run=lo, ...)``; its per-iteration sums are added to a
@@ -420,32 +459,24 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
 
     Args:
         runs_per_chunk: runs per ``train()`` call (default :func:`chunk_runs` of the iterations).
+        chunks: the cell's :func:`cell_chunks` (with the same ``runs_per_chunk``) when the caller
+            trains them (e.g. ahead, on a thread); None: trained here, one after the other.
 
     Returns:
         ``(summary, statistics, train_seconds, metrics_seconds)``.
     """
     chunk = runs_per_chunk or chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model))
+    if chunks is None:
+        chunks = cell_chunks(cell, config, model, transitions, chunk)
     grouped = GroupedCurveSums.zeros(config.iterations, statistics.bootstrap_groups(config.runs, config.iterations))
     chain = asymptotes.EpisodeChain.build(model, cell.reward, transitions)
     per_run = {name: [] for name in metrics.PLATEAU_NAMES}
-    replays_prefix = getattr(get_backend(config.backend), "deterministic_prefix", False)
-    checkpoint = settling.checkpoint_iteration(config.iterations) if replays_prefix else 0
+    checkpoint = _checkpoint(config)
     drifts = []
     train_seconds = metrics_seconds = 0.0
     physics_stats: dict = {}
-
-    def train_chunk(first: int, iterations: int, keep: int = 0):
-        return train(
-            learner=cell.learner, reward=cell.reward, runs=min(chunk, config.runs - first), first_run=first,
-            alpha=cell.alpha, gamma=cell.gamma, model=model, transitions=transitions,
-            **{**config.train_kwargs(), "iterations": iterations}, **config.learner_kwargs(cell.learner),
-            checkpoint=keep,
-        )
-
-    for first in range(0, config.runs, chunk):
-        started = time.perf_counter()
-        result = train_chunk(first, config.iterations, checkpoint)
-        train_seconds += time.perf_counter() - started
+    for first, result, seconds in chunks:
+        train_seconds += seconds
         started = time.perf_counter()
         if "physics" in result.info:
             physics_stats = _merge_stats(physics_stats, result.info["physics"])
@@ -459,7 +490,7 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
         if checkpoint:
             if early is None:  # the backend kept no checkpoint Q-tables: train the prefix again
                 started = time.perf_counter()
-                early = train_chunk(first, checkpoint)
+                early = _train_chunk(cell, config, model, transitions, chunk, first, checkpoint)
                 train_seconds += time.perf_counter() - started
             started = time.perf_counter()
             early_success = analysis.final_asymptotes(early, chain, config.max_itr, model).success
@@ -520,6 +551,97 @@ def _report_physics(cell: Cell, stats: dict) -> None:
         f"{stats['restages']} restages, {stats['control_steps']} control steps, {stats['wall_time']:.1f} s in skills",
         file=sys.stderr,
     )
+
+
+#: Chunks of training results alive at once while :class:`TrainingAhead` trains ahead: the one being
+#: summarised and the next one, being trained.
+CHUNKS_AHEAD = 2
+_END = object()  # TrainingAhead's marker: a cell's last chunk was handed over
+
+
+class TrainingAhead:
+    """Trains the chunks of ``cells`` (:func:`cell_chunks`, in order) on a thread while the caller
+    summarises earlier ones (:func:`train_cell` with ``chunks=ahead.chunks(cell)``).
+
+    The compiled training loop runs without the GIL, so a cell's statistics (Python, numpy) run on
+    the core it leaves while the next cell trains, instead of after it.  At most
+    :data:`CHUNKS_AHEAD` chunk results are alive at once (:func:`trains_ahead` checks that they fit).
+    The results are the same whatever runs when (counter-based random numbers; each cell's
+    bootstrap has its own generator), so the summaries are bit-identical to training in turn.
+    A training error is raised by :meth:`chunks` at the cell it happened in.
+
+    Args:
+        cells: the cells to train, in the order :meth:`chunks` will be asked for them.
+        config, model, transitions: as :func:`train_cell`'s.
+    """
+
+    def __init__(self, cells, config: RunConfig, model, transitions=None):
+        import queue
+        import threading
+
+        import numba
+
+        self._queues = {cell: queue.SimpleQueue() for cell in cells}
+        self._slots = threading.Semaphore(CHUNKS_AHEAD)
+        self._stopped = threading.Event()
+        self._thread = threading.Thread(target=self._train, name="training", daemon=True,
+                                        args=(list(cells), config, model, transitions, numba.get_num_threads()))
+        self._thread.start()
+
+    def _train(self, cells, config, model, transitions, threads: int) -> None:
+        import numba
+
+        numba.set_num_threads(threads)  # numba's thread count is per calling thread: the caller's
+        for cell in cells:
+            chunks = cell_chunks(cell, config, model, transitions)
+            while True:
+                self._slots.acquire()
+                if self._stopped.is_set():
+                    return
+                try:
+                    item = next(chunks, _END)
+                except BaseException as error:  # noqa: BLE001  (raised again by chunks(), in the caller's thread)
+                    self._queues[cell].put(error)
+                    return
+                self._queues[cell].put(item)
+                if item is _END:
+                    self._slots.release()  # the end marker holds no chunk
+                    break
+                del item
+
+    def chunks(self, cell):
+        """``cell``'s :func:`cell_chunks` items, as trained by the thread (waits for each)."""
+        waiting = self._queues[cell]
+        while True:
+            item = waiting.get()
+            if item is _END:
+                return
+            if isinstance(item, BaseException):
+                raise item
+            yield item
+            del item
+            self._slots.release()  # the caller is done with the previous chunk
+
+    def close(self) -> None:
+        """Stop training further chunks (one being trained finishes on its own; the thread is a daemon)."""
+        self._stopped.set()
+        for _ in range(CHUNKS_AHEAD):
+            self._slots.release()
+
+
+def trains_ahead(cells, config: RunConfig, model) -> bool:
+    """Whether :func:`run_grid` trains ``cells`` ahead of their summaries (:class:`TrainingAhead`):
+    more than one cell or chunk, on a table backend (compiled, in this process), with
+    :data:`CHUNKS_AHEAD` chunks fitting in the memory :func:`check_grid_resources` allows one."""
+    from tableclean_suite.backends.tabular import TableBackend
+
+    cells = list(cells)
+    if not isinstance(get_backend(config.backend), TableBackend) or not cells:
+        return False
+    if len(cells) == 1 and config.runs <= chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model)):
+        return False
+    needed = chunk_memory(cells, config, model).total * CHUNKS_AHEAD
+    return needed <= resources.USABLE_FRACTION * resources.available_bytes()
 
 
 #: Compiled (numba) threads of a cell trained by an executor's worker: the workers, not the
@@ -631,7 +753,9 @@ def run_grid(
         transitions_sha256: its file's digest (part of every cell's key).
         executor: an :class:`~tableclean_suite.executors.Executor` that trains the cells, one
             :class:`CellTask` each (:func:`train_cell_task`); results, saved in grid order as they
-            arrive, are bit-identical to training in this process.  None: train in this process.
+            arrive, are bit-identical to training in this process.  None: train in this process, the
+            next chunks on a thread while the last ones are summarised when they fit
+            (:func:`trains_ahead`, :class:`TrainingAhead`; the same bits either way).
         on_cell: called with the :class:`GridRun` so far after each cell is loaded or trained and
             saved (e.g. to start work on some cells while the others train); None: nothing.
 
@@ -666,9 +790,15 @@ def run_grid(
                leave=False)
 
     def train_here():
-        for cell in pending:
-            bar.set_postfix_str(f"{outcome.resumed} resumed, training {cell.label}" if outcome.resumed else cell.label)
-            yield train_cell(cell, config, model, transitions)
+        ahead = TrainingAhead(pending, config, model, transitions) if trains_ahead(pending, config, model) else None
+        try:
+            for cell in pending:
+                bar.set_postfix_str(f"{outcome.resumed} resumed, training {cell.label}" if outcome.resumed
+                                    else cell.label)
+                yield train_cell(cell, config, model, transitions, chunks=None if ahead is None else ahead.chunks(cell))
+        finally:
+            if ahead is not None:
+                ahead.close()
 
     if executor is None or not pending:
         results = train_here()

@@ -314,7 +314,7 @@ def run_memory(n_states, n_actions, double, traced, counting, modelling):
     return row, visits, traces, pairs, model_next, model_reward, model_terminal, observed
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, parallel=True, nogil=True)
 def train_batch(
     next_state_table,
     outcome_table,
@@ -350,6 +350,9 @@ def train_batch(
     q_second_snapshot,
 ):
     """Train ``len(keys)`` runs for ``rewards.shape[1]`` iterations, in place.
+
+    Runs without the GIL (``nogil``): the caller's other threads (e.g. the harness summarising the
+    last cell while this one trains) go on meanwhile.
 
     Args:
         next_state_table, outcome_table: ``(S, A, K)`` int64 successors and outcomes.
@@ -525,7 +528,7 @@ def user_train_batch(learner: TabularLearner):
         source = train_batch.py_func
         namespace = dict(source.__globals__, builtin_td_target=numba.njit(call_target))
         function = types.FunctionType(source.__code__, namespace, f"train_batch_{learner.name}")
-        _USER_KERNELS[target] = numba.njit(parallel=True)(function)
+        _USER_KERNELS[target] = numba.njit(parallel=True, nogil=True)(function)
     return _USER_KERNELS[target]
 
 
