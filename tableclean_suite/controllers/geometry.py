@@ -26,7 +26,9 @@ def quat_z_row(quat: np.ndarray) -> np.ndarray:
     """(3,) the last row of :func:`quat_to_matrix` (``quat`` (4,) xyzw): the world z of the body frame's
     axes, all a height needs (the same bits as the full matrix's row)."""
     q = np.asarray(quat, dtype=float)
-    x, y, z, w = (q / math.sqrt(q.dot(q))).tolist()
+    norm = math.sqrt(q.dot(q))
+    x, y, z, w = q.tolist()  # divided as Python floats: IEEE division, the bits of numpy's q / norm
+    x, y, z, w = x / norm, y / norm, z / norm, w / norm
     return np.array([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)])
 
 

@@ -58,10 +58,11 @@ def _geometry_heights(positions: np.ndarray, info: Mapping[str, Any]) -> tuple[l
     tops, bottoms = [], []
     for z, quat, shape in zip(positions[:, 2].tolist(), info["objects_quat"], info["objects_geometry"]):
         # one projection of its points for both: world_z_range's, on the rotation's z row alone (asked
-        # every control step the skills travel; the same bits as through the full quat_to_matrix)
-        heights = shape.points @ quat_z_row(quat)
-        bottoms.append(z + float(heights.min()))
-        tops.append(z + float(heights.max()))
+        # every control step the skills travel; the same bits as through the full quat_to_matrix); the
+        # extremes taken of Python floats (exact, as numpy's; its two reductions cost ~2.5 us per object)
+        heights = (shape.points @ quat_z_row(quat)).tolist()
+        bottoms.append(z + min(heights))
+        tops.append(z + max(heights))
     return tops, bottoms
 
 
@@ -246,7 +247,8 @@ class Skill(abc.ABC):
             return None
         info = self.env.skill_info()
         fingers = np.array(info["gripper_qpos"], dtype=float)
-        finger_motion = np.abs(fingers - self._last_fingers).max()  # the method: np.max's dispatch costs ~3 us
+        # the largest change of Python floats (exact, as numpy's abs and max; their dispatch costs ~2 us)
+        finger_motion = max(map(abs, (fingers - self._last_fingers).tolist()))
         self._last_fingers = fingers
         if self._finger_history.maxlen:
             self._finger_history.append(fingers)
