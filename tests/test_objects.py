@@ -100,8 +100,36 @@ def test_the_scene_refuses_an_object_too_wide_for_the_open_gripper_naming_measur
 
 def test_the_scene_refuses_an_object_larger_than_a_segment():
     register_object("test_plank", lambda name: BoxObject(name=name, size=[0.2, 0.02, 0.02]), overwrite=True)
-    with pytest.raises(ValueError, match=r"'test_plank' does not fit a segment: its footprint is 40\.2 cm across \(any yaw\), a segment 24\.0 cm"):
+    # 40 x 4 cm: neither way round does it fit a 24 cm segment (turned, it is 40 cm along y)
+    with pytest.raises(ValueError, match=r"'test_plank' does not fit a segment: its footprint is 4\.0 x 40\.0 cm "
+                                         r"\(even turned with its narrowest width along x\), a segment 24\.0 x 24\.0 cm"):
         _scene(TaskSpec("plank_scene", objects=("test_plank",)))
+
+
+def test_a_long_narrow_object_fits_beside_another_by_its_oriented_footprint():
+    # robosuite's cereal box is 10 x 3 cm seen from above: its 10.4 cm disc beside a 4.5 cm box does not fit an
+    # 18 cm segment (10.4 + 1 + 6.4), its oriented footprint does (10 + 1 + 4.5 along the row)
+    spec = TaskSpec("cereal_and_box", segments=3, objects=("cereal", "box"))
+    env = _scene(spec)
+    try:
+        env.set_start(None, 1, object_segments=(2, 2))
+        env.reset()
+        info = env.skill_info()
+        xy = np.asarray(info["objects_pos"])[:, :2]
+        center, half = info["segment_centers"][1, :2], info["segment_half_sizes"][1]
+        cereal = type_geometry("cereal", env.task_config)
+        # both inside segment 2, side by side along x, their footprints 1 cm (object_clearance) apart or more
+        assert np.all(np.abs(xy[0] - center) + cereal.half_size[:2] <= half + 1e-6)
+        assert xy[1, 0] - xy[0, 0] >= cereal.upper[0] + 0.01 + 0.0225 - 1e-6
+        assert xy[1, 0] + 0.0225 <= center[0] + half[0] + 1e-6
+    finally:
+        env.close()
+    # two cereal boxes fit too, one turned with its narrow side along the row; five breads do not, said with sizes
+    env = _scene(TaskSpec("two_cereals", segments=3, objects=("cereal", "cereal")))
+    env.close()
+    with pytest.raises(ValueError, match=r"5 objects \(bread, bread, bread, bread, bread\) do not fit side by side on "
+                                         r"one segment: their grid needs 20\.0 x 12\.8 cm .* a segment is 18\.0 x 18\.0 cm"):
+        _scene(TaskSpec("five_breads", segments=3, objects=("bread",) * 5))
 
 
 def test_object_table_refuses_unknown_types_and_settings_with_one_line_and_exit_2(capsys):

@@ -9,9 +9,28 @@ import numpy as np
 
 from tableclean_suite.controllers.configs import PlaceConfig
 from tableclean_suite.controllers.primitives import PrimitiveSkill, Release, object_body
-from tableclean_suite.controllers.skill import SkillFailure
-from tableclean_suite.environments.placement import free_spot, other_segments
+from tableclean_suite.controllers.skill import SkillFailure, object_heights
+from tableclean_suite.environments.placement import footprint_of, free_spot, other_segments
 from tableclean_suite.task import Action
+
+
+def place_spot(info: Mapping[str, Any], segment: int, held: int, lying, place_clearance: float) -> np.ndarray:
+    """(2,) world xy [m] where the held object ``held`` goes on ``segment`` (0-based) among the objects ``lying``
+    there (indices): :func:`~tableclean_suite.environments.placement.free_spot` of the footprints as the
+    objects stand now (the held one as it hangs in the hand), the hand's half width across the fingers
+    (the side :class:`~.primitives.Release` turns toward a neighbour) kept ``object_clearance`` from
+    every lying object whose top reaches the hand's underside at release (``place_clearance`` [m]
+    above the resting height, as :class:`~.primitives.Release` lowers it)."""
+    others = [(np.asarray(info["objects_pos"][j], dtype=float), footprint_of(info, j)) for j in lying]
+    hold_offset = float(info["eef_pos"][2]) - float(info["objects_pos"][held][2])
+    hand_bottom = (float(info["objects_rest_z"][held]) + place_clearance + hold_offset
+                   + float(info["gripper_palm_height"]))
+    tops, _ = object_heights(info)
+    tall = [other for j, other in zip(lying, others) if tops[j] > hand_bottom]
+    return free_spot(info["segment_centers"][segment], info["segment_half_sizes"][segment], footprint_of(info, held),
+                     others, info["object_clearance"],
+                     other_segments(info["segment_centers"], info["segment_half_sizes"], segment),
+                     hand=float(info["gripper_hand_half_width"]), under_hand=tall)
 
 
 class PlacePhase(enum.Enum):
@@ -26,7 +45,7 @@ class PlacePhase(enum.Enum):
 
 class PlaceSkill(PrimitiveSkill):
     """Put the held object down on the arm's segment: at its centre, or the first free spot clear of
-    the objects lying there (:func:`tableclean_suite.environments.placement.free_spot`)."""
+    the objects lying there (:func:`place_spot`)."""
 
     action = Action.PLACE
     Phase = PlacePhase
@@ -38,11 +57,6 @@ class PlaceSkill(PrimitiveSkill):
         if held is None:
             raise SkillFailure("nothing is held")
         segment = self.state.arm
-        radii = info["objects_footprint"]
-        others = [(np.asarray(info["objects_pos"][j], dtype=float), float(radii[j]))
-                  for j in self.state.objects_on(segment)]
-        self.place_xy = free_spot(info["segment_centers"][segment], info["segment_half_sizes"][segment],
-                                  float(radii[held]), others, info["object_clearance"],
-                                  other_segments(info["segment_centers"], info["segment_half_sizes"], segment))
+        self.place_xy = place_spot(info, segment, held, self.state.objects_on(segment), self.config["place_clearance"])
         rest_z = float(info["objects_rest_z"][held])
         return [("", Release(object_body(held), lambda skill, info: self.place_xy, lambda skill, info: rest_z))]

@@ -18,6 +18,7 @@ from functools import cached_property, lru_cache
 
 import mujoco
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 #: Points sampled on each circle of a round geom (sphere, cylinder, capsule, ellipsoid); the
 #: sampled extent falls short of the true one by at most r (1 - cos(pi / this)): 0.5 % of the radius.
@@ -123,6 +124,15 @@ class ObjectGeometry:
     def half_size(self) -> np.ndarray:
         """(3,) half extents [m] of the smallest origin-centred box holding the geometry."""
         return _frozen(np.maximum(np.abs(self.lower), np.abs(self.upper)))
+
+    @cached_property
+    def hull(self) -> np.ndarray:
+        """(H, 3) the corners of the convex hull of ``points`` [m] (all of them when they span no volume):
+        what a footprint at any pose needs (read-only)."""
+        try:
+            return _frozen(self.points[ConvexHull(self.points).vertices])
+        except (QhullError, ValueError):
+            return _frozen(np.array(self.points))
 
     @property
     def height(self) -> float:

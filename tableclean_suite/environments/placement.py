@@ -1,41 +1,255 @@
 """Where objects go on a segment: spots for a reset, and a free spot for a place (pure NumPy, world xy, metres).
 
-The rule (used by the env's reset and by the place skill, so both agree):
+Objects are placed by their *oriented footprints*: the outline of their collision geometry seen
+from above, in their own frame (:func:`outline_of`; a disc for a ``footprint_radius`` override),
+turned by their yaw.  Nothing here knows an object type.
 
-- The ``c`` objects starting on one segment take the spots of :func:`slot_offsets`: a grid of
-  ``ceil(sqrt(c))`` columns along x (one spot, the centre, for ``c = 1``), its pitch the larger
-  of ``object_spacing`` and the two largest footprint diameters plus ``object_clearance``.
-  Each object is then shifted by uniform noise of at most ``placement_noise`` per axis, capped
-  so that two footprints stay ``object_clearance`` apart and every footprint stays inside the
-  segment (:func:`noise_bound`).  No rejection sampling: a layout is never retried.
-- A place puts the held object on the *free spot* of the arm's segment
-  (:func:`free_spot`): the centre if its footprint keeps ``object_clearance`` from every object
-  lying there; else, of the spots of a :data:`LATTICE_STEP` lattice over the segment whose
-  footprint keeps that clearance and stays inside the segment, the one farthest from the other
-  segments (``away_from``; ties: nearest the centre); if none fits, the spot farthest from the
-  objects.  Away from the other segments, because the hand wiping a neighbouring segment reaches
-  ~10 cm beyond the sponge along its long axis: an object standing near the shared edge would
-  shrink that segment's wipe area (:mod:`tableclean_suite.controllers.wipe_pattern`) until its
-  edge row of dirt stays.
-- The grid of the reset lays its spots along x first (:func:`slot_offsets`), across the wiping
-  hand's long axis at the skills' nominal yaw (world y), for the same reason.
+- The ``c`` objects starting on one segment form a grid (:func:`row_layout`): ``ceil(sqrt(c))``
+  columns along x (one spot, the centre, for ``c = 1``), rows along y.  Neighbouring columns
+  (rows) lie ``object_spacing`` apart centre to centre, or farther, so that their footprints keep
+  ``object_clearance``; the grid's footprints are centred on the segment.  Each object keeps its
+  own yaw (0) unless the grid is then wider than the segment: then objects are turned, the one
+  that gains most first, until their narrowest width lies along the row (x) and the grid fits.
+  The yaw noise (``placement_yaw_noise``) enters every extent (the footprint over every yaw the
+  noise can draw) and is capped (the largest that still fits, found by bisection) when the full
+  noise does not fit; the xy noise is capped per object so that footprints stay
+  ``object_clearance`` apart and inside the segment (:attr:`RowLayout.xy_noise`).  No rejection
+  sampling: a layout is never retried.  What does not fit even turned and without yaw noise is
+  refused (:class:`DoesNotFit`, naming the grid's size and the segment's).
+- A place puts the held object on the *free spot* of the arm's segment (:func:`free_spot`):
+  the centre if its footprint keeps ``object_clearance`` from every object lying there; else, of
+  the spots of a :data:`LATTICE_STEP` lattice over the segment whose footprint keeps that
+  clearance and stays inside the segment, the one farthest from the other segments
+  (``away_from``; ties: nearest the centre); if none fits, the spot farthest from the objects.
+  Away from the other segments, because the hand wiping a neighbouring segment reaches ~10 cm
+  beyond the sponge along its long axis: an object standing near the shared edge would shrink
+  that segment's wipe area (:mod:`tableclean_suite.controllers.wipe_pattern`) until its edge row
+  of dirt stays.
+- The reset's grid lays its spots along x first, across the wiping hand's long axis at the
+  skills' nominal yaw (world y), for the same reason.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 #: Spacing [m] of the lattice of spots :func:`free_spot` tries when the centre is taken.
 LATTICE_STEP = 0.01
 #: Distances [m] to the other segments closer than this count as equal in :func:`free_spot` (then: nearest the centre).
 DISTANCE_RESOLUTION = 1e-6
+#: Directions over a full turn along which :func:`free_spot` measures the gap between two footprints (the
+#: largest separation along any of them); it falls short of the true gap by at most a footprint's size
+#: times sin(pi / this): ~1 mm for a 10 cm footprint, on the safe side.
+GAP_DIRECTIONS = 360
+#: Points of the polygon standing for a disc footprint (circumscribed: it covers the disc).
+DISC_POINTS = 32
+#: Horizontal directions over a half turn at which :func:`narrow_yaw` measures a footprint's width (1 degree).
+WIDTH_DIRECTIONS = 180
+#: Bisection steps finding the largest yaw noise that still fits (:func:`row_layout`): the cap is
+#: within ``placement_yaw_noise / 2**this`` of the largest that fits.
+YAW_CAP_STEPS = 12
+#: Slack [m] in the fit tests (floating-point sums of extents).
+FIT_TOLERANCE = 1e-9
+
+
+class DoesNotFit(ValueError):
+    """Objects whose footprints do not fit side by side on a segment, even turned and without yaw noise.
+
+    Attributes:
+        size: (2,) x, y extent [m] their grid needs (turned where that helps).
+    """
+
+    def __init__(self, message: str, size):
+        super().__init__(message)
+        self.size = np.asarray(size, dtype=float)
+
+
+def disc_outline(radius: float) -> np.ndarray:
+    """(DISC_POINTS, 2) polygon [m] covering the disc of ``radius`` about the origin."""
+    angles = np.linspace(0.0, 2.0 * np.pi, DISC_POINTS, endpoint=False)
+    r = float(radius) / math.cos(math.pi / DISC_POINTS)
+    return np.column_stack([r * np.cos(angles), r * np.sin(angles)])
+
+
+def outline_of(points) -> np.ndarray:
+    """(K, 2) corners [m] of the convex outline of ``points`` (N, 2 or 3; x, y used), seen from above."""
+    xy = np.asarray(points, dtype=float)[:, :2]
+    try:
+        return xy[ConvexHull(xy).vertices]
+    except (QhullError, ValueError):  # fewer than 3 points or all on a line: the points themselves
+        return xy.copy()
+
+
+def turned(outline, yaw: float) -> np.ndarray:
+    """(K, 2) ``outline`` (K, 2) turned by ``yaw`` [rad] about the origin."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.asarray(outline, dtype=float) @ np.array([[c, s], [-s, c]])
+
+
+def world_outline(points, rot) -> np.ndarray:
+    """(K, 2) outline [m], about the object's origin in world axes, of an object whose collision ``points``
+    (N, 3, own frame) are turned by rotation matrix ``rot`` (3, 3): its footprint at any pose, tilted too."""
+    return outline_of(np.asarray(points, dtype=float) @ np.asarray(rot, dtype=float).T)
+
+
+def _max_cos(start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Largest cos over each angle interval ``[start, end]`` [rad] (elementwise, ``end >= start``)."""
+    peak = np.ceil(start / (2 * np.pi)) * (2 * np.pi) <= end
+    return np.where(peak, 1.0, np.maximum(np.cos(start), np.cos(end)))
+
+
+def extent(outline, yaw: float = 0.0, yaw_noise: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """``(lower (2,), upper (2,))`` [m]: the smallest and largest world x, y of ``outline`` (K, 2, own frame)
+    about the object's origin when it is turned by any yaw in ``[yaw - yaw_noise, yaw + yaw_noise]`` (exact)."""
+    pts = np.asarray(outline, dtype=float)
+    if yaw_noise == 0.0:  # the turned points themselves (exact at yaw 0: a symmetric outline stays centred)
+        pts = turned(pts, yaw)
+        return pts.min(axis=0), pts.max(axis=0)
+    rho = np.hypot(pts[:, 0], pts[:, 1])
+    phi = np.arctan2(pts[:, 1], pts[:, 0]) + float(yaw)
+    noise = abs(float(yaw_noise))
+    bounds = []
+    for axis in (0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi):  # +x, +y, -x, -y
+        bounds.append(float(np.max(rho * _max_cos(phi - axis - noise, phi - axis + noise))))
+    return np.array([-bounds[2], -bounds[3]]), np.array([bounds[0], bounds[1]])
+
+
+def narrow_yaw(outline) -> float:
+    """Yaw [rad] (in ``(-pi/2, pi/2]``) that lays ``outline``'s narrowest width along world x."""
+    pts = np.asarray(outline, dtype=float)
+    angles = np.arange(WIDTH_DIRECTIONS) * (np.pi / WIDTH_DIRECTIONS)
+    projections = pts @ np.stack([np.cos(angles), np.sin(angles)])
+    direction = float(angles[int(np.argmin(projections.max(axis=0) - projections.min(axis=0)))])
+    return -direction if direction <= 0.5 * np.pi else np.pi - direction
+
+
+@dataclass(frozen=True)
+class RowLayout:
+    """Where the objects starting on one segment go (:func:`row_layout`).
+
+    Attributes:
+        yaws: (c,) each object's yaw [rad] before the noise.
+        offsets: (c, 2) each object's spot (its origin) from the segment centre [m].
+        xy_noise: (c,) each object's cap [m] of the xy noise, per axis.
+        yaw_noise: the cap [rad] of the yaw noise, every object.
+        size: (2,) x, y extent [m] of the grid's footprints at the capped yaw noise.
+    """
+
+    yaws: np.ndarray
+    offsets: np.ndarray
+    xy_noise: np.ndarray
+    yaw_noise: float
+    size: np.ndarray
+
+
+def _axis_positions(cells, lowers, uppers, spacing: float, clearance: float):
+    """Centres of the cells along one axis (cell k's objects: ``lowers``/``uppers`` of that axis) and the
+    span (lowest, highest) of their footprints, the first cell's centre at 0."""
+    n = max(cells) + 1
+    low = [min(lowers[i] for i in range(len(cells)) if cells[i] == k) for k in range(n)]
+    high = [max(uppers[i] for i in range(len(cells)) if cells[i] == k) for k in range(n)]
+    centres = [0.0]
+    for k in range(1, n):
+        centres.append(centres[-1] + max(float(spacing), high[k - 1] + float(clearance) - low[k]))
+    return np.asarray(centres), np.asarray(low), np.asarray(high)
+
+
+def _grid(outlines, yaws, yaw_noise, spacing, clearance, noise, half):
+    """The grid of :func:`row_layout` for given yaws: (offsets (c, 2), xy noise caps (c,), size (2,))."""
+    count = len(outlines)
+    columns = math.ceil(math.sqrt(count))
+    cells = [divmod(k, columns) for k in range(count)]  # (row, column)
+    extents = [extent(o, y, yaw_noise) for o, y in zip(outlines, yaws)]
+    offsets = np.zeros((count, 2))
+    size = np.zeros(2)
+    room = np.full(count, float(noise))
+    for axis, index in ((0, 1), (1, 0)):  # x: columns, y: rows
+        cell = [c[index] for c in cells]
+        lowers = [e[0][axis] for e in extents]
+        uppers = [e[1][axis] for e in extents]
+        centres, low, high = _axis_positions(cell, lowers, uppers, spacing, clearance)
+        span = (centres + low).min(), (centres + high).max()
+        size[axis] = span[1] - span[0]
+        centres = centres - 0.5 * (span[0] + span[1])
+        # room to the neighbouring cells (each side moves at most half the gap beyond the clearance)
+        gaps = (centres[1:] + low[1:]) - (centres[:-1] + high[:-1]) - float(clearance)
+        for k in range(count):
+            c = cell[k]
+            offsets[k, axis] = centres[c]
+            edge = min(half[axis] - (centres[c] + uppers[k]), half[axis] + (centres[c] + lowers[k]))
+            beside = [gaps[c - 1]] if c > 0 else []
+            beside += [gaps[c]] if c < len(gaps) else []
+            pair = min(beside, default=math.inf) / 2
+            room[k] = min(room[k], edge, pair)
+    return offsets, np.maximum(room, 0.0), size
+
+
+def _fits(size, half) -> bool:
+    return bool(np.all(size <= 2 * np.asarray(half, dtype=float) + FIT_TOLERANCE))
+
+
+def _oriented_grid(outlines, yaw_noise, spacing, clearance, noise, half):
+    """(yaws, grid) of :func:`row_layout` at yaw noise ``yaw_noise``: every object at yaw 0, then turned
+    narrow side along x one at a time (most gain first) until the grid fits; the last grid if none does."""
+    yaws = np.zeros(len(outlines))
+    grid = _grid(outlines, yaws, yaw_noise, spacing, clearance, noise, half)
+    narrow = [narrow_yaw(o) for o in outlines]
+    width = [float(np.ptp(turned(o, 0.0)[:, 0])) - float(np.ptp(turned(o, y)[:, 0])) for o, y in zip(outlines, narrow)]
+    for k in sorted(range(len(outlines)), key=lambda k: -width[k]):
+        if _fits(grid[2], half) or width[k] <= FIT_TOLERANCE:
+            break
+        yaws[k] = narrow[k]
+        grid = _grid(outlines, yaws, yaw_noise, spacing, clearance, noise, half)
+    return yaws, grid
+
+
+def row_layout(outlines: Sequence[np.ndarray], half_size, spacing: float, clearance: float, noise: float,
+               yaw_noise: float = 0.0) -> RowLayout:
+    """The spots, yaws and noise caps of the objects of ``outlines`` (each (K, 2), own frame) sharing one segment.
+
+    See the module docstring for the rule.  ``half_size`` (2,): the segment's half extents [m];
+    ``spacing``: least distance [m] between neighbouring spots (``object_spacing``); ``clearance``:
+    least gap [m] between two footprints (``object_clearance``); ``noise``: xy noise half-width [m]
+    (``placement_noise``); ``yaw_noise``: yaw noise half-width [rad] (``placement_yaw_noise``).
+    Raises :class:`DoesNotFit` when the grid does not fit even turned and without yaw noise.
+    """
+    half = np.asarray(half_size, dtype=float)[:2]
+    if len(outlines) == 0:
+        return RowLayout(np.zeros(0), np.zeros((0, 2)), np.zeros(0), float(yaw_noise), np.zeros(2))
+
+    def attempt(psi):
+        yaws, grid = _oriented_grid(outlines, psi, spacing, clearance, noise, half)
+        return (yaws, grid) if _fits(grid[2], half) else None
+
+    found, cap = attempt(float(yaw_noise)), float(yaw_noise)
+    if found is None:
+        found, cap = attempt(0.0), 0.0
+        if found is None:
+            size = _oriented_grid(outlines, 0.0, spacing, clearance, noise, half)[1][2]
+            raise DoesNotFit(f"their grid needs {size[0] * 100:.1f} x {size[1] * 100:.1f} cm (each turned so its "
+                             f"narrowest width lies along the row if that helps, {clearance * 100:.1f} cm apart), "
+                             f"a segment is {2 * half[0] * 100:.1f} x {2 * half[1] * 100:.1f} cm", size)
+        low, high = 0.0, float(yaw_noise)
+        for _ in range(YAW_CAP_STEPS):
+            mid = 0.5 * (low + high)
+            tried = attempt(mid)
+            if tried is None:
+                high = mid
+            else:
+                low, found = mid, tried
+        cap = low
+    yaws, (offsets, room, size) = found
+    return RowLayout(yaws, offsets, room, cap, size)
 
 
 def slot_offsets(count: int, pitch: float) -> np.ndarray:
-    """(count, 2) offsets from the segment centre of a centred grid with ``ceil(sqrt(count))`` columns along x."""
+    """(count, 2) offsets from the segment centre of a centred grid of equal ``pitch`` with ``ceil(sqrt(count))``
+    columns along x: :func:`row_layout`'s grid for equal footprints at most ``pitch - object_clearance`` across."""
     if count < 1:
         return np.zeros((0, 2))
     columns = math.ceil(math.sqrt(count))
@@ -45,25 +259,6 @@ def slot_offsets(count: int, pitch: float) -> np.ndarray:
         row, col = divmod(k, columns)
         offsets.append(((col - (columns - 1) / 2) * pitch, (row - (rows - 1) / 2) * pitch))
     return np.asarray(offsets, dtype=float)
-
-
-def slot_pitch(radii: Sequence[float], spacing: float, clearance: float) -> float:
-    """Grid pitch [m] for objects of footprint ``radii``: ``spacing``, or more so that two never touch."""
-    largest = sorted(radii, reverse=True)[:2]
-    return max(float(spacing), sum(largest) + float(clearance) if len(largest) == 2 else 0.0)
-
-
-def noise_bound(offsets: np.ndarray, radii: Sequence[float], half_size, noise: float, pitch: float,
-                clearance: float) -> np.ndarray:
-    """Per-object bound (count,) [m] of the xy noise: ``noise`` capped by the room around each spot."""
-    half = np.asarray(half_size, dtype=float)
-    bounds = []
-    largest = max(radii) if len(radii) else 0.0
-    for offset, radius in zip(offsets, radii):
-        room_edge = float(np.min(half - np.abs(offset) - radius))
-        room_pair = (pitch - radius - largest - clearance) / 2 if len(radii) > 1 else math.inf
-        bounds.append(max(0.0, min(float(noise), room_edge, room_pair)))
-    return np.asarray(bounds)
 
 
 def other_segments(centers, half_sizes, segment: int) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -81,36 +276,83 @@ def _distance_to_rectangles(points: np.ndarray, rectangles) -> np.ndarray:
     return nearest
 
 
-def free_spot(center, half_size, radius: float, others: Sequence[tuple[np.ndarray, float]], clearance: float,
-              away_from: Sequence[tuple[np.ndarray, np.ndarray]] = ()) -> np.ndarray:
-    """(2,) world xy where an object of footprint ``radius`` fits on a segment (see the module docstring).
+def _support(footprint, directions: np.ndarray) -> np.ndarray:
+    """(D,) how far [m] a footprint reaches from its object's origin along each of ``directions`` (2, D): a
+    radius [m] (a disc: the same every way) or an outline (K, 2) [m]."""
+    if np.ndim(footprint) == 0:
+        return np.full(directions.shape[1], float(footprint))
+    return (np.asarray(footprint, dtype=float) @ directions).max(axis=0)
+
+
+def quat_matrix(quat_xyzw) -> np.ndarray:
+    """(3, 3) rotation matrix of the unit quaternion ``quat_xyzw`` (4,) (robosuite's order)."""
+    x, y, z, w = (float(q) for q in quat_xyzw)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def footprint_of(info, obj: int):
+    """Object ``obj``'s footprint as it stands now, from the env's ``skill_info`` ``info``: its radius [m] (a disc,
+    any yaw) when its type overrides ``footprint_radius``, else its outline (K, 2) in world axes about its
+    origin (:func:`world_outline` of its collision geometry at its current rotation)."""
+    if info["object_types"][obj].footprint_radius is not None:
+        return float(info["objects_footprint"][obj])
+    return world_outline(info["objects_geometry"][obj].hull, quat_matrix(info["objects_quat"][obj]))
+
+
+def free_spot(center, half_size, footprint, others: Sequence[tuple[np.ndarray, object]], clearance: float,
+              away_from: Sequence[tuple[np.ndarray, np.ndarray]] = (), hand=None,
+              under_hand: Sequence[tuple[np.ndarray, object]] = ()) -> np.ndarray:
+    """(2,) world xy for the origin of an object of ``footprint`` on a segment (see the module docstring).
+
+    A footprint is a radius [m] (a disc: the object at any yaw) or an outline (K, 2) [m] in world
+    axes about the object's origin, turned as the object stands (:func:`world_outline`).
 
     Args:
         center: segment centre (first two entries used).
         half_size: (2,) segment half extents.
-        radius: footprint radius of the object to place.
-        others: ``(xy, radius)`` of the objects lying on the segment.
+        footprint: of the object to place, as it will stand.
+        others: ``(xy, footprint)`` of the objects lying on the segment (xy: first two entries used).
         clearance: the config's ``object_clearance`` [m] kept between two footprints.
         away_from: ``(center, half_size)`` of the other segments (:func:`other_segments`); the spot
             keeps as far from them as it can when the centre is taken.
+        hand: the footprint, about the spot, of the hand lowering the object (e.g. the disc of its
+            half width across the fingers, the side it turns toward a tall neighbour); with
+            ``under_hand``.
+        under_hand: ``(xy, footprint)`` of the lying objects whose top reaches the hand's underside
+            at release: the hand's footprint keeps ``clearance`` from them too.
     """
     center = np.asarray(center, dtype=float)[:2]
-    half = np.asarray(half_size, dtype=float)
+    half = np.asarray(half_size, dtype=float)[:2]
+    angles = np.arange(GAP_DIRECTIONS) * (2 * np.pi / GAP_DIRECTIONS)
+    directions = np.stack([np.cos(angles), np.sin(angles)])  # (2, D)
+    reach_mine = _support(footprint, directions)  # (D,) of the object to place
+    # per other object: the nearest its footprint comes along each direction, less my reach there
+    # (the directions hold each one's opposite: GAP_DIRECTIONS is even)
+    opposite = np.roll(np.arange(GAP_DIRECTIONS), GAP_DIRECTIONS // 2)
+    fronts = [np.asarray(p, dtype=float)[:2] @ directions - _support(f, directions)[opposite] - reach_mine
+              for p, f in others]
+    if under_hand:
+        reach_hand = _support(hand, directions)
+        fronts += [np.asarray(p, dtype=float)[:2] @ directions - _support(f, directions)[opposite] - reach_hand
+                   for p, f in under_hand]
 
     def gaps(offsets: np.ndarray) -> np.ndarray:
-        xy = center + offsets
+        along = (center + offsets) @ directions  # (K, D)
         gap = np.full(len(offsets), np.inf)
-        for p, r in others:
-            gap = np.minimum(gap, np.linalg.norm(xy - np.asarray(p, dtype=float)[:2], axis=1) - radius - r)
+        for front in fronts:
+            gap = np.minimum(gap, np.max(front - along, axis=1))
         return gap
 
     if gaps(np.zeros((1, 2)))[0] >= clearance:
         return center.copy()
-    reach = np.maximum(half - radius, 0.0)
-    gx = np.arange(-reach[0], reach[0] + 1e-9, LATTICE_STEP)
-    gy = np.arange(-reach[1], reach[1] + 1e-9, LATTICE_STEP)
-    lattice = np.stack(np.meshgrid(gx, gy, indexing="ij"), axis=-1).reshape(-1, 2)
-    lattice = lattice[np.all(np.abs(lattice) + radius <= half + 1e-9, axis=1)]
+    axes_reach = _support(footprint, np.array([[1.0, 0.0, -1.0, 0.0], [0.0, 1.0, 0.0, -1.0]]))  # +x, +y, -x, -y
+    low = -half + axes_reach[2:]
+    high = half - axes_reach[:2]
+    axes = [LATTICE_STEP * np.arange(math.ceil(lo / LATTICE_STEP - FIT_TOLERANCE),
+                                     math.floor(hi / LATTICE_STEP + FIT_TOLERANCE) + 1) for lo, hi in zip(low, high)]
+    lattice = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 2)
     if len(lattice) == 0:
         return center.copy()
     gap = gaps(lattice)

@@ -157,28 +157,46 @@ def _jsonable(value):
     return value
 
 
+def object_outline(kind, shape, radius: float | None = None) -> np.ndarray:
+    """(K, 2) outline [m] of an upright object of type ``kind`` seen from above in its own frame: a disc of
+    ``radius`` (default its ``footprint_radius``) when the type overrides the footprint, else its collision
+    geometry ``shape``'s (:func:`.placement.outline_of`)."""
+    if kind.footprint_radius is not None:
+        return placement.disc_outline(float(kind.footprint_radius) if radius is None else radius)
+    return placement.outline_of(shape.hull)
+
+
 def check_objects_fit(kinds, geometry, config: Mapping, size_scale: float = 1.0) -> None:
     """Raise ``ValueError`` unless the objects of ``kinds`` (ObjectTypes) fit side by side on one segment.
 
-    Every spec can bring all its objects onto one segment, so all M must fit there
-    (:mod:`.placement`'s grid of spots).  ``size_scale`` (> 0) multiplies every footprint: the
-    largest ``object_size_scale`` a randomisation can draw.
+    Every spec can bring all its objects onto one segment, so all M must fit there, by their
+    oriented footprints (:func:`.placement.row_layout`: turned so their narrowest width lies along
+    the row where that helps, without yaw noise, which the reset caps).  ``size_scale`` (> 0)
+    multiplies every footprint: the largest ``object_size_scale`` a randomisation can draw.  The
+    message names the objects, the size their grid needs and the segment's.
     """
-    radii = []
+    half = np.asarray(geometry.segment_half_sizes[0], dtype=float)
+    scaled = f" at object size scale {size_scale:g}" if size_scale != 1.0 else ""
+    segment = f"{2 * half[0] * 100:.1f} x {2 * half[1] * 100:.1f} cm"
+
+    def layout(outlines):
+        return placement.row_layout(outlines, half, config["object_spacing"], config["object_clearance"], 0.0)
+
+    outlines = []
     for kind in kinds:
-        radius = footprint_radius(kind, type_geometry(kind, config)) * size_scale
-        side = 2 * float(np.min(geometry.segment_half_sizes[0]))
-        if 2 * radius > side:
-            raise ValueError(f"object {kind.name!r} does not fit a segment: its footprint is {2 * radius * 100:.1f} cm "
-                             f"across (any yaw), a segment {side * 100:.1f} cm")
-        radii.append(radius)
-    pitch = placement.slot_pitch(radii, config["object_spacing"], config["object_clearance"])
-    offsets = placement.slot_offsets(len(radii), pitch)
-    half = geometry.segment_half_sizes[0]
-    if np.any(np.abs(offsets) + max(radii) > half + 1e-9):
-        scaled = f" at object size scale {size_scale:g}" if size_scale != 1.0 else ""
-        raise ValueError(f"{len(radii)} objects ({', '.join(k.name for k in kinds)}) do not fit side by side on one "
-                         f"{2 * half[0]:.3f} m segment{scaled} (spot pitch {pitch:.3f} m); use fewer or smaller objects")
+        outline = object_outline(kind, type_geometry(kind, config)) * size_scale
+        try:
+            layout([outline])
+        except placement.DoesNotFit as error:
+            raise ValueError(f"object {kind.name!r} does not fit a segment{scaled}: its footprint is "
+                             f"{error.size[0] * 100:.1f} x {error.size[1] * 100:.1f} cm (even turned with its narrowest "
+                             f"width along x), a segment {segment}") from None
+        outlines.append(outline)
+    try:
+        layout(outlines)
+    except placement.DoesNotFit as error:
+        raise ValueError(f"{len(kinds)} objects ({', '.join(k.name for k in kinds)}) do not fit side by side on one "
+                         f"segment{scaled}: {error}; use fewer or smaller objects") from None
 
 
 #: Non-finite action entries an error message lists.
@@ -531,6 +549,11 @@ class TableClean(ManipulationEnv):
         growth = np.array([g.footprint_radius for g in shapes]) / self._nominal_footprints
         self._object_footprints = np.array([footprint_radius(kind, g) for kind, g in zip(self.object_types, shapes)])
         self._object_footprints *= np.where([k.footprint_radius is None for k in self.object_types], 1.0, growth)
+        #: (M,) each object's outline (K, 2) [m] seen from above in its own frame, upright: what the reset's
+        #: grid places (placement.row_layout); layouts cached per (objects, segment, config)
+        self._object_outlines = tuple(object_outline(kind, g, float(r)) for kind, g, r
+                                      in zip(self.object_types, shapes, self._object_footprints))
+        self._layout_cache: dict = {}
         self.gripper_geometry = measure_gripper(mj_model(self.sim), self._mj_data.qpos.copy(), gripper,
                                                 gripper.important_sites["grip_site"])
         self._finger_pad_masks = (
@@ -764,10 +787,10 @@ class TableClean(ManipulationEnv):
         skill chooses it).  Used by staging; the physics is forwarded, not stepped.
         """
         info = self.skill_info()
-        others = [(info["objects_pos"][k], float(self._object_footprints[k])) for k in range(self.n_objects)
+        others = [(info["objects_pos"][k], placement.footprint_of(info, k)) for k in range(self.n_objects)
                   if k != obj and self._lies_on(info, k, segment)]
         xy = placement.free_spot(self.geometry.segment_centers[segment], self.geometry.segment_half_sizes[segment],
-                                 float(self._object_footprints[obj]), others, self.task_config["object_clearance"],
+                                 self._object_outlines[obj], others, self.task_config["object_clearance"],
                                  placement.other_segments(self.geometry.segment_centers,
                                                           self.geometry.segment_half_sizes, segment))
         self._set_object_pose(obj, xy, 0.0)
@@ -1094,28 +1117,42 @@ class TableClean(ManipulationEnv):
         return self._arm_qpos_cache[key].copy()
 
     def _place_objects(self, segments: tuple[int, ...]) -> None:
-        """Put object j on ``segments[j]`` (0-based) following :mod:`.placement` (grid spots plus capped noise).
+        """Put object j on ``segments[j]`` (0-based) following :mod:`.placement` (a grid of oriented footprints
+        plus capped xy and yaw noise, :meth:`_row_layout`).
 
         Raises ``ValueError`` when the objects sharing a segment do not fit on it.
         """
         config = self.task_config
         for segment in sorted(set(segments)):
-            here = [j for j, k in enumerate(segments) if k == segment]
-            radii = [float(self._object_footprints[j]) for j in here]
-            pitch = placement.slot_pitch(radii, config["object_spacing"], config["object_clearance"])
-            offsets = placement.slot_offsets(len(here), pitch)
-            half = self.geometry.segment_half_sizes[segment]
-            if np.any(np.abs(offsets) + np.array(radii)[:, None] > half + 1e-9):
-                raise ValueError(f"objects {[j + 1 for j in here]} do not fit side by side on segment {segment + 1} "
-                                 f"({2 * half[0]:.3f} m square, spot pitch {pitch:.3f} m)")
-            bounds = placement.noise_bound(offsets, radii, half, config["placement_noise"], pitch,
-                                           config["object_clearance"])
-            for j, offset, bound in zip(here, offsets, bounds):
+            here = tuple(j for j, k in enumerate(segments) if k == segment)
+            layout = self._row_layout(here, segment)
+            yaw_noise = float(config["placement_yaw_noise"])
+            for j, offset, bound, base_yaw in zip(here, layout.offsets, layout.xy_noise, layout.yaws):
                 # the draws of the v1 scene for one object: xy noise, then yaw noise
                 noise = self.rng.uniform(-config["placement_noise"], config["placement_noise"], size=2)
                 noise = np.clip(noise, -bound, bound)
-                yaw = self.rng.uniform(-config["placement_yaw_noise"], config["placement_yaw_noise"])
+                yaw = self.rng.uniform(-yaw_noise, yaw_noise)
+                if layout.yaw_noise < yaw_noise:
+                    yaw = float(np.clip(yaw, -layout.yaw_noise, layout.yaw_noise))
+                if base_yaw != 0.0:
+                    yaw = float(base_yaw) + yaw
                 self._set_object_pose(j, self.geometry.segment_centers[segment, :2] + offset + noise, yaw)
+
+    def _row_layout(self, here: tuple[int, ...], segment: int) -> placement.RowLayout:
+        """The :func:`.placement.row_layout` of objects ``here`` (0-based) on ``segment`` (0-based), cached per
+        model and config values; ``ValueError`` naming the objects when they do not fit."""
+        config = self.task_config
+        half = self.geometry.segment_half_sizes[segment]
+        key = (here, tuple(half), float(config["object_spacing"]), float(config["object_clearance"]),
+               float(config["placement_noise"]), float(config["placement_yaw_noise"]))
+        if key not in self._layout_cache:
+            try:
+                self._layout_cache[key] = placement.row_layout(
+                    [self._object_outlines[j] for j in here], half, key[2], key[3], key[4], key[5])
+            except placement.DoesNotFit as error:
+                raise ValueError(f"objects {[j + 1 for j in here]} do not fit side by side on segment {segment + 1}: "
+                                 f"{error}") from None
+        return self._layout_cache[key]
 
     def _set_object_pose(self, obj: int, xy, yaw: float) -> None:
         """Object ``obj`` at rest on the table at world ``xy`` with ``yaw`` [rad] (qpos set, qvel zeroed)."""
