@@ -20,6 +20,7 @@ import numpy as np
 
 from tableclean_suite.controllers.configs import CleanConfig, WipeConfig
 from tableclean_suite.controllers.geometry import box_lowest_z, quat_to_matrix, world_footprint
+from tableclean_suite.controllers.geometry import clip_scalar
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.primitives import SPONGE, Grasp, Primitive, PrimitiveSkill, Reach, Release
 from tableclean_suite.controllers.skill import SkillFailure, Waypoint
@@ -193,7 +194,7 @@ class Wipe(Primitive):
         drift = np.zeros(2)
         axis = self._stroke_axis()
         bound = self.config["max_drift_correction"]
-        drift[axis] = float(np.clip(live[axis] - self.hold_offset[axis], -bound, bound))
+        drift[axis] = clip_scalar(live[axis] - self.hold_offset[axis], -bound, bound)
         return drift
 
     def _wipe_target(self, info: Mapping[str, Any], stroke_point: np.ndarray, depth: float | None = None) -> np.ndarray:
@@ -243,7 +244,7 @@ class Wipe(Primitive):
         gap = max(self._sponge_gap(info) - self.config["contact_slack"], 0.0) if phase == "WIPE" else 0.0
         rate = self.config["press_force_gain"] * error + self.config["gap_gain"] * gap
         depth = self.depth + rate * self.dt
-        self.depth = float(np.clip(depth, self.config["min_press_depth"], self.config["max_press_depth"]))
+        self.depth = clip_scalar(depth, self.config["min_press_depth"], self.config["max_press_depth"])
 
     def _update_lift(self, skill, info: Mapping[str, Any]) -> None:
         """A SHIFT moves on once no contact force is measured and the sponge's lowest corner is off the table.

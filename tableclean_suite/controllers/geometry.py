@@ -32,6 +32,13 @@ def quat_z_row(quat: np.ndarray) -> np.ndarray:
     return np.array([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)])
 
 
+def clip_scalar(value: float, low: float, high: float) -> float:
+    """``float(np.clip(value, low, high))`` for scalars without its ~3 us of dispatch: the same result,
+    a NaN ``value`` and the bound's signed zero when ``value`` equals it included (numpy's max, then min)."""
+    value = low if low >= value else value
+    return float(high if high <= value else value)
+
+
 def wrap_angle(angle: float) -> float:
     """``angle`` (rad) wrapped to [-pi, pi)."""
     return float((angle + np.pi) % (2 * np.pi) - np.pi)

@@ -1,0 +1,32 @@
+"""The skills' per-step helpers written without numpy's dispatch give numpy's results bit for bit:
+``clip_scalar`` as ``np.clip`` (NaN and signed zeros included), ``quat_z_row`` as ``quat_to_matrix``'s last row."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+from tableclean_suite.controllers.geometry import clip_scalar, quat_to_matrix, quat_z_row
+
+
+def same_float(a: float, b: float) -> bool:
+    """Equal bits as floats: both NaN, or equal with the same sign (so 0.0 and -0.0 differ)."""
+    return (math.isnan(a) and math.isnan(b)) or (a == b and math.copysign(1.0, a) == math.copysign(1.0, b))
+
+
+def test_clip_scalar_is_np_clip_bit_for_bit():
+    rng = np.random.default_rng(3)
+    values = [-1.0, -0.0, 0.0, 0.5, 1.0, 2.0, math.nan, math.inf, -math.inf, np.float64(-0.0), *rng.normal(size=300)]
+    bounds = [(-0.0, 1.0), (0.0, 1.0), (-1.0, -0.0), (0.5, 0.5), (0.0, 0.0), (-0.0, -0.0),
+              *(tuple(sorted(rng.normal(size=2))) for _ in range(30))]
+    for value, (low, high) in itertools.product(values, bounds):
+        expected = float(np.clip(value, low, high))
+        got = clip_scalar(value, low, high)
+        assert type(got) is float and same_float(got, expected), (value, low, high, got, expected)
+
+
+def test_quat_z_row_is_the_rotation_matrix_last_row():
+    for quat in np.random.default_rng(4).normal(size=(20000, 4)):
+        np.testing.assert_array_equal(quat_z_row(quat), quat_to_matrix(quat)[2])
