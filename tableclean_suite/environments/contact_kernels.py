@@ -7,28 +7,27 @@ import numpy as np
 
 
 @numba.njit(cache=True)
-def bodies_touched_by_both(geom1: np.ndarray, geom2: np.ndarray, pad_a: np.ndarray, pad_b: np.ndarray,
-                           group: np.ndarray, bodies: int) -> np.ndarray:
-    """Bool (bodies,): which bodies both finger pads touch (robosuite's grasp criterion).
+def bodies_touched_by_both(geom: np.ndarray, pad_a: np.ndarray, pad_b: np.ndarray, group: np.ndarray,
+                           touched: np.ndarray) -> None:
+    """Which bodies each finger pad touches, into ``touched`` (2, bodies) bool: row 0 pad a, row 1 pad b
+    (robosuite's grasp criterion is both rows).
 
     Args:
-        geom1, geom2: (ncon,) geom ids of MuJoCo's active contacts.
+        geom: (ncon, 2) geom ids of MuJoCo's active contacts (``data.contact.geom``).
         pad_a, pad_b: bool lookups over all geom ids, the two finger pads' geoms.
         group: (ngeom,) int, the body (0 .. bodies - 1) each geom belongs to, -1 for none.
-        bodies: number of bodies.
+        touched: (2, bodies) bool output (overwritten; the caller's scratch, no allocation per call).
     """
-    touched_a = np.zeros(bodies, dtype=np.bool_)
-    touched_b = np.zeros(bodies, dtype=np.bool_)
-    for i in range(geom1.size):
-        g1, g2 = geom1[i], geom2[i]
+    touched[:] = False
+    for i in range(geom.shape[0]):
+        g1, g2 = geom[i, 0], geom[i, 1]
         body1, body2 = group[g1], group[g2]
         if body2 >= 0:
-            touched_a[body2] |= pad_a[g1]
-            touched_b[body2] |= pad_b[g1]
+            touched[0, body2] |= pad_a[g1]
+            touched[1, body2] |= pad_b[g1]
         if body1 >= 0:
-            touched_a[body1] |= pad_a[g2]
-            touched_b[body1] |= pad_b[g2]
-    return touched_a & touched_b
+            touched[0, body1] |= pad_a[g2]
+            touched[1, body1] |= pad_b[g2]
 
 
 @numba.njit(cache=True)

@@ -956,22 +956,22 @@ class TableClean(ManipulationEnv):
         asks every control step), each contact's geoms mapped to the body they belong to.
         """
         masks = (self._object_masks, self._sponge_mask)
-        cached = getattr(self, "_grasp_groups", None)  # (object masks, sponge mask, geom -> body), per model
+        cached = getattr(self, "_grasp_groups", None)  # (object masks, sponge mask, geom -> body, scratch), per model
         if cached is None or cached[0] is not masks[0] or cached[1] is not masks[1]:
             group = np.full(masks[1].size, -1, dtype=np.int64)  # geom -> body (-1: neither)
             for j, mask in enumerate(masks[0]):
                 group[mask] = j
             group[masks[1]] = len(masks[0])
-            self._grasp_groups = cached = (masks[0], masks[1], group)
-        group = cached[2]
-        bodies = len(masks[0]) + 1
+            touched = np.zeros((2, len(masks[0]) + 1), dtype=bool)  # the kernel's scratch: pad a's row, pad b's
+            self._grasp_groups = cached = (masks[0], masks[1], group, touched)
         data = self._mj_data
         ncon = data.ncon
+        touched = cached[3]
         if ncon == 0:
-            return np.zeros(bodies, dtype=bool)
-        contact = data.contact
+            return np.zeros(touched.shape[1], dtype=bool)
         pad_a, pad_b = self._finger_pad_masks
-        return bodies_touched_by_both(contact.geom1[:ncon], contact.geom2[:ncon], pad_a, pad_b, group, bodies)
+        bodies_touched_by_both(data.contact.geom[:ncon], pad_a, pad_b, cached[2], touched)
+        return touched[0] & touched[1]
 
     def symbolic_state(self, check_sponge: bool = True) -> TaskState:
         """The current :class:`TaskState` read from the physics.
