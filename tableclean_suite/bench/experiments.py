@@ -403,16 +403,18 @@ def check_grid_resources(cells, config: RunConfig, model) -> float:
     return seconds
 
 
-def cell_chunks(cell: Cell, config: RunConfig, model, transitions=None, runs_per_chunk: int | None = None):
+def cell_chunks(cell: Cell, config: RunConfig, model, transitions=None, runs_per_chunk: int | None = None,
+                engine: str | None = None):
     """Train ``cell``'s chunks of runs in order: yields ``(first run, result, seconds)`` per ``train()``
     (the :class:`~tableclean_suite.learners.TrainingResult`, with the settling checkpoint's
     Q-tables when the backend keeps them, and its wall time).  :func:`train_cell` summarises them;
-    :func:`run_grid` may train them on a thread ahead of the summaries (:class:`TrainingAhead`)."""
+    :func:`run_grid` may train them on a thread ahead of the summaries (:class:`TrainingAhead`).
+    ``engine``: ``train()``'s engine (None: its default, the compiled loop)."""
     chunk = runs_per_chunk or chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model))
     checkpoint = _checkpoint(config)
     for first in range(0, config.runs, chunk):
         started = time.perf_counter()
-        result = _train_chunk(cell, config, model, transitions, chunk, first, config.iterations, checkpoint)
+        result = _train_chunk(cell, config, model, transitions, chunk, first, config.iterations, checkpoint, engine)
         yield first, result, time.perf_counter() - started
         del result  # not kept alive while the next chunk trains
 
@@ -424,13 +426,13 @@ def _checkpoint(config: RunConfig) -> int:
 
 
 def _train_chunk(cell: Cell, config: RunConfig, model, transitions, chunk: int, first: int, iterations: int,
-                 keep: int = 0):
+                 keep: int = 0, engine: str | None = None):
     """``train()`` of the chunk of runs starting at ``first``, for ``iterations``, keeping the Q-tables at ``keep``."""
     return train(
         learner=cell.learner, reward=cell.reward, runs=min(chunk, config.runs - first), first_run=first,
         alpha=cell.alpha, gamma=cell.gamma, model=model, transitions=transitions,
         **{**config.train_kwargs(), "iterations": iterations}, **config.learner_kwargs(cell.learner),
-        checkpoint=keep,
+        checkpoint=keep, **({} if engine is None else {"engine": engine}),
     )
 
 

@@ -248,7 +248,7 @@ def run(args) -> int:
 
 def train_and_publish(args) -> int:
     """Train/load the grid, print the tables, write files and figures; returns the exit code."""
-    from tableclean_suite.bench import derived, experiments, outputs, tables
+    from tableclean_suite.bench import derived, experiments, outputs, precompile, tables
     from tableclean_suite.executors import MissingRayError, TaskFailedError
 
     started = time.perf_counter()
@@ -271,6 +271,8 @@ def train_and_publish(args) -> int:
     store = experiments.CellStore(out / "cells")
     results = derived.DerivedStore(store.root / DERIVED_DIR, read=not config.fresh)
     comparing = BackgroundComparisons(grid, config, results)
+    compiling = (precompile.start(experiments.unique_cells(grid), config, model, transitions)
+                 if executor is None else None)  # before any thread starts
     try:
         with executor if executor is not None else contextlib.nullcontext():
             grid_run = experiments.run_grid(grid, config, model, store, transitions, transitions_sha256, executor,
@@ -288,6 +290,9 @@ def train_and_publish(args) -> int:
         print(f"\ninterrupted: finished cells are saved in {store.root}; rerun the same command to resume",
               file=sys.stderr)
         return EXIT_INTERRUPTED
+    finally:
+        if compiling is not None:
+            compiling.finish()
     cells = len(experiments.unique_cells(grid))
     print(f"cells: {cells} distinct ({len(grid)} table rows); resumed {grid_run.resumed} cells from {store.root}, "
           f"trained {grid_run.trained} (training {grid_run.train_seconds:.2f} s, "
