@@ -109,3 +109,35 @@ def test_free_spot_places_an_oriented_footprint_beside_a_lying_object():
 def test_outline_of_a_point_cloud_is_its_convex_hull_seen_from_above():
     points = np.array([[0, 0, 0], [1, 0, 1], [1, 1, 0], [0, 1, 2], [0.5, 0.5, 3]], dtype=float)
     assert sorted(map(tuple, outline_of(points))) == [(0, 0), (0, 1), (1, 0), (1, 1)]
+
+
+def test_the_hand_keeps_its_half_width_clear_of_a_lying_object_that_reaches_it():
+    center = np.array([0.11, 0.11])
+    cereal_at = center + [0.0, 0.0]
+    # a cube beside a lying cereal box: 1 cm between the footprints would do for the cube...
+    plain = free_spot(center, SEGMENT, BOX, [(cereal_at, CEREAL)], CLEARANCE)
+    gap_plain = _gap((plain + BOX.min(axis=0), plain + BOX.max(axis=0)),
+                     (cereal_at + CEREAL.min(axis=0), cereal_at + CEREAL.max(axis=0)))
+    assert gap_plain >= CLEARANCE - 2e-3
+    # ...but the cereal box's top reaches the hand lowering the cube: the hand's 3.2 cm half width keeps 1 cm too
+    hand = 0.032
+    spot = free_spot(center, SEGMENT, BOX, [(cereal_at, CEREAL)], CLEARANCE, hand=hand, under_hand=[(cereal_at, CEREAL)])
+    lo, hi = cereal_at + CEREAL.min(axis=0), cereal_at + CEREAL.max(axis=0)
+    nearest = np.clip(spot, lo, hi)
+    assert np.linalg.norm(spot - nearest) >= hand + CLEARANCE - 2e-3
+    assert np.linalg.norm(plain - np.clip(plain, lo, hi)) < hand + CLEARANCE
+
+
+def test_footprint_of_reads_the_pose_and_the_override():
+    from types import SimpleNamespace
+
+    from tableclean_suite.environments.object_geometry import ObjectGeometry
+
+    corners = np.array([[sx * 0.05, sy * 0.015, sz * 0.075] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    quarter = [0.0, 0.0, np.sin(np.pi / 4), np.cos(np.pi / 4)]  # xyzw: a quarter turn about z
+    info = {"object_types": [SimpleNamespace(footprint_radius=None), SimpleNamespace(footprint_radius=0.04)],
+            "objects_footprint": [0.052, 0.04], "objects_geometry": [ObjectGeometry(corners)] * 2,
+            "objects_quat": [quarter, quarter]}
+    outline = placement.footprint_of(info, 0)
+    assert np.allclose(outline.min(axis=0), [-0.015, -0.05]) and np.allclose(outline.max(axis=0), [0.015, 0.05])
+    assert placement.footprint_of(info, 1) == 0.04  # an overridden footprint stays a disc
