@@ -148,6 +148,39 @@ def _replay_mujoco(env, states: list[dict]) -> tuple[int, float]:
     return len(states), seconds
 
 
+def against_goal(measured: str, value: float, goal: float, goal_text: str, at_most: bool, difference: str) -> str:
+    """``measured`` and how far ``value`` is from its ``goal``, e.g. ``"6.52% (1.30x the 5% goal, 1.52 points over)"``
+    (the speed report's goal lines, worded as its time goals: :func:`tableclean_suite.bench.speed.seconds_against_goal`).
+
+    ``goal_text``: the goal as printed; ``at_most``: the goal is an upper bound (``over``/``under``)
+    rather than a lower one (``above``/``below``); ``difference``: the distance formatted, e.g.
+    ``"1.52 points"`` (the caller knows its unit).
+    """
+    if at_most:
+        side = "over" if value > goal else "under"
+    else:
+        side = "above" if value >= goal else "below"
+    return f"{measured} ({value / goal:.2f}x the {goal_text} goal, {difference} {side})"
+
+
+def overhead_against_goal(overhead: float) -> str:
+    """The executor's overhead (a fraction) against :data:`OVERHEAD_GOAL`, distance in percentage points."""
+    return against_goal(f"{overhead:.2%}", overhead, OVERHEAD_GOAL, f"{OVERHEAD_GOAL:.0%}", True,
+                        f"{100 * abs(overhead - OVERHEAD_GOAL):.2f} points")
+
+
+def speedup_against_goal(speedup: float) -> str:
+    """The fast path's control steps/s over robosuite's against :data:`FAST_SPEEDUP_GOAL`."""
+    return against_goal(f"{speedup:.2f}x", speedup, FAST_SPEEDUP_GOAL, f"{FAST_SPEEDUP_GOAL:g}x", False,
+                        f"{abs(speedup - FAST_SPEEDUP_GOAL):.2f}")
+
+
+def raw_ratio_against_goal(ratio: float) -> str:
+    """The fast path's control steps/s over raw MuJoCo's against :data:`RAW_MUJOCO_GOAL`."""
+    return against_goal(f"{ratio:.2f}", ratio, RAW_MUJOCO_GOAL, f"{RAW_MUJOCO_GOAL:g}", False,
+                        f"{abs(ratio - RAW_MUJOCO_GOAL):.2f}")
+
+
 def format_comparison(comparison: dict) -> str:
     """The control-path table (plain text) of :func:`compare_paths`'s records."""
     rates, episode_s = {}, {}
