@@ -19,7 +19,7 @@ from tableclean_suite.controllers.robot_configs import skill_overrides
 from tableclean_suite.controllers.skill import SkillEnv
 from tableclean_suite.environments.abstraction import AbstractionError
 from tableclean_suite.skill_result import SkillResult
-from tableclean_suite.task import Action, Outcome, TaskModel
+from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
 
 
 class SkillController:
@@ -114,11 +114,16 @@ class SkillController:
         Raises ``ValueError`` for an unknown action or when the current state is
         terminal, ``KeyError`` when no skill is registered for the action.
         """
+        return self._execute(action, None)
+
+    def _execute(self, action, before: TaskState | None) -> SkillResult:
+        """:meth:`execute` from the symbolic state ``before`` when the caller knows it (None: read it now)."""
         start = time.perf_counter()
         action = self.resolve(action)
         skill_class = get_skill_class(action, self.registry)
         try:
-            before = self.env.symbolic_state()
+            if before is None:
+                before = self.env.symbolic_state()
         except AbstractionError as fault:
             return self._result(action, start, False, 0, f"fault before the action: {fault}", None, None)
         expected, predicted = self.model.step(before, action)  # ValueError when terminal
@@ -158,11 +163,16 @@ class SkillController:
     def execute_plan(self, actions: Iterable, stop_on_failure: bool = True) -> list[SkillResult]:
         """Execute ``actions`` in order; stops after the first unsuccessful one if ``stop_on_failure``.
 
-        Also stops once the symbolic state is terminal.
+        Also stops once the symbolic state is terminal.  Each action starts from the state the one
+        before ended in (nothing moves between two actions; read again after a fault, or when a
+        subclass overrides :meth:`execute`).
         """
         results = []
+        known = None  # the symbolic state the last action ended in
+        reuse = type(self).execute is SkillController.execute
         for action in actions:
-            result = self.execute(action)
+            result = self._execute(action, known) if reuse else self.execute(action)
+            known = result.state_after
             results.append(result)
             terminal = result.state_after is not None and result.state_after.is_terminal
             if terminal or (stop_on_failure and not result.success):
