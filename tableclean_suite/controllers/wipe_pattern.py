@@ -22,6 +22,7 @@ def boustrophedon(
     along_x: bool,
     lane_shift: float = 0.0,
     edge_inset: float = 1.0,
+    direction: int = 0,
 ) -> np.ndarray:
     """Sponge-centre waypoints (n, 2) in world xy that sweep a rectangle lane by lane.
 
@@ -39,6 +40,8 @@ def boustrophedon(
         lane_shift: lanes shifted by this fraction of the lane spacing (kept inside the
             rectangle), so a repeated pass sweeps between the previous lanes.
         edge_inset: fraction in [0, 1] of the footprint the sponge centre keeps inside the edges.
+        direction: 0: strokes alternate (lane by lane, back and forth); +1 or -1: every stroke runs toward
+            the + or - end of the stroke axis (each lane starts at the same end).
     """
     footprint = np.asarray(footprint, dtype=float)
     if footprint.shape != (2,) or np.any(footprint <= 0):
@@ -48,6 +51,8 @@ def boustrophedon(
     stroke_axis, lane_axis = (0, 1) if along_x else (1, 0)
     if not 0.0 <= edge_inset <= 1.0:
         raise ValueError(f"edge_inset must be in [0, 1], got {edge_inset}")
+    if direction not in (-1, 0, 1):
+        raise ValueError(f"direction must be -1, 0 or 1, got {direction!r}")
     reach = np.maximum(np.asarray(half_size, dtype=float) - edge_inset * footprint, 0.0)
     spacing = 2.0 * footprint[lane_axis] * (1.0 - overlap)
     n_lanes = max(1, math.ceil(2.0 * reach[lane_axis] / spacing) + 1) if reach[lane_axis] > 0 else 1
@@ -56,7 +61,8 @@ def boustrophedon(
         lanes = np.clip(lanes + lane_shift * (lanes[1] - lanes[0]), -reach[lane_axis], reach[lane_axis])
     points = []
     for k, lane in enumerate(lanes):
-        ends = (-reach[stroke_axis], reach[stroke_axis]) if k % 2 == 0 else (reach[stroke_axis], -reach[stroke_axis])
+        forward = k % 2 == 0 if direction == 0 else direction > 0
+        ends = (-reach[stroke_axis], reach[stroke_axis]) if forward else (reach[stroke_axis], -reach[stroke_axis])
         for end in ends:
             point = np.zeros(2)
             point[stroke_axis] = end

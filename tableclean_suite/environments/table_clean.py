@@ -831,8 +831,9 @@ class TableClean(ManipulationEnv):
         ``sponge_pos`` (3,), ``sponge_quat`` (4,), ``sponge_half_size`` (3,), ``sponge_home_pos`` (3,),
         ``segment_centers`` (N, 3) table-top point at each segment centre (row 0 = segment 1),
         ``segment_half_sizes`` (N, 2), ``table_top_z`` float, ``table_center`` (3,),
-        ``table_half_size`` (2,), ``object_grasped`` (object 1) and ``sponge_grasped`` bool (both
-        finger pads touch it), ``dirt_fraction`` (N,), ``qvel`` (nv,) all simulation velocities,
+        ``table_half_size`` (2,), ``robot_base_pos`` (3,) the arm's base (its root body), ``object_grasped``
+        (object 1) and ``sponge_grasped`` bool (both finger pads touch it), ``dirt_fraction`` (N,),
+        ``qvel`` (nv,) all simulation velocities,
         ``object_spacing`` (the config's reset-grid pitch) and ``object_clearance`` (the config's,
         for the place skill's free spot).
 
@@ -908,6 +909,7 @@ class TableClean(ManipulationEnv):
             "table_top_z": geometry.table_top_z,
             "table_center": frozen(geometry.table_center),
             "table_half_size": frozen(geometry.table_half_size),
+            "robot_base_pos": frozen(self._mj_data.xpos[mj_model(self.sim).body(self.robots[0].robot_model.root_body).id]),
         }
         self._constant_info = (self._mj_data, self.task_config, self.geometry, values)
         return values
