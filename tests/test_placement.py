@@ -141,3 +141,9 @@ def test_footprint_of_reads_the_pose_and_the_override():
     outline = placement.footprint_of(info, 0)
     assert np.allclose(outline.min(axis=0), [-0.015, -0.05]) and np.allclose(outline.max(axis=0), [0.015, 0.05])
     assert placement.footprint_of(info, 1) == 0.04  # an overridden footprint stays a disc
+
+
+def test_footprint_gap_of_two_rectangles_and_two_discs():
+    assert placement.footprint_gap([0.0, 0.0], CEREAL, [0.1, 0.0], BOX) == pytest.approx(0.1 - 0.05 - 0.0225, abs=1e-4)
+    assert placement.footprint_gap([0.0, 0.0], 0.02, [0.03, 0.04], 0.01) == pytest.approx(0.02, abs=1e-5)
+    assert placement.footprint_gap([0.0, 0.0], CEREAL, [0.0, 0.0], BOX) < 0  # overlapping

@@ -284,6 +284,21 @@ def _support(footprint, directions: np.ndarray) -> np.ndarray:
     return (np.asarray(footprint, dtype=float) @ directions).max(axis=0)
 
 
+def _directions() -> tuple[np.ndarray, np.ndarray]:
+    """(2, GAP_DIRECTIONS) unit directions over a full turn, and each one's opposite's index."""
+    angles = np.arange(GAP_DIRECTIONS) * (2 * np.pi / GAP_DIRECTIONS)
+    return np.stack([np.cos(angles), np.sin(angles)]), np.roll(np.arange(GAP_DIRECTIONS), GAP_DIRECTIONS // 2)
+
+
+def footprint_gap(xy_a, footprint_a, xy_b, footprint_b) -> float:
+    """Gap [m] between two footprints (radius or outline, as in :func:`free_spot`) with origins at world ``xy_a``
+    and ``xy_b`` (first two entries used): their largest separation along any of :data:`GAP_DIRECTIONS`
+    directions (never more than the true gap; negative when they overlap)."""
+    directions, opposite = _directions()
+    along = (np.asarray(xy_b, dtype=float)[:2] - np.asarray(xy_a, dtype=float)[:2]) @ directions
+    return float(np.max(along - _support(footprint_b, directions)[opposite] - _support(footprint_a, directions)))
+
+
 def quat_matrix(quat_xyzw) -> np.ndarray:
     """(3, 3) rotation matrix of the unit quaternion ``quat_xyzw`` (4,) (robosuite's order)."""
     x, y, z, w = (float(q) for q in quat_xyzw)
@@ -325,12 +340,9 @@ def free_spot(center, half_size, footprint, others: Sequence[tuple[np.ndarray, o
     """
     center = np.asarray(center, dtype=float)[:2]
     half = np.asarray(half_size, dtype=float)[:2]
-    angles = np.arange(GAP_DIRECTIONS) * (2 * np.pi / GAP_DIRECTIONS)
-    directions = np.stack([np.cos(angles), np.sin(angles)])  # (2, D)
+    directions, opposite = _directions()  # (2, D)
     reach_mine = _support(footprint, directions)  # (D,) of the object to place
     # per other object: the nearest its footprint comes along each direction, less my reach there
-    # (the directions hold each one's opposite: GAP_DIRECTIONS is even)
-    opposite = np.roll(np.arange(GAP_DIRECTIONS), GAP_DIRECTIONS // 2)
     fronts = [np.asarray(p, dtype=float)[:2] @ directions - _support(f, directions)[opposite] - reach_mine
               for p, f in others]
     if under_hand:
