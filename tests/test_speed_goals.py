@@ -1,5 +1,7 @@
 """The speed report says how far each time goal is from being met."""
 
+import time
+
 import pytest
 
 from tableclean_suite.bench import speed
@@ -10,3 +12,20 @@ pytestmark = pytest.mark.quick
 def test_a_time_says_how_far_over_or_under_its_goal_it_is():
     assert speed.seconds_against_goal(5.32, 4.0) == "5.32 s (1.33x the 4 s goal, 1.32 s over)"
     assert speed.seconds_against_goal(3.0, 4.0) == "3.00 s (0.75x the 4 s goal, 1.00 s under)"
+
+
+def test_the_default_run_is_timed_several_times_and_the_median_kept(monkeypatch):
+    from tableclean_suite.bench import run
+
+    lengths = iter([0.0, 0.05, 0.0, 0.02])  # the warm-up, then three timed runs
+
+    def fake_main(argv):
+        assert "--fresh" in argv
+        time.sleep(next(lengths))
+        return 0
+
+    monkeypatch.setattr(run, "main", fake_main)
+    timing = speed.time_default_run(repeats=3)
+    assert len(timing["walls"]) == 3
+    assert timing["walls"][0] >= 0.05 and timing["walls"][2] >= 0.02
+    assert timing["wall_s"] == timing["walls"][2]  # the middle one: 0.0 < 0.02 < 0.05
