@@ -43,5 +43,6 @@ def test_recording_states_needs_the_fast_stepper():
 def test_the_skill_goals_say_how_far_from_their_goal_they_are():
     assert skill_speed.overhead_against_goal(0.0652) == "6.52% (1.30x the 5% goal, 1.52 points over)"
     assert skill_speed.overhead_against_goal(0.04) == "4.00% (0.80x the 5% goal, 1.00 points under)"
-    assert skill_speed.speedup_against_goal(5.33) == "5.33x (1.07x the 5x goal, 0.33 above)"
-    assert skill_speed.raw_ratio_against_goal(0.79) == "0.79 (0.99x the 0.8 goal, 0.01 below)"
+    assert skill_speed.speedup_against_goal(5.33) == "5.33x (1.07x the 5x goal, 0.330 above)"
+    assert skill_speed.raw_ratio_against_goal(0.7996) == "0.80 (1.00x the 0.8 goal, 0.000 below)"
+    assert skill_speed.raw_ratio_against_goal(0.796) == "0.80 (0.99x the 0.8 goal, 0.004 below)"

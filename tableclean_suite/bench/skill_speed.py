@@ -172,13 +172,13 @@ def overhead_against_goal(overhead: float) -> str:
 def speedup_against_goal(speedup: float) -> str:
     """The fast path's control steps/s over robosuite's against :data:`FAST_SPEEDUP_GOAL`."""
     return against_goal(f"{speedup:.2f}x", speedup, FAST_SPEEDUP_GOAL, f"{FAST_SPEEDUP_GOAL:g}x", False,
-                        f"{abs(speedup - FAST_SPEEDUP_GOAL):.2f}")
+                        f"{abs(speedup - FAST_SPEEDUP_GOAL):.3f}")
 
 
 def raw_ratio_against_goal(ratio: float) -> str:
     """The fast path's control steps/s over raw MuJoCo's against :data:`RAW_MUJOCO_GOAL`."""
     return against_goal(f"{ratio:.2f}", ratio, RAW_MUJOCO_GOAL, f"{RAW_MUJOCO_GOAL:g}", False,
-                        f"{abs(ratio - RAW_MUJOCO_GOAL):.2f}")
+                        f"{abs(ratio - RAW_MUJOCO_GOAL):.3f}")
 
 
 def format_comparison(comparison: dict) -> str:
