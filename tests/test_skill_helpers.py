@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from tableclean_suite.controllers.geometry import clip_scalar, quat_to_matrix, quat_z_row
+from tableclean_suite.controllers.geometry import box_lowest_z, clip_scalar, quat_to_matrix, quat_z_row
 
 
 def same_float(a: float, b: float) -> bool:
@@ -30,3 +30,9 @@ def test_clip_scalar_is_np_clip_bit_for_bit():
 def test_quat_z_row_is_the_rotation_matrix_last_row():
     for quat in np.random.default_rng(4).normal(size=(20000, 4)):
         np.testing.assert_array_equal(quat_z_row(quat), quat_to_matrix(quat)[2])
+
+
+def test_box_lowest_z_is_the_numpy_projection_bit_for_bit():
+    rng = np.random.default_rng(5)
+    for quat, pos, half in zip(rng.normal(size=(20000, 4)), rng.normal(size=(20000, 3)), rng.random(size=(20000, 3))):
+        assert box_lowest_z(pos, quat, half) == float(pos[2] - np.abs(quat_to_matrix(quat)[2]) @ half)

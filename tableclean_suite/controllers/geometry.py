@@ -25,11 +25,16 @@ def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
 def quat_z_row(quat: np.ndarray) -> np.ndarray:
     """(3,) the last row of :func:`quat_to_matrix` (``quat`` (4,) xyzw): the world z of the body frame's
     axes, all a height needs (the same bits as the full matrix's row)."""
+    return np.array(_z_row_entries(quat))
+
+
+def _z_row_entries(quat: np.ndarray) -> tuple[float, float, float]:
+    """:func:`quat_z_row`'s three entries as Python floats."""
     q = np.asarray(quat, dtype=float)
     norm = math.sqrt(q.dot(q))
     x, y, z, w = q.tolist()  # divided as Python floats: IEEE division, the bits of numpy's q / norm
     x, y, z, w = x / norm, y / norm, z / norm, w / norm
-    return np.array([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)])
+    return 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
 
 
 def clip_scalar(value: float, low: float, high: float) -> float:
@@ -52,7 +57,8 @@ def gripper_yaw(eef_quat: np.ndarray) -> float:
 
 def box_lowest_z(pos: np.ndarray, quat: np.ndarray, half_size: np.ndarray) -> float:
     """World z (m) of the lowest corner of a box with centre ``pos`` (3,), orientation ``quat`` (4,, xyzw)."""
-    return float(pos[2] - np.abs(quat_z_row(quat)) @ np.asarray(half_size, dtype=float))
+    reach = np.array([abs(entry) for entry in _z_row_entries(quat)])  # np.abs of quat_z_row, without its dispatch
+    return float(pos[2] - reach @ np.asarray(half_size, dtype=float))
 
 
 def world_footprint(quat: np.ndarray, half_size: np.ndarray) -> np.ndarray:

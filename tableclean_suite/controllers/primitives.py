@@ -476,4 +476,5 @@ class PrimitiveSkill(Skill):
 
     def update(self, info: Info) -> None:
         primitive, local = self._current()
-        primitive.update(self, info, local)
+        if type(primitive).update is not Primitive.update:  # the base's does nothing (most primitives, every step)
+            primitive.update(self, info, local)

@@ -198,9 +198,9 @@ class Skill(abc.ABC):
         return state_after is not None and state_after == model.step(state_before, cls.action)[0]
 
     # -- shared machinery ------------------------------------------------------------
-    @property
+    @functools.cached_property
     def final_phase(self) -> enum.Enum:
-        """The phase that ends the skill (the last member of ``Phase``)."""
+        """The phase that ends the skill (the last member of ``Phase``; kept: asked every control step)."""
         return _last_member(self.Phase)
 
     @property
@@ -213,9 +213,9 @@ class Skill(abc.ABC):
         """Whether the skill's motion completed; the abstraction's check is the controller's job."""
         return self.failure is None and self.phase == self.final_phase
 
-    @property
+    @functools.cached_property
     def max_steps(self) -> int:
-        """Step budget (control steps)."""
+        """Step budget (control steps; the config is read-only, so kept)."""
         return int(self.config["max_steps"])
 
     def reset(self, state: TaskState) -> None:
