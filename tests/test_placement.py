@@ -147,3 +147,33 @@ def test_footprint_gap_of_two_rectangles_and_two_discs():
     assert placement.footprint_gap([0.0, 0.0], CEREAL, [0.1, 0.0], BOX) == pytest.approx(0.1 - 0.05 - 0.0225, abs=1e-4)
     assert placement.footprint_gap([0.0, 0.0], 0.02, [0.03, 0.04], 0.01) == pytest.approx(0.02, abs=1e-5)
     assert placement.footprint_gap([0.0, 0.0], CEREAL, [0.0, 0.0], BOX) < 0  # overlapping
+
+
+def test_place_spot_keeps_the_hand_off_a_tall_neighbour_wherever_the_object_hangs_off_the_grip_site():
+    from types import SimpleNamespace
+
+    from tableclean_suite.controllers.place import place_spot
+    from tableclean_suite.environments.object_geometry import ObjectGeometry
+
+    def corners(hx, hy, hz):
+        return np.array([[sx * hx, sy * hy, sz * hz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+
+    upright = [0.0, 0.0, 0.0, 1.0]
+    center = np.array([-0.11, -0.11, 0.8])
+
+    def info(grip_offset):
+        held_at = np.array([0.0, 0.3, 1.0])  # the box in the hand, above the table
+        return {"objects_pos": np.array([[-0.11, -0.11, 0.875], held_at]),
+                "objects_quat": [upright, upright], "objects_rest_z": [0.875, 0.8225],
+                "objects_geometry": [ObjectGeometry(corners(0.02, 0.02, 0.075)), ObjectGeometry(corners(0.0225, 0.0225, 0.0225))],
+                "object_types": [SimpleNamespace(footprint_radius=None)] * 2, "objects_footprint": [0.028, 0.032],
+                "eef_pos": held_at + [grip_offset, 0.0, 0.0], "gripper_palm_height": 0.031,
+                "gripper_hand_half_width": 0.032, "object_clearance": 0.01,
+                "segment_centers": np.array([center, [-0.11, 0.11, 0.8], [0.11, 0.11, 0.8]]),
+                "segment_half_sizes": np.array([[0.09, 0.09]] * 3)}
+
+    tower = (np.array([-0.13, -0.13]), np.array([-0.09, -0.09]))  # the 15 cm tower's footprint: it reaches the hand
+    for grip_offset in (0.0, 0.01):
+        spot = place_spot(info(grip_offset), 0, 1, [0], place_clearance=0.006)
+        distance = np.linalg.norm(spot - np.clip(spot, *tower))
+        assert distance >= 0.032 + grip_offset + 0.01 - 2e-3  # the hand's half width, the offset, the clearance

@@ -18,19 +18,22 @@ def place_spot(info: Mapping[str, Any], segment: int, held: int, lying, place_cl
     """(2,) world xy [m] where the held object ``held`` goes on ``segment`` (0-based) among the objects ``lying``
     there (indices): :func:`~tableclean_suite.environments.placement.free_spot` of the footprints as the
     objects stand now (the held one as it hangs in the hand), the hand's half width across the fingers
-    (the side :class:`~.primitives.Release` turns toward a neighbour) kept ``object_clearance`` from
-    every lying object whose top reaches the hand's underside at release (``place_clearance`` [m]
-    above the resting height, as :class:`~.primitives.Release` lowers it)."""
+    (the side :class:`~.primitives.Release` turns toward a neighbour), about the grip site wherever the
+    held object's centre is off it (the hand can turn about the object's centre: a disc of the half
+    width plus that offset), kept ``object_clearance`` from every lying object whose top reaches the
+    hand's underside at release (``place_clearance`` [m] above the resting height, as
+    :class:`~.primitives.Release` lowers it)."""
     others = [(np.asarray(info["objects_pos"][j], dtype=float), footprint_of(info, j)) for j in lying]
-    hold_offset = float(info["eef_pos"][2]) - float(info["objects_pos"][held][2])
-    hand_bottom = (float(info["objects_rest_z"][held]) + place_clearance + hold_offset
+    offset = np.asarray(info["eef_pos"], dtype=float) - np.asarray(info["objects_pos"][held], dtype=float)
+    hand_bottom = (float(info["objects_rest_z"][held]) + place_clearance + float(offset[2])
                    + float(info["gripper_palm_height"]))
     tops, _ = object_heights(info)
     tall = [other for j, other in zip(lying, others) if tops[j] > hand_bottom]
+    hand = float(info["gripper_hand_half_width"]) + float(np.hypot(offset[0], offset[1]))
     return free_spot(info["segment_centers"][segment], info["segment_half_sizes"][segment], footprint_of(info, held),
                      others, info["object_clearance"],
                      other_segments(info["segment_centers"], info["segment_half_sizes"], segment),
-                     hand=float(info["gripper_hand_half_width"]), under_hand=tall)
+                     hand=hand, under_hand=tall)
 
 
 class PlacePhase(enum.Enum):
