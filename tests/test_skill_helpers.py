@@ -36,3 +36,19 @@ def test_box_lowest_z_is_the_numpy_projection_bit_for_bit():
     rng = np.random.default_rng(5)
     for quat, pos, half in zip(rng.normal(size=(20000, 4)), rng.normal(size=(20000, 3)), rng.random(size=(20000, 3))):
         assert box_lowest_z(pos, quat, half) == float(pos[2] - np.abs(quat_to_matrix(quat)[2]) @ half)
+
+
+def test_a_skills_checked_config_is_kept_per_settings_and_a_refused_one_raises_every_time():
+    import pytest
+
+    from tableclean_suite.controllers import MoveSkill
+    from tableclean_suite.controllers.config_check import SkillConfigError, checked_skill_config
+    from tableclean_suite.controllers.skill import _checked_config
+
+    first, again = _checked_config(MoveSkill, {"speed": 0.2}), _checked_config(MoveSkill, {"speed": 0.2})
+    assert again is first and first == checked_skill_config("MoveSkill", MoveSkill.Config, MoveSkill.DEFAULT_CONFIG,
+                                                            {"speed": 0.2})
+    assert _checked_config(MoveSkill, {"speed": 0.3})[0]["speed"] == 0.3  # other settings: checked anew
+    for _ in range(2):
+        with pytest.raises(SkillConfigError, match="speeed"):
+            _checked_config(MoveSkill, {"speeed": 0.2})

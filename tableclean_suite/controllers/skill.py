@@ -66,6 +66,29 @@ def _geometry_heights(positions: np.ndarray, info: Mapping[str, Any]) -> tuple[l
     return tops, bottoms
 
 
+#: Most validated skill configs :func:`_checked_config` keeps (it forgets them all when full).
+CHECKED_CONFIG_CACHE_SIZE = 256
+_checked_configs: dict = {}
+
+
+def _checked_config(cls: type, config: Mapping[str, Any] | None):
+    """:func:`~.config_check.checked_skill_config` of skill class ``cls`` with the overrides ``config``, kept per
+    (class, its Config, its defaults' and the overrides' items): a skill is made per execution and the check
+    builds its whole Config (~10-40 us); the same settings give the same (read-only) result.  Settings with
+    an unhashable value are checked every time; refused ones raise every time (never kept)."""
+    try:
+        key = (cls, cls.Config, tuple(cls.DEFAULT_CONFIG.items()), None if config is None else tuple(config.items()))
+        checked = _checked_configs.get(key)
+    except TypeError:  # an unhashable value
+        return checked_skill_config(cls.__name__, cls.Config, cls.DEFAULT_CONFIG, config)
+    if checked is None:
+        checked = checked_skill_config(cls.__name__, cls.Config, cls.DEFAULT_CONFIG, config)
+        if len(_checked_configs) >= CHECKED_CONFIG_CACHE_SIZE:
+            _checked_configs.clear()
+        _checked_configs[key] = checked
+    return checked
+
+
 @functools.lru_cache(maxsize=None)
 def _last_member(phases: type[enum.Enum]) -> enum.Enum:
     """The last member of the enum ``phases`` (asked every control step: cached per enum)."""
@@ -147,7 +170,7 @@ class Skill(abc.ABC):
 
     def __init__(self, env: SkillEnv, config: Mapping[str, Any] | None = None):
         # validated once; keys of a subclass's DEFAULT_CONFIG that its Config lacks pass through unchecked
-        merged, self.settings = checked_skill_config(type(self).__name__, self.Config, self.DEFAULT_CONFIG, config)
+        merged, self.settings = _checked_config(type(self), config)
         self.config = MappingProxyType(merged)
         self.env = env
         self.dt = 1.0 / float(env.control_freq)
