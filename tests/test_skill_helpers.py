@@ -1,5 +1,6 @@
 """The skills' per-step helpers written without numpy's dispatch give numpy's results bit for bit:
-``clip_scalar`` as ``np.clip`` (NaN and signed zeros included), ``quat_z_row`` as ``quat_to_matrix``'s last row."""
+``clip_scalar`` as ``np.clip`` (NaN and signed zeros included), ``quat_z_row`` as ``quat_to_matrix``'s last row,
+the objects' height extremes as ``object_geometry``'s."""
 
 from __future__ import annotations
 
@@ -36,6 +37,26 @@ def test_box_lowest_z_is_the_numpy_projection_bit_for_bit():
     rng = np.random.default_rng(5)
     for quat, pos, half in zip(rng.normal(size=(20000, 4)), rng.normal(size=(20000, 3)), rng.random(size=(20000, 3))):
         assert box_lowest_z(pos, quat, half) == float(pos[2] - np.abs(quat_to_matrix(quat)[2]) @ half)
+
+
+def test_object_heights_are_world_lowest_and_highest_z_bit_for_bit():
+    """skill.object_heights (the hover height's tops and bottoms: ndarray.dot on the quaternion's z row) gives
+    object_geometry's world_lowest_z / world_highest_z (@ on the full rotation matrix's row): random point
+    clouds of 1 to 300 points, poses and unnormalised quaternions."""
+    from tableclean_suite.controllers.skill import object_heights
+    from tableclean_suite.environments.object_geometry import ObjectGeometry, world_highest_z, world_lowest_z
+
+    rng = np.random.default_rng(6)
+    for _ in range(300):
+        count = int(rng.integers(1, 4))
+        shapes = tuple(ObjectGeometry(rng.normal(size=(int(rng.integers(1, 300)), 3)) * 0.05) for _ in range(count))
+        info = {"objects_pos": rng.normal(size=(count, 3)), "objects_quat": rng.normal(size=(count, 4)),
+                "objects_geometry": shapes, "objects_half_size": np.ones((count, 3))}
+        tops, bottoms = object_heights(info)
+        for j, shape in enumerate(shapes):
+            rot = quat_to_matrix(info["objects_quat"][j])
+            assert tops[j] == world_highest_z(shape, info["objects_pos"][j], rot)
+            assert bottoms[j] == world_lowest_z(shape, info["objects_pos"][j], rot)
 
 
 def test_a_skills_checked_config_is_kept_per_settings_and_a_refused_one_raises_every_time():

@@ -59,8 +59,9 @@ def _geometry_heights(positions: np.ndarray, info: Mapping[str, Any]) -> tuple[l
     for z, quat, shape in zip(positions[:, 2].tolist(), info["objects_quat"], info["objects_geometry"]):
         # one projection of its points for both: world_z_range's, on the rotation's z row alone (asked
         # every control step the skills travel; the same bits as through the full quat_to_matrix); the
-        # extremes taken of Python floats (exact, as numpy's; its two reductions cost ~2.5 us per object)
-        heights = (shape.points @ quat_z_row(quat)).tolist()
+        # extremes taken of Python floats (exact, as numpy's; its two reductions cost ~2.5 us per object).
+        # ndarray.dot, not @: the same BLAS product (gemv) without matmul's ufunc dispatch (~1 us per object)
+        heights = shape.points.dot(quat_z_row(quat)).tolist()
         bottoms.append(z + min(heights))
         tops.append(z + max(heights))
     return tops, bottoms
