@@ -1,6 +1,6 @@
 """``TableClean.skill_info`` (read every control step by the skills): its grasp flags, quaternions and
 positions, computed in one compiled pass / one gathering, equal the per-body contact test, robosuite's
-``convert_quat`` and MuJoCo's arrays, and the compiled contact queries equal the numpy ones they replaced,
+``convert_quat`` and MuJoCo's arrays (the grip site's rotation matrix too), and the compiled contact queries equal the numpy ones they replaced,
 at every control step of a plan that grasps the sponge, wipes and grasps an object; its constant values
 are shared read-only arrays rebuilt for a new config."""
 
@@ -41,6 +41,8 @@ def test_grasp_flags_and_quaternions_match_the_per_body_reads():
         np.testing.assert_array_equal(info["sponge_quat"], convert_quat(np.array(quats[env.sponge_body_id]), to="xyzw"))
         np.testing.assert_array_equal(info["objects_pos"], env.sim.data.body_xpos[env.object_body_ids])
         np.testing.assert_array_equal(info["sponge_pos"], env.sim.data.body_xpos[env.sponge_body_id])
+        robot = env.robots[0]
+        np.testing.assert_array_equal(info["eef_rot"], env.sim.data.site_xmat[robot.eef_site_id[robot.arms[0]]].reshape(3, 3))
         assert env.sponge_press_force() == press_force_per_contact(env)
         contact, ncon = env.sim.data.contact, env.sim.data.ncon
         pressing = wiping.any_contact(contact.geom1[:ncon], contact.geom2[:ncon], env._sponge_mask, env._table_mask)

@@ -817,7 +817,8 @@ class TableClean(ManipulationEnv):
     def skill_info(self) -> SkillInfo:
         """Grounding for skills and the abstraction (world frame, metres, quaternions xyzw).
 
-        Keys: ``eef_pos`` (3,), ``eef_quat`` (4,), ``gripper_qpos`` (2,), ``object_pos`` (3,),
+        Keys: ``eef_pos`` (3,), ``eef_quat`` (4,), ``eef_rot`` (3, 3) the grip site's rotation matrix (the
+        matrix ``eef_quat`` is converted from), ``gripper_qpos`` (2,), ``object_pos`` (3,),
         ``object_quat`` (4,), ``object_half_size`` (3,) bounding half extents, ``object_rest_z``
         object centre height when resting on the table (these four: object 1), ``objects_pos``
         (M, 3), ``objects_quat`` (M, 4), ``objects_half_size`` (M, 3), ``objects_rest_z`` (M,),
@@ -919,6 +920,10 @@ class TableClean(ManipulationEnv):
         robot = self.robots[0]
         site = robot.eef_site_id[robot.arms[0]]
         info["eef_quat"] = mat2quat(np.array(self._mj_data.site_xmat[site]).reshape(3, 3)).astype(float)
+
+    def _info_eef_rot(self, info: SkillInfo) -> None:
+        robot = self.robots[0]
+        info["eef_rot"] = np.array(self._mj_data.site_xmat[robot.eef_site_id[robot.arms[0]]]).reshape(3, 3)
 
     def _info_objects_quat(self, info: SkillInfo) -> None:
         views = self._data_views()
@@ -1353,6 +1358,7 @@ LAZY_SKILL_INFO = {
     key: fill
     for keys, fill in (
         (("eef_quat",), TableClean._info_eef_quat),
+        (("eef_rot",), TableClean._info_eef_rot),
         (("objects_quat", "object_quat"), TableClean._info_objects_quat),
         (("objects_grasped", "object_grasped", "sponge_grasped"), TableClean._info_grasped),
         (("sponge_pos", "sponge_quat"), TableClean._info_sponge),
