@@ -151,6 +151,9 @@ class GraspConfig(SkillConfig):
     """m/s (> 0), speed of the slower final approach."""
     grasp_retries: int = setting(1, "re-approaches", 0, integer=True)
     """Re-approaches (int >= 0) after a grasp that was not confirmed."""
+    hover_still_speed: float | None = setting(None, "m/s", 0.0, low_open=True, optional=True)
+    """m/s (None or > 0): the hand's horizontal speed at the hover point at most which the descent may start
+    (an arm whose hand swings on past the hover point while descending); None: descend on arrival."""
     grasp_slip_tolerance: float = setting(GRASP_SLIP_TOLERANCE, "m", 0.0, low_open=True)
     """m (> 0) a lifted body may trail the grip site's rise before the grasp counts as slipping."""
 

@@ -241,6 +241,7 @@ class Grasp(Primitive):
     def start(self, skill, info):
         self.retries_left = skill.config["grasp_retries"]
         self.closed_at = None  # (grip-site z, body z) [m] when the closed grasp was confirmed by contact
+        self._hover_seen = None  # (skill step, (2,) grip-site xy [m]) at the last hover check
         self._aim(skill, info)
 
     def _aim(self, skill, info) -> None:
@@ -312,6 +313,28 @@ class Grasp(Primitive):
         # the target with every step the arm makes towards it (measured on UR5e and Kinova3: the lift
         # chased the body out to the arm's reach limit and ran out of budget)
         return Waypoint(skill.hover_point(info, self.lift_xy), GRIPPER_CLOSE, tol)
+
+    def ready(self, skill, info, phase):
+        if phase == "HOVER":
+            return self._hover_settled(skill, info)
+        return True
+
+    def _hover_settled(self, skill, info) -> bool:
+        """Whether the hand, at its hover point, is nearly still: its horizontal speed over the last control
+        step is at most the config's ``hover_still_speed`` (m/s; None: always, no wait).
+
+        Measured on Kinova3 (three_segments_two_objects, seed 0): the hand reached its hover point over the
+        sponge at 0.24 m/s, swung on 1.7 cm past it during the descent, a finger pushed the sponge 3.8 cm and
+        tipped it, and the tilted grasp lost it at the first press (3 of 84 cleans).  The Panda arrives as fast
+        but strays at most 9.5 mm, so its config keeps None.  The wait counts against the skill's step budget."""
+        still = skill.config.get("hover_still_speed")
+        if still is None:
+            return True
+        xy = np.asarray(info["eef_pos"], dtype=float)[:2].copy()
+        seen, self._hover_seen = self._hover_seen, (skill.steps, xy)
+        if seen is None or seen[0] != skill.steps - 1:  # no speed over the last step yet: one more step
+            return False
+        return float(np.linalg.norm(xy - seen[1])) <= still * skill.dt
 
     def slipped(self, skill, info) -> float:
         """How far [m] the body trailed the grip site's rise since the grasp closed (0 when it kept up)."""
