@@ -128,6 +128,12 @@ def test_the_hand_keeps_its_half_width_clear_of_a_lying_object_that_reaches_it()
     assert np.linalg.norm(plain - np.clip(plain, lo, hi)) < hand + CLEARANCE
 
 
+def test_free_spot_refuses_objects_under_the_hand_without_the_hand():
+    center = np.array([0.11, 0.11])
+    with pytest.raises(ValueError, match="under_hand names 1 object.*hand .* is None"):
+        free_spot(center, SEGMENT, BOX, [], CLEARANCE, under_hand=[(center, CEREAL)])
+
+
 def test_footprint_of_reads_the_pose_and_the_override():
     from types import SimpleNamespace
 

@@ -338,6 +338,9 @@ def free_spot(center, half_size, footprint, others: Sequence[tuple[np.ndarray, o
         under_hand: ``(xy, footprint)`` of the lying objects whose top reaches the hand's underside
             at release: the hand's footprint keeps ``clearance`` from them too.
     """
+    if len(under_hand) and hand is None:
+        raise ValueError(f"free_spot: under_hand names {len(under_hand)} object(s) the hand must clear, but hand "
+                         "(the hand's footprint about the spot: a radius [m] or an outline (K, 2)) is None")
     center = np.asarray(center, dtype=float)[:2]
     half = np.asarray(half_size, dtype=float)[:2]
     directions, opposite = _directions()  # (2, D)
