@@ -107,3 +107,7 @@ def test_a_skills_checked_config_is_kept_per_settings_and_a_refused_one_raises_e
     for _ in range(2):
         with pytest.raises(SkillConfigError, match="speeed"):
             _checked_config(MoveSkill, {"speeed": 0.2})
+    # 300 and 300.0 hash alike: a kept 300 must not let a refused 300.0 through
+    assert _checked_config(MoveSkill, {"max_steps": 300})[0]["max_steps"] == 300
+    with pytest.raises(SkillConfigError, match="max_steps must be an int"):
+        _checked_config(MoveSkill, {"max_steps": 300.0})

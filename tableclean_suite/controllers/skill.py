@@ -72,13 +72,19 @@ CHECKED_CONFIG_CACHE_SIZE = 256
 _checked_configs: dict = {}
 
 
+def _typed_items(settings: Mapping[str, Any]) -> tuple:
+    """``(key, type of value, value)`` of every item of ``settings`` (a cache key; raises TypeError if unhashable)."""
+    return tuple((key, type(value), value) for key, value in settings.items())
+
+
 def _checked_config(cls: type, config: Mapping[str, Any] | None):
     """:func:`~.config_check.checked_skill_config` of skill class ``cls`` with the overrides ``config``, kept per
-    (class, its Config, its defaults' and the overrides' items): a skill is made per execution and the check
+    (class, its Config, its defaults' and the overrides' items with their values' types: 1, 1.0 and True hash alike
+    but are different settings): a skill is made per execution and the check
     builds its whole Config (~10-40 us); the same settings give the same (read-only) result.  Settings with
     an unhashable value are checked every time; refused ones raise every time (never kept)."""
     try:
-        key = (cls, cls.Config, tuple(cls.DEFAULT_CONFIG.items()), None if config is None else tuple(config.items()))
+        key = (cls, cls.Config, _typed_items(cls.DEFAULT_CONFIG), None if config is None else _typed_items(config))
         checked = _checked_configs.get(key)
     except TypeError:  # an unhashable value
         return checked_skill_config(cls.__name__, cls.Config, cls.DEFAULT_CONFIG, config)
