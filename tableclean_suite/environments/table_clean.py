@@ -69,12 +69,8 @@ RESET_OBJECT_CLEARANCE = 0.05
 PRESS_PREFILTER_SLACK = 0.002
 
 
-def wxyz_to_xyzw(quats: np.ndarray) -> np.ndarray:
-    """MuJoCo's wxyz quaternions (..., 4) as robosuite's xyzw (a new array; ``convert_quat(q, to="xyzw")``, row by row)."""
-    return np.concatenate((quats[..., 1:], quats[..., :1]), axis=-1)
-
-
-#: Indexes of a wxyz quaternion's entries in xyzw order (:func:`wxyz_to_xyzw` as a gather).
+#: Indexes of a MuJoCo wxyz quaternion's entries in robosuite's xyzw order (``convert_quat(q, to="xyzw")``
+#: as a gather).
 XYZW_FROM_WXYZ = np.array([1, 2, 3, 0], dtype=np.intp)
 
 
@@ -927,7 +923,7 @@ class TableClean(ManipulationEnv):
 
     def _info_objects_quat(self, info: SkillInfo) -> None:
         views = self._data_views()
-        objects_quat = info["objects_quat"] = views.xquat[views.objects_quat]  # wxyz_to_xyzw of their rows
+        objects_quat = info["objects_quat"] = views.xquat[views.objects_quat]  # xyzw rows (XYZW_FROM_WXYZ)
         info["object_quat"] = objects_quat[0].copy()
 
     def _info_grasped(self, info: SkillInfo) -> None:
@@ -939,7 +935,7 @@ class TableClean(ManipulationEnv):
     def _info_sponge(self, info: SkillInfo) -> None:
         views = self._data_views()
         info["sponge_pos"] = views.xpos[views.sponge_pos]
-        info["sponge_quat"] = views.xquat[views.sponge_quat]  # wxyz_to_xyzw of its row
+        info["sponge_quat"] = views.xquat[views.sponge_quat]  # xyzw (XYZW_FROM_WXYZ)
 
     def _info_dirt(self, info: SkillInfo) -> None:
         info["dirt_fraction"] = self.dirt_fraction()
