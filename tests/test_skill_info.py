@@ -97,5 +97,10 @@ def test_constant_values_are_shared_read_only_and_follow_a_new_config():
         env.step(np.concatenate([first["eef_pos"], [np.pi, 0.0, 0.0, -1.0]]))
         with pytest.raises(StaleSkillInfoError):
             first["eef_quat"]
+        # a state written back at the same simulation time is another state too
+        state, info = env.get_scene_state(), env.skill_info()
+        env.set_scene_state(state)
+        with pytest.raises(StaleSkillInfoError):
+            info["objects_quat"]
     finally:
         env.close()

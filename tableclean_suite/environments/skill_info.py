@@ -31,15 +31,16 @@ class SkillInfo(dict):
     """``skill_info()``'s dict: present keys as a dict, the keys of ``lazy`` computed on first read.
 
     Build with :meth:`create`.  ``lazy`` maps each lazy key to its filler (see :data:`Filler`);
-    ``owner`` is passed to the fillers, and ``clock() -> float`` (the simulation time [s]) must
-    still return ``stamp`` when a lazy key is computed.
+    ``owner`` is passed to the fillers, and ``clock()`` (a comparable stamp of the simulation state, e.g.
+    its time [s], or the env's ``(state writes, time)``) must still return ``stamp`` when a lazy key is
+    computed.
     """
 
     __slots__ = ("_owner", "_lazy", "_clock", "_stamp")
 
     @classmethod
     def create(cls, values: Mapping[str, Any], owner: Any, lazy: Mapping[str, Filler],
-               clock: Callable[[], float]) -> "SkillInfo":
+               clock: Callable[[], Any]) -> "SkillInfo":
         """A mapping of ``values`` (copied shallowly) plus ``lazy``'s keys, stamped with ``clock()``."""
         info = cls(values)
         info._owner, info._lazy, info._clock, info._stamp = owner, lazy, clock, clock()
@@ -51,8 +52,8 @@ class SkillInfo(dict):
             raise KeyError(key)
         now = self._clock()
         if now != self._stamp:
-            raise StaleSkillInfoError(f"skill_info key {key!r} read at simulation time {now} s from a skill_info() "
-                                      f"of time {self._stamp} s; call skill_info() again")
+            raise StaleSkillInfoError(f"skill_info key {key!r} read at simulation state {now} from a skill_info() "
+                                      f"of state {self._stamp}; call skill_info() again")
         fill(self._owner, self)
         return dict.__getitem__(self, key)
 

@@ -639,6 +639,7 @@ class TableClean(ManipulationEnv):
 
     def _reset_internal(self):
         """Draws the layout, puts the arm over its segment, places objects and sponge, lays out the dirt."""
+        self._state_epoch += 1
         objects, arm_segment = self._draw_layout()
         self.layout = (objects[0] if self.n_objects == 1 else objects, arm_segment)
         self.robots[0].init_qpos = self._arm_reset_qpos(arm_segment)
@@ -867,9 +868,14 @@ class TableClean(ManipulationEnv):
                 sponge_pos=sponge * 3 + np.arange(3), sponge_quat=sponge * 4 + XYZW_FROM_WXYZ)
         return cached
 
-    def _sim_time(self) -> float:
-        """The simulation time [s] (the stamp of a :meth:`skill_info`)."""
-        return self._mj_data.time
+    #: Counts the writes of the scene's state that need not move the clock (a reset, :meth:`set_scene_state`,
+    #: an object put down by hand): with the simulation time, the stamp of a :meth:`skill_info`.
+    _state_epoch = 0
+
+    def _sim_time(self) -> tuple[int, float]:
+        """``(state writes, simulation time [s])``: the stamp of a :meth:`skill_info` (its lazy keys are read
+        only while both are unchanged)."""
+        return self._state_epoch, self._mj_data.time
 
     def _constant_skill_info(self) -> dict:
         """The :meth:`skill_info` values fixed while the model, the episode's config and geometry stay: read-only
@@ -1015,6 +1021,7 @@ class TableClean(ManipulationEnv):
         if state.qpos.shape != data.qpos.shape:
             raise ValueError(f"scene state comes from a different TableClean model: qpos has shape {state.qpos.shape}, "
                              f"this model's {data.qpos.shape}")
+        self._state_epoch += 1
         data.time = state.time
         data.qpos[:] = state.qpos
         data.qvel[:] = state.qvel
@@ -1159,6 +1166,7 @@ class TableClean(ManipulationEnv):
 
     def _set_object_pose(self, obj: int, xy, yaw: float) -> None:
         """Object ``obj`` at rest on the table at world ``xy`` with ``yaw`` [rad] (qpos set, qvel zeroed)."""
+        self._state_epoch += 1
         z = self.geometry.table_top_z - float(self.object_geometries[obj].lower[2]) + PLACEMENT_CLEARANCE
         quat_wxyz = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
         joint = self.objects[obj].joints[0]
