@@ -29,3 +29,14 @@ def test_the_default_run_is_timed_several_times_and_the_median_kept(monkeypatch)
     assert len(timing["walls"]) == 3
     assert timing["walls"][0] >= 0.05 and timing["walls"][2] >= 0.02
     assert timing["wall_s"] == timing["walls"][2]  # the middle one: 0.0 < 0.02 < 0.05
+
+
+@pytest.mark.parametrize("code, error", [(130, KeyboardInterrupt), (2, RuntimeError)])
+def test_the_default_run_timing_stops_when_a_run_did_not_finish(monkeypatch, code, error):
+    from tableclean_suite.bench import run
+
+    calls = []
+    monkeypatch.setattr(run, "main", lambda argv: calls.append(argv) or code)
+    with pytest.raises(error):
+        speed.time_default_run(repeats=3)
+    assert len(calls) == 1  # the warm-up's failure ends it: no timing of a cut-short run

@@ -161,11 +161,18 @@ def time_default_run(repeats: int = DEFAULT_RUN_REPEATS) -> dict:
     timings = []
     with tempfile.TemporaryDirectory() as out:
         argv = ["--out", out, "--fresh", "--no-progress"]
+        def run_once() -> None:
+            code = run.main(argv)
+            if code == run.EXIT_INTERRUPTED:  # Ctrl-C, which run.main turned into its exit code
+                raise KeyboardInterrupt
+            if code:
+                raise RuntimeError(f"the default run exited with {code}; no timing taken")
+
         with contextlib.redirect_stdout(io.StringIO()):
-            run.main(argv)  # warm-up: numba compilation, matplotlib font cache
+            run_once()  # warm-up: numba compilation, matplotlib font cache
             for _ in range(max(1, int(repeats))):
                 cpu, wall = time.process_time(), time.perf_counter()
-                run.main(argv)
+                run_once()
                 timings.append({"cpu_s": time.process_time() - cpu, "wall_s": time.perf_counter() - wall})
     median = sorted(timings, key=lambda timing: timing["wall_s"])[(len(timings) - 1) // 2]
     return {**median, "walls": [timing["wall_s"] for timing in timings]}
