@@ -96,6 +96,7 @@ def start(cells, config, model, transitions=None) -> Precompiling | None:
     pid = os.fork()
     if pid != 0:
         return Precompiling(pid)
+    signal.signal(signal.SIGINT, signal.SIG_DFL)  # a Ctrl-C ends it here, never as a run's KeyboardInterrupt
     status = FAILED
     try:  # the forked process: compile, write nothing but numba's cache, never return into the run
         quiet = os.open(os.devnull, os.O_WRONLY)
