@@ -43,7 +43,7 @@ from tableclean_suite.controllers.clean import Wipe
 from tableclean_suite.controllers.config_check import checked_skill_config
 from tableclean_suite.controllers.configs import CleanConfig, ComposedConfig
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
-from tableclean_suite.controllers.place import place_spot
+from tableclean_suite.controllers.place import gripper_of, place_spot
 from tableclean_suite.controllers.primitives import SPONGE, Grasp, PrimitiveSkill, Reach, Release, object_body
 from tableclean_suite.controllers.skill import SkillFailure
 from tableclean_suite.environments.placement import footprint_of, free_spot as placement_free_spot, other_segments
@@ -129,7 +129,7 @@ def free_spot(which: Segment | None = None) -> Spot:
         k = where(ctx)
         lying = [j for j in ctx.state.objects_on(k) if j != ctx.held]
         if ctx.held is not None:  # as the place skill chooses it
-            return place_spot(info, k, ctx.held, lying, skill.config["place_clearance"])
+            return place_spot(info, k, ctx.held, lying, skill.config["place_clearance"], gripper_of(skill.env))
         others = [(np.asarray(info["objects_pos"][j], dtype=float), footprint_of(info, j)) for j in lying]
         return placement_free_spot(info["segment_centers"][k], info["segment_half_sizes"][k], 0.0, others,
                                    info["object_clearance"],

@@ -39,12 +39,14 @@ from tableclean_suite.controllers.configs import (  # noqa: F401  (GRASP_SLIP_TO
 from tableclean_suite.controllers.geometry import gripper_yaw, quat_to_matrix, wrap_angle
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.skill import Skill, SkillFailure, Waypoint, object_heights
+from tableclean_suite.environments.gripper_geometry import GripperGeometry, wrist_half_width
 from tableclean_suite.environments.object_geometry import (
     ObjectGeometry,
     grasp_yaw,
     world_lowest_z,
     world_z_range,
 )
+from tableclean_suite.environments.placement import footprint_of, nearest_point
 
 Info = Mapping[str, Any]
 
@@ -52,6 +54,32 @@ Info = Mapping[str, Any]
 #: neighbour the hand would reach is turned away from it (at 45 degrees the open Panda fingers, about
 #: 4.5 cm out, pass a neighbour 7 cm away by about 5 cm, more than a 2.5 cm footprint and a finger).
 FINGER_LINE_CLEARANCE = 0.25 * np.pi
+
+#: m a neighbour's top is counted higher when asking how wide the hand and wrist are at its height
+#: (:func:`wrist_reach`): it may stand tilted a little, and the arm's links sag and lag a few mm.
+WRIST_HEIGHT_MARGIN = 0.01
+#: m by which the hand and wrist must reach wider than the hand alone (``gripper_hand_half_width``) for a
+#: neighbour to count as reaching the wrist (:func:`wrist_reach`): below it the hand's own rules hold unchanged.
+WRIST_WIDTH_TOLERANCE = 1e-4
+
+
+def gripper_of(env) -> GripperGeometry | None:
+    """The env's measured :class:`~tableclean_suite.environments.gripper_geometry.GripperGeometry` (through
+    wrappers), or None for an env that has none (then no neighbour counts as reaching the wrist)."""
+    geometry = getattr(env, "gripper_geometry", None)
+    return geometry if isinstance(geometry, GripperGeometry) else None
+
+
+def wrist_reach(info: Mapping[str, Any], gripper: GripperGeometry | None, top_z: float, grip_z: float) -> float | None:
+    """How far [m] across the fingers' closing axis the hand and the links rigidly fixed to it (the wrist)
+    reach at or below a neighbour's top ``top_z`` [m, world] when the grip site is at ``grip_z`` [m, world]
+    (:data:`WRIST_HEIGHT_MARGIN` higher), when that is more than the hand's own half width
+    (``gripper_hand_half_width``): the neighbour then reaches the wrist.  None otherwise (or without ``gripper``):
+    the hand's rules stand as they were."""
+    if gripper is None:
+        return None
+    width = wrist_half_width(gripper, float(top_z) - float(grip_z) + WRIST_HEIGHT_MARGIN)
+    return width if width > float(info["gripper_hand_half_width"]) + WRIST_WIDTH_TOLERANCE else None
 
 
 @dataclass(frozen=True)
@@ -395,15 +423,26 @@ class Release(Primitive):
     def _turn_hand_away(self, skill, info) -> None:
         """Turn the hand's long (finger) axis across the direction of the nearest lying object whose top the
         hand would reach at release (within ``gripper_hand_reach`` of the spot): the hand's narrow side then
-        faces it.  No such object (the paper's scenes): the yaw stays."""
+        faces it.  No such object (the paper's scenes): the yaw stays.
+
+        The direction is to the object's centre; to the nearest point of its footprint
+        (:func:`~tableclean_suite.environments.placement.nearest_point`) when its top reaches the links above
+        the hand (:func:`wrist_reach`, the env's :func:`gripper_of`): then the whole (convex) footprint lies
+        beyond the hand's and wrist's half width, as :func:`~.place.place_spot` counted it.  (Facing a long
+        neighbour's centre, the hand's corner came 4.3 cm from its near end.)"""
         if self.body.geometry is None:
             return
-        hand_bottom = (float(self.rest_z(skill, info)) + skill.config["place_clearance"] + self.hold_offset_z
-                       + float(info["gripper_palm_height"]))
+        grip_z = float(self.rest_z(skill, info)) + skill.config["place_clearance"] + self.hold_offset_z
+        hand_bottom = grip_z + float(info["gripper_palm_height"])
         j = nearest_neighbour(info, self.xy, hand_bottom)
         if j is None:
             return
         toward = np.asarray(info["objects_pos"][j], dtype=float)[:2] - self.xy
+        tops, _ = object_heights(info)
+        if wrist_reach(info, gripper_of(getattr(skill, "env", None)), tops[j], grip_z) is not None:
+            near = nearest_point(info["objects_pos"][j], footprint_of(info, j), self.xy) - self.xy
+            if float(np.hypot(near[0], near[1])) > 0.0:
+                toward = near
         across = float(np.arctan2(toward[1], toward[0])) + 0.5 * np.pi
         skill.yaw = line_yaw(across, skill.config["nominal_yaw"])  # not the current one's: no wind-up
 

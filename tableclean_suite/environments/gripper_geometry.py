@@ -6,7 +6,13 @@ Read from the compiled scene (a copy of its kinematics), never from per-gripper 
   ends of the finger joints' ranges: what an object's narrow side must pass between;
 - ``palm_height`` [m]: how far above the grip site (along its approach axis, pointing down) the
   lowest collision point of the gripper's non-finger geoms (the hand) lies: an object's top must
-  stay below it while the fingers close.
+  stay below it while the fingers close;
+- ``wrist_heights`` / ``wrist_half_widths`` [m]: the hand *and the arm's last link* (every body
+  rigidly fixed to the grip site: no joint between them, e.g. the Panda's hand, flange and link 7),
+  as a profile: how far across the fingers' closing axis their collision points reach at or below
+  each height above the grip site (:func:`wrist_half_width`).  Only a neighbour taller than the hand
+  meets the link above it (measured: the Panda's link 7, 9.7 cm above the grip site, reaches 4.4 cm
+  across, the hand 3.2 cm), so the hand's own measures above stay the hand's.
 """
 
 from __future__ import annotations
@@ -36,6 +42,32 @@ class GripperGeometry:
     palm_height: float
     hand_reach: float
     hand_half_width: float
+    #: (K,) heights [m] above the grip site (along its approach axis), ascending, of the rigid hand and wrist's
+    #: collision points; with :attr:`wrist_half_widths` (K,) [m]: the most any point at or below that height
+    #: reaches across the fingers' closing axis (see :func:`wrist_half_width`).
+    wrist_heights: tuple = ()
+    wrist_half_widths: tuple = ()
+
+
+def wrist_half_width(geometry: GripperGeometry, height: float) -> float:
+    """How far [m] across the fingers' closing axis (the grip site's y, either side) the hand and every link rigidly
+    fixed to it reach at or below ``height`` [m] above the grip site: what a neighbour whose top is ``height``
+    above the grip site can meet beside the hand.  0 when no collision point is that low."""
+    k = int(np.searchsorted(np.asarray(geometry.wrist_heights, dtype=float), float(height), side="right"))
+    return float(geometry.wrist_half_widths[k - 1]) if k > 0 else 0.0
+
+
+def rigid_bodies(model: mujoco.MjModel, body: int) -> list[int]:
+    """Ids of the bodies rigidly fixed to ``body``: those of its subtree root's rigid group (walked up to the first
+    body with a joint, or the world's child), with no joint between them and it."""
+
+    def root(b: int) -> int:
+        while model.body_jntnum[b] == 0 and model.body_parentid[b] != 0:
+            b = int(model.body_parentid[b])
+        return b
+
+    mine = root(int(body))
+    return [b for b in range(1, model.nbody) if root(b) == mine]
 
 
 def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site: str) -> GripperGeometry:
@@ -81,4 +113,20 @@ def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site:
         reaches.append(float(np.max(np.linalg.norm(sideways, axis=1))))
         widths.append(float(np.max(np.abs(relative @ across))))
     palm = min(heights)
-    return GripperGeometry(open_width=widest, palm_height=palm, hand_reach=max(reaches), hand_half_width=max(widths))
+    # the hand and the links rigidly fixed to it (the wrist), every collision geom, in the grip site's frame
+    rigid = set(rigid_bodies(model, int(model.site_bodyid[site])))
+    wrist = [g for g in range(model.ngeom) if int(model.geom_bodyid[g]) in rigid
+             and (model.geom_contype[g] or model.geom_conaffinity[g])]
+    levels, across_all = [], []
+    for geom in wrist:
+        body = int(model.geom_bodyid[geom])
+        world = data.xpos[body] + collision_points(model, data, body, [geom]) @ data.xmat[body].reshape(3, 3).T
+        relative = world - data.site_xpos[site]
+        levels.append(-relative @ approach)
+        across_all.append(np.abs(relative @ across))
+    order = np.argsort(np.concatenate(levels), kind="stable") if levels else np.zeros(0, dtype=int)
+    wrist_heights = np.concatenate(levels)[order] if levels else np.zeros(0)
+    wrist_widths = np.maximum.accumulate(np.concatenate(across_all)[order]) if levels else np.zeros(0)
+    return GripperGeometry(open_width=widest, palm_height=palm, hand_reach=max(reaches), hand_half_width=max(widths),
+                           wrist_heights=tuple(float(h) for h in wrist_heights),
+                           wrist_half_widths=tuple(float(w) for w in wrist_widths))

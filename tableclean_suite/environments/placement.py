@@ -307,6 +307,39 @@ def quat_matrix(quat_xyzw) -> np.ndarray:
                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
+def grown(footprint, margin: float):
+    """``footprint`` (a radius [m] or an outline (K, 2) [m], as in :func:`free_spot`) grown by ``margin`` [m] every
+    way: the radius plus ``margin``, or the outline's convex hull with a :func:`disc_outline` of ``margin`` about each
+    corner (it covers every point within ``margin`` of the outline).  ``margin <= 0``: ``footprint`` itself."""
+    if margin <= 0.0:
+        return footprint
+    if np.ndim(footprint) == 0:
+        return float(footprint) + float(margin)
+    corners = np.asarray(footprint, dtype=float)[:, None, :] + disc_outline(margin)[None, :, :]
+    return outline_of(corners.reshape(-1, 2))
+
+
+def nearest_point(xy, footprint, point) -> np.ndarray:
+    """(2,) the point [m, world xy] of the footprint (a radius or an outline (K, 2) about the object's origin at
+    world ``xy``; first two entries used) nearest to ``point`` (2,) [m] outside it (the outline's edges, in the
+    order :func:`outline_of` gives them; a point inside gets the nearest edge point too)."""
+    origin = np.asarray(xy, dtype=float)[:2]
+    p = np.asarray(point, dtype=float)[:2]
+    if np.ndim(footprint) == 0:
+        away = p - origin
+        norm = float(np.hypot(away[0], away[1]))
+        return origin.copy() if norm == 0.0 else origin + float(footprint) * away / norm
+    corners = origin + np.asarray(footprint, dtype=float)
+    if len(corners) == 1:
+        return corners[0].copy()
+    starts, ends = corners, np.roll(corners, -1, axis=0)
+    edges = ends - starts
+    lengths = np.maximum(np.einsum("ij,ij->i", edges, edges), FIT_TOLERANCE ** 2)
+    t = np.clip(np.einsum("ij,ij->i", p - starts, edges) / lengths, 0.0, 1.0)
+    closest = starts + t[:, None] * edges
+    return closest[int(np.argmin(np.linalg.norm(closest - p, axis=1)))]
+
+
 def footprint_of(info, obj: int):
     """Object ``obj``'s footprint as it stands now, from the env's ``skill_info`` ``info``: its radius [m] (a disc,
     any yaw) when its type overrides ``footprint_radius``, else its outline (K, 2) in world axes about its
