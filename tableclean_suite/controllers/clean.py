@@ -94,7 +94,8 @@ def spare_clear_of(bounds: np.ndarray, area: np.ndarray, hand_half: np.ndarray, 
     grip-site coordinates, with the drift correction's spare), each side's spare cut where the hand's box (half
     extents ``hand_half`` (2,) [m] about the grip site) would come within ``margin`` [m] of one of ``obstacles``
     (K, 4) world boxes ``[x_min, y_min, x_max, y_max]`` (:func:`hand_obstacles`) beyond that side; a side never
-    comes inside ``area``.
+    comes inside ``area``.  An obstacle counts for a side when its box, grown by the hand's and ``margin``,
+    overlaps ``area`` across that side's axis (the lead moves the grip site along the strokes, never across).
 
     Measured: a side left unshrunk because the hand cleared a 15 cm cereal standing 8 cm beyond the
     shared edge by exactly :data:`HAND_CLEARANCE` at the strokes' end, the 2 cm lead over the lagging
@@ -108,7 +109,8 @@ def spare_clear_of(bounds: np.ndarray, area: np.ndarray, hand_half: np.ndarray, 
     grown_high = boxes[:, 2:] + np.asarray(hand_half, dtype=float) + margin
     for axis in (0, 1):
         other = 1 - axis
-        beside = (grown_low[:, other] < out[1, other]) & (grown_high[:, other] > out[0, other])
+        # the lead moves the grip site along the strokes only: across them it stays inside the area
+        beside = (grown_low[:, other] < area[1, other]) & (grown_high[:, other] > area[0, other])
         for box in np.flatnonzero(beside):
             if grown_high[box, axis] > area[1, axis] and grown_low[box, axis] < out[1, axis]:
                 out[1, axis] = max(float(area[1, axis]), float(grown_low[box, axis]))

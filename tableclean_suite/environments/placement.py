@@ -20,7 +20,8 @@ turned by their yaw.  Nothing here knows an object type.
   the centre if its footprint keeps ``object_clearance`` from every object lying there; else, of
   the spots of a :data:`LATTICE_STEP` lattice over the segment whose footprint keeps that
   clearance and stays inside the segment, the one farthest from the other segments
-  (``away_from``; ties: nearest the centre); if none fits, the spot farthest from the objects.
+  (``away_from``; ties: nearest the centre); if none fits, the spot farthest from the objects (of the
+  lattice and the spots at the segment's extremes).
   Away from the other segments, because the hand wiping a neighbouring segment reaches ~10 cm
   beyond the sponge along its long axis: an object standing near the shared edge would shrink
   that segment's wipe area (:mod:`tableclean_suite.controllers.wipe_pattern`) until its edge row
@@ -406,7 +407,11 @@ def free_spot(center, half_size, footprint, others: Sequence[tuple[np.ndarray, o
     gap = gaps(lattice)
     fits = gap >= clearance
     if not fits.any():
-        return center + lattice[int(np.argmax(gap))]
+        # none keeps the clearance: the farthest of the lattice and the segment's extreme spots (its sides lie
+        # up to a lattice step beyond the lattice, and a corner is often the farthest from a centred neighbour)
+        axes = [np.unique(np.concatenate([a, [lo, hi]])) if lo <= hi else a for a, lo, hi in zip(axes, low, high)]
+        lattice = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 2)
+        return center + lattice[int(np.argmax(gaps(lattice)))]
     spots = lattice[fits]
     far = np.round(_distance_to_rectangles(center + spots, away_from) / DISTANCE_RESOLUTION)
     order = np.lexsort((np.linalg.norm(spots, axis=1), -far))
