@@ -203,3 +203,33 @@ def test_every_interval_of_the_harness_tables_holds_its_point(tmp_path):
             assert ((low[defined] <= value[defined]) & (value[defined] <= high[defined])).all(), (name, column)
             checked += int(defined.sum())
     assert checked > 200  # the check is not vacuous
+
+
+@pytest.mark.parametrize("kind", ["integers", "integers_inf", "fractions", "fractions_inf", "nan", "signed_zero",
+                                  "ties"])
+def test_resampled_iqms_are_the_sorted_rows_bits(kind):
+    rng = np.random.default_rng(3)
+    values = {"integers": rng.integers(1, 4000, 200).astype(float),
+              "integers_inf": np.where(rng.random(200) < 0.2, np.inf, rng.integers(1, 4000, 200)),
+              "fractions": rng.random(200),
+              "fractions_inf": np.where(rng.random(200) < 0.3, np.inf, rng.random(200)),
+              "nan": np.where(rng.random(200) < 0.1, np.nan, rng.random(200)),
+              "signed_zero": np.where(rng.random(200) < 0.3, -0.0, rng.random(200)),
+              "ties": rng.choice([0.0, 0.25, 1 / 3, 0.5, 1.0], 200)}[kind]
+    index = rng.integers(0, len(values), (300, len(values)))
+    expected = statistics._iqm_axis(values[index], axis=-1)
+    assert statistics.resampled_iqms(values, index).tobytes() == expected.tobytes()
+    odd = index[:, :77]  # resamples of another size than the values
+    assert statistics.resampled_iqms(values, odd).tobytes() == statistics._iqm_axis(values[odd], axis=-1).tobytes()
+
+
+def test_weighted_group_sums_told_exactness_give_the_checked_bits():
+    rng = np.random.default_rng(4)
+    weights = statistics.uniform_multinomial(rng, 30, 30, 40).astype(float)
+    for values in (rng.integers(0, 10, (30, 50)).astype(float), rng.normal(size=(30, 50)), rng.random(30)):
+        exact = statistics._exact_integer_product(weights, values)
+        checked = statistics.weighted_group_sums(weights, values)
+        told = statistics.weighted_group_sums(weights, values, exact)
+        ordered = statistics.weighted_group_sums(weights, values, False)
+        assert told.tobytes() == checked.tobytes()
+        assert ordered.tobytes() == checked.tobytes() or not exact  # exact sums: either way, the same bits

@@ -36,10 +36,10 @@ FAILED = 1
 
 def statistics_kernels():
     """The compiled (numba, disk-cached) kernels a cell's statistics and comparisons use."""
-    from tableclean_suite import asymptotes, curves
+    from tableclean_suite import asymptotes, curves, metrics
     from tableclean_suite.bench import statistics
 
-    return (asymptotes._episode_statistics, asymptotes._retire, curves._grouped_curves,
+    return (asymptotes._episode_statistics, asymptotes._retire, curves._grouped_curves, metrics._batch_curves,
             statistics._uniform_multinomial, statistics._weighted_row_range, statistics._improvement_replicates)
 
 

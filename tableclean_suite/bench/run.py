@@ -235,14 +235,24 @@ def _manifest(config: RunConfig, model, transitions_sha256, grid_run, stride: in
 
 def run(args) -> int:
     """:func:`train_and_publish` holding ``--out``'s lock (:func:`.outputs.output_lock`), so a second
-    run into the same folder exits 2 instead of mixing its files with this one's."""
+    run into the same folder exits 2 instead of mixing its files with this one's.
+
+    OpenBLAS runs on one thread meanwhile (:func:`~tableclean_suite.executors.blas.single_blas_thread`):
+    the statistics' products are small (100 x 100 by 100 x T), and after each one OpenBLAS's idle
+    threads spin, on the core the training thread (:class:`.experiments.TrainingAhead`) needs
+    (~1 s of a default run's ~8 on two cores).  The numbers do not depend on it: the bootstrap's
+    products are exact integer sums, the same bits in any order
+    (:func:`.statistics.weighted_group_sums`), as a cell trained in an executor's 1-thread worker."""
+    import numpy  # noqa: F401  (loads the OpenBLAS whose threads single_blas_thread sets)
+
     from tableclean_suite.bench import outputs
+    from tableclean_suite.executors.blas import single_blas_thread
 
     problem = outputs.check_publishable(args.config.out, folders=("cells",))
     if problem:
         print(f"{args.parser.prog}: error: --out {problem}", file=sys.stderr)
         return EXIT_USAGE
-    with outputs.output_lock(args.config.out):
+    with outputs.output_lock(args.config.out), single_blas_thread():
         return train_and_publish(args)
 
 

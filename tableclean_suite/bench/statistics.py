@@ -277,9 +277,38 @@ def iqm_interval(values, confidence: float = DEFAULT_CONFIDENCE, samples: int = 
     if len(values) < 2 or not np.isfinite(point):
         return point, float("nan"), float("nan")
     rng = rng if rng is not None else np.random.default_rng(0)
-    resamples = values[rng.integers(0, len(values), (samples, len(values)))]
-    low, high = percentile_interval(_iqm_axis(resamples, axis=-1), confidence, point)
+    index = rng.integers(0, len(values), (samples, len(values)))
+    low, high = percentile_interval(resampled_iqms(values, index), confidence, point)
     return point, low, high
+
+
+def resampled_iqms(values: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """``_iqm_axis(values[index], axis=-1)``: the IQM of each resample (row of ``index``), the same bits.
+
+    Each resample is sorted by counting how often it draws each value (the values sorted once)
+    instead of sorting every row: the sorted row is the same array whatever the method, unless
+    the values hold a NaN or a -0.0 (then the rows are sorted as :func:`_iqm_axis` does).  When
+    every finite value is an integer and the middle's sum stays below 2**53, that sum is exact
+    in any order, so the middle is read off the sorted rows without :func:`trim_mean`'s partition.
+    """
+    values = np.asarray(values, dtype=float)
+    samples, count = index.shape
+    if count == 0 or np.isnan(values).any() or np.signbit(values[values == 0]).any():
+        return _iqm_axis(values[index], axis=-1)
+    order = np.argsort(values, kind="stable")
+    rank = np.empty(len(values), dtype=np.int64)
+    rank[order] = np.arange(len(values))
+    draws = np.bincount((rank[index] + (np.arange(samples) * len(values))[:, None]).ravel(),
+                        minlength=samples * len(values))
+    ordered = np.repeat(np.tile(values[order], samples), draws).reshape(samples, count)
+    finite = values[np.isfinite(values)]
+    if np.array_equal(finite, np.trunc(finite)) and (len(finite) == 0 or
+                                                     np.abs(finite).max() * count < EXACT_INTEGER_LIMIT):
+        low = int(IQM_TRIM * count)
+        result = np.mean(ordered[:, low:count - low], axis=-1)
+    else:
+        result = trim_mean(ordered, IQM_TRIM, axis=-1)
+    return np.where(np.isfinite(result), result, np.nan)
 
 
 def _beaten_and_tied(x: np.ndarray, y_sorted: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray]:
@@ -405,7 +434,7 @@ def _exact_integer_product(weights: np.ndarray, values: np.ndarray) -> bool:
                 and np.array_equal(values, np.trunc(values)) and np.array_equal(weights, np.trunc(weights)))
 
 
-def weighted_group_sums(weights: np.ndarray, values: np.ndarray) -> np.ndarray:
+def weighted_group_sums(weights: np.ndarray, values: np.ndarray, exact: bool | None = None) -> np.ndarray:
     """``weights @ values`` summed in a fixed order (groups ascending, per output element).
 
     A BLAS matrix product's last bits depend on its thread count (OpenBLAS splits the sum), so a
@@ -420,12 +449,15 @@ def weighted_group_sums(weights: np.ndarray, values: np.ndarray) -> np.ndarray:
         weights: ``(B, G)`` replicate counts of each group.
         values: ``(G,)`` or ``(G, T)`` per-group sums.
 
+        exact: :func:`_exact_integer_product` of these weights and values when the caller knows it
+            (e.g. checked once for all the batches of one cell's replicates); None: checked here.
+
     Returns:
         ``(B,)`` or ``(B, T)`` float64.
     """
     weights = np.ascontiguousarray(weights, dtype=np.float64)
     values = np.asarray(values, dtype=np.float64)
-    if _exact_integer_product(weights, values):
+    if _exact_integer_product(weights, values) if exact is None else exact:
         return weights @ values + 0.0
     if values.ndim == 1:
         return _weighted_rows(weights, np.ascontiguousarray(values[:, None]))[:, 0]
@@ -465,8 +497,13 @@ class CellStatistics:
                 np.interp(iterations, grid, high, left=np.nan, right=np.nan))
 
 
+#: The per-group sums a replicate is rebuilt from (:class:`GroupedCurveSums` attributes).
+REPLICATE_SUMS = ("runs_per_group", "success", "average_sum", "finished_runs")
+
+
 def replicate_scalars(grouped: GroupedCurveSums, asymptote_sums: dict, weights: np.ndarray, threshold: float,
-                      plateau_fraction: float, support_fraction: float, keep: np.ndarray, peak: int | None = None):
+                      plateau_fraction: float, support_fraction: float, keep: np.ndarray, peak: int | None = None,
+                      exact: dict | None = None):
     """Table 3 scalars and band curves of bootstrap replicates.
 
     Args:
@@ -475,14 +512,19 @@ def replicate_scalars(grouped: GroupedCurveSums, asymptote_sums: dict, weights: 
         weights: ``(B, G)`` multinomial counts of each group in each replicate.
         keep: iteration indices of the band curves.
         peak: index of the point curve's maximum average reward (``metrics.batch_scalars``).
+        exact: ``{name: bool}`` :func:`_exact_integer_product` of weights like these (the same row
+            sums) and each of :data:`REPLICATE_SUMS` and ``asymptote_sums`` (a name missing:
+            checked here), so that the batches of one cell check each sum once.
 
     Returns:
         :func:`tableclean_suite.metrics.batch_scalars` of the replicates.
     """
-    runs = weighted_group_sums(weights, grouped.runs_per_group)
-    sums = {name: weighted_group_sums(weights, getattr(grouped, name))
+    exact = exact or {}
+    runs = weighted_group_sums(weights, grouped.runs_per_group, exact.get("runs_per_group"))
+    sums = {name: weighted_group_sums(weights, getattr(grouped, name), exact.get(name))
             for name in ("success", "average_sum", "finished_runs")}
-    tops = {name: weighted_group_sums(weights, values) / runs for name, values in asymptote_sums.items()}
+    tops = {name: weighted_group_sums(weights, values, exact.get(f"asymptote {name}")) / runs
+            for name, values in asymptote_sums.items()}
 
     def episode_sums(index):
         return np.einsum("bg,gb->b", weights, grouped.episodes[:, index])
@@ -521,10 +563,15 @@ def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Gen
     if groups >= MIN_GROUPS:
         peak = metrics.peak_index(grouped.totals().curves(support_fraction)["average_reward"])
         weights = uniform_multinomial(rng, groups, groups, samples).astype(float)
+        # Every batch's weights are multinomial counts of ``groups`` draws (integers, each row summing
+        # to ``groups``), so whether a sum is exact in any order is the same for all batches: check once.
+        exact = {name: _exact_integer_product(weights, getattr(grouped, name)) for name in REPLICATE_SUMS}
+        exact.update({f"asymptote {name}": _exact_integer_product(weights, values)
+                      for name, values in asymptote_sums.items()})
         for lo in range(0, samples, REPLICATE_BATCH):
             batch = slice(lo, lo + REPLICATE_BATCH)
             values, bands = replicate_scalars(grouped, asymptote_sums, weights[batch], threshold, plateau_fraction,
-                                              support_fraction, kept, peak)
+                                              support_fraction, kept, peak, exact)
             for name in SUMMARY_SCALARS:
                 scalars[name][batch] = values[name]
             for name in BAND_CURVES:
