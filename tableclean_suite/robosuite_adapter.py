@@ -118,6 +118,21 @@ def mujoco_function_addresses() -> tuple[int, ...]:
     return tuple(ctypes.cast(getattr(lib, name), ctypes.c_void_p).value for name in NATIVE_FUNCTIONS)
 
 
+@functools.lru_cache(maxsize=None)
+def mujoco_contact_force_address() -> int | None:
+    """Address of ``mj_contactForce`` in the MuJoCo library the Python bindings use (for the env's compiled
+    press-force sum), or None when that library is not found or the installed versions are not the checked ones
+    (then the env calls ``mujoco.mj_contactForce`` through the bindings)."""
+    if unchecked_versions():
+        return None
+    import mujoco
+
+    paths = sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*")))
+    if not paths:
+        return None
+    return ctypes.cast(ctypes.CDLL(paths[0]).mj_contactForce, ctypes.c_void_p).value
+
+
 # -- the robot's index lists -----------------------------------------------------------------
 def actuator_indexes(robot, part: str):
     """Actuator indexes (ints) of ``robot``'s part ``part`` (an arm or a gripper name)."""

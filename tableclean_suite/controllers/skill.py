@@ -174,6 +174,8 @@ class Skill(abc.ABC):
     Phase: ClassVar[type[enum.Enum]]
     Config: ClassVar[type[SkillConfig]] = SkillConfig
     DEFAULT_CONFIG: ClassVar[dict[str, Any]] = BASE_CONFIG
+    #: (phase, its name) of the last control step (:meth:`step` counts the steps per name)
+    _phase_name: tuple = (None, "")
 
     def __init__(self, env: SkillEnv, config: Mapping[str, Any] | None = None):
         # validated once; keys of a subclass's DEFAULT_CONFIG that its Config lacks pass through unchecked
@@ -269,16 +271,18 @@ class Skill(abc.ABC):
         Returns ``None`` once the skill is done (finished, failed or out of budget).  Afterwards
         :attr:`fixed_waypoint` is the step's waypoint when it is ``fixed`` (else ``None``).
         """
+        # (the per-step path runs after the physics has left the CPU caches cold: few calls and lookups here)
         self.fixed_waypoint = None
-        if self.done:
+        final = self.final_phase
+        if self.failure is not None or self.phase == final:  # self.done
             return None
         if self.steps >= self.max_steps:
             self.failure = f"step budget of {self.max_steps} exhausted in phase {self.phase.name}"
             return None
         info = self.env.skill_info()
         fingers = np.array(info["gripper_qpos"], dtype=float)
-        # the largest change of Python floats (exact, as numpy's abs and max; their dispatch costs ~2 us)
-        finger_motion = max(map(abs, (fingers - self._last_fingers).tolist()))
+        # the largest change of Python floats (exact, as numpy's subtract, abs and max; their dispatch costs ~3 us)
+        finger_motion = max([abs(a - b) for a, b in zip(fingers.tolist(), self._last_fingers.tolist())])
         self._last_fingers = fingers
         if self._finger_history.maxlen:
             self._finger_history.append(fingers)
@@ -288,7 +292,7 @@ class Skill(abc.ABC):
             if self._phase_complete(target, info, finger_motion) and self._yaw_reached(info):
                 self.phase = self.next_phase(info)
                 self._phase_steps = 0
-                if self.done:
+                if self.failure is not None or self.phase == final:  # self.done
                     return None
                 target = self.waypoint(info)
         except SkillFailure as failure:
@@ -297,8 +301,13 @@ class Skill(abc.ABC):
         action = self._advance_setpoint(target)
         self.steps += 1
         self._phase_steps += 1
-        name = self.phase.name
-        self.phase_steps[name] = self.phase_steps.get(name, 0) + 1
+        phase = self.phase
+        cached = self._phase_name
+        if cached[0] is not phase:  # phase.name is a descriptor call; the phase changes a few times per skill
+            cached = self._phase_name = (phase, phase.name)
+        name = cached[1]
+        counts = self.phase_steps
+        counts[name] = counts.get(name, 0) + 1
         if target.fixed:
             self.fixed_waypoint = target
         return action
@@ -336,10 +345,12 @@ class Skill(abc.ABC):
     def _phase_complete(self, target: Waypoint, info: Mapping[str, Any], finger_motion: float) -> bool:
         """Whether the phase of ``target`` is done: position reached, at least ``min_steps`` in the phase,
         fingers settled and the skill's :meth:`phase_ready` (asked last: it may read contacts)."""
+        if self._phase_steps < target.min_steps:
+            return False
         error = np.asarray(info["eef_pos"], dtype=float) - target.pos
         if target.xy_only:
             error = error[:2]
-        if not (self._phase_steps >= target.min_steps and math.sqrt(error.dot(error)) <= target.tolerance):
+        if not math.sqrt(error.dot(error)) <= target.tolerance:
             return False
         return self.gripper_settled(finger_motion) and self.phase_ready(info)
 
@@ -391,12 +402,25 @@ class Skill(abc.ABC):
         The compiled :func:`~tableclean_suite.controllers.setpoint.advance_command`, which the
         compiled phase loop also runs: both give bit-identical commands.
         """
-        speed = self.config["speed"] if target.speed is None else target.speed
+        speed = target.speed
+        max_move = self._max_move if speed is None else float(speed * self.dt)
+        pos = target.pos
+        if type(pos) is not np.ndarray or pos.dtype != np.float64 or not pos.flags.c_contiguous:
+            pos = np.ascontiguousarray(pos, dtype=float)
         action = np.empty(ACTION_DIM)
-        self._yaw_setpoint = advance_command(
-            self._setpoint, float(self._yaw_setpoint), float(self.yaw), np.ascontiguousarray(target.pos, dtype=float),
-            float(speed * self.dt), float(self.config["yaw_rate"] * self.dt), float(target.gripper), action)
+        self._yaw_setpoint = advance_command(self._setpoint, float(self._yaw_setpoint), float(self.yaw), pos,
+                                             max_move, self._max_turn, float(target.gripper), action)
         return action
+
+    @functools.cached_property
+    def _max_move(self) -> float:
+        """m the setpoint moves per control step at the config's ``speed`` (the config is read-only, so kept)."""
+        return float(self.config["speed"] * self.dt)
+
+    @functools.cached_property
+    def _max_turn(self) -> float:
+        """rad the yaw setpoint turns per control step (``yaw_rate``; kept)."""
+        return float(self.config["yaw_rate"] * self.dt)
 
     # -- helpers for subclasses ----------------------------------------------------------
     def hover_point(self, info: Mapping[str, Any], xy: np.ndarray) -> np.ndarray:
@@ -415,13 +439,18 @@ class Skill(abc.ABC):
         config = self.config
         table = float(info["table_top_z"])
         z = table + config["hover_height"]
-        if "objects_pos" not in info:
+        # lookups by [], not `in` (asked every control step the skills travel: SkillInfo's `in` is Python code)
+        try:
+            positions = info["objects_pos"]
+        except KeyError:
             return z
-        # Python scalars from here on (asked every control step the skills travel; same values as numpy's)
-        if "objects_geometry" in info:
-            tops, bottoms = _geometry_heights(np.asarray(info["objects_pos"], dtype=float), info)
-        else:
+        # Python scalars from here on (same values as numpy's)
+        try:
+            info["objects_geometry"]
+        except KeyError:
             tops, bottoms = (heights.tolist() for heights in object_heights(info))
+        else:
+            tops, bottoms = _geometry_heights(np.asarray(positions, dtype=float), info)
         grasped = np.asarray(info["objects_grasped"], dtype=bool).tolist()
         eef_z = float(info["eef_pos"][2])
         drop = None  # how far the carried body's lowest point hangs below the grip site

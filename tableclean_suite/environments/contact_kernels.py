@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
 
 
 @numba.njit(cache=True)
@@ -63,3 +66,40 @@ def contact_within(geom1: np.ndarray, geom2: np.ndarray, dist: np.ndarray, mask_
         if ((mask_a[g1] and mask_b[g2]) or (mask_a[g2] and mask_b[g1])) and dist[i] <= max_dist:
             return True
     return False
+
+
+def _contact_force_codegen(context, builder, sig, args):
+    """LLVM code calling C ``void f(const mjModel*, const mjData*, int, mjtNum*)`` at the address ``args[0]``."""
+    void_ptr = ir.IntType(8).as_pointer()
+    function_type = ir.FunctionType(ir.VoidType(), [void_ptr, void_ptr, ir.IntType(32), void_ptr])
+    function = builder.inttoptr(args[0], function_type.as_pointer())
+    builder.call(function, [builder.inttoptr(args[1], void_ptr), builder.inttoptr(args[2], void_ptr), args[3],
+                            builder.inttoptr(args[4], void_ptr)])
+    return context.get_dummy_value()
+
+
+@intrinsic
+def _call_contact_force(typingctx, function, model, data, index, result):
+    """``function(model, data, index, result)`` for MuJoCo's ``mj_contactForce``; pointers arrive as integers
+    (so the functions using it stay cacheable: no address is baked into the compiled code)."""
+    return types.void(types.intp, types.intp, types.intp, types.int32, types.intp), _contact_force_codegen
+
+
+@numba.njit(cache=True)
+def normal_force_between(contact_force: int, model: int, data: int, geom1: np.ndarray, geom2: np.ndarray,
+                         mask_a: np.ndarray, mask_b: np.ndarray, wrench: np.ndarray) -> float:
+    """Sum [N] of the normal forces (``mj_contactForce``'s first entry) of the contacts pairing a geom of
+    ``mask_a`` with one of ``mask_b`` (either order), in contact order: the env's press-force loop in one call.
+
+    Args:
+        contact_force: address of ``mj_contactForce``; model, data: ``mjModel*`` / ``mjData*`` addresses.
+        geom1, geom2: (ncon,) geom ids of the active contacts; mask_a, mask_b: bool lookups over all geom ids.
+        wrench: (6,) float64 C-contiguous scratch (overwritten).
+    """
+    total = 0.0
+    for i in range(geom1.size):
+        g1, g2 = geom1[i], geom2[i]
+        if (mask_a[g1] and mask_b[g2]) or (mask_a[g2] and mask_b[g1]):
+            _call_contact_force(contact_force, model, data, np.int32(i), wrench.ctypes.data)
+            total += wrench[0]
+    return total

@@ -40,10 +40,12 @@ class SkillInfo(dict):
 
     @classmethod
     def create(cls, values: Mapping[str, Any], owner: Any, lazy: Mapping[str, Filler],
-               clock: Callable[[], Any]) -> "SkillInfo":
-        """A mapping of ``values`` (copied shallowly) plus ``lazy``'s keys, stamped with ``clock()``."""
+               clock: Callable[[], Any], stamp: Any = None) -> "SkillInfo":
+        """A mapping of ``values`` (copied shallowly) plus ``lazy``'s keys, stamped with ``clock()``.
+
+        ``stamp``: ``clock()``'s value now when the caller has it at hand (None: ``clock()`` is called)."""
         info = cls(values)
-        info._owner, info._lazy, info._clock, info._stamp = owner, lazy, clock, clock()
+        info._owner, info._lazy, info._clock, info._stamp = owner, lazy, clock, clock() if stamp is None else stamp
         return info
 
     def __missing__(self, key):

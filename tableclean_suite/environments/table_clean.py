@@ -15,7 +15,12 @@ from robosuite.utils.transform_utils import convert_quat, mat2quat
 from tableclean_suite.environments import abstraction, dirt_state, wiping
 from tableclean_suite.environments.arena import TableCleanArena
 from tableclean_suite.environments import placement
-from tableclean_suite.environments.contact_kernels import bodies_touched_by_both, contact_within, contacts_between
+from tableclean_suite.environments.contact_kernels import (
+    bodies_touched_by_both,
+    contact_within,
+    contacts_between,
+    normal_force_between,
+)
 from tableclean_suite.environments.config import (
     DEFAULT_TABLECLEAN_CONFIG,
     make_config,
@@ -47,7 +52,14 @@ from tableclean_suite.environments.randomization import (
 )
 from tableclean_suite.environments.scene_state import SceneState
 from tableclean_suite.environments.skill_info import SkillInfo
-from tableclean_suite.robosuite_adapter import gripper_joint_pos_indexes, joint_vel_indexes, mj_data, mj_model
+from tableclean_suite.robosuite_adapter import (
+    c_address,
+    gripper_joint_pos_indexes,
+    joint_vel_indexes,
+    mj_data,
+    mj_model,
+    mujoco_contact_force_address,
+)
 from tableclean_suite.task import HELD, StartMode, TaskModel, TaskSpec, TaskState, get_task_spec
 
 __all__ = ["TableClean", "DEFAULT_TABLECLEAN_CONFIG"]
@@ -559,6 +571,7 @@ class TableClean(ManipulationEnv):
         self.marker_geom_ids = np.array([model.geom_name2id(n) for n in self.arena.marker_names])
         self._dirt_joints = tuple(self.arena.dirt_state_joint_names)  # one per segment
         self._dirt_qpos_addr = tuple(int(model.get_joint_qpos_addr(j)) for j in self._dirt_joints)
+        self._dirt_qpos_index = np.array(self._dirt_qpos_addr, dtype=np.intp)  # gathers them in one call
         self._dirt_qvel_addr = tuple(int(model.get_joint_qvel_addr(j)) for j in self._dirt_joints)
         self._shown_dirt = None  # a new model shows every marker: synchronise at the next chance
         self._present_cache: tuple | None = None  # (dirt-state joint positions, decoded present mask)
@@ -805,7 +818,7 @@ class TableClean(ManipulationEnv):
         joint holds no valid code (e.g. a state from another model was restored).
         """
         qpos, k = self._mj_data.qpos, self._markers_per_segment
-        positions = tuple(float(qpos[a]) for a in self._dirt_qpos_addr)
+        positions = tuple(qpos[self._dirt_qpos_index].tolist())
         if self._fraction_cache is None or self._fraction_cache[0] != positions:
             wiped = [dirt_state.wiped_count(x, k, j) for x, j in zip(positions, self._dirt_joints)]
             self._fraction_cache = (positions, (k - np.array(wiped, dtype=float)) / k)
@@ -838,15 +851,22 @@ class TableClean(ManipulationEnv):
         Read every control step by the skills, so it does little: a :class:`~.skill_info.SkillInfo`
         (a dict) whose values fixed for the model and the episode (sizes, geometry, measures,
         config values) are shared read-only arrays, and whose costlier per-step values (the keys of
-        :data:`LAZY_SKILL_INFO`: orientations, grasp flags, sponge pose, dirt, velocities) are
+        :data:`LAZY_SKILL_INFO`: object 1's pose, orientations, grasp flags, sponge pose, dirt, velocities) are
         computed on first read, from the simulation state of the call.
         """
-        views = self._data_views()
-        info = SkillInfo.create(self._constant_skill_info(), self, LAZY_SKILL_INFO, self._sim_time)
-        info["eef_pos"] = np.array(views.eef_pos)
+        data = self._mj_data
+        views = self._views
+        if views is None or views.data is not data:
+            views = self._data_views()
+        constant = self._constant_info
+        if constant is None or constant[0] is not data or constant[1] is not self.task_config or constant[2] is not self.geometry:
+            values = self._constant_skill_info()
+        else:
+            values = constant[3]  # (the checks of _constant_skill_info inline: read every control step)
+        info = SkillInfo.create(values, self, LAZY_SKILL_INFO, self._sim_time, (self._state_epoch, data.time))
+        info["eef_pos"] = views.eef_pos.copy()
         info["gripper_qpos"] = views.qpos[views.fingers]  # fancy indexing copies
-        objects_pos = info["objects_pos"] = views.xpos[views.objects_pos]
-        info["object_pos"] = objects_pos[0].copy()
+        info["objects_pos"] = views.xpos[views.objects_pos]
         return info
 
     def _data_views(self) -> _DataViews:
@@ -927,10 +947,17 @@ class TableClean(ManipulationEnv):
         robot = self.robots[0]
         info["eef_rot"] = np.array(self._mj_data.site_xmat[robot.eef_site_id[robot.arms[0]]]).reshape(3, 3)
 
+    def _info_object_pos(self, info: SkillInfo) -> None:
+        views = self._data_views()
+        info["object_pos"] = views.xpos[views.objects_pos[0]]  # objects_pos' first row (fancy indexing copies)
+
     def _info_objects_quat(self, info: SkillInfo) -> None:
         views = self._data_views()
-        objects_quat = info["objects_quat"] = views.xquat[views.objects_quat]  # xyzw rows (XYZW_FROM_WXYZ)
-        info["object_quat"] = objects_quat[0].copy()
+        info["objects_quat"] = views.xquat[views.objects_quat]  # xyzw rows (XYZW_FROM_WXYZ)
+
+    def _info_object_quat(self, info: SkillInfo) -> None:
+        views = self._data_views()
+        info["object_quat"] = views.xquat[views.objects_quat[0]]  # objects_quat' first row (a copy)
 
     def _info_grasped(self, info: SkillInfo) -> None:
         grasped = self._grasped_bodies()
@@ -979,7 +1006,7 @@ class TableClean(ManipulationEnv):
         if ncon == 0:
             return np.zeros(touched.shape[1], dtype=bool)
         pad_a, pad_b = self._finger_pad_masks
-        bodies_touched_by_both(data.contact.geom[:ncon], pad_a, pad_b, cached[2], touched)
+        bodies_touched_by_both(data.contact.geom, pad_a, pad_b, cached[2], touched)  # the ncon active contacts
         return touched[0] & touched[1]
 
     def symbolic_state(self, check_sponge: bool = True) -> TaskState:
@@ -1078,7 +1105,7 @@ class TableClean(ManipulationEnv):
         The decoded mask is cached per joint positions: the wiping check asks at every substep.
         """
         qpos, k = self._mj_data.qpos, self._markers_per_segment
-        positions = tuple(float(qpos[a]) for a in self._dirt_qpos_addr)
+        positions = tuple(qpos[self._dirt_qpos_index].tolist())
         if self._present_cache is None or self._present_cache[0] != positions:
             wiped = [dirt_state.decode(x, k, j) for x, j in zip(positions, self._dirt_joints)]
             present = ~np.concatenate(wiped)
@@ -1296,15 +1323,36 @@ class TableClean(ManipulationEnv):
         ncon = data.ncon
         if ncon == 0:
             return 0.0
-        contact = data.contact
-        pressing = contacts_between(contact.geom1[:ncon], contact.geom2[:ncon], self._sponge_mask, self._table_mask)
+        contact = data.contact  # its arrays hold the ncon active contacts
+        native = self._press_native
+        if native is None or native[0] is not data:
+            native = self._press_native = self._bind_press_native(data)
+        if native[2]:  # the same sum in one compiled call (read every control step a wipe presses)
+            total = normal_force_between(native[2], native[3], native[4], contact.geom1, contact.geom2,
+                                         self._sponge_mask, self._table_mask, native[5])
+            return max(total, 0.0)
+        pressing = contacts_between(contact.geom1, contact.geom2, self._sponge_mask, self._table_mask).tolist()
+        if not pressing:
+            return 0.0
         model = mj_model(self.sim)
         wrench = np.zeros(CONTACT_WRENCH_SIZE)
         total = 0.0
-        for i in pressing.tolist():
+        for i in pressing:
             mujoco.mj_contactForce(model, data, i, wrench)
             total += float(wrench[0])
         return max(total, 0.0)
+
+    #: (data, model, mj_contactForce address or None, model address, data address, (6,) scratch) of
+    #: :meth:`sponge_press_force`'s compiled sum, per simulation data (:meth:`_bind_press_native`)
+    _press_native: tuple | None = None
+
+    def _bind_press_native(self, data) -> tuple:
+        """:attr:`_press_native` for the simulation data ``data`` (the model and data are kept alive with their addresses)."""
+        model = mj_model(self.sim)
+        function = mujoco_contact_force_address()
+        if function is None:
+            return (data, model, None, 0, 0, None)
+        return (data, model, function, c_address(model), c_address(data), np.zeros(CONTACT_WRENCH_SIZE))
 
     def record_wiping_substep(self) -> None:
         """Removes markers under the sponge when it presses on the table top (current substep state).
@@ -1339,7 +1387,7 @@ class TableClean(ManipulationEnv):
         Cheap when nothing changed since the last call (compares the dirt-state joint positions).
         """
         qpos = self._mj_data.qpos
-        positions = tuple(float(qpos[a]) for a in self._dirt_qpos_addr)
+        positions = tuple(qpos[self._dirt_qpos_index].tolist())
         if positions == self._shown_dirt:
             return
         self.sim.model.geom_rgba[self.marker_geom_ids, 3] = self._marker_present().astype(float)
@@ -1361,9 +1409,11 @@ class TableClean(ManipulationEnv):
 LAZY_SKILL_INFO = {
     key: fill
     for keys, fill in (
+        (("object_pos",), TableClean._info_object_pos),
         (("eef_quat",), TableClean._info_eef_quat),
         (("eef_rot",), TableClean._info_eef_rot),
-        (("objects_quat", "object_quat"), TableClean._info_objects_quat),
+        (("objects_quat",), TableClean._info_objects_quat),
+        (("object_quat",), TableClean._info_object_quat),
         (("objects_grasped", "object_grasped", "sponge_grasped"), TableClean._info_grasped),
         (("sponge_pos", "sponge_quat"), TableClean._info_sponge),
         (("dirt_fraction",), TableClean._info_dirt),
