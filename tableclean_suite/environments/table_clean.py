@@ -817,8 +817,8 @@ class TableClean(ManipulationEnv):
         Raises :class:`~tableclean_suite.environments.dirt_state.DirtStateError` when a dirt-state
         joint holds no valid code (e.g. a state from another model was restored).
         """
-        qpos, k = self._mj_data.qpos, self._markers_per_segment
-        positions = tuple(qpos[self._dirt_qpos_index].tolist())
+        k = self._markers_per_segment
+        positions = tuple(self._qpos_view()[self._dirt_qpos_index].tolist())
         if self._fraction_cache is None or self._fraction_cache[0] != positions:
             wiped = [dirt_state.wiped_count(x, k, j) for x, j in zip(positions, self._dirt_joints)]
             self._fraction_cache = (positions, (k - np.array(wiped, dtype=float)) / k)
@@ -868,6 +868,17 @@ class TableClean(ManipulationEnv):
         info["gripper_qpos"] = views.qpos[views.fingers]  # fancy indexing copies
         info["objects_pos"] = views.xpos[views.objects_pos]
         return info
+
+    _qpos_cache: tuple | None = None  # (data, its qpos view)
+
+    def _qpos_view(self) -> np.ndarray:
+        """The simulation data's ``qpos``, kept per data (each mjData attribute access builds a new view, ~0.3 us;
+        the buffer stays put while the data lives)."""
+        data = self._mj_data
+        cached = self._qpos_cache
+        if cached is None or cached[0] is not data:
+            cached = self._qpos_cache = (data, data.qpos)
+        return cached[1]
 
     def _data_views(self) -> _DataViews:
         """Views into the simulation data and the indexes :meth:`skill_info` reads every control step, kept
@@ -961,9 +972,10 @@ class TableClean(ManipulationEnv):
 
     def _info_grasped(self, info: SkillInfo) -> None:
         grasped = self._grasped_bodies()
-        objects_grasped = info["objects_grasped"] = grasped[:-1]
-        info["object_grasped"] = bool(objects_grasped[0])
-        info["sponge_grasped"] = bool(grasped[-1])
+        info["objects_grasped"] = grasped[:-1]
+        flags = grasped.tolist()  # Python bools, as bool() of the entries
+        info["object_grasped"] = flags[0]
+        info["sponge_grasped"] = flags[-1]
 
     def _info_sponge(self, info: SkillInfo) -> None:
         views = self._data_views()
@@ -985,15 +997,17 @@ class TableClean(ManipulationEnv):
             cached = self._finger_index_cache = (robot, arm, self.sim, index)
         return cached[3]
 
+    _grasp_groups: tuple | None = None  # _grasped_bodies' lookups, per model
+
     def _grasped_bodies(self) -> np.ndarray:
         """Bool (M + 1,): for each object, then the sponge, whether both finger pads touch it.
 
         :meth:`_grasped` for all of them in one compiled pass over the contacts (:meth:`skill_info`
         asks every control step), each contact's geoms mapped to the body they belong to.
         """
-        masks = (self._object_masks, self._sponge_mask)
-        cached = getattr(self, "_grasp_groups", None)  # (object masks, sponge mask, geom -> body, scratch), per model
-        if cached is None or cached[0] is not masks[0] or cached[1] is not masks[1]:
+        cached = self._grasp_groups  # (object masks, sponge mask, geom -> body, scratch), per model
+        if cached is None or cached[0] is not self._object_masks or cached[1] is not self._sponge_mask:
+            masks = (self._object_masks, self._sponge_mask)
             group = np.full(masks[1].size, -1, dtype=np.int64)  # geom -> body (-1: neither)
             for j, mask in enumerate(masks[0]):
                 group[mask] = j
@@ -1104,8 +1118,8 @@ class TableClean(ManipulationEnv):
 
         The decoded mask is cached per joint positions: the wiping check asks at every substep.
         """
-        qpos, k = self._mj_data.qpos, self._markers_per_segment
-        positions = tuple(qpos[self._dirt_qpos_index].tolist())
+        k = self._markers_per_segment
+        positions = tuple(self._qpos_view()[self._dirt_qpos_index].tolist())
         if self._present_cache is None or self._present_cache[0] != positions:
             wiped = [dirt_state.decode(x, k, j) for x, j in zip(positions, self._dirt_joints)]
             present = ~np.concatenate(wiped)
@@ -1386,8 +1400,7 @@ class TableClean(ManipulationEnv):
         The per-control-step hook (``env.step`` and a fast stepper call it once per control step).
         Cheap when nothing changed since the last call (compares the dirt-state joint positions).
         """
-        qpos = self._mj_data.qpos
-        positions = tuple(qpos[self._dirt_qpos_index].tolist())
+        positions = tuple(self._qpos_view()[self._dirt_qpos_index].tolist())
         if positions == self._shown_dirt:
             return
         self.sim.model.geom_rgba[self.marker_geom_ids, 3] = self._marker_present().astype(float)
