@@ -80,3 +80,25 @@ def test_only_table_backends_with_room_train_ahead(monkeypatch):
     assert not experiments.trains_ahead(cells, _config(backend="physics"), model)
     monkeypatch.setattr(experiments.resources, "available_bytes", lambda: 1)
     assert not experiments.trains_ahead(cells, config, model)
+
+
+def test_close_stops_and_joins_the_training_thread(monkeypatch):
+    config = _config()
+    model = config.task_model()
+    cells = _cells(config)
+    real_train = experiments.train
+    calls = []
+
+    def counting(**kwargs):
+        calls.append(kwargs["learner"])
+        return real_train(**kwargs)
+
+    monkeypatch.setattr(experiments, "train", counting)
+    ahead = experiments.TrainingAhead(cells, config, model)
+    experiments.train_cell(cells[0], config, model, chunks=ahead.chunks(cells[0]))
+    ahead.close()
+    assert not ahead.running  # joined: nothing trains once close() has returned
+    trained = len(calls)
+    assert trained < len(cells)  # it stopped: the later cells were never trained
+    ahead.close()  # a second close is harmless
+    assert len(calls) == trained

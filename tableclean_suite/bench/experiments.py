@@ -625,10 +625,18 @@ class TrainingAhead:
             self._slots.release()  # the caller is done with the previous chunk
 
     def close(self) -> None:
-        """Stop training further chunks (one being trained finishes on its own; the thread is a daemon)."""
+        """Stop training further chunks and wait for the thread to end (a chunk being trained
+        finishes first: a table backend's chunk takes a second or so), so that no training runs on
+        once :func:`run_grid` has returned or raised."""
         self._stopped.set()
         for _ in range(CHUNKS_AHEAD):
             self._slots.release()
+        self._thread.join()
+
+    @property
+    def running(self) -> bool:
+        """Whether the training thread is still alive."""
+        return self._thread.is_alive()
 
 
 def trains_ahead(cells, config: RunConfig, model) -> bool:
