@@ -235,7 +235,7 @@ def _retire(p, active, order, acc, inside, mass, gain, pi_t, result):
     return active
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)  # nogil: a thread training ahead analyses its chunks beside the statistics
 def _episode_statistics(pi_t, pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr, tolerance,
                         result):
     """:func:`_one_policy` of every policy at once, bit for bit; writes ``result[p] = (success,

@@ -477,28 +477,31 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     drifts = []
     train_seconds = metrics_seconds = 0.0
     physics_stats: dict = {}
-    for first, result, seconds in chunks:
+    for first, result, seconds, *analysed in chunks:
         train_seconds += seconds
         started = time.perf_counter()
         if "physics" in result.info:
             physics_stats = _merge_stats(physics_stats, result.info["physics"])
         grouped.add(result)
-        final = analysis.final_run_facts(result, chain, config.max_itr, model)
+        if analysed:  # analysed where it was trained (TrainingAhead)
+            (final, early_success, analysis_seconds), = analysed
+            metrics_seconds += analysis_seconds
+        else:
+            final, early_success = chunk_analysis(result, chain, config, model, checkpoint)
         for name, values in per_run.items():
             values.append(final[name])
-        early = checkpoint_result(result, checkpoint) if checkpoint else None
         del result
         metrics_seconds += time.perf_counter() - started
         if checkpoint:
-            if early is None:  # the backend kept no checkpoint Q-tables: train the prefix again
+            if early_success is None:  # the backend kept no checkpoint Q-tables: train the prefix again
                 started = time.perf_counter()
                 early = _train_chunk(cell, config, model, transitions, chunk, first, checkpoint)
                 train_seconds += time.perf_counter() - started
-            started = time.perf_counter()
-            early_success = analysis.final_asymptotes(early, chain, config.max_itr, model).success
+                started = time.perf_counter()
+                early_success = analysis.final_asymptotes(early, chain, config.max_itr, model).success
+                del early
+                metrics_seconds += time.perf_counter() - started
             drifts.append(settling.behaviour_drift(final["success"], early_success))
-            del early
-            metrics_seconds += time.perf_counter() - started
     if physics_stats:
         _report_physics(cell, physics_stats)
     started = time.perf_counter()
@@ -512,6 +515,18 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
         drift=np.concatenate(drifts) if checkpoint else None, checkpoint=checkpoint, point=summary.scalars(),
     )
     return summary, cell_stats, train_seconds, metrics_seconds + time.perf_counter() - started
+
+
+def chunk_analysis(result, chain, config: RunConfig, model, checkpoint: int):
+    """``(final, early_success)`` of a trained chunk: :func:`~tableclean_suite.analysis.final_run_facts`
+    of its final Q-tables and, at a settling ``checkpoint`` (> 0), the success asymptotes of the
+    Q-tables the backend kept there (:func:`checkpoint_result`; None when it kept none or there is
+    no checkpoint).  The same numbers in whichever thread it runs (:class:`TrainingAhead` runs it
+    on its own, beside the statistics of the cell before)."""
+    final = analysis.final_run_facts(result, chain, config.max_itr, model)
+    early = checkpoint_result(result, checkpoint) if checkpoint else None
+    early_success = None if early is None else analysis.final_asymptotes(early, chain, config.max_itr, model).success
+    return final, early_success
 
 
 def checkpoint_result(result, checkpoint: int):
@@ -563,7 +578,10 @@ _END = object()  # TrainingAhead's marker: a cell's last chunk was handed over
 
 class TrainingAhead:
     """Trains the chunks of ``cells`` (:func:`cell_chunks`, in order) on a thread while the caller
-    summarises earlier ones (:func:`train_cell` with ``chunks=ahead.chunks(cell)``).
+    summarises earlier ones (:func:`train_cell` with ``chunks=ahead.chunks(cell)``).  The thread
+    also analyses each chunk it trained (:func:`chunk_analysis`: its runs' exact asymptotes, a
+    compiled pass without the GIL), so the caller's thread is left the grouped sums and the
+    bootstrap: each item is :func:`cell_chunks`' with the analysis and its seconds appended.
 
     The compiled training loop runs without the GIL, so a cell's statistics (Python, numpy) run on
     the core it leaves while the next cell trains, instead of after it.  At most
@@ -594,14 +612,22 @@ class TrainingAhead:
         import numba
 
         numba.set_num_threads(threads)  # numba's thread count is per calling thread: the caller's
+        checkpoint = _checkpoint(config)
         for cell in cells:
             chunks = cell_chunks(cell, config, model, transitions)
+            chain = None
             while True:
                 self._slots.acquire()
                 if self._stopped.is_set():
                     return
                 try:
                     item = next(chunks, _END)
+                    if item is not _END:  # its runs' asymptotes too, here (compiled, without the GIL)
+                        started = time.perf_counter()
+                        if chain is None:
+                            chain = asymptotes.EpisodeChain.build(model, cell.reward, transitions)
+                        final, early_success = chunk_analysis(item[1], chain, config, model, checkpoint)
+                        item = (*item, (final, early_success, time.perf_counter() - started))
                 except BaseException as error:  # noqa: BLE001  (raised again by chunks(), in the caller's thread)
                     self._queues[cell].put(error)
                     return
