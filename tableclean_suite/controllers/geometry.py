@@ -25,16 +25,19 @@ def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
 def quat_z_row(quat: np.ndarray) -> np.ndarray:
     """(3,) the last row of :func:`quat_to_matrix` (``quat`` (4,) xyzw): the world z of the body frame's
     axes, all a height needs (the same bits as the full matrix's row)."""
-    return np.array(_z_row_entries(quat))
+    return np.array(z_row_entries(quat))
 
 
-def _z_row_entries(quat: np.ndarray) -> tuple[float, float, float]:
+def z_row_entries(quat: np.ndarray) -> tuple[float, float, float]:
     """:func:`quat_z_row`'s three entries as Python floats."""
     q = np.asarray(quat, dtype=float)
     norm = math.sqrt(q.dot(q))
     x, y, z, w = q.tolist()  # divided as Python floats: IEEE division, the bits of numpy's q / norm
     x, y, z, w = x / norm, y / norm, z / norm, w / norm
     return 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
+
+
+_z_row_entries = z_row_entries  # its earlier name
 
 
 def clip_scalar(value: float, low: float, high: float) -> float:
@@ -81,7 +84,7 @@ def clear_yaw_verdict(rot: np.ndarray, yaw: float, tolerance: float) -> bool | N
 
 def box_lowest_z(pos: np.ndarray, quat: np.ndarray, half_size: np.ndarray) -> float:
     """World z (m) of the lowest corner of a box with centre ``pos`` (3,), orientation ``quat`` (4,, xyzw)."""
-    reach = np.array([abs(entry) for entry in _z_row_entries(quat)])  # np.abs of quat_z_row, without its dispatch
+    reach = np.array([abs(entry) for entry in z_row_entries(quat)])  # np.abs of quat_z_row, without its dispatch
     # ndarray.dot, not @: the same BLAS product (ddot) without matmul's ufunc dispatch (~1 us; asked every
     # control step a carried sponge travels)
     return float(pos[2] - reach.dot(np.asarray(half_size, dtype=float)))

@@ -32,7 +32,14 @@ import numpy as np
 
 from tableclean_suite.controllers.config_check import checked_skill_config
 from tableclean_suite.controllers.configs import SkillConfig
-from tableclean_suite.controllers.geometry import box_lowest_z, clear_yaw_verdict, gripper_yaw, quat_z_row, wrap_angle
+from tableclean_suite.controllers.geometry import (
+    box_lowest_z,
+    clear_yaw_verdict,
+    gripper_yaw,
+    quat_z_row,
+    wrap_angle,
+    z_row_entries,
+)
 from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.controllers.setpoint import advance_command
 from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
@@ -65,6 +72,41 @@ def _geometry_heights(positions: np.ndarray, info: Mapping[str, Any]) -> tuple[l
         bottoms.append(z + min(heights))
         tops.append(z + max(heights))
     return tops, bottoms
+
+
+def _geometry_range(z: float, quat, shape) -> tuple[float, float]:
+    """``(top, bottom)`` world z [m] of one object of :func:`_geometry_heights` (centre height ``z`` [m], ``quat``
+    (4,) xyzw, ``shape`` its ObjectGeometry): the same operations, so the same bits."""
+    heights = shape.points.dot(quat_z_row(quat)).tolist()
+    return z + max(heights), z + min(heights)
+
+
+#: m added to :func:`_top_bound`: far above the rounding of the bound's sum and of the exact top's (~1e-16 m)
+TOP_BOUND_SLACK = 1e-9
+#: Most object geometries whose extents :func:`_top_bound` keeps (it forgets them all when full).
+TOP_BOUND_CACHE_SIZE = 256
+_extents: dict[int, tuple] = {}
+
+
+def _top_bound(z: float, quat, shape) -> float:
+    """An upper bound [m] on :func:`_geometry_range`'s top, from the geometry's extents in its own frame
+    (``shape.lower``, ``shape.upper``): each point's height over the centre is at most the sum over its axes of
+    the larger of the extents' heights; plus :data:`TOP_BOUND_SLACK`.  Cheaper than the exact top (no product
+    over all points), so :meth:`Skill.hover_z` skips the exact one where the bound shows it cannot matter."""
+    cached = _extents.get(id(shape))
+    if cached is None or cached[0] is not shape:
+        if len(_extents) >= TOP_BOUND_CACHE_SIZE:
+            _extents.clear()
+        try:
+            lower, upper = np.asarray(shape.lower, dtype=float).tolist(), np.asarray(shape.upper, dtype=float).tolist()
+        except AttributeError:  # a geometry without extents (points only): no bound, the exact top decides
+            lower = upper = None
+        cached = _extents[id(shape)] = (shape, lower, upper)
+    if cached[1] is None:
+        return math.inf
+    _, (l0, l1, l2), (u0, u1, u2) = cached
+    r0, r1, r2 = z_row_entries(quat)
+    return z + (max(l0 * r0, u0 * r0) + max(l1 * r1, u1 * r1) + max(l2 * r2, u2 * r2)) + TOP_BOUND_SLACK
 
 
 #: Most validated skill configs :func:`_checked_config` keeps (it forgets them all when full).
@@ -446,16 +488,22 @@ class Skill(abc.ABC):
             return z
         # Python scalars from here on (same values as numpy's)
         try:
-            info["objects_geometry"]
+            shapes = info["objects_geometry"]
         except KeyError:
+            shapes = None
             tops, bottoms = (heights.tolist() for heights in object_heights(info))
-        else:
-            tops, bottoms = _geometry_heights(np.asarray(positions, dtype=float), info)
+        else:  # each object's heights computed only where needed (below): as _geometry_heights, one object at a time
+            heights_z = np.asarray(positions, dtype=float)[:, 2].tolist()
+            quats = info["objects_quat"]
         grasped = np.asarray(info["objects_grasped"], dtype=bool).tolist()
         eef_z = float(info["eef_pos"][2])
         drop = None  # how far the carried body's lowest point hangs below the grip site
         if True in grasped:
-            drop = eef_z - bottoms[grasped.index(True)]
+            held = grasped.index(True)
+            if shapes is None:
+                drop = eef_z - bottoms[held]
+            else:
+                drop = eef_z - _geometry_range(heights_z[held], quats[held], shapes[held])[1]
         elif bool(info["sponge_grasped"]):
             drop = eef_z - box_lowest_z(info["sponge_pos"], info["sponge_quat"], info["sponge_half_size"])
         if drop is not None:
@@ -464,10 +512,16 @@ class Skill(abc.ABC):
         else:
             fingertip_depth = config["fingertip_depth"]
             kinds = info["object_types"]
-        for j, (held, top) in enumerate(zip(grasped, tops)):
+        for j, held in enumerate(grasped):
             if held:
                 continue
             clearance = fingertip_depth + kinds[j].clearance() if drop is None else carried_clearance
+            if shapes is None:
+                top = tops[j]
+            elif _top_bound(heights_z[j], quats[j], shapes[j]) + clearance < z:
+                continue  # its top cannot raise z (max(z, top + clearance) is z): the exact top is not needed
+            else:
+                top = _geometry_range(heights_z[j], quats[j], shapes[j])[0]
             z = max(z, top + clearance)
         return z
 
