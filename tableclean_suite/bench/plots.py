@@ -16,7 +16,6 @@ from __future__ import annotations
 import io
 
 import numpy as np
-import pandas as pd
 
 #: The paper's patterns get fixed colours; user patterns take the next free ones.
 REWARD_COLORS = {"r1": "#1f77b4", "r2": "#ff7f0e", "r3": "#2ca02c", "r4": "#d62728"}
@@ -66,6 +65,8 @@ def _codes(curves: pd.DataFrame, column: str) -> tuple[np.ndarray, pd.Index]:
         frame, columns = curves, {}
         _CODED = (frame, columns)
     if column not in columns:
+        import pandas as pd  # here, not at import: a run's start imports it while its first cell trains
+
         codes, uniques = pd.factorize(curves[column])
         columns[column] = (codes, pd.Index(uniques))
     return columns[column]

@@ -258,7 +258,7 @@ def run(args) -> int:
 
 def train_and_publish(args) -> int:
     """Train/load the grid, print the tables, write files and figures; returns the exit code."""
-    from tableclean_suite.bench import derived, experiments, outputs, precompile, tables
+    from tableclean_suite.bench import derived, experiments, outputs, precompile
     from tableclean_suite.executors import MissingRayError, TaskFailedError
 
     started = time.perf_counter()
@@ -303,6 +303,8 @@ def train_and_publish(args) -> int:
     finally:
         if compiling is not None:
             compiling.finish()
+    from tableclean_suite.bench import tables  # (pandas) imported by run_grid while the first cell trained
+
     cells = len(experiments.unique_cells(grid))
     print(f"cells: {cells} distinct ({len(grid)} table rows); resumed {grid_run.resumed} cells from {store.root}, "
           f"trained {grid_run.trained} (training {grid_run.train_seconds:.2f} s, "
