@@ -46,3 +46,16 @@ def test_the_skill_goals_say_how_far_from_their_goal_they_are():
     assert skill_speed.speedup_against_goal(5.33) == "5.33x (1.07x the 5x goal, 0.330 above)"
     assert skill_speed.raw_ratio_against_goal(0.7996) == "0.80 (1.00x the 0.8 goal, 0.000 below)"
     assert skill_speed.raw_ratio_against_goal(0.796) == "0.80 (0.99x the 0.8 goal, 0.004 below)"
+
+
+@pytest.mark.slow
+def test_the_warm_up_leaves_the_timed_episodes_as_without_it(monkeypatch):
+    warmed = []
+    original = skill_speed.warm_up
+    monkeypatch.setattr(skill_speed, "warm_up", lambda *a, **k: warmed.append(a) or original(*a, **k))
+    with_warm_up = skill_speed.compare_paths(1, seed=1)
+    without = skill_speed.compare_paths(1, seed=1, warm=False)
+    assert len(warmed) == 1
+    for path in ("robosuite", "fast"):
+        steps = [ep["steps"] for ep in with_warm_up[path]["episodes"]]
+        assert steps == [ep["steps"] for ep in without[path]["episodes"]] and all(s > 0 for s in steps)

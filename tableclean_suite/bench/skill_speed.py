@@ -65,13 +65,29 @@ def run(episodes: int, layout=(1, 1), seed: int = 0, fast_control: bool = True, 
     return records
 
 
-def compare_paths(episodes: int, layout=(1, 1), seed: int = 0, task=None) -> dict:
+def warm_up(layout=(1, 1), seed: int = 0, task=None) -> None:
+    """One untimed optimal episode on a throwaway fast-path env: the compiled kernels both paths call (the fast
+    path's, the env's contact and wiping kernels) are loaded from numba's cache, or compiled when it is cold
+    (~20-25 s in a fresh checkout or snapshot), before anything is timed.  The timed envs are other instances,
+    so their episodes (and control steps) are those of a run without it."""
+    env = make_skill_env(*layout, seed=seed, hard_reset=False, fast_control=True, task=task)
+    try:
+        _run_episode(env, _empty_records(), record_states=fast_stepper_of(env) is not None)
+    finally:
+        env.close()
+
+
+def compare_paths(episodes: int, layout=(1, 1), seed: int = 0, task=None, warm: bool = True) -> dict:
     """Optimal episodes on robosuite's path and the fast path, alternating, plus raw MuJoCo on the fast path's states.
 
     Returns ``{"robosuite": records, "fast": records, "mujoco": {"steps", "seconds", "substeps"}}``
     with records as :func:`run`'s; the raw-MuJoCo entry counts control steps of ``substeps``
     ``mj_step`` calls each (``control_timestep / model_timestep``: 25) and the seconds spent in them.
+    ``warm``: run :func:`warm_up` first (otherwise a cold numba cache puts its compile time into the
+    first fast episode's ``env.step`` time).
     """
+    if warm:
+        warm_up(layout, seed, task)
     envs = {path: make_skill_env(*layout, seed=seed, hard_reset=False, fast_control=path == "fast", task=task)
             for path in ("robosuite", "fast")}
     records = {path: _empty_records() for path in envs}
