@@ -578,10 +578,12 @@ _END = object()  # TrainingAhead's marker: a cell's last chunk was handed over
 
 class TrainingAhead:
     """Trains the chunks of ``cells`` (:func:`cell_chunks`, in order) on a thread while the caller
-    summarises earlier ones (:func:`train_cell` with ``chunks=ahead.chunks(cell)``).  The thread
-    also analyses each chunk it trained (:func:`chunk_analysis`: its runs' exact asymptotes, a
-    compiled pass without the GIL), so the caller's thread is left the grouped sums and the
-    bootstrap: each item is :func:`cell_chunks`' with the analysis and its seconds appended.
+    summarises earlier ones (:func:`train_cell` with ``chunks=ahead.chunks(cell)``).  A chunk
+    trained while the caller is still busy with an earlier one is analysed by the thread too
+    (:func:`chunk_analysis`: its runs' exact asymptotes, a compiled pass without the GIL; the item
+    is :func:`cell_chunks`' with the analysis and its seconds appended); one the caller is already
+    waiting for is handed over as trained, the caller analyses it while the thread trains on.
+    Whichever thread is free does the analysis: the same numbers either way.
 
     The compiled training loop runs without the GIL, so a cell's statistics (Python, numpy) run on
     the core it leaves while the next cell trains, instead of after it.  At most
@@ -604,6 +606,7 @@ class TrainingAhead:
         self._queues = {cell: queue.SimpleQueue() for cell in cells}
         self._slots = threading.Semaphore(CHUNKS_AHEAD)
         self._stopped = threading.Event()
+        self._caller_waits = threading.Event()  # the caller waits in chunks() for the next item
         self._thread = threading.Thread(target=self._train, name="training", daemon=True,
                                         args=(list(cells), config, model, transitions, numba.get_num_threads()))
         self._thread.start()
@@ -622,7 +625,7 @@ class TrainingAhead:
                     return
                 try:
                     item = next(chunks, _END)
-                    if item is not _END:  # its runs' asymptotes too, here (compiled, without the GIL)
+                    if item is not _END and not self._caller_waits.is_set():  # the caller is busy: analyse here
                         started = time.perf_counter()
                         if chain is None:
                             chain = asymptotes.EpisodeChain.build(model, cell.reward, transitions)
@@ -641,7 +644,11 @@ class TrainingAhead:
         """``cell``'s :func:`cell_chunks` items, as trained by the thread (waits for each)."""
         waiting = self._queues[cell]
         while True:
-            item = waiting.get()
+            self._caller_waits.set()
+            try:
+                item = waiting.get()
+            finally:
+                self._caller_waits.clear()
             if item is _END:
                 return
             if isinstance(item, BaseException):

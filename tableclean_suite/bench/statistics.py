@@ -448,7 +448,6 @@ def weighted_group_sums(weights: np.ndarray, values: np.ndarray, exact: bool | N
     Args:
         weights: ``(B, G)`` replicate counts of each group.
         values: ``(G,)`` or ``(G, T)`` per-group sums.
-
         exact: :func:`_exact_integer_product` of these weights and values when the caller knows it
             (e.g. checked once for all the batches of one cell's replicates); None: checked here.
 
