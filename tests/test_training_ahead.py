@@ -102,3 +102,23 @@ def test_close_stops_and_joins_the_training_thread(monkeypatch):
     assert trained < len(cells)  # it stopped: the later cells were never trained
     ahead.close()  # a second close is harmless
     assert len(calls) == trained
+
+
+def test_chunks_analysed_where_they_were_trained_give_the_same_bits():
+    # TrainingAhead hands a chunk over as trained (the caller analyses it) or with its analysis
+    # appended (analysed by the thread): train_cell must give the same bits either way
+    from tableclean_suite import asymptotes
+
+    config = _config()
+    model = config.task_model()
+    cell = _cells(config)[1]
+    chain = asymptotes.EpisodeChain.build(model, cell.reward)
+    checkpoint = experiments._checkpoint(config)
+    assert checkpoint  # the checkpoint asymptotes are part of the analysis
+    raw = list(experiments.cell_chunks(cell, config, model, runs_per_chunk=5))
+    analysed = [(*item, (*experiments.chunk_analysis(item[1], chain, config, model, checkpoint), 0.0))
+                for item in raw]
+    mixed = [item if i % 2 else analysed[i] for i, item in enumerate(raw)]
+    plain = experiments.train_cell(cell, config, model, runs_per_chunk=5, chunks=iter(raw))
+    assert _same(plain, experiments.train_cell(cell, config, model, runs_per_chunk=5, chunks=iter(analysed)))
+    assert _same(plain, experiments.train_cell(cell, config, model, runs_per_chunk=5, chunks=iter(mixed)))
