@@ -14,6 +14,7 @@ from tableclean_suite.environments.gripper_geometry import GripperGeometry
 from tableclean_suite.environments.placement import footprint_of, free_spot, grown, other_segments
 from tableclean_suite.task import Action
 
+
 def place_spot(info: Mapping[str, Any], segment: int, held: int, lying, place_clearance: float,
                gripper: GripperGeometry | None = None) -> np.ndarray:
     """(2,) world xy [m] where the held object ``held`` goes on ``segment`` (0-based) among the objects ``lying``
