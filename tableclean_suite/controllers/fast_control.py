@@ -218,25 +218,50 @@ def fast_opspace_matrices(mass: np.ndarray, j_full: np.ndarray):
     Returns:
         (lambda_full (6, 6), lambda_pos (3, 3), lambda_ori (3, 3), nullspace_matrix (n, n)).
     """
-    n = mass.shape[0]
+    return _opspace_into(mass, j_full, osc_work(mass.shape[0]))
+
+
+#: Entries of the scratch tuple of :func:`osc_work` (the OSC kernels' temporaries, allocated once per call of the
+#: compiled loops instead of once per substep: ~20 allocations per substep cost ~1-2 us of its ~4 us).
+(W_LOW, W_INV_LOW, W_MASS_INV, W_LAMBDA_FULL, W_LAMBDA_POS, W_LAMBDA_ORI, W_NULLSPACE, W_J_MINV, W_LAMBDA_FULL_INV,
+ W_J_BAR, W_DESIRED, W_ERROR, W_WRENCH, W_POSTURE, W_POSE_TORQUES, W_MASS, W_J_FULL, W_JOINT_POS, W_JOINT_VEL,
+ W_BIAS, W_REF_VEL) = range(21)
+
+
+@numba.njit(cache=True)
+def osc_work(n: int):
+    """The OSC kernels' scratch arrays for an arm of ``n`` joints (a tuple indexed by the ``W_*`` constants).
+
+    Every entry is written before it is read in each use, as the kernels' former ``np.empty``
+    temporaries (the orientation error is zeroed where it accumulates)."""
     size = max(n, 6)
-    low = np.empty((size, size))
-    inv_low = np.empty((size, size))
-    mass_inv = np.empty((n, n))
-    lambda_full = np.empty((6, 6))
-    lambda_pos = np.empty((3, 3))
-    lambda_ori = np.empty((3, 3))
-    nullspace_matrix = np.empty((n, n))
+    return (np.empty((size, size)), np.empty((size, size)), np.empty((n, n)), np.empty((6, 6)), np.empty((3, 3)),
+            np.empty((3, 3)), np.empty((n, n)), np.empty((6, n)), np.empty((6, 6)), np.empty((n, 6)), np.empty(6),
+            np.empty(3), np.empty(6), np.empty(n), np.empty(n), np.empty((n, n)), np.empty((6, n)), np.empty(n),
+            np.empty(n), np.empty(n), np.empty(6))
+
+
+@numba.njit(cache=True)
+def _opspace_into(mass: np.ndarray, j_full: np.ndarray, work):
+    """:func:`fast_opspace_matrices` in the scratch ``work`` (:func:`osc_work`); returns views of it."""
+    n = mass.shape[0]
+    low = work[0]
+    inv_low = work[1]
+    mass_inv = work[2]
+    lambda_full = work[3]
+    lambda_pos = work[4]
+    lambda_ori = work[5]
+    nullspace_matrix = work[6]
     if spd_inverse(mass, mass_inv, low, inv_low):
-        j_minv = np.empty((6, n))
+        j_minv = work[7]
         small_matmul(j_full, mass_inv, j_minv)
-        lambda_full_inv = np.empty((6, 6))
+        lambda_full_inv = work[8]
         small_matmul(j_minv, j_full.T, lambda_full_inv)
         ok = spd_inverse(lambda_full_inv, lambda_full, low, inv_low)
         ok = ok and spd_inverse(lambda_full_inv[0:3, 0:3], lambda_pos, low, inv_low)
         ok = ok and spd_inverse(lambda_full_inv[3:6, 3:6], lambda_ori, low, inv_low)
         if ok:
-            j_bar = np.empty((n, 6))
+            j_bar = work[9]
             small_matmul(j_minv.T, lambda_full, j_bar)  # M^-1 J^T lambda (M^-1 symmetric)
             small_matmul(j_bar, j_full, nullspace_matrix)
             for i in range(n):
@@ -288,11 +313,37 @@ def osc_law(
     (joint kp :data:`NULLSPACE_JOINT_KP`, critical damping) are written out with the same
     formulas, without temporaries; the small products run in plain loops (:func:`small_matmul`).
     """
+    _osc_law_into(mass, j_full, ref_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias, goal_pos, goal_ori,
+                  gains, initial_joint, uncouple, torques, osc_work(mass.shape[0]))
+
+
+@numba.njit(cache=True)
+def _osc_law_into(
+    mass: np.ndarray,
+    j_full: np.ndarray,
+    ref_pos: np.ndarray,
+    ref_ori_mat: np.ndarray,
+    ref_vel: np.ndarray,
+    joint_pos: np.ndarray,
+    joint_vel: np.ndarray,
+    bias: np.ndarray,
+    goal_pos: np.ndarray,
+    goal_ori: np.ndarray,
+    gains: np.ndarray,
+    initial_joint: np.ndarray,
+    uncouple: bool,
+    torques: np.ndarray,
+    work,
+) -> None:
+    """:func:`osc_law` with its temporaries in the scratch ``work`` (:func:`osc_work`)."""
     n = mass.shape[0]
-    desired = np.empty(6)  # desired force (3) and torque (3)
+    desired = work[10]  # desired force (3) and torque (3)
     for r in range(3):
         desired[r] = (goal_pos[r] - ref_pos[r]) * gains[0, r] + (-ref_vel[r]) * gains[1, r]
-    error = np.zeros(3)  # robosuite's orientation_error: half the sum of the columns' cross products
+    error = work[11]  # robosuite's orientation_error: half the sum of the columns' cross products
+    error[0] = 0.0
+    error[1] = 0.0
+    error[2] = 0.0
     for c in range(3):
         a0, a1, a2 = ref_ori_mat[0, c], ref_ori_mat[1, c], ref_ori_mat[2, c]
         b0, b1, b2 = goal_ori[0, c], goal_ori[1, c], goal_ori[2, c]
@@ -301,8 +352,8 @@ def osc_law(
         error[2] += a0 * b1 - a1 * b0
     for r in range(3):
         desired[3 + r] = 0.5 * error[r] * gains[0, 3 + r] + (-ref_vel[3 + r]) * gains[1, 3 + r]
-    lambda_full, lambda_pos, lambda_ori, nullspace_matrix = fast_opspace_matrices(mass, j_full)
-    wrench = np.empty(6)
+    lambda_full, lambda_pos, lambda_ori, nullspace_matrix = _opspace_into(mass, j_full, work)
+    wrench = work[12]
     if uncouple:
         small_matvec(lambda_pos, desired[0:3], wrench[0:3])
         small_matvec(lambda_ori, desired[3:6], wrench[3:6])
@@ -310,10 +361,10 @@ def osc_law(
         small_matvec(lambda_full, desired, wrench)
     small_matvec(j_full.T, wrench, torques)
     joint_kv = np.sqrt(NULLSPACE_JOINT_KP) * 2
-    posture = np.empty(n)
+    posture = work[13]
     for i in range(n):
         posture[i] = NULLSPACE_JOINT_KP * (initial_joint[i] - joint_pos[i]) - joint_kv * joint_vel[i]
-    pose_torques = np.empty(n)
+    pose_torques = work[14]
     small_matvec(mass, posture, pose_torques)
     for i in range(n):
         value = 0.0
@@ -351,13 +402,37 @@ def osc_torques(
         goal_pos, goal_ori, gains, initial_joint, uncouple, torques: as :func:`osc_law`.
         indexes: (2, n) int rows: the arm's dof (qvel) indexes, then its qpos indexes.
     """
+    _osc_torques_into(full_mass, jacp, jacr, qpos, qvel, qfrc_bias, site_pos, site_mat, goal_pos, goal_ori, gains,
+                      initial_joint, indexes, uncouple, torques, osc_work(indexes.shape[1]))
+
+
+@numba.njit(cache=True)
+def _osc_torques_into(
+    full_mass: np.ndarray,
+    jacp: np.ndarray,
+    jacr: np.ndarray,
+    qpos: np.ndarray,
+    qvel: np.ndarray,
+    qfrc_bias: np.ndarray,
+    site_pos: np.ndarray,
+    site_mat: np.ndarray,
+    goal_pos: np.ndarray,
+    goal_ori: np.ndarray,
+    gains: np.ndarray,
+    initial_joint: np.ndarray,
+    indexes: np.ndarray,
+    uncouple: bool,
+    torques: np.ndarray,
+    work,
+) -> None:
+    """:func:`osc_torques` with its temporaries in the scratch ``work`` (:func:`osc_work`, for ``indexes.shape[1]`` joints)."""
     dofs = indexes[0]
     n = dofs.size
-    mass = np.empty((n, n))
-    j_full = np.empty((6, n))
-    joint_pos = np.empty(n)
-    joint_vel = np.empty(n)
-    bias = np.empty(n)
+    mass = work[15]
+    j_full = work[16]
+    joint_pos = work[17]
+    joint_vel = work[18]
+    bias = work[19]
     for i in range(n):
         for k in range(n):
             mass[i, k] = full_mass[dofs[i], dofs[k]]
@@ -367,12 +442,12 @@ def osc_torques(
         joint_pos[i] = qpos[indexes[1, i]]
         joint_vel[i] = qvel[dofs[i]]
         bias[i] = qfrc_bias[dofs[i]]
-    ref_vel = np.empty(6)
+    ref_vel = work[20]
     small_matvec(jacp, qvel, ref_vel[0:3])  # robosuite's get_site_xvelp: the full Jacobian times all velocities
     small_matvec(jacr, qvel, ref_vel[3:6])
     ref_ori_mat = np.ascontiguousarray(site_mat.reshape((3, 3)))
-    osc_law(mass, j_full, site_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias,
-            goal_pos, goal_ori, gains, initial_joint, uncouple, torques)
+    _osc_law_into(mass, j_full, site_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias,
+                  goal_pos, goal_ori, gains, initial_joint, uncouple, torques, work)
 
 
 def _c_call_codegen(n_pointers: int, trailing_int: bool):
@@ -437,12 +512,13 @@ def native_substeps(functions, model, data, first, count, buffers, live, goal_po
     full_mass, jacp, jacr, torques = buffers
     q_m, qpos, qvel, qfrc_bias, site_pos, site_mat, ctrl, sponge_pos, sponge_mat = live
     arm_act, grip_act = actuators
+    work = osc_work(indexes.shape[1])  # the OSC's temporaries, once for all substeps
     for k in range(first, count):
         _call_2(step1, model, data)
         _call_3(full_m, model, full_mass.ctypes.data, q_m.ctypes.data)
         _call_4i(jac_site, model, data, jacp.ctypes.data, jacr.ctypes.data, np.int32(site_id))
-        osc_torques(full_mass, jacp, jacr, qpos, qvel, qfrc_bias, site_pos, site_mat, goal_pos, goal_ori,
-                    gains, initial_joint, indexes, uncouple, torques)
+        _osc_torques_into(full_mass, jacp, jacr, qpos, qvel, qfrc_bias, site_pos, site_mat, goal_pos, goal_ori,
+                          gains, initial_joint, indexes, uncouple, torques, work)
         for i in range(arm_act.size):
             ctrl[arm_act[i]] = min(max(torques[i], limits[0, i]), limits[1, i])
         if k == 0:
