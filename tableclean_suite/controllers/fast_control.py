@@ -79,6 +79,7 @@ from tableclean_suite.robosuite_adapter import (
     c_address,
     controller_needs_update,
     fast_path_allowed,
+    finish_control_step,
     hand_back_controller_state,
     mj_data,
     mj_model,
@@ -588,6 +589,21 @@ def panda_gripper_control(current, command, speed, params, new_current, goal_qve
 
 
 @numba.njit(cache=True)
+def step_inputs(action, current, speed, params, goal_pos, goal_ori, new_current, goal_qvel, ctrl) -> None:
+    """One control step's inputs from the absolute command ``action`` (7,) in one compiled call.
+
+    The goal position ``goal_pos`` (3,) and rotation ``goal_ori`` (3, 3) (as
+    :meth:`FastSkillStepper.goal`, :func:`rotvec_matrix`) and the Panda gripper's outputs
+    ``new_current``, ``goal_qvel``, ``ctrl`` (2,) each (:func:`panda_gripper_control` from
+    ``current``, ``speed``, ``params``); the same operations, so the same bits.
+    """
+    for i in range(3):
+        goal_pos[i] = action[i]
+    rotvec_matrix(action[3:6], goal_ori)
+    panda_gripper_control(current, action[6], speed, params, new_current, goal_qvel, ctrl)
+
+
+@numba.njit(cache=True)
 def phase_loop(functions, model, data, substeps, buffers, live, gains, initial_joint, site_id, indexes, actuators,
                limits, uncouple, sponge, wipe_z, markers, present, reach, eef_pos, finger_index, setpoint, floats,
                ints, last_fingers, target, grip_table, grip_row, action, goal_pos, goal_ori, log_live, log, log_row,
@@ -803,6 +819,8 @@ class FastSkillStepper:
         self.jacp = np.zeros((3, nv))
         self.jacr = np.zeros((3, nv))
         self.torques = np.zeros(len(self.arm_actuators))
+        self._grip_ctrl = np.zeros(len(self.grip_actuators))  # step()'s finger controls (copied into ctrl)
+        self._gains = (None, None, None)  # (osc.kp, osc.kd, gains()) of the last step, see step()
         self.substeps = int(env.control_timestep / env.model_timestep)
         self._grip_params = None  # (controller, its panda_gripper_control parameters), see _panda_grip_params
         self.eef_site_id = robot.eef_site_id[arm]
@@ -946,11 +964,25 @@ class FastSkillStepper:
         env.timestep += 1
         if self.state_log is not None:
             self.state_log.append()
-        goal_pos, goal_ori = self.goal(action)
-        grip_ctrl = self.gripper_ctrl(action)
-        gains = self.gains()
+        # (runs right after the physics, with cold CPU caches: few Python calls and allocations per step)
+        osc = self.osc
+        gains = self._gains
+        if gains[0] is not osc.kp or gains[1] is not osc.kd:  # fixed impedance: robosuite assigns new arrays only
+            gains = self._gains = (osc.kp, osc.kd, self.gains())
+        gains = gains[2]
+        params = self._panda_grip_params()
+        if params is not None:  # goal() and gripper_ctrl() in one compiled call
+            gripper = self.gripper
+            goal_pos, goal_ori, new_current, goal_qvel = np.empty(3), np.empty((3, 3)), np.empty(2), np.empty(2)
+            grip_ctrl = self._grip_ctrl
+            step_inputs(np.ascontiguousarray(action), np.asarray(gripper.current_action, dtype=float),
+                        float(gripper.speed), params, goal_pos, goal_ori, new_current, goal_qvel, grip_ctrl)
+            set_gripper_state(gripper, self.grip_controller, new_current, goal_qvel)
+        else:
+            goal_pos, goal_ori = self.goal(action)
+            grip_ctrl = self.gripper_ctrl(action)
         first = 0
-        if not controller_needs_update(self.osc):  # robosuite then reuses its cached arm state once (see cached_arm_torques)
+        if not controller_needs_update(osc):  # robosuite then reuses its cached arm state once (see cached_arm_torques)
             self._python_substep(0, goal_pos, goal_ori, gains, grip_ctrl, cached=True)
             first = 1
         if self.native:
@@ -958,7 +990,10 @@ class FastSkillStepper:
         else:
             for substep in range(first, self.substeps):
                 self._python_substep(substep, goal_pos, goal_ori, gains, grip_ctrl)
-        self._finish_step(goal_pos, goal_ori)
+        # _finish_step, inline
+        env.show_dirt()
+        env.done = (env.timestep >= env.horizon) and not env.ignore_done
+        finish_control_step(env, osc, self.grip_controller, goal_pos, goal_ori, self.torques)
 
     # -- a fixed-waypoint phase in compiled code ------------------------------------------------
     def run_phase(self, setpoint: np.ndarray, floats: np.ndarray, ints: np.ndarray, last_fingers: np.ndarray,
