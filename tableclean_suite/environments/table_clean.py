@@ -573,6 +573,7 @@ class TableClean(ManipulationEnv):
         self._dirt_qpos_addr = tuple(int(model.get_joint_qpos_addr(j)) for j in self._dirt_joints)
         self._dirt_qpos_index = np.array(self._dirt_qpos_addr, dtype=np.intp)  # gathers them in one call
         self._dirt_qvel_addr = tuple(int(model.get_joint_qvel_addr(j)) for j in self._dirt_joints)
+        self._qpos_cache = None  # _qpos_view()'s and _dirt_positions()' views of the (new) data
         self._shown_dirt = None  # a new model shows every marker: synchronise at the next chance
         self._present_cache: tuple | None = None  # (dirt-state joint positions, decoded present mask)
         self._fraction_cache: tuple | None = None  # (dirt-state joint positions, dirt_fraction())
@@ -818,7 +819,7 @@ class TableClean(ManipulationEnv):
         joint holds no valid code (e.g. a state from another model was restored).
         """
         k = self._markers_per_segment
-        positions = tuple(self._qpos_view()[self._dirt_qpos_index].tolist())
+        positions = self._dirt_positions()
         if self._fraction_cache is None or self._fraction_cache[0] != positions:
             wiped = [dirt_state.wiped_count(x, k, j) for x, j in zip(positions, self._dirt_joints)]
             self._fraction_cache = (positions, (k - np.array(wiped, dtype=float)) / k)
@@ -869,7 +870,7 @@ class TableClean(ManipulationEnv):
         info["objects_pos"] = views.xpos[views.objects_pos]
         return info
 
-    _qpos_cache: tuple | None = None  # (data, its qpos view)
+    _qpos_cache: tuple | None = None  # (data, its qpos view, the dirt-state joints' qpos as a view or None)
 
     def _qpos_view(self) -> np.ndarray:
         """The simulation data's ``qpos``, kept per data (each mjData attribute access builds a new view, ~0.3 us;
@@ -877,8 +878,32 @@ class TableClean(ManipulationEnv):
         data = self._mj_data
         cached = self._qpos_cache
         if cached is None or cached[0] is not data:
-            cached = self._qpos_cache = (data, data.qpos)
+            cached = self._cache_qpos(data)
         return cached[1]
+
+    def _cache_qpos(self, data) -> tuple:
+        """Keep ``data``'s qpos view and, when the dirt-state joints' addresses are evenly spaced (one slide
+        joint per segment, usually adjacent), a strided view of their positions."""
+        qpos = data.qpos
+        addr = getattr(self, "_dirt_qpos_addr", ())  # (set when the model loads; the cache is dropped then)
+        dirt = None
+        stride = addr[1] - addr[0] if len(addr) > 1 else 1
+        if addr and stride > 0 and all(b - a == stride for a, b in zip(addr, addr[1:])):
+            dirt = qpos[addr[0]:addr[-1] + 1:stride]
+        self._qpos_cache = (data, qpos, dirt)
+        return self._qpos_cache
+
+    def _dirt_positions(self) -> tuple:
+        """The dirt-state joints' positions, a tuple of Python floats (the key of the dirt-state caches; read
+        at every control step and wiping check: one kept view's ``tolist`` where possible)."""
+        data = self._mj_data
+        cached = self._qpos_cache
+        if cached is None or cached[0] is not data:
+            cached = self._cache_qpos(data)
+        dirt = cached[2]
+        if dirt is None:
+            return tuple(cached[1][self._dirt_qpos_index].tolist())
+        return tuple(dirt.tolist())
 
     def _data_views(self) -> _DataViews:
         """Views into the simulation data and the indexes :meth:`skill_info` reads every control step, kept
@@ -1119,7 +1144,7 @@ class TableClean(ManipulationEnv):
         The decoded mask is cached per joint positions: the wiping check asks at every substep.
         """
         k = self._markers_per_segment
-        positions = tuple(self._qpos_view()[self._dirt_qpos_index].tolist())
+        positions = self._dirt_positions()
         if self._present_cache is None or self._present_cache[0] != positions:
             wiped = [dirt_state.decode(x, k, j) for x, j in zip(positions, self._dirt_joints)]
             present = ~np.concatenate(wiped)
@@ -1400,7 +1425,7 @@ class TableClean(ManipulationEnv):
         The per-control-step hook (``env.step`` and a fast stepper call it once per control step).
         Cheap when nothing changed since the last call (compares the dirt-state joint positions).
         """
-        positions = tuple(self._qpos_view()[self._dirt_qpos_index].tolist())
+        positions = self._dirt_positions()
         if positions == self._shown_dirt:
             return
         self.sim.model.geom_rgba[self.marker_geom_ids, 3] = self._marker_present().astype(float)
