@@ -832,6 +832,8 @@ class FastSkillStepper:
         """The robot's current OSC, gripper controller and gripper (robosuite makes new controllers at each reset)."""
         robot = self.env.robots[0]
         arm = robot.arms[0]
+        self._composite = robot.composite_controller
+        self._arm = arm
         controllers = robot.composite_controller.part_controllers
         self.osc = controllers[arm]
         self.grip_controller = controllers[robot.get_gripper_name(arm)]
@@ -959,8 +961,10 @@ class FastSkillStepper:
             raise ValueError(f"action must have shape ({ACTION_DIM},), got {action.shape}")
         if env.sim is not self._sim:
             self._bind()
-        else:
-            self._find_controllers()
+        else:  # robosuite makes a new composite controller, with new parts, at each reset
+            composite = env.robots[0].composite_controller
+            if composite is not self._composite or composite.part_controllers[self._arm] is not self.osc:
+                self._find_controllers()
         env.timestep += 1
         if self.state_log is not None:
             self.state_log.append()
@@ -990,7 +994,7 @@ class FastSkillStepper:
         else:
             for substep in range(first, self.substeps):
                 self._python_substep(substep, goal_pos, goal_ori, gains, grip_ctrl)
-        # _finish_step, inline
+        # what env.step does once per control step and later steps rely on (the next update() re-reads the sim)
         env.show_dirt()
         env.done = (env.timestep >= env.horizon) and not env.ignore_done
         finish_control_step(env, osc, self.grip_controller, goal_pos, goal_ori, self.torques)
@@ -1113,15 +1117,6 @@ class FastSkillStepper:
                 done = -done
                 self.env.record_wiping_substep()
                 mujoco.mj_step2(self.model, self.data)
-
-    def _finish_step(self, goal_pos: np.ndarray, goal_ori: np.ndarray) -> None:
-        """What ``env.step`` does once per control step and later steps rely on."""
-        env = self.env
-        advance_clock(env, env.control_timestep)
-        env.show_dirt()
-        env.done = (env.timestep >= env.horizon) and not env.ignore_done
-        # as after robosuite's run_controller: the next update() re-reads the simulation
-        hand_back_controller_state(self.osc, self.grip_controller, goal_pos, goal_ori, self.torques)
 
 
 #: Attribute under which :func:`attach_fast_stepper` stores an env's stepper.
