@@ -326,3 +326,25 @@ def test_a_spec_starting_with_a_held_object_is_refused_by_the_scene_naming_the_r
     spec = TaskSpec("held_start", start_state=TaskState((False, False), (HELD,), 0))
     with pytest.raises(ValueError, match="held_start.*holds an object.*physics_backend.stage"):
         make(task=spec)
+
+
+def test_dirt_positions_read_the_dirt_state_joints():
+    """_dirt_positions (the dirt-state caches' key) equals the joints' qpos gathered by address, through the
+    kept strided view and through the fallback gather for unevenly spaced addresses."""
+    from tableclean_suite.controllers import make_skill_env
+
+    env = make_skill_env(2, 1, seed=4)
+    try:
+        env.reset()
+        qpos = env.sim.data.qpos
+        addr = env._dirt_qpos_addr
+        qpos[list(addr)] = np.arange(1, len(addr) + 1) * 0.25
+        expected = tuple(float(qpos[a]) for a in addr)
+        assert env._dirt_positions() == expected
+        env._dirt_qpos_addr = (addr[0], addr[0] + 1, addr[0] + 3)  # uneven: gathered through _dirt_qpos_index
+        env._dirt_qpos_index = np.array(env._dirt_qpos_addr, dtype=np.intp)
+        env._qpos_cache = None
+        assert env._dirt_positions() == tuple(float(qpos[a]) for a in env._dirt_qpos_addr)
+        assert env._qpos_cache[2] is None
+    finally:
+        env.close()

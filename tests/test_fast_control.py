@@ -231,6 +231,30 @@ def test_step_refuses_a_wrong_action_size():
         env.close()
 
 
+def test_step_follows_new_gains_and_controllers():
+    """step() keeps the OSC gains while robosuite's kp/kd arrays stay the same objects and its controllers
+    while the composite controller does: a new kp array, or a reset's new controllers, are picked up."""
+    env = make_skill_env(1, 1, seed=2)
+    try:
+        env.reset()
+        stepper = fast_stepper_of(env)
+        action = np.concatenate([_eef_pos(env), [np.pi, 0.0, 0.0], [-1.0]])
+        stepper.step(action)
+        osc = stepper.osc
+        np.testing.assert_array_equal(stepper._gains[2], np.stack([osc.kp, osc.kd]))
+        osc.kp = osc.kp * 0.5  # as the randomization does: a new array
+        stepper.step(action)
+        np.testing.assert_array_equal(stepper._gains[2][0], osc.kp)
+        env.reset()
+        new_osc = env.robots[0].composite_controller.part_controllers[env.robots[0].arms[0]]
+        assert new_osc is not osc
+        stepper.step(action)
+        assert stepper.osc is new_osc and stepper._gains[0] is new_osc.kp
+        assert new_osc.goal_pos is not None and new_osc.new_update
+    finally:
+        env.close()
+
+
 #: A MuJoCo version outside the adapter's checked set (the release that changed ``mj_fullM``).
 UNCHECKED_MUJOCO = "3.10.0"
 
