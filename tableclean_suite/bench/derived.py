@@ -7,8 +7,10 @@ cached here, under ``OUT/cells/derived/``:
   at the defaults), keyed by a digest of the per-run scores they are computed from (learner,
   reward and every run's values, in order), the bootstrap settings (replicates, confidence,
   seed), the source of :mod:`.statistics` and the numpy, numba and Python versions;
-- the **figures** (:func:`figures`: ~2 s with matplotlib's import), each keyed by a digest of
-  the data it draws (the whole curves frame and Table 3, whose plateaus it marks), the plateau
+- the **figures** (:func:`figures`, :func:`figures_of`: ~2 s with matplotlib's import), each
+  keyed by a digest of the data it is given (a run gives each figure the curves and Table 3 rows
+  of the experiments it draws, :class:`FigureProcess` drawing it while the other cells train;
+  :func:`figures` keys by the frames it is given), the plateau
   fraction, the dpi, the source of :mod:`.plots` (which holds the drawing and the ``savefig``
   call), the matplotlib, Pillow, numpy, pandas and Python versions, matplotlib's live
   ``rcParams`` (so every matplotlibrc and style in effect) and the font file matplotlib resolves
@@ -312,3 +314,135 @@ def start_figures(store: DerivedStore, curves, plateau_fraction: float, table3=N
         gc.unfreeze()
     pending = pool.map_async(_draw, missing, chunksize=1)
     return PendingFigures(store, stems, keys, loaded, lambda: zip(missing, pending.get()), pool)
+
+
+# -- figures drawn while the grid trains --------------------------------------------------------
+
+def figures_of(store: DerivedStore, stems, inputs, plateau_fraction: float, dpi: int) -> list[tuple[bytes, bool]]:
+    """Figures ``stems`` drawn from ``inputs()`` = ``(curves, table3)`` (``table3``: the Table 3
+    rows whose plateaus they mark, or None), each from ``store`` when it holds its key, else drawn
+    (:func:`.plots.render_png`) and stored.
+
+    A key (:func:`figure_key`) names the digests of the curves and Table 3 rows the figure is
+    given, which may be only the rows it draws (e.g. the main experiment's for Figures 3-5), so it
+    can be drawn before a run's other cells are done.
+
+    Returns:
+        ``(png, cached)`` per stem.
+    """
+    curves, table3 = inputs()
+    digests = (frame_digest(curves), frame_digest(table3) if table3 is not None else None)
+    config = matplotlib_config()
+    made = []
+    for stem in stems:
+        key = figure_key(stem, *digests, plateau_fraction, dpi, config)
+        png = store.load(stem, key)
+        if png is None:
+            png = plots.render_png(stem, curves, plateau_fraction, table3, dpi)
+            store.save(stem, key, png)
+            made.append((png, False))
+        else:
+            made.append((png, True))
+    return made
+
+
+def _figures_in_process(root: str, read: bool, stems, inputs, plateau_fraction: float, dpi: int):
+    """:func:`figures_of` with its store given by value (what :class:`FigureProcess` runs)."""
+    return figures_of(DerivedStore(root, read), stems, inputs, plateau_fraction, dpi)
+
+
+class FigureProcess:
+    """One process that makes figures on request (:func:`figure`: builds the inputs, computes the
+    key, loads or draws and stores the figure), forked when constructed: a run constructs it
+    before it starts any thread and before it locks ``--out`` (so the process inherits no thread
+    and holds no lock), then requests each figure as soon as the cells it shows are done, while
+    the other cells train.  The process imports pandas and matplotlib at its first figure (this
+    one need not) and runs the same code on the same matplotlib configuration as this process,
+    so the PNG bytes are those drawn here.  Like an executor's worker it ignores Ctrl-C and exits
+    within a second of this process's death
+    (:func:`~tableclean_suite.executors.local.watch_parent`).
+    """
+
+    def __init__(self):
+        import multiprocessing
+
+        from tableclean_suite.executors.local import watch_parent
+
+        gc.freeze()  # the forked process's collections then leave this process's objects (and pages) alone
+        try:
+            self._pool = multiprocessing.get_context("fork").Pool(1, initializer=watch_parent,
+                                                                  initargs=(os.getpid(),))
+        finally:
+            gc.unfreeze()
+
+    @staticmethod
+    def available() -> bool:
+        """Whether this platform forks (Linux)."""
+        import multiprocessing
+
+        return "fork" in multiprocessing.get_all_start_methods() and sys.platform.startswith("linux")
+
+    def figures(self, store: DerivedStore, stems, inputs, plateau_fraction: float, dpi: int):
+        """Start :func:`figures_of` (``inputs``: picklable); returns a handle whose ``get()`` gives its result."""
+        return self._pool.apply_async(_figures_in_process,
+                                      (str(store.root), store.read, list(stems), inputs, plateau_fraction, dpi))
+
+    def call(self, function, *args):
+        """Start ``function(*args)`` (picklable) there; returns a handle whose ``get()`` gives its result."""
+        return self._pool.apply_async(function, args)
+
+    def close(self) -> None:
+        """End the process (a figure being drawn is abandoned; its entry is written atomically or not at all)."""
+        self._pool.terminate()
+        self._pool.join()
+
+
+class _Later:
+    """:func:`figures_of` to run in this process when its result is asked for (no :class:`FigureProcess`)."""
+
+    def __init__(self, *args):
+        self._args = args
+
+    def get(self) -> list[tuple[bytes, bool]]:
+        return figures_of(*self._args)
+
+
+class FigureRequests:
+    """A run's figures, each requested (:meth:`request`) with how to build its inputs as soon as
+    those are known, made (:func:`figure`) by ``process`` meanwhile, or here on :meth:`result`
+    without one.
+
+    Args:
+        store: the derived-results cache.
+        plateau_fraction, dpi: as :func:`.plots.render_png`'s.
+        process: a :class:`FigureProcess`, or None.
+    """
+
+    def __init__(self, store: DerivedStore, plateau_fraction: float, dpi: int, process: FigureProcess | None = None):
+        self.store, self.plateau_fraction, self.dpi, self._process = store, plateau_fraction, dpi, process
+        self._requested: dict = {}  # stem -> (handle, index in its result)
+        self._results: dict = {}  # handle -> its result
+
+    def requested(self, stem: str) -> bool:
+        """Whether ``stem`` was requested."""
+        return stem in self._requested
+
+    def request(self, stems, inputs) -> None:
+        """Make figures ``stems`` from ``inputs()`` = ``(curves, table3)`` (a picklable callable)."""
+        stems = list(stems)
+        args = (self.store, stems, inputs, self.plateau_fraction, self.dpi)
+        self.requested_as(stems, self._process.figures(*args) if self._process is not None else _Later(*args))
+
+    def requested_as(self, stems, handle) -> None:
+        """Figures ``stems`` are ``handle.get()``'s :func:`figures_of` result (made by the caller's means)."""
+        self._requested.update({stem: (handle, index) for index, stem in enumerate(stems)})
+
+    def result(self, stems) -> list[Figure]:
+        """The :class:`Figure` of each of ``stems`` (each requested), in that order, waited for."""
+        figures = []
+        for stem in stems:
+            handle, index = self._requested[stem]
+            if handle not in self._results:
+                self._results[handle] = handle.get()
+            figures.append(Figure(f"{stem}.png", *self._results[handle][index]))
+        return figures
