@@ -183,24 +183,3 @@ def test_figures_drawn_in_forked_processes_are_the_bytes_drawn_here(tmp_path):
     assert [f.png for f in forked] == [f.png for f in serial] and not any(f.cached for f in forked)
     again = derived.start_figures(store, frame, 0.25, table3, 60, processes=2).result()
     assert all(f.cached for f in again) and [f.png for f in again] == [f.png for f in serial]
-
-
-def test_curves_csv_made_in_parts_is_the_whole_frames_bytes():
-    """benchmarks.run writes curves.csv as a header and the rows of groups of memberships made
-    apart (the figure process makes the main ones while the grid trains): the same bytes."""
-    from tableclean_suite.bench import run, tables
-
-    rng = np.random.default_rng(3)
-    records, curves = [], []
-    for experiment, learner, alpha in (("main", "q_learning", 0.3), ("main", "sarsa", 0.3),
-                                       ("alpha_sweep", "q_learning", 0.7), ("literature", "x_learner", 0.3)):
-        records.append({"learner": learner, "reward": "r4", "alpha": alpha, "gamma": 0.3, "experiment": experiment})
-        values = {m: rng.random(50) for m in tables.CURVE_METRICS}
-        values["success"][[0, 7]] = [np.nan, -0.0]
-        values["success_low"], values["success_high"] = values["success"] - 0.1, values["success"] + 0.1
-        curves.append(values)
-    for stride in (1, 7):
-        whole = tables.csv_text(tables.curves_long(records, curves, stride=stride), tables.CURVES_FLOAT_FORMAT)
-        parts = [run.curves_csv_part(records[a:b], curves[a:b], stride) for a, b in ((0, 2), (2, 3), (3, 4))]
-        assert {header for header, _ in parts} == {whole.partition("\n")[0]}
-        assert parts[0][0] + "\n" + "".join(rows for _, rows in parts) == whole

@@ -276,30 +276,11 @@ PAPER_FIGURES = {
 }
 
 
-#: The experiments whose rows each paper figure draws (its curves and Table 3 rows): a figure
-#: can be drawn once these cells are done, from these rows only (the same bytes as from all).
-FIGURE_EXPERIMENTS = {
-    "fig3_success_rate_q_learning": ("main",),
-    "fig4_average_reward_q_learning": ("main",),
-    "fig5_average_reward_sarsa": ("main",),
-    "fig6_success_rate_sweeps": ("alpha_sweep", "gamma_sweep"),
-    "fig7_average_reward_sweeps": ("alpha_sweep", "gamma_sweep"),
-}
-#: The paper figures that mark Table 3's plateaus (the others draw no Table 3).
-FIGURES_WITH_TABLE3 = ("fig3_success_rate_q_learning", "fig4_average_reward_q_learning", "fig5_average_reward_sarsa")
-
-
 def available_figures(curves: pd.DataFrame) -> list[str]:
     """Stems of :data:`PAPER_FIGURES` that ``curves`` has data for."""
     experiments = set(curves["experiment"].unique().tolist())
     learners = set(curves.loc[curves["experiment"] == "main", "learner"].unique().tolist())
-    return available_figures_of(experiments, learners)
-
-
-def available_figures_of(experiments, learners) -> list[str]:
-    """Stems of :data:`PAPER_FIGURES` that curves of these experiments and main learners allow."""
-    sweeps = set(experiments) & {"alpha_sweep", "gamma_sweep"}
-    learners = set(learners)
+    sweeps = experiments & {"alpha_sweep", "gamma_sweep"}
     needs = {
         "fig3_success_rate_q_learning": "q_learning" in learners,
         "fig4_average_reward_q_learning": "q_learning" in learners,

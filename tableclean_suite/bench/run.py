@@ -207,14 +207,6 @@ def _curves_stride(rows_per_iteration: int, iterations: int) -> int:
     return max(1, math.ceil(estimate / CURVES_MAX_BYTES))
 
 
-def curves_stride(memberships: int, iterations: int) -> int:
-    """The iteration stride of ``curves.csv`` (and of the figures' curves) for a grid of
-    ``memberships`` rows (one curve set each)."""
-    from tableclean_suite.bench import tables
-
-    return _curves_stride(memberships * len(tables.CURVE_METRICS), iterations)
-
-
 def _manifest(config: RunConfig, model, transitions_sha256, grid_run, stride: int, elapsed: float) -> dict:
     """The contents of ``config.json`` (:func:`.outputs.publish` adds ``run_id`` and ``files``)."""
     import numpy
@@ -260,32 +252,12 @@ def run(args) -> int:
     if problem:
         print(f"{args.parser.prog}: error: --out {problem}", file=sys.stderr)
         return EXIT_USAGE
-    drawing = _figure_process(args.config)  # forked before the lock is taken and before any thread starts
-    try:
-        with outputs.output_lock(args.config.out), single_blas_thread():
-            return train_and_publish(args, drawing)
-    finally:
-        if drawing is not None:
-            drawing.close()
+    with outputs.output_lock(args.config.out), single_blas_thread():
+        return train_and_publish(args)
 
 
-def _figure_process(config: RunConfig):
-    """A :class:`.derived.FigureProcess` that draws the figures while the grid trains, or None
-    (``--no-figures``, a platform that does not fork, or an executor other than local)."""
-    from tableclean_suite.bench import derived
-
-    if not config.figures or config.executor != "local" or not derived.FigureProcess.available():
-        return None
-    from tableclean_suite.bench import tables  # noqa: F401  (pandas: inherited, instead of imported there too)
-
-    return derived.FigureProcess()
-
-
-def train_and_publish(args, figure_process=None) -> int:
-    """Train/load the grid, print the tables, write files and figures; returns the exit code.
-
-    ``figure_process``: a :class:`.derived.FigureProcess` that draws each figure as soon as the
-    cells it shows are done (:class:`EarlyFigures`), else they are drawn after the grid."""
+def train_and_publish(args) -> int:
+    """Train/load the grid, print the tables, write files and figures; returns the exit code."""
     from tableclean_suite.bench import derived, experiments, outputs, precompile
     from tableclean_suite.executors import MissingRayError, TaskFailedError
 
@@ -308,21 +280,13 @@ def train_and_publish(args, figure_process=None) -> int:
     grid = experiments.config_grid(config)
     store = experiments.CellStore(out / "cells")
     results = derived.DerivedStore(store.root / DERIVED_DIR, read=not config.fresh)
-    comparing = BackgroundComparisons(grid, config, results, preload_pyplot=figure_process is None)
-    drawing = (EarlyFigures(grid, config, derived.FigureRequests(results, config.plateau_fraction, FIGURE_DPI,
-                                                                  figure_process), model, figure_process)
-               if config.figures and figure_process is not None else None)
-
-    def on_cell(grid_run):
-        comparing.start_when_ready(grid_run)
-        if drawing is not None:
-            drawing.request_ready(grid_run)
+    comparing = BackgroundComparisons(grid, config, results)
     compiling = (precompile.start(experiments.unique_cells(grid), config, model, transitions)
                  if executor is None else None)  # before any thread starts
     try:
         with executor if executor is not None else contextlib.nullcontext():
             grid_run = experiments.run_grid(grid, config, model, store, transitions, transitions_sha256, executor,
-                                            on_cell=on_cell)
+                                            on_cell=comparing.start_when_ready)
     except experiments.CellFileError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
@@ -350,20 +314,13 @@ def train_and_publish(args, figure_process=None) -> int:
                                              config.settle_tolerance)
     table3 = tables.table3(records, compare_with_paper=tables.is_paper_task(model))
     table4 = tables.table4(table3, paper_task=tables.is_paper_task(model))
-    stride = curves_stride(len(grid), config.iterations)
+    stride = _curves_stride(len(records) * len(tables.CURVE_METRICS), config.iterations)
+    curves_frame = tables.curves_long(records, curves, stride=stride)
     comparisons, comparisons_cached = comparing.result(grid_run)  # finished before the figures' processes fork
-    curves_text = figures = None
-    if drawing is not None:  # the figures and most of curves.csv made by the figure process meanwhile
-        curves_text = drawing.curves_text(grid_run)
-        figures = drawing.result(grid_run, records)
-    if curves_text is None:
-        curves_frame = tables.curves_long(records, curves, stride=stride)
-        pending = (derived.start_figures(results, curves_frame, config.plateau_fraction, table3, FIGURE_DPI,
-                                         processes=derived.FIGURE_PROCESSES)
-                   if config.figures and figures is None else None)
-        curves_text = tables.csv_text(curves_frame, tables.CURVES_FLOAT_FORMAT)  # while the figures are drawn
-        if figures is None:
-            figures = pending.result() if pending is not None else []
+    drawing = (derived.start_figures(results, curves_frame, config.plateau_fraction, table3, FIGURE_DPI,
+                                     processes=derived.FIGURE_PROCESSES) if config.figures else None)
+    curves_text = tables.csv_text(curves_frame, tables.CURVES_FLOAT_FORMAT)  # while the figures are drawn
+    figures = drawing.result() if drawing is not None else []
     drawn = sum(not figure.cached for figure in figures)
     print(f"derived results in {results.root}: comparisons {'loaded' if comparisons_cached else 'computed'}, "
           f"figures {len(figures) - drawn} loaded, {drawn} drawn")
@@ -440,158 +397,13 @@ def _preload_pyplot() -> None:
         pass
 
 
-def figure_inputs(records: list[dict], curves: list[dict], stride: int, paper: bool | None):
-    """``(curves frame, Table 3 or None)`` of some memberships' :func:`.experiments.cell_records`,
-    as a figure draws them (:class:`EarlyFigures`); ``paper``: None for no Table 3, else whether
-    it compares with the paper's."""
-    from tableclean_suite.bench import tables
-
-    table3 = tables.table3(records, compare_with_paper=paper) if paper is not None else None
-    return tables.curves_long(records, curves, stride=stride), table3
-
-
-def curves_csv_part(records: list[dict], curves: list[dict], stride: int) -> tuple[str, str]:
-    """``(header, rows)`` of ``curves.csv`` (:func:`.tables.csv_text` of :func:`.tables.curves_long`)
-    of some memberships' :func:`.experiments.cell_records`: the file is the header line, then the
-    rows of its memberships' parts in grid order (each row is formatted on its own)."""
-    from tableclean_suite.bench import tables
-
-    header, _, rows = tables.csv_text(tables.curves_long(records, curves, stride=stride),
-                                      tables.CURVES_FLOAT_FORMAT).partition("\n")
-    return header, rows
-
-
-def figures_and_csv_part(store, stems, inputs, plateau_fraction: float, dpi: int, rows: bool):
-    """``(figures, csv part or None)``: :func:`.derived.figures_of` of ``stems`` and, with ``rows``,
-    :func:`curves_csv_part` of the same memberships, from one build of their inputs (what the
-    figure process runs)."""
-    from tableclean_suite.bench import derived, tables
-
-    curves, table3 = inputs()
-    figures = derived.figures_of(store, stems, lambda: (curves, table3), plateau_fraction, dpi) if stems else []
-    if not rows:
-        return figures, None
-    header, _, text = tables.csv_text(curves, tables.CURVES_FLOAT_FORMAT).partition("\n")
-    return figures, (header, text)
-
-
-class _Item:
-    """Item ``index`` of an asynchronous result: ``get()`` waits for it."""
-
-    def __init__(self, handle, index: int):
-        self._handle, self._index = handle, index
-
-    def get(self):
-        return self._handle.get()[self._index]
-
-
-def figures_available(records: list[dict]) -> set:
-    """The paper figures (:func:`.plots.available_figures`) that these records' curves allow."""
-    from tableclean_suite.bench import plots
-
-    experiments = {r["experiment"] for r in records}
-    learners = {r["learner"] for r in records if r["experiment"] == "main"}
-    return set(plots.available_figures_of(experiments, learners))
-
-
-class EarlyFigures:
-    """The run's figures, each requested (:class:`.derived.FigureRequests`) as soon as every cell
-    it shows is trained or loaded (``run_grid``'s ``on_cell``; e.g. Figures 3-5 once the main
-    cells are), so that a :class:`.derived.FigureProcess` draws them while the other cells train.
-
-    Each figure is given the rows of the experiments it draws (:data:`.plots.FIGURE_EXPERIMENTS`):
-    its curves (:func:`.tables.curves_long` of those memberships, at the run's stride) and, for
-    those marking plateaus, their Table 3 rows; the same rows, values and order as in the whole
-    frames, so the same bytes.
-
-    Args:
-        grid: the run's memberships.
-        config: the run's configuration.
-        requests: where the figures are requested.
-        model: the task model (whether Table 3 compares with the paper).
-    """
-
-    def __init__(self, grid, config: RunConfig, requests, model, process=None):
-        from tableclean_suite.bench import plots
-
-        self._config, self._requests, self._model, self._process = config, requests, model, process
-        self._stride = None
-        self._grid = list(grid)
-        self._csv_parts: list = []  # (memberships, handle of curves_csv_part) made by the process
-        self._groups: dict = {}  # (experiments, with Table 3) -> [memberships, [stems]]
-        for stem, names in plots.FIGURE_EXPERIMENTS.items():
-            members = [m for m in grid if m.experiment in names]
-            if members:
-                group = (names, stem in plots.FIGURES_WITH_TABLE3)
-                self._groups.setdefault(group, [members, []])[1].append(stem)
-
-    def _request(self, members, stems, with_table3: bool, grid_run) -> None:
-        import functools
-
-        from tableclean_suite.bench import experiments, tables
-
-        if self._stride is None:
-            self._stride = curves_stride(len(self._grid), self._config.iterations)
-        records, curves = experiments.cell_records(members, grid_run.summaries, grid_run.statistics,
-                                                 self._config.settle_tolerance)
-        available = figures_available(records)
-        stems = [stem for stem in stems if stem in available]
-        paper = tables.is_paper_task(self._model) if with_table3 else None
-        inputs = functools.partial(figure_inputs, records, curves, self._stride, paper)
-        if self._process is not None:  # the figures (and these memberships' rows of curves.csv), from one frame there
-            rows = not self._csv_parts  # the first group's: later ones' are made here while it draws their figures
-            handle = self._process.call(figures_and_csv_part, self._requests.store, stems, inputs,
-                                        self._requests.plateau_fraction, self._requests.dpi, rows)
-            self._requests.requested_as(stems, _Item(handle, 0))
-            if rows:
-                self._csv_parts.append((members, _Item(handle, 1)))
-        elif stems:
-            self._requests.request(stems, inputs)
-
-    def request_ready(self, grid_run) -> None:
-        """Request the figures whose cells are all done and that are not requested yet."""
-        for group, (members, stems) in list(self._groups.items()):
-            if all(m.cell in grid_run.statistics for m in members):
-                del self._groups[group]
-                self._request(members, stems, group[1], grid_run)
-
-    def curves_text(self, grid_run) -> str | None:
-        """``curves.csv`` (every cell done): the rows made meanwhile by the process for the
-        memberships of the figures, the others' here; None when those memberships are not the
-        grid's first ones in order (then :func:`.tables.csv_text` of the whole frame makes it)."""
-        from tableclean_suite.bench import experiments
-
-        self.request_ready(grid_run)
-        done = [m for members, _ in self._csv_parts for m in members]
-        if not self._csv_parts or done != self._grid[:len(done)]:
-            return None
-        rest = self._grid[len(done):]
-        last = ([curves_csv_part(*experiments.cell_records(rest, grid_run.summaries, grid_run.statistics,
-                                                           self._config.settle_tolerance), self._stride)]
-                if rest else [])  # here, while the process ends its parts
-        parts = [handle.get() for _, handle in self._csv_parts] + last
-        if len({header for header, _ in parts}) != 1:
-            return None
-        return parts[0][0] + "\n" + "".join(rows for _, rows in parts)
-
-    def result(self, grid_run, records) -> list:
-        """The :class:`.derived.Figure` of each figure the run's ``records`` (every cell done)
-        have data for, in :func:`.plots.available_figures` order; the drawn ones waited for."""
-        from tableclean_suite.bench import plots
-
-        self.request_ready(grid_run)
-        available = figures_available(records)
-        return self._requests.result([stem for stem in plots.PAPER_FIGURES if stem in available])
-
-
 class BackgroundComparisons:
     """The probabilities of improvement between the main cells (:func:`.derived.comparisons`),
     computed on a thread as soon as every main cell is trained or loaded, while the other cells
     train: the bootstrap draws run compiled without the GIL, on the core the cells' statistics
     leave free.  Same numbers as computing them afterwards (one seeded generator, same order).
-    With ``--fresh`` figures drawn after the grid (no :class:`.derived.FigureProcess`) the thread
-    then imports pyplot for the drawing processes (:func:`_preload_pyplot`; a cached run loads its
-    figures without it).
+    With ``--fresh`` figures the thread then imports pyplot for the drawing processes
+    (:func:`_preload_pyplot`; a cached run loads its figures without it).
 
     Args:
         grid: the run's memberships (the ``main`` ones are compared).
@@ -599,10 +411,9 @@ class BackgroundComparisons:
         results: the derived-results cache.
     """
 
-    def __init__(self, grid, config: RunConfig, results, preload_pyplot: bool = True):
+    def __init__(self, grid, config: RunConfig, results):
         self._main = [m.cell for m in grid if m.experiment == "main"]
         self._config, self._results = config, results
-        self._preload_pyplot = preload_pyplot
         self._thread = None
         self._outcome: dict = {}
 
@@ -618,7 +429,7 @@ class BackgroundComparisons:
                                                          config.bootstrap_samples, config.seed)
         except BaseException as error:  # noqa: BLE001  (raised again by result())
             self._outcome["error"] = error
-        if self._config.figures and self._config.fresh and self._preload_pyplot:
+        if self._config.figures and self._config.fresh:
             _preload_pyplot()
 
     def start_when_ready(self, grid_run) -> None:
