@@ -273,3 +273,19 @@ def test_single_blas_thread_pins_every_loaded_openblas_and_restores_it():
         with single_blas_thread():
             1 / 0
     assert blas_threads() == before
+
+
+def test_a_broken_pool_names_the_lowest_task_that_used_up_its_attempts():
+    """A crash charges every task running in the pool; when two use up their attempts together, the one
+    named is the lowest-indexed (the crashing task, submitted first), whatever order the futures end in."""
+    from concurrent.futures import Future
+    from concurrent.futures.process import BrokenProcessPool
+
+    tasks = probes()
+    futures = [Future(), Future()]
+    for future in futures:
+        future.set_exception(BrokenProcessPool("a worker died"))
+    running = {futures[0]: 5, futures[1]: 4}  # the higher index first
+    executor = LocalExecutor(workers=2, max_retries=2)
+    broken, failure = executor._collect(list(running), dict(running), {}, [], tasks, [3] * len(tasks))
+    assert broken and failure[0] == 4 and failure[1].task == tasks[4]

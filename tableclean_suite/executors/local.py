@@ -165,10 +165,10 @@ class LocalExecutor:
                     broken, failure = self._collect(done, running, finished, waiting, tasks, attempts)
                     if broken:  # every task of the dead pool fails: collect them all, then restart
                         more = self._collect(wait(running).done, running, finished, waiting, tasks, attempts)[1]
-                        failure = failure or more
+                        failure = min(failure, more) if failure and more else failure or more
                         self._restart()
                     if failure is not None:
-                        raise failure
+                        raise failure[1]
                 yield finished.pop(index)
         except KeyboardInterrupt:
             interrupted = True
@@ -186,12 +186,15 @@ class LocalExecutor:
         self.start()
 
     def _collect(self, done, running: dict, finished: dict, waiting: list, tasks: list,
-                 attempts: list) -> tuple[bool, TaskFailedError | None]:
+                 attempts: list) -> tuple[bool, tuple[int, TaskFailedError] | None]:
         """Move the ``done`` futures out of ``running``: results to ``finished``, retryable failures
-        back to ``waiting``.  Returns whether the pool broke (a worker died) and the first task
-        that failed for good, if any."""
+        back to ``waiting``.  Returns whether the pool broke (a worker died) and ``(index, error)`` of
+        the lowest-indexed task that failed for good, if any.  Lowest, not first done: when a crash
+        breaks the pool, every task running in it is charged an attempt, so a task that runs beside
+        one that always crashes can use up its attempts in the same collection; the crashing task was
+        submitted first (lower index), so it is the one named, whatever order the futures end in."""
         broken, failure = False, None
-        for future in done:
+        for future in sorted(done, key=running.get):
             index = running.pop(future)
             error = future.exception()
             if error is None:
@@ -202,8 +205,8 @@ class LocalExecutor:
             if not (crashed or isinstance(error, RetryableError)) or attempts[index] > self.max_retries:
                 if failure is None:
                     reason = f"a worker process died while running it{main_guard_hint()}" if crashed else error
-                    failure = TaskFailedError(tasks[index], attempts[index], reason)
-                    failure.__cause__ = error
+                    failure = (index, TaskFailedError(tasks[index], attempts[index], reason))
+                    failure[1].__cause__ = error
             else:
                 heapq.heappush(waiting, index)
         return broken, failure
