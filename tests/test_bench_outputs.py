@@ -247,7 +247,7 @@ def test_run_refuses_a_file_where_its_cell_folder_goes(tmp_path):
 
 @pytest.mark.cli
 def test_a_second_run_into_a_busy_out_exits_2_and_the_first_publishes_alone(tmp_path):
-    first = subprocess.Popen([sys.executable, "-m", "benchmarks.run", *QUICK_RUN[:-1], "--runs", "200",
+    first = subprocess.Popen([sys.executable, "-m", "benchmarks.run", *QUICK_RUN[:-1], "--runs", "5000",
                               "--iterations", "3000", "--seed", "1", "--out", str(tmp_path)], cwd=ROOT,
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
