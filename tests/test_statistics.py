@@ -233,3 +233,59 @@ def test_weighted_group_sums_told_exactness_give_the_checked_bits():
         ordered = statistics.weighted_group_sums(weights, values, False)
         assert told.tobytes() == checked.tobytes()
         assert ordered.tobytes() == checked.tobytes() or not exact  # exact sums: either way, the same bits
+
+
+def _ordered_weighted_sums(weights, values):
+    """The definition: per output element, ``weights[b, g] * values[g, t]`` added for g ascending,
+    zero weights skipped, each product rounded then added (numpy elementwise, one group at a time)."""
+    out = np.zeros((weights.shape[0], values.shape[1]))
+    for g in range(weights.shape[1]):
+        rows = weights[:, g] != 0.0
+        out[rows] = out[rows] + weights[rows, g][:, None] * values[g]
+    return out
+
+
+@pytest.mark.parametrize("groups, length", [(37, 1300), (100, 4000), (3, 5), (1, 1)])
+def test_weighted_row_range_is_the_ordered_sum_bit_for_bit(groups, length):
+    """The tiled kernel (columns in tiles, four groups per pass) adds the same products in the same
+    order as the plain loop: every bit, on values of mixed magnitudes and signs, infinities and
+    negative zeros (tiles and group counts with remainders included)."""
+    rng = np.random.default_rng(groups)
+    weights = rng.multinomial(groups, np.full(groups, 1.0 / groups), size=23).astype(float)
+    weights[5] *= 0.37  # non-integer weights too
+    values = rng.normal(size=(groups, length)) * 10.0 ** rng.integers(-8, 9, (groups, length))
+    values[rng.random((groups, length)) < 0.01] = -0.0
+    values[rng.random((groups, length)) < 0.001] = np.inf
+    out = np.zeros((weights.shape[0], length))
+    statistics._weighted_row_range(0, weights.shape[0], weights, values, out)
+    assert out.tobytes() == _ordered_weighted_sums(weights, values).tobytes()
+    assert statistics.weighted_group_sums(weights, values, False).tobytes() == out.tobytes()
+
+
+@pytest.mark.parametrize("confidence", [0.95, 0.9, 0.5, 0.999])
+def test_bands_are_numpys_percentiles_bit_for_bit(confidence):
+    """The compiled bands are ``np.percentile`` (clean columns) and ``np.nanpercentile`` (columns
+    mostly defined) bit for bit: few and many replicates, ties, infinities, NaN shares on both
+    sides of the limit; a -0.0 falls back to numpy."""
+    import warnings
+
+    rng = np.random.default_rng(7)
+    for trial in range(120):
+        rows, columns = int(rng.integers(1, 600)), int(rng.integers(1, 30))
+        curves = rng.normal(size=(rows, columns)) * 10.0 ** rng.uniform(-3, 3)
+        if trial % 3 == 1:
+            curves = np.abs(np.round(curves))  # ties (+0.0 only)
+        if trial % 3 == 2:
+            curves = rng.integers(0, 3, (rows, columns)) / 3.0
+        curves[rng.random((rows, columns)) < rng.uniform(0.0, 0.8, columns)] = np.nan
+        if trial % 7 == 0:
+            curves[rng.random((rows, columns)) < 0.05] = np.inf * rng.choice([-1.0, 1.0])
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            expected = statistics._numpy_bands(curves, confidence)
+        for ours, theirs in zip(statistics._bands(curves, confidence), expected):
+            assert ours.tobytes() == theirs.tobytes()
+    signed = np.array([[-0.0, 1.0], [0.0, 2.0], [-0.0, 3.0]])
+    assert not statistics._band_columns(signed, 0.025, 0.975, 0.5, np.full(2, np.nan), np.full(2, np.nan))
+    for ours, theirs in zip(statistics._bands(signed, confidence), statistics._numpy_bands(signed, confidence)):
+        assert ours.tobytes() == theirs.tobytes()
