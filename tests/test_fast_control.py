@@ -32,8 +32,10 @@ from tableclean_suite.controllers.fast_control import (
     FastSkillStepper,
     fast_stepper_of,
     native_available,
+    osc_work,
     rotvec_matrix,
 )
+from tableclean_suite.controllers import fast_control
 from tableclean_suite import robosuite_adapter
 from tableclean_suite.task import START_LAYOUTS, TaskModel, start_layout
 
@@ -308,6 +310,34 @@ def test_goal_rotation_is_scipys_bit_for_bit():
     for rotvec in rotvecs:
         rotvec_matrix(rotvec, out)
         np.testing.assert_array_equal(out, Rotation.from_rotvec(rotvec).as_matrix())
+
+
+#: Shapes of the OSC scratch entries for an arm of ARM_JOINTS joints, by the W_* name the kernels index them with.
+ARM_JOINTS = 7
+SCRATCH_SHAPES = {
+    "W_LOW": (ARM_JOINTS, ARM_JOINTS), "W_INV_LOW": (ARM_JOINTS, ARM_JOINTS), "W_MASS_INV": (ARM_JOINTS, ARM_JOINTS),
+    "W_LAMBDA_FULL": (6, 6), "W_LAMBDA_POS": (3, 3), "W_LAMBDA_ORI": (3, 3), "W_NULLSPACE": (ARM_JOINTS, ARM_JOINTS),
+    "W_J_MINV": (6, ARM_JOINTS), "W_LAMBDA_FULL_INV": (6, 6), "W_J_BAR": (ARM_JOINTS, 6), "W_DESIRED": (6,),
+    "W_ERROR": (3,), "W_WRENCH": (6,), "W_POSTURE": (ARM_JOINTS,), "W_POSE_TORQUES": (ARM_JOINTS,),
+    "W_MASS": (ARM_JOINTS, ARM_JOINTS), "W_J_FULL": (6, ARM_JOINTS), "W_JOINT_POS": (ARM_JOINTS,),
+    "W_JOINT_VEL": (ARM_JOINTS,), "W_BIAS": (ARM_JOINTS,), "W_REF_VEL": (6,),
+}
+
+
+def test_the_scratch_names_index_entries_of_their_shapes():
+    work = osc_work(ARM_JOINTS)
+    assert len(work) == len(SCRATCH_SHAPES)
+    assert sorted(getattr(fast_control, name) for name in SCRATCH_SHAPES) == list(range(len(work)))
+    for name, shape in SCRATCH_SHAPES.items():
+        assert work[getattr(fast_control, name)].shape == shape, name
+
+
+def test_the_kernels_index_the_scratch_by_name():
+    """The OSC kernels read the scratch tuple through the W_* names (a renumbering then cannot leave one behind)."""
+    import inspect
+    source = inspect.getsource(fast_control)
+    assert re.findall(r"\bwork\[\d+\]", source) == []
+    assert len(re.findall(r"\bwork\[W_[A-Z_]+\]", source)) == len(SCRATCH_SHAPES)
 
 
 def _episode(phase_loop: bool) -> dict:

@@ -246,23 +246,23 @@ def osc_work(n: int):
 def _opspace_into(mass: np.ndarray, j_full: np.ndarray, work):
     """:func:`fast_opspace_matrices` in the scratch ``work`` (:func:`osc_work`); returns views of it."""
     n = mass.shape[0]
-    low = work[0]
-    inv_low = work[1]
-    mass_inv = work[2]
-    lambda_full = work[3]
-    lambda_pos = work[4]
-    lambda_ori = work[5]
-    nullspace_matrix = work[6]
+    low = work[W_LOW]
+    inv_low = work[W_INV_LOW]
+    mass_inv = work[W_MASS_INV]
+    lambda_full = work[W_LAMBDA_FULL]
+    lambda_pos = work[W_LAMBDA_POS]
+    lambda_ori = work[W_LAMBDA_ORI]
+    nullspace_matrix = work[W_NULLSPACE]
     if spd_inverse(mass, mass_inv, low, inv_low):
-        j_minv = work[7]
+        j_minv = work[W_J_MINV]
         small_matmul(j_full, mass_inv, j_minv)
-        lambda_full_inv = work[8]
+        lambda_full_inv = work[W_LAMBDA_FULL_INV]
         small_matmul(j_minv, j_full.T, lambda_full_inv)
         ok = spd_inverse(lambda_full_inv, lambda_full, low, inv_low)
         ok = ok and spd_inverse(lambda_full_inv[0:3, 0:3], lambda_pos, low, inv_low)
         ok = ok and spd_inverse(lambda_full_inv[3:6, 3:6], lambda_ori, low, inv_low)
         if ok:
-            j_bar = work[9]
+            j_bar = work[W_J_BAR]
             small_matmul(j_minv.T, lambda_full, j_bar)  # M^-1 J^T lambda (M^-1 symmetric)
             small_matmul(j_bar, j_full, nullspace_matrix)
             for i in range(n):
@@ -338,10 +338,10 @@ def _osc_law_into(
 ) -> None:
     """:func:`osc_law` with its temporaries in the scratch ``work`` (:func:`osc_work`)."""
     n = mass.shape[0]
-    desired = work[10]  # desired force (3) and torque (3)
+    desired = work[W_DESIRED]  # desired force (3) and torque (3)
     for r in range(3):
         desired[r] = (goal_pos[r] - ref_pos[r]) * gains[0, r] + (-ref_vel[r]) * gains[1, r]
-    error = work[11]  # robosuite's orientation_error: half the sum of the columns' cross products
+    error = work[W_ERROR]  # robosuite's orientation_error: half the sum of the columns' cross products
     error[0] = 0.0
     error[1] = 0.0
     error[2] = 0.0
@@ -354,7 +354,7 @@ def _osc_law_into(
     for r in range(3):
         desired[3 + r] = 0.5 * error[r] * gains[0, 3 + r] + (-ref_vel[3 + r]) * gains[1, 3 + r]
     lambda_full, lambda_pos, lambda_ori, nullspace_matrix = _opspace_into(mass, j_full, work)
-    wrench = work[12]
+    wrench = work[W_WRENCH]
     if uncouple:
         small_matvec(lambda_pos, desired[0:3], wrench[0:3])
         small_matvec(lambda_ori, desired[3:6], wrench[3:6])
@@ -362,10 +362,10 @@ def _osc_law_into(
         small_matvec(lambda_full, desired, wrench)
     small_matvec(j_full.T, wrench, torques)
     joint_kv = np.sqrt(NULLSPACE_JOINT_KP) * 2
-    posture = work[13]
+    posture = work[W_POSTURE]
     for i in range(n):
         posture[i] = NULLSPACE_JOINT_KP * (initial_joint[i] - joint_pos[i]) - joint_kv * joint_vel[i]
-    pose_torques = work[14]
+    pose_torques = work[W_POSE_TORQUES]
     small_matvec(mass, posture, pose_torques)
     for i in range(n):
         value = 0.0
@@ -429,11 +429,11 @@ def _osc_torques_into(
     """:func:`osc_torques` with its temporaries in the scratch ``work`` (:func:`osc_work`, for ``indexes.shape[1]`` joints)."""
     dofs = indexes[0]
     n = dofs.size
-    mass = work[15]
-    j_full = work[16]
-    joint_pos = work[17]
-    joint_vel = work[18]
-    bias = work[19]
+    mass = work[W_MASS]
+    j_full = work[W_J_FULL]
+    joint_pos = work[W_JOINT_POS]
+    joint_vel = work[W_JOINT_VEL]
+    bias = work[W_BIAS]
     for i in range(n):
         for k in range(n):
             mass[i, k] = full_mass[dofs[i], dofs[k]]
@@ -443,7 +443,7 @@ def _osc_torques_into(
         joint_pos[i] = qpos[indexes[1, i]]
         joint_vel[i] = qvel[dofs[i]]
         bias[i] = qfrc_bias[dofs[i]]
-    ref_vel = work[20]
+    ref_vel = work[W_REF_VEL]
     small_matvec(jacp, qvel, ref_vel[0:3])  # robosuite's get_site_xvelp: the full Jacobian times all velocities
     small_matvec(jacr, qvel, ref_vel[3:6])
     ref_ori_mat = np.ascontiguousarray(site_mat.reshape((3, 3)))
