@@ -35,11 +35,26 @@ from tableclean_suite.task import Outcome, TaskModel, TaskState
 
 def visit_counts(states: np.ndarray, n_states: int) -> np.ndarray:
     """Iterations spent in each state: ``(R, T)`` recorded states -> ``(R, n_states)`` int64."""
-    states = np.atleast_2d(np.asarray(states, dtype=np.int64))
+    states = _integers(states)
     counts = np.zeros((states.shape[0], n_states), dtype=np.int64)
     for run, row in enumerate(states):
         counts[run] = np.bincount(row, minlength=n_states)
     return counts
+
+
+def _integers(records) -> np.ndarray:
+    """``(R, T)`` records as an integer array, in their own integer type (the records are int8: no
+    int64 copy of the whole window)."""
+    records = np.atleast_2d(np.asarray(records))
+    return records if np.issubdtype(records.dtype, np.integer) else records.astype(np.int64)
+
+
+def _parameter_array(exploration, epsilon: float, iteration: int, visits) -> np.ndarray:
+    """``exploration.parameter_array(epsilon, iteration, visits)``, the same values, evaluated once
+    per distinct visit count (it is a Python call per entry)."""
+    visits = np.asarray(visits)
+    values, inverse = np.unique(visits, return_inverse=True)
+    return exploration.parameter_array(epsilon, iteration, values)[np.asarray(inverse).reshape(visits.shape)]
 
 
 def final_behaviour(result) -> dict:
@@ -83,7 +98,7 @@ def behaviour_probabilities(policy, epsilon, n_actions, exploration=None, q=None
         raise ValueError("exploration 'visit_decay' needs visits= (per state, e.g. visit_counts(result.states, S))")
     policy = np.atleast_2d(policy)
     counts = np.zeros(policy.shape) if visits is None else np.broadcast_to(np.atleast_2d(visits), policy.shape)
-    return action_probabilities(policy, exploration.parameter_array(float(epsilon), iteration or 0, counts), n_actions)
+    return action_probabilities(policy, _parameter_array(exploration, float(epsilon), iteration or 0, counts), n_actions)
 
 
 def exact_success_probability(
@@ -159,10 +174,10 @@ def learned_affordances(states: np.ndarray, actions: np.ndarray, outcomes: np.nd
         states, actions, outcomes: ``(R, T)`` records (``TrainingResult.states`` ...).
         n_states, n_actions: the task's sizes.
     """
-    states, actions, outcomes = (np.atleast_2d(np.asarray(a, dtype=np.int64)) for a in (states, actions, outcomes))
+    states, actions, outcomes = (_integers(a) for a in (states, actions, outcomes))
     masks = np.ones((states.shape[0], n_states, n_actions), dtype=bool)
     runs, steps = np.nonzero(outcomes == int(Outcome.IMPROPER))
-    masks[runs, states[runs, steps], actions[runs, steps]] = False
+    masks[runs, states[runs, steps].astype(np.int64), actions[runs, steps].astype(np.int64)] = False
     return masks
 
 
@@ -239,7 +254,7 @@ def final_probabilities(result, model: TaskModel | None = None, masks: np.ndarra
     if masks is None:
         probabilities = behaviour_probabilities(None, epsilon, model.n_actions, **behaviour)
     else:
-        parameter = exploration.parameter_array(epsilon, behaviour["iteration"], behaviour["visits"])
+        parameter = _parameter_array(exploration, epsilon, behaviour["iteration"], behaviour["visits"])
         probabilities = afforded_probabilities(q, masks, np.broadcast_to(parameter, q.shape[:2]), exploration.softmax)
     if assist.get("advice_probability", 0.0) > 0.0:
         probabilities = advised_probabilities(probabilities, advisor_policy(model), assist["advice_probability"],
@@ -260,12 +275,8 @@ def affordance_masks(result, model: TaskModel) -> np.ndarray | None:
 
 def _per_run_asymptotes(probabilities: np.ndarray, chain, max_itr: int):
     """:class:`~tableclean_suite.asymptotes.Asymptotes` per run of ``(R, S, A)`` policies, each
-    distinct policy analysed once."""
-    flat = probabilities.reshape(probabilities.shape[0], -1)
-    unique, inverse = np.unique(flat, axis=0, return_inverse=True)
-    stats = asymptotes.episode_statistics(unique.reshape((-1,) + probabilities.shape[1:]), chain, max_itr)
-    inverse = np.asarray(inverse).reshape(-1)
-    return asymptotes.Asymptotes(*(np.atleast_1d(getattr(stats, name))[inverse] for name in asymptotes.QUANTITIES))
+    distinct policy analysed once (:func:`~tableclean_suite.asymptotes.policy_statistics`)."""
+    return asymptotes.policy_statistics(probabilities, chain, max_itr)
 
 
 def _assist_options(settings: dict) -> dict:

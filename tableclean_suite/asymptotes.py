@@ -43,6 +43,7 @@ to about that times the largest |reward|).
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numba
@@ -357,13 +358,143 @@ def greedy_asymptotes(q: np.ndarray, epsilon: float, chain: EpisodeChain, max_it
 
     Returns:
         :class:`Asymptotes` with arrays of shape ``(R,)``.  Runs sharing a greedy policy share the
-        computation (trained runs mostly converge to a few policies).
+        computation (trained runs mostly converge to a few policies; :func:`policy_statistics`).
     """
     policies = greedy_policy(np.asarray(q))
     visited = np.zeros(policies.shape[-1], dtype=bool)
     visited[chain.pair_state] = True
     policies = np.where(visited, policies, 0)  # states no episode visits do not matter: share more policies
-    unique, inverse = np.unique(policies, axis=0, return_inverse=True)
-    stats = episode_statistics(action_probabilities(unique, epsilon, q.shape[-1]), chain, max_itr)
-    inverse = np.asarray(inverse).reshape(-1)
-    return Asymptotes(*(np.asarray(getattr(stats, name))[inverse] for name in QUANTITIES))
+    first, inverse = _distinct_rows(policies)
+    stats = policy_statistics(action_probabilities(policies[first], epsilon, q.shape[-1]), chain, max_itr)
+    return Asymptotes(*(getattr(stats, name)[inverse] for name in QUANTITIES))
+
+
+def _distinct_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(first, inverse)`` of the distinct rows of ``rows`` ``(P, n)``, compared byte for byte:
+    ``first`` ``(U,)`` the index of each distinct row's first occurrence (in order of occurrence),
+    ``inverse`` ``(P,)`` int64 the distinct row of each row (``rows[first][inverse]`` equals ``rows``
+    bit for bit).  A dictionary of the rows' bytes: faster than ``np.unique(axis=0)``'s sort."""
+    rows = np.ascontiguousarray(rows)
+    index: dict[bytes, int] = {}
+    first: list[int] = []
+    inverse = np.empty(rows.shape[0], dtype=np.int64)
+    for i, row in enumerate(rows):
+        j = index.setdefault(row.tobytes(), len(first))
+        if j == len(first):
+            first.append(i)
+        inverse[i] = j
+    return np.array(first, dtype=np.int64), inverse
+
+
+@numba.njit(cache=True, nogil=True)
+def _reached_pairs(probabilities, pair_state, next_pair, probability, start_pairs, reached):
+    """Marks ``reached[p, n]`` (``(P, n_pairs)`` bool, all False on entry) for every pair ``n`` an
+    episode can be in under policy ``p`` of ``probabilities`` ``(P, S, A)``: the start pairs and
+    whatever a step of positive probability (policy and successor) that does not end the episode
+    leads to from a reached pair (a depth-first search per policy)."""
+    n_actions, n_successors = probability.shape[1], probability.shape[2]
+    stack = np.empty(pair_state.shape[0], dtype=np.int64)  # each pair is pushed at most once
+    for p in range(probabilities.shape[0]):
+        top = 0
+        for i in range(start_pairs.shape[0]):
+            if not reached[p, start_pairs[i]]:
+                reached[p, start_pairs[i]] = True
+                stack[top] = start_pairs[i]
+                top += 1
+        while top > 0:
+            top -= 1
+            s = pair_state[stack[top]]
+            for a in range(n_actions):
+                if probabilities[p, s, a] > 0.0:
+                    for k in range(n_successors):
+                        target = next_pair[s, a, k]
+                        if probability[s, a, k] > 0.0 and target >= 0 and not reached[p, target]:
+                            reached[p, target] = True
+                            stack[top] = target
+                            top += 1
+
+
+def reached_states(probabilities: np.ndarray, chain: EpisodeChain) -> np.ndarray:
+    """``(P, S)`` bool: the states an episode can be in under each of the policies ``(P, S, A)``
+    (:func:`_reached_pairs`; a state is reached when one of its pairs is).  Elsewhere the DP's
+    mass and expected return stay exactly 0 whatever the policy does there."""
+    probabilities = np.ascontiguousarray(probabilities, dtype=np.float64)
+    reached = np.zeros((probabilities.shape[0], chain.pair_state.shape[0]), dtype=bool)
+    _reached_pairs(probabilities, chain.pair_state, chain.next_pair, chain.probability, chain.start_pairs, reached)
+    states = np.zeros(probabilities.shape[:2], dtype=bool)
+    for n, state in enumerate(chain.pair_state):
+        states[:, state] |= reached[:, n]
+    return states
+
+
+def _kept_states(probabilities: np.ndarray, chain: EpisodeChain) -> np.ndarray:
+    """``(P, S)`` bool: the states where the DP reads each policy ``(P, S, A)`` (:func:`policy_statistics`)."""
+    if not np.isfinite(chain.reward).all():  # NaN rewards: an exact zero times NaN is not zero
+        kept = np.zeros(probabilities.shape[:2], dtype=bool)
+        kept[:, chain.pair_state] = True
+        return kept
+    return reached_states(probabilities, chain)
+
+
+#: Distinct policies :func:`policy_statistics` remembers per chain (about 1 kB each); past it, it forgets them all.
+MEMO_POLICIES = 8192
+#: Chains whose policies :func:`policy_statistics` remembers at once (the latest used): a cell's chain and, while
+#: a thread trains ahead, the next cell's.
+MEMO_CHAINS = 2
+_memo_lock = threading.Lock()
+_memo: list[tuple[EpisodeChain, int, float, dict[bytes, np.ndarray]]] = []  # least recently used first
+
+
+def _remembered(chain: EpisodeChain, max_itr: int, tolerance: float) -> dict[bytes, np.ndarray]:
+    """The memo of ``chain``'s policies for ``max_itr`` and ``tolerance`` (call with ``_memo_lock`` held)."""
+    for i, (known, itr, tol, memo) in enumerate(_memo):
+        if known is chain and itr == max_itr and tol == tolerance:
+            _memo.append(_memo.pop(i))
+            return memo
+    memo = {}
+    _memo.append((chain, max_itr, tolerance, memo))
+    del _memo[:-MEMO_CHAINS]
+    return memo
+
+
+def policy_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: int,
+                      tolerance: float = MASS_TOLERANCE) -> Asymptotes:
+    """:func:`episode_statistics` of ``(P, S, A)`` policies (arrays of shape ``(P,)``), bit for bit,
+    each distinct policy computed once.
+
+    Policies are distinct when they differ in a state an episode can reach under them
+    (:func:`reached_states`; with a chain of unknown rewards, a state of the chain): elsewhere the
+    DP only adds exact zeros, so e.g. greedy policies (epsilon 0) that differ only off their own
+    paths share one computation.  A policy's statistics do not depend on the others computed
+    beside it, so they are remembered per chain (the same object, unchanged), ``max_itr`` and
+    ``tolerance`` (:data:`MEMO_POLICIES`, :data:`MEMO_CHAINS`): a chunk's settling checkpoint
+    mostly has the policies of its end.
+    """
+    if int(max_itr) != max_itr or max_itr < 1:
+        raise ValueError(f"max_itr must be an integer >= 1, got {max_itr!r}")
+    if not 0.0 <= tolerance < 1.0:
+        raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
+    probabilities = np.asarray(probabilities, dtype=np.float64)
+    if probabilities.ndim != 3 or probabilities.shape[1:] != chain.probability.shape[:2]:
+        raise ValueError(f"policies have shape {probabilities.shape[1:]}, the task {chain.probability.shape[:2]}")
+    first, inverse = _distinct_rows(probabilities.reshape(probabilities.shape[0], -1))
+    distinct = probabilities[first]
+    canonical = np.where(_kept_states(distinct, chain)[:, :, None], distinct, 0.0)
+    first, canonical_inverse = _distinct_rows(canonical.reshape(canonical.shape[0], -1))
+    inverse = canonical_inverse[inverse]
+    keys = [canonical[i].tobytes() for i in first]
+    with _memo_lock:
+        memo = _remembered(chain, int(max_itr), float(tolerance))
+        rows = [memo.get(key) for key in keys]
+    missing = [j for j, row in enumerate(rows) if row is None]
+    if missing:
+        computed = episode_statistics(canonical[first[missing]], chain, max_itr, tolerance)
+        values = np.stack([getattr(computed, name) for name in QUANTITIES], axis=1)
+        with _memo_lock:
+            memo = _remembered(chain, int(max_itr), float(tolerance))
+            if len(memo) + len(missing) > MEMO_POLICIES:
+                memo.clear()
+            for j, row in zip(missing, values):
+                rows[j] = memo[keys[j]] = row
+    table = np.array(rows).reshape(len(first), len(QUANTITIES))
+    return Asymptotes(*(table[:, i][inverse] for i in range(len(QUANTITIES))))

@@ -187,3 +187,102 @@ def test_q_star_is_the_optimal_plan_and_sarsa_fails_only_at_gamma_0_3():
         analysis.fixed_point_q(_chain("r1"), 1.0)
     with pytest.raises(ValueError, match="unknown"):
         analysis.fixed_point_q(_chain("r4_cycle"), 0.3)
+
+
+def _stacked(stats):
+    return np.stack([np.atleast_1d(getattr(stats, name)) for name in asymptotes.QUANTITIES], axis=1)
+
+
+@pytest.mark.parametrize("pattern", ["r1", "r4", "r4_cycle"])
+def test_policy_statistics_equals_the_dp_of_every_policy_bit_for_bit(pattern, monkeypatch):
+    """Deduplicated, canonicalised off the policies' paths and remembered: the numbers of
+    episode_statistics on each policy as given (NaN rewards of r4_cycle included)."""
+    monkeypatch.setattr(asymptotes, "_memo", [])
+    chain = _chain(pattern)
+    rng = np.random.default_rng(11)
+    n_states, n_actions = chain.probability.shape[:2]
+    greedy = rng.integers(n_actions, size=(20, n_states))
+    greedy[10:] = greedy[:10]
+    greedy[10:, rng.integers(n_states, size=10)] = rng.integers(n_actions, size=10)  # many differ off their path
+    pi = np.concatenate([rng.dirichlet(np.ones(n_actions), size=(4, n_states)),
+                         analysis.action_probabilities(greedy, 0.0, n_actions),
+                         analysis.action_probabilities(greedy, 0.1, n_actions)])
+    expected = _stacked(asymptotes.episode_statistics(pi, chain, 500))
+    first = _stacked(asymptotes.policy_statistics(pi, chain, 500))
+    remembered = _stacked(asymptotes.policy_statistics(pi[::-1], chain, 500))[::-1]  # all from the memo
+    assert first.tobytes() == expected.tobytes() and remembered.tobytes() == expected.tobytes()
+
+
+def test_greedy_policies_that_differ_off_their_path_share_one_dp(monkeypatch):
+    monkeypatch.setattr(asymptotes, "_memo", [])
+    chain = _chain("r4")
+    q = train("q_learning", reward="r4", runs=40, iterations=3000, seed=5, model=MODEL).q
+    greedy = asymptotes.greedy_asymptotes(q, 0.0, chain, 500)
+    reference = asymptotes.episode_statistics(
+        analysis.action_probabilities(analysis.greedy_policy(q), 0.0, MODEL.n_actions), chain, 500)
+    assert _stacked(greedy).tobytes() == _stacked(reference).tobytes()
+    reached = asymptotes.reached_states(
+        analysis.action_probabilities(analysis.greedy_policy(q), 0.0, MODEL.n_actions), chain)
+    paths = {tuple(np.where(row, policy, -1)) for row, policy in zip(reached, analysis.greedy_policy(q))}
+    (_, _, _, memo), = asymptotes._memo
+    assert len(memo) == len(paths) < len(np.unique(analysis.greedy_policy(q), axis=0))  # the sharing is real
+
+
+def test_reached_states_follow_a_deterministic_policy():
+    chain = _chain("r1")
+    policy = np.zeros(MODEL.n_states, dtype=np.int64)  # action 0 everywhere
+    reached = asymptotes.reached_states(analysis.action_probabilities(policy[None], 0.0, MODEL.n_actions), chain)[0]
+    table = TransitionTable.from_model(MODEL)
+    expected = set()
+    for start in MODEL.start_states():  # walk each start's path by hand
+        state = start.index
+        while state not in expected:
+            expected.add(state)
+            if table.outcome[state, 0, 0] == Outcome.TERMINAL:
+                break
+            state = int(table.next_state[state, 0, 0])
+    assert set(np.flatnonzero(reached).tolist()) == expected
+    everywhere = asymptotes.reached_states(np.ones((1, MODEL.n_states, MODEL.n_actions)), chain)[0]
+    assert set(np.flatnonzero(everywhere).tolist()) == set(chain.pair_state.tolist())
+
+
+def test_the_memo_forgets_past_its_bounds(monkeypatch):
+    monkeypatch.setattr(asymptotes, "_memo", [])
+    monkeypatch.setattr(asymptotes, "MEMO_POLICIES", 3)
+    chains = [_chain("r1"), _chain("r2"), _chain("r3")]
+    pi = np.random.default_rng(2).dirichlet(np.ones(MODEL.n_actions), size=(5, MODEL.n_states))
+    for chain in chains:
+        expected = _stacked(asymptotes.episode_statistics(pi, chain, 50))
+        assert _stacked(asymptotes.policy_statistics(pi, chain, 50)).tobytes() == expected.tobytes()
+    assert [entry[0] for entry in asymptotes._memo] == chains[-asymptotes.MEMO_CHAINS:]
+    assert all(len(entry[3]) <= 5 for entry in asymptotes._memo)  # 5 new ones past 3: cleared first
+
+
+def test_distinct_rows():
+    rows = np.array([[1, 2], [3, 4], [1, 2], [0, 0], [3, 4]])
+    first, inverse = asymptotes._distinct_rows(rows)
+    assert first.tolist() == [0, 1, 3] and inverse.tolist() == [0, 1, 0, 2, 1]
+    floats = np.array([[0.0], [-0.0], [0.0]])  # bytes, not values: -0.0 is its own row
+    assert asymptotes._distinct_rows(floats)[1].tolist() == [0, 1, 0]
+
+
+def test_learned_affordances_and_visits_read_the_int8_records_as_int64_ones():
+    result = train("learned_affordance_q_learning", runs=6, iterations=800, epsilon=0.5, seed=4, model=MODEL)
+    assert result.states.dtype == np.int8  # the records' own type: no int64 copy of them
+    wide = [np.asarray(a, dtype=np.int64) for a in (result.states, result.actions, result.outcomes)]
+    masks = analysis.learned_affordances(result.states, result.actions, result.outcomes, MODEL.n_states,
+                                         MODEL.n_actions)
+    assert not masks.all() and np.array_equal(masks, analysis.learned_affordances(*wide, MODEL.n_states,
+                                                                                   MODEL.n_actions))
+    counts = analysis.visit_counts(result.states, MODEL.n_states)
+    assert np.array_equal(counts, analysis.visit_counts(wide[0], MODEL.n_states)) and counts.sum() == 6 * 800
+
+
+def test_parameter_array_per_distinct_visit_count_is_the_per_entry_one():
+    from tableclean_suite.learners.exploration import VisitDecay
+
+    visits = np.random.default_rng(3).integers(0, 50, size=(7, MODEL.n_states))
+    exploration = VisitDecay(scale=0.03)
+    expected = exploration.parameter_array(0.3, 1000, visits)
+    actual = analysis._parameter_array(exploration, 0.3, 1000, visits)
+    assert actual.shape == visits.shape and actual.tobytes() == expected.tobytes()
