@@ -291,18 +291,63 @@ def available_figures(curves: pd.DataFrame) -> list[str]:
     return [stem for stem, ok in needs.items() if ok]
 
 
-#: How :func:`render_png` saves a figure (beside the dpi it is given).
+#: zlib level of the PNGs :func:`render_png` writes (1: fastest; the figures are flat colours and lines,
+#: so they stay small).
+PNG_COMPRESS_LEVEL = 1
+#: How :func:`render_png` saves a figure with artists beyond its canvas (beside the dpi it is given).
 SAVEFIG_OPTIONS = {"bbox_inches": "tight", "format": "png"}
 
 
 def render_png(stem: str, curves: pd.DataFrame, plateau_fraction: float, table3=None, dpi: int = 100) -> bytes:
     """The PNG bytes of the paper's figure ``stem`` (:data:`PAPER_FIGURES`) drawn from ``curves``
-    (plateau lines from ``table3`` when given), at ``dpi`` dots per inch."""
+    (plateau lines from ``table3`` when given), at ``dpi`` dots per inch.
+
+    The figure is made at ``dpi`` and drawn once (:func:`_tight_png`): what ``savefig(bbox_inches=
+    "tight")`` shows, without its second drawing of the figure on a canvas of the cropped size (whose
+    new renderer measures every text again)."""
+    import matplotlib
+
     plt = pyplot()
-    fig, _ = PAPER_FIGURES[stem][1](curves, plateau_fraction, table3)
+    with matplotlib.rc_context({"figure.dpi": dpi}):  # a layout (Figures 6-7) measures texts as they are drawn
+        fig, _ = PAPER_FIGURES[stem][1](curves, plateau_fraction, table3)
     try:
+        return _tight_png(fig, dpi)
+    finally:
+        plt.close(fig)
+
+
+def _tight_png(fig, dpi: int) -> bytes:
+    """PNG of ``fig`` drawn once at ``dpi``, cropped to what was drawn on it (every pixel not of the
+    figure's colour) padded by ``savefig.pad_inches``: the picture ``savefig(bbox_inches="tight")``
+    gives (its box bounds the artists rather than their pixels, so its margins may be a few pixels
+    wider), without measuring the figure's texts again.  A figure drawn up to its canvas' edge (some
+    of it may lie beyond) is saved by ``savefig``; an opaque one as RGB."""
+    import matplotlib
+    from PIL import Image, PngImagePlugin
+
+    fig.set_dpi(dpi)
+    fig.canvas.draw()
+    drawn = np.asarray(fig.canvas.buffer_rgba())  # (height, width, 4) uint8, top row first
+    height, width = drawn.shape[:2]
+    facecolor = np.round(np.asarray(matplotlib.colors.to_rgba(fig.get_facecolor())) * 255).astype(np.uint8)
+    ink = (drawn != facecolor).any(axis=2)
+    rows, columns = np.flatnonzero(ink.any(axis=1)), np.flatnonzero(ink.any(axis=0))
+    if (not rows.size or rows[0] == 0 or columns[0] == 0 or rows[-1] == height - 1
+            or columns[-1] == width - 1):
         buffer = io.BytesIO()
         fig.savefig(buffer, dpi=dpi, **SAVEFIG_OPTIONS)
         return buffer.getvalue()
-    finally:
-        plt.close(fig)
+    pad = int(round(matplotlib.rcParams["savefig.pad_inches"] * dpi))
+    top, bottom, left, right = rows[0] - pad, rows[-1] + 1 + pad, columns[0] - pad, columns[-1] + 1 + pad
+    crop = np.empty((bottom - top, right - left, 4), dtype=np.uint8)
+    crop[...] = facecolor  # the padding past the canvas: the figure's colour, as savefig fills it
+    inside_rows, inside_columns = slice(max(top, 0), min(bottom, height)), slice(max(left, 0), min(right, width))
+    crop[inside_rows.start - top:inside_rows.stop - top, inside_columns.start - left:inside_columns.stop - left] = \
+        drawn[inside_rows, inside_columns]
+    opaque = bool((crop[..., 3] == 255).all())
+    image = Image.fromarray(np.ascontiguousarray(crop[..., :3]) if opaque else crop)
+    info = PngImagePlugin.PngInfo()
+    info.add_text("Software", f"Matplotlib version{matplotlib.__version__}, https://matplotlib.org/")
+    buffer = io.BytesIO()
+    image.save(buffer, format="png", dpi=(dpi, dpi), pnginfo=info, compress_level=PNG_COMPRESS_LEVEL)
+    return buffer.getvalue()
