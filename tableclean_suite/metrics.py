@@ -427,7 +427,8 @@ def batch_scalars(sums: dict, runs: np.ndarray, plateaus: dict, threshold: float
         runs: ``(B,)`` runs behind each set.
         plateaus: ``{"success", "average_reward", "terminal": (B,)}`` asymptotes, optionally with
             ``"greedy_success"`` and ``"never_terminal"`` (NaN when absent).
-        keep: iteration indices of the curves to return (default all).
+        keep: iteration indices (or a slice: the curves returned are then views) of the curves to
+            return (default all).
         episode_sums: ``f(indices (B,) int) -> (B,)`` episode sums of each set at its index (so
             that the ``(B, T)`` episode sums need not be built).
         peak: 0-based iteration index at which the point estimate's average-reward curve has its

@@ -318,3 +318,19 @@ def test_batch_scalars_compiled_pass_gives_the_numpy_definitions_bits():
             assert scalars[name].tobytes() == expected.tobytes(), (trial, name, scalars[name], expected)
             defined[name] += int(np.isfinite(expected).sum())
     assert min(defined.values()) > 100  # not vacuous: every count is reached in many rows
+
+
+def test_batch_scalars_keep_a_slice_as_the_same_indices():
+    """The bootstrap passes its band iterations as a slice (views, no gather): the same curves and
+    scalars as the index array."""
+    rng = np.random.default_rng(9)
+    rows, length = 4, 403
+    sums = {"success": rng.integers(0, 11, (rows, length)).astype(float), "average_sum": rng.normal(size=(rows, length)),
+            "finished_runs": rng.integers(0, 11, (rows, length)).astype(float), "episodes": rng.random((rows, length))}
+    tops = {"success": rng.random(rows), "average_reward": rng.normal(size=rows), "terminal": rng.random(rows)}
+    by_index = metrics.batch_scalars(sums, np.full(rows, 10.0), tops, support_fraction=0.5, keep=np.arange(0, length, 4))
+    by_slice = metrics.batch_scalars(sums, np.full(rows, 10.0), tops, support_fraction=0.5, keep=slice(0, length, 4))
+    for name, values in by_index[0].items():
+        assert values.tobytes() == by_slice[0][name].tobytes()
+    for name, curve in by_index[1].items():
+        assert curve.shape == (rows, 101) and curve.tobytes() == np.ascontiguousarray(by_slice[1][name]).tobytes()

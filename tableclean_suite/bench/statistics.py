@@ -539,7 +539,7 @@ def replicate_scalars(grouped: GroupedCurveSums, asymptote_sums: dict, weights: 
         grouped: the cell's grouped sums (G groups).
         asymptote_sums: ``{"success", "average_reward", "terminal": (G,) sums of per-run asymptotes}``.
         weights: ``(B, G)`` multinomial counts of each group in each replicate.
-        keep: iteration indices of the band curves.
+        keep: iteration indices (or a slice) of the band curves.
         peak: index of the point curve's maximum average reward (``metrics.batch_scalars``).
         exact: ``{name: bool}`` :func:`_exact_integer_product` of weights like these (the same row
             sums) and each of :data:`REPLICATE_SUMS` and ``asymptote_sums`` (a name missing:
@@ -585,9 +585,9 @@ def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Gen
     group_of = np.arange(grouped.runs) % groups
     asymptote_sums = {name: np.bincount(group_of, weights=values, minlength=groups) for name, values in per_run.items()}
     stride = max(1, -(-iterations // BAND_POINTS))
-    kept = np.arange(0, iterations, stride)
+    kept = slice(0, iterations, stride)  # band iterations: a view of each batch's curves, not a gather
     scalars = {name: np.full(samples, np.nan) for name in SUMMARY_SCALARS}
-    curves = {name: np.full((samples, len(kept)), np.nan) for name in BAND_CURVES}
+    curves = {name: np.full((samples, len(range(iterations)[kept])), np.nan) for name in BAND_CURVES}
     drift_replicates = np.full(samples, np.nan)
     if groups >= MIN_GROUPS:
         peak = metrics.peak_index(grouped.totals().curves(support_fraction)["average_reward"])
