@@ -43,6 +43,8 @@ to about that times the largest |reward|).
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import threading
 from dataclasses import dataclass
 
@@ -437,22 +439,33 @@ def _kept_states(probabilities: np.ndarray, chain: EpisodeChain) -> np.ndarray:
 
 
 #: Distinct policies :func:`policy_statistics` remembers per chain (about 1 kB each); past it, it forgets them all.
-MEMO_POLICIES = 8192
-#: Chains whose policies :func:`policy_statistics` remembers at once (the latest used): a cell's chain and, while
-#: a thread trains ahead, the next cell's.
-MEMO_CHAINS = 2
+MEMO_POLICIES = 4096
+#: Chains (by content) whose policies :func:`policy_statistics` remembers at once, the latest used: the
+#: default run's cells use four (one per reward pattern), and the cells of one pattern share policies.
+MEMO_CHAINS = 4
 _memo_lock = threading.Lock()
-_memo: list[tuple[EpisodeChain, int, float, dict[bytes, np.ndarray]]] = []  # least recently used first
+_memo: list[tuple[bytes, int, float, dict[bytes, np.ndarray]]] = []  # least recently used first
 
 
-def _remembered(chain: EpisodeChain, max_itr: int, tolerance: float) -> dict[bytes, np.ndarray]:
-    """The memo of ``chain``'s policies for ``max_itr`` and ``tolerance`` (call with ``_memo_lock`` held)."""
+def chain_digest(chain: EpisodeChain) -> bytes:
+    """SHA-256 of everything the DP reads of ``chain`` (each field's dtype, shape and bytes)."""
+    digest = hashlib.sha256()
+    for field in dataclasses.fields(chain):
+        values = np.ascontiguousarray(getattr(chain, field.name))
+        digest.update(f"{field.name}:{values.dtype.str}:{values.shape};".encode())
+        digest.update(values.tobytes())
+    return digest.digest()
+
+
+def _remembered(digest: bytes, max_itr: int, tolerance: float) -> dict[bytes, np.ndarray]:
+    """The memo of the policies of the chain of ``digest`` (:func:`chain_digest`) for ``max_itr``
+    and ``tolerance`` (call with ``_memo_lock`` held)."""
     for i, (known, itr, tol, memo) in enumerate(_memo):
-        if known is chain and itr == max_itr and tol == tolerance:
+        if known == digest and itr == max_itr and tol == tolerance:
             _memo.append(_memo.pop(i))
             return memo
     memo = {}
-    _memo.append((chain, max_itr, tolerance, memo))
+    _memo.append((digest, max_itr, tolerance, memo))
     del _memo[:-MEMO_CHAINS]
     return memo
 
@@ -466,9 +479,9 @@ def policy_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: i
     (:func:`reached_states`; with a chain of unknown rewards, a state of the chain): elsewhere the
     DP only adds exact zeros, so e.g. greedy policies (epsilon 0) that differ only off their own
     paths share one computation.  A policy's statistics do not depend on the others computed
-    beside it, so they are remembered per chain (the same object, unchanged), ``max_itr`` and
+    beside it, so they are remembered per chain (by content: :func:`chain_digest`), ``max_itr`` and
     ``tolerance`` (:data:`MEMO_POLICIES`, :data:`MEMO_CHAINS`): a chunk's settling checkpoint
-    mostly has the policies of its end.
+    mostly has the policies of its end, and cells of one reward pattern share many.
     """
     if int(max_itr) != max_itr or max_itr < 1:
         raise ValueError(f"max_itr must be an integer >= 1, got {max_itr!r}")
@@ -483,15 +496,16 @@ def policy_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: i
     first, canonical_inverse = _distinct_rows(canonical.reshape(canonical.shape[0], -1))
     inverse = canonical_inverse[inverse]
     keys = [canonical[i].tobytes() for i in first]
+    digest = chain_digest(chain)
     with _memo_lock:
-        memo = _remembered(chain, int(max_itr), float(tolerance))
+        memo = _remembered(digest, int(max_itr), float(tolerance))
         rows = [memo.get(key) for key in keys]
     missing = [j for j, row in enumerate(rows) if row is None]
     if missing:
         computed = episode_statistics(canonical[first[missing]], chain, max_itr, tolerance)
         values = np.stack([getattr(computed, name) for name in QUANTITIES], axis=1)
         with _memo_lock:
-            memo = _remembered(chain, int(max_itr), float(tolerance))
+            memo = _remembered(digest, int(max_itr), float(tolerance))
             if len(memo) + len(missing) > MEMO_POLICIES:
                 memo.clear()
             for j, row in zip(missing, values):

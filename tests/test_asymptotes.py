@@ -249,12 +249,13 @@ def test_reached_states_follow_a_deterministic_policy():
 def test_the_memo_forgets_past_its_bounds(monkeypatch):
     monkeypatch.setattr(asymptotes, "_memo", [])
     monkeypatch.setattr(asymptotes, "MEMO_POLICIES", 3)
+    monkeypatch.setattr(asymptotes, "MEMO_CHAINS", 2)
     chains = [_chain("r1"), _chain("r2"), _chain("r3")]
     pi = np.random.default_rng(2).dirichlet(np.ones(MODEL.n_actions), size=(5, MODEL.n_states))
     for chain in chains:
         expected = _stacked(asymptotes.episode_statistics(pi, chain, 50))
         assert _stacked(asymptotes.policy_statistics(pi, chain, 50)).tobytes() == expected.tobytes()
-    assert [entry[0] for entry in asymptotes._memo] == chains[-asymptotes.MEMO_CHAINS:]
+    assert [entry[0] for entry in asymptotes._memo] == [asymptotes.chain_digest(c) for c in chains][-asymptotes.MEMO_CHAINS:]
     assert all(len(entry[3]) <= 5 for entry in asymptotes._memo)  # 5 new ones past 3: cleared first
 
 
@@ -286,3 +287,15 @@ def test_parameter_array_per_distinct_visit_count_is_the_per_entry_one():
     expected = exploration.parameter_array(0.3, 1000, visits)
     actual = analysis._parameter_array(exploration, 0.3, 1000, visits)
     assert actual.shape == visits.shape and actual.tobytes() == expected.tobytes()
+
+
+def test_chains_of_the_same_content_share_their_remembered_policies(monkeypatch):
+    monkeypatch.setattr(asymptotes, "_memo", [])
+    computed = []
+    dp = asymptotes.episode_statistics
+    monkeypatch.setattr(asymptotes, "episode_statistics", lambda pi, *args: computed.append(len(pi)) or dp(pi, *args))
+    pi = np.random.default_rng(5).dirichlet(np.ones(MODEL.n_actions), size=(4, MODEL.n_states))
+    first = _stacked(asymptotes.policy_statistics(pi, _chain("r4"), 60))
+    again = _stacked(asymptotes.policy_statistics(pi, _chain("r4"), 60))  # another object, the same chain
+    other = _stacked(asymptotes.policy_statistics(pi, _chain("r3"), 60))
+    assert computed == [4, 4] and first.tobytes() == again.tobytes() and other.tobytes() != first.tobytes()
