@@ -206,7 +206,7 @@ def test_every_interval_of_the_harness_tables_holds_its_point(tmp_path):
 
 
 @pytest.mark.parametrize("kind", ["integers", "integers_inf", "fractions", "fractions_inf", "nan", "signed_zero",
-                                  "ties"])
+                                  "ties", "integers_both_infs", "large_integers", "few_integers"])
 def test_resampled_iqms_are_the_sorted_rows_bits(kind):
     rng = np.random.default_rng(3)
     values = {"integers": rng.integers(1, 4000, 200).astype(float),
@@ -215,7 +215,10 @@ def test_resampled_iqms_are_the_sorted_rows_bits(kind):
               "fractions_inf": np.where(rng.random(200) < 0.3, np.inf, rng.random(200)),
               "nan": np.where(rng.random(200) < 0.1, np.nan, rng.random(200)),
               "signed_zero": np.where(rng.random(200) < 0.3, -0.0, rng.random(200)),
-              "ties": rng.choice([0.0, 0.25, 1 / 3, 0.5, 1.0], 200)}[kind]
+              "ties": rng.choice([0.0, 0.25, 1 / 3, 0.5, 1.0], 200),
+              "integers_both_infs": rng.choice([-np.inf, np.inf, -3.0, 0.0, 7.0, 4000.0], 200, p=[.1, .2, .2, .2, .2, .1]),
+              "large_integers": rng.integers(-2 ** 44, 2 ** 44, 200).astype(float),  # sums near 2**53: exact still
+              "few_integers": rng.integers(0, 3, 200).astype(float)}[kind]
     index = rng.integers(0, len(values), (300, len(values)))
     expected = statistics._iqm_axis(values[index], axis=-1)
     assert statistics.resampled_iqms(values, index).tobytes() == expected.tobytes()
@@ -289,3 +292,20 @@ def test_bands_are_numpys_percentiles_bit_for_bit(confidence):
     assert not statistics._band_columns(signed, 0.025, 0.975, 0.5, np.full(2, np.nan), np.full(2, np.nan))
     for ours, theirs in zip(statistics._bands(signed, confidence), statistics._numpy_bands(signed, confidence)):
         assert ours.tobytes() == theirs.tobytes()
+
+
+def test_weighted_group_sums_in_single_precision_give_the_exact_bits():
+    """Counts whose products stay below 2**24 are summed in float32 (the bootstrap's success and
+    finished-run sums): the same bits as the float64 sums, negative zeros mapped to +0.0; the
+    limit check tells such values from larger ones."""
+    rng = np.random.default_rng(8)
+    weights = statistics.uniform_multinomial(rng, 100, 100, 64).astype(float)
+    counts = rng.integers(0, 11, (100, 777)).astype(float)
+    counts[:, :5] = -0.0
+    assert statistics._exact_integer_product(weights, counts, statistics.EXACT_SINGLE_LIMIT)
+    fast = statistics.weighted_group_sums(weights, counts, True, counts.astype(np.float32))
+    assert fast.dtype == np.float64
+    assert fast.tobytes() == statistics.weighted_group_sums(weights, counts, False).tobytes()
+    large = counts * 2.0 ** 17  # sums past 2**24: float32 would round
+    assert statistics._exact_integer_product(weights, large)
+    assert not statistics._exact_integer_product(weights, large, statistics.EXACT_SINGLE_LIMIT)

@@ -289,7 +289,9 @@ def resampled_iqms(values: np.ndarray, index: np.ndarray) -> np.ndarray:
     instead of sorting every row: the sorted row is the same array whatever the method, unless
     the values hold a NaN or a -0.0 (then the rows are sorted as :func:`_iqm_axis` does).  When
     every finite value is an integer and the middle's sum stays below 2**53, that sum is exact
-    in any order, so the middle is read off the sorted rows without :func:`trim_mean`'s partition.
+    in any order, so the middle's mean is read off the draw counts (:func:`_middle_means`) without
+    building the rows or :func:`trim_mean`'s partition; else the sorted rows are built from the
+    counts (:func:`_sorted_rows`) for :func:`trim_mean`.
     """
     values = np.asarray(values, dtype=float)
     samples, count = index.shape
@@ -298,17 +300,64 @@ def resampled_iqms(values: np.ndarray, index: np.ndarray) -> np.ndarray:
     order = np.argsort(values, kind="stable")
     rank = np.empty(len(values), dtype=np.int64)
     rank[order] = np.arange(len(values))
-    draws = np.bincount((rank[index] + (np.arange(samples) * len(values))[:, None]).ravel(),
-                        minlength=samples * len(values))
-    ordered = np.repeat(np.tile(values[order], samples), draws).reshape(samples, count)
     finite = values[np.isfinite(values)]
     if np.array_equal(finite, np.trunc(finite)) and (len(finite) == 0 or
                                                      np.abs(finite).max() * count < EXACT_INTEGER_LIMIT):
-        low = int(IQM_TRIM * count)
-        result = np.mean(ordered[:, low:count - low], axis=-1)
+        result = np.empty(samples)
+        _middle_means(values[order], rank, np.ascontiguousarray(index, dtype=np.int64), int(IQM_TRIM * count), result)
     else:
+        ordered = np.empty((samples, count))
+        _sorted_rows(values[order], rank, np.ascontiguousarray(index, dtype=np.int64), ordered)
         result = trim_mean(ordered, IQM_TRIM, axis=-1)
     return np.where(np.isfinite(result), result, np.nan)
+
+
+@numba.njit(cache=True, nogil=True)
+def _sorted_rows(sorted_values, rank, index, out):
+    """``out[b]`` = ``np.sort(sorted_values[rank[index[b]]])`` (``index``, ``out``: ``(samples,
+    count)``; ``rank[i]``: the position of value i in ``sorted_values``): each value written as
+    many times as the row draws it, in order."""
+    samples, count = index.shape
+    draws = np.zeros(sorted_values.shape[0], dtype=np.int64)
+    for b in range(samples):
+        draws[:] = 0
+        for i in range(count):
+            draws[rank[index[b, i]]] += 1
+        position = 0
+        for k in range(sorted_values.shape[0]):
+            for _ in range(draws[k]):
+                out[b, position] = sorted_values[k]
+                position += 1
+
+
+@numba.njit(cache=True, nogil=True)
+def _middle_means(sorted_values, rank, index, low, out):
+    """``out[b]``: the mean of the sorted row b of ``sorted_values[rank[index]]`` from position
+    ``low`` to ``count - low`` (``index`` ``(samples, count)``; ``rank[i]``: the position of value i
+    in ``sorted_values``), read off each value's draw count without building the rows.  The
+    middle's sum is taken as ``value * copies`` per value: exact, hence the bits of any order of
+    the additions (numpy's pairwise mean), when the values are integers whose sums stay below
+    2**53 (infinities give the same infinity or NaN); then divided by the middle's length as
+    ``np.mean`` does."""
+    samples, count = index.shape
+    draws = np.zeros(sorted_values.shape[0], dtype=np.int64)
+    high = count - low
+    for b in range(samples):
+        draws[:] = 0
+        for i in range(count):
+            draws[rank[index[b, i]]] += 1
+        total = 0.0
+        seen = 0
+        for k in range(sorted_values.shape[0]):
+            copies = draws[k]
+            if copies != 0:
+                start, stop = max(seen, low), min(seen + copies, high)
+                if stop > start:
+                    total += sorted_values[k] * (stop - start)
+                seen += copies
+                if seen >= high:
+                    break
+        out[b] = total / (high - low)
 
 
 def _beaten_and_tied(x: np.ndarray, y_sorted: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray]:
@@ -451,20 +500,24 @@ def _weighted_rows(weights: np.ndarray, values: np.ndarray) -> np.ndarray:
 
 #: Largest magnitude an integer-valued float64 sum may reach and still be exact (2**53).
 EXACT_INTEGER_LIMIT = 2.0 ** 53
+#: The same for float32 (2**24): such sums are exact in a single-precision product too.
+EXACT_SINGLE_LIMIT = 2.0 ** 24
 
 
-def _exact_integer_product(weights: np.ndarray, values: np.ndarray) -> bool:
-    """Whether every product and partial sum of ``weights @ values`` is an integer below
-    :data:`EXACT_INTEGER_LIMIT`, so that any summation order (BLAS, any thread count) gives the
-    exact, identical result: both integer-valued and ``max |v| * max_b sum_g |w_bg|`` in range."""
+def _exact_integer_product(weights: np.ndarray, values: np.ndarray, limit: float = EXACT_INTEGER_LIMIT) -> bool:
+    """Whether every product and partial sum of ``weights @ values`` is an integer below ``limit``
+    (:data:`EXACT_INTEGER_LIMIT`, or :data:`EXACT_SINGLE_LIMIT` for a float32 product), so that any
+    summation order (BLAS, any thread count) gives the exact, identical result: both
+    integer-valued and ``max |v| * max_b sum_g |w_bg|`` in range."""
     if values.size == 0 or weights.size == 0:
         return False
     largest = np.abs(values).max()
-    return bool(np.isfinite(largest) and largest * np.abs(weights).sum(axis=1).max() < EXACT_INTEGER_LIMIT
+    return bool(np.isfinite(largest) and largest * np.abs(weights).sum(axis=1).max() < limit
                 and np.array_equal(values, np.trunc(values)) and np.array_equal(weights, np.trunc(weights)))
 
 
-def weighted_group_sums(weights: np.ndarray, values: np.ndarray, exact: bool | None = None) -> np.ndarray:
+def weighted_group_sums(weights: np.ndarray, values: np.ndarray, exact: bool | None = None,
+                        single: np.ndarray | None = None) -> np.ndarray:
     """``weights @ values`` summed in a fixed order (groups ascending, per output element).
 
     A BLAS matrix product's last bits depend on its thread count (OpenBLAS splits the sum), so a
@@ -473,17 +526,24 @@ def weighted_group_sums(weights: np.ndarray, values: np.ndarray, exact: bool | N
     When the values and weights are integers small enough for every partial sum to be exact
     (:func:`_exact_integer_product`: the success and finished-run counts, the runs per group), the
     order cannot matter and the BLAS product (~10x faster) gives those same bits; ``+ 0.0`` maps
-    a BLAS ``-0.0`` to the ordered sum's ``+0.0``.
+    a BLAS ``-0.0`` to the ordered sum's ``+0.0``.  Below :data:`EXACT_SINGLE_LIMIT` (the success
+    and finished-run counts of a cell: at most runs x groups), a float32 product is exact as well,
+    and ~30 % cheaper.
 
     Args:
         weights: ``(B, G)`` replicate counts of each group.
         values: ``(G,)`` or ``(G, T)`` per-group sums.
         exact: :func:`_exact_integer_product` of these weights and values when the caller knows it
             (e.g. checked once for all the batches of one cell's replicates); None: checked here.
+        single: ``values`` as float32 when the caller checked that their product with such weights
+            is exact in single precision (:func:`_exact_integer_product` with
+            :data:`EXACT_SINGLE_LIMIT`); then the product is taken in float32.
 
     Returns:
         ``(B,)`` or ``(B, T)`` float64.
     """
+    if single is not None:
+        return np.add(np.asarray(weights, dtype=np.float32) @ single, 0.0, dtype=np.float64)
     weights = np.ascontiguousarray(weights, dtype=np.float64)
     values = np.asarray(values, dtype=np.float64)
     if _exact_integer_product(weights, values) if exact is None else exact:
@@ -532,7 +592,7 @@ REPLICATE_SUMS = ("runs_per_group", "success", "average_sum", "finished_runs")
 
 def replicate_scalars(grouped: GroupedCurveSums, asymptote_sums: dict, weights: np.ndarray, threshold: float,
                       plateau_fraction: float, support_fraction: float, keep: np.ndarray, peak: int | None = None,
-                      exact: dict | None = None):
+                      exact: dict | None = None, single: dict | None = None):
     """Table 3 scalars and band curves of bootstrap replicates.
 
     Args:
@@ -544,13 +604,16 @@ def replicate_scalars(grouped: GroupedCurveSums, asymptote_sums: dict, weights: 
         exact: ``{name: bool}`` :func:`_exact_integer_product` of weights like these (the same row
             sums) and each of :data:`REPLICATE_SUMS` and ``asymptote_sums`` (a name missing:
             checked here), so that the batches of one cell check each sum once.
+        single: ``{name: float32 copy}`` of the sums of :data:`REPLICATE_SUMS` whose products with
+            weights like these are exact in single precision (:func:`weighted_group_sums`).
 
     Returns:
         :func:`tableclean_suite.metrics.batch_scalars` of the replicates.
     """
     exact = exact or {}
+    single = single or {}
     runs = weighted_group_sums(weights, grouped.runs_per_group, exact.get("runs_per_group"))
-    sums = {name: weighted_group_sums(weights, getattr(grouped, name), exact.get(name))
+    sums = {name: weighted_group_sums(weights, getattr(grouped, name), exact.get(name), single.get(name))
             for name in ("success", "average_sum", "finished_runs")}
     tops = {name: weighted_group_sums(weights, values, exact.get(f"asymptote {name}")) / runs
             for name, values in asymptote_sums.items()}
@@ -597,10 +660,14 @@ def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Gen
         exact = {name: _exact_integer_product(weights, getattr(grouped, name)) for name in REPLICATE_SUMS}
         exact.update({f"asymptote {name}": _exact_integer_product(weights, values)
                       for name, values in asymptote_sums.items()})
+        # Integer sums (checked above) whose products stay below 2**24 are exact in float32 too.
+        heaviest = np.abs(weights).sum(axis=1).max()
+        single = {name: getattr(grouped, name).astype(np.float32) for name in ("success", "finished_runs")
+                  if exact[name] and np.abs(getattr(grouped, name)).max() * heaviest < EXACT_SINGLE_LIMIT}
         for lo in range(0, samples, REPLICATE_BATCH):
             batch = slice(lo, lo + REPLICATE_BATCH)
             values, bands = replicate_scalars(grouped, asymptote_sums, weights[batch], threshold, plateau_fraction,
-                                              support_fraction, kept, peak, exact)
+                                              support_fraction, kept, peak, exact, single)
             for name in SUMMARY_SCALARS:
                 scalars[name][batch] = values[name]
             for name in BAND_CURVES:
