@@ -25,3 +25,11 @@ def test_selection_matches_comparing_the_text_and_follows_a_new_frame():
     assert plots._select(other, reward="r3")["value"].tolist() == [0, 1]
     assert plots._matches(other, "experiment", "main").all()
     assert not plots._matches(other, "experiment", "alpha_sweep").any()
+
+
+def test_code_columns_factorizes_the_selected_columns_once_for_the_frame():
+    frame = _frame(["r1", "r4"])
+    plots.code_columns(frame)  # before forking the drawing processes
+    coded, columns = plots._CODED
+    assert coded is frame and set(columns) == {"learner", "reward", "experiment"}  # the frame has no "metric"
+    assert plots._select(frame, reward="r4")["value"].tolist() == [2, 3]

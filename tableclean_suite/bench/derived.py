@@ -305,6 +305,7 @@ def start_figures(store: DerivedStore, curves, plateau_fraction: float, table3=N
         return PendingFigures(store, stems, keys, loaded, None, None)
     if workers < 2 or not forks:
         return PendingFigures(store, stems, keys, loaded, lambda: [(stem, _draw(stem)) for stem in missing], None)
+    plots.code_columns(curves)  # once here, inherited by every drawing process
     gc.freeze()  # the forked processes' collections then leave this process's objects (and pages) alone
     try:
         pool = multiprocessing.get_context("fork").Pool(workers)

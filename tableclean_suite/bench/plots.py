@@ -79,6 +79,19 @@ def _matches(curves: pd.DataFrame, column: str, value) -> np.ndarray:
     return np.isin(codes, wanted)
 
 
+#: The columns the figures select their rows by (:func:`_select`).
+SELECTED_COLUMNS = ("learner", "reward", "experiment", "metric")
+
+
+def code_columns(curves: pd.DataFrame) -> None:
+    """Factorize :data:`SELECTED_COLUMNS` of ``curves`` now (kept for the frame, :func:`_codes`), e.g.
+    before forking the processes that draw its figures: they inherit the codes instead of each
+    factorizing them (~45 ms on the default ``curves``)."""
+    for column in SELECTED_COLUMNS:
+        if column in curves.columns:
+            _codes(curves, column)
+
+
 def _select(curves: pd.DataFrame, **where) -> pd.DataFrame:
     mask = np.ones(len(curves), dtype=bool)
     for column, value in where.items():
