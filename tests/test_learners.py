@@ -155,3 +155,66 @@ def test_user_defined_learner_object_and_registration():
 def test_bad_input_raises_clear_errors(kwargs, message):
     with pytest.raises(ValueError, match=message):
         train(**{"runs": 2, "iterations": 10, **kwargs})
+
+
+# -- the compiled loop on threads: run_in_threads over slices of runs, same bits for any count --
+def _records_and_info(result):
+    return [getattr(result, f) for f in RECORDS] + [result.info[k] for k in sorted(result.info)]
+
+
+def _train_with_threads(threads, *args, **kwargs):
+    import numba
+
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(threads)
+        return train(*args, **kwargs)
+    finally:
+        numba.set_num_threads(before)
+
+
+@pytest.mark.parametrize("learner,options", [
+    ("q_learning", {}), ("double_q_learning", {}), ("q_lambda", {}), ("dyna_q", {}),
+    ("learned_affordance_q_learning", {}), ("interactive_q_learning", {}),
+    (TabularLearner("test_threads_greedy_sarsa", sarsa_target, on_policy=False), {}),
+])
+def test_compiled_records_have_the_same_bits_for_any_thread_count(learner, options):
+    import numba
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba has one thread here")
+    kwargs = dict(runs=300, iterations=300, seed=4, checkpoint=120, learner_options=options or None)
+    one = _records_and_info(_train_with_threads(1, learner, "r4", **kwargs))
+    two = _records_and_info(_train_with_threads(2, learner, "r4", **kwargs))
+    assert len(one) == len(two) and all(np.array_equal(a, b) for a, b in zip(one, two))
+
+
+def test_the_compiled_loop_trains_disjoint_slices_of_runs_on_threads(monkeypatch):
+    """Not numba's parallel loop (seconds of a first process's compile time): slices of the runs,
+    each trained by the serial ``nogil`` loop, on ``numba.get_num_threads()`` threads."""
+    import threading
+
+    import numba
+
+    from tableclean_suite.learners import kernel
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba has one thread here")
+    assert not kernel.train_batch.targetoptions.get("parallel")
+    compiled = kernel.train_batch
+    calls = []
+
+    def recording(lo, hi, *arguments):
+        calls.append((lo, hi, arguments[21].shape[0], threading.get_ident()))  # arguments[21]: the chunk's keys
+        compiled(lo, hi, *arguments)
+
+    monkeypatch.setattr(kernel, "train_batch", recording)
+    runs = 300  # two chunks of tabular.RUNS_PER_CHUNK = 256 and 44 runs
+    threaded = _train_with_threads(2, "sarsa", "r3", runs=runs, iterations=200, seed=5)
+    for size in {n for _, _, n, _ in calls}:
+        slices = sorted((lo, hi) for lo, hi, n, _ in calls if n == size)
+        assert len(slices) > 1 and slices[0][0] == 0 and slices[-1][1] == size
+        assert all(a[1] == b[0] for a, b in zip(slices, slices[1:]))  # a partition: no run twice, none left out
+    assert sum(hi - lo for lo, hi, _, _ in calls) == runs
+    monkeypatch.setattr(kernel, "train_batch", compiled)
+    assert same(threaded, train("sarsa", "r3", runs=runs, iterations=200, seed=5, engine="reference"))

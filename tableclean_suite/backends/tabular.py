@@ -1,8 +1,10 @@
 """Table-driven backends: the task model's transitions (``symbolic``) or measured ones (``calibrated``).
 
 Both step a :class:`~tableclean_suite.learners.TransitionTable`, either with the compiled
-batched loop (:mod:`tableclean_suite.learners.kernel`, chunks of runs) or the plain
-per-step loop (:mod:`tableclean_suite.learners.reference`); the two give identical arrays.
+batched loop (:mod:`tableclean_suite.learners.kernel`, chunks of runs, each spread over
+``numba.get_num_threads()`` threads of the calling thread by
+:func:`~tableclean_suite.learners.threads.run_in_threads`) or the plain per-step loop
+(:mod:`tableclean_suite.learners.reference`); the two give identical arrays, for any thread count.
 
 The learner carries its update rule, parameters, initial value (``q_init``), exploration and
 Cruz et al.'s assistance (affordances, advisor; :class:`~tableclean_suite.learners.TabularLearner`).
@@ -23,9 +25,11 @@ from tableclean_suite.learners import assist, kernel, reference
 from tableclean_suite.learners.reference import DOUBLE_Q_TABLES
 from tableclean_suite.learners.rng import run_keys
 from tableclean_suite.learners.rules import METHOD_DOUBLE_Q
+from tableclean_suite.learners.threads import run_in_threads
 from tableclean_suite.learners.transitions import TransitionTable
 
-#: Runs trained per compiled call; only affects progress granularity and peak memory, never the numbers.
+#: Runs per :func:`run_in_threads` call (slices of them trained on the threads); only affects progress
+#: granularity, never the numbers.
 RUNS_PER_CHUNK = 256
 RECORD_FIELDS = ("rewards", "outcomes", "states", "actions", "episode_end")
 
@@ -146,7 +150,7 @@ class TableBackend:
         q_second_snapshot = np.zeros(q_second.shape if snapshot_at != kernel.NO_SNAPSHOT else (job.runs, 0, 0))
         for lo in progress_bar(range(0, job.runs, RUNS_PER_CHUNK), job.progress, f"{learner.name}/{job.reward.name}"):
             hi = min(lo + RUNS_PER_CHUNK, job.runs)
-            train_batch(
+            run_in_threads(train_batch, hi - lo, (
                 table.next_state, table.outcome, table.cumulative, starts, values, loop_value, job.reward.looping_code,
                 job.reward.looping_memory,
                 learner.target_code, learner.on_policy, learner.method, learner_parameters, job.alpha, job.gamma,
@@ -154,7 +158,7 @@ class TableBackend:
                 job.max_itr,
                 keys[lo:hi], q[lo:hi], q_second[lo:hi], *(records[name][lo:hi] for name in RECORD_FIELDS),
                 snapshot_at, q_snapshot[lo:hi], q_second_snapshot[lo:hi],
-            )
+            ))
         info = {}
         if snapshot_at != kernel.NO_SNAPSHOT:
             info[CHECKPOINT_Q] = (q_snapshot + q_second_snapshot) * kernel.HALF if double else q_snapshot

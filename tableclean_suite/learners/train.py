@@ -110,7 +110,9 @@ def train(
         model: the task model; kept for compatibility, same as ``task=`` with a model.
         backend: a registered backend name (``"symbolic"``, ``"calibrated"``, ``"physics"``).
         transitions: for ``"calibrated"``: a :class:`TransitionTable` or a JSON path.
-        engine: ``"compiled"`` (default) or ``"reference"`` (plain Python loop).
+        engine: ``"compiled"`` (default) or ``"reference"`` (plain Python loop).  The compiled
+            loop of the table backends trains the runs on ``numba.get_num_threads()`` threads
+            (the calling thread's count: ``numba.set_num_threads``); the numbers never depend on it.
         first_run: index of the first run (to extend an experiment with more runs).
         workers: processes for the physics backend (default: CPU count).
         physics_options: keyword arguments for the physics step environment.
