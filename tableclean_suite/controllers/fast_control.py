@@ -293,6 +293,7 @@ def osc_law(
     initial_joint: np.ndarray,
     uncouple: bool,
     torques: np.ndarray,
+    work=None,
 ) -> None:
     """robosuite's ``OperationalSpaceController.run_controller`` torques for an absolute world-frame goal.
 
@@ -308,35 +309,16 @@ def osc_law(
         initial_joint: (n,) arm joint configuration (rad) the nullspace term pulls towards.
         uncouple: decouple the position and orientation wrenches (robosuite's ``uncouple_pos_ori``).
         torques: (n,) output, arm joint torques (N m) before clipping to the actuators' range.
+        work: the scratch tuple of :func:`osc_work` for n joints (the compiled loops pass theirs, allocated once
+            for all substeps); None: allocated for this call.
 
     The base velocity term of robosuite's law is zero here: callers check that the arm's
     base is welded to the world.  robosuite's ``orientation_error`` and ``nullspace_torques``
     (joint kp :data:`NULLSPACE_JOINT_KP`, critical damping) are written out with the same
     formulas, without temporaries; the small products run in plain loops (:func:`small_matmul`).
     """
-    _osc_law_into(mass, j_full, ref_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias, goal_pos, goal_ori,
-                  gains, initial_joint, uncouple, torques, osc_work(mass.shape[0]))
-
-
-@numba.njit(cache=True)
-def _osc_law_into(
-    mass: np.ndarray,
-    j_full: np.ndarray,
-    ref_pos: np.ndarray,
-    ref_ori_mat: np.ndarray,
-    ref_vel: np.ndarray,
-    joint_pos: np.ndarray,
-    joint_vel: np.ndarray,
-    bias: np.ndarray,
-    goal_pos: np.ndarray,
-    goal_ori: np.ndarray,
-    gains: np.ndarray,
-    initial_joint: np.ndarray,
-    uncouple: bool,
-    torques: np.ndarray,
-    work,
-) -> None:
-    """:func:`osc_law` with its temporaries in the scratch ``work`` (:func:`osc_work`)."""
+    if work is None:
+        work = osc_work(mass.shape[0])
     n = mass.shape[0]
     desired = work[W_DESIRED]  # desired force (3) and torque (3)
     for r in range(3):
@@ -391,6 +373,7 @@ def osc_torques(
     indexes: np.ndarray,
     uncouple: bool,
     torques: np.ndarray,
+    work=None,
 ) -> None:
     """:func:`osc_law` on MuJoCo's whole-model arrays, gathering the arm's entries as robosuite's ``update()``.
 
@@ -402,31 +385,10 @@ def osc_torques(
         site_pos: (3,) grip-site world position (m); site_mat: (9,) its row-major rotation matrix.
         goal_pos, goal_ori, gains, initial_joint, uncouple, torques: as :func:`osc_law`.
         indexes: (2, n) int rows: the arm's dof (qvel) indexes, then its qpos indexes.
+        work: as :func:`osc_law` (its entries for the arm's n joints are this function's scratch, too).
     """
-    _osc_torques_into(full_mass, jacp, jacr, qpos, qvel, qfrc_bias, site_pos, site_mat, goal_pos, goal_ori, gains,
-                      initial_joint, indexes, uncouple, torques, osc_work(indexes.shape[1]))
-
-
-@numba.njit(cache=True)
-def _osc_torques_into(
-    full_mass: np.ndarray,
-    jacp: np.ndarray,
-    jacr: np.ndarray,
-    qpos: np.ndarray,
-    qvel: np.ndarray,
-    qfrc_bias: np.ndarray,
-    site_pos: np.ndarray,
-    site_mat: np.ndarray,
-    goal_pos: np.ndarray,
-    goal_ori: np.ndarray,
-    gains: np.ndarray,
-    initial_joint: np.ndarray,
-    indexes: np.ndarray,
-    uncouple: bool,
-    torques: np.ndarray,
-    work,
-) -> None:
-    """:func:`osc_torques` with its temporaries in the scratch ``work`` (:func:`osc_work`, for ``indexes.shape[1]`` joints)."""
+    if work is None:
+        work = osc_work(indexes.shape[1])
     dofs = indexes[0]
     n = dofs.size
     mass = work[W_MASS]
@@ -447,8 +409,8 @@ def _osc_torques_into(
     small_matvec(jacp, qvel, ref_vel[0:3])  # robosuite's get_site_xvelp: the full Jacobian times all velocities
     small_matvec(jacr, qvel, ref_vel[3:6])
     ref_ori_mat = np.ascontiguousarray(site_mat.reshape((3, 3)))
-    _osc_law_into(mass, j_full, site_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias,
-                  goal_pos, goal_ori, gains, initial_joint, uncouple, torques, work)
+    osc_law(mass, j_full, site_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias,
+            goal_pos, goal_ori, gains, initial_joint, uncouple, torques, work)
 
 
 def _c_call_codegen(n_pointers: int, trailing_int: bool):
@@ -518,8 +480,8 @@ def native_substeps(functions, model, data, first, count, buffers, live, goal_po
         _call_2(step1, model, data)
         _call_3(full_m, model, full_mass.ctypes.data, q_m.ctypes.data)
         _call_4i(jac_site, model, data, jacp.ctypes.data, jacr.ctypes.data, np.int32(site_id))
-        _osc_torques_into(full_mass, jacp, jacr, qpos, qvel, qfrc_bias, site_pos, site_mat, goal_pos, goal_ori,
-                          gains, initial_joint, indexes, uncouple, torques, work)
+        osc_torques(full_mass, jacp, jacr, qpos, qvel, qfrc_bias, site_pos, site_mat, goal_pos, goal_ori,
+                    gains, initial_joint, indexes, uncouple, torques, work)
         for i in range(arm_act.size):
             ctrl[arm_act[i]] = min(max(torques[i], limits[0, i]), limits[1, i])
         if k == 0:
