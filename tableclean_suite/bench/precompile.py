@@ -41,7 +41,7 @@ def statistics_kernels():
 
     return (asymptotes._episode_statistics, asymptotes._retire, curves._grouped_curves, metrics._batch_curves,
             statistics._uniform_multinomial, statistics._weighted_row_range, statistics._improvement_replicates,
-            statistics._band_columns, statistics._middle_means, statistics._sorted_rows)
+            statistics._band_columns, statistics._resampled_rows)
 
 
 def _in_cache(dispatcher) -> bool:
