@@ -2,9 +2,9 @@
 
 This is Algorithm 1 of the paper (with the learner's TD target plugged in),
 compiled with numba.  :func:`train_batch` trains a slice of the runs without the GIL; the
-caller spreads the runs over threads (:func:`.threads.run_in_threads`), which costs a first
-process about half the compile time of numba's parallel loop (``prange``) and gives the same
-bits for any thread count (each run has its own counter-based random numbers).
+caller spreads the runs over threads (:func:`.threads.run_in_threads`): a first process
+compiles it in about 10 s of CPU time where numba's parallel loop (``prange``) took about 16,
+and the bits are the same for any thread count (each run has its own counter-based random numbers).
 :mod:`.reference` is the same loop in plain Python, one step at a time; both draw the same
 counter-based random numbers (:mod:`.rng`), so they produce identical arrays.
 
