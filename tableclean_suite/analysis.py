@@ -98,7 +98,8 @@ def behaviour_probabilities(policy, epsilon, n_actions, exploration=None, q=None
         raise ValueError("exploration 'visit_decay' needs visits= (per state, e.g. visit_counts(result.states, S))")
     policy = np.atleast_2d(policy)
     counts = np.zeros(policy.shape) if visits is None else np.broadcast_to(np.atleast_2d(visits), policy.shape)
-    return action_probabilities(policy, _parameter_array(exploration, float(epsilon), iteration or 0, counts), n_actions)
+    parameter = _parameter_array(exploration, float(epsilon), iteration or 0, counts)
+    return action_probabilities(policy, parameter, n_actions)
 
 
 def exact_success_probability(

@@ -255,7 +255,8 @@ def test_the_memo_forgets_past_its_bounds(monkeypatch):
     for chain in chains:
         expected = _stacked(asymptotes.episode_statistics(pi, chain, 50))
         assert _stacked(asymptotes.policy_statistics(pi, chain, 50)).tobytes() == expected.tobytes()
-    assert [entry[0] for entry in asymptotes._memo] == [asymptotes.chain_digest(c) for c in chains][-asymptotes.MEMO_CHAINS:]
+    digests = [asymptotes.chain_digest(chain) for chain in chains]
+    assert [entry[0] for entry in asymptotes._memo] == digests[-asymptotes.MEMO_CHAINS:]
     assert all(len(entry[3]) <= 5 for entry in asymptotes._memo)  # 5 new ones past 3: cleared first
 
 
