@@ -1,7 +1,7 @@
 """A first process compiles the cells' statistics kernels in a forked process, beside the training loop.
 
 With an empty numba cache, ``tableclean-bench run`` first compiles the training loop
-(:func:`tableclean_suite.learners.kernel.train_batch`: ~9-13 s on one core), then, once the first
+(:func:`tableclean_suite.learners.kernel.train_batch`: ~8-10 s of CPU on one core), then, once the first
 cell is trained, the kernels of its statistics (the asymptotes' episode DP, the grouped curves,
 the bootstrap's sums and draws, the probabilities of improvement: ~3 s), on the same core while
 the other one waits.  :func:`start` forks a process that summarises a tiny cell of each learner of

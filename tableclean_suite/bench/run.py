@@ -262,7 +262,6 @@ def train_and_publish(args) -> int:
     from tableclean_suite.executors import MissingRayError, TaskFailedError
 
     started = time.perf_counter()
-    _idle_threads_sleep()
     config: RunConfig = args.config
     out = Path(config.out)
     model = config.task_model()
@@ -351,21 +350,6 @@ def train_and_publish(args) -> int:
         print(f"  (curves.csv keeps every {stride}th iteration to stay under {CURVES_MAX_BYTES // 1_000_000} MB)")
     print(f"done in {time.perf_counter() - started:.1f} s")
     return 0
-
-
-#: OpenMP's wait policy for the compiled loops' threads unless the environment sets one: between
-#: parallel loops they sleep instead of spinning.  Spinning burnt 3-4x the work's CPU time per
-#: bootstrap sum (12-16 ms for a 3.5 ms sum) wherever the cores are shared, and a sleeping thread
-#: wakes within microseconds for the next loop.
-OMP_WAIT_POLICY = "PASSIVE"
-
-
-def _idle_threads_sleep() -> None:
-    """Set ``OMP_WAIT_POLICY`` (:data:`OMP_WAIT_POLICY`) unless the user did; it takes effect
-    because numba starts its OpenMP threads at the first parallel loop, after this."""
-    import os
-
-    os.environ.setdefault("OMP_WAIT_POLICY", OMP_WAIT_POLICY)
 
 
 def cell_executor(config: RunConfig):

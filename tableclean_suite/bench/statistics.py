@@ -544,6 +544,7 @@ def weighted_group_sums(weights: np.ndarray, values: np.ndarray, exact: bool | N
         return _weighted_rows(weights, np.ascontiguousarray(values[:, None]))[:, 0]
     return _weighted_rows(weights, np.ascontiguousarray(values))
 
+
 @dataclass
 class CellStatistics:
     """A cell's intervals, curve bands and per-run scores.
