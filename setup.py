@@ -6,7 +6,10 @@ Version pins, and why:
 - mujoco >= 3.3, < 3.10: robosuite 1.5.2 needs mujoco >= 3.3; mujoco 3.10 changed
   ``mj_fullM``, 3.11 removed ``MjData.qM`` (both used by robosuite's OSC), and
   3.12+ (and 4.x) fail robosuite's ``get_joint_qpos_addr`` with an AssertionError.
-- numba: the batched tabular learners are compiled with it (robosuite needs it too).
+- numba < 0.69: the batched tabular learners are compiled with it (robosuite needs it too); the
+  training loop borrows its array arguments (views without numba's reference counts) and is
+  compiled with numba's ``noalias`` flag (``learners/kernel.py``: ``borrowed``,
+  ``NoAliasCompiler``), numba internals checked with 0.68.1, the newest release.
 - wrapt: its post-import hook registers ``TableClean`` when robosuite is imported, so the
   symbolic parts start without importing robosuite.
 """
@@ -31,7 +34,7 @@ setup(
         "robosuite>=1.5,<1.6",
         "mujoco>=3.3,<3.10",
         "numpy",
-        "numba",
+        "numba<0.69",
         "pandas",
         "matplotlib",
         "gymnasium>=1.0",
