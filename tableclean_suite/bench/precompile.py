@@ -40,8 +40,8 @@ def statistics_kernels():
     from tableclean_suite.bench import statistics
 
     return (asymptotes._episode_statistics, asymptotes._retire, asymptotes._reached_pairs, curves._grouped_curves,
-            metrics._batch_curves, statistics._uniform_multinomial, statistics._weighted_row_range, statistics._improvement_replicates,
-            statistics._band_columns, statistics._resampled_rows)
+            metrics._batch_curves, statistics._uniform_multinomial, statistics._weighted_row_range,
+            statistics._improvement_replicates, statistics._band_columns, statistics._resampled_rows)
 
 
 def _in_cache(dispatcher) -> bool:

@@ -430,7 +430,6 @@ def _improvement_replicates(cx, cy, order, below, not_above):
     return replicates
 
 
-
 #: Columns (iterations) of the values :func:`_weighted_row_range` sums at a time: a tile of
 #: G = 100 groups x 512 float64 (400 KB) stays in a core's L2 cache while every row reads it.
 SUM_TILE = 512
@@ -653,10 +652,9 @@ def cell_statistics(grouped: GroupedCurveSums, per_run: dict, rng: np.random.Gen
         exact = {name: _exact_integer_product(weights, getattr(grouped, name)) for name in REPLICATE_SUMS}
         exact.update({f"asymptote {name}": _exact_integer_product(weights, values)
                       for name, values in asymptote_sums.items()})
-        # Integer sums (checked above) whose products stay below 2**24 are exact in float32 too.
-        heaviest = np.abs(weights).sum(axis=1).max()
+        # Integer sums whose products stay below 2**24 are exact in float32 too.
         single = {name: getattr(grouped, name).astype(np.float32) for name in ("success", "finished_runs")
-                  if exact[name] and np.abs(getattr(grouped, name)).max() * heaviest < EXACT_SINGLE_LIMIT}
+                  if exact[name] and _exact_integer_product(weights, getattr(grouped, name), EXACT_SINGLE_LIMIT)}
         for lo in range(0, samples, REPLICATE_BATCH):
             batch = slice(lo, lo + REPLICATE_BATCH)
             values, bands = replicate_scalars(grouped, asymptote_sums, weights[batch], threshold, plateau_fraction,
