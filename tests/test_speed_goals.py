@@ -4,19 +4,19 @@ import time
 
 import pytest
 
-from tableclean_suite.bench import speed
+from tableclean_suite.bench import goal_text, speed
 
 pytestmark = pytest.mark.quick
 
 
 def test_a_time_says_how_far_over_or_under_its_goal_it_is():
-    assert speed.seconds_against_goal(5.32, 4.0) == "5.32 s (1.33x the 4 s goal, 1.32 s over)"
-    assert speed.seconds_against_goal(3.0, 4.0) == "3.00 s (0.75x the 4 s goal, 1.00 s under)"
+    assert goal_text.seconds_against_goal(5.32, 4.0) == "5.32 s (1.33x the 4 s goal, 1.32 s over)"
+    assert goal_text.seconds_against_goal(3.0, 4.0) == "3.00 s (0.75x the 4 s goal, 1.00 s under)"
 
 
 def test_a_lower_bound_goal_says_above_or_below():
-    assert speed.against_goal("12.0x", 12.0, 10.0, "10x", False, "2.000") == "12.0x (1.20x the 10x goal, 2.000 above)"
-    assert speed.against_goal("8.0x", 8.0, 10.0, "10x", False, "2.000") == "8.0x (0.80x the 10x goal, 2.000 below)"
+    assert goal_text.against_goal("12.0x", 12.0, 10.0, "10x", False, "2.000") == "12.0x (1.20x the 10x goal, 2.000 above)"
+    assert goal_text.against_goal("8.0x", 8.0, 10.0, "10x", False, "2.000") == "8.0x (0.80x the 10x goal, 2.000 below)"
 
 
 def test_the_default_run_is_timed_several_times_and_the_median_kept(monkeypatch):

@@ -35,6 +35,7 @@ from collections import defaultdict
 import mujoco
 import numpy as np
 
+from tableclean_suite.bench.goal_text import against_goal
 from tableclean_suite.controllers import SkillController, make_skill_env
 from tableclean_suite.controllers.fast_control import LOG_FIELDS, ControlStepLog, fast_stepper_of
 from tableclean_suite.robosuite_adapter import mj_model
@@ -162,21 +163,6 @@ def _replay_mujoco(env, states: list[dict]) -> tuple[int, float]:
             mujoco.mj_step(model, data)
         seconds += time.perf_counter() - start
     return len(states), seconds
-
-
-def against_goal(measured: str, value: float, goal: float, goal_text: str, at_most: bool, difference: str) -> str:
-    """``measured`` and how far ``value`` is from its ``goal``, e.g. ``"6.52% (1.30x the 5% goal, 1.52 points over)"``
-    (the speed report's goal lines, worded as its time goals: :func:`tableclean_suite.bench.speed.seconds_against_goal`).
-
-    ``goal_text``: the goal as printed; ``at_most``: the goal is an upper bound (``over``/``under``)
-    rather than a lower one (``above``/``below``); ``difference``: the distance formatted, e.g.
-    ``"1.52 points"`` (the caller knows its unit).
-    """
-    if at_most:
-        side = "over" if value > goal else "under"
-    else:
-        side = "above" if value >= goal else "below"
-    return f"{measured} ({value / goal:.2f}x the {goal_text} goal, {difference} {side})"
 
 
 def overhead_against_goal(overhead: float) -> str:

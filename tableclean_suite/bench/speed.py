@@ -54,6 +54,7 @@ from dataclasses import dataclass, field
 
 from tableclean_suite.bench import cli
 from tableclean_suite.bench.cli import positive_int
+from tableclean_suite.bench.goal_text import seconds_against_goal
 from tableclean_suite.learners import train
 from tableclean_suite.rewards import get_reward_pattern
 from tableclean_suite.task import Outcome, TaskModel
@@ -209,27 +210,6 @@ class SectionResult:
 
     goals: list[Goal] = field(default_factory=list)
     failed: bool = False
-
-
-def against_goal(measured: str, value: float, goal: float, goal_text: str, at_most: bool, difference: str) -> str:
-    """``measured`` and how far ``value`` is from its ``goal``, e.g. ``"6.52% (1.30x the 5% goal, 1.52 points over)"``:
-    every goal line of the speed report is worded so.
-
-    ``goal_text``: the goal as printed; ``at_most``: the goal is an upper bound (``over``/``under``)
-    rather than a lower one (``above``/``below``); ``difference``: the distance formatted, e.g.
-    ``"1.52 points"`` (the caller knows its unit).  (``skill_speed.against_goal`` is a copy of it
-    that can become an import of this one: this module does not import mujoco.)
-    """
-    if at_most:
-        side = "over" if value > goal else "under"
-    else:
-        side = "above" if value >= goal else "below"
-    return f"{measured} ({value / goal:.2f}x the {goal_text} goal, {difference} {side})"
-
-
-def seconds_against_goal(seconds: float, goal: float) -> str:
-    """``"5.32 s (1.33x the 4 s goal, 1.32 s over)"``: a time and how far it is from its goal (``under`` when within)."""
-    return against_goal(f"{seconds:.2f} s", seconds, goal, f"{goal:g} s", True, f"{abs(seconds - goal):.2f} s")
 
 
 def _table(rows: list[dict], float_format: str) -> str:
