@@ -188,8 +188,5 @@ def hand_back_controller_state(osc, grip, goal_pos, goal_ori, torques) -> None:
 def finish_control_step(env, osc, grip, goal_pos, goal_ori, torques) -> None:
     """:func:`advance_clock` by ``env``'s control timestep, then :func:`hand_back_controller_state` (one call
     for the fast stepper's per-step path)."""
-    env.cur_time += env.control_timestep
-    osc.goal_pos, osc.goal_ori = goal_pos, goal_ori
-    osc.torques = torques.copy()
-    osc.new_update = True
-    grip.new_update = True
+    advance_clock(env, env.control_timestep)
+    hand_back_controller_state(osc, grip, goal_pos, goal_ori, torques)
