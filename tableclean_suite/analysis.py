@@ -274,12 +274,6 @@ def affordance_masks(result, model: TaskModel) -> np.ndarray | None:
     return learned_affordances(result.states, result.actions, result.outcomes, model.n_states, model.n_actions)
 
 
-def _per_run_asymptotes(probabilities: np.ndarray, chain, max_itr: int):
-    """:class:`~tableclean_suite.asymptotes.Asymptotes` per run of ``(R, S, A)`` policies, each
-    distinct policy analysed once (:func:`~tableclean_suite.asymptotes.policy_statistics`)."""
-    return asymptotes.policy_statistics(probabilities, chain, max_itr)
-
-
 def _assist_options(settings: dict) -> dict:
     """The assistance options recorded in ``learner_settings`` (``TabularLearner.settings()``)."""
     return {name: settings[name] for name in ("affordance", "advice_probability", "advice_consistency")
@@ -300,7 +294,7 @@ def final_asymptotes(result, chain, max_itr: int, model: TaskModel | None = None
              and not _assist_options(settings))
     if plain:
         return asymptotes.greedy_asymptotes(result.q, float(result.config["epsilon"]), chain, max_itr)
-    return _per_run_asymptotes(final_probabilities(result, model, masks), chain, max_itr)
+    return asymptotes.policy_statistics(final_probabilities(result, model, masks), chain, max_itr)
 
 
 def final_greedy_success(result, chain, max_itr: int, model: TaskModel | None = None,
@@ -317,7 +311,7 @@ def final_greedy_success(result, chain, max_itr: int, model: TaskModel | None = 
     masks = affordance_masks(result, model) if masks is None else masks
     if masks is None:
         return np.atleast_1d(asymptotes.greedy_asymptotes(q, 0.0, chain, max_itr).success)
-    return _per_run_asymptotes(afforded_probabilities(q, masks, 0.0), chain, max_itr).success
+    return asymptotes.policy_statistics(afforded_probabilities(q, masks, 0.0), chain, max_itr).success
 
 
 def never_terminal(result) -> np.ndarray:
