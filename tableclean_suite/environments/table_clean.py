@@ -875,15 +875,16 @@ class TableClean(ManipulationEnv):
     def _qpos_view(self) -> np.ndarray:
         """The simulation data's ``qpos``, kept per data (each mjData attribute access builds a new view, ~0.3 us;
         the buffer stays put while the data lives)."""
+        return self._qpos_entry()[1]
+
+    def _qpos_entry(self) -> tuple:
+        """``(data, its qpos view, the dirt-state joints' positions as a strided view or None)``, kept per
+        simulation data: when the dirt-state joints' addresses are evenly spaced (one slide joint per
+        segment, usually adjacent), a strided view of their positions."""
         data = self._mj_data
         cached = self._qpos_cache
-        if cached is None or cached[0] is not data:
-            cached = self._cache_qpos(data)
-        return cached[1]
-
-    def _cache_qpos(self, data) -> tuple:
-        """Keep ``data``'s qpos view and, when the dirt-state joints' addresses are evenly spaced (one slide
-        joint per segment, usually adjacent), a strided view of their positions."""
+        if cached is not None and cached[0] is data:
+            return cached
         qpos = data.qpos
         addr = getattr(self, "_dirt_qpos_addr", ())  # (set when the model loads; the cache is dropped then)
         dirt = None
@@ -896,10 +897,7 @@ class TableClean(ManipulationEnv):
     def _dirt_positions(self) -> tuple:
         """The dirt-state joints' positions, a tuple of Python floats (the key of the dirt-state caches; read
         at every control step and wiping check: one kept view's ``tolist`` where possible)."""
-        data = self._mj_data
-        cached = self._qpos_cache
-        if cached is None or cached[0] is not data:
-            cached = self._cache_qpos(data)
+        cached = self._qpos_entry()
         dirt = cached[2]
         if dirt is None:
             return tuple(cached[1][self._dirt_qpos_index].tolist())
