@@ -319,6 +319,17 @@ def _episode_statistics(pi_t, pair_state, next_pair, probability, outcome, rewar
             break
 
 
+def _policies_of(probabilities, chain: EpisodeChain) -> np.ndarray:
+    """``probabilities`` as float64 ``(P, S, A)`` policies of ``chain``'s task, or a ValueError naming
+    the shapes (the compiled passes index them by the chain's states and actions, unchecked)."""
+    probabilities = np.asarray(probabilities, dtype=np.float64)
+    states, actions = chain.probability.shape[:2]
+    if probabilities.ndim != 3 or probabilities.shape[1:] != (states, actions):
+        raise ValueError(f"policies must have shape (P, S, A) = (P, {states}, {actions}) for this task, "
+                         f"got {probabilities.shape}")
+    return probabilities
+
+
 def episode_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: int,
                        tolerance: float = MASS_TOLERANCE) -> Asymptotes:
     """:class:`Asymptotes` of behaviour policies given as action probabilities.
@@ -338,9 +349,7 @@ def episode_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: 
         raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
     probabilities = np.asarray(probabilities, dtype=np.float64)
     single = probabilities.ndim == 2
-    probabilities = np.ascontiguousarray(probabilities[None] if single else probabilities)
-    if probabilities.shape[1:] != chain.probability.shape[:2]:
-        raise ValueError(f"policies have shape {probabilities.shape[1:]}, the task {chain.probability.shape[:2]}")
+    probabilities = np.ascontiguousarray(_policies_of(probabilities[None] if single else probabilities, chain))
     result = np.zeros((probabilities.shape[0], len(QUANTITIES)))
     _episode_statistics(np.ascontiguousarray(probabilities.transpose(1, 2, 0)), chain.pair_state, chain.next_pair, chain.probability, chain.outcome,
                         chain.reward, chain.start_pairs, int(max_itr), float(tolerance), result)
@@ -420,7 +429,7 @@ def reached_states(probabilities: np.ndarray, chain: EpisodeChain) -> np.ndarray
     """``(P, S)`` bool: the states an episode can be in under each of the policies ``(P, S, A)``
     (:func:`_reached_pairs`; a state is reached when one of its pairs is).  Elsewhere the DP's
     mass and expected return stay exactly 0 whatever the policy does there."""
-    probabilities = np.ascontiguousarray(probabilities, dtype=np.float64)
+    probabilities = np.ascontiguousarray(_policies_of(probabilities, chain))
     reached = np.zeros((probabilities.shape[0], chain.pair_state.shape[0]), dtype=bool)
     _reached_pairs(probabilities, chain.pair_state, chain.next_pair, chain.probability, chain.start_pairs, reached)
     states = np.zeros(probabilities.shape[:2], dtype=bool)
@@ -487,9 +496,7 @@ def policy_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: i
         raise ValueError(f"max_itr must be an integer >= 1, got {max_itr!r}")
     if not 0.0 <= tolerance < 1.0:
         raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
-    probabilities = np.asarray(probabilities, dtype=np.float64)
-    if probabilities.ndim != 3 or probabilities.shape[1:] != chain.probability.shape[:2]:
-        raise ValueError(f"policies have shape {probabilities.shape[1:]}, the task {chain.probability.shape[:2]}")
+    probabilities = _policies_of(probabilities, chain)
     first, inverse = _distinct_rows(probabilities.reshape(probabilities.shape[0], -1))
     distinct = probabilities[first]
     canonical = np.where(_kept_states(distinct, chain)[:, :, None], distinct, 0.0)

@@ -1,5 +1,7 @@
 """The expected-average-reward DP against a hand-computed chain, a Monte-Carlo estimate and analysis.py."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -300,3 +302,18 @@ def test_chains_of_the_same_content_share_their_remembered_policies(monkeypatch)
     again = _stacked(asymptotes.policy_statistics(pi, _chain("r4"), 60))  # another object, the same chain
     other = _stacked(asymptotes.policy_statistics(pi, _chain("r3"), 60))
     assert computed == [4, 4] and first.tobytes() == again.tobytes() and other.tobytes() != first.tobytes()
+
+
+@pytest.mark.parametrize("shape", [(2, 5, 3), (24, 8), (1, 2, 24, 8)])
+def test_policies_of_the_wrong_shape_are_refused_naming_the_task_shape(shape):
+    """The compiled passes index the policies by the chain's states and actions without bounds
+    checks: a wrong shape must be an error, not a read past the array."""
+    chain = _chain()
+    policies = np.full(shape, 0.5)
+    states, actions = chain.probability.shape[:2]
+    for call in (lambda: asymptotes.reached_states(policies, chain),
+                 lambda: asymptotes.policy_statistics(policies, chain, 50)):
+        with pytest.raises(ValueError, match=re.escape(f"(P, {states}, {actions}) for this task, got {shape}")):
+            call()
+    with pytest.raises(ValueError, match="for this task"):  # one policy (S, A) is allowed here, not these
+        asymptotes.episode_statistics(policies, chain, 50)
