@@ -45,10 +45,11 @@ setup(
         "psutil",  # available memory for the resource guard (tableclean_suite.resources); workers die with their parent
     ],
     extras_require={
-        # dev: everything the test suite exercises (wheel: the install test builds offline; optuna: tuning;
-        # h5py: demonstration datasets; ray: the executor tests start a local Ray on loopback; filelock,
-        # psutil: file locks and the memory check; the docs extra: tests/test_docs.py builds the site)
-        "dev": ["pytest", "wheel", "optuna", "h5py", "ray", "filelock", "psutil",
+        # dev: everything the test suite exercises (pytest-xdist: pytest.ini runs one worker per core;
+        # wheel: the install test builds offline; optuna: tuning; h5py: demonstration datasets; ray: the
+        # executor tests start a local Ray on loopback; filelock, psutil: file locks and the memory check;
+        # the docs extra: tests/test_docs.py builds the site)
+        "dev": ["pytest", "pytest-xdist", "wheel", "optuna", "h5py", "ray", "filelock", "psutil",
                 "mkdocs", "mkdocs-material", "mkdocstrings[python]"],
         "docs": ["mkdocs", "mkdocs-material", "mkdocstrings[python]"],  # mkdocs serve / mkdocs build --strict
         "video": ["imageio", "imageio-ffmpeg", "moviepy"],  # moviepy: Gymnasium's RecordVideo

@@ -66,6 +66,11 @@ HEAVY_TESTS: dict[str, tuple[str, ...]] = {
     ),
 }
 
+#: Marker -> pytest-xdist group: the tests carrying the marker run one after the other on one
+#: worker (``--dist loadgroup`` in pytest.ini).  Each ``ray`` test starts its own local Ray, and two
+#: at once on one machine would compete for its ports and its 2 cores' worker slots.
+SERIAL_GROUPS: dict[str, str] = {"ray": "ray"}
+
 
 def _table_marker(nodeid: str) -> list[str]:
     """The markers :data:`HEAVY_TESTS` gives the test ``nodeid`` (``tests/test_x.py::test_y[id]``)."""
@@ -85,6 +90,9 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(getattr(pytest.mark, marker))
         if not any(item.get_closest_marker(name) for name in HEAVY_MARKERS):
             item.add_marker(pytest.mark.quick)
+        for marker, group in SERIAL_GROUPS.items():
+            if item.get_closest_marker(marker) is not None:
+                item.add_marker(pytest.mark.xdist_group(group))
         if getattr(item, "module", None) is not None:
             modules[item.nodeid.partition("::")[0].rsplit("/", 1)[-1]] = item.module
     here = Path(__file__).parent
