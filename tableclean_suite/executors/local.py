@@ -165,7 +165,7 @@ class LocalExecutor:
                     broken, failure = self._collect(done, running, finished, waiting, tasks, attempts)
                     if broken:  # every task of the dead pool fails: collect them all, then restart
                         more = self._collect(wait(running).done, running, finished, waiting, tasks, attempts)[1]
-                        failure = min(failure, more) if failure and more else failure or more
+                        failure = _lowest_indexed(failure, more)
                         self._restart()
                     if failure is not None:
                         raise failure[1]
@@ -210,3 +210,8 @@ class LocalExecutor:
             else:
                 heapq.heappush(waiting, index)
         return broken, failure
+
+
+def _lowest_indexed(*failures: tuple[int, TaskFailedError] | None) -> tuple[int, TaskFailedError] | None:
+    """The ``(index, error)`` of ``failures`` with the lowest task index, or None when every one is None."""
+    return min((failure for failure in failures if failure is not None), key=lambda failure: failure[0], default=None)
