@@ -16,6 +16,7 @@ is at the skill's travel height, which clears every lying object's top.
 from __future__ import annotations
 
 import enum
+import math
 from typing import Any, Mapping
 
 import numpy as np
@@ -153,6 +154,8 @@ class Wipe(Primitive):
 
     PHASES = ("TO_SEGMENT", "PRESS", "WIPE", "SHIFT", "WIPE_LIFT")
     Config = WipeConfig
+    #: (yaw [rad], its stroke axis) last computed by :meth:`_stroke_axis`; NaN equals no yaw, so the first call computes
+    _axis_of_yaw: tuple[float, int] = (math.nan, 0)
 
     def __init__(self, segment: int):
         self.segment = int(segment)
@@ -290,8 +293,8 @@ class Wipe(Primitive):
 
         Kept per :attr:`yaw` (asked twice a control step while wiping; numpy's cos and sin cost ~1 us each)."""
         yaw = self.yaw
-        cached = self.__dict__.get("_axis_of_yaw")
-        if cached is None or cached[0] != yaw:
+        cached = self._axis_of_yaw
+        if cached[0] != yaw:
             cached = self._axis_of_yaw = (yaw, 0 if abs(np.cos(yaw)) > abs(np.sin(yaw)) else 1)
         return cached[1]
 
