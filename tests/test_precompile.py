@@ -1,12 +1,18 @@
-"""The first process's statistics kernels are compiled by a forked process beside the training loop."""
+"""A first process's compile time: the statistics kernels are compiled by a forked process beside
+the training loop, and the grid's learners train on the loop's one-step epsilon-greedy copy, whose
+compile skips the other update rules' and explorations' functions."""
 
+import numba
 import pytest
+from numba.core import dispatcher as numba_dispatcher
 
+from tableclean_suite.backends import tabular
 from tableclean_suite.bench import experiments, precompile
 from tableclean_suite.bench.config import RunConfig
-from tableclean_suite.learners import kernel
-
-pytestmark = pytest.mark.quick
+from tableclean_suite.learners import assist, exploration, get_learner, kernel, rules
+from tableclean_suite.learners.exploration import EPSILON_GREEDY_CODE, SOFTMAX_CODE
+from tableclean_suite.learners.rules import METHOD_ONE_STEP, METHOD_TRACES
+from tableclean_suite.learners.train import train
 
 
 def _grid():
@@ -22,6 +28,7 @@ def test_the_statistics_are_compiled_without_the_training_loop(monkeypatch):
         raise AssertionError("the training loop was called")
 
     monkeypatch.setattr(kernel, "train_batch", no_training_loop)
+    monkeypatch.setattr(kernel, "train_batch_general", no_training_loop)
     precompile.compile_statistics(cells, config, model)  # every learner's tiny cell, then a comparison
     assert precompile.statistics_kernels_cached()  # what it compiled (or found) is in the disk cache
 
@@ -49,3 +56,57 @@ def test_the_forked_process_compiles_and_is_reaped(monkeypatch):
 
 def _blocking_waitpid(pid, options, _waitpid=precompile.os.waitpid):
     return _waitpid(pid, 0)
+
+
+#: The functions only the other update rules (traces, Dyna, double Q) and the softmax exploration call.
+OTHER_RULES_CALLS = {kernel.clear_traces, kernel.is_exploratory, kernel.trace_update, kernel.remember, kernel.plan,
+                     kernel.double_q_update, exploration.softmax_action, assist.afforded_softmax,
+                     rules.softmax_expected_sarsa_target}
+
+
+def test_the_grids_learners_train_on_the_one_step_copy_and_the_others_on_the_general_loop():
+    cells, _, _ = _grid()
+    assert {kernel.kernel_for(get_learner(cell.learner)) for cell in cells} == {kernel.train_batch}
+    for name in ("q_lambda", "double_q_learning", "dyna_q"):
+        assert kernel.kernel_for(get_learner(name)) is kernel.train_batch_general, name
+
+
+def _loop_arguments(monkeypatch, learner="q_learning"):
+    """The arguments the table backend passes to the training loop for ``learner`` (2 runs)."""
+    captured = []
+    monkeypatch.setattr(tabular, "run_in_threads", lambda loop, n_runs, arguments: captured.append(arguments))
+    train(learner, "r4", runs=2, iterations=10)
+    return (0, 2) + captured[0]
+
+
+def test_the_one_step_copy_refuses_another_rule_or_exploration(monkeypatch):
+    arguments = _loop_arguments(monkeypatch)
+    method, explore_code = 12, 16  # positions of the loop's method and explore_code arguments
+    assert (arguments[method], arguments[explore_code]) == (METHOD_ONE_STEP, EPSILON_GREEDY_CODE)
+    kernel.train_batch(*arguments)  # its own rule and exploration: trains
+    for position, code in ((method, METHOD_TRACES), (explore_code, SOFTMAX_CODE)):
+        wrong = list(arguments)
+        wrong[position] = code
+        with pytest.raises(ValueError, match="compiled for another update rule or exploration"):
+            kernel.train_batch(*wrong)
+
+
+@pytest.mark.jit  # compiles copies of the training loops that no disk cache serves
+@pytest.mark.parametrize("name", ["train_batch", "train_batch_general"])
+def test_only_the_general_loop_compiles_the_other_rules_functions(monkeypatch, name):
+    arguments = _loop_arguments(monkeypatch)
+    loop = numba.njit(nogil=True, pipeline_class=kernel.NoAliasCompiler)(getattr(kernel, name).py_func)
+    called = set()
+    compile_ = numba_dispatcher.Dispatcher.compile
+
+    def recording(self, signature):
+        called.add(self)
+        return compile_(self, signature)
+
+    monkeypatch.setattr(numba_dispatcher.Dispatcher, "compile", recording)
+    loop.compile(tuple(loop.typeof_pyval(argument) for argument in arguments))
+    assert kernel.sample_index in called and rules.builtin_td_target in called
+    if name == "train_batch":  # numba pruned those branches before typing: a first process never compiles them
+        assert not called & OTHER_RULES_CALLS
+    else:
+        assert called >= OTHER_RULES_CALLS

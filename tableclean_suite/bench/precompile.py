@@ -1,17 +1,22 @@
 """A first process compiles the cells' statistics kernels in a forked process, beside the training loop.
 
 With an empty numba cache, ``tableclean-bench run`` first compiles the training loop
-(:func:`tableclean_suite.learners.kernel.train_batch`: ~8-10 s of CPU on one core), then, once the first
-cell is trained, the kernels of its statistics (the asymptotes' episode DP, the grouped curves,
-the bootstrap's sums and draws, the probabilities of improvement: ~3 s), on the same core while
-the other one waits.  :func:`start` forks a process that summarises a tiny cell of each learner of
-the grid (its runs trained by the plain-Python reference engine, so without the training loop)
-through the same code as the run (:func:`.experiments.train_cell`, :func:`.statistics.comparison_rows`):
-that compiles those kernels, with the run's argument types, into numba's disk cache while this
-process compiles the training loop; this process then loads them from the cache instead of
-compiling them.  The forked process writes nothing but the cache, and any failure there only
-means this process compiles them itself; numbers never depend on it (a kernel gives the same bits
-compiled here or there).
+(:data:`tableclean_suite.learners.kernel.train_batch`, the paper's learners' copy: ~5 s of CPU on
+one core), then, once the first cell is trained, the kernels of its statistics (the asymptotes'
+episode DP, the grouped curves, the bootstrap's sums and draws, the probabilities of improvement:
+~5-6 s), on the same core while the other one waits.  :func:`start` forks a process that
+summarises a tiny cell of each learner of the grid (its runs trained by the plain-Python reference
+engine, so without the training loop) through the same code as the run
+(:func:`.experiments.train_cell`, :func:`.statistics.comparison_rows`): that compiles those
+kernels, with the run's argument types, into numba's disk cache while this process compiles the
+training loop; this process then loads them from the cache instead of compiling them.  The forked
+process writes nothing but the cache, and any failure there only means this process compiles them
+itself; numbers never depend on it (a kernel gives the same bits compiled here or there).
+
+The forked process does not also compile the loop's separately compiled callees for this process
+to load from the cache: measured, its work already takes longer (~6-7 s of CPU with the tiny
+cells' training) than this process's compile of the loop, so callees compiled there first only
+delayed the statistics kernels, which this process then compiled itself (no gain in time).
 
 Nothing is forked when the kernels are already in the cache (:func:`statistics_kernels_cached`),
 on a backend that does not train with the compiled loop, or where processes cannot be forked.

@@ -1,18 +1,22 @@
 """The batched, compiled training loop: many independent runs, one step per run per iteration.
 
 This is Algorithm 1 of the paper (with the learner's TD target plugged in),
-compiled with numba.  :func:`train_batch` trains a slice of the runs without the GIL; the
+compiled with numba.  :data:`train_batch` trains a slice of the runs without the GIL; the
 caller spreads the runs over threads (:func:`.threads.run_in_threads`): a first process
-compiles it in about 10 s of CPU time where numba's parallel loop (``prange``) took about 16,
-and the bits are the same for any thread count (each run has its own counter-based random numbers).
+compiles it in about 5 s of CPU time (the general loop in about 9) where numba's parallel loop
+(``prange``) took about 16, and the bits are the same for any thread count (each run has its own
+counter-based random numbers).
 :mod:`.reference` is the same loop in plain Python, one step at a time; both draw the same
 counter-based random numbers (:mod:`.rng`), so they produce identical arrays.
 
-The loop picks the built-in TD target, the update rule (one-step, double Q, eligibility
-traces, Dyna planning) and the exploration by integer codes, so :func:`train_batch`
-takes no function argument and numba's disk cache (``cache=True``) serves it to every
-new process without recompiling.  A user learner's target gets its own compiled copy
-of the same loop (:func:`user_train_batch`), built once per process.
+The loop (:func:`_train_loop`, written once) picks the built-in TD target, the update rule
+(one-step, double Q, eligibility traces, Dyna planning) and the exploration by integer codes,
+so it takes no function argument and numba's disk cache (``cache=True``) serves its compiled
+copies to every new process without recompiling: :data:`train_batch`, with the one-step rule
+and constant epsilon-greedy exploration compiled in (the paper's learners), and
+:data:`train_batch_general` for the other built-in learners (:func:`specialised_loop`;
+:func:`kernel_for` picks).  A user learner's target gets its own compiled copy of the same
+loop (:func:`user_train_batch`), built once per process.
 
 Per-step cost: one-step and double-Q updates are O(A); trace learners touch only the
 pairs with a non-zero trace (a per-run list of the pairs visited in the current episode,
@@ -71,6 +75,7 @@ from tableclean_suite.learners.rules import (
     EXPECTED_SARSA_TARGET,
     METHOD_DOUBLE_Q,
     METHOD_DYNA,
+    METHOD_ONE_STEP,
     METHOD_TRACES,
     PARAM_ACCUMULATE,
     PARAM_LAMBDA,
@@ -94,6 +99,13 @@ NO_SNAPSHOT = -1
 #: A double-Q step updates table A when its side-lane draw is below this, else table B.
 DOUBLE_Q_SPLIT = 0.5
 HALF = 0.5
+#: ``LOOP_METHOD`` / ``LOOP_EXPLORATION`` of the general loop: the update rule and the exploration are
+#: taken from the loop's ``method`` and ``explore_code`` arguments.
+FROM_ARGUMENTS = -1
+#: The update rule and exploration compiled into a copy of the loop (:func:`specialised_loop`): a
+#: constant, so numba drops the other rules' branches before compiling (and never compiles their callees).
+LOOP_METHOD = FROM_ARGUMENTS
+LOOP_EXPLORATION = FROM_ARGUMENTS
 
 _ROUTINE = int(Outcome.ROUTINE)
 _INEFFECTIVE = int(Outcome.INEFFECTIVE)
@@ -152,7 +164,7 @@ def borrowed(typingctx, array):
     numba counts the references to an array's buffer with an atomic add and subtract for every
     array variable it copies and every view it makes (``qr[nxt]``, an inlined callee's
     parameters): in :func:`train_batch`'s loop, about 40 % of Q-learning's time.  A view of an array
-    that outlives the view needs no count: :func:`train_batch` borrows its arguments (held by its
+    that outlives the view needs no count: :func:`_train_loop` borrows its arguments (held by its
     caller for the whole call; nothing keeps them after it returns).  numba's parallel loop gave
     its body such views too, so this keeps the loop as fast without it.  Only for arrays that
     outlive every use of the view.
@@ -173,8 +185,8 @@ class NoAliasCompiler(Compiler):
     """numba's compiler with its ``noalias`` flag set: the compiled function may assume that its
     array arguments do not overlap, so LLVM keeps values read from one in registers across
     stores to another (numba's parallel loop compiles its body so when it finds no aliases).
-    For :func:`train_batch`, whose arguments are distinct arrays: e.g. ``q_lambda`` takes about a
-    third more time without it.
+    For the compiled loops (:func:`_train_loop`), whose arguments are distinct arrays: e.g. ``q_lambda``
+    takes about a third more time without it.
     """
 
     def define_pipelines(self):
@@ -358,8 +370,7 @@ def run_memory(n_states, n_actions, double, traced, counting, modelling):
     return row, visits, traces, pairs, model_next, model_reward, model_terminal, observed
 
 
-@numba.njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def train_batch(
+def _train_loop(
     lo,
     hi,
     next_state_table,
@@ -405,6 +416,12 @@ def train_batch(
     depend only on its key, never on the slice or the thread that trains it.  The array
     arguments must be distinct arrays (compiled with :class:`NoAliasCompiler`), alive for the
     whole call (:func:`borrowed`).
+
+    This is the Python source of the compiled copies (:func:`specialised_loop`): :data:`train_batch`
+    for one-step learners with constant epsilon-greedy exploration, :data:`train_batch_general` for
+    the other built-in learners, and a user target's own copy (:func:`user_train_batch`); pick one
+    with :func:`kernel_for`.  A copy compiled for one update rule and exploration raises
+    ``ValueError`` when ``method`` or ``explore_code`` is another.
 
     Args:
         lo, hi: the runs to train, ``0 <= lo <= hi <= R``.
@@ -455,19 +472,26 @@ def train_batch(
     n_states, n_actions = q.shape[1], q.shape[2]
     n_starts = starts.shape[0]
     n_successors = next_state_table.shape[2]
-    double = method == METHOD_DOUBLE_Q
-    traced = method == METHOD_TRACES
-    modelling = method == METHOD_DYNA
+    if LOOP_METHOD != FROM_ARGUMENTS and (method != LOOP_METHOD or explore_code != LOOP_EXPLORATION):
+        raise ValueError("this copy of the training loop is compiled for another update rule or exploration")
+    # The general copy reads the rule and exploration from its arguments; a specialised copy has them as constants
+    # (new names: numba prunes branches on a variable with a single constant definition).
+    rule = method if LOOP_METHOD == FROM_ARGUMENTS else LOOP_METHOD
+    exploring = explore_code if LOOP_EXPLORATION == FROM_ARGUMENTS else LOOP_EXPLORATION
+    double = rule == METHOD_DOUBLE_Q
+    traced = rule == METHOD_TRACES
+    modelling = rule == METHOD_DYNA
     choose_first = on_policy or traced
     watkins = traced and not on_policy
     decay = gamma * learner_parameters[PARAM_LAMBDA]
     accumulate = learner_parameters[PARAM_ACCUMULATE] != 0.0
     planning_steps = int(learner_parameters[PARAM_PLANNING])
-    counting = explore_code == VISIT_DECAY_CODE
-    plain = explore_code == EPSILON_GREEDY_CODE and not double and affordance == AFFORD_NONE
+    counting = exploring == VISIT_DECAY_CODE
+    plain = exploring == EPSILON_GREEDY_CODE and not double and affordance == AFFORD_NONE
     learning_affordances = affordance == AFFORD_LEARNED
     afforded_max = affordance != AFFORD_NONE and target_code == Q_LEARNING_TARGET
-    softmax_expected = explore_code == SOFTMAX_CODE and target_code == EXPECTED_SARSA_TARGET
+    softmaxing = exploring == SOFTMAX_CODE  # (one definition, so a copy prunes the target's branch below)
+    softmax_expected = target_code == EXPECTED_SARSA_TARGET
     long_memory = loop_mode != 0 and loop_memory != PAPER_LOOPING_MEMORY
     for r in range(lo, hi):
         entered = np.full(n_states if long_memory else 0, -1, dtype=np.int64)
@@ -507,7 +531,7 @@ def train_batch(
             if pending != NO_STATE:
                 action = pending
             else:
-                action = act(qr, qb, row, state, plain, double, explore_code, explore_parameters, key, t, visits,
+                action = act(qr, qb, row, state, plain, double, exploring, explore_parameters, key, t, visits,
                              affordance, masks, advisor, advice, advice_key)
             k = 0
             if n_successors > 1:
@@ -530,14 +554,14 @@ def train_batch(
                 masks[state, action] = NOT_AFFORDED
             pending = NO_STATE
             if choose_first and not terminal:
-                pending = act(qr, qb, row, nxt, plain, double, explore_code, explore_parameters, key, t + 1, visits,
+                pending = act(qr, qb, row, nxt, plain, double, exploring, explore_parameters, key, t + 1, visits,
                               affordance, masks, advisor, advice, advice_key)
             if double:
                 double_q_update(qr, qb, state, action, nxt, reward, alpha, gamma, terminal,
                                 uniform(side_key, t, STREAM_DOUBLE_TABLE))
             else:
-                behaviour = exploration_parameter(explore_code, explore_parameters, t + 1, visit_count(visits, nxt))
-                if softmax_expected:
+                behaviour = exploration_parameter(exploring, explore_parameters, t + 1, visit_count(visits, nxt))
+                if softmaxing and softmax_expected:
                     target = softmax_expected_sarsa_target(qr[nxt], reward, gamma, behaviour, terminal)
                 elif afforded_max:
                     target = afforded_max_target(qr[nxt], masks[nxt], reward, gamma, terminal)
@@ -572,11 +596,36 @@ def train_batch(
             copy_tables(qr, qb, q_snapshot[r], q_second_snapshot[r], double)
 
 
+def specialised_loop(name: str, method: int, exploration: int):
+    """A disk-cached compiled copy of :func:`_train_loop` with the update rule ``method``
+    (``rules.METHOD_*``) and the exploration ``exploration`` (``exploration.*_CODE``) compiled in as
+    constants, or :data:`FROM_ARGUMENTS` for both: read from its arguments (the general loop).
+
+    Same code object, other globals (:data:`LOOP_METHOD`, :data:`LOOP_EXPLORATION`) and name: numba
+    drops the branches of the other rules and explorations before typing, so it never compiles their
+    callees (a first process's compile of the paper's learners' loop skips the traces', Dyna's, double
+    Q's and softmax's: ~3-4 s of CPU of ~9), and gives the same bits as the general loop for learners
+    of that rule and exploration.  ``name`` names its disk-cache entry: one per copy.
+    """
+    code = _train_loop.__code__.replace(co_name=name, co_qualname=name)
+    namespace = dict(_train_loop.__globals__, LOOP_METHOD=method, LOOP_EXPLORATION=exploration)
+    function = types.FunctionType(code, namespace, name)
+    function.__doc__ = _train_loop.__doc__
+    return numba.njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)(function)
+
+
+#: The compiled loop of one-step learners with constant epsilon-greedy exploration (the paper's learners:
+#: every cell of the default grid); see :func:`_train_loop` for its arguments.
+train_batch = specialised_loop("train_batch", METHOD_ONE_STEP, EPSILON_GREEDY_CODE)
+#: The compiled loop of every other built-in learner (double Q, traces, Dyna, decaying, visit-count and
+#: softmax explorations), which reads the update rule and exploration from its arguments.
+train_batch_general = specialised_loop("train_batch_general", FROM_ARGUMENTS, FROM_ARGUMENTS)
+
 _USER_KERNELS: dict = {}
 
 
 def user_train_batch(learner: TabularLearner):
-    """:func:`train_batch` compiled with ``learner.td_target`` in place of the built-in targets.
+    """The general loop (:func:`_train_loop`) compiled with ``learner.td_target`` in place of the built-in targets.
 
     The same code object with one global swapped, so the loop is written once (same arguments,
     runs ``lo .. hi - 1``, ``nogil``: driven by :func:`.threads.run_in_threads` like the built-in
@@ -589,19 +638,23 @@ def user_train_batch(learner: TabularLearner):
         def call_target(code, q_next, next_action, reward, gamma, epsilon, terminal):
             return target(q_next, next_action, reward, gamma, epsilon, terminal)
 
-        source = train_batch.py_func
-        namespace = dict(source.__globals__, builtin_td_target=numba.njit(call_target))
-        function = types.FunctionType(source.__code__, namespace, f"train_batch_{learner.name}")
+        namespace = dict(_train_loop.__globals__, builtin_td_target=numba.njit(call_target))
+        function = types.FunctionType(_train_loop.__code__, namespace, f"train_batch_{learner.name}")
         _USER_KERNELS[target] = numba.njit(nogil=True, pipeline_class=NoAliasCompiler)(function)
     return _USER_KERNELS[target]
 
 
 def kernel_for(learner: TabularLearner):
-    """The compiled loop that trains ``learner`` (runs ``lo .. hi - 1`` of a batch): the cached
-    built-in one or its own copy."""
+    """The compiled loop that trains ``learner`` (runs ``lo .. hi - 1`` of a batch): its own copy
+    for a user's target, else the cached :data:`train_batch` (one-step, constant epsilon-greedy) or
+    :data:`train_batch_general`."""
     from tableclean_suite.learners.rules import USER_TARGET
 
-    return user_train_batch(learner) if learner.target_code == USER_TARGET else train_batch
+    if learner.target_code == USER_TARGET:
+        return user_train_batch(learner)
+    if learner.method == METHOD_ONE_STEP and learner.exploration.code == EPSILON_GREEDY_CODE:
+        return train_batch
+    return train_batch_general
 
 
 def code_digest(learner: TabularLearner) -> str:
