@@ -1,5 +1,7 @@
 """Learners: hand-computed updates, compiled == plain loop, seeding, the DP plateau check, bad input."""
 
+import inspect
+
 import numpy as np
 import pytest
 
@@ -203,9 +205,11 @@ def test_the_compiled_loop_trains_disjoint_slices_of_runs_on_threads(monkeypatch
     assert not kernel.train_batch.targetoptions.get("parallel")
     compiled = kernel.train_batch
     calls = []
+    # the chunk's keys, by name among the arguments after lo and hi
+    keys_at = list(inspect.signature(kernel._train_loop).parameters).index("keys") - 2
 
     def recording(lo, hi, *arguments):
-        calls.append((lo, hi, arguments[21].shape[0], threading.get_ident()))  # arguments[21]: the chunk's keys
+        calls.append((lo, hi, arguments[keys_at].shape[0], threading.get_ident()))
         compiled(lo, hi, *arguments)
 
     monkeypatch.setattr(kernel, "train_batch", recording)

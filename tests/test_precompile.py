@@ -2,6 +2,8 @@
 the training loop, and the grid's learners train on the loop's one-step epsilon-greedy copy, whose
 compile skips the other update rules' and explorations' functions."""
 
+import inspect
+
 import numba
 import pytest
 from numba.core import dispatcher as numba_dispatcher
@@ -79,9 +81,14 @@ def _loop_arguments(monkeypatch, learner="q_learning"):
     return (0, 2) + captured[0]
 
 
+def _loop_position(name: str) -> int:
+    """Position of the training loop's argument ``name`` (in the tuple :func:`_loop_arguments` returns)."""
+    return list(inspect.signature(kernel._train_loop).parameters).index(name)
+
+
 def test_the_one_step_copy_refuses_another_rule_or_exploration(monkeypatch):
     arguments = _loop_arguments(monkeypatch)
-    method, explore_code = 12, 16  # positions of the loop's method and explore_code arguments
+    method, explore_code = _loop_position("method"), _loop_position("explore_code")
     assert (arguments[method], arguments[explore_code]) == (METHOD_ONE_STEP, EPSILON_GREEDY_CODE)
     kernel.train_batch(*arguments)  # its own rule and exploration: trains
     for position, code in ((method, METHOD_TRACES), (explore_code, SOFTMAX_CODE)):
