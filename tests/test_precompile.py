@@ -98,6 +98,13 @@ def test_the_one_step_copy_refuses_another_rule_or_exploration(monkeypatch):
             kernel.train_batch(*wrong)
 
 
+@pytest.mark.parametrize("method, exploration", [(99, EPSILON_GREEDY_CODE), (METHOD_ONE_STEP, 99),
+                                                 (kernel.FROM_ARGUMENTS, EPSILON_GREEDY_CODE)])
+def test_a_copy_for_an_unknown_rule_or_exploration_is_refused_naming_the_allowed(method, exploration):
+    with pytest.raises(ValueError, match=r"method .* and exploration .*: allowed a method of \[0, 1, 2, 3\]"):
+        kernel.specialised_loop("bad_copy", method, exploration)
+
+
 @pytest.mark.jit  # compiles copies of the training loops that no disk cache serves
 @pytest.mark.parametrize("name", ["train_batch", "train_batch_general"])
 def test_only_the_general_loop_compiles_the_other_rules_functions(monkeypatch, name):

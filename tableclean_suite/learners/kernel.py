@@ -51,6 +51,8 @@ from tableclean_suite.learners.assist import (
 )
 from tableclean_suite.learners.exploration import (
     EPSILON_GREEDY_CODE,
+    EXPONENTIAL_DECAY_CODE,
+    LINEAR_DECAY_CODE,
     P_START,
     SOFTMAX_CODE,
     VISIT_DECAY_CODE,
@@ -73,6 +75,7 @@ from tableclean_suite.learners.rng import (
 )
 from tableclean_suite.learners.rules import (
     EXPECTED_SARSA_TARGET,
+    METHODS,
     METHOD_DOUBLE_Q,
     METHOD_DYNA,
     METHOD_ONE_STEP,
@@ -106,6 +109,8 @@ FROM_ARGUMENTS = -1
 #: constant, so numba drops the other rules' branches before compiling (and never compiles their callees).
 LOOP_METHOD = FROM_ARGUMENTS
 LOOP_EXPLORATION = FROM_ARGUMENTS
+#: The exploration codes a copy of the loop may have compiled in (:mod:`.exploration`).
+EXPLORATION_CODES = (EPSILON_GREEDY_CODE, LINEAR_DECAY_CODE, EXPONENTIAL_DECAY_CODE, VISIT_DECAY_CODE, SOFTMAX_CODE)
 
 _ROUTINE = int(Outcome.ROUTINE)
 _INEFFECTIVE = int(Outcome.INEFFECTIVE)
@@ -606,12 +611,27 @@ def specialised_loop(name: str, method: int, exploration: int):
     callees (a first process's compile of the paper's learners' loop skips the traces', Dyna's, double
     Q's and softmax's: ~3-4 s of CPU of ~9), and gives the same bits as the general loop for learners
     of that rule and exploration.  ``name`` names its disk-cache entry: one per copy.
+
+    Raises:
+        ValueError: ``method`` is not a ``rules.METHOD_*`` code or ``exploration`` not one of
+            :data:`EXPLORATION_CODES` (or only one of them is :data:`FROM_ARGUMENTS`).
     """
-    code = _train_loop.__code__.replace(co_name=name, co_qualname=name)
-    namespace = dict(_train_loop.__globals__, LOOP_METHOD=method, LOOP_EXPLORATION=exploration)
-    function = types.FunctionType(code, namespace, name)
-    function.__doc__ = _train_loop.__doc__
+    general = (method, exploration) == (FROM_ARGUMENTS, FROM_ARGUMENTS)
+    if not general and (method not in METHODS.values() or exploration not in EXPLORATION_CODES):
+        raise ValueError(f"specialised_loop({name!r}): method {method!r} and exploration {exploration!r}: "
+                         f"allowed a method of {sorted(METHODS.values())} with an exploration of "
+                         f"{list(EXPLORATION_CODES)}, or both FROM_ARGUMENTS ({FROM_ARGUMENTS})")
+    function = _loop_function(name, LOOP_METHOD=method, LOOP_EXPLORATION=exploration)
     return numba.njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)(function)
+
+
+def _loop_function(name: str, **replaced_globals):
+    """:func:`_train_loop` as a new Python function named ``name`` whose globals are its module's with
+    ``replaced_globals`` in their place (the one loop source behind every compiled copy)."""
+    code = _train_loop.__code__.replace(co_name=name, co_qualname=name)
+    function = types.FunctionType(code, dict(_train_loop.__globals__, **replaced_globals), name)
+    function.__doc__ = _train_loop.__doc__
+    return function
 
 
 #: The compiled loop of one-step learners with constant epsilon-greedy exploration (the paper's learners:
@@ -638,8 +658,7 @@ def user_train_batch(learner: TabularLearner):
         def call_target(code, q_next, next_action, reward, gamma, epsilon, terminal):
             return target(q_next, next_action, reward, gamma, epsilon, terminal)
 
-        namespace = dict(_train_loop.__globals__, builtin_td_target=numba.njit(call_target))
-        function = types.FunctionType(_train_loop.__code__, namespace, f"train_batch_{learner.name}")
+        function = _loop_function(f"train_batch_{learner.name}", builtin_td_target=numba.njit(call_target))
         _USER_KERNELS[target] = numba.njit(nogil=True, pipeline_class=NoAliasCompiler)(function)
     return _USER_KERNELS[target]
 
