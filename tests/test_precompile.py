@@ -50,28 +50,10 @@ def test_the_forked_process_compiles_and_is_reaped(monkeypatch):
     monkeypatch.setattr(precompile, "statistics_kernels_cached", lambda: False)
     process = precompile.start(cells[:2], config, model)
     assert process is not None and process.pid > 0
-    assert process.wait_for_cell_kernels()  # its message, before it compares
     calls = []
     monkeypatch.setattr(precompile.os, "kill", lambda *args: calls.append(args))  # let it finish: no stop
     monkeypatch.setattr(precompile.os, "waitpid", _blocking_waitpid)
     assert process.finish() == 0 and not calls
-
-
-def test_a_process_that_exits_without_its_message_is_not_waited_for():
-    read, write = precompile.os.pipe()
-    precompile.os.close(write)  # as a forked process that failed before its cells were summarised
-    process = precompile.Precompiling(pid=-1, ready_fd=read)
-    assert not process.wait_for_cell_kernels(timeout=5.0)
-    precompile.os.close(read)
-
-
-def test_the_run_waits_for_the_kernels_once_while_its_cells_train_ahead(tmp_path):
-    config = RunConfig(runs=4, iterations=30, rewards=("r4",), sweeps=False, progress=False, fresh=True)
-    grid, model = experiments.config_grid(config), config.task_model()
-    calls = []
-    experiments.run_grid(grid, config, model, experiments.CellStore(tmp_path / "cells"),
-                         before_statistics=lambda: calls.append(len(calls)))
-    assert experiments.trains_ahead(experiments.unique_cells(grid), config, model) and calls == [0]
 
 
 def _blocking_waitpid(pid, options, _waitpid=precompile.os.waitpid):

@@ -783,7 +783,6 @@ def run_grid(
     transitions_sha256: str | None = None,
     executor=None,
     on_cell=None,
-    before_statistics=None,
 ) -> GridRun:
     """Load the stored cells of ``grid``, then train the others; each trained cell is saved at once.
 
@@ -802,10 +801,6 @@ def run_grid(
             (:func:`trains_ahead`, :class:`TrainingAhead`; the same bits either way).
         on_cell: called with the :class:`GridRun` so far after each cell is loaded or trained and
             saved (e.g. to start work on some cells while the others train); None: nothing.
-        before_statistics: called (no arguments) in this thread before the first cell trained here is
-            summarised, while its chunks train on the thread (e.g. to wait for kernels being compiled
-            elsewhere, :meth:`.precompile.Precompiling.wait_for_cell_kernels`); not called when the
-            cells train in this thread or in an executor.  None: nothing.
 
     Raises:
         CellFileError: a stored cell matching the config is unreadable (unless ``fresh``).
@@ -841,8 +836,6 @@ def run_grid(
         ahead = TrainingAhead(pending, config, model, transitions) if trains_ahead(pending, config, model) else None
         if ahead is not None:
             _import_while_training()
-            if before_statistics is not None:
-                before_statistics()
         try:
             for cell in pending:
                 bar.set_postfix_str(f"{outcome.resumed} resumed, training {cell.label}" if outcome.resumed

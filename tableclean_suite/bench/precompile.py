@@ -18,14 +18,6 @@ to load from the cache: measured, its work already takes longer (~6-7 s of CPU w
 cells' training) than this process's compile of the loop, so callees compiled there first only
 delayed the statistics kernels, which this process then compiled itself (no gain in time).
 
-Once the forked process has summarised its tiny cells (every kernel of a cell's statistics is in
-the cache) it says so through a pipe, before it compiles the comparisons' kernels.
-:meth:`Precompiling.wait_for_cell_kernels` waits for that message (at most
-:data:`CELL_KERNELS_WAIT_S`), so this process's first cell summary loads the kernels instead of
-compiling a second copy of those still being compiled there (measured: one of ~11 kernels was
-compiled twice when the race was close).  The run waits only while its cells train on a thread
-(:func:`.experiments.run_grid`'s ``before_statistics``), so no core is left idle by the wait.
-
 Nothing is forked when the kernels are already in the cache (:func:`statistics_kernels_cached`),
 on a backend that does not train with the compiled loop, or where processes cannot be forked.
 """
@@ -48,10 +40,6 @@ PRECOMPILE_ITERATIONS = 20
 PRECOMPILE_SAMPLES = 100
 #: Exit code of the forked process when compiling failed (it is not an error of the run).
 FAILED = 1
-#: The longest the run waits for the forked process's cell kernels (s); then it compiles what it lacks.
-CELL_KERNELS_WAIT_S = 60.0
-#: What the forked process writes to its pipe once the cell kernels are in the cache.
-CELL_KERNELS_READY = b"c"
 
 
 def statistics_kernels():
@@ -82,32 +70,15 @@ class Precompiling:
 
     Args:
         pid: its process id.
-        ready_fd: the read end of its pipe (:data:`CELL_KERNELS_READY` once the cell kernels are
-            cached; end of file when it exited without), closed by :meth:`finish`.
     """
 
-    def __init__(self, pid: int, ready_fd: int):
+    def __init__(self, pid: int):
         self.pid = pid
-        self.ready_fd: int | None = ready_fd
         self.returncode: int | None = None
-
-    def wait_for_cell_kernels(self, timeout: float = CELL_KERNELS_WAIT_S) -> bool:
-        """Block until the forked process has the cell statistics' kernels in the cache, has exited,
-        or ``timeout`` seconds passed; returns whether the kernels are ready (False: this process
-        compiles those it lacks itself, the same bits)."""
-        import select
-
-        if self.ready_fd is None:
-            return False
-        readable, _, _ = select.select([self.ready_fd], [], [], timeout)
-        return bool(readable) and os.read(self.ready_fd, len(CELL_KERNELS_READY)) == CELL_KERNELS_READY
 
     def finish(self) -> int:
         """Stop the process if it still runs (its cache entries are written whole or not at all)
         and reap it; returns its exit status (0: compiled everything)."""
-        if self.ready_fd is not None:
-            os.close(self.ready_fd)
-            self.ready_fd = None
         if self.returncode is None:
             finished, status = os.waitpid(self.pid, os.WNOHANG)
             if finished == 0:
@@ -131,30 +102,25 @@ def start(cells, config, model, transitions=None) -> Precompiling | None:
         return None
     sys.stdout.flush()
     sys.stderr.flush()
-    ready_fd, ready_write = os.pipe()
     pid = os.fork()
     if pid != 0:
-        os.close(ready_write)
-        return Precompiling(pid, ready_fd)
-    os.close(ready_fd)
+        return Precompiling(pid)
     signal.signal(signal.SIGINT, signal.SIG_DFL)  # a Ctrl-C ends it here, never as a run's KeyboardInterrupt
     status = FAILED
     try:  # the forked process: compile, write nothing but numba's cache, never return into the run
         quiet = os.open(os.devnull, os.O_WRONLY)
         os.dup2(quiet, 1)
         os.dup2(quiet, 2)
-        compile_statistics(cells, config, model, transitions,
-                           on_cells_done=lambda: os.write(ready_write, CELL_KERNELS_READY))
+        compile_statistics(cells, config, model, transitions)
         status = 0
     finally:
         os._exit(status)
 
 
-def compile_statistics(cells, config, model, transitions=None, on_cells_done=None) -> None:
+def compile_statistics(cells, config, model, transitions=None) -> None:
     """Summarise a tiny cell of each learner of ``cells`` (:data:`PRECOMPILE_RUNS` runs x
     :data:`PRECOMPILE_ITERATIONS` iterations, trained by the reference engine) and compare two of
-    them: every statistics kernel is compiled (or loaded) with the argument types of the run.
-    ``on_cells_done``: called (no arguments) between the cells and the comparison."""
+    them: every statistics kernel is compiled (or loaded) with the argument types of the run."""
     from tableclean_suite.bench import experiments, statistics
 
     tiny = replace(config, runs=PRECOMPILE_RUNS, iterations=PRECOMPILE_ITERATIONS,
@@ -167,8 +133,6 @@ def compile_statistics(cells, config, model, transitions=None, on_cells_done=Non
         chunks = experiments.cell_chunks(cell, tiny, model, transitions, engine="reference")
         _, cell_stats, _, _ = experiments.train_cell(cell, tiny, model, transitions, chunks=chunks)
         runs = cell_stats.runs
-    if on_cells_done is not None:
-        on_cells_done()
     statistics.comparison_rows([{"learner": "x", "reward": "a", "runs": runs},
                                 {"learner": "x", "reward": "b", "runs": runs}],
                                tiny.confidence, tiny.bootstrap_samples, tiny.seed)

@@ -285,9 +285,7 @@ def train_and_publish(args) -> int:
     try:
         with executor if executor is not None else contextlib.nullcontext():
             grid_run = experiments.run_grid(grid, config, model, store, transitions, transitions_sha256, executor,
-                                            on_cell=comparing.start_when_ready,
-                                            before_statistics=None if compiling is None
-                                            else compiling.wait_for_cell_kernels)
+                                            on_cell=comparing.start_when_ready)
     except experiments.CellFileError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
