@@ -348,15 +348,18 @@ def _episode(phase_loop: bool) -> dict:
         stepper = fast_stepper_of(env)
         stepper.phase_loop = phase_loop
         stepper.state_log = ControlStepLog(stepper)
-        in_loop = []
-        run_phase = stepper.run_phase
+        in_loop, in_press_loop = [], []
+        run_phase, run_press_phase = stepper.run_phase, stepper.run_press_phase
         stepper.run_phase = lambda *args: in_loop.append(run_phase(*args)) or in_loop[-1]
+        stepper.run_press_phase = lambda *args: (in_press_loop.append(run_press_phase(*args)[0])
+                                                 or (in_press_loop[-1], stepper.last_status))
         results = SkillController(env, MODEL).execute_plan(MODEL.shortest_plan(env.symbolic_state()))
         data = robosuite_adapter.mj_data(env.sim)
         gripper = env.robots[0].gripper[env.robots[0].arms[0]]
         return dict(
             states=[r.state_after for r in results], phase_steps=[r.phase_steps for r in results],
-            steps=sum(r.steps for r in results), in_loop=sum(in_loop),
+            steps=sum(r.steps for r in results), in_loop=sum(in_loop), in_press_loop=sum(in_press_loop),
+            env_time=sum(r.env_time for r in results), callbacks=stepper.callback_seconds,
             final={f: getattr(data, f).copy() for f in LOG_FIELDS}, log=stepper.state_log,
             clock=(env.timestep, env.cur_time), gripper=np.array(gripper.current_action),
         )
@@ -368,9 +371,14 @@ def _episode(phase_loop: bool) -> dict:
 @pytest.mark.skipif(not native_available(), reason="MuJoCo's shared library not found")
 def test_phase_loop_matches_the_per_step_path():
     per_step, compiled = _episode(phase_loop=False), _episode(phase_loop=True)
-    assert per_step["in_loop"] == 0
+    assert per_step["in_loop"] == per_step["in_press_loop"] == 0
     assert compiled["in_loop"] > 0  # the fixed-waypoint phases (close, release) ran in the compiled loop
-    print(f"{compiled['in_loop']} of {compiled['steps']} control steps in the compiled phase loop")
+    # the clean's press, strokes and shifts ran in the compiled press loop (most of their steps)
+    wipe_steps = sum(steps.get(phase, 0) for steps in compiled["phase_steps"] for phase in ("PRESS", "WIPE", "SHIFT"))
+    assert compiled["in_press_loop"] > wipe_steps // 2
+    assert per_step["callbacks"] == 0.0 < compiled["callbacks"] < compiled["env_time"]
+    print(f"{compiled['in_loop']} + {compiled['in_press_loop']} of {compiled['steps']} control steps in the compiled "
+          "phase and press loops")
     assert compiled["states"] == per_step["states"] and compiled["states"][-1].is_terminal
     assert compiled["phase_steps"] == per_step["phase_steps"]
     assert compiled["clock"] == per_step["clock"]

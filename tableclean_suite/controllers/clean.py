@@ -22,6 +22,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from tableclean_suite.controllers.configs import CleanConfig, WipeConfig
+from tableclean_suite.controllers.fast_control import MODE_PRESS, MODE_SHIFT, MODE_WIPE, P_DEPTH, P_FORCE, PI_LIFTED
 from tableclean_suite.controllers.geometry import box_lowest_z, quat_to_matrix, world_footprint, wrap_angle
 from tableclean_suite.controllers.geometry import clip_scalar
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
@@ -42,6 +43,8 @@ QUARTER_TURN = 0.5 * np.pi
 #: Fraction of the segment's area the sponge must sweep more at the turned yaw than at the grasp's for the
 #: wipe to turn (a clean may leave 10 % of the dirt; a smaller shrink of the grasp yaw's area costs no row).
 TURN_AREA_GAIN = 0.05
+#: The wipe's phases whose control steps the stepper's compiled press loop can run (:meth:`Wipe.run_loop`), by its mode.
+LOOP_MODES = {"PRESS": MODE_PRESS, "WIPE": MODE_WIPE, "SHIFT": MODE_SHIFT}
 
 
 def _rotation(angle: float) -> np.ndarray:
@@ -177,6 +180,8 @@ class Wipe(Primitive):
         self.grasp_yaw = self.yaw = skill.yaw
         self.turned = False  # the strokes run at the grasp's yaw (True: a quarter turn from it, _choose_yaw)
         self.dt = skill.dt
+        # m, the wipe height's terms fixed for the execution (the compiled press loop's, see run_loop)
+        self._table_z, self._half_z = float(info["table_top_z"]), float(info["sponge_half_size"][2])
         self.strokes = self._choose_yaw(info)
         skill.yaw = self.yaw  # TO_SEGMENT turns the hand, sponge in hand, on its way (if it turns)
 
@@ -390,11 +395,11 @@ class Wipe(Primitive):
             # judged in xy only: the height is judged by contact (ready); a sponge sliding up in
             # the hand moves this target down, so it may never be reached
             return Waypoint(pos, GRIPPER_CLOSE, self.config["wipe_tolerance"], xy_only=True,
-                            speed=self.config["descend_speed"])
+                            speed=self.config["descend_speed"], loop=True)
         if phase == "SHIFT":
             point = self.strokes[self.stroke_index] if self.lifted else self.lift_point
             pos = self._wipe_target(info, point, -self.config["shift_clearance"])
-            return Waypoint(pos, GRIPPER_CLOSE, self.config["wipe_tolerance"], xy_only=True)
+            return Waypoint(pos, GRIPPER_CLOSE, self.config["wipe_tolerance"], xy_only=True, loop=True)
         if phase == "WIPE":
             pos = self._wipe_target(info, self.strokes[self.stroke_index])
             # the lead over a lagging sponge, but never beyond the sides shrunk for the objects around
@@ -402,8 +407,43 @@ class Wipe(Primitive):
             pos[:2] = [clip_scalar(lead[k], low[k], high[k]) for k in range(2)]  # np.clip's values, ~2 us less
             # a stroke the arm cannot finish (a corner at the edge of its reach) ends after stroke_max_steps
             tol = np.inf if skill._phase_steps >= self.config["stroke_max_steps"] else self.config["wipe_tolerance"]
-            return Waypoint(pos, GRIPPER_CLOSE, tol, xy_only=True, speed=self.config["wipe_speed"])
+            return Waypoint(pos, GRIPPER_CLOSE, tol, xy_only=True, speed=self.config["wipe_speed"], loop=True)
         return Waypoint(skill.hover_point(info, self.strokes[-1]), GRIPPER_CLOSE, tol)  # WIPE_LIFT
+
+    def run_loop(self, skill, stepper, phase: str) -> int:
+        """Run a PRESS's, WIPE's or SHIFT's next control steps in the stepper's compiled press loop
+        (:meth:`~tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase`): this
+        primitive's :meth:`update` and :meth:`waypoint` and the skill's step, the same operations on the
+        same values, so the same commands; it stops before a step whose completion check might pass or
+        whose update it cannot take exactly (the skill's :meth:`~.skill.Skill.step` then takes it).  Returns
+        how many control steps ran (0 in other phases)."""
+        mode = LOOP_MODES.get(phase)
+        if mode is None:
+            return 0
+        config = self.config
+        speed = {MODE_PRESS: config["descend_speed"], MODE_WIPE: config["wipe_speed"],
+                 MODE_SHIFT: config["speed"]}[mode]
+        floats, ints = skill.loop_state(speed, GRIPPER_CLOSE, config["wipe_tolerance"], xy_only=True)
+        stroke_x, stroke_y = self.strokes[self.stroke_index].tolist()
+        lift_x, lift_y = (stroke_x, stroke_y) if self.lift_point is None else np.asarray(self.lift_point).tolist()
+        hold_x, hold_y, hold_z = self.hold_offset.tolist()
+        (low_x, low_y), (high_x, high_y) = self.hand_bounds.tolist()
+        wipe = np.array([  # fast_control's P_* order
+            stroke_x, stroke_y, hold_x, hold_y, hold_z, self._table_z, self._half_z, self.depth, self.force,
+            config["press_force"], config["press_force_gain"], config["gap_gain"], config["contact_slack"], self.dt,
+            config["min_press_depth"], config["max_press_depth"], config["setpoint_arrival"], config["touch_force"],
+            config["max_drift_correction"], low_x, low_y, high_x, high_y, lift_x, lift_y, -config["shift_clearance"]],
+            dtype=float)
+        wipe_ints = np.array([mode, self._stroke_axis(), config["stroke_max_steps"],  # fast_control's PI_* order
+                              config["press_max_steps"] + self.press_grace, self.lifted, config["lift_max_steps"]],
+                             dtype=np.int64)
+        ran, _ = stepper.run_press_phase(skill._setpoint, floats, ints, skill._last_fingers, np.zeros(3), wipe,
+                                         wipe_ints, skill.env.sponge_press_force)
+        if ran:
+            self.depth, self.force = float(wipe[P_DEPTH]), float(wipe[P_FORCE])
+            self.lifted = bool(wipe_ints[PI_LIFTED])
+        skill.count_loop_steps(ran, floats)
+        return ran
 
     def next(self, skill, info: Mapping[str, Any], phase: str) -> str | None:
         if phase == "TO_SEGMENT":  # the first PRESS descends from the travel height

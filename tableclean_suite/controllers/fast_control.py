@@ -41,14 +41,22 @@ then decides exactly), at the step budget or the env's horizon, and for substeps
 wiping check must see (then it resumes).  The results are bit-identical to the per-step path
 (``FastSkillStepper.phase_loop = False``).
 
+The clean skill's PRESS, WIPE and SHIFT phases, whose waypoint follows the measured press force and
+the sponge, run likewise in :func:`press_loop` (:meth:`FastSkillStepper.run_press_phase`, from
+``Wipe.run_loop``): the wipe's force loop, waypoint and the skill's checks in compiled code, the
+same operations on the same values; the press force is the env's own ``sponge_press_force()``,
+called back once per control step (:data:`FORCE_CALLBACK`, timed in ``callback_seconds``).  It
+returns to Python at the phase's boundary and where it cannot decide exactly (the sponge near
+``contact_slack`` above the table), so the skill takes those steps.
+
 What the fast path does **not** do: it does not refresh robosuite's observables
 (``env._get_observations(force_update=True)`` does), the robot's proprioception
 history buffers (``recent_qpos``, ``recent_ee_*``), nor compute the reward.  The
 skills read none of these: ``env.skill_info()`` and ``env.symbolic_state()`` read
 the simulation data directly.
 
-The kernels are compiled by numba on first use (~20-25 s, the phase loop included) and cached
-in ``__pycache__`` (later processes load them in ~0.2 s).
+The kernels are compiled by numba on first use (~20-25 s, the phase loop included; the press loop adds
+a few seconds) and cached in ``__pycache__`` (later processes load them in ~0.2 s).
 
 Only the configuration the skills use is supported (one fixed-base arm, OSC_POSE,
 absolute world-frame input, fixed impedance, no interpolators, a simple grip
@@ -56,6 +64,9 @@ gripper); anything else raises ``NotImplementedError`` at construction.
 """
 
 from __future__ import annotations
+
+import ctypes
+import time
 
 import mujoco
 import numba
@@ -109,6 +120,25 @@ POSITION_CHECK_RTOL = 1e-9
 #: The phase loop's stop reasons (:func:`phase_loop`): a step whose completion check might pass (left to
 #: the skill), the skill's step budget, the caller's step limit, a substep handed to the env's wiping check.
 PHASE_MAYBE_COMPLETE, PHASE_BUDGET, PHASE_LIMIT, PHASE_WIPE = 0, 1, 2, 3
+#: :func:`press_loop`'s further stop reason: a step whose update the loop cannot take exactly (the sponge's lowest
+#: corner may be above the table by more than ``contact_slack``, or the measured force is NaN): left to the skill.
+PHASE_HANDOFF = 4
+#: m of slack of :func:`press_loop`'s "the sponge is on the table" test: the wipe's own gap (``Wipe._sponge_gap``,
+#: from the sponge's quaternion) and the loop's (from its rotation matrix) differ by rounding (~1e-16 m); within
+#: this band of ``contact_slack`` the loop hands the step to the skill, which decides exactly.
+GAP_CHECK_SLACK = 1e-9
+#: Entries of :func:`press_loop`'s ``wipe`` floats (see there); ``P_DEPTH`` and ``P_FORCE`` are updated.
+(P_STROKE_X, P_STROKE_Y, P_HOLD_X, P_HOLD_Y, P_HOLD_Z, P_TABLE_Z, P_HALF_Z, P_DEPTH, P_FORCE, P_PRESS_FORCE,
+ P_FORCE_GAIN, P_GAP_GAIN, P_CONTACT_SLACK, P_DT, P_MIN_DEPTH, P_MAX_DEPTH, P_ARRIVAL, P_TOUCH_FORCE,
+ P_DRIFT_BOUND, P_LOW_X, P_LOW_Y, P_HIGH_X, P_HIGH_Y, P_LIFT_X, P_LIFT_Y, P_SHIFT_DEPTH) = range(26)
+#: Entries of :func:`press_loop`'s ``wipe_ints``: the phase (``MODE_*``), the stroke axis (0: x, 1: y), the steps
+#: after which a stroke's tolerance becomes infinite (``stroke_max_steps``), a press's timeout (steps), whether a
+#: shift measured the sponge off the table (updated), the steps after which a shift moves on (``lift_max_steps``).
+PI_MODE, PI_AXIS, PI_STROKE_MAX, PI_PRESS_TIMEOUT, PI_LIFTED, PI_LIFT_MAX = range(6)
+#: :func:`press_loop`'s phases: the clean's PRESS, WIPE and SHIFT.
+MODE_PRESS, MODE_WIPE, MODE_SHIFT = 0, 1, 2
+#: C type of the press-force callback :func:`press_loop` calls once per control step (``double f(void)``, N).
+FORCE_CALLBACK = ctypes.CFUNCTYPE(ctypes.c_double)
 #: Most gripper control steps the phase loop tabulates ahead (robosuite's rate-limited gripper command
 #: reaches its fixed point within 1 / 0.2 = 5 steps per unit of command change, 10 at most for the Panda).
 GRIP_TABLE_ROWS = 32
@@ -647,6 +677,170 @@ def phase_loop(functions, model, data, substeps, buffers, live, gains, initial_j
     return status, ran, substep
 
 
+def _call_double_codegen(context, builder, sig, llvm_args):
+    """LLVM code calling ``double f(void)`` at the address in the (integer) argument."""
+    function = builder.inttoptr(llvm_args[0], ir.FunctionType(ir.DoubleType(), []).as_pointer())
+    return builder.call(function, [])
+
+
+@intrinsic
+def _call_double(typingctx, fn):
+    """``fn()`` for C ``double f(void)`` at the integer address ``fn`` (a :data:`FORCE_CALLBACK`; cacheable: no
+    address is baked into the compiled code)."""
+    return types.float64(types.intp), _call_double_codegen
+
+
+@numba.njit(cache=True)
+def _clip(value: float, low: float, high: float) -> float:
+    """:func:`~tableclean_suite.controllers.geometry.clip_scalar` (numpy's clip of a scalar: its max, then min)."""
+    value = low if low >= value else value
+    return high if high <= value else value
+
+
+@numba.njit(cache=True)
+def press_loop(functions, model, data, substeps, buffers, live, gains, initial_joint, site_id, indexes, actuators,
+               limits, uncouple, sponge, wipe_z, markers, present, reach, eef_pos, finger_index, setpoint, floats,
+               ints, last_fingers, target, wipe, wipe_ints, force_fn, grip_table, grip_row, action, goal_pos, goal_ori,
+               log_live, log, log_row, limit):
+    """Control steps of the clean skill's PRESS, WIPE or SHIFT phase, as ``Skill.step`` + ``FastSkillStepper.step``.
+
+    Per control step, the wipe's force loop (``Wipe.update``: the press force from ``force_fn``,
+    the depth integrated from its error and clipped; shifting, whether the sponge is off the
+    table), its waypoint (``Wipe.waypoint``: the stroke point under the held sponge at the
+    commanded depth; wiping, led by the sponge's drift along the stroke axis and clipped to the
+    hand's bounds; shifting, the lift point until lifted, then the next stroke's start, at the
+    shift clearance) and the skill's checks, then the command and the physics as
+    :func:`phase_loop`.  It stops before a step (nothing of it taken) whose completion check
+    might pass (position within the tolerance (+ :data:`POSITION_CHECK_RTOL`), fingers settled,
+    pressing: the touch force or timeout; shifting: lifted), whose update the loop cannot take
+    exactly (:data:`PHASE_HANDOFF`: wiping with the sponge's lowest corner within
+    :data:`GAP_CHECK_SLACK` of ``contact_slack`` above the table or higher; shifting, unlifted
+    without force, within it of ``contact_slack``; a NaN force), at the step budget and the
+    caller's limit, and for substeps the env's wiping check must see (:data:`PHASE_WIPE`, as
+    :func:`phase_loop`).
+
+    Args:
+        functions .. ints, last_fingers, grip_table .. limit: as :func:`phase_loop` (``floats``'
+            gripper command the skill's, its tolerance ``wipe_tolerance`` (m); ``ints``' xy_only 1).
+        target: (3,) output, the last step's waypoint (m).
+        wipe: (23,) floats indexed by the ``P_*`` constants: stroke point (2,) m, grip-site minus
+            sponge-centre offset (3,) m, table top z (m), sponge half height (m), commanded depth (m,
+            updated), last measured force (N, updated), force target (N), force gain (m/(N s)), gap
+            gain (1/s), contact slack (m), control step (s), depth bounds (m), setpoint arrival (m),
+            touch force (N), drift bound (m), the hand's bounds low (2,) and high (2,) (m), the shift's
+            lift point (2,) m and depth (m, negative: above the table).
+        wipe_ints: (6,) indexed by the ``PI_*`` constants.
+        force_fn: address of a :data:`FORCE_CALLBACK` returning the sponge's press force (N).
+
+    Returns:
+        (stop reason, control steps started, substep) as :func:`phase_loop`.
+    """
+    yaw_setpoint, yaw, max_move, max_turn = floats[0], floats[1], floats[2], floats[3]
+    gripper, tolerance, still = floats[4], floats[5], floats[6]
+    steps, max_steps, phase_steps, min_steps, timeout = ints[0], ints[1], ints[2], ints[3], ints[4]
+    wiping = wipe_ints[PI_MODE] == MODE_WIPE
+    shifting = wipe_ints[PI_MODE] == MODE_SHIFT
+    axis = wipe_ints[PI_AXIS]
+    stroke_max, press_timeout, lift_max = wipe_ints[PI_STROKE_MAX], wipe_ints[PI_PRESS_TIMEOUT], wipe_ints[PI_LIFT_MAX]
+    lifted = wipe_ints[PI_LIFTED] != 0
+    slack = wipe[P_CONTACT_SLACK]
+    qpos, sponge_pos, sponge_mat = live[1], live[7], live[8]
+    table, half_z, hold_z = wipe[P_TABLE_Z], wipe[P_HALF_Z], wipe[P_HOLD_Z]
+    logging = log[0].shape[0] > 0
+    ran = 0
+    status = PHASE_LIMIT
+    substep = 0
+    while ran < limit:
+        if steps >= max_steps:
+            status = PHASE_BUDGET
+            break
+        motion = 0.0
+        for i in range(finger_index.size):
+            motion = max(motion, abs(qpos[finger_index[i]] - last_fingers[i]))
+        force = wipe[P_FORCE]
+        depth = wipe[P_DEPTH]
+        now_lifted = lifted
+        if not (shifting and lifted):
+            force = _call_double(force_fn)
+            if force != force:
+                status = PHASE_HANDOFF
+                break
+        if shifting:  # Wipe._update_lift: on once no force is measured and the sponge is off the table
+            if not lifted:
+                gap = box_lowest_z(sponge_pos, sponge_mat, sponge) - table
+                if force <= 0.0 and abs(gap - slack) <= GAP_CHECK_SLACK:
+                    status = PHASE_HANDOFF  # too close to call: the skill takes this step
+                    break
+                now_lifted = (force <= 0.0 and gap > slack) or phase_steps >= lift_max
+            p0 = (wipe[P_STROKE_X] if now_lifted else wipe[P_LIFT_X]) + wipe[P_HOLD_X]
+            p1 = (wipe[P_STROKE_Y] if now_lifted else wipe[P_LIFT_Y]) + wipe[P_HOLD_Y]
+            p2 = table - wipe[P_SHIFT_DEPTH] + half_z + hold_z
+        else:  # Wipe.update: the depth follows the force error (pressing: once arrived or touching)
+            target_z = table - depth + half_z + hold_z
+            arrived = abs(setpoint[2] - target_z) <= wipe[P_ARRIVAL]
+            if wiping or force > 0.0 or arrived:
+                error = wipe[P_PRESS_FORCE] - force
+                gap = 0.0
+                if wiping and box_lowest_z(sponge_pos, sponge_mat, sponge) - table - slack > -GAP_CHECK_SLACK:
+                    status = PHASE_HANDOFF  # the gap term may be positive: the skill takes this step
+                    break
+                rate = wipe[P_FORCE_GAIN] * error + wipe[P_GAP_GAIN] * gap
+                depth = _clip(depth + rate * wipe[P_DT], wipe[P_MIN_DEPTH], wipe[P_MAX_DEPTH])
+            # Wipe.waypoint
+            p0 = wipe[P_STROKE_X] + wipe[P_HOLD_X]
+            p1 = wipe[P_STROKE_Y] + wipe[P_HOLD_Y]
+            p2 = table - depth + half_z + hold_z
+        step_tolerance = tolerance
+        if wiping:
+            bound = wipe[P_DRIFT_BOUND]
+            drift = _clip(eef_pos[axis] - sponge_pos[axis] - (wipe[P_HOLD_X] if axis == 0 else wipe[P_HOLD_Y]),
+                          -bound, bound)
+            p0 = _clip(p0 + (drift if axis == 0 else 0.0), wipe[P_LOW_X], wipe[P_HIGH_X])
+            p1 = _clip(p1 + (drift if axis == 1 else 0.0), wipe[P_LOW_Y], wipe[P_HIGH_Y])
+            if phase_steps >= stroke_max:
+                step_tolerance = np.inf
+        # Skill._phase_complete (and the wipe's ready): stop where it might pass
+        settled = motion <= still or (timeout >= 0 and phase_steps >= timeout)
+        if shifting:
+            ready = now_lifted
+        else:
+            ready = wiping or force >= wipe[P_TOUCH_FORCE] or phase_steps >= press_timeout
+        if settled and ready and phase_steps >= min_steps:
+            e0, e1 = eef_pos[0] - p0, eef_pos[1] - p1
+            if not np.sqrt(e0 * e0 + e1 * e1) * (1.0 - POSITION_CHECK_RTOL) > step_tolerance:
+                status = PHASE_MAYBE_COMPLETE
+                break
+        # the step is taken
+        wipe[P_DEPTH] = depth
+        wipe[P_FORCE] = force
+        lifted = now_lifted
+        wipe_ints[PI_LIFTED] = lifted
+        target[0], target[1], target[2] = p0, p1, p2
+        for i in range(finger_index.size):
+            last_fingers[i] = qpos[finger_index[i]]
+        yaw_setpoint = advance_command(setpoint, yaw_setpoint, yaw, target, max_move, max_turn, gripper, action)
+        steps += 1
+        phase_steps += 1
+        goal_pos[:] = action[0:3]
+        rotvec_matrix(action[3:6], goal_ori)
+        grip = grip_table[min(grip_row + ran, grip_table.shape[0] - 1)]
+        if logging:
+            for f in range(len(log_live)):
+                log[f][log_row + ran, :] = log_live[f]
+        done = native_substeps(functions, model, data, np.int64(0), substeps, buffers, live, goal_pos, goal_ori, gains,
+                               initial_joint, site_id, indexes, actuators, limits, uncouple, grip, sponge, wipe_z,
+                               markers, present, reach)
+        ran += 1
+        if done < 0:
+            status = PHASE_WIPE
+            substep = -done - 1
+            break
+    floats[0] = yaw_setpoint
+    ints[0] = steps
+    ints[2] = phase_steps
+    return status, ran, substep
+
+
 class ControlStepLog:
     """The simulation state (mjData's :data:`LOG_FIELDS`) at the start of every control step a stepper runs.
 
@@ -753,6 +947,11 @@ class FastSkillStepper:
         self.phase_loop = bool(phase_loop)
         #: a :class:`ControlStepLog` receiving the state at the start of every control step, or None
         self.state_log: ControlStepLog | None = None
+        #: seconds (wall) the compiled loops spent in the skill's Python callbacks (:meth:`run_press_phase`'s force
+        #: reads): skill work, which a caller timing the stepper as the physics subtracts (the SkillController does)
+        self.callback_seconds = 0.0
+        #: the stop reason (``PHASE_*``) of the last compiled loop :meth:`run_phase` / :meth:`run_press_phase` ran
+        self.last_status = PHASE_LIMIT
         self._functions = mujoco_function_addresses() if self.native else None
         self._sim = None
         self._bind()
@@ -974,7 +1173,45 @@ class FastSkillStepper:
         (whose rate-limited command it tabulates), on the first step after a reset (robosuite's cached
         arm state, see :meth:`cached_arm_torques`) or when the episode is done.
         """
+        return self._run_compiled(phase_loop, floats, (setpoint, floats, ints, last_fingers, target))
+
+    def run_press_phase(self, setpoint: np.ndarray, floats: np.ndarray, ints: np.ndarray, last_fingers: np.ndarray,
+                        target: np.ndarray, wipe: np.ndarray, wipe_ints: np.ndarray, force) -> tuple[int, int]:
+        """Run control steps of the clean skill's PRESS, WIPE or SHIFT phase in :func:`press_loop`.
+
+        As :meth:`run_phase` (same conditions, the skill's state updated in place; ``wipe``, ``wipe_ints``:
+        see :func:`press_loop`); ``force``: a Python function returning the sponge's press force (N), called
+        once per control step from the compiled loop (its time is added to :attr:`callback_seconds`).
+        Returns (control steps run, the loop's last stop reason).  An exception ``force`` raises is raised
+        here after the loop stopped (the loop takes no step with it).
+        """
+        errors = []
+
+        def measured() -> float:
+            start = time.perf_counter()
+            try:
+                return force()
+            except BaseException as error:  # noqa: BLE001 (raised again below, outside the compiled loop)
+                errors.append(error)
+                return np.nan
+            finally:
+                self.callback_seconds += time.perf_counter() - start
+
+        callback = FORCE_CALLBACK(measured)  # kept alive while the loop runs
+        address = ctypes.cast(callback, ctypes.c_void_p).value
+        ran = self._run_compiled(press_loop, floats,
+                                 (setpoint, floats, ints, last_fingers, target, wipe, wipe_ints, address))
+        if errors:
+            raise errors[0]
+        return ran, self.last_status
+
+    def _run_compiled(self, kernel, floats: np.ndarray, skill_state: tuple) -> int:
+        """Run ``kernel`` (:func:`phase_loop` or :func:`press_loop`) on the skill's state ``skill_state`` (its
+        arguments from ``setpoint`` on, before ``grip_table``); ``floats``: the skill's floats (the gripper
+        command at entry 4).  The shared driver of :meth:`run_phase` and :meth:`run_press_phase`; sets
+        :attr:`last_status`."""
         env = self.env
+        self.last_status = PHASE_LIMIT
         if not (self.native and self.phase_loop) or env.done:
             return 0
         if env.sim is not self._sim:
@@ -995,17 +1232,18 @@ class FastSkillStepper:
         log = self.state_log
         no_log = tuple(np.empty((0, getattr(self.data, f).size)) for f in LOG_FIELDS)
         live_log = tuple(getattr(self.data, f) for f in LOG_FIELDS)
+        ints = skill_state[2]
         total = 0
+        status = PHASE_LIMIT
         while total < limit:
             present = np.ascontiguousarray(env._marker_present())  # changes only in the env's wiping check
             arrays = no_log if log is None else log.reserve(min(limit - total, int(ints[1] - ints[0])))
-            status, ran, substep = phase_loop(
+            status, ran, substep = kernel(
                 self._functions, model, data, self.substeps, self._buffers, self._live, gains, initial_joint,
                 self.site_id, self.indexes, self._actuators, self.arm_limits, bool(self.osc.uncoupling),
                 self._sponge_half, self._wipe_z, markers, present, self._marker_reach,
-                self.data.site_xpos[self.eef_site_id], self.finger_index, setpoint, floats, ints, last_fingers,
-                target, table, total, action, goal_pos, goal_ori, live_log, arrays, 0 if log is None else log.rows,
-                limit - total,
+                self.data.site_xpos[self.eef_site_id], self.finger_index, *skill_state, table, total, action,
+                goal_pos, goal_ori, live_log, arrays, 0 if log is None else log.rows, limit - total,
             )
             if log is not None:
                 log.rows += ran
@@ -1020,6 +1258,7 @@ class FastSkillStepper:
             total += ran
             if status != PHASE_WIPE:
                 break
+        self.last_status = status
         if total:
             current_action, goal_qvel = states[min(total, len(states)) - 1]
             set_gripper_state(self.gripper, self.grip_controller, current_action.copy(), goal_qvel.copy())

@@ -235,6 +235,11 @@ class Primitive:
     def update(self, skill: "PrimitiveSkill", info: Info, phase: str) -> None:
         """Per-step bookkeeping before the phase is evaluated."""
 
+    def run_loop(self, skill: "PrimitiveSkill", stepper, phase: str) -> int:
+        """Run ``phase``'s next control steps in a compiled loop (after a step whose waypoint was a ``loop``
+        one); returns how many ran (default: none)."""
+        return 0
+
 
 class Reach(Primitive):
     """One phase: go to ``target(skill, info)`` with ``gripper``; reached within ``tolerance`` (default the skill's)."""
@@ -535,6 +540,10 @@ class PrimitiveSkill(Skill):
     def phase_ready(self, info: Info) -> bool:
         primitive, local = self._current()
         return primitive.ready(self, info, local)
+
+    def run_loop_phase(self, stepper) -> int:
+        primitive, local = self._current()
+        return primitive.run_loop(self, stepper, local)
 
     def update(self, info: Info) -> None:
         primitive, local = self._current()

@@ -186,6 +186,9 @@ class Waypoint:
         fixed: the primitive promises that this waypoint stays the same until the phase ends and that
             its ``update()`` changes nothing meanwhile, so a compiled loop may run the phase's control
             steps without asking again (:meth:`Skill.run_fixed_phase`); the completion check stays exact.
+        loop: the waypoint moves, but the primitive runs the phase's further control steps in its own
+            compiled loop (:meth:`Skill.run_loop_phase`, e.g. the wipe's press and strokes), exactly as its
+            ``update()`` and ``waypoint()`` would.
     """
 
     pos: np.ndarray
@@ -195,6 +198,7 @@ class Waypoint:
     min_steps: int = 0
     speed: float | None = None
     fixed: bool = False
+    loop: bool = False
 
 
 class Skill(abc.ABC):
@@ -235,7 +239,7 @@ class Skill(abc.ABC):
         self.phase_steps: dict[str, int] = {}
         self._setpoint = np.zeros(3)
         self._last_fingers: np.ndarray | None = None
-        self.fixed_waypoint: Waypoint | None = None  # the last step's waypoint when fixed (see run_fixed_phase)
+        self.fixed_waypoint: Waypoint | None = None  # the last step's waypoint when fixed or loop (see run_fixed_phase)
         window = self.config["gripper_window"]
         self._finger_history: collections.deque = collections.deque(maxlen=2 * int(window or 0))
 
@@ -311,7 +315,7 @@ class Skill(abc.ABC):
         """One control step: update the phase from the achieved pose, return the env action (7,).
 
         Returns ``None`` once the skill is done (finished, failed or out of budget).  Afterwards
-        :attr:`fixed_waypoint` is the step's waypoint when it is ``fixed`` (else ``None``).
+        :attr:`fixed_waypoint` is the step's waypoint when it is ``fixed`` or ``loop`` (else ``None``).
         """
         # (the per-step path runs after the physics has left the CPU caches cold: few calls and lookups here)
         self.fixed_waypoint = None
@@ -350,15 +354,16 @@ class Skill(abc.ABC):
         name = cached[1]
         counts = self.phase_steps
         counts[name] = counts.get(name, 0) + 1
-        if target.fixed:
+        if target.fixed or target.loop:
             self.fixed_waypoint = target
         return action
 
     def run_fixed_phase(self, stepper) -> int:
         """Hand the current phase's next control steps to ``stepper``'s compiled phase loop; returns how many ran.
 
-        Only after a :meth:`step` whose waypoint was ``fixed`` (:attr:`fixed_waypoint`) and without the
-        windowed gripper rule (``gripper_window``); otherwise runs nothing.  ``stepper`` is a
+        Only after a :meth:`step` whose waypoint was ``fixed`` (:attr:`fixed_waypoint`; a ``loop`` one goes
+        to :meth:`run_loop_phase`) and without the windowed gripper rule (``gripper_window``); otherwise
+        runs nothing.  ``stepper`` is a
         :class:`~tableclean_suite.controllers.fast_control.FastSkillStepper`: it runs control steps
         exactly as :meth:`step` followed by ``stepper.step`` would, stopping before any step whose
         completion check might pass (that step is left to :meth:`step`), at the step budget, and
@@ -368,21 +373,42 @@ class Skill(abc.ABC):
         self.fixed_waypoint = None
         if target is None or self._finger_history.maxlen:
             return 0
+        if target.loop:
+            return self.run_loop_phase(stepper)
         speed = self.config["speed"] if target.speed is None else target.speed
-        timeout = self.config["gripper_timeout"]
-        floats = np.array([self._yaw_setpoint, self.yaw, speed * self.dt, self.config["yaw_rate"] * self.dt,
-                           target.gripper, target.tolerance, self.config["gripper_still"]], dtype=float)
-        ints = np.array([self.steps, self.max_steps, self._phase_steps, target.min_steps,
-                         -1 if timeout is None else timeout, target.xy_only], dtype=np.int64)
+        floats, ints = self.loop_state(speed, target.gripper, target.tolerance, target.min_steps, target.xy_only)
         ran = stepper.run_phase(self._setpoint, floats, ints, self._last_fingers,
                                np.ascontiguousarray(target.pos, dtype=float))
+        self.count_loop_steps(ran, floats)
+        return ran
+
+    def run_loop_phase(self, stepper) -> int:
+        """Hook: run the current phase's next control steps in the primitive's compiled loop (a ``loop``
+        waypoint, see :class:`Waypoint`); returns how many ran (default: none, every step through :meth:`step`)."""
+        return 0
+
+    def loop_state(self, speed: float, gripper: float, tolerance: float, min_steps: int = 0,
+                   xy_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """``(floats (7,), ints (6,))``: the skill's state as the compiled loops take it (see
+        :func:`~tableclean_suite.controllers.fast_control.phase_loop`) for a phase at ``speed`` (m/s) with the
+        gripper command ``gripper``, ``tolerance`` (m), ``min_steps`` and ``xy_only``; read back with
+        :meth:`count_loop_steps`."""
+        timeout = self.config["gripper_timeout"]
+        floats = np.array([self._yaw_setpoint, self.yaw, speed * self.dt, self.config["yaw_rate"] * self.dt,
+                           gripper, tolerance, self.config["gripper_still"]], dtype=float)
+        ints = np.array([self.steps, self.max_steps, self._phase_steps, min_steps,
+                         -1 if timeout is None else timeout, xy_only], dtype=np.int64)
+        return floats, ints
+
+    def count_loop_steps(self, ran: int, floats: np.ndarray) -> None:
+        """Take over ``ran`` control steps a compiled loop ran in the current phase (``floats``: its state, the
+        yaw setpoint at entry 0): the yaw setpoint, the step counts."""
         if ran:
             self._yaw_setpoint = float(floats[0])
             self.steps += ran
             self._phase_steps += ran
             name = self.phase.name
             self.phase_steps[name] = self.phase_steps.get(name, 0) + ran
-        return ran
 
     def _phase_complete(self, target: Waypoint, info: Mapping[str, Any], finger_motion: float) -> bool:
         """Whether the phase of ``target`` is done: position reached, at least ``min_steps`` in the phase,

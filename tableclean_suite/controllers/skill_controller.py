@@ -137,6 +137,8 @@ class SkillController:
         phases = self._phase_stepper()  # runs a fixed-waypoint phase's further steps in compiled code
         env_time = 0.0
         reason = "ok"
+        # the skill's own Python the compiled loops call back (the wipe's force reads) is no physics
+        callbacks = 0.0 if phases is None else phases.callback_seconds
         try:
             skill.reset(before)
             while (command := skill.step()) is not None:
@@ -150,6 +152,8 @@ class SkillController:
             after = self.env.symbolic_state()
         except AbstractionError as fault:
             reason, after = f"fault: {fault}", None
+        if phases is not None:
+            env_time -= phases.callback_seconds - callbacks
         if skill.failure is not None:
             reason = skill.failure
         elif after is not None and after != expected:
