@@ -51,10 +51,12 @@ import random
 import sys
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from tableclean_suite.bench import cli
 from tableclean_suite.bench.cli import positive_int
-from tableclean_suite.bench.goal_text import seconds_against_goal
+from tableclean_suite.bench.goal_text import against_goal, seconds_against_goal
+from tableclean_suite.bench.tree_ratio import FIRST_PROCESS_GOAL_S  # noqa: F401  (the cold start's goal, s)
 from tableclean_suite.learners import train
 from tableclean_suite.rewards import get_reward_pattern
 from tableclean_suite.task import Outcome, TaskModel
@@ -66,8 +68,6 @@ PLAIN_LOOP_GOAL = 100.0
 DEFAULT_RUN_GOAL_S = 4.0
 #: Timed default runs after the warm-up; the median's wall time is checked against the goal.
 DEFAULT_RUN_REPEATS = 3
-#: Goal: the first process of the cold start (empty numba cache) within this many wall seconds.
-FIRST_PROCESS_GOAL_S = 12.0
 #: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench speed"
 #: The sections, in the order they run and report.
@@ -221,7 +221,7 @@ def _table(rows: list[dict], float_format: str) -> str:
 
 def learners_section(args) -> SectionResult:
     """The compiled learners against the plain loop, every learner and exploration, the default run."""
-    from tableclean_suite.bench import learner_speed
+    from tableclean_suite.bench import learner_speed, tree_ratio
 
     result = SectionResult()
     rows = measure(args.runs, args.iterations, args.baseline_runs)
@@ -241,6 +241,9 @@ def learners_section(args) -> SectionResult:
         print()
         print(_table(learner_speed.exploration_rows(args.reward, args.runs, args.iterations, args.repeat),
                      "{:,.2f}"))
+    if args.old_tree is not None:
+        result.goals.append(_against_old_tree(args, "default run", False, tree_ratio.DEFAULT_RUN_RATIO_GOAL,
+                                              "a third"))
     if not args.skip_default_run:
         timing = time_default_run()
         print(f"\ndefault `tableclean-bench run --fresh` after warm-up, median of {len(timing['walls'])} runs: "
@@ -265,14 +268,37 @@ def specs_section(args) -> SectionResult:
                                f"ratio {ratio:.2f}", spec_speed.within_target(ratio))])
 
 
-def cold_start_section(args) -> SectionResult:
-    """The README's command in three fresh processes sharing one numba cache."""
-    from tableclean_suite.bench import spec_speed
+def _against_old_tree(args, label: str, cold: bool, goal: float, goal_text: str) -> Goal:
+    """This tree's whole run process against ``--old-tree``'s, in alternating pairs (:mod:`.tree_ratio`)."""
+    from tableclean_suite.bench import tree_ratio
 
+    section = "cold-start" if cold else "learners"
+    try:
+        times = tree_ratio.paired_times(label, tree_ratio.this_tree(), args.old_tree, args.old_tree_pairs, cold)
+    except tree_ratio.TreeRunError as error:
+        print(f"  {label} against --old-tree: {error}")
+        return Goal(section, f"{label} / --old-tree's (whole processes) <= {goal:.3f}", "not measured", False)
+    print(f"{label}, whole processes alternating with --old-tree {args.old_tree}:")
+    print(times.line())
+    measured = against_goal(f"{times.ratio:.3f}", times.ratio, goal, f"{goal:.3f} ({goal_text})", True,
+                            f"{abs(times.ratio - goal):.3f}")
+    return Goal(section, f"{label} / --old-tree's (whole processes) <= {goal:.3f}", measured, times.ratio <= goal)
+
+
+def cold_start_section(args) -> SectionResult:
+    """The README's command in three fresh processes sharing one numba cache (and, with
+    ``--old-tree``, the first process against the older tree's)."""
+    from tableclean_suite.bench import spec_speed, tree_ratio
+
+    if getattr(args, "old_tree", None) is not None:
+        goal = _against_old_tree(args, "first process", True, tree_ratio.FIRST_PROCESS_RATIO_GOAL,
+                                 f"{tree_ratio.FIRST_PROCESS_GOAL_S:g} of {tree_ratio.ISSUE_FIRST_PROCESS_S:g} s")
     cold = spec_speed.time_cold_starts()
     print("\n".join(spec_speed.cold_start_lines(cold)))
     warm = spec_speed.warm_process(cold)
     result = SectionResult(failed=any(process.returncode != 0 for process in cold))
+    if getattr(args, "old_tree", None) is not None:
+        result.goals.append(goal)
     if cold:
         result.goals.append(Goal("cold-start", f"first process (empty kernel cache) <= {FIRST_PROCESS_GOAL_S:g} s",
                                  f"{seconds_against_goal(cold[0].seconds, FIRST_PROCESS_GOAL_S)}; "
@@ -438,6 +464,17 @@ def build_parser(prog: str = PROG, alias: str | None = None) -> argparse.Argumen
                                           "(default paper)")
     if "environment" in sections or "skills" in sections:
         cli.add_seed_argument(parser, "the environments and their random actions")
+    if "learners" in sections or "cold-start" in sections:
+        from tableclean_suite.bench import tree_ratio
+
+        group = parser.add_argument_group("against an older tree (learners: the default run; cold-start: the "
+                                          "first process)")
+        group.add_argument("--old-tree", type=Path, default=None, metavar="DIR",
+                           help="a checkout of an older tree (e.g. `git worktree add DIR f690eb5`): time the run "
+                                "command's whole process alternately here and there and check the ratio "
+                                f"(default run <= 1/3, first process <= {tree_ratio.FIRST_PROCESS_RATIO_GOAL:.3f})")
+        group.add_argument("--old-tree-pairs", type=positive_int, default=tree_ratio.DEFAULT_PAIRS, metavar="N",
+                           help=f"pairs of processes per ratio (default {tree_ratio.DEFAULT_PAIRS})")
     return parser
 
 
@@ -452,6 +489,18 @@ def _selected(args, alias: str | None) -> tuple[str, ...]:
 
 def _check(parser, args, sections) -> None:
     """Checks that need more than one flag, or a registry; exits 2 naming the flag."""
+    if getattr(args, "old_tree", None) is not None:
+        from tableclean_suite.bench import tree_ratio
+
+        if "learners" not in sections and "cold-start" not in sections:
+            parser.error(f"--old-tree times the learners and cold-start sections, and neither is selected "
+                         f"(sections: {', '.join(sections)})")
+        problem = tree_ratio.tree_problem(args.old_tree)
+        if problem:
+            parser.error(f"--old-tree: {problem}")
+        if tree_ratio.tree_problem(tree_ratio.this_tree()):
+            parser.error(f"--old-tree needs this package run from a source checkout; "
+                         f"{tree_ratio.tree_problem(tree_ratio.this_tree())}")
     if "environment" in sections and args.steps < args.rounds:
         parser.error(f"--steps {args.steps} is below --rounds {args.rounds}: every round times at least one step")
     if "skills" in sections:
