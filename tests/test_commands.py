@@ -337,3 +337,31 @@ def test_an_old_entry_point_of_a_missing_command_is_one_line(capsys, monkeypatch
     assert capsys.readouterr().err.splitlines() == [
         "python -m benchmarks.ghost: error: command 'ghost' is not available in this installation "
         "(tableclean_suite.bench.no_such_module is missing)"]
+
+
+#: A process with an object in a reference cycle whose finalizer says so if the exit collects it.
+_EXIT_SCRIPT = """
+import os
+from tableclean_suite.bench import commands
+
+class Cycle:
+    def __del__(self, write=os.write):
+        write(1, b" collected")
+
+cycle = Cycle()
+cycle.me = cycle
+if {skip}:
+    commands.skip_final_collection()
+    commands.skip_final_collection()  # a second entry point in the same process: registered once
+print("last line", end="")  # left in the buffer: the exit still flushes it
+"""
+
+
+@pytest.mark.cli
+@pytest.mark.parametrize("skip, expected", [(False, "last line collected"), (True, "last line")])
+def test_a_commands_exit_skips_the_last_collection_and_still_flushes(skip, expected):
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", _EXIT_SCRIPT.format(skip=skip)], capture_output=True, text=True)
+    assert (done.returncode, done.stdout, done.stderr) == (0, expected, "")

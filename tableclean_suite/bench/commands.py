@@ -149,11 +149,34 @@ def _exit_code(code) -> int:
     return 1
 
 
+def skip_final_collection() -> None:
+    """Make this process's exit skip the garbage collector's last pass over every object still alive.
+
+    At exit the interpreter clears its modules and runs a full cyclic collection over whatever they
+    held (numba's compiled kernels and type caches, pandas, matplotlib): ~0.35 s of the default
+    run's ~6 s whole process, measured, for memory the operating system takes back anyway.
+    Registered here as an :mod:`atexit` handler (it runs before that pass, and after the command
+    has returned), :func:`gc.freeze` moves every object into the generation collections ignore.
+    Nothing else of the exit changes: the other exit handlers run (they were registered earlier,
+    so they run after this one), the standard streams are flushed and objects outside reference
+    cycles are freed as before; objects in cycles are left to the operating system, as Python
+    already allows for objects alive at exit.  Called by every entry point (console script,
+    ``python -m``); registered once per process; a library user's process is not affected.
+    """
+    if not getattr(skip_final_collection, "registered", False):
+        import atexit
+        import gc
+
+        atexit.register(gc.freeze)
+        skip_final_collection.registered = True
+
+
 def main(argv=None, prog: str | None = None) -> int:
     """Run ``prog COMMAND ARGS...`` (default ``sys.argv[1:]``); returns the exit code.
 
     No command, or flags first: ``run``.  ``-h``/``--help`` alone lists the commands.
     """
+    skip_final_collection()
     argv = list(sys.argv[1:] if argv is None else argv)
     prog = prog or invoked_as()
     if argv and argv[0] in HELP_FLAGS:
@@ -172,6 +195,7 @@ def main(argv=None, prog: str | None = None) -> int:
 def run_alias(name: str, prog: str, argv=None, **options) -> int:
     """Run command ``name`` as an old entry point (``python -m benchmarks.X``) called ``prog``;
     ``options`` go to its ``main`` (e.g. the speed command's ``alias``)."""
+    skip_final_collection()
     return _run(name, argv, prog, **options)
 
 
