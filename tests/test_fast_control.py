@@ -340,18 +340,20 @@ def test_the_kernels_index_the_scratch_by_name():
     assert len(re.findall(r"\bwork\[W_[A-Z_]+\]", source)) == len(SCRATCH_SHAPES)
 
 
-def _episode(phase_loop: bool) -> dict:
-    """An optimal episode from the paper's layout on the fast path, with or without the compiled phase loop."""
-    env = make_skill_env(1, 1, seed=1, hard_reset=False)
+def _episode(phase_loop: bool, layout=(1, 1), seed: int = 1) -> dict:
+    """An optimal episode from ``layout`` (default the paper's) on the fast path, with or without the compiled
+    phase and press loops."""
+    env = make_skill_env(*layout, seed=seed, hard_reset=False)
     try:
         env.reset()
         stepper = fast_stepper_of(env)
         stepper.phase_loop = phase_loop
         stepper.state_log = ControlStepLog(stepper)
-        in_loop, in_press_loop = [], []
+        in_loop, in_press_loop, statuses = [], [], []
         run_phase, run_press_phase = stepper.run_phase, stepper.run_press_phase
         stepper.run_phase = lambda *args: in_loop.append(run_phase(*args)) or in_loop[-1]
         stepper.run_press_phase = lambda *args: (in_press_loop.append(run_press_phase(*args)[0])
+                                                 or statuses.append(stepper.last_status)
                                                  or (in_press_loop[-1], stepper.last_status))
         results = SkillController(env, MODEL).execute_plan(MODEL.shortest_plan(env.symbolic_state()))
         data = robosuite_adapter.mj_data(env.sim)
@@ -359,7 +361,7 @@ def _episode(phase_loop: bool) -> dict:
         return dict(
             states=[r.state_after for r in results], phase_steps=[r.phase_steps for r in results],
             steps=sum(r.steps for r in results), in_loop=sum(in_loop), in_press_loop=sum(in_press_loop),
-            env_time=sum(r.env_time for r in results), callbacks=stepper.callback_seconds,
+            env_time=sum(r.env_time for r in results), callbacks=stepper.callback_seconds, statuses=statuses,
             final={f: getattr(data, f).copy() for f in LOG_FIELDS}, log=stepper.state_log,
             clock=(env.timestep, env.cur_time), gripper=np.array(gripper.current_action),
         )
@@ -369,8 +371,11 @@ def _episode(phase_loop: bool) -> dict:
 
 @pytest.mark.slow
 @pytest.mark.skipif(not native_available(), reason="MuJoCo's shared library not found")
-def test_phase_loop_matches_the_per_step_path():
-    per_step, compiled = _episode(phase_loop=False), _episode(phase_loop=True)
+# (1, 2) seed 0: a stroke whose sponge lifts off the table (the press loop hands three WIPE steps to the skill)
+@pytest.mark.parametrize("layout, seed, handoff", [((1, 1), 1, False), ((1, 2), 0, True)])
+def test_phase_loop_matches_the_per_step_path(layout, seed, handoff):
+    per_step, compiled = _episode(False, layout, seed), _episode(True, layout, seed)
+    assert (fast_control.PHASE_HANDOFF in compiled["statuses"]) == handoff
     assert per_step["in_loop"] == per_step["in_press_loop"] == 0
     assert compiled["in_loop"] > 0  # the fixed-waypoint phases (close, release) ran in the compiled loop
     # the clean's press, strokes and shifts ran in the compiled press loop (most of their steps)
