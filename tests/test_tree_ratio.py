@@ -90,3 +90,14 @@ def test_a_run_that_fails_in_a_tree_is_reported_with_its_last_lines(tmp_path):
     tree = _fake_tree(tmp_path / "old", 3)
     with pytest.raises(tree_ratio.TreeRunError, match=r"exited 3 in .*old:\nlast words"):
         tree_ratio.time_run(tree, tmp_path / "out")
+
+
+@pytest.mark.quick
+def test_a_child_started_elsewhere_imports_the_same_code(monkeypatch, tmp_path):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("PYTHONPATH", "." + tree_ratio.os.pathsep + "/abs/lib")
+    environment = tree_ratio.child_environment(first=Path("/tree"), NUMBA_CACHE_DIR="/cache")
+    assert environment["PYTHONPATH"].split(tree_ratio.os.pathsep) == ["/tree", str(tmp_path), "/abs/lib"]
+    assert environment["NUMBA_CACHE_DIR"] == "/cache"
+    monkeypatch.delenv("PYTHONPATH")
+    assert "PYTHONPATH" not in tree_ratio.child_environment()

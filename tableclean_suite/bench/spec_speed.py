@@ -163,7 +163,9 @@ def time_cold_start(out: Path, cwd: Path, cache_dir: Path, label: str = "") -> C
     first process compile, and a second process on the same directory shows whether the cache hits.
     ``out``'s own result caches (``out/cells``) serve whatever an earlier process left there.
     """
-    environment = {**os.environ, "NUMBA_DEBUG_CACHE": "1", "NUMBA_CACHE_DIR": str(cache_dir)}
+    from tableclean_suite.bench.tree_ratio import child_environment
+
+    environment = child_environment(NUMBA_DEBUG_CACHE="1", NUMBA_CACHE_DIR=str(cache_dir))
     started = time.perf_counter()
     finished = subprocess.run([sys.executable, *COLD_START_COMMAND, "--out", str(out)], cwd=cwd, env=environment,
                               capture_output=True, text=True)

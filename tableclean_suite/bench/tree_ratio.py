@@ -89,6 +89,18 @@ def this_tree() -> Path:
     return Path(tableclean_suite.__file__).resolve().parent.parent
 
 
+def child_environment(first: Path | None = None, **variables: str) -> dict[str, str]:
+    """This process's environment for a child started in another directory: ``PYTHONPATH``'s entries
+    made absolute (a relative one, e.g. ``PYTHONPATH=.``, would name the child's directory and let it
+    import another copy of the code), ``first`` (a directory) before them, and ``variables`` set."""
+    entries = [str(first)] if first is not None else []
+    entries += [os.path.abspath(entry) for entry in os.environ.get("PYTHONPATH", "").split(os.pathsep) if entry]
+    environment = {**os.environ, **variables}
+    if entries:
+        environment["PYTHONPATH"] = os.pathsep.join(entries)
+    return environment
+
+
 def tree_problem(path) -> str | None:
     """Why ``path`` cannot be timed (a sentence naming it), or None when it has :data:`RUN_MODULE`."""
     path = Path(path)
@@ -106,10 +118,7 @@ def time_run(tree: Path, out: Path, cache_dir: Path | None = None) -> float:
     Raises:
         TreeRunError: the command exited non-zero.
     """
-    paths = [str(tree)] + [entry for entry in os.environ.get("PYTHONPATH", "").split(os.pathsep) if entry]
-    environment = {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
-    if cache_dir is not None:
-        environment["NUMBA_CACHE_DIR"] = str(cache_dir)
+    environment = child_environment(first=tree, **({} if cache_dir is None else {"NUMBA_CACHE_DIR": str(cache_dir)}))
     started = time.perf_counter()
     done = subprocess.run([sys.executable, *RUN_COMMAND, "--out", str(out)], cwd=tree, env=environment,
                           capture_output=True, text=True)
