@@ -4,7 +4,22 @@ import mujoco
 import numpy as np
 import pytest
 
-from tableclean_suite.environments.contact_kernels import contacts_between, normal_force_between
+from tableclean_suite.environments import wiping
+from tableclean_suite.environments.contact_kernels import (
+    LOOKUP_BODY,
+    LOOKUP_PADS,
+    NATIVE_CONTACT_FORCE,
+    NATIVE_DATA,
+    NATIVE_MODEL,
+    PAD_A,
+    PAD_B,
+    PRESSING,
+    SURFACE,
+    contacts_between,
+    grasped_bodies,
+    normal_force_between,
+    press_normal_force,
+)
 from tableclean_suite.robosuite_adapter import c_address, mujoco_contact_force_address
 
 SCENE = """
@@ -59,3 +74,69 @@ def test_normal_force_sum_is_zero_without_a_pairing_contact():
     contact = data.contact
     assert normal_force_between(mujoco_contact_force_address(), c_address(model), c_address(data), contact.geom1,
                                 contact.geom2, _masks(model, "box_a"), _masks(model, "box_b"), np.zeros(6)) == 0.0
+
+
+def _native(model, data) -> np.ndarray:
+    """press_normal_force's (3,) int64 addresses."""
+    native = np.zeros(3, dtype=np.int64)
+    native[[NATIVE_CONTACT_FORCE, NATIVE_MODEL, NATIVE_DATA]] = [mujoco_contact_force_address(), c_address(model),
+                                                                 c_address(data)]
+    return native
+
+
+def _roles(pressing, surface) -> np.ndarray:
+    roles = np.zeros(pressing.size, dtype=np.int64)
+    roles[pressing] |= PRESSING
+    roles[surface] |= SURFACE
+    return roles
+
+
+@pytest.mark.skipif(mujoco_contact_force_address() is None, reason="MuJoCo's library not found or versions unchecked")
+@pytest.mark.parametrize("boxes", [("box_a",), ("box_b",), ("box_a", "box_b")])
+def test_press_force_is_the_pairwise_sum_clipped_as_pythons_max(boxes):
+    model, data = _pressed_scene()
+    floor, pressing = _masks(model, "floor"), _masks(model, *boxes)
+    contact = data.contact
+    expected = max(normal_force_between(mujoco_contact_force_address(), c_address(model), c_address(data),
+                                        contact.geom1, contact.geom2, pressing, floor, np.zeros(6)), 0.0)
+    assert expected > 0.0
+    got = press_normal_force(_native(model, data), contact.geom, _roles(pressing, floor), np.zeros(6))
+    assert got == expected  # bit for bit: the same contacts summed in the same order
+    # roles the other way round pair the same contacts
+    assert press_normal_force(_native(model, data), contact.geom, _roles(floor, pressing), np.zeros(6)) == expected
+    # no pairing contact, and no contact at all, give 0.0
+    neither = _roles(_masks(model, "box_a"), _masks(model, "box_b"))
+    assert press_normal_force(_native(model, data), contact.geom, neither, np.zeros(6)) == 0.0
+    assert press_normal_force(_native(model, data), np.zeros((0, 2), dtype=np.int32), _roles(pressing, floor),
+                              np.zeros(6)) == 0.0
+
+
+#: Random contact sets :func:`test_grasped_bodies_is_both_pads_touching_each_body` checks.
+GRASP_CASES = 200
+
+
+def test_grasped_bodies_is_both_pads_touching_each_body():
+    """The kernel against the per-body definition (robosuite's criterion, as ``TableClean._grasped``): body b is
+    grasped when a contact pairs one of its geoms with a pad-a geom and another (or the same) with a pad-b geom."""
+    rng = np.random.default_rng(0)
+    n_geoms, n_bodies = 12, 3
+    for _ in range(GRASP_CASES):
+        body = rng.integers(-1, n_bodies, size=n_geoms)
+        pad_a, pad_b = rng.random(n_geoms) < 0.25, rng.random(n_geoms) < 0.25  # a geom may be both
+        geom = rng.integers(0, n_geoms, size=(int(rng.integers(0, 8)), 2)).astype(np.int32)
+        lookup = np.zeros((n_geoms, 2), dtype=np.int64)
+        lookup[:, LOOKUP_BODY] = body
+        lookup[pad_a, LOOKUP_PADS] |= PAD_A
+        lookup[pad_b, LOOKUP_PADS] |= PAD_B
+        expected = np.array([all(wiping.any_contact(geom[:, 0], geom[:, 1], pad, body == b).any() for pad in (pad_a, pad_b))
+                             for b in range(n_bodies)], dtype=bool)
+        got = grasped_bodies(geom, lookup, n_bodies)
+        assert got.dtype == np.bool_ and got.shape == (n_bodies,)
+        np.testing.assert_array_equal(got, expected)
+    # MuJoCo's own contact view (strided int32 rows): the sponge-like box_a resting on the floor is "held" by it
+    model, data = _pressed_scene()
+    lookup = np.zeros((model.ngeom, 2), dtype=np.int64)
+    lookup[:, LOOKUP_BODY] = -1
+    lookup[model.geom("box_a").id, LOOKUP_BODY] = 0
+    lookup[model.geom("floor").id, LOOKUP_PADS] = PAD_A | PAD_B
+    np.testing.assert_array_equal(grasped_bodies(data.contact.geom, lookup, 2), [True, False])

@@ -9,28 +9,38 @@ from numba import types
 from numba.extending import intrinsic
 
 
+#: Bits of a geom's pad entry in :func:`grasped_bodies`' lookup: finger pad a's geoms, pad b's; both (a grasp).
+PAD_A = 1
+PAD_B = 2
+BOTH_PADS = PAD_A | PAD_B
+#: Columns of :func:`grasped_bodies`' lookup: the geom's pad bits, the body (0 .. bodies - 1) it belongs to (-1: none).
+LOOKUP_PADS = 0
+LOOKUP_BODY = 1
+
+
 @numba.njit(cache=True)
-def bodies_touched_by_both(geom: np.ndarray, pad_a: np.ndarray, pad_b: np.ndarray, group: np.ndarray,
-                           touched: np.ndarray) -> None:
-    """Which bodies each finger pad touches, into ``touched`` (2, bodies) bool: row 0 pad a, row 1 pad b
-    (robosuite's grasp criterion is both rows).
+def grasped_bodies(geom: np.ndarray, lookup: np.ndarray, bodies: int) -> np.ndarray:
+    """Bool (bodies,) (a new array): whether both finger pads touch each body (robosuite's grasp criterion),
+    in one pass over the contacts.
 
     Args:
         geom: (ncon, 2) geom ids of MuJoCo's active contacts (``data.contact.geom``).
-        pad_a, pad_b: bool lookups over all geom ids, the two finger pads' geoms.
-        group: (ngeom,) int, the body (0 .. bodies - 1) each geom belongs to, -1 for none.
-        touched: (2, bodies) bool output (overwritten; the caller's scratch, no allocation per call).
+        lookup: (ngeom, 2) int64 per geom id: column :data:`LOOKUP_PADS` its pad bits (:data:`PAD_A`,
+            :data:`PAD_B`, 0 for no pad), column :data:`LOOKUP_BODY` the body it belongs to (-1: none).
+        bodies: how many bodies the lookup names.
     """
-    touched[:] = False
+    touched = np.zeros(bodies, dtype=np.int64)  # per body: the pad bits of the geoms touching it
     for i in range(geom.shape[0]):
         g1, g2 = geom[i, 0], geom[i, 1]
-        body1, body2 = group[g1], group[g2]
+        body1, body2 = lookup[g1, LOOKUP_BODY], lookup[g2, LOOKUP_BODY]
         if body2 >= 0:
-            touched[0, body2] |= pad_a[g1]
-            touched[1, body2] |= pad_b[g1]
+            touched[body2] |= lookup[g1, LOOKUP_PADS]
         if body1 >= 0:
-            touched[0, body1] |= pad_a[g2]
-            touched[1, body1] |= pad_b[g2]
+            touched[body1] |= lookup[g2, LOOKUP_PADS]
+    grasped = np.empty(bodies, dtype=np.bool_)
+    for body in range(bodies):
+        grasped[body] = (touched[body] & BOTH_PADS) == BOTH_PADS
+    return grasped
 
 
 @numba.njit(cache=True)
@@ -102,4 +112,39 @@ def normal_force_between(contact_force: int, model: int, data: int, geom1: np.nd
         if (mask_a[g1] and mask_b[g2]) or (mask_a[g2] and mask_b[g1]):
             _call_contact_force(contact_force, model, data, np.int32(i), wrench.ctypes.data)
             total += wrench[0]
+    return total
+
+
+#: Bits of a geom's entry in :func:`press_normal_force`'s roles: a geom of the pressing body, of the surface.
+PRESSING = 1
+SURFACE = 2
+#: Entries of :func:`press_normal_force`'s ``native`` addresses.
+NATIVE_CONTACT_FORCE = 0
+NATIVE_MODEL = 1
+NATIVE_DATA = 2
+
+
+@numba.njit(cache=True)
+def press_normal_force(native: np.ndarray, geom: np.ndarray, roles: np.ndarray, wrench: np.ndarray) -> float:
+    """``max(sum, 0.0)`` (Python's ``max``: the sum unless 0.0 is larger) of :func:`normal_force_between`'s
+    sum [N] over the contacts pairing a :data:`PRESSING` geom with a :data:`SURFACE` geom (either order), in
+    contact order: the env's press force in one call with few arguments (it is read every control step a wipe
+    presses, from the compiled press loop).
+
+    Args:
+        native: (3,) int64 addresses: ``mj_contactForce`` (:data:`NATIVE_CONTACT_FORCE`), the ``mjModel*``
+            (:data:`NATIVE_MODEL`), the ``mjData*`` (:data:`NATIVE_DATA`).
+        geom: (ncon, 2) geom ids of the active contacts (``data.contact.geom``).
+        roles: (ngeom,) int64 bits per geom id (:data:`PRESSING`, :data:`SURFACE`, 0 for neither).
+        wrench: (6,) float64 C-contiguous scratch (overwritten).
+    """
+    total = 0.0
+    for i in range(geom.shape[0]):
+        r1, r2 = roles[geom[i, 0]], roles[geom[i, 1]]
+        if ((r1 & PRESSING) and (r2 & SURFACE)) or ((r2 & PRESSING) and (r1 & SURFACE)):
+            _call_contact_force(native[NATIVE_CONTACT_FORCE], native[NATIVE_MODEL], native[NATIVE_DATA], np.int32(i),
+                                wrench.ctypes.data)
+            total += wrench[0]
+    if 0.0 > total:  # max(total, 0.0): a NaN or -0.0 sum is kept as Python's max keeps it
+        total = 0.0
     return total

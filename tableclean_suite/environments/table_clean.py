@@ -16,10 +16,19 @@ from tableclean_suite.environments import abstraction, dirt_state, wiping
 from tableclean_suite.environments.arena import TableCleanArena
 from tableclean_suite.environments import placement
 from tableclean_suite.environments.contact_kernels import (
-    bodies_touched_by_both,
+    LOOKUP_BODY,
+    LOOKUP_PADS,
+    NATIVE_CONTACT_FORCE,
+    NATIVE_DATA,
+    NATIVE_MODEL,
+    PAD_A,
+    PAD_B,
+    PRESSING,
+    SURFACE,
     contact_within,
     contacts_between,
-    normal_force_between,
+    grasped_bodies,
+    press_normal_force,
 )
 from tableclean_suite.environments.config import (
     DEFAULT_TABLECLEAN_CONFIG,
@@ -579,6 +588,8 @@ class TableClean(ManipulationEnv):
         self._fraction_cache: tuple | None = None  # (dirt-state joint positions, dirt_fraction())
         self._constant_info: tuple | None = None  # (simulation data, config, geometry, skill_info's constants)
         self._views: tuple | None = None  # _data_views() of this simulation's data
+        self._grasp_groups = None  # _grasped_bodies' and sponge_press_force's lookups follow the masks above
+        self._press_native = None
         if self.sim is not self._nominal_sim:  # a new model: remember its unrandomised values
             self._nominal_sim = self.sim
             self._nominal = self._read_nominal()
@@ -1020,31 +1031,34 @@ class TableClean(ManipulationEnv):
             cached = self._finger_index_cache = (robot, arm, self.sim, index)
         return cached[3]
 
-    _grasp_groups: tuple | None = None  # _grasped_bodies' lookups, per model
+    _grasp_groups: tuple | None = None  # _grasped_bodies' lookup, per model (dropped when the masks are rebuilt)
 
     def _grasped_bodies(self) -> np.ndarray:
-        """Bool (M + 1,): for each object, then the sponge, whether both finger pads touch it.
+        """Bool (M + 1,) (a new array): for each object, then the sponge, whether both finger pads touch it.
 
         :meth:`_grasped` for all of them in one compiled pass over the contacts (:meth:`skill_info`
-        asks every control step), each contact's geoms mapped to the body they belong to.
+        asks every control step), each contact's geoms looked up in one table: their pad bits and the
+        body they belong to (:func:`~.contact_kernels.grasped_bodies`).
         """
-        cached = self._grasp_groups  # (object masks, sponge mask, geom -> body, scratch), per model
-        if cached is None or cached[0] is not self._object_masks or cached[1] is not self._sponge_mask:
-            masks = (self._object_masks, self._sponge_mask)
-            group = np.full(masks[1].size, -1, dtype=np.int64)  # geom -> body (-1: neither)
-            for j, mask in enumerate(masks[0]):
-                group[mask] = j
-            group[masks[1]] = len(masks[0])
-            touched = np.zeros((2, len(masks[0]) + 1), dtype=bool)  # the kernel's scratch: pad a's row, pad b's
-            self._grasp_groups = cached = (masks[0], masks[1], group, touched)
-        data = self._mj_data
-        ncon = data.ncon
-        touched = cached[3]
-        if ncon == 0:
-            return np.zeros(touched.shape[1], dtype=bool)
-        pad_a, pad_b = self._finger_pad_masks
-        bodies_touched_by_both(data.contact.geom, pad_a, pad_b, cached[2], touched)  # the ncon active contacts
-        return touched[0] & touched[1]
+        cached = self._grasp_groups  # (object masks, sponge mask, pad masks, lookup, bodies); None: masks changed
+        if cached is None:
+            cached = self._grasp_groups = self._grasp_lookup()
+        # the ncon active contacts (none: an empty view, no body grasped); no ncon read first: each binding call costs
+        # ~2 us right after the physics left the CPU caches cold
+        return grasped_bodies(self._mj_data.contact.geom, cached[3], cached[4])
+
+    def _grasp_lookup(self) -> tuple:
+        """``(object masks, sponge mask, pad masks, lookup, bodies)``: :meth:`_grasped_bodies`' (ngeom, 2) int64
+        lookup of each geom's pad bits and body (object 0 .. M - 1, the sponge M, -1 for neither)."""
+        objects, sponge, pads = self._object_masks, self._sponge_mask, self._finger_pad_masks
+        lookup = np.zeros((sponge.size, 2), dtype=np.int64)
+        lookup[:, LOOKUP_BODY] = -1
+        for j, mask in enumerate(objects):
+            lookup[mask, LOOKUP_BODY] = j
+        lookup[sponge, LOOKUP_BODY] = len(objects)
+        lookup[pads[0], LOOKUP_PADS] |= PAD_A
+        lookup[pads[1], LOOKUP_PADS] |= PAD_B
+        return objects, sponge, pads, lookup, len(objects) + 1
 
     def symbolic_state(self, check_sponge: bool = True) -> TaskState:
         """The current :class:`TaskState` read from the physics.
@@ -1357,21 +1371,17 @@ class TableClean(ManipulationEnv):
         """Normal force [N] (>= 0) the sponge presses on the table top: the sum over their MuJoCo
         contacts (``mj_contactForce``) in the current simulation data."""
         data = self._mj_data
-        ncon = data.ncon
-        if ncon == 0:
-            return 0.0
-        contact = data.contact  # its arrays hold the ncon active contacts
         native = self._press_native
         if native is None or native[0] is not data:
             native = self._press_native = self._bind_press_native(data)
-        if native[2]:  # the same sum in one compiled call (read every control step a wipe presses)
-            total = normal_force_between(native[2], native[3], native[4], contact.geom1, contact.geom2,
-                                         self._sponge_mask, self._table_mask, native[5])
-            return max(total, 0.0)
+        # data.contact's arrays hold the ncon active contacts (none: empty; the sums are 0.0)
+        if native[2] is not None:  # the same sum in one compiled call (read every control step a wipe presses)
+            return press_normal_force(native[2], data.contact.geom, native[3], native[4])
+        contact = data.contact
         pressing = contacts_between(contact.geom1, contact.geom2, self._sponge_mask, self._table_mask).tolist()
         if not pressing:
             return 0.0
-        model = mj_model(self.sim)
+        model = native[1]
         wrench = np.zeros(CONTACT_WRENCH_SIZE)
         total = 0.0
         for i in pressing:
@@ -1379,17 +1389,25 @@ class TableClean(ManipulationEnv):
             total += float(wrench[0])
         return max(total, 0.0)
 
-    #: (data, model, mj_contactForce address or None, model address, data address, (6,) scratch) of
-    #: :meth:`sponge_press_force`'s compiled sum, per simulation data (:meth:`_bind_press_native`)
+    #: (data, model, native addresses or None, geom roles, (6,) scratch) of :meth:`sponge_press_force`'s compiled
+    #: sum, per simulation data (:meth:`_bind_press_native`; dropped when the masks are rebuilt)
     _press_native: tuple | None = None
 
     def _bind_press_native(self, data) -> tuple:
-        """:attr:`_press_native` for the simulation data ``data`` (the model and data are kept alive with their addresses)."""
+        """:attr:`_press_native` for the simulation data ``data`` (the model and data are kept alive with their
+        addresses): :func:`~.contact_kernels.press_normal_force`'s (3,) int64 addresses (None without the
+        native ``mj_contactForce``) and (ngeom,) int64 roles (the sponge's geoms :data:`PRESSING`, the table
+        top's :data:`SURFACE`)."""
         model = mj_model(self.sim)
         function = mujoco_contact_force_address()
         if function is None:
-            return (data, model, None, 0, 0, None)
-        return (data, model, function, c_address(model), c_address(data), np.zeros(CONTACT_WRENCH_SIZE))
+            return (data, model, None, None, None)
+        native = np.zeros(3, dtype=np.int64)
+        native[[NATIVE_CONTACT_FORCE, NATIVE_MODEL, NATIVE_DATA]] = [function, c_address(model), c_address(data)]
+        roles = np.zeros(self._sponge_mask.size, dtype=np.int64)
+        roles[self._sponge_mask] |= PRESSING
+        roles[self._table_mask] |= SURFACE
+        return (data, model, native, roles, np.zeros(CONTACT_WRENCH_SIZE))
 
     def record_wiping_substep(self) -> None:
         """Removes markers under the sponge when it presses on the table top (current substep state).
