@@ -101,6 +101,7 @@ class _DataViews(NamedTuple):
 
     data: Any  #: the mjData the views belong to
     eef_pos: np.ndarray  #: (3,) grip-site position [m]
+    eef_xmat: np.ndarray  #: (9,) grip-site rotation matrix, row-major
     qpos: np.ndarray  #: (nq,)
     fingers: np.ndarray  #: finger joints' qpos indexes
     xpos: np.ndarray  #: (nbody * 3,) body positions [m]
@@ -927,7 +928,8 @@ class TableClean(ManipulationEnv):
             objects = np.asarray(self.object_body_ids, dtype=np.intp)[:, None]
             sponge = np.intp(self.sponge_body_id)
             cached = self._views = _DataViews(
-                data=data, eef_pos=data.site_xpos[robot.eef_site_id[arm]], qpos=data.qpos,
+                data=data, eef_pos=data.site_xpos[robot.eef_site_id[arm]],
+                eef_xmat=data.site_xmat[robot.eef_site_id[arm]], qpos=data.qpos,
                 fingers=self._finger_qpos_index(robot, arm), xpos=data.xpos.reshape(-1), xquat=data.xquat.reshape(-1),
                 objects_pos=objects * 3 + np.arange(3), objects_quat=objects * 4 + XYZW_FROM_WXYZ,
                 sponge_pos=sponge * 3 + np.arange(3), sponge_quat=sponge * 4 + XYZW_FROM_WXYZ)
@@ -984,13 +986,10 @@ class TableClean(ManipulationEnv):
 
     # the lazy keys of skill_info (LAZY_SKILL_INFO): each computes its group on the first read
     def _info_eef_quat(self, info: SkillInfo) -> None:
-        robot = self.robots[0]
-        site = robot.eef_site_id[robot.arms[0]]
-        info["eef_quat"] = mat2quat(np.array(self._mj_data.site_xmat[site]).reshape(3, 3)).astype(float)
+        info["eef_quat"] = mat2quat(np.array(self._data_views().eef_xmat).reshape(3, 3)).astype(float)
 
     def _info_eef_rot(self, info: SkillInfo) -> None:
-        robot = self.robots[0]
-        info["eef_rot"] = np.array(self._mj_data.site_xmat[robot.eef_site_id[robot.arms[0]]]).reshape(3, 3)
+        info["eef_rot"] = np.array(self._data_views().eef_xmat).reshape(3, 3)
 
     def _info_object_pos(self, info: SkillInfo) -> None:
         views = self._data_views()
