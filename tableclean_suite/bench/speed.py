@@ -21,6 +21,10 @@ Sections (``--sections``, comma separated, default all), in this order:
     control steps and wall time of the skills in physics, and the fast control path against
     robosuite's (:mod:`.skill_speed`).
 
+``--old-tree DIR`` (a checkout of an older tree) adds two goals measured as ratios in the same
+run (:mod:`.tree_ratio`): the learners section times the default run's whole process, the
+cold-start section the first process, alternately here and in ``DIR``.
+
 The report ends with one line per goal: what was measured and whether the goal is met.  Exit
 code 0 whatever the goals say; 1 when a measurement itself failed (a cold-start process that
 exited non-zero, a skill episode that did not reach the terminal state); 2 on bad flags.
