@@ -5,7 +5,7 @@ line in a new process), ``install`` (pip builds and installs the package), ``ray
 cluster), ``jit`` (compiles a numba kernel no disk cache serves).  Test files mark ``slow``
 themselves; the others are given here, from :data:`HEAVY_TESTS`, so one table says which tests
 leave the process or compile.  Every test that carries none
-of them is marked ``quick``: ``python -m pytest -m quick`` is the development tier (about 45 s on 2
+of them is marked ``quick``: ``python -m pytest -m quick`` is the development tier (about 45-60 s on 2
 cores), and ``python -m pytest`` still runs everything.  (A test file may also mark its own tests, as
 tests/test_docs.py does per code block.)
 
