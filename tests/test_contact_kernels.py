@@ -17,7 +17,6 @@ from tableclean_suite.environments.contact_kernels import (
     SURFACE,
     contacts_between,
     grasped_bodies,
-    normal_force_between,
     press_normal_force,
 )
 from tableclean_suite.robosuite_adapter import c_address, mujoco_contact_force_address
@@ -48,32 +47,14 @@ def _masks(model, *names):
     return mask
 
 
-@pytest.mark.skipif(mujoco_contact_force_address() is None, reason="MuJoCo's library not found or versions unchecked")
-@pytest.mark.parametrize("boxes", [("box_a",), ("box_b",), ("box_a", "box_b")])
-def test_normal_force_sum_is_the_bindings_sum_bit_for_bit(boxes):
-    model, data = _pressed_scene()
-    floor, pressing = _masks(model, "floor"), _masks(model, *boxes)
-    contact = data.contact
-    assert data.ncon > 0
-    expected, wrench = 0.0, np.zeros(6)
-    for i in contacts_between(contact.geom1, contact.geom2, pressing, floor).tolist():
+def _bindings_sum(model, data, pressing, surface) -> float:
+    """The env's per-contact reference: ``mj_contactForce``'s normal force summed over the contacts pairing
+    the two masks, in contact order, through MuJoCo's Python bindings."""
+    contact, total, wrench = data.contact, 0.0, np.zeros(6)
+    for i in contacts_between(contact.geom1, contact.geom2, pressing, surface).tolist():
         mujoco.mj_contactForce(model, data, i, wrench)
-        expected += float(wrench[0])
-    assert expected > 0.0  # the boxes rest on the floor: a real force to compare
-    got = normal_force_between(mujoco_contact_force_address(), c_address(model), c_address(data), contact.geom1,
-                               contact.geom2, pressing, floor, np.zeros(6))
-    assert got == expected
-    # the masks in the other order pair the same contacts
-    assert normal_force_between(mujoco_contact_force_address(), c_address(model), c_address(data), contact.geom1,
-                                contact.geom2, floor, pressing, np.zeros(6)) == expected
-
-
-@pytest.mark.skipif(mujoco_contact_force_address() is None, reason="MuJoCo's library not found or versions unchecked")
-def test_normal_force_sum_is_zero_without_a_pairing_contact():
-    model, data = _pressed_scene()
-    contact = data.contact
-    assert normal_force_between(mujoco_contact_force_address(), c_address(model), c_address(data), contact.geom1,
-                                contact.geom2, _masks(model, "box_a"), _masks(model, "box_b"), np.zeros(6)) == 0.0
+        total += float(wrench[0])
+    return total
 
 
 def _native(model, data) -> np.ndarray:
@@ -97,9 +78,9 @@ def test_press_force_is_the_pairwise_sum_clipped_as_pythons_max(boxes):
     model, data = _pressed_scene()
     floor, pressing = _masks(model, "floor"), _masks(model, *boxes)
     contact = data.contact
-    expected = max(normal_force_between(mujoco_contact_force_address(), c_address(model), c_address(data),
-                                        contact.geom1, contact.geom2, pressing, floor, np.zeros(6)), 0.0)
-    assert expected > 0.0
+    assert data.ncon > 0
+    expected = max(_bindings_sum(model, data, pressing, floor), 0.0)
+    assert expected > 0.0  # the boxes rest on the floor: a real force to compare
     got = press_normal_force(_native(model, data), contact.geom, _roles(pressing, floor), np.zeros(6))
     assert got == expected  # bit for bit: the same contacts summed in the same order
     # roles the other way round pair the same contacts

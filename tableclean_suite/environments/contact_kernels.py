@@ -95,26 +95,6 @@ def _call_contact_force(typingctx, function, model, data, index, result):
     return types.void(types.intp, types.intp, types.intp, types.int32, types.intp), _contact_force_codegen
 
 
-@numba.njit(cache=True)
-def normal_force_between(contact_force: int, model: int, data: int, geom1: np.ndarray, geom2: np.ndarray,
-                         mask_a: np.ndarray, mask_b: np.ndarray, wrench: np.ndarray) -> float:
-    """Sum [N] of the normal forces (``mj_contactForce``'s first entry) of the contacts pairing a geom of
-    ``mask_a`` with one of ``mask_b`` (either order), in contact order: the env's press-force loop in one call.
-
-    Args:
-        contact_force: address of ``mj_contactForce``; model, data: ``mjModel*`` / ``mjData*`` addresses.
-        geom1, geom2: (ncon,) geom ids of the active contacts; mask_a, mask_b: bool lookups over all geom ids.
-        wrench: (6,) float64 C-contiguous scratch (overwritten).
-    """
-    total = 0.0
-    for i in range(geom1.size):
-        g1, g2 = geom1[i], geom2[i]
-        if (mask_a[g1] and mask_b[g2]) or (mask_a[g2] and mask_b[g1]):
-            _call_contact_force(contact_force, model, data, np.int32(i), wrench.ctypes.data)
-            total += wrench[0]
-    return total
-
-
 #: Bits of a geom's entry in :func:`press_normal_force`'s roles: a geom of the pressing body, of the surface.
 PRESSING = 1
 SURFACE = 2
@@ -126,9 +106,9 @@ NATIVE_DATA = 2
 
 @numba.njit(cache=True)
 def press_normal_force(native: np.ndarray, geom: np.ndarray, roles: np.ndarray, wrench: np.ndarray) -> float:
-    """``max(sum, 0.0)`` (Python's ``max``: the sum unless 0.0 is larger) of :func:`normal_force_between`'s
-    sum [N] over the contacts pairing a :data:`PRESSING` geom with a :data:`SURFACE` geom (either order), in
-    contact order: the env's press force in one call with few arguments (it is read every control step a wipe
+    """``max(sum, 0.0)`` (Python's ``max``: the sum unless 0.0 is larger) of the normal forces [N]
+    (``mj_contactForce``'s first entry) of the contacts pairing a :data:`PRESSING` geom with a
+    :data:`SURFACE` geom (either order), summed in contact order: the env's press force in one call with few arguments (it is read every control step a wipe
     presses, from the compiled press loop).
 
     Args:

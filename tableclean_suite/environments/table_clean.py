@@ -1039,16 +1039,16 @@ class TableClean(ManipulationEnv):
         asks every control step), each contact's geoms looked up in one table: their pad bits and the
         body they belong to (:func:`~.contact_kernels.grasped_bodies`).
         """
-        cached = self._grasp_groups  # (object masks, sponge mask, pad masks, lookup, bodies); None: masks changed
+        cached = self._grasp_groups  # (lookup, bodies); None: the masks changed
         if cached is None:
             cached = self._grasp_groups = self._grasp_lookup()
         # the ncon active contacts (none: an empty view, no body grasped); no ncon read first: each binding call costs
         # ~2 us right after the physics left the CPU caches cold
-        return grasped_bodies(self._mj_data.contact.geom, cached[3], cached[4])
+        return grasped_bodies(self._mj_data.contact.geom, *cached)
 
     def _grasp_lookup(self) -> tuple:
-        """``(object masks, sponge mask, pad masks, lookup, bodies)``: :meth:`_grasped_bodies`' (ngeom, 2) int64
-        lookup of each geom's pad bits and body (object 0 .. M - 1, the sponge M, -1 for neither)."""
+        """``(lookup, bodies)``: :meth:`_grasped_bodies`' (ngeom, 2) int64 lookup of each geom's pad bits and body
+        (object 0 .. M - 1, the sponge M, -1 for neither), and the number of bodies, M + 1."""
         objects, sponge, pads = self._object_masks, self._sponge_mask, self._finger_pad_masks
         lookup = np.zeros((sponge.size, 2), dtype=np.int64)
         lookup[:, LOOKUP_BODY] = -1
@@ -1057,7 +1057,7 @@ class TableClean(ManipulationEnv):
         lookup[sponge, LOOKUP_BODY] = len(objects)
         lookup[pads[0], LOOKUP_PADS] |= PAD_A
         lookup[pads[1], LOOKUP_PADS] |= PAD_B
-        return objects, sponge, pads, lookup, len(objects) + 1
+        return lookup, len(objects) + 1
 
     def symbolic_state(self, check_sponge: bool = True) -> TaskState:
         """The current :class:`TaskState` read from the physics.
