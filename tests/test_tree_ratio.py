@@ -101,3 +101,18 @@ def test_a_child_started_elsewhere_imports_the_same_code(monkeypatch, tmp_path):
     assert environment["NUMBA_CACHE_DIR"] == "/cache"
     monkeypatch.delenv("PYTHONPATH")
     assert "PYTHONPATH" not in tree_ratio.child_environment()
+
+
+@pytest.mark.quick
+def test_a_failed_run_in_either_tree_fails_the_section_and_names_it(monkeypatch, capsys):
+    """A run that exits non-zero is a failed measurement (the command exits 1), not a missed goal."""
+    from types import SimpleNamespace
+
+    def failing(*args, **kwargs):
+        raise tree_ratio.TreeRunError("`python -m benchmarks.run` exited 3 in /old")
+
+    monkeypatch.setattr(tree_ratio, "paired_times", failing)
+    args = SimpleNamespace(old_tree=Path("/old"), old_tree_pairs=1)
+    result = speed._against_old_tree(args, "default run", False, tree_ratio.DEFAULT_RUN_RATIO_GOAL, "a third")
+    assert result.failed and [goal.measured for goal in result.goals] == ["not measured"]
+    assert "exited 3 in /old" in capsys.readouterr().out

@@ -15,6 +15,7 @@ This module only knows their names: :data:`COMMANDS`.  Flags given without a com
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib
 import os
 import sys
@@ -149,6 +150,7 @@ def _exit_code(code) -> int:
     return 1
 
 
+@functools.cache
 def skip_final_collection() -> None:
     """Make this process's exit skip the garbage collector's last pass over every object still alive.
 
@@ -161,14 +163,12 @@ def skip_final_collection() -> None:
     so they run after this one), the standard streams are flushed and objects outside reference
     cycles are freed as before; objects in cycles are left to the operating system, as Python
     already allows for objects alive at exit.  Called by every entry point (console script,
-    ``python -m``); registered once per process; a library user's process is not affected.
+    ``python -m``); registered once per process (cached); a library user's process is not affected.
     """
-    if not getattr(skip_final_collection, "registered", False):
-        import atexit
-        import gc
+    import atexit
+    import gc
 
-        atexit.register(gc.freeze)
-        skip_final_collection.registered = True
+    atexit.register(gc.freeze)
 
 
 def main(argv=None, prog: str | None = None) -> int:

@@ -37,10 +37,7 @@ Cold start
 from __future__ import annotations
 
 import math
-import os
 import re
-import subprocess
-import sys
 import tempfile
 import time
 from dataclasses import dataclass
@@ -163,13 +160,10 @@ def time_cold_start(out: Path, cwd: Path, cache_dir: Path, label: str = "") -> C
     first process compile, and a second process on the same directory shows whether the cache hits.
     ``out``'s own result caches (``out/cells``) serve whatever an earlier process left there.
     """
-    from tableclean_suite.bench.tree_ratio import child_environment
+    from tableclean_suite.bench.tree_ratio import child_environment, timed_python
 
     environment = child_environment(NUMBA_DEBUG_CACHE="1", NUMBA_CACHE_DIR=str(cache_dir))
-    started = time.perf_counter()
-    finished = subprocess.run([sys.executable, *COLD_START_COMMAND, "--out", str(out)], cwd=cwd, env=environment,
-                              capture_output=True, text=True)
-    seconds = time.perf_counter() - started
+    seconds, finished = timed_python([*COLD_START_COMMAND, "--out", str(out)], cwd, environment)
     compiled, loaded = count_cache_events(finished.stdout + finished.stderr)
     resumed = _RESUMED.search(finished.stdout)
     return ColdStart(seconds, compiled, loaded, finished.returncode, label,

@@ -246,8 +246,9 @@ def learners_section(args) -> SectionResult:
         print(_table(learner_speed.exploration_rows(args.reward, args.runs, args.iterations, args.repeat),
                      "{:,.2f}"))
     if args.old_tree is not None:
-        result.goals.append(_against_old_tree(args, "default run", False, tree_ratio.DEFAULT_RUN_RATIO_GOAL,
-                                              "a third"))
+        against = _against_old_tree(args, "default run", False, tree_ratio.DEFAULT_RUN_RATIO_GOAL, "a third")
+        result.goals += against.goals
+        result.failed = result.failed or against.failed
     if not args.skip_default_run:
         timing = time_default_run()
         print(f"\ndefault `tableclean-bench run --fresh` after warm-up, median of {len(timing['walls'])} runs: "
@@ -272,8 +273,9 @@ def specs_section(args) -> SectionResult:
                                f"ratio {ratio:.2f}", spec_speed.within_target(ratio))])
 
 
-def _against_old_tree(args, label: str, cold: bool, goal: float, goal_text: str) -> Goal:
-    """This tree's whole run process against ``--old-tree``'s, in alternating pairs (:mod:`.tree_ratio`)."""
+def _against_old_tree(args, label: str, cold: bool, goal: float, goal_text: str) -> SectionResult:
+    """This tree's whole run process against ``--old-tree``'s, in alternating pairs (:mod:`.tree_ratio`):
+    its goal, or a failed measurement (a run exited non-zero in either tree)."""
     from tableclean_suite.bench import tree_ratio
 
     section = "cold-start" if cold else "learners"
@@ -281,12 +283,14 @@ def _against_old_tree(args, label: str, cold: bool, goal: float, goal_text: str)
         times = tree_ratio.paired_times(label, tree_ratio.this_tree(), args.old_tree, args.old_tree_pairs, cold)
     except tree_ratio.TreeRunError as error:
         print(f"  {label} against --old-tree: {error}")
-        return Goal(section, f"{label} / --old-tree's (whole processes) <= {goal:.3f}", "not measured", False)
+        return SectionResult([Goal(section, f"{label} / --old-tree's (whole processes) <= {goal:.3f}",
+                                   "not measured", False)], failed=True)
     print(f"{label}, whole processes alternating with --old-tree {args.old_tree}:")
     print(times.line())
     measured = against_goal(f"{times.ratio:.3f}", times.ratio, goal, f"{goal:.3f} ({goal_text})", True,
                             f"{abs(times.ratio - goal):.3f}")
-    return Goal(section, f"{label} / --old-tree's (whole processes) <= {goal:.3f}", measured, times.ratio <= goal)
+    return SectionResult([Goal(section, f"{label} / --old-tree's (whole processes) <= {goal:.3f}", measured,
+                               times.ratio <= goal)])
 
 
 def cold_start_section(args) -> SectionResult:
@@ -294,15 +298,15 @@ def cold_start_section(args) -> SectionResult:
     ``--old-tree``, the first process against the older tree's)."""
     from tableclean_suite.bench import spec_speed, tree_ratio
 
+    against = SectionResult()
     if getattr(args, "old_tree", None) is not None:
-        goal = _against_old_tree(args, "first process", True, tree_ratio.FIRST_PROCESS_RATIO_GOAL,
-                                 f"{tree_ratio.FIRST_PROCESS_GOAL_S:g} of {tree_ratio.ISSUE_FIRST_PROCESS_S:g} s")
+        against = _against_old_tree(args, "first process", True, tree_ratio.FIRST_PROCESS_RATIO_GOAL,
+                                    f"{tree_ratio.FIRST_PROCESS_GOAL_S:g} of {tree_ratio.ISSUE_FIRST_PROCESS_S:g} s")
     cold = spec_speed.time_cold_starts()
     print("\n".join(spec_speed.cold_start_lines(cold)))
     warm = spec_speed.warm_process(cold)
-    result = SectionResult(failed=any(process.returncode != 0 for process in cold))
-    if getattr(args, "old_tree", None) is not None:
-        result.goals.append(goal)
+    result = SectionResult(list(against.goals),
+                           failed=against.failed or any(process.returncode != 0 for process in cold))
     if cold:
         result.goals.append(Goal("cold-start", f"first process (empty kernel cache) <= {FIRST_PROCESS_GOAL_S:g} s",
                                  f"{seconds_against_goal(cold[0].seconds, FIRST_PROCESS_GOAL_S)}; "
@@ -502,9 +506,9 @@ def _check(parser, args, sections) -> None:
         problem = tree_ratio.tree_problem(args.old_tree)
         if problem:
             parser.error(f"--old-tree: {problem}")
-        if tree_ratio.tree_problem(tree_ratio.this_tree()):
-            parser.error(f"--old-tree needs this package run from a source checkout; "
-                         f"{tree_ratio.tree_problem(tree_ratio.this_tree())}")
+        problem = tree_ratio.tree_problem(tree_ratio.this_tree())
+        if problem:
+            parser.error(f"--old-tree needs this package run from a source checkout; {problem}")
     if "environment" in sections and args.steps < args.rounds:
         parser.error(f"--steps {args.steps} is below --rounds {args.rounds}: every round times at least one step")
     if "skills" in sections:

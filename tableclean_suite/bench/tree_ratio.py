@@ -101,6 +101,15 @@ def child_environment(first: Path | None = None, **variables: str) -> dict[str, 
     return environment
 
 
+def timed_python(arguments: list[str], cwd: Path, environment: dict[str, str]
+                 ) -> tuple[float, subprocess.CompletedProcess]:
+    """``python ARGUMENTS`` (this interpreter) as a fresh process in ``cwd`` with ``environment``, its
+    output captured as text: ``(wall seconds, the finished process)``."""
+    started = time.perf_counter()
+    done = subprocess.run([sys.executable, *arguments], cwd=cwd, env=environment, capture_output=True, text=True)
+    return time.perf_counter() - started, done
+
+
 def tree_problem(path) -> str | None:
     """Why ``path`` cannot be timed (a sentence naming it), or None when it has :data:`RUN_MODULE`."""
     path = Path(path)
@@ -119,10 +128,7 @@ def time_run(tree: Path, out: Path, cache_dir: Path | None = None) -> float:
         TreeRunError: the command exited non-zero.
     """
     environment = child_environment(first=tree, **({} if cache_dir is None else {"NUMBA_CACHE_DIR": str(cache_dir)}))
-    started = time.perf_counter()
-    done = subprocess.run([sys.executable, *RUN_COMMAND, "--out", str(out)], cwd=tree, env=environment,
-                          capture_output=True, text=True)
-    seconds = time.perf_counter() - started
+    seconds, done = timed_python([*RUN_COMMAND, "--out", str(out)], tree, environment)
     if done.returncode != 0:
         tail = "\n".join((done.stdout + done.stderr).strip().splitlines()[-5:])
         raise TreeRunError(f"`python {' '.join(RUN_COMMAND)}` exited {done.returncode} in {tree}:\n{tail}")
