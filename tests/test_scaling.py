@@ -15,7 +15,8 @@ from tableclean_suite.bench.scaling import command, family, report, statistics, 
 from tableclean_suite.task import Outcome, TaskModel
 
 #: A tiny study: 2 x 2 specs (20, 50, 90 and 327 reachable states), short windows, few runs and resamples.
-TINY_ARGS = ["--segments", "3,2", "--objects", "2,1", "--runs", "4", "--base-window", "300", "--resamples", "20",
+TINY_ARGS = ["--segments", "3,2", "--objects", "2,1", "--seeds", "2", "--runs", "4", "--base-window", "300",
+             "--resamples", "20",
              "--fixed-plan-objects", "1,2", "--learners", "q_learning", "--rewards", "r2,r4"]
 #: The paper's reachable states (from every all-unclean layout).
 PAPER_REACHABLE = 20
@@ -170,66 +171,139 @@ def test_log_standard_error_reads_the_interval():
     assert math.isnan(statistics.log_standard_error(math.nan, 1.0, 2.0))
 
 
-def test_held_to_end_and_censoring():
-    curves = np.array([[0.1, 0.9, 0.5, 0.9, 0.95, 0.9],   # dips at block 2: held from block 3
-                       [0.1, 0.9, 0.9, 0.9, 0.9, 0.5],    # ends below: censored
-                       [0.9, 0.9, 0.9, 0.9, 0.9, 0.9]])   # held from the start
-    np.testing.assert_array_equal(statistics.held_to_end(curves, 0.8), [3, -1, 0])
-    np.testing.assert_array_equal(statistics.held_to_end(curves, [0.8, 0.4, 0.95]), [3, 1, -1])
+def test_learning_time_summary_is_the_kaplan_meier_curve_of_censored_times():
+    """With every run censored at the same budget, Kaplan-Meier is the empirical distribution below
+    it: the median is the lower median with censored runs last, the restricted mean the mean of
+    min(time, budget) (an independent computation)."""
+    rng = np.random.default_rng(3)
+    budget = 1000
+    codes = rng.integers(0, budget + 1, 301)
+    codes[rng.random(301) < 0.3] = -1
+    summary = statistics.learning_time_summary(codes, budget)
+    times = np.sort(np.where(codes < 0, np.inf, codes))
+    assert summary["median"] == times[(len(times) + 1) // 2 - 1]
+    assert summary["rmst"] == pytest.approx(np.minimum(times, budget).mean())
+    assert summary["censored_share"] == pytest.approx((codes < 0).mean())
+    assert summary["low"] <= summary["median"] <= summary["high"] < budget
+    wide = statistics.learning_time_summary(codes[:30], budget)
+    assert wide["high"] - wide["low"] > summary["high"] - summary["low"]
+    most = statistics.learning_time_summary(np.r_[np.full(6, -1), [5, 7, 9]], 50)
+    assert most["median"] == math.inf and most["high"] == math.inf and most["censored_share"] == pytest.approx(2 / 3)
+    assert statistics.learning_time_summary(np.zeros(4, int), 50)["median"] == 0.0
+    with pytest.raises(ValueError):
+        statistics.learning_time_summary(np.array([], int), 50)
 
 
-def test_order_holds():
-    assert statistics.order_holds({"r4": 1, "r2": 2, "r1": 3, "r3": 4}) is True
-    assert statistics.order_holds({"r4": 3, "r2": 2, "r1": 3, "r3": 4}) is False
-    assert statistics.order_holds({"r4": 1, "r2": 2, "r1": 3, "r3": math.inf}) is True  # censored sorts last
-    assert statistics.order_holds({"r4": 1, "r2": math.nan, "r1": 3, "r3": 4}) is None
+def test_the_seeds_then_runs_interval_carries_the_between_seed_spread():
+    """Five seeds whose runs agree within each seed but not across: resampling runs alone would give
+    a point interval; resampling seeds first spans the seeds' own medians."""
+    times = np.repeat(np.array([100.0, 200.0, 300.0, 400.0, 500.0])[:, None], 40, axis=1)
+    index = statistics.seeds_then_runs(5, 40, 2000, np.random.default_rng(0))
+    medians = statistics.lower_median(statistics.pooled_resamples(times, index))
+    low, high = statistics.percentile_bounds(medians)
+    assert low <= 200.0 and high >= 400.0
+    runs_only = statistics.lower_median(times.ravel()[np.random.default_rng(0).integers(0, 200, (2000, 200))])
+    assert np.ptp(runs_only) < high - low
+    censored = times.copy()
+    censored[3:] = np.inf  # two seeds of five never learn: some resamples' medians are censored
+    draws = statistics.lower_median(statistics.pooled_resamples(censored, index))
+    assert statistics.percentile_bounds(draws)[1] == math.inf
 
 
-def test_block_sums_match_the_success_matrix():
+def test_local_slopes_read_a_bending_curve_and_skip_censored_cells():
+    sizes = np.array([10.0, 100.0, 1000.0, 10_000.0])
+    medians = np.array([10.0, 100.0, 316.227766, math.inf])  # slope 1, then 0.5, then censored
+    replicates = medians[:, None] * np.exp(np.random.default_rng(1).normal(0, 0.05, (4, 500)))
+    slopes = statistics.local_slopes(sizes, medians, replicates)
+    assert [s["to"] for s in slopes] == [100.0, 1000.0, 10_000.0]
+    assert slopes[0]["slope"] == pytest.approx(1.0) and slopes[1]["slope"] == pytest.approx(0.5)
+    assert slopes[0]["low"] < 1.0 < slopes[0]["high"] and slopes[1]["high"] < 1.0
+    assert math.isnan(slopes[2]["slope"]) and math.isnan(slopes[2]["low"])
+
+
+def test_order_verdict_separates_holds_ties_and_failures():
+    rng = np.random.default_rng(2)
+    draws = {name: value * np.exp(rng.normal(0, 0.02, 400)) for name, value in
+             (("r4", 100.0), ("r2", 200.0), ("r1", 400.0), ("r3", 800.0))}
+    assert statistics.order_verdict(draws) == "holds"
+    assert statistics.order_verdict({**draws, "r2": draws["r4"][::-1]}) == "tie"  # r4 = r2 within noise
+    assert statistics.order_verdict({**draws, "r3": np.full(400, math.inf)}) == "holds"  # censored is slowest
+    assert statistics.order_verdict({**draws, "r4": draws["r1"]}) == "fails"
+    assert statistics.order_verdict({"r4": draws["r4"]}) is None
+
+
+def _fit_rows(times, censored, sizes=(20, 50, 90, 327, 1158)):
+    return [{"learner": "q_learning", "reward": "r1", "gamma": 0.9, "family": family.PRODUCT_FAMILY, "spec": f"s{k}",
+             "reachable_from_start": size, "window": 20_000, "censored": cut,
+             "learning_time": math.inf if cut else value, "learning_time_low": value * 0.9,
+             "learning_time_high": value * 1.1} for k, (size, value, cut) in enumerate(zip(sizes, times, censored))]
+
+
+def test_the_studys_fit_takes_a_censored_cell_as_a_lower_bound_and_gives_no_exponent_when_most_are_censored():
+    """The study's own fit (pipeline.growth_fits) with a censored cell: the cell enters at its window
+    as a right-censored point, which steepens the fit against dropping it; with most cells censored
+    there is no exponent."""
+    from tableclean_suite.bench.scaling import pipeline
+
+    sizes = np.array([20, 50, 90, 327, 1158])
+    truth = 30.0 * sizes ** 1.0  # the last cell's 34 740 iterations lie beyond its 20 000 window
+    censored = [False, False, False, False, True]
+    fit = pipeline.growth_fits(_fit_rows(truth, censored), "q_learning", ["r1"], [0.9])["0.9"]["r1"]
+    dropped = pipeline.growth_fits(_fit_rows(truth[:4], censored[:4], sizes[:4]), "q_learning", ["r1"],
+                                   [0.9])["0.9"]["r1"]
+    assert fit["censored"] == 1 and fit["points"] == 5 and dropped["censored"] == 0
+    assert fit["exponent"] == pytest.approx(1.0, abs=0.05) and fit["low"] < 1.0 < fit["high"]
+    as_reached = statistics.fit_censored_power_law(sizes, np.r_[truth[:4], 20_000], np.zeros(5, bool), [0.05] * 5)
+    assert as_reached["exponent"] < fit["exponent"] - 0.05  # reading the window as the time flattens the fit
+    mostly = pipeline.growth_fits(_fit_rows(truth, [False, False, True, True, True]), "q_learning", ["r1"],
+                                  [0.9])["0.9"]["r1"]
+    assert math.isnan(mostly["exponent"]) and mostly["censored"] == 3
+
+
+def test_train_cell_keeps_every_seeds_learning_times_and_window_sums():
     from tableclean_suite import metrics
     from tableclean_suite.learners import train
 
     model = TaskModel(spec="paper")
     info = family.describe_spec(model.spec, 8, 400, 1.0)[0]
-    records = study.train_cell(model, info, "q_learning", "r4", runs=5, seed=3, gamma=0.3)
-    result = train(reward="r4", runs=5, iterations=info.window, max_itr=info.max_itr, seed=3, task=model)
-    success = metrics.success_matrix(result)
-    starts = np.r_[0, records.edges[:-1] + 1]
-    np.testing.assert_array_equal(records.block_success, np.add.reduceat(success, starts, axis=1))
-    np.testing.assert_array_equal(records.episodes, np.cumsum(result.episode_end != 0, axis=1)[:, records.edges])
-    tail = study.plateau_start(info.window)
-    np.testing.assert_allclose(records.tail_success, success[:, tail:].mean(axis=1))
-    reached = (result.outcomes == int(Outcome.TERMINAL)).any(axis=1)
-    np.testing.assert_array_equal(records.never_terminal, (~reached).astype(float))
-    assert records.tail_success.mean() == pytest.approx(
-        metrics.plateau(metrics.success_curve(result), metrics.DEFAULT_PLATEAU_FRACTION), rel=1e-12)
+    records = study.train_cell(model, info, "q_learning", "r4", runs=5, seeds=(3, 4), gamma=0.3)
+    assert records.learned_at.shape == (2, 5) and records.seeds == (3, 4)
+    for row, seed in enumerate((3, 4)):
+        result = train(reward="r4", runs=5, iterations=info.window, max_itr=info.max_itr, seed=seed, task=model)
+        np.testing.assert_array_equal(records.learned_at[row], result.learned_at)
+        success = metrics.success_matrix(result)
+        tail = study.plateau_start(info.window)
+        np.testing.assert_allclose(records.tail_success[row], success[:, tail:].mean(axis=1))
+        reached = (result.outcomes == int(Outcome.TERMINAL)).any(axis=1)
+        np.testing.assert_array_equal(records.never_terminal[row], (~reached).astype(float))
+    assert not np.array_equal(records.learned_at[0], records.learned_at[1])  # two seeds, two sets of runs
 
 
-def test_the_point_is_the_all_ones_resample_and_inside_its_interval():
+def test_cell_row_pools_the_seeds_and_its_interval_holds_the_seeds_spread():
     model = TaskModel(spec="paper")
     info = family.describe_spec(model.spec, 8, 1500, 1.0)[0]
-    records = study.train_cell(model, info, "q_learning", "r2", runs=30, seed=5, gamma=0.3)
-    counts = statistics.resample_counts(30, 200, seed=0)
-    row = study.cell_row(info, "q_learning", "r2", 0.3, records, counts)
-    assert not row["censored"]
-    figures = statistics.cell_figures(np.ones((1, 30)), records.block_success, statistics.block_widths(records.edges),
-                                      records.edges, records.episodes, records.tail_success, records.never_terminal,
-                                      row["yardstick_level"])
-    assert row["yardstick_iterations"] == figures["yardstick_iterations"][0]
+    records = study.train_cell(model, info, "q_learning", "r2", runs=10, seeds=(0, 1, 2), gamma=0.3)
+    row, medians = study.cell_row(info, "q_learning", "r2", 0.3, records, 300, np.random.default_rng(0))
+    assert medians.shape == (300,) and row["seeds"] == 3 and row["runs"] == 10
+    pooled = statistics.learning_time_summary(records.learned_at.ravel(), info.window)
+    assert row["learning_time"] == pooled["median"] and row["censored_share"] == pooled["censored_share"]
     for name in study.INTERVAL_FIGURES:
         assert row[name + "_low"] <= row[name] <= row[name + "_high"], name
-    np.testing.assert_array_equal(statistics.resample_counts(30, 200, seed=0),
-                                  np.random.default_rng(0).multinomial(30, np.full(30, 1 / 30), size=200))
+    seed_medians = [float(v) for v in row["seed_medians"].split(";")]
+    assert seed_medians == list(statistics.lower_median(statistics.censored_times(records.learned_at)))
+    again, _ = study.cell_row(info, "q_learning", "r2", 0.3, records, 300, np.random.default_rng(0))
+    assert again == row  # deterministic
 
 
 def test_cli_tiny_budget_writes_consistent_files(tmp_path, capsys):
     assert scaling.main(TINY_ARGS + ["--out", str(tmp_path)]) == 0
     printed = capsys.readouterr().out
-    for name in ("scaling.csv", "scaling_specs.csv", "scaling.png", "config.json"):
+    for name in ("scaling.csv", "scaling_specs.csv", "scaling_slopes.csv", "scaling.png", "config.json"):
         assert (tmp_path / name).stat().st_size > 0
     assert not list(tmp_path.glob("*.tmp"))
     cells = pd.read_csv(tmp_path / "scaling.csv")
     specs = pd.read_csv(tmp_path / "scaling_specs.csv")
+    slopes = pd.read_csv(tmp_path / "scaling_slopes.csv")
     config = json.loads((tmp_path / "config.json").read_text())
     assert len(specs) == 2 * 2 + 2 and len(cells) == len(specs) * 2 * 1 * 2  # specs x gammas x learners x rewards
     product = specs[specs["family"] == family.PRODUCT_FAMILY]
@@ -239,28 +313,36 @@ def test_cli_tiny_budget_writes_consistent_files(tmp_path, capsys):
     fixed = specs[specs["family"] == family.FIXED_PLAN_FAMILY]
     assert set(fixed["plan_length"]) == {8} and fixed["reachable_from_start"].is_monotonic_increasing
     assert set(cells["spec"]) == set(specs["name"]) and set(cells["reward"]) == {"r2", "r4"}
-    assert set(cells["gamma"]) == {0.3, 0.9}
+    assert set(cells["gamma"]) == {0.3, 0.9} and set(cells["seeds"]) == {2} and set(cells["runs"]) == {4}
     for column in study.INTERVAL_FIGURES:
         assert {f"{column}_low", f"{column}_high"} <= set(cells.columns)
-        defined = cells[column].notna()
+        defined = np.isfinite(cells[column])
         assert (cells.loc[defined, f"{column}_low"] <= cells.loc[defined, column]).all()
         assert (cells.loc[defined, column] <= cells.loc[defined, f"{column}_high"]).all()
     reached = cells[~cells["censored"]]
-    assert (reached["yardstick_iterations"] <= reached["window"]).all()
-    assert cells.loc[cells["censored"], "yardstick_iterations"].isna().all()
-    assert (cells["yardstick_level"] == 0.9 * cells["optimal_success"]).all()
-    assert config["runs"] == 4 and config["segments"] == [2, 3] and config["objects"] == [1, 2]
+    assert (reached["learning_time"] <= reached["window"]).all()
+    assert (cells.loc[cells["censored"], "censored_share"] > 0.5).all()
+    assert (cells["seed_medians"].str.count(";") == 1).all()
+    # slopes between consecutive sizes: 3 per product (gamma, reward), 1 per fixed-plan one
+    assert len(slopes) == 2 * 2 * (3 + 1) and set(slopes["family"]) == {family.PRODUCT_FAMILY, family.FIXED_PLAN_FAMILY}
+    assert config["runs"] == 4 and config["seeds"] == 2 and config["segments"] == [2, 3] and config["objects"] == [1, 2]
     assert config["gammas"] == [0.3, 0.9] and config["fixed_plan_objects"] == [1, 2]
     assert [s["name"] for s in config["specs"]] == list(specs["name"])
     assert set(config["growth_exponents"]) == {family.PRODUCT_FAMILY, family.FIXED_PLAN_FAMILY}
     product_fits = config["growth_exponents"][family.PRODUCT_FAMILY]
     assert set(product_fits) == {"0.3", "0.9"} and set(product_fits["0.3"]) == {"r2", "r4"}
-    assert "Does r4 < r2 < r1 < r3 hold" in printed
+    assert "Does r4 < r2 < r1 < r3 hold" in printed and "local slopes" in printed
+    capsys.readouterr()
+    assert scaling.main(TINY_ARGS + ["--out", str(tmp_path / "again")]) == 0
+    assert (tmp_path / "again" / "scaling.csv").read_text().count("\n") == len(cells) + 1
+    again = pd.read_csv(tmp_path / "again" / "scaling.csv").drop(columns="seconds")
+    pd.testing.assert_frame_equal(again, cells.drop(columns="seconds"))  # same seed, same numbers
 
 
 @pytest.mark.parametrize("flag", [["--rewards", "r9"], ["--learners", "td_lambda"], ["--runs", "0"],
                                   ["--segments", "1,2"], ["--objects", "0,1"], ["--objects", "two"],
-                                  ["--gammas", "0"], ["--gammas", "0.3,1.5"], ["--fixed-plan-objects", "0"]])
+                                  ["--gammas", "0"], ["--gammas", "0.3,1.5"], ["--fixed-plan-objects", "0"],
+                                  ["--seeds", "1"], ["--seeds", "many"]])
 def test_cli_bad_flag_exits_2_with_one_line(flag, tmp_path, capsys):
     with pytest.raises(SystemExit) as stop:
         scaling.main(flag + ["--out", str(tmp_path)])
@@ -271,17 +353,10 @@ def test_cli_bad_flag_exits_2_with_one_line(flag, tmp_path, capsys):
         assert "allowed:" in error
 
 
-def test_blocks_are_increasing_end_at_the_window_and_are_fine_early():
-    edges = statistics.block_edges(100_000)
-    assert edges[-1] == 100_000 - 1 and np.all(np.diff(edges) > 0)
-    widths = statistics.block_widths(edges)
-    assert widths.sum() == 100_000 and widths[:20].max() <= 2 and widths.max() <= 100_000 / statistics.LINEAR_BLOCKS
-
-
-def test_observed_order_sorts_and_names_missing_patterns():
-    rows = [{"spec": "a", "learner": "q_learning", "reward": name, "gamma": 0.3, "yardstick_iterations": value}
-            for name, value in (("r1", 30.0), ("r2", 10.0), ("r3", math.nan), ("r4", 20.0))]
-    assert report.observed_order(rows, "a", "q_learning", 0.3) == "r2 < r4 < r1 (censored: r3)"
+def test_observed_order_sorts_joins_ties_and_names_censored_patterns():
+    rows = [{"spec": "a", "learner": "q_learning", "reward": name, "gamma": 0.3, "learning_time": value}
+            for name, value in (("r1", 30.0), ("r2", 10.0), ("r3", math.inf), ("r4", 10.0))]
+    assert report.observed_order(rows, "a", "q_learning", 0.3) == "r2 (10) = r4 (10) < r1 (30) (censored: r3)"
 
 
 @pytest.mark.parametrize(("text", "expected"), [("2", (2,)), ("3,1,3", (1, 3)), ("1, 2,3", (1, 2, 3))])
@@ -293,9 +368,9 @@ def test_objects_flag_takes_one_count_or_a_list(text, expected):
 
 def test_figure_draws_reached_and_censored_cells(tmp_path):
     rows = [{"learner": "q_learning", "reward": "r2", "gamma": g, "family": fam, "reachable_from_start": reach,
-             "censored": censored, "window": 1000, "yardstick_iterations": math.nan if censored else it,
-             "yardstick_iterations_low": it * 0.9, "yardstick_iterations_high": math.inf if reach > 90 else it * 1.1,
-             "window_mean_over_optimum": 0.95}
+             "censored": censored, "window": 1000, "learning_time": math.inf if censored else it,
+             "learning_time_low": it * 0.9, "learning_time_high": math.inf if reach > 90 else it * 1.1,
+             "censored_share": 0.7 if censored else 0.1}
             for g in (0.3, 0.9) for fam, reach, it, censored in
             ((family.PRODUCT_FAMILY, 20, 200.0, False), (family.PRODUCT_FAMILY, 50, 400.0, False),
              (family.PRODUCT_FAMILY, 327, 900.0, True), (family.FIXED_PLAN_FAMILY, 40, 300.0, False))]

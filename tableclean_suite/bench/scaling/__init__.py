@@ -1,14 +1,15 @@
 """``tableclean-bench scaling``: does the reduced state space explain Q-learning's speed?
 
     python -m benchmarks.scaling                           # the default study (see docs/scaling.md)
-    python -m benchmarks.scaling --segments 2,3 --objects 1 --fixed-plan-objects 1,3 --runs 20 --out /tmp/s
+    python -m benchmarks.scaling --segments 2,3 --objects 1 --fixed-plan-objects 1,3 --seeds 5 --runs 10 --out scaling-small
 
 Trains every learner (``--learners``, default ``q_learning,sarsa``) x reward pattern (``--rewards``,
 default r1-r4 and ``r4_cycle``, r4 with the looping rule for any N) x discount (``--gammas``,
-default 0.3 and 0.9) on two families of task specs, and reports per cell the iterations to a
-*fixed* yardstick with 95 % bootstrap intervals, whether the cell was censored, the success
-curve's window mean against the optimal policy's exact success, and the share of runs that never
-reached the terminal state.
+default 0.3 and 0.9) on two families of task specs, each cell with ``--seeds`` seeds (default 5)
+of ``--runs`` runs (default 20), and reports per cell the median per-run learning time with a 95 %
+interval that includes the between-seed variance, the share of runs censored at the window, every
+seed's own median, the success curve's window mean against the optimal policy's exact success
+and the share of runs that never reached the terminal state.
 
 The families (:mod:`.family`)
     *Product*: every (N, M) of ``--segments`` x ``--objects`` (default 2-5 x 1-3: 12 specs, 20 to
@@ -20,23 +21,23 @@ The families (:mod:`.family`)
 The window
     ``base_window * (L / L0) ** window_exponent`` iterations (default 12 000 x (L / 8)^3) with
     episodes truncated after ``500 * L / L0`` (L: the optimal plan length from the spec's start).
-    The window no longer decides what counts as reached: the yardstick is fixed per spec.
 
-The yardstick (:mod:`.statistics`)
-    Iterations until the mean success curve (read in blocks: 2 % of the window late, finer early)
-    reaches, and stays at or above until the window's end, 90 % of the optimal policy's exact
-    epsilon-greedy success on that spec; censored when its last block is below.  Growth exponents
-    are fitted per gamma and reward pattern by censored maximum likelihood, each point weighted by
-    its own interval, with profile-likelihood intervals.
+The response (:mod:`.statistics`)
+    Each run's learning time (``TrainingResult.learned_at``: the iteration from which its greedy
+    policy follows a shortest plan from every start state through the window's end), censored at
+    the window; the cell's Kaplan-Meier median over all its seeds' runs, its interval from
+    resampling seeds and then runs within seeds.  Between consecutive sizes of a family the study
+    reports local slopes d log(median) / d log(states) with intervals; a power law is fitted by
+    censored maximum likelihood only where at most half the cells are censored.
 
 Writes under ``--out`` (default ``results/scaling``), each atomically: ``scaling.csv`` (one row per
 spec x gamma x learner x reward, ``_low``/``_high`` interval columns), ``scaling_specs.csv``,
-``scaling.png`` (per gamma: yardstick iterations against states reachable from the start, reached
-and censored cells apart; window mean over the optimum) and ``config.json`` (last).
+``scaling_slopes.csv``, ``scaling.png`` (per gamma: median learning time against states reachable
+from the start; the censored share) and ``config.json`` (last).
 
 Modules
     :mod:`.family` (specs, exact quantities, windows), :mod:`.study` (training in run chunks and
-    reduction to rows), :mod:`.statistics` (yardstick, bootstrap, censored fit, reward order),
+    reduction to rows), :mod:`.statistics` (learning time, seeds-then-runs bootstrap, local slopes, censored fit, reward order),
     :mod:`.report` (tables, CSV, figure, ``config.json``), :mod:`.pipeline` (the study from parsed
     arguments), :mod:`.command` (the command line); ``python -m tableclean_suite.bench.scaling`` runs it.
 """

@@ -20,8 +20,12 @@ DEFAULT_OUT = Path("results") / "scaling"
 DEFAULT_LEARNERS = ("q_learning", "sarsa")
 #: The paper's four patterns and r4 with the looping rule for any N (both looping rules reported).
 DEFAULT_REWARDS = ("r1", "r2", "r3", "r4", "r4_cycle")
-#: Runs per cell (independent learners), enough for 95 % bootstrap intervals.
-DEFAULT_RUNS = 100
+#: Runs per seed and cell (independent learners) ...
+DEFAULT_RUNS = 20
+#: ... and seeds per cell (seeds --seed, --seed + 1, ...): 100 runs per cell in all.
+DEFAULT_SEEDS = 5
+#: Fewest seeds: the intervals need a between-seed spread.
+MIN_SEEDS = 2
 DEFAULT_SEED = 0
 
 
@@ -103,20 +107,22 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         help=f"comma-separated object counts M >= {MIN_OBJECTS} "
                              f"(default: {_counts_text(DEFAULT_OBJECT_COUNTS)})")
     parser.add_argument("--runs", type=positive_int, default=DEFAULT_RUNS,
-                        help=f"runs per cell (default: {DEFAULT_RUNS})")
+                        help=f"runs per seed and cell (default: {DEFAULT_RUNS})")
+    parser.add_argument("--seeds", type=cli.int_in(MIN_SEEDS, 10**6, "a seed count"), default=DEFAULT_SEEDS,
+                        help=f"seeds per cell, --seed, --seed + 1, ... (>= {MIN_SEEDS}; default: {DEFAULT_SEEDS})")
     parser.add_argument("--base-window", type=positive_int, default=DEFAULT_BASE_WINDOW,
                         help=f"iterations for the paper's spec (default: {DEFAULT_BASE_WINDOW})")
     parser.add_argument("--window-exponent", type=positive_float, default=DEFAULT_WINDOW_EXPONENT,
                         help=f"window = base * (L / L0) ** exponent (default: {DEFAULT_WINDOW_EXPONENT})")
     parser.add_argument("--resamples", type=positive_int, default=DEFAULT_RESAMPLES,
-                        help=f"bootstrap resamples (default: {DEFAULT_RESAMPLES})")
+                        help=f"seeds-then-runs bootstrap resamples (default: {DEFAULT_RESAMPLES})")
     parser.add_argument("--gammas", type=gamma_list, default=DEFAULT_GAMMAS,
                         help=f"comma-separated discounts in (0, 1], each an axis value of the study "
                              f"(default: {_counts_text(DEFAULT_GAMMAS)})")
     parser.add_argument("--fixed-plan-objects", type=fixed_plan_list, default=DEFAULT_FIXED_PLAN_OBJECTS,
                         help=f"object counts M >= {MIN_OBJECTS} of the fixed-plan family (3 segments, 8-step plan, "
                              f"M - 1 objects parked), or 'none' (default: {_counts_text(DEFAULT_FIXED_PLAN_OBJECTS)})")
-    cli.add_seed_argument(parser, "the training runs and the bootstrap", default=DEFAULT_SEED)
+    cli.add_seed_argument(parser, "the first training seed and the bootstrap", default=DEFAULT_SEED)
     cli.add_out_argument(parser, cli.DIRECTORY, str(DEFAULT_OUT), "output folder")
     return parser
 

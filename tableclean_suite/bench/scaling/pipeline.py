@@ -1,7 +1,8 @@
 """The scaling study from parsed arguments to files: describe the families, train every cell, report.
 
 :func:`run_study` takes the namespace :mod:`.command` parses (``learners, rewards, segments,
-objects, fixed_plan_objects, gammas, runs, base_window, window_exponent, resamples, seed, out``).
+objects, fixed_plan_objects, gammas, seeds, runs, base_window, window_exponent, resamples, seed,
+out``).
 """
 
 from __future__ import annotations
@@ -13,13 +14,15 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
+import numpy as np
+
 from tableclean_suite.bench.scaling.family import (BASE_MAX_ITR, FIXED_PLAN_FAMILY, PRODUCT_FAMILY, describe_family,
                                                    family_specs, fixed_plan_spec, paper_plan_steps)
-from tableclean_suite.bench.scaling.report import (config_dict, json_safe, observed_order, ordering_answer,
-                                                   ordering_report, print_cells, print_specs, write_atomic_text,
-                                                   write_csv, write_figure)
-from tableclean_suite.bench.scaling.statistics import (CONFIDENCE, GEOMETRIC_BLOCKS, LINEAR_BLOCKS, YARDSTICK_FRACTION,
-                                                       fit_censored_power_law, log_standard_error, resample_counts)
+from tableclean_suite.bench.scaling.report import (config_dict, interval_text, json_safe, observed_order,
+                                                   ordering_answer, ordering_report, print_cells, print_specs,
+                                                   write_atomic_text, write_csv, write_figure)
+from tableclean_suite.bench.scaling.statistics import (CONFIDENCE, MAX_CENSORED_SHARE_FOR_FIT, PAPER_ORDER,
+                                                       fit_censored_power_law, local_slopes, log_standard_error)
 from tableclean_suite.bench.scaling.study import cell_row, train_cell
 
 #: How the printed fits describe the fixed-plan family's plans.
@@ -32,30 +35,66 @@ def _counts_text(values) -> str:
     return ",".join(str(v) for v in values)
 
 
+def _cells(rows: list[dict], learner: str, reward: str, gamma: float, family: str) -> list[dict]:
+    """``learner``'s cells of ``reward`` at ``gamma`` in ``family``, by states reachable from the start."""
+    return sorted((r for r in rows if r["learner"] == learner and r["reward"] == reward and r["gamma"] == gamma
+                   and r["family"] == family), key=lambda r: r["reachable_from_start"])
+
+
 def growth_fits(rows: list[dict], learner: str, rewards, gammas, family: str = PRODUCT_FAMILY) -> dict:
     """``{gamma text: {reward: fit}}``: :func:`.statistics.fit_censored_power_law` of ``learner``'s
-    iterations to the yardstick against states reachable from the start, over ``family``'s specs
-    (censored cells enter at their window; each point weighted by its own interval), plus the
-    fit's ``intercept`` (log units) for the figure."""
+    median learning time against states reachable from the start, over ``family``'s specs
+    (censored cells enter at their window; each point weighted by its own interval; no exponent
+    when more than half the cells are censored), plus the fit's ``intercept`` (log units) for the
+    figure."""
     fits = {}
     for gamma in gammas:
         per_reward = {}
         for reward in rewards:
-            cells = [r for r in rows if r["learner"] == learner and r["reward"] == reward and r["gamma"] == gamma
-                     and r["family"] == family]
-            y = [r["window"] if r["censored"] else r["yardstick_iterations"] for r in cells]
-            se = [math.nan if r["censored"] else log_standard_error(r["yardstick_iterations"],
-                                                                    r["yardstick_iterations_low"],
-                                                                    r["yardstick_iterations_high"]) for r in cells]
+            cells = _cells(rows, learner, reward, gamma, family)
+            y = [r["window"] if r["censored"] else max(r["learning_time"], 1.0) for r in cells]
+            se = [math.nan if r["censored"] else log_standard_error(max(r["learning_time"], 1.0),
+                                                                    max(r["learning_time_low"], 1.0),
+                                                                    r["learning_time_high"]) for r in cells]
             fit = fit_censored_power_law([r["reachable_from_start"] for r in cells], y,
                                          [r["censored"] for r in cells], se)
-            reached = [(math.log(r["reachable_from_start"]), math.log(r["yardstick_iterations"]))
+            reached = [(math.log(r["reachable_from_start"]), math.log(max(r["learning_time"], 1.0)))
                        for r in cells if not r["censored"]]
             fit["intercept"] = (sum(b for _, b in reached) / len(reached)
                                 - fit["exponent"] * sum(a for a, _ in reached) / len(reached)) if reached else math.nan
             per_reward[reward] = fit
         fits[f"{gamma:g}"] = per_reward
     return fits
+
+
+def slope_table(rows: list[dict], replicates: dict, learner: str, rewards, gammas, family: str) -> dict:
+    """``{gamma text: {reward: [slope dicts]}}``: :func:`.statistics.local_slopes` of ``learner``'s
+    median learning time between consecutive sizes of ``family``."""
+    table = {}
+    for gamma in gammas:
+        table[f"{gamma:g}"] = {}
+        for reward in rewards:
+            cells = _cells(rows, learner, reward, gamma, family)
+            if len(cells) < 2:
+                continue
+            draws = np.array([replicates[(r["spec"], gamma, learner, reward)] for r in cells])
+            table[f"{gamma:g}"][reward] = local_slopes([r["reachable_from_start"] for r in cells],
+                                                       [r["learning_time"] for r in cells], draws)
+    return table
+
+
+def _fit_text(fit: dict) -> str:
+    if not math.isfinite(fit["exponent"]):
+        reason = ("most cells censored" if fit["censored"] > MAX_CENSORED_SHARE_FOR_FIT * fit["points"]
+                  else "too few reached cells")
+        return f"no exponent ({reason}) over {fit['points']} specs ({fit['censored']} censored)"
+    return (f"k = {fit['exponent']:.3f} [{fit['low']:.3f}, {fit['high']:.3f}] over {fit['points']} specs "
+            f"({fit['censored']} censored)")
+
+
+def _slopes_text(slopes: list[dict]) -> str:
+    return ", ".join(f"{s['from']}->{s['to']}: " + interval_text(s["slope"], s["low"], s["high"], 2).replace(
+        ">window", "inf") for s in slopes)
 
 
 def method_constants(args) -> dict:
@@ -66,17 +105,21 @@ def method_constants(args) -> dict:
         "alpha": ALPHA, "epsilon": EPSILON, "base_max_itr": BASE_MAX_ITR,
         "window_rule": "window = base_window * (L / L0) ** window_exponent, max_itr = base_max_itr * L / L0, "
                        "L = optimal plan length from the spec's start, L0 = the paper spec's",
-        "yardstick": f"iterations until the mean success curve, read in blocks, reaches and stays to the window's "
-                     f"end at or above {YARDSTICK_FRACTION} x the optimal policy's exact epsilon-greedy success; "
-                     "censored when the last block is below",
-        "yardstick_fraction": YARDSTICK_FRACTION,
-        "blocks": f"union of {LINEAR_BLOCKS} evenly and {GEOMETRIC_BLOCKS} geometrically spaced block ends",
-        "bootstrap": f"multinomial resamples of the runs ({args.resamples}), every figure recomputed by the "
-                     "point's own function, percentile interval extended to the point",
+        "response": "per-run learning time (TrainingResult.learned_at): the iteration from which the run's greedy "
+                    "policy follows a shortest plan from every start state through the end of the window; runs "
+                    "not there at the end are censored at the window; the cell's figure is the Kaplan-Meier "
+                    "median over every seed's runs",
+        "bootstrap": f"{args.resamples} resamples: {args.seeds} seeds drawn with replacement, then the runs within "
+                     "each drawn seed with replacement; percentile intervals (between-seed variance included)",
         "confidence": CONFIDENCE,
-        "fit": "maximum likelihood, log iterations = a + k log(states reachable from the start) + normal error of "
+        "fit": "maximum likelihood, log time = a + k log(states reachable from the start) + normal error of "
                "variance sigma^2 + s_i^2 (s_i from each point's interval), censored cells as P(> log window); "
-               "profile-likelihood interval of k",
+               f"profile-likelihood interval of k; no exponent when more than {MAX_CENSORED_SHARE_FOR_FIT:.0%} "
+               "of the cells are censored",
+        "local_slopes": "d log(median) / d log(states) between consecutive sizes, percentile interval of the "
+                        "cells' bootstrap medians",
+        "order": f"{' < '.join(PAPER_ORDER)} per spec: each consecutive pair decided when 97.5 % of the paired "
+                 "bootstrap medians agree, else a tie",
     }
 
 
@@ -103,55 +146,65 @@ def _study(args, out: Path) -> int:
     described += describe_family([fixed_plan_spec(m) for m in args.fixed_plan_objects], paper_plan_length,
                                  args.base_window, args.window_exponent, FIXED_PLAN_FAMILY)
     infos = [info for info, _ in described]
+    seeds = tuple(range(args.seed, args.seed + args.seeds))
     print(f"Scaling study: {len(infos)} specs (product family N = {_counts_text(args.segments)} x "
           f"M = {_counts_text(args.objects)}; fixed-plan family M = {_counts_text(args.fixed_plan_objects) or 'none'})"
           f" x gamma {_counts_text(args.gammas)} x {len(args.learners)} learners x {len(args.rewards)} rewards, "
-          f"{args.runs} runs per cell.")
+          f"{args.seeds} seeds ({_counts_text(seeds)}) x {args.runs} runs per cell.")
     print(f"Window rule: window = {args.base_window} * (L / {paper_plan_length}) ** {args.window_exponent:g}, "
           f"max_itr = {BASE_MAX_ITR} * L / {paper_plan_length} (L: optimal plan length from the spec's start).")
-    print(f"Yardstick: iterations until the mean success curve reaches and holds to the window's end "
-          f"{YARDSTICK_FRACTION:.0%} of the optimal policy's exact success; 'censored' = not within the window.\n")
+    print("Learning time: per run, the iteration from which its greedy policy follows a shortest plan from every "
+          "start state to the window's end; Kaplan-Meier median over all seeds' runs, 'censored' = more than half "
+          f"the runs not there by the window's end; {CONFIDENCE:.0%} intervals from {args.resamples} seeds-then-runs "
+          "resamples.\n")
     print_specs(infos)
-    counts = resample_counts(args.runs, args.resamples, args.seed)
-    rows = []
+    rows, replicates = [], {}
     for info, model in described:
         for gamma in args.gammas:
             for learner in args.learners:
                 for reward in args.rewards:
-                    records = train_cell(model, info, learner, reward, args.runs, args.seed, gamma)
-                    rows.append(cell_row(info, learner, reward, gamma, records, counts))
+                    records = train_cell(model, info, learner, reward, args.runs, seeds, gamma)
+                    rng = np.random.default_rng([args.seed, len(rows)])
+                    row, medians = cell_row(info, learner, reward, gamma, records, args.resamples, rng)
+                    rows.append(row)
+                    replicates[(info.name, gamma, learner, reward)] = medians
         print(f"trained {info.name} ({len(rows)} cells, {time.perf_counter() - started:.0f} s)", file=sys.stderr,
               flush=True)
     fit_learner = FIT_LEARNER if FIT_LEARNER in args.learners else args.learners[0]
-    fits = growth_fits(rows, fit_learner, args.rewards, args.gammas)
-    fixed_fits = growth_fits(rows, fit_learner, args.rewards, args.gammas, FIXED_PLAN_FAMILY)
+    families = [PRODUCT_FAMILY] + ([FIXED_PLAN_FAMILY] if args.fixed_plan_objects else [])
+    fits = {family: growth_fits(rows, fit_learner, args.rewards, args.gammas, family) for family in families}
+    slopes = {family: slope_table(rows, replicates, fit_learner, args.rewards, args.gammas, family)
+              for family in families}
     product = [info for info in infos if info.family == PRODUCT_FAMILY]
-    verdicts = {f"{gamma:g}": ordering_report(rows, product, fit_learner, args.rewards, gamma) for gamma in args.gammas}
+    verdicts = {f"{gamma:g}": ordering_report(replicates, product, fit_learner, args.rewards, gamma)
+                for gamma in args.gammas}
     print()
     print_cells(rows)
     for gamma in args.gammas:
-        print(f"\nGrowth exponents ({fit_learner}, gamma {gamma:g}, product family; iterations to the yardstick ~ "
-              f"states reachable from the start ** k; censored maximum likelihood, {CONFIDENCE:.0%} profile interval):")
-        for reward, fit in fits[f"{gamma:g}"].items():
-            print(f"  {reward}: k = {fit['exponent']:.3f} [{fit['low']:.3f}, {fit['high']:.3f}] over {fit['points']} "
-                  f"specs ({fit['censored']} censored)")
-        if args.fixed_plan_objects:
-            print(f"  fixed-plan family (plan length {FIXED_PLAN_LENGTH_TEXT}):")
-            for reward, fit in fixed_fits[f"{gamma:g}"].items():
-                print(f"    {reward}: k = {fit['exponent']:.3f} [{fit['low']:.3f}, {fit['high']:.3f}] over "
-                      f"{fit['points']} specs ({fit['censored']} censored)")
-        print(ordering_answer(verdicts[f"{gamma:g}"]))
-        print(f"Observed order ({fit_learner}, gamma {gamma:g}, fewest iterations first):")
+        key = f"{gamma:g}"
+        for family in families:
+            print(f"\n{fit_learner}, gamma {gamma:g}, {family} family"
+                  f"{' (plan length ' + FIXED_PLAN_LENGTH_TEXT + ')' if family == FIXED_PLAN_FAMILY else ''}: "
+                  "local slopes d log(median) / d log(states) [95 % interval] between consecutive sizes, and the "
+                  "censored power-law fit where at most half the cells are censored:")
+            for reward in args.rewards:
+                print(f"  {reward}: {_slopes_text(slopes[family][key].get(reward, []))}")
+                print(f"  {' ' * len(reward)}  fit: {_fit_text(fits[family][key][reward])}")
+        print(ordering_answer(verdicts[key]))
+        print(f"Observed order ({fit_learner}, gamma {gamma:g}, median learning time, fewest first):")
         for info in infos:
-            order = observed_order(rows, info.name, fit_learner, gamma)
-            print(f"  {info.name:<15}{info.reachable_from_start:>7}: {order}")
+            print(f"  {info.name:<15}{info.reachable_from_start:>7}: {observed_order(rows, info.name, fit_learner, gamma)}")
     write_csv(out / "scaling.csv", rows)
     write_csv(out / "scaling_specs.csv", [asdict(s) for s in infos])
-    write_figure(out / "scaling.png", rows, fit_learner, fits)
+    write_csv(out / "scaling_slopes.csv", [{"family": family, "gamma": float(gamma), "learner": fit_learner,
+                                            "reward": reward, **slope}
+                                           for family in families for gamma, per in slopes[family].items()
+                                           for reward, listed in per.items() for slope in listed])
+    write_figure(out / "scaling.png", rows, fit_learner, fits[PRODUCT_FAMILY])
     seconds = time.perf_counter() - started
     write_atomic_text(out / "config.json", json.dumps(json_safe(
-        config_dict(args, infos, {PRODUCT_FAMILY: fits, FIXED_PLAN_FAMILY: fixed_fits}, verdicts, seconds,
-                    fit_learner, method_constants(args))), indent=2,
+        config_dict(args, infos, fits, slopes, verdicts, seconds, fit_learner, method_constants(args))), indent=2,
         allow_nan=False) + "\n")
-    print(f"\nWrote {out}/scaling.csv, scaling_specs.csv, scaling.png, config.json in {seconds:.1f} s wall.")
+    print(f"\nWrote {out}/scaling.csv, scaling_specs.csv, scaling_slopes.csv, scaling.png, config.json in "
+          f"{seconds:.1f} s wall.")
     return 0

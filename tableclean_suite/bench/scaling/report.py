@@ -12,7 +12,7 @@ import numpy as np
 
 from tableclean_suite.bench.outputs import atomic_write, atomic_write_text
 from tableclean_suite.bench.scaling.family import FIXED_PLAN_FAMILY, PRODUCT_FAMILY, SpecInfo
-from tableclean_suite.bench.scaling.statistics import PAPER_ORDER, YARDSTICK_FRACTION, order_holds
+from tableclean_suite.bench.scaling.statistics import PAPER_ORDER, order_verdict
 
 #: Resolution of the PNG figure, dots per inch.
 FIGURE_DPI = 120
@@ -51,12 +51,11 @@ def write_csv(path: Path, rows: list[dict]) -> None:
 def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None:
     """Two rows of panels, one column per gamma, for ``learner``.
 
-    Top: iterations to the yardstick against states reachable from the start (log-log), one colour
-    per reward pattern; filled markers = reached (with 95 % bootstrap error bars), hollow markers
-    with an upward arrow at the window = censored (not held within the window); circles = the
-    product family, squares = the fixed-plan family; dashed = the fitted power law (product family).
-    Bottom: the success curve's window mean over the optimal policy's exact success, with the
-    yardstick's level (a dotted line at ``YARDSTICK_FRACTION``).
+    Top: median per-run learning time against states reachable from the start (log-log), one
+    colour per reward pattern; filled markers = median reached (error bars: 95 % seeds-then-runs
+    bootstrap interval), hollow markers at the window = censored (more than half the runs never
+    learned); circles = the product family, squares = the fixed-plan family; dashed = the fitted
+    power law where one is reported.  Bottom: the share of censored runs per cell.
     """
     import matplotlib
 
@@ -74,32 +73,31 @@ def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None
             colour = colours[reward]
             for family, marker in FAMILY_MARKERS.items():
                 chosen = sorted((r for r in cells if r["family"] == family), key=lambda r: r["reachable_from_start"])
+                style = "-" if family == PRODUCT_FAMILY else ":"
                 reached = [r for r in chosen if not r["censored"]]
                 censored = [r for r in chosen if r["censored"]]
                 if reached:
                     x = np.array([r["reachable_from_start"] for r in reached], dtype=float)
-                    y = np.array([r["yardstick_iterations"] for r in reached])
-                    high = np.array([r["yardstick_iterations_high"] for r in reached])
+                    y = np.array([r["learning_time"] for r in reached], dtype=float)
+                    low = np.array([r["learning_time_low"] for r in reached], dtype=float)
+                    high = np.array([r["learning_time_high"] for r in reached], dtype=float)
                     high = np.where(np.isfinite(high), high, [r["window"] for r in reached])
-                    error = np.clip(np.vstack([y - np.array([r["yardstick_iterations_low"] for r in reached]),
-                                               high - y]), 0, None)
-                    top.errorbar(x, y, yerr=error, marker=marker, linestyle="-" if family == PRODUCT_FAMILY else ":",
-                                 color=colour, capsize=2, markersize=5)
+                    error = np.clip(np.vstack([y - low, high - y]), 0, None)
+                    top.errorbar(x, np.maximum(y, 1.0), yerr=error, marker=marker, linestyle=style, color=colour,
+                                 capsize=2, markersize=5)
                 if censored:
                     x = np.array([r["reachable_from_start"] for r in censored], dtype=float)
                     top.scatter(x, [r["window"] for r in censored], marker=marker, facecolors="none",
                                 edgecolors=colour, s=40)
-                    top.scatter(x, [1.25 * r["window"] for r in censored], marker="^", color=colour, s=14)
-                ratio = [r["window_mean_over_optimum"] for r in chosen]
-                bottom.plot([r["reachable_from_start"] for r in chosen], ratio, marker=marker, color=colour,
-                            linestyle="-" if family == PRODUCT_FAMILY else ":")
+                bottom.plot([r["reachable_from_start"] for r in chosen], [r["censored_share"] for r in chosen],
+                            marker=marker, color=colour, linestyle=style)
             fit = fits.get(f"{gamma:g}", {}).get(reward)
             product = sorted((r for r in cells if r["family"] == PRODUCT_FAMILY),
                              key=lambda r: r["reachable_from_start"])
             if fit and math.isfinite(fit["exponent"]) and math.isfinite(fit.get("intercept", math.nan)) and product:
                 x = np.array([r["reachable_from_start"] for r in product], dtype=float)
                 top.plot(x, np.exp(fit["intercept"]) * x ** fit["exponent"], linestyle="--", color=colour, alpha=0.5)
-        shown = [r["yardstick_iterations"] for r in rows if r["learner"] == learner and r["gamma"] == gamma
+        shown = [max(r["learning_time"], 1.0) for r in rows if r["learner"] == learner and r["gamma"] == gamma
                  and not r["censored"]] + [r["window"] for r in rows if r["learner"] == learner and r["gamma"] == gamma]
         if shown:  # the fitted lines may not stretch the axis beyond the data (a steep fit would flatten it)
             top.set_ylim(min(shown) / Y_MARGIN, max(shown) * Y_MARGIN)
@@ -111,14 +109,13 @@ def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None
         top.set_xscale("log")
         top.set_yscale("log")
         top.set_xlabel("states reachable from the start")
-        top.set_ylabel(f"iterations to hold {YARDSTICK_FRACTION:.0%} of the optimal success")
+        top.set_ylabel("median per-run learning time (iterations)")
         top.set_title(f"{learner}, gamma = {gamma:g}")
         top.legend(fontsize=7, loc="upper left")
-        bottom.axhline(YARDSTICK_FRACTION, color="grey", linestyle=":")
         bottom.set_xscale("log")
-        bottom.set_ylim(0, 1.1)
+        bottom.set_ylim(-0.05, 1.05)
         bottom.set_xlabel("states reachable from the start")
-        bottom.set_ylabel("window mean / optimal success")
+        bottom.set_ylabel("share of runs censored at the window")
     figure.tight_layout()
     try:
         atomic_write(path, lambda temporary: figure.savefig(temporary, format="png", dpi=FIGURE_DPI))
@@ -126,10 +123,10 @@ def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None
         plt.close(figure)
 
 
-def config_dict(args, infos: list[SpecInfo], fits: dict, verdicts: dict, seconds: float, fit_learner: str,
-                constants: dict) -> dict:
+def config_dict(args, infos: list[SpecInfo], fits: dict, slopes: dict, verdicts: dict, seconds: float,
+                fit_learner: str, constants: dict) -> dict:
     """The content of ``config.json``: the command line, every constant of the method, the fits,
-    the reward-order verdicts, the specs and the wall time (``seconds``)."""
+    the local slopes, the reward-order verdicts, the specs and the wall time (``seconds``)."""
     from dataclasses import asdict
 
     return {
@@ -137,8 +134,10 @@ def config_dict(args, infos: list[SpecInfo], fits: dict, verdicts: dict, seconds
         "learners": list(args.learners), "rewards": list(args.rewards), "segments": list(args.segments),
         "objects": list(args.objects), "fixed_plan_objects": list(args.fixed_plan_objects),
         "gammas": list(args.gammas), "runs": args.runs, "base_window": args.base_window,
-        "window_exponent": args.window_exponent, "seed": args.seed, "resamples": args.resamples,
-        **constants, "fit_learner": fit_learner, "growth_exponents": fits, "paper_order": list(PAPER_ORDER),
+        "window_exponent": args.window_exponent, "seed": args.seed, "seeds": args.seeds,
+        "resamples": args.resamples,
+        **constants, "fit_learner": fit_learner, "growth_exponents": fits, "local_slopes": slopes,
+        "paper_order": list(PAPER_ORDER),
         "order_holds": verdicts, "specs": [asdict(s) for s in infos], "seconds": seconds,
     }
 
@@ -147,7 +146,8 @@ def config_dict(args, infos: list[SpecInfo], fits: dict, verdicts: dict, seconds
 # Printing
 # ---------------------------------------------------------------------------
 def interval_text(value, low, high, digits: int = 0) -> str:
-    """``"value [low, high]"``; ``"censored"`` for a missing value; an infinite top reads ``>window``."""
+    """``"value [low, high]"``; ``"censored"`` for an infinite or missing value; an infinite top reads
+    ``>window``."""
     if value is None or not math.isfinite(value):
         return "censored"
     top = f"{high:.{digits}f}" if math.isfinite(high) else ">window"
@@ -164,64 +164,63 @@ def print_specs(infos: list[SpecInfo]) -> None:
 
 
 def print_cells(rows: list[dict]) -> None:
-    """The per-cell table: iterations and episodes to the yardstick, the window mean against the
-    optimum and the share of runs that never reached the terminal state, with intervals."""
-    print(f"{'spec':<15}{'from':>6} {'gamma':>5} {'learner':<11}{'reward':<9}{'iterations to yardstick':>28}"
-          f"{'episodes':>24}{'window mean / opt':>26}{'never terminal':>22}")
+    """The per-cell table: median learning time with its interval, the share censored, the seeds'
+    own medians, the window mean against the optimum and the share of runs that never reached the
+    terminal state."""
+    print(f"{'spec':<15}{'from':>6} {'gamma':>5} {'learner':<11}{'reward':<9}{'median learning time':>26}"
+          f"{'censored':>9}  {'per-seed medians':<34}{'window mean / opt':>26}{'never terminal':>22}")
     for r in rows:
-        iterations = interval_text(r["yardstick_iterations"], r["yardstick_iterations_low"],
-                                   r["yardstick_iterations_high"])
-        episodes = interval_text(r["yardstick_episodes"], r["yardstick_episodes_low"], r["yardstick_episodes_high"], 1)
+        time_text = interval_text(r["learning_time"], r["learning_time_low"], r["learning_time_high"])
         mean = interval_text(r["success_window_mean"], r["success_window_mean_low"], r["success_window_mean_high"], 3)
         never = interval_text(r["never_terminal_share"], r["never_terminal_share_low"],
                               r["never_terminal_share_high"], 2)
         against = f"{mean} / {r['optimal_success']:.3f}"
         print(f"{r['spec']:<15}{r['reachable_from_start']:>6} {r['gamma']:>5g} {r['learner']:<11}{r['reward']:<9}"
-              f"{iterations:>28}{episodes:>24}{against:>26}{never:>22}")
+              f"{time_text:>26}{r['censored_share']:>9.2f}  {r['seed_medians'].replace(';', ' '):<34}{against:>26}"
+              f"{never:>22}")
 
 
-def ordering_report(rows: list[dict], infos: list[SpecInfo], learner: str, rewards, gamma: float) -> dict:
-    """Per spec, whether ``learner``'s iterations to the yardstick at ``gamma`` follow
-    :data:`PAPER_ORDER` (a censored cell counts as slower than any reached one).
+def ordering_report(replicates: dict, infos: list[SpecInfo], learner: str, rewards, gamma: float) -> dict:
+    """Per spec, :func:`.statistics.order_verdict` of ``learner``'s median learning times at ``gamma``
+    against :data:`PAPER_ORDER` (``replicates``: ``{(spec, gamma, learner, reward): (B,) medians}``).
 
-    Returns ``{spec name: True / False / None}`` (None: a pattern missing).
+    Returns ``{spec name: "holds" / "fails" / "tie" / None}`` (None: a pattern missing).
     """
     verdicts = {}
     for info in infos:
-        values = {r["reward"]: _yardstick_or_inf(r) for r in rows
-                  if r["spec"] == info.name and r["learner"] == learner and r["gamma"] == gamma}
-        verdicts[info.name] = order_holds(values) if set(PAPER_ORDER) <= set(rewards) else None
+        chosen = {reward: replicates[(info.name, gamma, learner, reward)] for reward in rewards
+                  if (info.name, gamma, learner, reward) in replicates}
+        verdicts[info.name] = order_verdict(chosen) if set(PAPER_ORDER) <= set(rewards) else None
     return verdicts
 
 
-def _yardstick_or_inf(row: dict) -> float:
-    return math.inf if row["censored"] else row["yardstick_iterations"]
-
-
 def observed_order(rows: list[dict], spec: str, learner: str, gamma: float) -> str:
-    """``learner``'s reward patterns on ``spec`` at ``gamma`` sorted by iterations to the yardstick,
-    e.g. ``"r2 < r4 < r3 (censored: r1)"``."""
-    values = {r["reward"]: r["yardstick_iterations"] for r in rows
+    """``learner``'s reward patterns on ``spec`` at ``gamma`` sorted by median learning time, e.g.
+    ``"r2 (230) < r4 (310) < r1 (806) (censored: r3)"``; equal medians are joined by ``=``."""
+    values = {r["reward"]: r["learning_time"] for r in rows
               if r["spec"] == spec and r["learner"] == learner and r["gamma"] == gamma}
     reached = sorted((v, name) for name, v in values.items() if math.isfinite(v))
     missing = sorted(name for name, v in values.items() if not math.isfinite(v))
-    text = " < ".join(name for _, name in reached)
+    text = ""
+    for k, (value, name) in enumerate(reached):
+        if k:
+            text += " = " if value == reached[k - 1][0] else " < "
+        text += f"{name} ({value:g})"
     return text + (f" (censored: {', '.join(missing)})" if missing else "")
 
 
 def ordering_answer(verdicts: dict) -> str:
-    """One paragraph: whether r4 < r2 < r1 < r3 holds as the task grows."""
+    """One paragraph: whether r4 < r2 < r1 < r3 holds as the task grows, and how many comparisons
+    it took (three consecutive pairs per spec, each decided by its 95 % bootstrap interval)."""
     order = " < ".join(PAPER_ORDER)
-    shown = ", ".join(f"{name}: {'holds' if v else 'undetermined' if v is None else 'fails'}"
-                      for name, v in verdicts.items())
-    held = [name for name, v in verdicts.items() if v]
+    shown = ", ".join(f"{name}: {v or 'undetermined'}" for name, v in verdicts.items())
     decided = [v for v in verdicts.values() if v is not None]
+    counts = {kind: sum(v == kind for v in decided) for kind in ("holds", "tie", "fails")}
+    comparisons = (len(PAPER_ORDER) - 1) * len(decided)
     if not decided:
         verdict = "cannot be decided (a pattern is missing)"
-    elif all(decided):
-        verdict = "holds for every spec"
-    elif not held:
-        verdict = "holds for no spec"
     else:
-        verdict = f"holds only for {', '.join(held)}"
-    return f"Does {order} hold as the task grows? It {verdict}.\n  per spec: {shown}"
+        verdict = (f"holds on {counts['holds']}, is a tie (some pair's interval includes equal times) on "
+                   f"{counts['tie']} and fails on {counts['fails']} of {len(decided)} specs")
+    return (f"Does {order} hold as the task grows? It {verdict} ({comparisons} pairwise comparisons, each at 95 %, "
+            f"not corrected for multiplicity).\n  per spec: {shown}")

@@ -1,159 +1,205 @@
-"""The scaling study's statistics: the fixed yardstick, its bootstrap, the censored growth fit, the order.
+"""Per-run learning time and its statistics: Kaplan-Meier summaries, the seeds-then-runs bootstrap,
+local slopes, the censored growth fit and the reward-pattern order.
 
-**The yardstick** (fixed per spec, not per result): the iterations until the mean success curve
-reaches, and stays at or above until the window's end, ``YARDSTICK_FRACTION`` (90 %) of the
-*optimal policy's exact* epsilon-greedy success on that spec (``SpecInfo.optimal_success``).
-The curve is read in blocks (:func:`block_edges`): a block's value is the mean success over its
-iterations and runs, and the figure is the end of the first block from which every block to the
-window's end is at or above the level.  A cell whose last block is below it is **censored**:
-it did not get there within its window (its iterations exceed the window).
+**The response** is each run's learning time, ``TrainingResult.learned_at``
+([train][tableclean_suite.learners.train]): the iteration (environment steps, 1-based) from which
+the run's greedy policy follows a shortest plan to the terminal state from every start state and
+keeps doing so after every later update through the budget T; 0 when it did from the start; -1
+when it does not at the end (the run is **censored at T**).  :func:`censored_times` turns those
+codes into times with censored runs at +infinity.
 
-**Intervals** are the code base's one bootstrap (:mod:`tableclean_suite.bench.statistics`):
-multinomial resamples of the runs (:func:`~tableclean_suite.bench.statistics.uniform_multinomial`),
-each figure recomputed from the resampled sums by the same function as the point (the point is
-the all-ones resample), :func:`~tableclean_suite.bench.statistics.percentile_interval` with the
-point, so every interval holds its point.  A resample that never reaches the level counts as
-+infinity (the interval's top is then infinite: "beyond the window").
+**Kaplan-Meier** (:func:`learning_time_summary`): ``scipy.stats.ecdf`` of the right-censored
+times; the median is the first time the survival curve is at or below 1/2 (censored, reported as
+``inf``, when more than half the runs never learned), its interval the times where the curve's
+pointwise log-log Greenwood interval contains 1/2 (Brookmeyer-Crowley); the restricted mean
+(RMST) is the area under the survival curve up to T.  Every run shares the budget T, so all
+censoring happens after the last event: the Kaplan-Meier curve equals the empirical distribution
+below T and its median is the sample's lower median with censored runs at +infinity; the
+bootstrap uses that identity to stay vectorised.
 
-**Growth exponents** (:func:`fit_censored_power_law`): log(iterations) = a + k log(states) + e,
-fitted by maximum likelihood with e normal of variance sigma^2 + s_i^2, where s_i is the point's
-own standard error on the log scale (from its bootstrap interval: (log high - log low) / (2 z));
-a censored cell contributes P(log iterations > log window) (a Tobit / right-censored likelihood),
-so censored cells pull the fit up instead of being dropped.  The 95 % interval of k is the profile
-likelihood interval (likelihood ratio against chi^2(1)), found with ``scipy.optimize.brentq``.
+**Seeds then runs** (:func:`seeds_then_runs`): a cell is trained with S seeds of R runs each;
+a resample draws S seeds with replacement and then R runs with replacement within each drawn seed,
+and takes the pooled median.  The percentile interval of those resamples carries the between-seed
+variance as well as the within-seed one.
+
+**Local slopes** (:func:`local_slopes`): d log(time) / d log(states) between consecutive sizes of a
+family, with the percentile interval of the same resamples (cells are trained independently, so
+their resamples are paired at random); NaN where either median is censored.
+
+**Growth exponents** (:func:`fit_censored_power_law`): log(time) = a + k log(states) + e, fitted by
+maximum likelihood with e normal of variance sigma^2 + s_i^2 (s_i each point's standard error on
+the log scale, from its interval); a censored cell contributes P(log time > log budget), a Tobit
+(right-censored) term.  The 95 % interval of k is the profile-likelihood interval.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
-from tableclean_suite.bench.statistics import (DEFAULT_CONFIDENCE, percentile_interval, uniform_multinomial,
-                                               weighted_group_sums)
-
-#: The yardstick's level: this fraction of the optimal policy's exact success.
-YARDSTICK_FRACTION = 0.9
-#: Bootstrap resamples of the runs per cell.
-DEFAULT_RESAMPLES = 1000
 #: Level of every interval, in (0, 1).
-CONFIDENCE = DEFAULT_CONFIDENCE
+CONFIDENCE = 0.95
+#: Bootstrap resamples (seeds then runs) per cell.
+DEFAULT_RESAMPLES = 1000
 #: The ordering the paper reports for Q-learning's iterations to maximum success (fewest first).
 PAPER_ORDER = ("r4", "r2", "r1", "r3")
-#: Evenly spaced block edges over the window (2 % of the window each late in training: at the
-#: paper's 12 000 iterations a block holds ~20 episodes per run, so a block mean over 100 runs has a
-#: standard error near 0.01 and "held to the end" is not undone by one noisy block) ...
-LINEAR_BLOCKS = 50
-#: ... joined with this many geometrically spaced edges (fine blocks early, where curves rise).
-GEOMETRIC_BLOCKS = 300
 #: Smallest residual standard deviation the fit allows (log units), so a perfect fit stays finite.
 MIN_LOG_SIGMA = math.log(1e-3)
 #: Fewest reached points for a fitted exponent (and an interval: one more).
 MIN_FIT_POINTS = 2
+#: An exponent is reported only when at most this share of a fit's cells is censored.
+MAX_CENSORED_SHARE_FOR_FIT = 0.5
 
 
-def block_edges(window: int, linear: int = LINEAR_BLOCKS, geometric: int = GEOMETRIC_BLOCKS) -> np.ndarray:
-    """``(G,)`` int64 0-based *last* iterations of the blocks, increasing, ending at ``window - 1``.
-
-    Block g covers iterations ``edges[g - 1] + 1 .. edges[g]`` (block 0 starts at 0): the union of
-    ``linear`` evenly spaced and ``geometric`` geometrically spaced cut points (G <= their sum).
-    """
-    even = np.ceil(np.arange(1, linear + 1) * window / linear)
-    spread = np.ceil(np.geomspace(1, window, geometric))
-    return np.unique(np.clip(np.r_[even, spread], 1, window).astype(np.int64) - 1)
+def censored_times(learned_at) -> np.ndarray:
+    """``(...)`` float64 learning times from ``learned_at`` codes: the code itself where >= 0, +inf
+    where -1 (not learned by the end of the budget)."""
+    codes = np.asarray(learned_at)
+    return np.where(codes < 0, np.inf, codes).astype(np.float64)
 
 
-def block_widths(edges: np.ndarray) -> np.ndarray:
-    """``(G,)`` iterations in each block of :func:`block_edges`."""
-    return np.diff(np.r_[-1, edges]).astype(np.float64)
+def learning_time_summary(learned_at, budget: int, confidence: float = CONFIDENCE) -> dict:
+    """Kaplan-Meier summary of per-run learning times censored at ``budget``.
 
-
-def resample_counts(runs: int, resamples: int, seed: int) -> np.ndarray:
-    """``(B, R)`` int64: how often each run is drawn in each resample (the bench bootstrap's draws)."""
-    return uniform_multinomial(np.random.default_rng(seed), runs, runs, resamples)
-
-
-def held_to_end(curves: np.ndarray, levels) -> np.ndarray:
-    """Per row of ``(B, G)`` block curves: the first block index from which every block to the end
-    is at or above the row's level; -1 where the last block is below it (censored)."""
-    curves = np.atleast_2d(np.asarray(curves, dtype=float))
-    levels = np.broadcast_to(np.asarray(levels, dtype=float), curves.shape[:1])
-    with np.errstate(invalid="ignore"):
-        above = curves >= levels[:, None]
-    suffix = np.flip(np.logical_and.accumulate(np.flip(above, axis=1), axis=1), axis=1)  # above from g to the end
-    first = np.argmax(suffix, axis=1)
-    return np.where(suffix[:, -1], first, -1)
-
-
-def cell_figures(weights: np.ndarray, block_success: np.ndarray, widths: np.ndarray, edges: np.ndarray,
-                 episodes: np.ndarray, tail_success: np.ndarray, never_terminal: np.ndarray, level: float) -> dict:
-    """The cell's figures for each row of run ``weights`` (``(B, R)``; all ones = the point).
+    This is the one place the survival estimate is computed (``scipy.stats.ecdf`` of
+    ``scipy.stats.CensoredData``); the scaling study's, the tuner's and the interventions' figures
+    all come from it.
 
     Args:
-        block_success: ``(R, G)`` successful iterations of each run in each block.
-        widths, edges: the blocks (:func:`block_widths`, :func:`block_edges`).
-        episodes: ``(R, G)`` episodes each run finished by each block's end.
-        tail_success: ``(R,)`` each run's success averaged over the window's last quarter.
-        never_terminal: ``(R,)`` 1.0 for a run that never reached the terminal state.
-        level: the yardstick's success level, in [0, 1].
+        learned_at: ``(R,)`` ints, ``TrainingResult.learned_at`` (iterations; -1 = censored).
+        budget: T, the iterations every run trained (>= 1).
+        confidence: level of the median's interval.
 
     Returns:
-        ``{"yardstick_iterations", "yardstick_episodes", "success_window_mean",
-        "never_terminal_share": (B,)}``: iterations (end of the first block held to the end; +inf
-        when censored), mean episodes by then (NaN when censored), the window mean of the
-        success curve and the share of runs that never reached the terminal state.
+        ``{"median", "low", "high", "censored_share", "rmst", "runs"}``: the median learning time
+        (iterations; ``inf`` when more than half the runs are censored), its interval (``high``
+        ``inf`` when the interval reaches past the budget), the share of censored runs in [0, 1]
+        and the restricted mean time up to ``budget`` (iterations).
     """
-    weights = np.asarray(weights, dtype=np.float64)
-    runs = weights.sum(axis=1)
-    curves = weighted_group_sums(weights, block_success) / (runs[:, None] * widths[None, :])
-    first = held_to_end(curves, level)
-    reached = first >= 0
-    index = np.maximum(first, 0)
-    episodes_at = weighted_group_sums(weights, episodes)[np.arange(len(weights)), index] / runs
-    return {
-        "yardstick_iterations": np.where(reached, edges[index] + 1.0, np.inf),
-        "yardstick_episodes": np.where(reached, episodes_at, np.nan),
-        "success_window_mean": weighted_group_sums(weights, tail_success) / runs,
-        "never_terminal_share": weighted_group_sums(weights, never_terminal) / runs,
-    }
+    from scipy import stats
+
+    codes = np.asarray(learned_at).ravel()
+    if codes.size == 0:
+        raise ValueError("learning_time_summary needs at least one run")
+    censored = codes < 0
+    data = stats.CensoredData(uncensored=codes[~censored].astype(float),
+                              right=np.full(int(censored.sum()), float(budget)))
+    result = {"runs": int(codes.size), "censored_share": float(censored.mean())}
+    if censored.all():
+        return {**result, "median": math.inf, "low": math.inf, "high": math.inf, "rmst": float(budget)}
+    survival = stats.ecdf(data).sf
+    times, probabilities = survival.quantiles, survival.probabilities
+    with warnings.catch_warnings():  # the log-log band is undefined where the curve is 0 or 1: the point there
+        warnings.simplefilter("ignore", RuntimeWarning)
+        band = survival.confidence_interval(confidence, method="log-log")
+    lower = np.where(np.isnan(band.low.probabilities), probabilities, band.low.probabilities)
+    upper = np.where(np.isnan(band.high.probabilities), probabilities, band.high.probabilities)
+    events = times <= budget
+
+    def first_at_or_below(values) -> float:
+        hit = events & (values <= 0.5)
+        return float(times[np.argmax(hit)]) if hit.any() else math.inf
+
+    steps = np.diff(np.r_[0.0, times[events], float(budget)])
+    rmst = float(np.sum(steps * np.r_[1.0, probabilities[events]]))
+    return {**result, "median": first_at_or_below(probabilities), "low": first_at_or_below(lower),
+            "high": first_at_or_below(upper), "rmst": rmst}
 
 
-def bootstrap_cell(counts: np.ndarray, confidence: float = CONFIDENCE, **arrays) -> dict:
-    """Point estimates and intervals of :func:`cell_figures` (``arrays`` are its keyword arguments).
+def lower_median(times: np.ndarray, axis: int = -1) -> np.ndarray:
+    """The lower median along ``axis`` (+inf entries sort last): the Kaplan-Meier median of times
+    censored only at a common budget (module docstring)."""
+    return np.quantile(times, 0.5, axis=axis, method="inverted_cdf")
+
+
+def seeds_then_runs(seeds: int, runs: int, resamples: int, rng: np.random.Generator):
+    """Index arrays of ``resamples`` seeds-then-runs resamples of an ``(S, R)`` array: ``(B, S, 1)``
+    seeds drawn with replacement and ``(B, S, R)`` runs drawn with replacement within each drawn
+    seed; :func:`pooled_resamples` applies them."""
+    chosen = rng.integers(0, seeds, size=(resamples, seeds))
+    return chosen[:, :, None], rng.integers(0, runs, size=(resamples, seeds, runs))
+
+
+def pooled_resamples(values: np.ndarray, index) -> np.ndarray:
+    """``(B, S * R)``: ``values`` (``(S, R)``) resampled by :func:`seeds_then_runs`' ``index``, seeds pooled."""
+    resampled = np.asarray(values)[index]
+    return resampled.reshape(resampled.shape[0], -1)
+
+
+def percentile_bounds(replicates, confidence: float = CONFIDENCE) -> tuple[float, float]:
+    """The percentile interval of ``replicates`` (+inf allowed; NaN ignored), as ``(low, high)``."""
+    values = np.asarray(replicates, dtype=np.float64)
+    values = values[~np.isnan(values)]
+    if values.size == 0:
+        return math.nan, math.nan
+    low, high = np.quantile(values, [(1 - confidence) / 2, (1 + confidence) / 2], method="inverted_cdf")
+    return float(low), float(high)
+
+
+def local_slopes(sizes, medians, replicates, confidence: float = CONFIDENCE) -> list[dict]:
+    """Slopes of log(median time) against log(size) between consecutive sizes.
+
+    Args:
+        sizes: ``(K,)`` increasing sizes (> 0), e.g. states reachable from the start.
+        medians: ``(K,)`` median times (+inf = censored).
+        replicates: ``(K, B)`` bootstrap medians of each cell (resamples of :func:`seeds_then_runs`).
 
     Returns:
-        ``{figure: (point, low, high)}``; a censored point has NaN bounds (nothing to bound), and a
-        reached point whose resamples sometimes do not reach has an infinite top.
+        ``K - 1`` dicts ``{"from", "to", "slope", "low", "high"}``; NaN slope where either median is
+        censored, an infinite end where the resamples of either cell are censored.
     """
-    runs = counts.shape[1]
-    point = cell_figures(np.ones((1, runs)), **arrays)
-    replicates = cell_figures(counts, **arrays)
-    result = {}
-    for name, values in replicates.items():
-        value = float(point[name][0])
-        if math.isfinite(value):
-            low, high = _interval_with_censoring(np.where(np.isnan(values), np.inf, values), value, confidence)
-        else:
-            low = high = math.nan
-        result[name] = (value, low, high)
-    return result
+    log_x = np.log(np.asarray(sizes, dtype=np.float64))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_m = np.log(np.maximum(np.asarray(medians, dtype=np.float64), 1.0))
+        log_r = np.log(np.maximum(np.asarray(replicates, dtype=np.float64), 1.0))
+    slopes = []
+    for k in range(len(log_x) - 1):
+        run = log_x[k + 1] - log_x[k]
+        with np.errstate(invalid="ignore"):  # inf - inf: both censored
+            slope = float((log_m[k + 1] - log_m[k]) / run) if run > 0 else math.nan
+        if not math.isfinite(slope):
+            slopes.append({"from": sizes[k], "to": sizes[k + 1], "slope": math.nan, "low": math.nan,
+                           "high": math.nan})
+            continue
+        with np.errstate(invalid="ignore"):
+            draws = (log_r[k + 1] - log_r[k]) / run  # inf - inf -> NaN, dropped; x - inf -> -inf
+        low, high = percentile_bounds(draws, confidence)
+        slopes.append({"from": sizes[k], "to": sizes[k + 1], "slope": float(slope), "low": low, "high": high})
+    return slopes
 
 
-def _interval_with_censoring(values: np.ndarray, point: float, confidence: float) -> tuple[float, float]:
-    """:func:`percentile_interval` of replicates some of which are +inf (censored): they count as
-    larger than every finite one, and an end that falls among them is +inf."""
-    finite = values[np.isfinite(values)]
-    if len(finite) == len(values):
-        return percentile_interval(values, confidence, point)
-    largest = max(float(finite.max()) if len(finite) else point, point)
-    stand_in = 2.0 * abs(largest) + 1.0
-    low, high = percentile_interval(np.where(np.isfinite(values), values, stand_in), confidence, point)
-    return (low if low <= largest else math.inf), (high if high <= largest else math.inf)
+def order_verdict(replicates: dict, order=PAPER_ORDER, confidence: float = CONFIDENCE) -> str | None:
+    """Whether median times follow ``order`` (fewest first), judged pair by consecutive pair.
+
+    Args:
+        replicates: ``{reward: (B,) bootstrap medians}`` of independently trained cells.
+
+    Returns:
+        ``"holds"`` when every consecutive pair's log ratio has an interval below 0 (a censored
+        median counts as larger than any finite one), ``"fails"`` when some pair's interval lies
+        above 0, ``"tie"`` otherwise (some pair undecided, none reversed); None if a pattern is
+        missing.  Each call makes ``len(order) - 1`` comparisons.
+    """
+    if any(name not in replicates for name in order):
+        return None
+    decided = []
+    for first, second in zip(order, order[1:]):
+        a, b = np.asarray(replicates[first], dtype=float), np.asarray(replicates[second], dtype=float)
+        faster = np.where(np.isinf(a) & np.isinf(b), 0.0, np.sign(b - a))  # +1: first strictly faster
+        share = float(np.mean(faster > 0))
+        slower = float(np.mean(faster < 0))
+        tail = (1 - confidence) / 2
+        decided.append("yes" if share >= 1 - tail else "no" if slower >= 1 - tail else "tie")
+    if "no" in decided:
+        return "fails"
+    return "holds" if all(d == "yes" for d in decided) else "tie"
 
 
 def log_standard_error(value: float, low: float, high: float, confidence: float = CONFIDENCE) -> float:
     """A point's standard error on the log scale from its interval: (log high - log low) / (2 z);
-    one-sided from the point when the top is infinite; 0 when the interval is a point."""
+    one-sided from the point when the top is infinite; NaN without a finite positive point and low."""
     from scipy import stats
 
     z = stats.norm.ppf((1 + confidence) / 2)
@@ -205,7 +251,7 @@ def fit_censored_power_law(x, y, censored, se, confidence: float = CONFIDENCE) -
 
     Args:
         x: sizes (> 0), e.g. reachable states.
-        y: iterations (> 0); for a censored point, the censoring bound (the window).
+        y: times (> 0); for a censored point, the censoring bound (the budget).
         censored: bool per point, True where the true value exceeds ``y``.
         se: each reached point's standard error of log y (:func:`log_standard_error`; NaN = 0).
         confidence: level of the exponent's profile-likelihood interval.
@@ -214,7 +260,8 @@ def fit_censored_power_law(x, y, censored, se, confidence: float = CONFIDENCE) -
         ``{"exponent", "low", "high", "points", "censored", "sigma"}``: the fitted k, its interval
         (NaN when it cannot be bracketed, or with fewer than 3 points), the points used (reached
         and censored), how many were censored and the fitted residual standard deviation (log
-        units).  Exponent NaN with fewer than :data:`MIN_FIT_POINTS` reached points.
+        units).  Exponent NaN with fewer than :data:`MIN_FIT_POINTS` reached points or when more
+        than :data:`MAX_CENSORED_SHARE_FOR_FIT` of the points are censored.
     """
     from scipy import optimize, stats
 
@@ -225,7 +272,8 @@ def fit_censored_power_law(x, y, censored, se, confidence: float = CONFIDENCE) -
     result = {"exponent": math.nan, "low": math.nan, "high": math.nan, "points": int(len(x)),
               "censored": int(censored.sum()), "sigma": math.nan}
     reached = ~censored
-    if reached.sum() < MIN_FIT_POINTS or np.ptp(np.log(x)) == 0:
+    if (reached.sum() < MIN_FIT_POINTS or np.ptp(np.log(x)) == 0
+            or censored.sum() > MAX_CENSORED_SHARE_FOR_FIT * len(x)):
         return result
     log_x, log_y = np.log(x), np.log(y)
     best, params = _best_fit(log_x, log_y, se, censored)
@@ -250,12 +298,3 @@ def fit_censored_power_law(x, y, censored, se, confidence: float = CONFIDENCE) -
         bounds.append(found)
     result.update(low=bounds[0], high=bounds[1])
     return result
-
-
-def order_holds(values: dict, order=PAPER_ORDER) -> bool | None:
-    """Whether ``values[order[0]] < values[order[1]] < ...``; None if one is missing or NaN
-    (an infinite value, a censored cell, sorts last)."""
-    chosen = [values.get(name, math.nan) for name in order]
-    if any(v is None or (isinstance(v, float) and math.isnan(v)) for v in chosen):
-        return None
-    return all(a < b for a, b in zip(chosen, chosen[1:]))

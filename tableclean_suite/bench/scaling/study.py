@@ -1,12 +1,11 @@
-"""Training one cell of the scaling study in run chunks, reduced as it goes.
+"""Training one cell of the scaling study over several seeds, in run chunks, reduced as it goes.
 
-A cell is one spec x gamma x learner x reward pattern, trained ``runs`` times for the spec's
-window.  The full ``(R, T)`` records of a large spec do not fit in memory at once, so runs are
-trained in chunks of at most ``CHUNK_BYTES`` of records; each chunk is reduced to per-run block
-sums (:func:`~tableclean_suite.bench.scaling.statistics.block_edges`: successful iterations and
-episodes finished per block, the success over the window's last quarter, whether the run ever
-reached the terminal state) and dropped.  :func:`cell_row` turns a trained cell into its
-``scaling.csv`` row with the figures of :mod:`.statistics`.
+A cell is one spec x gamma x learner x reward pattern, trained with S seeds of R runs each for the
+spec's window.  The full ``(R, T)`` records of a large spec do not fit in memory at once, so runs
+are trained in chunks of at most ``CHUNK_BYTES`` of records; each chunk keeps each run's learning
+time (``TrainingResult.learned_at``), its success over the window's last quarter and whether it
+ever reached the terminal state, and is dropped.  :func:`cell_row` turns a trained cell into its
+``scaling.csv`` row and the bootstrap medians its intervals and slopes come from.
 """
 
 from __future__ import annotations
@@ -19,8 +18,8 @@ import numba
 import numpy as np
 
 from tableclean_suite.bench.scaling.family import ALPHA, EPSILON, SpecInfo
-from tableclean_suite.bench.scaling.statistics import (YARDSTICK_FRACTION, block_edges, block_widths,
-                                                       bootstrap_cell)
+from tableclean_suite.bench.scaling.statistics import (censored_times, learning_time_summary, lower_median,
+                                                       percentile_bounds, pooled_resamples, seeds_then_runs)
 from tableclean_suite.metrics import DEFAULT_PLATEAU_FRACTION
 
 #: Records of one training chunk stay below this many bytes (runs per chunk follow from it).
@@ -31,18 +30,15 @@ _Q_BYTES = 8  # float64 Q-table entry
 
 
 @numba.njit(cache=True)
-def _block_sums(outcomes, episode_end, edges, tail_start, improper_code, terminal_outcome, terminal_code,
-                success_out, episodes_out, tail_out, never_out):
-    """Per run: successful iterations in each block (an iteration counts when the run's latest
-    finished episode succeeded) ``success_out (R, G)``, episodes finished by each block's end
-    ``episodes_out (R, G)``, successful iterations from ``tail_start`` on ``tail_out (R,)`` and
-    1.0 in ``never_out (R,)`` when the run never had a terminal outcome."""
+def _window_sums(outcomes, episode_end, tail_start, improper_code, terminal_outcome, terminal_code, tail_out,
+                 never_out):
+    """Per run of ``(R, T)`` records: successful iterations from ``tail_start`` on ``tail_out (R,)``
+    (an iteration counts when the run's latest finished episode succeeded) and 1.0 in
+    ``never_out (R,)`` when the run never had a terminal outcome."""
     n_runs, n_iterations = outcomes.shape
     for r in range(n_runs):
         improper = 0
-        finished = 0
         latest = 0
-        g = 0
         tail = 0
         reached = False
         for t in range(n_iterations):
@@ -51,15 +47,10 @@ def _block_sums(outcomes, episode_end, edges, tail_start, improper_code, termina
             if outcomes[r, t] == terminal_outcome:
                 reached = True
             if episode_end[r, t] != 0:
-                finished += 1
                 latest = 1 if (episode_end[r, t] == terminal_code and improper == 0) else 0
                 improper = 0
             if t >= tail_start:
                 tail += latest
-            success_out[r, g] += latest
-            if t == edges[g]:
-                episodes_out[r, g] = finished
-                g += 1
         tail_out[r] = tail
         never_out[r] = 0.0 if reached else 1.0
 
@@ -71,21 +62,19 @@ def plateau_start(window: int, plateau_fraction: float = DEFAULT_PLATEAU_FRACTIO
 
 @dataclass
 class CellRecords:
-    """What one trained cell keeps.
+    """What one trained cell keeps, per seed (rows) and run (columns).
 
     Attributes:
-        edges: ``(G,)`` 0-based last iteration of each block.
-        block_success: ``(R, G)`` int32 successful iterations of each run in each block.
-        episodes: ``(R, G)`` int32 episodes each run finished by each block's end.
-        tail_success: ``(R,)`` each run's success over the window's last quarter (the window mean).
-        never_terminal: ``(R,)`` 1.0 for a run that never reached the terminal state.
-        updates: learner updates performed (runs x window).
+        seeds: ``(S,)`` the training seeds.
+        learned_at: ``(S, R)`` int64 learning times (iterations; -1 = censored at the window).
+        tail_success: ``(S, R)`` each run's success over the window's last quarter (the window mean).
+        never_terminal: ``(S, R)`` 1.0 for a run that never reached the terminal state.
+        updates: learner updates performed (seeds x runs x window).
         seconds: wall time of training and reduction.
     """
 
-    edges: np.ndarray
-    block_success: np.ndarray
-    episodes: np.ndarray
+    seeds: tuple
+    learned_at: np.ndarray
     tail_success: np.ndarray
     never_terminal: np.ndarray
     updates: int
@@ -93,7 +82,8 @@ class CellRecords:
 
     @property
     def runs(self) -> int:
-        return self.block_success.shape[0]
+        """Runs per seed."""
+        return self.learned_at.shape[1]
 
 
 def runs_per_chunk(window: int, n_states: int, n_actions: int, itemsize: int, runs: int) -> int:
@@ -102,54 +92,66 @@ def runs_per_chunk(window: int, n_states: int, n_actions: int, itemsize: int, ru
     return max(1, min(runs, CHUNK_BYTES // per_run))
 
 
-def train_cell(model, info: SpecInfo, learner: str, reward: str, runs: int, seed: int, gamma: float) -> CellRecords:
-    """Train ``runs`` runs of one cell (discount ``gamma``) in chunks, keeping only the block sums."""
+def train_cell(model, info: SpecInfo, learner: str, reward: str, runs: int, seeds, gamma: float) -> CellRecords:
+    """Train ``runs`` runs for each of ``seeds`` (discount ``gamma``) in chunks, keeping per-run figures."""
     from tableclean_suite.learners import train
     from tableclean_suite.learners.kernel import EPISODE_TERMINAL
     from tableclean_suite.task import Outcome
 
     started = time.perf_counter()
-    edges = block_edges(info.window)
-    success = np.zeros((runs, len(edges)), dtype=np.int32)
-    episodes = np.zeros((runs, len(edges)), dtype=np.int32)
-    tail = np.zeros(runs, dtype=np.int64)
-    never = np.zeros(runs, dtype=np.float64)
+    seeds = tuple(int(s) for s in seeds)
+    learned = np.zeros((len(seeds), runs), dtype=np.int64)
+    tail = np.zeros((len(seeds), runs), dtype=np.int64)
+    never = np.zeros((len(seeds), runs), dtype=np.float64)
     tail_start = plateau_start(info.window)
     chunk = runs_per_chunk(info.window, model.n_states, model.n_actions, np.dtype(model.record_dtype).itemsize, runs)
-    for first in range(0, runs, chunk):
-        count = min(chunk, runs - first)
-        result = train(learner=learner, reward=reward, runs=count, iterations=info.window, alpha=ALPHA,
-                       gamma=gamma, epsilon=EPSILON, max_itr=info.max_itr, seed=seed, task=model, first_run=first)
-        part = slice(first, first + count)
-        _block_sums(result.outcomes, result.episode_end, edges, tail_start, int(Outcome.IMPROPER),
-                    int(Outcome.TERMINAL), EPISODE_TERMINAL, success[part], episodes[part], tail[part], never[part])
-        del result
-    return CellRecords(edges, success, episodes, tail / (info.window - tail_start), never, runs * info.window,
+    for row, seed in enumerate(seeds):
+        for first in range(0, runs, chunk):
+            count = min(chunk, runs - first)
+            result = train(learner=learner, reward=reward, runs=count, iterations=info.window, alpha=ALPHA,
+                           gamma=gamma, epsilon=EPSILON, max_itr=info.max_itr, seed=seed, task=model,
+                           first_run=first)
+            part = slice(first, first + count)
+            learned[row, part] = result.learned_at
+            _window_sums(result.outcomes, result.episode_end, tail_start, int(Outcome.IMPROPER),
+                         int(Outcome.TERMINAL), EPISODE_TERMINAL, tail[row, part], never[row, part])
+            del result
+    return CellRecords(seeds, learned, tail / (info.window - tail_start), never, len(seeds) * runs * info.window,
                        time.perf_counter() - started)
 
 
-#: ``scaling.csv`` figures with ``_low``/``_high`` interval columns (see :func:`.statistics.cell_figures`).
-INTERVAL_FIGURES = ("yardstick_iterations", "yardstick_episodes", "success_window_mean", "never_terminal_share")
+def cell_row(info: SpecInfo, learner: str, reward: str, gamma: float, records: CellRecords, resamples: int,
+             rng: np.random.Generator) -> tuple[dict, np.ndarray]:
+    """One ``scaling.csv`` row and the cell's ``(resamples,)`` bootstrap medians.
 
-
-def cell_row(info: SpecInfo, learner: str, reward: str, gamma: float, records: CellRecords,
-             counts: np.ndarray) -> dict:
-    """One ``scaling.csv`` row: the cell's figures with their intervals, the yardstick's level and
-    whether the cell was censored (did not hold the level to the window's end)."""
-    level = YARDSTICK_FRACTION * info.optimal_success
-    figures = bootstrap_cell(counts, block_success=records.block_success, widths=block_widths(records.edges),
-                             edges=records.edges, episodes=records.episodes, tail_success=records.tail_success,
-                             never_terminal=records.never_terminal, level=level)
+    The point figures pool every seed's runs (the median by
+    :func:`~tableclean_suite.bench.scaling.statistics.learning_time_summary`); every interval is
+    the percentile interval of seeds-then-runs resamples (:func:`~tableclean_suite.bench.scaling.statistics.seeds_then_runs`), one set of
+    draws per cell shared by its figures.  ``seed_medians`` lists each seed's own median.
+    """
+    times = censored_times(records.learned_at)
+    n_seeds, runs = times.shape
+    index = seeds_then_runs(n_seeds, runs, resamples, rng)
+    medians = lower_median(pooled_resamples(times, index))
+    summary = learning_time_summary(records.learned_at, info.window)
     row = {"family": info.family, "spec": info.name, "segments": info.segments, "objects": info.objects,
            "reachable": info.reachable, "reachable_from_start": info.reachable_from_start,
            "plan_length": info.plan_length, "gamma": gamma, "learner": learner, "reward": reward,
-           "runs": records.runs, "window": info.window, "max_itr": info.max_itr,
-           "optimal_success": info.optimal_success, "yardstick_level": level}
-    for name in INTERVAL_FIGURES:
-        value, low, high = figures[name]
-        row[name] = value if math.isfinite(value) else math.nan
-        row[name + "_low"], row[name + "_high"] = low, high
-    row["censored"] = not math.isfinite(figures["yardstick_iterations"][0])
+           "seeds": n_seeds, "runs": runs, "window": info.window, "max_itr": info.max_itr,
+           "optimal_success": info.optimal_success}
+    low, high = percentile_bounds(medians)
+    row.update(learning_time=summary["median"], learning_time_low=low, learning_time_high=high,
+               censored_share=summary["censored_share"], learning_time_rmst=summary["rmst"],
+               seed_medians=";".join(f"{m:g}" for m in lower_median(times)))
+    for name, values in (("success_window_mean", records.tail_success), ("never_terminal_share",
+                                                                         records.never_terminal)):
+        row[name] = float(values.mean())
+        row[name + "_low"], row[name + "_high"] = percentile_bounds(pooled_resamples(values, index).mean(axis=1))
+    row["censored"] = not math.isfinite(summary["median"])
     row["window_mean_over_optimum"] = row["success_window_mean"] / info.optimal_success
     row["seconds"] = records.seconds
-    return row
+    return row, medians
+
+
+#: ``scaling.csv`` figures with ``_low``/``_high`` interval columns.
+INTERVAL_FIGURES = ("learning_time", "success_window_mean", "never_terminal_share")
