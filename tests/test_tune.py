@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import optuna  # the dev extra installs it: the tune tests run wherever the README's set-up ran
 import pytest
 
@@ -30,15 +31,66 @@ def test_tune_writes_its_study_and_a_second_call_resumes_it(tmp_path):
     assert json.loads((out / "best.json").read_text())["trials"] == 3
 
 
-def test_objective_penalises_a_success_asymptote_below_the_paper_configuration():
+def test_objective_is_the_restricted_mean_learning_time_and_penalises_a_low_asymptote():
     iterations, reference = 1000, 0.87
-    fast_but_worse = {"max_success_iterations": 50, "success_asymptote": 0.80}
-    slower_and_good = {"max_success_iterations": 400, "success_asymptote": 0.865}
-    never = {"max_success_iterations": None, "success_asymptote": 0.9}
+    fast_but_worse = {"learning_time_rmst": 50.0, "success_asymptote": 0.80}
+    slower_and_good = {"learning_time_rmst": 400.0, "success_asymptote": 0.865}
+    never = {"learning_time_rmst": 1000.0, "success_asymptote": 0.9}
     assert tune.objective_value(slower_and_good, reference, iterations, 0.01) == 400
     assert tune.objective_value(fast_but_worse, reference, iterations, 0.01) == pytest.approx(1000 * 1.07)
     assert tune.objective_value(never, reference, iterations, 0.01) == iterations
     assert tune.objective_value(fast_but_worse, reference, iterations, 0.1) == 50  # within a loose tolerance
+
+
+def test_a_trials_objective_is_the_mean_of_its_runs_learning_times_censored_at_the_budget(tmp_path):
+    from tableclean_suite.learners import train
+
+    args = tune.parse_args([*TINY, "--ties", "first", "--out", str(tmp_path)])
+    evaluation = tune.Evaluation(args, args.model, dict(tune.PAPER_SETTINGS))
+    for _ in evaluation.stages():
+        pass
+    result = evaluation.result()
+    direct = train("q_learning", "r4", runs=8, iterations=300, seed=1, model=args.model, ties="first")
+    times = np.where(direct.learned_at < 0, 300, direct.learned_at)
+    assert result["learning_time_rmst"] == pytest.approx(times.mean())
+    assert result["censored_share"] == pytest.approx(np.mean(direct.learned_at < 0))
+    assert tune.objective_value(result, None, 300, 0.0) == pytest.approx(times.mean())
+    randomly = tune.parse_args([*TINY, "--out", str(tmp_path)])
+    assert randomly.ties == "random"  # the default tie rule
+
+
+def test_the_ablation_crosses_alpha_gamma_with_the_exploration():
+    tuned = {"alpha": 0.9, "gamma": 0.8, "epsilon": 0.02, "exploration": "linear_decay", "epsilon_min": 0.01,
+             "decay_fraction": 0.5}
+    crossed = {(a, e): settings for a, e, settings in tune.ablation_settings(tuned)}
+    assert set(crossed) == {("paper", "paper"), ("paper", "tuned"), ("tuned", "paper"), ("tuned", "tuned")}
+    assert crossed["paper", "paper"] == tune.PAPER_SETTINGS
+    assert crossed["tuned", "tuned"] == tuned
+    assert crossed["paper", "tuned"] == {**tuned, "alpha": 0.3, "gamma": 0.3}
+    assert crossed["tuned", "paper"] == {**tune.PAPER_SETTINGS, "alpha": 0.9, "gamma": 0.8}
+
+
+def test_ablation_writes_four_rows_and_names_the_tie_rule(tmp_path, capsys):
+    import pandas as pd
+
+    out = tmp_path / "tune"
+    assert tune.main([*TINY, "--trials", "2", "--ablation", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    frame = pd.read_csv(out / "ablation.csv")
+    assert len(frame) == 4 and set(frame["ties"]) == {"random"}
+    assert "greedy ties: random" in printed and "ablation" in printed
+    best = json.loads((out / "best.json").read_text())
+    assert best["ties"] == "random"
+    tuned = frame[(frame["alpha_gamma"] == "tuned") & (frame["exploration_from"] == "tuned")].iloc[0]
+    assert tuned["learning_time_rmst"] == pytest.approx(best["best"]["objective"])  # same runs, same settings
+    paper = frame[(frame["alpha_gamma"] == "paper") & (frame["exploration_from"] == "paper")].iloc[0]
+    assert paper["learning_time_rmst"] == pytest.approx(best["paper"]["learning_time_rmst"])
+
+
+def test_ablation_without_a_completed_trial_is_one_line_exit_2(tmp_path, capsys):
+    code = tune.main([*TINY, "--trials", "0", "--ablation", "--out", str(tmp_path / "tune")])
+    error = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(error) == 1 and "--ablation" in error[0], error
 
 
 def test_decay_schedules_report_their_final_epsilon():
@@ -55,7 +107,7 @@ def test_bad_arguments_exit_2():
 
 
 @pytest.mark.parametrize("change", [["--reward", "r2"], ["--seed", "2"], ["--tolerance", "0.2"],
-                                    ["--iterations", "250"]])
+                                    ["--iterations", "250"], ["--ties", "first"]])
 def test_a_study_name_is_bound_to_its_configuration(tmp_path, capsys, change):
     out = tmp_path / "tune"
     assert tune.main([*TINY, "--trials", "1", "--out", str(out), "--study-name", "shared"]) == 0
@@ -69,7 +121,8 @@ def test_a_study_name_is_bound_to_its_configuration(tmp_path, capsys, change):
     capsys.readouterr()
     assert tune.main([*changed, "--trials", "1", "--out", str(out), "--study-name", "shared"]) == 2
     error = capsys.readouterr().err.strip().splitlines()
-    key = {"--reward": "reward", "--seed": "seed", "--tolerance": "tolerance", "--iterations": "iterations"}[flag]
+    key = {"--reward": "reward", "--seed": "seed", "--tolerance": "tolerance", "--iterations": "iterations",
+           "--ties": "ties"}[flag]
     assert len(error) == 1 and "shared" in error[0] and f"{key}=" in error[0] and "--study-name" in error[0], error
     assert (out / "best.json").read_text() == best  # nothing ranked or rewritten
     study = optuna.load_study(study_name="shared", storage=f"sqlite:///{(out / 'study.db').as_posix()}")

@@ -7,14 +7,27 @@ Searches alpha, gamma, epsilon and the exploration schedule (``train(exploration
 constant epsilon-greedy, linear or exponential decay to a floor) of one learner on one reward
 pattern and task.
 
-**Objective** (minimised, iterations): iterations to maximum success, i.e. the first iteration at
-which the success curve reaches ``threshold`` (95 %) of the trial's exact success asymptote
-(:mod:`tableclean_suite.asymptotes`, the runs' final policies under the final epsilon), subject
-to that asymptote: a trial whose asymptote is more than ``--tolerance`` (absolute, default 0.01)
-below the paper configuration's (alpha = gamma = 0.3, constant epsilon = 0.1, same learner,
-reward, task, runs, iterations and seed; computed once per study and stored in it) scores
-``iterations x (1 + shortfall)``, worse than any trial that meets the constraint (a trial never
-reaching the level scores ``iterations`` too, before the penalty).
+**Objective** (minimised, iterations): the runs' restricted mean learning time, the area under the
+Kaplan-Meier curve of each run's learning time (``TrainingResult.learned_at``: the iteration from
+which the run's greedy policy follows a shortest plan from every start state to the end of the
+budget) up to the budget, runs that never get there counting the whole budget
+(:func:`~tableclean_suite.bench.scaling.statistics.learning_time_summary`); the median with its
+interval and the censored share are reported beside it.  The greedy policy breaks ties between
+equal Q values at random by default (``--ties random``; ``--ties first`` takes the first action in
+the task's order), in training and in the learning-time check; the rule is named in the output
+and is part of the study's configuration.  The objective is subject to the success asymptote
+(:mod:`tableclean_suite.asymptotes`, the runs' final policies under the final epsilon): a trial
+whose asymptote is more than ``--tolerance`` (absolute, default 0.01) below the paper
+configuration's (alpha = gamma = 0.3, constant epsilon = 0.1, same learner, reward, task, runs,
+iterations, tie rule and seed; computed once per study and stored in it) scores
+``iterations x (1 + shortfall)``, worse than any trial that meets the constraint.  The paper's
+own reading, the first iteration at which the mean success curve reaches ``--threshold`` (95 %)
+of the asymptote, is reported for comparison (``max_success_iterations``), not optimised.
+
+**Ablation** (``--ablation``): after the trials, the best trial's (alpha, gamma) and its
+exploration (epsilon and schedule) are crossed with the paper's, 2 x 2, each trained on the same
+runs, and ``OUT/ablation.csv`` lists each combination's learning time: it shows which half of a
+tuned gain comes from which setting.
 
 **Pruning**: a trial trains its runs in :data:`STAGES` stages of runs; after each stage it reports
 the objective on the runs so far, and Optuna's :class:`~optuna.pruners.MedianPruner` stops it when
@@ -60,6 +73,12 @@ REFERENCE_ATTR = "paper_reference"
 CONFIGURATION_ATTR = "configuration"
 #: Exit status of a refused call (a bad --storage, a study of another configuration).
 EXIT_USAGE = 2
+#: Greedy tie rules of ``train(ties=...)``, the default first.
+TIE_RULES = ("random", "first")
+#: What the trials minimise (recorded in the study's configuration).
+OBJECTIVE = "learning_time_rmst"
+#: The ablation's two values of each factor.
+ABLATION_LEVELS = ("paper", "tuned")
 
 
 class StudyError(ValueError):
@@ -68,12 +87,14 @@ class StudyError(ValueError):
 
 def study_configuration(args) -> dict:
     """What a study's trials and its paper reference depend on: learner, reward, the task spec (as
-    JSON), runs, iterations, max_itr, seed, threshold, tolerance and the ``--plugins`` sources."""
+    JSON), runs, iterations, max_itr, seed, threshold, tolerance, the tie rule, the objective and the
+    ``--plugins`` sources."""
     from tableclean_suite.bench.plugins import plugin_sources_digest
 
     return {"learner": args.learner, "reward": args.reward, "task": args.model.spec.to_dict(), "runs": args.runs,
             "iterations": args.iterations, "max_itr": args.max_itr, "seed": args.seed, "threshold": args.threshold,
-            "tolerance": args.tolerance, "plugins_digest": plugin_sources_digest(getattr(args, "plugins", ()))}
+            "tolerance": args.tolerance, "ties": args.ties, "objective": OBJECTIVE,
+            "plugins_digest": plugin_sources_digest(getattr(args, "plugins", ()))}
 
 
 def bind_configuration(study, args) -> None:
@@ -183,13 +204,14 @@ class Evaluation:
 
     def __init__(self, args, model, settings: dict):
         from tableclean_suite import asymptotes
-        from tableclean_suite.metrics import GroupedCurveSums
+        from tableclean_suite.curves import CurveSums
 
         self.args, self.model, self.settings = args, model, settings
         self.exploration, self.final_epsilon = exploration_of(settings, args.iterations)
         self.chain = asymptotes.EpisodeChain.build(model, args.reward)
-        self.sums = GroupedCurveSums.zeros(args.iterations, 1)
+        self.sums = CurveSums.zeros(args.iterations)
         self.success: list[np.ndarray] = []
+        self.learned_at: list[np.ndarray] = []
 
     def stages(self):
         """Train the runs in :data:`STAGES` stages; yields after each stage."""
@@ -203,26 +225,35 @@ class Evaluation:
             result = train(self.args.learner, self.args.reward, runs=int(hi - lo), first_run=int(lo),
                            iterations=self.args.iterations, alpha=self.settings["alpha"],
                            gamma=self.settings["gamma"], epsilon=self.settings["epsilon"], max_itr=self.args.max_itr,
-                           seed=self.args.seed, model=self.model, exploration=self.exploration)
+                           seed=self.args.seed, model=self.model, exploration=self.exploration,
+                           ties=self.args.ties)
             self.sums.add(result)
+            self.learned_at.append(np.asarray(result.learned_at))
             final = asymptotes.greedy_asymptotes(result.q, self.final_epsilon, self.chain, self.args.max_itr)
             self.success.append(np.asarray(final.success))
             yield step
 
     def result(self) -> dict:
-        """``{"max_success_iterations", "success_asymptote"}`` of the runs trained so far."""
+        """The runs trained so far: ``learning_time_rmst``, ``learning_time`` (Kaplan-Meier median,
+        ``inf`` when censored) with ``learning_time_low``/``_high``, ``censored_share`` (all in
+        iterations but the share), ``success_asymptote`` and the paper's ``max_success_iterations``."""
         from tableclean_suite import metrics
+        from tableclean_suite.bench.scaling.statistics import learning_time_summary
 
         asymptote = float(np.concatenate(self.success).mean())
-        curve = self.sums.totals().curves()["success"]
+        curve = self.sums.curves()["success"]
         reached = metrics.iterations_to_max_success(curve, self.args.threshold, top=asymptote)
-        return {"max_success_iterations": reached, "success_asymptote": asymptote}
+        summary = learning_time_summary(np.concatenate(self.learned_at), self.args.iterations)
+        return {"learning_time_rmst": summary["rmst"], "learning_time": summary["median"],
+                "learning_time_low": summary["low"], "learning_time_high": summary["high"],
+                "censored_share": summary["censored_share"], "success_asymptote": asymptote,
+                "max_success_iterations": reached}
 
 
 def objective_value(result: dict, reference: float | None, iterations: int, tolerance: float) -> float:
-    """The minimised score: iterations to maximum success (``iterations`` if never), times
-    ``1 + shortfall`` when the success asymptote falls short of ``reference - tolerance``."""
-    value = float(result["max_success_iterations"] or iterations)
+    """The minimised score: the restricted mean learning time (iterations), or ``iterations x
+    (1 + shortfall)`` when the success asymptote falls short of ``reference - tolerance``."""
+    value = float(result["learning_time_rmst"])
     if reference is not None and result["success_asymptote"] < reference - tolerance:
         value = iterations * (1.0 + (reference - result["success_asymptote"]))
     return value
@@ -236,7 +267,7 @@ def _reference(study, args, model) -> dict:
     evaluation = Evaluation(args, model, dict(PAPER_SETTINGS))
     for _ in evaluation.stages():
         pass
-    reference = evaluation.result()
+    reference = {key: _finite_or_none(value) for key, value in evaluation.result().items()}
     study.set_user_attr(REFERENCE_ATTR, reference)
     return reference
 
@@ -265,6 +296,12 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE,
                         help="allowed shortfall of the success asymptote below the paper configuration's "
                              f"(absolute fraction, default: {DEFAULT_TOLERANCE})")
+    parser.add_argument("--ties", choices=TIE_RULES, default=TIE_RULES[0],
+                        help="how the greedy policy breaks ties between equal Q values: at random among them or "
+                             f"the first in the task's order (default: {TIE_RULES[0]})")
+    parser.add_argument("--ablation", action="store_true",
+                        help="after the trials, cross the best trial's (alpha, gamma) and exploration with the "
+                             "paper's (2 x 2) and write OUT/ablation.csv")
     cli.add_seed_argument(parser, "the training runs and of the sampler")
     cli.add_out_argument(parser, cli.DIRECTORY, DEFAULT_OUT, "output directory")
     parser.add_argument("--storage", default=None,
@@ -318,10 +355,11 @@ def best_report(study, args) -> dict:
     return {
         "study": args.study_name, "storage": args.storage, "learner": args.learner, "reward": args.reward,
         "task": args.task, "runs": args.runs, "iterations": args.iterations, "seed": args.seed,
-        "threshold": args.threshold, "tolerance": args.tolerance, "trials": len(study.trials),
+        "threshold": args.threshold, "tolerance": args.tolerance, "ties": args.ties, "trials": len(study.trials),
         "completed": len(completed), "pruned": sum(t.state.name == "PRUNED" for t in study.trials),
-        "objective": "iterations to maximum success; x (1 + shortfall) when the success asymptote is more than "
-                     "tolerance below the paper configuration's",
+        "objective": "restricted mean per-run learning time up to the budget (iterations); iterations x "
+                     "(1 + shortfall) when the success asymptote is more than tolerance below the paper "
+                     "configuration's",
         "paper": {"settings": PAPER_SETTINGS, **(reference or {}),
                   "objective": None if reference is None else objective_value(reference, None, args.iterations, 0.0)},
         "best": None if best is None else {"trial": best.number, "objective": best.value, "settings": best.params,
@@ -359,7 +397,7 @@ def run(args) -> int:
                 raise optuna.TrialPruned()
         result = evaluation.result()
         for key, value in result.items():
-            trial.set_user_attr(key, value)
+            trial.set_user_attr(key, _finite_or_none(value))
         trial.set_user_attr("final_epsilon", evaluation.final_epsilon)
         return objective_value(result, reference["success_asymptote"], args.iterations, args.tolerance)
 
@@ -371,14 +409,76 @@ def run(args) -> int:
     paper, best = report["paper"], report["best"]
     print(f"study {args.study_name!r} in {args.storage}: {report['trials']} trials ({report['completed']} complete, "
           f"{report['pruned']} pruned), {time.perf_counter() - started:.1f} s this call")
-    print(f"paper (alpha = gamma = 0.3, epsilon = 0.1): {paper.get('max_success_iterations')} iterations to maximum "
-          f"success, success asymptote {100 * paper.get('success_asymptote', float('nan')):.2f} %")
+    print(f"objective: restricted mean per-run learning time up to {args.iterations} iterations ({args.runs} runs, "
+          f"greedy ties: {args.ties})")
+    print(f"paper (alpha = gamma = 0.3, epsilon = 0.1): {result_text(paper)}")
     if best is not None:
-        print(f"best trial {best['trial']}: objective {best['objective']:.0f}, "
-              f"{best.get('max_success_iterations')} iterations, success asymptote "
-              f"{100 * best.get('success_asymptote', float('nan')):.2f} %, settings {best['settings']}")
-    print(f"written: {out / 'best.json'}, {out / 'trials.csv'}")
+        print(f"best trial {best['trial']}: objective {best['objective']:.0f}, {result_text(best)}, "
+              f"settings {best['settings']}")
+    written = [out / "best.json", out / "trials.csv"]
+    if args.ablation:
+        if best is None:
+            print(f"{getattr(args, 'prog', PROG)}: error: --ablation needs a completed trial; the study has none",
+                  file=sys.stderr)
+            return EXIT_USAGE
+        rows = ablation(args, best["settings"])
+        import pandas as pd
+
+        frame = pd.DataFrame(rows)
+        atomic_write(out / "ablation.csv", lambda path: frame.to_csv(path, index=False))
+        print(f"ablation ({args.learner}, {args.reward}, {args.runs} runs x {args.iterations} iterations, seed "
+              f"{args.seed}, greedy ties: {args.ties}):")
+        for row in rows:
+            print(f"  alpha, gamma {row['alpha_gamma']:<6} x exploration {row['exploration_from']:<6}: "
+                  f"{result_text(row)}")
+        written.append(out / "ablation.csv")
+    print(f"written: {', '.join(str(path) for path in written)}")
     return 0
+
+
+def _finite_or_none(value):
+    """``value``, or None for an infinite or NaN float (strict JSON in the study and best.json)."""
+    return None if isinstance(value, float) and not np.isfinite(value) else value
+
+
+def result_text(result: dict) -> str:
+    """One line: median learning time [interval], censored share, restricted mean, success asymptote
+    and the paper's first-touch reading of an :meth:`Evaluation.result` (or a stored copy)."""
+    def number(key):
+        value = result.get(key)
+        return "censored" if value is None or not np.isfinite(value) else f"{value:.0f}"
+
+    return (f"median learning time {number('learning_time')} [{number('learning_time_low')}, "
+            f"{number('learning_time_high')}] iterations, {100 * result.get('censored_share', float('nan')):.1f} % "
+            f"censored, restricted mean {number('learning_time_rmst')}, success asymptote "
+            f"{100 * result.get('success_asymptote', float('nan')):.2f} %, paper's first touch "
+            f"{result.get('max_success_iterations')}")
+
+
+def ablation_settings(tuned: dict) -> list[tuple[str, str, dict]]:
+    """The 2 x 2 crossing of (alpha, gamma) with the exploration (epsilon, schedule and its
+    parameters): ``[(alpha_gamma level, exploration level, settings)]``, levels ``paper``/``tuned``."""
+    crossed = []
+    for values_from in ABLATION_LEVELS:
+        for exploration_from in ABLATION_LEVELS:
+            source = {"paper": PAPER_SETTINGS, "tuned": tuned}
+            settings = {key: value for key, value in source[exploration_from].items() if key not in ("alpha", "gamma")}
+            settings.update(alpha=source[values_from]["alpha"], gamma=source[values_from]["gamma"])
+            crossed.append((values_from, exploration_from, settings))
+    return crossed
+
+
+def ablation(args, tuned: dict) -> list[dict]:
+    """Train every combination of :func:`ablation_settings` on the study's runs; one row each."""
+    rows = []
+    for values_from, exploration_from, settings in ablation_settings(tuned):
+        evaluation = Evaluation(args, args.model, settings)
+        for _ in evaluation.stages():
+            pass
+        result = {key: _finite_or_none(value) for key, value in evaluation.result().items()}
+        rows.append({"alpha_gamma": values_from, "exploration_from": exploration_from, "ties": args.ties,
+                     **{f"setting_{key}": value for key, value in settings.items()}, **result})
+    return rows
 
 
 def open_study(args):

@@ -1,0 +1,310 @@
+"""``tableclean-bench interventions``: change one factor of a cell and measure what it does.
+
+    tableclean-bench interventions                              # every intervention, 200 runs per arm
+    tableclean-bench interventions --only q_init,routine_reward --runs 100 --out results/interventions
+
+Every explanation on the findings page ("r3 is slow *because* ...") predicts what happens when the
+factor it names is changed.  Each :class:`Intervention` trains a *before* cell (the setting the
+explanation is about) and an *after* cell that differs in that one factor (initial Q values, the
+routine reward, the looping rule's memory, epsilon, ``max_itr``, the budget, gamma), on the same
+runs (same ``--seed``), and reports for both:
+
+- the per-run **learning time** (``TrainingResult.learned_at``: the iteration from which the run's
+  greedy policy follows a shortest plan from every start state to the end of the budget):
+  Kaplan-Meier median with its 95 % interval and the **share censored** (not learned by the end
+  of the budget) with its Clopper-Pearson interval
+  (:func:`~tableclean_suite.bench.scaling.statistics.learning_time_summary`);
+- the **success plateau**: the exact success probability of each run's final epsilon-greedy
+  behaviour (:func:`tableclean_suite.asymptotes.greedy_asymptotes`), averaged over runs, with a
+  bootstrap interval over runs ([interval_estimates][tableclean_suite.intervals.interval_estimates]);
+- the share of runs that **never reached the terminal state**.
+
+and a verdict on the figure the explanation predicts to move: ``as predicted`` when the after
+cell's interval lies wholly on the predicted side of the before cell's, ``opposite`` when wholly on
+the other side, ``no clear change`` otherwise.  A refuted prediction is a result, not an error.
+
+Writes ``OUT/interventions.csv`` (one row per arm) atomically; deterministic for a given ``--seed``.
+``--scale`` multiplies every budget (for a quick look; the findings page uses 1).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+#: The program name in messages unless the caller gives one.
+PROG = "tableclean-bench interventions"
+#: Default output folder.
+DEFAULT_OUT = "results/interventions"
+#: Runs per arm.
+DEFAULT_RUNS = 200
+#: Level of every interval.
+CONFIDENCE = 0.95
+#: Bootstrap resamples of the plateau's interval.
+PLATEAU_RESAMPLES = 2000
+#: The paper's settings every cell starts from (alpha, gamma, epsilon, max_itr; the paper task).
+BASE = {"learner": "q_learning", "alpha": 0.3, "gamma": 0.3, "epsilon": 0.1, "max_itr": 500, "iterations": 4000,
+        "task": "paper", "q_init": None}
+#: Figures a prediction can name, and the text they print as.
+FIGURES = {"learning_time": "median learning time", "censored_share": "censored share",
+           "success_plateau": "success plateau", "never_terminal_share": "never-terminal share"}
+
+
+def _pattern(base: str, name: str, **changes):
+    """Reward pattern ``base`` with ``changes`` (a new, unregistered pattern called ``name``)."""
+    from tableclean_suite.rewards import get_reward_pattern
+
+    return dataclasses.replace(get_reward_pattern(base), name=name, **changes)
+
+
+@dataclass(frozen=True)
+class Intervention:
+    """One causal check.
+
+    Attributes:
+        name: the ``--only`` key.
+        claim: the explanation it tests, as the findings page states it.
+        factor: the one factor that differs between the arms.
+        before: ``train()`` settings of the cell the claim is about (on top of :data:`BASE`).
+        after: the settings that change in the other arm.
+        figure: the figure the claim predicts to move (a key of :data:`FIGURES`).
+        direction: -1 if the claim predicts it falls, +1 if it rises.
+    """
+
+    name: str
+    claim: str
+    factor: str
+    before: dict
+    after: dict
+    figure: str
+    direction: int
+
+    def settings(self, arm: str, scale: float = 1.0) -> dict:
+        """The full ``train()`` settings of ``arm`` (``"before"``/``"after"``), budget x ``scale``."""
+        chosen = {**BASE, **self.before, **(self.after if arm == "after" else {})}
+        chosen["iterations"] = max(1, round(chosen["iterations"] * scale))
+        return chosen
+
+
+def interventions() -> dict[str, Intervention]:
+    """Every intervention, by name, in the order the findings page cites them."""
+    r3_zero_routine = _pattern("r3", "r3_routine_0", routine=0.0)
+    r4_any_cycle = _pattern("r4", "r4_memory_0", looping_memory=0)
+    listed = [
+        Intervention("q_init", "r3's runs that never find the terminal state keep a routine loop because Q starts "
+                     "at 0 and the loop's +0.01 per step beats every untried action",
+                     "initial Q values (optimistic: an untried action beats the loop)",
+                     {"reward": "r3", "gamma": 0.9}, {"q_init": 1.0}, "censored_share", -1),
+        Intervention("routine_reward", "the routine reward (+0.01 per move, pick or place) is what makes r3's "
+                     "loop worth keeping", "r3's routine reward",
+                     {"reward": "r3", "gamma": 0.9}, {"reward": r3_zero_routine}, "censored_share", -1),
+        Intervention("gamma_r3", "r3's loop is worth 0.01 / (1 - gamma), so a longer horizon makes r3 worse, "
+                     "not better", "gamma", {"reward": "r3", "gamma": 0.3}, {"gamma": 0.9},
+                     "censored_share", +1),
+        Intervention("max_itr", "r3's trap is a loop kept within long episodes: shorter episodes restart the "
+                     "run from the start state more often", "episode length limit (max_itr)",
+                     {"reward": "r3", "gamma": 0.9}, {"max_itr": 50}, "censored_share", -1),
+        Intervention("budget_r3", "r3's failure shrinks only slowly with the budget",
+                     "budget length", {"reward": "r3", "gamma": 0.3}, {"iterations": 36000},
+                     "censored_share", -1),
+        Intervention("loop_memory", "with 3 or more segments the paper's looping rule misses MOVE going round the "
+                     "ring of segments, so r4 earns the routine reward for cycling",
+                     "the looping rule's memory (2 states, the paper's, or the whole episode)",
+                     {"reward": "r4", "gamma": 0.9, "task": "scale_n3_m1", "iterations": 32000, "max_itr": 688},
+                     {"reward": r4_any_cycle}, "censored_share", -1),
+        Intervention("epsilon", "the success plateau is the optimal plan's exploration cost: a converged run "
+                     "scores what its random actions allow", "epsilon", {"reward": "r4"},
+                     {"epsilon": 0.01}, "success_plateau", +1),
+        Intervention("gamma_sarsa", "SARSA fails at gamma 0.3 because its on-policy fixed point there steers away "
+                     "from the object, not because it learns slowly", "gamma",
+                     {"learner": "sarsa", "reward": "r1"}, {"gamma": 0.5}, "censored_share", -1),
+        Intervention("budget_sarsa", "SARSA at gamma 0.9 is slower, not wrong: given a longer budget its runs "
+                     "learn the optimal plan", "budget length",
+                     {"learner": "sarsa", "reward": "r1", "gamma": 0.9}, {"iterations": 36000}, "censored_share",
+                     -1),
+    ]
+    return {item.name: item for item in listed}
+
+
+def name_list(text: str) -> tuple[str, ...]:
+    """``"q_init,epsilon"`` -> the named interventions (argparse type; an unknown name is an error)."""
+    known = interventions()
+    chosen = tuple(dict.fromkeys(part.strip() for part in text.split(",") if part.strip()))
+    bad = [name for name in chosen if name not in known]
+    if bad or not chosen:
+        raise argparse.ArgumentTypeError(f"unknown intervention {', '.join(bad) or text!r}; allowed: "
+                                         f"{', '.join(known)} (comma separated)")
+    return chosen
+
+
+def _scale(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value <= 1.0:
+        raise argparse.ArgumentTypeError(f"expected a budget scale in (0, 1], got {text!r}")
+    return value
+
+
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The command line."""
+    from tableclean_suite.bench import cli
+
+    parser = cli.command_parser(prog, __doc__.splitlines()[0].split(": ", 1)[1])
+    parser.add_argument("--only", type=name_list, default=tuple(interventions()),
+                        help=f"comma-separated interventions to run; allowed: {', '.join(interventions())} "
+                             "(default: all)")
+    cli.add_runs_argument(parser, DEFAULT_RUNS, "runs per arm")
+    parser.add_argument("--scale", type=_scale, default=1.0,
+                        help="multiply every arm's budget (iterations) by this, in (0, 1] (default: 1)")
+    cli.add_seed_argument(parser, "the training runs and the plateau's bootstrap")
+    cli.add_out_argument(parser, cli.DIRECTORY, DEFAULT_OUT, "output folder")
+    return parser
+
+
+def _setting_text(value) -> str:
+    return value.name if hasattr(value, "name") and not isinstance(value, (int, float, str)) else str(value)
+
+
+def measure_arm(settings: dict, runs: int, seed: int) -> dict:
+    """Train one arm and return its figures (learning time, censored share, plateau, never terminal)."""
+    from tableclean_suite import asymptotes
+    from tableclean_suite.bench.scaling.statistics import learning_time_summary
+    from tableclean_suite.intervals import clopper_pearson, interval_estimates
+    from tableclean_suite.learners import train
+    from tableclean_suite.task import Outcome, TaskModel
+
+    started = time.perf_counter()
+    model = TaskModel(spec=_spec(settings["task"]))
+    result = train(settings["learner"], settings["reward"], runs=runs, iterations=settings["iterations"],
+                   alpha=settings["alpha"], gamma=settings["gamma"], epsilon=settings["epsilon"],
+                   max_itr=settings["max_itr"], seed=seed, task=model, q_init=settings["q_init"])
+    summary = learning_time_summary(result.learned_at, settings["iterations"])
+    censored = int(np.sum(np.asarray(result.learned_at) < 0))
+    chain = asymptotes.EpisodeChain.build(model, settings["reward"])
+    plateau = np.asarray(asymptotes.greedy_asymptotes(result.q, settings["epsilon"], chain,
+                                                      settings["max_itr"]).success, dtype=float)
+    points, bounds = interval_estimates({"plateau": plateau}, np.mean, CONFIDENCE, PLATEAU_RESAMPLES,
+                                        rng=np.random.default_rng(seed))
+    never = int(np.sum(~(np.asarray(result.outcomes) == int(Outcome.TERMINAL)).any(axis=1)))
+    return {
+        "learning_time": summary["median"], "learning_time_low": summary["low"],
+        "learning_time_high": summary["high"], "learning_time_rmst": summary["rmst"],
+        "censored_share": censored / runs, **_bounds("censored_share", clopper_pearson(censored, runs, CONFIDENCE)),
+        "success_plateau": points["plateau"], **_bounds("success_plateau", bounds["plateau"]),
+        "never_terminal_share": never / runs,
+        **_bounds("never_terminal_share", clopper_pearson(never, runs, CONFIDENCE)),
+        "seconds": time.perf_counter() - started,
+    }
+
+
+def _spec(name: str):
+    """``"paper"`` or a scaling-family spec by name (``scale_n{N}_m{M}``)."""
+    from tableclean_suite.bench.scaling.family import family_spec
+    from tableclean_suite.task import get_task_spec
+
+    if name == "paper":
+        return get_task_spec(name)
+    segments, objects = (int(part[1:]) for part in name.split("_")[1:3])
+    return family_spec(segments, objects)
+
+
+def _bounds(name: str, interval) -> dict:
+    return {f"{name}_low": float(interval[0]), f"{name}_high": float(interval[1])}
+
+
+def verdict(item: Intervention, before: dict, after: dict) -> str:
+    """``"as predicted"``, ``"opposite"`` or ``"no clear change"`` (module docstring)."""
+    name = item.figure
+    low_b, high_b = before[f"{name}_low"], before[f"{name}_high"]
+    low_a, high_a = after[f"{name}_low"], after[f"{name}_high"]
+    if name == "learning_time":  # a censored median: the interval reaches past the budget
+        high_b, high_a = (math.inf if not math.isfinite(h) else h for h in (high_b, high_a))
+    if high_a < low_b:
+        return "as predicted" if item.direction < 0 else "opposite"
+    if low_a > high_b:
+        return "as predicted" if item.direction > 0 else "opposite"
+    return "no clear change"
+
+
+def _time_text(arm: dict, budget: int) -> str:
+    """``"median [low, high]"``; an infinite figure (past the budget) reads ``>budget``."""
+    def number(value):
+        return f">{budget}" if not math.isfinite(value) else f"{value:.0f}"
+
+    return (f"{number(arm['learning_time'])} [{number(arm['learning_time_low'])}, "
+            f"{number(arm['learning_time_high'])}]")
+
+
+def changed_text(before: dict, after: dict) -> str:
+    """The settings that differ between two arms, e.g. ``"gamma 0.3 -> 0.9"``."""
+    return ", ".join(f"{key} {_setting_text(before[key])} -> {_setting_text(after[key])}" for key in before
+                     if _setting_text(before[key]) != _setting_text(after[key]))
+
+
+def _share_text(arm: dict, name: str, percent: bool = True) -> str:
+    scale = 100 if percent else 1
+    return f"{scale * arm[name]:.1f} [{scale * arm[name + '_low']:.1f}, {scale * arm[name + '_high']:.1f}]"
+
+
+def run(args) -> int:
+    """Run the chosen interventions, print before/after and write ``interventions.csv``; returns 0."""
+    import pandas as pd
+
+    from tableclean_suite.bench.outputs import atomic_write, output_lock
+
+    known = interventions()
+    started = time.perf_counter()
+    rows = []
+    with output_lock(args.out) as out:
+        print(f"Interventions: {len(args.only)}, {args.runs} runs per arm, seed {args.seed}, budget scale "
+              f"{args.scale:g}. Learning time: Kaplan-Meier median [95 % interval] in iterations; shares in % "
+              "[95 % Clopper-Pearson]; success plateau in % [95 % bootstrap].")
+        for name in args.only:
+            item = known[name]
+            arms = {}
+            for arm in ("before", "after"):
+                settings = item.settings(arm, args.scale)
+                arms[arm] = measure_arm(settings, args.runs, args.seed)
+                rows.append({"intervention": name, "arm": arm, "factor": item.factor, "claim": item.claim,
+                             "predicted": f"{FIGURES[item.figure]} {'falls' if item.direction < 0 else 'rises'}",
+                             **{key: _setting_text(value) for key, value in settings.items()}, "runs": args.runs,
+                             "seed": args.seed, **arms[arm]})
+            outcome = verdict(item, arms["before"], arms["after"])
+            for row in rows[-2:]:
+                row["verdict"] = outcome
+            before, after = item.settings("before", args.scale), item.settings("after", args.scale)
+            print(f"\n{name}: {item.claim}.")
+            print(f"  cell: {before['learner']}, {_setting_text(before['reward'])}, task {before['task']}, gamma "
+                  f"{before['gamma']:g}, epsilon {before['epsilon']:g}, max_itr {before['max_itr']}, "
+                  f"{before['iterations']} iterations; changed: {item.factor} ({changed_text(before, after)})")
+            for arm, settings in (("before", before), ("after", after)):
+                figures = arms[arm]
+                print(f"  {arm:<6}: learning time {_time_text(figures, settings['iterations'])}, censored "
+                      f"{_share_text(figures, 'censored_share')}, plateau {_share_text(figures, 'success_plateau')},"
+                      f" never terminal {_share_text(figures, 'never_terminal_share')}")
+            print(f"  predicted: {FIGURES[item.figure]} {'falls' if item.direction < 0 else 'rises'} -> {outcome}")
+        frame = pd.DataFrame(rows)
+        atomic_write(Path(out) / "interventions.csv", lambda path: frame.to_csv(path, index=False))
+    print(f"\nWrote {Path(args.out) / 'interventions.csv'} in {time.perf_counter() - started:.1f} s wall.")
+    return 0
+
+
+def main(argv=None, prog: str | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    from tableclean_suite.bench.cli import parse_command
+
+    _, args = parse_command(build_parser, argv, prog or PROG)
+    return run(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main(prog="python -m tableclean_suite.bench.interventions"))
