@@ -61,6 +61,8 @@ COMMANDS: dict[str, Command] = {
     "scaling": Command("tableclean_suite.bench.scaling.command",
                        "scaling study: N segments x M objects, learners x rewards, growth exponents"),
     "tune": Command("tableclean_suite.bench.tune", "search a learner's hyperparameters with Optuna"),
+    "interventions": Command("tableclean_suite.bench.interventions",
+                             "change one factor of a cell: the causal checks behind the findings"),
     "window-invariance": Command("tableclean_suite.bench.window_invariance",
                                  "do Table 3's iteration figures move with the training window?"),
     "fidelity": Command("tableclean_suite.bench.fidelity",
