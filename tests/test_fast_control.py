@@ -1,12 +1,12 @@
-"""The fast control path (issue 9, item 1) against robosuite's ``env.step`` path.
+"""The fast control path against robosuite's ``env.step`` path.
 
 - torques: from simulation states recorded on robosuite's path (every substep of a MOVE and a
   CLEAN), :meth:`FastSkillStepper.arm_torques` equals the torques robosuite's OSC computed;
 - trajectories: the optimal plan from each start layout ends in the same symbolic states on
   both paths, with grip-site positions per control step within :data:`TRAJECTORY_TOLERANCE`;
 - the native loop (MuJoCo's C API from numba) and the Python loop give the same states;
-- the compiled phase loop (fixed-waypoint phases in one compiled call) and the per-step path give
-  bit-identical episodes: control steps per phase, states, logged per-step states, clock;
+- the compiled control loop (fixed-waypoint and wipe phases in one compiled call) and the per-step path
+  give bit-identical episodes: control steps per phase, states, logged per-step states, clock;
 - switching from the fast path back to ``env.step`` continues as robosuite would;
 - envs whose controllers the fast path does not reproduce are refused;
 - robosuite / MuJoCo versions outside the adapter's checked set refuse the stepper (naming them),
@@ -40,9 +40,9 @@ from tableclean_suite import robosuite_adapter
 from tableclean_suite.task import START_LAYOUTS, TaskModel, start_layout
 
 MODEL = TaskModel()
-#: Largest |torque difference| allowed, relative to the largest |torque| of the state (issue 9: 1e-9).
+#: Largest |torque difference| allowed, relative to the largest |torque| of the state.
 TORQUE_RTOL = 1e-9
-#: Largest grip-site distance (m) between the two paths at any control step (issue 9: 1 mm).
+#: Largest grip-site distance (m) between the two paths at any control step.
 TRAJECTORY_TOLERANCE = 1e-3
 #: Control steps of the short fixed-command runs below (enough to open, close and move the gripper).
 SHORT_RUN_STEPS = 24
@@ -394,3 +394,13 @@ def test_phase_loop_matches_the_per_step_path(layout, seed, handoff):
     for mine, theirs in zip(compiled["log"].states(), per_step["log"].states()):
         for field in LOG_FIELDS:
             np.testing.assert_array_equal(mine[field], theirs[field])
+
+
+def test_a_loop_record_needs_every_field_by_name():
+    from tableclean_suite.controllers.loop_state import SKILL_STATE, loop_record
+
+    fields = {name: 0 for name in SKILL_STATE.names}
+    record = loop_record(SKILL_STATE, **{**fields, "setpoint": [1.0, 2.0, 3.0], "steps": 7})
+    assert record.shape == (1,) and record["steps"][0] == 7 and list(record["setpoint"][0]) == [1.0, 2.0, 3.0]
+    with pytest.raises(ValueError, match=r"missing \['yaw'\], unknown \['yaw_rate'\]"):
+        loop_record(SKILL_STATE, **{k: v for k, v in fields.items() if k != "yaw"}, yaw_rate=1.0)

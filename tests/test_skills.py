@@ -1,4 +1,4 @@
-"""Tests of the skills and the SkillController (issue 4, sections 1 and 6).
+"""Tests of the skills and the SkillController.
 
 Unit tests (no physics) cover the registry, bad input, the pure geometry and the
 waypoint machinery on a kinematic fake env.  Physics tests (``slow``) run the skills on

@@ -22,9 +22,9 @@ from typing import Any, Mapping
 import numpy as np
 
 from tableclean_suite.controllers.configs import CleanConfig, WipeConfig
-from tableclean_suite.controllers.fast_control import MODE_PRESS, MODE_SHIFT, MODE_WIPE, P_DEPTH, P_FORCE, PI_LIFTED
 from tableclean_suite.controllers.geometry import box_lowest_z, quat_to_matrix, world_footprint, wrap_angle
 from tableclean_suite.controllers.geometry import clip_scalar
+from tableclean_suite.controllers.loop_state import MODE_PRESS, MODE_SHIFT, MODE_WIPE, WIPE_STATE, loop_record
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.primitives import SPONGE, Grasp, Primitive, PrimitiveSkill, Reach, Release, line_yaw
 from tableclean_suite.controllers.skill import SkillFailure, Waypoint
@@ -43,7 +43,7 @@ QUARTER_TURN = 0.5 * np.pi
 #: Fraction of the segment's area the sponge must sweep more at the turned yaw than at the grasp's for the
 #: wipe to turn (a clean may leave 10 % of the dirt; a smaller shrink of the grasp yaw's area costs no row).
 TURN_AREA_GAIN = 0.05
-#: The wipe's phases whose control steps the stepper's compiled press loop can run (:meth:`Wipe.run_loop`), by its mode.
+#: The wipe's phases whose control steps the stepper's compiled control loop can run (:meth:`Wipe.run_loop`), by its mode.
 LOOP_MODES = {"PRESS": MODE_PRESS, "WIPE": MODE_WIPE, "SHIFT": MODE_SHIFT}
 
 
@@ -180,7 +180,7 @@ class Wipe(Primitive):
         self.grasp_yaw = self.yaw = skill.yaw
         self.turned = False  # the strokes run at the grasp's yaw (True: a quarter turn from it, _choose_yaw)
         self.dt = skill.dt
-        # m, the wipe height's terms fixed for the execution (the compiled press loop's, see run_loop)
+        # m, the wipe height's terms fixed for the execution (the compiled control loop's, see run_loop)
         self._table_z, self._half_z = float(info["table_top_z"]), float(info["sponge_half_size"][2])
         self.strokes = self._choose_yaw(info)
         skill.yaw = self.yaw  # TO_SEGMENT turns the hand, sponge in hand, on its way (if it turns)
@@ -411,7 +411,7 @@ class Wipe(Primitive):
         return Waypoint(skill.hover_point(info, self.strokes[-1]), GRIPPER_CLOSE, tol)  # WIPE_LIFT
 
     def run_loop(self, skill, stepper, phase: str) -> int:
-        """Run a PRESS's, WIPE's or SHIFT's next control steps in the stepper's compiled press loop
+        """Run a PRESS's, WIPE's or SHIFT's next control steps in the stepper's compiled control loop
         (:meth:`~tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase`): this
         primitive's :meth:`update` and :meth:`waypoint` and the skill's step, the same operations on the
         same values, so the same commands; it stops before a step whose completion check might pass or
@@ -423,26 +423,24 @@ class Wipe(Primitive):
         config = self.config
         speed = {MODE_PRESS: config["descend_speed"], MODE_WIPE: config["wipe_speed"],
                  MODE_SHIFT: config["speed"]}[mode]
-        floats, ints = skill.loop_state(speed, GRIPPER_CLOSE, config["wipe_tolerance"], xy_only=True)
-        stroke_x, stroke_y = self.strokes[self.stroke_index].tolist()
-        lift_x, lift_y = (stroke_x, stroke_y) if self.lift_point is None else np.asarray(self.lift_point).tolist()
-        hold_x, hold_y, hold_z = self.hold_offset.tolist()
-        (low_x, low_y), (high_x, high_y) = self.hand_bounds.tolist()
-        wipe = np.array([  # fast_control's P_* order
-            stroke_x, stroke_y, hold_x, hold_y, hold_z, self._table_z, self._half_z, self.depth, self.force,
-            config["press_force"], config["press_force_gain"], config["gap_gain"], config["contact_slack"], self.dt,
-            config["min_press_depth"], config["max_press_depth"], config["setpoint_arrival"], config["touch_force"],
-            config["max_drift_correction"], low_x, low_y, high_x, high_y, lift_x, lift_y, -config["shift_clearance"]],
-            dtype=float)
-        wipe_ints = np.array([mode, self._stroke_axis(), config["stroke_max_steps"],  # fast_control's PI_* order
-                              config["press_max_steps"] + self.press_grace, self.lifted, config["lift_max_steps"]],
-                             dtype=np.int64)
-        ran, _ = stepper.run_press_phase(skill._setpoint, floats, ints, skill._last_fingers, np.zeros(3), wipe,
-                                         wipe_ints, skill.env.sponge_press_force)
+        state = skill.loop_state(speed, GRIPPER_CLOSE, config["wipe_tolerance"], np.zeros(3), xy_only=True)
+        stroke = self.strokes[self.stroke_index]
+        wipe = loop_record(
+            WIPE_STATE, stroke=stroke, hold=self.hold_offset, lift=stroke if self.lift_point is None else self.lift_point,
+            low=self.hand_bounds[0], high=self.hand_bounds[1], table_z=self._table_z, half_z=self._half_z,
+            depth=self.depth, force=self.force, press_force=config["press_force"],
+            force_gain=config["press_force_gain"], gap_gain=config["gap_gain"], contact_slack=config["contact_slack"],
+            dt=self.dt, min_depth=config["min_press_depth"], max_depth=config["max_press_depth"],
+            arrival=config["setpoint_arrival"], touch_force=config["touch_force"],
+            drift_bound=config["max_drift_correction"], shift_depth=-config["shift_clearance"], mode=mode,
+            axis=self._stroke_axis(), stroke_max_steps=config["stroke_max_steps"],
+            press_timeout=config["press_max_steps"] + self.press_grace, lift_max_steps=config["lift_max_steps"],
+            force_fn=0, lifted=self.lifted)  # force_fn: set by the stepper
+        ran, _ = stepper.run_press_phase(state, skill._last_fingers, wipe, skill.env.sponge_press_force)
         if ran:
-            self.depth, self.force = float(wipe[P_DEPTH]), float(wipe[P_FORCE])
-            self.lifted = bool(wipe_ints[PI_LIFTED])
-        skill.count_loop_steps(ran, floats)
+            self.depth, self.force = float(wipe["depth"][0]), float(wipe["force"][0])
+            self.lifted = bool(wipe["lifted"][0])
+        skill.count_loop_steps(ran, state)
         return ran
 
     def next(self, skill, info: Mapping[str, Any], phase: str) -> str | None:

@@ -30,24 +30,29 @@ control law:
 - once per control step at the end: the env's timestep and clock, the hidden dirt
   markers, and the controllers' goal and refresh state, so ``env.step`` can take over.
 
-A phase whose waypoint is fixed (``Waypoint.fixed``: the grasp's CLOSE, the release's
-RELEASE) goes further: after the skill's first Python step in it, :meth:`FastSkillStepper.run_phase`
-runs its control steps in one compiled call (:func:`phase_loop`): the skill's setpoint and
-command (:func:`~tableclean_suite.controllers.setpoint.advance_command`, the function the
-skill's own step uses), the gripper control (robosuite's rate-limited command tabulated
-ahead), the substeps as above, and a state log (:class:`ControlStepLog`).  It returns to Python
-only at the phase's boundary: before a step whose completion check might pass (the skill
-then decides exactly), at the step budget or the env's horizon, and for substeps the env's
-wiping check must see (then it resumes).  The results are bit-identical to the per-step path
-(``FastSkillStepper.phase_loop = False``).
+A phase the skill can hand over runs further: after the skill's first Python step in it,
+[control_loop][tableclean_suite.controllers.fast_control.control_loop] runs its control steps
+in one compiled call.  Per step: the skill's checks, its waypoint, its setpoint and command
+([advance_command][tableclean_suite.controllers.setpoint.advance_command], the function the
+skill's own step uses), the gripper control (robosuite's rate-limited command tabulated ahead),
+the substeps as above, and a state log ([ControlStepLog][tableclean_suite.controllers.fast_control.ControlStepLog]).
+The skill's state arrives as typed records
+([SKILL_STATE][tableclean_suite.controllers.loop_state.SKILL_STATE],
+[WIPE_STATE][tableclean_suite.controllers.loop_state.WIPE_STATE]).  Two kinds of phase run there:
 
-The clean skill's PRESS, WIPE and SHIFT phases, whose waypoint follows the measured press force and
-the sponge, run likewise in :func:`press_loop` (:meth:`FastSkillStepper.run_press_phase`, from
-``Wipe.run_loop``): the wipe's force loop, waypoint and the skill's checks in compiled code, the
-same operations on the same values; the press force is the env's own ``sponge_press_force()``,
-called back once per control step (:data:`FORCE_CALLBACK`, timed in ``callback_seconds``).  It
-returns to Python at the phase's boundary and where it cannot decide exactly (the sponge near
-``contact_slack`` above the table), so the skill takes those steps.
+- a phase whose waypoint is fixed (``Waypoint.fixed``: the grasp's CLOSE, the release's RELEASE;
+  [FastSkillStepper.run_phase][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase]);
+- the clean skill's PRESS, WIPE and SHIFT, whose waypoint follows the measured press force and
+  the sponge ([FastSkillStepper.run_press_phase][tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase],
+  from ``Wipe.run_loop``): the wipe's force loop and waypoint, the same operations on the same
+  values; the press force is the env's own ``sponge_press_force()``, called back once per control
+  step ([FORCE_CALLBACK][tableclean_suite.controllers.fast_control.FORCE_CALLBACK], timed in ``callback_seconds``).
+
+The loop returns to Python only at the phase's boundary: before a step whose completion check
+might pass (the skill then decides exactly), before a step it cannot take exactly (the sponge near
+``contact_slack`` above the table), at the step budget or the env's horizon, and for substeps the
+env's wiping check must see (then it resumes).  The results are bit-identical to the per-step path
+(``FastSkillStepper.phase_loop = False``).
 
 What the fast path does **not** do: it does not refresh robosuite's observables
 (``env._get_observations(force_update=True)`` does), the robot's proprioception
@@ -55,8 +60,8 @@ history buffers (``recent_qpos``, ``recent_ee_*``), nor compute the reward.  The
 skills read none of these: ``env.skill_info()`` and ``env.symbolic_state()`` read
 the simulation data directly.
 
-The kernels are compiled by numba on first use (~20-25 s, the phase loop included; the press loop adds
-a few seconds) and cached in ``__pycache__`` (later processes load them in ~0.2 s).
+The kernels are compiled by numba on first use (~20-25 s, the control loop included) and cached
+in ``__pycache__`` (later processes load them in ~0.2 s).
 
 Only the configuration the skills use is supported (one fixed-base arm, OSC_POSE,
 absolute world-frame input, fixed impedance, no interpolators, a simple grip
@@ -67,6 +72,7 @@ from __future__ import annotations
 
 import ctypes
 import time
+from typing import NamedTuple
 
 import mujoco
 import numba
@@ -80,6 +86,7 @@ from robosuite.utils.control_utils import opspace_matrices
 
 from robosuite.models.grippers.panda_gripper import PandaGripper
 
+from tableclean_suite.controllers.loop_state import MODE_FIXED, MODE_SHIFT, MODE_WIPE, WIPE_STATE
 from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.controllers.setpoint import GRIPPER_INDEX, advance_command
 from tableclean_suite.environments.table_clean import PRESS_PREFILTER_SLACK
@@ -114,36 +121,66 @@ MARKER_REACH_SLACK = 1e-9
 NULLSPACE_JOINT_KP = 10.0
 #: Rotation angle (rad) under which :func:`rotvec_matrix` uses the Taylor series of sin(a/2)/a (as scipy).
 ROTVEC_SMALL_ANGLE = 1e-3
-#: Relative slack of the phase loop's "this step cannot complete the phase" test on the position error: the
+#: Relative slack of the control loop's "this step cannot complete the phase" test on the position error: the
 #: skill's own check (``np.linalg.norm``) may round differently, so the loop stops a little early and the skill decides.
 POSITION_CHECK_RTOL = 1e-9
-#: The phase loop's stop reasons (:func:`phase_loop`): a step whose completion check might pass (left to
-#: the skill), the skill's step budget, the caller's step limit, a substep handed to the env's wiping check.
-PHASE_MAYBE_COMPLETE, PHASE_BUDGET, PHASE_LIMIT, PHASE_WIPE = 0, 1, 2, 3
-#: :func:`press_loop`'s further stop reason: a step whose update the loop cannot take exactly (the sponge's lowest
-#: corner may be above the table by more than ``contact_slack``, or the measured force is NaN): left to the skill.
-PHASE_HANDOFF = 4
-#: m of slack of :func:`press_loop`'s "the sponge is on the table" test: the wipe's own gap (``Wipe._sponge_gap``,
+#: The control loop's stop reasons: a step whose completion check might pass (left to the skill), the skill's
+#: step budget, the caller's step limit, a substep handed to the env's wiping check, a step whose update the
+#: loop cannot take exactly (a wipe phase: the sponge's lowest corner may be above the table by more than
+#: ``contact_slack``, or the measured force is NaN; left to the skill).
+PHASE_MAYBE_COMPLETE, PHASE_BUDGET, PHASE_LIMIT, PHASE_WIPE, PHASE_HANDOFF = 0, 1, 2, 3, 4
+#: m of slack of the control loop's "the sponge is on the table" test: the wipe's own gap (``Wipe._sponge_gap``,
 #: from the sponge's quaternion) and the loop's (from its rotation matrix) differ by rounding (~1e-16 m); within
 #: this band of ``contact_slack`` the loop hands the step to the skill, which decides exactly.
 GAP_CHECK_SLACK = 1e-9
-#: Entries of :func:`press_loop`'s ``wipe`` floats (see there); ``P_DEPTH`` and ``P_FORCE`` are updated.
-(P_STROKE_X, P_STROKE_Y, P_HOLD_X, P_HOLD_Y, P_HOLD_Z, P_TABLE_Z, P_HALF_Z, P_DEPTH, P_FORCE, P_PRESS_FORCE,
- P_FORCE_GAIN, P_GAP_GAIN, P_CONTACT_SLACK, P_DT, P_MIN_DEPTH, P_MAX_DEPTH, P_ARRIVAL, P_TOUCH_FORCE,
- P_DRIFT_BOUND, P_LOW_X, P_LOW_Y, P_HIGH_X, P_HIGH_Y, P_LIFT_X, P_LIFT_Y, P_SHIFT_DEPTH) = range(26)
-#: Entries of :func:`press_loop`'s ``wipe_ints``: the phase (``MODE_*``), the stroke axis (0: x, 1: y), the steps
-#: after which a stroke's tolerance becomes infinite (``stroke_max_steps``), a press's timeout (steps), whether a
-#: shift measured the sponge off the table (updated), the steps after which a shift moves on (``lift_max_steps``).
-PI_MODE, PI_AXIS, PI_STROKE_MAX, PI_PRESS_TIMEOUT, PI_LIFTED, PI_LIFT_MAX = range(6)
-#: :func:`press_loop`'s phases: the clean's PRESS, WIPE and SHIFT.
-MODE_PRESS, MODE_WIPE, MODE_SHIFT = 0, 1, 2
-#: C type of the press-force callback :func:`press_loop` calls once per control step (``double f(void)``, N).
+#: C type of the press-force callback the control loop calls once per wipe step (``double f(void)``, N).
 FORCE_CALLBACK = ctypes.CFUNCTYPE(ctypes.c_double)
-#: Most gripper control steps the phase loop tabulates ahead (robosuite's rate-limited gripper command
+#: Most gripper control steps the control loop tabulates ahead (robosuite's rate-limited gripper command
 #: reaches its fixed point within 1 / 0.2 = 5 steps per unit of command change, 10 at most for the Panda).
 GRIP_TABLE_ROWS = 32
 #: mjData fields :class:`ControlStepLog` records at the start of every control step (enough to replay it).
 LOG_FIELDS = ("qpos", "qvel", "act", "ctrl", "qacc_warmstart")
+
+
+class Plant(NamedTuple):
+    """What the compiled kernels read and write of the simulation, and the arm's control law.
+
+    Built by [FastSkillStepper][tableclean_suite.controllers.fast_control.FastSkillStepper] when it binds a
+    simulation; the law's fields (``gains``, ``initial_joint``, ``uncouple``) are replaced when robosuite
+    makes new controllers or gains.  Arrays are float64 unless noted; n arm joints, nv dofs.
+    """
+
+    functions: tuple  # addresses of mj_step1, mj_step2, mj_fullM, mj_jacSite
+    model: int  # address of the C mjModel
+    data: int  # address of the C mjData
+    substeps: int  # physics substeps per control step
+    full_mass: np.ndarray  # (nv, nv) scratch: mj_fullM's output
+    jacp: np.ndarray  # (3, nv) scratch: the grip site's translational Jacobian
+    jacr: np.ndarray  # (3, nv) scratch: its rotational Jacobian
+    torques: np.ndarray  # (n,) output: the last OSC torques (N m), unclipped
+    q_m: np.ndarray  # mjData views: qM
+    qpos: np.ndarray  # (nq,)
+    qvel: np.ndarray  # (nv,)
+    qfrc_bias: np.ndarray  # (nv,)
+    ctrl: np.ndarray  # (nu,)
+    site_id: int  # the OSC's grip site
+    site_pos: np.ndarray  # (3,) its world position (m), live
+    site_mat: np.ndarray  # (9,) its row-major world rotation, live
+    eef_pos: np.ndarray  # (3,) the skill's end-effector site position (m), live
+    finger_index: np.ndarray  # (F,) int64 qpos indexes of the finger joints
+    sponge_pos: np.ndarray  # (3,) the sponge's world position (m), live
+    sponge_mat: np.ndarray  # (9,) its row-major world rotation, live
+    sponge_half: np.ndarray  # (3,) its half size (m)
+    wipe_z: float  # m: a substep whose sponge's lowest corner is below goes to the env's wiping check
+    marker_reach: float  # m: the env's marker reach
+    indexes: np.ndarray  # (2, n) int64 rows: the arm's dof (qvel) indexes, its qpos indexes
+    arm_actuators: np.ndarray  # (n,) int64
+    grip_actuators: np.ndarray  # (G,) int64
+    limits: np.ndarray  # (2, n) the arm actuators' ctrl range (N m), low and high
+    gains: np.ndarray  # (2, 6) the OSC's kp (1/s^2) and kd (1/s) rows, see osc_law
+    initial_joint: np.ndarray  # (n,) rad, the nullspace term's posture
+    uncouple: bool  # decouple the position and orientation wrenches
+    log_live: tuple  # the mjData views of LOG_FIELDS
 
 
 @numba.njit(cache=True)
@@ -234,23 +271,6 @@ def small_matvec(a: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
         out[i] = value
 
 
-@numba.njit(cache=True)
-def fast_opspace_matrices(mass: np.ndarray, j_full: np.ndarray):
-    """robosuite's ``opspace_matrices`` with Cholesky inverses of its symmetric positive definite matrices.
-
-    Same formulas (M^-1; lambda = (J M^-1 J^T)^-1 for the full, position and orientation
-    Jacobians; nullspace I - M^-1 J^T lambda J); where robosuite takes SVD pseudo-inverses the
-    matrices are positive definite, so the inverses agree to rounding.  Falls back to
-    robosuite's own function when any pivot is tiny (near a singularity).
-
-    Args:
-        mass: (n, n) arm mass matrix; j_full: (6, n) Jacobian, translational rows then rotational rows.
-
-    Returns:
-        (lambda_full (6, 6), lambda_pos (3, 3), lambda_ori (3, 3), nullspace_matrix (n, n)).
-    """
-    return _opspace_into(mass, j_full, osc_work(mass.shape[0]))
-
 
 #: Entries of the scratch tuple of :func:`osc_work` (the OSC kernels' temporaries, allocated once per call of the
 #: compiled loops instead of once per substep: ~20 allocations per substep cost ~1-2 us of its ~4 us).
@@ -274,7 +294,20 @@ def osc_work(n: int):
 
 @numba.njit(cache=True)
 def _opspace_into(mass: np.ndarray, j_full: np.ndarray, work):
-    """:func:`fast_opspace_matrices` in the scratch ``work`` (:func:`osc_work`); returns views of it."""
+    """robosuite's ``opspace_matrices`` with Cholesky inverses of its symmetric positive definite matrices.
+
+    Same formulas (M^-1; lambda = (J M^-1 J^T)^-1 for the full, position and orientation
+    Jacobians; nullspace I - M^-1 J^T lambda J); where robosuite takes SVD pseudo-inverses the
+    matrices are positive definite, so the inverses agree to rounding.  Falls back to
+    robosuite's own function when any pivot is tiny (near a singularity).
+
+    Args:
+        mass: (n, n) arm mass matrix; j_full: (6, n) Jacobian, translational rows then rotational rows.
+        work: the scratch tuple of :func:`osc_work` for n joints.
+
+    Returns:
+        (lambda_full (6, 6), lambda_pos (3, 3), lambda_ori (3, 3), nullspace_matrix (n, n)): views of ``work``.
+    """
     n = mass.shape[0]
     low = work[W_LOW]
     inv_low = work[W_INV_LOW]
@@ -480,48 +513,48 @@ def _call_4i(typingctx, fn, a, b, c, d, i):
     return signature, _c_call_codegen(4, trailing_int=True)
 
 
+
 @numba.njit(cache=True)
-def native_substeps(functions, model, data, first, count, buffers, live, goal_pos, goal_ori, gains,
-                    initial_joint, site_id, indexes, actuators, limits, uncouple, grip_ctrl, sponge, wipe_z,
-                    markers, present, reach):
-    """Run substeps ``first``..``count - 1``: step1, OSC torques, ctrl, [wiping hand-off], step2.
+def native_substeps(plant, dirt, first, goal_pos, goal_ori, grip_ctrl):
+    """Run substeps ``first``..``plant.substeps - 1``: step1, OSC torques, ctrl, [wiping hand-off], step2.
 
-    ``functions``: :func:`~tableclean_suite.robosuite_adapter.mujoco_function_addresses`.  ``model``, ``data``: mjModel* / mjData* addresses.
-    ``buffers``: (full mass (nv, nv), jacp (3, nv), jacr (3, nv), torques (n,)) scratch.
-    ``live``: views of mjData's qM, qpos, qvel, qfrc_bias, the grip site's xpos (3,) and xmat
-    (9,), ctrl, the sponge's xpos (3,) and xmat (9,).  ``goal_pos``, ``goal_ori``, ``gains``,
-    ``initial_joint``, ``indexes``, ``uncouple``: as :func:`osc_torques`; ``site_id``: grip site.
-    ``actuators``: (arm, gripper) actuator indexes; ``limits``: (2, n) arm ctrl range (N m);
-    ``grip_ctrl``: gripper ctrl written at substep 0.  ``sponge``: (3,) half size (m);
-    ``wipe_z``: height (m) of its lowest corner under which the caller must check wiping.
-    ``markers``: (N, 3) dirt marker world positions (m); ``present``: (N,) bool, not yet wiped;
-    ``reach``: the env's marker reach (m).  The env's wiping check changes something only for
-    a present marker under the sponge, so only then is the substep handed to it.
+    Args:
+        plant: the stepper's [Plant][tableclean_suite.controllers.fast_control.Plant].
+        dirt: (markers (N, 3) dirt marker world positions (m), present (N,) bool: not yet wiped).
+        first: the first substep to run (int64).
+        goal_pos: (3,) goal position (m); goal_ori: (3, 3) goal rotation matrix, world frame.
+        grip_ctrl: (G,) gripper actuator controls, written at substep 0.
 
-    Returns ``count`` when done, or ``-(k + 1)`` after substep k's control when the caller
+    The env's wiping check changes something only for a present marker under the sponge, so only
+    a substep whose sponge is below ``plant.wipe_z`` over such a marker is handed to it.
+
+    Returns ``plant.substeps`` when done, or ``-(k + 1)`` after substep k's control when the caller
     must run the env's wiping check and ``mj_step2`` for it, then call again from ``k + 1``.
     """
-    step1, step2, full_m, jac_site = functions
-    full_mass, jacp, jacr, torques = buffers
-    q_m, qpos, qvel, qfrc_bias, site_pos, site_mat, ctrl, sponge_pos, sponge_mat = live
-    arm_act, grip_act = actuators
-    work = osc_work(indexes.shape[1])  # the OSC's temporaries, once for all substeps
-    for k in range(first, count):
-        _call_2(step1, model, data)
-        _call_3(full_m, model, full_mass.ctypes.data, q_m.ctypes.data)
-        _call_4i(jac_site, model, data, jacp.ctypes.data, jacr.ctypes.data, np.int32(site_id))
-        osc_torques(full_mass, jacp, jacr, qpos, qvel, qfrc_bias, site_pos, site_mat, goal_pos, goal_ori,
-                    gains, initial_joint, indexes, uncouple, torques, work)
+    step1, step2, full_m, jac_site = plant.functions
+    markers, present = dirt
+    arm_act, grip_act, ctrl = plant.arm_actuators, plant.grip_actuators, plant.ctrl
+    torques, limits = plant.torques, plant.limits
+    work = osc_work(plant.indexes.shape[1])  # the OSC's temporaries, once for all substeps
+    for k in range(first, plant.substeps):
+        _call_2(step1, plant.model, plant.data)
+        _call_3(full_m, plant.model, plant.full_mass.ctypes.data, plant.q_m.ctypes.data)
+        _call_4i(jac_site, plant.model, plant.data, plant.jacp.ctypes.data, plant.jacr.ctypes.data,
+                 np.int32(plant.site_id))
+        osc_torques(plant.full_mass, plant.jacp, plant.jacr, plant.qpos, plant.qvel, plant.qfrc_bias, plant.site_pos,
+                    plant.site_mat, goal_pos, goal_ori, plant.gains, plant.initial_joint, plant.indexes,
+                    plant.uncouple, torques, work)
         for i in range(arm_act.size):
             ctrl[arm_act[i]] = min(max(torques[i], limits[0, i]), limits[1, i])
         if k == 0:
             for i in range(grip_act.size):
                 ctrl[grip_act[i]] = grip_ctrl[i]
-        if (box_lowest_z(sponge_pos, sponge_mat, sponge) <= wipe_z
-                and present_marker_under_box(markers, present, sponge_pos, sponge_mat, sponge, reach)):
+        if (box_lowest_z(plant.sponge_pos, plant.sponge_mat, plant.sponge_half) <= plant.wipe_z
+                and present_marker_under_box(markers, present, plant.sponge_pos, plant.sponge_mat, plant.sponge_half,
+                                             plant.marker_reach)):
             return -(k + 1)  # mj_step2 of substep k is left to the caller, after the env's wiping check
-        _call_2(step2, model, data)
-    return count
+        _call_2(step2, plant.model, plant.data)
+    return plant.substeps
 
 
 @numba.njit(cache=True)
@@ -595,88 +628,6 @@ def step_inputs(action, current, speed, params, goal_pos, goal_ori, new_current,
     panda_gripper_control(current, action[6], speed, params, new_current, goal_qvel, ctrl)
 
 
-@numba.njit(cache=True)
-def phase_loop(functions, model, data, substeps, buffers, live, gains, initial_joint, site_id, indexes, actuators,
-               limits, uncouple, sponge, wipe_z, markers, present, reach, eef_pos, finger_index, setpoint, floats,
-               ints, last_fingers, target, grip_table, grip_row, action, goal_pos, goal_ori, log_live, log, log_row,
-               limit):
-    """Control steps of a skill phase whose waypoint is fixed, as ``Skill.step`` + ``FastSkillStepper.step``.
-
-    Per control step: stop if the step budget is spent or if the phase's completion check might
-    pass (position within ``tolerance`` (+ :data:`POSITION_CHECK_RTOL`), at least ``min_steps`` in
-    the phase, fingers settled by ``gripper_still`` or the timeout); else record the finger
-    positions, advance the setpoint (:func:`~tableclean_suite.controllers.setpoint.advance_command`),
-    take the goal of the command and the gripper control of row ``grip_row + k`` of
-    ``grip_table`` (its last row beyond), log the state, run the substeps (:func:`native_substeps`).
-
-    Args:
-        functions .. reach: as :func:`native_substeps` (``substeps``: per control step).
-        eef_pos: (3,) live grip-site position (m, the skill's ``eef_pos``); ``finger_index``: (F,) qpos
-            indexes of the finger joints.
-        setpoint: (3,) position setpoint (m), advanced in place.
-        floats: (7,) [yaw setpoint (rad, updated), target yaw (rad), max move (m/step), max turn
-            (rad/step), gripper command, tolerance (m), gripper_still]; ``ints``: (6,) [steps (updated),
-            max steps, steps in the phase (updated), min_steps, gripper timeout (-1: none), xy_only].
-        last_fingers: (F,) finger positions at the last step (updated); ``target``: (3,) waypoint (m).
-        grip_table: (R, G) gripper actuator controls per step; ``grip_row``: row of this call's first step.
-        action: (7,) output, the last command; ``goal_pos`` (3,), ``goal_ori`` (3, 3): its goal.
-        log_live: mjData views of :data:`LOG_FIELDS`; ``log``: (rows, size) arrays receiving them at
-            the start of each step from row ``log_row`` (no logging when they have no rows).
-        limit: most control steps to run.
-
-    Returns:
-        (stop reason, control steps started, substep): with :data:`PHASE_WIPE` the last step
-        stopped after substep's control (the caller runs the env's wiping check, ``mj_step2`` and
-        the remaining substeps); otherwise every started step is complete.
-    """
-    yaw_setpoint, yaw, max_move, max_turn = floats[0], floats[1], floats[2], floats[3]
-    gripper, tolerance, still = floats[4], floats[5], floats[6]
-    steps, max_steps, phase_steps, min_steps, timeout, xy_only = ints[0], ints[1], ints[2], ints[3], ints[4], ints[5]
-    qpos = live[1]
-    logging = log[0].shape[0] > 0
-    ran = 0
-    status = PHASE_LIMIT
-    substep = 0
-    while ran < limit:
-        if steps >= max_steps:
-            status = PHASE_BUDGET
-            break
-        motion = 0.0
-        for i in range(finger_index.size):
-            motion = max(motion, abs(qpos[finger_index[i]] - last_fingers[i]))
-        settled = motion <= still or (timeout >= 0 and phase_steps >= timeout)
-        if settled and phase_steps >= min_steps:
-            e0, e1, e2 = eef_pos[0] - target[0], eef_pos[1] - target[1], eef_pos[2] - target[2]
-            distance = np.sqrt(e0 * e0 + e1 * e1 + (0.0 if xy_only else e2 * e2))
-            if not distance * (1.0 - POSITION_CHECK_RTOL) > tolerance:
-                status = PHASE_MAYBE_COMPLETE
-                break
-        for i in range(finger_index.size):
-            last_fingers[i] = qpos[finger_index[i]]
-        yaw_setpoint = advance_command(setpoint, yaw_setpoint, yaw, target, max_move, max_turn, gripper, action)
-        steps += 1
-        phase_steps += 1
-        goal_pos[:] = action[0:3]
-        rotvec_matrix(action[3:6], goal_ori)
-        grip = grip_table[min(grip_row + ran, grip_table.shape[0] - 1)]
-        if logging:
-            for f in range(len(log_live)):
-                log[f][log_row + ran, :] = log_live[f]
-        # np.int64(0), not the literal 0: a literal argument would compile a second specialisation of native_substeps
-        done = native_substeps(functions, model, data, np.int64(0), substeps, buffers, live, goal_pos, goal_ori, gains,
-                               initial_joint, site_id, indexes, actuators, limits, uncouple, grip, sponge, wipe_z,
-                               markers, present, reach)
-        ran += 1
-        if done < 0:
-            status = PHASE_WIPE
-            substep = -done - 1
-            break
-    floats[0] = yaw_setpoint
-    ints[0] = steps
-    ints[2] = phase_steps
-    return status, ran, substep
-
-
 def _call_double_codegen(context, builder, sig, llvm_args):
     """LLVM code calling ``double f(void)`` at the address in the (integer) argument."""
     function = builder.inttoptr(llvm_args[0], ir.FunctionType(ir.DoubleType(), []).as_pointer())
@@ -697,147 +648,173 @@ def _clip(value: float, low: float, high: float) -> float:
     return high if high <= value else value
 
 
-@numba.njit(cache=True)
-def press_loop(functions, model, data, substeps, buffers, live, gains, initial_joint, site_id, indexes, actuators,
-               limits, uncouple, sponge, wipe_z, markers, present, reach, eef_pos, finger_index, setpoint, floats,
-               ints, last_fingers, target, wipe, wipe_ints, force_fn, grip_table, grip_row, action, goal_pos, goal_ori,
-               log_live, log, log_row, limit):
-    """Control steps of the clean skill's PRESS, WIPE or SHIFT phase, as ``Skill.step`` + ``FastSkillStepper.step``.
 
-    Per control step, the wipe's force loop (``Wipe.update``: the press force from ``force_fn``,
-    the depth integrated from its error and clipped; shifting, whether the sponge is off the
-    table), its waypoint (``Wipe.waypoint``: the stroke point under the held sponge at the
-    commanded depth; wiping, led by the sponge's drift along the stroke axis and clipped to the
-    hand's bounds; shifting, the lift point until lifted, then the next stroke's start, at the
-    shift clearance) and the skill's checks, then the command and the physics as
-    :func:`phase_loop`.  It stops before a step (nothing of it taken) whose completion check
-    might pass (position within the tolerance (+ :data:`POSITION_CHECK_RTOL`), fingers settled,
-    pressing: the touch force or timeout; shifting: lifted), whose update the loop cannot take
-    exactly (:data:`PHASE_HANDOFF`: wiping with the sponge's lowest corner within
-    :data:`GAP_CHECK_SLACK` of ``contact_slack`` above the table or higher; shifting, unlifted
-    without force, within it of ``contact_slack``; a NaN force), at the step budget and the
-    caller's limit, and for substeps the env's wiping check must see (:data:`PHASE_WIPE`, as
-    :func:`phase_loop`).
+@numba.njit(cache=True)
+def wipe_waypoint(plant, wipe, setpoint, phase_steps, tolerance):
+    """One control step of the clean skill's wipe (``Wipe.update``, ``Wipe.waypoint``, ``Wipe.ready``), compiled.
+
+    The press force from ``wipe.force_fn``; pressing or wiping, the depth integrated from the force
+    error and clipped; shifting, whether the sponge is off the table; the waypoint (the stroke point
+    under the held sponge at the commanded depth; wiping, led by the sponge's drift along the stroke
+    and clipped to the hand's bounds; shifting, the lift point until lifted, then the next stroke's
+    start at the shift clearance); whether the phase is ready to end.  The same operations on the same
+    values as the Python methods.
 
     Args:
-        functions .. ints, last_fingers, grip_table .. limit: as :func:`phase_loop` (``floats``'
-            gripper command the skill's, its tolerance ``wipe_tolerance`` (m); ``ints``' xy_only 1).
-        target: (3,) output, the last step's waypoint (m).
-        wipe: (23,) floats indexed by the ``P_*`` constants: stroke point (2,) m, grip-site minus
-            sponge-centre offset (3,) m, table top z (m), sponge half height (m), commanded depth (m,
-            updated), last measured force (N, updated), force target (N), force gain (m/(N s)), gap
-            gain (1/s), contact slack (m), control step (s), depth bounds (m), setpoint arrival (m),
-            touch force (N), drift bound (m), the hand's bounds low (2,) and high (2,) (m), the shift's
-            lift point (2,) m and depth (m, negative: above the table).
-        wipe_ints: (6,) indexed by the ``PI_*`` constants.
-        force_fn: address of a :data:`FORCE_CALLBACK` returning the sponge's press force (N).
+        plant: the stepper's [Plant][tableclean_suite.controllers.fast_control.Plant].
+        wipe: a [WIPE_STATE][tableclean_suite.controllers.loop_state.WIPE_STATE] record (read only here).
+        setpoint: (3,) the skill's position setpoint (m); phase_steps: control steps in the phase.
+        tolerance: m, the phase's position tolerance.
 
     Returns:
-        (stop reason, control steps started, substep) as :func:`phase_loop`.
+        (stop, waypoint x, y, z (m), depth (m), force (N), lifted, ready, tolerance (m)): ``stop`` is
+        :data:`PHASE_HANDOFF` for a step the skill must take (the sponge's lowest corner within
+        :data:`GAP_CHECK_SLACK` of ``contact_slack`` above the table or higher while wiping; shifting,
+        unlifted without force, within it of ``contact_slack``; a NaN force), else -1.
     """
-    yaw_setpoint, yaw, max_move, max_turn = floats[0], floats[1], floats[2], floats[3]
-    gripper, tolerance, still = floats[4], floats[5], floats[6]
-    steps, max_steps, phase_steps, min_steps, timeout = ints[0], ints[1], ints[2], ints[3], ints[4]
-    wiping = wipe_ints[PI_MODE] == MODE_WIPE
-    shifting = wipe_ints[PI_MODE] == MODE_SHIFT
-    axis = wipe_ints[PI_AXIS]
-    stroke_max, press_timeout, lift_max = wipe_ints[PI_STROKE_MAX], wipe_ints[PI_PRESS_TIMEOUT], wipe_ints[PI_LIFT_MAX]
-    lifted = wipe_ints[PI_LIFTED] != 0
-    slack = wipe[P_CONTACT_SLACK]
-    qpos, sponge_pos, sponge_mat = live[1], live[7], live[8]
-    table, half_z, hold_z = wipe[P_TABLE_Z], wipe[P_HALF_Z], wipe[P_HOLD_Z]
+    wiping = wipe.mode == MODE_WIPE
+    shifting = wipe.mode == MODE_SHIFT
+    lifted = wipe.lifted
+    slack = wipe.contact_slack
+    table, half_z, hold = wipe.table_z, wipe.half_z, wipe.hold
+    force = wipe.force
+    depth = wipe.depth
+    now_lifted = lifted
+    if not (shifting and lifted):
+        force = _call_double(wipe.force_fn)
+        if force != force:
+            return PHASE_HANDOFF, 0.0, 0.0, 0.0, depth, force, lifted, False, tolerance
+    if shifting:  # Wipe._update_lift: on once no force is measured and the sponge is off the table
+        if not lifted:
+            gap = box_lowest_z(plant.sponge_pos, plant.sponge_mat, plant.sponge_half) - table
+            if force <= 0.0 and abs(gap - slack) <= GAP_CHECK_SLACK:  # too close to call: the skill takes this step
+                return PHASE_HANDOFF, 0.0, 0.0, 0.0, depth, force, lifted, False, tolerance
+            now_lifted = (force <= 0.0 and gap > slack) or phase_steps >= wipe.lift_max_steps
+        p0 = (wipe.stroke[0] if now_lifted else wipe.lift[0]) + hold[0]
+        p1 = (wipe.stroke[1] if now_lifted else wipe.lift[1]) + hold[1]
+        p2 = table - wipe.shift_depth + half_z + hold[2]
+    else:  # Wipe.update: the depth follows the force error (pressing: once arrived or touching)
+        target_z = table - depth + half_z + hold[2]
+        arrived = abs(setpoint[2] - target_z) <= wipe.arrival
+        if wiping or force > 0.0 or arrived:
+            error = wipe.press_force - force
+            gap = 0.0
+            if wiping and box_lowest_z(plant.sponge_pos, plant.sponge_mat, plant.sponge_half) - table - slack > -GAP_CHECK_SLACK:
+                return PHASE_HANDOFF, 0.0, 0.0, 0.0, depth, force, lifted, False, tolerance  # the gap term may be positive
+            rate = wipe.force_gain * error + wipe.gap_gain * gap
+            depth = _clip(depth + rate * wipe.dt, wipe.min_depth, wipe.max_depth)
+        # Wipe.waypoint
+        p0 = wipe.stroke[0] + hold[0]
+        p1 = wipe.stroke[1] + hold[1]
+        p2 = table - depth + half_z + hold[2]
+    if wiping:
+        axis = wipe.axis
+        bound = wipe.drift_bound
+        drift = _clip(plant.eef_pos[axis] - plant.sponge_pos[axis] - hold[axis], -bound, bound)
+        p0 = _clip(p0 + (drift if axis == 0 else 0.0), wipe.low[0], wipe.high[0])
+        p1 = _clip(p1 + (drift if axis == 1 else 0.0), wipe.low[1], wipe.high[1])
+        if phase_steps >= wipe.stroke_max_steps:
+            tolerance = np.inf
+    if shifting:
+        ready = now_lifted
+    else:
+        ready = wiping or force >= wipe.touch_force or phase_steps >= wipe.press_timeout
+    return -1, p0, p1, p2, depth, force, now_lifted, ready, tolerance
+
+
+@numba.njit(cache=True)
+def control_loop(plant, dirt, skill, fingers, wipe, grip_table, goal, log, limit):
+    """Control steps of a skill phase, as ``Skill.step`` + ``FastSkillStepper.step``, in one compiled call.
+
+    Per control step: stop if the step budget is spent; the waypoint (a fixed phase's ``target``, or
+    the wipe's, :func:`wipe_waypoint`, which may hand the step to the skill); stop if the phase's
+    completion check might pass (position within the tolerance (+ :data:`POSITION_CHECK_RTOL`), at
+    least ``min_steps`` in the phase, fingers settled by ``gripper_still`` or the timeout, the wipe
+    ready); else take the step: record the finger positions, advance the setpoint
+    ([advance_command][tableclean_suite.controllers.setpoint.advance_command]), take the goal of the
+    command and the gripper control of row k of ``grip_table`` (its last row beyond), log the state,
+    run the substeps (:func:`native_substeps`).
+
+    Args:
+        plant, dirt: as :func:`native_substeps`.
+        skill: (1,) [SKILL_STATE][tableclean_suite.controllers.loop_state.SKILL_STATE] record, updated in place.
+        fingers: (F,) finger positions at the last step (rad or m), updated in place.
+        wipe: (1,) [WIPE_STATE][tableclean_suite.controllers.loop_state.WIPE_STATE] record (mode
+            ``MODE_FIXED``: a fixed waypoint), updated in place.
+        grip_table: (R, G) gripper actuator controls, row k for the loop's k-th step.
+        goal: outputs (action (7,), goal_pos (3,) m, goal_ori (3, 3)): the last step's command and goal.
+        log: arrays (rows, size) receiving :data:`LOG_FIELDS` at the start of each step from row 0 (no
+            logging when they have no rows).
+        limit: most control steps to run.
+
+    Returns:
+        (stop reason, control steps started, substep): with :data:`PHASE_WIPE` the last step
+        stopped after substep's control (the caller runs the env's wiping check, ``mj_step2`` and
+        the remaining substeps); otherwise every started step is complete.
+    """
+    s = skill[0]
+    w = wipe[0]
+    action, goal_pos, goal_ori = goal
+    setpoint, target = s.setpoint, s.target
+    fixed = w.mode == MODE_FIXED
+    yaw_setpoint, steps, phase_steps = s.yaw_setpoint, s.steps, s.phase_steps
+    qpos, finger_index, eef_pos = plant.qpos, plant.finger_index, plant.eef_pos
     logging = log[0].shape[0] > 0
     ran = 0
     status = PHASE_LIMIT
     substep = 0
     while ran < limit:
-        if steps >= max_steps:
+        if steps >= s.max_steps:
             status = PHASE_BUDGET
             break
         motion = 0.0
         for i in range(finger_index.size):
-            motion = max(motion, abs(qpos[finger_index[i]] - last_fingers[i]))
-        force = wipe[P_FORCE]
-        depth = wipe[P_DEPTH]
-        now_lifted = lifted
-        if not (shifting and lifted):
-            force = _call_double(force_fn)
-            if force != force:
-                status = PHASE_HANDOFF
-                break
-        if shifting:  # Wipe._update_lift: on once no force is measured and the sponge is off the table
-            if not lifted:
-                gap = box_lowest_z(sponge_pos, sponge_mat, sponge) - table
-                if force <= 0.0 and abs(gap - slack) <= GAP_CHECK_SLACK:
-                    status = PHASE_HANDOFF  # too close to call: the skill takes this step
-                    break
-                now_lifted = (force <= 0.0 and gap > slack) or phase_steps >= lift_max
-            p0 = (wipe[P_STROKE_X] if now_lifted else wipe[P_LIFT_X]) + wipe[P_HOLD_X]
-            p1 = (wipe[P_STROKE_Y] if now_lifted else wipe[P_LIFT_Y]) + wipe[P_HOLD_Y]
-            p2 = table - wipe[P_SHIFT_DEPTH] + half_z + hold_z
-        else:  # Wipe.update: the depth follows the force error (pressing: once arrived or touching)
-            target_z = table - depth + half_z + hold_z
-            arrived = abs(setpoint[2] - target_z) <= wipe[P_ARRIVAL]
-            if wiping or force > 0.0 or arrived:
-                error = wipe[P_PRESS_FORCE] - force
-                gap = 0.0
-                if wiping and box_lowest_z(sponge_pos, sponge_mat, sponge) - table - slack > -GAP_CHECK_SLACK:
-                    status = PHASE_HANDOFF  # the gap term may be positive: the skill takes this step
-                    break
-                rate = wipe[P_FORCE_GAIN] * error + wipe[P_GAP_GAIN] * gap
-                depth = _clip(depth + rate * wipe[P_DT], wipe[P_MIN_DEPTH], wipe[P_MAX_DEPTH])
-            # Wipe.waypoint
-            p0 = wipe[P_STROKE_X] + wipe[P_HOLD_X]
-            p1 = wipe[P_STROKE_Y] + wipe[P_HOLD_Y]
-            p2 = table - depth + half_z + hold_z
-        step_tolerance = tolerance
-        if wiping:
-            bound = wipe[P_DRIFT_BOUND]
-            drift = _clip(eef_pos[axis] - sponge_pos[axis] - (wipe[P_HOLD_X] if axis == 0 else wipe[P_HOLD_Y]),
-                          -bound, bound)
-            p0 = _clip(p0 + (drift if axis == 0 else 0.0), wipe[P_LOW_X], wipe[P_HIGH_X])
-            p1 = _clip(p1 + (drift if axis == 1 else 0.0), wipe[P_LOW_Y], wipe[P_HIGH_Y])
-            if phase_steps >= stroke_max:
-                step_tolerance = np.inf
-        # Skill._phase_complete (and the wipe's ready): stop where it might pass
-        settled = motion <= still or (timeout >= 0 and phase_steps >= timeout)
-        if shifting:
-            ready = now_lifted
+            motion = max(motion, abs(qpos[finger_index[i]] - fingers[i]))
+        if fixed:
+            stop, p0, p1, p2, depth, force, lifted, ready, tolerance = (
+                -1, target[0], target[1], target[2], 0.0, 0.0, False, True, s.tolerance)
         else:
-            ready = wiping or force >= wipe[P_TOUCH_FORCE] or phase_steps >= press_timeout
-        if settled and ready and phase_steps >= min_steps:
-            e0, e1 = eef_pos[0] - p0, eef_pos[1] - p1
-            if not np.sqrt(e0 * e0 + e1 * e1) * (1.0 - POSITION_CHECK_RTOL) > step_tolerance:
+            stop, p0, p1, p2, depth, force, lifted, ready, tolerance = wipe_waypoint(
+                plant, w, setpoint, phase_steps, s.tolerance)
+            if stop >= 0:
+                status = stop
+                break
+        # Skill._phase_complete (and the wipe's ready): stop where it might pass
+        settled = motion <= s.gripper_still or (s.gripper_timeout >= 0 and phase_steps >= s.gripper_timeout)
+        if settled and ready and phase_steps >= s.min_steps:
+            e0, e1, e2 = eef_pos[0] - p0, eef_pos[1] - p1, eef_pos[2] - p2
+            distance = np.sqrt(e0 * e0 + e1 * e1 + (0.0 if s.xy_only else e2 * e2))
+            if not distance * (1.0 - POSITION_CHECK_RTOL) > tolerance:
                 status = PHASE_MAYBE_COMPLETE
                 break
         # the step is taken
-        wipe[P_DEPTH] = depth
-        wipe[P_FORCE] = force
-        lifted = now_lifted
-        wipe_ints[PI_LIFTED] = lifted
-        target[0], target[1], target[2] = p0, p1, p2
+        if not fixed:
+            w.depth = depth
+            w.force = force
+            w.lifted = lifted
+            target[0], target[1], target[2] = p0, p1, p2
         for i in range(finger_index.size):
-            last_fingers[i] = qpos[finger_index[i]]
-        yaw_setpoint = advance_command(setpoint, yaw_setpoint, yaw, target, max_move, max_turn, gripper, action)
+            fingers[i] = qpos[finger_index[i]]
+        yaw_setpoint = advance_command(setpoint, yaw_setpoint, s.yaw, target, s.max_move, s.max_turn, s.gripper,
+                                       action)
         steps += 1
         phase_steps += 1
         goal_pos[:] = action[0:3]
         rotvec_matrix(action[3:6], goal_ori)
-        grip = grip_table[min(grip_row + ran, grip_table.shape[0] - 1)]
+        grip = grip_table[min(ran, grip_table.shape[0] - 1)]
         if logging:
-            for f in range(len(log_live)):
-                log[f][log_row + ran, :] = log_live[f]
-        done = native_substeps(functions, model, data, np.int64(0), substeps, buffers, live, goal_pos, goal_ori, gains,
-                               initial_joint, site_id, indexes, actuators, limits, uncouple, grip, sponge, wipe_z,
-                               markers, present, reach)
+            for f in range(len(log)):
+                log[f][ran, :] = plant.log_live[f]
+        # np.int64(0), not the literal 0: a literal argument would compile a second specialisation of native_substeps
+        done = native_substeps(plant, dirt, np.int64(0), goal_pos, goal_ori, grip)
         ran += 1
         if done < 0:
             status = PHASE_WIPE
             substep = -done - 1
             break
-    floats[0] = yaw_setpoint
-    ints[0] = steps
-    ints[2] = phase_steps
+    s.yaw_setpoint = yaw_setpoint
+    s.steps = steps
+    s.phase_steps = phase_steps
     return status, ran, substep
 
 
@@ -845,7 +822,7 @@ class ControlStepLog:
     """The simulation state (mjData's :data:`LOG_FIELDS`) at the start of every control step a stepper runs.
 
     Give one to a :class:`FastSkillStepper` (``stepper.state_log = ControlStepLog(stepper)``): the
-    per-step path and the compiled phase loop both append a row per control step.
+    per-step path and the compiled control loop both append a row per control step.
     """
 
     def __init__(self, stepper: "FastSkillStepper"):
@@ -942,8 +919,8 @@ class FastSkillStepper:
         _check_supported(env)
         self.env = env
         self.native = native_available() if native is None else bool(native)
-        #: whether :meth:`run_phase` runs a fixed-waypoint phase in the compiled :func:`phase_loop` (needs
-        #: ``native``); ``False`` leaves every control step to the skill and :meth:`step` (same results)
+        #: whether :meth:`run_phase` and :meth:`run_press_phase` run a phase in the compiled :func:`control_loop`
+        #: (needs ``native``); ``False`` leaves every control step to the skill and :meth:`step` (same results)
         self.phase_loop = bool(phase_loop)
         #: a :class:`ControlStepLog` receiving the state at the start of every control step, or None
         self.state_log: ControlStepLog | None = None
@@ -952,7 +929,6 @@ class FastSkillStepper:
         self.callback_seconds = 0.0
         #: the stop reason (``PHASE_*``) of the last compiled loop :meth:`run_phase` / :meth:`run_press_phase` ran
         self.last_status = PHASE_LIMIT
-        self._functions = mujoco_function_addresses() if self.native else None
         self._sim = None
         self._bind()
 
@@ -981,7 +957,7 @@ class FastSkillStepper:
         self.jacr = np.zeros((3, nv))
         self.torques = np.zeros(len(self.arm_actuators))
         self._grip_ctrl = np.zeros(len(self.grip_actuators))  # step()'s finger controls (copied into ctrl)
-        self._gains = (None, None, None)  # (osc.kp, osc.kd, gains()) of the last step, see step()
+        self._gains = (None, None, None)  # (osc.kp, osc.kd, gains()) of the last step, see _current_gains()
         self.substeps = int(env.control_timestep / env.model_timestep)
         self._grip_params = None  # (controller, its panda_gripper_control parameters), see _panda_grip_params
         self.eef_site_id = robot.eef_site_id[arm]
@@ -1001,20 +977,46 @@ class FastSkillStepper:
         self.gripper = robot.gripper[arm]
 
     def _bind_native(self) -> None:
-        """Views of the live mjData arrays and the wiping prefilter the native loop reads."""
+        """The [Plant][tableclean_suite.controllers.fast_control.Plant] the native kernels read (None without them)."""
         env, data = self.env, self.data
-        self._buffers = (self.full_mass, self.jacp, self.jacr, self.torques)
-        self._live = (
-            data.qM, data.qpos, data.qvel, data.qfrc_bias, data.site_xpos[self.site_id], data.site_xmat[self.site_id],
-            data.ctrl, data.xpos[env.sponge_body_id], data.xmat[env.sponge_body_id],
-        )
-        self._actuators = (self.arm_actuators, self.grip_actuators)
-        self._addresses = (c_address(self.model), c_address(self.data)) if self.native else None
-        self._sponge_half = np.asarray(env.task_config["sponge_half_size"], dtype=float)
         # the env's own early exit in record_wiping_substep, plus a margin: below this it must decide
         contact = max(float(env.task_config["wipe_contact_dist"]), 0.0)
-        self._marker_reach = float(env.task_config["wipe_marker_reach"])
-        self._wipe_z = float(env.geometry.table_top_z) + contact + PRESS_PREFILTER_SLACK + WIPE_CHECK_MARGIN
+        self._no_log = tuple(np.empty((0, getattr(data, f).size)) for f in LOG_FIELDS)
+        self._plant_key = (None, None, None)  # (osc, gains, initial_joint) of the plant's law, see _current_plant()
+        self._plant = None if not self.native else Plant(
+            functions=mujoco_function_addresses(), model=c_address(self.model), data=c_address(data),
+            substeps=self.substeps, full_mass=self.full_mass, jacp=self.jacp, jacr=self.jacr, torques=self.torques,
+            q_m=data.qM, qpos=data.qpos, qvel=data.qvel, qfrc_bias=data.qfrc_bias, ctrl=data.ctrl,
+            site_id=int(self.site_id), site_pos=data.site_xpos[self.site_id], site_mat=data.site_xmat[self.site_id],
+            eef_pos=data.site_xpos[self.eef_site_id], finger_index=self.finger_index,
+            sponge_pos=data.xpos[env.sponge_body_id], sponge_mat=data.xmat[env.sponge_body_id],
+            sponge_half=np.asarray(env.task_config["sponge_half_size"], dtype=float),
+            wipe_z=float(env.geometry.table_top_z) + contact + PRESS_PREFILTER_SLACK + WIPE_CHECK_MARGIN,
+            marker_reach=float(env.task_config["wipe_marker_reach"]), indexes=self.indexes,
+            arm_actuators=self.arm_actuators, grip_actuators=self.grip_actuators, limits=self.arm_limits,
+            gains=np.zeros((2, 6)), initial_joint=np.zeros(len(self.arm_actuators)), uncouple=False,
+            log_live=tuple(getattr(data, f) for f in LOG_FIELDS),
+        )
+
+    def _current_gains(self) -> np.ndarray:
+        """The OSC's (2, 6) gains (:meth:`gains`), rebuilt only when robosuite assigns new kp or kd arrays
+        (fixed impedance: it never changes them in place)."""
+        osc = self.osc
+        gains = self._gains
+        if gains[0] is not osc.kp or gains[1] is not osc.kd:
+            gains = self._gains = (osc.kp, osc.kd, self.gains())
+        return gains[2]
+
+    def _current_plant(self) -> Plant:
+        """The plant with the current controllers' law (replaced when the OSC, its gains or its posture are new)."""
+        osc = self.osc
+        gains = self._current_gains()
+        key = self._plant_key
+        if key[0] is not osc or key[1] is not gains or key[2] is not osc.initial_joint:
+            self._plant = self._plant._replace(gains=gains, initial_joint=np.asarray(osc.initial_joint, dtype=float),
+                                               uncouple=bool(osc.uncoupling))
+            self._plant_key = (osc, gains, osc.initial_joint)
+        return self._plant
 
     # -- one control step --------------------------------------------------------------------
     def goal(self, action: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -1131,10 +1133,7 @@ class FastSkillStepper:
             self.state_log.append()
         # (runs right after the physics, with cold CPU caches: few Python calls and allocations per step)
         osc = self.osc
-        gains = self._gains
-        if gains[0] is not osc.kp or gains[1] is not osc.kd:  # fixed impedance: robosuite assigns new arrays only
-            gains = self._gains = (osc.kp, osc.kd, self.gains())
-        gains = gains[2]
+        gains = self._current_gains()
         params = self._panda_grip_params()
         if params is not None:  # goal() and gripper_ctrl() in one compiled call
             gripper = self.gripper
@@ -1151,7 +1150,7 @@ class FastSkillStepper:
             self._python_substep(0, goal_pos, goal_ori, gains, grip_ctrl, cached=True)
             first = 1
         if self.native:
-            self._native_substeps(first, goal_pos, goal_ori, gains, grip_ctrl)
+            self._native_substeps(first, goal_pos, goal_ori, grip_ctrl)
         else:
             for substep in range(first, self.substeps):
                 self._python_substep(substep, goal_pos, goal_ori, gains, grip_ctrl)
@@ -1160,28 +1159,28 @@ class FastSkillStepper:
         env.done = (env.timestep >= env.horizon) and not env.ignore_done
         finish_control_step(env, osc, self.grip_controller, goal_pos, goal_ori, self.torques)
 
-    # -- a fixed-waypoint phase in compiled code ------------------------------------------------
-    def run_phase(self, setpoint: np.ndarray, floats: np.ndarray, ints: np.ndarray, last_fingers: np.ndarray,
-                  target: np.ndarray) -> int:
-        """Run control steps of a skill phase with a fixed waypoint in :func:`phase_loop`; returns how many ran.
+    # -- a phase in compiled code ----------------------------------------------------------------
+    def run_phase(self, skill: np.ndarray, fingers: np.ndarray) -> int:
+        """Run control steps of a skill phase with a fixed waypoint in :func:`control_loop`; returns how many ran.
 
-        The arguments are the skill's state (:meth:`~tableclean_suite.controllers.skill.Skill.run_fixed_phase`
-        packs them; see :func:`phase_loop`), updated in place.  Returns to Python only at the phase's
-        boundaries (a step whose completion check might pass, the budget, the env's horizon) and for
-        substeps the env's wiping check must see, after which the loop resumes.  Runs nothing (returns 0)
-        without the native loop, with :attr:`phase_loop` off, for a gripper other than the Panda's
-        (whose rate-limited command it tabulates), on the first step after a reset (robosuite's cached
-        arm state, see :meth:`cached_arm_torques`) or when the episode is done.
+        ``skill``: the skill's (1,) [SKILL_STATE][tableclean_suite.controllers.loop_state.SKILL_STATE]
+        record (its ``target`` the waypoint), ``fingers``: (F,) its finger positions at the last step; both
+        updated in place.  Returns to Python only at the phase's boundaries (a step whose completion check
+        might pass, the budget, the env's horizon) and for substeps the env's wiping check must see, after
+        which the loop resumes.  Runs nothing (returns 0) without the native loop, with :attr:`phase_loop`
+        off, for a gripper other than the Panda's (whose rate-limited command it tabulates), on the first
+        step after a reset (robosuite's cached arm state, see :meth:`cached_arm_torques`) or when the
+        episode is done.
         """
-        return self._run_compiled(phase_loop, floats, (setpoint, floats, ints, last_fingers, target))
+        return self._run_compiled(skill, fingers, np.zeros(1, WIPE_STATE))  # mode MODE_FIXED
 
-    def run_press_phase(self, setpoint: np.ndarray, floats: np.ndarray, ints: np.ndarray, last_fingers: np.ndarray,
-                        target: np.ndarray, wipe: np.ndarray, wipe_ints: np.ndarray, force) -> tuple[int, int]:
-        """Run control steps of the clean skill's PRESS, WIPE or SHIFT phase in :func:`press_loop`.
+    def run_press_phase(self, skill: np.ndarray, fingers: np.ndarray, wipe: np.ndarray, force) -> tuple[int, int]:
+        """Run control steps of the clean skill's PRESS, WIPE or SHIFT phase in :func:`control_loop`.
 
-        As :meth:`run_phase` (same conditions, the skill's state updated in place; ``wipe``, ``wipe_ints``:
-        see :func:`press_loop`); ``force``: a Python function returning the sponge's press force (N), called
-        once per control step from the compiled loop (its time is added to :attr:`callback_seconds`).
+        As :meth:`run_phase` (same conditions, the skill's state updated in place); ``wipe``: the wipe's (1,)
+        [WIPE_STATE][tableclean_suite.controllers.loop_state.WIPE_STATE] record, updated in place (its
+        ``force_fn`` is set here); ``force``: a Python function returning the sponge's press force (N),
+        called once per control step from the compiled loop (its time is added to :attr:`callback_seconds`).
         Returns (control steps run, the loop's last stop reason).  An exception ``force`` raises is raised
         here after the loop stopped (the loop takes no step with it).
         """
@@ -1198,18 +1197,14 @@ class FastSkillStepper:
                 self.callback_seconds += time.perf_counter() - start
 
         callback = FORCE_CALLBACK(measured)  # kept alive while the loop runs
-        address = ctypes.cast(callback, ctypes.c_void_p).value
-        ran = self._run_compiled(press_loop, floats,
-                                 (setpoint, floats, ints, last_fingers, target, wipe, wipe_ints, address))
+        wipe["force_fn"] = ctypes.cast(callback, ctypes.c_void_p).value
+        ran = self._run_compiled(skill, fingers, wipe)
         if errors:
             raise errors[0]
         return ran, self.last_status
 
-    def _run_compiled(self, kernel, floats: np.ndarray, skill_state: tuple) -> int:
-        """Run ``kernel`` (:func:`phase_loop` or :func:`press_loop`) on the skill's state ``skill_state`` (its
-        arguments from ``setpoint`` on, before ``grip_table``); ``floats``: the skill's floats (the gripper
-        command at entry 4).  The shared driver of :meth:`run_phase` and :meth:`run_press_phase`; sets
-        :attr:`last_status`."""
+    def _run_compiled(self, skill: np.ndarray, fingers: np.ndarray, wipe: np.ndarray) -> int:
+        """Run :func:`control_loop` on the skill's state (see :meth:`run_phase`); sets :attr:`last_status`."""
         env = self.env
         self.last_status = PHASE_LIMIT
         if not (self.native and self.phase_loop) or env.done:
@@ -1221,36 +1216,30 @@ class FastSkillStepper:
         if type(self.gripper).format_action is not PandaGripper.format_action or not controller_needs_update(self.osc):
             return 0
         limit = np.iinfo(np.int64).max if env.ignore_done else env.horizon - env.timestep
-        table, states, settled = self._grip_table(float(floats[4]))
+        table, states, settled = self._grip_table(float(skill["gripper"][0]))
         if not settled:
             limit = min(limit, len(table))
-        gains = self.gains()
-        initial_joint = np.asarray(self.osc.initial_joint, dtype=float)
+        plant = self._current_plant()
         markers = np.ascontiguousarray(env._marker_xyz, dtype=float)
-        model, data = self._addresses
-        action, goal_pos, goal_ori = np.empty(ACTION_DIM), np.empty(3), np.empty((3, 3))
+        goal = (np.empty(ACTION_DIM), np.empty(3), np.empty((3, 3)))  # new arrays: the OSC keeps the goal's
         log = self.state_log
-        no_log = tuple(np.empty((0, getattr(self.data, f).size)) for f in LOG_FIELDS)
-        live_log = tuple(getattr(self.data, f) for f in LOG_FIELDS)
-        ints = skill_state[2]
         total = 0
         status = PHASE_LIMIT
         while total < limit:
             present = np.ascontiguousarray(env._marker_present())  # changes only in the env's wiping check
-            arrays = no_log if log is None else log.reserve(min(limit - total, int(ints[1] - ints[0])))
-            status, ran, substep = kernel(
-                self._functions, model, data, self.substeps, self._buffers, self._live, gains, initial_joint,
-                self.site_id, self.indexes, self._actuators, self.arm_limits, bool(self.osc.uncoupling),
-                self._sponge_half, self._wipe_z, markers, present, self._marker_reach,
-                self.data.site_xpos[self.eef_site_id], self.finger_index, *skill_state, table, total, action,
-                goal_pos, goal_ori, live_log, arrays, 0 if log is None else log.rows, limit - total,
-            )
+            if log is None:
+                arrays = self._no_log
+            else:
+                budget = int(skill["max_steps"][0] - skill["steps"][0])
+                arrays = tuple(a[log.rows:] for a in log.reserve(min(limit - total, budget)))
+            status, ran, substep = control_loop(plant, (markers, present), skill, fingers, wipe,
+                                                table[min(total, len(table) - 1):], goal, arrays, limit - total)
             if log is not None:
                 log.rows += ran
             if status == PHASE_WIPE:  # finish that step: the env's wiping check, mj_step2, the other substeps
                 env.record_wiping_substep()
                 mujoco.mj_step2(self.model, self.data)
-                self._native_substeps(substep + 1, goal_pos, goal_ori, gains, table[min(total + ran - 1, len(table) - 1)])
+                self._native_substeps(substep + 1, goal[1], goal[2], table[min(total + ran - 1, len(table) - 1)])
             for _ in range(ran):
                 env.timestep += 1
                 advance_clock(env, env.control_timestep)
@@ -1263,7 +1252,7 @@ class FastSkillStepper:
             current_action, goal_qvel = states[min(total, len(states)) - 1]
             set_gripper_state(self.gripper, self.grip_controller, current_action.copy(), goal_qvel.copy())
             env.done = (env.timestep >= env.horizon) and not env.ignore_done
-            hand_back_controller_state(self.osc, self.grip_controller, goal_pos, goal_ori, self.torques)
+            hand_back_controller_state(self.osc, self.grip_controller, goal[1], goal[2], self.torques)
         return total
 
     def _grip_table(self, command: float) -> tuple[np.ndarray, list, bool]:
@@ -1299,27 +1288,18 @@ class FastSkillStepper:
         self.env.record_wiping_substep()
         mujoco.mj_step2(model, data)
 
-    def _native_substeps(self, first: int, goal_pos, goal_ori, gains, grip_ctrl) -> None:
+    def _native_substeps(self, first: int, goal_pos, goal_ori, grip_ctrl) -> None:
         """Substeps ``first``.. of the control step in the compiled loop; the env checks wiping near the table."""
-        osc = self.osc
-        initial_joint = np.asarray(osc.initial_joint, dtype=float)
+        plant = self._current_plant()
         done = first
         markers = np.ascontiguousarray(self.env._marker_xyz, dtype=float)
-        model, data = self._addresses
         while done < self.substeps:
             present = np.ascontiguousarray(self.env._marker_present())  # changes only in the env's wiping check
-            done = native_substeps(
-                self._functions, model, data, done, self.substeps, self._buffers, self._live,
-                goal_pos, goal_ori, gains, initial_joint, self.site_id, self.indexes, self._actuators,
-                self.arm_limits, bool(osc.uncoupling), grip_ctrl, self._sponge_half, self._wipe_z,
-                markers, present, self._marker_reach,
-            )
+            done = native_substeps(plant, (markers, present), done, goal_pos, goal_ori, grip_ctrl)
             if done < 0:  # stopped after substep -done - 1's control: the env checks wiping, then step2
                 done = -done
                 self.env.record_wiping_substep()
                 mujoco.mj_step2(self.model, self.data)
-
-
 #: Attribute under which :func:`attach_fast_stepper` stores an env's stepper.
 STEPPER_ATTRIBUTE = "fast_stepper"
 

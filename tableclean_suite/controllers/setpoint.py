@@ -1,8 +1,9 @@
 """The skills' rate-limited setpoint and the command it gives, in one compiled function.
 
-:meth:`~tableclean_suite.controllers.skill.Skill.step` and the compiled phase loop of
-:mod:`tableclean_suite.controllers.fast_control` both call :func:`advance_command`, so a phase
-run either way produces bit-identical commands.
+[Skill.step][tableclean_suite.controllers.skill.Skill.step] and the compiled
+[control_loop][tableclean_suite.controllers.fast_control.control_loop] both call
+[advance_command][tableclean_suite.controllers.setpoint.advance_command], so a phase run either way
+produces bit-identical commands.
 """
 
 from __future__ import annotations

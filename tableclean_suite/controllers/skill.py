@@ -40,6 +40,7 @@ from tableclean_suite.controllers.geometry import (
     wrap_angle,
     z_row_entries,
 )
+from tableclean_suite.controllers.loop_state import SKILL_STATE, loop_record
 from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.controllers.setpoint import advance_command
 from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
@@ -376,10 +377,9 @@ class Skill(abc.ABC):
         if target.loop:
             return self.run_loop_phase(stepper)
         speed = self.config["speed"] if target.speed is None else target.speed
-        floats, ints = self.loop_state(speed, target.gripper, target.tolerance, target.min_steps, target.xy_only)
-        ran = stepper.run_phase(self._setpoint, floats, ints, self._last_fingers,
-                               np.ascontiguousarray(target.pos, dtype=float))
-        self.count_loop_steps(ran, floats)
+        state = self.loop_state(speed, target.gripper, target.tolerance, target.pos, target.min_steps, target.xy_only)
+        ran = stepper.run_phase(state, self._last_fingers)
+        self.count_loop_steps(ran, state)
         return ran
 
     def run_loop_phase(self, stepper) -> int:
@@ -387,24 +387,26 @@ class Skill(abc.ABC):
         waypoint, see :class:`Waypoint`); returns how many ran (default: none, every step through :meth:`step`)."""
         return 0
 
-    def loop_state(self, speed: float, gripper: float, tolerance: float, min_steps: int = 0,
-                   xy_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """``(floats (7,), ints (6,))``: the skill's state as the compiled loops take it (see
-        :func:`~tableclean_suite.controllers.fast_control.phase_loop`) for a phase at ``speed`` (m/s) with the
-        gripper command ``gripper``, ``tolerance`` (m), ``min_steps`` and ``xy_only``; read back with
-        :meth:`count_loop_steps`."""
+    def loop_state(self, speed: float, gripper: float, tolerance: float, target, min_steps: int = 0,
+                   xy_only: bool = False) -> np.ndarray:
+        """The skill's state as the compiled control loop takes it: a (1,)
+        [SKILL_STATE][tableclean_suite.controllers.loop_state.SKILL_STATE] record for a phase at ``speed``
+        (m/s) towards ``target`` (3,) m with the gripper command ``gripper``, ``tolerance`` (m), ``min_steps``
+        and ``xy_only``; read back with [count_loop_steps][tableclean_suite.controllers.skill.Skill.count_loop_steps]."""
         timeout = self.config["gripper_timeout"]
-        floats = np.array([self._yaw_setpoint, self.yaw, speed * self.dt, self.config["yaw_rate"] * self.dt,
-                           gripper, tolerance, self.config["gripper_still"]], dtype=float)
-        ints = np.array([self.steps, self.max_steps, self._phase_steps, min_steps,
-                         -1 if timeout is None else timeout, xy_only], dtype=np.int64)
-        return floats, ints
+        return loop_record(
+            SKILL_STATE, setpoint=self._setpoint, target=target, yaw_setpoint=self._yaw_setpoint, yaw=self.yaw,
+            max_move=speed * self.dt, max_turn=self.config["yaw_rate"] * self.dt, gripper=gripper,
+            tolerance=tolerance, gripper_still=self.config["gripper_still"], steps=self.steps,
+            max_steps=self.max_steps, phase_steps=self._phase_steps, min_steps=min_steps,
+            gripper_timeout=-1 if timeout is None else timeout, xy_only=xy_only)
 
-    def count_loop_steps(self, ran: int, floats: np.ndarray) -> None:
-        """Take over ``ran`` control steps a compiled loop ran in the current phase (``floats``: its state, the
-        yaw setpoint at entry 0): the yaw setpoint, the step counts."""
+    def count_loop_steps(self, ran: int, state: np.ndarray) -> None:
+        """Take over ``ran`` control steps the compiled loop ran in the current phase from its ``state`` (the
+        record of :meth:`loop_state`): the setpoint, the yaw setpoint, the step counts."""
         if ran:
-            self._yaw_setpoint = float(floats[0])
+            self._setpoint[:] = state["setpoint"][0]
+            self._yaw_setpoint = float(state["yaw_setpoint"][0])
             self.steps += ran
             self._phase_steps += ran
             name = self.phase.name
