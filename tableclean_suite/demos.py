@@ -139,12 +139,13 @@ def env_args_of(env, task: str, controller_configs: dict) -> dict:
     import robosuite
 
     from tableclean_suite.controllers.make import SKILL_ENV_DEFAULTS
+    from tableclean_suite.environments.config import jsonable
 
     meta = env.get_ep_meta()
     kwargs = dict(SKILL_ENV_DEFAULTS)
     kwargs.update(
         robots=[robot.name for robot in env.robots][0],
-        controller_configs=_jsonable(controller_configs),
+        controller_configs=jsonable(controller_configs),
         task=str(task),
         task_config=meta["task_config"],
         control_freq=float(env.control_freq),
@@ -164,21 +165,6 @@ def make_env_from_args(env_args: dict, **overrides):
     if env_args.get("type") != ROBOSUITE_ENV_TYPE:
         raise ValueError(f"env_args['type'] must be {ROBOSUITE_ENV_TYPE} (robosuite), got {env_args.get('type')!r}")
     return robosuite.make(env_args["env_name"], **{**env_args["env_kwargs"], **overrides})
-
-
-def _jsonable(value):
-    """``value`` with numpy arrays and scalars, tuples and paths turned into JSON types."""
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, Path):
-        return str(value)
-    return value
 
 
 # ---------------------------------------------------------------------------------------------
@@ -229,6 +215,7 @@ class EpisodeRecorder:
         recorded (a control path that bypasses the recording).
         """
         from tableclean_suite.environments.abstraction import AbstractionError
+        from tableclean_suite.environments.config import jsonable
 
         if self.hook_steps != len(self.actions):
             raise RuntimeError(f"recorded {len(self.actions)} commands but the controller made {self.hook_steps} "
@@ -261,7 +248,7 @@ class EpisodeRecorder:
             final_symbolic_state=int(codes[-1]),
             success=bool(success[-1]) and codes[-1] != NO_TASK_STATE and env.task_model.decode(codes[-1]).is_terminal,
             model_file=env.sim.model.get_xml(),
-            ep_meta=_jsonable(env.get_ep_meta()),
+            ep_meta=jsonable(env.get_ep_meta()),
         )
         state_dim = final_state.shape[0]
         return Demo(
@@ -374,7 +361,9 @@ def write_dataset(path, demos: Sequence[Demo], env_args: dict, attrs: dict | Non
 def _attr_value(value):
     """An hdf5 attribute value: dicts and lists as JSON text, None as "null", the rest as is."""
     if value is None or isinstance(value, (dict, list, tuple)):
-        return json.dumps(_jsonable(value))
+        from tableclean_suite.environments.config import jsonable
+
+        return json.dumps(jsonable(value))
     return value
 
 

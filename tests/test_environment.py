@@ -6,6 +6,7 @@ import robosuite
 
 import tableclean_suite  # noqa: F401  (registers TableClean)
 from tableclean_suite.environments import DEFAULT_TABLECLEAN_CONFIG, TableClean
+from tableclean_suite.robosuite_adapter import mj_data
 from tableclean_suite.task import (
     START_LAYOUTS,
     TABLE1_STATES,
@@ -329,22 +330,22 @@ def test_a_spec_starting_with_a_held_object_is_refused_by_the_scene_naming_the_r
 
 
 def test_dirt_positions_read_the_dirt_state_joints():
-    """_dirt_positions (the dirt-state caches' key) equals the joints' qpos gathered by address, through the
-    kept strided view and through the fallback gather for unevenly spaced addresses."""
+    """The dirt markers' positions (the decoded caches' key) equal the joints' qpos gathered by address, through
+    the kept strided view and through the gather for unevenly spaced addresses."""
     from tableclean_suite.controllers import make_skill_env
+    from tableclean_suite.environments.state_reading import DirtMarkers
 
     env = make_skill_env(2, 1, seed=4)
     try:
         env.reset()
+        dirt = env.dirt
         qpos = env.sim.data.qpos
-        addr = env._dirt_qpos_addr
+        addr = dirt.qpos_addr
         qpos[list(addr)] = np.arange(1, len(addr) + 1) * 0.25
-        expected = tuple(float(qpos[a]) for a in addr)
-        assert env._dirt_positions() == expected
-        env._dirt_qpos_addr = (addr[0], addr[0] + 1, addr[0] + 3)  # uneven: gathered through _dirt_qpos_index
-        env._dirt_qpos_index = np.array(env._dirt_qpos_addr, dtype=np.intp)
-        env._qpos_cache = None
-        assert env._dirt_positions() == tuple(float(qpos[a]) for a in env._dirt_qpos_addr)
-        assert env._qpos_cache[2] is None
+        assert dirt.strided is not None and dirt.positions() == tuple(float(qpos[a]) for a in addr)
+        uneven = (addr[0], addr[0] + 1, addr[0] + 3)
+        other = DirtMarkers(mj_data(env.sim), dirt.joints, uneven, dirt.qvel_addr, dirt.markers_per_segment,
+                            np.zeros((0, 4)), np.zeros(0, dtype=int))
+        assert other.strided is None and other.positions() == tuple(float(qpos[a]) for a in uneven)
     finally:
         env.close()

@@ -75,7 +75,7 @@ def test_robosuite_state_save_and_restore_carries_the_dirt_into_a_fresh_env():
         fresh.reset()
         fresh.set_scene_state(snapshot)
         np.testing.assert_array_equal(fresh.marker_present(), env.marker_present())
-        fresh.sim.data.qpos[fresh._dirt_qpos_addr[1]] = 0.3
+        fresh.sim.data.qpos[fresh.dirt.qpos_addr[1]] = 0.3
         with pytest.raises(DirtStateError, match="dirt_state_s2_joint"):
             fresh.dirt_fraction()
     finally:

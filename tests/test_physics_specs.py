@@ -13,19 +13,45 @@ import pytest
 from tableclean_suite.environments import AbstractionError, Fault, abstract_state
 from tableclean_suite.environments.config import LayoutError, make_config, max_segments, scene_geometry
 from tableclean_suite.environments.objects import ObjectType, get_object_type, object_type_names, register_object
-from tableclean_suite.environments.placement import footprint_gap, footprint_of, free_spot
+from tableclean_suite.environments.placement import footprint_of, free_spot
 from tableclean_suite.physics_backend import check_physical_task, start_of
 from tableclean_suite.task import HELD, Outcome, TaskModel, TaskSpec, TaskState, get_task_spec, task_spec_names
 
 CONFIG = make_config()
 SPEC = "three_segments_two_objects"
 MODEL = TaskModel(spec=SPEC)
-GAP_SAMPLING = 2e-3  # m the sampled directions of placement.footprint_gap may take off a gap (a 10 cm footprint: ~1 mm)
+GAP_SAMPLING = 2e-3  # m the sampled directions of footprint_gap may take off a gap (a 10 cm footprint: ~1 mm)
+#: Directions footprint_gap samples over a full turn.
+GAP_DIRECTIONS = 360
+
+
+def footprint_gap(xy_a, footprint_a, xy_b, footprint_b) -> float:
+    """Gap [m] between two footprints (a radius or an outline (K, 2), as placement's) with origins at world
+    ``xy_a`` and ``xy_b``: their largest separation along GAP_DIRECTIONS directions (never more than the true
+    gap; negative when they overlap)."""
+    angles = np.arange(GAP_DIRECTIONS) * (2 * np.pi / GAP_DIRECTIONS)
+    directions = np.stack([np.cos(angles), np.sin(angles)])
+
+    def reach(footprint, sign):  # how far the footprint reaches along each direction (times sign)
+        if np.ndim(footprint) == 0:
+            return np.full(GAP_DIRECTIONS, float(footprint))
+        return (np.asarray(footprint, dtype=float) @ (sign * directions)).max(axis=0)
+
+    along = (np.asarray(xy_b, dtype=float)[:2] - np.asarray(xy_a, dtype=float)[:2]) @ directions
+    return float(np.max(along - reach(footprint_b, -1) - reach(footprint_a, 1)))
 
 
 # ---------------------------------------------------------------------------------------------
 # unit tests
 # ---------------------------------------------------------------------------------------------
+def test_footprint_gap_of_two_rectangles_and_two_discs():
+    cereal = np.array([[-0.05, -0.015], [0.05, -0.015], [0.05, 0.015], [-0.05, 0.015]])
+    box = np.array([[-0.0225, -0.0225], [0.0225, -0.0225], [0.0225, 0.0225], [-0.0225, 0.0225]])
+    assert footprint_gap([0.0, 0.0], cereal, [0.1, 0.0], box) == pytest.approx(0.1 - 0.05 - 0.0225, abs=1e-4)
+    assert footprint_gap([0.0, 0.0], 0.02, [0.03, 0.04], 0.01) == pytest.approx(0.02, abs=1e-5)
+    assert footprint_gap([0.0, 0.0], cereal, [0.0, 0.0], box) < 0  # overlapping
+
+
 def test_paper_layout_is_unchanged_and_larger_layouts_stay_in_reach():
     paper = scene_geometry(CONFIG, 2)
     np.testing.assert_allclose(paper.segment_centers[:, :2], [[0.0, -0.14], [0.0, 0.14]])

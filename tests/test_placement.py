@@ -149,12 +149,6 @@ def test_footprint_of_reads_the_pose_and_the_override():
     assert placement.footprint_of(info, 1) == 0.04  # an overridden footprint stays a disc
 
 
-def test_footprint_gap_of_two_rectangles_and_two_discs():
-    assert placement.footprint_gap([0.0, 0.0], CEREAL, [0.1, 0.0], BOX) == pytest.approx(0.1 - 0.05 - 0.0225, abs=1e-4)
-    assert placement.footprint_gap([0.0, 0.0], 0.02, [0.03, 0.04], 0.01) == pytest.approx(0.02, abs=1e-5)
-    assert placement.footprint_gap([0.0, 0.0], CEREAL, [0.0, 0.0], BOX) < 0  # overlapping
-
-
 def test_place_spot_keeps_the_hand_off_a_tall_neighbour_wherever_the_object_hangs_off_the_grip_site():
     from types import SimpleNamespace
 

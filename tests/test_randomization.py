@@ -207,7 +207,8 @@ def test_randomised_values_lie_in_the_ranges_and_reach_the_controllers(envs):
                                                                              sample.object_size_scale[0] ** 3)):
             low, high = getattr(DEFAULT_ON, name)
             assert low <= drawn <= high, name
-        np.testing.assert_allclose(env._object_half_sizes[0], plain._object_half_sizes[0] * sample.object_size_scale[0])
+        np.testing.assert_allclose(env.object_measures.half_sizes[0],
+                                   plain.object_measures.half_sizes[0] * sample.object_size_scale[0])
         np.testing.assert_allclose(env.skill_info()["sponge_half_size"],
                                    np.array(plain.task_config["sponge_half_size"]) * sample.sponge_size_scale)
         arm = np.asarray(env.robots[0]._ref_joint_vel_indexes)

@@ -31,10 +31,11 @@ def test_grasp_flags_and_quaternions_match_the_per_body_reads():
 
     def check() -> None:
         info = env.skill_info()
-        expected = np.array([env._grasped(mask) for mask in env._object_masks])
+        contacts = env.contacts
+        expected = np.array([grasped(env, mask) for mask in contacts.objects])
         np.testing.assert_array_equal(info["objects_grasped"], expected)
         assert info["object_grasped"] == expected[0]
-        assert info["sponge_grasped"] == env._grasped(env._sponge_mask)
+        assert info["sponge_grasped"] == grasped(env, contacts.sponge)
         quats = env.sim.data.body_xquat
         np.testing.assert_array_equal(info["objects_quat"],
                                       np.array([convert_quat(np.array(quats[b]), to="xyzw") for b in env.object_body_ids]))
@@ -45,9 +46,10 @@ def test_grasp_flags_and_quaternions_match_the_per_body_reads():
         np.testing.assert_array_equal(info["eef_rot"], env.sim.data.site_xmat[robot.eef_site_id[robot.arms[0]]].reshape(3, 3))
         assert env.sponge_press_force() == press_force_per_contact(env)
         contact, ncon = env.sim.data.contact, env.sim.data.ncon
-        pressing = wiping.any_contact(contact.geom1[:ncon], contact.geom2[:ncon], env._sponge_mask, env._table_mask)
-        within = contact_within(contact.geom1[:ncon], contact.geom2[:ncon], contact.dist[:ncon], env._sponge_mask,
-                                env._table_mask, WIPE_CONTACT_DIST)
+        pressing = wiping.any_contact(contact.geom1[:ncon], contact.geom2[:ncon], contacts.sponge, contacts.table)
+        within = contact_within(contact.geom1[:ncon], contact.geom2[:ncon], contact.dist[:ncon], contacts.sponge,
+                                contacts.table, WIPE_CONTACT_DIST)
+        assert env.contacts.sponge_on_table(WIPE_CONTACT_DIST) == within
         assert within == bool((pressing & (contact.dist[:ncon] <= WIPE_CONTACT_DIST)).any())
         seen["pressing"] += within
         seen["sponge"] += info["sponge_grasped"]
@@ -66,6 +68,14 @@ def test_grasp_flags_and_quaternions_match_the_per_body_reads():
         env.close()
 
 
+def grasped(env, mask: np.ndarray) -> bool:
+    """Both finger pads touch a geom of ``mask`` (robosuite's grasp criterion, per body with numpy masks)."""
+    data = mj_data(env.sim)
+    ncon = data.ncon
+    geom1, geom2 = data.contact.geom1[:ncon], data.contact.geom2[:ncon]
+    return ncon > 0 and all(wiping.any_contact(geom1, geom2, pad, mask).any() for pad in env.contacts.pads)
+
+
 def press_force_per_contact(env) -> float:
     """``sponge_press_force`` as it was written before its compiled contact pass: numpy masks, then MuJoCo's
     ``mj_contactForce`` per sponge-table contact, summed in contact order."""
@@ -73,8 +83,8 @@ def press_force_per_contact(env) -> float:
     ncon = data.ncon
     if ncon == 0:
         return 0.0
-    pressing = wiping.any_contact(data.contact.geom1[:ncon], data.contact.geom2[:ncon], env._sponge_mask,
-                                  env._table_mask)
+    pressing = wiping.any_contact(data.contact.geom1[:ncon], data.contact.geom2[:ncon], env.contacts.sponge,
+                                  env.contacts.table)
     wrench, total = np.zeros(6), 0.0
     for i in np.flatnonzero(pressing):
         mujoco.mj_contactForce(model, data, int(i), wrench)

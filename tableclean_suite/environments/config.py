@@ -21,6 +21,7 @@ objects side by side and a sponge lane).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Mapping
 
 import numpy as np
@@ -332,3 +333,19 @@ def marker_positions(config: Mapping, n_segments: int = SCENE_SEGMENTS) -> np.nd
 
 #: The largest number of segments the default config lays out (see the module docstring).
 MAX_SCENE_SEGMENTS = max_segments(DEFAULT_TABLECLEAN_CONFIG)
+
+
+def jsonable(value):
+    """``value`` with tuples, NumPy arrays and scalars and paths turned into JSON types (lists, Python scalars,
+    strings), recursively through dicts (keys as strings) and sequences."""
+    if isinstance(value, dict):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    return value

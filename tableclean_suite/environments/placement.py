@@ -291,15 +291,6 @@ def _directions() -> tuple[np.ndarray, np.ndarray]:
     return np.stack([np.cos(angles), np.sin(angles)]), np.roll(np.arange(GAP_DIRECTIONS), GAP_DIRECTIONS // 2)
 
 
-def footprint_gap(xy_a, footprint_a, xy_b, footprint_b) -> float:
-    """Gap [m] between two footprints (radius or outline, as in :func:`free_spot`) with origins at world ``xy_a``
-    and ``xy_b`` (first two entries used): their largest separation along any of :data:`GAP_DIRECTIONS`
-    directions (never more than the true gap; negative when they overlap)."""
-    directions, opposite = _directions()
-    along = (np.asarray(xy_b, dtype=float)[:2] - np.asarray(xy_a, dtype=float)[:2]) @ directions
-    return float(np.max(along - _support(footprint_b, directions)[opposite] - _support(footprint_a, directions)))
-
-
 def quat_matrix(quat_xyzw) -> np.ndarray:
     """(3, 3) rotation matrix of the unit quaternion ``quat_xyzw`` (4,) (robosuite's order)."""
     x, y, z, w = (float(q) for q in quat_xyzw)

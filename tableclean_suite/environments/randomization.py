@@ -41,9 +41,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields, replace
-from typing import Any, Mapping
+from typing import Any, Mapping, NamedTuple
 
 import numpy as np
+
+from tableclean_suite.environments.config import make_config
 
 __all__ = ["DynamicsRandomization", "DynamicsSample", "OFF", "DEFAULT_ON", "resolve_randomization",
            "ALLOWED_SCALE", "ALLOWED_SIZE_SCALE", "MAX_YAW_NOISE", "MAX_SPONGE_HOME_NOISE", "RANGE_FIELDS",
@@ -273,3 +275,72 @@ def resolve_randomization(value: Any) -> DynamicsRandomization:
         return replace(base, **overrides)
     raise ValueError(f"randomization must be None, True/False, {', '.join(OFF_NAMES + ON_NAMES)}, "
                      f"a DynamicsRandomization or a mapping of its fields, got {value!r}")
+
+
+# ---------------------------------------------------------------------------------------------
+# applying a draw to the scene
+# ---------------------------------------------------------------------------------------------
+def episode_config(base: Mapping, sample: DynamicsSample) -> Mapping:
+    """The task config of an episode drawn as ``sample`` from the configured ``base``: the sponge's half size
+    scaled, the objects' yaw noise at least the drawn one (a new checked config)."""
+    sponge = np.asarray(base["sponge_half_size"], dtype=float) * sample.sponge_size_scale
+    yaw_noise = max(float(base["placement_yaw_noise"]), sample.object_yaw_noise)
+    return make_config({**base, "sponge_half_size": tuple(float(h) for h in sponge),
+                        "placement_yaw_noise": yaw_noise})
+
+
+def object_build_config(base: Mapping, config: Mapping, sample: DynamicsSample | None, obj: int) -> Mapping:
+    """The config object ``obj`` (0-based) is built from: the episode's ``config`` with ``base``'s
+    ``object_half_size`` scaled by the draw (``config`` itself without a draw)."""
+    if sample is None:
+        return config
+    half = np.asarray(base["object_half_size"], dtype=float)
+    return {**config, "object_half_size": half * sample.object_size_scale[obj]}
+
+
+class DynamicsTargets(NamedTuple):
+    """What a draw scales in the built model: the bodies (M objects, then the sponge), the table top's,
+    the objects' and the sponge's geoms (bool (ngeom,) masks) and the arm's degrees of freedom."""
+
+    bodies: np.ndarray  #: (M + 1,) body ids
+    table: np.ndarray  #: bool (ngeom,)
+    objects: tuple  #: (M,) bool (ngeom,) each
+    sponge: np.ndarray  #: bool (ngeom,)
+    arm_dofs: np.ndarray  #: the arm joints' dof indexes
+
+
+def read_nominal(model, targets: DynamicsTargets) -> dict:
+    """Copies of the values of ``model`` (a freshly built MuJoCo model) a draw scales."""
+    return {
+        "body_mass": model.body_mass[targets.bodies].copy(),
+        "body_inertia": model.body_inertia[targets.bodies].copy(),
+        "table_friction": model.geom_friction[targets.table, 0].copy(),
+        "object_friction": [model.geom_friction[mask, 0].copy() for mask in targets.objects],
+        "sponge_friction": model.geom_friction[targets.sponge, 0].copy(),
+        "dof_damping": model.dof_damping[targets.arm_dofs].copy(),
+    }
+
+
+def apply_dynamics(model, targets: DynamicsTargets, nominal: dict, sample: DynamicsSample, osc) -> None:
+    """Write ``sample``'s masses, frictions and damping into ``model`` and its gains into the arm's
+    controller ``osc``: scales multiply the ``nominal`` values ([read_nominal][tableclean_suite.environments.randomization.read_nominal]),
+    so soft resets do not compound.  ``ValueError`` when the gains are scaled and ``osc`` has no ``kp``/``kd``."""
+    bodies = targets.bodies
+    mass_scale = np.array([*sample.object_mass_scale, sample.sponge_mass_scale])
+    model.body_mass[bodies] = nominal["body_mass"] * mass_scale
+    model.body_inertia[bodies] = nominal["body_inertia"] * mass_scale[:, None]
+    model.geom_friction[targets.table, 0] = nominal["table_friction"] * sample.table_friction_scale
+    for mask, values, scale in zip(targets.objects, nominal["object_friction"], sample.object_friction_scale):
+        model.geom_friction[mask, 0] = values * scale
+    model.geom_friction[targets.sponge, 0] = nominal["sponge_friction"] * sample.sponge_friction_scale
+    model.dof_damping[targets.arm_dofs] = nominal["dof_damping"] * np.asarray(sample.joint_damping_scale)
+    scales_gains = sample.osc_kp_scale != 1.0 or sample.osc_damping_ratio_scale != 1.0
+    if not (hasattr(osc, "kp") and hasattr(osc, "kd")):  # not an OSC: its gains cannot be scaled
+        if scales_gains:
+            raise ValueError(f"randomization scales OSC gains (osc_kp_scale, osc_damping_ratio_scale), but the "
+                             f"arm's controller {type(osc).__name__} has no kp/kd; set both ranges to (1, 1)")
+    else:  # robosuite made the controller anew at this reset: scaling does not compound
+        kp = np.asarray(osc.kp, dtype=float)
+        ratio = np.asarray(osc.kd, dtype=float) / (2.0 * np.sqrt(kp))  # the controller's damping ratio
+        osc.kp = kp * sample.osc_kp_scale
+        osc.kd = 2.0 * np.sqrt(osc.kp) * ratio * sample.osc_damping_ratio_scale
