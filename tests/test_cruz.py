@@ -20,7 +20,7 @@ from tableclean_suite.task import Outcome, TaskModel
 
 IMPROPER = int(Outcome.IMPROPER)
 ASSISTED = ("affordance_q_learning", "learned_affordance_q_learning", "interactive_q_learning")
-RECORDS = ("rewards", "outcomes", "states", "actions", "episode_end", "q")
+RECORDS = ("rewards", "outcomes", "states", "actions", "episode_end", "q", "first_learned_at", "learned_at")
 #: Binomial tolerance in standard deviations (a false alarm about once in 10^6 checks).
 SIGMAS = 5.0
 

@@ -10,7 +10,7 @@ from tableclean_suite.learners import TabularLearner, TransitionTable, get_learn
 from tableclean_suite.learners.rules import expected_sarsa_target, q_learning_target, sarsa_target
 from tableclean_suite.task import Action, Outcome, TaskModel
 
-RECORDS = ("rewards", "outcomes", "states", "actions", "episode_end", "q")
+RECORDS = ("rewards", "outcomes", "states", "actions", "episode_end", "q", "first_learned_at", "learned_at")
 ALPHA = GAMMA = 0.3
 
 

@@ -41,7 +41,7 @@ from tableclean_suite.learners.rng import (
 from tableclean_suite.learners.rules import METHOD_TRACES, softmax_expected_sarsa_target
 from tableclean_suite.task import Action, Outcome, TaskModel
 
-RECORDS = ("rewards", "outcomes", "states", "actions", "episode_end", "q")
+RECORDS = ("rewards", "outcomes", "states", "actions", "episode_end", "q", "first_learned_at", "learned_at")
 NEW_LEARNERS = ("double_q_learning", "q_lambda", "sarsa_lambda", "dyna_q")
 ALL_LEARNERS = ("q_learning", "sarsa", "expected_sarsa", *NEW_LEARNERS)
 ALPHA = GAMMA = 0.3

@@ -81,7 +81,7 @@ def test_compiled_equals_plain_loop_with_a_user_action(learner):
     compiled, plain = train(learner, "r4", **kwargs), train(learner, "r4", engine="reference", **kwargs)
     assert compiled.q.shape == (3, model.n_states, 5)
     assert set(np.unique(compiled.actions)) <= set(range(5)) and 1 in compiled.actions
-    for name in RECORDS:
+    for name in (*RECORDS, "first_learned_at", "learned_at"):
         np.testing.assert_array_equal(getattr(compiled, name), getattr(plain, name))
 
 

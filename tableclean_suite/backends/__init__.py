@@ -54,6 +54,8 @@ class TrainingJob:
         checkpoint: also keep the Q-tables after this many iterations, in [1, iterations]
             (0: none); a backend that can puts them in ``info[CHECKPOINT_Q]`` ``(R, S, A)`` (the
             built-in ones, on both engines), one that cannot leaves them out.
+        ties: the greedy choice's tie rule, ``"first"`` (the first action in the task's order) or
+            ``"random"`` (uniform among the tied actions, by the ties lane's draws).
     """
 
     learner: Any
@@ -73,6 +75,7 @@ class TrainingJob:
     progress: bool = False
     executor: Any = None
     checkpoint: int = 0
+    ties: str = "first"
 
     @property
     def hyperparameters(self) -> dict:
@@ -95,6 +98,9 @@ class BackendRecords:
         config: the arguments that produced it (JSON-serialisable); a backend adds its own keys.
         info: backend diagnostics, e.g. ``info["physics"]``: skill executions, failures,
             faults by kind, restages, control steps and wall time of the physics backend.
+        first_learned_at, learned_at: ``(R,)`` int64 learning times in iterations
+            (:mod:`tableclean_suite.learners.optimality`; -1: never / censored), or None when
+            the backend cannot judge them (``train()`` then reports -1).
 
     The integer records use the task's ``record_dtype``: int8 for the paper's 24 states,
     wider where the spec needs it.
@@ -108,6 +114,8 @@ class BackendRecords:
     q: np.ndarray
     config: dict = field(default_factory=dict)
     info: dict = field(default_factory=dict)
+    first_learned_at: np.ndarray | None = None
+    learned_at: np.ndarray | None = None
 
 
 class TrainingBackend(Protocol):

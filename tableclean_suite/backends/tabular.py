@@ -21,7 +21,7 @@ import numpy as np
 from tableclean_suite import resources
 from tableclean_suite.learners.memory import learner_training_memory
 from tableclean_suite.backends import CHECKPOINT_Q, BackendRecords, TrainingJob
-from tableclean_suite.learners import assist, kernel, reference
+from tableclean_suite.learners import assist, kernel, optimality, reference
 from tableclean_suite.learners.reference import DOUBLE_Q_TABLES
 from tableclean_suite.learners.rng import run_keys
 from tableclean_suite.learners.rules import METHOD_DOUBLE_Q
@@ -120,10 +120,12 @@ class TableBackend:
             env = reference.TableStepEnv(job.model, table) if self.measured else reference.ModelStepEnv(job.model)
             per_run = [
                 reference.train_run(env, job.learner, job.reward, job.iterations, seed=job.seed,
-                                    run=job.first_run + r, checkpoint=job.checkpoint, **job.hyperparameters)
+                                    run=job.first_run + r, checkpoint=job.checkpoint, ties=job.ties,
+                                    **job.hyperparameters)
                 for r in progress_bar(range(job.runs), job.progress, "runs")
             ]
-            records = {name: np.stack([run[name] for run in per_run]) for name in (*RECORD_FIELDS, "q")}
+            records = {name: np.stack([run[name] for run in per_run])
+                       for name in (*RECORD_FIELDS, "q", "first_learned_at", "learned_at")}
             info = {}
             if DOUBLE_Q_TABLES in per_run[0]:
                 info[DOUBLE_Q_TABLES] = np.stack([run[DOUBLE_Q_TABLES] for run in per_run])
@@ -137,7 +139,9 @@ class TableBackend:
         double = learner.method == METHOD_DOUBLE_Q
         q_second = np.full(q.shape if double else (job.runs, 0, 0), learner.q_init, dtype=np.float64)
         keys = run_keys(job.seed, job.first_run, job.runs)
-        starts = np.array([s.index for s in model.start_states()], dtype=np.int64)
+        starts, task_next, distance = optimality.task_arrays(model)
+        first_learned = np.full(job.runs, optimality.NOT_LEARNED, dtype=np.int64)
+        learned = np.full(job.runs, optimality.NOT_LEARNED, dtype=np.int64)
         values = job.reward.outcome_values()
         loop_value = 0.0 if job.reward.looping_penalty is None else job.reward.looping_penalty
         learner_parameters = learner.kernel_parameters()
@@ -155,17 +159,18 @@ class TableBackend:
                 job.reward.looping_memory,
                 learner.target_code, learner.on_policy, learner.method, learner_parameters, job.alpha, job.gamma,
                 learner.exploration.code, explore_parameters, learner.affordance_code, afforded, advisor, advice,
-                job.max_itr,
+                job.max_itr, optimality.TIES[job.ties], task_next, distance,
                 keys[lo:hi], q[lo:hi], q_second[lo:hi], *(records[name][lo:hi] for name in RECORD_FIELDS),
-                snapshot_at, q_snapshot[lo:hi], q_second_snapshot[lo:hi],
+                snapshot_at, q_snapshot[lo:hi], q_second_snapshot[lo:hi], first_learned[lo:hi], learned[lo:hi],
             ))
         info = {}
         if snapshot_at != kernel.NO_SNAPSHOT:
             info[CHECKPOINT_Q] = (q_snapshot + q_second_snapshot) * kernel.HALF if double else q_snapshot
+        learning = {"first_learned_at": first_learned, "learned_at": learned}
         if double:
             return BackendRecords(**records, q=(q + q_second) * kernel.HALF, config=config,
-                                  info={DOUBLE_Q_TABLES: np.stack((q, q_second), axis=1), **info})
-        return BackendRecords(**records, q=q, config=config, info=info)
+                                  info={DOUBLE_Q_TABLES: np.stack((q, q_second), axis=1), **info}, **learning)
+        return BackendRecords(**records, q=q, config=config, info=info, **learning)
 
 
 SYMBOLIC = TableBackend("symbolic", measured=False)

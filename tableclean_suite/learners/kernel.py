@@ -64,15 +64,18 @@ from tableclean_suite.learners.rng import (
     LANE_ADVICE,
     LANE_LEARNER,
     LANE_PLANNING,
+    LANE_TIES,
     STREAM_DOUBLE_TABLE,
     STREAM_EXPLORE,
     STREAM_RANDOM_ACTION,
     STREAM_START,
+    STREAM_TIE,
     STREAM_TRANSITION,
     lane_key,
     uniform,
     uniform_at,
 )
+from tableclean_suite.learners.optimality import NOT_LEARNED, TIES_RANDOM, greedy_walk, tied_greedy, walk_changed
 from tableclean_suite.learners.rules import (
     EXPECTED_SARSA_TARGET,
     METHODS,
@@ -220,13 +223,15 @@ def visit_count(visits, state):
 
 @numba.njit(cache=True, inline="always")
 def act(q_a, q_b, row, state, plain, double, explore_code, explore_parameters, key, iteration, visits,
-        affordance, masks, advisor, advice, advice_key):
+        affordance, masks, advisor, advice, advice_key, random_ties, tie_key):
     """The behaviour policy's action in ``state`` at ``iteration`` (main-lane draws of that iteration).
 
     ``plain``: constant epsilon-greedy on ``q_a`` without affordances (the paper's policy, taken
     without the general path's per-step schedule and row work: same action, fewer instructions).
     An advisor (``advisor`` non-empty) is asked first (advice-lane draws); with affordances
     (``affordance`` != AFFORD_NONE) the choice is restricted to ``masks[state]`` (:mod:`.assist`).
+    With ``random_ties`` a greedy (not exploring) epsilon-greedy choice is uniform among the tied
+    actions, by the ties lane's draw (:func:`.optimality.tied_greedy`).
     """
     if advisor.shape[0] > 0:
         advised = advice_action(advisor, advice, advice_key, iteration, state, q_a.shape[1])
@@ -238,6 +243,8 @@ def act(q_a, q_b, row, state, plain, double, explore_code, explore_parameters, k
         return epsilon_greedy(q_a[state], explore_parameters[P_START], explore_draw, action_draw)
     parameter = exploration_parameter(explore_code, explore_parameters, iteration, visit_count(visits, state))
     q_row = behaviour_row(q_a, q_b, state, double, row)
+    if random_ties and explore_code != SOFTMAX_CODE and explore_draw >= parameter:
+        return tied_greedy(q_row, masks, state, affordance != AFFORD_NONE, uniform(tie_key, iteration, STREAM_TIE))
     if affordance != AFFORD_NONE:
         return afforded_choice(q_row, masks[state], explore_code, parameter, explore_draw, action_draw)
     return choose_action(q_row, explore_code, parameter, explore_draw, action_draw)
@@ -360,7 +367,8 @@ def run_memory(n_states, n_actions, double, traced, counting, modelling):
 
     Returns (behaviour row ``(A,)``, visits ``(S,)``, traces ``(S, A)``, trace pairs ``(S*A,)``,
     model next states ``(S, A)`` (NO_STATE = unseen), model rewards, model terminal flags,
-    observed pairs ``(S*A,)``).
+    observed pairs ``(S*A,)``, and the greedy walk's examined states ``(S,)`` int64, their flags
+    ``(S,)`` bool and greedy actions ``(S,)`` int64 (:func:`.optimality.greedy_walk`)).
     """
     row = np.empty(n_actions if double else 0)
     visits = np.zeros(n_states if counting else 0, dtype=np.int64)
@@ -372,7 +380,10 @@ def run_memory(n_states, n_actions, double, traced, counting, modelling):
     model_reward = np.zeros((n_modelled, n_actions))
     model_terminal = np.zeros((n_modelled, n_actions), dtype=np.bool_)
     observed = np.empty(n_modelled * n_actions, dtype=np.int64)
-    return row, visits, traces, pairs, model_next, model_reward, model_terminal, observed
+    walked = np.empty(n_states, dtype=np.int64)
+    on_walk = np.zeros(n_states, dtype=np.bool_)
+    choice = np.zeros(n_states, dtype=np.int64)
+    return row, visits, traces, pairs, model_next, model_reward, model_terminal, observed, walked, on_walk, choice
 
 
 def _train_loop(
@@ -399,6 +410,9 @@ def _train_loop(
     advisor,
     advice,
     max_itr,
+    ties,
+    task_next,
+    distance,
     keys,
     q,
     q_second,
@@ -410,6 +424,8 @@ def _train_loop(
     snapshot_at,
     q_snapshot,
     q_second_snapshot,
+    first_learned,
+    learned,
 ):
     """Train runs ``lo .. hi - 1`` (indices into the first axis of ``keys``, ``q`` and the outputs)
     for ``rewards.shape[1]`` iterations, in place.
@@ -450,6 +466,9 @@ def _train_loop(
         advisor: ``(S,)`` int64 the advisor's action per state, or ``(0,)`` for no advisor.
         advice: ``(2,)`` float64 ``[L, C]`` advice probability and consistency, each in [0, 1].
         max_itr: iterations after which an episode is truncated.
+        ties: ``optimality.TIES_FIRST`` (greedy ties to the first action) or ``TIES_RANDOM``.
+        task_next: ``(S, A)`` int64 the task model's successors, on which optimality is judged.
+        distance: ``(S,)`` int64 the task model's shortest-plan lengths (0 terminal, -1 none).
         keys: ``(R,)`` uint64 per-run random keys.
         q: ``(R, S, A)`` float64 Q-tables (table A for double Q), initialised, updated in place.
         q_second: ``(R, S, A)`` float64 table B for double Q, else ``(R, 0, 0)``.
@@ -462,6 +481,9 @@ def _train_loop(
             Q-tables of the same runs trained for ``snapshot_at`` iterations (the loop is a prefix:
             counter-based random numbers), so one pass gives both.
         q_snapshot, q_second_snapshot: ``(R, S, A)`` float64 outputs, or ``(R, 0, 0)`` when unused.
+        first_learned, learned: ``(R,)`` int64 outputs, each run's first iteration after which its
+            greedy policy is optimal and the iteration from which it stays so (-1: never / censored);
+            see :mod:`.optimality`.
     """
     # Borrowed views of every array argument (see borrowed): the same arrays without reference counting.
     next_state_table, outcome_table, cumulative_table = (
@@ -473,6 +495,8 @@ def _train_loop(
     rewards, outcomes, states, actions, episode_end = (
         borrowed(rewards), borrowed(outcomes), borrowed(states), borrowed(actions), borrowed(episode_end))
     q_snapshot, q_second_snapshot = borrowed(q_snapshot), borrowed(q_second_snapshot)
+    task_next, distance = borrowed(task_next), borrowed(distance)
+    first_learned, learned = borrowed(first_learned), borrowed(learned)
     n_iterations = rewards.shape[1]
     n_states, n_actions = q.shape[1], q.shape[2]
     n_starts = starts.shape[0]
@@ -492,7 +516,9 @@ def _train_loop(
     accumulate = learner_parameters[PARAM_ACCUMULATE] != 0.0
     planning_steps = int(learner_parameters[PARAM_PLANNING])
     counting = exploring == VISIT_DECAY_CODE
-    plain = exploring == EPSILON_GREEDY_CODE and not double and affordance == AFFORD_NONE
+    random_ties = ties == TIES_RANDOM
+    plain = exploring == EPSILON_GREEDY_CODE and not double and affordance == AFFORD_NONE and not random_ties
+    affording = affordance != AFFORD_NONE
     learning_affordances = affordance == AFFORD_LEARNED
     afforded_max = affordance != AFFORD_NONE and target_code == Q_LEARNING_TARGET
     softmaxing = exploring == SOFTMAX_CODE  # (one definition, so a copy prunes the target's branch below)
@@ -505,12 +531,12 @@ def _train_loop(
         side_key = lane_key(key, LANE_LEARNER)
         planning_key = lane_key(key, LANE_PLANNING)
         advice_key = lane_key(key, LANE_ADVICE)
+        tie_key = lane_key(key, LANE_TIES)
         masks = run_masks(afforded, affordance, n_states, n_actions)
         qr = q[r]
         qb = q_second[r]
-        row, visits, traces, pairs, model_next, model_reward, model_terminal, observed = run_memory(
-            n_states, n_actions, double, traced, counting, modelling
-        )
+        row, visits, traces, pairs, model_next, model_reward, model_terminal, observed, walked, on_walk, choice = (
+            run_memory(n_states, n_actions, double, traced, counting, modelling))
         # np.int64(...), not bare constants: a literal argument makes numba compile a callee twice (for the
         # literal type while inferring types, then for int64), about 0.3 s each in a first process.
         n_pairs = np.int64(0)
@@ -519,6 +545,10 @@ def _train_loop(
         previous = np.int64(NO_STATE)
         pending = np.int64(NO_STATE)
         length = 0
+        optimal, n_walked = greedy_walk(qr, qb, double, row, masks, affording, random_ties, starts, task_next,
+                                        distance, walked, on_walk, choice, np.int64(0))
+        first = np.int64(0) if optimal else np.int64(NOT_LEARNED)
+        last_not_optimal = np.int64(-1) if optimal else np.int64(0)
         for t in range(n_iterations):
             if t == snapshot_at:
                 copy_tables(qr, qb, q_snapshot[r], q_second_snapshot[r], double)
@@ -537,7 +567,7 @@ def _train_loop(
                 action = pending
             else:
                 action = act(qr, qb, row, state, plain, double, exploring, explore_parameters, key, t, visits,
-                             affordance, masks, advisor, advice, advice_key)
+                             affordance, masks, advisor, advice, advice_key, random_ties, tie_key)
             k = 0
             if n_successors > 1:
                 k = sample_index(cumulative_table[state, action], uniform(key, t, STREAM_TRANSITION))
@@ -560,7 +590,7 @@ def _train_loop(
             pending = NO_STATE
             if choose_first and not terminal:
                 pending = act(qr, qb, row, nxt, plain, double, exploring, explore_parameters, key, t + 1, visits,
-                              affordance, masks, advisor, advice, advice_key)
+                              affordance, masks, advisor, advice, advice_key, random_ties, tie_key)
             if double:
                 double_q_update(qr, qb, state, action, nxt, reward, alpha, gamma, terminal,
                                 uniform(side_key, t, STREAM_DOUBLE_TABLE))
@@ -583,6 +613,23 @@ def _train_loop(
                                           nxt, reward, terminal)
                     plan(qr, model_next, model_reward, model_terminal, observed, n_observed, planning_key, t,
                          planning_steps, alpha, gamma)
+            # Did this iteration's update change the greedy policy where the last walk looked?
+            changed = False
+            if traced or modelling:
+                for i in range(n_walked):
+                    if walk_changed(qr, qb, double, row, masks, affording, random_ties, walked[i], on_walk, choice):
+                        changed = True
+                        break
+            else:
+                changed = walk_changed(qr, qb, double, row, masks, affording, random_ties, state, on_walk, choice)
+            if changed:
+                optimal, n_walked = greedy_walk(qr, qb, double, row, masks, affording, random_ties, starts,
+                                                task_next, distance, walked, on_walk, choice, n_walked)
+            if optimal:
+                if first == NOT_LEARNED:
+                    first = t + 1
+            else:
+                last_not_optimal = t + 1
             rewards[r, t] = reward
             outcomes[r, t] = outcome
             states[r, t] = state
@@ -599,6 +646,8 @@ def _train_loop(
                 state = nxt
         if snapshot_at == n_iterations:
             copy_tables(qr, qb, q_snapshot[r], q_second_snapshot[r], double)
+        first_learned[r] = first
+        learned[r] = last_not_optimal + 1 if optimal else NOT_LEARNED
 
 
 def specialised_loop(name: str, method: int, exploration: int):
@@ -687,10 +736,10 @@ def code_digest(learner: TabularLearner) -> str:
     """
     import sys
 
-    from tableclean_suite.learners import assist, exploration, rng, rules
+    from tableclean_suite.learners import assist, exploration, optimality, rng, rules
 
     digest = hashlib.sha256()
-    for module in (rng, rules, exploration, assist, sys.modules[__name__]):
+    for module in (rng, rules, exploration, assist, optimality, sys.modules[__name__]):
         digest.update(inspect.getsource(module).encode())
     target = learner.td_target.py_func
     try:
@@ -708,7 +757,7 @@ def _guard_disk_cache() -> None:
     from tableclean_suite.learners import cache_guard
 
     package = "tableclean_suite.learners"
-    modules = [sys.modules[f"{package}.{name}"] for name in ("kernel", "rng", "rules", "exploration", "assist")]
+    modules = [sys.modules[f"{package}.{name}"] for name in ("kernel", "rng", "rules", "exploration", "assist", "optimality")]
     modules.append(sys.modules["tableclean_suite.rewards"])  # PAPER_LOOPING_MEMORY is compiled in as a constant
     dispatchers = [value for value in vars(sys.modules[__name__]).values()
                    if isinstance(value, numba.core.registry.CPUDispatcher)]

@@ -17,18 +17,26 @@ from tableclean_suite.learners.rules import METHOD_DOUBLE_Q, METHOD_DYNA, METHOD
 from tableclean_suite.rewards import PAPER_LOOPING_MEMORY
 
 
+#: Per state, the greedy walk's examined states and greedy actions (int64 each) and flags (one byte):
+#: every run's learning time (:mod:`tableclean_suite.learners.optimality`).
+GREEDY_WALK_WORDS = 2
+GREEDY_WALK_FLAG_BYTES = 1
+
+
 def run_working_bytes(learner, reward, n_states: int, n_actions: int) -> int:
     """Bytes of one run's working arrays in the compiled loop (``kernel.run_memory`` and the
     looping rule's memory): eligibility traces, Dyna's model, learned affordance masks, visit
-    counts (S int64) and, for a looping rule that looks further back than the paper's, the
-    states' entry times (S int64); 0 for the paper's learners."""
+    counts (S int64), for a looping rule that looks further back than the paper's the
+    states' entry times (S int64), and the greedy walk's arrays (17 bytes per state)."""
     per_pair = {METHOD_TRACES: resources.TRACE_BYTES_PER_PAIR,
                 METHOD_DYNA: resources.DYNA_BYTES_PER_PAIR}.get(learner.method, 0)
     if learner.affordance_code == AFFORD_LEARNED:
         per_pair += resources.LEARNED_AFFORDANCE_BYTES_PER_PAIR
     per_state_words = int(learner.exploration.code == VISIT_DECAY_CODE)
     per_state_words += int(reward.looping_code != 0 and reward.looping_memory != PAPER_LOOPING_MEMORY)
-    return int(n_states) * int(n_actions) * per_pair + int(n_states) * per_state_words * resources.WORD_BYTES
+    per_state_words += GREEDY_WALK_WORDS
+    return (int(n_states) * int(n_actions) * per_pair + int(n_states) * per_state_words * resources.WORD_BYTES
+            + int(n_states) * GREEDY_WALK_FLAG_BYTES)
 
 
 def learner_training_memory(model, learner, reward, runs: int, iterations: int, checkpoint: bool = False,

@@ -30,11 +30,14 @@ from tableclean_suite.learners.kernel import (
     HALF,
     NO_STATE,
 )
+from tableclean_suite.learners import optimality
 from tableclean_suite.learners.assist import advisor_policy, given_affordances
+from tableclean_suite.learners.optimality import NOT_LEARNED
 from tableclean_suite.learners.rng import (
     LANE_ADVICE,
     LANE_LEARNER,
     LANE_PLANNING,
+    LANE_TIES,
     STREAM_ADVICE_ACTION,
     STREAM_ADVISE,
     STREAM_CONSISTENT,
@@ -42,6 +45,7 @@ from tableclean_suite.learners.rng import (
     STREAM_EXPLORE,
     STREAM_RANDOM_ACTION,
     STREAM_START,
+    STREAM_TIE,
     STREAM_TRANSITION,
     lane_key_py,
     run_key,
@@ -112,11 +116,25 @@ def _greedy(q_row) -> int:
     return best
 
 
-def _epsilon_greedy(q_row, epsilon: float, explore_draw: float, action_draw: float) -> int:
+def _tied(q_row, actions: list[int]) -> list[int]:
+    """The actions of ``actions`` with the largest ``q_row`` value, in order."""
+    best = max(q_row[a] for a in actions)
+    return [a for a in actions if q_row[a] == best]
+
+
+def _greedy_choice(q_row, actions: list[int], tie_draw: float | None) -> int:
+    """The greedy action among ``actions``: the first tied one, or with ``tie_draw`` a uniform pick."""
+    tied = _tied(q_row, actions)
+    if tie_draw is None:
+        return tied[0]
+    return tied[min(int(tie_draw * len(tied)), len(tied) - 1)]
+
+
+def _epsilon_greedy(q_row, epsilon: float, explore_draw: float, action_draw: float, tie_draw=None) -> int:
     n_actions = len(q_row)
     if explore_draw < epsilon:
         return min(int(action_draw * n_actions), n_actions - 1)
-    return _greedy(q_row)
+    return _greedy_choice(q_row, list(range(n_actions)), tie_draw)
 
 
 def _softmax_weights(q_row, temperature: float) -> list[float]:
@@ -196,7 +214,7 @@ def _afforded_greedy(q_row, afforded: list[int]) -> int:
 
 
 def _afforded_action(q_row, afforded: list[int], softmax: bool, parameter: float, explore_draw: float,
-                     action_draw: float) -> int:
+                     action_draw: float, tie_draw=None) -> int:
     """The behaviour policy over the afforded actions only (softmax, or epsilon-greedy with uniform exploration)."""
     if softmax:
         best = q_row[_afforded_greedy(q_row, afforded)]
@@ -209,7 +227,7 @@ def _afforded_action(q_row, afforded: list[int], softmax: bool, parameter: float
         return afforded[-1]
     if explore_draw < parameter:
         return afforded[min(int(action_draw * len(afforded)), len(afforded) - 1)]
-    return _afforded_greedy(q_row, afforded)
+    return _greedy_choice(q_row, afforded, tie_draw)
 
 
 class _Agent:
@@ -220,7 +238,7 @@ class _Agent:
     """
 
     def __init__(self, learner: TabularLearner, n_states: int, n_actions: int, alpha: float, gamma: float,
-                 epsilon: float, key: int, assistance: _Assistance | None = None):
+                 epsilon: float, key: int, assistance: _Assistance | None = None, ties: str = "first"):
         self.learner, self.alpha, self.gamma, self.epsilon, self.key = learner, alpha, gamma, epsilon, key
         self.exploration = learner.exploration
         self.double = learner.method == METHOD_DOUBLE_Q
@@ -238,6 +256,7 @@ class _Agent:
         self.planning_key = lane_key_py(key, LANE_PLANNING)
         self.assistance = assistance
         self.affording = learner.affordance != "none"
+        self.tie_key = lane_key_py(key, LANE_TIES) if ties == "random" else None
 
     @staticmethod
     def _table(n_states, n_actions, value):
@@ -260,15 +279,40 @@ class _Agent:
             if advised != NO_STATE:
                 return advised
         parameter = self.exploration.parameter_at(self.epsilon, t, self.visits[state])
+        tie_draw = None if self.tie_key is None else uniform_py(self.tie_key, t, STREAM_TIE)
         if self.affording:
             return _afforded_action(self.row(state), self.assistance.afforded(state), self.exploration.softmax,
                                     parameter, uniform_py(self.key, t, STREAM_EXPLORE),
-                                    uniform_py(self.key, t, STREAM_RANDOM_ACTION))
+                                    uniform_py(self.key, t, STREAM_RANDOM_ACTION), tie_draw)
         if self.exploration.softmax:
             return _softmax_action(self.row(state), parameter, uniform_py(self.key, t, STREAM_RANDOM_ACTION))
-        return _epsilon_greedy(
-            self.row(state), parameter, uniform_py(self.key, t, STREAM_EXPLORE), uniform_py(self.key, t, STREAM_RANDOM_ACTION)
-        )
+        return _epsilon_greedy(self.row(state), parameter, uniform_py(self.key, t, STREAM_EXPLORE),
+                               uniform_py(self.key, t, STREAM_RANDOM_ACTION), tie_draw)
+
+    def greedy_actions(self, state: int) -> list[int]:
+        """The actions the greedy policy may take in ``state``: the first tied one, or every tied one
+        under random ties (afforded actions only when the learner uses affordances)."""
+        actions = self.assistance.afforded(state) if self.affording else list(range(len(self.q[state])))
+        tied = _tied(self.row(state), actions)
+        return tied if self.tie_key is not None else tied[:1]
+
+    def greedy_is_optimal(self, starts: list[int], task_next, distance) -> bool:
+        """Whether the greedy policy reaches the terminal state from every start in its shortest-plan
+        number of steps, in the task model's transitions ``task_next`` ``(S, A)`` (see :mod:`.optimality`)."""
+        frontier, seen = list(starts), set(starts)
+        while frontier:
+            state = frontier.pop()
+            here = int(distance[state])
+            if here == 0:
+                continue
+            for action in self.greedy_actions(state):
+                nxt = int(task_next[state][action])
+                if here < 0 or distance[nxt] != here - 1:
+                    return False
+                if nxt not in seen:
+                    seen.add(nxt)
+                    frontier.append(nxt)
+        return True
 
     def learn(self, t: int, state: int, action: int, reward: float, nxt: int, pending: int, terminal: bool) -> None:
         if self.double:
@@ -346,6 +390,7 @@ def train_run(
     run: int,
     on_step=None,
     checkpoint: int = 0,
+    ties: str = "first",
 ) -> dict[str, np.ndarray]:
     """Train one run for ``iterations`` steps; returns its record arrays and Q-table.
 
@@ -358,11 +403,18 @@ def train_run(
     under ``"double_q_tables"``, shape ``(2, S, A)``).
     ``on_step(t)`` is called after every iteration (progress bars).  ``checkpoint`` in [1, iterations]
     also keeps the Q-table after that many iterations under ``"checkpoint_q"`` ``(S, A)`` (as ``q``).
+    ``ties`` is the greedy choice's tie rule (``"first"`` or ``"random"``).  ``first_learned_at`` and
+    ``learned_at`` (int64 scalars as 0-d arrays) are the run's learning times (:mod:`.optimality`).
     """
     key = run_key(seed, run)
     model = env.model
     assistance = _Assistance(learner, model, key) if learner.assisted else None
-    agent = _Agent(learner, model.n_states, model.n_actions, alpha, gamma, epsilon, key, assistance)
+    agent = _Agent(learner, model.n_states, model.n_actions, alpha, gamma, epsilon, key, assistance, ties)
+    starts, task_next, distance = optimality.task_arrays(model)
+    starts = [int(s) for s in starts]
+    optimal = agent.greedy_is_optimal(starts, task_next, distance)
+    first_learned = 0 if optimal else NOT_LEARNED
+    last_not_optimal = -1 if optimal else 0
     dtype = model.record_dtype
     record = {name: np.zeros(iterations, dtype=dtype) for name in ("outcomes", "states", "actions", "episode_end")}
     record["rewards"] = np.zeros(iterations, dtype=np.float64)
@@ -400,9 +452,16 @@ def train_run(
         else:
             record["episode_end"][t] = EPISODE_CONTINUES
             previous, state = state, nxt
+        optimal = agent.greedy_is_optimal(starts, task_next, distance)
+        if not optimal:
+            last_not_optimal = t + 1
+        elif first_learned == NOT_LEARNED:
+            first_learned = t + 1
         if t + 1 == checkpoint:
             record[CHECKPOINT_Q] = agent.tables()["q"]
         if on_step is not None:
             on_step(t)
     record.update(agent.tables())
+    record["first_learned_at"] = np.int64(first_learned)
+    record["learned_at"] = np.int64(last_not_optimal + 1 if optimal else NOT_LEARNED)
     return record

@@ -19,7 +19,9 @@ main-lane draw:
 - ``LANE_ADVICE``: ``uniform(lane key, iteration, STREAM_ADVISE / STREAM_CONSISTENT /
   STREAM_ADVICE_ACTION)``, whether the simulated advisor advises the action taken at that
   iteration, whether its advice is its own policy's action, and which random action otherwise
-  (interactive RL, :mod:`.assist`).
+  (interactive RL, :mod:`.assist`);
+- ``LANE_TIES``: ``uniform(lane key, iteration, STREAM_TIE)``, which of the tied greedy actions
+  the behaviour policy takes at that iteration under ``train(ties="random")``.
 """
 
 from __future__ import annotations
@@ -38,12 +40,15 @@ N_STREAMS = 4
 LANE_LEARNER = 1
 LANE_PLANNING = 2
 LANE_ADVICE = 3
+LANE_TIES = 4
 #: Streams of the learner lane (same ``iteration * N_STREAMS + stream`` layout as the main lane).
 STREAM_DOUBLE_TABLE = 0  # u < 0.5 -> a double-Q step updates table A, else table B
 #: Streams of the advice lane (same layout).
 STREAM_ADVISE = 0  # u < L -> the advisor advises this iteration's action
 STREAM_CONSISTENT = 1  # u < C -> the advice is the advisor's own action, else a random one
 STREAM_ADVICE_ACTION = 2  # which random action an inconsistent advisor gives, uniform over all actions
+#: Stream of the ties lane: which of the tied greedy actions is taken (``ties="random"``).
+STREAM_TIE = 0
 #: Odd 64-bit constant that separates the lanes' keys (fixed: changing it changes the side draws).
 LANE_SALT = 0xD1B54A32D192ED03
 

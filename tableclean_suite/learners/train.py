@@ -20,6 +20,7 @@ import numpy as np
 from tableclean_suite.backends import BackendRecords, TrainingJob, backend_names, get_backend
 from tableclean_suite.learners.checks import check_number
 from tableclean_suite.learners.exploration import Exploration, as_exploration
+from tableclean_suite.learners.optimality import NOT_LEARNED, TIES
 from tableclean_suite.learners.rules import TabularLearner, get_learner
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.rewards import RewardPattern, get_reward_pattern
@@ -33,8 +34,26 @@ ENGINES = ("compiled", "reference")
 @dataclass
 class TrainingResult(BackendRecords):
     """Everything one ``train()`` call recorded: the fields of
-    :class:`~tableclean_suite.backends.BackendRecords` (records, Q-tables, ``config``, ``info``),
-    with the call's arguments in ``config``.
+    [BackendRecords][tableclean_suite.backends.BackendRecords] (records, Q-tables, ``config``, ``info``),
+    with the call's arguments in ``config``, and each run's learning time.
+
+    A run's greedy policy is *optimal* when, in the task model's deterministic transitions,
+    its greedy action (the training loop's choice when not exploring, on the Q row the learner
+    acts on, with the call's tie rule) leads from every start state of the task to the terminal
+    state in exactly the shortest-plan number of steps of that start
+    ([optimality][tableclean_suite.learners.optimality]); for the calibrated backend too, the
+    model's transitions judge it.  It is checked before the first step and after every
+    iteration's Q update.
+
+    Attributes:
+        first_learned_at: ``(R,)`` int64, per run the first iteration t in [1, T] (1-based count
+            of environment steps, the unit of ``iterations``) after whose update the greedy
+            policy is optimal; 0 when the initial Q-table's already is; -1 when it never is.
+        learned_at: ``(R,)`` int64, per run the iteration in [0, T] from which the greedy policy
+            is optimal after every update up to T = ``iterations``: 1 + the last iteration at
+            which it was not (0: optimal throughout); -1 when it is not optimal after iteration
+            T (the run is censored at T).  Always ``learned_at >= first_learned_at`` where both
+            are set.  Neither depends on batching (``first_run``) or the engine.
     """
 
     @property
@@ -91,6 +110,7 @@ def train(
     exploration: "str | Exploration | Mapping | None" = None,
     executor=None,
     checkpoint: int = 0,
+    ties: str = "first",
 ) -> TrainingResult:
     """Train ``runs`` independent learners for ``iterations`` environment steps each.
 
@@ -136,6 +156,10 @@ def train(
             final Q-tables of the same call with ``iterations=checkpoint``, from the same pass.
             The built-in backends and both engines keep them; a user's backend that cannot
             leaves the key out.
+        ties: the greedy choice's tie rule: ``"first"`` (default, the paper's: the first action in
+            the task's order) or ``"random"`` (uniform among the tied actions, from a random
+            stream of its own, so results still do not depend on batching).  Softmax exploration
+            has no greedy choice to break; the learning times use the same rule.
 
     Returns:
         A :class:`TrainingResult` with ``(runs, iterations)`` records and final Q-tables.
@@ -148,6 +172,8 @@ def train(
     check_number("checkpoint", checkpoint, 0, iterations, integer=True)
     if engine not in ENGINES:
         raise ValueError(f"unknown engine {engine!r}; allowed: {', '.join(ENGINES)}")
+    if ties not in TIES:
+        raise ValueError(f"unknown ties {ties!r}; allowed: {', '.join(TIES)}")
     if model is not None and task is not None:
         raise ValueError("give the task as task= or model=, not both")
     if model is not None and not isinstance(model, TaskModel):
@@ -162,7 +188,7 @@ def train(
         learner=learner, reward=reward, model=model, runs=int(runs), iterations=int(iterations),
         alpha=float(alpha), gamma=float(gamma), epsilon=float(epsilon), max_itr=int(max_itr), seed=int(seed),
         first_run=int(first_run), engine=engine, workers=workers, options=options, progress=progress,
-        executor=executor, checkpoint=int(checkpoint),
+        executor=executor, checkpoint=int(checkpoint), ties=ties,
     )
     config = {
         "learner": learner.name,
@@ -176,12 +202,16 @@ def train(
         "max_itr": job.max_itr,
         "seed": job.seed,
         "first_run": job.first_run,
+        "ties": ties,
         "backend": backend,
         "model": repr(model),
         "task": model.spec.to_dict(),
     }
     records = chosen.train(job)
-    return TrainingResult(**{**vars(records), "config": {**config, **records.config}})
+    unknown = np.full(job.runs, NOT_LEARNED, dtype=np.int64)
+    learning = {name: unknown if getattr(records, name) is None else getattr(records, name)
+                for name in ("first_learned_at", "learned_at")}
+    return TrainingResult(**{**vars(records), **learning, "config": {**config, **records.config}})
 
 
 def configure_learner(learner: TabularLearner, learner_options: dict | None, q_init: float | None,

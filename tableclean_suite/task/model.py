@@ -422,40 +422,31 @@ class TaskModel:
         return Action(index) if self.action_names == _BUILTIN_ORDER else index
 
     def shortest_plan_lengths(self, states: Sequence[StateLike] | None = None) -> dict[int, int | None]:
-        """Shortest plan length per state code (default: every reachable state).
+        """Shortest plan length per state code (default: every reachable state), None where no
+        terminal state is reachable (from :meth:`distances_to_terminal`)."""
+        states = self.reachable_states() if states is None else [self.as_state(s) for s in states]
+        distance = self._distances
+        return {encode(s): (int(distance[encode(s)]) if distance[encode(s)] >= 0 else None) for s in states}
 
-        One backward breadth-first search from the terminal states, so it costs
-        O(states x actions) whatever the number of states asked for.
-        """
-        reachable = self.reachable_states()
-        states = reachable if states is None else [self.as_state(s) for s in states]
-        distance = self._distances_to_terminal({*reachable, *states})
-        return {encode(s): distance.get(s) for s in states}
+    def distances_to_terminal(self) -> np.ndarray:
+        """``(S,)`` int64: the length of a shortest plan from every state code to a terminal state
+        (0 for terminal states, -1 where none is reachable), by a backward breadth-first search
+        over :meth:`transition_arrays` (O(S x A) per plan length)."""
+        return self._distances.copy()
 
-    def _distances_to_terminal(self, universe: set[TaskState]) -> dict[TaskState, int]:
-        closure = set(universe)
-        frontier = deque(s for s in universe if not s.is_terminal)
-        while frontier:  # close the universe under successors
-            state = frontier.popleft()
-            for _, nxt, _ in self.successors(state):
-                if nxt not in closure:
-                    closure.add(nxt)
-                    if not nxt.is_terminal:
-                        frontier.append(nxt)
-        predecessors: dict[TaskState, set[TaskState]] = {s: set() for s in closure}
-        for state in closure:
-            if not state.is_terminal:
-                for _, nxt, _ in self.successors(state):
-                    predecessors[nxt].add(state)
-        distance = {s: 0 for s in closure if s.is_terminal}
-        queue = deque(distance)
-        while queue:
-            state = queue.popleft()
-            for before in predecessors[state]:
-                if before not in distance:
-                    distance[before] = distance[state] + 1
-                    queue.append(before)
-        return distance
+    @cached_property
+    def _distances(self) -> np.ndarray:
+        next_state, outcome = self._transition_arrays
+        codes = np.arange(self.n_states)
+        terminal = (next_state == codes[:, None]).all(axis=1) & (outcome == Outcome.TERMINAL).all(axis=1)
+        distance = np.where(terminal, 0, -1).astype(np.int64)
+        length = 0
+        while True:
+            reached = (distance == -1) & (distance[next_state] == length).any(axis=1)
+            if not reached.any():
+                return distance
+            length += 1
+            distance[reached] = length
 
     def rollout(self, state: StateLike, actions: Iterable) -> list[TaskState]:
         """The states visited by applying ``actions`` from ``state`` (including ``state``)."""

@@ -1,0 +1,194 @@
+"""When a run has learned the task: its greedy policy follows a shortest plan from every start.
+
+A run's *greedy policy* is the action the training loop takes when it does not explore: the
+largest value of the Q row the learner acts on (double Q: the average of its two tables),
+restricted to the afforded actions when the learner uses affordances, ties to the first action
+(``ties="first"``) or uniform among the tied ones (``ties="random"``).  It is *optimal* when,
+in the task model's deterministic transitions, following it from every start state of the
+task's start distribution reaches the terminal state in exactly the shortest-plan number of
+steps of that start (:meth:`TaskModel.distances_to_terminal
+<tableclean_suite.task.TaskModel.distances_to_terminal>`); under random ties every tied
+action must keep to a shortest plan.  Equivalently: every state on the greedy paths is one
+step nearer the terminal state after its greedy action(s).  A calibrated (measured) table is
+trained on its own successors, but optimality is always judged on the model's transitions.
+
+The training loop checks it before its first step and after every iteration's Q update and
+records, per run (:class:`~tableclean_suite.learners.TrainingResult`):
+
+- ``first_learned_at``: the first iteration t (1-based count of environment steps, the unit of
+  ``iterations``) after whose update the policy is optimal; 0 when the initial Q-table's
+  policy already is; -1 when it never is within the budget;
+- ``learned_at``: the iteration from which the policy is optimal after every update up to the
+  budget T: 1 + the last iteration at which it was not (0 when it was optimal throughout);
+  -1 when it is not optimal after iteration T (the run is censored at T).
+
+Cost: the walk visits the states on the greedy paths (:func:`greedy_walk`, O(visited x A)).
+The policy only changes where a Q row (or an affordance mask) changes, and the verdict only
+depends on the rows the last walk examined, so after an update the loop compares the new greedy
+action of an examined state with the one the walk took (:func:`walk_changed`, O(A)) and walks
+again only when it differs (under random ties: whenever an examined row changed).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from tableclean_suite.learners.assist import NOT_AFFORDED, afforded_count, afforded_greedy
+from tableclean_suite.learners.exploration import greedy_action
+
+#: ``train(ties=...)``: ties in the greedy choice go to the first action in the task's order
+#: (the paper's rule) or are broken uniformly at random.
+TIES = {"first": 0, "random": 1}
+TIES_FIRST, TIES_RANDOM = TIES["first"], TIES["random"]
+#: ``learned_at`` / ``first_learned_at`` of a run that is not optimal at the end of its budget / never is.
+NOT_LEARNED = -1
+
+
+@numba.njit(cache=True)
+def tied_greedy(q_row, masks, state, affording, draw):
+    """Uniformly one of the actions of largest ``q_row`` value, picked by ``draw`` in [0, 1).
+
+    With ``affording`` only afforded actions of ``masks[state]`` count (all actions when none
+    is afforded), as :func:`~tableclean_suite.learners.assist.afforded_greedy`.
+    """
+    n_actions = q_row.shape[0]
+    restrict = affording and afforded_count(masks[state]) > 0
+    best = -np.inf
+    count = 0
+    for a in range(n_actions):
+        if restrict and masks[state, a] == NOT_AFFORDED:
+            continue
+        if count == 0 or q_row[a] > best:
+            best = q_row[a]
+            count = 1
+        elif q_row[a] == best:
+            count += 1
+    k = min(int(draw * count), count - 1)
+    for a in range(n_actions):
+        if restrict and masks[state, a] == NOT_AFFORDED:
+            continue
+        if q_row[a] == best:
+            if k == 0:
+                return a
+            k -= 1
+    return n_actions - 1
+
+
+@numba.njit(cache=True, inline="always")
+def first_greedy(q_row, masks, state, affording):
+    """The greedy action under ``ties="first"`` (afforded actions only when ``affording``)."""
+    if affording:
+        return afforded_greedy(q_row, masks[state])
+    return greedy_action(q_row)
+
+
+@numba.njit(cache=True)
+def ties_all_optimal(q_row, masks, state, affording, model_next, distance):
+    """True when every tied greedy action of ``state`` (``ties="random"``) leads one step nearer the terminal state."""
+    here = distance[state]
+    restrict = affording and afforded_count(masks[state]) > 0
+    best = q_row[tied_greedy(q_row, masks, state, affording, 0.0)]
+    for a in range(q_row.shape[0]):
+        if not (restrict and masks[state, a] == NOT_AFFORDED) and q_row[a] == best:
+            if here < 0 or distance[model_next[state, a]] != here - 1:
+                return False
+    return True
+
+
+@numba.njit(cache=True)
+def greedy_walk(q_a, q_b, double, row, masks, affording, random_ties, starts, model_next, distance,
+                walked, on_walk, choice, n_walked):
+    """Walk the greedy paths from every start; returns ``(optimal, states examined)``.
+
+    The walk stops at the first state whose greedy action is not one step nearer the terminal
+    state; ``walked[:examined]`` are then exactly the states whose rows decided the verdict.
+
+    Args:
+        q_a, q_b: ``(S, A)`` the run's Q-table(s); the policy acts on ``q_a``, or for double Q
+            on ``(q_a + q_b) / 2`` (written into ``row``, ``(A,)``).
+        masks: ``(S, A)`` int8 affordance masks (read only when ``affording``).
+        random_ties: the greedy choice is uniform among tied actions (every one is followed).
+        starts: ``(n_starts,)`` int64 start states.
+        model_next: ``(S, A)`` int64 the task model's successors.
+        distance: ``(S,)`` int64 shortest-plan lengths (0 terminal, -1 no plan).
+        walked, on_walk, choice: ``(S,)`` working arrays: the examined states (first
+            ``n_walked`` from the last walk, replaced by this one's), whether a state is among
+            them, and the greedy action the walk took there (``ties="first"``).
+        n_walked: how many states the last walk examined.
+    """
+    for i in range(n_walked):
+        on_walk[walked[i]] = False
+    n = 0
+    for i in range(starts.shape[0]):
+        s = starts[i]
+        if not on_walk[s]:
+            on_walk[s] = True
+            walked[n] = s
+            n += 1
+    head = 0
+    optimal = True
+    while head < n:
+        s = walked[head]
+        head += 1
+        here = distance[s]
+        if here == 0:
+            continue
+        q_row = q_a[s]
+        if double:
+            for a in range(row.shape[0]):
+                row[a] = (q_a[s, a] + q_b[s, a]) * 0.5
+            q_row = row
+        if random_ties:
+            if not ties_all_optimal(q_row, masks, s, affording, model_next, distance):
+                optimal = False
+                break
+            best = q_row[tied_greedy(q_row, masks, s, affording, 0.0)]
+            restrict = affording and afforded_count(masks[s]) > 0
+            for a in range(q_row.shape[0]):
+                nxt = model_next[s, a]
+                if (q_row[a] == best and not (restrict and masks[s, a] == NOT_AFFORDED)
+                        and distance[nxt] > 0 and not on_walk[nxt]):
+                    on_walk[nxt] = True
+                    walked[n] = nxt
+                    n += 1
+        else:
+            action = first_greedy(q_row, masks, s, affording)
+            choice[s] = action
+            nxt = model_next[s, action]
+            if here < 0 or distance[nxt] != here - 1:
+                optimal = False
+                break
+            if distance[nxt] > 0 and not on_walk[nxt]:
+                on_walk[nxt] = True
+                walked[n] = nxt
+                n += 1
+    if not optimal:
+        for i in range(head, n):
+            on_walk[walked[i]] = False
+        n = head
+    return optimal, n
+
+
+@numba.njit(cache=True)
+def walk_changed(q_a, q_b, double, row, masks, affording, random_ties, state, on_walk, choice):
+    """Whether an update of ``state``'s row (or mask) can change the last walk's verdict: the
+    state was examined and its greedy action differs from the walk's (under random ties: it was
+    examined)."""
+    if not on_walk[state]:
+        return False
+    if random_ties:
+        return True
+    q_row = q_a[state]
+    if double:
+        for a in range(row.shape[0]):
+            row[a] = (q_a[state, a] + q_b[state, a]) * 0.5
+        q_row = row
+    return first_greedy(q_row, masks, state, affording) != choice[state]
+
+
+def task_arrays(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(starts (n,), model_next (S, A), distance (S,))`` int64: what the walk needs of ``model``
+    (a :class:`~tableclean_suite.task.TaskModel`)."""
+    starts = np.array([s.index for s in model.start_states()], dtype=np.int64)
+    return starts, np.ascontiguousarray(model.transition_arrays()[0]), model.distances_to_terminal()
