@@ -63,6 +63,8 @@ COMMANDS: dict[str, Command] = {
     "tune": Command("tableclean_suite.bench.tune", "search a learner's hyperparameters with Optuna"),
     "interventions": Command("tableclean_suite.bench.interventions",
                              "change one factor of a cell: the causal checks behind the findings"),
+    "coverage": Command("tableclean_suite.bench.coverage",
+                        "how often each published interval holds a many-run reference's value"),
     "window-invariance": Command("tableclean_suite.bench.window_invariance",
                                  "do Table 3's iteration figures move with the training window?"),
     "fidelity": Command("tableclean_suite.bench.fidelity",

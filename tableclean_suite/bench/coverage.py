@@ -1,0 +1,355 @@
+"""``tableclean-bench coverage``: how often each published interval holds the many-run value.
+
+    tableclean-bench coverage                          # 100 replications of the 8 main cells
+    tableclean-bench coverage --replications 100 --runs 200 --iterations 2000 --reference-runs 4000
+
+For each main cell (every ``--learners`` x ``--rewards`` at ``--alpha``, ``--gamma``) the command
+trains one **reference** of ``--reference-runs`` runs and K = ``--replications`` replications of
+``--runs`` runs, each through the path ``tableclean-bench run`` publishes by
+([run_grid][tableclean_suite.bench.experiments.run_grid], then
+[cell_records][tableclean_suite.bench.experiments.cell_records] and
+[table3][tableclean_suite.bench.tables.table3]), so a replication's intervals are the ones that
+command writes to ``table3.csv`` at that seed.  Every statistic of that table with an interval (a
+column ``X`` beside ``X_low`` and ``X_high``, read off the table, not listed here) is scored:
+
+- **target**: the reference's value of ``X`` (its point estimate over the many runs);
+- a replication **covers** when ``X_low <= target <= X_high`` (an undefined bound never covers;
+  ``undefined`` counts those replications);
+- **coverage** = covered / K, with its Clopper-Pearson interval
+  (``scipy.stats.binomtest(covered, K).proportion_ci(confidence_level, method="exact")``).
+
+``table4.csv`` repeats Table 3's numbers and intervals (rescaled), so Table 3's rows cover it.
+
+Seeds: the reference trains at ``--seed`` S, replication k (k = 0 .. K-1) at S + 1 + k.  Run i of a
+seed draws from the counter-based key of (seed, i) ([run_key][tableclean_suite.learners.rng.run_key]),
+and each replication's bootstraps from its own seed, so the reference and the replications share
+no run and no draw.
+
+Writes ``OUT/coverage.csv`` (one row per cell and statistic; the same arguments give the same
+bytes) and prints it.  The reference's cells are kept in ``OUT/cells/`` (a rerun loads them);
+the replications' are not kept.  The output holds measurements only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+#: Replications per cell by default (fewer cannot tell 90 % from 95 %: 18 of 20 has a 95 %
+#: Clopper-Pearson interval of [68, 99] %).
+DEFAULT_REPLICATIONS = 100
+#: Runs of the reference cell by default.
+DEFAULT_REFERENCE_RUNS = 20_000
+#: Confidence of the Clopper-Pearson interval on each coverage by default.
+DEFAULT_CONFIDENCE = 0.95
+RESULT_FILE = "coverage.csv"
+#: The program name in messages unless the caller gives one.
+PROG = "tableclean-bench coverage"
+DEFAULT_OUT = "results/coverage"
+#: Exit code of a command line used wrongly, and of a study stopped by Ctrl-C (128 + SIGINT).
+EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
+#: Suffixes of an interval's bounds next to the number they bound (as in ``table3.csv``).
+LOW, HIGH = "_low", "_high"
+#: Columns of ``coverage.csv``.
+COLUMNS = ("table", "row", "statistic", "target", "nominal", "runs", "reference_runs", "replications", "covered",
+           "undefined", "coverage", "coverage_low", "coverage_high", "coverage_confidence", "mean_width")
+#: Widest terminal line of the printed table, characters.
+PRINT_WIDTH = 120
+
+#: :class:`~tableclean_suite.bench.config.RunConfig` fields this command takes with the run
+#: command's flags, and their argparse types (None: text).  ``--runs``, ``--iterations``,
+#: ``--seed``, ``--task`` and ``--out`` come from :mod:`.cli`.
+RUN_FIELDS = {"learners": None, "rewards": None, "alpha": float, "gamma": float, "epsilon": float, "max_itr": int,
+              "exploration": None, "q_init": float, "learner_options": None, "start": None, "ineffective": None,
+              "threshold": float, "plateau_fraction": float, "support_fraction": float, "bootstrap_samples": int}
+
+
+def replication_seed(seed: int, replication: int) -> int:
+    """The seed of replication ``replication`` (0-based) of a study at ``seed``: ``seed + 1 + replication``
+    (the reference trains at ``seed``)."""
+    return int(seed) + 1 + int(replication)
+
+
+def interval_columns(table) -> list[str]:
+    """The statistics of ``table`` that carry an interval: each column ``X`` with ``X_low`` and
+    ``X_high`` beside it, in the table's order."""
+    columns = set(table.columns)
+    return [name for name in table.columns if name + LOW in columns and name + HIGH in columns]
+
+
+def clopper_pearson(covered: int, replications: int, confidence: float = DEFAULT_CONFIDENCE) -> tuple[float, float]:
+    """``(low, high)``: the exact (Clopper-Pearson) ``confidence`` interval of a proportion of
+    ``covered`` successes in ``replications`` >= 1 trials, fractions in [0, 1]."""
+    from scipy.stats import binomtest
+
+    interval = binomtest(int(covered), int(replications)).proportion_ci(confidence_level=confidence, method="exact")
+    return float(interval.low), float(interval.high)
+
+
+def published_tables(config, model, store) -> dict:
+    """The tables with intervals ``tableclean-bench run`` publishes for ``config``'s main cells (no
+    sweeps, no literature cells), trained or loaded through ``store`` (a
+    [CellStore][tableclean_suite.bench.experiments.CellStore]), each indexed by a row label:
+
+    - ``"table3"``: ``table3.csv``'s rows, by ``cell_id``;
+    - ``"comparisons"``: ``comparisons.csv``'s rows (with two or more main cells), by
+      ``"LEARNER-REWARD vs LEARNER-REWARD: SCORE"``.
+    """
+    from tableclean_suite.bench import experiments, statistics, tables
+
+    grid = [m for m in experiments.config_grid(config) if m.experiment == "main"]
+    grid_run = experiments.run_grid(grid, config, model, store)
+    records, _ = experiments.cell_records(grid, grid_run.summaries, grid_run.statistics, config.settle_tolerance)
+    published = {"table3": tables.table3(records, compare_with_paper=False).set_index("cell_id")}
+    compared = statistics.comparisons(  # as the run command computes comparisons.csv
+        [{"learner": m.cell.learner, "reward": m.cell.reward, "runs": grid_run.statistics[m.cell].runs} for m in grid],
+        config.confidence, config.bootstrap_samples, config.seed)
+    if len(compared):
+        published["comparisons"] = compared.set_axis(comparison_labels(compared), axis="index")
+    return published
+
+
+def comparison_labels(comparisons) -> list[str]:
+    """Row labels of a comparisons frame: ``"q_learning-r1 vs q_learning-r2: learning_time"``."""
+    return [f"{row.learner_x}-{row.reward_x} vs {row.learner_y}-{row.reward_y}: {row.score}"
+            for row in comparisons.itertuples()]
+
+
+def _float(value) -> float:
+    """A table entry as a float (``<NA>`` and None as NaN)."""
+    import pandas as pd
+
+    return math.nan if value is None or value is pd.NA else float(value)
+
+
+def coverage_frame(reference: dict, replications: list[dict], runs: int, reference_runs: int, nominal: float,
+                   confidence: float = DEFAULT_CONFIDENCE):
+    """One row per (table, row, statistic with an interval) of ``reference``: columns :data:`COLUMNS`.
+
+    Args:
+        reference: the reference's tables (:func:`published_tables`; their point values are the targets).
+        replications: the replications' tables (the same tables, rows and columns), at least one.
+        runs, reference_runs: runs per replication and of the reference (recorded in the rows).
+        nominal: the intervals' confidence (``RunConfig.confidence``), recorded.
+        confidence: the Clopper-Pearson interval's confidence, in (0, 1).
+
+    A statistic whose target is undefined (NaN) gets empty ``covered``, ``coverage`` and interval.
+    Bounds compare as numbers, infinite ones included (a learning time censored in the reference,
+    +inf, is covered by an interval whose top is +inf).  ``mean_width`` is over the defined
+    intervals (an interval of equal bounds has width 0, infinite ones too).
+    """
+    import numpy as np
+    import pandas as pd
+
+    rows = []
+    for table, frame in reference.items():
+        statistics = interval_columns(frame)
+        for label, values in frame.iterrows():
+            for name in statistics:
+                target = _float(values[name])
+                lows = np.array([_float(tables[table].at[label, name + LOW]) for tables in replications])
+                highs = np.array([_float(tables[table].at[label, name + HIGH]) for tables in replications])
+                defined = ~(np.isnan(lows) | np.isnan(highs))
+                with np.errstate(invalid="ignore"):  # inf - inf: equal bounds, width 0
+                    widths = np.where(highs[defined] == lows[defined], 0.0, highs[defined] - lows[defined])
+                row = {"table": table, "row": label, "statistic": name, "target": target, "nominal": nominal,
+                       "runs": runs, "reference_runs": reference_runs, "replications": len(replications),
+                       "covered": pd.NA, "undefined": int((~defined).sum()), "coverage": math.nan,
+                       "coverage_low": math.nan, "coverage_high": math.nan, "coverage_confidence": confidence,
+                       "mean_width": float(np.mean(widths)) if defined.any() else math.nan}
+                if not math.isnan(target):
+                    covered = int((defined & (lows <= target) & (target <= highs)).sum())
+                    row.update(covered=covered, coverage=covered / len(replications))
+                    row["coverage_low"], row["coverage_high"] = clopper_pearson(covered, len(replications), confidence)
+                rows.append(row)
+    frame = pd.DataFrame(rows, columns=list(COLUMNS))
+    frame["covered"] = frame["covered"].astype("Int64")
+    return frame
+
+
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The command line: this command's options, and the run command's cell settings (same flags,
+    defaults and help from :class:`~tableclean_suite.bench.config.RunConfig`)."""
+    from tableclean_suite.bench import cli, run
+    from tableclean_suite.bench.config import defaults, field_docs
+
+    docs, default = field_docs(), defaults()
+    parser = cli.command_parser(prog, "Measured coverage of every interval the run command publishes: K replications "
+                                      "of each main cell against one many-run reference.",
+                                epilog="The output holds measurements only. See docs/coverage.md.")
+    own = parser.add_argument_group("coverage")
+    own.add_argument("--replications", type=cli.positive_int, default=DEFAULT_REPLICATIONS, metavar="K",
+                     help=f"replications of each cell (seeds S+1 .. S+K), an integer >= 1 "
+                          f"(default {DEFAULT_REPLICATIONS})")
+    own.add_argument("--reference-runs", type=cli.positive_int, default=DEFAULT_REFERENCE_RUNS, metavar="N",
+                     help=f"runs of each cell's reference (seed S), whose point values are the targets; an integer "
+                          f">= --runs (default {DEFAULT_REFERENCE_RUNS})")
+    own.add_argument("--confidence", type=float, default=DEFAULT_CONFIDENCE, metavar="LEVEL",
+                     help=f"confidence of the Clopper-Pearson interval on each coverage, in (0, 1) "
+                          f"(default {DEFAULT_CONFIDENCE:g})")
+    own.add_argument("--nominal", type=float, default=default["confidence"], metavar="LEVEL",
+                     help=f"confidence of the intervals measured (the run command's --confidence), in (0, 1) "
+                          f"(default {default['confidence']:g})")
+    cells = parser.add_argument_group("cells (the run command's settings)")
+    cli.add_runs_argument(cells, default["runs"], "runs per replication")
+    cli.add_iterations_argument(cells, default["iterations"], "iterations per run")
+    cli.add_seed_argument(cells, "the reference (S) and the replications (S+1+k)", default=default["seed"])
+    cli.add_task_argument(cells, default=default["task"])
+    for field, kind in RUN_FIELDS.items():
+        shown = default[field]
+        shown = " ".join(map(str, shown)) if isinstance(shown, tuple) else shown
+        text = docs.get(field, "") + ("" if shown is None else f" (default: {shown})")
+        options = {"nargs": "+", "metavar": field[:-1].upper()} if isinstance(default[field], tuple) else {}
+        cells.add_argument(run.flag_of(field), dest=field, type=kind, default=argparse.SUPPRESS,
+                           help=text.replace("%", "%%"), **options)
+    cli.add_out_argument(parser, cli.DIRECTORY, DEFAULT_OUT, "output directory")
+    parser.add_argument("--no-progress", dest="progress", action="store_false",
+                        help="no progress bar on stderr")
+    return parser
+
+
+def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
+    """Parse and check the command line (before any training); a bad value exits 2 with one line
+    naming it and what is allowed.  The namespace gains ``config`` (the replications'
+    :class:`~tableclean_suite.bench.config.RunConfig`) and ``prog``."""
+    from tableclean_suite.bench import cli, run
+    from tableclean_suite.bench.config import ConfigError, RunConfig
+
+    parser, args = cli.parse_command(build_parser, argv, prog or PROG)
+    args.prog = parser.prog
+    if args.reference_runs < args.runs:
+        parser.error(f"--reference-runs: {args.reference_runs} is fewer than --runs {args.runs}; "
+                     f"allowed: an integer >= --runs")
+    if not 0.0 < args.confidence < 1.0:
+        parser.error(f"--confidence: {args.confidence!r} is not allowed; allowed: a number in (0, 1)")
+    settings = {field: getattr(args, field) for field in RUN_FIELDS if hasattr(args, field)}
+    for field in ("learners", "rewards"):
+        if field in settings:
+            settings[field] = run.split_list(settings[field])
+    try:
+        args.config = RunConfig(**settings, runs=args.runs, iterations=args.iterations, seed=args.seed,
+                                task=args.task, confidence=args.nominal, sweeps=False, literature=False,
+                                figures=False, progress=False, out=args.out, plugins=args.plugins)
+    except ConfigError as error:
+        flag = {"confidence": "--nominal"}.get(error.field, run.flag_of(error.field))
+        parser.error(error.message_for(flag))
+    return args
+
+
+def estimate(args, model) -> tuple[str, float]:
+    """``(text, seconds)``: the work of the study, stated before it starts (learner steps and the
+    harness's time estimate of them, :func:`~tableclean_suite.bench.experiments.check_grid_resources`,
+    which refuses a grid too large to train)."""
+    from tableclean_suite import resources
+    from tableclean_suite.bench import experiments
+
+    config, replications = args.config, args.replications
+    cells = [m.cell for m in experiments.config_grid(config) if m.experiment == "main"]
+    reference = replace(config, runs=args.reference_runs)
+    seconds = (replications * experiments.check_grid_resources(cells, config, model)
+               + experiments.check_grid_resources(cells, reference, model))
+    resources.require_time(seconds, f"{replications} replications and a reference of {len(cells)} cell(s)")
+    steps = replications * len(cells) * config.runs * config.iterations
+    reference_steps = len(cells) * args.reference_runs * config.iterations
+    text = (f"work: {replications} replications x {len(cells)} cells x {config.runs} runs x {config.iterations} "
+            f"iterations = {steps:.3g} learner steps,\n"
+            f"  plus the reference: {len(cells)} cells x {args.reference_runs} runs = {reference_steps:.3g}; "
+            f"estimated {resources.format_seconds(seconds)} (training and asymptotes; bootstraps on top)")
+    return text, seconds
+
+
+def measure(args, model, out: Path):
+    """Train the reference (cells kept in ``out/cells``) and the replications (not kept); returns
+    :func:`coverage_frame` of them.  Progress on stderr unless ``args.progress`` is False."""
+    from tqdm.auto import tqdm
+
+    from tableclean_suite.bench import experiments
+
+    config = args.config
+    reference_config = replace(config, runs=args.reference_runs)
+    print(f"reference: {args.reference_runs} runs per cell at seed {config.seed}", file=sys.stderr)
+    reference = published_tables(reference_config, model, experiments.CellStore(out / "cells"))
+    tables = []
+    bar = tqdm(total=args.replications, desc="replications", unit="rep", disable=not args.progress, leave=False)
+    with tempfile.TemporaryDirectory(prefix=".replications-", dir=out) as scratch:
+        store = experiments.CellStore(scratch)  # run_grid saves each cell; a replication's are dropped after it
+        for k in range(args.replications):
+            tables.append(published_tables(replace(config, seed=replication_seed(config.seed, k)), model, store))
+            for path in store.root.glob("*.npz"):
+                path.unlink()
+            bar.update(1)
+    bar.close()
+    return coverage_frame(reference, tables, config.runs, args.reference_runs, config.confidence, args.confidence)
+
+
+def display_lines(frame) -> list[str]:
+    """The printed table, one section per published table, at most :data:`PRINT_WIDTH` characters a
+    line (long row labels are cut): row, statistic (in the section's title when it has one),
+    target, covered/K, coverage with its interval, mean interval width."""
+    import pandas as pd
+
+    lines = []
+    for table, rows in frame.groupby("table", sort=False):
+        one = rows["statistic"].nunique() == 1
+        header = ("row", *(() if one else ("statistic",)), "target", "covered", "coverage %", "interval %",
+                  "mean width")
+        cells = [header]
+        for _, row in rows.iterrows():
+            measured = not pd.isna(row["covered"])
+            cells.append((str(row["row"]), *(() if one else (str(row["statistic"]),)), f"{row['target']:.5g}",
+                          f"{int(row['covered'])}/{int(row['replications'])}" if measured else "-",
+                          f"{100 * row['coverage']:.1f}" if measured else "-",
+                          f"[{100 * row['coverage_low']:.1f}, {100 * row['coverage_high']:.1f}]" if measured else "-",
+                          f"{row['mean_width']:.4g}"))
+        widths = [max(len(line[i]) for line in cells) for i in range(len(header))]
+        widths[0] = max(len(header[0]), widths[0] - max(0, sum(widths) + 2 * (len(widths) - 1) - PRINT_WIDTH))
+        lines.append(f"{table}.csv" + (f", {rows['statistic'].iloc[0]}:" if one else ":"))
+        left = 1 if one else 2
+        for line in cells:
+            first = line[0] if len(line[0]) <= widths[0] else line[0][:widths[0] - 1] + "~"
+            lines.append("  ".join([first.ljust(widths[0]), *(text.ljust(w) for text, w in zip(line[1:left], widths[1:])),
+                                    *(text.rjust(w) for text, w in zip(line[left:], widths[left:]))]))
+    return lines
+
+
+def main(argv=None, prog: str | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    from tableclean_suite.bench import outputs
+    from tableclean_suite.executors.blas import single_blas_thread
+
+    args = parse_args(argv, prog)
+    model = args.config.task_model()
+    out = Path(args.out)
+    problem = outputs.check_writable(out)
+    if problem:
+        print(f"{args.prog}: error: --out {problem}", file=sys.stderr)
+        return EXIT_USAGE
+    text, _ = estimate(args, model)
+    print(text)
+    started = time.perf_counter()
+    try:
+        with outputs.output_lock(out), single_blas_thread():
+            frame = measure(args, model, out)
+            outputs.atomic_write(out / RESULT_FILE, lambda path: frame.to_csv(path, index=False))
+    except KeyboardInterrupt:
+        print(f"{args.prog}: interrupted; nothing written (the reference's cells are kept in {out / 'cells'})",
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
+    config = args.config
+    print(f"\nCoverage on task {config.task!r}: alpha {config.alpha:g}, gamma {config.gamma:g}, {config.runs} runs x "
+          f"{config.iterations} iterations per replication, {config.bootstrap_samples} bootstrap replicates.")
+    print(f"target = the {args.reference_runs}-run reference's value; nominal {100 * config.confidence:g} %; "
+          f"interval = {100 * args.confidence:g} % Clopper-Pearson interval of the coverage, in %.")
+    for line in display_lines(frame):
+        print(line)
+    print(f"written: {out / RESULT_FILE} (in {time.perf_counter() - started:.1f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(prog="python -m tableclean_suite.bench.coverage"))
