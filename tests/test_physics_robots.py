@@ -1,4 +1,4 @@
-"""The skills on other arms (issue 11, item 1): per-robot configs, gripper settling, robot checks.
+"""The skills on other arms: per-robot configs, gripper settling, robot checks.
 
 Unit tests (no physics): the registry and its validation, the config flow into skills, the
 three gripper-settling rules on a kinematic env whose fingers jitter, bad robot names in every
@@ -27,7 +27,7 @@ from tableclean_suite.controllers.robot_configs import (
 )
 from tableclean_suite.task import Action, Outcome, TaskModel, start_layout
 
-#: Arms the issue asks for besides the Panda (at least three).
+#: The arms besides the Panda that the skills support.
 OTHER_ARMS = ("Sawyer", "UR5e", "Kinova3")
 #: An arm robosuite ships whose gripper the scene cannot use (no finger-pad geoms).
 UNSUPPORTED = "XArm7"
@@ -70,6 +70,14 @@ def test_registration_checks_its_keys_and_can_be_replaced():
     with pytest.raises(TypeError):
         register_robot_config({"robot": "Test"})
     assert "Test" not in supported_robots()
+
+
+def test_the_shipped_configs_pass_the_registration_checks(monkeypatch):
+    monkeypatch.setattr(robot_registry, "ROBOT_CONFIGS", dict(robot_registry.ROBOT_CONFIGS))
+    for config in list(robot_registry.ROBOT_CONFIGS.values()):
+        assert register_robot_config(config, replace=True) == config
+    with pytest.raises(ValueError, match="Kinova3"):
+        register_robot_config(RobotSkillConfig("Kinova3", skills={"clean": {"hover_still_speed": -1.0}}), replace=True)
 
 
 def test_overrides_flow_into_the_skills_and_the_osc(monkeypatch):

@@ -1,5 +1,5 @@
 """Per-robot skill configuration for the controllers: the robot registry
-(:mod:`tableclean_suite.environments.robot_registry`, a leaf module) and the checked way to add to it.
+(:mod:`tableclean_suite.environments.robot_registry`, a leaf module) and the one way to add to it.
 
 :class:`~.skill_controller.SkillController` merges :func:`skill_overrides` of the env's robot
 under the caller's own ``skill_configs``; :func:`~.osc.skill_controller_config` merges
@@ -11,17 +11,19 @@ under the caller's own ``skill_configs``; :func:`~.osc.skill_controller_config` 
 
 from __future__ import annotations
 
+import dataclasses
+
 from tableclean_suite.controllers.config_check import checked_skill_config
 from tableclean_suite.controllers.configs import SkillConfig
-from tableclean_suite.controllers.registry import SKILL_REGISTRY
-from tableclean_suite.controllers.skill import BASE_CONFIG, Skill
+from tableclean_suite.controllers.registry import SKILL_REGISTRY, action_key
+from tableclean_suite.controllers.skill import BASE_CONFIG
+from tableclean_suite.environments import robot_registry
 from tableclean_suite.environments.robot_registry import (  # noqa: F401  (the registry's public names)
     ALL_SKILLS,
+    FIXED_OSC_KEYS,
     ROBOT_CONFIGS,
     SWAP_GRIPPER,
     RobotSkillConfig,
-    action_name,
-    add_robot_config,
     base_shift,
     check_robot,
     osc_overrides,
@@ -30,12 +32,6 @@ from tableclean_suite.environments.robot_registry import (  # noqa: F401  (the r
     skill_overrides,
     supported_robots,
 )
-
-
-def _check_action_overrides(robot: str, skill: type[Skill], overrides: dict) -> None:
-    """Refuse the merged robot ``overrides`` (``"*"`` then per-action) for ``skill`` that it would refuse
-    when made (:func:`~.config_check.checked_skill_config`, the check its constructor runs)."""
-    checked_skill_config(f"{skill.__name__} (robot {robot!r})", skill.Config, skill.DEFAULT_CONFIG, overrides)
 
 
 def register_robot_config(config: RobotSkillConfig, *, replace: bool = False) -> RobotSkillConfig:
@@ -47,22 +43,38 @@ def register_robot_config(config: RobotSkillConfig, *, replace: bool = False) ->
 
     Raises:
         TypeError: ``config`` is not a :class:`RobotSkillConfig`.
-        ValueError: the robot is already registered and ``replace`` is False; a skills key that
-            is neither :data:`ALL_SKILLS` nor a registered action, or two keys naming the same
-            action; an :data:`ALL_SKILLS` key that is not a key of ``BASE_CONFIG`` or its value
-            outside the range of :class:`~.configs.SkillConfig`'s field; per-action overrides for an
-            action whose skill is registered that it would refuse (unknown keys, values outside its
-            ``Config``'s ranges: :class:`~.config_check.SkillConfigError`, a ``ValueError``); an OSC
-            override of ``type``, ``input_type`` or ``input_ref_frame``.
+        ValueError: a skills key that is neither :data:`ALL_SKILLS` nor a registered action, or two
+            keys naming the same action; an :data:`ALL_SKILLS` key that is not a key of ``BASE_CONFIG``
+            or its value outside the range of :class:`~.configs.SkillConfig`'s field; per-action
+            overrides for an action whose skill is registered that it would refuse (unknown keys,
+            values outside its ``Config``'s ranges: :class:`~.config_check.SkillConfigError`, a
+            ``ValueError``); the robot is already registered and ``replace`` is False; an OSC override
+            of ``type``, ``input_type`` or ``input_ref_frame``.
     """
-    if isinstance(config, RobotSkillConfig):
-        unknown = sorted(set(config.skills.get(ALL_SKILLS, {})) - set(BASE_CONFIG))
-        if unknown:
-            raise ValueError(f"robot {config.robot!r}: keys {unknown} under {ALL_SKILLS!r} are not BASE_CONFIG keys "
-                             f"(allowed: {sorted(BASE_CONFIG)}); put skill-specific keys under the action's name")
-        SkillConfig(**config.skills.get(ALL_SKILLS, {}))  # its values in range (ValueError naming the field)
-        for key, overrides in config.skills.items():
-            if key != ALL_SKILLS and key in SKILL_REGISTRY:
-                _check_action_overrides(config.robot, SKILL_REGISTRY[key],
-                                        {**config.skills.get(ALL_SKILLS, {}), **overrides})
-    return add_robot_config(config, replace=replace)
+    if not isinstance(config, RobotSkillConfig):
+        raise TypeError(f"register_robot_config needs a RobotSkillConfig, got {config!r}")
+    skills = {}
+    for key, values in config.skills.items():
+        name = key if key == ALL_SKILLS else action_key(key)
+        if name in skills:
+            raise ValueError(f"robot {config.robot!r}: skills keys {key!r} and another both name {name!r}")
+        skills[name] = values
+    shared = skills.get(ALL_SKILLS, {})
+    unknown = sorted(set(shared) - set(BASE_CONFIG))
+    if unknown:
+        raise ValueError(f"robot {config.robot!r}: keys {unknown} under {ALL_SKILLS!r} are not BASE_CONFIG keys "
+                         f"(allowed: {sorted(BASE_CONFIG)}); put skill-specific keys under the action's name")
+    SkillConfig(**shared)  # its values in range (ValueError naming the field)
+    for name, overrides in skills.items():
+        if name != ALL_SKILLS and name in SKILL_REGISTRY:  # the check the skill's constructor runs
+            skill = SKILL_REGISTRY[name]
+            checked_skill_config(f"{skill.__name__} (robot {config.robot!r})", skill.Config, skill.DEFAULT_CONFIG,
+                                 {**shared, **overrides})
+    if config.robot in robot_registry.ROBOT_CONFIGS and not replace:
+        raise ValueError(f"robot {config.robot!r} already has a skill config; pass replace=True to override")
+    fixed = sorted(set(config.osc) & set(FIXED_OSC_KEYS))
+    if fixed:
+        raise ValueError(f"robot {config.robot!r}: the OSC keys {fixed} are what the skills rely on and cannot be overridden")
+    config = dataclasses.replace(config, skills=skills)
+    robot_registry.ROBOT_CONFIGS[config.robot] = config
+    return config

@@ -22,18 +22,16 @@ Panda gripper: their own grippers cannot hold the sponge in robosuite's models (
 :meth:`~.skill.Skill.gripper_settled` (``gripper_window``, ``gripper_drift``,
 ``gripper_timeout``) are for grippers whose fingers never stop, such as the Robotiq 85.
 
-Users add an arm with :func:`tableclean_suite.controllers.robot_configs.register_robot_config`
-(which also checks the ``"*"`` keys against the skills' ``BASE_CONFIG``)::
+Users add an arm with
+[register_robot_config][tableclean_suite.controllers.robot_configs.register_robot_config], which
+checks the config against the skills before storing it in :data:`ROBOT_CONFIGS`.
 
-    add_robot_config(RobotSkillConfig("MyArm", skills={"*": {"fingertip_depth": 0.02}}))
-
-This module imports only the task package (no robosuite, no MuJoCo, nothing of
-``controllers`` or ``environments``): the scene and the controllers both read it, and it reads neither.
+This module imports neither robosuite nor MuJoCo nor the rest of the package: the scene and the
+controllers both read it, and it reads neither.
 """
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
@@ -72,53 +70,8 @@ class RobotSkillConfig:
     note: str = ""
 
 
-#: The registry: robot name -> its config (add with ``controllers.robot_configs.register_robot_config``).
-ROBOT_CONFIGS: dict[str, RobotSkillConfig] = {}
-
 #: The OSC settings the skills rely on; a robot config may not override them.
-_FIXED_OSC_KEYS = ("type", "input_type", "input_ref_frame")
-
-
-def action_name(key) -> str:
-    """The registered action name of ``key`` (an :class:`~tableclean_suite.task.Action`, a paper-order int or a
-    name in any case); ``ValueError`` naming the registered actions otherwise."""
-    from tableclean_suite.task import Action, as_action, get_action_rule
-
-    if isinstance(key, Action):
-        return key.rule_name
-    if isinstance(key, str):
-        name = key.strip().lower()
-        return name if name.upper() in Action.__members__ else get_action_rule(name).name
-    return as_action(key).rule_name
-
-
-def add_robot_config(config: RobotSkillConfig, *, replace: bool = False) -> RobotSkillConfig:
-    """Add ``config`` to :data:`ROBOT_CONFIGS` under ``config.robot`` with its per-action keys stored as
-    registered action names; returns the stored config (see
-    :func:`tableclean_suite.controllers.robot_configs.register_robot_config`, which users call).
-
-    Raises:
-        TypeError: ``config`` is not a :class:`RobotSkillConfig`.
-        ValueError: the robot is already registered and ``replace`` is False; a skills key that
-            is neither :data:`ALL_SKILLS` nor a registered action, or two keys naming the same
-            action; an OSC override of ``type``, ``input_type`` or ``input_ref_frame``.
-    """
-    if not isinstance(config, RobotSkillConfig):
-        raise TypeError(f"register_robot_config needs a RobotSkillConfig, got {config!r}")
-    skills = {}
-    for key, values in config.skills.items():
-        name = key if key == ALL_SKILLS else action_name(key)
-        if name in skills:
-            raise ValueError(f"robot {config.robot!r}: skills keys {key!r} and another both name {name!r}")
-        skills[name] = values
-    config = dataclasses.replace(config, skills=skills)
-    if config.robot in ROBOT_CONFIGS and not replace:
-        raise ValueError(f"robot {config.robot!r} already has a skill config; pass replace=True to override")
-    fixed = sorted(set(config.osc) & set(_FIXED_OSC_KEYS))
-    if fixed:
-        raise ValueError(f"robot {config.robot!r}: the OSC keys {fixed} are what the skills rely on and cannot be overridden")
-    ROBOT_CONFIGS[config.robot] = config
-    return config
+FIXED_OSC_KEYS = ("type", "input_type", "input_ref_frame")
 
 
 def supported_robots() -> tuple[str, ...]:
@@ -184,10 +137,6 @@ def osc_overrides(robot: str) -> dict[str, Any]:
 # ---------------------------------------------------------------------------------------------
 # the arms robosuite 1.5 ships that the skills are tuned for
 # ---------------------------------------------------------------------------------------------
-add_robot_config(RobotSkillConfig(
-    "Panda",
-    note="the reference arm: the skills' DEFAULT_CONFIGs and OSC_OVERRIDES were tuned on it",
-))
 
 #: robosuite's gripper the scene mounts on arms whose own gripper cannot grasp the sponge.  robosuite's
 #: Robotiq 85 model (UR5e's and Kinova3's default) collides with itself and stops closing at 0.42 of its
@@ -199,13 +148,12 @@ SWAP_GRIPPER = "PandaGripper"
 #: actuators, kp 1000 N/m, 8.5 mm short of their closed limit) against the Panda gripper's 20 N, and the
 #: pressed sponge dragged along the closing axis pushes both fingers sideways until it slips out
 #: (measured: sponge lost while wiping in 9 of 10 paper episodes, also at 2 N pressing and 0.1 m/s).
-add_robot_config(RobotSkillConfig(
+_SAWYER = RobotSkillConfig(
     "Sawyer", gripper=SWAP_GRIPPER,
     note="Panda gripper instead of the Rethink gripper; the scene excludes the contact between the base and "
          "the first link (environments.robot_support), which otherwise stalls the OSC 3.7 cm short over segment 2",
-))
-add_robot_config(RobotSkillConfig("UR5e", gripper=SWAP_GRIPPER, note="Panda gripper instead of the Robotiq 85"))
-add_robot_config(RobotSkillConfig(
+)
+_KINOVA3 = RobotSkillConfig(
     "Kinova3", gripper=SWAP_GRIPPER,
     # stiffness (1/s^2; the skills' default 300): at 300 the pressed sponge twists in the hand while wiping
     # segment 2 and is put down off the stand in 2 of 10 paper episodes; 450 (or wiping at 0.18 m/s) put it home
@@ -220,4 +168,13 @@ add_robot_config(RobotSkillConfig(
     # three_segments_two_objects, seed 0); the clean's grasp now descends once the hand is nearly still
     skills={"clean": {"hover_still_speed": 0.05}},
     note="Panda gripper instead of the Robotiq 85; stiffer OSC; base 8 cm closer to the table",
-))
+)
+
+#: The registry: robot name -> its config (add with
+#: [register_robot_config][tableclean_suite.controllers.robot_configs.register_robot_config]).
+ROBOT_CONFIGS: dict[str, RobotSkillConfig] = {config.robot: config for config in (
+    RobotSkillConfig("Panda", note="the reference arm: the skills' DEFAULT_CONFIGs and OSC_OVERRIDES were tuned on it"),
+    _SAWYER,
+    RobotSkillConfig("UR5e", gripper=SWAP_GRIPPER, note="Panda gripper instead of the Robotiq 85"),
+    _KINOVA3,
+)}
