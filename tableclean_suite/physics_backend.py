@@ -71,19 +71,6 @@ def restore(env, saved) -> None:
 # ---------------------------------------------------------------------------------------------
 # staging: any reachable task state from a reset
 # ---------------------------------------------------------------------------------------------
-def layout_of(state: TaskState) -> tuple[int, int, tuple[int, ...]]:
-    """``(object_segment, arm_segment, dirty_segments)`` (1-based) of the reset that stages a one-object ``state``.
-
-    A held object is staged by resetting with the object on the arm's segment and picking it.
-    (Any number of objects: :func:`start_of`.)
-    """
-    (where,) = state.objects
-    arm = state.arm + 1
-    obj = arm if where == HELD else where + 1
-    dirty = tuple(k + 1 for k in range(state.n_segments) if not state.is_clean(k))
-    return obj, arm, dirty
-
-
 def start_of(state: TaskState) -> tuple[tuple[int, ...], int, tuple[int, ...], tuple[int, ...]]:
     """``(object_segments, arm_segment, dirty_segments, deferred)`` of the reset that stages ``state``.
 
@@ -397,12 +384,14 @@ def run_physics_task(task: PhysicsRun):
     return task.index, record, stats
 
 
-def train_physics(learner, reward, model, runs, iterations, seed, first_run, workers, physics_options, progress,
-                  alpha, gamma, epsilon, max_itr, executor=None, checkpoint: int = 0) -> dict:
-    """Train ``runs`` runs with skills in physics; the records :func:`~tableclean_suite.learners.train` expects.
+def train_physics(job) -> dict:
+    """Train ``job.runs`` runs with skills in physics; the records :func:`~tableclean_suite.learners.train` expects.
+
+    ``job`` is a [TrainingJob][tableclean_suite.backends.TrainingJob]; its ``options`` hold the checked
+    ``physics_options``.
 
     Run ``i`` uses the run key ``(seed, first_run + i)`` (learner draws) and a scene seeded from it,
-    whichever worker trains it.  ``workers`` defaults to ``os.cpu_count()`` (never more than
+    whichever worker trains it.  ``job.workers`` defaults to ``os.cpu_count()`` (never more than
     ``runs``); with one worker everything runs in this process.  The fault/failure counters
     are returned under ``"stats"``.  With several workers each run is a :class:`PhysicsRun` task
     of ``executor`` (a :mod:`tableclean_suite.executors` executor, e.g. a ``RayExecutor`` for a
@@ -419,20 +408,23 @@ def train_physics(learner, reward, model, runs, iterations, seed, first_run, wor
     """
     from tableclean_suite.learners.reference import CHECKPOINT_Q as RUN_CHECKPOINT_Q
 
-    options = _check_options(physics_options or {})
+    learner, reward, model, runs, iterations = job.learner, job.reward, job.model, job.runs, job.iterations
+    seed, first_run, workers, checkpoint = job.seed, job.first_run, job.workers, job.checkpoint
+    options = _check_options(job.options.get("physics_options") or {})
     if workers is None:
         workers = os.cpu_count() or 1
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
     workers = min(int(workers), runs)
-    hyper = dict(alpha=alpha, gamma=gamma, epsilon=epsilon, max_itr=max_itr)
+    hyper = job.hyperparameters
     shares = [list(range(w, runs, workers)) for w in range(workers)]
     bar = None
-    if progress:
+    if job.progress:
         from tqdm.auto import tqdm
 
         bar = tqdm(total=runs * iterations, desc=f"{learner.name}/{reward.name} physics", leave=False)
 
+    executor = job.executor
     if workers == 1 and executor is None:
         on_queue = _BarQueue(bar) if bar is not None else None
         results = [_train_share((learner, reward, model, shares[0], iterations, seed, first_run, options, hyper, on_queue,
@@ -541,11 +533,7 @@ class PhysicsBackend:
         from tableclean_suite.backends import CHECKPOINT_Q, BackendRecords
         from tableclean_suite.learners.reference import CHECKPOINT_Q as RUN_CHECKPOINT_Q
 
-        records = train_physics(
-            job.learner, job.reward, job.model, job.runs, job.iterations, job.seed, job.first_run, job.workers,
-            job.options["physics_options"], job.progress, **job.hyperparameters, executor=job.executor,
-            checkpoint=job.checkpoint,
-        )
+        records = train_physics(job)
         stats = records.pop("stats")
         info = {"physics": stats}
         if RUN_CHECKPOINT_Q in records:

@@ -51,11 +51,6 @@ class SkillResult:
     final_phase: str = ""
     phase_steps: dict = field(default_factory=dict)
 
-    @property
-    def overhead_time(self) -> float:
-        """Seconds of ``wall_time`` not spent in ``env.step`` (skill logic, skill_info, abstraction)."""
-        return self.wall_time - self.env_time
-
 
 @dataclass(frozen=True, eq=False)
 class SkillReport(SkillResult):

@@ -8,16 +8,16 @@ import pytest
 from tableclean_suite import physics_backend
 from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.learners import train
-from tableclean_suite.physics_backend import PhysicsFaultError, PhysicsStepEnv, layout_of
+from tableclean_suite.physics_backend import PhysicsFaultError, PhysicsStepEnv, start_of
 from tableclean_suite.task import HELD, Action, Outcome, TaskModel, TaskState, decode
 
 MODEL = TaskModel()
 
 
-def test_layout_of_stages_every_reachable_state():
-    assert layout_of(decode(0)) == (1, 1, (1, 2))
+def test_start_of_stages_a_paper_state():
+    assert start_of(decode(0)) == ((1,), 1, (1, 2), ())
     held = TaskState((False, True), (HELD,), 1)
-    assert layout_of(held) == (2, 2, (1,))  # reset with the object under the arm, then pick
+    assert start_of(held) == ((2,), 2, (1,), ())  # reset with the object under the arm, then pick
 
 
 def test_bad_options_and_workers_raise_before_any_physics():
