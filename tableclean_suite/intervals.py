@@ -1,0 +1,200 @@
+"""Confidence intervals over independent runs: one bootstrap API, binomial and mean intervals.
+
+Runs of a cell are independent and identically distributed (each has its own counter-based random
+numbers), so every interval here resamples or models *runs*, never blocks of them.
+
+- [interval_estimates][tableclean_suite.intervals.interval_estimates]: the rliable-shaped API.
+  A statistic of each entry of a dict of per-run scores, with a bootstrap interval over runs
+  (``scipy.stats.bootstrap``: percentile or BCa).  An entry given as a tuple of arrays is a set
+  of strata (e.g. two cells) resampled separately (stratified bootstrap).
+- [probability_of_improvement][tableclean_suite.intervals.probability_of_improvement]: rliable's
+  P(X > Y) with ties counting half, and a practical-equivalence margin.
+- [clopper_pearson][tableclean_suite.intervals.clopper_pearson]: the exact binomial interval of a
+  share of runs (``scipy.stats.binomtest``).
+- [mean_band][tableclean_suite.intervals.mean_band]: per-iteration normal intervals of a mean
+  curve from its sums and sums of squares over runs.
+
+Targets: an interval of a statistic of R runs targets the same statistic of the distribution the
+runs are drawn from (the value an unlimited number of runs would give), at the stated confidence.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: Two-sided confidence of the intervals.
+DEFAULT_CONFIDENCE = 0.95
+#: Bootstrap resamples per interval.
+DEFAULT_REPS = 2000
+#: Bootstrap interval methods ``scipy.stats.bootstrap`` offers that the API accepts.
+METHODS = ("percentile", "bca")
+#: Weight of a tied pair in a probability of improvement.
+HALF = 0.5
+
+
+def check_confidence(confidence: float) -> float:
+    """``confidence`` as a float; ``ValueError`` naming it unless it lies in (0, 1)."""
+    if not 0.0 < float(confidence) < 1.0:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
+    return float(confidence)
+
+
+def _samples(values) -> tuple[np.ndarray, ...]:
+    """An entry of ``scores`` as a tuple of 1-D float arrays (one per stratum)."""
+    strata = values if isinstance(values, tuple) else (values,)
+    samples = tuple(np.asarray(s, dtype=np.float64) for s in strata)
+    for sample in samples:
+        if sample.ndim != 1:
+            raise ValueError(f"per-run scores must be 1-D arrays (one value per run), got shape {sample.shape}")
+    return samples
+
+
+def interval_estimates(scores: dict, func, confidence: float = DEFAULT_CONFIDENCE, reps: int = DEFAULT_REPS,
+                       method: str = "percentile", rng: np.random.Generator | None = None
+                       ) -> tuple[dict[str, float], dict[str, tuple[float, float]]]:
+    """Point estimates and bootstrap intervals over runs of ``func`` of each entry of ``scores``.
+
+    Args:
+        scores: ``{name: (R,) array}`` per-run scores, or ``{name: ((R1,), (R2,), ...)}`` strata
+            resampled separately (``func`` then takes one array per stratum).
+        func: the statistic, vectorised as ``scipy.stats.bootstrap`` needs it:
+            ``func(*samples, axis=-1)`` reduces the last axis (e.g. ``np.mean``).
+        confidence: two-sided confidence, in (0, 1).
+        reps: bootstrap resamples, >= 1.
+        method: ``"percentile"`` or ``"bca"`` (bias-corrected and accelerated).
+        rng: the resamples' generator (None: ``np.random.default_rng(0)``); entries draw from it
+            in the order of ``scores``, so a seeded generator gives the same intervals anywhere.
+
+    Returns:
+        ``(points, intervals)``: ``{name: float}`` and ``{name: (low, high)}``.  The interval is
+        ``(v, v)`` when every run of every stratum has the same value v (no spread to resample),
+        and ``(nan, nan)`` when a stratum has fewer than 2 runs or the point is not finite.
+    """
+    confidence = check_confidence(confidence)
+    if int(reps) != reps or reps < 1:
+        raise ValueError(f"reps must be an integer >= 1, got {reps!r}")
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    from scipy import stats
+
+    rng = np.random.default_rng(0) if rng is None else rng
+    points, intervals = {}, {}
+    for name, values in scores.items():
+        samples = _samples(values)
+        point = float(func(*samples, axis=-1))
+        points[name] = point
+        if not math.isfinite(point) or min(len(s) for s in samples) < 2:
+            intervals[name] = (math.nan, math.nan)
+        elif all(np.all(s == s[0]) for s in samples):
+            intervals[name] = (point, point)
+        else:
+            result = stats.bootstrap(samples, func, n_resamples=int(reps), confidence_level=confidence,
+                                     method=method, vectorized=True, rng=rng)
+            interval = result.confidence_interval
+            intervals[name] = (float(interval.low), float(interval.high))
+    return points, intervals
+
+
+def clopper_pearson(successes: int, trials: int, confidence: float = DEFAULT_CONFIDENCE) -> tuple[float, float]:
+    """The exact (Clopper-Pearson) interval of a binomial proportion ``successes / trials``.
+
+    Its target is the probability that one run has the property counted; it covers it with at
+    least ``confidence`` whatever that probability (conservative).  ``(nan, nan)`` without trials.
+    """
+    confidence = check_confidence(confidence)
+    if trials < 1:
+        return math.nan, math.nan
+    from scipy import stats
+
+    interval = stats.binomtest(int(successes), int(trials)).proportion_ci(confidence, method="exact")
+    return float(interval.low), float(interval.high)
+
+
+def mean_band(sums, squares, counts, confidence: float = DEFAULT_CONFIDENCE) -> tuple[np.ndarray, np.ndarray]:
+    """Per-iteration normal intervals of a mean curve over runs, from sums over runs.
+
+    At each iteration the curve is the mean of ``counts`` independent bounded per-run values;
+    the interval is ``mean +- z * s / sqrt(n)`` with ``s`` the sample standard deviation from
+    the sums and sums of squares (central limit theorem; its target is the expected value of one
+    run's value at that iteration).
+
+    Args:
+        sums, squares, counts: ``(T,)`` sums, sums of squares and numbers of the per-run values.
+
+    Returns:
+        ``(low, high)``, each ``(T,)``; NaN where fewer than 2 values.
+    """
+    from statistics import NormalDist
+
+    z = NormalDist().inv_cdf(0.5 + check_confidence(confidence) / 2)
+    sums, squares, counts = (np.asarray(a, dtype=np.float64) for a in (sums, squares, counts))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = sums / counts
+        variance = np.maximum(squares - counts * mean ** 2, 0.0) / (counts - 1)
+        half = z * np.sqrt(variance / counts)
+    defined = counts >= 2
+    return np.where(defined, mean - half, np.nan), np.where(defined, mean + half, np.nan)
+
+
+def probability_of_improvement(x, y, higher_is_better: bool = True, margin: float = 0.0) -> float:
+    """P(a run of X beats a run of Y by more than ``margin``) + P(they tie) / 2, over all pairs.
+
+    rliable's definition for ``margin = 0``.  With a practical-equivalence ``margin`` (>= 0, in
+    the score's units) a pair is a tie when ``|x - y| <= margin``.  Equal values always tie.
+    """
+    if not margin >= 0:
+        raise ValueError(f"margin must be a number >= 0 (score units), got {margin!r}")
+    x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    return float(_Improvement(x, y, higher_is_better, margin)(np.arange(len(x)), np.arange(len(y))))
+
+
+class _Improvement:
+    """:func:`probability_of_improvement` of resamples given as run *indices* into fixed X and Y,
+    by counting, never forming the pairs: each y is replaced once by its rank among Y's distinct
+    values, each x by the ranks it beats by more than ``margin`` and does not fall short of; a
+    resample then needs only a count of its y ranks (exact integers, so the result does not
+    depend on any order).  Called by ``scipy.stats.bootstrap`` with index arrays whose leading
+    axes broadcast (``(B, nx)`` and ``(B, ny)``, or the jackknife's shapes)."""
+
+    def __init__(self, x, y, higher_is_better: bool, margin: float):
+        x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+        if not higher_is_better:
+            x, y = -x, -y
+        distinct = np.unique(y)
+        self.width = len(distinct) + 1
+        self.y_rank = np.searchsorted(distinct, y) + 1
+        with np.errstate(invalid="ignore"):
+            self.beaten = np.searchsorted(distinct, x - margin, side="left")  # ranks of y < x - margin
+            self.not_above = np.searchsorted(distinct, x + margin, side="right")  # ranks of y <= x + margin
+        self.pairs = len(x) * len(y)
+
+    def __call__(self, ix, iy, axis=-1):
+        ix, iy = np.moveaxis(np.asarray(ix), axis, -1), np.moveaxis(np.asarray(iy), axis, -1)
+        lead = np.broadcast_shapes(ix.shape[:-1], iy.shape[:-1])
+        nx, ny = ix.shape[-1], iy.shape[-1]
+        ix = np.broadcast_to(ix, (*lead, nx)).reshape(-1, nx).astype(np.int64)
+        iy = np.broadcast_to(iy, (*lead, ny)).reshape(-1, ny).astype(np.int64)
+        rows = np.arange(len(iy))[:, None]
+        codes = (rows * self.width + self.y_rank[iy]).ravel()
+        below = np.cumsum(np.bincount(codes, minlength=len(iy) * self.width).reshape(len(iy), self.width), axis=1)
+        beaten = below[rows, self.beaten[ix]]
+        not_above = below[rows, self.not_above[ix]]
+        return ((beaten + HALF * (not_above - beaten)).sum(axis=1) / (nx * ny)).reshape(lead)
+
+
+def improvement_estimate(x, y, higher_is_better: bool = True, margin: float = 0.0,
+                         confidence: float = DEFAULT_CONFIDENCE, reps: int = DEFAULT_REPS,
+                         method: str = "percentile", rng: np.random.Generator | None = None
+                         ) -> tuple[float, float, float]:
+    """``(P, low, high)``: :func:`probability_of_improvement` with a stratified bootstrap interval
+    (X's runs and Y's runs resampled separately, :func:`interval_estimates`).  The interval targets
+    the probability that a new run of X beats a new run of Y (ties half)."""
+    if not margin >= 0:
+        raise ValueError(f"margin must be a number >= 0 (score units), got {margin!r}")
+    x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    runs = (np.arange(len(x), dtype=np.float64), np.arange(len(y), dtype=np.float64))  # resampled as run indices
+    points, intervals = interval_estimates({"p": runs}, _Improvement(x, y, higher_is_better, margin), confidence,
+                                           reps, method, rng)
+    return points["p"], *intervals["p"]

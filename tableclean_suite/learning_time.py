@@ -1,0 +1,168 @@
+"""How long each run takes to learn the task, summarised over runs with censoring.
+
+**The per-run learning time** is ``TrainingResult.learned_at`` (see
+[TrainingResult][tableclean_suite.learners.TrainingResult]): the iteration (environment steps,
+the unit of ``--iterations``; 1-based) from which the run's greedy policy is optimal (follows a
+shortest plan to the terminal state from every start state) and stays optimal after every later
+update to the end of the budget T; 0 when it is optimal throughout; -1 when it is not optimal
+at the end of the budget.  Why this definition: it is a property of one run (so its
+distribution over runs has a fixed target, unlike a reading of the mean success curve, whose
+target moves with the number of runs), it is exact (no threshold on a noisy curve), "stays
+learned" excludes a policy that is optimal for a moment and then unlearns, and steps rather than
+episodes keep ties rare.
+
+**Censoring.** A run not optimal at the end of the budget has a learning time known only to
+exceed T: it is *right-censored at T*, never dropped (dropping would make a slow reward pattern
+look fast).  Its survival curve S(t) = P(learning time > t) is the Kaplan-Meier estimate
+(``scipy.stats.ecdf`` of ``scipy.stats.CensoredData``); every censoring is at T, so below T it
+equals one minus the empirical distribution function of the learning times.
+
+The summary ([learning_time_summary][tableclean_suite.learning_time.learning_time_summary]):
+
+- **median** (and **quartiles**): the first t with S(t) <= 1/2 (1/4 for the first quartile,
+  3/4 for the third), +inf when S stays above it to the budget (more than that share censored).
+  Interval: the times at which the pointwise ``confidence`` band of S (log-log transform,
+  Greenwood's variance) crosses the same level (Brookmeyer and Crowley); its target is the
+  quantile of the learning-time distribution; an upper bound of +inf says the data cannot
+  exclude a quantile beyond the budget.
+- **RMST**: the restricted mean learning time to the budget, the area under S from 0 to T,
+  i.e. the mean of min(learning time, T) over runs (censored runs count T).  Interval: bootstrap
+  over runs ([interval_estimates][tableclean_suite.intervals.interval_estimates]); its target is
+  E[min(learning time, T)].
+- **censored share**: the fraction of runs censored at T, with its exact (Clopper-Pearson)
+  interval; target: the probability that a run has not learned by T.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from tableclean_suite import intervals
+
+#: The survival levels of the quartiles: first quartile, median, third quartile.
+QUARTILE_LEVELS = {"q1": 0.75, "median": 0.5, "q3": 0.25}
+#: How the pointwise band of the survival curve is built (``scipy.stats`` method name).
+BAND_METHOD = "log-log"
+
+
+@dataclass(frozen=True)
+class LearningTime:
+    """Per-run learning times of R runs with budget T, summarised (see the module docstring).
+
+    Times are in iterations (environment steps); +inf means beyond the budget; NaN: no runs.
+
+    Attributes:
+        runs: R, the runs summarised (censored included), >= 0.
+        budget: T, the iterations each run trained.
+        median, median_low, median_high: the Kaplan-Meier median and its interval.
+        q1, q1_low, q1_high: the first quartile (a quarter of the runs have learned) and its interval.
+        q3, q3_low, q3_high: the third quartile and its interval.
+        rmst, rmst_low, rmst_high: the restricted mean time to the budget, in [0, T], and its interval.
+        censored_share, censored_low, censored_high: the fraction of runs censored at T, in
+            [0, 1], and its Clopper-Pearson interval.
+        confidence: the intervals' two-sided confidence.
+    """
+
+    runs: int
+    budget: int
+    median: float
+    median_low: float
+    median_high: float
+    q1: float
+    q1_low: float
+    q1_high: float
+    q3: float
+    q3_low: float
+    q3_high: float
+    rmst: float
+    rmst_low: float
+    rmst_high: float
+    censored_share: float
+    censored_low: float
+    censored_high: float
+    confidence: float
+
+    def as_dict(self) -> dict:
+        """``{field: value}`` in field order."""
+        return asdict(self)
+
+
+def check_learned_at(learned_at, budget: int) -> np.ndarray:
+    """``learned_at`` as an int64 ``(R,)`` array; ``ValueError`` naming the bad value unless every
+    entry is -1 (censored) or in [0, ``budget``]."""
+    values = np.asarray(learned_at)
+    if values.ndim != 1:
+        raise ValueError(f"learned_at must be a 1-D array (one time per run), got shape {values.shape}")
+    if int(budget) != budget or budget < 1:
+        raise ValueError(f"budget must be an integer >= 1 (iterations), got {budget!r}")
+    if values.size and (not np.all(values == np.round(values)) or values.min() < -1 or values.max() > budget):
+        bad = values[(values != np.round(values)) | (values < -1) | (values > budget)][0]
+        raise ValueError(f"learned_at holds {bad!r}: allowed are -1 (not learned by the budget) and integers "
+                         f"in [0, {int(budget)}]")
+    return values.astype(np.int64)
+
+
+def censored_times(learned_at, budget: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(times, censored)``: each run's time, the budget for a censored run, and whether it is."""
+    values = check_learned_at(learned_at, budget)
+    censored = values < 0
+    return np.where(censored, int(budget), values).astype(np.float64), censored
+
+
+def survival(learned_at, budget: int):
+    """The Kaplan-Meier estimate of S(t) = P(learning time > t): ``scipy.stats.ecdf``'s result
+    (its ``sf`` evaluates and bands it) for runs censored at ``budget``."""
+    from scipy import stats
+
+    times, censored = censored_times(learned_at, budget)
+    return stats.ecdf(stats.CensoredData(uncensored=times[~censored], right=times[censored]))
+
+
+def _crossing(times: np.ndarray, probabilities: np.ndarray, level: float) -> float:
+    """The first time at which a right-continuous step survival curve is <= ``level`` (+inf if never)."""
+    with np.errstate(invalid="ignore"):
+        hits = np.nonzero(probabilities <= level + 1e-12)[0]
+    return float(times[hits[0]]) if len(hits) else math.inf
+
+
+def learning_time_summary(learned_at, budget: int, confidence: float = intervals.DEFAULT_CONFIDENCE,
+                          reps: int = intervals.DEFAULT_REPS, method: str = "percentile",
+                          rng: np.random.Generator | None = None) -> LearningTime:
+    """The :class:`LearningTime` summary of per-run learning times (see the module docstring).
+
+    Args:
+        learned_at: ``(R,)`` integers, -1 (censored at the budget) or in [0, ``budget``]
+            (``TrainingResult.learned_at``).
+        budget: T, the iterations each run trained, >= 1.
+        confidence: two-sided confidence of every interval, in (0, 1).
+        reps, method, rng: the RMST's bootstrap (:func:`tableclean_suite.intervals.interval_estimates`).
+
+    Returns:
+        A :class:`LearningTime` (all NaN but ``runs`` and ``budget`` when R = 0).
+    """
+    confidence = intervals.check_confidence(confidence)
+    times, censored = censored_times(learned_at, budget)
+    runs = len(times)
+    if runs == 0:
+        nan = math.nan
+        return LearningTime(0, int(budget), *([nan] * 15), confidence)
+    fit = survival(learned_at, budget).sf
+    with warnings.catch_warnings():  # scipy warns where the band is undefined (S = 0 or 1): handled below
+        warnings.simplefilter("ignore", RuntimeWarning)
+        band = fit.confidence_interval(confidence, method=BAND_METHOD)
+    steps = fit.quantiles
+    # The band is NaN where S is 0 or 1 (no spread left): there the curve itself is the bound.
+    low_curve = np.where(np.isnan(band.low.probabilities), fit.probabilities, band.low.probabilities)
+    high_curve = np.where(np.isnan(band.high.probabilities), fit.probabilities, band.high.probabilities)
+    quantiles = {}
+    for name, level in QUARTILE_LEVELS.items():
+        quantiles[name] = (_crossing(steps, fit.probabilities, level), _crossing(steps, low_curve, level),
+                           _crossing(steps, high_curve, level))
+    points, bounds = intervals.interval_estimates({"rmst": times}, np.mean, confidence, reps, method, rng)
+    share_low, share_high = intervals.clopper_pearson(int(censored.sum()), runs, confidence)
+    return LearningTime(runs, int(budget), *quantiles["median"], *quantiles["q1"], *quantiles["q3"],
+                        points["rmst"], *bounds["rmst"], float(censored.mean()), share_low, share_high, confidence)
