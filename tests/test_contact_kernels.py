@@ -97,8 +97,8 @@ GRASP_CASES = 200
 
 
 def test_grasped_bodies_is_both_pads_touching_each_body():
-    """The kernel against the per-body definition (robosuite's criterion, as ``TableClean._grasped``): body b is
-    grasped when a contact pairs one of its geoms with a pad-a geom and another (or the same) with a pad-b geom."""
+    """The kernel against the per-body definition (robosuite's grasp criterion): body b is grasped when a
+    contact pairs one of its geoms with a pad-a geom and another (or the same) with a pad-b geom."""
     rng = np.random.default_rng(0)
     n_geoms, n_bodies = 12, 3
     for _ in range(GRASP_CASES):

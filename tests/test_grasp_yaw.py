@@ -15,7 +15,6 @@ from scipy.spatial.transform import Rotation
 
 from tableclean_suite.controllers.configs import GraspConfig, ReleaseConfig
 from tableclean_suite.controllers.geometry import wrap_angle
-from tableclean_suite.controllers.osc import down_rotation
 from tableclean_suite.controllers.primitives import (
     FINGER_LINE_CLEARANCE,
     Grasp,
@@ -41,7 +40,7 @@ def _cylinder(radius: float, half_height: float) -> ObjectGeometry:
 
 
 def _eef_quat(yaw: float) -> np.ndarray:
-    return Rotation.from_matrix(down_rotation(yaw)).as_quat()  # xyzw
+    return (Rotation.from_euler("z", yaw) * Rotation.from_euler("x", np.pi)).as_quat()  # pointing down; xyzw
 
 
 def _info(shapes, xys, eef_yaw=NOMINAL, grasped=None) -> dict:

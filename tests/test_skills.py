@@ -32,7 +32,8 @@ from tableclean_suite.environments.object_geometry import ObjectGeometry
 from tableclean_suite.environments.object_geometry import grasp_yaw as geometry_grasp_yaw
 from tableclean_suite.controllers import make as make_module
 from tableclean_suite.controllers import osc
-from tableclean_suite.controllers.osc import ACTION_DIM, ARM_PART, check_skill_env, down_rotation, down_rotvec, skill_command_limits
+from tableclean_suite.controllers.osc import ACTION_DIM, ARM_PART, check_skill_env, skill_command_limits
+from tableclean_suite.controllers.setpoint import advance_command
 from tableclean_suite.controllers.wipe_pattern import boustrophedon
 from tableclean_suite.task import (
     START_LAYOUTS,
@@ -204,22 +205,28 @@ def test_make_skill_env_builds_the_controller_config_of_the_requested_robot(monk
         make_module.make_skill_env(robots=["Panda", "Panda"])
 
 
+def _down_rotvec(yaw: float) -> np.ndarray:
+    """The rotation vector (3,) the skills command for a gripper pointing down at ``yaw`` (rad)."""
+    action, here = np.empty(ACTION_DIM), np.zeros(3)
+    advance_command(here, yaw, yaw, here.copy(), 0.01, 0.1, 0.0, action)
+    return action[3:6]
+
+
 @pytest.mark.parametrize("yaw", np.linspace(-np.pi, np.pi, 9))
 def test_skill_command_limits_contain_every_down_pose_over_the_table(yaw):
     low, high = skill_command_limits()
-    rotvec = down_rotvec(yaw)
+    rotvec = _down_rotvec(yaw)
     assert np.all(low[3:] <= rotvec) and np.all(rotvec <= high[3:])
     assert low.shape == high.shape == (6,) and np.all(low < high)
 
 
 @pytest.mark.parametrize("yaw", [0.0, 0.5 * np.pi, 2.0, -2.5])
-def test_down_rotvec_points_the_gripper_down_with_the_given_yaw(yaw):
+def test_the_commanded_rotation_points_the_gripper_down_with_the_given_yaw(yaw):
     from scipy.spatial.transform import Rotation  # robosuite's OSC reads the rotation vector with it
 
-    rot = Rotation.from_rotvec(down_rotvec(yaw)).as_matrix()
-    np.testing.assert_allclose(rot, down_rotation(yaw), atol=1e-12)
-    np.testing.assert_allclose(rot[:, 2], [0, 0, -1], atol=1e-12)
-    np.testing.assert_allclose(rot[:2, 0], [np.cos(yaw), np.sin(yaw)], atol=1e-12)
+    rot = Rotation.from_rotvec(_down_rotvec(yaw)).as_matrix()
+    c, s = np.cos(yaw), np.sin(yaw)  # x axis turned by yaw about world z, approach (z) axis world -z
+    np.testing.assert_allclose(rot, [[c, s, 0.0], [s, -c, 0.0], [0.0, 0.0, -1.0]], atol=1e-12)
 
 
 def grasp_yaw(quat, half_size, nominal_yaw):
@@ -231,7 +238,7 @@ def test_grasp_yaw_puts_the_fingers_across_the_short_side():
     identity = np.array([0.0, 0.0, 0.0, 1.0])
     long_x = np.array([0.04, 0.025, 0.015])  # the sponge: short side along y
     yaw = grasp_yaw(identity, long_x, nominal_yaw=0.5 * np.pi)
-    closing_axis = down_rotation(yaw)[:, 0]  # fingers close along the grip site's x axis
+    closing_axis = np.array([np.cos(yaw), np.sin(yaw)])  # fingers close along the grip site's x axis
     assert abs(closing_axis[1]) == pytest.approx(1.0)
     assert grasp_yaw(identity, long_x, nominal_yaw=-0.5 * np.pi) == pytest.approx(-0.5 * np.pi)
     cube = np.full(3, 0.02)

@@ -94,7 +94,7 @@ def check_skill_env(env) -> None:
     """Raise a clear error unless ``env`` drives its arm the way the skills command it.
 
     The skills emit :data:`ACTION_DIM` absolute world-frame OSC_POSE commands
-    (:func:`compose_action`); an env made by plain ``robosuite.make`` uses delta commands in
+    ([advance_command][tableclean_suite.controllers.setpoint.advance_command]); an env made by plain ``robosuite.make`` uses delta commands in
     the robot's base frame and would send the arm somewhere else.  Checks the first robot's
     first arm controller against :data:`SKILL_ARM_CONTROLLER`, and the action size.
 
@@ -125,29 +125,3 @@ def check_skill_env(env) -> None:
             f"{type(env).__name__} takes {env.action_dim}-dimensional actions, but the skills emit {ACTION_DIM} "
             f"(one arm: position, rotation vector, gripper): {remedy}"
         )
-
-
-def down_rotation(yaw: float) -> np.ndarray:
-    """Rotation matrix (3, 3) of a gripper pointing straight down, turned by ``yaw`` (rad) about world z.
-
-    At ``yaw = 0`` the gripper's x axis is world +x and its approach (z) axis is world -z.
-    """
-    c, s = np.cos(yaw), np.sin(yaw)
-    rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    return rz @ np.diag([1.0, -1.0, -1.0])
-
-
-def down_rotvec(yaw: float) -> np.ndarray:
-    """Rotation vector (3,) of :func:`down_rotation` ``(yaw)``, the OSC orientation input."""
-    # A gripper pointing down is a half turn about a horizontal axis at angle yaw/2.
-    half = 0.5 * yaw
-    return np.pi * np.array([np.cos(half), np.sin(half), 0.0])
-
-
-def compose_action(pos: np.ndarray, rotvec: np.ndarray, gripper: float) -> np.ndarray:
-    """The env action (7,): absolute world position (m), rotation vector (rad), gripper in [-1, 1]."""
-    action = np.empty(ACTION_DIM)
-    action[0:3] = pos
-    action[3:6] = rotvec
-    action[6] = gripper
-    return action

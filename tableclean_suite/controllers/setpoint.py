@@ -33,7 +33,7 @@ def advance_command(setpoint: np.ndarray, yaw_setpoint: float, yaw: float, targe
         yaw_setpoint: commanded gripper yaw (rad), turned at most ``max_turn`` (rad) towards ``yaw`` (rad).
         gripper: gripper command in [-1, 1].
         action: (7,) output: the new setpoint, the rotation vector of a downward gripper at the new
-            yaw setpoint (:func:`~tableclean_suite.controllers.osc.down_rotvec`), ``gripper``.
+            yaw setpoint (pi times (cos(yaw / 2), sin(yaw / 2), 0): a half turn about a horizontal axis), ``gripper``.
 
     Returns:
         the new yaw setpoint (rad, in [-pi, pi)).
