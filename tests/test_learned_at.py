@@ -127,3 +127,25 @@ def test_random_ties_change_the_greedy_choice_only():
 def test_unknown_tie_rule_is_refused():
     with pytest.raises(ValueError, match="unknown ties 'last'; allowed: first, random"):
         train(runs=1, iterations=1, ties="last")
+
+
+def test_the_tie_rule_is_a_learner_option_too():
+    kwargs = dict(runs=20, iterations=300, seed=8)
+    by_argument = train("sarsa", "r4", ties="random", **kwargs)
+    by_option = train("sarsa", "r4", learner_options={"ties": "random"}, **kwargs)
+    for name in ("actions", "q", *LEARNED):
+        np.testing.assert_array_equal(getattr(by_argument, name), getattr(by_option, name))
+    assert by_option.config["learner_settings"]["ties"] == "random"
+    assert "ties" not in train("sarsa", "r4", **kwargs).config["learner_settings"]
+    with pytest.raises(ValueError, match="disagree"):
+        train("sarsa", "r4", ties="first", learner_options={"ties": "random"}, **kwargs)
+
+
+@pytest.mark.parametrize("learner", ["expected_sarsa", "double_q_learning", "q_lambda", "dyna_q",
+                                     "affordance_q_learning", "learned_affordance_q_learning",
+                                     "interactive_q_learning"])
+def test_random_ties_compiled_equals_plain_loop(learner):
+    kwargs = dict(runs=3, iterations=300, seed=9, ties="random", task=TaskModel(start="uniform_unclean"))
+    compiled, plain = train(learner, "r4", **kwargs), train(learner, "r4", engine="reference", **kwargs)
+    for name in ("rewards", "outcomes", "states", "actions", "episode_end", "q", *LEARNED):
+        np.testing.assert_array_equal(getattr(compiled, name), getattr(plain, name), err_msg=name)

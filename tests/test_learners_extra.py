@@ -311,9 +311,9 @@ def test_exploration_forms_and_parsing():
 @pytest.mark.parametrize("kwargs,message", [
     ({"learner": "q_lambda", "learner_options": {"lambda_": 1.5}}, r"learner 'q_lambda': lambda_ must be in \[0, 1\], got 1.5"),
     ({"learner": "q_lambda", "learner_options": {"trace": "dutch"}}, "trace must be one of replacing, accumulating, got 'dutch'"),
-    ({"learner": "q_lambda", "learner_options": {"lamda": 0.5}}, r"takes lambda_, trace, affordance, advice_probability, advice_consistency; got \['lamda'\]"),
+    ({"learner": "q_lambda", "learner_options": {"lamda": 0.5}}, r"takes lambda_, trace, affordance, advice_probability, advice_consistency, ties; got \['lamda'\]"),
     ({"learner": "q_learning", "learner_options": {"lambda_": 0.5}},
-     r"takes affordance, advice_probability, advice_consistency; got \[.lambda_.\]"),
+     r"takes affordance, advice_probability, advice_consistency, ties; got \[.lambda_.\]"),
     ({"learner": "dyna_q", "learner_options": {"planning_steps": -1}}, r"planning_steps must be in \[0, 10000\], got -1"),
     ({"learner": "dyna_q", "learner_options": {"planning_steps": 2.5}}, "planning_steps must be an integer"),
     ({"learner_options": [("lambda_", 1)]}, "learner_options must be a dict"),

@@ -54,8 +54,6 @@ class TrainingJob:
         checkpoint: also keep the Q-tables after this many iterations, in [1, iterations]
             (0: none); a backend that can puts them in ``info[CHECKPOINT_Q]`` ``(R, S, A)`` (the
             built-in ones, on both engines), one that cannot leaves them out.
-        ties: the greedy choice's tie rule, ``"first"`` (the first action in the task's order) or
-            ``"random"`` (uniform among the tied actions, by the ties lane's draws).
     """
 
     learner: Any
@@ -75,7 +73,6 @@ class TrainingJob:
     progress: bool = False
     executor: Any = None
     checkpoint: int = 0
-    ties: str = "first"
 
     @property
     def hyperparameters(self) -> dict:

@@ -24,7 +24,7 @@ from tableclean_suite.backends import CHECKPOINT_Q, BackendRecords, TrainingJob
 from tableclean_suite.learners import assist, kernel, optimality, reference
 from tableclean_suite.learners.reference import DOUBLE_Q_TABLES
 from tableclean_suite.learners.rng import run_keys
-from tableclean_suite.learners.rules import METHOD_DOUBLE_Q
+from tableclean_suite.learners.rules import METHOD_DOUBLE_Q, TIES
 from tableclean_suite.learners.threads import run_in_threads
 from tableclean_suite.learners.transitions import TransitionTable
 
@@ -120,8 +120,7 @@ class TableBackend:
             env = reference.TableStepEnv(job.model, table) if self.measured else reference.ModelStepEnv(job.model)
             per_run = [
                 reference.train_run(env, job.learner, job.reward, job.iterations, seed=job.seed,
-                                    run=job.first_run + r, checkpoint=job.checkpoint, ties=job.ties,
-                                    **job.hyperparameters)
+                                    run=job.first_run + r, checkpoint=job.checkpoint, **job.hyperparameters)
                 for r in progress_bar(range(job.runs), job.progress, "runs")
             ]
             records = {name: np.stack([run[name] for run in per_run])
@@ -159,7 +158,7 @@ class TableBackend:
                 job.reward.looping_memory,
                 learner.target_code, learner.on_policy, learner.method, learner_parameters, job.alpha, job.gamma,
                 learner.exploration.code, explore_parameters, learner.affordance_code, afforded, advisor, advice,
-                job.max_itr, optimality.TIES[job.ties], task_next, distance,
+                job.max_itr, TIES[learner.ties], task_next, distance,
                 keys[lo:hi], q[lo:hi], q_second[lo:hi], *(records[name][lo:hi] for name in RECORD_FIELDS),
                 snapshot_at, q_snapshot[lo:hi], q_second_snapshot[lo:hi], first_learned[lo:hi], learned[lo:hi],
             ))

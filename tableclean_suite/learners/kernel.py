@@ -75,7 +75,7 @@ from tableclean_suite.learners.rng import (
     uniform,
     uniform_at,
 )
-from tableclean_suite.learners.optimality import NOT_LEARNED, TIES_RANDOM, greedy_walk, tied_greedy, walk_changed
+from tableclean_suite.learners.optimality import NOT_LEARNED, greedy_walk, tied_greedy, walk_changed
 from tableclean_suite.learners.rules import (
     EXPECTED_SARSA_TARGET,
     METHODS,
@@ -87,6 +87,7 @@ from tableclean_suite.learners.rules import (
     PARAM_LAMBDA,
     PARAM_PLANNING,
     Q_LEARNING_TARGET,
+    TIES_RANDOM,
     TabularLearner,
     builtin_td_target,
     double_q_target,
@@ -466,7 +467,7 @@ def _train_loop(
         advisor: ``(S,)`` int64 the advisor's action per state, or ``(0,)`` for no advisor.
         advice: ``(2,)`` float64 ``[L, C]`` advice probability and consistency, each in [0, 1].
         max_itr: iterations after which an episode is truncated.
-        ties: ``optimality.TIES_FIRST`` (greedy ties to the first action) or ``TIES_RANDOM``.
+        ties: ``rules.TIES_FIRST`` (greedy ties to the first action) or ``rules.TIES_RANDOM``.
         task_next: ``(S, A)`` int64 the task model's successors, on which optimality is judged.
         distance: ``(S,)`` int64 the task model's shortest-plan lengths (0 terminal, -1 none).
         keys: ``(R,)`` uint64 per-run random keys.

@@ -37,10 +37,6 @@ import numpy as np
 from tableclean_suite.learners.assist import NOT_AFFORDED, afforded_count, afforded_greedy
 from tableclean_suite.learners.exploration import greedy_action
 
-#: ``train(ties=...)``: ties in the greedy choice go to the first action in the task's order
-#: (the paper's rule) or are broken uniformly at random.
-TIES = {"first": 0, "random": 1}
-TIES_FIRST, TIES_RANDOM = TIES["first"], TIES["random"]
 #: ``learned_at`` / ``first_learned_at`` of a run that is not optimal at the end of its budget / never is.
 NOT_LEARNED = -1
 

@@ -238,7 +238,7 @@ class _Agent:
     """
 
     def __init__(self, learner: TabularLearner, n_states: int, n_actions: int, alpha: float, gamma: float,
-                 epsilon: float, key: int, assistance: _Assistance | None = None, ties: str = "first"):
+                 epsilon: float, key: int, assistance: _Assistance | None = None):
         self.learner, self.alpha, self.gamma, self.epsilon, self.key = learner, alpha, gamma, epsilon, key
         self.exploration = learner.exploration
         self.double = learner.method == METHOD_DOUBLE_Q
@@ -256,7 +256,7 @@ class _Agent:
         self.planning_key = lane_key_py(key, LANE_PLANNING)
         self.assistance = assistance
         self.affording = learner.affordance != "none"
-        self.tie_key = lane_key_py(key, LANE_TIES) if ties == "random" else None
+        self.tie_key = lane_key_py(key, LANE_TIES) if learner.ties == "random" else None
 
     @staticmethod
     def _table(n_states, n_actions, value):
@@ -390,7 +390,6 @@ def train_run(
     run: int,
     on_step=None,
     checkpoint: int = 0,
-    ties: str = "first",
 ) -> dict[str, np.ndarray]:
     """Train one run for ``iterations`` steps; returns its record arrays and Q-table.
 
@@ -403,13 +402,13 @@ def train_run(
     under ``"double_q_tables"``, shape ``(2, S, A)``).
     ``on_step(t)`` is called after every iteration (progress bars).  ``checkpoint`` in [1, iterations]
     also keeps the Q-table after that many iterations under ``"checkpoint_q"`` ``(S, A)`` (as ``q``).
-    ``ties`` is the greedy choice's tie rule (``"first"`` or ``"random"``).  ``first_learned_at`` and
+    ``first_learned_at`` and
     ``learned_at`` (int64 scalars as 0-d arrays) are the run's learning times (:mod:`.optimality`).
     """
     key = run_key(seed, run)
     model = env.model
     assistance = _Assistance(learner, model, key) if learner.assisted else None
-    agent = _Agent(learner, model.n_states, model.n_actions, alpha, gamma, epsilon, key, assistance, ties)
+    agent = _Agent(learner, model.n_states, model.n_actions, alpha, gamma, epsilon, key, assistance)
     starts, task_next, distance = optimality.task_arrays(model)
     starts = [int(s) for s in starts]
     optimal = agent.greedy_is_optimal(starts, task_next, distance)

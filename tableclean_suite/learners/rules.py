@@ -150,8 +150,13 @@ METHODS = {"one_step": METHOD_ONE_STEP, "double_q": METHOD_DOUBLE_Q, "traces": M
 METHOD_OPTIONS = {METHOD_ONE_STEP: (), METHOD_DOUBLE_Q: (), METHOD_TRACES: ("lambda_", "trace"),
                   METHOD_DYNA: ("planning_steps",)}
 TRACE_KINDS = ("replacing", "accumulating")
-#: Learner options every update rule takes: Cruz et al.'s affordances and simulated advisor (:mod:`.assist`).
-ASSIST_OPTIONS = ("affordance", "advice_probability", "advice_consistency")
+#: Learner options every update rule takes: Cruz et al.'s affordances and simulated advisor (:mod:`.assist`)
+#: and the greedy choice's tie rule.
+ASSIST_OPTIONS = ("affordance", "advice_probability", "advice_consistency", "ties")
+#: Tie rules of the greedy choice (``TabularLearner.ties``) and their kernel codes: the first tied action
+#: in the task's order (the paper's) or a uniform pick among the tied ones (:mod:`.optimality`).
+TIES = {"first": 0, "random": 1}
+TIES_FIRST, TIES_RANDOM = TIES["first"], TIES["random"]
 #: Cruz et al.'s advice probability L (their interactive RL row) and the consistency C assumed here.
 CRUZ_ADVICE_PROBABILITY = 0.5
 DEFAULT_ADVICE_CONSISTENCY = 1.0
@@ -196,8 +201,11 @@ class TabularLearner:
             the action (0 = no advisor, default).
         advice_consistency: C in [0, 1], probability that advice is the advisor's own (optimal)
             action rather than a uniformly random one (default 1).
+        ties: the greedy choice's tie rule, ``"first"`` (default: the first tied action in the
+            task's order, the paper's) or ``"random"`` (uniform among the tied actions, from the
+            random numbers' ties lane).  Softmax exploration has no greedy choice to break.
 
-    ``train()`` sets the last eight from ``learner_options=``, ``q_init=`` and ``exploration=``
+    ``train()`` sets the last nine from ``learner_options=``, ``q_init=`` and ``exploration=``
     (:meth:`configured`), so every backend, the physics one included, trains what was asked.
     """
 
@@ -215,6 +223,7 @@ class TabularLearner:
     affordance: str = "none"
     advice_probability: float = 0.0
     advice_consistency: float = DEFAULT_ADVICE_CONSISTENCY
+    ties: str = "first"
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not _NAME_PATTERN.match(self.name):
@@ -245,6 +254,8 @@ class TabularLearner:
     def _check_parameters(self) -> None:
         what = f"learner {self.name!r}"
         check_number(f"{what}: lambda_", self.lambda_, 0, 1)
+        if self.ties not in TIES:
+            raise ValueError(f"{what}: unknown ties {self.ties!r}; allowed: {', '.join(TIES)}")
         if self.trace not in TRACE_KINDS:
             raise ValueError(f"{what}: trace must be one of {', '.join(TRACE_KINDS)}, got {self.trace!r}")
         check_number(f"{what}: planning_steps", self.planning_steps, 0, MAX_PLANNING_STEPS, integer=True)
@@ -322,6 +333,8 @@ class TabularLearner:
             settings["affordance"] = self.affordance
         if self.advised:
             settings.update(advice_probability=self.advice_probability, advice_consistency=self.advice_consistency)
+        if self.ties != "first":
+            settings["ties"] = self.ties
         return settings
 
     def target(self, q_next, next_action, reward, gamma, epsilon, terminal) -> float:

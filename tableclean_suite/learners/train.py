@@ -20,7 +20,7 @@ import numpy as np
 from tableclean_suite.backends import BackendRecords, TrainingJob, backend_names, get_backend
 from tableclean_suite.learners.checks import check_number
 from tableclean_suite.learners.exploration import Exploration, as_exploration
-from tableclean_suite.learners.optimality import NOT_LEARNED, TIES
+from tableclean_suite.learners.optimality import NOT_LEARNED
 from tableclean_suite.learners.rules import TabularLearner, get_learner
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.rewards import RewardPattern, get_reward_pattern
@@ -110,7 +110,7 @@ def train(
     exploration: "str | Exploration | Mapping | None" = None,
     executor=None,
     checkpoint: int = 0,
-    ties: str = "first",
+    ties: str | None = None,
 ) -> TrainingResult:
     """Train ``runs`` independent learners for ``iterations`` environment steps each.
 
@@ -156,10 +156,11 @@ def train(
             final Q-tables of the same call with ``iterations=checkpoint``, from the same pass.
             The built-in backends and both engines keep them; a user's backend that cannot
             leaves the key out.
-        ties: the greedy choice's tie rule: ``"first"`` (default, the paper's: the first action in
-            the task's order) or ``"random"`` (uniform among the tied actions, from a random
-            stream of its own, so results still do not depend on batching).  Softmax exploration
-            has no greedy choice to break; the learning times use the same rule.
+        ties: the greedy choice's tie rule: ``"first"`` (the paper's: the first action in the task's
+            order) or ``"random"`` (uniform among the tied actions, from a random stream of its
+            own, so results still do not depend on batching); None (default): the learner's,
+            ``"first"`` unless ``learner_options={"ties": ...}`` says otherwise.  Softmax
+            exploration has no greedy choice to break; the learning times use the same rule.
 
     Returns:
         A :class:`TrainingResult` with ``(runs, iterations)`` records and final Q-tables.
@@ -167,13 +168,11 @@ def train(
     learner = get_learner(learner)
     reward = get_reward_pattern(reward)
     validate_hyperparameters(runs, iterations, alpha, gamma, epsilon, max_itr, seed)
-    learner = configure_learner(learner, learner_options, q_init, exploration, epsilon)
+    learner = configure_learner(learner, learner_options, q_init, exploration, epsilon, ties)
     check_number("first_run", first_run, 0, 2**62, integer=True)
     check_number("checkpoint", checkpoint, 0, iterations, integer=True)
     if engine not in ENGINES:
         raise ValueError(f"unknown engine {engine!r}; allowed: {', '.join(ENGINES)}")
-    if ties not in TIES:
-        raise ValueError(f"unknown ties {ties!r}; allowed: {', '.join(TIES)}")
     if model is not None and task is not None:
         raise ValueError("give the task as task= or model=, not both")
     if model is not None and not isinstance(model, TaskModel):
@@ -188,7 +187,7 @@ def train(
         learner=learner, reward=reward, model=model, runs=int(runs), iterations=int(iterations),
         alpha=float(alpha), gamma=float(gamma), epsilon=float(epsilon), max_itr=int(max_itr), seed=int(seed),
         first_run=int(first_run), engine=engine, workers=workers, options=options, progress=progress,
-        executor=executor, checkpoint=int(checkpoint), ties=ties,
+        executor=executor, checkpoint=int(checkpoint),
     )
     config = {
         "learner": learner.name,
@@ -202,7 +201,7 @@ def train(
         "max_itr": job.max_itr,
         "seed": job.seed,
         "first_run": job.first_run,
-        "ties": ties,
+        "ties": learner.ties,
         "backend": backend,
         "model": repr(model),
         "task": model.spec.to_dict(),
@@ -215,10 +214,14 @@ def train(
 
 
 def configure_learner(learner: TabularLearner, learner_options: dict | None, q_init: float | None,
-                      exploration, epsilon: float) -> TabularLearner:
-    """``learner`` with ``train()``'s ``learner_options``, ``q_init`` and ``exploration`` applied and validated."""
+                      exploration, epsilon: float, ties: str | None = None) -> TabularLearner:
+    """``learner`` with ``train()``'s ``learner_options``, ``q_init``, ``exploration`` and ``ties`` applied and validated."""
     if learner_options is not None and not isinstance(learner_options, Mapping):
         raise ValueError(f"learner_options must be a dict of option -> value, got {learner_options!r}")
+    if ties is not None:
+        if learner_options and learner_options.get("ties", ties) != ties:
+            raise ValueError(f"ties={ties!r} and learner_options ties={learner_options['ties']!r} disagree; give one")
+        learner_options = {**(learner_options or {}), "ties": ties}
     if q_init is not None:
         check_number("q_init", q_init, -np.inf, np.inf)
     chosen = None if exploration is None else as_exploration(exploration)
