@@ -12,14 +12,14 @@ The definitions (which the scalar metrics of :mod:`tableclean_suite.metrics` bui
 - **Episodes** at t: mean over runs of episodes finished by t.
 
 Inputs are :class:`~tableclean_suite.learners.TrainingResult` records (R runs x T iterations).
-:class:`CurveSums` accumulates the per-iteration sums chunk by chunk of runs in one compiled pass
-(memory ``5 x T`` whatever R); :class:`GroupedCurveSums` keeps them per group of runs for the
-bootstrap.  The ``*_matrix`` functions are the ``(R, T)`` per-run versions, for tests and tables.
+:class:`CurveSums` accumulates the per-iteration sums (and sums of squares, for the curves'
+intervals) chunk by chunk of runs in one compiled pass (memory ``6 x T`` whatever R).  The
+``*_matrix`` functions are the ``(R, T)`` per-run versions, for tests and tables.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -117,7 +117,7 @@ def average_reward_matrix(result) -> np.ndarray:
 class CurveSums:
     """Per-iteration sums over runs, from which the curves follow; fed chunk by chunk of runs.
 
-    Memory is ``5 x T`` floats whatever the number of runs, so a cell's curves can be built from
+    Memory is ``6 x T`` floats whatever the number of runs, so a cell's curves can be built from
     ``train(runs=chunk, first_run=lo, ...)`` calls without keeping their records.  Runs must be
     added in order (0, 1, ...) for the sums to be bit-identical to a single pass.
 
@@ -125,6 +125,7 @@ class CurveSums:
         success: sum over runs of the latest finished episode's success (0 or 1).
         terminal: sum over runs of whether the latest finished episode reached the terminal state.
         average_sum: sum, over runs with a finished episode, of its return / length.
+        average_square: the same sum of (return / length) squared (for the curve's interval).
         finished_runs: number of runs with at least one finished episode.
         episodes: sum over runs of episodes finished so far.
         runs: runs added so far (>= 0).
@@ -135,14 +136,19 @@ class CurveSums:
     average_sum: np.ndarray
     finished_runs: np.ndarray
     episodes: np.ndarray
+    average_square: np.ndarray | None = None
     runs: int = 0
+
+    def __post_init__(self):
+        if self.average_square is None:
+            self.average_square = np.zeros_like(self.average_sum, dtype=np.float64)
 
     @classmethod
     def zeros(cls, iterations: int) -> "CurveSums":
         """Empty sums for curves of length ``iterations`` (>= 1)."""
         if iterations < 1:
             raise ValueError(f"iterations must be >= 1, got {iterations!r}")
-        return cls(*(np.zeros(int(iterations)) for _ in range(5)))
+        return cls(*(np.zeros(int(iterations)) for _ in range(6)))
 
     @property
     def iterations(self) -> int:
@@ -152,10 +158,8 @@ class CurveSums:
         """Add the runs of a :class:`TrainingResult` (the next ones in run order); returns self."""
         if result.rewards.shape[1] != self.iterations:
             raise ValueError(f"result has {result.rewards.shape[1]} iterations, the sums {self.iterations}")
-        one_group = [a[None, :] for a in (self.success, self.terminal, self.average_sum, self.finished_runs,
-                                          self.episodes)]  # views: the single group is this sums' arrays
-        first_success = np.zeros(result.rewards.shape[0], dtype=np.int64)
-        _grouped_curves(result.rewards, result.outcomes, result.episode_end, 0, *one_group, first_success)
+        _curve_sums(result.rewards, result.outcomes, result.episode_end, self.success, self.terminal,
+                    self.average_sum, self.average_square, self.finished_runs, self.episodes)
         self.runs += int(result.rewards.shape[0])
         return self
 
@@ -197,19 +201,15 @@ def curve_sums(result) -> CurveSums:
 
 
 @numba.njit(cache=True)
-def _grouped_curves(rewards, outcomes, episode_end, first_run, success, terminal, average_sum, finished_runs,
-                    episodes, first_success):
+def _curve_sums(rewards, outcomes, episode_end, success, terminal, average_sum, average_square, finished_runs,
+                episodes):
     """One pass over ``(R, T)`` records, adding per iteration, run by run in order, the latest
-    finished episode's success, terminal flag and average reward, the count of runs with a
-    finished episode, and episodes finished so far into ``(G, T)`` float64 accumulators, run
-    ``first_run + r`` adding to group ``(first_run + r) % G``; ``first_success[r]`` = iteration
-    count (1-based) at which run r finished its first successful episode, 0 if it never did.
+    finished episode's success, terminal flag, average reward and its square, the count of runs
+    with a finished episode, and episodes finished so far into ``(T,)`` float64 accumulators.
 
     Runs are added in order, so feeding runs 0..R-1 in several calls gives bit-identical sums."""
     n_runs, n_iterations = rewards.shape
-    n_groups = success.shape[0]
     for r in range(n_runs):
-        g = (first_run + r) % n_groups
         episode_return = 0.0
         length = 0
         improper = 0
@@ -217,7 +217,6 @@ def _grouped_curves(rewards, outcomes, episode_end, first_run, success, terminal
         latest_success = 0.0
         latest_terminal = 0.0
         latest_average = 0.0
-        first_success[r] = 0
         for t in range(n_iterations):
             episode_return += rewards[r, t]
             length += 1
@@ -227,83 +226,17 @@ def _grouped_curves(rewards, outcomes, episode_end, first_run, success, terminal
                 finished += 1
                 latest_terminal = 1.0 if episode_end[r, t] == _TERMINAL_END else 0.0
                 latest_success = latest_terminal if improper == 0 else 0.0
-                if latest_success > 0.0 and first_success[r] == 0:
-                    first_success[r] = t + 1
                 latest_average = episode_return / length
                 episode_return = 0.0
                 length = 0
                 improper = 0
-            success[g, t] += latest_success
-            terminal[g, t] += latest_terminal
-            episodes[g, t] += finished
+            success[t] += latest_success
+            terminal[t] += latest_terminal
+            episodes[t] += finished
             if finished > 0:
-                average_sum[g, t] += latest_average
-                finished_runs[g, t] += 1.0
-
-
-@dataclass
-class GroupedCurveSums:
-    """:class:`CurveSums` kept per group of runs, for bootstrap intervals over runs.
-
-    Run i adds to group ``i % G``; runs are independent, so the G group sums are independent and
-    resampling groups resamples runs in blocks (:mod:`tableclean_suite.bench.statistics`).
-    Memory is ``5 x G x T`` floats plus one integer per run, whatever the number of runs.
-
-    Attributes (``(G, T)`` float64 unless said):
-        success, terminal, average_sum, finished_runs, episodes: as in :class:`CurveSums`, per group.
-        runs_per_group: ``(G,)`` float64, runs added to each group.
-        first_success: per run added, in order, the iteration count (1-based, in [1, T]) at the end
-            of its first successful episode, 0 if none within the window (int64 list of arrays).
-    """
-
-    success: np.ndarray
-    terminal: np.ndarray
-    average_sum: np.ndarray
-    finished_runs: np.ndarray
-    episodes: np.ndarray
-    runs_per_group: np.ndarray
-    first_success: list = field(default_factory=list)
-
-    @classmethod
-    def zeros(cls, iterations: int, groups: int) -> "GroupedCurveSums":
-        """Empty sums for ``groups`` (>= 1) groups of curves of length ``iterations`` (>= 1)."""
-        if iterations < 1 or groups < 1:
-            raise ValueError(f"iterations and groups must be >= 1, got {iterations!r}, {groups!r}")
-        return cls(*(np.zeros((int(groups), int(iterations))) for _ in range(5)), np.zeros(int(groups)))
-
-    @property
-    def runs(self) -> int:
-        return int(self.runs_per_group.sum())
-
-    @property
-    def groups(self) -> int:
-        return int(self.success.shape[0])
-
-    @property
-    def iterations(self) -> int:
-        return int(self.success.shape[1])
-
-    def add(self, result) -> "GroupedCurveSums":
-        """Add the runs of a :class:`TrainingResult`, the next ones in run order; returns self."""
-        runs, iterations = result.rewards.shape
-        if iterations != self.iterations:
-            raise ValueError(f"result has {iterations} iterations, the sums {self.iterations}")
-        first = np.zeros(runs, dtype=np.int64)
-        _grouped_curves(result.rewards, result.outcomes, result.episode_end, self.runs, self.success, self.terminal,
-                        self.average_sum, self.finished_runs, self.episodes, first)
-        self.runs_per_group += np.bincount((self.runs + np.arange(runs)) % self.groups, minlength=self.groups)
-        self.first_success.append(first)
-        return self
-
-    def first_success_iterations(self) -> np.ndarray:
-        """``(R,)`` float64: iterations to each run's first successful episode, NaN if none."""
-        first = np.concatenate(self.first_success) if self.first_success else np.zeros(0, dtype=np.int64)
-        return np.where(first > 0, first, np.nan).astype(float)
-
-    def totals(self) -> CurveSums:
-        """The :class:`CurveSums` of all runs (sums over groups)."""
-        return CurveSums(self.success.sum(0), self.terminal.sum(0), self.average_sum.sum(0),
-                         self.finished_runs.sum(0), self.episodes.sum(0), self.runs)
+                average_sum[t] += latest_average
+                average_square[t] += latest_average * latest_average
+                finished_runs[t] += 1.0
 
 
 def learning_curves(result) -> dict[str, np.ndarray]:

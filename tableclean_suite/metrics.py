@@ -1,5 +1,11 @@
 """The paper's learning-speed quantities, defined precisely, as pure functions.
 
+The iteration and episode counts here (first touch, held reaching, average-reward convergence,
+the maximum average reward) are *readings of the mean curves over runs*, the paper's
+definitions.  Such a reading is biased and its target moves with the number of runs (a mean of
+more runs is smoother and touches its level later), so the harness gives them no interval; the
+per-run learning time with its intervals is :mod:`tableclean_suite.learning_time`.
+
 Inputs are :class:`~tableclean_suite.learners.TrainingResult` records (R runs x T iterations) or
 1-D curves of length T.  The curves (success rate, average reward, episodes per iteration; with
 ``support_fraction`` the average reward is NaN until that fraction of runs has finished an
@@ -27,8 +33,7 @@ computed in :mod:`tableclean_suite.curves`.  The quantities read off them:
   where it has covered ``threshold`` of the way from that minimum to its plateau.  The early
   minimum is the minimum of the (supported) curve before it first reaches the plateau (with an
   asymptote), or before the plateau window (without one).
-- **Maximum average reward**: the maximum of the (supported) curve; its bootstrap interval is that
-  of the curve's value at the maximising iteration (:func:`batch_scalars`' ``peak``).
+- **Maximum average reward**: the maximum of the (supported) curve.
 - **Episodes** at an iteration: the episodes curve there.
 """
 
@@ -37,13 +42,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields
 
-import numba
 import numpy as np
 
 # The curves the definitions below apply to, re-exported: ``metrics.CurveSums`` etc. keep working.
 from tableclean_suite.curves import (  # noqa: F401
     CurveSums,
-    GroupedCurveSums,
     average_reward_curve,
     average_reward_matrix,
     check_fraction,
@@ -413,156 +416,3 @@ def summarize(
         terminal=terminal,
         episodes=episodes,
     )
-
-
-def batch_scalars(sums: dict, runs: np.ndarray, plateaus: dict, threshold: float = DEFAULT_THRESHOLD,
-                  plateau_fraction: float = DEFAULT_PLATEAU_FRACTION, support_fraction: float = 0.0,
-                  keep=None, episode_sums=None, peak: int | None = None,
-                  hold: int = DEFAULT_HOLD) -> tuple[dict, dict]:
-    """:func:`summarize` of B sets of sums at once (e.g. bootstrap replicates), same definitions.
-
-    Args:
-        sums: ``{"success", "average_sum", "finished_runs": (B, T)}`` and, unless ``episode_sums``
-            is given, ``"episodes": (B, T)``.
-        runs: ``(B,)`` runs behind each set.
-        plateaus: ``{"success", "average_reward", "terminal": (B,)}`` asymptotes, optionally with
-            ``"greedy_success"`` and ``"never_terminal"`` (NaN when absent).
-        keep: iteration indices (or a slice: the curves returned are then views) of the curves to
-            return (default all).
-        episode_sums: ``f(indices (B,) int) -> (B,)`` episode sums of each set at its index (so
-            that the ``(B, T)`` episode sums need not be built).
-        peak: 0-based iteration index at which the point estimate's average-reward curve has its
-            maximum (:func:`peak_index`); given, each set's ``max_average_reward`` is its curve's
-            value there (bootstrap replicates: the maximum of a resampled curve picks its noise
-            and is biased upward, so its interval could exclude the point); None: each set's own
-            maximum.
-
-    Returns:
-        ``({scalar: (B,) float64, NaN where None}, {"success", "average_reward": (B, len(keep))}``.
-    """
-    check_fraction("threshold", threshold)
-    check_fraction("support_fraction", support_fraction, low_open=False)
-    if int(hold) != hold or hold < 1:
-        raise ValueError(f"hold must be an integer >= 1 (iterations), got {hold!r}")
-    runs = np.asarray(runs, dtype=float)
-    rows = np.arange(len(runs))
-    if episode_sums is None:
-        episode_sums = lambda index: sums["episodes"][rows, index]  # noqa: E731
-    tops = {name: np.asarray(plateaus[name], dtype=float) if name in plateaus else np.full(len(runs), np.nan)
-            for name in PLATEAU_NAMES}
-    success_sums = np.ascontiguousarray(sums["success"], dtype=np.float64)
-    shape = success_sums.shape
-    curves = {"success": np.empty(shape), "average_reward": np.empty(shape)}
-    found = np.empty((3, shape[0]))
-    _batch_curves(success_sums, np.ascontiguousarray(np.broadcast_to(sums["average_sum"], shape), dtype=np.float64),
-                  np.ascontiguousarray(np.broadcast_to(sums["finished_runs"], shape), dtype=np.float64),
-                  np.ascontiguousarray(np.broadcast_to(runs, shape[:1])), float(support_fraction),
-                  float(threshold), np.ascontiguousarray(np.broadcast_to(tops["success"], shape[:1])),
-                  np.ascontiguousarray(np.broadcast_to(tops["average_reward"], shape[:1])), int(hold),
-                  curves["success"], curves["average_reward"], found)
-    success_at, reward_at, held_at = found
-    average = curves["average_reward"]
-    window = max(1, math.ceil(curves["success"].shape[1] * plateau_fraction))
-
-    def window_mean(curve):
-        tail = curve[:, -window:]
-        defined = ~np.isnan(tail)
-        with np.errstate(invalid="ignore"):
-            return np.where(defined.any(axis=1), np.nansum(tail, axis=1) / np.maximum(defined.sum(axis=1), 1), np.nan)
-
-    def episodes(at):
-        return np.where(np.isnan(at), np.nan, episode_sums(np.nan_to_num(at, nan=1).astype(int) - 1) / runs)
-
-    def own_maximum():
-        defined = ~np.isnan(average)
-        return np.where(defined.any(axis=1), np.max(np.where(defined, average, -np.inf), axis=1), np.nan)
-
-    scalars = {
-        "max_success_iterations": success_at,
-        "max_success_episodes": episodes(success_at),
-        "reward_convergence_iterations": reward_at,
-        "reward_convergence_episodes": episodes(reward_at),
-        "success_plateau": tops["success"],
-        "max_average_reward": average[:, peak] if peak is not None else own_maximum(),
-        "average_reward_plateau": tops["average_reward"],
-        "terminal_plateau": tops["terminal"],
-        "success_window_mean": window_mean(curves["success"]),
-        "average_reward_window_mean": window_mean(average),
-        "held_success_iterations": held_at,
-        "held_success_episodes": episodes(held_at),
-        "greedy_success_plateau": tops["greedy_success"],
-        "never_terminal_share": tops["never_terminal"],
-    }
-    keep = slice(None) if keep is None else keep
-    return scalars, {"success": curves["success"][:, keep], "average_reward": average[:, keep]}
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _batch_curves(success_sums, average_sums, finished_runs, runs, support_fraction, threshold, success_tops,
-                  reward_tops, hold, success, average, found):
-    """:func:`batch_scalars`' curves and iteration counts, row by row in one pass each, with the
-    numpy expressions' operations (so their bits): ``success = success_sums / runs``, ``average``
-    as :func:`~tableclean_suite.curves.mean_curves` (NaN where not :func:`supported`), and in
-    ``found`` (``(3, B)``, NaN where not reached) the first touch of ``threshold * success_tops``
-    (``iterations_to_max_success``), :func:`convergence_iterations` of ``average`` towards
-    ``reward_tops`` and :func:`held_reaching` of the success curve for ``hold`` iterations."""
-    n_rows, length = success_sums.shape
-    for b in range(n_rows):
-        count = runs[b]
-        needed = support_fraction * count
-        level = threshold * success_tops[b]
-        touched = np.nan
-        held = np.nan
-        streak = 0
-        for t in range(length):
-            s = success_sums[b, t] / count
-            success[b, t] = s
-            f = finished_runs[b, t]
-            if f > 0 and f >= needed:
-                average[b, t] = average_sums[b, t] / (f if f >= 1.0 else 1.0)
-            else:
-                average[b, t] = np.nan
-            if s >= level:
-                if touched != touched:
-                    touched = t + 1.0
-                streak += 1
-                if streak == hold and held != held:
-                    held = t - hold + 2.0
-            else:
-                streak = 0
-        found[0, b] = touched if np.isfinite(success_tops[b]) else np.nan
-        found[2, b] = held if np.isfinite(level) else np.nan
-        found[1, b] = np.nan
-        top = reward_tops[b]
-        first = -1
-        for t in range(length):
-            if average[b, t] == average[b, t]:
-                first = t
-                break
-        if first < 0 or not np.isfinite(top):
-            continue
-        side = 1.0 if average[b, first] > top else -1.0
-        crossing = length  # _extremes: first index at or after ``first`` where the curve reaches its top
-        for t in range(first, length):
-            if side * (average[b, t] - top) <= 0:
-                crossing = t
-                break
-        end = max(crossing, first + 1)
-        extreme = 0  # argmax of the deviation over the segment, -inf elsewhere (numpy's: first NaN, else first max)
-        best = -np.inf
-        for t in range(length):
-            value = -np.inf
-            if first <= t < end and average[b, t] == average[b, t]:
-                value = side * (average[b, t] - top)
-            if value != value:
-                extreme = t
-                break
-            if t == 0 or value > best:
-                best = value
-                extreme = t
-        start = average[b, extreme]
-        target = start + threshold * (top - start)
-        for t in range(extreme, length):
-            if side * (average[b, t] - target) <= 0:
-                found[1, b] = t + 1.0
-                break

@@ -195,48 +195,24 @@ def test_summarize_with_plateaus_and_support(tiny):
     assert summary.max_average_reward == pytest.approx((0.99 / 2 + 0.01 / 3) / 2)
 
 
-def test_grouped_sums_total_the_plain_sums_and_record_first_successes(tiny):
-    grouped = metrics.GroupedCurveSums.zeros(6, groups=3).add(tiny)
-    plain = metrics.CurveSums.zeros(6).add(tiny)
-    totals = grouped.totals()
-    for name in ("success", "terminal", "average_sum", "finished_runs", "episodes"):
-        np.testing.assert_array_equal(getattr(totals, name), getattr(plain, name))
-    np.testing.assert_array_equal(grouped.runs_per_group, [1, 1, 0])
-    np.testing.assert_array_equal(grouped.first_success_iterations(), [2, 6])  # run 0 at t1, run 1 at t5
+def test_curve_sums_keep_the_squares_of_the_average_rewards(tiny):
+    sums = metrics.CurveSums.zeros(6).add(tiny)
+    per_run = metrics.average_reward_matrix(tiny)
+    np.testing.assert_allclose(sums.average_square, np.nansum(per_run ** 2, axis=0), rtol=1e-15)
+    np.testing.assert_array_equal(sums.finished_runs, (~np.isnan(per_run)).sum(axis=0))
 
 
-def test_grouped_sums_do_not_depend_on_chunking():
+def test_curve_sums_do_not_depend_on_chunking():
     from tableclean_suite.learners import train
 
     settings = dict(iterations=400, max_itr=60, seed=3)
-    whole = metrics.GroupedCurveSums.zeros(400, groups=4).add(train("q_learning", "r4", runs=11, **settings))
-    chunked = metrics.GroupedCurveSums.zeros(400, groups=4)
+    whole = metrics.CurveSums.zeros(400).add(train("q_learning", "r4", runs=11, **settings))
+    chunked = metrics.CurveSums.zeros(400)
     for first in (0, 5):
         chunked.add(train("q_learning", "r4", runs=min(5, 11 - first), first_run=first, **settings))
     chunked.add(train("q_learning", "r4", runs=1, first_run=10, **settings))
-    np.testing.assert_array_equal(whole.success, chunked.success)
-    np.testing.assert_array_equal(whole.average_sum, chunked.average_sum)
-    np.testing.assert_array_equal(whole.first_success_iterations(), chunked.first_success_iterations())
-
-
-def test_batch_scalars_equal_summarize_row_by_row():
-    from tableclean_suite.learners import train
-
-    rows = []
-    for seed in (1, 2, 3):  # three "replicates": independent trainings, each summarised both ways
-        sums = metrics.curve_sums(train("sarsa", "r4", runs=30, iterations=900, max_itr=80, seed=seed))
-        rows.append(sums)
-    plateaus = metrics.Plateaus(success=0.4, average_reward=0.05, terminal=0.9)
-    stacked = {name: np.stack([getattr(r, name) for r in rows]) for name in
-               ("success", "average_sum", "finished_runs", "episodes")}
-    tops = {name: np.full(3, getattr(plateaus, name)) for name in ("success", "average_reward", "terminal")}
-    batch, _ = metrics.batch_scalars(stacked, np.array([30, 30, 30]), tops, support_fraction=0.5)
-    for b, sums in enumerate(rows):
-        single = metrics.summarize(sums, plateaus=plateaus, support_fraction=0.5).scalars()
-        for name, value in single.items():
-            expected = np.nan if value is None else value
-            np.testing.assert_allclose(batch[name][b], expected, rtol=1e-12, equal_nan=True, err_msg=name)
-    assert np.isfinite(batch["reward_convergence_iterations"]).any()  # not vacuous
+    for name in ("success", "average_sum", "average_square", "episodes"):
+        assert getattr(whole, name).tobytes() == getattr(chunked, name).tobytes()
 
 
 def test_reward_convergence_of_a_falling_curve_starts_from_its_early_maximum():
@@ -272,65 +248,3 @@ def test_summarize_reports_held_reaching_and_the_mechanism_plateaus(tiny):
     assert held.held_success_iterations is None and held.held_success_episodes is None
     assert (summary.greedy_success_plateau, summary.never_terminal_share) == (0.75, 0.25)
     assert np.isnan(metrics.summarize(tiny).greedy_success_plateau)  # window means: not known
-
-
-def _batch_reference(sums, runs, tops, threshold, support_fraction, hold):
-    """The iteration counts of batch_scalars computed row by row with the numpy definitions."""
-    curves = metrics.mean_curves(sums["success"], sums["success"], sums["average_sum"], sums["finished_runs"],
-                                 sums["success"], runs[:, None], support_fraction)
-    success, average = curves["success"], curves["average_reward"]
-    with np.errstate(invalid="ignore"):
-        reached = success >= (threshold * tops["success"])[:, None]
-    touched = np.where(reached.any(axis=1) & np.isfinite(tops["success"]), np.argmax(reached, axis=1) + 1.0, np.nan)
-    return success, average, {
-        "max_success_iterations": touched,
-        "reward_convergence_iterations": metrics.convergence_iterations(average, tops["average_reward"], threshold),
-        "held_success_iterations": metrics.held_reaching(success, threshold * tops["success"], hold),
-    }
-
-
-def test_batch_scalars_compiled_pass_gives_the_numpy_definitions_bits():
-    # rising, falling and flat curves, unsupported stretches, tops NaN / +-inf / 0 / above the curves
-    rng = np.random.default_rng(5)
-    choices = [np.nan, np.inf, -np.inf, 0.0, 0.5, 1.0, 2.0, -1.0]
-    defined = {name: 0 for name in ("max_success_iterations", "reward_convergence_iterations",
-                                    "held_success_iterations")}
-    for trial in range(150):
-        rows, length = int(rng.integers(1, 6)), int(rng.integers(1, 250))
-        finished = rng.integers(0, 5, (rows, length)).astype(float) * rng.integers(0, 2, (rows, length))
-        success = (np.cumsum(rng.random((rows, length)) < 0.5, axis=1).clip(0, 10) if trial % 3 == 0
-                   else rng.integers(0, 11, (rows, length))).astype(float)
-        average = rng.normal(size=(rows, length)) * finished + (np.cumsum(rng.random((rows, length)), axis=1)
-                                                                if trial % 2 else 0.0)
-        runs = rng.integers(1, 20, rows).astype(float)
-        tops = {"success": rng.choice(choices + list(rng.random(5)), rows),
-                "average_reward": rng.choice(choices + list(3 * rng.normal(size=5)), rows),
-                "terminal": rng.random(rows)}
-        sums = {"success": success, "average_sum": average, "finished_runs": finished}
-        threshold, support = float(rng.choice([0.95, 0.5, 1.0])), float(rng.choice([0.0, 0.5, 1.0]))
-        hold = int(rng.choice([1, 3, 50, 200]))
-        scalars, curves = metrics.batch_scalars({**sums, "episodes": rng.random((rows, length))}, runs, tops,
-                                                threshold, support_fraction=support, hold=hold)
-        want_success, want_average, want = _batch_reference(sums, runs, tops, threshold, support, hold)
-        assert curves["success"].tobytes() == want_success.tobytes()
-        assert curves["average_reward"].tobytes() == want_average.tobytes()
-        for name, expected in want.items():
-            assert scalars[name].tobytes() == expected.tobytes(), (trial, name, scalars[name], expected)
-            defined[name] += int(np.isfinite(expected).sum())
-    assert min(defined.values()) > 100  # not vacuous: every count is reached in many rows
-
-
-def test_batch_scalars_keep_a_slice_as_the_same_indices():
-    """The bootstrap passes its band iterations as a slice (views, no gather): the same curves and
-    scalars as the index array."""
-    rng = np.random.default_rng(9)
-    rows, length = 4, 403
-    sums = {"success": rng.integers(0, 11, (rows, length)).astype(float), "average_sum": rng.normal(size=(rows, length)),
-            "finished_runs": rng.integers(0, 11, (rows, length)).astype(float), "episodes": rng.random((rows, length))}
-    tops = {"success": rng.random(rows), "average_reward": rng.normal(size=rows), "terminal": rng.random(rows)}
-    by_index = metrics.batch_scalars(sums, np.full(rows, 10.0), tops, support_fraction=0.5, keep=np.arange(0, length, 4))
-    by_slice = metrics.batch_scalars(sums, np.full(rows, 10.0), tops, support_fraction=0.5, keep=slice(0, length, 4))
-    for name, values in by_index[0].items():
-        assert values.tobytes() == by_slice[0][name].tobytes()
-    for name, curve in by_index[1].items():
-        assert curve.shape == (rows, 101) and curve.tobytes() == np.ascontiguousarray(by_slice[1][name]).tobytes()

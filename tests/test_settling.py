@@ -89,8 +89,8 @@ def test_table3_carries_the_settling_columns():
     row = tables.table3(records).iloc[0]
     assert row["checkpoint_iteration"] == 450 and row["behaviour_drift"] == stats.settling.drift
     assert bool(row["settled"]) == (stats.settling.drift <= 0.0)
-    shown = tables.display_table3(tables.table3(records))
-    assert shown[(tables.DRIFT_TITLE, tables.OURS)].iloc[0].startswith(f"{100 * stats.settling.drift:.2f}")
+    shown = tables.display_plateaus(tables.table3(records))
+    assert shown["drift pp [CI]"].iloc[0].startswith(f"{100 * stats.settling.drift:.2f}")
 
 
 def test_table3_without_settling_leaves_it_empty():

@@ -87,28 +87,46 @@ def test_table4_ours_then_quoted():
     assert ours["max_success_rate_percent"] == 81.25
     assert ours["average_reward_convergence_episodes"] == 12.5 and ours["max_success_episodes"] == 7.0
     assert (t4["source"].iloc[1:] == "quoted from the paper").all()
+    assert "average_reward_convergence_episodes_low" not in t4.columns  # a mean-curve reading: no interval
     shown = tables.display_table4(t4)
     assert list(shown["source"].iloc[:2]) == ["run here", "quoted"]
-    assert shown.iloc[2]["avg_reward_conv_episodes"] == "-"  # Classic RL [7] gives none
+    assert shown.iloc[2]["conv. eps"] == "-"  # Classic RL [7] gives none
+    assert shown.iloc[0]["method"] == "Q-learning, r2"
 
 
-def test_display_table3_pairs_ours_with_paper():
-    t3 = tables.table3([record("main", reward="r3", reward_convergence_iterations=None),
+def test_display_tables_label_the_papers_definitions_and_fit_the_terminal():
+    learning = {"learning_time_median": 803.0, "learning_time_median_low": 780.0, "learning_time_median_high": 830.0,
+                "learning_time_q1": 600.0, "learning_time_q3": math.inf, "learning_time_rmst": 1200.5,
+                "learning_time_rmst_low": 1150.0, "learning_time_rmst_high": 1250.0, "censored_share": 0.3,
+                "censored_share_low": 0.25, "censored_share_high": 0.35}
+    t3 = tables.table3([record("main", reward="r3", reward_convergence_iterations=None, success_plateau_low=0.8,
+                               success_plateau_high=0.9, **learning),
                         record("main", learner="sarsa", reward="r3")])
-    shown = tables.display_table3(t3)
-    row = shown.loc[("q_learning", "r3")]
-    assert tables.display_table3(t3).shape[1] == 17  # 5 quantities x (ours, paper) + 7 of ours alone
-    assert (row[("settled", tables.OURS)], row[(tables.DRIFT_TITLE, tables.OURS)]) == ("-", "-")  # not measured
-    assert row[("reward conv. iterations", "ours")] == "-"
-    assert row[("reward conv. iterations", "paper")] == 2350
-    assert row[("success %", "ours")] == "87.50" and row[("success %", "paper")] == 81.08
-    with_bounds = tables.table3([record("main", reward="r3", success_plateau=0.875, success_plateau_low=0.8,
-                                        success_plateau_high=0.9, max_success_iterations=100,
-                                        max_success_iterations_low=90, max_success_iterations_high=130)])
-    bounded = tables.display_table3(with_bounds).loc[("q_learning", "r3")]
-    assert bounded[("success %", "ours")] == "87.50 [80.00, 90.00]"
-    assert bounded[("max success iterations", "ours")] == "100 [90, 130]"
-    assert shown.loc[("sarsa", "r3")][("max success iterations", "paper")] == "-"
+    headline = tables.display_learning_time(t3).loc[("q_learning", "r3")]
+    assert headline["median [CI]"] == "803 [780, 830]" and headline["quartiles"] == "600-inf"
+    assert headline["RMST [CI]"] == "1200 [1150, 1250]" and headline["censored % [CI]"] == "30.0 [25.0, 35.0]"
+    assert tables.display_learning_time(t3).loc[("sarsa", "r3")]["median [CI]"] == "-"  # not recorded
+    plateaus = tables.display_plateaus(t3).loc[("q_learning", "r3")]
+    assert (plateaus["success % [CI]"], plateaus["paper"]) == ("87.50 [80.00, 90.00]", "81.08")
+    assert (plateaus["settled"], plateaus["drift pp [CI]"]) == ("-", "-")  # not measured
+    paper = tables.display_paper_definitions(t3)
+    assert paper.loc[("q_learning", "r3")]["conv. itr"] == "- (2350)"
+    assert paper.loc[("q_learning", "r3")]["touch itr"] == "100 (2350)"  # no interval on a mean-curve reading
+    assert paper.loc[("sarsa", "r3")]["touch itr"] == "100"  # the paper has no SARSA rows
+    for frame in (tables.display_learning_time(t3), tables.display_plateaus(t3), paper):
+        assert max(map(len, frame.to_string().splitlines())) <= tables.PRINT_WIDTH
+
+
+def test_interval_columns_are_exactly_those_with_bounds():
+    """``table3.csv``'s convention: a column X with an interval has X_low and X_high; the paper's
+    mean-curve readings have none."""
+    columns = set(tables.TABLE3_COLUMNS)
+    with_bounds = {c for c in columns if f"{c}_low" in columns and f"{c}_high" in columns}
+    assert {"learning_time_median", "learning_time_rmst", "censored_share", "success_plateau",
+            "greedy_success_plateau", "never_terminal_share", tables.DRIFT} <= with_bounds
+    for reading in ("max_success_iterations", "reward_convergence_iterations", "max_average_reward",
+                    "held_success_iterations", "success_window_mean"):
+        assert reading in columns and reading not in with_bounds
 
 
 # ---------------------------------------------------------------------------
@@ -235,11 +253,11 @@ def test_cell_key_includes_the_code():
     config = experiments.cell_config(experiments.Cell("q_learning", "r4", 0.3, 0.3), _config(), PAPER_MODEL)
     assert config["learner"]["code_digest"] == code_digest(get_learner("q_learning"))
     assert config["task_digest"] == PAPER_MODEL.code_digest()
-    from tableclean_suite import analysis, asymptotes, curves, settling
+    from tableclean_suite import analysis, asymptotes, curves, intervals, learning_time, settling
     from tableclean_suite.bench import statistics
 
-    # curves: the accumulation of the curves from records moved there from metrics; settling: the drift
-    sources = "".join(inspect.getsource(m) for m in (curves, metrics, asymptotes, analysis, settling, statistics))
+    sources = "".join(inspect.getsource(m) for m in (curves, metrics, asymptotes, analysis, settling, intervals,
+                                                     learning_time, statistics))
     assert config["metrics_digest"] == hashlib.sha256(sources.encode()).hexdigest()
 
 
@@ -251,16 +269,17 @@ def _summary(iterations=5):
     return Summary(**scalars, **curves)
 
 
-def _statistics(runs):
+def _statistics(runs, iterations=5):
     from tableclean_suite.bench.statistics import CellStatistics
+    from tableclean_suite.learning_time import learning_time_summary
 
-    intervals = {name: (0.25, 0.75) for name in SUMMARY_SCALARS}
-    intervals["max_success_iterations"] = (float("nan"), float("nan"))
-    return CellStatistics(intervals=intervals, bands={"success": (np.zeros(3), np.ones(3)),
-                                                      "average_reward": (np.zeros(3), np.ones(3))},
-                          band_stride=2, runs={"success_asymptote": np.linspace(0, 1, runs),
-                                               "first_success_iterations": np.r_[np.nan, np.arange(runs - 1.0)]},
-                          scores={"success_asymptote": (0.5, 0.4, 0.6), "first_success_iterations": (3.0, 2.0, 4.0)},
+    learned = np.r_[-1, np.arange(runs - 1) % iterations]
+    return CellStatistics(intervals={"success_plateau": (0.25, 0.75), "never_terminal_share": (float("nan"), 0.5)},
+                          bands={"success": (np.zeros(iterations), np.ones(iterations)),
+                                 "average_reward": (np.zeros(iterations), np.ones(iterations))},
+                          runs={"success_asymptote": np.linspace(0, 1, runs),
+                                "learning_time": np.where(learned < 0, iterations, learned).astype(float)},
+                          learning=learning_time_summary(learned, iterations, reps=50),
                           settling=Settling(0.02, 0.015, 0.025, 75))
 
 
@@ -270,15 +289,16 @@ def test_cell_store_round_trip_and_corruption(tmp_path):
     config = experiments.cell_config(cell, _config(), PAPER_MODEL)
     assert store.load(cell, config) is None
     runs = config["settings"]["runs"]
+    config["settings"]["iterations"] = 5
     path = store.save(cell, config, _summary(), _statistics(runs))
     assert path.name.startswith("sarsa-r2-a0.5-g0.3-") and path.suffix == ".npz"
     loaded, stats = store.load(cell, config)
     assert stats.intervals["success_plateau"] == (0.25, 0.75)
-    assert all(math.isnan(v) for v in stats.intervals["max_success_iterations"])
-    assert stats.scores["first_success_iterations"] == (3.0, 2.0, 4.0) and stats.band_stride == 2
+    assert math.isnan(stats.intervals["never_terminal_share"][0])
+    assert stats.learning == _statistics(runs).learning and stats.learning.censored_share > 0
     assert stats.settling == Settling(0.02, 0.015, 0.025, 75) and not stats.settling.settled(0.01)
-    np.testing.assert_array_equal(stats.runs["first_success_iterations"], _statistics(runs).runs["first_success_iterations"])
-    np.testing.assert_array_equal(stats.bands["success"][1], np.ones(3))
+    np.testing.assert_array_equal(stats.runs["learning_time"], _statistics(runs).runs["learning_time"])
+    np.testing.assert_array_equal(stats.bands["success"][1], np.ones(5))
     assert isinstance(loaded, Summary)
     assert loaded.max_success_iterations is None and math.isnan(loaded.reward_convergence_episodes)
     assert loaded.success_plateau == 0.5
@@ -309,8 +329,7 @@ def test_train_cell_chunking_does_not_change_the_numbers(runs_per_chunk):
     for name in SUMMARY_SCALARS:
         a, b = getattr(whole, name), getattr(chunked, name)
         assert a == b or (a != a and b != b), name
-    assert whole_stats.intervals == chunked_stats.intervals or all(
-        np.allclose(whole_stats.intervals[n], chunked_stats.intervals[n], equal_nan=True) for n in SUMMARY_SCALARS)
+    assert whole_stats.intervals == chunked_stats.intervals and whole_stats.learning == chunked_stats.learning
     for name, values in whole_stats.runs.items():
         np.testing.assert_array_equal(chunked_stats.runs[name], values)
     for name in CURVE_NAMES:
@@ -358,5 +377,6 @@ def test_table4_adds_the_literature_cells_run_here():
     ]
     assert ours.iloc[1]["max_success_rate_percent"] == 100.0 and ours.iloc[1]["max_success_rate_percent_low"] == 99.0
     shown = tables.display_table4(t4)
-    assert shown.iloc[1]["max_success_%"] == "100.00 [99.00, 100.00]" and shown.iloc[1]["source"] == "run here"
+    assert shown.iloc[1]["success % [CI]"] == "100.00 [99.00, 100.00]" and shown.iloc[1]["source"] == "run here"
+    assert max(map(len, shown.to_string(index=False).splitlines())) <= tables.PRINT_WIDTH
     assert (shown["source"].iloc[3:] == "quoted").all()

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 import tableclean_suite
-from tableclean_suite import analysis, asymptotes, metrics, resources, settling
+from tableclean_suite import analysis, asymptotes, intervals, learning_time, metrics, resources, settling
 from tableclean_suite import curves as curve_sums
 from tableclean_suite.learners.memory import learner_training_memory
 from tableclean_suite.backends import CHECKPOINT_Q, get_backend
@@ -45,12 +45,14 @@ from tableclean_suite.bench.config import LITERATURE_LEARNERS, RunConfig
 from tableclean_suite.bench.outputs import OutputError, describe_os_error
 from tableclean_suite.bench.statistics import CellStatistics
 from tableclean_suite.learners import code_digest, get_learner, train
-from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, GroupedCurveSums, Plateaus, Summary, summarize
+from tableclean_suite.curves import CurveSums
+from tableclean_suite.learning_time import LearningTime
+from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, Plateaus, Summary, summarize
 from tableclean_suite.rewards import get_reward_pattern
 
 #: Bump when the stored layout or the meaning of a stored field changes.
-#: 3: plateaus are the runs' exact asymptotes; intervals, bands and per-run scores stored.
-CELL_FORMAT_VERSION = 3
+#: 4: per-run learning times and their summary; intervals over independent runs; full-length bands.
+CELL_FORMAT_VERSION = 4
 
 #: Memory budget of one training chunk's records (bytes): a run of T iterations records
 #: :data:`RECORD_BYTES_PER_ITERATION` bytes per iteration, so a chunk holds about
@@ -128,9 +130,10 @@ def metrics_digest() -> str:
     """SHA-256 (hex) of the sources that compute a summary from records: :mod:`tableclean_suite.curves`
     (the curves accumulated from records), :mod:`tableclean_suite.metrics`,
     :mod:`tableclean_suite.asymptotes` (and the :mod:`~tableclean_suite.analysis` it calls),
-    :mod:`tableclean_suite.settling` and :mod:`.statistics`."""
-    text = "".join(inspect.getsource(module)
-                   for module in (curve_sums, metrics, asymptotes, analysis, settling, statistics))
+    :mod:`tableclean_suite.settling`, :mod:`tableclean_suite.intervals`,
+    :mod:`tableclean_suite.learning_time` and :mod:`.statistics`."""
+    text = "".join(inspect.getsource(module) for module in (curve_sums, metrics, asymptotes, analysis, settling,
+                                                            intervals, learning_time, statistics))
     return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -241,7 +244,8 @@ class CellStore:
                 facts = json.loads(str(data["statistics"]))
                 bands = {name: (np.array(data[f"band_{name}_low"]), np.array(data[f"band_{name}_high"]))
                          for name in statistics.BAND_CURVES}
-                runs = {name: np.array(data[f"run_{name}"], dtype=np.float64) for name in statistics.RUN_SCORES}
+                runs = {name: np.array(data[f"run_{name}"], dtype=np.float64) for name in statistics.RUN_SCORES
+                        if f"run_{name}" in data.files}
         except Exception as error:  # any read/parse failure means the file is damaged
             raise CellFileError(
                 f"cannot read cell file {path} (damaged, or not a cell file: {type(error).__name__}: {error}). "
@@ -250,11 +254,11 @@ class CellStore:
         problems = []
         if stored_hash != digest or config_hash(stored_config) != digest:
             problems.append("its config does not match its name")
-        if (set(scalars) != set(SUMMARY_SCALARS) or set(facts["intervals"]) != set(SUMMARY_SCALARS)
-                or len(facts.get("settling", ())) != SETTLING_FIELDS):
+        if (set(scalars) != set(SUMMARY_SCALARS) or not set(facts["intervals"]) <= set(SUMMARY_SCALARS)
+                or len(facts.get("settling", ())) != SETTLING_FIELDS or "learning" not in facts):
             problems.append("its scalars are incomplete")
         iterations = config["settings"]["iterations"]
-        if any(c.shape != (iterations,) for c in curves.values()):
+        if any(c.shape != (iterations,) for c in (*curves.values(), *(b for pair in bands.values() for b in pair))):
             problems.append(f"its curves are not of length {iterations}")
         if any(len(values) != config["settings"]["runs"] for values in runs.values()):
             problems.append("its per-run scores are not one per run")
@@ -263,10 +267,12 @@ class CellStore:
                 f"cell file {path} is inconsistent ({'; '.join(problems)}). "
                 "Delete it or rerun with --fresh to retrain all cells."
             )
+        learned = facts["learning"]
         cell_stats = CellStatistics(
             intervals={name: tuple(_number(v) for v in bounds) for name, bounds in facts["intervals"].items()},
-            bands=bands, band_stride=int(facts["band_stride"]), runs=runs,
-            scores={name: tuple(_number(v) for v in values) for name, values in facts["scores"].items()},
+            bands=bands, runs=runs,
+            learning=None if learned is None else LearningTime(**{name: learned[name] if name in ("runs", "budget")
+                                                                   else _number(learned[name]) for name in learned}),
             settling=settling.Settling(*(_number(v) for v in facts["settling"][:3]), int(facts["settling"][3])),
         )
         return Summary(**scalars, **curves), cell_stats
@@ -285,9 +291,10 @@ class CellStore:
         except OSError as error:
             raise OutputError(f"cannot create the cell folder {str(self.root)!r}: {describe_os_error(error)}") from None
         scalars = {name: _plain(value) for name, value in summary.scalars().items()}
+        learned = None if cell_stats.learning is None else {
+            name: _plain(value) for name, value in cell_stats.learning.as_dict().items()}
         facts = {"intervals": {name: [_plain(v) for v in bounds] for name, bounds in cell_stats.intervals.items()},
-                 "scores": {name: [_plain(v) for v in values] for name, values in cell_stats.scores.items()},
-                 "band_stride": cell_stats.band_stride,
+                 "learning": learned,
                  "settling": [*(_plain(v) for v in (cell_stats.settling.drift, cell_stats.settling.low,
                                                      cell_stats.settling.high)), cell_stats.settling.checkpoint]}
         bands = {f"band_{name}_{side}": np.asarray(bounds[i], dtype=np.float64)
@@ -407,8 +414,7 @@ def cell_chunks(cell: Cell, config: RunConfig, model, transitions=None, runs_per
                 engine: str | None = None):
     """Train ``cell``'s chunks of runs in order: yields ``(first run, result, seconds)`` per ``train()``
     (the :class:`~tableclean_suite.learners.TrainingResult`, with the settling checkpoint's
-    Q-tables when the backend keeps them, and its wall time).  :func:`train_cell` summarises them;
-    :func:`run_grid` may train them on a thread ahead of the summaries (:class:`TrainingAhead`).
+    Q-tables when the backend keeps them, and its wall time).  :func:`train_cell` summarises them.
     ``engine``: ``train()``'s engine (None: its default, the compiled loop)."""
     chunk = runs_per_chunk or chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model))
     checkpoint = _checkpoint(config)
@@ -441,9 +447,10 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     """Train one cell chunk by chunk of runs and summarise it, with intervals.
 
     Each chunk is ``train(runs=chunk, first_run=lo, ...)``; its per-iteration sums are added to a
-    :class:`~tableclean_suite.metrics.GroupedCurveSums`, its final Q-tables give each run's exact
-    asymptotes (:func:`tableclean_suite.analysis.final_asymptotes`), and its records are
-    dropped, so memory is one chunk's records whatever ``config.runs``.  Random numbers are
+    :class:`~tableclean_suite.curves.CurveSums`, its final Q-tables give each run's exact
+    asymptotes (:func:`tableclean_suite.analysis.final_asymptotes`), its runs' learning times
+    (``TrainingResult.learned_at``) are kept, and its records are dropped, so memory is one
+    chunk's records whatever ``config.runs``.  Random numbers are
     counter-based per run, so the summary is the same whatever the chunking.
 
     The plateaus are the runs' asymptotes averaged over runs: the exact asymptotes of each run's
@@ -462,7 +469,7 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     Args:
         runs_per_chunk: runs per ``train()`` call (default :func:`chunk_runs` of the iterations).
         chunks: the cell's :func:`cell_chunks` (with the same ``runs_per_chunk``) when the caller
-            trains them (e.g. ahead, on a thread); None: trained here, one after the other.
+            trains them (e.g. with another engine); None: trained here, one after the other.
 
     Returns:
         ``(summary, statistics, train_seconds, metrics_seconds)``.
@@ -470,24 +477,24 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     chunk = runs_per_chunk or chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model))
     if chunks is None:
         chunks = cell_chunks(cell, config, model, transitions, chunk)
-    grouped = GroupedCurveSums.zeros(config.iterations, statistics.bootstrap_groups(config.runs, config.iterations))
+    sums = CurveSums.zeros(config.iterations)
     chain = asymptotes.EpisodeChain.build(model, cell.reward, transitions)
     per_run = {name: [] for name in metrics.PLATEAU_NAMES}
+    learned_at = []
     checkpoint = _checkpoint(config)
     drifts = []
     train_seconds = metrics_seconds = 0.0
     physics_stats: dict = {}
-    for first, result, seconds, *analysed in chunks:
+    for first, result, seconds in chunks:
         train_seconds += seconds
         started = time.perf_counter()
         if "physics" in result.info:
             physics_stats = _merge_stats(physics_stats, result.info["physics"])
-        grouped.add(result)
-        if analysed:  # analysed where it was trained (TrainingAhead)
-            (final, early_success, analysis_seconds), = analysed
-            metrics_seconds += analysis_seconds
-        else:
-            final, early_success = chunk_analysis(result, chain, config, model, checkpoint)
+        sums.add(result)
+        learned = getattr(result, "learned_at", None)
+        if learned is not None:
+            learned_at.append(np.asarray(learned))
+        final, early_success = chunk_analysis(result, chain, config, model, checkpoint)
         for name, values in per_run.items():
             values.append(final[name])
         del result
@@ -507,12 +514,14 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     started = time.perf_counter()
     per_run = {name: np.concatenate(values) for name, values in per_run.items()}
     plateaus = Plateaus(**{name: float(values.mean()) for name, values in per_run.items()})
-    summary = summarize(grouped.totals(), threshold=config.threshold, plateau_fraction=config.plateau_fraction,
+    summary = summarize(sums, threshold=config.threshold, plateau_fraction=config.plateau_fraction,
                         plateaus=plateaus, support_fraction=config.support_fraction)
+    recorded = len(learned_at) > 0 and sum(map(len, learned_at)) == config.runs
     cell_stats = statistics.cell_statistics(
-        grouped, per_run, statistics.bootstrap_rng(config.seed, cell.label), config.threshold, config.plateau_fraction,
-        config.support_fraction, config.bootstrap_samples, config.confidence,
-        drift=np.concatenate(drifts) if checkpoint else None, checkpoint=checkpoint, point=summary.scalars(),
+        sums, per_run, statistics.bootstrap_rng(config.seed, cell.label), config.support_fraction,
+        config.bootstrap_samples, config.confidence,
+        learned_at=np.concatenate(learned_at) if recorded else None, budget=config.iterations,
+        drift=np.concatenate(drifts) if checkpoint else None, checkpoint=checkpoint,
     )
     return summary, cell_stats, train_seconds, metrics_seconds + time.perf_counter() - started
 
@@ -521,8 +530,7 @@ def chunk_analysis(result, chain, config: RunConfig, model, checkpoint: int):
     """``(final, early_success)`` of a trained chunk: :func:`~tableclean_suite.analysis.final_run_facts`
     of its final Q-tables and, at a settling ``checkpoint`` (> 0), the success asymptotes of the
     Q-tables the backend kept there (:func:`checkpoint_result`; None when it kept none or there is
-    no checkpoint).  The same numbers in whichever thread it runs (:class:`TrainingAhead` runs it
-    on its own, beside the statistics of the cell before)."""
+    no checkpoint)."""
     final = analysis.final_run_facts(result, chain, config.max_itr, model)
     early = checkpoint_result(result, checkpoint) if checkpoint else None
     early_success = None if early is None else analysis.final_asymptotes(early, chain, config.max_itr, model).success
@@ -568,123 +576,6 @@ def _report_physics(cell: Cell, stats: dict) -> None:
         f"{stats['restages']} restages, {stats['control_steps']} control steps, {stats['wall_time']:.1f} s in skills",
         file=sys.stderr,
     )
-
-
-#: Chunks of training results alive at once while :class:`TrainingAhead` trains ahead: the one being
-#: summarised and the next one, being trained.
-CHUNKS_AHEAD = 2
-_END = object()  # TrainingAhead's marker: a cell's last chunk was handed over
-
-
-class TrainingAhead:
-    """Trains the chunks of ``cells`` (:func:`cell_chunks`, in order) on a thread while the caller
-    summarises earlier ones (:func:`train_cell` with ``chunks=ahead.chunks(cell)``).  A chunk
-    trained while the caller is still busy with an earlier one is analysed by the thread too
-    (:func:`chunk_analysis`: its runs' exact asymptotes, a compiled pass without the GIL; the item
-    is :func:`cell_chunks`' with the analysis and its seconds appended); one the caller is already
-    waiting for is handed over as trained, the caller analyses it while the thread trains on.
-    Whichever thread is free does the analysis: the same numbers either way.
-
-    The compiled training loop runs without the GIL, so a cell's statistics (Python, numpy) run on
-    the core it leaves while the next cell trains, instead of after it.  At most
-    :data:`CHUNKS_AHEAD` chunk results are alive at once (:func:`trains_ahead` checks that they fit).
-    The results are the same whatever runs when (counter-based random numbers; each cell's
-    bootstrap has its own generator), so the summaries are bit-identical to training in turn.
-    A training error is raised by :meth:`chunks` at the cell it happened in.
-
-    Args:
-        cells: the cells to train, in the order :meth:`chunks` will be asked for them.
-        config, model, transitions: as :func:`train_cell`'s.
-    """
-
-    def __init__(self, cells, config: RunConfig, model, transitions=None):
-        import queue
-        import threading
-
-        import numba
-
-        self._queues = {cell: queue.SimpleQueue() for cell in cells}
-        self._slots = threading.Semaphore(CHUNKS_AHEAD)
-        self._stopped = threading.Event()
-        self._caller_waits = threading.Event()  # the caller waits in chunks() for the next item
-        self._thread = threading.Thread(target=self._train, name="training", daemon=True,
-                                        args=(list(cells), config, model, transitions, numba.get_num_threads()))
-        self._thread.start()
-
-    def _train(self, cells, config, model, transitions, threads: int) -> None:
-        import numba
-
-        numba.set_num_threads(threads)  # numba's thread count is per calling thread: the caller's
-        checkpoint = _checkpoint(config)
-        for cell in cells:
-            chunks = cell_chunks(cell, config, model, transitions)
-            chain = None
-            while True:
-                self._slots.acquire()
-                if self._stopped.is_set():
-                    return
-                try:
-                    item = next(chunks, _END)
-                    if item is not _END and not self._caller_waits.is_set():  # the caller is busy: analyse here
-                        started = time.perf_counter()
-                        if chain is None:
-                            chain = asymptotes.EpisodeChain.build(model, cell.reward, transitions)
-                        final, early_success = chunk_analysis(item[1], chain, config, model, checkpoint)
-                        item = (*item, (final, early_success, time.perf_counter() - started))
-                except BaseException as error:  # noqa: BLE001  (raised again by chunks(), in the caller's thread)
-                    self._queues[cell].put(error)
-                    return
-                self._queues[cell].put(item)
-                if item is _END:
-                    self._slots.release()  # the end marker holds no chunk
-                    break
-                del item
-
-    def chunks(self, cell):
-        """``cell``'s :func:`cell_chunks` items, as trained by the thread (waits for each)."""
-        waiting = self._queues[cell]
-        while True:
-            self._caller_waits.set()
-            try:
-                item = waiting.get()
-            finally:
-                self._caller_waits.clear()
-            if item is _END:
-                return
-            if isinstance(item, BaseException):
-                raise item
-            yield item
-            del item
-            self._slots.release()  # the caller is done with the previous chunk
-
-    def close(self) -> None:
-        """Stop training further chunks and wait for the thread to end (a chunk being trained
-        finishes first: a table backend's chunk takes a second or so), so that no training runs on
-        once :func:`run_grid` has returned or raised."""
-        self._stopped.set()
-        for _ in range(CHUNKS_AHEAD):
-            self._slots.release()
-        self._thread.join()
-
-    @property
-    def running(self) -> bool:
-        """Whether the training thread is still alive."""
-        return self._thread.is_alive()
-
-
-def trains_ahead(cells, config: RunConfig, model) -> bool:
-    """Whether :func:`run_grid` trains ``cells`` ahead of their summaries (:class:`TrainingAhead`):
-    more than one cell or chunk, on a table backend (compiled, in this process), with
-    :data:`CHUNKS_AHEAD` chunks fitting in the memory :func:`check_grid_resources` allows one."""
-    from tableclean_suite.backends.tabular import TableBackend
-
-    cells = list(cells)
-    if not isinstance(get_backend(config.backend), TableBackend) or not cells:
-        return False
-    if len(cells) == 1 and config.runs <= chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model)):
-        return False
-    needed = chunk_memory(cells, config, model).total * CHUNKS_AHEAD
-    return needed <= resources.USABLE_FRACTION * resources.available_bytes()
 
 
 #: Compiled (numba) threads of a cell trained by an executor's worker: the workers, not the
@@ -796,9 +687,7 @@ def run_grid(
         transitions_sha256: its file's digest (part of every cell's key).
         executor: an :class:`~tableclean_suite.executors.Executor` that trains the cells, one
             :class:`CellTask` each (:func:`train_cell_task`); results, saved in grid order as they
-            arrive, are bit-identical to training in this process.  None: train in this process, the
-            next chunks on a thread while the last ones are summarised when they fit
-            (:func:`trains_ahead`, :class:`TrainingAhead`; the same bits either way).
+            arrive, are bit-identical to training in this process.  None: train in this process.
         on_cell: called with the :class:`GridRun` so far after each cell is loaded or trained and
             saved (e.g. to start work on some cells while the others train); None: nothing.
 
@@ -833,17 +722,9 @@ def run_grid(
                leave=False)
 
     def train_here():
-        ahead = TrainingAhead(pending, config, model, transitions) if trains_ahead(pending, config, model) else None
-        if ahead is not None:
-            _import_while_training()
-        try:
-            for cell in pending:
-                bar.set_postfix_str(f"{outcome.resumed} resumed, training {cell.label}" if outcome.resumed
-                                    else cell.label)
-                yield train_cell(cell, config, model, transitions, chunks=None if ahead is None else ahead.chunks(cell))
-        finally:
-            if ahead is not None:
-                ahead.close()
+        for cell in pending:
+            bar.set_postfix_str(f"{outcome.resumed} resumed, training {cell.label}" if outcome.resumed else cell.label)
+            yield train_cell(cell, config, model, transitions)
 
     if executor is None or not pending:
         results = train_here()
@@ -864,27 +745,12 @@ def run_grid(
     return outcome
 
 
-#: Modules a run needs once its cells are trained (tables: pandas, ~0.4 s) that :func:`run_grid`
-#: imports while the first chunk trains ahead, when the caller's thread would only wait for it.
-AFTER_GRID_MODULES = ("tableclean_suite.bench.tables",)
-
-
-def _import_while_training() -> None:
-    """Import :data:`AFTER_GRID_MODULES` (a failure is left to the code that needs them)."""
-    import importlib
-
-    for name in AFTER_GRID_MODULES:
-        try:
-            importlib.import_module(name)
-        except Exception:  # noqa: BLE001  (raised again, with context, where the module is used)
-            pass
-
-
 def cell_records(grid: list[Membership], summaries: dict, cell_statistics: dict | None = None,
                  settle_tolerance: float = settling.DEFAULT_SETTLE_TOLERANCE) -> tuple[list[dict], list[dict]]:
-    """Cell records (keys + scalars, with ``_low``/``_high`` bounds, per-run-score IQMs and settling
-    when ``cell_statistics`` are given) and curve sets (with ``<curve>_low``/``_high`` bands), one
-    per membership, for :mod:`.tables`.
+    """Cell records (keys + scalars, with ``_low``/``_high`` bounds where the scalar has an
+    interval, the per-run learning time (:data:`.statistics.LEARNING_TIME_COLUMNS`) and settling when
+    ``cell_statistics`` are given) and curve sets (with ``<curve>_low``/``_high`` bands), one per
+    membership, for :mod:`.tables`.
 
     Settling columns: ``behaviour_drift`` (+ ``_low``/``_high``; a fraction, NaN when not
     measured), ``checkpoint_iteration`` and ``settled`` (drift <= ``settle_tolerance``; None when
@@ -899,17 +765,14 @@ def cell_records(grid: list[Membership], summaries: dict, cell_statistics: dict 
         if stats is not None:
             for name, (low, high) in stats.intervals.items():
                 record[f"{name}_low"], record[f"{name}_high"] = low, high
-            for name, (value, low, high) in stats.scores.items():
-                record[f"{name}_iqm"], record[f"{name}_iqm_low"], record[f"{name}_iqm_high"] = value, low, high
+            record.update(statistics.learning_time_record(stats.learning))
             settled = stats.settling
             record.update(behaviour_drift=settled.drift, behaviour_drift_low=settled.low,
                           behaviour_drift_high=settled.high,
                           checkpoint_iteration=settled.checkpoint or None,  # None: not measured (e.g. physics)
                           settled=settled.settled(settle_tolerance))
-            iterations = np.arange(1, summary.iterations + 1)
-            for name in stats.bands:
-                curve_set[f"{name}_low"], curve_set[f"{name}_high"] = stats.band_at(name, iterations,
-                                                                                      summary.iterations)
+            for name, (low, high) in stats.bands.items():
+                curve_set[f"{name}_low"], curve_set[f"{name}_high"] = low, high
         records.append(record)
         curves.append(curve_set)
     return records, curves

@@ -11,16 +11,15 @@ Trains every learner x reward at (alpha, gamma) ("main"), plus the sweep learner
 sweep reward at each alpha of ``--alpha-sweep`` and each gamma of ``--gamma-sweep``, plus
 Cruz et al.'s methods (affordance-based and interactive Q-learning) at ``--literature-reward``
 for Table 4's "run here" rows (``--no-literature`` skips them),
-prints Table 3 (ours beside the paper's, with 95 % intervals), the sweep table, the per-run
-IQMs, the probabilities of improvement and Table 4, and writes to ``--out``: ``table3.csv``,
-``table4.csv`` (each number followed by ``_low``/``_high``), ``comparisons.csv``, ``curves.csv``
-(with ``low``/``high`` bands), the figures ``fig3..fig7*.png`` (bands shaded),
-``config.json`` (written last: the run's configuration, a run id and the SHA-256 of each of
-those files; see :mod:`.outputs`) and ``cells/`` (one file per trained cell; a rerun with the
-same settings and code loads them instead of retraining — ``--fresh`` retrains).  The
-probabilities of improvement and the figures are cached too, in ``cells/derived/``, keyed by
-their inputs and code (:mod:`.derived`): a rerun with unchanged cells copies them instead of
-recomputing them (``--fresh`` recomputes them), and writes the same bytes either way.
+prints Table 3 (the per-run learning time with intervals; the plateaus with intervals, the
+paper's success rate beside ours; the paper's mean-curve definitions beside the paper's values),
+the probabilities of improvement, the sweep table and Table 4, and writes to ``--out``:
+``table3.csv`` and ``table4.csv`` (an interval column ``X`` followed by ``X_low``/``X_high``),
+``comparisons.csv``, ``curves.csv`` (with ``low``/``high`` bands), the figures
+``fig3..fig7*.png`` (bands shaded), ``config.json`` (written last: the run's configuration, a run
+id and the SHA-256 of each of those files; see :mod:`.outputs`) and ``cells/`` (one file per
+trained cell; a rerun with the same settings and code loads them instead of retraining -
+``--fresh`` retrains).
 
 The run's settings are a :class:`~tableclean_suite.bench.config.RunConfig`; this module turns
 the command line into one and is the only module of the harness that touches the filesystem.
@@ -52,8 +51,6 @@ PROG = "tableclean-bench run"
 PAPER_TASK = "paper"
 #: Resolution of the PNG figures, dots per inch.
 FIGURE_DPI = 120
-#: Where, under the cell store, results derived from the cells are cached (see :mod:`.derived`).
-DERIVED_DIR = "derived"
 
 #: Command-line flag of each :class:`RunConfig` field whose flag is not ``--field-name``.
 FLAGS = {"sweeps": "--no-sweeps", "figures": "--no-figures", "progress": "--no-progress",
@@ -237,12 +234,8 @@ def run(args) -> int:
     """:func:`train_and_publish` holding ``--out``'s lock (:func:`.outputs.output_lock`), so a second
     run into the same folder exits 2 instead of mixing its files with this one's.
 
-    OpenBLAS runs on one thread meanwhile (:func:`~tableclean_suite.executors.blas.single_blas_thread`):
-    the statistics' products are small (100 x 100 by 100 x T), and after each one OpenBLAS's idle
-    threads spin, on the core the training thread (:class:`.experiments.TrainingAhead`) needs
-    (~1 s of a default run's ~8 on two cores).  The numbers do not depend on it: the bootstrap's
-    products are exact integer sums, the same bits in any order
-    (:func:`.statistics.weighted_group_sums`), as a cell trained in an executor's 1-thread worker."""
+    OpenBLAS runs on one thread meanwhile (:func:`~tableclean_suite.executors.blas.single_blas_thread`),
+    as in an executor's 1-thread worker."""
     import numpy  # noqa: F401  (loads the OpenBLAS whose threads single_blas_thread sets)
 
     from tableclean_suite.bench import outputs
@@ -258,7 +251,7 @@ def run(args) -> int:
 
 def train_and_publish(args) -> int:
     """Train/load the grid, print the tables, write files and figures; returns the exit code."""
-    from tableclean_suite.bench import derived, experiments, outputs, precompile
+    from tableclean_suite.bench import derived, experiments, outputs
     from tableclean_suite.executors import MissingRayError, TaskFailedError
 
     started = time.perf_counter()
@@ -278,14 +271,9 @@ def train_and_publish(args) -> int:
         numba.set_num_threads(min(config.workers, numba.config.NUMBA_NUM_THREADS))
     grid = experiments.config_grid(config)
     store = experiments.CellStore(out / "cells")
-    results = derived.DerivedStore(store.root / DERIVED_DIR, read=not config.fresh)
-    comparing = BackgroundComparisons(grid, config, results)
-    compiling = (precompile.start(experiments.unique_cells(grid), config, model, transitions)
-                 if executor is None else None)  # before any thread starts
     try:
         with executor if executor is not None else contextlib.nullcontext():
-            grid_run = experiments.run_grid(grid, config, model, store, transitions, transitions_sha256, executor,
-                                            on_cell=comparing.start_when_ready)
+            grid_run = experiments.run_grid(grid, config, model, store, transitions, transitions_sha256, executor)
     except experiments.CellFileError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
@@ -299,15 +287,12 @@ def train_and_publish(args) -> int:
         print(f"\ninterrupted: finished cells are saved in {store.root}; rerun the same command to resume",
               file=sys.stderr)
         return EXIT_INTERRUPTED
-    finally:
-        if compiling is not None:
-            compiling.finish()
-    from tableclean_suite.bench import tables  # (pandas) imported by run_grid while the first cell trained
+    from tableclean_suite.bench import statistics, tables
 
     cells = len(experiments.unique_cells(grid))
-    print(f"cells: {cells} distinct ({len(grid)} table rows); resumed {grid_run.resumed} cells from {store.root}, "
-          f"trained {grid_run.trained} (training {grid_run.train_seconds:.2f} s, "
-          f"metrics {grid_run.metrics_seconds:.2f} s)")
+    print(f"cells: {cells} distinct ({len(grid)} table rows); resumed {grid_run.resumed} cells, trained "
+          f"{grid_run.trained} (training {grid_run.train_seconds:.2f} s, metrics {grid_run.metrics_seconds:.2f} s)\n"
+          f"  cell files: {store.root}")
 
     records, curves = experiments.cell_records(grid, grid_run.summaries, grid_run.statistics,
                                              config.settle_tolerance)
@@ -315,14 +300,14 @@ def train_and_publish(args) -> int:
     table4 = tables.table4(table3, paper_task=tables.is_paper_task(model))
     stride = _curves_stride(len(records) * len(tables.CURVE_METRICS), config.iterations)
     curves_frame = tables.curves_long(records, curves, stride=stride)
-    comparisons, comparisons_cached = comparing.result(grid_run)  # finished before the figures' processes fork
-    drawing = (derived.start_figures(results, curves_frame, config.plateau_fraction, table3, FIGURE_DPI,
+    main_cells = [m.cell for m in grid if m.experiment == "main"]
+    comparisons = statistics.comparisons(
+        [{"learner": c.learner, "reward": c.reward, "runs": grid_run.statistics[c].runs} for c in main_cells],
+        config.confidence, config.bootstrap_samples, config.seed)  # before the figures' processes fork
+    drawing = (derived.start_figures(curves_frame, config.plateau_fraction, table3, FIGURE_DPI,
                                      processes=derived.FIGURE_PROCESSES) if config.figures else None)
     curves_text = tables.csv_text(curves_frame, tables.CURVES_FLOAT_FORMAT)  # while the figures are drawn
     figures = drawing.result() if drawing is not None else []
-    drawn = sum(not figure.cached for figure in figures)
-    print(f"derived results in {results.root}: comparisons {'loaded' if comparisons_cached else 'computed'}, "
-          f"figures {len(figures) - drawn} loaded, {drawn} drawn")
 
     writers = {
         "table3.csv": lambda path: table3.to_csv(path, index=False),
@@ -333,8 +318,6 @@ def train_and_publish(args) -> int:
     writers.update({figure.name: (lambda path, png=figure.png: path.write_bytes(png)) for figure in figures})
     elapsed = time.perf_counter() - started
     manifest = _manifest(config, model, transitions_sha256, grid_run, stride, elapsed)
-    manifest["derived"] = {"comparisons": "loaded" if comparisons_cached else "computed",
-                           "figures": {figure.name: "loaded" if figure.cached else "drawn" for figure in figures}}
     try:
         written = outputs.publish(out, writers, manifest)
     except KeyboardInterrupt:
@@ -370,116 +353,54 @@ def cell_executor(config: RunConfig):
     return LocalExecutor(workers=config.workers)
 
 
-def _preload_pyplot() -> None:
-    """Import pyplot (Agg) here, so the processes forked to draw the figures inherit it instead of
-    each importing it (~0.6 s each); a failure is left to them to report."""
-    from tableclean_suite.bench import plots
-
-    try:
-        plots.pyplot()
-    except Exception:  # noqa: BLE001  (the drawing processes raise it again, with context)
-        pass
-
-
-class BackgroundComparisons:
-    """The probabilities of improvement between the main cells (:func:`.derived.comparisons`),
-    computed on a thread as soon as every main cell is trained or loaded, while the other cells
-    train: the bootstrap draws run compiled without the GIL, on the core the cells' statistics
-    leave free.  Same numbers as computing them afterwards (one seeded generator, same order).
-    With ``--fresh`` figures the thread then imports pyplot for the drawing processes
-    (:func:`_preload_pyplot`; a cached run loads its figures without it).
-
-    Args:
-        grid: the run's memberships (the ``main`` ones are compared).
-        config: the run's configuration (confidence, replicates, seed).
-        results: the derived-results cache.
-    """
-
-    def __init__(self, grid, config: RunConfig, results):
-        self._main = [m.cell for m in grid if m.experiment == "main"]
-        self._config, self._results = config, results
-        self._thread = None
-        self._outcome: dict = {}
-
-    def _inputs(self, grid_run) -> list[dict]:
-        return [{"learner": c.learner, "reward": c.reward, "runs": grid_run.statistics[c].runs} for c in self._main]
-
-    def _compute(self, cells: list[dict]) -> None:
-        from tableclean_suite.bench import derived
-
-        try:
-            config = self._config
-            self._outcome["value"] = derived.comparisons(self._results, cells, config.confidence,
-                                                         config.bootstrap_samples, config.seed)
-        except BaseException as error:  # noqa: BLE001  (raised again by result())
-            self._outcome["error"] = error
-        if self._config.figures and self._config.fresh:
-            _preload_pyplot()
-
-    def start_when_ready(self, grid_run) -> None:
-        """Start the thread once every main cell has its statistics (``run_grid``'s ``on_cell``)."""
-        import threading
-
-        if self._thread is None and all(c in grid_run.statistics for c in self._main):
-            self._thread = threading.Thread(target=self._compute, args=(self._inputs(grid_run),), daemon=True,
-                                            name="comparisons")
-            self._thread.start()
-
-    def result(self, grid_run):
-        """``(frame, cached)`` as :func:`.derived.comparisons`: the thread's, waited for, or computed now."""
-        if self._thread is None:
-            self._compute(self._inputs(grid_run))
-        else:
-            self._thread.join()
-        if "error" in self._outcome:
-            raise self._outcome["error"]
-        return self._outcome["value"]
-
-
 def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task: bool, comparisons=None) -> None:
-    """Print Tables 3-4, the scores, comparisons and sweeps; ``task_name``: the spec's name (not its file's)."""
+    """Print Tables 3-4, the comparisons and sweeps, each at most :data:`.tables.PRINT_WIDTH`
+    characters wide; ``task_name``: the spec's name (not its file's)."""
     import pandas as pd
 
     from tableclean_suite.bench import tables
-    from tableclean_suite.metrics import DEFAULT_HOLD
 
     level = f"{100 * config.confidence:g}%"
-    with pd.option_context("display.width", 250, "display.max_columns", 50, "display.max_rows", 500):
+    with pd.option_context("display.width", tables.PRINT_WIDTH, "display.max_columns", 50, "display.max_rows", 500):
         on_task = "" if task_name == PAPER_TASK else f" on task {task_name!r}"
-        print(f"\nTable 3: learning speed per reward pattern{on_task} (alpha = {config.alpha:g}, "
-              f"gamma = {config.gamma:g}, epsilon = {config.epsilon:g}, {config.runs} runs x {config.iterations} "
-              f"iterations, {config.backend} backend).")
-        print("  'paper' = the paper's Table 3 (Q-learning only)." if paper_task
-              else f"  Task {task_name!r} is not the paper's: no paper values beside ours.")
-        print(f"  success % and avg reward plateau = exact asymptotes of the runs' final behaviour (greedy policy "
-              f"under the exploration; mean over runs); iterations = first reaching {100 * config.threshold:g}% of "
-              f"them; average-reward points count once {100 * config.support_fraction:g}% of the runs have finished "
-              "an episode.")
-        print(f"  drift pp = mean change of a run's success asymptote over the window's last quarter; settled = "
-              f"drift <= {100 * config.settle_tolerance:g} pp (NO: the plateau is still moving, so the iteration "
-              "figures depend on the window; see tableclean_suite.settling).")
-        print(f"  [..] = {level} percentile bootstrap interval over runs ({config.bootstrap_samples} replicates; "
-              "runs resampled in blocks, see tableclean_suite.bench.statistics).")
-        print(tables.table3_notes(config.threshold, DEFAULT_HOLD))
-        print(tables.display_table3(table3).to_string(na_rep="-"))
-        print(f"\nPer-run scores, interquartile mean over runs [{level} CI]:")
-        print(tables.display_scores(table3).to_string(index=False))
+        print(f"\nTable 3: learning speed per reward pattern{on_task} (alpha = {config.alpha:g}, gamma = "
+              f"{config.gamma:g}, epsilon = {config.epsilon:g},\n  {config.runs} runs x {config.iterations} "
+              f"iterations, {config.backend} backend).  Every column is in table3.csv.")
+        print("\nTable 3a: per-run learning time (iterations).")
+        print(tables.table3_notes(config.confidence, config.bootstrap_samples, config.iterations))
+        print(tables.display_learning_time(table3).to_string())
+        print(f"\nTable 3b: plateaus = exact asymptotes of each run's final behaviour (greedy policy under the "
+              f"exploration),\n  mean over runs [{level} percentile bootstrap over runs]; greedy success = the "
+              f"final greedy policies (epsilon = 0);\n  never terminal = runs that never reached the terminal "
+              f"state [Clopper-Pearson]; drift = mean change of a run's\n  success asymptote over the window's last "
+              f"quarter; settled = drift <= {100 * config.settle_tolerance:g} pp.")
+        if paper_task:
+            print("  'paper' = the paper's Table 3 (Q-learning only).")
+        print(tables.display_plateaus(table3).to_string())
+        print(f"\nTable 3c: the paper's definitions, read off the mean curves over runs: iterations (itr) and "
+              f"episodes (eps) to\n  average-reward convergence (conv.) and to the first touch of "
+              f"{100 * config.threshold:g}% of the success plateau (touch), the maximum\n  average reward (max avg r); "
+              "the paper's values in parentheses.  No intervals: such a reading is biased and its\n  target moves "
+              "with the number of runs.  avg r plateau: per-run asymptotes, mean over runs."
+              + ("" if paper_task else f"  Task {task_name!r} is not the paper's: no paper values."))
+        print(tables.display_paper_definitions(table3).to_string())
         if comparisons is not None and len(comparisons):
-            print("\n" + tables.comparisons_title())
+            print("\n" + tables.comparisons_title(len(comparisons), config.confidence))
             print(tables.display_comparisons(comparisons).to_string(index=False))
         sweeps = tables.display_sweeps(table3)
         if len(sweeps):
-            print("\nSweeps (Figures 6-7; the paper gives no table for them):")
-            print(sweeps.to_string(index=False, na_rep="-"))
+            print("\nSweeps (Figures 6-7; the paper gives no table for them; median = per-run learning time, first "
+                  "touch = the paper's):")
+            print(sweeps.to_string(index=False))
         quoted = ("the paper's Table 4 verbatim" if paper_task else
                   f"the literature's rows of the paper's Table 4 (its own '{tables.PAPER_OWN_ROWS}' rows are on the "
                   "paper's task, so not beside this one)")
-        print(f"\nTable 4: comparison with the literature{on_task}. 'run here' = trained by this run on "
-              f"this task (reward, alpha, gamma, epsilon as above; [..] = {level} intervals); 'quoted' = {quoted} "
-              "([7], [8]: measured on other tasks, not run here).")
+        print(f"\nTable 4: comparison with the literature{on_task}. 'run here' = trained by this run on this task "
+              f"(reward,\n  alpha, gamma, epsilon as above; [..] = {level} intervals; episodes are the paper's "
+              f"mean-curve readings);\n  'quoted' = {quoted} ([7], [8]: measured on other tasks).")
         shown = tables.display_table4(table4)
-        width = max(map(len, shown["methodology"]))
-        print(shown.to_string(index=False, formatters={"methodology": f"{{:<{width}}}".format}))
+        width = max(map(len, shown["method"]))
+        print(shown.to_string(index=False, formatters={"method": f"{{:<{width}}}".format}))
 
 
 def main(argv=None, prog: str | None = None) -> int:

@@ -25,7 +25,7 @@ from tableclean_suite.bench.paper_data import (  # noqa: F401  (re-exported)
     PAPER_TABLE4_COLUMNS,
     SOURCE_QUOTED,
 )
-from tableclean_suite.bench.statistics import EQUIVALENCE_MARGINS, RUN_SCORES
+from tableclean_suite.bench.statistics import EQUIVALENCE_MARGINS, LEARNING_TIME_COLUMNS, RUN_MEANS, RUN_SHARES
 from tableclean_suite.metrics import ITERATION_SCALARS, SUMMARY_SCALARS
 
 #: Identifying columns of a cell record, in table order.
@@ -46,11 +46,17 @@ OPTIONAL_SCALARS = ("success_window_mean", "average_reward_window_mean", "held_s
 #: Suffixes of an interval's bounds, next to the number they bound.
 LOW, HIGH = "_low", "_high"
 
-#: Per-run scores whose IQM Table 3 reports (see :mod:`.statistics`).
-IQM_COLUMNS = tuple(f"{score}_iqm{suffix}" for score in RUN_SCORES for suffix in ("", LOW, HIGH))
+#: Scalars of :class:`~tableclean_suite.metrics.Summary` that carry an interval (per-run
+#: quantities averaged over runs); the others are the paper's readings of the mean curves and
+#: window means, given without one.
+INTERVAL_SCALARS = tuple(name for name in SUMMARY_SCALARS if name in RUN_MEANS or name in RUN_SHARES)
 
-#: Each scalar followed by its interval's bounds.
-SCALAR_COLUMNS = tuple(c for name in SUMMARY_SCALARS for c in (name, name + LOW, name + HIGH))
+#: The per-run learning time's columns, each followed by its interval's bounds.
+LEARNING_COLUMNS = tuple(c for name in LEARNING_TIME_COLUMNS for c in (name, name + LOW, name + HIGH))
+
+#: Each scalar, followed by its interval's bounds when it has one.
+SCALAR_COLUMNS = tuple(c for name in SUMMARY_SCALARS
+                       for c in ((name, name + LOW, name + HIGH) if name in INTERVAL_SCALARS else (name,)))
 
 #: Settling of each cell (:mod:`tableclean_suite.settling`): mean behaviour drift over the window's
 #: last quarter (a fraction) with its interval, the checkpoint iteration (0: not measured) and
@@ -58,27 +64,21 @@ SCALAR_COLUMNS = tuple(c for name in SUMMARY_SCALARS for c in (name, name + LOW,
 DRIFT = "behaviour_drift"
 SETTLING_COLUMNS = (DRIFT, DRIFT + LOW, DRIFT + HIGH, "checkpoint_iteration", "settled")
 
-TABLE3_COLUMNS = ("cell_id", *KEY_COLUMNS, *SCALAR_COLUMNS, *IQM_COLUMNS, *SETTLING_COLUMNS, *PAPER_COLUMNS)
+#: Every column of ``table3.csv``; an interval column ``X`` has its bounds in ``X_low``/``X_high``.
+TABLE3_COLUMNS = ("cell_id", *KEY_COLUMNS, *LEARNING_COLUMNS, *SCALAR_COLUMNS, *SETTLING_COLUMNS, *PAPER_COLUMNS)
 
-#: Table 4's numbers that carry intervals (ours; the quoted rows have none).
-TABLE4_NUMBERS = PAPER_TABLE4_COLUMNS[1:]
-TABLE4_COLUMNS = (PAPER_TABLE4_COLUMNS[0], *(c for name in TABLE4_NUMBERS for c in (name, name + LOW, name + HIGH)),
+#: Table 4's numbers of our rows: the paper's three (its episode counts are mean-curve readings,
+#: without interval; the success rate with one) and the per-run learning time.
+TABLE4_NUMBERS = (*PAPER_TABLE4_COLUMNS[1:], "learning_time_median", "censored_percent")
+#: Table 4's numbers that carry intervals.
+TABLE4_INTERVALS = ("max_success_rate_percent", "learning_time_median", "censored_percent")
+TABLE4_COLUMNS = (PAPER_TABLE4_COLUMNS[0],
+                  *(c for name in TABLE4_NUMBERS
+                    for c in ((name, name + LOW, name + HIGH) if name in TABLE4_INTERVALS else (name,))),
                   "source")
 
-#: Title of the behaviour drift in the printed Table 3 (percentage points of success).
-DRIFT_TITLE = "drift pp"
-
-#: Printed Table 3 columns beside the paper's definitions (no paper value): title, column, digits,
-#: scale.  Held reaching (:func:`tableclean_suite.metrics.held_reaching`), the final greedy
-#: policies' success and the share of runs that never reached the terminal state.
-HELD_AND_MECHANISM_COLUMNS = (
-    ("held success iterations", "held_success_iterations", 0, 1.0),
-    ("greedy success %", "greedy_success_plateau", 2, 100.0),
-    ("never terminal %", "never_terminal_share", 1, 100.0),
-)
-
-#: Label of our numbers in the printed Table 3.
-OURS = "ours"
+#: Widest a printed table may be (characters); the CSV files hold every column.
+PRINT_WIDTH = 120
 
 #: ``source`` of a row of this run in Table 4.
 SOURCE_OURS = "this run"
@@ -120,7 +120,7 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
 
     Returns:
         A DataFrame with columns :data:`TABLE3_COLUMNS` (extra input columns are dropped; the
-        ``_low``/``_high`` bounds and IQM columns are NaN when the records carry none),
+        learning-time columns and ``_low``/``_high`` bounds are NaN when the records carry none),
         sorted by experiment (main, alpha_sweep, gamma_sweep), learner, reward, alpha, gamma.
         ``paper_*`` columns are NaN except on ``experiment == "main"`` rows of
         :data:`PAPER_LEARNER` with a reward the paper reports.  Iteration columns are
@@ -147,7 +147,7 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
             frame[column] = pd.array([None if _missing(v) else int(v) for v in frame[column]], dtype="Int64")
         else:
             frame[column] = [_NA if _missing(v) else float(v) for v in frame[column]]
-    for column in (*SCALAR_COLUMNS, *IQM_COLUMNS, *SETTLING_COLUMNS[:3]):  # NaN when the records carry none
+    for column in (*LEARNING_COLUMNS, *SCALAR_COLUMNS, *SETTLING_COLUMNS[:3]):  # NaN when the records carry none
         if column not in SUMMARY_SCALARS:
             values = frame[column] if column in frame.columns else [_NA] * len(frame)
             frame[column] = [_NA if _missing(v) else float(v) for v in values]
@@ -212,107 +212,134 @@ def table4(table: pd.DataFrame, paper_task: bool = True) -> pd.DataFrame:
         Columns :data:`TABLE4_COLUMNS`.  Our rows are named
         ``"This run: Q-learning with reward rN"`` (main Q-learning cells) and
         :func:`literature_method` (``literature`` cells), with ``max_success_rate_percent``
-        = 100 x ``success_plateau`` and ``source == "this run"``; each number is followed by its
-        interval's ``_low``/``_high`` bounds (NaN on the quoted rows).
+        = 100 x ``success_plateau``, the per-run learning time's median and censored share (in
+        percent), and ``source == "this run"``; the numbers of :data:`TABLE4_INTERVALS` are
+        followed by their interval's ``_low``/``_high`` bounds (NaN on the quoted rows).  The
+        episode counts are the paper's mean-curve readings, without interval.
     """
     main = table[(table["experiment"] == "main") & (table["learner"] == PAPER_LEARNER)]
     literature = table[table["experiment"] == "literature"]
     ours = pd.concat([main, literature], ignore_index=True)
     sources = {"average_reward_convergence_episodes": ("reward_convergence_episodes", 1.0),
                "max_success_rate_percent": ("success_plateau", 100.0),
-               "max_success_episodes": ("max_success_episodes", 1.0)}
+               "max_success_episodes": ("max_success_episodes", 1.0),
+               "learning_time_median": ("learning_time_median", 1.0),
+               "censored_percent": ("censored_share", 100.0)}
     data = {"methodology": [f"This run: Q-learning with reward {r}" for r in main["reward"]]
             + [literature_method(l, r) for l, r in zip(literature["learner"], literature["reward"])]}
     for name, (column, scale) in sources.items():
-        for suffix in ("", LOW, HIGH):
+        for suffix in (("", LOW, HIGH) if name in TABLE4_INTERVALS else ("",)):
             data[name + suffix] = scale * ours[column + suffix].astype(float).to_numpy()
     rows = pd.DataFrame({**data, "source": SOURCE_OURS})
-    quoted = PAPER_TABLE4.astype({c: float for c in TABLE4_NUMBERS})
+    quoted = PAPER_TABLE4.astype({c: float for c in PAPER_TABLE4_COLUMNS[1:]})
     if not paper_task:
         quoted = quoted[~quoted["methodology"].str.startswith(PAPER_OWN_ROWS)]
     for name in TABLE4_NUMBERS:
-        quoted[name + LOW] = quoted[name + HIGH] = _NA
+        for suffix in (("", LOW, HIGH) if name in TABLE4_INTERVALS else ("",)):
+            if name + suffix not in quoted.columns:
+                quoted[name + suffix] = _NA
     return pd.concat([rows, quoted], ignore_index=True)[list(TABLE4_COLUMNS)]
 
 
 def with_interval(value, low, high, digits: int = 0, scale: float = 1.0) -> str:
-    """``"222 [205, 240]"``: a number and its interval, rounded to ``digits``; "-" when missing."""
+    """``"222 [205, 240]"``: a number and its interval, rounded to ``digits``; "-" when missing;
+    an infinite value or bound (a time beyond the budget) reads ``>T``-style as ``inf``."""
     if _missing(value):
         return "-"
-    text = lambda v: f"{scale * float(v):.{digits}f}"  # noqa: E731
+    def text(v):
+        return "inf" if math.isinf(float(v)) else f"{scale * float(v):.{digits}f}"
     if _missing(low) or _missing(high):
         return text(value)
     return f"{text(value)} [{text(low)}, {text(high)}]"
 
 
-def display_table3(table: pd.DataFrame) -> pd.DataFrame:
-    """The main rows of Table 3 for printing: ours (``"value [low, high]"``, or the value alone
-    when there is no interval) beside the paper's.
+def _interval_texts(rows: pd.DataFrame, column: str, digits: int, scale: float = 1.0) -> list[str]:
+    """:func:`with_interval` of ``column`` and its bounds, row by row."""
+    return [with_interval(v, lo, hi, digits, scale) for v, lo, hi in zip(rows[column], rows[column + LOW],
+                                                                          rows[column + HIGH])]
 
-    Index (learner, reward); two-level columns (quantity, ``ours``/``paper``) for the
-    reward-convergence and max-success iterations and episodes and the success rate in %,
-    plus our maximum average reward and average-reward plateau, the behaviour drift (percentage
-    points) and whether the cell settled (``NO``: its figures depend on the window).
-    """
+
+def _index(rows: pd.DataFrame) -> pd.MultiIndex:
+    return pd.MultiIndex.from_arrays([rows["learner"], rows["reward"]], names=["learner", "reward"])
+
+
+def display_learning_time(table: pd.DataFrame) -> pd.DataFrame:
+    """Table 3's headline for printing, main rows: the per-run learning time (iterations until
+    the run's greedy policy is optimal for good) - median, quartiles, restricted mean to the
+    budget, censored share - each with its interval."""
     rows = main_rows(table)
-    pairs = {
-        "reward conv. iterations": ("reward_convergence_iterations", "paper_reward_convergence_iterations", 0),
-        "reward conv. episodes": ("reward_convergence_episodes", "paper_reward_convergence_episodes", 1),
-        "max success iterations": ("max_success_iterations", "paper_max_success_iterations", 0),
-        "max success episodes": ("max_success_episodes", "paper_max_success_episodes", 1),
-        "success %": ("success_plateau", "paper_success_rate", 2),
-    }
+    quartiles = [f"{with_interval(q1, None, None)}-{with_interval(q3, None, None)}"
+                 for q1, q3 in zip(rows["learning_time_q1"], rows["learning_time_q3"])]
+    frame = pd.DataFrame({"median [CI]": _interval_texts(rows, "learning_time_median", 0),
+                          "quartiles": quartiles,
+                          "RMST [CI]": _interval_texts(rows, "learning_time_rmst", 0),
+                          "censored % [CI]": _interval_texts(rows, "censored_share", 1, 100.0)})
+    frame.index = _index(rows)
+    return frame
+
+
+def display_plateaus(table: pd.DataFrame) -> pd.DataFrame:
+    """Table 3's plateaus for printing, main rows: per-run exact asymptotes averaged over runs,
+    with intervals, the paper's success rate beside ours, the behaviour drift and settling."""
+    rows = main_rows(table)
+    paper = (100.0 * rows["paper_success_rate"].astype(float)).round(2)
+    frame = pd.DataFrame({"success % [CI]": _interval_texts(rows, "success_plateau", 2, 100.0),
+                          "paper": [_quoted_text(v, 2) for v in paper],
+                          "greedy success % [CI]": _interval_texts(rows, "greedy_success_plateau", 2, 100.0),
+                          "never terminal %": _interval_texts(rows, "never_terminal_share", 1, 100.0),
+                          "drift pp [CI]": _interval_texts(rows, DRIFT, 2, 100.0),
+                          "settled": _settled_marks(rows["settled"])})
+    frame.index = _index(rows)
+    return frame
+
+
+#: The paper's definitions printed beside its values: title, our column, the paper's, digits.
+PAPER_DEFINITIONS = (
+    ("conv. itr", "reward_convergence_iterations", "paper_reward_convergence_iterations", 0),
+    ("conv. eps", "reward_convergence_episodes", "paper_reward_convergence_episodes", 1),
+    ("touch itr", "max_success_iterations", "paper_max_success_iterations", 0),
+    ("touch eps", "max_success_episodes", "paper_max_success_episodes", 1),
+)
+
+
+def display_paper_definitions(table: pd.DataFrame) -> pd.DataFrame:
+    """The paper's Table 3 definitions for printing, main rows: readings of the mean curves
+    (average-reward convergence, first touch of the success plateau, maximum average reward),
+    ours with the paper's in parentheses, without intervals; and the average-reward plateau."""
+    rows = main_rows(table)
     data = {}
-    for title, (ours, paper, digits) in pairs.items():
-        scale = 100.0 if title == "success %" else 1.0
-        data[(title, OURS)] = [with_interval(v, lo, hi, digits, scale) for v, lo, hi in
-                                          zip(rows[ours], rows[ours + LOW], rows[ours + HIGH])]
-        paper_values = (scale * rows[paper].astype(float)).round(digits)
-        data[(title, "paper")] = paper_values.astype("Int64") if digits == 0 else paper_values
-    for title, column, digits, scale in HELD_AND_MECHANISM_COLUMNS:
-        data[(title, OURS)] = [with_interval(v, lo, hi, digits, scale) for v, lo, hi in
-                               zip(rows[column], rows[column + LOW], rows[column + HIGH])]
-    for title, column in (("max avg reward", "max_average_reward"), ("avg reward plateau", "average_reward_plateau")):
-        data[(title, OURS)] = [with_interval(v, lo, hi, 3) for v, lo, hi in
-                                          zip(rows[column], rows[column + LOW], rows[column + HIGH])]
-    data[(DRIFT_TITLE, OURS)] = [with_interval(v, lo, hi, 2, 100.0) for v, lo, hi in
-                                 zip(rows[DRIFT], rows[DRIFT + LOW], rows[DRIFT + HIGH])]
-    data[("settled", OURS)] = _settled_marks(rows["settled"])
+    for title, ours, paper, digits in PAPER_DEFINITIONS:
+        data[title] = [_quoted_text(v, digits) + ("" if _missing(p) else f" ({_quoted_text(p, digits)})")
+                       for v, p in zip(rows[ours], rows[paper])]
+    data["max avg r"] = [_quoted_text(v, 3) for v in rows["max_average_reward"]]
+    data["avg r plateau [CI]"] = _interval_texts(rows, "average_reward_plateau", 3)
     frame = pd.DataFrame(data)
-    frame.index = pd.MultiIndex.from_arrays([rows["learner"], rows["reward"]], names=["learner", "reward"])
-    return _dashes(frame)
+    frame.index = _index(rows)
+    return frame
 
 
-def table3_notes(threshold: float, hold: int) -> str:
-    """The printed Table 3's legend for the columns beside the paper's definitions (two lines)."""
-    return (f"  held success iterations = first iteration after which the success curve stays >= "
-            f"{100 * threshold:g}% of the plateau for {hold} iterations (the paper-definition column, max success "
-            "iterations, is the first touch); greedy success % = the final greedy policies' exact success "
-            "(epsilon = 0);\n  never terminal % = runs that never reached the terminal state in the window.  Every "
-            "interval holds its point (same-estimator percentile bootstrap, extended to the point where needed).")
+def table3_notes(confidence: float, samples: int, budget: int) -> str:
+    """The printed Table 3's legend: what each interval targets and how it is computed."""
+    level = f"{100 * confidence:g}%"
+    return (f"  learning time = per run, the first iteration from which its greedy policy is optimal (a shortest plan "
+            f"from every start\n  state) and stays so to the end of the budget ({budget} iterations); runs not "
+            f"optimal at the end are censored at the\n  budget (Kaplan-Meier).  median/quartiles [{level} CI] = "
+            f"where the pointwise {level} log-log band of the survival\n  curve crosses 1/2 (inf: beyond the budget); "
+            f"RMST = mean of min(time, budget) [percentile bootstrap over runs,\n  {samples} resamples]; censored % "
+            f"[Clopper-Pearson].  Each interval targets the value over unlimited runs.")
 
 
-def comparisons_title() -> str:
-    """The heading of the printed probabilities of improvement, with their equivalence margins."""
+def comparisons_title(count: int, confidence: float) -> str:
+    """The heading of the printed probabilities of improvement: margins and number of comparisons."""
     margins = ", ".join(f"{score} {margin:g}" for score, margin in EQUIVALENCE_MARGINS.items())
-    return (f"Probability of improvement (a run of X beats a run of Y by more than the margin; pairs within it "
-            f"count half; 0.5 = no difference; margins: {margins}):")
-
-
-def display_scores(table: pd.DataFrame) -> pd.DataFrame:
-    """IQMs of the per-run scores of the main rows, with their intervals, for printing."""
-    rows = main_rows(table)
-    data = {"learner": rows["learner"], "reward": rows["reward"]}
-    for score, digits, scale, title in (("success_asymptote", 2, 100.0, "IQM asymptotic success %"),
-                                        ("first_success_iterations", 0, 1.0, "IQM iterations to first success")):
-        column = f"{score}_iqm"
-        data[title] = [with_interval(v, lo, hi, digits, scale)
-                       for v, lo, hi in zip(rows[column], rows[column + LOW], rows[column + HIGH])]
-    return pd.DataFrame(data)
+    return (f"Probability of improvement (a run of X beats a run of Y by more than the margin; pairs within it\n"
+            f"count half; 0.5 = no difference; censored learning times count as the budget;\n  margins: {margins}).\n  "
+            f"{count} comparisons, each with its own {100 * confidence:g}% stratified bootstrap interval over runs "
+            f"(not adjusted for multiplicity):")
 
 
 def display_comparisons(frame: pd.DataFrame) -> pd.DataFrame:
-    """Probabilities of improvement for printing: "X over Y", the score, P [95 % CI]."""
+    """Probabilities of improvement for printing: "X over Y", the score, P [CI]."""
     def name(learner, reward, other_learner, other_reward):
         return reward if learner == other_learner else learner
 
@@ -322,22 +349,10 @@ def display_comparisons(frame: pd.DataFrame) -> pd.DataFrame:
                        for lx, rx, ly, ry in zip(frame["learner_x"], frame["reward_x"], frame["learner_y"],
                                                  frame["reward_y"])],
         "score": frame["score"],
-        "P(improvement) [95% CI]": [with_interval(p, lo, hi, 2) for p, lo, hi in zip(
+        "P(improvement) [CI]": [with_interval(p, lo, hi, 2) for p, lo, hi in zip(
             frame["probability_of_improvement"], frame["probability_of_improvement_low"],
             frame["probability_of_improvement_high"])],
     })
-
-
-def _dashes(frame: pd.DataFrame) -> pd.DataFrame:
-    """For printing: missing values as "-", whole numbers without a trailing ".0"."""
-    def cell(value):
-        if _missing(value):
-            return "-"
-        if isinstance(value, (float, np.floating)) and float(value).is_integer():
-            return int(value)
-        return value
-
-    return frame.astype(object).apply(lambda column: column.map(cell))
 
 
 def display_sweeps(table: pd.DataFrame) -> pd.DataFrame:
@@ -350,16 +365,13 @@ def display_sweeps(table: pd.DataFrame) -> pd.DataFrame:
             "reward": rows["reward"],
             "alpha": rows["alpha"],
             "gamma": rows["gamma"],
-            "conv_itr [95% CI]": _intervals(rows, "reward_convergence_iterations", 0),
-            "conv_eps": rows["reward_convergence_episodes"].round(1),
-            "succ_itr [95% CI]": _intervals(rows, "max_success_iterations", 0),
-            "succ_eps": rows["max_success_episodes"].round(1),
-            "held_itr [95% CI]": _intervals(rows, "held_success_iterations", 0),
-            "success_% [95% CI]": _intervals(rows, "success_plateau", 2, 100.0),
-            "max_avg_r": rows["max_average_reward"].round(3),
+            "median [CI]": _interval_texts(rows, "learning_time_median", 0),
+            "censored %": [_quoted_text(100.0 * v, 1) for v in rows["censored_share"]],
+            "first touch": [_quoted_text(v, 0) for v in rows["max_success_iterations"]],
+            "success % [CI]": _interval_texts(rows, "success_plateau", 2, 100.0),
             "settled": _settled_marks(rows["settled"]),
         }
-    ).pipe(_dashes)
+    )
 
 
 def _settled_marks(flags) -> list[str]:
@@ -367,36 +379,36 @@ def _settled_marks(flags) -> list[str]:
     return ["-" if flag is pd.NA else ("yes" if flag else "NO") for flag in flags]
 
 
-def _intervals(rows: pd.DataFrame, column: str, digits: int, scale: float = 1.0) -> list[str]:
-    return [with_interval(v, lo, hi, digits, scale) for v, lo, hi in zip(rows[column], rows[column + LOW],
-                                                                          rows[column + HIGH])]
-
-
 def _quoted_text(value, digits: int) -> str:
-    """A number without interval as the paper prints it: "-" if missing, no trailing ".0"."""
+    """A number without interval: "-" if missing, rounded to ``digits``, no trailing ".0"."""
     if _missing(value):
         return "-"
     return f"{round(float(value), digits):g}"
 
 
+def _short_method(name: str) -> str:
+    """A Table 4 method's name for printing (the ``source`` column says where it comes from)."""
+    for long, short in (("This run: ", ""), (" (Q-learning)", ""), (" with reward ", ", "),
+                        ("optimal advisor ", "advisor ")):
+        name = name.replace(long, short)
+    return name
+
+
 def display_table4(table4_frame: pd.DataFrame) -> pd.DataFrame:
     """Table 4 for printing: numbers rounded (ours with their intervals), "-" where the paper gives
     none, a ``source`` column saying "run here" or "quoted" on every row."""
-    frame = table4_frame.copy()
-    for name, digits in (("average_reward_convergence_episodes", 1), ("max_success_rate_percent", 2),
-                         ("max_success_episodes", 1)):
-        frame[name] = [_quoted_text(v, digits) if _missing(lo) or _missing(hi) else with_interval(v, lo, hi, digits)
-                       for v, lo, hi in zip(frame[name], frame[name + LOW], frame[name + HIGH])]
-    frame = frame.drop(columns=[name + suffix for name in TABLE4_NUMBERS for suffix in (LOW, HIGH)])
-    frame["source"] = [MARK_QUOTED if s == SOURCE_QUOTED else MARK_RUN_HERE for s in frame["source"]]
-    frame = frame[["source", *(c for c in frame.columns if c != "source")]]
-    return frame.rename(
-        columns={
-            "average_reward_convergence_episodes": "avg_reward_conv_episodes",
-            "max_success_rate_percent": "max_success_%",
-            "max_success_episodes": "max_success_episodes",
-        }
-    )
+    frame = table4_frame
+    shown = pd.DataFrame({
+        "source": [MARK_QUOTED if s == SOURCE_QUOTED else MARK_RUN_HERE for s in frame["source"]],
+        "method": [_short_method(m) for m in frame["methodology"]],
+        "conv. eps": [_quoted_text(v, 1) for v in frame["average_reward_convergence_episodes"]],
+        "success % [CI]": [_quoted_text(v, 2) if _missing(lo) else with_interval(v, lo, hi, 2) for v, lo, hi in zip(
+            frame["max_success_rate_percent"], frame["max_success_rate_percent" + LOW],
+            frame["max_success_rate_percent" + HIGH])],
+        "succ. eps": [_quoted_text(v, 1) for v in frame["max_success_episodes"]],
+        "learning time [CI]": _interval_texts(frame, "learning_time_median", 0),
+    })
+    return shown
 
 
 def curves_long(records: list[dict], curves: list[dict], metrics=CURVE_METRICS, stride: int = 1) -> pd.DataFrame:
