@@ -135,51 +135,27 @@ def test_render_refuses_bad_sizes_before_building_a_scene(argv, named, capsys, t
 
 
 @pytest.mark.parametrize("argv, named", [
-    (["--steps", "0"], "--steps"), (["--rounds", "0"], "--rounds"), (["--control-freq", "0"], "--control-freq"),
-    (["--steps", "3", "--rounds", "4"], "--steps 3 is below --rounds 4"), (["--runs", "0"], "--runs"),
-    (["--iterations", "0"], "--iterations"), (["--episodes", "0"], "--episodes"), (["--spec-runs", "0"], "--spec-runs"),
+    (["--steps", "0"], "--steps"), (["--runs", "0"], "--runs"), (["--iterations", "0"], "--iterations"),
+    (["--episodes", "0"], "--episodes"), (["--repeat", "0"], "--repeat"),
     (["--reward", "r9"], "unknown reward pattern 'r9'"), (["--sections", "learners,gpu"], "unknown section 'gpu'"),
     (["--sections", "skills", "--layout", "1", "9"], "--layout"), (["--sections", "skills", "--task", "nope"], "--task"),
-    (["--sections", "specs", "--skip-specs"], "no section left"),
 ])
 def test_speed_refuses_zero_sized_and_unknown_inputs(argv, named, capsys):
     code, err = _run(["speed", *argv], capsys)
     assert code == 2 and len(err) == 1 and named in err[0], err
 
 
-@pytest.mark.parametrize("alias, argv, named", [
-    ("env_speed", ["--rounds", "0"], "--rounds"), ("env_speed", ["--control-freq", "0"], "--control-freq"),
-    ("env_speed", ["--steps", "0"], "--steps"), ("learner_speed", ["--reward", "r9"], "'r9'"),
-    ("spec_speed", ["--runs", "-3"], "--runs"), ("skill_speed", ["--seed", "-1"], "--seed"),
-    ("speed", ["--baseline-runs", "0"], "--baseline-runs"),
-])
-def test_the_old_speed_commands_keep_their_flags_and_refuse_the_same(alias, argv, named, capsys):
-    code = commands.run_alias("speed", f"python -m benchmarks.{alias}", argv, alias=alias)
-    (line,) = capsys.readouterr().err.strip().splitlines()
-    assert code == 2 and line.startswith(f"python -m benchmarks.{alias}: error:") and named in line
+def test_speed_measures_the_sections_in_report_order_and_fails_with_a_failed_measurement(capsys, monkeypatch):
+    ran = []
 
+    def section(name, failed):
+        return lambda args: ran.append(name) or speed.Section([speed.Table(name, [{"x": 1}])], failed)
 
-def test_the_old_speed_flags_map_onto_sections():
-    spec = speed.build_parser("x", alias="spec_speed").parse_args(["--runs", "7", "--iterations", "9",
-                                                                    "--repeats", "2", "--no-cold-start"])
-    assert (spec.spec_runs, spec.spec_iterations, spec.spec_repeats) == (7, 9, 2)
-    assert speed._selected(spec, "spec_speed") == ("specs",)
-    old = speed.build_parser("x", alias="speed").parse_args(["--skip-specs"])
-    assert speed._selected(old, "speed") == ("learners",)
-    new = speed.build_parser("x").parse_args(["--sections", "skills,learners"])
-    assert speed._selected(new, None) == ("learners", "skills")  # report order, not the order given
-    with pytest.raises(SystemExit):
-        speed.build_parser("x", alias="env_speed").parse_args(["--runs", "5"])  # not a section of env_speed
-
-
-def test_the_speed_report_names_every_goal_and_whether_it_is_met(capsys, monkeypatch):
-    goals = [speed.Goal("specs", "rate within 2x", "ratio 0.40", False), speed.Goal("specs", "other", "1", True)]
-    monkeypatch.setitem(speed.SECTION_RUNNERS, "specs", lambda args: speed.SectionResult(goals))
-    assert speed.main(["--sections", "specs"]) == 0
-    out = capsys.readouterr().out
-    assert "specs        rate within 2x: ratio 0.40 -> NOT met" in out and "other: 1 -> met" in out
-    assert "1 of 2 goals met" in out
-    monkeypatch.setitem(speed.SECTION_RUNNERS, "specs", lambda args: speed.SectionResult(goals, failed=True))
+    monkeypatch.setitem(speed.SECTION_RUNNERS, "specs", section("specs", False))
+    monkeypatch.setitem(speed.SECTION_RUNNERS, "learners", section("learners", False))
+    assert speed.main(["--sections", "specs,learners"]) == 0
+    assert ran == ["learners", "specs"]
+    monkeypatch.setitem(speed.SECTION_RUNNERS, "specs", section("specs", True))
     assert speed.main(["--sections", "specs"]) == 1
 
 
@@ -337,31 +313,3 @@ def test_an_old_entry_point_of_a_missing_command_is_one_line(capsys, monkeypatch
     assert capsys.readouterr().err.splitlines() == [
         "python -m benchmarks.ghost: error: command 'ghost' is not available in this installation "
         "(tableclean_suite.bench.no_such_module is missing)"]
-
-
-#: A process with an object in a reference cycle whose finalizer says so if the exit collects it.
-_EXIT_SCRIPT = """
-import os
-from tableclean_suite.bench import commands
-
-class Cycle:
-    def __del__(self, write=os.write):
-        write(1, b" collected")
-
-cycle = Cycle()
-cycle.me = cycle
-if {skip}:
-    commands.skip_final_collection()
-    commands.skip_final_collection()  # a second entry point in the same process: registered once
-print("last line", end="")  # left in the buffer: the exit still flushes it
-"""
-
-
-@pytest.mark.cli
-@pytest.mark.parametrize("skip, expected", [(False, "last line collected"), (True, "last line")])
-def test_a_commands_exit_skips_the_last_collection_and_still_flushes(skip, expected):
-    import subprocess
-    import sys
-
-    done = subprocess.run([sys.executable, "-c", _EXIT_SCRIPT.format(skip=skip)], capture_output=True, text=True)
-    assert (done.returncode, done.stdout, done.stderr) == (0, expected, "")

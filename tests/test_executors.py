@@ -259,7 +259,10 @@ def test_single_blas_thread_pins_every_loaded_openblas_and_restores_it():
     import numpy  # noqa: F401  (its wheel loads OpenBLAS)
     import scipy.linalg  # noqa: F401  (so does scipy's)
 
-    from tableclean_suite.executors.blas import blas_threads, loaded_openblas, single_blas_thread
+    from tableclean_suite.executors.blas import loaded_openblas, single_blas_thread
+
+    def blas_threads():
+        return {path: int(getter()) for path, getter, _ in loaded_openblas()}
 
     libraries = loaded_openblas()
     assert libraries, "numpy's and scipy's wheels ship OpenBLAS: none was found in /proc/self/maps"

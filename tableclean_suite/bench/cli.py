@@ -17,8 +17,6 @@ import math
 import sys
 from pathlib import Path
 
-from tableclean_suite.task import Action, as_action
-
 #: Exit code of a command line used wrongly (argparse's).
 EXIT_USAGE = 2
 #: Output kinds of :func:`add_out_argument`: a folder the command fills, or one file it writes.
@@ -79,23 +77,6 @@ def positive_float(text: str) -> float:
     if not math.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
     return value
-
-
-def action_list(text: str) -> tuple[Action, ...]:
-    """``"move,pick"`` -> ``(Action.MOVE, Action.PICK)``, in the given order, without repeats."""
-    chosen = []
-    for name in (part.strip() for part in text.split(",")):
-        if not name:
-            continue
-        try:
-            action = as_action(name)
-        except ValueError as error:
-            raise argparse.ArgumentTypeError(str(error)) from None
-        if action not in chosen:
-            chosen.append(action)
-    if not chosen:
-        raise argparse.ArgumentTypeError("expected at least one action")
-    return tuple(chosen)
 
 
 def name_list(text: str) -> tuple[str, ...]:

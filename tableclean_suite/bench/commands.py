@@ -15,7 +15,6 @@ This module only knows their names: :data:`COMMANDS`.  Flags given without a com
 from __future__ import annotations
 
 import argparse
-import functools
 import importlib
 import os
 import sys
@@ -81,7 +80,7 @@ COMMANDS: dict[str, Command] = {
     "objects": Command("tableclean_suite.bench.object_table", "the skills on every registered object type",
                        physics=True),
     "speed": Command("tableclean_suite.bench.speed",
-                     "speed goals: learners, specs, cold start, environment, skills", physics=True),
+                     "measured speed: learners, task size, skills, environment, cold start", physics=True),
     "policy-analysis": Command("tableclean_suite.bench.policy_analysis",
                                "measured plateaus against exact values of the learned policies"),
 }
@@ -154,33 +153,11 @@ def _exit_code(code) -> int:
     return 1
 
 
-@functools.cache
-def skip_final_collection() -> None:
-    """Make this process's exit skip the garbage collector's last pass over every object still alive.
-
-    At exit the interpreter clears its modules and runs a full cyclic collection over whatever they
-    held (numba's compiled kernels and type caches, pandas, matplotlib): ~0.35 s of the default
-    run's ~6 s whole process, measured, for memory the operating system takes back anyway.
-    Registered here as an :mod:`atexit` handler (it runs before that pass, and after the command
-    has returned), :func:`gc.freeze` moves every object into the generation collections ignore.
-    Nothing else of the exit changes: the other exit handlers run (they were registered earlier,
-    so they run after this one), the standard streams are flushed and objects outside reference
-    cycles are freed as before; objects in cycles are left to the operating system, as Python
-    already allows for objects alive at exit.  Called by every entry point (console script,
-    ``python -m``); registered once per process (cached); a library user's process is not affected.
-    """
-    import atexit
-    import gc
-
-    atexit.register(gc.freeze)
-
-
 def main(argv=None, prog: str | None = None) -> int:
     """Run ``prog COMMAND ARGS...`` (default ``sys.argv[1:]``); returns the exit code.
 
     No command, or flags first: ``run``.  ``-h``/``--help`` alone lists the commands.
     """
-    skip_final_collection()
     argv = list(sys.argv[1:] if argv is None else argv)
     prog = prog or invoked_as()
     if argv and argv[0] in HELP_FLAGS:
@@ -196,15 +173,13 @@ def main(argv=None, prog: str | None = None) -> int:
     return _run(name, rest, command_prog, unavailable_prog=prog)
 
 
-def run_alias(name: str, prog: str, argv=None, **options) -> int:
-    """Run command ``name`` as an old entry point (``python -m benchmarks.X``) called ``prog``;
-    ``options`` go to its ``main`` (e.g. the speed command's ``alias``)."""
-    skip_final_collection()
-    return _run(name, argv, prog, **options)
+def run_alias(name: str, prog: str, argv=None) -> int:
+    """Run command ``name`` as an old entry point (``python -m benchmarks.X``) called ``prog``."""
+    return _run(name, argv, prog)
 
 
-def _run(name: str, argv, prog: str, unavailable_prog: str | None = None, **options) -> int:
-    """``main(argv, prog=prog, **options)`` of command ``name``'s module, as an exit status: the one
+def _run(name: str, argv, prog: str, unavailable_prog: str | None = None) -> int:
+    """``main(argv, prog=prog)`` of command ``name``'s module, as an exit status: the one
     place where a command's ``SystemExit``, refusals (:func:`_refusals`: one line, exit 2) and Ctrl-C
     (exit :data:`EXIT_INTERRUPTED`) become exit codes.  A command not installed is one line, exit 2,
     under ``unavailable_prog`` (default ``prog``)."""
@@ -213,7 +188,7 @@ def _run(name: str, argv, prog: str, unavailable_prog: str | None = None, **opti
     except CommandUnavailable as error:
         return _usage_error(unavailable_prog or prog, str(error))
     try:
-        return _exit_code(module.main(argv, prog=prog, **options))
+        return _exit_code(module.main(argv, prog=prog))
     except SystemExit as stop:
         return _exit_code(stop.code)
     except _refusals() as error:  # the resource guard, an unusable output folder: one line, exit 2

@@ -116,19 +116,19 @@ def layout_label(state: TaskState) -> str:
 
 
 @single_blas_thread()  # the same bits in this process, a local worker or a Ray worker
-def run_round(session, round_index: int, seed: int, on_trial: Callable[[dict], None] | None = None,
+def run_round(scene, round_index: int, seed: int, on_trial: Callable[[dict], None] | None = None,
               actions: Iterable | None = None) -> list[dict]:
     """One round: every action in ``actions`` (default: the model's) once from every reachable non-terminal state.
 
-    ``session`` is a :class:`tableclean_suite.physics_backend.PhysicsStepEnv` (its env,
+    ``scene`` is a :class:`tableclean_suite.physics_backend.PhysicsStepEnv` (its env,
     controller and model are used).  States only reachable through a left-out action are
     staged.  Returns the trial rows in execution order.
     """
     from tableclean_suite.physics_backend import restore, snapshot, stage
 
-    actions = action_names(session.model, actions)
+    actions = action_names(scene.model, actions)
 
-    env, controller, model = session.env, session.controller, session.model
+    env, controller, model = scene.env, scene.controller, scene.model
     targets = [s for s in model.reachable_states() if not s.is_terminal]
     visited: set[TaskState] = set()
     rows: list[dict] = []
@@ -215,15 +215,15 @@ def run_round_task(task: FidelityRound) -> list[dict]:
     options: :func:`tableclean_suite.physics_backend.process_session`)."""
     from tableclean_suite.physics_backend import process_session
 
-    session = process_session(task.spec[0], dict(task.physics_options))
-    return run_round(session, task.round_index, task.seed, actions=task.actions)
+    scene = process_session(task.spec[0], dict(task.physics_options))
+    return run_round(scene, task.round_index, task.seed, actions=task.actions)
 
 
 #: Suffix (after the trials CSV's stem) of the file recording what the stored trials were run with.
 CONFIGURATION_SUFFIX = ".config.json"
 
 
-def run_configuration(model: TaskModel, physics_options: dict | None, session=None, plugins: Iterable[str] = ()) -> dict:
+def run_configuration(model: TaskModel, physics_options: dict | None, scene=None, plugins: Iterable[str] = ()) -> dict:
     """What determines a trial besides its round and seed: the task spec, the scene's options
     (robot, randomisation, ...) and, with ``plugins`` (``--plugins`` entries), the SHA-256 of their
     sources and of the user modules they refer to
@@ -233,7 +233,7 @@ def run_configuration(model: TaskModel, physics_options: dict | None, session=No
 
     from tableclean_suite.bench.plugins import plugin_sources_digest
 
-    options = "a given session" if session is not None else (physics_options or {})
+    options = "a given scene" if scene is not None else (physics_options or {})
     configuration = {"task": model.spec.to_dict(), "physics_options": options}
     digest = plugin_sources_digest(plugins)
     if digest is not None:  # without plugins the record is as before, so stored trials still resume
@@ -330,7 +330,7 @@ def check_trial_rows(rows, model: TaskModel, source) -> None:
 
 
 def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fresh: bool = False,
-            session=None, log: Callable[[str], None] | None = print, physics_options: dict | None = None,
+            scene=None, log: Callable[[str], None] | None = print, physics_options: dict | None = None,
             actions: Iterable | None = None, model: TaskModel | None = None, executor=None,
             plugins: Iterable[str] = ()) -> list[dict]:
     """Run rounds until there are ``trials`` of them; returns all trial rows (resumed ones included).
@@ -338,10 +338,10 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
     With ``trials_csv`` every finished round is stored (atomically, whole rounds only), and
     complete rounds already in it are not run again (a different ``seed`` raises
     :class:`ResumeError`; ``fresh=True`` deletes the file first; incomplete rounds run again).
-    ``session`` reuses a PhysicsStepEnv in this process; otherwise ``executor`` (a
+    ``scene`` reuses a PhysicsStepEnv in this process; otherwise ``executor`` (a
     :mod:`tableclean_suite.executors` executor; default: this process) runs the rounds, each
     worker building its scene with ``physics_options``.  ``actions`` limits the executed
-    actions (e.g. leave out the slow clean).  ``model`` is the task (default: the session's,
+    actions (e.g. leave out the slow clean).  ``model`` is the task (default: the scene's,
     else ``paper``).  The trials' folder is locked while rounds run
     (:func:`~tableclean_suite.bench.outputs.output_lock`): a second run into it raises
     :class:`~tableclean_suite.bench.outputs.OutputBusyError`.  ``plugins`` (``--plugins`` entries)
@@ -350,7 +350,7 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
     """
     import json
 
-    model = session.model if session is not None else (model or TaskModel())
+    model = scene.model if scene is not None else (model or TaskModel())
     actions = action_names(model, actions)
     per_round = trials_per_round(model, actions)
     path = None if trials_csv is None else Path(trials_csv)
@@ -360,7 +360,7 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
         if path is not None and fresh and path.exists():
             path.unlink()
         if path is not None:
-            check_configuration(path, run_configuration(model, physics_options, session, plugins), log)
+            check_configuration(path, run_configuration(model, physics_options, scene, plugins), log)
         rows = trial_store.complete_rounds(read_trials(path, log) if path is not None else [], per_round, log)
         check_trial_rows(rows, model, path)
         done_rounds = sorted({row["round"] for row in rows})
@@ -375,9 +375,9 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
         if not todo:
             return [row for row in rows if row["round"] < trials]
         started = time.perf_counter()
-        owned = session is None and executor is None  # this process's default: its scenes close when the rounds are done
-        if session is not None:
-            results = (run_round(session, r, seed, actions=actions) for r in todo)
+        owned = scene is None and executor is None  # this process's default: its scenes close when the rounds are done
+        if scene is not None:
+            results = (run_round(scene, r, seed, actions=actions) for r in todo)
         else:
             from tableclean_suite.executors import LocalExecutor
 

@@ -18,6 +18,7 @@ import argparse
 import os
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -52,14 +53,15 @@ def majority_policy(q: np.ndarray) -> np.ndarray:
 
 
 class Recorder:
-    """Renders the scene every ``frame_every`` control steps, writes annotated frames to ``writer``."""
+    """Renders the scene every ``filming.frame_every`` control steps, writes annotated frames to ``writer``."""
 
-    def __init__(self, env, writer, width: int, height: int, camera: str, frame_every: int):
+    def __init__(self, env, writer, filming: Filming):
         from PIL import ImageFont
 
         self.env, self.writer = env, writer
-        self.width, self.height, self.camera, self.frame_every = width, height, camera, frame_every
-        self.font = ImageFont.load_default(size=max(10, height // 26))
+        self.width, self.height = filming.width, filming.height
+        self.camera, self.frame_every = filming.camera, filming.frame_every
+        self.font = ImageFont.load_default(size=max(10, self.height // 26))
         self.control_steps = 0
         self.frames = 0
         self.state: TaskState | None = None
@@ -109,11 +111,31 @@ def train_policy(learner: str, reward: str, start: TaskState, runs: int, iterati
     return majority_policy(result.q)
 
 
-def run_rollout(policy: np.ndarray, start: TaskState, video: Path, fps: int, width: int, height: int,
-                frame_every: int = 4, max_actions: int = 20, still: Path | None = None, seed: int = 0,
-                camera: str = "frontview", log=print, spec=None, robots: str = "Panda") -> dict:
+@dataclass(frozen=True)
+class Filming:
+    """How a rollout is filmed.
+
+    Attributes:
+        fps: video frames per second (>= 1).
+        width, height: frame size in pixels (even).
+        frame_every: one frame per this many control steps (>= 1).
+        camera: one of [CAMERAS][tableclean_suite.bench.rollout.CAMERAS].
+        still: where to save one frame taken while wiping (PNG or JPEG), or None.
+    """
+
+    fps: int = 20
+    width: int = 480
+    height: int = 360
+    frame_every: int = 4
+    camera: str = "frontview"
+    still: Path | None = None
+
+
+def run_rollout(policy: np.ndarray, start: TaskState, video: Path, filming: Filming = Filming(),
+                max_actions: int = 20, seed: int = 0, log=print, spec=None, robots: str = "Panda") -> dict:
     """Execute ``policy`` in physics from ``start`` (a state of ``spec``, default ``paper``) with the arm
-    ``robots`` (a robot with a registered skill config), writing the video; returns a summary dict."""
+    ``robots`` (a robot with a registered skill config), writing the video as
+    [Filming][tableclean_suite.bench.rollout.Filming] says; returns a summary dict."""
     import imageio.v2 as imageio
 
     from tableclean_suite.controllers import SkillController, make_skill_env
@@ -121,15 +143,15 @@ def run_rollout(policy: np.ndarray, start: TaskState, video: Path, fps: int, wid
 
     model = TaskModel(spec=spec)
     env = make_skill_env(has_offscreen_renderer=True, task=model.spec, robots=robots)
-    writer_kwargs = {"fps": fps}
+    writer_kwargs = {"fps": filming.fps}
     if video.suffix.lower() == ".mp4":
         writer_kwargs.update(codec="libx264", macro_block_size=2, quality=6)
     else:
-        writer_kwargs = {"duration": 1000.0 / fps, "loop": 0}
+        writer_kwargs = {"duration": 1000.0 / filming.fps, "loop": 0}
     video.parent.mkdir(parents=True, exist_ok=True)
     summary = {"actions": [], "states": [start.index], "reached_terminal": False, "fault": None}
     with imageio.get_writer(video, **writer_kwargs) as writer:
-        recorder = Recorder(env, writer, width, height, camera, frame_every)
+        recorder = Recorder(env, writer, filming)
         controller = SkillController(env, model, on_step=recorder.on_step)
         stage(env, SkillController(env, model), start, seed=seed)
         state = start
@@ -163,6 +185,7 @@ def run_rollout(policy: np.ndarray, start: TaskState, video: Path, fps: int, wid
                 break
         summary["frames"] = recorder.frames
         summary["control_steps"] = recorder.control_steps
+    still = filming.still
     if still is not None:
         from PIL import Image
 
@@ -258,8 +281,8 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
           + ", ".join(f"{s.index}:{model.action_name(int(policy[s.index]))}"
                       for s in reachable[:POLICY_PRINT_STATES] if not s.is_terminal)
           + (" ..." if len(reachable) > POLICY_PRINT_STATES else ""))
-    summary = run_rollout(policy, start, video, args.fps, args.width, args.height, args.frame_every,
-                          args.max_actions, still, args.seed, args.camera, spec=spec, robots=robot)
+    filming = Filming(args.fps, args.width, args.height, args.frame_every, args.camera, still)
+    summary = run_rollout(policy, start, video, filming, args.max_actions, args.seed, spec=spec, robots=robot)
     outcome = "reached the terminal state" if summary["reached_terminal"] else (
         f"stopped by a fault ({summary['fault']})" if summary["fault"] else f"did not finish in {args.max_actions} actions")
     print(f"{len(summary['actions'])} actions, {outcome}; wrote {video} ({summary['frames']} frames, "

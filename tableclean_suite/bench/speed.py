@@ -1,116 +1,160 @@
-"""``tableclean-bench speed``: every speed goal of the suite, measured in sections, each goal named and checked.
+"""``tableclean-bench speed``: how fast the learners, the skills and a first run are on this machine.
 
-    tableclean-bench speed                                   # every section (several minutes)
-    tableclean-bench speed --sections learners,specs         # some of them
-    tableclean-bench speed --sections environment --steps 200 --rounds 4
+    tableclean-bench speed                                    # every section (a few minutes)
+    tableclean-bench speed --sections learners,skills         # some of them
+    tableclean-bench speed --markdown docs/measurements.md    # also write them as a page stamped with the machine
 
-Sections (``--sections``, comma separated, default all), in this order:
+Every figure is measured in this run.  Where there is a yardstick, the figure is a ratio to it,
+measured alongside in alternating blocks: on shared cores absolute times drift with the load, a
+ratio of neighbouring measurements much less.  The sections (``--sections``, in this order):
 
 ``learners``
-    the compiled learners against a plain per-step Python loop (goal: >= :data:`PLAIN_LOOP_GOAL`
-    times faster), every registered learner against Q-learning (:mod:`.learner_speed`), every
-    exploration, and the default run after a warm-up (goal: <= :data:`DEFAULT_RUN_GOAL_S` s);
+    every registered learner's updates per second on the paper spec (``--runs`` x ``--iterations``
+    per call, the best of ``--repeat`` calls after a warm-up, so compilation is not counted) and its
+    time per real update relative to Q-learning; the compiled Q-learning and SARSA against
+    Algorithm 1 as a plain per-step Python loop (:func:`plain_loop`).
 ``specs``
-    the compiled learner's per-update rate on the scaling study's largest spec against the
-    paper's (:mod:`.spec_speed`);
-``cold-start``
-    the README's command in three fresh processes sharing one numba cache (:mod:`.spec_speed`);
-``environment``
-    ``env.step`` rate of TableClean against robosuite's Lift (:mod:`.env_speed`);
+    Q-learning's update rate on the scaling study's largest spec relative to the paper spec's.
 ``skills``
-    control steps and wall time of the skills in physics, and the fast control path against
-    robosuite's (:mod:`.skill_speed`).
+    ``--episodes`` optimal episodes executed by the skills in MuJoCo, alternately on robosuite's
+    control path (``env.step``) and the compiled one (``make_skill_env(fast_control=True)``):
+    control steps per second of each and of raw MuJoCo (only the ``mj_step`` calls, replayed from
+    the compiled path's recorded states), and the executor's time outside the stepping relative
+    to its time inside.
+``environment``
+    the ``env.step`` rate of TableClean (its sponge resting, and pressing on a segment) relative
+    to robosuite's Lift: same robot, controller and control frequency, random actions.
+``cold-start``
+    the run command in three fresh processes sharing a numba cache that starts empty: the first
+    process after installation (it compiles the kernels), the same command again (its cells,
+    comparisons and figures come from the output folder's result caches) and on a new output folder
+    (numba's cache only: the work of ``--fresh``).
 
-``--old-tree DIR`` (a checkout of an older tree) adds two goals measured as ratios in the same
-run (:mod:`.tree_ratio`): the learners section times the default run's whole process, the
-cold-start section the first process, alternately here and in ``DIR``.
-
-The report ends with one line per goal: what was measured and whether the goal is met.  Exit
-code 0 whatever the goals say; 1 when a measurement itself failed (a cold-start process that
-exited non-zero, a skill episode that did not reach the terminal state); 2 on bad flags.
-The old commands (``python -m benchmarks.speed``, ``learner_speed``, ``spec_speed``,
-``env_speed``, ``skill_speed``) are aliases selecting sections (:data:`ALIASES`) with their old flags.
-
-Learners section, in detail.  Both sides run in this process on the same task.  Two baselines:
-- ``plain loop``: a lean hand-written Python loop of Algorithm 1 over precomputed
-  transition lists with ``random.random()`` (the fastest plain Python we could write),
-- ``reference engine``: ``train(engine="reference")``, the library's own per-step loop
-  (which also serves the physics backend and draws the same random numbers).
-The compiled learners are timed after a warm-up call (numba compilation excluded).
-It also times the whole default ``tableclean-bench run --fresh`` (all cells trained,
-bootstraps, tables, CSVs, figures drawn: no result cache) in this process after a warm-up run,
-:data:`DEFAULT_RUN_REPEATS` times: the median run's CPU seconds and wall seconds; the per-update
-rate on the scaling study's largest spec against
-the paper's (:mod:`.spec_speed`); and the cold start, measured in one go
-(:func:`.spec_speed.time_cold_starts`): the README's command in three fresh processes sharing a
-numba cache that starts empty — the first process (empty numba and result caches), a second
-one on the same output directory (warm caches: the README's second run, goal <= 3 s) and a
-second one on a new output directory (result caches off, numba's cache only).
+Exit code 0; 1 when a measurement failed (a process exited non-zero, an episode did not reach
+the terminal state); 2 on bad flags.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import random
+import re
+import subprocess
 import sys
+import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 from tableclean_suite.bench import cli
 from tableclean_suite.bench.cli import positive_int
-from tableclean_suite.bench.goal_text import against_goal, seconds_against_goal
-from tableclean_suite.bench.tree_ratio import FIRST_PROCESS_GOAL_S  # noqa: F401  (the cold start's goal, s)
-from tableclean_suite.learners import train
-from tableclean_suite.rewards import get_reward_pattern
-from tableclean_suite.task import Outcome, TaskModel
 
-LEARNERS = ("q_learning", "sarsa")
-#: Goal: the compiled learners at least this many times the plain loop's updates per second.
-PLAIN_LOOP_GOAL = 100.0
-#: Goal: the default run, after a warm-up in the same process, within this many wall seconds.
-DEFAULT_RUN_GOAL_S = 4.0
-#: Timed default runs after the warm-up; the median's wall time is checked against the goal.
-DEFAULT_RUN_REPEATS = 3
 #: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench speed"
 #: The sections, in the order they run and report.
-SECTIONS = ("learners", "specs", "cold-start", "environment", "skills")
+SECTIONS = ("learners", "specs", "skills", "environment", "cold-start")
+#: Learners compared with the plain Python loop of Algorithm 1.
+PLAIN_LOOP_LEARNERS = ("q_learning", "sarsa")
+#: The plain loop trains this fraction of ``--runs`` (at least one run): it is ~30x slower.
+PLAIN_LOOP_SHARE = 50
+#: Runs and iterations per call of the ``specs`` section (larger calls than the learners': a big spec's
+#: Q-tables are allocated in every call, as in a real run).
+SPEC_RUNS, SPEC_ITERATIONS = 64, 50_000
+#: Alternating blocks of the ``environment`` section, and its control frequency (Hz).
+ENV_ROUNDS, ENV_CONTROL_FREQ = 10, 20
+#: The command the ``cold-start`` section times (``--out`` appended), and its processes:
+#: (label, output folder; the same folder = the same result caches).
+COLD_START_COMMAND = ("-m", "tableclean_suite.bench", "run", "--no-progress")
+COLD_START_PROCESSES = (("first process (empty numba cache)", "run1"),
+                        ("second process, same output folder", "run1"),
+                        ("second process, new output folder", "run2"))
+#: Package versions stamped on the Markdown page.
+VERSIONED = ("numba", "numpy", "mujoco", "robosuite")
 
 
-def plain_loop(learner: str, runs: int, iterations: int, alpha=0.3, gamma=0.3, epsilon=0.1, max_itr=500, seed=0):
-    """Algorithm 1 as a straightforward Python loop (r2 rewards, no looping penalty). Returns updates done."""
+@dataclass(frozen=True)
+class Table:
+    """One table of the report.
+
+    Attributes:
+        title: what it measures, one line.
+        rows: one dict per row, column name -> value already formatted for print.
+        note: how it was measured (one paragraph), or "".
+    """
+
+    title: str
+    rows: list
+    note: str = ""
+
+    def text(self) -> str:
+        """The table as plain text."""
+        import pandas as pd
+
+        return "\n".join(filter(None, [self.title, pd.DataFrame(self.rows).to_string(index=False), self.note]))
+
+    def markdown(self) -> str:
+        """The table as Markdown, its title a level-3 heading."""
+        columns = list(self.rows[0])
+        lines = [f"### {self.title}", "", "| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+        lines += ["| " + " | ".join(str(row[column]) for column in columns) + " |" for row in self.rows]
+        if self.note:
+            lines += ["", self.note]
+        return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class Section:
+    """A section's tables, and whether its measurement failed (then its figures are not to be trusted)."""
+
+    tables: list
+    failed: bool = False
+
+
+def _best_seconds(function, repeat: int) -> float:
+    """The fastest of ``repeat`` wall-clock timings of ``function()``."""
+    best = float("inf")
+    for _ in range(repeat):
+        start = time.perf_counter()
+        function()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+# ---------------------------------------------------------------------------------------------
+# learners and specs
+# ---------------------------------------------------------------------------------------------
+def plain_loop(learner: str, runs: int, iterations: int, alpha=0.3, gamma=0.3, epsilon=0.1, max_itr=500,
+               seed=0) -> int:
+    """Algorithm 1 (``learner``: ``"q_learning"`` or ``"sarsa"``) as a lean per-step Python loop on the paper
+    spec: precomputed transition lists, r2 rewards (no looping penalty), ``random.random()``.
+
+    Returns:
+        the updates done, ``runs * iterations``.
+    """
+    from tableclean_suite.rewards import get_reward_pattern
+    from tableclean_suite.task import Outcome, TaskModel
+
     rng = random.Random(seed)
     model = TaskModel()
     n_actions = model.n_actions
     next_state, outcome = (a.tolist() for a in model.transition_arrays())
     values = get_reward_pattern("r2").outcome_values().tolist()
-    start = model.start_state.index
-    terminal_outcome = int(Outcome.TERMINAL)
-    sarsa = learner == "sarsa"
+    start, terminal_outcome, sarsa = model.start_state.index, int(Outcome.TERMINAL), learner == "sarsa"
 
     def choose(row):
-        if rng.random() < epsilon:
-            return rng.randrange(n_actions)
-        return row.index(max(row))
+        return rng.randrange(n_actions) if rng.random() < epsilon else row.index(max(row))
 
     for _ in range(runs):
         q = [[0.0] * n_actions for _ in range(len(next_state))]
         state, length, action = start, 0, None
         for _ in range(iterations):
-            if action is None:
-                action = choose(q[state])
+            action = choose(q[state]) if action is None else action
             nxt, out = next_state[state][action], outcome[state][action]
-            reward = values[out]
             length += 1
             terminal = out == terminal_outcome
             next_action = None if terminal else choose(q[nxt])
-            if terminal:
-                target = reward
-            elif sarsa:
-                target = reward + gamma * q[nxt][next_action]
-            else:
-                target = reward + gamma * max(q[nxt])
+            target = values[out] + (0.0 if terminal else gamma * (q[nxt][next_action] if sarsa else max(q[nxt])))
             q[state][action] += alpha * (target - q[state][action])
             if terminal or length >= max_itr:
                 state, length, action = start, 0, None
@@ -119,278 +163,332 @@ def plain_loop(learner: str, runs: int, iterations: int, alpha=0.3, gamma=0.3, e
     return runs * iterations
 
 
-def _rate(function) -> float:
-    start = time.perf_counter()
-    updates = function()
-    return updates / (time.perf_counter() - start)
+def learner_table(reward: str, runs: int, iterations: int, repeat: int) -> Table:
+    """Every registered learner's updates per second on the paper spec, and its time per real update
+    relative to Q-learning's; Dyna-Q's planning updates are counted apart."""
+    from tableclean_suite.learners import get_learner, learner_names, train
+
+    seconds = {}
+    for name in learner_names():
+        train(name, reward, runs=2, iterations=10)  # warm-up: compile or load the kernel
+        seconds[name] = _best_seconds(lambda: train(name, reward, runs=runs, iterations=iterations), repeat)
+    real = runs * iterations
+    rows = [{"learner": name, "M updates/s": f"{real / elapsed / 1e6:.3g}",
+             "planning M updates/s": f"{real * get_learner(name).planning_steps / elapsed / 1e6:.3g}",
+             "time per update / Q-learning's": f"{elapsed / seconds['q_learning']:.2f}"}
+            for name, elapsed in seconds.items()]
+    return Table(f"Learners: paper spec, reward {reward}", rows,
+                 f"{runs} runs x {iterations} iterations per train() call, the fastest of {repeat} (wall clock, "
+                 "all cores, records included); a real update is one environment step and its TD update.")
 
 
-def measure(runs: int, iterations: int, baseline_runs: int) -> list[dict]:
-    """Updates per second of each learner and of both baselines, and the ratios."""
+def plain_loop_table(runs: int, iterations: int, repeat: int) -> Table:
+    """The compiled Q-learning and SARSA against :func:`plain_loop`, updates per second (reward r2)."""
+    from tableclean_suite.learners import train
+
+    plain_runs = max(1, runs // PLAIN_LOOP_SHARE)
     rows = []
-    for learner in LEARNERS:
-        train(learner, "r2", runs=2, iterations=10)  # warm-up: compile
-        compiled = _rate(lambda: train(learner, "r2", runs=runs, iterations=iterations) and runs * iterations)
-        plain = _rate(lambda: plain_loop(learner, baseline_runs, iterations))
-        reference = _rate(
-            lambda: train(learner, "r2", runs=baseline_runs, iterations=iterations, engine="reference")
-            and baseline_runs * iterations
-        )
-        rows.append(
-            {
-                "learner": learner,
-                "compiled_updates_per_s": compiled,
-                "plain_loop_updates_per_s": plain,
-                "reference_updates_per_s": reference,
-                "ratio_vs_plain_loop": compiled / plain,
-                "ratio_vs_reference": compiled / reference,
-            }
-        )
+    for learner in PLAIN_LOOP_LEARNERS:
+        train(learner, "r2", runs=2, iterations=10)
+        compiled = runs * iterations / _best_seconds(lambda: train(learner, "r2", runs=runs, iterations=iterations),
+                                                     repeat)
+        plain = plain_runs * iterations / _best_seconds(lambda: plain_loop(learner, plain_runs, iterations), repeat)
+        rows.append({"learner": learner, "compiled M updates/s": f"{compiled / 1e6:.3g}",
+                     "plain Python M updates/s": f"{plain / 1e6:.3g}", "compiled / plain Python": f"{compiled / plain:.0f}"})
+    return Table("Compiled learners against a plain Python loop of Algorithm 1", rows,
+                 f"Plain loop: {plain_runs} runs x {iterations} iterations, precomputed transition lists, "
+                 "random.random(); the fastest of the repeats on both sides.")
+
+
+def learners_section(args) -> Section:
+    """Every learner against Q-learning; the compiled learners against the plain loop."""
+    return Section([learner_table(args.reward, args.runs, args.iterations, args.repeat),
+                    plain_loop_table(args.runs, args.iterations, args.repeat)])
+
+
+def specs_section(args) -> Section:
+    """Q-learning's rate on the scaling study's largest spec against the paper's, calls interleaved."""
+    from tableclean_suite.bench.scaling.family import largest_default_spec
+    from tableclean_suite.learners import train
+    from tableclean_suite.task import TaskModel
+
+    models = [TaskModel(spec="paper"), TaskModel(spec=largest_default_spec())]
+    best = [float("inf")] * len(models)
+    for model in models:
+        train("q_learning", "r4", runs=2, iterations=10, task=model)  # the model's tables and kernel, untimed
+    for _ in range(args.repeat):
+        for index, model in enumerate(models):
+            best[index] = min(best[index], _best_seconds(
+                lambda: train("q_learning", "r4", runs=SPEC_RUNS, iterations=SPEC_ITERATIONS, task=model), 1))
+    updates = SPEC_RUNS * SPEC_ITERATIONS
+    rows = [{"spec": model.spec.name, "state codes": model.n_states, "M updates/s": f"{updates / seconds / 1e6:.3g}",
+             "rate / paper's": f"{best[0] / seconds:.2f}"} for model, seconds in zip(models, best)]
+    return Section([Table("Task size: Q-learning's update rate on the scaling study's largest spec", rows,
+                          f"Reward r4, {SPEC_RUNS} runs x {SPEC_ITERATIONS} iterations per call (Q-tables allocated "
+                          f"in every call), the specs' calls interleaved, the fastest of {args.repeat}.")])
+
+
+# ---------------------------------------------------------------------------------------------
+# skills and environment
+# ---------------------------------------------------------------------------------------------
+def run_episode(env, record_states: bool = False) -> tuple[dict, list]:
+    """Reset ``env`` and execute the task model's shortest plan with the skills.
+
+    Returns:
+        ``({"steps", "wall_s", "env_s", "terminal"}, states)``: control steps, wall seconds of the plan,
+        seconds inside the stepping, whether it ended terminal; with ``record_states`` (needs the
+        compiled path's stepper) the mjData state at the start of every control step, else ``[]``.
+    """
+    from tableclean_suite.controllers import SkillController
+    from tableclean_suite.controllers.fast_control import ControlStepLog, fast_stepper_of
+
+    stepper = fast_stepper_of(env)
+    if record_states:
+        if stepper is None:
+            raise ValueError("recording the control steps' states needs the compiled path's stepper "
+                             "(make_skill_env(fast_control=True))")
+        stepper.state_log = ControlStepLog(stepper)
+    controller = SkillController(env, env.task_model)
+    env.reset()
+    start = time.perf_counter()
+    results = controller.execute_plan(env.task_model.shortest_plan(env.symbolic_state()))
+    episode = {"steps": sum(r.steps for r in results), "wall_s": time.perf_counter() - start,
+               "env_s": sum(r.env_time for r in results),
+               "terminal": bool(results and results[-1].state_after is not None and results[-1].state_after.is_terminal)}
+    if not record_states:
+        return episode, []
+    states, stepper.state_log = stepper.state_log.states(), None
+    return episode, states
+
+
+def replay_mujoco(env, states: list) -> float:
+    """Seconds of the raw ``mj_step`` calls of one control step from each of ``states``, on a copy of the data."""
+    import mujoco
+
+    from tableclean_suite.robosuite_adapter import mj_model
+
+    model = mj_model(env.sim)
+    data = mujoco.MjData(model)
+    substeps = int(round(env.control_timestep / env.model_timestep))
+    seconds = 0.0
+    for state in states:
+        for field, value in state.items():
+            getattr(data, field)[:] = value
+        start = time.perf_counter()
+        for _ in range(substeps):
+            mujoco.mj_step(model, data)
+        seconds += time.perf_counter() - start
+    return seconds
+
+
+def compare_paths(episodes: int, layout=(1, 1), seed: int = 0, task=None) -> dict:
+    """``episodes`` optimal episodes on robosuite's path and the compiled one, alternating, after one
+    untimed episode (kernels loaded or compiled), and raw MuJoCo replayed from the compiled path's states.
+
+    Returns:
+        ``{"robosuite": [episode, ...], "compiled": [episode, ...], "mujoco_s": seconds}`` with
+        :func:`run_episode`'s episodes; the raw-MuJoCo steps are the compiled episodes' steps.
+    """
+    from tableclean_suite.controllers import make_skill_env
+
+    def make(fast: bool):
+        return make_skill_env(*layout, seed=seed, hard_reset=False, fast_control=fast, task=task)
+
+    warm = make(True)
+    try:
+        run_episode(warm, record_states=True)
+    finally:
+        warm.close()
+    envs = {"robosuite": make(False), "compiled": make(True)}
+    measured = {"robosuite": [], "compiled": [], "mujoco_s": 0.0}
+    try:
+        for _ in range(episodes):
+            measured["robosuite"].append(run_episode(envs["robosuite"])[0])
+            episode, states = run_episode(envs["compiled"], record_states=True)
+            measured["compiled"].append(episode)
+            measured["mujoco_s"] += replay_mujoco(envs["compiled"], states)
+    finally:
+        for env in envs.values():
+            env.close()
+    return measured
+
+
+def skill_rows(measured: dict) -> list[dict]:
+    """The control-path table of :func:`compare_paths`' measurements: control steps per second of each
+    path, relative to robosuite's ``env.step`` and to raw MuJoCo, and seconds per optimal episode."""
+    tiny = 1e-12
+    rates, episode_s = {}, {}
+    for path in ("robosuite", "compiled"):
+        rates[path] = sum(e["steps"] for e in measured[path]) / max(sum(e["env_s"] for e in measured[path]), tiny)
+        episode_s[path] = f"{sum(e['wall_s'] for e in measured[path]) / len(measured[path]):.2f}"
+    rates["raw MuJoCo"] = sum(e["steps"] for e in measured["compiled"]) / max(measured["mujoco_s"], tiny)
+    names = {"robosuite": "robosuite env.step", "compiled": "compiled skills", "raw MuJoCo": "raw MuJoCo mj_step"}
+    return [{"path": names[path], "control steps/s": f"{rate:.0f}",
+             "rate / robosuite env.step": f"{rate / rates['robosuite']:.2f}",
+             "rate / raw MuJoCo": f"{rate / rates['raw MuJoCo']:.2f}", "s per episode": episode_s.get(path, "-")}
+            for path, rate in rates.items()]
+
+
+def executor_overhead(episodes: list) -> float:
+    """The skills' time outside the stepping over their time inside it (a fraction), over ``episodes``."""
+    inside = sum(e["env_s"] for e in episodes)
+    return (sum(e["wall_s"] for e in episodes) - inside) / inside if inside > 0 else float("nan")
+
+
+def skills_section(args) -> Section:
+    """Optimal episodes on robosuite's control path and the compiled one, and raw MuJoCo."""
+    measured = compare_paths(args.episodes, tuple(args.layout), args.seed, task=args.task_spec)
+    episodes = measured["robosuite"] + measured["compiled"]
+    terminal = sum(e["terminal"] for e in episodes)
+    note = (f"{args.episodes} optimal episode(s) of task {args.task_spec.name} from layout {tuple(args.layout)} per "
+            f"path, alternating; {terminal} of {len(episodes)} reached the terminal state. Raw MuJoCo: "
+            "the mj_step calls of each control step from the compiled path's recorded states, nothing else. "
+            f"The compiled skills spend {executor_overhead(measured['compiled']):.1%} of their stepping time "
+            "outside it (skill logic, state reads).")
+    return Section([Table("Skills: control steps per second", skill_rows(measured), note)],
+                   failed=terminal < len(episodes))
+
+
+def environment_section(args) -> Section:
+    """``env.step`` rate of TableClean, resting and pressing its sponge, against robosuite's Lift."""
+    import numpy as np
+    import robosuite
+    from robosuite.controllers import load_composite_controller_config
+
+    import tableclean_suite  # noqa: F401  (registers TableClean)
+
+    def make(name: str, **options):
+        return robosuite.make(name, robots="Panda", controller_configs=load_composite_controller_config(robot="Panda"),
+                              has_renderer=False, has_offscreen_renderer=False, use_camera_obs=False,
+                              control_freq=ENV_CONTROL_FREQ, ignore_done=True, seed=args.seed, **options)
+
+    def press(env) -> None:  # the sponge resting on segment 2: the wiping check's full path at every substep
+        centre = env.geometry.segment_centers[1] + np.array([0.0, 0.0, env.task_config["sponge_half_size"][2]])
+        env.sim.data.set_joint_qpos(env.sponge.joints[0], np.concatenate([centre, [1.0, 0.0, 0.0, 0.0]]))
+        env.sim.data.set_joint_qvel(env.sponge.joints[0], np.zeros(6))
+        env.sim.forward()
+
+    envs = {"Lift": make("Lift"), "TableClean": make("TableClean", object_segment=1, arm_segment=1),
+            "TableClean, pressing": make("TableClean", object_segment=1, arm_segment=1)}
+    before = {"TableClean, pressing": press}
+    rng = np.random.default_rng(args.seed)
+    block = max(1, args.steps // ENV_ROUNDS)
+    seconds = dict.fromkeys(envs, 0.0)
+    try:
+        for env in envs.values():
+            env.reset()
+        for _ in range(ENV_ROUNDS):
+            for name, env in envs.items():
+                for action in rng.uniform(-0.3, 0.3, size=(block, env.action_dim)):
+                    if name in before:
+                        before[name](env)
+                    start = time.perf_counter()
+                    env.step(action)
+                    seconds[name] += time.perf_counter() - start
+    finally:
+        for env in envs.values():
+            env.close()
+    steps = block * ENV_ROUNDS
+    rows = [{"environment": name, "env.step/s": f"{steps / elapsed:.0f}",
+             "rate / Lift's": f"{seconds['Lift'] / elapsed:.2f}"} for name, elapsed in seconds.items()]
+    return Section([Table("Environment: env.step against robosuite's Lift", rows,
+                          f"Panda, default controller, {ENV_CONTROL_FREQ} Hz, uniform random actions in +-0.3, "
+                          f"{steps} steps each in {ENV_ROUNDS} alternating blocks.")])
+
+
+# ---------------------------------------------------------------------------------------------
+# cold start
+# ---------------------------------------------------------------------------------------------
+def time_process(argv, cwd: Path, **environment) -> tuple[float, subprocess.CompletedProcess]:
+    """Wall seconds and result of ``python ARGV`` in a fresh process in ``cwd``, with this package first on
+    its path and ``environment`` added to this process's variables."""
+    import tableclean_suite
+
+    root = str(Path(tableclean_suite.__file__).resolve().parents[1])
+    variables = {**os.environ, **environment}
+    variables["PYTHONPATH"] = os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))
+    start = time.perf_counter()
+    finished = subprocess.run([sys.executable, *argv], cwd=cwd, env=variables, capture_output=True, text=True)
+    return time.perf_counter() - start, finished
+
+
+def cold_start_rows(processes=COLD_START_PROCESSES) -> list[dict]:
+    """:data:`COLD_START_PROCESSES` one after the other in a new folder, sharing a numba cache that starts
+    empty (``NUMBA_CACHE_DIR``): seconds, kernels compiled and loaded (numba's ``NUMBA_DEBUG_CACHE``
+    lines), cells resumed and exit code of each."""
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="tableclean_speed_") as folder:
+        for label, out in processes:
+            seconds, finished = time_process([*COLD_START_COMMAND, "--out", out], Path(folder),
+                                             NUMBA_CACHE_DIR=str(Path(folder) / "numba"), NUMBA_DEBUG_CACHE="1")
+            log = finished.stdout + finished.stderr
+            resumed = re.search(r"resumed (\d+) cells", finished.stdout)
+            rows.append({"process": label, "seconds": f"{seconds:.2f}",
+                         "kernels compiled": len(re.findall(r"\[cache\] data saved", log)),
+                         "kernels loaded": len(re.findall(r"\[cache\] data loaded", log)),
+                         "cells resumed": resumed.group(1) if resumed else "-", "exit code": finished.returncode})
     return rows
 
 
-def time_default_run(repeats: int = DEFAULT_RUN_REPEATS) -> dict:
-    """CPU and wall seconds of the default ``tableclean-bench run``, after a warm-up run in this process.
-
-    Returns:
-        ``{"wall_s", "cpu_s"}`` of the run with the median wall time of ``repeats`` (>= 1) timed runs,
-        and ``"walls"``, every run's wall seconds in order (the cores are shared: their spread says how much).
-        CPU seconds are this process's (the figures' drawing processes are not counted).
-    """
-    import contextlib
-    import io
-    import tempfile
-
-    from tableclean_suite.bench import run
-
-    timings = []
-    with tempfile.TemporaryDirectory() as out:
-        argv = ["--out", out, "--fresh", "--no-progress"]
-        def run_once() -> None:
-            code = run.main(argv)
-            if code == run.EXIT_INTERRUPTED:  # Ctrl-C, which run.main turned into its exit code
-                raise KeyboardInterrupt
-            if code:
-                raise RuntimeError(f"the default run exited with {code}; no timing taken")
-
-        with contextlib.redirect_stdout(io.StringIO()):
-            run_once()  # warm-up: numba compilation, matplotlib font cache
-            for _ in range(max(1, int(repeats))):
-                cpu, wall = time.process_time(), time.perf_counter()
-                run_once()
-                timings.append({"cpu_s": time.process_time() - cpu, "wall_s": time.perf_counter() - wall})
-    median = sorted(timings, key=lambda timing: timing["wall_s"])[(len(timings) - 1) // 2]
-    return {**median, "walls": [timing["wall_s"] for timing in timings]}
-
-
-
-# ---------------------------------------------------------------------------------------------
-# the report: sections and goals
-# ---------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Goal:
-    """One speed goal and its measurement.
-
-    Attributes:
-        section: the section (of :data:`SECTIONS`) that measured it.
-        goal: what is asked, e.g. ``"TableClean / Lift env.step rate >= 0.9"``.
-        measured: what was measured, e.g. ``"0.93"``.
-        met: whether the measurement meets the goal.
-    """
-
-    section: str
-    goal: str
-    measured: str
-    met: bool
-
-    def line(self) -> str:
-        """``section: goal: measured -> met`` for the report."""
-        return f"  {self.section:<12} {self.goal}: {self.measured} -> {'met' if self.met else 'NOT met'}"
-
-
-@dataclass
-class SectionResult:
-    """What a section printed, its goals, and whether its measurement itself succeeded."""
-
-    goals: list[Goal] = field(default_factory=list)
-    failed: bool = False
-
-
-def _table(rows: list[dict], float_format: str) -> str:
-    import pandas as pd
-
-    with pd.option_context("display.float_format", float_format.format, "display.width", 200):
-        return pd.DataFrame(rows).to_string(index=False)
-
-
-def learners_section(args) -> SectionResult:
-    """The compiled learners against the plain loop, every learner and exploration, the default run."""
-    from tableclean_suite.bench import learner_speed, tree_ratio
-
-    result = SectionResult()
-    rows = measure(args.runs, args.iterations, args.baseline_runs)
-    print(_table(rows, "{:,.1f}"))
-    worst = min(row["ratio_vs_plain_loop"] for row in rows)
-    result.goals.append(Goal("learners", f"compiled learners >= {PLAIN_LOOP_GOAL:g}x the plain Python loop",
-                             f"{worst:.0f}x (worst learner)", worst >= PLAIN_LOOP_GOAL))
-    print(f"\nevery learner: paper spec, reward {args.reward}, {args.runs} runs x {args.iterations} iterations, "
-          f"best of {args.repeat} (wall clock, all cores)")
-    learner_rows = learner_speed.learner_rows(args.reward, args.runs, args.iterations, args.repeat)
-    print(_table(learner_rows, "{:,.2f}"))
-    name, ratio = learner_speed.slowest(learner_rows)
-    result.goals.append(Goal("learners", f"no learner but Dyna-Q more than {learner_speed.SLOWDOWN_GOAL:g}x slower "
-                             "per update than Q-learning", f"slowest {name}, {ratio:.2f}x",
-                             ratio <= learner_speed.SLOWDOWN_GOAL))
-    if not args.skip_explorations:
-        print()
-        print(_table(learner_speed.exploration_rows(args.reward, args.runs, args.iterations, args.repeat),
-                     "{:,.2f}"))
-    if args.old_tree is not None:
-        against = _against_old_tree(args, "default run", False, tree_ratio.DEFAULT_RUN_RATIO_GOAL, "a third")
-        result.goals += against.goals
-        result.failed = result.failed or against.failed
-    if not args.skip_default_run:
-        timing = time_default_run()
-        print(f"\ndefault `tableclean-bench run --fresh` after warm-up, median of {len(timing['walls'])} runs: "
-              f"{timing['cpu_s']:.2f} s CPU, {timing['wall_s']:.2f} s wall "
-              f"(every run: {', '.join(f'{wall:.2f}' for wall in timing['walls'])} s)")
-        result.goals.append(Goal("learners", f"default run after warm-up <= {DEFAULT_RUN_GOAL_S:g} s wall",
-                                 f"{seconds_against_goal(timing['wall_s'], DEFAULT_RUN_GOAL_S)}; "
-                                 f"{timing['cpu_s']:.2f} s CPU", timing["wall_s"] <= DEFAULT_RUN_GOAL_S))
-    return result
-
-
-def specs_section(args) -> SectionResult:
-    """The compiled learner's rate on the largest scaling spec against the paper's."""
-    from tableclean_suite.bench import spec_speed
-    from tableclean_suite.task import get_task_spec
-
-    paper, largest = spec_speed.measure_rates([get_task_spec("paper"), spec_speed.largest_study_spec()],
-                                              args.spec_runs, args.spec_iterations, args.spec_repeats)
-    print("\n".join(spec_speed.summary_lines(paper, largest, [])))
-    ratio = spec_speed.rate_ratio(largest, paper)
-    return SectionResult([Goal("specs", f"largest spec's rate within {spec_speed.TARGET_SLOWDOWN:g}x of the paper's",
-                               f"ratio {ratio:.2f}", spec_speed.within_target(ratio))])
-
-
-def _against_old_tree(args, label: str, cold: bool, goal: float, goal_text: str) -> SectionResult:
-    """This tree's whole run process against ``--old-tree``'s, in alternating pairs (:mod:`.tree_ratio`):
-    its goal, or a failed measurement (a run exited non-zero in either tree)."""
-    from tableclean_suite.bench import tree_ratio
-
-    section = "cold-start" if cold else "learners"
-    try:
-        times = tree_ratio.paired_times(label, tree_ratio.this_tree(), args.old_tree, args.old_tree_pairs, cold)
-    except tree_ratio.TreeRunError as error:
-        print(f"  {label} against --old-tree: {error}")
-        return SectionResult([Goal(section, f"{label} / --old-tree's (whole processes) <= {goal:.3f}",
-                                   "not measured", False)], failed=True)
-    print(f"{label}, whole processes alternating with --old-tree {args.old_tree}:")
-    print(times.line())
-    measured = against_goal(f"{times.ratio:.3f}", times.ratio, goal, f"{goal:.3f} ({goal_text})", True,
-                            f"{abs(times.ratio - goal):.3f}")
-    return SectionResult([Goal(section, f"{label} / --old-tree's (whole processes) <= {goal:.3f}", measured,
-                               times.ratio <= goal)])
-
-
-def cold_start_section(args) -> SectionResult:
-    """The README's command in three fresh processes sharing one numba cache (and, with
-    ``--old-tree``, the first process against the older tree's)."""
-    from tableclean_suite.bench import spec_speed, tree_ratio
-
-    against = SectionResult()
-    if getattr(args, "old_tree", None) is not None:
-        against = _against_old_tree(args, "first process", True, tree_ratio.FIRST_PROCESS_RATIO_GOAL,
-                                    f"{tree_ratio.FIRST_PROCESS_GOAL_S:g} of {tree_ratio.ISSUE_FIRST_PROCESS_S:g} s")
-    cold = spec_speed.time_cold_starts()
-    print("\n".join(spec_speed.cold_start_lines(cold)))
-    warm = spec_speed.warm_process(cold)
-    result = SectionResult(list(against.goals),
-                           failed=against.failed or any(process.returncode != 0 for process in cold))
-    if cold:
-        result.goals.append(Goal("cold-start", f"first process (empty kernel cache) <= {FIRST_PROCESS_GOAL_S:g} s",
-                                 f"{seconds_against_goal(cold[0].seconds, FIRST_PROCESS_GOAL_S)}; "
-                                 f"{cold[0].compiled} kernels compiled",
-                                 cold[0].seconds <= FIRST_PROCESS_GOAL_S and cold[0].returncode == 0))
-    if warm is not None:
-        result.goals.append(Goal("cold-start", f"second process with warm caches <= "
-                                 f"{spec_speed.TARGET_SECOND_PROCESS:g} s",
-                                 seconds_against_goal(warm.seconds, spec_speed.TARGET_SECOND_PROCESS),
-                                 spec_speed.warm_within_target(warm)))
-    return result
-
-
-def environment_section(args) -> SectionResult:
-    """``env.step`` rate of TableClean against robosuite's Lift."""
-    from tableclean_suite.bench import env_speed
-
-    rates = env_speed.measure(args.steps, args.rounds, args.control_freq, args.seed)
-    print("\n".join(env_speed.report_lines(rates)))
-    ratio = env_speed.rate_ratio(rates)
-    return SectionResult([Goal("environment", f"TableClean / Lift env.step rate >= {env_speed.RATIO_GOAL:g}",
-                               f"{ratio:.3f}", ratio >= env_speed.RATIO_GOAL)])
-
-
-def skills_section(args) -> SectionResult:
-    """Optimal episodes of the skills, on robosuite's control path and the fast one."""
-    from tableclean_suite.bench import skill_speed
-
-    spec = args.task_spec
-    comparison = skill_speed.compare_paths(args.episodes, tuple(args.layout), args.seed, task=spec)
-    print(f"task {spec.name}, layout {tuple(args.layout)}")
-    print(skill_speed.format_report(comparison["fast"]))
-    print()
-    print(skill_speed.format_comparison(comparison))
-    numbers = skill_speed.goal_numbers(comparison)
-    episodes = comparison["fast"]["episodes"] + comparison["robosuite"]["episodes"]
-    return SectionResult([
-        Goal("skills", f"optimal episode <= {skill_speed.EPISODE_GOAL_S:g} s (mean, fast path)",
-             seconds_against_goal(numbers["episode_s"], skill_speed.EPISODE_GOAL_S),
-             numbers["episode_s"] <= skill_speed.EPISODE_GOAL_S),
-        Goal("skills", f"executor overhead over env.step <= {skill_speed.OVERHEAD_GOAL:.0%}",
-             skill_speed.overhead_against_goal(numbers["overhead"]), numbers["overhead"] <= skill_speed.OVERHEAD_GOAL),
-        Goal("skills", f"fast path >= {skill_speed.FAST_SPEEDUP_GOAL:g}x robosuite's control steps/s",
-             skill_speed.speedup_against_goal(numbers["speedup"]), numbers["speedup"] >= skill_speed.FAST_SPEEDUP_GOAL),
-        Goal("skills", f"fast path >= {skill_speed.RAW_MUJOCO_GOAL:g} of raw MuJoCo's control steps/s",
-             skill_speed.raw_ratio_against_goal(numbers["raw_ratio"]),
-             numbers["raw_ratio"] >= skill_speed.RAW_MUJOCO_GOAL),
-    ], failed=not all(episode["terminal"] for episode in episodes))
+def cold_start_section(args) -> Section:
+    """The run command in three fresh processes sharing one numba cache."""
+    rows = cold_start_rows()
+    command = "python " + " ".join(COLD_START_COMMAND) + " --out DIR"
+    return Section([Table(f"Cold start: `{command}` in fresh processes", rows,
+                          "One after the other, sharing a numba cache that starts empty; the second process on "
+                          "the same DIR reads its result caches, the third writes a new DIR.")],
+                   failed=any(row["exit code"] != 0 for row in rows))
 
 
 #: Each section's function, by name.
-SECTION_RUNNERS = {"learners": learners_section, "specs": specs_section, "cold-start": cold_start_section,
-                   "environment": environment_section, "skills": skills_section}
+SECTION_RUNNERS = {"learners": learners_section, "specs": specs_section, "skills": skills_section,
+                   "environment": environment_section, "cold-start": cold_start_section}
+
+
+# ---------------------------------------------------------------------------------------------
+# the page
+# ---------------------------------------------------------------------------------------------
+def machine() -> dict:
+    """What the figures depend on: CPU model, cores, OS, Python and package versions, date (UTC)."""
+    import datetime
+    import platform
+    from importlib import metadata
+
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as info:
+            cpu = next((line.split(":", 1)[1].strip() for line in info if line.startswith("model name")), cpu)
+    except OSError:
+        pass
+    stamp = {"CPU": cpu, "cores": os.cpu_count(), "OS": platform.platform(), "Python": platform.python_version()}
+    for name in VERSIONED:
+        try:
+            stamp[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            stamp[name] = "not installed"
+    stamp["date (UTC)"] = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M")
+    return stamp
+
+
+def page(sections: dict, stamp: dict) -> str:
+    """The Markdown page of ``sections`` (name -> :class:`Section`) measured on ``stamp``'s machine."""
+    lines = ["# Measurements", "",
+             "How fast the learners, the skills and a first run are, measured on the machine below by "
+             "`tableclean-bench speed --markdown docs/measurements.md`, which rewrites this page. The figures "
+             "depend on the machine and its load: compare the ratios, measured side by side in one run, "
+             "rather than the seconds.", "",
+             "| machine | |", "|---|---|", *[f"| {key} | {value} |" for key, value in stamp.items()]]
+    for name, section in sections.items():
+        lines += ["", f"## {name}" + (" (a measurement failed)" if section.failed else "")]
+        lines += [part for table in section.tables for part in ("", table.markdown())]
+    return "\n".join(lines) + "\n"
 
 
 # ---------------------------------------------------------------------------------------------
 # the command line
 # ---------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Alias:
-    """An old speed command: the sections it selects and its flags' old spellings.
-
-    Attributes:
-        sections: sections it runs.
-        flags: ``{option dest: old flag}`` for options it spelled differently.
-    """
-
-    sections: tuple[str, ...]
-    flags: dict = field(default_factory=dict)
-
-
-#: The old commands, as sections of this one (``python -m benchmarks.NAME`` keeps working).
-ALIASES = {
-    "speed": Alias(("learners", "specs", "cold-start")),
-    "learner_speed": Alias(("learners",)),
-    "spec_speed": Alias(("specs", "cold-start"), {"spec_runs": "--runs", "spec_iterations": "--iterations",
-                                                   "spec_repeats": "--repeats"}),
-    "env_speed": Alias(("environment",)),
-    "skill_speed": Alias(("skills",)),
-}
-
-
-def section_list(text: str) -> tuple[str, ...]:
-    """``"specs,learners"`` -> ``("learners", "specs")``: known section names, in report order."""
+def section_list(text: str) -> tuple:
+    """``"skills,learners"`` -> ``("learners", "skills")``: known section names, in report order."""
     chosen = set(cli.name_list(text))
     unknown = sorted(chosen - set(SECTIONS))
     if unknown:
@@ -408,153 +506,70 @@ def reward_name(text: str) -> str:
     return text
 
 
-def build_parser(prog: str = PROG, alias: str | None = None) -> argparse.ArgumentParser:
-    """The command line; ``alias`` (a key of :data:`ALIASES`) builds an old command's: only its sections'
-    options, spelled as it spelled them, and no ``--sections``."""
-    from tableclean_suite.bench import env_speed, spec_speed
-
-    chosen = ALIASES[alias] if alias is not None else None
-    sections = chosen.sections if chosen is not None else SECTIONS
-    flags = chosen.flags if chosen is not None else {}
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The command line."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
-    if chosen is None:
-        parser.add_argument("--sections", type=section_list, default=SECTIONS, metavar="NAME,...",
-                            help=f"sections to measure, comma separated: {', '.join(SECTIONS)} (default all)")
-
-    def option(group, dest: str, flag: str, **options):
-        group.add_argument(flags.get(dest, flag), dest=dest, **options)
-
-    if "learners" in sections:
-        group = parser.add_argument_group("learners")
-        option(group, "runs", "--runs", type=positive_int, default=1000, help="runs per timed call (default 1000)")
-        option(group, "iterations", "--iterations", type=positive_int, default=3000,
-               help="iterations per run (default 3000)")
-        option(group, "baseline_runs", "--baseline-runs", type=positive_int, default=20,
-               help="runs of the plain baselines (default 20)")
-        option(group, "repeat", "--repeat", type=positive_int, default=3,
-               help="timed calls per learner, the fastest kept (default 3)")
-        option(group, "reward", "--reward", type=reward_name, default="r4",
-               help="reward pattern of the every-learner table (default r4)")
-        option(group, "skip_explorations", "--skip-explorations", action="store_true",
-               help="do not time the explorations")
-        option(group, "skip_default_run", "--skip-default-run", action="store_true",
-               help="do not time the default run")
-    if "specs" in sections:
-        group = parser.add_argument_group("specs")
-        option(group, "spec_runs", "--spec-runs", type=positive_int, default=spec_speed.DEFAULT_RUNS,
-               help=f"runs per timed call (default {spec_speed.DEFAULT_RUNS})")
-        option(group, "spec_iterations", "--spec-iterations", type=positive_int, default=spec_speed.DEFAULT_ITERATIONS,
-               help=f"iterations per run (default {spec_speed.DEFAULT_ITERATIONS})")
-        option(group, "spec_repeats", "--spec-repeats", type=positive_int, default=spec_speed.DEFAULT_REPEATS,
-               help=f"timed calls per spec, the fastest kept (default {spec_speed.DEFAULT_REPEATS})")
-        option(group, "skip_specs", "--skip-specs", action="store_true",
-               help="skip the specs and cold-start sections (as the old speed command)")
-    if "cold-start" in sections:
-        group = parser.add_argument_group("cold start")
-        option(group, "no_cold_start", "--no-cold-start", action="store_true",
-               help="skip the three fresh-process timings of the run command")
-    if "environment" in sections:
-        group = parser.add_argument_group("environment")
-        option(group, "steps", "--steps", type=positive_int, default=env_speed.DEFAULT_STEPS,
-               help=f"timed env.step calls per environment, >= --rounds (default {env_speed.DEFAULT_STEPS})")
-        option(group, "rounds", "--rounds", type=positive_int, default=env_speed.DEFAULT_ROUNDS,
-               help=f"alternating timing blocks (default {env_speed.DEFAULT_ROUNDS})")
-        option(group, "control_freq", "--control-freq", type=positive_int, default=env_speed.DEFAULT_CONTROL_FREQ,
-               help=f"control frequency of every env, Hz (default {env_speed.DEFAULT_CONTROL_FREQ})")
-    if "skills" in sections:
-        group = parser.add_argument_group("skills")
-        option(group, "episodes", "--episodes", type=positive_int, default=3,
-               help="optimal episodes per control path (default 3)")
-        option(group, "layout", "--layout", type=positive_int, nargs=2, metavar=("OBJECT_SEGMENT", "ARM_SEGMENT"),
-               default=(1, 1), help="start layout, 1-based segments (every object on OBJECT_SEGMENT; default: 1 1, "
-                                    "the paper's layout)")
-        cli.add_task_argument(group, help="task spec of the skills section: a registered name or a .json path "
-                                          "(default paper)")
-    if "environment" in sections or "skills" in sections:
-        cli.add_seed_argument(parser, "the environments and their random actions")
-    if "learners" in sections or "cold-start" in sections:
-        from tableclean_suite.bench import tree_ratio
-
-        group = parser.add_argument_group("against an older tree (learners: the default run; cold-start: the "
-                                          "first process)")
-        group.add_argument("--old-tree", type=Path, default=None, metavar="DIR",
-                           help="a checkout of an older tree (e.g. `git worktree add DIR f690eb5`): time the run "
-                                "command's whole process alternately here and there and check the ratio "
-                                f"(default run <= 1/3, first process <= {tree_ratio.FIRST_PROCESS_RATIO_GOAL:.3f})")
-        group.add_argument("--old-tree-pairs", type=positive_int, default=tree_ratio.DEFAULT_PAIRS, metavar="N",
-                           help=f"pairs of processes per ratio (default {tree_ratio.DEFAULT_PAIRS})")
+    parser.add_argument("--sections", type=section_list, default=SECTIONS, metavar="NAME,...",
+                        help=f"sections to measure, comma separated: {', '.join(SECTIONS)} (default all)")
+    parser.add_argument("--markdown", type=cli.output_path(cli.FILE), default=None, metavar="FILE.md",
+                        help="also write the measurements to this Markdown page, stamped with the machine")
+    parser.add_argument("--repeat", type=positive_int, default=3,
+                        help="timed calls per learner and spec, the fastest kept (default 3)")
+    group = parser.add_argument_group("learners")
+    cli.add_runs_argument(group, 1000, "runs per timed train() call")
+    cli.add_iterations_argument(group, 3000, "iterations per run")
+    group.add_argument("--reward", type=reward_name, default="r4", help="reward pattern (default r4)")
+    group = parser.add_argument_group("skills and environment")
+    group.add_argument("--episodes", type=positive_int, default=3, help="optimal episodes per control path (default 3)")
+    group.add_argument("--layout", type=positive_int, nargs=2, metavar=("OBJECT_SEGMENT", "ARM_SEGMENT"),
+                       default=(1, 1), help="start layout of the skills' episodes, 1-based segments (every object "
+                                            "on OBJECT_SEGMENT; default: 1 1, the paper's layout)")
+    cli.add_task_argument(group, help="task spec of the skills' episodes: a registered name or a .json path "
+                                      "(default paper)")
+    group.add_argument("--steps", type=positive_int, default=1000,
+                       help=f"env.step calls per environment, in {ENV_ROUNDS} blocks (default 1000)")
+    cli.add_seed_argument(parser, "the skills' scenes and the environments' random actions")
     return parser
 
 
-def _selected(args, alias: str | None) -> tuple[str, ...]:
-    sections = list(ALIASES[alias].sections if alias is not None else args.sections)
-    if getattr(args, "skip_specs", False):
-        sections = [name for name in sections if name not in ("specs", "cold-start")]
-    if getattr(args, "no_cold_start", False):
-        sections = [name for name in sections if name != "cold-start"]
-    return tuple(sections)
+def _check_task(parser, args) -> None:
+    """``--task`` and ``--layout`` for the skills section; exits 2 naming the flag."""
+    from tableclean_suite.task import TaskModel, get_task_spec
+
+    try:
+        args.task_spec = get_task_spec(args.task)
+    except (ValueError, OSError) as error:
+        parser.error(f"--task: {error}")
+    segments = args.task_spec.segments
+    if any(not 1 <= k <= segments for k in args.layout):
+        parser.error(f"--layout: segments must be in 1..{segments} for task {args.task_spec.name!r}, "
+                     f"got {list(args.layout)}")
+    from tableclean_suite.physics_backend import check_physical_task  # imports MuJoCo: after the cheap checks
+
+    try:
+        check_physical_task(TaskModel(spec=args.task_spec))
+    except ValueError as error:
+        parser.error(f"--task: {error}")
 
 
-def _check(parser, args, sections) -> None:
-    """Checks that need more than one flag, or a registry; exits 2 naming the flag."""
-    if getattr(args, "old_tree", None) is not None:
-        from tableclean_suite.bench import tree_ratio
+def main(argv=None, prog: str | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code (see the module doc)."""
+    parser, args = cli.parse_command(build_parser, argv, prog or PROG)
+    if "skills" in args.sections:
+        _check_task(parser, args)
+    sections = {}
+    for name in args.sections:
+        print(f"== {name} ==", flush=True)
+        sections[name] = SECTION_RUNNERS[name](args)
+        for table in sections[name].tables:
+            print(table.text() + "\n", flush=True)
+    if args.markdown is not None:
+        from tableclean_suite.bench.outputs import atomic_write_text
 
-        if "learners" not in sections and "cold-start" not in sections:
-            parser.error(f"--old-tree times the learners and cold-start sections, and neither is selected "
-                         f"(sections: {', '.join(sections)})")
-        problem = tree_ratio.tree_problem(args.old_tree)
-        if problem:
-            parser.error(f"--old-tree: {problem}")
-        problem = tree_ratio.tree_problem(tree_ratio.this_tree())
-        if problem:
-            parser.error(f"--old-tree needs this package run from a source checkout; {problem}")
-    if "environment" in sections and args.steps < args.rounds:
-        parser.error(f"--steps {args.steps} is below --rounds {args.rounds}: every round times at least one step")
-    if "skills" in sections:
-        from tableclean_suite.task import get_task_spec
-
-        try:
-            args.task_spec = get_task_spec(args.task)
-        except (ValueError, OSError) as error:
-            parser.error(f"--task: {error}")
-        segments = args.task_spec.segments
-        if any(not 1 <= k <= segments for k in args.layout):
-            parser.error(f"--layout: segments must be in 1..{segments} for task {args.task_spec.name!r}, "
-                         f"got {list(args.layout)}")
-        from tableclean_suite.physics_backend import check_physical_task  # imports MuJoCo: after the cheap checks
-
-        try:
-            check_physical_task(TaskModel(spec=args.task_spec))
-        except ValueError as error:
-            parser.error(f"--task: {error}")
-
-
-def main(argv=None, prog: str | None = None, alias: str | None = None) -> int:
-    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code (see the module doc).
-
-    ``alias``: run as one of the old commands (:data:`ALIASES`).
-    """
-    if alias is not None and alias not in ALIASES:
-        raise ValueError(f"unknown speed alias {alias!r}; allowed: {', '.join(ALIASES)}")
-    parser, args = cli.parse_command(lambda name: build_parser(name, alias), argv,
-                                     prog or (f"python -m benchmarks.{alias}" if alias else PROG))
-    sections = _selected(args, alias)
-    if not sections:
-        parser.error("no section left to measure")
-    _check(parser, args, sections)
-    goals, failed = [], False
-    for name in sections:
-        print(f"== {name} ==")
-        result = SECTION_RUNNERS[name](args)
-        goals += result.goals
-        failed = failed or result.failed
-        print()
-    print("goals:")
-    for goal in goals:
-        print(goal.line())
-    print(f"{sum(goal.met for goal in goals)} of {len(goals)} goals met")
-    return 1 if failed else 0
+        Path(args.markdown).parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(Path(args.markdown), page(sections, machine()))
+        print(f"wrote {args.markdown}")
+    return 1 if any(section.failed for section in sections.values()) else 0
 
 
 if __name__ == "__main__":

@@ -33,7 +33,7 @@ simulator and no harness):
   counter-based seeds per run keep the records the same whatever the split;
 - fidelity and calibration trials: one task per round, ``FidelityRound(round_index, seed,
   task, actions, ...)`` with the round's seed from ``round_seed(seed, round_index)``; the
-  function builds its own session and returns the round's rows, which the caller appends to
+  function builds its own scene and returns the round's rows, which the caller appends to
   the trials CSV in round order (``map`` yields in task order);
 - demo collection (``python -m benchmarks.collect_demos --workers N --executor ray``): one task
   per attempt, ``DemoAttempt(spec, ..., seed, attempt)`` with its start and placement drawn from

@@ -53,11 +53,6 @@ def loaded_openblas() -> list[tuple[str, object, object]]:
     return found
 
 
-def blas_threads() -> dict[str, int]:
-    """Thread count of each loaded OpenBLAS library, by path."""
-    return {path: int(getter()) for path, getter, _ in loaded_openblas()}
-
-
 @contextlib.contextmanager
 def single_blas_thread() -> Iterator[None]:
     """Run the ``with`` block with every loaded OpenBLAS on one thread; the counts are restored after."""

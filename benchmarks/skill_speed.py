@@ -1,9 +1,0 @@
-"""``python -m benchmarks.skill_speed``: ``tableclean-bench speed --sections skills``,
-with the old command's flags (kept for the checkout)."""
-
-import sys
-
-from tableclean_suite.bench.commands import run_alias
-
-if __name__ == "__main__":
-    sys.exit(run_alias("speed", "python -m benchmarks.skill_speed", alias="skill_speed"))
