@@ -42,9 +42,11 @@ def check_confidence(confidence: float) -> float:
 
 
 def _samples(values) -> tuple[np.ndarray, ...]:
-    """An entry of ``scores`` as a tuple of 1-D float arrays (one per stratum)."""
+    """An entry of ``scores`` as a tuple of 1-D arrays (one per stratum): integers stay integers
+    (e.g. run indices), anything else becomes float64."""
     strata = values if isinstance(values, tuple) else (values,)
-    samples = tuple(np.asarray(s, dtype=np.float64) for s in strata)
+    samples = tuple(np.asarray(s) if np.asarray(s).dtype.kind in "iu" else np.asarray(s, dtype=np.float64)
+                    for s in strata)
     for sample in samples:
         if sample.ndim != 1:
             raise ValueError(f"per-run scores must be 1-D arrays (one value per run), got shape {sample.shape}")
@@ -174,6 +176,55 @@ class _Improvement:
         ix, iy = np.moveaxis(np.asarray(ix), axis, -1), np.moveaxis(np.asarray(iy), axis, -1)
         lead = np.broadcast_shapes(ix.shape[:-1], iy.shape[:-1])
         nx, ny = ix.shape[-1], iy.shape[-1]
+        ix = np.broadcast_to(ix, (*lead, nx)).reshape(-1, nx)
+        iy = np.broadcast_to(iy, (*lead, ny)).reshape(-1, ny)
+        rows = len(iy)
+        codes = self.y_rank[iy] + np.arange(0, rows * self.width, self.width)[:, None]
+        counts = np.bincount(codes.ravel(), minlength=rows * self.width).reshape(rows, self.width)
+        below = np.cumsum(counts, axis=1, dtype=np.int32)  # below[b, k]: y of resample b among the k smallest
+        beaten = np.take_along_axis(below, self.beaten[ix], axis=1)
+        not_above = np.take_along_axis(below, self.not_above[ix], axis=1)
+        # wins + ties / 2 = (beaten + not_above) / 2: integer sums, exact in any order
+        return ((beaten.sum(axis=1, dtype=np.int64) + not_above.sum(axis=1, dtype=np.int64)) * HALF
+                / (nx * ny)).reshape(lead)
+
+
+def probability_of_improvement(x, y, higher_is_better: bool = True, margin: float = 0.0) -> float:
+    """P(a run of X beats a run of Y by more than ``margin``) + P(they tie) / 2, over all pairs.
+
+    rliable's definition for ``margin = 0``.  With a practical-equivalence ``margin`` (>= 0, in
+    the score's units) a pair is a tie when ``|x - y| <= margin``.  Equal values always tie.
+    """
+    if not margin >= 0:
+        raise ValueError(f"margin must be a number >= 0 (score units), got {margin!r}")
+    x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    return float(_Improvement(x, y, higher_is_better, margin)(np.arange(len(x)), np.arange(len(y))))
+
+
+class _Improvement:
+    """:func:`probability_of_improvement` of resamples given as run *indices* into fixed X and Y,
+    by counting, never forming the pairs: each y is replaced once by its rank among Y's distinct
+    values, each x by the ranks it beats by more than ``margin`` and does not fall short of; a
+    resample then needs only a count of its y ranks (exact integers, so the result does not
+    depend on any order).  Called by ``scipy.stats.bootstrap`` with index arrays whose leading
+    axes broadcast (``(B, nx)`` and ``(B, ny)``, or the jackknife's shapes)."""
+
+    def __init__(self, x, y, higher_is_better: bool, margin: float):
+        x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+        if not higher_is_better:
+            x, y = -x, -y
+        distinct = np.unique(y)
+        self.width = len(distinct) + 1
+        self.y_rank = np.searchsorted(distinct, y) + 1
+        with np.errstate(invalid="ignore"):
+            self.beaten = np.searchsorted(distinct, x - margin, side="left")  # ranks of y < x - margin
+            self.not_above = np.searchsorted(distinct, x + margin, side="right")  # ranks of y <= x + margin
+        self.pairs = len(x) * len(y)
+
+    def __call__(self, ix, iy, axis=-1):
+        ix, iy = np.moveaxis(np.asarray(ix), axis, -1), np.moveaxis(np.asarray(iy), axis, -1)
+        lead = np.broadcast_shapes(ix.shape[:-1], iy.shape[:-1])
+        nx, ny = ix.shape[-1], iy.shape[-1]
         ix = np.broadcast_to(ix, (*lead, nx)).reshape(-1, nx).astype(np.int64)
         iy = np.broadcast_to(iy, (*lead, ny)).reshape(-1, ny).astype(np.int64)
         rows = np.arange(len(iy))[:, None]
@@ -194,7 +245,7 @@ def improvement_estimate(x, y, higher_is_better: bool = True, margin: float = 0.
     if not margin >= 0:
         raise ValueError(f"margin must be a number >= 0 (score units), got {margin!r}")
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
-    runs = (np.arange(len(x), dtype=np.float64), np.arange(len(y), dtype=np.float64))  # resampled as run indices
+    runs = (np.arange(len(x)), np.arange(len(y)))  # resampled as run indices
     points, intervals = interval_estimates({"p": runs}, _Improvement(x, y, higher_is_better, margin), confidence,
                                            reps, method, rng)
     return points["p"], *intervals["p"]

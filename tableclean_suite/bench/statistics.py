@@ -38,7 +38,7 @@ from tableclean_suite.learning_time import LearningTime, learning_time_summary
 from tableclean_suite.settling import Settling
 
 #: Bootstrap resamples per interval.
-DEFAULT_SAMPLES = 2000
+DEFAULT_SAMPLES = 1000
 #: Two-sided confidence of the intervals.
 DEFAULT_CONFIDENCE = intervals.DEFAULT_CONFIDENCE
 #: Curves that get bands (the ones the figures draw).
