@@ -1,4 +1,10 @@
-"""The mapping ``TableClean.skill_info()`` returns: a dict whose costlier per-step values are read on first use.
+"""What ``TableClean.skill_info()`` returns and how it is read: a dict whose costlier per-step values are read on
+first use.
+
+[SkillInfoReader][tableclean_suite.environments.skill_info.SkillInfoReader] builds it for one simulation
+data: the values fixed for the model and the episode ([constant_values][tableclean_suite.environments.skill_info.constant_values],
+shared read-only arrays), the cheap per-step ones (grip-site and object positions, finger joints),
+and the fillers of the lazy keys ([LAZY_SKILL_INFO][tableclean_suite.environments.skill_info.LAZY_SKILL_INFO]).
 
 The skills read ``skill_info()`` every control step but most phases use a few of its keys: the
 grip site's orientation (robosuite's ``mat2quat``, an eigen-decomposition) only when a phase may
