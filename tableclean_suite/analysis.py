@@ -19,13 +19,28 @@ affordances each run's improper pairs observed over the whole training), and wit
 the policy is ``L * advisor + (1 - L) * learner``, the advisor's own part being
 ``C * its action + (1 - C) * uniform``.  :func:`final_asymptotes` gives the exact asymptotes of
 that final behaviour (the plateaus the harness reports).
+
+**Exact or simulated.**  The exact DP visits every (state, previous state) pair of the task at
+each of ``max_itr`` steps; on a spec of millions of states that is hours where the training takes
+seconds.  [analysis_plan][tableclean_suite.analysis.analysis_plan] estimates both ways before any
+work and chooses (``auto``; ``exact`` or ``simulated`` force one);
+[analysis_chain][tableclean_suite.analysis.analysis_chain] builds what the chosen way reads, and
+the functions below compute exact asymptotes over an
+[EpisodeChain][tableclean_suite.asymptotes.EpisodeChain] or Monte Carlo estimates with their
+standard errors over a [StepTable][tableclean_suite.simulation.StepTable]
+([tableclean_suite.simulation][]), which a published interval takes in with
+[with_monte_carlo_error][tableclean_suite.analysis.with_monte_carlo_error].
 """
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+from statistics import NormalDist
+
 import numpy as np
 
-from tableclean_suite import asymptotes
+from tableclean_suite import asymptotes, simulation
 from tableclean_suite.learners.assist import NO_ADVICE, advisor_policy, given_affordances
 from tableclean_suite.learners.exploration import EpsilonGreedy, VisitDecay, as_exploration, softmax_probabilities
 from tableclean_suite.learners.transitions import TransitionTable
@@ -283,7 +298,8 @@ def _assist_options(settings: dict) -> dict:
 def final_asymptotes(result, chain, max_itr: int, model: TaskModel | None = None,
                      masks: np.ndarray | None = None):
     """Exact :class:`~tableclean_suite.asymptotes.Asymptotes` (one per run) of ``result``'s final
-    behaviour (:func:`final_probabilities`) over ``chain`` (:meth:`EpisodeChain.build`).
+    behaviour (:func:`final_probabilities`) over ``chain`` (:meth:`EpisodeChain.build`), or their
+    Monte Carlo estimates (``error`` set) over a [StepTable][tableclean_suite.simulation.StepTable].
 
     For the paper's constant epsilon-greedy without assistance this is
     :func:`~tableclean_suite.asymptotes.greedy_asymptotes` itself (same numbers as before).
@@ -292,9 +308,22 @@ def final_asymptotes(result, chain, max_itr: int, model: TaskModel | None = None
     settings = result.config.get("learner_settings", {})
     plain = (as_exploration(settings.get("exploration")).name == EpsilonGreedy.name
              and not _assist_options(settings))
+    if isinstance(chain, simulation.StepTable):
+        q = np.asarray(result.q, dtype=np.float64)
+        q = q[None] if q.ndim == 2 else q
+        if plain:
+            return simulation.simulated_greedy_statistics(q, float(result.config["epsilon"]), chain, max_itr,
+                                                          _keys(result, len(q)))
+        return simulation.simulated_statistics(final_probabilities(result, model, masks), chain, max_itr,
+                                               _keys(result, len(q)))
     if plain:
         return asymptotes.greedy_asymptotes(result.q, float(result.config["epsilon"]), chain, max_itr)
     return asymptotes.policy_statistics(final_probabilities(result, model, masks), chain, max_itr)
+
+
+def _keys(result, runs: int) -> np.ndarray:
+    """The simulation's random-number keys of ``result``'s runs (its seed and first run)."""
+    return simulation.simulation_keys(int(result.config.get("seed", 0)), int(result.config.get("first_run", 0)), runs)
 
 
 def final_greedy_success(result, chain, max_itr: int, model: TaskModel | None = None,
@@ -305,13 +334,25 @@ def final_greedy_success(result, chain, max_itr: int, model: TaskModel | None = 
     affordance learners; an advisor's advice is left out (it is not the learner's policy).
     ``masks``: :func:`affordance_masks` when the caller has them already.
     """
+    return np.atleast_1d(_greedy_statistics(result, chain, max_itr, model, masks).success)
+
+
+def _greedy_statistics(result, chain, max_itr: int, model: TaskModel | None = None,
+                       masks: np.ndarray | None = None) -> asymptotes.Asymptotes:
+    """The asymptotes behind [final_greedy_success][tableclean_suite.analysis.final_greedy_success]
+    (with their Monte Carlo errors over a [StepTable][tableclean_suite.simulation.StepTable])."""
     q = np.asarray(result.q, dtype=np.float64)
     q = q[None] if q.ndim == 2 else q
     model = model if model is not None else TaskModel()
     masks = affordance_masks(result, model) if masks is None else masks
+    if isinstance(chain, simulation.StepTable):
+        if masks is None:
+            return simulation.simulated_greedy_statistics(q, 0.0, chain, max_itr, _keys(result, len(q)))
+        return simulation.simulated_statistics(afforded_probabilities(q, masks, 0.0), chain, max_itr,
+                                               _keys(result, len(q)))
     if masks is None:
-        return np.atleast_1d(asymptotes.greedy_asymptotes(q, 0.0, chain, max_itr).success)
-    return asymptotes.policy_statistics(afforded_probabilities(q, masks, 0.0), chain, max_itr).success
+        return asymptotes.greedy_asymptotes(q, 0.0, chain, max_itr)
+    return asymptotes.policy_statistics(afforded_probabilities(q, masks, 0.0), chain, max_itr)
 
 
 def never_terminal(result) -> np.ndarray:
@@ -321,18 +362,170 @@ def never_terminal(result) -> np.ndarray:
     return (~(outcomes == int(Outcome.TERMINAL)).any(axis=1)).astype(np.float64)
 
 
+#: Per-run quantities of [final_run_facts][tableclean_suite.analysis.final_run_facts] that an
+#: analysis estimates (the others, e.g. ``never_terminal``, are read off the records).
+ESTIMATED_FACTS = ("success", "average_reward", "terminal", "greedy_success")
+#: Suffix of a fact's Monte Carlo standard error in [final_run_facts][tableclean_suite.analysis.final_run_facts].
+ERROR_SUFFIX = "_error"
+
+
 def final_run_facts(result, chain, max_itr: int, model: TaskModel | None = None) -> dict[str, np.ndarray]:
     """Per run of ``result``, every quantity behind :class:`~tableclean_suite.metrics.Plateaus`
-    (``metrics.PLATEAU_NAMES``), each ``(R,)``: the exact asymptotes of the final behaviour
+    (``metrics.PLATEAU_NAMES``), each ``(R,)``: the asymptotes of the final behaviour
     (:func:`final_asymptotes`), the final greedy policy's success (:func:`final_greedy_success`)
-    and whether the run never reached the terminal state (:func:`never_terminal`)."""
+    and whether the run never reached the terminal state (:func:`never_terminal`).
+
+    With ``chain`` an [EpisodeChain][tableclean_suite.asymptotes.EpisodeChain] the asymptotes are
+    exact; with a [StepTable][tableclean_suite.simulation.StepTable] (see [analysis_chain][tableclean_suite.analysis.analysis_chain])
+    they are simulated, and each of [ESTIMATED_FACTS][tableclean_suite.analysis.ESTIMATED_FACTS]
+    comes with its per-run Monte Carlo standard error under ``<name>_error`` (``(R,)``; combine
+    them with [monte_carlo_error][tableclean_suite.analysis.monte_carlo_error])."""
     model = model if model is not None else TaskModel()
     masks = affordance_masks(result, model)  # once for both analyses
     final = final_asymptotes(result, chain, max_itr, model, masks)
-    return {"success": np.atleast_1d(final.success), "average_reward": np.atleast_1d(final.average_reward),
-            "terminal": np.atleast_1d(final.terminal),
-            "greedy_success": final_greedy_success(result, chain, max_itr, model, masks),
-            "never_terminal": never_terminal(result)}
+    greedy = _greedy_statistics(result, chain, max_itr, model, masks)
+    facts = {"success": np.atleast_1d(final.success), "average_reward": np.atleast_1d(final.average_reward),
+             "terminal": np.atleast_1d(final.terminal), "greedy_success": np.atleast_1d(greedy.success),
+             "never_terminal": never_terminal(result)}
+    if final.error is not None:
+        for name, stats, field in (("success", final, "success"), ("average_reward", final, "average_reward"),
+                                   ("terminal", final, "terminal"), ("greedy_success", greedy, "success")):
+            facts[name + ERROR_SUFFIX] = np.atleast_1d(getattr(stats.error, field))
+    return facts
+
+
+# ---------------------------------------------------------------------------------------------
+# Exact or simulated: the analysis's cost, chosen before any work
+# ---------------------------------------------------------------------------------------------
+#: Kinds of analysis [analysis_plan][tableclean_suite.analysis.analysis_plan] accepts.
+ANALYSIS_KINDS = ("auto", "exact", "simulated")
+#: ``auto`` simulates when the exact analysis is estimated to cost more than this many times the
+#: training...
+EXACT_COST_FACTOR = 10.0
+#: ...and more than this many seconds per cell: below it the exact analysis is affordable whatever
+#: the training costs (the paper's cells: about 3 s by the estimate, which counts every run as a
+#: distinct policy).
+EXACT_AFFORDABLE_SECONDS = 60.0
+
+
+@dataclass(frozen=True)
+class AnalysisPlan:
+    """How a cell's asymptotes are computed, decided (and costed) before training.
+
+    Attributes:
+        kind: ``"exact"`` (the DP over the task's pairs) or ``"simulated"`` (Monte Carlo episodes).
+        episodes: episodes simulated per run and policy (``simulated``); 0 for ``exact``.
+        requested: the kind asked for (``auto``, ``exact`` or ``simulated``).
+        exact_seconds: the exact analysis's estimate ([tableclean_suite.asymptotes.exact_seconds][]).
+        simulated_seconds: the simulation's ([tableclean_suite.simulation.simulation_seconds][]).
+        training_seconds: the training's, the cell's runs ([tableclean_suite.resources.training_seconds][]).
+    """
+
+    kind: str
+    episodes: int
+    requested: str
+    exact_seconds: float
+    simulated_seconds: float
+    training_seconds: float
+
+    @property
+    def label(self) -> str:
+        """``'exact'`` or ``'simulated (1000 episodes per run)'``: what the tables print."""
+        return "exact" if self.kind == "exact" else f"simulated ({self.episodes} episodes per run)"
+
+    @property
+    def seconds(self) -> float:
+        """The estimate of the chosen kind."""
+        return self.exact_seconds if self.kind == "exact" else self.simulated_seconds
+
+    def describe(self) -> str:
+        """One clause for the harness's estimate line, e.g. ``'asymptotes simulated (1000 episodes per
+        run), about 17 s (exact: about 2.7 hours; training about 1 s)'``."""
+        from tableclean_suite.resources import format_seconds
+
+        other = (f"simulated: about {format_seconds(self.simulated_seconds)}" if self.kind == "exact"
+                 else f"exact: about {format_seconds(self.exact_seconds)}")
+        return (f"asymptotes {self.label}, about {format_seconds(self.seconds)} ({other}; training about "
+                f"{format_seconds(self.training_seconds)})")
+
+
+def analysis_plan(model, reward, runs: int, max_itr: int, training_seconds: float, analysis: str = "auto",
+                  episodes: int = simulation.SIMULATED_EPISODES, runs_per_call: int | None = None,
+                  checkpoint: bool = False, max_successors: int = 1) -> AnalysisPlan:
+    """Choose and cost a cell's analysis before training.
+
+    Args:
+        model: the [TaskModel][tableclean_suite.task.TaskModel] (its S and A; nothing is built).
+        reward: the cell's reward pattern or its name (the paper's looping penalty makes the exact
+            DP's states pairs of states).
+        runs: the cell's runs; ``runs_per_call``: runs analysed together (a training chunk's).
+        max_itr: episode length limit.
+        training_seconds: the cell's training estimate ([tableclean_suite.resources.training_seconds][]).
+        analysis: ``"exact"``, ``"simulated"`` or ``"auto"``: exact unless its estimate exceeds both
+            [EXACT_COST_FACTOR][tableclean_suite.analysis.EXACT_COST_FACTOR] times the training's and
+            [EXACT_AFFORDABLE_SECONDS][tableclean_suite.analysis.EXACT_AFFORDABLE_SECONDS].
+        episodes: simulated episodes per run and policy (>= 2).
+        checkpoint: the settling checkpoint's policies are analysed too (a third analysis per run,
+            beside the final behaviour and the final greedy policy).
+        max_successors: K successors per (state, action) of the stepped table.
+
+    Raises:
+        ValueError: an unknown ``analysis`` or a bad ``episodes``, naming what is allowed.
+    """
+    from tableclean_suite.rewards import LOOPING_OFF, get_reward_pattern
+
+    if analysis not in ANALYSIS_KINDS:
+        raise ValueError(f"analysis must be one of {', '.join(ANALYSIS_KINDS)}, got {analysis!r}")
+    if isinstance(episodes, bool) or int(episodes) != episodes or episodes < 2:
+        raise ValueError(f"episodes must be an integer >= 2, got {episodes!r}")
+    pattern = get_reward_pattern(reward) if isinstance(reward, str) else reward
+    calls = 2 + int(bool(checkpoint))
+    exact = asymptotes.exact_seconds(model.n_states, model.n_actions, max_itr, runs,
+                                     looping=pattern.looping_code != LOOPING_OFF and pattern.paper_looping,
+                                     runs_per_call=runs_per_call, calls_per_run=calls, max_successors=max_successors)
+    simulated = simulation.simulation_seconds(model.n_states, model.n_actions, runs, max_itr, calls, int(episodes))
+    kind = analysis
+    if analysis == "auto":
+        too_costly = exact > EXACT_COST_FACTOR * float(training_seconds) and exact > EXACT_AFFORDABLE_SECONDS
+        kind = "simulated" if too_costly else "exact"
+    return AnalysisPlan(kind, int(episodes) if kind == "simulated" else 0, analysis, exact, simulated,
+                        float(training_seconds))
+
+
+def analysis_chain(model, reward, table=None, plan: AnalysisPlan | None = None):
+    """What [final_run_facts][tableclean_suite.analysis.final_run_facts] analyses a cell's runs over:
+    the [EpisodeChain][tableclean_suite.asymptotes.EpisodeChain] for an exact ``plan`` (or None), the
+    [StepTable][tableclean_suite.simulation.StepTable] (with the plan's episodes) for a simulated one.
+    ``table``: the stepped transition table (default: the model's own)."""
+    if plan is not None and plan.kind == "simulated":
+        return simulation.StepTable.build(model, reward, table, plan.episodes)
+    return asymptotes.EpisodeChain.build(model, reward, table)
+
+
+def monte_carlo_error(errors) -> float:
+    """The Monte Carlo standard error of a mean over runs, from each run's ``(R,)`` standard error:
+    ``sqrt(sum(error_r ** 2)) / R`` (the runs' simulations are independent)."""
+    errors = np.asarray(errors, dtype=np.float64)
+    return float(np.sqrt(np.sum(errors * errors)) / errors.size)
+
+
+def with_monte_carlo_error(point: float, low: float, high: float, error: float,
+                           confidence: float) -> tuple[float, float]:
+    """An interval ``(low, high)`` around ``point`` (e.g. a bootstrap over runs) widened by a Monte
+    Carlo standard ``error``: each side's half-width and ``z x error`` (z the normal quantile of
+    ``confidence``) added in quadrature, ``point -+ sqrt(half ** 2 + (z x error) ** 2)``.
+
+    The bootstrap over runs already resamples the simulated values with their noise, so this
+    counts the simulation's error twice where the target is the mean over runs' policies: it errs
+    towards covering.  With ``error`` 0 (an exact analysis) the interval is returned unchanged.
+    """
+    if error == 0.0:
+        return low, high
+    if not math.isfinite(error):
+        return math.nan, math.nan
+    z = NormalDist().inv_cdf(0.5 + confidence / 2.0)
+    spread = z * float(error)
+    return (point - math.hypot(point - low, spread), point + math.hypot(high - point, spread))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -58,6 +58,14 @@ from tableclean_suite.task import Outcome
 
 #: The forward pass stops once less than this probability is still inside the episode.
 MASS_TOLERANCE = 1e-12
+#: Seconds per (DP step, pair, action, successor, clean flag) visit of the forward pass, whatever the
+#: number of policies, and per policy on top of it (a fast machine's; measured about 4.5e-8 and
+#: 1.1e-8 on a 2-core machine shared by about five busy processes): :func:`exact_seconds`.
+PAIR_VISIT_SECONDS = 1e-8
+POLICY_VISIT_SECONDS = 2.5e-9
+#: Table entries (state x action x successor) per second of building an :class:`EpisodeChain`
+#: (measured 1.3e6 to 3.8e6 on that machine: a sort of the successors' codes).
+CHAIN_ENTRIES_PER_SECOND = 3_000_000
 #: s_{t-1} at an episode's first step.
 NO_STATE = -1
 
@@ -84,9 +92,17 @@ class Asymptotes:
     terminal: np.ndarray
     average_reward: np.ndarray
     length: np.ndarray
+    #: Monte Carlo standard errors of a simulated estimate (the same fields and shapes,
+    #: [tableclean_suite.simulation.simulated_statistics][]); None for the exact DP.
+    error: "Asymptotes | None" = None
 
     def as_dict(self) -> dict[str, np.ndarray]:
         return {name: getattr(self, name) for name in QUANTITIES}
+
+    def select(self, index) -> "Asymptotes":
+        """The statistics (and errors) of the policies ``index`` selects (an index array or slice)."""
+        error = None if self.error is None else self.error.select(index)
+        return Asymptotes(*(getattr(self, name)[index] for name in QUANTITIES), error=error)
 
 
 @dataclass(frozen=True)
@@ -149,74 +165,6 @@ class EpisodeChain:
 
 
 @numba.njit(cache=True)
-def _one_policy(pi, pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr, tolerance):
-    """Forward DP over episode steps for one policy ``pi`` ``(S, A)``; returns
-    ``(success, terminal, E[return / length], E[length])``."""
-    n_pairs = pair_state.shape[0]
-    n_actions, n_successors = probability.shape[1], probability.shape[2]
-    mass = np.zeros((2, n_pairs))  # [clean flag, pair]: P(inside the episode here), 1 = no improper yet
-    gain = np.zeros((2, n_pairs))  # E[return so far ; inside the episode here]
-    for i in range(start_pairs.shape[0]):
-        mass[1, start_pairs[i]] += 1.0 / start_pairs.shape[0]
-    success = 0.0
-    terminal = 0.0
-    ratio = 0.0
-    length = 0.0
-    for step in range(1, max_itr + 1):
-        new_mass = np.zeros((2, n_pairs))
-        new_gain = np.zeros((2, n_pairs))
-        last = step == max_itr
-        inside = 0.0
-        for clean in range(2):
-            for n in range(n_pairs):
-                m = mass[clean, n]
-                if m == 0.0:
-                    continue
-                g = gain[clean, n]
-                s = pair_state[n]
-                for a in range(n_actions):
-                    w = pi[s, a]
-                    if w == 0.0:
-                        continue
-                    for k in range(n_successors):
-                        q = probability[s, a, k]
-                        if q == 0.0:
-                            continue
-                        step_mass = m * w * q
-                        step_gain = g * w * q + step_mass * reward[n, a, k]
-                        still_clean = clean if outcome[s, a, k] != _IMPROPER else 0
-                        if outcome[s, a, k] == _TERMINAL:
-                            terminal += step_mass
-                            if still_clean == 1:
-                                success += step_mass
-                            ratio += step_gain / step
-                            length += step_mass * step
-                        elif last:
-                            ratio += step_gain / step
-                            length += step_mass * step
-                        else:
-                            target = next_pair[s, a, k]
-                            new_mass[still_clean, target] += step_mass
-                            new_gain[still_clean, target] += step_gain
-                            inside += step_mass
-        mass = new_mass
-        gain = new_gain
-        if inside < tolerance:
-            break
-    return success, terminal, ratio, length
-
-
-def _episode_statistics_reference(pi, pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr,
-                                  tolerance, result):
-    """:func:`_one_policy` for each policy of ``pi`` ``(P, S, A)``, one after the other; writes
-    ``result[p] = (success, terminal, E[R/L], E[L])``.  The plain per-policy DP that
-    :func:`_episode_statistics` must reproduce bit for bit (kept for the tests)."""
-    for p in range(pi.shape[0]):
-        result[p] = _one_policy(pi[p], pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr,
-                                tolerance)
-
-
-@numba.njit(cache=True)
 def _retire(p, active, order, acc, inside, mass, gain, pi_t, result):
     """Write policy slot ``p``'s results to ``result[order[p]]`` and move the last active slot
     (``active - 1``) into ``p``; returns the new number of active slots."""
@@ -241,13 +189,14 @@ def _retire(p, active, order, acc, inside, mass, gain, pi_t, result):
 @numba.njit(cache=True, nogil=True)  # nogil: a thread training ahead analyses its chunks beside the statistics
 def _episode_statistics(pi_t, pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr, tolerance,
                         result):
-    """:func:`_one_policy` of every policy at once, bit for bit; writes ``result[p] = (success,
+    """The module docstring's forward DP for every policy at once; writes ``result[p] = (success,
     terminal, E[R/L], E[L])`` for ``p`` in ``range(P)``.
 
     ``pi_t`` is ``(S, A, P)`` (policy last; overwritten: slots are reordered).  The policies step
     in lockstep with the policy index innermost, so each step of the DP is a vectorisable loop
-    over policies; each policy's arithmetic is the one of :func:`_one_policy`, operation for
-    operation and in the same order.  The only differences are additions of exact zeros (a pair
+    over policies; each policy's arithmetic is the one of the plain per-policy DP (a forward pass
+    skipping zero masses, kept in the tests as the reference), operation for operation and in the
+    same order.  The only differences are additions of exact zeros (a pair
     with no mass, an action with probability 0 are not skipped: they add +0.0 to sums that are
     never -0.0) and the bookkeeping: a policy whose mass inside the episode drops below
     ``tolerance`` is retired (its results written, the last active policy moved into its slot).
@@ -519,3 +468,33 @@ def policy_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: i
                 rows[j] = memo[keys[j]] = row
     table = np.array(rows).reshape(len(first), len(QUANTITIES))
     return Asymptotes(*(table[:, i][inverse] for i in range(len(QUANTITIES))))
+
+
+def exact_seconds(n_states: int, n_actions: int, max_itr: int, runs: int, looping: bool = True,
+                  runs_per_call: int | None = None, calls_per_run: int = 1, max_successors: int = 1) -> float:
+    """Estimated seconds of the exact analysis of ``runs`` runs' policies, before any of it is built.
+
+    Args:
+        n_states, n_actions: the task's S state codes and A actions.
+        max_itr: the DP's steps (an upper bound: a pass stops once the episodes have ended).
+        runs: runs analysed.
+        looping: the reward pattern has the paper's looping penalty, so a DP state is a (state,
+            previous state) pair (at most S x A x K of them) instead of a state (at most S).
+        runs_per_call: runs analysed together (a training chunk's; default all): each call visits
+            every pair, its policies in lockstep.
+        calls_per_run: analyses per run (e.g. 3: the final behaviour, the final greedy policy and
+            the settling checkpoint's behaviour).
+        max_successors: K successors per (state, action) of the stepped table.
+
+    Returns:
+        Building the :class:`EpisodeChain` (:data:`CHAIN_ENTRIES_PER_SECOND`) plus, per call,
+        ``max_itr x 2 x pairs x A x K`` visits at :data:`PAIR_VISIT_SECONDS` and
+        :data:`POLICY_VISIT_SECONDS` per policy.  An upper bound: every run counted as a distinct
+        policy (runs sharing a policy share its computation), every pair as reached.
+    """
+    entries = int(n_states) * int(n_actions) * max(1, int(max_successors))
+    pairs = entries if looping else int(n_states)
+    per_call = int(runs) if runs_per_call is None else max(1, min(int(runs_per_call), int(runs)))
+    calls = -(-int(runs) // per_call) * int(calls_per_run)
+    visits = float(max_itr) * 2 * pairs * int(n_actions) * max(1, int(max_successors))
+    return entries / CHAIN_ENTRIES_PER_SECOND + calls * visits * (PAIR_VISIT_SECONDS + per_call * POLICY_VISIT_SECONDS)

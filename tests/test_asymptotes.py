@@ -2,6 +2,7 @@
 
 import re
 
+import numba
 import numpy as np
 import pytest
 
@@ -86,6 +87,64 @@ def test_success_equals_analysis_exact_success_probability():
     assert stats.success.shape == (30,) and (stats.terminal >= stats.success - 1e-12).all()
 
 
+@numba.njit
+def _one_policy(pi, pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr, tolerance):
+    """The plain forward DP of one policy ``pi`` ``(S, A)``, skipping zero masses: the reference the
+    lockstep kernel must reproduce bit for bit.  Returns ``(success, terminal, E[R/L], E[L])``."""
+    n_pairs = pair_state.shape[0]
+    n_actions, n_successors = probability.shape[1], probability.shape[2]
+    mass = np.zeros((2, n_pairs))  # [clean flag, pair]: P(inside the episode here), 1 = no improper yet
+    gain = np.zeros((2, n_pairs))  # E[return so far ; inside the episode here]
+    for i in range(start_pairs.shape[0]):
+        mass[1, start_pairs[i]] += 1.0 / start_pairs.shape[0]
+    success = terminal = ratio = length = 0.0
+    for step in range(1, max_itr + 1):
+        new_mass = np.zeros((2, n_pairs))
+        new_gain = np.zeros((2, n_pairs))
+        last = step == max_itr
+        inside = 0.0
+        for clean in range(2):
+            for n in range(n_pairs):
+                m = mass[clean, n]
+                if m == 0.0:
+                    continue
+                g = gain[clean, n]
+                s = pair_state[n]
+                for a in range(n_actions):
+                    w = pi[s, a]
+                    if w == 0.0:
+                        continue
+                    for k in range(n_successors):
+                        q = probability[s, a, k]
+                        if q == 0.0:
+                            continue
+                        step_mass = m * w * q
+                        step_gain = g * w * q + step_mass * reward[n, a, k]
+                        still_clean = clean if outcome[s, a, k] != _IMPROPER else 0
+                        if outcome[s, a, k] == _TERMINAL:
+                            terminal += step_mass
+                            if still_clean == 1:
+                                success += step_mass
+                            ratio += step_gain / step
+                            length += step_mass * step
+                        elif last:
+                            ratio += step_gain / step
+                            length += step_mass * step
+                        else:
+                            target = next_pair[s, a, k]
+                            new_mass[still_clean, target] += step_mass
+                            new_gain[still_clean, target] += step_gain
+                            inside += step_mass
+        mass = new_mass
+        gain = new_gain
+        if inside < tolerance:
+            break
+    return success, terminal, ratio, length
+
+
+_TERMINAL, _IMPROPER = int(Outcome.TERMINAL), int(Outcome.IMPROPER)
+
+
 @pytest.mark.parametrize("pattern", ["r1", "r4"])
 @pytest.mark.parametrize("max_itr", [3, 40, 500])
 def test_lockstep_dp_equals_the_per_policy_dp_bit_for_bit(pattern, max_itr):
@@ -99,10 +158,9 @@ def test_lockstep_dp_equals_the_per_policy_dp_bit_for_bit(pattern, max_itr):
     greedy = rng.integers(n_actions, size=(12, n_states))
     pi = np.concatenate([random_policies, analysis.action_probabilities(greedy, 0.0, n_actions),
                          analysis.action_probabilities(greedy, 0.1, n_actions)])
-    expected = np.zeros((len(pi), len(asymptotes.QUANTITIES)))
-    asymptotes._episode_statistics_reference(pi, chain.pair_state, chain.next_pair, chain.probability, chain.outcome,
-                                             chain.reward, chain.start_pairs, max_itr, asymptotes.MASS_TOLERANCE,
-                                             expected)
+    expected = np.array([_one_policy(policy, chain.pair_state, chain.next_pair, chain.probability, chain.outcome,
+                                     chain.reward, chain.start_pairs, max_itr, asymptotes.MASS_TOLERANCE)
+                         for policy in pi])
     stats = asymptotes.episode_statistics(pi, chain, max_itr)
     actual = np.stack([stats.success, stats.terminal, stats.average_reward, stats.length], axis=1)
     assert np.array_equal(actual.view(np.int64), expected.view(np.int64))
@@ -114,12 +172,12 @@ def test_final_run_facts_greedy_success_and_never_terminal():
     """Greedy success is the epsilon = 0 success (1 for a run that learned the plan, 0 for a fresh
     Q-table whose greedy action loops); never-terminal marks the runs with no terminal outcome."""
     chain = _chain("r3")
-    learned = train("q_learning", reward="r3", runs=3, iterations=3000, seed=1, gamma=0.9, model=MODEL)
+    learned = train("q_learning", reward="r3", runs=3, iterations=3000, seed=1, gamma=0.9, task=MODEL)
     facts = analysis.final_run_facts(learned, chain, 500, MODEL)
     assert set(facts) == {"success", "average_reward", "terminal", "greedy_success", "never_terminal"}
     exact = analysis.exact_success_probability(analysis.greedy_policy(learned.q), 0.0, 500, model=MODEL)
     np.testing.assert_allclose(facts["greedy_success"], exact, atol=1e-9)
-    fresh = train("q_learning", reward="r3", runs=2, iterations=1, seed=1, model=MODEL)
+    fresh = train("q_learning", reward="r3", runs=2, iterations=1, seed=1, task=MODEL)
     np.testing.assert_array_equal(analysis.never_terminal(fresh), [1.0, 1.0])
     episodes = learned.episodes()
     reached = episodes.groupby("run")["reached_terminal"].any().reindex(range(3), fill_value=False)
@@ -130,7 +188,7 @@ def test_final_run_facts_greedy_success_and_never_terminal():
 
 
 def test_a_longer_looping_memory_leaves_the_average_reward_unknown_and_the_success_exact():
-    q = train("q_learning", reward="r4", runs=2, iterations=800, seed=2, model=MODEL).q
+    q = train("q_learning", reward="r4", runs=2, iterations=800, seed=2, task=MODEL).q
     paper, cycle = (asymptotes.greedy_asymptotes(q, 0.1, _chain(name), 500) for name in ("r4", "r4_cycle"))
     np.testing.assert_allclose(paper.success, cycle.success, rtol=1e-12)  # pair chain vs state chain
     np.testing.assert_allclose(paper.length, cycle.length, rtol=1e-12)
@@ -218,7 +276,7 @@ def test_policy_statistics_equals_the_dp_of_every_policy_bit_for_bit(pattern, mo
 def test_greedy_policies_that_differ_off_their_path_share_one_dp(monkeypatch):
     monkeypatch.setattr(asymptotes, "_memo", [])
     chain = _chain("r4")
-    q = train("q_learning", reward="r4", runs=40, iterations=3000, seed=5, model=MODEL).q
+    q = train("q_learning", reward="r4", runs=40, iterations=3000, seed=5, task=MODEL).q
     greedy = asymptotes.greedy_asymptotes(q, 0.0, chain, 500)
     reference = asymptotes.episode_statistics(
         analysis.action_probabilities(analysis.greedy_policy(q), 0.0, MODEL.n_actions), chain, 500)
@@ -271,7 +329,7 @@ def test_distinct_rows():
 
 
 def test_learned_affordances_and_visits_read_the_int8_records_as_int64_ones():
-    result = train("learned_affordance_q_learning", runs=6, iterations=800, epsilon=0.5, seed=4, model=MODEL)
+    result = train("learned_affordance_q_learning", runs=6, iterations=800, epsilon=0.5, seed=4, task=MODEL)
     assert result.states.dtype == np.int8  # the records' own type: no int64 copy of them
     wide = [np.asarray(a, dtype=np.int64) for a in (result.states, result.actions, result.outcomes)]
     masks = analysis.learned_affordances(result.states, result.actions, result.outcomes, MODEL.n_states,
