@@ -39,6 +39,12 @@ flag), the probability of being there still in the episode and the expected retu
 that event; an episode ending at step l adds ``return / l`` to E[return / length].  The pass
 stops when the mass still in the episode is below :data:`MASS_TOLERANCE` (so values are exact
 to about that times the largest |reward|).
+
+**Its cost** grows with ``max_itr`` x pairs x actions per analysis
+([exact_seconds][tableclean_suite.asymptotes.exact_seconds] estimates it before anything is
+built); where that is hours, [tableclean_suite.simulation][] estimates the same quantities from
+simulated episodes, with their Monte Carlo error, and [tableclean_suite.analysis.analysis_plan][]
+chooses between the two.
 """
 
 from __future__ import annotations
@@ -86,23 +92,18 @@ class Asymptotes:
         terminal: P(terminal within ``max_itr`` steps), in [0, 1].
         average_reward: E[return / length], reward units per iteration.
         length: E[length], iterations in [1, max_itr].
+        error: the Monte Carlo standard errors of a simulated estimate, the same fields and shapes
+            ([tableclean_suite.simulation.simulated_statistics][]); None for the exact DP.
     """
 
     success: np.ndarray
     terminal: np.ndarray
     average_reward: np.ndarray
     length: np.ndarray
-    #: Monte Carlo standard errors of a simulated estimate (the same fields and shapes,
-    #: [tableclean_suite.simulation.simulated_statistics][]); None for the exact DP.
     error: "Asymptotes | None" = None
 
     def as_dict(self) -> dict[str, np.ndarray]:
         return {name: getattr(self, name) for name in QUANTITIES}
-
-    def select(self, index) -> "Asymptotes":
-        """The statistics (and errors) of the policies ``index`` selects (an index array or slice)."""
-        error = None if self.error is None else self.error.select(index)
-        return Asymptotes(*(getattr(self, name)[index] for name in QUANTITIES), error=error)
 
 
 @dataclass(frozen=True)

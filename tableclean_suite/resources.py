@@ -6,11 +6,16 @@ the budget (R runs, T iterations): the model's transition arrays and the table t
 (a few int64/float64 per (state, action) pair), the Q-tables (R x S x A float64, as many copies as
 the learner and a checkpoint keep: :func:`q_table_copies`), each running run's working arrays
 (:func:`run_working_bytes`), the records (R x T: a float64 reward and four integer codes per
-iteration) and a run's training time (R x T steps at the engine's rate).  :func:`require_memory` compares an estimate with the memory the operating
-system reports as available (:mod:`psutil`) and raises :class:`InsufficientMemoryError`, whose
-one-line message names the estimate, its parts, what is available and the override.
-:func:`require_time` does the same for an estimated wall time longer than
+iteration) and a run's training time (:func:`training_seconds`: R x T steps at the engine's rate,
+Dyna-Q's planning updates counted, and each run's setup of its S x A tables).
+:func:`require_memory` compares an estimate with the memory the operating system reports as
+available (:mod:`psutil`) and raises :class:`InsufficientMemoryError`, whose one-line message
+names the estimate, its parts, what is available and the override.  :func:`require_time` (and
+:func:`require_training_time`) does the same for an estimated wall time longer than
 :data:`MAX_TRAINING_SECONDS`, at the engine's own rate (:func:`steps_per_second`).
+
+Sizes that grow exponentially with a spec (``2 ** segments`` state codes) are checked with
+:func:`bounded_product` on logarithms before any of them is computed.
 
 The override is explicit: set the environment variable :data:`OVERRIDE_ENV` to ``1`` (executor
 workers inherit it), or call with ``override=True``.
@@ -18,6 +23,7 @@ workers inherit it), or call with ``override=True``.
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass, field
 
@@ -50,6 +56,9 @@ STEPS_PER_SECOND = 50_000_000
 REFERENCE_STEPS_PER_SECOND = 300_000
 #: Engine name -> learner steps per second assumed by time estimates.
 ENGINE_STEPS_PER_SECOND = {"compiled": STEPS_PER_SECOND, "reference": REFERENCE_STEPS_PER_SECOND}
+#: Q-table entries per second a run's setup writes (its S x A table(s) and working arrays, before
+#: its first step): a fast machine's memory bandwidth, so the estimate errs towards allowing.
+TABLE_ENTRIES_PER_SECOND = 200_000_000
 #: The engine ``train()`` uses unless told otherwise (the benchmark grid and ``tune`` never choose another).
 DEFAULT_ENGINE = "compiled"
 #: Bytes per (state, action) pair of a Q entry in the reference loop's Python tables: a list slot
@@ -95,7 +104,10 @@ def format_bytes(n: float) -> str:
 
 
 def format_seconds(seconds: float) -> str:
-    """``90000`` -> ``'1.0 days'``; seconds, hours or days."""
+    """``90000`` -> ``'1.0 days'``, ``0.25`` -> ``'0.25 s'``; seconds (two significant digits below
+    10), hours or days."""
+    if seconds < 10:
+        return f"{seconds:.2g} s"
     if seconds < 3600:
         return f"{seconds:.0f} s"
     if seconds < 24 * 3600:
@@ -202,6 +214,82 @@ def steps_per_second(engine: str) -> float:
     if engine not in ENGINE_STEPS_PER_SECOND:
         raise ValueError(f"unknown engine {engine!r}; allowed: {', '.join(ENGINE_STEPS_PER_SECOND)}")
     return float(ENGINE_STEPS_PER_SECOND[engine])
+
+
+def training_seconds(runs: int, iterations: int, n_states: int, n_actions: int, engine: str = DEFAULT_ENGINE,
+                     planning_steps: int = 0, q_tables: int = 1) -> float:
+    """Estimated seconds of training ``runs`` runs of ``iterations`` iterations (the compiled or the
+    reference ``engine``), every update a learner makes counted.
+
+    Args:
+        runs, iterations: the budget, R runs x T iterations.
+        n_states, n_actions: the task's S state codes and A actions.
+        engine: ``"compiled"`` or ``"reference"`` (:func:`steps_per_second`).
+        planning_steps: Dyna-Q's planning updates per real step (each costs about a step), >= 0.
+        q_tables: learner tables per run (2 for double Q-learning).
+
+    Returns:
+        ``R x T x (1 + planning_steps)`` updates at the engine's rate, plus each run's setup: its
+        ``q_tables x S x A`` entries at :data:`TABLE_ENTRIES_PER_SECOND`.
+    """
+    updates = int(runs) * int(iterations) * (1 + max(0, int(planning_steps)))
+    setup = int(runs) * max(1, int(q_tables)) * int(n_states) * int(n_actions) / TABLE_ENTRIES_PER_SECOND
+    return updates / steps_per_second(engine) + setup
+
+
+def describe_training(runs: int, iterations: int, n_states: int, n_actions: int, engine: str = DEFAULT_ENGINE,
+                      planning_steps: int = 0, q_tables: int = 1) -> str:
+    """How :func:`training_seconds` made its estimate, for a message: ``'6e+03 learner updates at
+    5e+07/s (compiled engine) and 20 runs' setup of 1.3e+07 entries'``."""
+    updates = int(runs) * int(iterations) * (1 + max(0, int(planning_steps)))
+    planning = f" ({int(planning_steps)} planning updates per step)" if planning_steps else ""
+    entries = max(1, int(q_tables)) * int(n_states) * int(n_actions)
+    return (f"{updates:.3g} learner updates{planning} at {steps_per_second(engine):.3g}/s ({engine} engine) and "
+            f"{int(runs)} runs' setup of {entries:.3g} table entries at {TABLE_ENTRIES_PER_SECOND:.3g}/s")
+
+
+def require_training_time(runs: int, iterations: int, n_states: int, n_actions: int, what: str,
+                          engine: str = DEFAULT_ENGINE, planning_steps: int = 0, q_tables: int = 1,
+                          extra_seconds: float = 0.0, extra_detail: str = "", override: bool = False) -> float:
+    """:func:`require_time` of :func:`training_seconds` (plus ``extra_seconds``, e.g. the analysis's,
+    described by ``extra_detail``); returns the estimate in seconds.  The refusal names every
+    part: updates (Dyna-Q's planning updates included), the runs' setup and the extra."""
+    seconds = training_seconds(runs, iterations, n_states, n_actions, engine, planning_steps, q_tables)
+    detail = describe_training(runs, iterations, n_states, n_actions, engine, planning_steps, q_tables)
+    require_time(seconds + float(extra_seconds), what, f"{detail}{'; ' + extra_detail if extra_detail else ''}",
+                 override)
+    return seconds + float(extra_seconds)
+
+
+def bounded_product(terms, limit: int) -> int | None:
+    """``prod(base ** exponent for base, exponent in terms)`` when it is at most ``limit``, else None.
+
+    Decided on logarithms before any power is computed, so a size that grows with a spec
+    (``2 ** segments`` with ``segments`` of ``10 ** 30``) costs no arithmetic: the exact product is
+    only formed once it is known to have at most about ``log2(limit) + 1`` bits.
+
+    Args:
+        terms: ``(base, exponent)`` pairs of non-negative integers.
+        limit: the largest product accepted, an integer >= 1.
+    """
+    total_bits = 0.0
+    exact = []
+    for base, exponent in terms:
+        base, exponent = int(base), int(exponent)
+        if base < 0 or exponent < 0:
+            raise ValueError(f"bounded_product takes non-negative bases and exponents, got {base}**{exponent}")
+        if base == 0 and exponent > 0:
+            return 0
+        if base <= 1 or exponent == 0:
+            continue
+        if exponent.bit_length() > 64:  # at least 2**(2**64): far past any limit
+            return None
+        total_bits += exponent * math.log2(base)
+        if total_bits > math.log2(int(limit)) + 1:
+            return None
+        exact.append((base, exponent))
+    product = math.prod(base**exponent for base, exponent in exact)
+    return product if product <= int(limit) else None
 
 
 def require_memory(estimate: MemoryEstimate, what: str, available: int | None = None,

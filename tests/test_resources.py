@@ -162,11 +162,11 @@ def test_the_memory_estimate_covers_the_traced_peak_of_training(learner, checkpo
     from tableclean_suite.rewards import get_reward_pattern
 
     iterations = 200
-    train(learner=learner, model=MEASURED_MODEL, runs=1, iterations=10)  # compiled and the tables built outside the trace
+    train(learner=learner, task=MEASURED_MODEL, runs=1, iterations=10)  # compiled and the tables built outside the trace
     tracemalloc.start()
     try:
         base = tracemalloc.get_traced_memory()[0]
-        result = train(learner=learner, model=MEASURED_MODEL, runs=runs, iterations=iterations, checkpoint=checkpoint,
+        result = train(learner=learner, task=MEASURED_MODEL, runs=runs, iterations=iterations, checkpoint=checkpoint,
                        engine=engine)
         peak = tracemalloc.get_traced_memory()[1] - base
     finally:
@@ -256,3 +256,57 @@ def test_the_grid_time_counts_training_once_with_settling_and_the_checkpoints_an
     monkeypatch.setitem(resources.ENGINE_STEPS_PER_SECOND, resources.DEFAULT_ENGINE, float("inf"))  # analyses only
     (settling, _), (plain, _) = _grid_seconds("symbolic"), _grid_seconds("physics")
     assert settling == 2 * plain > 0  # the final Q-tables' asymptotes and the checkpoint's
+
+
+@pytest.mark.parametrize("terms", [[(2, 10**30), (10**30 + 1, 1), (10**30, 1)],  # segments of 10**30
+                                   [(2, 3), (4, 2 * 10**8), (3, 1)],  # objects of 2 x 10**8
+                                   [(2, 10**400)],  # an exponent too large for a float
+                                   [(2, 31)], [(3, 20), (2, 1)]])
+def test_bounded_product_refuses_huge_sizes_without_computing_them(terms):
+    """Sizes that grow with a spec are decided on logarithms: no power of a huge exponent is formed
+    (each of these would hang or exhaust memory if it were)."""
+    import time
+
+    started = time.perf_counter()
+    assert resources.bounded_product(terms, 2**31 - 1) is None
+    assert time.perf_counter() - started < 0.1
+
+
+def test_bounded_product_is_exact_up_to_the_limit():
+    assert resources.bounded_product([(2, 3), (4, 2), (3, 1)], 10**6) == 8 * 16 * 3
+    assert resources.bounded_product([(2, 30)], 2**30) == 2**30  # at the limit
+    assert resources.bounded_product([(2, 30)], 2**30 - 1) is None  # one past it, within the log margin
+    assert resources.bounded_product([(2, 0), (1, 10**100), (7, 1)], 7) == 7  # trivial terms cost nothing
+    assert resources.bounded_product([(0, 10**100), (2, 10**100)], 5) == 0
+    with pytest.raises(ValueError, match=r"non-negative.*2\*\*-1"):
+        resources.bounded_product([(2, -1)], 5)
+
+
+def test_the_training_estimate_counts_dyna_planning_and_each_runs_setup(monkeypatch):
+    """Dyna-Q's planning updates cost about a step each: 10 000 of them per step make a budget that
+    trains in minutes without planning take days, and the refusal says so before any work."""
+    monkeypatch.delenv(resources.OVERRIDE_ENV, raising=False)
+    rate = resources.steps_per_second(resources.DEFAULT_ENGINE)
+    plain = resources.training_seconds(1000, 10**6, 24, 4)
+    assert plain == pytest.approx(10**9 / rate + 1000 * 96 / resources.TABLE_ENTRIES_PER_SECOND)
+    planned = resources.training_seconds(1000, 10**6, 24, 4, planning_steps=10_000)
+    assert planned == pytest.approx(10**9 * 10_001 / rate + 1000 * 96 / resources.TABLE_ENTRIES_PER_SECOND)
+    assert plain < resources.MAX_TRAINING_SECONDS < planned
+    assert resources.require_training_time(1000, 10**6, 24, 4, "plain") == pytest.approx(plain)
+    with pytest.raises(resources.TooMuchWorkError, match=r"about \d+\.\d days .*10000 planning updates per step"):
+        resources.require_training_time(1000, 10**6, 24, 4, "dyna", planning_steps=10_000)
+    # a large table's setup counts even for a short budget; double Q-learning's two tables twice
+    setup = resources.training_seconds(20, 1, 3_244_032, 4) - 20 / rate
+    assert setup == pytest.approx(20 * 3_244_032 * 4 / resources.TABLE_ENTRIES_PER_SECOND)
+    assert resources.training_seconds(20, 1, 3_244_032, 4, q_tables=2) - 20 / rate == pytest.approx(2 * setup)
+    with pytest.raises(resources.TooMuchWorkError, match=r"asymptotes about"):
+        resources.require_training_time(1, 1, 24, 4, "with an analysis", extra_seconds=3 * 86400,
+                                        extra_detail="asymptotes about 3 days")
+
+
+def test_format_seconds_keeps_short_times_readable():
+    assert resources.format_seconds(0.25) == "0.25 s"
+    assert resources.format_seconds(1.3) == "1.3 s"
+    assert resources.format_seconds(17.4) == "17 s"
+    assert resources.format_seconds(9720) == "2.7 hours"
+    assert resources.format_seconds(3 * 86400) == "3.0 days"
