@@ -54,12 +54,8 @@ from tableclean_suite.environments.randomization import (
     read_nominal,
     resolve_randomization,
 )
-from tableclean_suite.environments.robot_support import (
-    check_scene_robot,
-    exclude_parent_contacts,
-    scene_base_shift,
-    scene_gripper,
-)
+from tableclean_suite.environments.robot_registry import base_shift, check_robot, scene_gripper_types
+from tableclean_suite.environments.robot_support import exclude_parent_contacts
 from tableclean_suite.environments.scene_building import (
     ObjectMeasures,
     ResetLayouts,
@@ -212,10 +208,10 @@ class TableClean(ManipulationEnv):
         seed=None,
     ):
         #: robosuite's name of the arm; ValueError naming the supported robots before anything is built
-        self.robot_name: str = check_scene_robot(robots)
+        self.robot_name: str = check_robot(robots)
         check_episode_settings(horizon, control_freq)
         check_controller_configs(controller_configs)
-        gripper_types = scene_gripper(self.robot_name, gripper_types)  # some arms get another gripper (robot configs)
+        gripper_types = scene_gripper_types(self.robot_name, gripper_types)  # the robot config may swap it
         #: the configured task config; ``task_config`` is this episode's (randomised sizes, see randomization=)
         self.base_task_config = make_config(task_config)
         self.task_config = self.base_task_config
@@ -353,7 +349,7 @@ class TableClean(ManipulationEnv):
         config = self.task_config
         robot_model = self.robots[0].robot_model
         robot_model.set_base_xpos(np.add(robot_model.base_xpos_offset["table"](config["table_full_size"][0]),
-                                          scene_base_shift(self.robot_name)))  # some arms sit closer (robot configs)
+                                          base_shift(self.robot_name)))  # some arms sit closer (robot configs)
         exclude_parent_contacts(robot_model)  # a fixed base's first link must not collide with it (Sawyer)
         arena = TableCleanArena(
             geometry=self.geometry,
