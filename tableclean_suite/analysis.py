@@ -440,13 +440,13 @@ class AnalysisPlan:
 
     def describe(self) -> str:
         """One clause for the harness's estimate line, e.g. ``'asymptotes simulated (1000 episodes per
-        run), about 17 s (exact: about 2.7 hours; training about 1 s)'``."""
+        run): about 17 s, where exact ones would take about 2.7 hours and the training about 1.3 s'``."""
         from tableclean_suite.resources import format_seconds
 
-        other = (f"simulated: about {format_seconds(self.simulated_seconds)}" if self.kind == "exact"
-                 else f"exact: about {format_seconds(self.exact_seconds)}")
-        return (f"asymptotes {self.label}, about {format_seconds(self.seconds)} ({other}; training about "
-                f"{format_seconds(self.training_seconds)})")
+        other = "simulated" if self.kind == "exact" else "exact"
+        return (f"asymptotes {self.label}: about {format_seconds(self.seconds)}, where {other} ones would take about "
+                f"{format_seconds(self.simulated_seconds if self.kind == 'exact' else self.exact_seconds)} and the "
+                f"training about {format_seconds(self.training_seconds)}")
 
 
 def analysis_plan(model, reward, runs: int, max_itr: int, training_seconds: float, analysis: str = "auto",
@@ -492,6 +492,23 @@ def analysis_plan(model, reward, runs: int, max_itr: int, training_seconds: floa
                         float(training_seconds))
 
 
+def cell_plan(model, reward, learner, runs: int, iterations: int, max_itr: int, analysis: str = "auto",
+              runs_per_call: int | None = None, checkpoint: bool = False, max_successors: int = 1,
+              episodes: int = simulation.SIMULATED_EPISODES) -> AnalysisPlan:
+    """[analysis_plan][tableclean_suite.analysis.analysis_plan] of one cell of the harness: its
+    training estimated by [tableclean_suite.resources.training_seconds][] for ``learner`` (a
+    ``TabularLearner``: Dyna-Q's planning updates and double Q-learning's second table counted) on
+    ``runs`` x ``iterations``; the other arguments as ``analysis_plan``'s."""
+    from tableclean_suite.learners.rules import METHOD_DOUBLE_Q
+    from tableclean_suite.resources import training_seconds
+
+    training = training_seconds(runs, iterations, model.n_states, model.n_actions,
+                                planning_steps=getattr(learner, "planning_steps", 0),
+                                q_tables=2 if getattr(learner, "method", None) == METHOD_DOUBLE_Q else 1)
+    return analysis_plan(model, reward, runs, max_itr, training, analysis, episodes, runs_per_call, checkpoint,
+                         max_successors)
+
+
 def analysis_chain(model, reward, table=None, plan: AnalysisPlan | None = None):
     """What [final_run_facts][tableclean_suite.analysis.final_run_facts] analyses a cell's runs over:
     the [EpisodeChain][tableclean_suite.asymptotes.EpisodeChain] for an exact ``plan`` (or None), the
@@ -509,15 +526,23 @@ def monte_carlo_error(errors) -> float:
     return float(np.sqrt(np.sum(errors * errors)) / errors.size)
 
 
-def with_monte_carlo_error(point: float, low: float, high: float, error: float,
-                           confidence: float) -> tuple[float, float]:
+#: The range of each of [ESTIMATED_FACTS][tableclean_suite.analysis.ESTIMATED_FACTS] (probabilities
+#: in [0, 1]; the average reward unbounded): a widened interval is clipped to it.
+FACT_LIMITS = {"success": (0.0, 1.0), "terminal": (0.0, 1.0), "greedy_success": (0.0, 1.0),
+               "average_reward": (-math.inf, math.inf)}
+
+
+def with_monte_carlo_error(point: float, low: float, high: float, error: float, confidence: float,
+                           limits: tuple[float, float] = (-math.inf, math.inf)) -> tuple[float, float]:
     """An interval ``(low, high)`` around ``point`` (e.g. a bootstrap over runs) widened by a Monte
     Carlo standard ``error``: each side's half-width and ``z x error`` (z the normal quantile of
-    ``confidence``) added in quadrature, ``point -+ sqrt(half ** 2 + (z x error) ** 2)``.
+    ``confidence``) added in quadrature, ``point -+ sqrt(half ** 2 + (z x error) ** 2)``, clipped to
+    the quantity's ``limits`` (e.g. [FACT_LIMITS][tableclean_suite.analysis.FACT_LIMITS]).
 
     The bootstrap over runs already resamples the simulated values with their noise, so this
     counts the simulation's error twice where the target is the mean over runs' policies: it errs
-    towards covering.  With ``error`` 0 (an exact analysis) the interval is returned unchanged.
+    towards covering.  With ``error`` 0 (an exact analysis, or every episode alike) the interval is
+    returned unchanged; a NaN ``error`` gives a NaN interval.
     """
     if error == 0.0:
         return low, high
@@ -525,7 +550,8 @@ def with_monte_carlo_error(point: float, low: float, high: float, error: float,
         return math.nan, math.nan
     z = NormalDist().inv_cdf(0.5 + confidence / 2.0)
     spread = z * float(error)
-    return (point - math.hypot(point - low, spread), point + math.hypot(high - point, spread))
+    return (max(limits[0], point - math.hypot(point - low, spread)),
+            min(limits[1], point + math.hypot(high - point, spread)))
 
 
 # ---------------------------------------------------------------------------------------------

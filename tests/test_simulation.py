@@ -174,7 +174,8 @@ def test_auto_keeps_exact_on_the_paper_and_simulates_a_large_spec():
     assert plan.kind == "simulated" and plan.label == "simulated (1000 episodes per run)"
     assert plan.exact_seconds > 3600 > plan.simulated_seconds
     assert plan.exact_seconds > analysis.EXACT_COST_FACTOR * plan.training_seconds
-    assert "simulated (1000 episodes per run)" in plan.describe() and "exact: about" in plan.describe()
+    assert plan.describe().startswith("asymptotes simulated (1000 episodes per run): about ")
+    assert "where exact ones would take about " in plan.describe()
     forced = analysis.analysis_plan(large, "r1", 20, 500, training, "exact")
     assert forced.kind == "exact" and forced.requested == "exact"
     assert analysis.analysis_plan(PAPER, "r1", 10, 500, 1.0, "simulated", episodes=50).label == \
@@ -207,6 +208,24 @@ def test_monte_carlo_error_widens_the_interval_in_quadrature():
     assert low < 0.4 and high > 0.7
     assert analysis.with_monte_carlo_error(0.5, 0.4, 0.7, 0.0, 0.95) == (0.4, 0.7)  # exact: unchanged
     assert all(math.isnan(v) for v in analysis.with_monte_carlo_error(0.5, 0.4, 0.7, math.nan, 0.95))
+    clipped = analysis.with_monte_carlo_error(0.0, 0.0, 0.0002, 0.001, 0.95, analysis.FACT_LIMITS["terminal"])
+    assert clipped[0] == 0.0 and clipped[1] == pytest.approx(math.hypot(0.0002, z * 0.001))
     point = 0.5  # an interval of zero width still gets the Monte Carlo part
     assert analysis.with_monte_carlo_error(point, point, point, 0.01, 0.95) == pytest.approx(
         (point - z * 0.01, point + z * 0.01))
+
+
+def test_cell_plan_counts_every_update_of_the_learner():
+    """A harness cell's plan costs its learner's training: Dyna-Q's planning updates and double
+    Q-learning's second table make it dearer, so auto keeps the exact DP longer for them."""
+    from tableclean_suite.learners import get_learner
+
+    large = TaskModel(spec=TaskSpec("sim_plan", segments=6, objects=("box", "box")))
+    plans = {name: analysis.cell_plan(large, "r1", get_learner(name), 50, 100_000, 500, runs_per_call=50)
+             for name in ("q_learning", "double_q_learning", "dyna_q")}
+    planning = get_learner("dyna_q").planning_steps
+    assert plans["dyna_q"].training_seconds == pytest.approx(resources.training_seconds(
+        50, 100_000, large.n_states, large.n_actions, planning_steps=planning))
+    assert plans["q_learning"].training_seconds < plans["double_q_learning"].training_seconds
+    assert plans["q_learning"].training_seconds < plans["dyna_q"].training_seconds
+    assert plans["q_learning"].exact_seconds == plans["dyna_q"].exact_seconds
