@@ -45,6 +45,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import cli  # noqa: E402
 from tableclean_suite.bench.cli import positive_int  # noqa: E402
+from tableclean_suite.bench.rollout import majority_policy  # noqa: E402
 from tableclean_suite.bench.startup import apply_verbosity  # noqa: E402
 
 POLICIES = ("optimal", "learned")
@@ -84,18 +85,6 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         help="fraction of the demos in mask/valid, in [0, 1) (default 0.1)")
     cli.add_executor_arguments(parser, "episodes")  # --workers, --executor, --ray-address (as fidelity)
     return parser
-
-
-def majority_policy(q: np.ndarray) -> np.ndarray:
-    """``(S,)`` int: per state the greedy action (first maximum) most runs agree on; ties: lowest action.
-
-    ``q`` is ``(runs, S, A)``.
-    """
-    greedy = np.argmax(q, axis=2)
-    votes = np.zeros(q.shape[1:], dtype=np.int64)
-    for run_greedy in greedy:
-        votes[np.arange(q.shape[1]), run_greedy] += 1
-    return np.argmax(votes, axis=1)
 
 
 def learned_policy(model, iterations: int, runs: int, seed: int) -> np.ndarray:

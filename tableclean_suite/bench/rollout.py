@@ -41,14 +41,12 @@ POLICY_PRINT_STATES = 24
 
 
 def majority_policy(q: np.ndarray) -> np.ndarray:
-    """``(24,)`` int: per state, the greedy action most runs agree on (ties towards the lowest action).
+    """``(S,)`` int: per state, the greedy action most runs agree on (ties towards the lowest action).
 
-    ``q`` is ``(runs, 24, 4)``; each run's greedy action is the first maximum, as the learners'.
+    ``q`` is ``(runs, S, A)``; each run's greedy action is the first maximum, as the learners'.
     """
-    greedy = np.argmax(q, axis=2)  # (runs, 24)
-    votes = np.zeros((q.shape[1], q.shape[2]), dtype=np.int64)
-    for run_greedy in greedy:
-        votes[np.arange(q.shape[1]), run_greedy] += 1
+    greedy = np.argmax(q, axis=2)  # (runs, S)
+    votes = (greedy[:, :, None] == np.arange(q.shape[2])).sum(axis=0)  # (S, A)
     return np.argmax(votes, axis=1)
 
 
@@ -107,7 +105,7 @@ def train_policy(learner: str, reward: str, start: TaskState, runs: int, iterati
     """The majority greedy policy of ``runs`` symbolic training runs from ``start`` (``(24,)`` actions)."""
     from tableclean_suite.learners import train
 
-    result = train(learner, reward, runs=runs, iterations=iterations, seed=seed, model=TaskModel(start_state=start, spec=spec))
+    result = train(learner, reward, runs=runs, iterations=iterations, seed=seed, task=TaskModel(start_state=start, spec=spec))
     return majority_policy(result.q)
 
 

@@ -111,6 +111,12 @@ class Section:
     failed: bool = False
 
 
+def _millions(per_second: float) -> str:
+    """A rate in millions per second, three significant digits below 100 (``"0.648"``, ``"47.4"``)."""
+    millions = per_second / 1e6
+    return f"{millions:#.3g}" if millions < 100 else f"{millions:.0f}"
+
+
 def _best_seconds(function, repeat: int) -> float:
     """The fastest of ``repeat`` wall-clock timings of ``function()``."""
     best = float("inf")
@@ -173,8 +179,8 @@ def learner_table(reward: str, runs: int, iterations: int, repeat: int) -> Table
         train(name, reward, runs=2, iterations=10)  # warm-up: compile or load the kernel
         seconds[name] = _best_seconds(lambda: train(name, reward, runs=runs, iterations=iterations), repeat)
     real = runs * iterations
-    rows = [{"learner": name, "M updates/s": f"{real / elapsed / 1e6:.3g}",
-             "planning M updates/s": f"{real * get_learner(name).planning_steps / elapsed / 1e6:.3g}",
+    rows = [{"learner": name, "M updates/s": _millions(real / elapsed),
+             "planning M updates/s": _millions(real * get_learner(name).planning_steps / elapsed),
              "time per update / Q-learning's": f"{elapsed / seconds['q_learning']:.2f}"}
             for name, elapsed in seconds.items()]
     return Table(f"Learners: paper spec, reward {reward}", rows,
@@ -193,8 +199,8 @@ def plain_loop_table(runs: int, iterations: int, repeat: int) -> Table:
         compiled = runs * iterations / _best_seconds(lambda: train(learner, "r2", runs=runs, iterations=iterations),
                                                      repeat)
         plain = plain_runs * iterations / _best_seconds(lambda: plain_loop(learner, plain_runs, iterations), repeat)
-        rows.append({"learner": learner, "compiled M updates/s": f"{compiled / 1e6:.3g}",
-                     "plain Python M updates/s": f"{plain / 1e6:.3g}", "compiled / plain Python": f"{compiled / plain:.0f}"})
+        rows.append({"learner": learner, "compiled M updates/s": _millions(compiled),
+                     "plain Python M updates/s": _millions(plain), "compiled / plain Python": f"{compiled / plain:.0f}"})
     return Table("Compiled learners against a plain Python loop of Algorithm 1", rows,
                  f"Plain loop: {plain_runs} runs x {iterations} iterations, precomputed transition lists, "
                  "random.random(); the fastest of the repeats on both sides.")
@@ -221,7 +227,7 @@ def specs_section(args) -> Section:
             best[index] = min(best[index], _best_seconds(
                 lambda: train("q_learning", "r4", runs=SPEC_RUNS, iterations=SPEC_ITERATIONS, task=model), 1))
     updates = SPEC_RUNS * SPEC_ITERATIONS
-    rows = [{"spec": model.spec.name, "state codes": model.n_states, "M updates/s": f"{updates / seconds / 1e6:.3g}",
+    rows = [{"spec": model.spec.name, "state codes": model.n_states, "M updates/s": _millions(updates / seconds),
              "rate / paper's": f"{best[0] / seconds:.2f}"} for model, seconds in zip(models, best)]
     return Section([Table("Task size: Q-learning's update rate on the scaling study's largest spec", rows,
                           f"Reward r4, {SPEC_RUNS} runs x {SPEC_ITERATIONS} iterations per call (Q-tables allocated "
@@ -343,8 +349,8 @@ def skills_section(args) -> Section:
     note = (f"{args.episodes} optimal episode(s) of task {args.task_spec.name} from layout {tuple(args.layout)} per "
             f"path, alternating; {terminal} of {len(episodes)} reached the terminal state. Raw MuJoCo: "
             "the mj_step calls of each control step from the compiled path's recorded states, nothing else. "
-            f"The compiled skills spend {executor_overhead(measured['compiled']):.1%} of their stepping time "
-            "outside it (skill logic, state reads).")
+            "Outside the stepping (skill logic, state reads) the compiled skills spend "
+            f"{executor_overhead(measured['compiled']):.1%} of the time they spend inside it.")
     return Section([Table("Skills: control steps per second", skill_rows(measured), note)],
                    failed=terminal < len(episodes))
 
@@ -449,7 +455,8 @@ SECTION_RUNNERS = {"learners": learners_section, "specs": specs_section, "skills
 # the page
 # ---------------------------------------------------------------------------------------------
 def machine() -> dict:
-    """What the figures depend on: CPU model, cores, OS, Python and package versions, date (UTC)."""
+    """What the figures depend on: CPU model, cores, OS, Python and package versions, the load when the
+    page is written, date (UTC)."""
     import datetime
     import platform
     from importlib import metadata
@@ -461,6 +468,8 @@ def machine() -> dict:
     except OSError:
         pass
     stamp = {"CPU": cpu, "cores": os.cpu_count(), "OS": platform.platform(), "Python": platform.python_version()}
+    if hasattr(os, "getloadavg"):  # other work on the machine while it measured
+        stamp["load average (1, 5, 15 min)"] = ", ".join(f"{load:.1f}" for load in os.getloadavg())
     for name in VERSIONED:
         try:
             stamp[name] = metadata.version(name)
