@@ -4,7 +4,7 @@ first use.
 [SkillInfoReader][tableclean_suite.environments.skill_info.SkillInfoReader] builds it for one simulation
 data: the values fixed for the model and the episode ([constant_values][tableclean_suite.environments.skill_info.constant_values],
 shared read-only arrays), the cheap per-step ones (grip-site and object positions, finger joints),
-and the fillers of the lazy keys ([LAZY_SKILL_INFO][tableclean_suite.environments.skill_info.LAZY_SKILL_INFO]).
+and the fillers of the lazy keys (``LAZY_SKILL_INFO``).
 
 The skills read ``skill_info()`` every control step but most phases use a few of its keys: the
 grip site's orientation (robosuite's ``mat2quat``, an eigen-decomposition) only when a phase may
