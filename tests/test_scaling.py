@@ -323,8 +323,11 @@ def test_cli_tiny_budget_writes_consistent_files(tmp_path, capsys):
     assert (reached["learning_time"] <= reached["window"]).all()
     assert (cells.loc[cells["censored"], "censored_share"] > 0.5).all()
     assert (cells["seed_medians"].str.count(";") == 1).all()
-    # slopes between consecutive sizes: 3 per product (gamma, reward), 1 per fixed-plan one
-    assert len(slopes) == 2 * 2 * (3 + 1) and set(slopes["family"]) == {family.PRODUCT_FAMILY, family.FIXED_PLAN_FAMILY}
+    # slopes along chains: N = 2 -> 3 at M = 1 and at M = 2 in the product family, M = 1 -> 2 in the fixed plan
+    assert len(slopes) == 2 * 2 * (2 + 1) and set(slopes["family"]) == {family.PRODUCT_FAMILY, family.FIXED_PLAN_FAMILY}
+    assert set(slopes["chain"]) == {"M=1", "M=2", "N=3"}
+    paper_to_n3 = slopes[(slopes["chain"] == "M=1")].iloc[0]
+    assert (paper_to_n3["from"], paper_to_n3["to"]) == (20, 90)
     assert config["runs"] == 4 and config["seeds"] == 2 and config["segments"] == [2, 3] and config["objects"] == [1, 2]
     assert config["gammas"] == [0.3, 0.9] and config["fixed_plan_objects"] == [1, 2]
     assert [s["name"] for s in config["specs"]] == list(specs["name"])

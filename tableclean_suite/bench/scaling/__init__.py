@@ -26,9 +26,10 @@ The response (:mod:`.statistics`)
     Each run's learning time (``TrainingResult.learned_at``: the iteration from which its greedy
     policy follows a shortest plan from every start state through the window's end), censored at
     the window; the cell's Kaplan-Meier median over all its seeds' runs, its interval from
-    resampling seeds and then runs within seeds.  Between consecutive sizes of a family the study
-    reports local slopes d log(median) / d log(states) with intervals; a power law is fitted by
-    censored maximum likelihood only where at most half the cells are censored.
+    resampling seeds and then runs within seeds.  Between consecutive sizes of a chain (N growing
+    at fixed M in the product family, M growing in the fixed-plan family) the study reports local
+    slopes d log(median) / d log(states) with intervals; a power law is fitted by censored maximum
+    likelihood only where at most half the cells are censored.
 
 Writes under ``--out`` (default ``results/scaling``), each atomically: ``scaling.csv`` (one row per
 spec x gamma x learner x reward, ``_low``/``_high`` interval columns), ``scaling_specs.csv``,

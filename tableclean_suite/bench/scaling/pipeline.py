@@ -67,19 +67,31 @@ def growth_fits(rows: list[dict], learner: str, rewards, gammas, family: str = P
     return fits
 
 
+def chain_of(row: dict) -> str:
+    """The chain of specs a cell's local slopes run along: in the product family the specs of one
+    object count M, growing with N (``"M=2"``); the fixed-plan family is one chain (``"N=3"``)."""
+    return f"M={row['objects']}" if row["family"] == PRODUCT_FAMILY else f"N={row['segments']}"
+
+
 def slope_table(rows: list[dict], replicates: dict, learner: str, rewards, gammas, family: str) -> dict:
     """``{gamma text: {reward: [slope dicts]}}``: :func:`.statistics.local_slopes` of ``learner``'s
-    median learning time between consecutive sizes of ``family``."""
+    median learning time between consecutive sizes along each chain of ``family``
+    (:func:`chain_of`: one factor grows at a time), each slope dict with its ``chain``."""
     table = {}
     for gamma in gammas:
         table[f"{gamma:g}"] = {}
         for reward in rewards:
             cells = _cells(rows, learner, reward, gamma, family)
-            if len(cells) < 2:
-                continue
-            draws = np.array([replicates[(r["spec"], gamma, learner, reward)] for r in cells])
-            table[f"{gamma:g}"][reward] = local_slopes([r["reachable_from_start"] for r in cells],
-                                                       [r["learning_time"] for r in cells], draws)
+            listed = []
+            for chain in dict.fromkeys(chain_of(r) for r in cells):
+                chosen = [r for r in cells if chain_of(r) == chain]
+                if len(chosen) < 2:
+                    continue
+                draws = np.array([replicates[(r["spec"], gamma, learner, reward)] for r in chosen])
+                listed += [{"chain": chain, **slope} for slope in local_slopes(
+                    [r["reachable_from_start"] for r in chosen], [r["learning_time"] for r in chosen], draws)]
+            if listed:
+                table[f"{gamma:g}"][reward] = listed
     return table
 
 
@@ -93,8 +105,12 @@ def _fit_text(fit: dict) -> str:
 
 
 def _slopes_text(slopes: list[dict]) -> str:
-    return ", ".join(f"{s['from']}->{s['to']}: " + interval_text(s["slope"], s["low"], s["high"], 2).replace(
-        ">window", "inf") for s in slopes)
+    parts = []
+    for chain in dict.fromkeys(s["chain"] for s in slopes):
+        parts.append(f"{chain}: " + ", ".join(
+            f"{s['from']}->{s['to']} " + interval_text(s["slope"], s["low"], s["high"], 2).replace(">window", "inf")
+            for s in slopes if s["chain"] == chain))
+    return "; ".join(parts)
 
 
 def method_constants(args) -> dict:
@@ -116,8 +132,9 @@ def method_constants(args) -> dict:
                "variance sigma^2 + s_i^2 (s_i from each point's interval), censored cells as P(> log window); "
                f"profile-likelihood interval of k; no exponent when more than {MAX_CENSORED_SHARE_FOR_FIT:.0%} "
                "of the cells are censored",
-        "local_slopes": "d log(median) / d log(states) between consecutive sizes, percentile interval of the "
-                        "cells' bootstrap medians",
+        "local_slopes": "d log(median) / d log(states) between consecutive sizes of a chain (product family: N "
+                        "grows at fixed M; fixed-plan family: M grows at N = 3), percentile interval of the cells' "
+                        "bootstrap medians",
         "order": f"{' < '.join(PAPER_ORDER)} per spec: each consecutive pair decided when 97.5 % of the paired "
                  "bootstrap medians agree, else a tie",
     }
@@ -185,8 +202,9 @@ def _study(args, out: Path) -> int:
         for family in families:
             print(f"\n{fit_learner}, gamma {gamma:g}, {family} family"
                   f"{' (plan length ' + FIXED_PLAN_LENGTH_TEXT + ')' if family == FIXED_PLAN_FAMILY else ''}: "
-                  "local slopes d log(median) / d log(states) [95 % interval] between consecutive sizes, and the "
-                  "censored power-law fit where at most half the cells are censored:")
+                  "local slopes d log(median) / d log(states) [95 % interval] between consecutive sizes of each "
+                  "chain (one of N, M growing), and the censored power-law fit where at most half the cells are "
+                  "censored:")
             for reward in args.rewards:
                 print(f"  {reward}: {_slopes_text(slopes[family][key].get(reward, []))}")
                 print(f"  {' ' * len(reward)}  fit: {_fit_text(fits[family][key][reward])}")
