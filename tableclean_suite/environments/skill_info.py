@@ -267,7 +267,7 @@ class SkillInfoReader:
         self.views, self.grasped, self.dirt_fraction, self.clock = views, grasped, dirt_fraction, clock
 
     def read(self, constants: Mapping[str, Any], stamp: Any) -> SkillInfo:
-        """``constants`` plus this state's cheap values, the others (:data:`LAZY_SKILL_INFO`) read on first use;
+        """``constants`` plus this state's cheap values, the others (``LAZY_SKILL_INFO``) read on first use;
         ``stamp`` is ``clock()`` now."""
         views = self.views
         info = SkillInfo.create(constants, self, LAZY_SKILL_INFO, self.clock, stamp)

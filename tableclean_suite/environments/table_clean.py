@@ -392,18 +392,19 @@ class TableClean(ManipulationEnv):
 
         table, sponge = mask([TABLE_TOP_GEOM]), mask(self.sponge.contact_geoms)
         objects = tuple(mask(o.contact_geoms) for o in self.objects)
-        #: the objects' sizes as built (:class:`~.scene_building.ObjectMeasures`)
+        #: the objects' sizes as built ([ObjectMeasures][tableclean_suite.environments.scene_building.ObjectMeasures])
         self.object_measures = ObjectMeasures.of(self.object_types, self.object_geometries, self.geometry.table_top_z,
                                                  self._nominal_footprints)
         self._reset_layouts = ResetLayouts(self.object_measures.outlines)
         self.gripper_geometry = measure_gripper(raw_model, data.qpos.copy(), gripper,
                                                 gripper.important_sites["grip_site"])
         pads = (mask(gripper.important_geoms["left_fingerpad"]), mask(gripper.important_geoms["right_fingerpad"]))
-        #: contact queries: the grasp test, the sponge on the table and its press (:class:`~.state_reading.Contacts`)
+        #: contact queries: the grasp test, the sponge on the table and its press
+        #: ([Contacts][tableclean_suite.environments.state_reading.Contacts])
         self.contacts = Contacts(raw_model, data, table, sponge, objects, pads)
         self.marker_geom_ids = np.array([model.geom_name2id(n) for n in self.arena.marker_names])
         joints = tuple(self.arena.dirt_state_joint_names)  # one per segment
-        #: the dirt markers' flags and visuals (:class:`~.state_reading.DirtMarkers`)
+        #: the dirt markers' flags and visuals ([DirtMarkers][tableclean_suite.environments.state_reading.DirtMarkers])
         self.dirt = DirtMarkers(data, joints, [model.get_joint_qpos_addr(j) for j in joints],
                                 [model.get_joint_qvel_addr(j) for j in joints], self._markers_per_segment,
                                 raw_model.geom_rgba, self.marker_geom_ids)
@@ -670,7 +671,7 @@ class TableClean(ManipulationEnv):
         Read every control step by the skills, so it does little: a :class:`~.skill_info.SkillInfo`
         (a dict) whose values fixed for the model and the episode (sizes, geometry, measures,
         config values) are shared read-only arrays, and whose costlier per-step values (the keys of
-        :data:`~.skill_info.LAZY_SKILL_INFO`: object 1's pose, orientations, grasp flags, sponge pose, dirt, velocities) are
+        ``LAZY_SKILL_INFO``: object 1's pose, orientations, grasp flags, sponge pose, dirt, velocities) are
         computed on first read, from the simulation state of the call.
         """
         data = self._mj_data
@@ -825,7 +826,8 @@ class TableClean(ManipulationEnv):
         return self._arm_qpos_cache[key].copy()
 
     def _place_objects(self, segments: tuple[int, ...]) -> None:
-        """Put object j on ``segments[j]`` (0-based) as :class:`~.scene_building.ResetLayouts` draws it.
+        """Put object j on ``segments[j]`` (0-based) as [ResetLayouts][tableclean_suite.environments.scene_building.ResetLayouts]
+        draws it.
 
         Raises ``ValueError`` when the objects sharing a segment do not fit on it.
         """
