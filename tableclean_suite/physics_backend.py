@@ -19,8 +19,11 @@ Faults and failures (the policy, documented once here)
   faults, :class:`PhysicsFaultError` is raised (``fault_policy="raise"`` raises at the first
   fault).  The learner therefore only ever sees physically observed task states.
 
-The counters of a :func:`train_physics` call come back under the key ``"stats"``
-(``TrainingResult.info["physics"]`` when called through ``train``).
+The counters of a :func:`train_physics` call (summed over runs) come back under the key ``"stats"``
+(``TrainingResult.info["physics"]`` when called through ``train``): ``steps`` (learner
+iterations), ``executions`` (skill executions incl. retries), ``skill_failures``, ``faults``,
+``fault_reasons`` (dict), ``restages``, ``control_steps``, ``wall_time`` (seconds spent in
+physics steps), ``workers``.
 """
 
 from __future__ import annotations
@@ -36,15 +39,10 @@ from tableclean_suite.executors.blas import single_blas_thread
 from tableclean_suite.learners.rng import run_key
 from tableclean_suite.task import HELD, Action, TaskModel, TaskState, as_state
 
-#: robosuite.make keyword arguments of every physics scene (callers may override any of them).
+#: Values of ``PhysicsStepEnv(fault_policy=...)``.
 FAULT_POLICIES = ("retry", "raise")
 #: Keys accepted in ``train(..., physics_options=...)``.
 PHYSICS_OPTIONS = ("env_kwargs", "skill_configs", "fault_policy", "max_retries")
-
-#: Counters of the last :func:`train_physics` call (summed over workers):
-#: ``steps`` (learner iterations), ``executions`` (skill executions incl. retries),
-#: ``skill_failures``, ``faults``, ``fault_reasons`` (dict), ``restages``, ``control_steps``,
-#: ``wall_time`` (seconds spent in physics steps), ``workers``.
 
 
 class PhysicsFaultError(RuntimeError):
@@ -59,12 +57,12 @@ class StagingError(RuntimeError):
 # snapshots: branch from a reached state without re-executing the plan
 # ---------------------------------------------------------------------------------------------
 def snapshot(env):
-    """Copy the scene's state (the env's :meth:`~TableClean.get_scene_state`)."""
+    """The scene's state: ``env.get_scene_state()`` (see [TableClean.get_scene_state][tableclean_suite.environments.table_clean.TableClean.get_scene_state])."""
     return env.get_scene_state()
 
 
 def restore(env, saved) -> None:
-    """Put the scene back into ``saved`` (physics, dirt markers, grippers' integrated commands)."""
+    """Put the scene back into ``saved``: ``env.set_scene_state(saved)``."""
     env.set_scene_state(saved)
 
 
@@ -206,10 +204,10 @@ class PhysicsStepEnv:
         current = self._current_state()
         if current != before:
             raise PhysicsFaultError(f"the scene reads {current}, but the learner is in state {before.name}")
-        saved = snapshot(self.env)
+        saved = self.env.get_scene_state()
         for attempt in range(self.max_retries + 1):
             if attempt:
-                restore(self.env, saved)
+                self.env.set_scene_state(saved)
             result = self.controller.execute(int(action))
             self.last_result = result
             self.stats["executions"] += 1
@@ -282,26 +280,21 @@ def _check_options(options: dict) -> dict:
     return dict(options)
 
 
-def _train_share(job):
-    """Worker body: make one env, train the given runs; returns (run index, record) pairs and stats."""
-    learner, reward, model, run_indices, iterations, seed, first_run, options, hyper, queue, checkpoint = job
+def _train_one(env: "PhysicsStepEnv", learner, reward, iterations: int, seed: int, run: int, hyper: dict,
+               checkpoint: int, on_step=None) -> tuple[dict, dict]:
+    """Train run ``run`` on ``env``, its scene reseeded from the run's key (so the records do not depend
+    on the worker or on what it ran before); returns the run's record and its counters."""
     from tableclean_suite.learners.reference import train_run
 
-    env = PhysicsStepEnv(model, **options)
-    out = []
-    for i in run_indices:
-        run = first_run + i
-        env.seed(run_key(seed, run))  # the scene's placements depend on the run only, not on the worker
-        on_step = None if queue is None else (lambda t, q=queue: q.put(1))
-        with single_blas_thread():  # the same bits in this process, a local worker or a Ray worker
-            record = train_run(env, learner, reward, iterations, seed=seed, run=run, on_step=on_step,
-                               checkpoint=checkpoint, **hyper)
-        env.stats["steps"] += iterations
-        out.append((i, record))
+    env.stats = _empty_stats()
+    env.seed(run_key(seed, run))
+    with single_blas_thread():  # the same bits in this process, a local worker or a Ray worker
+        record = train_run(env, learner, reward, iterations, seed=seed, run=run, on_step=on_step,
+                           checkpoint=checkpoint, **hyper)
+    env.stats["steps"] += iterations
     stats = dict(env.stats)
     stats["fault_reasons"] = dict(stats["fault_reasons"])
-    env.close()
-    return out, stats
+    return record, stats
 
 
 @dataclass(frozen=True)
@@ -364,23 +357,11 @@ def close_sessions() -> None:
 
 
 def run_physics_task(task: PhysicsRun):
-    """Train one :class:`PhysicsRun` in this process; returns ``(index, record, stats of this run)``.
-
-    The scene is built once per process and spec (and reseeded per run, so the result does not
-    depend on which worker ran it or what it ran before).
-    """
-    from tableclean_suite.learners.reference import train_run
-
+    """Train one :class:`PhysicsRun` in this process (the scene built once per process and spec,
+    :func:`process_session`); returns ``(index, record, stats of this run)``."""
     env = process_session(task.spec, dict(task.options))
-    env.stats = _empty_stats()
-    run = task.first_run + task.index
-    env.seed(run_key(task.seed, run))
-    with single_blas_thread():  # the same bits in this process, a local worker or a Ray worker
-        record = train_run(env, task.learner, task.reward, task.iterations, seed=task.seed, run=run,
-                           checkpoint=task.checkpoint, **dict(task.hyper))
-    env.stats["steps"] += task.iterations
-    stats = dict(env.stats)
-    stats["fault_reasons"] = dict(stats["fault_reasons"])
+    record, stats = _train_one(env, task.learner, task.reward, task.iterations, task.seed,
+                               task.first_run + task.index, dict(task.hyper), task.checkpoint)
     return task.index, record, stats
 
 
@@ -417,7 +398,6 @@ def train_physics(job) -> dict:
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
     workers = min(int(workers), runs)
     hyper = job.hyperparameters
-    shares = [list(range(w, runs, workers)) for w in range(workers)]
     bar = None
     if job.progress:
         from tqdm.auto import tqdm
@@ -425,10 +405,16 @@ def train_physics(job) -> dict:
         bar = tqdm(total=runs * iterations, desc=f"{learner.name}/{reward.name} physics", leave=False)
 
     executor = job.executor
+    results = []  # (index, record, stats) of each run
     if workers == 1 and executor is None:
-        on_queue = _BarQueue(bar) if bar is not None else None
-        results = [_train_share((learner, reward, model, shares[0], iterations, seed, first_run, options, hyper, on_queue,
-                                 checkpoint))]
+        on_step = None if bar is None else (lambda t: bar.update(1))
+        env = PhysicsStepEnv(model, **options)
+        try:
+            for i in range(runs):
+                results.append((i, *_train_one(env, learner, reward, iterations, seed, first_run + i, hyper,
+                                               checkpoint, on_step)))
+        finally:
+            env.close()
     else:
         import json
 
@@ -437,12 +423,11 @@ def train_physics(job) -> dict:
         spec = json.dumps(model.spec.to_dict(), sort_keys=True)
         tasks = [PhysicsRun(learner, reward, spec, i, iterations, seed, first_run, tuple(sorted(options.items())),
                             tuple(sorted(hyper.items())), checkpoint) for i in range(runs)]
-        results = []
         # a caller's executor stays open for the caller's next call (map starts what it needs)
         owned = LocalExecutor(workers=workers) if executor is None else contextlib.nullcontext(executor)
         with owned as running:
-            for index, record, run_stats in running.map(run_physics_task, tasks):
-                results.append(([(index, record)], run_stats))
+            for result in running.map(run_physics_task, tasks):
+                results.append(result)
                 if bar is not None:
                     bar.update(iterations)
     if bar is not None:
@@ -454,24 +439,13 @@ def train_physics(job) -> dict:
     records["q"] = np.zeros((runs, model.n_states, model.n_actions), dtype=np.float64)
     if checkpoint:
         records[RUN_CHECKPOINT_Q] = np.zeros_like(records["q"])
-    for out, _ in results:
-        for i, record in out:
-            for name in records:
-                records[name][i] = record[name]
-    stats = _merge_stats(stats for _, stats in results)
+    for i, record, _ in results:
+        for name in records:
+            records[name][i] = record[name]
+    stats = _merge_stats(run_stats for _, _, run_stats in results)
     stats["workers"] = workers
     records["stats"] = stats
     return records
-
-
-class _BarQueue:
-    """A queue-like progress sink for the in-process path."""
-
-    def __init__(self, bar):
-        self.bar = bar
-
-    def put(self, n):
-        self.bar.update(n)
 
 
 def check_physical_task(model: TaskModel, task_config: dict | None = None) -> None:

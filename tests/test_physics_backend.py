@@ -52,42 +52,48 @@ class _Env:
     robots = [SimpleNamespace(arms=["right"], part_controllers={"right": SimpleNamespace(
         name="OSC_POSE", input_type="absolute", input_ref_frame="world")})]
 
+    def __init__(self):
+        self.restored = []
+
     def symbolic_state(self):
         return decode(0)
 
+    def get_scene_state(self):
+        return "saved"
 
-def _step_env(results, monkeypatch, **kwargs):
-    monkeypatch.setattr(physics_backend, "snapshot", lambda env: "saved")
-    restored = []
-    monkeypatch.setattr(physics_backend, "restore", lambda env, snap: restored.append(snap))
+    def set_scene_state(self, state):
+        self.restored.append(state)
+
+
+def _step_env(results, **kwargs):
     env = PhysicsStepEnv(env=_Env(), **kwargs)
     env.controller = _Controller(results)
-    return env, restored
+    return env, env.env.restored
 
 
-def test_fault_is_retried_from_the_restored_state_and_counted(monkeypatch):
+def test_fault_is_retried_from_the_restored_state_and_counted():
     fault = _Result(None, None, "fault: object_between_segments: dropped", success=False)
-    env, restored = _step_env([fault, _Result(decode(1), Outcome.ROUTINE)], monkeypatch)
+    env, restored = _step_env([fault, _Result(decode(1), Outcome.ROUTINE)])
     assert env.step(0, Action.MOVE, 0.5) == (1, int(Outcome.ROUTINE))
     assert restored == ["saved"] and env.controller.calls == 2
     assert env.stats["faults"] == 1 and env.stats["fault_reasons"] == {"object_between_segments": 1}
 
 
-def test_persistent_fault_raises_instead_of_mapping_to_a_state(monkeypatch):
+def test_persistent_fault_raises_instead_of_mapping_to_a_state():
     fault = _Result(None, None, "fault: unstable: qvel", success=False)
-    env, _ = _step_env([fault] * 3, monkeypatch, max_retries=2)
+    env, _ = _step_env([fault] * 3, max_retries=2)
     with pytest.raises(PhysicsFaultError, match="fault on every attempt"):
         env.step(0, Action.MOVE, 0.5)
-    env, _ = _step_env([fault], monkeypatch, fault_policy="raise")
+    env, _ = _step_env([fault], fault_policy="raise")
     with pytest.raises(PhysicsFaultError):
         env.step(0, Action.MOVE, 0.5)
     with pytest.raises(ValueError, match="fault_policy"):
         PhysicsStepEnv(env=_Env(), fault_policy="ignore")
 
 
-def test_skill_failure_with_a_readable_state_is_what_the_learner_sees(monkeypatch):
+def test_skill_failure_with_a_readable_state_is_what_the_learner_sees():
     # a clean that left the segment dirty: observed, classified, counted, not retried
-    env, restored = _step_env([_Result(decode(1), Outcome.IRRELEVANT_CLEAN, "dirt left", success=False)], monkeypatch)
+    env, restored = _step_env([_Result(decode(1), Outcome.IRRELEVANT_CLEAN, "dirt left", success=False)])
     assert env.step(0, Action.CLEAN, 0.5) == (1, int(Outcome.IRRELEVANT_CLEAN))
     assert env.stats["skill_failures"] == 1 and restored == []
 
@@ -178,7 +184,7 @@ class _TableStand(physics_backend.PhysicsStepEnv):
 
 
 def test_physics_keeps_the_checkpoint_q_tables(monkeypatch):
-    """backend="physics" honours checkpoint= (it dropped it, silently): the Q-tables after k iterations."""
+    """backend="physics" honours checkpoint=: the Q-tables after k iterations, in this process and in a worker's body."""
     from tableclean_suite.backends import CHECKPOINT_Q, TrainingJob
     from tableclean_suite.learners import get_learner
     from tableclean_suite.rewards import get_reward_pattern
