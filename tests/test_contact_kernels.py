@@ -4,7 +4,6 @@ import mujoco
 import numpy as np
 import pytest
 
-from tableclean_suite.environments import wiping
 from tableclean_suite.environments.contact_kernels import (
     LOOKUP_BODY,
     LOOKUP_PADS,
@@ -96,6 +95,11 @@ def test_press_force_is_the_pairwise_sum_clipped_as_pythons_max(boxes):
 GRASP_CASES = 200
 
 
+def _pairs(geom: np.ndarray, mask_a: np.ndarray, mask_b: np.ndarray) -> np.ndarray:
+    """Bool (ncon,): contacts (rows of ``geom``) pairing a geom of ``mask_a`` with one of ``mask_b``, either order."""
+    return (mask_a[geom[:, 0]] & mask_b[geom[:, 1]]) | (mask_a[geom[:, 1]] & mask_b[geom[:, 0]])
+
+
 def test_grasped_bodies_is_both_pads_touching_each_body():
     """The kernel against the per-body definition (robosuite's grasp criterion): body b is grasped when a
     contact pairs one of its geoms with a pad-a geom and another (or the same) with a pad-b geom."""
@@ -109,7 +113,7 @@ def test_grasped_bodies_is_both_pads_touching_each_body():
         lookup[:, LOOKUP_BODY] = body
         lookup[pad_a, LOOKUP_PADS] |= PAD_A
         lookup[pad_b, LOOKUP_PADS] |= PAD_B
-        expected = np.array([all(wiping.any_contact(geom[:, 0], geom[:, 1], pad, body == b).any() for pad in (pad_a, pad_b))
+        expected = np.array([all(_pairs(geom, pad, body == b).any() for pad in (pad_a, pad_b))
                              for b in range(n_bodies)], dtype=bool)
         got = grasped_bodies(geom, lookup, n_bodies)
         assert got.dtype == np.bool_ and got.shape == (n_bodies,)

@@ -1,7 +1,7 @@
 """``TableClean.skill_info`` (read every control step by the skills): its grasp flags, quaternions and
 positions, computed in one compiled pass / one gathering, equal the per-body contact test, robosuite's
-``convert_quat`` and MuJoCo's arrays (the grip site's rotation matrix too), and the compiled contact queries equal the numpy ones they replaced,
-at every control step of a plan that grasps the sponge, wipes and grasps an object; its constant values
+``convert_quat`` and MuJoCo's arrays (the grip site's rotation matrix too), and the compiled contact queries equal
+their numpy definitions, at every control step of a plan that grasps the sponge, wipes and grasps an object; its constant values
 are shared read-only arrays rebuilt for a new config."""
 
 from __future__ import annotations
@@ -12,7 +12,6 @@ import pytest
 from robosuite.utils.transform_utils import convert_quat
 
 from tableclean_suite.controllers import SkillController, make_skill_env
-from tableclean_suite.environments import wiping
 from tableclean_suite.environments.config import DEFAULT_TABLECLEAN_CONFIG
 from tableclean_suite.environments.contact_kernels import contact_within
 from tableclean_suite.environments.skill_info import StaleSkillInfoError
@@ -46,7 +45,7 @@ def test_grasp_flags_and_quaternions_match_the_per_body_reads():
         np.testing.assert_array_equal(info["eef_rot"], env.sim.data.site_xmat[robot.eef_site_id[robot.arms[0]]].reshape(3, 3))
         assert env.sponge_press_force() == press_force_per_contact(env)
         contact, ncon = env.sim.data.contact, env.sim.data.ncon
-        pressing = wiping.any_contact(contact.geom1[:ncon], contact.geom2[:ncon], contacts.sponge, contacts.table)
+        pressing = any_contact(contact.geom1[:ncon], contact.geom2[:ncon], contacts.sponge, contacts.table)
         within = contact_within(contact.geom1[:ncon], contact.geom2[:ncon], contact.dist[:ncon], contacts.sponge,
                                 contacts.table, WIPE_CONTACT_DIST)
         assert env.contacts.sponge_on_table(WIPE_CONTACT_DIST) == within
@@ -68,22 +67,28 @@ def test_grasp_flags_and_quaternions_match_the_per_body_reads():
         env.close()
 
 
+def any_contact(geom1: np.ndarray, geom2: np.ndarray, mask_a: np.ndarray, mask_b: np.ndarray) -> np.ndarray:
+    """Bool (ncon,): contacts pairing a geom of ``mask_a`` with one of ``mask_b`` (either order); ``geom1``,
+    ``geom2`` MuJoCo's active contacts' geom ids, the masks bool lookups over all geom ids."""
+    return (mask_a[geom1] & mask_b[geom2]) | (mask_a[geom2] & mask_b[geom1])
+
+
 def grasped(env, mask: np.ndarray) -> bool:
     """Both finger pads touch a geom of ``mask`` (robosuite's grasp criterion, per body with numpy masks)."""
     data = mj_data(env.sim)
     ncon = data.ncon
     geom1, geom2 = data.contact.geom1[:ncon], data.contact.geom2[:ncon]
-    return ncon > 0 and all(wiping.any_contact(geom1, geom2, pad, mask).any() for pad in env.contacts.pads)
+    return ncon > 0 and all(any_contact(geom1, geom2, pad, mask).any() for pad in env.contacts.pads)
 
 
 def press_force_per_contact(env) -> float:
-    """``sponge_press_force`` as it was written before its compiled contact pass: numpy masks, then MuJoCo's
-    ``mj_contactForce`` per sponge-table contact, summed in contact order."""
+    """``sponge_press_force`` from its definition: MuJoCo's ``mj_contactForce`` per sponge-table contact
+    (found with numpy masks), summed in contact order, at least 0 [N]."""
     model, data = mj_model(env.sim), mj_data(env.sim)
     ncon = data.ncon
     if ncon == 0:
         return 0.0
-    pressing = wiping.any_contact(data.contact.geom1[:ncon], data.contact.geom2[:ncon], env.contacts.sponge,
+    pressing = any_contact(data.contact.geom1[:ncon], data.contact.geom2[:ncon], env.contacts.sponge,
                                   env.contacts.table)
     wrench, total = np.zeros(6), 0.0
     for i in np.flatnonzero(pressing):

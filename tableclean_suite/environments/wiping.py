@@ -12,16 +12,6 @@ def geom_mask(n_geoms: int, geom_ids) -> np.ndarray:
     return mask
 
 
-def any_contact(geom1: np.ndarray, geom2: np.ndarray, mask_a: np.ndarray, mask_b: np.ndarray) -> np.ndarray:
-    """Bool (ncon,): contacts pairing a geom of ``mask_a`` with a geom of ``mask_b`` (either order).
-
-    Args:
-        geom1, geom2: MuJoCo's active-contact geom ids (``data.contact.geom1[:ncon]`` etc.).
-        mask_a, mask_b: bool lookups over all geom ids (:func:`geom_mask`).
-    """
-    return (mask_a[geom1] & mask_b[geom2]) | (mask_a[geom2] & mask_b[geom1])
-
-
 def box_lowest_z(pos: np.ndarray, mat: np.ndarray, half_size) -> float:
     """World z of the lowest corner of a box with centre ``pos`` (3,), rotation ``mat`` (9,) row-major."""
     return float(pos[2] - (abs(mat[6]) * half_size[0] + abs(mat[7]) * half_size[1] + abs(mat[8]) * half_size[2]))
