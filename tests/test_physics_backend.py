@@ -168,7 +168,6 @@ class _TableStand(physics_backend.PhysicsStepEnv):
 
         self.model = model
         self.rules = ModelStepEnv(model)
-        self.stats = physics_backend._empty_stats()
 
     def seed(self, seed):
         pass

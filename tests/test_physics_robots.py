@@ -188,10 +188,10 @@ def test_physics_options_and_gym_refuse_an_unsupported_arm():
     import gymnasium
 
     import tableclean_suite.gym_envs  # noqa: F401  (registers the Gym ids)
-    from tableclean_suite.physics_backend import _check_options
+    from tableclean_suite.learners import train
 
     with pytest.raises(ValueError, match=r"'Jaco' is not supported"):
-        _check_options({"env_kwargs": {"robots": "Jaco"}})
+        train(backend="physics", runs=1, iterations=1, physics_options={"env_kwargs": {"robots": "Jaco"}})
     with pytest.raises(ValueError, match=r"'XArm7' is not supported"):
         gymnasium.make("TableCleanSkills-v0", robots=UNSUPPORTED)
     with pytest.raises(ValueError, match="disagree"):

@@ -17,6 +17,7 @@ from tableclean_suite.environments.randomization import (
     DynamicsRandomization,
     resolve_randomization,
 )
+from tableclean_suite.robosuite_adapter import joint_vel_indexes
 from tableclean_suite.task import Action, TaskModel, start_layout
 
 MODEL = TaskModel()
@@ -211,7 +212,7 @@ def test_randomised_values_lie_in_the_ranges_and_reach_the_controllers(envs):
                                    plain.object_measures.half_sizes[0] * sample.object_size_scale[0])
         np.testing.assert_allclose(env.skill_info()["sponge_half_size"],
                                    np.array(plain.task_config["sponge_half_size"]) * sample.sponge_size_scale)
-        arm = np.asarray(env.robots[0]._ref_joint_vel_indexes)
+        arm = np.asarray(joint_vel_indexes(env.robots[0]))
         np.testing.assert_allclose(scene["dof_damping"][arm] / nominal["dof_damping"][arm], sample.joint_damping_scale)
         np.testing.assert_allclose(scene["kp"], nominal["kp"] * sample.osc_kp_scale)
         ratio = scene["kd"] / (2 * np.sqrt(scene["kp"]))

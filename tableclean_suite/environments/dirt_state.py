@@ -9,13 +9,10 @@ fraction,
 
     qpos = sum_i wiped_i * 2**i / 2**k        (k markers, marker i -> bit i; in [0, 1) metres)
 
-which a float64 holds exactly for k <= :data:`MAX_MARKERS_PER_SEGMENT`.  A joint per marker would
-say the same with one body per marker, but robosuite's scene simulates air (fluid forces on every
-body with mass) and the 50 extra bodies and degrees of freedom cost ~10% of ``env.step``; with two
-bodies the CPU time per step relative to robosuite's Lift stayed within measurement noise
-(0.89-0.92 before and after, ``benchmarks.env_speed``-style alternating blocks).  The joint is horizontal (gravity has no component along it),
-carries no geometry (nothing touches it) and is heavily damped, so its position stays exactly
-where it is written.
+which a float64 holds exactly for k <= :data:`MAX_MARKERS_PER_SEGMENT`.  (A joint per marker would
+add 50 bodies and degrees of freedom, ~10% of ``env.step``: robosuite's scene simulates air on every
+body with mass.)  The joint is horizontal (gravity has no component along it), carries no geometry
+(nothing touches it) and is heavily damped, so its position stays exactly where it is written.
 
 Pure functions here; :class:`~tableclean_suite.environments.TableClean` reads and writes the joints.
 """
