@@ -61,7 +61,7 @@ SKILLS_CSV = "fidelity_skills.csv"
 DEFAULT_OUT = "results/fidelity"
 #: Suffix of the default output directory with ``--randomize``.
 RANDOMIZED_SUFFIX = "_randomized"
-#: Agreement and success goals of the issue (reported next to the measurement).
+#: The agreement and skill success a run is held to (reported next to the measurement).
 AGREEMENT_GOAL = 0.99
 SUCCESS_GOAL = 0.995
 FAULT = "fault"

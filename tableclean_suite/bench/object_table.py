@@ -48,7 +48,7 @@ TABLE_CSV = "object_table.csv"
 #: Columns of the CSV, in order.
 COLUMNS = ("object", "setting", "partner", "skill", "executions", "successes", "success_rate", "success_lower",
            "agreements", "fidelity", "fidelity_lower", "episodes", "episode_successes", "seconds")
-#: Goal of the issue: skill success and fidelity at least this per object and skill.
+#: The skill success and fidelity every object and skill is held to.
 GOAL_RATE = 0.99
 #: Confidence of the one-sided lower bound of every rate (:func:`lower_bound`).
 CONFIDENCE = 0.95

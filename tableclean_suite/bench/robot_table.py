@@ -56,7 +56,7 @@ COLUMNS = ("robot", "task", "dynamics", "fidelity_trials", "fidelity_rounds", "f
 NOMINAL, RANDOMIZED = "nominal", "randomized"
 #: Columns that identify a cell (a later run's row replaces an earlier one with the same key).
 CELL_KEY = ("robot", "task", "dynamics")
-#: Goal of the issue: fidelity and episode success at least this, on at least four arms.
+#: The fidelity and episode success every (robot, task) cell is held to.
 GOAL_RATE = 0.99
 
 

@@ -421,13 +421,16 @@ def time_process(argv, cwd: Path, **environment) -> tuple[float, subprocess.Comp
 def cold_start_rows(processes=COLD_START_PROCESSES) -> list[dict]:
     """:data:`COLD_START_PROCESSES` one after the other in a new folder, sharing a numba cache that starts
     empty (``NUMBA_CACHE_DIR``): seconds, kernels compiled and loaded (numba's ``NUMBA_DEBUG_CACHE``
-    lines), cells resumed and exit code of each."""
+    lines), cells resumed and exit code of each; a process that failed has its last error line printed."""
     rows = []
     with tempfile.TemporaryDirectory(prefix="tableclean_speed_") as folder:
         for label, out in processes:
             seconds, finished = time_process([*COLD_START_COMMAND, "--out", out], Path(folder),
                                              NUMBA_CACHE_DIR=str(Path(folder) / "numba"), NUMBA_DEBUG_CACHE="1")
             log = finished.stdout + finished.stderr
+            if finished.returncode != 0:
+                last = finished.stderr.strip().splitlines()[-1:] or ["(nothing on stderr)"]
+                print(f"{label}: exit code {finished.returncode}: {last[0]}", file=sys.stderr)
             resumed = re.search(r"resumed (\d+) cells", finished.stdout)
             rows.append({"process": label, "seconds": f"{seconds:.2f}",
                          "kernels compiled": len(re.findall(r"\[cache\] data saved", log)),
