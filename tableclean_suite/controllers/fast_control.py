@@ -183,6 +183,19 @@ class Plant(NamedTuple):
     log_live: tuple  # the mjData views of LOG_FIELDS
 
 
+class ArmState(NamedTuple):
+    """The arm's state the OSC law reads, for n arm joints (float64 arrays)."""
+
+    mass: np.ndarray  # (n, n) arm block of the joint-space mass matrix (kg m^2)
+    j_full: np.ndarray  # (6, n) grip-site Jacobian, translational rows then rotational rows
+    ref_pos: np.ndarray  # (3,) grip-site world position (m)
+    ref_ori_mat: np.ndarray  # (3, 3) its world rotation
+    ref_vel: np.ndarray  # (6,) its linear (m/s) and angular (rad/s) world velocity
+    joint_pos: np.ndarray  # (n,) joint positions (rad)
+    joint_vel: np.ndarray  # (n,) joint velocities (rad/s)
+    bias: np.ndarray  # (n,) gravity, Coriolis and centrifugal joint forces (N m), the compensation term
+
+
 @numba.njit(cache=True)
 def rotvec_matrix(rotvec: np.ndarray, out: np.ndarray) -> None:
     """Rotation matrix (3, 3) into ``out`` of the rotation vector ``rotvec`` (3,) rad.
@@ -341,37 +354,16 @@ def _opspace_into(mass: np.ndarray, j_full: np.ndarray, work):
 
 
 @numba.njit(cache=True)
-def osc_law(
-    mass: np.ndarray,
-    j_full: np.ndarray,
-    ref_pos: np.ndarray,
-    ref_ori_mat: np.ndarray,
-    ref_vel: np.ndarray,
-    joint_pos: np.ndarray,
-    joint_vel: np.ndarray,
-    bias: np.ndarray,
-    goal_pos: np.ndarray,
-    goal_ori: np.ndarray,
-    gains: np.ndarray,
-    initial_joint: np.ndarray,
-    uncouple: bool,
-    torques: np.ndarray,
-    work=None,
-) -> None:
+def osc_law(arm, goal_pos: np.ndarray, goal_ori: np.ndarray, plant, work=None) -> None:
     """robosuite's ``OperationalSpaceController.run_controller`` torques for an absolute world-frame goal.
 
     Args:
-        mass: (n, n) arm block of the joint-space mass matrix (kg m^2).
-        j_full: (6, n) grip-site Jacobian, translational rows then rotational rows.
-        ref_pos: (3,) grip-site world position (m); ref_ori_mat: (3, 3) its world rotation.
-        ref_vel: (6,) grip-site linear (m/s) and angular (rad/s) world velocity.
-        joint_pos: (n,) arm joint positions (rad); joint_vel: (n,) velocities (rad/s).
-        bias: (n,) gravity, Coriolis and centrifugal joint forces (N m), the compensation term.
+        arm: the arm's [ArmState][tableclean_suite.controllers.fast_control.ArmState].
         goal_pos: (3,) goal position (m); goal_ori: (3, 3) goal rotation matrix, world frame.
-        gains: (2, 6) rows kp (1/s^2) and kd (1/s), columns x, y, z, rx, ry, rz.
-        initial_joint: (n,) arm joint configuration (rad) the nullspace term pulls towards.
-        uncouple: decouple the position and orientation wrenches (robosuite's ``uncouple_pos_ori``).
-        torques: (n,) output, arm joint torques (N m) before clipping to the actuators' range.
+        plant: the stepper's [Plant][tableclean_suite.controllers.fast_control.Plant]: the law's ``gains``
+            (rows kp (1/s^2) and kd (1/s), columns x, y, z, rx, ry, rz), ``initial_joint`` (the posture the
+            nullspace term pulls towards) and ``uncouple`` (robosuite's ``uncouple_pos_ori``); the torques
+            (n,) N m, before clipping to the actuators' range, are written to ``plant.torques``.
         work: the scratch tuple of :func:`osc_work` for n joints (the compiled loops pass theirs, allocated once
             for all substeps); None: allocated for this call.
 
@@ -380,6 +372,8 @@ def osc_law(
     (joint kp :data:`NULLSPACE_JOINT_KP`, critical damping) are written out with the same
     formulas, without temporaries; the small products run in plain loops (:func:`small_matmul`).
     """
+    mass, j_full, ref_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias = arm
+    gains, initial_joint, torques = plant.gains, plant.initial_joint, plant.torques
     if work is None:
         work = osc_work(mass.shape[0])
     n = mass.shape[0]
@@ -400,7 +394,7 @@ def osc_law(
         desired[3 + r] = 0.5 * error[r] * gains[0, 3 + r] + (-ref_vel[3 + r]) * gains[1, 3 + r]
     lambda_full, lambda_pos, lambda_ori, nullspace_matrix = _opspace_into(mass, j_full, work)
     wrench = work[W_WRENCH]
-    if uncouple:
+    if plant.uncouple:
         small_matvec(lambda_pos, desired[0:3], wrench[0:3])
         small_matvec(lambda_ori, desired[3:6], wrench[3:6])
     else:
@@ -420,36 +414,16 @@ def osc_law(
 
 
 @numba.njit(cache=True)
-def osc_torques(
-    full_mass: np.ndarray,
-    jacp: np.ndarray,
-    jacr: np.ndarray,
-    qpos: np.ndarray,
-    qvel: np.ndarray,
-    qfrc_bias: np.ndarray,
-    site_pos: np.ndarray,
-    site_mat: np.ndarray,
-    goal_pos: np.ndarray,
-    goal_ori: np.ndarray,
-    gains: np.ndarray,
-    initial_joint: np.ndarray,
-    indexes: np.ndarray,
-    uncouple: bool,
-    torques: np.ndarray,
-    work=None,
-) -> None:
+def osc_torques(plant, goal_pos: np.ndarray, goal_ori: np.ndarray, work=None) -> None:
     """:func:`osc_law` on MuJoCo's whole-model arrays, gathering the arm's entries as robosuite's ``update()``.
 
-    Args:
-        full_mass: (nv, nv) joint-space mass matrix (``mj_fullM`` of ``data.qM``).
-        jacp, jacr: (3, nv) translational / rotational Jacobians of the grip site (``mj_jacSite``).
-        qpos: (nq,) and qvel: (nv,) all joint positions (rad, m) and velocities (rad/s, m/s).
-        qfrc_bias: (nv,) gravity, Coriolis and centrifugal forces (N m).
-        site_pos: (3,) grip-site world position (m); site_mat: (9,) its row-major rotation matrix.
-        goal_pos, goal_ori, gains, initial_joint, uncouple, torques: as :func:`osc_law`.
-        indexes: (2, n) int rows: the arm's dof (qvel) indexes, then its qpos indexes.
-        work: as :func:`osc_law` (its entries for the arm's n joints are this function's scratch, too).
+    Reads the [Plant][tableclean_suite.controllers.fast_control.Plant]'s ``full_mass`` (``mj_fullM`` of
+    ``qM``), ``jacp`` and ``jacr`` (``mj_jacSite`` of the grip site), ``qpos``, ``qvel``, ``qfrc_bias``,
+    the grip site's ``site_pos`` and ``site_mat`` and the arm's ``indexes``; writes ``plant.torques``.
+    ``goal_pos``, ``goal_ori``: as :func:`osc_law`; ``work``: as there (its entries for the arm's n joints
+    are this function's scratch, too).
     """
+    indexes, jacp, jacr, qvel = plant.indexes, plant.jacp, plant.jacr, plant.qvel
     if work is None:
         work = osc_work(indexes.shape[1])
     dofs = indexes[0]
@@ -461,19 +435,19 @@ def osc_torques(
     bias = work[W_BIAS]
     for i in range(n):
         for k in range(n):
-            mass[i, k] = full_mass[dofs[i], dofs[k]]
+            mass[i, k] = plant.full_mass[dofs[i], dofs[k]]
         for r in range(3):
             j_full[r, i] = jacp[r, dofs[i]]
             j_full[r + 3, i] = jacr[r, dofs[i]]
-        joint_pos[i] = qpos[indexes[1, i]]
+        joint_pos[i] = plant.qpos[indexes[1, i]]
         joint_vel[i] = qvel[dofs[i]]
-        bias[i] = qfrc_bias[dofs[i]]
+        bias[i] = plant.qfrc_bias[dofs[i]]
     ref_vel = work[W_REF_VEL]
     small_matvec(jacp, qvel, ref_vel[0:3])  # robosuite's get_site_xvelp: the full Jacobian times all velocities
     small_matvec(jacr, qvel, ref_vel[3:6])
-    ref_ori_mat = np.ascontiguousarray(site_mat.reshape((3, 3)))
-    osc_law(mass, j_full, site_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias,
-            goal_pos, goal_ori, gains, initial_joint, uncouple, torques, work)
+    ref_ori_mat = np.ascontiguousarray(plant.site_mat.reshape((3, 3)))
+    arm = ArmState(mass, j_full, plant.site_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias)
+    osc_law(arm, goal_pos, goal_ori, plant, work)
 
 
 def _c_call_codegen(n_pointers: int, trailing_int: bool):
@@ -541,9 +515,7 @@ def native_substeps(plant, dirt, first, goal_pos, goal_ori, grip_ctrl):
         _call_3(full_m, plant.model, plant.full_mass.ctypes.data, plant.q_m.ctypes.data)
         _call_4i(jac_site, plant.model, plant.data, plant.jacp.ctypes.data, plant.jacr.ctypes.data,
                  np.int32(plant.site_id))
-        osc_torques(plant.full_mass, plant.jacp, plant.jacr, plant.qpos, plant.qvel, plant.qfrc_bias, plant.site_pos,
-                    plant.site_mat, goal_pos, goal_ori, plant.gains, plant.initial_joint, plant.indexes,
-                    plant.uncouple, torques, work)
+        osc_torques(plant, goal_pos, goal_ori, work)
         for i in range(arm_act.size):
             ctrl[arm_act[i]] = min(max(torques[i], limits[0, i]), limits[1, i])
         if k == 0:
@@ -962,7 +934,7 @@ class FastSkillStepper:
         self._grip_params = None  # (controller, its panda_gripper_control parameters), see _panda_grip_params
         self.eef_site_id = robot.eef_site_id[arm]
         self.finger_index = np.asarray(gripper_joint_pos_indexes(robot, arm), dtype=np.int64)
-        self._bind_native()
+        self._bind_plant()
         self._sim = sim
 
     def _find_controllers(self) -> None:
@@ -976,15 +948,17 @@ class FastSkillStepper:
         self.grip_controller = controllers[robot.get_gripper_name(arm)]
         self.gripper = robot.gripper[arm]
 
-    def _bind_native(self) -> None:
-        """The [Plant][tableclean_suite.controllers.fast_control.Plant] the native kernels read (None without them)."""
+    def _bind_plant(self) -> None:
+        """The [Plant][tableclean_suite.controllers.fast_control.Plant] the compiled kernels read."""
         env, data = self.env, self.data
         # the env's own early exit in record_wiping_substep, plus a margin: below this it must decide
         contact = max(float(env.task_config["wipe_contact_dist"]), 0.0)
         self._no_log = tuple(np.empty((0, getattr(data, f).size)) for f in LOG_FIELDS)
         self._plant_key = (None, None, None)  # (osc, gains, initial_joint) of the plant's law, see _current_plant()
-        self._plant = None if not self.native else Plant(
-            functions=mujoco_function_addresses(), model=c_address(self.model), data=c_address(data),
+        native = self.native  # without the native loop the plant serves the OSC law only: no C addresses
+        self._plant = Plant(
+            functions=mujoco_function_addresses() if native else (0, 0, 0, 0),
+            model=c_address(self.model) if native else 0, data=c_address(data) if native else 0,
             substeps=self.substeps, full_mass=self.full_mass, jacp=self.jacp, jacr=self.jacr, torques=self.torques,
             q_m=data.qM, qpos=data.qpos, qvel=data.qvel, qfrc_bias=data.qfrc_bias, ctrl=data.ctrl,
             site_id=int(self.site_id), site_pos=data.site_xpos[self.site_id], site_mat=data.site_xmat[self.site_id],
@@ -1074,24 +1048,18 @@ class FastSkillStepper:
         """(2, 6) rows kp (1/s^2) and kd (1/s) of robosuite's OSC, read each control step."""
         return np.array((self.osc.kp, self.osc.kd), dtype=float)
 
-    def arm_torques(self, goal_pos: np.ndarray, goal_ori: np.ndarray, gains: np.ndarray | None = None) -> np.ndarray:
+    def arm_torques(self, goal_pos: np.ndarray, goal_ori: np.ndarray) -> np.ndarray:
         """OSC torques (n,) N m, unclipped, for the current simulation data (after ``mj_step1`` or ``mj_forward``).
 
-        ``gains``: (2, 6) from :meth:`gains` (default: read now).  Fills :attr:`torques` and
-        returns it (the same array, overwritten on the next call).
+        Fills :attr:`torques` and returns it (the same array, overwritten on the next call).
         """
-        model, data, osc = self.model, self.data, self.osc
+        model, data = self.model, self.data
         mujoco.mj_fullM(model, self.full_mass, data.qM)
         mujoco.mj_jacSite(model, data, self.jacp, self.jacr, self.site_id)
-        osc_torques(
-            self.full_mass, self.jacp, self.jacr, data.qpos, data.qvel, data.qfrc_bias,
-            data.site_xpos[self.site_id], data.site_xmat[self.site_id], goal_pos, goal_ori,
-            self.gains() if gains is None else gains, np.asarray(osc.initial_joint, dtype=float),
-            self.indexes, bool(osc.uncoupling), self.torques,
-        )
+        osc_torques(self._current_plant(), goal_pos, goal_ori)
         return self.torques
 
-    def cached_arm_torques(self, goal_pos: np.ndarray, goal_ori: np.ndarray, gains: np.ndarray | None = None) -> np.ndarray:
+    def cached_arm_torques(self, goal_pos: np.ndarray, goal_ori: np.ndarray) -> np.ndarray:
         """OSC torques (n,) N m, unclipped, from the state robosuite's OSC cached at its last ``update()``.
 
         robosuite's controller re-reads the simulation only when its ``new_update`` flag is
@@ -1100,15 +1068,14 @@ class FastSkillStepper:
         cached at the reset.  This reproduces that.
         """
         osc = self.osc
-        ref_vel = np.concatenate([osc.ref_pos_vel, osc.ref_ori_vel])
-        bias = self.data.qfrc_bias[self.indexes[0]]  # robosuite reads the compensation live
-        osc_law(
-            np.ascontiguousarray(osc.mass_matrix), np.ascontiguousarray(osc.J_full), np.asarray(osc.ref_pos, dtype=float),
-            np.ascontiguousarray(osc.ref_ori_mat), ref_vel, np.asarray(osc.joint_pos, dtype=float),
-            np.asarray(osc.joint_vel, dtype=float), bias, goal_pos, goal_ori,
-            self.gains() if gains is None else gains,
-            np.asarray(osc.initial_joint, dtype=float), bool(osc.uncoupling), self.torques,
+        arm = ArmState(
+            mass=np.ascontiguousarray(osc.mass_matrix), j_full=np.ascontiguousarray(osc.J_full),
+            ref_pos=np.asarray(osc.ref_pos, dtype=float), ref_ori_mat=np.ascontiguousarray(osc.ref_ori_mat),
+            ref_vel=np.concatenate([osc.ref_pos_vel, osc.ref_ori_vel]), joint_pos=np.asarray(osc.joint_pos, dtype=float),
+            joint_vel=np.asarray(osc.joint_vel, dtype=float),
+            bias=self.data.qfrc_bias[self.indexes[0]],  # robosuite reads the compensation live
         )
+        osc_law(arm, goal_pos, goal_ori, self._current_plant())
         return self.torques
 
     def step(self, action) -> None:
@@ -1133,7 +1100,7 @@ class FastSkillStepper:
             self.state_log.append()
         # (runs right after the physics, with cold CPU caches: few Python calls and allocations per step)
         osc = self.osc
-        gains = self._current_gains()
+        self._current_plant()  # the law of the current controllers and gains
         params = self._panda_grip_params()
         if params is not None:  # goal() and gripper_ctrl() in one compiled call
             gripper = self.gripper
@@ -1147,13 +1114,13 @@ class FastSkillStepper:
             grip_ctrl = self.gripper_ctrl(action)
         first = 0
         if not controller_needs_update(osc):  # robosuite then reuses its cached arm state once (see cached_arm_torques)
-            self._python_substep(0, goal_pos, goal_ori, gains, grip_ctrl, cached=True)
+            self._python_substep(0, goal_pos, goal_ori, grip_ctrl, cached=True)
             first = 1
         if self.native:
             self._native_substeps(first, goal_pos, goal_ori, grip_ctrl)
         else:
             for substep in range(first, self.substeps):
-                self._python_substep(substep, goal_pos, goal_ori, gains, grip_ctrl)
+                self._python_substep(substep, goal_pos, goal_ori, grip_ctrl)
         # what env.step does once per control step and later steps rely on (the next update() re-reads the sim)
         env.show_dirt()
         env.done = (env.timestep >= env.horizon) and not env.ignore_done
@@ -1277,11 +1244,11 @@ class FastSkillStepper:
         set_gripper_state(gripper, controller, *saved)
         return np.ascontiguousarray(rows, dtype=float), states, settled
 
-    def _python_substep(self, substep: int, goal_pos, goal_ori, gains, grip_ctrl, cached: bool = False) -> None:
+    def _python_substep(self, substep: int, goal_pos, goal_ori, grip_ctrl, cached: bool = False) -> None:
         """One physics substep through the mujoco bindings: step1, control, wiping check, step2."""
         model, data = self.model, self.data
         mujoco.mj_step1(model, data)
-        torques = (self.cached_arm_torques if cached else self.arm_torques)(goal_pos, goal_ori, gains)
+        torques = (self.cached_arm_torques if cached else self.arm_torques)(goal_pos, goal_ori)
         data.ctrl[self.arm_actuators] = np.clip(torques, self.arm_limits[0], self.arm_limits[1])
         if substep == 0:
             data.ctrl[self.grip_actuators] = grip_ctrl

@@ -74,11 +74,7 @@ def loop_record(dtype: np.dtype, **fields) -> np.ndarray:
 
     Raises ``ValueError`` naming the missing or unknown fields (a field left out would silently be 0).
     """
-    missing = sorted(set(dtype.names) - set(fields))
-    unknown = sorted(set(fields) - set(dtype.names))
-    if missing or unknown:
+    if fields.keys() != set(dtype.names):
+        missing, unknown = sorted(set(dtype.names) - fields.keys()), sorted(fields.keys() - set(dtype.names))
         raise ValueError(f"loop record fields: missing {missing}, unknown {unknown} (fields: {list(dtype.names)})")
-    record = np.zeros(1, dtype)
-    for name, value in fields.items():
-        record[name] = value
-    return record
+    return np.array([tuple(fields[name] for name in dtype.names)], dtype=dtype)
