@@ -157,19 +157,11 @@ class RewardPattern:
         """Whether the looping rule (if any) is the paper's: memory of s_t and s_{t-1} only."""
         return self.looping_memory == PAPER_LOOPING_MEMORY
 
-    @staticmethod
-    def is_looping(outcome: int, state: int, next_state: int, previous_state: int) -> bool:
-        """Whether a transition is a loop by the paper's rule: a routine action returning to
-        s_{t-1} or staying put.
-
-        States are codes; ``previous_state`` is -1 at the first step of an episode.
-        """
-        return int(outcome) in LOOPABLE_OUTCOMES and (next_state == previous_state or next_state == state)
-
     def loops(self, outcome: int, next_state: int, history) -> bool:
         """Whether a transition is a loop by this pattern's memory: a routine action whose next
         state is among the last ``looping_memory`` states of ``history`` (the episode's states
-        s_0 .. s_t, s_t last; all of them for ``EPISODE_LOOPING_MEMORY``)."""
+        s_0 .. s_t, s_t last; all of them for ``EPISODE_LOOPING_MEMORY``).  The paper's rule
+        (memory 2): a routine action returning to s_{t-1} or staying put."""
         recent = history if self.looping_memory == EPISODE_LOOPING_MEMORY else history[-self.looping_memory:]
         return int(outcome) in LOOPABLE_OUTCOMES and next_state in recent
 
@@ -186,14 +178,12 @@ class RewardPattern:
         value = self._values[int(outcome)]
         if self.looping_penalty is None:
             return value
-        if self.paper_looping:
-            looping = self.is_looping(outcome, state, next_state, previous_state)
-        elif history is None:
-            raise ValueError(f"reward pattern {self.name!r} looks back {self.looping_memory or 'the whole episode'} "
-                             "states for its looping penalty: pass history= (the episode's states so far)")
-        else:
-            looping = self.loops(outcome, next_state, history)
-        if looping:
+        if history is None:
+            if not self.paper_looping:
+                raise ValueError(f"reward pattern {self.name!r} looks back {self.looping_memory or 'the whole episode'} "
+                                 "states for its looping penalty: pass history= (the episode's states so far)")
+            history = (state,) if previous_state < 0 else (previous_state, state)
+        if self.loops(outcome, next_state, history):
             value = value + self.looping_penalty if self.looping_code == LOOPING_ADD else self.looping_penalty
         return value
 

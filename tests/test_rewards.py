@@ -114,10 +114,24 @@ def test_compiled_equals_plain_loop_with_a_longer_looping_memory(learner, memory
     pattern = RewardPattern(f"ring_memory_{memory}", 1, 1, -0.01, 0.01, -1, looping_penalty=-0.01,
                             looping_memory=memory)
     model = TaskModel(spec=TaskSpec("ring_three", segments=3, objects=1))
-    kwargs = dict(runs=3, iterations=600, seed=5, model=model)
+    kwargs = dict(runs=3, iterations=600, seed=5, task=model)
     fast = train(learner, pattern, **kwargs)
     plain = train(learner, pattern, engine="reference", **kwargs)
     for name in ("rewards", "outcomes", "states", "actions", "episode_end", "q"):
         np.testing.assert_array_equal(getattr(fast, name), getattr(plain, name), err_msg=name)
     paper_rule = train(learner, RewardPattern("ring_paper", 1, 1, -0.01, 0.01, -1, looping_penalty=-0.01), **kwargs)
     assert (fast.rewards == -0.01).sum() > (paper_rule.rewards == -0.01).sum()  # it penalises more loops
+
+
+def test_the_paper_rule_is_memory_two_with_or_without_a_history():
+    """r4 with (previous_state, state) and r4 with the episode's history give the same reward: one rule."""
+    r4 = get_reward_pattern("r4")
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        history = [int(s) for s in rng.integers(0, 6, size=rng.integers(1, 5))]
+        previous = history[-2] if len(history) > 1 else -1
+        outcome, next_state = int(rng.choice([R, INEFF, REL, IMP])), int(rng.integers(0, 6))
+        by_states = r4.reward(outcome, history[-1], next_state, previous)
+        assert by_states == r4.reward(outcome, history[-1], next_state, previous, history=history)
+        looping = outcome in (R, INEFF) and next_state in (history[-1], previous)
+        assert by_states == (r4.looping_penalty if looping else r4.outcome_values()[outcome])

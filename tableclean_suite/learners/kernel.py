@@ -35,7 +35,6 @@ import types
 import numba
 import numpy as np
 from numba.core import cgutils
-from numba.core.compiler import Compiler
 from numba.core import types as numba_types
 from numba.extending import intrinsic
 
@@ -95,7 +94,6 @@ from tableclean_suite.learners.rules import (
     q_learning_target,
     softmax_expected_sarsa_target,
 )
-from tableclean_suite.rewards import PAPER_LOOPING_MEMORY
 from tableclean_suite.task import Outcome
 
 #: Codes of ``episode_end`` in training records.
@@ -133,22 +131,9 @@ def sample_index(cumulative, draw):
 
 
 @numba.njit(cache=True)
-def loop_adjusted_reward(reward, outcome, state, next_state, previous_state, loop_value, loop_mode):
-    """Apply the looping penalty (r4): routine/ineffective steps to s_{t-1} or staying put."""
-    if loop_mode == 0:
-        return reward
-    if outcome != _ROUTINE and outcome != _INEFFECTIVE:
-        return reward
-    if next_state != previous_state and next_state != state:
-        return reward
-    if loop_mode == _LOOPING_ADD:
-        return reward + loop_value
-    return loop_value
-
-
-@numba.njit(cache=True)
 def memory_adjusted_reward(reward, outcome, next_state, entered, t, episode_start, memory, loop_value, loop_mode):
-    """Apply a looping penalty that looks back ``memory`` states (0: the whole episode).
+    """Apply the looping penalty, which looks back ``memory`` states (2: the paper's r4, s_t and
+    s_{t-1}; 0: the whole episode), as :meth:`~tableclean_suite.rewards.RewardPattern.loops`.
 
     ``entered[s]`` is the iteration at which state s was last entered (the current state s_t at
     ``t``), so s_{t+1} is among the episode's last ``memory`` states s_t .. s_{t-memory+1} when
@@ -188,19 +173,6 @@ def borrowed(typingctx, array):
         return view._getvalue()
 
     return array(array), codegen
-
-
-class NoAliasCompiler(Compiler):
-    """numba's compiler with its ``noalias`` flag set: the compiled function may assume that its
-    array arguments do not overlap, so LLVM keeps values read from one in registers across
-    stores to another (numba's parallel loop compiles its body so when it finds no aliases).
-    For the compiled loops (:func:`_train_loop`), whose arguments are distinct arrays: e.g. ``q_lambda``
-    takes about a third more time without it.
-    """
-
-    def define_pipelines(self):
-        self.state.flags.noalias = True
-        return super().define_pipelines()
 
 
 # -- behaviour ------------------------------------------------------------------------------
@@ -369,7 +341,8 @@ def run_memory(n_states, n_actions, double, traced, counting, modelling):
     Returns (behaviour row ``(A,)``, visits ``(S,)``, traces ``(S, A)``, trace pairs ``(S*A,)``,
     model next states ``(S, A)`` (NO_STATE = unseen), model rewards, model terminal flags,
     observed pairs ``(S*A,)``, and the greedy walk's examined states ``(S,)`` int64, their flags
-    ``(S,)`` bool and greedy actions ``(S,)`` int64 (:func:`.optimality.greedy_walk`)).
+    ``(S,)`` bool and greedy actions ``(S,)`` int64 (:func:`.optimality.greedy_walk`), and the iteration
+    each state was last entered ``(S,)`` int64, -1 = never (the looping rule's memory)).
     """
     row = np.empty(n_actions if double else 0)
     visits = np.zeros(n_states if counting else 0, dtype=np.int64)
@@ -384,7 +357,9 @@ def run_memory(n_states, n_actions, double, traced, counting, modelling):
     walked = np.empty(n_states, dtype=np.int64)
     on_walk = np.zeros(n_states, dtype=np.bool_)
     choice = np.zeros(n_states, dtype=np.int64)
-    return row, visits, traces, pairs, model_next, model_reward, model_terminal, observed, walked, on_walk, choice
+    entered = np.full(n_states, -1, dtype=np.int64)
+    return (row, visits, traces, pairs, model_next, model_reward, model_terminal, observed, walked, on_walk, choice,
+            entered)
 
 
 def _train_loop(
@@ -436,8 +411,7 @@ def _train_loop(
     (``threads.run_in_threads(train_batch, R, arguments)``), and its other threads (e.g. the
     harness summarising the last cell while this one trains) go on meanwhile.  A run's numbers
     depend only on its key, never on the slice or the thread that trains it.  The array
-    arguments must be distinct arrays (compiled with :class:`NoAliasCompiler`), alive for the
-    whole call (:func:`borrowed`).
+    arguments must stay alive for the whole call (:func:`borrowed`).
 
     This is the Python source of the compiled copies (:func:`specialised_loop`): :data:`train_batch`
     for one-step learners with constant epsilon-greedy exploration, :data:`train_batch_general` for
@@ -524,9 +498,7 @@ def _train_loop(
     afforded_max = affordance != AFFORD_NONE and target_code == Q_LEARNING_TARGET
     softmaxing = exploring == SOFTMAX_CODE  # (one definition, so a copy prunes the target's branch below)
     softmax_expected = target_code == EXPECTED_SARSA_TARGET
-    long_memory = loop_mode != 0 and loop_memory != PAPER_LOOPING_MEMORY
     for r in range(lo, hi):
-        entered = np.full(n_states if long_memory else 0, -1, dtype=np.int64)
         episode_start = 0
         key = keys[r]
         side_key = lane_key(key, LANE_LEARNER)
@@ -536,14 +508,13 @@ def _train_loop(
         masks = run_masks(afforded, affordance, n_states, n_actions)
         qr = q[r]
         qb = q_second[r]
-        row, visits, traces, pairs, model_next, model_reward, model_terminal, observed, walked, on_walk, choice = (
-            run_memory(n_states, n_actions, double, traced, counting, modelling))
+        (row, visits, traces, pairs, model_next, model_reward, model_terminal, observed, walked, on_walk, choice,
+         entered) = run_memory(n_states, n_actions, double, traced, counting, modelling)
         # np.int64(...), not bare constants: a literal argument makes numba compile a callee twice (for the
         # literal type while inferring types, then for int64), about 0.3 s each in a first process.
         n_pairs = np.int64(0)
         n_observed = np.int64(0)
         state = np.int64(NO_STATE)
-        previous = np.int64(NO_STATE)
         pending = np.int64(NO_STATE)
         length = 0
         optimal, n_walked = greedy_walk(qr, qb, double, row, masks, affording, random_ties, starts, task_next,
@@ -558,7 +529,6 @@ def _train_loop(
                     state = starts[0]
                 else:
                     state = starts[min(int(uniform(key, t, STREAM_START) * n_starts), n_starts - 1)]
-                previous = np.int64(NO_STATE)
                 pending = np.int64(NO_STATE)
                 length = 0
                 episode_start = t
@@ -574,14 +544,9 @@ def _train_loop(
                 k = sample_index(cumulative_table[state, action], uniform(key, t, STREAM_TRANSITION))
             nxt = next_state_table[state, action, k]
             outcome = outcome_table[state, action, k]
-            if long_memory:
-                entered[state] = t
-                reward = memory_adjusted_reward(outcome_values[outcome], outcome, nxt, entered, t, episode_start,
-                                                loop_memory, loop_value, loop_mode)
-            else:
-                reward = loop_adjusted_reward(
-                    outcome_values[outcome], outcome, state, nxt, previous, loop_value, loop_mode
-                )
+            entered[state] = t
+            reward = memory_adjusted_reward(outcome_values[outcome], outcome, nxt, entered, t, episode_start,
+                                            loop_memory, loop_value, loop_mode)
             length += 1
             terminal = outcome == _TERMINAL
             if counting:
@@ -643,7 +608,6 @@ def _train_loop(
                 state = NO_STATE
             else:
                 episode_end[r, t] = EPISODE_CONTINUES
-                previous = state
                 state = nxt
         if snapshot_at == n_iterations:
             copy_tables(qr, qb, q_snapshot[r], q_second_snapshot[r], double)
@@ -672,7 +636,7 @@ def specialised_loop(name: str, method: int, exploration: int):
                          f"allowed a method of {sorted(METHODS.values())} with an exploration of "
                          f"{list(EXPLORATION_CODES)}, or both FROM_ARGUMENTS ({FROM_ARGUMENTS})")
     function = _loop_function(name, LOOP_METHOD=method, LOOP_EXPLORATION=exploration)
-    return numba.njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)(function)
+    return numba.njit(cache=True, nogil=True)(function)
 
 
 def _loop_function(name: str, **replaced_globals):
@@ -709,7 +673,7 @@ def user_train_batch(learner: TabularLearner):
             return target(q_next, next_action, reward, gamma, epsilon, terminal)
 
         function = _loop_function(f"train_batch_{learner.name}", builtin_td_target=numba.njit(call_target))
-        _USER_KERNELS[target] = numba.njit(nogil=True, pipeline_class=NoAliasCompiler)(function)
+        _USER_KERNELS[target] = numba.njit(nogil=True)(function)
     return _USER_KERNELS[target]
 
 
@@ -759,7 +723,6 @@ def _guard_disk_cache() -> None:
 
     package = "tableclean_suite.learners"
     modules = [sys.modules[f"{package}.{name}"] for name in ("kernel", "rng", "rules", "exploration", "assist", "optimality")]
-    modules.append(sys.modules["tableclean_suite.rewards"])  # PAPER_LOOPING_MEMORY is compiled in as a constant
     dispatchers = [value for value in vars(sys.modules[__name__]).values()
                    if isinstance(value, numba.core.registry.CPUDispatcher)]
     for module in modules[1:]:

@@ -2,7 +2,7 @@
 
 The generic accounting (tables, records, the refusal) lives in :mod:`tableclean_suite.resources`, a
 leaf module; what a learner adds to it (double Q's tables, traces, Dyna's model, learned
-affordance masks, visit counts, a long looping memory) is read here, next to the learners, so the
+affordance masks, visit counts, the looping rule's memory, the greedy walk) is read here, next to the learners, so the
 guard does not import the learners back.
 """
 
@@ -14,9 +14,10 @@ from tableclean_suite import resources
 from tableclean_suite.learners.assist import AFFORD_LEARNED
 from tableclean_suite.learners.exploration import VISIT_DECAY_CODE
 from tableclean_suite.learners.rules import METHOD_DOUBLE_Q, METHOD_DYNA, METHOD_TRACES
-from tableclean_suite.rewards import PAPER_LOOPING_MEMORY
 
 
+#: Per state, the iteration it was last entered (int64): the looping rule's memory.
+LOOPING_MEMORY_WORDS = 1
 #: Per state, the greedy walk's examined states and greedy actions (int64 each) and flags (one byte):
 #: every run's learning time (:mod:`tableclean_suite.learners.optimality`).
 GREEDY_WALK_WORDS = 2
@@ -26,15 +27,14 @@ GREEDY_WALK_FLAG_BYTES = 1
 def run_working_bytes(learner, reward, n_states: int, n_actions: int) -> int:
     """Bytes of one run's working arrays in the compiled loop (``kernel.run_memory`` and the
     looping rule's memory): eligibility traces, Dyna's model, learned affordance masks, visit
-    counts (S int64), for a looping rule that looks further back than the paper's the
-    states' entry times (S int64), and the greedy walk's arrays (17 bytes per state)."""
+    counts (S int64), the states' entry times of the looping rule (S int64) and the greedy
+    walk's arrays (17 bytes per state).  ``reward`` (a ``RewardPattern``) does not change it."""
     per_pair = {METHOD_TRACES: resources.TRACE_BYTES_PER_PAIR,
                 METHOD_DYNA: resources.DYNA_BYTES_PER_PAIR}.get(learner.method, 0)
     if learner.affordance_code == AFFORD_LEARNED:
         per_pair += resources.LEARNED_AFFORDANCE_BYTES_PER_PAIR
     per_state_words = int(learner.exploration.code == VISIT_DECAY_CODE)
-    per_state_words += int(reward.looping_code != 0 and reward.looping_memory != PAPER_LOOPING_MEMORY)
-    per_state_words += GREEDY_WALK_WORDS
+    per_state_words += GREEDY_WALK_WORDS + LOOPING_MEMORY_WORDS
     return (int(n_states) * int(n_actions) * per_pair + int(n_states) * per_state_words * resources.WORD_BYTES
             + int(n_states) * GREEDY_WALK_FLAG_BYTES)
 
