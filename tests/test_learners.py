@@ -72,7 +72,7 @@ def test_compiled_equals_plain_loop_with_random_starts_and_stochastic_table():
     model = TaskModel(start="uniform_unclean")
     counts = {(0, int(Action.MOVE)): {(1, int(Outcome.ROUTINE)): 9, (0, int(Outcome.INEFFECTIVE)): 1}}
     table = TransitionTable.from_counts(counts, model)
-    kwargs = dict(runs=3, iterations=300, seed=3, model=model, backend="calibrated", transitions=table)
+    kwargs = dict(runs=3, iterations=300, seed=3, task=model, backend="calibrated", transitions=table)
     assert same(train("q_learning", "r4", **kwargs), train("q_learning", "r4", engine="reference", **kwargs))
 
 

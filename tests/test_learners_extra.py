@@ -1,4 +1,4 @@
-"""Issue 10: double Q-learning, Q(lambda), SARSA(lambda), Dyna-Q, explorations and optimistic starts.
+"""Double Q-learning, Q(lambda), SARSA(lambda), Dyna-Q, explorations and optimistic starts.
 
 Hand-computed updates, the dense definition of traces, compiled == plain loop for every learner
 and exploration, schedules and softmax by formula, clear errors, the paper's numbers untouched,
@@ -357,7 +357,7 @@ def test_default_settings_keep_the_paper_numbers():
     from test_learners_spec import PAPER_PINS, records_digest
 
     for learner, reward, options, pin in PAPER_PINS:
-        result = train(learner, reward, runs=40, iterations=1500, seed=11, model=TaskModel(**options),
+        result = train(learner, reward, runs=40, iterations=1500, seed=11, task=TaskModel(**options),
                        exploration="epsilon_greedy", q_init=0.0, learner_options={})
         assert records_digest(result) == pin
 

@@ -26,8 +26,8 @@ from tableclean_suite.task import ActionRule, Outcome, TaskModel, TaskSpec, regi
 ROOT = Path(__file__).resolve().parents[1]
 RECORDS = ("rewards", "outcomes", "states", "actions", "episode_end", "q")
 
-#: SHA-256 prefixes of train()'s arrays before task specifications existed (commit e1c4cba,
-#: runs=40, iterations=1500, seed=11): the paper spec must give exactly these, dtypes included.
+#: SHA-256 prefixes of train()'s arrays before task specifications existed (runs=40,
+#: iterations=1500, seed=11): the paper spec must give exactly these, dtypes included.
 PAPER_PINS = [
     ("q_learning", "r4", {}, "09c8e977cd65c7c43cb649c8d47678bc"),
     ("sarsa", "r1", {}, "7e9cb6d188e27cdf007f36c6f65b8e84"),
@@ -49,7 +49,7 @@ def records_digest(result) -> str:
 
 @pytest.mark.parametrize("learner,reward,options,pin", PAPER_PINS)
 def test_paper_spec_arrays_are_identical_to_before_task_specs(learner, reward, options, pin):
-    result = train(learner, reward, runs=40, iterations=1500, seed=11, model=TaskModel(**options))
+    result = train(learner, reward, runs=40, iterations=1500, seed=11, task=TaskModel(**options))
     assert records_digest(result) == pin
     assert records_digest(train(learner, reward, runs=40, iterations=1500, seed=11, task=TaskModel(**options))) == pin
 
@@ -61,8 +61,11 @@ def test_task_argument_accepts_names_specs_and_models():
     assert records_digest(by_name) == records_digest(by_spec)
     assert by_name.q.shape == (4, 384, 4) and by_name.states.dtype == np.int16
     assert by_name.config["task"]["name"] == "three_segments_two_objects"
-    with pytest.raises(ValueError, match="not both"):
+    with pytest.raises(ValueError, match="not both"), pytest.warns(DeprecationWarning, match="use|task="):
         train(runs=1, iterations=10, task="paper", model=TaskModel())
+    with pytest.warns(DeprecationWarning, match="pass the task as task="):
+        by_model = train("q_learning", "r4", runs=4, iterations=400, seed=2, model=TaskModel(spec="three_segments_two_objects"))
+    assert records_digest(by_model) == records_digest(by_name)
     with pytest.raises(ValueError, match="unknown task spec"):
         train(runs=1, iterations=10, task="nine_tables")
 

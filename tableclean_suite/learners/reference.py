@@ -108,14 +108,6 @@ class TableStepEnv(ModelStepEnv):
         return self.table.sample(state, action, draw)
 
 
-def _greedy(q_row) -> int:
-    best = 0
-    for a in range(1, len(q_row)):
-        if q_row[a] > q_row[best]:
-            best = a
-    return best
-
-
 def _tied(q_row, actions: list[int]) -> list[int]:
     """The actions of ``actions`` with the largest ``q_row`` value, in order."""
     best = max(q_row[a] for a in actions)
@@ -205,19 +197,11 @@ class _Assistance:
         return min(int(uniform_py(self.key, t, STREAM_ADVICE_ACTION) * self.n_actions), self.n_actions - 1)
 
 
-def _afforded_greedy(q_row, afforded: list[int]) -> int:
-    best = afforded[0]
-    for a in afforded[1:]:
-        if q_row[a] > q_row[best]:
-            best = a
-    return best
-
-
 def _afforded_action(q_row, afforded: list[int], softmax: bool, parameter: float, explore_draw: float,
                      action_draw: float, tie_draw=None) -> int:
     """The behaviour policy over the afforded actions only (softmax, or epsilon-greedy with uniform exploration)."""
     if softmax:
-        best = q_row[_afforded_greedy(q_row, afforded)]
+        best = max(q_row[a] for a in afforded)
         weights = [math.exp((q_row[a] - best) / parameter) for a in afforded]
         threshold, running = action_draw * sum(weights), 0.0
         for a, weight in zip(afforded, weights):
@@ -334,7 +318,7 @@ class _Agent:
         if self.affording and self.learner.target_code == Q_LEARNING_TARGET:
             if terminal:
                 return reward
-            return reward + self.gamma * self.q[nxt][_afforded_greedy(self.q[nxt], self.assistance.afforded(nxt))]
+            return reward + self.gamma * max(self.q[nxt][a] for a in self.assistance.afforded(nxt))
         return self.learner.target(np.asarray(self.q[nxt]), pending, reward, self.gamma, behaviour, terminal)
 
     def _learn_double(self, t, state, action, reward, nxt, terminal) -> None:
@@ -342,7 +326,8 @@ class _Agent:
             updated, other = self.q, self.q_b
         else:
             updated, other = self.q_b, self.q
-        target = reward if terminal else reward + self.gamma * other[nxt][_greedy(updated[nxt])]
+        greedy = _greedy_choice(updated[nxt], list(range(len(updated[nxt]))), None)
+        target = reward if terminal else reward + self.gamma * other[nxt][greedy]
         updated[state][action] += self.alpha * (target - updated[state][action])
 
     def _learn_traces(self, state, action, delta, cut) -> None:

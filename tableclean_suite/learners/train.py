@@ -12,6 +12,7 @@ instead of the compiled one (same numbers, much slower).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -127,7 +128,7 @@ def train(
         max_itr: iterations after which an episode is truncated (>= 1).
         seed: non-negative integer; run ``i`` uses the key of (seed, first_run + i),
             so results do not depend on batching.
-        model: the task model; kept for compatibility, same as ``task=`` with a model.
+        model: deprecated (``DeprecationWarning``): the old name of ``task=``.
         backend: a registered backend name (``"symbolic"``, ``"calibrated"``, ``"physics"``).
         transitions: for ``"calibrated"``: a :class:`TransitionTable` or a JSON path.
         engine: ``"compiled"`` (default) or ``"reference"`` (plain Python loop).  The compiled
@@ -138,7 +139,7 @@ def train(
         physics_options: keyword arguments for the physics step environment.
         progress: show a tqdm progress bar.
         task: the task: a registered spec name, a :class:`TaskSpec`, a ``.json`` path
-            or a :class:`TaskModel` (default: ``model``, else the ``paper`` spec).
+            or a :class:`TaskModel` (default: the ``paper`` spec).
         learner_options: the learner's update-rule parameters: ``q_lambda`` / ``sarsa_lambda``
             take ``lambda_`` (in [0, 1], default 0.9) and ``trace`` (``"replacing"``, default,
             or ``"accumulating"``); ``dyna_q`` takes ``planning_steps`` (integer in [0, 10000],
@@ -173,11 +174,12 @@ def train(
     check_number("checkpoint", checkpoint, 0, iterations, integer=True)
     if engine not in ENGINES:
         raise ValueError(f"unknown engine {engine!r}; allowed: {', '.join(ENGINES)}")
-    if model is not None and task is not None:
-        raise ValueError("give the task as task= or model=, not both")
-    if model is not None and not isinstance(model, TaskModel):
-        raise TypeError(f"model must be a TaskModel, got {type(model).__name__}")
-    model = as_task_model(model if model is not None else task)
+    if model is not None:
+        warnings.warn("train(model=...) is deprecated; pass the task as task=", DeprecationWarning, stacklevel=2)
+        if task is not None:
+            raise ValueError("give the task as task= or model=, not both")
+        task = model
+    model = as_task_model(task)
     chosen = get_backend(backend)  # ValueError names the registered backends
     options = {"transitions": transitions} if transitions is not None or chosen.name == "calibrated" else {}
     if physics_options is not None:
