@@ -460,7 +460,7 @@ def check_physical_task(model: TaskModel, task_config: dict | None = None) -> No
     from tableclean_suite.controllers.registry import get_skill_class
     from tableclean_suite.environments.config import LayoutError, make_config, scene_geometry
     from tableclean_suite.environments.objects import get_object_type
-    from tableclean_suite.environments.table_clean import check_objects_fit
+    from tableclean_suite.environments.scene_building import check_objects_fit
 
     spec = model.spec
     config = make_config(task_config)

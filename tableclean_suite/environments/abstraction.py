@@ -127,12 +127,6 @@ def segment_of_xy(xy, segment_centers, segment_half_sizes, margin: float = 0.0) 
     return best
 
 
-def object_location(obs: Mapping, config: Mapping | None = None) -> int:
-    """Where the (first) object is: :data:`~tableclean_suite.task.HELD` (grasped and lifted) or the 0-based
-    segment it lies on; raises on faults."""
-    return object_locations(obs, config)[0]
-
-
 def object_locations(obs: Mapping, config: Mapping | None = None) -> tuple[int, ...]:
     """Where each object is (HELD or a 0-based segment), from ``objects_*`` keys or the single ``object_*`` ones.
 

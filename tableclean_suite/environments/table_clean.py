@@ -71,7 +71,7 @@ from tableclean_suite.environments.state_reading import Contacts, DirtMarkers
 from tableclean_suite.robosuite_adapter import gripper_joint_pos_indexes, joint_vel_indexes, mj_data, mj_model
 from tableclean_suite.task import HELD, StartMode, TaskModel, TaskSpec, TaskState, get_task_spec
 
-__all__ = ["TableClean", "DEFAULT_TABLECLEAN_CONFIG", "FROM_SPEC", "check_objects_fit"]
+__all__ = ["TableClean", "DEFAULT_TABLECLEAN_CONFIG", "FROM_SPEC"]
 
 #: robosuite's name of the table's collision geom: the surface the sponge must press on.
 TABLE_TOP_GEOM = "table_collision"

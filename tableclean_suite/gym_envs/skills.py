@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tableclean_suite.gym_envs.symbolic import _NO_STATE, TableCleanBase, render_text
+from tableclean_suite.gym_envs.symbolic import TableCleanBase
 from tableclean_suite.rewards import RewardPattern
 from tableclean_suite.skill_result import SkillReport
 from tableclean_suite.task import Outcome, TaskModel, TaskSpec
@@ -16,11 +16,6 @@ from tableclean_suite.task import Outcome, TaskModel, TaskSpec
 CAMERA_FRAME_SIZE = (360, 480)
 #: ``info["outcome"]`` when the abstraction reported a fault (no task state was observed).
 FAULT_OUTCOME = -1
-
-
-def _comparable(result) -> SkillReport:
-    """``result`` as a :class:`SkillReport` (picklable; equal ignoring wall-clock timings)."""
-    return SkillReport.of(result)
 
 
 class TableCleanSkillsEnv(TableCleanBase):
@@ -140,7 +135,7 @@ class TableCleanSkillsEnv(TableCleanBase):
     def step(self, action):
         action = self._check_action(action)
         state = self.s
-        result = _comparable(self.controller.execute(action))
+        result = SkillReport.of(self.controller.execute(action))  # picklable; equal ignoring timings
         self.last_skill_result = result
         if result.state_after is None:
             self.lastaction, self.last_outcome = action, None
@@ -158,11 +153,6 @@ class TableCleanSkillsEnv(TableCleanBase):
         height, width = self.frame_size
         frame = self.sim_env.sim.render(camera_name=self.camera, width=width, height=height)
         return np.ascontiguousarray(frame[::-1])
-
-    def render(self):
-        if self.render_mode == "ansi" and self.s != _NO_STATE:
-            return render_text(self.model.decode(self.s), self._last_action_name(), self.last_outcome)
-        return super().render()
 
     def close(self):
         env = getattr(self, "sim_env", None)

@@ -287,8 +287,7 @@ class TableCleanSymbolicEnv(TableCleanBase):
     - ``render_mode``: ``"ansi"`` (text picture) or ``"rgb_array"`` (drawn top view).
 
     ## Version History
-    - v0: initial version; ``task=`` and ``start=`` added with task specifications (the
-      paper's spec behaves as before).
+    - v0: initial version (``task=``, ``start=``: any task spec).
     """
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
