@@ -108,7 +108,7 @@ def stage(env, controller, state, seed: int | None = None) -> TaskState:
     if seed is not None:
         env.rng = np.random.default_rng(seed)
     if state.n_objects == 1:
-        env.set_start(objects[0], arm, dirty)  # the paper-era call (also for envs without object_segments)
+        env.set_start(objects[0], arm, dirty)  # get_ep_meta() then names the one object's object_segment
     else:
         env.set_start(None, arm, dirty, object_segments=objects)
     env.reset()

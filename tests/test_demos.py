@@ -276,7 +276,7 @@ def test_failed_attempts_are_replaced_in_waves_and_demos_keep_attempt_order(monk
     assert {task.seed for task in SEEN_TASKS} == {9} and SEEN_TASKS[0].policy is None
     assert [demo.attrs["attempt"] for demo in demos] == [0, 3, 5]
     assert attrs["discarded"] == 3 and env_args == {"env_name": "TableClean"}
-    assert lines[1] == "attempt 1: S: failed on purpose; discarded" and lines[-1].startswith("demo_2: S:")
+    assert "attempt 1" in lines[1] and "discarded" in lines[1] and lines[-1].startswith("demo_2")
 
     SEEN_TASKS.clear()
     monkeypatch.setattr(sys.modules[__name__], "FAILING_ATTEMPTS", set(range(100)))  # every attempt fails

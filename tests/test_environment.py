@@ -6,7 +6,7 @@ import robosuite
 
 import tableclean_suite  # noqa: F401  (registers TableClean)
 from tableclean_suite.environments import DEFAULT_TABLECLEAN_CONFIG, TableClean
-from tableclean_suite.robosuite_adapter import mj_data
+from tableclean_suite.robosuite_adapter import fresh_observations, mj_data
 from tableclean_suite.task import (
     START_LAYOUTS,
     TABLE1_STATES,
@@ -175,7 +175,7 @@ def test_skill_info_has_the_contract_keys_and_shapes(paper_env):
     assert info["object_grasped"] is False and info["sponge_grasped"] is False
     np.testing.assert_allclose(info["sponge_pos"], info["sponge_home_pos"], atol=2e-3)
     # eef_quat is the eef *site* orientation, as the robot's robot0_eef_quat_site observable
-    site_quat = paper_env._get_observations()["robot0_eef_quat_site"]
+    site_quat = fresh_observations(paper_env)["robot0_eef_quat_site"]
     assert abs(abs(np.dot(info["eef_quat"], site_quat)) - 1.0) < 1e-5
     for segment in (SEGMENT_1, SEGMENT_2):
         assert paper_env.segment_of_position(info["segment_centers"][segment][:2]) == segment
@@ -273,7 +273,7 @@ def test_offscreen_frame_is_not_blank():
     assert len(np.unique(frame.reshape(-1, 3), axis=0)) > 100
 
 
-# -- the scene starts where the task spec says (v4) ----------------------------------------------
+# -- the scene starts where the task spec says -------------------------------------------
 THREE_SEGMENTS_FIXED = TaskSpec("three_fixed", segments=3, objects=("box", "cylinder"),
                                 start_state=TaskState((False, True, False), (2, 0), 1))
 

@@ -101,8 +101,7 @@ def test_the_scene_refuses_an_object_too_wide_for_the_open_gripper_naming_measur
 def test_the_scene_refuses_an_object_larger_than_a_segment():
     register_object("test_plank", lambda name: BoxObject(name=name, size=[0.2, 0.02, 0.02]), overwrite=True)
     # 40 x 4 cm: neither way round does it fit a 24 cm segment (turned, it is 40 cm along y)
-    with pytest.raises(ValueError, match=r"'test_plank' does not fit a segment: its footprint is 4\.0 x 40\.0 cm "
-                                         r"\(even turned with its narrowest width along x\), a segment 24\.0 x 24\.0 cm"):
+    with pytest.raises(ValueError, match=r"'test_plank' does not fit.*4\.0 x 40\.0 cm.*24\.0 x 24\.0 cm"):
         _scene(TaskSpec("plank_scene", objects=("test_plank",)))
 
 
@@ -127,8 +126,8 @@ def test_a_long_narrow_object_fits_beside_another_by_its_oriented_footprint():
     # two cereal boxes fit too, one turned with its narrow side along the row; five breads do not, said with sizes
     env = _scene(TaskSpec("two_cereals", segments=3, objects=("cereal", "cereal")))
     env.close()
-    with pytest.raises(ValueError, match=r"5 objects \(bread, bread, bread, bread, bread\) do not fit side by side on "
-                                         r"one segment: their grid needs 20\.0 x 12\.8 cm .* a segment is 18\.0 x 18\.0 cm"):
+    with pytest.raises(ValueError, match=r"5 objects \(bread, bread, bread, bread, bread\) do not fit.*20\.0 x 12\.8 cm"
+                                         r".*18\.0 x 18\.0 cm"):
         _scene(TaskSpec("five_breads", segments=3, objects=("bread",) * 5))
 
 

@@ -60,7 +60,7 @@ DEFAULT_TABLECLEAN_CONFIG = {
     "sponge_home_tolerance": 0.03,  # the sponge counts as home within this distance of its home centre [m]
     # --- object ------------------------------------------------------------------------------
     # None: each object's type from the task spec (TaskSpec.objects); a registered name overrides every
-    # object's type (the paper-era option; see tableclean_suite.environments.objects.object_type_names())
+    # object's type (see tableclean_suite.environments.objects.object_type_names())
     "object_type": None,
     "object_half_size": (0.0225, 0.0225, 0.0225),  # half extents of "cube"/"box" ("cylinder": r, r, h) [m]
     "placement_noise": 0.03,  # object xy placement noise, uniform in +-this around its segment centre [m]

@@ -161,8 +161,8 @@ def _robosuite(cls) -> Builder:
 
 
 BUILTIN_OBJECTS = (
-    ObjectType("box", _box, description="today's red wooden cube (object_half_size)"),
-    ObjectType("cube", _cube, description="alias of box with equal sides (the paper-era name)"),
+    ObjectType("box", _box, description="red wooden box, half extents object_half_size (a cube by default)"),
+    ObjectType("cube", _cube, description="red wooden cube, half side the smallest of object_half_size"),
     ObjectType("cylinder", _cylinder,
                description="upright blue cylinder, radius object_half_size[0], half height object_half_size[2]"),
     ObjectType("can", _robosuite(CanObject), description="robosuite's CanObject (5 cm diameter, 8 cm tall)"),
@@ -254,7 +254,7 @@ def get_object_type(name: str | ObjectType) -> ObjectType:
 
 
 class _ObjectTypes(Mapping):
-    """Read-only name -> :class:`ObjectType` view of the registry (the paper-era ``OBJECT_TYPES``)."""
+    """Read-only name -> :class:`ObjectType` view of the registry (``OBJECT_TYPES``)."""
 
     def __getitem__(self, name):
         return get_object_type(name)

@@ -163,9 +163,8 @@ _KINOVA3 = RobotSkillConfig(
     # the edge of the arm's 0.9 m reach: a carried object's lift stalls 2 cm low with the elbow straight (5 of 10
     # episodes failed); 8 cm closer, 10 of 10 (and 10 of 10 on paper) succeeded (measured, seed 0)
     base_shift=(0.08, 0.0, 0.0),
-    # m/s: the hand reached its hover point over the sponge at 0.24 m/s and swung on 1.7 cm past it while
-    # descending; a finger pushed the sponge, tipped it, and it was lost at the first press (3 of 84 cleans on
-    # three_segments_two_objects, seed 0); the clean's grasp now descends once the hand is nearly still
+    # m/s: the clean's grasp descends only once the hand is this still (arriving at 0.24 m/s it swings on
+    # 1.7 cm past its hover point and a finger can tip the sponge)
     skills={"clean": {"hover_still_speed": 0.05}},
     note="Panda gripper instead of the Robotiq 85; stiffer OSC; base 8 cm closer to the table",
 )

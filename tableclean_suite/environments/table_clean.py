@@ -745,9 +745,9 @@ class TableClean(ManipulationEnv):
                 "dirty_segments": [k + 1 for k in self.dirty_segments],
             },
         )
-        if self.n_objects > 1:  # one entry per object (the paper scene's meta keeps its v1 keys)
+        if self.n_objects > 1:  # one entry per object
             meta["start"]["object_segments"] = [number(k) for k in self.object_segments]
-        if self.randomization.enabled:  # the unrandomised scene's meta keeps its v2 keys
+        if self.randomization.enabled:
             meta["randomization"] = self.randomization.to_dict()
             meta["dynamics_sample"] = None if self.dynamics_sample is None else self.dynamics_sample.to_dict()
         return meta
@@ -807,8 +807,7 @@ class TableClean(ManipulationEnv):
     # ------------------------------------------------------------------------------------------
     def _draw_layout(self) -> tuple[tuple[int, ...], int]:
         """(object segments (M,), arm segment): the configured ones, or drawn from ``self.rng`` when None."""
-        # always drawn (objects, then the arm), so the rng stream is layout-independent; for the paper's
-        # N = 2, M = 1 this is the v1 draw of (object, arm)
+        # always drawn (objects, then the arm), so the rng stream does not depend on the configured layout
         draws = self.rng.integers(0, self.n_segments, size=self.n_objects + 1)
         objects = tuple(int(d) if k is None else k for k, d in zip(self.object_segments, draws[:-1]))
         arm = self.arm_segment if self.arm_segment is not None else int(draws[-1])
