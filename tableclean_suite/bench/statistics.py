@@ -28,7 +28,6 @@ stratified bootstrap interval (runs of X and of Y resampled separately), on the 
 from __future__ import annotations
 
 import hashlib
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -207,10 +206,3 @@ def comparison_rows(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, s
 COMPARISON_COLUMNS = ("comparison", "learner_x", "reward_x", "learner_y", "reward_y", "score", "higher_is_better",
                       "margin", "probability_of_improvement", "probability_of_improvement_low",
                       "probability_of_improvement_high")
-
-
-def interval_or_nan(bounds) -> tuple[float, float]:
-    """``bounds`` as two floats, ``(nan, nan)`` when missing."""
-    if bounds is None:
-        return math.nan, math.nan
-    return float(bounds[0]), float(bounds[1])
