@@ -8,12 +8,14 @@ trains one **reference** of ``--reference-runs`` runs and K = ``--replications``
 ``--runs`` runs, each through the path ``tableclean-bench run`` publishes by
 ([run_grid][tableclean_suite.bench.experiments.run_grid], then
 [cell_records][tableclean_suite.bench.experiments.cell_records] and
-[table3][tableclean_suite.bench.tables.table3]), so a replication's intervals are the ones that
-command writes to ``table3.csv`` at that seed.  Every statistic of that table with an interval (a
-column ``X`` beside ``X_low`` and ``X_high``, read off the table, not listed here) is scored:
+[table3][tableclean_suite.bench.tables.table3], and
+[comparisons][tableclean_suite.bench.statistics.comparisons] for ``comparisons.csv``), so a
+replication's intervals are the ones that command writes at that seed.  Every statistic of those
+tables with an interval (a column ``X`` beside ``X_low`` and ``X_high``, read off the tables, not
+listed here) is scored:
 
 - **target**: the reference's value of ``X`` (its point estimate over the many runs; its own
-  intervals are not used, so it draws only :data:`REFERENCE_SAMPLES` bootstrap resamples);
+  intervals are not used, so it draws only ``REFERENCE_SAMPLES`` bootstrap resamples);
 - a replication **covers** when ``X_low <= target <= X_high`` (an undefined bound never covers;
   ``undefined`` counts those replications);
 - **coverage** = covered / K, with its Clopper-Pearson interval
@@ -26,8 +28,8 @@ seed draws from the counter-based key of (seed, i) ([run_key][tableclean_suite.l
 and each replication's bootstraps from its own seed, so the reference and the replications share
 no run and no draw.
 
-Writes ``OUT/coverage.csv`` (one row per cell and statistic; the same arguments give the same
-bytes) and prints it.  The reference's cells are kept in ``OUT/cells/`` (a rerun loads them);
+Writes ``OUT/coverage.csv`` (one row per table, row and statistic; the same arguments give the
+same bytes) and prints it.  The reference's cells are kept in ``OUT/cells/`` (a rerun loads them);
 the replications' are not kept.  The output holds measurements only.
 """
 
@@ -67,9 +69,9 @@ COLUMNS = ("table", "row", "statistic", "target", "nominal", "runs", "reference_
 #: Widest terminal line of the printed table, characters.
 PRINT_WIDTH = 120
 
-#: :class:`~tableclean_suite.bench.config.RunConfig` fields this command takes with the run
+#: [RunConfig][tableclean_suite.bench.config.RunConfig] fields this command takes with the run
 #: command's flags, and their argparse types (None: text).  ``--runs``, ``--iterations``,
-#: ``--seed``, ``--task`` and ``--out`` come from :mod:`.cli`.
+#: ``--seed``, ``--task`` and ``--out`` come from [cli][tableclean_suite.bench.cli].
 RUN_FIELDS = {"learners": None, "rewards": None, "alpha": float, "gamma": float, "epsilon": float, "max_itr": int,
               "exploration": None, "q_init": float, "learner_options": None, "start": None, "ineffective": None,
               "threshold": float, "plateau_fraction": float, "support_fraction": float, "bootstrap_samples": int}
@@ -135,10 +137,10 @@ def _float(value) -> float:
 
 def coverage_frame(reference: dict, replications: list[dict], runs: int, reference_runs: int, nominal: float,
                    confidence: float = DEFAULT_CONFIDENCE):
-    """One row per (table, row, statistic with an interval) of ``reference``: columns :data:`COLUMNS`.
+    """One row per (table, row, statistic with an interval) of ``reference``: columns ``COLUMNS``.
 
     Args:
-        reference: the reference's tables (:func:`published_tables`; their point values are the targets).
+        reference: the reference's tables ([published_tables][tableclean_suite.bench.coverage.published_tables]; their point values are the targets).
         replications: the replications' tables (the same tables, rows and columns), at least one.
         runs, reference_runs: runs per replication and of the reference (recorded in the rows).
         nominal: the intervals' confidence (``RunConfig.confidence``), recorded.
@@ -180,7 +182,7 @@ def coverage_frame(reference: dict, replications: list[dict], runs: int, referen
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line: this command's options, and the run command's cell settings (same flags,
-    defaults and help from :class:`~tableclean_suite.bench.config.RunConfig`)."""
+    defaults and help from [RunConfig][tableclean_suite.bench.config.RunConfig])."""
     from tableclean_suite.bench import cli, run
     from tableclean_suite.bench.config import defaults, field_docs
 
@@ -222,7 +224,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
     """Parse and check the command line (before any training); a bad value exits 2 with one line
     naming it and what is allowed.  The namespace gains ``config`` (the replications'
-    :class:`~tableclean_suite.bench.config.RunConfig`) and ``prog``."""
+    [RunConfig][tableclean_suite.bench.config.RunConfig]) and ``prog``."""
     from tableclean_suite.bench import cli, run
     from tableclean_suite.bench.config import ConfigError, RunConfig
 
@@ -249,7 +251,7 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
 
 def estimate(args, model) -> tuple[str, float]:
     """``(text, seconds)``: the work of the study, stated before it starts (learner steps and the
-    harness's time estimate of them, :func:`~tableclean_suite.bench.experiments.check_grid_resources`,
+    harness's time estimate of them, [check_grid_resources][tableclean_suite.bench.experiments.check_grid_resources],
     which refuses a grid too large to train)."""
     from tableclean_suite import resources
     from tableclean_suite.bench import experiments
@@ -271,7 +273,7 @@ def estimate(args, model) -> tuple[str, float]:
 
 def measure(args, model, out: Path):
     """Train the reference (cells kept in ``out/cells``) and the replications (not kept); returns
-    :func:`coverage_frame` of them.  Progress on stderr unless ``args.progress`` is False."""
+    [coverage_frame][tableclean_suite.bench.coverage.coverage_frame] of them.  Progress on stderr unless ``args.progress`` is False."""
     from tqdm.auto import tqdm
 
     from tableclean_suite.bench import experiments
@@ -301,7 +303,7 @@ def measure(args, model, out: Path):
 
 
 def display_lines(frame) -> list[str]:
-    """The printed table, one section per published table, at most :data:`PRINT_WIDTH` characters a
+    """The printed table, one section per published table, at most ``PRINT_WIDTH`` characters a
     line (long row labels are cut): row, statistic (in the section's title when it has one),
     target, covered/K, coverage with its interval, mean interval width."""
     import pandas as pd
