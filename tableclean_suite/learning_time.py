@@ -122,6 +122,21 @@ def survival(learned_at, budget: int):
     return stats.ecdf(stats.CensoredData(uncensored=times[~censored], right=times[censored]))
 
 
+def survival_curve(learned_at, budget: int, confidence: float = intervals.DEFAULT_CONFIDENCE
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(S, low, high)``, each ``(T,)``: the Kaplan-Meier curve S(t) = P(learning time > t), the
+    share of runs not yet optimal for good, at t = 1 .. T, and its pointwise ``confidence`` band
+    (log-log transform; where the band is undefined, S = 0 or 1, the curve itself)."""
+    fit = survival(learned_at, budget).sf
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        band = fit.confidence_interval(intervals.check_confidence(confidence), method=BAND_METHOD)
+    t = np.arange(1, int(budget) + 1)
+    curve = fit.evaluate(t)
+    low, high = band.low.evaluate(t), band.high.evaluate(t)
+    return curve, np.where(np.isnan(low), curve, low), np.where(np.isnan(high), curve, high)
+
+
 def _crossing(times: np.ndarray, probabilities: np.ndarray, level: float) -> float:
     """The first time at which a right-continuous step survival curve is <= ``level`` (+inf if never)."""
     with np.errstate(invalid="ignore"):

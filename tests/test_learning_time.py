@@ -84,3 +84,15 @@ def test_bad_learning_times_are_refused_naming_the_value(values, budget, message
 def test_no_runs_give_an_all_nan_summary():
     summary = learning_time_summary(np.zeros(0, dtype=int), 50)
     assert summary.runs == 0 and math.isnan(summary.median) and math.isnan(summary.censored_share)
+
+
+def test_survival_curve_is_the_share_not_yet_learned_with_its_band():
+    from tableclean_suite.learning_time import survival_curve
+
+    times = np.array([0, 2, 2, 5, -1, -1, 3, 9, 9, 1])
+    curve, low, high = survival_curve(times, 10)
+    at_budget = np.where(times < 0, 11, times)
+    expected = [(at_budget > t).mean() for t in range(1, 11)]
+    np.testing.assert_allclose(curve, expected)
+    assert curve.shape == low.shape == high.shape == (10,)
+    assert (low <= curve + 1e-12).all() and (curve <= high + 1e-12).all() and (high[:3] > low[:3]).all()

@@ -33,3 +33,14 @@ def test_code_columns_factorizes_the_selected_columns_once_for_the_frame():
     coded, columns = plots._CODED
     assert coded is frame and set(columns) == {"learner", "reward", "experiment"}  # the frame has no "metric"
     assert plots._select(frame, reward="r4")["value"].tolist() == [2, 3]
+
+
+def test_the_learning_time_figure_is_offered_only_with_the_kaplan_meier_curves():
+    rows = [{"learner": "q_learning", "reward": "r4", "alpha": 0.3, "gamma": 0.3, "experiment": "main",
+             "iteration": t, "metric": metric, "value": value, "low": value, "high": value}
+            for t, value in ((1, 1.0), (2, 0.5), (3, 0.25)) for metric in ("success", "not_learned")]
+    frame = pd.DataFrame(rows)
+    assert "fig8_learning_time_q_learning" in plots.available_figures(frame)
+    assert "fig8_learning_time_q_learning" not in plots.available_figures(frame[frame["metric"] == "success"])
+    png = plots.render_png("fig8_learning_time_q_learning", frame, 0.25, None, 40)
+    assert png.startswith(b"\x89PNG")

@@ -271,12 +271,14 @@ def _summary(iterations=5):
 
 def _statistics(runs, iterations=5):
     from tableclean_suite.bench.statistics import CellStatistics
-    from tableclean_suite.learning_time import learning_time_summary
+    from tableclean_suite.learning_time import learning_time_summary, survival_curve
 
     learned = np.r_[-1, np.arange(runs - 1) % iterations]
+    survival, *band = survival_curve(learned, iterations)
     return CellStatistics(intervals={"success_plateau": (0.25, 0.75), "never_terminal_share": (float("nan"), 0.5)},
                           bands={"success": (np.zeros(iterations), np.ones(iterations)),
-                                 "average_reward": (np.zeros(iterations), np.ones(iterations))},
+                                 "average_reward": (np.zeros(iterations), np.ones(iterations)),
+                                 "not_learned": tuple(band)}, survival=survival,
                           runs={"success_asymptote": np.linspace(0, 1, runs),
                                 "learning_time": np.where(learned < 0, iterations, learned).astype(float)},
                           learning=learning_time_summary(learned, iterations, reps=50),
@@ -299,6 +301,8 @@ def test_cell_store_round_trip_and_corruption(tmp_path):
     assert stats.settling == Settling(0.02, 0.015, 0.025, 75) and not stats.settling.settled(0.01)
     np.testing.assert_array_equal(stats.runs["learning_time"], _statistics(runs).runs["learning_time"])
     np.testing.assert_array_equal(stats.bands["success"][1], np.ones(5))
+    np.testing.assert_array_equal(stats.survival, _statistics(runs).survival)
+    np.testing.assert_array_equal(stats.bands["not_learned"][0], _statistics(runs).bands["not_learned"][0])
     assert isinstance(loaded, Summary)
     assert loaded.max_success_iterations is None and math.isnan(loaded.reward_convergence_episodes)
     assert loaded.success_plateau == 0.5

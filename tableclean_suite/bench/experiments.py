@@ -243,7 +243,9 @@ class CellStore:
                 curves = {name: np.array(data[name], dtype=np.float64) for name in CURVE_NAMES}
                 facts = json.loads(str(data["statistics"]))
                 bands = {name: (np.array(data[f"band_{name}_low"]), np.array(data[f"band_{name}_high"]))
-                         for name in statistics.BAND_CURVES}
+                         for name in (*statistics.BAND_CURVES, statistics.NOT_LEARNED)
+                         if f"band_{name}_low" in data.files}
+                survival = np.array(data["survival"], dtype=np.float64) if "survival" in data.files else None
                 runs = {name: np.array(data[f"run_{name}"], dtype=np.float64) for name in statistics.RUN_SCORES
                         if f"run_{name}" in data.files}
         except Exception as error:  # any read/parse failure means the file is damaged
@@ -270,7 +272,7 @@ class CellStore:
         learned = facts["learning"]
         cell_stats = CellStatistics(
             intervals={name: tuple(_number(v) for v in bounds) for name, bounds in facts["intervals"].items()},
-            bands=bands, runs=runs,
+            bands=bands, runs=runs, survival=survival,
             learning=None if learned is None else LearningTime(**{name: learned[name] if name in ("runs", "budget")
                                                                    else _number(learned[name]) for name in learned}),
             settling=settling.Settling(*(_number(v) for v in facts["settling"][:3]), int(facts["settling"][3])),
@@ -312,6 +314,7 @@ class CellStore:
                     **{name: np.asarray(curve, dtype=np.float64) for name, curve in summary.curves().items()},
                     **bands,
                     **runs,
+                    **({} if cell_stats.survival is None else {"survival": np.asarray(cell_stats.survival, np.float64)}),
                 )
             os.replace(temporary, path)
         except OSError as error:
@@ -436,7 +439,7 @@ def _train_chunk(cell: Cell, config: RunConfig, model, transitions, chunk: int, 
     """``train()`` of the chunk of runs starting at ``first``, for ``iterations``, keeping the Q-tables at ``keep``."""
     return train(
         learner=cell.learner, reward=cell.reward, runs=min(chunk, config.runs - first), first_run=first,
-        alpha=cell.alpha, gamma=cell.gamma, model=model, transitions=transitions,
+        alpha=cell.alpha, gamma=cell.gamma, task=model, transitions=transitions,
         **{**config.train_kwargs(), "iterations": iterations}, **config.learner_kwargs(cell.learner),
         checkpoint=keep, **({} if engine is None else {"engine": engine}),
     )
@@ -771,6 +774,8 @@ def cell_records(grid: list[Membership], summaries: dict, cell_statistics: dict 
                           behaviour_drift_high=settled.high,
                           checkpoint_iteration=settled.checkpoint or None,  # None: not measured (e.g. physics)
                           settled=settled.settled(settle_tolerance))
+            if stats.survival is not None:
+                curve_set[statistics.NOT_LEARNED] = stats.survival
             for name, (low, high) in stats.bands.items():
                 curve_set[f"{name}_low"], curve_set[f"{name}_high"] = low, high
         records.append(record)

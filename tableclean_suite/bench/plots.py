@@ -1,4 +1,5 @@
-"""Figures 3-7 of the paper from a long curves DataFrame: each function returns ``(fig, ax)``.
+"""Figures 3-7 of the paper, and the Kaplan-Meier curves of the per-run learning time (Figure 8),
+from a long curves DataFrame: each function returns ``(fig, ax)``.
 
 Nothing here shows or writes a figure to a file (:func:`render_png` returns a figure's PNG bytes;
 :mod:`tableclean_suite.bench.run` writes them).  matplotlib is imported when a figure is first
@@ -26,8 +27,9 @@ METRIC_LABELS = {
     "average_reward": "average reward (return / episode length)",
     "terminal": "terminal reached (%)",
     "episodes": "episodes finished",
+    "not_learned": "runs not yet optimal for good (%)",
 }
-_PERCENT_METRICS = ("success", "terminal")
+_PERCENT_METRICS = ("success", "terminal", "not_learned")
 LEARNER_TITLES = {"q_learning": "Q-learning", "sarsa": "SARSA", "expected_sarsa": "Expected SARSA"}
 X_LABEL = "training iterations (environment steps)"
 
@@ -120,7 +122,8 @@ def _style(ax, metric: str, title: str, legend_title: str | None):
     ax.grid(True, alpha=0.3)
     ax.margins(x=0)
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(title=legend_title, loc="lower right", fontsize="small", title_fontsize="small")
+        ax.legend(title=legend_title, loc="upper right" if metric == "not_learned" else "lower right",
+                  fontsize="small", title_fontsize="small")
 
 
 #: Opacity of the 95 % bands.
@@ -286,6 +289,11 @@ PAPER_FIGURES = {
         "Figure 7: average reward, alpha and gamma sweeps",
         lambda c, p, t=None: plot_sweeps(c, "average_reward", xmax=SWEEP_XMAX),
     ),
+    "fig8_learning_time_q_learning": (
+        "Kaplan-Meier curves of the per-run learning time (Q-learning): share of runs not yet optimal for good",
+        lambda c, p, t=None: plot_rewards(c, "q_learning", "not_learned", plateau_fraction=None,
+                                          title="Runs not yet optimal for good, per reward pattern (Q-learning)"),
+    ),
 }
 
 
@@ -294,12 +302,14 @@ def available_figures(curves: pd.DataFrame) -> list[str]:
     experiments = set(curves["experiment"].unique().tolist())
     learners = set(curves.loc[curves["experiment"] == "main", "learner"].unique().tolist())
     sweeps = experiments & {"alpha_sweep", "gamma_sweep"}
+    survival = "not_learned" in set(curves["metric"].unique().tolist())
     needs = {
         "fig3_success_rate_q_learning": "q_learning" in learners,
         "fig4_average_reward_q_learning": "q_learning" in learners,
         "fig5_average_reward_sarsa": "sarsa" in learners,
         "fig6_success_rate_sweeps": bool(sweeps),
         "fig7_average_reward_sweeps": bool(sweeps),
+        "fig8_learning_time_q_learning": "q_learning" in learners and survival,
     }
     return [stem for stem, ok in needs.items() if ok]
 

@@ -16,7 +16,8 @@ paper's success rate beside ours; the paper's mean-curve definitions beside the 
 the probabilities of improvement, the sweep table and Table 4, and writes to ``--out``:
 ``table3.csv`` and ``table4.csv`` (an interval column ``X`` followed by ``X_low``/``X_high``),
 ``comparisons.csv``, ``curves.csv`` (with ``low``/``high`` bands), the figures
-``fig3..fig7*.png`` (bands shaded), ``config.json`` (written last: the run's configuration, a run
+``fig3..fig7*.png`` (bands shaded) and ``fig8_learning_time_q_learning.png`` (the Kaplan-Meier
+curves of the per-run learning time), ``config.json`` (written last: the run's configuration, a run
 id and the SHA-256 of each of those files; see :mod:`.outputs`) and ``cells/`` (one file per
 trained cell; a rerun with the same settings and code loads them instead of retraining -
 ``--fresh`` retrains).
@@ -304,7 +305,10 @@ def train_and_publish(args) -> int:
     comparisons = statistics.comparisons(
         [{"learner": c.learner, "reward": c.reward, "runs": grid_run.statistics[c].runs} for c in main_cells],
         config.confidence, config.bootstrap_samples, config.seed)  # before the figures' processes fork
-    drawing = (derived.start_figures(curves_frame, config.plateau_fraction, table3, FIGURE_DPI,
+    survival = all(statistics.NOT_LEARNED in curve_set for curve_set in curves)  # the runs recorded learning times
+    figure_frame = (tables.curves_long(records, curves, (*tables.CURVE_METRICS, statistics.NOT_LEARNED), stride)
+                    if survival and config.figures else curves_frame)
+    drawing = (derived.start_figures(figure_frame, config.plateau_fraction, table3, FIGURE_DPI,
                                      processes=derived.FIGURE_PROCESSES) if config.figures else None)
     curves_text = tables.csv_text(curves_frame, tables.CURVES_FLOAT_FORMAT)  # while the figures are drawn
     figures = drawing.result() if drawing is not None else []

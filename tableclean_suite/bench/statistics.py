@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tableclean_suite import intervals
-from tableclean_suite.learning_time import LearningTime, learning_time_summary
+from tableclean_suite.learning_time import LearningTime, learning_time_summary, survival_curve
 from tableclean_suite.settling import Settling
 
 #: Bootstrap resamples per interval.
@@ -42,6 +42,9 @@ DEFAULT_SAMPLES = 1000
 DEFAULT_CONFIDENCE = intervals.DEFAULT_CONFIDENCE
 #: Curves that get bands (the ones the figures draw).
 BAND_CURVES = ("success", "average_reward")
+#: The Kaplan-Meier curve of the per-run learning time, as a curve of the figures: the share of
+#: runs not yet optimal for good at each iteration.
+NOT_LEARNED = "not_learned"
 #: Table 3 scalars that are means over runs of a per-run asymptote: scalar -> per-run quantity
 #: (:func:`tableclean_suite.analysis.final_run_facts`), each with a bootstrap interval over runs.
 RUN_MEANS = {"success_plateau": "success", "average_reward_plateau": "average_reward",
@@ -82,6 +85,8 @@ class CellStatistics:
         runs: ``{score: (R,) array}`` per-run scores (:data:`RUN_SCORES`; ``learning_time``
             only when the runs recorded it, censored runs at the budget).
         learning: the per-run learning time's summary (None when the runs did not record it).
+        survival: ``(T,)`` its Kaplan-Meier curve, the share of runs not yet optimal for good at
+            iterations 1 .. T (its band is ``bands["not_learned"]``); None when not recorded.
         settling: the behaviour drift over the window's last quarter (:mod:`tableclean_suite.settling`).
     """
 
@@ -89,6 +94,7 @@ class CellStatistics:
     bands: dict = field(default_factory=dict)
     runs: dict = field(default_factory=dict)
     learning: LearningTime | None = None
+    survival: np.ndarray | None = None
     settling: Settling = field(default_factory=Settling.not_measured)
 
 
@@ -133,15 +139,17 @@ def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fract
             values = np.asarray(per_run[name], dtype=np.float64)
             bounds[scalar] = intervals.clopper_pearson(int(np.count_nonzero(values)), len(values), confidence)
     runs = {"success_asymptote": np.asarray(per_run["success"], dtype=np.float64)}
-    learning = None
+    learning = survival = None
+    bands = curve_bands(sums, support_fraction, confidence)
     if learned_at is not None:
         learning = learning_time_summary(learned_at, budget, confidence, samples, rng=rng)
         runs["learning_time"] = censored_learning_times(learned_at, budget)
+        survival, *bands[NOT_LEARNED] = survival_curve(learned_at, budget, confidence)
     settled = Settling.not_measured()
     if drift is not None:
         points, drift_bounds = intervals.interval_estimates({"drift": drift}, np.mean, confidence, samples, rng=rng)
         settled = Settling(points["drift"], *drift_bounds["drift"], int(checkpoint))
-    return CellStatistics(bounds, curve_bands(sums, support_fraction, confidence), runs, learning, settled)
+    return CellStatistics(bounds, bands, runs, learning, survival, settled)
 
 
 #: Table 3 columns of the per-run learning time (:class:`~tableclean_suite.learning_time.LearningTime`
