@@ -45,7 +45,7 @@ def test_harness_drift_is_the_mean_change_between_the_checkpoint_and_the_end():
     stats = _stats("sarsa", "r4", runs=60, iterations=800)
     chain = asymptotes.EpisodeChain.build(MODEL, "r4")
     ends = [analysis.final_asymptotes(train(learner="sarsa", reward="r4", runs=60, iterations=t, alpha=0.3,
-                                            gamma=0.3, epsilon=0.1, max_itr=500, seed=0, model=MODEL),
+                                            gamma=0.3, epsilon=0.1, max_itr=500, seed=0, task=MODEL),
                                       chain, 500, MODEL).success for t in (600, 800)]
     assert stats.settling.checkpoint == 600
     assert stats.settling.drift == pytest.approx(np.abs(ends[1] - ends[0]).mean(), abs=1e-12)
@@ -59,7 +59,7 @@ def test_checkpoint_q_tables_of_one_pass_are_those_of_the_shorter_training(learn
     from tableclean_suite.backends import CHECKPOINT_Q
 
     common = dict(learner=learner, reward="r4", runs=7, alpha=0.3, gamma=0.3, epsilon=0.1, max_itr=40, seed=3,
-                  model=MODEL)
+                  task=MODEL)
     full = train(iterations=300, checkpoint=211, **common)
     short = train(iterations=211, **common)
     assert np.array_equal(full.info[CHECKPOINT_Q], short.q)
@@ -118,7 +118,7 @@ def test_the_reference_engine_keeps_the_checkpoint_q_tables_too(learner):
     """engine="reference" honours checkpoint= (it left the key out, silently) with the compiled loop's tables."""
     from tableclean_suite.backends import CHECKPOINT_Q
 
-    common = dict(learner=learner, reward="r4", runs=3, max_itr=40, seed=3, model=MODEL)
+    common = dict(learner=learner, reward="r4", runs=3, max_itr=40, seed=3, task=MODEL)
     full = train(iterations=120, checkpoint=77, engine="reference", **common)
     assert np.array_equal(full.info[CHECKPOINT_Q], train(iterations=77, engine="reference", **common).q)
     assert np.array_equal(full.info[CHECKPOINT_Q], train(iterations=120, checkpoint=77, **common).info[CHECKPOINT_Q])
