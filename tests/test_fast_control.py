@@ -30,6 +30,7 @@ from tableclean_suite.controllers.fast_control import (
     ROTVEC_SMALL_ANGLE,
     ControlStepLog,
     FastSkillStepper,
+    OscWork,
     fast_stepper_of,
     native_available,
     osc_work,
@@ -312,32 +313,23 @@ def test_goal_rotation_is_scipys_bit_for_bit():
         np.testing.assert_array_equal(out, Rotation.from_rotvec(rotvec).as_matrix())
 
 
-#: Shapes of the OSC scratch entries for an arm of ARM_JOINTS joints, by the W_* name the kernels index them with.
+#: Shapes of the OSC scratch arrays for an arm of ARM_JOINTS joints, by field of OscWork.
 ARM_JOINTS = 7
 SCRATCH_SHAPES = {
-    "W_LOW": (ARM_JOINTS, ARM_JOINTS), "W_INV_LOW": (ARM_JOINTS, ARM_JOINTS), "W_MASS_INV": (ARM_JOINTS, ARM_JOINTS),
-    "W_LAMBDA_FULL": (6, 6), "W_LAMBDA_POS": (3, 3), "W_LAMBDA_ORI": (3, 3), "W_NULLSPACE": (ARM_JOINTS, ARM_JOINTS),
-    "W_J_MINV": (6, ARM_JOINTS), "W_LAMBDA_FULL_INV": (6, 6), "W_J_BAR": (ARM_JOINTS, 6), "W_DESIRED": (6,),
-    "W_ERROR": (3,), "W_WRENCH": (6,), "W_POSTURE": (ARM_JOINTS,), "W_POSE_TORQUES": (ARM_JOINTS,),
-    "W_MASS": (ARM_JOINTS, ARM_JOINTS), "W_J_FULL": (6, ARM_JOINTS), "W_JOINT_POS": (ARM_JOINTS,),
-    "W_JOINT_VEL": (ARM_JOINTS,), "W_BIAS": (ARM_JOINTS,), "W_REF_VEL": (6,),
+    "low": (ARM_JOINTS, ARM_JOINTS), "inv_low": (ARM_JOINTS, ARM_JOINTS), "mass_inv": (ARM_JOINTS, ARM_JOINTS),
+    "lambda_full": (6, 6), "lambda_pos": (3, 3), "lambda_ori": (3, 3), "nullspace": (ARM_JOINTS, ARM_JOINTS),
+    "j_minv": (6, ARM_JOINTS), "lambda_full_inv": (6, 6), "j_bar": (ARM_JOINTS, 6), "desired": (6,),
+    "error": (3,), "wrench": (6,), "posture": (ARM_JOINTS,), "pose_torques": (ARM_JOINTS,),
+    "mass": (ARM_JOINTS, ARM_JOINTS), "j_full": (6, ARM_JOINTS), "joint_pos": (ARM_JOINTS,),
+    "joint_vel": (ARM_JOINTS,), "bias": (ARM_JOINTS,), "ref_vel": (6,),
 }
 
 
-def test_the_scratch_names_index_entries_of_their_shapes():
+def test_the_osc_scratch_fields_have_their_shapes():
     work = osc_work(ARM_JOINTS)
-    assert len(work) == len(SCRATCH_SHAPES)
-    assert sorted(getattr(fast_control, name) for name in SCRATCH_SHAPES) == list(range(len(work)))
+    assert isinstance(work, OscWork) and work._fields == tuple(SCRATCH_SHAPES)
     for name, shape in SCRATCH_SHAPES.items():
-        assert work[getattr(fast_control, name)].shape == shape, name
-
-
-def test_the_kernels_index_the_scratch_by_name():
-    """The OSC kernels read the scratch tuple through the W_* names (a renumbering then cannot leave one behind)."""
-    import inspect
-    source = inspect.getsource(fast_control)
-    assert re.findall(r"\bwork\[\d+\]", source) == []
-    assert len(re.findall(r"\bwork\[W_[A-Z_]+\]", source)) == len(SCRATCH_SHAPES)
+        assert getattr(work, name).shape == shape, name
 
 
 def _episode(phase_loop: bool, layout=(1, 1), seed: int = 1) -> dict:

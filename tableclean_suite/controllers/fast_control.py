@@ -285,24 +285,45 @@ def small_matvec(a: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
 
 
 
-#: Entries of the scratch tuple of :func:`osc_work` (the OSC kernels' temporaries, allocated once per call of the
-#: compiled loops instead of once per substep: ~20 allocations per substep cost ~1-2 us of its ~4 us).
-(W_LOW, W_INV_LOW, W_MASS_INV, W_LAMBDA_FULL, W_LAMBDA_POS, W_LAMBDA_ORI, W_NULLSPACE, W_J_MINV, W_LAMBDA_FULL_INV,
- W_J_BAR, W_DESIRED, W_ERROR, W_WRENCH, W_POSTURE, W_POSE_TORQUES, W_MASS, W_J_FULL, W_JOINT_POS, W_JOINT_VEL,
- W_BIAS, W_REF_VEL) = range(21)
+class OscWork(NamedTuple):
+    """The OSC kernels' temporaries for an arm of n joints (float64; m = max(n, 6)), made by :func:`osc_work`.
+
+    Allocated once per call of the compiled loops instead of once per substep (~20 allocations per substep
+    cost ~1-2 us of its ~4 us).  Every entry is written before it is read in each use (the orientation
+    error is zeroed where it accumulates).
+    """
+
+    low: np.ndarray  # (m, m) Cholesky factor
+    inv_low: np.ndarray  # (m, m) its inverse
+    mass_inv: np.ndarray  # (n, n)
+    lambda_full: np.ndarray  # (6, 6) operational-space inertia
+    lambda_pos: np.ndarray  # (3, 3)
+    lambda_ori: np.ndarray  # (3, 3)
+    nullspace: np.ndarray  # (n, n) nullspace projector
+    j_minv: np.ndarray  # (6, n) J M^-1
+    lambda_full_inv: np.ndarray  # (6, 6)
+    j_bar: np.ndarray  # (n, 6) M^-1 J^T lambda
+    desired: np.ndarray  # (6,) desired force and torque
+    error: np.ndarray  # (3,) orientation error
+    wrench: np.ndarray  # (6,)
+    posture: np.ndarray  # (n,) nullspace posture acceleration
+    pose_torques: np.ndarray  # (n,)
+    mass: np.ndarray  # (n, n) the arm's mass matrix gathered by osc_torques
+    j_full: np.ndarray  # (6, n) its Jacobian
+    joint_pos: np.ndarray  # (n,)
+    joint_vel: np.ndarray  # (n,)
+    bias: np.ndarray  # (n,)
+    ref_vel: np.ndarray  # (6,) grip-site velocity
 
 
 @numba.njit(cache=True)
-def osc_work(n: int):
-    """The OSC kernels' scratch arrays for an arm of ``n`` joints (a tuple indexed by the ``W_*`` constants).
-
-    Every entry is written before it is read in each use, as the kernels' former ``np.empty``
-    temporaries (the orientation error is zeroed where it accumulates)."""
+def osc_work(n: int) -> OscWork:
+    """The OSC kernels' scratch arrays for an arm of ``n`` joints (:class:`OscWork`)."""
     size = max(n, 6)
-    return (np.empty((size, size)), np.empty((size, size)), np.empty((n, n)), np.empty((6, 6)), np.empty((3, 3)),
-            np.empty((3, 3)), np.empty((n, n)), np.empty((6, n)), np.empty((6, 6)), np.empty((n, 6)), np.empty(6),
-            np.empty(3), np.empty(6), np.empty(n), np.empty(n), np.empty((n, n)), np.empty((6, n)), np.empty(n),
-            np.empty(n), np.empty(n), np.empty(6))
+    return OscWork(np.empty((size, size)), np.empty((size, size)), np.empty((n, n)), np.empty((6, 6)), np.empty((3, 3)),
+                   np.empty((3, 3)), np.empty((n, n)), np.empty((6, n)), np.empty((6, 6)), np.empty((n, 6)), np.empty(6),
+                   np.empty(3), np.empty(6), np.empty(n), np.empty(n), np.empty((n, n)), np.empty((6, n)), np.empty(n),
+                   np.empty(n), np.empty(n), np.empty(6))
 
 
 @numba.njit(cache=True)
@@ -316,29 +337,29 @@ def _opspace_into(mass: np.ndarray, j_full: np.ndarray, work):
 
     Args:
         mass: (n, n) arm mass matrix; j_full: (6, n) Jacobian, translational rows then rotational rows.
-        work: the scratch tuple of :func:`osc_work` for n joints.
+        work: the [OscWork][tableclean_suite.controllers.fast_control.OscWork] scratch for n joints.
 
     Returns:
         (lambda_full (6, 6), lambda_pos (3, 3), lambda_ori (3, 3), nullspace_matrix (n, n)): views of ``work``.
     """
     n = mass.shape[0]
-    low = work[W_LOW]
-    inv_low = work[W_INV_LOW]
-    mass_inv = work[W_MASS_INV]
-    lambda_full = work[W_LAMBDA_FULL]
-    lambda_pos = work[W_LAMBDA_POS]
-    lambda_ori = work[W_LAMBDA_ORI]
-    nullspace_matrix = work[W_NULLSPACE]
+    low = work.low
+    inv_low = work.inv_low
+    mass_inv = work.mass_inv
+    lambda_full = work.lambda_full
+    lambda_pos = work.lambda_pos
+    lambda_ori = work.lambda_ori
+    nullspace_matrix = work.nullspace
     if spd_inverse(mass, mass_inv, low, inv_low):
-        j_minv = work[W_J_MINV]
+        j_minv = work.j_minv
         small_matmul(j_full, mass_inv, j_minv)
-        lambda_full_inv = work[W_LAMBDA_FULL_INV]
+        lambda_full_inv = work.lambda_full_inv
         small_matmul(j_minv, j_full.T, lambda_full_inv)
         ok = spd_inverse(lambda_full_inv, lambda_full, low, inv_low)
         ok = ok and spd_inverse(lambda_full_inv[0:3, 0:3], lambda_pos, low, inv_low)
         ok = ok and spd_inverse(lambda_full_inv[3:6, 3:6], lambda_ori, low, inv_low)
         if ok:
-            j_bar = work[W_J_BAR]
+            j_bar = work.j_bar
             small_matmul(j_minv.T, lambda_full, j_bar)  # M^-1 J^T lambda (M^-1 symmetric)
             small_matmul(j_bar, j_full, nullspace_matrix)
             for i in range(n):
@@ -364,8 +385,8 @@ def osc_law(arm, goal_pos: np.ndarray, goal_ori: np.ndarray, plant, work=None) -
             (rows kp (1/s^2) and kd (1/s), columns x, y, z, rx, ry, rz), ``initial_joint`` (the posture the
             nullspace term pulls towards) and ``uncouple`` (robosuite's ``uncouple_pos_ori``); the torques
             (n,) N m, before clipping to the actuators' range, are written to ``plant.torques``.
-        work: the scratch tuple of :func:`osc_work` for n joints (the compiled loops pass theirs, allocated once
-            for all substeps); None: allocated for this call.
+        work: the [OscWork][tableclean_suite.controllers.fast_control.OscWork] scratch for n joints (the compiled
+            loops pass theirs, allocated once for all substeps); None: allocated for this call.
 
     The base velocity term of robosuite's law is zero here: callers check that the arm's
     base is welded to the world.  robosuite's ``orientation_error`` and ``nullspace_torques``
@@ -377,10 +398,10 @@ def osc_law(arm, goal_pos: np.ndarray, goal_ori: np.ndarray, plant, work=None) -
     if work is None:
         work = osc_work(mass.shape[0])
     n = mass.shape[0]
-    desired = work[W_DESIRED]  # desired force (3) and torque (3)
+    desired = work.desired  # desired force (3) and torque (3)
     for r in range(3):
         desired[r] = (goal_pos[r] - ref_pos[r]) * gains[0, r] + (-ref_vel[r]) * gains[1, r]
-    error = work[W_ERROR]  # robosuite's orientation_error: half the sum of the columns' cross products
+    error = work.error  # robosuite's orientation_error: half the sum of the columns' cross products
     error[0] = 0.0
     error[1] = 0.0
     error[2] = 0.0
@@ -393,7 +414,7 @@ def osc_law(arm, goal_pos: np.ndarray, goal_ori: np.ndarray, plant, work=None) -
     for r in range(3):
         desired[3 + r] = 0.5 * error[r] * gains[0, 3 + r] + (-ref_vel[3 + r]) * gains[1, 3 + r]
     lambda_full, lambda_pos, lambda_ori, nullspace_matrix = _opspace_into(mass, j_full, work)
-    wrench = work[W_WRENCH]
+    wrench = work.wrench
     if plant.uncouple:
         small_matvec(lambda_pos, desired[0:3], wrench[0:3])
         small_matvec(lambda_ori, desired[3:6], wrench[3:6])
@@ -401,10 +422,10 @@ def osc_law(arm, goal_pos: np.ndarray, goal_ori: np.ndarray, plant, work=None) -
         small_matvec(lambda_full, desired, wrench)
     small_matvec(j_full.T, wrench, torques)
     joint_kv = np.sqrt(NULLSPACE_JOINT_KP) * 2
-    posture = work[W_POSTURE]
+    posture = work.posture
     for i in range(n):
         posture[i] = NULLSPACE_JOINT_KP * (initial_joint[i] - joint_pos[i]) - joint_kv * joint_vel[i]
-    pose_torques = work[W_POSE_TORQUES]
+    pose_torques = work.pose_torques
     small_matvec(mass, posture, pose_torques)
     for i in range(n):
         value = 0.0
@@ -428,11 +449,11 @@ def osc_torques(plant, goal_pos: np.ndarray, goal_ori: np.ndarray, work=None) ->
         work = osc_work(indexes.shape[1])
     dofs = indexes[0]
     n = dofs.size
-    mass = work[W_MASS]
-    j_full = work[W_J_FULL]
-    joint_pos = work[W_JOINT_POS]
-    joint_vel = work[W_JOINT_VEL]
-    bias = work[W_BIAS]
+    mass = work.mass
+    j_full = work.j_full
+    joint_pos = work.joint_pos
+    joint_vel = work.joint_vel
+    bias = work.bias
     for i in range(n):
         for k in range(n):
             mass[i, k] = plant.full_mass[dofs[i], dofs[k]]
@@ -442,7 +463,7 @@ def osc_torques(plant, goal_pos: np.ndarray, goal_ori: np.ndarray, work=None) ->
         joint_pos[i] = plant.qpos[indexes[1, i]]
         joint_vel[i] = qvel[dofs[i]]
         bias[i] = plant.qfrc_bias[dofs[i]]
-    ref_vel = work[W_REF_VEL]
+    ref_vel = work.ref_vel
     small_matvec(jacp, qvel, ref_vel[0:3])  # robosuite's get_site_xvelp: the full Jacobian times all velocities
     small_matvec(jacr, qvel, ref_vel[3:6])
     ref_ori_mat = np.ascontiguousarray(plant.site_mat.reshape((3, 3)))
