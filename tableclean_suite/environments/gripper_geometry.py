@@ -102,12 +102,16 @@ def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site:
     # heights above the grip site along its approach axis (its z axis, which points down when the skills grasp)
     approach = data.site_xmat[site].reshape(3, 3)[:, 2]
     across = data.site_xmat[site].reshape(3, 3)[:, 1]
-    heights, reaches, widths = [], [], []
-    for geom in hand:
+
+    def relative_points(geom: int) -> np.ndarray:
+        """(K, 3) collision points [m] of ``geom`` relative to the grip site, in world axes."""
         body = int(model.geom_bodyid[geom])
         local = collision_points(model, data, body, [geom])  # in the geom's body frame
-        world = data.xpos[body] + local @ data.xmat[body].reshape(3, 3).T
-        relative = world - data.site_xpos[site]
+        return data.xpos[body] + local @ data.xmat[body].reshape(3, 3).T - data.site_xpos[site]
+
+    heights, reaches, widths = [], [], []
+    for geom in hand:
+        relative = relative_points(geom)
         heights.append(float(np.min(-relative @ approach)))
         sideways = relative - np.outer(relative @ approach, approach)
         reaches.append(float(np.max(np.linalg.norm(sideways, axis=1))))
@@ -119,9 +123,7 @@ def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site:
              and (model.geom_contype[g] or model.geom_conaffinity[g])]
     levels, across_all = [], []
     for geom in wrist:
-        body = int(model.geom_bodyid[geom])
-        world = data.xpos[body] + collision_points(model, data, body, [geom]) @ data.xmat[body].reshape(3, 3).T
-        relative = world - data.site_xpos[site]
+        relative = relative_points(geom)
         levels.append(-relative @ approach)
         across_all.append(np.abs(relative @ across))
     order = np.argsort(np.concatenate(levels), kind="stable") if levels else np.zeros(0, dtype=int)

@@ -55,8 +55,8 @@ __all__ = ["DynamicsRandomization", "DynamicsSample", "OFF", "DEFAULT_ON", "reso
 ALLOWED_SCALE = (0.25, 4.0)
 #: Bounds [factor] of the size scales: the Panda's fingers open 8 cm; objects must still fit a segment.
 ALLOWED_SIZE_SCALE = (0.75, 1.25)
-#: Largest friction scale [factor] the skills were checked on: above about 1.5 the wiping skill loses
-#: the sponge (3 of 5 episodes fail at (0.3, 2.0), 5 of 5 at (1.5, 2.0)), so larger ranges are refused.
+#: Largest friction scale [factor] the skills were checked on (above about 1.5 the wiping skill loses the
+#: sponge): larger ranges are refused.
 MAX_CHECKED_FRICTION_SCALE = 1.5
 #: Largest yaw noise half-width [rad] (a quarter turn covers every box orientation).
 MAX_YAW_NOISE = math.pi / 4

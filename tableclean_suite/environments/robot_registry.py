@@ -138,16 +138,13 @@ def osc_overrides(robot: str) -> dict[str, Any]:
 # the arms robosuite 1.5 ships that the skills are tuned for
 # ---------------------------------------------------------------------------------------------
 
-#: robosuite's gripper the scene mounts on arms whose own gripper cannot grasp the sponge.  robosuite's
-#: Robotiq 85 model (UR5e's and Kinova3's default) collides with itself and stops closing at 0.42 of its
-#: 0.8 rad range, 6.2 cm between the pads (measured in free air), wider than the sponge's 5 cm short
-#: side; excluding those self-contacts makes its linkage unstable (measured: the simulation diverges).
+#: robosuite's gripper the scene mounts on arms whose own gripper cannot grasp the sponge: robosuite's
+#: Robotiq 85 (UR5e's and Kinova3's default) collides with itself and stops 6.2 cm open, wider than the
+#: sponge's 5 cm side (excluding those self-contacts makes its linkage diverge).
 SWAP_GRIPPER = "PandaGripper"
 
-#: The same for Sawyer's Rethink gripper: it closes on the 5 cm sponge with ~8.5 N per finger (position
-#: actuators, kp 1000 N/m, 8.5 mm short of their closed limit) against the Panda gripper's 20 N, and the
-#: pressed sponge dragged along the closing axis pushes both fingers sideways until it slips out
-#: (measured: sponge lost while wiping in 9 of 10 paper episodes, also at 2 N pressing and 0.1 m/s).
+#: Sawyer's Rethink gripper holds the 5 cm sponge with ~8.5 N per finger (the Panda gripper: 20 N), too
+#: little to keep it from slipping out while it is dragged pressed on the table.
 _SAWYER = RobotSkillConfig(
     "Sawyer", gripper=SWAP_GRIPPER,
     note="Panda gripper instead of the Rethink gripper; the scene excludes the contact between the base and "
@@ -156,12 +153,9 @@ _SAWYER = RobotSkillConfig(
 _KINOVA3 = RobotSkillConfig(
     "Kinova3", gripper=SWAP_GRIPPER,
     # stiffness (1/s^2; the skills' default 300): at 300 the pressed sponge twists in the hand while wiping
-    # segment 2 and is put down off the stand in 2 of 10 paper episodes; 450 (or wiping at 0.18 m/s) put it home
-    # in 10 of 10 (measured, random layouts, seed 0)
     osc={"kp": 450},
     # m: from robosuite's table-side position the far row of three_segments_two_objects (x up to 0.2 m) lies at
-    # the edge of the arm's 0.9 m reach: a carried object's lift stalls 2 cm low with the elbow straight (5 of 10
-    # episodes failed); 8 cm closer, 10 of 10 (and 10 of 10 on paper) succeeded (measured, seed 0)
+    # the edge of the arm's 0.9 m reach, where a carried object's lift stalls with the elbow straight
     base_shift=(0.08, 0.0, 0.0),
     # m/s: the clean's grasp descends only once the hand is this still (arriving at 0.24 m/s it swings on
     # 1.7 cm past its hover point and a finger can tip the sponge)
