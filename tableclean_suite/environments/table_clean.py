@@ -331,11 +331,7 @@ class TableClean(ManipulationEnv):
         # scaled to the paper's two segments' range [0, 2] whatever N is, so the total stays below success
         per_segment = np.minimum(1.0, wiped / self.task_config["clean_fraction"])
         r_wipe = WIPE_REWARD_PER_SEGMENT * float(per_segment.mean()) * PAPER_REWARD_SEGMENTS
-        try:
-            on_table = HELD not in abstraction.object_locations(info, self.task_config)
-        except abstraction.AbstractionError:
-            on_table = False
-        r_object = OBJECT_ON_TABLE_REWARD if on_table else 0.0
+        r_object = OBJECT_ON_TABLE_REWARD if self._objects_on_table(info) else 0.0
         clean = abstraction.segments_clean(info["dirt_fraction"], self.task_config)
         returned = bool(clean.any()) and abstraction.sponge_at_home(info, self.task_config)
         r_sponge = SPONGE_RETURNED_REWARD if returned else 0.0
@@ -558,11 +554,14 @@ class TableClean(ManipulationEnv):
         if not abstraction.segments_clean(self.dirt_fraction(), self.task_config).all():
             return False
         info = self.skill_info()
+        return self._objects_on_table(info) and abstraction.sponge_at_home(info, self.task_config)
+
+    def _objects_on_table(self, info: Mapping) -> bool:
+        """Every object lies on a segment (none held); False when the abstraction reports a fault."""
         try:
-            on_table = HELD not in abstraction.object_locations(info, self.task_config)
+            return HELD not in abstraction.object_locations(info, self.task_config)
         except abstraction.AbstractionError:
             return False
-        return on_table and abstraction.sponge_at_home(info, self.task_config)
 
     # ------------------------------------------------------------------------------------------
     # public API for skills and learners
