@@ -171,27 +171,19 @@ def test_log_standard_error_reads_the_interval():
     assert math.isnan(statistics.log_standard_error(math.nan, 1.0, 2.0))
 
 
-def test_learning_time_summary_is_the_kaplan_meier_curve_of_censored_times():
-    """With every run censored at the same budget, Kaplan-Meier is the empirical distribution below
-    it: the median is the lower median with censored runs last, the restricted mean the mean of
-    min(time, budget) (an independent computation)."""
+def test_the_bootstraps_lower_median_is_the_kaplan_meier_median_of_runs_censored_at_the_budget():
+    """The identity the seeds-then-runs bootstrap relies on: with every run censored at the same
+    budget, the lower median with censored runs at +inf is the Kaplan-Meier median."""
+    from tableclean_suite.learning_time import learning_time_summary
+
     rng = np.random.default_rng(3)
     budget = 1000
-    codes = rng.integers(0, budget + 1, 301)
-    codes[rng.random(301) < 0.3] = -1
-    summary = statistics.learning_time_summary(codes, budget)
-    times = np.sort(np.where(codes < 0, np.inf, codes))
-    assert summary["median"] == times[(len(times) + 1) // 2 - 1]
-    assert summary["rmst"] == pytest.approx(np.minimum(times, budget).mean())
-    assert summary["censored_share"] == pytest.approx((codes < 0).mean())
-    assert summary["low"] <= summary["median"] <= summary["high"] < budget
-    wide = statistics.learning_time_summary(codes[:30], budget)
-    assert wide["high"] - wide["low"] > summary["high"] - summary["low"]
-    most = statistics.learning_time_summary(np.r_[np.full(6, -1), [5, 7, 9]], 50)
-    assert most["median"] == math.inf and most["high"] == math.inf and most["censored_share"] == pytest.approx(2 / 3)
-    assert statistics.learning_time_summary(np.zeros(4, int), 50)["median"] == 0.0
-    with pytest.raises(ValueError):
-        statistics.learning_time_summary(np.array([], int), 50)
+    for runs, censored_share in ((301, 0.3), (40, 0.1), (41, 0.6), (10, 0.0)):
+        codes = rng.integers(0, budget + 1, runs)
+        codes[rng.random(runs) < censored_share] = -1
+        km = learning_time_summary(codes, budget).median
+        assert statistics.lower_median(statistics.learning_times(codes)) == km, (runs, censored_share)
+    assert statistics.lower_median(statistics.learning_times([5, -1, -1])) == math.inf
 
 
 def test_the_seeds_then_runs_interval_carries_the_between_seed_spread():
@@ -285,12 +277,14 @@ def test_cell_row_pools_the_seeds_and_its_interval_holds_the_seeds_spread():
     records = study.train_cell(model, info, "q_learning", "r2", runs=10, seeds=(0, 1, 2), gamma=0.3)
     row, medians = study.cell_row(info, "q_learning", "r2", 0.3, records, 300, np.random.default_rng(0))
     assert medians.shape == (300,) and row["seeds"] == 3 and row["runs"] == 10
-    pooled = statistics.learning_time_summary(records.learned_at.ravel(), info.window)
-    assert row["learning_time"] == pooled["median"] and row["censored_share"] == pooled["censored_share"]
+    from tableclean_suite.learning_time import learning_time_summary
+
+    pooled = learning_time_summary(records.learned_at.ravel(), info.window)
+    assert row["learning_time"] == pooled.median and row["censored_share"] == pooled.censored_share
     for name in study.INTERVAL_FIGURES:
         assert row[name + "_low"] <= row[name] <= row[name + "_high"], name
     seed_medians = [float(v) for v in row["seed_medians"].split(";")]
-    assert seed_medians == list(statistics.lower_median(statistics.censored_times(records.learned_at)))
+    assert seed_medians == list(statistics.lower_median(statistics.learning_times(records.learned_at)))
     again, _ = study.cell_row(info, "q_learning", "r2", 0.3, records, 300, np.random.default_rng(0))
     assert again == row  # deterministic
 

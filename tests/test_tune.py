@@ -50,7 +50,7 @@ def test_a_trials_objective_is_the_mean_of_its_runs_learning_times_censored_at_t
     for _ in evaluation.stages():
         pass
     result = evaluation.result()
-    direct = train("q_learning", "r4", runs=8, iterations=300, seed=1, model=args.model, ties="first")
+    direct = train("q_learning", "r4", runs=8, iterations=300, seed=1, task=args.model, ties="first")
     times = np.where(direct.learned_at < 0, 300, direct.learned_at)
     assert result["learning_time_rmst"] == pytest.approx(times.mean())
     assert result["censored_share"] == pytest.approx(np.mean(direct.learned_at < 0))

@@ -13,7 +13,7 @@ runs (same ``--seed``), and reports for both:
   greedy policy follows a shortest plan from every start state to the end of the budget):
   Kaplan-Meier median with its 95 % interval and the **share censored** (not learned by the end
   of the budget) with its Clopper-Pearson interval
-  (:func:`~tableclean_suite.bench.scaling.statistics.learning_time_summary`);
+  ([learning_time_summary][tableclean_suite.learning_time.learning_time_summary]);
 - the **success plateau**: the exact success probability of each run's final epsilon-greedy
   behaviour (:func:`tableclean_suite.asymptotes.greedy_asymptotes`), averaged over runs, with a
   bootstrap interval over runs ([interval_estimates][tableclean_suite.intervals.interval_estimates]);
@@ -177,8 +177,8 @@ def _setting_text(value) -> str:
 def measure_arm(settings: dict, runs: int, seed: int) -> dict:
     """Train one arm and return its figures (learning time, censored share, plateau, never terminal)."""
     from tableclean_suite import asymptotes
-    from tableclean_suite.bench.scaling.statistics import learning_time_summary
     from tableclean_suite.intervals import clopper_pearson, interval_estimates
+    from tableclean_suite.learning_time import learning_time_summary
     from tableclean_suite.learners import train
     from tableclean_suite.task import Outcome, TaskModel
 
@@ -187,8 +187,8 @@ def measure_arm(settings: dict, runs: int, seed: int) -> dict:
     result = train(settings["learner"], settings["reward"], runs=runs, iterations=settings["iterations"],
                    alpha=settings["alpha"], gamma=settings["gamma"], epsilon=settings["epsilon"],
                    max_itr=settings["max_itr"], seed=seed, task=model, q_init=settings["q_init"])
-    summary = learning_time_summary(result.learned_at, settings["iterations"])
-    censored = int(np.sum(np.asarray(result.learned_at) < 0))
+    summary = learning_time_summary(result.learned_at, settings["iterations"], CONFIDENCE,
+                                    rng=np.random.default_rng(seed))
     chain = asymptotes.EpisodeChain.build(model, settings["reward"])
     plateau = np.asarray(asymptotes.greedy_asymptotes(result.q, settings["epsilon"], chain,
                                                       settings["max_itr"]).success, dtype=float)
@@ -196,9 +196,10 @@ def measure_arm(settings: dict, runs: int, seed: int) -> dict:
                                         rng=np.random.default_rng(seed))
     never = int(np.sum(~(np.asarray(result.outcomes) == int(Outcome.TERMINAL)).any(axis=1)))
     return {
-        "learning_time": summary["median"], "learning_time_low": summary["low"],
-        "learning_time_high": summary["high"], "learning_time_rmst": summary["rmst"],
-        "censored_share": censored / runs, **_bounds("censored_share", clopper_pearson(censored, runs, CONFIDENCE)),
+        "learning_time": summary.median, "learning_time_low": summary.median_low,
+        "learning_time_high": summary.median_high, "learning_time_rmst": summary.rmst,
+        "censored_share": summary.censored_share,
+        **_bounds("censored_share", (summary.censored_low, summary.censored_high)),
         "success_plateau": points["plateau"], **_bounds("success_plateau", bounds["plateau"]),
         "never_terminal_share": never / runs,
         **_bounds("never_terminal_share", clopper_pearson(never, runs, CONFIDENCE)),

@@ -11,7 +11,7 @@ pattern and task.
 Kaplan-Meier curve of each run's learning time (``TrainingResult.learned_at``: the iteration from
 which the run's greedy policy follows a shortest plan from every start state to the end of the
 budget) up to the budget, runs that never get there counting the whole budget
-(:func:`~tableclean_suite.bench.scaling.statistics.learning_time_summary`); the median with its
+([learning_time_summary][tableclean_suite.learning_time.learning_time_summary]); the median with its
 interval and the censored share are reported beside it.  The greedy policy breaks ties between
 equal Q values at random by default (``--ties random``; ``--ties first`` takes the first action in
 the task's order), in training and in the learning-time check; the rule is named in the output
@@ -225,7 +225,7 @@ class Evaluation:
             result = train(self.args.learner, self.args.reward, runs=int(hi - lo), first_run=int(lo),
                            iterations=self.args.iterations, alpha=self.settings["alpha"],
                            gamma=self.settings["gamma"], epsilon=self.settings["epsilon"], max_itr=self.args.max_itr,
-                           seed=self.args.seed, model=self.model, exploration=self.exploration,
+                           seed=self.args.seed, task=self.model, exploration=self.exploration,
                            ties=self.args.ties)
             self.sums.add(result)
             self.learned_at.append(np.asarray(result.learned_at))
@@ -238,15 +238,15 @@ class Evaluation:
         ``inf`` when censored) with ``learning_time_low``/``_high``, ``censored_share`` (all in
         iterations but the share), ``success_asymptote`` and the paper's ``max_success_iterations``."""
         from tableclean_suite import metrics
-        from tableclean_suite.bench.scaling.statistics import learning_time_summary
+        from tableclean_suite.learning_time import learning_time_summary
 
         asymptote = float(np.concatenate(self.success).mean())
         curve = self.sums.curves()["success"]
         reached = metrics.iterations_to_max_success(curve, self.args.threshold, top=asymptote)
         summary = learning_time_summary(np.concatenate(self.learned_at), self.args.iterations)
-        return {"learning_time_rmst": summary["rmst"], "learning_time": summary["median"],
-                "learning_time_low": summary["low"], "learning_time_high": summary["high"],
-                "censored_share": summary["censored_share"], "success_asymptote": asymptote,
+        return {"learning_time_rmst": summary.rmst, "learning_time": summary.median,
+                "learning_time_low": summary.median_low, "learning_time_high": summary.median_high,
+                "censored_share": summary.censored_share, "success_asymptote": asymptote,
                 "max_success_iterations": reached}
 
 

@@ -5,17 +5,15 @@ local slopes, the censored growth fit and the reward-pattern order.
 ([train][tableclean_suite.learners.train]): the iteration (environment steps, 1-based) from which
 the run's greedy policy follows a shortest plan to the terminal state from every start state and
 keeps doing so after every later update through the budget T; 0 when it did from the start; -1
-when it does not at the end (the run is **censored at T**).  :func:`censored_times` turns those
+when it does not at the end (the run is **censored at T**).  :func:`learning_times` turns those
 codes into times with censored runs at +infinity.
 
-**Kaplan-Meier** (:func:`learning_time_summary`): ``scipy.stats.ecdf`` of the right-censored
-times; the median is the first time the survival curve is at or below 1/2 (censored, reported as
-``inf``, when more than half the runs never learned), its interval the times where the curve's
-pointwise log-log Greenwood interval contains 1/2 (Brookmeyer-Crowley); the restricted mean
-(RMST) is the area under the survival curve up to T.  Every run shares the budget T, so all
-censoring happens after the last event: the Kaplan-Meier curve equals the empirical distribution
-below T and its median is the sample's lower median with censored runs at +infinity; the
-bootstrap uses that identity to stay vectorised.
+**Kaplan-Meier** summaries (median, restricted mean, censored share) come from
+[learning_time_summary][tableclean_suite.learning_time.learning_time_summary].  Every run of a
+cell shares the budget T, so all censoring happens after the last event: the Kaplan-Meier curve
+equals the empirical distribution below T and its median is the sample's lower median with
+censored runs at +infinity (:func:`lower_median`); the bootstrap uses that identity to stay
+vectorised.
 
 **Seeds then runs** (:func:`seeds_then_runs`): a cell is trained with S seeds of R runs each;
 a resample draws S seeds with replacement and then R runs with replacement within each drawn seed,
@@ -35,7 +33,6 @@ the log scale, from its interval); a censored cell contributes P(log time > log 
 from __future__ import annotations
 
 import math
-import warnings
 
 import numpy as np
 
@@ -53,59 +50,11 @@ MIN_FIT_POINTS = 2
 MAX_CENSORED_SHARE_FOR_FIT = 0.5
 
 
-def censored_times(learned_at) -> np.ndarray:
+def learning_times(learned_at) -> np.ndarray:
     """``(...)`` float64 learning times from ``learned_at`` codes: the code itself where >= 0, +inf
     where -1 (not learned by the end of the budget)."""
     codes = np.asarray(learned_at)
     return np.where(codes < 0, np.inf, codes).astype(np.float64)
-
-
-def learning_time_summary(learned_at, budget: int, confidence: float = CONFIDENCE) -> dict:
-    """Kaplan-Meier summary of per-run learning times censored at ``budget``.
-
-    This is the one place the survival estimate is computed (``scipy.stats.ecdf`` of
-    ``scipy.stats.CensoredData``); the scaling study's, the tuner's and the interventions' figures
-    all come from it.
-
-    Args:
-        learned_at: ``(R,)`` ints, ``TrainingResult.learned_at`` (iterations; -1 = censored).
-        budget: T, the iterations every run trained (>= 1).
-        confidence: level of the median's interval.
-
-    Returns:
-        ``{"median", "low", "high", "censored_share", "rmst", "runs"}``: the median learning time
-        (iterations; ``inf`` when more than half the runs are censored), its interval (``high``
-        ``inf`` when the interval reaches past the budget), the share of censored runs in [0, 1]
-        and the restricted mean time up to ``budget`` (iterations).
-    """
-    from scipy import stats
-
-    codes = np.asarray(learned_at).ravel()
-    if codes.size == 0:
-        raise ValueError("learning_time_summary needs at least one run")
-    censored = codes < 0
-    data = stats.CensoredData(uncensored=codes[~censored].astype(float),
-                              right=np.full(int(censored.sum()), float(budget)))
-    result = {"runs": int(codes.size), "censored_share": float(censored.mean())}
-    if censored.all():
-        return {**result, "median": math.inf, "low": math.inf, "high": math.inf, "rmst": float(budget)}
-    survival = stats.ecdf(data).sf
-    times, probabilities = survival.quantiles, survival.probabilities
-    with warnings.catch_warnings():  # the log-log band is undefined where the curve is 0 or 1: the point there
-        warnings.simplefilter("ignore", RuntimeWarning)
-        band = survival.confidence_interval(confidence, method="log-log")
-    lower = np.where(np.isnan(band.low.probabilities), probabilities, band.low.probabilities)
-    upper = np.where(np.isnan(band.high.probabilities), probabilities, band.high.probabilities)
-    events = times <= budget
-
-    def first_at_or_below(values) -> float:
-        hit = events & (values <= 0.5)
-        return float(times[np.argmax(hit)]) if hit.any() else math.inf
-
-    steps = np.diff(np.r_[0.0, times[events], float(budget)])
-    rmst = float(np.sum(steps * np.r_[1.0, probabilities[events]]))
-    return {**result, "median": first_at_or_below(probabilities), "low": first_at_or_below(lower),
-            "high": first_at_or_below(upper), "rmst": rmst}
 
 
 def lower_median(times: np.ndarray, axis: int = -1) -> np.ndarray:
