@@ -35,6 +35,7 @@ standard errors over a [StepTable][tableclean_suite.simulation.StepTable]
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 from statistics import NormalDist
 
@@ -273,9 +274,22 @@ def final_probabilities(result, model: TaskModel | None = None, masks: np.ndarra
         parameter = _parameter_array(exploration, epsilon, behaviour["iteration"], behaviour["visits"])
         probabilities = afforded_probabilities(q, masks, np.broadcast_to(parameter, q.shape[:2]), exploration.softmax)
     if assist.get("advice_probability", 0.0) > 0.0:
-        probabilities = advised_probabilities(probabilities, advisor_policy(model), assist["advice_probability"],
+        probabilities = advised_probabilities(probabilities, _advisor(model), assist["advice_probability"],
                                               assist["advice_consistency"])
     return probabilities
+
+
+_advisors: "weakref.WeakKeyDictionary[TaskModel, np.ndarray]" = weakref.WeakKeyDictionary()
+
+
+def _advisor(model: TaskModel) -> np.ndarray:
+    """``advisor_policy(model)``, computed once per model (a search over the whole table: about a
+    minute on a spec of millions of states, and every chunk of an advised cell asks for it)."""
+    advisor = _advisors.get(model)
+    if advisor is None:
+        advisor = _advisors[model] = advisor_policy(model)
+        advisor.setflags(write=False)
+    return advisor
 
 
 def affordance_masks(result, model: TaskModel) -> np.ndarray | None:
@@ -419,6 +433,7 @@ class AnalysisPlan:
         exact_seconds: the exact analysis's estimate ([tableclean_suite.asymptotes.exact_seconds][]).
         simulated_seconds: the simulation's ([tableclean_suite.simulation.simulation_seconds][]).
         training_seconds: the training's, the cell's runs ([tableclean_suite.resources.training_seconds][]).
+        bytes: memory the chosen kind allocates per analysis call, at most (for the resource guard).
     """
 
     kind: str
@@ -427,6 +442,7 @@ class AnalysisPlan:
     exact_seconds: float
     simulated_seconds: float
     training_seconds: float
+    bytes: int = 0
 
     @property
     def label(self) -> str:
@@ -488,8 +504,12 @@ def analysis_plan(model, reward, runs: int, max_itr: int, training_seconds: floa
     if analysis == "auto":
         too_costly = exact > EXACT_COST_FACTOR * float(training_seconds) and exact > EXACT_AFFORDABLE_SECONDS
         kind = "simulated" if too_costly else "exact"
+    per_call = int(runs) if runs_per_call is None else max(1, min(int(runs_per_call), int(runs)))
+    entries = int(model.n_states) * int(model.n_actions) * max(1, int(max_successors))
+    memory = (entries * asymptotes.EXACT_BYTES_PER_ENTRY if kind == "exact"
+              else simulation.simulation_bytes(model.n_states, model.n_actions, per_call))
     return AnalysisPlan(kind, int(episodes) if kind == "simulated" else 0, analysis, exact, simulated,
-                        float(training_seconds))
+                        float(training_seconds), memory)
 
 
 def cell_plan(model, reward, learner, runs: int, iterations: int, max_itr: int, analysis: str = "auto",

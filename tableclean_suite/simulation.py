@@ -49,6 +49,11 @@ SIMULATED_STEPS_PER_SECOND = 20_000_000
 #: probabilities, one (S, A) float64 table per run).
 POLICY_ENTRIES_PER_SECOND = 50_000_000
 
+#: Bytes per state of a simulation (when each state was last entered, int64) and per (state, action)
+#: of a policy given as probabilities (float64 probabilities and their cumulative rows).
+SIMULATION_BYTES_PER_STATE = 8
+POLICY_BYTES_PER_ENTRY = 16
+
 _TERMINAL = int(Outcome.TERMINAL)
 _IMPROPER = int(Outcome.IMPROPER)
 
@@ -267,3 +272,11 @@ def simulation_seconds(n_states: int, n_actions: int, runs: int, max_itr: int, a
     per_policy = (int(episodes) * int(max_itr) / SIMULATED_STEPS_PER_SECOND
                   + int(n_states) * int(n_actions) / POLICY_ENTRIES_PER_SECOND)
     return policies * per_policy
+
+
+def simulation_bytes(n_states: int, n_actions: int, runs_per_call: int) -> int:
+    """Bytes a simulation of ``runs_per_call`` policies allocates at most: its state clock and, for
+    policies given as probabilities (explorations other than epsilon-greedy, assisted learners),
+    their ``(P, S, A)`` tables."""
+    return (int(n_states) * SIMULATION_BYTES_PER_STATE
+            + int(runs_per_call) * int(n_states) * int(n_actions) * POLICY_BYTES_PER_ENTRY)
