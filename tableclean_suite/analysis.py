@@ -390,7 +390,8 @@ def final_run_facts(result, chain, max_itr: int, model: TaskModel | None = None)
     and whether the run never reached the terminal state (:func:`never_terminal`).
 
     With ``chain`` an [EpisodeChain][tableclean_suite.asymptotes.EpisodeChain] the asymptotes are
-    exact; with a [StepTable][tableclean_suite.simulation.StepTable] (see [analysis_chain][tableclean_suite.analysis.analysis_chain])
+    exact; with a [StepTable][tableclean_suite.simulation.StepTable]
+    (see [analysis_chain][tableclean_suite.analysis.analysis_chain])
     they are simulated, and each of [ESTIMATED_FACTS][tableclean_suite.analysis.ESTIMATED_FACTS]
     comes with its per-run Monte Carlo standard error under ``<name>_error`` (``(R,)``; combine
     them with [monte_carlo_error][tableclean_suite.analysis.monte_carlo_error])."""

@@ -304,8 +304,9 @@ def episode_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: 
     single = probabilities.ndim == 2
     probabilities = np.ascontiguousarray(_policies_of(probabilities[None] if single else probabilities, chain))
     result = np.zeros((probabilities.shape[0], len(QUANTITIES)))
-    _episode_statistics(np.ascontiguousarray(probabilities.transpose(1, 2, 0)), chain.pair_state, chain.next_pair, chain.probability, chain.outcome,
-                        chain.reward, chain.start_pairs, int(max_itr), float(tolerance), result)
+    _episode_statistics(np.ascontiguousarray(probabilities.transpose(1, 2, 0)), chain.pair_state, chain.next_pair,
+                        chain.probability, chain.outcome, chain.reward, chain.start_pairs, int(max_itr),
+                        float(tolerance), result)
     columns = [result[0, i] if single else result[:, i] for i in range(len(QUANTITIES))]
     return Asymptotes(*columns)
 

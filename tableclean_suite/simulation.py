@@ -238,7 +238,8 @@ def simulated_statistics(probabilities: np.ndarray, steps: StepTable, max_itr: i
         probabilities: ``(P, S, A)`` action probabilities (each row sums to 1).
         steps: the task's [StepTable][tableclean_suite.simulation.StepTable] (its ``episodes`` per policy).
         max_itr: episode length limit, an integer >= 1.
-        keys: ``(P,)`` uint64 random-number keys, one per policy ([simulation_keys][tableclean_suite.simulation.simulation_keys]).
+        keys: ``(P,)`` uint64 random-number keys, one per policy
+            ([simulation_keys][tableclean_suite.simulation.simulation_keys]).
 
     Returns:
         Arrays of shape ``(P,)``: each quantity's mean over the episodes, and in ``error`` its
