@@ -494,6 +494,8 @@ def _train_loop(
     random_ties = ties == TIES_RANDOM
     plain = exploring == EPSILON_GREEDY_CODE and not double and affordance == AFFORD_NONE and not random_ties
     affording = affordance != AFFORD_NONE
+    # One Q entry changes per step and the greedy choice is the first maximum of the plain row.
+    one_entry = not (double or traced or modelling or affording or random_ties)
     learning_affordances = affordance == AFFORD_LEARNED
     afforded_max = affordance != AFFORD_NONE and target_code == Q_LEARNING_TARGET
     softmaxing = exploring == SOFTMAX_CODE  # (one definition, so a copy prunes the target's branch below)
@@ -557,6 +559,7 @@ def _train_loop(
             if choose_first and not terminal:
                 pending = act(qr, qb, row, nxt, plain, double, exploring, explore_parameters, key, t + 1, visits,
                               affordance, masks, advisor, advice, advice_key, random_ties, tie_key)
+            before = qr[state, action]
             if double:
                 double_q_update(qr, qb, state, action, nxt, reward, alpha, gamma, terminal,
                                 uniform(side_key, t, STREAM_DOUBLE_TABLE))
@@ -581,7 +584,17 @@ def _train_loop(
                          planning_steps, alpha, gamma)
             # Did this iteration's update change the greedy policy where the last walk looked?
             changed = False
-            if traced or modelling:
+            if one_entry:
+                # Only Q(state, action) changed: the greedy action of a walked state changes when the taken
+                # action's value fell below another's, or another action's value reached it (O(1) mostly).
+                if on_walk[state]:
+                    taken = choice[state]
+                    value = qr[state, action]
+                    if action == taken:
+                        changed = value < before and greedy_action(qr[state]) != taken
+                    else:
+                        changed = value > qr[state, taken] or (value == qr[state, taken] and action < taken)
+            elif traced or modelling:
                 for i in range(n_walked):
                     if walk_changed(qr, qb, double, row, masks, affording, random_ties, walked[i], on_walk, choice):
                         changed = True
