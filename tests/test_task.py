@@ -212,3 +212,21 @@ def test_transition_arrays_match_step():
             for a in Action:
                 assert (decode(int(nxt[s.index, a])), Outcome(out[s.index, a])) == model.step(s, a)
     assert np.all(out[[s.index for s in all_states() if s.is_terminal]] == Outcome.TERMINAL)
+
+
+def test_built_in_effects_called_on_one_state_agree_with_the_model():
+    """The built-in effects (written once, on code digits) give one state what the model's table gives."""
+    from tableclean_suite.task import clean_effect, move_effect, pick_effect, place_effect
+
+    model = TaskModel(spec="three_segments_two_objects")
+    effects = dict(zip(("move", "pick", "place", "clean"), (move_effect, pick_effect, place_effect, clean_effect)))
+    for state in model.reachable_states():
+        if state.is_terminal:
+            continue
+        for name, effect in effects.items():
+            after, outcome = effect(state)
+            expected, expected_outcome = model.step(state, name)
+            assert after == expected
+            assert outcome == expected_outcome or expected_outcome == Outcome.TERMINAL
+    held = model.decode(next(s.index for s in model.reachable_states() if s.holding and not s.is_terminal))
+    assert pick_effect(held) == (held, Outcome.INEFFECTIVE) and clean_effect(held) == (held, Outcome.IMPROPER)

@@ -1,18 +1,20 @@
 """The training loop in plain Python, one step at a time (Algorithm 1 as written).
 
-It runs any *step environment*: an object with ``reset(draw) -> state`` and
-``step(state, action, draw) -> (next_state, outcome)`` (codes), such as the task
-model itself (:class:`ModelStepEnv`), a measured transition table
-(:class:`TableStepEnv`) or skills in physics.  On the symbolic model it produces
-exactly the arrays of the compiled :func:`~.kernel.train_batch` (same random
-draws, same arithmetic); it is the baseline of ``benchmarks.speed`` and the
-loop of the physics backend.
+This is the package's one per-step learner: the physics backend needs it, because its steps
+are skills executed in MuJoCo, one at a time, which the compiled batched loop
+(:mod:`.kernel`) cannot call.  It runs any *step environment*: an object with
+``reset(draw) -> state`` and ``step(state, action, draw) -> (next_state, outcome)`` (codes),
+such as the task model itself (:class:`ModelStepEnv`), a measured transition table
+(:class:`TableStepEnv`) or skills in physics.  On a table it produces exactly the arrays of
+the compiled loop (same random draws, same arithmetic), so ``train(engine="reference")``
+runs it there and the tests use it as the compiled loop's check.
 
 Every learner has its plain twin here (:class:`_Agent`), written independently of the
 compiled functions: double Q's two tables, eligibility traces as the dense S x A sweep
 of their definition, Dyna-Q's model and planning, and each exploration's schedule
-(:meth:`~.exploration.Exploration.parameter_at`) and softmax sampler, and Cruz et al.'s
-affordances (a set of blocked pairs) and simulated advisor (:mod:`.assist`).
+(:meth:`~.exploration.Exploration.parameter_at`) and softmax sampler, Cruz et al.'s
+affordances (a set of blocked pairs) and simulated advisor (:mod:`.assist`), and the
+learning times of :mod:`.optimality` (the greedy paths walked after every step).
 """
 
 from __future__ import annotations
@@ -84,7 +86,7 @@ class StepEnv(Protocol):
 
 
 class ModelStepEnv:
-    """The task model as a step environment (pure Python rules, no tables)."""
+    """The task model as a step environment (:meth:`TaskModel.step <tableclean_suite.task.TaskModel.step>`)."""
 
     def __init__(self, model: TaskModel):
         self.model = model

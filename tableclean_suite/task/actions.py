@@ -24,8 +24,11 @@ import re
 from dataclasses import dataclass, field
 from typing import Callable
 
+import numpy as np
+
 from tableclean_suite.registry import Registry
-from tableclean_suite.task.state import HELD, Outcome, TaskState
+from tableclean_suite.task import batch_rules
+from tableclean_suite.task.state import Outcome, TaskState, decode_code, encode
 
 _NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
 
@@ -51,35 +54,41 @@ class Action(enum.IntEnum):
         return self.name.lower()
 
 
+def _apply_digit_rule(rule, state: TaskState) -> tuple[TaskState, Outcome]:
+    """A built-in rule of :mod:`.batch_rules` (written once, on code digits) applied to one state.
+    (A :class:`~tableclean_suite.task.TaskModel` reads its built-in actions off the rules' table of
+    every code instead.)"""
+    n_segments, n_objects = state.n_segments, state.n_objects
+    digits = batch_rules.StateDigits(n_segments, n_objects, 1, codes=np.array([encode(state)]))
+    next_code, outcome = rule(digits)
+    return decode_code(int(next_code[0]), n_segments, n_objects), Outcome(int(outcome[0]))
+
+
 def move_effect(state: TaskState) -> tuple[TaskState, Outcome]:
     """MOVE: the arm goes to the next segment, k -> k + 1 (N -> 1); a held object goes along."""
-    return state.replace(arm=(state.arm + 1) % state.n_segments), Outcome.ROUTINE
+    return _apply_digit_rule(batch_rules.move, state)
 
 
 def pick_effect(state: TaskState) -> tuple[TaskState, Outcome]:
     """PICK: with nothing held, the lowest-numbered object on the arm's segment is held."""
-    lying = state.objects_on(state.arm)
-    if state.holding or not lying:
-        return state, Outcome.INEFFECTIVE
-    return state.with_object(lying[0], HELD), Outcome.ROUTINE
+    return _apply_digit_rule(batch_rules.pick, state)
 
 
 def place_effect(state: TaskState) -> tuple[TaskState, Outcome]:
     """PLACE: the held object comes to lie on the arm's segment."""
-    held = state.held_object
-    if held is None:
-        return state, Outcome.INEFFECTIVE
-    return state.with_object(held, state.arm), Outcome.ROUTINE
+    return _apply_digit_rule(batch_rules.place, state)
 
 
 def clean_effect(state: TaskState) -> tuple[TaskState, Outcome]:
     """CLEAN: improper when holding or when any object lies on the arm's segment; else the
     arm's segment becomes clean (relevant) or already was (irrelevant)."""
-    if state.holding or state.object_on_arm_segment:
-        return state, Outcome.IMPROPER
-    if state.is_clean(state.arm):
-        return state, Outcome.IRRELEVANT_CLEAN
-    return state.with_clean(state.arm), Outcome.RELEVANT_CLEAN
+    return _apply_digit_rule(batch_rules.clean, state)
+
+
+#: The built-in effects and their rules on code digits, by identity (a re-registered name with
+#: another effect is stepped state by state, as a user's).
+DIGIT_RULES = {move_effect: batch_rules.move, pick_effect: batch_rules.pick, place_effect: batch_rules.place,
+               clean_effect: batch_rules.clean}
 
 
 @dataclass(frozen=True)

@@ -1,35 +1,30 @@
-"""The built-in actions' rules applied to every state code at once (NumPy), for large specs.
+"""The built-in actions' rules, written once as array arithmetic on state codes' digits.
 
-:meth:`TaskModel.transition_arrays <tableclean_suite.task.TaskModel.transition_arrays>` builds
-``(S, A)`` next-state and outcome arrays.  Stepping each code through the Python rules costs
-about 8.5 us per (state, action), minutes for millions of codes; here the state code's digits
-(:func:`~tableclean_suite.task.encode`) are read as arrays and each built-in action's effect
-(:func:`~tableclean_suite.task.move_effect`, ``pick_effect``, ``place_effect``,
-``clean_effect``) is written as array arithmetic on them, with the model's conventions
-(INEFFECTIVE becomes IMPROPER under ``ineffective="improper"``; an action that leaves every
-segment clean is TERMINAL; terminal states map to themselves with TERMINAL).  The results are
-identical to the per-state rules (tests compare both on several specs).
+The state code's digits (:func:`~tableclean_suite.task.encode`) are read as arrays and each
+built-in action (move, pick, place, clean) is array arithmetic on them, so one rule serves
+both one state (:mod:`.actions`' ``move_effect`` ... apply it to a single code) and every code
+at once (:meth:`TaskModel.transition_arrays <tableclean_suite.task.TaskModel.transition_arrays>`,
+where stepping each code through Python would cost minutes for millions of codes).
+:func:`batch_step` adds the model's conventions (INEFFECTIVE becomes IMPROPER under
+``ineffective="improper"``; an action that leaves every segment clean is TERMINAL; terminal
+states map to themselves with TERMINAL).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from tableclean_suite.task import actions as rules
 from tableclean_suite.task.state import CLEAN_RADIX, Outcome
 
-#: The built-in effects this module vectorises, by identity (a re-registered name with another
-#: effect falls back to the per-state rules).
-VECTORISED_EFFECTS = (rules.move_effect, rules.pick_effect, rules.place_effect, rules.clean_effect)
 #: No object index (``first`` below: no object satisfies the condition).
 _NONE = -1
 
 
 class StateDigits:
-    """The digits of every state code of an N-segment, M-object task.
+    """The digits of state codes of an N-segment, M-object task.
 
     Attributes:
-        codes: ``(S,)`` int64, ``0..S-1``.
+        codes: ``(K,)`` int64 the codes (every code ``0..S-1`` by default).
         arm: ``(S,)`` int64 arm segment index.
         where: ``(M, S)`` int64 object locations (0..N-1, or N for held).
         clean_bits: ``(S,)`` int64, the clean flags as a binary number (segment 1 most significant).
@@ -37,9 +32,10 @@ class StateDigits:
         clean_weight: ``(N,)`` place value of each segment's clean flag in the code.
     """
 
-    def __init__(self, n_segments: int, n_objects: int, n_states: int):
+    def __init__(self, n_segments: int, n_objects: int, n_states: int, codes: np.ndarray | None = None):
         self.n_segments, self.n_objects = n_segments, n_objects
-        self.codes = np.arange(n_states, dtype=np.int64)
+        self.codes = np.arange(n_states, dtype=np.int64) if codes is None else np.asarray(codes, dtype=np.int64)
+        n_states = self.codes.shape[0]
         rest, self.arm = np.divmod(self.codes, n_segments)
         where = []
         for _ in range(n_objects):
@@ -75,12 +71,15 @@ class StateDigits:
         return ((self.clean_bits >> shift) & 1).astype(bool)
 
 
-def _move(d: StateDigits):
+def move(d: StateDigits):
+    """MOVE: the arm goes to the next segment, k -> k + 1 (N -> 1); a held object goes along. ROUTINE."""
     next_codes = d.codes - d.arm + (d.arm + 1) % d.n_segments
     return next_codes, np.full(d.codes.shape, Outcome.ROUTINE, dtype=np.int64)
 
 
-def _pick(d: StateDigits):
+def pick(d: StateDigits):
+    """PICK: with nothing held, the lowest-numbered object on the arm's segment is held (ROUTINE);
+    else INEFFECTIVE."""
     holding = d.held.any(axis=0)
     lying = d.first(d.where == d.arm[None, :])
     effective = ~holding & (lying != _NONE)
@@ -90,7 +89,8 @@ def _pick(d: StateDigits):
     return next_codes, outcome
 
 
-def _place(d: StateDigits):
+def place(d: StateDigits):
+    """PLACE: the held object comes to lie on the arm's segment (ROUTINE); else INEFFECTIVE."""
     held = d.first(d.held)
     effective = held != _NONE
     weight = d.object_weight[np.maximum(held, 0)]
@@ -99,7 +99,9 @@ def _place(d: StateDigits):
     return next_codes, outcome
 
 
-def _clean(d: StateDigits):
+def clean(d: StateDigits):
+    """CLEAN: IMPROPER when holding or when any object lies on the arm's segment; else the arm's
+    segment becomes clean (RELEVANT_CLEAN) or already was (IRRELEVANT_CLEAN)."""
     improper = d.held.any(axis=0) | (d.where == d.arm[None, :]).any(axis=0)
     already = d.arm_clean()
     relevant = ~improper & ~already
@@ -109,19 +111,12 @@ def _clean(d: StateDigits):
     return next_codes, outcome
 
 
-_BATCH_EFFECTS = {rules.move_effect: _move, rules.pick_effect: _pick, rules.place_effect: _place,
-                  rules.clean_effect: _clean}
-
-
-def is_vectorised(effect) -> bool:
-    """Whether ``effect`` is a built-in effect this module applies to all codes at once."""
-    return any(effect is known for known in VECTORISED_EFFECTS)
-
-
-def batch_step(digits: StateDigits, effect, improper_ineffective: bool) -> tuple[np.ndarray, np.ndarray]:
-    """``(next codes, outcomes)``, each ``(S,)`` int64, of a built-in ``effect`` from every code,
-    with the model's conventions (see the module docstring)."""
-    next_codes, outcome = _BATCH_EFFECTS[effect](digits)
+def batch_step(digits: StateDigits, rule, improper_ineffective: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(next codes, outcomes, the rule's own outcomes)``, each ``(S,)`` int64, of a built-in
+    ``rule`` (:func:`move`, ...) from every code, with the model's conventions (see the module
+    docstring) applied to the second."""
+    next_codes, outcome = rule(digits)
+    raw = outcome.copy()
     if improper_ineffective:
         outcome[outcome == Outcome.INEFFECTIVE] = Outcome.IMPROPER
     next_clean = next_codes // digits.clean_weight[-1]
@@ -129,4 +124,4 @@ def batch_step(digits: StateDigits, effect, improper_ineffective: bool) -> tuple
     terminal = digits.terminal
     next_codes[terminal] = digits.codes[terminal]
     outcome[terminal] = Outcome.TERMINAL
-    return next_codes, outcome
+    return next_codes, outcome, raw

@@ -237,6 +237,10 @@ class TaskModel:
         if state.is_terminal:
             raise ValueError(f"state {state.index} ({state.name}) is terminal; reset before stepping")
         rule = self.actions[index]
+        if rule.effect in actions_module.DIGIT_RULES:  # a built-in rule: read off its table of every code
+            next_state, _, raw_outcome = self._transition_arrays
+            code = encode(state)
+            return self.decode(int(next_state[code, index])), Outcome(int(raw_outcome[code, index]))
         next_state, outcome = rule.effect(state)
         if not isinstance(next_state, TaskState) or outcome not in Outcome._value2member_map_ \
                 or Outcome(outcome) == Outcome.TERMINAL:
@@ -307,12 +311,14 @@ class TaskModel:
         Terminal states map to themselves with outcome TERMINAL; learners never step
         them.  Computed once per model (read-only copies are returned).
         """
-        next_state, outcome = self._transition_arrays
+        next_state, outcome, _ = self._transition_arrays
         return next_state.copy(), outcome.copy()
 
     @cached_property
-    def _transition_arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        """Built-in actions from every code at once (:mod:`.batch_rules`); user actions state by state.
+    def _transition_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Built-in actions from every code at once (their rules, :mod:`.batch_rules`); user actions state by state.
+        The third array is the built-in rules' own outcomes, before the model's conventions (int8;
+        what :meth:`_apply` reports for them; 0 in user actions' columns).
 
         Raises :class:`~tableclean_suite.resources.ResourceError` before allocating when the arrays
         would not fit in the available memory, or when user actions' Python effects would be
@@ -323,15 +329,17 @@ class TaskModel:
 
         what = f"the transition table of task {self.spec.name!r} ({self.n_states} states x {self.n_actions} actions)"
         resources.require_memory(resources.table_memory(self.n_states, self.n_actions), what)
-        user = [a for a, rule in enumerate(self.actions) if not batch_rules.is_vectorised(rule.effect)]
+        user = [a for a, rule in enumerate(self.actions) if rule.effect not in actions_module.DIGIT_RULES]
         resources.require_effect_calls(self.n_states * len(user), what)
         next_state = np.empty((self.n_states, self.n_actions), dtype=np.int64)
         outcome = np.empty((self.n_states, self.n_actions), dtype=np.int64)
+        raw_outcome = np.zeros((self.n_states, self.n_actions), dtype=np.int8)
         digits = batch_rules.StateDigits(self.n_segments, self.n_objects, self.n_states)
         improper = self.ineffective == IneffectiveMode.IMPROPER
         for a, rule in enumerate(self.actions):
             if a not in user:
-                next_state[:, a], outcome[:, a] = batch_rules.batch_step(digits, rule.effect, improper)
+                next_state[:, a], outcome[:, a], raw_outcome[:, a] = batch_rules.batch_step(
+                    digits, actions_module.DIGIT_RULES[rule.effect], improper)
         terminal = digits.terminal
         del digits
         if user:
@@ -343,7 +351,7 @@ class TaskModel:
                     nxt, out = self.step(state, a)
                     next_state[code, a] = encode(nxt)
                     outcome[code, a] = out
-        return next_state, outcome
+        return next_state, outcome, raw_outcome
 
     def _transition_arrays_by_rules(self) -> tuple[np.ndarray, np.ndarray]:
         """The same arrays stepped state by state through :meth:`step` (slow; the reference the
@@ -436,7 +444,7 @@ class TaskModel:
 
     @cached_property
     def _distances(self) -> np.ndarray:
-        next_state, outcome = self._transition_arrays
+        next_state, outcome, _ = self._transition_arrays
         codes = np.arange(self.n_states)
         terminal = (next_state == codes[:, None]).all(axis=1) & (outcome == Outcome.TERMINAL).all(axis=1)
         distance = np.where(terminal, 0, -1).astype(np.int64)
