@@ -70,7 +70,7 @@ def test_a_single_object_keeps_the_centre_and_the_full_noise():
     assert np.array_equal(layout.offsets, [[0.0, 0.0]]) and layout.xy_noise[0] == NOISE and layout.yaw_noise == 0.0
     # two equal boxes: object_spacing apart, as the grid of equal pitch
     pair = row_layout([BOX, BOX], SEGMENT, SPACING, CLEARANCE, NOISE)
-    assert np.allclose(pair.offsets, placement.slot_offsets(2, SPACING))
+    assert np.allclose(pair.offsets, [[-SPACING / 2, 0.0], [SPACING / 2, 0.0]])  # along x, centred
 
 
 def test_the_yaw_noise_enters_the_extent_and_is_capped_to_what_fits():

@@ -7,7 +7,7 @@ from tableclean_suite.bench.object_table import FALLBACK_PARTNER, markdown, part
 from tableclean_suite.controllers.clean import HAND_CLEARANCE, Wipe, hand_obstacles
 from tableclean_suite.controllers.wipe_pattern import boustrophedon, clear_area
 from tableclean_suite.environments.object_geometry import ObjectGeometry
-from tableclean_suite.environments.placement import free_spot, other_segments, slot_offsets
+from tableclean_suite.environments.placement import free_spot, other_segments, row_layout
 
 CENTER = np.array([0.0, 0.0])
 REACH = np.array([0.05, 0.065])  # sponge-centre half extents of an 18 cm segment, m
@@ -168,7 +168,8 @@ def test_free_spot_takes_the_centre_else_the_spot_farthest_from_the_other_segmen
 
 
 def test_reset_spots_run_along_x_across_the_wiping_hand():
-    offsets = slot_offsets(2, 0.1)
+    box = np.array([[-0.0225, -0.0225], [0.0225, -0.0225], [0.0225, 0.0225], [-0.0225, 0.0225]])
+    offsets = row_layout([box, box], [0.12, 0.12], 0.1, 0.01, 0.0).offsets
     assert np.allclose(offsets, [[-0.05, 0.0], [0.05, 0.0]])
 
 

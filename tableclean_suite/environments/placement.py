@@ -248,20 +248,6 @@ def row_layout(outlines: Sequence[np.ndarray], half_size, spacing: float, cleara
     return RowLayout(yaws, offsets, room, cap, size)
 
 
-def slot_offsets(count: int, pitch: float) -> np.ndarray:
-    """(count, 2) offsets from the segment centre of a centred grid of equal ``pitch`` with ``ceil(sqrt(count))``
-    columns along x: :func:`row_layout`'s grid for equal footprints at most ``pitch - object_clearance`` across."""
-    if count < 1:
-        return np.zeros((0, 2))
-    columns = math.ceil(math.sqrt(count))
-    rows = math.ceil(count / columns)
-    offsets = []
-    for k in range(count):
-        row, col = divmod(k, columns)
-        offsets.append(((col - (columns - 1) / 2) * pitch, (row - (rows - 1) / 2) * pitch))
-    return np.asarray(offsets, dtype=float)
-
-
 def other_segments(centers, half_sizes, segment: int) -> list[tuple[np.ndarray, np.ndarray]]:
     """``(center (2,), half_size (2,))`` [m] of every segment but ``segment`` (0-based), for :func:`free_spot`."""
     return [(np.asarray(centers[k], dtype=float)[:2], np.asarray(half_sizes[k], dtype=float))
