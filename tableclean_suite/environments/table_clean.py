@@ -667,11 +667,9 @@ class TableClean(ManipulationEnv):
         ``object_spacing`` (the config's reset-grid pitch) and ``object_clearance`` (the config's,
         for the place skill's free spot).
 
-        Read every control step by the skills, so it does little: a :class:`~.skill_info.SkillInfo`
-        (a dict) whose values fixed for the model and the episode (sizes, geometry, measures,
-        config values) are shared read-only arrays, and whose costlier per-step values (the keys of
-        ``LAZY_SKILL_INFO``: object 1's pose, orientations, grasp flags, sponge pose, dirt, velocities) are
-        computed on first read, from the simulation state of the call.
+        A [SkillInfo][tableclean_suite.environments.skill_info.SkillInfo] (a dict): the values fixed for the
+        model and the episode are shared read-only arrays; the costlier per-step ones (``LAZY_SKILL_INFO``)
+        are computed on first read, from the simulation state of the call.
         """
         data = self._mj_data
         constant = self._constant_info
