@@ -409,16 +409,3 @@ def test_measured_plateau_equals_the_exact_value_of_the_final_policy():
     standard_error = math.sqrt(exact.mean() * (1 - exact.mean()) / episodes)
     assert abs(plateau - exact.mean()) < 4 * standard_error + 1e-3
 
-
-def test_speed_report_lists_every_learner_with_planning_counted_apart(capsys):
-    from tableclean_suite.bench import learner_speed
-
-    rows = learner_speed.learner_rows("r4", runs=2, iterations=50, repeat=1)
-    assert [row["learner"] for row in rows] == learner_names()
-    by_name = {row["learner"]: row for row in rows}
-    assert by_name["q_learning"]["time per real update vs Q-learning"] == 1.0
-    assert by_name["dyna_q"]["planning M updates/s"] == pytest.approx(5 * by_name["dyna_q"]["real M updates/s"])
-    assert all(row["planning M updates/s"] == 0 for row in rows if row["learner"] != "dyna_q")
-    name, ratio = learner_speed.slowest(rows)
-    assert name != "dyna_q" and name in by_name  # Dyna-Q is exempt from the slowdown goal
-    assert ratio == max(row["time per real update vs Q-learning"] for row in rows if row["learner"] != "dyna_q")
