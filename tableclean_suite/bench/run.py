@@ -374,10 +374,10 @@ def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task:
         print(tables.table3_notes(config.confidence, config.bootstrap_samples, config.iterations))
         print(tables.display_learning_time(table3).to_string())
         print(f"\nTable 3b: plateaus = exact asymptotes of each run's final behaviour (greedy policy under the "
-              f"exploration),\n  mean over runs [{level} percentile bootstrap over runs]; greedy success = the "
-              f"final greedy policies (epsilon = 0);\n  never terminal = runs that never reached the terminal "
-              f"state [Clopper-Pearson]; drift = mean change of a run's\n  success asymptote over the window's last "
-              f"quarter; settled = drift <= {100 * config.settle_tolerance:g} pp.")
+              f"exploration),\n  mean over runs [{level} percentile bootstrap over runs; Clopper-Pearson where "
+              f"each run is 0 or 1]; greedy success = the\n  final greedy policies (epsilon = 0); never terminal = "
+              f"runs that never reached the terminal state; drift = mean change of a\n  run's success asymptote over "
+              f"the window's last quarter; settled = drift <= {100 * config.settle_tolerance:g} pp.")
         if paper_task:
             print("  'paper' = the paper's Table 3 (Q-learning only).")
         print(tables.display_plateaus(table3).to_string())

@@ -9,8 +9,9 @@ target is the value the same statistic takes over unlimited runs of the cell, at
   (:func:`tableclean_suite.learning_time.learning_time_summary`).
 - **Plateaus and greedy success**: each run's exact asymptote of its final behaviour
   (:mod:`tableclean_suite.asymptotes`) averaged over runs, with a percentile bootstrap interval
-  over runs (:data:`RUN_MEANS`); the never-terminal share (a yes/no per run) with the exact
-  binomial interval.  Target: the expected asymptote of one run.
+  over runs (:data:`RUN_MEANS`); the never-terminal share (a yes/no per run), and any of those
+  that is 0 or 1 in every run, with the exact binomial (Clopper-Pearson) interval.  Target: the
+  expected asymptote of one run.
 - **Behaviour drift** (:mod:`tableclean_suite.settling`): per-run drift averaged, bootstrap over runs.
 - **Curve bands**: at each iteration, the normal interval of the mean over runs of the runs'
   values there (:func:`tableclean_suite.intervals.mean_band`, from the sums and sums of squares:
@@ -132,12 +133,16 @@ def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fract
             None: not measured.
         checkpoint: the iteration ``drift`` compares with (>= 1 when ``drift`` is given).
     """
-    means = {scalar: per_run[name] for scalar, name in RUN_MEANS.items() if name in per_run}
+    present = {scalar: np.asarray(per_run[name], dtype=np.float64)
+               for scalar, name in {**RUN_MEANS, **RUN_SHARES}.items() if name in per_run}
+    # A quantity that is 0 or 1 in every run (a share of runs: e.g. the greedy policy succeeds or
+    # not) gets the exact binomial interval, which stays honest when every run agrees.
+    shares = {scalar: values for scalar, values in present.items()
+              if scalar in RUN_SHARES or np.isin(values, (0.0, 1.0)).all()}
+    means = {scalar: values for scalar, values in present.items() if scalar not in shares}
     _, bounds = intervals.interval_estimates(means, np.mean, confidence, samples, rng=rng)
-    for scalar, name in RUN_SHARES.items():
-        if name in per_run:
-            values = np.asarray(per_run[name], dtype=np.float64)
-            bounds[scalar] = intervals.clopper_pearson(int(np.count_nonzero(values)), len(values), confidence)
+    for scalar, values in shares.items():
+        bounds[scalar] = intervals.clopper_pearson(int(np.count_nonzero(values)), len(values), confidence)
     runs = {"success_asymptote": np.asarray(per_run["success"], dtype=np.float64)}
     learning = survival = None
     bands = curve_bands(sums, support_fraction, confidence)
