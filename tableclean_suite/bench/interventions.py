@@ -47,6 +47,8 @@ DEFAULT_OUT = "results/interventions"
 DEFAULT_RUNS = 200
 #: Level of every interval.
 CONFIDENCE = 0.95
+#: Exit status after Ctrl-C.
+EXIT_INTERRUPTED = 130
 #: Bootstrap resamples of the plateau's interval.
 PLATEAU_RESAMPLES = 2000
 #: The paper's settings every cell starts from (alpha, gamma, epsilon, max_itr; the paper task).
@@ -304,7 +306,11 @@ def main(argv=None, prog: str | None = None) -> int:
     from tableclean_suite.bench.cli import parse_command
 
     _, args = parse_command(build_parser, argv, prog or PROG)
-    return run(args)
+    try:
+        return run(args)
+    except KeyboardInterrupt:  # also when run as a module, outside the command dispatcher
+        print(f"{prog or PROG}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":
