@@ -376,7 +376,7 @@ def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task:
         print(f"\nTable 3b: plateaus = exact asymptotes of each run's final behaviour (greedy policy under the "
               f"exploration),\n  mean over runs [{level} percentile bootstrap over runs; Clopper-Pearson where "
               f"each run is 0 or 1]; greedy success = the\n  final greedy policies (epsilon = 0); never terminal = "
-              f"runs that never reached the terminal state; drift = mean change of a\n  run's success asymptote over "
+              f"runs that never reached the terminal state; drift = mean change\n  of a run's success asymptote over "
               f"the window's last quarter; settled = drift <= {100 * config.settle_tolerance:g} pp.")
         if paper_task:
             print("  'paper' = the paper's Table 3 (Q-learning only).")
