@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 from robosuite.models.arenas import TableArena
 from robosuite.utils.mjcf_utils import new_body, new_geom, new_inertial, new_joint
+from scipy.spatial.transform import Rotation
 
 from tableclean_suite.environments.config import SceneGeometry
 from tableclean_suite.environments.dirt_state import dirt_state_joint_name
@@ -65,10 +66,7 @@ def look_at_quat(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
     right /= np.linalg.norm(right)
     cam_up = np.cross(back, right)
     rot = np.stack([right, cam_up, back], axis=1)  # columns: camera x, y, z in world
-    w = np.sqrt(max(0.0, 1.0 + np.trace(rot))) / 2
-    x = (rot[2, 1] - rot[1, 2]) / (4 * w)
-    y = (rot[0, 2] - rot[2, 0]) / (4 * w)
-    z = (rot[1, 0] - rot[0, 1]) / (4 * w)
+    x, y, z, w = Rotation.from_matrix(rot).as_quat()
     return np.array([w, x, y, z])
 
 
