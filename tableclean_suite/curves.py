@@ -136,8 +136,8 @@ class CurveSums:
     average_sum: np.ndarray
     finished_runs: np.ndarray
     episodes: np.ndarray
-    average_square: np.ndarray | None = None
     runs: int = 0
+    average_square: np.ndarray | None = None  # after ``runs``: positional construction keeps its meaning
 
     def __post_init__(self):
         if self.average_square is None:
@@ -148,7 +148,7 @@ class CurveSums:
         """Empty sums for curves of length ``iterations`` (>= 1)."""
         if iterations < 1:
             raise ValueError(f"iterations must be >= 1, got {iterations!r}")
-        return cls(*(np.zeros(int(iterations)) for _ in range(6)))
+        return cls(*(np.zeros(int(iterations)) for _ in range(5)), average_square=np.zeros(int(iterations)))
 
     @property
     def iterations(self) -> int:
