@@ -107,10 +107,7 @@ def stage(env, controller, state, seed: int | None = None) -> TaskState:
     objects, arm, dirty, deferred = start_of(state)
     if seed is not None:
         env.rng = np.random.default_rng(seed)
-    if state.n_objects == 1:
-        env.set_start(objects[0], arm, dirty)  # get_ep_meta() then names the one object's object_segment
-    else:
-        env.set_start(None, arm, dirty, object_segments=objects)
+    env.set_start(None, arm, dirty, object_segments=objects)
     env.reset()
     if state.holding:
         result = controller.execute(Action.PICK)
