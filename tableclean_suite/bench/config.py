@@ -19,9 +19,11 @@ import math
 from dataclasses import asdict, dataclass, fields
 from typing import ClassVar
 
+from tableclean_suite.analysis import ANALYSIS_KINDS
 from tableclean_suite.bench.statistics import DEFAULT_CONFIDENCE, DEFAULT_SAMPLES
 from tableclean_suite.metrics import DEFAULT_PLATEAU_FRACTION, DEFAULT_THRESHOLD
 from tableclean_suite.settling import DEFAULT_SETTLE_TOLERANCE
+from tableclean_suite.simulation import SIMULATED_EPISODES
 
 #: Fraction of the runs that must have finished an episode for an average-reward point to count.
 DEFAULT_SUPPORT_FRACTION = 0.5
@@ -128,6 +130,12 @@ class RunConfig:
     """Bootstrap replicates behind each interval and band, an integer in [1, 100000]."""
     confidence: float = DEFAULT_CONFIDENCE
     """Coverage of the intervals, in (0, 1)."""
+    analysis: str = "auto"
+    """How each cell's plateaus are computed: exact (dynamic programming over the task), simulated
+    (Monte Carlo episodes of each run's final policy, their error inside the intervals) or auto
+    (simulated only where exact would cost over ten times the training and over a minute)."""
+    analysis_episodes: int = SIMULATED_EPISODES
+    """Episodes simulated per run and policy when the plateaus are simulated, an integer >= 2."""
     backend: str = "symbolic"
     """Training backend: symbolic model, calibrated transition table, or skills in MuJoCo physics."""
     transitions: str | None = None
@@ -160,11 +168,13 @@ class RunConfig:
 
     #: Fields that never change a cell's numbers as such: a cell's own learner, reward, alpha and
     #: gamma enter its key as the cell; the task and the transition table enter by content
-    #: (the model's code digest, the table file's SHA-256), not by name or path.
+    #: (the model's code digest, the table file's SHA-256), not by name or path; the analysis
+    #: enters as the kind chosen (a simulated cell's key names it, an exact one's is unchanged).
     NOT_IN_CELL_KEY: ClassVar[tuple[str, ...]] = (
         "learners", "rewards", "alpha", "gamma", "alpha_sweep", "gamma_sweep", "sweep_learner", "sweep_reward",
         "sweeps", "literature", "literature_reward", "task", "transitions", "workers", "executor", "ray_address",
-        "out", "figures", "fresh", "progress", "verbose", "plugins", "settle_tolerance",
+        "out", "figures", "fresh", "progress", "verbose", "plugins", "settle_tolerance", "analysis",
+        "analysis_episodes",
     )
     #: Name lists de-duplicated in order; value lists too (compared as floats).
     _LISTS: ClassVar[tuple[str, ...]] = ("learners", "rewards", "alpha_sweep", "gamma_sweep")
@@ -210,6 +220,12 @@ class RunConfig:
                 or not 1 <= self.bootstrap_samples <= MAX_BOOTSTRAP_SAMPLES):
             raise ConfigError("bootstrap_samples", "bootstrap_samples must be an integer in "
                               f"[1, {MAX_BOOTSTRAP_SAMPLES}], got {self.bootstrap_samples!r}")
+        if self.analysis not in ANALYSIS_KINDS:
+            raise ConfigError("analysis", f"unknown {self.analysis!r}; allowed: {', '.join(ANALYSIS_KINDS)}")
+        if (isinstance(self.analysis_episodes, bool) or not isinstance(self.analysis_episodes, int)
+                or self.analysis_episodes < 2):
+            raise ConfigError("analysis_episodes", f"analysis_episodes must be an integer >= 2, "
+                                                   f"got {self.analysis_episodes!r}")
         self.task_spec()
         for name, allowed in (("start", START_MODES), ("ineffective", INEFFECTIVE_MODES)):
             value = getattr(self, name)
