@@ -35,6 +35,7 @@ by integer codes; :mod:`.reference` has independent plain-Python twins.
 from __future__ import annotations
 
 import math
+import weakref
 
 import numba
 import numpy as np
@@ -173,11 +174,31 @@ def run_masks(afforded, affordance, n_states, n_actions):
 # ---------------------------------------------------------------------------------------------
 # plain Python: the given affordances and the advisor, from the task model
 # ---------------------------------------------------------------------------------------------
+#: What each task model's assisted learners are handed, built once per model: ``{name: {model: array}}``.
+_per_model: dict = {"affordances": weakref.WeakKeyDictionary(), "advisor": weakref.WeakKeyDictionary()}
+
+
+def _once_per_model(name: str, model, build) -> np.ndarray:
+    """A copy of ``build(model)``, built at the first call for ``model`` (a sweep over its whole table:
+    about a minute on a spec of millions of states, and every training chunk asks again)."""
+    cache = _per_model[name]
+    array = cache.get(model)
+    if array is None:
+        array = cache[model] = build(model)
+    return array.copy()
+
+
 def given_affordances(model) -> np.ndarray:
     """``(S, A)`` int8 the task model's affordances: ``model.action_mask`` per state (1 = afforded).
 
     Terminal states (where no action is ever taken) are all-afforded, so no row is empty.
+    Built once per model (each call returns its own copy).
     """
+    return _once_per_model("affordances", model, _build_affordances)
+
+
+def _build_affordances(model) -> np.ndarray:
+    """The array behind :func:`given_affordances`."""
     from tableclean_suite.task import Outcome
 
     _, outcome = model.transition_arrays()
@@ -187,7 +208,14 @@ def given_affordances(model) -> np.ndarray:
 def advisor_policy(model) -> np.ndarray:
     """``(S,)`` int64 the optimal advisor: in each state the first action of a shortest plan to a
     terminal state with no improper action (ties to the first action); ``NO_ADVICE`` where no
-    terminal state is reachable (and in terminal states)."""
+    terminal state is reachable (and in terminal states).
+
+    Searched once per model (each call returns its own copy)."""
+    return _once_per_model("advisor", model, _search_advisor)
+
+
+def _search_advisor(model) -> np.ndarray:
+    """The search behind :func:`advisor_policy`."""
     from tableclean_suite.task import Outcome
 
     next_state, outcome = model.transition_arrays()
