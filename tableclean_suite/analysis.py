@@ -35,7 +35,6 @@ standard errors over a [StepTable][tableclean_suite.simulation.StepTable]
 from __future__ import annotations
 
 import math
-import weakref
 from dataclasses import dataclass
 from statistics import NormalDist
 
@@ -274,22 +273,9 @@ def final_probabilities(result, model: TaskModel | None = None, masks: np.ndarra
         parameter = _parameter_array(exploration, epsilon, behaviour["iteration"], behaviour["visits"])
         probabilities = afforded_probabilities(q, masks, np.broadcast_to(parameter, q.shape[:2]), exploration.softmax)
     if assist.get("advice_probability", 0.0) > 0.0:
-        probabilities = advised_probabilities(probabilities, _advisor(model), assist["advice_probability"],
+        probabilities = advised_probabilities(probabilities, advisor_policy(model), assist["advice_probability"],
                                               assist["advice_consistency"])
     return probabilities
-
-
-_advisors: "weakref.WeakKeyDictionary[TaskModel, np.ndarray]" = weakref.WeakKeyDictionary()
-
-
-def _advisor(model: TaskModel) -> np.ndarray:
-    """``advisor_policy(model)``, computed once per model (a search over the whole table: about a
-    minute on a spec of millions of states, and every chunk of an advised cell asks for it)."""
-    advisor = _advisors.get(model)
-    if advisor is None:
-        advisor = _advisors[model] = advisor_policy(model)
-        advisor.setflags(write=False)
-    return advisor
 
 
 def affordance_masks(result, model: TaskModel) -> np.ndarray | None:
