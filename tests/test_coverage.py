@@ -12,6 +12,7 @@ import pytest
 from scipy.stats import beta
 
 from tableclean_suite.bench import commands, coverage, run
+from tableclean_suite.intervals import clopper_pearson
 
 #: A tiny study: 20 runs (the fewest the curve bootstrap gives intervals for) of 150 iterations, two
 #: cells (so that comparisons.csv has rows).
@@ -59,7 +60,8 @@ def test_counts_are_a_hand_count_over_the_run_commands_tables(tmp_path, capsys):
             covered = undefined = 0
             widths = []
             for published in replications:
-                low, high = _number(published[table, label][f"{name}_low"]), _number(published[table, label][f"{name}_high"])
+                bounds = published[table, label]
+                low, high = _number(bounds[f"{name}_low"]), _number(bounds[f"{name}_high"])
                 if math.isnan(low) or math.isnan(high):
                     undefined += 1
                     continue
@@ -78,7 +80,7 @@ def test_counts_are_a_hand_count_over_the_run_commands_tables(tmp_path, capsys):
             assert row.covered == "" and row.coverage == "", where
         else:
             assert int(row.covered) == covered and float(row.coverage) == covered / REPLICATIONS, where
-            low, high = coverage.clopper_pearson(covered, REPLICATIONS)
+            low, high = clopper_pearson(covered, REPLICATIONS)
             assert (float(row.coverage_low), float(row.coverage_high)) == (low, high), where
     counts = pd.to_numeric(study["covered"])
     assert counts.sum() > 0 and (counts < REPLICATIONS).any()  # the counts vary between statistics
@@ -105,24 +107,30 @@ def test_coverage_frame_counts_closed_intervals_and_leaves_undefined_targets_emp
                               "y_high": [1.0], "z": [5.0], "z_low": [0.0], "t": [math.inf], "t_low": [3.0],
                               "t_high": [math.inf]}, index=["c"])
     bounds = [(0.0, 2.0, 3.0), (1.0, 1.0, math.inf), (1.5, 2.0, 4.0), (math.nan, 3.0, math.inf)]
-    replications = [{"table3": reference.assign(x_low=low, x_high=high, t_low=t_low, t_high=math.inf if t_low > 3 else 9.0)}
+    replications = [{"table3": reference.assign(x_low=low, x_high=high, t_low=t_low,
+                                                t_high=math.inf if t_low > 3 else 9.0)}
                     for low, high, t_low in bounds]
     frame = coverage.coverage_frame({"table3": reference}, replications, runs=10, reference_runs=100, nominal=0.95)
     assert list(frame["statistic"]) == ["x", "y", "t"]  # z has no high bound: not an interval
     x, y, t = (frame.iloc[i] for i in range(3))
     assert (x["covered"], x["undefined"], x["replications"]) == (2, 1, 4)
     assert x["coverage"] == 0.5 and x["mean_width"] == pytest.approx((2.0 + 0.0 + 0.5) / 3)
-    assert (x["coverage_low"], x["coverage_high"]) == coverage.clopper_pearson(2, 4)
+    assert (x["coverage_low"], x["coverage_high"]) == clopper_pearson(2, 4)
     assert pd.isna(y["covered"]) and math.isnan(y["coverage"]) and y["mean_width"] == 1.0
     assert t["covered"] == 3 and t["mean_width"] == math.inf  # +inf (censored) is covered by a top of +inf
 
 
-def test_clopper_pearson_is_the_exact_binomial_interval():
-    low, high = coverage.clopper_pearson(18, 20, 0.95)
+def test_the_coverage_interval_is_the_exact_binomial_one():
+    low, high = clopper_pearson(18, 20, 0.95)
     assert low == pytest.approx(beta.ppf(0.025, 18, 3)) and high == pytest.approx(beta.ppf(0.975, 19, 2))
     assert (round(100 * low), round(100 * high)) == (68, 99)  # why 20 replications cannot show 90 %
-    assert coverage.clopper_pearson(0, 100)[0] == 0.0 and coverage.clopper_pearson(100, 100)[1] == 1.0
-    assert coverage.clopper_pearson(95, 100, 0.99)[0] < coverage.clopper_pearson(95, 100, 0.95)[0]
+    assert clopper_pearson(0, 100)[0] == 0.0 and clopper_pearson(100, 100)[1] == 1.0
+    reference = pd.DataFrame({"x": [0.5], "x_low": [0.0], "x_high": [1.0]}, index=["c"])
+    misses = [{"t": reference.assign(x_low=0.6)}] * 2 + [{"t": reference}] * 18
+    frame = coverage.coverage_frame({"t": reference}, misses, runs=1, reference_runs=1, nominal=0.95, confidence=0.9)
+    assert frame.loc[0, "covered"] == 18 and frame.loc[0, "coverage_confidence"] == 0.9
+    assert (frame.loc[0, "coverage_low"], frame.loc[0, "coverage_high"]) == clopper_pearson(18, 20, 0.9)
+    assert frame.loc[0, "coverage_low"] == pytest.approx(beta.ppf(0.05, 18, 3))
 
 
 def test_replication_seeds_follow_the_reference_and_share_no_run_key():
@@ -136,7 +144,8 @@ def test_replication_seeds_follow_the_reference_and_share_no_run_key():
 
 @pytest.mark.parametrize("argv, named", [
     (["--replications", "0"], "argument --replications: expected a positive integer, got '0'"),
-    (["--runs", "50", "--reference-runs", "40"], "--reference-runs: 40 is fewer than --runs 50; allowed: an integer >= --runs"),
+    (["--runs", "50", "--reference-runs", "40"],
+     "--reference-runs: 40 is fewer than --runs 50; allowed: an integer >= --runs"),
     (["--learners", "q_lerning"], "--learners: unknown 'q_lerning'; allowed: "),
     (["--confidence", "1.5"], "--confidence: 1.5 is not allowed; allowed: a number in (0, 1)"),
     (["--nominal", "0"], "--nominal must be in (0, 1), got 0.0"),

@@ -19,7 +19,8 @@ listed here) is scored:
 - a replication **covers** when ``X_low <= target <= X_high`` (an undefined bound never covers;
   ``undefined`` counts those replications);
 - **coverage** = covered / K, with its Clopper-Pearson interval
-  (``scipy.stats.binomtest(covered, K).proportion_ci(confidence_level, method="exact")``).
+  ([clopper_pearson][tableclean_suite.intervals.clopper_pearson]:
+  ``scipy.stats.binomtest(covered, K).proportion_ci(confidence_level, method="exact")``).
 
 ``table4.csv`` repeats Table 3's numbers and intervals (rescaled), so Table 3's rows cover it.
 
@@ -59,8 +60,6 @@ RESULT_FILE = "coverage.csv"
 #: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench coverage"
 DEFAULT_OUT = "results/coverage"
-#: Exit code of a command line used wrongly, and of a study stopped by Ctrl-C (128 + SIGINT).
-EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
 #: Suffixes of an interval's bounds next to the number they bound (as in ``table3.csv``).
 LOW, HIGH = "_low", "_high"
 #: Columns of ``coverage.csv``.
@@ -74,7 +73,8 @@ PRINT_WIDTH = 120
 #: ``--seed``, ``--task`` and ``--out`` come from [cli][tableclean_suite.bench.cli].
 RUN_FIELDS = {"learners": None, "rewards": None, "alpha": float, "gamma": float, "epsilon": float, "max_itr": int,
               "exploration": None, "q_init": float, "learner_options": None, "start": None, "ineffective": None,
-              "threshold": float, "plateau_fraction": float, "support_fraction": float, "bootstrap_samples": int}
+              "threshold": float, "plateau_fraction": float, "support_fraction": float, "bootstrap_samples": int,
+              "analysis": None, "analysis_episodes": int}
 
 
 def replication_seed(seed: int, replication: int) -> int:
@@ -88,15 +88,6 @@ def interval_columns(table) -> list[str]:
     ``X_high`` beside it, in the table's order."""
     columns = set(table.columns)
     return [name for name in table.columns if name + LOW in columns and name + HIGH in columns]
-
-
-def clopper_pearson(covered: int, replications: int, confidence: float = DEFAULT_CONFIDENCE) -> tuple[float, float]:
-    """``(low, high)``: the exact (Clopper-Pearson) ``confidence`` interval of a proportion of
-    ``covered`` successes in ``replications`` >= 1 trials, fractions in [0, 1]."""
-    from scipy.stats import binomtest
-
-    interval = binomtest(int(covered), int(replications)).proportion_ci(confidence_level=confidence, method="exact")
-    return float(interval.low), float(interval.high)
 
 
 def published_tables(config, model, store) -> dict:
@@ -140,7 +131,9 @@ def coverage_frame(reference: dict, replications: list[dict], runs: int, referen
     """One row per (table, row, statistic with an interval) of ``reference``: columns ``COLUMNS``.
 
     Args:
-        reference: the reference's tables ([published_tables][tableclean_suite.bench.coverage.published_tables]; their point values are the targets).
+        reference: the reference's tables
+            ([published_tables][tableclean_suite.bench.coverage.published_tables]; their point values
+            are the targets).
         replications: the replications' tables (the same tables, rows and columns), at least one.
         runs, reference_runs: runs per replication and of the reference (recorded in the rows).
         nominal: the intervals' confidence (``RunConfig.confidence``), recorded.
@@ -153,6 +146,8 @@ def coverage_frame(reference: dict, replications: list[dict], runs: int, referen
     """
     import numpy as np
     import pandas as pd
+
+    from tableclean_suite.intervals import clopper_pearson
 
     rows = []
     for table, frame in reference.items():
@@ -187,8 +182,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     from tableclean_suite.bench.config import defaults, field_docs
 
     docs, default = field_docs(), defaults()
-    parser = cli.command_parser(prog, "Measured coverage of every interval the run command publishes: K replications "
-                                      "of each main cell against one many-run reference.",
+    parser = cli.command_parser(prog, "Measured coverage of every interval the run command publishes:\n"
+                                      "K replications of each main cell against one many-run reference.",
                                 epilog="The output holds measurements only. See docs/coverage.md.")
     own = parser.add_argument_group("coverage")
     own.add_argument("--replications", type=cli.positive_int, default=DEFAULT_REPLICATIONS, metavar="K",
@@ -273,7 +268,8 @@ def estimate(args, model) -> tuple[str, float]:
 
 def measure(args, model, out: Path):
     """Train the reference (cells kept in ``out/cells``) and the replications (not kept); returns
-    [coverage_frame][tableclean_suite.bench.coverage.coverage_frame] of them.  Progress on stderr unless ``args.progress`` is False."""
+    [coverage_frame][tableclean_suite.bench.coverage.coverage_frame] of them.  Progress on stderr
+    unless ``args.progress`` is False."""
     from tqdm.auto import tqdm
 
     from tableclean_suite.bench import experiments
@@ -283,7 +279,8 @@ def measure(args, model, out: Path):
     print(f"reference: {args.reference_runs} runs per cell at seed {config.seed}", file=sys.stderr)
     started = time.perf_counter()
     reference = published_tables(reference_config, model, experiments.CellStore(out / "cells"))
-    print(f"reference: {time.perf_counter() - started:.1f} s (trained, or loaded from {out / 'cells'})", file=sys.stderr)
+    print(f"reference: {time.perf_counter() - started:.1f} s (trained, or loaded from {out / 'cells'})",
+          file=sys.stderr)
     tables = []
     bar = tqdm(total=args.replications, desc="replications", unit="rep", disable=not args.progress, leave=False)
     with tempfile.TemporaryDirectory(prefix=".replications-", dir=out) as scratch:
@@ -327,14 +324,16 @@ def display_lines(frame) -> list[str]:
         left = 1 if one else 2
         for line in cells:
             first = line[0] if len(line[0]) <= widths[0] else line[0][:widths[0] - 1] + "~"
-            lines.append("  ".join([first.ljust(widths[0]), *(text.ljust(w) for text, w in zip(line[1:left], widths[1:])),
-                                    *(text.rjust(w) for text, w in zip(line[left:], widths[left:]))]))
+            texts = [first.ljust(widths[0]), *(text.ljust(w) for text, w in zip(line[1:left], widths[1:])),
+                     *(text.rjust(w) for text, w in zip(line[left:], widths[left:]))]
+            lines.append("  ".join(texts))
     return lines
 
 
 def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
-    from tableclean_suite.bench import outputs
+    from tableclean_suite.bench import cli, outputs
+    from tableclean_suite.bench.commands import EXIT_INTERRUPTED
     from tableclean_suite.executors.blas import single_blas_thread
 
     args = parse_args(argv, prog)
@@ -343,7 +342,7 @@ def main(argv=None, prog: str | None = None) -> int:
     problem = outputs.check_writable(out)
     if problem:
         print(f"{args.prog}: error: --out {problem}", file=sys.stderr)
-        return EXIT_USAGE
+        return cli.EXIT_USAGE
     text, _ = estimate(args, model)
     print(text)
     started = time.perf_counter()
