@@ -436,6 +436,8 @@ def train_physics(job) -> dict:
     records["q"] = np.zeros((runs, model.n_states, model.n_actions), dtype=np.float64)
     if checkpoint:
         records[RUN_CHECKPOINT_Q] = np.zeros_like(records["q"])
+    for name in ("first_learned_at", "learned_at"):
+        records[name] = np.zeros(runs, dtype=np.int64)
     for i, record, _ in results:
         for name in records:
             records[name][i] = record[name]
