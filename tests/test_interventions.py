@@ -43,7 +43,11 @@ def test_tiny_run_writes_both_arms_and_is_deterministic(tmp_path, capsys):
         assert (frame[f"{name}_low"] <= frame[name]).all() and (frame[name] <= frame[f"{name}_high"]).all()
     finite = np.isfinite(frame["learning_time"])
     assert (frame.loc[finite, "learning_time"] <= frame.loc[finite, "iterations"]).all()
-    assert set(frame["verdict"]) <= {"as predicted", "opposite", "no clear change"}
+    for name, arms in frame.groupby("intervention", sort=False):  # one change per intervention, as the rule gives
+        item = interventions.interventions()[name]
+        before, after = (arms[arms["arm"] == arm].iloc[0].to_dict() for arm in ("before", "after"))
+        assert set(arms["change"]) == {interventions.observed_change(item, before, after)}
+    assert "verdict" not in frame.columns
     assert "epsilon 0.1 -> 0.01" in printed and "q_init None -> 1.0" in printed
     assert interventions.main([*argv[:-1], str(tmp_path / "again")]) == 0
     again = pd.read_csv(tmp_path / "again" / "interventions.csv")
@@ -65,19 +69,21 @@ def test_the_plateau_is_the_exact_success_of_the_final_policies():
 
 
 @pytest.mark.parametrize(("figure", "direction", "before", "after", "expected"), [
-    ("censored_share", -1, (0.8, 0.7, 0.9), (0.1, 0.0, 0.2), "as predicted"),
-    ("censored_share", -1, (0.1, 0.0, 0.2), (0.8, 0.7, 0.9), "opposite"),
+    ("censored_share", -1, (0.8, 0.7, 0.9), (0.1, 0.0, 0.2), "in the predicted direction"),
+    ("censored_share", -1, (0.1, 0.0, 0.2), (0.8, 0.7, 0.9), "in the opposite direction"),
     ("censored_share", -1, (0.5, 0.3, 0.7), (0.4, 0.2, 0.6), "no clear change"),
-    ("success_plateau", 1, (0.87, 0.86, 0.88), (0.98, 0.97, 0.99), "as predicted"),
-    ("learning_time", -1, (math.inf, 900.0, math.inf), (300.0, 250.0, 350.0), "as predicted"),
+    ("censored_share", -1, (0.5, 0.3, 0.7), (0.2, 0.1, 0.3), "no clear change"),  # touching intervals overlap
+    ("success_plateau", 1, (0.87, 0.86, 0.88), (0.98, 0.97, 0.99), "in the predicted direction"),
+    ("success_plateau", 1, (0.98, 0.97, 0.99), (0.87, 0.86, 0.88), "in the opposite direction"),
+    ("learning_time", -1, (math.inf, 900.0, math.inf), (300.0, 250.0, 350.0), "in the predicted direction"),
 ])
-def test_verdict_needs_separated_intervals(figure, direction, before, after, expected):
+def test_a_change_needs_separated_intervals(figure, direction, before, after, expected):
     item = interventions.Intervention("x", "claim", "factor", {}, {}, figure, direction)
 
     def arm(values):
         return {figure: values[0], f"{figure}_low": values[1], f"{figure}_high": values[2]}
 
-    assert interventions.verdict(item, arm(before), arm(after)) == expected
+    assert interventions.observed_change(item, arm(before), arm(after)) == expected
 
 
 @pytest.mark.parametrize("flag", [["--only", "nope"], ["--only", "q_init,nope"], ["--runs", "0"],

@@ -19,9 +19,11 @@ runs (same ``--seed``), and reports for both:
   bootstrap interval over runs ([interval_estimates][tableclean_suite.intervals.interval_estimates]);
 - the share of runs that **never reached the terminal state**.
 
-and a verdict on the figure the explanation predicts to move: ``as predicted`` when the after
-cell's interval lies wholly on the predicted side of the before cell's, ``opposite`` when wholly on
-the other side, ``no clear change`` otherwise.  A refuted prediction is a result, not an error.
+and the observed **change** of the figure the explanation predicts to move
+([observed_change][tableclean_suite.bench.interventions.observed_change]): ``in the predicted
+direction`` when the after cell's 95 % interval lies wholly on the predicted side of the before
+cell's, ``in the opposite direction`` when wholly on the other side, ``no clear change`` when the
+two intervals overlap.
 
 Writes ``OUT/interventions.csv`` (one row per arm) atomically; deterministic for a given ``--seed``.
 ``--scale`` multiplies every budget (for a quick look; the findings page uses 1).
@@ -224,18 +226,36 @@ def _bounds(name: str, interval) -> dict:
     return {f"{name}_low": float(interval[0]), f"{name}_high": float(interval[1])}
 
 
-def verdict(item: Intervention, before: dict, after: dict) -> str:
-    """``"as predicted"``, ``"opposite"`` or ``"no clear change"`` (module docstring)."""
+#: The observed changes of a predicted figure ([observed_change][tableclean_suite.bench.interventions.observed_change]).
+PREDICTED, OPPOSITE, NO_CLEAR_CHANGE = "in the predicted direction", "in the opposite direction", "no clear change"
+
+
+def observed_change(item: Intervention, before: dict, after: dict) -> str:
+    """How ``item``'s predicted figure moved from the ``before`` arm to the ``after`` arm.
+
+    Args:
+        item: the intervention; its ``figure`` names the figure and ``direction`` (-1 falls,
+            +1 rises) the predicted move.
+        before, after: the arms' figures (as [measure_arm][tableclean_suite.bench.interventions.measure_arm]):
+            ``<figure>_low`` and ``<figure>_high`` are each arm's 95 % interval; an infinite or
+            NaN upper end of a learning time (a censored median) counts as unbounded.
+
+    Returns:
+        [PREDICTED][tableclean_suite.bench.interventions.PREDICTED] when the after arm's interval
+        lies wholly on the predicted side of the before arm's,
+        [OPPOSITE][tableclean_suite.bench.interventions.OPPOSITE] when wholly on the other side,
+        [NO_CLEAR_CHANGE][tableclean_suite.bench.interventions.NO_CLEAR_CHANGE] when they overlap.
+    """
     name = item.figure
     low_b, high_b = before[f"{name}_low"], before[f"{name}_high"]
     low_a, high_a = after[f"{name}_low"], after[f"{name}_high"]
     if name == "learning_time":  # a censored median: the interval reaches past the budget
         high_b, high_a = (math.inf if not math.isfinite(h) else h for h in (high_b, high_a))
     if high_a < low_b:
-        return "as predicted" if item.direction < 0 else "opposite"
+        return PREDICTED if item.direction < 0 else OPPOSITE
     if low_a > high_b:
-        return "as predicted" if item.direction > 0 else "opposite"
-    return "no clear change"
+        return PREDICTED if item.direction > 0 else OPPOSITE
+    return NO_CLEAR_CHANGE
 
 
 def _time_text(arm: dict, budget: int) -> str:
@@ -281,9 +301,9 @@ def run(args) -> int:
                              "predicted": f"{FIGURES[item.figure]} {'falls' if item.direction < 0 else 'rises'}",
                              **{key: _setting_text(value) for key, value in settings.items()}, "runs": args.runs,
                              "seed": args.seed, **arms[arm]})
-            outcome = verdict(item, arms["before"], arms["after"])
+            change = observed_change(item, arms["before"], arms["after"])
             for row in rows[-2:]:
-                row["verdict"] = outcome
+                row["change"] = change
             before, after = item.settings("before", args.scale), item.settings("after", args.scale)
             print(f"\n{name}: {item.claim}.")
             print(f"  cell: {before['learner']}, {_setting_text(before['reward'])}, task {before['task']}, gamma "
@@ -294,7 +314,7 @@ def run(args) -> int:
                 print(f"  {arm:<6}: learning time {_time_text(figures, settings['iterations'])}, censored "
                       f"{_share_text(figures, 'censored_share')}, plateau {_share_text(figures, 'success_plateau')},"
                       f" never terminal {_share_text(figures, 'never_terminal_share')}")
-            print(f"  predicted: {FIGURES[item.figure]} {'falls' if item.direction < 0 else 'rises'} -> {outcome}")
+            print(f"  predicted: {FIGURES[item.figure]} {'falls' if item.direction < 0 else 'rises'}; observed: {change}")
         frame = pd.DataFrame(rows)
         atomic_write(Path(out) / "interventions.csv", lambda path: frame.to_csv(path, index=False))
     print(f"\nWrote {Path(args.out) / 'interventions.csv'} in {time.perf_counter() - started:.1f} s wall.")
