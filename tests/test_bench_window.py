@@ -2,6 +2,7 @@
 for cells whose behaviour has settled; ``benchmarks.window_invariance`` measures it."""
 
 import math
+import re
 
 import pandas as pd
 import pytest
@@ -51,8 +52,11 @@ def test_figure_changes_pairs_cells_and_needs_both_windows_settled():
     beyond = window_invariance.relative_change(float("inf"), float("inf"))  # beyond both windows: no change
     assert beyond == 0.0 and window_invariance.relative_change(float("inf"), 900.0) == float("inf")
     assert not window_invariance.figure_changes(table(100, True), table(100, float("nan")))["settled"].any()
+    assert window_invariance.cells_above(changes, 0.05).to_dict() == pytest.approx({"q_learning r4": 0.1})
+    assert window_invariance.cells_above(changes, 0.1).empty  # a change equal to the threshold is not listed
     lines = window_invariance.summary_lines(changes, 0.05, (1, 2))
-    assert "NOT met" in lines[0] and "q_learning r4" in lines[0]
+    assert lines[0].endswith("more than 5.0 %: q_learning r4 (10.0 %)") and "largest change 10.0 %" in lines[0]
+    assert window_invariance.summary_lines(changes, 0.2, (1, 2))[0].endswith("more than 20.0 %: none")
     with pytest.raises(ValueError, match="no .* in common"):
         window_invariance.figure_changes(table(1, True), table(1, True).assign(reward="r1"))
 
@@ -67,7 +71,14 @@ def test_window_invariance_command_writes_its_comparison(tmp_path, capsys):
     short = pd.read_csv(out / "w1000" / "table3.csv").iloc[0]
     assert frame["short"].iloc[0] == short["learning_time_median"]
     assert frame["short"].iloc[1] == short["reward_convergence_iterations"]
-    assert "goal <= 5.0 %" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    settled = frame[frame["settled"]]
+    if len(settled):  # the summary's largest change is the CSV's
+        assert f"largest change {window_invariance._percent(settled['change'].max())}" in printed
+        assert "moving by more than 5.0 %" in printed
+    else:
+        assert "no cell settled in both windows" in printed
+    assert re.search(r"\b(goal|met)\b", printed) is None
 
 
 @pytest.mark.parametrize("argv, message", [
