@@ -44,6 +44,22 @@ def test_pair_and_skill_tables():
     assert skills["clean"]["mean_steps"] == pytest.approx(210.0)
     result = summary(ROWS)
     assert result["agreement"] == pytest.approx(3 / 5) and result["faults"] == 1 and result["rounds"] == 2
+    assert result["agreements"] == 3 and result["successes"] == {"move": 1, "pick": 0, "place": 0, "clean": 1}
+
+
+def test_the_summary_prints_counts_rates_and_exact_lower_bounds():
+    from scipy.stats import beta
+
+    # one-sided 95 % Clopper-Pearson lower bound of k of n: the 5 % quantile of Beta(k, n - k + 1)
+    assert fidelity.lower_bound(3, 5) == pytest.approx(beta.ppf(0.05, 3, 3))  # 0.1893
+    assert fidelity.lower_bound(1, 2) == pytest.approx(1 - 0.95 ** 0.5)  # 0.0253
+    lines = fidelity.summary_lines(summary(ROWS), "paper on Panda")
+    assert lines == [
+        "paper on Panda: 5 trials in 2 round(s): agreement 3/5 = 60.00 % (95 % lower bound 18.9 %), "
+        "lowest pair 50.00 %, 1 abstraction fault(s)",
+        "  move: success 1/2 = 50.00 % (95 % lower bound 2.5 %)",  # pick and place never ran: not listed
+        "  clean: success 1/2 = 50.00 % (95 % lower bound 2.5 %)",
+    ]
 
 
 def test_calibrated_table_counts_observations_and_leaves_faults_out(tmp_path):
