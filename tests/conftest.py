@@ -5,8 +5,8 @@ line in a new process), ``install`` (pip builds and installs the package), ``ray
 cluster), ``jit`` (compiles a numba kernel no disk cache serves).  Test files mark ``slow``
 themselves; the others are given here, from :data:`HEAVY_TESTS`, so one table says which tests
 leave the process or compile.  Every test that carries none
-of them is marked ``quick``: ``python -m pytest -m quick`` is the development tier (about 45-60 s on 2
-cores), and ``python -m pytest`` still runs everything.  (A test file may also mark its own tests, as
+of them is marked ``quick``: ``python -m pytest -m quick`` is the development tier (at most 2 minutes
+on 2 cores from an empty numba cache), and ``python -m pytest`` still runs everything.  (A test file may also mark its own tests, as
 tests/test_docs.py does per code block.)
 
 Both run on one pytest-xdist worker per core (``-n auto`` in pytest.ini; ``-n 0`` runs in this
@@ -33,8 +33,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen rendering without a displ
 #: Markers that keep a test out of the quick tier.
 HEAVY_MARKERS = ("slow", "cli", "install", "ray", "jit")
 
-#: Marker -> tests that carry it: a test file ("test_cli.py": all its tests) or one test
-#: ("test_demos.py::test_bad_policy_exits_2", parametrised ids included).
+#: Marker -> tests that carry it: a test file ("test_cli.py": all its tests), one test
+#: ("test_demos.py::test_bad_policy_exits_2", every parametrised id) or one of its ids ("...[id]").
 HEAVY_TESTS: dict[str, tuple[str, ...]] = {
     "cli": (
         "test_bench_cache.py",
@@ -64,6 +64,7 @@ HEAVY_TESTS: dict[str, tuple[str, ...]] = {
     ),
     "jit": (  # a user's learner gets its own compiled copy of the training loop, which no disk cache serves
         "test_learners.py::test_user_defined_learner_object_and_registration",
+        "test_learners.py::test_compiled_records_have_the_same_bits_for_any_thread_count[user_learner]",
         "test_learners_extra.py::test_a_user_target_with_the_trace_rule_gets_the_same_numbers",
         "test_learners_spec.py::test_user_learner_gets_its_own_compiled_loop_with_the_same_numbers",
     ),
@@ -84,7 +85,7 @@ def _table_marker(nodeid: str) -> list[str]:
     file = path.rsplit("/", 1)[-1]
     function = name.split("[", 1)[0]
     return [marker for marker, entries in HEAVY_TESTS.items()
-            if file in entries or f"{file}::{function}" in entries]
+            if file in entries or f"{file}::{function}" in entries or f"{file}::{name}" in entries]
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest's own -m selection reads the markers
@@ -104,7 +105,7 @@ def pytest_collection_modifyitems(config, items):
     stale = [entry for entries in HEAVY_TESTS.values() for entry in entries
              if not (here / entry.split("::")[0]).exists()
              or ("::" in entry and entry.split("::")[0] in modules
-                 and not hasattr(modules[entry.split("::")[0]], entry.split("::")[1]))]
+                 and not hasattr(modules[entry.split("::")[0]], entry.split("::")[1].split("[")[0]))]
     if stale:
         raise pytest.UsageError(f"tests/conftest.py HEAVY_TESTS names tests that do not exist: {', '.join(stale)}")
 

@@ -19,9 +19,8 @@ def test_each_intervention_changes_exactly_its_one_factor():
             "gamma_r3", "gamma_sarsa"} <= set(known)
     for item in known.values():
         before, after = item.settings("before"), item.settings("after")
-        changed = [key for key in before if interventions._setting_text(before[key]) !=
-                   interventions._setting_text(after[key])]
-        assert len(changed) == 1, (item.name, changed)
+        changed = interventions.changed_text(before, after)  # "key old -> new", comma-separated
+        assert changed.count(" -> ") == 1, (item.name, changed)
         assert item.figure in interventions.FIGURES and item.direction in (-1, 1)
     routine = known["routine_reward"].settings("after")["reward"]
     assert routine.routine == 0.0 and routine.terminal == 1.0  # r3 with only the routine reward changed

@@ -1,5 +1,7 @@
-"""The figures select their rows by factorized codes: the same rows as comparing the text."""
+"""The figures draw exactly the rows of their learner, metric and experiment: the rows comparing the
+text would select, from whichever frame they are given."""
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -8,31 +10,53 @@ from tableclean_suite.bench import plots
 pytestmark = pytest.mark.quick
 
 
-def _frame(rewards):
-    return pd.DataFrame({"learner": ["q_learning", "sarsa"] * len(rewards),
-                         "reward": [r for r in rewards for _ in range(2)],
-                         "experiment": ["main"] * (2 * len(rewards)),
-                         "value": range(2 * len(rewards))}).astype({"learner": "string", "reward": "string"})
+def _frame(rewards, offset=0.0):
+    """Two learners x ``rewards`` x two experiments, three iterations each; every row's value distinct."""
+    rows = [{"learner": learner, "reward": reward, "experiment": experiment, "metric": "average_reward",
+             "iteration": t, "value": offset + 100 * i + t}
+            for i, (learner, reward, experiment) in enumerate(
+                (learner, reward, experiment) for learner in ("q_learning", "sarsa") for reward in rewards
+                for experiment in ("main", "alpha_sweep"))
+            for t in (1, 2, 3)]
+    return pd.DataFrame(rows).astype({"learner": "string", "reward": "string"})
 
 
-def test_selection_matches_comparing_the_text_and_follows_a_new_frame():
+def _drawn(frame, learner, experiment="main"):
+    """``{reward: values}`` of the lines ``plot_rewards`` draws (no plateau lines)."""
+    fig, ax = plots.plot_rewards(frame, learner, "average_reward", experiment=experiment, plateau_fraction=None)
+    try:
+        return {line.get_label(): np.asarray(line.get_ydata(), dtype=float) for line in ax.get_lines()}
+    finally:
+        plots.pyplot().close(fig)
+
+
+def _expected(frame, learner, experiment="main"):
+    rows = frame[(frame["learner"] == learner) & (frame["experiment"] == experiment)]
+    return {reward: rows[rows["reward"] == reward].sort_values("iteration")["value"].to_numpy(dtype=float)
+            for reward in dict.fromkeys(rows["reward"])}
+
+
+def _same(a, b):
+    return a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
+
+
+def test_a_figure_draws_the_rows_comparing_the_text_selects_and_follows_a_new_frame():
     frame = _frame(["r1", "r2", "r4"])
-    picked = plots._select(frame, learner="sarsa", reward="r2")
-    expected = frame[(frame["learner"] == "sarsa") & (frame["reward"] == "r2")]
-    assert picked.equals(expected) and len(picked) == 1
-    assert len(plots._select(frame, reward="r3")) == 0  # absent value: no rows
-    other = _frame(["r3"])  # another frame (the codes of the last one must not be reused)
-    assert plots._select(other, reward="r3")["value"].tolist() == [0, 1]
-    assert plots._matches(other, "experiment", "main").all()
-    assert not plots._matches(other, "experiment", "alpha_sweep").any()
+    for learner in ("q_learning", "sarsa"):
+        for experiment in ("main", "alpha_sweep"):
+            drawn = _drawn(frame, learner, experiment)
+            assert len(drawn) == 3 and _same(drawn, _expected(frame, learner, experiment))
+    assert _drawn(frame, "expected_sarsa") == {}  # absent value: no rows, no lines
+    other = _frame(["r3"], offset=0.5)  # another frame: what was read from the last one must not be reused
+    assert _same(_drawn(other, "sarsa"), _expected(other, "sarsa"))
 
 
-def test_code_columns_factorizes_the_selected_columns_once_for_the_frame():
+def test_factorizing_the_columns_ahead_draws_the_same_rows():
     frame = _frame(["r1", "r4"])
     plots.code_columns(frame)  # before forking the drawing processes
-    coded, columns = plots._CODED
-    assert coded is frame and set(columns) == {"learner", "reward", "experiment"}  # the frame has no "metric"
-    assert plots._select(frame, reward="r4")["value"].tolist() == [2, 3]
+    assert _same(_drawn(frame, "sarsa"), _expected(frame, "sarsa"))
+    frame.loc[frame["learner"] == "sarsa", "value"] += 1000.0  # the values are read, not kept
+    assert _same(_drawn(frame, "sarsa"), _expected(frame, "sarsa"))
 
 
 def test_the_learning_time_figure_is_offered_only_with_the_kaplan_meier_curves():
