@@ -356,9 +356,10 @@ def main(argv=None, prog: str | None = None) -> int:
         return EXIT_INTERRUPTED
     config = args.config
     print(f"\nCoverage on task {config.task!r}: alpha {config.alpha:g}, gamma {config.gamma:g}, {config.runs} runs x "
-          f"{config.iterations} iterations per replication, {config.bootstrap_samples} bootstrap replicates.")
-    print(f"target = the {args.reference_runs}-run reference's value; nominal {100 * config.confidence:g} %; "
-          f"interval = {100 * args.confidence:g} % Clopper-Pearson interval of the coverage, in %.")
+          f"{config.iterations} iterations per replication,")
+    print(f"  {config.bootstrap_samples} bootstrap replicates; target = the {args.reference_runs}-run "
+          f"reference's value; nominal {100 * config.confidence:g} %;")
+    print(f"  interval = {100 * args.confidence:g} % Clopper-Pearson interval of the coverage, in %.")
     for line in display_lines(frame):
         print(line)
     print(f"written: {out / RESULT_FILE} (in {time.perf_counter() - started:.1f} s)")
