@@ -142,14 +142,16 @@ def test_a_study_that_cannot_fit_is_refused_before_its_tables_are_built(tmp_path
     from tableclean_suite.task import TaskModel
 
     monkeypatch.delenv(resources.OVERRIDE_ENV, raising=False)
-    monkeypatch.setattr(resources, "available_bytes", lambda: 1024**3)
+    runs, iterations = 10**7, 10**6  # a stage's records alone: tebibytes, more than the machine has
 
     def never(self):
         raise AssertionError("the transition table was built")
 
     monkeypatch.setattr(TaskModel, "transition_arrays", never)
-    with pytest.raises(resources.InsufficientMemoryError, match="a tuning stage"):
-        tune.main(["--runs", "100000", "--iterations", "4000", "--trials", "1", "--out", str(tmp_path / "tune")])
+    with pytest.raises(resources.InsufficientMemoryError, match="a tuning stage") as refused:
+        tune.main(["--runs", str(runs), "--iterations", str(iterations), "--trials", "1",
+                   "--out", str(tmp_path / "tune")])
+    assert f"{runs // tune.STAGES} runs x {iterations} iterations" in str(refused.value)  # the sizes it was given
     assert not (tmp_path / "tune" / "study.db").exists()
 
 
