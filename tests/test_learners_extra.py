@@ -207,8 +207,15 @@ EXPLORATIONS = ["epsilon_greedy", "linear_decay", "exponential_decay", "visit_de
                 {"name": "softmax", "temperature": 0.5, "rate": 0.01}]
 
 
-@pytest.mark.parametrize("task", ["paper", "three_segments_two_objects"])
-@pytest.mark.parametrize("exploration", EXPLORATIONS, ids=lambda e: e if isinstance(e, str) else "softmax_decaying")
+#: Explorations whose compiled loop on a wider state code (a multi-object task) no other quick test
+#: trains: their cases compile it (tens of seconds from an empty cache) and are marked ``jit``.
+ONLY_HERE = ("linear_decay", "exponential_decay")
+
+
+@pytest.mark.parametrize("exploration,task", [
+    pytest.param(exploration, task, id=f"{exploration if isinstance(exploration, str) else 'softmax_decaying'}-{task}",
+                 marks=[pytest.mark.jit] if task != "paper" and exploration in ONLY_HERE else [])
+    for task in ("paper", "three_segments_two_objects") for exploration in EXPLORATIONS])
 @pytest.mark.parametrize("learner", ALL_LEARNERS)
 def test_compiled_equals_plain_loop_for_every_learner_and_exploration(learner, exploration, task):
     kwargs = dict(runs=2, iterations=200, seed=7, epsilon=0.3, max_itr=60, task=task, exploration=exploration)
