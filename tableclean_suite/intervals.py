@@ -189,50 +189,34 @@ class _Improvement:
                 / (nx * ny)).reshape(lead)
 
 
-def probability_of_improvement(x, y, higher_is_better: bool = True, margin: float = 0.0) -> float:
-    """P(a run of X beats a run of Y by more than ``margin``) + P(they tie) / 2, over all pairs.
+def unseen_share(runs: int, confidence: float = DEFAULT_CONFIDENCE) -> float:
+    """The largest share of all runs that ``runs`` independent runs can all have missed, at ``confidence``.
 
-    rliable's definition for ``margin = 0``.  With a practical-equivalence ``margin`` (>= 0, in
-    the score's units) a pair is a tie when ``|x - y| <= margin``.  Equal values always tie.
+    ``1 - ((1 - confidence) / 2) ** (1 / runs)``: the exact (Clopper-Pearson) upper bound on the
+    probability of an outcome seen in none of the runs (about 3.7 / ``runs`` at 95 %).  A rare
+    kind of run (e.g. one that never converges, 1 in 5000) is absent from most samples of 1000
+    runs, and a bootstrap of those samples cannot move past what they hold.
     """
-    if not margin >= 0:
-        raise ValueError(f"margin must be a number >= 0 (score units), got {margin!r}")
-    x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
-    return float(_Improvement(x, y, higher_is_better, margin)(np.arange(len(x)), np.arange(len(y))))
+    if runs < 1:
+        raise ValueError(f"runs must be an integer >= 1, got {runs!r}")
+    return 1.0 - ((1.0 - check_confidence(confidence)) / 2.0) ** (1.0 / runs)
 
 
-class _Improvement:
-    """:func:`probability_of_improvement` of resamples given as run *indices* into fixed X and Y,
-    by counting, never forming the pairs: each y is replaced once by its rank among Y's distinct
-    values, each x by the ranks it beats by more than ``margin`` and does not fall short of; a
-    resample then needs only a count of its y ranks (exact integers, so the result does not
-    depend on any order).  Called by ``scipy.stats.bootstrap`` with index arrays whose leading
-    axes broadcast (``(B, nx)`` and ``(B, ny)``, or the jackknife's shapes)."""
+def widened_for_unseen_runs(low: float, high: float, values, limits: tuple[float, float],
+                            confidence: float = DEFAULT_CONFIDENCE) -> tuple[float, float]:
+    """An interval ``(low, high)`` of the mean of per-run ``values`` (shape ``(R,)``, each within
+    ``limits``), widened by what runs absent from the sample could move that mean.
 
-    def __init__(self, x, y, higher_is_better: bool, margin: float):
-        x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
-        if not higher_is_better:
-            x, y = -x, -y
-        distinct = np.unique(y)
-        self.width = len(distinct) + 1
-        self.y_rank = np.searchsorted(distinct, y) + 1
-        with np.errstate(invalid="ignore"):
-            self.beaten = np.searchsorted(distinct, x - margin, side="left")  # ranks of y < x - margin
-            self.not_above = np.searchsorted(distinct, x + margin, side="right")  # ranks of y <= x + margin
-        self.pairs = len(x) * len(y)
-
-    def __call__(self, ix, iy, axis=-1):
-        ix, iy = np.moveaxis(np.asarray(ix), axis, -1), np.moveaxis(np.asarray(iy), axis, -1)
-        lead = np.broadcast_shapes(ix.shape[:-1], iy.shape[:-1])
-        nx, ny = ix.shape[-1], iy.shape[-1]
-        ix = np.broadcast_to(ix, (*lead, nx)).reshape(-1, nx).astype(np.int64)
-        iy = np.broadcast_to(iy, (*lead, ny)).reshape(-1, ny).astype(np.int64)
-        rows = np.arange(len(iy))[:, None]
-        codes = (rows * self.width + self.y_rank[iy]).ravel()
-        below = np.cumsum(np.bincount(codes, minlength=len(iy) * self.width).reshape(len(iy), self.width), axis=1)
-        beaten = below[rows, self.beaten[ix]]
-        not_above = below[rows, self.not_above[ix]]
-        return ((beaten + HALF * (not_above - beaten)).sum(axis=1) / (nx * ny)).reshape(lead)
+    At most a share s = [unseen_share][tableclean_suite.intervals.unseen_share] of all runs can
+    be of a kind the sample holds none of; at worst they lie at a limit, so the mean can sit up to
+    ``s x (min(values) - limits[0])`` below the sample's and ``s x (limits[1] - max(values))``
+    above.  Each end moves by that much, within ``limits``.  Target: the mean over unlimited runs.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    share = unseen_share(len(values), confidence)
+    bottom, top = limits
+    return (max(bottom, low - share * (float(values.min()) - bottom)),
+            min(top, high + share * (top - float(values.max()))))
 
 
 def improvement_estimate(x, y, higher_is_better: bool = True, margin: float = 0.0,
@@ -240,12 +224,17 @@ def improvement_estimate(x, y, higher_is_better: bool = True, margin: float = 0.
                          method: str = "percentile", rng: np.random.Generator | None = None
                          ) -> tuple[float, float, float]:
     """``(P, low, high)``: :func:`probability_of_improvement` with a stratified bootstrap interval
-    (X's runs and Y's runs resampled separately, :func:`interval_estimates`).  The interval targets
-    the probability that a new run of X beats a new run of Y (ties half)."""
+    (X's runs and Y's runs resampled separately, :func:`interval_estimates`), each end moved out by
+    the share of pairs that runs of a kind absent from both samples could take part in
+    ([unseen_share][tableclean_suite.intervals.unseen_share] of X plus that of Y), within [0, 1].
+    The interval targets the probability that a new run of X beats a new run of Y (ties half)."""
     if not margin >= 0:
         raise ValueError(f"margin must be a number >= 0 (score units), got {margin!r}")
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
     runs = (np.arange(len(x)), np.arange(len(y)))  # resampled as run indices
     points, intervals = interval_estimates({"p": runs}, _Improvement(x, y, higher_is_better, margin), confidence,
                                            reps, method, rng)
-    return points["p"], *intervals["p"]
+    # runs of X or Y of a kind neither sample holds take part in at most a share sx + sy of the pairs
+    unseen = unseen_share(len(x), confidence) + unseen_share(len(y), confidence)
+    low, high = intervals["p"]
+    return points["p"], max(0.0, low - unseen), min(1.0, high + unseen)

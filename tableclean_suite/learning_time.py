@@ -178,6 +178,7 @@ def learning_time_summary(learned_at, budget: int, confidence: float = intervals
         quantiles[name] = (_crossing(steps, fit.probabilities, level), _crossing(steps, low_curve, level),
                            _crossing(steps, high_curve, level))
     points, bounds = intervals.interval_estimates({"rmst": times}, np.mean, confidence, reps, method, rng)
+    bounds["rmst"] = intervals.widened_for_unseen_runs(*bounds["rmst"], times, (0.0, float(budget)), confidence)
     share_low, share_high = intervals.clopper_pearson(int(censored.sum()), runs, confidence)
     return LearningTime(runs, int(budget), *quantiles["median"], *quantiles["q1"], *quantiles["q3"],
                         points["rmst"], *bounds["rmst"], float(censored.mean()), share_low, share_high, confidence)

@@ -187,6 +187,14 @@ class RewardPattern:
             value = value + self.looping_penalty if self.looping_code == LOOPING_ADD else self.looping_penalty
         return value
 
+    def step_reward_bounds(self) -> tuple[float, float]:
+        """``(low, high)``: bounds on one step's reward, every component that can combine added (the
+        negative ones for ``low``, the positive ones for ``high``), so an average reward per step of
+        any behaviour lies within them."""
+        components = [self.terminal, self.relevant_clean, self.irrelevant_clean, self.routine, self.improper,
+                      self.ineffective or 0.0, self.looping_penalty or 0.0]
+        return sum(min(0.0, v) for v in components), sum(max(0.0, v) for v in components)
+
     def as_row(self) -> dict:
         """A Table 2 style row (``None`` for a disabled looping penalty)."""
         return {
