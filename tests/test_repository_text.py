@@ -66,8 +66,6 @@ def test_legitimate_text_passes(text):
     assert findings(text) == []
 
 
-@pytest.mark.xfail(strict=False, reason="README.md and docs/getting-started.md still name an issue, a commit, "
-                                        "a working session and a scratch path; their owners scrub them")
 def test_the_repository_names_no_issue_commit_session_or_machine_path():
     found = [f"{path.relative_to(ROOT)}:{number}: {what}: {match!r}"
              for path, text in scanned_files() for number, what, match in findings(text)]
