@@ -236,26 +236,34 @@ def test_the_grid_estimate_counts_double_q_and_the_settling_snapshots(monkeypatc
     assert settling == 2 * plain and double == 8 * plain  # the checkpoint copy; double Q's 5 tables and 3 snapshots
 
 
-def _grid_seconds(backend: str) -> tuple[float, int]:
-    """(estimated seconds, learner steps) of a two-learner grid on the paper task with ``backend``."""
+def _grid_plans(backend: str, analysis: str = "auto"):
+    """(estimated seconds, the cells' analysis plans) of a two-learner grid on the paper task."""
     config = RunConfig(learners=("q_learning", "double_q_learning"), rewards=("r4",), runs=500, iterations=4000,
-                       out="unused", backend=backend)
+                       out="unused", backend=backend, analysis=analysis, sweeps=False, literature=False)
+    model = TaskModel()
     cells = experiments.unique_cells(experiments.config_grid(config))
-    return experiments.check_grid_resources(cells, config, TaskModel()), len(cells) * config.runs * config.iterations
+    return (experiments.check_grid_resources(cells, config, model),
+            [experiments.cell_plan(cell, config, model) for cell in cells])
 
 
-def test_the_grid_time_counts_training_once_with_settling_and_the_checkpoints_analysis(monkeypatch):
+def test_the_grid_time_counts_training_once_and_each_cells_planned_analysis(monkeypatch):
     """Settling (symbolic) keeps the checkpoint's Q-tables in the same training pass as without it
-    (physics): the same learner steps at the engine's rate; only its asymptote analysis is extra."""
+    (physics): the same training estimate; only the checkpoint's asymptote analysis is extra.  A
+    forced simulation is costed as a simulation."""
     monkeypatch.delenv(resources.OVERRIDE_ENV, raising=False)
-    monkeypatch.setattr(experiments, "ANALYSIS_PAIRS_PER_SECOND", float("inf"))  # training time only
-    (settling, steps), (plain, same_steps) = _grid_seconds("symbolic"), _grid_seconds("physics")
-    assert steps == same_steps
-    assert settling == plain == steps / resources.steps_per_second(resources.DEFAULT_ENGINE)
-    monkeypatch.setattr(experiments, "ANALYSIS_PAIRS_PER_SECOND", 6e6)
-    monkeypatch.setitem(resources.ENGINE_STEPS_PER_SECOND, resources.DEFAULT_ENGINE, float("inf"))  # analyses only
-    (settling, _), (plain, _) = _grid_seconds("symbolic"), _grid_seconds("physics")
-    assert settling == 2 * plain > 0  # the final Q-tables' asymptotes and the checkpoint's
+    (settling, checked), (plain, unchecked) = _grid_plans("symbolic"), _grid_plans("physics")
+    assert [p.training_seconds for p in checked] == [p.training_seconds for p in unchecked]
+    q_learning = checked[0].training_seconds
+    assert q_learning == pytest.approx(500 * 4000 / resources.steps_per_second(resources.DEFAULT_ENGINE)
+                                       + 500 * TaskModel().n_states * 4 / resources.TABLE_ENTRIES_PER_SECOND)
+    assert checked[1].training_seconds > q_learning  # double Q-learning's second table
+    assert all(p.kind == "exact" and p.exact_seconds > u.exact_seconds for p, u in zip(checked, unchecked))
+    assert settling - plain == pytest.approx(sum(p.exact_seconds - u.exact_seconds
+                                                 for p, u in zip(checked, unchecked)))
+    simulated, plans = _grid_plans("symbolic", "simulated")
+    assert [p.kind for p in plans] == ["simulated"] * 2
+    assert simulated == pytest.approx(sum(p.training_seconds + p.simulated_seconds for p in plans))
+    assert simulated != pytest.approx(settling)
 
 
 @pytest.mark.parametrize("terms", [[(2, 10**30), (10**30 + 1, 1), (10**30, 1)],  # segments of 10**30

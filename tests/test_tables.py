@@ -253,12 +253,22 @@ def test_cell_key_includes_the_code():
     config = experiments.cell_config(experiments.Cell("q_learning", "r4", 0.3, 0.3), _config(), PAPER_MODEL)
     assert config["learner"]["code_digest"] == code_digest(get_learner("q_learning"))
     assert config["task_digest"] == PAPER_MODEL.code_digest()
-    from tableclean_suite import analysis, asymptotes, curves, intervals, learning_time, settling
+    from tableclean_suite import analysis, asymptotes, curves, intervals, learning_time, settling, simulation
     from tableclean_suite.bench import statistics
 
-    sources = "".join(inspect.getsource(m) for m in (curves, metrics, asymptotes, analysis, settling, intervals,
-                                                     learning_time, statistics))
+    sources = "".join(inspect.getsource(m) for m in (curves, metrics, asymptotes, analysis, simulation, settling,
+                                                     intervals, learning_time, statistics))
     assert config["metrics_digest"] == hashlib.sha256(sources.encode()).hexdigest()
+
+
+def test_a_simulated_cell_key_names_its_analysis_and_an_exact_one_is_unchanged():
+    cell = experiments.Cell("q_learning", "r4", 0.3, 0.3)
+    exact = experiments.cell_config(cell, _config(), PAPER_MODEL)
+    forced = experiments.cell_config(cell, _config(analysis="exact"), PAPER_MODEL)
+    simulated = experiments.cell_config(cell, _config(analysis="simulated", analysis_episodes=50), PAPER_MODEL)
+    assert "analysis" not in exact and exact == forced  # auto chose exact on the paper task: the same key
+    assert simulated["analysis"] == "simulated (50 episodes per run)"
+    assert {k: v for k, v in simulated.items() if k != "analysis"} == exact
 
 
 def _summary(iterations=5):

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 import tableclean_suite
-from tableclean_suite import analysis, asymptotes, intervals, learning_time, metrics, resources, settling
+from tableclean_suite import analysis, asymptotes, intervals, learning_time, metrics, resources, settling, simulation
 from tableclean_suite import curves as curve_sums
 from tableclean_suite.learners.memory import learner_training_memory
 from tableclean_suite.backends import CHECKPOINT_Q, get_backend
@@ -54,10 +54,12 @@ from tableclean_suite.rewards import get_reward_pattern
 #: 4: per-run learning times and their summary; intervals over independent runs; full-length bands.
 CELL_FORMAT_VERSION = 4
 
-#: Memory budget of one training chunk's records (bytes): a run of T iterations records
-#: :data:`RECORD_BYTES_PER_ITERATION` bytes per iteration, so a chunk holds about
-#: ``CHUNK_BYTES / (T * RECORD_BYTES_PER_ITERATION)`` runs (at least one).
-CHUNK_BYTES = 64_000_000
+#: Memory budget of one training chunk's records and final Q-tables (bytes): a run of T iterations
+#: records :data:`RECORD_BYTES_PER_ITERATION` bytes per iteration, so a chunk holds about
+#: ``CHUNK_BYTES / (T * RECORD_BYTES_PER_ITERATION + S * A * 8)`` runs (at least one).  Every chunk
+#: pays fixed costs of the table's size (the backend's copies of the transition table, about
+#: 0.5 s on a 3-million-state spec), so a chunk of one run each would spend most of its time there.
+CHUNK_BYTES = 1_000_000_000
 #: reward (float64) + outcome, state, action, episode end (int8 each).
 RECORD_BYTES_PER_ITERATION = 8 + 4
 
@@ -129,16 +131,17 @@ def unique_cells(grid: list[Membership]) -> list[Cell]:
 def metrics_digest() -> str:
     """SHA-256 (hex) of the sources that compute a summary from records: :mod:`tableclean_suite.curves`
     (the curves accumulated from records), :mod:`tableclean_suite.metrics`,
-    :mod:`tableclean_suite.asymptotes` (and the :mod:`~tableclean_suite.analysis` it calls),
+    :mod:`tableclean_suite.asymptotes` (and the :mod:`~tableclean_suite.analysis` it calls, and
+    :mod:`tableclean_suite.simulation`, which estimates them when they are simulated),
     :mod:`tableclean_suite.settling`, :mod:`tableclean_suite.intervals`,
     :mod:`tableclean_suite.learning_time` and :mod:`.statistics`."""
-    text = "".join(inspect.getsource(module) for module in (curve_sums, metrics, asymptotes, analysis, settling,
-                                                            intervals, learning_time, statistics))
+    text = "".join(inspect.getsource(module) for module in (curve_sums, metrics, asymptotes, analysis, simulation,
+                                                            settling, intervals, learning_time, statistics))
     return hashlib.sha256(text.encode()).hexdigest()
 
 
 def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | None = None,
-                task_digest: str | None = None, plugins_key: dict | None = None) -> dict:
+                task_digest: str | None = None, plugins_key: dict | None = None, plan=None) -> dict:
     """Everything that determines a cell's stored summary (JSON-serialisable).
 
     Args:
@@ -150,6 +153,9 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
             rules' sources: ~15 ms, so :func:`run_grid` computes it once for all its cells).
         plugins_key: :func:`_plugins_key` of ``config`` when the caller has it already (it hashes the
             plugin modules' files, so :func:`run_grid` computes it once for all its cells).
+        plan: the cell's [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan] ([cell_plan][tableclean_suite.bench.experiments.cell_plan]);
+            None: planned here.  A simulated plan enters the key as its label (``"analysis"``); an
+            exact one adds nothing, so exact cells keep the keys they had before simulation existed.
 
     The key includes the code as well as the values: the learner's digest
     (:func:`tableclean_suite.learners.code_digest`: training loop, random numbers, its TD
@@ -164,6 +170,7 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
     """
     pattern = get_reward_pattern(cell.reward)
     learner = config.learner(cell.learner)
+    plan = cell_plan(cell, config, model) if plan is None else plan
     reward_values = {k: getattr(pattern, k) for k in (
         "terminal", "relevant_clean", "irrelevant_clean", "routine", "improper",
         "ineffective", "looping_penalty", "looping_mode", "looping_memory", "terminal_mode",
@@ -182,6 +189,7 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
         "transitions_sha256": transitions_sha256,
         "metrics_digest": metrics_digest(),
         **(_plugins_key(config) if plugins_key is None else plugins_key),
+        **({"analysis": plan.label} if plan.kind != "exact" else {}),
     }
 
 
@@ -357,12 +365,22 @@ def q_table_bytes(model) -> int:
 
 #: Estimated seconds above which :func:`run_grid` says on stderr how long its training will take.
 LONG_GRID_SECONDS = 600
-#: Bytes per (state, action) pair of a chunk's asymptote analysis (the episode chain and the exact
-#: DP's arrays): measured ~270 B peak on a 10-segment, 2-object task (1.24 M states).
+#: The exact analysis's bytes per (state, action) pair and its speed, for the tuning command's own
+#: estimate ([cell_plan][tableclean_suite.bench.experiments.cell_plan] costs the harness's cells).
 ANALYSIS_BYTES_PER_PAIR = 256
-#: (state, action) pairs the asymptote DP visits per second, per DP step (measured ~6e6 on a
-#: 10-segment, 2-object task); it runs up to ``max_itr`` steps per chunk.
 ANALYSIS_PAIRS_PER_SECOND = 6_000_000
+
+
+def cell_plan(cell: Cell, config: RunConfig, model, transitions=None):
+    """The [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan] of ``cell``: exact or simulated
+    asymptotes (``config.analysis``, ``config.analysis_episodes``), costed for its runs analysed a
+    training chunk at a time (:func:`chunk_runs`), with the settling checkpoint's analysis when the
+    backend keeps one; ``transitions``: the calibrated table (its successors per pair), if any."""
+    chunk = min(config.runs, chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model)))
+    return analysis.cell_plan(model, cell.reward, config.learner(cell.learner), config.runs, config.iterations,
+                              config.max_itr, config.analysis, runs_per_call=chunk, checkpoint=_checkpoint(config) > 0,
+                              max_successors=1 if transitions is None else int(transitions.max_successors),
+                              episodes=config.analysis_episodes)
 
 
 def chunk_memory(cells, config: RunConfig, model) -> resources.MemoryEstimate:
@@ -375,15 +393,17 @@ def chunk_memory(cells, config: RunConfig, model) -> resources.MemoryEstimate:
                key=lambda estimate: estimate.total)
 
 
-def check_grid_resources(cells, config: RunConfig, model) -> float:
+def check_grid_resources(cells, config: RunConfig, model, plans: dict | None = None) -> float:
     """Refuse (before training) a grid whose cells cannot fit in memory or would run too long;
     returns the estimated seconds of training and analysis (0 without cells).
 
-    Memory: one chunk's records and Q-tables (:func:`chunk_runs`), the tables and the chunk's
-    asymptote analysis (:data:`ANALYSIS_BYTES_PER_PAIR`).  Time: every cell's learner steps
-    (``runs x iterations``, once: the settling checkpoint is kept by the same pass) at the engine's
-    rate (:func:`tableclean_suite.resources.steps_per_second`) plus one asymptote DP per chunk, and
-    one more for the checkpoint's Q-tables when the backend settles.
+    Memory: one chunk's records and Q-tables (:func:`chunk_runs`), the tables and the largest
+    analysis call of the cells' plans.  Time: every cell's training
+    ([tableclean_suite.resources.training_seconds][]; once: the settling checkpoint is kept by the
+    same pass) and its analysis, exact or simulated, as its plan estimates it.
+
+    Args:
+        plans: ``{cell: AnalysisPlan}`` (:func:`cell_plan`) when the caller has them; None: planned here.
 
     Raises:
         tableclean_suite.resources.ResourceError: one line naming the estimate, what is available
@@ -392,25 +412,27 @@ def check_grid_resources(cells, config: RunConfig, model) -> float:
     cells = list(cells)
     if not cells:
         return 0.0
-    pairs = int(model.n_states) * int(model.n_actions)
+    plans = [cell_plan(cell, config, model) if plans is None else plans[cell] for cell in cells]
     chunk = min(config.runs, chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model)))
-    settles = getattr(get_backend(config.backend), "deterministic_prefix", False)  # keeps checkpoint Q-tables
     memory = chunk_memory(cells, config, model)
-    memory += resources.MemoryEstimate({"asymptote analysis": pairs * ANALYSIS_BYTES_PER_PAIR,
+    memory += resources.MemoryEstimate({"asymptote analysis": max(plan.bytes for plan in plans),
                                         "per-run scores": config.runs * len(statistics.RUN_SCORES)
                                         * resources.WORD_BYTES})
     what = (f"a cell of task {model.spec.name!r} ({model.n_states} states x {model.n_actions} actions, "
             f"{chunk} of {config.runs} runs x {config.iterations} iterations at a time)")
     resources.require_memory(memory, what)
-    steps = len(cells) * config.runs * config.iterations
-    rate = resources.steps_per_second(resources.DEFAULT_ENGINE)
-    analyses = len(cells) * -(-config.runs // chunk) * (1 + int(settles))  # final (and checkpoint) asymptotes
-    analysis_steps = analyses * config.max_itr * pairs
-    seconds = steps / rate + analysis_steps / ANALYSIS_PAIRS_PER_SECOND
+    seconds = sum(plan.training_seconds + plan.seconds for plan in plans)
     resources.require_time(seconds, f"training {len(cells)} cell(s) of task {model.spec.name!r}",
-                           f"{steps:.3g} learner steps at {rate:.3g}/s and {analyses} asymptote "
-                           f"analyses of {config.max_itr} x {pairs} pairs at {ANALYSIS_PAIRS_PER_SECOND:.3g}/s")
+                           plans_text(plans))
     return seconds
+
+
+def plans_text(plans) -> str:
+    """The distinct :meth:`~tableclean_suite.analysis.AnalysisPlan.describe` texts of ``plans``, with
+    how many cells each is, joined by ``; ``."""
+    texts = [plan.describe() for plan in plans]
+    return "; ".join(f"{text} ({texts.count(text)} cells)" if texts.count(text) > 1 else text
+                     for text in dict.fromkeys(texts))
 
 
 def cell_chunks(cell: Cell, config: RunConfig, model, transitions=None, runs_per_chunk: int | None = None,
@@ -445,13 +467,14 @@ def _train_chunk(cell: Cell, config: RunConfig, model, transitions, chunk: int, 
     )
 
 
-def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
-               runs_per_chunk: int | None = None, chunks=None) -> tuple[Summary, CellStatistics, float, float]:
+def train_cell(cell: Cell, config: RunConfig, model, transitions=None, runs_per_chunk: int | None = None,
+               chunks=None, plan=None) -> tuple[Summary, CellStatistics, float, float]:
     """Train one cell chunk by chunk of runs and summarise it, with intervals.
 
     Each chunk is ``train(runs=chunk, first_run=lo, ...)``; its per-iteration sums are added to a
-    :class:`~tableclean_suite.curves.CurveSums`, its final Q-tables give each run's exact
-    asymptotes (:func:`tableclean_suite.analysis.final_asymptotes`), its runs' learning times
+    :class:`~tableclean_suite.curves.CurveSums`, its final Q-tables give each run's exact (or, by
+    the cell's ``plan``, simulated) asymptotes (:func:`tableclean_suite.analysis.final_asymptotes`),
+    its runs' learning times
     (``TrainingResult.learned_at``) are kept, and its records are dropped, so memory is one
     chunk's records whatever ``config.runs``.  Random numbers are
     counter-based per run, so the summary is the same whatever the chunking.
@@ -473,6 +496,9 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
         runs_per_chunk: runs per ``train()`` call (default :func:`chunk_runs` of the iterations).
         chunks: the cell's :func:`cell_chunks` (with the same ``runs_per_chunk``) when the caller
             trains them (e.g. with another engine); None: trained here, one after the other.
+        plan: the cell's [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan] (:func:`cell_plan`;
+            None: planned here).  Simulated plateaus carry their Monte Carlo error into their
+            intervals ([tableclean_suite.analysis.with_monte_carlo_error][]).
 
     Returns:
         ``(summary, statistics, train_seconds, metrics_seconds)``.
@@ -481,8 +507,10 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
     if chunks is None:
         chunks = cell_chunks(cell, config, model, transitions, chunk)
     sums = CurveSums.zeros(config.iterations)
-    chain = asymptotes.EpisodeChain.build(model, cell.reward, transitions)
+    plan = cell_plan(cell, config, model, transitions) if plan is None else plan
+    chain = analysis.analysis_chain(model, cell.reward, transitions, plan)
     per_run = {name: [] for name in metrics.PLATEAU_NAMES}
+    errors = {name: [] for name in analysis.ESTIMATED_FACTS}
     learned_at = []
     checkpoint = _checkpoint(config)
     drifts = []
@@ -500,6 +528,9 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
         final, early_success = chunk_analysis(result, chain, config, model, checkpoint)
         for name, values in per_run.items():
             values.append(final[name])
+        for name, values in errors.items():
+            if name + analysis.ERROR_SUFFIX in final:
+                values.append(final[name + analysis.ERROR_SUFFIX])
         del result
         metrics_seconds += time.perf_counter() - started
         if checkpoint:
@@ -525,6 +556,9 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None,
         config.bootstrap_samples, config.confidence,
         learned_at=np.concatenate(learned_at) if recorded else None, budget=config.iterations,
         drift=np.concatenate(drifts) if checkpoint else None, checkpoint=checkpoint,
+        monte_carlo={name: analysis.monte_carlo_error(np.concatenate(values)) for name, values in errors.items()
+                     if values},
+        average_reward_limits=get_reward_pattern(cell.reward).step_reward_bounds(),
     )
     return summary, cell_stats, train_seconds, metrics_seconds + time.perf_counter() - started
 
@@ -640,13 +674,14 @@ def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, flo
 
         transitions = TransitionTable.from_json(config.transitions, model)
         transitions_sha256 = file_sha256(config.transitions)
-    digest = config_hash(cell_config(task.cell, config, model, transitions_sha256))
+    plan = cell_plan(task.cell, config, model, transitions)
+    digest = config_hash(cell_config(task.cell, config, model, transitions_sha256, plan=plan))
     if digest != task.key_hash:
         raise CellKeyMismatchError(
             f"cell {task.cell.label}: this worker's cell key {digest} differs from the driver's {task.key_hash}; "
             "install the same code (and the modules registering its learners, rewards and tasks) and the same "
             "transition table on every machine")
-    return train_cell(task.cell, config, model, transitions)
+    return train_cell(task.cell, config, model, transitions, plan=plan)
 
 
 def cell_tasks(cells, keys: dict, config: RunConfig) -> list[CellTask]:
@@ -658,7 +693,8 @@ def cell_tasks(cells, keys: dict, config: RunConfig) -> list[CellTask]:
 
 @dataclass
 class GridRun:
-    """What :func:`run_grid` did: summaries per cell, and how they were obtained."""
+    """What :func:`run_grid` did: summaries per cell, and how they were obtained (``plans``: each
+    cell's [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan], :func:`cell_plan`)."""
 
     summaries: dict = field(default_factory=dict)
     statistics: dict = field(default_factory=dict)
@@ -666,6 +702,7 @@ class GridRun:
     trained: int = 0
     train_seconds: float = 0.0
     metrics_seconds: float = 0.0
+    plans: dict = field(default_factory=dict)
 
 
 def run_grid(
@@ -705,8 +742,9 @@ def run_grid(
     outcome = GridRun()
     task_digest = model.code_digest()
     plugins_key = _plugins_key(config)
-    keys = {cell: cell_config(cell, config, model, transitions_sha256, task_digest, plugins_key)
-            for cell in unique_cells(grid)}
+    outcome.plans = {cell: cell_plan(cell, config, model, transitions) for cell in unique_cells(grid)}
+    keys = {cell: cell_config(cell, config, model, transitions_sha256, task_digest, plugins_key, plan)
+            for cell, plan in outcome.plans.items()}
     pending = []
     for cell, key in keys.items():
         stored = None if config.fresh else store.load(cell, key)
@@ -717,17 +755,18 @@ def run_grid(
             outcome.resumed += 1
             if on_cell is not None:
                 on_cell(outcome)
-    estimate = check_grid_resources(pending, config, model)
-    if estimate > LONG_GRID_SECONDS:
-        print(f"note: training {len(pending)} cell(s) is estimated to take about {resources.format_seconds(estimate)}",
-              file=sys.stderr)
+    estimate = check_grid_resources(pending, config, model, outcome.plans)
+    simulated = [outcome.plans[cell] for cell in pending if outcome.plans[cell].kind == "simulated"]
+    if estimate > LONG_GRID_SECONDS or simulated:
+        print(f"note: training {len(pending)} cell(s) is estimated to take about {resources.format_seconds(estimate)}"
+              + (f"; {plans_text(simulated)}" if simulated else ""), file=sys.stderr)
     bar = tqdm(total=len(keys), initial=outcome.resumed, desc="cells", unit="cell", disable=not config.progress,
                leave=False)
 
     def train_here():
         for cell in pending:
             bar.set_postfix_str(f"{outcome.resumed} resumed, training {cell.label}" if outcome.resumed else cell.label)
-            yield train_cell(cell, config, model, transitions)
+            yield train_cell(cell, config, model, transitions, plan=outcome.plans[cell])
 
     if executor is None or not pending:
         results = train_here()
@@ -749,7 +788,8 @@ def run_grid(
 
 
 def cell_records(grid: list[Membership], summaries: dict, cell_statistics: dict | None = None,
-                 settle_tolerance: float = settling.DEFAULT_SETTLE_TOLERANCE) -> tuple[list[dict], list[dict]]:
+                 settle_tolerance: float = settling.DEFAULT_SETTLE_TOLERANCE,
+                 plans: dict | None = None) -> tuple[list[dict], list[dict]]:
     """Cell records (keys + scalars, with ``_low``/``_high`` bounds where the scalar has an
     interval, the per-run learning time (:data:`.statistics.LEARNING_TIME_COLUMNS`) and settling when
     ``cell_statistics`` are given) and curve sets (with ``<curve>_low``/``_high`` bands), one per
@@ -757,12 +797,15 @@ def cell_records(grid: list[Membership], summaries: dict, cell_statistics: dict 
 
     Settling columns: ``behaviour_drift`` (+ ``_low``/``_high``; a fraction, NaN when not
     measured), ``checkpoint_iteration`` and ``settled`` (drift <= ``settle_tolerance``; None when
-    not measured)."""
+    not measured).  With ``plans`` (``{cell: AnalysisPlan}``), ``asymptotes`` names how each cell's
+    plateaus were computed (its plan's label: ``exact`` or ``simulated (N episodes per run)``)."""
     records, curves = [], []
     for member in grid:
         summary = summaries[member.cell]
         record = {"cell_id": member.cell.label, **asdict(member.cell), "experiment": member.experiment}
         record.update(summary.scalars())
+        if plans is not None:
+            record[statistics.ASYMPTOTES] = plans[member.cell].label
         curve_set = dict(summary.curves())
         stats = (cell_statistics or {}).get(member.cell)
         if stats is not None:

@@ -37,7 +37,7 @@ import sys
 import time
 from pathlib import Path
 
-from tableclean_suite.bench.config import INEFFECTIVE_MODES, START_MODES, ConfigError, RunConfig, defaults, field_docs
+from tableclean_suite.bench.config import ANALYSIS_KINDS, INEFFECTIVE_MODES, START_MODES, ConfigError, RunConfig, defaults, field_docs
 
 #: Above this estimated size ``curves.csv`` keeps every k-th iteration (and says so in config.json).
 CURVES_MAX_BYTES = 20_000_000
@@ -131,6 +131,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     statistics = parser.add_argument_group("statistics")
     add(statistics, "bootstrap_samples", type=int)
     add(statistics, "confidence", type=float)
+    add(statistics, "analysis", choices=ANALYSIS_KINDS)
+    add(statistics, "analysis_episodes", type=int, metavar="N")
     backend = parser.add_argument_group("backend")
     add(backend, "backend", choices=backend_names())
     add(backend, "transitions", metavar="PATH")
@@ -296,22 +298,24 @@ def train_and_publish(args) -> int:
           f"  cell files: {store.root}")
 
     records, curves = experiments.cell_records(grid, grid_run.summaries, grid_run.statistics,
-                                             config.settle_tolerance)
+                                             config.settle_tolerance, grid_run.plans)
     table3 = tables.table3(records, compare_with_paper=tables.is_paper_task(model))
     table4 = tables.table4(table3, paper_task=tables.is_paper_task(model))
     stride = _curves_stride(len(records) * len(tables.CURVE_METRICS), config.iterations)
     curves_frame = tables.curves_long(records, curves, stride=stride)
     main_cells = [m.cell for m in grid if m.experiment == "main"]
-    comparisons = statistics.comparisons(
-        [{"learner": c.learner, "reward": c.reward, "runs": grid_run.statistics[c].runs} for c in main_cells],
-        config.confidence, config.bootstrap_samples, config.seed)  # before the figures' processes fork
     survival = all(statistics.NOT_LEARNED in curve_set for curve_set in curves)  # the runs recorded learning times
     figure_frame = (tables.curves_long(records, curves, (*tables.CURVE_METRICS, statistics.NOT_LEARNED), stride)
                     if survival and config.figures else curves_frame)
-    drawing = (derived.start_figures(figure_frame, config.plateau_fraction, table3, FIGURE_DPI,
-                                     processes=derived.FIGURE_PROCESSES) if config.figures else None)
+    pending = derived.start(  # from cells/derived/ when it holds them, else computed and stored there
+        store.root / "derived",
+        [{"learner": c.learner, "reward": c.reward, "runs": grid_run.statistics[c].runs} for c in main_cells],
+        config.confidence, config.bootstrap_samples, config.seed, figure_frame if config.figures else None, table3,
+        plateau_fraction=config.plateau_fraction, dpi=FIGURE_DPI, read=not config.fresh)
     curves_text = tables.csv_text(curves_frame, tables.CURVES_FLOAT_FORMAT)  # while the figures are drawn
-    figures = drawing.result() if drawing is not None else []
+    results = pending.result()
+    comparisons, figures = results.comparisons, results.figures
+    print(results.summary())
 
     writers = {
         "table3.csv": lambda path: table3.to_csv(path, index=False),
@@ -373,8 +377,8 @@ def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task:
         print("\nTable 3a: per-run learning time (iterations).")
         print(tables.table3_notes(config.confidence, config.bootstrap_samples, config.iterations))
         print(tables.display_learning_time(table3).to_string())
-        print(f"\nTable 3b: plateaus = exact asymptotes of each run's final behaviour (greedy policy under the "
-              f"exploration),\n  mean over runs [{level} percentile bootstrap over runs; Clopper-Pearson where "
+        print(f"\nTable 3b: plateaus = {tables.plateaus_kind(table3)} asymptotes of each run's final behaviour (greedy "
+              f"policy under the exploration),\n  mean over runs [{level} percentile bootstrap over runs; Clopper-Pearson where "
               f"each run is 0 or 1]; greedy success = the\n  final greedy policies (epsilon = 0); never terminal = "
               f"runs that never reached the terminal state; drift = mean change\n  of a run's success asymptote over "
               f"the window's last quarter; settled = drift <= {100 * config.settle_tolerance:g} pp.")

@@ -11,8 +11,15 @@ target is the value the same statistic takes over unlimited runs of the cell, at
   (:mod:`tableclean_suite.asymptotes`) averaged over runs, with a percentile bootstrap interval
   over runs (:data:`RUN_MEANS`); the never-terminal share (a yes/no per run), and any of those
   that is 0 or 1 in every run, with the exact binomial (Clopper-Pearson) interval.  Target: the
-  expected asymptote of one run.
-- **Behaviour drift** (:mod:`tableclean_suite.settling`): per-run drift averaged, bootstrap over runs.
+  expected asymptote of one run.  A mean's bootstrap interval is widened for kinds of run the
+  sample may lack (a run that never converges, 1 in several thousand, is absent from most samples
+  of 1000): by the share of runs that can all have been missed
+  ([tableclean_suite.intervals.unseen_share][]) times the distance to the quantity's limit
+  ([tableclean_suite.intervals.widened_for_unseen_runs][]).  Where the asymptotes are simulated (a large task:
+  [tableclean_suite.analysis.analysis_plan][]), each mean's interval is widened by the
+  simulation's Monte Carlo error ([tableclean_suite.analysis.with_monte_carlo_error][]).
+- **Behaviour drift** (:mod:`tableclean_suite.settling`): per-run drift averaged, bootstrap over runs,
+  widened as the means above.
 - **Curve bands**: at each iteration, the normal interval of the mean over runs of the runs'
   values there (:func:`tableclean_suite.intervals.mean_band`, from the sums and sums of squares:
   no resampling needed for a mean of independent bounded values).
@@ -23,7 +30,8 @@ target is the value the same statistic takes over unlimited runs of the cell, at
 **Probability of improvement** of X over Y (rliable's, with a practical-equivalence margin m):
 P(x beats y by more than m) + P(|x - y| <= m) / 2 for a run x of X and a run y of Y, with a
 stratified bootstrap interval (runs of X and of Y resampled separately), on the per-run scores
-:data:`RUN_SCORES` with the margins :data:`EQUIVALENCE_MARGINS`.
+:data:`RUN_SCORES` with the margins :data:`EQUIVALENCE_MARGINS`, widened by the share of pairs
+that runs missing from both samples could take part in.
 """
 
 from __future__ import annotations
@@ -34,6 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tableclean_suite import intervals
+from tableclean_suite.analysis import FACT_LIMITS, with_monte_carlo_error
 from tableclean_suite.learning_time import LearningTime, learning_time_summary, survival_curve
 from tableclean_suite.settling import Settling
 
@@ -50,6 +59,9 @@ NOT_LEARNED = "not_learned"
 #: (:func:`tableclean_suite.analysis.final_run_facts`), each with a bootstrap interval over runs.
 RUN_MEANS = {"success_plateau": "success", "average_reward_plateau": "average_reward",
              "terminal_plateau": "terminal", "greedy_success_plateau": "greedy_success"}
+#: The cell record's column naming how its plateaus were computed: ``exact`` or
+#: ``simulated (N episodes per run)`` ([tableclean_suite.analysis.AnalysisPlan][]'s label).
+ASYMPTOTES = "asymptotes"
 #: Table 3 scalars that are shares of runs (yes/no per run), with a Clopper-Pearson interval.
 RUN_SHARES = {"never_terminal_share": "never_terminal"}
 #: Per-run scores compared between cells: name -> whether higher is better.
@@ -116,7 +128,9 @@ def curve_bands(sums, support_fraction: float, confidence: float = DEFAULT_CONFI
 def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fraction: float,
                     samples: int = DEFAULT_SAMPLES, confidence: float = DEFAULT_CONFIDENCE,
                     learned_at: np.ndarray | None = None, budget: int | None = None,
-                    drift: np.ndarray | None = None, checkpoint: int = 0) -> CellStatistics:
+                    drift: np.ndarray | None = None, checkpoint: int = 0,
+                    monte_carlo: dict | None = None,
+                    average_reward_limits: tuple[float, float] = (-np.inf, np.inf)) -> CellStatistics:
     """Intervals, bands and per-run scores of one cell (see the module docstring).
 
     Args:
@@ -132,6 +146,14 @@ def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fract
         drift: per-run behaviour drift ``(R,)`` (:func:`tableclean_suite.settling.behaviour_drift`);
             None: not measured.
         checkpoint: the iteration ``drift`` compares with (>= 1 when ``drift`` is given).
+        monte_carlo: ``{quantity: standard error}`` of simulated per-run asymptotes' mean
+            ([tableclean_suite.analysis.monte_carlo_error][]); each such interval of
+            :data:`RUN_MEANS` is widened by it ([tableclean_suite.analysis.with_monte_carlo_error][]).
+            None or empty: exact asymptotes, intervals as they are.  The drift's is not widened.
+        average_reward_limits: bounds on a run's average reward per step (the reward pattern's
+            [step_reward_bounds][tableclean_suite.rewards.RewardPattern.step_reward_bounds]); the
+            other per-run quantities lie in [0, 1].  Every mean's interval is widened for runs of a
+            kind the sample may lack ([tableclean_suite.intervals.widened_for_unseen_runs][]).
     """
     present = {scalar: np.asarray(per_run[name], dtype=np.float64)
                for scalar, name in {**RUN_MEANS, **RUN_SHARES}.items() if name in per_run}
@@ -141,8 +163,15 @@ def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fract
               if scalar in RUN_SHARES or np.isin(values, (0.0, 1.0)).all()}
     means = {scalar: values for scalar, values in present.items() if scalar not in shares}
     _, bounds = intervals.interval_estimates(means, np.mean, confidence, samples, rng=rng)
+    limits = {**{scalar: (0.0, 1.0) for scalar in present}, "average_reward_plateau": average_reward_limits}
+    for scalar, values in means.items():
+        bounds[scalar] = intervals.widened_for_unseen_runs(*bounds[scalar], values, limits[scalar], confidence)
     for scalar, values in shares.items():
         bounds[scalar] = intervals.clopper_pearson(int(np.count_nonzero(values)), len(values), confidence)
+    for scalar, name in RUN_MEANS.items():
+        if scalar in bounds and name in (monte_carlo or {}):
+            bounds[scalar] = with_monte_carlo_error(float(present[scalar].mean()), *bounds[scalar], monte_carlo[name],
+                                                    confidence, FACT_LIMITS[name])
     runs = {"success_asymptote": np.asarray(per_run["success"], dtype=np.float64)}
     learning = survival = None
     bands = curve_bands(sums, support_fraction, confidence)
@@ -153,7 +182,8 @@ def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fract
     settled = Settling.not_measured()
     if drift is not None:
         points, drift_bounds = intervals.interval_estimates({"drift": drift}, np.mean, confidence, samples, rng=rng)
-        settled = Settling(points["drift"], *drift_bounds["drift"], int(checkpoint))
+        low, high = intervals.widened_for_unseen_runs(*drift_bounds["drift"], drift, (0.0, 1.0), confidence)
+        settled = Settling(points["drift"], low, high, int(checkpoint))
     return CellStatistics(bounds, bands, runs, learning, survival, settled)
 
 

@@ -25,7 +25,7 @@ from tableclean_suite.bench.paper_data import (  # noqa: F401  (re-exported)
     PAPER_TABLE4_COLUMNS,
     SOURCE_QUOTED,
 )
-from tableclean_suite.bench.statistics import EQUIVALENCE_MARGINS, LEARNING_TIME_COLUMNS, RUN_MEANS, RUN_SHARES
+from tableclean_suite.bench.statistics import ASYMPTOTES, EQUIVALENCE_MARGINS, LEARNING_TIME_COLUMNS, RUN_MEANS, RUN_SHARES
 from tableclean_suite.metrics import ITERATION_SCALARS, SUMMARY_SCALARS
 
 #: Identifying columns of a cell record, in table order.
@@ -122,6 +122,8 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
         A DataFrame with columns :data:`TABLE3_COLUMNS` (extra input columns are dropped; the
         learning-time columns and ``_low``/``_high`` bounds are NaN when the records carry none),
         sorted by experiment (main, alpha_sweep, gamma_sweep), learner, reward, alpha, gamma.
+        When some record's ``asymptotes`` (:data:`.statistics.ASYMPTOTES`) is not ``exact``, a last
+        column ``asymptotes`` names each row's (its plateaus simulated or exact).
         ``paper_*`` columns are NaN except on ``experiment == "main"`` rows of
         :data:`PAPER_LEARNER` with a reward the paper reports.  Iteration columns are
         nullable integers (``<NA>`` when the curve never reached its level).
@@ -166,7 +168,8 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
     rank = {k: {v: i for i, v in enumerate(order)} for k, order in sort_keys.items()}
     frame = frame.assign(**{f"_rank_{k}": frame[k].map(r) for k, r in rank.items()})
     frame = frame.sort_values(["_rank_experiment", "_rank_learner", "_rank_reward", "alpha", "gamma"], kind="stable")
-    return frame[list(TABLE3_COLUMNS)].reset_index(drop=True)
+    simulated = ASYMPTOTES in frame.columns and bool((frame[ASYMPTOTES] != "exact").any())
+    return frame[[*TABLE3_COLUMNS, *([ASYMPTOTES] if simulated else [])]].reset_index(drop=True)
 
 
 def _missing(value) -> bool:
@@ -279,8 +282,9 @@ def display_learning_time(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def display_plateaus(table: pd.DataFrame) -> pd.DataFrame:
-    """Table 3's plateaus for printing, main rows: per-run exact asymptotes averaged over runs,
-    with intervals, the paper's success rate beside ours, the behaviour drift and settling."""
+    """Table 3's plateaus for printing, main rows: per-run asymptotes averaged over runs,
+    with intervals, the paper's success rate beside ours, the behaviour drift and settling (and how
+    the asymptotes were computed when some are simulated: :func:`table3`'s ``asymptotes``)."""
     rows = main_rows(table)
     paper = (100.0 * rows["paper_success_rate"].astype(float)).round(2)
     frame = pd.DataFrame({"success % [CI]": _interval_texts(rows, "success_plateau", 2, 100.0),
@@ -288,9 +292,24 @@ def display_plateaus(table: pd.DataFrame) -> pd.DataFrame:
                           "greedy success % [CI]": _interval_texts(rows, "greedy_success_plateau", 2, 100.0),
                           "never terminal %": _interval_texts(rows, "never_terminal_share", 1, 100.0),
                           "drift pp [CI]": _interval_texts(rows, DRIFT, 2, 100.0),
-                          "settled": _settled_marks(rows["settled"])})
+                          "settled": _settled_marks(rows["settled"]),
+                          **({ASYMPTOTES: rows[ASYMPTOTES].tolist()} if ASYMPTOTES in rows.columns else {})})
     frame.index = _index(rows)
     return frame
+
+
+def plateaus_kind(table: pd.DataFrame) -> str:
+    """How the main rows' plateaus were computed, for Table 3b's legend: ``exact``, the simulation's
+    label when all are simulated alike, else ``exact or simulated (column 'asymptotes')``; a
+    simulation's Monte Carlo error is inside the intervals (:func:`.statistics.cell_statistics`)."""
+    if ASYMPTOTES not in table.columns:
+        return "exact"
+    kinds = list(dict.fromkeys(main_rows(table)[ASYMPTOTES]))
+    if kinds == ["exact"]:
+        return "exact"
+    if len(kinds) == 1:
+        return f"{kinds[0][:-1]}; Monte Carlo error inside the intervals)"
+    return "exact or simulated (column 'asymptotes'; Monte Carlo error inside the intervals)"
 
 
 #: The paper's definitions printed beside its values: title, our column, the paper's, digits.
