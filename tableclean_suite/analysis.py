@@ -66,8 +66,11 @@ def _integers(records) -> np.ndarray:
 
 def _parameter_array(exploration, epsilon: float, iteration: int, visits) -> np.ndarray:
     """``exploration.parameter_array(epsilon, iteration, visits)``, the same values, evaluated once
-    per distinct visit count (it is a Python call per entry)."""
+    per distinct visit count (it is a Python call per entry), or once for all when the
+    exploration's parameter does not depend on the visits (a read-only broadcast view)."""
     visits = np.asarray(visits)
+    if not isinstance(exploration, VisitDecay):
+        return np.broadcast_to(np.float64(exploration.parameter_at(epsilon, iteration)), visits.shape)
     values, inverse = np.unique(visits, return_inverse=True)
     return exploration.parameter_array(epsilon, iteration, values)[np.asarray(inverse).reshape(visits.shape)]
 
