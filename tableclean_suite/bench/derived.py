@@ -1,4 +1,16 @@
-"""The run's figures, drawn in forked processes while the run writes its CSV files.
+"""What a run derives from its cells (the comparisons table and the figures), cached, and the
+figures drawn in forked processes while the run writes its CSV files.
+
+[start][tableclean_suite.bench.derived.start] serves both from ``OUT/cells/derived/`` when an
+entry holds them under the key of what determines them, else computes and stores them.  The key
+(:func:`derived_key`) digests the inputs as read from the cells (each main cell's learner, reward
+and per-run scores; the curves frame and Table 3 that the figures draw, bit for bit), the
+comparison settings (confidence, bootstrap samples, seed), the figure settings (dpi, plateau
+fraction, matplotlib's and Pillow's versions, every live ``rcParams`` value and the font file they
+resolve to), the source of every module of the package and the numpy, scipy and pandas versions.
+An entry is one zip file, written atomically, whose members' CRC-32 is checked on reading; an
+unreadable, partial or mismatched entry is a miss (reported on stderr), recomputed and replaced.
+A hit and a miss both decode the stored bytes, so their outputs are the same bytes.
 
 [start_figures][tableclean_suite.bench.derived.start_figures] forks up to
 [FIGURE_PROCESSES][tableclean_suite.bench.derived.FIGURE_PROCESSES] processes (Linux) that draw
@@ -11,8 +23,14 @@ process.  Elsewhere the figures are drawn here, when their result is asked for.
 from __future__ import annotations
 
 import gc
+import hashlib
+import importlib.metadata
+import json
 import sys
+import time
+import zipfile
 from dataclasses import dataclass
+from pathlib import Path
 
 from tableclean_suite.bench import plots
 
@@ -88,3 +106,172 @@ def start_figures(curves, plateau_fraction: float, table3=None, dpi: int = 120, 
         gc.unfreeze()
     pending = pool.map_async(_draw, stems, chunksize=1)
     return PendingFigures(stems, lambda: zip(stems, pending.get()), pool)
+
+
+# -- the cache of derived results ------------------------------------------------------------
+
+#: Bump when an entry's layout or the meaning of what it stores changes.
+CACHE_FORMAT = 1
+
+
+def _frame_digest(digest, frame) -> None:
+    """Feed a DataFrame's column names, dtypes, index and values (numbers by their bits) to ``digest``."""
+    import numpy as np
+    import pandas as pd
+
+    digest.update(repr((list(frame.columns), [str(dtype) for dtype in frame.dtypes])).encode())
+    for values in (frame.index.to_numpy(), *(frame[name].to_numpy() for name in frame.columns)):
+        if values.dtype.kind in "biufcM":
+            digest.update(values.dtype.str.encode() + np.ascontiguousarray(values).tobytes())
+        else:  # text and the like: its distinct values in order of appearance, and each row's code
+            codes, uniques = pd.factorize(values, use_na_sentinel=False)
+            digest.update(repr(list(uniques)).encode("utf-8", "surrogatepass") + codes.tobytes())
+
+
+def _package_digest() -> str:
+    """SHA-256 (hex) of every module's source in the package (statistics, plots, tables, ...)."""
+    import tableclean_suite
+
+    digest = hashlib.sha256()
+    root = Path(tableclean_suite.__file__).parent
+    for path in sorted(root.rglob("*.py")):
+        digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
+
+
+def _drawing_config() -> dict:
+    """What the figures' pixels depend on beyond their data and dpi: matplotlib's and Pillow's
+    versions, a digest of the live ``rcParams`` and of the font file they resolve to."""
+    import matplotlib
+    from matplotlib import font_manager
+
+    params = repr([(name, repr(matplotlib.rcParams[name])) for name in matplotlib.rcParams
+                   if name != "backend"])  # reading "backend" would resolve it, importing pyplot
+    font = Path(font_manager.findfont(font_manager.FontProperties(family=matplotlib.rcParams["font.family"])))
+    return {"matplotlib": matplotlib.__version__, "pillow": importlib.metadata.version("pillow"),
+            "rc_params": hashlib.sha256(params.encode()).hexdigest(), "font": font.name,
+            "font_sha256": hashlib.sha256(font.read_bytes()).hexdigest()}
+
+
+def derived_key(cells: list[dict], confidence: float, samples: int, seed: int, curves=None, table3=None,
+                plateau_fraction: float = 0.0, dpi: int = 120) -> dict:
+    """The cache key of [start][tableclean_suite.bench.derived.start]'s results for these inputs
+    (same arguments): a JSON-able dict; ``curves`` None means no figures."""
+    import numpy as np
+
+    digest = hashlib.sha256()
+    for cell in cells:
+        digest.update(repr((cell["learner"], cell["reward"])).encode())
+        for score in sorted(cell["runs"]):
+            values = np.ascontiguousarray(cell["runs"][score])
+            digest.update(repr((score, values.dtype.str, values.shape)).encode() + values.tobytes())
+    key = {"format": CACHE_FORMAT, "scores": digest.hexdigest(), "confidence": float(confidence),
+           "samples": int(samples), "seed": int(seed), "code": _package_digest(),
+           "versions": {name: importlib.metadata.version(name) for name in ("numpy", "scipy", "pandas")},
+           "figures": None}
+    if curves is not None:
+        digest = hashlib.sha256()
+        for frame in (curves, table3):
+            if frame is not None:
+                _frame_digest(digest, frame)
+            digest.update(b"\0table3\0")
+        key["figures"] = {"data": digest.hexdigest(), "plateau_fraction": float(plateau_fraction), "dpi": int(dpi),
+                          **_drawing_config()}
+    return key
+
+
+@dataclass(frozen=True)
+class Derived:
+    """A run's derived results: the comparisons DataFrame, the figures, and where they came from."""
+
+    comparisons: object
+    figures: list[Figure]
+    cached: bool
+    path: Path
+    seconds: float
+
+    def summary(self) -> str:
+        """One line for the run's output: loaded from or computed into :attr:`path`."""
+        what = f"derived results (comparisons, {len(self.figures)} figures)"
+        if self.cached:
+            return f"{what}: loaded from {self.path}"
+        return f"{what}: computed in {self.seconds:.2f} s, stored in {self.path}"
+
+
+def _load(path: Path, key: dict):
+    """``(comparison rows, {figure name: PNG bytes})`` stored at ``path`` under ``key``, else None."""
+    try:
+        with zipfile.ZipFile(path) as entry:
+            if json.loads(entry.read("key.json")) != key:
+                raise ValueError("it was stored under another key")
+            rows = json.loads(entry.read("comparisons.json"))
+            names = json.loads(entry.read("figures.json"))
+            return rows, {name: entry.read(name) for name in names}
+    except FileNotFoundError:
+        return None
+    except Exception as error:  # noqa: BLE001 - any damage (truncated, bad CRC, bad JSON, missing member) is a miss
+        print(f"warning: ignoring the cached results {path} ({type(error).__name__}: {error}); recomputing them",
+              file=sys.stderr)
+        return None
+
+
+def _store(path: Path, key: dict, rows: list[dict], pngs: dict) -> None:
+    from tableclean_suite.bench.outputs import atomic_write
+
+    def write(temporary: Path) -> None:
+        with zipfile.ZipFile(temporary, "w", zipfile.ZIP_STORED) as entry:
+            entry.writestr("comparisons.json", json.dumps(rows, allow_nan=True))
+            entry.writestr("figures.json", json.dumps(list(pngs)))
+            for name, png in pngs.items():
+                entry.writestr(name, png)
+            entry.writestr("key.json", json.dumps(key, sort_keys=True))
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write(path, write)
+
+
+class PendingDerived:
+    """[start][tableclean_suite.bench.derived.start]'s results; :meth:`result` waits for the
+    figures, stores a computed entry and returns a :class:`Derived`."""
+
+    def __init__(self, finish):
+        self._finish = finish
+
+    def result(self) -> Derived:
+        return self._finish()
+
+
+def start(root, cells: list[dict], confidence: float, samples: int, seed: int, curves=None, table3=None, *,
+          plateau_fraction: float = 0.0, dpi: int = 120, read: bool = True) -> PendingDerived:
+    """The comparisons ([statistics.comparisons][tableclean_suite.bench.statistics.comparisons] of
+    ``cells`` at ``confidence``, ``samples`` bootstrap replicates, ``seed``) and the figures of
+    ``curves`` (none when it is None), from the entry under ``root`` when it holds their key;
+    else the comparisons are computed here and the figures start drawing in forked processes
+    ([start_figures][tableclean_suite.bench.derived.start_figures]) while the caller works on.
+    ``read=False`` (``--fresh``) ignores a stored entry and replaces it."""
+    import pandas as pd
+
+    from tableclean_suite.bench import statistics
+
+    started = time.perf_counter()
+    key = derived_key(cells, confidence, samples, seed, curves, table3, plateau_fraction, dpi)
+    path = Path(root) / f"derived-{hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]}.zip"
+
+    def derived(rows, pngs, cached):
+        comparisons = pd.DataFrame(rows, columns=statistics.COMPARISON_COLUMNS)
+        figures = [Figure(name, png) for name, png in pngs.items()]
+        return Derived(comparisons, figures, cached, path, time.perf_counter() - started)
+
+    stored = _load(path, key) if read else None
+    if stored is not None:
+        return PendingDerived(lambda: derived(*stored, True))
+    rows = json.loads(json.dumps(statistics.comparison_rows(cells, confidence, samples, seed), allow_nan=True))
+    drawing = (start_figures(curves, plateau_fraction, table3, dpi, processes=FIGURE_PROCESSES)
+               if curves is not None else None)
+
+    def finish():
+        pngs = {figure.name: figure.png for figure in drawing.result()} if drawing is not None else {}
+        _store(path, key, rows, pngs)
+        return derived(rows, pngs, False)
+
+    return PendingDerived(finish)
