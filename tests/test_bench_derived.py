@@ -1,5 +1,6 @@
-"""A run's outputs are the same bytes whether its cells are trained or loaded, and its figures the
-same bytes whether drawn in forked processes or here."""
+"""A run's outputs are the same bytes whether its cells are trained or loaded, its comparisons and
+figures computed or loaded from the derived-results cache, and its figures drawn in forked
+processes or here."""
 
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ def cli(out: Path, *extra: str) -> subprocess.CompletedProcess:
 def printed_tables(stdout: str) -> str:
     """The printed tables: stdout without the lines that say where numbers came from and how long it took."""
     return "\n".join(line for line in stdout.splitlines()
-                     if not line.startswith(("cells:", "  cell files:", "done in", "  /", "written:")))
+                     if not line.startswith(("cells:", "  cell files:", "derived results", "done in", "  /", "written:")))
 
 
 def file_bytes(out: Path) -> dict:
@@ -42,10 +43,11 @@ def test_warm_fresh_and_empty_caches_write_identical_files_and_tables(tmp_path):
     reference = file_bytes(tmp_path / "a")
     warm = cli(tmp_path / "a")  # same --out: every cell loaded
     assert "resumed 0 cells" in cold.stdout and "resumed 6 cells" in warm.stdout and "trained 0" in warm.stdout
+    assert "figures): computed in" in cold.stdout and "figures): loaded from" in warm.stdout
     assert file_bytes(tmp_path / "a") == reference
     assert printed_tables(warm.stdout) == printed_tables(cold.stdout)
     fresh = cli(tmp_path / "a", "--fresh")  # cells retrained: the same bytes
-    assert "resumed 0 cells" in fresh.stdout
+    assert "resumed 0 cells" in fresh.stdout and "figures): computed in" in fresh.stdout
     assert file_bytes(tmp_path / "a") == reference
     assert printed_tables(fresh.stdout) == printed_tables(cold.stdout)
     assert max(map(len, printed_tables(cold.stdout).splitlines())) <= 120
@@ -58,6 +60,7 @@ def test_a_changed_setting_is_not_served_from_the_caches(tmp_path, change):
     before = file_bytes(out)
     changed = cli(out, *change)
     assert "resumed 0 cells" in changed.stdout  # both settings are part of every cell's key
+    assert "figures): computed in" in changed.stdout
     after = file_bytes(out)
     assert after["comparisons.csv"] != before["comparisons.csv"]
     assert after["table3.csv"] != before["table3.csv"]
