@@ -38,6 +38,7 @@ import math
 from dataclasses import dataclass
 from statistics import NormalDist
 
+import numba
 import numpy as np
 
 from tableclean_suite import asymptotes, simulation
@@ -214,20 +215,42 @@ def afforded_probabilities(q: np.ndarray, masks: np.ndarray, parameter, softmax:
     """
     q = np.asarray(q, dtype=np.float64)
     q = q[None] if q.ndim == 2 else q
-    masks = np.broadcast_to(np.asarray(masks, dtype=bool), q.shape)
-    masks = masks | ~masks.any(axis=-1, keepdims=True)
-    blocked = np.where(masks, q, -np.inf)
-    rate = np.broadcast_to(np.asarray(parameter, dtype=np.float64), q.shape[:2])[..., None]
     if softmax:
+        masks = np.broadcast_to(np.asarray(masks, dtype=bool), q.shape)
+        masks = masks | ~masks.any(axis=-1, keepdims=True)
+        blocked = np.where(masks, q, -np.inf)
+        rate = np.broadcast_to(np.asarray(parameter, dtype=np.float64), q.shape[:2])[..., None]
         weights = np.where(masks, np.exp((q - blocked.max(axis=-1, keepdims=True)) / rate), 0.0)
         return weights / weights.sum(axis=-1, keepdims=True)
-    if not np.all((rate >= 0.0) & (rate <= 1.0)):
-        raise ValueError(f"epsilon must be in [0, 1], got {np.unique(rate).tolist()!r}")
-    probabilities = masks * (rate / masks.sum(axis=-1, keepdims=True))
-    greedy = np.argmax(blocked, axis=-1)[..., None]
-    np.put_along_axis(probabilities, greedy, np.take_along_axis(probabilities, greedy, axis=-1) + (1.0 - rate),
-                      axis=-1)
+    epsilon = np.asarray(parameter, dtype=np.float64)
+    if not np.all((epsilon >= 0.0) & (epsilon <= 1.0)):
+        raise ValueError(f"epsilon must be in [0, 1], got {np.unique(epsilon).tolist()!r}")
+    probabilities = np.empty(q.shape)
+    _afforded_epsilon_greedy(q, np.broadcast_to(np.asarray(masks, dtype=bool), q.shape),
+                             np.broadcast_to(epsilon, q.shape[:2]), probabilities)
     return probabilities
+
+
+@numba.njit(cache=True)
+def _afforded_epsilon_greedy(q, masks, epsilon, probabilities):
+    """Fill ``probabilities`` ``(R, S, A)`` with epsilon-greedy over the afforded actions (one pass,
+    no ``(R, S, A)`` temporaries): ``epsilon / n_afforded`` per afforded action (every action when
+    none is), ``1 - epsilon`` more for the first afforded action of largest Q."""
+    runs, states, actions = q.shape
+    for r in range(runs):
+        for s in range(states):
+            count = 0
+            for a in range(actions):
+                count += masks[r, s, a]
+            every = count == 0
+            share = epsilon[r, s] / (actions if every else count)
+            best = -1
+            for a in range(actions):
+                afforded = every or masks[r, s, a]
+                probabilities[r, s, a] = share if afforded else 0.0
+                if afforded and (best < 0 or q[r, s, a] > q[r, s, best]):
+                    best = a
+            probabilities[r, s, best] += 1.0 - epsilon[r, s]
 
 
 def advised_probabilities(probabilities: np.ndarray, advisor: np.ndarray, advice_probability: float,

@@ -231,3 +231,27 @@ def test_cell_plan_counts_every_update_of_the_learner():
     assert plans["q_learning"].training_seconds < plans["double_q_learning"].training_seconds
     assert plans["q_learning"].training_seconds < plans["dyna_q"].training_seconds
     assert plans["q_learning"].exact_seconds == plans["dyna_q"].exact_seconds
+
+
+def _afforded_epsilon_greedy_oracle(q, masks, epsilon):
+    """Epsilon-greedy over afforded actions in plain numpy (the compiled pass's reference)."""
+    masks = np.broadcast_to(masks, q.shape)
+    masks = masks | ~masks.any(axis=-1, keepdims=True)
+    rate = np.broadcast_to(np.asarray(epsilon, dtype=np.float64), q.shape[:2])[..., None]
+    probabilities = masks * (rate / masks.sum(axis=-1, keepdims=True))
+    greedy = np.argmax(np.where(masks, q, -np.inf), axis=-1)[..., None]
+    np.put_along_axis(probabilities, greedy, np.take_along_axis(probabilities, greedy, axis=-1) + (1.0 - rate),
+                      axis=-1)
+    return probabilities
+
+
+@pytest.mark.parametrize("trial", range(6))
+def test_afforded_epsilon_greedy_is_the_numpy_definition_bit_for_bit(trial):
+    """Ties to the first afforded action, all-blocked rows open to every action, per-state epsilon."""
+    rng = np.random.default_rng(trial)
+    runs, states, actions = 3, 40, 5
+    q = np.round(rng.normal(size=(runs, states, actions)), 1)  # ties
+    masks = rng.random((runs, states, actions) if trial % 2 else (states, actions)) < 0.4
+    epsilon = rng.random((runs, states)) if trial % 3 else 0.1
+    np.testing.assert_array_equal(analysis.afforded_probabilities(q, masks, epsilon),
+                                  _afforded_epsilon_greedy_oracle(q, masks, epsilon))
