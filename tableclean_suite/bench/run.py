@@ -378,10 +378,11 @@ def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task:
         print(tables.table3_notes(config.confidence, config.bootstrap_samples, config.iterations))
         print(tables.display_learning_time(table3).to_string())
         print(f"\nTable 3b: plateaus = {tables.plateaus_kind(table3)} asymptotes of each run's final behaviour (greedy "
-              f"policy under the exploration),\n  mean over runs [{level} percentile bootstrap over runs; Clopper-Pearson where "
-              f"each run is 0 or 1]; greedy success = the\n  final greedy policies (epsilon = 0); never terminal = "
-              f"runs that never reached the terminal state; drift = mean change\n  of a run's success asymptote over "
-              f"the window's last quarter; settled = drift <= {100 * config.settle_tolerance:g} pp.")
+              f"policy under the exploration),\n  mean over runs [{level} percentile bootstrap over runs, widened for "
+              f"runs a sample may lack; Clopper-Pearson\n  where each run is 0 or 1]; greedy success = the final greedy "
+              f"policies (epsilon = 0); never terminal = runs that\n  never reached the terminal state; drift = mean "
+              f"change of a run's success asymptote over the window's last quarter;\n  settled = drift <= "
+              f"{100 * config.settle_tolerance:g} pp.")
         if paper_task:
             print("  'paper' = the paper's Table 3 (Q-learning only).")
         print(tables.display_plateaus(table3).to_string())

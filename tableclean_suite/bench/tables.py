@@ -344,8 +344,9 @@ def table3_notes(confidence: float, samples: int, budget: int) -> str:
             f"from every start\n  state) and stays so to the end of the budget ({budget} iterations); runs not "
             f"optimal at the end are censored at the\n  budget (Kaplan-Meier).  median/quartiles [{level} CI] = "
             f"where the pointwise {level} log-log band of the survival\n  curve crosses 1/2 (inf: beyond the budget); "
-            f"RMST = mean of min(time, budget) [percentile bootstrap over runs,\n  {samples} resamples]; censored % "
-            f"[Clopper-Pearson].  Each interval targets the value over unlimited runs.")
+            f"RMST = mean of min(time, budget) [percentile bootstrap over runs,\n  {samples} resamples, widened for "
+            f"runs a sample may lack]; censored % [Clopper-Pearson].  Each interval targets\n  the value over "
+            f"unlimited runs.")
 
 
 def comparisons_title(count: int, confidence: float) -> str:
