@@ -1,6 +1,6 @@
 """Learning curves from training records: per iteration, averaged over runs.
 
-The definitions (which the scalar metrics of :mod:`tableclean_suite.metrics` build on):
+The definitions (which the scalar metrics of [`tableclean_suite.metrics`][tableclean_suite.metrics] build on):
 
 - An episode **succeeds** when it reaches the terminal state without any improper action.
 - **Success rate** at iteration t: fraction of runs whose most recently finished episode (at or
@@ -11,8 +11,8 @@ The definitions (which the scalar metrics of :mod:`tableclean_suite.metrics` bui
   point is NaN until at least f of the runs have finished an episode.
 - **Episodes** at t: mean over runs of episodes finished by t.
 
-Inputs are :class:`~tableclean_suite.learners.TrainingResult` records (R runs x T iterations).
-:class:`CurveSums` accumulates the per-iteration sums (and sums of squares, for the curves'
+Inputs are [`TrainingResult`][tableclean_suite.learners.train.TrainingResult] records (R runs x T iterations).
+[`CurveSums`][tableclean_suite.curves.CurveSums] accumulates the per-iteration sums (and sums of squares, for the curves'
 intervals) chunk by chunk of runs in one compiled pass (memory ``6 x T`` whatever R).  The
 ``*_matrix`` functions are the ``(R, T)`` per-run versions, for tests and tables.
 """
@@ -155,7 +155,7 @@ class CurveSums:
         return len(self.success)
 
     def add(self, result) -> "CurveSums":
-        """Add the runs of a :class:`TrainingResult` (the next ones in run order); returns self."""
+        """Add the runs of a `TrainingResult` (the next ones in run order); returns self."""
         if result.rewards.shape[1] != self.iterations:
             raise ValueError(f"result has {result.rewards.shape[1]} iterations, the sums {self.iterations}")
         _curve_sums(result.rewards, result.outcomes, result.episode_end, self.success, self.terminal,
@@ -186,7 +186,7 @@ def supported(finished_runs, runs, support_fraction: float) -> np.ndarray:
 
 def mean_curves(success, terminal, average_sum, finished_runs, episodes, runs, support_fraction: float = 0.0):
     """Curves from per-iteration sums over ``runs`` runs (arrays ``(..., T)``, ``runs`` broadcasting
-    as ``(..., 1)``): ``{"success", "terminal", "average_reward", "episodes"}``; see :class:`CurveSums`."""
+    as ``(..., 1)``): ``{"success", "terminal", "average_reward", "episodes"}``; see [`CurveSums`][tableclean_suite.curves.CurveSums]."""
     runs = np.asarray(runs, dtype=float)
     defined = supported(finished_runs, runs, support_fraction)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -196,7 +196,7 @@ def mean_curves(success, terminal, average_sum, finished_runs, episodes, runs, s
 
 
 def curve_sums(result) -> CurveSums:
-    """The :class:`CurveSums` of one :class:`TrainingResult`."""
+    """The [`CurveSums`][tableclean_suite.curves.CurveSums] of one `TrainingResult`."""
     return CurveSums.zeros(result.rewards.shape[1]).add(result)
 
 

@@ -1,6 +1,6 @@
 """Demonstration datasets of the skills in robomimic's hdf5 layout: record, write (atomically), read, rebuild.
 
-A dataset holds skill executions in the ``TableClean`` scene, one *sample* per control step::
+A dataset holds skill executions in the ``TableClean`` scene, one *sample* per control step:
 
     data                               group
         .attrs["env_args"]             JSON {"env_name": "TableClean", "env_version": robosuite's,
@@ -40,7 +40,7 @@ A dataset holds skill executions in the ``TableClean`` scene, one *sample* per c
             final_state                (D,) float64, the state after the last action
     mask/train, mask/valid             byte strings: demo keys of the train / validation split
 
-Only recording needs robosuite and MuJoCo; :func:`read_demo` and :func:`read_env_args` need h5py only.
+Only recording needs robosuite and MuJoCo; [`read_demo`][tableclean_suite.demos.read_demo] and [`read_env_args`][tableclean_suite.demos.read_env_args] need h5py only.
 """
 
 from __future__ import annotations
@@ -128,7 +128,7 @@ class Demo:
 # env_args: what rebuilds the scene
 # ---------------------------------------------------------------------------------------------
 def env_args_of(env, task: str, controller_configs: dict) -> dict:
-    """robomimic's ``env_args`` of a skill env made by :func:`~tableclean_suite.controllers.make_skill_env`.
+    """robomimic's ``env_args`` of a skill env made by [`make_skill_env`][tableclean_suite.controllers.make.make_skill_env].
 
     ``task`` is what ``TableClean(task=...)`` accepts: a registered spec name or a ``.json`` path;
     ``controller_configs`` the env's (``skill_controller_config(robot, task_config)`` by default).
@@ -171,10 +171,10 @@ def make_env_from_args(env_args: dict, **overrides):
 # recording
 # ---------------------------------------------------------------------------------------------
 class EpisodeRecorder:
-    """Records every control step a :class:`RecordingSkillController` makes: state before and command.
+    """Records every control step a `RecordingSkillController` makes: state before and command.
 
     ``begin(plan_index, action_index)`` marks the plan entry that executes next;
-    :meth:`finish` turns the recording into a :class:`Demo` (observables and symbolic codes
+    [`finish`][tableclean_suite.demos.EpisodeRecorder.finish] turns the recording into a [`Demo`][tableclean_suite.demos.Demo] (observables and symbolic codes
     are read by restoring each recorded state in the env, so they are what a replay reads).
     """
 
@@ -209,7 +209,7 @@ class EpisodeRecorder:
         self.hook_steps += 1
 
     def finish(self, attrs: dict | None = None) -> Demo:
-        """The :class:`Demo` of the steps so far; the env is left in the final state (forwarded).
+        """The [`Demo`][tableclean_suite.demos.Demo] of the steps so far; the env is left in the final state (forwarded).
 
         Raises ``RuntimeError`` when the hook saw a different number of control steps than were
         recorded (a control path that bypasses the recording).
@@ -268,7 +268,7 @@ class EpisodeRecorder:
 
 
 def recording_controller(env, model, recorder: EpisodeRecorder):
-    """A :class:`~tableclean_suite.controllers.SkillController` whose every control step ``recorder`` sees.
+    """A [`SkillController`][tableclean_suite.controllers.skill_controller.SkillController] whose every control step ``recorder`` sees.
 
     With the fast control path (``make_skill_env(fast_control=True)``) the controller bypasses
     ``env.step`` (so robosuite's ``DataCollectionWrapper`` would see nothing): the recorder wraps
@@ -367,7 +367,7 @@ def _attr_value(value):
     return value
 
 
-#: Demo attributes stored as JSON text (decoded by :func:`read_demo`).
+#: Demo attributes stored as JSON text (decoded by [`read_demo`][tableclean_suite.demos.read_demo]).
 JSON_DEMO_ATTRS = ("ep_meta", "plan")
 
 
@@ -413,7 +413,7 @@ def action_names_of(path) -> list[str]:
         return json.loads(f["data"].attrs["action_names"])
 
 
-#: ``data`` attributes that tell when a file was written, not what it holds (ignored by :func:`dataset_differences`).
+#: ``data`` attributes that tell when a file was written, not what it holds (ignored by [`dataset_differences`][tableclean_suite.demos.dataset_differences]).
 WRITE_TIME_ATTRS = ("date",)
 
 

@@ -4,15 +4,15 @@ The iteration and episode counts here (first touch, held reaching, average-rewar
 the maximum average reward) are *readings of the mean curves over runs*, the paper's
 definitions.  Such a reading is biased and its target moves with the number of runs (a mean of
 more runs is smoother and touches its level later), so the harness gives them no interval; the
-per-run learning time with its intervals is :mod:`tableclean_suite.learning_time`.
+per-run learning time with its intervals is [`tableclean_suite.learning_time`][tableclean_suite.learning_time].
 
-Inputs are :class:`~tableclean_suite.learners.TrainingResult` records (R runs x T iterations) or
+Inputs are [`TrainingResult`][tableclean_suite.learners.train.TrainingResult] records (R runs x T iterations) or
 1-D curves of length T.  The curves (success rate, average reward, episodes per iteration; with
 ``support_fraction`` the average reward is NaN until that fraction of runs has finished an
 episode, so early points do not rest on a handful of runs; the harness uses 0.5) are defined and
-computed in :mod:`tableclean_suite.curves`.  The quantities read off them:
+computed in [`tableclean_suite.curves`][tableclean_suite.curves].  The quantities read off them:
 
-- **Plateau**: with an *asymptote* (the harness's way, :mod:`tableclean_suite.asymptotes`):
+- **Plateau**: with an *asymptote* (the harness's way, [`tableclean_suite.asymptotes`][tableclean_suite.asymptotes]):
   the exact value the curve tends to under each run's final policy, averaged over runs, which
   does not move with the window once the runs' policies have settled (Q-learning's do; SARSA's,
   at the paper's constant alpha and epsilon, keep changing).  Without one: the mean over the last ``plateau_fraction`` (25 %)
@@ -22,7 +22,7 @@ computed in :mod:`tableclean_suite.curves`.  The quantities read off them:
   noisy curve can touch the level and fall back below it for hundreds of iterations.
 - **Iterations to held success** (``held_success_iterations``, *reaching*): first t at which the
   success curve reaches ``threshold`` of its plateau and stays at or above it for the ``hold``
-  iterations t .. t + hold - 1 (default :data:`DEFAULT_HOLD`); None when no such t leaves a full
+  iterations t .. t + hold - 1 (default `DEFAULT_HOLD`); None when no such t leaves a full
   hold inside the window.
 - **Greedy success** (``greedy_success_plateau``): the exact success of each run's final *greedy*
   policy (epsilon = 0), averaged over runs; the success plateau is the same policy under the
@@ -93,7 +93,7 @@ class Summary:
             has covered ``threshold`` of the way from its early minimum to its plateau, or None.
         reward_convergence_episodes: mean episodes finished by then, >= 0, or None.
         success_plateau: plateau of the success curve, a fraction in [0, 1] (the asymptote when
-            :func:`summarize` was given one, else the window mean).
+            [`summarize`][tableclean_suite.metrics.summarize] was given one, else the window mean).
         max_average_reward: maximum of the (supported) average-reward curve (reward units per iteration).
         average_reward_plateau: plateau of the average-reward curve (reward units per iteration).
         terminal_plateau: plateau of the terminal curve, a fraction in [0, 1].
@@ -112,7 +112,7 @@ class Summary:
         episodes: ``(T,)`` mean episodes finished by each iteration.
 
     The curves are read-only arrays.  ``summary["name"]`` reads a field too (code written when
-    :func:`summarize` returned a dict keeps working).
+    [`summarize`][tableclean_suite.metrics.summarize] returned a dict keeps working).
     """
 
     max_success_iterations: int | None = _scalar("iterations")
@@ -152,11 +152,11 @@ class Summary:
         return len(self.success)
 
     def scalars(self) -> dict:
-        """``{name: value}`` of the scalar fields, in :data:`SUMMARY_SCALARS` order."""
+        """``{name: value}`` of the scalar fields, in `SUMMARY_SCALARS` order."""
         return {name: getattr(self, name) for name in SUMMARY_SCALARS}
 
     def curves(self) -> dict[str, np.ndarray]:
-        """``{name: (T,) array}`` of the curves, in :data:`CURVE_NAMES` order."""
+        """``{name: (T,) array}`` of the curves, in `CURVE_NAMES` order."""
         return {name: getattr(self, name) for name in CURVE_NAMES}
 
     def __contains__(self, name) -> bool:
@@ -168,12 +168,12 @@ class Summary:
         return getattr(self, name)
 
 
-#: Scalar fields of :class:`Summary` (the Table 3 columns), in table order.
+#: Scalar fields of [`Summary`][tableclean_suite.metrics.Summary] (the Table 3 columns), in table order.
 SUMMARY_SCALARS = tuple(f.name for f in fields(Summary) if f.metadata["role"] == _SCALAR)
 #: Scalar fields counted in iterations (integers, or None when never reached).
 ITERATION_SCALARS = tuple(f.name for f in fields(Summary) if f.metadata["role"] == _SCALAR
                           and f.metadata["unit"] == "iterations")
-#: Curve fields of :class:`Summary`, each ``(T,)``.
+#: Curve fields of [`Summary`][tableclean_suite.metrics.Summary], each ``(T,)``.
 CURVE_NAMES = tuple(f.name for f in fields(Summary) if f.metadata["role"] == _CURVE)
 
 
@@ -268,7 +268,7 @@ def _sides(curves: np.ndarray, tops: np.ndarray):
 
 
 def _extremes(curves: np.ndarray, tops: np.ndarray) -> np.ndarray:
-    """:func:`early_minimum` with tops, row by row of ``(B, T)`` curves; -1 where undefined."""
+    """[`early_minimum`][tableclean_suite.metrics.early_minimum] with tops, row by row of ``(B, T)`` curves; -1 where undefined."""
     first, side = _sides(curves, tops)
     t = np.arange(curves.shape[1])[None, :]
     with np.errstate(invalid="ignore"):
@@ -282,7 +282,7 @@ def _extremes(curves: np.ndarray, tops: np.ndarray) -> np.ndarray:
 
 def convergence_iterations(curves: np.ndarray, tops: np.ndarray, threshold: float = DEFAULT_THRESHOLD) -> np.ndarray:
     """Average-reward convergence of each row of ``(B, T)`` curves towards its top ``(B,)``:
-    the first iteration count (1-based), at or after the early extreme (:func:`early_minimum`),
+    the first iteration count (1-based), at or after the early extreme ([`early_minimum`][tableclean_suite.metrics.early_minimum]),
     at which the curve has covered ``threshold`` of the way from the extreme to the top.
 
     Returns:
@@ -306,7 +306,7 @@ def reward_convergence_iteration(
     top: float | None = None,
 ) -> int | None:
     """First iteration count t (1-based), at or after the early extreme, where the curve has
-    covered ``threshold`` of the way from its early extreme (:func:`early_minimum`) to its plateau
+    covered ``threshold`` of the way from its early extreme ([`early_minimum`][tableclean_suite.metrics.early_minimum]) to its plateau
     (``top``, default the window mean, for which the extreme is the early minimum); None if never."""
     check_fraction("threshold", threshold)
     curve = np.asarray(curve, dtype=float)
@@ -322,7 +322,7 @@ def reward_convergence_iteration(
 
 
 def episodes_at(episodes: np.ndarray, iteration: int | None) -> float | None:
-    """Mean episodes finished by iteration count ``iteration`` (1-based), from :func:`episodes_curve`."""
+    """Mean episodes finished by iteration count ``iteration`` (1-based), from [`episodes_curve`][tableclean_suite.curves.episodes_curve]."""
     if iteration is None:
         return None
     return float(episodes[iteration - 1])
@@ -342,7 +342,7 @@ def peak_index(curve) -> int | None:
 
 @dataclass(frozen=True)
 class Plateaus:
-    """The values the curves tend to (e.g. :mod:`tableclean_suite.asymptotes` averaged over runs).
+    """The values the curves tend to (e.g. [`tableclean_suite.asymptotes`][tableclean_suite.asymptotes] averaged over runs).
 
     Attributes:
         success: success rate, in [0, 1].
@@ -359,7 +359,7 @@ class Plateaus:
     never_terminal: float = math.nan
 
 
-#: The per-run quantities behind :class:`Plateaus` (one field each), in field order.
+#: The per-run quantities behind [`Plateaus`][tableclean_suite.metrics.Plateaus] (one field each), in field order.
 PLATEAU_NAMES = ("success", "average_reward", "terminal", "greedy_success", "never_terminal")
 
 
@@ -370,18 +370,18 @@ def summarize(
     """Table 3 quantities of one training result, plus the curves they came from.
 
     Args:
-        result: a :class:`~tableclean_suite.learners.TrainingResult`, or the :class:`CurveSums`
+        result: a [`TrainingResult`][tableclean_suite.learners.train.TrainingResult], or the [`CurveSums`][tableclean_suite.curves.CurveSums]
             of one accumulated chunk by chunk (same numbers).
         threshold: fraction of the plateau that counts as reached, in (0, 1].
         plateau_fraction: final fraction of the window averaged as the window mean, in (0, 1].
-        plateaus: the curves' asymptotes (:class:`Plateaus`); None: the window means stand in
+        plateaus: the curves' asymptotes ([`Plateaus`][tableclean_suite.metrics.Plateaus]); None: the window means stand in
             for them (and then every figure moves with the window).
         support_fraction: fraction of runs, in [0, 1], that must have finished an episode before
             an average-reward point counts (0: one run is enough).
         hold: iterations the success curve must stay at its level for ``held_success_iterations``.
 
     Returns:
-        A :class:`Summary`.
+        A [`Summary`][tableclean_suite.metrics.Summary].
     """
     sums = result if isinstance(result, CurveSums) else curve_sums(result)
     curves = sums.curves(support_fraction)

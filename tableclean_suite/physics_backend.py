@@ -1,25 +1,25 @@
 """Skills in MuJoCo as a step environment for the learners (``train(backend="physics")``).
 
-:class:`PhysicsStepEnv` puts the ``TableClean`` robosuite scene into a task state
-(:func:`stage`), executes actions with the :class:`~tableclean_suite.controllers.SkillController`
+[`PhysicsStepEnv`][tableclean_suite.physics_backend.PhysicsStepEnv] puts the ``TableClean`` robosuite scene into a task state
+([`stage`][tableclean_suite.physics_backend.stage]), executes actions with the [`SkillController`][tableclean_suite.controllers.skill_controller.SkillController]
 and reads the next state back through the environment's abstraction.
-:func:`train_physics` spreads runs over worker processes, each training its share with
-:func:`tableclean_suite.learners.reference.train_run`.
+[`train_physics`][tableclean_suite.physics_backend.train_physics] spreads runs over worker processes, each training its share with
+[`tableclean_suite.learners.reference.train_run`][tableclean_suite.learners.reference.train_run].
 
 Faults and failures (the policy, documented once here)
 ------------------------------------------------------
 - *Skill failure with a readable state* (e.g. a wipe that left too much dirt): this is what
   physics did, so the learner sees the observed state and the outcome
-  :meth:`TaskModel.classify` gives it.  Counted in ``stats["skill_failures"]``.
+  [`TaskModel.classify`][tableclean_suite.task.model.TaskModel.classify] gives it.  Counted in ``stats["skill_failures"]``.
 - *Abstraction fault* (the scene maps to no task state: object dropped between segments,
   sponge not back home, instability, ...): the observed result is not a task state, so it is
   never mapped to one.  The scene is restored to the snapshot taken before the action (the
   last good state) and the action is executed again, up to ``max_retries`` times; each fault is
   counted in ``stats["faults"]`` (and by kind in ``stats["fault_reasons"]``).  If every retry
-  faults, :class:`PhysicsFaultError` is raised (``fault_policy="raise"`` raises at the first
+  faults, [`PhysicsFaultError`][tableclean_suite.physics_backend.PhysicsFaultError] is raised (``fault_policy="raise"`` raises at the first
   fault).  The learner therefore only ever sees physically observed task states.
 
-The counters of a :func:`train_physics` call (summed over runs) come back under the key ``"stats"``
+The counters of a [`train_physics`][tableclean_suite.physics_backend.train_physics] call (summed over runs) come back under the key ``"stats"``
 (``TrainingResult.info["physics"]`` when called through ``train``): ``steps`` (learner
 iterations), ``executions`` (skill executions incl. retries), ``skill_failures``, ``faults``,
 ``fault_reasons`` (dict), ``restages``, ``control_steps``, ``wall_time`` (seconds spent in
@@ -94,10 +94,10 @@ def start_of(state: TaskState) -> tuple[tuple[int, ...], int, tuple[int, ...], t
 
 
 def stage(env, controller, state, seed: int | None = None) -> TaskState:
-    """Reset ``env`` so that its symbolic state is ``state`` (a held object is picked up; see :func:`start_of`).
+    """Reset ``env`` so that its symbolic state is ``state`` (a held object is picked up; see [`start_of`][tableclean_suite.physics_backend.start_of]).
 
-    ``state`` is a :class:`TaskState` or a code of the controller's model.  ``seed`` re-seeds the
-    env's placement randomness first (None: continue its stream).  Raises :class:`StagingError`
+    ``state`` is a [`TaskState`][tableclean_suite.task.state.TaskState] or a code of the controller's model.  ``seed`` re-seeds the
+    env's placement randomness first (None: continue its stream).  Raises [`StagingError`][tableclean_suite.physics_backend.StagingError]
     when the abstraction does not read back ``state``.
     """
     model = getattr(controller, "model", None)
@@ -127,15 +127,15 @@ def stage(env, controller, state, seed: int | None = None) -> TaskState:
 # ---------------------------------------------------------------------------------------------
 # the step environment
 # ---------------------------------------------------------------------------------------------
-#: ``make_skill_env`` arguments that give a start layout (:func:`staging_env_kwargs`).
+#: ``make_skill_env`` arguments that give a start layout ([`staging_env_kwargs`][tableclean_suite.physics_backend.staging_env_kwargs]).
 LAYOUT_ARGUMENTS = ("object_segment", "arm_segment", "object_segments")
 
 
 def staging_env_kwargs(model: TaskModel, env_kwargs: dict | None) -> dict:
     """The ``make_skill_env`` arguments of a scene whose every reset stages the start itself
-    (:func:`stage`; this module's :class:`PhysicsStepEnv`, the skills Gym env): a copy of
+    ([`stage`][tableclean_suite.physics_backend.stage]; this module's [`PhysicsStepEnv`][tableclean_suite.physics_backend.PhysicsStepEnv], the skills Gym env): a copy of
     ``env_kwargs`` with ``task`` defaulting to ``model``'s spec and, when it gives no layout
-    (:data:`LAYOUT_ARGUMENTS`), :data:`~tableclean_suite.controllers.make.DEFAULT_LAYOUT` (the spec's
+    (`LAYOUT_ARGUMENTS`), `DEFAULT_LAYOUT` (the spec's
     own start may hold an object, which the scene's start refuses)."""
     from tableclean_suite.controllers.make import DEFAULT_LAYOUT
 
@@ -147,7 +147,7 @@ def staging_env_kwargs(model: TaskModel, env_kwargs: dict | None) -> dict:
 
 
 class PhysicsStepEnv:
-    """Skills in MuJoCo as a step environment for :func:`~tableclean_suite.learners.reference.train_run`.
+    """Skills in MuJoCo as a step environment for [`train_run`][tableclean_suite.learners.reference.train_run].
 
     ``reset(draw)`` stages the model's start state picked by ``draw`` (a both-unclean layout
     -> the env's ``object_segment``/``arm_segment``); ``step(state, action, draw)`` executes
@@ -156,9 +156,9 @@ class PhysicsStepEnv:
 
     Args:
         model: the task model (start states, rules the controller follows).
-        env_kwargs: arguments for :func:`~tableclean_suite.controllers.make_skill_env` (robosuite.make),
+        env_kwargs: arguments for [`make_skill_env`][tableclean_suite.controllers.make.make_skill_env] (robosuite.make),
             e.g. ``{"robots": "UR5e"}`` (robots with a registered skill config,
-            :func:`~tableclean_suite.controllers.robot_configs.supported_robots`).
+            [`supported_robots`][tableclean_suite.environments.robot_registry.supported_robots]).
         skill_configs: per-action skill config overrides for the SkillController.
         fault_policy: ``"retry"`` (default) or ``"raise"``.
         max_retries: re-executions of an action after a fault before giving up (>= 0).
@@ -299,13 +299,13 @@ class PhysicsRun:
     """One run of physics training as an executor task: plain values (the worker builds its own scene).
 
     Attributes:
-        learner, reward: the configured :class:`TabularLearner` and :class:`RewardPattern` (picklable).
+        learner, reward: the configured `TabularLearner` and `RewardPattern` (picklable).
         spec: the task spec as JSON text (``TaskSpec.to_dict()``).
         index: the run's index in this call (0-based); its random key is ``(seed, first_run + index)``.
-        iterations, seed, first_run: as :func:`train_physics`.
+        iterations, seed, first_run: as [`train_physics`][tableclean_suite.physics_backend.train_physics].
         options: the ``PhysicsStepEnv`` options (``physics_options``) as sorted items.
         hyper: ``alpha, gamma, epsilon, max_itr`` as sorted items.
-        checkpoint: also keep the Q-table after this many iterations (0: none), as :func:`train_physics`.
+        checkpoint: also keep the Q-table after this many iterations (0: none), as [`train_physics`][tableclean_suite.physics_backend.train_physics].
     """
 
     learner: object
@@ -331,7 +331,7 @@ _SESSIONS: dict = {}
 def process_session(spec_json: str, options: dict) -> "PhysicsStepEnv":
     """The PhysicsStepEnv of ``spec_json`` (``TaskSpec.to_dict()`` as JSON) and ``options`` in this
     process: built on first use and kept for the process's next tasks (in a worker process,
-    robosuite's start-up lines are silenced).  :func:`close_sessions` closes them."""
+    robosuite's start-up lines are silenced).  [`close_sessions`][tableclean_suite.physics_backend.close_sessions] closes them."""
     import json
     import multiprocessing
 
@@ -348,14 +348,14 @@ def process_session(spec_json: str, options: dict) -> "PhysicsStepEnv":
 
 
 def close_sessions() -> None:
-    """Close the scenes :func:`process_session` built in this process."""
+    """Close the scenes [`process_session`][tableclean_suite.physics_backend.process_session] built in this process."""
     while _SESSIONS:
         _SESSIONS.popitem()[1].close()
 
 
 def run_physics_task(task: PhysicsRun):
-    """Train one :class:`PhysicsRun` in this process (the scene built once per process and spec,
-    :func:`process_session`); returns ``(index, record, stats of this run)``."""
+    """Train one [`PhysicsRun`][tableclean_suite.physics_backend.PhysicsRun] in this process (the scene built once per process and spec,
+    [`process_session`][tableclean_suite.physics_backend.process_session]); returns ``(index, record, stats of this run)``."""
     env = process_session(task.spec, dict(task.options))
     record, stats = _train_one(env, task.learner, task.reward, task.iterations, task.seed,
                                task.first_run + task.index, dict(task.hyper), task.checkpoint)
@@ -363,7 +363,7 @@ def run_physics_task(task: PhysicsRun):
 
 
 def train_physics(job) -> dict:
-    """Train ``job.runs`` runs with skills in physics; the records :func:`~tableclean_suite.learners.train` expects.
+    """Train ``job.runs`` runs with skills in physics; the records [`train`][tableclean_suite.learners.train] expects.
 
     ``job`` is a [TrainingJob][tableclean_suite.backends.TrainingJob]; its ``options`` hold the checked
     ``physics_options``.
@@ -371,8 +371,8 @@ def train_physics(job) -> dict:
     Run ``i`` uses the run key ``(seed, first_run + i)`` (learner draws) and a scene seeded from it,
     whichever worker trains it.  ``job.workers`` defaults to ``os.cpu_count()`` (never more than
     ``runs``); with one worker everything runs in this process.  The fault/failure counters
-    are returned under ``"stats"``.  With several workers each run is a :class:`PhysicsRun` task
-    of ``executor`` (a :mod:`tableclean_suite.executors` executor, e.g. a ``RayExecutor`` for a
+    are returned under ``"stats"``.  With several workers each run is a [`PhysicsRun`][tableclean_suite.physics_backend.PhysicsRun] task
+    of ``executor`` (a [`tableclean_suite.executors`][tableclean_suite.executors] executor, e.g. a ``RayExecutor`` for a
     cluster; default: ``LocalExecutor(workers)``, spawned processes, so a script calling this with
     ``workers > 1`` needs the usual ``if __name__ == "__main__":`` guard).
 
@@ -450,11 +450,11 @@ def train_physics(job) -> dict:
 def check_physical_task(model: TaskModel, task_config: dict | None = None) -> None:
     """Raise ``ValueError`` when the ``TableClean`` scene cannot build and run ``model``'s spec.
 
-    The scene lays out up to :func:`~tableclean_suite.environments.config.max_segments`
+    The scene lays out up to [`max_segments`][tableclean_suite.environments.config.max_segments]
     segments (4 with the default config), builds objects of registered types
-    (:func:`~tableclean_suite.environments.objects.object_type_names`) that must fit side by
+    ([`object_type_names`][tableclean_suite.environments.objects.object_type_names]) that must fit side by
     side on one segment, and runs every action of the spec with a registered skill
-    (:func:`~tableclean_suite.controllers.register_skill`).
+    ([`register_skill`][tableclean_suite.controllers.registry.register_skill]).
     """
     from tableclean_suite.controllers.registry import get_skill_class
     from tableclean_suite.environments.config import LayoutError, make_config, scene_geometry
@@ -494,7 +494,7 @@ class PhysicsBackend:
     deterministic_prefix = False
 
     def check_options(self, model: TaskModel, options: dict) -> dict:
-        """Accepts ``physics_options`` (see :data:`PHYSICS_OPTIONS`); refuses specs the scene cannot build."""
+        """Accepts ``physics_options`` (see `PHYSICS_OPTIONS`); refuses specs the scene cannot build."""
         unknown = sorted(set(options) - {"physics_options"})
         if unknown:
             raise ValueError(f"backend 'physics': unknown option(s) {unknown}; allowed: 'physics_options' "

@@ -1,7 +1,7 @@
 """Greedy policies of Q-tables and their epsilon-greedy action probabilities.
 
-The two small functions both :mod:`tableclean_suite.analysis` and
-:mod:`tableclean_suite.asymptotes` build on (kept apart so neither imports the other's module to
+The two small functions both [`tableclean_suite.analysis`][tableclean_suite.analysis] and
+[`tableclean_suite.asymptotes`][tableclean_suite.asymptotes] build on (kept apart so neither imports the other's module to
 get them).
 """
 

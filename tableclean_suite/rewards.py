@@ -1,6 +1,6 @@
 """Reward patterns r1-r4 of the paper's Table 2, as data, plus a registry for user patterns.
 
-A pattern maps each :class:`~tableclean_suite.task.Outcome` to a value and may add
+A pattern maps each [`Outcome`][tableclean_suite.task.state.Outcome] to a value and may add
 the looping penalty of r4.  Everything here is pure: ``RewardPattern.reward`` is a
 function of (outcome, state, next state, state before the previous step).
 """
@@ -169,7 +169,7 @@ class RewardPattern:
         """The reward of one transition (pure).
 
         Args:
-            outcome: the :class:`Outcome` of the action.
+            outcome: the [`Outcome`][tableclean_suite.task.state.Outcome] of the action.
             state, next_state: state codes s_t and s_{t+1}.
             previous_state: s_{t-1}, or -1 at an episode's first step.
             history: the episode's states s_0 .. s_t (s_t last); needed when the pattern's

@@ -4,18 +4,18 @@ robosuite 1.5 exposes no public accessor for some things the package needs: the 
 ``mujoco.MjModel`` / ``MjData`` behind its ``MjSim`` wrappers, the robot's actuator and
 joint index lists, the env's clock, the OSC's refresh flag and result, the gripper's
 rate-limited command.  The compiled control path
-(:mod:`tableclean_suite.controllers.fast_control`) also calls MuJoCo's C functions by address.  Each of these is one small function here, so a robosuite or MuJoCo
+([`tableclean_suite.controllers.fast_control`][tableclean_suite.controllers.fast_control]) also calls MuJoCo's C functions by address.  Each of these is one small function here, so a robosuite or MuJoCo
 upgrade has one module to re-check.
 
 The fast control path writes robosuite's controller state and calls MuJoCo's C API, so it
-runs only on the versions in :data:`CHECKED_VERSIONS`:
+runs only on the versions in `CHECKED_VERSIONS`:
 
-- :func:`require_checked_versions` raises :class:`UncheckedVersionError` naming the installed
+- [`require_checked_versions`][tableclean_suite.robosuite_adapter.require_checked_versions] raises [`UncheckedVersionError`][tableclean_suite.robosuite_adapter.UncheckedVersionError] naming the installed
   and the checked versions (constructing a ``FastSkillStepper`` directly);
-- :func:`fast_path_allowed` returns ``False`` and warns once per process (making a skill env
+- [`fast_path_allowed`][tableclean_suite.robosuite_adapter.fast_path_allowed] returns ``False`` and warns once per process (making a skill env
   with ``fast_control=True``: the env then runs on robosuite's own ``env.step`` path).
 
-The read-only accessors (:func:`mj_model`, :func:`mj_data`, the index lists) follow
+The read-only accessors ([`mj_model`][tableclean_suite.robosuite_adapter.mj_model], [`mj_data`][tableclean_suite.robosuite_adapter.mj_data], the index lists) follow
 robosuite 1.5's ``binding_utils`` and robot classes, which ``setup.py`` pins (``>=1.5,<1.6``).
 """
 
@@ -32,18 +32,18 @@ CHECKED_VERSIONS: dict[str, tuple[str, ...]] = {
     "robosuite": ("1.5.2",),
     "mujoco": ("3.9.0",),
 }
-#: The MuJoCo C functions the compiled control loop calls, in the order of :func:`mujoco_function_addresses`.
+#: The MuJoCo C functions the compiled control loop calls, in the order of [`mujoco_function_addresses`][tableclean_suite.robosuite_adapter.mujoco_function_addresses].
 NATIVE_FUNCTIONS = ("mj_step1", "mj_step2", "mj_fullM", "mj_jacSite")
 
 _warned: set[tuple[str, ...]] = set()  # the unchecked-version messages already warned about (said once)
 
 
 class UncheckedVersionError(RuntimeError):
-    """The installed robosuite or MuJoCo is not a version :data:`CHECKED_VERSIONS` lists."""
+    """The installed robosuite or MuJoCo is not a version `CHECKED_VERSIONS` lists."""
 
 
 def installed_versions() -> dict[str, str]:
-    """The installed versions of the packages in :data:`CHECKED_VERSIONS` (their ``__version__``)."""
+    """The installed versions of the packages in `CHECKED_VERSIONS` (their ``__version__``)."""
     import mujoco
     import robosuite
 
@@ -53,7 +53,7 @@ def installed_versions() -> dict[str, str]:
 def unchecked_versions(installed: dict[str, str] | None = None) -> list[str]:
     """One line per installed package whose version is not checked, e.g. ``"mujoco 3.10.0 (checked: 3.9.0)"``.
 
-    ``installed``: package name -> version (default: :func:`installed_versions`).  Empty when all are checked.
+    ``installed``: package name -> version (default: [`installed_versions`][tableclean_suite.robosuite_adapter.installed_versions]).  Empty when all are checked.
     """
     installed = installed_versions() if installed is None else installed
     return [
@@ -68,7 +68,7 @@ def _unchecked_message(lines: list[str]) -> str:
 
 
 def require_checked_versions() -> None:
-    """Raise :class:`UncheckedVersionError` naming the installed and checked versions unless all are checked."""
+    """Raise [`UncheckedVersionError`][tableclean_suite.robosuite_adapter.UncheckedVersionError] naming the installed and checked versions unless all are checked."""
     lines = unchecked_versions()
     if lines:
         raise UncheckedVersionError(_unchecked_message(lines) + "; use fast_control=False (robosuite's env.step)")
@@ -105,7 +105,7 @@ def c_address(mujoco_struct) -> int:
 
 @functools.lru_cache(maxsize=None)
 def mujoco_function_addresses() -> tuple[int, ...]:
-    """Addresses of :data:`NATIVE_FUNCTIONS` in the MuJoCo library the Python bindings use.
+    """Addresses of `NATIVE_FUNCTIONS` in the MuJoCo library the Python bindings use.
 
     Raises ``OSError`` when MuJoCo's shared library is not found next to the mujoco package.
     """
@@ -186,7 +186,7 @@ def hand_back_controller_state(osc, grip, goal_pos, goal_ori, torques) -> None:
 
 
 def finish_control_step(env, osc, grip, goal_pos, goal_ori, torques) -> None:
-    """:func:`advance_clock` by ``env``'s control timestep, then :func:`hand_back_controller_state` (one call
+    """[`advance_clock`][tableclean_suite.robosuite_adapter.advance_clock] by ``env``'s control timestep, then [`hand_back_controller_state`][tableclean_suite.robosuite_adapter.hand_back_controller_state] (one call
     for the fast stepper's per-step path)."""
     advance_clock(env, env.control_timestep)
     hand_back_controller_state(osc, grip, goal_pos, goal_ori, torques)

@@ -1,7 +1,7 @@
 """Has a cell's behaviour settled inside its training window?
 
 Table 3's plateaus are the exact asymptotes of each run's *final* behaviour
-(:mod:`tableclean_suite.asymptotes`).  They describe where the curves are going only if that
+([`tableclean_suite.asymptotes`][tableclean_suite.asymptotes]).  They describe where the curves are going only if that
 behaviour has stopped changing; a learner whose greedy policy keeps drifting (SARSA at a constant
 alpha and epsilon on this task) has no plateau, and its iteration figures move with the window.
 This module measures that drift so the tables can say which figures rest on a settled plateau.

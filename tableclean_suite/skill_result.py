@@ -1,7 +1,7 @@
 """What one skill execution did, as plain data: picklable, and importable without robosuite.
 
-:class:`SkillResult` is what :meth:`tableclean_suite.controllers.SkillController.execute` returns;
-:class:`SkillReport` is the same record compared without its wall-clock timings, as the Gym skill
+[`SkillResult`][tableclean_suite.skill_result.SkillResult] is what [`tableclean_suite.controllers.SkillController.execute`][tableclean_suite.controllers.skill_controller.SkillController.execute] returns;
+[`SkillReport`][tableclean_suite.skill_result.SkillReport] is the same record compared without its wall-clock timings, as the Gym skill
 env puts it in ``info["skill_result"]`` (``info`` must cross process boundaries, e.g. Gymnasium's
 ``AsyncVectorEnv``, and be equal for equal seeds and actions).
 """
@@ -29,7 +29,7 @@ class SkillResult:
         reason: short human-readable account ("ok", "improper: ...", failure cause, ...).
         state_before: symbolic state before the action.
         state_after: symbolic state after it; ``None`` when the abstraction reported a fault.
-        outcome: :class:`Outcome` of the observed transition (``TaskModel.classify``); ``None`` on a fault.
+        outcome: [`Outcome`][tableclean_suite.task.state.Outcome] of the observed transition (``TaskModel.classify``); ``None`` on a fault.
         expected: the task model's successor of ``state_before``.
         wall_time: seconds spent in ``execute`` (including abstraction reads).
         env_time: seconds of that spent inside ``env.step`` (or the env's fast stepper, see ``execute``).
@@ -54,7 +54,7 @@ class SkillResult:
 
 @dataclass(frozen=True, eq=False)
 class SkillReport(SkillResult):
-    """A :class:`SkillResult` as the Gym skill env reports it (``info["skill_result"]``).
+    """A [`SkillResult`][tableclean_suite.skill_result.SkillResult] as the Gym skill env reports it (``info["skill_result"]``).
 
     It compares equal to another report or ``SkillResult`` ignoring the wall-clock timings:
     ``info`` must be equal for equal seeds and actions (Gymnasium's determinism check), and

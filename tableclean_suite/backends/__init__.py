@@ -6,10 +6,10 @@
 - ``"calibrated"``: a transition table measured from physics, compiled and batched;
 - ``"physics"``: skills executed in MuJoCo (imported only when used).
 
-The registry stores import paths, so importing it (as :func:`~tableclean_suite.learners.train`
+The registry stores import paths, so importing it (as [`train`][tableclean_suite.learners.train]
 does) imports no backend, and no backend imports the registry's user back: dependencies
 point downward only (backends -> learners -> task).  Users add a backend with
-:func:`register_backend` and any object with :class:`TrainingBackend`'s ``train`` method.
+[`register_backend`][tableclean_suite.backends.register_backend] and any object with [`TrainingBackend`][tableclean_suite.backends.TrainingBackend]'s ``train`` method.
 """
 
 from __future__ import annotations
@@ -38,9 +38,9 @@ class TrainingJob:
     """Everything one ``train()`` call asks of a backend (validated by ``train``).
 
     Attributes:
-        learner: the :class:`~tableclean_suite.learners.TabularLearner`.
-        reward: the :class:`~tableclean_suite.rewards.RewardPattern`.
-        model: the :class:`~tableclean_suite.task.TaskModel` (sizes, rules, starts).
+        learner: the [`TabularLearner`][tableclean_suite.learners.rules.TabularLearner].
+        reward: the [`RewardPattern`][tableclean_suite.rewards.RewardPattern].
+        model: the [`TaskModel`][tableclean_suite.task.model.TaskModel] (sizes, rules, starts).
         runs, iterations: records are ``(runs, iterations)``.
         alpha, gamma, epsilon: learning rate (0, 1], discount [0, 1], exploration [0, 1].
         max_itr: iterations after which an episode is truncated.
@@ -49,7 +49,7 @@ class TrainingJob:
         workers: processes or threads, where the backend uses them (never changes numbers).
         options: backend-specific keyword arguments (e.g. ``transitions``).
         progress: show a progress bar on stderr.
-        executor: a :mod:`tableclean_suite.executors` executor for backends that spread work
+        executor: a [`tableclean_suite.executors`][tableclean_suite.executors] executor for backends that spread work
             over processes or a cluster (the physics backend); None: the backend's default.
         checkpoint: also keep the Q-tables after this many iterations, in [1, iterations]
             (0: none); a backend that can puts them in ``info[CHECKPOINT_Q]`` ``(R, S, A)`` (the
@@ -86,7 +86,7 @@ class BackendRecords:
 
     Attributes (R = runs, T = iterations):
         rewards: ``(R, T)`` float64, the reward of every iteration.
-        outcomes: ``(R, T)`` :class:`~tableclean_suite.task.Outcome` codes.
+        outcomes: ``(R, T)`` [`Outcome`][tableclean_suite.task.state.Outcome] codes.
         states: ``(R, T)`` state code before each iteration's action.
         actions: ``(R, T)`` action index (the task's action order).
         episode_end: ``(R, T)``, 0 = episode continues, 1 = reached the terminal
@@ -96,7 +96,7 @@ class BackendRecords:
         info: backend diagnostics, e.g. ``info["physics"]``: skill executions, failures,
             faults by kind, restages, control steps and wall time of the physics backend.
         first_learned_at, learned_at: ``(R,)`` int64 learning times in iterations
-            (:mod:`tableclean_suite.learners.optimality`; -1: never / censored), or None when
+            ([`tableclean_suite.learners.optimality`][tableclean_suite.learners.optimality]; -1: never / censored), or None when
             the backend cannot judge them (``train()`` then reports -1).
 
     The integer records use the task's ``record_dtype``: int8 for the paper's 24 states,

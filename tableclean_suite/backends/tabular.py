@@ -1,13 +1,13 @@
 """Table-driven backends: the task model's transitions (``symbolic``) or measured ones (``calibrated``).
 
-Both step a :class:`~tableclean_suite.learners.TransitionTable`, either with the compiled
-batched loop (:mod:`tableclean_suite.learners.kernel`, chunks of runs, each spread over
+Both step a [`TransitionTable`][tableclean_suite.learners.transitions.TransitionTable], either with the compiled
+batched loop ([`tableclean_suite.learners.kernel`][tableclean_suite.learners.kernel], chunks of runs, each spread over
 ``numba.get_num_threads()`` threads of the calling thread by
-:func:`~tableclean_suite.learners.threads.run_in_threads`) or the plain per-step loop
-(:mod:`tableclean_suite.learners.reference`); the two give identical arrays, for any thread count.
+[`run_in_threads`][tableclean_suite.learners.threads.run_in_threads]) or the plain per-step loop
+([`tableclean_suite.learners.reference`][tableclean_suite.learners.reference]); the two give identical arrays, for any thread count.
 
 The learner carries its update rule, parameters, initial value (``q_init``), exploration and
-Cruz et al.'s assistance (affordances, advisor; :class:`~tableclean_suite.learners.TabularLearner`).
+Cruz et al.'s assistance (affordances, advisor; [`TabularLearner`][tableclean_suite.learners.rules.TabularLearner]).
 Double Q-learning's result ``q`` is the
 average of its two tables; both are in ``info["double_q_tables"]``, shape ``(R, 2, S, A)``.
 """
@@ -28,7 +28,7 @@ from tableclean_suite.learners.rules import METHOD_DOUBLE_Q, TIES
 from tableclean_suite.learners.threads import run_in_threads
 from tableclean_suite.learners.transitions import TransitionTable
 
-#: Runs per :func:`run_in_threads` call (slices of them trained on the threads); only affects progress
+#: Runs per [`run_in_threads`][tableclean_suite.learners.threads.run_in_threads] call (slices of them trained on the threads); only affects progress
 #: granularity, never the numbers.
 RUNS_PER_CHUNK = 256
 RECORD_FIELDS = ("rewards", "outcomes", "states", "actions", "episode_end")
@@ -52,7 +52,7 @@ def progress_bar(iterable, enabled: bool, description: str):
 def assistance_arrays(learner, model) -> tuple[np.ndarray, np.ndarray]:
     """The kernel's ``afforded`` ``(S, A)`` int8 (the model's affordances when the learner uses
     them given, else ``(0, 0)``) and ``advisor`` ``(S,)`` int64 (the optimal advisor when the learner
-    is advised, else ``(0,)``): see :mod:`tableclean_suite.learners.assist`."""
+    is advised, else ``(0,)``): see [`tableclean_suite.learners.assist`][tableclean_suite.learners.assist]."""
     if learner.affordance_code == assist.AFFORD_GIVEN:
         afforded = assist.given_affordances(model)
     else:
@@ -62,7 +62,7 @@ def assistance_arrays(learner, model) -> tuple[np.ndarray, np.ndarray]:
 
 
 def check_job_resources(job: TrainingJob, measured: bool) -> None:
-    """Refuse ``job`` before allocating when it cannot fit or would run too long (see :mod:`tableclean_suite.resources`)."""
+    """Refuse ``job`` before allocating when it cannot fit or would run too long (see [`tableclean_suite.resources`][tableclean_suite.resources])."""
     model = job.model
     successors = job.options["transitions"].max_successors if measured else 1
     what = (f"training {job.learner.name!r} on task {model.spec.name!r} ({model.n_states} states x "
@@ -109,9 +109,9 @@ class TableBackend:
     def train(self, job: TrainingJob) -> BackendRecords:
         """Run ``job`` on the table with the compiled or the reference loop.
 
-        Raises :class:`~tableclean_suite.resources.ResourceError` (before allocating) when its
+        Raises [`ResourceError`][tableclean_suite.resources.ResourceError] (before allocating) when its
         records, Q-tables and tables would not fit in the available memory, or its steps would
-        take longer than :data:`~tableclean_suite.resources.MAX_TRAINING_SECONDS`.
+        take longer than `MAX_TRAINING_SECONDS`.
         """
         check_job_resources(job, self.measured)
         table = self.table(job)

@@ -1,4 +1,4 @@
-"""``python -m tableclean_suite.bench COMMAND``: every benchmark command (see :mod:`.commands`)."""
+"""``python -m tableclean_suite.bench COMMAND``: every benchmark command (see `commands`)."""
 
 import sys
 

@@ -4,7 +4,7 @@
     tableclean-bench calibrate --from-trials results/fidelity/fidelity_trials.csv --out transitions.json
 
 Every (state, action) pair is executed ``N`` times in physics exactly as
-``tableclean-bench fidelity`` does (same rounds, same code: :func:`.fidelity.collect`), and
+``tableclean-bench fidelity`` does (same rounds, same code: `fidelity.collect`), and
 the observed ``(next_state, outcome)`` frequencies become the empirical successor distribution
 of the pair.  Executions that ended in an abstraction fault have no task state; they are left
 out of the counts and reported (the table's ``source`` says how many).  Pairs never executed
@@ -12,7 +12,7 @@ out of the counts and reported (the table's ``source`` says how many).  Pairs ne
 ``<out>.trials.csv`` so an interrupted calibration resumes; ``--from-trials`` converts an
 existing fidelity trials file without running physics.
 
-Train on the result at symbolic speed::
+Train on the result at symbolic speed:
 
     tableclean-bench run --backend calibrated --transitions transitions.json
     train(backend="calibrated", transitions="transitions.json")
@@ -79,7 +79,7 @@ def count_transitions(rows, model: TaskModel | None = None) -> tuple[dict, int]:
 
     Raises:
         CalibrationError: a trial whose state, action, observed state or outcome does not fit the task
-            (see :func:`_check_transition`), so no table that ``run --backend calibrated`` refuses is written.
+            (see `_check_transition`), so no table that ``run --backend calibrated`` refuses is written.
     """
     model = model or TaskModel()
     counts: dict[tuple[int, int], Counter] = {}
@@ -97,7 +97,7 @@ def count_transitions(rows, model: TaskModel | None = None) -> tuple[dict, int]:
 
 def measured_with(configuration: dict | None) -> str:
     """How the trials' scene was set up, for the table's ``source``: robot and randomisation of their
-    recorded configuration (:func:`.fidelity.read_configuration`), or that it is unknown."""
+    recorded configuration ([`fidelity.read_configuration`][tableclean_suite.bench.fidelity.read_configuration]), or that it is unknown."""
     if configuration is None:
         return "scene options unknown (no configuration recorded beside the trials)"
     options = configuration.get("physics_options") or {}
@@ -108,7 +108,7 @@ def measured_with(configuration: dict | None) -> str:
 
 
 def calibrated_table(rows, model: TaskModel | None = None, description: str = "") -> TransitionTable:
-    """The empirical :class:`TransitionTable` of fidelity trial rows (faults excluded, see module doc)."""
+    """The empirical [`TransitionTable`][tableclean_suite.learners.transitions.TransitionTable] of fidelity trial rows (faults excluded, see module doc)."""
     model = model or TaskModel()
     counts, faults = count_transitions(rows, model)
     executions = sum(sum(c.values()) for c in counts.values())
@@ -135,7 +135,7 @@ DEFAULT_OUT = "transitions.json"
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line: the shared options of :mod:`.cli`, fidelity's execution options and calibrate's own."""
+    """The command line: the shared options of [`cli`][tableclean_suite.bench.cli], fidelity's execution options and calibrate's own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     add_execution_arguments(parser)  # pairs of actions not executed keep the model's successor
     cli.add_out_argument(parser, cli.FILE, DEFAULT_OUT, "JSON file to write")

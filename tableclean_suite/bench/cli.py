@@ -1,10 +1,10 @@
 """The options every benchmark command shares, defined once, and the parser they all use.
 
-Every command (:mod:`.commands`: ``tableclean-bench COMMAND``) builds its parser with
-:func:`command_parser` (a :class:`OneLineParser` that already has ``--plugins`` and
+Every command (`commands`: ``tableclean-bench COMMAND``) builds its parser with
+`command_parser` (a `OneLineParser` that already has ``--plugins`` and
 ``--verbose``) and adds the shared options it uses with the ``add_*`` functions below, so that
 ``--task``, ``--seed``, ``--out``, ``--robots``, ``--workers``/``--executor``/``--ray-address``
-are spelled, typed and checked the same way everywhere.  :func:`parse_command` imports the
+are spelled, typed and checked the same way everywhere.  `parse_command` imports the
 ``--plugins`` before the parser is built (so the names they register are allowed and listed by
 ``--help``) and applies ``--verbose``.  Every bad value exits 2 with one line naming the flag,
 the value and what is allowed.
@@ -19,7 +19,7 @@ from pathlib import Path
 
 #: Exit code of a command line used wrongly (argparse's).
 EXIT_USAGE = 2
-#: Output kinds of :func:`add_out_argument`: a folder the command fills, or one file it writes.
+#: Output kinds of [`add_out_argument`][tableclean_suite.bench.cli.add_out_argument]: a folder the command fills, or one file it writes.
 DIRECTORY, FILE = "directory", "file"
 #: Robot the single-arm commands build their scene with.
 DEFAULT_ROBOT = "Panda"
@@ -88,7 +88,7 @@ def name_list(text: str) -> tuple[str, ...]:
 
 
 def output_path(kind: str):
-    """A type: an output path of ``kind`` (:data:`DIRECTORY` or :data:`FILE`), refused before any work
+    """A type: an output path of ``kind`` (`DIRECTORY` or `FILE`), refused before any work
     when it is empty, when it or one of its parents is an existing file (a directory output), or
     when it is an existing directory (a file output)."""
     def parse(text: str) -> str:
@@ -154,7 +154,7 @@ def add_iterations_argument(parser, default: int, what: str, **options) -> None:
 
 def add_out_argument(parser, kind: str, default, what: str, flags=("--out",), **options) -> None:
     """``--out PATH``: where the command writes (``kind``: a directory or a file), checked at parse time
-    (:func:`output_path`)."""
+    ([`output_path`][tableclean_suite.bench.cli.output_path])."""
     shown = "" if default is argparse.SUPPRESS else f" (default {default})"
     metavar = "DIR" if kind == DIRECTORY else "FILE"
     parser.add_argument(*flags, dest="out", type=output_path(kind), default=default, metavar=metavar,
@@ -163,7 +163,7 @@ def add_out_argument(parser, kind: str, default, what: str, flags=("--out",), **
 
 def add_robots_argument(parser, many: bool = False, default: str = DEFAULT_ROBOT) -> None:
     """``--robots NAME[,NAME...]``: the arm(s) the scene is built with, each with a registered skill config
-    (checked by :func:`parse_robots` once the plugins are imported; single-arm commands take one)."""
+    (checked by [`parse_robots`][tableclean_suite.bench.cli.parse_robots] once the plugins are imported; single-arm commands take one)."""
     what = "comma-separated robot arms" if many else "robot arm"
     parser.add_argument("--robots", type=name_list, default=default, metavar="NAME" + (",..." if many else ""),
                         help=f"{what} with a registered skill config: Panda, Sawyer, UR5e, Kinova3 ship "
@@ -191,8 +191,8 @@ def parse_robot(parser: argparse.ArgumentParser, args) -> str:
 
 def add_executor_arguments(parser, tasks: str, helps: dict | None = None, suppress: bool = False) -> None:
     """``--workers``, ``--executor``, ``--ray-address``: where the command's independent ``tasks``
-    (e.g. ``"rounds"``, ``"episodes"``) run (:mod:`tableclean_suite.executors`); read them back
-    with :func:`executor_from_args`.  ``helps`` replaces help texts by dest; ``suppress`` leaves an
+    (e.g. ``"rounds"``, ``"episodes"``) run ([`tableclean_suite.executors`][tableclean_suite.executors]); read them back
+    with [`executor_from_args`][tableclean_suite.bench.cli.executor_from_args].  ``helps`` replaces help texts by dest; ``suppress`` leaves an
     option out of the namespace when it is not given (a caller with defaults of its own)."""
     from tableclean_suite.executors import EXECUTOR_NAMES
 
@@ -213,8 +213,8 @@ def add_executor_arguments(parser, tasks: str, helps: dict | None = None, suppre
 
 
 def executor_from_args(parser: argparse.ArgumentParser, args):
-    """The executor of :func:`add_executor_arguments`' options (not started yet); its workers import
-    the command's ``--plugins`` before every task (:class:`~.plugins.PluginExecutor`).
+    """The executor of [`add_executor_arguments`][tableclean_suite.bench.cli.add_executor_arguments]' options (not started yet); its workers import
+    the command's ``--plugins`` before every task ([`PluginExecutor`][tableclean_suite.bench.plugins.PluginExecutor]).
 
     Exits 2 (``parser.error``) on ``--ray-address`` without ``--executor ray``, or on
     ``--executor ray`` where Ray is not installed (the message names the ``cluster`` extra).

@@ -13,11 +13,11 @@ majority vote of ``--runs`` runs of ``--iterations`` steps from the same random 
 Every control step is recorded (state before it, absolute OSC command), also on the fast
 control path, which bypasses ``env.step``.  Episodes whose skills fail, fault or do not reach
 the goal are discarded and replaced by new draws (at most ``MAX_ATTEMPTS_PER_EPISODE`` draws
-per requested demo).  The file layout is in :mod:`tableclean_suite.demos`; it is written
+per requested demo).  The file layout is in `tableclean_suite.demos`; it is written
 atomically (temporary file, then rename).
 
 Every *attempt* (a drawn start layout and its execution) is an executor task
-(:class:`DemoAttempt`, :func:`record_attempt`; :mod:`tableclean_suite.executors`): attempt
+(`DemoAttempt`, `record_attempt`; `tableclean_suite.executors`): attempt
 ``k`` draws its start and placement seed from ``(--seed, k)`` alone and the worker builds its
 own scene, so ``--workers N`` processes of this machine or ``--executor ray [--ray-address
 HOST:PORT]`` record the same demos as one process (BLAS runs on one thread inside an attempt,
@@ -67,7 +67,7 @@ PROG = "tableclean-bench demos"
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line: the shared options of :mod:`.cli` and the collection's own."""
+    """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the collection's own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     cli.add_task_argument(parser)
     parser.add_argument("--episodes", type=positive_int, default=DEFAULT_EPISODES,
@@ -130,8 +130,8 @@ class DemoAttempt:
         spec: the task spec as JSON text (``TaskSpec.to_dict()``).
         task: ``--task`` as given (a name or a .json path; stored in ``env_args``).
         robot: the arm, a robot with a registered skill config
-            (:func:`tableclean_suite.controllers.robot_configs.supported_robots`).
-        policy_name: one of :data:`POLICIES`.
+            ([`tableclean_suite.controllers.robot_configs.supported_robots`][tableclean_suite.environments.robot_registry.supported_robots]).
+        policy_name: one of `POLICIES`.
         policy: the learned policy's action per state code, or None for the shortest plan.
         max_actions: actions before a learned-policy episode counts as failed.
         seed: the run's seed (``--seed``); with ``attempt`` it fixes the start and the placement.
@@ -154,7 +154,7 @@ class DemoAttempt:
 
 @dataclass
 class AttemptResult:
-    """What :func:`record_attempt` returns: the demo (None when discarded) and what to log."""
+    """What [`record_attempt`][tableclean_suite.bench.collect_demos.record_attempt] returns: the demo (None when discarded) and what to log."""
 
     attempt: int
     start_name: str
@@ -192,16 +192,16 @@ def _scene(task: DemoAttempt):
 
 
 def close_scenes() -> None:
-    """Close the scenes :func:`record_attempt` built in this process."""
+    """Close the scenes [`record_attempt`][tableclean_suite.bench.collect_demos.record_attempt] built in this process."""
     while _SCENES:
         env = _SCENES.popitem()[1][0]
         env.close()
 
 
 def record_attempt(task: DemoAttempt) -> AttemptResult:
-    """Run one :class:`DemoAttempt` in this process: draw its start, stage it, execute and record.
+    """Run one [`DemoAttempt`][tableclean_suite.bench.collect_demos.DemoAttempt] in this process: draw its start, stage it, execute and record.
 
-    BLAS runs on one thread meanwhile (:func:`~tableclean_suite.executors.blas.single_blas_thread`):
+    BLAS runs on one thread meanwhile ([`single_blas_thread`][tableclean_suite.executors.blas.single_blas_thread]):
     its thread count changes the trajectories' last bits, and it differs between this process,
     local workers and Ray's (which start with ``OMP_NUM_THREADS=1``).
     """
@@ -262,9 +262,9 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
     """Record up to ``episodes`` successful demos; returns ``(demos, env_args, data_attrs)``.
 
     ``task`` is a registered spec name or a ``.json`` path; ``robot`` a robot with a registered skill config;
-    ``policy_name`` one of :data:`POLICIES`.  The learned policy acts closed-loop on the state
+    ``policy_name`` one of `POLICIES`.  The learned policy acts closed-loop on the state
     the physics reads back; the optimal plan is the model's from the start.  Each attempt is a
-    :class:`DemoAttempt` task of ``executor`` (a :mod:`tableclean_suite.executors` executor;
+    [`DemoAttempt`][tableclean_suite.bench.collect_demos.DemoAttempt] task of ``executor`` (a [`tableclean_suite.executors`][tableclean_suite.executors] executor;
     default: this process); the demos are the first ``episodes`` successful attempts in attempt
     order, the same whatever the executor.
 

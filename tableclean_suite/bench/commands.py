@@ -7,8 +7,8 @@
     python -m tableclean_suite.bench COMMAND ...   # the same, without the console script
 
 Each command lives in its own module, which builds its parser (``build_parser(prog)``: the
-shared options of :mod:`.cli` plus its own) and runs it (``main(argv=None, prog=None) -> int``).
-This module only knows their names: :data:`COMMANDS`.  Flags given without a command (``tableclean-bench
+shared options of `cli` plus its own) and runs it (``main(argv=None, prog=None) -> int``).
+This module only knows their names: `COMMANDS`.  Flags given without a command (``tableclean-bench
 --runs 5``) go to ``run``, as before there were commands.
 """
 
@@ -35,7 +35,7 @@ HELP_FLAGS = ("-h", "--help")
 
 @dataclass(frozen=True)
 class Command:
-    """One command of :data:`COMMANDS`.
+    """One command of `COMMANDS`.
 
     Attributes:
         module: the module with its ``build_parser(prog)`` and ``main(argv, prog)``.
@@ -91,7 +91,7 @@ class CommandUnavailable(RuntimeError):
 
 
 def _module(name: str):
-    """The module of command ``name``; :class:`CommandUnavailable` when it is not installed."""
+    """The module of command ``name``; [`CommandUnavailable`][tableclean_suite.bench.commands.CommandUnavailable] when it is not installed."""
     command = COMMANDS[name]
     try:
         return command.load()
@@ -180,8 +180,8 @@ def run_alias(name: str, prog: str, argv=None) -> int:
 
 def _run(name: str, argv, prog: str, unavailable_prog: str | None = None) -> int:
     """``main(argv, prog=prog)`` of command ``name``'s module, as an exit status: the one
-    place where a command's ``SystemExit``, refusals (:func:`_refusals`: one line, exit 2) and Ctrl-C
-    (exit :data:`EXIT_INTERRUPTED`) become exit codes.  A command not installed is one line, exit 2,
+    place where a command's ``SystemExit``, refusals (`_refusals`: one line, exit 2) and Ctrl-C
+    (exit `EXIT_INTERRUPTED`) become exit codes.  A command not installed is one line, exit 2,
     under ``unavailable_prog`` (default ``prog``)."""
     try:
         module = _module(name)
@@ -200,9 +200,9 @@ def _run(name: str, argv, prog: str, unavailable_prog: str | None = None) -> int
 
 def _refusals() -> tuple:
     """Library errors a command reports as one line with exit 2: the resource guard's
-    (:class:`~tableclean_suite.resources.ResourceError`) and the output folder's
-    (:class:`~tableclean_suite.bench.outputs.OutputError`: full disk, read-only, busy, a file in the way) and
-    an unreachable Ray cluster (:class:`~tableclean_suite.executors.ray_executor.ClusterUnreachableError`)."""
+    ([`ResourceError`][tableclean_suite.resources.ResourceError]) and the output folder's
+    ([`OutputError`][tableclean_suite.bench.outputs.OutputError]: full disk, read-only, busy, a file in the way) and
+    an unreachable Ray cluster ([`ClusterUnreachableError`][tableclean_suite.executors.ray_executor.ClusterUnreachableError])."""
     from tableclean_suite.bench.outputs import OutputError
     from tableclean_suite.executors.ray_executor import ClusterUnreachableError
     from tableclean_suite.resources import ResourceError

@@ -1,6 +1,6 @@
 """``tableclean-bench run --describe``: what the task model is, as tables and text.
 
-Pure: every function returns a DataFrame or a string; :mod:`.run` prints.  The Table 1
+Pure: every function returns a DataFrame or a string; `run` prints.  The Table 1
 sections apply to tasks of the paper's sizes (2 segments, 1 object) only.
 """
 
@@ -80,7 +80,7 @@ def learners_frame() -> pd.DataFrame:
 
 def assistance_text(learner) -> str:
     """``"affordances: given"``, ``"advisor L=0.5 C=1"``, both, or ``"-"``
-    (see :mod:`tableclean_suite.learners.assist`)."""
+    (see [`tableclean_suite.learners.assist`][tableclean_suite.learners.assist])."""
     parts = []
     if learner.affordance != "none":
         parts.append(f"affordances: {learner.affordance}")

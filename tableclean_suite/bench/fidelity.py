@@ -19,19 +19,19 @@ reachable non-terminal state (paper: 18 states x 4 actions = 72 trials;
 
 ``--trials N`` rounds give N trials per (state, action) pair.  Rounds are independent (each
 has its own seed), so they run in parallel: ``--workers N`` processes on this machine, or
-``--executor ray [--ray-address HOST:PORT]`` (:mod:`tableclean_suite.executors`); every worker
+``--executor ray [--ray-address HOST:PORT]`` (`tableclean_suite.executors`); every worker
 builds its own scene and the rows are stored in round order.  Results go to ``DIR``:
 ``fidelity_trials.csv`` (one row per execution; rewritten atomically after every finished
 round, so an interrupted run resumes where it stopped and never keeps a partial round:
-:mod:`.trial_store`; ``--fresh`` starts over), ``fidelity_pairs.csv`` (agreement per pair) and
+`trial_store`; ``--fresh`` starts over), ``fidelity_pairs.csv`` (agreement per pair) and
 ``fidelity_skills.csv`` (success, steps and seconds per skill, over executions the controller
-did not refuse).  :func:`collect` is the execution code ``tableclean-bench calibrate`` reuses.
+did not refuse).  `collect` is the execution code ``tableclean-bench calibrate`` reuses.
 
 The summary prints the overall agreement and each skill's success as counts, rates and their
 one-sided 95 % exact (Clopper-Pearson) lower bounds ([lower_bound][tableclean_suite.bench.fidelity.lower_bound]).
 
 ``--randomize`` runs the scene with randomised dynamics (``randomization="on"``: the documented
-ranges of :mod:`tableclean_suite.environments.randomization`), drawn anew at every staged reset
+ranges of `tableclean_suite.environments.randomization`), drawn anew at every staged reset
 from that reset's seed; its results go to ``DIR_randomized`` by default.
 """
 
@@ -123,7 +123,7 @@ def run_round(scene, round_index: int, seed: int, on_trial: Callable[[dict], Non
               actions: Iterable | None = None) -> list[dict]:
     """One round: every action in ``actions`` (default: the model's) once from every reachable non-terminal state.
 
-    ``scene`` is a :class:`tableclean_suite.physics_backend.PhysicsStepEnv` (its env,
+    ``scene`` is a [`tableclean_suite.physics_backend.PhysicsStepEnv`][tableclean_suite.physics_backend.PhysicsStepEnv] (its env,
     controller and model are used).  States only reachable through a left-out action are
     staged.  Returns the trial rows in execution order.
     """
@@ -177,7 +177,7 @@ def read_trials(path: Path, log: Callable[[str], None] | None = None) -> list[di
     """Rows of a trials CSV (numbers converted), ``[]`` when it does not exist.
 
     A damaged last line (an interrupted write) is dropped; any other damage, or unexpected
-    columns, raises :class:`ResumeError` naming the line.
+    columns, raises [`ResumeError`][tableclean_suite.bench.fidelity.ResumeError] naming the line.
     """
     try:
         return trial_store.read_rows(Path(path), log)
@@ -214,8 +214,8 @@ class FidelityRound:
 
 
 def run_round_task(task: FidelityRound) -> list[dict]:
-    """Run one :class:`FidelityRound` in this process (the scene is built once per process, spec and
-    options: :func:`tableclean_suite.physics_backend.process_session`)."""
+    """Run one [`FidelityRound`][tableclean_suite.bench.fidelity.FidelityRound] in this process (the scene is built once per process, spec and
+    options: [`tableclean_suite.physics_backend.process_session`][tableclean_suite.physics_backend.process_session])."""
     from tableclean_suite.physics_backend import process_session
 
     scene = process_session(task.spec[0], dict(task.physics_options))
@@ -230,7 +230,7 @@ def run_configuration(model: TaskModel, physics_options: dict | None, scene=None
     """What determines a trial besides its round and seed: the task spec, the scene's options
     (robot, randomisation, ...) and, with ``plugins`` (``--plugins`` entries), the SHA-256 of their
     sources and of the user modules they refer to
-    (:func:`~tableclean_suite.bench.plugins.plugin_sources_digest`: an edited skill or object type
+    ([`plugin_sources_digest`][tableclean_suite.bench.plugins.plugin_sources_digest]: an edited skill or object type
     measures other trials); JSON values, anything else by ``repr``."""
     import json
 
@@ -251,7 +251,7 @@ def configuration_path(trials_csv: Path) -> Path:
 
 
 def read_configuration(trials_csv: Path) -> dict | None:
-    """The recorded options of ``trials_csv``'s trials (:func:`run_configuration`), None without a record.
+    """The recorded options of ``trials_csv``'s trials ([`run_configuration`][tableclean_suite.bench.fidelity.run_configuration]), None without a record.
 
     Raises:
         ResumeError: the record is unreadable, not JSON, or not an object with ``task``.
@@ -340,16 +340,16 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
 
     With ``trials_csv`` every finished round is stored (atomically, whole rounds only), and
     complete rounds already in it are not run again (a different ``seed`` raises
-    :class:`ResumeError`; ``fresh=True`` deletes the file first; incomplete rounds run again).
+    [`ResumeError`][tableclean_suite.bench.fidelity.ResumeError]; ``fresh=True`` deletes the file first; incomplete rounds run again).
     ``scene`` reuses a PhysicsStepEnv in this process; otherwise ``executor`` (a
-    :mod:`tableclean_suite.executors` executor; default: this process) runs the rounds, each
+    [`tableclean_suite.executors`][tableclean_suite.executors] executor; default: this process) runs the rounds, each
     worker building its scene with ``physics_options``.  ``actions`` limits the executed
     actions (e.g. leave out the slow clean).  ``model`` is the task (default: the scene's,
     else ``paper``).  The trials' folder is locked while rounds run
-    (:func:`~tableclean_suite.bench.outputs.output_lock`): a second run into it raises
-    :class:`~tableclean_suite.bench.outputs.OutputBusyError`.  ``plugins`` (``--plugins`` entries)
-    enter the trials' configuration (:func:`run_configuration`): resuming after a plugin was edited
-    raises :class:`ResumeError`.
+    ([`output_lock`][tableclean_suite.bench.outputs.output_lock]): a second run into it raises
+    [`OutputBusyError`][tableclean_suite.bench.outputs.OutputBusyError].  ``plugins`` (``--plugins`` entries)
+    enter the trials' configuration ([`run_configuration`][tableclean_suite.bench.fidelity.run_configuration]): resuming after a plugin was edited
+    raises [`ResumeError`][tableclean_suite.bench.fidelity.ResumeError].
     """
     import json
 
@@ -464,7 +464,7 @@ def skill_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[di
 
 
 def write_csv(path: Path, table: list[dict]) -> None:
-    """Write ``table`` (rows of one shape) to ``path`` as CSV atomically (:func:`.trial_store.write_rows`)."""
+    """Write ``table`` (rows of one shape) to ``path`` as CSV atomically ([`trial_store.write_rows`][tableclean_suite.bench.trial_store.write_rows])."""
     trial_store.write_rows(path, table, tuple(table[0]) if table else ("empty",))
 
 
@@ -534,7 +534,7 @@ def summary_lines(result: dict, title: str) -> list[str]:
 # CLI
 # ---------------------------------------------------------------------------------------------
 def add_execution_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of :func:`collect` shared by fidelity and calibrate: --task, --trials, --seed, --actions,
+    """The options of [`collect`][tableclean_suite.bench.fidelity.collect] shared by fidelity and calibrate: --task, --trials, --seed, --actions,
     --quiet and where the rounds run."""
     cli.add_task_argument(parser)
     parser.add_argument("--trials", type=cli.positive_int, default=5,
@@ -577,7 +577,7 @@ PROG = "tableclean-bench fidelity"
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line: the shared options of :mod:`.cli` and fidelity's own."""
+    """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and fidelity's own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     add_execution_arguments(parser)
     cli.add_out_argument(parser, cli.DIRECTORY, None, f"output directory ({DEFAULT_OUT} when not given, or "

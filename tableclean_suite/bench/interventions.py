@@ -4,7 +4,7 @@
     tableclean-bench interventions --only q_init,routine_reward --runs 100 --out results/interventions
 
 Every explanation on the findings page ("r3 is slow *because* ...") predicts what happens when the
-factor it names is changed.  Each :class:`Intervention` trains a *before* cell (the setting the
+factor it names is changed.  Each `Intervention` trains a *before* cell (the setting the
 explanation is about) and an *after* cell that differs in that one factor (initial Q values, the
 routine reward, the looping rule's memory, epsilon, ``max_itr``, the budget, gamma), on the same
 runs (same ``--seed``), and reports for both:
@@ -15,7 +15,7 @@ runs (same ``--seed``), and reports for both:
   of the budget) with its Clopper-Pearson interval
   ([learning_time_summary][tableclean_suite.learning_time.learning_time_summary]);
 - the **success plateau**: the exact success probability of each run's final epsilon-greedy
-  behaviour (:func:`tableclean_suite.asymptotes.greedy_asymptotes`), averaged over runs, with a
+  behaviour (`tableclean_suite.asymptotes.greedy_asymptotes`), averaged over runs, with a
   bootstrap interval over runs ([interval_estimates][tableclean_suite.intervals.interval_estimates]);
 - the share of runs that **never reached the terminal state**.
 
@@ -76,9 +76,9 @@ class Intervention:
         name: the ``--only`` key.
         claim: the explanation it tests, as the findings page states it.
         factor: the one factor that differs between the arms.
-        before: ``train()`` settings of the cell the claim is about (on top of :data:`BASE`).
+        before: ``train()`` settings of the cell the claim is about (on top of `BASE`).
         after: the settings that change in the other arm.
-        figure: the figure the claim predicts to move (a key of :data:`FIGURES`).
+        figure: the figure the claim predicts to move (a key of `FIGURES`).
         direction: -1 if the claim predicts it falls, +1 if it rises.
     """
 

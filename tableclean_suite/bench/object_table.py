@@ -9,7 +9,7 @@ shortest plan with the skills in MuJoCo (Panda, compiled control path):
 
 - ``alone``: the ``paper``-shaped spec with the object (2 segments, 1 object);
 - ``mixed``: 3 segments, the object and a partner: ``--mix-with`` (default ``box``), or
-  ``cylinder`` (:data:`FALLBACK_PARTNER`) when that is the measured type itself; the partner
+  ``cylinder`` (`FALLBACK_PARTNER`) when that is the measured type itself; the partner
   actually used is the ``partner`` column of the CSV and of the printed table.
 
 Per skill, *success* is the skill's own report (its motion completed and the abstraction's
@@ -54,14 +54,14 @@ PROG = "tableclean-bench objects"
 
 def partner_for(kind: str, setting: str, partner: str) -> str:
     """The partner type actually used with ``kind`` in ``setting``: ``""`` alone, ``partner`` mixed unless it is
-    ``kind`` itself (then :data:`FALLBACK_PARTNER`)."""
+    ``kind`` itself (then `FALLBACK_PARTNER`)."""
     if setting == "alone":
         return ""
     return partner if partner != kind else FALLBACK_PARTNER
 
 
 def spec_for(kind: str, setting: str, partner: str):
-    """The task spec of one cell (uniform all-unclean starts); the partner is :func:`partner_for`'s."""
+    """The task spec of one cell (uniform all-unclean starts); the partner is [`partner_for`][tableclean_suite.bench.object_table.partner_for]'s."""
     from tableclean_suite.task import TaskSpec
 
     if setting == "alone":
@@ -139,7 +139,7 @@ def markdown(rows: list[dict]) -> str:
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line: the shared options of :mod:`.cli` and the table's own."""
+    """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the table's own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     parser.add_argument("--objects", type=cli.name_list, default=None, metavar="TYPE,...",
                         help="comma-separated registered object types (default every registered type: the "

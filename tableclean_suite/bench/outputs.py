@@ -1,7 +1,7 @@
 """Writing a run's output files so that they always describe one run, whatever interrupts it.
 
-Protocol of :func:`publish` (``OUT`` is the output directory), under the folder's lock
-(:func:`output_lock`: one writer at a time):
+Protocol of `publish` (``OUT`` is the output directory), under the folder's lock
+(`output_lock`: one writer at a time):
 
 1. Each data file (``table3.csv``, ``table4.csv``, ``curves.csv``, the figures) and then
    ``config.json`` (the run's configuration, a fresh ``run_id`` and, under ``files``, the SHA-256
@@ -9,14 +9,14 @@ Protocol of :func:`publish` (``OUT`` is the output directory), under the folder'
    If any write fails (a full disk, a read-only mount, a folder where a file goes), the
    temporaries are removed and ``OUT`` keeps its last complete publication untouched.
 2. ``OUT/config.json`` is deleted, each data file is moved over the old one with
-   :func:`os.replace` (a rename: no space needed) and ``config.json`` is moved in last.
+   `os.replace` (a rename: no space needed) and ``config.json`` is moved in last.
 
 Hence: when ``config.json`` exists, the data files it lists are the ones of its run
-(:func:`check_outputs` verifies the digests); when it is missing, the last run was interrupted
+(`check_outputs` verifies the digests); when it is missing, the last run was interrupted
 between its renames and the directory describes no run.  A ``config.json`` this suite did not
-write (no ``run_id``/``files``) is never deleted: :func:`publish` refuses the folder instead.
+write (no ``run_id``/``files``) is never deleted: `publish` refuses the folder instead.
 
-Every file-system failure surfaces as :class:`OutputError` (an ``OSError``) whose message is one
+Every file-system failure surfaces as `OutputError` (an ``OSError``) whose message is one
 line naming the path and the reason; the command line turns it into exit code 2.
 """
 
@@ -32,14 +32,14 @@ from typing import Callable
 
 #: The manifest: the run's configuration, its id and the digests of its data files.
 MANIFEST = "config.json"
-#: The lock file a writer holds in an output folder (:func:`output_lock`).
+#: The lock file a writer holds in an output folder ([`output_lock`][tableclean_suite.bench.outputs.output_lock]).
 LOCK_FILE = ".tableclean.lock"
-#: Seconds :func:`output_lock` waits for another writer before giving up (0: give up at once).
+#: Seconds [`output_lock`][tableclean_suite.bench.outputs.output_lock] waits for another writer before giving up (0: give up at once).
 DEFAULT_LOCK_WAIT = 0.0
 
 #: Bytes read at a time when hashing a file.
 _HASH_BLOCK = 1 << 20
-#: Keys that mark a manifest as written by :func:`publish`.
+#: Keys that mark a manifest as written by [`publish`][tableclean_suite.bench.outputs.publish].
 _MANIFEST_KEYS = ("run_id", "files")
 
 
@@ -48,7 +48,7 @@ class OutputError(OSError):
 
 
 class OutputBusyError(OutputError):
-    """Another process holds the output folder's lock (:func:`output_lock`)."""
+    """Another process holds the output folder's lock ([`output_lock`][tableclean_suite.bench.outputs.output_lock])."""
 
 
 def describe_os_error(error: OSError) -> str:
@@ -57,7 +57,7 @@ def describe_os_error(error: OSError) -> str:
 
 
 def check_out_path(out) -> Path:
-    """``out`` as a :class:`Path`; :class:`OutputError` for an empty or blank name (which would
+    """``out`` as a `Path`; [`OutputError`][tableclean_suite.bench.outputs.OutputError] for an empty or blank name (which would
     otherwise mean the current directory)."""
     if out is None or (isinstance(out, str) and not out.strip()):
         raise OutputError(f"output folder {out!r} is empty; name a folder (e.g. results/run1)")
@@ -65,12 +65,12 @@ def check_out_path(out) -> Path:
 
 
 def temporary_path(path: Path) -> Path:
-    """Where :func:`atomic_write` writes ``path`` first: a hidden name in the same directory."""
+    """Where [`atomic_write`][tableclean_suite.bench.outputs.atomic_write] writes ``path`` first: a hidden name in the same directory."""
     return path.with_name(f".{path.name}.{os.getpid()}.tmp")
 
 
 def atomic_write(path, write: Callable[[Path], None]) -> Path:
-    """Create or replace ``path`` atomically: ``write(temporary)`` then :func:`os.replace`.
+    """Create or replace ``path`` atomically: ``write(temporary)`` then `os.replace`.
 
     Args:
         path: the final file.
@@ -78,7 +78,7 @@ def atomic_write(path, write: Callable[[Path], None]) -> Path:
 
     Returns:
         ``path``.  If ``write`` or the replace fails, ``path`` is unchanged and the temporary
-        file is removed; a file-system failure is raised as :class:`OutputError`.
+        file is removed; a file-system failure is raised as [`OutputError`][tableclean_suite.bench.outputs.OutputError].
     """
     path = Path(path)
     temporary = temporary_path(path)
@@ -104,7 +104,7 @@ def _remove_quietly(path: Path) -> None:
 
 
 def atomic_write_text(path, text: str) -> Path:
-    """:func:`atomic_write` of UTF-8 text."""
+    """[`atomic_write`][tableclean_suite.bench.outputs.atomic_write] of UTF-8 text."""
     return atomic_write(path, lambda temporary: temporary.write_text(text, encoding="utf-8"))
 
 
@@ -122,9 +122,9 @@ _HELD_LOCKS: dict = {}
 
 @contextmanager
 def output_lock(out, wait: float = DEFAULT_LOCK_WAIT):
-    """Hold ``OUT/.tableclean.lock`` (:mod:`filelock`) while writing into ``out``.
+    """Hold ``OUT/.tableclean.lock`` (`filelock`) while writing into ``out``.
 
-    Re-entrant within a process (a run holding its folder can :func:`publish` into it).  The
+    Re-entrant within a process (a run holding its folder can [`publish`][tableclean_suite.bench.outputs.publish] into it).  The
     lock is the operating system's, so it is released when the holder exits or is killed.
 
     Args:
@@ -160,7 +160,7 @@ def output_lock(out, wait: float = DEFAULT_LOCK_WAIT):
 
 
 def is_own_manifest(path) -> bool:
-    """Whether ``path`` is a ``config.json`` written by :func:`publish` (a JSON object with
+    """Whether ``path`` is a ``config.json`` written by [`publish`][tableclean_suite.bench.outputs.publish] (a JSON object with
     ``run_id`` and ``files``); False for anything else, unreadable files included."""
     try:
         document = json.loads(Path(path).read_text(encoding="utf-8"))
@@ -176,7 +176,7 @@ def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict, wai
         out: the output directory (must exist; not empty).
         writers: ``{file name: write(path)}`` of the data files, written in this order.
         manifest: the run's description; ``run_id`` and ``files`` are added to it.
-        wait: seconds to wait for another writer's lock (:func:`output_lock`).
+        wait: seconds to wait for another writer's lock ([`output_lock`][tableclean_suite.bench.outputs.output_lock]).
 
     Returns:
         The paths written, data files first and ``config.json`` last.
@@ -212,7 +212,7 @@ def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict, wai
 
 
 def _stage(path: Path, write: Callable[[Path], None]) -> Path:
-    """Write ``path``'s temporary; :class:`OutputError` (temporary removed) if it cannot be, or if
+    """Write ``path``'s temporary; [`OutputError`][tableclean_suite.bench.outputs.OutputError] (temporary removed) if it cannot be, or if
     ``path`` is a folder (checked before anything is replaced)."""
     if path.is_dir():
         raise OutputError(f"cannot write {str(path)!r}: it is a folder; remove it or choose another output folder")
@@ -293,9 +293,9 @@ def check_writable(out) -> str | None:
 
 
 def check_publishable(out, folders=()) -> str | None:
-    """Why :func:`publish` could not use ``out``, or None: :func:`check_writable` of ``out`` and of
+    """Why [`publish`][tableclean_suite.bench.outputs.publish] could not use ``out``, or None: [`check_writable`][tableclean_suite.bench.outputs.check_writable] of ``out`` and of
     each of its sub-``folders`` (e.g. ``("cells",)``), and a ``config.json`` there that this suite
-    did not write (which :func:`publish` never deletes).  Call it before any work."""
+    did not write (which [`publish`][tableclean_suite.bench.outputs.publish] never deletes).  Call it before any work."""
     problem = check_writable(out)
     for folder in folders:
         problem = problem or check_writable(Path(out) / folder)

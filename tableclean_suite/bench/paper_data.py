@@ -46,7 +46,7 @@ PAPER_TABLE4_COLUMNS = (
 
 _NA = float("nan")
 
-#: The paper's Table 4, verbatim, with ``source`` = :data:`SOURCE_QUOTED` on every row.
+#: The paper's Table 4, verbatim, with ``source`` = `SOURCE_QUOTED` on every row.
 PAPER_TABLE4 = pd.DataFrame(
     [
         ("Classic RL [8]", 1000, 35.0, 1000),

@@ -1,14 +1,14 @@
 """Figures 3-7 of the paper, and the Kaplan-Meier curves of the per-run learning time (Figure 8),
 from a long curves DataFrame: each function returns ``(fig, ax)``.
 
-Nothing here shows or writes a figure to a file (:func:`render_png` returns a figure's PNG bytes;
-:mod:`tableclean_suite.bench.run` writes them).  matplotlib is imported when a figure is first
+Nothing here shows or writes a figure to a file (`render_png` returns a figure's PNG bytes;
+`tableclean_suite.bench.run` writes them).  matplotlib is imported when a figure is first
 drawn, not with this module (``benchmarks.run`` loads unchanged figures from its cache without
-it, see :mod:`.derived`).  Input is the
-long-format frame of :func:`benchmarks.tables.curves_long` (columns ``learner, reward,
+it, see `derived`).  Input is the
+long-format frame of `benchmarks.tables.curves_long` (columns ``learner, reward,
 alpha, gamma, experiment, iteration, metric, value`` and, when present, the 95 % band
 ``low, high``, shaded on every figure).  Colours come from one palette
-keyed by reward pattern (:func:`reward_color`), so r4 is the same colour in every figure;
+keyed by reward pattern (`reward_color`), so r4 is the same colour in every figure;
 sweep figures colour by parameter value on a sequential map.
 """
 
@@ -53,14 +53,14 @@ def reward_color(reward: str, known=()) -> str:
     return _EXTRA_COLORS[index % len(_EXTRA_COLORS)]
 
 
-#: The last frame :func:`_select` read and its columns' :func:`pandas.factorize` codes: a drawing
+#: The last frame `_select` read and its columns' `pandas.factorize` codes: a drawing
 #: process draws several figures from one frame, and comparing integer codes instead of every row's
 #: text saves ~40 ms per figure on the default ``curves`` (228 000 rows).
 _CODED: tuple = (None, {})
 
 
 def _codes(curves: pd.DataFrame, column: str) -> tuple[np.ndarray, pd.Index]:
-    """``(codes, uniques)`` of ``curves[column]`` (:func:`pandas.factorize`), kept for the last frame."""
+    """``(codes, uniques)`` of ``curves[column]`` (`pandas.factorize`), kept for the last frame."""
     global _CODED
     frame, columns = _CODED
     if frame is not curves:
@@ -81,12 +81,12 @@ def _matches(curves: pd.DataFrame, column: str, value) -> np.ndarray:
     return np.isin(codes, wanted)
 
 
-#: The columns the figures select their rows by (:func:`_select`).
+#: The columns the figures select their rows by (`_select`).
 SELECTED_COLUMNS = ("learner", "reward", "experiment", "metric")
 
 
 def code_columns(curves: pd.DataFrame) -> None:
-    """Factorize :data:`SELECTED_COLUMNS` of ``curves`` now (kept for the frame, :func:`_codes`), e.g.
+    """Factorize `SELECTED_COLUMNS` of ``curves`` now (kept for the frame, `_codes`), e.g.
     before forking the processes that draw its figures: they inherit the codes instead of each
     factorizing them (~45 ms on the default ``curves``)."""
     for column in SELECTED_COLUMNS:
@@ -256,7 +256,7 @@ SWEEP_XMAX = 1000
 
 def plateau_levels(table, learner: str, metric: str) -> dict | None:
     """``{reward: plateau}`` of ``learner``'s main rows of a Table 3 frame (``success_plateau`` or
-    ``average_reward_plateau``), for :func:`plot_rewards`'s ``levels``; None without a table."""
+    ``average_reward_plateau``), for [`plot_rewards`][tableclean_suite.bench.plots.plot_rewards]'s ``levels``; None without a table."""
     if table is None:
         return None
     rows = table[(table["experiment"] == "main") & (table["learner"] == learner)]
@@ -298,7 +298,7 @@ PAPER_FIGURES = {
 
 
 def available_figures(curves: pd.DataFrame) -> list[str]:
-    """Stems of :data:`PAPER_FIGURES` that ``curves`` has data for."""
+    """Stems of `PAPER_FIGURES` that ``curves`` has data for."""
     experiments = set(curves["experiment"].unique().tolist())
     learners = set(curves.loc[curves["experiment"] == "main", "learner"].unique().tolist())
     sweeps = experiments & {"alpha_sweep", "gamma_sweep"}
@@ -314,18 +314,18 @@ def available_figures(curves: pd.DataFrame) -> list[str]:
     return [stem for stem, ok in needs.items() if ok]
 
 
-#: zlib level of the PNGs :func:`render_png` writes (1: fastest; the figures are flat colours and lines,
+#: zlib level of the PNGs [`render_png`][tableclean_suite.bench.plots.render_png] writes (1: fastest; the figures are flat colours and lines,
 #: so they stay small).
 PNG_COMPRESS_LEVEL = 1
-#: How :func:`render_png` saves a figure with artists beyond its canvas (beside the dpi it is given).
+#: How [`render_png`][tableclean_suite.bench.plots.render_png] saves a figure with artists beyond its canvas (beside the dpi it is given).
 SAVEFIG_OPTIONS = {"bbox_inches": "tight", "format": "png"}
 
 
 def render_png(stem: str, curves: pd.DataFrame, plateau_fraction: float, table3=None, dpi: int = 100) -> bytes:
-    """The PNG bytes of the paper's figure ``stem`` (:data:`PAPER_FIGURES`) drawn from ``curves``
+    """The PNG bytes of the paper's figure ``stem`` (`PAPER_FIGURES`) drawn from ``curves``
     (plateau lines from ``table3`` when given), at ``dpi`` dots per inch.
 
-    The figure is made at ``dpi`` and drawn once (:func:`_tight_png`): what ``savefig(bbox_inches=
+    The figure is made at ``dpi`` and drawn once (`_tight_png`): what ``savefig(bbox_inches=
     "tight")`` shows, without its second drawing of the figure on a canvas of the cropped size (whose
     new renderer measures every text again)."""
     import matplotlib

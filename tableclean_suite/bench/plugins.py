@@ -4,8 +4,8 @@ Registries are per process, so a command line cannot see what a user's script re
 ``--plugins my_package.my_module,path/to/extras.py`` imports each entry before the other flags
 are checked (a module name, or a path to a ``.py`` file), so every name it registers is allowed
 on the command line and listed by ``--help``; executor workers import the same entries before
-each task (:func:`with_plugins`).  A plugin that raises, or exits (``sys.exit``), is a
-:class:`PluginError` naming it.
+each task (`with_plugins`).  A plugin that raises, or exits (``sys.exit``), is a
+`PluginError` naming it.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def _failure(entry: str, error: BaseException) -> str:
 
 
 def load_plugins(entries) -> list:
-    """Import every entry in order; :class:`PluginError` names the first that fails."""
+    """Import every entry in order; [`PluginError`][tableclean_suite.bench.plugins.PluginError] names the first that fails."""
     return [load_plugin(entry) for entry in entries]
 
 
@@ -74,8 +74,8 @@ def portable(entries: Iterable[str]) -> tuple[str, ...]:
 
 
 def plugin_entries(text: str | None) -> tuple[str, ...]:
-    """The ``--plugins`` value as a command keeps it: :func:`split_plugins`, ``.py`` paths made absolute
-    (:func:`portable`), so executor workers with another working directory import the same files."""
+    """The ``--plugins`` value as a command keeps it: [`split_plugins`][tableclean_suite.bench.plugins.split_plugins], ``.py`` paths made absolute
+    ([`portable`][tableclean_suite.bench.plugins.portable]), so executor workers with another working directory import the same files."""
     return portable(split_plugins(text))
 
 
@@ -86,7 +86,7 @@ class PluginTask:
     Attributes:
         function: the module-level task function.
         task: its task.
-        plugins: :func:`portable` plugin entries.
+        plugins: [`portable`][tableclean_suite.bench.plugins.portable] plugin entries.
     """
 
     function: Callable
@@ -134,7 +134,7 @@ class PluginExecutor:
 
 
 def with_plugins(executor, plugins: Iterable[str]):
-    """``executor``, wrapped in a :class:`PluginExecutor` when there are ``plugins``."""
+    """``executor``, wrapped in a [`PluginExecutor`][tableclean_suite.bench.plugins.PluginExecutor] when there are ``plugins``."""
     plugins = tuple(plugins or ())
     return PluginExecutor(executor, plugins) if plugins else executor
 
@@ -156,7 +156,7 @@ def _is_user_file(path: str | None) -> bool:
 
 
 def _user_modules(modules) -> list:
-    """``modules`` and, transitively, every user module (:func:`_is_user_file`) their globals refer
+    """``modules`` and, transitively, every user module (`_is_user_file`) their globals refer
     to: a module imported by name, or a function, class or constant's defining module."""
     seen, pending = {}, list(modules)
     while pending:
@@ -194,7 +194,7 @@ def loaded_plugin_sources(entries: Iterable[str]) -> dict[str, str]:
 
 
 def plugin_sources_digest(entries: Iterable[str]) -> str | None:
-    """One SHA-256 over the contents of :func:`loaded_plugin_sources` (independent of where the files
+    """One SHA-256 over the contents of [`loaded_plugin_sources`][tableclean_suite.bench.plugins.loaded_plugin_sources] (independent of where the files
     are, so a cluster node with the same code in another folder agrees); None without entries."""
     import hashlib
 

@@ -48,7 +48,7 @@ def analyse(learner: str, reward: str, model: TaskModel, runs: int, iterations: 
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line: the shared options of :mod:`.cli` and the analysis' own."""
+    """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the analysis' own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     cli.add_runs_argument(parser, 1000, "runs per row")
     cli.add_iterations_argument(parser, 4000, "training iterations")

@@ -74,7 +74,7 @@ def save_png(frame: np.ndarray, path: Path) -> None:
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line: the shared options of :mod:`.cli` and the picture's own."""
+    """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the picture's own."""
     parser = cli.command_parser(prog, __doc__.splitlines()[0])
     cli.add_out_argument(parser, cli.FILE, None, f"PNG path to write ({DEFAULT_OUT} when not given, or "
                                                  "results/images/scene_<task>.png for another spec)")

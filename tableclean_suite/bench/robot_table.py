@@ -5,7 +5,7 @@
 
 For every (robot, spec) cell:
 
-- **fidelity**: :func:`tableclean_suite.bench.fidelity.collect` with ``T`` rounds (every action from
+- **fidelity**: `tableclean_suite.bench.fidelity.collect` with ``T`` rounds (every action from
   every reachable non-terminal state, ``T`` times; a trial agrees when physics ends in the model's
   successor with the model's outcome); the trials are stored in
   ``<fidelity-dir>/<robot>_<spec>/fidelity_trials.csv`` (resumable, as ``tableclean-bench fidelity``);
@@ -16,7 +16,7 @@ For every (robot, spec) cell:
   (reset and plan).
 
 With ``--randomize`` both run with the scene's randomised dynamics
-(:data:`tableclean_suite.environments.randomization.DEFAULT_ON`, drawn at every reset from the
+(`tableclean_suite.environments.randomization.DEFAULT_ON`, drawn at every reset from the
 seeded ``env.rng``); the row's ``dynamics`` column says ``randomized`` (else ``nominal``) and its
 fidelity trials go to ``<fidelity-dir>/<robot>_<spec>_randomized``.
 
@@ -103,7 +103,7 @@ def run_fidelity(robot: str, task: str, trials: int, seed: int, out: Path, log=p
                  fresh: bool = False) -> dict:
     """Fidelity rounds of ``task`` on ``robot`` (trials stored under ``out``, as ``tableclean-bench fidelity``
     stores them: the same scene options, so either command resumes the other's); the
-    :func:`~.fidelity.summary` dict.  ``fresh`` discards earlier trials."""
+    [`summary`][tableclean_suite.bench.fidelity.summary] dict.  ``fresh`` discards earlier trials."""
     from tableclean_suite.task import TaskModel, get_task_spec
 
     model = TaskModel(spec=get_task_spec(task))
@@ -115,7 +115,7 @@ def run_fidelity(robot: str, task: str, trials: int, seed: int, out: Path, log=p
 
 
 def table_row(robot: str, task: str, fid: dict | None, eps: dict | None, dynamics: str = NOMINAL) -> dict:
-    """One row of the table (:data:`COLUMNS`); empty strings for a part that was skipped."""
+    """One row of the table (`COLUMNS`); empty strings for a part that was skipped."""
     row = {"robot": robot, "task": task, "dynamics": dynamics}
     if fid is not None:
         row.update(fidelity_trials=fid["trials"], fidelity_rounds=fid["rounds"],
@@ -128,7 +128,7 @@ def table_row(robot: str, task: str, fid: dict | None, eps: dict | None, dynamic
 
 
 def write_table(path: Path, rows: list[dict]) -> None:
-    """Write ``rows`` (:data:`COLUMNS`) to ``path`` atomically."""
+    """Write ``rows`` (`COLUMNS`) to ``path`` atomically."""
     trial_store.write_rows(path, rows, COLUMNS)
 
 
@@ -138,7 +138,7 @@ class TableFileError(ValueError):
 
 def read_table(path: Path) -> list[dict]:
     """The rows of an existing table (``[]`` when there is none), each checked: the header holds every
-    column of :data:`COLUMNS` (``dynamics`` may be missing in tables written before it), a row has a
+    column of `COLUMNS` (``dynamics`` may be missing in tables written before it), a row has a
     robot and a task, and the other cells are numbers or empty.
 
     Raises:
@@ -185,7 +185,7 @@ def read_table(path: Path) -> list[dict]:
 
 
 def merge_rows(path: Path, rows: list[dict]) -> list[dict]:
-    """The rows already in ``path`` (if any; :func:`read_table`) with the cells of ``rows`` replaced or
+    """The rows already in ``path`` (if any; [`read_table`][tableclean_suite.bench.robot_table.read_table]) with the cells of ``rows`` replaced or
     added, in the file's order."""
     merged: dict[tuple, dict] = {}
     for row in read_table(path):
@@ -201,7 +201,7 @@ def _number(value):
 
 
 def _count_cells(count: int, n: int) -> tuple[str, str]:
-    """``("count/n = rate %", "lower bound %")`` of ``count`` of ``n`` (:func:`.fidelity.lower_bound`, rounded down)."""
+    """``("count/n = rate %", "lower bound %")`` of ``count`` of ``n`` ([`fidelity.lower_bound`][tableclean_suite.bench.fidelity.lower_bound], rounded down)."""
     return f"{count}/{n} = {100 * count / n:.2f} %", fidelity.percent_down(fidelity.lower_bound(count, n))
 
 
@@ -241,7 +241,7 @@ PROG = "tableclean-bench robots"
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line: the shared options of :mod:`.cli` and the table's own."""
+    """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the table's own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     cli.add_robots_argument(parser, many=True, default=",".join(DEFAULT_ROBOTS))
     parser.add_argument("--tasks", default=",".join(DEFAULT_TASKS),

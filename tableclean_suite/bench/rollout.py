@@ -205,7 +205,7 @@ MIN_PIXELS, MAX_PIXELS = 64, 4096
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line: the shared options of :mod:`.cli` and the rollout's own."""
+    """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the rollout's own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     parser.add_argument("--reward", default="r4", help="reward pattern (default r4)")
     cli.add_out_argument(parser, cli.FILE, None, "output video, .mp4 or .gif (required unless --task is given: "

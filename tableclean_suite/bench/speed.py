@@ -12,7 +12,7 @@ ratio of neighbouring measurements much less.  The sections (``--sections``, in 
     every registered learner's updates per second on the paper spec (``--runs`` x ``--iterations``
     per call, the best of ``--repeat`` calls after a warm-up, so compilation is not counted) and its
     time per real update relative to Q-learning; the compiled Q-learning and SARSA against
-    Algorithm 1 as a plain per-step Python loop (:func:`plain_loop`).
+    Algorithm 1 as a plain per-step Python loop (`plain_loop`).
 ``specs``
     Q-learning's update rate on the scaling study's largest spec relative to the paper spec's.
 ``skills``
@@ -189,7 +189,7 @@ def learner_table(reward: str, runs: int, iterations: int, repeat: int) -> Table
 
 
 def plain_loop_table(runs: int, iterations: int, repeat: int) -> Table:
-    """The compiled Q-learning and SARSA against :func:`plain_loop`, updates per second (reward r2)."""
+    """The compiled Q-learning and SARSA against [`plain_loop`][tableclean_suite.bench.speed.plain_loop], updates per second (reward r2)."""
     from tableclean_suite.learners import train
 
     plain_runs = max(1, runs // PLAIN_LOOP_SHARE)
@@ -293,7 +293,7 @@ def compare_paths(episodes: int, layout=(1, 1), seed: int = 0, task=None) -> dic
 
     Returns:
         ``{"robosuite": [episode, ...], "compiled": [episode, ...], "mujoco_s": seconds}`` with
-        :func:`run_episode`'s episodes; the raw-MuJoCo steps are the compiled episodes' steps.
+        [`run_episode`][tableclean_suite.bench.speed.run_episode]'s episodes; the raw-MuJoCo steps are the compiled episodes' steps.
     """
     from tableclean_suite.controllers import make_skill_env
 
@@ -320,7 +320,7 @@ def compare_paths(episodes: int, layout=(1, 1), seed: int = 0, task=None) -> dic
 
 
 def skill_rows(measured: dict) -> list[dict]:
-    """The control-path table of :func:`compare_paths`' measurements: control steps per second of each
+    """The control-path table of [`compare_paths`][tableclean_suite.bench.speed.compare_paths]' measurements: control steps per second of each
     path, relative to robosuite's ``env.step`` and to raw MuJoCo, and seconds per optimal episode."""
     tiny = 1e-12
     rates, episode_s = {}, {}
@@ -419,7 +419,7 @@ def time_process(argv, cwd: Path, **environment) -> tuple[float, subprocess.Comp
 
 
 def cold_start_rows(processes=COLD_START_PROCESSES) -> list[dict]:
-    """:data:`COLD_START_PROCESSES` one after the other in a new folder, sharing a numba cache that starts
+    """`COLD_START_PROCESSES` one after the other in a new folder, sharing a numba cache that starts
     empty (``NUMBA_CACHE_DIR``): seconds, kernels compiled and loaded (numba's ``NUMBA_DEBUG_CACHE``
     lines), cells resumed and exit code of each; a process that failed has its last error line printed."""
     rows = []
@@ -483,7 +483,7 @@ def machine() -> dict:
 
 
 def page(sections: dict, stamp: dict) -> str:
-    """The Markdown page of ``sections`` (name -> :class:`Section`) measured on ``stamp``'s machine."""
+    """The Markdown page of ``sections`` (name -> [`Section`][tableclean_suite.bench.speed.Section]) measured on ``stamp``'s machine."""
     lines = ["# Measurements", "",
              "How fast the learners, the skills and a first run are, measured on the machine below by "
              "`tableclean-bench speed --markdown docs/measurements.md`, which rewrites this page. The figures "

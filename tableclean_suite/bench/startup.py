@@ -3,7 +3,7 @@
 When robosuite is imported (by the physics backend, or by anything else that needs MuJoCo) it
 logs warnings about its own installation: no private macro file, no robosuite_models, no mink.
 They say nothing about a benchmark run, so the commands drop them unless ``--verbose``
-(:func:`quiet_robosuite_startup`).  Only records logged while robosuite itself is being imported
+(`quiet_robosuite_startup`).  Only records logged while robosuite itself is being imported
 are dropped; its later messages (e.g. about a controller) pass as usual.
 """
 
@@ -19,7 +19,7 @@ ROBOSUITE_LOGGER = "robosuite_logs"
 
 
 class _DropDuringImport(logging.Filter):
-    """Drops records until :meth:`stop` (robosuite's import has finished); counts what it dropped."""
+    """Drops records until `stop` (robosuite's import has finished); counts what it dropped."""
 
     def __init__(self):
         super().__init__()

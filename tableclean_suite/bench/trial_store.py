@@ -7,7 +7,7 @@ older versions or copied by hand:
 
 - a damaged *last* line (a write cut short) is dropped, and so is every incomplete round, with a
   message saying which rounds will be run again;
-- a damaged line anywhere else is a :class:`TrialStoreError` naming the line and the column;
+- a damaged line anywhere else is a `TrialStoreError` naming the line and the column;
 - rows are never guessed: a round with the wrong number of trials is never reported as a result.
 """
 

@@ -16,7 +16,7 @@ interval and the censored share are reported beside it.  The greedy policy break
 equal Q values at random by default (``--ties random``; ``--ties first`` takes the first action in
 the task's order), in training and in the learning-time check; the rule is named in the output
 and is part of the study's configuration.  The objective is subject to the success asymptote
-(:mod:`tableclean_suite.asymptotes`, the runs' final policies under the final epsilon): a trial
+(`tableclean_suite.asymptotes`, the runs' final policies under the final epsilon): a trial
 whose asymptote is more than ``--tolerance`` (absolute, default 0.01) below the paper
 configuration's (alpha = gamma = 0.3, constant epsilon = 0.1, same learner, reward, task, runs,
 iterations, tie rule and seed; computed once per study and stored in it) scores
@@ -29,8 +29,8 @@ exploration (epsilon and schedule) are crossed with the paper's, 2 x 2, each tra
 runs, and ``OUT/ablation.csv`` lists each combination's learning time: it shows which half of a
 tuned gain comes from which setting.
 
-**Pruning**: a trial trains its runs in :data:`STAGES` stages of runs; after each stage it reports
-the objective on the runs so far, and Optuna's :class:`~optuna.pruners.MedianPruner` stops it when
+**Pruning**: a trial trains its runs in `STAGES` stages of runs; after each stage it reports
+the objective on the runs so far, and Optuna's `MedianPruner` stops it when
 that is worse than the median of earlier trials at the same stage.
 
 **Storage**: an Optuna RDB URL, default ``sqlite:///OUT/study.db`` (``--out`` default
@@ -69,7 +69,7 @@ PRUNER_STARTUP_TRIALS = 5
 PRUNER_WARMUP_STEPS = 1
 #: User attribute of the study holding the paper configuration's result.
 REFERENCE_ATTR = "paper_reference"
-#: User attribute of the study holding the configuration it was created for (:func:`study_configuration`).
+#: User attribute of the study holding the configuration it was created for ([`study_configuration`][tableclean_suite.bench.tune.study_configuration]).
 CONFIGURATION_ATTR = "configuration"
 #: Exit status of a refused call (a bad --storage, a study of another configuration).
 EXIT_USAGE = 2
@@ -123,14 +123,14 @@ def bind_configuration(study, args) -> None:
 
 def check_resources(args) -> None:
     """Refuse a study that cannot fit in memory or would run too long, before the task's tables are
-    built and before any trial trains (the estimates of :mod:`tableclean_suite.resources`, as
-    :func:`tableclean_suite.bench.experiments.check_grid_resources` makes them for a grid).
+    built and before any trial trains (the estimates of [`tableclean_suite.resources`][tableclean_suite.resources], as
+    [`tableclean_suite.bench.experiments.check_grid_resources`][tableclean_suite.bench.experiments.check_grid_resources] makes them for a grid).
 
-    Memory: one stage's runs of the tuned learner (:func:`tableclean_suite.learners.memory.learner_training_memory`:
+    Memory: one stage's runs of the tuned learner ([`tableclean_suite.learners.memory.learner_training_memory`][tableclean_suite.learners.memory.learner_training_memory]:
     double Q-learning's tables, its run working arrays; trials keep no checkpoint), the tables and
     the stage's asymptote analysis.  Time: at most ``--trials`` trials and the paper configuration's
     reference (computed once per study), each ``runs x iterations`` learner steps at the engine's rate
-    (:func:`tableclean_suite.resources.steps_per_second`) and one asymptote DP per stage; a pruned
+    ([`tableclean_suite.resources.steps_per_second`][tableclean_suite.resources.steps_per_second]) and one asymptote DP per stage; a pruned
     trial stops early.
 
     Raises:
@@ -214,7 +214,7 @@ class Evaluation:
         self.learned_at: list[np.ndarray] = []
 
     def stages(self):
-        """Train the runs in :data:`STAGES` stages; yields after each stage."""
+        """Train the runs in `STAGES` stages; yields after each stage."""
         from tableclean_suite import asymptotes
         from tableclean_suite.learners import train
 
@@ -279,7 +279,7 @@ DEFAULT_OUT = "results/tune"
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line: the shared options of :mod:`.cli` and the study's own."""
+    """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the study's own."""
     from tableclean_suite.bench import cli
 
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
@@ -443,7 +443,7 @@ def _finite_or_none(value):
 
 def result_text(result: dict) -> str:
     """One line: median learning time [interval], censored share, restricted mean, success asymptote
-    and the paper's first-touch reading of an :meth:`Evaluation.result` (or a stored copy)."""
+    and the paper's first-touch reading of an [`Evaluation.result`][tableclean_suite.bench.tune.Evaluation.result] (or a stored copy)."""
     def number(key):
         value = result.get(key)
         return "censored" if value is None or not np.isfinite(value) else f"{value:.0f}"
@@ -469,7 +469,7 @@ def ablation_settings(tuned: dict) -> list[tuple[str, str, dict]]:
 
 
 def ablation(args, tuned: dict) -> list[dict]:
-    """Train every combination of :func:`ablation_settings` on the study's runs; one row each."""
+    """Train every combination of [`ablation_settings`][tableclean_suite.bench.tune.ablation_settings] on the study's runs; one row each."""
     rows = []
     for values_from, exploration_from, settings in ablation_settings(tuned):
         evaluation = Evaluation(args, args.model, settings)
@@ -482,7 +482,7 @@ def ablation(args, tuned: dict) -> list[dict]:
 
 
 def open_study(args):
-    """The study of ``args`` (created or resumed), bound to its configuration (:func:`bind_configuration`).
+    """The study of ``args`` (created or resumed), bound to its configuration ([`bind_configuration`][tableclean_suite.bench.tune.bind_configuration]).
 
     Raises:
         StudyError: ``--storage`` cannot be opened (one line with the driver's reason), or the

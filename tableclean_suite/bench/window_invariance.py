@@ -10,7 +10,7 @@ compares the main rows of the two ``table3.csv`` files figure by figure:
 - **change** of a figure = ``|long - short| / short`` (0 when both windows say "not reached",
   infinite when only one does);
 - a cell is **settled** when its behaviour drift is within tolerance in both windows
-  (:mod:`tableclean_suite.settling`): its plateau is no longer moving, so its figures should not;
+  (`tableclean_suite.settling`): its plateau is no longer moving, so its figures should not;
 - the summary gives the largest change among the settled cells and lists the settled cells with a
   figure that moves by more than ``--goal`` (a fraction, default 0.05); unsettled cells are listed
   with their largest change, because their plateau depends on where the window ends.
@@ -62,7 +62,7 @@ def relative_change(short: float, long: float) -> float:
 
 def figure_changes(short: pd.DataFrame, long: pd.DataFrame) -> pd.DataFrame:
     """One row per (learner, reward) cell present in both main-row frames and per figure of
-    :data:`FIGURES`: ``cell, figure, short, long, change`` and ``settled`` (True only if the cell's
+    `FIGURES`: ``cell, figure, short, long, change`` and ``settled`` (True only if the cell's
     ``settled`` column is true in both; a cell without a settling measurement is not settled).
 
     Raises:
@@ -138,7 +138,7 @@ def run_window(iterations: int, out: Path, passthrough: list[str], prog: str = P
 
 
 def cells_above(changes: pd.DataFrame, threshold: float) -> pd.Series:
-    """The settled cells of ``changes`` (:func:`figure_changes`) with a figure whose change exceeds
+    """The settled cells of ``changes`` ([`figure_changes`][tableclean_suite.bench.window_invariance.figure_changes]) with a figure whose change exceeds
     ``threshold`` (a fraction, >= 0): each cell's largest change, indexed by cell, largest first."""
     settled = changes[changes["settled"]]
     largest = settled.groupby("cell", sort=False)["change"].max()
@@ -147,7 +147,7 @@ def cells_above(changes: pd.DataFrame, threshold: float) -> pd.Series:
 
 def summary_lines(changes: pd.DataFrame, threshold: float, windows) -> list[str]:
     """One line for the settled cells (largest change, and the cells moving by more than ``threshold``,
-    a fraction; :func:`cells_above`) and one for the others (each cell's largest change)."""
+    a fraction; [`cells_above`][tableclean_suite.bench.window_invariance.cells_above]) and one for the others (each cell's largest change)."""
     short, long = windows
     settled = changes[changes["settled"]]
     lines = []

@@ -1,15 +1,15 @@
 """Skills that turn task-level actions into OSC motions, and the SkillController that runs them.
 
-Make the environment with :func:`make_skill_env` (or pass :func:`skill_controller_config`
-as ``controller_configs`` and ``ignore_done=True`` to ``robosuite.make``), then::
+Make the environment with [`make_skill_env`][tableclean_suite.controllers.make.make_skill_env] (or pass [`skill_controller_config`][tableclean_suite.controllers.osc.skill_controller_config]
+as ``controller_configs`` and ``ignore_done=True`` to ``robosuite.make``), then:
 
     env = make_skill_env(object_segment=1, arm_segment=1)
     controller = SkillController(env)
     result = controller.execute(Action.PICK)   # -> SkillResult
 
-Add or replace skills with :func:`register_skill` (see :mod:`.registry`); skills are built from the
-primitives of :mod:`.primitives` (reach, grasp, release, wipe).  A new action's skill is a short
-list of those steps with targets named by meaning (:func:`compose_skill`, :mod:`.authoring`).
+Add or replace skills with [`register_skill`][tableclean_suite.controllers.registry.register_skill] (see [`registry`][tableclean_suite.controllers.registry]); skills are built from the
+primitives of [`primitives`][tableclean_suite.controllers.primitives] (reach, grasp, release, wipe).  A new action's skill is a short
+list of those steps with targets named by meaning ([`compose_skill`][tableclean_suite.controllers.authoring.compose_skill], [`authoring`][tableclean_suite.controllers.authoring]).
 """
 
 from tableclean_suite.controllers.clean import CleanPhase, CleanSkill

@@ -1,23 +1,23 @@
 """Write a skill as a short list of primitives whose targets are named by what they mean.
 
 A new task-level action needs its symbolic rule (``TaskState -> (TaskState, Outcome)``) and a
-skill that carries it out in MuJoCo.  :func:`compose_skill` makes the skill from *steps*:
+skill that carries it out in MuJoCo.  [`compose_skill`][tableclean_suite.controllers.authoring.compose_skill] makes the skill from *steps*:
 
-- :func:`reach` ``(spot)``: travel above a spot at the travel height (gripper as it is: closed
+- [`reach`][tableclean_suite.controllers.authoring.reach] ``(spot)``: travel above a spot at the travel height (gripper as it is: closed
   while the skill holds an object);
-- :func:`grasp` ``(obj)``: take an object (across its narrow side, at its holding height);
-- :func:`release` ``(spot)``: lower the object the skill holds until it rests on the spot, open, retreat;
-- :func:`wipe` ``(segment)``: fetch the sponge, wipe the segment, put the sponge home.
+- [`grasp`][tableclean_suite.controllers.authoring.grasp] ``(obj)``: take an object (across its narrow side, at its holding height);
+- [`release`][tableclean_suite.controllers.authoring.release] ``(spot)``: lower the object the skill holds until it rests on the spot, open, retreat;
+- [`wipe`][tableclean_suite.controllers.authoring.wipe] ``(segment)``: fetch the sponge, wipe the segment, put the sponge home.
 
 Targets are read from the scene when the skill runs, relative to the state it starts in:
 
-- objects: :func:`lying_object` ``(segment)`` (the lowest-numbered object lying there),
-  :func:`held_object` (the one held when the skill starts);
-- segments: :func:`arm_segment`, :func:`next_segment`, :func:`previous_segment`, :func:`segment` ``(k)``;
-- spots (world xy): :func:`free_spot` ``(segment)`` (clear of the objects lying there, for the
-  held object's footprint), :func:`segment_center` ``(segment)``, :func:`sponge_home`.
+- objects: [`lying_object`][tableclean_suite.controllers.authoring.lying_object] ``(segment)`` (the lowest-numbered object lying there),
+  [`held_object`][tableclean_suite.controllers.authoring.held_object] (the one held when the skill starts);
+- segments: [`arm_segment`][tableclean_suite.controllers.authoring.arm_segment], [`next_segment`][tableclean_suite.controllers.authoring.next_segment], [`previous_segment`][tableclean_suite.controllers.authoring.previous_segment], [`segment`][tableclean_suite.controllers.authoring.segment] ``(k)``;
+- spots (world xy): [`free_spot`][tableclean_suite.controllers.authoring.free_spot] ``(segment)`` (clear of the objects lying there, for the
+  held object's footprint), [`segment_center`][tableclean_suite.controllers.authoring.segment_center] ``(segment)``, [`sponge_home`][tableclean_suite.controllers.authoring.sponge_home].
 
-Heights, depths and yaws come from the objects' geometry (:mod:`.primitives`).  Example::
+Heights, depths and yaws come from the objects' geometry ([`primitives`][tableclean_suite.controllers.primitives]).  Example:
 
     def transfer_rule(state):
         lying = state.objects_on(state.arm)
@@ -122,7 +122,7 @@ def sponge_home() -> Spot:
 
 def free_spot(which: Segment | None = None) -> Spot:
     """A spot (world xy, m) of segment ``which`` (default the arm's) where the held object's footprint keeps
-    ``object_clearance`` from the objects lying there (:func:`tableclean_suite.environments.placement.free_spot`)."""
+    ``object_clearance`` from the objects lying there ([`tableclean_suite.environments.placement.free_spot`][tableclean_suite.environments.placement.free_spot])."""
     where = arm_segment() if which is None else which
 
     def resolve(ctx: Context, skill, info: Info) -> np.ndarray:
@@ -205,12 +205,12 @@ def compose_skill(name: str, rule: Callable[[TaskState], tuple], steps: Sequence
                   config: Mapping[str, Any] | None = None) -> type[PrimitiveSkill]:
     """A skill class for action ``name`` that runs ``steps`` in order; ``rule`` is the action's symbolic effect.
 
-    The class carries ``rule`` (an :class:`~tableclean_suite.task.ActionRule`):
-    :func:`~tableclean_suite.controllers.register_skill` registers the action with it when the
+    The class carries ``rule`` (an [`ActionRule`][tableclean_suite.task.actions.ActionRule]):
+    [`register_skill`][tableclean_suite.controllers.registry.register_skill] registers the action with it when the
     action is not registered yet.  Its phases are ``<KIND><i>_<phase>`` (e.g. ``GRASP1_DESCEND``).
-    Its config: :class:`~.configs.ComposedConfig` (the grasp and release settings), or
-    :class:`~.configs.CleanConfig` when a step wipes, with ``max_steps`` and ``config`` on top
-    (keys of that type only, values in its ranges: :class:`~.config_check.SkillConfigError`, a
+    Its config: [`ComposedConfig`][tableclean_suite.controllers.configs.ComposedConfig] (the grasp and release settings), or
+    [`CleanConfig`][tableclean_suite.controllers.configs.CleanConfig] when a step wipes, with ``max_steps`` and ``config`` on top
+    (keys of that type only, values in its ranges: [`SkillConfigError`][tableclean_suite.controllers.config_check.SkillConfigError], a
     ``KeyError`` and a ``ValueError``, naming the skill, the key and the allowed keys or range).
     """
     if not steps:

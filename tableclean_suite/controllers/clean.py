@@ -1,14 +1,14 @@
 """CleanSkill: fetch the sponge, wipe the arm's segment until clean (bounded), bring the sponge home.
 
-Built from primitives: :class:`~.primitives.Grasp` (the sponge), :class:`Wipe` (the arm's
-segment, wherever it lies), :class:`~.primitives.Release` (the sponge at its home) and a
-:class:`~.primitives.Reach` back above the segment.
+Built from primitives: [`Grasp`][tableclean_suite.controllers.primitives.Grasp] (the sponge), [`Wipe`][tableclean_suite.controllers.clean.Wipe] (the arm's
+segment, wherever it lies), [`Release`][tableclean_suite.controllers.primitives.Release] (the sponge at its home) and a
+[`Reach`][tableclean_suite.controllers.primitives.Reach] back above the segment.
 
 The wipe never touches what stands around the segment: its strokes stay inside the segment's
 area shrunk until the hand (the gripper's measured box, long along the strokes) keeps
-:data:`HAND_CLEARANCE` from every lying object whose top reaches the hand's underside
-(:func:`hand_obstacles`, :func:`~.wipe_pattern.clear_area`).  When such an object stands ahead of
-the strokes' ends, the hand turns a quarter (:meth:`Wipe._choose_yaw`) so that its narrow side
+`HAND_CLEARANCE` from every lying object whose top reaches the hand's underside
+([`hand_obstacles`][tableclean_suite.controllers.clean.hand_obstacles], [`clear_area`][tableclean_suite.controllers.wipe_pattern.clear_area]).  When such an object stands ahead of
+the strokes' ends, the hand turns a quarter (`Wipe._choose_yaw`) so that its narrow side
 faces it, and strokes toward the arm's base; travel above the segment and to the sponge's home
 is at the skill's travel height, which clears every lying object's top.
 """
@@ -38,12 +38,12 @@ HAND_CLEARANCE = 0.01
 #: it presses and wipes (the sponge's soft contact and its tilt in the fingers; Panda at 8 N: <= 4 mm).
 PRESS_SINK = 0.005
 #: rad the hand turns about the vertical, sponge in hand, to wipe with its narrow side toward the objects
-#: around the segment (:meth:`Wipe._choose_yaw`); the strokes then run along the other world axis.
+#: around the segment (`Wipe._choose_yaw`); the strokes then run along the other world axis.
 QUARTER_TURN = 0.5 * np.pi
 #: Fraction of the segment's area the sponge must sweep more at the turned yaw than at the grasp's for the
 #: wipe to turn (a clean may leave 10 % of the dirt; a smaller shrink of the grasp yaw's area costs no row).
 TURN_AREA_GAIN = 0.05
-#: The wipe's phases whose control steps the stepper's compiled control loop can run (:meth:`Wipe.run_loop`), by its mode.
+#: The wipe's phases whose control steps the stepper's compiled control loop can run ([`Wipe.run_loop`][tableclean_suite.controllers.clean.Wipe.run_loop]), by its mode.
 LOOP_MODES = {"PRESS": MODE_PRESS, "WIPE": MODE_WIPE, "SHIFT": MODE_SHIFT}
 
 
@@ -84,7 +84,7 @@ def wiping_hand_underside_z(info: Mapping[str, Any], hold_offset_z: float) -> fl
 
     The held sponge's bottom cannot go below the table top, so the grip site stays about
     ``sponge half height + hold_offset_z`` (m, grip site minus sponge centre) above it, down to
-    :data:`PRESS_SINK` lower.  (Not the commanded target: the force loop may command the sponge
+    `PRESS_SINK` lower.  (Not the commanded target: the force loop may command the sponge
     ``max_press_depth`` into the table, a setpoint the hand never reaches.)  Only the fingers,
     closed on the sponge, come lower.
     """
@@ -97,12 +97,12 @@ def spare_clear_of(bounds: np.ndarray, area: np.ndarray, hand_half: np.ndarray, 
     """(2, 2) ``[low, high]`` world xy [m] the grip site may reach: ``bounds`` (the wipe area ``area`` (2, 2), in
     grip-site coordinates, with the drift correction's spare), each side's spare cut where the hand's box (half
     extents ``hand_half`` (2,) [m] about the grip site) would come within ``margin`` [m] of one of ``obstacles``
-    (K, 4) world boxes ``[x_min, y_min, x_max, y_max]`` (:func:`hand_obstacles`) beyond that side; a side never
+    (K, 4) world boxes ``[x_min, y_min, x_max, y_max]`` ([`hand_obstacles`][tableclean_suite.controllers.clean.hand_obstacles]) beyond that side; a side never
     comes inside ``area``.  An obstacle counts for a side when its box, grown by the hand's and ``margin``,
     overlaps ``area`` across that side's axis (the lead moves the grip site along the strokes, never across).
 
     Measured: a side left unshrunk because the hand cleared a 15 cm cereal standing 8 cm beyond the
-    shared edge by exactly :data:`HAND_CLEARANCE` at the strokes' end, the 2 cm lead over the lagging
+    shared edge by exactly `HAND_CLEARANCE` at the strokes' end, the 2 cm lead over the lagging
     sponge brought the hand onto it and tipped it (cereal mixed, episodes 6 and 63 of seed 1).
     Without obstacles near the spare: ``bounds`` as they were (the same values)."""
     out = np.array(bounds, dtype=float)
@@ -152,12 +152,12 @@ class Wipe(Primitive):
     from the force error (``press_force`` target, ``press_force_gain``) while the sponge is on the
     table, and a stroke starts once ``touch_force`` is measured.  A different sponge size, mass,
     friction, arm damping or gains thus end at the same pressing force.  The skill's config
-    supplies the wiping constants (:class:`~.configs.WipeConfig`, units and ranges in its fields).
+    supplies the wiping constants ([`WipeConfig`][tableclean_suite.controllers.configs.WipeConfig], units and ranges in its fields).
     """
 
     PHASES = ("TO_SEGMENT", "PRESS", "WIPE", "SHIFT", "WIPE_LIFT")
     Config = WipeConfig
-    #: (yaw [rad], its stroke axis) last computed by :meth:`_stroke_axis`; NaN equals no yaw, so the first call computes
+    #: (yaw [rad], its stroke axis) last computed by `_stroke_axis`; NaN equals no yaw, so the first call computes
     _axis_of_yaw: tuple[float, int] = (math.nan, 0)
 
     def __init__(self, segment: int):
@@ -186,14 +186,14 @@ class Wipe(Primitive):
         skill.yaw = self.yaw  # TO_SEGMENT turns the hand, sponge in hand, on its way (if it turns)
 
     def _choose_yaw(self, info: Mapping[str, Any]) -> np.ndarray:
-        """The first pass's strokes (n, 2), at the grasp's yaw or a :data:`QUARTER_TURN` from it: the one whose
-        clear wipe area (:meth:`_wipe_area`) lets the sponge sweep more of the segment.
+        """The first pass's strokes (n, 2), at the grasp's yaw or a `QUARTER_TURN` from it: the one whose
+        clear wipe area (`_wipe_area`) lets the sponge sweep more of the segment.
 
         The hand is long along the fingers' closing axis (the strokes' axis) and narrow across it; an
         object standing near the segment's edge ahead of a stroke's end shrinks the area by the
         hand's reach (~10 cm), one beside the strokes only by its half width (~3 cm).  Turning,
-        the hand keeps its grip; :attr:`hold_offset` turns with it.  Sets :attr:`yaw`,
-        :attr:`turned`, :attr:`hold_offset`, :attr:`hand_bounds`.
+        the hand keeps its grip; `hold_offset` turns with it.  Sets `yaw`,
+        `turned`, `hold_offset`, `hand_bounds`.
         """
         grasp_offset = self.hold_offset.copy()
         strokes = self._pattern(info, 0)
@@ -210,7 +210,7 @@ class Wipe(Primitive):
         return strokes
 
     def _quarter_turn(self) -> float:
-        """rad, about +-:data:`QUARTER_TURN`: from the grasp's yaw to the turned one, the yaw along the line across
+        """rad, about +-`QUARTER_TURN`: from the grasp's yaw to the turned one, the yaw along the line across
         the grasp's nearest a quarter turn clockwise of ``nominal_yaw`` (measured on the Panda at nominal ``pi/2``:
         turned to 0, joint 7 takes part of the turn; turned to ``pi``, joints 5 and 6 do, joint 6 0.3 rad from its
         limit, and the turn back above the sponge's home stalled)."""
@@ -222,22 +222,22 @@ class Wipe(Primitive):
 
         The gripper's measures (``gripper_hand_reach`` along the fingers' closing axis,
         ``gripper_hand_half_width`` across it) turned to the hand's yaw.  (The wipe target's lead
-        over a lagging sponge, ``max_drift_correction``, is clipped to :attr:`hand_bounds` instead.)"""
+        over a lagging sponge, ``max_drift_correction``, is clipped to `hand_bounds` instead.)"""
         extent = np.array([float(info["gripper_hand_reach"]), float(info["gripper_hand_half_width"])])
         return np.abs(_rotation(self.yaw)) @ extent
 
     def _wipe_area(self, info: Mapping[str, Any], footprint: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(center, half_size)`` (2,), (2,) m of the sponge-centre rectangle the strokes may use.
 
-        The segment inset by ``edge_inset`` of the sponge's footprint, shrunk (:func:`clear_area`) so
-        that the hand stays :data:`HAND_CLEARANCE` away from every object whose top reaches its
-        underside while wiping (:func:`wiping_hand_underside_z`; objects on the neighbouring segments,
+        The segment inset by ``edge_inset`` of the sponge's footprint, shrunk ([`clear_area`][tableclean_suite.controllers.wipe_pattern.clear_area]) so
+        that the hand stays `HAND_CLEARANCE` away from every object whose top reaches its
+        underside while wiping ([`wiping_hand_underside_z`][tableclean_suite.controllers.clean.wiping_hand_underside_z]; objects on the neighbouring segments,
         read from their collision geometry; the palm passes over lower ones).  Between two lanes and
         two passes the sponge moves inside it too.
-        Sets :attr:`hand_bounds`, the (2, 2) ``[low, high]`` world xy the grip site may reach while
+        Sets `hand_bounds`, the (2, 2) ``[low, high]`` world xy the grip site may reach while
         wiping: the shrunk sides exactly, the others with ``max_drift_correction`` to spare, but never so
-        far that the hand comes within :data:`HAND_CLEARANCE` of an object it clears at the strokes' ends
-        (:func:`spare_clear_of`).
+        far that the hand comes within `HAND_CLEARANCE` of an object it clears at the strokes' ends
+        ([`spare_clear_of`][tableclean_suite.controllers.clean.spare_clear_of]).
         """
         center = np.asarray(info["segment_centers"], dtype=float)[self.segment][:2]
         half = np.asarray(info["segment_half_sizes"], dtype=float)[self.segment]
@@ -257,7 +257,7 @@ class Wipe(Primitive):
         return clear_center, clear_reach
 
     def _pattern(self, info: Mapping[str, Any], pass_index: int, turn: float = 0.0) -> np.ndarray:
-        """Sponge-centre stroke points (n, 2) of pass ``pass_index`` at :attr:`yaw`; ``turn`` (rad): how far the
+        """Sponge-centre stroke points (n, 2) of pass ``pass_index`` at `yaw`; ``turn`` (rad): how far the
         hand will still turn about the vertical before the strokes (the sponge's footprint turns with it)."""
         # the held sponge's footprint in world axes (computed once it is grasped)
         if turn == 0.0:
@@ -296,7 +296,7 @@ class Wipe(Primitive):
     def _stroke_axis(self) -> int:
         """World axis (0: x, 1: y) the strokes run along: the fingers' closing axis (grip-site x at ``yaw``).
 
-        Kept per :attr:`yaw` (asked twice a control step while wiping; numpy's cos and sin cost ~1 us each)."""
+        Kept per `yaw` (asked twice a control step while wiping; numpy's cos and sin cost ~1 us each)."""
         yaw = self.yaw
         cached = self._axis_of_yaw
         if cached[0] != yaw:
@@ -327,7 +327,7 @@ class Wipe(Primitive):
         with its own target and is lost in ~1 of 3 cleans.)
 
         ``depth``: m the sponge's bottom is commanded below the table top (negative: above);
-        default: the force loop's :attr:`depth`.
+        default: the force loop's `depth`.
         """
         x, y, _ = self.hold_offset.tolist()
         px, py = stroke_point.tolist()
@@ -335,8 +335,8 @@ class Wipe(Primitive):
         return np.array([px + x, py + y, self._wipe_z(info, depth)])
 
     def _wipe_z(self, info: Mapping[str, Any], depth: float | None = None) -> float:
-        """:meth:`_wipe_target`'s height (m): the grip site's z that puts the held sponge's bottom ``depth`` (m,
-        default :attr:`depth`) below the table top."""
+        """`_wipe_target`'s height (m): the grip site's z that puts the held sponge's bottom ``depth`` (m,
+        default `depth`) below the table top."""
         if depth is None:
             depth = self.depth
         half_z = float(info["sponge_half_size"][2])
@@ -412,10 +412,10 @@ class Wipe(Primitive):
 
     def run_loop(self, skill, stepper, phase: str) -> int:
         """Run a PRESS's, WIPE's or SHIFT's next control steps in the stepper's compiled control loop
-        (:meth:`~tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase`): this
-        primitive's :meth:`update` and :meth:`waypoint` and the skill's step, the same operations on the
+        ([`run_press_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase]): this
+        primitive's [`update`][tableclean_suite.controllers.clean.Wipe.update] and `waypoint` and the skill's step, the same operations on the
         same values, so the same commands; it stops before a step whose completion check might pass or
-        whose update it cannot take exactly (the skill's :meth:`~.skill.Skill.step` then takes it).  Returns
+        whose update it cannot take exactly (the skill's [`step`][tableclean_suite.controllers.skill.Skill.step] then takes it).  Returns
         how many control steps ran (0 in other phases)."""
         mode = LOOP_MODES.get(phase)
         if mode is None:

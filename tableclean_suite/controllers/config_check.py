@@ -1,10 +1,10 @@
 """The one check of a skill's settings: the keys it knows, the ranges of its ``Config`` (a leaf
-module: it imports nothing of the package, so :mod:`.skill`, :mod:`.robot_configs` and
-:mod:`.authoring` all call it).
+module: it imports nothing of the package, so [`skill`][tableclean_suite.controllers.skill], [`robot_configs`][tableclean_suite.controllers.robot_configs] and
+[`authoring`][tableclean_suite.controllers.authoring] all call it).
 
-:func:`checked_skill_config` is what a skill's constructor, a robot's per-action overrides
-(:func:`~.robot_configs.register_robot_config`) and :func:`~.authoring.compose_skill` run, so
-each refuses the same settings with the same :class:`SkillConfigError`.
+[`checked_skill_config`][tableclean_suite.controllers.config_check.checked_skill_config] is what a skill's constructor, a robot's per-action overrides
+([`register_robot_config`][tableclean_suite.controllers.robot_configs.register_robot_config]) and [`compose_skill`][tableclean_suite.controllers.authoring.compose_skill] run, so
+each refuses the same settings with the same [`SkillConfigError`][tableclean_suite.controllers.config_check.SkillConfigError].
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ def checked_skill_config(owner: str, config_type, defaults: Mapping[str, Any],
 
     Args:
         owner: the skill as the message names it (e.g. ``"PickSkill"``, ``"skill 'transfer'"``).
-        config_type: the skill's :class:`~.configs.SkillConfig` subclass (its ``keys()`` and ranges).
+        config_type: the skill's [`SkillConfig`][tableclean_suite.controllers.configs.SkillConfig] subclass (its ``keys()`` and ranges).
         defaults: the skill's settings before ``overrides`` (its ``DEFAULT_CONFIG``); their keys
             are the keys allowed (keys ``config_type`` lacks pass through unchecked).
         overrides: the values to put on top.

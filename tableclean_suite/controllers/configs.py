@@ -1,9 +1,9 @@
 """Typed, frozen settings of the primitives and skills (a leaf module: it imports nothing of the package).
 
 One dataclass per primitive and skill; each field states its unit and allowed range, and
-``__post_init__`` refuses a value outside it with a :class:`ValueError` naming the field, the value
+``__post_init__`` refuses a value outside it with a `ValueError` naming the field, the value
 and the range.  A skill's config type is the union of its primitives' (by inheritance), with the
-skill's own defaults on top::
+skill's own defaults on top:
 
     SkillConfig                 travel, speeds, gripper settling, clearances (every skill)
     ├── GraspConfig             the Grasp primitive (pick, clean's sponge grasp, composed skills)
@@ -17,7 +17,7 @@ skill's own defaults on top::
 
 Merge order of the values a skill runs with (later wins): the skill's config type's defaults
 (``Skill.DEFAULT_CONFIG``, the dict form of those), the robot's ``"*"`` overrides, the robot's
-per-action overrides (:mod:`~tableclean_suite.controllers.robot_configs`), the caller's
+per-action overrides ([`robot_configs`][tableclean_suite.controllers.robot_configs]), the caller's
 ``SkillController(..., skill_configs=...)`` or ``Skill(env, config)``; the merged values are
 validated once, by constructing the skill's config type.
 """
@@ -33,7 +33,7 @@ __all__ = ["SkillConfig", "GraspConfig", "ReleaseConfig", "WipeConfig", "MoveCon
            "PlaceConfig", "CleanConfig", "ComposedConfig", "GRASP_SLIP_TOLERANCE", "setting"]
 
 #: A lifted body may trail the grip site's rise by at most this [m] before the grasp counts as
-#: slipping (the default of :attr:`GraspConfig.grasp_slip_tolerance`).
+#: slipping (the default of [`GraspConfig.grasp_slip_tolerance`][tableclean_suite.controllers.configs.GraspConfig.grasp_slip_tolerance]).
 GRASP_SLIP_TOLERANCE = 0.01
 
 _INF = math.inf
@@ -122,7 +122,7 @@ class SkillConfig:
         self.check()
 
     def check(self) -> None:
-        """Hook: checks across fields (raise :class:`ValueError` naming them)."""
+        """Hook: checks across fields (raise `ValueError` naming them)."""
 
     def as_dict(self) -> dict[str, Any]:
         """``{field name: value}`` (the dict form skills index as ``skill.config[name]``)."""
@@ -232,7 +232,7 @@ class WipeConfig(SkillConfig):
 
 @dataclass(frozen=True)
 class MoveConfig(SkillConfig):
-    """Settings of :class:`~tableclean_suite.controllers.MoveSkill`."""
+    """Settings of [`MoveSkill`][tableclean_suite.controllers.move.MoveSkill]."""
 
     max_steps: int = setting(200, "control steps", 1, integer=True)
     """Control steps (int >= 1) before the move gives up."""
@@ -242,7 +242,7 @@ class MoveConfig(SkillConfig):
 
 @dataclass(frozen=True)
 class PickConfig(GraspConfig):
-    """Settings of :class:`~tableclean_suite.controllers.PickSkill` (the Grasp primitive's)."""
+    """Settings of [`PickSkill`][tableclean_suite.controllers.pick.PickSkill] (the Grasp primitive's)."""
 
     max_steps: int = setting(250, "control steps", 1, integer=True)
     """Control steps (int >= 1) before the pick gives up."""
@@ -250,7 +250,7 @@ class PickConfig(GraspConfig):
 
 @dataclass(frozen=True)
 class PlaceConfig(ReleaseConfig):
-    """Settings of :class:`~tableclean_suite.controllers.PlaceSkill` (the Release primitive's)."""
+    """Settings of [`PlaceSkill`][tableclean_suite.controllers.place.PlaceSkill] (the Release primitive's)."""
 
     max_steps: int = setting(250, "control steps", 1, integer=True)
     """Control steps (int >= 1) before the place gives up."""
@@ -266,7 +266,7 @@ class ComposedConfig(GraspConfig, ReleaseConfig):
 
 @dataclass(frozen=True)
 class CleanConfig(WipeConfig, GraspConfig, ReleaseConfig):
-    """Settings of :class:`~tableclean_suite.controllers.CleanSkill` (and of composed skills that wipe)."""
+    """Settings of [`CleanSkill`][tableclean_suite.controllers.clean.CleanSkill] (and of composed skills that wipe)."""
 
     max_steps: int = setting(900, "control steps", 1, integer=True)
     """Control steps (int >= 1) before the clean gives up."""

@@ -3,8 +3,8 @@
 robosuite's ``env.step`` spends most of its time in Python around the physics: per
 physics substep it rebuilds the arm's Jacobians and mass matrix through several
 wrapper layers, runs the OSC and the gripper controller, re-checks action limits
-and updates every observable.  :class:`FastSkillStepper` executes one control step
-of a skill env (:func:`~tableclean_suite.controllers.make.make_skill_env`) for an
+and updates every observable.  [`FastSkillStepper`][tableclean_suite.controllers.fast_control.FastSkillStepper] executes one control step
+of a skill env ([`make_skill_env`][tableclean_suite.controllers.make.make_skill_env]) for an
 absolute world-frame command ``[x, y, z, rx, ry, rz, gripper]`` with the *same*
 control law:
 
@@ -21,7 +21,7 @@ control law:
   temporaries (numpy's ``dot`` per product and the allocations cost more than the arithmetic): same kp, kd, decoupling,
   nullspace pull towards the controller's ``initial_joint``, gravity compensation,
   clipping to the actuators' ctrlrange, and robosuite's reuse of the reset-time arm
-  state on an episode's first substep (:meth:`FastSkillStepper.cached_arm_torques`);
+  state on an episode's first substep ([`FastSkillStepper.cached_arm_torques`][tableclean_suite.controllers.fast_control.FastSkillStepper.cached_arm_torques]);
   the env's wiping check; ``mj_step2``.  With the native loop (default when MuJoCo's
   shared library is found) the substeps run in one compiled function that calls
   MuJoCo's C API directly and returns to Python only for substeps where the sponge is
@@ -119,7 +119,7 @@ CHOLESKY_PIVOT_RTOL = 1e-10
 MARKER_REACH_SLACK = 1e-9
 #: Joint stiffness (1/s^2) of robosuite's nullspace posture term (``nullspace_torques``' default ``joint_kp``).
 NULLSPACE_JOINT_KP = 10.0
-#: Rotation angle (rad) under which :func:`rotvec_matrix` uses the Taylor series of sin(a/2)/a (as scipy).
+#: Rotation angle (rad) under which [`rotvec_matrix`][tableclean_suite.controllers.fast_control.rotvec_matrix] uses the Taylor series of sin(a/2)/a (as scipy).
 ROTVEC_SMALL_ANGLE = 1e-3
 #: Relative slack of the control loop's "this step cannot complete the phase" test on the position error: the
 #: skill's own check (``np.linalg.norm``) may round differently, so the loop stops a little early and the skill decides.
@@ -138,7 +138,7 @@ FORCE_CALLBACK = ctypes.CFUNCTYPE(ctypes.c_double)
 #: Most gripper control steps the control loop tabulates ahead (robosuite's rate-limited gripper command
 #: reaches its fixed point within 1 / 0.2 = 5 steps per unit of command change, 10 at most for the Panda).
 GRIP_TABLE_ROWS = 32
-#: mjData fields :class:`ControlStepLog` records at the start of every control step (enough to replay it).
+#: mjData fields [`ControlStepLog`][tableclean_suite.controllers.fast_control.ControlStepLog] records at the start of every control step (enough to replay it).
 LOG_FIELDS = ("qpos", "qvel", "act", "ctrl", "qacc_warmstart")
 
 
@@ -202,7 +202,7 @@ def rotvec_matrix(rotvec: np.ndarray, out: np.ndarray) -> None:
 
     scipy's ``Rotation.from_rotvec(rotvec).as_matrix()`` (robosuite's absolute OSC goal) with
     the same operations: the unit quaternion (Taylor series of sin(a/2)/a below
-    :data:`ROTVEC_SMALL_ANGLE`), then its matrix; bit-identical on scipy 1.17.
+    `ROTVEC_SMALL_ANGLE`), then its matrix; bit-identical on scipy 1.17.
     """
     angle = np.sqrt(rotvec[0] * rotvec[0] + rotvec[1] * rotvec[1] + rotvec[2] * rotvec[2])
     if angle <= ROTVEC_SMALL_ANGLE:
@@ -223,7 +223,7 @@ def spd_inverse(a: np.ndarray, out: np.ndarray, low: np.ndarray, inv_low: np.nda
     """Inverse of the symmetric positive definite ``a`` (n, n) into ``out`` (n, n) by Cholesky.
 
     Reads the lower triangle of ``a`` only; ``low`` and ``inv_low``: (>= n, >= n) scratch.  Returns
-    False (``out`` undefined) when a pivot falls below :data:`CHOLESKY_PIVOT_RTOL` times the largest
+    False (``out`` undefined) when a pivot falls below `CHOLESKY_PIVOT_RTOL` times the largest
     diagonal entry.
     """
     n = a.shape[0]
@@ -286,7 +286,7 @@ def small_matvec(a: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
 
 
 class OscWork(NamedTuple):
-    """The OSC kernels' temporaries for an arm of n joints (float64; m = max(n, 6)), made by :func:`osc_work`.
+    """The OSC kernels' temporaries for an arm of n joints (float64; m = max(n, 6)), made by [`osc_work`][tableclean_suite.controllers.fast_control.osc_work].
 
     Allocated once per call of the compiled loops instead of once per substep (~20 allocations per substep
     cost ~1-2 us of its ~4 us).  Every entry is written before it is read in each use (the orientation
@@ -318,7 +318,7 @@ class OscWork(NamedTuple):
 
 @numba.njit(cache=True)
 def osc_work(n: int) -> OscWork:
-    """The OSC kernels' scratch arrays for an arm of ``n`` joints (:class:`OscWork`)."""
+    """The OSC kernels' scratch arrays for an arm of ``n`` joints ([`OscWork`][tableclean_suite.controllers.fast_control.OscWork])."""
     size = max(n, 6)
     return OscWork(np.empty((size, size)), np.empty((size, size)), np.empty((n, n)), np.empty((6, 6)), np.empty((3, 3)),
                    np.empty((3, 3)), np.empty((n, n)), np.empty((6, n)), np.empty((6, 6)), np.empty((n, 6)), np.empty(6),
@@ -390,8 +390,8 @@ def osc_law(arm, goal_pos: np.ndarray, goal_ori: np.ndarray, plant, work=None) -
 
     The base velocity term of robosuite's law is zero here: callers check that the arm's
     base is welded to the world.  robosuite's ``orientation_error`` and ``nullspace_torques``
-    (joint kp :data:`NULLSPACE_JOINT_KP`, critical damping) are written out with the same
-    formulas, without temporaries; the small products run in plain loops (:func:`small_matmul`).
+    (joint kp `NULLSPACE_JOINT_KP`, critical damping) are written out with the same
+    formulas, without temporaries; the small products run in plain loops ([`small_matmul`][tableclean_suite.controllers.fast_control.small_matmul]).
     """
     mass, j_full, ref_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias = arm
     gains, initial_joint, torques = plant.gains, plant.initial_joint, plant.torques
@@ -436,12 +436,12 @@ def osc_law(arm, goal_pos: np.ndarray, goal_ori: np.ndarray, plant, work=None) -
 
 @numba.njit(cache=True)
 def osc_torques(plant, goal_pos: np.ndarray, goal_ori: np.ndarray, work=None) -> None:
-    """:func:`osc_law` on MuJoCo's whole-model arrays, gathering the arm's entries as robosuite's ``update()``.
+    """[`osc_law`][tableclean_suite.controllers.fast_control.osc_law] on MuJoCo's whole-model arrays, gathering the arm's entries as robosuite's ``update()``.
 
     Reads the [Plant][tableclean_suite.controllers.fast_control.Plant]'s ``full_mass`` (``mj_fullM`` of
     ``qM``), ``jacp`` and ``jacr`` (``mj_jacSite`` of the grip site), ``qpos``, ``qvel``, ``qfrc_bias``,
     the grip site's ``site_pos`` and ``site_mat`` and the arm's ``indexes``; writes ``plant.torques``.
-    ``goal_pos``, ``goal_ori``: as :func:`osc_law`; ``work``: as there (its entries for the arm's n joints
+    ``goal_pos``, ``goal_ori``: as [`osc_law`][tableclean_suite.controllers.fast_control.osc_law]; ``work``: as there (its entries for the arm's n joints
     are this function's scratch, too).
     """
     indexes, jacp, jacr, qvel = plant.indexes, plant.jacp, plant.jacr, plant.qvel
@@ -555,7 +555,7 @@ def present_marker_under_box(markers, present, pos, mat, half_size, reach) -> bo
     """Whether a ``present`` (N,) marker of ``markers`` (N, 3) m lies within ``reach`` (m) of the box.
 
     The box: centre ``pos`` (3,), row-major rotation ``mat`` (9,), ``half_size`` (3,) m.  The
-    env's ``markers_under_box`` test in the box frame, widened by :data:`MARKER_REACH_SLACK`.
+    env's ``markers_under_box`` test in the box frame, widened by `MARKER_REACH_SLACK`.
     """
     for m in range(markers.shape[0]):
         if not present[m]:
@@ -611,8 +611,8 @@ def step_inputs(action, current, speed, params, goal_pos, goal_ori, new_current,
     """One control step's inputs from the absolute command ``action`` (7,) in one compiled call.
 
     The goal position ``goal_pos`` (3,) and rotation ``goal_ori`` (3, 3) (as
-    :meth:`FastSkillStepper.goal`, :func:`rotvec_matrix`) and the Panda gripper's outputs
-    ``new_current``, ``goal_qvel``, ``ctrl`` (2,) each (:func:`panda_gripper_control` from
+    [`FastSkillStepper.goal`][tableclean_suite.controllers.fast_control.FastSkillStepper.goal], [`rotvec_matrix`][tableclean_suite.controllers.fast_control.rotvec_matrix]) and the Panda gripper's outputs
+    ``new_current``, ``goal_qvel``, ``ctrl`` (2,) each ([`panda_gripper_control`][tableclean_suite.controllers.fast_control.panda_gripper_control] from
     ``current``, ``speed``, ``params``); the same operations, so the same bits.
     """
     for i in range(3):
@@ -629,14 +629,14 @@ def _call_double_codegen(context, builder, sig, llvm_args):
 
 @intrinsic
 def _call_double(typingctx, fn):
-    """``fn()`` for C ``double f(void)`` at the integer address ``fn`` (a :data:`FORCE_CALLBACK`; cacheable: no
+    """``fn()`` for C ``double f(void)`` at the integer address ``fn`` (a `FORCE_CALLBACK`; cacheable: no
     address is baked into the compiled code)."""
     return types.float64(types.intp), _call_double_codegen
 
 
 @numba.njit(cache=True)
 def _clip(value: float, low: float, high: float) -> float:
-    """:func:`~tableclean_suite.controllers.geometry.clip_scalar` (numpy's clip of a scalar: its max, then min)."""
+    """[`clip_scalar`][tableclean_suite.controllers.geometry.clip_scalar] (numpy's clip of a scalar: its max, then min)."""
     value = low if low >= value else value
     return high if high <= value else value
 
@@ -661,8 +661,8 @@ def wipe_waypoint(plant, wipe, setpoint, phase_steps, tolerance):
 
     Returns:
         (stop, waypoint x, y, z (m), depth (m), force (N), lifted, ready, tolerance (m)): ``stop`` is
-        :data:`PHASE_HANDOFF` for a step the skill must take (the sponge's lowest corner within
-        :data:`GAP_CHECK_SLACK` of ``contact_slack`` above the table or higher while wiping; shifting,
+        `PHASE_HANDOFF` for a step the skill must take (the sponge's lowest corner within
+        `GAP_CHECK_SLACK` of ``contact_slack`` above the table or higher while wiping; shifting,
         unlifted without force, within it of ``contact_slack``; a NaN force), else -1.
     """
     wiping = wipe.mode == MODE_WIPE
@@ -720,28 +720,28 @@ def control_loop(plant, dirt, skill, fingers, wipe, grip_table, goal, log, limit
     """Control steps of a skill phase, as ``Skill.step`` + ``FastSkillStepper.step``, in one compiled call.
 
     Per control step: stop if the step budget is spent; the waypoint (a fixed phase's ``target``, or
-    the wipe's, :func:`wipe_waypoint`, which may hand the step to the skill); stop if the phase's
-    completion check might pass (position within the tolerance (+ :data:`POSITION_CHECK_RTOL`), at
+    the wipe's, [`wipe_waypoint`][tableclean_suite.controllers.fast_control.wipe_waypoint], which may hand the step to the skill); stop if the phase's
+    completion check might pass (position within the tolerance (+ `POSITION_CHECK_RTOL`), at
     least ``min_steps`` in the phase, fingers settled by ``gripper_still`` or the timeout, the wipe
     ready); else take the step: record the finger positions, advance the setpoint
     ([advance_command][tableclean_suite.controllers.setpoint.advance_command]), take the goal of the
     command and the gripper control of row k of ``grip_table`` (its last row beyond), log the state,
-    run the substeps (:func:`native_substeps`).
+    run the substeps ([`native_substeps`][tableclean_suite.controllers.fast_control.native_substeps]).
 
     Args:
-        plant, dirt: as :func:`native_substeps`.
+        plant, dirt: as [`native_substeps`][tableclean_suite.controllers.fast_control.native_substeps].
         skill: (1,) [SKILL_STATE][tableclean_suite.controllers.loop_state.SKILL_STATE] record, updated in place.
         fingers: (F,) finger positions at the last step (rad or m), updated in place.
         wipe: (1,) [WIPE_STATE][tableclean_suite.controllers.loop_state.WIPE_STATE] record (mode
             ``MODE_FIXED``: a fixed waypoint), updated in place.
         grip_table: (R, G) gripper actuator controls, row k for the loop's k-th step.
         goal: outputs (action (7,), goal_pos (3,) m, goal_ori (3, 3)): the last step's command and goal.
-        log: arrays (rows, size) receiving :data:`LOG_FIELDS` at the start of each step from row 0 (no
+        log: arrays (rows, size) receiving `LOG_FIELDS` at the start of each step from row 0 (no
             logging when they have no rows).
         limit: most control steps to run.
 
     Returns:
-        (stop reason, control steps started, substep): with :data:`PHASE_WIPE` the last step
+        (stop reason, control steps started, substep): with `PHASE_WIPE` the last step
         stopped after substep's control (the caller runs the env's wiping check, ``mj_step2`` and
         the remaining substeps); otherwise every started step is complete.
     """
@@ -812,9 +812,9 @@ def control_loop(plant, dirt, skill, fingers, wipe, grip_table, goal, log, limit
 
 
 class ControlStepLog:
-    """The simulation state (mjData's :data:`LOG_FIELDS`) at the start of every control step a stepper runs.
+    """The simulation state (mjData's `LOG_FIELDS`) at the start of every control step a stepper runs.
 
-    Give one to a :class:`FastSkillStepper` (``stepper.state_log = ControlStepLog(stepper)``): the
+    Give one to a [`FastSkillStepper`][tableclean_suite.controllers.fast_control.FastSkillStepper] (``stepper.state_log = ControlStepLog(stepper)``): the
     per-step path and the compiled control loop both append a row per control step.
     """
 
@@ -895,13 +895,13 @@ class FastSkillStepper:
     """Executes control steps of a skill env with robosuite's OSC_POSE law, without its per-substep Python.
 
     Args:
-        env: a TableClean env made by :func:`~tableclean_suite.controllers.make.make_skill_env`
+        env: a TableClean env made by [`make_skill_env`][tableclean_suite.controllers.make.make_skill_env]
             (one Panda, absolute world-frame OSC_POSE; see the module docstring).
         native: run the substeps in the compiled loop that calls MuJoCo's C API (``None``: when
-            available, see :func:`native_available`); ``False`` runs them in Python through
+            available, see [`native_available`][tableclean_suite.controllers.fast_control.native_available]); ``False`` runs them in Python through
             the mujoco bindings (same results, slower).
 
-    :meth:`step` replaces ``env.step(action)`` for the skills; the env keeps working with
+    [`step`][tableclean_suite.controllers.fast_control.FastSkillStepper.step] replaces ``env.step(action)`` for the skills; the env keeps working with
     ``env.step`` in between (the controllers' goals and refresh flags are kept current).
     The robot's controllers are looked up at every step (robosuite makes new ones at each
     reset); a hard reset (new simulation) is noticed and the cached ids and views are rebuilt.
@@ -912,15 +912,15 @@ class FastSkillStepper:
         _check_supported(env)
         self.env = env
         self.native = native_available() if native is None else bool(native)
-        #: whether :meth:`run_phase` and :meth:`run_press_phase` run a phase in the compiled :func:`control_loop`
-        #: (needs ``native``); ``False`` leaves every control step to the skill and :meth:`step` (same results)
+        #: whether [`run_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase] and [`run_press_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase] run a phase in the compiled [`control_loop`][tableclean_suite.controllers.fast_control.control_loop]
+        #: (needs ``native``); ``False`` leaves every control step to the skill and [`step`][tableclean_suite.controllers.fast_control.FastSkillStepper.step] (same results)
         self.phase_loop = bool(phase_loop)
-        #: a :class:`ControlStepLog` receiving the state at the start of every control step, or None
+        #: a [`ControlStepLog`][tableclean_suite.controllers.fast_control.ControlStepLog] receiving the state at the start of every control step, or None
         self.state_log: ControlStepLog | None = None
-        #: seconds (wall) the compiled loops spent in the skill's Python callbacks (:meth:`run_press_phase`'s force
+        #: seconds (wall) the compiled loops spent in the skill's Python callbacks ([`run_press_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase]'s force
         #: reads): skill work, which a caller timing the stepper as the physics subtracts (the SkillController does)
         self.callback_seconds = 0.0
-        #: the stop reason (``PHASE_*``) of the last compiled loop :meth:`run_phase` / :meth:`run_press_phase` ran
+        #: the stop reason (``PHASE_*``) of the last compiled loop [`run_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase] / [`run_press_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase] ran
         self.last_status = PHASE_LIMIT
         self._sim = None
         self._bind()
@@ -994,7 +994,7 @@ class FastSkillStepper:
         )
 
     def _current_gains(self) -> np.ndarray:
-        """The OSC's (2, 6) gains (:meth:`gains`), rebuilt only when robosuite assigns new kp or kd arrays
+        """The OSC's (2, 6) gains ([`gains`][tableclean_suite.controllers.fast_control.FastSkillStepper.gains]), rebuilt only when robosuite assigns new kp or kd arrays
         (fixed impedance: it never changes them in place)."""
         osc = self.osc
         gains = self._gains
@@ -1047,8 +1047,8 @@ class FastSkillStepper:
         return np.minimum(np.maximum(desired, self.grip_limits[0]), self.grip_limits[1])  # np.clip, cheaper
 
     def _panda_grip_params(self) -> np.ndarray | None:
-        """(9, 2) parameters of :func:`panda_gripper_control` for the current gripper controller, or None
-        (not robosuite's Panda gripper with action scaling: :meth:`gripper_ctrl` then runs robosuite's code)."""
+        """(9, 2) parameters of [`panda_gripper_control`][tableclean_suite.controllers.fast_control.panda_gripper_control] for the current gripper controller, or None
+        (not robosuite's Panda gripper with action scaling: [`gripper_ctrl`][tableclean_suite.controllers.fast_control.FastSkillStepper.gripper_ctrl] then runs robosuite's code)."""
         controller = self.grip_controller
         cached = self._grip_params
         if cached is not None and cached[0] is controller:
@@ -1072,7 +1072,7 @@ class FastSkillStepper:
     def arm_torques(self, goal_pos: np.ndarray, goal_ori: np.ndarray) -> np.ndarray:
         """OSC torques (n,) N m, unclipped, for the current simulation data (after ``mj_step1`` or ``mj_forward``).
 
-        Fills :attr:`torques` and returns it (the same array, overwritten on the next call).
+        Fills `torques` and returns it (the same array, overwritten on the next call).
         """
         model, data = self.model, self.data
         mujoco.mj_fullM(model, self.full_mass, data.qM)
@@ -1149,26 +1149,26 @@ class FastSkillStepper:
 
     # -- a phase in compiled code ----------------------------------------------------------------
     def run_phase(self, skill: np.ndarray, fingers: np.ndarray) -> int:
-        """Run control steps of a skill phase with a fixed waypoint in :func:`control_loop`; returns how many ran.
+        """Run control steps of a skill phase with a fixed waypoint in [`control_loop`][tableclean_suite.controllers.fast_control.control_loop]; returns how many ran.
 
         ``skill``: the skill's (1,) [SKILL_STATE][tableclean_suite.controllers.loop_state.SKILL_STATE]
         record (its ``target`` the waypoint), ``fingers``: (F,) its finger positions at the last step; both
         updated in place.  Returns to Python only at the phase's boundaries (a step whose completion check
         might pass, the budget, the env's horizon) and for substeps the env's wiping check must see, after
-        which the loop resumes.  Runs nothing (returns 0) without the native loop, with :attr:`phase_loop`
+        which the loop resumes.  Runs nothing (returns 0) without the native loop, with `phase_loop`
         off, for a gripper other than the Panda's (whose rate-limited command it tabulates), on the first
-        step after a reset (robosuite's cached arm state, see :meth:`cached_arm_torques`) or when the
+        step after a reset (robosuite's cached arm state, see [`cached_arm_torques`][tableclean_suite.controllers.fast_control.FastSkillStepper.cached_arm_torques]) or when the
         episode is done.
         """
         return self._run_compiled(skill, fingers, np.zeros(1, WIPE_STATE))  # mode MODE_FIXED
 
     def run_press_phase(self, skill: np.ndarray, fingers: np.ndarray, wipe: np.ndarray, force) -> tuple[int, int]:
-        """Run control steps of the clean skill's PRESS, WIPE or SHIFT phase in :func:`control_loop`.
+        """Run control steps of the clean skill's PRESS, WIPE or SHIFT phase in [`control_loop`][tableclean_suite.controllers.fast_control.control_loop].
 
-        As :meth:`run_phase` (same conditions, the skill's state updated in place); ``wipe``: the wipe's (1,)
+        As [`run_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase] (same conditions, the skill's state updated in place); ``wipe``: the wipe's (1,)
         [WIPE_STATE][tableclean_suite.controllers.loop_state.WIPE_STATE] record, updated in place (its
         ``force_fn`` is set here); ``force``: a Python function returning the sponge's press force (N),
-        called once per control step from the compiled loop (its time is added to :attr:`callback_seconds`).
+        called once per control step from the compiled loop (its time is added to `callback_seconds`).
         Returns (control steps run, the loop's last stop reason).  An exception ``force`` raises is raised
         here after the loop stopped (the loop takes no step with it).
         """
@@ -1192,7 +1192,7 @@ class FastSkillStepper:
         return ran, self.last_status
 
     def _run_compiled(self, skill: np.ndarray, fingers: np.ndarray, wipe: np.ndarray) -> int:
-        """Run :func:`control_loop` on the skill's state (see :meth:`run_phase`); sets :attr:`last_status`."""
+        """Run [`control_loop`][tableclean_suite.controllers.fast_control.control_loop] on the skill's state (see [`run_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase]); sets `last_status`."""
         env = self.env
         self.last_status = PHASE_LIMIT
         if not (self.native and self.phase_loop) or env.done:
@@ -1246,10 +1246,10 @@ class FastSkillStepper:
     def _grip_table(self, command: float) -> tuple[np.ndarray, list, bool]:
         """Gripper actuator controls (rows, G) of the next control steps under the constant gripper ``command``.
 
-        Runs robosuite's own gripper code (:meth:`gripper_ctrl`) ahead, then restores the gripper's
+        Runs robosuite's own gripper code ([`gripper_ctrl`][tableclean_suite.controllers.fast_control.FastSkillStepper.gripper_ctrl]) ahead, then restores the gripper's
         state.  Returns (rows, the gripper's (current_action, goal_qvel) after each row, settled):
         ``settled`` when the last row repeats forever (the rate-limited command reached its fixed
-        point), else the table covers only its :data:`GRIP_TABLE_ROWS` steps.
+        point), else the table covers only its `GRIP_TABLE_ROWS` steps.
         """
         gripper, controller = self.gripper, self.grip_controller
         saved = (np.array(gripper.current_action, dtype=float), controller.goal_qvel)
@@ -1288,15 +1288,15 @@ class FastSkillStepper:
                 done = -done
                 self.env.record_wiping_substep()
                 mujoco.mj_step2(self.model, self.data)
-#: Attribute under which :func:`attach_fast_stepper` stores an env's stepper.
+#: Attribute under which [`attach_fast_stepper`][tableclean_suite.controllers.fast_control.attach_fast_stepper] stores an env's stepper.
 STEPPER_ATTRIBUTE = "fast_stepper"
 
 
 def attach_fast_stepper(env, native: bool | None = None) -> FastSkillStepper | None:
-    """Give ``env`` a :class:`FastSkillStepper` (``env.fast_stepper``), which the SkillController then uses.
+    """Give ``env`` a [`FastSkillStepper`][tableclean_suite.controllers.fast_control.FastSkillStepper] (``env.fast_stepper``), which the SkillController then uses.
 
     On robosuite / MuJoCo versions the adapter was not checked against
-    (:data:`~tableclean_suite.robosuite_adapter.CHECKED_VERSIONS`) attaches nothing, warns once per
+    (`CHECKED_VERSIONS`) attaches nothing, warns once per
     process, and returns ``None``: the env then runs on robosuite's own ``env.step`` path.
     Raises ``NotImplementedError`` when the env's controllers are not the ones the fast path reproduces.
     """
@@ -1308,5 +1308,5 @@ def attach_fast_stepper(env, native: bool | None = None) -> FastSkillStepper | N
 
 
 def fast_stepper_of(env) -> FastSkillStepper | None:
-    """The stepper :func:`attach_fast_stepper` gave ``env``, or ``None`` (then ``env.step`` is the path)."""
+    """The stepper [`attach_fast_stepper`][tableclean_suite.controllers.fast_control.attach_fast_stepper] gave ``env``, or ``None`` (then ``env.step`` is the path)."""
     return getattr(env, STEPPER_ATTRIBUTE, None)

@@ -23,13 +23,13 @@ def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
 
 
 def quat_z_row(quat: np.ndarray) -> np.ndarray:
-    """(3,) the last row of :func:`quat_to_matrix` (``quat`` (4,) xyzw): the world z of the body frame's
+    """(3,) the last row of [`quat_to_matrix`][tableclean_suite.controllers.geometry.quat_to_matrix] (``quat`` (4,) xyzw): the world z of the body frame's
     axes, all a height needs (the same bits as the full matrix's row)."""
     return np.array(z_row_entries(quat))
 
 
 def z_row_entries(quat: np.ndarray) -> tuple[float, float, float]:
-    """:func:`quat_z_row`'s three entries as Python floats."""
+    """[`quat_z_row`][tableclean_suite.controllers.geometry.quat_z_row]'s three entries as Python floats."""
     q = np.asarray(quat, dtype=float)
     norm = math.sqrt(q.dot(q))
     x, y, z, w = q.tolist()  # divided as Python floats: IEEE division, the bits of numpy's q / norm
@@ -58,20 +58,20 @@ def gripper_yaw(eef_quat: np.ndarray) -> float:
     return float(np.arctan2(rot[1, 0], rot[0, 0]))
 
 
-#: rad, how far a yaw read straight off a rotation matrix must be from the tolerance for :func:`clear_yaw_verdict`
+#: rad, how far a yaw read straight off a rotation matrix must be from the tolerance for [`clear_yaw_verdict`][tableclean_suite.controllers.geometry.clear_yaw_verdict]
 #: to decide: robosuite's ``mat2quat`` (``eef_quat``) works in float32, so the yaw through it differs from the
 #: matrix's by up to ~1e-5 rad (worst over 100 000 random rotations: 3.6e-6 with the x axis' horizontal part
-#: >= :data:`YAW_VERDICT_MIN_HORIZONTAL`, 6.0e-6 with it in 0.10-0.13); this margin is over 150 times that
+#: >= `YAW_VERDICT_MIN_HORIZONTAL`, 6.0e-6 with it in 0.10-0.13); this margin is over 150 times that
 YAW_VERDICT_MARGIN = 1e-3
-#: the least length of the x axis' horizontal part for :func:`clear_yaw_verdict` to decide (a near-vertical
+#: the least length of the x axis' horizontal part for [`clear_yaw_verdict`][tableclean_suite.controllers.geometry.clear_yaw_verdict] to decide (a near-vertical
 #: x axis leaves the yaw ill-conditioned: atan2 magnifies the rounding by one over this length)
 YAW_VERDICT_MIN_HORIZONTAL = 0.1
 
 
 def clear_yaw_verdict(rot: np.ndarray, yaw: float, tolerance: float) -> bool | None:
     """Whether the yaw (rad) of rotation matrix ``rot`` (3, 3) is within ``tolerance`` (rad) of ``yaw``, when that is
-    clear: None when the yaw's distance from ``yaw`` lies within :data:`YAW_VERDICT_MARGIN` of the tolerance or
-    the x axis is near vertical.  A clear verdict is that of :func:`gripper_yaw` of the matrix's quaternion from
+    clear: None when the yaw's distance from ``yaw`` lies within `YAW_VERDICT_MARGIN` of the tolerance or
+    the x axis is near vertical.  A clear verdict is that of [`gripper_yaw`][tableclean_suite.controllers.geometry.gripper_yaw] of the matrix's quaternion from
     robosuite's ``mat2quat`` (an eigen-decomposition in float32), without computing that quaternion."""
     cos_part, sin_part = float(rot[0, 0]), float(rot[1, 0])
     if math.hypot(cos_part, sin_part) < YAW_VERDICT_MIN_HORIZONTAL:

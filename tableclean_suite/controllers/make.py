@@ -28,9 +28,9 @@ DEFAULT_LAYOUT = (1, 1)
 
 def make_skill_env(object_segment: int | None = FROM_SPEC, arm_segment: int | None = FROM_SPEC,
                    fast_control: bool = True, **kwargs):
-    """``robosuite.make("TableClean", ...)`` with :data:`SKILL_ENV_DEFAULTS` and the skills' controller.
+    """``robosuite.make("TableClean", ...)`` with `SKILL_ENV_DEFAULTS` and the skills' controller.
 
-    The controller config is :func:`skill_controller_config` of the robot in ``robots``
+    The controller config is [`skill_controller_config`][tableclean_suite.controllers.osc.skill_controller_config] of the robot in ``robots``
     (default ``"Panda"``; robosuite's default config of that robot, arm switched to absolute
     world-frame OSC_POSE, input ranges those of the scene of ``task_config``), unless
     ``controller_configs`` is given.
@@ -39,9 +39,9 @@ def make_skill_env(object_segment: int | None = FROM_SPEC, arm_segment: int | No
         object_segment, arm_segment: start layout (1..N; ``None``: random at each reset).  When
             neither is given (nor ``object_segments`` / ``dirty_segments``), the scene starts where
             ``task``'s spec says (its fixed ``start_state`` or a ``uniform_unclean`` draw at each
-            reset, see :class:`~tableclean_suite.environments.table_clean.TableClean`); without
-            ``task``, at :data:`DEFAULT_LAYOUT`.
-        fast_control: give the env a :class:`~tableclean_suite.controllers.fast_control.FastSkillStepper`
+            reset, see [`TableClean`][tableclean_suite.environments.table_clean.TableClean]); without
+            ``task``, at `DEFAULT_LAYOUT`.
+        fast_control: give the env a [`FastSkillStepper`][tableclean_suite.controllers.fast_control.FastSkillStepper]
             (``env.fast_stepper``): the SkillController then runs robosuite's control law in compiled
             code (several times faster than ``env.step``, same trajectories); ``False``: ``env.step``.
         **kwargs: any other TableClean/robosuite argument; overrides the defaults.
@@ -49,7 +49,7 @@ def make_skill_env(object_segment: int | None = FROM_SPEC, arm_segment: int | No
     Raises:
         ValueError: ``robots`` names more than one robot (the scene has one arm), or a robot without
             a registered skill config (the message lists the supported ones,
-            :func:`~tableclean_suite.controllers.robot_configs.supported_robots`); checked before
+            [`supported_robots`][tableclean_suite.environments.robot_registry.supported_robots]); checked before
             anything is built.
         NotImplementedError: ``fast_control`` with controllers the fast path does not reproduce
             (e.g. custom ``controller_configs``); pass ``fast_control=False``.

@@ -14,7 +14,7 @@ from tableclean_suite.task import Action
 
 
 class MovePhase(enum.Enum):
-    """Phases of a move, in order (two :class:`~.primitives.Reach` primitives)."""
+    """Phases of a move, in order (two [`Reach`][tableclean_suite.controllers.primitives.Reach] primitives)."""
 
     LIFT = enum.auto()  # straight up to the hover height
     TRAVEL = enum.auto()  # across to above the target segment's centre
@@ -24,7 +24,7 @@ class MovePhase(enum.Enum):
 class MoveSkill(PrimitiveSkill):
     """Move the arm above the next segment; a held object stays gripped (gripper closed).
 
-    Subclasses change the destination with :meth:`target_segment` (e.g. a MOVE_BACK skill).
+    Subclasses change the destination with [`target_segment`][tableclean_suite.controllers.move.MoveSkill.target_segment] (e.g. a MOVE_BACK skill).
     """
 
     action = Action.MOVE

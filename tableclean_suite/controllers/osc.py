@@ -34,7 +34,7 @@ SKILL_ARM_CONTROLLER = {
     "input_ref_frame": "world",  # setpoints in the world frame, the frame of env.skill_info()
 }
 
-#: Overrides applied to the robot's default arm controller config (on top of :data:`SKILL_ARM_CONTROLLER`).
+#: Overrides applied to the robot's default arm controller config (on top of `SKILL_ARM_CONTROLLER`).
 OSC_OVERRIDES = {
     **SKILL_ARM_CONTROLLER,
     # stiffness (robosuite default 150): the skills rate-limit their setpoints, so a stiffer arm only
@@ -42,7 +42,7 @@ OSC_OVERRIDES = {
     "kp": 300,
 }
 
-#: Workspace of the commanded grip-site position, relative to the table top (see :func:`skill_command_limits`):
+#: Workspace of the commanded grip-site position, relative to the table top (see [`skill_command_limits`][tableclean_suite.controllers.osc.skill_command_limits]):
 #: margin around the table top's xy extent [m],
 WORKSPACE_XY_MARGIN = 0.1
 #: lowest commanded height below the table top [m] (a pressed sponge is commanded a few mm into the table),
@@ -57,8 +57,8 @@ def skill_command_limits(task_config: Mapping | None = None) -> tuple[np.ndarray
     """``(low, high)``, each (6,): the range of the arm's absolute commands in the scene of ``task_config``.
 
     Entries: grip-site position x, y, z [m, world frame] over the table top (grown by
-    :data:`WORKSPACE_XY_MARGIN`) from :data:`WORKSPACE_BELOW_TABLE` below to
-    :data:`WORKSPACE_ABOVE_TABLE` above it; rotation vector rx, ry, rz [rad] in
+    `WORKSPACE_XY_MARGIN`) from `WORKSPACE_BELOW_TABLE` below to
+    `WORKSPACE_ABOVE_TABLE` above it; rotation vector rx, ry, rz [rad] in
     ``[-pi, pi]``.  robosuite does not clip absolute OSC inputs; these are the ranges the
     env's ``action_spec`` reports (the gripper's [-1, 1] follows them).
     """
@@ -74,11 +74,11 @@ def skill_controller_config(robot: str = "Panda", task_config: Mapping | None = 
     """The composite controller config to pass as ``controller_configs=`` when making the env.
 
     robosuite's default composite config for ``robot`` (``load_composite_controller_config(robot=robot)``)
-    with its arm part switched to absolute world-frame OSC_POSE setpoints (see :data:`OSC_OVERRIDES`)
-    and its input range set to :func:`skill_command_limits` of ``task_config`` (so the env's
+    with its arm part switched to absolute world-frame OSC_POSE setpoints (see `OSC_OVERRIDES`)
+    and its input range set to [`skill_command_limits`][tableclean_suite.controllers.osc.skill_command_limits] of ``task_config`` (so the env's
     ``action_spec`` states the real ranges).  Returns a fresh dict each call, so callers may modify it.
 
-    Raises ``ValueError`` when the robot's config has no :data:`ARM_PART` arm part.
+    Raises ``ValueError`` when the robot's config has no `ARM_PART` arm part.
     """
     config = copy.deepcopy(load_composite_controller_config(robot=robot))
     parts = config["body_parts"]
@@ -93,15 +93,15 @@ def skill_controller_config(robot: str = "Panda", task_config: Mapping | None = 
 def check_skill_env(env) -> None:
     """Raise a clear error unless ``env`` drives its arm the way the skills command it.
 
-    The skills emit :data:`ACTION_DIM` absolute world-frame OSC_POSE commands
+    The skills emit `ACTION_DIM` absolute world-frame OSC_POSE commands
     ([advance_command][tableclean_suite.controllers.setpoint.advance_command]); an env made by plain ``robosuite.make`` uses delta commands in
     the robot's base frame and would send the arm somewhere else.  Checks the first robot's
-    first arm controller against :data:`SKILL_ARM_CONTROLLER`, and the action size.
+    first arm controller against `SKILL_ARM_CONTROLLER`, and the action size.
 
     Raises:
         TypeError: ``env`` has no robosuite robots.
         ValueError: another arm controller or action size; the message names what was found,
-            what is needed, and :func:`~tableclean_suite.controllers.make_skill_env`.
+            what is needed, and [`make_skill_env`][tableclean_suite.controllers.make.make_skill_env].
     """
     remedy = ("make the env with tableclean_suite.controllers.make_skill_env(...) "
               "(or pass controller_configs=skill_controller_config(robot) to robosuite.make)")

@@ -1,4 +1,4 @@
-"""PickSkill: grasp the lowest-numbered object on the arm's segment (a :class:`~.primitives.Grasp`)."""
+"""PickSkill: grasp the lowest-numbered object on the arm's segment (a [`Grasp`][tableclean_suite.controllers.primitives.Grasp])."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ __all__ = ["PickPhase", "PickSkill", "grasp_point"]
 
 
 class PickPhase(enum.Enum):
-    """Phases of a pick, in order (the :class:`~.primitives.Grasp` primitive's)."""
+    """Phases of a pick, in order (the [`Grasp`][tableclean_suite.controllers.primitives.Grasp] primitive's)."""
 
     HOVER = enum.auto()  # open the gripper above the object
     DESCEND = enum.auto()  # down to the grasp point

@@ -1,4 +1,4 @@
-"""PlaceSkill: put the held object down on a free spot of the arm's segment (a :class:`~.primitives.Release`)."""
+"""PlaceSkill: put the held object down on a free spot of the arm's segment (a [`Release`][tableclean_suite.controllers.primitives.Release])."""
 
 from __future__ import annotations
 
@@ -18,18 +18,18 @@ from tableclean_suite.task import Action
 def place_spot(info: Mapping[str, Any], segment: int, held: int, lying, place_clearance: float,
                gripper: GripperGeometry | None = None) -> np.ndarray:
     """(2,) world xy [m] where the held object ``held`` goes on ``segment`` (0-based) among the objects ``lying``
-    there (indices): :func:`~tableclean_suite.environments.placement.free_spot` of the footprints as the
+    there (indices): [`free_spot`][tableclean_suite.environments.placement.free_spot] of the footprints as the
     objects stand now (the held one as it hangs in the hand), the hand's half width across the fingers
-    (the side :class:`~.primitives.Release` turns toward a neighbour), about the grip site wherever the
+    (the side [`Release`][tableclean_suite.controllers.primitives.Release] turns toward a neighbour), about the grip site wherever the
     held object's centre is off it (the hand can turn about the object's centre: a disc of the half
     width plus that offset), kept ``object_clearance`` from every lying object whose top reaches the
     hand's underside at release (``place_clearance`` [m] above the resting height, as
-    :class:`~.primitives.Release` lowers it).
+    [`Release`][tableclean_suite.controllers.primitives.Release] lowers it).
 
-    With ``gripper`` (the env's measures, :func:`gripper_of`), a neighbour tall enough to reach the links
-    above the hand (:func:`wrist_reach`: the Panda's link 7, 4.4 cm across the fingers' axis against the
-    hand's 3.2 cm) is kept that much wider from the hand's axis (its footprint :func:`~.placement.grown`
-    by the difference); :class:`~.primitives.Release` turns the hand's narrow side to its nearest point,
+    With ``gripper`` (the env's measures, [`gripper_of`][tableclean_suite.controllers.primitives.gripper_of]), a neighbour tall enough to reach the links
+    above the hand ([`wrist_reach`][tableclean_suite.controllers.primitives.wrist_reach]: the Panda's link 7, 4.4 cm across the fingers' axis against the
+    hand's 3.2 cm) is kept that much wider from the hand's axis (its footprint `grown`
+    by the difference); [`Release`][tableclean_suite.controllers.primitives.Release] turns the hand's narrow side to its nearest point,
     so the whole neighbour lies beyond that width.  Measured: a box put at S3's corner 4.5 cm from a
     15 cm cereal's corner was cleared by the hand, but link 7, 10 cm above the grip site, tipped the
     cereal (cereal mixed, episodes 56, 68 and 151 of seed 1)."""
@@ -53,7 +53,7 @@ def place_spot(info: Mapping[str, Any], segment: int, held: int, lying, place_cl
 
 
 class PlacePhase(enum.Enum):
-    """Phases of a place, in order (the :class:`~.primitives.Release` primitive's)."""
+    """Phases of a place, in order (the [`Release`][tableclean_suite.controllers.primitives.Release] primitive's)."""
 
     ALIGN = enum.auto()  # hover above the free spot
     DESCEND = enum.auto()  # lower the object to just above the table
@@ -64,7 +64,7 @@ class PlacePhase(enum.Enum):
 
 class PlaceSkill(PrimitiveSkill):
     """Put the held object down on the arm's segment: at its centre, or the first free spot clear of
-    the objects lying there (:func:`place_spot`)."""
+    the objects lying there ([`place_spot`][tableclean_suite.controllers.place.place_spot])."""
 
     action = Action.PLACE
     Phase = PlacePhase

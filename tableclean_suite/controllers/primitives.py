@@ -1,24 +1,24 @@
 """Small parameterised motion primitives that the skills are built from.
 
-A :class:`Primitive` is a short sequence of named phases over end-effector waypoints.  A
-:class:`PrimitiveSkill` runs a list of primitives one after the other; its phase names are
+A [`Primitive`][tableclean_suite.controllers.primitives.Primitive] is a short sequence of named phases over end-effector waypoints.  A
+[`PrimitiveSkill`][tableclean_suite.controllers.primitives.PrimitiveSkill] runs a list of primitives one after the other; its phase names are
 ``prefix + local phase`` (e.g. the sponge grasp of the clean skill has phases
 ``SPONGE_HOVER``, ``SPONGE_DESCEND``, ...).  The primitives:
 
-- :class:`Reach`: go to one point (a function of ``skill_info()``) with a given gripper command.
-- :class:`Grasp`: hover over a body, open, descend to its grasp point, close, confirm by contact,
+- [`Reach`][tableclean_suite.controllers.primitives.Reach]: go to one point (a function of ``skill_info()``) with a given gripper command.
+- [`Grasp`][tableclean_suite.controllers.primitives.Grasp]: hover over a body, open, descend to its grasp point, close, confirm by contact,
   lift, confirm by contact and slip (pick grasps an object with its type's grasp parameters;
   clean grasps the sponge).
-- :class:`Release`: hover over a spot, descend until the carried body is just above its
+- [`Release`][tableclean_suite.controllers.primitives.Release]: hover over a spot, descend until the carried body is just above its
   resting height, open until released, retreat (place puts an object down; clean returns the sponge).
-- :class:`Wipe` (in :mod:`.clean`): press the held sponge and sweep a segment.
+- [`Wipe`][tableclean_suite.controllers.clean.Wipe] (in [`clean`][tableclean_suite.controllers.clean]): press the held sponge and sweep a segment.
 
 Every height, depth and yaw comes from the scene at run time: the body's collision geometry in
-its own frame (``skill_info()["objects_geometry"]``, :mod:`tableclean_suite.environments.object_geometry`)
+its own frame (``skill_info()["objects_geometry"]``, [`tableclean_suite.environments.object_geometry`][tableclean_suite.environments.object_geometry])
 at its current pose, and the gripper's measures (``gripper_palm_height``).  An object type's
 registered overrides (``grasp_depth``, ``yaw_rule``) win where given; no primitive branches on a
 type name.  Of equivalent yaws (a narrow side's, a turn away from a neighbour) a primitive aims at
-the one within a quarter turn of the config's ``nominal_yaw`` (:func:`line_yaw`), so the wrist
+the one within a quarter turn of the config's ``nominal_yaw`` ([`line_yaw`][tableclean_suite.controllers.primitives.line_yaw]), so the wrist
 never winds towards its joint limits.
 """
 
@@ -56,15 +56,15 @@ Info = Mapping[str, Any]
 FINGER_LINE_CLEARANCE = 0.25 * np.pi
 
 #: m a neighbour's top is counted higher when asking how wide the hand and wrist are at its height
-#: (:func:`wrist_reach`): it may stand tilted a little, and the arm's links sag and lag a few mm.
+#: ([`wrist_reach`][tableclean_suite.controllers.primitives.wrist_reach]): it may stand tilted a little, and the arm's links sag and lag a few mm.
 WRIST_HEIGHT_MARGIN = 0.01
 #: m by which the hand and wrist must reach wider than the hand alone (``gripper_hand_half_width``) for a
-#: neighbour to count as reaching the wrist (:func:`wrist_reach`): below it the hand's own rules hold unchanged.
+#: neighbour to count as reaching the wrist ([`wrist_reach`][tableclean_suite.controllers.primitives.wrist_reach]): below it the hand's own rules hold unchanged.
 WRIST_WIDTH_TOLERANCE = 1e-4
 
 
 def gripper_of(env) -> GripperGeometry | None:
-    """The env's measured :class:`~tableclean_suite.environments.gripper_geometry.GripperGeometry` (through
+    """The env's measured [`GripperGeometry`][tableclean_suite.environments.gripper_geometry.GripperGeometry] (through
     wrappers), or None for an env that has none (then no neighbour counts as reaching the wrist)."""
     geometry = getattr(env, "gripper_geometry", None)
     return geometry if isinstance(geometry, GripperGeometry) else None
@@ -73,7 +73,7 @@ def gripper_of(env) -> GripperGeometry | None:
 def wrist_reach(info: Mapping[str, Any], gripper: GripperGeometry | None, top_z: float, grip_z: float) -> float | None:
     """How far [m] across the fingers' closing axis the hand and the links rigidly fixed to it (the wrist)
     reach at or below a neighbour's top ``top_z`` [m, world] when the grip site is at ``grip_z`` [m, world]
-    (:data:`WRIST_HEIGHT_MARGIN` higher), when that is more than the hand's own half width
+    (`WRIST_HEIGHT_MARGIN` higher), when that is more than the hand's own half width
     (``gripper_hand_half_width``): the neighbour then reaches the wrist.  None otherwise (or without ``gripper``):
     the hand's rules stand as they were."""
     if gripper is None:
@@ -93,7 +93,7 @@ class Body:
         grasped: ``info -> bool`` both finger pads touch it.
         grasp_depth: m below the centre at which the grip site closes (raised so the fingertips
             keep ``tip_clearance`` above the body's bottom); None: the holding depth from
-            ``geometry`` (:func:`holding_z`), or the skill's ``grasp_depth`` without one.
+            ``geometry`` ([`holding_z`][tableclean_suite.controllers.primitives.holding_z]), or the skill's ``grasp_depth`` without one.
         yaw_rule: ``"short_side"`` (fingers across the narrowest side) or ``"any"`` (keep the
             gripper's current yaw); None: ``"any"`` for a round ``geometry``, else ``"short_side"``.
         geometry: ``info -> ObjectGeometry`` of the body in its own frame; None: a box of ``half_size``.
@@ -117,7 +117,7 @@ class Body:
 def object_body(obj: int, info: Info | None = None) -> Body:
     """The task object ``obj`` (0-based): its pose and geometry (``objects_geometry``) read at use; with
     ``info``, its registered type's overrides (``info["object_types"]``: ``grasp_depth``, ``yaw_rule``; None:
-    derived from the geometry).  The keys are :meth:`~tableclean_suite.environments.TableClean.skill_info`'s
+    derived from the geometry).  The keys are [`skill_info`][tableclean_suite.environments.table_clean.TableClean.skill_info]'s
     (a missing one raises ``KeyError`` naming it)."""
     kind = None if info is None else info["object_types"][obj]
     return Body(
@@ -207,9 +207,9 @@ def grasp_point(box_pos: np.ndarray, box_half_size: np.ndarray, config: Mapping[
 
 
 class Primitive:
-    """A named sequence of phases; subclasses set ``PHASES`` and implement :meth:`waypoint`.
+    """A named sequence of phases; subclasses set ``PHASES`` and implement `waypoint`.
 
-    Hooks receive the running :class:`PrimitiveSkill` (its config, setpoint and helpers) and
+    Hooks receive the running [`PrimitiveSkill`][tableclean_suite.controllers.primitives.PrimitiveSkill] (its config, setpoint and helpers) and
     the current ``skill_info()``.
     """
 
@@ -259,10 +259,10 @@ class Grasp(Primitive):
 
     The grasp is confirmed by what is measured, twice: after closing, both finger pads touch the
     body (contact); after lifting, they still do and the body rose with the grip site, trailing
-    it by at most ``grasp_slip_tolerance`` m (:data:`GRASP_SLIP_TOLERANCE`; slip).  Either failure
+    it by at most ``grasp_slip_tolerance`` m (`GRASP_SLIP_TOLERANCE`; slip).  Either failure
     re-approaches the body from its measured pose, up to ``grasp_retries`` times in all, then
     fails.  Sets the skill's target yaw from ``body.yaw_rule`` when it starts, with the finger line
-    turned off a lying neighbour the hand would reach (:data:`FINGER_LINE_CLEARANCE`).
+    turned off a lying neighbour the hand would reach (`FINGER_LINE_CLEARANCE`).
     """
 
     PHASES = ("HOVER", "DESCEND", "CLOSE", "LIFT")
@@ -280,7 +280,7 @@ class Grasp(Primitive):
     def _aim(self, skill, info) -> None:
         """The target yaw for (re-)approaching the body as it lies now: across its narrow side, or
         the current one for a round body (or its type's ``yaw_rule``); turned when the open fingers
-        would come down on a lying neighbour (:meth:`_clear_of_neighbour`)."""
+        would come down on a lying neighbour (`_clear_of_neighbour`)."""
         shape = self.body.shape(info)
         rule = self.body.yaw_rule
         if rule is None:
@@ -298,9 +298,9 @@ class Grasp(Primitive):
 
     def _clear_of_neighbour(self, skill, info, lines: list[float] | None) -> None:
         """Turn the finger line (the grip site's x axis) away from the nearest lying neighbour the hand would
-        reach at the grasp, when it points within :data:`FINGER_LINE_CLEARANCE` of it: to the allowed finger
+        reach at the grasp, when it points within `FINGER_LINE_CLEARANCE` of it: to the allowed finger
         line of ``lines`` (rad) most across the neighbour, or (``lines`` None: any yaw grasps the body) to the
-        line just :data:`FINGER_LINE_CLEARANCE` from it nearer the current aim; at the yaw nearest ``nominal_yaw``.
+        line just `FINGER_LINE_CLEARANCE` from it nearer the current aim; at the yaw nearest ``nominal_yaw``.
 
         Measured: a box grasped with its fingers along the line to a cylinder 6.8 cm away landed a
         finger on the cylinder's top, 2.5 cm above the grasp point, and the descent ran out of budget.
@@ -431,9 +431,9 @@ class Release(Primitive):
         faces it.  No such object (the paper's scenes): the yaw stays.
 
         The direction is to the object's centre; to the nearest point of its footprint
-        (:func:`~tableclean_suite.environments.placement.nearest_point`) when its top reaches the links above
-        the hand (:func:`wrist_reach`, the env's :func:`gripper_of`): then the whole (convex) footprint lies
-        beyond the hand's and wrist's half width, as :func:`~.place.place_spot` counted it.  (Facing a long
+        ([`nearest_point`][tableclean_suite.environments.placement.nearest_point]) when its top reaches the links above
+        the hand ([`wrist_reach`][tableclean_suite.controllers.primitives.wrist_reach], the env's [`gripper_of`][tableclean_suite.controllers.primitives.gripper_of]): then the whole (convex) footprint lies
+        beyond the hand's and wrist's half width, as [`place_spot`][tableclean_suite.controllers.place.place_spot] counted it.  (Facing a long
         neighbour's centre, the hand's corner came 4.3 cm from its near end.)"""
         if self.body.geometry is None:
             return
@@ -478,10 +478,10 @@ class Release(Primitive):
 
 
 class PrimitiveSkill(Skill):
-    """A skill that runs a list of ``(prefix, Primitive)`` built by :meth:`build` at each execution.
+    """A skill that runs a list of ``(prefix, Primitive)`` built by [`build`][tableclean_suite.controllers.primitives.PrimitiveSkill.build] at each execution.
 
     The class's ``Phase`` enum must have one member per ``prefix + phase`` of its primitives
-    (in order) and a final member (e.g. ``DONE``); :meth:`build` is checked against it.
+    (in order) and a final member (e.g. ``DONE``); [`build`][tableclean_suite.controllers.primitives.PrimitiveSkill.build] is checked against it.
     """
 
     def build(self, info: Info) -> list[tuple[str, Primitive]]:

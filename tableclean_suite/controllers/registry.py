@@ -1,10 +1,10 @@
 """Which skill class carries out which task-level action.
 
-``SKILL_REGISTRY`` maps action names (``"move"``, ...; :class:`~tableclean_suite.task.Action`
+``SKILL_REGISTRY`` maps action names (``"move"``, ...; [`Action`][tableclean_suite.task.actions.Action]
 members and the paper-order ints are accepted as keys too) to a
-:class:`~tableclean_suite.controllers.skill.Skill` subclass.  Users add or swap skills with
-:func:`register_skill` without touching the controller, also for actions they registered
-with :func:`tableclean_suite.task.register_action`::
+[`Skill`][tableclean_suite.controllers.skill.Skill] subclass.  Users add or swap skills with
+[`register_skill`][tableclean_suite.controllers.registry.register_skill] without touching the controller, also for actions they registered
+with [`tableclean_suite.task.register_action`][tableclean_suite.task.actions.register_action]:
 
     register_skill(Action.CLEAN, MyFasterCleanSkill, replace=True)
     register_skill("move_back", MoveBackSkill)        # after register_action(ActionRule("move_back", ...))
@@ -65,9 +65,9 @@ def _label(key: str) -> str:
 def register_skill(action, cls: type[Skill], *, replace: bool = False, registry: dict | None = None) -> type[Skill]:
     """Register ``cls`` as the skill for ``action`` (an Action, its int value or a registered action name).
 
-    A skill made by :func:`~tableclean_suite.controllers.authoring.compose_skill` carries its
+    A skill made by [`compose_skill`][tableclean_suite.controllers.authoring.compose_skill] carries its
     action's symbolic rule (``cls.rule``): it is registered with
-    :func:`~tableclean_suite.task.register_action` when the action is unknown (or replaced along
+    [`register_action`][tableclean_suite.task.actions.register_action] when the action is unknown (or replaced along
     with the skill when ``replace``), once the checks below passed: a refused skill registers nothing.
 
     Raises ``TypeError`` if ``cls`` is not a Skill subclass, ``ValueError`` if the

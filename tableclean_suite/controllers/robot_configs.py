@@ -1,10 +1,10 @@
 """Per-robot skill configuration for the controllers: the robot registry
-(:mod:`tableclean_suite.environments.robot_registry`, a leaf module) and the one way to add to it.
+([`tableclean_suite.environments.robot_registry`][tableclean_suite.environments.robot_registry], a leaf module) and the one way to add to it.
 
-:class:`~.skill_controller.SkillController` merges :func:`skill_overrides` of the env's robot
-under the caller's own ``skill_configs``; :func:`~.osc.skill_controller_config` merges
-:func:`osc_overrides` over :data:`~.osc.OSC_OVERRIDES`.  Users add an arm with
-:func:`register_robot_config`::
+[`SkillController`][tableclean_suite.controllers.skill_controller.SkillController] merges [`skill_overrides`][tableclean_suite.environments.robot_registry.skill_overrides] of the env's robot
+under the caller's own ``skill_configs``; [`skill_controller_config`][tableclean_suite.controllers.osc.skill_controller_config] merges
+[`osc_overrides`][tableclean_suite.environments.robot_registry.osc_overrides] over `OSC_OVERRIDES`.  Users add an arm with
+[`register_robot_config`][tableclean_suite.controllers.robot_configs.register_robot_config]:
 
     register_robot_config(RobotSkillConfig("MyArm", skills={"*": {"fingertip_depth": 0.02}}))
 """
@@ -37,17 +37,17 @@ from tableclean_suite.environments.robot_registry import (  # noqa: F401  (the r
 def register_robot_config(config: RobotSkillConfig, *, replace: bool = False) -> RobotSkillConfig:
     """Add ``config`` to the robot registry under ``config.robot``; returns the stored config.
 
-    The per-action keys of ``config.skills`` may be anything :func:`~.registry.action_key` reads
-    (an :class:`~tableclean_suite.task.Action`, a paper-order int, a name in any case); the stored
-    config has them as registered action names, the keys :func:`skill_overrides` looks up.
+    The per-action keys of ``config.skills`` may be anything [`action_key`][tableclean_suite.controllers.registry.action_key] reads
+    (an [`Action`][tableclean_suite.task.actions.Action], a paper-order int, a name in any case); the stored
+    config has them as registered action names, the keys [`skill_overrides`][tableclean_suite.environments.robot_registry.skill_overrides] looks up.
 
     Raises:
-        TypeError: ``config`` is not a :class:`RobotSkillConfig`.
-        ValueError: a skills key that is neither :data:`ALL_SKILLS` nor a registered action, or two
-            keys naming the same action; an :data:`ALL_SKILLS` key that is not a key of ``BASE_CONFIG``
-            or its value outside the range of :class:`~.configs.SkillConfig`'s field; per-action
+        TypeError: ``config`` is not a [`RobotSkillConfig`][tableclean_suite.environments.robot_registry.RobotSkillConfig].
+        ValueError: a skills key that is neither `ALL_SKILLS` nor a registered action, or two
+            keys naming the same action; an `ALL_SKILLS` key that is not a key of ``BASE_CONFIG``
+            or its value outside the range of [`SkillConfig`][tableclean_suite.controllers.configs.SkillConfig]'s field; per-action
             overrides for an action whose skill is registered that it would refuse (unknown keys,
-            values outside its ``Config``'s ranges: :class:`~.config_check.SkillConfigError`, a
+            values outside its ``Config``'s ranges: [`SkillConfigError`][tableclean_suite.controllers.config_check.SkillConfigError], a
             ``ValueError``); the robot is already registered and ``replace`` is False; an OSC override
             of ``type``, ``input_type`` or ``input_ref_frame``.
     """

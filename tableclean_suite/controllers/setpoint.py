@@ -19,7 +19,7 @@ GRIPPER_INDEX = ACTION_DIM - 1
 
 @numba.njit(cache=True)
 def wrap(angle: float) -> float:
-    """``angle`` (rad) wrapped to [-pi, pi) (as :func:`~tableclean_suite.controllers.geometry.wrap_angle`)."""
+    """``angle`` (rad) wrapped to [-pi, pi) (as [`wrap_angle`][tableclean_suite.controllers.geometry.wrap_angle])."""
     return (angle + np.pi) % (2 * np.pi) - np.pi
 
 

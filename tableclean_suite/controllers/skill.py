@@ -1,20 +1,20 @@
 """The skill interface: a MAPLE-style state machine over end-effector waypoints.
 
-A skill is created per execution.  Every control step :meth:`Skill.step` reads
+A skill is created per execution.  Every control step [`Skill.step`][tableclean_suite.controllers.skill.Skill.step] reads
 ``env.skill_info()`` (the only grounding a skill uses), decides from the
 *achieved* pose whether the current phase's waypoint is done, advances the phase
 if so, and returns the next absolute OSC setpoint, rate-limited towards the
 waypoint.  Subclasses only say which waypoint each phase aims at
-(:meth:`Skill.waypoint`) and what follows a completed phase
-(:meth:`Skill.next_phase`); the waypoint following, rate limiting, gripper
+([`Skill.waypoint`][tableclean_suite.controllers.skill.Skill.waypoint]) and what follows a completed phase
+([`Skill.next_phase`][tableclean_suite.controllers.skill.Skill.next_phase]); the waypoint following, rate limiting, gripper
 settling and step budget live here once.
 
 Subclasses define:
-- ``action``: the :class:`~tableclean_suite.task.Action` the skill implements,
-- ``Phase``: an :class:`enum.Enum` of phases whose last member ends the skill,
-- ``Config``: its typed, frozen settings (a :class:`~.configs.SkillConfig` subclass, units and
+- ``action``: the [`Action`][tableclean_suite.task.actions.Action] the skill implements,
+- ``Phase``: an `enum.Enum` of phases whose last member ends the skill,
+- ``Config``: its typed, frozen settings (a [`SkillConfig`][tableclean_suite.controllers.configs.SkillConfig] subclass, units and
   ranges in its field docstrings) and ``DEFAULT_CONFIG``, their defaults as a dict
-  (``Config().as_dict()``, extending :data:`BASE_CONFIG`).
+  (``Config().as_dict()``, extending `BASE_CONFIG`).
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.controllers.setpoint import advance_command
 from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
 
-#: The dict form of :class:`~.configs.SkillConfig`'s defaults: the settings every skill understands
+#: The dict form of [`SkillConfig`][tableclean_suite.controllers.configs.SkillConfig]'s defaults: the settings every skill understands
 #: (units and ranges in its field docstrings); each skill's ``DEFAULT_CONFIG`` extends these.
 BASE_CONFIG: dict[str, Any] = SkillConfig().as_dict()
 
@@ -62,7 +62,7 @@ def object_heights(info: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _geometry_heights(positions: np.ndarray, info: Mapping[str, Any]) -> tuple[list[float], list[float]]:
-    """:func:`object_heights` from ``objects_geometry`` as lists of floats (``positions`` (M, 3) [m])."""
+    """[`object_heights`][tableclean_suite.controllers.skill.object_heights] from ``objects_geometry`` as lists of floats (``positions`` (M, 3) [m])."""
     tops, bottoms = [], []
     for z, quat, shape in zip(positions[:, 2].tolist(), info["objects_quat"], info["objects_geometry"]):
         # one projection of its points for both: world_z_range's, on the rotation's z row alone (asked
@@ -76,24 +76,24 @@ def _geometry_heights(positions: np.ndarray, info: Mapping[str, Any]) -> tuple[l
 
 
 def _geometry_range(z: float, quat, shape) -> tuple[float, float]:
-    """``(top, bottom)`` world z [m] of one object of :func:`_geometry_heights` (centre height ``z`` [m], ``quat``
+    """``(top, bottom)`` world z [m] of one object of `_geometry_heights` (centre height ``z`` [m], ``quat``
     (4,) xyzw, ``shape`` its ObjectGeometry): the same operations, so the same bits."""
     heights = shape.points.dot(quat_z_row(quat)).tolist()
     return z + max(heights), z + min(heights)
 
 
-#: m added to :func:`_top_bound`: far above the rounding of the bound's sum and of the exact top's (~1e-16 m)
+#: m added to `_top_bound`: far above the rounding of the bound's sum and of the exact top's (~1e-16 m)
 TOP_BOUND_SLACK = 1e-9
-#: Most object geometries whose extents :func:`_top_bound` keeps (it forgets them all when full).
+#: Most object geometries whose extents `_top_bound` keeps (it forgets them all when full).
 TOP_BOUND_CACHE_SIZE = 256
 _extents: dict[int, tuple] = {}
 
 
 def _top_bound(z: float, quat, shape) -> float:
-    """An upper bound [m] on :func:`_geometry_range`'s top, from the geometry's extents in its own frame
+    """An upper bound [m] on `_geometry_range`'s top, from the geometry's extents in its own frame
     (``shape.lower``, ``shape.upper``): each point's height over the centre is at most the sum over its axes of
-    the larger of the extents' heights; plus :data:`TOP_BOUND_SLACK`.  Cheaper than the exact top (no product
-    over all points), so :meth:`Skill.hover_z` skips the exact one where the bound shows it cannot matter."""
+    the larger of the extents' heights; plus `TOP_BOUND_SLACK`.  Cheaper than the exact top (no product
+    over all points), so [`Skill.hover_z`][tableclean_suite.controllers.skill.Skill.hover_z] skips the exact one where the bound shows it cannot matter."""
     cached = _extents.get(id(shape))
     if cached is None or cached[0] is not shape:
         if len(_extents) >= TOP_BOUND_CACHE_SIZE:
@@ -110,7 +110,7 @@ def _top_bound(z: float, quat, shape) -> float:
     return z + (max(l0 * r0, u0 * r0) + max(l1 * r1, u1 * r1) + max(l2 * r2, u2 * r2)) + TOP_BOUND_SLACK
 
 
-#: Most validated skill configs :func:`_checked_config` keeps (it forgets them all when full).
+#: Most validated skill configs `_checked_config` keeps (it forgets them all when full).
 CHECKED_CONFIG_CACHE_SIZE = 256
 _checked_configs: dict = {}
 
@@ -121,7 +121,7 @@ def _typed_items(settings: Mapping[str, Any]) -> tuple:
 
 
 def _checked_config(cls: type, config: Mapping[str, Any] | None):
-    """:func:`~.config_check.checked_skill_config` of skill class ``cls`` with the overrides ``config``, kept per
+    """[`checked_skill_config`][tableclean_suite.controllers.config_check.checked_skill_config] of skill class ``cls`` with the overrides ``config``, kept per
     (class, its Config, its defaults' and the overrides' items with their values' types: 1, 1.0 and True hash alike
     but are different settings): a skill is made per execution and the check
     builds its whole Config (~10-40 us); the same settings give the same (read-only) result.  Settings with
@@ -147,9 +147,9 @@ def _last_member(phases: type[enum.Enum]) -> enum.Enum:
 
 @runtime_checkable
 class SkillEnv(Protocol):
-    """What skills and the :class:`~tableclean_suite.controllers.SkillController` need from an env.
+    """What skills and the [`SkillController`][tableclean_suite.controllers.skill_controller.SkillController] need from an env.
 
-    ``TableClean`` made by :func:`~tableclean_suite.controllers.make_skill_env` is one; test
+    ``TableClean`` made by [`make_skill_env`][tableclean_suite.controllers.make.make_skill_env] is one; test
     doubles implement these members only.
     """
 
@@ -186,9 +186,9 @@ class Waypoint:
         speed: m/s cap of the setpoint's speed towards ``pos``; ``None``: the skill's ``speed``.
         fixed: the primitive promises that this waypoint stays the same until the phase ends and that
             its ``update()`` changes nothing meanwhile, so a compiled loop may run the phase's control
-            steps without asking again (:meth:`Skill.run_fixed_phase`); the completion check stays exact.
+            steps without asking again ([`Skill.run_fixed_phase`][tableclean_suite.controllers.skill.Skill.run_fixed_phase]); the completion check stays exact.
         loop: the waypoint moves, but the primitive runs the phase's further control steps in its own
-            compiled loop (:meth:`Skill.run_loop_phase`, e.g. the wipe's press and strokes), exactly as its
+            compiled loop ([`Skill.run_loop_phase`][tableclean_suite.controllers.skill.Skill.run_loop_phase], e.g. the wipe's press and strokes), exactly as its
             ``update()`` and ``waypoint()`` would.
     """
 
@@ -206,10 +206,10 @@ class Skill(abc.ABC):
     """Base class of all skills: waypoint following with phases, a budget and checks.
 
     Args:
-        env: anything with ``skill_info() -> dict`` (as :meth:`tableclean_suite.environments.TableClean.skill_info`),
+        env: anything with ``skill_info() -> dict`` (as [`tableclean_suite.environments.TableClean.skill_info`][tableclean_suite.environments.table_clean.TableClean.skill_info]),
             ``symbolic_state() -> TaskState`` and ``control_freq`` (Hz).
         config: overrides of ``DEFAULT_CONFIG`` (an unknown key, or a value outside its field's range in
-            ``Config``, raises :class:`~.config_check.SkillConfigError`, a ``KeyError`` and a ``ValueError``,
+            ``Config``, raises [`SkillConfigError`][tableclean_suite.controllers.config_check.SkillConfigError], a ``KeyError`` and a ``ValueError``,
             naming the skill, the key and the allowed keys or range).
 
     Attributes:
@@ -221,7 +221,7 @@ class Skill(abc.ABC):
     Phase: ClassVar[type[enum.Enum]]
     Config: ClassVar[type[SkillConfig]] = SkillConfig
     DEFAULT_CONFIG: ClassVar[dict[str, Any]] = BASE_CONFIG
-    #: (phase, its name) of the last control step (:meth:`step` counts the steps per name)
+    #: (phase, its name) of the last control step ([`step`][tableclean_suite.controllers.skill.Skill.step] counts the steps per name)
     _phase_name: tuple = (None, "")
 
     def __init__(self, env: SkillEnv, config: Mapping[str, Any] | None = None):
@@ -252,7 +252,7 @@ class Skill(abc.ABC):
 
     @abc.abstractmethod
     def next_phase(self, info: Mapping[str, Any]) -> enum.Enum:
-        """The phase after ``self.phase`` once its waypoint is done; may raise :class:`SkillFailure`."""
+        """The phase after ``self.phase`` once its waypoint is done; may raise [`SkillFailure`][tableclean_suite.controllers.skill.SkillFailure]."""
         raise NotImplementedError
 
     def on_reset(self, info: Mapping[str, Any]) -> None:
@@ -316,7 +316,7 @@ class Skill(abc.ABC):
         """One control step: update the phase from the achieved pose, return the env action (7,).
 
         Returns ``None`` once the skill is done (finished, failed or out of budget).  Afterwards
-        :attr:`fixed_waypoint` is the step's waypoint when it is ``fixed`` or ``loop`` (else ``None``).
+        `fixed_waypoint` is the step's waypoint when it is ``fixed`` or ``loop`` (else ``None``).
         """
         # (the per-step path runs after the physics has left the CPU caches cold: few calls and lookups here)
         self.fixed_waypoint = None
@@ -362,12 +362,12 @@ class Skill(abc.ABC):
     def run_fixed_phase(self, stepper) -> int:
         """Hand the current phase's next control steps to ``stepper``'s compiled phase loop; returns how many ran.
 
-        Only after a :meth:`step` whose waypoint was ``fixed`` (:attr:`fixed_waypoint`; a ``loop`` one goes
-        to :meth:`run_loop_phase`) and without the windowed gripper rule (``gripper_window``); otherwise
+        Only after a [`step`][tableclean_suite.controllers.skill.Skill.step] whose waypoint was ``fixed`` (`fixed_waypoint`; a ``loop`` one goes
+        to [`run_loop_phase`][tableclean_suite.controllers.skill.Skill.run_loop_phase]) and without the windowed gripper rule (``gripper_window``); otherwise
         runs nothing.  ``stepper`` is a
-        :class:`~tableclean_suite.controllers.fast_control.FastSkillStepper`: it runs control steps
-        exactly as :meth:`step` followed by ``stepper.step`` would, stopping before any step whose
-        completion check might pass (that step is left to :meth:`step`), at the step budget, and
+        [`FastSkillStepper`][tableclean_suite.controllers.fast_control.FastSkillStepper]: it runs control steps
+        exactly as [`step`][tableclean_suite.controllers.skill.Skill.step] followed by ``stepper.step`` would, stopping before any step whose
+        completion check might pass (that step is left to [`step`][tableclean_suite.controllers.skill.Skill.step]), at the step budget, and
         at the env's horizon.
         """
         target = self.fixed_waypoint
@@ -384,7 +384,7 @@ class Skill(abc.ABC):
 
     def run_loop_phase(self, stepper) -> int:
         """Hook: run the current phase's next control steps in the primitive's compiled loop (a ``loop``
-        waypoint, see :class:`Waypoint`); returns how many ran (default: none, every step through :meth:`step`)."""
+        waypoint, see [`Waypoint`][tableclean_suite.controllers.skill.Waypoint]); returns how many ran (default: none, every step through [`step`][tableclean_suite.controllers.skill.Skill.step])."""
         return 0
 
     def loop_state(self, speed: float, gripper: float, tolerance: float, target, min_steps: int = 0,
@@ -403,7 +403,7 @@ class Skill(abc.ABC):
 
     def count_loop_steps(self, ran: int, state: np.ndarray) -> None:
         """Take over ``ran`` control steps the compiled loop ran in the current phase from its ``state`` (the
-        record of :meth:`loop_state`): the setpoint, the yaw setpoint, the step counts."""
+        record of [`loop_state`][tableclean_suite.controllers.skill.Skill.loop_state]): the setpoint, the yaw setpoint, the step counts."""
         if ran:
             self._setpoint[:] = state["setpoint"][0]
             self._yaw_setpoint = float(state["yaw_setpoint"][0])
@@ -414,7 +414,7 @@ class Skill(abc.ABC):
 
     def _phase_complete(self, target: Waypoint, info: Mapping[str, Any], finger_motion: float) -> bool:
         """Whether the phase of ``target`` is done: position reached, at least ``min_steps`` in the phase,
-        fingers settled and the skill's :meth:`phase_ready` (asked last: it may read contacts)."""
+        fingers settled and the skill's [`phase_ready`][tableclean_suite.controllers.skill.Skill.phase_ready] (asked last: it may read contacts)."""
         if self._phase_steps < target.min_steps:
             return False
         error = np.asarray(info["eef_pos"], dtype=float) - target.pos
@@ -453,10 +453,10 @@ class Skill(abc.ABC):
         return timeout is not None and self._phase_steps >= timeout
 
     def _yaw_reached(self, info: Mapping[str, Any]) -> bool:
-        """Whether the gripper's yaw (from ``eef_quat``) is within ``yaw_tolerance`` of :attr:`yaw`.
+        """Whether the gripper's yaw (from ``eef_quat``) is within ``yaw_tolerance`` of `yaw`.
 
         Decided from the grip site's rotation matrix ``eef_rot`` when it gives a clear verdict
-        (:func:`~.geometry.clear_yaw_verdict`: the same answer): ``eef_quat`` costs robosuite's
+        ([`clear_yaw_verdict`][tableclean_suite.controllers.geometry.clear_yaw_verdict]: the same answer): ``eef_quat`` costs robosuite's
         ``mat2quat``, an eigen-decomposition (~40 us per phase end measured in the loop)."""
         tolerance = self.config["yaw_tolerance"]
         rot = info.get("eef_rot")
@@ -469,7 +469,7 @@ class Skill(abc.ABC):
     def _advance_setpoint(self, target: Waypoint) -> np.ndarray:
         """Move the setpoint (and the yaw setpoint) one control step towards ``target``; returns the env action (7,).
 
-        The compiled :func:`~tableclean_suite.controllers.setpoint.advance_command`, which the
+        The compiled [`advance_command`][tableclean_suite.controllers.setpoint.advance_command], which the
         compiled phase loop also runs: both give bit-identical commands.
         """
         speed = target.speed
@@ -494,7 +494,7 @@ class Skill(abc.ABC):
 
     # -- helpers for subclasses ----------------------------------------------------------
     def hover_point(self, info: Mapping[str, Any], xy: np.ndarray) -> np.ndarray:
-        """(3,) the travel point above horizontal position ``xy`` (2,) at :meth:`hover_z`."""
+        """(3,) the travel point above horizontal position ``xy`` (2,) at [`hover_z`][tableclean_suite.controllers.skill.Skill.hover_z]."""
         return np.array([xy[0], xy[1], self.hover_z(info)])
 
     def hover_z(self, info: Mapping[str, Any]) -> float:

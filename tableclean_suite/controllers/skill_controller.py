@@ -26,16 +26,16 @@ class SkillController:
     """Runs task-level actions as skills on a ``TableClean`` robosuite env (any task spec it builds).
 
     Args:
-        env: the environment (``skill_info()`` as :meth:`tableclean_suite.environments.TableClean.skill_info`,
+        env: the environment (``skill_info()`` as [`tableclean_suite.environments.TableClean.skill_info`][tableclean_suite.environments.table_clean.TableClean.skill_info],
             ``symbolic_state()``, ``step()``, ``control_freq``), made with
-            :func:`~tableclean_suite.controllers.make_skill_env`; checked at construction
-            (:func:`~tableclean_suite.controllers.osc.check_skill_env`: ``ValueError`` when its arm
+            [`make_skill_env`][tableclean_suite.controllers.make.make_skill_env]; checked at construction
+            ([`check_skill_env`][tableclean_suite.controllers.osc.check_skill_env]: ``ValueError`` when its arm
             controller is not absolute world-frame OSC_POSE).
         model: the task model whose rules physics follows (default: the env's ``task_model``, else
-            ``TaskModel()``); ints passed to :meth:`execute` index its action list.
+            ``TaskModel()``); ints passed to [`execute`][tableclean_suite.controllers.skill_controller.SkillController.execute] index its action list.
         registry: action -> skill class table (default: the global ``SKILL_REGISTRY``).
         skill_configs: per-action config overrides, e.g. ``{Action.CLEAN: {"max_passes": 2}}``; they apply
-            on top of the robot's registered overrides (:mod:`.robot_configs`, by ``env.robots[0].name``).
+            on top of the robot's registered overrides ([`robot_configs`][tableclean_suite.controllers.robot_configs], by ``env.robots[0].name``).
         on_step: called after every ``env.step`` a skill makes (e.g. to record video frames);
             its time counts as executor overhead.  With it every control step runs through
             ``skill.step()`` (the compiled phase loop, which calls no Python per step, is not used).
@@ -57,7 +57,7 @@ class SkillController:
         self.model = model
         self.registry = SKILL_REGISTRY if registry is None else registry
         self.skill_configs = {action_key(a): dict(c) for a, c in (skill_configs or {}).items()}
-        #: robosuite's name of the env's robot, whose registered skill overrides apply (see :meth:`skill_config`)
+        #: robosuite's name of the env's robot, whose registered skill overrides apply (see [`skill_config`][tableclean_suite.controllers.skill_controller.SkillController.skill_config])
         self.robot = getattr(env.robots[0], "name", "")
         self.on_step = on_step
 
@@ -89,14 +89,14 @@ class SkillController:
         """The function each control step's command goes to: the fast stepper's ``step``, else ``env.step``.
 
         Subclasses may wrap it to see every control step (e.g. demo recording); the compiled
-        phase loop is then not used (:meth:`_phase_stepper`).
+        phase loop is then not used (`_phase_stepper`).
         """
         stepper = self._fast_stepper()
         return self.env.step if stepper is None else stepper.step
 
     def _phase_stepper(self):
         """The fast stepper whose compiled phase loop may run a fixed-waypoint phase's further steps, or ``None``:
-        only without ``on_step`` and when :meth:`_stepper` is not overridden (both must see every step)."""
+        only without ``on_step`` and when `_stepper` is not overridden (both must see every step)."""
         if self.on_step is not None or type(self)._stepper is not SkillController._stepper:
             return None
         return self._fast_stepper()
@@ -105,10 +105,10 @@ class SkillController:
         """Carry out ``action`` (Action, index into the model's actions, or name) in physics and report what happened.
 
         Each control step goes through the env's fast stepper when the env owns one
-        (:func:`~tableclean_suite.controllers.make_skill_env` with ``fast_control=True``), else
+        ([`make_skill_env`][tableclean_suite.controllers.make.make_skill_env] with ``fast_control=True``), else
         ``env.step`` (always through a wrapper, so that its ``step()`` runs).  With a fast stepper
         and no ``on_step``, a phase whose waypoint is fixed continues in the stepper's compiled
-        phase loop (:meth:`~tableclean_suite.controllers.skill.Skill.run_fixed_phase`); its time
+        phase loop ([`run_fixed_phase`][tableclean_suite.controllers.skill.Skill.run_fixed_phase]); its time
         counts as time in ``env.step`` (it is the physics, plus the skill's compiled per-step checks).
 
         Raises ``ValueError`` for an unknown action or when the current state is
@@ -117,7 +117,7 @@ class SkillController:
         return self._execute(action, None)
 
     def _execute(self, action, before: TaskState | None) -> SkillResult:
-        """:meth:`execute` from the symbolic state ``before`` when the caller knows it (None: read it now)."""
+        """[`execute`][tableclean_suite.controllers.skill_controller.SkillController.execute] from the symbolic state ``before`` when the caller knows it (None: read it now)."""
         start = time.perf_counter()
         action = self.resolve(action)
         skill_class = get_skill_class(action, self.registry)
@@ -169,7 +169,7 @@ class SkillController:
 
         Also stops once the symbolic state is terminal.  Each action starts from the state the one
         before ended in (nothing moves between two actions; read again after a fault, or when a
-        subclass overrides :meth:`execute`).
+        subclass overrides [`execute`][tableclean_suite.controllers.skill_controller.SkillController.execute]).
         """
         results = []
         known = None  # the symbolic state the last action ended in

@@ -1,6 +1,6 @@
 """Boustrophedon wipe patterns that cover a rectangular table segment with a sponge, clear of obstacles.
 
-:func:`boustrophedon` sweeps a rectangle lane by lane; :func:`clear_area` first shrinks that
+[`boustrophedon`][tableclean_suite.controllers.wipe_pattern.boustrophedon] sweeps a rectangle lane by lane; [`clear_area`][tableclean_suite.controllers.wipe_pattern.clear_area] first shrinks that
 rectangle so that the hand, wherever the sponge is inside it, keeps a margin from every obstacle
 (the objects standing on the neighbouring segments whose tops reach the hand).  The shrunk area is
 one rectangle, so every stroke, every shift between strokes and every move between two passes

@@ -1,6 +1,6 @@
 """robosuite environments of tableclean_suite.
 
-Importing this package registers :class:`TableClean` with robosuite (robosuite's ``EnvMeta``
+Importing this package registers [`TableClean`][tableclean_suite.environments.table_clean.TableClean] with robosuite (robosuite's ``EnvMeta``
 registers every environment class when its module is imported), so
 ``robosuite.make("TableClean", robots="Panda")`` works once ``tableclean_suite`` is imported.
 """

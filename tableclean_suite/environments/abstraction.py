@@ -1,8 +1,8 @@
-"""Physical-to-symbolic abstraction: an observation mapping -> the task model's :class:`TaskState`.
+"""Physical-to-symbolic abstraction: an observation mapping -> the task model's [`TaskState`][tableclean_suite.task.state.TaskState].
 
 This module is the only place where the physical thresholds of the task are applied.  Everything
 is a pure function of an observation-like mapping (``env.skill_info()`` is one) and a config
-(:data:`~tableclean_suite.environments.config.DEFAULT_TABLECLEAN_CONFIG` when ``None``), so it can
+(`DEFAULT_TABLECLEAN_CONFIG` when ``None``), so it can
 be unit-tested with a hand-written dict.
 
 Observation keys (world frame, metres):
@@ -22,8 +22,8 @@ Optional (defaults from the config's scene geometry)
       (default ``table_top_z + object_half_size[2]``); ``"object_half_size"`` (3,).
     - ``"qvel"`` (n,): simulation velocities, checked against ``max_stable_speed``.
 
-Situations the task model has no state for raise :class:`AbstractionError` whose ``fault`` is a
-:class:`Fault`; nothing is mapped silently.
+Situations the task model has no state for raise [`AbstractionError`][tableclean_suite.environments.abstraction.AbstractionError] whose ``fault`` is a
+[`Fault`][tableclean_suite.environments.abstraction.Fault]; nothing is mapped silently.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ import numpy as np
 from tableclean_suite.environments.config import make_config, scene_geometry
 from tableclean_suite.task import HELD, TaskState
 
-#: Observation keys read from the physics and checked for NaN/inf by :func:`check_stability`.
+#: Observation keys read from the physics and checked for NaN/inf by [`check_stability`][tableclean_suite.environments.abstraction.check_stability].
 PHYSICAL_KEYS = ("object_pos", "eef_pos", "sponge_pos", "dirt_fraction", "qvel")
 #: Slack on the clean test so that e.g. 0.9 wiped of 10 markers (float 0.09999...) counts as clean.
 _FRACTION_EPS = 1e-9
@@ -56,7 +56,7 @@ class Fault(str, enum.Enum):
 
 
 class AbstractionError(RuntimeError):
-    """Raised when the physical state maps to no task state; ``fault`` says which :class:`Fault`."""
+    """Raised when the physical state maps to no task state; ``fault`` says which [`Fault`][tableclean_suite.environments.abstraction.Fault]."""
 
     def __init__(self, fault: Fault, message: str):
         super().__init__(f"{fault.value}: {message}")
@@ -88,7 +88,7 @@ def _geometry_value(obs: Mapping, key: str, config: Mapping) -> np.ndarray:
 # building blocks (each a pure function; the environment's success check reuses them)
 # ---------------------------------------------------------------------------------------------
 def check_stability(obs: Mapping, config: Mapping | None = None) -> None:
-    """Raise ``UNSTABLE`` when a physical reading (:data:`PHYSICAL_KEYS`) is non-finite or ``|qvel|`` is too high."""
+    """Raise ``UNSTABLE`` when a physical reading (`PHYSICAL_KEYS`) is non-finite or ``|qvel|`` is too high."""
     config = resolve_config(config)
     for key in PHYSICAL_KEYS:
         if key in obs and not math.isfinite(float(np.sum(obs[key]))):  # NaN/inf propagate through the sum
@@ -130,7 +130,7 @@ def segment_of_xy(xy, segment_centers, segment_half_sizes, margin: float = 0.0) 
 def object_locations(obs: Mapping, config: Mapping | None = None) -> tuple[int, ...]:
     """Where each object is (HELD or a 0-based segment), from ``objects_*`` keys or the single ``object_*`` ones.
 
-    Raises :class:`AbstractionError` on the first object the model has no location for.
+    Raises [`AbstractionError`][tableclean_suite.environments.abstraction.AbstractionError] on the first object the model has no location for.
     """
     config = resolve_config(config)
     if "objects_pos" in obs:
@@ -216,7 +216,7 @@ def sponge_at_home(obs: Mapping, config: Mapping | None = None) -> bool:
 # the abstraction
 # ---------------------------------------------------------------------------------------------
 def abstract_state(obs: Mapping, config: Mapping | None = None, *, check_sponge: bool = True) -> TaskState:
-    """The symbolic :class:`TaskState` of a physical observation (keys in the module docstring).
+    """The symbolic [`TaskState`][tableclean_suite.task.state.TaskState] of a physical observation (keys in the module docstring).
 
     Args:
         obs: observation mapping, e.g. ``env.skill_info()``.
@@ -225,7 +225,7 @@ def abstract_state(obs: Mapping, config: Mapping | None = None, *, check_sponge:
             ``False`` while a skill that carries the sponge (clean) is running.
 
     Raises:
-        AbstractionError: for situations the task model has no state for (see :class:`Fault`).
+        AbstractionError: for situations the task model has no state for (see [`Fault`][tableclean_suite.environments.abstraction.Fault]).
         KeyError: when a required observation key is missing.
     """
     config = resolve_config(config)

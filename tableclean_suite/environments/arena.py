@@ -1,12 +1,12 @@
 """The table-cleaning arena: robosuite's table with N tinted segments, dirt markers and a sponge stand.
 
-Everything added here hangs off the table body of :class:`robosuite.models.arenas.TableArena`:
+Everything added here hangs off the table body of `robosuite.models.arenas.TableArena`:
 
 - one tinted, visual-only patch per segment and a dark divider strip between neighbouring segments;
 - ``rows * cols`` dirt markers per segment: thin visual-only discs (``contype = conaffinity = 0``,
   like robosuite's Wipe markers), hidden by the environment when wiped;
 - one dirt-state body per segment, without geometry, on a horizontal slide joint whose position
-  records which of the segment's markers are wiped (:mod:`.dirt_state`), so the dirt is part of
+  records which of the segment's markers are wiped ([`dirt_state`][tableclean_suite.environments.dirt_state]), so the dirt is part of
   MuJoCo's ``qpos``;
 - a small stand (a collision box) on which the sponge rests at its home, off both segments;
 - a ``tableview`` camera that sees both segments, the dirt, the object and the stand.
@@ -71,13 +71,13 @@ def look_at_quat(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
 
 
 class TableCleanArena(TableArena):
-    """A :class:`TableArena` whose top is split into N dirty segments, with a sponge stand beside them.
+    """A `TableArena` whose top is split into N dirty segments, with a sponge stand beside them.
 
     Args:
-        geometry: world-frame scene geometry (:func:`~tableclean_suite.environments.config.scene_geometry`).
+        geometry: world-frame scene geometry ([`scene_geometry`][tableclean_suite.environments.config.scene_geometry]).
         marker_xy: world xy of the dirt markers, shape ``(N, markers_per_segment, 2)``.
         marker_radius: radius of a dirt marker disc [m].
-        table_full_size, table_friction, table_offset: as for :class:`TableArena`.
+        table_full_size, table_friction, table_offset: as for `TableArena`.
     """
 
     def __init__(self, geometry: SceneGeometry, marker_xy: np.ndarray, marker_radius: float,
@@ -102,7 +102,7 @@ class TableCleanArena(TableArena):
 
     @property
     def dirt_state_joint_names(self) -> list[str]:
-        """The dirt-state slide joints, one per segment, segment 1 first (see :mod:`.dirt_state`)."""
+        """The dirt-state slide joints, one per segment, segment 1 first (see [`dirt_state`][tableclean_suite.environments.dirt_state])."""
         return [dirt_state_joint_name(s) for s in range(self.marker_xy.shape[0])]
 
     def configure_location(self):

@@ -1,19 +1,19 @@
 """Task parameters of the ``TableClean`` environment and the scene geometry derived from them.
 
-All physical constants of the task live in :data:`DEFAULT_TABLECLEAN_CONFIG` (robosuite Wipe's
+All physical constants of the task live in `DEFAULT_TABLECLEAN_CONFIG` (robosuite Wipe's
 ``DEFAULT_WIPE_CONFIG`` pattern, one comment per key).  Users override keys with
-``robosuite.make("TableClean", ..., task_config={...})``; :func:`make_config` merges and validates.
+``robosuite.make("TableClean", ..., task_config={...})``; `make_config` merges and validates.
 
 Frames and units: metres, world frame.  "Table frame" offsets are relative to the centre of the
 table top.  Segment 1 lies at negative y (left in the ``frontview`` camera), segment 2 at positive y.
 
-Layout of N segments (:func:`segment_layout`): rows of ``segment_columns`` segments along y,
+Layout of N segments (`segment_layout`): rows of ``segment_columns`` segments along y,
 rows stacked along x inside the band ``reach_x`` the Panda reaches with a downward gripper
 pressing the sponge.  Segments are numbered along a U: the first row (nearest the robot) from -y
 to +y, the next row back from +y to -y, so MOVE (k -> k + 1, N -> 1) always goes to a
 neighbouring segment.  One row (N <= 2) keeps the paper's ``segment_size``; with R rows the
 side shrinks to what fits in the band, and a layout whose segments would be smaller than
-``min_segment_size`` is refused: with the defaults at most :data:`MAX_SCENE_SEGMENTS` = 4
+``min_segment_size`` is refused: with the defaults at most `MAX_SCENE_SEGMENTS` = 4
 (two rows of two 0.18 m segments; a third row leaves 0.107 m segments, too small for two
 objects side by side and a sponge lane).
 """
@@ -29,7 +29,7 @@ import numpy as np
 from tableclean_suite.environments.dirt_state import MAX_MARKERS_PER_SEGMENT
 from tableclean_suite.task.paper import PAPER_SEGMENTS
 
-#: Segments of the default scene (the paper's two); a task spec may ask for up to :func:`max_segments`.
+#: Segments of the default scene (the paper's two); a task spec may ask for up to [`max_segments`][tableclean_suite.environments.config.max_segments].
 SCENE_SEGMENTS = PAPER_SEGMENTS
 
 DEFAULT_TABLECLEAN_CONFIG = {
@@ -111,7 +111,7 @@ MAX_YAW_NOISE = float(np.pi)
 
 
 class TaskConfig(dict):
-    """A complete, validated config (returned by :func:`make_config`); consumers skip re-validation."""
+    """A complete, validated config (returned by [`make_config`][tableclean_suite.environments.config.make_config]); consumers skip re-validation."""
 
 
 def make_config(task_config: Mapping | None = None) -> TaskConfig:
@@ -136,7 +136,7 @@ def make_config(task_config: Mapping | None = None) -> TaskConfig:
     return config
 
 
-#: What a key allows, where more than its shape (:data:`_SHAPES`) says.
+#: What a key allows, where more than its shape (`_SHAPES`) says.
 _ALLOWED = {"marker_grid": "2 integers >= 1 (rows, columns)", "segment_columns": f"an integer in 1..{MAX_SEGMENT_COLUMNS}",
             "clean_fraction": "a number in (0, 1]", "reach_x": "2 numbers (low, high) with low < high"}
 
@@ -225,7 +225,7 @@ class LayoutError(ValueError):
 def segment_layout(config: Mapping, n_segments: int) -> tuple[np.ndarray, float]:
     """Table-frame centres ``(N, 2)`` and the side [m] of N square-ish segments (see the module docstring).
 
-    Raises :class:`LayoutError` naming :func:`max_segments` when N segments do not fit.
+    Raises [`LayoutError`][tableclean_suite.environments.config.LayoutError] naming [`max_segments`][tableclean_suite.environments.config.max_segments] when N segments do not fit.
     """
     if isinstance(n_segments, bool) or not isinstance(n_segments, (int, np.integer)) or n_segments < 2:
         raise LayoutError(f"the scene needs an integer number of segments >= 2, got {n_segments!r}")
@@ -255,7 +255,7 @@ def segment_layout(config: Mapping, n_segments: int) -> tuple[np.ndarray, float]
 
 
 def max_segments(config: Mapping) -> int:
-    """The largest N :func:`segment_layout` accepts with ``config`` (4 with the defaults)."""
+    """The largest N [`segment_layout`][tableclean_suite.environments.config.segment_layout] accepts with ``config`` (4 with the defaults)."""
     columns = int(config["segment_columns"])
     gap = float(config["segment_gap"])
     low, high = (float(v) for v in config["reach_x"])
@@ -294,7 +294,7 @@ class SceneGeometry:
 
 
 def scene_geometry(config: Mapping, n_segments: int = SCENE_SEGMENTS) -> SceneGeometry:
-    """The world-frame :class:`SceneGeometry` of a (merged) config with ``n_segments`` segments."""
+    """The world-frame [`SceneGeometry`][tableclean_suite.environments.config.SceneGeometry] of a (merged) config with ``n_segments`` segments."""
     center = np.asarray(config["table_offset"], dtype=float)
     table_xy, half_size = segment_layout(config, n_segments)
     segment_centers = np.zeros((int(n_segments), 3))

@@ -9,11 +9,11 @@ from numba import types
 from numba.extending import intrinsic
 
 
-#: Bits of a geom's pad entry in :func:`grasped_bodies`' lookup: finger pad a's geoms, pad b's; both (a grasp).
+#: Bits of a geom's pad entry in [`grasped_bodies`][tableclean_suite.environments.contact_kernels.grasped_bodies]' lookup: finger pad a's geoms, pad b's; both (a grasp).
 PAD_A = 1
 PAD_B = 2
 BOTH_PADS = PAD_A | PAD_B
-#: Columns of :func:`grasped_bodies`' lookup: the geom's pad bits, the body (0 .. bodies - 1) it belongs to (-1: none).
+#: Columns of [`grasped_bodies`][tableclean_suite.environments.contact_kernels.grasped_bodies]' lookup: the geom's pad bits, the body (0 .. bodies - 1) it belongs to (-1: none).
 LOOKUP_PADS = 0
 LOOKUP_BODY = 1
 
@@ -25,8 +25,8 @@ def grasped_bodies(geom: np.ndarray, lookup: np.ndarray, bodies: int) -> np.ndar
 
     Args:
         geom: (ncon, 2) geom ids of MuJoCo's active contacts (``data.contact.geom``).
-        lookup: (ngeom, 2) int64 per geom id: column :data:`LOOKUP_PADS` its pad bits (:data:`PAD_A`,
-            :data:`PAD_B`, 0 for no pad), column :data:`LOOKUP_BODY` the body it belongs to (-1: none).
+        lookup: (ngeom, 2) int64 per geom id: column `LOOKUP_PADS` its pad bits (`PAD_A`,
+            `PAD_B`, 0 for no pad), column `LOOKUP_BODY` the body it belongs to (-1: none).
         bodies: how many bodies the lookup names.
     """
     touched = np.zeros(bodies, dtype=np.int64)  # per body: the pad bits of the geoms touching it
@@ -47,7 +47,7 @@ def grasped_bodies(geom: np.ndarray, lookup: np.ndarray, bodies: int) -> np.ndar
 def contacts_between(geom1: np.ndarray, geom2: np.ndarray, mask_a: np.ndarray, mask_b: np.ndarray) -> np.ndarray:
     """Indexes (int64, ascending) of the contacts pairing a geom of ``mask_a`` with a geom of ``mask_b`` (either order).
 
-    :func:`~tableclean_suite.environments.wiping.any_contact`'s contacts in one compiled pass (its
+    `any_contact`'s contacts in one compiled pass (its
     four numpy lookups cost ~5 us).
 
     Args:
@@ -69,7 +69,7 @@ def contact_within(geom1: np.ndarray, geom2: np.ndarray, dist: np.ndarray, mask_
                    max_dist: float) -> bool:
     """Whether a contact pairing a geom of ``mask_a`` with one of ``mask_b`` has ``dist`` <= ``max_dist`` [m].
 
-    ``dist``: (ncon,) MuJoCo's contact distances (m, negative: penetration); the rest as :func:`contacts_between`.
+    ``dist``: (ncon,) MuJoCo's contact distances (m, negative: penetration); the rest as [`contacts_between`][tableclean_suite.environments.contact_kernels.contacts_between].
     """
     for i in range(geom1.size):
         g1, g2 = geom1[i], geom2[i]
@@ -95,10 +95,10 @@ def _call_contact_force(typingctx, function, model, data, index, result):
     return types.void(types.intp, types.intp, types.intp, types.int32, types.intp), _contact_force_codegen
 
 
-#: Bits of a geom's entry in :func:`press_normal_force`'s roles: a geom of the pressing body, of the surface.
+#: Bits of a geom's entry in [`press_normal_force`][tableclean_suite.environments.contact_kernels.press_normal_force]'s roles: a geom of the pressing body, of the surface.
 PRESSING = 1
 SURFACE = 2
-#: Entries of :func:`press_normal_force`'s ``native`` addresses.
+#: Entries of [`press_normal_force`][tableclean_suite.environments.contact_kernels.press_normal_force]'s ``native`` addresses.
 NATIVE_CONTACT_FORCE = 0
 NATIVE_MODEL = 1
 NATIVE_DATA = 2
@@ -107,15 +107,15 @@ NATIVE_DATA = 2
 @numba.njit(cache=True)
 def press_normal_force(native: np.ndarray, geom: np.ndarray, roles: np.ndarray, wrench: np.ndarray) -> float:
     """``max(sum, 0.0)`` (Python's ``max``: the sum unless 0.0 is larger) of the normal forces [N]
-    (``mj_contactForce``'s first entry) of the contacts pairing a :data:`PRESSING` geom with a
-    :data:`SURFACE` geom (either order), summed in contact order: the env's press force in one call with few arguments (it is read every control step a wipe
+    (``mj_contactForce``'s first entry) of the contacts pairing a `PRESSING` geom with a
+    `SURFACE` geom (either order), summed in contact order: the env's press force in one call with few arguments (it is read every control step a wipe
     presses, from the compiled press loop).
 
     Args:
-        native: (3,) int64 addresses: ``mj_contactForce`` (:data:`NATIVE_CONTACT_FORCE`), the ``mjModel*``
-            (:data:`NATIVE_MODEL`), the ``mjData*`` (:data:`NATIVE_DATA`).
+        native: (3,) int64 addresses: ``mj_contactForce`` (`NATIVE_CONTACT_FORCE`), the ``mjModel*``
+            (`NATIVE_MODEL`), the ``mjData*`` (`NATIVE_DATA`).
         geom: (ncon, 2) geom ids of the active contacts (``data.contact.geom``).
-        roles: (ngeom,) int64 bits per geom id (:data:`PRESSING`, :data:`SURFACE`, 0 for neither).
+        roles: (ngeom,) int64 bits per geom id (`PRESSING`, `SURFACE`, 0 for neither).
         wrench: (6,) float64 C-contiguous scratch (overwritten).
     """
     total = 0.0

@@ -3,18 +3,18 @@
 robosuite saves and restores a scene with ``sim.get_state()`` / ``sim.set_state_from_flattened()``
 (time, ``qpos``, ``qvel``): that is what ``DataCollectionWrapper`` records and what playback and
 robomimic's ``dataset_states_to_obs`` restore.  So that the cleaning is restored with the object
-and the arm, each segment has a *dirt-state joint* (:func:`dirt_state_joint_name`): a horizontal
+and the arm, each segment has a *dirt-state joint* ([`dirt_state_joint_name`][tableclean_suite.environments.dirt_state.dirt_state_joint_name]): a horizontal
 slide joint of a geometry-less body whose position is the segment's wiped flags as a binary
 fraction,
 
     qpos = sum_i wiped_i * 2**i / 2**k        (k markers, marker i -> bit i; in [0, 1) metres)
 
-which a float64 holds exactly for k <= :data:`MAX_MARKERS_PER_SEGMENT`.  (A joint per marker would
+which a float64 holds exactly for k <= `MAX_MARKERS_PER_SEGMENT`.  (A joint per marker would
 add 50 bodies and degrees of freedom, ~10% of ``env.step``: robosuite's scene simulates air on every
 body with mass.)  The joint is horizontal (gravity has no component along it), carries no geometry
 (nothing touches it) and is heavily damped, so its position stays exactly where it is written.
 
-Pure functions here; :class:`~tableclean_suite.environments.TableClean` reads and writes the joints.
+Pure functions here; [`TableClean`][tableclean_suite.environments.table_clean.TableClean] reads and writes the joints.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ def encode(wiped: np.ndarray) -> float:
 
 
 def decode_code(position: float, n_markers: int, joint: str = "dirt-state joint") -> int:
-    """The integer code (bit i = marker i wiped) of a joint ``position``; :class:`DirtStateError` if it is none."""
+    """The integer code (bit i = marker i wiped) of a joint ``position``; [`DirtStateError`][tableclean_suite.environments.dirt_state.DirtStateError] if it is none."""
     k = _check_count(n_markers)
     scaled = float(position) * float(1 << k)
     code = round(scaled) if np.isfinite(scaled) else -1
@@ -64,7 +64,7 @@ def decode_code(position: float, n_markers: int, joint: str = "dirt-state joint"
 
 
 def decode(position: float, n_markers: int, joint: str = "dirt-state joint") -> np.ndarray:
-    """Bool ``(k,)`` wiped flags of a joint ``position`` (inverse of :func:`encode`)."""
+    """Bool ``(k,)`` wiped flags of a joint ``position`` (inverse of [`encode`][tableclean_suite.environments.dirt_state.encode])."""
     code = decode_code(position, n_markers, joint)
     return ((code >> np.arange(int(n_markers))) & 1).astype(bool)
 

@@ -10,7 +10,7 @@ Read from the compiled scene (a copy of its kinematics), never from per-gripper 
 - ``wrist_heights`` / ``wrist_half_widths`` [m]: the hand *and the arm's last link* (every body
   rigidly fixed to the grip site: no joint between them, e.g. the Panda's hand, flange and link 7),
   as a profile: how far across the fingers' closing axis their collision points reach at or below
-  each height above the grip site (:func:`wrist_half_width`).  Only a neighbour taller than the hand
+  each height above the grip site ([`wrist_half_width`][tableclean_suite.environments.gripper_geometry.wrist_half_width]).  Only a neighbour taller than the hand
   meets the link above it (measured: the Panda's link 7, 9.7 cm above the grip site, reaches 4.4 cm
   across, the hand 3.2 cm), so the hand's own measures above stay the hand's.
 """
@@ -43,8 +43,8 @@ class GripperGeometry:
     hand_reach: float
     hand_half_width: float
     #: (K,) heights [m] above the grip site (along its approach axis), ascending, of the rigid hand and wrist's
-    #: collision points; with :attr:`wrist_half_widths` (K,) [m]: the most any point at or below that height
-    #: reaches across the fingers' closing axis (see :func:`wrist_half_width`).
+    #: collision points; with `wrist_half_widths` (K,) [m]: the most any point at or below that height
+    #: reaches across the fingers' closing axis (see [`wrist_half_width`][tableclean_suite.environments.gripper_geometry.wrist_half_width]).
     wrist_heights: tuple = ()
     wrist_half_widths: tuple = ()
 
@@ -71,9 +71,9 @@ def rigid_bodies(model: mujoco.MjModel, body: int) -> list[int]:
 
 
 def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site: str) -> GripperGeometry:
-    """The :class:`GripperGeometry` of robosuite gripper model ``gripper`` mounted in ``model`` (arm at ``qpos``).
+    """The [`GripperGeometry`][tableclean_suite.environments.gripper_geometry.GripperGeometry] of robosuite gripper model ``gripper`` mounted in ``model`` (arm at ``qpos``).
 
-    Raises ``ValueError`` naming the gripper when it has more than :data:`MAX_FINGER_JOINTS` finger joints
+    Raises ``ValueError`` naming the gripper when it has more than `MAX_FINGER_JOINTS` finger joints
     (a hand, not a two-finger gripper: its open width would be measured over some of its joints only).
     """
     if len(gripper.joints) > MAX_FINGER_JOINTS:

@@ -4,11 +4,11 @@ Everything here is read from MuJoCo's compiled model (geom types and sizes, mesh
 geoms' poses in the object's root body), never from per-type numbers or robosuite's
 ``bottom_site`` / ``top_site`` (which robosuite's mesh objects place up to 2 cm off their meshes).
 
-- :func:`collision_points`: (K, 3) points on the collision geoms of a body subtree, in the root
+- [`collision_points`][tableclean_suite.environments.object_geometry.collision_points]: (K, 3) points on the collision geoms of a body subtree, in the root
   body's frame [m] (box corners, mesh vertices, sampled circles of round geoms);
-- :class:`ObjectGeometry`: the object's extent in its own frame (``lower``, ``upper``), its
-  footprint radius, and the gripper yaw that closes across its narrow side (:meth:`ObjectGeometry.grasp_yaw`);
-- :func:`object_geometry`: the geometry of a robosuite ``MujocoObject`` (compiled on its own, cached).
+- [`ObjectGeometry`][tableclean_suite.environments.object_geometry.ObjectGeometry]: the object's extent in its own frame (``lower``, ``upper``), its
+  footprint radius, and the gripper yaw that closes across its narrow side (`ObjectGeometry.grasp_yaw`);
+- [`object_geometry`][tableclean_suite.environments.object_geometry.object_geometry]: the geometry of a robosuite ``MujocoObject`` (compiled on its own, cached).
 """
 
 from __future__ import annotations
@@ -168,7 +168,7 @@ class ObjectGeometry:
 
     @cached_property
     def is_round(self) -> bool:
-        """Whether every horizontal width is the same within :data:`EQUAL_WIDTH` (any gripper yaw grasps it)."""
+        """Whether every horizontal width is the same within `EQUAL_WIDTH` (any gripper yaw grasps it)."""
         widths = self.widths()
         return float(widths.max() - widths.min()) <= EQUAL_WIDTH
 
@@ -244,7 +244,7 @@ def world_highest_z(geometry: ObjectGeometry, pos, rot) -> float:
 
 def world_z_range(geometry: ObjectGeometry, pos, rot) -> tuple[float, float]:
     """``(lowest, highest)`` world z [m] of the object's collision points at ``pos`` (3,) with rotation matrix
-    ``rot`` (3, 3): :func:`world_lowest_z` and :func:`world_highest_z` from one projection."""
+    ``rot`` (3, 3): [`world_lowest_z`][tableclean_suite.environments.object_geometry.world_lowest_z] and [`world_highest_z`][tableclean_suite.environments.object_geometry.world_highest_z] from one projection."""
     low, high = geometry.z_range(rot)
     return float(pos[2] + low), float(pos[2] + high)
 

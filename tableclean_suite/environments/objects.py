@@ -2,10 +2,10 @@
 
 A task spec names its objects' types (``TaskSpec.objects``, e.g. ``("box", "milk")``); the scene
 builds each from this registry.  An object type is how to build a robosuite
-:class:`~robosuite.models.objects.MujocoObject`; everything the scene and the skills need to
+`MujocoObject`; everything the scene and the skills need to
 know about its shape (extent, footprint, narrow side, resting height, where to grip it) is
-read from its collision geometry in MuJoCo (:mod:`.object_geometry`), so registering one is
-one line::
+read from its collision geometry in MuJoCo ([`object_geometry`][tableclean_suite.environments.object_geometry]), so registering one is
+one line:
 
     from robosuite.models.objects import MilkObject
     from tableclean_suite.environments.objects import register_object
@@ -14,10 +14,10 @@ one line::
     register_object("tall_box", lambda name: BoxObject(name=name, size=[0.02, 0.02, 0.05]))
     register_object("mug", xml="mug.xml")                      # an MJCF file in robosuite's object layout
 
-What geometry cannot tell can still be given (:class:`ObjectType` overrides): ``footprint_radius``
+What geometry cannot tell can still be given ([`ObjectType`][tableclean_suite.environments.objects.ObjectType] overrides): ``footprint_radius``
 (m, a disc covering the object seen from above), ``grasp_depth`` (m below the object's centre at
 which the grip site closes), ``approach_clearance`` (m the open fingertips stay above its top while
-hovering) and ``yaw_rule`` (:data:`YAW_RULES`).  ``None`` (the default) derives each from the geometry.
+hovering) and ``yaw_rule`` (`YAW_RULES`).  ``None`` (the default) derives each from the geometry.
 The scene refuses, when it is made, an object the gripper cannot hold or that does not fit a segment.
 """
 
@@ -80,13 +80,13 @@ class ObjectType:
         name: registry key, lower_snake (``"box"``).
         build: ``(mujoco_name, task_config) -> MujocoObject`` with one free joint.
         footprint_radius: m (> 0), radius of a disc covering the object seen from above; None:
-            from its collision geometry (:attr:`.object_geometry.ObjectGeometry.footprint_radius`).
+            from its collision geometry ([`object_geometry.ObjectGeometry.footprint_radius`][tableclean_suite.environments.object_geometry.ObjectGeometry.footprint_radius]).
         grasp_depth: m below the object's centre at which the grip site closes (raised so the
             fingertips stay clear of the table); None: the holding depth the grasp derives from
             the geometry and the gripper (``controllers.primitives.grasp_point``).
         approach_clearance: m between the open fingertips and the object's top while hovering;
-            None: :data:`APPROACH_CLEARANCE`.
-        yaw_rule: one of :data:`YAW_RULES`; None: ``"any"`` for a round footprint, else
+            None: `APPROACH_CLEARANCE`.
+        yaw_rule: one of `YAW_RULES`; None: ``"any"`` for a round footprint, else
             ``"short_side"`` (fingers across the narrowest width).
         description: one line for listings.
     """
@@ -116,7 +116,7 @@ class ObjectType:
                              f"{', '.join(YAW_RULES)} or None (from the geometry)")
 
     def clearance(self) -> float:
-        """m the open fingertips stay above the object's top while hovering (override or :data:`APPROACH_CLEARANCE`)."""
+        """m the open fingertips stay above the object's top while hovering (override or `APPROACH_CLEARANCE`)."""
         return APPROACH_CLEARANCE if self.approach_clearance is None else float(self.approach_clearance)
 
 
@@ -223,7 +223,7 @@ def register_object(object_type, builder=None, *, xml=None, overwrite: bool = Fa
     - ``register_object("name", xml="my_object.xml")``: a user's MJCF file in robosuite's object layout;
     - ``register_object(ObjectType(...))``: a full type (``build(name, task_config)``).
 
-    ``overrides``: :class:`ObjectType` fields (``footprint_radius``, ``grasp_depth``,
+    ``overrides``: [`ObjectType`][tableclean_suite.environments.objects.ObjectType] fields (``footprint_radius``, ``grasp_depth``,
     ``approach_clearance``, ``yaw_rule``, ``description``) for what geometry cannot tell.
     Returns the registered type; ``ValueError`` when the name is taken and ``overwrite`` is False.
     """
@@ -254,7 +254,7 @@ def get_object_type(name: str | ObjectType) -> ObjectType:
 
 
 class _ObjectTypes(Mapping):
-    """Read-only name -> :class:`ObjectType` view of the registry (``OBJECT_TYPES``)."""
+    """Read-only name -> [`ObjectType`][tableclean_suite.environments.objects.ObjectType] view of the registry (``OBJECT_TYPES``)."""
 
     def __getitem__(self, name):
         return get_object_type(name)
@@ -266,7 +266,7 @@ class _ObjectTypes(Mapping):
         return len(object_type_names())
 
 
-#: Object type name -> :class:`ObjectType` (a live view of the registry).
+#: Object type name -> [`ObjectType`][tableclean_suite.environments.objects.ObjectType] (a live view of the registry).
 OBJECT_TYPES: Mapping[str, ObjectType] = _ObjectTypes()
 
 
@@ -309,7 +309,7 @@ PROBE_NAME = "probe"
 
 
 def type_geometry(object_type, config):
-    """The collision geometry (:class:`.object_geometry.ObjectGeometry`) of ``object_type`` built from task ``config``."""
+    """The collision geometry ([`object_geometry.ObjectGeometry`][tableclean_suite.environments.object_geometry.ObjectGeometry]) of ``object_type`` built from task ``config``."""
     from tableclean_suite.environments.object_geometry import object_geometry
 
     return object_geometry(make_object(object_type, config, PROBE_NAME))
@@ -324,7 +324,7 @@ def footprint_radius(object_type, geometry) -> float:
 def check_holdable(object_type, geometry, open_width: float, gripper: str = "gripper") -> None:
     """``ValueError`` naming the object, its narrowest width and the limit when the open ``gripper`` cannot take it.
 
-    The limit is ``open_width`` (m, the open finger pads' gap) less :data:`GRASP_WIDTH_MARGIN`.
+    The limit is ``open_width`` (m, the open finger pads' gap) less `GRASP_WIDTH_MARGIN`.
     """
     kind = get_object_type(object_type)
     limit = open_width - GRASP_WIDTH_MARGIN

@@ -1,10 +1,10 @@
 """Where objects go on a segment: spots for a reset, and a free spot for a place (pure NumPy, world xy, metres).
 
 Objects are placed by their *oriented footprints*: the outline of their collision geometry seen
-from above, in their own frame (:func:`outline_of`; a disc for a ``footprint_radius`` override),
+from above, in their own frame ([`outline_of`][tableclean_suite.environments.placement.outline_of]; a disc for a ``footprint_radius`` override),
 turned by their yaw.  Nothing here knows an object type.
 
-- The ``c`` objects starting on one segment form a grid (:func:`row_layout`): ``ceil(sqrt(c))``
+- The ``c`` objects starting on one segment form a grid ([`row_layout`][tableclean_suite.environments.placement.row_layout]): ``ceil(sqrt(c))``
   columns along x (one spot, the centre, for ``c = 1``), rows along y.  Neighbouring columns
   (rows) lie ``object_spacing`` apart centre to centre, or farther, so that their footprints keep
   ``object_clearance``; the grid's footprints are centred on the segment.  Each object keeps its
@@ -13,18 +13,18 @@ turned by their yaw.  Nothing here knows an object type.
   The yaw noise (``placement_yaw_noise``) enters every extent (the footprint over every yaw the
   noise can draw) and is capped (the largest that still fits, found by bisection) when the full
   noise does not fit; the xy noise is capped per object so that footprints stay
-  ``object_clearance`` apart and inside the segment (:attr:`RowLayout.xy_noise`).  No rejection
+  ``object_clearance`` apart and inside the segment (`RowLayout.xy_noise`).  No rejection
   sampling: a layout is never retried.  What does not fit even turned and without yaw noise is
-  refused (:class:`DoesNotFit`, naming the grid's size and the segment's).
-- A place puts the held object on the *free spot* of the arm's segment (:func:`free_spot`):
+  refused ([`DoesNotFit`][tableclean_suite.environments.placement.DoesNotFit], naming the grid's size and the segment's).
+- A place puts the held object on the *free spot* of the arm's segment ([`free_spot`][tableclean_suite.environments.placement.free_spot]):
   the centre if its footprint keeps ``object_clearance`` from every object lying there; else, of
-  the spots of a :data:`LATTICE_STEP` lattice over the segment whose footprint keeps that
+  the spots of a `LATTICE_STEP` lattice over the segment whose footprint keeps that
   clearance and stays inside the segment, the one farthest from the other segments
   (``away_from``; ties: nearest the centre); if none fits, the spot farthest from the objects (of the
   lattice and the spots at the segment's extremes).
   Away from the other segments, because the hand wiping a neighbouring segment reaches ~10 cm
   beyond the sponge along its long axis: an object standing near the shared edge would shrink
-  that segment's wipe area (:mod:`tableclean_suite.controllers.wipe_pattern`) until its edge row
+  that segment's wipe area ([`tableclean_suite.controllers.wipe_pattern`][tableclean_suite.controllers.wipe_pattern]) until its edge row
   of dirt stays.
 - The reset's grid lays its spots along x first, across the wiping hand's long axis at the
   skills' nominal yaw (world y), for the same reason.
@@ -39,19 +39,19 @@ from typing import Sequence
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-#: Spacing [m] of the lattice of spots :func:`free_spot` tries when the centre is taken.
+#: Spacing [m] of the lattice of spots [`free_spot`][tableclean_suite.environments.placement.free_spot] tries when the centre is taken.
 LATTICE_STEP = 0.01
-#: Distances [m] to the other segments closer than this count as equal in :func:`free_spot` (then: nearest the centre).
+#: Distances [m] to the other segments closer than this count as equal in [`free_spot`][tableclean_suite.environments.placement.free_spot] (then: nearest the centre).
 DISTANCE_RESOLUTION = 1e-6
-#: Directions over a full turn along which :func:`free_spot` measures the gap between two footprints (the
+#: Directions over a full turn along which [`free_spot`][tableclean_suite.environments.placement.free_spot] measures the gap between two footprints (the
 #: largest separation along any of them); it falls short of the true gap by at most a footprint's size
 #: times sin(pi / this): ~1 mm for a 10 cm footprint, on the safe side.
 GAP_DIRECTIONS = 360
 #: Points of the polygon standing for a disc footprint (circumscribed: it covers the disc).
 DISC_POINTS = 32
-#: Horizontal directions over a half turn at which :func:`narrow_yaw` measures a footprint's width (1 degree).
+#: Horizontal directions over a half turn at which [`narrow_yaw`][tableclean_suite.environments.placement.narrow_yaw] measures a footprint's width (1 degree).
 WIDTH_DIRECTIONS = 180
-#: Bisection steps finding the largest yaw noise that still fits (:func:`row_layout`): the cap is
+#: Bisection steps finding the largest yaw noise that still fits ([`row_layout`][tableclean_suite.environments.placement.row_layout]): the cap is
 #: within ``placement_yaw_noise / 2**this`` of the largest that fits.
 YAW_CAP_STEPS = 12
 #: Slack [m] in the fit tests (floating-point sums of extents).
@@ -131,7 +131,7 @@ def narrow_yaw(outline) -> float:
 
 @dataclass(frozen=True)
 class RowLayout:
-    """Where the objects starting on one segment go (:func:`row_layout`).
+    """Where the objects starting on one segment go ([`row_layout`][tableclean_suite.environments.placement.row_layout]).
 
     Attributes:
         yaws: (c,) each object's yaw [rad] before the noise.
@@ -161,7 +161,7 @@ def _axis_positions(cells, lowers, uppers, spacing: float, clearance: float):
 
 
 def _grid(outlines, yaws, yaw_noise, spacing, clearance, noise, half):
-    """The grid of :func:`row_layout` for given yaws: (offsets (c, 2), xy noise caps (c,), size (2,))."""
+    """The grid of [`row_layout`][tableclean_suite.environments.placement.row_layout] for given yaws: (offsets (c, 2), xy noise caps (c,), size (2,))."""
     count = len(outlines)
     columns = math.ceil(math.sqrt(count))
     cells = [divmod(k, columns) for k in range(count)]  # (row, column)
@@ -195,7 +195,7 @@ def _fits(size, half) -> bool:
 
 
 def _oriented_grid(outlines, yaw_noise, spacing, clearance, noise, half):
-    """(yaws, grid) of :func:`row_layout` at yaw noise ``yaw_noise``: every object at yaw 0, then turned
+    """(yaws, grid) of [`row_layout`][tableclean_suite.environments.placement.row_layout] at yaw noise ``yaw_noise``: every object at yaw 0, then turned
     narrow side along x one at a time (most gain first) until the grid fits; the last grid if none does."""
     yaws = np.zeros(len(outlines))
     grid = _grid(outlines, yaws, yaw_noise, spacing, clearance, noise, half)
@@ -217,7 +217,7 @@ def row_layout(outlines: Sequence[np.ndarray], half_size, spacing: float, cleara
     ``spacing``: least distance [m] between neighbouring spots (``object_spacing``); ``clearance``:
     least gap [m] between two footprints (``object_clearance``); ``noise``: xy noise half-width [m]
     (``placement_noise``); ``yaw_noise``: yaw noise half-width [rad] (``placement_yaw_noise``).
-    Raises :class:`DoesNotFit` when the grid does not fit even turned and without yaw noise.
+    Raises [`DoesNotFit`][tableclean_suite.environments.placement.DoesNotFit] when the grid does not fit even turned and without yaw noise.
     """
     half = np.asarray(half_size, dtype=float)[:2]
     if len(outlines) == 0:
@@ -249,7 +249,7 @@ def row_layout(outlines: Sequence[np.ndarray], half_size, spacing: float, cleara
 
 
 def other_segments(centers, half_sizes, segment: int) -> list[tuple[np.ndarray, np.ndarray]]:
-    """``(center (2,), half_size (2,))`` [m] of every segment but ``segment`` (0-based), for :func:`free_spot`."""
+    """``(center (2,), half_size (2,))`` [m] of every segment but ``segment`` (0-based), for [`free_spot`][tableclean_suite.environments.placement.free_spot]."""
     return [(np.asarray(centers[k], dtype=float)[:2], np.asarray(half_sizes[k], dtype=float))
             for k in range(len(centers)) if k != int(segment)]
 
@@ -286,8 +286,8 @@ def quat_matrix(quat_xyzw) -> np.ndarray:
 
 
 def grown(footprint, margin: float):
-    """``footprint`` (a radius [m] or an outline (K, 2) [m], as in :func:`free_spot`) grown by ``margin`` [m] every
-    way: the radius plus ``margin``, or the outline's convex hull with a :func:`disc_outline` of ``margin`` about each
+    """``footprint`` (a radius [m] or an outline (K, 2) [m], as in [`free_spot`][tableclean_suite.environments.placement.free_spot]) grown by ``margin`` [m] every
+    way: the radius plus ``margin``, or the outline's convex hull with a [`disc_outline`][tableclean_suite.environments.placement.disc_outline] of ``margin`` about each
     corner (it covers every point within ``margin`` of the outline).  ``margin <= 0``: ``footprint`` itself."""
     if margin <= 0.0:
         return footprint
@@ -300,7 +300,7 @@ def grown(footprint, margin: float):
 def nearest_point(xy, footprint, point) -> np.ndarray:
     """(2,) the point [m, world xy] of the footprint (a radius or an outline (K, 2) about the object's origin at
     world ``xy``; first two entries used) nearest to ``point`` (2,) [m] outside it (the outline's edges, in the
-    order :func:`outline_of` gives them; a point inside gets the nearest edge point too)."""
+    order [`outline_of`][tableclean_suite.environments.placement.outline_of] gives them; a point inside gets the nearest edge point too)."""
     origin = np.asarray(xy, dtype=float)[:2]
     p = np.asarray(point, dtype=float)[:2]
     if np.ndim(footprint) == 0:
@@ -321,7 +321,7 @@ def nearest_point(xy, footprint, point) -> np.ndarray:
 def footprint_of(info, obj: int):
     """Object ``obj``'s footprint as it stands now, from the env's ``skill_info`` ``info``: its radius [m] (a disc,
     any yaw) when its type overrides ``footprint_radius``, else its outline (K, 2) in world axes about its
-    origin (:func:`world_outline` of its collision geometry at its current rotation)."""
+    origin ([`world_outline`][tableclean_suite.environments.placement.world_outline] of its collision geometry at its current rotation)."""
     if info["object_types"][obj].footprint_radius is not None:
         return float(info["objects_footprint"][obj])
     return world_outline(info["objects_geometry"][obj].hull, quat_matrix(info["objects_quat"][obj]))
@@ -333,7 +333,7 @@ def free_spot(center, half_size, footprint, others: Sequence[tuple[np.ndarray, o
     """(2,) world xy for the origin of an object of ``footprint`` on a segment (see the module docstring).
 
     A footprint is a radius [m] (a disc: the object at any yaw) or an outline (K, 2) [m] in world
-    axes about the object's origin, turned as the object stands (:func:`world_outline`).
+    axes about the object's origin, turned as the object stands ([`world_outline`][tableclean_suite.environments.placement.world_outline]).
 
     Args:
         center: segment centre (first two entries used).
@@ -341,7 +341,7 @@ def free_spot(center, half_size, footprint, others: Sequence[tuple[np.ndarray, o
         footprint: of the object to place, as it will stand.
         others: ``(xy, footprint)`` of the objects lying on the segment (xy: first two entries used).
         clearance: the config's ``object_clearance`` [m] kept between two footprints.
-        away_from: ``(center, half_size)`` of the other segments (:func:`other_segments`); the spot
+        away_from: ``(center, half_size)`` of the other segments ([`other_segments`][tableclean_suite.environments.placement.other_segments]); the spot
             keeps as far from them as it can when the centre is taken.
         hand: the footprint, about the spot, of the hand lowering the object (e.g. the disc of its
             half width across the fingers, the side it turns toward a tall neighbour); with

@@ -1,8 +1,8 @@
 """Randomised dynamics of the ``TableClean`` scene, drawn at every reset from the env's seeded ``rng``.
 
 ``robosuite.make("TableClean", ..., randomization=...)`` (and ``make_skill_env(randomization=...)``)
-takes a :class:`DynamicsRandomization`: the ranges, one named field each, from which every reset
-draws a :class:`DynamicsSample`:
+takes a [`DynamicsRandomization`][tableclean_suite.environments.randomization.DynamicsRandomization]: the ranges, one named field each, from which every reset
+draws a [`DynamicsSample`][tableclean_suite.environments.randomization.DynamicsSample]:
 
 =============================  ======  ===============  ================  ==========================================
 field                          unit    ``OFF`` (paper)  ``DEFAULT_ON``    applied to
@@ -25,9 +25,9 @@ field                          unit    ``OFF`` (paper)  ``DEFAULT_ON``    applie
 Scales multiply the value the scene builds (masses: the density's mass of the resized body; sizes
 apply to the types built from ``object_half_size``: box, cube, cylinder; robosuite's mesh objects,
 can and bread, keep theirs).
-Every range is ``(low, high)`` with ``low <= high`` inside :data:`ALLOWED_SCALE` (sizes:
-:data:`ALLOWED_SIZE_SCALE`); noises are half-widths >= 0 up to :data:`MAX_YAW_NOISE` /
-:data:`MAX_SPONGE_HOME_NOISE`.  Anything else raises ``ValueError`` naming the field.
+Every range is ``(low, high)`` with ``low <= high`` inside `ALLOWED_SCALE` (sizes:
+`ALLOWED_SIZE_SCALE`); noises are half-widths >= 0 up to `MAX_YAW_NOISE` /
+`MAX_SPONGE_HOME_NOISE`.  Anything else raises ``ValueError`` naming the field.
 
 Seeding: the sample of a reset is drawn from ``env.rng`` at the start of ``env.reset()`` (in a
 fixed order, before the layout), so re-seeding ``env.rng`` (or ``robosuite.make(..., seed=S)``)
@@ -97,7 +97,7 @@ def _plain_fields(instance) -> dict:
 
 @dataclass(frozen=True)
 class DynamicsSample:
-    """The values one reset drew (see :class:`DynamicsRandomization` for units).
+    """The values one reset drew (see [`DynamicsRandomization`][tableclean_suite.environments.randomization.DynamicsRandomization] for units).
 
     Attributes:
         object_mass_scale, object_size_scale, object_friction_scale: (M,) per object.
@@ -132,7 +132,7 @@ class DynamicsSample:
 class DynamicsRandomization:
     """Ranges of the randomised dynamics (the table in the module docstring).
 
-    ``DynamicsRandomization()`` is :data:`OFF` (the paper's scene); :data:`DEFAULT_ON` is the
+    ``DynamicsRandomization()`` is `OFF` (the paper's scene); `DEFAULT_ON` is the
     documented default range set.  Ranges are ``(low, high)`` tuples, noises half-widths.
     """
 
@@ -182,7 +182,7 @@ class DynamicsRandomization:
         return _plain_fields(self)
 
     def sample(self, rng: np.random.Generator, n_objects: int, n_joints: int) -> DynamicsSample:
-        """Draw one :class:`DynamicsSample` for ``n_objects`` objects and ``n_joints`` arm joints.
+        """Draw one [`DynamicsSample`][tableclean_suite.environments.randomization.DynamicsSample] for ``n_objects`` objects and ``n_joints`` arm joints.
 
         The draws come from ``rng`` in a fixed order (so a seed reproduces them); a point range
         still consumes its draws, so narrowing one range leaves the others' values unchanged.
@@ -237,11 +237,11 @@ DEFAULT_ON = DynamicsRandomization(
 
 
 def resolve_randomization(value: Any) -> DynamicsRandomization:
-    """The :class:`DynamicsRandomization` of a user value; ``ValueError`` naming it and what is allowed.
+    """The [`DynamicsRandomization`][tableclean_suite.environments.randomization.DynamicsRandomization] of a user value; ``ValueError`` naming it and what is allowed.
 
-    Accepts ``None``/``False`` or ``"off"``/``"paper"``/``"none"`` (:data:`OFF`), ``True`` or
-    ``"on"``/``"default"`` (:data:`DEFAULT_ON`), a :class:`DynamicsRandomization`, or a mapping of
-    field overrides on top of the documented defaults :data:`DEFAULT_ON` (e.g.
+    Accepts ``None``/``False`` or ``"off"``/``"paper"``/``"none"`` (`OFF`), ``True`` or
+    ``"on"``/``"default"`` (`DEFAULT_ON`), a [`DynamicsRandomization`][tableclean_suite.environments.randomization.DynamicsRandomization], or a mapping of
+    field overrides on top of the documented defaults `DEFAULT_ON` (e.g.
     ``{"friction_scale": (0.8, 1.2)}`` varies everything else as ``"on"`` does); its optional key
     ``"base"`` (``"on"``, the default, or ``"off"``) picks what the overrides start from, so
     ``{"base": "off", "friction_scale": (0.8, 1.2)}`` varies friction alone.

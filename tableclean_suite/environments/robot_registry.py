@@ -1,30 +1,30 @@
 """The robot registry (a leaf module): per-robot skill configuration, what differs between the arms.
 
-The skills are written once (:mod:`.skill`, :mod:`.primitives`, ...) against named constants
-(each skill's ``DEFAULT_CONFIG``, extending :data:`~.skill.BASE_CONFIG`) and the OSC settings
-of :data:`~.osc.OSC_OVERRIDES`.  An arm with another gripper, other dynamics or another
+The skills are written once (`skill`, `primitives`, ...) against named constants
+(each skill's ``DEFAULT_CONFIG``, extending `BASE_CONFIG`) and the OSC settings
+of `OSC_OVERRIDES`.  An arm with another gripper, other dynamics or another
 reach needs other values for some of them (finger geometry, gripper settling rule, OSC gains,
 step budgets).  Those values live here, in a registry ``robot name -> RobotSkillConfig``, and
 nowhere in the skill code:
 
-- :class:`~.skill_controller.SkillController` merges :func:`skill_overrides` of the env's robot
+- `SkillController` merges [`skill_overrides`][tableclean_suite.environments.robot_registry.skill_overrides] of the env's robot
   under the caller's own ``skill_configs`` for every skill it runs;
-- :func:`~.osc.skill_controller_config` merges :func:`osc_overrides` of the robot over
-  :data:`~.osc.OSC_OVERRIDES`;
-- :class:`~tableclean_suite.environments.TableClean` and
-  :func:`~.make.make_skill_env` refuse a robot that is not registered here
-  (:func:`check_robot`: a ``ValueError`` naming :func:`supported_robots`), and the scene mounts
+- `skill_controller_config` merges [`osc_overrides`][tableclean_suite.environments.robot_registry.osc_overrides] of the robot over
+  `OSC_OVERRIDES`;
+- [`TableClean`][tableclean_suite.environments.table_clean.TableClean] and
+  `make_skill_env` refuse a robot that is not registered here
+  ([`check_robot`][tableclean_suite.environments.robot_registry.check_robot]: a ``ValueError`` naming [`supported_robots`][tableclean_suite.environments.robot_registry.supported_robots]), and the scene mounts
   the config's ``gripper`` and moves the base by its ``base_shift``.
 
 Shipped: Panda (the reference), Sawyer, UR5e and Kinova3.  The three others carry robosuite's
 Panda gripper: their own grippers cannot hold the sponge in robosuite's models (see
-:data:`SWAP_GRIPPER`).  The windowed and timeout settling rules of
-:meth:`~.skill.Skill.gripper_settled` (``gripper_window``, ``gripper_drift``,
+`SWAP_GRIPPER`).  The windowed and timeout settling rules of
+`gripper_settled` (``gripper_window``, ``gripper_drift``,
 ``gripper_timeout``) are for grippers whose fingers never stop, such as the Robotiq 85.
 
 Users add an arm with
 [register_robot_config][tableclean_suite.controllers.robot_configs.register_robot_config], which
-checks the config against the skills before storing it in :data:`ROBOT_CONFIGS`.
+checks the config against the skills before storing it in `ROBOT_CONFIGS`.
 
 This module imports neither robosuite nor MuJoCo nor the rest of the package: the scene and the
 controllers both read it, and it reads neither.
@@ -35,7 +35,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
-#: Key of :attr:`RobotSkillConfig.skills` whose overrides apply to every skill (keys of ``BASE_CONFIG``).
+#: Key of `RobotSkillConfig.skills` whose overrides apply to every skill (keys of ``BASE_CONFIG``).
 ALL_SKILLS = "*"
 
 
@@ -45,17 +45,17 @@ class RobotSkillConfig:
 
     Attributes:
         robot: robosuite's robot name (``robosuite.ALL_ROBOTS``), e.g. ``"UR5e"``.
-        skills: config overrides per skill: key :data:`ALL_SKILLS` (``"*"``) for every skill (its
-            keys must be keys of :data:`~.skill.BASE_CONFIG`, checked at registration), or a
+        skills: config overrides per skill: key `ALL_SKILLS` (``"*"``) for every skill (its
+            keys must be keys of `BASE_CONFIG`, checked at registration), or a
             registered action name (``"move"``, ``"pick"``, ``"place"``, ``"clean"``, ...) for that
             action's skill (keys checked by the skill when it is built).  Units as in the skills'
             ``DEFAULT_CONFIG``.
-        osc: overrides of the arm controller's config on top of :data:`~.osc.OSC_OVERRIDES`
+        osc: overrides of the arm controller's config on top of `OSC_OVERRIDES`
             (robosuite OSC keys, e.g. ``{"kp": 300}``); may not change what the skills rely on
             (``type``, ``input_type``, ``input_ref_frame``).
         gripper: robosuite's name of the gripper the scene mounts when the env is made with
             ``gripper_types="default"`` (None: the robot's own default gripper); for arms whose own
-            gripper cannot do the task (see :data:`SWAP_GRIPPER`).  An explicit ``gripper_types``
+            gripper cannot do the task (see `SWAP_GRIPPER`).  An explicit ``gripper_types``
             wins.
         base_shift: (3,) m added to robosuite's table-side base position of the robot (its
             ``base_xpos_offset["table"]``), for an arm whose reach does not cover the scene from there.
@@ -115,7 +115,7 @@ def skill_overrides(robot: str, action_name: str) -> dict[str, Any]:
 
 
 def scene_gripper_types(robot: str, gripper_types):
-    """``gripper_types`` for the env: the robot config's :attr:`~RobotSkillConfig.gripper` in place of ``"default"``."""
+    """``gripper_types`` for the env: the robot config's `gripper` in place of ``"default"``."""
     config = ROBOT_CONFIGS.get(robot)
     if gripper_types == "default" and config is not None and config.gripper is not None:
         return config.gripper
@@ -129,7 +129,7 @@ def base_shift(robot: str) -> tuple[float, float, float]:
 
 
 def osc_overrides(robot: str) -> dict[str, Any]:
-    """OSC config overrides of ``robot`` (on top of :data:`~.osc.OSC_OVERRIDES`); ``{}`` if unregistered."""
+    """OSC config overrides of ``robot`` (on top of `OSC_OVERRIDES`); ``{}`` if unregistered."""
     config = ROBOT_CONFIGS.get(robot)
     return dict(config.osc) if config is not None else {}
 

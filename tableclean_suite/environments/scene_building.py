@@ -41,7 +41,7 @@ def check_objects_fit(kinds, geometry, config: Mapping, size_scale: float = 1.0)
     """Raise ``ValueError`` unless the objects of ``kinds`` (ObjectTypes) fit side by side on one segment.
 
     Every spec can bring all its objects onto one segment, so all M must fit there, by their
-    oriented footprints (:func:`.placement.row_layout`: turned so their narrowest width lies along
+    oriented footprints ([`placement.row_layout`][tableclean_suite.environments.placement.row_layout]: turned so their narrowest width lies along
     the row where that helps, without yaw noise, which the reset caps).  ``size_scale`` (> 0)
     multiplies every footprint: the largest ``object_size_scale`` a randomisation can draw.  The
     message names the objects, the size their grid needs and the segment's.

@@ -9,7 +9,7 @@ import numpy as np
 
 @dataclass(frozen=True)
 class SceneState:
-    """What :meth:`TableClean.set_scene_state` needs to put a scene back.
+    """What [`TableClean.set_scene_state`][tableclean_suite.environments.table_clean.TableClean.set_scene_state] needs to put a scene back.
 
     Attributes:
         time: simulation time [s].

@@ -9,7 +9,7 @@ and the fillers of the lazy keys (``LAZY_SKILL_INFO``).
 The skills read ``skill_info()`` every control step but most phases use a few of its keys: the
 grip site's orientation (robosuite's ``mat2quat``, an eigen-decomposition) only when a phase may
 end, the grasp flags (a pass over the contacts) only while travelling or grasping, the dirt and
-velocities only in the abstraction.  :class:`SkillInfo` is a ``dict`` (reads of present keys run
+velocities only in the abstraction.  [`SkillInfo`][tableclean_suite.environments.skill_info.SkillInfo] is a ``dict`` (reads of present keys run
 at dict speed) holding the cheap values; each *lazy* key is computed by its owner's function on
 the first read (``info[key]``, ``info.get(key)``) and stored.  ``key in info``, ``len``, iteration,
 ``keys()``/``items()``/``values()``, ``==``, ``copy()``, ``dict(info)``, ``repr`` and pickling see
@@ -17,7 +17,7 @@ every key (whole-dict operations compute the missing ones first), so it behaves 
 it replaces.
 
 The values are those of the simulation state at the call: a lazy key read after the simulation
-time advanced raises :class:`StaleSkillInfoError` (call ``skill_info()`` again) rather than mixing
+time advanced raises [`StaleSkillInfoError`][tableclean_suite.environments.skill_info.StaleSkillInfoError] (call ``skill_info()`` again) rather than mixing
 two states.
 """
 
@@ -33,13 +33,13 @@ Filler = Callable[[Any, "SkillInfo"], None]
 
 
 class StaleSkillInfoError(RuntimeError):
-    """A lazy key of a :class:`SkillInfo` was read after the simulation it describes advanced."""
+    """A lazy key of a [`SkillInfo`][tableclean_suite.environments.skill_info.SkillInfo] was read after the simulation it describes advanced."""
 
 
 class SkillInfo(dict):
     """``skill_info()``'s dict: present keys as a dict, the keys of ``lazy`` computed on first read.
 
-    Build with :meth:`create`.  ``lazy`` maps each lazy key to its filler (see :data:`Filler`);
+    Build with [`create`][tableclean_suite.environments.skill_info.SkillInfo.create].  ``lazy`` maps each lazy key to its filler (see `Filler`);
     ``owner`` is passed to the fillers, and ``clock()`` (a comparable stamp of the simulation state, e.g.
     its time [s], or the env's ``(state writes, time)``) must still return ``stamp`` when a lazy key is
     computed.

@@ -97,15 +97,15 @@ class TableClean(ManipulationEnv):
 
     ## Description
     The scene builds a task spec (``task``, default ``paper``): N segments and M objects of the
-    spec's types (:mod:`.objects` registry).  For the paper's N = 2 the table top is split along y
+    spec's types ([`objects`][tableclean_suite.environments.objects] registry).  For the paper's N = 2 the table top is split along y
     into segment 1 (at -y, blue tint) and segment 2 (at +y, orange tint); N = 3, 4 lay out two
-    rows of two smaller segments within the Panda's reach (:func:`.config.segment_layout`; larger
+    rows of two smaller segments within the Panda's reach ([`config.segment_layout`][tableclean_suite.environments.config.segment_layout]; larger
     N raise a ``ValueError`` naming the limit).  Each segment is covered with a grid of dirt
-    markers.  The objects lie on segments, apart (:mod:`.placement`); a sponge rests on a stand
+    markers.  The objects lie on segments, apart ([`placement`][tableclean_suite.environments.placement]); a sponge rests on a stand
     at the table's side, off every segment.  A dirt marker is wiped when the
     sponge's underside presses on it: the sponge touches the table top and the marker lies under its
     footprint.  This is checked at every physics substep.  The wiped flags are MuJoCo state: each
-    segment's dirt-state joint encodes them in its position (:mod:`.dirt_state`), so
+    segment's dirt-state joint encodes them in its position ([`dirt_state`][tableclean_suite.environments.dirt_state]), so
     ``sim.get_state()`` / ``sim.set_state_from_flattened()`` (robosuite's ``DataCollectionWrapper``
     and its playback, robomimic's ``dataset_states_to_obs``) save and restore the cleaning with the
     object and the arm.  Wiped markers are hidden (alpha 0) once per control step, and whenever
@@ -116,28 +116,28 @@ class TableClean(ManipulationEnv):
     cached, deterministic IK solve, plus robosuite's ``initialization_noise``) with the gripper
     open; the object lies on ``object_segment`` with ``placement_noise``; the sponge is at home;
     the segments in ``dirty_segments`` are fully dirty, the others clean.  With the defaults and
-    ``object_segment=arm_segment=1`` :meth:`symbolic_state` is Table 1's state 4.
+    ``object_segment=arm_segment=1`` [`symbolic_state`][tableclean_suite.environments.table_clean.TableClean.symbolic_state] is Table 1's state 4.
 
     ## Rewards
-    See :meth:`reward`: sparse success by default, staged with ``reward_shaping=True``.
+    See [`reward`][tableclean_suite.environments.table_clean.TableClean.reward]: sparse success by default, staged with ``reward_shaping=True``.
 
     ## Episode End
-    After ``horizon`` steps unless ``ignore_done``.  :meth:`_check_success` reports task success.
+    After ``horizon`` steps unless ``ignore_done``.  `_check_success` reports task success.
 
     ## Arguments
     Task-specific (all others are those of
-    :class:`robosuite.environments.manipulation.manipulation_env.ManipulationEnv`, passed through):
+    `robosuite.environments.manipulation.manipulation_env.ManipulationEnv`, passed through):
 
     - ``robots``: one robot name with a registered skill config
-      (:func:`tableclean_suite.controllers.robot_configs.supported_robots`, e.g. ``"Panda"``);
+      ([`tableclean_suite.controllers.robot_configs.supported_robots`][tableclean_suite.environments.robot_registry.supported_robots], e.g. ``"Panda"``);
       others raise a ``ValueError`` naming the supported ones.  ``gripper_types="default"`` mounts the
       gripper the robot's config names (UR5e, Kinova3: the Panda gripper), else robosuite's default.
-    - ``task`` (name, :class:`~tableclean_suite.task.TaskSpec` or ``.json`` path; default ``"paper"``):
+    - ``task`` (name, [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] or ``.json`` path; default ``"paper"``):
       the task spec the scene builds (N segments, the objects' types).
     - Layout (``object_segment``, ``object_segments``, ``arm_segment``, ``dirty_segments``): when
       none is given and ``task`` is, the scene starts where the spec says: its ``start_state``
       (``start="fixed"``; a state holding an object is refused, stage it with
-      :func:`tableclean_suite.physics_backend.stage`) or a uniform draw over every all-unclean
+      [`tableclean_suite.physics_backend.stage`][tableclean_suite.physics_backend.stage]) or a uniform draw over every all-unclean
       layout at each reset (``start="uniform_unclean"``).  Any layout argument given wins over
       the spec (the others then keep their defaults below); without ``task`` every layout is drawn.
     - ``object_segment`` (1..N or None): segment every object starts on; None draws each at each reset.
@@ -145,15 +145,15 @@ class TableClean(ManipulationEnv):
       ``object_segment``.
     - ``arm_segment`` (1..N or None): segment the arm starts above; None draws it at each reset.
     - ``dirty_segments`` (collection of 1..N, None = all): segments that start dirty (default all).
-    - ``task_config`` (dict): overrides of :data:`DEFAULT_TABLECLEAN_CONFIG` (unknown keys raise).
+    - ``task_config`` (dict): overrides of `DEFAULT_TABLECLEAN_CONFIG` (unknown keys raise).
     - ``use_object_obs`` (bool): include object, sponge, dirt and symbolic observables.
     - ``reward_scale`` (float or None): the maximum reward; None leaves rewards un-normalised.
     - ``reward_shaping`` (bool): use the staged dense reward.
     - ``randomization`` (None/"off", "on", a
-      :class:`~tableclean_suite.environments.randomization.DynamicsRandomization` or a mapping of
+      [`DynamicsRandomization`][tableclean_suite.environments.randomization.DynamicsRandomization] or a mapping of
       its fields, overriding the "on" ranges unless it says ``"base": "off"``): randomised dynamics drawn at every reset from ``self.rng`` (object and sponge
       mass and size, friction, arm joint damping, OSC gains, object yaw and sponge start noise;
-      ranges and units in :mod:`.randomization`).  Default off: the unrandomised scene.  The
+      ranges and units in [`randomization`][tableclean_suite.environments.randomization]).  Default off: the unrandomised scene.  The
       reset's draw is ``self.dynamics_sample``; ``self.task_config`` then holds the episode's
       sponge size (``self.base_task_config`` the configured one).
 
@@ -215,7 +215,7 @@ class TableClean(ManipulationEnv):
         #: the configured task config; ``task_config`` is this episode's (randomised sizes, see randomization=)
         self.base_task_config = make_config(task_config)
         self.task_config = self.base_task_config
-        #: the ranges drawn at every reset (:data:`~.randomization.OFF`: none)
+        #: the ranges drawn at every reset (`OFF`: none)
         self.randomization: DynamicsRandomization = resolve_randomization(randomization)
         #: the values of this episode's draw (None while randomisation is off)
         self.dynamics_sample: DynamicsSample | None = None
@@ -325,7 +325,7 @@ class TableClean(ManipulationEnv):
         return reward
 
     def staged_rewards(self) -> tuple[float, float, float]:
-        """Un-normalised shaping components ``(wiping, object_on_table, sponge_returned)`` (see :meth:`reward`)."""
+        """Un-normalised shaping components ``(wiping, object_on_table, sponge_returned)`` (see [`reward`][tableclean_suite.environments.table_clean.TableClean.reward])."""
         info = self.skill_info()
         wiped = 1.0 - info["dirt_fraction"]
         # scaled to the paper's two segments' range [0, 2] whatever N is, so the total stays below success
@@ -362,7 +362,7 @@ class TableClean(ManipulationEnv):
             make_object(kind.name, object_build_config(self.base_task_config, config, self.dynamics_sample, j), name)
             for j, (kind, name) in enumerate(zip(self.object_types, object_names(self.n_objects)))]
         self.object = self.objects[0]
-        #: the objects' collision geometry in their own frames (read from MuJoCo, :mod:`.object_geometry`)
+        #: the objects' collision geometry in their own frames (read from MuJoCo, [`object_geometry`][tableclean_suite.environments.object_geometry.object_geometry])
         self.object_geometries = tuple(object_geometry(o) for o in self.objects)
         self.sponge = make_sponge(config["sponge_half_size"], config["sponge_density"])
         self.model = ManipulationTask(
@@ -418,7 +418,7 @@ class TableClean(ManipulationEnv):
         """Object, sponge, dirt and symbolic-state observables on top of the robot's proprioception.
 
         Returns:
-            OrderedDict: observable name -> :class:`Observable`
+            OrderedDict: observable name -> `Observable`
         """
         observables = super()._setup_observables()
         if not self.use_object_obs:
@@ -588,7 +588,7 @@ class TableClean(ManipulationEnv):
         """The following resets start in the task state ``state`` (objects lying, none held).
 
         A held object is staged by resetting with it on the arm's segment and picking it
-        (:func:`tableclean_suite.physics_backend.stage`).  Raises ``ValueError`` for a state of
+        ([`tableclean_suite.physics_backend.stage`][tableclean_suite.physics_backend.stage]).  Raises ``ValueError`` for a state of
         another size or one holding an object.
         """
         state = self.task_model.as_state(state)
@@ -613,7 +613,7 @@ class TableClean(ManipulationEnv):
     def put_object(self, obj: int, segment: int) -> None:
         """Teleport object ``obj`` (0-based), at rest, onto a free spot of ``segment`` (0-based).
 
-        The spot is :func:`.placement.free_spot` among the objects lying there (as the place
+        The spot is [`placement.free_spot`][tableclean_suite.environments.placement.free_spot] among the objects lying there (as the place
         skill chooses it).  Used by staging; the physics is forwarded, not stepped.
         """
         info = self.skill_info()
@@ -634,7 +634,7 @@ class TableClean(ManipulationEnv):
     def dirt_fraction(self) -> np.ndarray:
         """Shape (N,): fraction of each segment's dirt markers still present (1.0 = all dirty), read from qpos.
 
-        Raises :class:`~tableclean_suite.environments.dirt_state.DirtStateError` when a dirt-state
+        Raises [`DirtStateError`][tableclean_suite.environments.dirt_state.DirtStateError] when a dirt-state
         joint holds no valid code (e.g. a state from another model was restored).
         """
         return self.dirt.fraction()
@@ -652,11 +652,11 @@ class TableClean(ManipulationEnv):
         object centre height when resting on the table (these four: object 1), ``objects_pos``
         (M, 3), ``objects_quat`` (M, 4), ``objects_half_size`` (M, 3), ``objects_rest_z`` (M,),
         ``objects_grasped`` (M,) bool, ``object_types`` (M,) the objects'
-        :class:`~tableclean_suite.environments.objects.ObjectType` (overrides), ``objects_geometry``
-        (M,) their :class:`~.object_geometry.ObjectGeometry` (collision extent in their own frames),
+        [`ObjectType`][tableclean_suite.environments.objects.ObjectType] (overrides), ``objects_geometry``
+        (M,) their [`ObjectGeometry`][tableclean_suite.environments.object_geometry.ObjectGeometry] (collision extent in their own frames),
         ``objects_footprint`` (M,) m footprint radii, ``gripper_open_width`` m (open pad gap) and
         ``gripper_palm_height`` m (hand's lowest point above the grip site) and ``gripper_hand_reach`` m
-        (how far the hand reaches sideways from the grip site, :mod:`.gripper_geometry`),
+        (how far the hand reaches sideways from the grip site, [`gripper_geometry`][tableclean_suite.environments.gripper_geometry]),
         ``gripper_hand_half_width`` m (how far it reaches across the fingers' closing axis),
         ``sponge_pos`` (3,), ``sponge_quat`` (4,), ``sponge_half_size`` (3,), ``sponge_home_pos`` (3,),
         ``segment_centers`` (N, 3) table-top point at each segment centre (row 0 = segment 1),
@@ -680,17 +680,17 @@ class TableClean(ManipulationEnv):
                 data.xpos[mj_model(self.sim).body(self.robots[0].robot_model.root_body).id]))
         return self._info_reader.read(constant[2], (self._state_epoch, data.time))
 
-    #: Counts the writes of the scene's state that need not move the clock (a reset, :meth:`set_scene_state`,
-    #: an object put down by hand): with the simulation time, the stamp of a :meth:`skill_info`.
+    #: Counts the writes of the scene's state that need not move the clock (a reset, [`set_scene_state`][tableclean_suite.environments.table_clean.TableClean.set_scene_state],
+    #: an object put down by hand): with the simulation time, the stamp of a [`skill_info`][tableclean_suite.environments.table_clean.TableClean.skill_info].
     _state_epoch = 0
 
     def _sim_time(self) -> tuple[int, float]:
-        """``(state writes, simulation time [s])``: the stamp of a :meth:`skill_info` (its lazy keys are read
+        """``(state writes, simulation time [s])``: the stamp of a [`skill_info`][tableclean_suite.environments.table_clean.TableClean.skill_info] (its lazy keys are read
         only while both are unchanged)."""
         return self._state_epoch, self._mj_data.time
 
     def symbolic_state(self, check_sponge: bool = True) -> TaskState:
-        """The current :class:`TaskState` read from the physics.
+        """The current [`TaskState`][tableclean_suite.task.state.TaskState] read from the physics.
 
         Args:
             check_sponge: require the sponge at home (pass False while a skill carries it).
@@ -705,14 +705,14 @@ class TableClean(ManipulationEnv):
         return abstraction.segment_of_xy(xy, self.geometry.segment_centers, self.geometry.segment_half_sizes)
 
     def get_scene_state(self) -> SceneState:
-        """A copy of everything needed to put the scene back later (see :class:`SceneState`).
+        """A copy of everything needed to put the scene back later (see [`SceneState`][tableclean_suite.environments.scene_state.SceneState]).
 
         Used to branch several actions from one reached state without replaying the plan.
         """
         return read_scene_state(mj_data(self.sim), self.robots)
 
     def set_scene_state(self, state: SceneState) -> None:
-        """Put the scene back into ``state`` (from :meth:`get_scene_state` of this env)."""
+        """Put the scene back into ``state`` (from [`get_scene_state`][tableclean_suite.environments.table_clean.TableClean.get_scene_state] of this env)."""
         write_scene_state(mj_data(self.sim), self.robots, state)  # ValueError for another model's state
         self._state_epoch += 1
         self.show_dirt()
@@ -756,7 +756,7 @@ class TableClean(ManipulationEnv):
         """Removes markers under the sponge when it presses on the table top (current substep state).
 
         The per-physics-substep hook: ``env.step`` calls it after each substep's control, and so
-        does a fast stepper (:mod:`tableclean_suite.controllers.fast_control`) that runs the
+        does a fast stepper ([`tableclean_suite.controllers.fast_control`][tableclean_suite.controllers.fast_control]) that runs the
         substeps itself.  Cheap when the sponge is clearly above the table.
         """
         data = self._mj_data
@@ -793,7 +793,7 @@ class TableClean(ManipulationEnv):
         return self.contacts.press_force()
 
     def _symbolic_index(self) -> int:
-        """Index of :meth:`symbolic_state` without the sponge check, or ``FAULT_INDEX`` on a fault."""
+        """Index of [`symbolic_state`][tableclean_suite.environments.table_clean.TableClean.symbolic_state] without the sponge check, or ``FAULT_INDEX`` on a fault."""
         try:
             return self.symbolic_state(check_sponge=False).index
         except abstraction.AbstractionError:
@@ -812,7 +812,7 @@ class TableClean(ManipulationEnv):
 
     def _arm_reset_qpos(self, segment: int) -> np.ndarray:
         """Joint positions putting the gripper site ``arm_hover_height`` above ``segment``'s centre, or
-        :data:`RESET_OBJECT_CLEARANCE` above the tallest object's top when that is higher (cached)."""
+        `RESET_OBJECT_CLEARANCE` above the tallest object's top when that is higher (cached)."""
         tallest = max(float(g.height) for g in self.object_geometries)
         height = max(float(self.task_config["arm_hover_height"]), tallest + RESET_OBJECT_CLEARANCE)
         key = (segment, height)
@@ -853,7 +853,7 @@ class TableClean(ManipulationEnv):
             raise
 
     def _draw_dynamics(self) -> None:
-        """Draw this episode's :class:`DynamicsSample` from ``self.rng``; the episode's config and geometry follow."""
+        """Draw this episode's [`DynamicsSample`][tableclean_suite.environments.randomization.DynamicsSample] from ``self.rng``; the episode's config and geometry follow."""
         n_joints = len(self.robots[0].robot_model.joints)
         self.dynamics_sample = self.randomization.sample(self.rng, self.n_objects, n_joints)
         self.task_config = episode_config(self.base_task_config, self.dynamics_sample)

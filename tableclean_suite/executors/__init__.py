@@ -6,19 +6,19 @@
         for result in executor.map(train_one, tasks):          # results in task order
             ...
 
-The contract (:class:`~.base.Executor`): ``map(function, tasks)`` runs a **module-level**
+The contract ([`Executor`][tableclean_suite.executors.base.Executor]): ``map(function, tasks)`` runs a **module-level**
 ``function`` on each **picklable task** and yields the results in task order.  Tasks are plain
 configurations (a frozen dataclass of numbers, strings and tuples, with the task's own seed);
 the function builds its own environment, model or simulator inside the worker, so nothing
 unpicklable crosses a process boundary and results are the same on any executor with any
-number of workers.  A task whose function raises :class:`RetryableError`, or whose worker
-dies, is run again up to ``max_retries`` times; then :class:`TaskFailedError` names it.
+number of workers.  A task whose function raises [`RetryableError`][tableclean_suite.executors.base.RetryableError], or whose worker
+dies, is run again up to ``max_retries`` times; then [`TaskFailedError`][tableclean_suite.executors.base.TaskFailedError] names it.
 
 Implementations:
 
-- :class:`LocalExecutor` (``"local"``, the default): ``workers`` spawned processes of this
+- [`LocalExecutor`][tableclean_suite.executors.local.LocalExecutor] (``"local"``, the default): ``workers`` spawned processes of this
   machine, or this very process when ``workers == 1`` (no pickling, no start-up cost);
-- :class:`RayExecutor` (``"ray"``): Ray tasks, on a private Ray bound to loopback
+- [`RayExecutor`][tableclean_suite.executors.ray_executor.RayExecutor] (``"ray"``): Ray tasks, on a private Ray bound to loopback
   (``address=None``) or on a running cluster (``address="HOST:PORT"`` or ``"auto"``); Ray is
   the optional ``cluster`` extra and is imported only when this executor starts.
 
@@ -26,7 +26,7 @@ How the expensive workloads use it (this package depends on nothing above it: it
 simulator and no harness):
 
 - the harness's cells (``python -m benchmarks.run --executor ray``): one task per cell,
-  :func:`tableclean_suite.bench.experiments.train_cell_task`;
+  [`tableclean_suite.bench.experiments.train_cell_task`][tableclean_suite.bench.experiments.train_cell_task];
 - physics training (``train_physics``): one task per share of runs, e.g.
   ``PhysicsShare(learner, reward, task_spec_name, run_indices, iterations, seed, options)``;
   the function builds its robosuite environment in the worker and returns the share's records;
@@ -40,11 +40,11 @@ simulator and no harness):
   ``(seed, attempt)``; failed attempts are replaced in waves and the demos kept in attempt order.
 
 A physics task whose numbers must match bit for bit runs under
-:func:`~tableclean_suite.executors.blas.single_blas_thread`: OpenBLAS's thread count (Ray starts
+[`single_blas_thread`][tableclean_suite.executors.blas.single_blas_thread]: OpenBLAS's thread count (Ray starts
 workers with ``OMP_NUM_THREADS=1``, local processes inherit the caller's) changes the last bits
 of a trajectory.
 
-Raise :class:`RetryableError` inside such a function for a failure worth another try (e.g. a
+Raise [`RetryableError`][tableclean_suite.executors.base.RetryableError] inside such a function for a failure worth another try (e.g. a
 MuJoCo instability); let anything else propagate (it fails the task at once).
 """
 
@@ -55,7 +55,7 @@ from tableclean_suite.executors.base import (DEFAULT_MAX_RETRIES, Executor, Retr
 from tableclean_suite.executors.local import LocalExecutor
 from tableclean_suite.executors.ray_executor import ClusterUnreachableError, MissingRayError, RayExecutor
 
-#: Executor names accepted by :func:`make_executor` (and ``--executor``).
+#: Executor names accepted by [`make_executor`][tableclean_suite.executors.make_executor] (and ``--executor``).
 EXECUTOR_NAMES = ("local", "ray")
 
 __all__ = ["ClusterUnreachableError", "DEFAULT_MAX_RETRIES", "EXECUTOR_NAMES", "Executor", "LocalExecutor",
@@ -64,7 +64,7 @@ __all__ = ["ClusterUnreachableError", "DEFAULT_MAX_RETRIES", "EXECUTOR_NAMES", "
 
 def make_executor(name: str = "local", workers: int | None = None, address: str | None = None,
                   max_retries: int = DEFAULT_MAX_RETRIES) -> Executor:
-    """The executor called ``name`` (one of :data:`EXECUTOR_NAMES`).
+    """The executor called ``name`` (one of `EXECUTOR_NAMES`).
 
     Args:
         name: ``"local"`` or ``"ray"``.

@@ -9,10 +9,10 @@ the number of workers or the order in which tasks finish.
 
 Failures:
 
-- a task function that raises :class:`RetryableError` (a transient failure it recognised), or
+- a task function that raises [`RetryableError`][tableclean_suite.executors.base.RetryableError] (a transient failure it recognised), or
   a worker process that dies while running it, makes the executor run the task again, up to
-  ``max_retries`` more times; after that :class:`TaskFailedError` names the task;
-- any other exception fails the task at once: :class:`TaskFailedError` names the task and
+  ``max_retries`` more times; after that [`TaskFailedError`][tableclean_suite.executors.base.TaskFailedError] names the task;
+- any other exception fails the task at once: [`TaskFailedError`][tableclean_suite.executors.base.TaskFailedError] names the task and
   chains the original exception (``__cause__``).
 """
 
@@ -58,7 +58,7 @@ def _rebuild_task_failed(task, attempts: int, message: str) -> "TaskFailedError"
 
 def task_name(task) -> str:
     """How errors name a task: its ``label`` attribute if it has one, else its ``repr`` (cut to
-    :data:`MAX_TASK_NAME_CHARS`)."""
+    `MAX_TASK_NAME_CHARS`)."""
     label = getattr(task, "label", None)
     text = str(label) if isinstance(label, str) else repr(task)
     return text if len(text) <= MAX_TASK_NAME_CHARS else text[:MAX_TASK_NAME_CHARS - 3] + "..."

@@ -5,7 +5,7 @@ changes the rounding: the same physics run gives trajectories that differ in the
 (then diverge) with ``OMP_NUM_THREADS=1`` and with the default (one thread per core).  Ray
 starts its workers with ``OMP_NUM_THREADS`` set to the task's CPUs (1), local processes
 inherit the caller's setting, and cluster machines have different core counts; a task
-function that runs under :func:`single_blas_thread` computes the same bits everywhere.
+function that runs under [`single_blas_thread`][tableclean_suite.executors.blas.single_blas_thread] computes the same bits everywhere.
 
 The thread count is set through the OpenBLAS libraries already loaded in the process (found in
 ``/proc/self/maps``), and restored afterwards.  Where there is no ``/proc`` or no OpenBLAS

@@ -5,7 +5,7 @@ Spawned workers import ``function``'s module afresh (a script that uses more tha
 needs the usual ``if __name__ == "__main__":`` guard).  At most ``workers`` tasks are in
 flight at a time, so a worker crash breaks the pool while only those tasks run: each of them is
 charged one attempt (the pool cannot tell which one crashed it), the pool is restarted and they
-are run again.  Every worker watches its parent (:func:`watch_parent`) and exits within a second
+are run again.  Every worker watches its parent ([`watch_parent`][tableclean_suite.executors.local.watch_parent]) and exits within a second
 of its death, so nothing is left running after the parent is killed.
 """
 
@@ -23,7 +23,7 @@ from tableclean_suite.executors.base import (DEFAULT_MAX_RETRIES, RetryableError
 
 #: Start method of the worker processes: a fresh interpreter (no fork of a threaded parent).
 START_METHOD = "spawn"
-#: Seconds between a worker's checks that its parent is still alive (:func:`watch_parent`).
+#: Seconds between a worker's checks that its parent is still alive ([`watch_parent`][tableclean_suite.executors.local.watch_parent]).
 PARENT_CHECK_SECONDS = 1.0
 #: Exit status of a worker whose parent died.
 ORPHAN_EXIT_STATUS = 1
@@ -48,7 +48,7 @@ def watch_parent(parent_pid: int, interval: float = PARENT_CHECK_SECONDS) -> Non
     a dead pipe (and the resource tracker, whose pipe the workers hold, exits with them).
 
     The worker also ignores Ctrl-C (SIGINT, which a terminal sends to the whole process group): the
-    parent handles it and stops its workers (:meth:`LocalExecutor.__exit__`), so an interrupt prints
+    parent handles it and stops its workers (`LocalExecutor.__exit__`), so an interrupt prints
     the parent's one line, not a traceback per worker.
     """
     import signal
@@ -89,7 +89,7 @@ class LocalExecutor:
 
     Args:
         workers: processes, >= 1; None: one per core (``os.cpu_count()``).
-        max_retries: extra runs of a task after :class:`RetryableError` or a worker crash, >= 0.
+        max_retries: extra runs of a task after [`RetryableError`][tableclean_suite.executors.base.RetryableError] or a worker crash, >= 0.
     """
 
     def __init__(self, workers: int | None = 1, max_retries: int = DEFAULT_MAX_RETRIES):
@@ -131,7 +131,7 @@ class LocalExecutor:
         self.close(wait=not (exc_type is not None and issubclass(exc_type, KeyboardInterrupt)))
 
     def map(self, function: Callable, tasks: Iterable) -> Iterator:
-        """``function(task)`` for each task, in task order (see :class:`~.base.Executor`)."""
+        """``function(task)`` for each task, in task order (see [`Executor`][tableclean_suite.executors.base.Executor])."""
         check_function(function)
         tasks = list(tasks)
         if self.in_process:

@@ -1,6 +1,6 @@
 """Small tasks that exercise an executor (results, retries, crashes) without any simulator.
 
-Used by the tests and handy as a smoke check of a cluster::
+Used by the tests and handy as a smoke check of a cluster:
 
     from tableclean_suite.executors import make_executor
     from tableclean_suite.executors.probes import ProbeTask, run_probe
@@ -34,7 +34,7 @@ class ProbeTask:
     Attributes:
         index: the task's number, >= 0 (with ``seed``, determines the result).
         seed: the run's seed, an integer >= 0.
-        mode: one of :data:`PROBE_MODES`.
+        mode: one of `PROBE_MODES`.
         marker: a file path the ``*_once`` modes create on their first attempt (which fails);
             later attempts find it and succeed.  Needed by those modes only.
     """
@@ -51,7 +51,7 @@ class ProbeTask:
 
 
 def run_probe(task: ProbeTask) -> float:
-    """The sum of :data:`PROBE_DRAWS` standard normal draws seeded by ``(seed, index)``, after
+    """The sum of `PROBE_DRAWS` standard normal draws seeded by ``(seed, index)``, after
     failing as ``task.mode`` says."""
     if task.mode not in PROBE_MODES:
         raise ValueError(f"unknown probe mode {task.mode!r}; allowed: {', '.join(PROBE_MODES)}")

@@ -2,7 +2,7 @@
 
 Ray is imported only when the executor starts; without it the error names the ``cluster``
 extra (``pip install "tableclean_suite[cluster]"``).  Retries are Ray's own: a task is run
-again after a worker or node failure, or after :class:`~.base.RetryableError`, at most
+again after a worker or node failure, or after [`RetryableError`][tableclean_suite.executors.base.RetryableError], at most
 ``max_retries`` times.  Every machine of a cluster needs the same version of this package (and
 of any module that registers learners, rewards or task specs the tasks use) installed.
 """
@@ -24,7 +24,7 @@ CPUS_PER_TASK = 1
 USAGE_STATS_VARIABLE = "RAY_USAGE_STATS_ENABLED"
 
 
-#: Seconds :class:`RayExecutor` waits for a cluster's head (``address="HOST:PORT"``) to accept a
+#: Seconds [`RayExecutor`][tableclean_suite.executors.ray_executor.RayExecutor] waits for a cluster's head (``address="HOST:PORT"``) to accept a
 #: connection before giving up (Ray itself retries without end).
 DEFAULT_CONNECT_TIMEOUT = 30.0
 #: Scheme prefix of Ray Client addresses (``ray://HOST:PORT``).
@@ -50,7 +50,7 @@ def host_and_port(address: str) -> tuple[str, int] | None:
 
 
 def check_reachable(address: str, timeout: float = DEFAULT_CONNECT_TIMEOUT) -> None:
-    """Raise :class:`ClusterUnreachableError` unless ``address`` (HOST:PORT) accepts a TCP connection
+    """Raise [`ClusterUnreachableError`][tableclean_suite.executors.ray_executor.ClusterUnreachableError] unless ``address`` (HOST:PORT) accepts a TCP connection
     within ``timeout`` seconds; addresses that are not HOST:PORT (``"auto"``) are left to Ray."""
     import socket
 
@@ -68,7 +68,7 @@ def check_reachable(address: str, timeout: float = DEFAULT_CONNECT_TIMEOUT) -> N
 
 
 def import_ray():
-    """The ``ray`` module, or :class:`MissingRayError` naming the ``cluster`` extra."""
+    """The ``ray`` module, or [`MissingRayError`][tableclean_suite.executors.ray_executor.MissingRayError] naming the ``cluster`` extra."""
     try:
         import ray
     except ImportError as error:
@@ -83,15 +83,15 @@ class RayExecutor:
 
     Args:
         address: None starts a private Ray on this machine, bound to loopback
-            (:data:`LOOPBACK`), stopped by :meth:`close`; ``"HOST:PORT"`` (a head started with
+            (`LOOPBACK`), stopped by [`close`][tableclean_suite.executors.ray_executor.RayExecutor.close]; ``"HOST:PORT"`` (a head started with
             ``ray start --head``) or ``"auto"`` (the cluster this machine belongs to) connects
-            to a running cluster and only disconnects on :meth:`close`.
+            to a running cluster and only disconnects on [`close`][tableclean_suite.executors.ray_executor.RayExecutor.close].
         workers: most tasks in flight at once, >= 1; None: all (Ray queues them and runs as
-            many as the cluster has CPUs, :data:`CPUS_PER_TASK` each).
-        max_retries: extra runs of a task after :class:`RetryableError` or a worker crash, >= 0.
+            many as the cluster has CPUs, `CPUS_PER_TASK` each).
+        max_retries: extra runs of a task after [`RetryableError`][tableclean_suite.executors.base.RetryableError] or a worker crash, >= 0.
         num_cpus: CPUs of a private Ray (``address=None``), >= 1; None: every core.
         connect_timeout: seconds to wait for ``address`` to accept a connection before
-            :class:`ClusterUnreachableError` (which names the address), > 0.
+            [`ClusterUnreachableError`][tableclean_suite.executors.ray_executor.ClusterUnreachableError] (which names the address), > 0.
     """
 
     def __init__(self, address: str | None = None, workers: int | None = None,
@@ -145,7 +145,7 @@ class RayExecutor:
         self._ray = None
 
     def __enter__(self) -> "RayExecutor":
-        """Ray starts (or is joined) on the first :meth:`map`, so a run with nothing to do costs nothing."""
+        """Ray starts (or is joined) on the first [`map`][tableclean_suite.executors.ray_executor.RayExecutor.map], so a run with nothing to do costs nothing."""
         self._in_context = True
         return self
 
@@ -154,7 +154,7 @@ class RayExecutor:
         self.close()
 
     def map(self, function: Callable, tasks: Iterable) -> Iterator:
-        """``function(task)`` for each task, in task order (see :class:`~.base.Executor`)."""
+        """``function(task)`` for each task, in task order (see [`Executor`][tableclean_suite.executors.base.Executor])."""
         check_function(function)
         return self._run(function, list(tasks))
 

@@ -23,7 +23,7 @@ class TableCleanSkillsEnv(TableCleanBase):
 
     ## Description
     Same task, spaces and rewards as ``TableCleanSymbolic-v0``, but every action runs a skill
-    of :class:`tableclean_suite.controllers.SkillController` (move, pick, place, clean with a
+    of [`tableclean_suite.controllers.SkillController`][tableclean_suite.controllers.skill_controller.SkillController] (move, pick, place, clean with a
     sponge) on the ``TableClean`` robosuite scene under OSC_POSE control, and the next state is
     read back from the physics through the environment's abstraction.  Improper actions are
     refused without motion and ineffective ones do nothing, as in the task model.  One step
@@ -36,7 +36,7 @@ class TableCleanSkillsEnv(TableCleanBase):
     ``Discrete(n_states)`` of the spec; for the ``paper`` spec ``Discrete(24)``, the state code
     ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment`` with
     0-based segments and object location 2 for held
-    (:func:`tableclean_suite.task.encode`; see ``TableCleanSymbolic-v0``), read from the physics.
+    ([`tableclean_suite.task.encode`][tableclean_suite.task.state.encode]; see ``TableCleanSymbolic-v0``), read from the physics.
 
     ## Starting State
     The model's start state (default Table 1 state 4: both unclean, object and arm over segment
@@ -60,8 +60,8 @@ class TableCleanSkillsEnv(TableCleanBase):
 
     ## Information
     As ``TableCleanSymbolic-v0`` (``"action_mask"``, ``"state_name"``, ``"outcome"``,
-    ``"outcome_name"``) plus ``"skill_result"``: a :class:`SkillReport`, the picklable
-    snapshot of the :class:`~tableclean_suite.controllers.SkillResult` (success, improper,
+    ``"outcome_name"``) plus ``"skill_result"``: a [`SkillReport`][tableclean_suite.skill_result.SkillReport], the picklable
+    snapshot of the [`SkillResult`][tableclean_suite.skill_result.SkillResult] (success, improper,
     steps, reason, states before/after, wall time; it compares equal ignoring the timings), and
     ``"fault"`` on a fault.  Everything in ``info`` pickles (``AsyncVectorEnv`` works);
     ``action_masks()`` gives the mask as bools for sb3-contrib's MaskablePPO.
@@ -74,16 +74,16 @@ class TableCleanSkillsEnv(TableCleanBase):
     ```
     - ``reward``, ``task``, ``start``, ``model``: as ``TableCleanSymbolic-v0``; the physical scene
       builds N <= 4 segments, objects of registered types, and actions with registered skills
-      (:func:`tableclean_suite.physics_backend.check_physical_task`); other specs are refused
+      ([`tableclean_suite.physics_backend.check_physical_task`][tableclean_suite.physics_backend.check_physical_task]); other specs are refused
       with a ``ValueError`` naming the limit.
     - ``render_mode``: ``"ansi"`` (text picture of the observed state) or ``"rgb_array"``
       (offscreen camera image, ``frame_size`` = (height, width)).
     - ``env_kwargs``: overrides of ``robosuite.make`` arguments
-      (:func:`tableclean_suite.controllers.make_skill_env`), e.g. ``task_config``.
+      ([`tableclean_suite.controllers.make_skill_env`][tableclean_suite.controllers.make.make_skill_env]), e.g. ``task_config``.
     - ``skill_configs``: per-action skill config overrides for the SkillController.
     - ``camera``: camera of the ``rgb_array`` frames.
     - ``robots``: the arm (a robot with a registered skill config,
-      :func:`tableclean_suite.controllers.robot_configs.supported_robots`; default ``env_kwargs``'s,
+      [`tableclean_suite.controllers.robot_configs.supported_robots`][tableclean_suite.environments.robot_registry.supported_robots]; default ``env_kwargs``'s,
       else Panda); checked before the scene is built (``ValueError`` naming the supported ones);
       giving it both here and in ``env_kwargs`` with different values is a ``ValueError``.
 

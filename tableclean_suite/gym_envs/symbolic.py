@@ -1,6 +1,6 @@
 """``TableCleanSymbolic-v0``: a task spec's model as a Gymnasium environment (Taxi-style).
 
-Also holds what the physics env (:mod:`.skills`) shares with it: argument checks, the reward
+Also holds what the physics env ([`skills`][tableclean_suite.gym_envs.skills]) shares with it: argument checks, the reward
 with the looping penalty's history, ``info``, and the ansi/rgb renderings of a task state.
 """
 
@@ -149,7 +149,7 @@ def _object_label(state: TaskState, j: int) -> str:
 
 
 def render_text(state: TaskState, action: str | None = None, outcome: Outcome | None = None) -> str:
-    """A small text picture of the table (any number of segments and objects), e.g.::
+    """A small text picture of the table (any number of segments and objects), e.g.:
 
         +------------+------------+
         | S1 ~dirty~ | S2  clean  |
@@ -227,7 +227,7 @@ class TableCleanSymbolicEnv(TableCleanBase):
     one) lying on a segment or held by the robot's gripper; the arm is above one segment.  The
     sponge has a fixed home, so it is not part of the state.  The goal is to clean every
     segment; an object lying on a segment must first be moved away from it.  This environment
-    steps the task model (:class:`tableclean_suite.task.TaskModel`, whose docstring states every
+    steps the task model ([`tableclean_suite.task.TaskModel`][tableclean_suite.task.model.TaskModel], whose docstring states every
     rule); ``TableCleanSkills-v0`` executes the paper's actions with skills in MuJoCo.
 
     ## Action Space
@@ -238,7 +238,7 @@ class TableCleanSymbolicEnv(TableCleanBase):
     - 3: clean (the arm's segment)
 
     ## Observation Space
-    ``Discrete(S)``, the state code of :func:`tableclean_suite.task.encode`; for the paper
+    ``Discrete(S)``, the state code of [`tableclean_suite.task.encode`][tableclean_suite.task.state.encode]; for the paper
     ``Discrete(24)``, ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment``
     with cleanliness 0/1, ``object_location`` 0 on segment 1, 1 on segment 2, 2 in the gripper,
     and ``arm_segment`` 0 for segment 1, 1 for segment 2 (``env.unwrapped.model.decode(code)``).
@@ -270,7 +270,7 @@ class TableCleanSymbolicEnv(TableCleanBase):
     ## Information
     ``step`` and ``reset`` return ``info`` with ``"action_mask"`` (``(A,)`` int8, 1 where the
     action is not improper; all 0 at the terminal state), ``"state_name"``, and after a step
-    ``"outcome"`` (:class:`tableclean_suite.task.Outcome` code), ``"outcome_name"`` and
+    ``"outcome"`` ([`tableclean_suite.task.Outcome`][tableclean_suite.task.state.Outcome] code), ``"outcome_name"`` and
     ``"prob"`` (1.0: the model is deterministic).  Everything in ``info`` is plain picklable
     data.  ``action_masks()`` returns the mask as ``(A,)`` bool (sb3-contrib's MaskablePPO).
 
@@ -279,11 +279,11 @@ class TableCleanSymbolicEnv(TableCleanBase):
     gymnasium.make("TableCleanSymbolic-v0", reward="r4", task="paper", start=None, render_mode=None)
     ```
     - ``task``: a registered spec name (``"paper"``, ``"three_segments"``, ...), a
-      :class:`tableclean_suite.task.TaskSpec` or a ``.json`` path.
+      [`tableclean_suite.task.TaskSpec`][tableclean_suite.task.spec.TaskSpec] or a ``.json`` path.
     - ``start``: ``"fixed"`` or ``"uniform_unclean"``; None keeps the spec's.
     - ``reward``: a registered reward pattern name (``"r1"`` .. ``"r4"`` or a user's) or a
-      :class:`tableclean_suite.rewards.RewardPattern`.
-    - ``model``: a ready :class:`tableclean_suite.task.TaskModel` instead of ``task``/``start``.
+      [`tableclean_suite.rewards.RewardPattern`][tableclean_suite.rewards.RewardPattern].
+    - ``model``: a ready [`tableclean_suite.task.TaskModel`][tableclean_suite.task.model.TaskModel] instead of ``task``/``start``.
     - ``render_mode``: ``"ansi"`` (text picture) or ``"rgb_array"`` (drawn top view).
 
     ## Version History

@@ -1,8 +1,8 @@
 """Keep numba's disk cache honest when a compiled function's *dependencies* change.
 
 numba keys a cached function on its own bytecode and its file's timestamp, not on the
-functions it calls from other modules: edit :mod:`.rules` or :mod:`.exploration` and a
-process would load the kernel compiled against the old code.  :func:`guard` stores a
+functions it calls from other modules: edit [`rules`][tableclean_suite.learners.rules] or [`exploration`][tableclean_suite.learners.exploration] and a
+process would load the kernel compiled against the old code.  [`guard`][tableclean_suite.learners.cache_guard.guard] stores a
 digest of the dependency modules' sources beside numba's cache and, when it no longer
 matches, empties the listed functions' cache indexes before anything loads from them,
 so they are recompiled once against the current code.

@@ -18,12 +18,12 @@ taken; ``epsilon`` is ``train(epsilon=...)``, the start value of every epsilon s
 Epsilon-greedy random actions are uniform over all the task's actions; ties in the
 greedy choice go to the first action.
 
-Random numbers (:mod:`.rng`): epsilon-greedy uses ``STREAM_EXPLORE`` (explore?) and
+Random numbers ([`rng`][tableclean_suite.learners.rng]): epsilon-greedy uses ``STREAM_EXPLORE`` (explore?) and
 ``STREAM_RANDOM_ACTION`` (which action), as before; softmax samples its action with the
 ``STREAM_RANDOM_ACTION`` draw alone.  No exploration adds or moves a draw.
 
-For the compiled loop an exploration is an integer :attr:`Exploration.code` and a float
-array (:meth:`Exploration.kernel_parameters`, shape ``(N_PARAMETERS,)``):
+For the compiled loop an exploration is an integer `Exploration.code` and a float
+array ([`Exploration.kernel_parameters`][tableclean_suite.learners.exploration.Exploration.kernel_parameters], shape ``(N_PARAMETERS,)``):
 ``[start, floor, rate]`` = (epsilon or temperature, epsilon_min / temperature_min /
 scale, horizon / rate).
 """
@@ -70,7 +70,7 @@ def exploration_parameter(code, parameters, iteration, visits):
 
     Args:
         code: the exploration's code (``EPSILON_GREEDY_CODE``, ...).
-        parameters: ``(N_PARAMETERS,)`` float64, :meth:`Exploration.kernel_parameters`.
+        parameters: ``(N_PARAMETERS,)`` float64, [`Exploration.kernel_parameters`][tableclean_suite.learners.exploration.Exploration.kernel_parameters].
         iteration: the run's iteration (>= 0) at which the action is taken.
         visits: earlier iterations of the run in this state (>= 0; used by ``visit_decay`` only).
     """
@@ -144,8 +144,8 @@ def choose_action(q_row, code, parameter, explore_draw, action_draw):
 class Exploration:
     """Base of the explorations: a name, a kernel code and validated parameters.
 
-    Subclasses define :meth:`parameter_at` in plain Python (the reference loop's path;
-    the compiled :func:`exploration_parameter` must agree bit for bit).
+    Subclasses define [`parameter_at`][tableclean_suite.learners.exploration.Exploration.parameter_at] in plain Python (the reference loop's path;
+    the compiled [`exploration_parameter`][tableclean_suite.learners.exploration.exploration_parameter] must agree bit for bit).
     """
 
     name: ClassVar[str] = ""
@@ -164,11 +164,11 @@ class Exploration:
         raise NotImplementedError
 
     def to_dict(self) -> dict:
-        """``{"name": ..., **parameters}`` (JSON-serialisable; :func:`as_exploration` reads it back)."""
+        """``{"name": ..., **parameters}`` (JSON-serialisable; [`as_exploration`][tableclean_suite.learners.exploration.as_exploration] reads it back)."""
         return {"name": self.name, **asdict(self)}
 
     def parameter_array(self, epsilon: float, iteration: int, visits) -> np.ndarray:
-        """:meth:`parameter_at` for every entry of ``visits`` (any shape) -> float64 array of that shape."""
+        """[`parameter_at`][tableclean_suite.learners.exploration.Exploration.parameter_at] for every entry of ``visits`` (any shape) -> float64 array of that shape."""
         return np.vectorize(lambda n: self.parameter_at(epsilon, iteration, int(n)), otypes=[np.float64])(visits)
 
 
@@ -334,10 +334,10 @@ def exploration_names() -> list[str]:
 
 
 def as_exploration(value: "str | Exploration | Mapping | None" = None, **parameters) -> Exploration:
-    """An :class:`Exploration` from a name (with optional ``parameters``), a mapping or an instance.
+    """An [`Exploration`][tableclean_suite.learners.exploration.Exploration] from a name (with optional ``parameters``), a mapping or an instance.
 
     ``None`` is the default constant epsilon-greedy.  A mapping is ``{"name": ..., **parameters}``
-    (as :meth:`Exploration.to_dict` writes).  ``ValueError`` names unknown names and parameters.
+    (as [`Exploration.to_dict`][tableclean_suite.learners.exploration.Exploration.to_dict] writes).  ``ValueError`` names unknown names and parameters.
     """
     if value is None:
         value = EPSILON_GREEDY.name
@@ -359,7 +359,7 @@ def as_exploration(value: "str | Exploration | Mapping | None" = None, **paramet
 
 
 def parse_exploration(text: str) -> Exploration:
-    """``"linear_decay:horizon=2000,epsilon_min=0.01"`` -> :class:`LinearDecay` (for command lines)."""
+    """``"linear_decay:horizon=2000,epsilon_min=0.01"`` -> [`LinearDecay`][tableclean_suite.learners.exploration.LinearDecay] (for command lines)."""
     name, _, rest = text.partition(":")
     parameters = {}
     for item in filter(None, (part.strip() for part in rest.split(","))):

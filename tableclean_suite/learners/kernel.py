@@ -1,28 +1,28 @@
 """The batched, compiled training loop: many independent runs, one step per run per iteration.
 
 This is Algorithm 1 of the paper (with the learner's TD target plugged in),
-compiled with numba.  :data:`train_batch` trains a slice of the runs without the GIL; the
-caller spreads the runs over threads (:func:`.threads.run_in_threads`): a first process
+compiled with numba.  `train_batch` trains a slice of the runs without the GIL; the
+caller spreads the runs over threads ([`threads.run_in_threads`][tableclean_suite.learners.threads.run_in_threads]): a first process
 compiles it in about 5 s of CPU time (the general loop in about 9) where numba's parallel loop
 (``prange``) took about 16, and the bits are the same for any thread count (each run has its own
 counter-based random numbers).
-:mod:`.reference` is the same loop in plain Python, one step at a time; both draw the same
-counter-based random numbers (:mod:`.rng`), so they produce identical arrays.
+[`reference`][tableclean_suite.learners.reference] is the same loop in plain Python, one step at a time; both draw the same
+counter-based random numbers ([`rng`][tableclean_suite.learners.rng]), so they produce identical arrays.
 
-The loop (:func:`_train_loop`, written once) picks the built-in TD target, the update rule
+The loop (`_train_loop`, written once) picks the built-in TD target, the update rule
 (one-step, double Q, eligibility traces, Dyna planning) and the exploration by integer codes,
 so it takes no function argument and numba's disk cache (``cache=True``) serves its compiled
-copies to every new process without recompiling: :data:`train_batch`, with the one-step rule
+copies to every new process without recompiling: `train_batch`, with the one-step rule
 and constant epsilon-greedy exploration compiled in (the paper's learners), and
-:data:`train_batch_general` for the other built-in learners (:func:`specialised_loop`;
-:func:`kernel_for` picks).  A user learner's target gets its own compiled copy of the same
-loop (:func:`user_train_batch`), built once per process.
+`train_batch_general` for the other built-in learners ([`specialised_loop`][tableclean_suite.learners.kernel.specialised_loop];
+[`kernel_for`][tableclean_suite.learners.kernel.kernel_for] picks).  A user learner's target gets its own compiled copy of the same
+loop ([`user_train_batch`][tableclean_suite.learners.kernel.user_train_batch]), built once per process.
 
 Per-step cost: one-step and double-Q updates are O(A); trace learners touch only the
 pairs with a non-zero trace (a per-run list of the pairs visited in the current episode,
 pruned when a trace is cut or underflows to 0), which gives exactly the dense S x A sweep's
 numbers; Dyna-Q adds ``planning_steps`` O(A) updates.  Cruz et al.'s assistance
-(:mod:`.assist`) adds O(A) per step with affordances (choices and the target's max over the
+([`assist`][tableclean_suite.learners.assist]) adds O(A) per step with affordances (choices and the target's max over the
 afforded actions) and up to three advice-lane draws per action with an advisor.
 """
 
@@ -107,11 +107,11 @@ HALF = 0.5
 #: ``LOOP_METHOD`` / ``LOOP_EXPLORATION`` of the general loop: the update rule and the exploration are
 #: taken from the loop's ``method`` and ``explore_code`` arguments.
 FROM_ARGUMENTS = -1
-#: The update rule and exploration compiled into a copy of the loop (:func:`specialised_loop`): a
+#: The update rule and exploration compiled into a copy of the loop ([`specialised_loop`][tableclean_suite.learners.kernel.specialised_loop]): a
 #: constant, so numba drops the other rules' branches before compiling (and never compiles their callees).
 LOOP_METHOD = FROM_ARGUMENTS
 LOOP_EXPLORATION = FROM_ARGUMENTS
-#: The exploration codes a copy of the loop may have compiled in (:mod:`.exploration`).
+#: The exploration codes a copy of the loop may have compiled in ([`exploration`][tableclean_suite.learners.exploration]).
 EXPLORATION_CODES = (EPSILON_GREEDY_CODE, LINEAR_DECAY_CODE, EXPONENTIAL_DECAY_CODE, VISIT_DECAY_CODE, SOFTMAX_CODE)
 
 _ROUTINE = int(Outcome.ROUTINE)
@@ -133,7 +133,7 @@ def sample_index(cumulative, draw):
 @numba.njit(cache=True)
 def memory_adjusted_reward(reward, outcome, next_state, entered, t, episode_start, memory, loop_value, loop_mode):
     """Apply the looping penalty, which looks back ``memory`` states (2: the paper's r4, s_t and
-    s_{t-1}; 0: the whole episode), as :meth:`~tableclean_suite.rewards.RewardPattern.loops`.
+    s_{t-1}; 0: the whole episode), as [`loops`][tableclean_suite.rewards.RewardPattern.loops].
 
     ``entered[s]`` is the iteration at which state s was last entered (the current state s_t at
     ``t``), so s_{t+1} is among the episode's last ``memory`` states s_t .. s_{t-memory+1} when
@@ -157,8 +157,8 @@ def borrowed(typingctx, array):
 
     numba counts the references to an array's buffer with an atomic add and subtract for every
     array variable it copies and every view it makes (``qr[nxt]``, an inlined callee's
-    parameters): in :func:`train_batch`'s loop, about 40 % of Q-learning's time.  A view of an array
-    that outlives the view needs no count: :func:`_train_loop` borrows its arguments (held by its
+    parameters): in `train_batch`'s loop, about 40 % of Q-learning's time.  A view of an array
+    that outlives the view needs no count: `_train_loop` borrows its arguments (held by its
     caller for the whole call; nothing keeps them after it returns).  numba's parallel loop gave
     its body such views too, so this keeps the loop as fast without it.  Only for arrays that
     outlive every use of the view.
@@ -202,9 +202,9 @@ def act(q_a, q_b, row, state, plain, double, explore_code, explore_parameters, k
     ``plain``: constant epsilon-greedy on ``q_a`` without affordances (the paper's policy, taken
     without the general path's per-step schedule and row work: same action, fewer instructions).
     An advisor (``advisor`` non-empty) is asked first (advice-lane draws); with affordances
-    (``affordance`` != AFFORD_NONE) the choice is restricted to ``masks[state]`` (:mod:`.assist`).
+    (``affordance`` != AFFORD_NONE) the choice is restricted to ``masks[state]`` ([`assist`][tableclean_suite.learners.assist]).
     With ``random_ties`` a greedy (not exploring) epsilon-greedy choice is uniform among the tied
-    actions, by the ties lane's draw (:func:`.optimality.tied_greedy`).
+    actions, by the ties lane's draw ([`optimality.tied_greedy`][tableclean_suite.learners.optimality.tied_greedy]).
     """
     if advisor.shape[0] > 0:
         advised = advice_action(advisor, advice, advice_key, iteration, state, q_a.shape[1])
@@ -341,7 +341,7 @@ def run_memory(n_states, n_actions, double, traced, counting, modelling):
     Returns (behaviour row ``(A,)``, visits ``(S,)``, traces ``(S, A)``, trace pairs ``(S*A,)``,
     model next states ``(S, A)`` (NO_STATE = unseen), model rewards, model terminal flags,
     observed pairs ``(S*A,)``, and the greedy walk's examined states ``(S,)`` int64, their flags
-    ``(S,)`` bool and greedy actions ``(S,)`` int64 (:func:`.optimality.greedy_walk`), and the iteration
+    ``(S,)`` bool and greedy actions ``(S,)`` int64 ([`optimality.greedy_walk`][tableclean_suite.learners.optimality.greedy_walk]), and the iteration
     each state was last entered ``(S,)`` int64, -1 = never (the looping rule's memory)).
     """
     row = np.empty(n_actions if double else 0)
@@ -411,12 +411,12 @@ def _train_loop(
     (``threads.run_in_threads(train_batch, R, arguments)``), and its other threads (e.g. the
     harness summarising the last cell while this one trains) go on meanwhile.  A run's numbers
     depend only on its key, never on the slice or the thread that trains it.  The array
-    arguments must stay alive for the whole call (:func:`borrowed`).
+    arguments must stay alive for the whole call ([`borrowed`][tableclean_suite.learners.kernel.borrowed]).
 
-    This is the Python source of the compiled copies (:func:`specialised_loop`): :data:`train_batch`
-    for one-step learners with constant epsilon-greedy exploration, :data:`train_batch_general` for
-    the other built-in learners, and a user target's own copy (:func:`user_train_batch`); pick one
-    with :func:`kernel_for`.  A copy compiled for one update rule and exploration raises
+    This is the Python source of the compiled copies ([`specialised_loop`][tableclean_suite.learners.kernel.specialised_loop]): `train_batch`
+    for one-step learners with constant epsilon-greedy exploration, `train_batch_general` for
+    the other built-in learners, and a user target's own copy ([`user_train_batch`][tableclean_suite.learners.kernel.user_train_batch]); pick one
+    with [`kernel_for`][tableclean_suite.learners.kernel.kernel_for].  A copy compiled for one update rule and exploration raises
     ``ValueError`` when ``method`` or ``explore_code`` is another.
 
     Args:
@@ -429,13 +429,13 @@ def _train_loop(
         loop_memory: states of the episode the looping rule looks back (``RewardPattern.looping_memory``:
             2 = the paper's s_t and s_{t-1}; 0 = the whole episode).
         target_code: the built-in learner's target code (``rules.Q_LEARNING_TARGET``, ...);
-            ignored by a :func:`user_train_batch` copy, which calls its own target.
+            ignored by a [`user_train_batch`][tableclean_suite.learners.kernel.user_train_batch] copy, which calls its own target.
         on_policy: choose the next action before the update and take it (SARSA).
         method: update rule (``rules.METHOD_*``).
         learner_parameters: ``(N_LEARNER_PARAMETERS,)`` float64, ``TabularLearner.kernel_parameters()``.
         alpha, gamma: learning rate, discount.
         explore_code, explore_parameters: the exploration's code and ``(N_PARAMETERS,)`` float64
-            parameters (:mod:`.exploration`).
+            parameters ([`exploration`][tableclean_suite.learners.exploration]).
         affordance: ``assist.AFFORD_*`` code (none, given, learned).
         afforded: ``(S, A)`` int8 the given affordances (1 = afforded; used with AFFORD_GIVEN).
         advisor: ``(S,)`` int64 the advisor's action per state, or ``(0,)`` for no advisor.
@@ -452,13 +452,13 @@ def _train_loop(
             task model's ``record_dtype`` (int8 for the paper's 24 states).
         episode_end: ``(R, T)`` int output (same dtype), EPISODE_* code after each iteration.
         snapshot_at: iterations after which the Q-tables are copied into ``q_snapshot`` (and
-            ``q_second_snapshot`` for double Q), in [0, T]; :data:`NO_SNAPSHOT`: no copy.  The copy is the final
+            ``q_second_snapshot`` for double Q), in [0, T]; `NO_SNAPSHOT`: no copy.  The copy is the final
             Q-tables of the same runs trained for ``snapshot_at`` iterations (the loop is a prefix:
             counter-based random numbers), so one pass gives both.
         q_snapshot, q_second_snapshot: ``(R, S, A)`` float64 outputs, or ``(R, 0, 0)`` when unused.
         first_learned, learned: ``(R,)`` int64 outputs, each run's first iteration after which its
             greedy policy is optimal and the iteration from which it stays so (-1: never / censored);
-            see :mod:`.optimality`.
+            see [`optimality`][tableclean_suite.learners.optimality].
     """
     # Borrowed views of every array argument (see borrowed): the same arrays without reference counting.
     next_state_table, outcome_table, cumulative_table = (
@@ -629,11 +629,11 @@ def _train_loop(
 
 
 def specialised_loop(name: str, method: int, exploration: int):
-    """A disk-cached compiled copy of :func:`_train_loop` with the update rule ``method``
+    """A disk-cached compiled copy of `_train_loop` with the update rule ``method``
     (``rules.METHOD_*``) and the exploration ``exploration`` (``exploration.*_CODE``) compiled in as
-    constants, or :data:`FROM_ARGUMENTS` for both: read from its arguments (the general loop).
+    constants, or `FROM_ARGUMENTS` for both: read from its arguments (the general loop).
 
-    Same code object, other globals (:data:`LOOP_METHOD`, :data:`LOOP_EXPLORATION`) and name: numba
+    Same code object, other globals (`LOOP_METHOD`, `LOOP_EXPLORATION`) and name: numba
     drops the branches of the other rules and explorations before typing, so it never compiles their
     callees (a first process's compile of the paper's learners' loop skips the traces', Dyna's, double
     Q's and softmax's: ~3-4 s of CPU of ~9), and gives the same bits as the general loop for learners
@@ -641,7 +641,7 @@ def specialised_loop(name: str, method: int, exploration: int):
 
     Raises:
         ValueError: ``method`` is not a ``rules.METHOD_*`` code or ``exploration`` not one of
-            :data:`EXPLORATION_CODES` (or only one of them is :data:`FROM_ARGUMENTS`).
+            `EXPLORATION_CODES` (or only one of them is `FROM_ARGUMENTS`).
     """
     general = (method, exploration) == (FROM_ARGUMENTS, FROM_ARGUMENTS)
     if not general and (method not in METHODS.values() or exploration not in EXPLORATION_CODES):
@@ -653,7 +653,7 @@ def specialised_loop(name: str, method: int, exploration: int):
 
 
 def _loop_function(name: str, **replaced_globals):
-    """:func:`_train_loop` as a new Python function named ``name`` whose globals are its module's with
+    """`_train_loop` as a new Python function named ``name`` whose globals are its module's with
     ``replaced_globals`` in their place (the one loop source behind every compiled copy)."""
     code = _train_loop.__code__.replace(co_name=name, co_qualname=name)
     function = types.FunctionType(code, dict(_train_loop.__globals__, **replaced_globals), name)
@@ -662,7 +662,7 @@ def _loop_function(name: str, **replaced_globals):
 
 
 #: The compiled loop of one-step learners with constant epsilon-greedy exploration (the paper's learners:
-#: every cell of the default grid); see :func:`_train_loop` for its arguments.
+#: every cell of the default grid); see `_train_loop` for its arguments.
 train_batch = specialised_loop("train_batch", METHOD_ONE_STEP, EPSILON_GREEDY_CODE)
 #: The compiled loop of every other built-in learner (double Q, traces, Dyna, decaying, visit-count and
 #: softmax explorations), which reads the update rule and exploration from its arguments.
@@ -672,10 +672,10 @@ _USER_KERNELS: dict = {}
 
 
 def user_train_batch(learner: TabularLearner):
-    """The general loop (:func:`_train_loop`) compiled with ``learner.td_target`` in place of the built-in targets.
+    """The general loop (`_train_loop`) compiled with ``learner.td_target`` in place of the built-in targets.
 
     The same code object with one global swapped, so the loop is written once (same arguments,
-    runs ``lo .. hi - 1``, ``nogil``: driven by :func:`.threads.run_in_threads` like the built-in
+    runs ``lo .. hi - 1``, ``nogil``: driven by [`threads.run_in_threads`][tableclean_suite.learners.threads.run_in_threads] like the built-in
     one); compiled on first use in each process (not disk-cached: numba cannot cache a loop that
     calls a function passed in from outside).
     """
@@ -692,8 +692,8 @@ def user_train_batch(learner: TabularLearner):
 
 def kernel_for(learner: TabularLearner):
     """The compiled loop that trains ``learner`` (runs ``lo .. hi - 1`` of a batch): its own copy
-    for a user's target, else the cached :data:`train_batch` (one-step, constant epsilon-greedy) or
-    :data:`train_batch_general`."""
+    for a user's target, else the cached `train_batch` (one-step, constant epsilon-greedy) or
+    `train_batch_general`."""
     from tableclean_suite.learners.rules import USER_TARGET
 
     if learner.target_code == USER_TARGET:
@@ -729,7 +729,7 @@ def code_digest(learner: TabularLearner) -> str:
 
 
 def _guard_disk_cache() -> None:
-    """Recompile the cached kernel when any module it inlines has changed (see :mod:`.cache_guard`)."""
+    """Recompile the cached kernel when any module it inlines has changed (see [`cache_guard`][tableclean_suite.learners.cache_guard])."""
     import sys
 
     from tableclean_suite.learners import cache_guard

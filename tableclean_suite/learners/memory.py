@@ -1,6 +1,6 @@
 """Memory a learner's training allocates, from what the learner is: the estimate the resource guard checks.
 
-The generic accounting (tables, records, the refusal) lives in :mod:`tableclean_suite.resources`, a
+The generic accounting (tables, records, the refusal) lives in [`tableclean_suite.resources`][tableclean_suite.resources], a
 leaf module; what a learner adds to it (double Q's tables, traces, Dyna's model, learned
 affordance masks, visit counts, the looping rule's memory, the greedy walk) is read here, next to the learners, so the
 guard does not import the learners back.
@@ -19,7 +19,7 @@ from tableclean_suite.learners.rules import METHOD_DOUBLE_Q, METHOD_DYNA, METHOD
 #: Per state, the iteration it was last entered (int64): the looping rule's memory.
 LOOPING_MEMORY_WORDS = 1
 #: Per state, the greedy walk's examined states and greedy actions (int64 each) and flags (one byte):
-#: every run's learning time (:mod:`tableclean_suite.learners.optimality`).
+#: every run's learning time ([`tableclean_suite.learners.optimality`][tableclean_suite.learners.optimality]).
 GREEDY_WALK_WORDS = 2
 GREEDY_WALK_FLAG_BYTES = 1
 
@@ -42,10 +42,10 @@ def run_working_bytes(learner, reward, n_states: int, n_actions: int) -> int:
 def learner_training_memory(model, learner, reward, runs: int, iterations: int, checkpoint: bool = False,
                             engine: str = resources.DEFAULT_ENGINE,
                             max_successors: int = 1) -> resources.MemoryEstimate:
-    """:func:`tableclean_suite.resources.training_memory` of ``train()``-ing ``learner`` (a
+    """[`tableclean_suite.resources.training_memory`][tableclean_suite.resources.training_memory] of ``train()``-ing ``learner`` (a
     ``TabularLearner``) with ``reward`` (a ``RewardPattern``) on ``model`` (a ``TaskModel``): two
     tables per run for double Q-learning, the learner's run working memory
-    (:func:`run_working_bytes`) in each of numba's threads."""
+    ([`run_working_bytes`][tableclean_suite.learners.memory.run_working_bytes]) in each of numba's threads."""
     return resources.training_memory(
         model.n_states, model.n_actions, runs, iterations, q_tables=2 if learner.method == METHOD_DOUBLE_Q else 1,
         max_successors=max_successors, code_bytes=model.record_dtype.itemsize, checkpoint=checkpoint, engine=engine,

@@ -13,7 +13,7 @@ step nearer the terminal state after its greedy action(s).  A calibrated (measur
 trained on its own successors, but optimality is always judged on the model's transitions.
 
 The training loop checks it before its first step and after every iteration's Q update and
-records, per run (:class:`~tableclean_suite.learners.TrainingResult`):
+records, per run ([`TrainingResult`][tableclean_suite.learners.train.TrainingResult]):
 
 - ``first_learned_at``: the first iteration t (1-based count of environment steps, the unit of
   ``iterations``) after whose update the policy is optimal; 0 when the initial Q-table's
@@ -22,10 +22,10 @@ records, per run (:class:`~tableclean_suite.learners.TrainingResult`):
   budget T: 1 + the last iteration at which it was not (0 when it was optimal throughout);
   -1 when it is not optimal after iteration T (the run is censored at T).
 
-Cost: the walk visits the states on the greedy paths (:func:`greedy_walk`, O(visited x A)).
+Cost: the walk visits the states on the greedy paths ([`greedy_walk`][tableclean_suite.learners.optimality.greedy_walk], O(visited x A)).
 The policy only changes where a Q row (or an affordance mask) changes, and the verdict only
 depends on the rows the last walk examined, so after an update the loop compares the new greedy
-action of an examined state with the one the walk took (:func:`walk_changed`, O(A)) and walks
+action of an examined state with the one the walk took ([`walk_changed`][tableclean_suite.learners.optimality.walk_changed], O(A)) and walks
 again only when it differs (under random ties: whenever an examined row changed).
 """
 
@@ -46,7 +46,7 @@ def tied_greedy(q_row, masks, state, affording, draw):
     """Uniformly one of the actions of largest ``q_row`` value, picked by ``draw`` in [0, 1).
 
     With ``affording`` only afforded actions of ``masks[state]`` count (all actions when none
-    is afforded), as :func:`~tableclean_suite.learners.assist.afforded_greedy`.
+    is afforded), as [`afforded_greedy`][tableclean_suite.learners.assist.afforded_greedy].
     """
     n_actions = q_row.shape[0]
     restrict = affording and afforded_count(masks[state]) > 0
@@ -185,6 +185,6 @@ def walk_changed(q_a, q_b, double, row, masks, affording, random_ties, state, on
 
 def task_arrays(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(starts (n,), model_next (S, A), distance (S,))`` int64: what the walk needs of ``model``
-    (a :class:`~tableclean_suite.task.TaskModel`)."""
+    (a [`TaskModel`][tableclean_suite.task.model.TaskModel])."""
     starts = np.array([s.index for s in model.start_states()], dtype=np.int64)
     return starts, np.ascontiguousarray(model.transition_arrays()[0]), model.distances_to_terminal()

@@ -2,19 +2,19 @@
 
 This is the package's one per-step learner: the physics backend needs it, because its steps
 are skills executed in MuJoCo, one at a time, which the compiled batched loop
-(:mod:`.kernel`) cannot call.  It runs any *step environment*: an object with
+([`kernel`][tableclean_suite.learners.kernel]) cannot call.  It runs any *step environment*: an object with
 ``reset(draw) -> state`` and ``step(state, action, draw) -> (next_state, outcome)`` (codes),
-such as the task model itself (:class:`ModelStepEnv`), a measured transition table
-(:class:`TableStepEnv`) or skills in physics.  On a table it produces exactly the arrays of
+such as the task model itself ([`ModelStepEnv`][tableclean_suite.learners.reference.ModelStepEnv]), a measured transition table
+([`TableStepEnv`][tableclean_suite.learners.reference.TableStepEnv]) or skills in physics.  On a table it produces exactly the arrays of
 the compiled loop (same random draws, same arithmetic), so ``train(engine="reference")``
 runs it there and the tests use it as the compiled loop's check.
 
-Every learner has its plain twin here (:class:`_Agent`), written independently of the
+Every learner has its plain twin here (`_Agent`), written independently of the
 compiled functions: double Q's two tables, eligibility traces as the dense S x A sweep
 of their definition, Dyna-Q's model and planning, and each exploration's schedule
-(:meth:`~.exploration.Exploration.parameter_at`) and softmax sampler, Cruz et al.'s
-affordances (a set of blocked pairs) and simulated advisor (:mod:`.assist`), and the
-learning times of :mod:`.optimality` (the greedy paths walked after every step).
+([`parameter_at`][tableclean_suite.learners.exploration.Exploration.parameter_at]) and softmax sampler, Cruz et al.'s
+affordances (a set of blocked pairs) and simulated advisor ([`assist`][tableclean_suite.learners.assist]), and the
+learning times of [`optimality`][tableclean_suite.learners.optimality] (the greedy paths walked after every step).
 """
 
 from __future__ import annotations
@@ -165,7 +165,7 @@ class _Assistance:
 
     ``blocked`` holds the (state, action) pairs not afforded: the model's improper pairs
     (``given``), or those observed improper so far (``learned``).  The advisor acts through
-    :meth:`advice` with the advice lane's draws.
+    `advice` with the advice lane's draws.
     """
 
     def __init__(self, learner: TabularLearner, model: TaskModel, key: int):
@@ -284,7 +284,7 @@ class _Agent:
 
     def greedy_is_optimal(self, starts: list[int], task_next, distance) -> bool:
         """Whether the greedy policy reaches the terminal state from every start in its shortest-plan
-        number of steps, in the task model's transitions ``task_next`` ``(S, A)`` (see :mod:`.optimality`)."""
+        number of steps, in the task model's transitions ``task_next`` ``(S, A)`` (see [`optimality`][tableclean_suite.learners.optimality])."""
         frontier, seen = list(starts), set(starts)
         while frontier:
             state = frontier.pop()
@@ -390,7 +390,7 @@ def train_run(
     ``on_step(t)`` is called after every iteration (progress bars).  ``checkpoint`` in [1, iterations]
     also keeps the Q-table after that many iterations under ``"checkpoint_q"`` ``(S, A)`` (as ``q``).
     ``first_learned_at`` and
-    ``learned_at`` (int64 scalars as 0-d arrays) are the run's learning times (:mod:`.optimality`).
+    ``learned_at`` (int64 scalars as 0-d arrays) are the run's learning times ([`optimality`][tableclean_suite.learners.optimality]).
     """
     key = run_key(seed, run)
     model = env.model

@@ -9,7 +9,7 @@ same numbers, bit for bit.
 The four streams of the *main lane* (the run key itself) and their counter layout are
 fixed: they produce the paper's numbers.  Draws that only some learners need come from
 *side lanes*: a second key per lane, derived from the run key with a fixed salt
-(:func:`lane_key`), counted independently of the main lane, so adding them changes no
+([`lane_key`][tableclean_suite.learners.rng.lane_key]), counted independently of the main lane, so adding them changes no
 main-lane draw:
 
 - ``LANE_LEARNER``: ``uniform(lane key, iteration, STREAM_DOUBLE_TABLE)``, which table a
@@ -19,7 +19,7 @@ main-lane draw:
 - ``LANE_ADVICE``: ``uniform(lane key, iteration, STREAM_ADVISE / STREAM_CONSISTENT /
   STREAM_ADVICE_ACTION)``, whether the simulated advisor advises the action taken at that
   iteration, whether its advice is its own policy's action, and which random action otherwise
-  (interactive RL, :mod:`.assist`);
+  (interactive RL, [`assist`][tableclean_suite.learners.assist]);
 - ``LANE_TIES``: ``uniform(lane key, iteration, STREAM_TIE)``, which of the tied greedy actions
   the behaviour policy takes at that iteration under ``train(ties="random")``.
 """
@@ -36,7 +36,7 @@ STREAM_START = 2  # which start state, when there are several
 STREAM_TRANSITION = 3  # which successor, for stochastic (calibrated) transitions
 N_STREAMS = 4
 
-#: Side lanes (keys derived from the run key, see :func:`lane_key`); the main lane is 0.
+#: Side lanes (keys derived from the run key, see [`lane_key`][tableclean_suite.learners.rng.lane_key]); the main lane is 0.
 LANE_LEARNER = 1
 LANE_PLANNING = 2
 LANE_ADVICE = 3
@@ -104,7 +104,7 @@ _SALT = np.uint64(LANE_SALT)
 
 @numba.njit(cache=True, inline="always")
 def uniform(key, iteration, stream):
-    """A uniform draw in [0, 1) (compiled); identical to :func:`uniform_py`."""
+    """A uniform draw in [0, 1) (compiled); identical to [`uniform_py`][tableclean_suite.learners.rng.uniform_py]."""
     return uniform_at(key, np.uint64(iteration) * _NS + np.uint64(stream))
 
 
@@ -119,11 +119,11 @@ def _mix(z):
 
 @numba.njit(cache=True, inline="always")
 def uniform_at(key, counter):
-    """The uniform draw in [0, 1) at a raw ``counter`` of ``key`` (compiled); identical to :func:`uniform_at_py`."""
+    """The uniform draw in [0, 1) at a raw ``counter`` of ``key`` (compiled); identical to [`uniform_at_py`][tableclean_suite.learners.rng.uniform_at_py]."""
     return np.float64(_mix(key + np.uint64(counter) * _G) >> _S11) * _TO_UNIT
 
 
 @numba.njit(cache=True, inline="always")
 def lane_key(key, lane):
-    """The key of side lane ``lane`` (>= 1) of the run key ``key`` (compiled); identical to :func:`lane_key_py`."""
+    """The key of side lane ``lane`` (>= 1) of the run key ``key`` (compiled); identical to [`lane_key_py`][tableclean_suite.learners.rng.lane_key_py]."""
     return _mix(key ^ (np.uint64(lane) * _SALT))

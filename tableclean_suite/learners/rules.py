@@ -1,10 +1,10 @@
 """Tabular learners: one temporal-difference target per algorithm, an update rule, and their registry.
 
 Q-learning and SARSA differ only in the target of equation (2) of the paper; the
-shared loop (exploration, episodes, recording) lives in :mod:`.kernel` and
-:mod:`.reference`.  A learner is data: a name, a compiled target function, whether it
+shared loop (exploration, episodes, recording) lives in [`kernel`][tableclean_suite.learners.kernel] and
+[`reference`][tableclean_suite.learners.reference].  A learner is data: a name, a compiled target function, whether it
 picks the next action before updating (on-policy, as SARSA does), an *update rule*
-(:data:`METHODS`) with its parameters, the initial Q value and the exploration it acts with:
+(`METHODS`) with its parameters, the initial Q value and the exploration it acts with:
 
 ================== ========================= ===============================================
 learner            update rule               target
@@ -24,11 +24,11 @@ interactive_q_learning  one step + advisor   r + gamma max_a Q(s', a)
                    (L = 0.5, C = 1)
 ================== ========================= ===============================================
 
-Every learner also takes Cruz et al.'s assistance (:mod:`.assist`) through ``learner_options``:
+Every learner also takes Cruz et al.'s assistance ([`assist`][tableclean_suite.learners.assist]) through ``learner_options``:
 ``affordance`` (``"none"``, ``"given"``, ``"learned"``; one-step Q-learning or SARSA targets
 only) and a simulated advisor's ``advice_probability`` L and ``advice_consistency`` C.
 
-Traces (:data:`METHOD_TRACES`) are *replacing* by default (``e(s, a) = 1`` on a visit;
+Traces (`METHOD_TRACES`) are *replacing* by default (``e(s, a) = 1`` on a visit;
 ``trace="accumulating"``: ``e(s, a) += 1``).  Per step, with delta = target - Q(s, a):
 every pair gets ``Q += (alpha * delta) * e`` and then ``e *= gamma * lambda_``, or ``e = 0``
 for all pairs after an exploratory next action when the learner is off-policy (Watkins's
@@ -36,15 +36,15 @@ Q(lambda); an action is exploratory when its Q value is below its row's maximum,
 tie with the greedy action is not).  Traces reset at every episode start.  Dyna-Q keeps
 the last observed (next state, reward, terminal?) per (s, a) and, after every real step,
 makes ``planning_steps`` Q-learning updates on pairs drawn uniformly from those observed
-so far in the run.  Double Q-learning keeps two tables; a side-lane draw (:mod:`.rng`)
+so far in the run.  Double Q-learning keeps two tables; a side-lane draw ([`rng`][tableclean_suite.learners.rng])
 picks the one to update, the other evaluates; it acts on their average, whose greedy
 action is that of their sum, and reports the average as its Q-table.
 
 Users add a learner by writing a ``numba.njit`` target with the signature of
-:func:`q_learning_target` and calling :func:`register_learner`; it may use the one-step
+[`q_learning_target`][tableclean_suite.learners.rules.q_learning_target] and calling [`register_learner`][tableclean_suite.learners.rules.register_learner]; it may use the one-step
 or the trace update rule.
 
-The built-in targets are also reachable by an integer code (:func:`builtin_td_target`),
+The built-in targets are also reachable by an integer code ([`builtin_td_target`][tableclean_suite.learners.rules.builtin_td_target]),
 so the compiled training loop that uses them takes no function argument and numba's
 disk cache serves it to every new process; a user target is compiled into its own
 copy of the loop once per process.
@@ -94,7 +94,7 @@ def sarsa_target(q_next, next_action, reward, gamma, epsilon, terminal):
 def expected_sarsa_target(q_next, next_action, reward, gamma, epsilon, terminal):
     """Expected SARSA: ``r + gamma * E_pi[Q(s', .)]`` under the epsilon-greedy policy.
 
-    (Under ``softmax`` exploration the loop uses :func:`softmax_expected_sarsa_target` instead.)
+    (Under ``softmax`` exploration the loop uses [`softmax_expected_sarsa_target`][tableclean_suite.learners.rules.softmax_expected_sarsa_target] instead.)
     """
     if terminal:
         return reward
@@ -115,7 +115,7 @@ def softmax_expected_sarsa_target(q_next, reward, gamma, temperature, terminal):
     return reward + gamma * softmax_expectation(q_next, temperature)
 
 
-#: Target codes of the built-in learners (:func:`builtin_td_target`); USER_TARGET for any other.
+#: Target codes of the built-in learners ([`builtin_td_target`][tableclean_suite.learners.rules.builtin_td_target]); USER_TARGET for any other.
 Q_LEARNING_TARGET, SARSA_TARGET, EXPECTED_SARSA_TARGET = 0, 1, 2
 USER_TARGET = -1
 
@@ -150,18 +150,18 @@ METHODS = {"one_step": METHOD_ONE_STEP, "double_q": METHOD_DOUBLE_Q, "traces": M
 METHOD_OPTIONS = {METHOD_ONE_STEP: (), METHOD_DOUBLE_Q: (), METHOD_TRACES: ("lambda_", "trace"),
                   METHOD_DYNA: ("planning_steps",)}
 TRACE_KINDS = ("replacing", "accumulating")
-#: Learner options every update rule takes: Cruz et al.'s affordances and simulated advisor (:mod:`.assist`)
+#: Learner options every update rule takes: Cruz et al.'s affordances and simulated advisor ([`assist`][tableclean_suite.learners.assist])
 #: and the greedy choice's tie rule.
 ASSIST_OPTIONS = ("affordance", "advice_probability", "advice_consistency", "ties")
 #: Tie rules of the greedy choice (``TabularLearner.ties``) and their kernel codes: the first tied action
-#: in the task's order (the paper's) or a uniform pick among the tied ones (:mod:`.optimality`).
+#: in the task's order (the paper's) or a uniform pick among the tied ones ([`optimality`][tableclean_suite.learners.optimality]).
 TIES = {"first": 0, "random": 1}
 TIES_FIRST, TIES_RANDOM = TIES["first"], TIES["random"]
 #: Cruz et al.'s advice probability L (their interactive RL row) and the consistency C assumed here.
 CRUZ_ADVICE_PROBABILITY = 0.5
 DEFAULT_ADVICE_CONSISTENCY = 1.0
 MAX_PLANNING_STEPS = 10_000
-#: Indices of the kernel's learner-parameter array (:meth:`TabularLearner.kernel_parameters`).
+#: Indices of the kernel's learner-parameter array ([`TabularLearner.kernel_parameters`][tableclean_suite.learners.rules.TabularLearner.kernel_parameters]).
 PARAM_LAMBDA, PARAM_ACCUMULATE, PARAM_PLANNING = 0, 1, 2
 N_LEARNER_PARAMETERS = 3
 
@@ -176,7 +176,7 @@ class TabularLearner:
     Attributes:
         name: registry key, lower_snake.
         td_target: ``numba.njit`` function ``(q_next, next_action, reward, gamma,
-            epsilon, terminal) -> float`` (see :func:`q_learning_target`).  ``epsilon`` is the
+            epsilon, terminal) -> float`` (see [`q_learning_target`][tableclean_suite.learners.rules.q_learning_target]).  ``epsilon`` is the
             behaviour policy's parameter at s' for the next step: epsilon at that iteration
             (and state, for ``visit_decay``), or the temperature under ``softmax``.
         on_policy: True if the next action is chosen (by the exploration, on Q before
@@ -186,16 +186,16 @@ class TabularLearner:
         description: one line for tables.
         target_code: the built-in target's code (``Q_LEARNING_TARGET``, ...) when
             ``td_target`` is that built-in; ``USER_TARGET`` (default) otherwise.
-        method: update rule, one of :data:`METHODS`' codes (default one-step TD).
+        method: update rule, one of `METHODS`' codes (default one-step TD).
             ``METHOD_DOUBLE_Q`` and ``METHOD_DYNA`` need the Q-learning target, off-policy.
         lambda_: trace decay lambda in [0, 1] (``METHOD_TRACES``; traces decay by gamma * lambda_).
         trace: ``"replacing"`` (e = 1 on a visit, default) or ``"accumulating"`` (e += 1).
         planning_steps: Dyna planning updates per real step, integer in [0, 10000] (``METHOD_DYNA``).
         q_init: initial value of every Q entry (any finite float; above the best return it is optimistic).
-        exploration: the behaviour policy (:mod:`.exploration`; default constant epsilon-greedy).
+        exploration: the behaviour policy ([`exploration`][tableclean_suite.learners.exploration]; default constant epsilon-greedy).
         affordance: ``"none"`` (default), ``"given"`` (the task model's ``action_mask``) or
             ``"learned"`` (an action observed improper in a state is not afforded there from then
-            on); actions not afforded are never taken (:mod:`.assist`).  Needs the one-step
+            on); actions not afforded are never taken ([`assist`][tableclean_suite.learners.assist]).  Needs the one-step
             update rule and the built-in Q-learning or SARSA target.
         advice_probability: L in [0, 1], per-step probability that the simulated advisor advises
             the action (0 = no advisor, default).
@@ -206,7 +206,7 @@ class TabularLearner:
             random numbers' ties lane).  Softmax exploration has no greedy choice to break.
 
     ``train()`` sets the last nine from ``learner_options=``, ``q_init=`` and ``exploration=``
-    (:meth:`configured`), so every backend, the physics one included, trains what was asked.
+    ([`configured`][tableclean_suite.learners.rules.TabularLearner.configured]), so every backend, the physics one included, trains what was asked.
     """
 
     name: str
@@ -282,7 +282,7 @@ class TabularLearner:
 
     @property
     def affordance_code(self) -> int:
-        """The kernel code of :attr:`affordance` (``assist.AFFORD_*``)."""
+        """The kernel code of `affordance` (``assist.AFFORD_*``)."""
         return AFFORDANCES[self.affordance]
 
     @property
@@ -301,12 +301,12 @@ class TabularLearner:
 
     @property
     def method_name(self) -> str:
-        """The update rule's name (a key of :data:`METHODS`)."""
+        """The update rule's name (a key of `METHODS`)."""
         return next(name for name, code in METHODS.items() if code == self.method)
 
     def configured(self, options: dict | None = None, q_init: float | None = None,
                    exploration: Exploration | None = None) -> "TabularLearner":
-        """A copy with ``options`` (this update rule's parameters, see :data:`METHOD_OPTIONS`),
+        """A copy with ``options`` (this update rule's parameters, see `METHOD_OPTIONS`),
         ``q_init`` and ``exploration`` replaced (``None``: keep).  ``ValueError`` names
         options this learner does not take and out-of-range values."""
         options = dict(options or {})

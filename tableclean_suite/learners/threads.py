@@ -1,4 +1,4 @@
-"""Compiled loops over independent items, spread over threads (one job: :func:`run_in_threads`).
+"""Compiled loops over independent items, spread over threads (one job: [`run_in_threads`][tableclean_suite.learners.threads.run_in_threads]).
 
 A compiled function ``kernel(lo, hi, *arguments)`` that handles items ``lo .. hi - 1`` and is
 compiled with ``nogil=True`` runs on several Python threads at once.  Used instead of numba's

@@ -1,9 +1,9 @@
 """``train()``: the stable entry point for training tabular learners on a task.
 
-The task is a :class:`~tableclean_suite.task.TaskSpec` (``task=``: a registered name,
-a spec, a ``.json`` path or a :class:`~tableclean_suite.task.TaskModel`; default
+The task is a [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] (``task=``: a registered name,
+a spec, a ``.json`` path or a [`TaskModel`][tableclean_suite.task.model.TaskModel]; default
 ``paper``).  Where the steps come from is a *backend* looked up by name in
-:mod:`tableclean_suite.backends` (``"symbolic"``, ``"calibrated"``, ``"physics"`` or a
+[`tableclean_suite.backends`][tableclean_suite.backends] (``"symbolic"``, ``"calibrated"``, ``"physics"`` or a
 user's); this module imports none of them.
 
 ``engine="reference"`` runs the table backends through the plain per-step Python loop
@@ -66,7 +66,7 @@ class TrainingResult(BackendRecords):
         return int(self.rewards.shape[1])
 
     def episodes(self):
-        """One row per finished episode: a :class:`pandas.DataFrame` with columns
+        """One row per finished episode: a `pandas.DataFrame` with columns
         ``run, episode, first_iteration, last_iteration, length, return, average_reward,
         reached_terminal, improper_actions, success`` (iterations 0-based)."""
         from tableclean_suite.metrics import episode_table
@@ -117,9 +117,9 @@ def train(
 
     Args:
         learner: registered name (``"q_learning"``, ``"sarsa"``, ``"expected_sarsa"``,
-            or a user's) or a :class:`TabularLearner`.
+            or a user's) or a [`TabularLearner`][tableclean_suite.learners.rules.TabularLearner].
         reward: registered pattern name (``"r1"`` .. ``"r4"`` or a user's) or a
-            :class:`RewardPattern`.
+            [`RewardPattern`][tableclean_suite.rewards.RewardPattern].
         runs: independent runs (>= 1), batched.
         iterations: environment steps per run, counted across episodes (>= 1).
         alpha: learning rate in (0, 1].
@@ -130,7 +130,7 @@ def train(
             so results do not depend on batching.
         model: deprecated (``DeprecationWarning``): the old name of ``task=``.
         backend: a registered backend name (``"symbolic"``, ``"calibrated"``, ``"physics"``).
-        transitions: for ``"calibrated"``: a :class:`TransitionTable` or a JSON path.
+        transitions: for ``"calibrated"``: a [`TransitionTable`][tableclean_suite.learners.transitions.TransitionTable] or a JSON path.
         engine: ``"compiled"`` (default) or ``"reference"`` (plain Python loop).  The compiled
             loop of the table backends trains the runs on ``numba.get_num_threads()`` threads
             (the calling thread's count: ``numba.set_num_threads``); the numbers never depend on it.
@@ -138,8 +138,8 @@ def train(
         workers: processes for the physics backend (default: CPU count).
         physics_options: keyword arguments for the physics step environment.
         progress: show a tqdm progress bar.
-        task: the task: a registered spec name, a :class:`TaskSpec`, a ``.json`` path
-            or a :class:`TaskModel` (default: the ``paper`` spec).
+        task: the task: a registered spec name, a [`TaskSpec`][tableclean_suite.task.spec.TaskSpec], a ``.json`` path
+            or a [`TaskModel`][tableclean_suite.task.model.TaskModel] (default: the ``paper`` spec).
         learner_options: the learner's update-rule parameters: ``q_lambda`` / ``sarsa_lambda``
             take ``lambda_`` (in [0, 1], default 0.9) and ``trace`` (``"replacing"``, default,
             or ``"accumulating"``); ``dyna_q`` takes ``planning_steps`` (integer in [0, 10000],
@@ -148,9 +148,9 @@ def train(
             0.0 for the registered ones, the paper's); larger than the best return is optimistic.
         exploration: the behaviour policy, independent of the learner: a registered name
             (``"epsilon_greedy"`` default, ``"linear_decay"``, ``"exponential_decay"``,
-            ``"visit_decay"``, ``"softmax"``), an :class:`~tableclean_suite.learners.exploration.Exploration`
+            ``"visit_decay"``, ``"softmax"``), an [`Exploration`][tableclean_suite.learners.exploration.Exploration]
             or a mapping ``{"name": ..., **parameters}``.  Epsilon schedules start at ``epsilon``.
-        executor: a :mod:`tableclean_suite.executors` executor for the physics backend's runs
+        executor: a [`tableclean_suite.executors`][tableclean_suite.executors] executor for the physics backend's runs
             (e.g. ``RayExecutor(address=...)``); default: ``workers`` local processes.
         checkpoint: also keep each run's Q-tables after this many iterations, an integer in
             [0, iterations] (0: none), in ``result.info["checkpoint_q"]`` ``(runs, S, A)``: the
@@ -164,7 +164,7 @@ def train(
             exploration has no greedy choice to break; the learning times use the same rule.
 
     Returns:
-        A :class:`TrainingResult` with ``(runs, iterations)`` records and final Q-tables.
+        A [`TrainingResult`][tableclean_suite.learners.train.TrainingResult] with ``(runs, iterations)`` records and final Q-tables.
     """
     learner = get_learner(learner)
     reward = get_reward_pattern(reward)

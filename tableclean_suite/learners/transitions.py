@@ -3,7 +3,7 @@ empirical (measured from physics by ``benchmarks.calibrate``).
 
 A table stores, for every (state, action) of its task, up to K successors with
 cumulative probabilities; the model's table has K = 1.  Tables round-trip through JSON
-(format ``tableclean_suite.transition_table``)::
+(format ``tableclean_suite.transition_table``):
 
     {"format": "tableclean_suite.transition_table", "version": 2, "source": "...",
      "task": {...the TaskSpec as JSON...},
@@ -16,7 +16,7 @@ names, each pair at most once, probabilities summing to 1, and outcomes that agr
 their successor (TERMINAL exactly when the successor is terminal; ineffective,
 irrelevant and improper outcomes leave the state unchanged).  Pairs the file does not
 list take the task model's deterministic successor; how many did is reported in
-:attr:`TransitionTable.model_filled_pairs` and :attr:`TransitionTable.source`.
+`TransitionTable.model_filled_pairs` and `TransitionTable.source`.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from tableclean_suite.task import NO_CHANGE_OUTCOMES_NAMES, Outcome, TaskModel, 
 
 FORMAT_NAME = "tableclean_suite.transition_table"
 FORMAT_VERSION = 2
-#: Versions :meth:`TransitionTable.from_json` reads (1: the paper's task, no ``"task"`` field).
+#: Versions [`TransitionTable.from_json`][tableclean_suite.learners.transitions.TransitionTable.from_json] reads (1: the paper's task, no ``"task"`` field).
 READABLE_VERSIONS = (1, 2)
 _PROBABILITY_TOLERANCE = 1e-6
 
@@ -47,12 +47,12 @@ class TransitionTable:
 
     Attributes:
         next_state: ``(S, A, K)`` int64 successor codes.
-        outcome: ``(S, A, K)`` int64 :class:`Outcome` codes.
+        outcome: ``(S, A, K)`` int64 [`Outcome`][tableclean_suite.task.state.Outcome] codes.
         cumulative: ``(S, A, K)`` float64 cumulative probabilities (last entry 1.0;
             padding entries repeat the last successor with cumulative 1.0).
         source: where it came from (``"model"`` or a description of the measurement).
         counts: ``(S, A)`` int64 executions behind each pair (0 where the model filled in).
-        spec: the :class:`TaskSpec` the codes belong to (None: any task of this shape).
+        spec: the [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] the codes belong to (None: any task of this shape).
         model_filled_pairs: reachable non-terminal pairs a measured table did not list,
             which therefore take the model's successor (0 for the model's own table).
     """
@@ -188,7 +188,7 @@ class TransitionTable:
 
     @classmethod
     def from_json(cls, path: str | Path, fallback: TaskModel | None = None) -> "TransitionTable":
-        """Read a table written by :meth:`to_json`; :class:`CorruptTableError` names what is wrong.
+        """Read a table written by [`to_json`][tableclean_suite.learners.transitions.TransitionTable.to_json]; [`CorruptTableError`][tableclean_suite.learners.transitions.CorruptTableError] names what is wrong.
 
         ``fallback`` is the task model the table must belong to (default: the file's own
         task, else ``paper``); unlisted pairs take its successors (reported, see the module

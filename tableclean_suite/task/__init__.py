@@ -4,12 +4,12 @@ Pure Python/NumPy; knows nothing of MuJoCo.  Everything else in the package
 (rewards, learners, the robosuite environment's abstraction, the skills) speaks in
 the names defined here:
 
-- :class:`TaskSpec` (:mod:`.spec`): N segments, M objects, the action list, the start;
+- [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] ([`spec`][tableclean_suite.task.spec]): N segments, M objects, the action list, the start;
   named specs in a registry (``paper``, ``three_segments``, ...), or JSON files.
-- :class:`TaskState`, :class:`Outcome`, :func:`encode` (:mod:`.state`).
-- :class:`Action`, :class:`ActionRule`, :func:`register_action` (:mod:`.actions`).
-- :class:`TaskModel` (:mod:`.model`): the rules, reachability, plans, tables.
-- The paper's Table 1, start and optimal plan (:mod:`.paper`).
+- [`TaskState`][tableclean_suite.task.state.TaskState], [`Outcome`][tableclean_suite.task.state.Outcome], [`encode`][tableclean_suite.task.state.encode] ([`state`][tableclean_suite.task.state]).
+- [`Action`][tableclean_suite.task.actions.Action], [`ActionRule`][tableclean_suite.task.actions.ActionRule], [`register_action`][tableclean_suite.task.actions.register_action] ([`actions`][tableclean_suite.task.actions]).
+- [`TaskModel`][tableclean_suite.task.model.TaskModel] ([`model`][tableclean_suite.task.model]): the rules, reachability, plans, tables.
+- The paper's Table 1, start and optimal plan ([`paper`][tableclean_suite.task.paper]).
 """
 
 from __future__ import annotations
@@ -74,14 +74,14 @@ def decode(code: int, task: "TaskModel | TaskSpec | str | None" = None) -> TaskS
 
 
 def as_state(state: "StateLike", task: "TaskModel | TaskSpec | str | None" = None) -> TaskState:
-    """Accept a :class:`TaskState` or its code in ``task``'s encoding (default ``paper``)."""
+    """Accept a [`TaskState`][tableclean_suite.task.state.TaskState] or its code in ``task``'s encoding (default ``paper``)."""
     if isinstance(state, TaskState):
         return state
     return decode(state, task)
 
 
 def as_action(action) -> Action:
-    """A built-in :class:`Action` from itself, its index in the paper's order or its (case-insensitive) name."""
+    """A built-in [`Action`][tableclean_suite.task.actions.Action] from itself, its index in the paper's order or its (case-insensitive) name."""
     if isinstance(action, Action):
         return action
     if isinstance(action, str):

@@ -4,10 +4,10 @@ An action's *effect* is a pure function ``TaskState -> (TaskState, Outcome)`` wr
 for any number of segments and objects.  It reports INEFFECTIVE when nothing happens
 for lack of an object (the model turns that into IMPROPER under
 ``ineffective="improper"``) and never reports TERMINAL: the model does, whenever an
-effect leaves every segment clean.  A :class:`~tableclean_suite.task.TaskSpec` lists
+effect leaves every segment clean.  A [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] lists
 its actions by registered name, in the order learners index them.
 
-Adding an action from outside the package::
+Adding an action from outside the package:
 
     from tableclean_suite.task import ActionRule, Outcome, register_action
 
@@ -50,13 +50,13 @@ class Action(enum.IntEnum):
 
     @property
     def rule_name(self) -> str:
-        """The registered :class:`ActionRule` name (``"move"``, ...)."""
+        """The registered [`ActionRule`][tableclean_suite.task.actions.ActionRule] name (``"move"``, ...)."""
         return self.name.lower()
 
 
 def _apply_digit_rule(rule, state: TaskState) -> tuple[TaskState, Outcome]:
-    """A built-in rule of :mod:`.batch_rules` (written once, on code digits) applied to one state.
-    (A :class:`~tableclean_suite.task.TaskModel` reads its built-in actions off the rules' table of
+    """A built-in rule of [`batch_rules`][tableclean_suite.task.batch_rules] (written once, on code digits) applied to one state.
+    (A [`TaskModel`][tableclean_suite.task.model.TaskModel] reads its built-in actions off the rules' table of
     every code instead.)"""
     n_segments, n_objects = state.n_segments, state.n_objects
     digits = batch_rules.StateDigits(n_segments, n_objects, 1, codes=np.array([encode(state)]))

@@ -1,11 +1,11 @@
 """The built-in actions' rules, written once as array arithmetic on state codes' digits.
 
-The state code's digits (:func:`~tableclean_suite.task.encode`) are read as arrays and each
+The state code's digits ([`encode`][tableclean_suite.task.state.encode]) are read as arrays and each
 built-in action (move, pick, place, clean) is array arithmetic on them, so one rule serves
-both one state (:mod:`.actions`' ``move_effect`` ... apply it to a single code) and every code
+both one state ([`actions`][tableclean_suite.task.actions]' ``move_effect`` ... apply it to a single code) and every code
 at once (:meth:`TaskModel.transition_arrays <tableclean_suite.task.TaskModel.transition_arrays>`,
 where stepping each code through Python would cost minutes for millions of codes).
-:func:`batch_step` adds the model's conventions (INEFFECTIVE becomes IMPROPER under
+[`batch_step`][tableclean_suite.task.batch_rules.batch_step] adds the model's conventions (INEFFECTIVE becomes IMPROPER under
 ``ineffective="improper"``; an action that leaves every segment clean is TERMINAL; terminal
 states map to themselves with TERMINAL).
 """
@@ -113,7 +113,7 @@ def clean(d: StateDigits):
 
 def batch_step(digits: StateDigits, rule, improper_ineffective: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(next codes, outcomes, the rule's own outcomes)``, each ``(S,)`` int64, of a built-in
-    ``rule`` (:func:`move`, ...) from every code, with the model's conventions (see the module
+    ``rule`` ([`move`][tableclean_suite.task.batch_rules.move], ...) from every code, with the model's conventions (see the module
     docstring) applied to the second."""
     next_codes, outcome = rule(digits)
     raw = outcome.copy()

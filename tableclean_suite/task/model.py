@@ -1,4 +1,4 @@
-"""The task model: the rules of a :class:`~tableclean_suite.task.TaskSpec`, deterministic and pure."""
+"""The task model: the rules of a [`TaskSpec`][tableclean_suite.task.spec.TaskSpec], deterministic and pure."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ from tableclean_suite.task.state import (
 
 StateLike = Union[TaskState, int, np.integer]
 
-#: The built-in actions' names in :class:`Action` order (the paper's action list).
+#: The built-in actions' names in [`Action`][tableclean_suite.task.actions.Action] order (the paper's action list).
 _BUILTIN_ORDER = tuple(a.rule_name for a in Action)
 #: Smallest signed integer dtypes, in order, for record arrays of state/action/outcome codes.
 _RECORD_DTYPES = (np.int8, np.int16, np.int32)
@@ -39,7 +39,7 @@ class ActionEffectError(ValueError):
 
 
 class TaskModel:
-    """The table-cleaning task of a :class:`TaskSpec` as a deterministic model.
+    """The table-cleaning task of a [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] as a deterministic model.
 
     ## Description
     A table has N segments (N >= 2, numbered 1..N), each clean or unclean, and M objects
@@ -51,20 +51,20 @@ class TaskModel:
     ## Action Space
     The spec's actions in its order; the default (and the paper's) is
     0 MOVE, 1 PICK, 2 PLACE, 3 CLEAN.  The order breaks greedy ties (lowest first).
-    Users add actions by name (:func:`~tableclean_suite.task.register_action`).
+    Users add actions by name ([`register_action`][tableclean_suite.task.actions.register_action]).
 
     ## Observation Space
     ``2**N * (N + 1)**M * N`` codes, a mixed radix with, most significant first, the
     clean flag of segments 1..N (radix 2), the location of objects 1..M (radix N + 1:
     segment index 0..N-1, or N for held) and the arm's segment (radix N)
-    (:func:`~tableclean_suite.task.encode`).  For the paper's spec that is
+    ([`encode`][tableclean_suite.task.state.encode]).  For the paper's spec that is
     ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment``:
     24 codes, of which 20 are reachable from the all-unclean starts (18 non-terminal,
     2 terminal).  Codes holding two objects are never reached; ``three_segments`` has
     96 codes and 90 reachable, ``three_segments_two_objects`` 384 and 327
-    (:meth:`reachable_states`).  Table 1 of the paper lists 18 states; its rows 14, 15,
+    ([`reachable_states`][tableclean_suite.task.model.TaskModel.reachable_states]).  Table 1 of the paper lists 18 states; its rows 14, 15,
     16 and 18 can never be reached and it omits 6 reachable ones
-    (:meth:`table1_mapping`).
+    ([`table1_mapping`][tableclean_suite.task.model.TaskModel.table1_mapping]).
 
     ## Rules
     - MOVE: the arm goes to the next segment, k -> k + 1 (N -> 1); a held object goes
@@ -90,18 +90,18 @@ class TaskModel:
 
     ## Rewards
     Reward patterns r1-r4 (the paper's Table 2) map outcomes to rewards
-    (:mod:`tableclean_suite.rewards`); the looping penalty compares state codes.
+    ([`tableclean_suite.rewards`][tableclean_suite.rewards]); the looping penalty compares state codes.
 
     ## Episode End
     Terminal when every segment is clean.  Learners also truncate after ``max_itr``
     iterations.
 
     ## Arguments
-    - ``spec``: a registered name (default ``"paper"``), a :class:`TaskSpec` or a
+    - ``spec``: a registered name (default ``"paper"``), a [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] or a
       ``.json`` path.
     - ``ineffective``: ``"ineffective"`` or ``"improper"``; None keeps the spec's.
     - ``start``: ``"fixed"`` or ``"uniform_unclean"``; None keeps the spec's.
-    - ``start_state``: a :class:`TaskState` or code; only with ``start="fixed"``.
+    - ``start_state``: a [`TaskState`][tableclean_suite.task.state.TaskState] or code; only with ``start="fixed"``.
 
     ## Version History
     - v1: task specifications (N segments, M objects, user actions); the paper's
@@ -157,7 +157,7 @@ class TaskModel:
         return decode_code(code, self.n_segments, self.n_objects)
 
     def as_state(self, state: StateLike) -> TaskState:
-        """Accept a :class:`TaskState` of this spec's sizes or its code."""
+        """Accept a [`TaskState`][tableclean_suite.task.state.TaskState] of this spec's sizes or its code."""
         if isinstance(state, TaskState):
             self._check_sizes(state)
             return state
@@ -171,13 +171,13 @@ class TaskModel:
     def all_states(self) -> list[TaskState]:
         """Every code's state, in code order (``n_states`` of them).
 
-        Raises :class:`~tableclean_suite.resources.ResourceError` for specs too large to list in Python.
+        Raises [`ResourceError`][tableclean_suite.resources.ResourceError] for specs too large to list in Python.
         """
         self._require_python_walk("listing every state")
         return [self.decode(code) for code in range(self.n_states)]
 
     def _require_python_walk(self, what: str) -> None:
-        """Refuse a per-state Python walk of a spec too large for it (:func:`~tableclean_suite.resources.require_python_steps`)."""
+        """Refuse a per-state Python walk of a spec too large for it ([`require_python_steps`][tableclean_suite.resources.require_python_steps])."""
         from tableclean_suite import resources
 
         resources.require_python_steps(self.n_states * self.n_actions,
@@ -194,7 +194,7 @@ class TaskModel:
 
     # -- actions -----------------------------------------------------------------------
     def action_index(self, action) -> int:
-        """Index of ``action`` (an index, a name, an :class:`Action` or an :class:`ActionRule`).
+        """Index of ``action`` (an index, a name, an [`Action`][tableclean_suite.task.actions.Action] or an [`ActionRule`][tableclean_suite.task.actions.ActionRule]).
 
         Raises ``ValueError`` naming the spec's actions.
         """
@@ -316,13 +316,13 @@ class TaskModel:
 
     @cached_property
     def _transition_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Built-in actions from every code at once (their rules, :mod:`.batch_rules`); user actions state by state.
+        """Built-in actions from every code at once (their rules, [`batch_rules`][tableclean_suite.task.batch_rules]); user actions state by state.
         The third array is the built-in rules' own outcomes, before the model's conventions (int8;
-        what :meth:`_apply` reports for them; 0 in user actions' columns).
+        what `_apply` reports for them; 0 in user actions' columns).
 
-        Raises :class:`~tableclean_suite.resources.ResourceError` before allocating when the arrays
+        Raises [`ResourceError`][tableclean_suite.resources.ResourceError] before allocating when the arrays
         would not fit in the available memory, or when user actions' Python effects would be
-        called more than :data:`~tableclean_suite.resources.MAX_USER_EFFECT_CALLS` times.
+        called more than `MAX_USER_EFFECT_CALLS` times.
         """
         from tableclean_suite import resources
         from tableclean_suite.task import batch_rules
@@ -354,7 +354,7 @@ class TaskModel:
         return next_state, outcome, raw_outcome
 
     def _transition_arrays_by_rules(self) -> tuple[np.ndarray, np.ndarray]:
-        """The same arrays stepped state by state through :meth:`step` (slow; the reference the
+        """The same arrays stepped state by state through [`step`][tableclean_suite.task.model.TaskModel.step] (slow; the reference the
         vectorised build is tested against)."""
         next_state = np.zeros((self.n_states, self.n_actions), dtype=np.int64)
         outcome = np.zeros((self.n_states, self.n_actions), dtype=np.int64)
@@ -382,7 +382,7 @@ class TaskModel:
         """States reachable from ``starts`` (default: every all-unclean layout), sorted by code.
 
         Terminal states are included but not expanded (the episode ends there).  Raises
-        :class:`~tableclean_suite.resources.ResourceError` for specs too large to search in Python.
+        [`ResourceError`][tableclean_suite.resources.ResourceError] for specs too large to search in Python.
         """
         self._require_python_walk("the reachable-state search")
         frontier = deque(self.as_state(s) for s in (starts if starts is not None else self.unclean_layouts()))
@@ -402,7 +402,7 @@ class TaskModel:
 
         Breadth-first over the model, trying actions in the spec's order, so among
         equally short plans the first in that order is returned.  Actions are
-        :class:`Action` members when the spec's actions are the paper's four, else indices.
+        [`Action`][tableclean_suite.task.actions.Action] members when the spec's actions are the paper's four, else indices.
         ``None`` if no terminal state is reachable.
         """
         start = self.as_state(state)
@@ -431,7 +431,7 @@ class TaskModel:
 
     def shortest_plan_lengths(self, states: Sequence[StateLike] | None = None) -> dict[int, int | None]:
         """Shortest plan length per state code (default: every reachable state), None where no
-        terminal state is reachable (from :meth:`distances_to_terminal`)."""
+        terminal state is reachable (from [`distances_to_terminal`][tableclean_suite.task.model.TaskModel.distances_to_terminal])."""
         states = self.reachable_states() if states is None else [self.as_state(s) for s in states]
         distance = self._distances
         return {encode(s): (int(distance[encode(s)]) if distance[encode(s)] >= 0 else None) for s in states}
@@ -439,7 +439,7 @@ class TaskModel:
     def distances_to_terminal(self) -> np.ndarray:
         """``(S,)`` int64: the length of a shortest plan from every state code to a terminal state
         (0 for terminal states, -1 where none is reachable), by a backward breadth-first search
-        over :meth:`transition_arrays` (O(S x A) per plan length)."""
+        over [`transition_arrays`][tableclean_suite.task.model.TaskModel.transition_arrays] (O(S x A) per plan length)."""
         return self._distances.copy()
 
     @cached_property

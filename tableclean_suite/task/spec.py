@@ -1,8 +1,8 @@
 """Task specifications: how many segments, which objects, which actions, how episodes start.
 
-A :class:`TaskSpec` is a frozen, validated, JSON-serialisable value.  Named specs live
-in a registry (:func:`get_task_spec`, :func:`register_task_spec`); ``paper`` is the
-default everywhere.  A spec can also be read from a JSON file (:func:`load_task_spec`)::
+A [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] is a frozen, validated, JSON-serialisable value.  Named specs live
+in a registry ([`get_task_spec`][tableclean_suite.task.spec.get_task_spec], [`register_task_spec`][tableclean_suite.task.spec.register_task_spec]); ``paper`` is the
+default everywhere.  A spec can also be read from a JSON file ([`load_task_spec`][tableclean_suite.task.spec.load_task_spec]):
 
     {"name": "my_task", "segments": 3, "objects": ["box", "cylinder"],
      "actions": ["move", "pick", "place", "clean"], "start": "fixed",
@@ -79,7 +79,7 @@ class TaskSpec:
         actions: registered action names in learner order (default the paper's four).
         start: ``"fixed"`` (episodes start in ``start_state``) or ``"uniform_unclean"``
             (uniform over every all-unclean layout with nothing held).
-        start_state: a non-terminal :class:`TaskState` for ``start="fixed"``; None means
+        start_state: a non-terminal [`TaskState`][tableclean_suite.task.state.TaskState] for ``start="fixed"``; None means
             the default (all unclean, objects and arm on segment 1).  Must be None with
             ``"uniform_unclean"``.
         ineffective: ``"ineffective"`` or ``"improper"`` (how a pick with nothing to
@@ -179,7 +179,7 @@ class TaskSpec:
 
     @classmethod
     def from_dict(cls, data: dict, source: str = "task spec") -> "TaskSpec":
-        """The spec of :meth:`to_dict`'s layout; ``ValueError`` names the bad field."""
+        """The spec of [`to_dict`][tableclean_suite.task.spec.TaskSpec.to_dict]'s layout; ``ValueError`` names the bad field."""
         if not isinstance(data, dict):
             raise ValueError(f"{source}: a task spec must be a JSON object, got {type(data).__name__}")
         data = dict(data)
@@ -225,7 +225,7 @@ def state_to_json(state: TaskState) -> dict:
 
 
 def state_from_json(data, segments: int, source: str) -> TaskState:
-    """Inverse of :func:`state_to_json`; ``ValueError`` names what is wrong."""
+    """Inverse of [`state_to_json`][tableclean_suite.task.spec.state_to_json]; ``ValueError`` names what is wrong."""
     if not isinstance(data, dict) or set(data) != {"clean", "objects", "arm"}:
         raise ValueError(f"{source}: expected {{'clean': [...], 'objects': [...], 'arm': k}}, got {data!r}")
 

@@ -1,6 +1,6 @@
 """Symbolic states of the table-cleaning task for any number of segments and objects.
 
-A :class:`TaskState` is a plain value: which segments are clean, where each object is
+A [`TaskState`][tableclean_suite.task.state.TaskState] is a plain value: which segments are clean, where each object is
 (a segment or the gripper), and which segment the arm is above.  It knows its own sizes
 (``len(clean)`` segments, ``len(objects)`` objects), so its integer code needs no spec.
 Indices are 0-based here; names and the user-facing API number segments and objects
@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: Location code of an object held in the gripper (:attr:`TaskState.objects`).
+#: Location code of an object held in the gripper (`TaskState.objects`).
 HELD = -1
 
 #: A segment is unclean (0) or clean (1): the radix of each clean flag in the state code.
@@ -61,7 +61,7 @@ class TaskState:
     Attributes:
         clean: ``(N,)`` bools, whether segment ``k`` (0-based) is clean; N >= 1.
         objects: ``(M,)`` ints, where object ``j`` is: a segment index in ``[0, N)``, or
-            :data:`HELD` (-1) in the gripper.  Several objects may lie on one segment.
+            `HELD` (-1) in the gripper.  Several objects may lie on one segment.
         arm: the segment index in ``[0, N)`` the arm is above.
 
     The task's rules allow at most one held object; a state holding two is a valid
@@ -133,7 +133,7 @@ class TaskState:
 
     @property
     def index(self) -> int:
-        """The state's integer code (see :func:`encode`)."""
+        """The state's integer code (see [`encode`][tableclean_suite.task.state.encode])."""
         return encode(self)
 
     @property
@@ -200,7 +200,7 @@ def encode(state: TaskState) -> int:
 
 
 def decode_code(code: int, n_segments: int, n_objects: int) -> TaskState:
-    """Inverse of :func:`encode` for N segments and M objects; ``ValueError`` outside the range."""
+    """Inverse of [`encode`][tableclean_suite.task.state.encode] for N segments and M objects; ``ValueError`` outside the range."""
     total = state_count(n_segments, n_objects)
     if not _is_int(code):
         raise TypeError(f"state code must be an int in [0, {total}), got {code!r}")

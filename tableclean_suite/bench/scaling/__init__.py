@@ -11,7 +11,7 @@ interval that includes the between-seed variance, the share of runs censored at 
 seed's own median, the success curve's window mean against the optimal policy's exact success
 and the share of runs that never reached the terminal state.
 
-The families (:mod:`.family`)
+The families (`family`)
     *Product*: every (N, M) of ``--segments`` x ``--objects`` (default 2-5 x 1-3: 12 specs, 20 to
     31 320 reachable states); the plan grows with the states (8 to 31 steps).  *Fixed plan*: 3
     segments, segments 1-2 unclean, object 1 on segment 1 and objects 2..M parked on the clean
@@ -22,7 +22,7 @@ The window
     ``base_window * (L / L0) ** window_exponent`` iterations (default 12 000 x (L / 8)^3) with
     episodes truncated after ``500 * L / L0`` (L: the optimal plan length from the spec's start).
 
-The response (:mod:`.statistics`)
+The response (`statistics`)
     Each run's learning time (``TrainingResult.learned_at``: the iteration from which its greedy
     policy follows a shortest plan from every start state through the window's end), censored at
     the window; the cell's Kaplan-Meier median over all its seeds' runs, its interval from
@@ -37,10 +37,10 @@ spec x gamma x learner x reward, ``_low``/``_high`` interval columns), ``scaling
 from the start; the censored share) and ``config.json`` (last).
 
 Modules
-    :mod:`.family` (specs, exact quantities, windows), :mod:`.study` (training in run chunks and
-    reduction to rows), :mod:`.statistics` (learning time, seeds-then-runs bootstrap, local slopes, censored fit, reward order),
-    :mod:`.report` (tables, CSV, figure, ``config.json``), :mod:`.pipeline` (the study from parsed
-    arguments), :mod:`.command` (the command line); ``python -m tableclean_suite.bench.scaling`` runs it.
+    `family` (specs, exact quantities, windows), `study` (training in run chunks and
+    reduction to rows), `statistics` (learning time, seeds-then-runs bootstrap, local slopes, censored fit, reward order),
+    `report` (tables, CSV, figure, ``config.json``), `pipeline` (the study from parsed
+    arguments), `command` (the command line); ``python -m tableclean_suite.bench.scaling`` runs it.
 """
 
 from tableclean_suite.bench.scaling.command import EXIT_USAGE, PROG, main

@@ -1,4 +1,4 @@
-"""``python -m tableclean_suite.bench.scaling``: run the scaling study (see :mod:`tableclean_suite.bench.scaling`)."""
+"""``python -m tableclean_suite.bench.scaling``: run the scaling study (see `tableclean_suite.bench.scaling`)."""
 
 import sys
 

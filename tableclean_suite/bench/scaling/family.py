@@ -1,17 +1,17 @@
 """The scaling study's families of task specs, their exact quantities and their training windows.
 
-**The product family**: the paper's task grown to N segments and M objects (:func:`family_spec`),
-the product of a list of N and a list of M (:func:`family_specs`; default N = 2..5 x M = 1..3,
+**The product family**: the paper's task grown to N segments and M objects (`family_spec`),
+the product of a list of N and a list of M (`family_specs`; default N = 2..5 x M = 1..3,
 12 specs from the paper's 20 reachable states to 31 320 at N = 5, M = 3).  Its plans grow with
 the states (8 to 31 steps), so it cannot separate the two.
 
-**The fixed-plan family** (:func:`fixed_plan_spec`): N = 3 segments, segments 1 and 2 unclean and
+**The fixed-plan family** (`fixed_plan_spec`): N = 3 segments, segments 1 and 2 unclean and
 segment 3 clean, object 1 and the arm on segment 1, and objects 2..M parked on the clean segment
 3.  The optimal plan is 8 steps for every M (the paper's length; the parked objects never need to
 move), while the reachable states grow from 40 (M = 1) to 5 410 (M = 5): the state count grows
-with the plan held fixed, the reduction the paper credits.  :func:`describe_spec` gives what the study needs of a
+with the plan held fixed, the reduction the paper credits.  `describe_spec` gives what the study needs of a
 spec (state codes, reachable states, optimal plan length, exact epsilon-greedy success of an
-optimal policy, window and episode truncation, in iterations); :func:`describe_family`
+optimal policy, window and episode truncation, in iterations); `describe_family`
 describes every spec and orders them by reachable states, the study's measure of size.
 """
 
@@ -51,7 +51,7 @@ class SpecInfo:
     """One spec of the family and what the study needs of it.
 
     Attributes:
-        family: :data:`PRODUCT_FAMILY` or :data:`FIXED_PLAN_FAMILY`.
+        family: `PRODUCT_FAMILY` or `FIXED_PLAN_FAMILY`.
         name: spec name (``scale_n{N}_m{M}``, ``paper`` for N = 2, M = 1; ``fixed_plan_m{M}``).
         segments, objects: N >= 2 and M >= 1.
         codes: state codes, ``2**N * (N + 1)**M * N``.
@@ -138,7 +138,7 @@ def optimal_policy(next_state: np.ndarray, distance: np.ndarray) -> np.ndarray:
 
     Args:
         next_state: ``(S, A)`` successor codes.
-        distance: ``(S,)`` distances of :func:`distances_to_terminal`.
+        distance: ``(S,)`` distances of [`distances_to_terminal`][tableclean_suite.bench.scaling.family.distances_to_terminal].
 
     Returns:
         ``(S,)`` int64 action indices.
@@ -189,7 +189,7 @@ def describe_spec(spec, paper_plan_length: int, base_window: int, exponent: floa
 
 def describe_family(specs, paper_plan_length: int, base_window: int, exponent: float,
                     family: str = PRODUCT_FAMILY) -> list:
-    """:func:`describe_spec` of every spec, as ``[(SpecInfo, TaskModel)]`` ordered by states reachable
+    """[`describe_spec`][tableclean_suite.bench.scaling.family.describe_spec] of every spec, as ``[(SpecInfo, TaskModel)]`` ordered by states reachable
     from the start (ties by N, then M), so "as the task grows" reads top to bottom."""
     described = [describe_spec(s, paper_plan_length, base_window, exponent, family) for s in specs]
     return sorted(described, key=lambda pair: (pair[0].reachable_from_start, pair[0].segments, pair[0].objects))

@@ -1,6 +1,6 @@
 """The scaling study from parsed arguments to files: describe the families, train every cell, report.
 
-:func:`run_study` takes the namespace :mod:`.command` parses (``learners, rewards, segments,
+`run_study` takes the namespace `command` parses (``learners, rewards, segments,
 objects, fixed_plan_objects, gammas, seeds, runs, base_window, window_exponent, resamples, seed,
 out``).
 """
@@ -42,7 +42,7 @@ def _cells(rows: list[dict], learner: str, reward: str, gamma: float, family: st
 
 
 def growth_fits(rows: list[dict], learner: str, rewards, gammas, family: str = PRODUCT_FAMILY) -> dict:
-    """``{gamma text: {reward: fit}}``: :func:`.statistics.fit_censored_power_law` of ``learner``'s
+    """``{gamma text: {reward: fit}}``: [`statistics.fit_censored_power_law`][tableclean_suite.bench.scaling.statistics.fit_censored_power_law] of ``learner``'s
     median learning time against states reachable from the start, over ``family``'s specs
     (censored cells enter at their window; each point weighted by its own interval; no exponent
     when more than half the cells are censored), plus the fit's ``intercept`` (log units) for the
@@ -74,9 +74,9 @@ def chain_of(row: dict) -> str:
 
 
 def slope_table(rows: list[dict], replicates: dict, learner: str, rewards, gammas, family: str) -> dict:
-    """``{gamma text: {reward: [slope dicts]}}``: :func:`.statistics.local_slopes` of ``learner``'s
+    """``{gamma text: {reward: [slope dicts]}}``: [`statistics.local_slopes`][tableclean_suite.bench.scaling.statistics.local_slopes] of ``learner``'s
     median learning time between consecutive sizes along each chain of ``family``
-    (:func:`chain_of`: one factor grows at a time), each slope dict with its ``chain``."""
+    ([`chain_of`][tableclean_suite.bench.scaling.pipeline.chain_of]: one factor grows at a time), each slope dict with its ``chain``."""
     table = {}
     for gamma in gammas:
         table[f"{gamma:g}"] = {}
@@ -143,9 +143,9 @@ def method_constants(args) -> dict:
 def run_study(args) -> int:
     """Describe the specs, train every cell, print and write everything; returns 0.
 
-    Holds ``--out``'s lock while it runs (:func:`~tableclean_suite.bench.outputs.output_lock`, as
+    Holds ``--out``'s lock while it runs ([`output_lock`][tableclean_suite.bench.outputs.output_lock], as
     ``run`` does): a second study into the same folder raises
-    :class:`~tableclean_suite.bench.outputs.OutputBusyError` (the command line: one line, exit 2)
+    [`OutputBusyError`][tableclean_suite.bench.outputs.OutputBusyError] (the command line: one line, exit 2)
     instead of interleaving its files with this one's.
     """
     from tableclean_suite.bench import outputs
@@ -155,7 +155,7 @@ def run_study(args) -> int:
 
 
 def _study(args, out: Path) -> int:
-    """:func:`run_study`'s work, into the locked folder ``out``."""
+    """[`run_study`][tableclean_suite.bench.scaling.pipeline.run_study]'s work, into the locked folder ``out``."""
     started = time.perf_counter()
     paper_plan_length = paper_plan_steps()
     described = describe_family(family_specs(args.segments, args.objects), paper_plan_length, args.base_window,

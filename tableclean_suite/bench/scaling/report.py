@@ -37,7 +37,7 @@ def json_safe(value):
 
 
 def write_atomic_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (:func:`.outputs.atomic_write_text`)."""
+    """Write ``text`` to ``path`` atomically ([`outputs.atomic_write_text`][tableclean_suite.bench.outputs.atomic_write_text])."""
     atomic_write_text(path, text)
 
 
@@ -181,8 +181,8 @@ def print_cells(rows: list[dict]) -> None:
 
 
 def ordering_report(replicates: dict, infos: list[SpecInfo], learner: str, rewards, gamma: float) -> dict:
-    """Per spec, :func:`.statistics.order_verdict` of ``learner``'s median learning times at ``gamma``
-    against :data:`PAPER_ORDER` (``replicates``: ``{(spec, gamma, learner, reward): (B,) medians}``).
+    """Per spec, [`statistics.order_verdict`][tableclean_suite.bench.scaling.statistics.order_verdict] of ``learner``'s median learning times at ``gamma``
+    against `PAPER_ORDER` (``replicates``: ``{(spec, gamma, learner, reward): (B,) medians}``).
 
     Returns ``{spec name: "holds" / "fails" / "tie" / None}`` (None: a pattern missing).
     """

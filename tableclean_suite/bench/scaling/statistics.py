@@ -5,26 +5,26 @@ local slopes, the censored growth fit and the reward-pattern order.
 ([train][tableclean_suite.learners.train]): the iteration (environment steps, 1-based) from which
 the run's greedy policy follows a shortest plan to the terminal state from every start state and
 keeps doing so after every later update through the budget T; 0 when it did from the start; -1
-when it does not at the end (the run is **censored at T**).  :func:`learning_times` turns those
+when it does not at the end (the run is **censored at T**).  `learning_times` turns those
 codes into times with censored runs at +infinity.
 
 **Kaplan-Meier** summaries (median, restricted mean, censored share) come from
 [learning_time_summary][tableclean_suite.learning_time.learning_time_summary].  Every run of a
 cell shares the budget T, so all censoring happens after the last event: the Kaplan-Meier curve
 equals the empirical distribution below T and its median is the sample's lower median with
-censored runs at +infinity (:func:`lower_median`); the bootstrap uses that identity to stay
+censored runs at +infinity (`lower_median`); the bootstrap uses that identity to stay
 vectorised.
 
-**Seeds then runs** (:func:`seeds_then_runs`): a cell is trained with S seeds of R runs each;
+**Seeds then runs** (`seeds_then_runs`): a cell is trained with S seeds of R runs each;
 a resample draws S seeds with replacement and then R runs with replacement within each drawn seed,
 and takes the pooled median.  The percentile interval of those resamples carries the between-seed
 variance as well as the within-seed one.
 
-**Local slopes** (:func:`local_slopes`): d log(time) / d log(states) between consecutive sizes of a
+**Local slopes** (`local_slopes`): d log(time) / d log(states) between consecutive sizes of a
 family, with the percentile interval of the same resamples (cells are trained independently, so
 their resamples are paired at random); NaN where either median is censored.
 
-**Growth exponents** (:func:`fit_censored_power_law`): log(time) = a + k log(states) + e, fitted by
+**Growth exponents** (`fit_censored_power_law`): log(time) = a + k log(states) + e, fitted by
 maximum likelihood with e normal of variance sigma^2 + s_i^2 (s_i each point's standard error on
 the log scale, from its interval); a censored cell contributes P(log time > log budget), a Tobit
 (right-censored) term.  The 95 % interval of k is the profile-likelihood interval.
@@ -66,13 +66,13 @@ def lower_median(times: np.ndarray, axis: int = -1) -> np.ndarray:
 def seeds_then_runs(seeds: int, runs: int, resamples: int, rng: np.random.Generator):
     """Index arrays of ``resamples`` seeds-then-runs resamples of an ``(S, R)`` array: ``(B, S, 1)``
     seeds drawn with replacement and ``(B, S, R)`` runs drawn with replacement within each drawn
-    seed; :func:`pooled_resamples` applies them."""
+    seed; [`pooled_resamples`][tableclean_suite.bench.scaling.statistics.pooled_resamples] applies them."""
     chosen = rng.integers(0, seeds, size=(resamples, seeds))
     return chosen[:, :, None], rng.integers(0, runs, size=(resamples, seeds, runs))
 
 
 def pooled_resamples(values: np.ndarray, index) -> np.ndarray:
-    """``(B, S * R)``: ``values`` (``(S, R)``) resampled by :func:`seeds_then_runs`' ``index``, seeds pooled."""
+    """``(B, S * R)``: ``values`` (``(S, R)``) resampled by [`seeds_then_runs`][tableclean_suite.bench.scaling.statistics.seeds_then_runs]' ``index``, seeds pooled."""
     resampled = np.asarray(values)[index]
     return resampled.reshape(resampled.shape[0], -1)
 
@@ -93,7 +93,7 @@ def local_slopes(sizes, medians, replicates, confidence: float = CONFIDENCE) -> 
     Args:
         sizes: ``(K,)`` increasing sizes (> 0), e.g. states reachable from the start.
         medians: ``(K,)`` median times (+inf = censored).
-        replicates: ``(K, B)`` bootstrap medians of each cell (resamples of :func:`seeds_then_runs`).
+        replicates: ``(K, B)`` bootstrap medians of each cell (resamples of [`seeds_then_runs`][tableclean_suite.bench.scaling.statistics.seeds_then_runs]).
 
     Returns:
         ``K - 1`` dicts ``{"from", "to", "slope", "low", "high"}``; NaN slope where either median is
@@ -202,15 +202,15 @@ def fit_censored_power_law(x, y, censored, se, confidence: float = CONFIDENCE) -
         x: sizes (> 0), e.g. reachable states.
         y: times (> 0); for a censored point, the censoring bound (the budget).
         censored: bool per point, True where the true value exceeds ``y``.
-        se: each reached point's standard error of log y (:func:`log_standard_error`; NaN = 0).
+        se: each reached point's standard error of log y ([`log_standard_error`][tableclean_suite.bench.scaling.statistics.log_standard_error]; NaN = 0).
         confidence: level of the exponent's profile-likelihood interval.
 
     Returns:
         ``{"exponent", "low", "high", "points", "censored", "sigma"}``: the fitted k, its interval
         (NaN when it cannot be bracketed, or with fewer than 3 points), the points used (reached
         and censored), how many were censored and the fitted residual standard deviation (log
-        units).  Exponent NaN with fewer than :data:`MIN_FIT_POINTS` reached points or when more
-        than :data:`MAX_CENSORED_SHARE_FOR_FIT` of the points are censored.
+        units).  Exponent NaN with fewer than `MIN_FIT_POINTS` reached points or when more
+        than `MAX_CENSORED_SHARE_FOR_FIT` of the points are censored.
     """
     from scipy import optimize, stats
 

@@ -4,7 +4,7 @@ A cell is one spec x gamma x learner x reward pattern, trained with S seeds of R
 spec's window.  The full ``(R, T)`` records of a large spec do not fit in memory at once, so runs
 are trained in chunks of at most ``CHUNK_BYTES`` of records; each chunk keeps each run's learning
 time (``TrainingResult.learned_at``), its success over the window's last quarter and whether it
-ever reached the terminal state, and is dropped.  :func:`cell_row` turns a trained cell into its
+ever reached the terminal state, and is dropped.  `cell_row` turns a trained cell into its
 ``scaling.csv`` row and the bootstrap medians its intervals and slopes come from.
 """
 
@@ -127,7 +127,7 @@ def cell_row(info: SpecInfo, learner: str, reward: str, gamma: float, records: C
     The point figures pool every seed's runs (the Kaplan-Meier median, restricted mean and censored
     share of [learning_time_summary][tableclean_suite.learning_time.learning_time_summary]); every
     interval is
-    the percentile interval of seeds-then-runs resamples (:func:`~tableclean_suite.bench.scaling.statistics.seeds_then_runs`), one set of
+    the percentile interval of seeds-then-runs resamples ([`seeds_then_runs`][tableclean_suite.bench.scaling.statistics.seeds_then_runs]), one set of
     draws per cell shared by its figures.  ``seed_medians`` lists each seed's own median.
     """
     from tableclean_suite.learning_time import learning_time_summary
