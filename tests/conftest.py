@@ -67,6 +67,9 @@ HEAVY_TESTS: dict[str, tuple[str, ...]] = {
         "test_learners.py::test_compiled_records_have_the_same_bits_for_any_thread_count[user_learner]",
         "test_learners_extra.py::test_a_user_target_with_the_trace_rule_gets_the_same_numbers",
         "test_learners_spec.py::test_user_learner_gets_its_own_compiled_loop_with_the_same_numbers",
+        # the compiled control loop and the operational-space kernels: no other quick test compiles them
+        # (a minute or more of a cold start)
+        "test_fast_control.py",
     ),
 }
 
