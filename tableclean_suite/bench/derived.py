@@ -182,9 +182,10 @@ def derived_key(cells: list[dict], confidence: float, samples: int, seed: int, c
 
 @dataclass(frozen=True)
 class Derived:
-    """A run's derived results: the comparisons DataFrame, the figures, and where they came from."""
+    """A run's derived results: the comparisons, the figures, and where they came from (``seconds``:
+    the time taken to load or compute them)."""
 
-    comparisons: object
+    comparisons: "pandas.DataFrame"
     figures: list[Figure]
     cached: bool
     path: Path
@@ -257,14 +258,14 @@ def start(root, cells: list[dict], confidence: float, samples: int, seed: int, c
     key = derived_key(cells, confidence, samples, seed, curves, table3, plateau_fraction, dpi)
     path = Path(root) / f"derived-{hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]}.zip"
 
-    def derived(rows, pngs, cached):
+    def results(rows, pngs, cached):
         comparisons = pd.DataFrame(rows, columns=statistics.COMPARISON_COLUMNS)
         figures = [Figure(name, png) for name, png in pngs.items()]
         return Derived(comparisons, figures, cached, path, time.perf_counter() - started)
 
     stored = _load(path, key) if read else None
     if stored is not None:
-        return PendingDerived(lambda: derived(*stored, True))
+        return PendingDerived(lambda: results(*stored, True))
     rows = json.loads(json.dumps(statistics.comparison_rows(cells, confidence, samples, seed), allow_nan=True))
     drawing = (start_figures(curves, plateau_fraction, table3, dpi, processes=FIGURE_PROCESSES)
                if curves is not None else None)
@@ -272,6 +273,6 @@ def start(root, cells: list[dict], confidence: float, samples: int, seed: int, c
     def finish():
         pngs = {figure.name: figure.png for figure in drawing.result()} if drawing is not None else {}
         _store(path, key, rows, pngs)
-        return derived(rows, pngs, False)
+        return results(rows, pngs, False)
 
     return PendingDerived(finish)
