@@ -394,3 +394,25 @@ def test_table4_adds_the_literature_cells_run_here():
     assert shown.iloc[1]["success % [CI]"] == "100.00 [99.00, 100.00]" and shown.iloc[1]["source"] == "run here"
     assert max(map(len, shown.to_string(index=False).splitlines())) <= tables.PRINT_WIDTH
     assert (shown["source"].iloc[3:] == "quoted").all()
+
+
+def test_a_simulated_cell_trains_with_its_monte_carlo_error_and_its_row_names_the_kind():
+    cell = experiments.Cell("q_learning", "r4", 0.3, 0.3)
+    simulated_config = _config(runs=6, iterations=300, analysis="simulated", analysis_episodes=50)
+    exact_config = _config(runs=6, iterations=300)
+    plans = {cell: experiments.cell_plan(cell, simulated_config, PAPER_MODEL)}
+    summary, stats, _, _ = experiments.train_cell(cell, simulated_config, PAPER_MODEL, plan=plans[cell])
+    exact_summary, exact_stats, _, _ = experiments.train_cell(cell, exact_config, PAPER_MODEL)
+    np.testing.assert_array_equal(summary.success, exact_summary.success)  # the same training
+    assert abs(summary.success_plateau - exact_summary.success_plateau) < 0.1  # 50 episodes per run: an estimate
+    assert summary.success_plateau != exact_summary.success_plateau
+    low, high = stats.intervals["success_plateau"]
+    assert low < summary.success_plateau < high
+    grid = [experiments.Membership("main", cell)]
+    records, _ = experiments.cell_records(grid, {cell: summary}, {cell: stats}, plans=plans)
+    table = tables.table3(records)
+    assert table["asymptotes"].tolist() == ["simulated (50 episodes per run)"]
+    assert tables.plateaus_kind(table).startswith("simulated (50 episodes per run;")
+    exact_records, _ = experiments.cell_records(grid, {cell: exact_summary}, {cell: exact_stats},
+                                                plans={cell: experiments.cell_plan(cell, exact_config, PAPER_MODEL)})
+    assert "asymptotes" not in tables.table3(exact_records).columns
