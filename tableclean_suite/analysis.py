@@ -10,14 +10,14 @@ evaluated is the exploration's *final* action distribution: the one that would p
 action at iteration ``iteration`` (pass the training's ``iterations``, the step after the
 last one) from the final Q-tables, i.e. epsilon (or the temperature) of that iteration,
 per-state epsilon from the visits counted over the whole training (``visit_decay``), or
-the softmax of the final Q-table.  :func:`final_behaviour` reads these from a training result.
+the softmax of the final Q-table.  [`final_behaviour`][tableclean_suite.analysis.final_behaviour] reads these from a training result.
 
-Cruz et al.'s assisted learners (:mod:`tableclean_suite.learners.assist`) change that final
-distribution, and :func:`final_probabilities` accounts for them: with affordances the greedy
+Cruz et al.'s assisted learners ([`tableclean_suite.learners.assist`][tableclean_suite.learners.assist]) change that final
+distribution, and [`final_probabilities`][tableclean_suite.analysis.final_probabilities] accounts for them: with affordances the greedy
 action and the exploration are restricted to the afforded actions (the model's, or for learned
 affordances each run's improper pairs observed over the whole training), and with an advisor
 the policy is ``L * advisor + (1 - L) * learner``, the advisor's own part being
-``C * its action + (1 - C) * uniform``.  :func:`final_asymptotes` gives the exact asymptotes of
+``C * its action + (1 - C) * uniform``.  [`final_asymptotes`][tableclean_suite.analysis.final_asymptotes] gives the exact asymptotes of
 that final behaviour (the plateaus the harness reports).
 
 **Exact or simulated.**  The exact DP visits every (state, previous state) pair of the task at
@@ -77,11 +77,11 @@ def _parameter_array(exploration, epsilon: float, iteration: int, visits) -> np.
 
 
 def final_behaviour(result) -> dict:
-    """The keyword arguments of :func:`exact_success_probability` that describe ``result``'s final
+    """The keyword arguments of [`exact_success_probability`][tableclean_suite.analysis.exact_success_probability] that describe ``result``'s final
     behaviour policy: ``exploration``, ``q`` (final Q-tables), ``iteration`` (= its iterations)
     and ``visits`` (per run and state, over the whole training).
 
-    ``result`` is a :class:`~tableclean_suite.learners.TrainingResult`; pass ``epsilon`` and
+    ``result`` is a [`TrainingResult`][tableclean_suite.learners.train.TrainingResult]; pass ``epsilon`` and
     ``max_itr`` from its ``config`` alongside.
     """
     settings = result.config.get("learner_settings", {})
@@ -94,7 +94,7 @@ def final_behaviour(result) -> dict:
 
 
 def behaviour_probabilities(policy, epsilon, n_actions, exploration=None, q=None, iteration=None, visits=None):
-    """The action distribution ``(R, S, A)`` evaluated by :func:`exact_success_probability` (see there)."""
+    """The action distribution ``(R, S, A)`` evaluated by [`exact_success_probability`][tableclean_suite.analysis.exact_success_probability] (see there)."""
     exploration = as_exploration(exploration)
     if q is not None:
         q = np.asarray(q, dtype=np.float64)
@@ -144,7 +144,7 @@ def exact_success_probability(
         model: the task model (rules and start states); default ``TaskModel()``.
         table: transitions to use instead of the model's (e.g. calibrated).
         starts: start states (default the model's), weighted uniformly.
-        exploration: the behaviour policy (name, :class:`~tableclean_suite.learners.exploration.Exploration`
+        exploration: the behaviour policy (name, [`Exploration`][tableclean_suite.learners.exploration.Exploration]
             or mapping; default constant epsilon-greedy).  Others are evaluated at their final
             distribution (module docstring): schedules at ``iteration``, ``visit_decay`` with
             ``visits``, ``softmax`` on ``q``.
@@ -282,10 +282,10 @@ def advised_probabilities(probabilities: np.ndarray, advisor: np.ndarray, advice
 def final_probabilities(result, model: TaskModel | None = None, masks: np.ndarray | None = None) -> np.ndarray:
     """The final behaviour policy of every run of a training ``result``: ``(R, S, A)`` probabilities.
 
-    Exploration at the end of training (:func:`final_behaviour`), restricted to the afforded
+    Exploration at the end of training ([`final_behaviour`][tableclean_suite.analysis.final_behaviour]), restricted to the afforded
     actions for affordance learners and mixed with the advisor for advised ones (module
     docstring).  ``model``: the task model trained on (default ``TaskModel()``); ``masks``: its
-    :func:`affordance_masks` when the caller has them already (None: computed here).
+    [`affordance_masks`][tableclean_suite.analysis.affordance_masks] when the caller has them already (None: computed here).
     """
     model = model if model is not None else TaskModel()
     assist = _assist_options(result.config.get("learner_settings", {}))
@@ -323,13 +323,13 @@ def _assist_options(settings: dict) -> dict:
 
 def final_asymptotes(result, chain, max_itr: int, model: TaskModel | None = None,
                      masks: np.ndarray | None = None):
-    """Exact :class:`~tableclean_suite.asymptotes.Asymptotes` (one per run) of ``result``'s final
-    behaviour (:func:`final_probabilities`) over ``chain`` (:meth:`EpisodeChain.build`), or their
+    """Exact [`Asymptotes`][tableclean_suite.asymptotes.Asymptotes] (one per run) of ``result``'s final
+    behaviour ([`final_probabilities`][tableclean_suite.analysis.final_probabilities]) over ``chain`` (`EpisodeChain.build`), or their
     Monte Carlo estimates (``error`` set) over a [StepTable][tableclean_suite.simulation.StepTable].
 
     For the paper's constant epsilon-greedy without assistance this is
-    :func:`~tableclean_suite.asymptotes.greedy_asymptotes` itself (same numbers as before).
-    ``masks``: :func:`affordance_masks` when the caller has them already.
+    [`greedy_asymptotes`][tableclean_suite.asymptotes.greedy_asymptotes] itself (same numbers as before).
+    ``masks``: [`affordance_masks`][tableclean_suite.analysis.affordance_masks] when the caller has them already.
     """
     settings = result.config.get("learner_settings", {})
     plain = (as_exploration(settings.get("exploration")).name == EpsilonGreedy.name
@@ -358,7 +358,7 @@ def final_greedy_success(result, chain, max_itr: int, model: TaskModel | None = 
 
     The learner's own greedy action on its final Q-table, restricted to the afforded actions for
     affordance learners; an advisor's advice is left out (it is not the learner's policy).
-    ``masks``: :func:`affordance_masks` when the caller has them already.
+    ``masks``: [`affordance_masks`][tableclean_suite.analysis.affordance_masks] when the caller has them already.
     """
     return np.atleast_1d(_greedy_statistics(result, chain, max_itr, model, masks).success)
 
@@ -396,15 +396,15 @@ ERROR_SUFFIX = "_error"
 
 
 def final_run_facts(result, chain, max_itr: int, model: TaskModel | None = None) -> dict[str, np.ndarray]:
-    """Per run of ``result``, every quantity behind :class:`~tableclean_suite.metrics.Plateaus`
+    """Per run of ``result``, every quantity behind [`Plateaus`][tableclean_suite.metrics.Plateaus]
     (``metrics.PLATEAU_NAMES``), each ``(R,)``: the asymptotes of the final behaviour
-    (:func:`final_asymptotes`), the final greedy policy's success (:func:`final_greedy_success`)
-    and whether the run never reached the terminal state (:func:`never_terminal`).
+    ([`final_asymptotes`][tableclean_suite.analysis.final_asymptotes]), the final greedy policy's success ([`final_greedy_success`][tableclean_suite.analysis.final_greedy_success])
+    and whether the run never reached the terminal state ([`never_terminal`][tableclean_suite.analysis.never_terminal]).
 
     With ``chain`` an [EpisodeChain][tableclean_suite.asymptotes.EpisodeChain] the asymptotes are
     exact; with a [StepTable][tableclean_suite.simulation.StepTable]
     (see [analysis_chain][tableclean_suite.analysis.analysis_chain])
-    they are simulated, and each of [ESTIMATED_FACTS][tableclean_suite.analysis.ESTIMATED_FACTS]
+    they are simulated, and each of `ESTIMATED_FACTS`
     comes with its per-run Monte Carlo standard error under ``<name>_error`` (``(R,)``; combine
     them with [monte_carlo_error][tableclean_suite.analysis.monte_carlo_error])."""
     model = model if model is not None else TaskModel()
@@ -484,15 +484,15 @@ def analysis_plan(model, reward, runs: int, max_itr: int, training_seconds: floa
     """Choose and cost a cell's analysis before training.
 
     Args:
-        model: the [TaskModel][tableclean_suite.task.TaskModel] (its S and A; nothing is built).
+        model: the `TaskModel` (its S and A; nothing is built).
         reward: the cell's reward pattern or its name (the paper's looping penalty makes the exact
             DP's states pairs of states).
         runs: the cell's runs; ``runs_per_call``: runs analysed together (a training chunk's).
         max_itr: episode length limit.
         training_seconds: the cell's training estimate ([tableclean_suite.resources.training_seconds][]).
         analysis: ``"exact"``, ``"simulated"`` or ``"auto"``: exact unless its estimate exceeds both
-            [EXACT_COST_FACTOR][tableclean_suite.analysis.EXACT_COST_FACTOR] times the training's and
-            [EXACT_AFFORDABLE_SECONDS][tableclean_suite.analysis.EXACT_AFFORDABLE_SECONDS].
+            `EXACT_COST_FACTOR` times the training's and
+            `EXACT_AFFORDABLE_SECONDS`.
         episodes: simulated episodes per run and policy (>= 2).
         checkpoint: the settling checkpoint's policies are analysed too (a third analysis per run,
             beside the final behaviour and the final greedy policy).
@@ -559,7 +559,7 @@ def monte_carlo_error(errors) -> float:
     return float(np.sqrt(np.sum(errors * errors)) / errors.size)
 
 
-#: The range of each of [ESTIMATED_FACTS][tableclean_suite.analysis.ESTIMATED_FACTS] (probabilities
+#: The range of each of `ESTIMATED_FACTS` (probabilities
 #: in [0, 1]; the average reward unbounded): a widened interval is clipped to it.
 FACT_LIMITS = {"success": (0.0, 1.0), "terminal": (0.0, 1.0), "greedy_success": (0.0, 1.0),
                "average_reward": (-math.inf, math.inf)}
@@ -570,7 +570,7 @@ def with_monte_carlo_error(point: float, low: float, high: float, error: float, 
     """An interval ``(low, high)`` around ``point`` (e.g. a bootstrap over runs) widened by a Monte
     Carlo standard ``error``: each side's half-width and ``z x error`` (z the normal quantile of
     ``confidence``) added in quadrature, ``point -+ sqrt(half ** 2 + (z x error) ** 2)``, clipped to
-    the quantity's ``limits`` (e.g. [FACT_LIMITS][tableclean_suite.analysis.FACT_LIMITS]).
+    the quantity's ``limits`` (e.g. `FACT_LIMITS`).
 
     The bootstrap over runs already resamples the simulated values with their noise, so this
     counts the simulation's error twice where the target is the mean over runs' policies: it errs
@@ -608,7 +608,7 @@ def fixed_point_q(chain, gamma: float, epsilon: float | None = None) -> np.ndarr
     """Exact action values over the chain's (state, previous state) pairs, ``(n_pairs, A)``.
 
     Args:
-        chain: :meth:`tableclean_suite.asymptotes.EpisodeChain.build` of the task, table and reward
+        chain: [`tableclean_suite.asymptotes.EpisodeChain.build`][tableclean_suite.asymptotes.EpisodeChain.build] of the task, table and reward
             (r4's looping penalty makes the pair the Markov state; for the other patterns a pair is
             a state).  A longer looping memory (NaN rewards) is refused.
         gamma: discount in [0, 1).

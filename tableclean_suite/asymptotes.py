@@ -16,7 +16,7 @@ state or ``max_itr`` steps, as ``train()`` runs it):
   reward pattern applied exactly as the training loop does, r4's looping penalty included;
 - ``length``: E[length], iterations in [1, max_itr].
 
-These are the limits of the metrics' curves (:mod:`tableclean_suite.metrics`): the curves
+These are the limits of the metrics' curves ([`tableclean_suite.metrics`][tableclean_suite.metrics]): the curves
 average, over runs, the run's *latest finished* episode, and in a renewal process the latest
 finished episode (unlike the one in progress) is not length-biased, so it is distributed as
 any episode of the final policy.
@@ -37,7 +37,7 @@ carry: the chain then has NaN rewards, so ``average_reward`` is NaN (unknown, no
 **The DP** is a forward pass over episode steps l = 1 .. max_itr carrying, per (pair, clean
 flag), the probability of being there still in the episode and the expected return so far on
 that event; an episode ending at step l adds ``return / l`` to E[return / length].  The pass
-stops when the mass still in the episode is below :data:`MASS_TOLERANCE` (so values are exact
+stops when the mass still in the episode is below `MASS_TOLERANCE` (so values are exact
 to about that times the largest |reward|).
 
 **Its cost** grows with ``max_itr`` x pairs x actions per analysis
@@ -66,13 +66,13 @@ from tableclean_suite.task import Outcome
 MASS_TOLERANCE = 1e-12
 #: Seconds per (DP step, pair, action, successor, clean flag) visit of the forward pass, whatever the
 #: number of policies, and per policy on top of it (a fast machine's; measured about 4.5e-8 and
-#: 1.1e-8 on a 2-core machine shared by about five busy processes): :func:`exact_seconds`.
+#: 1.1e-8 on a 2-core machine shared by about five busy processes): [`exact_seconds`][tableclean_suite.asymptotes.exact_seconds].
 PAIR_VISIT_SECONDS = 1e-8
 POLICY_VISIT_SECONDS = 2.5e-9
 #: Bytes per (state, action, successor) entry of the exact analysis at its peak (the chain's
 #: arrays and the DP's masses; measured about 270 on a 10-segment, 2-object task).
 EXACT_BYTES_PER_ENTRY = 256
-#: Table entries (state x action x successor) per second of building an :class:`EpisodeChain`
+#: Table entries (state x action x successor) per second of building an [`EpisodeChain`][tableclean_suite.asymptotes.EpisodeChain]
 #: (measured 1.3e6 to 3.8e6 on that machine: a sort of the successors' codes).
 CHAIN_ENTRIES_PER_SECOND = 3_000_000
 #: s_{t-1} at an episode's first step.
@@ -117,7 +117,7 @@ class EpisodeChain:
         pair_state: ``(n_pairs,)`` int64, s of each pair.
         next_pair: ``(S, A, K)`` int64, the pair after (s, a, successor k) (-1 for terminal ones).
         probability: ``(S, A, K)`` float64 successor probabilities.
-        outcome: ``(S, A, K)`` int64 :class:`Outcome` codes.
+        outcome: ``(S, A, K)`` int64 [`Outcome`][tableclean_suite.task.state.Outcome] codes.
         reward: ``(n_pairs, A, K)`` float64 reward of each step from each pair.
         start_pairs: ``(n_starts,)`` int64 pairs an episode starts in (uniform).
     """
@@ -131,7 +131,7 @@ class EpisodeChain:
 
     @classmethod
     def build(cls, model, reward, table: TransitionTable | None = None) -> "EpisodeChain":
-        """The chain of ``model`` (a :class:`~tableclean_suite.task.TaskModel`) under ``reward``
+        """The chain of ``model`` (a [`TaskModel`][tableclean_suite.task.model.TaskModel]) under ``reward``
         (a pattern or its registered name), stepping ``table`` (default: the model's own)."""
         pattern = get_reward_pattern(reward) if isinstance(reward, str) else reward
         table = table if table is not None else TransitionTable.from_model(model)
@@ -285,16 +285,16 @@ def _policies_of(probabilities, chain: EpisodeChain) -> np.ndarray:
 
 def episode_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: int,
                        tolerance: float = MASS_TOLERANCE) -> Asymptotes:
-    """:class:`Asymptotes` of behaviour policies given as action probabilities.
+    """[`Asymptotes`][tableclean_suite.asymptotes.Asymptotes] of behaviour policies given as action probabilities.
 
     Args:
         probabilities: ``(P, S, A)`` (or ``(S, A)``) probabilities of each action in each state.
-        chain: :meth:`EpisodeChain.build` of the task, table and reward pattern.
+        chain: [`EpisodeChain.build`][tableclean_suite.asymptotes.EpisodeChain.build] of the task, table and reward pattern.
         max_itr: episode length limit, an integer >= 1 (``train(max_itr=...)``).
         tolerance: probability mass left inside the episode at which the pass stops, in [0, 1).
 
     Returns:
-        :class:`Asymptotes` with arrays of shape ``(P,)`` (``()`` for a single ``(S, A)`` policy).
+        [`Asymptotes`][tableclean_suite.asymptotes.Asymptotes] with arrays of shape ``(P,)`` (``()`` for a single ``(S, A)`` policy).
     """
     if int(max_itr) != max_itr or max_itr < 1:
         raise ValueError(f"max_itr must be an integer >= 1, got {max_itr!r}")
@@ -312,18 +312,18 @@ def episode_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: 
 
 
 def greedy_asymptotes(q: np.ndarray, epsilon: float, chain: EpisodeChain, max_itr: int) -> Asymptotes:
-    """:class:`Asymptotes` of epsilon-greedy behaviour on final Q-tables, one per run.
+    """[`Asymptotes`][tableclean_suite.asymptotes.Asymptotes] of epsilon-greedy behaviour on final Q-tables, one per run.
 
     Args:
         q: ``(R, S, A)`` final Q-tables (``TrainingResult.q``); greedy ties go to the first action,
             as in training.
         epsilon: exploration rate in [0, 1] of the final behaviour (random actions uniform).
-        chain: the task's :class:`EpisodeChain`.
+        chain: the task's [`EpisodeChain`][tableclean_suite.asymptotes.EpisodeChain].
         max_itr: episode length limit (>= 1).
 
     Returns:
-        :class:`Asymptotes` with arrays of shape ``(R,)``.  Runs sharing a greedy policy share the
-        computation (trained runs mostly converge to a few policies; :func:`policy_statistics`).
+        [`Asymptotes`][tableclean_suite.asymptotes.Asymptotes] with arrays of shape ``(R,)``.  Runs sharing a greedy policy share the
+        computation (trained runs mostly converge to a few policies; [`policy_statistics`][tableclean_suite.asymptotes.policy_statistics]).
     """
     policies = greedy_policy(np.asarray(q))
     visited = np.zeros(policies.shape[-1], dtype=bool)
@@ -381,7 +381,7 @@ def _reached_pairs(probabilities, pair_state, next_pair, probability, start_pair
 
 def reached_states(probabilities: np.ndarray, chain: EpisodeChain) -> np.ndarray:
     """``(P, S)`` bool: the states an episode can be in under each of the policies ``(P, S, A)``
-    (:func:`_reached_pairs`; a state is reached when one of its pairs is).  Elsewhere the DP's
+    (`_reached_pairs`; a state is reached when one of its pairs is).  Elsewhere the DP's
     mass and expected return stay exactly 0 whatever the policy does there."""
     probabilities = np.ascontiguousarray(_policies_of(probabilities, chain))
     reached = np.zeros((probabilities.shape[0], chain.pair_state.shape[0]), dtype=bool)
@@ -393,7 +393,7 @@ def reached_states(probabilities: np.ndarray, chain: EpisodeChain) -> np.ndarray
 
 
 def _kept_states(probabilities: np.ndarray, chain: EpisodeChain) -> np.ndarray:
-    """``(P, S)`` bool: the states where the DP reads each policy ``(P, S, A)`` (:func:`policy_statistics`)."""
+    """``(P, S)`` bool: the states where the DP reads each policy ``(P, S, A)`` ([`policy_statistics`][tableclean_suite.asymptotes.policy_statistics])."""
     if not np.isfinite(chain.reward).all():  # NaN rewards: an exact zero times NaN is not zero
         kept = np.zeros(probabilities.shape[:2], dtype=bool)
         kept[:, chain.pair_state] = True
@@ -401,9 +401,9 @@ def _kept_states(probabilities: np.ndarray, chain: EpisodeChain) -> np.ndarray:
     return reached_states(probabilities, chain)
 
 
-#: Distinct policies :func:`policy_statistics` remembers per chain (about 1 kB each); past it, it forgets them all.
+#: Distinct policies [`policy_statistics`][tableclean_suite.asymptotes.policy_statistics] remembers per chain (about 1 kB each); past it, it forgets them all.
 MEMO_POLICIES = 4096
-#: Chains (by content) whose policies :func:`policy_statistics` remembers at once, the latest used: the
+#: Chains (by content) whose policies [`policy_statistics`][tableclean_suite.asymptotes.policy_statistics] remembers at once, the latest used: the
 #: default run's cells use four (one per reward pattern), and the cells of one pattern share policies.
 MEMO_CHAINS = 4
 _memo_lock = threading.Lock()
@@ -421,7 +421,7 @@ def chain_digest(chain: EpisodeChain) -> bytes:
 
 
 def _remembered(digest: bytes, max_itr: int, tolerance: float) -> dict[bytes, np.ndarray]:
-    """The memo of the policies of the chain of ``digest`` (:func:`chain_digest`) for ``max_itr``
+    """The memo of the policies of the chain of ``digest`` ([`chain_digest`][tableclean_suite.asymptotes.chain_digest]) for ``max_itr``
     and ``tolerance`` (call with ``_memo_lock`` held)."""
     for i, (known, itr, tol, memo) in enumerate(_memo):
         if known == digest and itr == max_itr and tol == tolerance:
@@ -435,15 +435,15 @@ def _remembered(digest: bytes, max_itr: int, tolerance: float) -> dict[bytes, np
 
 def policy_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: int,
                       tolerance: float = MASS_TOLERANCE) -> Asymptotes:
-    """:func:`episode_statistics` of ``(P, S, A)`` policies (arrays of shape ``(P,)``), bit for bit,
+    """[`episode_statistics`][tableclean_suite.asymptotes.episode_statistics] of ``(P, S, A)`` policies (arrays of shape ``(P,)``), bit for bit,
     each distinct policy computed once.
 
     Policies are distinct when they differ in a state an episode can reach under them
-    (:func:`reached_states`; with a chain of unknown rewards, a state of the chain): elsewhere the
+    ([`reached_states`][tableclean_suite.asymptotes.reached_states]; with a chain of unknown rewards, a state of the chain): elsewhere the
     DP only adds exact zeros, so e.g. greedy policies (epsilon 0) that differ only off their own
     paths share one computation.  A policy's statistics do not depend on the others computed
-    beside it, so they are remembered per chain (by content: :func:`chain_digest`), ``max_itr`` and
-    ``tolerance`` (:data:`MEMO_POLICIES`, :data:`MEMO_CHAINS`): a chunk's settling checkpoint
+    beside it, so they are remembered per chain (by content: [`chain_digest`][tableclean_suite.asymptotes.chain_digest]), ``max_itr`` and
+    ``tolerance`` (`MEMO_POLICIES`, `MEMO_CHAINS`): a chunk's settling checkpoint
     mostly has the policies of its end, and cells of one reward pattern share many.
     """
     if int(max_itr) != max_itr or max_itr < 1:
@@ -492,9 +492,9 @@ def exact_seconds(n_states: int, n_actions: int, max_itr: int, runs: int, loopin
         max_successors: K successors per (state, action) of the stepped table.
 
     Returns:
-        Building the :class:`EpisodeChain` (:data:`CHAIN_ENTRIES_PER_SECOND`) plus, per call,
-        ``max_itr x 2 x pairs x A x K`` visits at :data:`PAIR_VISIT_SECONDS` and
-        :data:`POLICY_VISIT_SECONDS` per policy.  An upper bound: every run counted as a distinct
+        Building the [`EpisodeChain`][tableclean_suite.asymptotes.EpisodeChain] (`CHAIN_ENTRIES_PER_SECOND`) plus, per call,
+        ``max_itr x 2 x pairs x A x K`` visits at `PAIR_VISIT_SECONDS` and
+        `POLICY_VISIT_SECONDS` per policy.  An upper bound: every run counted as a distinct
         policy (runs sharing a policy share its computation), every pair as reached.
     """
     entries = int(n_states) * int(n_actions) * max(1, int(max_successors))

@@ -153,7 +153,7 @@ def probability_of_improvement(x, y, higher_is_better: bool = True, margin: floa
 
 
 class _Improvement:
-    """:func:`probability_of_improvement` of resamples given as run *indices* into fixed X and Y,
+    """[`probability_of_improvement`][tableclean_suite.intervals.probability_of_improvement] of resamples given as run *indices* into fixed X and Y,
     by counting, never forming the pairs: each y is replaced once by its rank among Y's distinct
     values, each x by the ranks it beats by more than ``margin`` and does not fall short of; a
     resample then needs only a count of its y ranks (exact integers, so the result does not
@@ -223,8 +223,8 @@ def improvement_estimate(x, y, higher_is_better: bool = True, margin: float = 0.
                          confidence: float = DEFAULT_CONFIDENCE, reps: int = DEFAULT_REPS,
                          method: str = "percentile", rng: np.random.Generator | None = None
                          ) -> tuple[float, float, float]:
-    """``(P, low, high)``: :func:`probability_of_improvement` with a stratified bootstrap interval
-    (X's runs and Y's runs resampled separately, :func:`interval_estimates`), each end moved out by
+    """``(P, low, high)``: [`probability_of_improvement`][tableclean_suite.intervals.probability_of_improvement] with a stratified bootstrap interval
+    (X's runs and Y's runs resampled separately, [`interval_estimates`][tableclean_suite.intervals.interval_estimates]), each end moved out by
     the share of pairs that runs of a kind absent from both samples could take part in
     ([unseen_share][tableclean_suite.intervals.unseen_share] of X plus that of Y), within [0, 1].
     The interval targets the probability that a new run of X beats a new run of Y (ties half)."""

@@ -1,7 +1,7 @@
 """How long each run takes to learn the task, summarised over runs with censoring.
 
 **The per-run learning time** is ``TrainingResult.learned_at`` (see
-[TrainingResult][tableclean_suite.learners.TrainingResult]): the iteration (environment steps,
+`TrainingResult`): the iteration (environment steps,
 the unit of ``--iterations``; 1-based) from which the run's greedy policy is optimal (follows a
 shortest plan to the terminal state from every start state) and stays optimal after every later
 update to the end of the budget T; 0 when it is optimal throughout; -1 when it is not optimal
@@ -147,17 +147,17 @@ def _crossing(times: np.ndarray, probabilities: np.ndarray, level: float) -> flo
 def learning_time_summary(learned_at, budget: int, confidence: float = intervals.DEFAULT_CONFIDENCE,
                           reps: int = intervals.DEFAULT_REPS, method: str = "percentile",
                           rng: np.random.Generator | None = None) -> LearningTime:
-    """The :class:`LearningTime` summary of per-run learning times (see the module docstring).
+    """The [`LearningTime`][tableclean_suite.learning_time.LearningTime] summary of per-run learning times (see the module docstring).
 
     Args:
         learned_at: ``(R,)`` integers, -1 (censored at the budget) or in [0, ``budget``]
             (``TrainingResult.learned_at``).
         budget: T, the iterations each run trained, >= 1.
         confidence: two-sided confidence of every interval, in (0, 1).
-        reps, method, rng: the RMST's bootstrap (:func:`tableclean_suite.intervals.interval_estimates`).
+        reps, method, rng: the RMST's bootstrap ([`tableclean_suite.intervals.interval_estimates`][tableclean_suite.intervals.interval_estimates]).
 
     Returns:
-        A :class:`LearningTime` (all NaN but ``runs`` and ``budget`` when R = 0).
+        A [`LearningTime`][tableclean_suite.learning_time.LearningTime] (all NaN but ``runs`` and ``budget`` when R = 0).
     """
     confidence = intervals.check_confidence(confidence)
     times, censored = censored_times(learned_at, budget)

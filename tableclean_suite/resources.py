@@ -4,20 +4,20 @@ cannot fit.
 Every large allocation of the symbolic path is sized by the spec (S state codes, A actions) and
 the budget (R runs, T iterations): the model's transition arrays and the table the learners step
 (a few int64/float64 per (state, action) pair), the Q-tables (R x S x A float64, as many copies as
-the learner and a checkpoint keep: :func:`q_table_copies`), each running run's working arrays
-(:func:`run_working_bytes`), the records (R x T: a float64 reward and four integer codes per
-iteration) and a run's training time (:func:`training_seconds`: R x T steps at the engine's rate,
+the learner and a checkpoint keep: [`q_table_copies`][tableclean_suite.resources.q_table_copies]), each running run's working arrays
+(`run_working_bytes`), the records (R x T: a float64 reward and four integer codes per
+iteration) and a run's training time ([`training_seconds`][tableclean_suite.resources.training_seconds]: R x T steps at the engine's rate,
 Dyna-Q's planning updates counted, and each run's setup of its S x A tables).
-:func:`require_memory` compares an estimate with the memory the operating system reports as
-available (:mod:`psutil`) and raises :class:`InsufficientMemoryError`, whose one-line message
-names the estimate, its parts, what is available and the override.  :func:`require_time` (and
-:func:`require_training_time`) does the same for an estimated wall time longer than
-:data:`MAX_TRAINING_SECONDS`, at the engine's own rate (:func:`steps_per_second`).
+[`require_memory`][tableclean_suite.resources.require_memory] compares an estimate with the memory the operating system reports as
+available (`psutil`) and raises [`InsufficientMemoryError`][tableclean_suite.resources.InsufficientMemoryError], whose one-line message
+names the estimate, its parts, what is available and the override.  [`require_time`][tableclean_suite.resources.require_time] (and
+[`require_training_time`][tableclean_suite.resources.require_training_time]) does the same for an estimated wall time longer than
+`MAX_TRAINING_SECONDS`, at the engine's own rate ([`steps_per_second`][tableclean_suite.resources.steps_per_second]).
 
 Sizes that grow exponentially with a spec (``2 ** segments`` state codes) are checked with
-:func:`bounded_product` on logarithms before any of them is computed.
+[`bounded_product`][tableclean_suite.resources.bounded_product] on logarithms before any of them is computed.
 
-The override is explicit: set the environment variable :data:`OVERRIDE_ENV` to ``1`` (executor
+The override is explicit: set the environment variable `OVERRIDE_ENV` to ``1`` (executor
 workers inherit it), or call with ``override=True``.
 """
 
@@ -27,9 +27,9 @@ import math
 import os
 from dataclasses import dataclass, field
 
-#: Environment variable that, set to one of :data:`TRUE_WORDS`, turns the guard's refusals off.
+#: Environment variable that, set to one of `TRUE_WORDS`, turns the guard's refusals off.
 OVERRIDE_ENV = "TABLECLEAN_IGNORE_RESOURCE_CHECK"
-#: Values of :data:`OVERRIDE_ENV` that mean "on" (case-insensitive).
+#: Values of `OVERRIDE_ENV` that mean "on" (case-insensitive).
 TRUE_WORDS = ("1", "true", "yes", "on")
 #: Fraction of the available memory (bytes) that an estimate may take; the rest is headroom for
 #: the interpreter, libraries and what the estimate leaves out.
@@ -40,7 +40,7 @@ WORD_BYTES = 8
 #: the model's cached next-state and outcome arrays (2 int64), the copies the table takes of them
 #: (2 int64), its cumulative probabilities (float64) and its execution counts (int64).
 TABLE_BYTES_PER_PAIR = 6 * WORD_BYTES
-#: Bytes per state code of the vectorised rule build (:mod:`tableclean_suite.task.batch_rules`):
+#: Bytes per state code of the vectorised rule build ([`tableclean_suite.task.batch_rules`][tableclean_suite.task.batch_rules]):
 #: the codes, the clean digits, the next codes and outcomes of one action (int64 each) and
 #: temporaries of the same size.
 BUILD_BYTES_PER_STATE = 8 * WORD_BYTES
@@ -140,7 +140,7 @@ class MemoryEstimate:
 
 
 def override_enabled() -> bool:
-    """Whether :data:`OVERRIDE_ENV` turns the guard off."""
+    """Whether `OVERRIDE_ENV` turns the guard off."""
     return os.environ.get(OVERRIDE_ENV, "").strip().lower() in TRUE_WORDS
 
 
@@ -181,15 +181,15 @@ def training_memory(n_states: int, n_actions: int, runs: int, iterations: int, q
         n_states, n_actions: the task's S state codes and A actions.
         runs, iterations: the budget, R runs x T iterations.
         q_tables: learner tables per run (2 for double Q-learning); the copies held at the peak are
-            :func:`q_table_copies`.
+            [`q_table_copies`][tableclean_suite.resources.q_table_copies].
         max_successors: K successors per (state, action) pair of the stepped table.
         code_bytes: bytes of a record code (``TaskModel.record_dtype.itemsize``).
         checkpoint: the call keeps the Q-tables after ``checkpoint`` iterations (snapshots).
         engine: ``"compiled"``, or ``"reference"``, whose per-run arrays are stacked into the
             result (records and Q-tables twice) and whose learner tables are Python lists
-            (:data:`PYTHON_ENTRY_BYTES` per entry, one run at a time).
+            (`PYTHON_ENTRY_BYTES` per entry, one run at a time).
         run_bytes: one run's working arrays in the compiled loop
-            (:func:`tableclean_suite.learners.memory.run_working_bytes`).
+            ([`tableclean_suite.learners.memory.run_working_bytes`][tableclean_suite.learners.memory.run_working_bytes]).
         concurrent_runs: runs the compiled loop trains at once (its threads, at most ``runs``).
     """
     pairs = int(n_states) * int(n_actions)
@@ -209,7 +209,7 @@ def training_memory(n_states: int, n_actions: int, runs: int, iterations: int, q
 
 
 def steps_per_second(engine: str) -> float:
-    """Learner steps per second assumed for ``engine`` (:data:`ENGINE_STEPS_PER_SECOND`); ``ValueError``
+    """Learner steps per second assumed for ``engine`` (`ENGINE_STEPS_PER_SECOND`); ``ValueError``
     names the engines allowed."""
     if engine not in ENGINE_STEPS_PER_SECOND:
         raise ValueError(f"unknown engine {engine!r}; allowed: {', '.join(ENGINE_STEPS_PER_SECOND)}")
@@ -224,13 +224,13 @@ def training_seconds(runs: int, iterations: int, n_states: int, n_actions: int, 
     Args:
         runs, iterations: the budget, R runs x T iterations.
         n_states, n_actions: the task's S state codes and A actions.
-        engine: ``"compiled"`` or ``"reference"`` (:func:`steps_per_second`).
+        engine: ``"compiled"`` or ``"reference"`` ([`steps_per_second`][tableclean_suite.resources.steps_per_second]).
         planning_steps: Dyna-Q's planning updates per real step (each costs about a step), >= 0.
         q_tables: learner tables per run (2 for double Q-learning).
 
     Returns:
         ``R x T x (1 + planning_steps)`` updates at the engine's rate, plus each run's setup: its
-        ``q_tables x S x A`` entries at :data:`TABLE_ENTRIES_PER_SECOND`.
+        ``q_tables x S x A`` entries at `TABLE_ENTRIES_PER_SECOND`.
     """
     updates = int(runs) * int(iterations) * (1 + max(0, int(planning_steps)))
     setup = int(runs) * max(1, int(q_tables)) * int(n_states) * int(n_actions) / TABLE_ENTRIES_PER_SECOND
@@ -239,7 +239,7 @@ def training_seconds(runs: int, iterations: int, n_states: int, n_actions: int, 
 
 def describe_training(runs: int, iterations: int, n_states: int, n_actions: int, engine: str = DEFAULT_ENGINE,
                       planning_steps: int = 0, q_tables: int = 1) -> str:
-    """How :func:`training_seconds` made its estimate, for a message: ``'6e+03 learner updates at
+    """How [`training_seconds`][tableclean_suite.resources.training_seconds] made its estimate, for a message: ``'6e+03 learner updates at
     5e+07/s (compiled engine) and 20 runs' setup of 1.3e+07 entries'``."""
     updates = int(runs) * int(iterations) * (1 + max(0, int(planning_steps)))
     planning = f" ({int(planning_steps)} planning updates per step)" if planning_steps else ""
@@ -251,7 +251,7 @@ def describe_training(runs: int, iterations: int, n_states: int, n_actions: int,
 def require_training_time(runs: int, iterations: int, n_states: int, n_actions: int, what: str,
                           engine: str = DEFAULT_ENGINE, planning_steps: int = 0, q_tables: int = 1,
                           extra_seconds: float = 0.0, extra_detail: str = "", override: bool = False) -> float:
-    """:func:`require_time` of :func:`training_seconds` (plus ``extra_seconds``, e.g. the analysis's,
+    """[`require_time`][tableclean_suite.resources.require_time] of [`training_seconds`][tableclean_suite.resources.training_seconds] (plus ``extra_seconds``, e.g. the analysis's,
     described by ``extra_detail``); returns the estimate in seconds.  The refusal names every
     part: updates (Dyna-Q's planning updates included), the runs' setup and the extra."""
     seconds = training_seconds(runs, iterations, n_states, n_actions, engine, planning_steps, q_tables)
@@ -294,13 +294,13 @@ def bounded_product(terms, limit: int) -> int | None:
 
 def require_memory(estimate: MemoryEstimate, what: str, available: int | None = None,
                    override: bool = False) -> None:
-    """Raise :class:`InsufficientMemoryError` when ``estimate`` exceeds :data:`USABLE_FRACTION` of
-    the available memory (``available``: bytes, default :func:`available_bytes`).
+    """Raise [`InsufficientMemoryError`][tableclean_suite.resources.InsufficientMemoryError] when ``estimate`` exceeds `USABLE_FRACTION` of
+    the available memory (``available``: bytes, default [`available_bytes`][tableclean_suite.resources.available_bytes]).
 
     Args:
         estimate: what the allocation needs.
         what: what is being allocated, for the message (e.g. ``"training 'q_learning' on task 'big'"``).
-        override: skip the check (as does :data:`OVERRIDE_ENV`).
+        override: skip the check (as does `OVERRIDE_ENV`).
     """
     if override or override_enabled():
         return
@@ -313,7 +313,7 @@ def require_memory(estimate: MemoryEstimate, what: str, available: int | None = 
 
 
 def require_time(seconds: float, what: str, detail: str = "", override: bool = False) -> None:
-    """Raise :class:`TooMuchWorkError` when an estimate of ``seconds`` exceeds :data:`MAX_TRAINING_SECONDS`.
+    """Raise [`TooMuchWorkError`][tableclean_suite.resources.TooMuchWorkError] when an estimate of ``seconds`` exceeds `MAX_TRAINING_SECONDS`.
 
     Args:
         seconds: the estimated wall time.
@@ -331,8 +331,8 @@ def require_time(seconds: float, what: str, detail: str = "", override: bool = F
 
 
 def require_effect_calls(calls: int, what: str, override: bool = False) -> None:
-    """Raise :class:`TooMuchWorkError` when building a table would call user action effects more
-    than :data:`MAX_USER_EFFECT_CALLS` times (pure Python, about 8.5 us each)."""
+    """Raise [`TooMuchWorkError`][tableclean_suite.resources.TooMuchWorkError] when building a table would call user action effects more
+    than `MAX_USER_EFFECT_CALLS` times (pure Python, about 8.5 us each)."""
     if override or override_enabled():
         return
     if int(calls) > MAX_USER_EFFECT_CALLS:
@@ -347,8 +347,8 @@ MAX_PYTHON_RULE_STEPS = 2_000_000
 
 
 def require_python_steps(steps: int, what: str, override: bool = False) -> None:
-    """Raise :class:`TooMuchWorkError` when a pure-Python walk over a task's states would step its
-    rules more than :data:`MAX_PYTHON_RULE_STEPS` times."""
+    """Raise [`TooMuchWorkError`][tableclean_suite.resources.TooMuchWorkError] when a pure-Python walk over a task's states would step its
+    rules more than `MAX_PYTHON_RULE_STEPS` times."""
     if override or override_enabled():
         return
     if int(steps) > MAX_PYTHON_RULE_STEPS:

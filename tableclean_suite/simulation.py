@@ -10,7 +10,7 @@ its own memory, truncation at ``max_itr``), and each estimate comes with its Mon
 error (the standard deviation of the episodes' values over the square root of their number).
 
 **Random numbers** are the project's counter-based ones ([tableclean_suite.learners.rng][]): run
-``r`` of a training with seed ``seed`` draws from the side lane :data:`SIMULATION_LANE` of its run
+``r`` of a training with seed ``seed`` draws from the side lane `SIMULATION_LANE` of its run
 key, at counter ``e * (2 * max_itr + 1)`` for episode ``e``'s start state and ``+ 1 + 2 j`` / ``+ 2
 + 2 j`` for step ``j``'s action and successor.  A run's estimate is therefore a function of (seed,
 run, policy) alone: the same whatever the chunking of runs, the thread or the process, and the
@@ -63,7 +63,7 @@ class StepTable:
     """What a simulated episode reads: the stepped table, the reward pattern and the starts.
 
     Attributes:
-        next_state, outcome: ``(S, A, K)`` integer successor states and [Outcome][tableclean_suite.task.Outcome]
+        next_state, outcome: ``(S, A, K)`` integer successor states and `Outcome`
             codes of the table (the model's own, or a measured one).
         cumulative: ``(S, A, K)`` float64 cumulative successor probabilities (last one 1.0).
         values: ``(len(Outcome),)`` float64 reward of each outcome.
@@ -86,7 +86,7 @@ class StepTable:
     @classmethod
     def build(cls, model, reward, table: TransitionTable | None = None,
               episodes: int = SIMULATED_EPISODES) -> "StepTable":
-        """The step table of ``model`` (a [TaskModel][tableclean_suite.task.TaskModel]) under ``reward`` (a
+        """The step table of ``model`` (a `TaskModel`) under ``reward`` (a
         pattern or its registered name), stepping ``table`` (default: the model's own); ``episodes``
         per policy (an integer >= 2: a standard error needs two)."""
         if isinstance(episodes, bool) or int(episodes) != episodes or episodes < 2:
@@ -107,7 +107,7 @@ class StepTable:
 
 def simulation_keys(seed: int, first_run: int, runs: int) -> np.ndarray:
     """``(runs,)`` uint64 keys of runs ``first_run .. first_run + runs - 1`` of a training with ``seed``:
-    side lane :data:`SIMULATION_LANE` of each run's key."""
+    side lane `SIMULATION_LANE` of each run's key."""
     return np.array([lane_key_py(run_key(int(seed), int(first_run) + r), SIMULATION_LANE) for r in range(int(runs))],
                     dtype=np.uint64)
 
@@ -122,7 +122,7 @@ def _simulate(policy_cumulative, q, epsilon, keys, next_state, outcome, cumulati
     A policy is either row ``p`` of ``policy_cumulative`` ``(P, S, A)`` (cumulative action
     probabilities, last 1.0) or, when ``q`` is not empty, epsilon-greedy on ``q[p]`` ``(S, A)``
     (ties to the first action), its cumulative row computed only in the states an episode visits,
-    with the arithmetic of [_cumulative_rows][tableclean_suite.simulation._cumulative_rows] over
+    with the arithmetic of `_cumulative_rows` over
     [action_probabilities][tableclean_suite.policy.action_probabilities] (the same bits).
     ``entered`` ``(S,)`` int64 scratch: when each state was last entered (the looping rule's memory,
     as in the training loop)."""
@@ -216,7 +216,7 @@ def _checked(max_itr: int, shape: tuple, steps: "StepTable", keys) -> np.ndarray
 
 
 def _play(policy_cumulative, q, epsilon: float, steps: "StepTable", max_itr: int, keys) -> Asymptotes:
-    """[_simulate][tableclean_suite.simulation._simulate] and the means and standard errors of its sums."""
+    """`_simulate` and the means and standard errors of its sums."""
     totals = np.zeros((keys.shape[0], len(QUANTITIES), 2))
     entered = np.empty(steps.next_state.shape[0], dtype=np.int64)
     _simulate(policy_cumulative, q, float(epsilon), keys, steps.next_state, steps.outcome, steps.cumulative,
@@ -266,8 +266,8 @@ def simulated_greedy_statistics(q: np.ndarray, epsilon: float, steps: StepTable,
 def simulation_seconds(n_states: int, n_actions: int, runs: int, max_itr: int, analyses: int = 1,
                        episodes: int = SIMULATED_EPISODES) -> float:
     """Estimated seconds of simulating ``analyses`` policies per run of ``runs`` runs (at most
-    ``episodes x max_itr`` steps each at :data:`SIMULATED_STEPS_PER_SECOND`, and each policy's
-    (S, A) table at :data:`POLICY_ENTRIES_PER_SECOND`): an upper bound, episodes that end earlier
+    ``episodes x max_itr`` steps each at `SIMULATED_STEPS_PER_SECOND`, and each policy's
+    (S, A) table at `POLICY_ENTRIES_PER_SECOND`): an upper bound, episodes that end earlier
     cost less."""
     policies = int(runs) * int(analyses)
     per_policy = (int(episodes) * int(max_itr) / SIMULATED_STEPS_PER_SECOND

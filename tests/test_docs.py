@@ -291,6 +291,23 @@ def test_site_builds_strict_with_every_page(site):
         assert html.exists(), f"{page.name} was not built"
 
 
+#: A Sphinx role or an reST literal-block marker as the built HTML shows it when nothing renders it.
+RAW_ROLE = re.compile(r":(?:py:)?(?:func|class|meth|mod|data|attr|obj|exc|const|ref):(?:`|<code>)|\w::</p>")
+
+
+def test_the_raw_role_pattern_finds_what_an_unrendered_docstring_leaves():
+    assert RAW_ROLE.search("see :func:<code>train</code> and") and RAW_ROLE.search("then::</p>")
+    assert not RAW_ROLE.search('<a href="#x"><code>train</code></a>: the loop')
+
+
+@pytest.mark.cli
+def test_the_site_shows_no_raw_sphinx_role(site):
+    """Docstrings use mkdocstrings' cross-references: no page of the built site shows a raw role."""
+    found = [f"{page.relative_to(site)}: {match.group(0)}" for page in sorted(site.rglob("*.html"))
+             for match in RAW_ROLE.finditer(page.read_text(encoding="utf-8"))]
+    assert not found, f"{len(found)} raw roles, e.g. {found[:5]}"
+
+
 @pytest.mark.cli
 def test_api_reference_documents_every_module(site):
     missing = []

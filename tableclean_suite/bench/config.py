@@ -1,10 +1,10 @@
-"""One source of truth for a benchmark run's configuration: :class:`RunConfig`.
+"""One source of truth for a benchmark run's configuration: `RunConfig`.
 
 Every default of ``python -m tableclean_suite.bench.run`` is written here once.  The command line
-(:mod:`.run`) takes its defaults and help texts from this class, ``train()`` takes its arguments
-from it (:meth:`RunConfig.train_kwargs`), ``config.json`` records it (:meth:`RunConfig.to_json`)
+(`run`) takes its defaults and help texts from this class, ``train()`` takes its arguments
+from it (`RunConfig.train_kwargs`), ``config.json`` records it (`RunConfig.to_json`)
 and a cell's cache key includes every field that can change a number
-(:meth:`RunConfig.cell_settings`).
+(`RunConfig.cell_settings`).
 
     from tableclean_suite.bench.config import RunConfig
     config = RunConfig(runs=200, rewards=("r2", "r4"), sweeps=False)
@@ -42,7 +42,7 @@ class ConfigError(ValueError):
     """A field with a value it cannot take.
 
     Attributes:
-        field: the :class:`RunConfig` field.
+        field: the `RunConfig` field.
         problem: what is wrong and what is allowed (the message is ``"field: problem"``, or the
             problem alone when it starts with the field's name).
     """
@@ -314,14 +314,14 @@ class RunConfig:
                     exploration=parse_exploration(self.exploration))
 
     def learner(self, name: str):
-        """The :class:`~tableclean_suite.learners.TabularLearner` ``name`` as this run trains it."""
+        """The `TabularLearner` ``name`` as this run trains it."""
         from tableclean_suite.learners import get_learner
 
         kwargs = self.learner_kwargs(name)
         return get_learner(name).configured(kwargs["learner_options"], kwargs["q_init"], kwargs["exploration"])
 
     def task_spec(self):
-        """The :class:`~tableclean_suite.task.TaskSpec` named by ``task`` (read from disk for a path)."""
+        """The `TaskSpec` named by ``task`` (read from disk for a path)."""
         from tableclean_suite.task import get_task_spec
 
         try:
@@ -330,7 +330,7 @@ class RunConfig:
             raise ConfigError("task", str(error)) from None
 
     def task_model(self):
-        """The :class:`~tableclean_suite.task.TaskModel` of ``task``, ``start`` and ``ineffective``
+        """The `TaskModel` of ``task``, ``start`` and ``ineffective``
         (None keeps the spec's)."""
         from tableclean_suite.task import TaskModel
 
@@ -343,7 +343,7 @@ class RunConfig:
                     backend=self.backend, workers=self.workers)
 
     def cell_settings(self) -> dict:
-        """The fields that can change a cell's numbers (every field not in :data:`NOT_IN_CELL_KEY`)."""
+        """The fields that can change a cell's numbers (every field not in `NOT_IN_CELL_KEY`)."""
         return {f.name: getattr(self, f.name) for f in fields(self) if f.name not in self.NOT_IN_CELL_KEY}
 
     def to_json(self) -> dict:
@@ -429,5 +429,5 @@ def field_docs(cls=RunConfig) -> dict[str, str]:
 
 
 def defaults() -> dict:
-    """``{field: default}`` of :class:`RunConfig` (the paper's settings)."""
+    """``{field: default}`` of `RunConfig` (the paper's settings)."""
     return {f.name: f.default for f in fields(RunConfig)}

@@ -3,7 +3,7 @@ figures drawn in forked processes while the run writes its CSV files.
 
 [start][tableclean_suite.bench.derived.start] serves both from ``OUT/cells/derived/`` when an
 entry holds them under the key of what determines them, else computes and stores them.  The key
-(:func:`derived_key`) digests the inputs as read from the cells (each main cell's learner, reward
+(`derived_key`) digests the inputs as read from the cells (each main cell's learner, reward
 and per-run scores; the curves frame and Table 3 that the figures draw, bit for bit), the
 comparison settings (confidence, bootstrap samples, seed), the figure settings (dpi, plateau
 fraction, matplotlib's and Pillow's versions, every live ``rcParams`` value and the font file they
@@ -13,7 +13,7 @@ unreadable, partial or mismatched entry is a miss (reported on stderr), recomput
 A hit and a miss both decode the stored bytes, so their outputs are the same bytes.
 
 [start_figures][tableclean_suite.bench.derived.start_figures] forks up to
-[FIGURE_PROCESSES][tableclean_suite.bench.derived.FIGURE_PROCESSES] processes (Linux) that draw
+`FIGURE_PROCESSES` processes (Linux) that draw
 the figures [plots.available_figures][tableclean_suite.bench.plots.available_figures] allows
 with [plots.render_png][tableclean_suite.bench.plots.render_png]; they inherit the inputs and
 run the same code on the same matplotlib configuration, so the PNG bytes are those drawn in this
@@ -51,14 +51,14 @@ _DRAWING_INPUTS: tuple | None = None
 
 
 def _draw(stem: str) -> bytes:
-    """:func:`.plots.render_png` of ``stem`` from the inherited :data:`_DRAWING_INPUTS`."""
+    """[`plots.render_png`][tableclean_suite.bench.plots.render_png] of ``stem`` from the inherited `_DRAWING_INPUTS`."""
     curves, plateau_fraction, table3, dpi = _DRAWING_INPUTS
     return plots.render_png(stem, curves, plateau_fraction, table3, dpi)
 
 
 class PendingFigures:
-    """Figures being drawn (:func:`start_figures`); :meth:`result` waits for them and returns every
-    :class:`Figure` in the order of :func:`.plots.available_figures`."""
+    """Figures being drawn ([`start_figures`][tableclean_suite.bench.derived.start_figures]); `result` waits for them and returns every
+    [`Figure`][tableclean_suite.bench.derived.Figure] in the order of [`plots.available_figures`][tableclean_suite.bench.plots.available_figures]."""
 
     def __init__(self, stems: list, drawing, pool):
         self._stems, self._drawing, self._pool = stems, drawing, pool
@@ -76,7 +76,7 @@ class PendingFigures:
 
 
 def figures(curves, plateau_fraction: float, table3=None, dpi: int = 120, processes: int = 1) -> list[Figure]:
-    """The paper's figures that ``curves`` allows: :func:`start_figures`, finished."""
+    """The paper's figures that ``curves`` allows: [`start_figures`][tableclean_suite.bench.derived.start_figures], finished."""
     return start_figures(curves, plateau_fraction, table3, dpi, processes).result()
 
 
@@ -84,8 +84,8 @@ def start_figures(curves, plateau_fraction: float, table3=None, dpi: int = 120, 
     """Start drawing the figures; the caller works on meanwhile.
 
     With ``processes`` > 1 on a platform that forks (Linux), up to that many forked processes
-    (at most :data:`FIGURE_PROCESSES`) draw them; otherwise they are drawn here, on
-    :meth:`PendingFigures.result`.
+    (at most `FIGURE_PROCESSES`) draw them; otherwise they are drawn here, on
+    `PendingFigures.result`.
     """
     global _DRAWING_INPUTS
     import multiprocessing
@@ -192,7 +192,7 @@ class Derived:
     seconds: float
 
     def summary(self) -> str:
-        """One line for the run's output: loaded from or computed into :attr:`path`."""
+        """One line for the run's output: loaded from or computed into `path`."""
         what = f"derived results (comparisons, {len(self.figures)} figures)"
         if self.cached:
             return f"{what}: loaded from {self.path}"
@@ -232,8 +232,8 @@ def _store(path: Path, key: dict, rows: list[dict], pngs: dict) -> None:
 
 
 class PendingDerived:
-    """[start][tableclean_suite.bench.derived.start]'s results; :meth:`result` waits for the
-    figures, stores a computed entry and returns a :class:`Derived`."""
+    """[start][tableclean_suite.bench.derived.start]'s results; `result` waits for the
+    figures, stores a computed entry and returns a [`Derived`][tableclean_suite.bench.derived.Derived]."""
 
     def __init__(self, finish):
         self._finish = finish

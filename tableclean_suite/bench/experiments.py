@@ -1,7 +1,7 @@
 """The experiment grid of ``benchmarks.run`` and its incremental, resumable cell storage.
 
 A **cell** is one trained configuration: (learner, reward, alpha, gamma) at the shared settings
-of a :class:`~tableclean_suite.bench.config.RunConfig`.  An **experiment** is a named set of cells:
+of a `RunConfig`.  An **experiment** is a named set of cells:
 
 - ``main``: every learner x every reward at (alpha, gamma) — the paper's Table 3 and Figures 3-5;
 - ``alpha_sweep``: the sweep learner x sweep reward at each alpha, gamma fixed — Figures 6-7;
@@ -11,12 +11,12 @@ of a :class:`~tableclean_suite.bench.config.RunConfig`.  An **experiment** is a 
   literature reward and (alpha, gamma) — Table 4's "run here" rows.
 
 A cell that belongs to several experiments (e.g. Q-learning/r4 at alpha = gamma = 0.3)
-is trained once, chunk by chunk of runs (:func:`train_cell`), so memory does not grow with
-the number of runs.  After each cell, its :class:`~tableclean_suite.metrics.Summary` and its
-:class:`~tableclean_suite.bench.statistics.CellStatistics` (intervals, curve bands, per-run scores:
+is trained once, chunk by chunk of runs (`train_cell`), so memory does not grow with
+the number of runs.  After each cell, its `Summary` and its
+`CellStatistics` (intervals, curve bands, per-run scores:
 a few floats per run, never ``runs x iterations`` records) are written
 to ``OUT/cells/<label>-<hash>.npz``, where ``hash`` is a digest of everything that determines
-the cell's numbers (:func:`cell_config`), the code included.  A rerun loads the cells whose
+the cell's numbers (`cell_config`), the code included.  A rerun loads the cells whose
 config matches instead of retraining them, so an interrupted run resumes where it stopped and
 changing one flag only retrains the cells it affects.
 """
@@ -55,7 +55,7 @@ from tableclean_suite.rewards import get_reward_pattern
 CELL_FORMAT_VERSION = 4
 
 #: Memory budget of one training chunk's records and final Q-tables (bytes): a run of T iterations
-#: records :data:`RECORD_BYTES_PER_ITERATION` bytes per iteration, so a chunk holds about
+#: records `RECORD_BYTES_PER_ITERATION` bytes per iteration, so a chunk holds about
 #: ``CHUNK_BYTES / (T * RECORD_BYTES_PER_ITERATION + S * A * 8)`` runs (at least one).  Every chunk
 #: pays fixed costs of the table's size (the backend's copies of the transition table, about
 #: 0.5 s on a 3-million-state spec), so a chunk of one run each would spend most of its time there.
@@ -115,7 +115,7 @@ def build_grid(
 
 
 def config_grid(config: RunConfig) -> list[Membership]:
-    """:func:`build_grid` of a run's configuration."""
+    """[`build_grid`][tableclean_suite.bench.experiments.build_grid] of a run's configuration."""
     return build_grid(config.learners, config.rewards, config.alpha, config.gamma, config.sweep_learner,
                       config.sweep_reward, config.alpha_sweep, config.gamma_sweep, sweeps=config.sweeps,
                       literature_learners=LITERATURE_LEARNERS if config.literature else (),
@@ -129,12 +129,12 @@ def unique_cells(grid: list[Membership]) -> list[Cell]:
 
 @lru_cache(maxsize=1)
 def metrics_digest() -> str:
-    """SHA-256 (hex) of the sources that compute a summary from records: :mod:`tableclean_suite.curves`
-    (the curves accumulated from records), :mod:`tableclean_suite.metrics`,
-    :mod:`tableclean_suite.asymptotes` (and the :mod:`~tableclean_suite.analysis` it calls, and
-    :mod:`tableclean_suite.simulation`, which estimates them when they are simulated),
-    :mod:`tableclean_suite.settling`, :mod:`tableclean_suite.intervals`,
-    :mod:`tableclean_suite.learning_time` and :mod:`.statistics`."""
+    """SHA-256 (hex) of the sources that compute a summary from records: [`tableclean_suite.curves`][tableclean_suite.curves]
+    (the curves accumulated from records), [`tableclean_suite.metrics`][tableclean_suite.metrics],
+    [`tableclean_suite.asymptotes`][tableclean_suite.asymptotes] (and the [`analysis`][tableclean_suite.analysis] it calls, and
+    [`tableclean_suite.simulation`][tableclean_suite.simulation], which estimates them when they are simulated),
+    [`tableclean_suite.settling`][tableclean_suite.settling], [`tableclean_suite.intervals`][tableclean_suite.intervals],
+    [`tableclean_suite.learning_time`][tableclean_suite.learning_time] and [`statistics`][tableclean_suite.bench.statistics]."""
     text = "".join(inspect.getsource(module) for module in (curve_sums, metrics, asymptotes, analysis, simulation,
                                                             settling, intervals, learning_time, statistics))
     return hashlib.sha256(text.encode()).hexdigest()
@@ -146,27 +146,27 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
 
     Args:
         cell: the cell.
-        config: the run's configuration; its :meth:`~RunConfig.cell_settings` enter the key.
-        model: the :class:`~tableclean_suite.task.TaskModel` trained on.
+        config: the run's configuration; its [`cell_settings`][tableclean_suite.bench.config.RunConfig.cell_settings] enter the key.
+        model: the [`TaskModel`][tableclean_suite.task.model.TaskModel] trained on.
         transitions_sha256: digest of the calibrated transition table's file, if any.
         task_digest: ``model.code_digest()`` when the caller has it already (it reads the task
-            rules' sources: ~15 ms, so :func:`run_grid` computes it once for all its cells).
-        plugins_key: :func:`_plugins_key` of ``config`` when the caller has it already (it hashes the
-            plugin modules' files, so :func:`run_grid` computes it once for all its cells).
+            rules' sources: ~15 ms, so [`run_grid`][tableclean_suite.bench.experiments.run_grid] computes it once for all its cells).
+        plugins_key: `_plugins_key` of ``config`` when the caller has it already (it hashes the
+            plugin modules' files, so [`run_grid`][tableclean_suite.bench.experiments.run_grid] computes it once for all its cells).
         plan: the cell's [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan] ([cell_plan][tableclean_suite.bench.experiments.cell_plan]);
             None: planned here.  A simulated plan enters the key as its label (``"analysis"``); an
             exact one adds nothing, so exact cells keep the keys they had before simulation existed.
 
     The key includes the code as well as the values: the learner's digest
-    (:func:`tableclean_suite.learners.code_digest`: training loop, random numbers, its TD
-    target's source), the task model's (:meth:`TaskModel.code_digest`: spec and rules, user
-    actions included) and :func:`metrics_digest`.  Reward patterns are recorded by value, so a
+    ([`tableclean_suite.learners.code_digest`][tableclean_suite.learners.kernel.code_digest]: training loop, random numbers, its TD
+    target's source), the task model's ([`TaskModel.code_digest`][tableclean_suite.task.model.TaskModel.code_digest]: spec and rules, user
+    actions included) and [`metrics_digest`][tableclean_suite.bench.experiments.metrics_digest].  Reward patterns are recorded by value, so a
     user learner, action or pattern re-registered under the same name with another body or
     other values gets a new hash and is retrained.  The learner is recorded as the run trains it
-    (:meth:`RunConfig.learner`), with its :meth:`~tableclean_suite.learners.TabularLearner.settings`
+    ([`RunConfig.learner`][tableclean_suite.bench.config.RunConfig.learner]), with its [`settings`][tableclean_suite.learners.rules.TabularLearner.settings]
     (update rule and its options, ``q_init``, exploration, affordances, advisor), so cells trained
     with other learner settings never share a key.  With ``--plugins``, the plugin modules' sources
-    (and those of the user modules they refer to) enter the key too (:func:`_plugins_key`).
+    (and those of the user modules they refer to) enter the key too (`_plugins_key`).
     """
     pattern = get_reward_pattern(cell.reward)
     learner = config.learner(cell.learner)
@@ -195,7 +195,7 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
 
 def _plugins_key(config: RunConfig) -> dict:
     """``{"plugins_digest": ...}``: the SHA-256 of the ``--plugins`` modules' sources and of the user
-    modules they refer to (:func:`tableclean_suite.bench.plugins.plugin_sources_digest`), so editing a
+    modules they refer to ([`tableclean_suite.bench.plugins.plugin_sources_digest`][tableclean_suite.bench.plugins.plugin_sources_digest]), so editing a
     plugin retrains the cells it may affect; ``{}`` without plugins (keys as before)."""
     if not config.plugins:
         return {}
@@ -363,7 +363,7 @@ def q_table_bytes(model) -> int:
     return int(model.n_states) * int(model.n_actions) * resources.WORD_BYTES
 
 
-#: Estimated seconds above which :func:`run_grid` says on stderr how long its training will take.
+#: Estimated seconds above which [`run_grid`][tableclean_suite.bench.experiments.run_grid] says on stderr how long its training will take.
 LONG_GRID_SECONDS = 600
 #: The exact analysis's bytes per (state, action) pair and its speed, for the tuning command's own
 #: estimate ([cell_plan][tableclean_suite.bench.experiments.cell_plan] costs the harness's cells).
@@ -374,7 +374,7 @@ ANALYSIS_PAIRS_PER_SECOND = 6_000_000
 def cell_plan(cell: Cell, config: RunConfig, model, transitions=None):
     """The [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan] of ``cell``: exact or simulated
     asymptotes (``config.analysis``, ``config.analysis_episodes``), costed for its runs analysed a
-    training chunk at a time (:func:`chunk_runs`), with the settling checkpoint's analysis when the
+    training chunk at a time ([`chunk_runs`][tableclean_suite.bench.experiments.chunk_runs]), with the settling checkpoint's analysis when the
     backend keeps one; ``transitions``: the calibrated table (its successors per pair), if any."""
     chunk = min(config.runs, chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model)))
     return analysis.cell_plan(model, cell.reward, config.learner(cell.learner), config.runs, config.iterations,
@@ -397,17 +397,17 @@ def check_grid_resources(cells, config: RunConfig, model, plans: dict | None = N
     """Refuse (before training) a grid whose cells cannot fit in memory or would run too long;
     returns the estimated seconds of training and analysis (0 without cells).
 
-    Memory: one chunk's records and Q-tables (:func:`chunk_runs`), the tables and the largest
+    Memory: one chunk's records and Q-tables ([`chunk_runs`][tableclean_suite.bench.experiments.chunk_runs]), the tables and the largest
     analysis call of the cells' plans.  Time: every cell's training
     ([tableclean_suite.resources.training_seconds][]; once: the settling checkpoint is kept by the
     same pass) and its analysis, exact or simulated, as its plan estimates it.
 
     Args:
-        plans: ``{cell: AnalysisPlan}`` (:func:`cell_plan`) when the caller has them; None: planned here.
+        plans: ``{cell: AnalysisPlan}`` ([`cell_plan`][tableclean_suite.bench.experiments.cell_plan]) when the caller has them; None: planned here.
 
     Raises:
         tableclean_suite.resources.ResourceError: one line naming the estimate, what is available
-            and the override (:data:`tableclean_suite.resources.OVERRIDE_ENV`).
+            and the override (`tableclean_suite.resources.OVERRIDE_ENV`).
     """
     cells = list(cells)
     if not cells:
@@ -428,7 +428,7 @@ def check_grid_resources(cells, config: RunConfig, model, plans: dict | None = N
 
 
 def plans_text(plans) -> str:
-    """The distinct :meth:`~tableclean_suite.analysis.AnalysisPlan.describe` texts of ``plans``, with
+    """The distinct [`describe`][tableclean_suite.analysis.AnalysisPlan.describe] texts of ``plans``, with
     how many cells each is, joined by ``; ``."""
     texts = [plan.describe() for plan in plans]
     return "; ".join(f"{text} ({texts.count(text)} cells)" if texts.count(text) > 1 else text
@@ -438,8 +438,8 @@ def plans_text(plans) -> str:
 def cell_chunks(cell: Cell, config: RunConfig, model, transitions=None, runs_per_chunk: int | None = None,
                 engine: str | None = None):
     """Train ``cell``'s chunks of runs in order: yields ``(first run, result, seconds)`` per ``train()``
-    (the :class:`~tableclean_suite.learners.TrainingResult`, with the settling checkpoint's
-    Q-tables when the backend keeps them, and its wall time).  :func:`train_cell` summarises them.
+    (the [`TrainingResult`][tableclean_suite.learners.train.TrainingResult], with the settling checkpoint's
+    Q-tables when the backend keeps them, and its wall time).  [`train_cell`][tableclean_suite.bench.experiments.train_cell] summarises them.
     ``engine``: ``train()``'s engine (None: its default, the compiled loop)."""
     chunk = runs_per_chunk or chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model))
     checkpoint = _checkpoint(config)
@@ -472,31 +472,31 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None, runs_per_
     """Train one cell chunk by chunk of runs and summarise it, with intervals.
 
     Each chunk is ``train(runs=chunk, first_run=lo, ...)``; its per-iteration sums are added to a
-    :class:`~tableclean_suite.curves.CurveSums`, its final Q-tables give each run's exact (or, by
-    the cell's ``plan``, simulated) asymptotes (:func:`tableclean_suite.analysis.final_asymptotes`),
+    [`CurveSums`][tableclean_suite.curves.CurveSums], its final Q-tables give each run's exact (or, by
+    the cell's ``plan``, simulated) asymptotes ([`tableclean_suite.analysis.final_asymptotes`][tableclean_suite.analysis.final_asymptotes]),
     its runs' learning times
     (``TrainingResult.learned_at``) are kept, and its records are dropped, so memory is one
     chunk's records whatever ``config.runs``.  Random numbers are
     counter-based per run, so the summary is the same whatever the chunking.
 
     The plateaus are the runs' asymptotes averaged over runs: the exact asymptotes of each run's
-    final behaviour (:func:`tableclean_suite.analysis.final_asymptotes`: epsilon-greedy on the final
+    final behaviour ([`tableclean_suite.analysis.final_asymptotes`][tableclean_suite.analysis.final_asymptotes]: epsilon-greedy on the final
     Q-table, or the exploration's final distribution, restricted to afforded actions / mixed with
     the advisor for Cruz et al.'s learners), over the calibrated table with
     ``--backend calibrated``, over the task model's table for ``symbolic`` and, as an
     approximation of the skills, ``physics``.
 
-    Settling (:mod:`tableclean_suite.settling`): on a backend with ``deterministic_prefix``, each
+    Settling ([`tableclean_suite.settling`][tableclean_suite.settling]): on a backend with ``deterministic_prefix``, each
     run's Q-tables at the checkpoint (3/4 of the window) are kept by the same training pass
-    (:func:`checkpoint_result`; a backend that cannot keep them trains the prefix again) and each
+    ([`checkpoint_result`][tableclean_suite.bench.experiments.checkpoint_result]; a backend that cannot keep them trains the prefix again) and each
     run's success asymptote there is compared with its final one; the statistics carry the mean
     drift with its interval.
 
     Args:
-        runs_per_chunk: runs per ``train()`` call (default :func:`chunk_runs` of the iterations).
-        chunks: the cell's :func:`cell_chunks` (with the same ``runs_per_chunk``) when the caller
+        runs_per_chunk: runs per ``train()`` call (default [`chunk_runs`][tableclean_suite.bench.experiments.chunk_runs] of the iterations).
+        chunks: the cell's [`cell_chunks`][tableclean_suite.bench.experiments.cell_chunks] (with the same ``runs_per_chunk``) when the caller
             trains them (e.g. with another engine); None: trained here, one after the other.
-        plan: the cell's [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan] (:func:`cell_plan`;
+        plan: the cell's [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan] ([`cell_plan`][tableclean_suite.bench.experiments.cell_plan];
             None: planned here).  Simulated plateaus carry their Monte Carlo error into their
             intervals ([tableclean_suite.analysis.with_monte_carlo_error][]).
 
@@ -564,9 +564,9 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None, runs_per_
 
 
 def chunk_analysis(result, chain, config: RunConfig, model, checkpoint: int):
-    """``(final, early_success)`` of a trained chunk: :func:`~tableclean_suite.analysis.final_run_facts`
+    """``(final, early_success)`` of a trained chunk: [`final_run_facts`][tableclean_suite.analysis.final_run_facts]
     of its final Q-tables and, at a settling ``checkpoint`` (> 0), the success asymptotes of the
-    Q-tables the backend kept there (:func:`checkpoint_result`; None when it kept none or there is
+    Q-tables the backend kept there ([`checkpoint_result`][tableclean_suite.bench.experiments.checkpoint_result]; None when it kept none or there is
     no checkpoint)."""
     final = analysis.final_run_facts(result, chain, config.max_itr, model)
     early = checkpoint_result(result, checkpoint) if checkpoint else None
@@ -575,7 +575,7 @@ def chunk_analysis(result, chain, config: RunConfig, model, checkpoint: int):
 
 
 def checkpoint_result(result, checkpoint: int):
-    """The :class:`~tableclean_suite.learners.TrainingResult` of the same runs trained for
+    """The [`TrainingResult`][tableclean_suite.learners.train.TrainingResult] of the same runs trained for
     ``checkpoint`` iterations, read off ``result`` (trained with ``train(checkpoint=...)``): its
     records' first ``checkpoint`` iterations (views) and the Q-tables the backend kept then
     (``info["checkpoint_q"]``); None when the backend kept none (then train the prefix again).
@@ -634,7 +634,7 @@ class CellTask:
     Attributes:
         cell: the cell.
         config: the run's configuration (``workers``: the physics processes of this cell).
-        key_hash: :func:`config_hash` of the driver's :func:`cell_config`; the worker checks it
+        key_hash: [`config_hash`][tableclean_suite.bench.experiments.config_hash] of the driver's [`cell_config`][tableclean_suite.bench.experiments.cell_config]; the worker checks it
             computes the same.
         numba_threads: compiled threads in the worker, >= 1 (None: leave numba's setting).
     """
@@ -651,7 +651,7 @@ class CellTask:
 
 
 def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, float]:
-    """:func:`train_cell` of a :class:`CellTask`, in whatever process runs it.
+    """[`train_cell`][tableclean_suite.bench.experiments.train_cell] of a [`CellTask`][tableclean_suite.bench.experiments.CellTask], in whatever process runs it.
 
     Raises:
         CellKeyMismatchError: the worker's cell key differs from the driver's (e.g. another
@@ -685,7 +685,7 @@ def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, flo
 
 
 def cell_tasks(cells, keys: dict, config: RunConfig) -> list[CellTask]:
-    """The :class:`CellTask` of each cell (``keys``: cell -> :func:`cell_config`), each worker
+    """The [`CellTask`][tableclean_suite.bench.experiments.CellTask] of each cell (``keys``: cell -> [`cell_config`][tableclean_suite.bench.experiments.cell_config]), each worker
     training its cell single-threaded (physics: its runs in one process)."""
     worker_config = replace(config, workers=WORKER_PHYSICS_PROCESSES) if config.backend == "physics" else config
     return [CellTask(cell, worker_config, config_hash(keys[cell])) for cell in cells]
@@ -693,8 +693,8 @@ def cell_tasks(cells, keys: dict, config: RunConfig) -> list[CellTask]:
 
 @dataclass
 class GridRun:
-    """What :func:`run_grid` did: summaries per cell, and how they were obtained (``plans``: each
-    cell's [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan], :func:`cell_plan`)."""
+    """What [`run_grid`][tableclean_suite.bench.experiments.run_grid] did: summaries per cell, and how they were obtained (``plans``: each
+    cell's [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan], [`cell_plan`][tableclean_suite.bench.experiments.cell_plan])."""
 
     summaries: dict = field(default_factory=dict)
     statistics: dict = field(default_factory=dict)
@@ -718,23 +718,23 @@ def run_grid(
     """Load the stored cells of ``grid``, then train the others; each trained cell is saved at once.
 
     Args:
-        grid: memberships from :func:`build_grid`.
+        grid: memberships from [`build_grid`][tableclean_suite.bench.experiments.build_grid].
         config: the run's configuration (``fresh``: ignore and overwrite stored cells;
             ``progress``: a tqdm bar over cells on stderr, stored cells counted as done).
-        model: the :class:`~tableclean_suite.task.TaskModel`.
+        model: the [`TaskModel`][tableclean_suite.task.model.TaskModel].
         store: where summaries live.
-        transitions: a loaded :class:`TransitionTable` for the calibrated backend.
+        transitions: a loaded `TransitionTable` for the calibrated backend.
         transitions_sha256: its file's digest (part of every cell's key).
-        executor: an :class:`~tableclean_suite.executors.Executor` that trains the cells, one
-            :class:`CellTask` each (:func:`train_cell_task`); results, saved in grid order as they
+        executor: an [`Executor`][tableclean_suite.executors.base.Executor] that trains the cells, one
+            [`CellTask`][tableclean_suite.bench.experiments.CellTask] each ([`train_cell_task`][tableclean_suite.bench.experiments.train_cell_task]); results, saved in grid order as they
             arrive, are bit-identical to training in this process.  None: train in this process.
-        on_cell: called with the :class:`GridRun` so far after each cell is loaded or trained and
+        on_cell: called with the [`GridRun`][tableclean_suite.bench.experiments.GridRun] so far after each cell is loaded or trained and
             saved (e.g. to start work on some cells while the others train); None: nothing.
 
     Raises:
         CellFileError: a stored cell matching the config is unreadable (unless ``fresh``).
         tableclean_suite.resources.ResourceError: the cells to train would not fit in memory or would
-            run too long (:func:`check_grid_resources`), refused before any is trained.
+            run too long ([`check_grid_resources`][tableclean_suite.bench.experiments.check_grid_resources]), refused before any is trained.
         tableclean_suite.executors.TaskFailedError: a cell failed in the executor (named).
     """
     from tqdm.auto import tqdm
@@ -791,9 +791,9 @@ def cell_records(grid: list[Membership], summaries: dict, cell_statistics: dict 
                  settle_tolerance: float = settling.DEFAULT_SETTLE_TOLERANCE,
                  plans: dict | None = None) -> tuple[list[dict], list[dict]]:
     """Cell records (keys + scalars, with ``_low``/``_high`` bounds where the scalar has an
-    interval, the per-run learning time (:data:`.statistics.LEARNING_TIME_COLUMNS`) and settling when
+    interval, the per-run learning time (`statistics.LEARNING_TIME_COLUMNS`) and settling when
     ``cell_statistics`` are given) and curve sets (with ``<curve>_low``/``_high`` bands), one per
-    membership, for :mod:`.tables`.
+    membership, for [`tables`][tableclean_suite.bench.tables].
 
     Settling columns: ``behaviour_drift`` (+ ``_low``/``_high``; a fraction, NaN when not
     measured), ``checkpoint_iteration`` and ``settled`` (drift <= ``settle_tolerance``; None when

@@ -241,10 +241,10 @@ def observed_change(item: Intervention, before: dict, after: dict) -> str:
             NaN upper end of a learning time (a censored median) counts as unbounded.
 
     Returns:
-        [PREDICTED][tableclean_suite.bench.interventions.PREDICTED] when the after arm's interval
+        `PREDICTED` when the after arm's interval
         lies wholly on the predicted side of the before arm's,
-        [OPPOSITE][tableclean_suite.bench.interventions.OPPOSITE] when wholly on the other side,
-        [NO_CLEAR_CHANGE][tableclean_suite.bench.interventions.NO_CLEAR_CHANGE] when they overlap.
+        `OPPOSITE` when wholly on the other side,
+        `NO_CLEAR_CHANGE` when they overlap.
     """
     name = item.figure
     low_b, high_b = before[f"{name}_low"], before[f"{name}_high"]

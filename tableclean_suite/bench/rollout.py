@@ -117,7 +117,7 @@ class Filming:
         fps: video frames per second (>= 1).
         width, height: frame size in pixels (even).
         frame_every: one frame per this many control steps (>= 1).
-        camera: one of [CAMERAS][tableclean_suite.bench.rollout.CAMERAS].
+        camera: one of `CAMERAS`.
         still: where to save one frame taken while wiping (PNG or JPEG), or None.
     """
 

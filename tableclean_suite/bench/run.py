@@ -18,11 +18,11 @@ the probabilities of improvement, the sweep table and Table 4, and writes to ``-
 ``comparisons.csv``, ``curves.csv`` (with ``low``/``high`` bands), the figures
 ``fig3..fig7*.png`` (bands shaded) and ``fig8_learning_time_q_learning.png`` (the Kaplan-Meier
 curves of the per-run learning time), ``config.json`` (written last: the run's configuration, a run
-id and the SHA-256 of each of those files; see :mod:`.outputs`) and ``cells/`` (one file per
+id and the SHA-256 of each of those files; see `outputs`) and ``cells/`` (one file per
 trained cell; a rerun with the same settings and code loads them instead of retraining -
 ``--fresh`` retrains).
 
-The run's settings are a :class:`~tableclean_suite.bench.config.RunConfig`; this module turns
+The run's settings are a `RunConfig`; this module turns
 the command line into one and is the only module of the harness that touches the filesystem.
 """
 
@@ -53,13 +53,13 @@ PAPER_TASK = "paper"
 #: Resolution of the PNG figures, dots per inch.
 FIGURE_DPI = 120
 
-#: Command-line flag of each :class:`RunConfig` field whose flag is not ``--field-name``.
+#: Command-line flag of each [`RunConfig`][tableclean_suite.bench.config.RunConfig] field whose flag is not ``--field-name``.
 FLAGS = {"sweeps": "--no-sweeps", "figures": "--no-figures", "progress": "--no-progress",
          "literature": "--no-literature"}
 
 
 def flag_of(field: str) -> str:
-    """The command-line flag that sets ``field`` of :class:`RunConfig`."""
+    """The command-line flag that sets ``field`` of [`RunConfig`][tableclean_suite.bench.config.RunConfig]."""
     return FLAGS.get(field, "--" + field.replace("_", "-"))
 
 
@@ -68,7 +68,7 @@ def _shown(value) -> str:
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line; defaults and help texts come from :class:`RunConfig`."""
+    """The command line; defaults and help texts come from [`RunConfig`][tableclean_suite.bench.config.RunConfig]."""
     from tableclean_suite.bench import cli
     from tableclean_suite.bench.config import backend_names
     from tableclean_suite.learners import exploration_names, learner_names
@@ -170,7 +170,7 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
     """Parse and validate the command line.
 
     Returns:
-        A namespace with ``config`` (a :class:`RunConfig`), ``describe`` and ``parser``.  Any bad
+        A namespace with ``config`` (a [`RunConfig`][tableclean_suite.bench.config.RunConfig]), ``describe`` and ``parser``.  Any bad
         flag or value exits with code 2 and a message naming it and what is allowed.
     """
     from tableclean_suite.bench.cli import parse_command
@@ -208,7 +208,7 @@ def _curves_stride(rows_per_iteration: int, iterations: int) -> int:
 
 
 def _manifest(config: RunConfig, model, transitions_sha256, grid_run, stride: int, elapsed: float) -> dict:
-    """The contents of ``config.json`` (:func:`.outputs.publish` adds ``run_id`` and ``files``)."""
+    """The contents of ``config.json`` ([`outputs.publish`][tableclean_suite.bench.outputs.publish] adds ``run_id`` and ``files``)."""
     import numpy
     import pandas
 
@@ -234,10 +234,10 @@ def _manifest(config: RunConfig, model, transitions_sha256, grid_run, stride: in
 
 
 def run(args) -> int:
-    """:func:`train_and_publish` holding ``--out``'s lock (:func:`.outputs.output_lock`), so a second
+    """[`train_and_publish`][tableclean_suite.bench.run.train_and_publish] holding ``--out``'s lock ([`outputs.output_lock`][tableclean_suite.bench.outputs.output_lock]), so a second
     run into the same folder exits 2 instead of mixing its files with this one's.
 
-    OpenBLAS runs on one thread meanwhile (:func:`~tableclean_suite.executors.blas.single_blas_thread`),
+    OpenBLAS runs on one thread meanwhile ([`single_blas_thread`][tableclean_suite.executors.blas.single_blas_thread]),
     as in an executor's 1-thread worker."""
     import numpy  # noqa: F401  (loads the OpenBLAS whose threads single_blas_thread sets)
 
@@ -346,9 +346,9 @@ def train_and_publish(args) -> int:
 def cell_executor(config: RunConfig):
     """The executor that trains the run's cells, or None to train them in this process.
 
-    ``--executor ray``: a :class:`~tableclean_suite.executors.RayExecutor` (``--ray-address``,
+    ``--executor ray``: a [`RayExecutor`][tableclean_suite.executors.ray_executor.RayExecutor] (``--ray-address``,
     ``--workers`` cells in flight).  ``--executor local``: a
-    :class:`~tableclean_suite.executors.LocalExecutor` of ``--workers`` processes when that is
+    [`LocalExecutor`][tableclean_suite.executors.local.LocalExecutor] of ``--workers`` processes when that is
     above 1 and the backend is not physics (whose runs already spread over ``--workers``
     processes), else None.
     """
@@ -362,7 +362,7 @@ def cell_executor(config: RunConfig):
 
 
 def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task: bool, comparisons=None) -> None:
-    """Print Tables 3-4, the comparisons and sweeps, each at most :data:`.tables.PRINT_WIDTH`
+    """Print Tables 3-4, the comparisons and sweeps, each at most `tables.PRINT_WIDTH`
     characters wide; ``task_name``: the spec's name (not its file's)."""
     import pandas as pd
 
@@ -415,7 +415,7 @@ def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task:
 def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code.
 
-    ``prog`` is the program name in messages (default :data:`PROG`).
+    ``prog`` is the program name in messages (default `PROG`).
     """
     args = parse_args(argv, prog)
     try:

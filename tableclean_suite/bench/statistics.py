@@ -1,15 +1,15 @@
 """A cell's intervals, curve bands and per-run scores, and the comparisons between cells.
 
-Every interval resamples or models independent *runs* (:mod:`tableclean_suite.intervals`); its
+Every interval resamples or models independent *runs* (`tableclean_suite.intervals`); its
 target is the value the same statistic takes over unlimited runs of the cell, at the run's
 ``--confidence``:
 
 - **Learning time** (the headline): the per-run learning time's Kaplan-Meier median and
   quartiles, restricted mean to the budget and censored share
-  (:func:`tableclean_suite.learning_time.learning_time_summary`).
+  (`tableclean_suite.learning_time.learning_time_summary`).
 - **Plateaus and greedy success**: each run's exact asymptote of its final behaviour
-  (:mod:`tableclean_suite.asymptotes`) averaged over runs, with a percentile bootstrap interval
-  over runs (:data:`RUN_MEANS`); the never-terminal share (a yes/no per run), and any of those
+  (`tableclean_suite.asymptotes`) averaged over runs, with a percentile bootstrap interval
+  over runs (`RUN_MEANS`); the never-terminal share (a yes/no per run), and any of those
   that is 0 or 1 in every run, with the exact binomial (Clopper-Pearson) interval.  Target: the
   expected asymptote of one run.  A mean's bootstrap interval is widened for kinds of run the
   sample may lack (a run that never converges, 1 in several thousand, is absent from most samples
@@ -18,10 +18,10 @@ target is the value the same statistic takes over unlimited runs of the cell, at
   ([tableclean_suite.intervals.widened_for_unseen_runs][]).  Where the asymptotes are simulated (a large task:
   [tableclean_suite.analysis.analysis_plan][]), each mean's interval is widened by the
   simulation's Monte Carlo error ([tableclean_suite.analysis.with_monte_carlo_error][]).
-- **Behaviour drift** (:mod:`tableclean_suite.settling`): per-run drift averaged, bootstrap over runs,
+- **Behaviour drift** (`tableclean_suite.settling`): per-run drift averaged, bootstrap over runs,
   widened as the means above.
 - **Curve bands**: at each iteration, the normal interval of the mean over runs of the runs'
-  values there (:func:`tableclean_suite.intervals.mean_band`, from the sums and sums of squares:
+  values there (`tableclean_suite.intervals.mean_band`, from the sums and sums of squares:
   no resampling needed for a mean of independent bounded values).
 - The paper's readings of the mean curves (first touch, average-reward convergence, maximum of
   the mean curve, held reaching, window means) get **no interval**: they are biased and their
@@ -30,7 +30,7 @@ target is the value the same statistic takes over unlimited runs of the cell, at
 **Probability of improvement** of X over Y (rliable's, with a practical-equivalence margin m):
 P(x beats y by more than m) + P(|x - y| <= m) / 2 for a run x of X and a run y of Y, with a
 stratified bootstrap interval (runs of X and of Y resampled separately), on the per-run scores
-:data:`RUN_SCORES` with the margins :data:`EQUIVALENCE_MARGINS`, widened by the share of pairs
+`RUN_SCORES` with the margins `EQUIVALENCE_MARGINS`, widened by the share of pairs
 that runs missing from both samples could take part in.
 """
 
@@ -56,7 +56,7 @@ BAND_CURVES = ("success", "average_reward")
 #: runs not yet optimal for good at each iteration.
 NOT_LEARNED = "not_learned"
 #: Table 3 scalars that are means over runs of a per-run asymptote: scalar -> per-run quantity
-#: (:func:`tableclean_suite.analysis.final_run_facts`), each with a bootstrap interval over runs.
+#: ([`tableclean_suite.analysis.final_run_facts`][tableclean_suite.analysis.final_run_facts]), each with a bootstrap interval over runs.
 RUN_MEANS = {"success_plateau": "success", "average_reward_plateau": "average_reward",
              "terminal_plateau": "terminal", "greedy_success_plateau": "greedy_success"}
 #: The cell record's column naming how its plateaus were computed: ``exact`` or
@@ -93,14 +93,14 @@ class CellStatistics:
 
     Attributes:
         intervals: ``{scalar: (low, high)}`` for the Table 3 scalars that have an interval
-            (:data:`RUN_MEANS`, :data:`RUN_SHARES`).
-        bands: ``{curve: (low, high)}``, each ``(T,)``, for the curves in :data:`BAND_CURVES`.
-        runs: ``{score: (R,) array}`` per-run scores (:data:`RUN_SCORES`; ``learning_time``
+            (`RUN_MEANS`, `RUN_SHARES`).
+        bands: ``{curve: (low, high)}``, each ``(T,)``, for the curves in `BAND_CURVES`.
+        runs: ``{score: (R,) array}`` per-run scores (`RUN_SCORES`; ``learning_time``
             only when the runs recorded it, censored runs at the budget).
         learning: the per-run learning time's summary (None when the runs did not record it).
         survival: ``(T,)`` its Kaplan-Meier curve, the share of runs not yet optimal for good at
             iterations 1 .. T (its band is ``bands["not_learned"]``); None when not recorded.
-        settling: the behaviour drift over the window's last quarter (:mod:`tableclean_suite.settling`).
+        settling: the behaviour drift over the window's last quarter ([`tableclean_suite.settling`][tableclean_suite.settling]).
     """
 
     intervals: dict = field(default_factory=dict)
@@ -113,7 +113,7 @@ class CellStatistics:
 
 def curve_bands(sums, support_fraction: float, confidence: float = DEFAULT_CONFIDENCE) -> dict:
     """``{"success", "average_reward": (low, high)}`` per-iteration intervals of the mean curves of
-    a :class:`~tableclean_suite.curves.CurveSums` (:func:`tableclean_suite.intervals.mean_band`;
+    a [`CurveSums`][tableclean_suite.curves.CurveSums] ([`tableclean_suite.intervals.mean_band`][tableclean_suite.intervals.mean_band];
     a run's success is 0 or 1, so its square is itself); NaN where the average reward is not
     supported (``support_fraction`` of the runs have not finished an episode)."""
     from tableclean_suite.curves import supported
@@ -134,21 +134,21 @@ def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fract
     """Intervals, bands and per-run scores of one cell (see the module docstring).
 
     Args:
-        sums: the cell's :class:`~tableclean_suite.curves.CurveSums`.
+        sums: the cell's [`CurveSums`][tableclean_suite.curves.CurveSums].
         per_run: ``{quantity: (R,)}`` per-run asymptotes, in run order (at least the values of
-            :data:`RUN_MEANS` and :data:`RUN_SHARES` that the cell has).
-        rng: the cell's generator (:func:`bootstrap_rng`); the intervals draw from it in a fixed order.
-        support_fraction: as :meth:`~tableclean_suite.curves.CurveSums.curves`'.
+            `RUN_MEANS` and `RUN_SHARES` that the cell has).
+        rng: the cell's generator ([`bootstrap_rng`][tableclean_suite.bench.statistics.bootstrap_rng]); the intervals draw from it in a fixed order.
+        support_fraction: as [`curves`][tableclean_suite.curves.CurveSums.curves]'.
         samples: bootstrap resamples (>= 1).
         confidence: interval confidence in (0, 1).
         learned_at: ``(R,)`` per-run learning times (``TrainingResult.learned_at``); None: not recorded.
         budget: the iterations each run trained (needed with ``learned_at``).
-        drift: per-run behaviour drift ``(R,)`` (:func:`tableclean_suite.settling.behaviour_drift`);
+        drift: per-run behaviour drift ``(R,)`` ([`tableclean_suite.settling.behaviour_drift`][tableclean_suite.settling.behaviour_drift]);
             None: not measured.
         checkpoint: the iteration ``drift`` compares with (>= 1 when ``drift`` is given).
         monte_carlo: ``{quantity: standard error}`` of simulated per-run asymptotes' mean
             ([tableclean_suite.analysis.monte_carlo_error][]); each such interval of
-            :data:`RUN_MEANS` is widened by it ([tableclean_suite.analysis.with_monte_carlo_error][]).
+            `RUN_MEANS` is widened by it ([tableclean_suite.analysis.with_monte_carlo_error][]).
             None or empty: exact asymptotes, intervals as they are.  The drift's is not widened.
         average_reward_limits: bounds on a run's average reward per step (the reward pattern's
             [step_reward_bounds][tableclean_suite.rewards.RewardPattern.step_reward_bounds]); the
@@ -187,14 +187,14 @@ def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fract
     return CellStatistics(bounds, bands, runs, learning, survival, settled)
 
 
-#: Table 3 columns of the per-run learning time (:class:`~tableclean_suite.learning_time.LearningTime`
+#: Table 3 columns of the per-run learning time ([`LearningTime`][tableclean_suite.learning_time.LearningTime]
 #: field of each), every one followed by its ``_low``/``_high`` interval bounds in ``table3.csv``.
 LEARNING_TIME_COLUMNS = {"learning_time_median": "median", "learning_time_q1": "q1", "learning_time_q3": "q3",
                          "learning_time_rmst": "rmst", "censored_share": "censored_share"}
 
 
 def learning_time_record(learning: LearningTime | None) -> dict:
-    """The :data:`LEARNING_TIME_COLUMNS` of a cell record with their bounds (NaN when not recorded)."""
+    """The `LEARNING_TIME_COLUMNS` of a cell record with their bounds (NaN when not recorded)."""
     record = {}
     for column, name in LEARNING_TIME_COLUMNS.items():
         stem = "censored" if name == "censored_share" else name
@@ -213,7 +213,7 @@ def comparisons(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, sampl
         cells: ``{"learner", "reward", "runs": {score: (R,)}}`` of the main cells.
 
     Returns:
-        A DataFrame with columns :data:`COMPARISON_COLUMNS` (X improves on Y by more than
+        A DataFrame with columns `COMPARISON_COLUMNS` (X improves on Y by more than
         ``margin`` with that probability; pairs within it count half).
     """
     import pandas as pd
@@ -223,7 +223,7 @@ def comparisons(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, sampl
 
 def comparison_rows(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, samples: int = DEFAULT_SAMPLES,
                     seed: int = 0) -> list[dict]:
-    """The rows of :func:`comparisons` as plain values (str, bool, float), in a fixed order, every
+    """The rows of [`comparisons`][tableclean_suite.bench.statistics.comparisons] as plain values (str, bool, float), in a fixed order, every
     interval drawn from one generator seeded by ``seed``."""
     rows = []
     rng = np.random.default_rng(seed)

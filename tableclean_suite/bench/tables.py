@@ -1,14 +1,14 @@
 """Tables 3 and 4 of the paper, ours beside the paper's: pure functions, DataFrames in and out.
 
-Nothing here trains, reads or writes files; :mod:`tableclean_suite.bench.run` does that.
+Nothing here trains, reads or writes files; `tableclean_suite.bench.run` does that.
 
 Data contract: a *cell record* is one dict per (experiment, trained cell) with the keys
 ``learner, reward, alpha, gamma, experiment, cell_id`` plus the scalar fields of
-:class:`tableclean_suite.metrics.Summary` (:data:`SUMMARY_SCALARS`, from ``Summary.scalars()``).
+`tableclean_suite.metrics.Summary` (`SUMMARY_SCALARS`, from ``Summary.scalars()``).
 Curves travel as ``{metric: ndarray of shape (iterations,)}`` per record (``Summary.curves()``;
-see :func:`curves_long`).
+see `curves_long`).
 
-The paper's numbers (its Tables 3 and 4, quoted verbatim) are data in :mod:`.paper_data`.
+The paper's numbers (its Tables 3 and 4, quoted verbatim) are data in `paper_data`.
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ OPTIONAL_SCALARS = ("success_window_mean", "average_reward_window_mean", "held_s
 #: Suffixes of an interval's bounds, next to the number they bound.
 LOW, HIGH = "_low", "_high"
 
-#: Scalars of :class:`~tableclean_suite.metrics.Summary` that carry an interval (per-run
+#: Scalars of [`Summary`][tableclean_suite.metrics.Summary] that carry an interval (per-run
 #: quantities averaged over runs); the others are the paper's readings of the mean curves and
 #: window means, given without one.
 INTERVAL_SCALARS = tuple(name for name in SUMMARY_SCALARS if name in RUN_MEANS or name in RUN_SHARES)
@@ -58,7 +58,7 @@ LEARNING_COLUMNS = tuple(c for name in LEARNING_TIME_COLUMNS for c in (name, nam
 SCALAR_COLUMNS = tuple(c for name in SUMMARY_SCALARS
                        for c in ((name, name + LOW, name + HIGH) if name in INTERVAL_SCALARS else (name,)))
 
-#: Settling of each cell (:mod:`tableclean_suite.settling`): mean behaviour drift over the window's
+#: Settling of each cell ([`tableclean_suite.settling`][tableclean_suite.settling]): mean behaviour drift over the window's
 #: last quarter (a fraction) with its interval, the checkpoint iteration (0: not measured) and
 #: whether the drift is within the run's tolerance (empty when not measured).
 DRIFT = "behaviour_drift"
@@ -119,13 +119,13 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
             they are then all NaN).
 
     Returns:
-        A DataFrame with columns :data:`TABLE3_COLUMNS` (extra input columns are dropped; the
+        A DataFrame with columns `TABLE3_COLUMNS` (extra input columns are dropped; the
         learning-time columns and ``_low``/``_high`` bounds are NaN when the records carry none),
         sorted by experiment (main, alpha_sweep, gamma_sweep), learner, reward, alpha, gamma.
-        When some record's ``asymptotes`` (:data:`.statistics.ASYMPTOTES`) is not ``exact``, a last
+        When some record's ``asymptotes`` (`statistics.ASYMPTOTES`) is not ``exact``, a last
         column ``asymptotes`` names each row's (its plateaus simulated or exact).
         ``paper_*`` columns are NaN except on ``experiment == "main"`` rows of
-        :data:`PAPER_LEARNER` with a reward the paper reports.  Iteration columns are
+        `PAPER_LEARNER` with a reward the paper reports.  Iteration columns are
         nullable integers (``<NA>`` when the curve never reached its level).
     """
     frame = pd.DataFrame(records).copy()
@@ -177,12 +177,12 @@ def _missing(value) -> bool:
 
 
 def main_rows(table: pd.DataFrame) -> pd.DataFrame:
-    """The ``experiment == "main"`` rows of a :func:`table3` frame."""
+    """The ``experiment == "main"`` rows of a [`table3`][tableclean_suite.bench.tables.table3] frame."""
     return table[table["experiment"] == "main"].reset_index(drop=True)
 
 
 def sweep_rows(table: pd.DataFrame) -> pd.DataFrame:
-    """The alpha- and gamma-sweep rows of a :func:`table3` frame."""
+    """The alpha- and gamma-sweep rows of a [`table3`][tableclean_suite.bench.tables.table3] frame."""
     return table[table["experiment"].isin(["alpha_sweep", "gamma_sweep"])].reset_index(drop=True)
 
 
@@ -206,17 +206,17 @@ def table4(table: pd.DataFrame, paper_task: bool = True) -> pd.DataFrame:
     (all quoted and marked so).
 
     Args:
-        table: a :func:`table3` frame.
-        paper_task: whether the run was on the paper's task (:func:`is_paper_task`); if not, the
-            paper's own rows (:data:`PAPER_OWN_ROWS`, measured on its task) are left out and only
+        table: a [`table3`][tableclean_suite.bench.tables.table3] frame.
+        paper_task: whether the run was on the paper's task ([`is_paper_task`][tableclean_suite.bench.tables.is_paper_task]); if not, the
+            paper's own rows (`PAPER_OWN_ROWS`, measured on its task) are left out and only
             the literature's quoted rows stay.
 
     Returns:
-        Columns :data:`TABLE4_COLUMNS`.  Our rows are named
+        Columns `TABLE4_COLUMNS`.  Our rows are named
         ``"This run: Q-learning with reward rN"`` (main Q-learning cells) and
-        :func:`literature_method` (``literature`` cells), with ``max_success_rate_percent``
+        [`literature_method`][tableclean_suite.bench.tables.literature_method] (``literature`` cells), with ``max_success_rate_percent``
         = 100 x ``success_plateau``, the per-run learning time's median and censored share (in
-        percent), and ``source == "this run"``; the numbers of :data:`TABLE4_INTERVALS` are
+        percent), and ``source == "this run"``; the numbers of `TABLE4_INTERVALS` are
         followed by their interval's ``_low``/``_high`` bounds (NaN on the quoted rows).  The
         episode counts are the paper's mean-curve readings, without interval.
     """
@@ -257,7 +257,7 @@ def with_interval(value, low, high, digits: int = 0, scale: float = 1.0) -> str:
 
 
 def _interval_texts(rows: pd.DataFrame, column: str, digits: int, scale: float = 1.0) -> list[str]:
-    """:func:`with_interval` of ``column`` and its bounds, row by row."""
+    """[`with_interval`][tableclean_suite.bench.tables.with_interval] of ``column`` and its bounds, row by row."""
     return [with_interval(v, lo, hi, digits, scale) for v, lo, hi in zip(rows[column], rows[column + LOW],
                                                                           rows[column + HIGH])]
 
@@ -284,7 +284,7 @@ def display_learning_time(table: pd.DataFrame) -> pd.DataFrame:
 def display_plateaus(table: pd.DataFrame) -> pd.DataFrame:
     """Table 3's plateaus for printing, main rows: per-run asymptotes averaged over runs,
     with intervals, the paper's success rate beside ours, the behaviour drift and settling (and how
-    the asymptotes were computed when some are simulated: :func:`table3`'s ``asymptotes``)."""
+    the asymptotes were computed when some are simulated: [`table3`][tableclean_suite.bench.tables.table3]'s ``asymptotes``)."""
     rows = main_rows(table)
     paper = (100.0 * rows["paper_success_rate"].astype(float)).round(2)
     frame = pd.DataFrame({"success % [CI]": _interval_texts(rows, "success_plateau", 2, 100.0),
@@ -301,7 +301,7 @@ def display_plateaus(table: pd.DataFrame) -> pd.DataFrame:
 def plateaus_kind(table: pd.DataFrame) -> str:
     """How the main rows' plateaus were computed, for Table 3b's legend: ``exact``, the simulation's
     label when all are simulated alike, else ``exact or simulated (column 'asymptotes')``; a
-    simulation's Monte Carlo error is inside the intervals (:func:`.statistics.cell_statistics`)."""
+    simulation's Monte Carlo error is inside the intervals ([`statistics.cell_statistics`][tableclean_suite.bench.statistics.cell_statistics])."""
     if ASYMPTOTES not in table.columns:
         return "exact"
     kinds = list(dict.fromkeys(main_rows(table)[ASYMPTOTES]))
@@ -435,7 +435,7 @@ def curves_long(records: list[dict], curves: list[dict], metrics=CURVE_METRICS, 
     """Curves in long format: one row per (record, iteration, metric).
 
     Args:
-        records: cell records (only :data:`KEY_COLUMNS` are used).
+        records: cell records (only `KEY_COLUMNS` are used).
         curves: per record, ``{metric: ndarray (iterations,)}``.
         metrics: which curves to include.
         stride: keep iterations 1, 1 + stride, ... (and always the last).
@@ -471,7 +471,7 @@ def curves_long(records: list[dict], curves: list[dict], metrics=CURVE_METRICS, 
 
 #: ``float_format`` of ``curves.csv`` (printf style, as ``DataFrame.to_csv(float_format=...)``).
 CURVES_FLOAT_FORMAT = "%.6g"
-#: Characters that make ``DataFrame.to_csv`` quote a text field (then :func:`csv_text` defers to pandas).
+#: Characters that make ``DataFrame.to_csv`` quote a text field (then [`csv_text`][tableclean_suite.bench.tables.csv_text] defers to pandas).
 _CSV_SPECIAL = (",", '"', "\n", "\r")
 
 

@@ -37,8 +37,8 @@ in one compiled call.  Per step: the skill's checks, its waypoint, its setpoint 
 skill's own step uses), the gripper control (robosuite's rate-limited command tabulated ahead),
 the substeps as above, and a state log ([ControlStepLog][tableclean_suite.controllers.fast_control.ControlStepLog]).
 The skill's state arrives as typed records
-([SKILL_STATE][tableclean_suite.controllers.loop_state.SKILL_STATE],
-[WIPE_STATE][tableclean_suite.controllers.loop_state.WIPE_STATE]).  Two kinds of phase run there:
+(`SKILL_STATE`,
+`WIPE_STATE`).  Two kinds of phase run there:
 
 - a phase whose waypoint is fixed (``Waypoint.fixed``: the grasp's CLOSE, the release's RELEASE;
   [FastSkillStepper.run_phase][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase]);
@@ -46,7 +46,7 @@ The skill's state arrives as typed records
   the sponge ([FastSkillStepper.run_press_phase][tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase],
   from ``Wipe.run_loop``): the wipe's force loop and waypoint, the same operations on the same
   values; the press force is the env's own ``sponge_press_force()``, called back once per control
-  step ([FORCE_CALLBACK][tableclean_suite.controllers.fast_control.FORCE_CALLBACK], timed in ``callback_seconds``).
+  step (`FORCE_CALLBACK`, timed in ``callback_seconds``).
 
 The loop returns to Python only at the phase's boundary: before a step whose completion check
 might pass (the skill then decides exactly), before a step it cannot take exactly (the sponge near
@@ -655,7 +655,7 @@ def wipe_waypoint(plant, wipe, setpoint, phase_steps, tolerance):
 
     Args:
         plant: the stepper's [Plant][tableclean_suite.controllers.fast_control.Plant].
-        wipe: a [WIPE_STATE][tableclean_suite.controllers.loop_state.WIPE_STATE] record (read only here).
+        wipe: a `WIPE_STATE` record (read only here).
         setpoint: (3,) the skill's position setpoint (m); phase_steps: control steps in the phase.
         tolerance: m, the phase's position tolerance.
 
@@ -730,9 +730,9 @@ def control_loop(plant, dirt, skill, fingers, wipe, grip_table, goal, log, limit
 
     Args:
         plant, dirt: as [`native_substeps`][tableclean_suite.controllers.fast_control.native_substeps].
-        skill: (1,) [SKILL_STATE][tableclean_suite.controllers.loop_state.SKILL_STATE] record, updated in place.
+        skill: (1,) `SKILL_STATE` record, updated in place.
         fingers: (F,) finger positions at the last step (rad or m), updated in place.
-        wipe: (1,) [WIPE_STATE][tableclean_suite.controllers.loop_state.WIPE_STATE] record (mode
+        wipe: (1,) `WIPE_STATE` record (mode
             ``MODE_FIXED``: a fixed waypoint), updated in place.
         grip_table: (R, G) gripper actuator controls, row k for the loop's k-th step.
         goal: outputs (action (7,), goal_pos (3,) m, goal_ori (3, 3)): the last step's command and goal.
@@ -1151,7 +1151,7 @@ class FastSkillStepper:
     def run_phase(self, skill: np.ndarray, fingers: np.ndarray) -> int:
         """Run control steps of a skill phase with a fixed waypoint in [`control_loop`][tableclean_suite.controllers.fast_control.control_loop]; returns how many ran.
 
-        ``skill``: the skill's (1,) [SKILL_STATE][tableclean_suite.controllers.loop_state.SKILL_STATE]
+        ``skill``: the skill's (1,) `SKILL_STATE`
         record (its ``target`` the waypoint), ``fingers``: (F,) its finger positions at the last step; both
         updated in place.  Returns to Python only at the phase's boundaries (a step whose completion check
         might pass, the budget, the env's horizon) and for substeps the env's wiping check must see, after
@@ -1166,7 +1166,7 @@ class FastSkillStepper:
         """Run control steps of the clean skill's PRESS, WIPE or SHIFT phase in [`control_loop`][tableclean_suite.controllers.fast_control.control_loop].
 
         As [`run_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase] (same conditions, the skill's state updated in place); ``wipe``: the wipe's (1,)
-        [WIPE_STATE][tableclean_suite.controllers.loop_state.WIPE_STATE] record, updated in place (its
+        `WIPE_STATE` record, updated in place (its
         ``force_fn`` is set here); ``force``: a Python function returning the sponge's press force (N),
         called once per control step from the compiled loop (its time is added to `callback_seconds`).
         Returns (control steps run, the loop's last stop reason).  An exception ``force`` raises is raised

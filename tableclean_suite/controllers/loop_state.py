@@ -4,11 +4,11 @@
 steps in compiled code and reads and updates the skill's state through two records (arrays of
 shape (1,) of these dtypes, fields by name):
 
-- [SKILL_STATE][tableclean_suite.controllers.loop_state.SKILL_STATE]: the setpoint and the
+- `SKILL_STATE`: the setpoint and the
   phase's checks, built by [Skill.loop_state][tableclean_suite.controllers.skill.Skill.loop_state];
-- [WIPE_STATE][tableclean_suite.controllers.loop_state.WIPE_STATE]: the clean skill's press-force
+- `WIPE_STATE`: the clean skill's press-force
   loop and stroke waypoint, built by [Wipe.run_loop][tableclean_suite.controllers.clean.Wipe.run_loop];
-  mode [MODE_FIXED][tableclean_suite.controllers.loop_state.MODE_FIXED] for a phase whose waypoint is fixed.
+  mode `MODE_FIXED` for a phase whose waypoint is fixed.
 """
 
 from __future__ import annotations

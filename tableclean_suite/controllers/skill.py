@@ -390,7 +390,7 @@ class Skill(abc.ABC):
     def loop_state(self, speed: float, gripper: float, tolerance: float, target, min_steps: int = 0,
                    xy_only: bool = False) -> np.ndarray:
         """The skill's state as the compiled control loop takes it: a (1,)
-        [SKILL_STATE][tableclean_suite.controllers.loop_state.SKILL_STATE] record for a phase at ``speed``
+        `SKILL_STATE` record for a phase at ``speed``
         (m/s) towards ``target`` (3,) m with the gripper command ``gripper``, ``tolerance`` (m), ``min_steps``
         and ``xy_only``; read back with [count_loop_steps][tableclean_suite.controllers.skill.Skill.count_loop_steps]."""
         timeout = self.config["gripper_timeout"]

@@ -17,7 +17,7 @@ MAX_NAMED_ENTRIES = 4
 
 
 class _LayoutDefault(enum.Enum):
-    """[FROM_SPEC][tableclean_suite.environments.arguments.FROM_SPEC]'s type: a sentinel compared by identity
+    """`FROM_SPEC`'s type: a sentinel compared by identity
     (a string spelled ``"from_spec"`` is a layout value, not the default) and kept through pickling."""
 
     FROM_SPEC = "from_spec"

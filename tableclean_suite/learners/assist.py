@@ -22,14 +22,14 @@ afforded actions of s'.  A state with no afforded action (never the case on the 
 **Advice** (``advice_probability`` L, ``advice_consistency`` C, both in [0, 1]): before the
 learner chooses an action, a simulated advisor advises with probability L; its advice is its own
 policy's action with probability C, else an action drawn uniformly over all actions; the learner
-takes the advice.  The advisor's policy (:func:`advisor_policy`) is the optimal policy of the
+takes the advice.  The advisor's policy ([`advisor_policy`][tableclean_suite.learners.assist.advisor_policy]) is the optimal policy of the
 task model: in each state, the first action of a shortest plan to a terminal state that takes no
 improper action (ties to the first action in the task's order).  Its draws come from the side
-lane ``LANE_ADVICE`` (:mod:`.rng`), counted by the iteration at which the action is taken, so the
+lane ``LANE_ADVICE`` ([`rng`][tableclean_suite.learners.rng]), counted by the iteration at which the action is taken, so the
 main lane's four streams are unchanged.
 
-The compiled functions here are inlined into the one training loop (:mod:`.kernel`) and picked
-by integer codes; :mod:`.reference` has independent plain-Python twins.
+The compiled functions here are inlined into the one training loop ([`kernel`][tableclean_suite.learners.kernel]) and picked
+by integer codes; [`reference`][tableclean_suite.learners.reference] has independent plain-Python twins.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ AFFORD_NONE, AFFORD_GIVEN, AFFORD_LEARNED = 0, 1, 2
 AFFORDANCES = {"none": AFFORD_NONE, "given": AFFORD_GIVEN, "learned": AFFORD_LEARNED}
 #: The advisor gives no advice (this iteration, or in a state where it has no action).
 NO_ADVICE = -1
-#: Indices of the advice parameter array (:meth:`TabularLearner.advice_parameters`).
+#: Indices of the advice parameter array ([`TabularLearner.advice_parameters`][tableclean_suite.learners.rules.TabularLearner.advice_parameters]).
 P_ADVICE, P_CONSISTENCY = 0, 1
 N_ADVICE_PARAMETERS = 2
 #: Mask entries: afforded (1) or not (0), int8.
@@ -198,7 +198,7 @@ def given_affordances(model) -> np.ndarray:
 
 
 def _build_affordances(model) -> np.ndarray:
-    """The array behind :func:`given_affordances`."""
+    """The array behind [`given_affordances`][tableclean_suite.learners.assist.given_affordances]."""
     from tableclean_suite.task import Outcome
 
     _, outcome = model.transition_arrays()
@@ -215,7 +215,7 @@ def advisor_policy(model) -> np.ndarray:
 
 
 def _search_advisor(model) -> np.ndarray:
-    """The search behind :func:`advisor_policy`."""
+    """The search behind [`advisor_policy`][tableclean_suite.learners.assist.advisor_policy]."""
     from tableclean_suite.task import Outcome
 
     next_state, outcome = model.transition_arrays()

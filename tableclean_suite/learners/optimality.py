@@ -6,9 +6,9 @@ restricted to the afforded actions when the learner uses affordances, ties to th
 (``ties="first"``) or uniform among the tied ones (``ties="random"``).  It is *optimal* when,
 in the task model's deterministic transitions, following it from every start state of the
 task's start distribution reaches the terminal state in exactly the shortest-plan number of
-steps of that start (:meth:`TaskModel.distances_to_terminal
-<tableclean_suite.task.TaskModel.distances_to_terminal>`); under random ties every tied
-action must keep to a shortest plan.  Equivalently: every state on the greedy paths is one
+steps of that start
+([`TaskModel.distances_to_terminal`][tableclean_suite.task.model.TaskModel.distances_to_terminal]);
+under random ties every tied action must keep to a shortest plan.  Equivalently: every state on the greedy paths is one
 step nearer the terminal state after its greedy action(s).  A calibrated (measured) table is
 trained on its own successors, but optimality is always judged on the model's transitions.
 

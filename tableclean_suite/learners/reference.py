@@ -86,7 +86,7 @@ class StepEnv(Protocol):
 
 
 class ModelStepEnv:
-    """The task model as a step environment (:meth:`TaskModel.step <tableclean_suite.task.TaskModel.step>`)."""
+    """The task model as a step environment ([`TaskModel.step`][tableclean_suite.task.model.TaskModel.step])."""
 
     def __init__(self, model: TaskModel):
         self.model = model

@@ -3,7 +3,7 @@
 The state code's digits ([`encode`][tableclean_suite.task.state.encode]) are read as arrays and each
 built-in action (move, pick, place, clean) is array arithmetic on them, so one rule serves
 both one state ([`actions`][tableclean_suite.task.actions]' ``move_effect`` ... apply it to a single code) and every code
-at once (:meth:`TaskModel.transition_arrays <tableclean_suite.task.TaskModel.transition_arrays>`,
+at once ([`TaskModel.transition_arrays`][tableclean_suite.task.model.TaskModel.transition_arrays],
 where stepping each code through Python would cost minutes for millions of codes).
 [`batch_step`][tableclean_suite.task.batch_rules.batch_step] adds the model's conventions (INEFFECTIVE becomes IMPROPER under
 ``ineffective="improper"``; an action that leaves every segment clean is TERMINAL; terminal
