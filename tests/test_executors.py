@@ -170,7 +170,8 @@ def run_cli(out, *args):
 
 def printed_tables(result, out) -> str:
     """stdout without the timing lines and with the output directory masked."""
-    lines = [line for line in result.stdout.splitlines() if not line.startswith(("cells:", "done in"))]
+    lines = [line for line in result.stdout.splitlines()
+             if not line.startswith(("cells:", "done in", "derived results"))]
     return "\n".join(lines).replace(str(out), "OUT")
 
 
