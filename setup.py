@@ -7,9 +7,8 @@ Version pins, and why:
   ``mj_fullM``, 3.11 removed ``MjData.qM`` (both used by robosuite's OSC), and
   3.12+ (and 4.x) fail robosuite's ``get_joint_qpos_addr`` with an AssertionError.
 - numba < 0.69: the batched tabular learners are compiled with it (robosuite needs it too); the
-  training loop borrows its array arguments (views without numba's reference counts) and is
-  compiled with numba's ``noalias`` flag (``learners/kernel.py``: ``borrowed``,
-  ``NoAliasCompiler``), numba internals checked with 0.68.1, the newest release.
+  training loop borrows its array arguments (views without numba's reference counts,
+  ``learners/kernel.py``: ``borrowed``), numba internals checked with 0.68.1, the newest release.
 - wrapt: its post-import hook registers ``TableClean`` when robosuite is imported, so the
   symbolic parts start without importing robosuite.
 """
@@ -50,7 +49,8 @@ setup(
         # executor tests start a local Ray on loopback; filelock, psutil: file locks and the memory check;
         # the docs extra: tests/test_docs.py builds the site)
         "dev": ["pytest", "pytest-xdist", "wheel", "optuna", "h5py", "ray", "filelock", "psutil",
-                "mkdocs", "mkdocs-material", "mkdocstrings[python]"],
+                "mkdocs", "mkdocs-material", "mkdocstrings[python]",
+                "lifelines"],  # an independent Kaplan-Meier the learning-time tests compare scipy's with
         "docs": ["mkdocs", "mkdocs-material", "mkdocstrings[python]"],  # mkdocs serve / mkdocs build --strict
         "video": ["imageio", "imageio-ffmpeg", "moviepy"],  # moviepy: Gymnasium's RecordVideo
         "tune": ["optuna"],  # tableclean-bench tune

@@ -53,6 +53,7 @@ HEAVY_TESTS: dict[str, tuple[str, ...]] = {
         "test_gym_envs.py::test_record_video_writes_an_episode_with_the_video_extra",  # ffmpeg
         "test_learners_spec.py::test_second_process_uses_the_numba_disk_cache",
         "test_package.py",
+        "test_speed.py::test_a_timed_process_runs_this_package",
     ),
     "install": ("test_bench_install.py",),
     "ray": (
