@@ -54,6 +54,9 @@ HEAVY_TESTS: dict[str, tuple[str, ...]] = {
         "test_learners_spec.py::test_second_process_uses_the_numba_disk_cache",
         "test_package.py",
         "test_speed.py::test_a_timed_process_runs_this_package",
+        # the page's machine stamp asks the platform for the processor, which runs `uname -p`
+        "test_speed.py::test_the_page_is_stamped_with_the_machine_and_marks_a_failed_section",
+        "test_speed.py::test_the_command_writes_the_page_it_printed",
     ),
     "install": ("test_bench_install.py",),
     "ray": (
