@@ -79,6 +79,19 @@ def positive_float(text: str) -> float:
     return value
 
 
+def choice_list(allowed, what: str):
+    """An argparse type: comma-separated names, each one of ``allowed``, duplicates dropped; an
+    unknown or empty list is an error naming ``what`` and the allowed names."""
+    def parse(text: str) -> tuple[str, ...]:
+        chosen = tuple(dict.fromkeys(part.strip() for part in text.split(",") if part.strip()))
+        bad = [name for name in chosen if name not in allowed]
+        if bad or not chosen:
+            raise argparse.ArgumentTypeError(f"unknown {what} {', '.join(bad) or text!r}; "
+                                             f"allowed: {', '.join(allowed)} (comma separated)")
+        return chosen
+    return parse
+
+
 def name_list(text: str) -> tuple[str, ...]:
     """``"a, b,a,"`` -> ``("a", "b")``: comma-separated names, in order, each once (at least one)."""
     names = tuple(dict.fromkeys(part.strip() for part in str(text).split(",") if part.strip()))

@@ -137,17 +137,6 @@ def interventions() -> dict[str, Intervention]:
     return {item.name: item for item in listed}
 
 
-def name_list(text: str) -> tuple[str, ...]:
-    """``"q_init,epsilon"`` -> the named interventions (argparse type; an unknown name is an error)."""
-    known = interventions()
-    chosen = tuple(dict.fromkeys(part.strip() for part in text.split(",") if part.strip()))
-    bad = [name for name in chosen if name not in known]
-    if bad or not chosen:
-        raise argparse.ArgumentTypeError(f"unknown intervention {', '.join(bad) or text!r}; allowed: "
-                                         f"{', '.join(known)} (comma separated)")
-    return chosen
-
-
 def _scale(text: str) -> float:
     try:
         value = float(text)
@@ -163,7 +152,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     from tableclean_suite.bench import cli
 
     parser = cli.command_parser(prog, __doc__.splitlines()[0].split(": ", 1)[1])
-    parser.add_argument("--only", type=name_list, default=tuple(interventions()),
+    known = tuple(interventions())
+    parser.add_argument("--only", type=cli.choice_list(known, "intervention"), default=known,
                         help=f"comma-separated interventions to run; allowed: {', '.join(interventions())} "
                              "(default: all)")
     cli.add_runs_argument(parser, DEFAULT_RUNS, "runs per arm")

@@ -29,15 +29,6 @@ MIN_SEEDS = 2
 DEFAULT_SEED = 0
 
 
-def _choice_list(allowed, what: str):
-    def parse(text: str) -> tuple[str, ...]:
-        chosen = tuple(dict.fromkeys(part.strip() for part in text.split(",") if part.strip()))
-        bad = [name for name in chosen if name not in allowed]
-        if bad or not chosen:
-            raise argparse.ArgumentTypeError(f"unknown {what} {', '.join(bad) or text!r}; "
-                                             f"allowed: {', '.join(allowed)} (comma separated)")
-        return chosen
-    return parse
 
 
 #: Fewest segments a spec can have (a task needs a segment to move to) ...
@@ -94,10 +85,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     from tableclean_suite.rewards import reward_pattern_names
 
     parser = cli.command_parser(prog, scaling.__doc__.splitlines()[0])
-    parser.add_argument("--learners", type=_choice_list(learner_names(), "learner"), default=DEFAULT_LEARNERS,
+    parser.add_argument("--learners", type=cli.choice_list(learner_names(), "learner"), default=DEFAULT_LEARNERS,
                         help=f"comma-separated learners; allowed: {', '.join(learner_names())} "
                              f"(default: {','.join(DEFAULT_LEARNERS)})")
-    parser.add_argument("--rewards", type=_choice_list(reward_pattern_names(), "reward pattern"),
+    parser.add_argument("--rewards", type=cli.choice_list(reward_pattern_names(), "reward pattern"),
                         default=DEFAULT_REWARDS, help=f"comma-separated reward patterns; allowed: "
                         f"{', '.join(reward_pattern_names())} (default: {','.join(DEFAULT_REWARDS)})")
     parser.add_argument("--segments", type=segment_list, default=DEFAULT_SEGMENTS,
