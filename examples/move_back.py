@@ -19,7 +19,8 @@ import sys
 
 from tableclean_suite.analysis import exact_success_probability
 from tableclean_suite.learners import train
-from tableclean_suite.metrics import iterations_to_max_success, learning_curves, plateau
+from tableclean_suite.curves import learning_curves
+from tableclean_suite.metrics import iterations_to_max_success, plateau
 from tableclean_suite.task import ActionRule, Outcome, TaskModel, TaskState, register_action
 
 #: The paper's hyperparameters.

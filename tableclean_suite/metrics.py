@@ -44,23 +44,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-# The curves the definitions below apply to, re-exported: ``metrics.CurveSums`` etc. keep working.
-from tableclean_suite.curves import (  # noqa: F401
-    CurveSums,
-    average_reward_curve,
-    average_reward_matrix,
-    check_fraction,
-    curve_sums,
-    episode_table,
-    episodes_curve,
-    learning_curves,
-    mean_curves,
-    success_curve,
-    success_matrix,
-    supported,
-    terminal_curve,
-    terminal_matrix,
-)
+from tableclean_suite.curves import CurveSums, check_fraction, curve_sums, episode_table  # noqa: F401 (episode_table: learners.train)
 
 DEFAULT_THRESHOLD = 0.95
 DEFAULT_PLATEAU_FRACTION = 0.25
@@ -332,12 +316,6 @@ def maximum(curve) -> float:
     """The curve's maximum, NaNs ignored (NaN if all are)."""
     curve = np.asarray(curve, dtype=float)
     return float(np.nanmax(curve)) if np.any(~np.isnan(curve)) else float("nan")
-
-
-def peak_index(curve) -> int | None:
-    """0-based index of the curve's first maximum, NaNs ignored (None if all are NaN)."""
-    curve = np.asarray(curve, dtype=float)
-    return int(np.nanargmax(curve)) if np.any(~np.isnan(curve)) else None
 
 
 @dataclass(frozen=True)

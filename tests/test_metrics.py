@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from tableclean_suite import metrics
+from tableclean_suite import curves, metrics
 from tableclean_suite.learners import TrainingResult
 from tableclean_suite.task import Outcome
 
@@ -38,21 +38,21 @@ def test_episode_table(tiny):
 
 
 def test_success_curve(tiny):
-    np.testing.assert_array_equal(metrics.success_curve(tiny), [0, 0.5, 0.5, 0.5, 0, 0.5])
+    np.testing.assert_array_equal(curves.success_curve(tiny), [0, 0.5, 0.5, 0.5, 0, 0.5])
 
 
 def test_terminal_curve(tiny):
-    np.testing.assert_array_equal(metrics.terminal_curve(tiny), [0, 0.5, 1, 1, 0.5, 0.5])
+    np.testing.assert_array_equal(curves.terminal_curve(tiny), [0, 0.5, 1, 1, 0.5, 0.5])
 
 
 def test_average_reward_curve(tiny):
     a0, b0, a1, b1 = 0.99 / 2, -0.98 / 3, 0.01 / 3, 1.02 / 3
     expected = [np.nan, a0, (a0 + a1) / 2, (a0 + a1) / 2, (b0 + a1) / 2, (b0 + b1) / 2]
-    np.testing.assert_allclose(metrics.average_reward_curve(tiny), expected)
+    np.testing.assert_allclose(curves.average_reward_curve(tiny), expected)
 
 
 def test_episodes_curve(tiny):
-    np.testing.assert_array_equal(metrics.episodes_curve(tiny), [0, 0.5, 1, 1, 1.5, 2])
+    np.testing.assert_array_equal(curves.episodes_curve(tiny), [0, 0.5, 1, 1, 1.5, 2])
 
 
 def test_plateau_and_iterations_to_max_success():
@@ -99,7 +99,7 @@ def test_summarize_returns_a_typed_frozen_summary(tiny):
     assert tuple(summary.scalars()) == metrics.SUMMARY_SCALARS and tuple(summary.curves()) == metrics.CURVE_NAMES
     assert summary.success_plateau == pytest.approx(np.mean([0.0, 0.5]))  # last 2 of 6 iterations
     assert summary["success_plateau"] == summary.success_plateau and "success" in summary and "nope" not in summary
-    np.testing.assert_array_equal(summary.success, metrics.success_curve(tiny))
+    np.testing.assert_array_equal(summary.success, curves.success_curve(tiny))
     assert summary.iterations == 6
     with pytest.raises(dataclasses.FrozenInstanceError):
         summary.success_plateau = 1.0
@@ -129,7 +129,7 @@ def test_curve_sums_chunk_by_chunk_equal_one_pass():
 
     runs, settings = 37, dict(iterations=700, max_itr=60, seed=5)
     whole = train("sarsa", "r1", runs=runs, **settings)
-    sums = metrics.CurveSums.zeros(700)
+    sums = curves.CurveSums.zeros(700)
     for first in range(0, runs, 10):  # chunks of 10, 10, 10, 7 runs, trained separately
         sums.add(train("sarsa", "r1", runs=min(10, runs - first), first_run=first, **settings))
     assert sums.runs == runs
@@ -138,35 +138,35 @@ def test_curve_sums_chunk_by_chunk_equal_one_pass():
     with pytest.raises(ValueError, match="iterations"):
         sums.add(train("sarsa", "r1", runs=1, iterations=5))
     with pytest.raises(ValueError, match="no runs"):
-        metrics.CurveSums.zeros(3).curves()
+        curves.CurveSums.zeros(3).curves()
 
 
 def test_compiled_curves_equal_per_run_matrices_on_real_training():
     from tableclean_suite.learners import train
 
     result = train("sarsa", "r4", runs=64, iterations=1500, max_itr=60, seed=4)
-    curves = metrics.learning_curves(result)
-    np.testing.assert_array_equal(curves["success"], metrics.success_matrix(result).mean(axis=0))
-    np.testing.assert_array_equal(curves["terminal"], metrics.terminal_matrix(result).mean(axis=0))
-    np.testing.assert_array_equal(curves["episodes"], np.cumsum(result.episode_end != 0, axis=1).mean(axis=0))
-    per_run = metrics.average_reward_matrix(result)
+    mean = curves.learning_curves(result)
+    np.testing.assert_array_equal(mean["success"], curves.success_matrix(result).mean(axis=0))
+    np.testing.assert_array_equal(mean["terminal"], curves.terminal_matrix(result).mean(axis=0))
+    np.testing.assert_array_equal(mean["episodes"], np.cumsum(result.episode_end != 0, axis=1).mean(axis=0))
+    per_run = curves.average_reward_matrix(result)
     started = ~np.all(np.isnan(per_run), axis=0)  # iterations at which some run has finished an episode
-    assert np.all(np.isnan(curves["average_reward"][~started]))
+    assert np.all(np.isnan(mean["average_reward"][~started]))
     np.testing.assert_allclose(
-        curves["average_reward"][started], np.nanmean(per_run[:, started], axis=0), rtol=1e-12, atol=1e-15
+        mean["average_reward"][started], np.nanmean(per_run[:, started], axis=0), rtol=1e-12, atol=1e-15
     )
 
 
 def test_support_fraction_hides_points_resting_on_few_runs(tiny):
     # run 0 finishes its first episode at t1, run 1 at t2: with half the runs required t1 counts,
     # with all runs required only t2 on
-    half = metrics.CurveSums.zeros(6).add(tiny).curves(support_fraction=0.5)["average_reward"]
-    full = metrics.CurveSums.zeros(6).add(tiny).curves(support_fraction=1.0)["average_reward"]
+    half = curves.CurveSums.zeros(6).add(tiny).curves(support_fraction=0.5)["average_reward"]
+    full = curves.CurveSums.zeros(6).add(tiny).curves(support_fraction=1.0)["average_reward"]
     assert np.isnan(half[0]) and not np.isnan(half[1])
     assert np.isnan(full[:2]).all() and not np.isnan(full[2:]).any()
     np.testing.assert_array_equal(full[2:], half[2:])  # the rule removes points, never changes them
     with pytest.raises(ValueError, match="support_fraction"):
-        metrics.CurveSums.zeros(6).add(tiny).curves(support_fraction=1.5)
+        curves.CurveSums.zeros(6).add(tiny).curves(support_fraction=1.5)
 
 
 def test_given_plateaus_replace_the_window_mean():
@@ -196,8 +196,8 @@ def test_summarize_with_plateaus_and_support(tiny):
 
 
 def test_curve_sums_keep_the_squares_of_the_average_rewards(tiny):
-    sums = metrics.CurveSums.zeros(6).add(tiny)
-    per_run = metrics.average_reward_matrix(tiny)
+    sums = curves.CurveSums.zeros(6).add(tiny)
+    per_run = curves.average_reward_matrix(tiny)
     np.testing.assert_allclose(sums.average_square, np.nansum(per_run ** 2, axis=0), rtol=1e-15)
     np.testing.assert_array_equal(sums.finished_runs, (~np.isnan(per_run)).sum(axis=0))
 
@@ -206,8 +206,8 @@ def test_curve_sums_do_not_depend_on_chunking():
     from tableclean_suite.learners import train
 
     settings = dict(iterations=400, max_itr=60, seed=3)
-    whole = metrics.CurveSums.zeros(400).add(train("q_learning", "r4", runs=11, **settings))
-    chunked = metrics.CurveSums.zeros(400)
+    whole = curves.CurveSums.zeros(400).add(train("q_learning", "r4", runs=11, **settings))
+    chunked = curves.CurveSums.zeros(400)
     for first in (0, 5):
         chunked.add(train("q_learning", "r4", runs=min(5, 11 - first), first_run=first, **settings))
     chunked.add(train("q_learning", "r4", runs=1, first_run=10, **settings))

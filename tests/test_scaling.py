@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import math
 
 import numpy as np
@@ -253,7 +254,7 @@ def test_the_studys_fit_takes_a_censored_cell_as_a_lower_bound_and_gives_no_expo
 
 
 def test_train_cell_keeps_every_seeds_learning_times_and_window_sums():
-    from tableclean_suite import metrics
+    from tableclean_suite import curves
     from tableclean_suite.learners import train
 
     model = TaskModel(spec="paper")
@@ -263,7 +264,7 @@ def test_train_cell_keeps_every_seeds_learning_times_and_window_sums():
     for row, seed in enumerate((3, 4)):
         result = train(reward="r4", runs=5, iterations=info.window, max_itr=info.max_itr, seed=seed, task=model)
         np.testing.assert_array_equal(records.learned_at[row], result.learned_at)
-        success = metrics.success_matrix(result)
+        success = curves.success_matrix(result)
         tail = study.plateau_start(info.window)
         np.testing.assert_allclose(records.tail_success[row], success[:, tail:].mean(axis=1))
         reached = (result.outcomes == int(Outcome.TERMINAL)).any(axis=1)
@@ -377,13 +378,16 @@ def test_figure_draws_reached_and_censored_cells(tmp_path):
 
 
 def test_a_study_into_a_folder_another_run_holds_exits_2_before_training(tmp_path, capsys):
-    import filelock
+    import fcntl
 
-    from tableclean_suite.bench import commands, outputs
+    from tableclean_suite.bench import commands
 
-    other = filelock.FileLock(str(tmp_path / outputs.LOCK_FILE))  # another writer's hold (its own open file)
-    with other:
+    other = os.open(tmp_path, os.O_RDONLY)  # another writer's hold (its own open file description)
+    fcntl.flock(other, fcntl.LOCK_EX)
+    try:
         code = commands.main(["scaling", *TINY_ARGS, "--out", str(tmp_path)])
+    finally:
+        os.close(other)
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "in use by another run" in err[0], err
     assert not (tmp_path / "scaling.csv").exists()
