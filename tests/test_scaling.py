@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 import math
 
 import numpy as np
@@ -378,16 +377,13 @@ def test_figure_draws_reached_and_censored_cells(tmp_path):
 
 
 def test_a_study_into_a_folder_another_run_holds_exits_2_before_training(tmp_path, capsys):
-    import fcntl
+    import filelock
 
-    from tableclean_suite.bench import commands
+    from tableclean_suite.bench import commands, outputs
 
-    other = os.open(tmp_path, os.O_RDONLY)  # another writer's hold (its own open file description)
-    fcntl.flock(other, fcntl.LOCK_EX)
-    try:
+    other = filelock.FileLock(str(tmp_path / outputs.LOCK_FILE))  # another writer's hold (its own open file)
+    with other:
         code = commands.main(["scaling", *TINY_ARGS, "--out", str(tmp_path)])
-    finally:
-        os.close(other)
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "in use by another run" in err[0], err
     assert not (tmp_path / "scaling.csv").exists()
