@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import math
 
 import numpy as np
@@ -377,13 +378,36 @@ def test_figure_draws_reached_and_censored_cells(tmp_path):
 
 
 def test_a_study_into_a_folder_another_run_holds_exits_2_before_training(tmp_path, capsys):
-    import filelock
+    import fcntl
 
-    from tableclean_suite.bench import commands, outputs
+    from tableclean_suite.bench import commands
 
-    other = filelock.FileLock(str(tmp_path / outputs.LOCK_FILE))  # another writer's hold (its own open file)
-    with other:
+    other = os.open(tmp_path, os.O_RDONLY)  # another writer's hold (its own open file description)
+    fcntl.flock(other, fcntl.LOCK_EX)
+    try:
         code = commands.main(["scaling", *TINY_ARGS, "--out", str(tmp_path)])
+    finally:
+        os.close(other)
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "in use by another run" in err[0], err
     assert not (tmp_path / "scaling.csv").exists()
+
+
+def test_the_fit_stays_finite_and_silent_where_the_search_strays():
+    import warnings
+
+    args = (np.log([20.0, 90.0, 327.0]), np.log([200.0, 900.0, 4000.0]), np.zeros(3), np.zeros(3, dtype=bool))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's "overflow encountered in exp" was printed here
+        assert math.isfinite(statistics._negative_log_likelihood([0.0, 1.0, 800.0], *args))
+
+
+def test_the_printed_cell_table_fits_in_120_columns_and_keeps_columns_apart(capsys):
+    row = {"spec": "fixed_plan_m5_long_name", "gamma": 0.9, "learner": "double_q_learning", "reward": "r4_cycle",
+           "learning_time": 123456.0, "learning_time_low": 100000.0, "learning_time_high": math.inf,
+           "censored_share": 0.5, "success_window_mean": 0.5, "success_window_mean_low": 0.25,
+           "success_window_mean_high": 0.75, "optimal_success": 0.87, "never_terminal_share": 0.1}
+    report.print_cells([row, {**row, "learner": "q"}])
+    lines = capsys.readouterr().out.splitlines()
+    assert max(map(len, lines)) <= 120
+    assert "double_q_learning r4_cycle" in lines[1]

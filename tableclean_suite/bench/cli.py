@@ -108,14 +108,17 @@ def output_path(kind: str):
         if not str(text).strip():
             raise argparse.ArgumentTypeError(f"expected a {kind} path, got {text!r} (empty)")
         path = Path(text)
-        if kind == FILE and path.is_dir():
-            raise argparse.ArgumentTypeError(f"{text!r} is a directory; give a file name")
-        for parent in (path, *path.parents) if kind == DIRECTORY else path.parents:
-            if parent.exists():
-                if not parent.is_dir():
-                    where = "is a file" if parent == path else f"is under {str(parent)!r}, which is a file"
-                    raise argparse.ArgumentTypeError(f"{text!r} {where}, not a directory")
-                break
+        try:
+            if kind == FILE and path.is_dir():
+                raise argparse.ArgumentTypeError(f"{text!r} is a directory; give a file name")
+            for parent in (path, *path.parents) if kind == DIRECTORY else path.parents:
+                if parent.exists():
+                    if not parent.is_dir():
+                        where = "is a file" if parent == path else f"is under {str(parent)!r}, which is a file"
+                        raise argparse.ArgumentTypeError(f"{text!r} {where}, not a directory")
+                    break
+        except OSError as error:  # a name too long, a parent folder that cannot be searched
+            raise argparse.ArgumentTypeError(f"{text!r} cannot be used: {error.strerror or error}") from None
         return str(text)
     return parse
 

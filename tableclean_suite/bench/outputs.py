@@ -1,20 +1,23 @@
-"""Writing a run's output files so that they always describe one run, whatever interrupts it.
+"""Writing a command's output folder so that it always describes one publication, whatever interrupts it.
 
-Protocol of `publish` (``OUT`` is the output directory), under the folder's lock
-(`output_lock`: one writer at a time):
+Protocol of `publish` (``OUT`` is the output folder), under the folder's lock (`output_lock`:
+one writer at a time, held on the folder itself, so deleting a file cannot release it):
 
-1. Each data file (``table3.csv``, ``table4.csv``, ``curves.csv``, the figures) and then
-   ``config.json`` (the run's configuration, a fresh ``run_id`` and, under ``files``, the SHA-256
-   and size of every data file) are written to temporary names in ``OUT`` (``.NAME.PID.tmp``).
-   If any write fails (a full disk, a read-only mount, a folder where a file goes), the
-   temporaries are removed and ``OUT`` keeps its last complete publication untouched.
-2. ``OUT/config.json`` is deleted, each data file is moved over the old one with
-   `os.replace` (a rename: no space needed) and ``config.json`` is moved in last.
+1. Each data file and then the manifest (``config.json``: the command, its configuration, a fresh
+   ``run_id`` and, under ``files``, the SHA-256 and size of every data file) are written to
+   temporary names in ``OUT`` (``.NAME.PID.tmp``).  If any write fails (a full disk, a read-only
+   mount, a folder where a file goes), the temporaries are removed and ``OUT`` keeps its last
+   complete publication untouched.
+2. The new manifest moves to ``.publishing.json``; the files of earlier publications (listed by
+   ``config.json`` or an interrupted ``.publishing.json``) that this one does not rewrite are
+   deleted (e.g. the figures of a run after one with ``--no-figures``); ``config.json`` is deleted,
+   each data file moves over the old one with `os.replace` and ``.publishing.json`` becomes
+   ``config.json`` last.
 
-Hence: when ``config.json`` exists, the data files it lists are the ones of its run
-(`check_outputs` verifies the digests); when it is missing, the last run was interrupted
-between its renames and the directory describes no run.  A ``config.json`` this suite did not
-write (no ``run_id``/``files``) is never deleted: `publish` refuses the folder instead.
+Hence: when ``config.json`` exists, the data files it lists are the ones of its publication
+(`check_outputs` verifies the digests and reports files it does not list); when it is missing,
+the last publication was interrupted and the folder describes none.  A folder holding another
+command's publication, or a ``config.json`` this suite did not write, is refused, never deleted.
 
 Every file-system failure surfaces as `OutputError` (an ``OSError``) whose message is one
 line naming the path and the reason; the command line turns it into exit code 2.
@@ -25,17 +28,20 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import time
 import uuid
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable
 
-#: The manifest: the run's configuration, its id and the digests of its data files.
+#: The manifest: the command, its configuration, its id and the digests of its data files.
 MANIFEST = "config.json"
-#: The lock file a writer holds in an output folder ([`output_lock`][tableclean_suite.bench.outputs.output_lock]).
-LOCK_FILE = ".tableclean.lock"
+#: The new manifest while its files move in (`publish`); left behind only by an interrupted one.
+PENDING = ".publishing.json"
 #: Seconds [`output_lock`][tableclean_suite.bench.outputs.output_lock] waits for another writer before giving up (0: give up at once).
 DEFAULT_LOCK_WAIT = 0.0
+#: The command a manifest without a ``command`` key was written by (before commands were recorded).
+LEGACY_COMMAND = "run"
 
 #: Bytes read at a time when hashing a file.
 _HASH_BLOCK = 1 << 20
@@ -122,10 +128,11 @@ _HELD_LOCKS: dict = {}
 
 @contextmanager
 def output_lock(out, wait: float = DEFAULT_LOCK_WAIT):
-    """Hold ``OUT/.tableclean.lock`` (`filelock`) while writing into ``out``.
+    """Hold an exclusive ``flock`` on the folder ``out`` itself while writing into it.
 
     Re-entrant within a process (a run holding its folder can [`publish`][tableclean_suite.bench.outputs.publish] into it).  The
-    lock is the operating system's, so it is released when the holder exits or is killed.
+    lock is the operating system's, on the folder's own inode: no file can be deleted to break it,
+    and it is released when the holder exits or is killed.
 
     Args:
         out: the output folder (created if missing).
@@ -133,64 +140,97 @@ def output_lock(out, wait: float = DEFAULT_LOCK_WAIT):
 
     Raises:
         OutputBusyError: another process holds it after ``wait`` seconds.
-        OutputError: the folder cannot hold a lock file.
+        OutputError: the folder cannot be created or opened.
     """
-    import filelock
+    import fcntl
 
     out = check_out_path(out)
     try:
         out.mkdir(parents=True, exist_ok=True)
+        descriptor = os.open(out, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
     except OSError as error:
-        raise OutputError(f"output folder {str(out)!r} cannot be created: {describe_os_error(error)}") from None
-    key = os.path.realpath(out)
-    lock = _HELD_LOCKS.get(key)
-    if lock is None:
-        lock = _HELD_LOCKS[key] = filelock.FileLock(str(out / LOCK_FILE))
+        raise OutputError(f"output folder {str(out)[:200]!r} cannot be used: {describe_os_error(error)}") from None
+    key = os.fstat(descriptor).st_ino, os.fstat(descriptor).st_dev
     try:
-        lock.acquire(timeout=wait)
-    except filelock.Timeout:
-        raise OutputBusyError(f"output folder {str(out)!r} is in use by another run (it holds {LOCK_FILE}); wait "
-                              f"for it to finish or choose another output folder") from None
-    except OSError as error:
-        raise OutputError(f"output folder {str(out)!r} cannot be locked: {describe_os_error(error)}") from None
-    try:
-        yield out
+        if key not in _HELD_LOCKS:
+            deadline = time.monotonic() + wait
+            while True:
+                try:
+                    fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    break
+                except BlockingIOError:
+                    if time.monotonic() >= deadline:
+                        raise OutputBusyError(f"output folder {str(out)!r} is in use by another run; wait for it to "
+                                              "finish or choose another output folder") from None
+                    time.sleep(0.1)
+        _HELD_LOCKS[key] = _HELD_LOCKS.get(key, 0) + 1
+        try:
+            yield out
+        finally:
+            _HELD_LOCKS[key] -= 1
+            if not _HELD_LOCKS[key]:
+                del _HELD_LOCKS[key]
     finally:
-        lock.release()
+        os.close(descriptor)  # the last descriptor of the folder closed releases the flock
 
 
 def is_own_manifest(path) -> bool:
     """Whether ``path`` is a ``config.json`` written by [`publish`][tableclean_suite.bench.outputs.publish] (a JSON object with
     ``run_id`` and ``files``); False for anything else, unreadable files included."""
+    return _manifest_of(path) is not None
+
+
+def _manifest_of(path) -> dict | None:
+    """The manifest at ``path`` if [`publish`][tableclean_suite.bench.outputs.publish] wrote it, else None (missing, unreadable, foreign)."""
     try:
         document = json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, ValueError):
-        return False
-    return isinstance(document, dict) and all(key in document for key in _MANIFEST_KEYS)
+        return None
+    return document if isinstance(document, dict) and all(key in document for key in _MANIFEST_KEYS) else None
 
 
-def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict, wait: float = 60.0) -> list[Path]:
-    """Write a run's data files and its manifest following the module's protocol.
+def publication_problem(out, command: str) -> str | None:
+    """Why ``command`` may not publish into ``out``, or None: a ``config.json`` this suite did not
+    write (never deleted), or the publication of another command (named)."""
+    path = Path(out) / MANIFEST
+    if not path.exists():
+        return None
+    document = _manifest_of(path)
+    if document is None:
+        return f"{str(path)!r} exists and was not written by tableclean_suite; it is left alone: choose another output folder"
+    other = document.get("command", LEGACY_COMMAND)
+    if other != command:
+        return (f"{str(out)!r} holds the outputs of 'tableclean-bench {other}' ({MANIFEST}); {command} does not "
+                f"replace them: choose another output folder")
+    return None
+
+
+def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict, wait: float = 60.0,
+            command: str = LEGACY_COMMAND, kept=()) -> list[Path]:
+    """Write a command's data files and its manifest following the module's protocol.
 
     Args:
         out: the output directory (must exist; not empty).
         writers: ``{file name: write(path)}`` of the data files, written in this order.
-        manifest: the run's description; ``run_id`` and ``files`` are added to it.
+        manifest: the publication's description; ``command``, ``run_id``, ``files`` and ``kept`` are added.
         wait: seconds to wait for another writer's lock ([`output_lock`][tableclean_suite.bench.outputs.output_lock]).
+        command: the command publishing (a folder holding another command's publication is refused).
+        kept: names of files in ``out`` the command keeps across publications (e.g. a study
+            database), not data of this publication; [`check_outputs`][tableclean_suite.bench.outputs.check_outputs] does not report them.
 
     Returns:
         The paths written, data files first and ``config.json`` last.
 
     Raises:
         OutputError: a file cannot be written (the last publication is left as it was), or
-            ``OUT/config.json`` exists and was not written by this suite (it is not deleted).
+            ``OUT/config.json`` is another command's or was not written by this suite (it is not deleted).
     """
     out = check_out_path(out)
     with output_lock(out, wait):
-        manifest_path = out / MANIFEST
-        if manifest_path.exists() and not is_own_manifest(manifest_path):
-            raise OutputError(f"{str(manifest_path)!r} exists and was not written by tableclean_suite; it is left "
-                              f"alone: choose another output folder")
+        problem = publication_problem(out, command)
+        if problem:
+            raise OutputError(problem)
+        earlier = {name for path in (out / MANIFEST, out / PENDING) for name in (_manifest_of(path) or {}).get("files", ())}
         staged: list[tuple[Path, Path]] = []
         try:
             files = {}
@@ -199,16 +239,19 @@ def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict, wai
                 temporary = _stage(path, write)
                 staged.append((temporary, path))
                 files[name] = {"sha256": sha256_file(temporary), "bytes": temporary.stat().st_size}
-            document = {**manifest, "run_id": uuid.uuid4().hex, "files": files}
+            document = {**manifest, "command": command, "run_id": uuid.uuid4().hex, "files": files, "kept": list(kept)}
             text = json.dumps(document, indent=2)
-            staged.append((_stage(manifest_path, lambda t: t.write_text(text, encoding="utf-8")), manifest_path))
-            _unlink(manifest_path)
+            _replace(_stage(out / MANIFEST, lambda t: t.write_text(text, encoding="utf-8")), out / PENDING)
+            for name in sorted(earlier - set(files) - {MANIFEST, PENDING}):
+                _unlink(out / name)  # config.json, still listing it, reports it missing until replaced
+            _unlink(out / MANIFEST)
             for temporary, path in staged:
                 _replace(temporary, path)
+            _replace(out / PENDING, out / MANIFEST)
         finally:
-            for temporary, _ in staged:
+            for temporary in (*(t for t, _ in staged), temporary_path(out / MANIFEST)):
                 _remove_quietly(temporary)
-    return [path for _, path in staged]
+    return [path for _, path in staged] + [out / MANIFEST]
 
 
 def _stage(path: Path, write: Callable[[Path], None]) -> Path:
@@ -243,9 +286,10 @@ def _replace(temporary: Path, path: Path) -> None:
 
 
 def check_outputs(out) -> list[str]:
-    """Problems of an output directory; ``[]`` when ``config.json`` and its data files agree.
+    """Problems of an output directory; ``[]`` when ``config.json`` and its data files agree and
+    no other file (hidden ones, folders and the manifest's ``kept`` aside) lies beside them.
 
-    A missing ``config.json`` (a run that did not finish writing) is a problem too.
+    A missing ``config.json`` (a publication that did not finish) is a problem too.
     """
     out = Path(out)
     try:
@@ -264,6 +308,10 @@ def check_outputs(out) -> list[str]:
             problems.append(f"{path} is missing")
         elif sha256_file(path) != facts.get("sha256"):
             problems.append(f"{path} is not the file of run {document['run_id']} (SHA-256 differs)")
+    listed = {MANIFEST, *files, *document.get("kept", ())}
+    problems += [f"{path} is not listed in {MANIFEST}: not a file of run {document['run_id']}"
+                 for path in sorted(out.iterdir()) if path.is_file() and path.name not in listed
+                 and not path.name.startswith(".")]
     return problems
 
 
@@ -276,13 +324,13 @@ def check_writable(out) -> str | None:
     if out is None or (isinstance(out, str) and not out.strip()):
         return f"{out!r} is empty (it would mean the current directory); name a folder"
     out = Path(out)
-    for parent in (out, *out.parents):
-        if parent.exists():
-            if not parent.is_dir():
-                where = "is a file" if parent == out else f"is under {str(parent)!r}, which is a file"
-                return f"{str(out)!r} {where}, not a directory"
-            break
     try:
+        for parent in (out, *out.parents):
+            if parent.exists():
+                if not parent.is_dir():
+                    where = "is a file" if parent == out else f"is under {str(parent)!r}, which is a file"
+                    return f"{str(out)!r} {where}, not a directory"
+                break
         out.mkdir(parents=True, exist_ok=True)
         probe = out / f".write-probe.{os.getpid()}.tmp"
         probe.write_bytes(b"")
@@ -292,14 +340,11 @@ def check_writable(out) -> str | None:
     return None
 
 
-def check_publishable(out, folders=()) -> str | None:
-    """Why [`publish`][tableclean_suite.bench.outputs.publish] could not use ``out``, or None: [`check_writable`][tableclean_suite.bench.outputs.check_writable] of ``out`` and of
-    each of its sub-``folders`` (e.g. ``("cells",)``), and a ``config.json`` there that this suite
-    did not write (which [`publish`][tableclean_suite.bench.outputs.publish] never deletes).  Call it before any work."""
+def check_publishable(out, folders=(), command: str = LEGACY_COMMAND) -> str | None:
+    """Why ``command`` could not [`publish`][tableclean_suite.bench.outputs.publish] into ``out``, or None: [`check_writable`][tableclean_suite.bench.outputs.check_writable] of ``out``
+    and of each of its sub-``folders`` (e.g. ``("cells",)``), then [`publication_problem`][tableclean_suite.bench.outputs.publication_problem]
+    (another command's publication, a foreign ``config.json``).  Call it before any work."""
     problem = check_writable(out)
     for folder in folders:
         problem = problem or check_writable(Path(out) / folder)
-    if problem is None and (Path(out) / MANIFEST).exists() and not is_own_manifest(Path(out) / MANIFEST):
-        problem = (f"{str(Path(out) / MANIFEST)!r} exists and was not written by tableclean_suite; it is left alone: "
-                   "choose another output folder")
-    return problem
+    return problem or publication_problem(out, command)

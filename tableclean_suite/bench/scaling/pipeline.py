@@ -7,7 +7,6 @@ out``).
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 import time
@@ -20,7 +19,7 @@ from tableclean_suite.bench.scaling.family import (BASE_MAX_ITR, FIXED_PLAN_FAMI
                                                    family_specs, fixed_plan_spec, paper_plan_steps)
 from tableclean_suite.bench.scaling.report import (config_dict, interval_text, json_safe, observed_order,
                                                    ordering_answer, ordering_report, print_cells, print_specs,
-                                                   write_atomic_text, write_csv, write_figure)
+                                                   write_csv, write_figure)
 from tableclean_suite.bench.scaling.statistics import (CONFIDENCE, MAX_CENSORED_SHARE_FOR_FIT, PAPER_ORDER,
                                                        fit_censored_power_law, local_slopes, log_standard_error)
 from tableclean_suite.bench.scaling.study import cell_row, train_cell
@@ -146,16 +145,22 @@ def run_study(args) -> int:
     Holds ``--out``'s lock while it runs ([`output_lock`][tableclean_suite.bench.outputs.output_lock], as
     ``run`` does): a second study into the same folder raises
     [`OutputBusyError`][tableclean_suite.bench.outputs.OutputBusyError] (the command line: one line, exit 2)
-    instead of interleaving its files with this one's.
+    instead of interleaving its files with this one's; a folder holding another command's outputs
+    is refused before any training ([`OutputError`][tableclean_suite.bench.outputs.OutputError]).
     """
     from tableclean_suite.bench import outputs
 
+    problem = outputs.check_publishable(args.out, command="scaling")
+    if problem:
+        raise outputs.OutputError(problem)
     with outputs.output_lock(args.out) as out:
         return _study(args, Path(out))
 
 
 def _study(args, out: Path) -> int:
     """[`run_study`][tableclean_suite.bench.scaling.pipeline.run_study]'s work, into the locked folder ``out``."""
+    from tableclean_suite.bench import outputs
+
     started = time.perf_counter()
     paper_plan_length = paper_plan_steps()
     described = describe_family(family_specs(args.segments, args.objects), paper_plan_length, args.base_window,
@@ -212,17 +217,17 @@ def _study(args, out: Path) -> int:
         print(f"Observed order ({fit_learner}, gamma {gamma:g}, median learning time, fewest first):")
         for info in infos:
             print(f"  {info.name:<15}{info.reachable_from_start:>7}: {observed_order(rows, info.name, fit_learner, gamma)}")
-    write_csv(out / "scaling.csv", rows)
-    write_csv(out / "scaling_specs.csv", [asdict(s) for s in infos])
-    write_csv(out / "scaling_slopes.csv", [{"family": family, "gamma": float(gamma), "learner": fit_learner,
-                                            "reward": reward, **slope}
-                                           for family in families for gamma, per in slopes[family].items()
-                                           for reward, listed in per.items() for slope in listed])
-    write_figure(out / "scaling.png", rows, fit_learner, fits[PRODUCT_FAMILY])
+    slope_rows = [{"family": family, "gamma": float(gamma), "learner": fit_learner, "reward": reward, **slope}
+                  for family in families for gamma, per in slopes[family].items()
+                  for reward, listed in per.items() for slope in listed]
     seconds = time.perf_counter() - started
-    write_atomic_text(out / "config.json", json.dumps(json_safe(
-        config_dict(args, infos, fits, slopes, verdicts, seconds, fit_learner, method_constants(args))), indent=2,
-        allow_nan=False) + "\n")
+    outputs.publish(out, {
+        "scaling.csv": lambda path: write_csv(path, rows),
+        "scaling_specs.csv": lambda path: write_csv(path, [asdict(s) for s in infos]),
+        "scaling_slopes.csv": lambda path: write_csv(path, slope_rows),
+        "scaling.png": lambda path: write_figure(path, rows, fit_learner, fits[PRODUCT_FAMILY]),
+    }, json_safe(config_dict(args, infos, fits, slopes, verdicts, seconds, fit_learner, method_constants(args))),
+        command="scaling")
     print(f"\nWrote {out}/scaling.csv, scaling_specs.csv, scaling_slopes.csv, scaling.png, config.json in "
           f"{seconds:.1f} s wall.")
     return 0

@@ -1,6 +1,7 @@
 """The scaling study's report: printed tables and answers, CSV files, the figure and ``config.json``.
 
-Every file is written atomically (a temporary file in the same folder, then ``os.replace``).
+The writers write to the path they are given; the pipeline publishes them together
+([`outputs.publish`][tableclean_suite.bench.outputs.publish]).
 """
 
 from __future__ import annotations
@@ -10,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 
-from tableclean_suite.bench.outputs import atomic_write, atomic_write_text
 from tableclean_suite.bench.scaling.family import FIXED_PLAN_FAMILY, PRODUCT_FAMILY, SpecInfo
 from tableclean_suite.bench.scaling.statistics import PAPER_ORDER, order_verdict
 
@@ -36,16 +36,11 @@ def json_safe(value):
     return value
 
 
-def write_atomic_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically ([`outputs.atomic_write_text`][tableclean_suite.bench.outputs.atomic_write_text])."""
-    atomic_write_text(path, text)
-
-
 def write_csv(path: Path, rows: list[dict]) -> None:
-    """Rows of equal keys as CSV, atomically."""
+    """Rows of equal keys as CSV."""
     import pandas as pd
 
-    write_atomic_text(path, pd.DataFrame(rows).to_csv(index=False))
+    pd.DataFrame(rows).to_csv(path, index=False)
 
 
 def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None:
@@ -118,7 +113,7 @@ def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None
         bottom.set_ylabel("share of runs censored at the window")
     figure.tight_layout()
     try:
-        atomic_write(path, lambda temporary: figure.savefig(temporary, format="png", dpi=FIGURE_DPI))
+        figure.savefig(path, format="png", dpi=FIGURE_DPI)
     finally:
         plt.close(figure)
 
@@ -154,30 +149,40 @@ def interval_text(value, low, high, digits: int = 0) -> str:
     return f"{value:.{digits}f} [{low:.{digits}f}, {top}]"
 
 
+def _print_table(columns: dict) -> None:
+    """``{header: values}`` as a table at most `tables.PRINT_WIDTH` characters wide (pandas wraps
+    further columns into a block below)."""
+    import pandas as pd
+
+    from tableclean_suite.bench.tables import PRINT_WIDTH
+
+    print(pd.DataFrame(columns).to_string(index=False, line_width=PRINT_WIDTH))
+
+
 def print_specs(infos: list[SpecInfo]) -> None:
     """The per-spec table: sizes, plan length, exact optimal success, window."""
-    print(f"{'spec':<15}{'family':<11}{'N':>3}{'M':>3}{'codes':>8}{'reachable':>10}{'from start':>11}{'plan':>6}"
-          f"{'opt.success':>12}{'window':>9}{'max_itr':>8}")
-    for s in infos:
-        print(f"{s.name:<15}{s.family:<11}{s.segments:>3}{s.objects:>3}{s.codes:>8}{s.reachable:>10}"
-              f"{s.reachable_from_start:>11}{s.plan_length:>6}{s.optimal_success:>12.4f}{s.window:>9}{s.max_itr:>8}")
+    _print_table({"spec": [s.name for s in infos], "family": [s.family for s in infos],
+                  "N": [s.segments for s in infos], "M": [s.objects for s in infos], "codes": [s.codes for s in infos],
+                  "reachable": [s.reachable for s in infos], "from start": [s.reachable_from_start for s in infos],
+                  "plan": [s.plan_length for s in infos],
+                  "opt.success": [f"{s.optimal_success:.4f}" for s in infos], "window": [s.window for s in infos],
+                  "max_itr": [s.max_itr for s in infos]})
 
 
 def print_cells(rows: list[dict]) -> None:
-    """The per-cell table: median learning time with its interval, the share censored, the seeds'
-    own medians, the window mean against the optimum and the share of runs that never reached the
-    terminal state."""
-    print(f"{'spec':<15}{'from':>6} {'gamma':>5} {'learner':<11}{'reward':<9}{'median learning time':>26}"
-          f"{'censored':>9}  {'per-seed medians':<34}{'window mean / opt':>26}{'never terminal':>22}")
-    for r in rows:
-        time_text = interval_text(r["learning_time"], r["learning_time_low"], r["learning_time_high"])
-        mean = interval_text(r["success_window_mean"], r["success_window_mean_low"], r["success_window_mean_high"], 3)
-        never = interval_text(r["never_terminal_share"], r["never_terminal_share_low"],
-                              r["never_terminal_share_high"], 2)
-        against = f"{mean} / {r['optimal_success']:.3f}"
-        print(f"{r['spec']:<15}{r['reachable_from_start']:>6} {r['gamma']:>5g} {r['learner']:<11}{r['reward']:<9}"
-              f"{time_text:>26}{r['censored_share']:>9.2f}  {r['seed_medians'].replace(';', ' '):<34}{against:>26}"
-              f"{never:>22}")
+    """The per-cell table: median learning time with its interval, the share censored, the window
+    mean against the optimum and the share of runs that never reached the terminal state (its
+    interval and each seed's own median are in ``scaling.csv``)."""
+    _print_table({
+        "spec": [r["spec"] for r in rows], "gamma": [f"{r['gamma']:g}" for r in rows], "learner": [r["learner"] for r in rows],
+        "reward": [r["reward"] for r in rows],
+        "median learning time": [interval_text(r["learning_time"], r["learning_time_low"], r["learning_time_high"])
+                                 for r in rows],
+        "censored": [f"{r['censored_share']:.2f}" for r in rows],
+        "window mean / opt": [interval_text(r["success_window_mean"], r["success_window_mean_low"],
+                                            r["success_window_mean_high"], 3) + f" / {r['optimal_success']:.3f}"
+                              for r in rows],
+        "never terminal": [f"{r['never_terminal_share']:.2f}" for r in rows]})
 
 
 def ordering_report(replicates: dict, infos: list[SpecInfo], learner: str, rewards, gamma: float) -> dict:

@@ -44,6 +44,8 @@ DEFAULT_RESAMPLES = 1000
 PAPER_ORDER = ("r4", "r2", "r1", "r3")
 #: Smallest residual standard deviation the fit allows (log units), so a perfect fit stays finite.
 MIN_LOG_SIGMA = math.log(1e-3)
+#: Largest (e^20 in log units: beyond any data), so a search that strays there stays finite.
+MAX_LOG_SIGMA = 20.0
 #: Fewest reached points for a fitted exponent (and an interval: one more).
 MIN_FIT_POINTS = 2
 #: An exponent is reported only when at most this share of a fit's cells is censored.
@@ -163,7 +165,7 @@ def _negative_log_likelihood(params, log_x, log_y, se, censored):
     from scipy import stats
 
     intercept, slope, log_sigma = params
-    scale = np.sqrt(np.exp(2 * max(log_sigma, MIN_LOG_SIGMA)) + se ** 2)
+    scale = np.hypot(math.exp(min(max(log_sigma, MIN_LOG_SIGMA), MAX_LOG_SIGMA)), se)  # no overflow where the search strays
     mean = intercept + slope * log_x
     density = stats.norm.logpdf(log_y[~censored], mean[~censored], scale[~censored]).sum()
     survival = stats.norm.logsf(log_y[censored], mean[censored], scale[censored]).sum()
@@ -227,7 +229,7 @@ def fit_censored_power_law(x, y, censored, se, confidence: float = CONFIDENCE) -
     log_x, log_y = np.log(x), np.log(y)
     best, params = _best_fit(log_x, log_y, se, censored)
     slope = float(params[1])
-    result.update(exponent=slope, sigma=float(math.exp(max(params[2], MIN_LOG_SIGMA))))
+    result.update(exponent=slope, sigma=math.exp(min(max(params[2], MIN_LOG_SIGMA), MAX_LOG_SIGMA)))
     if len(x) < MIN_FIT_POINTS + 1:
         return result
     cut = stats.chi2.ppf(confidence, 1) / 2
