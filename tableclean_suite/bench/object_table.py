@@ -1,7 +1,7 @@
 """The skills on every object type: skill success and fidelity per object x skill, alone and mixed.
 
     tableclean-bench objects [--objects milk,bottle,...] [--settings alone,mixed] [--mix-with box]
-                             [--episodes E] [--seed S] [--out DIR] [--plugins my_objects.py]
+                             [--random N] [--episodes E] [--seed S] [--out DIR] [--plugins my_objects.py]
 
 For every object type and setting, ``E`` episodes from uniform all-unclean starts (every object
 and the arm on a segment drawn at each reset, placement noise), each executing the task model's
@@ -21,12 +21,22 @@ rate at 99.0 %).  An episode stops at the first failed skill.  Writes ``DIR/obje
 atomically (one row per object x setting x skill, rewritten after every cell) and prints a
 markdown table with the counts.
 Objects registered by ``--plugins`` modules are measured like the catalog's.
+
+``--random N`` measures ``N`` generated objects instead
+([`random_objects`][tableclean_suite.environments.object_generator.random_objects] of ``--seed``), each
+mixed with the partner in ``E`` (default 2) episodes: a start drawn among the reachable states with every
+object lying, a random history of 1 to `MAX_HISTORY` state-changing actions, then the shortest plan.
+Every skill call is counted; the printed table has one ``random objects`` row, and every failure is
+classified by the skill's last phase and its cause (the reason, numbers as ``N``) in
+``DIR/object_failures.csv`` with the object's parameters, the start and the history before it.
+The exit code is 1 when the scene refused every cell.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -48,6 +58,13 @@ TABLE_CSV = "object_table.csv"
 #: Columns of the CSV, in order.
 COLUMNS = ("object", "setting", "partner", "skill", "executions", "successes", "success_rate", "success_lower",
            "agreements", "fidelity", "fidelity_lower", "episodes", "episode_successes", "seconds")
+#: Failures of ``--random``, one row each.
+FAILURES_CSV = "object_failures.csv"
+FAILURE_COLUMNS = ("object", "params", "episode", "start", "history", "skill", "phase", "cause", "reason")
+#: Longest random history [actions] before the plan in a ``--random`` episode.
+MAX_HISTORY = 6
+#: Episodes per generated object unless ``--episodes`` says.
+RANDOM_EPISODES = 2
 #: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench objects"
 
@@ -100,15 +117,71 @@ def run_cell(kind: str, setting: str, episodes: int, seed: int, partner: str, lo
             wins += ok and env.symbolic_state().is_terminal
     finally:
         env.close()
-    seconds = time.perf_counter() - started
-    rows = []
-    for name, (n, success, agree) in counts.items():
-        rows.append({"object": kind, "setting": setting, "partner": partner_for(kind, setting, partner), "skill": name,
-                     "executions": n, "successes": success, "success_rate": success / n,
-                     "success_lower": round(lower_bound(success, n), 4), "agreements": agree, "fidelity": agree / n,
-                     "fidelity_lower": round(lower_bound(agree, n), 4),
-                     "episodes": episodes, "episode_successes": wins, "seconds": round(seconds, 1)})
-    return rows
+    return _rows(kind, setting, partner_for(kind, setting, partner), counts, episodes, wins,
+                 time.perf_counter() - started)
+
+
+def _rows(kind: str, setting: str, partner: str, counts: dict, episodes: int, wins: int, seconds: float) -> list[dict]:
+    return [{"object": kind, "setting": setting, "partner": partner, "skill": name, "executions": n, "successes": success,
+             "success_rate": success / n, "success_lower": round(lower_bound(success, n), 4), "agreements": agree,
+             "fidelity": agree / n, "fidelity_lower": round(lower_bound(agree, n), 4), "episodes": episodes,
+             "episode_successes": wins, "seconds": round(seconds, 1)} for name, (n, success, agree) in counts.items()]
+
+
+def failure_class(result) -> tuple[str, str]:
+    """``(phase, cause)`` of a failed skill result: its last phase and its reason without the phase, numbers as N."""
+    phase = result.final_phase or "-"
+    reason = result.reason[len(phase) + 2:] if result.reason.startswith(phase + ": ") else result.reason
+    return phase, re.sub(r"\d+", "N", reason)
+
+
+def run_random(kind, index: int, episodes: int, seed: int, partner: str) -> tuple[list[dict], list[dict]]:
+    """Rows (one per skill) and failures of ``episodes`` random episodes of generated object type ``kind``
+    (the ``index``-th of ``seed``), mixed with ``partner``; episode ``e`` draws from ``SeedSequence([seed, index, e])``."""
+    import numpy as np
+
+    from tableclean_suite.controllers import SkillController, make_skill_env
+    from tableclean_suite.task import TaskModel
+
+    model = TaskModel(spec=spec_for(kind.name, "mixed", partner))
+    starts = [s for s in model.reachable_states() if not s.is_terminal and not s.holding]
+    started = time.perf_counter()
+    env = make_skill_env(task=model.spec, seed=seed)
+    counts: dict[str, list[int]] = {}
+    failures, wins = [], 0
+    try:
+        controller = SkillController(env, model)
+        for episode in range(episodes):
+            rng = np.random.default_rng(np.random.SeedSequence([seed, index, episode]))
+            start = starts[rng.integers(len(starts))]
+            env.rng = np.random.default_rng(int(rng.integers(2 ** 32)))
+            env.set_start_state(start)
+            env.reset()
+            state, history, length = start, [], int(rng.integers(1, MAX_HISTORY + 1))
+            while not state.is_terminal:
+                if len(history) < length:
+                    moves = [a for a in range(model.n_actions) if model.step(state, a)[0] != state]
+                    action = moves[rng.integers(len(moves))]
+                else:
+                    action = model.shortest_plan(state)[0]
+                result = controller.execute(action)
+                name = model.action_name(result.action)
+                tally = counts.setdefault(name, [0, 0, 0])
+                tally[0] += 1
+                tally[1] += bool(result.success)
+                tally[2] += result.state_after is not None and result.state_after == result.expected
+                if not result.success:
+                    phase, cause = failure_class(result)
+                    failures.append({"object": kind.name, "params": kind.description, "episode": episode,
+                                     "start": start.name, "history": " ".join(history), "skill": name, "phase": phase,
+                                     "cause": cause, "reason": result.reason})
+                    break
+                history.append(name)
+                state = result.state_after
+            wins += state.is_terminal
+    finally:
+        env.close()
+    return _rows(kind.name, "random", partner, counts, episodes, wins, time.perf_counter() - started), failures
 
 
 def markdown(rows: list[dict]) -> str:
@@ -150,21 +223,69 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         help=f"the other object type of the mixed setting (default box); when it is the measured "
                              f"type itself, {FALLBACK_PARTNER} is used instead (the partner column of the table and "
                              "CSV names the partner actually used)")
-    parser.add_argument("--episodes", type=cli.positive_int, default=30,
-                        help="optimal-plan episodes per object x setting (default 30)")
+    parser.add_argument("--episodes", type=cli.positive_int, default=None,
+                        help=f"optimal-plan episodes per object x setting (default 30); with --random, random episodes "
+                             f"per generated object (default {RANDOM_EPISODES})")
+    parser.add_argument("--random", type=cli.non_negative_int, default=0, metavar="N",
+                        help="measure N generated objects (seeded by --seed) from random reachable starts and random "
+                             "histories; the catalog is then measured only if --objects names types")
     cli.add_seed_argument(parser, "the placements and layouts")
     cli.add_out_argument(parser, cli.DIRECTORY, DEFAULT_OUT, f"directory of {TABLE_CSV}")
     parser.add_argument("--quiet", action="store_true", help="print only the table")
     return parser
 
 
+def random_table(args, rows: list[dict], table: Path, started: float) -> tuple[list[dict], int, int]:
+    """Measure ``args.random`` generated objects (see the module docstring): per-object rows appended to ``rows``
+    (written with them to the table's CSV), failures to `FAILURES_CSV`; returns the ``random objects`` rows
+    (one per skill), the measured and the refused objects."""
+    from tableclean_suite.environments.object_generator import random_objects
+    from tableclean_suite.environments.objects import register_object
+
+    episodes = args.episodes or RANDOM_EPISODES
+    failures, totals, measured, refused, wins = [], {}, 0, 0, 0
+    kinds = random_objects(args.random, args.seed)
+    for index, kind in enumerate(kinds):
+        register_object(kind, overwrite=True)
+        try:
+            cell, lost = run_random(kind, index, episodes, args.seed, args.mix_with)
+        except ValueError as error:  # refused by the scene: a finding, not a crash
+            refused += 1
+            print(f"[{index + 1}/{len(kinds)}] {kind.name} ({kind.description}): refused: {error}", flush=True)
+            continue
+        measured += 1
+        rows += cell
+        failures += lost
+        wins += cell[0]["episode_successes"] if cell else 0
+        for row in cell:
+            total = totals.setdefault(row["skill"], [0, 0, 0])
+            for k, key in enumerate(("executions", "successes", "agreements")):
+                total[k] += row[key]
+        trial_store.write_rows(table, rows, COLUMNS)
+        trial_store.write_rows(table.parent / FAILURES_CSV, failures, FAILURE_COLUMNS)
+        print(f"[{index + 1}/{len(kinds)}] {kind.name} ({kind.description}): {cell[0]['episode_successes'] if cell else 0}"
+              f"/{episodes} episodes, {sum(r['executions'] for r in cell)} skills, {len(lost)} failed"
+              + "".join(f"; {f['skill']} {f['phase']}: {f['cause']}" for f in lost)
+              + f" ({time.perf_counter() - started:.0f} s)", flush=True)
+    total = _rows(f"random objects ({measured})", "random", args.mix_with, totals, episodes * measured, wins,
+                  time.perf_counter() - started)
+    trial_store.write_rows(table.parent / FAILURES_CSV, failures, FAILURE_COLUMNS)
+    classes: dict[tuple, int] = {}
+    for f in failures:
+        classes[(f["skill"], f["phase"], f["cause"])] = classes.get((f["skill"], f["phase"], f["cause"]), 0) + 1
+    print("\n| skill | phase | cause | failures |\n|---|---|---|---|")
+    print("\n".join(f"| {k[0]} | {k[1]} | {k[2]} | {n} |" for k, n in sorted(classes.items(), key=lambda kv: -kv[1]))
+          or "| - | - | no failure | 0 |")
+    return total, measured, refused
+
+
 def main(argv: list[str] | None = None, prog: str | None = None) -> int:
-    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code (1 when every cell was refused)."""
     parser, args = cli.parse_command(build_parser, argv, prog or PROG)
     from tableclean_suite.environments.objects import object_type_names
 
     known = object_type_names()
-    objects = args.objects or tuple(known)
+    objects = args.objects or (() if args.random else tuple(known))
     for name in (*objects, args.mix_with):
         if name not in known:
             parser.error(f"unknown object type {name!r}; registered: {', '.join(known)} (add yours with --plugins)")
@@ -175,24 +296,32 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     rows: list[dict] = []
     table = Path(args.out) / TABLE_CSV
     started = time.perf_counter()
+    cells = refused = 0
     for kind in objects:
         for setting in args.settings:
             used = partner_for(kind, setting, args.mix_with)
             if used and used != args.mix_with:
                 print(f"{kind} {setting}: partner {used} (--mix-with {args.mix_with} is the measured type itself)")
+            cells += 1
             try:
-                rows += run_cell(kind, setting, args.episodes, args.seed, args.mix_with, log=log)
+                rows += run_cell(kind, setting, args.episodes or 30, args.seed, args.mix_with, log=log)
             except ValueError as error:  # refused by the scene (cannot be held, does not fit): a finding, not a crash
+                refused += 1
                 print(f"{kind} {setting}: refused: {error}")
                 continue
             trial_store.write_rows(table, rows, COLUMNS)
             if log:
                 log(f"{kind} x {setting} done ({time.perf_counter() - started:.0f} s)")
+    shown = list(rows)
+    if args.random:
+        total, measured, lost = random_table(args, rows, table, started)
+        rows, shown = rows + total, shown + total
+        cells, refused = cells + measured + lost, refused + lost
     trial_store.write_rows(table, rows, COLUMNS)  # also when every cell was refused: the file the report names exists
-    print(markdown(rows))
+    print(markdown(shown))
     print(f"\n{table} ({time.perf_counter() - started:.0f} s); per skill: successes/executions, fid "
           f"agreements/executions: >= the one-sided {CONFIDENCE:.0%} lower bounds of success / fidelity")
-    return 0
+    return 1 if cells and refused == cells else 0
 
 
 if __name__ == "__main__":
