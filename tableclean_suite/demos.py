@@ -405,14 +405,6 @@ def read_demo(path, key: str = "demo_0") -> Demo:
     return Demo(obs=obs, next_obs=next_obs, attrs=attrs, **arrays)
 
 
-def action_names_of(path) -> list[str]:
-    """The spec's action names the dataset's ``skill_action`` indexes."""
-    import h5py
-
-    with h5py.File(path, "r") as f:
-        return json.loads(f["data"].attrs["action_names"])
-
-
 #: ``data`` attributes that tell when a file was written, not what it holds (ignored by [`dataset_differences`][tableclean_suite.demos.dataset_differences]).
 WRITE_TIME_ATTRS = ("date",)
 
@@ -463,6 +455,6 @@ def _comparable_attr(value):
 
 __all__ = [
     "ACTION_DIM", "Demo", "ENV_NAME", "EpisodeRecorder", "NO_TASK_STATE", "OBS_KEYS", "ROBOSUITE_ENV_TYPE",
-    "VALID_FRACTION", "WRITE_TIME_ATTRS", "action_names_of", "dataset_differences", "demo_keys", "env_args_of",
+    "VALID_FRACTION", "WRITE_TIME_ATTRS", "dataset_differences", "demo_keys", "env_args_of",
     "make_env_from_args", "read_demo", "read_env_args", "recording_controller", "split_keys", "write_dataset",
 ]

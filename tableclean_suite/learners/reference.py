@@ -124,30 +124,10 @@ def _greedy_choice(q_row, actions: list[int], tie_draw: float | None) -> int:
     return tied[min(int(tie_draw * len(tied)), len(tied) - 1)]
 
 
-def _epsilon_greedy(q_row, epsilon: float, explore_draw: float, action_draw: float, tie_draw=None) -> int:
-    n_actions = len(q_row)
-    if explore_draw < epsilon:
-        return min(int(action_draw * n_actions), n_actions - 1)
-    return _greedy_choice(q_row, list(range(n_actions)), tie_draw)
-
-
 def _softmax_weights(q_row, temperature: float) -> list[float]:
     """``exp((Q - max Q) / temperature)`` per action, in action order."""
     best = max(q_row)
     return [math.exp((value - best) / temperature) for value in q_row]
-
-
-def _softmax_action(q_row, temperature: float, draw: float) -> int:
-    weights = _softmax_weights(q_row, temperature)
-    total = 0.0
-    for weight in weights:
-        total += weight
-    threshold, running = draw * total, 0.0
-    for a, weight in enumerate(weights):
-        running += weight
-        if threshold < running:
-            return a
-    return len(q_row) - 1
 
 
 def _softmax_expected_target(q_row, reward: float, gamma: float, temperature: float, terminal: bool) -> float:
@@ -199,21 +179,22 @@ class _Assistance:
         return min(int(uniform_py(self.key, t, STREAM_ADVICE_ACTION) * self.n_actions), self.n_actions - 1)
 
 
-def _afforded_action(q_row, afforded: list[int], softmax: bool, parameter: float, explore_draw: float,
-                     action_draw: float, tie_draw=None) -> int:
-    """The behaviour policy over the afforded actions only (softmax, or epsilon-greedy with uniform exploration)."""
+def _behaviour_action(q_row, actions: list[int], softmax: bool, parameter: float, explore_draw: float,
+                      action_draw: float, tie_draw=None) -> int:
+    """The behaviour policy over ``actions`` (all, or the afforded ones): softmax, or epsilon-greedy with
+    uniform exploration."""
     if softmax:
-        best = max(q_row[a] for a in afforded)
-        weights = [math.exp((q_row[a] - best) / parameter) for a in afforded]
+        best = max(q_row[a] for a in actions)
+        weights = [math.exp((q_row[a] - best) / parameter) for a in actions]
         threshold, running = action_draw * sum(weights), 0.0
-        for a, weight in zip(afforded, weights):
+        for a, weight in zip(actions, weights):
             running += weight
             if threshold < running:
                 return a
-        return afforded[-1]
+        return actions[-1]
     if explore_draw < parameter:
-        return afforded[min(int(action_draw * len(afforded)), len(afforded) - 1)]
-    return _greedy_choice(q_row, afforded, tie_draw)
+        return actions[min(int(action_draw * len(actions)), len(actions) - 1)]
+    return _greedy_choice(q_row, actions, tie_draw)
 
 
 class _Agent:
@@ -266,14 +247,10 @@ class _Agent:
                 return advised
         parameter = self.exploration.parameter_at(self.epsilon, t, self.visits[state])
         tie_draw = None if self.tie_key is None else uniform_py(self.tie_key, t, STREAM_TIE)
-        if self.affording:
-            return _afforded_action(self.row(state), self.assistance.afforded(state), self.exploration.softmax,
-                                    parameter, uniform_py(self.key, t, STREAM_EXPLORE),
-                                    uniform_py(self.key, t, STREAM_RANDOM_ACTION), tie_draw)
-        if self.exploration.softmax:
-            return _softmax_action(self.row(state), parameter, uniform_py(self.key, t, STREAM_RANDOM_ACTION))
-        return _epsilon_greedy(self.row(state), parameter, uniform_py(self.key, t, STREAM_EXPLORE),
-                               uniform_py(self.key, t, STREAM_RANDOM_ACTION), tie_draw)
+        actions = self.assistance.afforded(state) if self.affording else list(range(len(self.q[state])))
+        return _behaviour_action(self.row(state), actions, self.exploration.softmax, parameter,
+                                 uniform_py(self.key, t, STREAM_EXPLORE), uniform_py(self.key, t, STREAM_RANDOM_ACTION),
+                                 tie_draw)
 
     def greedy_actions(self, state: int) -> list[int]:
         """The actions the greedy policy may take in ``state``: the first tied one, or every tied one
