@@ -8,7 +8,7 @@ each item's result does not depend on which thread computes it, so any split giv
 
 from __future__ import annotations
 
-import threading
+from concurrent.futures import ThreadPoolExecutor
 
 import numba
 import numpy as np
@@ -23,34 +23,15 @@ def run_in_threads(kernel, n_items: int, arguments: tuple) -> None:
     ``numba.get_num_threads()`` threads (in this thread alone when that is 1 or ``n_items`` is).
 
     ``kernel`` must be compiled with ``nogil=True`` (else the threads take turns) and write each
-    item's results independently of the others.  The first exception a slice raises is raised
-    here once every thread has stopped.
+    item's results independently of the others.  The first slice's exception (in item order) is
+    raised here once every slice has run.
     """
     threads = max(1, min(numba.get_num_threads(), int(n_items)))
     if threads == 1:
         kernel(0, int(n_items), *arguments)
         return
     bounds = np.linspace(0, int(n_items), threads * SLICES_PER_THREAD + 1).astype(np.int64)
-    slices = iter([(int(lo), int(hi)) for lo, hi in zip(bounds[:-1], bounds[1:]) if hi > lo])
-    taking = threading.Lock()
-    errors = []
-
-    def work():
-        while not errors:
-            with taking:
-                piece = next(slices, None)
-            if piece is None:
-                return
-            try:
-                kernel(piece[0], piece[1], *arguments)
-            except BaseException as error:  # noqa: BLE001  (re-raised in the caller's thread)
-                errors.append(error)
-
-    helpers = [threading.Thread(target=work, daemon=True) for _ in range(threads - 1)]
-    for helper in helpers:
-        helper.start()
-    work()
-    for helper in helpers:
-        helper.join()
-    if errors:
-        raise errors[0]
+    with ThreadPoolExecutor(threads) as pool:
+        pieces = [pool.submit(kernel, int(lo), int(hi), *arguments) for lo, hi in zip(bounds[:-1], bounds[1:]) if hi > lo]
+    for piece in pieces:
+        piece.result()
