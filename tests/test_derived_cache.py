@@ -72,7 +72,9 @@ def test_a_changed_sample_count_or_cell_is_computed_again(inputs, tmp_path):
     learning_time[0] += 1
     changed[1]["runs"]["learning_time"] = learning_time
     assert not compute(tmp_path, changed).cached
-    assert compute(tmp_path, cells).cached and compute(tmp_path, cells, samples=41).cached
+    latest = compute(tmp_path, cells)  # only the latest entry is kept: the first was removed
+    assert not latest.cached and [p.name for p in tmp_path.glob("derived-*.zip")] == [latest.path.name]
+    assert compute(tmp_path, cells).cached
 
 
 def test_a_changed_figure_input_is_drawn_again(inputs, tmp_path):

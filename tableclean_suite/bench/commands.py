@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -156,58 +157,67 @@ def _exit_code(code) -> int:
 def main(argv=None, prog: str | None = None) -> int:
     """Run ``prog COMMAND ARGS...`` (default ``sys.argv[1:]``); returns the exit code.
 
-    No command, or flags first: ``run``.  ``-h``/``--help`` alone lists the commands.
+    No command, or flags first: ``run``.  ``-h``/``--help`` alone lists the commands.  Ctrl-C at
+    any moment, imports included, is one line and exit `EXIT_INTERRUPTED`.
     """
-    argv = list(sys.argv[1:] if argv is None else argv)
-    prog = prog or invoked_as()
-    if argv and argv[0] in HELP_FLAGS:
-        build_parser(prog).print_help()
-        return 0
-    if not argv or argv[0].startswith("-"):
-        name, rest, command_prog = DEFAULT_COMMAND, argv, prog
-    else:
-        name, rest, command_prog = argv[0], argv[1:], f"{prog} {argv[0]}"
-    if name not in COMMANDS:
-        return _usage_error(prog, f"unknown command {name!r}; allowed: {', '.join(COMMANDS)} "
-                                  f"(or no command: {DEFAULT_COMMAND})")
-    return _run(name, rest, command_prog, unavailable_prog=prog)
+    prog, entry = prog or invoked_as(), argv is None
+    try:
+        argv = list(sys.argv[1:] if entry else argv)
+        if argv and argv[0] in HELP_FLAGS:
+            build_parser(prog).print_help()
+            return 0
+        if not argv or argv[0].startswith("-"):
+            name, rest, command_prog = DEFAULT_COMMAND, argv, prog
+        else:
+            name, rest, command_prog = argv[0], argv[1:], f"{prog} {argv[0]}"
+        if name not in COMMANDS:
+            return _usage_error(prog, f"unknown command {name!r}; allowed: {', '.join(COMMANDS)} "
+                                      f"(or no command: {DEFAULT_COMMAND})")
+        return _run(name, rest, command_prog, unavailable_prog=prog, entry=entry)
+    except BaseException as error:  # noqa: BLE001 - Ctrl-C outside _run (parsing, --help); the rest re-raised
+        return _interrupted(prog, error, entry)
 
 
 def run_alias(name: str, prog: str, argv=None) -> int:
     """Run command ``name`` as an old entry point (``python -m benchmarks.X``) called ``prog``."""
-    return _run(name, argv, prog)
+    return _run(name, argv, prog, entry=argv is None)
 
 
-def _run(name: str, argv, prog: str, unavailable_prog: str | None = None) -> int:
+def _run(name: str, argv, prog: str, unavailable_prog: str | None = None, entry: bool = False) -> int:
     """``main(argv, prog=prog)`` of command ``name``'s module, as an exit status: the one
-    place where a command's ``SystemExit``, refusals (`_refusals`: one line, exit 2) and Ctrl-C
-    (exit `EXIT_INTERRUPTED`) become exit codes.  A command not installed is one line, exit 2,
-    under ``unavailable_prog`` (default ``prog``)."""
+    place where a command's ``SystemExit``, refusals (`_refusals`: one line, exit 2), file-system
+    errors (one line naming the path, exit 2) and Ctrl-C (exit `EXIT_INTERRUPTED`, also while the
+    module is imported) become exit codes.  A command not installed is one line, exit 2, under
+    ``unavailable_prog`` (default ``prog``)."""
     try:
-        module = _module(name)
+        return _exit_code(_module(name).main(argv, prog=prog))
     except CommandUnavailable as error:
         return _usage_error(unavailable_prog or prog, str(error))
-    try:
-        return _exit_code(module.main(argv, prog=prog))
     except SystemExit as stop:
         return _exit_code(stop.code)
+    except (KeyboardInterrupt, RuntimeError) as error:
+        return _interrupted(prog, error, entry)
     except _refusals() as error:  # the resource guard, an unusable output folder: one line, exit 2
         return _usage_error(prog, str(error))
-    except KeyboardInterrupt:
-        print(f"{prog}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    except OSError as error:  # a name too long, a folder that cannot be read: the path and the reason
+        where = f"{str(error.filename)[:120]!r}: " if error.filename is not None else ""
+        return _usage_error(prog, f"{where}{error.strerror or error}")
 
 
-def _refusals() -> tuple:
-    """Library errors a command reports as one line with exit 2: the resource guard's
-    ([`ResourceError`][tableclean_suite.resources.ResourceError]) and the output folder's
-    ([`OutputError`][tableclean_suite.bench.outputs.OutputError]: full disk, read-only, busy, a file in the way) and
-    an unreachable Ray cluster ([`ClusterUnreachableError`][tableclean_suite.executors.ray_executor.ClusterUnreachableError])."""
-    from tableclean_suite.bench.outputs import OutputError
-    from tableclean_suite.executors.ray_executor import ClusterUnreachableError
-    from tableclean_suite.resources import ResourceError
-
-    return ResourceError, OutputError, ClusterUnreachableError
+def _interrupted(prog: str, error: BaseException, entry: bool = False) -> int:
+    """One line and `EXIT_INTERRUPTED` when ``error`` is (or was caused by) Ctrl-C, e.g. the
+    ``RuntimeError`` Python raises when Ctrl-C lands in a class body during an import; re-raises
+    anything else.  At the process's ``entry`` point, Ctrl-C is ignored from here on (the exit's
+    clean-up stays quiet)."""
+    cause = error
+    while cause is not None and not isinstance(cause, KeyboardInterrupt):
+        cause = cause.__cause__ or cause.__context__
+    if cause is None:
+        raise error
+    if entry:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    print(f"{prog}: interrupted", file=sys.stderr)
+    return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

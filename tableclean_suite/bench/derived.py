@@ -8,7 +8,7 @@ and per-run scores; the curves frame and Table 3 that the figures draw, bit for 
 comparison settings (confidence, bootstrap samples, seed), the figure settings (dpi, plateau
 fraction, matplotlib's and Pillow's versions, every live ``rcParams`` value and the font file they
 resolve to), the source of every module of the package and the numpy, scipy and pandas versions.
-An entry is one zip file, written atomically, whose members' CRC-32 is checked on reading; an
+An entry is one zip file (only the latest is kept), written atomically, whose members' CRC-32 is checked on reading; an
 unreadable, partial or mismatched entry is a miss (reported on stderr), recomputed and replaced.
 A hit and a miss both decode the stored bytes, so their outputs are the same bytes.
 
@@ -17,7 +17,10 @@ A hit and a miss both decode the stored bytes, so their outputs are the same byt
 the figures [plots.available_figures][tableclean_suite.bench.plots.available_figures] allows
 with [plots.render_png][tableclean_suite.bench.plots.render_png]; they inherit the inputs and
 run the same code on the same matplotlib configuration, so the PNG bytes are those drawn in this
-process.  Elsewhere the figures are drawn here, when their result is asked for.
+process.  They ignore Ctrl-C (the terminal sends it to them too): the parent stops them
+([`PendingFigures.result`][tableclean_suite.bench.derived.PendingFigures.result] terminates the
+pool, also when interrupted) and reports the interruption once.  Elsewhere the figures are drawn
+here, when their result is asked for.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ import gc
 import hashlib
 import importlib.metadata
 import json
+import signal
 import sys
 import time
 import zipfile
@@ -67,10 +71,9 @@ class PendingFigures:
         global _DRAWING_INPUTS
         try:
             drawn = dict(self._drawing()) if self._drawing is not None else {}
-        finally:
+        finally:  # every figure is in (or Ctrl-C came): stop the workers, never wait on them
             if self._pool is not None:
-                self._pool.close()
-                self._pool.join()
+                self._pool.terminate()
             _DRAWING_INPUTS = None
         return [Figure(f"{stem}.png", drawn[stem]) for stem in self._stems]
 
@@ -101,7 +104,7 @@ def start_figures(curves, plateau_fraction: float, table3=None, dpi: int = 120, 
     plots.code_columns(curves)  # once here, inherited by every drawing process
     gc.freeze()  # the forked processes' collections then leave this process's objects (and pages) alone
     try:
-        pool = multiprocessing.get_context("fork").Pool(workers)
+        pool = multiprocessing.get_context("fork").Pool(workers, signal.signal, (signal.SIGINT, signal.SIG_IGN))
     finally:
         gc.unfreeze()
     pending = pool.map_async(_draw, stems, chunksize=1)
@@ -229,6 +232,14 @@ def _store(path: Path, key: dict, rows: list[dict], pngs: dict) -> None:
 
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write(path, write)
+    _keep_only(path)
+
+
+def _keep_only(path: Path) -> None:
+    """Delete every other entry beside ``path``: a folder keeps the derived results of its latest run only."""
+    for other in path.parent.glob("derived-*.zip"):
+        if other != path:
+            other.unlink(missing_ok=True)
 
 
 class PendingDerived:
@@ -265,6 +276,7 @@ def start(root, cells: list[dict], confidence: float, samples: int, seed: int, c
 
     stored = _load(path, key) if read else None
     if stored is not None:
+        _keep_only(path)
         return PendingDerived(lambda: results(*stored, True))
     rows = json.loads(json.dumps(statistics.comparison_rows(cells, confidence, samples, seed), allow_nan=True))
     drawing = (start_figures(curves, plateau_fraction, table3, dpi, processes=FIGURE_PROCESSES)

@@ -1,0 +1,81 @@
+"""Ctrl-C ends every command with one line and exit 130: during imports, training, figure drawing
+in forked processes (which stop quietly, never waited for) and tune (its finished trials published)."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from tableclean_suite.bench import commands, derived
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_ctrl_c_while_a_command_module_is_imported_is_one_line(monkeypatch, capsys):
+    def interrupted_import(name):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as error:  # what Python makes of Ctrl-C inside a class body being created
+            raise RuntimeError("Error calling __set_name__ on '_Field' instance 'id' in 'EnvSpec'") from error
+
+    monkeypatch.setattr(commands, "_module", interrupted_import)
+    assert commands.main(["run"]) == commands.EXIT_INTERRUPTED
+    assert capsys.readouterr().err.strip().splitlines() == ["tableclean-bench run: interrupted"]
+
+
+def test_other_runtime_errors_still_surface(monkeypatch):
+    def failing(name):
+        raise RuntimeError("a real bug")
+
+    monkeypatch.setattr(commands, "_module", failing)
+    with pytest.raises(RuntimeError, match="a real bug"):
+        commands.main(["run"])
+
+
+def _slow_draw(stem):
+    time.sleep(30)
+    return b""
+
+
+@pytest.mark.cli
+def test_ctrl_c_while_forked_processes_draw_stops_them_at_once_and_quietly(monkeypatch, capfd):
+    import pandas as pd
+
+    monkeypatch.setattr(derived, "_draw", _slow_draw)
+    monkeypatch.setattr(derived.plots, "available_figures", lambda curves: ["a", "b"])
+    monkeypatch.setattr(derived.plots, "code_columns", lambda curves: None)
+    pending = derived.start_figures(pd.DataFrame(), 0.25, processes=2)
+    workers = list(pending._pool._pool)
+    time.sleep(0.5)
+    for worker in workers:  # the terminal sends Ctrl-C to the whole process group
+        os.kill(worker.pid, signal.SIGINT)
+    started = time.monotonic()
+    threading_timer = __import__("threading").Timer(0.3, os.kill, (os.getpid(), signal.SIGINT))
+    threading_timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        pending.result()
+    assert time.monotonic() - started < 10  # never waits for the drawings
+    for worker in workers:
+        worker.join(5)
+        assert not worker.is_alive()
+    assert "Traceback" not in capfd.readouterr().err
+
+
+@pytest.mark.cli
+@pytest.mark.parametrize("delay", [0.0, 0.3, 1.0])
+def test_ctrl_c_early_in_a_command_is_one_line_and_exit_130(tmp_path, delay):
+    """From the moment the package is imported: the command's own imports, parsing, the start of work."""
+    argv = ["scaling", "--segments", "2", "--objects", "1", "--fixed-plan-objects", "none", "--out", str(tmp_path)]
+    process = subprocess.Popen([sys.executable, "-c", "import sys; from tableclean_suite.bench.commands import main; "
+                                f"print('ready', flush=True); sys.exit(main(prog='tableclean-bench', argv={argv!r}))"],
+                               cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert process.stdout.readline().strip() == "ready"
+    time.sleep(delay)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130 and "Traceback" not in err, err
+    assert err.strip().splitlines() == ["tableclean-bench scaling: interrupted"], err
