@@ -135,7 +135,7 @@ def test_render_refuses_bad_sizes_before_building_a_scene(argv, named, capsys, t
 
 
 @pytest.mark.parametrize("argv, named", [
-    (["--steps", "0"], "--steps"), (["--runs", "0"], "--runs"), (["--iterations", "0"], "--iterations"),
+    (["--runs", "0"], "--runs"), (["--iterations", "0"], "--iterations"),
     (["--episodes", "0"], "--episodes"), (["--repeat", "0"], "--repeat"),
     (["--reward", "r9"], "unknown reward pattern 'r9'"), (["--sections", "learners,gpu"], "unknown section 'gpu'"),
     (["--sections", "skills", "--layout", "1", "9"], "--layout"), (["--sections", "skills", "--task", "nope"], "--task"),
@@ -151,12 +151,12 @@ def test_speed_measures_the_sections_in_report_order_and_fails_with_a_failed_mea
     def section(name, failed):
         return lambda args: ran.append(name) or speed.Section([speed.Table(name, [{"x": 1}])], failed)
 
-    monkeypatch.setitem(speed.SECTION_RUNNERS, "specs", section("specs", False))
+    monkeypatch.setitem(speed.SECTION_RUNNERS, "cold-start", section("cold-start", False))
     monkeypatch.setitem(speed.SECTION_RUNNERS, "learners", section("learners", False))
-    assert speed.main(["--sections", "specs,learners"]) == 0
-    assert ran == ["learners", "specs"]
-    monkeypatch.setitem(speed.SECTION_RUNNERS, "specs", section("specs", True))
-    assert speed.main(["--sections", "specs"]) == 1
+    assert speed.main(["--sections", "cold-start,learners"]) == 0
+    assert ran == ["learners", "cold-start"]
+    monkeypatch.setitem(speed.SECTION_RUNNERS, "cold-start", section("cold-start", True))
+    assert speed.main(["--sections", "cold-start"]) == 1
 
 
 @pytest.mark.slow  # checking a robot name imports robosuite

@@ -13,17 +13,12 @@ ratio of neighbouring measurements much less.  The sections (``--sections``, in 
     per call, the best of ``--repeat`` calls after a warm-up, so compilation is not counted) and its
     time per real update relative to Q-learning; the compiled Q-learning and SARSA against
     Algorithm 1 as a plain per-step Python loop (`plain_loop`).
-``specs``
-    Q-learning's update rate on the scaling study's largest spec relative to the paper spec's.
 ``skills``
     ``--episodes`` optimal episodes executed by the skills in MuJoCo, alternately on robosuite's
     control path (``env.step``) and the compiled one (``make_skill_env(fast_control=True)``):
     control steps per second of each and of raw MuJoCo (only the ``mj_step`` calls, replayed from
     the compiled path's recorded states), and the executor's time outside the stepping relative
     to its time inside.
-``environment``
-    the ``env.step`` rate of TableClean (its sponge resting, and pressing on a segment) relative
-    to robosuite's Lift: same robot, controller and control frequency, random actions.
 ``cold-start``
     the run command in three fresh processes sharing a numba cache that starts empty: the first
     process after installation (it compiles the kernels), the same command again (its cells,
@@ -53,16 +48,11 @@ from tableclean_suite.bench.cli import positive_int
 #: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench speed"
 #: The sections, in the order they run and report.
-SECTIONS = ("learners", "specs", "skills", "environment", "cold-start")
+SECTIONS = ("learners", "skills", "cold-start")
 #: Learners compared with the plain Python loop of Algorithm 1.
 PLAIN_LOOP_LEARNERS = ("q_learning", "sarsa")
 #: The plain loop trains this fraction of ``--runs`` (at least one run): it is ~30x slower.
 PLAIN_LOOP_SHARE = 50
-#: Runs and iterations per call of the ``specs`` section (larger calls than the learners': a big spec's
-#: Q-tables are allocated in every call, as in a real run).
-SPEC_RUNS, SPEC_ITERATIONS = 64, 50_000
-#: Alternating blocks of the ``environment`` section, and its control frequency (Hz).
-ENV_ROUNDS, ENV_CONTROL_FREQ = 10, 20
 #: The command the ``cold-start`` section times (``--out`` appended), and its processes:
 #: (label, output folder; the same folder = the same result caches).
 COLD_START_COMMAND = ("-m", "tableclean_suite.bench", "run", "--no-progress")
@@ -128,7 +118,7 @@ def _best_seconds(function, repeat: int) -> float:
 
 
 # ---------------------------------------------------------------------------------------------
-# learners and specs
+# learners
 # ---------------------------------------------------------------------------------------------
 def plain_loop(learner: str, runs: int, iterations: int, alpha=0.3, gamma=0.3, epsilon=0.1, max_itr=500,
                seed=0) -> int:
@@ -212,30 +202,8 @@ def learners_section(args) -> Section:
                     plain_loop_table(args.runs, args.iterations, args.repeat)])
 
 
-def specs_section(args) -> Section:
-    """Q-learning's rate on the scaling study's largest spec against the paper's, calls interleaved."""
-    from tableclean_suite.bench.scaling.family import largest_default_spec
-    from tableclean_suite.learners import train
-    from tableclean_suite.task import TaskModel
-
-    models = [TaskModel(spec="paper"), TaskModel(spec=largest_default_spec())]
-    best = [float("inf")] * len(models)
-    for model in models:
-        train("q_learning", "r4", runs=2, iterations=10, task=model)  # the model's tables and kernel, untimed
-    for _ in range(args.repeat):
-        for index, model in enumerate(models):
-            best[index] = min(best[index], _best_seconds(
-                lambda: train("q_learning", "r4", runs=SPEC_RUNS, iterations=SPEC_ITERATIONS, task=model), 1))
-    updates = SPEC_RUNS * SPEC_ITERATIONS
-    rows = [{"spec": model.spec.name, "state codes": model.n_states, "M updates/s": _millions(updates / seconds),
-             "rate / paper's": f"{best[0] / seconds:.2f}"} for model, seconds in zip(models, best)]
-    return Section([Table("Task size: Q-learning's update rate on the scaling study's largest spec", rows,
-                          f"Reward r4, {SPEC_RUNS} runs x {SPEC_ITERATIONS} iterations per call (Q-tables allocated "
-                          f"in every call), the specs' calls interleaved, the fastest of {args.repeat}.")])
-
-
 # ---------------------------------------------------------------------------------------------
-# skills and environment
+# skills
 # ---------------------------------------------------------------------------------------------
 def run_episode(env, record_states: bool = False) -> tuple[dict, list]:
     """Reset ``env`` and execute the task model's shortest plan with the skills.
@@ -355,53 +323,6 @@ def skills_section(args) -> Section:
                    failed=terminal < len(episodes))
 
 
-def environment_section(args) -> Section:
-    """``env.step`` rate of TableClean, resting and pressing its sponge, against robosuite's Lift."""
-    import numpy as np
-    import robosuite
-    from robosuite.controllers import load_composite_controller_config
-
-    import tableclean_suite  # noqa: F401  (registers TableClean)
-
-    def make(name: str, **options):
-        return robosuite.make(name, robots="Panda", controller_configs=load_composite_controller_config(robot="Panda"),
-                              has_renderer=False, has_offscreen_renderer=False, use_camera_obs=False,
-                              control_freq=ENV_CONTROL_FREQ, ignore_done=True, seed=args.seed, **options)
-
-    def press(env) -> None:  # the sponge resting on segment 2: the wiping check's full path at every substep
-        centre = env.geometry.segment_centers[1] + np.array([0.0, 0.0, env.task_config["sponge_half_size"][2]])
-        env.sim.data.set_joint_qpos(env.sponge.joints[0], np.concatenate([centre, [1.0, 0.0, 0.0, 0.0]]))
-        env.sim.data.set_joint_qvel(env.sponge.joints[0], np.zeros(6))
-        env.sim.forward()
-
-    envs = {"Lift": make("Lift"), "TableClean": make("TableClean", object_segment=1, arm_segment=1),
-            "TableClean, pressing": make("TableClean", object_segment=1, arm_segment=1)}
-    before = {"TableClean, pressing": press}
-    rng = np.random.default_rng(args.seed)
-    block = max(1, args.steps // ENV_ROUNDS)
-    seconds = dict.fromkeys(envs, 0.0)
-    try:
-        for env in envs.values():
-            env.reset()
-        for _ in range(ENV_ROUNDS):
-            for name, env in envs.items():
-                for action in rng.uniform(-0.3, 0.3, size=(block, env.action_dim)):
-                    if name in before:
-                        before[name](env)
-                    start = time.perf_counter()
-                    env.step(action)
-                    seconds[name] += time.perf_counter() - start
-    finally:
-        for env in envs.values():
-            env.close()
-    steps = block * ENV_ROUNDS
-    rows = [{"environment": name, "env.step/s": f"{steps / elapsed:.0f}",
-             "rate / Lift's": f"{seconds['Lift'] / elapsed:.2f}"} for name, elapsed in seconds.items()]
-    return Section([Table("Environment: env.step against robosuite's Lift", rows,
-                          f"Panda, default controller, {ENV_CONTROL_FREQ} Hz, uniform random actions in +-0.3, "
-                          f"{steps} steps each in {ENV_ROUNDS} alternating blocks.")])
-
-
 # ---------------------------------------------------------------------------------------------
 # cold start
 # ---------------------------------------------------------------------------------------------
@@ -450,8 +371,7 @@ def cold_start_section(args) -> Section:
 
 
 #: Each section's function, by name.
-SECTION_RUNNERS = {"learners": learners_section, "specs": specs_section, "skills": skills_section,
-                   "environment": environment_section, "cold-start": cold_start_section}
+SECTION_RUNNERS = {"learners": learners_section, "skills": skills_section, "cold-start": cold_start_section}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -499,16 +419,6 @@ def page(sections: dict, stamp: dict) -> str:
 # ---------------------------------------------------------------------------------------------
 # the command line
 # ---------------------------------------------------------------------------------------------
-def section_list(text: str) -> tuple:
-    """``"skills,learners"`` -> ``("learners", "skills")``: known section names, in report order."""
-    chosen = set(cli.name_list(text))
-    unknown = sorted(chosen - set(SECTIONS))
-    if unknown:
-        raise argparse.ArgumentTypeError(f"unknown section {', '.join(map(repr, unknown))}; allowed: "
-                                         f"{', '.join(SECTIONS)} (comma separated)")
-    return tuple(name for name in SECTIONS if name in chosen)
-
-
 def reward_name(text: str) -> str:
     """A registered reward pattern's name."""
     from tableclean_suite.rewards import reward_pattern_names
@@ -521,26 +431,24 @@ def reward_name(text: str) -> str:
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
-    parser.add_argument("--sections", type=section_list, default=SECTIONS, metavar="NAME,...",
+    parser.add_argument("--sections", type=cli.choice_list(SECTIONS, "section"), default=SECTIONS, metavar="NAME,...",
                         help=f"sections to measure, comma separated: {', '.join(SECTIONS)} (default all)")
     parser.add_argument("--markdown", type=cli.output_path(cli.FILE), default=None, metavar="FILE.md",
                         help="also write the measurements to this Markdown page, stamped with the machine")
     parser.add_argument("--repeat", type=positive_int, default=3,
-                        help="timed calls per learner and spec, the fastest kept (default 3)")
+                        help="timed calls per learner, the fastest kept (default 3)")
     group = parser.add_argument_group("learners")
     cli.add_runs_argument(group, 1000, "runs per timed train() call")
     cli.add_iterations_argument(group, 3000, "iterations per run")
     group.add_argument("--reward", type=reward_name, default="r4", help="reward pattern (default r4)")
-    group = parser.add_argument_group("skills and environment")
+    group = parser.add_argument_group("skills")
     group.add_argument("--episodes", type=positive_int, default=3, help="optimal episodes per control path (default 3)")
     group.add_argument("--layout", type=positive_int, nargs=2, metavar=("OBJECT_SEGMENT", "ARM_SEGMENT"),
                        default=(1, 1), help="start layout of the skills' episodes, 1-based segments (every object "
                                             "on OBJECT_SEGMENT; default: 1 1, the paper's layout)")
     cli.add_task_argument(group, help="task spec of the skills' episodes: a registered name or a .json path "
                                       "(default paper)")
-    group.add_argument("--steps", type=positive_int, default=1000,
-                       help=f"env.step calls per environment, in {ENV_ROUNDS} blocks (default 1000)")
-    cli.add_seed_argument(parser, "the skills' scenes and the environments' random actions")
+    cli.add_seed_argument(parser, "the skills' scenes")
     return parser
 
 
@@ -570,7 +478,7 @@ def main(argv=None, prog: str | None = None) -> int:
     if "skills" in args.sections:
         _check_task(parser, args)
     sections = {}
-    for name in args.sections:
+    for name in (name for name in SECTIONS if name in args.sections):  # in report order
         print(f"== {name} ==", flush=True)
         sections[name] = SECTION_RUNNERS[name](args)
         for table in sections[name].tables:
