@@ -50,12 +50,14 @@ setup(
         # the docs extra: tests/test_docs.py builds the site)
         "dev": ["pytest", "pytest-xdist", "wheel", "optuna", "h5py", "ray", "filelock", "psutil",
                 "mkdocs", "mkdocs-material", "mkdocstrings[python]",
-                "lifelines"],  # an independent Kaplan-Meier the learning-time tests compare scipy's with
+                "lifelines",  # an independent Kaplan-Meier the learning-time tests compare scipy's with
+                "pddl", "unified-planning", "up-pyperplan"],  # the PDDL export's tests parse it and solve with pyperplan
         "docs": ["mkdocs", "mkdocs-material", "mkdocstrings[python]"],  # mkdocs serve / mkdocs build --strict
         "video": ["imageio", "imageio-ffmpeg", "moviepy"],  # moviepy: Gymnasium's RecordVideo
         "tune": ["optuna"],  # tableclean-bench tune
         "demos": ["h5py"],  # tableclean-bench demos, tableclean_suite.demos
         "cluster": ["ray"],  # --executor ray: the harness's cells on a Ray cluster
+        "planning": ["unified-planning", "up-pyperplan", "up-fast-downward"],  # tableclean-bench pddl's planners
         "sb3": ["stable-baselines3", "sb3-contrib"],  # optional: MaskablePPO on the Gym envs (pulls torch)
     },
 )

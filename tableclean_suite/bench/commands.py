@@ -84,6 +84,8 @@ COMMANDS: dict[str, Command] = {
                      "measured speed: learners, task size, skills, environment, cold start", physics=True),
     "policy-analysis": Command("tableclean_suite.bench.policy_analysis",
                                "measured plateaus against exact values of the learned policies"),
+    "pddl": Command("tableclean_suite.bench.pddl_check",
+                    "classical planners' plans for a task spec in PDDL, checked against the model's"),
 }
 
 

@@ -101,17 +101,25 @@ class ActionRule:
             is one of ROUTINE, INEFFECTIVE, RELEVANT_CLEAN, IRRELEVANT_CLEAN, IMPROPER
             (INEFFECTIVE, IRRELEVANT_CLEAN and IMPROPER must leave the state unchanged).
         description: one line for ``--describe`` and the docs.
+        pddl: the action's PDDL schema ``"(:action NAME ...)"`` in the vocabulary of
+            [`tableclean_suite.task.pddl`][tableclean_suite.task.pddl], or ``{"strips": ..., "adl": ...}``
+            when the two forms differ; None: a spec with this action is refused at export.
     """
 
     name: str
     effect: Effect
     description: str = field(default="", compare=False)
+    pddl: "str | dict | None" = field(default=None, compare=False)
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not _NAME_PATTERN.match(self.name):
             raise ValueError(f"action name must be lower_snake (e.g. 'move_back'), got {self.name!r}")
         if not callable(self.effect):
             raise TypeError(f"action {self.name!r}: effect must be callable TaskState -> (TaskState, Outcome)")
+        if not (self.pddl is None or isinstance(self.pddl, str)
+                or (isinstance(self.pddl, dict) and set(self.pddl) == {"strips", "adl"})):
+            raise ValueError(f"action {self.name!r}: pddl must be a schema string or {{'strips': ..., 'adl': ...}}, "
+                             f"got {self.pddl!r}")
 
 
 BUILTIN_ACTIONS = (
