@@ -147,16 +147,16 @@ def test_editing_a_plugin_retrains_its_cells_into_the_same_out(tmp_path):
     assert "resumed 0 cells" in run()
 
 
-def test_a_run_hashes_the_plugin_sources_once_not_per_cell(tmp_path, monkeypatch):
-    from tableclean_suite.bench import experiments, plugins
+def test_a_run_hashes_the_code_once_not_per_cell(tmp_path, monkeypatch):
+    from tableclean_suite.bench import digests, experiments
     from tableclean_suite.bench.config import RunConfig
     from tableclean_suite.task import TaskModel
 
     monkeypatch.syspath_prepend(str(tmp_path))
     plugin = _write_plugin(tmp_path, "once", bonus=10, scale=1)
     calls = []
-    digest = plugins.plugin_sources_digest
-    monkeypatch.setattr(plugins, "plugin_sources_digest", lambda entries: calls.append(entries) or digest(entries))
+    digest = digests.code_digest
+    monkeypatch.setattr(digests, "code_digest", lambda entries: calls.append(entries) or digest(entries))
     config = RunConfig(runs=2, iterations=20, learners=("q_learning", "sarsa"), rewards=("r1", "r2"), sweeps=False,
                        literature=False, plugins=(str(plugin),))
     grid, store = experiments.config_grid(config), experiments.CellStore(tmp_path / "cells")

@@ -45,8 +45,10 @@ def test_config_is_frozen_and_feeds_train_and_the_cell_key():
     config = RunConfig(runs=7, iterations=50, workers=2, out="x")
     with pytest.raises(dataclasses.FrozenInstanceError):
         config.runs = 8
-    assert config.train_kwargs() == dict(iterations=50, epsilon=0.1, max_itr=500, seed=0, backend="symbolic",
-                                         workers=2)
+    from tableclean_suite.bench.experiments import Cell, resolve_cell
+
+    run = resolve_cell(Cell("q_learning", "r4", 0.3, 0.3), config, None)
+    assert run.train == dict(iterations=50, epsilon=0.1, max_itr=500, seed=0, backend="symbolic", workers=2)
     settings = config.cell_settings()
     assert settings["runs"] == 7 and settings["iterations"] == 50
     assert not set(settings) & set(RunConfig.NOT_IN_CELL_KEY)

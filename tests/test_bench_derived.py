@@ -74,7 +74,7 @@ def test_figures_drawn_in_forked_processes_are_the_bytes_drawn_here():
 
     cell = experiments.Cell("q_learning", "r1", 0.3, 0.3)
     config = RunConfig(runs=12, iterations=150, bootstrap_samples=20, seed=0)
-    summary, stats, *_ = experiments.train_cell(cell, config, TaskModel())
+    summary, stats, *_ = experiments.train_cell(experiments.resolve_cell(cell, config, TaskModel()))
     records, curves = experiments.cell_records([experiments.Membership("main", cell)], {cell: summary}, {cell: stats})
     table3 = tables.table3(records)
     frame = tables.curves_long(records, curves)

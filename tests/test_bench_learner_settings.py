@@ -13,12 +13,13 @@ SMALL = dict(runs=40, iterations=400, sweeps=False, literature=False, rewards=("
 
 def key_of(config: RunConfig, learner: str) -> dict:
     cell = experiments.Cell(learner, "r4", config.alpha, config.gamma)
-    return experiments.cell_config(cell, config, config.task_model())
+    model = config.task_model()
+    return experiments.cell_config(experiments.resolve_cell(cell, config, model), "code", "task")
 
 
 def summary_of(config: RunConfig, learner: str):
     cell = experiments.Cell(learner, "r4", config.alpha, config.gamma)
-    summary, _, _, _ = experiments.train_cell(cell, config, config.task_model())
+    summary, _, _, _ = experiments.train_cell(experiments.resolve_cell(cell, config, config.task_model()))
     return summary
 
 

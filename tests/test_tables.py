@@ -1,7 +1,5 @@
 """Table builders, the quoted paper values, and the cell grid/store, on tiny hand-made inputs."""
 
-import hashlib
-import inspect
 import math
 import re
 
@@ -10,7 +8,7 @@ import pandas as pd
 import pytest
 
 from tableclean_suite import metrics
-from tableclean_suite.bench import experiments, tables
+from tableclean_suite.bench import digests, experiments, tables
 from tableclean_suite.bench.config import RunConfig
 from tableclean_suite.learners import code_digest, get_learner
 from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, Summary
@@ -218,9 +216,14 @@ def _config(**changes):
 PAPER_MODEL = TaskModel()
 
 
+def _cell_config(cell, config, model=PAPER_MODEL, transitions_sha256=None):
+    return experiments.cell_config(experiments.resolve_cell(cell, config, model), digests.code_digest(config.plugins),
+                                   digests.task_digest(model), transitions_sha256)
+
+
 def _key(cell=None, config=None, model=PAPER_MODEL, transitions_sha256=None):
     cell = cell or experiments.Cell("q_learning", "r4", 0.3, 0.3)
-    return experiments.config_hash(experiments.cell_config(cell, config or _config(), model, transitions_sha256))
+    return experiments.config_hash(_cell_config(cell, config or _config(), model, transitions_sha256))
 
 
 def test_config_hash_depends_on_what_determines_a_cell():
@@ -250,22 +253,17 @@ def test_config_hash_depends_on_what_determines_a_cell():
 
 
 def test_cell_key_includes_the_code():
-    config = experiments.cell_config(experiments.Cell("q_learning", "r4", 0.3, 0.3), _config(), PAPER_MODEL)
+    config = _cell_config(experiments.Cell("q_learning", "r4", 0.3, 0.3), _config())
     assert config["learner"]["code_digest"] == code_digest(get_learner("q_learning"))
-    assert config["task_digest"] == PAPER_MODEL.code_digest()
-    from tableclean_suite import analysis, asymptotes, curves, intervals, learning_time, settling, simulation
-    from tableclean_suite.bench import statistics
-
-    sources = "".join(inspect.getsource(m) for m in (curves, metrics, asymptotes, analysis, simulation, settling,
-                                                     intervals, learning_time, statistics))
-    assert config["metrics_digest"] == hashlib.sha256(sources.encode()).hexdigest()
+    assert config["task_digest"] == digests.task_digest(PAPER_MODEL)
+    assert config["code_digest"] == digests.code_digest()
 
 
 def test_a_simulated_cell_key_names_its_analysis_and_an_exact_one_is_unchanged():
     cell = experiments.Cell("q_learning", "r4", 0.3, 0.3)
-    exact = experiments.cell_config(cell, _config(), PAPER_MODEL)
-    forced = experiments.cell_config(cell, _config(analysis="exact"), PAPER_MODEL)
-    simulated = experiments.cell_config(cell, _config(analysis="simulated", analysis_episodes=50), PAPER_MODEL)
+    exact = _cell_config(cell, _config())
+    forced = _cell_config(cell, _config(analysis="exact"))
+    simulated = _cell_config(cell, _config(analysis="simulated", analysis_episodes=50))
     assert "analysis" not in exact and exact == forced  # auto chose exact on the paper task: the same key
     assert simulated["analysis"] == "simulated (50 episodes per run)"
     assert {k: v for k, v in simulated.items() if k != "analysis"} == exact
@@ -298,7 +296,7 @@ def _statistics(runs, iterations=5):
 def test_cell_store_round_trip_and_corruption(tmp_path):
     store = experiments.CellStore(tmp_path / "cells")
     cell = experiments.Cell("sarsa", "r2", 0.5, 0.3)
-    config = experiments.cell_config(cell, _config(), PAPER_MODEL)
+    config = _cell_config(cell, _config())
     assert store.load(cell, config) is None
     runs = config["settings"]["runs"]
     config["settings"]["iterations"] = 5
@@ -318,7 +316,7 @@ def test_cell_store_round_trip_and_corruption(tmp_path):
     assert loaded.success_plateau == 0.5
     for name in CURVE_NAMES:
         np.testing.assert_array_equal(getattr(loaded, name), getattr(_summary(), name))
-    assert store.load(cell, experiments.cell_config(cell, _config(seed=3), PAPER_MODEL)) is None
+    assert store.load(cell, _cell_config(cell, _config(seed=3))) is None
     assert list(path.parent.iterdir()) == [path]  # no temporary file left behind
     path.write_bytes(b"not an npz file")
     with pytest.raises(experiments.CellFileError, match=re.escape(str(path)) + ".*--fresh"):
@@ -337,8 +335,10 @@ def test_table3_leaves_paper_columns_empty_for_another_task():
 def test_train_cell_chunking_does_not_change_the_numbers(runs_per_chunk):
     cell = experiments.Cell("q_learning", "r3", 0.5, 0.3)
     config = RunConfig(runs=23, iterations=600, max_itr=80, seed=9)
-    whole, whole_stats, _, _ = experiments.train_cell(cell, config, PAPER_MODEL, runs_per_chunk=config.runs)
-    chunked, chunked_stats, _, _ = experiments.train_cell(cell, config, PAPER_MODEL, runs_per_chunk=runs_per_chunk)
+    whole, whole_stats, _, _ = experiments.train_cell(experiments.resolve_cell(cell, config, PAPER_MODEL,
+                                                                               runs_per_chunk=config.runs))
+    chunked, chunked_stats, _, _ = experiments.train_cell(experiments.resolve_cell(cell, config, PAPER_MODEL,
+                                                                                   runs_per_chunk=runs_per_chunk))
     assert whole.max_success_iterations is not None
     for name in SUMMARY_SCALARS:
         a, b = getattr(whole, name), getattr(chunked, name)
@@ -400,9 +400,10 @@ def test_a_simulated_cell_trains_with_its_monte_carlo_error_and_its_row_names_th
     cell = experiments.Cell("q_learning", "r4", 0.3, 0.3)
     simulated_config = _config(runs=6, iterations=300, analysis="simulated", analysis_episodes=50)
     exact_config = _config(runs=6, iterations=300)
-    plans = {cell: experiments.cell_plan(cell, simulated_config, PAPER_MODEL)}
-    summary, stats, _, _ = experiments.train_cell(cell, simulated_config, PAPER_MODEL, plan=plans[cell])
-    exact_summary, exact_stats, _, _ = experiments.train_cell(cell, exact_config, PAPER_MODEL)
+    simulated, exact = (experiments.resolve_cell(cell, c, PAPER_MODEL) for c in (simulated_config, exact_config))
+    plans = {cell: simulated.plan}
+    summary, stats, _, _ = experiments.train_cell(simulated)
+    exact_summary, exact_stats, _, _ = experiments.train_cell(exact)
     np.testing.assert_array_equal(summary.success, exact_summary.success)  # the same training
     assert abs(summary.success_plateau - exact_summary.success_plateau) < 0.1  # 50 episodes per run: an estimate
     assert summary.success_plateau != exact_summary.success_plateau
@@ -414,5 +415,5 @@ def test_a_simulated_cell_trains_with_its_monte_carlo_error_and_its_row_names_th
     assert table["asymptotes"].tolist() == ["simulated (50 episodes per run)"]
     assert tables.plateaus_kind(table).startswith("simulated (50 episodes per run;")
     exact_records, _ = experiments.cell_records(grid, {cell: exact_summary}, {cell: exact_stats},
-                                                plans={cell: experiments.cell_plan(cell, exact_config, PAPER_MODEL)})
+                                                plans={cell: exact.plan})
     assert "asymptotes" not in tables.table3(exact_records).columns

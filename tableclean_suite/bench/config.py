@@ -2,7 +2,7 @@
 
 Every default of ``python -m tableclean_suite.bench.run`` is written here once.  The command line
 (`run`) takes its defaults and help texts from this class, ``train()`` takes its arguments
-from it (`RunConfig.train_kwargs`), ``config.json`` records it (`RunConfig.to_json`)
+from it (the harness's [`resolve_cell`][tableclean_suite.bench.experiments.resolve_cell]), ``config.json`` records it (`RunConfig.to_json`)
 and a cell's cache key includes every field that can change a number
 (`RunConfig.cell_settings`).
 
@@ -335,12 +335,6 @@ class RunConfig:
         from tableclean_suite.task import TaskModel
 
         return TaskModel(spec=self.task_spec(), start=self.start, ineffective=self.ineffective)
-
-    def train_kwargs(self) -> dict:
-        """The keyword arguments of ``train()`` shared by every cell (not learner, reward, alpha,
-        gamma, runs, first_run, model or transitions, which the harness supplies per cell/chunk)."""
-        return dict(iterations=self.iterations, epsilon=self.epsilon, max_itr=self.max_itr, seed=self.seed,
-                    backend=self.backend, workers=self.workers)
 
     def cell_settings(self) -> dict:
         """The fields that can change a cell's numbers (every field not in `NOT_IN_CELL_KEY`)."""

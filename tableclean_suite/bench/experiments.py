@@ -24,27 +24,25 @@ changing one flag only retrains the cells it affects.
 from __future__ import annotations
 
 import hashlib
-import inspect
 import json
 import os
 import sys
 import time
 from dataclasses import asdict, dataclass, field, replace
-from functools import lru_cache
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
 import tableclean_suite
-from tableclean_suite import analysis, asymptotes, intervals, learning_time, metrics, resources, settling, simulation
-from tableclean_suite import curves as curve_sums
+from tableclean_suite import analysis, metrics, resources, settling
 from tableclean_suite.learners.memory import learner_training_memory
 from tableclean_suite.backends import CHECKPOINT_Q, get_backend
-from tableclean_suite.bench import statistics
+from tableclean_suite.bench import digests, statistics
 from tableclean_suite.bench.config import LITERATURE_LEARNERS, RunConfig
 from tableclean_suite.bench.outputs import OutputError, describe_os_error
 from tableclean_suite.bench.statistics import CellStatistics
-from tableclean_suite.learners import code_digest, get_learner, train
+from tableclean_suite.learners import code_digest, train
 from tableclean_suite.curves import CurveSums
 from tableclean_suite.learning_time import LearningTime
 from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, Plateaus, Summary, summarize
@@ -127,50 +125,25 @@ def unique_cells(grid: list[Membership]) -> list[Cell]:
     return list(dict.fromkeys(m.cell for m in grid))
 
 
-@lru_cache(maxsize=1)
-def metrics_digest() -> str:
-    """SHA-256 (hex) of the sources that compute a summary from records: [`tableclean_suite.curves`][tableclean_suite.curves]
-    (the curves accumulated from records), [`tableclean_suite.metrics`][tableclean_suite.metrics],
-    [`tableclean_suite.asymptotes`][tableclean_suite.asymptotes] (and the [`analysis`][tableclean_suite.analysis] it calls, and
-    [`tableclean_suite.simulation`][tableclean_suite.simulation], which estimates them when they are simulated),
-    [`tableclean_suite.settling`][tableclean_suite.settling], [`tableclean_suite.intervals`][tableclean_suite.intervals],
-    [`tableclean_suite.learning_time`][tableclean_suite.learning_time] and [`statistics`][tableclean_suite.bench.statistics]."""
-    text = "".join(inspect.getsource(module) for module in (curve_sums, metrics, asymptotes, analysis, simulation,
-                                                            settling, intervals, learning_time, statistics))
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | None = None,
-                task_digest: str | None = None, plugins_key: dict | None = None, plan=None) -> dict:
+def cell_config(run: CellRun, code: str, task: str, transitions_sha256: str | None = None) -> dict:
     """Everything that determines a cell's stored summary (JSON-serialisable).
 
     Args:
-        cell: the cell.
-        config: the run's configuration; its [`cell_settings`][tableclean_suite.bench.config.RunConfig.cell_settings] enter the key.
-        model: the [`TaskModel`][tableclean_suite.task.model.TaskModel] trained on.
+        run: the cell as its run trains it ([`resolve_cell`][tableclean_suite.bench.experiments.resolve_cell]).
+        code: [`digests.code_digest`][tableclean_suite.bench.digests.code_digest] of the run's plugins: the
+            package's and the plugins' code.
+        task: [`digests.task_digest`][tableclean_suite.bench.digests.task_digest] of the task model: the
+            transitions and start states the learner reads, after rules and plugins.
         transitions_sha256: digest of the calibrated transition table's file, if any.
-        task_digest: ``model.code_digest()`` when the caller has it already (it reads the task
-            rules' sources: ~15 ms, so [`run_grid`][tableclean_suite.bench.experiments.run_grid] computes it once for all its cells).
-        plugins_key: `_plugins_key` of ``config`` when the caller has it already (it hashes the
-            plugin modules' files, so [`run_grid`][tableclean_suite.bench.experiments.run_grid] computes it once for all its cells).
-        plan: the cell's [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan] ([cell_plan][tableclean_suite.bench.experiments.cell_plan]);
-            None: planned here.  A simulated plan enters the key as its label (``"analysis"``); an
-            exact one adds nothing, so exact cells keep the keys they had before simulation existed.
 
-    The key includes the code as well as the values: the learner's digest
-    ([`tableclean_suite.learners.code_digest`][tableclean_suite.learners.kernel.code_digest]: training loop, random numbers, its TD
-    target's source), the task model's ([`TaskModel.code_digest`][tableclean_suite.task.model.TaskModel.code_digest]: spec and rules, user
-    actions included) and [`metrics_digest`][tableclean_suite.bench.experiments.metrics_digest].  Reward patterns are recorded by value, so a
-    user learner, action or pattern re-registered under the same name with another body or
-    other values gets a new hash and is retrained.  The learner is recorded as the run trains it
-    ([`RunConfig.learner`][tableclean_suite.bench.config.RunConfig.learner]), with its [`settings`][tableclean_suite.learners.rules.TabularLearner.settings]
-    (update rule and its options, ``q_init``, exploration, affordances, advisor), so cells trained
-    with other learner settings never share a key.  With ``--plugins``, the plugin modules' sources
-    (and those of the user modules they refer to) enter the key too (`_plugins_key`).
+    Reward patterns are recorded by value (with the rewards the learner reads per outcome) and the learner as the run trains it, with its
+    [`settings`][tableclean_suite.learners.rules.TabularLearner.settings] and its TD target's source
+    ([`code_digest`][tableclean_suite.learners.kernel.code_digest]), so a user learner or pattern
+    re-registered under the same name with another body or other values gets a new hash.  A
+    simulated plan enters as its label (``"analysis"``); an exact one adds nothing.
     """
-    pattern = get_reward_pattern(cell.reward)
-    learner = config.learner(cell.learner)
-    plan = cell_plan(cell, config, model) if plan is None else plan
+    pattern = get_reward_pattern(run.cell.reward)
+    learner = run.learner
     reward_values = {k: getattr(pattern, k) for k in (
         "terminal", "relevant_clean", "irrelevant_clean", "routine", "improper",
         "ineffective", "looping_penalty", "looping_mode", "looping_memory", "terminal_mode",
@@ -181,27 +154,15 @@ def cell_config(cell: Cell, config: RunConfig, model, transitions_sha256: str | 
         "learner": {"name": learner.name, "on_policy": learner.on_policy,
                     "td_target": getattr(learner.td_target, "__qualname__", repr(learner.td_target)),
                     "settings": learner.settings(), "code_digest": code_digest(learner)},
-        "reward": {"name": pattern.name, **reward_values},
-        "cell": asdict(cell),
-        "settings": config.cell_settings(),
-        "model": repr(model),
-        "task_digest": model.code_digest() if task_digest is None else task_digest,
+        "reward": {"name": pattern.name, **reward_values, "outcome_values": pattern.outcome_values().tolist()},
+        "cell": asdict(run.cell),
+        "settings": run.settings,
+        "model": repr(run.model),
+        "task_digest": task,
         "transitions_sha256": transitions_sha256,
-        "metrics_digest": metrics_digest(),
-        **(_plugins_key(config) if plugins_key is None else plugins_key),
-        **({"analysis": plan.label} if plan.kind != "exact" else {}),
+        "code_digest": code,
+        **({"analysis": run.plan.label} if run.plan.kind != "exact" else {}),
     }
-
-
-def _plugins_key(config: RunConfig) -> dict:
-    """``{"plugins_digest": ...}``: the SHA-256 of the ``--plugins`` modules' sources and of the user
-    modules they refer to ([`tableclean_suite.bench.plugins.plugin_sources_digest`][tableclean_suite.bench.plugins.plugin_sources_digest]), so editing a
-    plugin retrains the cells it may affect; ``{}`` without plugins (keys as before)."""
-    if not config.plugins:
-        return {}
-    from tableclean_suite.bench.plugins import plugin_sources_digest
-
-    return {"plugins_digest": plugin_sources_digest(config.plugins)}
 
 
 def config_hash(config: dict) -> str:
@@ -358,72 +319,126 @@ def chunk_runs(iterations: int, budget_bytes: int = CHUNK_BYTES, q_table_bytes: 
     return max(1, budget_bytes // (int(iterations) * RECORD_BYTES_PER_ITERATION + int(q_table_bytes)))
 
 
-def q_table_bytes(model) -> int:
-    """Bytes of one run's final Q-table of ``model``: S x A float64."""
-    return int(model.n_states) * int(model.n_actions) * resources.WORD_BYTES
-
-
 #: Estimated seconds above which [`run_grid`][tableclean_suite.bench.experiments.run_grid] says on stderr how long its training will take.
 LONG_GRID_SECONDS = 600
 #: The exact analysis's bytes per (state, action) pair and its speed, for the tuning command's own
-#: estimate ([cell_plan][tableclean_suite.bench.experiments.cell_plan] costs the harness's cells).
+#: estimate ([`CellRun.plan`][tableclean_suite.bench.experiments.CellRun.plan] costs the harness's cells).
 ANALYSIS_BYTES_PER_PAIR = 256
 ANALYSIS_PAIRS_PER_SECOND = 6_000_000
 
 
-def cell_plan(cell: Cell, config: RunConfig, model, transitions=None):
-    """The [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan] of ``cell``: exact or simulated
-    asymptotes (``config.analysis``, ``config.analysis_episodes``), costed for its runs analysed a
-    training chunk at a time ([`chunk_runs`][tableclean_suite.bench.experiments.chunk_runs]), with the settling checkpoint's analysis when the
-    backend keeps one; ``transitions``: the calibrated table (its successors per pair), if any."""
-    chunk = min(config.runs, chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model)))
-    return analysis.cell_plan(model, cell.reward, config.learner(cell.learner), config.runs, config.iterations,
-                              config.max_itr, config.analysis, runs_per_call=chunk, checkpoint=_checkpoint(config) > 0,
-                              max_successors=1 if transitions is None else int(transitions.max_successors),
-                              episodes=config.analysis_episodes)
+@dataclass(frozen=True, eq=False)
+class CellRun:
+    """One cell with everything its training, analysis, summary, key and resource check read,
+    resolved once from the run's [`RunConfig`][tableclean_suite.bench.config.RunConfig]
+    ([`resolve_cell`][tableclean_suite.bench.experiments.resolve_cell]) and handed down in its place.
+
+    Attributes:
+        cell: the cell; ``model``: the [`TaskModel`][tableclean_suite.task.model.TaskModel];
+            ``transitions``: the calibrated [`TransitionTable`][tableclean_suite.learners.transitions.TransitionTable], if any.
+        learner: the [`TabularLearner`][tableclean_suite.learners.rules.TabularLearner] as the run
+            trains it ([`RunConfig.learner`][tableclean_suite.bench.config.RunConfig.learner]).
+        runs: the cell's runs (>= 1).
+        train: ``train()``'s keyword arguments shared by the cell's chunks: ``iterations`` (steps per
+            run), ``epsilon``, ``max_itr``, ``seed``, ``backend``, ``workers``.
+        analysis: the asymptotes asked for (``auto``, ``exact``, ``simulated``); ``episodes``: per
+            simulated run.
+        summary: [`summarize`][tableclean_suite.metrics.summarize]'s ``threshold``,
+            ``plateau_fraction`` and ``support_fraction``.
+        confidence: the intervals' level in (0, 1); ``samples``: bootstrap resamples.
+        settings: the run's fields that can change a number ([`RunConfig.cell_settings`][tableclean_suite.bench.config.RunConfig.cell_settings]).
+        runs_per_chunk: runs per ``train()`` call; None: [`chunk_runs`][tableclean_suite.bench.experiments.chunk_runs].
+    """
+
+    cell: Cell
+    model: object
+    transitions: object
+    learner: object
+    runs: int
+    train: dict
+    analysis: str
+    episodes: int
+    summary: dict
+    confidence: float
+    samples: int
+    settings: dict
+    runs_per_chunk: int | None = None
+
+    @property
+    def iterations(self) -> int:
+        return self.train["iterations"]
+
+    @cached_property
+    def chunk(self) -> int:
+        """Runs per ``train()`` call (at most ``runs``), so that a chunk's records and Q-tables fit `CHUNK_BYTES`."""
+        q_bytes = int(self.model.n_states) * int(self.model.n_actions) * resources.WORD_BYTES
+        return min(self.runs, self.runs_per_chunk or chunk_runs(self.iterations, q_table_bytes=q_bytes))
+
+    @cached_property
+    def checkpoint(self) -> int:
+        """The settling checkpoint's iteration; 0 when the backend cannot keep the Q-tables of a prefix."""
+        replays_prefix = getattr(get_backend(self.train["backend"]), "deterministic_prefix", False)
+        return settling.checkpoint_iteration(self.iterations) if replays_prefix else 0
+
+    @cached_property
+    def plan(self) -> analysis.AnalysisPlan:
+        """Exact or simulated asymptotes ([`analysis.cell_plan`][tableclean_suite.analysis.cell_plan]),
+        costed for the runs analysed a chunk at a time, the checkpoint's analysis included."""
+        successors = 1 if self.transitions is None else int(self.transitions.max_successors)
+        return analysis.cell_plan(self.model, self.cell.reward, self.learner, self.runs, self.iterations,
+                                  self.train["max_itr"], self.analysis, runs_per_call=self.chunk,
+                                  checkpoint=self.checkpoint > 0, max_successors=successors, episodes=self.episodes)
+
+    @cached_property
+    def memory(self) -> resources.MemoryEstimate:
+        """What training one chunk allocates (records, Q-tables, the checkpoint's, working arrays)."""
+        return learner_training_memory(self.model, self.learner, get_reward_pattern(self.cell.reward), self.chunk,
+                                       self.iterations, checkpoint=self.checkpoint > 0)
 
 
-def chunk_memory(cells, config: RunConfig, model) -> resources.MemoryEstimate:
-    """The largest estimate, over ``cells`` (at least one), of what training one chunk of runs
-    allocates (records, Q-tables, the settling checkpoint's, working arrays)."""
-    chunk = min(config.runs, chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model)))
-    settles = getattr(get_backend(config.backend), "deterministic_prefix", False)  # keeps checkpoint Q-tables
-    return max((learner_training_memory(model, get_learner(cell.learner), get_reward_pattern(cell.reward),
-                                        chunk, config.iterations, checkpoint=settles) for cell in cells),
-               key=lambda estimate: estimate.total)
+def resolve_cell(cell: Cell, config: RunConfig, model, transitions=None, runs_per_chunk: int | None = None) -> CellRun:
+    """``cell`` of the run ``config`` on ``model`` (``transitions``: the calibrated table), as a
+    [`CellRun`][tableclean_suite.bench.experiments.CellRun]."""
+    return CellRun(
+        cell, model, transitions, config.learner(cell.learner), config.runs,
+        dict(iterations=config.iterations, epsilon=config.epsilon, max_itr=config.max_itr, seed=config.seed,
+             backend=config.backend, workers=config.workers),
+        config.analysis, config.analysis_episodes,
+        dict(threshold=config.threshold, plateau_fraction=config.plateau_fraction,
+             support_fraction=config.support_fraction),
+        config.confidence, config.bootstrap_samples, config.cell_settings(), runs_per_chunk)
 
 
-def check_grid_resources(cells, config: RunConfig, model, plans: dict | None = None) -> float:
-    """Refuse (before training) a grid whose cells cannot fit in memory or would run too long;
-    returns the estimated seconds of training and analysis (0 without cells).
+def check_grid_resources(runs) -> float:
+    """Refuse (before training) cells that cannot fit in memory or would run too long; returns the
+    estimated seconds of training and analysis (0 without cells).
 
-    Memory: one chunk's records and Q-tables ([`chunk_runs`][tableclean_suite.bench.experiments.chunk_runs]), the tables and the largest
-    analysis call of the cells' plans.  Time: every cell's training
-    ([tableclean_suite.resources.training_seconds][]; once: the settling checkpoint is kept by the
-    same pass) and its analysis, exact or simulated, as its plan estimates it.
+    Memory: one chunk's records and Q-tables, the tables and the largest analysis call of the
+    cells' plans.  Time: every cell's training ([tableclean_suite.resources.training_seconds][];
+    once: the settling checkpoint is kept by the same pass) and its analysis, exact or simulated,
+    as its plan estimates it.
 
     Args:
-        plans: ``{cell: AnalysisPlan}`` ([`cell_plan`][tableclean_suite.bench.experiments.cell_plan]) when the caller has them; None: planned here.
+        runs: [`CellRun`][tableclean_suite.bench.experiments.CellRun]s of one run (one model).
 
     Raises:
         tableclean_suite.resources.ResourceError: one line naming the estimate, what is available
             and the override (`tableclean_suite.resources.OVERRIDE_ENV`).
     """
-    cells = list(cells)
-    if not cells:
+    runs = list(runs)
+    if not runs:
         return 0.0
-    plans = [cell_plan(cell, config, model) if plans is None else plans[cell] for cell in cells]
-    chunk = min(config.runs, chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model)))
-    memory = chunk_memory(cells, config, model)
-    memory += resources.MemoryEstimate({"asymptote analysis": max(plan.bytes for plan in plans),
-                                        "per-run scores": config.runs * len(statistics.RUN_SCORES)
+    first, model = runs[0], runs[0].model
+    memory = max((run.memory for run in runs), key=lambda estimate: estimate.total)
+    memory += resources.MemoryEstimate({"asymptote analysis": max(run.plan.bytes for run in runs),
+                                        "per-run scores": first.runs * len(statistics.RUN_SCORES)
                                         * resources.WORD_BYTES})
     what = (f"a cell of task {model.spec.name!r} ({model.n_states} states x {model.n_actions} actions, "
-            f"{chunk} of {config.runs} runs x {config.iterations} iterations at a time)")
+            f"{first.chunk} of {first.runs} runs x {first.iterations} iterations at a time)")
     resources.require_memory(memory, what)
+    plans = [run.plan for run in runs]
     seconds = sum(plan.training_seconds + plan.seconds for plan in plans)
-    resources.require_time(seconds, f"training {len(cells)} cell(s) of task {model.spec.name!r}",
-                           plans_text(plans))
+    resources.require_time(seconds, f"training {len(runs)} cell(s) of task {model.spec.name!r}", plans_text(plans))
     return seconds
 
 
@@ -435,56 +450,31 @@ def plans_text(plans) -> str:
                      for text in dict.fromkeys(texts))
 
 
-def cell_chunks(cell: Cell, config: RunConfig, model, transitions=None, runs_per_chunk: int | None = None,
-                engine: str | None = None):
-    """Train ``cell``'s chunks of runs in order: yields ``(first run, result, seconds)`` per ``train()``
-    (the [`TrainingResult`][tableclean_suite.learners.train.TrainingResult], with the settling checkpoint's
-    Q-tables when the backend keeps them, and its wall time).  [`train_cell`][tableclean_suite.bench.experiments.train_cell] summarises them.
-    ``engine``: ``train()``'s engine (None: its default, the compiled loop)."""
-    chunk = runs_per_chunk or chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model))
-    checkpoint = _checkpoint(config)
-    for first in range(0, config.runs, chunk):
-        started = time.perf_counter()
-        result = _train_chunk(cell, config, model, transitions, chunk, first, config.iterations, checkpoint, engine)
-        yield first, result, time.perf_counter() - started
-        del result  # not kept alive while the next chunk trains
-
-
-def _checkpoint(config: RunConfig) -> int:
-    """The settling checkpoint's iteration, 0 when the backend cannot replay a prefix."""
-    replays_prefix = getattr(get_backend(config.backend), "deterministic_prefix", False)
-    return settling.checkpoint_iteration(config.iterations) if replays_prefix else 0
-
-
-def _train_chunk(cell: Cell, config: RunConfig, model, transitions, chunk: int, first: int, iterations: int,
-                 keep: int = 0, engine: str | None = None):
+def _train_chunk(run: CellRun, first: int, iterations: int, keep: int = 0):
     """``train()`` of the chunk of runs starting at ``first``, for ``iterations``, keeping the Q-tables at ``keep``."""
-    return train(
-        learner=cell.learner, reward=cell.reward, runs=min(chunk, config.runs - first), first_run=first,
-        alpha=cell.alpha, gamma=cell.gamma, task=model, transitions=transitions,
-        **{**config.train_kwargs(), "iterations": iterations}, **config.learner_kwargs(cell.learner),
-        checkpoint=keep, **({} if engine is None else {"engine": engine}),
-    )
+    cell = run.cell
+    return train(learner=run.learner, reward=cell.reward, runs=min(run.chunk, run.runs - first), first_run=first,
+                 alpha=cell.alpha, gamma=cell.gamma, task=run.model, transitions=run.transitions,
+                 **{**run.train, "iterations": iterations}, checkpoint=keep)
 
 
-def train_cell(cell: Cell, config: RunConfig, model, transitions=None, runs_per_chunk: int | None = None,
-               chunks=None, plan=None) -> tuple[Summary, CellStatistics, float, float]:
+def train_cell(run: CellRun) -> tuple[Summary, CellStatistics, float, float]:
     """Train one cell chunk by chunk of runs and summarise it, with intervals.
 
     Each chunk is ``train(runs=chunk, first_run=lo, ...)``; its per-iteration sums are added to a
     [`CurveSums`][tableclean_suite.curves.CurveSums], its final Q-tables give each run's exact (or, by
-    the cell's ``plan``, simulated) asymptotes ([`tableclean_suite.analysis.final_asymptotes`][tableclean_suite.analysis.final_asymptotes]),
-    its runs' learning times
-    (``TrainingResult.learned_at``) are kept, and its records are dropped, so memory is one
-    chunk's records whatever ``config.runs``.  Random numbers are
-    counter-based per run, so the summary is the same whatever the chunking.
+    the cell's plan, simulated) asymptotes ([`tableclean_suite.analysis.final_run_facts`][tableclean_suite.analysis.final_run_facts]),
+    its runs' learning times (``TrainingResult.learned_at``) are kept, and its records are dropped,
+    so memory is one chunk's records whatever the runs.  Random numbers are counter-based per run,
+    so the summary is the same whatever the chunking.
 
     The plateaus are the runs' asymptotes averaged over runs: the exact asymptotes of each run's
     final behaviour ([`tableclean_suite.analysis.final_asymptotes`][tableclean_suite.analysis.final_asymptotes]: epsilon-greedy on the final
     Q-table, or the exploration's final distribution, restricted to afforded actions / mixed with
     the advisor for Cruz et al.'s learners), over the calibrated table with
     ``--backend calibrated``, over the task model's table for ``symbolic`` and, as an
-    approximation of the skills, ``physics``.
+    approximation of the skills, ``physics``.  Simulated plateaus carry their Monte Carlo error
+    into their intervals ([tableclean_suite.analysis.with_monte_carlo_error][]).
 
     Settling ([`tableclean_suite.settling`][tableclean_suite.settling]): on a backend with ``deterministic_prefix``, each
     run's Q-tables at the checkpoint (3/4 of the window) are kept by the same training pass
@@ -492,32 +482,21 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None, runs_per_
     run's success asymptote there is compared with its final one; the statistics carry the mean
     drift with its interval.
 
-    Args:
-        runs_per_chunk: runs per ``train()`` call (default [`chunk_runs`][tableclean_suite.bench.experiments.chunk_runs] of the iterations).
-        chunks: the cell's [`cell_chunks`][tableclean_suite.bench.experiments.cell_chunks] (with the same ``runs_per_chunk``) when the caller
-            trains them (e.g. with another engine); None: trained here, one after the other.
-        plan: the cell's [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan] ([`cell_plan`][tableclean_suite.bench.experiments.cell_plan];
-            None: planned here).  Simulated plateaus carry their Monte Carlo error into their
-            intervals ([tableclean_suite.analysis.with_monte_carlo_error][]).
-
     Returns:
         ``(summary, statistics, train_seconds, metrics_seconds)``.
     """
-    chunk = runs_per_chunk or chunk_runs(config.iterations, q_table_bytes=q_table_bytes(model))
-    if chunks is None:
-        chunks = cell_chunks(cell, config, model, transitions, chunk)
-    sums = CurveSums.zeros(config.iterations)
-    plan = cell_plan(cell, config, model, transitions) if plan is None else plan
-    chain = analysis.analysis_chain(model, cell.reward, transitions, plan)
+    cell, model, checkpoint, max_itr = run.cell, run.model, run.checkpoint, run.train["max_itr"]
+    sums = CurveSums.zeros(run.iterations)
+    chain = analysis.analysis_chain(model, cell.reward, run.transitions, run.plan)
     per_run = {name: [] for name in metrics.PLATEAU_NAMES}
     errors = {name: [] for name in analysis.ESTIMATED_FACTS}
-    learned_at = []
-    checkpoint = _checkpoint(config)
-    drifts = []
+    learned_at, drifts = [], []
     train_seconds = metrics_seconds = 0.0
     physics_stats: dict = {}
-    for first, result, seconds in chunks:
-        train_seconds += seconds
+    for first in range(0, run.runs, run.chunk):
+        started = time.perf_counter()
+        result = _train_chunk(run, first, run.iterations, checkpoint)
+        train_seconds += time.perf_counter() - started
         started = time.perf_counter()
         if "physics" in result.info:
             physics_stats = _merge_stats(physics_stats, result.info["physics"])
@@ -525,21 +504,23 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None, runs_per_
         learned = getattr(result, "learned_at", None)
         if learned is not None:
             learned_at.append(np.asarray(learned))
-        final, early_success = chunk_analysis(result, chain, config, model, checkpoint)
+        final = analysis.final_run_facts(result, chain, max_itr, model)
+        early = checkpoint_result(result, checkpoint) if checkpoint else None
+        early_success = None if early is None else analysis.final_asymptotes(early, chain, max_itr, model).success
         for name, values in per_run.items():
             values.append(final[name])
         for name, values in errors.items():
             if name + analysis.ERROR_SUFFIX in final:
                 values.append(final[name + analysis.ERROR_SUFFIX])
-        del result
+        del result, early
         metrics_seconds += time.perf_counter() - started
         if checkpoint:
             if early_success is None:  # the backend kept no checkpoint Q-tables: train the prefix again
                 started = time.perf_counter()
-                early = _train_chunk(cell, config, model, transitions, chunk, first, checkpoint)
+                early = _train_chunk(run, first, checkpoint)
                 train_seconds += time.perf_counter() - started
                 started = time.perf_counter()
-                early_success = analysis.final_asymptotes(early, chain, config.max_itr, model).success
+                early_success = analysis.final_asymptotes(early, chain, max_itr, model).success
                 del early
                 metrics_seconds += time.perf_counter() - started
             drifts.append(settling.behaviour_drift(final["success"], early_success))
@@ -548,30 +529,18 @@ def train_cell(cell: Cell, config: RunConfig, model, transitions=None, runs_per_
     started = time.perf_counter()
     per_run = {name: np.concatenate(values) for name, values in per_run.items()}
     plateaus = Plateaus(**{name: float(values.mean()) for name, values in per_run.items()})
-    summary = summarize(sums, threshold=config.threshold, plateau_fraction=config.plateau_fraction,
-                        plateaus=plateaus, support_fraction=config.support_fraction)
-    recorded = len(learned_at) > 0 and sum(map(len, learned_at)) == config.runs
+    summary = summarize(sums, plateaus=plateaus, **run.summary)
+    recorded = len(learned_at) > 0 and sum(map(len, learned_at)) == run.runs
     cell_stats = statistics.cell_statistics(
-        sums, per_run, statistics.bootstrap_rng(config.seed, cell.label), config.support_fraction,
-        config.bootstrap_samples, config.confidence,
-        learned_at=np.concatenate(learned_at) if recorded else None, budget=config.iterations,
+        sums, per_run, statistics.bootstrap_rng(run.train["seed"], cell.label), run.summary["support_fraction"],
+        run.samples, run.confidence,
+        learned_at=np.concatenate(learned_at) if recorded else None, budget=run.iterations,
         drift=np.concatenate(drifts) if checkpoint else None, checkpoint=checkpoint,
         monte_carlo={name: analysis.monte_carlo_error(np.concatenate(values)) for name, values in errors.items()
                      if values},
         average_reward_limits=get_reward_pattern(cell.reward).step_reward_bounds(),
     )
     return summary, cell_stats, train_seconds, metrics_seconds + time.perf_counter() - started
-
-
-def chunk_analysis(result, chain, config: RunConfig, model, checkpoint: int):
-    """``(final, early_success)`` of a trained chunk: [`final_run_facts`][tableclean_suite.analysis.final_run_facts]
-    of its final Q-tables and, at a settling ``checkpoint`` (> 0), the success asymptotes of the
-    Q-tables the backend kept there ([`checkpoint_result`][tableclean_suite.bench.experiments.checkpoint_result]; None when it kept none or there is
-    no checkpoint)."""
-    final = analysis.final_run_facts(result, chain, config.max_itr, model)
-    early = checkpoint_result(result, checkpoint) if checkpoint else None
-    early_success = None if early is None else analysis.final_asymptotes(early, chain, config.max_itr, model).success
-    return final, early_success
 
 
 def checkpoint_result(result, checkpoint: int):
@@ -674,14 +643,15 @@ def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, flo
 
         transitions = TransitionTable.from_json(config.transitions, model)
         transitions_sha256 = file_sha256(config.transitions)
-    plan = cell_plan(task.cell, config, model, transitions)
-    digest = config_hash(cell_config(task.cell, config, model, transitions_sha256, plan=plan))
+    run = resolve_cell(task.cell, config, model, transitions)
+    digest = config_hash(cell_config(run, digests.code_digest(config.plugins), digests.task_digest(model),
+                                     transitions_sha256))
     if digest != task.key_hash:
         raise CellKeyMismatchError(
             f"cell {task.cell.label}: this worker's cell key {digest} differs from the driver's {task.key_hash}; "
             "install the same code (and the modules registering its learners, rewards and tasks) and the same "
             "transition table on every machine")
-    return train_cell(task.cell, config, model, transitions, plan=plan)
+    return train_cell(run)
 
 
 def cell_tasks(cells, keys: dict, config: RunConfig) -> list[CellTask]:
@@ -694,7 +664,7 @@ def cell_tasks(cells, keys: dict, config: RunConfig) -> list[CellTask]:
 @dataclass
 class GridRun:
     """What [`run_grid`][tableclean_suite.bench.experiments.run_grid] did: summaries per cell, and how they were obtained (``plans``: each
-    cell's [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan], [`cell_plan`][tableclean_suite.bench.experiments.cell_plan])."""
+    cell's [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan], [`CellRun.plan`][tableclean_suite.bench.experiments.CellRun.plan])."""
 
     summaries: dict = field(default_factory=dict)
     statistics: dict = field(default_factory=dict)
@@ -740,11 +710,10 @@ def run_grid(
     from tqdm.auto import tqdm
 
     outcome = GridRun()
-    task_digest = model.code_digest()
-    plugins_key = _plugins_key(config)
-    outcome.plans = {cell: cell_plan(cell, config, model, transitions) for cell in unique_cells(grid)}
-    keys = {cell: cell_config(cell, config, model, transitions_sha256, task_digest, plugins_key, plan)
-            for cell, plan in outcome.plans.items()}
+    runs = {cell: resolve_cell(cell, config, model, transitions) for cell in unique_cells(grid)}
+    code, task = digests.code_digest(config.plugins), digests.task_digest(model)
+    keys = {cell: cell_config(run, code, task, transitions_sha256) for cell, run in runs.items()}
+    outcome.plans = {cell: run.plan for cell, run in runs.items()}
     pending = []
     for cell, key in keys.items():
         stored = None if config.fresh else store.load(cell, key)
@@ -755,7 +724,7 @@ def run_grid(
             outcome.resumed += 1
             if on_cell is not None:
                 on_cell(outcome)
-    estimate = check_grid_resources(pending, config, model, outcome.plans)
+    estimate = check_grid_resources(runs[cell] for cell in pending)
     simulated = [outcome.plans[cell] for cell in pending if outcome.plans[cell].kind == "simulated"]
     if estimate > LONG_GRID_SECONDS or simulated:
         print(f"note: training {len(pending)} cell(s) is estimated to take about {resources.format_seconds(estimate)}"
@@ -766,7 +735,7 @@ def run_grid(
     def train_here():
         for cell in pending:
             bar.set_postfix_str(f"{outcome.resumed} resumed, training {cell.label}" if outcome.resumed else cell.label)
-            yield train_cell(cell, config, model, transitions, plan=outcome.plans[cell])
+            yield train_cell(runs[cell])
 
     if executor is None or not pending:
         results = train_here()

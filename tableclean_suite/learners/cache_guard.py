@@ -11,22 +11,12 @@ so they are recompiled once against the current code.
 from __future__ import annotations
 
 import hashlib
-import inspect
 import os
 from pathlib import Path
 from types import ModuleType
 
 #: Name of the digest file written into each guarded cache directory (one per guard name).
 STAMP_SUFFIX = ".deps.sha256"
-
-
-def source_digest(modules: list[ModuleType]) -> str:
-    """SHA-256 (hex) of the modules' source texts, in order."""
-    digest = hashlib.sha256()
-    for module in modules:
-        digest.update(module.__name__.encode())
-        digest.update(inspect.getsource(module).encode())
-    return digest.hexdigest()
 
 
 def guard(name: str, dispatchers: list, modules: list[ModuleType]) -> bool:
@@ -47,7 +37,7 @@ def guard(name: str, dispatchers: list, modules: list[ModuleType]) -> bool:
     paths = {Path(c._cache_path) for c in caches if c is not None and hasattr(c, "_cache_path")}
     if not paths:
         return False
-    current = source_digest(modules)
+    current = hashlib.sha256(b"".join(Path(module.__file__).read_bytes() for module in modules)).hexdigest()
     invalidated = False
     for path in paths:
         stamp = path / f"{name}{STAMP_SUFFIX}"

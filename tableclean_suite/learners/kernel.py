@@ -704,28 +704,18 @@ def kernel_for(learner: TabularLearner):
 
 
 def code_digest(learner: TabularLearner) -> str:
-    """SHA-256 (hex) of the code that turns a task and a seed into ``learner``'s records.
-
-    Covers this module (the loop and its update rules), the random numbers, the rules
-    module (built-in targets) and the explorations, and the learner's own target source,
-    on-policy flag, update rule, parameters, initial value and exploration, so a cache
-    keyed on it retrains when any of them changes (e.g. a user learner re-registered
-    with another body).
-    """
-    import sys
-
-    from tableclean_suite.learners import assist, exploration, optimality, rng, rules
-
-    digest = hashlib.sha256()
-    for module in (rng, rules, exploration, assist, optimality, sys.modules[__name__]):
-        digest.update(inspect.getsource(module).encode())
+    """SHA-256 (hex) of what makes ``learner`` itself: its TD target's source (a user's target lives
+    outside the package, whose own code a cache keys on with
+    [`digests.code_digest`][tableclean_suite.bench.digests.code_digest]), name, on-policy flag,
+    update rule and [`settings`][tableclean_suite.learners.rules.TabularLearner.settings], so a user
+    learner re-registered with another body gets another digest."""
     target = learner.td_target.py_func
     try:
-        digest.update(inspect.getsource(target).encode())
+        source = inspect.getsource(target)
     except (OSError, TypeError):
-        digest.update(repr((target.__code__.co_code, target.__code__.co_consts)).encode())
-    digest.update(f"{learner.name}|{learner.on_policy}|{learner.target_code}|{learner.settings()}".encode())
-    return digest.hexdigest()
+        source = repr((target.__code__.co_code, target.__code__.co_consts))
+    text = f"{source}|{learner.name}|{learner.on_policy}|{learner.target_code}|{learner.settings()}"
+    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def _guard_disk_cache() -> None:
