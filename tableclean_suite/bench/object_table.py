@@ -132,7 +132,7 @@ def failure_class(result) -> tuple[str, str]:
     """``(phase, cause)`` of a failed skill result: its last phase and its reason without the phase, numbers as N."""
     phase = result.final_phase or "-"
     reason = result.reason[len(phase) + 2:] if result.reason.startswith(phase + ": ") else result.reason
-    return phase, re.sub(r"\d+", "N", reason)
+    return phase, re.sub(r"-?\d+(\.\d+)?", "N", reason)
 
 
 def run_random(kind, index: int, episodes: int, seed: int, partner: str) -> tuple[list[dict], list[dict]]:
