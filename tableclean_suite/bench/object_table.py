@@ -235,7 +235,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     return parser
 
 
-def random_table(args, rows: list[dict], table: Path, started: float) -> tuple[list[dict], int, int]:
+def random_table(args, rows: list[dict], table: Path, started: float, log=print) -> tuple[list[dict], int, int]:
     """Measure ``args.random`` generated objects (see the module docstring): per-object rows appended to ``rows``
     (written with them to the table's CSV), failures to `FAILURES_CSV`; returns the ``random objects`` rows
     (one per skill), the measured and the refused objects."""
@@ -251,7 +251,7 @@ def random_table(args, rows: list[dict], table: Path, started: float) -> tuple[l
             cell, lost = run_random(kind, index, episodes, args.seed, args.mix_with)
         except ValueError as error:  # refused by the scene: a finding, not a crash
             refused += 1
-            print(f"[{index + 1}/{len(kinds)}] {kind.name} ({kind.description}): refused: {error}", flush=True)
+            print(f"[{index + 1}/{len(kinds)}] {kind.name} ({kind.description}): refused: {error}")
             continue
         measured += 1
         rows += cell
@@ -263,10 +263,9 @@ def random_table(args, rows: list[dict], table: Path, started: float) -> tuple[l
                 total[k] += row[key]
         trial_store.write_rows(table, rows, COLUMNS)
         trial_store.write_rows(table.parent / FAILURES_CSV, failures, FAILURE_COLUMNS)
-        print(f"[{index + 1}/{len(kinds)}] {kind.name} ({kind.description}): {cell[0]['episode_successes'] if cell else 0}"
-              f"/{episodes} episodes, {sum(r['executions'] for r in cell)} skills, {len(lost)} failed"
-              + "".join(f"; {f['skill']} {f['phase']}: {f['cause']}" for f in lost)
-              + f" ({time.perf_counter() - started:.0f} s)", flush=True)
+        log(f"[{index + 1}/{len(kinds)}] {kind.name} ({kind.description}): {cell[0]['episode_successes'] if cell else 0}"
+            f"/{episodes} episodes, {sum(r['executions'] for r in cell)} skills, {len(lost)} failed"
+            + "".join(f"; {f['skill']} {f['phase']}: {f['cause']}" for f in lost) + f" ({time.perf_counter() - started:.0f} s)")
     total = _rows(f"random objects ({measured})", "random", args.mix_with, totals, episodes * measured, wins,
                   time.perf_counter() - started)
     trial_store.write_rows(table.parent / FAILURES_CSV, failures, FAILURE_COLUMNS)
@@ -292,7 +291,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     bad = [s for s in args.settings if s not in SETTINGS]
     if bad:
         parser.error(f"--settings: unknown {bad[0]!r}; allowed: {', '.join(SETTINGS)}")
-    log = None if args.quiet else print
+    log = None if args.quiet else (lambda line: print(line, flush=True))
     rows: list[dict] = []
     table = Path(args.out) / TABLE_CSV
     started = time.perf_counter()
@@ -314,7 +313,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
                 log(f"{kind} x {setting} done ({time.perf_counter() - started:.0f} s)")
     shown = list(rows)
     if args.random:
-        total, measured, lost = random_table(args, rows, table, started)
+        total, measured, lost = random_table(args, rows, table, started, log or (lambda line: None))
         rows, shown = rows + total, shown + total
         cells, refused = cells + measured + lost, refused + lost
     trial_store.write_rows(table, rows, COLUMNS)  # also when every cell was refused: the file the report names exists
