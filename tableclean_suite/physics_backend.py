@@ -53,22 +53,16 @@ class StagingError(RuntimeError):
     """The scene could not be put into the requested task state."""
 
 
-# ---------------------------------------------------------------------------------------------
-# snapshots: branch from a reached state without re-executing the plan
-# ---------------------------------------------------------------------------------------------
 def snapshot(env):
-    """The scene's state: ``env.get_scene_state()`` (see [TableClean.get_scene_state][tableclean_suite.environments.table_clean.TableClean.get_scene_state])."""
+    """``env.get_scene_state()`` ([TableClean.get_scene_state][tableclean_suite.environments.table_clean.TableClean.get_scene_state])."""
     return env.get_scene_state()
 
 
 def restore(env, saved) -> None:
-    """Put the scene back into ``saved``: ``env.set_scene_state(saved)``."""
+    """``env.set_scene_state(saved)``."""
     env.set_scene_state(saved)
 
 
-# ---------------------------------------------------------------------------------------------
-# staging: any reachable task state from a reset
-# ---------------------------------------------------------------------------------------------
 def start_of(state: TaskState) -> tuple[tuple[int, ...], int, tuple[int, ...], tuple[int, ...]]:
     """``(object_segments, arm_segment, dirty_segments, deferred)`` of the reset that stages ``state``.
 
@@ -124,9 +118,6 @@ def stage(env, controller, state, seed: int | None = None) -> TaskState:
     return reached
 
 
-# ---------------------------------------------------------------------------------------------
-# the step environment
-# ---------------------------------------------------------------------------------------------
 #: ``make_skill_env`` arguments that give a start layout ([`staging_env_kwargs`][tableclean_suite.physics_backend.staging_env_kwargs]).
 LAYOUT_ARGUMENTS = ("object_segment", "arm_segment", "object_segments")
 
@@ -258,9 +249,6 @@ def _merge_stats(parts) -> dict:
     return total
 
 
-# ---------------------------------------------------------------------------------------------
-# training
-# ---------------------------------------------------------------------------------------------
 def _check_options(options: dict) -> dict:
     """``options`` checked before any scene is built: known keys, and ``env_kwargs["robots"]`` (when given)
     a robot with a registered skill config (``ValueError`` naming the supported robots)."""
@@ -430,17 +418,10 @@ def train_physics(job) -> dict:
     if bar is not None:
         bar.close()
 
-    records = {name: np.zeros((runs, iterations), dtype=model.record_dtype)
-               for name in ("outcomes", "states", "actions", "episode_end")}
-    records["rewards"] = np.zeros((runs, iterations), dtype=np.float64)
-    records["q"] = np.zeros((runs, model.n_states, model.n_actions), dtype=np.float64)
-    if checkpoint:
-        records[RUN_CHECKPOINT_Q] = np.zeros_like(records["q"])
-    for name in ("first_learned_at", "learned_at"):
-        records[name] = np.zeros(runs, dtype=np.int64)
-    for i, record, _ in results:
-        for name in records:
-            records[name][i] = record[name]
+    ordered = [record for _, record, _ in sorted(results, key=lambda result: result[0])]
+    names = ("outcomes", "states", "actions", "episode_end", "rewards", "q", "first_learned_at", "learned_at")
+    records = {name: np.stack([record[name] for record in ordered])
+               for name in names + ((RUN_CHECKPOINT_Q,) if checkpoint else ())}
     stats = _merge_stats(run_stats for _, _, run_stats in results)
     stats["workers"] = workers
     records["stats"] = stats

@@ -35,17 +35,14 @@ def _grippers(robots) -> list:
     return [gripper for robot in robots for gripper in robot.gripper.values()]
 
 
+#: The ``MjData`` arrays a [`SceneState`][tableclean_suite.environments.scene_state.SceneState] copies.
+ARRAYS = ("qpos", "qvel", "act", "ctrl", "qacc_warmstart")
+
+
 def read_scene_state(data, robots) -> SceneState:
     """A copy of the raw ``mujoco.MjData`` ``data``'s state and the grippers' commands of ``robots``."""
-    return SceneState(
-        time=float(data.time),
-        qpos=data.qpos.copy(),
-        qvel=data.qvel.copy(),
-        act=data.act.copy(),
-        ctrl=data.ctrl.copy(),
-        qacc_warmstart=data.qacc_warmstart.copy(),
-        gripper_commands=tuple(np.array(gripper.current_action, copy=True) for gripper in _grippers(robots)),
-    )
+    return SceneState(float(data.time), *(getattr(data, name).copy() for name in ARRAYS),
+                      gripper_commands=tuple(np.array(gripper.current_action, copy=True) for gripper in _grippers(robots)))
 
 
 def write_scene_state(data, robots, state: SceneState) -> None:
@@ -55,10 +52,7 @@ def write_scene_state(data, robots, state: SceneState) -> None:
         raise ValueError(f"scene state comes from a different TableClean model: qpos has shape {state.qpos.shape}, "
                          f"this model's {data.qpos.shape}")
     data.time = state.time
-    data.qpos[:] = state.qpos
-    data.qvel[:] = state.qvel
-    data.act[:] = state.act
-    data.ctrl[:] = state.ctrl
-    data.qacc_warmstart[:] = state.qacc_warmstart
+    for name in ARRAYS:
+        getattr(data, name)[:] = getattr(state, name)
     for gripper, command in zip(_grippers(robots), state.gripper_commands):
         gripper.current_action = np.array(command, copy=True)
