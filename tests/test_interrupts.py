@@ -79,3 +79,26 @@ def test_ctrl_c_early_in_a_command_is_one_line_and_exit_130(tmp_path, delay):
     _, err = process.communicate(timeout=60)
     assert process.returncode == 130 and "Traceback" not in err, err
     assert err.strip().splitlines() == ["tableclean-bench scaling: interrupted"], err
+
+
+def test_ctrl_c_during_tune_publishes_the_finished_trials_and_exits_130(tmp_path, monkeypatch, capfd):
+    import json
+
+    from tableclean_suite.bench import outputs, tune
+
+    made = []
+
+    class InterruptedEvaluation(tune.Evaluation):
+        def __init__(self, *args, **kwargs):
+            made.append(1)
+            if len(made) == 4:  # the paper reference, two trials, then Ctrl-C in the third
+                raise KeyboardInterrupt
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(tune, "Evaluation", InterruptedEvaluation)
+    out = tmp_path / "tune"
+    code = tune.main(["--runs", "4", "--iterations", "200", "--trials", "5", "--out", str(out)])
+    err = capfd.readouterr().err
+    assert code == 130 and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    assert json.loads((out / "best.json").read_text())["completed"] == 2
+    assert outputs.check_outputs(out) == []

@@ -26,7 +26,23 @@ DEFAULT_ROBOT = "Panda"
 
 
 class OneLineParser(argparse.ArgumentParser):
-    """argparse, but a bad flag prints one line (``prog: error: ...``, no usage block) and exits 2."""
+    """argparse, but a bad flag prints one line (``prog: error: ...``, no usage block) and exits 2,
+    a list flag (``nargs="+"`` or a comma-list type) given twice is refused rather than silently
+    keeping the last, and help texts show ````x```` as ```x```."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        seen = set()
+        for text in sys.argv[1:] if args is None else args:
+            action = self._option_string_actions.get(str(text).split("=", 1)[0])
+            if action is not None and (action.nargs in ("+", "*") or getattr(action.type, "comma_list", False)):
+                if action.dest in seen:
+                    self.error(f"{text.split('=', 1)[0]} given twice; list every value in one flag "
+                               f"(comma separated{' or space separated' if action.nargs else ''})")
+                seen.add(action.dest)
+        return super().parse_known_args(args, namespace)
+
+    def format_help(self) -> str:
+        return super().format_help().replace("``", "`")
 
     def error(self, message: str):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
@@ -89,6 +105,7 @@ def choice_list(allowed, what: str):
             raise argparse.ArgumentTypeError(f"unknown {what} {', '.join(bad) or text!r}; "
                                              f"allowed: {', '.join(allowed)} (comma separated)")
         return chosen
+    parse.comma_list = True
     return parse
 
 
@@ -98,6 +115,9 @@ def name_list(text: str) -> tuple[str, ...]:
     if not names:
         raise argparse.ArgumentTypeError(f"expected at least one comma-separated name, got {text!r}")
     return names
+
+
+name_list.comma_list = True  # a list flag: given twice, OneLineParser refuses it
 
 
 def output_path(kind: str):

@@ -222,5 +222,17 @@ def _interrupted(prog: str, error: BaseException, entry: bool = False) -> int:
     return EXIT_INTERRUPTED
 
 
+def _refusals() -> tuple:
+    """Library errors a command reports as one line with exit 2: the resource guard's
+    ([`ResourceError`][tableclean_suite.resources.ResourceError]) and the output folder's
+    ([`OutputError`][tableclean_suite.bench.outputs.OutputError]: full disk, read-only, busy, a file in the way) and
+    an unreachable Ray cluster ([`ClusterUnreachableError`][tableclean_suite.executors.ray_executor.ClusterUnreachableError])."""
+    from tableclean_suite.bench.outputs import OutputError
+    from tableclean_suite.executors.ray_executor import ClusterUnreachableError
+    from tableclean_suite.resources import ResourceError
+
+    return ResourceError, OutputError, ClusterUnreachableError
+
+
 if __name__ == "__main__":
     sys.exit(main())

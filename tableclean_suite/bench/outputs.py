@@ -205,6 +205,14 @@ def publication_problem(out, command: str) -> str | None:
     return None
 
 
+def arguments(args) -> dict:
+    """A parsed command line's plain values (text, numbers, lists of them): the configuration a
+    command's manifest records."""
+    plain = (str, int, float, bool, type(None))
+    return {key: list(value) if isinstance(value, (list, tuple)) else value for key, value in vars(args).items()
+            if isinstance(value, plain) or isinstance(value, (list, tuple)) and all(isinstance(v, plain) for v in value)}
+
+
 def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict, wait: float = 60.0,
             command: str = LEGACY_COMMAND, kept=()) -> list[Path]:
     """Write a command's data files and its manifest following the module's protocol.

@@ -35,8 +35,9 @@ that is worse than the median of earlier trials at the same stage.
 
 **Storage**: an Optuna RDB URL, default ``sqlite:///OUT/study.db`` (``--out`` default
 ``results/tune``), so a study resumes across invocations and several processes or machines can
-share it (with a shared database).  Each invocation rewrites ``OUT/best.json`` (best trial vs the
-paper's configuration) and ``OUT/trials.csv`` atomically.
+share it (with a shared database).  Each invocation publishes ``OUT/best.json`` (best trial vs the
+paper's configuration) and ``OUT/trials.csv`` ([`outputs.publish`][tableclean_suite.bench.outputs.publish]),
+also when Ctrl-C stops it (then with the trials finished so far, exit code 130).
 """
 
 from __future__ import annotations
@@ -71,8 +72,10 @@ PRUNER_WARMUP_STEPS = 1
 REFERENCE_ATTR = "paper_reference"
 #: User attribute of the study holding the configuration it was created for ([`study_configuration`][tableclean_suite.bench.tune.study_configuration]).
 CONFIGURATION_ATTR = "configuration"
-#: Exit status of a refused call (a bad --storage, a study of another configuration).
+#: Exit status of a refused call (a bad --storage, a study of another configuration) ...
 EXIT_USAGE = 2
+#: ... and of one stopped by Ctrl-C (its finished trials published).
+EXIT_INTERRUPTED = 130
 #: Greedy tie rules of ``train(ties=...)``, the default first.
 TIE_RULES = ("random", "first")
 #: What the trials minimise (recorded in the study's configuration).
@@ -368,21 +371,28 @@ def best_report(study, args) -> dict:
 
 
 def run(args) -> int:
+    """Run the trials, then publish ``trials.csv``, ``best.json`` (and ``ablation.csv``) into
+    ``--out`` ([`outputs.publish`][tableclean_suite.bench.outputs.publish]); after Ctrl-C the
+    trials finished so far are published and the exit code is 130."""
+    import logging
+
     import optuna
 
-    from tableclean_suite.bench.outputs import atomic_write, atomic_write_text, check_writable
+    from tableclean_suite.bench import outputs
 
-    out = Path(args.out)
-    problem = check_writable(out)
+    prog, out = getattr(args, "prog", PROG), Path(args.out)
+    problem = outputs.check_publishable(out, command="tune")
     if problem:
-        print(f"{getattr(args, 'prog', PROG)}: error: --out {problem}", file=sys.stderr)
+        print(f"{prog}: error: --out {problem}", file=sys.stderr)
         return 2
     optuna.logging.set_verbosity(optuna.logging.WARNING)
+    for handler in logging.getLogger("optuna").handlers:  # Ctrl-C is reported once, without Optuna's traceback
+        handler.addFilter(lambda record: not (record.exc_info and record.exc_info[0] is KeyboardInterrupt))
     check_resources(args)
     try:
         study = open_study(args)
     except StudyError as error:
-        print(f"{getattr(args, 'prog', PROG)}: error: {error}", file=sys.stderr)
+        print(f"{prog}: error: {error}", file=sys.stderr)
         return EXIT_USAGE
     started = time.perf_counter()
     reference = _reference(study, args, args.model)
@@ -401,12 +411,30 @@ def run(args) -> int:
         trial.set_user_attr("final_epsilon", evaluation.final_epsilon)
         return objective_value(result, reference["success_asymptote"], args.iterations, args.tolerance)
 
-    study.optimize(objective, n_trials=args.trials)
+    try:
+        study.optimize(objective, n_trials=args.trials)
+        interrupted = False
+    except KeyboardInterrupt:
+        interrupted = True
     report = best_report(study, args)
-    frame = trials_frame(study)
-    atomic_write(out / "trials.csv", lambda path: frame.to_csv(path, index=False))
-    atomic_write_text(out / "best.json", json.dumps(report, indent=2, default=_json_default))
     paper, best = report["paper"], report["best"]
+    trials = trials_frame(study)
+    writers = {"trials.csv": lambda path: trials.to_csv(path, index=False),
+               "best.json": lambda path: path.write_text(json.dumps(report, indent=2, default=_json_default))}
+    rows = []
+    if args.ablation and not interrupted:
+        if best is None:
+            print(f"{prog}: error: --ablation needs a completed trial; the study has none", file=sys.stderr)
+            return EXIT_USAGE
+        import pandas as pd
+
+        rows = ablation(args, best["settings"])
+        writers["ablation.csv"] = lambda path: pd.DataFrame(rows).to_csv(path, index=False)
+    written = outputs.publish(out, writers, {"args": outputs.arguments(args)}, command="tune", kept=("study.db",))
+    if interrupted:
+        print(f"{prog}: interrupted; the {report['completed']} completed trials are published in "
+              f"{out / 'trials.csv'} and {out / 'best.json'}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     print(f"study {args.study_name!r} in {args.storage}: {report['trials']} trials ({report['completed']} complete, "
           f"{report['pruned']} pruned), {time.perf_counter() - started:.1f} s this call")
     print(f"objective: restricted mean per-run learning time up to {args.iterations} iterations ({args.runs} runs, "
@@ -415,23 +443,12 @@ def run(args) -> int:
     if best is not None:
         print(f"best trial {best['trial']}: objective {best['objective']:.0f}, {result_text(best)}, "
               f"settings {best['settings']}")
-    written = [out / "best.json", out / "trials.csv"]
-    if args.ablation:
-        if best is None:
-            print(f"{getattr(args, 'prog', PROG)}: error: --ablation needs a completed trial; the study has none",
-                  file=sys.stderr)
-            return EXIT_USAGE
-        rows = ablation(args, best["settings"])
-        import pandas as pd
-
-        frame = pd.DataFrame(rows)
-        atomic_write(out / "ablation.csv", lambda path: frame.to_csv(path, index=False))
+    if rows:
         print(f"ablation ({args.learner}, {args.reward}, {args.runs} runs x {args.iterations} iterations, seed "
               f"{args.seed}, greedy ties: {args.ties}):")
         for row in rows:
             print(f"  alpha, gamma {row['alpha_gamma']:<6} x exploration {row['exploration_from']:<6}: "
                   f"{result_text(row)}")
-        written.append(out / "ablation.csv")
     print(f"written: {', '.join(str(path) for path in written)}")
     return 0
 

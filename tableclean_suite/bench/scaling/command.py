@@ -78,6 +78,10 @@ def fixed_plan_list(text: str) -> tuple[int, ...]:
     return () if text.strip().lower() == "none" else _count_list(text, MIN_OBJECTS, "object counts")
 
 
+for _list_type in (segment_list, object_list, gamma_list, fixed_plan_list):
+    _list_type.comma_list = True  # given twice: refused (cli.OneLineParser)
+
+
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line of the study."""
     from tableclean_suite.bench import scaling
