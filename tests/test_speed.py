@@ -36,9 +36,10 @@ def test_every_learner_is_timed_against_q_learning_with_planning_counted_apart()
     assert all(row["planning M updates/s"] == "0.00" for name, row in rows.items() if name != "dyna_q")
 
 
-def test_the_plain_loop_counts_every_update():
-    assert speed.plain_loop("q_learning", runs=2, iterations=300) == 600
-    assert speed.plain_loop("sarsa", runs=1, iterations=10) == 10
+def test_the_compiled_learners_are_compared_with_the_reference_engine():
+    table = speed.plain_loop_table(runs=50, iterations=40, repeat=1)
+    assert [row["learner"] for row in table.rows] == list(speed.PLAIN_LOOP_LEARNERS)
+    assert all(float(row["plain Python M updates/s"]) > 0 for row in table.rows)
 
 
 def test_the_page_is_stamped_with_the_machine_and_marks_a_failed_section():
