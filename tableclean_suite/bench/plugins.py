@@ -37,8 +37,11 @@ def load_plugin(entry: str):
     """Import one plugin: a module name, or a ``.py`` file (imported once per process)."""
     if entry.endswith(SOURCE_SUFFIX):
         path = Path(entry).resolve()
-        if not path.is_file():
-            raise PluginError(f"plugin {entry!r}: no such file")
+        try:
+            if not path.is_file():
+                raise PluginError(f"plugin {entry!r}: no such file")
+        except OSError as error:  # a folder that cannot be searched, a name too long
+            raise PluginError(f"plugin {entry!r}: {error.strerror or error}") from None
         name = f"tableclean_plugin_{path.stem}_{abs(hash(str(path))):x}"
         if name in sys.modules:
             return sys.modules[name]
@@ -47,13 +50,17 @@ def load_plugin(entry: str):
         sys.modules[name] = module
         try:
             spec.loader.exec_module(module)
-        except (Exception, SystemExit) as error:  # a plugin may fail (or exit) in any way; say which and why
+        except KeyboardInterrupt:
+            raise
+        except BaseException as error:  # a plugin may fail (or exit) in any way; say which and why
             del sys.modules[name]
             raise PluginError(_failure(entry, error)) from None
         return module
     try:
         return importlib.import_module(entry)
-    except (Exception, SystemExit) as error:  # as above
+    except KeyboardInterrupt:
+        raise
+    except BaseException as error:  # as above
         raise PluginError(_failure(entry, error)) from None
 
 

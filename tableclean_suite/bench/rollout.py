@@ -271,6 +271,10 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     except (ValueError, KeyError) as error:
         parser.error(str(error).strip("'\""))
 
+    try:  # before training: the video is written last
+        import imageio.v2  # noqa: F401
+    except ImportError as error:
+        parser.error(f"--video needs the video extra (pip install 'tableclean_suite[video]'): {error}")
     start = TaskState((False,) * spec.segments, (args.object_segment - 1,) * spec.n_objects, args.arm_segment - 1)
     started = time.perf_counter()
     policy = train_policy(args.learner, args.reward, start, args.runs, args.iterations, args.seed, spec)
