@@ -272,12 +272,15 @@ def run(args) -> int:
     """Run the chosen interventions, print before/after and write ``interventions.csv``; returns 0."""
     import pandas as pd
 
-    from tableclean_suite.bench.outputs import atomic_write, output_lock
+    from tableclean_suite.bench import outputs
 
     known = interventions()
     started = time.perf_counter()
     rows = []
-    with output_lock(args.out) as out:
+    problem = outputs.check_publishable(args.out, command="interventions")
+    if problem:
+        raise outputs.OutputError(problem)
+    with outputs.output_lock(args.out) as out:
         print(f"Interventions: {len(args.only)}, {args.runs} runs per arm, seed {args.seed}, budget scale "
               f"{args.scale:g}. Learning time: Kaplan-Meier median [95 % interval] in iterations; shares in % "
               "[95 % Clopper-Pearson]; success plateau in % [95 % bootstrap].")
@@ -306,7 +309,8 @@ def run(args) -> int:
                       f" never terminal {_share_text(figures, 'never_terminal_share')}")
             print(f"  predicted: {FIGURES[item.figure]} {'falls' if item.direction < 0 else 'rises'}; observed: {change}")
         frame = pd.DataFrame(rows)
-        atomic_write(Path(out) / "interventions.csv", lambda path: frame.to_csv(path, index=False))
+        outputs.publish(out, {"interventions.csv": lambda path: frame.to_csv(path, index=False)},
+                        {"args": outputs.arguments(args)}, command="interventions")
     print(f"\nWrote {Path(args.out) / 'interventions.csv'} in {time.perf_counter() - started:.1f} s wall.")
     return 0
 

@@ -29,7 +29,7 @@ import pandas as pd
 
 from tableclean_suite.bench import cli, outputs, run
 from tableclean_suite.bench.cli import EXIT_USAGE
-from tableclean_suite.bench.tables import main_rows
+from tableclean_suite.bench.tables import PRINT_WIDTH, main_rows
 
 #: Windows compared by default (iterations): the paper's and three times as long.
 DEFAULT_WINDOWS = (4000, 12000)
@@ -177,7 +177,7 @@ def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     args, passthrough = parse_args(argv, prog)
     out = Path(args.out)
-    problem = outputs.check_writable(out)
+    problem = outputs.check_publishable(out, command="window-invariance")
     if problem:
         print(f"{args.prog}: error: --out: {problem}", file=sys.stderr)
         return EXIT_USAGE
@@ -186,12 +186,12 @@ def main(argv=None, prog: str | None = None) -> int:
     except SystemExit as stop:
         return int(stop.code or 0)
     changes = figure_changes(short, long)
-    outputs.atomic_write(out / RESULT_FILE, lambda path: changes.to_csv(path, index=False))
+    outputs.publish(out, {RESULT_FILE: lambda path: changes.to_csv(path, index=False)},
+                    {"args": outputs.arguments(args), "passthrough": passthrough}, command="window-invariance")
     shown = changes.assign(change=[_percent(v) for v in changes["change"]])
-    with pd.option_context("display.width", 200, "display.max_rows", 500):
-        print(f"Table 3's iteration figures at {args.windows[0]} and {args.windows[1]} iterations "
-              f"({', '.join(FIGURES)}):")
-        print(shown.to_string(index=False, na_rep="not reached", float_format=lambda v: f"{v:.1f}"))
+    print(f"Table 3's iteration figures at {args.windows[0]} and {args.windows[1]} iterations ({', '.join(FIGURES)}):")
+    print(shown.to_string(index=False, na_rep="not reached", float_format=lambda v: f"{v:.1f}",
+                          line_width=PRINT_WIDTH))
     for line in summary_lines(changes, args.goal, args.windows):
         print(line)
     print(f"written: {out / RESULT_FILE}")
