@@ -40,12 +40,12 @@ written into the live model and controller.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import asdict, dataclass, fields, replace
 from typing import Any, Mapping, NamedTuple
 
 import numpy as np
 
-from tableclean_suite.environments.config import make_config
+from tableclean_suite.environments.config import jsonable, make_config
 
 __all__ = ["DynamicsRandomization", "DynamicsSample", "OFF", "DEFAULT_ON", "resolve_randomization",
            "ALLOWED_SCALE", "ALLOWED_SIZE_SCALE", "MAX_YAW_NOISE", "MAX_SPONGE_HOME_NOISE", "RANGE_FIELDS",
@@ -90,11 +90,6 @@ BASE_KEY = "base"
 Range = tuple[float, float]
 
 
-def _plain_fields(instance) -> dict:
-    """A dataclass's fields as plain JSON-serialisable values (lists for the tuples)."""
-    return {f.name: (list(v) if isinstance(v := getattr(instance, f.name), tuple) else v) for f in fields(instance)}
-
-
 @dataclass(frozen=True)
 class DynamicsSample:
     """The values one reset drew (see [`DynamicsRandomization`][tableclean_suite.environments.randomization.DynamicsRandomization] for units).
@@ -125,7 +120,7 @@ class DynamicsSample:
 
     def to_dict(self) -> dict:
         """Plain JSON-serialisable values (lists for the tuples)."""
-        return _plain_fields(self)
+        return jsonable(asdict(self))
 
 
 @dataclass(frozen=True)
@@ -179,7 +174,7 @@ class DynamicsRandomization:
 
     def to_dict(self) -> dict:
         """The ranges as plain values (lists for the pairs)."""
-        return _plain_fields(self)
+        return jsonable(asdict(self))
 
     def sample(self, rng: np.random.Generator, n_objects: int, n_joints: int) -> DynamicsSample:
         """Draw one [`DynamicsSample`][tableclean_suite.environments.randomization.DynamicsSample] for ``n_objects`` objects and ``n_joints`` arm joints.
