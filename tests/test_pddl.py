@@ -118,6 +118,25 @@ def test_a_user_actions_pddl_is_checked_and_a_wrong_one_fails_naming_the_state()
     assert failed and all(line.startswith("jump, pyperplan, state ") for line in failed)
 
 
+def test_the_adl_form_has_the_same_shortest_plans():
+    """The ADL form, its quantifiers and negations compiled away by unified-planning, solved by pyperplan."""
+    pddl_check = _planners_or_skip("pyperplan")
+    from unified_planning.engines import CompilationKind
+    from unified_planning.io import PDDLReader
+    from unified_planning.shortcuts import Compiler, OneshotPlanner
+
+    model = TaskModel(spec="three_segments_two_objects")
+    domain = domain_pddl(model.spec, "adl")
+    for state in pddl_check.check_states(model, 4, seed=2):
+        problem = PDDLReader().parse_problem_string(domain, problem_pddl(model.spec, state, "adl"))
+        for kind in (CompilationKind.QUANTIFIERS_REMOVING, CompilationKind.NEGATIVE_CONDITIONS_REMOVING):
+            with Compiler(problem_kind=problem.kind, compilation_kind=kind) as compiler:
+                problem = compiler.compile(problem).problem
+        with OneshotPlanner(name="pyperplan-opt") as planner:
+            plan = [a.action.name for a in planner.solve(problem).plan.actions]
+        assert len(plan) == len(model.shortest_plan(state)) and pddl_check.replay(model, state, plan)
+
+
 @pytest.mark.cli
 def test_fast_downward_plans_equal_the_models():
     failed, frame = _check("paper", planner="fast-downward")

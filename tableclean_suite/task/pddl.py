@@ -221,7 +221,11 @@ def read_problem(problem: str | Path, name: str | None = None) -> TaskSpec:
         PDDLError: ``source:line: reason`` for a malformed or unsupported problem.
     """
     if isinstance(problem, Path) or (isinstance(problem, str) and problem.strip().endswith(".pddl")):
-        source, text = str(problem), Path(problem).read_text(encoding="utf-8")
+        source = str(problem)
+        try:
+            text = Path(problem).read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as error:
+            raise PDDLError(f"{source}: cannot read the problem ({error.__class__.__name__}: {error})") from None
     else:
         source, text = "problem", str(problem)
 
