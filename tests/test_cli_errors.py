@@ -99,3 +99,19 @@ def test_help_texts_show_no_double_backticks():
     for name in ("run", "scaling", "tune", "interventions", "coverage"):
         text = commands.command_parser(name).format_help()
         assert "``" not in text, name
+
+
+@pytest.mark.jit
+def test_a_compilation_of_a_package_kernel_is_announced_once(capsys):
+    import numba
+
+    from tableclean_suite.bench import startup
+
+    startup.announce_compiles()
+    startup.announce_compiles()  # a second command in the same process: still one notice
+    startup._NOTICE["said"] = False
+    space = {"__name__": "tableclean_suite.first_contact"}
+    exec("def twice(x):\n    return 2 * x\ndef thrice(x):\n    return 3 * x\n", space)
+    assert numba.njit(space["twice"])(2) == 4 and numba.njit(space["thrice"])(2) == 6
+    err = capsys.readouterr().err.splitlines()
+    assert [line for line in err if "compiling kernels once" in line] == [err[0]], err

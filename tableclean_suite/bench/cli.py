@@ -298,12 +298,13 @@ def parse_command(build_parser, argv, prog: str, known: bool = False):
     Returns:
         ``(parser, args)``; with ``known``, ``(parser, args, rest)`` (arguments the parser does not know).
     """
-    from tableclean_suite.bench.startup import apply_verbosity
+    from tableclean_suite.bench.startup import announce_compiles, apply_verbosity
 
     argv = list(sys.argv[1:] if argv is None else argv)
     early = OneLineParser(prog=prog, add_help=False)
     early.add_argument("--verbose", action="store_true")
     apply_verbosity(early.parse_known_args(argv)[0].verbose)  # before a plugin imports robosuite
+    announce_compiles()
     preload(argv, prog)
     parser = build_parser(prog)
     if known:

@@ -1,4 +1,6 @@
-"""robosuite's start-up messages: kept off the harness's output unless asked for.
+"""What a command says while it starts: robosuite's start-up messages kept off the harness's
+output unless asked for, and one notice before numba compiles the package's kernels
+(`announce_compiles`).
 
 When robosuite is imported (by the physics backend, or by anything else that needs MuJoCo) it
 logs warnings about its own installation: no private macro file, no robosuite_models, no mink.
@@ -64,3 +66,42 @@ def apply_verbosity(verbose: bool) -> None:
         return
     quiet_robosuite_startup()
     logging.getLogger(ROBOSUITE_LOGGER).addFilter(_DropBelowWarning())
+
+
+#: Wall seconds a command spends compiling its kernels when numba's disk cache is empty (measured:
+#: the smallest scaling study, 60 s on a loaded 2-core machine; the physics commands take longer).
+COMPILE_SECONDS = 60
+#: The package whose kernels `announce_compiles` announces.
+PACKAGE = "tableclean_suite"
+
+
+_NOTICE = {"installed": False, "said": False}
+
+
+def announce_compiles() -> None:
+    """From numba's import on, print one line on stderr before the first of the package's kernels
+    is compiled in this process.  numba reports a compilation only when its disk cache misses, so
+    the notice appears on a first use (or after an edit) and never when the cache serves."""
+    def install(_numba) -> None:
+        from numba.core import event
+
+        class Notice(event.Listener):
+            def on_start(self, happening) -> None:
+                function = getattr(happening.data.get("dispatcher"), "py_func", None)
+                if not _NOTICE["said"] and getattr(function, "__module__", "").startswith(PACKAGE):
+                    _NOTICE["said"] = True
+                    print(f"compiling kernels once, about {COMPILE_SECONDS} s (numba caches them for later runs)",
+                          file=sys.stderr, flush=True)
+
+            def on_end(self, happening) -> None:
+                pass
+
+        event.register("numba:compile", Notice())
+
+    if _NOTICE["installed"]:
+        return
+    _NOTICE["installed"] = True
+    if "numba" in sys.modules:  # wrapt does not call a hook added after the import's own hooks ran
+        install(sys.modules["numba"])
+    else:
+        wrapt.register_post_import_hook(install, "numba")
