@@ -1,40 +1,29 @@
 """The paper's learning-speed quantities, defined precisely, as pure functions.
 
-The iteration and episode counts here (first touch, held reaching, average-reward convergence,
-the maximum average reward) are *readings of the mean curves over runs*, the paper's
-definitions.  Such a reading is biased and its target moves with the number of runs (a mean of
-more runs is smoother and touches its level later), so the harness gives them no interval; the
-per-run learning time with its intervals is [`tableclean_suite.learning_time`][tableclean_suite.learning_time].
-
-Inputs are [`TrainingResult`][tableclean_suite.learners.train.TrainingResult] records (R runs x T iterations) or
-1-D curves of length T.  The curves (success rate, average reward, episodes per iteration; with
-``support_fraction`` the average reward is NaN until that fraction of runs has finished an
-episode, so early points do not rest on a handful of runs; the harness uses 0.5) are defined and
-computed in [`tableclean_suite.curves`][tableclean_suite.curves].  The quantities read off them:
+The iteration and episode counts here are *readings of the mean curves over runs* (the paper's
+definitions): biased, and their target moves with the number of runs, so the harness gives them
+no interval; the per-run learning time with its intervals is
+[`tableclean_suite.learning_time`][tableclean_suite.learning_time].  Inputs are
+[`TrainingResult`][tableclean_suite.learners.train.TrainingResult] records (R runs x T iterations) or
+1-D curves of length T; the curves are defined in [`tableclean_suite.curves`][tableclean_suite.curves].
 
 - **Plateau**: with an *asymptote* (the harness's way, [`tableclean_suite.asymptotes`][tableclean_suite.asymptotes]):
-  the exact value the curve tends to under each run's final policy, averaged over runs, which
-  does not move with the window once the runs' policies have settled (Q-learning's do; SARSA's,
-  at the paper's constant alpha and epsilon, keep changing).  Without one: the mean over the last ``plateau_fraction`` (25 %)
-  of the window (the *window mean*, always reported as ``*_window_mean``), which moves with it.
-- **Iterations to maximum success** (the paper-definition column, *first touch*): first t
-  (1-based count) at which the success curve reaches ``threshold`` (95 %) of its plateau.  A
-  noisy curve can touch the level and fall back below it for hundreds of iterations.
-- **Iterations to held success** (``held_success_iterations``, *reaching*): first t at which the
-  success curve reaches ``threshold`` of its plateau and stays at or above it for the ``hold``
-  iterations t .. t + hold - 1 (default `DEFAULT_HOLD`); None when no such t leaves a full
-  hold inside the window.
-- **Greedy success** (``greedy_success_plateau``): the exact success of each run's final *greedy*
-  policy (epsilon = 0), averaged over runs; the success plateau is the same policy under the
-  exploration, so the two separate what the learner learned from what exploring costs.
-- **Never-terminal share** (``never_terminal_share``): the fraction of runs that never reached
-  the terminal state (never received the terminal reward) in the whole window.
-- **Average-reward convergence**: first t at or after the curve's early minimum
-  where it has covered ``threshold`` of the way from that minimum to its plateau.  The early
-  minimum is the minimum of the (supported) curve before it first reaches the plateau (with an
-  asymptote), or before the plateau window (without one).
-- **Maximum average reward**: the maximum of the (supported) curve.
-- **Episodes** at an iteration: the episodes curve there.
+  the exact value the curve tends to under each run's final policy, averaged over runs (fixed once
+  the policies have settled).  Without one: the mean over the last ``plateau_fraction`` (25 %) of
+  the window (the *window mean*, always reported as ``*_window_mean``), which moves with it.
+- **Iterations to maximum success** (*first touch*, the paper's column): first t (1-based count)
+  at which the success curve reaches ``threshold`` (95 %) of its plateau.
+- **Iterations to held success** (``held_success_iterations``): first t at which the success
+  curve reaches ``threshold`` of its plateau and stays there for iterations t .. t + hold - 1
+  (default `DEFAULT_HOLD`); None when no such t leaves a full hold inside the window.
+- **Greedy success** (``greedy_success_plateau``): the exact success of each run's final greedy
+  policy (epsilon = 0), averaged over runs: what was learned, apart from what exploring costs.
+- **Never-terminal share**: the fraction of runs that never reached the terminal state in the window.
+- **Average-reward convergence**: first t at or after the curve's early minimum (before it first
+  reaches the plateau with an asymptote, before the plateau window without one) where it has
+  covered ``threshold`` of the way from that minimum to its plateau.
+- **Maximum average reward**: the maximum of the (supported) curve; **episodes** at an
+  iteration: the episodes curve there.
 """
 
 from __future__ import annotations
