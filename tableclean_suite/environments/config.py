@@ -88,21 +88,9 @@ _SHAPES = {
     "lift_tolerance": None, "max_stable_speed": None,
 }
 #: Keys whose values must be positive numbers or sequences of positive numbers.
-_POSITIVE_KEYS = (
-    "table_full_size",
-    "segment_size",
-    "marker_radius",
-    "sponge_half_size",
-    "sponge_density",
-    "stand_half_size",
-    "sponge_home_tolerance",
-    "object_half_size",
-    "min_segment_size",
-    "object_spacing",
-    "arm_hover_height",
-    "lift_tolerance",
-    "max_stable_speed",
-)
+_POSITIVE_KEYS = ("table_full_size", "segment_size", "marker_radius", "sponge_half_size", "sponge_density",
+                  "stand_half_size", "sponge_home_tolerance", "object_half_size", "min_segment_size", "object_spacing",
+                  "arm_hover_height", "lift_tolerance", "max_stable_speed")
 #: Keys whose values must be non-negative.
 _NON_NEGATIVE_KEYS = ("segment_gap", "wipe_marker_reach", "placement_noise", "placement_yaw_noise", "arm_segment_margin",
                       "object_clearance", "table_friction")
@@ -128,9 +116,7 @@ def make_config(task_config: Mapping | None = None) -> TaskConfig:
     if task_config:
         unknown = sorted(set(task_config) - set(DEFAULT_TABLECLEAN_CONFIG), key=str)
         if unknown:
-            raise ValueError(
-                f"unknown task_config key(s) {unknown}; allowed: {sorted(DEFAULT_TABLECLEAN_CONFIG)}"
-            )
+            raise ValueError(f"unknown task_config key(s) {unknown}; allowed: {sorted(DEFAULT_TABLECLEAN_CONFIG)}")
         config.update(task_config)
     _validate(config)
     return config
