@@ -1,26 +1,24 @@
 """The training loop in plain Python, one step at a time (Algorithm 1 as written).
 
-This is the package's one per-step learner: the physics backend needs it, because its steps
-are skills executed in MuJoCo, one at a time, which the compiled batched loop
-([`kernel`][tableclean_suite.learners.kernel]) cannot call.  It runs any *step environment*: an object with
-``reset(draw) -> state`` and ``step(state, action, draw) -> (next_state, outcome)`` (codes),
-such as the task model itself ([`ModelStepEnv`][tableclean_suite.learners.reference.ModelStepEnv]), a measured transition table
-([`TableStepEnv`][tableclean_suite.learners.reference.TableStepEnv]) or skills in physics.  On a table it produces exactly the arrays of
-the compiled loop (same random draws, same arithmetic), so ``train(engine="reference")``
-runs it there and the tests use it as the compiled loop's check.
+The package's one per-step learner: the physics backend needs it (its steps are skills executed
+in MuJoCo, which the compiled batched loop, [`kernel`][tableclean_suite.learners.kernel], cannot
+call), ``train(engine="reference")`` runs it on a table, and the tests use it as the compiled
+loop's check: on a table both produce exactly the same arrays (same draws, same arithmetic).  It
+steps any object with ``reset(draw) -> state`` and ``step(state, action, draw) -> (next_state,
+outcome)`` (codes): the task model ([`ModelStepEnv`][tableclean_suite.learners.reference.ModelStepEnv]),
+a measured table ([`TableStepEnv`][tableclean_suite.learners.reference.TableStepEnv]) or skills in physics.
 
-Every learner has its plain twin here (`_Agent`), written independently of the
-compiled functions: double Q's two tables, eligibility traces as the dense S x A sweep
-of their definition, Dyna-Q's model and planning, and each exploration's schedule
-([`parameter_at`][tableclean_suite.learners.exploration.Exploration.parameter_at]) and softmax sampler, Cruz et al.'s
-affordances (a set of blocked pairs) and simulated advisor ([`assist`][tableclean_suite.learners.assist]), and the
-learning times of [`optimality`][tableclean_suite.learners.optimality] (the greedy paths walked after every step).
+Every learner has its plain twin here (`_Agent`), written independently of the compiled
+functions: double Q's two tables, eligibility traces as the dense S x A sweep of their
+definition, Dyna-Q's planning, each exploration's schedule
+([`parameter_at`][tableclean_suite.learners.exploration.Exploration.parameter_at]), Cruz et al.'s
+affordances and advisor ([`assist`][tableclean_suite.learners.assist]) and the learning times of
+[`optimality`][tableclean_suite.learners.optimality].
 """
 
 from __future__ import annotations
 
 import math
-from typing import Protocol
 
 import numpy as np
 
@@ -71,18 +69,6 @@ from tableclean_suite.task import Outcome, TaskModel
 DOUBLE_Q_TABLES = "double_q_tables"
 #: Key of a run's Q-table after ``train_run(checkpoint=k)``'s k iterations, ``(S, A)``.
 CHECKPOINT_Q = "checkpoint_q"
-
-
-class StepEnv(Protocol):
-    """What the reference loop steps: a task model (for the sizes) and reset/step over codes."""
-
-    model: TaskModel
-
-    def reset(self, draw: float) -> int:
-        """Start an episode; ``draw`` in [0, 1) picks among start states. Returns the state code."""
-
-    def step(self, state: int, action: int, draw: float) -> tuple[int, int]:
-        """Apply ``action``; ``draw`` in [0, 1) is for stochastic successors. Returns (next state, outcome)."""
 
 
 class ModelStepEnv:
@@ -342,7 +328,7 @@ class _Agent:
 
 
 def train_run(
-    env: StepEnv,
+    env,
     learner: TabularLearner,
     reward: RewardPattern,
     iterations: int,
@@ -355,19 +341,16 @@ def train_run(
     on_step=None,
     checkpoint: int = 0,
 ) -> dict[str, np.ndarray]:
-    """Train one run for ``iterations`` steps; returns its record arrays and Q-table.
-
-    The learner brings its update rule, parameters, ``q_init`` and exploration
+    """Train one run of ``env`` (a step environment with a ``model``, see the module docstring) for
+    ``iterations`` steps; the learner brings its update rule, parameters, ``q_init`` and exploration
     (``epsilon`` is the exploration's start value).
 
-    Returns a dict with ``rewards`` (T,) float64, ``outcomes``/``states``/
-    ``actions``/``episode_end`` (T,) of ``env.model.record_dtype`` and ``q``
-    ``(n_states, n_actions)`` float64 (double Q: the average of its tables, which are
-    under ``"double_q_tables"``, shape ``(2, S, A)``).
+    Returns a dict with ``rewards`` (T,) float64, ``outcomes``/``states``/``actions``/``episode_end``
+    (T,) of ``env.model.record_dtype``, ``q`` ``(n_states, n_actions)`` float64 (double Q: the average
+    of its tables, which are under ``"double_q_tables"``, ``(2, S, A)``), and ``first_learned_at`` and
+    ``learned_at`` (int64 0-d arrays), the run's learning times ([`optimality`][tableclean_suite.learners.optimality]).
     ``on_step(t)`` is called after every iteration (progress bars).  ``checkpoint`` in [1, iterations]
     also keeps the Q-table after that many iterations under ``"checkpoint_q"`` ``(S, A)`` (as ``q``).
-    ``first_learned_at`` and
-    ``learned_at`` (int64 scalars as 0-d arrays) are the run's learning times ([`optimality`][tableclean_suite.learners.optimality]).
     """
     key = run_key(seed, run)
     model = env.model
