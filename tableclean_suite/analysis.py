@@ -46,7 +46,7 @@ from tableclean_suite.learners.assist import NO_ADVICE, advisor_policy, given_af
 from tableclean_suite.learners.exploration import EpsilonGreedy, VisitDecay, as_exploration, softmax_probabilities
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.policy import action_probabilities, greedy_policy  # noqa: F401  (re-exported)
-from tableclean_suite.task import Outcome, TaskModel, TaskState
+from tableclean_suite.task import Outcome, TaskModel
 
 
 def visit_counts(states: np.ndarray, n_states: int) -> np.ndarray:
@@ -127,13 +127,15 @@ def exact_success_probability(
     max_itr: int,
     model: TaskModel | None = None,
     table: TransitionTable | None = None,
-    starts: list[TaskState] | None = None,
     exploration=None,
     q: np.ndarray | None = None,
     iteration: int | None = None,
     visits: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Probability that an episode succeeds (terminal within ``max_itr`` steps, no improper action).
+    """Probability that an episode succeeds (terminal within ``max_itr`` steps, no improper action):
+    the ``success`` of [`asymptotes.episode_statistics`][tableclean_suite.asymptotes.episode_statistics]
+    (exact to [`MASS_TOLERANCE`][tableclean_suite.asymptotes.MASS_TOLERANCE]), episodes starting uniformly in the
+    model's start states.
 
     Args:
         policy: greedy action per state, shape ``(S,)`` or ``(R, S)`` for R policies (S = ``model.n_states``);
@@ -143,7 +145,6 @@ def exact_success_probability(
         max_itr: episode length limit (>= 1).
         model: the task model (rules and start states); default ``TaskModel()``.
         table: transitions to use instead of the model's (e.g. calibrated).
-        starts: start states (default the model's), weighted uniformly.
         exploration: the behaviour policy (name, [`Exploration`][tableclean_suite.learners.exploration.Exploration]
             or mapping; default constant epsilon-greedy).  Others are evaluated at their final
             distribution (module docstring): schedules at ``iteration``, ``visit_decay`` with
@@ -156,30 +157,14 @@ def exact_success_probability(
     Returns:
         Success probability per policy: shape ``()`` for one policy, ``(R,)`` for R.
     """
-    if int(max_itr) != max_itr or max_itr < 1:
-        raise ValueError(f"max_itr must be an integer >= 1, got {max_itr!r}")
     model = model if model is not None else TaskModel()
-    table = table if table is not None else TransitionTable.from_model(model)
-    starts = starts if starts is not None else model.start_states()
     single = (policy is not None and np.ndim(policy) == 1) or (policy is None and q is not None and np.ndim(q) == 2)
     pi = behaviour_probabilities(policy, epsilon, model.n_actions, exploration, q, iteration, visits)  # (R, S, A)
     if pi.shape[-2] != model.n_states:
         raise ValueError(f"policy has {pi.shape[-2]} states; task {model.spec.name!r} has {model.n_states}")
-    table.check_model(model)
-    probability = np.diff(table.cumulative, axis=2, prepend=0.0)  # (S, A, K)
-    safe = probability * (table.outcome != Outcome.IMPROPER)
-    finishing = (safe * (table.outcome == Outcome.TERMINAL)).sum(axis=2)  # (S, A)
-    continuing = safe * (table.outcome != Outcome.TERMINAL)  # (S, A, K)
-    value = np.zeros(pi.shape[:2])  # P(success within k steps), k = 0
-    for _ in range(int(max_itr)):
-        future = (continuing[None] * value[:, table.next_state]).sum(axis=3)  # (R, S, A)
-        updated = (pi * (finishing[None] + future)).sum(axis=2)
-        if np.array_equal(updated, value):
-            break
-        value = updated
-    codes = [s.index for s in starts]
-    result = value[:, codes].mean(axis=1)
-    return result[0] if single else result
+    chain = asymptotes.EpisodeChain.build(model, "r1", table)  # success does not depend on the rewards
+    success = asymptotes.episode_statistics(pi, chain, max_itr).success
+    return success[0] if single else success
 
 
 # ---------------------------------------------------------------------------------------------
