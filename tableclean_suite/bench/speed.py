@@ -150,7 +150,7 @@ def plain_loop_table(runs: int, iterations: int, repeat: int) -> Table:
         compiled, plain = rate("compiled", runs), rate("reference", plain_runs)
         rows.append({"learner": learner, "compiled M updates/s": _millions(compiled),
                      "plain Python M updates/s": _millions(plain), "compiled / plain Python": f"{compiled / plain:.0f}"})
-    return Table("Compiled learners against the plain Python loop", rows,
+    return Table("Compiled learners against a plain Python loop", rows,
                  f"Plain loop (train(engine=\"reference\"), the same arrays one step at a time): {plain_runs} runs x "
                  f"{iterations} iterations; the fastest of the repeats on both sides.")
 
