@@ -248,21 +248,6 @@ def learning_curves(result) -> dict[str, np.ndarray]:
     return curve_sums(result).curves()
 
 
-def success_curve(result) -> np.ndarray:
-    """Success rate per iteration, shape ``(T,)``, in [0, 1]."""
-    return learning_curves(result)["success"]
-
-
-def terminal_curve(result) -> np.ndarray:
-    """Fraction of runs whose latest episode reached the terminal state, shape ``(T,)``."""
-    return learning_curves(result)["terminal"]
-
-
-def average_reward_curve(result) -> np.ndarray:
-    """Average reward per iteration, shape ``(T,)`` (NaN until some run finished an episode)."""
-    return learning_curves(result)["average_reward"]
-
-
 def episodes_curve(result) -> np.ndarray:
     """Mean over runs of episodes finished by each iteration, shape ``(T,)``."""
     return learning_curves(result)["episodes"]

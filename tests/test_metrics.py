@@ -38,17 +38,17 @@ def test_episode_table(tiny):
 
 
 def test_success_curve(tiny):
-    np.testing.assert_array_equal(curves.success_curve(tiny), [0, 0.5, 0.5, 0.5, 0, 0.5])
+    np.testing.assert_array_equal(curves.learning_curves(tiny)["success"], [0, 0.5, 0.5, 0.5, 0, 0.5])
 
 
 def test_terminal_curve(tiny):
-    np.testing.assert_array_equal(curves.terminal_curve(tiny), [0, 0.5, 1, 1, 0.5, 0.5])
+    np.testing.assert_array_equal(curves.learning_curves(tiny)["terminal"], [0, 0.5, 1, 1, 0.5, 0.5])
 
 
 def test_average_reward_curve(tiny):
     a0, b0, a1, b1 = 0.99 / 2, -0.98 / 3, 0.01 / 3, 1.02 / 3
     expected = [np.nan, a0, (a0 + a1) / 2, (a0 + a1) / 2, (b0 + a1) / 2, (b0 + b1) / 2]
-    np.testing.assert_allclose(curves.average_reward_curve(tiny), expected)
+    np.testing.assert_allclose(curves.learning_curves(tiny)["average_reward"], expected)
 
 
 def test_episodes_curve(tiny):
@@ -99,7 +99,7 @@ def test_summarize_returns_a_typed_frozen_summary(tiny):
     assert tuple(summary.scalars()) == metrics.SUMMARY_SCALARS and tuple(summary.curves()) == metrics.CURVE_NAMES
     assert summary.success_plateau == pytest.approx(np.mean([0.0, 0.5]))  # last 2 of 6 iterations
     assert summary["success_plateau"] == summary.success_plateau and "success" in summary and "nope" not in summary
-    np.testing.assert_array_equal(summary.success, curves.success_curve(tiny))
+    np.testing.assert_array_equal(summary.success, curves.learning_curves(tiny)["success"])
     assert summary.iterations == 6
     with pytest.raises(dataclasses.FrozenInstanceError):
         summary.success_plateau = 1.0

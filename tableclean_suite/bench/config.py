@@ -305,20 +305,13 @@ class RunConfig:
         accepted = METHOD_OPTIONS[get_learner(name).method] + ASSIST_OPTIONS
         return {key: value for key, value in options.items() if key in accepted}
 
-    def learner_kwargs(self, name: str) -> dict:
-        """``train()``'s ``learner_options``, ``q_init`` and ``exploration`` for learner ``name``."""
+    def learner(self, name: str):
+        """The `TabularLearner` ``name`` as this run trains it: with its ``learner_options``, ``q_init`` and ``exploration``."""
+        from tableclean_suite.learners import get_learner
         from tableclean_suite.learners.exploration import parse_exploration
 
         options = self._options_for(name, parse_learner_options(self.learner_options))
-        return dict(learner_options=options or None, q_init=self.q_init,
-                    exploration=parse_exploration(self.exploration))
-
-    def learner(self, name: str):
-        """The `TabularLearner` ``name`` as this run trains it."""
-        from tableclean_suite.learners import get_learner
-
-        kwargs = self.learner_kwargs(name)
-        return get_learner(name).configured(kwargs["learner_options"], kwargs["q_init"], kwargs["exploration"])
+        return get_learner(name).configured(options or None, self.q_init, parse_exploration(self.exploration))
 
     def task_spec(self):
         """The `TaskSpec` named by ``task`` (read from disk for a path)."""
