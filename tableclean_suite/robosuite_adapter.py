@@ -104,28 +104,23 @@ def c_address(mujoco_struct) -> int:
 
 
 @functools.lru_cache(maxsize=None)
-def _mujoco_library():
-    """The MuJoCo shared library (``libmujoco.so*``) next to the mujoco package, as a ``ctypes.CDLL``; None if absent."""
+def _native(names: tuple[str, ...]) -> tuple[int, ...] | None:
+    """Addresses of the C functions ``names`` in the MuJoCo library (``libmujoco.so*``) next to the mujoco
+    package; None when it is not there."""
     import mujoco
 
     paths = sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*")))
-    return ctypes.CDLL(paths[0]) if paths else None
+    lib = ctypes.CDLL(paths[0]) if paths else None
+    return None if lib is None else tuple(ctypes.cast(getattr(lib, name), ctypes.c_void_p).value for name in names)
 
 
-def _address(lib, name: str) -> int:
-    return ctypes.cast(getattr(lib, name), ctypes.c_void_p).value
-
-
-@functools.lru_cache(maxsize=None)
 def mujoco_function_addresses() -> tuple[int, ...]:
-    """Addresses of `NATIVE_FUNCTIONS` in the MuJoCo library the Python bindings use.
-
-    Raises ``OSError`` when MuJoCo's shared library is not found next to the mujoco package.
-    """
-    lib = _mujoco_library()
-    if lib is None:
+    """Addresses of `NATIVE_FUNCTIONS` in the MuJoCo library the Python bindings use; ``OSError`` when
+    MuJoCo's shared library is not found next to the mujoco package."""
+    addresses = _native(NATIVE_FUNCTIONS)
+    if addresses is None:
         raise OSError("MuJoCo's shared library (libmujoco.so*) not found next to the mujoco package")
-    return tuple(_address(lib, name) for name in NATIVE_FUNCTIONS)
+    return addresses
 
 
 @functools.lru_cache(maxsize=None)
@@ -133,8 +128,8 @@ def mujoco_contact_force_address() -> int | None:
     """Address of ``mj_contactForce`` in the MuJoCo library the Python bindings use (for the env's compiled
     press-force sum), or None when that library is not found or the installed versions are not the checked ones
     (then the env calls ``mujoco.mj_contactForce`` through the bindings)."""
-    lib = None if unchecked_versions() else _mujoco_library()
-    return None if lib is None else _address(lib, "mj_contactForce")
+    addresses = None if unchecked_versions() else _native(("mj_contactForce",))
+    return None if addresses is None else addresses[0]
 
 
 # -- the robot's index lists -----------------------------------------------------------------
