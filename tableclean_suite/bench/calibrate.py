@@ -21,7 +21,6 @@ Train on the result at symbolic speed:
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from collections import Counter
 from pathlib import Path
@@ -196,7 +195,3 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         print("every measured pair matches the task model")
     print(f"({time.perf_counter() - started:.0f} s)")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main(prog="python -m tableclean_suite.bench.calibrate"))

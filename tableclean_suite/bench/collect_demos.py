@@ -375,7 +375,3 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         print(f"only {len(demos)} of {args.episodes} demos succeeded", file=sys.stderr)
         return 1
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main(prog="python -m tableclean_suite.bench.collect_demos"))

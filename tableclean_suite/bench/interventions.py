@@ -34,7 +34,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -49,8 +48,6 @@ DEFAULT_OUT = "results/interventions"
 DEFAULT_RUNS = 200
 #: Level of every interval.
 CONFIDENCE = 0.95
-#: Exit status after Ctrl-C.
-EXIT_INTERRUPTED = 130
 #: Bootstrap resamples of the plateau's interval.
 PLATEAU_RESAMPLES = 2000
 #: The paper's settings every cell starts from (alpha, gamma, epsilon, max_itr; the paper task).
@@ -320,12 +317,4 @@ def main(argv=None, prog: str | None = None) -> int:
     from tableclean_suite.bench.cli import parse_command
 
     _, args = parse_command(build_parser, argv, prog or PROG)
-    try:
-        return run(args)
-    except KeyboardInterrupt:  # also when run as a module, outside the command dispatcher
-        print(f"{prog or PROG}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
-
-
-if __name__ == "__main__":
-    sys.exit(main(prog="python -m tableclean_suite.bench.interventions"))
+    return run(args)

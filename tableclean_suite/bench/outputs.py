@@ -174,12 +174,6 @@ def output_lock(out, wait: float = DEFAULT_LOCK_WAIT):
         os.close(descriptor)  # the last descriptor of the folder closed releases the flock
 
 
-def is_own_manifest(path) -> bool:
-    """Whether ``path`` is a ``config.json`` written by [`publish`][tableclean_suite.bench.outputs.publish] (a JSON object with
-    ``run_id`` and ``files``); False for anything else, unreadable files included."""
-    return _manifest_of(path) is not None
-
-
 def _manifest_of(path) -> dict | None:
     """The manifest at ``path`` if [`publish`][tableclean_suite.bench.outputs.publish] wrote it, else None (missing, unreadable, foreign)."""
     try:

@@ -13,7 +13,6 @@ It adds Q-learning with r3 at ``--long-iterations``, to show r3's looping persis
 from __future__ import annotations
 
 import argparse
-import sys
 
 import numpy as np
 
@@ -73,7 +72,3 @@ def main(argv=None, prog: str | None = None) -> int:
     with pd.option_context("display.float_format", "{:.2f}".format, "display.width", 160):
         print(pd.DataFrame(rows).to_string(index=False))
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main(prog="python -m tableclean_suite.bench.policy_analysis"))

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -110,7 +109,3 @@ def main(argv=None, prog: str | None = None) -> int:
     save_png(frame, Path(args.out))
     print(f"wrote {args.out} ({args.width}x{args.height}, camera {args.camera!r}, MUJOCO_GL={os.environ['MUJOCO_GL']})")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main(prog="python -m tableclean_suite.bench.render_scene"))

@@ -543,7 +543,3 @@ def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     args = parse_args(argv, prog)
     return run(args)
-
-
-if __name__ == "__main__":
-    sys.exit(main(prog="python -m tableclean_suite.bench.tune"))

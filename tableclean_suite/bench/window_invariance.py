@@ -196,7 +196,3 @@ def main(argv=None, prog: str | None = None) -> int:
         print(line)
     print(f"written: {out / RESULT_FILE}")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main(prog="python -m tableclean_suite.bench.window_invariance"))

@@ -28,9 +28,6 @@ DEFAULT_SEEDS = 5
 MIN_SEEDS = 2
 DEFAULT_SEED = 0
 
-
-
-
 #: Fewest segments a spec can have (a task needs a segment to move to) ...
 MIN_SEGMENTS = 2
 #: ... and fewest objects.

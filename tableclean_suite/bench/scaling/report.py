@@ -124,14 +124,10 @@ def config_dict(args, infos: list[SpecInfo], fits: dict, slopes: dict, verdicts:
     the local slopes, the reward-order verdicts, the specs and the wall time (``seconds``)."""
     from dataclasses import asdict
 
+    from tableclean_suite.bench.outputs import arguments
+
     return {
-        "study": "scaling",
-        "learners": list(args.learners), "rewards": list(args.rewards), "segments": list(args.segments),
-        "objects": list(args.objects), "fixed_plan_objects": list(args.fixed_plan_objects),
-        "gammas": list(args.gammas), "runs": args.runs, "base_window": args.base_window,
-        "window_exponent": args.window_exponent, "seed": args.seed, "seeds": args.seeds,
-        "resamples": args.resamples,
-        **constants, "fit_learner": fit_learner, "growth_exponents": fits, "local_slopes": slopes,
+        "study": "scaling", **arguments(args), **constants, "fit_learner": fit_learner, "growth_exponents": fits, "local_slopes": slopes,
         "paper_order": list(PAPER_ORDER),
         "order_holds": verdicts, "specs": [asdict(s) for s in infos], "seconds": seconds,
     }
