@@ -50,6 +50,10 @@ def test_a_failure_is_classified_by_its_phase_and_cause_with_numbers_generalised
     assert failure_class(result) == ("DESCEND", "step budget of N exhausted in phase DESCEND")
     result = SimpleNamespace(final_phase="CLOSE", reason="CLOSE: grasp not confirmed")
     assert failure_class(result) == ("CLOSE", "grasp not confirmed")
+    result = SimpleNamespace(final_phase="DONE", reason="fault: object 1 at xy=(-0.003, 0.119) lies on no segment")
+    assert failure_class(result) == ("DONE", "fault: object N at xy=(N, N) lies on no segment")
+    result = SimpleNamespace(final_phase="DONE", reason="ended in S1:unclean+o1 | arm@S1, expected S1:unclean | arm@S1 holding o1")
+    assert failure_class(result) == ("DONE", "ended in a state other than the model's successor")
 
 
 @pytest.mark.slow

@@ -129,10 +129,13 @@ def _rows(kind: str, setting: str, partner: str, counts: dict, episodes: int, wi
 
 
 def failure_class(result) -> tuple[str, str]:
-    """``(phase, cause)`` of a failed skill result: its last phase and its reason without the phase, numbers as N."""
+    """``(phase, cause)`` of a failed skill result: its last phase and its reason without the phase, numbers (not
+    those in names such as ``S1``) as N; a motion that completed in a state other than the model's is one cause."""
     phase = result.final_phase or "-"
     reason = result.reason[len(phase) + 2:] if result.reason.startswith(phase + ": ") else result.reason
-    return phase, re.sub(r"-?\d+(\.\d+)?", "N", reason)
+    if reason.startswith("ended in "):
+        return phase, "ended in a state other than the model's successor"
+    return phase, re.sub(r"(?<![A-Za-z])-?\d+(\.\d+)?", "N", reason)
 
 
 def run_random(kind, index: int, episodes: int, seed: int, partner: str) -> tuple[list[dict], list[dict]]:
