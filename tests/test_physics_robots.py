@@ -279,8 +279,8 @@ def test_robot_table_appends_cells_of_other_runs(tmp_path):
     assert set(rows[0]) == set(COLUMNS) and rows[0]["episode_success_rate"] == "0.75"  # read back as text
     text = markdown(rows)
     # one-sided 95 % Clopper-Pearson lower bounds: 3 of 4 -> 0.2486, 72 of 72 -> 0.05 ** (1 / 72) = 0.9592
-    assert ("| Panda | paper | nominal | - | - | - | 3/4 = 75.00 % | 24.8 % | 2.00 |" in text
-            and "| UR5e | paper | nominal | 72/72 = 100.00 % | 95.9 % | 0 | - | - | - |" in text)
+    assert ("| Panda | - | paper | nominal | - | - | - | 3/4 = 75.00 % | 24.8 % | 2.00 |" in text
+            and "| UR5e | - | paper | nominal | 72/72 = 100.00 % | 95.9 % | 0 | - | - | - |" in text)
     # a randomised cell is another cell: it does not replace the nominal one
     rows = merge_rows(path, [table_row("Panda", "paper", None, eps, "randomized")])
     assert [(r["robot"], r["dynamics"]) for r in rows] == [("Panda", "nominal"), ("UR5e", "nominal"),

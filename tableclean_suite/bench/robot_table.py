@@ -1,14 +1,17 @@
 """The skills on several arms: fidelity and optimal-episode success per robot x task spec.
 
-    tableclean-bench robots [--robots Panda,Sawyer,UR5e,Kinova3] [--tasks paper,three_segments_two_objects] [--fresh]
-                                     [--episodes E] [--fidelity-trials T] [--seed S] [--out DIR] [--randomize]
+    tableclean-bench robots [--robots Panda,Sawyer,UR5e,Kinova3] [--grippers default,RethinkGripper,...]
+                            [--tasks paper,three_segments_two_objects] [--fresh] [--episodes E] [--fidelity-trials T]
+                            [--seed S] [--out DIR] [--randomize]
 
-For every (robot, spec) cell:
+For every (robot, gripper, spec) cell (``default``: the gripper the robot's config mounts; the
+``gripper`` column names robosuite's gripper that ran):
 
 - **fidelity**: `tableclean_suite.bench.fidelity.collect` with ``T`` rounds (every action from
   every reachable non-terminal state, ``T`` times; a trial agrees when physics ends in the model's
   successor with the model's outcome); the trials are stored in
-  ``<fidelity-dir>/<robot>_<spec>/fidelity_trials.csv`` (resumable, as ``tableclean-bench fidelity``);
+  ``<fidelity-dir>/<robot>_<spec>/fidelity_trials.csv`` (``<robot>_<gripper>_<spec>`` for a gripper named
+  by ``--grippers``) (resumable, as ``tableclean-bench fidelity``);
 - **episodes**: ``E`` episodes from random start layouts (every object and the arm on a segment
   drawn at each reset, all segments dirty, placement noise), each executing the task model's
   shortest plan with the compiled control path; an episode succeeds when every skill succeeds and
@@ -52,25 +55,49 @@ DEFAULT_FIDELITY_DIR = "results/fidelity_robots"
 #: File name of the table.
 TABLE_CSV = "robot_table.csv"
 #: Columns of the table, in order.
-COLUMNS = ("robot", "task", "dynamics", "fidelity_trials", "fidelity_rounds", "fidelity_agreement", "fidelity_faults",
+COLUMNS = ("robot", "gripper", "task", "dynamics", "fidelity_trials", "fidelity_rounds", "fidelity_agreement", "fidelity_faults",
            "episodes", "episode_successes", "episode_success_rate", "seconds_per_episode")
 #: ``dynamics`` of a row: the scene as built, or randomised at every reset.
 NOMINAL, RANDOMIZED = "nominal", "randomized"
 #: Columns that identify a cell (a later run's row replaces an earlier one with the same key).
-CELL_KEY = ("robot", "task", "dynamics")
+CELL_KEY = ("robot", "gripper", "task", "dynamics")
+#: ``--grippers`` entry for the gripper the robot's config mounts (robosuite's ``gripper_types="default"``).
+DEFAULT_GRIPPER = "default"
 
 
-def run_episodes(robot: str, task: str, episodes: int, seed: int = 0, log=print, randomization=None) -> dict:
+def gripper_name(robot: str, gripper: str) -> str:
+    """robosuite's name of the gripper ``robot`` carries with ``gripper_types=gripper`` (checked: ``ValueError``
+    naming a gripper the skills do not drive)."""
+    from tableclean_suite.environments.robot_registry import scene_gripper_types
+
+    name = scene_gripper_types(robot, gripper)
+    if name == DEFAULT_GRIPPER:  # the robot's own default
+        import robosuite.models.robots as models
+
+        name = getattr(models, robot)().default_gripper["right"]
+    return name
+
+
+def env_kwargs(robot: str, gripper: str, randomize: bool) -> dict:
+    """The scene options of a cell: [`scene_env_kwargs`][tableclean_suite.bench.fidelity.scene_env_kwargs] and,
+    for a gripper other than `DEFAULT_GRIPPER`, ``gripper_types``."""
+    return {**fidelity.scene_env_kwargs(robot, randomize),
+            **({} if gripper == DEFAULT_GRIPPER else {"gripper_types": gripper})}
+
+
+def run_episodes(robot: str, task: str, episodes: int, seed: int = 0, log=print, randomization=None,
+                 gripper: str = DEFAULT_GRIPPER) -> dict:
     """``episodes`` optimal-plan episodes of ``task`` on ``robot`` from random start layouts.
 
     Returns ``{"episodes", "successes", "seconds"}`` (seconds: total wall-clock time of the
     episodes, resets included; the scene build is not counted) and ``"failures"``: up to a few
     ``(episode, reason)`` of failed episodes.  ``randomization``: the scene's ``randomization=``
-    (None: nominal dynamics).
+    (None: nominal dynamics); ``gripper``: the scene's ``gripper_types``.
     """
     from tableclean_suite.controllers import SkillController, make_skill_env
 
-    env = make_skill_env(None, None, robots=robot, task=task, seed=seed, randomization=randomization)
+    env = make_skill_env(None, None, robots=robot, task=task, seed=seed, randomization=randomization,
+                         gripper_types=gripper)
     failures = []
     successes = 0
     seconds = 0.0
@@ -93,30 +120,32 @@ def run_episodes(robot: str, task: str, episodes: int, seed: int = 0, log=print,
             if not ok:
                 failures.append((episode, reason or "not terminal"))
                 if log:
-                    log(f"  {robot} {task} episode {episode}: FAILED ({reason or 'not terminal'})")
+                    log(f"  {robot} ({gripper}) {task} episode {episode}: FAILED ({reason or 'not terminal'})")
     finally:
         env.close()
     return {"episodes": episodes, "successes": successes, "seconds": seconds, "failures": failures}
 
 
 def run_fidelity(robot: str, task: str, trials: int, seed: int, out: Path, log=print, randomize: bool = False,
-                 fresh: bool = False) -> dict:
+                 fresh: bool = False, gripper: str = DEFAULT_GRIPPER) -> dict:
     """Fidelity rounds of ``task`` on ``robot`` (trials stored under ``out``, as ``tableclean-bench fidelity``
     stores them: the same scene options, so either command resumes the other's); the
-    [`summary`][tableclean_suite.bench.fidelity.summary] dict.  ``fresh`` discards earlier trials."""
+    [`summary`][tableclean_suite.bench.fidelity.summary] dict.  ``fresh`` discards earlier trials; ``gripper``: the
+    scene's ``gripper_types``."""
     from tableclean_suite.task import TaskModel, get_task_spec
 
     model = TaskModel(spec=get_task_spec(task))
     rows = fidelity.collect(trials, seed, out / fidelity.TRIALS_CSV, fresh=fresh, log=log, model=model,
-                            physics_options={"env_kwargs": fidelity.scene_env_kwargs(robot, randomize)})
+                            physics_options={"env_kwargs": env_kwargs(robot, gripper, randomize)})
     fidelity.write_csv(out / fidelity.PAIRS_CSV, fidelity.pair_table(rows, model))
     fidelity.write_csv(out / fidelity.SKILLS_CSV, fidelity.skill_table(rows, model))
     return fidelity.summary(rows, model)
 
 
-def table_row(robot: str, task: str, fid: dict | None, eps: dict | None, dynamics: str = NOMINAL) -> dict:
-    """One row of the table (`COLUMNS`); empty strings for a part that was skipped."""
-    row = {"robot": robot, "task": task, "dynamics": dynamics}
+def table_row(robot: str, task: str, fid: dict | None, eps: dict | None, dynamics: str = NOMINAL,
+              gripper: str = "") -> dict:
+    """One row of the table (`COLUMNS`; ``gripper``: robosuite's name); empty strings for a part that was skipped."""
+    row = {"robot": robot, "gripper": gripper, "task": task, "dynamics": dynamics}
     if fid is not None:
         row.update(fidelity_trials=fid["trials"], fidelity_rounds=fid["rounds"],
                    fidelity_agreement=round(fid["agreement"], 6), fidelity_faults=fid["faults"])
@@ -138,7 +167,7 @@ class TableFileError(ValueError):
 
 def read_table(path: Path) -> list[dict]:
     """The rows of an existing table (``[]`` when there is none), each checked: the header holds every
-    column of `COLUMNS` (``dynamics`` may be missing in tables written before it), a row has a
+    column of `COLUMNS` (``dynamics`` and ``gripper`` may be missing in tables written before them), a row has a
     robot and a task, and the other cells are numbers or empty.
 
     Raises:
@@ -158,7 +187,7 @@ def read_table(path: Path) -> list[dict]:
     try:
         reader = csv.DictReader(text.splitlines())
         header = reader.fieldnames or []
-        missing = [c for c in COLUMNS if c not in header and c != "dynamics"]
+        missing = [c for c in COLUMNS if c not in header and c not in ("dynamics", "gripper")]
         if missing:
             raise TableFileError(f"{path}: not a robot table (columns {missing} are missing); remove it or leave "
                                  "out --append")
@@ -210,9 +239,9 @@ def markdown(rows: list[dict]) -> str:
     agreement's one-sided 95 % lower bound, abstraction faults, successful optimal episodes of all and their
     success's lower bound ([lower_bound][tableclean_suite.bench.fidelity.lower_bound], rounded down to 0.1 %),
     and seconds per episode; ``-`` for a part that was skipped."""
-    lines = ["| robot | task | dynamics | fidelity: agreeing trials | 95 % lower bound | faults "
+    lines = ["| robot | gripper | task | dynamics | fidelity: agreeing trials | 95 % lower bound | faults "
              "| optimal episodes: successes | 95 % lower bound | s / episode |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for row in rows:
         row = {key: (value if key in CELL_KEY else _number(value)) for key, value in row.items()}
         fid = eps = ("-", "-")
@@ -223,7 +252,7 @@ def markdown(rows: list[dict]) -> str:
             eps = _count_cells(int(row["episode_successes"]), int(row["episodes"]))
         secs = f"{row['seconds_per_episode']:.2f}" if row["seconds_per_episode"] != "" else "-"
         faults = f"{row['fidelity_faults']:.0f}" if row["fidelity_faults"] != "" else "-"
-        lines.append(f"| {row['robot']} | {row['task']} | {row['dynamics']} | {fid[0]} | {fid[1]} | {faults} "
+        lines.append(f"| {row['robot']} | {row['gripper'] or '-'} | {row['task']} | {row['dynamics']} | {fid[0]} | {fid[1]} | {faults} "
                      f"| {eps[0]} | {eps[1]} | {secs} |")
     return "\n".join(lines)
 
@@ -244,6 +273,9 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the table's own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     cli.add_robots_argument(parser, many=True, default=",".join(DEFAULT_ROBOTS))
+    parser.add_argument("--grippers", default=DEFAULT_GRIPPER,
+                        help="comma-separated robosuite grippers every robot is measured with (gripper_types; "
+                             f"'{DEFAULT_GRIPPER}': the one its config mounts; default {DEFAULT_GRIPPER})")
     parser.add_argument("--tasks", default=",".join(DEFAULT_TASKS),
                         help=f"comma-separated task specs (default {','.join(DEFAULT_TASKS)})")
     parser.add_argument("--episodes", type=non_negative_int, default=30,
@@ -271,6 +303,13 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
 
     robots = cli.parse_robots(parser, args)  # every name checked before anything runs
     tasks = _names(parser, "--tasks", args.tasks)
+    grippers = {}  # (robot, --grippers entry) -> robosuite's name, every one checked before anything runs
+    for robot in robots:
+        for gripper in _names(parser, "--grippers", args.grippers):
+            try:
+                grippers[robot, gripper] = gripper_name(robot, gripper)
+            except ValueError as error:
+                parser.error(f"--grippers: {error}")
     for task in tasks:
         try:
             check_physical_task(TaskModel(spec=get_task_spec(task)))
@@ -286,38 +325,39 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         except TableFileError as error:
             parser.error(f"--append: {error}")
 
-    def fidelity_dir(robot: str, task: str) -> Path:
-        return Path(args.fidelity_dir) / (f"{robot}_{task}" + (fidelity.RANDOMIZED_SUFFIX if args.randomize else ""))
+    def fidelity_dir(robot: str, gripper: str, task: str) -> Path:
+        cell = f"{robot}_{task}" if gripper == DEFAULT_GRIPPER else f"{robot}_{gripper}_{task}"
+        return Path(args.fidelity_dir) / (cell + (fidelity.RANDOMIZED_SUFFIX if args.randomize else ""))
 
     if args.fidelity_trials and not args.fresh:  # stored trials of other options: refused before anything runs
-        for robot in robots:
+        for (robot, gripper) in grippers:
             for task in tasks:
-                trials_csv = fidelity_dir(robot, task) / fidelity.TRIALS_CSV
+                trials_csv = fidelity_dir(robot, gripper, task) / fidelity.TRIALS_CSV
                 configuration = fidelity.run_configuration(
-                    TaskModel(spec=get_task_spec(task)),
-                    {"env_kwargs": fidelity.scene_env_kwargs(robot, args.randomize)})
+                    TaskModel(spec=get_task_spec(task)), {"env_kwargs": env_kwargs(robot, gripper, args.randomize)})
                 try:
                     fidelity.check_configuration(trials_csv, configuration, log)
                 except fidelity.ResumeError as error:
                     parser.error(f"{error} (robot_table: --fresh, or another --fidelity-dir)")
     rows = []
     started = time.perf_counter()
-    for robot in robots:
+    for (robot, gripper), name in grippers.items():
         for task in tasks:
             fid = eps = None
             if args.fidelity_trials:
                 try:
-                    fid = run_fidelity(robot, task, args.fidelity_trials, args.seed, fidelity_dir(robot, task),
-                                       log=log, randomize=args.randomize, fresh=args.fresh)
+                    fid = run_fidelity(robot, task, args.fidelity_trials, args.seed, fidelity_dir(robot, gripper, task),
+                                       log=log, randomize=args.randomize, fresh=args.fresh, gripper=gripper)
                 except fidelity.ResumeError as error:  # e.g. trials of another --seed
                     parser.error(f"{error} (robot_table: --fresh, or another --fidelity-dir)")
             if args.episodes:
-                eps = run_episodes(robot, task, args.episodes, args.seed, log=log, randomization=randomization)
-            rows.append(table_row(robot, task, fid, eps, dynamics))
+                eps = run_episodes(robot, task, args.episodes, args.seed, log=log, randomization=randomization,
+                                   gripper=gripper)
+            rows.append(table_row(robot, task, fid, eps, dynamics, name))
             table = Path(args.out) / TABLE_CSV
             write_table(table, merge_rows(table, rows) if args.append else rows)
             if log:
-                log(f"{robot} x {task} done ({time.perf_counter() - started:.0f} s)")
+                log(f"{robot} ({name}) x {task} done ({time.perf_counter() - started:.0f} s)")
     table = Path(args.out) / TABLE_CSV
     print(markdown(merge_rows(table, []) if args.append else rows))
     print(f"\n{Path(args.out) / TABLE_CSV} ({time.perf_counter() - started:.0f} s)")

@@ -343,13 +343,8 @@ def _opspace_into(mass: np.ndarray, j_full: np.ndarray, work):
         (lambda_full (6, 6), lambda_pos (3, 3), lambda_ori (3, 3), nullspace_matrix (n, n)): views of ``work``.
     """
     n = mass.shape[0]
-    low = work.low
-    inv_low = work.inv_low
-    mass_inv = work.mass_inv
-    lambda_full = work.lambda_full
-    lambda_pos = work.lambda_pos
-    lambda_ori = work.lambda_ori
-    nullspace_matrix = work.nullspace
+    low, inv_low, mass_inv, nullspace_matrix = work.low, work.inv_low, work.mass_inv, work.nullspace
+    lambda_full, lambda_pos, lambda_ori = work.lambda_full, work.lambda_pos, work.lambda_ori
     if spd_inverse(mass, mass_inv, low, inv_low):
         j_minv = work.j_minv
         small_matmul(j_full, mass_inv, j_minv)
@@ -449,11 +444,7 @@ def osc_torques(plant, goal_pos: np.ndarray, goal_ori: np.ndarray, work=None) ->
         work = osc_work(indexes.shape[1])
     dofs = indexes[0]
     n = dofs.size
-    mass = work.mass
-    j_full = work.j_full
-    joint_pos = work.joint_pos
-    joint_vel = work.joint_vel
-    bias = work.bias
+    mass, j_full, joint_pos, joint_vel, bias = work.mass, work.j_full, work.joint_pos, work.joint_vel, work.bias
     for i in range(n):
         for k in range(n):
             mass[i, k] = plant.full_mass[dofs[i], dofs[k]]

@@ -14,6 +14,9 @@ import numpy as np
 
 #: Non-finite action entries an error message lists.
 MAX_NAMED_ENTRIES = 4
+#: Hz, the slowest control loop the scene takes (the skills' rate limits are per control step; slower, a step
+#: holds one arm goal for over a second).
+MIN_CONTROL_FREQ = 1.0
 
 
 class _LayoutDefault(enum.Enum):
@@ -105,12 +108,17 @@ def check_finite_action(action) -> None:
 
 
 def check_episode_settings(horizon, control_freq) -> None:
-    """``ValueError`` naming ``horizon`` (an integer >= 1, control steps) or ``control_freq`` (a number > 0, Hz)."""
+    """``ValueError`` naming ``horizon`` (an integer >= 1, control steps) or ``control_freq`` (Hz, from
+    `MIN_CONTROL_FREQ` to one control step per physics step, 1 / robosuite's ``SIMULATION_TIMESTEP``)."""
+    from robosuite.macros import SIMULATION_TIMESTEP
+
     if isinstance(horizon, bool) or not isinstance(horizon, (int, np.integer)) or horizon < 1:
         raise ValueError(f"horizon must be an integer >= 1 (control steps per episode), got {horizon!r}")
+    highest = 1.0 / SIMULATION_TIMESTEP
     if isinstance(control_freq, bool) or not isinstance(control_freq, (int, float, np.number)) \
-            or not np.isfinite(control_freq) or control_freq <= 0:
-        raise ValueError(f"control_freq must be a number > 0 (Hz), got {control_freq!r}")
+            or not MIN_CONTROL_FREQ <= control_freq <= highest:  # False for NaN
+        raise ValueError(f"control_freq must be a number from {MIN_CONTROL_FREQ:g} to {highest:g} Hz (at most one control step "
+                         f"per {SIMULATION_TIMESTEP:g} s physics step), got {control_freq!r}")
 
 
 def check_controller_configs(controller_configs) -> None:

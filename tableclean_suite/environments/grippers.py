@@ -1,0 +1,34 @@
+"""Which of robosuite's grippers the skills drive; the others are refused by name before anything is built.
+
+The skills need two finger pads closing on a line (the gripper's ``important_geoms``
+``left_fingerpad`` and ``right_fingerpad``, measured by
+[`measure_gripper`][tableclean_suite.environments.gripper_geometry.measure_gripper]): robosuite's
+Panda, Rethink and Robotiq 140 grippers (`SUPPORTED`).  `REFUSED` names the others and why, e.g.
+robosuite's Robotiq 85, whose model is unstable.
+"""
+
+from __future__ import annotations
+
+#: robosuite's names of the grippers the skills drive (``gripper_types=``).
+SUPPORTED = ("PandaGripper", "RethinkGripper", "Robotiq140Gripper")
+_HAND = "a three-finger hand: the skills close two pads on a line"
+#: robosuite's grippers refused, with the defect (any other name: not a two-finger gripper the skills drive).
+REFUSED = {
+    "Robotiq85Gripper": "robosuite's model is unstable: its open fingers press on their own linkage with 28-58 N "
+                        "and a knuckle runs to 2.26 rad, past its 0.876 rad range",
+    "JacoThreeFingerGripper": _HAND,
+    "JacoThreeFingerDexterousGripper": _HAND,
+    "RobotiqThreeFingerGripper": _HAND,
+    "RobotiqThreeFingerDexterousGripper": _HAND,
+    "WipingGripper": "a wiping tool without fingers: it cannot hold the sponge or an object",
+}
+
+
+def check_gripper(name, robot: str):
+    """``name`` (robosuite's ``gripper_types`` entry for ``robot``) if the skills drive that gripper; else a
+    one-line ``ValueError`` naming it, why, and the supported grippers."""
+    if name in SUPPORTED:
+        return name
+    why = REFUSED.get(name, "not a two-finger gripper the skills drive")
+    raise ValueError(f"gripper {name!r} on {robot} is not supported by the TableClean skills ({why}); supported "
+                     f"grippers: {', '.join(SUPPORTED)}")
