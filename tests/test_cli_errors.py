@@ -115,3 +115,10 @@ def test_a_compilation_of_a_package_kernel_is_announced_once(capsys):
     assert numba.njit(space["twice"])(2) == 4 and numba.njit(space["thrice"])(2) == 6
     err = capsys.readouterr().err.splitlines()
     assert [line for line in err if "compiling kernels once" in line] == [err[0]], err
+
+
+@pytest.mark.parametrize("flags", [["--segments", "40"], ["--segments", str(10**21)],
+                                   ["--fixed-plan-objects", "100"]])
+def test_a_scaling_spec_the_task_model_refuses_is_one_line(flags, capsys, tmp_path):
+    code = commands.main(["scaling", *flags, "--out", str(tmp_path)])
+    _one_line_exit_2(capsys, code, "--segments/--objects")

@@ -121,5 +121,11 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 
 def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
-    _, args = cli.parse_command(build_parser, argv, prog or PROG)
+    from tableclean_suite.bench.scaling.family import family_specs, fixed_plan_spec
+
+    parser, args = cli.parse_command(build_parser, argv, prog or PROG)
+    try:  # the sizes the task model refuses, before any work
+        family_specs(args.segments, args.objects) + [fixed_plan_spec(m) for m in args.fixed_plan_objects]
+    except ValueError as error:
+        parser.error(f"--segments/--objects/--fixed-plan-objects: {error}")
     return run_study(args)
