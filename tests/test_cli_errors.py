@@ -117,7 +117,7 @@ def test_a_compilation_of_a_package_kernel_is_announced_once(capsys):
     assert [line for line in err if "compiling kernels once" in line] == [err[0]], err
 
 
-@pytest.mark.parametrize("flags", [["--segments", "40"], ["--segments", str(10**21)],
+@pytest.mark.parametrize("flags", [["--segments", "40"],
                                    ["--fixed-plan-objects", "100"]])
 def test_a_scaling_spec_the_task_model_refuses_is_one_line(flags, capsys, tmp_path):
     code = commands.main(["scaling", *flags, "--out", str(tmp_path)])
