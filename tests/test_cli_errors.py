@@ -122,3 +122,11 @@ def test_a_compilation_of_a_package_kernel_is_announced_once(capsys):
 def test_a_scaling_spec_the_task_model_refuses_is_one_line(flags, capsys, tmp_path):
     code = commands.main(["scaling", *flags, "--out", str(tmp_path)])
     _one_line_exit_2(capsys, code, "--segments/--objects")
+
+
+def test_describe_a_paper_sized_spec_without_move_leaves_out_table_1():
+    from tableclean_suite.bench.describe import describe
+    from tableclean_suite.task import TaskModel, TaskSpec
+
+    text = describe(TaskModel(spec=TaskSpec("no_move", segments=2, objects=1, actions=["pick", "place", "clean"])))
+    assert "Exact success probability" in text and "Table 1 of the paper" not in text

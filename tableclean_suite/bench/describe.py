@@ -1,7 +1,7 @@
 """``tableclean-bench run --describe``: what the task model is, as tables and text.
 
 Pure: every function returns a DataFrame or a string; `run` prints.  The Table 1
-sections apply to tasks of the paper's sizes (2 segments, 1 object) only.
+sections apply to tasks of the paper's sizes (2 segments, 1 object) and actions only.
 """
 
 from __future__ import annotations
@@ -41,7 +41,9 @@ def states_table(model: TaskModel) -> pd.DataFrame:
 
 
 def _paper_sized(model: TaskModel) -> bool:
-    return (model.n_segments, model.n_objects) == PAPER_SIZES
+    """Whether Table 1 and the paper's plan describe ``model``: the paper's sizes and every action of its plan."""
+    return ((model.n_segments, model.n_objects) == PAPER_SIZES
+            and {action.rule_name for action in PAPER_OPTIMAL_PLAN} <= set(model.spec.actions))
 
 
 def table1_frame(model: TaskModel) -> pd.DataFrame:
