@@ -405,56 +405,8 @@ def read_demo(path, key: str = "demo_0") -> Demo:
     return Demo(obs=obs, next_obs=next_obs, attrs=attrs, **arrays)
 
 
-#: ``data`` attributes that tell when a file was written, not what it holds (ignored by [`dataset_differences`][tableclean_suite.demos.dataset_differences]).
-WRITE_TIME_ATTRS = ("date",)
-
-
-def dataset_differences(path_a, path_b, ignore_attrs: Sequence[str] = WRITE_TIME_ATTRS) -> list[str]:
-    """How two hdf5 files differ in content: every group, dataset and attribute, bit for bit.
-
-    Datasets must have the same dtype, shape and bytes; attributes the same type and value
-    (arrays: dtype, shape and bytes).  Attributes named in ``ignore_attrs`` (on any object; by
-    default the write date) are skipped.  Returns one line per difference, ``[]`` when the
-    files hold the same data (e.g. demos recorded with one worker and with several).
-    """
-    import h5py
-
-    def contents(path) -> dict:
-        found = {}
-
-        def add(name: str, obj) -> None:
-            if isinstance(obj, h5py.Dataset):
-                value = obj[()]
-                found[name] = ("dataset", obj.dtype.str, obj.shape, np.asarray(value).tobytes())
-            else:
-                found[name] = ("group",)
-            for key, value in obj.attrs.items():
-                if key not in ignore_attrs:
-                    found[f"{name}@{key}"] = _comparable_attr(value)
-
-        with h5py.File(path, "r") as f:
-            add("/", f)
-            f.visititems(add)
-        return found
-
-    a, b = contents(path_a), contents(path_b)
-    lines = [f"only in {path_a}: {name}" for name in sorted(set(a) - set(b))]
-    lines += [f"only in {path_b}: {name}" for name in sorted(set(b) - set(a))]
-    lines += [f"{name} differs" for name in sorted(set(a) & set(b)) if a[name] != b[name]]
-    return lines
-
-
-def _comparable_attr(value):
-    """An hdf5 attribute as a value ``==`` compares exactly (arrays by dtype, shape and bytes)."""
-    if isinstance(value, np.ndarray):
-        return ("array", value.dtype.str, value.shape, value.tobytes())
-    if isinstance(value, np.generic):
-        return ("scalar", value.dtype.str, value.tobytes())
-    return (type(value).__name__, value)
-
-
 __all__ = [
     "ACTION_DIM", "Demo", "ENV_NAME", "EpisodeRecorder", "NO_TASK_STATE", "OBS_KEYS", "ROBOSUITE_ENV_TYPE",
-    "VALID_FRACTION", "WRITE_TIME_ATTRS", "dataset_differences", "demo_keys", "env_args_of",
+    "VALID_FRACTION", "demo_keys", "env_args_of",
     "make_env_from_args", "read_demo", "read_env_args", "recording_controller", "split_keys", "write_dataset",
 ]

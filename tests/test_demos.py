@@ -298,7 +298,7 @@ def _raise_in_attempt(task):
 
 
 def test_dataset_differences_sees_every_dataset_and_attribute(tmp_path):
-    from tableclean_suite.demos import dataset_differences
+    from hdf5_differences import dataset_differences
 
     first = write_dataset(tmp_path / "a.hdf5", [_tiny_demo(), _tiny_demo(4)], ENV_ARGS, {"seed": 1})
     same = write_dataset(tmp_path / "b.hdf5", [_tiny_demo(), _tiny_demo(4)], ENV_ARGS, {"seed": 1})

@@ -242,8 +242,9 @@ def test_fidelity_rounds_on_a_private_ray_give_the_local_results(tmp_path):
 def test_demo_collection_on_ray_writes_the_local_dataset(local_ray, tmp_path):
     """Each demo attempt is a task seeded by (seed, attempt): Ray's file holds this process's data."""
     pytest.importorskip("h5py", reason="demo collection needs h5py (the demos and dev extras)")
+    from hdf5_differences import dataset_differences
     from tableclean_suite.bench import collect_demos
-    from tableclean_suite.demos import dataset_differences, demo_keys
+    from tableclean_suite.demos import demo_keys
 
     common = ["--task", "paper", "--episodes", "2", "--seed", "11"]
     assert collect_demos.main([*common, "--out", str(tmp_path / "local.hdf5")]) == 0
