@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from dataclasses import dataclass, field
 
 #: Environment variable that, set to one of `TRUE_WORDS`, turns the guard's refusals off.
@@ -82,7 +83,7 @@ _UNIT_STEP = 1024
 
 
 class ResourceError(ValueError):
-    """A request the guard refuses; the message is one line naming the estimate and the override."""
+    """A request refused before work (commands: one line, exit 2); the guard's name the estimate and the override."""
 
 
 class InsufficientMemoryError(ResourceError):
@@ -328,6 +329,24 @@ def require_time(seconds: float, what: str, detail: str = "", override: bool = F
             f"{what} would take about {format_seconds(seconds)}{how}, more than the "
             f"{format_seconds(MAX_TRAINING_SECONDS)} allowed; use fewer runs, iterations or a smaller task, or set "
             f"{OVERRIDE_ENV}=1 to try anyway")
+
+
+#: Longest estimated time of a table build's user action effects, timed on its first states (seconds).
+MAX_EFFECT_SECONDS = 60
+#: Above this estimate (seconds) a table build says on stderr how long its user action effects take.
+NOTICE_EFFECT_SECONDS = 5
+
+
+def require_effect_seconds(seconds: float, what: str, override: bool = False) -> None:
+    """Raise [`TooMuchWorkError`][tableclean_suite.resources.TooMuchWorkError] when a table build's user action effects, timed on its
+    first states, would take more than `MAX_EFFECT_SECONDS` in all; above `NOTICE_EFFECT_SECONDS` say the estimate."""
+    if seconds > MAX_EFFECT_SECONDS and not (override or override_enabled()):
+        raise TooMuchWorkError(
+            f"{what}: its user action effects, timed on its first states, would take about {format_seconds(seconds)}, "
+            f"more than the {MAX_EFFECT_SECONDS} s allowed; use faster effects or a smaller task, or set {OVERRIDE_ENV}=1 "
+            "to try anyway")
+    if seconds > NOTICE_EFFECT_SECONDS:
+        print(f"{what}: user action effects take about {format_seconds(seconds)}", file=sys.stderr, flush=True)
 
 
 def require_effect_calls(calls: int, what: str, override: bool = False) -> None:

@@ -24,6 +24,10 @@ SMALL_PENALTY = -0.01
 SMALL_INCENTIVE = 0.01
 IMPROPER_PENALTY = -1.0
 
+#: Largest reward magnitude a pattern (and a Q-table's initial value) may have: far above any
+#: task's scale, far below where sums of rewards overflow float64 into inf and NaN.
+MAX_REWARD = 10**6
+
 #: Outcomes of routine actions (move/pick/place) that the looping penalty can hit.
 LOOPABLE_OUTCOMES = (Outcome.ROUTINE, Outcome.INEFFECTIVE)
 
@@ -76,7 +80,7 @@ class RewardPattern:
             relevant-cleaning reward on the final clean) or ``"add"``.
         description: one line for tables and ``--describe``.
 
-    All values must be finite floats; there is no range limit.
+    All values must be finite floats in [-`MAX_REWARD`, `MAX_REWARD`].
     """
 
     name: str
@@ -103,8 +107,9 @@ class RewardPattern:
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
                 raise ValueError(f"reward pattern {self.name!r}: {f.name} must be a number, got {value!r}")
-            if not math.isfinite(float(value)):
-                raise ValueError(f"reward pattern {self.name!r}: {f.name} must be finite, got {value!r}")
+            if not math.isfinite(float(value)) or abs(float(value)) > MAX_REWARD:
+                raise ValueError(f"reward pattern {self.name!r}: {f.name} must be finite and in [-{MAX_REWARD}, "
+                                 f"{MAX_REWARD}], got {value!r}")
             object.__setattr__(self, f.name, float(value))
         for mode_field in ("looping_mode", "terminal_mode"):
             value = getattr(self, mode_field)

@@ -62,7 +62,8 @@ def assistance_arrays(learner, model) -> tuple[np.ndarray, np.ndarray]:
 
 
 def check_job_resources(job: TrainingJob, measured: bool) -> None:
-    """Refuse ``job`` before allocating when it cannot fit or would run too long (see [`tableclean_suite.resources`][tableclean_suite.resources])."""
+    """Refuse ``job`` before allocating when it cannot fit or would run too long (every update
+    counted, Dyna-Q's planning ones too; see [`tableclean_suite.resources`][tableclean_suite.resources])."""
     model = job.model
     successors = job.options["transitions"].max_successors if measured else 1
     what = (f"training {job.learner.name!r} on task {model.spec.name!r} ({model.n_states} states x "
@@ -70,9 +71,8 @@ def check_job_resources(job: TrainingJob, measured: bool) -> None:
     resources.require_memory(learner_training_memory(
         model, job.learner, job.reward, job.runs, job.iterations, checkpoint=job.checkpoint > 0, engine=job.engine,
         max_successors=successors), what)
-    steps = job.runs * job.iterations
-    rate = resources.steps_per_second(job.engine)
-    resources.require_time(steps / rate, what, f"{steps:.3g} learner steps at {rate:.3g} steps/s ({job.engine} engine)")
+    resources.require_training_time(job.runs, job.iterations, model.n_states, model.n_actions, what, job.engine,
+                                    job.learner.planning_steps, 2 if job.learner.method == METHOD_DOUBLE_Q else 1)
 
 
 @dataclass(frozen=True)

@@ -32,6 +32,10 @@ from robosuite.utils.transform_utils import mat2quat
 Filler = Callable[[Any, "SkillInfo"], None]
 
 
+class SceneNotResetError(RuntimeError):
+    """``skill_info()`` before the first ``reset()``: the simulation's positions are not computed yet."""
+
+
 class StaleSkillInfoError(RuntimeError):
     """A lazy key of a [`SkillInfo`][tableclean_suite.environments.skill_info.SkillInfo] was read after the simulation it describes advanced."""
 

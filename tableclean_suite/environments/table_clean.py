@@ -66,7 +66,8 @@ from tableclean_suite.environments.scene_building import (
     sponge_start_qpos,
 )
 from tableclean_suite.environments.scene_state import SceneState, read_scene_state, write_scene_state
-from tableclean_suite.environments.skill_info import DataViews, SkillInfo, SkillInfoReader, constant_values
+from tableclean_suite.environments.skill_info import (DataViews, SceneNotResetError, SkillInfo, SkillInfoReader,
+                                                     constant_values)
 from tableclean_suite.environments.state_reading import Contacts, DirtMarkers
 from tableclean_suite.robosuite_adapter import gripper_joint_pos_indexes, joint_vel_indexes, mj_data, mj_model
 from tableclean_suite.task import HELD, StartMode, TaskModel, TaskSpec, TaskState, get_task_spec
@@ -670,8 +671,14 @@ class TableClean(ManipulationEnv):
         A [SkillInfo][tableclean_suite.environments.skill_info.SkillInfo] (a dict): the values fixed for the
         model and the episode are shared read-only arrays; the costlier per-step ones (``LAZY_SKILL_INFO``)
         are computed on first read, from the simulation state of the call.
+
+        Raises:
+            SceneNotResetError: before the first ``reset()`` (the simulation's positions are not computed yet).
         """
         data = self._mj_data
+        if not data.xpos[self.object_body_ids].any():  # every object at the world origin: never forwarded
+            raise SceneNotResetError("TableClean.skill_info() before reset(): the scene's positions are not computed "
+                                     "yet; call env.reset() first")
         constant = self._constant_info
         if constant is None or constant[0] is not self.task_config or constant[1] is not self.geometry:
             constant = self._constant_info = (self.task_config, self.geometry, constant_values(
@@ -796,7 +803,7 @@ class TableClean(ManipulationEnv):
         """Index of [`symbolic_state`][tableclean_suite.environments.table_clean.TableClean.symbolic_state] without the sponge check, or ``FAULT_INDEX`` on a fault."""
         try:
             return self.symbolic_state(check_sponge=False).index
-        except abstraction.AbstractionError:
+        except (abstraction.AbstractionError, SceneNotResetError):  # a fault, or before the first reset
             return FAULT_INDEX
 
     # ------------------------------------------------------------------------------------------

@@ -21,7 +21,9 @@ main-lane draw:
   iteration, whether its advice is its own policy's action, and which random action otherwise
   (interactive RL, [`assist`][tableclean_suite.learners.assist]);
 - ``LANE_TIES``: ``uniform(lane key, iteration, STREAM_TIE)``, which of the tied greedy actions
-  the behaviour policy takes at that iteration under ``train(ties="random")``.
+  the behaviour policy takes at that iteration under ``train(ties="random")``;
+- ``LANE_SIMULATION``: the episodes a cell's analysis simulates from each run's final greedy
+  policy ([`tableclean_suite.simulation`][tableclean_suite.simulation]'s ``SIMULATION_LANE``).
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ LANE_LEARNER = 1
 LANE_PLANNING = 2
 LANE_ADVICE = 3
 LANE_TIES = 4
+LANE_SIMULATION = 64
 #: Streams of the learner lane (same ``iteration * N_STREAMS + stream`` layout as the main lane).
 STREAM_DOUBLE_TABLE = 0  # u < 0.5 -> a double-Q step updates table A, else table B
 #: Streams of the advice lane (same layout).

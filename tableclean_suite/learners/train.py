@@ -24,7 +24,7 @@ from tableclean_suite.learners.exploration import Exploration, as_exploration
 from tableclean_suite.learners.optimality import NOT_LEARNED
 from tableclean_suite.learners.rules import TabularLearner, get_learner
 from tableclean_suite.learners.transitions import TransitionTable
-from tableclean_suite.rewards import RewardPattern, get_reward_pattern
+from tableclean_suite.rewards import MAX_REWARD, RewardPattern, get_reward_pattern
 from tableclean_suite.task import TaskModel, TaskSpec, as_task_model
 
 #: The built-in backends' names (``tableclean_suite.backends.backend_names()`` lists user ones too).
@@ -144,7 +144,7 @@ def train(
             take ``lambda_`` (in [0, 1], default 0.9) and ``trace`` (``"replacing"``, default,
             or ``"accumulating"``); ``dyna_q`` takes ``planning_steps`` (integer in [0, 10000],
             default 5).  Others take none (``ValueError`` names what is allowed).
-        q_init: initial value of every Q entry, any finite float (default: the learner's,
+        q_init: initial value of every Q entry, a float in [-1e6, 1e6] (``rewards.MAX_REWARD``; default: the learner's,
             0.0 for the registered ones, the paper's); larger than the best return is optimistic.
         exploration: the behaviour policy, independent of the learner: a registered name
             (``"epsilon_greedy"`` default, ``"linear_decay"``, ``"exponential_decay"``,
@@ -165,6 +165,11 @@ def train(
 
     Returns:
         A [`TrainingResult`][tableclean_suite.learners.train.TrainingResult] with ``(runs, iterations)`` records and final Q-tables.
+
+    Raises:
+        tableclean_suite.task.model.UnlearnableTaskError: no terminal state can be reached from a start state.
+        tableclean_suite.resources.ResourceError: the training would not fit or take too long; a user
+            action's effect fails (``ActionEffectError``).
     """
     learner = get_learner(learner)
     reward = get_reward_pattern(reward)
@@ -185,6 +190,7 @@ def train(
     if physics_options is not None:
         options["physics_options"] = physics_options
     options = chosen.check_options(model, options)
+    model.require_learnable()
     job = TrainingJob(
         learner=learner, reward=reward, model=model, runs=int(runs), iterations=int(iterations),
         alpha=float(alpha), gamma=float(gamma), epsilon=float(epsilon), max_itr=int(max_itr), seed=int(seed),
@@ -224,10 +230,9 @@ def configure_learner(learner: TabularLearner, learner_options: dict | None, q_i
         if learner_options and learner_options.get("ties", ties) != ties:
             raise ValueError(f"ties={ties!r} and learner_options ties={learner_options['ties']!r} disagree; give one")
         learner_options = {**(learner_options or {}), "ties": ties}
-    if q_init is not None:
-        check_number("q_init", q_init, -np.inf, np.inf)
     chosen = None if exploration is None else as_exploration(exploration)
     learner = learner.configured(learner_options, q_init, chosen)
+    check_number(f"learner {learner.name!r}: q_init", learner.q_init, -MAX_REWARD, MAX_REWARD)
     learner.exploration.check(float(epsilon))
     return learner
 

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tableclean_suite.task import NO_CHANGE_OUTCOMES_NAMES, Outcome, TaskModel, TaskSpec, as_task_model
+from tableclean_suite.task import NO_CHANGE_OUTCOMES_NAMES, Outcome, TaskModel, TaskSpec, as_task_model, unique_keys
 
 FORMAT_NAME = "tableclean_suite.transition_table"
 FORMAT_VERSION = 2
@@ -196,7 +196,7 @@ class TransitionTable:
         """
         path = Path(path)
         try:
-            document = json.loads(path.read_text(encoding="utf-8"))
+            document = json.loads(path.read_text(encoding="utf-8"), object_pairs_hook=unique_keys)
         except FileNotFoundError:
             raise
         except RecursionError:

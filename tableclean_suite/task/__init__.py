@@ -28,7 +28,13 @@ from tableclean_suite.task.actions import (  # noqa: F401
     place_effect,
     register_action,
 )
-from tableclean_suite.task.model import ActionEffectError, StateLike, TaskModel, as_task_model  # noqa: F401
+from tableclean_suite.task.model import (  # noqa: F401
+    ActionEffectError,
+    StateLike,
+    TaskModel,
+    UnlearnableTaskError,
+    as_task_model,
+)
 from tableclean_suite.task.paper import (  # noqa: F401
     PAPER_OPTIMAL_PLAN,
     PAPER_START,
@@ -43,12 +49,14 @@ from tableclean_suite.task.spec import (  # noqa: F401
     IneffectiveMode,
     StartMode,
     TaskSpec,
+    check_spec_size,
     get_task_spec,
     load_task_spec,
     register_task_spec,
     state_from_json,
     state_to_json,
     task_spec_names,
+    unique_keys,
 )
 from tableclean_suite.task.state import (  # noqa: F401
     CLEAN_OUTCOMES,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import inspect
+import time
 from collections import deque
 from functools import cached_property
 from pathlib import Path
@@ -11,6 +12,7 @@ from typing import Iterable, Iterator, Sequence, Union
 
 import numpy as np
 
+from tableclean_suite import resources
 from tableclean_suite.task import actions as actions_module
 from tableclean_suite.task import state as state_module
 from tableclean_suite.task.actions import Action, ActionRule, get_action_rule
@@ -32,10 +34,18 @@ StateLike = Union[TaskState, int, np.integer]
 _BUILTIN_ORDER = tuple(a.rule_name for a in Action)
 #: Smallest signed integer dtypes, in order, for record arrays of state/action/outcome codes.
 _RECORD_DTYPES = (np.int8, np.int16, np.int32)
+#: States whose user action effects a table build times (after a first, warming-up state) to
+#: estimate the rest ([`require_effect_seconds`][tableclean_suite.resources.require_effect_seconds]).
+EFFECT_TIMING_STATES = 8
 
 
-class ActionEffectError(ValueError):
-    """A (user) action's effect broke the rules an effect must keep; the message names it."""
+class ActionEffectError(resources.ResourceError):
+    """A (user) action's effect failed (raised, returned something else than ``(TaskState, Outcome)``)
+    or broke the rules an effect must keep; the message names the action and the state."""
+
+
+class UnlearnableTaskError(resources.ResourceError):
+    """No terminal state can be reached from a start state of the task: nothing could be learned."""
 
 
 class TaskModel:
@@ -178,8 +188,6 @@ class TaskModel:
 
     def _require_python_walk(self, what: str) -> None:
         """Refuse a per-state Python walk of a spec too large for it ([`require_python_steps`][tableclean_suite.resources.require_python_steps])."""
-        from tableclean_suite import resources
-
         resources.require_python_steps(self.n_states * self.n_actions,
                                        f"{what} of task {self.spec.name!r} ({self.n_states} states)")
 
@@ -241,18 +249,28 @@ class TaskModel:
             next_state, _, raw_outcome = self._transition_arrays
             code = encode(state)
             return self.decode(int(next_state[code, index])), Outcome(int(raw_outcome[code, index]))
-        next_state, outcome = rule.effect(state)
+        what = f"action {rule.name!r} in state {state.name}"
+        try:
+            result = rule.effect(state)
+        except (KeyboardInterrupt, SystemExit):
+            raise
+        except BaseException as error:  # a plugin's fault, whatever its kind: one line naming it
+            raise ActionEffectError(f"{what}: its effect raised {type(error).__name__}: "
+                                    f"{' '.join(str(error).split())}") from None
+        next_state, outcome = result if isinstance(result, tuple) and len(result) == 2 else (result, None)
         if not isinstance(next_state, TaskState) or outcome not in Outcome._value2member_map_ \
                 or Outcome(outcome) == Outcome.TERMINAL:
-            raise ActionEffectError(f"action {rule.name!r}: an effect returns (TaskState, a non-terminal Outcome), "
-                                    f"got ({next_state!r}, {outcome!r})")
+            raise ActionEffectError(f"{what}: an effect returns (TaskState, a non-terminal Outcome), got {result!r}")
         outcome = Outcome(outcome)
-        self._check_sizes(next_state)
+        try:
+            self._check_sizes(next_state)
+        except ValueError as error:
+            raise ActionEffectError(f"{what}: {error}") from None
         if outcome in NO_CHANGE_OUTCOMES and next_state != state:
-            raise ActionEffectError(f"action {rule.name!r}: outcome {outcome.name} must leave the state unchanged "
+            raise ActionEffectError(f"{what}: outcome {outcome.name} must leave the state unchanged "
                                     f"({state.name} -> {next_state.name})")
         if next_state.objects.count(HELD) > max(1, state.objects.count(HELD)):  # unused codes may already hold two
-            raise ActionEffectError(f"action {rule.name!r}: {next_state.name} holds more than one object")
+            raise ActionEffectError(f"{what}: {next_state.name} holds more than one object")
         return next_state, outcome
 
     def is_improper(self, state: StateLike, action) -> bool:
@@ -322,9 +340,9 @@ class TaskModel:
 
         Raises [`ResourceError`][tableclean_suite.resources.ResourceError] before allocating when the arrays
         would not fit in the available memory, or when user actions' Python effects would be
-        called more than `MAX_USER_EFFECT_CALLS` times.
+        called more than `MAX_USER_EFFECT_CALLS` times or, timed on the first states, take longer
+        than `MAX_EFFECT_SECONDS`.
         """
-        from tableclean_suite import resources
         from tableclean_suite.task import batch_rules
 
         what = f"the transition table of task {self.spec.name!r} ({self.n_states} states x {self.n_actions} actions)"
@@ -345,7 +363,13 @@ class TaskModel:
         if user:
             next_state[terminal, :] = np.flatnonzero(terminal)[:, None]
             outcome[terminal, :] = Outcome.TERMINAL
-            for code in np.flatnonzero(~terminal):
+            codes = np.flatnonzero(~terminal)
+            for i, code in enumerate(codes):
+                if i == 1:
+                    started = time.perf_counter()
+                elif i == 1 + EFFECT_TIMING_STATES:
+                    seconds = (time.perf_counter() - started) / EFFECT_TIMING_STATES * len(codes)
+                    resources.require_effect_seconds(seconds, what)
                 state = self.decode(int(code))
                 for a in user:
                     nxt, out = self.step(state, a)
@@ -435,6 +459,16 @@ class TaskModel:
         states = self.reachable_states() if states is None else [self.as_state(s) for s in states]
         distance = self._distances
         return {encode(s): (int(distance[encode(s)]) if distance[encode(s)] >= 0 else None) for s in states}
+
+    def require_learnable(self) -> None:
+        """Raise [`UnlearnableTaskError`][tableclean_suite.task.model.UnlearnableTaskError] naming the task and
+        the first start state from which no terminal state can be reached (builds the transition table)."""
+        distance = self._distances
+        stuck = next((s for s in self.start_states() if distance[encode(s)] < 0), None)
+        if stuck is not None:
+            raise UnlearnableTaskError(f"task {self.spec.name!r}: no terminal state can be reached from its start state "
+                                       f"{stuck.name} with the actions {', '.join(self.action_names)}; nothing can be "
+                                       "learned")
 
     def distances_to_terminal(self) -> np.ndarray:
         """``(S,)`` int64: the length of a shortest plan from every state code to a terminal state

@@ -17,12 +17,14 @@ from __future__ import annotations
 
 import enum
 import json
+import math
 import re
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, Sequence
 
 from tableclean_suite.registry import Registry
+from tableclean_suite.resources import bounded_product
 from tableclean_suite.task.actions import get_action_rule
 from tableclean_suite.task.state import HELD, TaskState, state_count
 
@@ -60,6 +62,18 @@ def _enum_value(enum_type, value, what: str) -> str:
     except ValueError:
         allowed = ", ".join(m.value for m in enum_type)
         raise ValueError(f"unknown {what} {value!r}; allowed: {allowed}") from None
+
+
+def check_spec_size(segments: int, objects: int, what: str = "task") -> int:
+    """The state codes ``2**N * (N + 1)**M * N`` of N ``segments`` and M ``objects`` (integers >= 1), or
+    ``ValueError`` naming them and `MAX_STATE_CODES` when there are more, decided on logarithms
+    ([`bounded_product`][tableclean_suite.resources.bounded_product]): a size of ``10**30`` costs no arithmetic."""
+    codes = bounded_product([(2, segments), (segments + 1, objects), (segments, 1)], MAX_STATE_CODES)
+    if codes is None:
+        shown = [n if n < 10**100 else f"10^{math.log10(n):.0f}" for n in (segments, objects)]
+        raise ValueError(f"{what}: {shown[0]} segments and {shown[1]} objects give more than {MAX_STATE_CODES} state codes (2**N * (N + 1)**M * N); "
+                         f"at most {MAX_STATE_CODES} are supported")
+    return codes
 
 
 def default_start_state(segments: int, objects: int) -> TaskState:
@@ -105,6 +119,7 @@ class TaskSpec:
         if isinstance(objects, int) and not isinstance(objects, bool):
             if objects < 1:
                 raise ValueError(f"task {self.name!r}: objects must be >= 1 (or a list of type names), got {objects}")
+            check_spec_size(self.segments, objects, f"task {self.name!r}")
             objects = (DEFAULT_OBJECT_TYPE,) * objects
         if isinstance(objects, str) or not isinstance(objects, (list, tuple)) or not objects:
             raise ValueError(f"task {self.name!r}: objects must be an int >= 1 or a non-empty list of type names, "
@@ -123,10 +138,7 @@ class TaskSpec:
         object.__setattr__(self, "actions", actions)
         object.__setattr__(self, "start", _enum_value(StartMode, self.start, "start mode"))
         object.__setattr__(self, "ineffective", _enum_value(IneffectiveMode, self.ineffective, "ineffective mode"))
-        codes = state_count(self.segments, len(objects))
-        if codes > MAX_STATE_CODES:
-            raise ValueError(f"task {self.name!r}: {self.segments} segments and {len(objects)} objects give {codes} "
-                             f"state codes; at most {MAX_STATE_CODES} are supported")
+        check_spec_size(self.segments, len(objects), f"task {self.name!r}")
         if self.start_state is not None:
             if self.start == StartMode.UNIFORM_UNCLEAN.value:
                 raise ValueError(f"task {self.name!r}: start_state is only allowed with start='fixed'")
@@ -271,11 +283,21 @@ def task_spec_names() -> list[str]:
     return _REGISTRY.names()
 
 
+def unique_keys(pairs) -> dict:
+    """``json.loads``' ``object_pairs_hook``: the object as a dict; ``ValueError`` names a key given twice."""
+    data = {}
+    for key, value in pairs:
+        if key in data:
+            raise ValueError(f"key {key!r} is given twice")
+        data[key] = value
+    return data
+
+
 def load_task_spec(path: str | Path) -> TaskSpec:
-    """Read a spec from a JSON file; ``ValueError`` names the file and the problem."""
+    """Read a spec from a JSON file; ``ValueError`` names the file and the problem (a key given twice too)."""
     path = Path(path)
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = json.loads(path.read_text(encoding="utf-8"), object_pairs_hook=unique_keys)
     except FileNotFoundError:
         raise ValueError(f"task spec file {str(path)!r} does not exist") from None
     except RecursionError:
