@@ -130,3 +130,11 @@ def test_describe_a_paper_sized_spec_without_move_leaves_out_table_1():
 
     text = describe(TaskModel(spec=TaskSpec("no_move", segments=2, objects=1, actions=["pick", "place", "clean"])))
     assert "Exact success probability" in text and "Table 1 of the paper" not in text
+
+
+def test_describe_fits_in_120_columns():
+    from tableclean_suite.bench.describe import describe
+    from tableclean_suite.task import TaskModel
+
+    text = describe(TaskModel())
+    assert max(map(len, text.splitlines())) <= 120 and "20 states = 18 non-terminal + 2 terminal" in text

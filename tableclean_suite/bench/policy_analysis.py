@@ -18,6 +18,7 @@ import numpy as np
 
 from tableclean_suite.bench import cli
 from tableclean_suite.bench.cli import positive_int
+from tableclean_suite.bench.tables import PRINT_WIDTH
 from tableclean_suite import analysis, metrics
 from tableclean_suite.learners import train
 from tableclean_suite.task import StartMode, TaskModel
@@ -69,6 +70,5 @@ def main(argv=None, prog: str | None = None) -> int:
         for reward in REWARDS
     ]
     rows.append(analyse("q_learning", "r3", TaskModel(), args.runs, args.long_iterations, args.seed, epsilon, max_itr))
-    with pd.option_context("display.float_format", "{:.2f}".format, "display.width", 160):
-        print(pd.DataFrame(rows).to_string(index=False))
+    print(pd.DataFrame(rows).to_string(index=False, float_format="{:.2f}".format, line_width=PRINT_WIDTH))
     return 0
