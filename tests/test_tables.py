@@ -197,16 +197,17 @@ def test_curves_long_exact_rows_and_stride():
 # ---------------------------------------------------------------------------
 # Grid and cell store
 # ---------------------------------------------------------------------------
-def test_build_grid_deduplicates_cells():
-    grid = experiments.build_grid(["q_learning", "sarsa"], ["r1", "r4"], 0.3, 0.3, "q_learning", "r4",
-                                  alpha_sweep=[0.3, 0.5, 0.50], gamma_sweep=[0.30, 0.9])
+def test_the_grid_deduplicates_cells():
+    config = RunConfig(learners=("q_learning", "sarsa"), rewards=("r1", "r4"), sweep_learner="q_learning",
+                       sweep_reward="r4", alpha_sweep=(0.3, 0.5, 0.50), gamma_sweep=(0.30, 0.9), literature=False)
+    grid = experiments.config_grid(config)
     assert [m.experiment for m in grid].count("main") == 4
     assert [m.experiment for m in grid].count("alpha_sweep") == 2
     assert [m.experiment for m in grid].count("gamma_sweep") == 2
     cells = experiments.unique_cells(grid)
     assert len(cells) == 4 + 1 + 1  # (q_learning, r4, 0.3, 0.3) shared by all three experiments
-    assert len(experiments.build_grid(["sarsa"], ["r1"], 0.3, 0.3, "q_learning", "r4", [0.5], [0.9],
-                                      sweeps=False)) == 1
+    assert len(experiments.config_grid(RunConfig(learners=("sarsa",), rewards=("r1",), sweeps=False,
+                                                 literature=False))) == 1
 
 
 def _config(**changes):

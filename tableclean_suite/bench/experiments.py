@@ -85,39 +85,21 @@ class Membership:
     cell: Cell
 
 
-def build_grid(
-    learners,
-    rewards,
-    alpha: float,
-    gamma: float,
-    sweep_learner: str,
-    sweep_reward: str,
-    alpha_sweep=(),
-    gamma_sweep=(),
-    sweeps: bool = True,
-    literature_learners=(),
-    literature_reward: str = "r4",
-) -> list[Membership]:
+def config_grid(config: RunConfig) -> list[Membership]:
     """The (experiment, cell) memberships of a run, in table order, without duplicates.
 
     The alpha sweep varies alpha at ``gamma``; the gamma sweep varies gamma at ``alpha``.
     Values are compared as floats, so ``0.3`` and ``0.30`` are the same cell.
     """
-    alpha, gamma = float(alpha), float(gamma)
-    grid = [Membership("main", Cell(l, r, alpha, gamma)) for l in learners for r in rewards]
-    if sweeps:
-        grid += [Membership("alpha_sweep", Cell(sweep_learner, sweep_reward, float(a), gamma)) for a in alpha_sweep]
-        grid += [Membership("gamma_sweep", Cell(sweep_learner, sweep_reward, alpha, float(g))) for g in gamma_sweep]
-    grid += [Membership("literature", Cell(l, literature_reward, alpha, gamma)) for l in literature_learners]
+    alpha, gamma = float(config.alpha), float(config.gamma)
+    grid = [Membership("main", Cell(l, r, alpha, gamma)) for l in config.learners for r in config.rewards]
+    if config.sweeps:
+        learner, reward = config.sweep_learner, config.sweep_reward
+        grid += [Membership("alpha_sweep", Cell(learner, reward, float(a), gamma)) for a in config.alpha_sweep]
+        grid += [Membership("gamma_sweep", Cell(learner, reward, alpha, float(g))) for g in config.gamma_sweep]
+    if config.literature:
+        grid += [Membership("literature", Cell(l, config.literature_reward, alpha, gamma)) for l in LITERATURE_LEARNERS]
     return list(dict.fromkeys(grid))
-
-
-def config_grid(config: RunConfig) -> list[Membership]:
-    """[`build_grid`][tableclean_suite.bench.experiments.build_grid] of a run's configuration."""
-    return build_grid(config.learners, config.rewards, config.alpha, config.gamma, config.sweep_learner,
-                      config.sweep_reward, config.alpha_sweep, config.gamma_sweep, sweeps=config.sweeps,
-                      literature_learners=LITERATURE_LEARNERS if config.literature else (),
-                      literature_reward=config.literature_reward)
 
 
 def unique_cells(grid: list[Membership]) -> list[Cell]:
@@ -688,7 +670,7 @@ def run_grid(
     """Load the stored cells of ``grid``, then train the others; each trained cell is saved at once.
 
     Args:
-        grid: memberships from [`build_grid`][tableclean_suite.bench.experiments.build_grid].
+        grid: memberships from [`config_grid`][tableclean_suite.bench.experiments.config_grid].
         config: the run's configuration (``fresh``: ignore and overwrite stored cells;
             ``progress``: a tqdm bar over cells on stderr, stored cells counted as done).
         model: the [`TaskModel`][tableclean_suite.task.model.TaskModel].
