@@ -40,7 +40,7 @@ def test_control_freq_is_bounded_by_one_hertz_and_the_physics_step(freq, ok):
 def test_robot_table_has_a_gripper_column_and_refuses_a_hand_before_any_work(tmp_path, capsys):
     assert robot_table.gripper_name("Panda", "default") == "PandaGripper"
     assert robot_table.gripper_name("Sawyer", "default") == "PandaGripper"  # the config's swap
-    assert robot_table.gripper_name("Sawyer", "RethinkGripper") == "RethinkGripper"
+    assert robot_table.gripper_name("UR5e", "RethinkGripper") == "RethinkGripper"
     eps = {"episodes": 2, "successes": 2, "seconds": 4.0}
     rows = [robot_table.table_row("Sawyer", "paper", None, eps, gripper="RethinkGripper"),
             robot_table.table_row("Sawyer", "paper", None, eps, gripper="PandaGripper")]

@@ -2,20 +2,24 @@
 
 The skills need two finger pads closing on a line (the gripper's ``important_geoms``
 ``left_fingerpad`` and ``right_fingerpad``, measured by
-[`measure_gripper`][tableclean_suite.environments.gripper_geometry.measure_gripper]): robosuite's
-Panda, Rethink and Robotiq 140 grippers (`SUPPORTED`).  `REFUSED` names the others and why, e.g.
-robosuite's Robotiq 85, whose model is unstable.
+[`measure_gripper`][tableclean_suite.environments.gripper_geometry.measure_gripper]) that stop
+once they hold: robosuite's Panda and Rethink grippers (`SUPPORTED`).  `REFUSED` names the others
+and why: the Robotiq 85 and 140 models' linkages collide with themselves and never come to rest,
+the three-finger hands do not close on a line.
 """
 
 from __future__ import annotations
 
 #: robosuite's names of the grippers the skills drive (``gripper_types=``).
-SUPPORTED = ("PandaGripper", "RethinkGripper", "Robotiq140Gripper")
+SUPPORTED = ("PandaGripper", "RethinkGripper")
 _HAND = "a three-finger hand: the skills close two pads on a line"
 #: robosuite's grippers refused, with the defect (any other name: not a two-finger gripper the skills drive).
 REFUSED = {
     "Robotiq85Gripper": "robosuite's model is unstable: its open fingers press on their own linkage with 28-58 N "
                         "and a knuckle runs to 2.26 rad, past its 0.876 rad range",
+    "Robotiq140Gripper": "robosuite's model: its knuckles press on each other with up to 150 N, its undamped finger "
+                         "linkage creeps on for over 100 control steps after closing, and closed on the sponge its "
+                         "fingertips reach below it and drag on the table while wiping",
     "JacoThreeFingerGripper": _HAND,
     "JacoThreeFingerDexterousGripper": _HAND,
     "RobotiqThreeFingerGripper": _HAND,

@@ -17,8 +17,9 @@ nowhere in the skill code:
   the config's ``gripper`` and moves the base by its ``base_shift``.
 
 Shipped: Panda (the reference), Sawyer, UR5e and Kinova3.  The three others carry robosuite's
-Panda gripper unless ``gripper_types`` names another the skills drive (Sawyer's Rethink, the
-Robotiq 140: [`grippers`][tableclean_suite.environments.grippers]; see `SWAP_GRIPPER`).  The windowed and timeout settling rules of
+Panda gripper unless ``gripper_types`` names another the skills drive (the Sawyer's Rethink, on any
+arm: [`grippers`][tableclean_suite.environments.grippers]; see `SWAP_GRIPPER`).  The windowed and
+timeout settling rules of
 `gripper_settled` (``gripper_window``, ``gripper_drift``,
 ``gripper_timeout``) are for grippers whose fingers never stop, such as the Robotiq 85.
 
