@@ -18,6 +18,19 @@ def test_supported_grippers_pass_and_the_others_are_refused_by_name_and_defect()
             check_gripper(name, "UR5e")
     with pytest.raises(ValueError, match=r"'BDGripper' on Panda .*not a two-finger gripper"):
         check_gripper("BDGripper", "Panda")
+    with pytest.raises(ValueError, match=r"'PandaGriper' on Panda .*not a gripper robosuite knows"):
+        check_gripper("PandaGriper", "Panda")
+
+
+def test_a_users_registered_gripper_is_left_to_the_scene_to_measure():
+    from robosuite.models.grippers import GRIPPER_MAPPING, PandaGripper
+
+    mine = type("TestGripperOfMine", (PandaGripper,), {"__module__": "my_grippers"})
+    GRIPPER_MAPPING[mine.__name__] = mine
+    try:
+        assert check_gripper("TestGripperOfMine", "Panda") == "TestGripperOfMine"
+    finally:
+        del GRIPPER_MAPPING[mine.__name__]
 
 
 def test_the_scene_refuses_robotiq85_naming_its_defect_before_building():

@@ -1,4 +1,4 @@
-"""The skills on several arms: fidelity and optimal-episode success per robot x task spec.
+"""The skills on several arms: fidelity and optimal-episode success per robot x gripper x task spec.
 
     tableclean-bench robots [--robots Panda,Sawyer,UR5e,Kinova3] [--grippers default,RethinkGripper,...]
                             [--tasks paper,three_segments_two_objects] [--fresh] [--episodes E] [--fidelity-trials T]
@@ -55,8 +55,8 @@ DEFAULT_FIDELITY_DIR = "results/fidelity_robots"
 #: File name of the table.
 TABLE_CSV = "robot_table.csv"
 #: Columns of the table, in order.
-COLUMNS = ("robot", "gripper", "task", "dynamics", "fidelity_trials", "fidelity_rounds", "fidelity_agreement", "fidelity_faults",
-           "episodes", "episode_successes", "episode_success_rate", "seconds_per_episode")
+COLUMNS = ("robot", "gripper", "task", "dynamics", "fidelity_trials", "fidelity_rounds", "fidelity_agreement",
+           "fidelity_faults", "episodes", "episode_successes", "episode_success_rate", "seconds_per_episode")
 #: ``dynamics`` of a row: the scene as built, or randomised at every reset.
 NOMINAL, RANDOMIZED = "nominal", "randomized"
 #: Columns that identify a cell (a later run's row replaces an earlier one with the same key).
@@ -273,7 +273,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the table's own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     cli.add_robots_argument(parser, many=True, default=",".join(DEFAULT_ROBOTS))
-    parser.add_argument("--grippers", default=DEFAULT_GRIPPER,
+    parser.add_argument("--grippers", default=DEFAULT_GRIPPER, metavar="NAME,...",
                         help="comma-separated robosuite grippers every robot is measured with (gripper_types; "
                              f"'{DEFAULT_GRIPPER}': the one its config mounts; default {DEFAULT_GRIPPER})")
     parser.add_argument("--tasks", default=",".join(DEFAULT_TASKS),

@@ -117,8 +117,8 @@ def check_episode_settings(horizon, control_freq) -> None:
     highest = 1.0 / SIMULATION_TIMESTEP
     if isinstance(control_freq, bool) or not isinstance(control_freq, (int, float, np.number)) \
             or not MIN_CONTROL_FREQ <= control_freq <= highest:  # False for NaN
-        raise ValueError(f"control_freq must be a number from {MIN_CONTROL_FREQ:g} to {highest:g} Hz (at most one control step "
-                         f"per {SIMULATION_TIMESTEP:g} s physics step), got {control_freq!r}")
+        raise ValueError(f"control_freq must be a number from {MIN_CONTROL_FREQ:g} to {highest:g} Hz (at most one "
+                         f"control step per {SIMULATION_TIMESTEP:g} s physics step), got {control_freq!r}")
 
 
 def check_controller_configs(controller_configs) -> None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 #: robosuite's names of the grippers the skills drive (``gripper_types=``).
 SUPPORTED = ("PandaGripper", "RethinkGripper")
 _HAND = "a three-finger hand: the skills close two pads on a line"
-#: robosuite's grippers refused, with the defect (any other name: not a two-finger gripper the skills drive).
+#: robosuite's grippers refused, with the defect (robosuite's others: not a two-finger gripper the skills drive).
 REFUSED = {
     "Robotiq85Gripper": "robosuite's model is unstable: its open fingers press on their own linkage with 28-58 N "
                         "and a knuckle runs to 2.26 rad, past its 0.876 rad range",
@@ -29,10 +29,15 @@ REFUSED = {
 
 
 def check_gripper(name, robot: str):
-    """``name`` (robosuite's ``gripper_types`` entry for ``robot``) if the skills drive that gripper; else a
-    one-line ``ValueError`` naming it, why, and the supported grippers."""
-    if name in SUPPORTED:
+    """``name`` (robosuite's ``gripper_types`` entry for ``robot``) if the skills drive that gripper, or if it is a
+    user's gripper registered with robosuite (``register_gripper``; its pads and finger joints are checked when
+    the scene measures it); else a one-line ``ValueError`` naming it, why, and the supported grippers."""
+    from robosuite.models.grippers import GRIPPER_MAPPING
+
+    kind = GRIPPER_MAPPING.get(name) if isinstance(name, str) else None
+    if name in SUPPORTED or (kind is not None and name not in REFUSED and not kind.__module__.startswith("robosuite.")):
         return name
-    why = REFUSED.get(name, "not a two-finger gripper the skills drive")
+    why = REFUSED.get(name, "not a two-finger gripper the skills drive" if kind is not None or name is None
+                      else "not a gripper robosuite knows")
     raise ValueError(f"gripper {name!r} on {robot} is not supported by the TableClean skills ({why}); supported "
                      f"grippers: {', '.join(SUPPORTED)}")
