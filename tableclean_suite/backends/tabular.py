@@ -111,9 +111,12 @@ class TableBackend:
 
         Raises [`ResourceError`][tableclean_suite.resources.ResourceError] (before allocating) when its
         records, Q-tables and tables would not fit in the available memory, or its steps would
-        take longer than `MAX_TRAINING_SECONDS`.
+        take longer than `MAX_TRAINING_SECONDS`; then
+        [`UnlearnableTaskError`][tableclean_suite.task.model.UnlearnableTaskError] when no terminal state
+        can be reached from a start state of the task.
         """
         check_job_resources(job, self.measured)
+        job.model.require_learnable()
         table = self.table(job)
         config = {"transitions": table.source} if self.measured else {}
         if job.engine == "reference":

@@ -167,7 +167,8 @@ def train(
         A [`TrainingResult`][tableclean_suite.learners.train.TrainingResult] with ``(runs, iterations)`` records and final Q-tables.
 
     Raises:
-        tableclean_suite.task.model.UnlearnableTaskError: no terminal state can be reached from a start state.
+        tableclean_suite.task.model.UnlearnableTaskError: no terminal state can be reached from a start
+            state (the table backends check it, after the resource guard).
         tableclean_suite.resources.ResourceError: the training would not fit or take too long; a user
             action's effect fails (``ActionEffectError``).
     """
@@ -190,7 +191,6 @@ def train(
     if physics_options is not None:
         options["physics_options"] = physics_options
     options = chosen.check_options(model, options)
-    model.require_learnable()
     job = TrainingJob(
         learner=learner, reward=reward, model=model, runs=int(runs), iterations=int(iterations),
         alpha=float(alpha), gamma=float(gamma), epsilon=float(epsilon), max_itr=int(max_itr), seed=int(seed),

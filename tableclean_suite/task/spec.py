@@ -71,8 +71,8 @@ def check_spec_size(segments: int, objects: int, what: str = "task") -> int:
     codes = bounded_product([(2, segments), (segments + 1, objects), (segments, 1)], MAX_STATE_CODES)
     if codes is None:
         shown = [n if n < 10**100 else f"10^{math.log10(n):.0f}" for n in (segments, objects)]
-        raise ValueError(f"{what}: {shown[0]} segments and {shown[1]} objects give more than {MAX_STATE_CODES} state codes (2**N * (N + 1)**M * N); "
-                         f"at most {MAX_STATE_CODES} are supported")
+        raise ValueError(f"{what}: {shown[0]} segments and {shown[1]} objects give more state codes "
+                         f"(2**N * (N + 1)**M * N) than the {MAX_STATE_CODES} supported")
     return codes
 
 
