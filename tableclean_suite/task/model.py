@@ -256,11 +256,13 @@ class TaskModel:
             raise
         except BaseException as error:  # a plugin's fault, whatever its kind: one line naming it
             raise ActionEffectError(f"{what}: its effect raised {type(error).__name__}: "
-                                    f"{' '.join(str(error).split())}") from None
+                                    f"{' '.join(str(error).split())[:200]}") from None
         next_state, outcome = result if isinstance(result, tuple) and len(result) == 2 else (result, None)
-        if not isinstance(next_state, TaskState) or outcome not in Outcome._value2member_map_ \
+        if not isinstance(next_state, TaskState) or not isinstance(outcome, (int, np.integer)) \
+                or outcome not in Outcome._value2member_map_ \
                 or Outcome(outcome) == Outcome.TERMINAL:
-            raise ActionEffectError(f"{what}: an effect returns (TaskState, a non-terminal Outcome), got {result!r}")
+            raise ActionEffectError(f"{what}: an effect returns (TaskState, a non-terminal Outcome), got "
+                                    f"{' '.join(repr(result).split())[:200]}")
         outcome = Outcome(outcome)
         try:
             self._check_sizes(next_state)
