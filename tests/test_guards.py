@@ -125,3 +125,21 @@ def test_the_simulation_lane_is_in_the_lane_table():
     assert rng.LANE_SIMULATION == simulation.SIMULATION_LANE
     lanes = [rng.LANE_LEARNER, rng.LANE_PLANNING, rng.LANE_ADVICE, rng.LANE_TIES, rng.LANE_SIMULATION]
     assert len(set(lanes)) == len(lanes)
+
+
+@pytest.mark.parametrize("actions, plugin", [(["pick", "place", "clean"], ""),
+                                             (["move", "pick", "place", "clean", "test_cli_boom"],
+                                              "def boom(state):\n    raise ValueError('boom')\n\n"
+                                              "register_action(ActionRule('test_cli_boom', boom, 'raises'), "
+                                              "overwrite=True)\n")])
+def test_run_refuses_an_unlearnable_task_or_a_failing_effect_in_one_line(actions, plugin, capsys, tmp_path):
+    from tableclean_suite.bench import commands
+
+    (tmp_path / "plugin.py").write_text("from tableclean_suite.task import ActionRule, register_action\n" + plugin)
+    (tmp_path / "spec.json").write_text(json.dumps({"name": "cli_guard", "actions": actions}))
+    code = commands.main(["run", "--plugins", str(tmp_path / "plugin.py"), "--task", str(tmp_path / "spec.json"),
+                          "--runs", "2", "--iterations", "50", "--no-figures", "--out", str(tmp_path / "out")])
+    stderr = capsys.readouterr().err
+    err = [line for line in stderr.splitlines() if "error:" in line]
+    assert code == 2 and len(err) == 1 and "Traceback" not in stderr
+    assert "cli_guard" in err[0] if not plugin else "test_cli_boom" in err[0]
