@@ -398,11 +398,12 @@ class TaskModel:
 
     # -- analysis ------------------------------------------------------------------------
     def successors(self, state: StateLike) -> Iterator[tuple[int, TaskState, Outcome]]:
-        """``(action index, next_state, outcome)`` for every action from a non-terminal ``state``."""
-        state = self.as_state(state)
+        """``(action index, next_state, outcome)`` for every action from a non-terminal ``state``, read
+        off the transition table (built once: user action effects are called, and timed, there)."""
+        code = encode(self.as_state(state))
+        next_state, outcome, _ = self._transition_arrays
         for a in range(self.n_actions):
-            nxt, out = self.step(state, a)
-            yield a, nxt, out
+            yield a, self.decode(int(next_state[code, a])), Outcome(int(outcome[code, a]))
 
     def reachable_states(self, starts: Iterable[StateLike] | None = None) -> list[TaskState]:
         """States reachable from ``starts`` (default: every all-unclean layout), sorted by code.
