@@ -338,13 +338,14 @@ NOTICE_EFFECT_SECONDS = 5
 
 
 def require_effect_seconds(seconds: float, what: str, override: bool = False) -> None:
-    """Raise [`TooMuchWorkError`][tableclean_suite.resources.TooMuchWorkError] when a table build's user action effects, timed on its
-    first states, would take more than `MAX_EFFECT_SECONDS` in all; above `NOTICE_EFFECT_SECONDS` say the estimate."""
+    """Raise [`TooMuchWorkError`][tableclean_suite.resources.TooMuchWorkError] when a table build's user
+    action effects, timed on its first states, would take more than `MAX_EFFECT_SECONDS` in all;
+    above `NOTICE_EFFECT_SECONDS` say the estimate on stderr."""
     if seconds > MAX_EFFECT_SECONDS and not (override or override_enabled()):
         raise TooMuchWorkError(
             f"{what}: its user action effects, timed on its first states, would take about {format_seconds(seconds)}, "
-            f"more than the {MAX_EFFECT_SECONDS} s allowed; use faster effects or a smaller task, or set {OVERRIDE_ENV}=1 "
-            "to try anyway")
+            f"more than the {MAX_EFFECT_SECONDS} s allowed; use faster effects or a smaller task, or set "
+            f"{OVERRIDE_ENV}=1 to try anyway")
     if seconds > NOTICE_EFFECT_SECONDS:
         print(f"{what}: user action effects take about {format_seconds(seconds)}", file=sys.stderr, flush=True)
 

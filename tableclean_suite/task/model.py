@@ -469,9 +469,9 @@ class TaskModel:
         distance = self._distances
         stuck = next((s for s in self.start_states() if distance[encode(s)] < 0), None)
         if stuck is not None:
-            raise UnlearnableTaskError(f"task {self.spec.name!r}: no terminal state can be reached from its start state "
-                                       f"{stuck.name} with the actions {', '.join(self.action_names)}; nothing can be "
-                                       "learned")
+            raise UnlearnableTaskError(f"task {self.spec.name!r}: no terminal state can be reached from its start "
+                                       f"state {stuck.name} with the actions {', '.join(self.action_names)}; nothing "
+                                       "can be learned")
 
     def distances_to_terminal(self) -> np.ndarray:
         """``(S,)`` int64: the length of a shortest plan from every state code to a terminal state
