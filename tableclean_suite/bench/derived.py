@@ -36,7 +36,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from tableclean_suite.bench import plots
+from tableclean_suite.bench import digests, plots
 
 
 @dataclass(frozen=True)
@@ -131,17 +131,6 @@ def _frame_digest(digest, frame) -> None:
             digest.update(repr(list(uniques)).encode("utf-8", "surrogatepass") + codes.tobytes())
 
 
-def _package_digest() -> str:
-    """SHA-256 (hex) of every module's source in the package (statistics, plots, tables, ...)."""
-    import tableclean_suite
-
-    digest = hashlib.sha256()
-    root = Path(tableclean_suite.__file__).parent
-    for path in sorted(root.rglob("*.py")):
-        digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
-    return digest.hexdigest()
-
-
 def _drawing_config() -> dict:
     """What the figures' pixels depend on beyond their data and dpi: matplotlib's and Pillow's
     versions, a digest of the live ``rcParams`` and of the font file they resolve to."""
@@ -169,7 +158,7 @@ def derived_key(cells: list[dict], confidence: float, samples: int, seed: int, c
             values = np.ascontiguousarray(cell["runs"][score])
             digest.update(repr((score, values.dtype.str, values.shape)).encode() + values.tobytes())
     key = {"format": CACHE_FORMAT, "scores": digest.hexdigest(), "confidence": float(confidence),
-           "samples": int(samples), "seed": int(seed), "code": _package_digest(),
+           "samples": int(samples), "seed": int(seed), "code": digests.code_digest(),
            "versions": {name: importlib.metadata.version(name) for name in ("numpy", "scipy", "pandas")},
            "figures": None}
     if curves is not None:
