@@ -319,17 +319,29 @@ def final_asymptotes(result, chain, max_itr: int, model: TaskModel | None = None
     settings = result.config.get("learner_settings", {})
     plain = (as_exploration(settings.get("exploration")).name == EpsilonGreedy.name
              and not _assist_options(settings))
+    probabilities = None if plain else final_probabilities(result, model, masks)
+    return _statistics(result, chain, max_itr, float(result.config["epsilon"]), probabilities)
+
+
+def _statistics(result, chain, max_itr: int, epsilon: float, probabilities=None):
+    """Asymptotes of ``result``'s runs over ``chain``, exact or simulated (a
+    [StepTable][tableclean_suite.simulation.StepTable]): of ``probabilities`` ``(R, S, A)``, or
+    with None of epsilon-greedy behaviour on the final Q-tables."""
+    q = _final_q(result)
     if isinstance(chain, simulation.StepTable):
-        q = np.asarray(result.q, dtype=np.float64)
-        q = q[None] if q.ndim == 2 else q
-        if plain:
-            return simulation.simulated_greedy_statistics(q, float(result.config["epsilon"]), chain, max_itr,
-                                                          _keys(result, len(q)))
-        return simulation.simulated_statistics(final_probabilities(result, model, masks), chain, max_itr,
-                                               _keys(result, len(q)))
-    if plain:
-        return asymptotes.greedy_asymptotes(result.q, float(result.config["epsilon"]), chain, max_itr)
-    return asymptotes.policy_statistics(final_probabilities(result, model, masks), chain, max_itr)
+        keys = _keys(result, len(q))
+        if probabilities is None:
+            return simulation.simulated_greedy_statistics(q, epsilon, chain, max_itr, keys)
+        return simulation.simulated_statistics(probabilities, chain, max_itr, keys)
+    if probabilities is None:
+        return asymptotes.greedy_asymptotes(q, epsilon, chain, max_itr)
+    return asymptotes.policy_statistics(probabilities, chain, max_itr)
+
+
+def _final_q(result) -> np.ndarray:
+    """``result``'s final Q-tables as float64 ``(R, S, A)``."""
+    q = np.asarray(result.q, dtype=np.float64)
+    return q[None] if q.ndim == 2 else q
 
 
 def _keys(result, runs: int) -> np.ndarray:
@@ -352,18 +364,10 @@ def _greedy_statistics(result, chain, max_itr: int, model: TaskModel | None = No
                        masks: np.ndarray | None = None) -> asymptotes.Asymptotes:
     """The asymptotes behind [final_greedy_success][tableclean_suite.analysis.final_greedy_success]
     (with their Monte Carlo errors over a [StepTable][tableclean_suite.simulation.StepTable])."""
-    q = np.asarray(result.q, dtype=np.float64)
-    q = q[None] if q.ndim == 2 else q
     model = model if model is not None else TaskModel()
     masks = affordance_masks(result, model) if masks is None else masks
-    if isinstance(chain, simulation.StepTable):
-        if masks is None:
-            return simulation.simulated_greedy_statistics(q, 0.0, chain, max_itr, _keys(result, len(q)))
-        return simulation.simulated_statistics(afforded_probabilities(q, masks, 0.0), chain, max_itr,
-                                               _keys(result, len(q)))
-    if masks is None:
-        return asymptotes.greedy_asymptotes(q, 0.0, chain, max_itr)
-    return asymptotes.policy_statistics(afforded_probabilities(q, masks, 0.0), chain, max_itr)
+    probabilities = None if masks is None else afforded_probabilities(_final_q(result), masks, 0.0)
+    return _statistics(result, chain, max_itr, 0.0, probabilities)
 
 
 def never_terminal(result) -> np.ndarray:
