@@ -35,6 +35,8 @@ class SkillResult:
         env_time: seconds of that spent inside ``env.step`` (or the env's fast stepper, see ``execute``).
         final_phase: name of the skill's last phase ("" when no skill ran).
         phase_steps: control steps spent per phase name (empty when no skill ran).
+        retries: times the skill re-measured the scene and started a failed grasp, place or wipe again
+            (0 when it succeeded the first time or no skill ran; at most its config's ``retries``).
     """
 
     action: str
@@ -50,6 +52,7 @@ class SkillResult:
     env_time: float = 0.0
     final_phase: str = ""
     phase_steps: dict = field(default_factory=dict)
+    retries: int = 0
 
 
 @dataclass(frozen=True, eq=False)

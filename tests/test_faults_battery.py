@@ -117,7 +117,7 @@ def _trials(tmp_path, change=None, record=True):
                          "state": state.index, "action": action.name.lower(), "expected_state": expected.index,
                          "expected_outcome": outcome.name.lower(), "observed_state": expected.index,
                          "observed_outcome": outcome.name.lower(), "agree": 1, "success": 1, "improper": 0,
-                         "steps": 1, "wall_time": 0.1, "env_time": 0.1, "reason": "ok"})
+                         "steps": 1, "retries": 0, "wall_time": 0.1, "env_time": 0.1, "reason": "ok"})
     rows[0].update(change or {})
     path = tmp_path / "trials.csv"
     trial_store.write_rows(path, rows)

@@ -20,7 +20,7 @@ def trial(state, action, round_index=0, **changes):
         "state": state, "action": action.name.lower(), "expected_state": expected.index,
         "expected_outcome": outcome.name.lower(), "observed_state": expected.index,
         "observed_outcome": outcome.name.lower(), "agree": 1, "success": 1, "improper": 0, "steps": 20,
-        "wall_time": 0.5, "env_time": 0.4, "reason": "ok",
+        "retries": 0, "wall_time": 0.5, "env_time": 0.4, "reason": "ok",
     }
     row.update(changes)
     return row

@@ -22,7 +22,7 @@ def row(state, action, observed=None, outcome=None, success=1, steps=20, round_i
         "expected_outcome": expected_outcome.name.lower(), "observed_state": observed, "observed_outcome": outcome,
         "agree": int(observed == expected.index and outcome == expected_outcome.name.lower()),
         "success": success, "improper": int(expected_outcome == Outcome.IMPROPER), "steps": steps,
-        "wall_time": 0.5, "env_time": 0.4, "reason": "ok",
+        "retries": 0, "wall_time": 0.5, "env_time": 0.4, "reason": "ok",
     }
 
 
@@ -185,7 +185,7 @@ def test_tables_use_the_specs_action_names_and_state_names():
         "round": 0, "seed": 0, "layout": "1.1-1", "reached_by": "plan", "state": start.index, "action": "pick",
         "expected_state": model.step(start, "pick")[0].index, "expected_outcome": "routine",
         "observed_state": model.step(start, "pick")[0].index, "observed_outcome": "routine", "agree": 1,
-        "success": 1, "improper": 0, "steps": 20, "wall_time": 0.1, "env_time": 0.1, "reason": "ok"}]
+        "success": 1, "improper": 0, "steps": 20, "retries": 0, "wall_time": 0.1, "env_time": 0.1, "reason": "ok"}]
     (pair,) = fidelity.pair_table(rows, model)
     assert pair["state_name"] == start.name and "o1" in pair["state_name"]
     skills = {s["skill"]: s for s in skill_table(rows, model)}

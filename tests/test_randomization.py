@@ -103,7 +103,7 @@ def test_samples_lie_in_the_ranges_and_a_seed_reproduces_them():
 # the grasp's slip check (a hand-written body and skill, no physics)
 # --------------------------------------------------------------------------------------------
 class _Skill:
-    config = {"grasp_retries": 1, "nominal_yaw": 0.0, "grasp_slip_tolerance": GRASP_SLIP_TOLERANCE}
+    config = {"nominal_yaw": 0.0, "grasp_slip_tolerance": GRASP_SLIP_TOLERANCE}
     yaw = 0.0
 
 
@@ -113,26 +113,29 @@ def _held(z_of):
                 yaw_rule="any")
 
 
-def test_grasp_confirms_by_slip_and_regrasps_once():
+def test_grasp_confirms_by_slip_and_a_slip_or_a_drop_is_a_retryable_failure():
     eef0, body0, lift = 0.85, 0.82, 0.08
     closed = {"eef_pos": np.array([0, 0, eef0]), "eef_quat": np.array([0.0, 0.0, 0.0, 1.0]), "grasped": True,
               "body_z": body0}
-    for trail, expect in [(0.0, None), (GRASP_SLIP_TOLERANCE / 2, None), (0.05, "HOVER")]:
+    for trail in (0.0, GRASP_SLIP_TOLERANCE / 2, 0.05):
         grasp = Grasp(_held(lambda info: info["body_z"]), "test grasp")
         grasp.start(_Skill(), closed)
         assert grasp.next(_Skill(), closed, "CLOSE") == "LIFT"
         lifted = {**closed, "eef_pos": np.array([0, 0, eef0 + lift]), "body_z": body0 + lift - trail}
         assert grasp.slipped(_Skill(), lifted) == pytest.approx(trail)
-        assert grasp.next(_Skill(), lifted, "LIFT") == expect  # None: the grasp ends confirmed
-        if expect == "HOVER":  # the one retry is spent: the next slip fails the skill
-            assert grasp.next(_Skill(), closed, "CLOSE") == "LIFT"
-            with pytest.raises(SkillFailure, match="slipped 50 mm"):
-                grasp.next(_Skill(), lifted, "LIFT")
+        if trail <= GRASP_SLIP_TOLERANCE:
+            assert grasp.next(_Skill(), lifted, "LIFT") is None  # the grasp ends confirmed
+            continue
+        with pytest.raises(SkillFailure, match="slipped 50 mm") as failure:  # the skill's retries re-grasp
+            grasp.next(_Skill(), lifted, "LIFT")
+        assert failure.value.redo == 0
     grasp = Grasp(_held(lambda info: info["body_z"]), "test grasp")
     grasp.start(_Skill(), closed)
     grasp.next(_Skill(), closed, "CLOSE")
     dropped = {**closed, "eef_pos": np.array([0, 0, eef0 + lift]), "grasped": False}
-    assert grasp.next(_Skill(), dropped, "LIFT") == "HOVER"  # lost contact: re-grasp
+    with pytest.raises(SkillFailure, match="lost while lifting") as failure:  # lost contact: re-grasp
+        grasp.next(_Skill(), dropped, "LIFT")
+    assert failure.value.redo == 0
 
 
 # --------------------------------------------------------------------------------------------

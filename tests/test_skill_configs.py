@@ -80,7 +80,8 @@ def test_skill_defaults_are_the_config_types_defaults():
     (SkillConfig, "max_steps", True, r"max_steps must be an int >= 1 \(control steps\), got True"),
     (SkillConfig, "yaw_tolerance", 4.0, r"yaw_tolerance must be a number in \(0, 3\.14159\] \(rad\), got 4\.0"),
     (SkillConfig, "hover_height", "0.1", r"hover_height must be a number >= 0 \(m\), got '0\.1'"),
-    (GraspConfig, "grasp_retries", -1, r"grasp_retries must be an int >= 0"),
+    (GraspConfig, "retries", -1, r"retries must be an int >= 0 \(retries\), got -1 \(GraspConfig\)"),
+    (SkillConfig, "retries", 1.5, r"retries must be an int >= 0"),
     (WipeConfig, "wipe_overlap", 1.5, r"wipe_overlap must be a number in \[0, 1\]"),
     (CleanConfig, "press_force", -8.0, r"press_force must be a number > 0 \(N\), got -8\.0 \(CleanConfig\)"),
 ])

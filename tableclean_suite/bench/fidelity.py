@@ -24,7 +24,7 @@ builds its own scene and the rows are stored in round order.  Results go to ``DI
 ``fidelity_trials.csv`` (one row per execution; rewritten atomically after every finished
 round, so an interrupted run resumes where it stopped and never keeps a partial round:
 `trial_store`; ``--fresh`` starts over), ``fidelity_pairs.csv`` (agreement per pair) and
-``fidelity_skills.csv`` (success, steps and seconds per skill, over executions the controller
+``fidelity_skills.csv`` (success, retries, steps and seconds per skill, over executions the controller
 did not refuse).  `collect` is the execution code ``tableclean-bench calibrate`` reuses.
 
 The summary prints the overall agreement and each skill's success as counts, rates and their
@@ -99,6 +99,7 @@ def _trial_row(round_index, seed, layout, reached_by, state: TaskState, action: 
         "success": int(bool(result.success)),
         "improper": int(bool(result.improper)),
         "steps": int(result.steps),
+        "retries": int(result.retries),
         "wall_time": round(float(result.wall_time), 4),
         "env_time": round(float(result.env_time), 4),
         "reason": str(result.reason).replace("\n", " "),
@@ -441,7 +442,8 @@ def pair_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[dic
 
 
 def skill_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[dict]:
-    """Per skill: executions the controller ran (not refused), success rate, mean steps and seconds."""
+    """Per skill: executions the controller ran (not refused), success rate, retries (in all, and executions that
+    succeeded after one), mean steps and seconds."""
     model = model or TaskModel()
     rows = list(rows)
     table = []
@@ -456,6 +458,8 @@ def skill_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[di
             "success_rate": round(sum(r["success"] for r in ran) / n, 4) if n else float("nan"),
             "agreement_rate": round(sum(r["agree"] for r in ran) / n, 4) if n else float("nan"),
             "faults": sum(r["observed_outcome"] == FAULT for r in ran),
+            "retries": sum(r["retries"] for r in ran),
+            "saved_by_retry": sum(bool(r["success"] and r["retries"]) for r in ran),
             "mean_steps": round(float(np.mean([r["steps"] for r in ran])), 1) if n else float("nan"),
             "mean_seconds": round(float(np.mean([r["wall_time"] for r in ran])), 3) if n else float("nan"),
             "refused": len(mine) - n,
@@ -617,7 +621,8 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         print("\nper (state, action):")
         print(format_table(pairs, ("state", "action", "expected", "trials", "agreement_rate", "faults", "disagreements_seen")))
     print("\nper skill (executions the controller ran; refused = improper/ineffective, no motion):")
-    print(format_table(skills, ("skill", "executions", "success_rate", "agreement_rate", "faults", "mean_steps", "mean_seconds", "refused")))
+    print(format_table(skills, ("skill", "executions", "success_rate", "agreement_rate", "faults", "retries", "saved_by_retry",
+                                "mean_steps", "mean_seconds", "refused")))
     print()
     print("\n".join(summary_lines(result, f"{model.spec.name} on {robot}")))
     print(f"CSVs in {out}/ ({time.perf_counter() - started:.0f} s)")

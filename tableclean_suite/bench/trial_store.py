@@ -24,9 +24,11 @@ from tableclean_suite.bench.outputs import atomic_write
 #: Columns of the trials CSV, in order.
 TRIAL_FIELDS = (
     "round", "seed", "layout", "reached_by", "state", "action", "expected_state", "expected_outcome",
-    "observed_state", "observed_outcome", "agree", "success", "improper", "steps", "wall_time", "env_time", "reason",
+    "observed_state", "observed_outcome", "agree", "success", "improper", "steps", "retries", "wall_time", "env_time",
+    "reason",
 )
-INTEGER_FIELDS = ("round", "seed", "state", "expected_state", "observed_state", "agree", "success", "improper", "steps")
+INTEGER_FIELDS = ("round", "seed", "state", "expected_state", "observed_state", "agree", "success", "improper", "steps",
+                  "retries")
 FLOAT_FIELDS = ("wall_time", "env_time")
 
 

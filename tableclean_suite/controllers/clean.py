@@ -29,6 +29,7 @@ from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.primitives import SPONGE, Grasp, Primitive, PrimitiveSkill, Reach, Release, line_yaw
 from tableclean_suite.controllers.skill import SkillFailure, Waypoint
 from tableclean_suite.controllers.wipe_pattern import boustrophedon, clear_area
+from tableclean_suite.environments.abstraction import AbstractionError
 from tableclean_suite.task import Action
 
 #: m kept between the wiping hand and every object standing near the segment, horizontally (the wipe
@@ -151,7 +152,9 @@ class Wipe(Primitive):
     not on a depth: the commanded depth of the sponge's bottom below the table top is integrated
     from the force error (``press_force`` target, ``press_force_gain``) while the sponge is on the
     table, and a stroke starts once ``touch_force`` is measured.  A different sponge size, mass,
-    friction, arm damping or gains thus end at the same pressing force.  The skill's config
+    friction, arm damping or gains thus end at the same pressing force.  Retries (the skill's ``retries``): a sponge
+    lost while wiping is grasped again where it lies and the wipe starts anew; a segment still dirty once
+    the sponge is lifted is wiped again.  The skill's config
     supplies the wiping constants ([`WipeConfig`][tableclean_suite.controllers.configs.WipeConfig], units and ranges in its fields).
     """
 
@@ -454,7 +457,7 @@ class Wipe(Primitive):
             return "WIPE"
         if phase == "WIPE":
             if not info["sponge_grasped"]:
-                raise SkillFailure("sponge lost while wiping")
+                raise SkillFailure("sponge lost while wiping", redo=1)  # grasped again where it lies
             self.lift_point, self.lifted = self.strokes[self.stroke_index], False
             if self.stroke_index + 1 < len(self.strokes):
                 self.stroke_index += 1  # the next stroke's start
@@ -470,7 +473,17 @@ class Wipe(Primitive):
             return "WIPE_LIFT"
         if phase == "SHIFT":
             return "PRESS"
+        if phase == "WIPE_LIFT" and self._still_dirty(skill):  # wipe again, the sponge in hand
+            raise SkillFailure(f"segment {self.segment + 1} still dirty after {self.passes} pass(es)", redo=0)
         return super().next(skill, info, phase)
+
+    def _still_dirty(self, skill) -> bool:
+        """Whether the abstraction reads the segment dirty (False when it reads no state: no retry then).  Asked
+        once the sponge is lifted, when it wipes no more: dirty then, the clean would end a failure."""
+        try:
+            return not skill.env.symbolic_state(check_sponge=False).is_clean(self.segment)
+        except AbstractionError:
+            return False
 
     def ready(self, skill, info: Mapping[str, Any], phase: str) -> bool:
         if phase == "PRESS":  # a stroke starts once a contact force is measured (or on timeout)

@@ -11,7 +11,7 @@ skill's own defaults on top:
     ├── WipeConfig              the Wipe primitive (clean)
     ├── MoveConfig              MoveSkill
     ├── PickConfig(Grasp)       PickSkill
-    ├── PlaceConfig(Release)    PlaceSkill
+    ├── PlaceConfig(Grasp, Release)          PlaceSkill (a retry grasps again)
     ├── ComposedConfig(Grasp, Release)       skills made by compose_skill
     └── CleanConfig(Wipe, Grasp, Release)    CleanSkill (and composed skills that wipe)
 
@@ -109,6 +109,10 @@ class SkillConfig:
     """m (>= 0), lowest point of the gripper's finger collision meshes below its grip site (the Panda's)."""
     carry_clearance: float = setting(0.01, "m", 0.0)
     """m (>= 0) a carried body's bottom stays above the tallest lying object's top."""
+    retries: int = setting(2, "retries", 0, integer=True)
+    """Retries (int >= 0) per execution: a grasp, place or wipe that missed its phase goal re-measures the
+    scene and starts that part again ([`Skill.restart`][tableclean_suite.controllers.skill.Skill.restart]) at most this
+    often in all before the skill fails; 0: open loop."""
     carry_lift: float = setting(0.03, "m", 0.0)
     """m (>= 0) a carried body's bottom stays above the table top: clears the 2 cm sponge stand and lifts
     an object beyond the abstraction's 1.5 cm lift tolerance."""
@@ -149,8 +153,6 @@ class GraspConfig(SkillConfig):
     """Control steps (int >= 0) to keep closing before checking the fingers settled."""
     descend_speed: float = setting(0.25, "m/s", 0.0, low_open=True)
     """m/s (> 0), speed of the slower final approach."""
-    grasp_retries: int = setting(1, "re-approaches", 0, integer=True)
-    """Re-approaches (int >= 0) after a grasp that was not confirmed."""
     hover_still_speed: float | None = setting(None, "m/s", 0.0, low_open=True, optional=True)
     """m/s (None or > 0): the hand's horizontal speed at the hover point at most which the descent may start
     (an arm whose hand swings on past the hover point while descending); None: descend on arrival."""
@@ -249,8 +251,9 @@ class PickConfig(GraspConfig):
 
 
 @dataclass(frozen=True)
-class PlaceConfig(ReleaseConfig):
-    """Settings of [`PlaceSkill`][tableclean_suite.controllers.place.PlaceSkill] (the Release primitive's)."""
+class PlaceConfig(GraspConfig, ReleaseConfig):
+    """Settings of [`PlaceSkill`][tableclean_suite.controllers.place.PlaceSkill]: the Release primitive's, and the
+    Grasp's for a retry that grasps a misplaced object again."""
 
     max_steps: int = setting(250, "control steps", 1, integer=True)
     """Control steps (int >= 1) before the place gives up."""

@@ -8,8 +8,9 @@ from typing import Any, Mapping
 import numpy as np
 
 from tableclean_suite.controllers.configs import PlaceConfig
-from tableclean_suite.controllers.primitives import PrimitiveSkill, Release, gripper_of, object_body, wrist_reach
+from tableclean_suite.controllers.primitives import Grasp, PrimitiveSkill, Release, gripper_of, object_body, wrist_reach
 from tableclean_suite.controllers.skill import SkillFailure, object_heights
+from tableclean_suite.environments.abstraction import AbstractionError
 from tableclean_suite.environments.gripper_geometry import GripperGeometry
 from tableclean_suite.environments.placement import footprint_of, free_spot, grown, other_segments
 from tableclean_suite.task import Action
@@ -59,12 +60,20 @@ class PlacePhase(enum.Enum):
     DESCEND = enum.auto()  # lower the object to just above the table
     RELEASE = enum.auto()  # open until the fingers settle
     RETREAT = enum.auto()  # up to the hover height
+    REGRASP_HOVER = enum.auto()  # a retry: the object did not end on the segment, grasped again where it lies
+    REGRASP_DESCEND = enum.auto()
+    REGRASP_CLOSE = enum.auto()
+    REGRASP_LIFT = enum.auto()
     DONE = enum.auto()
 
 
 class PlaceSkill(PrimitiveSkill):
     """Put the held object down on the arm's segment: at its centre, or the first free spot clear of
-    the objects lying there ([`place_spot`][tableclean_suite.controllers.place.place_spot])."""
+    the objects lying there ([`place_spot`][tableclean_suite.controllers.place.place_spot]).
+
+    Its goal is checked where the controller will check it, after RETREAT: the abstraction reads the object
+    lying on the arm's segment.  If not (it fell between segments, say), a retry grasps it again where it
+    lies and puts it down on a spot measured anew."""
 
     action = Action.PLACE
     Phase = PlacePhase
@@ -75,8 +84,24 @@ class PlaceSkill(PrimitiveSkill):
         held = self.state.held_object
         if held is None:
             raise SkillFailure("nothing is held")
-        segment = self.state.arm
-        self.place_xy = place_spot(info, segment, held, self.state.objects_on(segment), self.config["place_clearance"],
-                                   gripper_of(self.env))
+        segment, lying, gripper = self.state.arm, self.state.objects_on(self.state.arm), gripper_of(self.env)
         rest_z = float(info["objects_rest_z"][held])
-        return [("", Release(object_body(held), lambda skill, info: self.place_xy, lambda skill, info: rest_z))]
+        self.release = Release(object_body(held), lambda skill, info: place_spot(
+            info, segment, held, lying, self.config["place_clearance"], gripper), lambda skill, info: rest_z)
+        return [("", self.release)]
+
+    def next_phase(self, info: Mapping[str, Any]):
+        if self.phase is PlacePhase.RETREAT:
+            try:
+                lies = self.env.symbolic_state().objects[self.state.held_object] == self.state.arm
+            except AbstractionError:
+                lies = False
+            if not lies:
+                raise SkillFailure(f"the object does not lie on segment {self.state.arm + 1}", redo=0)
+        return super().next_phase(info)
+
+    def restart(self, info: Mapping[str, Any], redo: int) -> bool:
+        """Grasp the object again where it lies, then put it down anew (a failure of either does this again)."""
+        self.plan = [("REGRASP_", Grasp(object_body(self.state.held_object, info), "grasp")), ("", self.release)]
+        self._enter(0, info, again=True)
+        return True

@@ -169,7 +169,15 @@ class SkillEnv(Protocol):
 
 
 class SkillFailure(RuntimeError):
-    """Raised inside a skill when it cannot continue (e.g. the grasp was not confirmed)."""
+    """Raised inside a skill when it cannot continue (e.g. the grasp was not confirmed).
+
+    ``redo``: None, the skill fails; else the part that failed may start again from the scene as it is now
+    measured ([`Skill.restart`][tableclean_suite.controllers.skill.Skill.restart]), within the config's ``retries``:
+    0 the primitive that failed, 1 the one before it (a wipe that lost the sponge grasps it again), ..."""
+
+    def __init__(self, message: str, redo: int | None = None):
+        super().__init__(message)
+        self.redo = redo
 
 
 @dataclass(frozen=True)
@@ -232,6 +240,7 @@ class Skill(abc.ABC):
         self.dt = 1.0 / float(env.control_freq)
         self.phase: enum.Enum = next(iter(self.Phase))
         self.steps = 0
+        self.retries = 0  # restarts after retryable failures in this execution (at most config["retries"])
         self.failure: str | None = None
         self.state: TaskState | None = None
         self.yaw = 0.0  # rad, target gripper yaw; the commanded yaw turns towards it at yaw_rate
@@ -264,6 +273,11 @@ class Skill(abc.ABC):
     def phase_ready(self, info: Mapping[str, Any]) -> bool:
         """Hook: an extra condition for leaving ``self.phase`` (e.g. "the object is released"); default True."""
         return True
+
+    def restart(self, info: Mapping[str, Any], redo: int) -> bool:
+        """Hook: after a [`SkillFailure`][tableclean_suite.controllers.skill.SkillFailure] with ``redo``, start the failed
+        part again from the scene ``info`` as measured now (set ``self.phase``); False: it cannot (default)."""
+        return False
 
     # -- checks through the abstraction ---------------------------------------------------
     @classmethod
@@ -302,7 +316,7 @@ class Skill(abc.ABC):
         info = self.env.skill_info()
         self.state = state
         self.phase = next(iter(self.Phase))
-        self.steps = 0
+        self.steps = self.retries = 0
         self.failure = None
         self._phase_steps = 0
         self.phase_steps = {}
@@ -334,13 +348,21 @@ class Skill(abc.ABC):
         if self._finger_history.maxlen:
             self._finger_history.append(fingers)
         try:
-            self.update(info)
-            target = self.waypoint(info)
-            if self._phase_complete(target, info, finger_motion) and self._yaw_reached(info):
-                self.phase = self.next_phase(info)
+            try:
+                self.update(info)
+                target = self.waypoint(info)
+                if self._phase_complete(target, info, finger_motion) and self._yaw_reached(info):
+                    self.phase = self.next_phase(info)
+                    self._phase_steps = 0
+                    if self.failure is not None or self.phase == final:  # self.done
+                        return None
+                    target = self.waypoint(info)
+            except SkillFailure as failure:  # a retry re-measures the scene and starts the failed part again
+                redo = failure.redo
+                if redo is None or self.retries >= self.config["retries"] or not self.restart(info, redo):
+                    raise
+                self.retries += 1
                 self._phase_steps = 0
-                if self.failure is not None or self.phase == final:  # self.done
-                    return None
                 target = self.waypoint(info)
         except SkillFailure as failure:
             self.failure = f"{self.phase.name}: {failure}"

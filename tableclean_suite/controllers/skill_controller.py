@@ -162,6 +162,7 @@ class SkillController:
         return self._result(
             action, start, success, skill.steps, reason, before, after,
             env_time=env_time, final_phase=skill.phase.name, phase_steps=dict(skill.phase_steps),
+            retries=skill.retries,
         )
 
     def execute_plan(self, actions: Iterable, stop_on_failure: bool = True) -> list[SkillResult]:
