@@ -1,6 +1,6 @@
 """Task specs as PDDL: a domain and problems for any spec, and a problem read back as a spec.
 
-Two forms of the same rules ([`FORMS`][tableclean_suite.task.pddl.FORMS]):
+Two forms of the same rules (``FORMS``):
 
 - ``"adl"`` reads like the rules: one domain, ``tableclean``, for any number of segments and
   objects; CLEAN asks, with ``forall``, that nothing is held and nothing lies on the segment.
