@@ -13,11 +13,11 @@ from tableclean_suite.task.pddl import FORMS, PDDLError, domain_pddl, problem_pd
 
 BUILTIN = [spec.name for spec in BUILTIN_SPECS]
 EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "pddl" / "box_and_cylinder.pddl"
-MOVE_BACK_PDDL = """(:action move_back :parameters (?from ?to - segment)
+MOVE_BACK_PDDL = """(:action pddl_test_move_back :parameters (?from ?to - segment)
     :precondition (and (arm-at ?from) (next ?to ?from))
     :effect (and (not (arm-at ?from)) (arm-at ?to)))"""
 #: A wrong schema: going back also wipes (the model's action only moves the arm).
-WIPE_BACK_PDDL = """(:action wipe_back :parameters (?from ?to - segment)
+WIPE_BACK_PDDL = """(:action pddl_test_wipe_back :parameters (?from ?to - segment)
     :precondition (and (arm-at ?from) (next ?to ?from)) :effect (and (not (arm-at ?from)) (arm-at ?to) (wiped ?to)))"""
 
 
@@ -107,13 +107,13 @@ def test_pyperplan_plans_equal_the_models_on_a_sample_of_a_larger_spec():
 
 
 def test_a_user_actions_pddl_is_checked_and_a_wrong_one_fails_naming_the_state():
-    register_action(ActionRule("move_back", _move_back, pddl=MOVE_BACK_PDDL), overwrite=True)
-    spec = TaskSpec("back", segments=3, actions=("move", "move_back", "pick", "place", "clean"))
+    register_action(ActionRule("pddl_test_move_back", _move_back, pddl=MOVE_BACK_PDDL), overwrite=True)
+    spec = TaskSpec("back", segments=3, actions=("move", "pddl_test_move_back", "pick", "place", "clean"))
     failed, frame = _check(spec, sample=12, seed=1)
     assert not failed and len(frame) == 12
     assert frame["optimum"].min() < TaskModel(spec="three_segments").distances_to_terminal().max()
-    register_action(ActionRule("wipe_back", _move_back, pddl=WIPE_BACK_PDDL), overwrite=True)
-    jump = spec.replace(name="jump", actions=("move", "wipe_back", "pick", "place", "clean"))
+    register_action(ActionRule("pddl_test_wipe_back", _move_back, pddl=WIPE_BACK_PDDL), overwrite=True)
+    jump = spec.replace(name="jump", actions=("move", "pddl_test_wipe_back", "pick", "place", "clean"))
     failed, _ = _check(jump, sample=12, seed=1)
     assert failed and all(line.startswith("jump, pyperplan, state ") for line in failed)
 
@@ -186,11 +186,16 @@ def test_the_command_writes_its_table_and_fails_naming_a_wrong_state(tmp_path, c
     assert main(["pddl", "--task", "paper", "--planners", "pyperplan", "--out", str(tmp_path)]) == 0
     assert "| paper | 18 | pyperplan | 18 | 18 | 18 |" in capsys.readouterr().out
     assert (tmp_path / "pddl_check.csv").exists() and (tmp_path / "paper" / "domain-adl.pddl").exists()
-    register_action(ActionRule("wipe_back", _move_back, pddl=WIPE_BACK_PDDL), overwrite=True)
+    register_action(ActionRule("pddl_test_wipe_back", _move_back, pddl=WIPE_BACK_PDDL), overwrite=True)
     spec = tmp_path / "jump.json"
-    TaskSpec("jump", segments=3, actions=("move", "wipe_back", "pick", "place", "clean")).to_json(spec)
+    TaskSpec("jump", segments=3, actions=("move", "pddl_test_wipe_back", "pick", "place", "clean")).to_json(spec)
     assert main(["pddl", "--task", str(spec), "--planners", "pyperplan", "--states", "5"]) == 1
     assert "FAIL jump, pyperplan, state " in capsys.readouterr().err
+    register_action(ActionRule("pddl_test_no_schema", _move_back), overwrite=True)
+    TaskSpec("bare", segments=3, actions=("move", "pddl_test_no_schema")).to_json(spec)
+    assert main(["pddl", "--task", str(spec), "--planners", "pyperplan"]) == 2
+    error = capsys.readouterr().err
+    assert "action 'pddl_test_no_schema' has no PDDL" in error and len(error.strip().splitlines()) == 1
 
 
 # ---------------------------------------------------------------------------------------------
