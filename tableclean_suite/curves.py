@@ -13,8 +13,7 @@ The definitions (which the scalar metrics of [`tableclean_suite.metrics`][tablec
 
 Inputs are [`TrainingResult`][tableclean_suite.learners.train.TrainingResult] records (R runs x T iterations).
 [`CurveSums`][tableclean_suite.curves.CurveSums] accumulates the per-iteration sums (and sums of squares, for the curves'
-intervals) chunk by chunk of runs in one compiled pass (memory ``6 x T`` whatever R).  The
-``*_matrix`` functions are the ``(R, T)`` per-run versions, for tests and tables.
+intervals) chunk by chunk of runs in one compiled pass (memory ``6 x T`` whatever R).
 """
 
 from __future__ import annotations
@@ -34,7 +33,6 @@ def check_fraction(name: str, value: float, low_open: bool = True) -> None:
     """``ValueError`` naming ``name`` unless ``value`` is in (0, 1] (``low_open``) or [0, 1]."""
     if not (0.0 < value <= 1.0) if low_open else not (0.0 <= value <= 1.0):
         raise ValueError(f"{name} must be in {'(0, 1]' if low_open else '[0, 1]'}, got {value!r}")
-
 
 
 def _episode_arrays(result):
@@ -80,37 +78,6 @@ def episode_table(result):
             "success": terminal & (improper == 0),
         }
     )
-
-
-def _forward_fill(result, values_at_ends, before_first):
-    """Spread per-episode values over iterations: value of the latest episode ended at or before t."""
-    runs, iterations = result.episode_end.shape
-    ends = result.episode_end != 0
-    run_index, last = np.nonzero(ends)
-    grid = np.full((runs, iterations), np.nan)
-    grid[run_index, last] = values_at_ends
-    latest = np.where(ends, np.arange(iterations)[None, :], -1)
-    latest = np.maximum.accumulate(latest, axis=1)
-    filled = np.take_along_axis(grid, np.maximum(latest, 0), axis=1)
-    return np.where(latest >= 0, filled, before_first)
-
-
-def success_matrix(result) -> np.ndarray:
-    """``(R, T)`` float: 1.0 if the run's latest finished episode succeeded, else 0.0."""
-    _, _, _, _, _, improper, terminal = _episode_arrays(result)
-    return _forward_fill(result, (terminal & (improper == 0)).astype(float), 0.0)
-
-
-def terminal_matrix(result) -> np.ndarray:
-    """``(R, T)`` float: 1.0 if the latest finished episode reached the terminal state (improper or not)."""
-    _, _, _, _, _, _, terminal = _episode_arrays(result)
-    return _forward_fill(result, terminal.astype(float), 0.0)
-
-
-def average_reward_matrix(result) -> np.ndarray:
-    """``(R, T)``: return / length of the latest finished episode (NaN before the first)."""
-    _, _, _, episode_return, length, _, _ = _episode_arrays(result)
-    return _forward_fill(result, episode_return / length, np.nan)
 
 
 @dataclass
@@ -242,8 +209,7 @@ def _curve_sums(rewards, outcomes, episode_end, success, terminal, average_sum, 
 def learning_curves(result) -> dict[str, np.ndarray]:
     """The per-iteration curves ``success``, ``terminal``, ``average_reward``, ``episodes``, each ``(T,)``.
 
-    Same definitions as the ``*_matrix`` functions averaged over runs, computed in
-    one compiled pass without ``(R, T)`` temporaries (the harness's hot path).
+    Computed in one compiled pass without ``(R, T)`` temporaries (the harness's hot path).
     """
     return curve_sums(result).curves()
 

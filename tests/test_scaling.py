@@ -254,7 +254,7 @@ def test_the_studys_fit_takes_a_censored_cell_as_a_lower_bound_and_gives_no_expo
 
 
 def test_train_cell_keeps_every_seeds_learning_times_and_window_sums():
-    from tableclean_suite import curves
+    import curve_oracle
     from tableclean_suite.learners import train
 
     model = TaskModel(spec="paper")
@@ -264,7 +264,7 @@ def test_train_cell_keeps_every_seeds_learning_times_and_window_sums():
     for row, seed in enumerate((3, 4)):
         result = train(reward="r4", runs=5, iterations=info.window, max_itr=info.max_itr, seed=seed, task=model)
         np.testing.assert_array_equal(records.learned_at[row], result.learned_at)
-        success = curves.success_matrix(result)
+        success = curve_oracle.success_matrix(result)
         tail = study.plateau_start(info.window)
         np.testing.assert_allclose(records.tail_success[row], success[:, tail:].mean(axis=1))
         reached = (result.outcomes == int(Outcome.TERMINAL)).any(axis=1)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+import curve_oracle
 from tableclean_suite import curves, intervals
 from tableclean_suite.bench import statistics
 from tableclean_suite.learners import train
@@ -120,12 +121,12 @@ def test_cell_statistics_bands_per_run_means_and_learning_time(cell):
     learned = np.r_[np.arange(30) * 10, -np.ones(10, dtype=int)]
     cell_stats = statistics.cell_statistics(sums, per_run, statistics.bootstrap_rng(0, "x"), 0.5, samples=300,
                                             learned_at=learned, budget=500)
-    success = curves.success_matrix(result)
+    success = curve_oracle.success_matrix(result)
     low, high = cell_stats.bands["success"]
     half = stats.norm.ppf(0.975) * success.std(axis=0, ddof=1) / np.sqrt(40)
     np.testing.assert_allclose(low, success.mean(0) - half, atol=1e-12)
     np.testing.assert_allclose(high, success.mean(0) + half, atol=1e-12)
-    average = curves.average_reward_matrix(result)
+    average = curve_oracle.average_reward_matrix(result)
     unsupported = np.isnan(average).mean(axis=0) > 0.5
     assert np.isnan(cell_stats.bands["average_reward"][0][unsupported]).all()
     low, high = cell_stats.intervals["success_plateau"]
