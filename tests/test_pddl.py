@@ -158,7 +158,7 @@ def test_the_replay_refuses_a_plan_that_stops_short_or_acts_improperly():
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("argv, message", [
     (["--planners", "lpg"], "unknown planner 'lpg'; allowed: pyperplan, fast-downward"),
-    (["--states", "0"], "expected a positive integer, got '0'"),
+    (["--states", "0"], "expected 'all' or a positive integer, got '0'"),
     (["--task", "nope"], "unknown task spec 'nope'"),
 ])
 def test_bad_flags_exit_2_with_one_line(argv, message, capsys):

@@ -37,7 +37,12 @@ INSTALL = 'pip install -e ".[planning]"'
 
 def states_count(text: str) -> int | None:
     """``all`` (None) or a positive number of sampled states."""
-    return None if text.strip().lower() == "all" else cli.positive_int(text)
+    if text.strip().lower() == "all":
+        return None
+    try:
+        return cli.positive_int(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"expected 'all' or a positive integer, got {text!r}") from None
 
 
 def engines(planners) -> None:
@@ -146,7 +151,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         help=f"solve from every reachable non-terminal state, or a sample of N (default: all below "
                              f"{ALL_STATES_BELOW}, else {DEFAULT_SAMPLE})")
     cli.add_seed_argument(parser, "the sample of states")
-    cli.add_out_argument(parser, cli.DIRECTORY, None, "also write the table, every state's row and the PDDL here")
+    cli.add_out_argument(parser, cli.DIRECTORY, argparse.SUPPRESS,
+                         "also write the table, every state's row and the PDDL here (default: print only)")
     return parser
 
 
@@ -161,7 +167,8 @@ def main(argv=None, prog: str | None = None) -> int:
         engines(args.planners)
     except (ValueError, RuntimeError) as error:
         parser.error(str(error))
-    problem = outputs.check_writable(args.out) if args.out is not None else None
+    out = getattr(args, "out", None)
+    problem = outputs.check_writable(out) if out is not None else None
     if problem:
         parser.error(f"--out: {problem}")
     rows, frames, failed = [], [], []
@@ -176,8 +183,8 @@ def main(argv=None, prog: str | None = None) -> int:
             print(markdown(pd.DataFrame(rows[-1:])).splitlines()[-1], flush=True)
     table = pd.DataFrame(rows)
     print(markdown(table))
-    if args.out is not None:
-        out = Path(args.out)
+    if out is not None:
+        out = Path(out)
         outputs.atomic_write(out / "pddl_check.csv", lambda path: table.to_csv(path, index=False))
         outputs.atomic_write(out / "pddl_states.csv", lambda path: pd.concat(frames).to_csv(path, index=False))
         for spec in specs:
