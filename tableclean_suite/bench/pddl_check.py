@@ -180,7 +180,7 @@ def main(argv=None, prog: str | None = None) -> int:
             rows.append(summary(spec.name, planner, frame))
             frames.append(frame.assign(task=spec.name, planner=planner))
             failed += failures(spec.name, planner, frame)
-            print(markdown(pd.DataFrame(rows[-1:])).splitlines()[-1], flush=True)
+            print(markdown(pd.DataFrame(rows[-1:])).splitlines()[-1], file=sys.stderr, flush=True)  # progress
     table = pd.DataFrame(rows)
     print(markdown(table))
     if out is not None:
