@@ -90,7 +90,8 @@ def test_rollout_without_the_video_extra_stops_before_training(monkeypatch, caps
 
 @pytest.mark.parametrize("argv", [["scaling", "--rewards", "r1", "--rewards", "r2"],
                                   ["scaling", "--segments=2", "--segments", "3"],
-                                  ["run", "--rewards", "r1", "--rewards=r2"]])
+                                  ["run", "--rewards", "r1", "--rewards=r2"],
+                                  ["scaling", "--plugins", "a.py", "--plugins", "b.py"]])
 def test_a_list_flag_given_twice_is_refused_not_the_last_kept(argv, capsys):
     _one_line_exit_2(capsys, commands.main(argv), "given twice")
 

@@ -276,21 +276,6 @@ def executor_from_args(parser: argparse.ArgumentParser, args):
 # ---------------------------------------------------------------------------------------------
 # parsing
 # ---------------------------------------------------------------------------------------------
-def preload(argv, prog: str) -> tuple[str, ...]:
-    """Import the ``--plugins`` of ``argv`` before the full command line is parsed; exit 2 on failure."""
-    from tableclean_suite.bench.plugins import FLAG, PluginError, load_plugins, split_plugins
-
-    early = OneLineParser(prog=prog, add_help=False)
-    early.add_argument(FLAG, default=None)
-    known, _ = early.parse_known_args(argv)
-    entries = split_plugins(known.plugins)
-    try:
-        load_plugins(entries)
-    except PluginError as error:
-        early.error(f"{FLAG}: {error}")
-    return entries
-
-
 def parse_command(build_parser, argv, prog: str, known: bool = False):
     """Parse a command line: apply ``--verbose``, import the ``--plugins`` (exit 2 naming a plugin that
     fails), then build the parser with ``build_parser(prog)`` and parse ``argv`` with it.
@@ -298,14 +283,20 @@ def parse_command(build_parser, argv, prog: str, known: bool = False):
     Returns:
         ``(parser, args)``; with ``known``, ``(parser, args, rest)`` (arguments the parser does not know).
     """
+    from tableclean_suite.bench.plugins import FLAG, PluginError, load_plugins, plugin_entries
     from tableclean_suite.bench.startup import announce_compiles, apply_verbosity
 
     argv = list(sys.argv[1:] if argv is None else argv)
     early = OneLineParser(prog=prog, add_help=False)
     early.add_argument("--verbose", action="store_true")
-    apply_verbosity(early.parse_known_args(argv)[0].verbose)  # before a plugin imports robosuite
+    early.add_argument(FLAG, type=plugin_entries, default=())
+    first = early.parse_known_args(argv)[0]
+    apply_verbosity(first.verbose)  # before a plugin imports robosuite
     announce_compiles()
-    preload(argv, prog)
+    try:
+        load_plugins(first.plugins)
+    except PluginError as error:
+        early.error(f"{FLAG}: {error}")
     parser = build_parser(prog)
     if known:
         args, rest = parser.parse_known_args(argv)

@@ -86,6 +86,9 @@ def plugin_entries(text: str | None) -> tuple[str, ...]:
     return portable(split_plugins(text))
 
 
+plugin_entries.comma_list = True  # a list flag: given twice, the command line refuses it
+
+
 @dataclass(frozen=True)
 class PluginTask:
     """A task of another executor's ``map``, run after importing ``plugins`` in the process that runs it.

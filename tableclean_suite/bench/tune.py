@@ -420,7 +420,7 @@ def run(args) -> int:
     paper, best = report["paper"], report["best"]
     trials = trials_frame(study)
     writers = {"trials.csv": lambda path: trials.to_csv(path, index=False),
-               "best.json": lambda path: path.write_text(json.dumps(report, indent=2, default=_json_default))}
+               "best.json": lambda path: path.write_text(json.dumps(report, indent=2, default=lambda value: value.item()))}  # numpy scalars
     rows = []
     if args.ablation and not interrupted:
         if best is None:
@@ -529,14 +529,6 @@ def _trials_so_far(args) -> int:
         return len(optuna.load_study(study_name=args.study_name, storage=args.storage).trials)
     except KeyError:
         return 0
-
-
-def _json_default(value):
-    if isinstance(value, (np.integer,)):
-        return int(value)
-    if isinstance(value, (np.floating,)):
-        return float(value)
-    raise TypeError(f"not JSON-serialisable: {value!r}")
 
 
 def main(argv=None, prog: str | None = None) -> int:

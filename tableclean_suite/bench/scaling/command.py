@@ -8,7 +8,8 @@ from pathlib import Path
 from tableclean_suite.bench import cli
 from tableclean_suite.bench.cli import positive_float, positive_int
 from tableclean_suite.bench.scaling.family import (DEFAULT_BASE_WINDOW, DEFAULT_FIXED_PLAN_OBJECTS, DEFAULT_GAMMAS,
-                                                   DEFAULT_OBJECT_COUNTS, DEFAULT_SEGMENTS, DEFAULT_WINDOW_EXPONENT)
+                                                   DEFAULT_OBJECT_COUNTS, DEFAULT_SEGMENTS, DEFAULT_WINDOW_EXPONENT,
+                                                   counts_text)
 from tableclean_suite.bench.scaling.pipeline import FIT_LEARNER, run_study  # noqa: F401  (re-exported)
 from tableclean_suite.bench.scaling.statistics import DEFAULT_RESAMPLES
 
@@ -55,10 +56,6 @@ def object_list(text: str) -> tuple[int, ...]:
     return _count_list(text, MIN_OBJECTS, "object counts")
 
 
-def _counts_text(values) -> str:
-    return ",".join(str(v) for v in values)
-
-
 def gamma_list(text: str) -> tuple[float, ...]:
     """``"0.3,0.9"`` -> ``(0.3, 0.9)``: distinct discounts in (0, 1], in the order given."""
     try:
@@ -94,10 +91,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         f"{', '.join(reward_pattern_names())} (default: {','.join(DEFAULT_REWARDS)})")
     parser.add_argument("--segments", type=segment_list, default=DEFAULT_SEGMENTS,
                         help=f"comma-separated segment counts N >= {MIN_SEGMENTS}; the family is "
-                             f"segments x objects (default: {_counts_text(DEFAULT_SEGMENTS)})")
+                             f"segments x objects (default: {counts_text(DEFAULT_SEGMENTS)})")
     parser.add_argument("--objects", type=object_list, default=DEFAULT_OBJECT_COUNTS,
                         help=f"comma-separated object counts M >= {MIN_OBJECTS} "
-                             f"(default: {_counts_text(DEFAULT_OBJECT_COUNTS)})")
+                             f"(default: {counts_text(DEFAULT_OBJECT_COUNTS)})")
     parser.add_argument("--runs", type=positive_int, default=DEFAULT_RUNS,
                         help=f"runs per seed and cell (default: {DEFAULT_RUNS})")
     parser.add_argument("--seeds", type=cli.int_in(MIN_SEEDS, 10**6, "a seed count"), default=DEFAULT_SEEDS,
@@ -110,10 +107,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         help=f"seeds-then-runs bootstrap resamples (default: {DEFAULT_RESAMPLES})")
     parser.add_argument("--gammas", type=gamma_list, default=DEFAULT_GAMMAS,
                         help=f"comma-separated discounts in (0, 1], each an axis value of the study "
-                             f"(default: {_counts_text(DEFAULT_GAMMAS)})")
+                             f"(default: {counts_text(DEFAULT_GAMMAS)})")
     parser.add_argument("--fixed-plan-objects", type=fixed_plan_list, default=DEFAULT_FIXED_PLAN_OBJECTS,
                         help=f"object counts M >= {MIN_OBJECTS} of the fixed-plan family (3 segments, 8-step plan, "
-                             f"M - 1 objects parked), or 'none' (default: {_counts_text(DEFAULT_FIXED_PLAN_OBJECTS)})")
+                             f"M - 1 objects parked), or 'none' (default: {counts_text(DEFAULT_FIXED_PLAN_OBJECTS)})")
     cli.add_seed_argument(parser, "the first training seed and the bootstrap", default=DEFAULT_SEED)
     cli.add_out_argument(parser, cli.DIRECTORY, str(DEFAULT_OUT), "output folder")
     return parser

@@ -77,6 +77,11 @@ class SpecInfo:
     max_itr: int
 
 
+def counts_text(values) -> str:
+    """``(2, 3)`` -> ``"2,3"``: a list flag's values as they are typed."""
+    return ",".join(str(v) for v in values)
+
+
 def family_spec(segments: int, objects: int):
     """The family's spec with N ``segments`` and M ``objects`` boxes (the paper's for N=2, M=1)."""
     from tableclean_suite.task import TaskSpec, get_task_spec

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tableclean_suite.bench.scaling.family import (BASE_MAX_ITR, FIXED_PLAN_FAMILY, PRODUCT_FAMILY, describe_family,
-                                                   family_specs, fixed_plan_spec, paper_plan_steps)
+from tableclean_suite.bench.scaling.family import (BASE_MAX_ITR, FIXED_PLAN_FAMILY, PRODUCT_FAMILY, counts_text,
+                                                   describe_family, family_specs, fixed_plan_spec, paper_plan_steps)
 from tableclean_suite.bench.scaling.report import (config_dict, interval_text, json_safe, observed_order,
                                                    ordering_answer, ordering_report, print_cells, print_specs,
                                                    write_csv, write_figure)
@@ -28,10 +28,6 @@ from tableclean_suite.bench.scaling.study import cell_row, train_cell
 FIXED_PLAN_LENGTH_TEXT = "fixed at the paper's 8 steps"
 #: Learner whose cells feed the figure and the growth-exponent fit (when it is trained).
 FIT_LEARNER = "q_learning"
-
-
-def _counts_text(values) -> str:
-    return ",".join(str(v) for v in values)
 
 
 def _cells(rows: list[dict], learner: str, reward: str, gamma: float, family: str) -> list[dict]:
@@ -169,10 +165,10 @@ def _study(args, out: Path) -> int:
                                  args.base_window, args.window_exponent, FIXED_PLAN_FAMILY)
     infos = [info for info, _ in described]
     seeds = tuple(range(args.seed, args.seed + args.seeds))
-    print(f"Scaling study: {len(infos)} specs (product family N = {_counts_text(args.segments)} x "
-          f"M = {_counts_text(args.objects)}; fixed-plan family M = {_counts_text(args.fixed_plan_objects) or 'none'})"
-          f" x gamma {_counts_text(args.gammas)} x {len(args.learners)} learners x {len(args.rewards)} rewards, "
-          f"{args.seeds} seeds ({_counts_text(seeds)}) x {args.runs} runs per cell.")
+    print(f"Scaling study: {len(infos)} specs (product family N = {counts_text(args.segments)} x "
+          f"M = {counts_text(args.objects)}; fixed-plan family M = {counts_text(args.fixed_plan_objects) or 'none'})"
+          f" x gamma {counts_text(args.gammas)} x {len(args.learners)} learners x {len(args.rewards)} rewards, "
+          f"{args.seeds} seeds ({counts_text(seeds)}) x {args.runs} runs per cell.")
     print(f"Window rule: window = {args.base_window} * (L / {paper_plan_length}) ** {args.window_exponent:g}, "
           f"max_itr = {BASE_MAX_ITR} * L / {paper_plan_length} (L: optimal plan length from the spec's start).")
     print("Learning time: per run, the iteration from which its greedy policy follows a shortest plan from every "
