@@ -10,15 +10,11 @@ of a `RunConfig`.  An **experiment** is a named set of cells:
   given and with learned affordances, interactive Q-learning with a simulated advisor) at the
   literature reward and (alpha, gamma) — Table 4's "run here" rows.
 
-A cell that belongs to several experiments (e.g. Q-learning/r4 at alpha = gamma = 0.3)
-is trained once, chunk by chunk of runs (`train_cell`), so memory does not grow with
-the number of runs.  After each cell, its `Summary` and its
-`CellStatistics` (intervals, curve bands, per-run scores:
-a few floats per run, never ``runs x iterations`` records) are written
-to ``OUT/cells/<label>-<hash>.npz``, where ``hash`` is a digest of everything that determines
-the cell's numbers (`cell_config`), the code included.  A rerun loads the cells whose
-config matches instead of retraining them, so an interrupted run resumes where it stopped and
-changing one flag only retrains the cells it affects.
+A cell in several experiments is trained once, chunk by chunk of runs (`train_cell`).  Its
+`Summary` and `CellStatistics` (a few floats per run, never ``runs x iterations`` records) go to
+``OUT/cells/<label>-<hash>.npz``, ``hash`` digesting everything that determines its numbers
+(`cell_config`, the code included): a rerun loads matching cells, so an interrupted run resumes
+and changing one flag retrains only the cells it affects.
 """
 
 from __future__ import annotations
@@ -52,11 +48,9 @@ from tableclean_suite.rewards import get_reward_pattern
 #: 4: per-run learning times and their summary; intervals over independent runs; full-length bands.
 CELL_FORMAT_VERSION = 4
 
-#: Memory budget of one training chunk's records and final Q-tables (bytes): a run of T iterations
-#: records `RECORD_BYTES_PER_ITERATION` bytes per iteration, so a chunk holds about
-#: ``CHUNK_BYTES / (T * RECORD_BYTES_PER_ITERATION + S * A * 8)`` runs (at least one).  Every chunk
-#: pays fixed costs of the table's size (the backend's copies of the transition table, about
-#: 0.5 s on a 3-million-state spec), so a chunk of one run each would spend most of its time there.
+#: Memory budget of one training chunk's records and final Q-tables (bytes): about
+#: ``CHUNK_BYTES / (T * RECORD_BYTES_PER_ITERATION + S * A * 8)`` runs (>= 1).  Large, because every
+#: chunk pays fixed costs of the table's size (about 0.5 s on a 3-million-state spec).
 CHUNK_BYTES = 1_000_000_000
 #: reward (float64) + outcome, state, action, episode end (int8 each).
 RECORD_BYTES_PER_ITERATION = 8 + 4
@@ -118,11 +112,10 @@ def cell_config(run: CellRun, code: str, task: str, transitions_sha256: str | No
             transitions and start states the learner reads, after rules and plugins.
         transitions_sha256: digest of the calibrated transition table's file, if any.
 
-    Reward patterns are recorded by value (with the rewards the learner reads per outcome) and the learner as the run trains it, with its
-    [`settings`][tableclean_suite.learners.rules.TabularLearner.settings] and its TD target's source
-    ([`code_digest`][tableclean_suite.learners.kernel.code_digest]), so a user learner or pattern
-    re-registered under the same name with another body or other values gets a new hash.  A
-    simulated plan enters as its label (``"analysis"``); an exact one adds nothing.
+    The reward pattern enters by value and the learner with its
+    [`settings`][tableclean_suite.learners.rules.TabularLearner.settings] and
+    [`code_digest`][tableclean_suite.learners.kernel.code_digest], so a re-registered name with
+    another body gets a new hash; a simulated plan adds its label (``"analysis"``).
     """
     pattern = get_reward_pattern(run.cell.reward)
     learner = run.learner
@@ -163,12 +156,8 @@ class CellFileError(RuntimeError):
 
 
 class CellStore:
-    """Summaries of finished cells, one ``.npz`` per cell under ``root``.
-
-    Each file holds the cell's config (JSON) with its hash, the scalars (JSON) and the
-    curves (float64 arrays).  Files are written atomically (temporary file, then rename),
-    so an interrupted run never leaves a half-written cell behind.
-    """
+    """Summaries of finished cells, one ``.npz`` per cell under ``root``: config (JSON) and its
+    hash, scalars and statistics (JSON), curves (float64), written atomically (temporary file, rename)."""
 
     def __init__(self, root):
         self.root = Path(root)
@@ -234,8 +223,7 @@ class CellStore:
         """Write ``summary`` and ``cell_stats`` for ``cell`` atomically.
 
         Raises:
-            tableclean_suite.bench.outputs.OutputError: the file cannot be written (full disk,
-                read-only folder, a file where the cell folder goes); no partial file is left.
+            tableclean_suite.bench.outputs.OutputError: the file cannot be written; no partial file is left.
         """
         digest = config_hash(config)
         path = self.path(cell, digest)
@@ -312,8 +300,8 @@ ANALYSIS_PAIRS_PER_SECOND = 6_000_000
 @dataclass(frozen=True, eq=False)
 class CellRun:
     """One cell with everything its training, analysis, summary, key and resource check read,
-    resolved once from the run's [`RunConfig`][tableclean_suite.bench.config.RunConfig]
-    ([`resolve_cell`][tableclean_suite.bench.experiments.resolve_cell]) and handed down in its place.
+    resolved once from the [`RunConfig`][tableclean_suite.bench.config.RunConfig] by
+    [`resolve_cell`][tableclean_suite.bench.experiments.resolve_cell].
 
     Attributes:
         cell: the cell; ``model``: the [`TaskModel`][tableclean_suite.task.model.TaskModel];
@@ -395,13 +383,9 @@ def check_grid_resources(runs) -> float:
     """Refuse (before training) cells that cannot fit in memory or would run too long; returns the
     estimated seconds of training and analysis (0 without cells).
 
-    Memory: one chunk's records and Q-tables, the tables and the largest analysis call of the
-    cells' plans.  Time: every cell's training ([tableclean_suite.resources.training_seconds][];
-    once: the settling checkpoint is kept by the same pass) and its analysis, exact or simulated,
-    as its plan estimates it.
-
-    Args:
-        runs: [`CellRun`][tableclean_suite.bench.experiments.CellRun]s of one run (one model).
+    Memory: one chunk's records and Q-tables plus the largest analysis call; time: every cell's
+    training and analysis as its plan estimates them.  ``runs``: the
+    [`CellRun`][tableclean_suite.bench.experiments.CellRun]s of one run (one model).
 
     Raises:
         tableclean_suite.resources.ResourceError: one line naming the estimate, what is available
@@ -443,26 +427,14 @@ def _train_chunk(run: CellRun, first: int, iterations: int, keep: int = 0):
 def train_cell(run: CellRun) -> tuple[Summary, CellStatistics, float, float]:
     """Train one cell chunk by chunk of runs and summarise it, with intervals.
 
-    Each chunk is ``train(runs=chunk, first_run=lo, ...)``; its per-iteration sums are added to a
-    [`CurveSums`][tableclean_suite.curves.CurveSums], its final Q-tables give each run's exact (or, by
-    the cell's plan, simulated) asymptotes ([`tableclean_suite.analysis.final_run_facts`][tableclean_suite.analysis.final_run_facts]),
-    its runs' learning times (``TrainingResult.learned_at``) are kept, and its records are dropped,
-    so memory is one chunk's records whatever the runs.  Random numbers are counter-based per run,
-    so the summary is the same whatever the chunking.
-
-    The plateaus are the runs' asymptotes averaged over runs: the exact asymptotes of each run's
-    final behaviour ([`tableclean_suite.analysis.final_asymptotes`][tableclean_suite.analysis.final_asymptotes]: epsilon-greedy on the final
-    Q-table, or the exploration's final distribution, restricted to afforded actions / mixed with
-    the advisor for Cruz et al.'s learners), over the calibrated table with
-    ``--backend calibrated``, over the task model's table for ``symbolic`` and, as an
-    approximation of the skills, ``physics``.  Simulated plateaus carry their Monte Carlo error
-    into their intervals ([tableclean_suite.analysis.with_monte_carlo_error][]).
-
-    Settling ([`tableclean_suite.settling`][tableclean_suite.settling]): on a backend with ``deterministic_prefix``, each
-    run's Q-tables at the checkpoint (3/4 of the window) are kept by the same training pass
-    ([`checkpoint_result`][tableclean_suite.bench.experiments.checkpoint_result]; a backend that cannot keep them trains the prefix again) and each
-    run's success asymptote there is compared with its final one; the statistics carry the mean
-    drift with its interval.
+    Each chunk's sums go into a [`CurveSums`][tableclean_suite.curves.CurveSums], its final Q-tables give
+    each run's asymptotes ([`final_run_facts`][tableclean_suite.analysis.final_run_facts], exact or
+    simulated by the plan; the plateaus are their means over runs, over the calibrated table with
+    ``--backend calibrated``, else the model's), its learning times are kept and its records dropped:
+    memory is one chunk's records, and counter-based random numbers make the summary independent of
+    the chunking.  Settling ([`tableclean_suite.settling`][tableclean_suite.settling]): each run's success
+    asymptote at the checkpoint ([`checkpoint_result`][tableclean_suite.bench.experiments.checkpoint_result],
+    or the prefix trained again) is compared with its final one.
 
     Returns:
         ``(summary, statistics, train_seconds, metrics_seconds)``.
@@ -527,10 +499,8 @@ def train_cell(run: CellRun) -> tuple[Summary, CellStatistics, float, float]:
 
 def checkpoint_result(result, checkpoint: int):
     """The [`TrainingResult`][tableclean_suite.learners.train.TrainingResult] of the same runs trained for
-    ``checkpoint`` iterations, read off ``result`` (trained with ``train(checkpoint=...)``): its
-    records' first ``checkpoint`` iterations (views) and the Q-tables the backend kept then
-    (``info["checkpoint_q"]``); None when the backend kept none (then train the prefix again).
-    """
+    ``checkpoint`` iterations, read off ``result`` (records' prefix views, ``info["checkpoint_q"]``);
+    None when the backend kept no checkpoint Q-tables."""
     q = result.info.get(CHECKPOINT_Q)
     if q is None:
         return None
@@ -566,11 +536,8 @@ def _report_physics(cell: Cell, stats: dict) -> None:
     )
 
 
-#: Compiled (numba) threads of a cell trained by an executor's worker: the workers, not the
-#: threads, share the cores.
-WORKER_NUMBA_THREADS = 1
-#: Physics processes of a cell trained by an executor's worker (its runs in that worker).
-WORKER_PHYSICS_PROCESSES = 1
+#: Compiled threads and physics processes of a cell trained by an executor's worker (the workers share the cores).
+WORKER_NUMBA_THREADS = WORKER_PHYSICS_PROCESSES = 1
 
 
 class CellKeyMismatchError(RuntimeError):
@@ -579,14 +546,12 @@ class CellKeyMismatchError(RuntimeError):
 
 @dataclass(frozen=True)
 class CellTask:
-    """One cell to train in an executor's worker: plain values only (the worker builds the task
-    model and reads the transition table itself).
+    """One cell to train in an executor's worker, as plain values (the worker builds the model).
 
     Attributes:
-        cell: the cell.
         config: the run's configuration (``workers``: the physics processes of this cell).
-        key_hash: [`config_hash`][tableclean_suite.bench.experiments.config_hash] of the driver's [`cell_config`][tableclean_suite.bench.experiments.cell_config]; the worker checks it
-            computes the same.
+        key_hash: [`config_hash`][tableclean_suite.bench.experiments.config_hash] of the driver's
+            [`cell_config`][tableclean_suite.bench.experiments.cell_config]; the worker checks it computes the same.
         numba_threads: compiled threads in the worker, >= 1 (None: leave numba's setting).
     """
 
@@ -605,9 +570,8 @@ def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, flo
     """[`train_cell`][tableclean_suite.bench.experiments.train_cell] of a [`CellTask`][tableclean_suite.bench.experiments.CellTask], in whatever process runs it.
 
     Raises:
-        CellKeyMismatchError: the worker's cell key differs from the driver's (e.g. another
-            version of the code, a learner or reward registered only in the driver, or another
-            transition table file at the same path on a cluster node).
+        CellKeyMismatchError: the worker's cell key differs from the driver's (other code,
+            registrations or transition table there).
     """
     if task.numba_threads is not None:
         import numba
@@ -671,22 +635,19 @@ def run_grid(
 
     Args:
         grid: memberships from [`config_grid`][tableclean_suite.bench.experiments.config_grid].
-        config: the run's configuration (``fresh``: ignore and overwrite stored cells;
-            ``progress``: a tqdm bar over cells on stderr, stored cells counted as done).
-        model: the [`TaskModel`][tableclean_suite.task.model.TaskModel].
-        store: where summaries live.
-        transitions: a loaded `TransitionTable` for the calibrated backend.
-        transitions_sha256: its file's digest (part of every cell's key).
-        executor: an [`Executor`][tableclean_suite.executors.base.Executor] that trains the cells, one
-            [`CellTask`][tableclean_suite.bench.experiments.CellTask] each ([`train_cell_task`][tableclean_suite.bench.experiments.train_cell_task]); results, saved in grid order as they
-            arrive, are bit-identical to training in this process.  None: train in this process.
-        on_cell: called with the [`GridRun`][tableclean_suite.bench.experiments.GridRun] so far after each cell is loaded or trained and
-            saved (e.g. to start work on some cells while the others train); None: nothing.
+        config: the run's configuration (``fresh``: ignore stored cells; ``progress``: a bar on stderr).
+        model: the [`TaskModel`][tableclean_suite.task.model.TaskModel]; ``store``: where summaries live.
+        transitions: a loaded `TransitionTable` (calibrated backend); ``transitions_sha256``: its file's digest.
+        executor: an [`Executor`][tableclean_suite.executors.base.Executor] training one
+            [`CellTask`][tableclean_suite.bench.experiments.CellTask] per cell (bit-identical results);
+            None: train in this process.
+        on_cell: called with the [`GridRun`][tableclean_suite.bench.experiments.GridRun] so far after each
+            cell is loaded or trained and saved; None: nothing.
 
     Raises:
         CellFileError: a stored cell matching the config is unreadable (unless ``fresh``).
-        tableclean_suite.resources.ResourceError: the cells to train would not fit in memory or would
-            run too long ([`check_grid_resources`][tableclean_suite.bench.experiments.check_grid_resources]), refused before any is trained.
+        tableclean_suite.resources.ResourceError: refused before training
+            ([`check_grid_resources`][tableclean_suite.bench.experiments.check_grid_resources]).
         tableclean_suite.executors.TaskFailedError: a cell failed in the executor (named).
     """
     from tqdm.auto import tqdm
@@ -741,15 +702,10 @@ def run_grid(
 def cell_records(grid: list[Membership], summaries: dict, cell_statistics: dict | None = None,
                  settle_tolerance: float = settling.DEFAULT_SETTLE_TOLERANCE,
                  plans: dict | None = None) -> tuple[list[dict], list[dict]]:
-    """Cell records (keys + scalars, with ``_low``/``_high`` bounds where the scalar has an
-    interval, the per-run learning time (`statistics.LEARNING_TIME_COLUMNS`) and settling when
-    ``cell_statistics`` are given) and curve sets (with ``<curve>_low``/``_high`` bands), one per
-    membership, for [`tables`][tableclean_suite.bench.tables].
-
-    Settling columns: ``behaviour_drift`` (+ ``_low``/``_high``; a fraction, NaN when not
-    measured), ``checkpoint_iteration`` and ``settled`` (drift <= ``settle_tolerance``; None when
-    not measured).  With ``plans`` (``{cell: AnalysisPlan}``), ``asymptotes`` names how each cell's
-    plateaus were computed (its plan's label: ``exact`` or ``simulated (N episodes per run)``)."""
+    """One record (keys, scalars; with ``cell_statistics``: ``_low``/``_high`` bounds, the learning
+    time columns, ``behaviour_drift`` (+ bounds; NaN when not measured), ``checkpoint_iteration``,
+    ``settled`` (drift <= ``settle_tolerance``)) and one curve set (with bands) per membership, for
+    [`tables`][tableclean_suite.bench.tables]; with ``plans``, ``asymptotes`` holds each plan's label."""
     records, curves = [], []
     for member in grid:
         summary = summaries[member.cell]
