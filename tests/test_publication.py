@@ -118,3 +118,11 @@ def test_scaling_into_a_runs_folder_is_refused_naming_the_run(tmp_path):
     lines = result.stderr.strip().splitlines()
     assert result.returncode == 2 and len(lines) == 1 and "tableclean-bench run" in lines[0], result.stderr
     assert json.loads((tmp_path / outputs.MANIFEST).read_text())["command"] == "run"
+
+
+def test_scalings_config_json_from_before_the_manifest_is_its_own_not_foreign(tmp_path):
+    (tmp_path / outputs.MANIFEST).write_text(json.dumps({"study": "scaling", "seed": 0}))
+    assert outputs.check_publishable(tmp_path, command="scaling") is None
+    assert "tableclean-bench scaling" in outputs.check_publishable(tmp_path, command="run")
+    outputs.publish(tmp_path, _writers(["scaling.csv"]), {}, command="scaling")
+    assert outputs.check_outputs(tmp_path) == []

@@ -180,6 +180,8 @@ def _manifest_of(path) -> dict | None:
         document = json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
+    if isinstance(document, dict) and document.get("study") == "scaling" and "run_id" not in document:
+        return {"command": "scaling", "run_id": None, "files": {}}  # scaling's config.json before it had a manifest
     return document if isinstance(document, dict) and all(key in document for key in _MANIFEST_KEYS) else None
 
 
