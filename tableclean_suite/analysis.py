@@ -1,35 +1,23 @@
 """Exact analysis of policies on the task: success probabilities by dynamic programming.
 
-The paper's ~84 % success plateau is the chance that epsilon-greedy exploration
-avoids every improper action on the way to the terminal state.  Here that
-chance is computed exactly, for any policy, over the model (or a measured
-transition table), so learners' measured plateaus can be checked against it.
+The paper's ~84 % success plateau is the chance that epsilon-greedy exploration avoids every
+improper action on the way to the terminal state; here it is computed exactly, for any policy,
+over the model or a measured transition table.
 
-With an exploration other than constant epsilon-greedy (``exploration=``), the policy
-evaluated is the exploration's *final* action distribution: the one that would pick the
-action at iteration ``iteration`` (pass the training's ``iterations``, the step after the
-last one) from the final Q-tables, i.e. epsilon (or the temperature) of that iteration,
-per-state epsilon from the visits counted over the whole training (``visit_decay``), or
-the softmax of the final Q-table.  [`final_behaviour`][tableclean_suite.analysis.final_behaviour] reads these from a training result.
+The policy evaluated is the exploration's *final* action distribution
+([`final_behaviour`][tableclean_suite.analysis.final_behaviour]: epsilon or temperature at the
+training's last iteration, per-state epsilon from the visits for ``visit_decay``, the softmax of
+the final Q-table), restricted to afforded actions and mixed with the advisor (``L * advisor +
+(1 - L) * learner``, the advisor ``C * its action + (1 - C) * uniform``) for Cruz et al.'s
+learners ([`final_probabilities`][tableclean_suite.analysis.final_probabilities]).
 
-Cruz et al.'s assisted learners ([`tableclean_suite.learners.assist`][tableclean_suite.learners.assist]) change that final
-distribution, and [`final_probabilities`][tableclean_suite.analysis.final_probabilities] accounts for them: with affordances the greedy
-action and the exploration are restricted to the afforded actions (the model's, or for learned
-affordances each run's improper pairs observed over the whole training), and with an advisor
-the policy is ``L * advisor + (1 - L) * learner``, the advisor's own part being
-``C * its action + (1 - C) * uniform``.  [`final_asymptotes`][tableclean_suite.analysis.final_asymptotes] gives the exact asymptotes of
-that final behaviour (the plateaus the harness reports).
-
-**Exact or simulated.**  The exact DP visits every (state, previous state) pair of the task at
-each of ``max_itr`` steps; on a spec of millions of states that is hours where the training takes
-seconds.  [analysis_plan][tableclean_suite.analysis.analysis_plan] estimates both ways before any
-work and chooses (``auto``; ``exact`` or ``simulated`` force one);
-[analysis_chain][tableclean_suite.analysis.analysis_chain] builds what the chosen way reads, and
-the functions below compute exact asymptotes over an
-[EpisodeChain][tableclean_suite.asymptotes.EpisodeChain] or Monte Carlo estimates with their
-standard errors over a [StepTable][tableclean_suite.simulation.StepTable]
-([tableclean_suite.simulation][]), which a published interval takes in with
-[with_monte_carlo_error][tableclean_suite.analysis.with_monte_carlo_error].
+**Exact or simulated.**  The exact DP visits every (state, previous state) pair at each of
+``max_itr`` steps: hours on a spec of millions of states.
+[analysis_plan][tableclean_suite.analysis.analysis_plan] costs both ways before any work and
+chooses; [analysis_chain][tableclean_suite.analysis.analysis_chain] builds an
+[EpisodeChain][tableclean_suite.asymptotes.EpisodeChain] (exact) or a
+[StepTable][tableclean_suite.simulation.StepTable] (Monte Carlo, whose standard errors
+[with_monte_carlo_error][tableclean_suite.analysis.with_monte_carlo_error] adds to an interval).
 """
 
 from __future__ import annotations
@@ -66,9 +54,8 @@ def _integers(records) -> np.ndarray:
 
 
 def _parameter_array(exploration, epsilon: float, iteration: int, visits) -> np.ndarray:
-    """``exploration.parameter_array(epsilon, iteration, visits)``, the same values, evaluated once
-    per distinct visit count (it is a Python call per entry), or once for all when the
-    exploration's parameter does not depend on the visits (a read-only broadcast view)."""
+    """``exploration.parameter_array(epsilon, iteration, visits)``, evaluated once per distinct
+    visit count (a broadcast view when the parameter does not depend on the visits)."""
     visits = np.asarray(visits)
     if not isinstance(exploration, VisitDecay):
         return np.broadcast_to(np.float64(exploration.parameter_at(epsilon, iteration)), visits.shape)
@@ -77,13 +64,9 @@ def _parameter_array(exploration, epsilon: float, iteration: int, visits) -> np.
 
 
 def final_behaviour(result) -> dict:
-    """The keyword arguments of [`exact_success_probability`][tableclean_suite.analysis.exact_success_probability] that describe ``result``'s final
-    behaviour policy: ``exploration``, ``q`` (final Q-tables), ``iteration`` (= its iterations)
-    and ``visits`` (per run and state, over the whole training).
-
-    ``result`` is a [`TrainingResult`][tableclean_suite.learners.train.TrainingResult]; pass ``epsilon`` and
-    ``max_itr`` from its ``config`` alongside.
-    """
+    """The keyword arguments of [`exact_success_probability`][tableclean_suite.analysis.exact_success_probability]
+    describing a [`TrainingResult`][tableclean_suite.learners.train.TrainingResult]'s final behaviour:
+    ``exploration``, ``q`` (final Q-tables), ``iteration`` (its iterations), ``visits`` ``(R, S)``."""
     settings = result.config.get("learner_settings", {})
     return {
         "exploration": as_exploration(settings.get("exploration")),
@@ -167,18 +150,11 @@ def exact_success_probability(
     return success[0] if single else success
 
 
-# ---------------------------------------------------------------------------------------------
 # Cruz et al.'s assisted learners: affordances and a simulated advisor
-# ---------------------------------------------------------------------------------------------
 def learned_affordances(states: np.ndarray, actions: np.ndarray, outcomes: np.ndarray, n_states: int,
                         n_actions: int) -> np.ndarray:
-    """Per-run affordances learned from experience: ``(R, S, A)`` bool, False where the run observed
-    the pair improper.
-
-    Args:
-        states, actions, outcomes: ``(R, T)`` records (``TrainingResult.states`` ...).
-        n_states, n_actions: the task's sizes.
-    """
+    """Per-run affordances learned from ``(R, T)`` records: ``(R, S, A)`` bool, False where the run
+    observed the pair improper."""
     states, actions, outcomes = (_integers(a) for a in (states, actions, outcomes))
     masks = np.ones((states.shape[0], n_states, n_actions), dtype=bool)
     runs, steps = np.nonzero(outcomes == int(Outcome.IMPROPER))
@@ -218,9 +194,8 @@ def afforded_probabilities(q: np.ndarray, masks: np.ndarray, parameter, softmax:
 
 @numba.njit(cache=True)
 def _afforded_epsilon_greedy(q, masks, epsilon, probabilities):
-    """Fill ``probabilities`` ``(R, S, A)`` with epsilon-greedy over the afforded actions (one pass,
-    no ``(R, S, A)`` temporaries): ``epsilon / n_afforded`` per afforded action (every action when
-    none is), ``1 - epsilon`` more for the first afforded action of largest Q."""
+    """Fill ``probabilities`` ``(R, S, A)`` as [`afforded_probabilities`][tableclean_suite.analysis.afforded_probabilities]'s
+    epsilon-greedy, in one pass without temporaries (every action afforded where none is)."""
     runs, states, actions = q.shape
     for r in range(runs):
         for s in range(states):
@@ -265,12 +240,10 @@ def advised_probabilities(probabilities: np.ndarray, advisor: np.ndarray, advice
 
 
 def final_probabilities(result, model: TaskModel | None = None, masks: np.ndarray | None = None) -> np.ndarray:
-    """The final behaviour policy of every run of a training ``result``: ``(R, S, A)`` probabilities.
+    """The final behaviour policy of every run of ``result``, ``(R, S, A)`` (module docstring).
 
-    Exploration at the end of training ([`final_behaviour`][tableclean_suite.analysis.final_behaviour]), restricted to the afforded
-    actions for affordance learners and mixed with the advisor for advised ones (module
-    docstring).  ``model``: the task model trained on (default ``TaskModel()``); ``masks``: its
-    [`affordance_masks`][tableclean_suite.analysis.affordance_masks] when the caller has them already (None: computed here).
+    ``model``: the task model trained on (default ``TaskModel()``); ``masks``: its
+    [`affordance_masks`][tableclean_suite.analysis.affordance_masks] if already known.
     """
     model = model if model is not None else TaskModel()
     assist = _assist_options(result.config.get("learner_settings", {}))
@@ -309,12 +282,10 @@ def _assist_options(settings: dict) -> dict:
 def final_asymptotes(result, chain, max_itr: int, model: TaskModel | None = None,
                      masks: np.ndarray | None = None):
     """Exact [`Asymptotes`][tableclean_suite.asymptotes.Asymptotes] (one per run) of ``result``'s final
-    behaviour ([`final_probabilities`][tableclean_suite.analysis.final_probabilities]) over ``chain`` (`EpisodeChain.build`), or their
-    Monte Carlo estimates (``error`` set) over a [StepTable][tableclean_suite.simulation.StepTable].
-
-    For the paper's constant epsilon-greedy without assistance this is
-    [`greedy_asymptotes`][tableclean_suite.asymptotes.greedy_asymptotes] itself (same numbers as before).
-    ``masks``: [`affordance_masks`][tableclean_suite.analysis.affordance_masks] when the caller has them already.
+    behaviour ([`final_probabilities`][tableclean_suite.analysis.final_probabilities]) over an
+    `EpisodeChain`, or Monte Carlo estimates (``error`` set) over a
+    [StepTable][tableclean_suite.simulation.StepTable]; constant epsilon-greedy without assistance
+    goes through [`greedy_asymptotes`][tableclean_suite.asymptotes.greedy_asymptotes].
     """
     settings = result.config.get("learner_settings", {})
     plain = (as_exploration(settings.get("exploration")).name == EpsilonGreedy.name
@@ -351,12 +322,8 @@ def _keys(result, runs: int) -> np.ndarray:
 
 def final_greedy_success(result, chain, max_itr: int, model: TaskModel | None = None,
                          masks: np.ndarray | None = None) -> np.ndarray:
-    """``(R,)`` exact success of each run's final *greedy* behaviour (no exploration, epsilon = 0).
-
-    The learner's own greedy action on its final Q-table, restricted to the afforded actions for
-    affordance learners; an advisor's advice is left out (it is not the learner's policy).
-    ``masks``: [`affordance_masks`][tableclean_suite.analysis.affordance_masks] when the caller has them already.
-    """
+    """``(R,)`` exact success of each run's final *greedy* policy (epsilon = 0), restricted to the
+    afforded actions, without the advisor (not the learner's policy)."""
     return np.atleast_1d(_greedy_statistics(result, chain, max_itr, model, masks).success)
 
 
@@ -385,17 +352,11 @@ ERROR_SUFFIX = "_error"
 
 
 def final_run_facts(result, chain, max_itr: int, model: TaskModel | None = None) -> dict[str, np.ndarray]:
-    """Per run of ``result``, every quantity behind [`Plateaus`][tableclean_suite.metrics.Plateaus]
-    (``metrics.PLATEAU_NAMES``), each ``(R,)``: the asymptotes of the final behaviour
-    ([`final_asymptotes`][tableclean_suite.analysis.final_asymptotes]), the final greedy policy's success ([`final_greedy_success`][tableclean_suite.analysis.final_greedy_success])
-    and whether the run never reached the terminal state ([`never_terminal`][tableclean_suite.analysis.never_terminal]).
-
-    With ``chain`` an [EpisodeChain][tableclean_suite.asymptotes.EpisodeChain] the asymptotes are
-    exact; with a [StepTable][tableclean_suite.simulation.StepTable]
-    (see [analysis_chain][tableclean_suite.analysis.analysis_chain])
-    they are simulated, and each of `ESTIMATED_FACTS`
-    comes with its per-run Monte Carlo standard error under ``<name>_error`` (``(R,)``; combine
-    them with [monte_carlo_error][tableclean_suite.analysis.monte_carlo_error])."""
+    """Per run of ``result``, each quantity behind [`Plateaus`][tableclean_suite.metrics.Plateaus]
+    (``metrics.PLATEAU_NAMES``), ``(R,)``: final behaviour's asymptotes, final greedy success and
+    [`never_terminal`][tableclean_suite.analysis.never_terminal].  Over a
+    [StepTable][tableclean_suite.simulation.StepTable] each of `ESTIMATED_FACTS` adds its per-run
+    Monte Carlo standard error as ``<name>_error``."""
     model = model if model is not None else TaskModel()
     masks = affordance_masks(result, model)  # once for both analyses
     final = final_asymptotes(result, chain, max_itr, model, masks)
@@ -410,17 +371,12 @@ def final_run_facts(result, chain, max_itr: int, model: TaskModel | None = None)
     return facts
 
 
-# ---------------------------------------------------------------------------------------------
 # Exact or simulated: the analysis's cost, chosen before any work
-# ---------------------------------------------------------------------------------------------
 #: Kinds of analysis [analysis_plan][tableclean_suite.analysis.analysis_plan] accepts.
 ANALYSIS_KINDS = ("auto", "exact", "simulated")
-#: ``auto`` simulates when the exact analysis is estimated to cost more than this many times the
-#: training...
+#: ``auto`` simulates when the exact analysis's estimate exceeds this many times the training's
+#: and `EXACT_AFFORDABLE_SECONDS` (the paper's cells: about 3 s).
 EXACT_COST_FACTOR = 10.0
-#: ...and more than this many seconds per cell: below it the exact analysis is affordable whatever
-#: the training costs (the paper's cells: about 3 s by the estimate, which counts every run as a
-#: distinct policy).
 EXACT_AFFORDABLE_SECONDS = 60.0
 
 
@@ -517,10 +473,8 @@ def analysis_plan(model, reward, runs: int, max_itr: int, training_seconds: floa
 def cell_plan(model, reward, learner, runs: int, iterations: int, max_itr: int, analysis: str = "auto",
               runs_per_call: int | None = None, checkpoint: bool = False, max_successors: int = 1,
               episodes: int = simulation.SIMULATED_EPISODES) -> AnalysisPlan:
-    """[analysis_plan][tableclean_suite.analysis.analysis_plan] of one cell of the harness: its
-    training estimated by [tableclean_suite.resources.training_seconds][] for ``learner`` (a
-    ``TabularLearner``: Dyna-Q's planning updates and double Q-learning's second table counted) on
-    ``runs`` x ``iterations``; the other arguments as ``analysis_plan``'s."""
+    """[analysis_plan][tableclean_suite.analysis.analysis_plan] of one harness cell, its training
+    estimated by [tableclean_suite.resources.training_seconds][] for ``learner`` on ``runs`` x ``iterations``."""
     from tableclean_suite.learners.rules import METHOD_DOUBLE_Q
     from tableclean_suite.resources import training_seconds
 
@@ -548,8 +502,7 @@ def monte_carlo_error(errors) -> float:
     return float(np.sqrt(np.sum(errors * errors)) / errors.size)
 
 
-#: The range of each of `ESTIMATED_FACTS` (probabilities
-#: in [0, 1]; the average reward unbounded): a widened interval is clipped to it.
+#: The range of each of `ESTIMATED_FACTS`: a widened interval is clipped to it.
 FACT_LIMITS = {"success": (0.0, 1.0), "terminal": (0.0, 1.0), "greedy_success": (0.0, 1.0),
                "average_reward": (-math.inf, math.inf)}
 
@@ -559,12 +512,8 @@ def with_monte_carlo_error(point: float, low: float, high: float, error: float, 
     """An interval ``(low, high)`` around ``point`` (e.g. a bootstrap over runs) widened by a Monte
     Carlo standard ``error``: each side's half-width and ``z x error`` (z the normal quantile of
     ``confidence``) added in quadrature, ``point -+ sqrt(half ** 2 + (z x error) ** 2)``, clipped to
-    the quantity's ``limits`` (e.g. `FACT_LIMITS`).
-
-    The bootstrap over runs already resamples the simulated values with their noise, so this
-    counts the simulation's error twice where the target is the mean over runs' policies: it errs
-    towards covering.  With ``error`` 0 (an exact analysis, or every episode alike) the interval is
-    returned unchanged; a NaN ``error`` gives a NaN interval.
+    the quantity's ``limits`` (e.g. `FACT_LIMITS`).  The bootstrap already resamples the simulated
+    values, so this errs towards covering.  ``error`` 0: unchanged; NaN: a NaN interval.
     """
     if error == 0.0:
         return low, high
@@ -576,9 +525,7 @@ def with_monte_carlo_error(point: float, low: float, high: float, error: float, 
             min(limits[1], point + math.hypot(high - point, spread)))
 
 
-# ---------------------------------------------------------------------------------------------
 # Exact fixed points: what Q-learning and SARSA converge to on the task's own table
-# ---------------------------------------------------------------------------------------------
 #: Value-iteration sweeps stop once no Q-value changes by more than this (reward units).
 VALUE_TOLERANCE = 1e-13
 #: At most this many sweeps (gamma <= 0.99 converges to VALUE_TOLERANCE well within it).
