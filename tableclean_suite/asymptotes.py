@@ -1,14 +1,9 @@
 """Exact asymptotes of the learning curves: what a run's final policy scores, by dynamic programming.
 
-The harness's plateaus used to be the mean of the last 25 % of the training window, so they (and
-every "iterations to reach 95 % of the plateau") moved with the window.  Here the plateau is the
-value the curves tend to when the run keeps acting with its **final** policy: the behaviour
-policy (epsilon-greedy on the final Q-table) is fixed and the episode's distribution is computed
-exactly, over the task's transition table, from the start distribution.
-
-For one behaviour policy pi (action probabilities per state) the quantities are, per episode
-(one episode = from a start state drawn uniformly from the task's starts until the terminal
-state or ``max_itr`` steps, as ``train()`` runs it):
+The plateau is the value the curves tend to when a run keeps acting with its **final** behaviour
+policy, computed exactly over the task's transition table.  For one policy pi (action
+probabilities per state), per episode (a uniform start state until the terminal state or
+``max_itr`` steps, as ``train()`` runs it):
 
 - ``success``: P(the episode reaches the terminal state with no improper action), in [0, 1];
 - ``terminal``: P(the episode reaches the terminal state), in [0, 1];
@@ -16,35 +11,21 @@ state or ``max_itr`` steps, as ``train()`` runs it):
   reward pattern applied exactly as the training loop does, r4's looping penalty included;
 - ``length``: E[length], iterations in [1, max_itr].
 
-These are the limits of the metrics' curves ([`tableclean_suite.metrics`][tableclean_suite.metrics]): the curves
-average, over runs, the run's *latest finished* episode, and in a renewal process the latest
-finished episode (unlike the one in progress) is not length-biased, so it is distributed as
-any episode of the final policy.
+These are the limits of the [`metrics`][tableclean_suite.metrics] curves, which average each run's
+*latest finished* episode: in a renewal process that one is not length-biased.
 
 **The looping penalty's memory.**  r4 penalises a routine/ineffective step whose next state
-equals s_{t-1} (the state before the previous step) or s_t.  The DP state is therefore the
-pair (s_t, s_{t-1}) with s_{t-1} = ``NO_STATE`` (-1) at an episode's first step.  The pairs
-that can occur are ``(start, NO_STATE)`` and ``(s', s)`` for every successor s' of a
-non-terminal s, so the successor pair of (s, s_prev) under (action a, successor k) is
-``(next_state[s, a, k], s)`` whatever s_prev; only the reward depends on s_prev.  Patterns
-without a looping penalty use the state alone.
+equals s_{t-1} or s_t, so the DP state is the pair (s_t, s_{t-1}) (``NO_STATE`` = -1 at an
+episode's first step); the successor pair of (s, s_prev) is ``(next_state[s, a, k], s)``, only
+the reward depends on s_prev.  Patterns without a looping penalty use the state alone.  A longer
+looping memory (e.g. ``r4_cycle``) gives NaN rewards: ``average_reward`` is NaN (unknown), the
+other quantities stay exact.
 
-**A looping rule with a longer memory** (``RewardPattern.looping_memory`` other than the paper's 2,
-e.g. ``r4_cycle``) makes the reward depend on the episode's whole history, which this DP does not
-carry: the chain then has NaN rewards, so ``average_reward`` is NaN (unknown, not guessed) while
-``success``, ``terminal`` and ``length``, which do not depend on the reward, stay exact.
-
-**The DP** is a forward pass over episode steps l = 1 .. max_itr carrying, per (pair, clean
-flag), the probability of being there still in the episode and the expected return so far on
-that event; an episode ending at step l adds ``return / l`` to E[return / length].  The pass
-stops when the mass still in the episode is below `MASS_TOLERANCE` (so values are exact
-to about that times the largest |reward|).
-
-**Its cost** grows with ``max_itr`` x pairs x actions per analysis
-([exact_seconds][tableclean_suite.asymptotes.exact_seconds] estimates it before anything is
-built); where that is hours, [tableclean_suite.simulation][] estimates the same quantities from
-simulated episodes, with their Monte Carlo error, and [tableclean_suite.analysis.analysis_plan][]
-chooses between the two.
+**The DP** is a forward pass over steps l = 1 .. max_itr carrying, per (pair, clean flag), the
+probability of being still in the episode and the expected return so far; an episode ending at
+step l adds ``return / l``.  It stops when less than `MASS_TOLERANCE` is left inside.  Its cost
+([exact_seconds][tableclean_suite.asymptotes.exact_seconds]) grows with ``max_itr`` x pairs x
+actions; [tableclean_suite.simulation][] estimates the same quantities where that is hours.
 """
 
 from __future__ import annotations
@@ -64,16 +45,13 @@ from tableclean_suite.task import Outcome
 
 #: The forward pass stops once less than this probability is still inside the episode.
 MASS_TOLERANCE = 1e-12
-#: Seconds per (DP step, pair, action, successor, clean flag) visit of the forward pass, whatever the
-#: number of policies, and per policy on top of it (a fast machine's; measured about 4.5e-8 and
-#: 1.1e-8 on a 2-core machine shared by about five busy processes): [`exact_seconds`][tableclean_suite.asymptotes.exact_seconds].
+#: Seconds per (DP step, pair, action, successor, clean flag) visit of the forward pass, and per
+#: policy on top of it (a fast machine's): [`exact_seconds`][tableclean_suite.asymptotes.exact_seconds].
 PAIR_VISIT_SECONDS = 1e-8
 POLICY_VISIT_SECONDS = 2.5e-9
-#: Bytes per (state, action, successor) entry of the exact analysis at its peak (the chain's
-#: arrays and the DP's masses; measured about 270 on a 10-segment, 2-object task).
+#: Bytes per (state, action, successor) entry of the exact analysis at its peak.
 EXACT_BYTES_PER_ENTRY = 256
-#: Table entries (state x action x successor) per second of building an [`EpisodeChain`][tableclean_suite.asymptotes.EpisodeChain]
-#: (measured 1.3e6 to 3.8e6 on that machine: a sort of the successors' codes).
+#: Table entries (state x action x successor) per second of building an [`EpisodeChain`][tableclean_suite.asymptotes.EpisodeChain].
 CHAIN_ENTRIES_PER_SECOND = 3_000_000
 #: s_{t-1} at an episode's first step.
 NO_STATE = -1
@@ -196,14 +174,10 @@ def _episode_statistics(pi_t, pair_state, next_pair, probability, outcome, rewar
     """The module docstring's forward DP for every policy at once; writes ``result[p] = (success,
     terminal, E[R/L], E[L])`` for ``p`` in ``range(P)``.
 
-    ``pi_t`` is ``(S, A, P)`` (policy last; overwritten: slots are reordered).  The policies step
-    in lockstep with the policy index innermost, so each step of the DP is a vectorisable loop
-    over policies; each policy's arithmetic is the one of the plain per-policy DP (a forward pass
-    skipping zero masses, kept in the tests as the reference), operation for operation and in the
-    same order.  The only differences are additions of exact zeros (a pair
-    with no mass, an action with probability 0 are not skipped: they add +0.0 to sums that are
-    never -0.0) and the bookkeeping: a policy whose mass inside the episode drops below
-    ``tolerance`` is retired (its results written, the last active policy moved into its slot).
+    ``pi_t`` is ``(S, A, P)`` (overwritten: slots are reordered).  The policies step in lockstep,
+    policy index innermost; each policy's arithmetic is the per-policy DP's (the tests' reference)
+    in the same order, plus additions of exact zeros.  A policy whose mass inside drops below
+    ``tolerance`` is retired (results written, the last active policy moved into its slot).
     """
     n_pairs = pair_state.shape[0]
     n_actions, n_successors = probability.shape[1], probability.shape[2]
@@ -283,6 +257,13 @@ def _policies_of(probabilities, chain: EpisodeChain) -> np.ndarray:
     return probabilities
 
 
+def _check_pass(max_itr, tolerance) -> None:
+    if int(max_itr) != max_itr or max_itr < 1:
+        raise ValueError(f"max_itr must be an integer >= 1, got {max_itr!r}")
+    if not 0.0 <= tolerance < 1.0:
+        raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
+
+
 def episode_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: int,
                        tolerance: float = MASS_TOLERANCE) -> Asymptotes:
     """[`Asymptotes`][tableclean_suite.asymptotes.Asymptotes] of behaviour policies given as action probabilities.
@@ -296,10 +277,7 @@ def episode_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: 
     Returns:
         [`Asymptotes`][tableclean_suite.asymptotes.Asymptotes] with arrays of shape ``(P,)`` (``()`` for a single ``(S, A)`` policy).
     """
-    if int(max_itr) != max_itr or max_itr < 1:
-        raise ValueError(f"max_itr must be an integer >= 1, got {max_itr!r}")
-    if not 0.0 <= tolerance < 1.0:
-        raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
+    _check_pass(max_itr, tolerance)
     probabilities = np.asarray(probabilities, dtype=np.float64)
     single = probabilities.ndim == 2
     probabilities = np.ascontiguousarray(_policies_of(probabilities[None] if single else probabilities, chain))
@@ -335,10 +313,8 @@ def greedy_asymptotes(q: np.ndarray, epsilon: float, chain: EpisodeChain, max_it
 
 
 def _distinct_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(first, inverse)`` of the distinct rows of ``rows`` ``(P, n)``, compared byte for byte:
-    ``first`` ``(U,)`` the index of each distinct row's first occurrence (in order of occurrence),
-    ``inverse`` ``(P,)`` int64 the distinct row of each row (``rows[first][inverse]`` equals ``rows``
-    bit for bit).  A dictionary of the rows' bytes: faster than ``np.unique(axis=0)``'s sort."""
+    """``(first, inverse)`` of the distinct rows of ``rows`` ``(P, n)``, compared byte for byte, in
+    order of first occurrence (``rows[first][inverse]`` equals ``rows``); faster than ``np.unique(axis=0)``."""
     rows = np.ascontiguousarray(rows)
     index: dict[bytes, int] = {}
     first: list[int] = []
@@ -353,10 +329,8 @@ def _distinct_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 @numba.njit(cache=True, nogil=True)
 def _reached_pairs(probabilities, pair_state, next_pair, probability, start_pairs, reached):
-    """Marks ``reached[p, n]`` (``(P, n_pairs)`` bool, all False on entry) for every pair ``n`` an
-    episode can be in under policy ``p`` of ``probabilities`` ``(P, S, A)``: the start pairs and
-    whatever a step of positive probability (policy and successor) that does not end the episode
-    leads to from a reached pair (a depth-first search per policy)."""
+    """Marks ``reached[p, n]`` (``(P, n_pairs)`` bool, all False on entry) for every pair an episode
+    can be in under policy ``p`` of ``probabilities`` ``(P, S, A)`` (a depth-first search per policy)."""
     n_actions, n_successors = probability.shape[1], probability.shape[2]
     stack = np.empty(pair_state.shape[0], dtype=np.int64)  # each pair is pushed at most once
     for p in range(probabilities.shape[0]):
@@ -403,8 +377,7 @@ def _kept_states(probabilities: np.ndarray, chain: EpisodeChain) -> np.ndarray:
 
 #: Distinct policies [`policy_statistics`][tableclean_suite.asymptotes.policy_statistics] remembers per chain (about 1 kB each); past it, it forgets them all.
 MEMO_POLICIES = 4096
-#: Chains (by content) whose policies [`policy_statistics`][tableclean_suite.asymptotes.policy_statistics] remembers at once, the latest used: the
-#: default run's cells use four (one per reward pattern), and the cells of one pattern share policies.
+#: Chains (by content) whose policies [`policy_statistics`][tableclean_suite.asymptotes.policy_statistics] remembers at once (the default run: one per reward pattern).
 MEMO_CHAINS = 4
 _memo_lock = threading.Lock()
 _memo: list[tuple[bytes, int, float, dict[bytes, np.ndarray]]] = []  # least recently used first
@@ -439,17 +412,11 @@ def policy_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: i
     each distinct policy computed once.
 
     Policies are distinct when they differ in a state an episode can reach under them
-    ([`reached_states`][tableclean_suite.asymptotes.reached_states]; with a chain of unknown rewards, a state of the chain): elsewhere the
-    DP only adds exact zeros, so e.g. greedy policies (epsilon 0) that differ only off their own
-    paths share one computation.  A policy's statistics do not depend on the others computed
-    beside it, so they are remembered per chain (by content: [`chain_digest`][tableclean_suite.asymptotes.chain_digest]), ``max_itr`` and
-    ``tolerance`` (`MEMO_POLICIES`, `MEMO_CHAINS`): a chunk's settling checkpoint
-    mostly has the policies of its end, and cells of one reward pattern share many.
+    ([`reached_states`][tableclean_suite.asymptotes.reached_states]; elsewhere the DP only adds exact
+    zeros).  Results are remembered per chain ([`chain_digest`][tableclean_suite.asymptotes.chain_digest]),
+    ``max_itr`` and ``tolerance`` (`MEMO_POLICIES`, `MEMO_CHAINS`).
     """
-    if int(max_itr) != max_itr or max_itr < 1:
-        raise ValueError(f"max_itr must be an integer >= 1, got {max_itr!r}")
-    if not 0.0 <= tolerance < 1.0:
-        raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
+    _check_pass(max_itr, tolerance)
     probabilities = _policies_of(probabilities, chain)
     first, inverse = _distinct_rows(probabilities.reshape(probabilities.shape[0], -1))
     distinct = probabilities[first]
@@ -492,10 +459,9 @@ def exact_seconds(n_states: int, n_actions: int, max_itr: int, runs: int, loopin
         max_successors: K successors per (state, action) of the stepped table.
 
     Returns:
-        Building the [`EpisodeChain`][tableclean_suite.asymptotes.EpisodeChain] (`CHAIN_ENTRIES_PER_SECOND`) plus, per call,
-        ``max_itr x 2 x pairs x A x K`` visits at `PAIR_VISIT_SECONDS` and
-        `POLICY_VISIT_SECONDS` per policy.  An upper bound: every run counted as a distinct
-        policy (runs sharing a policy share its computation), every pair as reached.
+        Building the chain (`CHAIN_ENTRIES_PER_SECOND`) plus, per call, ``max_itr x 2 x pairs x A x K``
+        visits at `PAIR_VISIT_SECONDS` + `POLICY_VISIT_SECONDS` per policy: an upper bound (every
+        run a distinct policy, every pair reached).
     """
     entries = int(n_states) * int(n_actions) * max(1, int(max_successors))
     pairs = entries if looping else int(n_states)
