@@ -1,25 +1,14 @@
 """Simulated asymptotes: a Monte Carlo estimate of what a run's final policy scores, with its error.
 
-The exact DP ([tableclean_suite.asymptotes][]) costs ``max_itr`` steps over every (state, previous
-state) pair of the task per analysis; on large specs (millions of states) that is hours where the
-training takes seconds.  Here the same quantities (success, terminal, average reward, length: the
-module docstring of [tableclean_suite.asymptotes][]) are estimated from ``episodes`` episodes of
-each policy, played on the task's transition table from the start distribution exactly as
-``train()`` plays them (start state, action, successor, the reward pattern's looping penalty with
-its own memory, truncation at ``max_itr``), and each estimate comes with its Monte Carlo standard
-error (the standard deviation of the episodes' values over the square root of their number).
+Where the exact DP ([tableclean_suite.asymptotes][]) would take hours (millions of states), the
+same quantities are estimated from ``episodes`` episodes of each policy, played on the task's
+table exactly as ``train()`` plays them (looping rules of any memory included, so ``r4_cycle``
+gets an average reward too), each with its Monte Carlo standard error.
 
-**Random numbers** are the project's counter-based ones ([tableclean_suite.learners.rng][]): run
-``r`` of a training with seed ``seed`` draws from the side lane `SIMULATION_LANE` of its run
-key, at counter ``e * (2 * max_itr + 1)`` for episode ``e``'s start state and ``+ 1 + 2 j`` / ``+ 2
-+ 2 j`` for step ``j``'s action and successor.  A run's estimate is therefore a function of (seed,
-run, policy) alone: the same whatever the chunking of runs, the thread or the process, and the
-final policy and the settling checkpoint's policy of a run share their draws (common random
-numbers, so their difference is estimated with less noise than either).
-
-**Looping rules** of any memory are applied as the training loop applies them (the kernel's own
-reward function), so, unlike the DP, a longer looping memory (``r4_cycle``) gets an estimated
-average reward too.
+**Random numbers** ([tableclean_suite.learners.rng][]): run ``r`` draws from side lane
+`SIMULATION_LANE` of its run key, at counter ``e * (2 * max_itr + 1)`` for episode ``e``'s start
+state and ``+ 1 + 2 j`` / ``+ 2 + 2 j`` for step ``j``'s action and successor: an estimate depends
+on (seed, run, policy) alone, and a run's final and checkpoint policies share their draws.
 """
 
 from __future__ import annotations
@@ -39,18 +28,15 @@ from tableclean_suite.task import Outcome
 #: Episodes simulated per run by default: a success estimate's standard error is at most
 #: 0.5 / sqrt(1000) = 0.016 per run, 0.016 / sqrt(R) for the mean of R runs.
 SIMULATED_EPISODES = 1000
-#: Side lane of a run's key ([tableclean_suite.learners.rng.lane_key][]) the simulation draws from;
-#: far from the training's lanes, so that adding a training lane never moves a simulated value.
+#: Side lane of a run's key ([tableclean_suite.learners.rng.lane_key][]) the simulation draws from,
+#: far from the training's lanes.
 SIMULATION_LANE = 64
-#: Simulated learner steps per second assumed by cost estimates (one draw, two table reads and a
-#: reward per step; measured about 2e7 on a shared 2-core machine on a 3-million-state table).
+#: Simulated learner steps per second, and policy entries per second of preparing a policy's
+#: cumulative probabilities, assumed by cost estimates.
 SIMULATED_STEPS_PER_SECOND = 20_000_000
-#: Policy entries per second of preparing a policy for simulation (its cumulative action
-#: probabilities, one (S, A) float64 table per run).
 POLICY_ENTRIES_PER_SECOND = 50_000_000
-
-#: Bytes per state of a simulation (when each state was last entered, int64) and per (state, action)
-#: of a policy given as probabilities (float64 probabilities and their cumulative rows).
+#: Bytes per state of a simulation (its state clock) and per (state, action) of a policy given as
+#: probabilities (the probabilities and their cumulative rows).
 SIMULATION_BYTES_PER_STATE = 8
 POLICY_BYTES_PER_ENTRY = 16
 
@@ -119,13 +105,9 @@ def _simulate(policy_cumulative, q, epsilon, keys, next_state, outcome, cumulati
     the sum of squares (``[..., 1]``) over them of quantity ``j`` (success, terminal, return /
     length, length).
 
-    A policy is either row ``p`` of ``policy_cumulative`` ``(P, S, A)`` (cumulative action
-    probabilities, last 1.0) or, when ``q`` is not empty, epsilon-greedy on ``q[p]`` ``(S, A)``
-    (ties to the first action), its cumulative row computed only in the states an episode visits,
-    with the arithmetic of `_cumulative_rows` over
-    [action_probabilities][tableclean_suite.policy.action_probabilities] (the same bits).
-    ``entered`` ``(S,)`` int64 scratch: when each state was last entered (the looping rule's memory,
-    as in the training loop)."""
+    A policy is row ``p`` of ``policy_cumulative`` ``(P, S, A)`` or, when ``q`` is not empty,
+    epsilon-greedy on ``q[p]``, its cumulative row computed (the same bits as `_cumulative_rows`)
+    only in visited states.  ``entered`` ``(S,)`` int64 scratch: when each state was last entered."""
     n_successors = cumulative.shape[2]
     n_starts = starts.shape[0]
     n_actions = next_state.shape[1]
@@ -242,8 +224,7 @@ def simulated_statistics(probabilities: np.ndarray, steps: StepTable, max_itr: i
             ([simulation_keys][tableclean_suite.simulation.simulation_keys]).
 
     Returns:
-        Arrays of shape ``(P,)``: each quantity's mean over the episodes, and in ``error`` its
-        standard error ``sqrt(sample variance / episodes)``.
+        ``(P,)`` means over the episodes; ``error``: ``sqrt(sample variance / episodes)``.
     """
     probabilities = np.asarray(probabilities, dtype=np.float64)
     keys = _checked(max_itr, probabilities.shape, steps, keys)
@@ -265,10 +246,8 @@ def simulated_greedy_statistics(q: np.ndarray, epsilon: float, steps: StepTable,
 
 def simulation_seconds(n_states: int, n_actions: int, runs: int, max_itr: int, analyses: int = 1,
                        episodes: int = SIMULATED_EPISODES) -> float:
-    """Estimated seconds of simulating ``analyses`` policies per run of ``runs`` runs (at most
-    ``episodes x max_itr`` steps each at `SIMULATED_STEPS_PER_SECOND`, and each policy's
-    (S, A) table at `POLICY_ENTRIES_PER_SECOND`): an upper bound, episodes that end earlier
-    cost less."""
+    """Estimated seconds (an upper bound) of simulating ``analyses`` policies per run of ``runs`` runs:
+    ``episodes x max_itr`` steps and one (S, A) table each."""
     policies = int(runs) * int(analyses)
     per_policy = (int(episodes) * int(max_itr) / SIMULATED_STEPS_PER_SECOND
                   + int(n_states) * int(n_actions) / POLICY_ENTRIES_PER_SECOND)
@@ -276,8 +255,6 @@ def simulation_seconds(n_states: int, n_actions: int, runs: int, max_itr: int, a
 
 
 def simulation_bytes(n_states: int, n_actions: int, runs_per_call: int) -> int:
-    """Bytes a simulation of ``runs_per_call`` policies allocates at most: its state clock and, for
-    policies given as probabilities (explorations other than epsilon-greedy, assisted learners),
-    their ``(P, S, A)`` tables."""
+    """Bytes a simulation of ``runs_per_call`` policies allocates at most (state clock, ``(P, S, A)`` tables)."""
     return (int(n_states) * SIMULATION_BYTES_PER_STATE
             + int(runs_per_call) * int(n_states) * int(n_actions) * POLICY_BYTES_PER_ENTRY)
