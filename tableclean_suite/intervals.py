@@ -146,21 +146,17 @@ def probability_of_improvement(x, y, higher_is_better: bool = True, margin: floa
     rliable's definition for ``margin = 0``.  With a practical-equivalence ``margin`` (>= 0, in
     the score's units) a pair is a tie when ``|x - y| <= margin``.  Equal values always tie.
     """
-    if not margin >= 0:
-        raise ValueError(f"margin must be a number >= 0 (score units), got {margin!r}")
-    x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
     return float(_Improvement(x, y, higher_is_better, margin)(np.arange(len(x)), np.arange(len(y))))
 
 
 class _Improvement:
-    """[`probability_of_improvement`][tableclean_suite.intervals.probability_of_improvement] of resamples given as run *indices* into fixed X and Y,
-    by counting, never forming the pairs: each y is replaced once by its rank among Y's distinct
-    values, each x by the ranks it beats by more than ``margin`` and does not fall short of; a
-    resample then needs only a count of its y ranks (exact integers, so the result does not
-    depend on any order).  Called by ``scipy.stats.bootstrap`` with index arrays whose leading
-    axes broadcast (``(B, nx)`` and ``(B, ny)``, or the jackknife's shapes)."""
+    """[`probability_of_improvement`][tableclean_suite.intervals.probability_of_improvement] of resamples
+    given as run *indices* into fixed X and Y, by counting y ranks (exact integers, any order),
+    never forming the pairs; index arrays' leading axes broadcast as ``scipy.stats.bootstrap`` passes them."""
 
     def __init__(self, x, y, higher_is_better: bool, margin: float):
+        if not margin >= 0:
+            raise ValueError(f"margin must be a number >= 0 (score units), got {margin!r}")
         x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
         if not higher_is_better:
             x, y = -x, -y
@@ -193,9 +189,8 @@ def unseen_share(runs: int, confidence: float = DEFAULT_CONFIDENCE) -> float:
     """The largest share of all runs that ``runs`` independent runs can all have missed, at ``confidence``.
 
     ``1 - ((1 - confidence) / 2) ** (1 / runs)``: the exact (Clopper-Pearson) upper bound on the
-    probability of an outcome seen in none of the runs (about 3.7 / ``runs`` at 95 %).  A rare
-    kind of run (e.g. one that never converges, 1 in 5000) is absent from most samples of 1000
-    runs, and a bootstrap of those samples cannot move past what they hold.
+    probability of an outcome seen in none of the runs (about 3.7 / ``runs`` at 95 %), which a
+    bootstrap of the sample cannot reach.
     """
     if runs < 1:
         raise ValueError(f"runs must be an integer >= 1, got {runs!r}")
@@ -207,10 +202,8 @@ def widened_for_unseen_runs(low: float, high: float, values, limits: tuple[float
     """An interval ``(low, high)`` of the mean of per-run ``values`` (shape ``(R,)``, each within
     ``limits``), widened by what runs absent from the sample could move that mean.
 
-    At most a share s = [unseen_share][tableclean_suite.intervals.unseen_share] of all runs can
-    be of a kind the sample holds none of; at worst they lie at a limit, so the mean can sit up to
-    ``s x (min(values) - limits[0])`` below the sample's and ``s x (limits[1] - max(values))``
-    above.  Each end moves by that much, within ``limits``.  Target: the mean over unlimited runs.
+    With s = [unseen_share][tableclean_suite.intervals.unseen_share], the ends move by
+    ``s x (min(values) - limits[0])`` down and ``s x (limits[1] - max(values))`` up, within ``limits``.
     """
     values = np.asarray(values, dtype=np.float64)
     share = unseen_share(len(values), confidence)
@@ -228,8 +221,6 @@ def improvement_estimate(x, y, higher_is_better: bool = True, margin: float = 0.
     the share of pairs that runs of a kind absent from both samples could take part in
     ([unseen_share][tableclean_suite.intervals.unseen_share] of X plus that of Y), within [0, 1].
     The interval targets the probability that a new run of X beats a new run of Y (ties half)."""
-    if not margin >= 0:
-        raise ValueError(f"margin must be a number >= 0 (score units), got {margin!r}")
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
     runs = (np.arange(len(x)), np.arange(len(y)))  # resampled as run indices
     points, intervals = interval_estimates({"p": runs}, _Improvement(x, y, higher_is_better, margin), confidence,
