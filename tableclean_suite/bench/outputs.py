@@ -247,7 +247,8 @@ def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict, wai
             text = json.dumps(document, indent=2)
             _replace(_stage(out / MANIFEST, lambda t: t.write_text(text, encoding="utf-8")), out / PENDING)
             for name in sorted(earlier - set(files) - {MANIFEST, PENDING}):
-                _unlink(out / name)  # config.json, still listing it, reports it missing until replaced
+                if Path(name).name == name:  # a file of the folder itself, never one a name leads elsewhere
+                    _unlink(out / name)  # config.json, still listing it, reports it missing until replaced
             _unlink(out / MANIFEST)
             for temporary, path in staged:
                 _replace(temporary, path)
