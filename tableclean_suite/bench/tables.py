@@ -1,14 +1,8 @@
 """Tables 3 and 4 of the paper, ours beside the paper's: pure functions, DataFrames in and out.
 
-Nothing here trains, reads or writes files; `tableclean_suite.bench.run` does that.
-
-Data contract: a *cell record* is one dict per (experiment, trained cell) with the keys
-``learner, reward, alpha, gamma, experiment, cell_id`` plus the scalar fields of
-`tableclean_suite.metrics.Summary` (`SUMMARY_SCALARS`, from ``Summary.scalars()``).
-Curves travel as ``{metric: ndarray of shape (iterations,)}`` per record (``Summary.curves()``;
-see `curves_long`).
-
-The paper's numbers (its Tables 3 and 4, quoted verbatim) are data in `paper_data`.
+A *cell record* is one dict per (experiment, trained cell): ``learner, reward, alpha, gamma,
+experiment, cell_id`` plus ``Summary.scalars()``; its curves travel as ``{metric: (iterations,)
+array}`` (``Summary.curves()``, `curves_long`).  The paper's numbers are data in `paper_data`.
 """
 
 from __future__ import annotations
@@ -46,9 +40,7 @@ OPTIONAL_SCALARS = ("success_window_mean", "average_reward_window_mean", "held_s
 #: Suffixes of an interval's bounds, next to the number they bound.
 LOW, HIGH = "_low", "_high"
 
-#: Scalars of [`Summary`][tableclean_suite.metrics.Summary] that carry an interval (per-run
-#: quantities averaged over runs); the others are the paper's readings of the mean curves and
-#: window means, given without one.
+#: Scalars of [`Summary`][tableclean_suite.metrics.Summary] that carry an interval (per-run means).
 INTERVAL_SCALARS = tuple(name for name in SUMMARY_SCALARS if name in RUN_MEANS or name in RUN_SHARES)
 
 #: The per-run learning time's columns, each followed by its interval's bounds.
@@ -58,17 +50,15 @@ LEARNING_COLUMNS = tuple(c for name in LEARNING_TIME_COLUMNS for c in (name, nam
 SCALAR_COLUMNS = tuple(c for name in SUMMARY_SCALARS
                        for c in ((name, name + LOW, name + HIGH) if name in INTERVAL_SCALARS else (name,)))
 
-#: Settling of each cell ([`tableclean_suite.settling`][tableclean_suite.settling]): mean behaviour drift over the window's
-#: last quarter (a fraction) with its interval, the checkpoint iteration (0: not measured) and
-#: whether the drift is within the run's tolerance (empty when not measured).
+#: Settling of each cell ([`tableclean_suite.settling`][tableclean_suite.settling]): drift (a fraction) with its
+#: interval, the checkpoint iteration and whether the drift is within tolerance (empty: not measured).
 DRIFT = "behaviour_drift"
 SETTLING_COLUMNS = (DRIFT, DRIFT + LOW, DRIFT + HIGH, "checkpoint_iteration", "settled")
 
 #: Every column of ``table3.csv``; an interval column ``X`` has its bounds in ``X_low``/``X_high``.
 TABLE3_COLUMNS = ("cell_id", *KEY_COLUMNS, *LEARNING_COLUMNS, *SCALAR_COLUMNS, *SETTLING_COLUMNS, *PAPER_COLUMNS)
 
-#: Table 4's numbers of our rows: the paper's three (its episode counts are mean-curve readings,
-#: without interval; the success rate with one) and the per-run learning time.
+#: Table 4's numbers of our rows: the paper's three and the per-run learning time.
 TABLE4_NUMBERS = (*PAPER_TABLE4_COLUMNS[1:], "learning_time_median", "censored_percent")
 #: Table 4's numbers that carry intervals.
 TABLE4_INTERVALS = ("max_success_rate_percent", "learning_time_median", "censored_percent")
@@ -119,14 +109,9 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
             they are then all NaN).
 
     Returns:
-        A DataFrame with columns `TABLE3_COLUMNS` (extra input columns are dropped; the
-        learning-time columns and ``_low``/``_high`` bounds are NaN when the records carry none),
-        sorted by experiment (main, alpha_sweep, gamma_sweep), learner, reward, alpha, gamma.
-        When some record's ``asymptotes`` (`statistics.ASYMPTOTES`) is not ``exact``, a last
-        column ``asymptotes`` names each row's (its plateaus simulated or exact).
-        ``paper_*`` columns are NaN except on ``experiment == "main"`` rows of
-        `PAPER_LEARNER` with a reward the paper reports.  Iteration columns are
-        nullable integers (``<NA>`` when the curve never reached its level).
+        Columns `TABLE3_COLUMNS` (NaN where the records carry none; iteration columns nullable
+        integers), plus ``asymptotes`` when some plateaus are simulated; sorted by experiment,
+        learner, reward, alpha, gamma.  ``paper_*`` only on the main `PAPER_LEARNER` rows.
     """
     frame = pd.DataFrame(records).copy()
     missing = [c for c in ("cell_id", *KEY_COLUMNS, *SUMMARY_SCALARS)
@@ -181,11 +166,6 @@ def main_rows(table: pd.DataFrame) -> pd.DataFrame:
     return table[table["experiment"] == "main"].reset_index(drop=True)
 
 
-def sweep_rows(table: pd.DataFrame) -> pd.DataFrame:
-    """The alpha- and gamma-sweep rows of a [`table3`][tableclean_suite.bench.tables.table3] frame."""
-    return table[table["experiment"].isin(["alpha_sweep", "gamma_sweep"])].reset_index(drop=True)
-
-
 def literature_method(learner: str, reward: str) -> str:
     """Table 4's name of a ``literature`` cell, e.g. ``"This run: Affordance RL, given affordances
     (Q-learning) with reward r4"`` (the advisor's L and C are the registered learner's)."""
@@ -207,18 +187,13 @@ def table4(table: pd.DataFrame, paper_task: bool = True) -> pd.DataFrame:
 
     Args:
         table: a [`table3`][tableclean_suite.bench.tables.table3] frame.
-        paper_task: whether the run was on the paper's task ([`is_paper_task`][tableclean_suite.bench.tables.is_paper_task]); if not, the
-            paper's own rows (`PAPER_OWN_ROWS`, measured on its task) are left out and only
-            the literature's quoted rows stay.
+        paper_task: [`is_paper_task`][tableclean_suite.bench.tables.is_paper_task]; if not, the paper's
+            own rows (`PAPER_OWN_ROWS`) are left out.
 
     Returns:
-        Columns `TABLE4_COLUMNS`.  Our rows are named
-        ``"This run: Q-learning with reward rN"`` (main Q-learning cells) and
-        [`literature_method`][tableclean_suite.bench.tables.literature_method] (``literature`` cells), with ``max_success_rate_percent``
-        = 100 x ``success_plateau``, the per-run learning time's median and censored share (in
-        percent), and ``source == "this run"``; the numbers of `TABLE4_INTERVALS` are
-        followed by their interval's ``_low``/``_high`` bounds (NaN on the quoted rows).  The
-        episode counts are the paper's mean-curve readings, without interval.
+        Columns `TABLE4_COLUMNS`; our rows (``source == "this run"``, named ``"This run: Q-learning
+        with reward rN"`` or by [`literature_method`][tableclean_suite.bench.tables.literature_method])
+        give ``max_success_rate_percent`` = 100 x ``success_plateau`` and the learning time.
     """
     main = table[(table["experiment"] == "main") & (table["learner"] == PAPER_LEARNER)]
     literature = table[table["experiment"] == "literature"]
@@ -377,7 +352,7 @@ def display_comparisons(frame: pd.DataFrame) -> pd.DataFrame:
 
 def display_sweeps(table: pd.DataFrame) -> pd.DataFrame:
     """The sweep rows for printing (no paper columns: the paper gives only Figures 6-7)."""
-    rows = sweep_rows(table)
+    rows = table[table["experiment"].isin(["alpha_sweep", "gamma_sweep"])].reset_index(drop=True)
     return pd.DataFrame(
         {
             "experiment": rows["experiment"],
@@ -441,9 +416,8 @@ def curves_long(records: list[dict], curves: list[dict], metrics=CURVE_METRICS, 
         stride: keep iterations 1, 1 + stride, ... (and always the last).
 
     Returns:
-        Columns ``learner, reward, alpha, gamma, experiment, iteration, metric, value, low, high``;
-        ``iteration`` is the 1-based iteration count, as on the figures' x axes; ``low``/``high``
-        bound the curve's 95 % band where the curve set has ``<metric>_low``/``_high`` (else NaN).
+        Columns ``learner, reward, alpha, gamma, experiment, iteration`` (1-based) ``, metric, value,
+        low, high`` (the band where the curve set has ``<metric>_low``/``_high``, else NaN).
     """
     if len(records) != len(curves):
         raise ValueError(f"{len(records)} records but {len(curves)} curve sets")
@@ -471,50 +445,3 @@ def curves_long(records: list[dict], curves: list[dict], metrics=CURVE_METRICS, 
 
 #: ``float_format`` of ``curves.csv`` (printf style, as ``DataFrame.to_csv(float_format=...)``).
 CURVES_FLOAT_FORMAT = "%.6g"
-#: Characters that make ``DataFrame.to_csv`` quote a text field (then [`csv_text`][tableclean_suite.bench.tables.csv_text] defers to pandas).
-_CSV_SPECIAL = (",", '"', "\n", "\r")
-
-
-def _formatted_floats(values: np.ndarray, float_format: str, na_rep: str) -> list[str]:
-    """``values`` (float64) as ``to_csv`` writes them: ``float_format % v``, ``na_rep`` for NaN.
-
-    Each distinct bit pattern is formatted once (curves repeat values a lot; found by hashing, not
-    sorting); identical bits give identical text, so -0.0 and 0.0 stay apart.
-    """
-    values = np.ascontiguousarray(values, dtype=np.float64)
-    codes, bits = pd.factorize(values.view(np.int64))
-    texts = [na_rep if v != v else float_format % v for v in np.asarray(bits, dtype=np.int64).view(np.float64).tolist()]
-    return np.asarray(texts, dtype=object)[codes].tolist()
-
-
-def csv_text(frame: pd.DataFrame, float_format: str = CURVES_FLOAT_FORMAT, na_rep: str = "") -> str:
-    """``frame.to_csv(index=False, float_format=float_format, na_rep=na_rep)`` as a string, byte for
-    byte, formatting column by column (pandas formats every cell through Python calls: ~2 s for
-    the default ``curves.csv``).
-
-    Columns of float64, integer or text (object of ``str``) dtype are formatted here; a frame
-    with any other dtype, non-string objects, missing text or text that needs CSV quoting is
-    handed to pandas.
-    """
-    columns = []
-    for name in frame.columns:
-        series = frame[name]
-        kind = series.dtype.kind
-        if kind == "f" and series.dtype == np.float64:
-            columns.append(_formatted_floats(series.to_numpy(), float_format, na_rep))
-        elif kind in "iu":
-            columns.append([str(v) for v in series.to_numpy().tolist()])
-        elif kind == "O":
-            texts = series.tolist()
-            distinct = set(texts)
-            if not all(type(t) is str and not any(c in t for c in _CSV_SPECIAL) for t in distinct):
-                return frame.to_csv(index=False, float_format=float_format, na_rep=na_rep)
-            columns.append(texts)
-        else:
-            return frame.to_csv(index=False, float_format=float_format, na_rep=na_rep)
-    names = [str(name) for name in frame.columns]
-    if not all(type(n) is str and not any(c in n for c in _CSV_SPECIAL) for n in frame.columns) or not names:
-        return frame.to_csv(index=False, float_format=float_format, na_rep=na_rep)
-    if not len(frame):
-        return ",".join(names) + "\n"
-    return ",".join(names) + "\n" + "\n".join(map(",".join, zip(*columns))) + "\n"
