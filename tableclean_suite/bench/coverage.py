@@ -3,35 +3,23 @@
     tableclean-bench coverage                          # 100 replications of the 8 main cells
     tableclean-bench coverage --replications 100 --runs 200 --iterations 2000 --reference-runs 4000
 
-For each main cell (every ``--learners`` x ``--rewards`` at ``--alpha``, ``--gamma``) the command
-trains one **reference** of ``--reference-runs`` runs and K = ``--replications`` replications of
-``--runs`` runs, each through the path ``tableclean-bench run`` publishes by
-([run_grid][tableclean_suite.bench.experiments.run_grid], then
-[cell_records][tableclean_suite.bench.experiments.cell_records] and
-[table3][tableclean_suite.bench.tables.table3], and
-[comparisons][tableclean_suite.bench.statistics.comparisons] for ``comparisons.csv``), so a
-replication's intervals are the ones that command writes at that seed.  Every statistic of those
-tables with an interval (a column ``X`` beside ``X_low`` and ``X_high``, read off the tables, not
-listed here) is scored:
+For each main cell the command trains one **reference** of ``--reference-runs`` runs and K =
+``--replications`` replications of ``--runs`` runs, each through the path ``tableclean-bench run``
+publishes by ([run_grid][tableclean_suite.bench.experiments.run_grid],
+[table3][tableclean_suite.bench.tables.table3],
+[comparisons][tableclean_suite.bench.statistics.comparisons]).  Every column ``X`` with
+``X_low``/``X_high`` beside it is scored (``table4.csv`` repeats Table 3's, so it is not):
 
-- **target**: the reference's value of ``X`` (its point estimate over the many runs; its own
-  intervals are not used, so it draws only ``REFERENCE_SAMPLES`` bootstrap resamples);
+- **target**: the reference's point value of ``X``;
 - a replication **covers** when ``X_low <= target <= X_high`` (an undefined bound never covers;
-  ``undefined`` counts those replications);
+  ``undefined`` counts those);
 - **coverage** = covered / K, with its Clopper-Pearson interval
-  ([clopper_pearson][tableclean_suite.intervals.clopper_pearson]:
-  ``scipy.stats.binomtest(covered, K).proportion_ci(confidence_level, method="exact")``).
+  ([clopper_pearson][tableclean_suite.intervals.clopper_pearson]).
 
-``table4.csv`` repeats Table 3's numbers and intervals (rescaled), so Table 3's rows cover it.
-
-Seeds: the reference trains at ``--seed`` S, replication k (k = 0 .. K-1) at S + 1 + k.  Run i of a
-seed draws from the counter-based key of (seed, i) ([run_key][tableclean_suite.learners.rng.run_key]),
-and each replication's bootstraps from its own seed, so the reference and the replications share
-no run and no draw.
-
-Writes ``OUT/coverage.csv`` (one row per table, row and statistic; the same arguments give the
-same bytes) and prints it.  The reference's cells are kept in ``OUT/cells/`` (a rerun loads them);
-the replications' are not kept.  The output holds measurements only.
+Seeds: the reference at ``--seed`` S, replication k at S + 1 + k
+([run_key][tableclean_suite.learners.rng.run_key]): they share no run and no draw.  Writes
+``OUT/coverage.csv`` (the same arguments give the same bytes) and prints it; the reference's cells
+are kept in ``OUT/cells/``, the replications' are not.
 """
 
 from __future__ import annotations
@@ -49,10 +37,8 @@ from pathlib import Path
 DEFAULT_REPLICATIONS = 100
 #: Runs of the reference cell by default.
 DEFAULT_REFERENCE_RUNS = 20_000
-#: Bootstrap resamples of the reference: only its point values are used, and no point depends on
-#: the resamples (the test against the run command checks that every target equals the value the
-#: run command publishes with its own resamples); 2, the fewest ``scipy.stats.bootstrap`` takes
-#: without a warning (its standard error of one resample has no degrees of freedom).
+#: Bootstrap resamples of the reference: only its point values, which no resample moves, are
+#: used; 2 is the fewest ``scipy.stats.bootstrap`` takes without a warning.
 REFERENCE_SAMPLES = 2
 #: Confidence of the Clopper-Pearson interval on each coverage by default.
 DEFAULT_CONFIDENCE = 0.95
@@ -139,10 +125,8 @@ def coverage_frame(reference: dict, replications: list[dict], runs: int, referen
         nominal: the intervals' confidence (``RunConfig.confidence``), recorded.
         confidence: the Clopper-Pearson interval's confidence, in (0, 1).
 
-    A statistic whose target is undefined (NaN) gets empty ``covered``, ``coverage`` and interval.
-    Bounds compare as numbers, infinite ones included (a learning time censored in the reference,
-    +inf, is covered by an interval whose top is +inf).  ``mean_width`` is over the defined
-    intervals (an interval of equal bounds has width 0, infinite ones too).
+    An undefined (NaN) target gets empty ``covered``, ``coverage`` and interval; infinite bounds
+    compare as numbers.  ``mean_width`` is over the defined intervals (equal bounds: width 0).
     """
     import numpy as np
     import pandas as pd
