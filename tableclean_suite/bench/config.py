@@ -1,10 +1,8 @@
 """One source of truth for a benchmark run's configuration: `RunConfig`.
 
-Every default of ``python -m tableclean_suite.bench.run`` is written here once.  The command line
-(`run`) takes its defaults and help texts from this class, ``train()`` takes its arguments
-from it (the harness's [`resolve_cell`][tableclean_suite.bench.experiments.resolve_cell]), ``config.json`` records it (`RunConfig.to_json`)
-and a cell's cache key includes every field that can change a number
-(`RunConfig.cell_settings`).
+Every default of the run command is written here once: the command line takes its defaults and
+help texts from it, [`resolve_cell`][tableclean_suite.bench.experiments.resolve_cell] hands it to
+``train()``, ``config.json`` records it and a cell's key holds `RunConfig.cell_settings`.
 
     from tableclean_suite.bench.config import RunConfig
     config = RunConfig(runs=200, rewards=("r2", "r4"), sweeps=False)
@@ -166,10 +164,8 @@ class RunConfig:
     """Modules (names or .py paths) imported first, to register actions, learners, rewards, specs
     or objects; executor workers import them too."""
 
-    #: Fields that never change a cell's numbers as such: a cell's own learner, reward, alpha and
-    #: gamma enter its key as the cell; the task and the transition table enter by content
-    #: (the model's code digest, the table file's SHA-256), not by name or path; the analysis
-    #: enters as the kind chosen (a simulated cell's key names it, an exact one's is unchanged).
+    #: Fields that never change a cell's numbers as such (the cell, the task, the table and the
+    #: analysis enter its key by value, not by these names or paths).
     NOT_IN_CELL_KEY: ClassVar[tuple[str, ...]] = (
         "learners", "rewards", "alpha", "gamma", "alpha_sweep", "gamma_sweep", "sweep_learner", "sweep_reward",
         "sweeps", "literature", "literature_reward", "task", "transitions", "workers", "executor", "ray_address",
@@ -206,16 +202,12 @@ class RunConfig:
         for name, key in (("alpha_sweep", "alpha"), ("gamma_sweep", "gamma")):
             for value in getattr(self, name):
                 _call(validate_hyperparameters, field=name, **{**hyper, key: value})
-        for name in ("threshold", "plateau_fraction"):
+        for name, bounds in (("threshold", "(0, 1]"), ("plateau_fraction", "(0, 1]"), ("settle_tolerance", "[0, 1]"),
+                             ("support_fraction", "[0, 1]"), ("confidence", "(0, 1)")):
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and 0.0 < value <= 1.0):
-                raise ConfigError(name, f"{name} must be in (0, 1], got {value!r}")
-        if not (isinstance(self.settle_tolerance, (int, float)) and 0.0 <= self.settle_tolerance <= 1.0):
-            raise ConfigError("settle_tolerance", f"settle_tolerance must be in [0, 1], got {self.settle_tolerance!r}")
-        if not (isinstance(self.support_fraction, (int, float)) and 0.0 <= self.support_fraction <= 1.0):
-            raise ConfigError("support_fraction", f"support_fraction must be in [0, 1], got {self.support_fraction!r}")
-        if not (isinstance(self.confidence, (int, float)) and 0.0 < self.confidence < 1.0):
-            raise ConfigError("confidence", f"confidence must be in (0, 1), got {self.confidence!r}")
+            if not (isinstance(value, (int, float)) and (0.0 < value if bounds[0] == "(" else 0.0 <= value)
+                    and (value < 1.0 if bounds[-1] == ")" else value <= 1.0)):
+                raise ConfigError(name, f"{name} must be in {bounds}, got {value!r}")
         if (isinstance(self.bootstrap_samples, bool) or not isinstance(self.bootstrap_samples, int)
                 or not 1 <= self.bootstrap_samples <= MAX_BOOTSTRAP_SAMPLES):
             raise ConfigError("bootstrap_samples", "bootstrap_samples must be an integer in "
