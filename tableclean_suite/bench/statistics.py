@@ -7,31 +7,19 @@ target is the value the same statistic takes over unlimited runs of the cell, at
 - **Learning time** (the headline): the per-run learning time's Kaplan-Meier median and
   quartiles, restricted mean to the budget and censored share
   (`tableclean_suite.learning_time.learning_time_summary`).
-- **Plateaus and greedy success**: each run's exact asymptote of its final behaviour
-  (`tableclean_suite.asymptotes`) averaged over runs, with a percentile bootstrap interval
-  over runs (`RUN_MEANS`); the never-terminal share (a yes/no per run), and any of those
-  that is 0 or 1 in every run, with the exact binomial (Clopper-Pearson) interval.  Target: the
-  expected asymptote of one run.  A mean's bootstrap interval is widened for kinds of run the
-  sample may lack (a run that never converges, 1 in several thousand, is absent from most samples
-  of 1000): by the share of runs that can all have been missed
-  ([tableclean_suite.intervals.unseen_share][]) times the distance to the quantity's limit
-  ([tableclean_suite.intervals.widened_for_unseen_runs][]).  Where the asymptotes are simulated (a large task:
-  [tableclean_suite.analysis.analysis_plan][]), each mean's interval is widened by the
-  simulation's Monte Carlo error ([tableclean_suite.analysis.with_monte_carlo_error][]).
-- **Behaviour drift** (`tableclean_suite.settling`): per-run drift averaged, bootstrap over runs,
-  widened as the means above.
-- **Curve bands**: at each iteration, the normal interval of the mean over runs of the runs'
-  values there (`tableclean_suite.intervals.mean_band`, from the sums and sums of squares:
-  no resampling needed for a mean of independent bounded values).
-- The paper's readings of the mean curves (first touch, average-reward convergence, maximum of
-  the mean curve, held reaching, window means) get **no interval**: they are biased and their
-  target moves with the number of runs.
+- **Plateaus and greedy success** (`RUN_MEANS`): each run's asymptote of its final behaviour,
+  mean over runs, percentile bootstrap over runs; a share of runs (`RUN_SHARES`, or a quantity
+  0 or 1 in every run): Clopper-Pearson.  A mean's interval is widened for kinds of run the sample
+  may lack ([tableclean_suite.intervals.widened_for_unseen_runs][]) and, for simulated asymptotes,
+  by the Monte Carlo error ([tableclean_suite.analysis.with_monte_carlo_error][]).
+- **Behaviour drift** (`tableclean_suite.settling`): the same, without the Monte Carlo error.
+- **Curve bands**: per iteration, the normal interval of the mean over runs
+  (`tableclean_suite.intervals.mean_band`).
+- The paper's readings of the mean curves get **no interval**: they are biased and their target
+  moves with the number of runs.
 
-**Probability of improvement** of X over Y (rliable's, with a practical-equivalence margin m):
-P(x beats y by more than m) + P(|x - y| <= m) / 2 for a run x of X and a run y of Y, with a
-stratified bootstrap interval (runs of X and of Y resampled separately), on the per-run scores
-`RUN_SCORES` with the margins `EQUIVALENCE_MARGINS`, widened by the share of pairs
-that runs missing from both samples could take part in.
+**Probability of improvement** of X over Y (rliable's, margin m): P(x beats y by more than m) +
+P(|x - y| <= m) / 2, stratified bootstrap interval, on `RUN_SCORES` with `EQUIVALENCE_MARGINS`.
 """
 
 from __future__ import annotations
@@ -66,12 +54,9 @@ ASYMPTOTES = "asymptotes"
 RUN_SHARES = {"never_terminal_share": "never_terminal"}
 #: Per-run scores compared between cells: name -> whether higher is better.
 RUN_SCORES = {"learning_time": False, "success_asymptote": True}
-#: Practical-equivalence margin of each per-run score (its own units).  Learning time, in
-#: iterations: 0.  Times are exact integer step counts with no measurement noise to absorb, and
-#: no number of steps is a natural "same time" on that scale; censored runs all count as the
-#: budget, so they tie with each other.  Success asymptote, a fraction: 0.01 (one percentage
-#: point, the settling tolerance): converged runs' asymptotes differ by a few hundredths of a
-#: point, exploration noise, not learning.
+#: Practical-equivalence margin of each per-run score (its own units): learning times are exact
+#: step counts (0; censored runs tie at the budget); success asymptotes of converged runs differ
+#: by exploration noise well below one percentage point (0.01).
 EQUIVALENCE_MARGINS = {"learning_time": 0.0, "success_asymptote": 0.01}
 
 
@@ -79,12 +64,6 @@ def bootstrap_rng(seed: int, label: str) -> np.random.Generator:
     """A generator for one cell's bootstrap: seeded by the run's seed and the cell's label."""
     digest = int.from_bytes(hashlib.sha256(label.encode()).digest()[:8], "little")
     return np.random.default_rng([int(seed), digest])
-
-
-def censored_learning_times(learned_at, budget: int) -> np.ndarray:
-    """Per-run learning times for comparisons: a censored run (-1) counts as the budget."""
-    values = np.asarray(learned_at, dtype=np.float64)
-    return np.where(values < 0, float(budget), values)
 
 
 @dataclass
@@ -146,14 +125,11 @@ def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fract
         drift: per-run behaviour drift ``(R,)`` ([`tableclean_suite.settling.behaviour_drift`][tableclean_suite.settling.behaviour_drift]);
             None: not measured.
         checkpoint: the iteration ``drift`` compares with (>= 1 when ``drift`` is given).
-        monte_carlo: ``{quantity: standard error}`` of simulated per-run asymptotes' mean
-            ([tableclean_suite.analysis.monte_carlo_error][]); each such interval of
-            `RUN_MEANS` is widened by it ([tableclean_suite.analysis.with_monte_carlo_error][]).
-            None or empty: exact asymptotes, intervals as they are.  The drift's is not widened.
-        average_reward_limits: bounds on a run's average reward per step (the reward pattern's
-            [step_reward_bounds][tableclean_suite.rewards.RewardPattern.step_reward_bounds]); the
-            other per-run quantities lie in [0, 1].  Every mean's interval is widened for runs of a
-            kind the sample may lack ([tableclean_suite.intervals.widened_for_unseen_runs][]).
+        monte_carlo: ``{quantity: standard error}`` of simulated asymptotes' means
+            ([tableclean_suite.analysis.monte_carlo_error][]); None or empty: exact.
+        average_reward_limits: bounds on a run's average reward per step
+            ([step_reward_bounds][tableclean_suite.rewards.RewardPattern.step_reward_bounds]; the
+            other quantities lie in [0, 1]).
     """
     present = {scalar: np.asarray(per_run[name], dtype=np.float64)
                for scalar, name in {**RUN_MEANS, **RUN_SHARES}.items() if name in per_run}
@@ -177,7 +153,8 @@ def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fract
     bands = curve_bands(sums, support_fraction, confidence)
     if learned_at is not None:
         learning = learning_time_summary(learned_at, budget, confidence, samples, rng=rng)
-        runs["learning_time"] = censored_learning_times(learned_at, budget)
+        times = np.asarray(learned_at, dtype=np.float64)
+        runs["learning_time"] = np.where(times < 0, float(budget), times)  # censored runs count as the budget
         survival, *bands[NOT_LEARNED] = survival_curve(learned_at, budget, confidence)
     settled = Settling.not_measured()
     if drift is not None:
