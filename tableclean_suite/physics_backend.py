@@ -237,11 +237,14 @@ def _empty_stats() -> dict:
     }
 
 
-def _merge_stats(parts) -> dict:
+def merge_stats(parts) -> dict:
+    """Counters of several runs or chunks summed (``fault_reasons`` by kind); ``workers``: the largest."""
     total = _empty_stats()
     for part in parts:
         for key, value in part.items():
-            if key == "fault_reasons":
+            if key == "workers":
+                total[key] = max(total.get(key) or 0, value or 0)
+            elif key == "fault_reasons":
                 total[key].update(value)
             else:
                 total[key] += value
@@ -356,21 +359,16 @@ def train_physics(job) -> dict:
     ``job`` is a [TrainingJob][tableclean_suite.backends.TrainingJob]; its ``options`` hold the checked
     ``physics_options``.
 
-    Run ``i`` uses the run key ``(seed, first_run + i)`` (learner draws) and a scene seeded from it,
-    whichever worker trains it.  ``job.workers`` defaults to ``os.cpu_count()`` (never more than
-    ``runs``); with one worker everything runs in this process.  The fault/failure counters
-    are returned under ``"stats"``.  With several workers each run is a [`PhysicsRun`][tableclean_suite.physics_backend.PhysicsRun] task
-    of ``executor`` (a [`tableclean_suite.executors`][tableclean_suite.executors] executor, e.g. a ``RayExecutor`` for a
-    cluster; default: ``LocalExecutor(workers)``, spawned processes, so a script calling this with
-    ``workers > 1`` needs the usual ``if __name__ == "__main__":`` guard).
-
-    ``checkpoint`` in [1, iterations] also keeps each run's Q-table after that many iterations
-    (0: none).
+    Run ``i`` uses the run key ``(seed, first_run + i)`` and a scene seeded from it, whichever
+    worker trains it.  ``job.workers`` (default ``os.cpu_count()``, at most ``runs``): with one,
+    everything runs here; else each run is a [`PhysicsRun`][tableclean_suite.physics_backend.PhysicsRun]
+    task of ``job.executor`` (default ``LocalExecutor(workers)``: spawned processes, so a script needs
+    the ``if __name__ == "__main__":`` guard).  ``checkpoint`` in [1, iterations] also keeps each
+    run's Q-table then (0: none).
 
     Returns:
         dict with ``rewards`` (R, T) float64, ``outcomes``/``states``/``actions``/``episode_end``
-        (R, T) of the model's ``record_dtype``, ``q`` (R, S, A) float64, with a ``checkpoint``
-        ``checkpoint_q`` (R, S, A) float64, and ``stats`` (counters, see the module docstring).
+        (R, T), ``q`` (R, S, A) float64, ``checkpoint_q`` with a checkpoint, and ``stats``.
     """
     from tableclean_suite.learners.reference import CHECKPOINT_Q as RUN_CHECKPOINT_Q
 
@@ -422,7 +420,7 @@ def train_physics(job) -> dict:
     names = ("outcomes", "states", "actions", "episode_end", "rewards", "q", "first_learned_at", "learned_at")
     records = {name: np.stack([record[name] for record in ordered])
                for name in names + ((RUN_CHECKPOINT_Q,) if checkpoint else ())}
-    stats = _merge_stats(run_stats for _, _, run_stats in results)
+    stats = merge_stats(run_stats for _, _, run_stats in results)
     stats["workers"] = workers
     records["stats"] = stats
     return records

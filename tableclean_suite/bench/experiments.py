@@ -42,6 +42,7 @@ from tableclean_suite.learners import code_digest, train
 from tableclean_suite.curves import CurveSums
 from tableclean_suite.learning_time import LearningTime
 from tableclean_suite.metrics import CURVE_NAMES, SUMMARY_SCALARS, Plateaus, Summary, summarize
+from tableclean_suite.physics_backend import merge_stats
 from tableclean_suite.rewards import get_reward_pattern
 
 #: Bump when the stored layout or the meaning of a stored field changes.
@@ -453,7 +454,7 @@ def train_cell(run: CellRun) -> tuple[Summary, CellStatistics, float, float]:
         train_seconds += time.perf_counter() - started
         started = time.perf_counter()
         if "physics" in result.info:
-            physics_stats = _merge_stats(physics_stats, result.info["physics"])
+            physics_stats = merge_stats([physics_stats, result.info["physics"]])
         sums.add(result)
         learned = getattr(result, "learned_at", None)
         if learned is not None:
@@ -507,22 +508,6 @@ def checkpoint_result(result, checkpoint: int):
     prefix = {name: getattr(result, name)[:, :checkpoint]
               for name in ("rewards", "outcomes", "states", "actions", "episode_end")}
     return type(result)(**prefix, q=q, config={**result.config, "iterations": int(checkpoint)})
-
-
-def _merge_stats(total: dict, more: dict) -> dict:
-    """Physics statistics of two chunks: counts and times add up, ``workers`` is the largest."""
-    merged = dict(total)
-    for key, value in more.items():
-        if isinstance(value, dict):
-            counts = dict(merged.get(key, {}))
-            for kind, n in value.items():
-                counts[kind] = counts.get(kind, 0) + n
-            merged[key] = counts
-        elif key == "workers":
-            merged[key] = max(merged.get(key, 0) or 0, value or 0)
-        else:
-            merged[key] = merged.get(key, 0) + value
-    return merged
 
 
 def _report_physics(cell: Cell, stats: dict) -> None:
