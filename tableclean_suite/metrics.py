@@ -7,23 +7,14 @@ no interval; the per-run learning time with its intervals is
 [`TrainingResult`][tableclean_suite.learners.train.TrainingResult] records (R runs x T iterations) or
 1-D curves of length T; the curves are defined in [`tableclean_suite.curves`][tableclean_suite.curves].
 
-- **Plateau**: with an *asymptote* (the harness's way, [`tableclean_suite.asymptotes`][tableclean_suite.asymptotes]):
-  the exact value the curve tends to under each run's final policy, averaged over runs (fixed once
-  the policies have settled).  Without one: the mean over the last ``plateau_fraction`` (25 %) of
-  the window (the *window mean*, always reported as ``*_window_mean``), which moves with it.
-- **Iterations to maximum success** (*first touch*, the paper's column): first t (1-based count)
-  at which the success curve reaches ``threshold`` (95 %) of its plateau.
-- **Iterations to held success** (``held_success_iterations``): first t at which the success
-  curve reaches ``threshold`` of its plateau and stays there for iterations t .. t + hold - 1
-  (default `DEFAULT_HOLD`); None when no such t leaves a full hold inside the window.
-- **Greedy success** (``greedy_success_plateau``): the exact success of each run's final greedy
-  policy (epsilon = 0), averaged over runs: what was learned, apart from what exploring costs.
-- **Never-terminal share**: the fraction of runs that never reached the terminal state in the window.
-- **Average-reward convergence**: first t at or after the curve's early minimum (before it first
-  reaches the plateau with an asymptote, before the plateau window without one) where it has
+- **Plateau**: with an *asymptote* ([`tableclean_suite.asymptotes`][tableclean_suite.asymptotes]), the
+  value the curve tends to under each run's final policy, mean over runs; without one, the mean
+  of the window's last ``plateau_fraction`` (the *window mean*, always reported as ``*_window_mean``).
+- **First touch** / **held success**: first t (1-based) at which the success curve reaches
+  ``threshold`` of its plateau / and stays there for `DEFAULT_HOLD` iterations.
+- **Average-reward convergence**: first t at or after the curve's early minimum where it has
   covered ``threshold`` of the way from that minimum to its plateau.
-- **Maximum average reward**: the maximum of the (supported) curve; **episodes** at an
-  iteration: the episodes curve there.
+- The other fields: [`Summary`][tableclean_suite.metrics.Summary].
 """
 
 from __future__ import annotations
@@ -37,8 +28,8 @@ from tableclean_suite.curves import CurveSums, check_fraction, curve_sums, episo
 
 DEFAULT_THRESHOLD = 0.95
 DEFAULT_PLATEAU_FRACTION = 0.25
-#: Iterations the success curve must stay at or above its level for "held" reaching (the paper's
-#: fastest figure is 140 iterations, so a hold of 200 outlasts a lucky touch at that scale).
+#: Iterations the success curve must stay at or above its level for "held" reaching (longer than
+#: the paper's fastest figure, 140).
 DEFAULT_HOLD = 200
 
 _SCALAR, _CURVE = "scalar", "curve"
@@ -84,8 +75,7 @@ class Summary:
         terminal: ``(T,)`` fraction of runs whose latest episode reached the terminal state.
         episodes: ``(T,)`` mean episodes finished by each iteration.
 
-    The curves are read-only arrays.  ``summary["name"]`` reads a field too (code written when
-    [`summarize`][tableclean_suite.metrics.summarize] returned a dict keeps working).
+    The curves are read-only arrays; ``summary["name"]`` reads a field too.
     """
 
     max_success_iterations: int | None = _scalar("iterations")
@@ -216,11 +206,9 @@ def held_reaching(curves, levels, hold: int = DEFAULT_HOLD) -> np.ndarray:
 def early_minimum(curve, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION, top: float | None = None) -> int | None:
     """Index (0-based) of the curve's early extreme, NaNs ignored; None if there is none.
 
-    With ``top`` (an asymptote): the point furthest from ``top`` among the defined points before
-    the curve first reaches ``top`` from its starting side (the whole curve if it never does):
-    the early minimum of a curve that rises to ``top``, the early maximum of one that starts above
-    it and falls.  The window does not change it.  Without ``top``: the minimum before the plateau
-    window (the last ``plateau_fraction``).
+    With ``top`` (an asymptote): the point furthest from ``top`` before the curve first reaches it
+    from its starting side (an early maximum for a falling curve).  Without: the minimum before
+    the plateau window.
     """
     curve = np.asarray(curve, dtype=float)
     if top is None:
