@@ -48,6 +48,7 @@ def test_tiny_run_writes_both_arms_and_is_deterministic(tmp_path, capsys):
         assert set(arms["change"]) == {interventions.observed_change(item, before, after)}
     assert "verdict" not in frame.columns
     assert "epsilon 0.1 -> 0.01" in printed and "q_init None -> 1.0" in printed
+    assert max(map(len, printed.splitlines())) <= 120
     assert interventions.main([*argv[:-1], str(tmp_path / "again")]) == 0
     again = pd.read_csv(tmp_path / "again" / "interventions.csv")
     pd.testing.assert_frame_equal(again.drop(columns="seconds"), frame.drop(columns="seconds"))

@@ -273,6 +273,22 @@ def executor_from_args(parser: argparse.ArgumentParser, args):
     return with_plugins(executor, getattr(args, "plugins", ()))
 
 
+def wrap(text: str) -> str:
+    """``text`` for the terminal: each line longer than [`PRINT_WIDTH`][tableclean_suite.bench.tables.PRINT_WIDTH]
+    wrapped at words, its continuations indented (tables printed within the width pass unchanged)."""
+    import textwrap
+
+    from tableclean_suite.bench.tables import PRINT_WIDTH
+
+    return "\n".join(textwrap.fill(line, PRINT_WIDTH, subsequent_indent="    ") if len(line) > PRINT_WIDTH else line
+                     for line in text.splitlines())
+
+
+def say(text: str) -> None:
+    """Print ``text`` on stdout [`wrap`][tableclean_suite.bench.cli.wrap]ped to the terminal width."""
+    print(wrap(text), flush=True)
+
+
 # ---------------------------------------------------------------------------------------------
 # parsing
 # ---------------------------------------------------------------------------------------------

@@ -6,12 +6,11 @@ sections apply to tasks of the paper's sizes (2 segments, 1 object) and actions 
 
 from __future__ import annotations
 
-import textwrap
-
 import numpy as np
 import pandas as pd
 
 from tableclean_suite.analysis import exact_success_probability
+from tableclean_suite.bench.cli import wrap
 from tableclean_suite.bench.tables import PRINT_WIDTH
 from tableclean_suite.learners import get_learner, learner_names
 from tableclean_suite.rewards import get_reward_pattern, reward_pattern_names
@@ -151,8 +150,7 @@ def describe(model: TaskModel, epsilon: float = 0.1, max_itr: int = 500) -> str:
     lines += _exact_success_lines(model, epsilon, max_itr)
     if not _paper_sized(model):
         lines = lines[:-1]  # the paper's ~84 % is about its own task
-    return "\n".join(textwrap.fill(line, PRINT_WIDTH, subsequent_indent="    ") if len(line) > PRINT_WIDTH else line
-                     for line in "\n".join(lines).splitlines())  # the tables fit already; prose is wrapped
+    return wrap("\n".join(lines))  # the tables fit already; prose is wrapped
 
 
 def _table1_lines(model: TaskModel) -> list[str]:

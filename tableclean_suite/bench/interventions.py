@@ -40,6 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
+from tableclean_suite.bench.cli import say
+
 #: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench interventions"
 #: Default output folder.
@@ -278,7 +280,7 @@ def run(args) -> int:
     if problem:
         raise outputs.OutputError(problem)
     with outputs.output_lock(args.out) as out:
-        print(f"Interventions: {len(args.only)}, {args.runs} runs per arm, seed {args.seed}, budget scale "
+        say(f"Interventions: {len(args.only)}, {args.runs} runs per arm, seed {args.seed}, budget scale "
               f"{args.scale:g}. Learning time: Kaplan-Meier median [95 % interval] in iterations; shares in % "
               "[95 % Clopper-Pearson]; success plateau in % [95 % bootstrap].")
         for name in args.only:
@@ -295,20 +297,20 @@ def run(args) -> int:
             for row in rows[-2:]:
                 row["change"] = change
             before, after = item.settings("before", args.scale), item.settings("after", args.scale)
-            print(f"\n{name}: {item.claim}.")
-            print(f"  cell: {before['learner']}, {_setting_text(before['reward'])}, task {before['task']}, gamma "
+            say(f"\n{name}: {item.claim}.")
+            say(f"  cell: {before['learner']}, {_setting_text(before['reward'])}, task {before['task']}, gamma "
                   f"{before['gamma']:g}, epsilon {before['epsilon']:g}, max_itr {before['max_itr']}, "
-                  f"{before['iterations']} iterations; changed: {item.factor} ({changed_text(before, after)})")
+                  f"{before['iterations']} iterations\n  changed: {item.factor} ({changed_text(before, after)})")
             for arm, settings in (("before", before), ("after", after)):
                 figures = arms[arm]
-                print(f"  {arm:<6}: learning time {_time_text(figures, settings['iterations'])}, censored "
+                say(f"  {arm:<6}: learning time {_time_text(figures, settings['iterations'])}, censored "
                       f"{_share_text(figures, 'censored_share')}, plateau {_share_text(figures, 'success_plateau')},"
                       f" never terminal {_share_text(figures, 'never_terminal_share')}")
-            print(f"  predicted: {FIGURES[item.figure]} {'falls' if item.direction < 0 else 'rises'}; observed: {change}")
+            say(f"  predicted: {FIGURES[item.figure]} {'falls' if item.direction < 0 else 'rises'}; observed: {change}")
         frame = pd.DataFrame(rows)
         outputs.publish(out, {"interventions.csv": lambda path: frame.to_csv(path, index=False)},
                         {"args": outputs.arguments(args)}, command="interventions")
-    print(f"\nWrote {Path(args.out) / 'interventions.csv'} in {time.perf_counter() - started:.1f} s wall.")
+    say(f"\nWrote {Path(args.out) / 'interventions.csv'} in {time.perf_counter() - started:.1f} s wall.")
     return 0
 
 

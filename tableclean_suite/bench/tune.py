@@ -50,6 +50,8 @@ from pathlib import Path
 
 import numpy as np
 
+from tableclean_suite.bench.cli import say
+
 #: Exploration schedules searched, as ``train(exploration=...)`` names (see ``learners.exploration``).
 SCHEDULES = ("epsilon_greedy", "linear_decay", "exponential_decay")
 #: Search ranges.
@@ -435,21 +437,21 @@ def run(args) -> int:
         print(f"{prog}: interrupted; the {report['completed']} completed trials are published in "
               f"{out / 'trials.csv'} and {out / 'best.json'}", file=sys.stderr)
         return EXIT_INTERRUPTED
-    print(f"study {args.study_name!r} in {args.storage}: {report['trials']} trials ({report['completed']} complete, "
+    say(f"study {args.study_name!r} in {args.storage}: {report['trials']} trials ({report['completed']} complete, "
           f"{report['pruned']} pruned), {time.perf_counter() - started:.1f} s this call")
-    print(f"objective: restricted mean per-run learning time up to {args.iterations} iterations ({args.runs} runs, "
+    say(f"objective: restricted mean per-run learning time up to {args.iterations} iterations ({args.runs} runs, "
           f"greedy ties: {args.ties})")
-    print(f"paper (alpha = gamma = 0.3, epsilon = 0.1): {result_text(paper)}")
+    say(f"paper (alpha = gamma = 0.3, epsilon = 0.1): {result_text(paper)}")
     if best is not None:
-        print(f"best trial {best['trial']}: objective {best['objective']:.0f}, {result_text(best)}, "
+        say(f"best trial {best['trial']}: objective {best['objective']:.0f}, {result_text(best)}, "
               f"settings {best['settings']}")
     if rows:
-        print(f"ablation ({args.learner}, {args.reward}, {args.runs} runs x {args.iterations} iterations, seed "
+        say(f"ablation ({args.learner}, {args.reward}, {args.runs} runs x {args.iterations} iterations, seed "
               f"{args.seed}, greedy ties: {args.ties}):")
         for row in rows:
-            print(f"  alpha, gamma {row['alpha_gamma']:<6} x exploration {row['exploration_from']:<6}: "
+            say(f"  alpha, gamma {row['alpha_gamma']:<6} x exploration {row['exploration_from']:<6}: "
                   f"{result_text(row)}")
-    print(f"written: {', '.join(str(path) for path in written)}")
+    say(f"written: {', '.join(str(path) for path in written)}")
     return 0
 
 
