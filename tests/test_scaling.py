@@ -293,6 +293,7 @@ def test_cell_row_pools_the_seeds_and_its_interval_holds_the_seeds_spread():
 def test_cli_tiny_budget_writes_consistent_files(tmp_path, capsys):
     assert scaling.main(TINY_ARGS + ["--out", str(tmp_path)]) == 0
     printed = capsys.readouterr().out
+    assert max(map(len, printed.splitlines())) <= 120
     for name in ("scaling.csv", "scaling_specs.csv", "scaling_slopes.csv", "scaling.png", "config.json"):
         assert (tmp_path / name).stat().st_size > 0
     assert not list(tmp_path.glob("*.tmp"))

@@ -280,8 +280,9 @@ def wrap(text: str) -> str:
 
     from tableclean_suite.bench.tables import PRINT_WIDTH
 
-    return "\n".join(textwrap.fill(line, PRINT_WIDTH, subsequent_indent="    ") if len(line) > PRINT_WIDTH else line
-                     for line in text.splitlines())
+    return "\n".join(textwrap.fill(line, PRINT_WIDTH, subsequent_indent="    ", break_on_hyphens=False)
+                     if len(line) > PRINT_WIDTH else line
+                     for line in text.split("\n"))
 
 
 def say(text: str) -> None:

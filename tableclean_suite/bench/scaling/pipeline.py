@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tableclean_suite.bench.cli import say
 from tableclean_suite.bench.scaling.family import (BASE_MAX_ITR, FIXED_PLAN_FAMILY, PRODUCT_FAMILY, counts_text,
                                                    describe_family, family_specs, fixed_plan_spec, paper_plan_steps)
 from tableclean_suite.bench.scaling.report import (config_dict, interval_text, json_safe, observed_order,
@@ -165,13 +166,13 @@ def _study(args, out: Path) -> int:
                                  args.base_window, args.window_exponent, FIXED_PLAN_FAMILY)
     infos = [info for info, _ in described]
     seeds = tuple(range(args.seed, args.seed + args.seeds))
-    print(f"Scaling study: {len(infos)} specs (product family N = {counts_text(args.segments)} x "
+    say(f"Scaling study: {len(infos)} specs (product family N = {counts_text(args.segments)} x "
           f"M = {counts_text(args.objects)}; fixed-plan family M = {counts_text(args.fixed_plan_objects) or 'none'})"
           f" x gamma {counts_text(args.gammas)} x {len(args.learners)} learners x {len(args.rewards)} rewards, "
           f"{args.seeds} seeds ({counts_text(seeds)}) x {args.runs} runs per cell.")
-    print(f"Window rule: window = {args.base_window} * (L / {paper_plan_length}) ** {args.window_exponent:g}, "
+    say(f"Window rule: window = {args.base_window} * (L / {paper_plan_length}) ** {args.window_exponent:g}, "
           f"max_itr = {BASE_MAX_ITR} * L / {paper_plan_length} (L: optimal plan length from the spec's start).")
-    print("Learning time: per run, the iteration from which its greedy policy follows a shortest plan from every "
+    say("Learning time: per run, the iteration from which its greedy policy follows a shortest plan from every "
           "start state to the window's end; Kaplan-Meier median over all seeds' runs, 'censored' = more than half "
           f"the runs not there by the window's end; {CONFIDENCE:.0%} intervals from {args.resamples} seeds-then-runs "
           "resamples.\n")
@@ -201,18 +202,18 @@ def _study(args, out: Path) -> int:
     for gamma in args.gammas:
         key = f"{gamma:g}"
         for family in families:
-            print(f"\n{fit_learner}, gamma {gamma:g}, {family} family"
+            say(f"\n{fit_learner}, gamma {gamma:g}, {family} family"
                   f"{' (plan length ' + FIXED_PLAN_LENGTH_TEXT + ')' if family == FIXED_PLAN_FAMILY else ''}: "
                   "local slopes d log(median) / d log(states) [95 % interval] between consecutive sizes of each "
                   "chain (one of N, M growing), and the censored power-law fit where at most half the cells are "
                   "censored:")
             for reward in args.rewards:
-                print(f"  {reward}: {_slopes_text(slopes[family][key].get(reward, []))}")
-                print(f"  {' ' * len(reward)}  fit: {_fit_text(fits[family][key][reward])}")
-        print(ordering_answer(verdicts[key]))
-        print(f"Observed order ({fit_learner}, gamma {gamma:g}, median learning time, fewest first):")
+                say(f"  {reward}: {_slopes_text(slopes[family][key].get(reward, []))}")
+                say(f"  {' ' * len(reward)}  fit: {_fit_text(fits[family][key][reward])}")
+        say(ordering_answer(verdicts[key]))
+        say(f"Observed order ({fit_learner}, gamma {gamma:g}, median learning time, fewest first):")
         for info in infos:
-            print(f"  {info.name:<15}{info.reachable_from_start:>7}: {observed_order(rows, info.name, fit_learner, gamma)}")
+            say(f"  {info.name:<15}{info.reachable_from_start:>7}: {observed_order(rows, info.name, fit_learner, gamma)}")
     slope_rows = [{"family": family, "gamma": float(gamma), "learner": fit_learner, "reward": reward, **slope}
                   for family in families for gamma, per in slopes[family].items()
                   for reward, listed in per.items() for slope in listed]
@@ -224,6 +225,6 @@ def _study(args, out: Path) -> int:
         "scaling.png": lambda path: write_figure(path, rows, fit_learner, fits[PRODUCT_FAMILY]),
     }, json_safe(config_dict(args, infos, fits, slopes, verdicts, seconds, fit_learner, method_constants(args))),
         command="scaling")
-    print(f"\nWrote {out}/scaling.csv, scaling_specs.csv, scaling_slopes.csv, scaling.png, config.json in "
+    say(f"\nWrote {out}/scaling.csv, scaling_specs.csv, scaling_slopes.csv, scaling.png, config.json in "
           f"{seconds:.1f} s wall.")
     return 0
