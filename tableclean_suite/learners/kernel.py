@@ -1,29 +1,21 @@
 """The batched, compiled training loop: many independent runs, one step per run per iteration.
 
-This is Algorithm 1 of the paper (with the learner's TD target plugged in),
-compiled with numba.  `train_batch` trains a slice of the runs without the GIL; the
-caller spreads the runs over threads ([`threads.run_in_threads`][tableclean_suite.learners.threads.run_in_threads]): a first process
-compiles it in about 5 s of CPU time (the general loop in about 9) where numba's parallel loop
-(``prange``) took about 16, and the bits are the same for any thread count (each run has its own
-counter-based random numbers).
-[`reference`][tableclean_suite.learners.reference] is the same loop in plain Python, one step at a time; both draw the same
-counter-based random numbers ([`rng`][tableclean_suite.learners.rng]), so they produce identical arrays.
+Algorithm 1 of the paper with the learner's TD target plugged in, compiled with numba.
+`train_batch` trains a slice of the runs without the GIL; the caller spreads the runs over
+threads ([`threads.run_in_threads`][tableclean_suite.learners.threads.run_in_threads]), the bits
+the same for any thread count (counter-based random numbers per run, [`rng`][tableclean_suite.learners.rng]).
+[`reference`][tableclean_suite.learners.reference] is the same loop in plain Python, giving identical arrays.
 
-The loop (`_train_loop`, written once) picks the built-in TD target, the update rule
-(one-step, double Q, eligibility traces, Dyna planning) and the exploration by integer codes,
-so it takes no function argument and numba's disk cache (``cache=True``) serves its compiled
-copies to every new process without recompiling: `train_batch`, with the one-step rule
-and constant epsilon-greedy exploration compiled in (the paper's learners), and
-`train_batch_general` for the other built-in learners ([`specialised_loop`][tableclean_suite.learners.kernel.specialised_loop];
-[`kernel_for`][tableclean_suite.learners.kernel.kernel_for] picks).  A user learner's target gets its own compiled copy of the same
-loop ([`user_train_batch`][tableclean_suite.learners.kernel.user_train_batch]), built once per process.
+The loop (`_train_loop`, written once) picks the built-in TD target, the update rule (one-step,
+double Q, eligibility traces, Dyna planning) and the exploration by integer codes, so numba's disk
+cache serves its compiled copies to every process: `train_batch` (one-step, constant
+epsilon-greedy: the paper's learners) and `train_batch_general`
+([`kernel_for`][tableclean_suite.learners.kernel.kernel_for] picks); a user's target gets its own
+copy per process ([`user_train_batch`][tableclean_suite.learners.kernel.user_train_batch]).
 
-Per-step cost: one-step and double-Q updates are O(A); trace learners touch only the
-pairs with a non-zero trace (a per-run list of the pairs visited in the current episode,
-pruned when a trace is cut or underflows to 0), which gives exactly the dense S x A sweep's
-numbers; Dyna-Q adds ``planning_steps`` O(A) updates.  Cruz et al.'s assistance
-([`assist`][tableclean_suite.learners.assist]) adds O(A) per step with affordances (choices and the target's max over the
-afforded actions) and up to three advice-lane draws per action with an advisor.
+Per-step cost: O(A) for one-step and double-Q updates and for Cruz et al.'s affordances; trace
+learners touch only the pairs with a non-zero trace (the dense sweep's numbers exactly); Dyna-Q
+adds ``planning_steps`` O(A) updates.
 """
 
 from __future__ import annotations
@@ -74,7 +66,7 @@ from tableclean_suite.learners.rng import (
     uniform,
     uniform_at,
 )
-from tableclean_suite.learners.optimality import NOT_LEARNED, greedy_walk, tied_greedy, walk_changed
+from tableclean_suite.learners.optimality import NOT_LEARNED, behaviour_row, greedy_walk, tied_greedy, walk_changed
 from tableclean_suite.learners.rules import (
     EXPECTED_SARSA_TARGET,
     METHODS,
@@ -176,16 +168,6 @@ def borrowed(typingctx, array):
 
 
 # -- behaviour ------------------------------------------------------------------------------
-@numba.njit(cache=True, inline="always")
-def behaviour_row(q_a, q_b, state, double, row):
-    """The Q row the policy acts on: ``q_a[state]``, or for double Q ``(q_a + q_b) / 2`` written into ``row``."""
-    if not double:
-        return q_a[state]
-    for a in range(row.shape[0]):
-        row[a] = (q_a[state, a] + q_b[state, a]) * HALF
-    return row
-
-
 @numba.njit(cache=True, inline="always")
 def visit_count(visits, state):
     """Earlier visits of ``state`` (0 when the exploration does not count them: ``visits`` is empty)."""

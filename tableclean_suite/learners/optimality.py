@@ -1,16 +1,12 @@
 """When a run has learned the task: its greedy policy follows a shortest plan from every start.
 
-A run's *greedy policy* is the action the training loop takes when it does not explore: the
-largest value of the Q row the learner acts on (double Q: the average of its two tables),
-restricted to the afforded actions when the learner uses affordances, ties to the first action
-(``ties="first"``) or uniform among the tied ones (``ties="random"``).  It is *optimal* when,
-in the task model's deterministic transitions, following it from every start state of the
-task's start distribution reaches the terminal state in exactly the shortest-plan number of
-steps of that start
-([`TaskModel.distances_to_terminal`][tableclean_suite.task.model.TaskModel.distances_to_terminal]);
-under random ties every tied action must keep to a shortest plan.  Equivalently: every state on the greedy paths is one
-step nearer the terminal state after its greedy action(s).  A calibrated (measured) table is
-trained on its own successors, but optimality is always judged on the model's transitions.
+A run's *greedy policy* is the action the training loop takes when it does not explore (double
+Q: on the average of its two tables; afforded actions only with affordances; ties to the first
+action or, with ``ties="random"``, any tied one).  It is *optimal* when every state on its paths
+from the start states is one step nearer the terminal state after its greedy action(s), in the
+task model's transitions
+([`TaskModel.distances_to_terminal`][tableclean_suite.task.model.TaskModel.distances_to_terminal]),
+even for a run trained on a calibrated table.
 
 The training loop checks it before its first step and after every iteration's Q update and
 records, per run ([`TrainingResult`][tableclean_suite.learners.train.TrainingResult]):
@@ -22,11 +18,9 @@ records, per run ([`TrainingResult`][tableclean_suite.learners.train.TrainingRes
   budget T: 1 + the last iteration at which it was not (0 when it was optimal throughout);
   -1 when it is not optimal after iteration T (the run is censored at T).
 
-Cost: the walk visits the states on the greedy paths ([`greedy_walk`][tableclean_suite.learners.optimality.greedy_walk], O(visited x A)).
-The policy only changes where a Q row (or an affordance mask) changes, and the verdict only
-depends on the rows the last walk examined, so after an update the loop compares the new greedy
-action of an examined state with the one the walk took ([`walk_changed`][tableclean_suite.learners.optimality.walk_changed], O(A)) and walks
-again only when it differs (under random ties: whenever an examined row changed).
+Cost: [`greedy_walk`][tableclean_suite.learners.optimality.greedy_walk] is O(visited x A); after an
+update the loop walks again only when an examined state's greedy action changed
+([`walk_changed`][tableclean_suite.learners.optimality.walk_changed], O(A)).
 """
 
 from __future__ import annotations
@@ -69,6 +63,16 @@ def tied_greedy(q_row, masks, state, affording, draw):
                 return a
             k -= 1
     return n_actions - 1
+
+
+@numba.njit(cache=True, inline="always")
+def behaviour_row(q_a, q_b, state, double, row):
+    """The Q row the policy acts on: ``q_a[state]``, or for double Q ``(q_a + q_b) / 2`` written into ``row``."""
+    if not double:
+        return q_a[state]
+    for a in range(row.shape[0]):
+        row[a] = (q_a[state, a] + q_b[state, a]) * 0.5
+    return row
 
 
 @numba.njit(cache=True, inline="always")
@@ -130,11 +134,7 @@ def greedy_walk(q_a, q_b, double, row, masks, affording, random_ties, starts, mo
         here = distance[s]
         if here == 0:
             continue
-        q_row = q_a[s]
-        if double:
-            for a in range(row.shape[0]):
-                row[a] = (q_a[s, a] + q_b[s, a]) * 0.5
-            q_row = row
+        q_row = behaviour_row(q_a, q_b, s, double, row)
         if random_ties:
             if not ties_all_optimal(q_row, masks, s, affording, model_next, distance):
                 optimal = False
@@ -175,12 +175,7 @@ def walk_changed(q_a, q_b, double, row, masks, affording, random_ties, state, on
         return False
     if random_ties:
         return True
-    q_row = q_a[state]
-    if double:
-        for a in range(row.shape[0]):
-            row[a] = (q_a[state, a] + q_b[state, a]) * 0.5
-        q_row = row
-    return first_greedy(q_row, masks, state, affording) != choice[state]
+    return first_greedy(behaviour_row(q_a, q_b, state, double, row), masks, state, affording) != choice[state]
 
 
 def task_arrays(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
