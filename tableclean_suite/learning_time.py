@@ -1,15 +1,9 @@
 """How long each run takes to learn the task, summarised over runs with censoring.
 
-**The per-run learning time** is ``TrainingResult.learned_at`` (see
-`TrainingResult`): the iteration (environment steps,
-the unit of ``--iterations``; 1-based) from which the run's greedy policy is optimal (follows a
-shortest plan to the terminal state from every start state) and stays optimal after every later
-update to the end of the budget T; 0 when it is optimal throughout; -1 when it is not optimal
-at the end of the budget.  Why this definition: it is a property of one run (so its
-distribution over runs has a fixed target, unlike a reading of the mean success curve, whose
-target moves with the number of runs), it is exact (no threshold on a noisy curve), "stays
-learned" excludes a policy that is optimal for a moment and then unlearns, and steps rather than
-episodes keep ties rare.
+**The per-run learning time** is ``TrainingResult.learned_at``: the iteration (environment
+steps, 1-based) from which the run's greedy policy is optimal (a shortest plan from every start
+state) and stays so to the end of the budget T; 0 when optimal throughout; -1 when not optimal at
+the end.  A property of one run, exact, and a policy that unlearns does not count.
 
 **Censoring.** A run not optimal at the end of the budget has a learning time known only to
 exceed T: it is *right-censored at T*, never dropped (dropping would make a slow reward pattern
@@ -127,14 +121,19 @@ def survival_curve(learned_at, budget: int, confidence: float = intervals.DEFAUL
     """``(S, low, high)``, each ``(T,)``: the Kaplan-Meier curve S(t) = P(learning time > t), the
     share of runs not yet optimal for good, at t = 1 .. T, and its pointwise ``confidence`` band
     (log-log transform; where the band is undefined, S = 0 or 1, the curve itself)."""
-    fit = survival(learned_at, budget).sf
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        band = fit.confidence_interval(intervals.check_confidence(confidence), method=BAND_METHOD)
+    fit, band = _survival_band(learned_at, budget, intervals.check_confidence(confidence))
     t = np.arange(1, int(budget) + 1)
     curve = fit.evaluate(t)
     low, high = band.low.evaluate(t), band.high.evaluate(t)
     return curve, np.where(np.isnan(low), curve, low), np.where(np.isnan(high), curve, high)
+
+
+def _survival_band(learned_at, budget: int, confidence: float):
+    """The Kaplan-Meier fit of S and its pointwise band (NaN where undefined, S = 0 or 1, unwarned)."""
+    fit = survival(learned_at, budget).sf
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return fit, fit.confidence_interval(confidence, method=BAND_METHOD)
 
 
 def _crossing(times: np.ndarray, probabilities: np.ndarray, level: float) -> float:
@@ -165,10 +164,7 @@ def learning_time_summary(learned_at, budget: int, confidence: float = intervals
     if runs == 0:
         nan = math.nan
         return LearningTime(0, int(budget), *([nan] * 15), confidence)
-    fit = survival(learned_at, budget).sf
-    with warnings.catch_warnings():  # scipy warns where the band is undefined (S = 0 or 1): handled below
-        warnings.simplefilter("ignore", RuntimeWarning)
-        band = fit.confidence_interval(confidence, method=BAND_METHOD)
+    fit, band = _survival_band(learned_at, budget, confidence)
     steps = fit.quantiles
     # The band is NaN where S is 0 or 1 (no spread left): there the curve itself is the bound.
     low_curve = np.where(np.isnan(band.low.probabilities), fit.probabilities, band.low.probabilities)
