@@ -4,26 +4,12 @@
     tableclean-bench run --describe           # the task model, Table 1 mapping, Table 2
     tableclean-bench run --runs 200 --rewards r2 r4 --no-sweeps --out results/quick
 
-Installed (no checkout needed): ``tableclean-bench run`` (or bare ``tableclean-bench``), or
-``python -m tableclean_suite.bench run``.
-
-Trains every learner x reward at (alpha, gamma) ("main"), plus the sweep learner x
-sweep reward at each alpha of ``--alpha-sweep`` and each gamma of ``--gamma-sweep``, plus
-Cruz et al.'s methods (affordance-based and interactive Q-learning) at ``--literature-reward``
-for Table 4's "run here" rows (``--no-literature`` skips them),
-prints Table 3 (the per-run learning time with intervals; the plateaus with intervals, the
-paper's success rate beside ours; the paper's mean-curve definitions beside the paper's values),
-the probabilities of improvement, the sweep table and Table 4, and writes to ``--out``:
-``table3.csv`` and ``table4.csv`` (an interval column ``X`` followed by ``X_low``/``X_high``),
-``comparisons.csv``, ``curves.csv`` (with ``low``/``high`` bands), the figures
-``fig3..fig7*.png`` (bands shaded) and ``fig8_learning_time_q_learning.png`` (the Kaplan-Meier
-curves of the per-run learning time), ``config.json`` (written last: the run's configuration, a run
-id and the SHA-256 of each of those files; see `outputs`) and ``cells/`` (one file per
-trained cell; a rerun with the same settings and code loads them instead of retraining -
-``--fresh`` retrains).
-
-The run's settings are a `RunConfig`; this module turns
-the command line into one and is the only module of the harness that touches the filesystem.
+Trains the grid ([`experiments`][tableclean_suite.bench.experiments]: main, sweeps, literature),
+prints Tables 3-4, the probabilities of improvement and the sweeps, and writes to ``--out``:
+``table3.csv``, ``table4.csv`` (an interval column ``X`` followed by ``X_low``/``X_high``),
+``comparisons.csv``, ``curves.csv``, the figures ``fig3..fig8*.png``, ``config.json`` (written
+last: the configuration, a run id and each file's SHA-256) and ``cells/`` (a rerun loads them;
+``--fresh`` retrains).  The settings are a `RunConfig` built from the command line here.
 """
 
 from __future__ import annotations
