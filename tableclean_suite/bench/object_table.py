@@ -57,10 +57,10 @@ DEFAULT_OUT = "results/object_table"
 TABLE_CSV = "object_table.csv"
 #: Columns of the CSV, in order.
 COLUMNS = ("object", "setting", "partner", "skill", "executions", "successes", "success_rate", "success_lower",
-           "agreements", "fidelity", "fidelity_lower", "episodes", "episode_successes", "seconds")
+           "agreements", "fidelity", "fidelity_lower", "retries", "episodes", "episode_successes", "seconds")
 #: Failures of ``--random``, one row each.
 FAILURES_CSV = "object_failures.csv"
-FAILURE_COLUMNS = ("object", "params", "episode", "start", "history", "skill", "phase", "cause", "reason")
+FAILURE_COLUMNS = ("object", "params", "episode", "start", "history", "skill", "phase", "cause", "retries", "reason")
 #: Longest random history [actions] before the plan in a ``--random`` episode.
 MAX_HISTORY = 6
 #: Episodes per generated object unless ``--episodes`` says.
@@ -104,11 +104,12 @@ def run_cell(kind: str, setting: str, episodes: int, seed: int, partner: str, lo
             ok = True
             for result in controller.execute_plan(model.shortest_plan(env.symbolic_state())):
                 name = model.action_name(result.action)
-                tally = counts.setdefault(name, [0, 0, 0])
+                tally = counts.setdefault(name, [0, 0, 0, 0])
                 predicted = model.step(result.state_before, result.action)[0] if result.state_before else None
                 tally[0] += 1
                 tally[1] += bool(result.success)
                 tally[2] += result.state_after is not None and result.state_after == predicted
+                tally[3] += result.retries
                 if not result.success:
                     ok = False
                     if log:
@@ -124,8 +125,9 @@ def run_cell(kind: str, setting: str, episodes: int, seed: int, partner: str, lo
 def _rows(kind: str, setting: str, partner: str, counts: dict, episodes: int, wins: int, seconds: float) -> list[dict]:
     return [{"object": kind, "setting": setting, "partner": partner, "skill": name, "executions": n, "successes": success,
              "success_rate": success / n, "success_lower": round(lower_bound(success, n), 4), "agreements": agree,
-             "fidelity": agree / n, "fidelity_lower": round(lower_bound(agree, n), 4), "episodes": episodes,
-             "episode_successes": wins, "seconds": round(seconds, 1)} for name, (n, success, agree) in counts.items()]
+             "fidelity": agree / n, "fidelity_lower": round(lower_bound(agree, n), 4), "retries": retries,
+             "episodes": episodes, "episode_successes": wins, "seconds": round(seconds, 1)}
+            for name, (n, success, agree, retries) in counts.items()]
 
 
 def failure_class(result) -> tuple[str, str]:
@@ -169,15 +171,16 @@ def run_random(kind, index: int, episodes: int, seed: int, partner: str) -> tupl
                     action = model.shortest_plan(state)[0]
                 result = controller.execute(action)
                 name = model.action_name(result.action)
-                tally = counts.setdefault(name, [0, 0, 0])
+                tally = counts.setdefault(name, [0, 0, 0, 0])
                 tally[0] += 1
                 tally[1] += bool(result.success)
                 tally[2] += result.state_after is not None and result.state_after == result.expected
+                tally[3] += result.retries
                 if not result.success:
                     phase, cause = failure_class(result)
                     failures.append({"object": kind.name, "params": kind.description, "episode": episode,
                                      "start": start.name, "history": " ".join(history), "skill": name, "phase": phase,
-                                     "cause": cause, "reason": result.reason})
+                                     "cause": cause, "retries": result.retries, "reason": result.reason})
                     break
                 history.append(name)
                 state = result.state_after
@@ -261,13 +264,14 @@ def random_table(args, rows: list[dict], table: Path, started: float, log=print)
         failures += lost
         wins += cell[0]["episode_successes"] if cell else 0
         for row in cell:
-            total = totals.setdefault(row["skill"], [0, 0, 0])
-            for k, key in enumerate(("executions", "successes", "agreements")):
+            total = totals.setdefault(row["skill"], [0, 0, 0, 0])
+            for k, key in enumerate(("executions", "successes", "agreements", "retries")):
                 total[k] += row[key]
         trial_store.write_rows(table, rows, COLUMNS)
         trial_store.write_rows(table.parent / FAILURES_CSV, failures, FAILURE_COLUMNS)
         log(f"[{index + 1}/{len(kinds)}] {kind.name} ({kind.description}): {cell[0]['episode_successes'] if cell else 0}"
-            f"/{episodes} episodes, {sum(r['executions'] for r in cell)} skills, {len(lost)} failed"
+            f"/{episodes} episodes, {sum(r['executions'] for r in cell)} skills, {sum(r['retries'] for r in cell)} retries, "
+            f"{len(lost)} failed"
             + "".join(f"; {f['skill']} {f['phase']}: {f['cause']}" for f in lost) + f" ({time.perf_counter() - started:.0f} s)")
     total = _rows(f"random objects ({measured})", "random", args.mix_with, totals, episodes * measured, wins,
                   time.perf_counter() - started)
