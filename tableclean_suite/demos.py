@@ -124,9 +124,7 @@ class Demo:
             raise ValueError(f"skill_bounds must have shape (K, 2), got {self.skill_bounds.shape}")
 
 
-# ---------------------------------------------------------------------------------------------
 # env_args: what rebuilds the scene
-# ---------------------------------------------------------------------------------------------
 def env_args_of(env, task: str, controller_configs: dict) -> dict:
     """robomimic's ``env_args`` of a skill env made by [`make_skill_env`][tableclean_suite.controllers.make.make_skill_env].
 
@@ -167,9 +165,7 @@ def make_env_from_args(env_args: dict, **overrides):
     return robosuite.make(env_args["env_name"], **{**env_args["env_kwargs"], **overrides})
 
 
-# ---------------------------------------------------------------------------------------------
 # recording
-# ---------------------------------------------------------------------------------------------
 class EpisodeRecorder:
     """Records every control step a `RecordingSkillController` makes: state before and command.
 
@@ -289,9 +285,7 @@ def recording_controller(env, model, recorder: EpisodeRecorder):
     return RecordingSkillController(env, model, on_step=recorder.on_step)
 
 
-# ---------------------------------------------------------------------------------------------
 # writing and reading
-# ---------------------------------------------------------------------------------------------
 def split_keys(keys: Sequence[str], valid_fraction: float = VALID_FRACTION, seed: int = 0) -> tuple[list[str], list[str]]:
     """``(train, valid)`` demo keys: ``round(valid_fraction * n)`` (at least 1 when n >= 2) drawn with ``seed``."""
     if not 0.0 <= valid_fraction < 1.0:

@@ -208,24 +208,17 @@ class RunConfig:
             if not (isinstance(value, (int, float)) and (0.0 < value if bounds[0] == "(" else 0.0 <= value)
                     and (value < 1.0 if bounds[-1] == ")" else value <= 1.0)):
                 raise ConfigError(name, f"{name} must be in {bounds}, got {value!r}")
-        if (isinstance(self.bootstrap_samples, bool) or not isinstance(self.bootstrap_samples, int)
-                or not 1 <= self.bootstrap_samples <= MAX_BOOTSTRAP_SAMPLES):
-            raise ConfigError("bootstrap_samples", "bootstrap_samples must be an integer in "
-                              f"[1, {MAX_BOOTSTRAP_SAMPLES}], got {self.bootstrap_samples!r}")
+        _check_integer("bootstrap_samples", self.bootstrap_samples, 1, MAX_BOOTSTRAP_SAMPLES)
         if self.analysis not in ANALYSIS_KINDS:
             raise ConfigError("analysis", f"unknown {self.analysis!r}; allowed: {', '.join(ANALYSIS_KINDS)}")
-        if (isinstance(self.analysis_episodes, bool) or not isinstance(self.analysis_episodes, int)
-                or self.analysis_episodes < 2):
-            raise ConfigError("analysis_episodes", f"analysis_episodes must be an integer >= 2, "
-                                                   f"got {self.analysis_episodes!r}")
+        _check_integer("analysis_episodes", self.analysis_episodes, 2)
         self.task_spec()
         for name, allowed in (("start", START_MODES), ("ineffective", INEFFECTIVE_MODES)):
             value = getattr(self, name)
             if value is not None and value not in allowed:
                 raise ConfigError(name, f"unknown {value!r}; allowed: {', '.join(allowed)}")
-        if self.workers is not None and (isinstance(self.workers, bool) or not isinstance(self.workers, int)
-                                         or self.workers < 1):
-            raise ConfigError("workers", f"workers must be an integer >= 1, got {self.workers!r}")
+        if self.workers is not None:
+            _check_integer("workers", self.workers, 1)
         self._validate_executor()
         backends = backend_names()
         if self.backend not in backends:
@@ -370,6 +363,12 @@ def _number(name: str, value) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ConfigError(name, f"{value!r} is not a number")
     return float(value)
+
+
+def _check_integer(name: str, value, low: int, high: int | None = None) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < low or (high is not None and value > high):
+        allowed = f"in [{low}, {high}]" if high is not None else f">= {low}"
+        raise ConfigError(name, f"{name} must be an integer {allowed}, got {value!r}")
 
 
 def _check_names(name: str, value, allowed: list[str]) -> None:
