@@ -270,3 +270,12 @@ def test_the_hand_written_problems_optimal_plan_runs_in_physics():
         assert len(results) == len(plan) and results[-1].state_after.is_terminal
     finally:
         env.close()
+
+
+def test_a_pddl_path_is_a_task_wherever_a_task_is_named(tmp_path):
+    from tableclean_suite.task.spec import get_task_spec
+
+    assert get_task_spec(str(EXAMPLE)) == read_problem(EXAMPLE)
+    assert get_task_spec(Path(EXAMPLE)) == read_problem(EXAMPLE)
+    with pytest.raises(PDDLError, match="cannot read the problem"):
+        get_task_spec(str(tmp_path / "missing.pddl"))

@@ -308,17 +308,21 @@ def load_task_spec(path: str | Path) -> TaskSpec:
 
 
 def get_task_spec(task: "str | Path | TaskSpec | None" = None) -> TaskSpec:
-    """A spec from a registered name, a ``.json`` path or a spec (None: ``paper``).
+    """A spec from a registered name, a ``.json`` spec file, a ``.pddl`` problem or a spec (None: ``paper``).
 
+    A ``.pddl`` path is read by [`read_problem`][tableclean_suite.task.pddl.read_problem].
     Raises ``ValueError`` naming the registered specs when ``task`` is none of these.
     """
     if task is None:
         return PAPER_SPEC
     if isinstance(task, TaskSpec):
         return task
+    if str(task).lower().endswith(".pddl"):
+        from tableclean_suite.task.pddl import read_problem  # the reader imports this module
+        return read_problem(Path(task))
     if isinstance(task, Path) or (isinstance(task, str) and task.lower().endswith(".json")):
         return load_task_spec(task)
     if isinstance(task, str) and task in _REGISTRY.names():
         return _REGISTRY.get(task)
     allowed = ", ".join(_REGISTRY.names())
-    raise ValueError(f"unknown task spec {task!r}; allowed: {allowed}, a TaskSpec, or a path to a .json spec")
+    raise ValueError(f"unknown task spec {task!r}; allowed: {allowed}, a TaskSpec, or a path to a .json spec or a .pddl problem")
