@@ -12,12 +12,8 @@ state is not taken, neither greedily nor when exploring.
                      on it is not afforded in that state
 ==================== ==========================================================================
 
-With affordances the behaviour policy is restricted to the afforded actions of the state: the
-greedy action is the afforded one of largest Q (ties to the first), a random action is uniform
-over the afforded actions (the same two main-lane draws as plain epsilon-greedy, so no draw is
-added), softmax weighs only afforded actions, and the Q-learning target's max runs over the
-afforded actions of s'.  A state with no afforded action (never the case on the paper's task:
-``move`` is always afforded) falls back to all actions.
+With affordances the greedy action, a random action (the same two main-lane draws), softmax and
+the Q-learning target's max all run over the state's afforded actions (all actions where none is).
 
 **Advice** (``advice_probability`` L, ``advice_consistency`` C, both in [0, 1]): before the
 learner chooses an action, a simulated advisor advises with probability L; its advice is its own
@@ -28,8 +24,8 @@ improper action (ties to the first action in the task's order).  Its draws come 
 lane ``LANE_ADVICE`` ([`rng`][tableclean_suite.learners.rng]), counted by the iteration at which the action is taken, so the
 main lane's four streams are unchanged.
 
-The compiled functions here are inlined into the one training loop ([`kernel`][tableclean_suite.learners.kernel]) and picked
-by integer codes; [`reference`][tableclean_suite.learners.reference] has independent plain-Python twins.
+The compiled functions here run in [`kernel`][tableclean_suite.learners.kernel]'s loop;
+[`reference`][tableclean_suite.learners.reference] has independent plain-Python twins.
 """
 
 from __future__ import annotations
@@ -55,9 +51,7 @@ N_ADVICE_PARAMETERS = 2
 AFFORDED, NOT_AFFORDED = 1, 0
 
 
-# ---------------------------------------------------------------------------------------------
 # compiled: choices restricted to afforded actions, the advisor's action
-# ---------------------------------------------------------------------------------------------
 @numba.njit(cache=True)
 def afforded_count(mask_row):
     """Number of afforded actions in ``mask_row`` (``(n_actions,)`` int8, 1 = afforded)."""
@@ -171,9 +165,7 @@ def run_masks(afforded, affordance, n_states, n_actions):
     return afforded
 
 
-# ---------------------------------------------------------------------------------------------
 # plain Python: the given affordances and the advisor, from the task model
-# ---------------------------------------------------------------------------------------------
 #: What each task model's assisted learners are handed, built once per model: ``{name: {model: array}}``.
 _per_model: dict = {"affordances": weakref.WeakKeyDictionary(), "advisor": weakref.WeakKeyDictionary()}
 

@@ -19,8 +19,7 @@ Epsilon-greedy random actions are uniform over all the task's actions; ties in t
 greedy choice go to the first action.
 
 Random numbers ([`rng`][tableclean_suite.learners.rng]): epsilon-greedy uses ``STREAM_EXPLORE`` (explore?) and
-``STREAM_RANDOM_ACTION`` (which action), as before; softmax samples its action with the
-``STREAM_RANDOM_ACTION`` draw alone.  No exploration adds or moves a draw.
+``STREAM_RANDOM_ACTION`` (which action); softmax the latter alone.  No exploration adds or moves a draw.
 
 For the compiled loop an exploration is an integer `Exploration.code` and a float
 array ([`Exploration.kernel_parameters`][tableclean_suite.learners.exploration.Exploration.kernel_parameters], shape ``(N_PARAMETERS,)``):
@@ -51,9 +50,7 @@ MAX_HORIZON = 10**9
 MAX_RATE = 1.0e3
 
 
-# ---------------------------------------------------------------------------------------------
 # compiled: the exploration parameter at (t, s), the action, the expectation under the policy
-# ---------------------------------------------------------------------------------------------
 @numba.njit(cache=True)
 def greedy_action(q_row):
     """Index of the largest value in ``q_row`` (shape ``(n_actions,)``), ties to the first."""
@@ -137,9 +134,7 @@ def choose_action(q_row, code, parameter, explore_draw, action_draw):
     return epsilon_greedy(q_row, parameter, explore_draw, action_draw)
 
 
-# ---------------------------------------------------------------------------------------------
 # the dataclasses
-# ---------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Exploration:
     """Base of the explorations: a name, a kernel code and validated parameters.

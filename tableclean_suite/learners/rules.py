@@ -42,12 +42,8 @@ action is that of their sum, and reports the average as its Q-table.
 
 Users add a learner by writing a ``numba.njit`` target with the signature of
 [`q_learning_target`][tableclean_suite.learners.rules.q_learning_target] and calling [`register_learner`][tableclean_suite.learners.rules.register_learner]; it may use the one-step
-or the trace update rule.
-
-The built-in targets are also reachable by an integer code ([`builtin_td_target`][tableclean_suite.learners.rules.builtin_td_target]),
-so the compiled training loop that uses them takes no function argument and numba's
-disk cache serves it to every new process; a user target is compiled into its own
-copy of the loop once per process.
+or the trace update rule.  The built-in targets are picked by code
+([`builtin_td_target`][tableclean_suite.learners.rules.builtin_td_target]), so the disk-cached loop takes no function.
 """
 
 from __future__ import annotations
@@ -206,7 +202,7 @@ class TabularLearner:
             random numbers' ties lane).  Softmax exploration has no greedy choice to break.
 
     ``train()`` sets the last nine from ``learner_options=``, ``q_init=`` and ``exploration=``
-    ([`configured`][tableclean_suite.learners.rules.TabularLearner.configured]), so every backend, the physics one included, trains what was asked.
+    ([`configured`][tableclean_suite.learners.rules.TabularLearner.configured]).
     """
 
     name: str
