@@ -28,7 +28,9 @@ setup(
     packages=find_packages(include=["tableclean_suite", "tableclean_suite.*"]),  # tableclean_suite.bench too
     # The benchmark commands ship with the package (its paper numbers are Python data, no data files):
     # tableclean-bench COMMAND (bare: the paper's run).
-    entry_points={"console_scripts": ["tableclean-bench = tableclean_suite.bench.commands:main"]},
+    # tableclean_bench: the console script's entry, outside the package (Ctrl-C during the package's import)
+    py_modules=["tableclean_bench"],
+    entry_points={"console_scripts": ["tableclean-bench = tableclean_bench:main"]},
     install_requires=[
         "robosuite>=1.5,<1.6",
         "mujoco>=3.3,<3.10",
@@ -40,15 +42,14 @@ setup(
         "tqdm",
         "scipy",  # statistics (intervals, fits); robosuite's OSC uses it too
         "wrapt",  # post-import hook: TableClean registers when robosuite is imported, not before
-        "filelock",  # a run's lock on its output folder (tableclean_suite.bench.outputs)
         "psutil",  # available memory for the resource guard (tableclean_suite.resources); workers die with their parent
     ],
     extras_require={
         # dev: everything the test suite exercises (pytest-xdist: pytest.ini runs one worker per core;
         # wheel: the install test builds offline; optuna: tuning; h5py: demonstration datasets; ray: the
-        # executor tests start a local Ray on loopback; filelock, psutil: file locks and the memory check;
+        # executor tests start a local Ray on loopback; psutil: the memory check;
         # the docs extra: tests/test_docs.py builds the site)
-        "dev": ["pytest", "pytest-xdist", "wheel", "optuna", "h5py", "ray", "filelock", "psutil",
+        "dev": ["pytest", "pytest-xdist", "wheel", "optuna", "h5py", "ray", "psutil",
                 "mkdocs", "mkdocs-material", "mkdocstrings[python]",
                 "lifelines",  # an independent Kaplan-Meier the learning-time tests compare scipy's with
                 "pddl", "unified-planning", "up-pyperplan"],  # the PDDL export's tests parse it and solve with pyperplan

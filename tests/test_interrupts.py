@@ -27,6 +27,22 @@ def test_ctrl_c_while_a_command_module_is_imported_is_one_line(monkeypatch, caps
     assert capsys.readouterr().err.strip().splitlines() == ["tableclean-bench run: interrupted"]
 
 
+def test_ctrl_c_while_the_package_itself_is_imported_is_one_line(monkeypatch, capsys):
+    import tableclean_bench
+
+    class InterruptedImport:
+        def find_spec(self, name, path=None, target=None):
+            if name == "tableclean_suite.bench.commands":
+                raise KeyboardInterrupt
+            return None
+
+    monkeypatch.delitem(sys.modules, "tableclean_suite.bench.commands")
+    monkeypatch.setattr(sys, "meta_path", [InterruptedImport(), *sys.meta_path])
+    monkeypatch.setattr(signal, "signal", lambda *args: None)  # the script ignores further Ctrl-C; not here
+    assert tableclean_bench.main() == 130
+    assert capsys.readouterr().err.strip().splitlines() == ["tableclean-bench: interrupted"]
+
+
 def test_other_runtime_errors_still_surface(monkeypatch):
     def failing(name):
         raise RuntimeError("a real bug")
