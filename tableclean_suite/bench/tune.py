@@ -92,14 +92,16 @@ class StudyError(ValueError):
 
 def study_configuration(args) -> dict:
     """What a study's trials and its paper reference depend on: learner, reward, the task spec (as
-    JSON), runs, iterations, max_itr, seed, threshold, tolerance, the tie rule, the objective and the
-    ``--plugins`` sources."""
-    from tableclean_suite.bench.plugins import plugin_sources_digest
+    JSON), runs, iterations, max_itr, seed, threshold, tolerance, the tie rule, the objective, the
+    arrays the learner reads and the code that runs
+    ([`task_digest`][tableclean_suite.bench.digests.task_digest],
+    [`code_digest`][tableclean_suite.bench.digests.code_digest], ``--plugins`` included)."""
+    from tableclean_suite.bench.digests import code_digest, task_digest
 
     return {"learner": args.learner, "reward": args.reward, "task": args.model.spec.to_dict(), "runs": args.runs,
             "iterations": args.iterations, "max_itr": args.max_itr, "seed": args.seed, "threshold": args.threshold,
             "tolerance": args.tolerance, "ties": args.ties, "objective": OBJECTIVE,
-            "plugins_digest": plugin_sources_digest(getattr(args, "plugins", ()))}
+            "task_digest": task_digest(args.model), "code_digest": code_digest(getattr(args, "plugins", ()))}
 
 
 def bind_configuration(study, args) -> None:
