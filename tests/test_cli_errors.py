@@ -125,14 +125,6 @@ def test_a_scaling_spec_the_task_model_refuses_is_one_line(flags, capsys, tmp_pa
     _one_line_exit_2(capsys, code, "--segments/--objects")
 
 
-def test_describe_a_paper_sized_spec_without_move_leaves_out_table_1():
-    from tableclean_suite.bench.describe import describe
-    from tableclean_suite.task import TaskModel, TaskSpec
-
-    text = describe(TaskModel(spec=TaskSpec("no_move", segments=2, objects=1, actions=["pick", "place", "clean"])))
-    assert "Exact success probability" in text and "Table 1 of the paper" not in text
-
-
 def test_describe_fits_in_120_columns():
     from tableclean_suite.bench.describe import describe
     from tableclean_suite.task import TaskModel

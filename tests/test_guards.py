@@ -38,6 +38,13 @@ def test_a_task_whose_terminal_state_cannot_be_reached_is_refused(actions):
         train(task=spec, runs=1, iterations=10)
 
 
+def test_describe_refuses_a_task_whose_terminal_state_cannot_be_reached():
+    from tableclean_suite.bench.describe import describe
+
+    with pytest.raises(resources.ResourceError, match="no_way_out.*unclean"):
+        describe(TaskModel(spec=TaskSpec("no_way_out", actions=("pick", "place", "clean"))))
+
+
 def _job(learner, runs, iterations):
     return TrainingJob(learner=learner, reward=get_reward_pattern("r4"), model=TaskModel(), runs=runs,
                        iterations=iterations, alpha=0.3, gamma=0.3, epsilon=0.1, max_itr=500, seed=0)

@@ -108,7 +108,12 @@ def _plan_text(model: TaskModel, plan) -> str:
 
 
 def describe(model: TaskModel, epsilon: float = 0.1, max_itr: int = 500) -> str:
-    """The full ``--describe`` report as text."""
+    """The full ``--describe`` report as text.
+
+    Raises:
+        tableclean_suite.task.model.UnlearnableTaskError: no terminal state is reachable from a start state.
+    """
+    model.require_learnable()
     reachable = model.reachable_states()
     terminal = [s for s in reachable if s.is_terminal]
     starts = model.start_states()
