@@ -122,7 +122,7 @@ def test_every_command_helps_through_the_installed_console_script(installed):
 def test_a_second_command_runs_through_the_installed_console_script(installed):
     site, elsewhere, env = installed
     script = site / "bin" / "tableclean-bench"
-    result = subprocess.run([sys.executable, str(script), "speed", "--sections", "specs", "--repeat", "1"],
+    result = subprocess.run([sys.executable, str(script), "run", "--task", "three_segments", "--describe"],
                             cwd=elsewhere, env=env, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
-    assert "rate / paper's" in result.stdout and "scale_n5_m3" in result.stdout
+    assert "spec='three_segments'" in result.stdout and "Exact success probability" in result.stdout

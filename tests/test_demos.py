@@ -323,7 +323,7 @@ def test_dataset_differences_sees_every_dataset_and_attribute(tmp_path):
 def test_two_workers_record_the_same_dataset_as_one(dataset, tmp_path, monkeypatch):
     """Each attempt is an executor task seeded by (seed, attempt): two processes write the fixture's data,
     also when they start with one BLAS thread (as Ray's workers do) and this process has more."""
-    from tableclean_suite.demos import dataset_differences
+    from hdf5_differences import dataset_differences
 
     monkeypatch.setenv("OMP_NUM_THREADS", "1")  # the spawned workers' OpenBLAS starts on one thread
     out = tmp_path / "two_workers.hdf5"
