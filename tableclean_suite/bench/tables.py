@@ -237,8 +237,10 @@ def _interval_texts(rows: pd.DataFrame, column: str, digits: int, scale: float =
                                                                           rows[column + HIGH])]
 
 
-def _index(rows: pd.DataFrame) -> pd.MultiIndex:
-    return pd.MultiIndex.from_arrays([rows["learner"], rows["reward"]], names=["learner", "reward"])
+def _by_cell(rows: pd.DataFrame, columns: dict) -> pd.DataFrame:
+    """``columns`` as a frame indexed by the rows' (learner, reward)."""
+    return pd.DataFrame(columns).set_axis(
+        pd.MultiIndex.from_arrays([rows["learner"], rows["reward"]], names=["learner", "reward"]), axis="index")
 
 
 def display_learning_time(table: pd.DataFrame) -> pd.DataFrame:
@@ -248,12 +250,10 @@ def display_learning_time(table: pd.DataFrame) -> pd.DataFrame:
     rows = main_rows(table)
     quartiles = [f"{with_interval(q1, None, None)}-{with_interval(q3, None, None)}"
                  for q1, q3 in zip(rows["learning_time_q1"], rows["learning_time_q3"])]
-    frame = pd.DataFrame({"median [CI]": _interval_texts(rows, "learning_time_median", 0),
-                          "quartiles": quartiles,
-                          "RMST [CI]": _interval_texts(rows, "learning_time_rmst", 0),
-                          "censored % [CI]": _interval_texts(rows, "censored_share", 1, 100.0)})
-    frame.index = _index(rows)
-    return frame
+    return _by_cell(rows, {"median [CI]": _interval_texts(rows, "learning_time_median", 0),
+                           "quartiles": quartiles,
+                           "RMST [CI]": _interval_texts(rows, "learning_time_rmst", 0),
+                           "censored % [CI]": _interval_texts(rows, "censored_share", 1, 100.0)})
 
 
 def display_plateaus(table: pd.DataFrame) -> pd.DataFrame:
@@ -262,15 +262,13 @@ def display_plateaus(table: pd.DataFrame) -> pd.DataFrame:
     the asymptotes were computed when some are simulated: [`table3`][tableclean_suite.bench.tables.table3]'s ``asymptotes``)."""
     rows = main_rows(table)
     paper = (100.0 * rows["paper_success_rate"].astype(float)).round(2)
-    frame = pd.DataFrame({"success % [CI]": _interval_texts(rows, "success_plateau", 2, 100.0),
-                          "paper": [_quoted_text(v, 2) for v in paper],
-                          "greedy success % [CI]": _interval_texts(rows, "greedy_success_plateau", 2, 100.0),
-                          "never terminal %": _interval_texts(rows, "never_terminal_share", 1, 100.0),
-                          "drift pp [CI]": _interval_texts(rows, DRIFT, 2, 100.0),
-                          "settled": _settled_marks(rows["settled"]),
-                          **({ASYMPTOTES: rows[ASYMPTOTES].tolist()} if ASYMPTOTES in rows.columns else {})})
-    frame.index = _index(rows)
-    return frame
+    return _by_cell(rows, {"success % [CI]": _interval_texts(rows, "success_plateau", 2, 100.0),
+                           "paper": [_quoted_text(v, 2) for v in paper],
+                           "greedy success % [CI]": _interval_texts(rows, "greedy_success_plateau", 2, 100.0),
+                           "never terminal %": _interval_texts(rows, "never_terminal_share", 1, 100.0),
+                           "drift pp [CI]": _interval_texts(rows, DRIFT, 2, 100.0),
+                           "settled": _settled_marks(rows["settled"]),
+                           **({ASYMPTOTES: rows[ASYMPTOTES].tolist()} if ASYMPTOTES in rows.columns else {})})
 
 
 def plateaus_kind(table: pd.DataFrame) -> str:
@@ -307,9 +305,7 @@ def display_paper_definitions(table: pd.DataFrame) -> pd.DataFrame:
                        for v, p in zip(rows[ours], rows[paper])]
     data["max avg r"] = [_quoted_text(v, 3) for v in rows["max_average_reward"]]
     data["avg r plateau [CI]"] = _interval_texts(rows, "average_reward_plateau", 3)
-    frame = pd.DataFrame(data)
-    frame.index = _index(rows)
-    return frame
+    return _by_cell(rows, data)
 
 
 def table3_notes(confidence: float, samples: int, budget: int) -> str:
