@@ -108,7 +108,7 @@ def test_the_grasp_of_a_capped_can_keeps_the_fingertips_above_its_shoulder():
 def test_the_fidelity_skill_table_counts_retries():
     model = TaskModel()
     row = {"state": model.unclean_layouts()[0].index, "action": "pick", "agree": 1, "observed_outcome": "routine",
-           "steps": 30, "wall_time": 0.1}
+           "steps": 30, "wall_time": 0.1, "reason": "ok"}
     rows = [{**row, "success": 1, "retries": 0}, {**row, "success": 1, "retries": 1},
             {**row, "success": 0, "retries": 2, "agree": 0}]
     pick = next(r for r in skill_table(rows, model) if r["skill"] == "pick")
@@ -194,3 +194,33 @@ def test_a_missed_grasp_is_retried_from_the_measured_pose(first_close_fails, com
         assert info["objects_grasped"][0] and info["eef_pos"][2] > info["objects_pos"][0][2]
     finally:
         env.close()
+
+
+def test_a_state_that_cannot_be_staged_is_recorded_as_failed_trials_not_a_crashed_round(monkeypatch):
+    from types import SimpleNamespace
+
+    from tableclean_suite import physics_backend
+    from tableclean_suite.bench import fidelity
+    from tableclean_suite.skill_result import SkillResult
+
+    model = TaskModel()
+    starts = set(model.unclean_layouts())
+
+    def stage(env, controller, state, seed=None):
+        if state not in starts:
+            raise physics_backend.StagingError(f"staging {state.name}: the pick failed")
+        env.state = state
+
+    def execute(action):  # every skill fails where it is: no state is reached by a plan
+        return SkillResult(action, False, False, 5, "ran out", env.state, env.state, None)
+
+    env = SimpleNamespace(state=None)
+    monkeypatch.setattr(physics_backend, "stage", stage)
+    monkeypatch.setattr(physics_backend, "snapshot", lambda env: None)
+    monkeypatch.setattr(physics_backend, "restore", lambda env, saved: None)
+    rows = fidelity.run_round(SimpleNamespace(env=env, controller=SimpleNamespace(execute=execute), model=model), 0, 0)
+    assert len(rows) == fidelity.trials_per_round(model, model.action_names)
+    unstaged = [r for r in rows if r["reason"].startswith(fidelity.NOT_STAGED)]
+    assert unstaged and all(r["observed_outcome"] == fidelity.FAULT and not r["agree"] for r in unstaged)
+    executions = {s["skill"]: s["executions"] for s in skill_table(rows, model)}
+    assert sum(executions.values()) + sum(s["refused"] for s in skill_table(rows, model)) == len(rows) - len(unstaged)

@@ -13,7 +13,8 @@ reachable non-terminal state (paper: 18 states x 4 actions = 72 trials;
   and every action is executed from a restored copy of that snapshot; the successors the
   physics reached as the model predicts are visited next.  A state that no executed plan
   reached in a round (because a skill failed on the way) is staged directly by a reset
-  (``reached_by = "staged"``).
+  (``reached_by = "staged"``); when that fails too (the pick staging a held object), each of its
+  trials is recorded as a failure (``reason`` "not staged: ...", an abstraction fault observed).
 - A trial *agrees* when the abstraction reads back the model's successor and the observed
   outcome is the model's outcome; an abstraction fault never agrees.
 
@@ -68,6 +69,8 @@ RANDOMIZED_SUFFIX = "_randomized"
 #: Confidence of the one-sided lower bound of every rate ([lower_bound][tableclean_suite.bench.fidelity.lower_bound]).
 CONFIDENCE = 0.95
 FAULT = "fault"
+#: How the reason of a trial from a state that could not be staged starts (no skill ran: not in the skill table).
+NOT_STAGED = "not staged"
 
 
 class ResumeError(ValueError):
@@ -128,7 +131,8 @@ def run_round(scene, round_index: int, seed: int, on_trial: Callable[[dict], Non
     controller and model are used).  States only reachable through a left-out action are
     staged.  Returns the trial rows in execution order.
     """
-    from tableclean_suite.physics_backend import restore, snapshot, stage
+    from tableclean_suite.physics_backend import StagingError, restore, snapshot, stage
+    from tableclean_suite.skill_result import SkillResult
 
     actions = action_names(scene.model, actions)
 
@@ -169,7 +173,14 @@ def run_round(scene, round_index: int, seed: int, on_trial: Callable[[dict], Non
         visit(start, layout_label(start), "plan")
     for k, state in enumerate(targets):
         if state not in visited:  # a skill failed on every path to it this round
-            stage(env, controller, state, seed=base_seed + len(starts) + k)
+            try:
+                stage(env, controller, state, seed=base_seed + len(starts) + k)
+            except StagingError as error:  # (e.g. the pick that stages a held object failed): each trial fails
+                visited.add(state)
+                for action in actions:
+                    failed = SkillResult(action, False, False, 0, f"{NOT_STAGED}: {error}", state, None, None)
+                    record(_trial_row(round_index, base_seed, "staged", "staged", state, action, failed, model))
+                continue
             visit(state, "staged", "staged")
     return rows
 
@@ -442,13 +453,13 @@ def pair_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[dic
 
 
 def skill_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[dict]:
-    """Per skill: executions the controller ran (not refused), success rate, retries (in all, and executions that
-    succeeded after one), mean steps and seconds."""
+    """Per skill: executions the controller ran (not refused; not the trials of a state that could not be staged),
+    success rate, retries (in all, and executions that succeeded after one), mean steps and seconds."""
     model = model or TaskModel()
     rows = list(rows)
     table = []
     for action in model.action_names:
-        mine = [r for r in rows if r["action"] == action]
+        mine = [r for r in rows if r["action"] == action and not str(r["reason"]).startswith(NOT_STAGED)]
         ran = [r for r in mine if not _refused(r, model)]
         n = len(ran)
         table.append({
