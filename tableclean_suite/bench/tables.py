@@ -118,9 +118,6 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
                if c not in frame.columns and c not in OPTIONAL_SCALARS]
     if missing:
         raise ValueError(f"cell records lack columns: {', '.join(missing)}")
-    for column in OPTIONAL_SCALARS:
-        if column not in frame.columns:
-            frame[column] = _NA
     frame = frame.drop(columns=[c for c in PAPER_COLUMNS if c in frame.columns])
     paper = PAPER_TABLE3.set_index("reward")
     is_paper_row = (frame["experiment"] == "main") & (frame["learner"] == PAPER_LEARNER) & compare_with_paper
@@ -129,20 +126,18 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
             paper.at[reward, column] if flag and reward in paper.index else _NA
             for reward, flag in zip(frame["reward"], is_paper_row)
         ]
-    for column in SUMMARY_SCALARS:
+    absent = [_NA] * len(frame)  # a column the records do not carry
+    for column in dict.fromkeys((*SUMMARY_SCALARS, *LEARNING_COLUMNS, *SCALAR_COLUMNS, *SETTLING_COLUMNS[:3])):
+        values = frame.get(column, absent)
         if column in ITERATION_SCALARS:
-            frame[column] = pd.array([None if _missing(v) else int(v) for v in frame[column]], dtype="Int64")
+            frame[column] = pd.array([None if _missing(v) else int(v) for v in values], dtype="Int64")
         else:
-            frame[column] = [_NA if _missing(v) else float(v) for v in frame[column]]
-    for column in (*LEARNING_COLUMNS, *SCALAR_COLUMNS, *SETTLING_COLUMNS[:3]):  # NaN when the records carry none
-        if column not in SUMMARY_SCALARS:
-            values = frame[column] if column in frame.columns else [_NA] * len(frame)
             frame[column] = [_NA if _missing(v) else float(v) for v in values]
-    checkpoints = frame["checkpoint_iteration"] if "checkpoint_iteration" in frame.columns else [None] * len(frame)
-    frame["checkpoint_iteration"] = pd.array([None if _missing(v) or int(v) == 0 else int(v) for v in checkpoints],
-                                             dtype="Int64")  # empty, not 0, where no checkpoint was measured
-    settled = frame["settled"] if "settled" in frame.columns else [None] * len(frame)
-    frame["settled"] = pd.array([None if _missing(v) else bool(v) for v in settled], dtype="boolean")
+    frame["checkpoint_iteration"] = pd.array(  # empty, not 0, where no checkpoint was measured
+        [None if _missing(v) or int(v) == 0 else int(v) for v in frame.get("checkpoint_iteration", absent)],
+        dtype="Int64")
+    frame["settled"] = pd.array([None if _missing(v) else bool(v) for v in frame.get("settled", absent)],
+                                dtype="boolean")
     frame["alpha"] = frame["alpha"].astype(float)
     frame["gamma"] = frame["gamma"].astype(float)
     sort_keys = {
