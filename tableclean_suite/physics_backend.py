@@ -123,11 +123,10 @@ LAYOUT_ARGUMENTS = ("object_segment", "arm_segment", "object_segments")
 
 
 def staging_env_kwargs(model: TaskModel, env_kwargs: dict | None) -> dict:
-    """The ``make_skill_env`` arguments of a scene whose every reset stages the start itself
-    ([`stage`][tableclean_suite.physics_backend.stage]; this module's [`PhysicsStepEnv`][tableclean_suite.physics_backend.PhysicsStepEnv], the skills Gym env): a copy of
-    ``env_kwargs`` with ``task`` defaulting to ``model``'s spec and, when it gives no layout
-    (`LAYOUT_ARGUMENTS`), `DEFAULT_LAYOUT` (the spec's
-    own start may hold an object, which the scene's start refuses)."""
+    """The ``make_skill_env`` arguments of a scene whose every reset is staged
+    ([`stage`][tableclean_suite.physics_backend.stage]): ``env_kwargs`` with ``task`` defaulting to
+    ``model``'s spec and, without a layout (`LAYOUT_ARGUMENTS`), `DEFAULT_LAYOUT` (the spec's start
+    may hold an object, which the scene's start refuses)."""
     from tableclean_suite.controllers.make import DEFAULT_LAYOUT
 
     kwargs = dict(env_kwargs or {})
@@ -270,8 +269,7 @@ def _check_options(options: dict) -> dict:
 
 def _train_one(env: "PhysicsStepEnv", learner, reward, iterations: int, seed: int, run: int, hyper: dict,
                checkpoint: int, on_step=None) -> tuple[dict, dict]:
-    """Train run ``run`` on ``env``, its scene reseeded from the run's key (so the records do not depend
-    on the worker or on what it ran before); returns the run's record and its counters."""
+    """Train run ``run`` on ``env``, its scene reseeded from the run's key; returns its record and counters."""
     from tableclean_suite.learners.reference import train_run
 
     env.stats = _empty_stats()
@@ -321,8 +319,7 @@ _SESSIONS: dict = {}
 
 def process_session(spec_json: str, options: dict) -> "PhysicsStepEnv":
     """The PhysicsStepEnv of ``spec_json`` (``TaskSpec.to_dict()`` as JSON) and ``options`` in this
-    process: built on first use and kept for the process's next tasks (in a worker process,
-    robosuite's start-up lines are silenced).  [`close_sessions`][tableclean_suite.physics_backend.close_sessions] closes them."""
+    process, built on first use and kept ([`close_sessions`][tableclean_suite.physics_backend.close_sessions] closes them)."""
     import json
     import multiprocessing
 
@@ -427,13 +424,10 @@ def train_physics(job) -> dict:
 
 
 def check_physical_task(model: TaskModel, task_config: dict | None = None) -> None:
-    """Raise ``ValueError`` when the ``TableClean`` scene cannot build and run ``model``'s spec.
-
-    The scene lays out up to [`max_segments`][tableclean_suite.environments.config.max_segments]
-    segments (4 with the default config), builds objects of registered types
-    ([`object_type_names`][tableclean_suite.environments.objects.object_type_names]) that must fit side by
-    side on one segment, and runs every action of the spec with a registered skill
-    ([`register_skill`][tableclean_suite.controllers.registry.register_skill]).
+    """Raise ``ValueError`` when the ``TableClean`` scene cannot build and run ``model``'s spec: up to
+    [`max_segments`][tableclean_suite.environments.config.max_segments] segments, objects of registered
+    types that fit side by side on a segment, a registered skill
+    ([`register_skill`][tableclean_suite.controllers.registry.register_skill]) per action.
     """
     from tableclean_suite.controllers.registry import get_skill_class
     from tableclean_suite.environments.config import LayoutError, make_config, scene_geometry
