@@ -80,8 +80,7 @@ def behaviour_probabilities(policy, epsilon, n_actions, exploration=None, q=None
     """The action distribution ``(R, S, A)`` evaluated by [`exact_success_probability`][tableclean_suite.analysis.exact_success_probability] (see there)."""
     exploration = as_exploration(exploration)
     if q is not None:
-        q = np.asarray(q, dtype=np.float64)
-        q = q[None] if q.ndim == 2 else q
+        q = _runs_q(q)
         if policy is None:
             policy = greedy_policy(q)
     if policy is None and not exploration.softmax:
@@ -174,8 +173,7 @@ def afforded_probabilities(q: np.ndarray, masks: np.ndarray, parameter, softmax:
     Epsilon-greedy: the afforded action of largest Q (ties to the first) gets ``1 - epsilon``
     more, every afforded action ``epsilon / n_afforded``.
     """
-    q = np.asarray(q, dtype=np.float64)
-    q = q[None] if q.ndim == 2 else q
+    q = _runs_q(q)
     if softmax:
         masks = np.broadcast_to(np.asarray(masks, dtype=bool), q.shape)
         masks = masks | ~masks.any(axis=-1, keepdims=True)
@@ -298,7 +296,7 @@ def _statistics(result, chain, max_itr: int, epsilon: float, probabilities=None)
     """Asymptotes of ``result``'s runs over ``chain``, exact or simulated (a
     [StepTable][tableclean_suite.simulation.StepTable]): of ``probabilities`` ``(R, S, A)``, or
     with None of epsilon-greedy behaviour on the final Q-tables."""
-    q = _final_q(result)
+    q = _runs_q(result.q)
     if isinstance(chain, simulation.StepTable):
         keys = _keys(result, len(q))
         if probabilities is None:
@@ -309,9 +307,9 @@ def _statistics(result, chain, max_itr: int, epsilon: float, probabilities=None)
     return asymptotes.policy_statistics(probabilities, chain, max_itr)
 
 
-def _final_q(result) -> np.ndarray:
-    """``result``'s final Q-tables as float64 ``(R, S, A)``."""
-    q = np.asarray(result.q, dtype=np.float64)
+def _runs_q(q) -> np.ndarray:
+    """Q-tables ``(S, A)`` or ``(R, S, A)`` as float64 ``(R, S, A)``."""
+    q = np.asarray(q, dtype=np.float64)
     return q[None] if q.ndim == 2 else q
 
 
@@ -333,7 +331,7 @@ def _greedy_statistics(result, chain, max_itr: int, model: TaskModel | None = No
     (with their Monte Carlo errors over a [StepTable][tableclean_suite.simulation.StepTable])."""
     model = model if model is not None else TaskModel()
     masks = affordance_masks(result, model) if masks is None else masks
-    probabilities = None if masks is None else afforded_probabilities(_final_q(result), masks, 0.0)
+    probabilities = None if masks is None else afforded_probabilities(_runs_q(result.q), masks, 0.0)
     return _statistics(result, chain, max_itr, 0.0, probabilities)
 
 
