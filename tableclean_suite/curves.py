@@ -39,7 +39,7 @@ def _episode_arrays(result):
     """Per finished episode: run, last iteration, previous end, return, length, improper count, terminal."""
     ends = result.episode_end != 0
     run_index, last = np.nonzero(ends)
-    same_run = np.r_[False, run_index[1:] == run_index[:-1]]
+    same_run = np.r_[False, run_index[1:] == run_index[:-1]][:len(run_index)]  # no episode: empty
     previous_end = np.where(same_run, np.r_[-1, last[:-1]], -1)
     cum_reward = np.cumsum(result.rewards, axis=1)
     cum_improper = np.cumsum(result.outcomes == Outcome.IMPROPER, axis=1)
@@ -60,14 +60,10 @@ def episode_table(result):
     import pandas as pd
 
     run_index, last, previous_end, episode_return, length, improper, terminal = _episode_arrays(result)
-    same_run = np.r_[False, run_index[1:] == run_index[:-1]]
-    episode_number = np.zeros(len(run_index), dtype=np.int64)
-    for i in range(1, len(run_index)):
-        episode_number[i] = episode_number[i - 1] + 1 if same_run[i] else 0
     return pd.DataFrame(
         {
             "run": run_index,
-            "episode": episode_number,
+            "episode": pd.Series(run_index).groupby(run_index).cumcount().to_numpy(dtype=np.int64),
             "first_iteration": previous_end + 1,
             "last_iteration": last,
             "length": length,

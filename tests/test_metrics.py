@@ -27,6 +27,13 @@ def tiny():
     return TrainingResult(rewards, outcomes, zeros, zeros, episode_end, np.zeros((2, 24, 4)))
 
 
+def test_episode_table_of_a_window_without_a_finished_episode():
+    from tableclean_suite.learners import train
+
+    table = train("q_learning", "r4", runs=2, iterations=3, max_itr=60, seed=0).episodes()
+    assert len(table) == 0 and {"run", "episode", "success"} <= set(table.columns)
+
+
 def test_episode_table(tiny):
     table = tiny.episodes()
     assert table["run"].tolist() == [0, 0, 1, 1]
