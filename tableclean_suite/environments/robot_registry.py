@@ -144,10 +144,10 @@ def osc_overrides(robot: str) -> dict[str, Any]:
 # the arms robosuite 1.5 ships that the skills are tuned for
 # ---------------------------------------------------------------------------------------------
 
-#: robosuite's gripper the scene mounts by default on the arms whose own gripper the skills do not drive
-#: reliably: robosuite's Robotiq 85 (UR5e's and Kinova3's default) collides with itself and stops 6.2 cm open,
-#: wider than the sponge's 5 cm side (excluding those self-contacts makes its linkage diverge); the Sawyer's
-#: Rethink (``gripper_types="RethinkGripper"``) loses the sponge while wiping from most start layouts.
+#: robosuite's gripper the scene mounts by default on the three other arms: robosuite's Robotiq 85 (UR5e's and
+#: Kinova3's own) collides with itself and stops 6.2 cm open, wider than the sponge's 5 cm side (excluding those
+#: self-contacts makes its linkage diverge); the Sawyer keeps the gripper its earlier measurements were made
+#: with, its own Rethink is mounted with ``gripper_types="RethinkGripper"``.
 SWAP_GRIPPER = "PandaGripper"
 
 #: Sawyer's Rethink gripper holds the 5 cm sponge with ~8.5 N per finger (the Panda gripper: 20 N), too
