@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from tableclean_suite.curves import CurveSums, check_fraction, curve_sums, episode_table  # noqa: F401 (episode_table: learners.train)
+from tableclean_suite.curves import CurveSums, check_fraction, curve_sums
 
 DEFAULT_THRESHOLD = 0.95
 DEFAULT_PLATEAU_FRACTION = 0.25

@@ -20,7 +20,7 @@ import numpy as np
 
 from tableclean_suite.asymptotes import QUANTITIES, Asymptotes
 from tableclean_suite.learners.kernel import memory_adjusted_reward, sample_index
-from tableclean_suite.learners.rng import lane_key_py, run_key, uniform_at
+from tableclean_suite.learners.rng import LANE_SIMULATION, lane_key_py, run_key, uniform_at
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.rewards import LOOPING_OFF, get_reward_pattern
 from tableclean_suite.task import Outcome
@@ -28,9 +28,9 @@ from tableclean_suite.task import Outcome
 #: Episodes simulated per run by default: a success estimate's standard error is at most
 #: 0.5 / sqrt(1000) = 0.016 per run, 0.016 / sqrt(R) for the mean of R runs.
 SIMULATED_EPISODES = 1000
-#: Side lane of a run's key ([tableclean_suite.learners.rng.lane_key][]) the simulation draws from,
-#: far from the training's lanes.
-SIMULATION_LANE = 64
+#: Side lane of a run's key ([tableclean_suite.learners.rng.lane_key][]) the simulation draws from
+#: (the lane table's ``LANE_SIMULATION``, far from the training's lanes).
+SIMULATION_LANE = LANE_SIMULATION
 #: Simulated learner steps per second, and policy entries per second of preparing a policy's
 #: cumulative probabilities, assumed by cost estimates.
 SIMULATED_STEPS_PER_SECOND = 20_000_000

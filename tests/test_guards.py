@@ -150,3 +150,16 @@ def test_run_refuses_an_unlearnable_task_or_a_failing_effect_in_one_line(actions
     err = [line for line in stderr.splitlines() if "error:" in line]
     assert code == 2 and len(err) == 1 and "Traceback" not in stderr
     assert "cli_guard" in err[0] if not plugin else "test_cli_boom" in err[0]
+
+
+@pytest.mark.parametrize("text", ['{"lambda_": 0.5, "lambda_": 0.9}', "lambda_=0.5,lambda_=0.9"])
+def test_a_learner_option_given_twice_is_refused(text):
+    from tableclean_suite.bench.config import ConfigError, parse_learner_options
+
+    with pytest.raises(ConfigError, match="'lambda_' is given twice"):
+        parse_learner_options(text)
+
+
+def test_q_init_beyond_the_reward_bound_is_refused_by_the_learner_itself():
+    with pytest.raises(ValueError, match=r"q_init must be in \[-1000000, 1000000\], got 1e\+308"):
+        get_learner("q_learning").configured({}, 1e308, None)

@@ -22,6 +22,7 @@ from tableclean_suite.bench.statistics import DEFAULT_CONFIDENCE, DEFAULT_SAMPLE
 from tableclean_suite.metrics import DEFAULT_PLATEAU_FRACTION, DEFAULT_THRESHOLD
 from tableclean_suite.settling import DEFAULT_SETTLE_TOLERANCE
 from tableclean_suite.simulation import SIMULATED_EPISODES
+from tableclean_suite.task.spec import unique_keys
 
 #: Fraction of the runs that must have finished an episode for an average-reward point to count.
 DEFAULT_SUPPORT_FRACTION = 0.5
@@ -334,9 +335,11 @@ def parse_learner_options(text: str | None) -> dict:
     text = str(text).strip()
     if text.startswith("{"):
         try:
-            options = json.loads(text)
+            options = json.loads(text, object_pairs_hook=unique_keys)
         except json.JSONDecodeError as error:
             raise ConfigError("learner_options", f"learner_options is not valid JSON ({error}): {text!r}") from None
+        except ValueError as error:  # a key given twice
+            raise ConfigError("learner_options", f"learner_options: {error}: {text!r}") from None
         if not isinstance(options, dict):
             raise ConfigError("learner_options", f"learner_options must be a JSON object, got {text!r}")
         return options
@@ -345,6 +348,8 @@ def parse_learner_options(text: str | None) -> dict:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise ConfigError("learner_options", f"learner_options item {item!r} must be key=value")
+        if key.strip() in options:
+            raise ConfigError("learner_options", f"learner_options key {key.strip()!r} is given twice")
         try:
             options[key.strip()] = json.loads(value.strip())
         except json.JSONDecodeError:

@@ -48,7 +48,6 @@ or the trace update rule.  The built-in targets are picked by code
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass, field, replace
 
@@ -59,6 +58,7 @@ from tableclean_suite.learners.assist import AFFORD_NONE, AFFORDANCES
 from tableclean_suite.learners.checks import check_number
 from tableclean_suite.learners.exploration import EPSILON_GREEDY, Exploration, greedy_action, softmax_expectation
 from tableclean_suite.registry import Registry
+from tableclean_suite.rewards import MAX_REWARD
 
 
 @numba.njit(cache=True)
@@ -187,7 +187,7 @@ class TabularLearner:
         lambda_: trace decay lambda in [0, 1] (``METHOD_TRACES``; traces decay by gamma * lambda_).
         trace: ``"replacing"`` (e = 1 on a visit, default) or ``"accumulating"`` (e += 1).
         planning_steps: Dyna planning updates per real step, integer in [0, 10000] (``METHOD_DYNA``).
-        q_init: initial value of every Q entry (any finite float; above the best return it is optimistic).
+        q_init: initial value of every Q entry, in [-1e6, 1e6] (``rewards.MAX_REWARD``; above the best return it is optimistic).
         exploration: the behaviour policy ([`exploration`][tableclean_suite.learners.exploration]; default constant epsilon-greedy).
         affordance: ``"none"`` (default), ``"given"`` (the task model's ``action_mask``) or
             ``"learned"`` (an action observed improper in a state is not afforded there from then
@@ -255,7 +255,7 @@ class TabularLearner:
         if self.trace not in TRACE_KINDS:
             raise ValueError(f"{what}: trace must be one of {', '.join(TRACE_KINDS)}, got {self.trace!r}")
         check_number(f"{what}: planning_steps", self.planning_steps, 0, MAX_PLANNING_STEPS, integer=True)
-        check_number(f"{what}: q_init", self.q_init, -math.inf, math.inf)
+        check_number(f"{what}: q_init", self.q_init, -MAX_REWARD, MAX_REWARD)
         if not isinstance(self.exploration, Exploration):
             raise TypeError(f"{what}: exploration must be an Exploration, got {self.exploration!r}")
         object.__setattr__(self, "lambda_", float(self.lambda_))

@@ -24,7 +24,7 @@ from tableclean_suite.learners.exploration import Exploration, as_exploration
 from tableclean_suite.learners.optimality import NOT_LEARNED
 from tableclean_suite.learners.rules import TabularLearner, get_learner
 from tableclean_suite.learners.transitions import TransitionTable
-from tableclean_suite.rewards import MAX_REWARD, RewardPattern, get_reward_pattern
+from tableclean_suite.rewards import RewardPattern, get_reward_pattern
 from tableclean_suite.task import TaskModel, TaskSpec, as_task_model
 
 #: The built-in backends' names (``tableclean_suite.backends.backend_names()`` lists user ones too).
@@ -69,7 +69,7 @@ class TrainingResult(BackendRecords):
         """One row per finished episode: a `pandas.DataFrame` with columns
         ``run, episode, first_iteration, last_iteration, length, return, average_reward,
         reached_terminal, improper_actions, success`` (iterations 0-based)."""
-        from tableclean_suite.metrics import episode_table
+        from tableclean_suite.curves import episode_table
 
         return episode_table(self)
 
@@ -232,7 +232,6 @@ def configure_learner(learner: TabularLearner, learner_options: dict | None, q_i
         learner_options = {**(learner_options or {}), "ties": ties}
     chosen = None if exploration is None else as_exploration(exploration)
     learner = learner.configured(learner_options, q_init, chosen)
-    check_number(f"learner {learner.name!r}: q_init", learner.q_init, -MAX_REWARD, MAX_REWARD)
     learner.exploration.check(float(epsilon))
     return learner
 
