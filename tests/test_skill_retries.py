@@ -90,15 +90,18 @@ def _stack(*parts) -> ObjectGeometry:
     return ObjectGeometry(np.vstack(points))
 
 
-def test_the_grasp_of_a_capped_can_keeps_the_fingertips_above_its_shoulder():
+def test_the_grasp_of_a_capped_can_keeps_the_fingertips_above_its_shoulder_and_a_lip_is_held_by_the_pads():
     config, palm = PickConfig().as_dict(), 0.031  # the Panda hand's palm height [m]
     can = _stack((0.022, 0.13), (0.012, 0.035))  # the user's spray can: 13 cm body, 3.5 cm cap
-    assert ledges(can) == (0.13,)
+    assert ledges(can) == ((0.13, 0.165),) and ledges(can, under=True) == ()
     z = holding_z(np.zeros(3), np.eye(3), can, config, palm)
     assert z - config["fingertip_depth"] >= 0.13 + config["tip_clearance"] - 1e-12  # fingertips above the shoulder
     assert z - config["fingertip_depth"] <= 0.165 - config["tip_clearance"]  # the pads still reach the cap
-    # a plain cylinder, a wider lip on top (not a ledge) and a ledge above the fingers keep the rule as it was
-    for shape in (_stack((0.022, 0.15)), _stack((0.012, 0.12), (0.022, 0.02)), _stack((0.022, 0.14), (0.012, 0.005))):
+    lipped = _stack((0.015, 0.07), (0.02, 0.005))  # a 5 mm lip, 5 mm wider a side, on a 7 cm body
+    assert ledges(lipped, under=True) == ((0.07, 0.075),)
+    assert holding_z(np.zeros(3), np.eye(3), lipped, config, palm) == pytest.approx(0.0725)  # the pads on the lip
+    # a plain cylinder and a ledge above the fingers keep the rule as it was
+    for shape in (_stack((0.022, 0.15)), _stack((0.022, 0.14), (0.012, 0.005))):
         low, top = 0.0, float(shape.upper[2])
         expected = max(0.5 * (low + top), top - (palm - config["palm_clearance"]),
                        low + config["fingertip_depth"] + config["tip_clearance"])
@@ -224,3 +227,27 @@ def test_a_state_that_cannot_be_staged_is_recorded_as_failed_trials_not_a_crashe
     assert unstaged and all(r["observed_outcome"] == fidelity.FAULT and not r["agree"] for r in unstaged)
     executions = {s["skill"]: s["executions"] for s in skill_table(rows, model)}
     assert sum(executions.values()) + sum(s["refused"] for s in skill_table(rows, model)) == len(rows) - len(unstaged)
+
+
+@pytest.mark.parametrize("hand_yaw, aimed", [(0.1, 0.0), (3.0, np.pi), (1.4, None)])
+def test_a_grasp_yaw_tie_about_nominal_goes_the_hands_way(hand_yaw, aimed):
+    """A box whose narrow side lies across the nominal yaw (pi/2): yaws 0 and pi are equally near it; the grasp
+    turns to the one nearer the hand (no half turn of the wrist, which swung the hand into the box)."""
+    from types import SimpleNamespace
+
+    from tableclean_suite.controllers.clean import turned_quat
+    from tableclean_suite.controllers.geometry import gripper_yaw, wrap_angle
+    from tableclean_suite.controllers.primitives import Body, box_geometry
+
+    down = np.array([0.70710678, 0.70710678, 0.0, 0.0])  # the grip site pointing down at yaw pi/2
+    info = {"eef_quat": turned_quat(down, hand_yaw - 0.5 * np.pi)}
+    assert gripper_yaw(info["eef_quat"]) == pytest.approx(hand_yaw)
+    box = Body(pos=lambda info: np.zeros(3), quat=lambda info: np.array([0.0, 0.0, 0.001, 1.0]),
+               half_size=lambda info: np.array([0.01, 0.03, 0.03]), grasped=lambda info: False,
+               geometry=lambda info: box_geometry([0.01, 0.03, 0.03]))
+    skill = SimpleNamespace(config=PickConfig().as_dict(), yaw=0.0)
+    Grasp(box)._aim(skill, info)
+    ties = (abs(wrap_angle(skill.yaw - 0.002)), abs(wrap_angle(skill.yaw - 0.002 - np.pi)))
+    assert min(ties) < 1e-9  # across the narrow side (x)
+    if aimed is not None:
+        assert abs(wrap_angle(skill.yaw - aimed)) < 0.01

@@ -66,6 +66,9 @@ WRIST_WIDTH_TOLERANCE = 1e-4
 #: m a body's outline must step in at a height (to a part above narrower everywhere) for [`ledges`][tableclean_suite.controllers.primitives.ledges]
 #: to count a ledge there: a finger closing at that height meets the ledge, not the part above.
 LEDGE_MARGIN = 0.003
+#: rad: grasp yaws across the narrow side whose distances from ``nominal_yaw`` differ by less count as a tie
+#: (`Grasp` then takes the one nearest the hand's yaw).
+YAW_TIE = 0.2
 
 
 def gripper_of(env) -> GripperGeometry | None:
@@ -143,24 +146,28 @@ def box_geometry(half_size) -> ObjectGeometry:
     return ObjectGeometry(signs * np.asarray(half_size, dtype=float))
 
 
-@functools.lru_cache(maxsize=256)
-def ledges(geometry: ObjectGeometry) -> tuple[float, ...]:
-    """Heights [m, ascending, the body's own frame] at which the upright body steps in to a part above that is
-    narrower in every horizontal direction by more than `LEDGE_MARGIN` a side (a can's shoulder under its narrower
-    cap; not a carton's gable, as long as the carton along its ridge), with collision points of both at that height."""
-    z, radius = geometry.points[:, 2], np.hypot(geometry.points[:, 0], geometry.points[:, 1])
+@functools.lru_cache(maxsize=512)
+def ledges(geometry: ObjectGeometry, under: bool = False) -> tuple[tuple[float, float], ...]:
+    """``(height, next height)`` pairs [m, ascending, the body's own frame]: heights at which the upright body
+    steps in to a part above that is narrower in every horizontal direction by more than `LEDGE_MARGIN` a side (a
+    can's shoulder under its narrower cap; not a carton's gable, as long as the carton along its ridge), with
+    collision points of both there, and the next height with collision points above.  ``under``: the heights
+    below which the body is narrower in every direction (a lip's underside; points of the narrower part there
+    not needed: a lip may overlap the body)."""
+    z = -geometry.points[:, 2] if under else geometry.points[:, 2]
+    radius = np.hypot(geometry.points[:, 0], geometry.points[:, 1])
     angles = np.arange(WIDTH_DIRECTIONS) * (np.pi / WIDTH_DIRECTIONS)
     along = geometry.points[:, :2] @ np.stack([np.cos(angles), np.sin(angles)])  # (K, directions) m
 
     def widths(mask):
         return along[mask].max(axis=0) - along[mask].min(axis=0)
 
-    found = []
-    for level in np.unique(np.round(z, 4)):
-        here, above = np.abs(z - level) <= 1e-4, z > level + 1e-4
-        if (above.any() and radius[here].min() < radius[here].max() - LEDGE_MARGIN
-                and np.all(widths(above) < widths(here) - 2 * LEDGE_MARGIN)):
-            found.append(float(level))
+    levels, found = np.unique(np.round(geometry.points[:, 2], 4)), []
+    for level in levels:
+        here, beyond = np.abs(z - (-level if under else level)) <= 1e-4, z > (-level if under else level) + 1e-4
+        stepped = under or radius[here].min() < radius[here].max() - LEDGE_MARGIN  # (not a sphere's equator)
+        if beyond.any() and stepped and np.all(widths(beyond) < widths(here) - 2 * LEDGE_MARGIN):
+            found.append((float(level), float(levels[min(np.searchsorted(levels, level) + 1, len(levels) - 1)])))
     return tuple(found)
 
 
@@ -169,18 +176,24 @@ def holding_z(pos, rot, geometry: ObjectGeometry, config: Mapping[str, Any], pal
 
     The body's mid-height, raised so that its top stays ``palm_clearance`` below the hand
     (``palm_height`` m above the grip site) and so that the fingertips stay ``tip_clearance``
-    above its bottom, and above a [`ledges`][tableclean_suite.controllers.primitives.ledges] they would otherwise
-    close on while the pads still reach ``tip_clearance`` of the part above it.  Measured: a 13 cm can with
-    a 3.5 cm cap, held 2.6 cm below its top, closed the fingertips on the can's shoulder and the pads
-    never touched the cap ("grasp not confirmed", the can upright and unmoved).
+    above its bottom; then where the fingers would first meet a wider part than the one between the pads
+    ([`ledges`][tableclean_suite.controllers.primitives.ledges]): a ledge just below the fingertips raises them
+    ``tip_clearance`` above it (while the pads still reach ``tip_clearance`` of the part above), a lip's
+    underside above the grip site raises the grip site to the lip's middle.  Measured: a 13 cm can with a 3.5 cm
+    cap, held 2.6 cm below its top, closed the fingertips on the can's shoulder; a box with a 4 mm lip, its
+    finger links on the lip; in both the pads never touched ("grasp not confirmed", the body unmoved).
     """
     low, top = world_z_range(geometry, pos, rot)
     depth, tip = config["fingertip_depth"], config["tip_clearance"]
     z = max(0.5 * (low + top), top - (palm_height - config["palm_clearance"]), low + depth + tip)
-    for ledge in ledges(geometry):
-        raised = float(pos[2]) + ledge + depth + tip
+    base = float(pos[2])
+    for ledge, _ in ledges(geometry):
+        raised = base + ledge + depth + tip
         if z - depth - tip <= raised - depth - tip < z and raised - depth <= top - tip:
             z = raised
+    for lip, lip_top in ledges(geometry, under=True):
+        if z < base + lip < z + palm_height:
+            z = base + 0.5 * (lip + lip_top)
     return z
 
 
@@ -310,21 +323,28 @@ class Grasp(Primitive):
 
     def start(self, skill, info):
         self.opening = None  # on a restart: the fingers' last (2,) positions while the hand opens in place
+        self.rise_xy = None  # on a restart: (2,) m, where the open hand rises straight up before it approaches
         self.closed_at = None  # (grip-site z, body z) [m] when the closed grasp was confirmed by contact
         self._hover_seen = None  # (skill step, (2,) grip-site xy [m]) at the last hover check
         self._aim(skill, info)
 
     def restart(self, skill, info):
+        """Again from the measured pose: the hand opens where it is (rising half-closed, it dragged a tall can up
+        and tipped it), rises straight up to the travel height at its yaw (sweeping and turning on the way, the
+        open fingers pushed a box off), then turns and approaches as at the start."""
         self.start(skill, info)
+        self.aim_yaw, skill.yaw = skill.yaw, skill._yaw_setpoint
         self.opening = np.full(np.shape(info["gripper_qpos"]), np.inf)
+        self.rise_xy = skill.setpoint[:2]
 
     def update(self, skill, info, phase):
-        """After a restart, the hand opens where it is until the fingers settle (rising half-closed, it
-        dragged a tall can up and tipped it); only then does HOVER rise."""
-        if self.opening is not None:
+        if self.opening is not None:  # open until the fingers settle, at least close_min_steps
             fingers = np.asarray(info["gripper_qpos"], dtype=float)
             moved = float(np.max(np.abs(fingers - self.opening)))
-            self.opening = None if skill.gripper_settled(moved) else fingers
+            opened = skill._phase_steps >= skill.config["close_min_steps"] and skill.gripper_settled(moved)
+            self.opening = None if opened else fingers
+        elif self.rise_xy is not None and float(info["eef_pos"][2]) >= skill.hover_z(info) - skill.config["reach_tolerance"]:
+            self.rise_xy, skill.yaw = None, self.aim_yaw
 
     def _aim(self, skill, info) -> None:
         """The target yaw for (re-)approaching the body as it lies now: across its narrow side, or
@@ -339,6 +359,13 @@ class Grasp(Primitive):
             object_yaw = gripper_yaw(self.body.quat(info))
             skill.yaw = grasp_yaw(shape, object_yaw, nominal)
             direction, period = shape.narrow_side()
+            # of the narrow side's yaws about as near nominal (a tie, within YAW_TIE), the one nearest the hand's:
+            # broken by noise, a tie turned the wrist half a turn, the hand swung 7 cm and knocked the box over
+            options = [skill.yaw, wrap_angle(skill.yaw - period), wrap_angle(skill.yaw + period)]
+            limit = abs(wrap_angle(skill.yaw - nominal)) + YAW_TIE
+            current = gripper_yaw(info["eef_quat"])
+            skill.yaw = min((y for y in options if abs(wrap_angle(y - nominal)) <= limit),
+                            key=lambda y: abs(wrap_angle(y - current)))
             lines = [object_yaw + direction + k * period for k in range(int(round(np.pi / period)))]
         else:
             skill.yaw = gripper_yaw(info["eef_quat"])
@@ -385,8 +412,10 @@ class Grasp(Primitive):
         pos = self.body.pos(info)
         tol = skill.config["reach_tolerance"]
         if phase == "HOVER":
-            if self.opening is not None:  # never reached: the hand holds still while it opens
+            if self.opening is not None:  # never reached (tolerance -1): the hand holds still while it opens
                 return Waypoint(skill.setpoint, GRIPPER_OPEN, -1.0)
+            if self.rise_xy is not None:
+                return Waypoint(np.array([*self.rise_xy, skill.hover_z(info)]), GRIPPER_OPEN, -1.0)
             return Waypoint(skill.hover_point(info, pos[:2]), GRIPPER_OPEN, tol)
         if phase == "DESCEND":
             grasp = self.grasp_target(skill, info)
