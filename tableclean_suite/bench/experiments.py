@@ -653,6 +653,8 @@ def run_grid(
             if on_cell is not None:
                 on_cell(outcome)
     estimate = check_grid_resources(runs[cell] for cell in pending)
+    if pending:
+        model.require_learnable()  # before the progress bar: a task that cannot end is refused in one line
     simulated = [outcome.plans[cell] for cell in pending if outcome.plans[cell].kind == "simulated"]
     if estimate > LONG_GRID_SECONDS or simulated:
         print(f"note: training {len(pending)} cell(s) is estimated to take about {resources.format_seconds(estimate)}"
