@@ -126,3 +126,17 @@ def test_scalings_config_json_from_before_the_manifest_is_its_own_not_foreign(tm
     assert "tableclean-bench scaling" in outputs.check_publishable(tmp_path, command="run")
     outputs.publish(tmp_path, _writers(["scaling.csv"]), {}, command="scaling")
     assert outputs.check_outputs(tmp_path) == []
+
+
+def test_coverage_publishes_its_table_and_refuses_a_runs_folder(tmp_path, capsys):
+    from tableclean_suite.bench import commands
+
+    tiny = ["--runs", "4", "--iterations", "40", "--max-itr", "20", "--learners", "q_learning", "--rewards", "r4",
+            "--replications", "2", "--reference-runs", "8", "--bootstrap-samples", "50", "--no-progress"]
+    assert commands.main(["coverage", *tiny, "--out", str(tmp_path / "cov")]) == 0
+    manifest = json.loads((tmp_path / "cov" / outputs.MANIFEST).read_text())
+    assert manifest["command"] == "coverage" and outputs.check_outputs(tmp_path / "cov") == []
+    outputs.publish(tmp_path / "run", _writers(["table3.csv"]), {"args": {}}, command="run")
+    capsys.readouterr()
+    assert commands.main(["coverage", *tiny, "--out", str(tmp_path / "run")]) == 2
+    assert "tableclean-bench run" in capsys.readouterr().err

@@ -323,7 +323,7 @@ def main(argv=None, prog: str | None = None) -> int:
     args = parse_args(argv, prog)
     model = args.config.task_model()
     out = Path(args.out)
-    problem = outputs.check_writable(out)
+    problem = outputs.check_publishable(out, folders=("cells",), command="coverage")
     if problem:
         print(f"{args.prog}: error: --out {problem}", file=sys.stderr)
         return cli.EXIT_USAGE
@@ -333,7 +333,9 @@ def main(argv=None, prog: str | None = None) -> int:
     try:
         with outputs.output_lock(out), single_blas_thread():
             frame = measure(args, model, out)
-            outputs.atomic_write(out / RESULT_FILE, lambda path: frame.to_csv(path, index=False))
+            outputs.publish(out, {RESULT_FILE: lambda path: frame.to_csv(path, index=False)},
+                            {"args": outputs.arguments(args), "config": outputs.arguments(args.config)},
+                            command="coverage")
     except KeyboardInterrupt:
         print(f"{args.prog}: interrupted; nothing written (the reference's cells are kept in {out / 'cells'})",
               file=sys.stderr)
