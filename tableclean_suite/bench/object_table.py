@@ -39,6 +39,7 @@ import os
 import re
 import sys
 import time
+from collections import Counter
 from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -123,7 +124,8 @@ def run_cell(kind: str, setting: str, episodes: int, seed: int, partner: str, lo
 
 
 def _rows(kind: str, setting: str, partner: str, counts: dict, episodes: int, wins: int, seconds: float) -> list[dict]:
-    return [{"object": kind, "setting": setting, "partner": partner, "skill": name, "executions": n, "successes": success,
+    return [{"object": kind, "setting": setting, "partner": partner, "skill": name, "executions": n,
+             "successes": success,
              "success_rate": success / n, "success_lower": round(lower_bound(success, n), 4), "agreements": agree,
              "fidelity": agree / n, "fidelity_lower": round(lower_bound(agree, n), 4), "retries": retries,
              "episodes": episodes, "episode_successes": wins, "seconds": round(seconds, 1)}
@@ -142,7 +144,8 @@ def failure_class(result) -> tuple[str, str]:
 
 def run_random(kind, index: int, episodes: int, seed: int, partner: str) -> tuple[list[dict], list[dict]]:
     """Rows (one per skill) and failures of ``episodes`` random episodes of generated object type ``kind``
-    (the ``index``-th of ``seed``), mixed with ``partner``; episode ``e`` draws from ``SeedSequence([seed, index, e])``."""
+    (the ``index``-th of ``seed``), mixed with ``partner``; episode ``e`` draws from
+    ``SeedSequence([seed, index, e])``."""
     import numpy as np
 
     from tableclean_suite.controllers import SkillController, make_skill_env
@@ -262,31 +265,31 @@ def random_table(args, rows: list[dict], table: Path, started: float, log=print)
         measured += 1
         rows += cell
         failures += lost
-        wins += cell[0]["episode_successes"] if cell else 0
+        done = cell[0]["episode_successes"] if cell else 0
+        wins += done
         for row in cell:
             total = totals.setdefault(row["skill"], [0, 0, 0, 0])
             for k, key in enumerate(("executions", "successes", "agreements", "retries")):
                 total[k] += row[key]
         trial_store.write_rows(table, rows, COLUMNS)
         trial_store.write_rows(table.parent / FAILURES_CSV, failures, FAILURE_COLUMNS)
-        log(f"[{index + 1}/{len(kinds)}] {kind.name} ({kind.description}): {cell[0]['episode_successes'] if cell else 0}"
-            f"/{episodes} episodes, {sum(r['executions'] for r in cell)} skills, {sum(r['retries'] for r in cell)} retries, "
-            f"{len(lost)} failed"
-            + "".join(f"; {f['skill']} {f['phase']}: {f['cause']}" for f in lost) + f" ({time.perf_counter() - started:.0f} s)")
+        log(f"[{index + 1}/{len(kinds)}] {kind.name} ({kind.description}): {done}/{episodes} episodes, "
+            f"{sum(r['executions'] for r in cell)} skills, {sum(r['retries'] for r in cell)} retries, {len(lost)} failed"
+            + "".join(f"; {f['skill']} {f['phase']}: {f['cause']}" for f in lost)
+            + f" ({time.perf_counter() - started:.0f} s)")
     total = _rows(f"random objects ({measured})", "random", args.mix_with, totals, episodes * measured, wins,
                   time.perf_counter() - started)
     trial_store.write_rows(table.parent / FAILURES_CSV, failures, FAILURE_COLUMNS)
-    classes: dict[tuple, int] = {}
-    for f in failures:
-        classes[(f["skill"], f["phase"], f["cause"])] = classes.get((f["skill"], f["phase"], f["cause"]), 0) + 1
+    classes = Counter((f["skill"], f["phase"], f["cause"]) for f in failures)
     print("\n| skill | phase | cause | failures |\n|---|---|---|---|")
-    print("\n".join(f"| {k[0]} | {k[1]} | {k[2]} | {n} |" for k, n in sorted(classes.items(), key=lambda kv: -kv[1]))
+    print("\n".join(f"| {skill} | {phase} | {cause} | {n} |" for (skill, phase, cause), n in classes.most_common())
           or "| - | - | no failure | 0 |")
     return total, measured, refused
 
 
 def main(argv: list[str] | None = None, prog: str | None = None) -> int:
-    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code (1 when every cell was refused)."""
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code: 1 when every cell was
+    refused, else 0."""
     parser, args = cli.parse_command(build_parser, argv, prog or PROG)
     from tableclean_suite.environments.objects import object_type_names
 

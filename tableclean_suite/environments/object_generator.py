@@ -12,7 +12,8 @@ An object is a body (an upright ``cylinder``, a ``box``, or a ``capsule``: a cyl
 top), with each feature its body admits drawn with `ObjectRanges.feature_chance`: a ``cap`` (a
 narrower cylinder on top), a ``lip`` (a wider rim at the body's top), a ``handle`` (a capsule
 bar on +y held by two connectors) and a ``taper`` (the cylinder in three sections narrowing up or
-down).  Sizes, density and friction come from [`ObjectRanges`][tableclean_suite.environments.object_generator.ObjectRanges].
+down).  Sizes, density and friction come from
+[`ObjectRanges`][tableclean_suite.environments.object_generator.ObjectRanges].
 Object ``i`` of seed ``s`` is drawn from ``numpy.random.SeedSequence([s, i])``: it is the same
 whatever ``n``, and the same seed gives the same MJCF text, byte for byte.
 """
@@ -29,7 +30,8 @@ import numpy as np
 from tableclean_suite.environments.objects import ObjectType, xml_object_builder
 
 #: Body shapes and the features each admits.
-FEATURES = {"cylinder": ("cap", "lip", "handle", "taper"), "box": ("cap", "lip", "handle"), "capsule": ("cap", "handle")}
+FEATURES = {"cylinder": ("cap", "lip", "handle", "taper"), "box": ("cap", "lip", "handle"),
+            "capsule": ("cap", "handle")}
 
 
 @dataclass(frozen=True)
@@ -108,7 +110,8 @@ def _geoms(p: dict) -> list[tuple[str, tuple, tuple]]:
         else:
             geoms.append(("cylinder", (top_radius + p["lip"], rim), (0, 0, body_top - rim)))
     if "cap" in features:
-        geoms.append(("cylinder", (p["cap_radius"] * top_radius, p["cap_height"] / 2), (0, 0, body_top + p["cap_height"] / 2)))
+        cap = p["cap_height"] / 2
+        geoms.append(("cylinder", (p["cap_radius"] * top_radius, cap), (0, 0, body_top + cap)))
     if "handle" in features:
         bar, reach = p["handle_radius"], half_y + p["handle_gap"]
         length = max(p["handle_length"] * body_top, 4 * bar)
@@ -132,7 +135,8 @@ def object_mjcf(params: dict, name: str = "generated") -> str:
     return (f'<mujoco model="{name}">\n  <worldbody>\n    <body>\n      <body name="object">\n{geoms}\n      </body>\n'
             f'      <site rgba="0 0 0 0" size="0.005" pos="0 0 {-mid:.5f}" name="bottom_site"/>\n'
             f'      <site rgba="0 0 0 0" size="0.005" pos="0 0 {mid:.5f}" name="top_site"/>\n'
-            f'      <site rgba="0 0 0 0" size="0.005" pos="{radius:.5f} {radius:.5f} 0" name="horizontal_radius_site"/>\n'
+            f'      <site rgba="0 0 0 0" size="0.005" pos="{radius:.5f} {radius:.5f} 0" '
+            f'name="horizontal_radius_site"/>\n'
             f'    </body>\n  </worldbody>\n</mujoco>\n')
 
 
@@ -165,8 +169,9 @@ def describe(params: dict) -> str:
 
 def random_objects(n: int, seed: int, ranges: ObjectRanges = ObjectRanges(), prefix: str = "gen") -> list[ObjectType]:
     """``n`` (>= 0) generated object types named ``{prefix}{seed}_{i}``; object ``i`` is drawn from
-    ``SeedSequence([seed, i])`` (seed >= 0).  Each type's ``build.mjcf`` is its MJCF text and ``params``
-    (``build.params``) the drawn parameters; ``description`` is [`describe`][tableclean_suite.environments.object_generator.describe]'s line."""
+    ``SeedSequence([seed, i])`` (seed >= 0).  Each type's ``build.mjcf`` is its MJCF text, ``build.params`` the
+    drawn parameters and ``description``
+    [`describe`][tableclean_suite.environments.object_generator.describe]'s line."""
     if not isinstance(n, (int, np.integer)) or n < 0:
         raise ValueError(f"random_objects: n must be an int >= 0, got {n!r}")
     if not isinstance(seed, (int, np.integer)) or seed < 0:
