@@ -77,9 +77,11 @@ def test_more_segments_than_the_reach_allows_are_refused_naming_the_limit():
         check_physical_task(TaskModel(spec=TaskSpec("five", segments=5)))
 
 
-def test_every_registered_spec_is_accepted_by_the_physical_check():
-    for name in task_spec_names():
-        check_physical_task(TaskModel(spec=name))
+def test_every_builtin_spec_is_accepted_by_the_physical_check():
+    from tableclean_suite.task.spec import BUILTIN_SPECS
+
+    for spec in BUILTIN_SPECS:  # not what other tests registered in this process
+        check_physical_task(TaskModel(spec=spec))
 
 
 def test_a_spec_whose_action_has_no_skill_is_refused():
