@@ -93,13 +93,20 @@ def _stack(*parts) -> ObjectGeometry:
 def test_the_grasp_of_a_capped_can_keeps_the_fingertips_above_its_shoulder_and_a_lip_is_held_by_the_pads():
     config, palm = PickConfig().as_dict(), 0.031  # the Panda hand's palm height [m]
     can = _stack((0.022, 0.13), (0.012, 0.035))  # the user's spray can: 13 cm body, 3.5 cm cap
-    assert ledges(can) == ((0.13, 0.165),) and ledges(can, under=True) == ()
+    assert [step[:2] for step in ledges(can)] == [(0.13, 0.165)] and all(ledges(can)[0][2])
+    assert ledges(can, under=True) == ()
     z = holding_z(np.zeros(3), np.eye(3), can, config, palm)
     assert z - config["fingertip_depth"] >= 0.13 + config["tip_clearance"] - 1e-12  # fingertips above the shoulder
     assert z - config["fingertip_depth"] <= 0.165 - config["tip_clearance"]  # the pads still reach the cap
     lipped = _stack((0.015, 0.07), (0.02, 0.005))  # a 5 mm lip, 5 mm wider a side, on a 7 cm body
-    assert ledges(lipped, under=True) == ((0.07, 0.075),)
+    assert [step[:2] for step in ledges(lipped, under=True)] == [(0.07, 0.075)]
     assert holding_z(np.zeros(3), np.eye(3), lipped, config, palm) == pytest.approx(0.0725)  # the pads on the lip
+    # a lip over a handle (wider along y below it): fingers closing along x meet the lip, along y the handle
+    handle = np.array([[0.0, y, z] for y in (0.0, 0.035) for z in (0.01, 0.06)])
+    handled = ObjectGeometry(np.vstack([lipped.points, handle]))
+    assert holding_z(np.zeros(3), np.eye(3), handled, config, palm, closing=0.0) == pytest.approx(0.0725)
+    assert holding_z(np.zeros(3), np.eye(3), handled, config, palm) == holding_z(
+        np.zeros(3), np.eye(3), handled, config, palm, closing=0.5 * np.pi) < 0.0725
     # a plain cylinder and a ledge above the fingers keep the rule as it was
     for shape in (_stack((0.022, 0.15)), _stack((0.022, 0.14), (0.012, 0.005))):
         low, top = 0.0, float(shape.upper[2])

@@ -147,13 +147,14 @@ def box_geometry(half_size) -> ObjectGeometry:
 
 
 @functools.lru_cache(maxsize=512)
-def ledges(geometry: ObjectGeometry, under: bool = False) -> tuple[tuple[float, float], ...]:
-    """``(height, next height)`` pairs [m, ascending, the body's own frame]: heights at which the upright body
-    steps in to a part above that is narrower in every horizontal direction by more than `LEDGE_MARGIN` a side (a
-    can's shoulder under its narrower cap; not a carton's gable, as long as the carton along its ridge), with
-    collision points of both there, and the next height with collision points above.  ``under``: the heights
-    below which the body is narrower in every direction (a lip's underside; points of the narrower part there
-    not needed: a lip may overlap the body)."""
+def ledges(geometry: ObjectGeometry, under: bool = False) -> tuple[tuple[float, float, tuple], ...]:
+    """``(height, next height, directions)`` [m, ascending, the body's own frame]: heights at which the upright
+    body steps in to a part above that is narrower by more than `LEDGE_MARGIN` a side (a can's shoulder under its
+    narrower cap), with collision points of both there; the next height with collision points above; and the
+    `WIDTH_DIRECTIONS` directions (bools, angle ``k pi / WIDTH_DIRECTIONS`` in its frame) along which it is
+    narrower (fingers closing along the others meet no ledge: a carton's gable along its ridge, a handle).
+    ``under``: the heights below which the body is narrower (a lip's underside; points of the narrower part
+    there not needed: a lip may overlap the body)."""
     z = -geometry.points[:, 2] if under else geometry.points[:, 2]
     radius = np.hypot(geometry.points[:, 0], geometry.points[:, 1])
     angles = np.arange(WIDTH_DIRECTIONS) * (np.pi / WIDTH_DIRECTIONS)
@@ -166,13 +167,18 @@ def ledges(geometry: ObjectGeometry, under: bool = False) -> tuple[tuple[float, 
     for level in levels:
         here, beyond = np.abs(z - (-level if under else level)) <= 1e-4, z > (-level if under else level) + 1e-4
         stepped = under or radius[here].min() < radius[here].max() - LEDGE_MARGIN  # (not a sphere's equator)
-        if beyond.any() and stepped and np.all(widths(beyond) < widths(here) - 2 * LEDGE_MARGIN):
-            found.append((float(level), float(levels[min(np.searchsorted(levels, level) + 1, len(levels) - 1)])))
+        narrower = widths(beyond) < widths(here) - 2 * LEDGE_MARGIN if beyond.any() else np.zeros(WIDTH_DIRECTIONS, bool)
+        if stepped and narrower.any():
+            following = float(levels[min(np.searchsorted(levels, level) + 1, len(levels) - 1)])
+            found.append((float(level), following, tuple(narrower.tolist())))
     return tuple(found)
 
 
-def holding_z(pos, rot, geometry: ObjectGeometry, config: Mapping[str, Any], palm_height: float) -> float:
-    """World z [m] of the grip site that holds an upright body at ``pos`` (3,) with rotation ``rot`` (3, 3).
+def holding_z(pos, rot, geometry: ObjectGeometry, config: Mapping[str, Any], palm_height: float,
+              closing: float | None = None) -> float:
+    """World z [m] of the grip site that holds an upright body at ``pos`` (3,) with rotation ``rot`` (3, 3), the
+    fingers closing along ``closing`` [rad, the body's frame; None: a lip counts only if it is one along every
+    direction; a ledge always must be].
 
     The body's mid-height, raised so that its top stays ``palm_clearance`` below the hand
     (``palm_height`` m above the grip site) and so that the fingertips stay ``tip_clearance``
@@ -187,12 +193,13 @@ def holding_z(pos, rot, geometry: ObjectGeometry, config: Mapping[str, Any], pal
     depth, tip = config["fingertip_depth"], config["tip_clearance"]
     z = max(0.5 * (low + top), top - (palm_height - config["palm_clearance"]), low + depth + tip)
     base = float(pos[2])
-    for ledge, _ in ledges(geometry):
+    k = None if closing is None else int(round(closing / (np.pi / WIDTH_DIRECTIONS))) % WIDTH_DIRECTIONS
+    for ledge, _, along in ledges(geometry):
         raised = base + ledge + depth + tip
-        if z - depth - tip <= raised - depth - tip < z and raised - depth <= top - tip:
+        if all(along) and z - depth - tip <= ledge + base < z and raised - depth <= top - tip:  # (a gable: no)
             z = raised
-    for lip, lip_top in ledges(geometry, under=True):
-        if z < base + lip < z + palm_height:
+    for lip, lip_top, along in ledges(geometry, under=True):
+        if (all(along) if k is None else along[k]) and z < base + lip < z + palm_height:
             z = base + 0.5 * (lip + lip_top)
     return z
 
@@ -404,8 +411,9 @@ class Grasp(Primitive):
         pos = self.body.pos(info)
         if self.body.grasp_depth is not None or self.body.geometry is None:
             return grasp_point(pos, self.body.half_size(info), skill.config, self.body.grasp_depth)
-        z = holding_z(pos, quat_to_matrix(self.body.quat(info)), self.body.shape(info), skill.config,
-                      float(info["gripper_palm_height"]))
+        quat = self.body.quat(info)
+        z = holding_z(pos, quat_to_matrix(quat), self.body.shape(info), skill.config,
+                      float(info["gripper_palm_height"]), skill.yaw - gripper_yaw(quat))
         return np.array([pos[0], pos[1], z])
 
     def waypoint(self, skill, info, phase):
