@@ -258,3 +258,13 @@ def test_a_grasp_yaw_tie_about_nominal_goes_the_hands_way(hand_yaw, aimed):
     assert min(ties) < 1e-9  # across the narrow side (x)
     if aimed is not None:
         assert abs(wrap_angle(skill.yaw - aimed)) < 0.01
+
+
+def test_the_old_grasp_retries_key_still_sets_the_retry_budget():
+    from tableclean_suite.controllers.config_check import checked_skill_config
+    from tableclean_suite.controllers.configs import PickConfig
+
+    defaults = {key: getattr(PickConfig(), key) for key in PickConfig.keys()}
+    with pytest.warns(DeprecationWarning, match="'grasp_retries' is now 'retries'"):
+        merged, settings = checked_skill_config("PickSkill", PickConfig, defaults, {"grasp_retries": 4})
+    assert settings.retries == 4 and "grasp_retries" not in merged

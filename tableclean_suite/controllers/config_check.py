@@ -9,7 +9,11 @@ each refuses the same settings with the same [`SkillConfigError`][tableclean_sui
 
 from __future__ import annotations
 
+import warnings
 from typing import Any, Mapping
+
+#: Old config keys still accepted, with the key that replaced them (a ``DeprecationWarning`` says so).
+RENAMED_KEYS = {"grasp_retries": "retries"}
 
 
 class SkillConfigError(KeyError, ValueError):
@@ -40,6 +44,10 @@ def checked_skill_config(owner: str, config_type, defaults: Mapping[str, Any],
             and the range).
     """
     overrides = dict(overrides or {})
+    for old, new in RENAMED_KEYS.items():
+        if old in overrides and new in defaults:
+            warnings.warn(f"{owner}: config key {old!r} is now {new!r}", DeprecationWarning, stacklevel=3)
+            overrides.setdefault(new, overrides.pop(old))
     unknown = sorted(set(overrides) - set(defaults))
     if unknown:
         raise SkillConfigError(f"unknown config keys for {owner}: {unknown} (allowed: {sorted(defaults)})")
