@@ -53,16 +53,6 @@ class StagingError(RuntimeError):
     """The scene could not be put into the requested task state."""
 
 
-def snapshot(env):
-    """``env.get_scene_state()`` ([TableClean.get_scene_state][tableclean_suite.environments.table_clean.TableClean.get_scene_state])."""
-    return env.get_scene_state()
-
-
-def restore(env, saved) -> None:
-    """``env.set_scene_state(saved)``."""
-    env.set_scene_state(saved)
-
-
 def start_of(state: TaskState) -> tuple[tuple[int, ...], int, tuple[int, ...], tuple[int, ...]]:
     """``(object_segments, arm_segment, dirty_segments, deferred)`` of the reset that stages ``state``.
 

@@ -104,10 +104,10 @@ def test_snapshot_restore_keeps_a_grasp_and_the_dirt():
     try:
         held = TaskState((False, True), (HELD,), 0)  # segment 2 clean
         physics_backend.stage(env.env, env.controller, held, seed=1)
-        saved = physics_backend.snapshot(env.env)
+        saved = env.env.get_scene_state()
         dirt = env.env.dirt_fraction()
         assert env.step(held.index, Action.PLACE, 0.0)[0] == held.with_object(0, 0).index
-        physics_backend.restore(env.env, saved)
+        env.env.set_scene_state(saved)
         assert env.env.symbolic_state() == held and np.array_equal(env.env.dirt_fraction(), dirt)
         # the restored grasp holds through a move (the gripper's integrated command is restored too)
         assert env.step(held.index, Action.MOVE, 0.0)[0] == MODEL.step(held, Action.MOVE)[0].index

@@ -131,7 +131,7 @@ def run_round(scene, round_index: int, seed: int, on_trial: Callable[[dict], Non
     controller and model are used).  States only reachable through a left-out action are
     staged.  Returns the trial rows in execution order.
     """
-    from tableclean_suite.physics_backend import StagingError, restore, snapshot, stage
+    from tableclean_suite.physics_backend import StagingError, stage
     from tableclean_suite.skill_result import SkillResult
 
     actions = action_names(scene.model, actions)
@@ -149,20 +149,20 @@ def run_round(scene, round_index: int, seed: int, on_trial: Callable[[dict], Non
 
     def visit(state: TaskState, layout: str, reached_by: str) -> None:
         visited.add(state)
-        saved = snapshot(env)
+        saved = env.get_scene_state()
         children = []
         for k, action in enumerate(actions):
             if k:
-                restore(env, saved)
+                env.set_scene_state(saved)
             result = controller.execute(action)
             record(_trial_row(round_index, base_seed, layout, reached_by, state, action, result, model))
             expected = model.step(state, action)[0]
             if (result.state_after == expected and not expected.is_terminal and expected not in visited
                     and expected not in (c for c, _ in children)):
-                children.append((expected, snapshot(env)))
+                children.append((expected, env.get_scene_state()))
         for child, child_snapshot in children:
             if child not in visited:
-                restore(env, child_snapshot)
+                env.set_scene_state(child_snapshot)
                 visit(child, layout, "plan")
 
     starts = model.unclean_layouts()
