@@ -266,9 +266,9 @@ def test_trials_measured_with_other_plugin_code_are_not_resumed(tmp_path):
     path = tmp_path / fidelity.TRIALS_CSV
     trial_store.write_rows(path, [])
     fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), None, plugins=(str(plugin),)))
-    assert "plugins_digest" in json.loads(fidelity.configuration_path(path).read_text())
+    assert "code_digest" in json.loads(fidelity.configuration_path(path).read_text())
     fidelity.collect(0, trials_csv=path, log=None, plugins=(str(plugin),))  # the same code: resumes
     plugin.write_text("GRIP_FORCE = 11\n")
-    with pytest.raises(ResumeError, match="another plugins_digest"):
+    with pytest.raises(ResumeError, match="another code_digest"):
         fidelity.collect(0, trials_csv=path, log=None, plugins=(str(plugin),))
-    assert "plugins_digest" not in fidelity.run_configuration(TaskModel(), None)
+    assert fidelity.run_configuration(TaskModel(), None) != fidelity.run_configuration(TaskModel(), None, plugins=(str(plugin),))

@@ -240,19 +240,15 @@ CONFIGURATION_SUFFIX = ".config.json"
 
 def run_configuration(model: TaskModel, physics_options: dict | None, scene=None, plugins: Iterable[str] = ()) -> dict:
     """What determines a trial besides its round and seed: the task spec, the scene's options
-    (robot, randomisation, ...) and, with ``plugins`` (``--plugins`` entries), the SHA-256 of their
-    sources and of the user modules they refer to
-    ([`plugin_sources_digest`][tableclean_suite.bench.plugins.plugin_sources_digest]: an edited skill or object type
-    measures other trials); JSON values, anything else by ``repr``."""
+    (robot, randomisation, ...) and the code that runs, ``--plugins`` included
+    ([`code_digest`][tableclean_suite.bench.digests.code_digest]: an edited skill, primitive or
+    object type measures other trials); JSON values, anything else by ``repr``."""
     import json
 
-    from tableclean_suite.bench.plugins import plugin_sources_digest
+    from tableclean_suite.bench.digests import code_digest
 
     options = "a given scene" if scene is not None else (physics_options or {})
-    configuration = {"task": model.spec.to_dict(), "physics_options": options}
-    digest = plugin_sources_digest(plugins)
-    if digest is not None:  # without plugins the record is as before, so stored trials still resume
-        configuration["plugins_digest"] = digest
+    configuration = {"task": model.spec.to_dict(), "physics_options": options, "code_digest": code_digest(plugins)}
     return json.loads(json.dumps(configuration, sort_keys=True, default=repr))
 
 

@@ -201,14 +201,3 @@ def loaded_plugin_sources(entries: Iterable[str]) -> dict[str, str]:
         path = str(Path(module.__file__).resolve())
         sources[path] = hashlib.sha256(Path(path).read_bytes()).hexdigest()
     return sources
-
-
-def plugin_sources_digest(entries: Iterable[str]) -> str | None:
-    """One SHA-256 over the contents of [`loaded_plugin_sources`][tableclean_suite.bench.plugins.loaded_plugin_sources] (independent of where the files
-    are, so a cluster node with the same code in another folder agrees); None without entries."""
-    import hashlib
-
-    entries = tuple(entries or ())
-    if not entries:
-        return None
-    return hashlib.sha256("".join(sorted(loaded_plugin_sources(entries).values())).encode()).hexdigest()
