@@ -120,9 +120,9 @@ def test_the_calibrated_table_records_the_scene_it_was_measured_in(tmp_path):
 CORRUPT_TABLES = {
     "binary": b"\xff\xfe\x81\x00",
     "not a table": b"hello,world\n1,2\n",
-    "garbage number": (",".join(robot_table.COLUMNS) + "\nPanda,paper,nominal,abc,,,,,,,\n").encode(),
+    "garbage number": (",".join(robot_table.COLUMNS) + "\nPanda,default,paper,nominal,abc,,,,,,,\n").encode(),
     "short row": (",".join(robot_table.COLUMNS) + "\nPanda,paper\n").encode(),
-    "no robot": (",".join(robot_table.COLUMNS) + "\n,paper,nominal,1,1,1,0,,,,\n").encode(),
+    "no robot": (",".join(robot_table.COLUMNS) + "\n,default,paper,nominal,1,1,1,0,,,,\n").encode(),
 }
 
 
