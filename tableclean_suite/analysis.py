@@ -116,7 +116,7 @@ def exact_success_probability(
 ) -> np.ndarray:
     """Probability that an episode succeeds (terminal within ``max_itr`` steps, no improper action):
     the ``success`` of [`asymptotes.episode_statistics`][tableclean_suite.asymptotes.episode_statistics]
-    (exact to [`MASS_TOLERANCE`][tableclean_suite.asymptotes.MASS_TOLERANCE]), episodes starting uniformly in the
+    (exact to ``asymptotes.MASS_TOLERANCE``), episodes starting uniformly in the
     model's start states.
 
     Args:

@@ -274,7 +274,7 @@ def executor_from_args(parser: argparse.ArgumentParser, args):
 
 
 def wrap(text: str) -> str:
-    """``text`` for the terminal: each line longer than [`PRINT_WIDTH`][tableclean_suite.bench.tables.PRINT_WIDTH]
+    """``text`` for the terminal: each line longer than ``tables.PRINT_WIDTH`` (120 characters)
     wrapped at words, its continuations indented (tables printed within the width pass unchanged)."""
     import textwrap
 

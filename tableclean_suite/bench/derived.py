@@ -18,7 +18,7 @@ the figures [plots.available_figures][tableclean_suite.bench.plots.available_fig
 with [plots.render_png][tableclean_suite.bench.plots.render_png]; they inherit the inputs and
 run the same code on the same matplotlib configuration, so the PNG bytes are those drawn in this
 process.  They ignore Ctrl-C (the terminal sends it to them too): the parent stops them
-([`PendingFigures.result`][tableclean_suite.bench.derived.PendingFigures.result] terminates the
+(`PendingFigures.result` terminates the
 pool, also when interrupted) and reports the interruption once.  Elsewhere the figures are drawn
 here, when their result is asked for.
 """
