@@ -82,9 +82,11 @@ def test_ctrl_c_while_forked_processes_draw_stops_them_at_once_and_quietly(monke
 
 
 @pytest.mark.cli
-@pytest.mark.parametrize("delay", [0.0, 0.3, 1.0])
+@pytest.mark.parametrize("delay", [0.05, 0.3, 1.0])
 def test_ctrl_c_early_in_a_command_is_one_line_and_exit_130(tmp_path, delay):
-    """From the moment the package is imported: the command's own imports, parsing, the start of work."""
+    """From the moment the package is imported: the command's own imports, parsing, the start of work.
+    (Not at once after "ready": between that line and the call of ``main`` only this test's own
+    one-line script runs, which handles no Ctrl-C.)"""
     argv = ["scaling", "--segments", "2", "--objects", "1", "--fixed-plan-objects", "none", "--out", str(tmp_path)]
     process = subprocess.Popen([sys.executable, "-c", "import sys; from tableclean_suite.bench.commands import main; "
                                 f"print('ready', flush=True); sys.exit(main(prog='tableclean-bench', argv={argv!r}))"],

@@ -224,10 +224,8 @@ def test_a_state_that_cannot_be_staged_is_recorded_as_failed_trials_not_a_crashe
     def execute(action):  # every skill fails where it is: no state is reached by a plan
         return SkillResult(action, False, False, 5, "ran out", env.state, env.state, None)
 
-    env = SimpleNamespace(state=None)
+    env = SimpleNamespace(state=None, get_scene_state=lambda: None, set_scene_state=lambda saved: None)
     monkeypatch.setattr(physics_backend, "stage", stage)
-    monkeypatch.setattr(physics_backend, "snapshot", lambda env: None)
-    monkeypatch.setattr(physics_backend, "restore", lambda env, saved: None)
     rows = fidelity.run_round(SimpleNamespace(env=env, controller=SimpleNamespace(execute=execute), model=model), 0, 0)
     assert len(rows) == fidelity.trials_per_round(model, model.action_names)
     unstaged = [r for r in rows if r["reason"].startswith(fidelity.NOT_STAGED)]
