@@ -58,6 +58,7 @@ from tableclean_suite.task.spec import (  # noqa: F401
     task_spec_names,
     unique_keys,
 )
+from tableclean_suite.task import pddl  # noqa: F401,E402 (registers the .pddl spec reader)
 from tableclean_suite.task.state import (  # noqa: F401
     CLEAN_OUTCOMES,
     HELD,

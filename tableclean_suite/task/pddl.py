@@ -25,7 +25,8 @@ import re
 from pathlib import Path
 
 from tableclean_suite.task.actions import DIGIT_RULES, get_action_rule
-from tableclean_suite.task.spec import DEFAULT_OBJECT_TYPE, PAPER_ACTIONS, StartMode, TaskSpec, get_task_spec
+from tableclean_suite.task.spec import (DEFAULT_OBJECT_TYPE, PAPER_ACTIONS, SPEC_FILE_READERS, StartMode, TaskSpec,
+                                         get_task_spec)
 from tableclean_suite.task.state import HELD, TaskState
 
 #: The two forms of the export.
@@ -344,3 +345,6 @@ def _goal(section: _List, segments: list[str], fail) -> None:
     forall = _show(goal).replace(" ", "") in ("(forall(?s-segment)(wiped?s))",)
     if not (every or forall):
         fail(section.line, f"the goal must be every segment wiped: (and {' '.join(f'(wiped {s})' for s in segments)})")
+
+
+SPEC_FILE_READERS[".pddl"] = read_problem  # get_task_spec reads a .pddl path as a problem

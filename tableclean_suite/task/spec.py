@@ -307,21 +307,24 @@ def load_task_spec(path: str | Path) -> TaskSpec:
     return TaskSpec.from_dict(data, source=str(path))
 
 
+#: Readers of spec files by suffix: ``.json`` here, ``.pddl`` added by [tableclean_suite.task.pddl][].
+SPEC_FILE_READERS: dict = {".json": load_task_spec}
+
+
 def get_task_spec(task: "str | Path | TaskSpec | None" = None) -> TaskSpec:
     """A spec from a registered name, a ``.json`` spec file, a ``.pddl`` problem or a spec (None: ``paper``).
 
-    A ``.pddl`` path is read by [`read_problem`][tableclean_suite.task.pddl.read_problem].
+    A path is read by the reader `SPEC_FILE_READERS` names for its suffix (``.pddl``:
+    [`read_problem`][tableclean_suite.task.pddl.read_problem], which registers itself there).
     Raises ``ValueError`` naming the registered specs when ``task`` is none of these.
     """
     if task is None:
         return PAPER_SPEC
     if isinstance(task, TaskSpec):
         return task
-    if str(task).lower().endswith(".pddl"):
-        from tableclean_suite.task.pddl import read_problem  # the reader imports this module
-        return read_problem(Path(task))
-    if isinstance(task, Path) or (isinstance(task, str) and task.lower().endswith(".json")):
-        return load_task_spec(task)
+    reader = SPEC_FILE_READERS.get(Path(str(task)).suffix.lower()) if isinstance(task, (str, Path)) else None
+    if reader is not None or isinstance(task, Path):  # a Path of another suffix is read as JSON
+        return (reader or load_task_spec)(Path(task))
     if isinstance(task, str) and task in _REGISTRY.names():
         return _REGISTRY.get(task)
     allowed = ", ".join(_REGISTRY.names())
