@@ -66,6 +66,11 @@ WRIST_WIDTH_TOLERANCE = 1e-4
 #: m a body's outline must step in at a height (to a part above narrower everywhere) for [`ledges`][tableclean_suite.controllers.primitives.ledges]
 #: to count a ledge there: a finger closing at that height meets the ledge, not the part above.
 LEDGE_MARGIN = 0.003
+#: m half the height of the band about the grip site that the finger pads close on ([`fitting_z`][tableclean_suite.controllers.primitives.fitting_z]).
+PAD_HALF_HEIGHT = 0.004
+#: m a side by which a round body's slice below the pads (the fingertips') or above them (the finger links')
+#: may be wider than the slice at the pads before the grip moves ([`fitting_z`][tableclean_suite.controllers.primitives.fitting_z]).
+SLICE_MARGIN = 0.001
 #: rad: grasp yaws across the narrow side whose distances from ``nominal_yaw`` differ by less count as a tie
 #: (`Grasp` then takes the one nearest the hand's yaw).
 YAW_TIE = 0.2
@@ -201,7 +206,43 @@ def holding_z(pos, rot, geometry: ObjectGeometry, config: Mapping[str, Any], pal
     for lip, lip_top, along in ledges(geometry, under=True):
         if (all(along) if k is None else along[k]) and z < base + lip < z + palm_height:
             z = base + 0.5 * (lip + lip_top)
-    return z
+    if z <= 0.5 * (low + top):  # held at mid-height or lower, the palm keeps clear of a top fingers could miss
+        return z
+    k = int(np.argmin(geometry.widths())) if k is None else k
+    return base + fitting_z(geometry, z - base, top - base, depth, k)
+
+
+def fitting_z(geometry: ObjectGeometry, z: float, top: float, depth: float, direction: int) -> float:
+    """Height [m, the upright body's own frame] of the grip site at or above ``z`` where the fingers, closing along
+    ``direction`` (index of ``WIDTH_DIRECTIONS``), meet the body with their pads: the slice at the pads
+    (`PAD_HALF_HEIGHT` about the grip site, [`slice_width`][tableclean_suite.environments.object_geometry.ObjectGeometry.slice_width])
+    at least as wide (`SLICE_MARGIN` a side) as the slice the fingertips reach below it (``depth`` m) and everything
+    above it up to the body's ``top`` [m, own frame].  ``z`` itself when it fits (or no points lie at the pads:
+    a box's sides are not sampled); else, of the higher grip sites up to ``top`` less `PAD_HALF_HEIGHT` that fit,
+    the middle one of those whose pads meet the widest slice; ``z`` when none fits.  Measured: a capsule's pads
+    on its dome above the wider part the fingertips closed on, a tapered can's pads under its wider lip; in both
+    the pads never touched ("grasp not confirmed")."""
+    return z if _fit(geometry, z, top, depth, direction)[1] else _higher_fit(geometry, round(z, 4), round(top, 4), depth,
+                                                                         direction)
+
+
+def _fit(geometry: ObjectGeometry, at: float, top: float, depth: float, direction: int) -> tuple[float, bool]:
+    """(slice width at pads at ``at`` [m], whether nothing the fingers reach first is wider): see `fitting_z`."""
+    pads = geometry.slice_width(at - PAD_HALF_HEIGHT, at + PAD_HALF_HEIGHT, direction)
+    wider = max(geometry.slice_width(at - depth, at - PAD_HALF_HEIGHT, direction),
+                geometry.slice_width(at + PAD_HALF_HEIGHT, top, direction))
+    return pads, pads == 0.0 or wider <= pads + 2 * SLICE_MARGIN
+
+
+@functools.lru_cache(maxsize=512)
+def _higher_fit(geometry: ObjectGeometry, z: float, top: float, depth: float, direction: int) -> float:
+    fits = [(pads, at) for at in np.arange(z, top - PAD_HALF_HEIGHT, 0.001)
+            for pads, ok in [_fit(geometry, at, top, depth, direction)] if ok and pads > 0.0]
+    if not fits:
+        return z
+    widest = max(pads for pads, _ in fits)
+    best = [at for pads, at in fits if pads >= widest - 2 * SLICE_MARGIN]
+    return float(best[len(best) // 2])
 
 
 def line_angle(a: float, b: float) -> float:

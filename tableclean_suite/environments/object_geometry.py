@@ -23,6 +23,9 @@ from scipy.spatial import ConvexHull, QhullError
 #: Points sampled on each circle of a round geom (sphere, cylinder, capsule, ellipsoid); the
 #: sampled extent falls short of the true one by at most r (1 - cos(pi / this)): 0.5 % of the radius.
 CIRCLE_POINTS = 32
+#: Largest vertical gap [m] between the sampled circles of a cylinder's side or a capsule's domes, so that
+#: the width of any horizontal slice of a round body is known (`ObjectGeometry.slice_width`).
+SLICE_SPACING = 0.005
 #: Horizontal directions [rad] over a half turn at which the object's width across the fingers is
 #: measured to find its narrow side (every 1 degree).
 WIDTH_DIRECTIONS = 180
@@ -51,10 +54,13 @@ def _geom_local_points(model: mujoco.MjModel, geom: int) -> np.ndarray:
         return np.vstack([_circle(r, r, 0.0), [[0, 0, r], [0, 0, -r]]])
     if kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
         r, h = float(size[0]), float(size[1])
-        return np.vstack([_circle(r, r, h), _circle(r, r, -h)])
+        levels = np.linspace(-h, h, int(np.ceil(2 * h / SLICE_SPACING)) + 1)
+        return np.vstack([_circle(r, r, h), _circle(r, r, -h)] + [_circle(r, r, z) for z in levels[1:-1]])
     if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
         r, h = float(size[0]), float(size[1])
-        return np.vstack([_circle(r, r, h), _circle(r, r, -h), [[0, 0, h + r], [0, 0, -h - r]]])
+        dome = np.linspace(0.0, 0.5 * np.pi, int(np.ceil(r / SLICE_SPACING)) + 1)[1:-1]  # (rims and poles apart)
+        rings = [_circle(r * np.cos(a), r * np.cos(a), side * (h + r * np.sin(a))) for a in dome for side in (1, -1)]
+        return np.vstack([_circle(r, r, h), _circle(r, r, -h), [[0, 0, h + r], [0, 0, -h - r]]] + rings)
     if kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
         a, b, c = (float(s) for s in size)
         return np.vstack([_circle(a, b, 0.0), [[0, 0, c], [0, 0, -c]]])
@@ -155,6 +161,17 @@ class ObjectGeometry:
         projections = self.points[:, :2] @ np.stack([np.cos(angles), np.sin(angles)])
         return _frozen(projections.max(axis=0) - projections.min(axis=0))
 
+    def slice_width(self, low: float, high: float, direction: int) -> float:
+        """Width [m] along direction ``direction`` (angle ``direction pi / WIDTH_DIRECTIONS``, own frame) of the
+        collision points whose height [m, own frame] is in ``[low, high]`` (0 when there are none): a round
+        body's horizontal slice there (its sides are sampled every `SLICE_SPACING`; a box's only at its corners)."""
+        inside = (self.points[:, 2] >= low) & (self.points[:, 2] <= high)
+        if not inside.any():
+            return 0.0
+        angle = direction * np.pi / WIDTH_DIRECTIONS
+        along = self.points[inside, :2] @ np.array([np.cos(angle), np.sin(angle)])
+        return float(along.max() - along.min())
+
     def z_range(self, rot) -> tuple[float, float]:
         """``(lowest, highest)`` height [m] of the collision points above the object's origin when it is turned
         by rotation matrix ``rot`` (3, 3): one projection of the points for both."""
@@ -250,4 +267,4 @@ def world_z_range(geometry: ObjectGeometry, pos, rot) -> tuple[float, float]:
 
 
 __all__ = ["ObjectGeometry", "object_geometry", "geometry_of_body", "collision_points", "collision_geoms",
-           "grasp_yaw", "world_lowest_z", "world_highest_z", "world_z_range", "CIRCLE_POINTS", "EQUAL_WIDTH", "WIDTH_DIRECTIONS"]
+           "grasp_yaw", "world_lowest_z", "world_highest_z", "world_z_range", "CIRCLE_POINTS", "EQUAL_WIDTH", "SLICE_SPACING", "WIDTH_DIRECTIONS"]
