@@ -89,6 +89,19 @@ def test_a_tiny_run_through_the_package_entry_point(tmp_path):
     assert json.loads((out / "config.json").read_text())["args"]["runs"] == 3
 
 
+@pytest.mark.cli
+@pytest.mark.parametrize("name", ["tune", "pddl"])
+def test_a_command_module_run_with_python_m_goes_through_the_dispatcher(name, tmp_path):
+    import subprocess
+    import sys
+
+    module = commands.COMMANDS[name].module
+    done = subprocess.run([sys.executable, "-m", module, "--seed", "-1"], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=300)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1 and lines[0].startswith(f"python -m {module}: error:"), done.stderr
+
+
 @pytest.mark.parametrize("name", _commands_with("--seed"))
 def test_a_negative_seed_is_refused_before_any_work(name, capsys):
     code, err = _run([name, "--seed", "-1"], capsys)

@@ -375,3 +375,9 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         print(f"only {len(demos)} of {args.episodes} demos succeeded", file=sys.stderr)
         return 1
     return 0
+
+
+if __name__ == "__main__":
+    from tableclean_suite.bench.commands import run_alias
+
+    sys.exit(run_alias("demos", "python -m tableclean_suite.bench.collect_demos"))

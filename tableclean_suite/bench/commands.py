@@ -81,7 +81,7 @@ COMMANDS: dict[str, Command] = {
     "objects": Command("tableclean_suite.bench.object_table", "the skills on every registered object type",
                        physics=True),
     "speed": Command("tableclean_suite.bench.speed",
-                     "measured speed: learners, task size, skills, environment, cold start", physics=True),
+                     "measured speed: learners, skills, cold start", physics=True),
     "policy-analysis": Command("tableclean_suite.bench.policy_analysis",
                                "measured plateaus against exact values of the learned policies"),
     "pddl": Command("tableclean_suite.bench.pddl_check",

@@ -353,4 +353,6 @@ def main(argv=None, prog: str | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(prog="python -m tableclean_suite.bench.coverage"))
+    from tableclean_suite.bench.commands import run_alias
+
+    sys.exit(run_alias("coverage", "python -m tableclean_suite.bench.coverage"))

@@ -34,6 +34,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -320,3 +321,9 @@ def main(argv=None, prog: str | None = None) -> int:
 
     _, args = parse_command(build_parser, argv, prog or PROG)
     return run(args)
+
+
+if __name__ == "__main__":
+    from tableclean_suite.bench.commands import run_alias
+
+    sys.exit(run_alias("interventions", "python -m tableclean_suite.bench.interventions"))

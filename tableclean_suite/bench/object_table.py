@@ -334,4 +334,6 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from tableclean_suite.bench.commands import run_alias
+
+    sys.exit(run_alias("objects", "python -m tableclean_suite.bench.object_table"))

@@ -196,4 +196,6 @@ def main(argv=None, prog: str | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(prog="python -m tableclean_suite.bench.pddl_check"))
+    from tableclean_suite.bench.commands import run_alias
+
+    sys.exit(run_alias("pddl", "python -m tableclean_suite.bench.pddl_check"))

@@ -13,6 +13,7 @@ It adds Q-learning with r3 at ``--long-iterations``, to show r3's looping persis
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 
@@ -72,3 +73,9 @@ def main(argv=None, prog: str | None = None) -> int:
     rows.append(analyse("q_learning", "r3", TaskModel(), args.runs, args.long_iterations, args.seed, epsilon, max_itr))
     print(pd.DataFrame(rows).to_string(index=False, float_format="{:.2f}".format, line_width=PRINT_WIDTH))
     return 0
+
+
+if __name__ == "__main__":
+    from tableclean_suite.bench.commands import run_alias
+
+    sys.exit(run_alias("policy-analysis", "python -m tableclean_suite.bench.policy_analysis"))

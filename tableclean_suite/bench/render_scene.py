@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -109,3 +110,9 @@ def main(argv=None, prog: str | None = None) -> int:
     save_png(frame, Path(args.out))
     print(f"wrote {args.out} ({args.width}x{args.height}, camera {args.camera!r}, MUJOCO_GL={os.environ['MUJOCO_GL']})")
     return 0
+
+
+if __name__ == "__main__":
+    from tableclean_suite.bench.commands import run_alias
+
+    sys.exit(run_alias("render", "python -m tableclean_suite.bench.render_scene"))

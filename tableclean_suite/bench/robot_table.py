@@ -365,4 +365,6 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(prog="python -m tableclean_suite.bench.robot_table"))
+    from tableclean_suite.bench.commands import run_alias
+
+    sys.exit(run_alias("robots", "python -m tableclean_suite.bench.robot_table"))

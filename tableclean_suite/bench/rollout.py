@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -289,3 +290,9 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     print(f"{len(summary['actions'])} actions, {outcome}; wrote {video} ({summary['frames']} frames, "
           f"{summary['control_steps']} control steps){f' and {still}' if still else ''} in {time.perf_counter() - started:.0f} s")
     return 0
+
+
+if __name__ == "__main__":
+    from tableclean_suite.bench.commands import run_alias
+
+    sys.exit(run_alias("rollout", "python -m tableclean_suite.bench.rollout"))

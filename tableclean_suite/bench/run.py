@@ -419,4 +419,6 @@ def main(argv=None, prog: str | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(prog="python -m tableclean_suite.bench.run"))
+    from tableclean_suite.bench.commands import run_alias
+
+    sys.exit(run_alias("run", "python -m tableclean_suite.bench.run"))

@@ -539,3 +539,9 @@ def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     args = parse_args(argv, prog)
     return run(args)
+
+
+if __name__ == "__main__":
+    from tableclean_suite.bench.commands import run_alias
+
+    sys.exit(run_alias("tune", "python -m tableclean_suite.bench.tune"))

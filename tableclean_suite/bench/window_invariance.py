@@ -196,3 +196,9 @@ def main(argv=None, prog: str | None = None) -> int:
         print(line)
     print(f"written: {out / RESULT_FILE}")
     return 0
+
+
+if __name__ == "__main__":
+    from tableclean_suite.bench.commands import run_alias
+
+    sys.exit(run_alias("window-invariance", "python -m tableclean_suite.bench.window_invariance"))
