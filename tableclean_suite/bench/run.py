@@ -298,7 +298,7 @@ def train_and_publish(args) -> int:
         [{"learner": c.learner, "reward": c.reward, "runs": grid_run.statistics[c].runs} for c in main_cells],
         config.confidence, config.bootstrap_samples, config.seed, figure_frame if config.figures else None, table3,
         plateau_fraction=config.plateau_fraction, dpi=FIGURE_DPI, read=not config.fresh)
-    curves_text = curves_frame.to_csv(index=False, float_format=tables.CURVES_FLOAT_FORMAT)  # while figures draw
+    curves_text = tables.csv_text(curves_frame, tables.CURVES_FLOAT_FORMAT)  # while figures draw
     results = pending.result()
     comparisons, figures = results.comparisons, results.figures
     print(results.summary())
