@@ -25,7 +25,7 @@ from scipy.spatial import ConvexHull, QhullError
 CIRCLE_POINTS = 32
 #: Largest vertical gap [m] between the sampled circles of a cylinder's side or a capsule's domes, so that
 #: the width of any horizontal slice of a round body is known (`ObjectGeometry.slice_width`).
-SLICE_SPACING = 0.005
+SLICE_SPACING = 0.002
 #: Horizontal directions [rad] over a half turn at which the object's width across the fingers is
 #: measured to find its narrow side (every 1 degree).
 WIDTH_DIRECTIONS = 180
@@ -58,8 +58,8 @@ def _geom_local_points(model: mujoco.MjModel, geom: int) -> np.ndarray:
         return np.vstack([_circle(r, r, h), _circle(r, r, -h)] + [_circle(r, r, z) for z in levels[1:-1]])
     if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
         r, h = float(size[0]), float(size[1])
-        dome = np.linspace(0.0, 0.5 * np.pi, int(np.ceil(r / SLICE_SPACING)) + 1)[1:-1]  # (rims and poles apart)
-        rings = [_circle(r * np.cos(a), r * np.cos(a), side * (h + r * np.sin(a))) for a in dome for side in (1, -1)]
+        rises = np.linspace(0.0, r, int(np.ceil(r / SLICE_SPACING)) + 1)[1:-1]  # (rims and poles apart)
+        rings = [_circle(np.sqrt(r * r - d * d), np.sqrt(r * r - d * d), side * (h + d)) for d in rises for side in (1, -1)]
         return np.vstack([_circle(r, r, h), _circle(r, r, -h), [[0, 0, h + r], [0, 0, -h - r]]] + rings)
     if kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
         a, b, c = (float(s) for s in size)
