@@ -163,3 +163,14 @@ def test_a_learner_option_given_twice_is_refused(text):
 def test_q_init_beyond_the_reward_bound_is_refused_by_the_learner_itself():
     with pytest.raises(ValueError, match=r"q_init must be in \[-1000000, 1000000\], got 1e\+308"):
         get_learner("q_learning").configured({}, 1e308, None)
+
+
+def test_coverage_refuses_an_unlearnable_task_before_printing_its_plan(capsys, tmp_path):
+    from tableclean_suite.bench import commands
+
+    (tmp_path / "spec.json").write_text(json.dumps({"name": "no_clean", "actions": ["move", "pick", "place"]}))
+    code = commands.main(["coverage", "--task", str(tmp_path / "spec.json"), "--replications", "2",
+                          "--reference-runs", "2", "--runs", "2", "--iterations", "60", "--out", str(tmp_path / "o")])
+    captured = capsys.readouterr()
+    assert code == 2 and captured.out == "" and len(captured.err.strip().splitlines()) == 1
+    assert "no_clean" in captured.err

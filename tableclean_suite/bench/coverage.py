@@ -328,6 +328,7 @@ def main(argv=None, prog: str | None = None) -> int:
         print(f"{args.prog}: error: --out {problem}", file=sys.stderr)
         return cli.EXIT_USAGE
     text, _ = estimate(args, model)
+    model.require_learnable()  # after the resource guard (it builds the transitions), before any work
     print(text)
     started = time.perf_counter()
     try:

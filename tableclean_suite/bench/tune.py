@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
 import time
 from pathlib import Path
@@ -389,8 +390,8 @@ def run(args) -> int:
     if problem:
         print(f"{prog}: error: --out {problem}", file=sys.stderr)
         return 2
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
-    for handler in logging.getLogger("optuna").handlers:  # Ctrl-C is reported once, without Optuna's traceback
+    optuna.logging.set_verbosity(optuna.logging.ERROR)  # the trial Ctrl-C stopped is not a warning: it is reported once
+    for handler in logging.getLogger("optuna").handlers:  # and without Optuna's traceback
         handler.addFilter(lambda record: not (record.exc_info and record.exc_info[0] is KeyboardInterrupt))
     check_resources(args)
     try:
@@ -434,7 +435,13 @@ def run(args) -> int:
 
         rows = ablation(args, best["settings"])
         writers["ablation.csv"] = lambda path: pd.DataFrame(rows).to_csv(path, index=False)
-    written = outputs.publish(out, writers, {"args": outputs.arguments(args)}, command="tune", kept=("study.db",))
+    # after Ctrl-C, a second one must not stop the publication of the finished trials
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if interrupted else None
+    try:
+        written = outputs.publish(out, writers, {"args": outputs.arguments(args)}, command="tune", kept=("study.db",))
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
     if interrupted:
         print(f"{prog}: interrupted; the {report['completed']} completed trials are published in "
               f"{out / 'trials.csv'} and {out / 'best.json'}", file=sys.stderr)
