@@ -64,8 +64,9 @@ WRIST_HEIGHT_MARGIN = 0.01
 #: neighbour to count as reaching the wrist ([`wrist_reach`][tableclean_suite.controllers.primitives.wrist_reach]): below it the hand's own rules hold unchanged.
 WRIST_WIDTH_TOLERANCE = 1e-4
 #: m a body's outline must step in at a height (to a part above narrower everywhere) for [`ledges`][tableclean_suite.controllers.primitives.ledges]
-#: to count a ledge there: a finger closing at that height meets the ledge, not the part above.
-LEDGE_MARGIN = 0.003
+#: to count a ledge there: a finger closing at that height meets the ledge, not the part above (measured: a box's
+#: 2.4 mm and 2.95 mm lips, under 3 mm, held the finger links off the pads).
+LEDGE_MARGIN = 0.002
 #: m half the height of the band about the grip site that the finger pads close on ([`fitting_z`][tableclean_suite.controllers.primitives.fitting_z]).
 PAD_HALF_HEIGHT = 0.004
 #: m a side by which a round body's slice below the pads (the fingertips') or above them (the finger links')
