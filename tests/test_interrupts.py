@@ -120,3 +120,33 @@ def test_ctrl_c_during_tune_publishes_the_finished_trials_and_exits_130(tmp_path
     assert code == 130 and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
     assert json.loads((out / "best.json").read_text())["completed"] == 2
     assert outputs.check_outputs(out) == []
+
+
+@pytest.mark.cli
+def test_ctrl_c_while_numba_compiles_ends_the_process_in_one_line(tmp_path):
+    """Raised inside a compilation, KeyboardInterrupt can land in an llvmlite ctypes callback that
+    prints it as ignored and goes on; during a compilation Ctrl-C exits at once instead."""
+    code = ("import os, signal, time\n"
+            "import numba\n"
+            "from tableclean_suite.bench import startup\n"
+            "startup.announce_compiles('tableclean-bench run')\n"
+            "startup._compiling(True)\n"  # what numba's compile event does at a compilation's start
+            "os.kill(os.getpid(), signal.SIGINT)\n"
+            "time.sleep(5)\n"
+            "print('went on')\n")
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 130 and "went on" not in done.stdout
+    assert done.stderr.strip().splitlines() == ["tableclean-bench run: interrupted"]
+
+
+def test_the_interrupt_handler_is_only_swapped_during_a_compilation():
+    from tableclean_suite.bench import startup
+
+    before = signal.getsignal(signal.SIGINT)
+    startup._compiling(True)
+    startup._compiling(True)  # nested
+    startup._compiling(False)
+    during = signal.getsignal(signal.SIGINT)
+    startup._compiling(False)
+    assert signal.getsignal(signal.SIGINT) is before
+    assert during is (startup._interrupted_while_compiling if before is signal.default_int_handler else before)

@@ -309,7 +309,7 @@ def parse_command(build_parser, argv, prog: str, known: bool = False):
     early.add_argument(FLAG, type=plugin_entries, default=())
     first = early.parse_known_args(argv)[0]
     apply_verbosity(first.verbose)  # before a plugin imports robosuite
-    announce_compiles()
+    announce_compiles(prog)
     try:
         load_plugins(first.plugins)
     except PluginError as error:
