@@ -145,7 +145,9 @@ def test_ctrl_c_is_one_line_and_exit_130_with_workers(tmp_path):
     # a budget no busy machine finishes before the interrupt: the first cell may be saved only late
     run = subprocess.Popen([sys.executable, "-m", "benchmarks.run", "--workers", "2", "--runs", "20000",
                             "--iterations", "30000", "--no-figures", "--no-progress", "--out", str(out)], cwd=ROOT,
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                           # as from a terminal: a test worker may run with Ctrl-C ignored, which a child inherits
+                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 60
     while not (out / "cells").exists() and time.monotonic() < deadline:
         time.sleep(0.2)
