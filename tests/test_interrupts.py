@@ -90,7 +90,8 @@ def test_ctrl_c_early_in_a_command_is_one_line_and_exit_130(tmp_path, delay):
     argv = ["scaling", "--segments", "2", "--objects", "1", "--fixed-plan-objects", "none", "--out", str(tmp_path)]
     process = subprocess.Popen([sys.executable, "-c", "import sys; from tableclean_suite.bench.commands import main; "
                                 f"print('ready', flush=True); sys.exit(main(prog='tableclean-bench', argv={argv!r}))"],
-                               cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                               cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # as a terminal
     assert process.stdout.readline().strip() == "ready"
     time.sleep(delay)
     process.send_signal(signal.SIGINT)
