@@ -310,7 +310,7 @@ def write_dataset(path, demos: Sequence[Demo], env_args: dict, attrs: dict | Non
     import robosuite
 
     import tableclean_suite
-    from tableclean_suite.bench.outputs import atomic_write
+    from tableclean_suite.atomic_files import atomic_write
 
     for index, demo in enumerate(demos):
         try:

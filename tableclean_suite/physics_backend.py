@@ -318,7 +318,7 @@ def process_session(spec_json: str, options: dict) -> "PhysicsStepEnv":
     key = (spec_json, json.dumps(options, sort_keys=True, default=repr))
     if key not in _SESSIONS:
         if multiprocessing.parent_process() is not None:  # a worker process: robosuite's start-up lines are noise
-            from tableclean_suite.bench.startup import apply_verbosity
+            from tableclean_suite.robosuite_adapter import apply_verbosity
 
             apply_verbosity(False)
         _SESSIONS[key] = PhysicsStepEnv(TaskModel(spec=TaskSpec.from_dict(json.loads(spec_json))), **options)

@@ -24,8 +24,65 @@ from __future__ import annotations
 import ctypes
 import functools
 import glob
+import logging
 import os
+import sys
 import warnings
+
+import wrapt
+
+#: The logger robosuite writes to.
+ROBOSUITE_LOGGER = "robosuite_logs"
+
+
+class _DropDuringImport(logging.Filter):
+    """Drops records until `stop` (robosuite's import has finished); counts what it dropped."""
+
+    def __init__(self):
+        super().__init__()
+        self.dropping = True
+        self.dropped = 0
+
+    def filter(self, record) -> bool:
+        if self.dropping:
+            self.dropped += 1
+            return False
+        return True
+
+    def stop(self, _module=None) -> None:
+        self.dropping = False
+
+
+def quiet_robosuite_startup() -> logging.Filter | None:
+    """Drop the log records robosuite emits while it is being imported (from now on).
+
+    Returns:
+        The filter (its ``dropped`` counts the records), or None when robosuite is already
+        imported (its start-up messages are then already out).
+    """
+    if "robosuite" in sys.modules:
+        return None
+    holder = _DropDuringImport()
+    logging.getLogger(ROBOSUITE_LOGGER).addFilter(holder)
+    wrapt.register_post_import_hook(holder.stop, "robosuite")
+    return holder
+
+
+class _DropBelowWarning(logging.Filter):
+    """Drops robosuite's INFO/DEBUG records (e.g. "Loading controller configuration" at every env)."""
+
+    def filter(self, record) -> bool:
+        return record.levelno >= logging.WARNING
+
+
+def apply_verbosity(verbose: bool) -> None:
+    """Unless ``verbose``: drop robosuite's import-time warnings and its INFO messages from now on."""
+    if verbose:
+        return
+    quiet_robosuite_startup()
+    logging.getLogger(ROBOSUITE_LOGGER).addFilter(_DropBelowWarning())
+
+
 
 #: Versions the internals used here were checked against (package name -> exact versions).
 CHECKED_VERSIONS: dict[str, tuple[str, ...]] = {

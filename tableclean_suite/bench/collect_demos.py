@@ -46,7 +46,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 from tableclean_suite.bench import cli  # noqa: E402
 from tableclean_suite.bench.cli import positive_int  # noqa: E402
 from tableclean_suite.bench.rollout import majority_policy  # noqa: E402
-from tableclean_suite.bench.startup import apply_verbosity  # noqa: E402
+from tableclean_suite.robosuite_adapter import apply_verbosity  # noqa: E402
 
 POLICIES = ("optimal", "learned")
 OUT_SUFFIXES = (".hdf5", ".h5")

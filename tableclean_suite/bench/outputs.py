@@ -34,6 +34,15 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable
 
+from tableclean_suite.atomic_files import (  # noqa: F401  (part of this module's interface)
+    OutputError,
+    atomic_write,
+    atomic_write_text,
+    describe_os_error,
+    remove_quietly,
+    temporary_path,
+)
+
 #: The manifest: the command, its configuration, its id and the digests of its data files.
 MANIFEST = "config.json"
 #: The new manifest while its files move in (`publish`); left behind only by an interrupted one.
@@ -49,69 +58,16 @@ _HASH_BLOCK = 1 << 20
 _MANIFEST_KEYS = ("run_id", "files")
 
 
-class OutputError(OSError):
-    """An output folder or file that cannot be used or written; the message names it and why."""
-
-
 class OutputBusyError(OutputError):
     """Another process holds the output folder's lock ([`output_lock`][tableclean_suite.bench.outputs.output_lock])."""
 
 
-def describe_os_error(error: OSError) -> str:
-    """``'No space left on device'``-style reason of an ``OSError`` (its strerror, else its text)."""
-    return error.strerror or str(error) or type(error).__name__
-
-
 def check_out_path(out) -> Path:
-    """``out`` as a `Path`; [`OutputError`][tableclean_suite.bench.outputs.OutputError] for an empty or blank name (which would
+    """``out`` as a `Path`; [`OutputError`][tableclean_suite.atomic_files.OutputError] for an empty or blank name (which would
     otherwise mean the current directory)."""
     if out is None or (isinstance(out, str) and not out.strip()):
         raise OutputError(f"output folder {out!r} is empty; name a folder (e.g. results/run1)")
     return Path(out)
-
-
-def temporary_path(path: Path) -> Path:
-    """Where [`atomic_write`][tableclean_suite.bench.outputs.atomic_write] writes ``path`` first: a hidden name in the same directory."""
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
-
-
-def atomic_write(path, write: Callable[[Path], None]) -> Path:
-    """Create or replace ``path`` atomically: ``write(temporary)`` then `os.replace`.
-
-    Args:
-        path: the final file.
-        write: writes the complete contents to the path it is given.
-
-    Returns:
-        ``path``.  If ``write`` or the replace fails, ``path`` is unchanged and the temporary
-        file is removed; a file-system failure is raised as [`OutputError`][tableclean_suite.bench.outputs.OutputError].
-    """
-    path = Path(path)
-    temporary = temporary_path(path)
-    try:
-        write(temporary)
-        os.replace(temporary, path)
-    except OSError as error:
-        _remove_quietly(temporary)
-        if isinstance(error, OutputError):
-            raise
-        raise OutputError(f"cannot write {str(path)!r}: {describe_os_error(error)}") from None
-    except BaseException:
-        _remove_quietly(temporary)
-        raise
-    return path
-
-
-def _remove_quietly(path: Path) -> None:
-    try:
-        path.unlink(missing_ok=True)
-    except OSError:
-        pass  # e.g. the temporary's name is a directory: nothing of ours to remove
-
-
-def atomic_write_text(path, text: str) -> Path:
-    """[`atomic_write`][tableclean_suite.bench.outputs.atomic_write] of UTF-8 text."""
-    return atomic_write(path, lambda temporary: temporary.write_text(text, encoding="utf-8"))
 
 
 def sha256_file(path) -> str:
@@ -255,12 +211,12 @@ def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict, wai
             _replace(out / PENDING, out / MANIFEST)
         finally:
             for temporary in (*(t for t, _ in staged), temporary_path(out / MANIFEST)):
-                _remove_quietly(temporary)
+                remove_quietly(temporary)
     return [path for _, path in staged] + [out / MANIFEST]
 
 
 def _stage(path: Path, write: Callable[[Path], None]) -> Path:
-    """Write ``path``'s temporary; [`OutputError`][tableclean_suite.bench.outputs.OutputError] (temporary removed) if it cannot be, or if
+    """Write ``path``'s temporary; [`OutputError`][tableclean_suite.atomic_files.OutputError] (temporary removed) if it cannot be, or if
     ``path`` is a folder (checked before anything is replaced)."""
     if path.is_dir():
         raise OutputError(f"cannot write {str(path)!r}: it is a folder; remove it or choose another output folder")
@@ -268,10 +224,10 @@ def _stage(path: Path, write: Callable[[Path], None]) -> Path:
     try:
         write(temporary)
     except OSError as error:
-        _remove_quietly(temporary)
+        remove_quietly(temporary)
         raise OutputError(f"cannot write {str(path)!r}: {describe_os_error(error)}") from None
     except BaseException:
-        _remove_quietly(temporary)
+        remove_quietly(temporary)
         raise
     return temporary
 

@@ -1,0 +1,65 @@
+"""Files written whole or not at all: [`atomic_write`][tableclean_suite.atomic_files.atomic_write]
+writes a temporary beside the target and renames it over, so a reader sees the old file or the
+complete new one, never a part.  Every file-system failure surfaces as
+[`OutputError`][tableclean_suite.atomic_files.OutputError], one line naming the path and the reason.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Callable
+
+
+class OutputError(OSError):
+    """An output folder or file that cannot be used or written; the message names it and why."""
+
+
+def describe_os_error(error: OSError) -> str:
+    """``'No space left on device'``-style reason of an ``OSError`` (its strerror, else its text)."""
+    return error.strerror or str(error) or type(error).__name__
+
+
+def temporary_path(path: Path) -> Path:
+    """Where [`atomic_write`][tableclean_suite.atomic_files.atomic_write] writes ``path`` first: a hidden name in the same directory."""
+    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+
+
+def atomic_write(path, write: Callable[[Path], None]) -> Path:
+    """Create or replace ``path`` atomically: ``write(temporary)`` then `os.replace`.
+
+    Args:
+        path: the final file.
+        write: writes the complete contents to the path it is given.
+
+    Returns:
+        ``path``.  If ``write`` or the replace fails, ``path`` is unchanged and the temporary
+        file is removed; a file-system failure is raised as [`OutputError`][tableclean_suite.atomic_files.OutputError].
+    """
+    path = Path(path)
+    temporary = temporary_path(path)
+    try:
+        write(temporary)
+        os.replace(temporary, path)
+    except OSError as error:
+        remove_quietly(temporary)
+        if isinstance(error, OutputError):
+            raise
+        raise OutputError(f"cannot write {str(path)!r}: {describe_os_error(error)}") from None
+    except BaseException:
+        remove_quietly(temporary)
+        raise
+    return path
+
+
+def remove_quietly(path: Path) -> None:
+    """Delete ``path`` if it exists; a failure to delete is ignored."""
+    try:
+        path.unlink(missing_ok=True)
+    except OSError:
+        pass  # e.g. the temporary's name is a directory: nothing of ours to remove
+
+
+def atomic_write_text(path, text: str) -> Path:
+    """[`atomic_write`][tableclean_suite.atomic_files.atomic_write] of UTF-8 text."""
+    return atomic_write(path, lambda temporary: temporary.write_text(text, encoding="utf-8"))
