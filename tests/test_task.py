@@ -176,6 +176,37 @@ def test_shortest_plans_are_valid_and_minimal():
     assert max(lengths.values()) == 9  # holding the object over the other segment, both unclean
 
 
+def _first_shortest_plan(model, start):
+    """Breadth-first search over ``model.successors``, actions in the spec's order: the oracle of
+    ``shortest_plan`` (the first of the shortest plans) and of the distances."""
+    from collections import deque
+
+    parent, frontier = {start: None}, deque([start])
+    while frontier:
+        current = frontier.popleft()
+        if current.is_terminal:
+            plan = []
+            while parent[current] is not None:
+                current, action = parent[current]
+                plan.append(action)
+            return plan[::-1]
+        for action, nxt, _ in model.successors(current):
+            if nxt not in parent:
+                parent[nxt] = (current, action)
+                frontier.append(nxt)
+    return None
+
+
+@pytest.mark.parametrize("spec", ["paper", "three_segments", "two_objects", "three_segments_two_objects"])
+def test_shortest_plans_and_distances_match_a_breadth_first_search(spec):
+    model = TaskModel(spec=spec)
+    distance = model.distances_to_terminal()
+    for state in model.reachable_states():
+        expected = _first_shortest_plan(model, state)
+        assert [int(a) for a in model.shortest_plan(state)] == expected
+        assert distance[state.index] == len(expected)
+
+
 def test_table1_mapping():
     mapping = TaskModel().table1_mapping()
     assert len(mapping["rows"]) == 18

@@ -221,14 +221,16 @@ def test_a_broken_user_effect_is_reported_not_used(effect, match):
         model.step(model.start_state, "test_broken")
 
 
-def test_code_digest_changes_with_the_rules_and_the_spec():
+def test_the_task_digest_changes_with_the_rules_and_the_spec():
+    from tableclean_suite.bench.digests import task_digest
+
     register_action(ActionRule("test_digest", _move_back), overwrite=True)
     spec = TaskSpec("digest", segments=3, actions=("move", "test_digest"))
-    before = TaskModel(spec=spec).code_digest()
-    assert before == TaskModel(spec=spec).code_digest()
+    before = task_digest(TaskModel(spec=spec))
+    assert before == task_digest(TaskModel(spec=spec))
     register_action(ActionRule("test_digest", lambda s: (s, Outcome.INEFFECTIVE)), overwrite=True)
-    assert TaskModel(spec=spec).code_digest() != before
-    assert TaskModel(spec="three_segments").code_digest() != TaskModel(spec="paper").code_digest()
+    assert task_digest(TaskModel(spec=spec)) != before
+    assert task_digest(TaskModel(spec="three_segments")) != task_digest(TaskModel(spec="paper"))
 
 
 def test_the_shipped_example_specs_load():

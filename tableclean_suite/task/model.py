@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
-import inspect
 import time
 from collections import deque
 from functools import cached_property
@@ -14,7 +12,6 @@ import numpy as np
 
 from tableclean_suite import resources
 from tableclean_suite.task import actions as actions_module
-from tableclean_suite.task import state as state_module
 from tableclean_suite.task.actions import Action, ActionRule, get_action_rule
 from tableclean_suite.task.spec import IneffectiveMode, StartMode, TaskSpec, get_task_spec
 from tableclean_suite.task.state import (
@@ -130,7 +127,8 @@ class TaskModel:
             if start_state is None:
                 changes["start_state"] = None  # a new start mode drops the spec's fixed state
         if start_state is not None:
-            changes["start_state"] = self._decode_for(base, start_state)
+            changes["start_state"] = start_state if isinstance(start_state, TaskState) else \
+                decode_code(start_state, base.segments, base.n_objects)
         self.spec: TaskSpec = base.replace(**changes) if changes else base
         self.ineffective = IneffectiveMode(self.spec.ineffective)
         self.start = StartMode(self.spec.start)
@@ -142,12 +140,6 @@ class TaskModel:
         self.n_actions: int = len(self.actions)
         self.n_states: int = self.spec.n_states
         self._action_index = {name: i for i, name in enumerate(self.action_names)}
-
-    @staticmethod
-    def _decode_for(spec: TaskSpec, state: StateLike) -> TaskState:
-        if isinstance(state, TaskState):
-            return state
-        return decode_code(state, spec.segments, spec.n_objects)
 
     def __repr__(self) -> str:
         start = self.start.value if self.start == StartMode.UNIFORM_UNCLEAN else self.start_state.name
@@ -187,18 +179,14 @@ class TaskModel:
         return [self.decode(code) for code in range(self.n_states)]
 
     def _require_python_walk(self, what: str) -> None:
-        """Refuse a per-state Python walk of a spec too large for it ([`require_python_steps`][tableclean_suite.resources.require_python_steps])."""
         resources.require_python_steps(self.n_states * self.n_actions,
                                        f"{what} of task {self.spec.name!r} ({self.n_states} states)")
 
     @property
     def record_dtype(self) -> np.dtype:
         """Smallest signed int dtype that holds every state, action and outcome code."""
-        largest = max(self.n_states, self.n_actions, len(Outcome)) - 1
-        for dtype in _RECORD_DTYPES:
-            if largest <= np.iinfo(dtype).max:
-                return np.dtype(dtype)
-        raise ValueError(f"{self.n_states} states do not fit the record dtypes")  # excluded by TaskSpec
+        largest = max(self.n_states, self.n_actions, len(Outcome)) - 1  # at most int32's (TaskSpec checks)
+        return np.dtype(next(dtype for dtype in _RECORD_DTYPES if largest <= np.iinfo(dtype).max))
 
     # -- actions -----------------------------------------------------------------------
     def action_index(self, action) -> int:
@@ -379,23 +367,6 @@ class TaskModel:
                     outcome[code, a] = out
         return next_state, outcome, raw_outcome
 
-    def _transition_arrays_by_rules(self) -> tuple[np.ndarray, np.ndarray]:
-        """The same arrays stepped state by state through [`step`][tableclean_suite.task.model.TaskModel.step] (slow; the reference the
-        vectorised build is tested against)."""
-        next_state = np.zeros((self.n_states, self.n_actions), dtype=np.int64)
-        outcome = np.zeros((self.n_states, self.n_actions), dtype=np.int64)
-        for code in range(self.n_states):
-            state = self.decode(code)
-            if state.is_terminal:
-                next_state[code, :] = code
-                outcome[code, :] = Outcome.TERMINAL
-                continue
-            for a in range(self.n_actions):
-                nxt, out = self.step(state, a)
-                next_state[code, a] = encode(nxt)
-                outcome[code, a] = out
-        return next_state, outcome
-
     # -- analysis ------------------------------------------------------------------------
     def successors(self, state: StateLike) -> Iterator[tuple[int, TaskState, Outcome]]:
         """``(action index, next_state, outcome)`` for every action from a non-terminal ``state``, read
@@ -425,33 +396,20 @@ class TaskModel:
         return sorted(seen, key=encode)
 
     def shortest_plan(self, state: StateLike) -> list[Action | int] | None:
-        """A shortest action sequence from ``state`` to a terminal state (``[]`` if terminal).
-
-        Breadth-first over the model, trying actions in the spec's order, so among
-        equally short plans the first in that order is returned.  Actions are
-        [`Action`][tableclean_suite.task.actions.Action] members when the spec's actions are the paper's four, else indices.
-        ``None`` if no terminal state is reachable.
-        """
-        start = self.as_state(state)
-        if start.is_terminal:
-            return []
-        parent: dict[TaskState, tuple[TaskState, int] | None] = {start: None}
-        frontier = deque([start])
-        while frontier:
-            current = frontier.popleft()
-            for action, nxt, _ in self.successors(current):
-                if nxt in parent:
-                    continue
-                parent[nxt] = (current, action)
-                if nxt.is_terminal:
-                    plan = []
-                    node = nxt
-                    while parent[node] is not None:
-                        node, act = parent[node]
-                        plan.append(self._plan_action(act))
-                    return plan[::-1]
-                frontier.append(nxt)
-        return None
+        """A shortest action sequence from ``state`` to a terminal state (``[]`` if terminal), the
+        first in the spec's action order among equally short ones; ``None`` if no terminal state is
+        reachable.  Actions are [`Action`][tableclean_suite.task.actions.Action] members when the
+        spec's actions are the paper's four, else indices."""
+        code = encode(self.as_state(state))
+        next_state, distance = self._transition_arrays[0], self._distances
+        if distance[code] < 0:
+            return None
+        plan = []
+        while distance[code] > 0:
+            action = int(np.argmax(distance[next_state[code]] == distance[code] - 1))
+            plan.append(self._plan_action(action))
+            code = int(next_state[code, action])
+        return plan
 
     def _plan_action(self, index: int) -> Action | int:
         return Action(index) if self.action_names == _BUILTIN_ORDER else index
@@ -525,35 +483,6 @@ class TaskModel:
             "omitted_reachable": [s.index for s in omitted],
             "omitted_on_paper_plan": [s.index for s in omitted if s in paper_plan_states],
         }
-
-    # -- identity ---------------------------------------------------------------------------
-    def code_digest(self) -> str:
-        """SHA-256 (hex) of everything that determines this model's transitions.
-
-        Covers the spec (as JSON), the source of the state encoding, of this module's
-        rules and of every action effect the spec uses (a user action's too), so a
-        cache keyed on it never serves results computed under other rules.
-        """
-        import json
-
-        digest = hashlib.sha256()
-        digest.update(json.dumps(self.spec.to_dict(), sort_keys=True).encode())
-        for module in (state_module, actions_module):
-            digest.update(inspect.getsource(module).encode())
-        digest.update(inspect.getsource(TaskModel).encode())
-        for rule in self.actions:
-            digest.update(rule.name.encode())
-            digest.update(_source_of(rule.effect).encode())
-        return digest.hexdigest()
-
-
-def _source_of(function) -> str:
-    """Source text of ``function`` or, without source (e.g. built in a REPL), its bytecode."""
-    try:
-        return inspect.getsource(function)
-    except (OSError, TypeError):
-        code = getattr(function, "__code__", None)
-        return repr(code.co_code) + repr(code.co_consts) if code is not None else repr(function)
 
 
 def as_task_model(task: "TaskModel | TaskSpec | str | Path | None" = None) -> TaskModel:

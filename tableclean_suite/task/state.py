@@ -122,11 +122,6 @@ class TaskState:
         return tuple(j for j, where in enumerate(self.objects) if where == segment)
 
     @property
-    def object_on_arm_segment(self) -> bool:
-        """Whether any object lies on the segment the arm is above."""
-        return self.arm in self.objects
-
-    @property
     def is_terminal(self) -> bool:
         """Every segment clean: the episode ends here."""
         return all(self.clean)

@@ -114,27 +114,6 @@ def largest_default_spec():
     return family_spec(max(DEFAULT_SEGMENTS), max(DEFAULT_OBJECT_COUNTS))
 
 
-def distances_to_terminal(next_state: np.ndarray, terminal: np.ndarray) -> np.ndarray:
-    """Shortest number of steps from every code to a terminal code, by value iteration.
-
-    Args:
-        next_state: ``(S, A)`` successor codes (``TaskModel.transition_arrays``).
-        terminal: ``(S,)`` bool, terminal codes.
-
-    Returns:
-        ``(S,)`` int64 distances (0 at terminal codes), -1 where no terminal is reachable.
-    """
-    unknown = np.iinfo(np.int64).max
-    distance = np.where(terminal, 0, unknown)
-    while True:
-        best = distance[next_state].min(axis=1)
-        candidate = np.where(terminal | (best == unknown), distance, np.minimum(distance, best + 1))
-        if np.array_equal(candidate, distance):
-            break
-        distance = candidate
-    return np.where(distance == unknown, -1, distance)
-
-
 def optimal_policy(next_state: np.ndarray, distance: np.ndarray) -> np.ndarray:
     """A greedy policy that follows a shortest plan from every state.
 
@@ -143,18 +122,14 @@ def optimal_policy(next_state: np.ndarray, distance: np.ndarray) -> np.ndarray:
 
     Args:
         next_state: ``(S, A)`` successor codes.
-        distance: ``(S,)`` distances of [`distances_to_terminal`][tableclean_suite.bench.scaling.family.distances_to_terminal].
+        distance: ``(S,)`` distances to a terminal code
+            ([`TaskModel.distances_to_terminal`][tableclean_suite.task.model.TaskModel.distances_to_terminal]).
 
     Returns:
         ``(S,)`` int64 action indices.
     """
     closer = (distance[next_state] == (distance - 1)[:, None]) & (distance[:, None] > 0)
     return np.where(closer.any(axis=1), np.argmax(closer, axis=1), 0).astype(np.int64)
-
-
-def terminal_codes(model) -> np.ndarray:
-    """``(S,)`` bool: whether each code of ``model`` is terminal (every segment clean)."""
-    return np.array([model.decode(code).is_terminal for code in range(model.n_states)], dtype=bool)
 
 
 def plan_window(plan_length: int, paper_plan_length: int, base_window: int, exponent: float) -> tuple[int, int]:
@@ -181,8 +156,7 @@ def describe_spec(spec, paper_plan_length: int, base_window: int, exponent: floa
     from tableclean_suite.task import TaskModel
 
     model = TaskModel(spec=spec)
-    next_state, _ = model.transition_arrays()
-    distance = distances_to_terminal(next_state, terminal_codes(model))
+    next_state, distance = model.transition_arrays()[0], model.distances_to_terminal()
     plan_length = int(distance[model.start_state.index])
     window, max_itr = plan_window(plan_length, paper_plan_length, base_window, exponent)
     policy = optimal_policy(next_state, distance)
