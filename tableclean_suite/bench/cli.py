@@ -1,14 +1,5 @@
-"""The options every benchmark command shares, defined once, and the parser they all use.
-
-Every command (`commands`: ``tableclean-bench COMMAND``) builds its parser with
-`command_parser` (a `OneLineParser` that already has ``--plugins`` and
-``--verbose``) and adds the shared options it uses with the ``add_*`` functions below, so that
-``--task``, ``--seed``, ``--out``, ``--robots``, ``--workers``/``--executor``/``--ray-address``
-are spelled, typed and checked the same way everywhere.  `parse_command` imports the
-``--plugins`` before the parser is built (so the names they register are allowed and listed by
-``--help``) and applies ``--verbose``.  Every bad value exits 2 with one line naming the flag,
-the value and what is allowed.
-"""
+"""The options every benchmark command shares and the parser they all use: every bad value exits 2
+with one line naming the flag, the value and what is allowed, before any work."""
 
 from __future__ import annotations
 
@@ -19,9 +10,8 @@ from pathlib import Path
 
 #: Exit code of a command line used wrongly (argparse's).
 EXIT_USAGE = 2
-#: Output kinds of [`add_out_argument`][tableclean_suite.bench.cli.add_out_argument]: a folder the command fills, or one file it writes.
+#: Output kinds of [`output_path`][tableclean_suite.bench.cli.output_path]: a folder, or one file.
 DIRECTORY, FILE = "directory", "file"
-#: Robot the single-arm commands build their scene with.
 DEFAULT_ROBOT = "Panda"
 
 
@@ -48,58 +38,44 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
 
 
-# ---------------------------------------------------------------------------------------------
-# value types (argparse turns their ArgumentTypeError into a one-line error, exit 2)
-# ---------------------------------------------------------------------------------------------
 def positive_int(text: str) -> int:
     """An integer >= 1."""
-    return _bounded_int(text, 1, "a positive integer")
+    return _checked(text, int, lambda v: v >= 1, "a positive integer")
 
 
 def non_negative_int(text: str) -> int:
     """An integer >= 0."""
-    return _bounded_int(text, 0, "an integer >= 0")
+    return _checked(text, int, lambda v: v >= 0, "an integer >= 0")
 
 
-def _bounded_int(text: str, minimum: int, what: str) -> int:
+def _checked(text: str, kind, allowed, what: str):
     try:
-        value = int(text)
+        value = kind(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
-    if value < minimum:
+        value = math.nan
+    if value != value or not allowed(value):
         raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
     return value
 
 
 def int_in(low: int, high: int, what: str = "an integer"):
     """A type: an integer in ``[low, high]``."""
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            value = low - 1
-        if not low <= value <= high:
-            raise argparse.ArgumentTypeError(f"expected {what} in [{low}, {high}], got {text!r}")
-        return value
-    return parse
+    return lambda text: _checked(text, int, lambda v: low <= v <= high, f"{what} in [{low}, {high}]")
 
 
 def positive_float(text: str) -> float:
     """A finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not math.isfinite(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
+    return _checked(text, float, lambda v: 0 < v < math.inf, "a positive number")
+
+
+def _names(text) -> tuple[str, ...]:
+    return tuple(dict.fromkeys(part.strip() for part in str(text).split(",") if part.strip()))
 
 
 def choice_list(allowed, what: str):
-    """An argparse type: comma-separated names, each one of ``allowed``, duplicates dropped; an
-    unknown or empty list is an error naming ``what`` and the allowed names."""
+    """A type: comma-separated names, each one of ``allowed`` (``what`` names them in the error), each once."""
     def parse(text: str) -> tuple[str, ...]:
-        chosen = tuple(dict.fromkeys(part.strip() for part in text.split(",") if part.strip()))
+        chosen = _names(text)
         bad = [name for name in chosen if name not in allowed]
         if bad or not chosen:
             raise argparse.ArgumentTypeError(f"unknown {what} {', '.join(bad) or text!r}; "
@@ -111,7 +87,7 @@ def choice_list(allowed, what: str):
 
 def name_list(text: str) -> tuple[str, ...]:
     """``"a, b,a,"`` -> ``("a", "b")``: comma-separated names, in order, each once (at least one)."""
-    names = tuple(dict.fromkeys(part.strip() for part in str(text).split(",") if part.strip()))
+    names = _names(text)
     if not names:
         raise argparse.ArgumentTypeError(f"expected at least one comma-separated name, got {text!r}")
     return names
@@ -121,9 +97,8 @@ name_list.comma_list = True  # a list flag: given twice, OneLineParser refuses i
 
 
 def output_path(kind: str):
-    """A type: an output path of ``kind`` (`DIRECTORY` or `FILE`), refused before any work
-    when it is empty, when it or one of its parents is an existing file (a directory output), or
-    when it is an existing directory (a file output)."""
+    """A type: an output path of ``kind`` (`DIRECTORY` or `FILE`); refused when empty, when it or a parent
+    is an existing file (a directory output), or when it is an existing directory (a file output)."""
     def parse(text: str) -> str:
         if not str(text).strip():
             raise argparse.ArgumentTypeError(f"expected a {kind} path, got {text!r} (empty)")
@@ -143,9 +118,6 @@ def output_path(kind: str):
     return parse
 
 
-# ---------------------------------------------------------------------------------------------
-# the shared options
-# ---------------------------------------------------------------------------------------------
 def command_parser(prog: str, description: str, epilog: str | None = None) -> OneLineParser:
     """A command's parser: one-line errors, and the options every command has (``--plugins``, ``--verbose``)."""
     from tableclean_suite.bench.plugins import FLAG, plugin_entries
@@ -189,8 +161,7 @@ def add_iterations_argument(parser, default: int, what: str, **options) -> None:
 
 
 def add_out_argument(parser, kind: str, default, what: str, flags=("--out",), **options) -> None:
-    """``--out PATH``: where the command writes (``kind``: a directory or a file), checked at parse time
-    ([`output_path`][tableclean_suite.bench.cli.output_path])."""
+    """``--out PATH``: where the command writes, an [`output_path`][tableclean_suite.bench.cli.output_path] of ``kind``."""
     shown = "" if default is argparse.SUPPRESS else f" (default {default})"
     metavar = "DIR" if kind == DIRECTORY else "FILE"
     parser.add_argument(*flags, dest="out", type=output_path(kind), default=default, metavar=metavar,
@@ -198,8 +169,8 @@ def add_out_argument(parser, kind: str, default, what: str, flags=("--out",), **
 
 
 def add_robots_argument(parser, many: bool = False, default: str = DEFAULT_ROBOT) -> None:
-    """``--robots NAME[,NAME...]``: the arm(s) the scene is built with, each with a registered skill config
-    (checked by [`parse_robots`][tableclean_suite.bench.cli.parse_robots] once the plugins are imported; single-arm commands take one)."""
+    """``--robots NAME[,NAME...]``: the arm(s) of the scene, checked by
+    [`parse_robots`][tableclean_suite.bench.cli.parse_robots]."""
     what = "comma-separated robot arms" if many else "robot arm"
     parser.add_argument("--robots", type=name_list, default=default, metavar="NAME" + (",..." if many else ""),
                         help=f"{what} with a registered skill config: Panda, Sawyer, UR5e, Kinova3 ship "
@@ -226,10 +197,9 @@ def parse_robot(parser: argparse.ArgumentParser, args) -> str:
 
 
 def add_executor_arguments(parser, tasks: str, helps: dict | None = None, suppress: bool = False) -> None:
-    """``--workers``, ``--executor``, ``--ray-address``: where the command's independent ``tasks``
-    (e.g. ``"rounds"``, ``"episodes"``) run ([`tableclean_suite.executors`][tableclean_suite.executors]); read them back
-    with [`executor_from_args`][tableclean_suite.bench.cli.executor_from_args].  ``helps`` replaces help texts by dest; ``suppress`` leaves an
-    option out of the namespace when it is not given (a caller with defaults of its own)."""
+    """``--workers``, ``--executor``, ``--ray-address``: where the command's independent ``tasks`` (e.g.
+    ``"rounds"``) run; read back by [`executor_from_args`][tableclean_suite.bench.cli.executor_from_args].
+    ``helps`` replaces help texts by dest; ``suppress`` leaves an option not given out of the namespace."""
     from tableclean_suite.executors import EXECUTOR_NAMES
 
     helps = helps or {}
@@ -249,12 +219,8 @@ def add_executor_arguments(parser, tasks: str, helps: dict | None = None, suppre
 
 
 def executor_from_args(parser: argparse.ArgumentParser, args):
-    """The executor of [`add_executor_arguments`][tableclean_suite.bench.cli.add_executor_arguments]' options (not started yet); its workers import
-    the command's ``--plugins`` before every task ([`PluginExecutor`][tableclean_suite.bench.plugins.PluginExecutor]).
-
-    Exits 2 (``parser.error``) on ``--ray-address`` without ``--executor ray``, or on
-    ``--executor ray`` where Ray is not installed (the message names the ``cluster`` extra).
-    """
+    """The (not started) executor of the executor options, its workers importing ``--plugins`` first; exits 2
+    on ``--ray-address`` without ``--executor ray`` or ``--executor ray`` without Ray installed."""
     from tableclean_suite.bench.plugins import with_plugins
     from tableclean_suite.executors import MissingRayError, make_executor
     from tableclean_suite.executors.ray_executor import import_ray
@@ -274,8 +240,7 @@ def executor_from_args(parser: argparse.ArgumentParser, args):
 
 
 def wrap(text: str) -> str:
-    """``text`` for the terminal: each line longer than ``tables.PRINT_WIDTH`` (120 characters)
-    wrapped at words, its continuations indented (tables printed within the width pass unchanged)."""
+    """``text`` with each line longer than ``tables.PRINT_WIDTH`` wrapped at words, continuations indented."""
     import textwrap
 
     from tableclean_suite.bench.tables import PRINT_WIDTH
@@ -290,16 +255,17 @@ def say(text: str) -> None:
     print(wrap(text), flush=True)
 
 
-# ---------------------------------------------------------------------------------------------
-# parsing
-# ---------------------------------------------------------------------------------------------
-def parse_command(build_parser, argv, prog: str, known: bool = False):
-    """Parse a command line: apply ``--verbose``, import the ``--plugins`` (exit 2 naming a plugin that
-    fails), then build the parser with ``build_parser(prog)`` and parse ``argv`` with it.
+def markdown_table(rows) -> str:
+    """``rows`` (dicts with the same keys, or a DataFrame) as a Markdown table, values as ``str`` shows them."""
+    rows = rows.to_dict("records") if hasattr(rows, "to_dict") else list(rows)
+    columns = list(rows[0])
+    return "\n".join(["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns),
+                      *("| " + " | ".join(str(row[c]) for c in columns) + " |" for row in rows)])
 
-    Returns:
-        ``(parser, args)``; with ``known``, ``(parser, args, rest)`` (arguments the parser does not know).
-    """
+
+def parse_command(build_parser, argv, prog: str, known: bool = False):
+    """Apply ``--verbose``, import the ``--plugins`` (exit 2 naming one that fails), then parse ``argv`` with
+    ``build_parser(prog)``: ``(parser, args)``, with ``known`` ``(parser, args, unknown arguments)``."""
     from tableclean_suite.bench.plugins import FLAG, PluginError, load_plugins, plugin_entries
     from tableclean_suite.bench.startup import announce_compiles, apply_verbosity
 

@@ -134,12 +134,6 @@ def summary(task: str, planner: str, frame: pd.DataFrame) -> dict:
             "ms_per_state": round(1000 * frame["seconds"].mean(), 1)}
 
 
-def markdown(frame: pd.DataFrame) -> str:
-    """``frame`` as a Markdown table."""
-    lines = ["| " + " | ".join(frame.columns) + " |", "|" + "---|" * len(frame.columns)]
-    return "\n".join(lines + ["| " + " | ".join(str(v) for v in row) + " |" for row in frame.itertuples(index=False)])
-
-
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the check's own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
@@ -180,9 +174,9 @@ def main(argv=None, prog: str | None = None) -> int:
             rows.append(summary(spec.name, planner, frame))
             frames.append(frame.assign(task=spec.name, planner=planner))
             failed += failures(spec.name, planner, frame)
-            print(markdown(pd.DataFrame(rows[-1:])).splitlines()[-1], file=sys.stderr, flush=True)  # progress
+            print(cli.markdown_table(rows[-1:]).splitlines()[-1], file=sys.stderr, flush=True)  # progress
     table = pd.DataFrame(rows)
-    print(markdown(table))
+    print(cli.markdown_table(table))
     if out is not None:
         out = Path(out)
         outputs.atomic_write(out / "pddl_check.csv", lambda path: table.to_csv(path, index=False))

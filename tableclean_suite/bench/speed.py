@@ -4,29 +4,23 @@
     tableclean-bench speed --sections learners,skills         # some of them
     tableclean-bench speed --markdown docs/measurements.md    # also write them as a page stamped with the machine
 
-Every figure is measured in this run.  Where there is a yardstick, the figure is a ratio to it,
-measured alongside in alternating blocks: on shared cores absolute times drift with the load, a
-ratio of neighbouring measurements much less.  The sections (``--sections``, in this order):
+Every figure is measured in this run; where there is a yardstick it is a ratio to it, measured
+alongside (ratios of neighbouring measurements drift much less with the load than seconds).
 
 ``learners``
-    every registered learner's updates per second on the paper spec (``--runs`` x ``--iterations``
-    per call, the best of ``--repeat`` calls after a warm-up, so compilation is not counted) and its
-    time per real update relative to Q-learning; the compiled Q-learning and SARSA against
-    the package's plain per-step Python loop (``train(engine="reference")``).
+    every registered learner's updates per second on the paper spec (the fastest of ``--repeat``
+    ``train()`` calls of ``--runs`` x ``--iterations`` after a warm-up) relative to Q-learning, and
+    the compiled Q-learning and SARSA against the plain Python loop (``engine="reference"``).
 ``skills``
-    ``--episodes`` optimal episodes executed by the skills in MuJoCo, alternately on robosuite's
-    control path (``env.step``) and the compiled one (``make_skill_env(fast_control=True)``):
-    control steps per second of each and of raw MuJoCo (only the ``mj_step`` calls, replayed from
-    the compiled path's recorded states), and the executor's time outside the stepping relative
-    to its time inside.
+    ``--episodes`` optimal episodes on robosuite's control path (``env.step``) and the compiled one,
+    alternating: control steps per second of each and of raw MuJoCo (``mj_step`` replayed from the
+    compiled path's states).
 ``cold-start``
     the run command in three fresh processes sharing a numba cache that starts empty: the first
-    process after installation (it compiles the kernels), the same command again (its cells,
-    comparisons and figures come from the output folder's result caches) and on a new output folder
-    (numba's cache only: the work of ``--fresh``).
+    (compiles), again on the same output folder (result caches), and on a new folder (``--fresh``'s work).
 
-Exit code 0; 1 when a measurement failed (a process exited non-zero, an episode did not reach
-the terminal state); 2 on bad flags.
+Exit code 0; 1 when a measurement failed (a process exited non-zero, an episode did not end
+terminal); 2 on bad flags.
 """
 
 from __future__ import annotations
@@ -45,16 +39,12 @@ from pathlib import Path
 from tableclean_suite.bench import cli
 from tableclean_suite.bench.cli import positive_int
 
-#: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench speed"
-#: The sections, in the order they run and report.
 SECTIONS = ("learners", "skills", "cold-start")
-#: Learners compared with the plain Python loop (``engine="reference"``).
+#: Learners compared with the plain Python loop, which trains ``--runs`` / `PLAIN_LOOP_SHARE` runs (>= 1).
 PLAIN_LOOP_LEARNERS = ("q_learning", "sarsa")
-#: The plain loop trains this fraction of ``--runs`` (at least one run): it is over 100x slower.
 PLAIN_LOOP_SHARE = 50
-#: The command the ``cold-start`` section times (``--out`` appended), and its processes:
-#: (label, output folder; the same folder = the same result caches).
+#: The command ``cold-start`` times (``--out DIR`` appended) and its processes: (label, DIR).
 COLD_START_COMMAND = ("-m", "tableclean_suite.bench", "run", "--no-progress")
 COLD_START_PROCESSES = (("first process (empty numba cache)", "run1"),
                         ("second process, same output folder", "run1"),
@@ -65,13 +55,7 @@ VERSIONED = ("numba", "numpy", "mujoco", "robosuite")
 
 @dataclass(frozen=True)
 class Table:
-    """One table of the report.
-
-    Attributes:
-        title: what it measures, one line.
-        rows: one dict per row, column name -> value already formatted for print.
-        note: how it was measured (one paragraph), or "".
-    """
+    """One table of the report: a one-line ``title``, ``rows`` (dicts of formatted values), a ``note``."""
 
     title: str
     rows: list
@@ -85,39 +69,30 @@ class Table:
 
     def markdown(self) -> str:
         """The table as Markdown, its title a level-3 heading."""
-        columns = list(self.rows[0])
-        lines = [f"### {self.title}", "", "| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-        lines += ["| " + " | ".join(str(row[column]) for column in columns) + " |" for row in self.rows]
-        if self.note:
-            lines += ["", self.note]
-        return "\n".join(lines)
+        return "\n\n".join(filter(None, [f"### {self.title}", cli.markdown_table(self.rows), self.note]))
 
 
 @dataclass(frozen=True)
 class Section:
-    """A section's tables, and whether its measurement failed (then its figures are not to be trusted)."""
+    """A section's tables, and whether its measurement failed."""
 
     tables: list
     failed: bool = False
 
 
 def _millions(per_second: float) -> str:
-    """A rate in millions per second, three significant digits below 100 (``"0.648"``, ``"47.4"``)."""
+    """A rate in millions per second, three significant digits below 100."""
     millions = per_second / 1e6
     return f"{millions:#.3g}" if millions < 100 else f"{millions:.0f}"
 
 
 def _best_seconds(function, repeat: int) -> float:
-    """The fastest of ``repeat`` wall-clock timings of ``function()`` (``timeit``: garbage collection off)."""
     return min(timeit.repeat(function, repeat=repeat, number=1))
 
 
-# ---------------------------------------------------------------------------------------------
-# learners
-# ---------------------------------------------------------------------------------------------
 def learner_table(reward: str, runs: int, iterations: int, repeat: int) -> Table:
-    """Every registered learner's updates per second on the paper spec, and its time per real update
-    relative to Q-learning's; Dyna-Q's planning updates are counted apart."""
+    """Every registered learner's updates per second on the paper spec and its time per update relative
+    to Q-learning's; Dyna-Q's planning updates counted apart."""
     from tableclean_suite.learners import get_learner, learner_names, train
 
     seconds = {}
@@ -135,19 +110,16 @@ def learner_table(reward: str, runs: int, iterations: int, repeat: int) -> Table
 
 
 def plain_loop_table(runs: int, iterations: int, repeat: int) -> Table:
-    """The compiled Q-learning and SARSA against the plain per-step Python loop (``engine="reference"``),
-    updates per second (reward r2)."""
+    """`PLAIN_LOOP_LEARNERS` compiled against the plain Python loop, updates per second (reward r2)."""
     from tableclean_suite.learners import train
 
     plain_runs = max(1, runs // PLAIN_LOOP_SHARE)
     rows = []
     for learner in PLAIN_LOOP_LEARNERS:
         train(learner, "r2", runs=2, iterations=10)
-
-        def rate(engine, n):
-            return n * iterations / _best_seconds(lambda: train(learner, "r2", runs=n, iterations=iterations,
-                                                                engine=engine), repeat)
-        compiled, plain = rate("compiled", runs), rate("reference", plain_runs)
+        compiled, plain = (n * iterations / _best_seconds(
+            lambda: train(learner, "r2", runs=n, iterations=iterations, engine=engine), repeat)
+            for engine, n in (("compiled", runs), ("reference", plain_runs)))
         rows.append({"learner": learner, "compiled M updates/s": _millions(compiled),
                      "plain Python M updates/s": _millions(plain), "compiled / plain Python": f"{compiled / plain:.0f}"})
     return Table("Compiled learners against a plain Python loop", rows,
@@ -156,21 +128,20 @@ def plain_loop_table(runs: int, iterations: int, repeat: int) -> Table:
 
 
 def learners_section(args) -> Section:
-    """Every learner against Q-learning; the compiled learners against the plain loop."""
     return Section([learner_table(args.reward, args.runs, args.iterations, args.repeat),
                     plain_loop_table(args.runs, args.iterations, args.repeat)])
 
 
-# ---------------------------------------------------------------------------------------------
-# skills
-# ---------------------------------------------------------------------------------------------
 def run_episode(env, record_states: bool = False) -> tuple[dict, list]:
     """Reset ``env`` and execute the task model's shortest plan with the skills.
 
     Returns:
-        ``({"steps", "wall_s", "env_s", "terminal"}, states)``: control steps, wall seconds of the plan,
-        seconds inside the stepping, whether it ended terminal; with ``record_states`` (needs the
-        compiled path's stepper) the mjData state at the start of every control step, else ``[]``.
+        ``({"steps", "wall_s", "env_s", "terminal"}, states)``: control steps, wall seconds, seconds inside
+        the stepping, whether it ended terminal; with ``record_states`` the mjData state at the start of
+        every control step, else ``[]``.
+
+    Raises:
+        ValueError: ``record_states`` on an env without the compiled path's stepper.
     """
     from tableclean_suite.controllers import SkillController
     from tableclean_suite.controllers.fast_control import ControlStepLog, fast_stepper_of
@@ -215,26 +186,15 @@ def replay_mujoco(env, states: list) -> float:
 
 
 def compare_paths(episodes: int, layout=(1, 1), seed: int = 0, task=None) -> dict:
-    """``episodes`` optimal episodes on robosuite's path and the compiled one, alternating, after one
-    untimed episode (kernels loaded or compiled), and raw MuJoCo replayed from the compiled path's states.
-
-    Returns:
-        ``{"robosuite": [episode, ...], "compiled": [episode, ...], "mujoco_s": seconds}`` with
-        [`run_episode`][tableclean_suite.bench.speed.run_episode]'s episodes; the raw-MuJoCo steps are the compiled episodes' steps.
-    """
+    """``episodes`` optimal episodes on each path, alternating, after one untimed one, and raw MuJoCo replayed
+    from the compiled path's states: ``{"robosuite": [episode, ...], "compiled": [...], "mujoco_s": seconds}``."""
     from tableclean_suite.controllers import make_skill_env
 
-    def make(fast: bool):
-        return make_skill_env(*layout, seed=seed, hard_reset=False, fast_control=fast, task=task)
-
-    warm = make(True)
-    try:
-        run_episode(warm, record_states=True)
-    finally:
-        warm.close()
-    envs = {"robosuite": make(False), "compiled": make(True)}
+    envs = {name: make_skill_env(*layout, seed=seed, hard_reset=False, fast_control=fast, task=task)
+            for name, fast in (("robosuite", False), ("compiled", True))}
     measured = {"robosuite": [], "compiled": [], "mujoco_s": 0.0}
     try:
+        run_episode(envs["compiled"], record_states=True)  # untimed: kernels loaded or compiled
         for _ in range(episodes):
             measured["robosuite"].append(run_episode(envs["robosuite"])[0])
             episode, states = run_episode(envs["compiled"], record_states=True)
@@ -247,29 +207,27 @@ def compare_paths(episodes: int, layout=(1, 1), seed: int = 0, task=None) -> dic
 
 
 def skill_rows(measured: dict) -> list[dict]:
-    """The control-path table of [`compare_paths`][tableclean_suite.bench.speed.compare_paths]' measurements: control steps per second of each
-    path, relative to robosuite's ``env.step`` and to raw MuJoCo, and seconds per optimal episode."""
-    tiny = 1e-12
-    rates, episode_s = {}, {}
-    for path in ("robosuite", "compiled"):
-        rates[path] = sum(e["steps"] for e in measured[path]) / max(sum(e["env_s"] for e in measured[path]), tiny)
-        episode_s[path] = f"{sum(e['wall_s'] for e in measured[path]) / len(measured[path]):.2f}"
-    rates["raw MuJoCo"] = sum(e["steps"] for e in measured["compiled"]) / max(measured["mujoco_s"], tiny)
+    """Control steps per second of each path of [`compare_paths`][tableclean_suite.bench.speed.compare_paths]'
+    ``measured``, relative to robosuite's ``env.step`` and to raw MuJoCo, and seconds per episode."""
+    rates = {path: sum(e["steps"] for e in measured[path]) / max(sum(e["env_s"] for e in measured[path]), 1e-12)
+             for path in ("robosuite", "compiled")}
+    rates["raw MuJoCo"] = sum(e["steps"] for e in measured["compiled"]) / max(measured["mujoco_s"], 1e-12)
     names = {"robosuite": "robosuite env.step", "compiled": "compiled skills", "raw MuJoCo": "raw MuJoCo mj_step"}
     return [{"path": names[path], "control steps/s": f"{rate:.0f}",
              "rate / robosuite env.step": f"{rate / rates['robosuite']:.2f}",
-             "rate / raw MuJoCo": f"{rate / rates['raw MuJoCo']:.2f}", "s per episode": episode_s.get(path, "-")}
+             "rate / raw MuJoCo": f"{rate / rates['raw MuJoCo']:.2f}",
+             "s per episode": f"{sum(e['wall_s'] for e in measured[path]) / len(measured[path]):.2f}"
+             if path in measured else "-"}
             for path, rate in rates.items()]
 
 
 def executor_overhead(episodes: list) -> float:
-    """The skills' time outside the stepping over their time inside it (a fraction), over ``episodes``."""
+    """The skills' time outside the stepping over their time inside it (a fraction)."""
     inside = sum(e["env_s"] for e in episodes)
     return (sum(e["wall_s"] for e in episodes) - inside) / inside if inside > 0 else float("nan")
 
 
 def skills_section(args) -> Section:
-    """Optimal episodes on robosuite's control path and the compiled one, and raw MuJoCo."""
     measured = compare_paths(args.episodes, tuple(args.layout), args.seed, task=args.task_spec)
     episodes = measured["robosuite"] + measured["compiled"]
     terminal = sum(e["terminal"] for e in episodes)
@@ -282,29 +240,25 @@ def skills_section(args) -> Section:
                    failed=terminal < len(episodes))
 
 
-# ---------------------------------------------------------------------------------------------
-# cold start
-# ---------------------------------------------------------------------------------------------
 def time_process(argv, cwd: Path, **environment) -> tuple[float, subprocess.CompletedProcess]:
-    """Wall seconds and result of ``python ARGV`` in a fresh process in ``cwd``, with this package first on
-    its path and ``environment`` added to this process's variables."""
+    """Wall seconds and result of ``python ARGV`` in a fresh process in ``cwd``, this package first on its
+    path, ``environment`` added to this process's variables."""
     import tableclean_suite
 
     root = str(Path(tableclean_suite.__file__).resolve().parents[1])
-    variables = {**os.environ, **environment}
-    variables["PYTHONPATH"] = os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))
+    variables = {**os.environ, **environment,
+                 "PYTHONPATH": os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))}
     start = time.perf_counter()
     finished = subprocess.run([sys.executable, *argv], cwd=cwd, env=variables, capture_output=True, text=True)
     return time.perf_counter() - start, finished
 
 
-def cold_start_rows(processes=COLD_START_PROCESSES) -> list[dict]:
-    """`COLD_START_PROCESSES` one after the other in a new folder, sharing a numba cache that starts
-    empty (``NUMBA_CACHE_DIR``): seconds, kernels compiled and loaded (numba's ``NUMBA_DEBUG_CACHE``
-    lines), cells resumed and exit code of each; a process that failed has its last error line printed."""
+def cold_start_section(args) -> Section:
+    """`COLD_START_PROCESSES` one after the other in a new folder sharing an empty ``NUMBA_CACHE_DIR``: seconds,
+    kernels compiled and loaded (``NUMBA_DEBUG_CACHE`` lines), cells resumed, exit code."""
     rows = []
     with tempfile.TemporaryDirectory(prefix="tableclean_speed_") as folder:
-        for label, out in processes:
+        for label, out in COLD_START_PROCESSES:
             seconds, finished = time_process([*COLD_START_COMMAND, "--out", out], Path(folder),
                                              NUMBA_CACHE_DIR=str(Path(folder) / "numba"), NUMBA_DEBUG_CACHE="1")
             log = finished.stdout + finished.stderr
@@ -316,12 +270,6 @@ def cold_start_rows(processes=COLD_START_PROCESSES) -> list[dict]:
                          "kernels compiled": len(re.findall(r"\[cache\] data saved", log)),
                          "kernels loaded": len(re.findall(r"\[cache\] data loaded", log)),
                          "cells resumed": resumed.group(1) if resumed else "-", "exit code": finished.returncode})
-    return rows
-
-
-def cold_start_section(args) -> Section:
-    """The run command in three fresh processes sharing one numba cache."""
-    rows = cold_start_rows()
     command = "python " + " ".join(COLD_START_COMMAND) + " --out DIR"
     return Section([Table(f"Cold start: `{command}` in fresh processes", rows,
                           "One after the other, sharing a numba cache that starts empty; the second process on "
@@ -329,16 +277,11 @@ def cold_start_section(args) -> Section:
                    failed=any(row["exit code"] != 0 for row in rows))
 
 
-#: Each section's function, by name.
 SECTION_RUNNERS = {"learners": learners_section, "skills": skills_section, "cold-start": cold_start_section}
 
 
-# ---------------------------------------------------------------------------------------------
-# the page
-# ---------------------------------------------------------------------------------------------
 def machine() -> dict:
-    """What the figures depend on: CPU model, cores, OS, Python and package versions, the load when the
-    page is written, date (UTC)."""
+    """What the figures depend on: CPU, cores, OS, Python and package versions, load average, date (UTC)."""
     import datetime
     import platform
     from importlib import metadata
@@ -350,7 +293,7 @@ def machine() -> dict:
     except OSError:
         pass
     stamp = {"CPU": cpu, "cores": os.cpu_count(), "OS": platform.platform(), "Python": platform.python_version()}
-    if hasattr(os, "getloadavg"):  # other work on the machine while it measured
+    if hasattr(os, "getloadavg"):
         stamp["load average (1, 5, 15 min)"] = ", ".join(f"{load:.1f}" for load in os.getloadavg())
     for name in VERSIONED:
         try:
@@ -362,7 +305,8 @@ def machine() -> dict:
 
 
 def page(sections: dict, stamp: dict) -> str:
-    """The Markdown page of ``sections`` (name -> [`Section`][tableclean_suite.bench.speed.Section]) measured on ``stamp``'s machine."""
+    """The Markdown page of ``sections`` (name -> [`Section`][tableclean_suite.bench.speed.Section]) measured on
+    ``stamp``'s machine."""
     lines = ["# Measurements", "",
              "How fast the learners, the skills and a first run are, measured on the machine below by "
              "`tableclean-bench speed --markdown docs/measurements.md`, which rewrites this page. The figures "
@@ -375,9 +319,6 @@ def page(sections: dict, stamp: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-# ---------------------------------------------------------------------------------------------
-# the command line
-# ---------------------------------------------------------------------------------------------
 def reward_name(text: str) -> str:
     """A registered reward pattern's name."""
     from tableclean_suite.rewards import reward_pattern_names
@@ -432,7 +373,7 @@ def _check_task(parser, args) -> None:
 
 
 def main(argv=None, prog: str | None = None) -> int:
-    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code (see the module doc)."""
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     parser, args = cli.parse_command(build_parser, argv, prog or PROG)
     if "skills" in args.sections:
         _check_task(parser, args)
