@@ -1,12 +1,7 @@
-"""The ``TableClean`` robosuite environment: an N-segment dirty table, M objects, a sponge and a Panda.
-
-The class keeps robosuite's hooks and the public methods; the jobs behind them live in their own
-modules: the arguments' checks and the start layout ([arguments][tableclean_suite.environments.arguments]),
-building and laying out the scene ([scene_building][tableclean_suite.environments.scene_building]),
-randomised dynamics ([randomization][tableclean_suite.environments.randomization]), reading the dirt
-and the contacts ([state_reading][tableclean_suite.environments.state_reading]) and what the skills
-read ([skill_info][tableclean_suite.environments.skill_info]).
-"""
+"""The ``TableClean`` robosuite environment: robosuite's hooks and the public methods (the jobs behind them live in
+[arguments][tableclean_suite.environments.arguments], [scene_building][tableclean_suite.environments.scene_building],
+[randomization][tableclean_suite.environments.randomization], [state_reading][tableclean_suite.environments.state_reading]
+and [skill_info][tableclean_suite.environments.skill_info])."""
 
 from __future__ import annotations
 
@@ -94,79 +89,53 @@ PAPER_REWARD_SEGMENTS = 2
 
 
 class TableClean(ManipulationEnv):
-    """Clean every segment of a table with a sponge, moving objects out of the way (one Panda arm).
+    """Clean every segment of a table with a sponge, moving objects out of the way (one robot arm).
 
     ## Description
     The scene builds a task spec (``task``, default ``paper``): N segments and M objects of the
-    spec's types ([`objects`][tableclean_suite.environments.objects] registry).  For the paper's N = 2 the table top is split along y
-    into segment 1 (at -y, blue tint) and segment 2 (at +y, orange tint); N = 3, 4 lay out two
-    rows of two smaller segments within the Panda's reach ([`config.segment_layout`][tableclean_suite.environments.config.segment_layout]; larger
-    N raise a ``ValueError`` naming the limit).  Each segment is covered with a grid of dirt
-    markers.  The objects lie on segments, apart ([`placement`][tableclean_suite.environments.placement]); a sponge rests on a stand
-    at the table's side, off every segment.  A dirt marker is wiped when the
-    sponge's underside presses on it: the sponge touches the table top and the marker lies under its
-    footprint.  This is checked at every physics substep.  The wiped flags are MuJoCo state: each
-    segment's dirt-state joint encodes them in its position ([`dirt_state`][tableclean_suite.environments.dirt_state]), so
-    ``sim.get_state()`` / ``sim.set_state_from_flattened()`` (robosuite's ``DataCollectionWrapper``
-    and its playback, robomimic's ``dataset_states_to_obs``) save and restore the cleaning with the
-    object and the arm.  Wiped markers are hidden (alpha 0) once per control step, and whenever
-    observations are made or the env renders, from that state.
+    spec's types ([`objects`][tableclean_suite.environments.objects] registry).  For N = 2 the table top is split along y
+    into segment 1 (at -y, blue) and segment 2 (at +y, orange); N = 3, 4 lay out two rows of two
+    smaller segments ([`config.segment_layout`][tableclean_suite.environments.config.segment_layout]; larger N raise a ``ValueError``).
+    Each segment is covered with a grid of dirt markers; a sponge rests on a stand off every segment.
+    A marker is wiped (checked at every physics substep) when the sponge's underside presses on the
+    table top over it.  The wiped flags are MuJoCo state (one dirt-state joint per segment,
+    [`dirt_state`][tableclean_suite.environments.dirt_state]), so ``sim.get_state()`` / ``sim.set_state_from_flattened()``
+    save and restore the cleaning; wiped markers are hidden (alpha 0).
 
     ## Starting State
-    The arm's gripper hovers ``arm_hover_height`` above the centre of ``arm_segment`` (pose from a
-    cached, deterministic IK solve, plus robosuite's ``initialization_noise``) with the gripper
-    open; the object lies on ``object_segment`` with ``placement_noise``; the sponge is at home;
-    the segments in ``dirty_segments`` are fully dirty, the others clean.  With the defaults and
-    ``object_segment=arm_segment=1`` [`symbolic_state`][tableclean_suite.environments.table_clean.TableClean.symbolic_state] is Table 1's state 4.
+    The gripper hovers ``arm_hover_height`` above the centre of ``arm_segment`` (a cached IK pose plus
+    ``initialization_noise``), open; the objects lie on their segments with ``placement_noise``; the
+    sponge is at home; the segments in ``dirty_segments`` are fully dirty, the others clean.  With the
+    defaults and ``object_segment=arm_segment=1`` [`symbolic_state`][tableclean_suite.environments.table_clean.TableClean.symbolic_state] is Table 1's state 4.
 
     ## Rewards
-    See [`reward`][tableclean_suite.environments.table_clean.TableClean.reward]: sparse success by default, staged with ``reward_shaping=True``.
-
-    ## Episode End
-    After ``horizon`` steps unless ``ignore_done``.  `_check_success` reports task success.
+    See [`reward`][tableclean_suite.environments.table_clean.TableClean.reward].  The episode ends after ``horizon`` steps unless ``ignore_done``.
 
     ## Arguments
-    Task-specific (all others are those of
-    `robosuite.environments.manipulation.manipulation_env.ManipulationEnv`, passed through):
+    Besides those of robosuite's ``ManipulationEnv`` (passed through):
 
-    - ``robots``: one robot name with a registered skill config
-      ([`tableclean_suite.controllers.robot_configs.supported_robots`][tableclean_suite.environments.robot_registry.supported_robots], e.g. ``"Panda"``);
-      others raise a ``ValueError`` naming the supported ones.  ``gripper_types="default"`` mounts the
-      gripper the robot's config names (UR5e, Kinova3: the Panda gripper), else robosuite's default.
-    - ``task`` (name, [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] or ``.json`` path; default ``"paper"``):
-      the task spec the scene builds (N segments, the objects' types).
-    - Layout (``object_segment``, ``object_segments``, ``arm_segment``, ``dirty_segments``): when
-      none is given and ``task`` is, the scene starts where the spec says: its ``start_state``
-      (``start="fixed"``; a state holding an object is refused, stage it with
-      [`tableclean_suite.physics_backend.stage`][tableclean_suite.physics_backend.stage]) or a uniform draw over every all-unclean
-      layout at each reset (``start="uniform_unclean"``).  Any layout argument given wins over
-      the spec (the others then keep their defaults below); without ``task`` every layout is drawn.
-    - ``object_segment`` (1..N or None): segment every object starts on; None draws each at each reset.
-    - ``object_segments`` (sequence of M entries 1..N or None): per-object start segments; overrides
-      ``object_segment``.
-    - ``arm_segment`` (1..N or None): segment the arm starts above; None draws it at each reset.
-    - ``dirty_segments`` (collection of 1..N, None = all): segments that start dirty (default all).
+    - ``robots``: one robot with a registered skill config
+      ([`supported_robots`][tableclean_suite.environments.robot_registry.supported_robots], e.g. ``"Panda"``); others raise
+      a ``ValueError``.  ``gripper_types="default"`` mounts the gripper the robot's config names.
+    - ``task`` (name, [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] or ``.json`` path; default ``"paper"``): the spec the scene builds.
+    - Layout (``object_segment``, ``object_segments``, ``arm_segment``, ``dirty_segments``): when none
+      is given and ``task`` is, the resets start in the spec's ``start_state`` (a state holding an
+      object is refused: stage it with [`stage`][tableclean_suite.physics_backend.stage]) or, for
+      ``start="uniform_unclean"``, in a fresh all-dirty draw.  A layout argument given wins (the others
+      keep the defaults below); without ``task`` every layout is drawn.
+    - ``object_segment`` (1..N or None): the segment every object starts on; None draws each at each reset.
+    - ``object_segments`` (M entries, 1..N or None): per-object start segments; overrides ``object_segment``.
+    - ``arm_segment`` (1..N or None): the segment the arm starts above; None draws it at each reset.
+    - ``dirty_segments`` (collection of 1..N; None: all): the segments that start dirty.
     - ``task_config`` (dict): overrides of `DEFAULT_TABLECLEAN_CONFIG` (unknown keys raise).
-    - ``use_object_obs`` (bool): include object, sponge, dirt and symbolic observables.
+    - ``use_object_obs`` (bool): include the object, sponge, dirt and symbolic observables.
     - ``reward_scale`` (float or None): the maximum reward; None leaves rewards un-normalised.
     - ``reward_shaping`` (bool): use the staged dense reward.
-    - ``randomization`` (None/"off", "on", a
-      [`DynamicsRandomization`][tableclean_suite.environments.randomization.DynamicsRandomization] or a mapping of
-      its fields, overriding the "on" ranges unless it says ``"base": "off"``): randomised dynamics drawn at every reset from ``self.rng`` (object and sponge
-      mass and size, friction, arm joint damping, OSC gains, object yaw and sponge start noise;
-      ranges and units in [`randomization`][tableclean_suite.environments.randomization]).  Default off: the unrandomised scene.  The
-      reset's draw is ``self.dynamics_sample``; ``self.task_config`` then holds the episode's
-      sponge size (``self.base_task_config`` the configured one).
-
-    ## Version History
-    - v4: ``task=`` without layout arguments starts in the spec's start (v3 drew the layout).
-    - v3: ``randomization=`` (off by default: v2's scene, draws and ``get_ep_meta()``).
-    - v2: ``task=``: N segments and M objects of registered types from the task spec (the paper spec
-      builds v1's scene: same layout, names and ``qpos``).
-    - v1: the wiped flags are MuJoCo state (one dirt-state joint per segment: ``qpos`` and ``qvel``
-      gain one entry per segment, so states recorded with v0 do not load); ``get_ep_meta()``
-      records the task spec, the task config and the start layout.
-    - v0: initial version.
+    - ``randomization`` (None/"off", "on", a [`DynamicsRandomization`][tableclean_suite.environments.randomization.DynamicsRandomization]
+      or a mapping of its fields over the "on" ranges unless it says ``"base": "off"``): dynamics drawn
+      at every reset from ``self.rng`` (ranges and units in [`randomization`][tableclean_suite.environments.randomization]).
+      The draw is ``self.dynamics_sample``; ``self.task_config`` then holds the episode's sponge size
+      (``self.base_task_config`` the configured one).
     """
 
     def __init__(
@@ -232,15 +201,9 @@ class TableClean(ManipulationEnv):
         self.geometry = scene_geometry(self.task_config, self.n_segments)  # ValueError naming the largest N
         check_objects_fit(self.object_types, self.geometry, self.task_config)
         check_randomization_fits(self.randomization, self.object_types, self.geometry, self.base_task_config)
-        #: (M,) m footprints of the objects' geometry built from the unrandomised config: a drawn
-        #: object_size_scale grows an overridden footprint by the ratio of the built one to these
+        #: (M,) m footprints built from the unrandomised config (a drawn size grows an overridden one alike)
         self._nominal_footprints = np.array(
             [type_geometry(kind, self.task_config).footprint_radius for kind in self.object_types], dtype=float)
-        # 0-based internally (None: drawn at each reset); set through set_start() with 1-based numbers
-        self.object_segment: int | None = None
-        self.object_segments: tuple[int | None, ...] = (None,) * self.n_objects
-        self.arm_segment: int | None = None
-        self.dirty_segments: tuple[int, ...] = ()
         layout = (object_segment, arm_segment, dirty_segments, object_segments)
         if task is not None and all(value is FROM_SPEC for value in layout):
             self._start_from_spec()
@@ -255,8 +218,7 @@ class TableClean(ManipulationEnv):
         self._markers_per_segment = marker_xy.shape[1]
         #: (N * K, 3) the dirt markers' centres on the table top [m], segment 1's first
         self._marker_xyz = np.column_stack(
-            [marker_xy.reshape(-1, 2), np.full(marker_xy.shape[0] * marker_xy.shape[1], self.geometry.table_top_z)]
-        )
+            [marker_xy.reshape(-1, 2), np.full(marker_xy.shape[0] * marker_xy.shape[1], self.geometry.table_top_z)])
         self._n_task_states = self.task_model.n_states  # size of the symbolic_state_onehot observable
         self._arm_qpos_cache: dict[tuple, np.ndarray] = {}
         # (object segment, arm segment) of this episode, 0-based; with M > 1 objects (object segments, arm segment)
@@ -289,33 +251,18 @@ class TableClean(ManipulationEnv):
             renderer_config=renderer_config,
             seed=seed,
         )
-        self._check_holdable()
+        try:  # ValueError (the scene closed) naming an object the open gripper cannot take
+            for kind, shape in zip(self.object_types, self.object_geometries):
+                check_holdable(kind, shape, self.gripper_geometry.open_width, f"{self.robot_name} gripper")
+        except ValueError:
+            self.close()
+            raise
 
-    # ------------------------------------------------------------------------------------------
-    # robosuite hooks
-    # ------------------------------------------------------------------------------------------
-    def reward(self, action=None):
-        """Reward function for the task (pure: reads the state, changes nothing).
-
-        Sparse un-normalised reward:
-
-            - a discrete reward of 3.0 on success (every segment clean, objects on the table, sponge home)
-
-        Un-normalised components if using reward shaping (without success):
-
-            - Wiping: in [0, 2], per segment min(1, wiped fraction / clean_fraction), averaged over the N segments, times 2
-            - Object on the table: in {0, 0.25}, non-zero when every object lies on a segment (none held)
-            - Sponge returned: in {0, 0.5}, non-zero when a segment is clean and the sponge is home
-
-        The shaped total stays below the success reward (at most 2.75 < 3.0).  The final reward is
-        scaled by reward_scale / 3.0 so that the maximum is reward_scale.
-
-        Args:
-            action (np.array): [NOT USED]
-
-        Returns:
-            float: reward value
-        """
+    # -- robosuite hooks ------------------------------------------------------------------------
+    def reward(self, action=None) -> float:
+        """The reward (pure; ``action`` unused): 3.0 on success (every segment clean, objects on the table, sponge
+        home), else with ``reward_shaping`` the sum of [`staged_rewards`][tableclean_suite.environments.table_clean.TableClean.staged_rewards] (at most 2.75),
+        else 0; times ``reward_scale / 3`` unless ``reward_scale`` is None."""
         reward = 0.0
         if self._check_success():
             reward = SUCCESS_REWARD
@@ -326,7 +273,9 @@ class TableClean(ManipulationEnv):
         return reward
 
     def staged_rewards(self) -> tuple[float, float, float]:
-        """Un-normalised shaping components ``(wiping, object_on_table, sponge_returned)`` (see [`reward`][tableclean_suite.environments.table_clean.TableClean.reward])."""
+        """Un-normalised shaping components: wiping in [0, 2] (per segment min(1, wiped fraction /
+        clean_fraction), averaged, times 2), object on the table 0.25 when every object lies on a segment (none
+        held), sponge returned 0.5 when a segment is clean and the sponge is home."""
         info = self.skill_info()
         wiped = 1.0 - info["dirt_fraction"]
         # scaled to the paper's two segments' range [0, 2] whatever N is, so the total stays below success
@@ -339,7 +288,7 @@ class TableClean(ManipulationEnv):
         return r_wipe, r_object, r_sponge
 
     def _load_model(self):
-        """Loads the arena (table, segments, dirt, stand), the Panda, the object and the sponge into self.model."""
+        """Loads the arena (table, segments, dirt, stand), the robot, the objects and the sponge into self.model."""
         super()._load_model()
         if self.randomization.enabled and self.dynamics_sample is None:  # the constructor's scene
             self._draw_dynamics()
@@ -348,29 +297,20 @@ class TableClean(ManipulationEnv):
         robot_model.set_base_xpos(np.add(robot_model.base_xpos_offset["table"](config["table_full_size"][0]),
                                           base_shift(self.robot_name)))  # some arms sit closer (robot configs)
         exclude_parent_contacts(robot_model)  # a fixed base's first link must not collide with it (Sawyer)
-        arena = TableCleanArena(
-            geometry=self.geometry,
-            marker_xy=self._marker_xyz[:, :2].reshape(self.n_segments, self._markers_per_segment, 2),
-            marker_radius=config["marker_radius"],
-            table_full_size=config["table_full_size"],
-            table_friction=config["table_friction"],
-            table_offset=config["table_offset"],
-        )
+        self.arena = arena = TableCleanArena(
+            self.geometry, self._marker_xyz[:, :2].reshape(self.n_segments, self._markers_per_segment, 2),
+            config["marker_radius"], config["table_full_size"], config["table_friction"], config["table_offset"])
         arena.set_origin([0, 0, 0])
-        self.arena = arena
         #: the M task objects (robosuite MujocoObjects), object 1 first; ``self.object`` is object 1
         self.objects = [
             make_object(kind.name, object_build_config(self.base_task_config, config, self.dynamics_sample, j), name)
             for j, (kind, name) in enumerate(zip(self.object_types, object_names(self.n_objects)))]
         self.object = self.objects[0]
-        #: the objects' collision geometry in their own frames (read from MuJoCo, [`object_geometry`][tableclean_suite.environments.object_geometry.object_geometry])
+        #: the objects' collision geometry in their own frames ([`object_geometry`][tableclean_suite.environments.object_geometry.object_geometry])
         self.object_geometries = tuple(object_geometry(o) for o in self.objects)
         self.sponge = make_sponge(config["sponge_half_size"], config["sponge_density"])
-        self.model = ManipulationTask(
-            mujoco_arena=arena,
-            mujoco_robots=[robot.robot_model for robot in self.robots],
-            mujoco_objects=[*self.objects, self.sponge],
-        )
+        self.model = ManipulationTask(mujoco_arena=arena, mujoco_robots=[robot.robot_model for robot in self.robots],
+                                      mujoco_objects=[*self.objects, self.sponge])
 
     def _setup_references(self):
         """Ids of the objects, sponge, table top and dirt markers, and the readers of this simulation's state."""
@@ -396,8 +336,7 @@ class TableClean(ManipulationEnv):
         self.gripper_geometry = measure_gripper(raw_model, data.qpos.copy(), gripper,
                                                 gripper.important_sites["grip_site"])
         pads = (mask(gripper.important_geoms["left_fingerpad"]), mask(gripper.important_geoms["right_fingerpad"]))
-        #: contact queries: the grasp test, the sponge on the table and its press
-        #: ([Contacts][tableclean_suite.environments.state_reading.Contacts])
+        #: [Contacts][tableclean_suite.environments.state_reading.Contacts]: the grasp test, the sponge's press
         self.contacts = Contacts(raw_model, data, table, sponge, objects, pads)
         self.marker_geom_ids = np.array([model.geom_name2id(n) for n in self.arena.marker_names])
         joints = tuple(self.arena.dirt_state_joint_names)  # one per segment
@@ -407,7 +346,9 @@ class TableClean(ManipulationEnv):
                                 raw_model.geom_rgba, self.marker_geom_ids)
         fingers = gripper_joint_pos_indexes(robot, arm)
         views = DataViews.of(data, robot.eef_site_id[arm], fingers, self.object_body_ids, self.sponge_body_id)
-        self._info_reader = SkillInfoReader(views, self.contacts.grasped, self.dirt.fraction, self._sim_time)
+        # a skill_info's stamp: the scene's state writes that need not move the clock, and the simulation time [s]
+        self._info_reader = SkillInfoReader(views, self.contacts.grasped, self.dirt.fraction,
+                                            lambda: (self._state_epoch, self._mj_data.time))
         self._constant_info: tuple | None = None  # (config, geometry, skill_info's constant values)
         self._dynamics_targets = DynamicsTargets(np.append(self.object_body_ids, self.sponge_body_id), table, objects,
                                                  sponge, np.asarray(joint_vel_indexes(robot), dtype=int))
@@ -416,35 +357,31 @@ class TableClean(ManipulationEnv):
             self._nominal = read_nominal(model, self._dynamics_targets)
 
     def _setup_observables(self):
-        """Object, sponge, dirt and symbolic-state observables on top of the robot's proprioception.
-
-        Returns:
-            OrderedDict: observable name -> `Observable`
-        """
+        """The robot's proprioception plus, with ``use_object_obs``, the object, sponge, dirt and symbolic-state
+        observables (an OrderedDict name -> ``Observable``)."""
         observables = super()._setup_observables()
         if not self.use_object_obs:
             return observables
         modality = "object"
 
-        @sensor(modality=modality)
-        def object_pos(obs_cache):
-            return np.array(self.sim.data.body_xpos[self.object_body_id])
+        def named(name, read):
+            def read_sensor(obs_cache):
+                return read()
+            read_sensor.__name__ = name
+            return sensor(modality=modality)(read_sensor)
 
-        @sensor(modality=modality)
-        def object_quat(obs_cache):
-            return convert_quat(np.array(self.sim.data.body_xquat[self.object_body_id]), to="xyzw")
+        def xpos(ids):
+            return lambda: np.array(self.sim.data.body_xpos[ids])
 
-        @sensor(modality=modality)
-        def sponge_pos(obs_cache):
-            return np.array(self.sim.data.body_xpos[self.sponge_body_id])
+        def xquat(body):
+            return lambda: convert_quat(np.array(self.sim.data.body_xquat[body]), to="xyzw")
 
-        @sensor(modality=modality)
-        def sponge_quat(obs_cache):
-            return convert_quat(np.array(self.sim.data.body_xquat[self.sponge_body_id]), to="xyzw")
-
-        @sensor(modality=modality)
-        def dirt_fraction(obs_cache):
-            return self.dirt_fraction()
+        sensors = [named("object_pos", xpos(self.object_body_id)), named("object_quat", xquat(self.object_body_id)),
+                   named("sponge_pos", xpos(self.sponge_body_id)), named("sponge_quat", xquat(self.sponge_body_id)),
+                   named("dirt_fraction", self.dirt_fraction)]
+        if self.n_objects > 1:
+            sensors += [named("objects_pos", lambda: xpos(self.object_body_ids)().ravel()),
+                        named("objects_quat", lambda: np.concatenate([xquat(j)() for j in self.object_body_ids]))]
 
         @sensor(modality=modality)
         def symbolic_state_index(obs_cache):
@@ -459,19 +396,6 @@ class TableClean(ManipulationEnv):
                 onehot[index] = 1.0
             return onehot
 
-        sensors = [object_pos, object_quat, sponge_pos, sponge_quat, dirt_fraction]
-        if self.n_objects > 1:
-
-            @sensor(modality=modality)
-            def objects_pos(obs_cache):
-                return np.array(self.sim.data.body_xpos[self.object_body_ids]).ravel()
-
-            @sensor(modality=modality)
-            def objects_quat(obs_cache):
-                quats = np.array(self.sim.data.body_xquat[self.object_body_ids])
-                return np.concatenate([convert_quat(q, to="xyzw") for q in quats])
-
-            sensors += [objects_pos, objects_quat]
         arm_prefixes = self._get_arm_prefixes(self.robots[0], include_robot_name=False)
         full_prefixes = self._get_arm_prefixes(self.robots[0])
         sensors += [
@@ -494,9 +418,11 @@ class TableClean(ManipulationEnv):
             robot = self.robots[0]
             apply_dynamics(self.sim.model, self._dynamics_targets, self._nominal, self.dynamics_sample,
                            robot.composite_controller.part_controllers.get(robot.arms[0]))
-        if not self.deterministic_reset:
-            self._place_objects(objects)
-            self._place_sponge()
+        if not self.deterministic_reset:  # objects on their segments (ValueError when they do not fit), sponge home
+            for j, xy, yaw in self._reset_layouts.draw(self.rng, objects, self.geometry, self.task_config):
+                self._set_object_pose(j, xy, yaw)
+            self.sim.data.set_joint_qpos(self.sponge.joints[0],
+                                         sponge_start_qpos(self.geometry, self.task_config, self.dynamics_sample))
         dirty = np.zeros((self.n_segments, self._markers_per_segment), dtype=bool)
         dirty[list(self.dirty_segments)] = True
         self.dirt.write(dirty.ravel())
@@ -546,12 +472,8 @@ class TableClean(ManipulationEnv):
         self.show_dirt()
         return super().render()
 
-    def _check_success(self):
-        """Every segment clean, every object lying on a segment, the sponge at home.
-
-        Returns:
-            bool: True if the task is solved
-        """
+    def _check_success(self) -> bool:
+        """Every segment clean, every object lying on a segment, the sponge at home."""
         if not abstraction.segments_clean(self.dirt_fraction(), self.task_config).all():
             return False
         info = self.skill_info()
@@ -564,34 +486,20 @@ class TableClean(ManipulationEnv):
         except abstraction.AbstractionError:
             return False
 
-    # ------------------------------------------------------------------------------------------
-    # public API for skills and learners
-    # ------------------------------------------------------------------------------------------
+    # -- public API for skills and learners ----------------------------------------------------
     def set_start(self, object_segment: int | None, arm_segment: int | None,
                   dirty_segments: Iterable[int] | None = None, *,
                   object_segments: Iterable[int | None] | None = None) -> None:
-        """The layout of the following resets, as the constructor's arguments (1-based segment numbers).
-
-        Args:
-            object_segment: segment every object starts on (1..N) or None (each drawn at each reset).
-            arm_segment: segment the arm starts above (1..N) or None (drawn at each reset).
-            dirty_segments: segments that start dirty (each 1..N); None: all.
-            object_segments: M entries (1..N or None), one per object; overrides ``object_segment``.
-
-        Raises ``ValueError`` naming the bad value and the allowed ones; nothing changes then.
-        Stored 0-based in ``object_segment``, ``object_segments``, ``arm_segment`` and ``dirty_segments``.
-        """
+        """The layout of the following resets, as the constructor's arguments (1-based segment numbers 1..N, None:
+        drawn at each reset; ``dirty_segments`` None: all).  Stored 0-based in the attributes of the same names;
+        ``ValueError`` naming a bad value (nothing changes then)."""
         layout = start_layout(self.n_segments, self.n_objects, object_segment, arm_segment, dirty_segments,
                               object_segments)
         self.object_segment, self.object_segments, self.arm_segment, self.dirty_segments = layout
 
     def set_start_state(self, state: TaskState) -> None:
-        """The following resets start in the task state ``state`` (objects lying, none held).
-
-        A held object is staged by resetting with it on the arm's segment and picking it
-        ([`tableclean_suite.physics_backend.stage`][tableclean_suite.physics_backend.stage]).  Raises ``ValueError`` for a state of
-        another size or one holding an object.
-        """
+        """The following resets start in the task state ``state``; ``ValueError`` for a state of another size or one
+        holding an object (stage that with [`stage`][tableclean_suite.physics_backend.stage])."""
         state = self.task_model.as_state(state)
         if state.holding:
             raise ValueError(f"set_start_state takes states with every object lying; {state.name} holds one "
@@ -612,11 +520,8 @@ class TableClean(ManipulationEnv):
         self.set_start_state(state)
 
     def put_object(self, obj: int, segment: int) -> None:
-        """Teleport object ``obj`` (0-based), at rest, onto a free spot of ``segment`` (0-based).
-
-        The spot is [`placement.free_spot`][tableclean_suite.environments.placement.free_spot] among the objects lying there (as the place
-        skill chooses it).  Used by staging; the physics is forwarded, not stepped.
-        """
+        """Teleport object ``obj`` (0-based), at rest, onto the free spot of ``segment`` (0-based) the place skill
+        would choose ([`free_spot`][tableclean_suite.environments.placement.free_spot]); the physics is forwarded, not stepped."""
         info = self.skill_info()
         others = [(info["objects_pos"][k], placement.footprint_of(info, k)) for k in range(self.n_objects)
                   if k != obj and self._lies_on(info, k, segment)]
@@ -633,11 +538,8 @@ class TableClean(ManipulationEnv):
         return near_rest and self.segment_of_position(pos) == segment
 
     def dirt_fraction(self) -> np.ndarray:
-        """Shape (N,): fraction of each segment's dirt markers still present (1.0 = all dirty), read from qpos.
-
-        Raises [`DirtStateError`][tableclean_suite.environments.dirt_state.DirtStateError] when a dirt-state
-        joint holds no valid code (e.g. a state from another model was restored).
-        """
+        """(N,) fraction of each segment's dirt markers still present (1.0 = all dirty), read from qpos;
+        [`DirtStateError`][tableclean_suite.environments.dirt_state.DirtStateError] when a dirt-state joint holds no valid code."""
         return self.dirt.fraction()
 
     def marker_present(self) -> np.ndarray:
@@ -664,16 +566,11 @@ class TableClean(ManipulationEnv):
         ``segment_half_sizes`` (N, 2), ``table_top_z`` float, ``table_center`` (3,),
         ``table_half_size`` (2,), ``robot_base_pos`` (3,) the arm's base (its root body), ``object_grasped``
         (object 1) and ``sponge_grasped`` bool (both finger pads touch it), ``dirt_fraction`` (N,),
-        ``qvel`` (nv,) all simulation velocities,
-        ``object_spacing`` (the config's reset-grid pitch) and ``object_clearance`` (the config's,
-        for the place skill's free spot).
+        ``qvel`` (nv,) all simulation velocities, ``object_spacing`` and ``object_clearance`` (the config's).
 
-        A [SkillInfo][tableclean_suite.environments.skill_info.SkillInfo] (a dict): the values fixed for the
-        model and the episode are shared read-only arrays; the costlier per-step ones (``LAZY_SKILL_INFO``)
-        are computed on first read, from the simulation state of the call.
-
-        Raises:
-            SceneNotResetError: before the first ``reset()`` (the simulation's positions are not computed yet).
+        A [SkillInfo][tableclean_suite.environments.skill_info.SkillInfo] (a dict): the constant values are shared
+        read-only arrays, the costlier per-step ones are computed on first read.  ``SceneNotResetError`` before
+        the first ``reset()``.
         """
         data = self._mj_data
         if not data.xpos[self.object_body_ids].any():  # every object at the world origin: never forwarded
@@ -687,24 +584,12 @@ class TableClean(ManipulationEnv):
                 data.xpos[mj_model(self.sim).body(self.robots[0].robot_model.root_body).id]))
         return self._info_reader.read(constant[2], (self._state_epoch, data.time))
 
-    #: Counts the writes of the scene's state that need not move the clock (a reset, [`set_scene_state`][tableclean_suite.environments.table_clean.TableClean.set_scene_state],
-    #: an object put down by hand): with the simulation time, the stamp of a [`skill_info`][tableclean_suite.environments.table_clean.TableClean.skill_info].
+    #: Writes of the scene's state that need not move the clock (resets, set_scene_state, put_object).
     _state_epoch = 0
 
-    def _sim_time(self) -> tuple[int, float]:
-        """``(state writes, simulation time [s])``: the stamp of a [`skill_info`][tableclean_suite.environments.table_clean.TableClean.skill_info] (its lazy keys are read
-        only while both are unchanged)."""
-        return self._state_epoch, self._mj_data.time
-
     def symbolic_state(self, check_sponge: bool = True) -> TaskState:
-        """The current [`TaskState`][tableclean_suite.task.state.TaskState] read from the physics.
-
-        Args:
-            check_sponge: require the sponge at home (pass False while a skill carries it).
-
-        Raises:
-            AbstractionError: when the physical state maps to no task state (``.fault`` names it).
-        """
+        """The current [`TaskState`][tableclean_suite.task.state.TaskState] read from the physics (``check_sponge``: require the sponge
+        at home); ``AbstractionError`` when it maps to no task state (``.fault`` names why)."""
         return abstraction.abstract_state(self.skill_info(), self.task_config, check_sponge=check_sponge)
 
     def segment_of_position(self, xy) -> int | None:
@@ -712,10 +597,7 @@ class TableClean(ManipulationEnv):
         return abstraction.segment_of_xy(xy, self.geometry.segment_centers, self.geometry.segment_half_sizes)
 
     def get_scene_state(self) -> SceneState:
-        """A copy of everything needed to put the scene back later (see [`SceneState`][tableclean_suite.environments.scene_state.SceneState]).
-
-        Used to branch several actions from one reached state without replaying the plan.
-        """
+        """A copy of everything needed to put the scene back later ([`SceneState`][tableclean_suite.environments.scene_state.SceneState])."""
         return read_scene_state(mj_data(self.sim), self.robots)
 
     def set_scene_state(self, state: SceneState) -> None:
@@ -726,29 +608,19 @@ class TableClean(ManipulationEnv):
         self.sim.forward()
 
     def get_ep_meta(self) -> dict:
-        """robosuite's episode metadata plus what the recorded episode is an instance of (JSON-serialisable).
-
-        Keys added: ``task_spec`` (the task specification this scene builds, as
-        ``TaskSpec.to_dict()``), ``object_types`` (the built types' names), ``task_config`` (the
-        full physical config) and ``start`` (``object_segment``, ``arm_segment``, ``dirty_segments``
-        and, with M > 1 objects, ``object_segments``, as 1-based numbers; None: drawn at each reset).
-        ``DataCollectionWrapper`` stores it as ``ep_meta.json``.
-        """
+        """robosuite's episode metadata (JSON-serialisable) plus ``task_spec`` (``TaskSpec.to_dict()``),
+        ``object_types`` (names), ``task_config`` and ``start`` (``object_segment``, ``arm_segment``,
+        ``dirty_segments`` and with M > 1 ``object_segments``, 1-based; None: drawn at each reset); with
+        randomisation on, ``randomization`` and ``dynamics_sample``."""
         meta = super().get_ep_meta()
 
         def number(segment):
             return None if segment is None else segment + 1
 
-        meta.update(
-            task_spec=self.task_spec.to_dict(),
-            object_types=[kind.name for kind in self.object_types],
-            task_config=jsonable(self.task_config),
-            start={
-                "object_segment": number(self.object_segment),
-                "arm_segment": number(self.arm_segment),
-                "dirty_segments": [k + 1 for k in self.dirty_segments],
-            },
-        )
+        meta.update(task_spec=self.task_spec.to_dict(), object_types=[kind.name for kind in self.object_types],
+                    task_config=jsonable(self.task_config),
+                    start={"object_segment": number(self.object_segment), "arm_segment": number(self.arm_segment),
+                           "dirty_segments": [k + 1 for k in self.dirty_segments]})
         if self.n_objects > 1:  # one entry per object
             meta["start"]["object_segments"] = [number(k) for k in self.object_segments]
         if self.randomization.enabled:
@@ -756,16 +628,10 @@ class TableClean(ManipulationEnv):
             meta["dynamics_sample"] = None if self.dynamics_sample is None else self.dynamics_sample.to_dict()
         return meta
 
-    # ------------------------------------------------------------------------------------------
-    # per-step hooks: wiping and the markers' visuals
-    # ------------------------------------------------------------------------------------------
+    # -- per-step hooks: wiping and the markers' visuals ----------------------------------------
     def record_wiping_substep(self) -> None:
-        """Removes markers under the sponge when it presses on the table top (current substep state).
-
-        The per-physics-substep hook: ``env.step`` calls it after each substep's control, and so
-        does a fast stepper ([`tableclean_suite.controllers.fast_control`][tableclean_suite.controllers.fast_control]) that runs the
-        substeps itself.  Cheap when the sponge is clearly above the table.
-        """
+        """Removes the markers under the sponge when it presses on the table top: the per-physics-substep hook
+        (``env.step`` and a fast stepper call it after each substep's control)."""
         data = self._mj_data
         config = self.task_config
         sponge_pos, sponge_mat = data.xpos[self.sponge_body_id], data.xmat[self.sponge_body_id]
@@ -775,19 +641,14 @@ class TableClean(ManipulationEnv):
             return
         if not self.contacts.sponge_on_table(config["wipe_contact_dist"]):
             return
-        under = wiping.markers_under_box(
-            self._marker_xyz, sponge_pos, sponge_mat, config["sponge_half_size"], config["wipe_marker_reach"]
-        )
+        under = wiping.markers_under_box(self._marker_xyz, sponge_pos, sponge_mat, config["sponge_half_size"],
+                                         config["wipe_marker_reach"])
         present = self.dirt.present()
         if (under & present).any():
             self.dirt.write(present & ~under)
 
     def show_dirt(self) -> None:
-        """Marker visuals follow the dirt state: alpha 0 for wiped markers, 1 for present ones.
-
-        The per-control-step hook (``env.step`` and a fast stepper call it once per control step).
-        Cheap when nothing changed since the last call (compares the dirt-state joint positions).
-        """
+        """Marker visuals follow the dirt state (alpha 0: wiped): the per-control-step hook."""
         self.dirt.show()
 
     def _marker_present(self) -> np.ndarray:
@@ -795,20 +656,17 @@ class TableClean(ManipulationEnv):
         return self.dirt.present()
 
     def sponge_press_force(self) -> float:
-        """Normal force [N] (>= 0) the sponge presses on the table top: the sum over their MuJoCo
-        contacts (``mj_contactForce``) in the current simulation data."""
+        """Normal force [N] (>= 0) the sponge presses on the table top (``mj_contactForce`` summed)."""
         return self.contacts.press_force()
 
     def _symbolic_index(self) -> int:
-        """Index of [`symbolic_state`][tableclean_suite.environments.table_clean.TableClean.symbolic_state] without the sponge check, or ``FAULT_INDEX`` on a fault."""
+        """Index of the symbolic state without the sponge check, or ``FAULT_INDEX`` on a fault."""
         try:
             return self.symbolic_state(check_sponge=False).index
         except (abstraction.AbstractionError, SceneNotResetError):  # a fault, or before the first reset
             return FAULT_INDEX
 
-    # ------------------------------------------------------------------------------------------
-    # the reset's layout and randomised dynamics
-    # ------------------------------------------------------------------------------------------
+    # -- the reset's layout and randomised dynamics --------------------------------------------
     def _draw_layout(self) -> tuple[tuple[int, ...], int]:
         """(object segments (M,), arm segment): the configured ones, or drawn from ``self.rng`` when None."""
         # always drawn (objects, then the arm), so the rng stream does not depend on the configured layout
@@ -828,15 +686,6 @@ class TableClean(ManipulationEnv):
             self._arm_qpos_cache[key] = hover_qpos(self.sim, self.robots[0], target)
         return self._arm_qpos_cache[key].copy()
 
-    def _place_objects(self, segments: tuple[int, ...]) -> None:
-        """Put object j on ``segments[j]`` (0-based) as [ResetLayouts][tableclean_suite.environments.scene_building.ResetLayouts]
-        draws it.
-
-        Raises ``ValueError`` when the objects sharing a segment do not fit on it.
-        """
-        for j, xy, yaw in self._reset_layouts.draw(self.rng, segments, self.geometry, self.task_config):
-            self._set_object_pose(j, xy, yaw)
-
     def _set_object_pose(self, obj: int, xy, yaw: float) -> None:
         """Object ``obj`` at rest on the table at world ``xy`` with ``yaw`` [rad] (qpos set, qvel zeroed)."""
         self._state_epoch += 1
@@ -845,22 +694,8 @@ class TableClean(ManipulationEnv):
         self.sim.data.set_joint_qpos(joint, resting_qpos(xy, yaw, rest_z))
         self.sim.data.set_joint_qvel(joint, np.zeros(6))
 
-    def _place_sponge(self) -> None:
-        """The sponge at rest on its home, offset and turned by this episode's draw (if randomised)."""
-        self.sim.data.set_joint_qpos(self.sponge.joints[0],
-                                     sponge_start_qpos(self.geometry, self.task_config, self.dynamics_sample))
-
-    def _check_holdable(self) -> None:
-        """``ValueError`` (the scene closed) naming an object whose narrowest width the open gripper cannot take."""
-        try:
-            for kind, shape in zip(self.object_types, self.object_geometries):
-                check_holdable(kind, shape, self.gripper_geometry.open_width, f"{self.robot_name} gripper")
-        except ValueError:
-            self.close()
-            raise
-
     def _draw_dynamics(self) -> None:
-        """Draw this episode's [`DynamicsSample`][tableclean_suite.environments.randomization.DynamicsSample] from ``self.rng``; the episode's config and geometry follow."""
+        """Draw this episode's ``DynamicsSample`` from ``self.rng``; the episode's config and geometry follow."""
         n_joints = len(self.robots[0].robot_model.joints)
         self.dynamics_sample = self.randomization.sample(self.rng, self.n_objects, n_joints)
         self.task_config = episode_config(self.base_task_config, self.dynamics_sample)
