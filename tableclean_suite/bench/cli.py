@@ -8,8 +8,8 @@ import math
 import sys
 from pathlib import Path
 
-#: Exit code of a command line used wrongly (argparse's).
-EXIT_USAGE = 2
+#: Exit codes of a command line used wrongly (argparse's) and of a command stopped by Ctrl-C (128 + SIGINT).
+EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
 #: Output kinds of [`output_path`][tableclean_suite.bench.cli.output_path]: a folder, or one file.
 DIRECTORY, FILE = "directory", "file"
 DEFAULT_ROBOT = "Panda"

@@ -22,10 +22,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from tableclean_suite.bench.cli import EXIT_USAGE, OneLineParser
-
-#: Exit status of a command stopped by Ctrl-C (128 + SIGINT).
-EXIT_INTERRUPTED = 130
+from tableclean_suite.bench.cli import EXIT_INTERRUPTED, EXIT_USAGE, OneLineParser
 
 #: The console script's name (setup.py's entry point).
 CONSOLE_SCRIPT = "tableclean-bench"

@@ -3,41 +3,19 @@
     tableclean-bench tune --trials 40 --learner q_learning --reward r4
     tableclean-bench tune --trials 20          # a second call resumes the same study
 
-Searches alpha, gamma, epsilon and the exploration schedule (``train(exploration=...)``:
-constant epsilon-greedy, linear or exponential decay to a floor) of one learner on one reward
-pattern and task.
+Searches alpha, gamma, epsilon and the exploration schedule (constant, linear or exponential decay
+to a floor) of one learner on one reward pattern and task.  **Objective** (minimised, iterations):
+the restricted mean of the runs' learning times (``TrainingResult.learned_at``; runs that never
+learn count the whole budget; [learning_time_summary][tableclean_suite.learning_time.learning_time_summary]),
+subject to the success asymptote: a trial whose asymptote is more than ``--tolerance`` below the
+paper configuration's (alpha = gamma = 0.3, epsilon = 0.1, computed once per study) scores
+``iterations x (1 + shortfall)``.  Greedy ties are broken by ``--ties``.  A trial trains in
+`STAGES` stages of runs, and Optuna's median pruner may stop it after each.
 
-**Objective** (minimised, iterations): the runs' restricted mean learning time, the area under the
-Kaplan-Meier curve of each run's learning time (``TrainingResult.learned_at``: the iteration from
-which the run's greedy policy follows a shortest plan from every start state to the end of the
-budget) up to the budget, runs that never get there counting the whole budget
-([learning_time_summary][tableclean_suite.learning_time.learning_time_summary]); the median with its
-interval and the censored share are reported beside it.  The greedy policy breaks ties between
-equal Q values at random by default (``--ties random``; ``--ties first`` takes the first action in
-the task's order), in training and in the learning-time check; the rule is named in the output
-and is part of the study's configuration.  The objective is subject to the success asymptote
-(`tableclean_suite.asymptotes`, the runs' final policies under the final epsilon): a trial
-whose asymptote is more than ``--tolerance`` (absolute, default 0.01) below the paper
-configuration's (alpha = gamma = 0.3, constant epsilon = 0.1, same learner, reward, task, runs,
-iterations, tie rule and seed; computed once per study and stored in it) scores
-``iterations x (1 + shortfall)``, worse than any trial that meets the constraint.  The paper's
-own reading, the first iteration at which the mean success curve reaches ``--threshold`` (95 %)
-of the asymptote, is reported for comparison (``max_success_iterations``), not optimised.
-
-**Ablation** (``--ablation``): after the trials, the best trial's (alpha, gamma) and its
-exploration (epsilon and schedule) are crossed with the paper's, 2 x 2, each trained on the same
-runs, and ``OUT/ablation.csv`` lists each combination's learning time: it shows which half of a
-tuned gain comes from which setting.
-
-**Pruning**: a trial trains its runs in `STAGES` stages of runs; after each stage it reports
-the objective on the runs so far, and Optuna's `MedianPruner` stops it when
-that is worse than the median of earlier trials at the same stage.
-
-**Storage**: an Optuna RDB URL, default ``sqlite:///OUT/study.db`` (``--out`` default
-``results/tune``), so a study resumes across invocations and several processes or machines can
-share it (with a shared database).  Each invocation publishes ``OUT/best.json`` (best trial vs the
-paper's configuration) and ``OUT/trials.csv`` ([`outputs.publish`][tableclean_suite.bench.outputs.publish]),
-also when Ctrl-C stops it (then with the trials finished so far, exit code 130).
+``--ablation`` crosses the best trial's (alpha, gamma) and exploration with the paper's, 2 x 2, on
+the same runs (``OUT/ablation.csv``).  The study lives in ``--storage`` (default
+``sqlite:///OUT/study.db``), so a call resumes it and several processes can share it.  Each call
+publishes ``OUT/best.json`` and ``OUT/trials.csv``, also after Ctrl-C (the finished trials; exit 130).
 """
 
 from __future__ import annotations
@@ -51,11 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
-from tableclean_suite.bench.cli import say
+from tableclean_suite.bench.cli import EXIT_INTERRUPTED, EXIT_USAGE, say
 
-#: Exploration schedules searched, as ``train(exploration=...)`` names (see ``learners.exploration``).
+#: Exploration schedules searched (``train(exploration=...)`` names) and the search ranges.
 SCHEDULES = ("epsilon_greedy", "linear_decay", "exponential_decay")
-#: Search ranges.
 ALPHA_RANGE = (0.05, 1.0)
 GAMMA_RANGE = (0.0, 0.99)
 EPSILON_RANGE = (0.01, 0.3)
@@ -66,25 +43,19 @@ DECAY_FRACTION_RANGE = (0.05, 1.0)
 PAPER_SETTINGS = {"alpha": 0.3, "gamma": 0.3, "epsilon": 0.1, "exploration": "epsilon_greedy"}
 #: Stages of runs per trial (intermediate values for the pruner).
 STAGES = 4
-#: Allowed shortfall of a trial's success asymptote below the paper configuration's (absolute).
 DEFAULT_TOLERANCE = 0.01
 #: Trials the pruner lets finish before it prunes, and stages it waits within a trial.
 PRUNER_STARTUP_TRIALS = 5
 PRUNER_WARMUP_STEPS = 1
-#: User attribute of the study holding the paper configuration's result.
+#: Study user attributes: the paper configuration's result, the configuration the study was made for.
 REFERENCE_ATTR = "paper_reference"
-#: User attribute of the study holding the configuration it was created for ([`study_configuration`][tableclean_suite.bench.tune.study_configuration]).
 CONFIGURATION_ATTR = "configuration"
-#: Exit status of a refused call (a bad --storage, a study of another configuration) ...
-EXIT_USAGE = 2
-#: ... and of one stopped by Ctrl-C (its finished trials published).
-EXIT_INTERRUPTED = 130
 #: Greedy tie rules of ``train(ties=...)``, the default first.
 TIE_RULES = ("random", "first")
-#: What the trials minimise (recorded in the study's configuration).
 OBJECTIVE = "learning_time_rmst"
-#: The ablation's two values of each factor.
 ABLATION_LEVELS = ("paper", "tuned")
+PROG = "tableclean-bench tune"
+DEFAULT_OUT = "results/tune"
 
 
 class StudyError(ValueError):
@@ -92,11 +63,8 @@ class StudyError(ValueError):
 
 
 def study_configuration(args) -> dict:
-    """What a study's trials and its paper reference depend on: learner, reward, the task spec (as
-    JSON), runs, iterations, max_itr, seed, threshold, tolerance, the tie rule, the objective, the
-    arrays the learner reads and the code that runs
-    ([`task_digest`][tableclean_suite.bench.digests.task_digest],
-    [`code_digest`][tableclean_suite.bench.digests.code_digest], ``--plugins`` included)."""
+    """What a study's trials depend on: the settings, the task spec, the objective, and the digests of the
+    arrays the learner reads and of the code (``--plugins`` included)."""
     from tableclean_suite.bench.digests import code_digest, task_digest
 
     return {"learner": args.learner, "reward": args.reward, "task": args.model.spec.to_dict(), "runs": args.runs,
@@ -106,12 +74,8 @@ def study_configuration(args) -> dict:
 
 
 def bind_configuration(study, args) -> None:
-    """Record this call's configuration in a new study; refuse a study made for another one.
-
-    Raises:
-        StudyError: the study holds another configuration (both are named), or trials without a
-            recorded configuration (made by an older version).
-    """
+    """Record this call's configuration in a new study; [`StudyError`][tableclean_suite.bench.tune.StudyError]
+    naming the differences for a study made for another one (or with trials of an unrecorded one)."""
     wanted = json.loads(json.dumps(study_configuration(args)))
     stored = study.user_attrs.get(CONFIGURATION_ATTR)
     if stored is None:
@@ -130,16 +94,8 @@ def bind_configuration(study, args) -> None:
 
 
 def check_resources(args) -> None:
-    """Refuse a study that cannot fit in memory or would run too long, before the task's tables are
-    built and before any trial trains (the estimates of [`tableclean_suite.resources`][tableclean_suite.resources], as
-    [`tableclean_suite.bench.experiments.check_grid_resources`][tableclean_suite.bench.experiments.check_grid_resources] makes them for a grid).
-
-    Memory: one stage's runs of the tuned learner ([`tableclean_suite.learners.memory.learner_training_memory`][tableclean_suite.learners.memory.learner_training_memory]:
-    double Q-learning's tables, its run working arrays; trials keep no checkpoint), the tables and
-    the stage's asymptote analysis.  Time: at most ``--trials`` trials and the paper configuration's
-    reference (computed once per study), each ``runs x iterations`` learner steps at the engine's rate
-    ([`tableclean_suite.resources.steps_per_second`][tableclean_suite.resources.steps_per_second]) and one asymptote DP per stage; a pruned
-    trial stops early.
+    """Refuse, before any table is built or trial trains, a study whose stage (one stage's runs of the learner
+    and its asymptote analysis) cannot fit in memory or whose trials and paper reference would run too long.
 
     Raises:
         tableclean_suite.resources.ResourceError: one line naming the estimate and the override.
@@ -154,8 +110,7 @@ def check_resources(args) -> None:
     pairs = model.n_states * model.n_actions
     stage_runs = -(-args.runs // STAGES)
     memory = learner_training_memory(model, get_learner(args.learner), get_reward_pattern(args.reward),
-                                               stage_runs, args.iterations, checkpoint=False,
-                                               engine=resources.DEFAULT_ENGINE)
+                                     stage_runs, args.iterations, checkpoint=False, engine=resources.DEFAULT_ENGINE)
     memory += resources.MemoryEstimate({"asymptote analysis": pairs * ANALYSIS_BYTES_PER_PAIR})
     resources.require_memory(memory, f"a tuning stage of {args.learner!r} on task {model.spec.name!r} "
                                      f"({model.n_states} states x {model.n_actions} actions, {stage_runs} runs x "
@@ -169,11 +124,6 @@ def check_resources(args) -> None:
                            f"{steps:.3g} learner steps at {rate:.3g}/s ({resources.DEFAULT_ENGINE} engine) and "
                            f"{analyses} asymptote analyses of {args.max_itr} x {pairs} pairs at "
                            f"{ANALYSIS_PAIRS_PER_SECOND:.3g}/s")
-
-
-def _storage_failure(args, error: Exception) -> StudyError:
-    reason = (str(error).strip().splitlines() or [type(error).__name__])[0]
-    return StudyError(f"--storage {args.storage!r} cannot be opened: {type(error).__name__}: {reason}")
 
 
 def trial_settings(trial) -> dict:
@@ -222,7 +172,7 @@ class Evaluation:
         self.learned_at: list[np.ndarray] = []
 
     def stages(self):
-        """Train the runs in `STAGES` stages; yields after each stage."""
+        """Train the runs in `STAGES` stages; yields the stage's index after each."""
         from tableclean_suite import asymptotes
         from tableclean_suite.learners import train
 
@@ -242,9 +192,8 @@ class Evaluation:
             yield step
 
     def result(self) -> dict:
-        """The runs trained so far: ``learning_time_rmst``, ``learning_time`` (Kaplan-Meier median,
-        ``inf`` when censored) with ``learning_time_low``/``_high``, ``censored_share`` (all in
-        iterations but the share), ``success_asymptote`` and the paper's ``max_success_iterations``."""
+        """The runs so far: ``learning_time_rmst``, ``learning_time`` (Kaplan-Meier median, ``inf`` when
+        censored) with ``_low``/``_high``, ``censored_share``, ``success_asymptote``, ``max_success_iterations``."""
         from tableclean_suite import metrics
         from tableclean_suite.learning_time import learning_time_summary
 
@@ -256,6 +205,12 @@ class Evaluation:
                 "learning_time_low": summary.median_low, "learning_time_high": summary.median_high,
                 "censored_share": summary.censored_share, "success_asymptote": asymptote,
                 "max_success_iterations": reached}
+
+    def finished(self) -> dict:
+        """Train every stage; the result with infinite or NaN values as None (strict JSON)."""
+        for _ in self.stages():
+            pass
+        return {key: _finite_or_none(value) for key, value in self.result().items()}
 
 
 def objective_value(result: dict, reference: float | None, iterations: int, tolerance: float) -> float:
@@ -269,25 +224,13 @@ def objective_value(result: dict, reference: float | None, iterations: int, tole
 
 def _reference(study, args, model) -> dict:
     """The paper configuration's result, computed once per study and stored as a user attribute."""
-    stored = study.user_attrs.get(REFERENCE_ATTR)
-    if stored is not None:
-        return stored
-    evaluation = Evaluation(args, model, dict(PAPER_SETTINGS))
-    for _ in evaluation.stages():
-        pass
-    reference = {key: _finite_or_none(value) for key, value in evaluation.result().items()}
-    study.set_user_attr(REFERENCE_ATTR, reference)
-    return reference
-
-
-#: The program name in messages unless the caller gives one.
-PROG = "tableclean-bench tune"
-#: Default output folder (the study's database, best.json, trials.csv).
-DEFAULT_OUT = "results/tune"
+    if study.user_attrs.get(REFERENCE_ATTR) is None:
+        study.set_user_attr(REFERENCE_ATTR, Evaluation(args, model, dict(PAPER_SETTINGS)).finished())
+    return study.user_attrs[REFERENCE_ATTR]
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the study's own."""
+    """The command line."""
     from tableclean_suite.bench import cli
 
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
@@ -347,12 +290,9 @@ def trials_frame(study):
     """One row per trial: number, state, value, hyperparameters and measured results."""
     import pandas as pd
 
-    rows = []
-    for trial in study.trials:
-        rows.append({"number": trial.number, "state": trial.state.name, "value": trial.value,
-                     **{f"param_{k}": v for k, v in trial.params.items()},
-                     **{k: v for k, v in trial.user_attrs.items()}})
-    return pd.DataFrame(rows)
+    return pd.DataFrame([{"number": trial.number, "state": trial.state.name, "value": trial.value,
+                          **{f"param_{k}": v for k, v in trial.params.items()}, **trial.user_attrs}
+                         for trial in study.trials])
 
 
 def best_report(study, args) -> dict:
@@ -376,9 +316,8 @@ def best_report(study, args) -> dict:
 
 
 def run(args) -> int:
-    """Run the trials, then publish ``trials.csv``, ``best.json`` (and ``ablation.csv``) into
-    ``--out`` ([`outputs.publish`][tableclean_suite.bench.outputs.publish]); after Ctrl-C the
-    trials finished so far are published and the exit code is 130."""
+    """Run the trials, then publish ``trials.csv``, ``best.json`` (and ``ablation.csv``) into ``--out``;
+    after Ctrl-C the finished trials are published and the exit code is 130."""
     import logging
 
     import optuna
@@ -389,7 +328,7 @@ def run(args) -> int:
     problem = outputs.check_publishable(out, command="tune")
     if problem:
         print(f"{prog}: error: --out {problem}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
     optuna.logging.set_verbosity(optuna.logging.ERROR)  # the trial Ctrl-C stopped is not a warning: it is reported once
     for handler in logging.getLogger("optuna").handlers:  # and without Optuna's traceback
         handler.addFilter(lambda record: not (record.exc_info and record.exc_info[0] is KeyboardInterrupt))
@@ -453,25 +392,22 @@ def run(args) -> int:
     say(f"paper (alpha = gamma = 0.3, epsilon = 0.1): {result_text(paper)}")
     if best is not None:
         say(f"best trial {best['trial']}: objective {best['objective']:.0f}, {result_text(best)}, "
-              f"settings {best['settings']}")
+            f"settings {best['settings']}")
     if rows:
         say(f"ablation ({args.learner}, {args.reward}, {args.runs} runs x {args.iterations} iterations, seed "
-              f"{args.seed}, greedy ties: {args.ties}):")
+            f"{args.seed}, greedy ties: {args.ties}):")
         for row in rows:
-            say(f"  alpha, gamma {row['alpha_gamma']:<6} x exploration {row['exploration_from']:<6}: "
-                  f"{result_text(row)}")
+            say(f"  alpha, gamma {row['alpha_gamma']:<6} x exploration {row['exploration_from']:<6}: {result_text(row)}")
     say(f"written: {', '.join(str(path) for path in written)}")
     return 0
 
 
 def _finite_or_none(value):
-    """``value``, or None for an infinite or NaN float (strict JSON in the study and best.json)."""
     return None if isinstance(value, float) and not np.isfinite(value) else value
 
 
 def result_text(result: dict) -> str:
-    """One line: median learning time [interval], censored share, restricted mean, success asymptote
-    and the paper's first-touch reading of an [`Evaluation.result`][tableclean_suite.bench.tune.Evaluation.result] (or a stored copy)."""
+    """One line of an [`Evaluation.result`][tableclean_suite.bench.tune.Evaluation.result] (or a stored copy)."""
     def number(key):
         value = result.get(key)
         return "censored" if value is None or not np.isfinite(value) else f"{value:.0f}"
@@ -484,38 +420,25 @@ def result_text(result: dict) -> str:
 
 
 def ablation_settings(tuned: dict) -> list[tuple[str, str, dict]]:
-    """The 2 x 2 crossing of (alpha, gamma) with the exploration (epsilon, schedule and its
-    parameters): ``[(alpha_gamma level, exploration level, settings)]``, levels ``paper``/``tuned``."""
-    crossed = []
-    for values_from in ABLATION_LEVELS:
-        for exploration_from in ABLATION_LEVELS:
-            source = {"paper": PAPER_SETTINGS, "tuned": tuned}
-            settings = {key: value for key, value in source[exploration_from].items() if key not in ("alpha", "gamma")}
-            settings.update(alpha=source[values_from]["alpha"], gamma=source[values_from]["gamma"])
-            crossed.append((values_from, exploration_from, settings))
-    return crossed
+    """The 2 x 2 crossing of (alpha, gamma) with the exploration (epsilon, schedule and its parameters):
+    ``[(alpha_gamma level, exploration level, settings)]``, levels ``paper``/``tuned``."""
+    source = {"paper": PAPER_SETTINGS, "tuned": tuned}
+    return [(values, explore, {**{k: v for k, v in source[explore].items() if k not in ("alpha", "gamma")},
+                               "alpha": source[values]["alpha"], "gamma": source[values]["gamma"]})
+            for values in ABLATION_LEVELS for explore in ABLATION_LEVELS]
 
 
 def ablation(args, tuned: dict) -> list[dict]:
     """Train every combination of [`ablation_settings`][tableclean_suite.bench.tune.ablation_settings] on the study's runs; one row each."""
-    rows = []
-    for values_from, exploration_from, settings in ablation_settings(tuned):
-        evaluation = Evaluation(args, args.model, settings)
-        for _ in evaluation.stages():
-            pass
-        result = {key: _finite_or_none(value) for key, value in evaluation.result().items()}
-        rows.append({"alpha_gamma": values_from, "exploration_from": exploration_from, "ties": args.ties,
-                     **{f"setting_{key}": value for key, value in settings.items()}, **result})
-    return rows
+    return [{"alpha_gamma": values_from, "exploration_from": exploration_from, "ties": args.ties,
+             **{f"setting_{key}": value for key, value in settings.items()},
+             **Evaluation(args, args.model, settings).finished()}
+            for values_from, exploration_from, settings in ablation_settings(tuned)]
 
 
 def open_study(args):
-    """The study of ``args`` (created or resumed), bound to its configuration ([`bind_configuration`][tableclean_suite.bench.tune.bind_configuration]).
-
-    Raises:
-        StudyError: ``--storage`` cannot be opened (one line with the driver's reason), or the
-            study belongs to another configuration.
-    """
+    """The study of ``args``, created or resumed and bound to its configuration; [`StudyError`][tableclean_suite.bench.tune.StudyError]
+    when ``--storage`` cannot be opened or the study belongs to another configuration."""
     import optuna
 
     try:
@@ -527,13 +450,13 @@ def open_study(args):
                                                n_warmup_steps=PRUNER_WARMUP_STEPS),
         )
     except Exception as error:  # any storage backend's failure (sqlalchemy, a missing driver, optuna)
-        raise _storage_failure(args, error) from None
+        reason = (str(error).strip().splitlines() or [type(error).__name__])[0]
+        raise StudyError(f"--storage {args.storage!r} cannot be opened: {type(error).__name__}: {reason}") from None
     bind_configuration(study, args)
     return study
 
 
 def _trials_so_far(args) -> int:
-    """Trials the study already has in its storage (0 for a new study)."""
     import optuna
 
     try:
@@ -544,8 +467,7 @@ def _trials_so_far(args) -> int:
 
 def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
-    args = parse_args(argv, prog)
-    return run(args)
+    return run(parse_args(argv, prog))
 
 
 if __name__ == "__main__":
