@@ -1,8 +1,5 @@
-"""``TableCleanSymbolic-v0``: a task spec's model as a Gymnasium environment (Taxi-style).
-
-Also holds what the physics env ([`skills`][tableclean_suite.gym_envs.skills]) shares with it: argument checks, the reward
-with the looping penalty's history, ``info``, and the ansi/rgb renderings of a task state.
-"""
+"""``TableCleanSymbolic-v0``: a task spec's model as a Gymnasium environment (Taxi-style), and the base it shares
+with the physics env ([`skills`][tableclean_suite.gym_envs.skills]): checks, reward history, ``info``, renderings."""
 
 from __future__ import annotations
 
@@ -54,18 +51,13 @@ class TableCleanBase(gym.Env):
         self.lastaction: int | None = None  # index in the task's action order
         self.last_outcome: Outcome | None = None
 
-    # -- helpers ---------------------------------------------------------------------------------
     def action_mask(self, state: int | None = None) -> np.ndarray:
         """``(n_actions,)`` int8, 1 where the action is not improper (the task model's mask; all 0 at terminal)."""
         return self.model.action_mask(self.s if state is None else state)
 
     def action_masks(self) -> np.ndarray:
-        """``(n_actions,)`` bool, True where the action is not improper in the current state.
-
-        The interface of sb3-contrib's ``MaskablePPO`` (``env.action_masks()``; through wrappers
-        and vector envs with ``get_wrapper_attr`` / ``call("action_masks")``).  All False at the
-        terminal state, where the episode has ended; ``RuntimeError`` before ``reset()``.
-        """
+        """``(n_actions,)`` bool, True where the action is not improper (all False at the terminal state): sb3-contrib
+        ``MaskablePPO``'s interface (vector envs: ``call("action_masks")``); ``RuntimeError`` before ``reset()``."""
         if self.s == _NO_STATE:
             raise RuntimeError("call reset() before action_masks()")
         return self.action_mask().astype(bool)
@@ -102,8 +94,15 @@ class TableCleanBase(gym.Env):
             raise RuntimeError("the episode has terminated (every segment clean); call reset()")
         return int(action)
 
-    def _reward(self, outcome: Outcome, state: int, next_state: int) -> float:
-        return float(self.reward_pattern.reward(int(outcome), state, next_state, self.previous, self.history))
+    def _transition(self, action: int, next_state: int, outcome: Outcome) -> tuple:
+        """Reward and record the step from ``self.s`` to ``next_state``; ``step``'s 5-tuple (not truncated: the
+        registry's TimeLimit truncates)."""
+        state = self.s
+        reward = float(self.reward_pattern.reward(int(outcome), state, next_state, self.previous, self.history))
+        self.previous, self.s = state, next_state
+        self.history.append(next_state)
+        self.lastaction, self.last_outcome = action, outcome
+        return int(next_state), reward, self.model.decode(next_state).is_terminal, False, self._info(outcome)
 
     def _info(self, outcome: Outcome | None = None) -> dict:
         info = {"action_mask": self.action_mask(), "state_name": self.model.decode(self.s).name}
@@ -112,12 +111,6 @@ class TableCleanBase(gym.Env):
             info["outcome_name"] = outcome.name.lower()
         return info
 
-    def _advance(self, state: int, next_state: int, action: int, outcome: Outcome) -> None:
-        self.previous, self.s = state, next_state
-        self.history.append(next_state)
-        self.lastaction, self.last_outcome = action, outcome
-
-    # -- rendering ---------------------------------------------------------------------------------
     def render(self):
         if self.render_mode is None:
             gym.logger.warn(
@@ -223,71 +216,48 @@ class TableCleanSymbolicEnv(TableCleanBase):
     """A table-cleaning task spec (default the paper's) as a tabular Gymnasium environment.
 
     ## Description
-    A table has N segments (the paper: two), each clean or unclean, and M objects (the paper:
-    one) lying on a segment or held by the robot's gripper; the arm is above one segment.  The
-    sponge has a fixed home, so it is not part of the state.  The goal is to clean every
-    segment; an object lying on a segment must first be moved away from it.  This environment
-    steps the task model ([`tableclean_suite.task.TaskModel`][tableclean_suite.task.model.TaskModel], whose docstring states every
-    rule); ``TableCleanSkills-v0`` executes the paper's actions with skills in MuJoCo.
+    N segments (the paper: two), each clean or unclean; M objects (the paper: one) lying on a segment
+    or held; the arm above one segment.  The goal is to clean every segment, moving objects off it
+    first.  The env steps the task model ([`TaskModel`][tableclean_suite.task.model.TaskModel], whose docstring
+    states every rule); ``TableCleanSkills-v0`` runs the actions with skills in MuJoCo.
 
     ## Action Space
-    ``Discrete(A)``, the spec's actions in order; the paper's ``Discrete(4)``:
-    - 0: move (the arm goes to the next segment, carrying a held object)
-    - 1: pick (the lowest-numbered object on the arm's segment)
-    - 2: place (the held object on the arm's segment)
-    - 3: clean (the arm's segment)
+    ``Discrete(A)``, the spec's actions in order; the paper's: 0 move (to the next segment, carrying a
+    held object), 1 pick (the lowest-numbered object on the arm's segment), 2 place, 3 clean.
 
     ## Observation Space
-    ``Discrete(S)``, the state code of [`tableclean_suite.task.encode`][tableclean_suite.task.state.encode]; for the paper
-    ``Discrete(24)``, ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment``
-    with cleanliness 0/1, ``object_location`` 0 on segment 1, 1 on segment 2, 2 in the gripper,
-    and ``arm_segment`` 0 for segment 1, 1 for segment 2 (``env.unwrapped.model.decode(code)``).
-    From the four both-unclean starts 20 states are reachable (18 non-terminal);
-    ``three_segments`` has 96 codes, 90 reachable.
+    ``Discrete(S)``, the state code of [`encode`][tableclean_suite.task.state.encode]; for the paper ``Discrete(24)``,
+    ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment`` (object
+    location 0/1 a segment, 2 held; ``env.unwrapped.model.decode(code)``).
 
     ## Starting State
-    The spec's start (default: every segment unclean, objects and arm over segment 1; for the
-    paper Table 1's state 4 = code 0); ``start="uniform_unclean"`` draws among every all-unclean
-    layout with ``self.np_random``.  ``reset(options={"state": code})`` starts anywhere
+    The spec's start (the paper: Table 1's state 4 = code 0); ``start="uniform_unclean"`` draws among
+    the all-unclean layouts with ``self.np_random``; ``reset(options={"state": code})`` starts anywhere
     non-terminal.
 
     ## Rewards
-    From the reward pattern (default ``"r4"``, Table 2 of the paper):
-    - +1 for the clean that makes every segment clean (terminal).
-    - +1 for cleaning an unclean segment (r2-r4).
-    - -0.01 for cleaning a clean segment, and for an ineffective pick/place.
-    - -0.01 (r1, r2) or +0.01 (r3, r4) per move/pick/place.
-    - -1 for an improper action (clean while holding the object or where it lies); the state
-      does not change (Algorithm 1's failed state).
-    - r4: -0.01 instead for a move/pick/place that returns to the state before the previous
-      step or leaves the state unchanged (looping penalty; the env keeps s_{t-1}).
+    From the reward pattern (default ``"r4"``, Table 2 of the paper): +1 for the clean that ends the
+    episode and (r2-r4) for cleaning an unclean segment; -0.01 for cleaning a clean segment or an
+    ineffective pick/place; -0.01 (r1, r2) or +0.01 (r3, r4) per move/pick/place; -1 for an improper
+    action (the state does not change); r4: -0.01 for a move/pick/place that loops (returns to
+    s_{t-1} or stays).
 
     ## Episode End
-    - Termination: every segment is clean.
-    - Truncation: after 500 steps (``max_episode_steps`` of the registry, the learners'
-      ``max_itr`` default).
+    Termination: every segment clean.  Truncation: after 500 steps (the registry's ``max_episode_steps``).
 
     ## Information
-    ``step`` and ``reset`` return ``info`` with ``"action_mask"`` (``(A,)`` int8, 1 where the
-    action is not improper; all 0 at the terminal state), ``"state_name"``, and after a step
-    ``"outcome"`` ([`tableclean_suite.task.Outcome`][tableclean_suite.task.state.Outcome] code), ``"outcome_name"`` and
-    ``"prob"`` (1.0: the model is deterministic).  Everything in ``info`` is plain picklable
-    data.  ``action_masks()`` returns the mask as ``(A,)`` bool (sb3-contrib's MaskablePPO).
+    ``"action_mask"`` (``(A,)`` int8, 1 where not improper), ``"state_name"``, and after a step
+    ``"outcome"`` ([`Outcome`][tableclean_suite.task.state.Outcome] code), ``"outcome_name"`` and ``"prob"`` (1.0); all picklable.
 
     ## Arguments
     ```python
     gymnasium.make("TableCleanSymbolic-v0", reward="r4", task="paper", start=None, render_mode=None)
     ```
-    - ``task``: a registered spec name (``"paper"``, ``"three_segments"``, ...), a
-      [`tableclean_suite.task.TaskSpec`][tableclean_suite.task.spec.TaskSpec] or a ``.json`` path.
+    - ``task``: a registered spec name, a [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] or a ``.json`` path.
     - ``start``: ``"fixed"`` or ``"uniform_unclean"``; None keeps the spec's.
-    - ``reward``: a registered reward pattern name (``"r1"`` .. ``"r4"`` or a user's) or a
-      [`tableclean_suite.rewards.RewardPattern`][tableclean_suite.rewards.RewardPattern].
-    - ``model``: a ready [`tableclean_suite.task.TaskModel`][tableclean_suite.task.model.TaskModel] instead of ``task``/``start``.
+    - ``reward``: a registered reward pattern name or a [`RewardPattern`][tableclean_suite.rewards.RewardPattern].
+    - ``model``: a ready [`TaskModel`][tableclean_suite.task.model.TaskModel] instead of ``task``/``start``.
     - ``render_mode``: ``"ansi"`` (text picture) or ``"rgb_array"`` (drawn top view).
-
-    ## Version History
-    - v0: initial version (``task=``, ``start=``: any task spec).
     """
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -296,11 +266,7 @@ class TableCleanSymbolicEnv(TableCleanBase):
 
     def step(self, action):
         action = self._check_action(action)
-        state = self.s
-        next_state, outcome = self.model.step(state, action)
-        reward = self._reward(outcome, state, next_state.index)
-        self._advance(state, next_state.index, action, outcome)
-        info = self._info(outcome)
-        info["prob"] = 1.0
-        # truncation=False: the time limit is handled by the registry's TimeLimit wrapper
-        return int(self.s), reward, next_state.is_terminal, False, info
+        next_state, outcome = self.model.step(self.s, action)
+        result = self._transition(action, next_state.index, outcome)
+        result[4]["prob"] = 1.0
+        return result
