@@ -1,24 +1,13 @@
 """The resource guard: estimate what a task spec and a budget need before allocating, refuse what
 cannot fit.
 
-Every large allocation of the symbolic path is sized by the spec (S state codes, A actions) and
-the budget (R runs, T iterations): the model's transition arrays and the table the learners step
-(a few int64/float64 per (state, action) pair), the Q-tables (R x S x A float64, as many copies as
-the learner and a checkpoint keep: [`q_table_copies`][tableclean_suite.resources.q_table_copies]), each running run's working arrays
-(`run_working_bytes`), the records (R x T: a float64 reward and four integer codes per
-iteration) and a run's training time ([`training_seconds`][tableclean_suite.resources.training_seconds]: R x T steps at the engine's rate,
-Dyna-Q's planning updates counted, and each run's setup of its S x A tables).
-[`require_memory`][tableclean_suite.resources.require_memory] compares an estimate with the memory the operating system reports as
-available (`psutil`) and raises [`InsufficientMemoryError`][tableclean_suite.resources.InsufficientMemoryError], whose one-line message
-names the estimate, its parts, what is available and the override.  [`require_time`][tableclean_suite.resources.require_time] (and
-[`require_training_time`][tableclean_suite.resources.require_training_time]) does the same for an estimated wall time longer than
-`MAX_TRAINING_SECONDS`, at the engine's own rate ([`steps_per_second`][tableclean_suite.resources.steps_per_second]).
-
-Sizes that grow exponentially with a spec (``2 ** segments`` state codes) are checked with
-[`bounded_product`][tableclean_suite.resources.bounded_product] on logarithms before any of them is computed.
-
-The override is explicit: set the environment variable `OVERRIDE_ENV` to ``1`` (executor
-workers inherit it), or call with ``override=True``.
+Estimates are sized by the spec (S state codes, A actions) and the budget (R runs, T iterations):
+the transition tables, the Q-tables ([`q_table_copies`][tableclean_suite.resources.q_table_copies]),
+each run's working arrays, the records and the training time
+([`training_seconds`][tableclean_suite.resources.training_seconds]).  The ``require_*`` functions
+raise a [`ResourceError`][tableclean_suite.resources.ResourceError] whose one-line message names the
+estimate, what is allowed or available, and the override: the environment variable `OVERRIDE_ENV`
+set to ``1`` (executor workers inherit it), or ``override=True``.
 """
 
 from __future__ import annotations
@@ -37,45 +26,34 @@ TRUE_WORDS = ("1", "true", "yes", "on")
 USABLE_FRACTION = 0.8
 #: Bytes of a float64 or an int64.
 WORD_BYTES = 8
-#: Bytes per (state, action) pair of building the model's table and the table the learners step:
-#: the model's cached next-state and outcome arrays (2 int64), the copies the table takes of them
-#: (2 int64), its cumulative probabilities (float64) and its execution counts (int64).
+#: Bytes per (state, action) pair of the model's table and the learners' (next states and outcomes,
+#: their copies, cumulative probabilities, execution counts).
 TABLE_BYTES_PER_PAIR = 6 * WORD_BYTES
-#: Bytes per state code of the vectorised rule build ([`tableclean_suite.task.batch_rules`][tableclean_suite.task.batch_rules]):
-#: the codes, the clean digits, the next codes and outcomes of one action (int64 each) and
-#: temporaries of the same size.
+#: Bytes per state code of the vectorised rule build ([`batch_rules`][tableclean_suite.task.batch_rules]).
 BUILD_BYTES_PER_STATE = 8 * WORD_BYTES
 #: Integer record arrays per (run, iteration): outcome, state, action, episode end (each of the
 #: task's record dtype, ``TaskModel.record_dtype``); a float64 reward comes with them.
 RECORD_CODE_ARRAYS = 4
-#: Symbolic learner steps per second assumed by time estimates (a fast machine's compiled loop on
-#: the paper's task, so the estimate errs towards allowing).
+#: Learner steps per second assumed by time estimates, compiled and plain-Python reference loops (a
+#: fast machine's, so the estimates err towards allowing).
 STEPS_PER_SECOND = 50_000_000
-#: Learner steps per second of the plain-Python reference loop (``engine="reference"``): measured
-#: ~80 000 on a shared 2-core machine (the compiled loop ~12 M there); a fast machine's, so the
-#: estimate errs towards allowing.
 REFERENCE_STEPS_PER_SECOND = 300_000
 #: Engine name -> learner steps per second assumed by time estimates.
 ENGINE_STEPS_PER_SECOND = {"compiled": STEPS_PER_SECOND, "reference": REFERENCE_STEPS_PER_SECOND}
-#: Q-table entries per second a run's setup writes (its S x A table(s) and working arrays, before
-#: its first step): a fast machine's memory bandwidth, so the estimate errs towards allowing.
+#: Q-table entries per second a run's setup writes before its first step (a fast machine's).
 TABLE_ENTRIES_PER_SECOND = 200_000_000
 #: The engine ``train()`` uses unless told otherwise (the benchmark grid and ``tune`` never choose another).
 DEFAULT_ENGINE = "compiled"
-#: Bytes per (state, action) pair of a Q entry in the reference loop's Python tables: a list slot
-#: (8), a float object (24) and a share of its row list's header (56 per row).
+#: Bytes per Q entry in the reference loop's Python tables (list slot, float object, row share).
 PYTHON_ENTRY_BYTES = 6 * WORD_BYTES
-#: Bytes per (state, action) pair of one run's working memory in the compiled loop
-#: (``kernel.run_memory``), by what the learner uses: eligibility traces (a float64 trace and an
-#: int64 pair index), Dyna's model (int64 next state, float64 reward, bool terminal flag, int64
-#: observed pair) and learned affordances (an int8 mask).
+#: Bytes per (state, action) pair of one run's working memory in the compiled loop: eligibility
+#: traces, Dyna's model, learned affordances.
 TRACE_BYTES_PER_PAIR = 2 * WORD_BYTES
 DYNA_BYTES_PER_PAIR = 3 * WORD_BYTES + 1
 LEARNED_AFFORDANCE_BYTES_PER_PAIR = 1
 #: Longest estimated training (and analysis) a command may need before it is refused: seconds (1 day).
 MAX_TRAINING_SECONDS = 24 * 3600
-#: Calls of a user action's Python effect that building a table may make (about 8.5 us each,
-#: so ~4 s); larger specs with user actions are refused (the built-in actions are vectorised).
+#: Calls of user actions' Python effects a table build may make (about 8.5 us each).
 MAX_USER_EFFECT_CALLS = 500_000
 
 _UNITS = ("B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB")
@@ -293,6 +271,12 @@ def bounded_product(terms, limit: int) -> int | None:
     return product if product <= int(limit) else None
 
 
+def _refuse(error: type, message: str, override: bool) -> None:
+    """Raise ``error`` with ``message`` and the override's hint, unless ``override`` or `OVERRIDE_ENV`."""
+    if not (override or override_enabled()):
+        raise error(f"{message}, or set {OVERRIDE_ENV}=1 to try anyway")
+
+
 def require_memory(estimate: MemoryEstimate, what: str, available: int | None = None,
                    override: bool = False) -> None:
     """Raise [`InsufficientMemoryError`][tableclean_suite.resources.InsufficientMemoryError] when ``estimate`` exceeds `USABLE_FRACTION` of
@@ -307,10 +291,9 @@ def require_memory(estimate: MemoryEstimate, what: str, available: int | None = 
         return
     available = available_bytes() if available is None else int(available)
     if estimate.total > USABLE_FRACTION * available:
-        raise InsufficientMemoryError(
-            f"{what} needs about {estimate.describe()}, but only {format_bytes(available)} of memory is "
-            f"available (at most {USABLE_FRACTION:.0%} of it may be used); use a smaller task or budget, or set "
-            f"{OVERRIDE_ENV}=1 to try anyway")
+        _refuse(InsufficientMemoryError, f"{what} needs about {estimate.describe()}, but only "
+                f"{format_bytes(available)} of memory is available (at most {USABLE_FRACTION:.0%} of it may be "
+                "used); use a smaller task or budget", override)
 
 
 def require_time(seconds: float, what: str, detail: str = "", override: bool = False) -> None:
@@ -321,14 +304,11 @@ def require_time(seconds: float, what: str, detail: str = "", override: bool = F
         what: what would take that long, for the message.
         detail: how the estimate was made (e.g. ``"1e15 learner steps at 5e7 steps/s"``).
     """
-    if override or override_enabled():
-        return
     if seconds > MAX_TRAINING_SECONDS:
         how = f" ({detail})" if detail else ""
-        raise TooMuchWorkError(
-            f"{what} would take about {format_seconds(seconds)}{how}, more than the "
-            f"{format_seconds(MAX_TRAINING_SECONDS)} allowed; use fewer runs, iterations or a smaller task, or set "
-            f"{OVERRIDE_ENV}=1 to try anyway")
+        _refuse(TooMuchWorkError, f"{what} would take about {format_seconds(seconds)}{how}, more than the "
+                f"{format_seconds(MAX_TRAINING_SECONDS)} allowed; use fewer runs, iterations or a smaller task",
+                override)
 
 
 #: Longest estimated time of a table build's user action effects, timed on its first states (seconds).
@@ -341,11 +321,10 @@ def require_effect_seconds(seconds: float, what: str, override: bool = False) ->
     """Raise [`TooMuchWorkError`][tableclean_suite.resources.TooMuchWorkError] when a table build's user
     action effects, timed on its first states, would take more than `MAX_EFFECT_SECONDS` in all;
     above `NOTICE_EFFECT_SECONDS` say the estimate on stderr."""
-    if seconds > MAX_EFFECT_SECONDS and not (override or override_enabled()):
-        raise TooMuchWorkError(
-            f"{what}: its user action effects, timed on its first states, would take about {format_seconds(seconds)}, "
-            f"more than the {MAX_EFFECT_SECONDS} s allowed; use faster effects or a smaller task, or set "
-            f"{OVERRIDE_ENV}=1 to try anyway")
+    if seconds > MAX_EFFECT_SECONDS:
+        _refuse(TooMuchWorkError, f"{what}: its user action effects, timed on its first states, would take about "
+                f"{format_seconds(seconds)}, more than the {MAX_EFFECT_SECONDS} s allowed; use faster effects or a "
+                "smaller task", override)
     if seconds > NOTICE_EFFECT_SECONDS:
         print(f"{what}: user action effects take about {format_seconds(seconds)}", file=sys.stderr, flush=True)
 
@@ -353,12 +332,9 @@ def require_effect_seconds(seconds: float, what: str, override: bool = False) ->
 def require_effect_calls(calls: int, what: str, override: bool = False) -> None:
     """Raise [`TooMuchWorkError`][tableclean_suite.resources.TooMuchWorkError] when building a table would call user action effects more
     than `MAX_USER_EFFECT_CALLS` times (pure Python, about 8.5 us each)."""
-    if override or override_enabled():
-        return
     if int(calls) > MAX_USER_EFFECT_CALLS:
-        raise TooMuchWorkError(
-            f"{what} calls user action effects {int(calls)} times (pure Python; at most {MAX_USER_EFFECT_CALLS} are "
-            f"allowed, a few seconds); use fewer segments or objects, or set {OVERRIDE_ENV}=1 to try anyway")
+        _refuse(TooMuchWorkError, f"{what} calls user action effects {int(calls)} times (pure Python; at most "
+                f"{MAX_USER_EFFECT_CALLS} are allowed, a few seconds); use fewer segments or objects", override)
 
 
 #: Python rule steps (state x action, about 8.5 us each) a per-state walk of a task may take: the
@@ -369,11 +345,7 @@ MAX_PYTHON_RULE_STEPS = 2_000_000
 def require_python_steps(steps: int, what: str, override: bool = False) -> None:
     """Raise [`TooMuchWorkError`][tableclean_suite.resources.TooMuchWorkError] when a pure-Python walk over a task's states would step its
     rules more than `MAX_PYTHON_RULE_STEPS` times."""
-    if override or override_enabled():
-        return
     if int(steps) > MAX_PYTHON_RULE_STEPS:
-        raise TooMuchWorkError(
-            f"{what} steps the task's rules state by state up to {int(steps)} times (pure Python, about "
-            f"{format_seconds(int(steps) * 8.5e-6)}; at most {MAX_PYTHON_RULE_STEPS} are allowed); use fewer segments "
-            f"or objects, or set {OVERRIDE_ENV}=1 to try anyway")
-
+        _refuse(TooMuchWorkError, f"{what} steps the task's rules state by state up to {int(steps)} times (pure "
+                f"Python, about {format_seconds(int(steps) * 8.5e-6)}; at most {MAX_PYTHON_RULE_STEPS} are allowed); "
+                "use fewer segments or objects", override)

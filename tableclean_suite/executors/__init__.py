@@ -6,46 +6,17 @@
         for result in executor.map(train_one, tasks):          # results in task order
             ...
 
-The contract ([`Executor`][tableclean_suite.executors.base.Executor]): ``map(function, tasks)`` runs a **module-level**
-``function`` on each **picklable task** and yields the results in task order.  Tasks are plain
-configurations (a frozen dataclass of numbers, strings and tuples, with the task's own seed);
-the function builds its own environment, model or simulator inside the worker, so nothing
-unpicklable crosses a process boundary and results are the same on any executor with any
-number of workers.  A task whose function raises [`RetryableError`][tableclean_suite.executors.base.RetryableError], or whose worker
-dies, is run again up to ``max_retries`` times; then [`TaskFailedError`][tableclean_suite.executors.base.TaskFailedError] names it.
-
-Implementations:
-
-- [`LocalExecutor`][tableclean_suite.executors.local.LocalExecutor] (``"local"``, the default): ``workers`` spawned processes of this
-  machine, or this very process when ``workers == 1`` (no pickling, no start-up cost);
-- [`RayExecutor`][tableclean_suite.executors.ray_executor.RayExecutor] (``"ray"``): Ray tasks, on a private Ray bound to loopback
-  (``address=None``) or on a running cluster (``address="HOST:PORT"`` or ``"auto"``); Ray is
-  the optional ``cluster`` extra and is imported only when this executor starts.
-
-How the expensive workloads use it (this package depends on nothing above it: it knows no
-simulator and no harness):
-
-- the harness's cells (``python -m benchmarks.run --executor ray``): one task per cell,
-  [`tableclean_suite.bench.experiments.train_cell_task`][tableclean_suite.bench.experiments.train_cell_task];
-- physics training (``train_physics``): one task per share of runs, e.g.
-  ``PhysicsShare(learner, reward, task_spec_name, run_indices, iterations, seed, options)``;
-  the function builds its robosuite environment in the worker and returns the share's records;
-  counter-based seeds per run keep the records the same whatever the split;
-- fidelity and calibration trials: one task per round, ``FidelityRound(round_index, seed,
-  task, actions, ...)`` with the round's seed from ``round_seed(seed, round_index)``; the
-  function builds its own scene and returns the round's rows, which the caller appends to
-  the trials CSV in round order (``map`` yields in task order);
-- demo collection (``python -m benchmarks.collect_demos --workers N --executor ray``): one task
-  per attempt, ``DemoAttempt(spec, ..., seed, attempt)`` with its start and placement drawn from
-  ``(seed, attempt)``; failed attempts are replaced in waves and the demos kept in attempt order.
-
-A physics task whose numbers must match bit for bit runs under
-[`single_blas_thread`][tableclean_suite.executors.blas.single_blas_thread]: OpenBLAS's thread count (Ray starts
-workers with ``OMP_NUM_THREADS=1``, local processes inherit the caller's) changes the last bits
-of a trajectory.
-
-Raise [`RetryableError`][tableclean_suite.executors.base.RetryableError] inside such a function for a failure worth another try (e.g. a
-MuJoCo instability); let anything else propagate (it fails the task at once).
+``map(function, tasks)`` ([`Executor`][tableclean_suite.executors.base.Executor]) runs a
+module-level ``function`` on each picklable task (a plain configuration with its own seed; the
+function builds its environment or model inside the worker) and yields the results in task order,
+the same on any executor with any number of workers.  A task whose function raises
+[`RetryableError`][tableclean_suite.executors.base.RetryableError], or whose worker dies, is run
+again up to ``max_retries`` times; then [`TaskFailedError`][tableclean_suite.executors.base.TaskFailedError]
+names it.  [`LocalExecutor`][tableclean_suite.executors.local.LocalExecutor] (``"local"``) uses
+spawned processes of this machine (this very process when ``workers == 1``);
+[`RayExecutor`][tableclean_suite.executors.ray_executor.RayExecutor] (``"ray"``, the optional
+``cluster`` extra) a private Ray on loopback or a running cluster.  A physics task whose numbers
+must match bit for bit runs under [`single_blas_thread`][tableclean_suite.executors.blas.single_blas_thread].
 """
 
 from __future__ import annotations

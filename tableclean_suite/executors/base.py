@@ -1,19 +1,9 @@
-"""The executor interface: what every executor offers, its errors and shared checks.
+"""The executor interface, its errors and the checks every executor shares.
 
-An executor runs ``function(task)`` for every task of a list and yields the results in task
-order.  ``function`` is a module-level function (importable by name in another process or on
-another machine); a task is a picklable value, ideally a frozen dataclass of plain values.  No
-simulator, environment or open file crosses a process boundary: the function builds what it
-needs from the task.  Each task carries its own seed, so results never depend on the executor,
-the number of workers or the order in which tasks finish.
-
-Failures:
-
-- a task function that raises [`RetryableError`][tableclean_suite.executors.base.RetryableError] (a transient failure it recognised), or
-  a worker process that dies while running it, makes the executor run the task again, up to
-  ``max_retries`` more times; after that [`TaskFailedError`][tableclean_suite.executors.base.TaskFailedError] names the task;
-- any other exception fails the task at once: [`TaskFailedError`][tableclean_suite.executors.base.TaskFailedError] names the task and
-  chains the original exception (``__cause__``).
+A task function that raises [`RetryableError`][tableclean_suite.executors.base.RetryableError], or
+whose worker dies, is run again up to ``max_retries`` more times, then
+[`TaskFailedError`][tableclean_suite.executors.base.TaskFailedError] names the task; any other
+exception fails the task at once (chained as ``__cause__``).
 """
 
 from __future__ import annotations

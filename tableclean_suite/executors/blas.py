@@ -1,15 +1,9 @@
 """One BLAS thread while a task runs, so its numbers do not depend on where it runs.
 
-OpenBLAS (numpy's and scipy's wheels) splits some products over its threads, and the split
-changes the rounding: the same physics run gives trajectories that differ in the last bits
-(then diverge) with ``OMP_NUM_THREADS=1`` and with the default (one thread per core).  Ray
-starts its workers with ``OMP_NUM_THREADS`` set to the task's CPUs (1), local processes
-inherit the caller's setting, and cluster machines have different core counts; a task
-function that runs under [`single_blas_thread`][tableclean_suite.executors.blas.single_blas_thread] computes the same bits everywhere.
-
-The thread count is set through the OpenBLAS libraries already loaded in the process (found in
-``/proc/self/maps``), and restored afterwards.  Where there is no ``/proc`` or no OpenBLAS
-(e.g. another BLAS), nothing is changed.
+OpenBLAS's thread count changes the rounding of some products, hence a physics trajectory's last
+bits (Ray starts workers with ``OMP_NUM_THREADS=1``, local processes inherit the caller's).  The
+count is set through the OpenBLAS libraries this process has loaded (``/proc/self/maps``) and
+restored afterwards; without ``/proc`` or OpenBLAS nothing changes.
 """
 
 from __future__ import annotations

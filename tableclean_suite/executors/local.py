@@ -1,12 +1,8 @@
-"""Tasks in local processes (``concurrent.futures`` with the spawn start method), or in this
-process when ``workers == 1``.
+"""Tasks in spawned local processes (``concurrent.futures``), or in this process when ``workers == 1``.
 
-Spawned workers import ``function``'s module afresh (a script that uses more than one worker
-needs the usual ``if __name__ == "__main__":`` guard).  At most ``workers`` tasks are in
-flight at a time, so a worker crash breaks the pool while only those tasks run: each of them is
-charged one attempt (the pool cannot tell which one crashed it), the pool is restarted and they
-are run again.  Every worker watches its parent ([`watch_parent`][tableclean_suite.executors.local.watch_parent]) and exits within a second
-of its death, so nothing is left running after the parent is killed.
+A script using more than one worker needs the ``if __name__ == "__main__":`` guard (workers import
+it).  A worker crash charges each task then running one attempt and restarts the pool; workers
+exit within a second of their parent's death ([`watch_parent`][tableclean_suite.executors.local.watch_parent]).
 """
 
 from __future__ import annotations
@@ -29,28 +25,10 @@ PARENT_CHECK_SECONDS = 1.0
 ORPHAN_EXIT_STATUS = 1
 
 
-def _parent_alive(parent_pid: int) -> bool:
-    """Whether the process that started this worker still runs (not re-parented, not gone)."""
-    if os.getppid() != parent_pid:
-        return False
-    try:
-        os.kill(parent_pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # alive, owned by someone else
-        return True
-    return True
-
-
 def watch_parent(parent_pid: int, interval: float = PARENT_CHECK_SECONDS) -> None:
-    """Worker initializer: a daemon thread that ends this worker (``os._exit``) within ``interval``
-    seconds of its parent's death, so a killed run (``kill -9``) leaves no worker behind blocked on
-    a dead pipe (and the resource tracker, whose pipe the workers hold, exits with them).
-
-    The worker also ignores Ctrl-C (SIGINT, which a terminal sends to the whole process group): the
-    parent handles it and stops its workers (`LocalExecutor.__exit__`), so an interrupt prints
-    the parent's one line, not a traceback per worker.
-    """
+    """Worker initializer: a daemon thread ends this worker within ``interval`` seconds of its
+    parent's death (the worker is re-parented), so a killed run leaves no worker behind; the worker
+    ignores Ctrl-C, which the parent handles by stopping its workers."""
     import signal
     import threading
     import time
@@ -58,7 +36,7 @@ def watch_parent(parent_pid: int, interval: float = PARENT_CHECK_SECONDS) -> Non
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
     def watch():
-        while _parent_alive(parent_pid):
+        while os.getppid() == parent_pid:
             time.sleep(interval)
         os._exit(ORPHAN_EXIT_STATUS)
 
@@ -102,14 +80,9 @@ class LocalExecutor:
     def __repr__(self) -> str:
         return f"LocalExecutor(workers={self.workers}, max_retries={self.max_retries})"
 
-    @property
-    def in_process(self) -> bool:
-        """True when tasks run in the calling process (``workers == 1``)."""
-        return self.workers == 1
-
     def start(self) -> None:
         """Start the worker processes (nothing to start in-process); idempotent."""
-        if not self.in_process and self._pool is None:
+        if self.workers > 1 and self._pool is None:
             self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context(START_METHOD),
                                              initializer=watch_parent, initargs=(os.getpid(),))
 
@@ -134,7 +107,7 @@ class LocalExecutor:
         """``function(task)`` for each task, in task order (see [`Executor`][tableclean_suite.executors.base.Executor])."""
         check_function(function)
         tasks = list(tasks)
-        if self.in_process:
+        if self.workers == 1:
             return (self._run_here(function, task) for task in tasks)
         return self._run_pool(function, tasks)
 
@@ -165,7 +138,7 @@ class LocalExecutor:
                     broken, failure = self._collect(done, running, finished, waiting, tasks, attempts)
                     if broken:  # every task of the dead pool fails: collect them all, then restart
                         more = self._collect(wait(running).done, running, finished, waiting, tasks, attempts)[1]
-                        failure = _lowest_indexed(failure, more)
+                        failure = min(filter(None, (failure, more)), key=lambda f: f[0], default=None)
                         self._restart()
                     if failure is not None:
                         raise failure[1]
@@ -189,10 +162,8 @@ class LocalExecutor:
                  attempts: list) -> tuple[bool, tuple[int, TaskFailedError] | None]:
         """Move the ``done`` futures out of ``running``: results to ``finished``, retryable failures
         back to ``waiting``.  Returns whether the pool broke (a worker died) and ``(index, error)`` of
-        the lowest-indexed task that failed for good, if any.  Lowest, not first done: when a crash
-        breaks the pool, every task running in it is charged an attempt, so a task that runs beside
-        one that always crashes can use up its attempts in the same collection; the crashing task was
-        submitted first (lower index), so it is the one named, whatever order the futures end in."""
+        the lowest-indexed task that failed for good, if any (a crash charges every task of the
+        pool; the one named is the first submitted, whatever order the futures end in)."""
         broken, failure = False, None
         for future in sorted(done, key=running.get):
             index = running.pop(future)
@@ -211,7 +182,3 @@ class LocalExecutor:
                 heapq.heappush(waiting, index)
         return broken, failure
 
-
-def _lowest_indexed(*failures: tuple[int, TaskFailedError] | None) -> tuple[int, TaskFailedError] | None:
-    """The ``(index, error)`` of ``failures`` with the lowest task index, or None when every one is None."""
-    return min((failure for failure in failures if failure is not None), key=lambda failure: failure[0], default=None)

@@ -1,10 +1,9 @@
-"""Tasks as Ray tasks: on a local Ray started on loopback, or on an existing Ray cluster.
+"""Tasks as Ray tasks: on a private Ray bound to loopback, or on a running Ray cluster.
 
-Ray is imported only when the executor starts; without it the error names the ``cluster``
-extra (``pip install "tableclean_suite[cluster]"``).  Retries are Ray's own: a task is run
-again after a worker or node failure, or after [`RetryableError`][tableclean_suite.executors.base.RetryableError], at most
-``max_retries`` times.  Every machine of a cluster needs the same version of this package (and
-of any module that registers learners, rewards or task specs the tasks use) installed.
+Ray is imported when the executor starts ([`MissingRayError`][tableclean_suite.executors.ray_executor.MissingRayError]
+names the ``cluster`` extra).  Retries are Ray's own (a worker or node failure, or
+[`RetryableError`][tableclean_suite.executors.base.RetryableError]).  Every machine of a cluster
+needs the same version of this package and of any plugin module the tasks use.
 """
 
 from __future__ import annotations
@@ -16,16 +15,13 @@ from typing import Callable, Iterable, Iterator
 from tableclean_suite.executors.base import (DEFAULT_MAX_RETRIES, RetryableError, TaskFailedError, check_count,
                                              check_function)
 
-#: Address a locally started Ray binds to: this machine only.
+#: Address a private Ray binds to: this machine only.
 LOOPBACK = "127.0.0.1"
-#: CPUs Ray reserves for each task (a task is single-threaded: numba threads = 1 inside it).
+#: CPUs Ray reserves for each task (a task is single-threaded).
 CPUS_PER_TASK = 1
-#: Turn Ray's usage statistics off for a Ray this executor starts (it would contact Ray's servers).
+#: Set to 0 for a Ray this executor starts: no usage statistics sent.
 USAGE_STATS_VARIABLE = "RAY_USAGE_STATS_ENABLED"
-
-
-#: Seconds [`RayExecutor`][tableclean_suite.executors.ray_executor.RayExecutor] waits for a cluster's head (``address="HOST:PORT"``) to accept a
-#: connection before giving up (Ray itself retries without end).
+#: Seconds to wait for a cluster's head to accept a connection (Ray itself retries without end).
 DEFAULT_CONNECT_TIMEOUT = 30.0
 #: Scheme prefix of Ray Client addresses (``ray://HOST:PORT``).
 CLIENT_SCHEME = "ray://"
@@ -145,7 +141,7 @@ class RayExecutor:
         self._ray = None
 
     def __enter__(self) -> "RayExecutor":
-        """Ray starts (or is joined) on the first [`map`][tableclean_suite.executors.ray_executor.RayExecutor.map], so a run with nothing to do costs nothing."""
+        """Ray starts (or is joined) on the first ``map``, so a run with nothing to do costs nothing."""
         self._in_context = True
         return self
 
