@@ -58,9 +58,14 @@ def _checked(text: str, kind, allowed, what: str):
     return value
 
 
+def number_type(kind, allowed, what: str):
+    """A type: a ``kind`` (``int`` or ``float``) for which ``allowed(value)`` holds, else an error naming ``what``."""
+    return lambda text: _checked(text, kind, allowed, what)
+
+
 def int_in(low: int, high: int, what: str = "an integer"):
     """A type: an integer in ``[low, high]``."""
-    return lambda text: _checked(text, int, lambda v: low <= v <= high, f"{what} in [{low}, {high}]")
+    return number_type(int, lambda v: low <= v <= high, f"{what} in [{low}, {high}]")
 
 
 def positive_float(text: str) -> float:

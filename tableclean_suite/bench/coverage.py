@@ -3,23 +3,12 @@
     tableclean-bench coverage                          # 100 replications of the 8 main cells
     tableclean-bench coverage --replications 100 --runs 200 --iterations 2000 --reference-runs 4000
 
-For each main cell the command trains one **reference** of ``--reference-runs`` runs and K =
-``--replications`` replications of ``--runs`` runs, each through the path ``tableclean-bench run``
-publishes by ([run_grid][tableclean_suite.bench.experiments.run_grid],
-[table3][tableclean_suite.bench.tables.table3],
-[comparisons][tableclean_suite.bench.statistics.comparisons]).  Every column ``X`` with
-``X_low``/``X_high`` beside it is scored (``table4.csv`` repeats Table 3's, so it is not):
-
-- **target**: the reference's point value of ``X``;
-- a replication **covers** when ``X_low <= target <= X_high`` (an undefined bound never covers;
-  ``undefined`` counts those);
-- **coverage** = covered / K, with its Clopper-Pearson interval
-  ([clopper_pearson][tableclean_suite.intervals.clopper_pearson]).
-
-Seeds: the reference at ``--seed`` S, replication k at S + 1 + k
-([run_key][tableclean_suite.learners.rng.run_key]): they share no run and no draw.  Writes
-``OUT/coverage.csv`` (the same arguments give the same bytes) and prints it; the reference's cells
-are kept in ``OUT/cells/``, the replications' are not.
+For each main cell: one reference of ``--reference-runs`` runs (seed S) and K = ``--replications``
+replications of ``--runs`` runs (seed S + 1 + k), each through the run command's path.  For every
+published column ``X`` with ``X_low``/``X_high`` (``table3.csv``, ``comparisons.csv``), a replication
+covers when ``X_low <= target <= X_high``, the target being the reference's ``X``; coverage =
+covered / K with its Clopper-Pearson interval.  Writes ``OUT/coverage.csv`` (same arguments, same
+bytes); the reference's cells are kept in ``OUT/cells/``.
 """
 
 from __future__ import annotations
@@ -32,31 +21,22 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-#: Replications per cell by default (fewer cannot tell 90 % from 95 %: 18 of 20 has a 95 %
-#: Clopper-Pearson interval of [68, 99] %).
+#: Replications per cell by default (18 of 20 has a 95 % Clopper-Pearson interval of [68, 99] %).
 DEFAULT_REPLICATIONS = 100
-#: Runs of the reference cell by default.
 DEFAULT_REFERENCE_RUNS = 20_000
-#: Bootstrap resamples of the reference: only its point values, which no resample moves, are
-#: used; 2 is the fewest ``scipy.stats.bootstrap`` takes without a warning.
+#: Bootstrap resamples of the reference, whose point values alone are used (2: scipy's fewest without a warning).
 REFERENCE_SAMPLES = 2
-#: Confidence of the Clopper-Pearson interval on each coverage by default.
 DEFAULT_CONFIDENCE = 0.95
 RESULT_FILE = "coverage.csv"
-#: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench coverage"
 DEFAULT_OUT = "results/coverage"
-#: Suffixes of an interval's bounds next to the number they bound (as in ``table3.csv``).
 LOW, HIGH = "_low", "_high"
 #: Columns of ``coverage.csv``.
 COLUMNS = ("table", "row", "statistic", "target", "nominal", "runs", "reference_runs", "replications", "covered",
            "undefined", "coverage", "coverage_low", "coverage_high", "coverage_confidence", "mean_width")
-#: Widest terminal line of the printed table, characters.
 PRINT_WIDTH = 120
-
-#: [RunConfig][tableclean_suite.bench.config.RunConfig] fields this command takes with the run
-#: command's flags, and their argparse types (None: text).  ``--runs``, ``--iterations``,
-#: ``--seed``, ``--task`` and ``--out`` come from [cli][tableclean_suite.bench.cli].
+#: [RunConfig][tableclean_suite.bench.config.RunConfig] fields taken with the run command's flags, and their
+#: argparse types (None: text).
 RUN_FIELDS = {"learners": None, "rewards": None, "alpha": float, "gamma": float, "epsilon": float, "max_itr": int,
               "exploration": None, "q_init": float, "learner_options": None, "start": None, "ineffective": None,
               "threshold": float, "plateau_fraction": float, "support_fraction": float, "bootstrap_samples": int,
@@ -64,27 +44,20 @@ RUN_FIELDS = {"learners": None, "rewards": None, "alpha": float, "gamma": float,
 
 
 def replication_seed(seed: int, replication: int) -> int:
-    """The seed of replication ``replication`` (0-based) of a study at ``seed``: ``seed + 1 + replication``
-    (the reference trains at ``seed``)."""
+    """The seed of replication ``replication`` (0-based) of a study whose reference trains at ``seed``."""
     return int(seed) + 1 + int(replication)
 
 
 def interval_columns(table) -> list[str]:
-    """The statistics of ``table`` that carry an interval: each column ``X`` with ``X_low`` and
-    ``X_high`` beside it, in the table's order."""
+    """The columns ``X`` of ``table`` with ``X_low`` and ``X_high`` beside them, in order."""
     columns = set(table.columns)
     return [name for name in table.columns if name + LOW in columns and name + HIGH in columns]
 
 
 def published_tables(config, model, store) -> dict:
-    """The tables with intervals ``tableclean-bench run`` publishes for ``config``'s main cells (no
-    sweeps, no literature cells), trained or loaded through ``store`` (a
-    [CellStore][tableclean_suite.bench.experiments.CellStore]), each indexed by a row label:
-
-    - ``"table3"``: ``table3.csv``'s rows, by ``cell_id``;
-    - ``"comparisons"``: ``comparisons.csv``'s rows (with two or more main cells), by
-      ``"LEARNER-REWARD vs LEARNER-REWARD: SCORE"``.
-    """
+    """The tables with intervals the run command publishes for ``config``'s main cells, trained or loaded
+    through ``store``: ``"table3"`` by ``cell_id`` and (two or more cells) ``"comparisons"`` by
+    ``"LEARNER-REWARD vs LEARNER-REWARD: SCORE"``."""
     from tableclean_suite.bench import experiments, statistics, tables
 
     grid = [m for m in experiments.config_grid(config) if m.experiment == "main"]
@@ -106,7 +79,6 @@ def comparison_labels(comparisons) -> list[str]:
 
 
 def _float(value) -> float:
-    """A table entry as a float (``<NA>`` and None as NaN)."""
     import pandas as pd
 
     return math.nan if value is None or value is pd.NA else float(value)
@@ -114,20 +86,11 @@ def _float(value) -> float:
 
 def coverage_frame(reference: dict, replications: list[dict], runs: int, reference_runs: int, nominal: float,
                    confidence: float = DEFAULT_CONFIDENCE):
-    """One row per (table, row, statistic with an interval) of ``reference``: columns ``COLUMNS``.
-
-    Args:
-        reference: the reference's tables
-            ([published_tables][tableclean_suite.bench.coverage.published_tables]; their point values
-            are the targets).
-        replications: the replications' tables (the same tables, rows and columns), at least one.
-        runs, reference_runs: runs per replication and of the reference (recorded in the rows).
-        nominal: the intervals' confidence (``RunConfig.confidence``), recorded.
-        confidence: the Clopper-Pearson interval's confidence, in (0, 1).
-
-    An undefined (NaN) target gets empty ``covered``, ``coverage`` and interval; infinite bounds
-    compare as numbers.  ``mean_width`` is over the defined intervals (equal bounds: width 0).
-    """
+    """One row (`COLUMNS`) per (table, row, statistic with an interval) of the ``reference`` tables (their point
+    values are the targets) scored over the ``replications``' tables (at least one).  ``runs``,
+    ``reference_runs`` and ``nominal`` (the intervals' confidence) are recorded; ``confidence`` (in (0, 1)) is
+    the Clopper-Pearson interval's.  An undefined target leaves ``covered`` and ``coverage`` empty;
+    ``mean_width`` is over the defined intervals (equal bounds, infinite included: width 0)."""
     import numpy as np
     import pandas as pd
 
@@ -160,8 +123,7 @@ def coverage_frame(reference: dict, replications: list[dict], runs: int, referen
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line: this command's options, and the run command's cell settings (same flags,
-    defaults and help from [RunConfig][tableclean_suite.bench.config.RunConfig])."""
+    """The command line: its own options and the run command's cell settings."""
     from tableclean_suite.bench import cli, run
     from tableclean_suite.bench.config import defaults, field_docs
 
@@ -201,8 +163,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 
 
 def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
-    """Parse and check the command line (before any training); a bad value exits 2 with one line
-    naming it and what is allowed.  The namespace gains ``config`` (the replications'
+    """Parse and check the command line (exit 2 on a bad value); adds ``config`` (the replications'
     [RunConfig][tableclean_suite.bench.config.RunConfig]) and ``prog``."""
     from tableclean_suite.bench import cli, run
     from tableclean_suite.bench.config import ConfigError, RunConfig
@@ -229,9 +190,8 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
 
 
 def estimate(args, model) -> tuple[str, float]:
-    """``(text, seconds)``: the work of the study, stated before it starts (learner steps and the
-    harness's time estimate of them, [check_grid_resources][tableclean_suite.bench.experiments.check_grid_resources],
-    which refuses a grid too large to train)."""
+    """``(text, seconds)``: the study's learner steps and estimated time; refuses a study too large
+    ([check_grid_resources][tableclean_suite.bench.experiments.check_grid_resources])."""
     from tableclean_suite import resources
     from tableclean_suite.bench import experiments
 
@@ -251,9 +211,8 @@ def estimate(args, model) -> tuple[str, float]:
 
 
 def measure(args, model, out: Path):
-    """Train the reference (cells kept in ``out/cells``) and the replications (not kept); returns
-    [coverage_frame][tableclean_suite.bench.coverage.coverage_frame] of them.  Progress on stderr
-    unless ``args.progress`` is False."""
+    """Train the reference (cells kept in ``out/cells``) and the replications (not kept): their
+    [coverage_frame][tableclean_suite.bench.coverage.coverage_frame]."""
     from tqdm.auto import tqdm
 
     from tableclean_suite.bench import experiments
@@ -284,9 +243,7 @@ def measure(args, model, out: Path):
 
 
 def display_lines(frame) -> list[str]:
-    """The printed table, one section per published table, at most ``PRINT_WIDTH`` characters a
-    line (long row labels are cut): row, statistic (in the section's title when it has one),
-    target, covered/K, coverage with its interval, mean interval width."""
+    """The printed table, one section per published table, lines of at most ``PRINT_WIDTH`` characters."""
     import pandas as pd
 
     lines = []
@@ -317,7 +274,6 @@ def display_lines(frame) -> list[str]:
 def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     from tableclean_suite.bench import cli, outputs
-    from tableclean_suite.bench.commands import EXIT_INTERRUPTED
     from tableclean_suite.executors.blas import single_blas_thread
 
     args = parse_args(argv, prog)
@@ -340,7 +296,7 @@ def main(argv=None, prog: str | None = None) -> int:
     except KeyboardInterrupt:
         print(f"{args.prog}: interrupted; nothing written (the reference's cells are kept in {out / 'cells'})",
               file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return cli.EXIT_INTERRUPTED
     config = args.config
     print(f"\nCoverage on task {config.task!r}: alpha {config.alpha:g}, gamma {config.gamma:g}, {config.runs} runs x "
           f"{config.iterations} iterations per replication,")

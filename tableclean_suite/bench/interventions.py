@@ -3,30 +3,14 @@
     tableclean-bench interventions                              # every intervention, 200 runs per arm
     tableclean-bench interventions --only q_init,routine_reward --runs 100 --out results/interventions
 
-Every explanation on the findings page ("r3 is slow *because* ...") predicts what happens when the
-factor it names is changed.  Each `Intervention` trains a *before* cell (the setting the
-explanation is about) and an *after* cell that differs in that one factor (initial Q values, the
-routine reward, the looping rule's memory, epsilon, ``max_itr``, the budget, gamma), on the same
-runs (same ``--seed``), and reports for both:
-
-- the per-run **learning time** (``TrainingResult.learned_at``: the iteration from which the run's
-  greedy policy follows a shortest plan from every start state to the end of the budget):
-  Kaplan-Meier median with its 95 % interval and the **share censored** (not learned by the end
-  of the budget) with its Clopper-Pearson interval
-  ([learning_time_summary][tableclean_suite.learning_time.learning_time_summary]);
-- the **success plateau**: the exact success probability of each run's final epsilon-greedy
-  behaviour (`tableclean_suite.asymptotes.greedy_asymptotes`), averaged over runs, with a
-  bootstrap interval over runs ([interval_estimates][tableclean_suite.intervals.interval_estimates]);
-- the share of runs that **never reached the terminal state**.
-
-and the observed **change** of the figure the explanation predicts to move
-([observed_change][tableclean_suite.bench.interventions.observed_change]): ``in the predicted
-direction`` when the after cell's 95 % interval lies wholly on the predicted side of the before
-cell's, ``in the opposite direction`` when wholly on the other side, ``no clear change`` when the
-two intervals overlap.
-
-Writes ``OUT/interventions.csv`` (one row per arm) atomically; deterministic for a given ``--seed``.
-``--scale`` multiplies every budget (for a quick look; the findings page uses 1).
+Each [`Intervention`][tableclean_suite.bench.interventions.Intervention] tests an explanation of the
+findings page: it trains a *before* cell and an *after* cell differing in the one factor the
+explanation names, on the same runs, and reports for both the per-run learning time (Kaplan-Meier
+median, share censored), the success plateau (exact, of each run's final behaviour) and the share
+of runs never terminal, each with a 95 % interval, and whether the predicted figure moved
+([observed_change][tableclean_suite.bench.interventions.observed_change]).  Writes
+``OUT/interventions.csv`` (one row per arm); deterministic for a given ``--seed``.  ``--scale``
+multiplies every budget (a quick look).
 """
 
 from __future__ import annotations
@@ -43,11 +27,8 @@ import numpy as np
 
 from tableclean_suite.bench.cli import say
 
-#: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench interventions"
-#: Default output folder.
 DEFAULT_OUT = "results/interventions"
-#: Runs per arm.
 DEFAULT_RUNS = 200
 #: Level of every interval.
 CONFIDENCE = 0.95
@@ -70,17 +51,9 @@ def _pattern(base: str, name: str, **changes):
 
 @dataclass(frozen=True)
 class Intervention:
-    """One causal check.
-
-    Attributes:
-        name: the ``--only`` key.
-        claim: the explanation it tests, as the findings page states it.
-        factor: the one factor that differs between the arms.
-        before: ``train()`` settings of the cell the claim is about (on top of `BASE`).
-        after: the settings that change in the other arm.
-        figure: the figure the claim predicts to move (a key of `FIGURES`).
-        direction: -1 if the claim predicts it falls, +1 if it rises.
-    """
+    """One causal check ``name``: the ``claim`` it tests, the one ``factor`` changed, the ``train()`` settings of
+    the ``before`` arm (over `BASE`) and those the ``after`` arm changes, and the ``figure`` (a key of
+    `FIGURES`) the claim predicts to fall (``direction`` -1) or rise (+1)."""
 
     name: str
     claim: str
@@ -137,16 +110,6 @@ def interventions() -> dict[str, Intervention]:
     return {item.name: item for item in listed}
 
 
-def _scale(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not 0.0 < value <= 1.0:
-        raise argparse.ArgumentTypeError(f"expected a budget scale in (0, 1], got {text!r}")
-    return value
-
-
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line."""
     from tableclean_suite.bench import cli
@@ -157,7 +120,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         help=f"comma-separated interventions to run; allowed: {', '.join(interventions())} "
                              "(default: all)")
     cli.add_runs_argument(parser, DEFAULT_RUNS, "runs per arm")
-    parser.add_argument("--scale", type=_scale, default=1.0,
+    parser.add_argument("--scale", type=cli.number_type(float, lambda v: 0 < v <= 1, "a budget scale in (0, 1]"),
+                        default=1.0,
                         help="multiply every arm's budget (iterations) by this, in (0, 1] (default: 1)")
     cli.add_seed_argument(parser, "the training runs and the plateau's bootstrap")
     cli.add_out_argument(parser, cli.DIRECTORY, DEFAULT_OUT, "output folder")
@@ -169,7 +133,7 @@ def _setting_text(value) -> str:
 
 
 def measure_arm(settings: dict, runs: int, seed: int) -> dict:
-    """Train one arm and return its figures (learning time, censored share, plateau, never terminal)."""
+    """Train one arm: its figures (learning time, censored share, plateau, never terminal) and intervals."""
     from tableclean_suite import asymptotes
     from tableclean_suite.intervals import clopper_pearson, interval_estimates
     from tableclean_suite.learning_time import learning_time_summary
@@ -221,21 +185,10 @@ PREDICTED, OPPOSITE, NO_CLEAR_CHANGE = "in the predicted direction", "in the opp
 
 
 def observed_change(item: Intervention, before: dict, after: dict) -> str:
-    """How ``item``'s predicted figure moved from the ``before`` arm to the ``after`` arm.
-
-    Args:
-        item: the intervention; its ``figure`` names the figure and ``direction`` (-1 falls,
-            +1 rises) the predicted move.
-        before, after: the arms' figures (as [measure_arm][tableclean_suite.bench.interventions.measure_arm]):
-            ``<figure>_low`` and ``<figure>_high`` are each arm's 95 % interval; an infinite or
-            NaN upper end of a learning time (a censored median) counts as unbounded.
-
-    Returns:
-        `PREDICTED` when the after arm's interval
-        lies wholly on the predicted side of the before arm's,
-        `OPPOSITE` when wholly on the other side,
-        `NO_CLEAR_CHANGE` when they overlap.
-    """
+    """How ``item``'s predicted figure moved between the arms' figures (as
+    [measure_arm][tableclean_suite.bench.interventions.measure_arm]): `PREDICTED` when the after arm's
+    interval lies wholly on the predicted side of the before arm's, `OPPOSITE` when wholly on the other
+    side, `NO_CLEAR_CHANGE` when they overlap (a learning time's non-finite upper end is unbounded)."""
     name = item.figure
     low_b, high_b = before[f"{name}_low"], before[f"{name}_high"]
     low_a, high_a = after[f"{name}_low"], after[f"{name}_high"]
@@ -249,7 +202,7 @@ def observed_change(item: Intervention, before: dict, after: dict) -> str:
 
 
 def _time_text(arm: dict, budget: int) -> str:
-    """``"median [low, high]"``; an infinite figure (past the budget) reads ``>budget``."""
+    """``"median [low, high]"``; an infinite figure reads ``>budget``."""
     def number(value):
         return f">{budget}" if not math.isfinite(value) else f"{value:.0f}"
 
@@ -263,9 +216,8 @@ def changed_text(before: dict, after: dict) -> str:
                      if _setting_text(before[key]) != _setting_text(after[key]))
 
 
-def _share_text(arm: dict, name: str, percent: bool = True) -> str:
-    scale = 100 if percent else 1
-    return f"{scale * arm[name]:.1f} [{scale * arm[name + '_low']:.1f}, {scale * arm[name + '_high']:.1f}]"
+def _share_text(arm: dict, name: str) -> str:
+    return f"{100 * arm[name]:.1f} [{100 * arm[name + '_low']:.1f}, {100 * arm[name + '_high']:.1f}]"
 
 
 def run(args) -> int:
@@ -282,32 +234,28 @@ def run(args) -> int:
         raise outputs.OutputError(problem)
     with outputs.output_lock(args.out) as out:
         say(f"Interventions: {len(args.only)}, {args.runs} runs per arm, seed {args.seed}, budget scale "
-              f"{args.scale:g}. Learning time: Kaplan-Meier median [95 % interval] in iterations; shares in % "
-              "[95 % Clopper-Pearson]; success plateau in % [95 % bootstrap].")
+            f"{args.scale:g}. Learning time: Kaplan-Meier median [95 % interval] in iterations; shares in % "
+            "[95 % Clopper-Pearson]; success plateau in % [95 % bootstrap].")
         for name in args.only:
             item = known[name]
-            arms = {}
-            for arm in ("before", "after"):
-                settings = item.settings(arm, args.scale)
-                arms[arm] = measure_arm(settings, args.runs, args.seed)
-                rows.append({"intervention": name, "arm": arm, "factor": item.factor, "claim": item.claim,
-                             "predicted": f"{FIGURES[item.figure]} {'falls' if item.direction < 0 else 'rises'}",
-                             **{key: _setting_text(value) for key, value in settings.items()}, "runs": args.runs,
-                             "seed": args.seed, **arms[arm]})
+            predicted = f"{FIGURES[item.figure]} {'falls' if item.direction < 0 else 'rises'}"
+            settings = {arm: item.settings(arm, args.scale) for arm in ("before", "after")}
+            arms = {arm: measure_arm(chosen, args.runs, args.seed) for arm, chosen in settings.items()}
             change = observed_change(item, arms["before"], arms["after"])
-            for row in rows[-2:]:
-                row["change"] = change
-            before, after = item.settings("before", args.scale), item.settings("after", args.scale)
+            rows += [{"intervention": name, "arm": arm, "factor": item.factor, "claim": item.claim,
+                      "predicted": predicted, **{key: _setting_text(value) for key, value in settings[arm].items()},
+                      "runs": args.runs, "seed": args.seed, **arms[arm], "change": change} for arm in arms]
+            before = settings["before"]
             say(f"\n{name}: {item.claim}.")
             say(f"  cell: {before['learner']}, {_setting_text(before['reward'])}, task {before['task']}, gamma "
-                  f"{before['gamma']:g}, epsilon {before['epsilon']:g}, max_itr {before['max_itr']}, "
-                  f"{before['iterations']} iterations\n  changed: {item.factor} ({changed_text(before, after)})")
-            for arm, settings in (("before", before), ("after", after)):
-                figures = arms[arm]
-                say(f"  {arm:<6}: learning time {_time_text(figures, settings['iterations'])}, censored "
-                      f"{_share_text(figures, 'censored_share')}, plateau {_share_text(figures, 'success_plateau')},"
-                      f" never terminal {_share_text(figures, 'never_terminal_share')}")
-            say(f"  predicted: {FIGURES[item.figure]} {'falls' if item.direction < 0 else 'rises'}; observed: {change}")
+                f"{before['gamma']:g}, epsilon {before['epsilon']:g}, max_itr {before['max_itr']}, "
+                f"{before['iterations']} iterations\n  changed: {item.factor} "
+                f"({changed_text(before, settings['after'])})")
+            for arm, figures in arms.items():
+                say(f"  {arm:<6}: learning time {_time_text(figures, settings[arm]['iterations'])}, censored "
+                    f"{_share_text(figures, 'censored_share')}, plateau {_share_text(figures, 'success_plateau')},"
+                    f" never terminal {_share_text(figures, 'never_terminal_share')}")
+            say(f"  predicted: {predicted}; observed: {change}")
         frame = pd.DataFrame(rows)
         outputs.publish(out, {"interventions.csv": lambda path: frame.to_csv(path, index=False)},
                         {"args": outputs.arguments(args)}, command="interventions")
