@@ -3,37 +3,22 @@
     tableclean-bench fidelity [--task SPEC] [--robots ROBOT] [--trials N] [--out DIR] [--seed S] [--fresh]
                                   [--randomize]
 
-One *round* executes every action of the spec (``--task``, default ``paper``) once from every
-reachable non-terminal state (paper: 18 states x 4 actions = 72 trials;
-``three_segments_two_objects``: 315 x 4 = 1260):
+One *round* executes every action once from every reachable non-terminal state of ``--task``
+(paper: 18 states x 4 actions = 72 trials).  Each all-unclean start layout is reset with placement
+noise seeded per round and layout; states are visited depth-first in physics, each snapshotted and
+every action executed from a restored copy.  A state no plan reached in a round is staged by a reset
+(``reached_by = "staged"``); when staging fails, its trials are failures (reason "not staged: ...").
+A trial *agrees* when the abstraction reads back the model's successor and outcome.
 
-- Each all-unclean start layout (``N**M * N``: the paper's four) is reset with fresh placement
-  noise (a seed per round and layout), and the reachable states are visited depth-first by executing actions in
-  physics: a state is *reached* once, its scene is snapshotted (MuJoCo state + the env's dirt),
-  and every action is executed from a restored copy of that snapshot; the successors the
-  physics reached as the model predicts are visited next.  A state that no executed plan
-  reached in a round (because a skill failed on the way) is staged directly by a reset
-  (``reached_by = "staged"``); when that fails too (the pick staging a held object), each of its
-  trials is recorded as a failure (``reason`` "not staged: ...", an abstraction fault observed).
-- A trial *agrees* when the abstraction reads back the model's successor and the observed
-  outcome is the model's outcome; an abstraction fault never agrees.
+``--trials N`` rounds (independent, seeded) run in this process, ``--workers N`` local processes or
+``--executor ray``.  ``DIR`` gets ``fidelity_trials.csv`` (whole rounds, rewritten atomically after
+each; a run resumes, ``--fresh`` starts over), ``fidelity_pairs.csv`` (agreement per pair) and
+``fidelity_skills.csv`` (per skill, executions the controller did not refuse).  The summary gives
+rates with one-sided 95 % exact lower bounds ([lower_bound][tableclean_suite.bench.fidelity.lower_bound]).
+``--randomize``: randomised dynamics drawn at every reset (default ``--out`` gets ``_randomized``).
 
-``--trials N`` rounds give N trials per (state, action) pair.  Rounds are independent (each
-has its own seed), so they run in parallel: ``--workers N`` processes on this machine, or
-``--executor ray [--ray-address HOST:PORT]`` (`tableclean_suite.executors`); every worker
-builds its own scene and the rows are stored in round order.  Results go to ``DIR``:
-``fidelity_trials.csv`` (one row per execution; rewritten atomically after every finished
-round, so an interrupted run resumes where it stopped and never keeps a partial round:
-`trial_store`; ``--fresh`` starts over), ``fidelity_pairs.csv`` (agreement per pair) and
-``fidelity_skills.csv`` (success, retries, steps and seconds per skill, over executions the controller
-did not refuse).  `collect` is the execution code ``tableclean-bench calibrate`` reuses.
-
-The summary prints the overall agreement and each skill's success as counts, rates and their
-one-sided 95 % exact (Clopper-Pearson) lower bounds ([lower_bound][tableclean_suite.bench.fidelity.lower_bound]).
-
-``--randomize`` runs the scene with randomised dynamics (``randomization="on"``: the documented
-ranges of `tableclean_suite.environments.randomization`), drawn anew at every staged reset
-from that reset's seed; its results go to ``DIR_randomized`` by default.
+The shared machinery of ``tableclean-bench robots`` and ``objects`` lives here too: optimal-plan
+episodes ([`episodes`][tableclean_suite.bench.fidelity.episodes]) and count cells with lower bounds.
 """
 
 from __future__ import annotations
@@ -125,17 +110,13 @@ def layout_label(state: TaskState) -> str:
 @single_blas_thread()  # the same bits in this process, a local worker or a Ray worker
 def run_round(scene, round_index: int, seed: int, on_trial: Callable[[dict], None] | None = None,
               actions: Iterable | None = None) -> list[dict]:
-    """One round: every action in ``actions`` (default: the model's) once from every reachable non-terminal state.
-
-    ``scene`` is a [`tableclean_suite.physics_backend.PhysicsStepEnv`][tableclean_suite.physics_backend.PhysicsStepEnv] (its env,
-    controller and model are used).  States only reachable through a left-out action are
-    staged.  Returns the trial rows in execution order.
-    """
+    """The trial rows, in execution order, of one round of ``actions`` (default: all) on ``scene`` (a
+    [`PhysicsStepEnv`][tableclean_suite.physics_backend.PhysicsStepEnv]); states only reachable through a
+    left-out action are staged."""
     from tableclean_suite.physics_backend import StagingError, stage
     from tableclean_suite.skill_result import SkillResult
 
     actions = action_names(scene.model, actions)
-
     env, controller, model = scene.env, scene.controller, scene.model
     targets = [s for s in model.reachable_states() if not s.is_terminal]
     visited: set[TaskState] = set()
@@ -186,11 +167,8 @@ def run_round(scene, round_index: int, seed: int, on_trial: Callable[[dict], Non
 
 
 def read_trials(path: Path, log: Callable[[str], None] | None = None) -> list[dict]:
-    """Rows of a trials CSV (numbers converted), ``[]`` when it does not exist.
-
-    A damaged last line (an interrupted write) is dropped; any other damage, or unexpected
-    columns, raises [`ResumeError`][tableclean_suite.bench.fidelity.ResumeError] naming the line.
-    """
+    """Rows of a trials CSV (numbers converted), ``[]`` when it does not exist; a damaged last line is dropped,
+    other damage raises [`ResumeError`][tableclean_suite.bench.fidelity.ResumeError] naming the line."""
     try:
         return trial_store.read_rows(Path(path), log)
     except trial_store.TrialStoreError as error:
@@ -204,15 +182,8 @@ def trials_per_round(model: TaskModel, actions: Iterable) -> int:
 
 @dataclass(frozen=True)
 class FidelityRound:
-    """One round as a task for an executor: plain values only (the worker builds its own scene).
-
-    Attributes:
-        spec: the task spec as JSON (``TaskSpec.to_dict()``).
-        round_index: 0-based round number; with ``seed`` it fixes the round's placements.
-        seed: the run's base seed (``--seed``).
-        actions: names of the executed actions.
-        physics_options: keyword arguments of the worker's ``PhysicsStepEnv`` (plain values).
-    """
+    """One round as an executor task of plain values: ``(spec JSON,)``, 0-based round, ``--seed``, action
+    names and the worker's ``PhysicsStepEnv`` options as sorted items."""
 
     spec: tuple
     round_index: int
@@ -226,8 +197,8 @@ class FidelityRound:
 
 
 def run_round_task(task: FidelityRound) -> list[dict]:
-    """Run one [`FidelityRound`][tableclean_suite.bench.fidelity.FidelityRound] in this process (the scene is built once per process, spec and
-    options: [`tableclean_suite.physics_backend.process_session`][tableclean_suite.physics_backend.process_session])."""
+    """Run one [`FidelityRound`][tableclean_suite.bench.fidelity.FidelityRound] on this process's scene
+    ([`process_session`][tableclean_suite.physics_backend.process_session])."""
     from tableclean_suite.physics_backend import process_session
 
     scene = process_session(task.spec[0], dict(task.physics_options))
@@ -239,10 +210,8 @@ CONFIGURATION_SUFFIX = ".config.json"
 
 
 def run_configuration(model: TaskModel, physics_options: dict | None, scene=None, plugins: Iterable[str] = ()) -> dict:
-    """What determines a trial besides its round and seed: the task spec, the scene's options
-    (robot, randomisation, ...) and the code that runs, ``--plugins`` included
-    ([`code_digest`][tableclean_suite.bench.digests.code_digest]: an edited skill, primitive or
-    object type measures other trials); JSON values, anything else by ``repr``."""
+    """What determines a trial besides its round and seed, as JSON values: the task spec, the scene's options
+    and the code ([`code_digest`][tableclean_suite.bench.digests.code_digest], ``--plugins`` included)."""
     import json
 
     from tableclean_suite.bench.digests import code_digest
@@ -254,16 +223,12 @@ def run_configuration(model: TaskModel, physics_options: dict | None, scene=None
 
 def configuration_path(trials_csv: Path) -> Path:
     """Where the options of the trials in ``trials_csv`` are recorded: ``<trials stem>.config.json``."""
-    trials_csv = Path(trials_csv)
-    return trials_csv.with_name(trials_csv.stem + CONFIGURATION_SUFFIX)
+    return Path(trials_csv).with_name(Path(trials_csv).stem + CONFIGURATION_SUFFIX)
 
 
 def read_configuration(trials_csv: Path) -> dict | None:
-    """The recorded options of ``trials_csv``'s trials ([`run_configuration`][tableclean_suite.bench.fidelity.run_configuration]), None without a record.
-
-    Raises:
-        ResumeError: the record is unreadable, not JSON, or not an object with ``task``.
-    """
+    """The recorded [`run_configuration`][tableclean_suite.bench.fidelity.run_configuration] of ``trials_csv``'s
+    trials, None without a record; [`ResumeError`][tableclean_suite.bench.fidelity.ResumeError] when unreadable."""
     import json
 
     record = configuration_path(trials_csv)
@@ -279,24 +244,10 @@ def read_configuration(trials_csv: Path) -> dict | None:
     return stored
 
 
-def _has_trials(trials_csv: Path) -> bool:
-    """Whether ``trials_csv`` holds more than a header line."""
-    try:
-        with open(trials_csv, "rb") as handle:
-            return len(handle.read(1 << 16).splitlines()) > 1
-    except OSError:
-        return False
-
-
 def check_configuration(trials_csv: Path, configuration: dict, log: Callable[[str], None] | None = None) -> None:
-    """Refuse to resume trials stored under another, or an unknown, configuration; record this run's
-    beside the CSV (``<trials stem>.config.json``).
-
-    Raises:
-        ResumeError: the record names other options (the keys that differ are named), or the CSV
-            holds trials but the record is missing (their options are unknown: a robot, a
-            randomisation or a task other than this run's would be mixed in) or unreadable.
-    """
+    """Record ``configuration`` beside ``trials_csv``; [`ResumeError`][tableclean_suite.bench.fidelity.ResumeError]
+    when the stored trials were measured with another configuration (naming the keys), or hold trials without
+    a readable record."""
     import json
 
     record = configuration_path(trials_csv)
@@ -308,7 +259,9 @@ def check_configuration(trials_csv: Path, configuration: dict, log: Callable[[st
                 raise ResumeError(f"{trials_csv} was measured with another {' and '.join(differing)} "
                                   f"({record}); pass the same options, another --out, or --fresh")
             return
-        if _has_trials(trials_csv):
+        with open(trials_csv, "rb") if trials_csv.is_file() else contextlib.nullcontext() as handle:
+            has_trials = handle is not None and len(handle.read(1 << 16).splitlines()) > 1
+        if has_trials:
             raise ResumeError(f"{trials_csv} holds trials but {record.name} is missing, so the options they were "
                               "measured with (task, robot, randomisation) are unknown; pass --fresh or another --out")
     trials_csv.parent.mkdir(parents=True, exist_ok=True)
@@ -316,12 +269,8 @@ def check_configuration(trials_csv: Path, configuration: dict, log: Callable[[st
 
 
 def check_trial_rows(rows, model: TaskModel, source) -> None:
-    """Refuse stored trials that do not belong to ``model``: a state or observed state outside its
-    codes, a terminal start state, an action it does not have or an unknown outcome.
-
-    Raises:
-        ResumeError: naming the file, the row (round and position) and the value.
-    """
+    """[`ResumeError`][tableclean_suite.bench.fidelity.ResumeError] naming the file, row and value of a stored
+    trial that does not belong to ``model`` (state, action, observed state or outcome)."""
     outcomes = {o.name.lower() for o in Outcome} | {FAULT}
     for position, row in enumerate(rows):
         where = f"{source}: round {row.get('round')}, trial {position + 1}"
@@ -346,18 +295,15 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
             plugins: Iterable[str] = ()) -> list[dict]:
     """Run rounds until there are ``trials`` of them; returns all trial rows (resumed ones included).
 
-    With ``trials_csv`` every finished round is stored (atomically, whole rounds only), and
-    complete rounds already in it are not run again (a different ``seed`` raises
-    [`ResumeError`][tableclean_suite.bench.fidelity.ResumeError]; ``fresh=True`` deletes the file first; incomplete rounds run again).
-    ``scene`` reuses a PhysicsStepEnv in this process; otherwise ``executor`` (a
-    [`tableclean_suite.executors`][tableclean_suite.executors] executor; default: this process) runs the rounds, each
-    worker building its scene with ``physics_options``.  ``actions`` limits the executed
-    actions (e.g. leave out the slow clean).  ``model`` is the task (default: the scene's,
-    else ``paper``).  The trials' folder is locked while rounds run
-    ([`output_lock`][tableclean_suite.bench.outputs.output_lock]): a second run into it raises
-    [`OutputBusyError`][tableclean_suite.bench.outputs.OutputBusyError].  ``plugins`` (``--plugins`` entries)
-    enter the trials' configuration ([`run_configuration`][tableclean_suite.bench.fidelity.run_configuration]): resuming after a plugin was edited
-    raises [`ResumeError`][tableclean_suite.bench.fidelity.ResumeError].
+    With ``trials_csv`` every finished round is stored and complete stored rounds are resumed (``fresh``
+    deletes them first); its folder is locked meanwhile ([`output_lock`][tableclean_suite.bench.outputs.output_lock]).
+    ``scene`` reuses a PhysicsStepEnv in this process; otherwise ``executor`` (default: this process) runs the
+    rounds, each worker building its scene with ``physics_options``.  ``actions`` limits the executed actions;
+    ``model`` is the task (default: the scene's, else ``paper``).
+
+    Raises:
+        ResumeError: the stored trials were measured with another seed, actions or
+            [`run_configuration`][tableclean_suite.bench.fidelity.run_configuration] (``plugins`` included).
     """
     import json
 
@@ -434,16 +380,12 @@ def pair_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[dic
     table = []
     for (state, action), group in sorted(groups.items(), key=lambda kv: (kv[0][0], order[kv[0][1]])):
         disagreements = sorted({f"{r['observed_state']}/{r['observed_outcome']}" for r in group if not r["agree"]})
+        agreements = sum(r["agree"] for r in group)
         table.append({
-            "state": state,
-            "state_name": model.decode(state).name,
-            "action": action,
-            "expected": f"{group[0]['expected_state']}/{group[0]['expected_outcome']}",
-            "trials": len(group),
-            "agreements": sum(r["agree"] for r in group),
-            "agreement_rate": round(sum(r["agree"] for r in group) / len(group), 4),
-            "faults": sum(r["observed_outcome"] == FAULT for r in group),
-            "disagreements_seen": " ".join(disagreements),
+            "state": state, "state_name": model.decode(state).name, "action": action,
+            "expected": f"{group[0]['expected_state']}/{group[0]['expected_outcome']}", "trials": len(group),
+            "agreements": agreements, "agreement_rate": round(agreements / len(group), 4),
+            "faults": sum(r["observed_outcome"] == FAULT for r in group), "disagreements_seen": " ".join(disagreements),
         })
     return table
 
@@ -458,42 +400,36 @@ def skill_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[di
         mine = [r for r in rows if r["action"] == action and not str(r["reason"]).startswith(NOT_STAGED)]
         ran = [r for r in mine if not _refused(r, model)]
         n = len(ran)
+
+        def mean(key, digits):
+            return round(float(np.mean([r[key] for r in ran])), digits) if n else float("nan")
+
         table.append({
-            "skill": action,
-            "executions": n,
-            "successes": sum(r["success"] for r in ran),
-            "success_rate": round(sum(r["success"] for r in ran) / n, 4) if n else float("nan"),
-            "agreement_rate": round(sum(r["agree"] for r in ran) / n, 4) if n else float("nan"),
-            "faults": sum(r["observed_outcome"] == FAULT for r in ran),
-            "retries": sum(r["retries"] for r in ran),
+            "skill": action, "executions": n, "successes": sum(r["success"] for r in ran),
+            "success_rate": mean("success", 4), "agreement_rate": mean("agree", 4),
+            "faults": sum(r["observed_outcome"] == FAULT for r in ran), "retries": sum(r["retries"] for r in ran),
             "saved_by_retry": sum(bool(r["success"] and r["retries"]) for r in ran),
-            "mean_steps": round(float(np.mean([r["steps"] for r in ran])), 1) if n else float("nan"),
-            "mean_seconds": round(float(np.mean([r["wall_time"] for r in ran])), 3) if n else float("nan"),
-            "refused": len(mine) - n,
+            "mean_steps": mean("steps", 1), "mean_seconds": mean("wall_time", 3), "refused": len(mine) - n,
         })
     return table
 
 
 def write_csv(path: Path, table: list[dict]) -> None:
-    """Write ``table`` (rows of one shape) to ``path`` as CSV atomically ([`trial_store.write_rows`][tableclean_suite.bench.trial_store.write_rows])."""
+    """Write ``table`` (rows of one shape) to ``path`` as CSV atomically."""
     trial_store.write_rows(path, table, tuple(table[0]) if table else ("empty",))
 
 
-def format_table(table: list[dict], columns: Iterable[str]) -> str:
-    """A Markdown table of the given columns."""
-    columns = list(columns)
+def format_table(table: list[dict], columns: Iterable[str] | None = None) -> str:
+    """A Markdown table of the given columns (default: the first row's keys); a row is a dict or its cells."""
+    columns = list(columns if columns is not None else (table[0] if table else ()))
     lines = ["| " + " | ".join(columns) + " |", "|" + "|".join("---" for _ in columns) + "|"]
-    for row in table:
-        lines.append("| " + " | ".join(str(row[c]) for c in columns) + " |")
-    return "\n".join(lines)
+    cells = [row if isinstance(row, (list, tuple)) else [row[c] for c in columns] for row in table]
+    return "\n".join(lines + ["| " + " | ".join(str(cell) for cell in row) + " |" for row in cells])
 
 
 def lower_bound(successes: int, executions: int, confidence: float = CONFIDENCE) -> float:
-    """One-sided exact (Clopper-Pearson, scipy's ``binomtest``) lower bound of a rate, in [0, 1].
-
-    With ``confidence`` 0.95 the rate is at least this with 95 % confidence; 0 failures in ``n``
-    executions give ``0.05 ** (1 / n)`` (0.990 at n = 299).  ``executions`` 0 gives 0.
-    """
+    """One-sided exact (Clopper-Pearson) lower bound of a rate, in [0, 1]; 0 failures in ``n`` give
+    ``(1 - confidence) ** (1 / n)``, ``executions`` 0 gives 0."""
     from scipy.stats import binomtest
 
     if executions == 0:
@@ -505,6 +441,11 @@ def lower_bound(successes: int, executions: int, confidence: float = CONFIDENCE)
 def percent_down(rate: float) -> str:
     """``rate`` (in [0, 1]) as a percentage rounded down to 0.1 % (a lower bound is never shown higher)."""
     return f"{math.floor(rate * 1000 + 1e-9) / 10:.1f} %"
+
+
+def count_cells(count: int, n: int) -> tuple[str, str]:
+    """``("count/n = rate %", "lower bound %")`` of ``count`` of ``n``, the bound rounded down."""
+    return f"{count}/{n} = {100 * count / n:.2f} %", percent_down(lower_bound(count, n))
 
 
 def summary(rows: list[dict], model: TaskModel | None = None) -> dict:
@@ -533,12 +474,70 @@ def summary_lines(result: dict, title: str) -> list[str]:
     lines = [f"{title}: {trials} trials in {result['rounds']} round(s): agreement {agreements}/{trials} = "
              f"{100 * result['agreement']:.2f} % (95 % lower bound {percent_down(lower_bound(agreements, trials))}), "
              f"lowest pair {100 * result['min_pair_agreement']:.2f} %, {result['faults']} abstraction fault(s)"]
-    for skill, (rate, n) in result["skills"].items():
-        if n:
-            successes = result["successes"][skill]
-            lines.append(f"  {skill}: success {successes}/{n} = {100 * rate:.2f} % "
-                         f"(95 % lower bound {percent_down(lower_bound(successes, n))})")
-    return lines
+    return lines + [f"  {skill}: success {result['successes'][skill]}/{n} = {100 * rate:.2f} % (95 % lower bound "
+                    f"{percent_down(lower_bound(result['successes'][skill], n))})"
+                    for skill, (rate, n) in result["skills"].items() if n]
+
+
+def measure(out: Path, model: TaskModel, trials: int, seed: int, **options) -> tuple[list, list, dict]:
+    """[`collect`][tableclean_suite.bench.fidelity.collect] ``trials`` rounds into ``out`` (``options``: its
+    keywords) and write their pair and skill tables there; returns ``(pairs, skills, summary)``."""
+    rows = collect(trials, seed, Path(out) / TRIALS_CSV, model=model, **options)
+    pairs, skills = pair_table(rows, model), skill_table(rows, model)
+    write_csv(Path(out) / PAIRS_CSV, pairs)
+    write_csv(Path(out) / SKILLS_CSV, skills)
+    return pairs, skills, summary(rows, model)
+
+
+# ---------------------------------------------------------------------------------------------
+# episodes (tableclean-bench robots and objects)
+# ---------------------------------------------------------------------------------------------
+def episodes(count: int, plan_of: Callable, model: TaskModel | None = None, log=None, label: str = "",
+             **env_kwargs):
+    """Yield ``(results, ok, reason, seconds)`` of ``count`` episodes in one skill env
+    ([`make_skill_env`][tableclean_suite.controllers.make.make_skill_env] of ``env_kwargs``, closed at the end).
+
+    ``plan_of(env, model, episode)`` resets the env and returns the actions to execute (the controller stops at
+    the first failure).  An episode is ``ok`` when every skill succeeds and the state read back at the end is
+    terminal; an exception (an abstraction fault) fails it.  ``reason`` names the failed skills; ``seconds`` is
+    the episode's wall-clock time, reset included.
+    """
+    from tableclean_suite.controllers import SkillController, make_skill_env
+
+    env = make_skill_env(**env_kwargs)
+    try:
+        controller = SkillController(env) if model is None else SkillController(env, model)
+        model = controller.model
+        for episode in range(count):
+            started = time.perf_counter()
+            try:
+                results = controller.execute_plan(plan_of(env, model, episode))
+                ok = all(r.success for r in results) and env.symbolic_state().is_terminal
+                reason = "; ".join(f"{model.action_name(r.action)}: {r.reason}" for r in results if not r.success)
+            except Exception as error:  # an abstraction fault at the start or the end: a failed episode
+                results, ok, reason = [], False, f"{type(error).__name__}: {error}"
+            if not ok and log:
+                log(f"  {label} episode {episode}: FAILED ({reason or 'not terminal'})")
+            yield results, ok, reason or "not terminal", time.perf_counter() - started
+    finally:
+        env.close()
+
+
+def shortest_plan(env, model: TaskModel, episode: int) -> list:
+    """A ``plan_of`` of [`episodes`][tableclean_suite.bench.fidelity.episodes]: reset, the model's shortest plan."""
+    env.reset()
+    return model.shortest_plan(env.symbolic_state())
+
+
+def tally(counts: dict, results, model: TaskModel) -> None:
+    """Add skill results to ``counts``: per skill name ``[executions, successes, agreements, retries]``
+    (an agreement: the state read back is the model's successor)."""
+    for result in results:
+        count = counts.setdefault(model.action_name(result.action), [0] * 4)
+        count[0] += 1
+        count[1] += bool(result.success)
+        count[2] += result.state_after is not None and result.state_after == result.expected
+        count[3] += result.retries
 
 
 # ---------------------------------------------------------------------------------------------
@@ -615,15 +614,11 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     executor = cli.executor_from_args(parser, args)
     try:
         with executor:
-            rows = collect(args.trials, args.seed, out / TRIALS_CSV, fresh=args.fresh,
-                           log=None if args.quiet else print, actions=actions, model=model, executor=executor,
-                           physics_options={"env_kwargs": env_kwargs}, plugins=args.plugins)
+            pairs, skills, result = measure(out, model, args.trials, args.seed, fresh=args.fresh, actions=actions,
+                                            log=None if args.quiet else print, executor=executor,
+                                            physics_options={"env_kwargs": env_kwargs}, plugins=args.plugins)
     except ResumeError as error:
         parser.error(str(error))  # exits 2
-    pairs, skills = pair_table(rows, model), skill_table(rows, model)
-    write_csv(out / PAIRS_CSV, pairs)
-    write_csv(out / SKILLS_CSV, skills)
-    result = summary(rows, model)
     if not args.quiet:
         print("\nper (state, action):")
         print(format_table(pairs, ("state", "action", "expected", "trials", "agreement_rate", "faults", "disagreements_seen")))

@@ -3,33 +3,19 @@
     tableclean-bench objects [--objects milk,bottle,...] [--settings alone,mixed] [--mix-with box]
                              [--random N] [--episodes E] [--seed S] [--out DIR] [--plugins my_objects.py]
 
-For every object type and setting, ``E`` episodes from uniform all-unclean starts (every object
-and the arm on a segment drawn at each reset, placement noise), each executing the task model's
-shortest plan with the skills in MuJoCo (Panda, compiled control path):
-
-- ``alone``: the ``paper``-shaped spec with the object (2 segments, 1 object);
-- ``mixed``: 3 segments, the object and a partner: ``--mix-with`` (default ``box``), or
-  ``cylinder`` (`FALLBACK_PARTNER`) when that is the measured type itself; the partner
-  actually used is the ``partner`` column of the CSV and of the printed table.
-
-Per skill, *success* is the skill's own report (its motion completed and the abstraction's
-state afterwards is the model's successor), *fidelity* the share of executions whose observed
-state is the model's prediction (a skill can succeed by its motion and still disagree).  Each
-rate comes with its one-sided 95 % Clopper-Pearson lower bound
-([lower_bound][tableclean_suite.bench.fidelity.lower_bound]; 0 failures in 299 executions bound a
-rate at 99.0 %).  An episode stops at the first failed skill.  Writes ``DIR/object_table.csv``
-atomically (one row per object x setting x skill, rewritten after every cell) and prints a
-markdown table with the counts.
-Objects registered by ``--plugins`` modules are measured like the catalog's.
+For every object type and setting, ``E`` episodes from uniform all-unclean starts, each executing
+the model's shortest plan with the skills (Panda): ``alone`` on the ``paper``-shaped spec, ``mixed`` on
+3 segments with ``--mix-with`` (``cylinder`` when that is the measured type; the ``partner`` column).
+Per skill, *success* is the skill's own report, *fidelity* the share of executions whose observed
+state is the model's prediction, each with its one-sided 95 % lower bound
+([lower_bound][tableclean_suite.bench.fidelity.lower_bound]).  An episode stops at its first failed skill.
+Writes ``DIR/object_table.csv`` (one row per object x setting x skill, rewritten after every cell).
 
 ``--random N`` measures ``N`` generated objects instead
-([`random_objects`][tableclean_suite.environments.object_generator.random_objects] of ``--seed``), each
-mixed with the partner in ``E`` (default 2) episodes: a start drawn among the reachable states with every
-object lying, a random history of 1 to `MAX_HISTORY` state-changing actions, then the shortest plan.
-Every skill call is counted; the printed table has one ``random objects`` row, and every failure is
-classified by the skill's last phase and its cause (the reason, numbers as ``N``) in
-``DIR/object_failures.csv`` with the object's parameters, the start and the history before it.
-The exit code is 1 when the scene refused every cell.
+([`random_objects`][tableclean_suite.environments.object_generator.random_objects] of ``--seed``), mixed
+with the partner, in ``E`` (default 2) episodes each: a start with every object lying, a random history of
+1 to `MAX_HISTORY` state-changing actions, then the shortest plan; each failure is classified by phase and
+cause in ``DIR/object_failures.csv``.  The exit code is 1 when the scene refused every cell.
 """
 
 from __future__ import annotations
@@ -44,7 +30,7 @@ from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from tableclean_suite.bench import cli, trial_store  # noqa: E402
+from tableclean_suite.bench import cli, fidelity, trial_store  # noqa: E402
 from tableclean_suite.bench.fidelity import CONFIDENCE, lower_bound, percent_down  # noqa: E402, F401  (re-exported)
 
 #: Settings: the object alone on the paper-shaped spec, or mixed with another type on three segments.
@@ -90,45 +76,25 @@ def spec_for(kind: str, setting: str, partner: str):
 
 def run_cell(kind: str, setting: str, episodes: int, seed: int, partner: str, log=None) -> list[dict]:
     """Rows (one per skill of the plan) of ``episodes`` optimal-plan episodes of one object x setting."""
-    from tableclean_suite.controllers import SkillController, make_skill_env
     from tableclean_suite.task import TaskModel
 
     model = TaskModel(spec=spec_for(kind, setting, partner))
     started = time.perf_counter()
-    env = make_skill_env(task=model.spec, seed=seed)
     counts: dict[str, list[int]] = {}
     wins = 0
-    try:
-        controller = SkillController(env, model)
-        for episode in range(episodes):
-            env.reset()
-            ok = True
-            for result in controller.execute_plan(model.shortest_plan(env.symbolic_state())):
-                name = model.action_name(result.action)
-                tally = counts.setdefault(name, [0, 0, 0, 0])
-                predicted = model.step(result.state_before, result.action)[0] if result.state_before else None
-                tally[0] += 1
-                tally[1] += bool(result.success)
-                tally[2] += result.state_after is not None and result.state_after == predicted
-                tally[3] += result.retries
-                if not result.success:
-                    ok = False
-                    if log:
-                        log(f"  {kind} {setting} episode {episode}: {name} failed: {result.reason}")
-                    break
-            wins += ok and env.symbolic_state().is_terminal
-    finally:
-        env.close()
+    for results, ok, _, _ in fidelity.episodes(episodes, fidelity.shortest_plan, model, log, f"{kind} {setting}",
+                                               task=model.spec, seed=seed):
+        fidelity.tally(counts, results, model)
+        wins += ok
     return _rows(kind, setting, partner_for(kind, setting, partner), counts, episodes, wins,
                  time.perf_counter() - started)
 
 
 def _rows(kind: str, setting: str, partner: str, counts: dict, episodes: int, wins: int, seconds: float) -> list[dict]:
     return [{"object": kind, "setting": setting, "partner": partner, "skill": name, "executions": n,
-             "successes": success,
-             "success_rate": success / n, "success_lower": round(lower_bound(success, n), 4), "agreements": agree,
-             "fidelity": agree / n, "fidelity_lower": round(lower_bound(agree, n), 4), "retries": retries,
-             "episodes": episodes, "episode_successes": wins, "seconds": round(seconds, 1)}
+             "successes": success, "success_rate": success / n, "success_lower": round(lower_bound(success, n), 4),
+             "agreements": agree, "fidelity": agree / n, "fidelity_lower": round(lower_bound(agree, n), 4),
+             "retries": retries, "episodes": episodes, "episode_successes": wins, "seconds": round(seconds, 1)}
             for name, (n, success, agree, retries) in counts.items()]
 
 
@@ -148,76 +114,63 @@ def run_random(kind, index: int, episodes: int, seed: int, partner: str) -> tupl
     ``SeedSequence([seed, index, e])``."""
     import numpy as np
 
-    from tableclean_suite.controllers import SkillController, make_skill_env
     from tableclean_suite.task import TaskModel
 
     model = TaskModel(spec=spec_for(kind.name, "mixed", partner))
     starts = [s for s in model.reachable_states() if not s.is_terminal and not s.holding]
+    drawn = []  # the start of each episode
+
+    def plan_of(env, model, episode):
+        rng = np.random.default_rng(np.random.SeedSequence([seed, index, episode]))
+        state = start = starts[rng.integers(len(starts))]
+        env.rng = np.random.default_rng(int(rng.integers(2 ** 32)))
+        env.set_start_state(start)
+        env.reset()
+        history = []
+        for _ in range(int(rng.integers(1, MAX_HISTORY + 1))):
+            if state.is_terminal:
+                break
+            moves = [a for a in range(model.n_actions) if model.step(state, a)[0] != state]
+            history.append(moves[rng.integers(len(moves))])
+            state = model.step(state, history[-1])[0]
+        drawn.append(start)
+        return history + model.shortest_plan(state)
+
     started = time.perf_counter()
-    env = make_skill_env(task=model.spec, seed=seed)
     counts: dict[str, list[int]] = {}
     failures, wins = [], 0
-    try:
-        controller = SkillController(env, model)
-        for episode in range(episodes):
-            rng = np.random.default_rng(np.random.SeedSequence([seed, index, episode]))
-            start = starts[rng.integers(len(starts))]
-            env.rng = np.random.default_rng(int(rng.integers(2 ** 32)))
-            env.set_start_state(start)
-            env.reset()
-            state, history, length = start, [], int(rng.integers(1, MAX_HISTORY + 1))
-            while not state.is_terminal:
-                if len(history) < length:
-                    moves = [a for a in range(model.n_actions) if model.step(state, a)[0] != state]
-                    action = moves[rng.integers(len(moves))]
-                else:
-                    action = model.shortest_plan(state)[0]
-                result = controller.execute(action)
-                name = model.action_name(result.action)
-                tally = counts.setdefault(name, [0, 0, 0, 0])
-                tally[0] += 1
-                tally[1] += bool(result.success)
-                tally[2] += result.state_after is not None and result.state_after == result.expected
-                tally[3] += result.retries
-                if not result.success:
-                    phase, cause = failure_class(result)
-                    failures.append({"object": kind.name, "params": kind.description, "episode": episode,
-                                     "start": start.name, "history": " ".join(history), "skill": name, "phase": phase,
-                                     "cause": cause, "retries": result.retries, "reason": result.reason})
-                    break
-                history.append(name)
-                state = result.state_after
-            wins += state.is_terminal
-    finally:
-        env.close()
+    for episode, (results, ok, _, _) in enumerate(fidelity.episodes(episodes, plan_of, model, task=model.spec,
+                                                                    seed=seed)):
+        fidelity.tally(counts, results, model)
+        wins += ok
+        if results and not results[-1].success:
+            result, history = results[-1], " ".join(model.action_name(r.action) for r in results[:-1])
+            phase, cause = failure_class(result)
+            failures.append({"object": kind.name, "params": kind.description, "episode": episode,
+                             "start": drawn[episode].name, "history": history, "skill": model.action_name(result.action),
+                             "phase": phase, "cause": cause, "retries": result.retries, "reason": result.reason})
     return _rows(kind.name, "random", partner, counts, episodes, wins, time.perf_counter() - started), failures
 
 
 def markdown(rows: list[dict]) -> str:
-    """Object x skill table, one line per object x setting: its successful episodes of all, and per skill
-    ``successes/executions``, ``fid agreements/executions`` and the success rate's and the fidelity's
-    one-sided 95 % lower bounds ([lower_bound][tableclean_suite.bench.fidelity.lower_bound], computed from the
-    counts, rounded down to 0.1 %)."""
+    """One line per object x setting: its successful episodes, and per skill ``successes/executions, fid
+    agreements/executions: >= `` the success's and the fidelity's one-sided 95 % lower bounds (rounded down)."""
     skills = list(dict.fromkeys(row["skill"] for row in rows))
-    lines = ["| object | setting | partner | successful episodes | " + " | ".join(skills) + " |",
-             "|---|---|---|---|" + "---|" * len(skills)]
     cells: dict[tuple, dict] = {}
     for row in rows:
         cells.setdefault((row["object"], row["setting"]), {})[row["skill"]] = row
+    lines = []
     for (kind, setting), by_skill in cells.items():
         first = next(iter(by_skill.values()))
         entries = []
-        for skill in skills:
-            row = by_skill.get(skill)
-            if row is None:
-                entries.append("-")
-                continue
-            n, success, agree = int(row["executions"]), int(row["successes"]), int(row["agreements"])
-            entries.append(f"{success}/{n}, fid {agree}/{n}: >= {percent_down(lower_bound(success, n))} / "
-                           f"{percent_down(lower_bound(agree, n))}")
-        lines.append(f"| {kind} | {setting} | {first.get('partner') or '-'} | {first['episode_successes']}/{first['episodes']} | "
-                     + " | ".join(entries) + " |")
-    return "\n".join(lines)
+        for row in (by_skill.get(skill) for skill in skills):
+            n, success, agree = (0, 0, 0) if row is None else map(int, (row["executions"], row["successes"],
+                                                                          row["agreements"]))
+            entries.append("-" if row is None else f"{success}/{n}, fid {agree}/{n}: >= "
+                           f"{percent_down(lower_bound(success, n))} / {percent_down(lower_bound(agree, n))}")
+        lines.append((kind, setting, first.get("partner") or "-",
+                      f"{first['episode_successes']}/{first['episodes']}", *entries))
+    return fidelity.format_table(lines, ("object", "setting", "partner", "successful episodes", *skills))
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
@@ -245,9 +198,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 
 
 def random_table(args, rows: list[dict], table: Path, started: float, log=print) -> tuple[list[dict], int, int]:
-    """Measure ``args.random`` generated objects (see the module docstring): per-object rows appended to ``rows``
-    (written with them to the table's CSV), failures to `FAILURES_CSV`; returns the ``random objects`` rows
-    (one per skill), the measured and the refused objects."""
+    """Measure ``args.random`` generated objects: their rows appended to ``rows`` and written to ``table``,
+    failures to `FAILURES_CSV`; returns the ``random objects`` rows, the measured and the refused objects."""
     from tableclean_suite.environments.object_generator import random_objects
     from tableclean_suite.environments.objects import register_object
 
@@ -268,9 +220,8 @@ def random_table(args, rows: list[dict], table: Path, started: float, log=print)
         done = cell[0]["episode_successes"] if cell else 0
         wins += done
         for row in cell:
-            total = totals.setdefault(row["skill"], [0, 0, 0, 0])
-            for k, key in enumerate(("executions", "successes", "agreements", "retries")):
-                total[k] += row[key]
+            totals[row["skill"]] = [total + row[key] for total, key in
+                                    zip(totals.get(row["skill"], [0] * 4), ("executions", "successes", "agreements", "retries"))]
         trial_store.write_rows(table, rows, COLUMNS)
         trial_store.write_rows(table.parent / FAILURES_CSV, failures, FAILURE_COLUMNS)
         log(f"[{index + 1}/{len(kinds)}] {kind.name} ({kind.description}): {done}/{episodes} episodes, "
@@ -281,9 +232,9 @@ def random_table(args, rows: list[dict], table: Path, started: float, log=print)
                   time.perf_counter() - started)
     trial_store.write_rows(table.parent / FAILURES_CSV, failures, FAILURE_COLUMNS)
     classes = Counter((f["skill"], f["phase"], f["cause"]) for f in failures)
-    print("\n| skill | phase | cause | failures |\n|---|---|---|---|")
-    print("\n".join(f"| {skill} | {phase} | {cause} | {n} |" for (skill, phase, cause), n in classes.most_common())
-          or "| - | - | no failure | 0 |")
+    print()
+    print(fidelity.format_table([(*key, n) for key, n in classes.most_common()] or [("-", "-", "no failure", 0)],
+                                ("skill", "phase", "cause", "failures")))
     return total, measured, refused
 
 

@@ -4,30 +4,17 @@
                             [--tasks paper,three_segments_two_objects] [--fresh] [--episodes E] [--fidelity-trials T]
                             [--seed S] [--out DIR] [--randomize]
 
-For every (robot, gripper, spec) cell (``default``: the gripper the robot's config mounts; the
-``gripper`` column names robosuite's gripper that ran):
+For every (robot, gripper, spec) cell (``default``: the gripper the robot's config mounts):
 
-- **fidelity**: `tableclean_suite.bench.fidelity.collect` with ``T`` rounds (every action from
-  every reachable non-terminal state, ``T`` times; a trial agrees when physics ends in the model's
-  successor with the model's outcome); the trials are stored in
-  ``<fidelity-dir>/<robot>_<spec>/fidelity_trials.csv`` (``<robot>_<gripper>_<spec>`` for a gripper named
-  by ``--grippers``) (resumable, as ``tableclean-bench fidelity``);
-- **episodes**: ``E`` episodes from random start layouts (every object and the arm on a segment
-  drawn at each reset, all segments dirty, placement noise), each executing the task model's
-  shortest plan with the compiled control path; an episode succeeds when every skill succeeds and
-  the symbolic state read back at the end is terminal.  Seconds per episode are wall-clock
-  (reset and plan).
+- **fidelity**: ``T`` rounds of ``tableclean-bench fidelity`` (resumable, stored in
+  ``<fidelity-dir>/<robot>[_<gripper>]_<spec>[_randomized]/``);
+- **episodes**: ``E`` episodes from random start layouts, each executing the model's shortest plan;
+  one succeeds when every skill does and the state read back at the end is terminal (seconds:
+  wall-clock per episode, reset included).
 
-With ``--randomize`` both run with the scene's randomised dynamics
-(`tableclean_suite.environments.randomization.DEFAULT_ON`, drawn at every reset from the
-seeded ``env.rng``); the row's ``dynamics`` column says ``randomized`` (else ``nominal``) and its
-fidelity trials go to ``<fidelity-dir>/<robot>_<spec>_randomized``.
-
-Writes ``DIR/robot_table.csv`` (one row per cell, rewritten after every cell; ``--append`` keeps
-the cells of earlier runs, e.g. of robots measured in another process) and prints a markdown
-table: agreeing trials and successful episodes as counts, each with its one-sided 95 % exact
-lower bound ([lower_bound][tableclean_suite.bench.fidelity.lower_bound]).  ``T = 0`` or ``E = 0``
-skips that part.
+``--randomize`` runs both with randomised dynamics (the row's ``dynamics``).  Writes ``DIR/robot_table.csv``
+(one row per cell, rewritten after each; ``--append`` keeps other runs' cells) and prints counts with
+their one-sided 95 % lower bounds.  ``T = 0`` or ``E = 0`` skips that part.
 """
 
 from __future__ import annotations
@@ -63,11 +50,13 @@ NOMINAL, RANDOMIZED = "nominal", "randomized"
 CELL_KEY = ("robot", "gripper", "task", "dynamics")
 #: ``--grippers`` entry for the gripper the robot's config mounts (robosuite's ``gripper_types="default"``).
 DEFAULT_GRIPPER = "default"
+MARKDOWN_COLUMNS = ("robot", "gripper", "task", "dynamics", "fidelity: agreeing trials", "95 % lower bound", "faults",
+                    "optimal episodes: successes", "95 % lower bound", "s / episode")
 
 
 def gripper_name(robot: str, gripper: str) -> str:
-    """robosuite's name of the gripper ``robot`` carries with ``gripper_types=gripper`` (checked: ``ValueError``
-    naming a gripper the skills do not drive)."""
+    """robosuite's name of the gripper ``robot`` carries with ``gripper_types=gripper``; ``ValueError`` naming
+    a gripper the skills do not drive."""
     from tableclean_suite.environments.robot_registry import scene_gripper_types
 
     name = scene_gripper_types(robot, gripper)
@@ -79,72 +68,27 @@ def gripper_name(robot: str, gripper: str) -> str:
 
 
 def env_kwargs(robot: str, gripper: str, randomize: bool) -> dict:
-    """The scene options of a cell: [`scene_env_kwargs`][tableclean_suite.bench.fidelity.scene_env_kwargs] and,
-    for a gripper other than `DEFAULT_GRIPPER`, ``gripper_types``."""
+    """The scene options of a cell (as ``tableclean-bench fidelity``'s, plus ``gripper_types``)."""
     return {**fidelity.scene_env_kwargs(robot, randomize),
             **({} if gripper == DEFAULT_GRIPPER else {"gripper_types": gripper})}
 
 
 def run_episodes(robot: str, task: str, episodes: int, seed: int = 0, log=print, randomization=None,
                  gripper: str = DEFAULT_GRIPPER) -> dict:
-    """``episodes`` optimal-plan episodes of ``task`` on ``robot`` from random start layouts.
-
-    Returns ``{"episodes", "successes", "seconds"}`` (seconds: total wall-clock time of the
-    episodes, resets included; the scene build is not counted) and ``"failures"``: up to a few
-    ``(episode, reason)`` of failed episodes.  ``randomization``: the scene's ``randomization=``
-    (None: nominal dynamics); ``gripper``: the scene's ``gripper_types``.
-    """
-    from tableclean_suite.controllers import SkillController, make_skill_env
-
-    env = make_skill_env(None, None, robots=robot, task=task, seed=seed, randomization=randomization,
-                         gripper_types=gripper)
-    failures = []
-    successes = 0
-    seconds = 0.0
-    try:
-        controller = SkillController(env)
-        model = controller.model
-        for episode in range(episodes):
-            started = time.perf_counter()
-            env.reset()
-            try:
-                start = env.symbolic_state()
-                results = controller.execute_plan(model.shortest_plan(start))
-                final = env.symbolic_state()
-                ok = all(r.success for r in results) and final.is_terminal
-                reason = "; ".join(f"{model.action_name(r.action)}: {r.reason}" for r in results if not r.success)
-            except Exception as error:  # an abstraction fault at the start or end: a failed episode
-                ok, reason = False, f"{type(error).__name__}: {error}"
-            seconds += time.perf_counter() - started
-            successes += ok
-            if not ok:
-                failures.append((episode, reason or "not terminal"))
-                if log:
-                    log(f"  {robot} ({gripper}) {task} episode {episode}: FAILED ({reason or 'not terminal'})")
-    finally:
-        env.close()
-    return {"episodes": episodes, "successes": successes, "seconds": seconds, "failures": failures}
-
-
-def run_fidelity(robot: str, task: str, trials: int, seed: int, out: Path, log=print, randomize: bool = False,
-                 fresh: bool = False, gripper: str = DEFAULT_GRIPPER) -> dict:
-    """Fidelity rounds of ``task`` on ``robot`` (trials stored under ``out``, as ``tableclean-bench fidelity``
-    stores them: the same scene options, so either command resumes the other's); the
-    [`summary`][tableclean_suite.bench.fidelity.summary] dict.  ``fresh`` discards earlier trials; ``gripper``: the
-    scene's ``gripper_types``."""
-    from tableclean_suite.task import TaskModel, get_task_spec
-
-    model = TaskModel(spec=get_task_spec(task))
-    rows = fidelity.collect(trials, seed, out / fidelity.TRIALS_CSV, fresh=fresh, log=log, model=model,
-                            physics_options={"env_kwargs": env_kwargs(robot, gripper, randomize)})
-    fidelity.write_csv(out / fidelity.PAIRS_CSV, fidelity.pair_table(rows, model))
-    fidelity.write_csv(out / fidelity.SKILLS_CSV, fidelity.skill_table(rows, model))
-    return fidelity.summary(rows, model)
+    """``{"episodes", "successes", "seconds", "failures": [(episode, reason)]}`` of ``episodes`` optimal-plan
+    episodes of ``task`` on ``robot`` from random start layouts (seconds: in all, the scene build not counted)."""
+    played = list(fidelity.episodes(episodes, fidelity.shortest_plan, log=log, label=f"{robot} ({gripper}) {task}",
+                                    object_segment=None, arm_segment=None, robots=robot, task=task, seed=seed,
+                                    randomization=randomization, gripper_types=gripper))
+    return {"episodes": episodes, "successes": sum(ok for _, ok, _, _ in played),
+            "seconds": sum(seconds for *_, seconds in played),
+            "failures": [(k, reason) for k, (_, ok, reason, _) in enumerate(played) if not ok]}
 
 
 def table_row(robot: str, task: str, fid: dict | None, eps: dict | None, dynamics: str = NOMINAL,
               gripper: str = "") -> dict:
-    """One row of the table (`COLUMNS`; ``gripper``: robosuite's name); empty strings for a part that was skipped."""
+    """One row of the table (`COLUMNS`; ``gripper``: robosuite's name); ``fid``: a fidelity summary, ``eps``:
+    [`run_episodes`][tableclean_suite.bench.robot_table.run_episodes]'s; empty strings for a skipped part."""
     row = {"robot": robot, "gripper": gripper, "task": task, "dynamics": dynamics}
     if fid is not None:
         row.update(fidelity_trials=fid["trials"], fidelity_rounds=fid["rounds"],
@@ -166,14 +110,8 @@ class TableFileError(ValueError):
 
 
 def read_table(path: Path) -> list[dict]:
-    """The rows of an existing table (``[]`` when there is none), each checked: the header holds every
-    column of `COLUMNS` (``dynamics`` and ``gripper`` may be missing in tables written before them), a row has a
-    robot and a task, and the other cells are numbers or empty.
-
-    Raises:
-        TableFileError: naming the file, the line and the bad value (so ``--append`` never
-            republishes garbage).
-    """
+    """The rows (text cells) of an existing table, ``[]`` when there is none; ``TableFileError`` naming the
+    file, line and value of a missing column, a row without robot and task, or a non-number."""
     path = Path(path)
     if not path.exists():
         return []
@@ -214,47 +152,26 @@ def read_table(path: Path) -> list[dict]:
 
 
 def merge_rows(path: Path, rows: list[dict]) -> list[dict]:
-    """The rows already in ``path`` (if any; [`read_table`][tableclean_suite.bench.robot_table.read_table]) with the cells of ``rows`` replaced or
-    added, in the file's order."""
-    merged: dict[tuple, dict] = {}
-    for row in read_table(path):
-        merged[tuple(row[key] for key in CELL_KEY)] = row
-    for row in rows:
-        merged[tuple(row[key] for key in CELL_KEY)] = row
-    return list(merged.values())
-
-
-def _number(value):
-    """A CSV cell as read back (strings) or as written (numbers): a float, or "" for an empty cell."""
-    return "" if value == "" else float(value)
-
-
-def _count_cells(count: int, n: int) -> tuple[str, str]:
-    """``("count/n = rate %", "lower bound %")`` of ``count`` of ``n`` ([`fidelity.lower_bound`][tableclean_suite.bench.fidelity.lower_bound], rounded down)."""
-    return f"{count}/{n} = {100 * count / n:.2f} %", fidelity.percent_down(fidelity.lower_bound(count, n))
+    """The rows already in ``path`` with the cells of ``rows`` replaced or added, in the file's order."""
+    return list({tuple(row[key] for key in CELL_KEY): row for row in [*read_table(path), *rows]}.values())
 
 
 def markdown(rows: list[dict]) -> str:
-    """The table as markdown, one line per cell: agreeing fidelity trials of all (``count/n = rate``) and the
-    agreement's one-sided 95 % lower bound, abstraction faults, successful optimal episodes of all and their
-    success's lower bound ([lower_bound][tableclean_suite.bench.fidelity.lower_bound], rounded down to 0.1 %),
-    and seconds per episode; ``-`` for a part that was skipped."""
-    lines = ["| robot | gripper | task | dynamics | fidelity: agreeing trials | 95 % lower bound | faults "
-             "| optimal episodes: successes | 95 % lower bound | s / episode |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+    """The table as markdown, one line per cell: agreeing fidelity trials and successful optimal episodes as
+    ``count/n = rate`` with their one-sided 95 % lower bounds, faults, seconds per episode; ``-``: skipped."""
+    lines = []
     for row in rows:
-        row = {key: (value if key in CELL_KEY else _number(value)) for key, value in row.items()}
+        number = {key: float(value) for key, value in row.items() if key not in CELL_KEY and value != ""}
         fid = eps = ("-", "-")
-        if row["fidelity_trials"] != "":  # the count from the stored rate (6 decimals: exact below 10^5 trials)
-            trials = int(row["fidelity_trials"])
-            fid = _count_cells(round(row["fidelity_agreement"] * trials), trials)
-        if row["episodes"] != "":
-            eps = _count_cells(int(row["episode_successes"]), int(row["episodes"]))
-        secs = f"{row['seconds_per_episode']:.2f}" if row["seconds_per_episode"] != "" else "-"
-        faults = f"{row['fidelity_faults']:.0f}" if row["fidelity_faults"] != "" else "-"
-        lines.append(f"| {row['robot']} | {row['gripper'] or '-'} | {row['task']} | {row['dynamics']} | {fid[0]} | {fid[1]} | {faults} "
-                     f"| {eps[0]} | {eps[1]} | {secs} |")
-    return "\n".join(lines)
+        if "fidelity_trials" in number:  # the count from the stored rate (6 decimals: exact below 10^5 trials)
+            trials = int(number["fidelity_trials"])
+            fid = fidelity.count_cells(round(number["fidelity_agreement"] * trials), trials)
+        if "episodes" in number:
+            eps = fidelity.count_cells(int(number["episode_successes"]), int(number["episodes"]))
+        lines.append((row["robot"], row["gripper"] or "-", row["task"], row["dynamics"], *fid,
+                      f"{number['fidelity_faults']:.0f}" if "fidelity_faults" in number else "-", *eps,
+                      f"{number['seconds_per_episode']:.2f}" if "seconds_per_episode" in number else "-"))
+    return fidelity.format_table(lines, MARKDOWN_COLUMNS)
 
 
 def _names(parser, flag: str, text: str) -> list[str]:
@@ -302,65 +219,60 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     from tableclean_suite.task import TaskModel, get_task_spec
 
     robots = cli.parse_robots(parser, args)  # every name checked before anything runs
-    tasks = _names(parser, "--tasks", args.tasks)
-    grippers = {}  # (robot, --grippers entry) -> robosuite's name, every one checked before anything runs
+    models = {}
+    for task in _names(parser, "--tasks", args.tasks):
+        try:
+            models[task] = TaskModel(spec=get_task_spec(task))
+            check_physical_task(models[task])
+        except (ValueError, OSError) as error:
+            parser.error(f"--tasks: {error}")
+    grippers = {}  # (robot, --grippers entry) -> robosuite's name
     for robot in robots:
         for gripper in _names(parser, "--grippers", args.grippers):
             try:
                 grippers[robot, gripper] = gripper_name(robot, gripper)
             except ValueError as error:
                 parser.error(f"--grippers: {error}")
-    for task in tasks:
-        try:
-            check_physical_task(TaskModel(spec=get_task_spec(task)))
-        except (ValueError, OSError) as error:
-            parser.error(f"--tasks: {error}")
     if not (args.fidelity_trials or args.episodes):
         parser.error("--fidelity-trials and --episodes are both 0: nothing to measure")
     log = None if args.quiet else print
-    randomization, dynamics = ("on", RANDOMIZED) if args.randomize else (None, NOMINAL)
-    if args.append:  # a table that cannot be merged into is refused before anything runs
-        try:
-            read_table(Path(args.out) / TABLE_CSV)
-        except TableFileError as error:
-            parser.error(f"--append: {error}")
-
-    def fidelity_dir(robot: str, gripper: str, task: str) -> Path:
-        cell = f"{robot}_{task}" if gripper == DEFAULT_GRIPPER else f"{robot}_{gripper}_{task}"
-        return Path(args.fidelity_dir) / (cell + (fidelity.RANDOMIZED_SUFFIX if args.randomize else ""))
-
-    if args.fidelity_trials and not args.fresh:  # stored trials of other options: refused before anything runs
-        for (robot, gripper) in grippers:
-            for task in tasks:
-                trials_csv = fidelity_dir(robot, gripper, task) / fidelity.TRIALS_CSV
-                configuration = fidelity.run_configuration(
-                    TaskModel(spec=get_task_spec(task)), {"env_kwargs": env_kwargs(robot, gripper, args.randomize)})
-                try:
-                    fidelity.check_configuration(trials_csv, configuration, log)
-                except fidelity.ResumeError as error:
-                    parser.error(f"{error} (robot_table: --fresh, or another --fidelity-dir)")
-    rows = []
-    started = time.perf_counter()
-    for (robot, gripper), name in grippers.items():
-        for task in tasks:
+    table = Path(args.out) / TABLE_CSV
+    try:
+        if args.append:  # a table that cannot be merged into is refused before anything runs
+            read_table(table)
+    except TableFileError as error:
+        parser.error(f"--append: {error}")
+    cells = {}  # (robot, gripper, task) -> (fidelity folder, scene options)
+    for robot, gripper in grippers:
+        for task in models:
+            name = f"{robot}_{task}" if gripper == DEFAULT_GRIPPER else f"{robot}_{gripper}_{task}"
+            name += fidelity.RANDOMIZED_SUFFIX if args.randomize else ""
+            cells[robot, gripper, task] = (Path(args.fidelity_dir) / name,
+                                           {"env_kwargs": env_kwargs(robot, gripper, args.randomize)})
+    try:
+        if args.fidelity_trials and not args.fresh:  # stored trials of other options: refused before anything runs
+            for (robot, gripper, task), (folder, options) in cells.items():
+                fidelity.check_configuration(folder / fidelity.TRIALS_CSV,
+                                             fidelity.run_configuration(models[task], options), log)
+        rows = []
+        started = time.perf_counter()
+        for (robot, gripper, task), (folder, options) in cells.items():
             fid = eps = None
             if args.fidelity_trials:
-                try:
-                    fid = run_fidelity(robot, task, args.fidelity_trials, args.seed, fidelity_dir(robot, gripper, task),
-                                       log=log, randomize=args.randomize, fresh=args.fresh, gripper=gripper)
-                except fidelity.ResumeError as error:  # e.g. trials of another --seed
-                    parser.error(f"{error} (robot_table: --fresh, or another --fidelity-dir)")
+                fid = fidelity.measure(folder, models[task], args.fidelity_trials, args.seed, log=log,
+                                       fresh=args.fresh, physics_options=options)[2]
             if args.episodes:
-                eps = run_episodes(robot, task, args.episodes, args.seed, log=log, randomization=randomization,
-                                   gripper=gripper)
-            rows.append(table_row(robot, task, fid, eps, dynamics, name))
-            table = Path(args.out) / TABLE_CSV
+                eps = run_episodes(robot, task, args.episodes, args.seed, log=log, gripper=gripper,
+                                   randomization="on" if args.randomize else None)
+            name = grippers[robot, gripper]
+            rows.append(table_row(robot, task, fid, eps, RANDOMIZED if args.randomize else NOMINAL, name))
             write_table(table, merge_rows(table, rows) if args.append else rows)
             if log:
                 log(f"{robot} ({name}) x {task} done ({time.perf_counter() - started:.0f} s)")
-    table = Path(args.out) / TABLE_CSV
+    except fidelity.ResumeError as error:  # e.g. trials of another --seed
+        parser.error(f"{error} (robot_table: --fresh, or another --fidelity-dir)")
     print(markdown(merge_rows(table, []) if args.append else rows))
-    print(f"\n{Path(args.out) / TABLE_CSV} ({time.perf_counter() - started:.0f} s)")
+    print(f"\n{table} ({time.perf_counter() - started:.0f} s)")
     return 0
 
 
