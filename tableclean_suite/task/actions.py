@@ -36,12 +36,9 @@ Effect = Callable[[TaskState], "tuple[TaskState, Outcome]"]
 
 
 class Action(enum.IntEnum):
-    """The four built-in actions, in the paper's order (their indices in the ``paper`` spec).
-
-    The order matters: greedy action selection breaks ties towards the lowest index,
-    i.e. MOVE first, as an ``argmax`` over a zero-initialised Q-table does.  In a spec
-    with another action list, use ``TaskModel.action_index(name)`` for indices.
-    """
+    """The four built-in actions, in the paper's order (their indices in the ``paper`` spec; greedy
+    ties break towards the lowest).  In a spec with another action list, use
+    ``TaskModel.action_index(name)`` for indices."""
 
     MOVE = 0
     PICK = 1
@@ -55,9 +52,7 @@ class Action(enum.IntEnum):
 
 
 def _apply_digit_rule(rule, state: TaskState) -> tuple[TaskState, Outcome]:
-    """A built-in rule of [`batch_rules`][tableclean_suite.task.batch_rules] (written once, on code digits) applied to one state.
-    (A [`TaskModel`][tableclean_suite.task.model.TaskModel] reads its built-in actions off the rules' table of
-    every code instead.)"""
+    """A built-in rule of [`batch_rules`][tableclean_suite.task.batch_rules] applied to one state."""
     n_segments, n_objects = state.n_segments, state.n_objects
     digits = batch_rules.StateDigits(n_segments, n_objects, 1, codes=np.array([encode(state)]))
     next_code, outcome = rule(digits)
@@ -85,8 +80,8 @@ def clean_effect(state: TaskState) -> tuple[TaskState, Outcome]:
     return _apply_digit_rule(batch_rules.clean, state)
 
 
-#: The built-in effects and their rules on code digits, by identity (a re-registered name with
-#: another effect is stepped state by state, as a user's).
+#: The built-in effects and their rules on code digits, by identity (another effect registered under
+#: a built-in name is stepped state by state, as a user's).
 DIGIT_RULES = {move_effect: batch_rules.move, pick_effect: batch_rules.pick, place_effect: batch_rules.place,
                clean_effect: batch_rules.clean}
 

@@ -1,13 +1,8 @@
-"""The built-in actions' rules, written once as array arithmetic on state codes' digits.
-
-The state code's digits ([`encode`][tableclean_suite.task.state.encode]) are read as arrays and each
-built-in action (move, pick, place, clean) is array arithmetic on them, so one rule serves
-both one state ([`actions`][tableclean_suite.task.actions]' ``move_effect`` ... apply it to a single code) and every code
-at once ([`TaskModel.transition_arrays`][tableclean_suite.task.model.TaskModel.transition_arrays],
-where stepping each code through Python would cost minutes for millions of codes).
-[`batch_step`][tableclean_suite.task.batch_rules.batch_step] adds the model's conventions (INEFFECTIVE becomes IMPROPER under
-``ineffective="improper"``; an action that leaves every segment clean is TERMINAL; terminal
-states map to themselves with TERMINAL).
+"""The built-in actions' rules (move, pick, place, clean), written once as array arithmetic on the
+digits of state codes ([`encode`][tableclean_suite.task.state.encode]): one rule serves every code at
+once ([`TaskModel.transition_arrays`][tableclean_suite.task.model.TaskModel.transition_arrays]) and
+one state ([`move_effect`][tableclean_suite.task.actions.move_effect], ...).
+[`batch_step`][tableclean_suite.task.batch_rules.batch_step] adds the model's conventions.
 """
 
 from __future__ import annotations
@@ -113,8 +108,9 @@ def clean(d: StateDigits):
 
 def batch_step(digits: StateDigits, rule, improper_ineffective: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(next codes, outcomes, the rule's own outcomes)``, each ``(S,)`` int64, of a built-in
-    ``rule`` ([`move`][tableclean_suite.task.batch_rules.move], ...) from every code, with the model's conventions (see the module
-    docstring) applied to the second."""
+    ``rule`` ([`move`][tableclean_suite.task.batch_rules.move], ...) from every code.  The second has
+    the model's conventions: INEFFECTIVE becomes IMPROPER with ``improper_ineffective``, an action
+    that leaves every segment clean is TERMINAL, terminal codes map to themselves with TERMINAL."""
     next_codes, outcome = rule(digits)
     raw = outcome.copy()
     if improper_ineffective:

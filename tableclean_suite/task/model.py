@@ -171,10 +171,8 @@ class TaskModel:
                              f"task {self.spec.name!r} has {self.n_segments} and {self.n_objects}")
 
     def all_states(self) -> list[TaskState]:
-        """Every code's state, in code order (``n_states`` of them).
-
-        Raises [`ResourceError`][tableclean_suite.resources.ResourceError] for specs too large to list in Python.
-        """
+        """Every code's state, in code order; [`ResourceError`][tableclean_suite.resources.ResourceError]
+        for specs too large to list in Python."""
         self._require_python_walk("listing every state")
         return [self.decode(code) for code in range(self.n_states)]
 
@@ -190,10 +188,8 @@ class TaskModel:
 
     # -- actions -----------------------------------------------------------------------
     def action_index(self, action) -> int:
-        """Index of ``action`` (an index, a name, an [`Action`][tableclean_suite.task.actions.Action] or an [`ActionRule`][tableclean_suite.task.actions.ActionRule]).
-
-        Raises ``ValueError`` naming the spec's actions.
-        """
+        """Index of ``action`` (an index, a name, an [`Action`][tableclean_suite.task.actions.Action] or an
+        [`ActionRule`][tableclean_suite.task.actions.ActionRule]); ``ValueError`` names the spec's actions."""
         if isinstance(action, Action):
             action = action.rule_name
         if isinstance(action, ActionRule):
@@ -214,11 +210,8 @@ class TaskModel:
 
     # -- rules -------------------------------------------------------------------------
     def step(self, state: StateLike, action) -> tuple[TaskState, Outcome]:
-        """Apply ``action`` to ``state``; returns ``(next_state, outcome)``.
-
-        Improper and ineffective actions return the same state.  Stepping a terminal
-        state raises ``ValueError`` (the episode is over).
-        """
+        """``(next_state, outcome)`` of ``action`` in ``state`` (the same state for improper and
+        ineffective actions); ``ValueError`` for a terminal ``state``."""
         next_state, outcome = self._apply(state, action)
         if outcome == Outcome.INEFFECTIVE and self.ineffective == IneffectiveMode.IMPROPER:
             outcome = Outcome.IMPROPER
@@ -275,15 +268,10 @@ class TaskModel:
         return np.array([0 if self.is_improper(state, a) else 1 for a in range(self.n_actions)], dtype=np.int8)
 
     def classify(self, state: StateLike, action, next_state: StateLike) -> Outcome:
-        """The outcome of an *observed* transition ``state --action--> next_state``.
-
-        Used for physics, where the next state is read back from MuJoCo and may
-        differ from the model's prediction.  Improperness depends only on
-        ``(state, action)``; reaching a terminal state is TERMINAL; a cleaning action
-        (predicted RELEVANT/IRRELEVANT_CLEAN) is RELEVANT_CLEAN if some segment became
-        clean, else IRRELEVANT_CLEAN; any other action is ROUTINE when the state
-        changed, else ineffective.
-        """
+        """The outcome of an *observed* transition ``state --action--> next_state`` (physics, where it
+        may differ from the model's prediction): IMPROPER as the model says; TERMINAL on reaching a
+        terminal state; a cleaning action RELEVANT_CLEAN if some segment became clean, else
+        IRRELEVANT_CLEAN; any other action ROUTINE when the state changed, else ineffective."""
         state, next_state = self.as_state(state), self.as_state(next_state)
         if self.step(state, action)[1] == Outcome.IMPROPER:
             return Outcome.IMPROPER
@@ -314,25 +302,17 @@ class TaskModel:
 
     # -- tables for fast learners ---------------------------------------------------------
     def transition_arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(next_state, outcome)`` arrays of shape ``(n_states, n_actions)`` (int64).
-
-        Terminal states map to themselves with outcome TERMINAL; learners never step
-        them.  Computed once per model (read-only copies are returned).
-        """
+        """``(next_state, outcome)``, each ``(n_states, n_actions)`` int64 (copies of a table built once);
+        terminal states map to themselves with outcome TERMINAL."""
         next_state, outcome, _ = self._transition_arrays
         return next_state.copy(), outcome.copy()
 
     @cached_property
     def _transition_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Built-in actions from every code at once (their rules, [`batch_rules`][tableclean_suite.task.batch_rules]); user actions state by state.
-        The third array is the built-in rules' own outcomes, before the model's conventions (int8;
-        what `_apply` reports for them; 0 in user actions' columns).
-
-        Raises [`ResourceError`][tableclean_suite.resources.ResourceError] before allocating when the arrays
-        would not fit in the available memory, or when user actions' Python effects would be
-        called more than `MAX_USER_EFFECT_CALLS` times or, timed on the first states, take longer
-        than `MAX_EFFECT_SECONDS`.
-        """
+        """Built-in actions from every code at once ([`batch_rules`][tableclean_suite.task.batch_rules]), user
+        actions state by state; the third array (int8) is the built-in rules' own outcomes, before the
+        model's conventions.  [`ResourceError`][tableclean_suite.resources.ResourceError] before
+        allocating when the arrays would not fit in memory or user effects would take too long."""
         from tableclean_suite.task import batch_rules
 
         what = f"the transition table of task {self.spec.name!r} ({self.n_states} states x {self.n_actions} actions)"
@@ -369,19 +349,16 @@ class TaskModel:
 
     # -- analysis ------------------------------------------------------------------------
     def successors(self, state: StateLike) -> Iterator[tuple[int, TaskState, Outcome]]:
-        """``(action index, next_state, outcome)`` for every action from a non-terminal ``state``, read
-        off the transition table (built once: user action effects are called, and timed, there)."""
+        """``(action index, next_state, outcome)`` for every action from ``state`` (off the transition table)."""
         code = encode(self.as_state(state))
         next_state, outcome, _ = self._transition_arrays
         for a in range(self.n_actions):
             yield a, self.decode(int(next_state[code, a])), Outcome(int(outcome[code, a]))
 
     def reachable_states(self, starts: Iterable[StateLike] | None = None) -> list[TaskState]:
-        """States reachable from ``starts`` (default: every all-unclean layout), sorted by code.
-
-        Terminal states are included but not expanded (the episode ends there).  Raises
-        [`ResourceError`][tableclean_suite.resources.ResourceError] for specs too large to search in Python.
-        """
+        """States reachable from ``starts`` (default: every all-unclean layout), sorted by code, terminal
+        ones included; [`ResourceError`][tableclean_suite.resources.ResourceError] for specs too large
+        to search in Python."""
         self._require_python_walk("the reachable-state search")
         frontier = deque(self.as_state(s) for s in (starts if starts is not None else self.unclean_layouts()))
         seen = set(frontier)
@@ -432,9 +409,8 @@ class TaskModel:
                                        "can be learned")
 
     def distances_to_terminal(self) -> np.ndarray:
-        """``(S,)`` int64: the length of a shortest plan from every state code to a terminal state
-        (0 for terminal states, -1 where none is reachable), by a backward breadth-first search
-        over [`transition_arrays`][tableclean_suite.task.model.TaskModel.transition_arrays] (O(S x A) per plan length)."""
+        """``(S,)`` int64: the length of a shortest plan from every state code to a terminal state (0 for
+        terminal states, -1 where none is reachable), by a backward breadth-first search."""
         return self._distances.copy()
 
     @cached_property
@@ -459,15 +435,10 @@ class TaskModel:
         return visited
 
     def table1_mapping(self) -> dict:
-        """How Table 1 of the paper relates to this model (the ``paper`` spec's sizes only).
-
-        Returns a dict with
-        - ``"rows"``: Table 1 number -> model state code,
-        - ``"unreachable_rows"``: Table 1 numbers never reachable from an all-unclean start,
-        - ``"omitted_reachable"``: codes of reachable states Table 1 does not list,
-        - ``"omitted_on_paper_plan"``: those among them that the paper's optimal
-          sequence from state 4 passes through.
-        """
+        """How Table 1 of the paper relates to this model (2 segments, 1 object only): ``{"rows": Table 1
+        number -> state code, "unreachable_rows": numbers never reachable from an all-unclean start,
+        "omitted_reachable": codes of reachable states Table 1 omits, "omitted_on_paper_plan": those
+        the paper's optimal sequence from state 4 passes through}``."""
         from tableclean_suite.task.paper import PAPER_OPTIMAL_PLAN, PAPER_START, TABLE1_STATES
 
         if (self.n_segments, self.n_objects) != (2, 1):

@@ -218,13 +218,10 @@ class TaskSpec:
             raise ValueError(f"{source}: {error}") from None
 
     def to_json(self, path: str | Path) -> None:
-        """Write the spec as JSON (atomically: a temporary file, then a rename)."""
-        import os
+        """Write the spec as JSON, atomically ([`atomic_write_text`][tableclean_suite.atomic_files.atomic_write_text])."""
+        from tableclean_suite.atomic_files import atomic_write_text
 
-        path = Path(path)
-        temporary = path.with_name(path.name + ".tmp")
-        temporary.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
-        os.replace(temporary, path)
+        atomic_write_text(path, json.dumps(self.to_dict(), indent=2) + "\n")
 
 
 def state_to_json(state: TaskState) -> dict:

@@ -1,10 +1,7 @@
 """Symbolic states of the table-cleaning task for any number of segments and objects.
 
-A [`TaskState`][tableclean_suite.task.state.TaskState] is a plain value: which segments are clean, where each object is
-(a segment or the gripper), and which segment the arm is above.  It knows its own sizes
-(``len(clean)`` segments, ``len(objects)`` objects), so its integer code needs no spec.
-Indices are 0-based here; names and the user-facing API number segments and objects
-from 1.
+A [`TaskState`][tableclean_suite.task.state.TaskState] knows its own sizes, so its integer code
+needs no spec.  Indices are 0-based here; names and the user-facing API number from 1.
 """
 
 from __future__ import annotations
@@ -26,12 +23,11 @@ class Outcome(enum.IntEnum):
     """What an action did; reward patterns assign a value to each outcome.
 
     - ROUTINE: an effective move, pick or place (or another action that changed the state).
-    - INEFFECTIVE: a pick with nothing to pick or a place with nothing held;
-      the state does not change.
+    - INEFFECTIVE: a pick with nothing to pick or a place with nothing held (no change).
     - RELEVANT_CLEAN: cleaning an unclean segment that leaves another one unclean.
     - IRRELEVANT_CLEAN: cleaning an already clean segment.
-    - IMPROPER: cleaning while holding an object or where an object lies
-      (Algorithm 1's failed state: the state does not change).
+    - IMPROPER: cleaning while holding an object or where an object lies (Algorithm 1's failed
+      state; no change).
     - TERMINAL: the action that leaves every segment clean.
     """
 
@@ -133,10 +129,8 @@ class TaskState:
 
     @property
     def name(self) -> str:
-        """A readable name, e.g. ``"S1:unclean+obj S2:unclean | arm@S1"``.
-
-        With one object it is ``obj``; with several, ``o1``, ``o2``, ... (1-based).
-        """
+        """A readable name, e.g. ``"S1:unclean+obj S2:unclean | arm@S1"`` (objects ``o1``, ``o2``, ...
+        when there are several)."""
         label = _object_labels(self.n_objects)
         parts = []
         for k in range(self.n_segments):
@@ -178,13 +172,9 @@ def state_count(n_segments: int, n_objects: int) -> int:
 
 
 def encode(state: TaskState) -> int:
-    """Mixed-radix code of a state, in ``range(state_count(N, M))``.
-
-    Digits, most significant first: the clean flags of segments 1..N (radix 2), the
-    locations of objects 1..M (radix N + 1: a segment index, or N for held), the arm's
-    segment (radix N).  For N = 2, M = 1 this is the paper-era code
-    ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment``.
-    """
+    """Mixed-radix code of a state, in ``range(state_count(N, M))``: most significant first, the
+    clean flags of segments 1..N (radix 2), the locations of objects 1..M (radix N + 1: a segment
+    index, or N for held), the arm's segment (radix N)."""
     n = state.n_segments
     code = 0
     for flag in state.clean:
@@ -214,11 +204,7 @@ def decode_code(code: int, n_segments: int, n_objects: int) -> TaskState:
 
 
 def unclean_layouts(n_segments: int, n_objects: int) -> list[TaskState]:
-    """Every all-unclean state with nothing held, objects-major then arm (code order).
-
-    ``n_segments ** n_objects * n_segments`` states; for the paper's task the four
-    layouts (object on 1 or 2) x (arm over 1 or 2).
-    """
+    """Every all-unclean state with nothing held (``N ** M * N`` of them), in code order."""
     clean = (False,) * n_segments
     return [
         TaskState(clean, objects, arm)

@@ -10,7 +10,7 @@ from tableclean_suite.bench.cli import positive_float, positive_int
 from tableclean_suite.bench.scaling.family import (DEFAULT_BASE_WINDOW, DEFAULT_FIXED_PLAN_OBJECTS, DEFAULT_GAMMAS,
                                                    DEFAULT_OBJECT_COUNTS, DEFAULT_SEGMENTS, DEFAULT_WINDOW_EXPONENT,
                                                    counts_text)
-from tableclean_suite.bench.scaling.pipeline import FIT_LEARNER, run_study  # noqa: F401  (re-exported)
+from tableclean_suite.bench.scaling.pipeline import run_study
 from tableclean_suite.bench.scaling.statistics import DEFAULT_RESAMPLES
 
 #: The program name in messages unless the caller gives one.
@@ -21,39 +21,35 @@ DEFAULT_OUT = Path("results") / "scaling"
 DEFAULT_LEARNERS = ("q_learning", "sarsa")
 #: The paper's four patterns and r4 with the looping rule for any N (both looping rules reported).
 DEFAULT_REWARDS = ("r1", "r2", "r3", "r4", "r4_cycle")
-#: Runs per seed and cell (independent learners) ...
-DEFAULT_RUNS = 20
-#: ... and seeds per cell (seeds --seed, --seed + 1, ...): 100 runs per cell in all.
-DEFAULT_SEEDS = 5
-#: Fewest seeds: the intervals need a between-seed spread.
-MIN_SEEDS = 2
+#: Runs per seed and cell, and seeds per cell (--seed, --seed + 1, ...; at least MIN_SEEDS for a
+#: between-seed spread).
+DEFAULT_RUNS, DEFAULT_SEEDS, MIN_SEEDS = 20, 5, 2
 DEFAULT_SEED = 0
-
-#: Fewest segments a spec can have (a task needs a segment to move to) ...
-MIN_SEGMENTS = 2
-#: ... and fewest objects.
-MIN_OBJECTS = 1
+#: Fewest segments and objects a spec can have.
+MIN_SEGMENTS, MIN_OBJECTS = 2, 1
 
 
-def _count_list(text: str, minimum: int, what: str) -> tuple[int, ...]:
-    """``"2,3,5"`` -> ``(2, 3, 5)``: sorted, distinct integers >= ``minimum``, else an argparse error."""
-    try:
-        values = sorted({int(part) for part in text.split(",") if part.strip()})
-    except ValueError:
-        values = []
-    if not values or values[0] < minimum:
-        raise argparse.ArgumentTypeError(f"expected comma-separated {what} >= {minimum}, got {text!r}")
-    return tuple(values)
+def _count_list(minimum: int, what: str, none: bool = False):
+    """A list flag's type: ``"2,3,5"`` -> ``(2, 3, 5)``, sorted, distinct integers >= ``minimum``
+    (with ``none``, ``"none"`` -> ``()``), else an argparse error."""
+    def parse(text: str) -> tuple[int, ...]:
+        if none and text.strip().lower() == "none":
+            return ()
+        try:
+            values = sorted({int(part) for part in text.split(",") if part.strip()})
+        except ValueError:
+            values = []
+        if not values or values[0] < minimum:
+            raise argparse.ArgumentTypeError(f"expected comma-separated {what} >= {minimum}, got {text!r}")
+        return tuple(values)
+
+    parse.comma_list = True  # given twice: refused (cli.OneLineParser)
+    return parse
 
 
-def segment_list(text: str) -> tuple[int, ...]:
-    """``"2,3,5"`` -> ``(2, 3, 5)``: sorted, distinct segment counts >= 2."""
-    return _count_list(text, MIN_SEGMENTS, "segment counts")
-
-
-def object_list(text: str) -> tuple[int, ...]:
-    """``"1,3"`` -> ``(1, 3)``; ``"2"`` -> ``(2,)``: sorted, distinct object counts >= 1."""
-    return _count_list(text, MIN_OBJECTS, "object counts")
+segment_list = _count_list(MIN_SEGMENTS, "segment counts")
+object_list = _count_list(MIN_OBJECTS, "object counts")
+fixed_plan_list = _count_list(MIN_OBJECTS, "object counts", none=True)
 
 
 def gamma_list(text: str) -> tuple[float, ...]:
@@ -67,13 +63,7 @@ def gamma_list(text: str) -> tuple[float, ...]:
     return values
 
 
-def fixed_plan_list(text: str) -> tuple[int, ...]:
-    """``"1,3"`` -> ``(1, 3)``; ``"none"`` -> ``()`` (no fixed-plan family)."""
-    return () if text.strip().lower() == "none" else _count_list(text, MIN_OBJECTS, "object counts")
-
-
-for _list_type in (segment_list, object_list, gamma_list, fixed_plan_list):
-    _list_type.comma_list = True  # given twice: refused (cli.OneLineParser)
+gamma_list.comma_list = True
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:

@@ -1,18 +1,11 @@
 """The scaling study's families of task specs, their exact quantities and their training windows.
 
-**The product family**: the paper's task grown to N segments and M objects (`family_spec`),
-the product of a list of N and a list of M (`family_specs`; default N = 2..5 x M = 1..3,
-12 specs from the paper's 20 reachable states to 31 320 at N = 5, M = 3).  Its plans grow with
-the states (8 to 31 steps), so it cannot separate the two.
-
-**The fixed-plan family** (`fixed_plan_spec`): N = 3 segments, segments 1 and 2 unclean and
-segment 3 clean, object 1 and the arm on segment 1, and objects 2..M parked on the clean segment
-3.  The optimal plan is 8 steps for every M (the paper's length; the parked objects never need to
-move), while the reachable states grow from 40 (M = 1) to 5 410 (M = 5): the state count grows
-with the plan held fixed, the reduction the paper credits.  `describe_spec` gives what the study needs of a
-spec (state codes, reachable states, optimal plan length, exact epsilon-greedy success of an
-optimal policy, window and episode truncation, in iterations); `describe_family`
-describes every spec and orders them by reachable states, the study's measure of size.
+The product family (`family_spec`, `family_specs`): the paper's task grown to N segments x M
+objects; its plans grow with the states.  The fixed-plan family (`fixed_plan_spec`): N = 3,
+segments 1 and 2 unclean, object 1 and the arm on segment 1, objects 2..M parked on the clean
+segment 3: an 8-step optimal plan for every M while the reachable states grow.  `describe_spec`
+gives what the study needs of a spec; `describe_family` orders specs by states reachable from
+the start, the study's measure of size.
 """
 
 from __future__ import annotations

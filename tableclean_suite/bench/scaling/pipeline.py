@@ -1,9 +1,5 @@
-"""The scaling study from parsed arguments to files: describe the families, train every cell, report.
-
-`run_study` takes the namespace `command` parses (``learners, rewards, segments,
-objects, fixed_plan_objects, gammas, seeds, runs, base_window, window_exponent, resamples, seed,
-out``).
-"""
+"""The scaling study from parsed arguments (`command`'s namespace) to files: describe the families,
+train every cell, report."""
 
 from __future__ import annotations
 

@@ -1,8 +1,5 @@
-"""The scaling study's report: printed tables and answers, CSV files, the figure and ``config.json``.
-
-The writers write to the path they are given; the pipeline publishes them together
-([`outputs.publish`][tableclean_suite.bench.outputs.publish]).
-"""
+"""The scaling study's report: printed tables and answers, CSV files, the figure and ``config.json``
+(each writer writes the path it is given; the pipeline publishes them together)."""
 
 from __future__ import annotations
 

@@ -1,33 +1,12 @@
-"""Per-run learning time and its statistics: Kaplan-Meier summaries, the seeds-then-runs bootstrap,
-local slopes, the censored growth fit and the reward-pattern order.
+"""Per-run learning time's statistics for the scaling study (the method in full: docs/scaling.md).
 
-**The response** is each run's learning time, ``TrainingResult.learned_at``
-([train][tableclean_suite.learners.train]): the iteration (environment steps, 1-based) from which
-the run's greedy policy follows a shortest plan to the terminal state from every start state and
-keeps doing so after every later update through the budget T; 0 when it did from the start; -1
-when it does not at the end (the run is **censored at T**).  `learning_times` turns those
-codes into times with censored runs at +infinity.
-
-**Kaplan-Meier** summaries (median, restricted mean, censored share) come from
-[learning_time_summary][tableclean_suite.learning_time.learning_time_summary].  Every run of a
-cell shares the budget T, so all censoring happens after the last event: the Kaplan-Meier curve
-equals the empirical distribution below T and its median is the sample's lower median with
-censored runs at +infinity (`lower_median`); the bootstrap uses that identity to stay
-vectorised.
-
-**Seeds then runs** (`seeds_then_runs`): a cell is trained with S seeds of R runs each;
-a resample draws S seeds with replacement and then R runs with replacement within each drawn seed,
-and takes the pooled median.  The percentile interval of those resamples carries the between-seed
-variance as well as the within-seed one.
-
-**Local slopes** (`local_slopes`): d log(time) / d log(states) between consecutive sizes of a
-family, with the percentile interval of the same resamples (cells are trained independently, so
-their resamples are paired at random); NaN where either median is censored.
-
-**Growth exponents** (`fit_censored_power_law`): log(time) = a + k log(states) + e, fitted by
-maximum likelihood with e normal of variance sigma^2 + s_i^2 (s_i each point's standard error on
-the log scale, from its interval); a censored cell contributes P(log time > log budget), a Tobit
-(right-censored) term.  The 95 % interval of k is the profile-likelihood interval.
+The response is ``TrainingResult.learned_at`` ([train][tableclean_suite.learners.train]), -1 for a
+run censored at the budget T (`learning_times`: +inf).  Every run of a cell shares T, so the
+Kaplan-Meier median is the sample's lower median with censored runs at +inf (`lower_median`).
+Intervals are percentile intervals of seeds-then-runs resamples (`seeds_then_runs`); local slopes
+are d log(time) / d log(states) between consecutive sizes (`local_slopes`); growth exponents are a
+maximum-likelihood fit of log(time) = a + k log(states) + e with right-censored (Tobit) terms and a
+profile-likelihood interval of k (`fit_censored_power_law`).
 """
 
 from __future__ import annotations

@@ -1,11 +1,6 @@
-"""Training one cell of the scaling study over several seeds, in run chunks, reduced as it goes.
-
-A cell is one spec x gamma x learner x reward pattern, trained with S seeds of R runs each for the
-spec's window.  The full ``(R, T)`` records of a large spec do not fit in memory at once, so runs
-are trained in chunks of at most ``CHUNK_BYTES`` of records; each chunk keeps each run's learning
-time (``TrainingResult.learned_at``), its success over the window's last quarter and whether it
-ever reached the terminal state, and is dropped.  `cell_row` turns a trained cell into its
-``scaling.csv`` row and the bootstrap medians its intervals and slopes come from.
+"""Training one cell of the scaling study (spec x gamma x learner x reward, S seeds of R runs), in
+run chunks of at most ``CHUNK_BYTES`` of records, each reduced to per-run figures as it goes;
+`cell_row` turns a trained cell into its ``scaling.csv`` row and bootstrap medians.
 """
 
 from __future__ import annotations
