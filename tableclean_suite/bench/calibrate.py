@@ -3,14 +3,11 @@
     tableclean-bench calibrate [--task SPEC] [--trials N] [--out transitions.json] [--seed S] [--fresh]
     tableclean-bench calibrate --from-trials results/fidelity/fidelity_trials.csv --out transitions.json
 
-Every (state, action) pair is executed ``N`` times in physics exactly as
-``tableclean-bench fidelity`` does (same rounds, same code: `fidelity.collect`), and
-the observed ``(next_state, outcome)`` frequencies become the empirical successor distribution
-of the pair.  Executions that ended in an abstraction fault have no task state; they are left
-out of the counts and reported (the table's ``source`` says how many).  Pairs never executed
-(unreachable states) keep the task model's successor.  The trials are kept in
-``<out>.trials.csv`` so an interrupted calibration resumes; ``--from-trials`` converts an
-existing fidelity trials file without running physics.
+Every (state, action) pair is executed ``N`` times as ``tableclean-bench fidelity`` does, and the
+observed ``(next_state, outcome)`` frequencies become the pair's successor distribution; abstraction
+faults are left out and counted in the table's ``source``, pairs never executed keep the model's
+successor.  The trials are kept in ``<out>.trials.csv`` (resumable); ``--from-trials`` converts an
+existing fidelity trials file without physics.
 
 Train on the result at symbolic speed:
 
@@ -31,6 +28,7 @@ from tableclean_suite.bench.fidelity import (
     FAULT,
     ResumeError,
     add_execution_arguments,
+    check_trial_rows,
     collect,
     parse_task_and_actions,
     read_configuration,
@@ -46,58 +44,38 @@ class CalibrationError(ValueError):
     """A trial that cannot enter a transition table; the message names the trial and the value."""
 
 
-def _check_transition(state: int, action: str, next_state: int, outcome_name: str, model: TaskModel,
-                      where: str) -> tuple[int, int, int]:
-    """``(state, action index, outcome)`` of an observed transition, checked as a transition table
-    checks its pairs: codes in range, a non-terminal start, a known action and outcome, TERMINAL
-    exactly with a terminal successor, and no-change outcomes leaving the state unchanged."""
-    if not 0 <= state < model.n_states or model.decode(state).is_terminal:
-        raise CalibrationError(f"{where}: state {state} is not a non-terminal state of task {model.spec.name!r} "
-                               f"(codes 0..{model.n_states - 1})")
-    try:
-        index = model.action_index(action)
-    except ValueError as error:
-        raise CalibrationError(f"{where}: {error}") from None
-    if not 0 <= next_state < model.n_states:
-        raise CalibrationError(f"{where}: observed state {next_state} is outside task {model.spec.name!r}'s codes "
-                               f"0..{model.n_states - 1}")
-    if str(outcome_name).upper() not in Outcome.__members__:
-        allowed = ", ".join(o.name.lower() for o in Outcome)
-        raise CalibrationError(f"{where}: unknown observed outcome {outcome_name!r}; allowed: {allowed}, {FAULT}")
-    outcome = Outcome[str(outcome_name).upper()]
-    if model.decode(next_state).is_terminal != (outcome == Outcome.TERMINAL):
-        raise CalibrationError(f"{where}: outcome {outcome.name.lower()} with observed state {next_state}; TERMINAL "
-                               "goes with, and only with, a terminal state")
-    if outcome in NO_CHANGE_OUTCOMES and next_state != state:
-        raise CalibrationError(f"{where}: outcome {outcome.name.lower()} leaves the state unchanged, but the observed "
-                               f"state {next_state} != {state}")
-    return state, index, int(outcome)
-
-
 def count_transitions(rows, model: TaskModel | None = None) -> tuple[dict, int]:
     """``({(state, action index): {(next_state, outcome): n}}, faults)`` from fidelity trial rows (default ``paper``).
 
     Raises:
-        CalibrationError: a trial whose state, action, observed state or outcome does not fit the task
-            (see `_check_transition`), so no table that ``run --backend calibrated`` refuses is written.
+        ResumeError: a trial whose state, action, observed state or outcome is not the task's
+            ([`check_trial_rows`][tableclean_suite.bench.fidelity.check_trial_rows]).
+        CalibrationError: an outcome that does not fit its observed state (TERMINAL exactly with a terminal
+            state, no-change outcomes with the same state), so no table ``run --backend calibrated`` refuses
+            is written.
     """
     model = model or TaskModel()
+    rows = list(rows)
+    check_trial_rows(rows, model, "trials")
     counts: dict[tuple[int, int], Counter] = {}
-    faults = 0
     for position, row in enumerate(rows):
         if row["observed_outcome"] == FAULT:
-            faults += 1
             continue
+        state, next_state, outcome = int(row["state"]), int(row["observed_state"]), Outcome[row["observed_outcome"].upper()]
+        name = outcome.name.lower()
         where = f"trial {position + 1} (round {row.get('round')})"
-        state, action, outcome = _check_transition(int(row["state"]), row["action"], int(row["observed_state"]),
-                                                   row["observed_outcome"], model, where)
-        counts.setdefault((state, action), Counter())[(int(row["observed_state"]), outcome)] += 1
-    return {key: dict(value) for key, value in counts.items()}, faults
+        if model.decode(next_state).is_terminal != (outcome == Outcome.TERMINAL):
+            raise CalibrationError(f"{where}: outcome {name} with observed state {next_state}; TERMINAL goes with, "
+                                   "and only with, a terminal state")
+        if outcome in NO_CHANGE_OUTCOMES and next_state != state:
+            raise CalibrationError(f"{where}: outcome {name} leaves the state unchanged, but the observed state "
+                                   f"{next_state} != {state}")
+        counts.setdefault((state, model.action_index(row["action"])), Counter())[(next_state, int(outcome))] += 1
+    return {key: dict(value) for key, value in counts.items()}, sum(r["observed_outcome"] == FAULT for r in rows)
 
 
 def measured_with(configuration: dict | None) -> str:
-    """How the trials' scene was set up, for the table's ``source``: robot and randomisation of their
-    recorded configuration ([`fidelity.read_configuration`][tableclean_suite.bench.fidelity.read_configuration]), or that it is unknown."""
+    """The robot and randomisation of recorded trials' configuration, for the table's ``source``."""
     if configuration is None:
         return "scene options unknown (no configuration recorded beside the trials)"
     options = configuration.get("physics_options") or {}
@@ -108,14 +86,13 @@ def measured_with(configuration: dict | None) -> str:
 
 
 def calibrated_table(rows, model: TaskModel | None = None, description: str = "") -> TransitionTable:
-    """The empirical [`TransitionTable`][tableclean_suite.learners.transitions.TransitionTable] of fidelity trial rows (faults excluded, see module doc)."""
+    """The empirical [`TransitionTable`][tableclean_suite.learners.transitions.TransitionTable] of fidelity trial
+    rows (faults excluded)."""
     model = model or TaskModel()
     counts, faults = count_transitions(rows, model)
     executions = sum(sum(c.values()) for c in counts.values())
     source = f"physics calibration: {executions} executions, {faults} abstraction faults excluded"
-    if description:
-        source += f"; {description}"
-    return TransitionTable.from_counts(counts, model, source)
+    return TransitionTable.from_counts(counts, model, source + (f"; {description}" if description else ""))
 
 
 def check_trials_task(configuration: dict | None, model: TaskModel, source) -> None:
