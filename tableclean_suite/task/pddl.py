@@ -1,22 +1,11 @@
-"""Task specs as PDDL: a domain and problems for any spec, and a problem read back as a spec.
+"""Task specs as PDDL (docs/pddl.md): a domain and problems for any spec, in two forms (``FORMS``),
+and a problem of the ``tableclean`` domain read back as a spec.
 
-Two forms of the same rules (``FORMS``):
-
-- ``"adl"`` reads like the rules: one domain, ``tableclean``, for any number of segments and
-  objects; CLEAN asks, with ``forall``, that nothing is held and nothing lies on the segment.
-- ``"strips"`` is what every classical planner takes (Fast Downward's optimal search refuses
-  ``forall``): the spec's objects are constants, and ``(off ?o ?s)`` and ``(hand-empty)`` keep
-  what ADL's negations say.
-
-In both, segments ``s1..sN`` form the ring ``(next s1 s2) ... (next sN s1)`` MOVE follows, a
-held object lies on no segment, and the goal is every segment ``wiped``.  PICK takes any object on
-the arm's segment (the model takes the lowest-numbered one; the rules never tell objects apart, so
-plans are as long).  Actions the model allows without effect (ineffective, irrelevant or improper
-ones) are not applicable.  A user action carries its own schema
+``"adl"`` reads like the rules (``forall`` preconditions); ``"strips"`` is what every classical
+planner takes (objects as constants, ``(off ?o ?s)`` and ``(hand-empty)`` for ADL's negations).
+Segments ``s1..sN`` form the ring MOVE follows; the goal is every segment ``wiped``; actions the
+model allows without effect are not applicable.  A user action carries its own schema
 ([`ActionRule.pddl`][tableclean_suite.task.actions.ActionRule]).
-
-[`read_problem`][tableclean_suite.task.pddl.read_problem] turns a problem of the ``tableclean``
-domain into a [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] with the paper's four actions.
 """
 
 from __future__ import annotations

@@ -29,41 +29,29 @@ DEFAULT_SEED = 0
 MIN_SEGMENTS, MIN_OBJECTS = 2, 1
 
 
-def _count_list(minimum: int, what: str, none: bool = False):
-    """A list flag's type: ``"2,3,5"`` -> ``(2, 3, 5)``, sorted, distinct integers >= ``minimum``
-    (with ``none``, ``"none"`` -> ``()``), else an argparse error."""
-    def parse(text: str) -> tuple[int, ...]:
+def _number_list(kind, allowed, what: str, ordered: bool = False, none: bool = False):
+    """A list flag's type: ``"2,3,5"`` -> ``(2, 3, 5)``, distinct ``kind`` values for which ``allowed``
+    holds, sorted (``ordered``: in the order given; ``none``: ``"none"`` -> ``()``), else an argparse
+    error naming ``what``."""
+    def parse(text: str) -> tuple:
         if none and text.strip().lower() == "none":
             return ()
         try:
-            values = sorted({int(part) for part in text.split(",") if part.strip()})
+            values = tuple(dict.fromkeys(kind(part) for part in text.split(",") if part.strip()))
         except ValueError:
-            values = []
-        if not values or values[0] < minimum:
-            raise argparse.ArgumentTypeError(f"expected comma-separated {what} >= {minimum}, got {text!r}")
-        return tuple(values)
+            values = ()
+        if not values or not all(allowed(v) for v in values):
+            raise argparse.ArgumentTypeError(f"expected comma-separated {what}, got {text!r}")
+        return values if ordered else tuple(sorted(values))
 
     parse.comma_list = True  # given twice: refused (cli.OneLineParser)
     return parse
 
 
-segment_list = _count_list(MIN_SEGMENTS, "segment counts")
-object_list = _count_list(MIN_OBJECTS, "object counts")
-fixed_plan_list = _count_list(MIN_OBJECTS, "object counts", none=True)
-
-
-def gamma_list(text: str) -> tuple[float, ...]:
-    """``"0.3,0.9"`` -> ``(0.3, 0.9)``: distinct discounts in (0, 1], in the order given."""
-    try:
-        values = tuple(dict.fromkeys(float(part) for part in text.split(",") if part.strip()))
-    except ValueError:
-        values = ()
-    if not values or not all(0.0 < v <= 1.0 for v in values):
-        raise argparse.ArgumentTypeError(f"expected comma-separated discounts in (0, 1], got {text!r}")
-    return values
-
-
-gamma_list.comma_list = True
+segment_list = _number_list(int, lambda n: n >= MIN_SEGMENTS, f"segment counts >= {MIN_SEGMENTS}")
+object_list = _number_list(int, lambda m: m >= MIN_OBJECTS, f"object counts >= {MIN_OBJECTS}")
+fixed_plan_list = _number_list(int, lambda m: m >= MIN_OBJECTS, f"object counts >= {MIN_OBJECTS}", none=True)
+gamma_list = _number_list(float, lambda g: 0.0 < g <= 1.0, "discounts in (0, 1]", ordered=True)
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:

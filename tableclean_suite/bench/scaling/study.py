@@ -16,12 +16,10 @@ from tableclean_suite.bench.scaling.family import ALPHA, EPSILON, SpecInfo
 from tableclean_suite.bench.scaling.statistics import (learning_times, lower_median, percentile_bounds,
                                                        pooled_resamples, seeds_then_runs)
 from tableclean_suite.metrics import DEFAULT_PLATEAU_FRACTION
+from tableclean_suite.resources import RECORD_CODE_ARRAYS, WORD_BYTES
 
 #: Records of one training chunk stay below this many bytes (runs per chunk follow from it).
 CHUNK_BYTES = 64 * 2**20
-_REWARD_BYTES = 8  # float64 reward per iteration
-_INT_RECORDS = 4  # outcomes, states, actions, episode_end
-_Q_BYTES = 8  # float64 Q-table entry
 
 
 @numba.njit(cache=True)
@@ -83,7 +81,7 @@ class CellRecords:
 
 def runs_per_chunk(window: int, n_states: int, n_actions: int, itemsize: int, runs: int) -> int:
     """Runs per training chunk so one chunk's records and Q-tables stay below ``CHUNK_BYTES``."""
-    per_run = window * (_REWARD_BYTES + _INT_RECORDS * itemsize) + n_states * n_actions * _Q_BYTES
+    per_run = window * (WORD_BYTES + RECORD_CODE_ARRAYS * itemsize) + n_states * n_actions * WORD_BYTES
     return max(1, min(runs, CHUNK_BYTES // per_run))
 
 
