@@ -2,14 +2,11 @@
 
     tableclean-bench pddl --task paper [--planners pyperplan,fast-downward] [--states all|N] [--seed S] [--out DIR]
 
-For each task (``--task``: names or ``.json`` paths, comma separated, or ``all`` registered specs) the
-spec is exported to PDDL's STRIPS form ([`tableclean_suite.task.pddl`][tableclean_suite.task.pddl]) and
-solved from every reachable non-terminal state (``--states all``; by default when there are fewer than
-2000) or from a seeded sample of N of them (default 200 above that) by optimal planners through
-unified-planning (the ``planning`` extra).  A state fails when a planner finds no plan, a plan longer
-or shorter than the model's shortest, or one that does not end in the terminal state when its actions
-are replayed in [`TaskModel`][tableclean_suite.task.model.TaskModel]; failures are listed by state and
-the exit code is 1.
+Each task (``--task``: names or ``.json`` paths, or ``all``) is exported to PDDL
+([`tableclean_suite.task.pddl`][tableclean_suite.task.pddl]) and solved by optimal planners (unified-planning,
+the ``planning`` extra) from every reachable non-terminal state or a seeded sample (``--states``).  A state
+fails when no plan is found, the plan's length is not the model's optimum, or its replay in the model does
+not end terminal; failures are listed and the exit code is 1.
 """
 
 from __future__ import annotations
@@ -59,8 +56,8 @@ def engines(planners) -> None:
 
 
 def check_states(model: TaskModel, count: int | None, seed: int) -> list:
-    """The reachable non-terminal states (from every all-unclean layout and the spec's starts), or a
-    seeded sample of ``count`` of them in code order (``count`` None: all below `ALL_STATES_BELOW`)."""
+    """The reachable non-terminal states, or a seeded sample of ``count`` in code order (None: all below
+    `ALL_STATES_BELOW`, else `DEFAULT_SAMPLE`)."""
     starts = list(dict.fromkeys(model.unclean_layouts() + model.start_states()))
     states = [s for s in model.reachable_states(starts) if not s.is_terminal]
     if count is None and len(states) < ALL_STATES_BELOW:
@@ -73,8 +70,7 @@ def check_states(model: TaskModel, count: int | None, seed: int) -> list:
 
 
 def replay(model: TaskModel, state, actions) -> bool:
-    """Whether ``actions`` (names) lead from ``state`` to the terminal state, at the last one and not
-    before, without an improper action."""
+    """Whether ``actions`` (names) lead from ``state`` to the terminal state at the last one, none improper."""
     for i, action in enumerate(actions):
         state, outcome = model.step(state, action)
         if outcome == Outcome.IMPROPER or state.is_terminal != (i == len(actions) - 1):
@@ -135,7 +131,7 @@ def summary(task: str, planner: str, frame: pd.DataFrame) -> dict:
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the check's own."""
+    """The command line."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     parser.add_argument("--task", type=cli.name_list, default=("paper",), metavar="NAME|FILE.json,...|all",
                         help="task specs, comma separated, or 'all' registered ones (default paper)")

@@ -2,12 +2,9 @@
 
     tableclean-bench policy-analysis [--runs 1000] [--iterations 4000] [--long-iterations 20000] [--seed 0]
 
-For every learner x reward pattern x start mode it trains ``--runs`` runs and prints
-- the measured success plateau (last 25 % of the window),
-- the exact epsilon-greedy success of the learned greedy policies (dynamic programming over
-  the model, averaged over runs): what the plateau should equal once the policies are stable,
-- the greedy policies' success at epsilon = 0 (do they solve the task at all?).
-It adds Q-learning with r3 at ``--long-iterations``, to show r3's looping persists.
+For every learner x reward pattern x start mode: the measured success plateau, the exact epsilon-greedy
+success of the learned greedy policies (what the plateau should equal once they are stable) and their
+success at epsilon = 0; and Q-learning with r3 at ``--long-iterations`` (r3's looping persists).
 """
 
 from __future__ import annotations
@@ -24,7 +21,6 @@ from tableclean_suite import analysis, metrics
 from tableclean_suite.learners import train
 from tableclean_suite.task import StartMode, TaskModel
 
-#: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench policy-analysis"
 LEARNERS = ("q_learning", "sarsa")
 REWARDS = ("r1", "r2", "r3", "r4")
@@ -32,24 +28,21 @@ REWARDS = ("r1", "r2", "r3", "r4")
 
 def analyse(learner: str, reward: str, model: TaskModel, runs: int, iterations: int, seed: int, epsilon: float,
             max_itr: int) -> dict:
-    """One row: measured plateau, exact epsilon-greedy and greedy success of the learned policies."""
+    """One row: measured plateau, exact epsilon-greedy and greedy success (%) of the learned policies."""
     result = train(learner, reward, runs=runs, iterations=iterations, seed=seed, model=model, epsilon=epsilon,
                    max_itr=max_itr)
     policies = analysis.greedy_policy(result.q)
-    return {
-        "learner": learner,
-        "reward": reward,
-        "start": model.start.value,
-        "iterations": iterations,
-        "success_plateau_%": 100 * metrics.summarize(result).success_plateau,
-        "exact_epsilon_greedy_%": 100 * float(np.mean(analysis.exact_success_probability(
-            policies, epsilon, max_itr, model=model))),
-        "greedy_success_%": 100 * float(np.mean(analysis.exact_success_probability(policies, 0.0, max_itr, model=model))),
-    }
+
+    def exact(explore):
+        return 100 * float(np.mean(analysis.exact_success_probability(policies, explore, max_itr, model=model)))
+
+    return {"learner": learner, "reward": reward, "start": model.start.value, "iterations": iterations,
+            "success_plateau_%": 100 * metrics.summarize(result).success_plateau,
+            "exact_epsilon_greedy_%": exact(epsilon), "greedy_success_%": exact(0.0)}
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the analysis' own."""
+    """The command line."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     cli.add_runs_argument(parser, 1000, "runs per row")
     cli.add_iterations_argument(parser, 4000, "training iterations")
@@ -64,12 +57,8 @@ def main(argv=None, prog: str | None = None) -> int:
     import pandas as pd
 
     epsilon, max_itr = 0.1, 500
-    rows = [
-        analyse(learner, reward, TaskModel(start=start.value), args.runs, args.iterations, args.seed, epsilon, max_itr)
-        for start in StartMode
-        for learner in LEARNERS
-        for reward in REWARDS
-    ]
+    rows = [analyse(learner, reward, TaskModel(start=start.value), args.runs, args.iterations, args.seed, epsilon,
+                    max_itr) for start in StartMode for learner in LEARNERS for reward in REWARDS]
     rows.append(analyse("q_learning", "r3", TaskModel(), args.runs, args.long_iterations, args.seed, epsilon, max_itr))
     print(pd.DataFrame(rows).to_string(index=False, float_format="{:.2f}".format, line_width=PRINT_WIDTH))
     return 0

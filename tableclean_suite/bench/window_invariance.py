@@ -3,20 +3,12 @@
     tableclean-bench window-invariance                      # 4000 vs 12000 iterations
     tableclean-bench window-invariance --windows 2000 6000 --learners q_learning --runs 200
 
-Runs ``tableclean-bench run`` (no sweeps, no figures; any other of its flags may follow) once
-per window, each into ``OUT/w<iterations>/`` (so a rerun resumes from the saved cells), and
-compares the main rows of the two ``table3.csv`` files figure by figure:
-
-- **change** of a figure = ``|long - short| / short`` (0 when both windows say "not reached",
-  infinite when only one does);
-- a cell is **settled** when its behaviour drift is within tolerance in both windows
-  (`tableclean_suite.settling`): its plateau is no longer moving, so its figures should not;
-- the summary gives the largest change among the settled cells and lists the settled cells with a
-  figure that moves by more than ``--goal`` (a fraction, default 0.05); unsettled cells are listed
-  with their largest change, because their plateau depends on where the window ends.
-
-Writes ``OUT/window_invariance.csv`` (one row per cell and figure) atomically and prints it with a
-summary.  Exit code 0 after a comparison, whatever it shows; 2 on bad flags.
+Runs ``tableclean-bench run`` (no sweeps, no figures; other flags are passed on) once per window
+into ``OUT/w<iterations>/`` (a rerun resumes) and compares the main rows of the two ``table3.csv``:
+a figure's change is ``|long - short| / short``.  Cells settled in both windows (`tableclean_suite.settling`)
+should not move; those moving by more than ``--goal`` are listed, and the unsettled cells apart.
+Writes ``OUT/window_invariance.csv`` (one row per cell and figure).  Exit code 0 after a
+comparison, whatever it shows; 2 on bad flags.
 """
 from __future__ import annotations
 
@@ -33,19 +25,14 @@ from tableclean_suite.bench.tables import PRINT_WIDTH, main_rows
 
 #: Windows compared by default (iterations): the paper's and three times as long.
 DEFAULT_WINDOWS = (4000, 12000)
-#: Default ``--goal``: settled cells with a figure moving by more than this fraction are listed.
 DEFAULT_THRESHOLD = 0.05
-#: Flags this command sets itself for each window.
+#: Run-command flags this command sets itself, and those that would write no Table 3.
 OWN_RUN_FLAGS = ("--iterations", "--out", "--sweeps", "--no-sweeps", "--figures", "--no-figures")
-#: ``tableclean-bench run`` flags that would make it write no Table 3 to compare.
 NO_TABLE_FLAGS = ("--describe",)
 RESULT_FILE = "window_invariance.csv"
-#: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench window-invariance"
 DEFAULT_OUT = "results/window_invariance"
-#: Table 3's iteration figures (columns of ``table3.csv``): the per-run learning time's median
-#: (a run must stay optimal to the end of its window, so a longer window can only delay it) and
-#: the paper's mean-curve readings.
+#: Table 3's iteration figures compared (columns of ``table3.csv``).
 FIGURES = ("learning_time_median", "reward_convergence_iterations", "reward_convergence_episodes",
            "max_success_iterations", "max_success_episodes")
 
@@ -61,13 +48,8 @@ def relative_change(short: float, long: float) -> float:
 
 
 def figure_changes(short: pd.DataFrame, long: pd.DataFrame) -> pd.DataFrame:
-    """One row per (learner, reward) cell present in both main-row frames and per figure of
-    `FIGURES`: ``cell, figure, short, long, change`` and ``settled`` (True only if the cell's
-    ``settled`` column is true in both; a cell without a settling measurement is not settled).
-
-    Raises:
-        ValueError: the frames have no cell in common.
-    """
+    """One row per (learner, reward) cell of both main-row frames and figure of `FIGURES`: ``cell, figure,
+    short, long, change, settled`` (settled in both); ValueError when they have no cell in common."""
     keys = ["learner", "reward"]
     both = short.merge(long, on=keys, suffixes=("_short", "_long"))
     if both.empty:
@@ -83,7 +65,7 @@ def figure_changes(short: pd.DataFrame, long: pd.DataFrame) -> pd.DataFrame:
 
 
 def _true(value) -> bool:
-    """A ``settled`` entry read back from CSV: True, "True" or 1 count; empty (not measured) does not."""
+    """A ``settled`` entry read back from CSV: True, "True" or 1; empty (not measured) is False."""
     return not pd.isna(value) and str(value).strip().lower() in ("true", "1", "1.0")
 
 
@@ -102,8 +84,7 @@ def build_parser(prog: str = PROG):
 
 
 def parse_args(argv=None, prog: str | None = None):
-    """``(args, passthrough)``: this command's options, and the flags passed on to the run command
-    (with this command's ``--plugins`` and ``--verbose``)."""
+    """``(args, passthrough)``: this command's options and the flags passed on to the run command."""
     parser, args, passthrough = cli.parse_command(build_parser, argv, prog or PROG, known=True)
     args.prog = parser.prog
     short, long = args.windows
@@ -123,8 +104,8 @@ def parse_args(argv=None, prog: str | None = None):
 
 
 def run_window(iterations: int, out: Path, passthrough: list[str], prog: str = PROG) -> pd.DataFrame:
-    """Run the harness at ``iterations`` into ``out`` (its stdout to ``out/stdout.txt``) and return the
-    main rows of its Table 3.  Raises ``SystemExit`` with the harness's exit code if it fails."""
+    """The main rows of Table 3 of the run command at ``iterations`` into ``out`` (its stdout in
+    ``out/stdout.txt``); ``SystemExit`` with its exit code if it fails."""
     out.mkdir(parents=True, exist_ok=True)
     argv = [*passthrough, "--iterations", str(iterations), "--out", str(out), "--no-sweeps", "--no-figures",
             "--no-progress"]
@@ -138,16 +119,16 @@ def run_window(iterations: int, out: Path, passthrough: list[str], prog: str = P
 
 
 def cells_above(changes: pd.DataFrame, threshold: float) -> pd.Series:
-    """The settled cells of ``changes`` ([`figure_changes`][tableclean_suite.bench.window_invariance.figure_changes]) with a figure whose change exceeds
-    ``threshold`` (a fraction, >= 0): each cell's largest change, indexed by cell, largest first."""
+    """Each settled cell of ``changes`` whose largest change exceeds ``threshold`` (a fraction): that change
+    by cell, largest first."""
     settled = changes[changes["settled"]]
     largest = settled.groupby("cell", sort=False)["change"].max()
     return largest[largest > threshold].sort_values(ascending=False, kind="stable")
 
 
 def summary_lines(changes: pd.DataFrame, threshold: float, windows) -> list[str]:
-    """One line for the settled cells (largest change, and the cells moving by more than ``threshold``,
-    a fraction; [`cells_above`][tableclean_suite.bench.window_invariance.cells_above]) and one for the others (each cell's largest change)."""
+    """One line for the settled cells (largest change, cells moving by more than ``threshold``) and one for
+    the others (each cell's largest change)."""
     short, long = windows
     settled = changes[changes["settled"]]
     lines = []
