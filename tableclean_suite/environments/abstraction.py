@@ -1,29 +1,25 @@
 """Physical-to-symbolic abstraction: an observation mapping -> the task model's [`TaskState`][tableclean_suite.task.state.TaskState].
 
-This module is the only place where the physical thresholds of the task are applied.  Everything
-is a pure function of an observation-like mapping (``env.skill_info()`` is one) and a config
-(`DEFAULT_TABLECLEAN_CONFIG` when ``None``), so it can
-be unit-tested with a hand-written dict.
+The only place the task's physical thresholds are applied; pure functions of an observation mapping
+(``env.skill_info()`` is one) and a config (`DEFAULT_TABLECLEAN_CONFIG` when ``None``).
 
 Observation keys (world frame, metres):
 
 Required
     - ``"dirt_fraction"`` (N,): fraction of dirt markers still present per segment (1.0 = all dirty).
-    - ``"object_pos"`` (3,): object centre (root body position), and ``"object_grasped"`` bool: both
-      gripper finger pads touch the object; or, for M objects, ``"objects_pos"`` (M, 3) and
-      ``"objects_grasped"`` (M,) (with optional ``"objects_rest_z"`` (M,)), which take precedence.
+    - ``"object_pos"`` (3,) and ``"object_grasped"`` bool (both finger pads touch it); or, for M
+      objects, ``"objects_pos"`` (M, 3) and ``"objects_grasped"`` (M,) (optional ``"objects_rest_z"`` (M,)).
     - ``"eef_pos"`` (3,): gripper site position.
     - ``"sponge_pos"`` (3,): sponge centre (only when ``check_sponge``).
 Optional (defaults from the config's scene geometry)
     - ``"sponge_home_pos"`` (3,), ``"sponge_grasped"`` bool (default False).
     - ``"table_top_z"`` float, ``"table_center"`` (3,), ``"table_half_size"`` (2,).
     - ``"segment_centers"`` (N, 3), ``"segment_half_sizes"`` (N, 2) (N = 2 by default).
-    - ``"object_rest_z"`` float: object centre height when it rests on the table
-      (default ``table_top_z + object_half_size[2]``); ``"object_half_size"`` (3,).
+    - ``"object_rest_z"`` float (default ``table_top_z + object_half_size[2]``), ``"object_half_size"`` (3,).
     - ``"qvel"`` (n,): simulation velocities, checked against ``max_stable_speed``.
 
-Situations the task model has no state for raise [`AbstractionError`][tableclean_suite.environments.abstraction.AbstractionError] whose ``fault`` is a
-[`Fault`][tableclean_suite.environments.abstraction.Fault]; nothing is mapped silently.
+Situations the task model has no state for raise [`AbstractionError`][tableclean_suite.environments.abstraction.AbstractionError] (``.fault`` a
+[`Fault`][tableclean_suite.environments.abstraction.Fault]); nothing is mapped silently.
 """
 
 from __future__ import annotations
@@ -84,9 +80,6 @@ def _geometry_value(obs: Mapping, key: str, config: Mapping) -> np.ndarray:
     return np.asarray(getattr(scene_geometry(config), key), dtype=float)
 
 
-# ---------------------------------------------------------------------------------------------
-# building blocks (each a pure function; the environment's success check reuses them)
-# ---------------------------------------------------------------------------------------------
 def check_stability(obs: Mapping, config: Mapping | None = None) -> None:
     """Raise ``UNSTABLE`` when a physical reading (`PHYSICAL_KEYS`) is non-finite or ``|qvel|`` is too high."""
     config = resolve_config(config)
@@ -212,9 +205,6 @@ def sponge_at_home(obs: Mapping, config: Mapping | None = None) -> bool:
     return distance <= config["sponge_home_tolerance"] and not bool(obs.get("sponge_grasped", False))
 
 
-# ---------------------------------------------------------------------------------------------
-# the abstraction
-# ---------------------------------------------------------------------------------------------
 def abstract_state(obs: Mapping, config: Mapping | None = None, *, check_sponge: bool = True) -> TaskState:
     """The symbolic [`TaskState`][tableclean_suite.task.state.TaskState] of a physical observation (keys in the module docstring).
 

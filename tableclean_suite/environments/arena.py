@@ -1,16 +1,6 @@
-"""The table-cleaning arena: robosuite's table with N tinted segments, dirt markers and a sponge stand.
-
-Everything added here hangs off the table body of `robosuite.models.arenas.TableArena`:
-
-- one tinted, visual-only patch per segment and a dark divider strip between neighbouring segments;
-- ``rows * cols`` dirt markers per segment: thin visual-only discs (``contype = conaffinity = 0``,
-  like robosuite's Wipe markers), hidden by the environment when wiped;
-- one dirt-state body per segment, without geometry, on a horizontal slide joint whose position
-  records which of the segment's markers are wiped ([`dirt_state`][tableclean_suite.environments.dirt_state]), so the dirt is part of
-  MuJoCo's ``qpos``;
-- a small stand (a collision box) on which the sponge rests at its home, off both segments;
-- a ``tableview`` camera that sees both segments, the dirt, the object and the stand.
-"""
+"""The table-cleaning arena: robosuite's ``TableArena`` plus, on the table body, one tinted visual patch per
+segment and dividers between neighbours, ``rows * cols`` visual-only dirt markers per segment, one dirt-state
+body per segment ([`dirt_state`][tableclean_suite.environments.dirt_state]), the sponge's stand and a ``tableview`` camera."""
 
 from __future__ import annotations
 
@@ -39,8 +29,7 @@ _VISUAL = dict(contype=0, conaffinity=0, group=1)
 #: Mass [kg] and principal inertia [kg m^2] of a dirt-state body (MuJoCo needs both > 0 on a moving body).
 DIRT_STATE_MASS = 1e-3
 DIRT_STATE_INERTIA = 1e-9
-#: Damping of a dirt-state joint [N s/m]: any stray velocity dies within a physics step (MuJoCo's
-#: Euler integrator treats joint damping implicitly, so a large value is stable and costs nothing).
+#: Damping of a dirt-state joint [N s/m]: any stray velocity dies within a physics step (implicit in MuJoCo).
 DIRT_STATE_DAMPING = 1e6
 #: Slide axis of a dirt-state joint (horizontal: gravity has no component along it).
 DIRT_STATE_AXIS = "1 0 0"

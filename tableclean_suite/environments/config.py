@@ -189,12 +189,12 @@ def _validate(config: dict) -> None:
     if not low < high:
         raise ValueError(f"task_config['reach_x'] = {config['reach_x']!r}: expected (low, high) with low < high")
     if config["object_type"] is not None:
-        from tableclean_suite.environments.objects import check_object_type
+        from tableclean_suite.environments.objects import get_object_type
 
         if not isinstance(config["object_type"], str):
             raise ValueError(f"task_config['object_type'] = {config['object_type']!r}: expected None or a registered "
                              "object type name")
-        check_object_type(config["object_type"])
+        get_object_type(config["object_type"])
     half_y = arrays["table_full_size"][1] / 2
     reach_y = float(arrays["segment_gap"]) / 2 + arrays["segment_size"][1]
     if reach_y > half_y:

@@ -1,20 +1,12 @@
-"""The dirt markers' wiped flags as MuJoCo state: one slide-joint position per segment encodes them.
+"""The dirt markers' wiped flags as MuJoCo state, so ``sim.get_state()`` / ``set_state_from_flattened()`` (robosuite's
+``DataCollectionWrapper``, playback, robomimic) restore the cleaning.
 
-robosuite saves and restores a scene with ``sim.get_state()`` / ``sim.set_state_from_flattened()``
-(time, ``qpos``, ``qvel``): that is what ``DataCollectionWrapper`` records and what playback and
-robomimic's ``dataset_states_to_obs`` restore.  So that the cleaning is restored with the object
-and the arm, each segment has a *dirt-state joint* ([`dirt_state_joint_name`][tableclean_suite.environments.dirt_state.dirt_state_joint_name]): a horizontal
-slide joint of a geometry-less body whose position is the segment's wiped flags as a binary
-fraction,
+Each segment has a dirt-state joint ([`dirt_state_joint_name`][tableclean_suite.environments.dirt_state.dirt_state_joint_name]): a horizontal, heavily damped
+slide joint of a geometry-less body whose position is the segment's wiped flags as a binary fraction,
 
     qpos = sum_i wiped_i * 2**i / 2**k        (k markers, marker i -> bit i; in [0, 1) metres)
 
-which a float64 holds exactly for k <= `MAX_MARKERS_PER_SEGMENT`.  (A joint per marker would
-add 50 bodies and degrees of freedom, ~10% of ``env.step``: robosuite's scene simulates air on every
-body with mass.)  The joint is horizontal (gravity has no component along it), carries no geometry
-(nothing touches it) and is heavily damped, so its position stays exactly where it is written.
-
-Pure functions here; [`TableClean`][tableclean_suite.environments.table_clean.TableClean] reads and writes the joints.
+which a float64 holds exactly for k <= `MAX_MARKERS_PER_SEGMENT`.
 """
 
 from __future__ import annotations

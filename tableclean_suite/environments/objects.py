@@ -1,11 +1,9 @@
 """Graspable object types (a registry users extend) and the sponge.
 
-A task spec names its objects' types (``TaskSpec.objects``, e.g. ``("box", "milk")``); the scene
-builds each from this registry.  An object type is how to build a robosuite
-`MujocoObject`; everything the scene and the skills need to
-know about its shape (extent, footprint, narrow side, resting height, where to grip it) is
-read from its collision geometry in MuJoCo ([`object_geometry`][tableclean_suite.environments.object_geometry]), so registering one is
-one line:
+A task spec names its objects' types (``TaskSpec.objects``, e.g. ``("box", "milk")``); the scene builds each
+from this registry.  An object type is how to build a robosuite ``MujocoObject``; its shape (extent, footprint,
+resting height, where to grip it) is read from its collision geometry
+([`object_geometry`][tableclean_suite.environments.object_geometry]), so registering one is one line:
 
     from robosuite.models.objects import MilkObject
     from tableclean_suite.environments.objects import register_object
@@ -14,11 +12,8 @@ one line:
     register_object("tall_box", lambda name: BoxObject(name=name, size=[0.02, 0.02, 0.05]))
     register_object("mug", xml="mug.xml")                      # an MJCF file in robosuite's object layout
 
-What geometry cannot tell can still be given ([`ObjectType`][tableclean_suite.environments.objects.ObjectType] overrides): ``footprint_radius``
-(m, a disc covering the object seen from above), ``grasp_depth`` (m below the object's centre at
-which the grip site closes), ``approach_clearance`` (m the open fingertips stay above its top while
-hovering) and ``yaw_rule`` (`YAW_RULES`).  ``None`` (the default) derives each from the geometry.
-The scene refuses, when it is made, an object the gripper cannot hold or that does not fit a segment.
+What geometry cannot tell can be given as [`ObjectType`][tableclean_suite.environments.objects.ObjectType] overrides.  The scene refuses,
+when it is made, an object the gripper cannot hold or that does not fit a segment.
 """
 
 from __future__ import annotations
@@ -121,13 +116,8 @@ class ObjectType:
 
 
 def _red_wood() -> CustomMaterial:
-    return CustomMaterial(
-        texture="WoodRed",
-        tex_name="redwood",
-        mat_name="redwood_mat",
-        tex_attrib={"type": "cube"},
-        mat_attrib={"texrepeat": "1 1", "specular": "0.4", "shininess": "0.1"},
-    )
+    return CustomMaterial(texture="WoodRed", tex_name="redwood", mat_name="redwood_mat", tex_attrib={"type": "cube"},
+                          mat_attrib={"texrepeat": "1 1", "specular": "0.4", "shininess": "0.1"})
 
 
 def _half_size(config: Mapping) -> np.ndarray:
@@ -270,22 +260,14 @@ class _ObjectTypes(Mapping):
 OBJECT_TYPES: Mapping[str, ObjectType] = _ObjectTypes()
 
 
-def check_object_type(object_type: str) -> None:
-    """Raise ``ValueError`` naming the allowed types when ``object_type`` is unknown."""
-    get_object_type(object_type)
-
-
 def object_names(n_objects: int) -> list[str]:
     """MuJoCo names of M objects: ``"object"`` for one (as the paper scene), ``"object1"``... for more."""
     return [OBJECT_NAME] if n_objects == 1 else [f"{OBJECT_NAME}{j + 1}" for j in range(n_objects)]
 
 
-def make_object(object_type: str, config_or_half_size, name: str = OBJECT_NAME) -> MujocoObject:
-    """The object of ``object_type`` named ``name``; the second argument is the task config (or a half size (3,))."""
+def make_object(object_type: str, config: Mapping, name: str = OBJECT_NAME) -> MujocoObject:
+    """The object of ``object_type`` named ``name`` built from the task ``config``."""
     kind = get_object_type(object_type)
-    config = config_or_half_size
-    if not isinstance(config, Mapping):
-        config = {"object_half_size": np.asarray(config_or_half_size, dtype=float)}
     obj = kind.build(name, config)
     if not isinstance(obj, MujocoObject):
         raise TypeError(f"object type {kind.name!r}: build returned {type(obj).__name__}, not a robosuite MujocoObject")
@@ -294,25 +276,15 @@ def make_object(object_type: str, config_or_half_size, name: str = OBJECT_NAME) 
 
 def make_sponge(half_size, density: float) -> MujocoObject:
     """A light, soft, yellow-green box named ``"sponge"`` with half extents ``half_size`` (3,) [m]."""
-    return BoxObject(
-        name=SPONGE_NAME,
-        size=[float(h) for h in half_size],
-        density=density,
-        friction=list(SPONGE_FRICTION),
-        solref=list(SPONGE_SOLREF),
-        rgba=list(SPONGE_RGBA),
-    )
-
-
-#: MuJoCo name of the copy of an object built only to read its geometry.
-PROBE_NAME = "probe"
+    return BoxObject(name=SPONGE_NAME, size=[float(h) for h in half_size], density=density,
+                     friction=list(SPONGE_FRICTION), solref=list(SPONGE_SOLREF), rgba=list(SPONGE_RGBA))
 
 
 def type_geometry(object_type, config):
-    """The collision geometry ([`object_geometry.ObjectGeometry`][tableclean_suite.environments.object_geometry.ObjectGeometry]) of ``object_type`` built from task ``config``."""
+    """The collision geometry ([`ObjectGeometry`][tableclean_suite.environments.object_geometry.ObjectGeometry]) of ``object_type`` built from task ``config``."""
     from tableclean_suite.environments.object_geometry import object_geometry
 
-    return object_geometry(make_object(object_type, config, PROBE_NAME))
+    return object_geometry(make_object(object_type, config, "probe"))
 
 
 def footprint_radius(object_type, geometry) -> float:

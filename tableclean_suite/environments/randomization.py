@@ -22,19 +22,13 @@ field                          unit    ``OFF`` (paper)  ``DEFAULT_ON``    applie
 ``sponge_yaw_noise``           rad     0                0.15              sponge start yaw, uniform in +-this
 =============================  ======  ===============  ================  ==========================================
 
-Scales multiply the value the scene builds (masses: the density's mass of the resized body; sizes
-apply to the types built from ``object_half_size``: box, cube, cylinder; robosuite's mesh objects,
-can and bread, keep theirs).
-Every range is ``(low, high)`` with ``low <= high`` inside `ALLOWED_SCALE` (sizes:
-`ALLOWED_SIZE_SCALE`); noises are half-widths >= 0 up to `MAX_YAW_NOISE` /
+Scales multiply the value the scene builds (sizes apply to the types built from ``object_half_size``).
+Every range is ``(low, high)`` with ``low <= high`` inside `ALLOWED_SCALE` (sizes: `ALLOWED_SIZE_SCALE`,
+friction up to `MAX_CHECKED_FRICTION_SCALE`); noises are half-widths >= 0 up to `MAX_YAW_NOISE` /
 `MAX_SPONGE_HOME_NOISE`.  Anything else raises ``ValueError`` naming the field.
 
-Seeding: the sample of a reset is drawn from ``env.rng`` at the start of ``env.reset()`` (in a
-fixed order, before the layout), so re-seeding ``env.rng`` (or ``robosuite.make(..., seed=S)``)
-reproduces the scene exactly.  ``OFF`` draws nothing: the scene and its random stream are the
-unrandomised ones.  Sizes need a new MuJoCo model; the env rebuilds it at a reset that changes
-them even with ``hard_reset=False`` (about 0.13 s); masses, frictions, damping and gains are
-written into the live model and controller.
+A reset's sample is drawn from ``env.rng`` first (fixed order), so ``seed=S`` reproduces the scene; ``OFF``
+draws nothing.  A size draw rebuilds the MuJoCo model (also with ``hard_reset=False``).
 """
 
 from __future__ import annotations
@@ -55,13 +49,11 @@ __all__ = ["DynamicsRandomization", "DynamicsSample", "OFF", "DEFAULT_ON", "reso
 ALLOWED_SCALE = (0.25, 4.0)
 #: Bounds [factor] of the size scales: the Panda's fingers open 8 cm; objects must still fit a segment.
 ALLOWED_SIZE_SCALE = (0.75, 1.25)
-#: Largest friction scale [factor] the skills were checked on (above about 1.5 the wiping skill loses the
-#: sponge): larger ranges are refused.
+#: Largest friction scale [factor] the skills were checked on (above it the wiping skill loses the sponge).
 MAX_CHECKED_FRICTION_SCALE = 1.5
 #: Largest yaw noise half-width [rad] (a quarter turn covers every box orientation).
 MAX_YAW_NOISE = math.pi / 4
-#: Largest sponge-home xy noise half-width [m]: the corner of the noise square stays inside the
-#: default 0.03 m ``sponge_home_tolerance`` (0.02 * sqrt(2) = 0.028 m).
+#: Largest sponge-home xy noise half-width [m] (its corner stays inside the default sponge_home_tolerance).
 MAX_SPONGE_HOME_NOISE = 0.02
 
 #: (low, high) range fields and their allowed bounds.
@@ -125,11 +117,8 @@ class DynamicsSample:
 
 @dataclass(frozen=True)
 class DynamicsRandomization:
-    """Ranges of the randomised dynamics (the table in the module docstring).
-
-    ``DynamicsRandomization()`` is `OFF` (the paper's scene); `DEFAULT_ON` is the
-    documented default range set.  Ranges are ``(low, high)`` tuples, noises half-widths.
-    """
+    """Ranges of the randomised dynamics (the module docstring's table): ``(low, high)`` tuples, noises
+    half-widths.  ``DynamicsRandomization()`` is `OFF`; `DEFAULT_ON` the documented ranges."""
 
     object_mass_scale: Range = (1.0, 1.0)
     sponge_mass_scale: Range = (1.0, 1.0)
@@ -159,13 +148,10 @@ class DynamicsRandomization:
             object.__setattr__(self, name, (low, high))
         for name, largest in NOISE_FIELDS.items():
             value = getattr(self, name)
-            if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-                raise ValueError(f"randomization {name} must be a number (a half-width in [0, {largest:.4g}]), "
-                                 f"got {value!r}")
-            width = float(value)
-            if isinstance(value, bool) or not 0.0 <= width <= largest:
+            number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+            if not (number and 0.0 <= float(value) <= largest):
                 raise ValueError(f"randomization {name} must be a half-width in [0, {largest:.4g}], got {value!r}")
-            object.__setattr__(self, name, width)
+            object.__setattr__(self, name, float(value))
 
     @property
     def enabled(self) -> bool:
@@ -177,69 +163,41 @@ class DynamicsRandomization:
         return jsonable(asdict(self))
 
     def sample(self, rng: np.random.Generator, n_objects: int, n_joints: int) -> DynamicsSample:
-        """Draw one [`DynamicsSample`][tableclean_suite.environments.randomization.DynamicsSample] for ``n_objects`` objects and ``n_joints`` arm joints.
-
-        The draws come from ``rng`` in a fixed order (so a seed reproduces them); a point range
-        still consumes its draws, so narrowing one range leaves the others' values unchanged.
-        """
+        """Draw one [`DynamicsSample`][tableclean_suite.environments.randomization.DynamicsSample] for ``n_objects`` objects and ``n_joints`` arm joints,
+        from ``rng`` in a fixed order (a point range still consumes its draws)."""
 
         def draw(name, size=None):
             low, high = getattr(self, name)
-            return rng.uniform(low, high, size=size)
-
-        object_mass = draw("object_mass_scale", n_objects)
-        sponge_mass = draw("sponge_mass_scale")
-        object_size = draw("object_size_scale", n_objects)
-        sponge_size = draw("sponge_size_scale")
-        table_friction = draw("friction_scale")
-        object_friction = draw("friction_scale", n_objects)
-        sponge_friction = draw("friction_scale")
-        damping = draw("joint_damping_scale", n_joints)
-        kp = draw("osc_kp_scale")
-        ratio = draw("osc_damping_ratio_scale")
-        home = rng.uniform(-self.sponge_home_noise, self.sponge_home_noise, size=2)
-        yaw = rng.uniform(-self.sponge_yaw_noise, self.sponge_yaw_noise)
-
-        def floats(values):
-            return tuple(float(v) for v in np.atleast_1d(values))
+            values = rng.uniform(low, high, size=size)
+            return float(values) if size is None else tuple(float(v) for v in values)
 
         return DynamicsSample(
-            object_mass_scale=floats(object_mass), sponge_mass_scale=float(sponge_mass),
-            object_size_scale=floats(object_size), sponge_size_scale=float(sponge_size),
-            table_friction_scale=float(table_friction), object_friction_scale=floats(object_friction),
-            sponge_friction_scale=float(sponge_friction), joint_damping_scale=floats(damping),
-            osc_kp_scale=float(kp), osc_damping_ratio_scale=float(ratio), object_yaw_noise=self.object_yaw_noise,
-            sponge_home_offset=(float(home[0]), float(home[1])), sponge_yaw=float(yaw),
-        )
+            object_mass_scale=draw("object_mass_scale", n_objects), sponge_mass_scale=draw("sponge_mass_scale"),
+            object_size_scale=draw("object_size_scale", n_objects), sponge_size_scale=draw("sponge_size_scale"),
+            table_friction_scale=draw("friction_scale"), object_friction_scale=draw("friction_scale", n_objects),
+            sponge_friction_scale=draw("friction_scale"), joint_damping_scale=draw("joint_damping_scale", n_joints),
+            osc_kp_scale=draw("osc_kp_scale"), osc_damping_ratio_scale=draw("osc_damping_ratio_scale"),
+            object_yaw_noise=self.object_yaw_noise,
+            sponge_home_offset=tuple(float(v) for v in rng.uniform(-self.sponge_home_noise, self.sponge_home_noise, 2)),
+            sponge_yaw=float(rng.uniform(-self.sponge_yaw_noise, self.sponge_yaw_noise)))
 
 
 #: No randomisation: the paper's scene (the default everywhere).
 OFF = DynamicsRandomization()
 #: The documented default ranges (the module docstring's table).
 DEFAULT_ON = DynamicsRandomization(
-    object_mass_scale=(0.7, 1.5),
-    sponge_mass_scale=(0.7, 1.5),
-    object_size_scale=(0.9, 1.1),
-    sponge_size_scale=(0.9, 1.1),
-    friction_scale=(0.7, 1.3),
-    joint_damping_scale=(0.5, 2.0),
-    osc_kp_scale=(0.8, 1.2),
-    osc_damping_ratio_scale=(0.8, 1.2),
-    object_yaw_noise=0.3,
-    sponge_home_noise=0.01,
-    sponge_yaw_noise=0.15,
-)
+    object_mass_scale=(0.7, 1.5), sponge_mass_scale=(0.7, 1.5), object_size_scale=(0.9, 1.1),
+    sponge_size_scale=(0.9, 1.1), friction_scale=(0.7, 1.3), joint_damping_scale=(0.5, 2.0),
+    osc_kp_scale=(0.8, 1.2), osc_damping_ratio_scale=(0.8, 1.2), object_yaw_noise=0.3, sponge_home_noise=0.01,
+    sponge_yaw_noise=0.15)
 
 
 def resolve_randomization(value: Any) -> DynamicsRandomization:
     """The [`DynamicsRandomization`][tableclean_suite.environments.randomization.DynamicsRandomization] of a user value; ``ValueError`` naming it and what is allowed.
 
-    Accepts ``None``/``False`` or ``"off"``/``"paper"``/``"none"`` (`OFF`), ``True`` or
-    ``"on"``/``"default"`` (`DEFAULT_ON`), a [`DynamicsRandomization`][tableclean_suite.environments.randomization.DynamicsRandomization], or a mapping of
-    field overrides on top of the documented defaults `DEFAULT_ON` (e.g.
-    ``{"friction_scale": (0.8, 1.2)}`` varies everything else as ``"on"`` does); its optional key
-    ``"base"`` (``"on"``, the default, or ``"off"``) picks what the overrides start from, so
-    ``{"base": "off", "friction_scale": (0.8, 1.2)}`` varies friction alone.
+    Accepts ``None``/``False``/``"off"``/``"paper"``/``"none"`` (`OFF`), ``True``/``"on"``/``"default"``
+    (`DEFAULT_ON`), a ``DynamicsRandomization``, or a mapping of field overrides on top of `DEFAULT_ON`
+    (its key ``"base": "off"`` starts them from `OFF` instead).
     """
     if value is None or value is False:
         return OFF
@@ -272,9 +230,7 @@ def resolve_randomization(value: Any) -> DynamicsRandomization:
                      f"a DynamicsRandomization or a mapping of its fields, got {value!r}")
 
 
-# ---------------------------------------------------------------------------------------------
-# applying a draw to the scene
-# ---------------------------------------------------------------------------------------------
+# -- applying a draw to the scene --------------------------------------------------------------
 def episode_config(base: Mapping, sample: DynamicsSample) -> Mapping:
     """The task config of an episode drawn as ``sample`` from the configured ``base``: the sponge's half size
     scaled, the objects' yaw noise at least the drawn one (a new checked config)."""

@@ -1,34 +1,12 @@
-"""The robot registry (a leaf module): per-robot skill configuration, what differs between the arms.
+"""The robot registry (a leaf module): robot name -> [RobotSkillConfig][tableclean_suite.environments.robot_registry.RobotSkillConfig],
+what the skills and the scene do differently per arm (skill and OSC overrides, gripper, base position).
 
-The skills are written once (`skill`, `primitives`, ...) against named constants
-(each skill's ``DEFAULT_CONFIG``, extending `BASE_CONFIG`) and the OSC settings
-of `OSC_OVERRIDES`.  An arm with another gripper, other dynamics or another
-reach needs other values for some of them (finger geometry, gripper settling rule, OSC gains,
-step budgets).  Those values live here, in a registry ``robot name -> RobotSkillConfig``, and
-nowhere in the skill code:
-
-- `SkillController` merges [`skill_overrides`][tableclean_suite.environments.robot_registry.skill_overrides] of the env's robot
-  under the caller's own ``skill_configs`` for every skill it runs;
-- `skill_controller_config` merges [`osc_overrides`][tableclean_suite.environments.robot_registry.osc_overrides] of the robot over
-  `OSC_OVERRIDES`;
-- [`TableClean`][tableclean_suite.environments.table_clean.TableClean] and
-  `make_skill_env` refuse a robot that is not registered here
-  ([`check_robot`][tableclean_suite.environments.robot_registry.check_robot]: a ``ValueError`` naming [`supported_robots`][tableclean_suite.environments.robot_registry.supported_robots]), and the scene mounts
-  the config's ``gripper`` and moves the base by its ``base_shift``.
-
-Shipped: Panda (the reference), Sawyer, UR5e and Kinova3.  The three others carry robosuite's
-Panda gripper unless ``gripper_types`` names another the skills drive (the Sawyer's Rethink, on any
-arm: [`grippers`][tableclean_suite.environments.grippers]; see `SWAP_GRIPPER`).  The windowed and
-timeout settling rules of
-`gripper_settled` (``gripper_window``, ``gripper_drift``,
-``gripper_timeout``) are for grippers whose fingers never stop, such as the Robotiq 85.
-
-Users add an arm with
-[register_robot_config][tableclean_suite.controllers.robot_configs.register_robot_config], which
-checks the config against the skills before storing it in `ROBOT_CONFIGS`.
-
-This module imports neither robosuite nor MuJoCo nor the rest of the package (but the leaf list of
-grippers): the scene and the controllers both read it, and it reads neither.
+The skill controller merges [`skill_overrides`][tableclean_suite.environments.robot_registry.skill_overrides] under the caller's
+``skill_configs``, the controller config merges [`osc_overrides`][tableclean_suite.environments.robot_registry.osc_overrides], and the scene and
+``make_skill_env`` refuse an unregistered robot ([`check_robot`][tableclean_suite.environments.robot_registry.check_robot]).  Shipped: Panda (the
+reference), Sawyer, UR5e and Kinova3 (the three others carry the Panda gripper unless ``gripper_types`` names
+another the skills drive).  Users add an arm with
+[register_robot_config][tableclean_suite.controllers.robot_configs.register_robot_config].
 """
 
 from __future__ import annotations
@@ -48,21 +26,13 @@ class RobotSkillConfig:
 
     Attributes:
         robot: robosuite's robot name (``robosuite.ALL_ROBOTS``), e.g. ``"UR5e"``.
-        skills: config overrides per skill: key `ALL_SKILLS` (``"*"``) for every skill (its
-            keys must be keys of `BASE_CONFIG`, checked at registration), or a
-            registered action name (``"move"``, ``"pick"``, ``"place"``, ``"clean"``, ...) for that
-            action's skill (keys checked by the skill when it is built).  Units as in the skills'
-            ``DEFAULT_CONFIG``.
-        osc: overrides of the arm controller's config on top of `OSC_OVERRIDES`
-            (robosuite OSC keys, e.g. ``{"kp": 300}``); may not change what the skills rely on
-            (``type``, ``input_type``, ``input_ref_frame``).
-        gripper: robosuite's name of the gripper the scene mounts when the env is made with
-            ``gripper_types="default"`` (None: the robot's own default gripper); for arms whose own
-            gripper cannot do the task (see `SWAP_GRIPPER`).  An explicit ``gripper_types``
-            wins.
-        base_shift: (3,) m added to robosuite's table-side base position of the robot (its
-            ``base_xpos_offset["table"]``), for an arm whose reach does not cover the scene from there.
-        note: why these values (measurements), for the reader.
+        skills: config overrides per skill: key `ALL_SKILLS` (``"*"``) for every skill (keys of
+            ``BASE_CONFIG``), or an action name (``"move"``, ``"clean"``, ...) for that action's skill.
+        osc: overrides of the arm's OSC config (e.g. ``{"kp": 300}``); not ``type``, ``input_type``
+            or ``input_ref_frame``.
+        gripper: the gripper mounted with ``gripper_types="default"`` (None: the robot's own).
+        base_shift: (3,) m added to robosuite's table-side base position of the robot.
+        note: why these values, for the reader.
     """
 
     robot: str
@@ -83,10 +53,7 @@ def supported_robots() -> tuple[str, ...]:
 
 
 def robot_name(robots) -> str:
-    """The one robot name in ``robots`` (a name, or a one-element list/tuple of names).
-
-    Raises ``ValueError`` naming the value when it is not exactly one name (the scene has one arm).
-    """
+    """The one robot name in ``robots`` (a name or a one-element list/tuple); else ``ValueError`` naming it."""
     if isinstance(robots, str):
         return robots
     names = list(robots) if isinstance(robots, (list, tuple)) else []
@@ -107,10 +74,8 @@ def check_robot(robots) -> str:
 
 
 def skill_overrides(robot: str, action_name: str) -> dict[str, Any]:
-    """Config overrides of ``robot`` for the skill of ``action_name``: its ``"*"`` entries, then the action's.
-
-    An unregistered robot has none (``{}``): a test double or a user's env keeps the skills' defaults.
-    """
+    """Config overrides of ``robot`` for the skill of ``action_name``: its ``"*"`` entries, then the action's
+    (``{}`` for an unregistered robot)."""
     config = ROBOT_CONFIGS.get(robot)
     if config is None:
         return {}
@@ -140,23 +105,13 @@ def osc_overrides(robot: str) -> dict[str, Any]:
     return dict(config.osc) if config is not None else {}
 
 
-# ---------------------------------------------------------------------------------------------
-# the arms robosuite 1.5 ships that the skills are tuned for
-# ---------------------------------------------------------------------------------------------
-
-#: robosuite's gripper the scene mounts by default on the three other arms: robosuite's Robotiq 85 (UR5e's and
-#: Kinova3's own) collides with itself and stops 6.2 cm open, wider than the sponge's 5 cm side (excluding those
-#: self-contacts makes its linkage diverge); the Sawyer keeps the gripper its earlier measurements were made
-#: with, its own Rethink is mounted with ``gripper_types="RethinkGripper"``.
+#: The gripper the three other arms mount by default: robosuite's Robotiq 85 stops 6.2 cm open, wider than
+#: the sponge's 5 cm side; the Sawyer's Rethink holds the sponge too weakly (~8.5 N per finger) to wipe.
 SWAP_GRIPPER = "PandaGripper"
 
-#: Sawyer's Rethink gripper holds the 5 cm sponge with ~8.5 N per finger (the Panda gripper: 20 N), too
-#: little to keep it from slipping out while it is dragged pressed on the table.
 _SAWYER = RobotSkillConfig(
     "Sawyer", gripper=SWAP_GRIPPER,
-    # m/s: the clean's grasp descends only once the hand is this still: arriving, the hand swings ~1 cm on along
-    # the fingers' closing axis, and the Rethink's fingertip lands on the sponge and rolls it onto its side
-    # (then lost while wiping: 1 of 10 paper episodes from random starts; 10 of 10 with this)
+    # m/s: the clean's grasp descends only once the hand is this still (else a fingertip can roll the sponge over)
     skills={"clean": {"hover_still_speed": 0.05}},
     note="Panda gripper by default (the Rethink gripper with gripper_types='RethinkGripper'); the scene excludes the "
          "contact between the base and the first link (environments.robot_support), which otherwise stalls the OSC "
@@ -164,13 +119,8 @@ _SAWYER = RobotSkillConfig(
 )
 _KINOVA3 = RobotSkillConfig(
     "Kinova3", gripper=SWAP_GRIPPER,
-    # stiffness (1/s^2; the skills' default 300): at 300 the pressed sponge twists in the hand while wiping
-    osc={"kp": 450},
-    # m: from robosuite's table-side position the far row of three_segments_two_objects (x up to 0.2 m) lies at
-    # the edge of the arm's 0.9 m reach, where a carried object's lift stalls with the elbow straight
-    base_shift=(0.08, 0.0, 0.0),
-    # m/s: the clean's grasp descends only once the hand is this still (arriving at 0.24 m/s it swings on
-    # 1.7 cm past its hover point and a finger can tip the sponge)
+    osc={"kp": 450},  # stiffness (the skills' default 300): at 300 the pressed sponge twists in the hand
+    base_shift=(0.08, 0.0, 0.0),  # m: else the far row of three_segments_two_objects lies at the edge of its reach
     skills={"clean": {"hover_still_speed": 0.05}},
     note="Panda gripper instead of the Robotiq 85; stiffer OSC; base 8 cm closer to the table",
 )

@@ -1,15 +1,5 @@
-"""The one scene fix some arms need: robot bodies that must not collide with their parent.
-
-MuJoCo skips contacts between a body and its parent body, except when the parent is welded to
-the world.  A fixed-base arm's first link is the child of its world-welded base, so that pair
-collides: Sawyer's ``right_l0`` presses on its base link once joint 0 turns ~0.5 rad (the OSC
-then stalls 3.7 cm short of a waypoint over segment 2 while the contact absorbs ~50 N m at
-joint 0).  Excluding every robot parent-child pair restores MuJoCo's usual parent filtering for
-those pairs too; for all other pairs it changes nothing (MuJoCo filters them already).
-
-Which arms the scene builds, the gripper it mounts and where it puts the base come from the robot
-registry ([robot_registry][tableclean_suite.environments.robot_registry]).
-"""
+"""Robot bodies that must not collide with their parent: MuJoCo skips parent-child contacts except when the parent
+is welded to the world, so a fixed-base arm's first link collides with its base (Sawyer's stalls the OSC)."""
 
 from __future__ import annotations
 

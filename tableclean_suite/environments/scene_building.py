@@ -1,15 +1,5 @@
-"""Building the ``TableClean`` scene and laying it out at a reset.
-
-- Before building: [check_objects_fit][tableclean_suite.environments.scene_building.check_objects_fit]
-  and [check_randomization_fits][tableclean_suite.environments.scene_building.check_randomization_fits]
-  refuse objects that could not lie side by side on one segment.
-- After building: [ObjectMeasures][tableclean_suite.environments.scene_building.ObjectMeasures], the
-  objects' sizes read from the built model.
-- At a reset: the arm's hover pose ([hover_qpos][tableclean_suite.environments.scene_building.hover_qpos]),
-  the objects' poses on their segments
-  ([ResetLayouts][tableclean_suite.environments.scene_building.ResetLayouts]) and the sponge's on its
-  stand ([sponge_start_qpos][tableclean_suite.environments.scene_building.sponge_start_qpos]).
-"""
+"""Building the ``TableClean`` scene and laying it out at a reset: checks that the objects fit a segment,
+their measures as built, the arm's hover pose, the objects' and the sponge's start poses."""
 
 from __future__ import annotations
 

@@ -1,24 +1,9 @@
-"""What ``TableClean.skill_info()`` returns and how it is read: a dict whose costlier per-step values are read on
-first use.
+"""What ``TableClean.skill_info()`` returns: a [`SkillInfo`][tableclean_suite.environments.skill_info.SkillInfo], a ``dict`` whose costlier per-step values
+(``LAZY_SKILL_INFO``: the grip site's quaternion, the grasp flags, the dirt, ...) are computed on first read.
 
-[SkillInfoReader][tableclean_suite.environments.skill_info.SkillInfoReader] builds it for one simulation
-data: the values fixed for the model and the episode ([constant_values][tableclean_suite.environments.skill_info.constant_values],
-shared read-only arrays), the cheap per-step ones (grip-site and object positions, finger joints),
-and the fillers of the lazy keys (``LAZY_SKILL_INFO``).
-
-The skills read ``skill_info()`` every control step but most phases use a few of its keys: the
-grip site's orientation (robosuite's ``mat2quat``, an eigen-decomposition) only when a phase may
-end, the grasp flags (a pass over the contacts) only while travelling or grasping, the dirt and
-velocities only in the abstraction.  [`SkillInfo`][tableclean_suite.environments.skill_info.SkillInfo] is a ``dict`` (reads of present keys run
-at dict speed) holding the cheap values; each *lazy* key is computed by its owner's function on
-the first read (``info[key]``, ``info.get(key)``) and stored.  ``key in info``, ``len``, iteration,
-``keys()``/``items()``/``values()``, ``==``, ``copy()``, ``dict(info)``, ``repr`` and pickling see
-every key (whole-dict operations compute the missing ones first), so it behaves as the plain dict
-it replaces.
-
-The values are those of the simulation state at the call: a lazy key read after the simulation
-time advanced raises [`StaleSkillInfoError`][tableclean_suite.environments.skill_info.StaleSkillInfoError] (call ``skill_info()`` again) rather than mixing
-two states.
+Whole-dict operations (``in``, ``len``, iteration, ``keys()``, ``==``, ``copy()``, ``repr``, pickling) see
+every key, so it behaves as a plain dict.  A lazy key read after the simulation advanced raises
+[`StaleSkillInfoError`][tableclean_suite.environments.skill_info.StaleSkillInfoError] (call ``skill_info()`` again) rather than mixing two states.
 """
 
 from __future__ import annotations
@@ -41,22 +26,16 @@ class StaleSkillInfoError(RuntimeError):
 
 
 class SkillInfo(dict):
-    """``skill_info()``'s dict: present keys as a dict, the keys of ``lazy`` computed on first read.
-
-    Build with [`create`][tableclean_suite.environments.skill_info.SkillInfo.create].  ``lazy`` maps each lazy key to its filler (see `Filler`);
-    ``owner`` is passed to the fillers, and ``clock()`` (a comparable stamp of the simulation state, e.g.
-    its time [s], or the env's ``(state writes, time)``) must still return ``stamp`` when a lazy key is
-    computed.
-    """
+    """``skill_info()``'s dict: present keys as a dict, the keys of ``lazy`` computed on first read (build with
+    [`create`][tableclean_suite.environments.skill_info.SkillInfo.create])."""
 
     __slots__ = ("_owner", "_lazy", "_clock", "_stamp")
 
     @classmethod
     def create(cls, values: Mapping[str, Any], owner: Any, lazy: Mapping[str, Filler],
                clock: Callable[[], Any], stamp: Any = None) -> "SkillInfo":
-        """A mapping of ``values`` (copied shallowly) plus ``lazy``'s keys, stamped with ``clock()``.
-
-        ``stamp``: ``clock()``'s value now when the caller has it at hand (None: ``clock()`` is called)."""
+        """A mapping of ``values`` (copied shallowly) plus ``lazy``'s keys (each filled by ``lazy[key](owner, info)``),
+        valid while ``clock()`` (a comparable stamp of the simulation state) returns ``stamp`` (None: ``clock()`` now)."""
         info = cls(values)
         info._owner, info._lazy, info._clock, info._stamp = owner, lazy, clock, clock() if stamp is None else stamp
         return info
@@ -88,7 +67,6 @@ class SkillInfo(dict):
         if key in self._lazy:
             self._lazy = {k: fill for k, fill in self._lazy.items() if k != key}
 
-    # -- lookups that must see the lazy keys --------------------------------------------------
     def __contains__(self, key) -> bool:
         return dict.__contains__(self, key) or key in self._lazy
 
@@ -101,7 +79,6 @@ class SkillInfo(dict):
         self[key] = default
         return default
 
-    # -- whole-dict operations: every key computed first --------------------------------------
     def __iter__(self):
         return dict.__iter__(self.materialize())
 
@@ -147,7 +124,6 @@ class SkillInfo(dict):
     def __reduce__(self):
         return dict, (self.copy(),)
 
-    # -- removals -------------------------------------------------------------------------------
     def __delitem__(self, key) -> None:
         if key in self:
             self[key]
@@ -174,19 +150,14 @@ class SkillInfo(dict):
         self._lazy = {}
 
 
-# ---------------------------------------------------------------------------------------------
-# what TableClean.skill_info() reads
-# ---------------------------------------------------------------------------------------------
-#: Indexes of a MuJoCo wxyz quaternion's entries in robosuite's xyzw order (``convert_quat(q, to="xyzw")``
-#: as a gather).
+# -- what TableClean.skill_info() reads --------------------------------------------------------
+#: Indexes of a MuJoCo wxyz quaternion's entries in robosuite's xyzw order.
 XYZW_FROM_WXYZ = np.array([1, 2, 3, 0], dtype=np.intp)
 
 
 class DataViews(NamedTuple):
-    """Views into one MuJoCo data (flat for the bodies' positions and quaternions) and the indexes gathering
-    the rows ``skill_info()`` reports (the quaternions' in xyzw order): each mjData attribute access builds
-    a new array view (~0.3 us) and one precomputed gather costs ~0.1 us where row indexing and reordering
-    took ~3 us."""
+    """Views into one MuJoCo data (kept: each mjData attribute access builds a new view) and the precomputed
+    gathers of the rows ``skill_info()`` reports (quaternions in xyzw order)."""
 
     eef_pos: np.ndarray  #: (3,) grip-site position [m]
     eef_xmat: np.ndarray  #: (9,) grip-site rotation matrix, row-major
@@ -221,14 +192,9 @@ def frozen(values) -> np.ndarray:
 
 
 def constant_values(objects, gripper, config: Mapping, geometry, sponge_half_size, robot_base_pos) -> dict:
-    """The ``skill_info()`` values fixed while the model, the episode's config and geometry stay.
-
-    Args:
-        objects: the scene's [ObjectMeasures][tableclean_suite.environments.scene_building.ObjectMeasures].
-        gripper: the mounted gripper's [GripperGeometry][tableclean_suite.environments.gripper_geometry.GripperGeometry].
-        config: the episode's task config; ``geometry`` its [SceneGeometry][tableclean_suite.environments.config.SceneGeometry].
-        sponge_half_size: (3,) [m]; ``robot_base_pos``: (3,) the arm's root body [m].
-    """
+    """The ``skill_info()`` values fixed while the model, the episode's config and geometry stay: from the
+    scene's ``ObjectMeasures``, the gripper's ``GripperGeometry``, the config and its ``SceneGeometry``, the
+    sponge's (3,) half size [m] and the arm's (3,) root body position [m]."""
     return {
         "object_half_size": frozen(objects.half_sizes[0]),
         "object_rest_z": float(objects.rest_z[0]),

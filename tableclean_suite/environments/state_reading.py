@@ -1,15 +1,6 @@
-"""Reading the scene's state from one MuJoCo data: the dirt markers and the contacts.
-
-- [DirtMarkers][tableclean_suite.environments.state_reading.DirtMarkers]: the markers' wiped
-  flags, kept in the dirt-state joints' ``qpos`` ([dirt_state][tableclean_suite.environments.dirt_state]):
-  which are present, each segment's dirty fraction, writing them, and the markers' visuals.
-- [Contacts][tableclean_suite.environments.state_reading.Contacts]: which bodies both finger pads
-  touch (the grasp test), whether the sponge touches the table top, and how hard it presses.
-
-Both are built by ``TableClean._setup_references`` for the simulation data of that reset and read
-at every control step (the dirt at every physics substep), so each keeps its views of the data and
-caches what it decoded per joint positions.
-"""
+"""Reading the scene's state from one MuJoCo data: the dirt markers' flags and visuals
+([DirtMarkers][tableclean_suite.environments.state_reading.DirtMarkers]) and the contacts (grasp test, sponge
+on the table, press force: [Contacts][tableclean_suite.environments.state_reading.Contacts])."""
 
 from __future__ import annotations
 
@@ -60,7 +51,7 @@ class DirtMarkers:
         self.qvel_addr = tuple(int(a) for a in qvel_addr)
         self.markers_per_segment = int(markers_per_segment)
         self._rgba, self._geom_ids = geom_rgba, np.asarray(geom_ids)
-        self._qpos = data.qpos  # a kept view: each mjData attribute access builds a new one (~0.3 us)
+        self._qpos = data.qpos  # a kept view: each mjData attribute access builds a new one
         self._index = np.array(self.qpos_addr, dtype=np.intp)
         addr = self.qpos_addr
         stride = addr[1] - addr[0] if len(addr) > 1 else 1

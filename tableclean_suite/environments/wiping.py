@@ -19,11 +19,7 @@ def box_lowest_z(pos: np.ndarray, mat: np.ndarray, half_size) -> float:
 
 def markers_under_box(marker_xyz: np.ndarray, box_pos: np.ndarray, box_mat: np.ndarray,
                       half_size, reach: float) -> np.ndarray:
-    """Bool (N,): markers whose centre lies within ``reach`` of the box (in the box's own frame).
-
-    A marker on the table under a pressing sponge lies just below its lower face; bounding
-    all three local axes (not only the footprint's x and y) keeps a sponge that tipped onto
-    a side from "covering" an unbounded strip of the table.
+    """Bool (N,): markers whose centre lies within ``reach`` of the box on all three of its local axes.
 
     Args:
         marker_xyz: (N, 3) world positions of the markers.
