@@ -22,6 +22,8 @@ TINY_ARGS = ["--segments", "3,2", "--objects", "2,1", "--seeds", "2", "--runs", 
 #: The paper's reachable states (from every all-unclean layout).
 PAPER_REACHABLE = 20
 PAPER_EPSILON, PAPER_MAX_ITR = 0.1, 500
+#: ``scaling.csv`` figures with ``_low``/``_high`` interval columns.
+INTERVAL_FIGURES = ("learning_time", "success_window_mean", "never_terminal_share")
 
 
 def _optimal(model):
@@ -274,7 +276,7 @@ def test_cell_row_pools_the_seeds_and_its_interval_holds_the_seeds_spread():
 
     pooled = learning_time_summary(records.learned_at.ravel(), info.window)
     assert row["learning_time"] == pooled.median and row["censored_share"] == pooled.censored_share
-    for name in study.INTERVAL_FIGURES:
+    for name in INTERVAL_FIGURES:
         assert row[name + "_low"] <= row[name] <= row[name + "_high"], name
     seed_medians = [float(v) for v in row["seed_medians"].split(";")]
     assert seed_medians == list(statistics.lower_median(statistics.learning_times(records.learned_at)))
@@ -302,7 +304,7 @@ def test_cli_tiny_budget_writes_consistent_files(tmp_path, capsys):
     assert set(fixed["plan_length"]) == {8} and fixed["reachable_from_start"].is_monotonic_increasing
     assert set(cells["spec"]) == set(specs["name"]) and set(cells["reward"]) == {"r2", "r4"}
     assert set(cells["gamma"]) == {0.3, 0.9} and set(cells["seeds"]) == {2} and set(cells["runs"]) == {4}
-    for column in study.INTERVAL_FIGURES:
+    for column in INTERVAL_FIGURES:
         assert {f"{column}_low", f"{column}_high"} <= set(cells.columns)
         defined = np.isfinite(cells[column])
         assert (cells.loc[defined, f"{column}_low"] <= cells.loc[defined, column]).all()

@@ -148,6 +148,3 @@ def cell_row(info: SpecInfo, learner: str, reward: str, gamma: float, records: C
     row["seconds"] = records.seconds
     return row, medians
 
-
-#: ``scaling.csv`` figures with ``_low``/``_high`` interval columns.
-INTERVAL_FIGURES = ("learning_time", "success_window_mean", "never_terminal_share")
