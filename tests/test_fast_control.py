@@ -30,10 +30,8 @@ from tableclean_suite.controllers.fast_control import (
     ROTVEC_SMALL_ANGLE,
     ControlStepLog,
     FastSkillStepper,
-    OscWork,
     fast_stepper_of,
     native_available,
-    osc_work,
     rotvec_matrix,
 )
 from tableclean_suite.controllers import fast_control
@@ -244,15 +242,15 @@ def test_step_follows_new_gains_and_controllers():
         action = np.concatenate([_eef_pos(env), [np.pi, 0.0, 0.0], [-1.0]])
         stepper.step(action)
         osc = stepper.osc
-        np.testing.assert_array_equal(stepper._gains[2], np.stack([osc.kp, osc.kd]))
+        np.testing.assert_array_equal(stepper._plant.gains, np.stack([osc.kp, osc.kd]))
         osc.kp = osc.kp * 0.5  # as the randomization does: a new array
         stepper.step(action)
-        np.testing.assert_array_equal(stepper._gains[2][0], osc.kp)
+        np.testing.assert_array_equal(stepper._plant.gains[0], osc.kp)
         env.reset()
         new_osc = env.robots[0].composite_controller.part_controllers[env.robots[0].arms[0]]
         assert new_osc is not osc
         stepper.step(action)
-        assert stepper.osc is new_osc and stepper._gains[0] is new_osc.kp
+        assert stepper.osc is new_osc and stepper._plant_key[1] is new_osc.kp
         assert new_osc.goal_pos is not None and new_osc.new_update
     finally:
         env.close()
@@ -311,25 +309,6 @@ def test_goal_rotation_is_scipys_bit_for_bit():
     for rotvec in rotvecs:
         rotvec_matrix(rotvec, out)
         np.testing.assert_array_equal(out, Rotation.from_rotvec(rotvec).as_matrix())
-
-
-#: Shapes of the OSC scratch arrays for an arm of ARM_JOINTS joints, by field of OscWork.
-ARM_JOINTS = 7
-SCRATCH_SHAPES = {
-    "low": (ARM_JOINTS, ARM_JOINTS), "inv_low": (ARM_JOINTS, ARM_JOINTS), "mass_inv": (ARM_JOINTS, ARM_JOINTS),
-    "lambda_full": (6, 6), "lambda_pos": (3, 3), "lambda_ori": (3, 3), "nullspace": (ARM_JOINTS, ARM_JOINTS),
-    "j_minv": (6, ARM_JOINTS), "lambda_full_inv": (6, 6), "j_bar": (ARM_JOINTS, 6), "desired": (6,),
-    "error": (3,), "wrench": (6,), "posture": (ARM_JOINTS,), "pose_torques": (ARM_JOINTS,),
-    "mass": (ARM_JOINTS, ARM_JOINTS), "j_full": (6, ARM_JOINTS), "joint_pos": (ARM_JOINTS,),
-    "joint_vel": (ARM_JOINTS,), "bias": (ARM_JOINTS,), "ref_vel": (6,),
-}
-
-
-def test_the_osc_scratch_fields_have_their_shapes():
-    work = osc_work(ARM_JOINTS)
-    assert isinstance(work, OscWork) and work._fields == tuple(SCRATCH_SHAPES)
-    for name, shape in SCRATCH_SHAPES.items():
-        assert getattr(work, name).shape == shape, name
 
 
 def _episode(phase_loop: bool, layout=(1, 1), seed: int = 1) -> dict:

@@ -1,103 +1,60 @@
-"""A fast control path for the skills: robosuite's OSC_POSE control law without its per-substep Python.
+"""robosuite's OSC_POSE control law for the skills, compiled, without its per-substep Python.
 
-robosuite's ``env.step`` spends most of its time in Python around the physics: per
-physics substep it rebuilds the arm's Jacobians and mass matrix through several
-wrapper layers, runs the OSC and the gripper controller, re-checks action limits
-and updates every observable.  [`FastSkillStepper`][tableclean_suite.controllers.fast_control.FastSkillStepper] executes one control step
-of a skill env ([`make_skill_env`][tableclean_suite.controllers.make.make_skill_env]) for an
-absolute world-frame command ``[x, y, z, rx, ry, rz, gripper]`` with the *same*
-control law:
+[`FastSkillStepper.step`][tableclean_suite.controllers.fast_control.FastSkillStepper.step] replaces
+``env.step`` for an absolute world-frame command ``[x, y, z, rx, ry, rz, gripper]`` with the same
+control law, the same MuJoCo states after every control step:
 
-- once per control step (robosuite's ``policy_step``): the goal pose from the
-  command (``Rotation.from_rotvec``, as robosuite's absolute OSC), the gripper's
-  ``format_action`` (its rate-limited internal command) and its ``SimpleGripController``
-  mapping to the finger actuators' control range;
-- per physics substep, as ``MujocoEnv.step`` with ``lite_physics``: ``mj_step1``;
-  the OSC torques from MuJoCo's own mass matrix (``mj_fullM``) and grip-site
-  Jacobians (``mj_jacSite``), computed in a numba kernel that writes out robosuite's
-  ``orientation_error`` and ``nullspace_torques`` and mirrors its ``opspace_matrices``
-  with Cholesky inverses of the positive definite matrices (robosuite's SVD
-  pseudo-inverses near a singularity), small products in plain loops and few
-  temporaries (numpy's ``dot`` per product and the allocations cost more than the arithmetic): same kp, kd, decoupling,
-  nullspace pull towards the controller's ``initial_joint``, gravity compensation,
-  clipping to the actuators' ctrlrange, and robosuite's reuse of the reset-time arm
-  state on an episode's first substep ([`FastSkillStepper.cached_arm_torques`][tableclean_suite.controllers.fast_control.FastSkillStepper.cached_arm_torques]);
-  the env's wiping check; ``mj_step2``.  With the native loop (default when MuJoCo's
-  shared library is found) the substeps run in one compiled function that calls
-  MuJoCo's C API directly and returns to Python only for substeps where the sponge is
-  near the table top over a marker not yet wiped, so the env's own wiping check
-  (``record_wiping_substep()``) decides (elsewhere that check changes nothing);
-- once per control step at the end: the env's timestep and clock, the hidden dirt
-  markers, and the controllers' goal and refresh state, so ``env.step`` can take over.
+- per control step: the goal pose (scipy's ``Rotation.from_rotvec``, as robosuite's absolute OSC) and
+  the gripper's rate-limited command and actuator controls;
+- per physics substep: ``mj_step1``, the OSC torques from MuJoCo's ``mj_fullM`` and ``mj_jacSite``
+  (robosuite's ``run_controller``, with Cholesky inverses of its positive definite matrices; its SVD
+  pseudo-inverses near a singularity), clipping, the env's wiping check, ``mj_step2``.  The native loop
+  calls MuJoCo's C API from numba and returns to Python only for a substep the env's wiping check must
+  see (the sponge near the table over a marker not yet wiped);
+- robosuite's reuse of the reset-time arm state on an episode's first substep
+  ([`cached_arm_torques`][tableclean_suite.controllers.fast_control.FastSkillStepper.cached_arm_torques]).
 
-A phase the skill can hand over runs further: after the skill's first Python step in it,
-[control_loop][tableclean_suite.controllers.fast_control.control_loop] runs its control steps
-in one compiled call.  Per step: the skill's checks, its waypoint, its setpoint and command
-([advance_command][tableclean_suite.controllers.setpoint.advance_command], the function the
-skill's own step uses), the gripper control (robosuite's rate-limited command tabulated ahead),
-the substeps as above, and a state log ([ControlStepLog][tableclean_suite.controllers.fast_control.ControlStepLog]).
-The skill's state arrives as typed records
-(`SKILL_STATE`,
-`WIPE_STATE`).  Two kinds of phase run there:
+A skill phase whose waypoint is fixed, and the clean skill's PRESS, WIPE and SHIFT, run further in
+[`control_loop`][tableclean_suite.controllers.fast_control.control_loop]: the skill's state as typed
+records ([`loop_state`][tableclean_suite.controllers.loop_state]), its setpoint
+([`advance_command`][tableclean_suite.controllers.setpoint.advance_command]) and the substeps in one
+compiled call, returning at the phase's boundary (a step whose completion check might pass, a step it
+cannot take exactly, the budget).
 
-- a phase whose waypoint is fixed (``Waypoint.fixed``: the grasp's CLOSE, the release's RELEASE;
-  [FastSkillStepper.run_phase][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase]);
-- the clean skill's PRESS, WIPE and SHIFT, whose waypoint follows the measured press force and
-  the sponge ([FastSkillStepper.run_press_phase][tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase],
-  from ``Wipe.run_loop``): the wipe's force loop and waypoint, the same operations on the same
-  values; the press force is the env's own ``sponge_press_force()``, called back once per control
-  step (`FORCE_CALLBACK`, timed in ``callback_seconds``).
-
-The loop returns to Python only at the phase's boundary: before a step whose completion check
-might pass (the skill then decides exactly), before a step it cannot take exactly (the sponge near
-``contact_slack`` above the table), at the step budget or the env's horizon, and for substeps the
-env's wiping check must see (then it resumes).  The results are bit-identical to the per-step path
-(``FastSkillStepper.phase_loop = False``).
-
-What the fast path does **not** do: it does not refresh robosuite's observables
-(``env._get_observations(force_update=True)`` does), the robot's proprioception
-history buffers (``recent_qpos``, ``recent_ee_*``), nor compute the reward.  The
-skills read none of these: ``env.skill_info()`` and ``env.symbolic_state()`` read
-the simulation data directly.
-
-The kernels are compiled by numba on first use (~20-25 s, the control loop included) and cached
-in ``__pycache__`` (later processes load them in ~0.2 s).
-
-Only the configuration the skills use is supported (one fixed-base arm, OSC_POSE,
-absolute world-frame input, fixed impedance, no interpolators, a simple grip
-gripper); anything else raises ``NotImplementedError`` at construction.
+Not done: robosuite's observables, proprioception buffers and reward (the skills read the simulation
+data directly).  Only the skills' configuration is supported (one fixed-base arm, absolute world-frame
+OSC_POSE, fixed impedance, no interpolators, a simple grip gripper); anything else raises
+``NotImplementedError``.  The kernels compile on first use and are cached in ``__pycache__``.
 """
 
 from __future__ import annotations
 
 import ctypes
+import operator
 import time
 from typing import NamedTuple
 
 import mujoco
 import numba
 import numpy as np
-from llvmlite import ir
-from numba import types
-from numba.extending import intrinsic
 from robosuite.controllers.parts.arm.osc import OperationalSpaceController
 from robosuite.controllers.parts.gripper.simple_grip import SimpleGripController
+from robosuite.models.grippers.panda_gripper import PandaGripper
 from robosuite.utils.control_utils import opspace_matrices
 
-from robosuite.models.grippers.panda_gripper import PandaGripper
-
+from tableclean_suite.controllers.geometry import clip_scalar
 from tableclean_suite.controllers.loop_state import MODE_FIXED, MODE_SHIFT, MODE_WIPE, WIPE_STATE
 from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.controllers.setpoint import GRIPPER_INDEX, advance_command
+from tableclean_suite.environments.contact_kernels import c_call, c_call_double
 from tableclean_suite.environments.table_clean import PRESS_PREFILTER_SLACK
 from tableclean_suite.robosuite_adapter import (
     actuator_indexes,
-    gripper_joint_pos_indexes,
     advance_clock,
     c_address,
     controller_needs_update,
     fast_path_allowed,
-    finish_control_step,
+    gripper_joint_pos_indexes,
     hand_back_controller_state,
     mj_data,
     mj_model,
@@ -106,51 +63,39 @@ from tableclean_suite.robosuite_adapter import (
     set_gripper_state,
 )
 
-#: Slices of the skill action (7,): position (m), rotation vector (rad), gripper command in [-1, 1].
-POS_SLICE, ROTVEC_SLICE, GRIPPER_SLICE = slice(0, 3), slice(3, 6), slice(6, 7)
-#: Extra height (m) above the env's own wiping prefilter under which the native loop hands a substep
-#: to the env's wiping check; any value >= 0 is exact (the env re-checks), larger ones cost time.
-WIPE_CHECK_MARGIN = 0.0
 #: A Cholesky pivot below this fraction of the largest diagonal entry sends the operational-space
-#: matrices to robosuite's own SVD pseudo-inverses (near a singularity, where the two would differ).
+#: matrices to robosuite's own SVD pseudo-inverses (near a singularity).
 CHOLESKY_PIVOT_RTOL = 1e-10
-#: Slack (m) added to the env's marker reach when the native loop asks whether a present marker lies
-#: under the sponge: a superset of the env's own test despite rounding, so the env still decides.
+#: m added to the env's marker reach when the native loop asks whether a present marker lies under the
+#: sponge (a superset of the env's own test, which then decides).
 MARKER_REACH_SLACK = 1e-9
-#: Joint stiffness (1/s^2) of robosuite's nullspace posture term (``nullspace_torques``' default ``joint_kp``).
+#: Joint stiffness (1/s^2) of robosuite's nullspace posture term.
 NULLSPACE_JOINT_KP = 10.0
-#: Rotation angle (rad) under which [`rotvec_matrix`][tableclean_suite.controllers.fast_control.rotvec_matrix] uses the Taylor series of sin(a/2)/a (as scipy).
+#: rad: below this angle [`rotvec_matrix`][tableclean_suite.controllers.fast_control.rotvec_matrix] uses the Taylor series of sin(a/2)/a (as scipy).
 ROTVEC_SMALL_ANGLE = 1e-3
-#: Relative slack of the control loop's "this step cannot complete the phase" test on the position error: the
-#: skill's own check (``np.linalg.norm``) may round differently, so the loop stops a little early and the skill decides.
+#: Relative slack of the control loop's "this step cannot complete the phase" test on the position error.
 POSITION_CHECK_RTOL = 1e-9
-#: The control loop's stop reasons: a step whose completion check might pass (left to the skill), the skill's
-#: step budget, the caller's step limit, a substep handed to the env's wiping check, a step whose update the
-#: loop cannot take exactly (a wipe phase: the sponge's lowest corner may be above the table by more than
-#: ``contact_slack``, or the measured force is NaN; left to the skill).
+#: The control loop's stop reasons: a step whose completion check might pass (left to the skill), the
+#: skill's step budget, the caller's step limit, a substep for the env's wiping check, a step the loop
+#: cannot take exactly (left to the skill).
 PHASE_MAYBE_COMPLETE, PHASE_BUDGET, PHASE_LIMIT, PHASE_WIPE, PHASE_HANDOFF = 0, 1, 2, 3, 4
-#: m of slack of the control loop's "the sponge is on the table" test: the wipe's own gap (``Wipe._sponge_gap``,
-#: from the sponge's quaternion) and the loop's (from its rotation matrix) differ by rounding (~1e-16 m); within
-#: this band of ``contact_slack`` the loop hands the step to the skill, which decides exactly.
+#: m: within this of ``contact_slack`` the control loop hands a wipe step to the skill (rounding).
 GAP_CHECK_SLACK = 1e-9
-#: C type of the press-force callback the control loop calls once per wipe step (``double f(void)``, N).
+#: C type of the press-force callback (``double f(void)``, N) the control loop calls once per wipe step.
 FORCE_CALLBACK = ctypes.CFUNCTYPE(ctypes.c_double)
-#: Most gripper control steps the control loop tabulates ahead (robosuite's rate-limited gripper command
-#: reaches its fixed point within 1 / 0.2 = 5 steps per unit of command change, 10 at most for the Panda).
+#: Most gripper control steps the control loop tabulates ahead (the Panda's command settles within 10).
 GRIP_TABLE_ROWS = 32
-#: mjData fields [`ControlStepLog`][tableclean_suite.controllers.fast_control.ControlStepLog] records at the start of every control step (enough to replay it).
+#: mjData fields [`ControlStepLog`][tableclean_suite.controllers.fast_control.ControlStepLog] records at the start of every control step.
 LOG_FIELDS = ("qpos", "qvel", "act", "ctrl", "qacc_warmstart")
 
 
 class Plant(NamedTuple):
     """What the compiled kernels read and write of the simulation, and the arm's control law.
 
-    Built by [FastSkillStepper][tableclean_suite.controllers.fast_control.FastSkillStepper] when it binds a
-    simulation; the law's fields (``gains``, ``initial_joint``, ``uncouple``) are replaced when robosuite
-    makes new controllers or gains.  Arrays are float64 unless noted; n arm joints, nv dofs.
+    Arrays float64 unless noted; n arm joints, nv dofs; "live": views of mjData.
     """
 
-    functions: tuple  # addresses of mj_step1, mj_step2, mj_fullM, mj_jacSite
+    functions: tuple  # addresses of mj_step1, mj_step2, mj_fullM, mj_jacSite (zeros without the native loop)
     model: int  # address of the C mjModel
     data: int  # address of the C mjData
     substeps: int  # physics substeps per control step
@@ -158,18 +103,18 @@ class Plant(NamedTuple):
     jacp: np.ndarray  # (3, nv) scratch: the grip site's translational Jacobian
     jacr: np.ndarray  # (3, nv) scratch: its rotational Jacobian
     torques: np.ndarray  # (n,) output: the last OSC torques (N m), unclipped
-    q_m: np.ndarray  # mjData views: qM
-    qpos: np.ndarray  # (nq,)
-    qvel: np.ndarray  # (nv,)
-    qfrc_bias: np.ndarray  # (nv,)
-    ctrl: np.ndarray  # (nu,)
+    q_m: np.ndarray  # live qM
+    qpos: np.ndarray  # live (nq,)
+    qvel: np.ndarray  # live (nv,)
+    qfrc_bias: np.ndarray  # live (nv,)
+    ctrl: np.ndarray  # live (nu,)
     site_id: int  # the OSC's grip site
-    site_pos: np.ndarray  # (3,) its world position (m), live
-    site_mat: np.ndarray  # (9,) its row-major world rotation, live
-    eef_pos: np.ndarray  # (3,) the skill's end-effector site position (m), live
+    site_pos: np.ndarray  # live (3,) its world position (m)
+    site_mat: np.ndarray  # live (9,) its row-major world rotation
+    eef_pos: np.ndarray  # live (3,) the skill's end-effector site position (m)
     finger_index: np.ndarray  # (F,) int64 qpos indexes of the finger joints
-    sponge_pos: np.ndarray  # (3,) the sponge's world position (m), live
-    sponge_mat: np.ndarray  # (9,) its row-major world rotation, live
+    sponge_pos: np.ndarray  # live (3,) the sponge's world position (m)
+    sponge_mat: np.ndarray  # live (9,) its row-major world rotation
     sponge_half: np.ndarray  # (3,) its half size (m)
     wipe_z: float  # m: a substep whose sponge's lowest corner is below goes to the env's wiping check
     marker_reach: float  # m: the env's marker reach
@@ -177,9 +122,9 @@ class Plant(NamedTuple):
     arm_actuators: np.ndarray  # (n,) int64
     grip_actuators: np.ndarray  # (G,) int64
     limits: np.ndarray  # (2, n) the arm actuators' ctrl range (N m), low and high
-    gains: np.ndarray  # (2, 6) the OSC's kp (1/s^2) and kd (1/s) rows, see osc_law
+    gains: np.ndarray  # (2, 6) the OSC's kp (1/s^2) and kd (1/s) rows, columns x, y, z, rx, ry, rz
     initial_joint: np.ndarray  # (n,) rad, the nullspace term's posture
-    uncouple: bool  # decouple the position and orientation wrenches
+    uncouple: bool  # decouple the position and orientation wrenches (robosuite's uncouple_pos_ori)
     log_live: tuple  # the mjData views of LOG_FIELDS
 
 
@@ -200,9 +145,7 @@ class ArmState(NamedTuple):
 def rotvec_matrix(rotvec: np.ndarray, out: np.ndarray) -> None:
     """Rotation matrix (3, 3) into ``out`` of the rotation vector ``rotvec`` (3,) rad.
 
-    scipy's ``Rotation.from_rotvec(rotvec).as_matrix()`` (robosuite's absolute OSC goal) with
-    the same operations: the unit quaternion (Taylor series of sin(a/2)/a below
-    `ROTVEC_SMALL_ANGLE`), then its matrix; bit-identical on scipy 1.17.
+    scipy's ``Rotation.from_rotvec(rotvec).as_matrix()`` with the same operations (bit-identical on scipy 1.17).
     """
     angle = np.sqrt(rotvec[0] * rotvec[0] + rotvec[1] * rotvec[1] + rotvec[2] * rotvec[2])
     if angle <= ROTVEC_SMALL_ANGLE:
@@ -222,9 +165,8 @@ def rotvec_matrix(rotvec: np.ndarray, out: np.ndarray) -> None:
 def spd_inverse(a: np.ndarray, out: np.ndarray, low: np.ndarray, inv_low: np.ndarray) -> bool:
     """Inverse of the symmetric positive definite ``a`` (n, n) into ``out`` (n, n) by Cholesky.
 
-    Reads the lower triangle of ``a`` only; ``low`` and ``inv_low``: (>= n, >= n) scratch.  Returns
-    False (``out`` undefined) when a pivot falls below `CHOLESKY_PIVOT_RTOL` times the largest
-    diagonal entry.
+    Reads the lower triangle of ``a``; ``low``, ``inv_low``: (>= n, >= n) scratch.  False (``out``
+    undefined) when a pivot falls below `CHOLESKY_PIVOT_RTOL` times the largest diagonal entry.
     """
     n = a.shape[0]
     scale = 0.0
@@ -261,7 +203,7 @@ def spd_inverse(a: np.ndarray, out: np.ndarray, low: np.ndarray, inv_low: np.nda
 
 @numba.njit(cache=True)
 def small_matmul(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
-    """``out = a @ b`` for small matrices, (n, k) times (k, m), in plain loops (numpy's dot calls BLAS per product)."""
+    """``out = a @ b``, (n, k) times (k, m), in plain loops (a fixed order of operations, no BLAS call)."""
     n, k = a.shape
     m = b.shape[1]
     for i in range(n):
@@ -275,7 +217,7 @@ def small_matmul(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
 
 @numba.njit(cache=True)
 def small_matvec(a: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
-    """``out = a @ x`` for a small matrix (n, k) and vector (k,), in plain loops."""
+    """``out = a @ x`` for a matrix (n, k) and a vector (k,), in plain loops."""
     n, k = a.shape
     for i in range(n):
         value = 0.0
@@ -284,122 +226,57 @@ def small_matvec(a: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
         out[i] = value
 
 
-
-class OscWork(NamedTuple):
-    """The OSC kernels' temporaries for an arm of n joints (float64; m = max(n, 6)), made by [`osc_work`][tableclean_suite.controllers.fast_control.osc_work].
-
-    Allocated once per call of the compiled loops instead of once per substep (~20 allocations per substep
-    cost ~1-2 us of its ~4 us).  Every entry is written before it is read in each use (the orientation
-    error is zeroed where it accumulates).
-    """
-
-    low: np.ndarray  # (m, m) Cholesky factor
-    inv_low: np.ndarray  # (m, m) its inverse
-    mass_inv: np.ndarray  # (n, n)
-    lambda_full: np.ndarray  # (6, 6) operational-space inertia
-    lambda_pos: np.ndarray  # (3, 3)
-    lambda_ori: np.ndarray  # (3, 3)
-    nullspace: np.ndarray  # (n, n) nullspace projector
-    j_minv: np.ndarray  # (6, n) J M^-1
-    lambda_full_inv: np.ndarray  # (6, 6)
-    j_bar: np.ndarray  # (n, 6) M^-1 J^T lambda
-    desired: np.ndarray  # (6,) desired force and torque
-    error: np.ndarray  # (3,) orientation error
-    wrench: np.ndarray  # (6,)
-    posture: np.ndarray  # (n,) nullspace posture acceleration
-    pose_torques: np.ndarray  # (n,)
-    mass: np.ndarray  # (n, n) the arm's mass matrix gathered by osc_torques
-    j_full: np.ndarray  # (6, n) its Jacobian
-    joint_pos: np.ndarray  # (n,)
-    joint_vel: np.ndarray  # (n,)
-    bias: np.ndarray  # (n,)
-    ref_vel: np.ndarray  # (6,) grip-site velocity
-
-
 @numba.njit(cache=True)
-def osc_work(n: int) -> OscWork:
-    """The OSC kernels' scratch arrays for an arm of ``n`` joints ([`OscWork`][tableclean_suite.controllers.fast_control.OscWork])."""
-    size = max(n, 6)
-    return OscWork(np.empty((size, size)), np.empty((size, size)), np.empty((n, n)), np.empty((6, 6)), np.empty((3, 3)),
-                   np.empty((3, 3)), np.empty((n, n)), np.empty((6, n)), np.empty((6, 6)), np.empty((n, 6)), np.empty(6),
-                   np.empty(3), np.empty(6), np.empty(n), np.empty(n), np.empty((n, n)), np.empty((6, n)), np.empty(n),
-                   np.empty(n), np.empty(n), np.empty(6))
-
-
-@numba.njit(cache=True)
-def _opspace_into(mass: np.ndarray, j_full: np.ndarray, work):
-    """robosuite's ``opspace_matrices`` with Cholesky inverses of its symmetric positive definite matrices.
-
-    Same formulas (M^-1; lambda = (J M^-1 J^T)^-1 for the full, position and orientation
-    Jacobians; nullspace I - M^-1 J^T lambda J); where robosuite takes SVD pseudo-inverses the
-    matrices are positive definite, so the inverses agree to rounding.  Falls back to
-    robosuite's own function when any pivot is tiny (near a singularity).
-
-    Args:
-        mass: (n, n) arm mass matrix; j_full: (6, n) Jacobian, translational rows then rotational rows.
-        work: the [OscWork][tableclean_suite.controllers.fast_control.OscWork] scratch for n joints.
-
-    Returns:
-        (lambda_full (6, 6), lambda_pos (3, 3), lambda_ori (3, 3), nullspace_matrix (n, n)): views of ``work``.
-    """
+def opspace(mass: np.ndarray, j_full: np.ndarray):
+    """robosuite's ``opspace_matrices`` (lambda_full (6, 6), lambda_pos (3, 3), lambda_ori (3, 3), nullspace (n, n))
+    of the arm's ``mass`` (n, n) and Jacobian ``j_full`` (6, n), with Cholesky inverses of its positive
+    definite matrices; robosuite's own function when a pivot is tiny (near a singularity)."""
     n = mass.shape[0]
-    low, inv_low, mass_inv, nullspace_matrix = work.low, work.inv_low, work.mass_inv, work.nullspace
-    lambda_full, lambda_pos, lambda_ori = work.lambda_full, work.lambda_pos, work.lambda_ori
+    size = max(n, 6)
+    low, inv_low, mass_inv = np.empty((size, size)), np.empty((size, size)), np.empty((n, n))
+    lambda_full, lambda_pos, lambda_ori = np.empty((6, 6)), np.empty((3, 3)), np.empty((3, 3))
     if spd_inverse(mass, mass_inv, low, inv_low):
-        j_minv = work.j_minv
+        j_minv = np.empty((6, n))
         small_matmul(j_full, mass_inv, j_minv)
-        lambda_full_inv = work.lambda_full_inv
+        lambda_full_inv = np.empty((6, 6))
         small_matmul(j_minv, j_full.T, lambda_full_inv)
         ok = spd_inverse(lambda_full_inv, lambda_full, low, inv_low)
         ok = ok and spd_inverse(lambda_full_inv[0:3, 0:3], lambda_pos, low, inv_low)
         ok = ok and spd_inverse(lambda_full_inv[3:6, 3:6], lambda_ori, low, inv_low)
         if ok:
-            j_bar = work.j_bar
+            j_bar = np.empty((n, 6))
             small_matmul(j_minv.T, lambda_full, j_bar)  # M^-1 J^T lambda (M^-1 symmetric)
-            small_matmul(j_bar, j_full, nullspace_matrix)
+            nullspace = np.empty((n, n))
+            small_matmul(j_bar, j_full, nullspace)
             for i in range(n):
                 for j in range(n):
-                    nullspace_matrix[i, j] = (1.0 if i == j else 0.0) - nullspace_matrix[i, j]
-            return lambda_full, lambda_pos, lambda_ori, nullspace_matrix
+                    nullspace[i, j] = (1.0 if i == j else 0.0) - nullspace[i, j]
+            return lambda_full, lambda_pos, lambda_ori, nullspace
     exact = opspace_matrices(mass, j_full, np.ascontiguousarray(j_full[0:3]), np.ascontiguousarray(j_full[3:6]))
+    nullspace = np.empty((n, n))
     lambda_full[:] = exact[0]
     lambda_pos[:] = exact[1]
     lambda_ori[:] = exact[2]
-    nullspace_matrix[:] = exact[3]
-    return lambda_full, lambda_pos, lambda_ori, nullspace_matrix
+    nullspace[:] = exact[3]
+    return lambda_full, lambda_pos, lambda_ori, nullspace
 
 
 @numba.njit(cache=True)
-def osc_law(arm, goal_pos: np.ndarray, goal_ori: np.ndarray, plant, work=None) -> None:
+def osc_law(arm, goal_pos: np.ndarray, goal_ori: np.ndarray, plant) -> None:
     """robosuite's ``OperationalSpaceController.run_controller`` torques for an absolute world-frame goal.
 
-    Args:
-        arm: the arm's [ArmState][tableclean_suite.controllers.fast_control.ArmState].
-        goal_pos: (3,) goal position (m); goal_ori: (3, 3) goal rotation matrix, world frame.
-        plant: the stepper's [Plant][tableclean_suite.controllers.fast_control.Plant]: the law's ``gains``
-            (rows kp (1/s^2) and kd (1/s), columns x, y, z, rx, ry, rz), ``initial_joint`` (the posture the
-            nullspace term pulls towards) and ``uncouple`` (robosuite's ``uncouple_pos_ori``); the torques
-            (n,) N m, before clipping to the actuators' range, are written to ``plant.torques``.
-        work: the [OscWork][tableclean_suite.controllers.fast_control.OscWork] scratch for n joints (the compiled
-            loops pass theirs, allocated once for all substeps); None: allocated for this call.
-
-    The base velocity term of robosuite's law is zero here: callers check that the arm's
-    base is welded to the world.  robosuite's ``orientation_error`` and ``nullspace_torques``
-    (joint kp `NULLSPACE_JOINT_KP`, critical damping) are written out with the same
-    formulas, without temporaries; the small products run in plain loops ([`small_matmul`][tableclean_suite.controllers.fast_control.small_matmul]).
+    ``arm``: the [ArmState][tableclean_suite.controllers.fast_control.ArmState]; ``goal_pos`` (3,) m and
+    ``goal_ori`` (3, 3), world frame; ``plant``: the [Plant][tableclean_suite.controllers.fast_control.Plant]
+    whose ``gains``, ``initial_joint`` and ``uncouple`` are the law.  Writes the torques (n,) N m, before
+    clipping, to ``plant.torques``.  The base velocity term is zero (the arm's base is welded to the world).
     """
     mass, j_full, ref_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias = arm
     gains, initial_joint, torques = plant.gains, plant.initial_joint, plant.torques
-    if work is None:
-        work = osc_work(mass.shape[0])
     n = mass.shape[0]
-    desired = work.desired  # desired force (3) and torque (3)
+    desired = np.empty(6)  # desired force (3) and torque (3)
     for r in range(3):
         desired[r] = (goal_pos[r] - ref_pos[r]) * gains[0, r] + (-ref_vel[r]) * gains[1, r]
-    error = work.error  # robosuite's orientation_error: half the sum of the columns' cross products
-    error[0] = 0.0
-    error[1] = 0.0
-    error[2] = 0.0
+    error = np.zeros(3)  # robosuite's orientation_error: half the sum of the columns' cross products
     for c in range(3):
         a0, a1, a2 = ref_ori_mat[0, c], ref_ori_mat[1, c], ref_ori_mat[2, c]
         b0, b1, b2 = goal_ori[0, c], goal_ori[1, c], goal_ori[2, c]
@@ -408,126 +285,70 @@ def osc_law(arm, goal_pos: np.ndarray, goal_ori: np.ndarray, plant, work=None) -
         error[2] += a0 * b1 - a1 * b0
     for r in range(3):
         desired[3 + r] = 0.5 * error[r] * gains[0, 3 + r] + (-ref_vel[3 + r]) * gains[1, 3 + r]
-    lambda_full, lambda_pos, lambda_ori, nullspace_matrix = _opspace_into(mass, j_full, work)
-    wrench = work.wrench
+    lambda_full, lambda_pos, lambda_ori, nullspace = opspace(mass, j_full)
+    wrench = np.empty(6)
     if plant.uncouple:
         small_matvec(lambda_pos, desired[0:3], wrench[0:3])
         small_matvec(lambda_ori, desired[3:6], wrench[3:6])
     else:
         small_matvec(lambda_full, desired, wrench)
     small_matvec(j_full.T, wrench, torques)
-    joint_kv = np.sqrt(NULLSPACE_JOINT_KP) * 2
-    posture = work.posture
+    joint_kv = np.sqrt(NULLSPACE_JOINT_KP) * 2  # robosuite's nullspace_torques: critical damping
+    posture = np.empty(n)
     for i in range(n):
         posture[i] = NULLSPACE_JOINT_KP * (initial_joint[i] - joint_pos[i]) - joint_kv * joint_vel[i]
-    pose_torques = work.pose_torques
+    pose_torques = np.empty(n)
     small_matvec(mass, posture, pose_torques)
     for i in range(n):
         value = 0.0
         for k in range(n):
-            value += nullspace_matrix[k, i] * pose_torques[k]
+            value += nullspace[k, i] * pose_torques[k]
         torques[i] = (torques[i] + bias[i]) + value
 
 
 @numba.njit(cache=True)
-def osc_torques(plant, goal_pos: np.ndarray, goal_ori: np.ndarray, work=None) -> None:
-    """[`osc_law`][tableclean_suite.controllers.fast_control.osc_law] on MuJoCo's whole-model arrays, gathering the arm's entries as robosuite's ``update()``.
-
-    Reads the [Plant][tableclean_suite.controllers.fast_control.Plant]'s ``full_mass`` (``mj_fullM`` of
-    ``qM``), ``jacp`` and ``jacr`` (``mj_jacSite`` of the grip site), ``qpos``, ``qvel``, ``qfrc_bias``,
-    the grip site's ``site_pos`` and ``site_mat`` and the arm's ``indexes``; writes ``plant.torques``.
-    ``goal_pos``, ``goal_ori``: as [`osc_law`][tableclean_suite.controllers.fast_control.osc_law]; ``work``: as there (its entries for the arm's n joints
-    are this function's scratch, too).
-    """
-    indexes, jacp, jacr, qvel = plant.indexes, plant.jacp, plant.jacr, plant.qvel
-    if work is None:
-        work = osc_work(indexes.shape[1])
-    dofs = indexes[0]
+def osc_torques(plant, goal_pos: np.ndarray, goal_ori: np.ndarray) -> None:
+    """[`osc_law`][tableclean_suite.controllers.fast_control.osc_law] on the plant's whole-model arrays
+    (``full_mass``, ``jacp``, ``jacr`` filled by ``mj_fullM`` and ``mj_jacSite``), gathering the arm's
+    entries as robosuite's ``update()``."""
+    dofs = plant.indexes[0]
     n = dofs.size
-    mass, j_full, joint_pos, joint_vel, bias = work.mass, work.j_full, work.joint_pos, work.joint_vel, work.bias
+    mass, j_full = np.empty((n, n)), np.empty((6, n))
     for i in range(n):
         for k in range(n):
             mass[i, k] = plant.full_mass[dofs[i], dofs[k]]
         for r in range(3):
-            j_full[r, i] = jacp[r, dofs[i]]
-            j_full[r + 3, i] = jacr[r, dofs[i]]
-        joint_pos[i] = plant.qpos[indexes[1, i]]
-        joint_vel[i] = qvel[dofs[i]]
-        bias[i] = plant.qfrc_bias[dofs[i]]
-    ref_vel = work.ref_vel
-    small_matvec(jacp, qvel, ref_vel[0:3])  # robosuite's get_site_xvelp: the full Jacobian times all velocities
-    small_matvec(jacr, qvel, ref_vel[3:6])
+            j_full[r, i] = plant.jacp[r, dofs[i]]
+            j_full[r + 3, i] = plant.jacr[r, dofs[i]]
+    ref_vel = np.empty(6)
+    small_matvec(plant.jacp, plant.qvel, ref_vel[0:3])  # robosuite's get_site_xvelp: all dofs' velocities
+    small_matvec(plant.jacr, plant.qvel, ref_vel[3:6])
     ref_ori_mat = np.ascontiguousarray(plant.site_mat.reshape((3, 3)))
-    arm = ArmState(mass, j_full, plant.site_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias)
-    osc_law(arm, goal_pos, goal_ori, plant, work)
-
-
-def _c_call_codegen(n_pointers: int, trailing_int: bool):
-    """LLVM code calling ``void f(void*, ... n_pointers, [int])`` at the address in the first argument.
-
-    The address and the pointers arrive as integers, so the functions using it stay cacheable
-    (no address is baked into the compiled code).
-    """
-
-    def codegen(context, builder, sig, llvm_args):
-        void_ptr = ir.IntType(8).as_pointer()
-        params = [void_ptr] * n_pointers + ([ir.IntType(32)] if trailing_int else [])
-        fn = builder.inttoptr(llvm_args[0], ir.FunctionType(ir.VoidType(), params).as_pointer())
-        values = [builder.inttoptr(v, void_ptr) for v in llvm_args[1:1 + n_pointers]]
-        builder.call(fn, values + ([llvm_args[-1]] if trailing_int else []))
-        return context.get_dummy_value()
-
-    return codegen
-
-
-@intrinsic
-def _call_2(typingctx, fn, a, b):
-    """``fn(a, b)`` for C ``void f(void*, void*)`` (mj_step1, mj_step2); all arguments integers."""
-    return types.void(types.intp, types.intp, types.intp), _c_call_codegen(2, trailing_int=False)
-
-
-@intrinsic
-def _call_3(typingctx, fn, a, b, c):
-    """``fn(a, b, c)`` for C ``void f(void*, void*, void*)`` (mj_fullM)."""
-    return types.void(types.intp, types.intp, types.intp, types.intp), _c_call_codegen(3, trailing_int=False)
-
-
-@intrinsic
-def _call_4i(typingctx, fn, a, b, c, d, i):
-    """``fn(a, b, c, d, i)`` for C ``void f(void*, void*, void*, void*, int)`` (mj_jacSite)."""
-    signature = types.void(types.intp, types.intp, types.intp, types.intp, types.intp, types.int32)
-    return signature, _c_call_codegen(4, trailing_int=True)
-
+    arm = ArmState(mass, j_full, plant.site_pos, ref_ori_mat, ref_vel, plant.qpos[plant.indexes[1]],
+                   plant.qvel[dofs], plant.qfrc_bias[dofs])
+    osc_law(arm, goal_pos, goal_ori, plant)
 
 
 @numba.njit(cache=True)
 def native_substeps(plant, dirt, first, goal_pos, goal_ori, grip_ctrl):
-    """Run substeps ``first``..``plant.substeps - 1``: step1, OSC torques, ctrl, [wiping hand-off], step2.
+    """Substeps ``first``..``plant.substeps - 1``: step1, OSC torques, ctrl, [wiping hand-off], step2.
 
-    Args:
-        plant: the stepper's [Plant][tableclean_suite.controllers.fast_control.Plant].
-        dirt: (markers (N, 3) dirt marker world positions (m), present (N,) bool: not yet wiped).
-        first: the first substep to run (int64).
-        goal_pos: (3,) goal position (m); goal_ori: (3, 3) goal rotation matrix, world frame.
-        grip_ctrl: (G,) gripper actuator controls, written at substep 0.
-
-    The env's wiping check changes something only for a present marker under the sponge, so only
-    a substep whose sponge is below ``plant.wipe_z`` over such a marker is handed to it.
-
-    Returns ``plant.substeps`` when done, or ``-(k + 1)`` after substep k's control when the caller
-    must run the env's wiping check and ``mj_step2`` for it, then call again from ``k + 1``.
+    ``dirt``: (markers (N, 3) m, present (N,) bool); ``first``: int64; ``goal_pos`` (3,) m, ``goal_ori``
+    (3, 3); ``grip_ctrl`` (G,): the gripper actuator controls, written at substep 0.  Returns
+    ``plant.substeps`` when done, or ``-(k + 1)`` after substep k's control when the sponge is below
+    ``plant.wipe_z`` over a present marker: the caller runs the env's wiping check and ``mj_step2``,
+    then calls again from ``k + 1``.
     """
     step1, step2, full_m, jac_site = plant.functions
     markers, present = dirt
     arm_act, grip_act, ctrl = plant.arm_actuators, plant.grip_actuators, plant.ctrl
     torques, limits = plant.torques, plant.limits
-    work = osc_work(plant.indexes.shape[1])  # the OSC's temporaries, once for all substeps
     for k in range(first, plant.substeps):
-        _call_2(step1, plant.model, plant.data)
-        _call_3(full_m, plant.model, plant.full_mass.ctypes.data, plant.q_m.ctypes.data)
-        _call_4i(jac_site, plant.model, plant.data, plant.jacp.ctypes.data, plant.jacr.ctypes.data,
-                 np.int32(plant.site_id))
-        osc_torques(plant, goal_pos, goal_ori, work)
+        c_call(step1, plant.model, plant.data)
+        c_call(full_m, plant.model, plant.full_mass.ctypes.data, plant.q_m.ctypes.data)
+        c_call(jac_site, plant.model, plant.data, plant.jacp.ctypes.data, plant.jacr.ctypes.data,
+               np.int32(plant.site_id))
+        osc_torques(plant, goal_pos, goal_ori)
         for i in range(arm_act.size):
             ctrl[arm_act[i]] = min(max(torques[i], limits[0, i]), limits[1, i])
         if k == 0:
@@ -536,18 +357,16 @@ def native_substeps(plant, dirt, first, goal_pos, goal_ori, grip_ctrl):
         if (box_lowest_z(plant.sponge_pos, plant.sponge_mat, plant.sponge_half) <= plant.wipe_z
                 and present_marker_under_box(markers, present, plant.sponge_pos, plant.sponge_mat, plant.sponge_half,
                                              plant.marker_reach)):
-            return -(k + 1)  # mj_step2 of substep k is left to the caller, after the env's wiping check
-        _call_2(step2, plant.model, plant.data)
+            return -(k + 1)
+        c_call(step2, plant.model, plant.data)
     return plant.substeps
 
 
 @numba.njit(cache=True)
 def present_marker_under_box(markers, present, pos, mat, half_size, reach) -> bool:
-    """Whether a ``present`` (N,) marker of ``markers`` (N, 3) m lies within ``reach`` (m) of the box.
-
-    The box: centre ``pos`` (3,), row-major rotation ``mat`` (9,), ``half_size`` (3,) m.  The
-    env's ``markers_under_box`` test in the box frame, widened by `MARKER_REACH_SLACK`.
-    """
+    """Whether a ``present`` (N,) marker of ``markers`` (N, 3) m lies within ``reach`` (m) of a box
+    (centre ``pos`` (3,), row-major rotation ``mat`` (9,), ``half_size`` (3,) m): the env's
+    ``markers_under_box`` test in the box frame, widened by `MARKER_REACH_SLACK`."""
     for m in range(markers.shape[0]):
         if not present[m]:
             continue
@@ -566,7 +385,8 @@ def present_marker_under_box(markers, present, pos, mat, half_size, reach) -> bo
 
 @numba.njit(cache=True)
 def box_lowest_z(pos: np.ndarray, mat: np.ndarray, half_size: np.ndarray) -> float:
-    """World z (m) of the lowest corner of a box: centre ``pos`` (3,), row-major rotation ``mat`` (9,), ``half_size`` (3,)."""
+    """World z (m) of the lowest corner of a box: centre ``pos`` (3,), row-major rotation ``mat`` (9,),
+    ``half_size`` (3,) m."""
     return pos[2] - (abs(mat[6]) * half_size[0] + abs(mat[7]) * half_size[1] + abs(mat[8]) * half_size[2])
 
 
@@ -574,15 +394,11 @@ def box_lowest_z(pos: np.ndarray, mat: np.ndarray, half_size: np.ndarray) -> flo
 def panda_gripper_control(current, command, speed, params, new_current, goal_qvel, ctrl) -> None:
     """robosuite's Panda gripper ``format_action`` and ``SimpleGripController`` mapping for one control step.
 
-    Args:
-        current: (2,) the gripper's rate-limited command (``current_action``); ``command``: the skill's
-            gripper command in [-1, 1]; ``speed``: its change per control step (the gripper's ``speed``).
-        params: (9, 2) rows: input min, input max, input centre, scale, output centre (``scale_action``),
-            actuator min, actuator max, ctrl range low, high; all (2,) per finger actuator.
-        new_current: (2,) output, the new ``current_action``; ``goal_qvel``: (2,) output, the
-            controller's goal; ``ctrl``: (2,) output, the finger actuator controls.
-
-    The same elementwise operations in the same order as robosuite's numpy code, so bit-identical.
+    ``current`` (2,): the rate-limited command (``current_action``); ``command``: the gripper command in
+    [-1, 1]; ``speed``: its change per step; ``params`` (9, 2) rows: input min, input max, input centre,
+    scale, output centre, actuator min, actuator max, ctrl low, ctrl high.  Outputs (2,) each: the new
+    ``current_action``, the controller's ``goal_qvel``, the finger actuator ``ctrl``.  The same
+    elementwise operations as robosuite's numpy code.
     """
     sign = np.sign(command)
     for i in range(2):
@@ -597,64 +413,17 @@ def panda_gripper_control(current, command, speed, params, new_current, goal_qve
         ctrl[i] = min(max(desired, params[7, i]), params[8, i])
 
 
-@numba.njit(cache=True)
-def step_inputs(action, current, speed, params, goal_pos, goal_ori, new_current, goal_qvel, ctrl) -> None:
-    """One control step's inputs from the absolute command ``action`` (7,) in one compiled call.
-
-    The goal position ``goal_pos`` (3,) and rotation ``goal_ori`` (3, 3) (as
-    [`FastSkillStepper.goal`][tableclean_suite.controllers.fast_control.FastSkillStepper.goal], [`rotvec_matrix`][tableclean_suite.controllers.fast_control.rotvec_matrix]) and the Panda gripper's outputs
-    ``new_current``, ``goal_qvel``, ``ctrl`` (2,) each ([`panda_gripper_control`][tableclean_suite.controllers.fast_control.panda_gripper_control] from
-    ``current``, ``speed``, ``params``); the same operations, so the same bits.
-    """
-    for i in range(3):
-        goal_pos[i] = action[i]
-    rotvec_matrix(action[3:6], goal_ori)
-    panda_gripper_control(current, action[6], speed, params, new_current, goal_qvel, ctrl)
-
-
-def _call_double_codegen(context, builder, sig, llvm_args):
-    """LLVM code calling ``double f(void)`` at the address in the (integer) argument."""
-    function = builder.inttoptr(llvm_args[0], ir.FunctionType(ir.DoubleType(), []).as_pointer())
-    return builder.call(function, [])
-
-
-@intrinsic
-def _call_double(typingctx, fn):
-    """``fn()`` for C ``double f(void)`` at the integer address ``fn`` (a `FORCE_CALLBACK`; cacheable: no
-    address is baked into the compiled code)."""
-    return types.float64(types.intp), _call_double_codegen
-
-
-@numba.njit(cache=True)
-def _clip(value: float, low: float, high: float) -> float:
-    """[`clip_scalar`][tableclean_suite.controllers.geometry.clip_scalar] (numpy's clip of a scalar: its max, then min)."""
-    value = low if low >= value else value
-    return high if high <= value else value
-
+_clip = numba.njit(cache=True)(clip_scalar)
 
 
 @numba.njit(cache=True)
 def wipe_waypoint(plant, wipe, setpoint, phase_steps, tolerance):
     """One control step of the clean skill's wipe (``Wipe.update``, ``Wipe.waypoint``, ``Wipe.ready``), compiled.
 
-    The press force from ``wipe.force_fn``; pressing or wiping, the depth integrated from the force
-    error and clipped; shifting, whether the sponge is off the table; the waypoint (the stroke point
-    under the held sponge at the commanded depth; wiping, led by the sponge's drift along the stroke
-    and clipped to the hand's bounds; shifting, the lift point until lifted, then the next stroke's
-    start at the shift clearance); whether the phase is ready to end.  The same operations on the same
-    values as the Python methods.
-
-    Args:
-        plant: the stepper's [Plant][tableclean_suite.controllers.fast_control.Plant].
-        wipe: a `WIPE_STATE` record (read only here).
-        setpoint: (3,) the skill's position setpoint (m); phase_steps: control steps in the phase.
-        tolerance: m, the phase's position tolerance.
-
-    Returns:
-        (stop, waypoint x, y, z (m), depth (m), force (N), lifted, ready, tolerance (m)): ``stop`` is
-        `PHASE_HANDOFF` for a step the skill must take (the sponge's lowest corner within
-        `GAP_CHECK_SLACK` of ``contact_slack`` above the table or higher while wiping; shifting,
-        unlifted without force, within it of ``contact_slack``; a NaN force), else -1.
+    ``wipe``: a `WIPE_STATE` record (read only); ``setpoint`` (3,) m; ``phase_steps``: control steps in
+    the phase; ``tolerance``: m.  Returns (stop, waypoint x, y, z (m), depth (m), force (N), lifted,
+    ready, tolerance (m)): ``stop`` is `PHASE_HANDOFF` for a step the skill must take (the sponge within
+    `GAP_CHECK_SLACK` of ``contact_slack``, or above it while wiping; a NaN force), else -1.
     """
     wiping = wipe.mode == MODE_WIPE
     shifting = wipe.mode == MODE_SHIFT
@@ -665,7 +434,7 @@ def wipe_waypoint(plant, wipe, setpoint, phase_steps, tolerance):
     depth = wipe.depth
     now_lifted = lifted
     if not (shifting and lifted):
-        force = _call_double(wipe.force_fn)
+        force = c_call_double(wipe.force_fn)
         if force != force:
             return PHASE_HANDOFF, 0.0, 0.0, 0.0, depth, force, lifted, False, tolerance
     if shifting:  # Wipe._update_lift: on once no force is measured and the sponge is off the table
@@ -683,8 +452,9 @@ def wipe_waypoint(plant, wipe, setpoint, phase_steps, tolerance):
         if wiping or force > 0.0 or arrived:
             error = wipe.press_force - force
             gap = 0.0
-            if wiping and box_lowest_z(plant.sponge_pos, plant.sponge_mat, plant.sponge_half) - table - slack > -GAP_CHECK_SLACK:
-                return PHASE_HANDOFF, 0.0, 0.0, 0.0, depth, force, lifted, False, tolerance  # the gap term may be positive
+            lowest = box_lowest_z(plant.sponge_pos, plant.sponge_mat, plant.sponge_half)
+            if wiping and lowest - table - slack > -GAP_CHECK_SLACK:  # the gap term may be positive: the skill decides
+                return PHASE_HANDOFF, 0.0, 0.0, 0.0, depth, force, lifted, False, tolerance
             rate = wipe.force_gain * error + wipe.gap_gain * gap
             depth = _clip(depth + rate * wipe.dt, wipe.min_depth, wipe.max_depth)
         # Wipe.waypoint
@@ -708,33 +478,21 @@ def wipe_waypoint(plant, wipe, setpoint, phase_steps, tolerance):
 
 @numba.njit(cache=True)
 def control_loop(plant, dirt, skill, fingers, wipe, grip_table, goal, log, limit):
-    """Control steps of a skill phase, as ``Skill.step`` + ``FastSkillStepper.step``, in one compiled call.
-
-    Per control step: stop if the step budget is spent; the waypoint (a fixed phase's ``target``, or
-    the wipe's, [`wipe_waypoint`][tableclean_suite.controllers.fast_control.wipe_waypoint], which may hand the step to the skill); stop if the phase's
-    completion check might pass (position within the tolerance (+ `POSITION_CHECK_RTOL`), at
-    least ``min_steps`` in the phase, fingers settled by ``gripper_still`` or the timeout, the wipe
-    ready); else take the step: record the finger positions, advance the setpoint
-    ([advance_command][tableclean_suite.controllers.setpoint.advance_command]), take the goal of the
-    command and the gripper control of row k of ``grip_table`` (its last row beyond), log the state,
-    run the substeps ([`native_substeps`][tableclean_suite.controllers.fast_control.native_substeps]).
+    """Control steps of a skill phase, as ``Skill.step`` then ``FastSkillStepper.step``, in one compiled call.
 
     Args:
         plant, dirt: as [`native_substeps`][tableclean_suite.controllers.fast_control.native_substeps].
         skill: (1,) `SKILL_STATE` record, updated in place.
         fingers: (F,) finger positions at the last step (rad or m), updated in place.
-        wipe: (1,) `WIPE_STATE` record (mode
-            ``MODE_FIXED``: a fixed waypoint), updated in place.
-        grip_table: (R, G) gripper actuator controls, row k for the loop's k-th step.
-        goal: outputs (action (7,), goal_pos (3,) m, goal_ori (3, 3)): the last step's command and goal.
-        log: arrays (rows, size) receiving `LOG_FIELDS` at the start of each step from row 0 (no
-            logging when they have no rows).
+        wipe: (1,) `WIPE_STATE` record (mode ``MODE_FIXED``: a fixed waypoint), updated in place.
+        grip_table: (R, G) gripper actuator controls, row k for the loop's k-th step (the last beyond).
+        goal: outputs (action (7,), goal_pos (3,) m, goal_ori (3, 3)) of the last step.
+        log: arrays (rows, size) receiving `LOG_FIELDS` at the start of each step (none without rows).
         limit: most control steps to run.
 
     Returns:
-        (stop reason, control steps started, substep): with `PHASE_WIPE` the last step
-        stopped after substep's control (the caller runs the env's wiping check, ``mj_step2`` and
-        the remaining substeps); otherwise every started step is complete.
+        (stop reason, control steps started, substep): with `PHASE_WIPE` the last step stopped after
+        substep's control (the caller runs the env's wiping check, ``mj_step2`` and the rest).
     """
     s = skill[0]
     w = wipe[0]
@@ -805,8 +563,8 @@ def control_loop(plant, dirt, skill, fingers, wipe, grip_table, goal, log, limit
 class ControlStepLog:
     """The simulation state (mjData's `LOG_FIELDS`) at the start of every control step a stepper runs.
 
-    Give one to a [`FastSkillStepper`][tableclean_suite.controllers.fast_control.FastSkillStepper] (``stepper.state_log = ControlStepLog(stepper)``): the
-    per-step path and the compiled control loop both append a row per control step.
+    ``stepper.state_log = ControlStepLog(stepper)``: the per-step path and the compiled control loop both
+    append a row per control step.
     """
 
     def __init__(self, stepper: "FastSkillStepper"):
@@ -819,23 +577,16 @@ class ControlStepLog:
         need = self.rows + rows
         if need > self._arrays[0].shape[0]:
             capacity = max(need, 2 * self._arrays[0].shape[0])
-            grown = []
-            for old in self._arrays:
-                new = np.empty((capacity, old.shape[1]))
+            grown = tuple(np.empty((capacity, old.shape[1])) for old in self._arrays)
+            for new, old in zip(grown, self._arrays):
                 new[: self.rows] = old[: self.rows]
-                grown.append(new)
-            self._arrays = tuple(grown)
+            self._arrays = grown
         return self._arrays
-
-    def live(self) -> tuple[np.ndarray, ...]:
-        """Views of the logged mjData fields."""
-        return tuple(getattr(self._data, f) for f in LOG_FIELDS)
 
     def append(self) -> None:
         """Record the current state as the next row."""
-        arrays = self.reserve(1)
-        for array, value in zip(arrays, self.live()):
-            array[self.rows] = value
+        for array, field in zip(self.reserve(1), LOG_FIELDS):
+            array[self.rows] = getattr(self._data, field)
         self.rows += 1
 
     def states(self) -> list[dict[str, np.ndarray]]:
@@ -886,16 +637,20 @@ class FastSkillStepper:
     """Executes control steps of a skill env with robosuite's OSC_POSE law, without its per-substep Python.
 
     Args:
-        env: a TableClean env made by [`make_skill_env`][tableclean_suite.controllers.make.make_skill_env]
-            (one Panda, absolute world-frame OSC_POSE; see the module docstring).
-        native: run the substeps in the compiled loop that calls MuJoCo's C API (``None``: when
-            available, see [`native_available`][tableclean_suite.controllers.fast_control.native_available]); ``False`` runs them in Python through
-            the mujoco bindings (same results, slower).
+        env: a TableClean env made by [`make_skill_env`][tableclean_suite.controllers.make.make_skill_env].
+        native: run the substeps in the compiled loop calling MuJoCo's C API (``None``: when
+            [`native_available`][tableclean_suite.controllers.fast_control.native_available]); ``False``:
+            in Python through the mujoco bindings (same results, slower).
+        phase_loop: let [`run_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase]
+            and [`run_press_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase]
+            run phases in the compiled loop (needs ``native``); ``False``: every step through
+            [`step`][tableclean_suite.controllers.fast_control.FastSkillStepper.step] (same results).
 
-    [`step`][tableclean_suite.controllers.fast_control.FastSkillStepper.step] replaces ``env.step(action)`` for the skills; the env keeps working with
-    ``env.step`` in between (the controllers' goals and refresh flags are kept current).
-    The robot's controllers are looked up at every step (robosuite makes new ones at each
-    reset); a hard reset (new simulation) is noticed and the cached ids and views are rebuilt.
+    Attributes: ``state_log`` (a [`ControlStepLog`][tableclean_suite.controllers.fast_control.ControlStepLog]
+    or None), ``callback_seconds`` (s the compiled loop spent in the skill's force callback, which a
+    caller timing the physics subtracts), ``last_status`` (the ``PHASE_*`` stop reason of the last
+    compiled loop).  The env keeps working with ``env.step`` in between; new controllers (each reset)
+    and a new simulation (hard reset) are picked up.
     """
 
     def __init__(self, env, native: bool | None = None, phase_loop: bool = True):
@@ -903,131 +658,107 @@ class FastSkillStepper:
         _check_supported(env)
         self.env = env
         self.native = native_available() if native is None else bool(native)
-        #: whether [`run_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase] and [`run_press_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase] run a phase in the compiled [`control_loop`][tableclean_suite.controllers.fast_control.control_loop]
-        #: (needs ``native``); ``False`` leaves every control step to the skill and [`step`][tableclean_suite.controllers.fast_control.FastSkillStepper.step] (same results)
         self.phase_loop = bool(phase_loop)
-        #: a [`ControlStepLog`][tableclean_suite.controllers.fast_control.ControlStepLog] receiving the state at the start of every control step, or None
         self.state_log: ControlStepLog | None = None
-        #: seconds (wall) the compiled loops spent in the skill's Python callbacks ([`run_press_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase]'s force
-        #: reads): skill work, which a caller timing the stepper as the physics subtracts (the SkillController does)
         self.callback_seconds = 0.0
-        #: the stop reason (``PHASE_*``) of the last compiled loop [`run_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase] / [`run_press_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase] ran
         self.last_status = PHASE_LIMIT
         self._sim = None
         self._bind()
 
-    # -- set-up ------------------------------------------------------------------------------
     def _bind(self) -> None:
-        """Cache the simulation's ids, index arrays, data views and buffers (again after a hard reset)."""
+        """Cache the simulation's ids, index arrays, data views and buffers in the plant (again after a hard reset)."""
         env = self.env
         sim = env.sim
         robot = env.robots[0]
         arm = robot.arms[0]
         self._find_controllers()
         model, self.model, self.data = sim.model, mj_model(sim), mj_data(sim)
+        data = self.data
         base_site = model.site_name2id(f"{self.osc.naming_prefix}{self.osc.part_name}_center")
         if self.model.body_weldid[self.model.site_bodyid[base_site]] != 0:
             raise NotImplementedError("the fast control path needs the arm's base welded to the world")
-        self.site_id = model.site_name2id(self.osc.ref_name)
-        self.indexes = np.array([self.osc.qvel_index, self.osc.qpos_index], dtype=np.int64)
-        self.arm_actuators = np.asarray(actuator_indexes(robot, arm), dtype=np.int64)
-        self.grip_actuators = np.asarray(actuator_indexes(robot, self.grip_controller.part_name), dtype=np.int64)
+        site_id = model.site_name2id(self.osc.ref_name)
+        arm_actuators = np.asarray(actuator_indexes(robot, arm), dtype=np.int64)
+        grip_actuators = np.asarray(actuator_indexes(robot, self.grip_controller.part_name), dtype=np.int64)
         ctrlrange = self.model.actuator_ctrlrange
-        self.arm_limits = np.ascontiguousarray(ctrlrange[self.arm_actuators].T)  # (2, n) low, high
-        self.grip_limits = np.ascontiguousarray(ctrlrange[self.grip_actuators].T)
-        nv = self.model.nv
-        self.full_mass = np.zeros((nv, nv))
-        self.jacp = np.zeros((3, nv))
-        self.jacr = np.zeros((3, nv))
-        self.torques = np.zeros(len(self.arm_actuators))
-        self._grip_ctrl = np.zeros(len(self.grip_actuators))  # step()'s finger controls (copied into ctrl)
-        self._gains = (None, None, None)  # (osc.kp, osc.kd, gains()) of the last step, see _current_gains()
+        self.grip_limits = np.ascontiguousarray(ctrlrange[grip_actuators].T)  # (2, G) low, high
         self.substeps = int(env.control_timestep / env.model_timestep)
-        self._grip_params = None  # (controller, its panda_gripper_control parameters), see _panda_grip_params
-        self.eef_site_id = robot.eef_site_id[arm]
-        self.finger_index = np.asarray(gripper_joint_pos_indexes(robot, arm), dtype=np.int64)
-        self._bind_plant()
+        self._grip_params = None  # (controller, its panda_gripper_control parameters)
+        self._no_log = tuple(np.empty((0, getattr(data, f).size)) for f in LOG_FIELDS)
+        self._plant_key = (None,) * 4  # (osc, kp, kd, initial_joint) of the plant's law
+        # the env's own early exit in record_wiping_substep: below this height it must decide
+        contact = max(float(env.task_config["wipe_contact_dist"]), 0.0)
+        native, nv = self.native, self.model.nv
+        self._plant = Plant(
+            functions=mujoco_function_addresses() if native else (0, 0, 0, 0),
+            model=c_address(self.model) if native else 0, data=c_address(data) if native else 0,
+            substeps=self.substeps, full_mass=np.zeros((nv, nv)), jacp=np.zeros((3, nv)), jacr=np.zeros((3, nv)),
+            torques=np.zeros(len(arm_actuators)), q_m=data.qM, qpos=data.qpos, qvel=data.qvel,
+            qfrc_bias=data.qfrc_bias, ctrl=data.ctrl, site_id=int(site_id), site_pos=data.site_xpos[site_id],
+            site_mat=data.site_xmat[site_id], eef_pos=data.site_xpos[robot.eef_site_id[arm]],
+            finger_index=np.asarray(gripper_joint_pos_indexes(robot, arm), dtype=np.int64),
+            sponge_pos=data.xpos[env.sponge_body_id], sponge_mat=data.xmat[env.sponge_body_id],
+            sponge_half=np.asarray(env.task_config["sponge_half_size"], dtype=float),
+            wipe_z=float(env.geometry.table_top_z) + contact + PRESS_PREFILTER_SLACK,
+            marker_reach=float(env.task_config["wipe_marker_reach"]),
+            indexes=np.array([self.osc.qvel_index, self.osc.qpos_index], dtype=np.int64),
+            arm_actuators=arm_actuators, grip_actuators=grip_actuators,
+            limits=np.ascontiguousarray(ctrlrange[arm_actuators].T), gains=np.zeros((2, 6)),
+            initial_joint=np.zeros(len(arm_actuators)), uncouple=False,
+            log_live=tuple(getattr(data, f) for f in LOG_FIELDS),
+        )
         self._sim = sim
 
     def _find_controllers(self) -> None:
         """The robot's current OSC, gripper controller and gripper (robosuite makes new controllers at each reset)."""
         robot = self.env.robots[0]
         arm = robot.arms[0]
-        self._composite = robot.composite_controller
-        self._arm = arm
         controllers = robot.composite_controller.part_controllers
         self.osc = controllers[arm]
         self.grip_controller = controllers[robot.get_gripper_name(arm)]
         self.gripper = robot.gripper[arm]
 
-    def _bind_plant(self) -> None:
-        """The [Plant][tableclean_suite.controllers.fast_control.Plant] the compiled kernels read."""
-        env, data = self.env, self.data
-        # the env's own early exit in record_wiping_substep, plus a margin: below this it must decide
-        contact = max(float(env.task_config["wipe_contact_dist"]), 0.0)
-        self._no_log = tuple(np.empty((0, getattr(data, f).size)) for f in LOG_FIELDS)
-        self._plant_key = (None, None, None)  # (osc, gains, initial_joint) of the plant's law, see _current_plant()
-        native = self.native  # without the native loop the plant serves the OSC law only: no C addresses
-        self._plant = Plant(
-            functions=mujoco_function_addresses() if native else (0, 0, 0, 0),
-            model=c_address(self.model) if native else 0, data=c_address(data) if native else 0,
-            substeps=self.substeps, full_mass=self.full_mass, jacp=self.jacp, jacr=self.jacr, torques=self.torques,
-            q_m=data.qM, qpos=data.qpos, qvel=data.qvel, qfrc_bias=data.qfrc_bias, ctrl=data.ctrl,
-            site_id=int(self.site_id), site_pos=data.site_xpos[self.site_id], site_mat=data.site_xmat[self.site_id],
-            eef_pos=data.site_xpos[self.eef_site_id], finger_index=self.finger_index,
-            sponge_pos=data.xpos[env.sponge_body_id], sponge_mat=data.xmat[env.sponge_body_id],
-            sponge_half=np.asarray(env.task_config["sponge_half_size"], dtype=float),
-            wipe_z=float(env.geometry.table_top_z) + contact + PRESS_PREFILTER_SLACK + WIPE_CHECK_MARGIN,
-            marker_reach=float(env.task_config["wipe_marker_reach"]), indexes=self.indexes,
-            arm_actuators=self.arm_actuators, grip_actuators=self.grip_actuators, limits=self.arm_limits,
-            gains=np.zeros((2, 6)), initial_joint=np.zeros(len(self.arm_actuators)), uncouple=False,
-            log_live=tuple(getattr(data, f) for f in LOG_FIELDS),
-        )
-
-    def _current_gains(self) -> np.ndarray:
-        """The OSC's (2, 6) gains ([`gains`][tableclean_suite.controllers.fast_control.FastSkillStepper.gains]), rebuilt only when robosuite assigns new kp or kd arrays
-        (fixed impedance: it never changes them in place)."""
-        osc = self.osc
-        gains = self._gains
-        if gains[0] is not osc.kp or gains[1] is not osc.kd:
-            gains = self._gains = (osc.kp, osc.kd, self.gains())
-        return gains[2]
+    def _refresh(self) -> None:
+        """Follow a new simulation (hard reset) or new controllers (each reset)."""
+        if self.env.sim is not self._sim:
+            self._bind()
+        else:
+            self._find_controllers()
 
     def _current_plant(self) -> Plant:
-        """The plant with the current controllers' law (replaced when the OSC, its gains or its posture are new)."""
+        """The plant with the current OSC's law, rebuilt when the OSC or its kp, kd or posture arrays are new
+        (fixed impedance: robosuite never changes them in place)."""
         osc = self.osc
-        gains = self._current_gains()
-        key = self._plant_key
-        if key[0] is not osc or key[1] is not gains or key[2] is not osc.initial_joint:
-            self._plant = self._plant._replace(gains=gains, initial_joint=np.asarray(osc.initial_joint, dtype=float),
+        key = (osc, osc.kp, osc.kd, osc.initial_joint)
+        if any(map(operator.is_not, key, self._plant_key)):
+            self._plant = self._plant._replace(gains=np.array((osc.kp, osc.kd), dtype=float),
+                                               initial_joint=np.asarray(osc.initial_joint, dtype=float),
                                                uncouple=bool(osc.uncoupling))
-            self._plant_key = (osc, gains, osc.initial_joint)
+            self._plant_key = key
         return self._plant
 
-    # -- one control step --------------------------------------------------------------------
     def goal(self, action: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Goal position (3,) m and rotation matrix (3, 3) of the absolute world-frame ``action`` (7,), as robosuite."""
-        goal_pos = np.array(action[POS_SLICE], dtype=float)
+        goal_pos = np.array(action[0:3], dtype=float)
         goal_ori = np.empty((3, 3))
-        rotvec_matrix(np.ascontiguousarray(action[ROTVEC_SLICE], dtype=float), goal_ori)
+        rotvec_matrix(np.ascontiguousarray(action[3:6], dtype=float), goal_ori)
         return goal_pos, goal_ori
 
     def gripper_ctrl(self, action: np.ndarray) -> np.ndarray:
-        """Finger actuator controls (n_fingers,) for ``action``'s gripper command; advances the gripper's state.
+        """Finger actuator controls (G,) for ``action``'s gripper command; advances the gripper's state.
 
-        As robosuite's policy step: ``gripper.format_action`` (rate-limited internal command),
-        ``SimpleGripController.set_goal`` (input scaling), then its ``run_controller`` mapping
-        onto the actuators' control range and the robot's clipping to it.
+        As robosuite's policy step: ``gripper.format_action`` (rate-limited command), the controller's
+        input scaling, its mapping onto the actuators' control range and the robot's clipping to it.
         """
-        controller = self.grip_controller
+        controller, gripper = self.grip_controller, self.gripper
         params = self._panda_grip_params()
         if params is not None:
             new_current, goal_qvel, ctrl = np.empty(2), np.empty(2), np.empty(2)
-            panda_gripper_control(np.asarray(self.gripper.current_action, dtype=float), float(action[GRIPPER_INDEX]),
-                                  float(self.gripper.speed), params, new_current, goal_qvel, ctrl)
-            set_gripper_state(self.gripper, controller, new_current, goal_qvel)
+            panda_gripper_control(np.asarray(gripper.current_action, dtype=float), float(action[GRIPPER_INDEX]),
+                                  float(gripper.speed), params, new_current, goal_qvel, ctrl)
+            set_gripper_state(gripper, controller, new_current, goal_qvel)
             return ctrl
-        goal_qvel = self.gripper.format_action(np.asarray(action[GRIPPER_SLICE], dtype=float))
+        goal_qvel = gripper.format_action(np.asarray(action[GRIPPER_INDEX:], dtype=float))
         if controller.use_action_scaling:
             goal_qvel = controller.scale_action(goal_qvel)
         controller.goal_qvel = goal_qvel
@@ -1035,20 +766,20 @@ class FastSkillStepper:
         if controller.use_action_scaling:
             low, high = controller.actuator_min, controller.actuator_max
             desired = 0.5 * (high + low) + 0.5 * (high - low) * desired
-        return np.minimum(np.maximum(desired, self.grip_limits[0]), self.grip_limits[1])  # np.clip, cheaper
+        return np.minimum(np.maximum(desired, self.grip_limits[0]), self.grip_limits[1])
 
     def _panda_grip_params(self) -> np.ndarray | None:
-        """(9, 2) parameters of [`panda_gripper_control`][tableclean_suite.controllers.fast_control.panda_gripper_control] for the current gripper controller, or None
-        (not robosuite's Panda gripper with action scaling: [`gripper_ctrl`][tableclean_suite.controllers.fast_control.FastSkillStepper.gripper_ctrl] then runs robosuite's code)."""
+        """(9, 2) parameters of [`panda_gripper_control`][tableclean_suite.controllers.fast_control.panda_gripper_control]
+        for the current gripper controller, or None (not robosuite's Panda gripper with action scaling)."""
         controller = self.grip_controller
         cached = self._grip_params
         if cached is not None and cached[0] is controller:
             return cached[1]
         params = None
         if (type(self.gripper).format_action is PandaGripper.format_action and controller.use_action_scaling
-                and self.grip_actuators.size == 2):
+                and self.grip_limits.shape[1] == 2):
             if controller.action_scale is None:
-                controller.scale_action(np.zeros(self.grip_actuators.size))  # robosuite sets its transforms lazily
+                controller.scale_action(np.zeros(2))  # robosuite sets its transforms lazily
             rows = (controller.input_min, controller.input_max, controller.action_input_transform,
                     controller.action_scale, controller.action_output_transform, controller.actuator_min,
                     controller.actuator_max, self.grip_limits[0], self.grip_limits[1])
@@ -1056,39 +787,31 @@ class FastSkillStepper:
         self._grip_params = (controller, params)
         return params
 
-    def gains(self) -> np.ndarray:
-        """(2, 6) rows kp (1/s^2) and kd (1/s) of robosuite's OSC, read each control step."""
-        return np.array((self.osc.kp, self.osc.kd), dtype=float)
-
     def arm_torques(self, goal_pos: np.ndarray, goal_ori: np.ndarray) -> np.ndarray:
-        """OSC torques (n,) N m, unclipped, for the current simulation data (after ``mj_step1`` or ``mj_forward``).
-
-        Fills `torques` and returns it (the same array, overwritten on the next call).
-        """
-        model, data = self.model, self.data
-        mujoco.mj_fullM(model, self.full_mass, data.qM)
-        mujoco.mj_jacSite(model, data, self.jacp, self.jacr, self.site_id)
-        osc_torques(self._current_plant(), goal_pos, goal_ori)
-        return self.torques
+        """OSC torques (n,) N m, unclipped, for the current simulation data (after ``mj_step1`` or ``mj_forward``);
+        the plant's ``torques`` array, overwritten on the next call."""
+        plant = self._current_plant()
+        mujoco.mj_fullM(self.model, plant.full_mass, self.data.qM)
+        mujoco.mj_jacSite(self.model, self.data, plant.jacp, plant.jacr, plant.site_id)
+        osc_torques(plant, goal_pos, goal_ori)
+        return plant.torques
 
     def cached_arm_torques(self, goal_pos: np.ndarray, goal_ori: np.ndarray) -> np.ndarray:
-        """OSC torques (n,) N m, unclipped, from the state robosuite's OSC cached at its last ``update()``.
+        """OSC torques (n,) N m, unclipped, from the arm state robosuite's OSC cached at its last ``update()``.
 
-        robosuite's controller re-reads the simulation only when its ``new_update`` flag is
-        set; right after a reset it is not (the reset already read the state, before the
-        objects and fingers were placed), so the episode's first substep uses the arm state
-        cached at the reset.  This reproduces that.
+        Right after a reset robosuite's controller does not re-read the simulation (its ``new_update``
+        is off), so the episode's first substep uses the arm state cached at the reset.
         """
-        osc = self.osc
+        osc, plant = self.osc, self._current_plant()
         arm = ArmState(
             mass=np.ascontiguousarray(osc.mass_matrix), j_full=np.ascontiguousarray(osc.J_full),
             ref_pos=np.asarray(osc.ref_pos, dtype=float), ref_ori_mat=np.ascontiguousarray(osc.ref_ori_mat),
-            ref_vel=np.concatenate([osc.ref_pos_vel, osc.ref_ori_vel]), joint_pos=np.asarray(osc.joint_pos, dtype=float),
-            joint_vel=np.asarray(osc.joint_vel, dtype=float),
-            bias=self.data.qfrc_bias[self.indexes[0]],  # robosuite reads the compensation live
+            ref_vel=np.concatenate([osc.ref_pos_vel, osc.ref_ori_vel]),
+            joint_pos=np.asarray(osc.joint_pos, dtype=float), joint_vel=np.asarray(osc.joint_vel, dtype=float),
+            bias=self.data.qfrc_bias[plant.indexes[0]],  # robosuite reads the compensation live
         )
-        osc_law(arm, goal_pos, goal_ori, self._current_plant())
-        return self.torques
+        osc_law(arm, goal_pos, goal_ori, plant)
+        return plant.torques
 
     def step(self, action) -> None:
         """One control step (``control_timestep`` s of physics) towards the absolute command ``action`` (7,).
@@ -1101,31 +824,14 @@ class FastSkillStepper:
         action = np.asarray(action, dtype=float)
         if action.shape != (ACTION_DIM,):
             raise ValueError(f"action must have shape ({ACTION_DIM},), got {action.shape}")
-        if env.sim is not self._sim:
-            self._bind()
-        else:  # robosuite makes a new composite controller, with new parts, at each reset
-            composite = env.robots[0].composite_controller
-            if composite is not self._composite or composite.part_controllers[self._arm] is not self.osc:
-                self._find_controllers()
+        self._refresh()
         env.timestep += 1
         if self.state_log is not None:
             self.state_log.append()
-        # (runs right after the physics, with cold CPU caches: few Python calls and allocations per step)
-        osc = self.osc
-        self._current_plant()  # the law of the current controllers and gains
-        params = self._panda_grip_params()
-        if params is not None:  # goal() and gripper_ctrl() in one compiled call
-            gripper = self.gripper
-            goal_pos, goal_ori, new_current, goal_qvel = np.empty(3), np.empty((3, 3)), np.empty(2), np.empty(2)
-            grip_ctrl = self._grip_ctrl
-            step_inputs(np.ascontiguousarray(action), np.asarray(gripper.current_action, dtype=float),
-                        float(gripper.speed), params, goal_pos, goal_ori, new_current, goal_qvel, grip_ctrl)
-            set_gripper_state(gripper, self.grip_controller, new_current, goal_qvel)
-        else:
-            goal_pos, goal_ori = self.goal(action)
-            grip_ctrl = self.gripper_ctrl(action)
+        goal_pos, goal_ori = self.goal(action)
+        grip_ctrl = self.gripper_ctrl(action)
         first = 0
-        if not controller_needs_update(osc):  # robosuite then reuses its cached arm state once (see cached_arm_torques)
+        if not controller_needs_update(self.osc):  # robosuite reuses its cached arm state once
             self._python_substep(0, goal_pos, goal_ori, grip_ctrl, cached=True)
             first = 1
         if self.native:
@@ -1133,35 +839,29 @@ class FastSkillStepper:
         else:
             for substep in range(first, self.substeps):
                 self._python_substep(substep, goal_pos, goal_ori, grip_ctrl)
-        # what env.step does once per control step and later steps rely on (the next update() re-reads the sim)
+        # what env.step does once per control step and later steps rely on
         env.show_dirt()
         env.done = (env.timestep >= env.horizon) and not env.ignore_done
-        finish_control_step(env, osc, self.grip_controller, goal_pos, goal_ori, self.torques)
+        advance_clock(env, env.control_timestep)
+        hand_back_controller_state(self.osc, self.grip_controller, goal_pos, goal_ori, self._plant.torques)
 
-    # -- a phase in compiled code ----------------------------------------------------------------
     def run_phase(self, skill: np.ndarray, fingers: np.ndarray) -> int:
         """Run control steps of a skill phase with a fixed waypoint in [`control_loop`][tableclean_suite.controllers.fast_control.control_loop]; returns how many ran.
 
-        ``skill``: the skill's (1,) `SKILL_STATE`
-        record (its ``target`` the waypoint), ``fingers``: (F,) its finger positions at the last step; both
-        updated in place.  Returns to Python only at the phase's boundaries (a step whose completion check
-        might pass, the budget, the env's horizon) and for substeps the env's wiping check must see, after
-        which the loop resumes.  Runs nothing (returns 0) without the native loop, with `phase_loop`
-        off, for a gripper other than the Panda's (whose rate-limited command it tabulates), on the first
-        step after a reset (robosuite's cached arm state, see [`cached_arm_torques`][tableclean_suite.controllers.fast_control.FastSkillStepper.cached_arm_torques]) or when the
-        episode is done.
+        ``skill``: the skill's (1,) `SKILL_STATE` record (its ``target`` the waypoint); ``fingers``: (F,)
+        its finger positions at the last step; both updated in place.  Runs nothing (returns 0) without
+        the native loop, with ``phase_loop`` off, for a gripper other than the Panda's, on the first step
+        after a reset or when the episode is done.
         """
         return self._run_compiled(skill, fingers, np.zeros(1, WIPE_STATE))  # mode MODE_FIXED
 
     def run_press_phase(self, skill: np.ndarray, fingers: np.ndarray, wipe: np.ndarray, force) -> tuple[int, int]:
         """Run control steps of the clean skill's PRESS, WIPE or SHIFT phase in [`control_loop`][tableclean_suite.controllers.fast_control.control_loop].
 
-        As [`run_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase] (same conditions, the skill's state updated in place); ``wipe``: the wipe's (1,)
-        `WIPE_STATE` record, updated in place (its
-        ``force_fn`` is set here); ``force``: a Python function returning the sponge's press force (N),
-        called once per control step from the compiled loop (its time is added to `callback_seconds`).
-        Returns (control steps run, the loop's last stop reason).  An exception ``force`` raises is raised
-        here after the loop stopped (the loop takes no step with it).
+        As [`run_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase]; ``wipe``:
+        the (1,) `WIPE_STATE` record, updated in place (its ``force_fn`` set here); ``force``: a function
+        returning the sponge's press force (N), called once per control step.  Returns (control steps
+        run, the stop reason).  An exception ``force`` raises is raised here after the loop stopped.
         """
         errors = []
 
@@ -1183,15 +883,12 @@ class FastSkillStepper:
         return ran, self.last_status
 
     def _run_compiled(self, skill: np.ndarray, fingers: np.ndarray, wipe: np.ndarray) -> int:
-        """Run [`control_loop`][tableclean_suite.controllers.fast_control.control_loop] on the skill's state (see [`run_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase]); sets `last_status`."""
+        """Run [`control_loop`][tableclean_suite.controllers.fast_control.control_loop] on the skill's state; sets ``last_status``."""
         env = self.env
         self.last_status = PHASE_LIMIT
         if not (self.native and self.phase_loop) or env.done:
             return 0
-        if env.sim is not self._sim:
-            self._bind()
-        else:
-            self._find_controllers()
+        self._refresh()
         if type(self.gripper).format_action is not PandaGripper.format_action or not controller_needs_update(self.osc):
             return 0
         limit = np.iinfo(np.int64).max if env.ignore_done else env.horizon - env.timestep
@@ -1231,16 +928,15 @@ class FastSkillStepper:
             current_action, goal_qvel = states[min(total, len(states)) - 1]
             set_gripper_state(self.gripper, self.grip_controller, current_action.copy(), goal_qvel.copy())
             env.done = (env.timestep >= env.horizon) and not env.ignore_done
-            hand_back_controller_state(self.osc, self.grip_controller, goal[1], goal[2], self.torques)
+            hand_back_controller_state(self.osc, self.grip_controller, goal[1], goal[2], plant.torques)
         return total
 
     def _grip_table(self, command: float) -> tuple[np.ndarray, list, bool]:
         """Gripper actuator controls (rows, G) of the next control steps under the constant gripper ``command``.
 
-        Runs robosuite's own gripper code ([`gripper_ctrl`][tableclean_suite.controllers.fast_control.FastSkillStepper.gripper_ctrl]) ahead, then restores the gripper's
-        state.  Returns (rows, the gripper's (current_action, goal_qvel) after each row, settled):
-        ``settled`` when the last row repeats forever (the rate-limited command reached its fixed
-        point), else the table covers only its `GRIP_TABLE_ROWS` steps.
+        Runs robosuite's gripper code ahead, then restores the gripper's state.  Returns (rows, the
+        gripper's (current_action, goal_qvel) after each row, settled): ``settled`` when the last row
+        repeats forever, else the table covers only its `GRIP_TABLE_ROWS` steps.
         """
         gripper, controller = self.gripper, self.grip_controller
         saved = (np.array(gripper.current_action, dtype=float), controller.goal_qvel)
@@ -1258,12 +954,12 @@ class FastSkillStepper:
 
     def _python_substep(self, substep: int, goal_pos, goal_ori, grip_ctrl, cached: bool = False) -> None:
         """One physics substep through the mujoco bindings: step1, control, wiping check, step2."""
-        model, data = self.model, self.data
+        model, data, plant = self.model, self.data, self._plant
         mujoco.mj_step1(model, data)
         torques = (self.cached_arm_torques if cached else self.arm_torques)(goal_pos, goal_ori)
-        data.ctrl[self.arm_actuators] = np.clip(torques, self.arm_limits[0], self.arm_limits[1])
+        data.ctrl[plant.arm_actuators] = np.clip(torques, plant.limits[0], plant.limits[1])
         if substep == 0:
-            data.ctrl[self.grip_actuators] = grip_ctrl
+            data.ctrl[plant.grip_actuators] = grip_ctrl
         self.env.record_wiping_substep()
         mujoco.mj_step2(model, data)
 
@@ -1279,6 +975,8 @@ class FastSkillStepper:
                 done = -done
                 self.env.record_wiping_substep()
                 mujoco.mj_step2(self.model, self.data)
+
+
 #: Attribute under which [`attach_fast_stepper`][tableclean_suite.controllers.fast_control.attach_fast_stepper] stores an env's stepper.
 STEPPER_ATTRIBUTE = "fast_stepper"
 
@@ -1286,10 +984,9 @@ STEPPER_ATTRIBUTE = "fast_stepper"
 def attach_fast_stepper(env, native: bool | None = None) -> FastSkillStepper | None:
     """Give ``env`` a [`FastSkillStepper`][tableclean_suite.controllers.fast_control.FastSkillStepper] (``env.fast_stepper``), which the SkillController then uses.
 
-    On robosuite / MuJoCo versions the adapter was not checked against
-    (`CHECKED_VERSIONS`) attaches nothing, warns once per
-    process, and returns ``None``: the env then runs on robosuite's own ``env.step`` path.
-    Raises ``NotImplementedError`` when the env's controllers are not the ones the fast path reproduces.
+    On robosuite / MuJoCo versions the adapter was not checked against attaches nothing, warns once per
+    process and returns ``None`` (the env runs on ``env.step``).  Raises ``NotImplementedError`` when
+    the env's controllers are not the ones the fast path reproduces.
     """
     if not fast_path_allowed():
         return None

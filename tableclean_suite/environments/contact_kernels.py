@@ -78,21 +78,32 @@ def contact_within(geom1: np.ndarray, geom2: np.ndarray, dist: np.ndarray, mask_
     return False
 
 
-def _contact_force_codegen(context, builder, sig, args):
-    """LLVM code calling C ``void f(const mjModel*, const mjData*, int, mjtNum*)`` at the address ``args[0]``."""
-    void_ptr = ir.IntType(8).as_pointer()
-    function_type = ir.FunctionType(ir.VoidType(), [void_ptr, void_ptr, ir.IntType(32), void_ptr])
-    function = builder.inttoptr(args[0], function_type.as_pointer())
-    builder.call(function, [builder.inttoptr(args[1], void_ptr), builder.inttoptr(args[2], void_ptr), args[3],
-                            builder.inttoptr(args[4], void_ptr)])
-    return context.get_dummy_value()
+def _c_function(restype):
+    """An intrinsic ``call(fn, *args)`` calling the C function at the integer address ``fn`` with return type
+    ``restype`` (``types.void`` or ``types.float64``): ``int32`` arguments are C ints, other integers
+    pointers.  Addresses arrive as integers, so the functions using it stay cacheable."""
+    llvm_restype = ir.VoidType() if restype == types.void else ir.DoubleType()
+
+    @intrinsic
+    def call(typingctx, fn, *args):
+        def codegen(context, builder, sig, llvm_args):
+            pointer = ir.IntType(8).as_pointer()
+            params = [ir.IntType(32) if a == types.int32 else pointer for a in args]
+            function = builder.inttoptr(llvm_args[0], ir.FunctionType(llvm_restype, params).as_pointer())
+            packed = llvm_args[1]
+            values = [builder.extract_value(packed, i) for i in range(len(args))]
+            result = builder.call(function, [v if a == types.int32 else builder.inttoptr(v, pointer)
+                                             for a, v in zip(args, values)])
+            return context.get_dummy_value() if restype == types.void else result
+
+        return restype(fn, types.StarArgTuple.from_types(args)), codegen
+
+    return call
 
 
-@intrinsic
-def _call_contact_force(typingctx, function, model, data, index, result):
-    """``function(model, data, index, result)`` for MuJoCo's ``mj_contactForce``; pointers arrive as integers
-    (so the functions using it stay cacheable: no address is baked into the compiled code)."""
-    return types.void(types.intp, types.intp, types.intp, types.int32, types.intp), _contact_force_codegen
+#: ``c_call(fn, *args)``: a ``void`` C function; ``c_call_double(fn, *args)``: one returning a ``double``.
+c_call = _c_function(types.void)
+c_call_double = _c_function(types.float64)
 
 
 #: Bits of a geom's entry in [`press_normal_force`][tableclean_suite.environments.contact_kernels.press_normal_force]'s roles: a geom of the pressing body, of the surface.
@@ -122,8 +133,8 @@ def press_normal_force(native: np.ndarray, geom: np.ndarray, roles: np.ndarray, 
     for i in range(geom.shape[0]):
         r1, r2 = roles[geom[i, 0]], roles[geom[i, 1]]
         if ((r1 & PRESSING) and (r2 & SURFACE)) or ((r2 & PRESSING) and (r1 & SURFACE)):
-            _call_contact_force(native[NATIVE_CONTACT_FORCE], native[NATIVE_MODEL], native[NATIVE_DATA], np.int32(i),
-                                wrench.ctypes.data)
+            c_call(native[NATIVE_CONTACT_FORCE], native[NATIVE_MODEL], native[NATIVE_DATA], np.int32(i),
+                   wrench.ctypes.data)
             total += wrench[0]
     if 0.0 > total:  # max(total, 0.0): a NaN or -0.0 sum is kept as Python's max keeps it
         total = 0.0
