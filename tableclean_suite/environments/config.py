@@ -1,21 +1,13 @@
 """Task parameters of the ``TableClean`` environment and the scene geometry derived from them.
 
-All physical constants of the task live in `DEFAULT_TABLECLEAN_CONFIG` (robosuite Wipe's
-``DEFAULT_WIPE_CONFIG`` pattern, one comment per key).  Users override keys with
-``robosuite.make("TableClean", ..., task_config={...})``; `make_config` merges and validates.
+All physical constants of the task live in `DEFAULT_TABLECLEAN_CONFIG` (one comment per key); users override
+keys with ``robosuite.make("TableClean", ..., task_config={...})``, `make_config` merges and validates.
+Metres, world frame; "table frame" offsets are from the centre of the table top.
 
-Frames and units: metres, world frame.  "Table frame" offsets are relative to the centre of the
-table top.  Segment 1 lies at negative y (left in the ``frontview`` camera), segment 2 at positive y.
-
-Layout of N segments (`segment_layout`): rows of ``segment_columns`` segments along y,
-rows stacked along x inside the band ``reach_x`` the Panda reaches with a downward gripper
-pressing the sponge.  Segments are numbered along a U: the first row (nearest the robot) from -y
-to +y, the next row back from +y to -y, so MOVE (k -> k + 1, N -> 1) always goes to a
-neighbouring segment.  One row (N <= 2) keeps the paper's ``segment_size``; with R rows the
-side shrinks to what fits in the band, and a layout whose segments would be smaller than
-``min_segment_size`` is refused: with the defaults at most `MAX_SCENE_SEGMENTS` = 4
-(two rows of two 0.18 m segments; a third row leaves 0.107 m segments, too small for two
-objects side by side and a sponge lane).
+Layout of N segments (`segment_layout`): rows of ``segment_columns`` segments along y, stacked along x
+inside the band ``reach_x``, numbered along a U (first row -y to +y, the next back), so MOVE always goes
+to a neighbouring segment.  One row keeps ``segment_size``; with more the side shrinks to fit the band, and
+segments smaller than ``min_segment_size`` are refused: with the defaults at most `MAX_SCENE_SEGMENTS` = 4.
 """
 
 from __future__ import annotations
@@ -77,16 +69,11 @@ DEFAULT_TABLECLEAN_CONFIG = {
 
 #: Most segments per row: a third column along y would reach the sponge stand's side of the table.
 MAX_SEGMENT_COLUMNS = 2
-#: Shape of each numeric key: None for one number, k for a sequence of k numbers.
-_SHAPES = {
-    "table_full_size": 3, "table_offset": 3, "table_friction": 3, "segment_size": 2, "segment_gap": None,
-    "segment_x": None, "segment_columns": None, "reach_x": 2, "min_segment_size": None, "marker_grid": 2,
-    "marker_radius": None, "clean_fraction": None, "wipe_contact_dist": None, "wipe_marker_reach": None,
-    "sponge_half_size": 3, "sponge_density": None, "sponge_home_xy": 2, "stand_half_size": 3,
-    "sponge_home_tolerance": None, "object_half_size": 3, "placement_noise": None, "placement_yaw_noise": None,
-    "object_spacing": None, "object_clearance": None, "arm_hover_height": None, "arm_segment_margin": None,
-    "lift_tolerance": None, "max_stable_speed": None,
-}
+#: Largest object yaw noise [rad]: +-pi already covers every orientation.
+MAX_YAW_NOISE = float(np.pi)
+#: Shape of each numeric key (that of its default): None for one number, k for a sequence of k numbers.
+_SHAPES = {key: None if np.ndim(value) == 0 else len(value) for key, value in DEFAULT_TABLECLEAN_CONFIG.items()
+           if key != "object_type"}
 #: Keys whose values must be positive numbers or sequences of positive numbers.
 _POSITIVE_KEYS = ("table_full_size", "segment_size", "marker_radius", "sponge_half_size", "sponge_density",
                   "stand_half_size", "sponge_home_tolerance", "object_half_size", "min_segment_size", "object_spacing",
@@ -94,8 +81,16 @@ _POSITIVE_KEYS = ("table_full_size", "segment_size", "marker_radius", "sponge_ha
 #: Keys whose values must be non-negative.
 _NON_NEGATIVE_KEYS = ("segment_gap", "wipe_marker_reach", "placement_noise", "placement_yaw_noise", "arm_segment_margin",
                       "object_clearance", "table_friction")
-#: Largest object yaw noise [rad]: +-pi already covers every orientation.
-MAX_YAW_NOISE = float(np.pi)
+#: Further checks of a key's float array, with what the key allows.
+_RULES = {
+    "table_friction": (lambda a: a[0] > 0, "3 numbers >= 0 with the sliding friction (first) > 0"),
+    "clean_fraction": (lambda a: 0.0 < a <= 1.0, "a number in (0, 1]"),
+    "placement_yaw_noise": (lambda a: a <= MAX_YAW_NOISE, f"a number in [0, {MAX_YAW_NOISE:.4f}] rad"),
+    "marker_grid": (lambda a: np.all(a == np.round(a)) and np.all(a >= 1), "2 integers >= 1 (rows, columns)"),
+    "segment_columns": (lambda a: a == round(float(a)) and 1 <= a <= MAX_SEGMENT_COLUMNS,
+                        f"an integer in 1..{MAX_SEGMENT_COLUMNS}"),
+    "reach_x": (lambda a: a[0] < a[1], "2 numbers (low, high) with low < high"),
+}
 
 
 class TaskConfig(dict):
@@ -122,39 +117,27 @@ def make_config(task_config: Mapping | None = None) -> TaskConfig:
     return config
 
 
-#: What a key allows, where more than its shape (`_SHAPES`) says.
-_ALLOWED = {"marker_grid": "2 integers >= 1 (rows, columns)", "segment_columns": f"an integer in 1..{MAX_SEGMENT_COLUMNS}",
-            "clean_fraction": "a number in (0, 1]", "reach_x": "2 numbers (low, high) with low < high"}
-
-
-def _shape_text(shape, key: str | None = None) -> str:
-    if key in _ALLOWED:
-        return _ALLOWED[key]
-    return "a number" if shape is None else f"{shape} numbers"
+def _refuse(key: str, value, allowed: str):
+    raise ValueError(f"task_config[{key!r}] = {value!r}: expected {allowed}")
 
 
 def _numbers(key: str, value, shape) -> np.ndarray:
     """``value`` as float64 of ``shape`` (None: a scalar), all finite; ``ValueError`` naming key, value and shape."""
-    def refuse(why: str = ""):
-        raise ValueError(f"task_config[{key!r}] = {value!r}: expected {_shape_text(shape, key)}{why}")
-
-    items = [value] if shape is None else value
-    if isinstance(value, (str, bytes, Mapping)) or (shape is not None and not isinstance(value, (list, tuple,
-                                                                                                   np.ndarray))):
-        refuse()
-    if shape is None and isinstance(value, (list, tuple, np.ndarray)):
-        refuse()
-    if any(isinstance(item, (bool, np.bool_, str, bytes)) or item is None for item in np.ravel(np.asarray(
-            items, dtype=object))):
-        refuse()
+    allowed = _RULES[key][1] if key in _RULES and key != "table_friction" else (
+        "a number" if shape is None else f"{shape} numbers")
+    sequence = isinstance(value, (list, tuple, np.ndarray))
+    if isinstance(value, (str, bytes, Mapping)) or sequence == (shape is None) or any(
+            isinstance(item, (bool, np.bool_, str, bytes)) or item is None
+            for item in np.ravel(np.asarray([value] if shape is None else value, dtype=object))):
+        _refuse(key, value, allowed)
     try:
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        refuse()
+        _refuse(key, value, allowed)
     if array.shape != (() if shape is None else (shape,)):
-        refuse()
+        _refuse(key, value, allowed)
     if not np.all(np.isfinite(array)):
-        refuse(", all finite")
+        _refuse(key, value, allowed + ", all finite")
     return array
 
 
@@ -162,46 +145,26 @@ def _validate(config: dict) -> None:
     arrays = {key: _numbers(key, config[key], shape) for key, shape in _SHAPES.items()}
     for key in _POSITIVE_KEYS:
         if not np.all(arrays[key] > 0):
-            what = "a positive number" if _SHAPES[key] is None else f"{_SHAPES[key]} positive numbers"
-            raise ValueError(f"task_config[{key!r}] = {config[key]!r}: expected {what}")
+            _refuse(key, config[key], "a positive number" if _SHAPES[key] is None else f"{_SHAPES[key]} positive numbers")
     for key in _NON_NEGATIVE_KEYS:
         if not np.all(arrays[key] >= 0):
-            raise ValueError(f"task_config[{key!r}] = {config[key]!r}: expected {_shape_text(_SHAPES[key])} >= 0")
-    if not arrays["table_friction"][0] > 0:
-        raise ValueError(f"task_config['table_friction'] = {config['table_friction']!r}: the sliding friction (first) "
-                         "must be > 0")
-    if not 0.0 < float(config["clean_fraction"]) <= 1.0:
-        raise ValueError(f"task_config['clean_fraction'] = {config['clean_fraction']!r}: expected a number in (0, 1]")
-    if not float(config["placement_yaw_noise"]) <= MAX_YAW_NOISE:
-        raise ValueError(f"task_config['placement_yaw_noise'] = {config['placement_yaw_noise']!r}: expected a number "
-                         f"in [0, {MAX_YAW_NOISE:.4f}] rad")
-    grid = arrays["marker_grid"]
-    if np.any(grid != np.round(grid)) or np.any(grid < 1):
-        raise ValueError(f"task_config['marker_grid'] = {config['marker_grid']!r}: expected 2 integers >= 1")
-    if int(grid[0]) * int(grid[1]) > MAX_MARKERS_PER_SEGMENT:
-        raise ValueError(f"task_config['marker_grid'] = {config['marker_grid']!r}: {int(grid[0]) * int(grid[1])} "
-                         f"markers per segment; at most {MAX_MARKERS_PER_SEGMENT} fit in a segment's dirt-state joint")
-    columns = float(arrays["segment_columns"])
-    if columns != round(columns) or not 1 <= columns <= MAX_SEGMENT_COLUMNS:
-        raise ValueError(f"task_config['segment_columns'] = {config['segment_columns']!r}: expected an integer in "
-                         f"1..{MAX_SEGMENT_COLUMNS}")
-    low, high = arrays["reach_x"]
-    if not low < high:
-        raise ValueError(f"task_config['reach_x'] = {config['reach_x']!r}: expected (low, high) with low < high")
+            _refuse(key, config[key], ("a number" if _SHAPES[key] is None else f"{_SHAPES[key]} numbers") + " >= 0")
+    for key, (check, allowed) in _RULES.items():
+        if not check(arrays[key]):
+            _refuse(key, config[key], allowed)
+    rows, cols = (int(n) for n in arrays["marker_grid"])
+    if rows * cols > MAX_MARKERS_PER_SEGMENT:
+        raise ValueError(f"task_config['marker_grid'] = {config['marker_grid']!r}: {rows * cols} markers per segment; "
+                         f"at most {MAX_MARKERS_PER_SEGMENT} fit in a segment's dirt-state joint")
     if config["object_type"] is not None:
         from tableclean_suite.environments.objects import get_object_type
 
         if not isinstance(config["object_type"], str):
-            raise ValueError(f"task_config['object_type'] = {config['object_type']!r}: expected None or a registered "
-                             "object type name")
+            _refuse("object_type", config["object_type"], "None or a registered object type name")
         get_object_type(config["object_type"])
-    half_y = arrays["table_full_size"][1] / 2
-    reach_y = float(arrays["segment_gap"]) / 2 + arrays["segment_size"][1]
-    if reach_y > half_y:
-        raise ValueError(
-            f"segments (gap {config['segment_gap']} + 2 x {config['segment_size'][1]} m along y) "
-            f"do not fit on a table {config['table_full_size'][1]} m wide"
-        )
+    if float(arrays["segment_gap"]) / 2 + arrays["segment_size"][1] > arrays["table_full_size"][1] / 2:
+        raise ValueError(f"segments (gap {config['segment_gap']} + 2 x {config['segment_size'][1]} m along y) "
+                         f"do not fit on a table {config['table_full_size'][1]} m wide")
 
 
 class LayoutError(ValueError):

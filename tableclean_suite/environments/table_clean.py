@@ -224,33 +224,15 @@ class TableClean(ManipulationEnv):
         # (object segment, arm segment) of this episode, 0-based; with M > 1 objects (object segments, arm segment)
         self.layout: tuple | None = None
         super().__init__(
-            robots=robots,
-            env_configuration=env_configuration,
-            controller_configs=controller_configs,
-            base_types=base_types,
-            gripper_types=gripper_types,
-            initialization_noise=initialization_noise,
-            use_camera_obs=use_camera_obs,
-            has_renderer=has_renderer,
-            has_offscreen_renderer=has_offscreen_renderer,
-            render_camera=render_camera,
-            render_collision_mesh=render_collision_mesh,
-            render_visual_mesh=render_visual_mesh,
-            render_gpu_device_id=render_gpu_device_id,
-            control_freq=control_freq,
-            lite_physics=lite_physics,
-            horizon=horizon,
-            ignore_done=ignore_done,
-            hard_reset=hard_reset,
-            camera_names=camera_names,
-            camera_heights=camera_heights,
-            camera_widths=camera_widths,
-            camera_depths=camera_depths,
-            camera_segmentations=camera_segmentations,
-            renderer=renderer,
-            renderer_config=renderer_config,
-            seed=seed,
-        )
+            robots=robots, env_configuration=env_configuration, controller_configs=controller_configs,
+            base_types=base_types, gripper_types=gripper_types, initialization_noise=initialization_noise,
+            use_camera_obs=use_camera_obs, has_renderer=has_renderer, has_offscreen_renderer=has_offscreen_renderer,
+            render_camera=render_camera, render_collision_mesh=render_collision_mesh,
+            render_visual_mesh=render_visual_mesh, render_gpu_device_id=render_gpu_device_id,
+            control_freq=control_freq, lite_physics=lite_physics, horizon=horizon, ignore_done=ignore_done,
+            hard_reset=hard_reset, camera_names=camera_names, camera_heights=camera_heights,
+            camera_widths=camera_widths, camera_depths=camera_depths, camera_segmentations=camera_segmentations,
+            renderer=renderer, renderer_config=renderer_config, seed=seed)
         try:  # ValueError (the scene closed) naming an object the open gripper cannot take
             for kind, shape in zip(self.object_types, self.object_geometries):
                 check_holdable(kind, shape, self.gripper_geometry.open_width, f"{self.robot_name} gripper")
