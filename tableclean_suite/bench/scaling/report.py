@@ -54,43 +54,42 @@ def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    gammas = sorted({r["gamma"] for r in rows if r["learner"] == learner})
-    rewards = list(dict.fromkeys(r["reward"] for r in rows if r["learner"] == learner))
+    import pandas as pd
+
+    frame = pd.DataFrame(rows)
+    frame = frame[frame["learner"] == learner].sort_values("reachable_from_start", kind="stable")
+    gammas = sorted(set(frame["gamma"]))
+    rewards = list(dict.fromkeys(frame["reward"]))
     colours = {reward: f"C{i}" for i, reward in enumerate(rewards)}
     figure, axes = plt.subplots(2, max(1, len(gammas)), figsize=(6.5 * max(1, len(gammas)), 9), squeeze=False)
     for column, gamma in enumerate(gammas):
         top, bottom = axes[0, column], axes[1, column]
+        at_gamma = frame[frame["gamma"] == gamma]
         for reward in rewards:
-            cells = [r for r in rows if r["learner"] == learner and r["reward"] == reward and r["gamma"] == gamma]
-            colour = colours[reward]
+            cells, colour = at_gamma[at_gamma["reward"] == reward], colours[reward]
             for family, marker in FAMILY_MARKERS.items():
-                chosen = sorted((r for r in cells if r["family"] == family), key=lambda r: r["reachable_from_start"])
+                chosen = cells[cells["family"] == family]
                 style = "-" if family == PRODUCT_FAMILY else ":"
-                reached = [r for r in chosen if not r["censored"]]
-                censored = [r for r in chosen if r["censored"]]
-                if reached:
-                    x = np.array([r["reachable_from_start"] for r in reached], dtype=float)
-                    y = np.array([r["learning_time"] for r in reached], dtype=float)
-                    low = np.array([r["learning_time_low"] for r in reached], dtype=float)
-                    high = np.array([r["learning_time_high"] for r in reached], dtype=float)
-                    high = np.where(np.isfinite(high), high, [r["window"] for r in reached])
+                reached, censored = chosen[~chosen["censored"]], chosen[chosen["censored"]]
+                if len(reached):
+                    x, y = (reached[c].to_numpy(dtype=float) for c in ("reachable_from_start", "learning_time"))
+                    low, high = (reached[c].to_numpy(dtype=float) for c in ("learning_time_low", "learning_time_high"))
+                    high = np.where(np.isfinite(high), high, reached["window"].to_numpy())
                     error = np.clip(np.vstack([y - low, high - y]), 0, None)
                     top.errorbar(x, np.maximum(y, 1.0), yerr=error, marker=marker, linestyle=style, color=colour,
                                  capsize=2, markersize=5)
-                if censored:
-                    x = np.array([r["reachable_from_start"] for r in censored], dtype=float)
-                    top.scatter(x, [r["window"] for r in censored], marker=marker, facecolors="none",
-                                edgecolors=colour, s=40)
-                bottom.plot([r["reachable_from_start"] for r in chosen], [r["censored_share"] for r in chosen],
-                            marker=marker, color=colour, linestyle=style)
+                if len(censored):
+                    top.scatter(censored["reachable_from_start"].to_numpy(dtype=float), list(censored["window"]),
+                                marker=marker, facecolors="none", edgecolors=colour, s=40)
+                bottom.plot(list(chosen["reachable_from_start"]), list(chosen["censored_share"]), marker=marker,
+                            color=colour, linestyle=style)
             fit = fits.get(f"{gamma:g}", {}).get(reward)
-            product = sorted((r for r in cells if r["family"] == PRODUCT_FAMILY),
-                             key=lambda r: r["reachable_from_start"])
-            if fit and math.isfinite(fit["exponent"]) and math.isfinite(fit.get("intercept", math.nan)) and product:
-                x = np.array([r["reachable_from_start"] for r in product], dtype=float)
+            product = cells[cells["family"] == PRODUCT_FAMILY]
+            if fit and math.isfinite(fit["exponent"]) and math.isfinite(fit.get("intercept", math.nan)) \
+                    and len(product):
+                x = product["reachable_from_start"].to_numpy(dtype=float)
                 top.plot(x, np.exp(fit["intercept"]) * x ** fit["exponent"], linestyle="--", color=colour, alpha=0.5)
-        shown = [max(r["learning_time"], 1.0) for r in rows if r["learner"] == learner and r["gamma"] == gamma
-                 and not r["censored"]] + [r["window"] for r in rows if r["learner"] == learner and r["gamma"] == gamma]
+        shown = [max(v, 1.0) for v in at_gamma.loc[~at_gamma["censored"], "learning_time"]] + list(at_gamma["window"])
         if shown:  # the fitted lines may not stretch the axis beyond the data (a steep fit would flatten it)
             top.set_ylim(min(shown) / Y_MARGIN, max(shown) * Y_MARGIN)
         top.plot([], [], color="black", marker="o", linestyle="-", label="product family (N x M)")
