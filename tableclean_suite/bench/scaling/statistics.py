@@ -81,22 +81,18 @@ def local_slopes(sizes, medians, replicates, confidence: float = CONFIDENCE) -> 
         censored, an infinite end where the resamples of either cell are censored.
     """
     log_x = np.log(np.asarray(sizes, dtype=np.float64))
-    with np.errstate(divide="ignore", invalid="ignore"):
+    slopes = []
+    with np.errstate(divide="ignore", invalid="ignore"):  # inf - inf (both censored): NaN, dropped
         log_m = np.log(np.maximum(np.asarray(medians, dtype=np.float64), 1.0))
         log_r = np.log(np.maximum(np.asarray(replicates, dtype=np.float64), 1.0))
-    slopes = []
-    for k in range(len(log_x) - 1):
-        run = log_x[k + 1] - log_x[k]
-        with np.errstate(invalid="ignore"):  # inf - inf: both censored
+        for k in range(len(log_x) - 1):
+            run = log_x[k + 1] - log_x[k]
             slope = float((log_m[k + 1] - log_m[k]) / run) if run > 0 else math.nan
-        if not math.isfinite(slope):
-            slopes.append({"from": sizes[k], "to": sizes[k + 1], "slope": math.nan, "low": math.nan,
-                           "high": math.nan})
-            continue
-        with np.errstate(invalid="ignore"):
-            draws = (log_r[k + 1] - log_r[k]) / run  # inf - inf -> NaN, dropped; x - inf -> -inf
-        low, high = percentile_bounds(draws, confidence)
-        slopes.append({"from": sizes[k], "to": sizes[k + 1], "slope": float(slope), "low": low, "high": high})
+            if math.isfinite(slope):
+                low, high = percentile_bounds((log_r[k + 1] - log_r[k]) / run, confidence)
+            else:
+                slope = low = high = math.nan
+            slopes.append({"from": sizes[k], "to": sizes[k + 1], "slope": slope, "low": low, "high": high})
     return slopes
 
 
@@ -117,11 +113,10 @@ def order_verdict(replicates: dict, order=PAPER_ORDER, confidence: float = CONFI
     decided = []
     for first, second in zip(order, order[1:]):
         a, b = np.asarray(replicates[first], dtype=float), np.asarray(replicates[second], dtype=float)
-        faster = np.where(np.isinf(a) & np.isinf(b), 0.0, np.sign(b - a))  # +1: first strictly faster
-        share = float(np.mean(faster > 0))
-        slower = float(np.mean(faster < 0))
-        tail = (1 - confidence) / 2
-        decided.append("yes" if share >= 1 - tail else "no" if slower >= 1 - tail else "tie")
+        with np.errstate(invalid="ignore"):  # both censored: a tie
+            faster = np.where(np.isinf(a) & np.isinf(b), 0.0, np.sign(b - a))  # +1: first strictly faster
+        level = 1 - (1 - confidence) / 2
+        decided.append("yes" if np.mean(faster > 0) >= level else "no" if np.mean(faster < 0) >= level else "tie")
     if "no" in decided:
         return "fails"
     return "holds" if all(d == "yes" for d in decided) else "tie"
