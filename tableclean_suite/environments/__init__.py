@@ -7,13 +7,8 @@ registers every environment class when its module is imported), so
 
 from tableclean_suite.environments.abstraction import AbstractionError, Fault, abstract_state
 from tableclean_suite.environments.config import DEFAULT_TABLECLEAN_CONFIG, MAX_SCENE_SEGMENTS, LayoutError
-from tableclean_suite.environments.objects import (
-    OBJECT_TYPES,
-    ObjectType,
-    get_object_type,
-    object_type_names,
-    register_object,
-)
+from tableclean_suite.environments.objects import (OBJECT_TYPES, ObjectType, get_object_type, object_type_names,
+                                                   register_object)
 from tableclean_suite.environments.scene_state import SceneState
 from tableclean_suite.environments.table_clean import TableClean
 

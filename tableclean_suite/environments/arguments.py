@@ -1,9 +1,5 @@
-"""Checks of ``TableClean``'s arguments and its start layout, before anything is built.
-
-Each check raises a one-line ``ValueError`` naming the value and what is allowed.  The start
-layout ([StartLayout][tableclean_suite.environments.arguments.StartLayout]) is what
-``TableClean.set_start`` stores: 0-based segment indexes, ``None`` where each reset draws one.
-"""
+"""Checks of ``TableClean``'s arguments and its start layout, before anything is built (one-line ``ValueError``s
+naming the value and what is allowed)."""
 
 from __future__ import annotations
 
@@ -20,8 +16,7 @@ MIN_CONTROL_FREQ = 1.0
 
 
 class _LayoutDefault(enum.Enum):
-    """`FROM_SPEC`'s type: a sentinel compared by identity
-    (a string spelled ``"from_spec"`` is a layout value, not the default) and kept through pickling."""
+    """`FROM_SPEC`'s type: a sentinel compared by identity and kept through pickling."""
 
     FROM_SPEC = "from_spec"
 
@@ -29,14 +24,13 @@ class _LayoutDefault(enum.Enum):
         return self.name
 
 
-#: Default of the layout arguments: with ``task=`` given, the layout comes from the spec's start
-#: (``start_state`` for ``fixed``, a fresh draw at each reset for ``uniform_unclean``); without it,
+#: Default of the layout arguments: with ``task=`` given, the layout comes from the spec's start; without it,
 #: each is drawn at each reset.
 FROM_SPEC = _LayoutDefault.FROM_SPEC
 
 
 class StartLayout(NamedTuple):
-    """Where the following resets start, 0-based (``None``: drawn at each reset)."""
+    """Where the following resets start (what ``TableClean.set_start`` stores), 0-based (``None``: drawn at each reset)."""
 
     object_segment: int | None  #: the segment every object starts on, or None (drawn, or objects apart)
     object_segments: tuple[int | None, ...]  #: (M,) each object's segment

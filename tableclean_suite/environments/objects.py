@@ -25,17 +25,8 @@ from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
 import numpy as np
-from robosuite.models.objects import (
-    BottleObject,
-    BoxObject,
-    BreadObject,
-    CanObject,
-    CerealObject,
-    CylinderObject,
-    LemonObject,
-    MilkObject,
-    MujocoObject,
-)
+from robosuite.models.objects import (BottleObject, BoxObject, BreadObject, CanObject, CerealObject, CylinderObject,
+                                      LemonObject, MilkObject, MujocoObject)
 from robosuite.utils.mjcf_utils import CustomMaterial
 
 from tableclean_suite.registry import Registry

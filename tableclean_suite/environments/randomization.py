@@ -84,17 +84,9 @@ Range = tuple[float, float]
 
 @dataclass(frozen=True)
 class DynamicsSample:
-    """The values one reset drew (see [`DynamicsRandomization`][tableclean_suite.environments.randomization.DynamicsRandomization] for units).
-
-    Attributes:
-        object_mass_scale, object_size_scale, object_friction_scale: (M,) per object.
-        sponge_mass_scale, sponge_size_scale, sponge_friction_scale, table_friction_scale: floats.
-        joint_damping_scale: (n_joints,) per arm joint.
-        osc_kp_scale, osc_damping_ratio_scale: floats.
-        object_yaw_noise: rad, the yaw half-width the placement used (its draw is the placement's).
-        sponge_home_offset: (2,) m, the sponge's start xy offset from its home.
-        sponge_yaw: rad, the sponge's start yaw.
-    """
+    """The values one reset drew (units as in [`DynamicsRandomization`][tableclean_suite.environments.randomization.DynamicsRandomization]): ``object_*`` (M,) per object,
+    ``joint_damping_scale`` (n_joints,), ``object_yaw_noise`` the half-width the placement used [rad],
+    ``sponge_home_offset`` (2,) [m] and ``sponge_yaw`` [rad] the sponge's start; the rest floats."""
 
     object_mass_scale: tuple[float, ...]
     sponge_mass_scale: float

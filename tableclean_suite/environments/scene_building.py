@@ -28,14 +28,9 @@ def object_outline(kind, shape, radius: float | None = None) -> np.ndarray:
 
 
 def check_objects_fit(kinds, geometry, config: Mapping, size_scale: float = 1.0) -> None:
-    """Raise ``ValueError`` unless the objects of ``kinds`` (ObjectTypes) fit side by side on one segment.
-
-    Every spec can bring all its objects onto one segment, so all M must fit there, by their
-    oriented footprints ([`placement.row_layout`][tableclean_suite.environments.placement.row_layout]: turned so their narrowest width lies along
-    the row where that helps, without yaw noise, which the reset caps).  ``size_scale`` (> 0)
-    multiplies every footprint: the largest ``object_size_scale`` a randomisation can draw.  The
-    message names the objects, the size their grid needs and the segment's.
-    """
+    """``ValueError`` (naming the objects, the size they need and the segment's) unless all the objects of
+    ``kinds`` fit side by side on one segment by their oriented footprints
+    ([`row_layout`][tableclean_suite.environments.placement.row_layout]), each footprint times ``size_scale``."""
     half = np.asarray(geometry.segment_half_sizes[0], dtype=float)
     scaled = f" at object size scale {size_scale:g}" if size_scale != 1.0 else ""
     segment = f"{2 * half[0] * 100:.1f} x {2 * half[1] * 100:.1f} cm"

@@ -10,21 +10,10 @@ import mujoco
 import numpy as np
 
 from tableclean_suite.environments import dirt_state
-from tableclean_suite.environments.contact_kernels import (
-    LOOKUP_BODY,
-    LOOKUP_PADS,
-    NATIVE_CONTACT_FORCE,
-    NATIVE_DATA,
-    NATIVE_MODEL,
-    PAD_A,
-    PAD_B,
-    PRESSING,
-    SURFACE,
-    contact_within,
-    contacts_between,
-    grasped_bodies,
-    press_normal_force,
-)
+from tableclean_suite.environments.contact_kernels import (LOOKUP_BODY, LOOKUP_PADS, NATIVE_CONTACT_FORCE, NATIVE_DATA,
+                                                           NATIVE_MODEL, PAD_A, PAD_B, PRESSING, SURFACE,
+                                                           contact_within, contacts_between, grasped_bodies,
+                                                           press_normal_force)
 from tableclean_suite.robosuite_adapter import c_address, mujoco_contact_force_address
 
 #: Entries of ``mujoco.mj_contactForce``'s output: normal force first, then two tangential, three torques.
@@ -32,16 +21,9 @@ CONTACT_WRENCH_SIZE = 6
 
 
 class DirtMarkers:
-    """The dirt markers of one simulation data: N segments of K markers, their flags in one joint per segment.
-
-    Args:
-        data: the raw ``mujoco.MjData`` whose ``qpos`` holds the dirt-state joints.
-        joints: the N dirt-state joints' names (segment 1 first; named in decoding errors).
-        qpos_addr, qvel_addr: (N,) the joints' ``qpos`` / ``qvel`` addresses.
-        markers_per_segment: K.
-        geom_rgba: the model's ``geom_rgba`` (ngeom, 4) array and ``geom_ids`` (N * K,) the markers' geoms:
-            what [show][tableclean_suite.environments.state_reading.DirtMarkers.show] writes.
-    """
+    """The dirt markers of one raw ``mujoco.MjData``: N segments of K markers, their flags in one joint per
+    segment (``joints`` their names, ``qpos_addr``/``qvel_addr`` (N,) their addresses); ``show`` writes the
+    alpha of ``geom_rgba`` (ngeom, 4) at ``geom_ids`` (N * K,)."""
 
     def __init__(self, data, joints: Sequence[str], qpos_addr: Sequence[int], qvel_addr: Sequence[int],
                  markers_per_segment: int, geom_rgba: np.ndarray, geom_ids: np.ndarray):
@@ -111,13 +93,8 @@ class DirtMarkers:
 
 
 class Contacts:
-    """Contact queries on one simulation: the grasp test and the sponge's press on the table top.
-
-    Args:
-        model, data: the raw ``mujoco.MjModel`` / ``MjData``.
-        table: bool (ngeom,) the table top's geoms; ``sponge`` the sponge's; ``objects`` (M,) each object's.
-        pads: the two finger pads' geoms, each bool (ngeom,).
-    """
+    """Contact queries on one raw ``MjModel``/``MjData``: the grasp test and the sponge's press on the table top
+    (``table``, ``sponge``, each of the M ``objects`` and the two finger ``pads``: bool (ngeom,) geom masks)."""
 
     def __init__(self, model, data, table: np.ndarray, sponge: np.ndarray, objects: Sequence[np.ndarray],
                  pads: tuple[np.ndarray, np.ndarray]):
@@ -166,10 +143,7 @@ class Contacts:
         return max(total, 0.0)
 
     def _bind_native(self) -> tuple:
-        """``(addresses, roles, scratch)`` of [press_normal_force][tableclean_suite.environments.contact_kernels.press_normal_force]:
-        (3,) int64 addresses of ``mj_contactForce``, the model and the data (None without the native
-        function), (ngeom,) int64 roles (the sponge's geoms ``PRESSING``, the table top's ``SURFACE``) and
-        a (6,) wrench."""
+        """``(addresses, roles, scratch)`` of ``press_normal_force`` (all None without the native function)."""
         function = mujoco_contact_force_address()
         if function is None:
             return (None, None, None)

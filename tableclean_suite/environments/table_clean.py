@@ -15,51 +15,22 @@ from robosuite.utils.transform_utils import convert_quat
 
 from tableclean_suite.environments import abstraction, placement, wiping
 from tableclean_suite.environments.arena import TableCleanArena
-from tableclean_suite.environments.arguments import (
-    FROM_SPEC,
-    check_controller_configs,
-    check_episode_settings,
-    check_finite_action,
-    start_layout,
-)
-from tableclean_suite.environments.config import (
-    DEFAULT_TABLECLEAN_CONFIG,
-    jsonable,
-    make_config,
-    marker_positions,
-    scene_geometry,
-)
+from tableclean_suite.environments.arguments import (FROM_SPEC, check_controller_configs, check_episode_settings,
+                                                     check_finite_action, start_layout)
+from tableclean_suite.environments.config import (DEFAULT_TABLECLEAN_CONFIG, jsonable, make_config, marker_positions,
+                                                  scene_geometry)
 from tableclean_suite.environments.gripper_geometry import measure_gripper
 from tableclean_suite.environments.object_geometry import object_geometry
-from tableclean_suite.environments.objects import (
-    check_holdable,
-    get_object_type,
-    make_object,
-    make_sponge,
-    object_names,
-    type_geometry,
-)
-from tableclean_suite.environments.randomization import (
-    DynamicsRandomization,
-    DynamicsSample,
-    DynamicsTargets,
-    apply_dynamics,
-    episode_config,
-    object_build_config,
-    read_nominal,
-    resolve_randomization,
-)
+from tableclean_suite.environments.objects import (check_holdable, get_object_type, make_object, make_sponge,
+                                                   object_names, type_geometry)
+from tableclean_suite.environments.randomization import (DynamicsRandomization, DynamicsSample, DynamicsTargets,
+                                                         apply_dynamics, episode_config, object_build_config,
+                                                         read_nominal, resolve_randomization)
 from tableclean_suite.environments.robot_registry import base_shift, check_robot, scene_gripper_types
 from tableclean_suite.environments.robot_support import exclude_parent_contacts
-from tableclean_suite.environments.scene_building import (
-    ObjectMeasures,
-    ResetLayouts,
-    check_objects_fit,
-    check_randomization_fits,
-    hover_qpos,
-    resting_qpos,
-    sponge_start_qpos,
-)
+from tableclean_suite.environments.scene_building import (ObjectMeasures, ResetLayouts, check_objects_fit,
+                                                          check_randomization_fits, hover_qpos, resting_qpos,
+                                                          sponge_start_qpos)
 from tableclean_suite.environments.scene_state import SceneState, read_scene_state, write_scene_state
 from tableclean_suite.environments.skill_info import (DataViews, SceneNotResetError, SkillInfo, SkillInfoReader,
                                                      constant_values)

@@ -1,16 +1,7 @@
-"""Gymnasium environments of the table-cleaning task; importing this package registers their ids.
-
-- ``TableCleanSymbolic-v0``: the task model ([`symbolic.TableCleanSymbolicEnv`][tableclean_suite.gym_envs.symbolic.TableCleanSymbolicEnv]).
-- ``TableCleanSkills-v0``: skills in MuJoCo ([`skills.TableCleanSkillsEnv`][tableclean_suite.gym_envs.skills.TableCleanSkillsEnv]; robosuite is
-  imported only when it is made).
-
-Both truncate after 500 steps (``max_episode_steps``):
-
-    import gymnasium, tableclean_suite
-    env = gymnasium.make("TableCleanSymbolic-v0", reward="r4", render_mode="ansi")
-
-Both run in parallel processes (``info`` is plain picklable data) and expose ``action_masks()``
-(``(A,)`` bool, sb3-contrib's MaskablePPO interface):
+"""Gymnasium environments of the table-cleaning task; importing this package registers their ids:
+``TableCleanSymbolic-v0`` (the task model, [`TableCleanSymbolicEnv`][tableclean_suite.gym_envs.symbolic.TableCleanSymbolicEnv]) and
+``TableCleanSkills-v0`` (skills in MuJoCo, [`TableCleanSkillsEnv`][tableclean_suite.gym_envs.skills.TableCleanSkillsEnv]).  Both truncate after
+500 steps, pickle their ``info`` (vector envs work) and expose ``action_masks()``:
 
     envs = gymnasium.make_vec("TableCleanSkills-v0", num_envs=2, vectorization_mode="async")
     masks = envs.call("action_masks")
