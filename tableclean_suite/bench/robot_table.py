@@ -112,18 +112,9 @@ class TableFileError(ValueError):
 def read_table(path: Path) -> list[dict]:
     """The rows (text cells) of an existing table, ``[]`` when there is none; ``TableFileError`` naming the
     file, line and value of a missing column, a row without robot and task, or a non-number."""
-    path = Path(path)
-    if not path.exists():
-        return []
+    lines = trial_store.read_lines(path, TableFileError, "remove it or leave out --append")
     try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as error:
-        raise TableFileError(f"{path}: not a UTF-8 text file (byte {error.start}); remove it or leave out "
-                             "--append") from None
-    except OSError as error:
-        raise TableFileError(f"{path}: cannot be read ({error.strerror or error})") from None
-    try:
-        reader = csv.DictReader(text.splitlines())
+        reader = csv.DictReader(lines)
         header = reader.fieldnames or []
         missing = [c for c in COLUMNS if c not in header and c not in ("dynamics", "gripper")]
         if missing:
@@ -139,12 +130,10 @@ def read_table(path: Path) -> list[dict]:
                 raise TableFileError(f"{path}:{line}: robot {row['robot']!r}, task {row['task']!r} and dynamics "
                                      f"{row['dynamics']!r} must name a cell")
             for column in COLUMNS:
-                if column not in CELL_KEY and row[column] != "":
-                    try:
-                        float(row[column])
-                    except ValueError:
-                        raise TableFileError(f"{path}:{line}: column {column!r} is {row[column]!r}, not a "
-                                             "number") from None
+                try:
+                    float(row[column]) if column not in CELL_KEY and row[column] != "" else None
+                except ValueError:
+                    raise TableFileError(f"{path}:{line}: column {column!r} is {row[column]!r}, not a number") from None
             rows.append(row)
     except csv.Error as error:
         raise TableFileError(f"{path}: not a CSV table ({error}); remove it or leave out --append") from None

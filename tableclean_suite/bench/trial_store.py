@@ -1,14 +1,8 @@
 """The fidelity trial store: one CSV of complete rounds, rewritten atomically after every round.
 
-A round is complete when it holds one trial per (reachable non-terminal state, executed action)
-pair.  The file only ever grows by whole rounds (written under a temporary name and renamed), so
-an interrupted run leaves the rounds it finished.  Reading is defensive anyway, for files from
-older versions or copied by hand:
-
-- a damaged *last* line (a write cut short) is dropped, and so is every incomplete round, with a
-  message saying which rounds will be run again;
-- a damaged line anywhere else is a `TrialStoreError` naming the line and the column;
-- rows are never guessed: a round with the wrong number of trials is never reported as a result.
+Reading is defensive: a damaged *last* line (a cut write) and incomplete rounds are dropped (and
+logged); a damaged line elsewhere is a [`TrialStoreError`][tableclean_suite.bench.trial_store.TrialStoreError]
+naming the line and the column.
 """
 
 from __future__ import annotations
@@ -41,31 +35,32 @@ def _parse(row: dict, line: int, path: Path) -> dict:
         raise TrialStoreError(f"{path}:{line}: the row has {len([v for v in row.values() if v is not None])} of "
                               f"{len(TRIAL_FIELDS)} columns")
     parsed = dict(row)
-    for name in INTEGER_FIELDS:
-        try:
-            parsed[name] = int(row[name])
-        except ValueError:
-            raise TrialStoreError(f"{path}:{line}: column {name!r} is {row[name]!r}, not an integer") from None
-    for name in FLOAT_FIELDS:
-        try:
-            parsed[name] = float(row[name])
-        except ValueError:
-            raise TrialStoreError(f"{path}:{line}: column {name!r} is {row[name]!r}, not a number") from None
+    for names, kind, what in ((INTEGER_FIELDS, int, "an integer"), (FLOAT_FIELDS, float, "a number")):
+        for name in names:
+            try:
+                parsed[name] = kind(row[name])
+            except ValueError:
+                raise TrialStoreError(f"{path}:{line}: column {name!r} is {row[name]!r}, not {what}") from None
     return parsed
+
+
+def read_lines(path: Path, error: type = None, hint: str = "use --fresh to start over") -> list[str]:
+    """The lines of the UTF-8 text file ``path``, ``[]`` when it does not exist; ``error`` (default
+    [`TrialStoreError`][tableclean_suite.bench.trial_store.TrialStoreError]) naming the file when unreadable."""
+    error = error or TrialStoreError
+    if not Path(path).exists():
+        return []
+    try:
+        return Path(path).read_text(encoding="utf-8").splitlines()
+    except UnicodeDecodeError as cause:
+        raise error(f"{path}: not a UTF-8 text file (byte {cause.start}: {cause.reason}); {hint}") from None
+    except OSError as cause:
+        raise error(f"{path}: cannot be read ({cause.strerror or cause})") from None
 
 
 def read_rows(path: Path, log: Callable[[str], None] | None = None) -> list[dict]:
     """Every valid row of ``path`` (``[]`` when it does not exist); a damaged last line is dropped."""
-    path = Path(path)
-    if not path.exists():
-        return []
-    try:
-        lines = path.read_text(encoding="utf-8").splitlines()
-    except UnicodeDecodeError as error:
-        raise TrialStoreError(f"{path}: not a UTF-8 text file (byte {error.start}: {error.reason}); use --fresh to "
-                              "start over") from None
-    except OSError as error:
-        raise TrialStoreError(f"{path}: cannot be read ({error.strerror or error})") from None
+    lines = read_lines(path)
     if not lines:
         return []
     try:
@@ -77,14 +72,10 @@ def read_rows(path: Path, log: Callable[[str], None] | None = None) -> list[dict
     rows = []
     for number, text in enumerate(lines[1:], start=2):
         try:
-            row = next(csv.DictReader(io.StringIO(text), fieldnames=TRIAL_FIELDS))
-            rows.append(_parse(row, number, path))
-        except csv.Error as error:
-            damaged = TrialStoreError(f"{path}:{number}: not a CSV row ({error})")
-            if number != len(lines):
-                raise damaged from None
-            if log:
-                log(f"dropping the damaged last line of {path} (an interrupted write): {damaged}")
+            try:
+                rows.append(_parse(next(csv.DictReader(io.StringIO(text), fieldnames=TRIAL_FIELDS)), number, path))
+            except csv.Error as error:
+                raise TrialStoreError(f"{path}:{number}: not a CSV row ({error})") from None
         except TrialStoreError as error:
             if number != len(lines):
                 raise
@@ -103,8 +94,7 @@ def complete_rounds(rows: list[dict], per_round: int, log: Callable[[str], None]
 
 
 def write_rows(path: Path, rows: Iterable[dict], fieldnames: tuple[str, ...] = TRIAL_FIELDS) -> None:
-    """Write ``rows`` (whole rounds; or any rows of ``fieldnames``) to ``path`` as CSV atomically: a
-    temporary file, then a rename (the directory is created if missing)."""
+    """Write ``rows`` (of ``fieldnames``) to ``path`` as CSV atomically (the directory is created if missing)."""
     def write(temporary: Path) -> None:
         with temporary.open("w", newline="") as handle:
             writer = csv.DictWriter(handle, fieldnames=fieldnames)
