@@ -89,9 +89,8 @@ def check_stability(obs: Mapping, config: Mapping | None = None) -> None:
     if "qvel" in obs and len(obs["qvel"]):
         speed = float(np.max(np.abs(obs["qvel"])))
         if speed > config["max_stable_speed"]:
-            raise AbstractionError(
-                Fault.UNSTABLE, f"simulation speed {speed:.1f} exceeds max_stable_speed {config['max_stable_speed']}"
-            )
+            raise AbstractionError(Fault.UNSTABLE,
+                                   f"simulation speed {speed:.1f} exceeds max_stable_speed {config['max_stable_speed']}")
 
 
 def segments_clean(dirt_fraction, config: Mapping | None = None) -> np.ndarray:
@@ -149,30 +148,23 @@ def _one_location(pos: np.ndarray, grasped: bool, rest_z: float | None, label: s
         half = obs.get("object_half_size", config["object_half_size"])
         rest_z = top_z + float(np.asarray(half, dtype=float)[2])
     if pos[2] < top_z:
-        raise AbstractionError(
-            Fault.OBJECT_OFF_TABLE, f"{label} centre at z={pos[2]:.3f} m is below the table top z={top_z:.3f} m"
-        )
+        raise AbstractionError(Fault.OBJECT_OFF_TABLE,
+                               f"{label} centre at z={pos[2]:.3f} m is below the table top z={top_z:.3f} m")
     lifted = pos[2] > rest_z + config["lift_tolerance"]
     if lifted and grasped:
         return HELD
     if lifted:
-        raise AbstractionError(
-            Fault.OBJECT_LIFTED_NOT_GRASPED,
-            f"{label} centre is {pos[2] - rest_z:.3f} m above its resting height but not grasped",
-        )
-    segment = segment_of_xy(
-        pos, _geometry_value(obs, "segment_centers", config), _geometry_value(obs, "segment_half_sizes", config)
-    )
+        raise AbstractionError(Fault.OBJECT_LIFTED_NOT_GRASPED,
+                               f"{label} centre is {pos[2] - rest_z:.3f} m above its resting height but not grasped")
+    centers = _geometry_value(obs, "segment_centers", config)
+    segment = segment_of_xy(pos, centers, _geometry_value(obs, "segment_half_sizes", config))
     if segment is not None:
         return segment
     table_center = _geometry_value(obs, "table_center", config)
     table_half = _geometry_value(obs, "table_half_size", config)
     if np.all(np.abs(pos[:2] - table_center[:2]) <= table_half):
-        n = len(_geometry_value(obs, "segment_centers", config))
-        raise AbstractionError(
-            Fault.OBJECT_BETWEEN_SEGMENTS,
-            f"{label} at xy=({pos[0]:.3f}, {pos[1]:.3f}) lies on {'neither' if n == 2 else 'no'} segment"
-        )
+        raise AbstractionError(Fault.OBJECT_BETWEEN_SEGMENTS, f"{label} at xy=({pos[0]:.3f}, {pos[1]:.3f}) lies on "
+                               f"{'neither' if len(centers) == 2 else 'no'} segment")
     raise AbstractionError(Fault.OBJECT_OFF_TABLE, f"{label} at xy=({pos[0]:.3f}, {pos[1]:.3f}) is off the table")
 
 
@@ -181,18 +173,12 @@ def arm_segment(obs: Mapping, config: Mapping | None = None) -> int:
     config = resolve_config(config)
     _require(obs, "eef_pos")
     eef = np.asarray(obs["eef_pos"], dtype=float)
-    segment = segment_of_xy(
-        eef,
-        _geometry_value(obs, "segment_centers", config),
-        _geometry_value(obs, "segment_half_sizes", config),
-        margin=config["arm_segment_margin"],
-    )
+    centers = _geometry_value(obs, "segment_centers", config)
+    segment = segment_of_xy(eef, centers, _geometry_value(obs, "segment_half_sizes", config),
+                            margin=config["arm_segment_margin"])
     if segment is None:
-        n = len(_geometry_value(obs, "segment_centers", config))
-        raise AbstractionError(
-            Fault.ARM_NOT_OVER_SEGMENT,
-            f"gripper at xy=({eef[0]:.3f}, {eef[1]:.3f}) is above {'neither' if n == 2 else 'no'} segment"
-        )
+        raise AbstractionError(Fault.ARM_NOT_OVER_SEGMENT, f"gripper at xy=({eef[0]:.3f}, {eef[1]:.3f}) is above "
+                               f"{'neither' if len(centers) == 2 else 'no'} segment")
     return segment
 
 
@@ -228,9 +214,7 @@ def abstract_state(obs: Mapping, config: Mapping | None = None, *, check_sponge:
         raise AbstractionError(Fault.OBJECTS_HELD, f"objects {held} are grasped and lifted at once")
     segment = arm_segment(obs, config)
     if check_sponge and not sponge_at_home(obs, config):
-        raise AbstractionError(
-            Fault.SPONGE_AWAY_FROM_HOME,
-            f"sponge at {np.round(np.asarray(obs['sponge_pos'], dtype=float), 3).tolist()} is not at its home"
-            + (" (grasped)" if obs.get("sponge_grasped", False) else ""),
-        )
+        where = np.round(np.asarray(obs["sponge_pos"], dtype=float), 3).tolist()
+        raise AbstractionError(Fault.SPONGE_AWAY_FROM_HOME, f"sponge at {where} is not at its home"
+                               + (" (grasped)" if obs.get("sponge_grasped", False) else ""))
     return TaskState(tuple(bool(c) for c in clean), locations, segment)

@@ -77,12 +77,8 @@ class TableCleanArena(TableArena):
         self.marker_radius = float(marker_radius)
         super().__init__(table_full_size=table_full_size, table_friction=table_friction, table_offset=table_offset)
         table = np.asarray(table_offset, dtype=float)
-        self.set_camera(
-            TABLEVIEW_CAMERA,
-            pos=table + np.asarray(TABLEVIEW_EYE),
-            quat=look_at_quat(TABLEVIEW_EYE, TABLEVIEW_TARGET),
-            camera_attribs={"fovy": str(TABLEVIEW_FOVY)},
-        )
+        self.set_camera(TABLEVIEW_CAMERA, pos=table + np.asarray(TABLEVIEW_EYE),
+                        quat=look_at_quat(TABLEVIEW_EYE, TABLEVIEW_TARGET), camera_attribs={"fovy": str(TABLEVIEW_FOVY)})
 
     @property
     def marker_names(self) -> list[str]:
@@ -103,10 +99,8 @@ class TableCleanArena(TableArena):
         for segment in range(len(g.segment_centers)):
             center = g.segment_centers[segment, :2] - body_xy
             self.table_body.append(new_geom(
-                f"segment{segment + 1}_visual", "box",
-                size=(*g.segment_half_sizes[segment], TINT_HALF_HEIGHT),
-                pos=(*center, top + TINT_HALF_HEIGHT), rgba=SEGMENT_RGBA[segment % len(SEGMENT_RGBA)], **_VISUAL,
-            ))
+                f"segment{segment + 1}_visual", "box", size=(*g.segment_half_sizes[segment], TINT_HALF_HEIGHT),
+                pos=(*center, top + TINT_HALF_HEIGHT), rgba=SEGMENT_RGBA[segment % len(SEGMENT_RGBA)], **_VISUAL))
         for index, (a, b) in enumerate(_neighbours(g)):
             ca, cb = g.segment_centers[a, :2], g.segment_centers[b, :2]
             axis = int(np.argmax(np.abs(cb - ca)))  # the strip lies across this axis
@@ -114,30 +108,23 @@ class TableCleanArena(TableArena):
             half = np.array(g.segment_half_sizes[a], dtype=float)
             half[axis] = max(gap * DIVIDER_WIDTH_FRACTION / 2, TINT_HALF_HEIGHT)
             name = "segment_divider_visual" if index == 0 else f"segment_divider{index + 1}_visual"
-            self.table_body.append(new_geom(
-                name, "box", size=(*half, TINT_HALF_HEIGHT),
-                pos=(*((ca + cb) / 2 - body_xy), top + TINT_HALF_HEIGHT), rgba=DIVIDER_RGBA, **_VISUAL,
-            ))
+            self.table_body.append(new_geom(name, "box", size=(*half, TINT_HALF_HEIGHT),
+                                            pos=(*((ca + cb) / 2 - body_xy), top + TINT_HALF_HEIGHT), rgba=DIVIDER_RGBA,
+                                            **_VISUAL))
         marker_z = top + 2 * TINT_HALF_HEIGHT + DIRT_HALF_HEIGHT
         for name, xy in zip(self.marker_names, self.marker_xy.reshape(-1, 2)):
-            self.table_body.append(new_geom(
-                name, "cylinder", size=(self.marker_radius, DIRT_HALF_HEIGHT),
-                pos=(*(xy - body_xy), marker_z), rgba=DIRT_RGBA, **_VISUAL,
-            ))
+            self.table_body.append(new_geom(name, "cylinder", size=(self.marker_radius, DIRT_HALF_HEIGHT),
+                                            pos=(*(xy - body_xy), marker_z), rgba=DIRT_RGBA, **_VISUAL))
         for joint in self.dirt_state_joint_names:
             body = new_body(joint.replace("_joint", "_body"), pos=(0.0, 0.0, 0.0))
             body.append(new_inertial(mass=DIRT_STATE_MASS, diaginertia=(DIRT_STATE_INERTIA,) * 3))
             body.append(new_joint(joint, type="slide", axis=DIRT_STATE_AXIS, limited="false", damping=DIRT_STATE_DAMPING))
             self.table_body.append(body)
         stand_local = g.stand_center - np.array([*body_xy, g.table_top_z - top])
-        self.table_body.append(new_geom(
-            "sponge_stand", "box", size=g.stand_half_size, pos=stand_local,
-            rgba=STAND_RGBA, group=0, friction=self.table_friction,
-        ))
-        self.table_body.append(new_geom(
-            "sponge_stand_visual", "box", size=g.stand_half_size, pos=stand_local,
-            rgba=STAND_RGBA, **_VISUAL,
-        ))
+        self.table_body.append(new_geom("sponge_stand", "box", size=g.stand_half_size, pos=stand_local, rgba=STAND_RGBA,
+                                        group=0, friction=self.table_friction))
+        self.table_body.append(new_geom("sponge_stand_visual", "box", size=g.stand_half_size, pos=stand_local,
+                                        rgba=STAND_RGBA, **_VISUAL))
 
 
 def _neighbours(geometry: SceneGeometry) -> list[tuple[int, int]]:

@@ -60,20 +60,16 @@ Builder = Callable[[str, Mapping], MujocoObject]
 
 @dataclass(frozen=True)
 class ObjectType:
-    """A graspable object type (see the module docstring).
+    """A graspable object type (see the module docstring); the overrides' None derives the value from the geometry.
 
     Attributes:
         name: registry key, lower_snake (``"box"``).
         build: ``(mujoco_name, task_config) -> MujocoObject`` with one free joint.
-        footprint_radius: m (> 0), radius of a disc covering the object seen from above; None:
-            from its collision geometry ([`object_geometry.ObjectGeometry.footprint_radius`][tableclean_suite.environments.object_geometry.ObjectGeometry.footprint_radius]).
-        grasp_depth: m below the object's centre at which the grip site closes (raised so the
-            fingertips stay clear of the table); None: the holding depth the grasp derives from
-            the geometry and the gripper (``controllers.primitives.grasp_point``).
-        approach_clearance: m between the open fingertips and the object's top while hovering;
-            None: `APPROACH_CLEARANCE`.
-        yaw_rule: one of `YAW_RULES`; None: ``"any"`` for a round footprint, else
-            ``"short_side"`` (fingers across the narrowest width).
+        footprint_radius: m (> 0), radius of a disc covering the object seen from above.
+        grasp_depth: m below the object's centre at which the grip site closes.
+        approach_clearance: m between the open fingertips and the object's top while hovering
+            (None: `APPROACH_CLEARANCE`).
+        yaw_rule: one of `YAW_RULES` (None: ``"any"`` for a round footprint, else ``"short_side"``).
         description: one line for listings.
     """
 
@@ -197,16 +193,11 @@ def xml_object_builder(path) -> Builder:
 def register_object(object_type, builder=None, *, xml=None, overwrite: bool = False, **overrides) -> ObjectType:
     """Add an object type so task specs can name it (``TaskSpec(objects=("my_type", ...))``).
 
-    Three forms:
-
-    - ``register_object("name", MujocoObjectClass_or_callable)``: ``builder`` is a robosuite
-      ``MujocoObject`` class (made with ``name=``) or a callable ``mujoco_name -> MujocoObject``;
-    - ``register_object("name", xml="my_object.xml")``: a user's MJCF file in robosuite's object layout;
-    - ``register_object(ObjectType(...))``: a full type (``build(name, task_config)``).
-
-    ``overrides``: [`ObjectType`][tableclean_suite.environments.objects.ObjectType] fields (``footprint_radius``, ``grasp_depth``,
-    ``approach_clearance``, ``yaw_rule``, ``description``) for what geometry cannot tell.
-    Returns the registered type; ``ValueError`` when the name is taken and ``overwrite`` is False.
+    ``register_object("name", builder)`` (a robosuite ``MujocoObject`` class, made with ``name=``, or a callable
+    ``mujoco_name -> MujocoObject``), ``register_object("name", xml="my_object.xml")`` (an MJCF file in
+    robosuite's object layout) or ``register_object(ObjectType(...))``.  ``overrides``: other
+    [`ObjectType`][tableclean_suite.environments.objects.ObjectType] fields.  Returns the registered type; ``ValueError`` when the name is taken
+    and ``overwrite`` is False.
     """
     if isinstance(object_type, ObjectType):
         if builder is not None or xml is not None or overrides:
