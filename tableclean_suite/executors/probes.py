@@ -1,13 +1,5 @@
-"""Small tasks that exercise an executor (results, retries, crashes) without any simulator.
-
-Used by the tests and handy as a smoke check of a cluster:
-
-    from tableclean_suite.executors import make_executor
-    from tableclean_suite.executors.probes import ProbeTask, run_probe
-
-    with make_executor("ray", address="auto") as executor:
-        print(list(executor.map(run_probe, [ProbeTask(i, seed=0) for i in range(8)])))
-"""
+"""Small tasks that exercise an executor (results, retries, crashes) without any simulator, e.g. as
+a smoke check of a cluster: ``executor.map(run_probe, [ProbeTask(i) for i in range(8)])``."""
 
 from __future__ import annotations
 
@@ -18,10 +10,8 @@ import numpy as np
 
 from tableclean_suite.executors.base import RetryableError
 
-#: Normal draws summed by one probe (its whole "work").
-PROBE_DRAWS = 1000
-#: Exit status of a worker a ``crash_*`` probe kills.
-CRASH_EXIT_CODE = 17
+#: Normal draws summed by one probe, and the exit status of a worker a ``crash_*`` probe kills.
+PROBE_DRAWS, CRASH_EXIT_CODE = 1000, 17
 #: What a probe does: return its number; fail retryably once / always; raise a plain error;
 #: kill its worker once / always.
 PROBE_MODES = ("ok", "retry_once", "retry_always", "error", "crash_once", "crash_always")
@@ -29,15 +19,8 @@ PROBE_MODES = ("ok", "retry_once", "retry_always", "error", "crash_once", "crash
 
 @dataclass(frozen=True)
 class ProbeTask:
-    """One probe.
-
-    Attributes:
-        index: the task's number, >= 0 (with ``seed``, determines the result).
-        seed: the run's seed, an integer >= 0.
-        mode: one of `PROBE_MODES`.
-        marker: a file path the ``*_once`` modes create on their first attempt (which fails);
-            later attempts find it and succeed.  Needed by those modes only.
-    """
+    """One probe: its ``index`` and ``seed`` (>= 0) determine the result; ``mode`` is one of
+    `PROBE_MODES`; ``marker`` is the file the ``*_once`` modes create on their failing first attempt."""
 
     index: int
     seed: int = 0

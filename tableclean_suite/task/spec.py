@@ -204,16 +204,14 @@ class TaskSpec:
             raise ValueError(f"{source}: unknown field(s) {unknown}; allowed: {', '.join(sorted(allowed))}")
         if "name" not in data:
             raise ValueError(f"{source}: a task spec needs a 'name'")
-        start_state = data.get("start_state")
-        if start_state is not None:
-            segments = data.get("segments", 2)
-            if isinstance(segments, bool) or not isinstance(segments, int) or segments < 2:
-                raise ValueError(f"{source}: segments must be an integer >= 2, got {segments!r}")
-            data["start_state"] = state_from_json(start_state, segments, f"{source}: start_state")
         if not isinstance(data.get("description", ""), str):
             raise ValueError(f"{source}: description must be a string, got {data['description']!r}")
+        start_state = data.pop("start_state", None)
         try:
-            return cls(**data)
+            spec = cls(**data)
+            if start_state is None:
+                return spec
+            return spec.replace(start_state=state_from_json(start_state, spec.segments, "start_state"))
         except (TypeError, ValueError) as error:
             raise ValueError(f"{source}: {error}") from None
 
