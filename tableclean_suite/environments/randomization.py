@@ -242,8 +242,7 @@ def object_build_config(base: Mapping, config: Mapping, sample: DynamicsSample |
 
 
 class DynamicsTargets(NamedTuple):
-    """What a draw scales in the built model: the bodies (M objects, then the sponge), the table top's,
-    the objects' and the sponge's geoms (bool (ngeom,) masks) and the arm's degrees of freedom."""
+    """What a draw scales in the built model."""
 
     bodies: np.ndarray  #: (M + 1,) body ids
     table: np.ndarray  #: bool (ngeom,)

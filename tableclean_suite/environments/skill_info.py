@@ -254,16 +254,13 @@ class SkillInfoReader:
         info["eef_rot"] = np.array(self.views.eef_xmat).reshape(3, 3)
 
     def _object_pos(self, info: SkillInfo) -> None:
-        views = self.views
-        info["object_pos"] = views.xpos[views.objects_pos[0]]  # objects_pos' first row (fancy indexing copies)
+        info["object_pos"] = self.views.xpos[self.views.objects_pos[0]]  # fancy indexing copies
 
     def _objects_quat(self, info: SkillInfo) -> None:
-        views = self.views
-        info["objects_quat"] = views.xquat[views.objects_quat]  # xyzw rows
+        info["objects_quat"] = self.views.xquat[self.views.objects_quat]  # xyzw rows
 
     def _object_quat(self, info: SkillInfo) -> None:
-        views = self.views
-        info["object_quat"] = views.xquat[views.objects_quat[0]]  # objects_quat's first row (a copy)
+        info["object_quat"] = self.views.xquat[self.views.objects_quat[0]]
 
     def _grasp_flags(self, info: SkillInfo) -> None:
         grasped = self.grasped()

@@ -185,11 +185,10 @@ class TableClean(ManipulationEnv):
         self.reward_scale = reward_scale
         self.reward_shaping = reward_shaping
         self.use_object_obs = use_object_obs
-        marker_xy = marker_positions(self.task_config, self.n_segments)
-        self._markers_per_segment = marker_xy.shape[1]
+        marker_xy = marker_positions(self.task_config, self.n_segments).reshape(-1, 2)
+        self._markers_per_segment = len(marker_xy) // self.n_segments
         #: (N * K, 3) the dirt markers' centres on the table top [m], segment 1's first
-        self._marker_xyz = np.column_stack(
-            [marker_xy.reshape(-1, 2), np.full(marker_xy.shape[0] * marker_xy.shape[1], self.geometry.table_top_z)])
+        self._marker_xyz = np.column_stack([marker_xy, np.full(len(marker_xy), self.geometry.table_top_z)])
         self._n_task_states = self.task_model.n_states  # size of the symbolic_state_onehot observable
         self._arm_qpos_cache: dict[tuple, np.ndarray] = {}
         # (object segment, arm segment) of this episode, 0-based; with M > 1 objects (object segments, arm segment)
@@ -382,17 +381,13 @@ class TableClean(ManipulationEnv):
         self.show_dirt()
 
     def reset(self):
-        """robosuite's reset, after drawing this episode's randomised dynamics (when ``randomization`` is on).
-
-        A draw that changes a size rebuilds the MuJoCo model first, also with ``hard_reset=False``.
-        """
+        """robosuite's reset, after drawing this episode's randomised dynamics (when ``randomization`` is on); a
+        draw that changes a size rebuilds the MuJoCo model first, also with ``hard_reset=False``."""
         if not (self.randomization.enabled and not self.deterministic_reset):
             return super().reset()
         built = self._built_sizes()
         self._draw_dynamics()
-        hard_reset = self.hard_reset
-        # robosuite's own hard reset rebuilds the model and re-binds the observables' sensors
-        # (the idiom of robosuite's VisualizationWrapper)
+        hard_reset = self.hard_reset  # robosuite's hard reset rebuilds the model and re-binds the sensors
         self.hard_reset = hard_reset or self._built_sizes() != built
         try:
             return super().reset()
