@@ -107,16 +107,15 @@ def output_path(kind: str):
     def parse(text: str) -> str:
         if not str(text).strip():
             raise argparse.ArgumentTypeError(f"expected a {kind} path, got {text!r} (empty)")
+        from tableclean_suite.bench.outputs import file_in_the_way
+
         path = Path(text)
         try:
             if kind == FILE and path.is_dir():
                 raise argparse.ArgumentTypeError(f"{text!r} is a directory; give a file name")
-            for parent in (path, *path.parents) if kind == DIRECTORY else path.parents:
-                if parent.exists():
-                    if not parent.is_dir():
-                        where = "is a file" if parent == path else f"is under {str(parent)!r}, which is a file"
-                        raise argparse.ArgumentTypeError(f"{text!r} {where}, not a directory")
-                    break
+            problem = file_in_the_way(path, itself=kind == DIRECTORY)
+            if problem:
+                raise argparse.ArgumentTypeError(problem)
         except OSError as error:  # a name too long, a parent folder that cannot be searched
             raise argparse.ArgumentTypeError(f"{text!r} cannot be used: {error.strerror or error}") from None
         return str(text)

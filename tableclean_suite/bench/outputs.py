@@ -1,26 +1,14 @@
 """Writing a command's output folder so that it always describes one publication, whatever interrupts it.
 
-Protocol of `publish` (``OUT`` is the output folder), under the folder's lock (`output_lock`:
-one writer at a time, held on the folder itself, so deleting a file cannot release it):
-
-1. Each data file and then the manifest (``config.json``: the command, its configuration, a fresh
-   ``run_id`` and, under ``files``, the SHA-256 and size of every data file) are written to
-   temporary names in ``OUT`` (``.NAME.PID.tmp``).  If any write fails (a full disk, a read-only
-   mount, a folder where a file goes), the temporaries are removed and ``OUT`` keeps its last
-   complete publication untouched.
-2. The new manifest moves to ``.publishing.json``; the files of earlier publications (listed by
-   ``config.json`` or an interrupted ``.publishing.json``) that this one does not rewrite are
-   deleted (e.g. the figures of a run after one with ``--no-figures``); ``config.json`` is deleted,
-   each data file moves over the old one with `os.replace` and ``.publishing.json`` becomes
-   ``config.json`` last.
-
-Hence: when ``config.json`` exists, the data files it lists are the ones of its publication
-(`check_outputs` verifies the digests and reports files it does not list); when it is missing,
-the last publication was interrupted and the folder describes none.  A folder holding another
-command's publication, or a ``config.json`` this suite did not write, is refused, never deleted.
-
-Every file-system failure surfaces as `OutputError` (an ``OSError``) whose message is one
-line naming the path and the reason; the command line turns it into exit code 2.
+[`publish`][tableclean_suite.bench.outputs.publish], under the folder's lock, writes the data files and
+the manifest (``config.json``: the command, its configuration, a ``run_id`` and each data file's
+SHA-256 and size) to temporaries, then moves the manifest to ``.publishing.json``, deletes the files
+of earlier publications it does not rewrite and ``config.json``, moves each data file in and
+``.publishing.json`` to ``config.json`` last.  So when ``config.json`` exists, the files it lists are
+its publication's; when it is missing, the last publication was interrupted.  A folder holding
+another command's publication, or a ``config.json`` this suite did not write, is refused, never
+deleted.  Every failure is an [`OutputError`][tableclean_suite.atomic_files.OutputError] (an ``OSError``)
+whose message is one line naming the path and the reason.
 """
 
 from __future__ import annotations
@@ -43,16 +31,11 @@ from tableclean_suite.atomic_files import (  # noqa: F401  (part of this module'
     temporary_path,
 )
 
-#: The manifest: the command, its configuration, its id and the digests of its data files.
-MANIFEST = "config.json"
-#: The new manifest while its files move in (`publish`); left behind only by an interrupted one.
-PENDING = ".publishing.json"
-#: Seconds [`output_lock`][tableclean_suite.bench.outputs.output_lock] waits for another writer before giving up (0: give up at once).
+#: The manifest, and the new one while its files move in (left behind only by an interrupted publication).
+MANIFEST, PENDING = "config.json", ".publishing.json"
 DEFAULT_LOCK_WAIT = 0.0
-#: The command a manifest without a ``command`` key was written by (before commands were recorded).
+#: The command of a manifest without a ``command`` key (written before commands were recorded).
 LEGACY_COMMAND = "run"
-
-#: Bytes read at a time when hashing a file.
 _HASH_BLOCK = 1 << 20
 #: Keys that mark a manifest as written by [`publish`][tableclean_suite.bench.outputs.publish].
 _MANIFEST_KEYS = ("run_id", "files")
@@ -63,8 +46,7 @@ class OutputBusyError(OutputError):
 
 
 def check_out_path(out) -> Path:
-    """``out`` as a `Path`; [`OutputError`][tableclean_suite.atomic_files.OutputError] for an empty or blank name (which would
-    otherwise mean the current directory)."""
+    """``out`` as a `Path`; [`OutputError`][tableclean_suite.atomic_files.OutputError] for an empty or blank name."""
     if out is None or (isinstance(out, str) and not out.strip()):
         raise OutputError(f"output folder {out!r} is empty; name a folder (e.g. results/run1)")
     return Path(out)
@@ -84,18 +66,11 @@ _HELD_LOCKS: dict = {}
 
 @contextmanager
 def output_lock(out, wait: float = DEFAULT_LOCK_WAIT):
-    """Hold an exclusive ``flock`` on the folder ``out`` itself while writing into it.
-
-    Re-entrant within a process (a run holding its folder can [`publish`][tableclean_suite.bench.outputs.publish] into it).  The
-    lock is the operating system's, on the folder's own inode: no file can be deleted to break it,
-    and it is released when the holder exits or is killed.
-
-    Args:
-        out: the output folder (created if missing).
-        wait: seconds to wait for another holder (0: refuse at once).
+    """Hold an exclusive ``flock`` on the folder ``out`` (created if missing) itself while writing into it:
+    re-entrant within a process, released when the holder exits or is killed.
 
     Raises:
-        OutputBusyError: another process holds it after ``wait`` seconds.
+        OutputBusyError: another process holds it after ``wait`` seconds (0: refuse at once).
         OutputError: the folder cannot be created or opened.
     """
     import fcntl
@@ -131,7 +106,7 @@ def output_lock(out, wait: float = DEFAULT_LOCK_WAIT):
 
 
 def _manifest_of(path) -> dict | None:
-    """The manifest at ``path`` if [`publish`][tableclean_suite.bench.outputs.publish] wrote it, else None (missing, unreadable, foreign)."""
+    """The manifest at ``path`` if [`publish`][tableclean_suite.bench.outputs.publish] wrote it, else None."""
     try:
         document = json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, ValueError):
@@ -158,8 +133,7 @@ def publication_problem(out, command: str) -> str | None:
 
 
 def arguments(args) -> dict:
-    """A parsed command line's plain values (text, numbers, lists of them): the configuration a
-    command's manifest records."""
+    """A parsed command line's plain values (text, numbers, lists of them), for a manifest."""
     plain = (str, int, float, bool, type(None))
     return {key: list(value) if isinstance(value, (list, tuple)) else value for key, value in vars(args).items()
             if isinstance(value, plain) or isinstance(value, (list, tuple)) and all(isinstance(v, plain) for v in value)}
@@ -167,23 +141,17 @@ def arguments(args) -> dict:
 
 def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict, wait: float = 60.0,
             command: str = LEGACY_COMMAND, kept=()) -> list[Path]:
-    """Write a command's data files and its manifest following the module's protocol.
-
-    Args:
-        out: the output directory (must exist; not empty).
-        writers: ``{file name: write(path)}`` of the data files, written in this order.
-        manifest: the publication's description; ``command``, ``run_id``, ``files`` and ``kept`` are added.
-        wait: seconds to wait for another writer's lock ([`output_lock`][tableclean_suite.bench.outputs.output_lock]).
-        command: the command publishing (a folder holding another command's publication is refused).
-        kept: names of files in ``out`` the command keeps across publications (e.g. a study
-            database), not data of this publication; [`check_outputs`][tableclean_suite.bench.outputs.check_outputs] does not report them.
+    """Write ``command``'s data files (``writers``: ``{file name: write(path)}``, in order) and its
+    ``manifest`` (``command``, ``run_id``, ``files`` and ``kept`` added) into ``out`` as the module says,
+    waiting up to ``wait`` seconds for the folder's lock.  ``kept``: files of ``out`` kept across
+    publications (e.g. a study database).
 
     Returns:
         The paths written, data files first and ``config.json`` last.
 
     Raises:
-        OutputError: a file cannot be written (the last publication is left as it was), or
-            ``OUT/config.json`` is another command's or was not written by this suite (it is not deleted).
+        OutputError: a file cannot be written (the last publication is left as it was), or the folder
+            holds another command's publication or a ``config.json`` this suite did not write.
     """
     out = check_out_path(out)
     with output_lock(out, wait):
@@ -216,8 +184,7 @@ def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict, wai
 
 
 def _stage(path: Path, write: Callable[[Path], None]) -> Path:
-    """Write ``path``'s temporary; [`OutputError`][tableclean_suite.atomic_files.OutputError] (temporary removed) if it cannot be, or if
-    ``path`` is a folder (checked before anything is replaced)."""
+    """Write ``path``'s temporary; OutputError (temporary removed) if it cannot be or ``path`` is a folder."""
     if path.is_dir():
         raise OutputError(f"cannot write {str(path)!r}: it is a folder; remove it or choose another output folder")
     temporary = temporary_path(path)
@@ -247,11 +214,8 @@ def _replace(temporary: Path, path: Path) -> None:
 
 
 def check_outputs(out) -> list[str]:
-    """Problems of an output directory; ``[]`` when ``config.json`` and its data files agree and
-    no other file (hidden ones, folders and the manifest's ``kept`` aside) lies beside them.
-
-    A missing ``config.json`` (a publication that did not finish) is a problem too.
-    """
+    """Problems of an output directory (a missing ``config.json`` is one); ``[]`` when ``config.json`` and its
+    data files agree and no other file (hidden ones, folders and ``kept`` aside) lies beside them."""
     out = Path(out)
     try:
         document = json.loads((out / MANIFEST).read_text(encoding="utf-8"))
@@ -277,21 +241,15 @@ def check_outputs(out) -> list[str]:
 
 
 def check_writable(out) -> str | None:
-    """Why ``out`` cannot be used as an output directory, or None if it can.
-
-    Creates ``out`` (and its parents) if missing and writes and removes a probe file in it, so
-    the answer is the file system's, permissions, read-only mounts and full disks included.
-    """
+    """Why ``out`` cannot be used as an output directory, or None: creates it if missing and writes and
+    removes a probe file in it, so the answer is the file system's (permissions, read-only, full disk)."""
     if out is None or (isinstance(out, str) and not out.strip()):
         return f"{out!r} is empty (it would mean the current directory); name a folder"
     out = Path(out)
     try:
-        for parent in (out, *out.parents):
-            if parent.exists():
-                if not parent.is_dir():
-                    where = "is a file" if parent == out else f"is under {str(parent)!r}, which is a file"
-                    return f"{str(out)!r} {where}, not a directory"
-                break
+        problem = file_in_the_way(out)
+        if problem:
+            return problem
         out.mkdir(parents=True, exist_ok=True)
         probe = out / f".write-probe.{os.getpid()}.tmp"
         probe.write_bytes(b"")
@@ -301,10 +259,25 @@ def check_writable(out) -> str | None:
     return None
 
 
+def file_in_the_way(path: Path, itself: bool = True) -> str | None:
+    """Why ``path`` cannot be a directory (it, with ``itself``, or a parent is a file), or None.
+
+    Raises:
+        OSError: a parent cannot be searched.
+    """
+    for parent in (path, *path.parents) if itself else path.parents:
+        if parent.exists():
+            if parent.is_dir():
+                return None
+            where = "is a file" if parent == path else f"is under {str(parent)!r}, which is a file"
+            return f"{str(path)!r} {where}, not a directory"
+    return None
+
+
 def check_publishable(out, folders=(), command: str = LEGACY_COMMAND) -> str | None:
-    """Why ``command`` could not [`publish`][tableclean_suite.bench.outputs.publish] into ``out``, or None: [`check_writable`][tableclean_suite.bench.outputs.check_writable] of ``out``
-    and of each of its sub-``folders`` (e.g. ``("cells",)``), then [`publication_problem`][tableclean_suite.bench.outputs.publication_problem]
-    (another command's publication, a foreign ``config.json``).  Call it before any work."""
+    """Why ``command`` could not [`publish`][tableclean_suite.bench.outputs.publish] into ``out``, or None:
+    ``out`` or one of its sub-``folders`` not writable, another command's publication or a foreign
+    ``config.json``.  Call it before any work."""
     problem = check_writable(out)
     for folder in folders:
         problem = problem or check_writable(Path(out) / folder)

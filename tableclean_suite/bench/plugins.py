@@ -1,23 +1,16 @@
-"""``--plugins``: import the user's modules that register actions, learners, rewards, specs or objects.
-
-Registries are per process, so a command line cannot see what a user's script registered.
-``--plugins my_package.my_module,path/to/extras.py`` imports each entry before the other flags
-are checked (a module name, or a path to a ``.py`` file), so every name it registers is allowed
-on the command line and listed by ``--help``; executor workers import the same entries before
-each task (`with_plugins`).  A plugin that raises, or exits (``sys.exit``), is a
-`PluginError` naming it.
-"""
+"""``--plugins my_package.my_module,path/to/extras.py``: the user's modules (names or ``.py`` files) that
+register actions, learners, rewards, specs or objects, imported before the other flags are checked (so
+their names are allowed and listed by ``--help``) and by executor workers before each task."""
 
 from __future__ import annotations
 
+import functools
 import importlib
 import importlib.util
 import sys
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator
+from typing import Callable, Iterable, Iterator
 
-#: The flag, and the suffix that marks an entry as a file rather than a module name.
 FLAG = "--plugins"
 SOURCE_SUFFIX = ".py"
 
@@ -34,7 +27,8 @@ def split_plugins(text: str | None) -> tuple[str, ...]:
 
 
 def load_plugin(entry: str):
-    """Import one plugin: a module name, or a ``.py`` file (imported once per process)."""
+    """Import one plugin: a module name, or a ``.py`` file (once per process); [`PluginError`][tableclean_suite.bench.plugins.PluginError]
+    when it is missing, raises or exits."""
     if entry.endswith(SOURCE_SUFFIX):
         path = Path(entry).resolve()
         try:
@@ -81,40 +75,16 @@ def portable(entries: Iterable[str]) -> tuple[str, ...]:
 
 
 def plugin_entries(text: str | None) -> tuple[str, ...]:
-    """The ``--plugins`` value as a command keeps it: [`split_plugins`][tableclean_suite.bench.plugins.split_plugins], ``.py`` paths made absolute
-    ([`portable`][tableclean_suite.bench.plugins.portable]), so executor workers with another working directory import the same files."""
+    """The ``--plugins`` value as a command keeps it: split, ``.py`` paths made absolute."""
     return portable(split_plugins(text))
 
 
 plugin_entries.comma_list = True  # a list flag: given twice, the command line refuses it
 
 
-@dataclass(frozen=True)
-class PluginTask:
-    """A task of another executor's ``map``, run after importing ``plugins`` in the process that runs it.
-
-    Attributes:
-        function: the module-level task function.
-        task: its task.
-        plugins: [`portable`][tableclean_suite.bench.plugins.portable] plugin entries.
-    """
-
-    function: Callable
-    task: Any
-    plugins: tuple[str, ...]
-
-    @property
-    def label(self) -> str:
-        """How executor errors name it: as the wrapped task."""
-        from tableclean_suite.executors.base import task_name
-
-        return task_name(self.task)
-
-
-def run_plugin_task(wrapped: PluginTask):
-    """Import ``wrapped.plugins`` (once per process), then ``wrapped.function(wrapped.task)``."""
-    load_plugins(wrapped.plugins)
-    return wrapped.function(wrapped.task)
+def _run_with_plugins(plugins: tuple[str, ...], function: Callable, task):
+    load_plugins(plugins)
+    return function(task)
 
 
 class PluginExecutor:
@@ -128,9 +98,6 @@ class PluginExecutor:
     def __getattr__(self, name: str):
         return getattr(self.executor, name)
 
-    def __repr__(self) -> str:
-        return f"PluginExecutor({self.executor!r}, plugins={list(self.plugins)})"
-
     def __enter__(self) -> "PluginExecutor":
         self.executor.__enter__()
         return self
@@ -140,7 +107,10 @@ class PluginExecutor:
 
     def map(self, function: Callable, tasks: Iterable) -> Iterator:
         """``function(task)`` for every task, in task order, each after importing the plugins."""
-        return self.executor.map(run_plugin_task, [PluginTask(function, task, self.plugins) for task in tasks])
+        from tableclean_suite.executors.base import check_function
+
+        check_function(function)
+        return self.executor.map(functools.partial(_run_with_plugins, self.plugins, function), tasks)
 
 
 def with_plugins(executor, plugins: Iterable[str]):
@@ -150,9 +120,8 @@ def with_plugins(executor, plugins: Iterable[str]):
 
 
 def _is_user_file(path: str | None) -> bool:
-    """Whether ``path`` is a user's source file: not in the standard library, not in an installed
-    package (site-packages, the interpreter's prefix) and not in ``tableclean_suite`` itself (whose
-    code the caches digest separately)."""
+    """Whether ``path`` is a user's source file: not the standard library's, an installed package's or
+    ``tableclean_suite``'s (digested apart)."""
     import sysconfig
 
     if not path or not path.endswith(SOURCE_SUFFIX):
@@ -166,8 +135,7 @@ def _is_user_file(path: str | None) -> bool:
 
 
 def _user_modules(modules) -> list:
-    """``modules`` and, transitively, every user module (`_is_user_file`) their globals refer
-    to: a module imported by name, or a function, class or constant's defining module."""
+    """``modules`` and every user module their globals refer to (imported, or defining one), transitively."""
     seen, pending = {}, list(modules)
     while pending:
         module = pending.pop()
@@ -186,10 +154,8 @@ def _user_modules(modules) -> list:
 
 
 def loaded_plugin_sources(entries: Iterable[str]) -> dict[str, str]:
-    """``{module file: SHA-256 of its bytes}`` of the plugin ``entries`` (imported if they are not
-    yet) and of every user module they refer to, however deep (not the standard library, installed
-    packages or ``tableclean_suite``): what a cache of results computed with the plugins must key on,
-    so that editing a plugin, or a helper module it imports, invalidates the cache.
+    """``{module file: SHA-256 of its bytes}`` of the plugin ``entries`` (imported if need be) and of every user
+    module they refer to: what a cache of results computed with them keys on.
 
     Raises:
         PluginError: an entry cannot be imported.
