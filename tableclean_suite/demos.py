@@ -74,19 +74,8 @@ PER_SAMPLE_DATASETS = ("states", "actions", "rewards", "dones", "symbolic_states
 
 @dataclass
 class Demo:
-    """One recorded demonstration (T samples = control steps, K plan entries, D = state size).
-
-    Attributes:
-        states: (T, D) float64, flattened MuJoCo state before each action.
-        actions: (T, 7) float64 absolute commands.
-        rewards: (T,) float64; dones: (T,) int64.
-        obs, next_obs: key -> (T, k) float64.
-        symbolic_states: (T,) int64 task-state codes (-1: none).
-        skill_index, skill_action: (T,) int64.
-        skill_bounds: (K, 2) int64.
-        final_state: (D,) float64.
-        attrs: the demo group's attributes (JSON values are decoded when read).
-    """
+    """One recorded demonstration: the arrays and attributes of a ``demo_k`` group (shapes: the module's
+    layout; ``attrs``' JSON values decoded)."""
 
     states: np.ndarray
     actions: np.ndarray
@@ -113,27 +102,20 @@ class Demo:
             raise ValueError(f"actions must have shape (T, {ACTION_DIM}), got {self.actions.shape}")
         if self.states.ndim != 2 or self.final_state.shape != self.states.shape[1:]:
             raise ValueError(f"states must be (T, D) and final_state (D,), got {self.states.shape} and {self.final_state.shape}")
-        for name in PER_SAMPLE_DATASETS:
-            if len(getattr(self, name)) != n:
-                raise ValueError(f"{name} has {len(getattr(self, name))} rows, expected num_samples = {n}")
-        for group in ("obs", "next_obs"):
-            for key, value in getattr(self, group).items():
-                if len(value) != n:
-                    raise ValueError(f"{group}/{key} has {len(value)} rows, expected num_samples = {n}")
+        rows = {name: getattr(self, name) for name in PER_SAMPLE_DATASETS}
+        rows.update({f"{group}/{key}": value for group in ("obs", "next_obs") for key, value in getattr(self, group).items()})
+        for name, value in rows.items():
+            if len(value) != n:
+                raise ValueError(f"{name} has {len(value)} rows, expected num_samples = {n}")
         if self.skill_bounds.ndim != 2 or self.skill_bounds.shape[1] != 2:
             raise ValueError(f"skill_bounds must have shape (K, 2), got {self.skill_bounds.shape}")
 
 
 # env_args: what rebuilds the scene
 def env_args_of(env, task: str, controller_configs: dict) -> dict:
-    """robomimic's ``env_args`` of a skill env made by [`make_skill_env`][tableclean_suite.controllers.make.make_skill_env].
-
-    ``task`` is what ``TableClean(task=...)`` accepts: a registered spec name or a ``.json`` path;
-    ``controller_configs`` the env's (``skill_controller_config(robot, task_config)`` by default).
-    ``env_kwargs`` holds the robot, its controller config (absolute world-frame OSC_POSE), the
-    task, the full ``task_config`` and the skill env's settings, so ``robosuite.make("TableClean",
-    **env_kwargs)`` rebuilds the same model (states load into it).
-    """
+    """robomimic's ``env_args`` of a skill env made by [`make_skill_env`][tableclean_suite.controllers.make.make_skill_env]
+    (``task``: a spec name or ``.json`` path; ``controller_configs``: the env's): ``robosuite.make("TableClean",
+    **env_kwargs)`` rebuilds the same model."""
     import robosuite
 
     from tableclean_suite.controllers.make import SKILL_ENV_DEFAULTS
@@ -167,12 +149,9 @@ def make_env_from_args(env_args: dict, **overrides):
 
 # recording
 class EpisodeRecorder:
-    """Records every control step a `RecordingSkillController` makes: state before and command.
-
-    ``begin(plan_index, action_index)`` marks the plan entry that executes next;
-    [`finish`][tableclean_suite.demos.EpisodeRecorder.finish] turns the recording into a [`Demo`][tableclean_suite.demos.Demo] (observables and symbolic codes
-    are read by restoring each recorded state in the env, so they are what a replay reads).
-    """
+    """Records the state before and the command of every control step of a
+    [`recording_controller`][tableclean_suite.demos.recording_controller]; [`finish`][tableclean_suite.demos.EpisodeRecorder.finish]
+    makes the [`Demo`][tableclean_suite.demos.Demo] (observables read by restoring each state, as a replay reads them)."""
 
     def __init__(self, env):
         self.env = env
@@ -205,11 +184,8 @@ class EpisodeRecorder:
         self.hook_steps += 1
 
     def finish(self, attrs: dict | None = None) -> Demo:
-        """The [`Demo`][tableclean_suite.demos.Demo] of the steps so far; the env is left in the final state (forwarded).
-
-        Raises ``RuntimeError`` when the hook saw a different number of control steps than were
-        recorded (a control path that bypasses the recording).
-        """
+        """The [`Demo`][tableclean_suite.demos.Demo] of the steps so far (the env left in the final state);
+        ``RuntimeError`` when a control path bypassed the recording."""
         from tableclean_suite.environments.abstraction import AbstractionError
         from tableclean_suite.environments.config import jsonable
 
@@ -235,9 +211,7 @@ class EpisodeRecorder:
             success.append(bool(env._check_success()) if index > 0 else False)
         n = len(self.actions)
         stacked = {key: np.stack(values) for key, values in observations.items()}
-        dones = np.zeros(n, dtype=np.int64)
-        if n:
-            dones[-1] = 1
+        dones = (np.arange(n) == n - 1).astype(np.int64)
         demo_attrs = dict(attrs or {})
         demo_attrs.update(
             plan=list(self.plan),
@@ -264,12 +238,8 @@ class EpisodeRecorder:
 
 
 def recording_controller(env, model, recorder: EpisodeRecorder):
-    """A [`SkillController`][tableclean_suite.controllers.skill_controller.SkillController] whose every control step ``recorder`` sees.
-
-    With the fast control path (``make_skill_env(fast_control=True)``) the controller bypasses
-    ``env.step`` (so robosuite's ``DataCollectionWrapper`` would see nothing): the recorder wraps
-    whatever step function the controller uses, and its ``on_step`` hook cross-checks the count.
-    """
+    """A [`SkillController`][tableclean_suite.controllers.skill_controller.SkillController] whose every control
+    step ``recorder`` sees, on the fast control path too (which bypasses ``env.step``)."""
     from tableclean_suite.controllers import SkillController
 
     class RecordingSkillController(SkillController):
@@ -300,12 +270,8 @@ def split_keys(keys: Sequence[str], valid_fraction: float = VALID_FRACTION, seed
 
 def write_dataset(path, demos: Sequence[Demo], env_args: dict, attrs: dict | None = None,
                   valid_fraction: float = VALID_FRACTION, seed: int = 0) -> Path:
-    """Write ``demos`` to ``path`` (hdf5, the layout of this module's docstring), atomically.
-
-    ``attrs`` are extra ``data`` attributes (dicts and lists are stored as JSON).  The file is
-    written under a temporary name in the same folder and renamed, so ``path`` is at any moment
-    either absent, the old file or the complete new one.  Returns ``path``.
-    """
+    """Write ``demos`` to ``path`` (hdf5, the module's layout) atomically; returns ``path``.  ``attrs`` are extra
+    ``data`` attributes (dicts and lists stored as JSON); ``ValueError`` naming a demo of inconsistent shapes."""
     import h5py
     import robosuite
 

@@ -5,28 +5,16 @@
         [--iterations I --runs R --max-actions A] [--valid-fraction F]
         [--workers N] [--executor local|ray] [--ray-address HOST:PORT|auto]
 
-Each episode starts from a random all-unclean layout of the spec (objects and arm on drawn
-segments, placement noise seeded), then the SkillController executes, in the ``TableClean``
-scene, either the model's shortest plan from that start (``optimal``, the default) or the
-greedy policy of Q-learning with reward r4 trained on the symbolic model (``learned``: the
-majority vote of ``--runs`` runs of ``--iterations`` steps from the same random starts).
-Every control step is recorded (state before it, absolute OSC command), also on the fast
-control path, which bypasses ``env.step``.  Episodes whose skills fail, fault or do not reach
-the goal are discarded and replaced by new draws (at most ``MAX_ATTEMPTS_PER_EPISODE`` draws
-per requested demo).  The file layout is in `tableclean_suite.demos`; it is written
-atomically (temporary file, then rename).
+Each demo starts from a random all-unclean layout of the spec (placement noise seeded); the
+SkillController then executes the model's shortest plan (``optimal``) or the majority greedy policy
+of ``--runs`` Q-learning r4 runs on the symbolic model (``learned``), and every control step is
+recorded (layout: [`tableclean_suite.demos`][tableclean_suite.demos]).  Failed executions are discarded
+and redrawn, at most `MAX_ATTEMPTS_PER_EPISODE` draws per demo.
 
-Every *attempt* (a drawn start layout and its execution) is an executor task
-(`DemoAttempt`, `record_attempt`; `tableclean_suite.executors`): attempt
-``k`` draws its start and placement seed from ``(--seed, k)`` alone and the worker builds its
-own scene, so ``--workers N`` processes of this machine or ``--executor ray [--ray-address
-HOST:PORT]`` record the same demos as one process (BLAS runs on one thread inside an attempt,
-since its thread count changes the last bits).  Attempts run in waves (``--episodes`` of them,
-then as many new ones as demos are still missing), and the demos are the successful attempts
-in attempt order: the file holds the same data whatever the executor or the number of workers.
-
-Exit codes: 0 all demos written, 1 fewer successful demos than requested (those found are
-written) or an attempt that raised (nothing written; the error names the attempt), 2 bad flags.
+Attempt ``k`` draws its start and placement seed from ``(--seed, k)`` alone and is one executor task
+([`DemoAttempt`][tableclean_suite.bench.collect_demos.DemoAttempt]), so ``--workers N`` or ``--executor ray``
+write the same file as one process.  Exit codes: 0 all demos written, 1 fewer demos than requested (those
+found are written) or an attempt that raised (nothing written), 2 bad flags.
 """
 
 from __future__ import annotations
@@ -46,6 +34,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 from tableclean_suite.bench import cli  # noqa: E402
 from tableclean_suite.bench.cli import positive_int  # noqa: E402
 from tableclean_suite.bench.rollout import majority_policy  # noqa: E402
+from tableclean_suite.executors.blas import single_blas_thread  # noqa: E402
 from tableclean_suite.robosuite_adapter import apply_verbosity  # noqa: E402
 
 POLICIES = ("optimal", "learned")
@@ -60,8 +49,6 @@ DEFAULT_RUNS = 5
 DEFAULT_MAX_ACTIONS = 50
 #: Bound of the per-episode placement seeds drawn from ``--seed`` (exclusive).
 PLACEMENT_SEED_BOUND = 2**31
-
-
 #: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench demos"
 
@@ -88,7 +75,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 
 
 def learned_policy(model, iterations: int, runs: int, seed: int) -> np.ndarray:
-    """The majority greedy policy of ``runs`` Q-learning (r4) runs on the symbolic ``model``."""
+    """The majority greedy policy (action per state code) of ``runs`` Q-learning r4 runs on ``model``."""
     from tableclean_suite.learners import train
 
     result = train(LEARNER, REWARD, runs=runs, iterations=iterations, seed=seed, task=model)
@@ -112,11 +99,7 @@ def symbolic_actions(model, start, policy: np.ndarray | None, max_actions: int) 
 
 
 def attempt_draws(model, seed: int, attempt: int):
-    """``(start state, placement seed)`` of attempt ``attempt`` (0-based) of a run seeded ``seed``.
-
-    Drawn from ``(seed, attempt)`` alone, so an attempt is the same whichever worker runs it and
-    whatever ran before it.
-    """
+    """``(start state, placement seed)`` of attempt ``attempt`` (0-based), drawn from ``(seed, attempt)`` alone."""
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), int(attempt)]))
     start = model.sample_start(float(rng.random()))
     return start, int(rng.integers(PLACEMENT_SEED_BOUND))
@@ -124,19 +107,9 @@ def attempt_draws(model, seed: int, attempt: int):
 
 @dataclass(frozen=True)
 class DemoAttempt:
-    """One attempt as an executor task: plain values only (the worker builds its own scene).
-
-    Attributes:
-        spec: the task spec as JSON text (``TaskSpec.to_dict()``).
-        task: ``--task`` as given (a name or a .json path; stored in ``env_args``).
-        robot: the arm, a robot with a registered skill config
-            ([`tableclean_suite.controllers.robot_configs.supported_robots`][tableclean_suite.environments.robot_registry.supported_robots]).
-        policy_name: one of `POLICIES`.
-        policy: the learned policy's action per state code, or None for the shortest plan.
-        max_actions: actions before a learned-policy episode counts as failed.
-        seed: the run's seed (``--seed``); with ``attempt`` it fixes the start and the placement.
-        attempt: the attempt's 0-based number.
-    """
+    """One attempt as an executor task of plain values: the spec as JSON, ``--task`` as given (stored in
+    ``env_args``), the robot, the policy's name and its action per state code (None: the shortest plan),
+    ``--max-actions``, ``--seed`` and the 0-based attempt number."""
 
     spec: str
     task: str
@@ -154,7 +127,8 @@ class DemoAttempt:
 
 @dataclass
 class AttemptResult:
-    """What [`record_attempt`][tableclean_suite.bench.collect_demos.record_attempt] returns: the demo (None when discarded) and what to log."""
+    """What [`record_attempt`][tableclean_suite.bench.collect_demos.record_attempt] returns: the demo (None
+    when discarded) and what to log."""
 
     attempt: int
     start_name: str
@@ -198,20 +172,10 @@ def close_scenes() -> None:
         env.close()
 
 
+@single_blas_thread()  # its thread count changes the trajectories' last bits
 def record_attempt(task: DemoAttempt) -> AttemptResult:
-    """Run one [`DemoAttempt`][tableclean_suite.bench.collect_demos.DemoAttempt] in this process: draw its start, stage it, execute and record.
-
-    BLAS runs on one thread meanwhile ([`single_blas_thread`][tableclean_suite.executors.blas.single_blas_thread]):
-    its thread count changes the trajectories' last bits, and it differs between this process,
-    local workers and Ray's (which start with ``OMP_NUM_THREADS=1``).
-    """
-    from tableclean_suite.executors.blas import single_blas_thread
-
-    with single_blas_thread():
-        return _record_attempt(task)
-
-
-def _record_attempt(task: DemoAttempt) -> AttemptResult:
+    """Run one [`DemoAttempt`][tableclean_suite.bench.collect_demos.DemoAttempt] in this process: draw its
+    start, stage it, execute and record."""
     from tableclean_suite.demos import EpisodeRecorder, recording_controller
     from tableclean_suite.physics_backend import StagingError, stage
 
@@ -250,10 +214,8 @@ def _record_attempt(task: DemoAttempt) -> AttemptResult:
                                   "placement_seed": placement_seed, "policy": task.policy_name})
     if problem is None and not demo.attrs["success"]:
         problem = f"ended in {state.name} without success"
-    seconds = time.perf_counter() - started
-    if problem is not None:
-        return AttemptResult(task.attempt, start.name, None, problem, env_args, seconds)
-    return AttemptResult(task.attempt, start.name, demo, None, env_args, seconds)
+    return AttemptResult(task.attempt, start.name, None if problem else demo, problem, env_args,
+                         time.perf_counter() - started)
 
 
 def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "optimal", seed: int = 0,
@@ -261,12 +223,9 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
             log=print, executor=None) -> tuple[list, dict, dict]:
     """Record up to ``episodes`` successful demos; returns ``(demos, env_args, data_attrs)``.
 
-    ``task`` is a registered spec name or a ``.json`` path; ``robot`` a robot with a registered skill config;
-    ``policy_name`` one of `POLICIES`.  The learned policy acts closed-loop on the state
-    the physics reads back; the optimal plan is the model's from the start.  Each attempt is a
-    [`DemoAttempt`][tableclean_suite.bench.collect_demos.DemoAttempt] task of ``executor`` (a [`tableclean_suite.executors`][tableclean_suite.executors] executor;
-    default: this process); the demos are the first ``episodes`` successful attempts in attempt
-    order, the same whatever the executor.
+    ``task``: a registered spec name or a ``.json`` path; ``policy_name``: one of `POLICIES` (the learned
+    policy acts closed-loop on the state read back).  Attempts run on ``executor`` (default: this process) in
+    waves; the demos are the first successful ones in attempt order.
 
     Raises:
         tableclean_suite.executors.TaskFailedError: an attempt raised (naming it).
@@ -311,13 +270,8 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
             next_attempt = wave.stop
     finally:
         close_scenes()  # those of an in-process executor (workers == 1)
-    attrs = {
-        "task_spec": spec.to_dict(),
-        "action_names": list(model.action_names),
-        "policy": policy_name,
-        "seed": seed,
-        "discarded": discarded,
-    }
+    attrs = {"task_spec": spec.to_dict(), "action_names": list(model.action_names), "policy": policy_name,
+             "seed": seed, "discarded": discarded}
     if policy is not None:
         attrs.update(learner=LEARNER, reward=REWARD, iterations=iterations, runs=runs,
                      learned_policy=json.dumps([int(a) for a in policy]))

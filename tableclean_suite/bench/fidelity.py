@@ -73,24 +73,13 @@ def _trial_row(round_index, seed, layout, reached_by, state: TaskState, action: 
     observed_outcome = None if result.outcome is None else Outcome(result.outcome)
     agree = observed is not None and observed == expected and observed_outcome == expected_outcome
     return {
-        "round": round_index,
-        "seed": seed,
-        "layout": layout,
-        "reached_by": reached_by,
-        "state": state.index,
-        "action": model.action_name(action),
-        "expected_state": expected.index,
-        "expected_outcome": expected_outcome.name.lower(),
-        "observed_state": -1 if observed is None else observed.index,
-        "observed_outcome": FAULT if observed_outcome is None else observed_outcome.name.lower(),
-        "agree": int(agree),
-        "success": int(bool(result.success)),
-        "improper": int(bool(result.improper)),
-        "steps": int(result.steps),
-        "retries": int(result.retries),
-        "wall_time": round(float(result.wall_time), 4),
-        "env_time": round(float(result.env_time), 4),
-        "reason": str(result.reason).replace("\n", " "),
+        "round": round_index, "seed": seed, "layout": layout, "reached_by": reached_by, "state": state.index,
+        "action": model.action_name(action), "expected_state": expected.index,
+        "expected_outcome": expected_outcome.name.lower(), "observed_state": -1 if observed is None else observed.index,
+        "observed_outcome": FAULT if observed_outcome is None else observed_outcome.name.lower(), "agree": int(agree),
+        "success": int(bool(result.success)), "improper": int(bool(result.improper)), "steps": int(result.steps),
+        "retries": int(result.retries), "wall_time": round(float(result.wall_time), 4),
+        "env_time": round(float(result.env_time), 4), "reason": str(result.reason).replace("\n", " "),
     }
 
 
@@ -108,8 +97,7 @@ def layout_label(state: TaskState) -> str:
 
 
 @single_blas_thread()  # the same bits in this process, a local worker or a Ray worker
-def run_round(scene, round_index: int, seed: int, on_trial: Callable[[dict], None] | None = None,
-              actions: Iterable | None = None) -> list[dict]:
+def run_round(scene, round_index: int, seed: int, actions: Iterable | None = None) -> list[dict]:
     """The trial rows, in execution order, of one round of ``actions`` (default: all) on ``scene`` (a
     [`PhysicsStepEnv`][tableclean_suite.physics_backend.PhysicsStepEnv]); states only reachable through a
     left-out action are staged."""
@@ -123,11 +111,6 @@ def run_round(scene, round_index: int, seed: int, on_trial: Callable[[dict], Non
     rows: list[dict] = []
     base_seed = round_seed(seed, round_index)
 
-    def record(row):
-        rows.append(row)
-        if on_trial is not None:
-            on_trial(row)
-
     def visit(state: TaskState, layout: str, reached_by: str) -> None:
         visited.add(state)
         saved = env.get_scene_state()
@@ -136,7 +119,7 @@ def run_round(scene, round_index: int, seed: int, on_trial: Callable[[dict], Non
             if k:
                 env.set_scene_state(saved)
             result = controller.execute(action)
-            record(_trial_row(round_index, base_seed, layout, reached_by, state, action, result, model))
+            rows.append(_trial_row(round_index, base_seed, layout, reached_by, state, action, result, model))
             expected = model.step(state, action)[0]
             if (result.state_after == expected and not expected.is_terminal and expected not in visited
                     and expected not in (c for c, _ in children)):
@@ -160,7 +143,7 @@ def run_round(scene, round_index: int, seed: int, on_trial: Callable[[dict], Non
                 visited.add(state)
                 for action in actions:
                     failed = SkillResult(action, False, False, 0, f"{NOT_STAGED}: {error}", state, None, None)
-                    record(_trial_row(round_index, base_seed, "staged", "staged", state, action, failed, model))
+                    rows.append(_trial_row(round_index, base_seed, "staged", "staged", state, action, failed, model))
                 continue
             visit(state, "staged", "staged")
     return rows

@@ -1,10 +1,7 @@
 """``tableclean-bench render [--task SPEC] [--out PNG]``: render the TableClean scene offscreen.
 
-Uses MuJoCo's EGL backend unless ``MUJOCO_GL`` is already set (it must be set before MuJoCo is
-imported).  The default camera, ``tableview``, shows every segment, the dirt, the objects and the
-sponge on its stand.  ``--task`` builds another spec's scene (default ``paper``; the default
-output is then ``results/images/scene_<task>.png``).  The README's pictures in ``docs/images`` are
-copies of these outputs: a reproduction never writes over tracked files.
+MuJoCo's EGL backend unless ``MUJOCO_GL`` is set; the default camera, ``tableview``, shows every
+segment, the dirt, the objects and the sponge.  Another ``--task`` writes ``results/images/scene_<task>.png``.
 """
 
 from __future__ import annotations
@@ -24,8 +21,7 @@ DEFAULT_OUT = Path("results/images/scene.png")
 DEFAULT_CAMERA = "tableview"
 #: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench render"
-#: Frame sizes, pixels per side (MuJoCo's offscreen buffer grows to the request; larger frames
-#: exhaust the GL driver's buffers or the memory).
+#: Frame sizes, pixels per side (larger frames exhaust the GL driver's buffers or the memory).
 MIN_PIXELS, MAX_PIXELS = 1, 8192
 DEFAULT_WIDTH, DEFAULT_HEIGHT = 640, 480
 PNG_SUFFIX = ".png"
@@ -37,23 +33,15 @@ class UnknownCameraError(ValueError):
 
 def render_frame(camera: str = DEFAULT_CAMERA, width: int = 640, height: int = 480, seed: int = 0,
                  object_segment: int = 1, arm_segment: int = 2, task=None, **env_kwargs) -> np.ndarray:
-    """An (height, width, 3) uint8 RGB frame of a freshly reset TableClean scene of ``task`` (default ``paper``)."""
+    """An (height, width, 3) uint8 RGB frame of a freshly reset TableClean scene of ``task`` (default ``paper``);
+    [`UnknownCameraError`][tableclean_suite.bench.render_scene.UnknownCameraError] listing the scene's cameras."""
     import robosuite
 
     import tableclean_suite  # noqa: F401  (registers TableClean)
 
-    env = robosuite.make(
-        "TableClean",
-        task=task,
-        robots="Panda",
-        object_segment=object_segment,
-        arm_segment=arm_segment,
-        has_renderer=False,
-        has_offscreen_renderer=True,
-        use_camera_obs=False,
-        seed=seed,
-        **env_kwargs,
-    )
+    env = robosuite.make("TableClean", task=task, robots="Panda", object_segment=object_segment,
+                         arm_segment=arm_segment, has_renderer=False, has_offscreen_renderer=True, use_camera_obs=False,
+                         seed=seed, **env_kwargs)
     try:
         cameras = tuple(env.sim.model.camera_names)
         if camera not in cameras:
@@ -63,14 +51,6 @@ def render_frame(camera: str = DEFAULT_CAMERA, width: int = 640, height: int = 4
     finally:
         env.close()
     return np.ascontiguousarray(frame[::-1])  # MuJoCo renders bottom-up
-
-
-def save_png(frame: np.ndarray, path: Path) -> None:
-    """Write an RGB uint8 frame as PNG (matplotlib's writer, a package dependency)."""
-    import matplotlib.image
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    matplotlib.image.imsave(path, frame)
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
@@ -107,7 +87,10 @@ def main(argv=None, prog: str | None = None) -> int:
         frame = render_frame(args.camera, args.width, args.height, args.seed, task=spec)
     except UnknownCameraError as error:
         parser.error(f"--camera: {error}")
-    save_png(frame, Path(args.out))
+    import matplotlib.image
+
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    matplotlib.image.imsave(Path(args.out), frame)
     print(f"wrote {args.out} ({args.width}x{args.height}, camera {args.camera!r}, MUJOCO_GL={os.environ['MUJOCO_GL']})")
     return 0
 
