@@ -1,6 +1,5 @@
-"""A run's outputs are the same bytes whether its cells are trained or loaded, its comparisons and
-figures computed or loaded from the derived-results cache, and its figures drawn in forked
-processes or here."""
+"""A run's outputs are the same bytes whether its cells are trained or loaded and its comparisons and
+figures computed or loaded from the derived-results cache."""
 
 from __future__ import annotations
 
@@ -9,8 +8,6 @@ import sys
 from pathlib import Path
 
 import pytest
-
-from tableclean_suite.bench import derived
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Small but complete: both paper learners, two rewards, sweeps (all five figures), figures drawn.
@@ -64,22 +61,3 @@ def test_a_changed_setting_is_not_served_from_the_caches(tmp_path, change):
     after = file_bytes(out)
     assert after["comparisons.csv"] != before["comparisons.csv"]
     assert after["table3.csv"] != before["table3.csv"]
-
-
-def test_figures_drawn_in_forked_processes_are_the_bytes_drawn_here():
-    """start_figures' forked drawing (the default run's) writes the PNG bytes serial drawing does."""
-    from tableclean_suite.bench import experiments, tables
-    from tableclean_suite.bench.config import RunConfig
-    from tableclean_suite.task import TaskModel
-
-    cell = experiments.Cell("q_learning", "r1", 0.3, 0.3)
-    config = RunConfig(runs=12, iterations=150, bootstrap_samples=20, seed=0)
-    summary, stats, *_ = experiments.train_cell(experiments.resolve_cell(cell, config, TaskModel()))
-    records, curves = experiments.cell_records([experiments.Membership("main", cell)], {cell: summary}, {cell: stats})
-    table3 = tables.table3(records)
-    frame = tables.curves_long(records, curves)
-    serial = derived.figures(frame, 0.25, table3, 60, processes=1)
-    forked = derived.start_figures(frame, 0.25, table3, 60, processes=2).result()
-    assert [f.name for f in forked] == [f.name for f in serial] == ["fig3_success_rate_q_learning.png",
-                                                                    "fig4_average_reward_q_learning.png"]
-    assert [f.png for f in forked] == [f.png for f in serial]

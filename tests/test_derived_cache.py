@@ -31,8 +31,8 @@ def inputs():
 
 def compute(root, cells, curves=None, table3=None, read=True, **changed):
     settings = {**SETTINGS, **changed}
-    return derived.start(root, cells, settings["confidence"], settings["samples"], settings["seed"], curves, table3,
-                         plateau_fraction=0.25, dpi=50, read=read).result()
+    return derived.derive(root, cells, settings["confidence"], settings["samples"], settings["seed"], curves, table3,
+                          plateau_fraction=0.25, dpi=50, read=read)
 
 
 def outputs(results) -> tuple:

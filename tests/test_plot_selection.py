@@ -51,14 +51,6 @@ def test_a_figure_draws_the_rows_comparing_the_text_selects_and_follows_a_new_fr
     assert _same(_drawn(other, "sarsa"), _expected(other, "sarsa"))
 
 
-def test_factorizing_the_columns_ahead_draws_the_same_rows():
-    frame = _frame(["r1", "r4"])
-    plots.code_columns(frame)  # before forking the drawing processes
-    assert _same(_drawn(frame, "sarsa"), _expected(frame, "sarsa"))
-    frame.loc[frame["learner"] == "sarsa", "value"] += 1000.0  # the values are read, not kept
-    assert _same(_drawn(frame, "sarsa"), _expected(frame, "sarsa"))
-
-
 def test_the_learning_time_figure_is_offered_only_with_the_kaplan_meier_curves():
     rows = [{"learner": "q_learning", "reward": "r4", "alpha": 0.3, "gamma": 0.3, "experiment": "main",
              "iteration": t, "metric": metric, "value": value, "low": value, "high": value}

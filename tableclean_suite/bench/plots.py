@@ -1,15 +1,12 @@
-"""Figures 3-7 of the paper, and the Kaplan-Meier curves of the per-run learning time (Figure 8),
-from a long curves DataFrame: each function returns ``(fig, ax)``.
+"""Figures 3-7 of the paper and the Kaplan-Meier curves of the per-run learning time (Figure 8),
+each function returning ``(fig, ax)``; [render_png][tableclean_suite.bench.plots.render_png] returns
+a figure's PNG bytes.  matplotlib is imported when a figure is first drawn.
 
-Nothing here shows or writes a figure to a file (`render_png` returns a figure's PNG bytes;
-`tableclean_suite.bench.run` writes them).  matplotlib is imported when a figure is first
-drawn, not with this module (``benchmarks.run`` loads unchanged figures from its cache without
-it, see `derived`).  Input is the
-long-format frame of `benchmarks.tables.curves_long` (columns ``learner, reward,
-alpha, gamma, experiment, iteration, metric, value`` and, when present, the 95 % band
-``low, high``, shaded on every figure).  Colours come from one palette
-keyed by reward pattern (`reward_color`), so r4 is the same colour in every figure;
-sweep figures colour by parameter value on a sequential map.
+Input: the long frame of [tables.curves_long][tableclean_suite.bench.tables.curves_long] (columns
+``learner, reward, alpha, gamma, experiment, iteration, metric, value`` and, when present, the 95 %
+band ``low, high``, shaded on every figure).  Each reward pattern has one colour in every figure
+([reward_color][tableclean_suite.bench.plots.reward_color]); sweep figures colour by parameter
+value on a sequential map.
 """
 
 from __future__ import annotations
@@ -53,51 +50,11 @@ def reward_color(reward: str, known=()) -> str:
     return _EXTRA_COLORS[index % len(_EXTRA_COLORS)]
 
 
-#: The last frame `_select` read and its columns' `pandas.factorize` codes: a drawing
-#: process draws several figures from one frame, and comparing integer codes instead of every row's
-#: text saves ~40 ms per figure on the default ``curves`` (228 000 rows).
-_CODED: tuple = (None, {})
-
-
-def _codes(curves: pd.DataFrame, column: str) -> tuple[np.ndarray, pd.Index]:
-    """``(codes, uniques)`` of ``curves[column]`` (`pandas.factorize`), kept for the last frame."""
-    global _CODED
-    frame, columns = _CODED
-    if frame is not curves:
-        frame, columns = curves, {}
-        _CODED = (frame, columns)
-    if column not in columns:
-        import pandas as pd  # here, not at import: a run's start imports it while its first cell trains
-
-        codes, uniques = pd.factorize(curves[column])
-        columns[column] = (codes, pd.Index(uniques))
-    return columns[column]
-
-
-def _matches(curves: pd.DataFrame, column: str, value) -> np.ndarray:
-    """``(curves[column] == value).to_numpy()``, from the column's codes."""
-    codes, uniques = _codes(curves, column)
-    wanted = np.flatnonzero(np.asarray(uniques == value, dtype=bool))
-    return np.isin(codes, wanted)
-
-
-#: The columns the figures select their rows by (`_select`).
-SELECTED_COLUMNS = ("learner", "reward", "experiment", "metric")
-
-
-def code_columns(curves: pd.DataFrame) -> None:
-    """Factorize `SELECTED_COLUMNS` of ``curves`` now (kept for the frame, `_codes`), e.g.
-    before forking the processes that draw its figures: they inherit the codes instead of each
-    factorizing them (~45 ms on the default ``curves``)."""
-    for column in SELECTED_COLUMNS:
-        if column in curves.columns:
-            _codes(curves, column)
-
-
 def _select(curves: pd.DataFrame, **where) -> pd.DataFrame:
+    """The rows of ``curves`` whose columns equal the values in ``where``."""
     mask = np.ones(len(curves), dtype=bool)
     for column, value in where.items():
-        mask &= _matches(curves, column, value)
+        mask &= (curves[column] == value).to_numpy(dtype=bool)
     return curves[mask]
 
 
@@ -213,7 +170,7 @@ def plot_sweeps(
     Returns:
         ``(fig, axes)`` with one axes per experiment that has rows (at least one axes).
     """
-    present = [e for e in experiments if _matches(curves, "experiment", e).any()] or list(experiments[:1])
+    present = [e for e in experiments if (curves["experiment"] == e).any()] or list(experiments[:1])
     plt = pyplot()
     fig, axes = plt.subplots(1, len(present), figsize=(6.2 * len(present), 4.2), sharey=True, squeeze=False)
     axes = axes[0]

@@ -293,13 +293,11 @@ def train_and_publish(args) -> int:
     survival = all(statistics.NOT_LEARNED in curve_set for curve_set in curves)  # the runs recorded learning times
     figure_frame = (tables.curves_long(records, curves, (*tables.CURVE_METRICS, statistics.NOT_LEARNED), stride)
                     if survival and config.figures else curves_frame)
-    pending = derived.start(  # from cells/derived/ when it holds them, else computed and stored there
+    results = derived.derive(  # from cells/derived/ when it holds them, else computed and stored there
         store.root / "derived",
         [{"learner": c.learner, "reward": c.reward, "runs": grid_run.statistics[c].runs} for c in main_cells],
         config.confidence, config.bootstrap_samples, config.seed, figure_frame if config.figures else None, table3,
         plateau_fraction=config.plateau_fraction, dpi=FIGURE_DPI, read=not config.fresh)
-    curves_text = tables.csv_text(curves_frame, tables.CURVES_FLOAT_FORMAT)  # while figures draw
-    results = pending.result()
     comparisons, figures = results.comparisons, results.figures
     print(results.summary())
 
@@ -307,7 +305,7 @@ def train_and_publish(args) -> int:
         "table3.csv": lambda path: table3.to_csv(path, index=False),
         "table4.csv": lambda path: table4.to_csv(path, index=False),
         "comparisons.csv": lambda path: comparisons.to_csv(path, index=False),
-        "curves.csv": lambda path: path.write_text(curves_text, encoding="utf-8", newline=""),
+        "curves.csv": lambda path: path.write_text(tables.csv_text(curves_frame), encoding="utf-8", newline=""),
     }
     writers.update({figure.name: (lambda path, png=figure.png: path.write_bytes(png)) for figure in figures})
     elapsed = time.perf_counter() - started
