@@ -1,7 +1,6 @@
 """Ctrl-C ends every command with one line and exit 130: during imports, training, figure drawing
 in forked processes (which stop quietly, never waited for) and tune (its finished trials published)."""
 
-import os
 import signal
 import subprocess
 import sys
@@ -10,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from tableclean_suite.bench import commands, derived
+from tableclean_suite.bench import commands
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -50,35 +49,6 @@ def test_other_runtime_errors_still_surface(monkeypatch):
     monkeypatch.setattr(commands, "_module", failing)
     with pytest.raises(RuntimeError, match="a real bug"):
         commands.main(["run"])
-
-
-def _slow_draw(stem):
-    time.sleep(30)
-    return b""
-
-
-@pytest.mark.cli
-def test_ctrl_c_while_forked_processes_draw_stops_them_at_once_and_quietly(monkeypatch, capfd):
-    import pandas as pd
-
-    monkeypatch.setattr(derived, "_draw", _slow_draw)
-    monkeypatch.setattr(derived.plots, "available_figures", lambda curves: ["a", "b"])
-    monkeypatch.setattr(derived.plots, "code_columns", lambda curves: None)
-    pending = derived.start_figures(pd.DataFrame(), 0.25, processes=2)
-    workers = list(pending._pool._pool)
-    time.sleep(0.5)
-    for worker in workers:  # the terminal sends Ctrl-C to the whole process group
-        os.kill(worker.pid, signal.SIGINT)
-    started = time.monotonic()
-    threading_timer = __import__("threading").Timer(0.3, os.kill, (os.getpid(), signal.SIGINT))
-    threading_timer.start()
-    with pytest.raises(KeyboardInterrupt):
-        pending.result()
-    assert time.monotonic() - started < 10  # never waits for the drawings
-    for worker in workers:
-        worker.join(5)
-        assert not worker.is_alive()
-    assert "Traceback" not in capfd.readouterr().err
 
 
 @pytest.mark.cli

@@ -165,7 +165,8 @@ def add_iterations_argument(parser, default: int, what: str, **options) -> None:
 
 
 def add_out_argument(parser, kind: str, default, what: str, flags=("--out",), **options) -> None:
-    """``--out PATH``: where the command writes, an [`output_path`][tableclean_suite.bench.cli.output_path] of ``kind``."""
+    """``--out PATH``: where the command writes, an
+    [`output_path`][tableclean_suite.bench.cli.output_path] of ``kind``."""
     shown = "" if default is argparse.SUPPRESS else f" (default {default})"
     metavar = "DIR" if kind == DIRECTORY else "FILE"
     parser.add_argument(*flags, dest="out", type=output_path(kind), default=default, metavar=metavar,

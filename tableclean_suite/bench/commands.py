@@ -1,15 +1,12 @@
 """``tableclean-bench COMMAND``: one entry point for every benchmark command.
 
     tableclean-bench                       # the paper's run (as `tableclean-bench run`)
-    tableclean-bench run --runs 200 --out results/quick
     tableclean-bench fidelity --task three_segments --trials 2
     tableclean-bench COMMAND --help
     python -m tableclean_suite.bench COMMAND ...   # the same, without the console script
 
-Each command lives in its own module, which builds its parser (``build_parser(prog)``: the
-shared options of `cli` plus its own) and runs it (``main(argv=None, prog=None) -> int``).
-This module only knows their names: `COMMANDS`.  Flags given without a command (``tableclean-bench
---runs 5``) go to ``run``, as before there were commands.
+Each command's module has ``build_parser(prog)`` and ``main(argv=None, prog=None) -> int``; `COMMANDS`
+names them.  Flags without a command (``tableclean-bench --runs 5``) go to ``run``.
 """
 
 from __future__ import annotations
@@ -24,7 +21,6 @@ from pathlib import Path
 
 from tableclean_suite.bench.cli import EXIT_INTERRUPTED, EXIT_USAGE, OneLineParser
 
-#: The console script's name (setup.py's entry point).
 CONSOLE_SCRIPT = "tableclean-bench"
 #: The command a bare ``tableclean-bench`` (or one given only flags) runs.
 DEFAULT_COMMAND = "run"
@@ -33,20 +29,15 @@ HELP_FLAGS = ("-h", "--help")
 
 @dataclass(frozen=True)
 class Command:
-    """One command of `COMMANDS`.
-
-    Attributes:
-        module: the module with its ``build_parser(prog)`` and ``main(argv, prog)``.
-        summary: one line for the command list.
-        physics: whether it builds MuJoCo scenes (``MUJOCO_GL`` defaults to ``egl`` first).
-    """
+    """One command of `COMMANDS`: its ``module``, a one-line ``summary``, and whether it builds MuJoCo scenes
+    (``physics``: ``MUJOCO_GL`` defaults to ``egl`` before the import)."""
 
     module: str
     summary: str
     physics: bool = False
 
     def load(self):
-        """The command's module (``MUJOCO_GL`` set before a physics command imports MuJoCo)."""
+        """The command's module."""
         if self.physics:
             os.environ.setdefault("MUJOCO_GL", "egl")
         return importlib.import_module(self.module)
@@ -144,7 +135,7 @@ def _usage_error(prog: str, message: str) -> int:
 
 
 def _exit_code(code) -> int:
-    """A ``SystemExit`` code as an exit status (``None`` -> 0, a message -> 1 after printing it)."""
+    """A ``SystemExit`` code as an exit status (None -> 0, a message -> 1 after printing it)."""
     if code is None:
         return 0
     if isinstance(code, int):
@@ -183,11 +174,9 @@ def run_alias(name: str, prog: str, argv=None) -> int:
 
 
 def _run(name: str, argv, prog: str, unavailable_prog: str | None = None, entry: bool = False) -> int:
-    """``main(argv, prog=prog)`` of command ``name``'s module, as an exit status: the one
-    place where a command's ``SystemExit``, refusals (`_refusals`: one line, exit 2), file-system
-    errors (one line naming the path, exit 2) and Ctrl-C (exit `EXIT_INTERRUPTED`, also while the
-    module is imported) become exit codes.  A command not installed is one line, exit 2, under
-    ``unavailable_prog`` (default ``prog``)."""
+    """``main(argv, prog=prog)`` of command ``name``'s module as an exit status: the one place where its
+    ``SystemExit``, refusals and file-system errors (one line, exit 2) and Ctrl-C (exit 130, imports
+    included) become exit codes."""
     try:
         return _exit_code(_module(name).main(argv, prog=prog))
     except CommandUnavailable as error:
@@ -204,10 +193,9 @@ def _run(name: str, argv, prog: str, unavailable_prog: str | None = None, entry:
 
 
 def _interrupted(prog: str, error: BaseException, entry: bool = False) -> int:
-    """One line and `EXIT_INTERRUPTED` when ``error`` is (or was caused by) Ctrl-C, e.g. the
-    ``RuntimeError`` Python raises when Ctrl-C lands in a class body during an import; re-raises
-    anything else.  At the process's ``entry`` point, Ctrl-C is ignored from here on (the exit's
-    clean-up stays quiet)."""
+    """One line and `EXIT_INTERRUPTED` when ``error`` is or was caused by Ctrl-C (e.g. a ``RuntimeError`` from
+    a class body during an import); re-raises anything else.  At the process's ``entry`` point Ctrl-C is
+    ignored from here on (a quiet exit)."""
     cause = error
     while cause is not None and not isinstance(cause, KeyboardInterrupt):
         cause = cause.__cause__ or cause.__context__
@@ -220,10 +208,8 @@ def _interrupted(prog: str, error: BaseException, entry: bool = False) -> int:
 
 
 def _refusals() -> tuple:
-    """Library errors a command reports as one line with exit 2: the resource guard's
-    ([`ResourceError`][tableclean_suite.resources.ResourceError]) and the output folder's
-    ([`OutputError`][tableclean_suite.bench.outputs.OutputError]: full disk, read-only, busy, a file in the way) and
-    an unreachable Ray cluster ([`ClusterUnreachableError`][tableclean_suite.executors.ray_executor.ClusterUnreachableError])."""
+    """Errors a command reports as one line with exit 2: the resource guard's, the output folder's and an
+    unreachable Ray cluster."""
     from tableclean_suite.bench.outputs import OutputError
     from tableclean_suite.executors.ray_executor import ClusterUnreachableError
     from tableclean_suite.resources import ResourceError

@@ -1,11 +1,5 @@
-"""What a result cache keys on: the code that runs and the arrays the learner reads.
-
-Every cache of results (a run's cells, fidelity trials, calibration, the scaling study, tune's
-studies, derived results) keys on [code_digest][tableclean_suite.bench.digests.code_digest] and, where
-its numbers come from a task model, on [task_digest][tableclean_suite.bench.digests.task_digest]: an
-edit to a rule, a reward, a plugin or a plugin's data file then misses the cache instead of serving
-numbers computed under the old ones.
-"""
+"""What a result cache keys on: the code that runs and the arrays the learner reads, so that an edit to a
+rule, a reward or a plugin misses the cache instead of serving numbers computed under the old ones."""
 
 from __future__ import annotations
 
@@ -17,11 +11,9 @@ import numpy as np
 
 
 def code_digest(plugins: Iterable[str] = ()) -> str:
-    """SHA-256 (hex) of the code that runs: the bytes of every Python file of the package (named by
-    its path inside the package) and, with ``plugins`` (``--plugins`` entries, imported if they are
-    not yet), of each plugin module and every user module it refers to
-    ([`loaded_plugin_sources`][tableclean_suite.bench.plugins.loaded_plugin_sources]; by content, so a
-    cluster node holding the same code in another folder agrees).
+    """SHA-256 (hex) of the code that runs: every Python file of the package (by its path inside it) and the
+    ``plugins`` with the user modules they refer to, by content
+    ([`loaded_plugin_sources`][tableclean_suite.bench.plugins.loaded_plugin_sources]).
 
     Raises:
         tableclean_suite.bench.plugins.PluginError: a plugin cannot be imported.
@@ -42,10 +34,8 @@ def code_digest(plugins: Iterable[str] = ()) -> str:
 
 def task_digest(model) -> str:
     """SHA-256 (hex) of the arrays a learner reads from ``model`` (a
-    [`TaskModel`][tableclean_suite.task.model.TaskModel]), after its rules and any plugin's actions
-    are applied: the transitions (next state and outcome per state and action, ``(S, A)`` int64,
-    terminal states mapping to themselves with outcome TERMINAL, which is how a learner tells them)
-    and the start states' codes.  Reward values are keyed by value beside it."""
+    [`TaskModel`][tableclean_suite.task.model.TaskModel]): the ``(S, A)`` transitions (next state,
+    outcome) and the start states' codes.  Reward values are keyed apart."""
     next_state, outcome = model.transition_arrays()
     starts = np.array([state.index for state in model.start_states()], dtype=np.int64)
     digest = hashlib.sha256()

@@ -27,8 +27,8 @@ def split_plugins(text: str | None) -> tuple[str, ...]:
 
 
 def load_plugin(entry: str):
-    """Import one plugin: a module name, or a ``.py`` file (once per process); [`PluginError`][tableclean_suite.bench.plugins.PluginError]
-    when it is missing, raises or exits."""
+    """Import one plugin: a module name, or a ``.py`` file (once per process);
+    [`PluginError`][tableclean_suite.bench.plugins.PluginError] when it is missing, raises or exits."""
     if entry.endswith(SOURCE_SUFFIX):
         path = Path(entry).resolve()
         try:

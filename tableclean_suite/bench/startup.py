@@ -1,13 +1,6 @@
-"""What a command says while it starts: robosuite's start-up messages kept off the harness's
-output unless asked for, and one notice before numba compiles the package's kernels
-(`announce_compiles`).
-
-When robosuite is imported (by the physics backend, or by anything else that needs MuJoCo) it
-logs warnings about its own installation: no private macro file, no robosuite_models, no mink.
-They say nothing about a benchmark run, so the commands drop them unless ``--verbose``
-(`quiet_robosuite_startup`).  Only records logged while robosuite itself is being imported
-are dropped; its later messages (e.g. about a controller) pass as usual.
-"""
+"""What a command says while it starts: robosuite's start-up warnings dropped unless ``--verbose``
+(`quiet_robosuite_startup`), and one notice before numba compiles the package's kernels
+(`announce_compiles`), during which Ctrl-C ends the process in one line."""
 
 from __future__ import annotations
 
@@ -18,18 +11,15 @@ import threading
 
 import wrapt
 
+from tableclean_suite.bench.cli import EXIT_INTERRUPTED
 from tableclean_suite.robosuite_adapter import (  # noqa: F401  (part of this module's interface)
     ROBOSUITE_LOGGER,
     apply_verbosity,
     quiet_robosuite_startup,
 )
 
-#: Exit status after Ctrl-C (the shell's 128 + SIGINT).
-EXIT_INTERRUPTED = 130
-#: Wall seconds a command spends compiling its kernels when numba's disk cache is empty (measured:
-#: the smallest scaling study, 60-120 s on a busy 2-core machine; the physics commands take longer).
+#: Wall seconds of compiling the kernels with numba's disk cache empty (60-120 s on 2 busy cores).
 COMPILE_SECONDS = 90
-#: The package whose kernels `announce_compiles` announces.
 PACKAGE = "tableclean_suite"
 
 
@@ -37,18 +27,15 @@ _NOTICE = {"installed": False, "said": False, "prog": "tableclean-bench", "depth
 
 
 def _interrupted_while_compiling(_signum, _frame) -> None:
-    """Ctrl-C while numba compiles: one line and exit 130 at once.  Raised inside a compilation,
-    ``KeyboardInterrupt`` can land in one of llvmlite's ctypes callbacks, which prints it as an
-    ignored exception and goes on; nothing is published while a kernel compiles, so there is
-    nothing to finish."""
+    """Ctrl-C while numba compiles: one line and exit 130 at once (raised, ``KeyboardInterrupt`` can land in an
+    llvmlite callback that ignores it; nothing is published while a kernel compiles)."""
     sys.stdout.flush()
     print(f"{_NOTICE['prog']}: interrupted", file=sys.stderr, flush=True)
     os._exit(EXIT_INTERRUPTED)
 
 
 def _compiling(started: bool) -> None:
-    """Count nested compilations; during the outermost, Ctrl-C ends the process in one line (only in
-    the main thread, and not where Ctrl-C is ignored, as in the harness's worker processes)."""
+    """Count nested compilations; during the outermost, Ctrl-C ends the process (main thread, Ctrl-C not ignored)."""
     if threading.current_thread() is not threading.main_thread():
         return
     if started:
@@ -63,10 +50,9 @@ def _compiling(started: bool) -> None:
 
 
 def announce_compiles(prog: str = "tableclean-bench") -> None:
-    """From numba's import on, print one line on stderr before the first of the package's kernels
-    is compiled in this process, and end the process in one line (exit 130, as ``prog``) on Ctrl-C
-    during any compilation.  numba reports a compilation only when its disk cache misses, so
-    the notice appears on a first use (or after an edit) and never when the cache serves."""
+    """From numba's import on, print one line on stderr before the package's first kernel compiles in this
+    process (a disk-cache miss), and end the process in one line (exit 130, as ``prog``) on Ctrl-C during
+    any compilation."""
     _NOTICE["prog"] = prog
 
     def install(_numba) -> None:

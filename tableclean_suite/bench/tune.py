@@ -397,7 +397,8 @@ def run(args) -> int:
         say(f"ablation ({args.learner}, {args.reward}, {args.runs} runs x {args.iterations} iterations, seed "
             f"{args.seed}, greedy ties: {args.ties}):")
         for row in rows:
-            say(f"  alpha, gamma {row['alpha_gamma']:<6} x exploration {row['exploration_from']:<6}: {result_text(row)}")
+            say(f"  alpha, gamma {row['alpha_gamma']:<6} x exploration {row['exploration_from']:<6}: "
+                f"{result_text(row)}")
     say(f"written: {', '.join(str(path) for path in written)}")
     return 0
 
@@ -437,8 +438,9 @@ def ablation(args, tuned: dict) -> list[dict]:
 
 
 def open_study(args):
-    """The study of ``args``, created or resumed and bound to its configuration; [`StudyError`][tableclean_suite.bench.tune.StudyError]
-    when ``--storage`` cannot be opened or the study belongs to another configuration."""
+    """The study of ``args``, created or resumed and bound to its configuration;
+    [`StudyError`][tableclean_suite.bench.tune.StudyError] when ``--storage`` cannot be opened or the study
+    belongs to another configuration."""
     import optuna
 
     try:
