@@ -4,7 +4,7 @@
 ([`stage`][tableclean_suite.physics_backend.stage]), executes actions with the [`SkillController`][tableclean_suite.controllers.skill_controller.SkillController]
 and reads the next state back through the environment's abstraction.
 [`train_physics`][tableclean_suite.physics_backend.train_physics] spreads runs over worker processes, each training its share with
-[`tableclean_suite.learners.reference.train_run`][tableclean_suite.learners.reference.train_run].
+[`tableclean_suite.learners.stepper.train_run`][tableclean_suite.learners.stepper.train_run].
 
 Faults and failures (the policy, documented once here)
 ------------------------------------------------------
@@ -127,7 +127,7 @@ def staging_env_kwargs(model: TaskModel, env_kwargs: dict | None) -> dict:
 
 
 class PhysicsStepEnv:
-    """Skills in MuJoCo as a step environment for [`train_run`][tableclean_suite.learners.reference.train_run].
+    """Skills in MuJoCo as a step environment for [`train_run`][tableclean_suite.learners.stepper.train_run].
 
     ``reset(draw)`` stages the model's start state picked by ``draw`` (a both-unclean layout
     -> the env's ``object_segment``/``arm_segment``); ``step(state, action, draw)`` executes
@@ -260,7 +260,7 @@ def _check_options(options: dict) -> dict:
 def _train_one(env: "PhysicsStepEnv", learner, reward, iterations: int, seed: int, run: int, hyper: dict,
                checkpoint: int, on_step=None) -> tuple[dict, dict]:
     """Train run ``run`` on ``env``, its scene reseeded from the run's key; returns its record and counters."""
-    from tableclean_suite.learners.reference import train_run
+    from tableclean_suite.learners.stepper import train_run
 
     env.stats = _empty_stats()
     env.seed(run_key(seed, run))
@@ -357,7 +357,7 @@ def train_physics(job) -> dict:
         dict with ``rewards`` (R, T) float64, ``outcomes``/``states``/``actions``/``episode_end``
         (R, T), ``q`` (R, S, A) float64, ``checkpoint_q`` with a checkpoint, and ``stats``.
     """
-    from tableclean_suite.learners.reference import CHECKPOINT_Q as RUN_CHECKPOINT_Q
+    from tableclean_suite.learners.stepper import CHECKPOINT_Q as RUN_CHECKPOINT_Q
 
     learner, reward, model, runs, iterations = job.learner, job.reward, job.model, job.runs, job.iterations
     seed, first_run, workers, checkpoint = job.seed, job.first_run, job.workers, job.checkpoint
@@ -467,7 +467,7 @@ class PhysicsBackend:
 
     def train(self, job):
         from tableclean_suite.backends import CHECKPOINT_Q, BackendRecords
-        from tableclean_suite.learners.reference import CHECKPOINT_Q as RUN_CHECKPOINT_Q
+        from tableclean_suite.learners.stepper import CHECKPOINT_Q as RUN_CHECKPOINT_Q
 
         records = train_physics(job)
         stats = records.pop("stats")

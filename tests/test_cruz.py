@@ -17,6 +17,7 @@ from tableclean_suite.learners.assist import (
 from tableclean_suite.learners.rng import LANE_ADVICE, lane_key, run_key
 from tableclean_suite.rewards import get_reward_pattern
 from tableclean_suite.task import Outcome, TaskModel
+from learner_oracle import oracle_train
 
 IMPROPER = int(Outcome.IMPROPER)
 ASSISTED = ("affordance_q_learning", "learned_affordance_q_learning", "interactive_q_learning")
@@ -39,13 +40,13 @@ def within_binomial(count: int, trials: int, probability: float) -> bool:
 @pytest.mark.parametrize("exploration", [None, "softmax", "linear_decay"])
 def test_compiled_loop_equals_plain_loop(name, exploration):
     kwargs = dict(runs=4, iterations=600, seed=5, exploration=exploration)
-    assert same_records(train(name, **kwargs), train(name, engine="reference", **kwargs))
+    assert same_records(train(name, **kwargs), oracle_train(name, **kwargs))
 
 
 def test_combined_assistance_on_sarsa_equals_plain_loop():
     options = {"affordance": "learned", "advice_probability": 0.3, "advice_consistency": 0.4}
     kwargs = dict(runs=4, iterations=600, seed=2, learner_options=options)
-    assert same_records(train("sarsa", **kwargs), train("sarsa", engine="reference", **kwargs))
+    assert same_records(train("sarsa", **kwargs), oracle_train("sarsa", **kwargs))
 
 
 def test_no_assistance_leaves_the_main_lane_unchanged():

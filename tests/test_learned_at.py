@@ -10,6 +10,7 @@ import pytest
 
 from tableclean_suite.learners import train
 from tableclean_suite.task import TaskModel
+from learner_oracle import oracle_train
 
 LEARNED = ("first_learned_at", "learned_at")
 
@@ -104,7 +105,7 @@ def test_learning_times_do_not_depend_on_batching_or_engine(ties):
     tail = train("sarsa", "r3", runs=40, first_run=260, **kwargs)
     for name in LEARNED:
         np.testing.assert_array_equal(getattr(whole, name)[260:], getattr(tail, name))
-    plain = train("sarsa", "r3", runs=4, first_run=260, engine="reference", **kwargs)
+    plain = oracle_train("sarsa", "r3", runs=4, first_run=260, **kwargs)
     for name in (*LEARNED, "actions", "q"):
         np.testing.assert_array_equal(getattr(tail, name)[:4], getattr(plain, name))
 
@@ -146,6 +147,6 @@ def test_the_tie_rule_is_a_learner_option_too():
                                      "interactive_q_learning"])
 def test_random_ties_compiled_equals_plain_loop(learner):
     kwargs = dict(runs=3, iterations=300, seed=9, ties="random", task=TaskModel(start="uniform_unclean"))
-    compiled, plain = train(learner, "r4", **kwargs), train(learner, "r4", engine="reference", **kwargs)
+    compiled, plain = train(learner, "r4", **kwargs), oracle_train(learner, "r4", **kwargs)
     for name in ("rewards", "outcomes", "states", "actions", "episode_end", "q", *LEARNED):
         np.testing.assert_array_equal(getattr(compiled, name), getattr(plain, name), err_msg=name)

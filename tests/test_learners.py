@@ -8,6 +8,7 @@ from tableclean_suite import analysis, metrics
 from tableclean_suite.learners import TabularLearner, TransitionTable, get_learner, register_learner, train
 from tableclean_suite.learners.rules import expected_sarsa_target, q_learning_target, sarsa_target
 from tableclean_suite.task import Action, Outcome, TaskModel
+from learner_oracle import oracle_train
 
 RECORDS = ("rewards", "outcomes", "states", "actions", "episode_end", "q", "first_learned_at", "learned_at")
 ALPHA = GAMMA = 0.3
@@ -64,7 +65,7 @@ def test_sarsa_update_uses_the_next_action_taken():
 @pytest.mark.parametrize("reward", ["r1", "r4"])
 def test_compiled_equals_plain_loop(learner, reward):
     kwargs = dict(runs=3, iterations=400, seed=7)
-    assert same(train(learner, reward, **kwargs), train(learner, reward, engine="reference", **kwargs))
+    assert same(train(learner, reward, **kwargs), oracle_train(learner, reward, **kwargs))
 
 
 def test_compiled_equals_plain_loop_with_random_starts_and_stochastic_table():
@@ -72,7 +73,7 @@ def test_compiled_equals_plain_loop_with_random_starts_and_stochastic_table():
     counts = {(0, int(Action.MOVE)): {(1, int(Outcome.ROUTINE)): 9, (0, int(Outcome.INEFFECTIVE)): 1}}
     table = TransitionTable.from_counts(counts, model)
     kwargs = dict(runs=3, iterations=300, seed=3, task=model, backend="calibrated", transitions=table)
-    assert same(train("q_learning", "r4", **kwargs), train("q_learning", "r4", engine="reference", **kwargs))
+    assert same(train("q_learning", "r4", **kwargs), oracle_train("q_learning", "r4", **kwargs))
 
 
 def test_same_seed_same_arrays_other_seed_differs():
@@ -158,49 +159,32 @@ def test_bad_input_raises_clear_errors(kwargs, message):
         train(**{"runs": 2, "iterations": 10, **kwargs})
 
 
-# -- the compiled loop on threads: run_in_threads over slices of runs, same bits for any count --
-def _records_and_info(result):
-    return [getattr(result, f) for f in RECORDS] + [result.info[k] for k in sorted(result.info)]
-
-
-def _train_with_threads(threads, *args, **kwargs):
+@pytest.mark.parametrize("learner", [
+    "q_learning", pytest.param(TabularLearner("test_threads_greedy_sarsa", sarsa_target, on_policy=False), id="user_learner"),
+])
+def test_compiled_records_have_the_same_bits_for_any_thread_count(learner):
+    """A caller's ``numba.set_num_threads`` never changes the numbers."""
     import numba
 
+    kwargs = dict(runs=300, iterations=300, seed=4, checkpoint=120)
     before = numba.get_num_threads()
     try:
-        numba.set_num_threads(threads)
-        return train(*args, **kwargs)
+        numba.set_num_threads(1)
+        one = train(learner, "r4", **kwargs)
     finally:
         numba.set_num_threads(before)
+    two = train(learner, "r4", **kwargs)
+    assert same(one, two) and np.array_equal(one.info["checkpoint_q"], two.info["checkpoint_q"])
 
 
-@pytest.mark.parametrize("learner,options", [
-    ("q_learning", {}), ("double_q_learning", {}), ("q_lambda", {}), ("dyna_q", {}),
-    ("learned_affordance_q_learning", {}), ("interactive_q_learning", {}),
-    pytest.param(TabularLearner("test_threads_greedy_sarsa", sarsa_target, on_policy=False), {}, id="user_learner"),
-])
-def test_compiled_records_have_the_same_bits_for_any_thread_count(learner, options):
-    import numba
-
-    if numba.config.NUMBA_NUM_THREADS < 2:
-        pytest.skip("numba has one thread here")
-    kwargs = dict(runs=300, iterations=300, seed=4, checkpoint=120, learner_options=options or None)
-    one = _records_and_info(_train_with_threads(1, learner, "r4", **kwargs))
-    two = _records_and_info(_train_with_threads(2, learner, "r4", **kwargs))
-    assert len(one) == len(two) and all(np.array_equal(a, b) for a, b in zip(one, two))
-
-
-def test_runs_split_over_threads_give_the_reference_records():
-    """Not numba's parallel loop (seconds of a first process's compile time): slices of the runs,
-    each trained by the serial ``nogil`` loop, on ``numba.get_num_threads()`` threads.  A run left
-    out of every slice, or a slice trained with another's keys, changes the records."""
-    import numba
-
-    from tableclean_suite.learners import kernel
-
-    if numba.config.NUMBA_NUM_THREADS < 2:
-        pytest.skip("numba has one thread here")
-    assert not kernel.train_batch.targetoptions.get("parallel")
-    runs = 300  # two chunks (256 and 44 runs), each split between the threads
-    threaded = _train_with_threads(2, "sarsa", "r3", runs=runs, iterations=200, seed=5)
-    assert same(threaded, train("sarsa", "r3", runs=runs, iterations=200, seed=5, engine="reference"))
+# -- the stepper (engine="reference", the physics backend's loop) against the compiled loop --
+@pytest.mark.parametrize("learner", ["sarsa", "double_q_learning", "q_lambda", "dyna_q", "interactive_q_learning",
+                                     TabularLearner("test_stepper_greedy_sarsa", sarsa_target, on_policy=False)])
+def test_stepper_gives_the_compiled_records_in_chunks_of_runs(learner):
+    """300 runs are two chunks of the compiled loop (256 and 44); one step at a time from Python
+    gives the same records, checkpoint included."""
+    kwargs = dict(runs=300, iterations=100, seed=5, checkpoint=40)
+    compiled, stepped = train(learner, "r3", **kwargs), train(learner, "r3", engine="reference", **kwargs)
+    assert same(compiled, stepped)
+    assert sorted(compiled.info) == sorted(stepped.info)
+    assert all(np.array_equal(compiled.info[key], stepped.info[key]) for key in compiled.info)

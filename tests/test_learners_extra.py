@@ -40,6 +40,7 @@ from tableclean_suite.learners.rng import (
 )
 from tableclean_suite.learners.rules import METHOD_TRACES, softmax_expected_sarsa_target
 from tableclean_suite.task import Action, Outcome, TaskModel
+from learner_oracle import oracle_train
 
 RECORDS = ("rewards", "outcomes", "states", "actions", "episode_end", "q", "first_learned_at", "learned_at")
 NEW_LEARNERS = ("double_q_learning", "q_lambda", "sarsa_lambda", "dyna_q")
@@ -219,7 +220,7 @@ ONLY_HERE = ("linear_decay", "exponential_decay")
 @pytest.mark.parametrize("learner", ALL_LEARNERS)
 def test_compiled_equals_plain_loop_for_every_learner_and_exploration(learner, exploration, task):
     kwargs = dict(runs=2, iterations=200, seed=7, epsilon=0.3, max_itr=60, task=task, exploration=exploration)
-    compiled, plain = train(learner, "r4", **kwargs), train(learner, "r4", engine="reference", **kwargs)
+    compiled, plain = train(learner, "r4", **kwargs), oracle_train(learner, "r4", **kwargs)
     assert_same(compiled, plain)
     if learner == "double_q_learning":
         np.testing.assert_array_equal(compiled.info["double_q_tables"], plain.info["double_q_tables"])
@@ -232,7 +233,7 @@ def test_compiled_equals_plain_loop_with_options_and_optimistic_start(learner):
     kwargs = dict(runs=2, iterations=300, seed=1, task="three_segments_two_objects", q_init=1.5,
                   learner_options=options, exploration="visit_decay")
     compiled = train(learner, "r1", **kwargs)
-    assert_same(compiled, train(learner, "r1", engine="reference", **kwargs))
+    assert_same(compiled, oracle_train(learner, "r1", **kwargs))
     assert compiled.config["learner_settings"]["q_init"] == 1.5
     assert np.any(compiled.q == 1.5)  # untouched entries keep the optimistic value
 
@@ -300,7 +301,7 @@ def test_expected_sarsa_uses_the_behaviour_policy_of_the_step():
     decayed = train("expected_sarsa", "r2", exploration=LinearDecay(epsilon_min=0.0, horizon=50), **kwargs)
     assert not np.array_equal(constant.q, decayed.q)
     softmax = train("expected_sarsa", "r2", exploration="softmax", **kwargs)
-    plain = train("expected_sarsa", "r2", exploration="softmax", engine="reference", **kwargs)
+    plain = oracle_train("expected_sarsa", "r2", exploration="softmax", **kwargs)
     assert_same(softmax, plain)
 
 

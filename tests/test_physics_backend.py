@@ -164,10 +164,11 @@ class _TableStand(physics_backend.PhysicsStepEnv):
     """The physics step environment's interface on the task model's rules (no MuJoCo)."""
 
     def __init__(self, model=None, **options):
-        from tableclean_suite.learners.reference import ModelStepEnv
+        from tableclean_suite.learners.stepper import TableStepEnv
+        from tableclean_suite.learners.transitions import TransitionTable
 
         self.model = model
-        self.rules = ModelStepEnv(model)
+        self.rules = TableStepEnv(model, TransitionTable.from_model(model))
 
     def seed(self, seed):
         pass
@@ -200,9 +201,11 @@ def test_physics_keeps_the_checkpoint_q_tables(monkeypatch):
     assert np.array_equal(full.info[CHECKPOINT_Q], physics_backend.PHYSICS.train(job(60)).q)
     assert not np.array_equal(full.info[CHECKPOINT_Q], full.q)
     assert CHECKPOINT_Q not in physics_backend.PHYSICS.train(job(90)).info
+    symbolic = train("q_learning", "r4", runs=2, iterations=90, max_itr=40, seed=5, task=MODEL)
+    assert np.array_equal(full.q, symbolic.q) and np.array_equal(full.rewards, symbolic.rewards)
     import json
 
-    from tableclean_suite.learners.reference import CHECKPOINT_Q as RUN_CHECKPOINT_Q
+    from tableclean_suite.learners.stepper import CHECKPOINT_Q as RUN_CHECKPOINT_Q
 
     hyper = tuple(sorted(dict(alpha=0.3, gamma=0.3, epsilon=0.1, max_itr=40).items()))
     task = physics_backend.PhysicsRun(get_learner("q_learning"), get_reward_pattern("r4"),

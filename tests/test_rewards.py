@@ -5,6 +5,7 @@ import pytest
 
 from tableclean_suite.rewards import RewardPattern, get_reward_pattern, register_reward_pattern, reward_pattern_names
 from tableclean_suite.task import Outcome
+from learner_oracle import oracle_train
 
 R, INEFF, REL, IRR, IMP, TERM = (
     Outcome.ROUTINE, Outcome.INEFFECTIVE, Outcome.RELEVANT_CLEAN, Outcome.IRRELEVANT_CLEAN, Outcome.IMPROPER,
@@ -116,7 +117,7 @@ def test_compiled_equals_plain_loop_with_a_longer_looping_memory(learner, memory
     model = TaskModel(spec=TaskSpec("ring_three", segments=3, objects=1))
     kwargs = dict(runs=3, iterations=600, seed=5, task=model)
     fast = train(learner, pattern, **kwargs)
-    plain = train(learner, pattern, engine="reference", **kwargs)
+    plain = oracle_train(learner, pattern, **kwargs)
     for name in ("rewards", "outcomes", "states", "actions", "episode_end", "q"):
         np.testing.assert_array_equal(getattr(fast, name), getattr(plain, name), err_msg=name)
     paper_rule = train(learner, RewardPattern("ring_paper", 1, 1, -0.01, 0.01, -1, looping_penalty=-0.01), **kwargs)

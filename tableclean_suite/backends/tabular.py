@@ -1,10 +1,8 @@
 """Table-driven backends: the task model's transitions (``symbolic``) or measured ones (``calibrated``).
 
 Both step a [`TransitionTable`][tableclean_suite.learners.transitions.TransitionTable], either with the compiled
-batched loop ([`tableclean_suite.learners.kernel`][tableclean_suite.learners.kernel], chunks of runs, each spread over
-``numba.get_num_threads()`` threads of the calling thread by
-[`run_in_threads`][tableclean_suite.learners.threads.run_in_threads]) or the plain per-step loop
-([`tableclean_suite.learners.reference`][tableclean_suite.learners.reference]); the two give identical arrays, for any thread count.
+batched loop ([`tableclean_suite.learners.kernel`][tableclean_suite.learners.kernel], chunks of runs) or one step at a time from Python
+([`stepper`][tableclean_suite.learners.stepper], ``engine="reference"``); the two give identical arrays.
 
 The learner carries its update rule, parameters, initial value (``q_init``), exploration and
 Cruz et al.'s assistance (affordances, advisor; [`TabularLearner`][tableclean_suite.learners.rules.TabularLearner]).
@@ -21,17 +19,14 @@ import numpy as np
 from tableclean_suite import resources
 from tableclean_suite.learners.memory import learner_training_memory
 from tableclean_suite.backends import CHECKPOINT_Q, BackendRecords, TrainingJob
-from tableclean_suite.learners import assist, kernel, optimality, reference
-from tableclean_suite.learners.reference import DOUBLE_Q_TABLES
+from tableclean_suite.learners import assist, kernel, optimality, stepper
+from tableclean_suite.learners.stepper import DOUBLE_Q_TABLES, RECORD_FIELDS
 from tableclean_suite.learners.rng import run_keys
 from tableclean_suite.learners.rules import METHOD_DOUBLE_Q, TIES
-from tableclean_suite.learners.threads import run_in_threads
 from tableclean_suite.learners.transitions import TransitionTable
 
-#: Runs per [`run_in_threads`][tableclean_suite.learners.threads.run_in_threads] call (slices of them trained on the threads); only affects progress
-#: granularity, never the numbers.
+#: Runs per call of the compiled loop; only affects progress granularity and memory, never the numbers.
 RUNS_PER_CHUNK = 256
-RECORD_FIELDS = ("rewards", "outcomes", "states", "actions", "episode_end")
 
 
 def empty_records(runs: int, iterations: int, dtype) -> dict[str, np.ndarray]:
@@ -120,19 +115,14 @@ class TableBackend:
         table = self.table(job)
         config = {"transitions": table.source} if self.measured else {}
         if job.engine == "reference":
-            env = reference.TableStepEnv(job.model, table) if self.measured else reference.ModelStepEnv(job.model)
-            per_run = [
-                reference.train_run(env, job.learner, job.reward, job.iterations, seed=job.seed,
-                                    run=job.first_run + r, checkpoint=job.checkpoint, **job.hyperparameters)
-                for r in progress_bar(range(job.runs), job.progress, "runs")
-            ]
+            env = stepper.TableStepEnv(job.model, table)
+            per_run = [stepper.train_run(env, job.learner, job.reward, job.iterations, seed=job.seed,
+                                         run=job.first_run + r, checkpoint=job.checkpoint, **job.hyperparameters)
+                       for r in progress_bar(range(job.runs), job.progress, "runs")]
             records = {name: np.stack([run[name] for run in per_run])
                        for name in (*RECORD_FIELDS, "q", "first_learned_at", "learned_at")}
-            info = {}
-            if DOUBLE_Q_TABLES in per_run[0]:
-                info[DOUBLE_Q_TABLES] = np.stack([run[DOUBLE_Q_TABLES] for run in per_run])
-            if reference.CHECKPOINT_Q in per_run[0]:
-                info[CHECKPOINT_Q] = np.stack([run[reference.CHECKPOINT_Q] for run in per_run])
+            info = {name: np.stack([run[name] for run in per_run]) for name in (DOUBLE_Q_TABLES, CHECKPOINT_Q)
+                    if name in per_run[0]}
             return BackendRecords(**records, config=config, info=info)
         model = job.model
         learner = job.learner
@@ -156,7 +146,7 @@ class TableBackend:
         q_second_snapshot = np.zeros(q_second.shape if snapshot_at != kernel.NO_SNAPSHOT else (job.runs, 0, 0))
         for lo in progress_bar(range(0, job.runs, RUNS_PER_CHUNK), job.progress, f"{learner.name}/{job.reward.name}"):
             hi = min(lo + RUNS_PER_CHUNK, job.runs)
-            run_in_threads(train_batch, hi - lo, (
+            train_batch(0, hi - lo, *(
                 table.next_state, table.outcome, table.cumulative, starts, values, loop_value, job.reward.looping_code,
                 job.reward.looping_memory,
                 learner.target_code, learner.on_policy, learner.method, learner_parameters, job.alpha, job.gamma,

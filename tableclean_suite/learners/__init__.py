@@ -34,6 +34,8 @@ from tableclean_suite.learners.exploration import (  # noqa: F401
 from tableclean_suite.learners.kernel import code_digest  # noqa: F401
 from tableclean_suite.learners.train import (  # noqa: F401
     BACKENDS,
+    LearnerSettings,
+    RunOptions,
     TrainingResult,
     available_backends,
     train,

@@ -24,8 +24,7 @@ improper action (ties to the first action in the task's order).  Its draws come 
 lane ``LANE_ADVICE`` ([`rng`][tableclean_suite.learners.rng]), counted by the iteration at which the action is taken, so the
 main lane's four streams are unchanged.
 
-The compiled functions here run in [`kernel`][tableclean_suite.learners.kernel]'s loop;
-[`reference`][tableclean_suite.learners.reference] has independent plain-Python twins.
+The compiled functions here run in [`kernel`][tableclean_suite.learners.kernel]'s loop.
 """
 
 from __future__ import annotations

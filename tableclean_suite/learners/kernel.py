@@ -1,21 +1,15 @@
 """The batched, compiled training loop: many independent runs, one step per run per iteration.
 
-Algorithm 1 of the paper with the learner's TD target plugged in, compiled with numba.
-`train_batch` trains a slice of the runs without the GIL; the caller spreads the runs over
-threads ([`threads.run_in_threads`][tableclean_suite.learners.threads.run_in_threads]), the bits
-the same for any thread count (counter-based random numbers per run, [`rng`][tableclean_suite.learners.rng]).
-[`reference`][tableclean_suite.learners.reference] is the same loop in plain Python, giving identical arrays.
-
-The loop (`_train_loop`, written once) picks the built-in TD target, the update rule (one-step,
-double Q, eligibility traces, Dyna planning) and the exploration by integer codes, so numba's disk
-cache serves its compiled copies to every process: `train_batch` (one-step, constant
-epsilon-greedy: the paper's learners) and `train_batch_general`
-([`kernel_for`][tableclean_suite.learners.kernel.kernel_for] picks); a user's target gets its own
-copy per process ([`user_train_batch`][tableclean_suite.learners.kernel.user_train_batch]).
+Algorithm 1 of the paper with the learner's TD target plugged in, compiled with numba.  The loop
+(`_train_loop`, written once) picks the built-in TD target, the update rule (one-step, double Q,
+eligibility traces, Dyna planning) and the exploration by integer codes; its compiled copies are
+`train_batch` (one-step, constant epsilon-greedy: the paper's learners), `train_batch_general`
+and a user target's own ([`kernel_for`][tableclean_suite.learners.kernel.kernel_for] picks).  A
+run's numbers depend only on its key ([`rng`][tableclean_suite.learners.rng]).
+[`stepper`][tableclean_suite.learners.stepper] drives the same pieces one step at a time.
 
 Per-step cost: O(A) for one-step and double-Q updates and for Cruz et al.'s affordances; trace
-learners touch only the pairs with a non-zero trace (the dense sweep's numbers exactly); Dyna-Q
-adds ``planning_steps`` O(A) updates.
+learners touch only the pairs with a non-zero trace; Dyna-Q adds ``planning_steps`` O(A) updates.
 """
 
 from __future__ import annotations
@@ -26,9 +20,6 @@ import types
 
 import numba
 import numpy as np
-from numba.core import cgutils
-from numba.core import types as numba_types
-from numba.extending import intrinsic
 
 from tableclean_suite.learners.assist import (
     AFFORD_LEARNED,
@@ -141,30 +132,6 @@ def memory_adjusted_reward(reward, outcome, next_state, entered, t, episode_star
     if loop_mode == _LOOPING_ADD:
         return reward + loop_value
     return loop_value
-
-
-@intrinsic
-def borrowed(typingctx, array):
-    """``array`` as a view that numba does not reference-count (no meminfo, no parent object).
-
-    numba counts the references to an array's buffer with an atomic add and subtract for every
-    array variable it copies and every view it makes (``qr[nxt]``, an inlined callee's
-    parameters): in `train_batch`'s loop, about 40 % of Q-learning's time.  A view of an array
-    that outlives the view needs no count: `_train_loop` borrows its arguments (held by its
-    caller for the whole call; nothing keeps them after it returns).  numba's parallel loop gave
-    its body such views too, so this keeps the loop as fast without it.  Only for arrays that
-    outlive every use of the view.
-    """
-    if not isinstance(array, numba_types.Array):
-        return None
-
-    def codegen(context, builder, signature, arguments):
-        view = context.make_array(signature.args[0])(context, builder, value=arguments[0])
-        view.meminfo = cgutils.get_null_value(view.meminfo.type)
-        view.parent = cgutils.get_null_value(view.parent.type)
-        return view._getvalue()
-
-    return array(array), codegen
 
 
 # -- behaviour ------------------------------------------------------------------------------
@@ -386,20 +353,11 @@ def _train_loop(
     learned,
 ):
     """Train runs ``lo .. hi - 1`` (indices into the first axis of ``keys``, ``q`` and the outputs)
-    for ``rewards.shape[1]`` iterations, in place.
+    for ``rewards.shape[1]`` iterations, in place, without the GIL.
 
-    Runs without the GIL (``nogil``), one run after the other: the caller trains all ``R`` runs
-    on several threads by calling it on disjoint slices at once
-    (``threads.run_in_threads(train_batch, R, arguments)``), and its other threads (e.g. the
-    harness summarising the last cell while this one trains) go on meanwhile.  A run's numbers
-    depend only on its key, never on the slice or the thread that trains it.  The array
-    arguments must stay alive for the whole call ([`borrowed`][tableclean_suite.learners.kernel.borrowed]).
-
-    This is the Python source of the compiled copies ([`specialised_loop`][tableclean_suite.learners.kernel.specialised_loop]): `train_batch`
-    for one-step learners with constant epsilon-greedy exploration, `train_batch_general` for
-    the other built-in learners, and a user target's own copy ([`user_train_batch`][tableclean_suite.learners.kernel.user_train_batch]); pick one
-    with [`kernel_for`][tableclean_suite.learners.kernel.kernel_for].  A copy compiled for one update rule and exploration raises
-    ``ValueError`` when ``method`` or ``explore_code`` is another.
+    The Python source of the compiled copies ([`specialised_loop`][tableclean_suite.learners.kernel.specialised_loop],
+    [`kernel_for`][tableclean_suite.learners.kernel.kernel_for]); a copy compiled for one update
+    rule and exploration raises ``ValueError`` when ``method`` or ``explore_code`` is another.
 
     Args:
         lo, hi: the runs to train, ``0 <= lo <= hi <= R``.
@@ -442,18 +400,6 @@ def _train_loop(
             greedy policy is optimal and the iteration from which it stays so (-1: never / censored);
             see [`optimality`][tableclean_suite.learners.optimality].
     """
-    # Borrowed views of every array argument (see borrowed): the same arrays without reference counting.
-    next_state_table, outcome_table, cumulative_table = (
-        borrowed(next_state_table), borrowed(outcome_table), borrowed(cumulative_table))
-    starts, outcome_values, learner_parameters = borrowed(starts), borrowed(outcome_values), borrowed(learner_parameters)
-    explore_parameters, afforded, advisor, advice = (
-        borrowed(explore_parameters), borrowed(afforded), borrowed(advisor), borrowed(advice))
-    keys, q, q_second = borrowed(keys), borrowed(q), borrowed(q_second)
-    rewards, outcomes, states, actions, episode_end = (
-        borrowed(rewards), borrowed(outcomes), borrowed(states), borrowed(actions), borrowed(episode_end))
-    q_snapshot, q_second_snapshot = borrowed(q_snapshot), borrowed(q_second_snapshot)
-    task_next, distance = borrowed(task_next), borrowed(distance)
-    first_learned, learned = borrowed(first_learned), borrowed(learned)
     n_iterations = rewards.shape[1]
     n_states, n_actions = q.shape[1], q.shape[2]
     n_starts = starts.shape[0]
@@ -656,10 +602,8 @@ _USER_KERNELS: dict = {}
 def user_train_batch(learner: TabularLearner):
     """The general loop (`_train_loop`) compiled with ``learner.td_target`` in place of the built-in targets.
 
-    The same code object with one global swapped, so the loop is written once (same arguments,
-    runs ``lo .. hi - 1``, ``nogil``: driven by [`threads.run_in_threads`][tableclean_suite.learners.threads.run_in_threads] like the built-in
-    one); compiled on first use in each process (not disk-cached: numba cannot cache a loop that
-    calls a function passed in from outside).
+    The same code object with one global swapped (same arguments); compiled on first use in each
+    process (numba cannot disk-cache a loop that calls a function passed in from outside).
     """
     target = learner.td_target
     if target not in _USER_KERNELS:

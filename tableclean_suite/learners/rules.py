@@ -1,9 +1,8 @@
 """Tabular learners: one temporal-difference target per algorithm, an update rule, and their registry.
 
-Q-learning and SARSA differ only in the target of equation (2) of the paper; the
-shared loop (exploration, episodes, recording) lives in [`kernel`][tableclean_suite.learners.kernel] and
-[`reference`][tableclean_suite.learners.reference].  A learner is data: a name, a compiled target function, whether it
-picks the next action before updating (on-policy, as SARSA does), an *update rule*
+Q-learning and SARSA differ only in the target of equation (2) of the paper; the shared loop
+(exploration, episodes, recording) lives in [`kernel`][tableclean_suite.learners.kernel].  A learner
+is data: a name, a compiled target function, whether it picks the next action before updating (on-policy, as SARSA does), an *update rule*
 (`METHODS`) with its parameters, the initial Q value and the exploration it acts with:
 
 ================== ========================= ===============================================

@@ -1,19 +1,10 @@
-"""The training loop in plain Python, one step at a time (Algorithm 1 as written).
+"""The learners' oracle: the training loop in plain Python, written independently of the compiled
+functions (Algorithm 1 as written), against which the tests check the compiled loop bit for bit.
 
-The package's one per-step learner: the physics backend needs it (its steps are skills executed
-in MuJoCo, which the compiled batched loop, [`kernel`][tableclean_suite.learners.kernel], cannot
-call), ``train(engine="reference")`` runs it on a table, and the tests use it as the compiled
-loop's check: on a table both produce exactly the same arrays (same draws, same arithmetic).  It
-steps any object with ``reset(draw) -> state`` and ``step(state, action, draw) -> (next_state,
-outcome)`` (codes): the task model ([`ModelStepEnv`][tableclean_suite.learners.reference.ModelStepEnv]),
-a measured table ([`TableStepEnv`][tableclean_suite.learners.reference.TableStepEnv]) or skills in physics.
-
-Every learner has its plain twin here (`_Agent`), written independently of the compiled
-functions: double Q's two tables, eligibility traces as the dense S x A sweep of their
-definition, Dyna-Q's planning, each exploration's schedule
-([`parameter_at`][tableclean_suite.learners.exploration.Exploration.parameter_at]), Cruz et al.'s
-affordances and advisor ([`assist`][tableclean_suite.learners.assist]) and the learning times of
-[`optimality`][tableclean_suite.learners.optimality].
+Every learner has its plain twin here (`_Agent`): double Q's two tables, eligibility traces as the
+dense S x A sweep of their definition, Dyna-Q's planning, each exploration's schedule, Cruz et
+al.'s affordances and advisor and the learning times.  [`oracle_train`][learner_oracle.oracle_train]
+is ``train(engine="reference")`` with this loop in place of the package's stepper.
 """
 
 from __future__ import annotations
@@ -60,8 +51,8 @@ from tableclean_suite.learners.rules import (
     METHOD_TRACES,
     TabularLearner,
 )
-from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.rewards import RewardPattern
+from tableclean_suite.learners import stepper, train
 from tableclean_suite.task import Outcome, TaskModel
 
 
@@ -69,31 +60,6 @@ from tableclean_suite.task import Outcome, TaskModel
 DOUBLE_Q_TABLES = "double_q_tables"
 #: Key of a run's Q-table after ``train_run(checkpoint=k)``'s k iterations, ``(S, A)``.
 CHECKPOINT_Q = "checkpoint_q"
-
-
-class ModelStepEnv:
-    """The task model as a step environment ([`TaskModel.step`][tableclean_suite.task.model.TaskModel.step])."""
-
-    def __init__(self, model: TaskModel):
-        self.model = model
-
-    def reset(self, draw: float) -> int:
-        return self.model.sample_start(draw).index
-
-    def step(self, state: int, action: int, draw: float) -> tuple[int, int]:
-        next_state, outcome = self.model.step(state, action)
-        return next_state.index, int(outcome)
-
-
-class TableStepEnv(ModelStepEnv):
-    """A transition table (e.g. calibrated from physics) as a step environment."""
-
-    def __init__(self, model: TaskModel, table: TransitionTable):
-        super().__init__(model)
-        self.table = table
-
-    def step(self, state: int, action: int, draw: float) -> tuple[int, int]:
-        return self.table.sample(state, action, draw)
 
 
 def _tied(q_row, actions: list[int]) -> list[int]:
@@ -411,3 +377,13 @@ def train_run(
     record["first_learned_at"] = np.int64(first_learned)
     record["learned_at"] = np.int64(last_not_optimal + 1 if optimal else NOT_LEARNED)
     return record
+
+
+def oracle_train(learner="q_learning", reward="r4", **kwargs):
+    """``train(learner, reward, engine="reference", **kwargs)`` with this module's `train_run` stepping each run."""
+    original = stepper.train_run
+    stepper.train_run = train_run
+    try:
+        return train(learner, reward, engine="reference", **kwargs)
+    finally:
+        stepper.train_run = original
