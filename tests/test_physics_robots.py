@@ -288,9 +288,9 @@ def test_robot_table_appends_cells_of_other_runs(tmp_path):
 
 
 def test_robot_table_refuses_nothing_to_measure_and_measures_a_repeated_name_once(capsys):
-    from tableclean_suite.bench.robot_table import _names, build_parser, main
+    from tableclean_suite.bench.robot_table import build_parser, main
 
     with pytest.raises(SystemExit) as stop:
         main(["--robots", "Panda", "--tasks", "paper", "--episodes", "0", "--fidelity-trials", "0"])
     assert stop.value.code == 2 and "nothing to measure" in capsys.readouterr().err
-    assert _names(build_parser(), "--robots", "Panda, UR5e,Panda,") == ["Panda", "UR5e"]
+    assert build_parser().parse_args(["--tasks", "paper, three_segments,paper,"]).tasks == ("paper", "three_segments")

@@ -402,14 +402,6 @@ def write_csv(path: Path, table: list[dict]) -> None:
     trial_store.write_rows(path, table, tuple(table[0]) if table else ("empty",))
 
 
-def format_table(table: list[dict], columns: Iterable[str] | None = None) -> str:
-    """A Markdown table of the given columns (default: the first row's keys); a row is a dict or its cells."""
-    columns = list(columns if columns is not None else (table[0] if table else ()))
-    lines = ["| " + " | ".join(columns) + " |", "|" + "|".join("---" for _ in columns) + "|"]
-    cells = [row if isinstance(row, (list, tuple)) else [row[c] for c in columns] for row in table]
-    return "\n".join(lines + ["| " + " | ".join(str(cell) for cell in row) + " |" for row in cells])
-
-
 def lower_bound(successes: int, executions: int, confidence: float = CONFIDENCE) -> float:
     """One-sided exact (Clopper-Pearson) lower bound of a rate, in [0, 1]; 0 failures in ``n`` give
     ``(1 - confidence) ** (1 / n)``, ``executions`` 0 gives 0."""
@@ -533,7 +525,7 @@ def add_execution_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--trials", type=cli.positive_int, default=5,
                         help="trials per (state, action) pair = rounds (default 5)")
     cli.add_seed_argument(parser, "the placement noise")
-    parser.add_argument("--actions", default=None,
+    parser.add_argument("--actions", type=cli.name_list, default=None,
                         help="comma-separated actions to execute (default all of the spec's, e.g. move,pick,place,clean)")
     parser.add_argument("--quiet", action="store_true", help="print only the summary")
     cli.add_executor_arguments(parser, "rounds")  # --workers, --executor, --ray-address
@@ -556,11 +548,8 @@ def parse_task_and_actions(parser: argparse.ArgumentParser, args) -> tuple[TaskM
         parser.error(f"--task: {error}")
     if args.actions is None:
         return model, tuple(model.action_names)
-    names = [part.strip() for part in str(args.actions).split(",") if part.strip()]
-    if not names:
-        parser.error("--actions: expected at least one action")
     try:
-        return model, action_names(model, names)
+        return model, action_names(model, args.actions)
     except ValueError as error:
         parser.error(f"--actions: {error}")
 
@@ -584,6 +573,11 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     return parser
 
 
+def _columns(table: list[dict], columns: str) -> str:
+    """The Markdown table of ``table``'s space-separated ``columns``."""
+    return cli.markdown_table([{column: row[column] for column in columns.split()} for row in table])
+
+
 def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     parser, args = cli.parse_command(build_parser, argv, prog or PROG)
@@ -604,10 +598,10 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         parser.error(str(error))  # exits 2
     if not args.quiet:
         print("\nper (state, action):")
-        print(format_table(pairs, ("state", "action", "expected", "trials", "agreement_rate", "faults", "disagreements_seen")))
+        print(_columns(pairs, "state action expected trials agreement_rate faults disagreements_seen"))
     print("\nper skill (executions the controller ran; refused = improper/ineffective, no motion):")
-    print(format_table(skills, ("skill", "executions", "success_rate", "agreement_rate", "faults", "retries", "saved_by_retry",
-                                "mean_steps", "mean_seconds", "refused")))
+    print(_columns(skills, "skill executions success_rate agreement_rate faults retries saved_by_retry mean_steps "
+                           "mean_seconds refused"))
     print()
     print("\n".join(summary_lines(result, f"{model.spec.name} on {robot}")))
     print(f"CSVs in {out}/ ({time.perf_counter() - started:.0f} s)")

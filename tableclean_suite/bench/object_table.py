@@ -170,7 +170,8 @@ def markdown(rows: list[dict]) -> str:
                            f"{percent_down(lower_bound(success, n))} / {percent_down(lower_bound(agree, n))}")
         lines.append((kind, setting, first.get("partner") or "-",
                       f"{first['episode_successes']}/{first['episodes']}", *entries))
-    return fidelity.format_table(lines, ("object", "setting", "partner", "successful episodes", *skills))
+    return cli.markdown_table([dict(zip(("object", "setting", "partner", "successful episodes", *skills), line))
+                               for line in lines])
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
@@ -233,8 +234,8 @@ def random_table(args, rows: list[dict], table: Path, started: float, log=print)
     trial_store.write_rows(table.parent / FAILURES_CSV, failures, FAILURE_COLUMNS)
     classes = Counter((f["skill"], f["phase"], f["cause"]) for f in failures)
     print()
-    print(fidelity.format_table([(*key, n) for key, n in classes.most_common()] or [("-", "-", "no failure", 0)],
-                                ("skill", "phase", "cause", "failures")))
+    counted = [(*key, n) for key, n in classes.most_common()] or [("-", "-", "no failure", 0)]
+    print(cli.markdown_table([dict(zip(("skill", "phase", "cause", "failures"), row)) for row in counted]))
     return total, measured, refused
 
 

@@ -30,7 +30,6 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import cli, fidelity, trial_store  # noqa: E402
 from tableclean_suite.bench.cli import non_negative_int  # noqa: E402
-from tableclean_suite.bench.run import split_list  # noqa: E402
 
 #: Default arms: the Panda and the three others with shipped skill configs.
 DEFAULT_ROBOTS = ("Panda", "Sawyer", "UR5e", "Kinova3")
@@ -160,15 +159,8 @@ def markdown(rows: list[dict]) -> str:
         lines.append((row["robot"], row["gripper"] or "-", row["task"], row["dynamics"], *fid,
                       f"{number['fidelity_faults']:.0f}" if "fidelity_faults" in number else "-", *eps,
                       f"{number['seconds_per_episode']:.2f}" if "seconds_per_episode" in number else "-"))
-    return fidelity.format_table(lines, MARKDOWN_COLUMNS)
-
-
-def _names(parser, flag: str, text: str) -> list[str]:
-    """The comma-separated names of ``text``, in order, each once; exits 2 when there is none."""
-    names = list(dict.fromkeys(split_list(text)))
-    if not names:
-        parser.error(f"{flag}: expected at least one name, got {text!r}")
-    return names
+    header = ["| " + " | ".join(MARKDOWN_COLUMNS) + " |", "|" + "---|" * len(MARKDOWN_COLUMNS)]
+    return "\n".join(header + ["| " + " | ".join(cells) + " |" for cells in lines])
 
 
 #: The program name in messages unless the caller gives one.
@@ -179,10 +171,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the table's own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     cli.add_robots_argument(parser, many=True, default=",".join(DEFAULT_ROBOTS))
-    parser.add_argument("--grippers", default=DEFAULT_GRIPPER, metavar="NAME,...",
+    parser.add_argument("--grippers", type=cli.name_list, default=DEFAULT_GRIPPER, metavar="NAME,...",
                         help="comma-separated robosuite grippers every robot is measured with (gripper_types; "
                              f"'{DEFAULT_GRIPPER}': the one its config mounts; default {DEFAULT_GRIPPER})")
-    parser.add_argument("--tasks", default=",".join(DEFAULT_TASKS),
+    parser.add_argument("--tasks", type=cli.name_list, default=",".join(DEFAULT_TASKS),
                         help=f"comma-separated task specs (default {','.join(DEFAULT_TASKS)})")
     parser.add_argument("--episodes", type=non_negative_int, default=30,
                         help="optimal-plan episodes from random layouts per cell (default 30; 0 skips)")
@@ -209,7 +201,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
 
     robots = cli.parse_robots(parser, args)  # every name checked before anything runs
     models = {}
-    for task in _names(parser, "--tasks", args.tasks):
+    for task in args.tasks:
         try:
             models[task] = TaskModel(spec=get_task_spec(task))
             check_physical_task(models[task])
@@ -217,7 +209,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
             parser.error(f"--tasks: {error}")
     grippers = {}  # (robot, --grippers entry) -> robosuite's name
     for robot in robots:
-        for gripper in _names(parser, "--grippers", args.grippers):
+        for gripper in args.grippers:
             try:
                 grippers[robot, gripper] = gripper_name(robot, gripper)
             except ValueError as error:
