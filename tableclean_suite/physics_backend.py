@@ -3,7 +3,7 @@
 [`PhysicsStepEnv`][tableclean_suite.physics_backend.PhysicsStepEnv] puts the ``TableClean`` robosuite scene into a task state
 ([`stage`][tableclean_suite.physics_backend.stage]), executes actions with the [`SkillController`][tableclean_suite.controllers.skill_controller.SkillController]
 and reads the next state back through the environment's abstraction.
-[`train_physics`][tableclean_suite.physics_backend.train_physics] spreads runs over worker processes, each training its share with
+[`PhysicsBackend.train`][tableclean_suite.physics_backend.PhysicsBackend.train] spreads runs over worker processes, each training its share with
 [`tableclean_suite.learners.stepper.train_run`][tableclean_suite.learners.stepper.train_run].
 
 Faults and failures (the policy, documented once here)
@@ -19,7 +19,7 @@ Faults and failures (the policy, documented once here)
   faults, [`PhysicsFaultError`][tableclean_suite.physics_backend.PhysicsFaultError] is raised (``fault_policy="raise"`` raises at the first
   fault).  The learner therefore only ever sees physically observed task states.
 
-The counters of a [`train_physics`][tableclean_suite.physics_backend.train_physics] call (summed over runs) come back under the key ``"stats"``
+The counters of a physics training (summed over runs) come back under the key ``"stats"``
 (``TrainingResult.info["physics"]`` when called through ``train``): ``steps`` (learner
 iterations), ``executions`` (skill executions incl. retries), ``skill_failures``, ``faults``,
 ``fault_reasons`` (dict), ``restages``, ``control_steps``, ``wall_time`` (seconds spent in
@@ -281,10 +281,10 @@ class PhysicsRun:
         learner, reward: the configured `TabularLearner` and `RewardPattern` (picklable).
         spec: the task spec as JSON text (``TaskSpec.to_dict()``).
         index: the run's index in this call (0-based); its random key is ``(seed, first_run + index)``.
-        iterations, seed, first_run: as [`train_physics`][tableclean_suite.physics_backend.train_physics].
+        iterations, seed, first_run: as in the [TrainingJob][tableclean_suite.backends.TrainingJob].
         options: the ``PhysicsStepEnv`` options (``physics_options``) as sorted items.
         hyper: ``alpha, gamma, epsilon, max_itr`` as sorted items.
-        checkpoint: also keep the Q-table after this many iterations (0: none), as [`train_physics`][tableclean_suite.physics_backend.train_physics].
+        checkpoint: also keep the Q-table after this many iterations (0: none).
     """
 
     learner: object
@@ -340,79 +340,6 @@ def run_physics_task(task: PhysicsRun):
     return task.index, record, stats
 
 
-def train_physics(job) -> dict:
-    """Train ``job.runs`` runs with skills in physics; the records [`train`][tableclean_suite.learners.train] expects.
-
-    ``job`` is a [TrainingJob][tableclean_suite.backends.TrainingJob]; its ``options`` hold the checked
-    ``physics_options``.
-
-    Run ``i`` uses the run key ``(seed, first_run + i)`` and a scene seeded from it, whichever
-    worker trains it.  ``job.workers`` (default ``os.cpu_count()``, at most ``runs``): with one,
-    everything runs here; else each run is a [`PhysicsRun`][tableclean_suite.physics_backend.PhysicsRun]
-    task of ``job.executor`` (default ``LocalExecutor(workers)``: spawned processes, so a script needs
-    the ``if __name__ == "__main__":`` guard).  ``checkpoint`` in [1, iterations] also keeps each
-    run's Q-table then (0: none).
-
-    Returns:
-        dict with ``rewards`` (R, T) float64, ``outcomes``/``states``/``actions``/``episode_end``
-        (R, T), ``q`` (R, S, A) float64, ``checkpoint_q`` with a checkpoint, and ``stats``.
-    """
-    from tableclean_suite.learners.stepper import CHECKPOINT_Q as RUN_CHECKPOINT_Q
-
-    learner, reward, model, runs, iterations = job.learner, job.reward, job.model, job.runs, job.iterations
-    seed, first_run, workers, checkpoint = job.seed, job.first_run, job.workers, job.checkpoint
-    options = _check_options(job.options.get("physics_options") or {})
-    if workers is None:
-        workers = os.cpu_count() or 1
-    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
-        raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
-    workers = min(int(workers), runs)
-    hyper = job.hyperparameters
-    bar = None
-    if job.progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=runs * iterations, desc=f"{learner.name}/{reward.name} physics", leave=False)
-
-    executor = job.executor
-    results = []  # (index, record, stats) of each run
-    if workers == 1 and executor is None:
-        on_step = None if bar is None else (lambda t: bar.update(1))
-        env = PhysicsStepEnv(model, **options)
-        try:
-            for i in range(runs):
-                results.append((i, *_train_one(env, learner, reward, iterations, seed, first_run + i, hyper,
-                                               checkpoint, on_step)))
-        finally:
-            env.close()
-    else:
-        import json
-
-        from tableclean_suite.executors import LocalExecutor
-
-        spec = json.dumps(model.spec.to_dict(), sort_keys=True)
-        tasks = [PhysicsRun(learner, reward, spec, i, iterations, seed, first_run, tuple(sorted(options.items())),
-                            tuple(sorted(hyper.items())), checkpoint) for i in range(runs)]
-        # a caller's executor stays open for the caller's next call (map starts what it needs)
-        owned = LocalExecutor(workers=workers) if executor is None else contextlib.nullcontext(executor)
-        with owned as running:
-            for result in running.map(run_physics_task, tasks):
-                results.append(result)
-                if bar is not None:
-                    bar.update(iterations)
-    if bar is not None:
-        bar.close()
-
-    ordered = [record for _, record, _ in sorted(results, key=lambda result: result[0])]
-    names = ("outcomes", "states", "actions", "episode_end", "rewards", "q", "first_learned_at", "learned_at")
-    records = {name: np.stack([record[name] for record in ordered])
-               for name in names + ((RUN_CHECKPOINT_Q,) if checkpoint else ())}
-    stats = merge_stats(run_stats for _, _, run_stats in results)
-    stats["workers"] = workers
-    records["stats"] = stats
-    return records
-
-
 def check_physical_task(model: TaskModel, task_config: dict | None = None) -> None:
     """Raise ``ValueError`` when the ``TableClean`` scene cannot build and run ``model``'s spec: up to
     [`max_segments`][tableclean_suite.environments.config.max_segments] segments, objects of registered
@@ -466,14 +393,63 @@ class PhysicsBackend:
         return {"physics_options": _check_options(options.get("physics_options") or {})}
 
     def train(self, job):
-        from tableclean_suite.backends import CHECKPOINT_Q, BackendRecords
-        from tableclean_suite.learners.stepper import CHECKPOINT_Q as RUN_CHECKPOINT_Q
+        """Train ``job.runs`` runs with skills in physics (a [TrainingJob][tableclean_suite.backends.TrainingJob]).
 
-        records = train_physics(job)
-        stats = records.pop("stats")
+        Run ``i`` uses the run key ``(seed, first_run + i)`` and a scene seeded from it, whichever
+        worker trains it.  ``job.workers`` (default ``os.cpu_count()``, at most ``runs``): with one,
+        everything runs here; else each run is a [`PhysicsRun`][tableclean_suite.physics_backend.PhysicsRun]
+        task of ``job.executor`` (default ``LocalExecutor(workers)``: spawned processes, so a script
+        needs the ``if __name__ == "__main__":`` guard).  The counters go to ``info["physics"]``.
+        """
+        from tableclean_suite.backends import CHECKPOINT_Q, BackendRecords
+
+        learner, reward, runs, iterations = job.learner, job.reward, job.runs, job.iterations
+        options = _check_options(job.options.get("physics_options") or {})
+        workers = (os.cpu_count() or 1) if job.workers is None else job.workers
+        if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+            raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+        workers = min(int(workers), runs)
+        bar = None
+        if job.progress:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=runs * iterations, desc=f"{learner.name}/{reward.name} physics", leave=False)
+        results = []  # (index, record, stats) of each run
+        if workers == 1 and job.executor is None:
+            env = PhysicsStepEnv(job.model, **options)
+            try:
+                for i in range(runs):
+                    results.append((i, *_train_one(env, learner, reward, iterations, job.seed, job.first_run + i,
+                                                   job.hyperparameters, job.checkpoint,
+                                                   None if bar is None else (lambda t: bar.update(1)))))
+            finally:
+                env.close()
+        else:
+            import json
+
+            from tableclean_suite.executors import LocalExecutor
+
+            spec = json.dumps(job.model.spec.to_dict(), sort_keys=True)
+            tasks = [PhysicsRun(learner, reward, spec, i, iterations, job.seed, job.first_run,
+                                tuple(sorted(options.items())), tuple(sorted(job.hyperparameters.items())),
+                                job.checkpoint) for i in range(runs)]
+            # a caller's executor stays open for the caller's next call (map starts what it needs)
+            owned = LocalExecutor(workers=workers) if job.executor is None else contextlib.nullcontext(job.executor)
+            with owned as running:
+                for result in running.map(run_physics_task, tasks):
+                    results.append(result)
+                    if bar is not None:
+                        bar.update(iterations)
+        if bar is not None:
+            bar.close()
+        ordered = [record for _, record, _ in sorted(results, key=lambda result: result[0])]
+        names = ("outcomes", "states", "actions", "episode_end", "rewards", "q", "first_learned_at", "learned_at")
+        records = {name: np.stack([record[name] for record in ordered]) for name in names}
+        stats = merge_stats(run_stats for _, _, run_stats in results)
+        stats["workers"] = workers
         info = {"physics": stats}
-        if RUN_CHECKPOINT_Q in records:
-            info[CHECKPOINT_Q] = records.pop(RUN_CHECKPOINT_Q)
+        if job.checkpoint:
+            info[CHECKPOINT_Q] = np.stack([record[CHECKPOINT_Q] for record in ordered])
         return BackendRecords(**records, info=info)
 
 

@@ -40,8 +40,6 @@ from tableclean_suite.learners.rng import (
     STREAM_TRANSITION,
     lane_key_py,
     run_key,
-    uniform_at_py,
-    uniform_py,
 )
 from tableclean_suite.learners.rules import (
     EXPECTED_SARSA_TARGET,
@@ -54,6 +52,22 @@ from tableclean_suite.learners.rules import (
 from tableclean_suite.rewards import RewardPattern
 from tableclean_suite.learners import stepper, train
 from tableclean_suite.task import Outcome, TaskModel
+
+
+_MASK64, _GOLDEN, _MIX1, _MIX2 = (1 << 64) - 1, 0x9E3779B97F4A7C15, 0xBF58476D1CE4E5B9, 0x94D049BB133111EB
+
+
+def uniform_at_py(key: int, counter: int) -> float:
+    """SplitMix64's uniform draw in [0, 1) at ``counter`` of ``key``, in plain integers (the rng's definition)."""
+    z = (key + (counter & _MASK64) * _GOLDEN + _GOLDEN) & _MASK64
+    z = ((z ^ (z >> 30)) * _MIX1) & _MASK64
+    z = ((z ^ (z >> 27)) * _MIX2) & _MASK64
+    return ((z ^ (z >> 31)) >> 11) * 2.0**-53
+
+
+def uniform_py(key: int, iteration: int, stream: int) -> float:
+    """The main-lane draw of ``stream`` at ``iteration`` (four streams per iteration)."""
+    return uniform_at_py(key, iteration * 4 + stream)
 
 
 #: Key of double Q-learning's two tables in a record / ``TrainingResult.info``: ``(..., 2, S, A)``.

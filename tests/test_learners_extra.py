@@ -35,12 +35,10 @@ from tableclean_suite.learners.rng import (
     STREAM_RANDOM_ACTION,
     lane_key_py,
     run_key,
-    uniform_at_py,
-    uniform_py,
 )
 from tableclean_suite.learners.rules import METHOD_TRACES, softmax_expected_sarsa_target
 from tableclean_suite.task import Action, Outcome, TaskModel
-from learner_oracle import oracle_train
+from learner_oracle import oracle_train, uniform_at_py, uniform_py
 
 RECORDS = ("rewards", "outcomes", "states", "actions", "episode_end", "q", "first_learned_at", "learned_at")
 NEW_LEARNERS = ("double_q_learning", "q_lambda", "sarsa_lambda", "dyna_q")

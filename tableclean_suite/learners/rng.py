@@ -1,10 +1,8 @@
-"""Counter-based random numbers shared by the compiled and the plain-Python learners.
+"""Counter-based random numbers of the learners.
 
 Every draw is a pure function of ``(seed, run, iteration, stream)``: SplitMix64
 (Steele et al., 2014) indexed by ``iteration * N_STREAMS + stream`` from a per-run
-key.  So results do not depend on how runs are batched, split over threads or
-processes, or whether the compiled or the plain loop draws them: same seed,
-same numbers, bit for bit.
+key, so results do not depend on how runs are batched or spread over processes.
 
 The four streams of the *main lane* (the run key itself) and their counter layout are
 fixed: they produce the paper's numbers.  Draws that only some learners need come from
@@ -79,17 +77,6 @@ def run_keys(seed: int, first_run: int, runs: int) -> np.ndarray:
     return np.array([run_key(seed, first_run + r) for r in range(runs)], dtype=np.uint64)
 
 
-def uniform_py(key: int, iteration: int, stream: int) -> float:
-    """A uniform draw in [0, 1) (plain Python)."""
-    return uniform_at_py(key, iteration * N_STREAMS + stream)
-
-
-def uniform_at_py(key: int, counter: int) -> float:
-    """The uniform draw in [0, 1) at a raw ``counter`` (>= 0) of ``key`` (plain Python)."""
-    z = _mix_py((key + (counter & _MASK64) * _GOLDEN) & _MASK64)
-    return (z >> 11) * _TO_UNIT
-
-
 def lane_key_py(key: int, lane: int) -> int:
     """The key of side lane ``lane`` (>= 1) of the run key ``key`` (plain Python)."""
     return _mix_py((key ^ ((lane * LANE_SALT) & _MASK64)) & _MASK64)
@@ -107,7 +94,7 @@ _SALT = np.uint64(LANE_SALT)
 
 @numba.njit(cache=True, inline="always")
 def uniform(key, iteration, stream):
-    """A uniform draw in [0, 1) (compiled); identical to [`uniform_py`][tableclean_suite.learners.rng.uniform_py]."""
+    """A uniform draw in [0, 1) of ``key`` (uint64) at ``iteration`` on ``stream``."""
     return uniform_at(key, np.uint64(iteration) * _NS + np.uint64(stream))
 
 
@@ -122,11 +109,11 @@ def _mix(z):
 
 @numba.njit(cache=True, inline="always")
 def uniform_at(key, counter):
-    """The uniform draw in [0, 1) at a raw ``counter`` of ``key`` (compiled); identical to [`uniform_at_py`][tableclean_suite.learners.rng.uniform_at_py]."""
+    """The uniform draw in [0, 1) at a raw ``counter`` (>= 0) of ``key`` (uint64)."""
     return np.float64(_mix(key + np.uint64(counter) * _G) >> _S11) * _TO_UNIT
 
 
 @numba.njit(cache=True, inline="always")
 def lane_key(key, lane):
-    """The key of side lane ``lane`` (>= 1) of the run key ``key`` (compiled); identical to [`lane_key_py`][tableclean_suite.learners.rng.lane_key_py]."""
+    """The key of side lane ``lane`` (>= 1) of the run key ``key``; equal to [`lane_key_py`][tableclean_suite.learners.rng.lane_key_py]'s."""
     return _mix(key ^ (np.uint64(lane) * _SALT))
