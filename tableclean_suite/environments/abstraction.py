@@ -89,8 +89,8 @@ def check_stability(obs: Mapping, config: Mapping | None = None) -> None:
     if "qvel" in obs and len(obs["qvel"]):
         speed = float(np.max(np.abs(obs["qvel"])))
         if speed > config["max_stable_speed"]:
-            raise AbstractionError(Fault.UNSTABLE,
-                                   f"simulation speed {speed:.1f} exceeds max_stable_speed {config['max_stable_speed']}")
+            raise AbstractionError(Fault.UNSTABLE, f"simulation speed {speed:.1f} exceeds max_stable_speed "
+                                                   f"{config['max_stable_speed']}")
 
 
 def segments_clean(dirt_fraction, config: Mapping | None = None) -> np.ndarray:

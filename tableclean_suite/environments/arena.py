@@ -78,7 +78,8 @@ class TableCleanArena(TableArena):
         super().__init__(table_full_size=table_full_size, table_friction=table_friction, table_offset=table_offset)
         table = np.asarray(table_offset, dtype=float)
         self.set_camera(TABLEVIEW_CAMERA, pos=table + np.asarray(TABLEVIEW_EYE),
-                        quat=look_at_quat(TABLEVIEW_EYE, TABLEVIEW_TARGET), camera_attribs={"fovy": str(TABLEVIEW_FOVY)})
+                        quat=look_at_quat(TABLEVIEW_EYE, TABLEVIEW_TARGET),
+                        camera_attribs={"fovy": str(TABLEVIEW_FOVY)})
 
     @property
     def marker_names(self) -> list[str]:

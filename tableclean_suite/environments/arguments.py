@@ -30,7 +30,7 @@ FROM_SPEC = _LayoutDefault.FROM_SPEC
 
 
 class StartLayout(NamedTuple):
-    """Where the following resets start (what ``TableClean.set_start`` stores), 0-based (``None``: drawn at each reset)."""
+    """Where the following resets start (what ``TableClean.set_start`` stores), 0-based (None: drawn at each reset)."""
 
     object_segment: int | None  #: the segment every object starts on, or None (drawn, or objects apart)
     object_segments: tuple[int | None, ...]  #: (M,) each object's segment

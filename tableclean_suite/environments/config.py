@@ -145,7 +145,8 @@ def _validate(config: dict) -> None:
     arrays = {key: _numbers(key, config[key], shape) for key, shape in _SHAPES.items()}
     for key in _POSITIVE_KEYS:
         if not np.all(arrays[key] > 0):
-            _refuse(key, config[key], "a positive number" if _SHAPES[key] is None else f"{_SHAPES[key]} positive numbers")
+            shape = _SHAPES[key]
+            _refuse(key, config[key], "a positive number" if shape is None else f"{shape} positive numbers")
     for key in _NON_NEGATIVE_KEYS:
         if not np.all(arrays[key] >= 0):
             _refuse(key, config[key], ("a number" if _SHAPES[key] is None else f"{_SHAPES[key]} numbers") + " >= 0")

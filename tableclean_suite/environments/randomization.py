@@ -140,8 +140,8 @@ class DynamicsRandomization:
             object.__setattr__(self, name, (low, high))
         for name, largest in NOISE_FIELDS.items():
             value = getattr(self, name)
-            number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
-            if not (number and 0.0 <= float(value) <= largest):
+            number = isinstance(value, (int, float, np.integer, np.floating))
+            if not (number and not isinstance(value, (bool, np.bool_)) and 0.0 <= float(value) <= largest):
                 raise ValueError(f"randomization {name} must be a half-width in [0, {largest:.4g}], got {value!r}")
             object.__setattr__(self, name, float(value))
 

@@ -1,5 +1,6 @@
-"""The robot registry (a leaf module): robot name -> [RobotSkillConfig][tableclean_suite.environments.robot_registry.RobotSkillConfig],
-what the skills and the scene do differently per arm (skill and OSC overrides, gripper, base position).
+"""The robot registry (a leaf module): robot name ->
+[RobotSkillConfig][tableclean_suite.environments.robot_registry.RobotSkillConfig], what the skills and the scene do
+differently per arm (skill and OSC overrides, gripper, base position).
 
 The skill controller merges [`skill_overrides`][tableclean_suite.environments.robot_registry.skill_overrides] under the caller's
 ``skill_configs``, the controller config merges [`osc_overrides`][tableclean_suite.environments.robot_registry.osc_overrides], and the scene and

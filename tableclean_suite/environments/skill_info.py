@@ -35,7 +35,7 @@ class SkillInfo(dict):
     def create(cls, values: Mapping[str, Any], owner: Any, lazy: Mapping[str, Filler],
                clock: Callable[[], Any], stamp: Any = None) -> "SkillInfo":
         """A mapping of ``values`` (copied shallowly) plus ``lazy``'s keys (each filled by ``lazy[key](owner, info)``),
-        valid while ``clock()`` (a comparable stamp of the simulation state) returns ``stamp`` (None: ``clock()`` now)."""
+        valid while ``clock()`` (a comparable stamp of the simulation state) returns ``stamp`` (None: now)."""
         info = cls(values)
         info._owner, info._lazy, info._clock, info._stamp = owner, lazy, clock, clock() if stamp is None else stamp
         return info

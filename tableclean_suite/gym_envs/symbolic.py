@@ -113,10 +113,9 @@ class TableCleanBase(gym.Env):
 
     def render(self):
         if self.render_mode is None:
-            gym.logger.warn(
-                "You are calling render method without specifying any render mode. "
-                f'You can specify the render_mode at initialization, e.g. gym.make("{self.spec.id if self.spec else type(self).__name__}", render_mode="ansi")'
-            )
+            name = self.spec.id if self.spec else type(self).__name__
+            gym.logger.warn("You are calling render method without specifying any render mode. You can specify the "
+                            f'render_mode at initialization, e.g. gym.make("{name}", render_mode="ansi")')
             return None
         if self.s == _NO_STATE:
             raise RuntimeError("call reset() before render()")
