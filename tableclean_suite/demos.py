@@ -194,10 +194,9 @@ class EpisodeRecorder:
                                "control steps: a control path bypassed the recorder")
         env = self.env
         final_state = np.array(env.sim.get_state().flatten())
-        all_states = self.states + [final_state]
         observations: dict[str, list] = {}
         codes, success = [], []
-        for index, state in enumerate(all_states):
+        for index, state in enumerate(self.states + [final_state]):
             env.sim.set_state_from_flattened(state)
             env.sim.forward()
             obs = fresh_observations(env)
@@ -211,30 +210,21 @@ class EpisodeRecorder:
             success.append(bool(env._check_success()) if index > 0 else False)
         n = len(self.actions)
         stacked = {key: np.stack(values) for key, values in observations.items()}
-        dones = (np.arange(n) == n - 1).astype(np.int64)
-        demo_attrs = dict(attrs or {})
-        demo_attrs.update(
-            plan=list(self.plan),
-            final_symbolic_state=int(codes[-1]),
-            success=bool(success[-1]) and codes[-1] != NO_TASK_STATE and env.task_model.decode(codes[-1]).is_terminal,
-            model_file=env.sim.model.get_xml(),
-            ep_meta=jsonable(env.get_ep_meta()),
-        )
-        state_dim = final_state.shape[0]
+        terminal = codes[-1] != NO_TASK_STATE and env.task_model.decode(codes[-1]).is_terminal
+        demo_attrs = {**(attrs or {}), "plan": list(self.plan), "final_symbolic_state": int(codes[-1]),
+                      "success": bool(success[-1]) and terminal, "model_file": env.sim.model.get_xml(),
+                      "ep_meta": jsonable(env.get_ep_meta())}
         return Demo(
-            states=np.array(self.states, dtype=float).reshape(n, state_dim),
+            states=np.array(self.states, dtype=float).reshape(n, final_state.shape[0]),
             actions=np.array(self.actions, dtype=float).reshape(n, ACTION_DIM),
-            rewards=np.array(success[1:], dtype=float),
-            dones=dones,
+            rewards=np.array(success[1:], dtype=float), dones=(np.arange(n) == n - 1).astype(np.int64),
             obs={key: value[:-1] for key, value in stacked.items()},
             next_obs={key: value[1:] for key, value in stacked.items()},
             symbolic_states=np.array(codes[:-1], dtype=np.int64),
             skill_index=np.array(self.skill_index, dtype=np.int64),
             skill_action=np.array(self.skill_action, dtype=np.int64),
-            skill_bounds=np.array(self.bounds, dtype=np.int64).reshape(-1, 2),
-            final_state=final_state,
-            attrs=demo_attrs,
-        )
+            skill_bounds=np.array(self.bounds, dtype=np.int64).reshape(-1, 2), final_state=final_state,
+            attrs=demo_attrs)
 
 
 def recording_controller(env, model, recorder: EpisodeRecorder):
@@ -285,26 +275,23 @@ def write_dataset(path, demos: Sequence[Demo], env_args: dict, attrs: dict | Non
             raise ValueError(f"demo {index}: {error}") from None
     keys = [f"demo_{k}" for k in range(len(demos))]
     train, valid = split_keys(keys, valid_fraction, seed)
-    env_info = {"env_name": env_args["env_name"]}
-    env_info.update({k: env_args["env_kwargs"][k] for k in ("robots", "controller_configs", "task", "task_config")})
+    env_info = {"env_name": env_args["env_name"],
+                **{k: env_args["env_kwargs"][k] for k in ("robots", "controller_configs", "task", "task_config")}}
 
     def write(temporary: Path) -> None:
         with h5py.File(temporary, "w") as f:
             data = f.create_group("data")
-            data.attrs["env_args"] = json.dumps(env_args)
-            data.attrs["env"] = env_args["env_name"]
-            data.attrs["env_info"] = json.dumps(env_info)
-            data.attrs["total"] = int(sum(d.num_samples for d in demos))
-            data.attrs["date"] = datetime.datetime.now().isoformat(timespec="seconds")
-            data.attrs["repository_version"] = robosuite.__version__
-            data.attrs["tableclean_version"] = getattr(tableclean_suite, "__version__", "")
-            for name, value in (attrs or {}).items():
-                data.attrs[name] = _attr_value(value)
+            data.attrs.update({
+                "env_args": json.dumps(env_args), "env": env_args["env_name"], "env_info": json.dumps(env_info),
+                "total": int(sum(d.num_samples for d in demos)),
+                "date": datetime.datetime.now().isoformat(timespec="seconds"),
+                "repository_version": robosuite.__version__,
+                "tableclean_version": getattr(tableclean_suite, "__version__", ""),
+                **{name: _attr_value(value) for name, value in (attrs or {}).items()}})
             for key, demo in zip(keys, demos):
                 group = data.create_group(key)
                 group.attrs["num_samples"] = demo.num_samples
-                for name, value in demo.attrs.items():
-                    group.attrs[name] = _attr_value(value)
+                group.attrs.update({name: _attr_value(value) for name, value in demo.attrs.items()})
                 for name in PER_SAMPLE_DATASETS + ("skill_bounds", "final_state"):
                     group.create_dataset(name, data=getattr(demo, name))
                 for obs_group in ("obs", "next_obs"):
@@ -367,6 +354,6 @@ def read_demo(path, key: str = "demo_0") -> Demo:
 
 __all__ = [
     "ACTION_DIM", "Demo", "ENV_NAME", "EpisodeRecorder", "NO_TASK_STATE", "OBS_KEYS", "ROBOSUITE_ENV_TYPE",
-    "VALID_FRACTION", "demo_keys", "env_args_of",
-    "make_env_from_args", "read_demo", "read_env_args", "recording_controller", "split_keys", "write_dataset",
+    "VALID_FRACTION", "demo_keys", "env_args_of", "make_env_from_args", "read_demo", "read_env_args",
+    "recording_controller", "split_keys", "write_dataset",
 ]

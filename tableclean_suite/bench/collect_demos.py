@@ -281,15 +281,10 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
 def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code (see the module doc)."""
     parser, args = cli.parse_command(build_parser, argv, prog or PROG)
+    from tableclean_suite.bench.fidelity import physical_model
     from tableclean_suite.demos import VALID_FRACTION, write_dataset
-    from tableclean_suite.physics_backend import check_physical_task
-    from tableclean_suite.task import TaskModel, get_task_spec
 
-    try:
-        spec = get_task_spec(args.task)
-        check_physical_task(TaskModel(spec=spec))
-    except (ValueError, OSError) as error:
-        parser.error(f"--task: {error}")
+    spec = physical_model(parser, args.task).spec
     robot = cli.parse_robot(parser, args)
     valid_fraction = VALID_FRACTION if args.valid_fraction is None else args.valid_fraction
     if not 0.0 <= valid_fraction < 1.0:

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import math
 import os
 import sys
@@ -91,11 +92,6 @@ def action_names(model: TaskModel, actions: Iterable | None = None) -> tuple[str
     return tuple(name for name in model.action_names if name in chosen)
 
 
-def layout_label(state: TaskState) -> str:
-    """``"1-1"`` (object segment, arm segment; 1-based) for one object, ``"1.2-3"`` for objects 1, 2 and the arm."""
-    return ".".join(str(o + 1) for o in state.objects) + f"-{state.arm + 1}"
-
-
 @single_blas_thread()  # the same bits in this process, a local worker or a Ray worker
 def run_round(scene, round_index: int, seed: int, actions: Iterable | None = None) -> list[dict]:
     """The trial rows, in execution order, of one round of ``actions`` (default: all) on ``scene`` (a
@@ -134,7 +130,7 @@ def run_round(scene, round_index: int, seed: int, actions: Iterable | None = Non
         if start in visited:
             continue
         stage(env, controller, start, seed=base_seed + k)
-        visit(start, layout_label(start), "plan")
+        visit(start, ".".join(str(o + 1) for o in start.objects) + f"-{start.arm + 1}", "plan")  # "1.2-3": objects, arm
     for k, state in enumerate(targets):
         if state not in visited:  # a skill failed on every path to it this round
             try:
@@ -195,8 +191,6 @@ CONFIGURATION_SUFFIX = ".config.json"
 def run_configuration(model: TaskModel, physics_options: dict | None, scene=None, plugins: Iterable[str] = ()) -> dict:
     """What determines a trial besides its round and seed, as JSON values: the task spec, the scene's options
     and the code ([`code_digest`][tableclean_suite.bench.digests.code_digest], ``--plugins`` included)."""
-    import json
-
     from tableclean_suite.bench.digests import code_digest
 
     options = "a given scene" if scene is not None else (physics_options or {})
@@ -212,8 +206,6 @@ def configuration_path(trials_csv: Path) -> Path:
 def read_configuration(trials_csv: Path) -> dict | None:
     """The recorded [`run_configuration`][tableclean_suite.bench.fidelity.run_configuration] of ``trials_csv``'s
     trials, None without a record; [`ResumeError`][tableclean_suite.bench.fidelity.ResumeError] when unreadable."""
-    import json
-
     record = configuration_path(trials_csv)
     if not record.exists():
         return None
@@ -231,8 +223,6 @@ def check_configuration(trials_csv: Path, configuration: dict, log: Callable[[st
     """Record ``configuration`` beside ``trials_csv``; [`ResumeError`][tableclean_suite.bench.fidelity.ResumeError]
     when the stored trials were measured with another configuration (naming the keys), or hold trials without
     a readable record."""
-    import json
-
     record = configuration_path(trials_csv)
     if trials_csv.exists():
         stored = read_configuration(trials_csv)
@@ -288,8 +278,6 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
         ResumeError: the stored trials were measured with another seed, actions or
             [`run_configuration`][tableclean_suite.bench.fidelity.run_configuration] (``plugins`` included).
     """
-    import json
-
     model = scene.model if scene is not None else (model or TaskModel())
     actions = action_names(model, actions)
     per_round = trials_per_round(model, actions)
@@ -537,15 +525,23 @@ def scene_env_kwargs(robot: str, randomize: bool) -> dict:
     return {"robots": robot, **({"randomization": "on"} if randomize else {})}
 
 
-def parse_task_and_actions(parser: argparse.ArgumentParser, args) -> tuple[TaskModel, tuple[str, ...]]:
-    """The model of ``--task`` (checked against the physical scene) and the names of ``--actions``; exits 2 on bad input."""
+def physical_model(parser: argparse.ArgumentParser, task, flag: str = "--task") -> TaskModel:
+    """The model of task spec ``task`` (a name, ``.json`` path or spec), checked against the physical scene;
+    exits 2 naming ``flag`` when it is unknown or does not fit the scene."""
     from tableclean_suite.physics_backend import check_physical_task
 
     try:
-        model = TaskModel(spec=get_task_spec(args.task))
+        model = TaskModel(spec=get_task_spec(task))
         check_physical_task(model)
     except (ValueError, OSError) as error:
-        parser.error(f"--task: {error}")
+        parser.error(f"{flag}: {error}")
+    return model
+
+
+def parse_task_and_actions(parser: argparse.ArgumentParser, args) -> tuple[TaskModel, tuple[str, ...]]:
+    """The model of ``--task`` ([`physical_model`][tableclean_suite.bench.fidelity.physical_model]) and the names
+    of ``--actions``; exits 2 on bad input."""
+    model = physical_model(parser, args.task)
     if args.actions is None:
         return model, tuple(model.action_names)
     try:

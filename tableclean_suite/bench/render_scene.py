@@ -73,14 +73,9 @@ def main(argv=None, prog: str | None = None) -> int:
     parser, args = cli.parse_command(build_parser, argv, prog or PROG)
     if args.out is not None and Path(args.out).suffix.lower() != PNG_SUFFIX:  # before MuJoCo is imported
         parser.error(f"--out must end in {PNG_SUFFIX}, got {str(args.out)!r}")
-    from tableclean_suite.physics_backend import check_physical_task
-    from tableclean_suite.task import TaskModel, get_task_spec
+    from tableclean_suite.bench.fidelity import physical_model
 
-    try:
-        spec = get_task_spec(args.task)
-        check_physical_task(TaskModel(spec=spec))
-    except (ValueError, OSError) as error:
-        parser.error(f"--task: {error}")
+    spec = physical_model(parser, args.task).spec
     if args.out is None:
         args.out = DEFAULT_OUT if spec.name == "paper" else DEFAULT_OUT.with_name(f"scene_{spec.name}.png")
     try:

@@ -196,17 +196,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     parser, args = cli.parse_command(build_parser, argv, prog or PROG)
-    from tableclean_suite.physics_backend import check_physical_task
-    from tableclean_suite.task import TaskModel, get_task_spec
-
     robots = cli.parse_robots(parser, args)  # every name checked before anything runs
-    models = {}
-    for task in args.tasks:
-        try:
-            models[task] = TaskModel(spec=get_task_spec(task))
-            check_physical_task(models[task])
-        except (ValueError, OSError) as error:
-            parser.error(f"--tasks: {error}")
+    models = {task: fidelity.physical_model(parser, task, "--tasks") for task in args.tasks}
     grippers = {}  # (robot, --grippers entry) -> robosuite's name
     for robot in robots:
         for gripper in args.grippers:
