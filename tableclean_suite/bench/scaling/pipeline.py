@@ -39,24 +39,21 @@ def growth_fits(rows: list[dict], learner: str, rewards, gammas, family: str = P
     (censored cells enter at their window; each point weighted by its own interval; no exponent
     when more than half the cells are censored), plus the fit's ``intercept`` (log units) for the
     figure."""
-    fits = {}
-    for gamma in gammas:
-        per_reward = {}
-        for reward in rewards:
-            cells = _cells(rows, learner, reward, gamma, family)
-            y = [r["window"] if r["censored"] else max(r["learning_time"], 1.0) for r in cells]
-            se = [math.nan if r["censored"] else log_standard_error(max(r["learning_time"], 1.0),
-                                                                    max(r["learning_time_low"], 1.0),
-                                                                    r["learning_time_high"]) for r in cells]
-            fit = fit_censored_power_law([r["reachable_from_start"] for r in cells], y,
-                                         [r["censored"] for r in cells], se)
-            reached = [(math.log(r["reachable_from_start"]), math.log(max(r["learning_time"], 1.0)))
-                       for r in cells if not r["censored"]]
-            fit["intercept"] = (sum(b for _, b in reached) / len(reached)
-                                - fit["exponent"] * sum(a for a, _ in reached) / len(reached)) if reached else math.nan
-            per_reward[reward] = fit
-        fits[f"{gamma:g}"] = per_reward
-    return fits
+    return {f"{gamma:g}": {reward: _growth_fit(_cells(rows, learner, reward, gamma, family)) for reward in rewards}
+            for gamma in gammas}
+
+
+def _growth_fit(cells: list[dict]) -> dict:
+    y = [r["window"] if r["censored"] else max(r["learning_time"], 1.0) for r in cells]
+    se = [math.nan if r["censored"] else log_standard_error(max(r["learning_time"], 1.0),
+                                                            max(r["learning_time_low"], 1.0),
+                                                            r["learning_time_high"]) for r in cells]
+    fit = fit_censored_power_law([r["reachable_from_start"] for r in cells], y, [r["censored"] for r in cells], se)
+    reached = [(math.log(r["reachable_from_start"]), math.log(max(r["learning_time"], 1.0)))
+               for r in cells if not r["censored"]]
+    fit["intercept"] = (sum(b for _, b in reached) / len(reached)
+                        - fit["exponent"] * sum(a for a, _ in reached) / len(reached)) if reached else math.nan
+    return fit
 
 
 def chain_of(row: dict) -> str:
@@ -68,17 +65,15 @@ def chain_of(row: dict) -> str:
 def slope_table(rows: list[dict], replicates: dict, learner: str, rewards, gammas, family: str) -> dict:
     """``{gamma text: {reward: [slope dicts]}}``: [`statistics.local_slopes`][tableclean_suite.bench.scaling.statistics.local_slopes] of ``learner``'s
     median learning time between consecutive sizes along each chain of ``family``
-    ([`chain_of`][tableclean_suite.bench.scaling.pipeline.chain_of]: one factor grows at a time), each slope dict with its ``chain``."""
+    ([`chain_of`][tableclean_suite.bench.scaling.pipeline.chain_of]: one factor grows at a time), each slope dict with its
+    ``chain``; rewards without a chain of two sizes are left out."""
     table = {}
     for gamma in gammas:
         table[f"{gamma:g}"] = {}
         for reward in rewards:
-            cells = _cells(rows, learner, reward, gamma, family)
-            listed = []
+            cells, listed = _cells(rows, learner, reward, gamma, family), []
             for chain in dict.fromkeys(chain_of(r) for r in cells):
                 chosen = [r for r in cells if chain_of(r) == chain]
-                if len(chosen) < 2:
-                    continue
                 draws = np.array([replicates[(r["spec"], gamma, learner, reward)] for r in chosen])
                 listed += [{"chain": chain, **slope} for slope in local_slopes(
                     [r["reachable_from_start"] for r in chosen], [r["learning_time"] for r in chosen], draws)]
