@@ -1,8 +1,5 @@
-"""One source of truth for a benchmark run's configuration: `RunConfig`.
-
-Every default of the run command is written here once: the command line takes its defaults and
-help texts from it, [`resolve_cell`][tableclean_suite.bench.experiments.resolve_cell] hands it to
-``train()``, ``config.json`` records it and a cell's key holds `RunConfig.cell_settings`.
+"""A benchmark run's configuration, `RunConfig`: every default of the run command, its help texts
+(the field docstrings), validation, and what a cell's key holds (`RunConfig.cell_settings`).
 
     from tableclean_suite.bench.config import RunConfig
     config = RunConfig(runs=200, rewards=("r2", "r4"), sweeps=False)
@@ -188,6 +185,7 @@ class RunConfig:
         self._validate()
 
     def _validate(self) -> None:
+        from tableclean_suite.executors import EXECUTOR_NAMES
         from tableclean_suite.learners import learner_names, validate_hyperparameters
         from tableclean_suite.rewards import reward_pattern_names
 
@@ -210,36 +208,24 @@ class RunConfig:
                     and (value < 1.0 if bounds[-1] == ")" else value <= 1.0)):
                 raise ConfigError(name, f"{name} must be in {bounds}, got {value!r}")
         _check_integer("bootstrap_samples", self.bootstrap_samples, 1, MAX_BOOTSTRAP_SAMPLES)
-        if self.analysis not in ANALYSIS_KINDS:
-            raise ConfigError("analysis", f"unknown {self.analysis!r}; allowed: {', '.join(ANALYSIS_KINDS)}")
+        _check_names("analysis", self.analysis, ANALYSIS_KINDS)
         _check_integer("analysis_episodes", self.analysis_episodes, 2)
         self.task_spec()
         for name, allowed in (("start", START_MODES), ("ineffective", INEFFECTIVE_MODES)):
-            value = getattr(self, name)
-            if value is not None and value not in allowed:
-                raise ConfigError(name, f"unknown {value!r}; allowed: {', '.join(allowed)}")
+            if getattr(self, name) is not None:
+                _check_names(name, getattr(self, name), allowed)
         if self.workers is not None:
             _check_integer("workers", self.workers, 1)
-        self._validate_executor()
-        backends = backend_names()
-        if self.backend not in backends:
-            raise ConfigError("backend", f"unknown {self.backend!r}; allowed: {', '.join(backends)}")
+        _check_names("executor", self.executor, EXECUTOR_NAMES)
+        if self.ray_address is not None and self.executor != "ray":
+            raise ConfigError("ray_address", "only used with executor ray")
+        if self.ray_address is not None and (not isinstance(self.ray_address, str) or not self.ray_address.strip()):
+            raise ConfigError("ray_address", f"give HOST:PORT or auto, got {self.ray_address!r}")
+        _check_names("backend", self.backend, backend_names())
         if self.backend == "calibrated" and self.transitions is None:
             raise ConfigError("transitions", "needed by backend calibrated (a table from tableclean-bench calibrate)")
         if self.backend != "calibrated" and self.transitions is not None:
             raise ConfigError("transitions", "only used with backend calibrated")
-
-    def _validate_executor(self) -> None:
-        """Check ``executor`` and ``ray_address``."""
-        from tableclean_suite.executors import EXECUTOR_NAMES
-
-        if self.executor not in EXECUTOR_NAMES:
-            raise ConfigError("executor", f"unknown {self.executor!r}; allowed: {', '.join(EXECUTOR_NAMES)}")
-        if self.ray_address is not None:
-            if self.executor != "ray":
-                raise ConfigError("ray_address", "only used with executor ray")
-            if not isinstance(self.ray_address, str) or not self.ray_address.strip():
-                raise ConfigError("ray_address", f"give HOST:PORT or auto, got {self.ray_address!r}")
 
     def _validate_learning(self) -> None:
         """Check and normalise ``exploration``, ``q_init`` and ``learner_options``."""
@@ -376,8 +362,8 @@ def _check_integer(name: str, value, low: int, high: int | None = None) -> None:
         raise ConfigError(name, f"{name} must be an integer {allowed}, got {value!r}")
 
 
-def _check_names(name: str, value, allowed: list[str]) -> None:
-    names = (value,) if isinstance(value, str) else value
+def _check_names(name: str, value, allowed) -> None:
+    names = value if isinstance(value, (tuple, list)) else (value,)
     unknown = [n for n in names if n not in allowed]
     if unknown:
         raise ConfigError(name, f"unknown {', '.join(map(repr, unknown))}; allowed: {', '.join(allowed)}")

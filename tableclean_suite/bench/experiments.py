@@ -1,20 +1,13 @@
-"""The experiment grid of ``benchmarks.run`` and its incremental, resumable cell storage.
+"""The experiment grid of ``benchmarks.run`` and its resumable cell storage.
 
-A **cell** is one trained configuration: (learner, reward, alpha, gamma) at the shared settings
-of a `RunConfig`.  An **experiment** is a named set of cells:
-
-- ``main``: every learner x every reward at (alpha, gamma) — the paper's Table 3 and Figures 3-5;
-- ``alpha_sweep``: the sweep learner x sweep reward at each alpha, gamma fixed — Figures 6-7;
-- ``gamma_sweep``: the same at each gamma, alpha fixed;
-- ``literature``: Cruz et al.'s methods run on this task (affordance-based Q-learning with the
-  given and with learned affordances, interactive Q-learning with a simulated advisor) at the
-  literature reward and (alpha, gamma) — Table 4's "run here" rows.
-
-A cell in several experiments is trained once, chunk by chunk of runs (`train_cell`).  Its
-`Summary` and `CellStatistics` (a few floats per run, never ``runs x iterations`` records) go to
-``OUT/cells/<label>-<hash>.npz``, ``hash`` digesting everything that determines its numbers
-(`cell_config`, the code included): a rerun loads matching cells, so an interrupted run resumes
-and changing one flag retrains only the cells it affects.
+A **cell** is one trained configuration (learner, reward, alpha, gamma) at the shared settings of a
+`RunConfig`; an **experiment** is a named set of cells: ``main`` (every learner x every reward:
+Table 3, Figures 3-5), ``alpha_sweep`` / ``gamma_sweep`` (the sweep learner and reward at each
+alpha, resp. gamma: Figures 6-7) and ``literature`` (Cruz et al.'s methods: Table 4's "run here"
+rows).  A cell in several experiments is trained once ([train_cell][tableclean_suite.bench.experiments.train_cell]);
+its summary and statistics go to ``OUT/cells/<label>-<hash>.npz``, ``hash`` digesting everything
+that determines its numbers ([cell_config][tableclean_suite.bench.experiments.cell_config]), so a
+rerun loads matching cells and retrains only those a changed flag affects.
 """
 
 from __future__ import annotations
@@ -46,12 +39,10 @@ from tableclean_suite.physics_backend import merge_stats
 from tableclean_suite.rewards import get_reward_pattern
 
 #: Bump when the stored layout or the meaning of a stored field changes.
-#: 4: per-run learning times and their summary; intervals over independent runs; full-length bands.
 CELL_FORMAT_VERSION = 4
 
 #: Memory budget of one training chunk's records and final Q-tables (bytes): about
-#: ``CHUNK_BYTES / (T * RECORD_BYTES_PER_ITERATION + S * A * 8)`` runs (>= 1).  Large, because every
-#: chunk pays fixed costs of the table's size (about 0.5 s on a 3-million-state spec).
+#: ``CHUNK_BYTES / (T * RECORD_BYTES_PER_ITERATION + S * A * 8)`` runs (>= 1).
 CHUNK_BYTES = 1_000_000_000
 #: reward (float64) + outcome, state, action, episode end (int8 each).
 RECORD_BYTES_PER_ITERATION = 8 + 4
@@ -103,21 +94,11 @@ def unique_cells(grid: list[Membership]) -> list[Cell]:
 
 
 def cell_config(run: CellRun, code: str, task: str, transitions_sha256: str | None = None) -> dict:
-    """Everything that determines a cell's stored summary (JSON-serialisable).
-
-    Args:
-        run: the cell as its run trains it ([`resolve_cell`][tableclean_suite.bench.experiments.resolve_cell]).
-        code: [`digests.code_digest`][tableclean_suite.bench.digests.code_digest] of the run's plugins: the
-            package's and the plugins' code.
-        task: [`digests.task_digest`][tableclean_suite.bench.digests.task_digest] of the task model: the
-            transitions and start states the learner reads, after rules and plugins.
-        transitions_sha256: digest of the calibrated transition table's file, if any.
-
-    The reward pattern enters by value and the learner with its
-    [`settings`][tableclean_suite.learners.rules.TabularLearner.settings] and
-    [`code_digest`][tableclean_suite.learners.kernel.code_digest], so a re-registered name with
-    another body gets a new hash; a simulated plan adds its label (``"analysis"``).
-    """
+    """Everything that determines a cell's stored summary (JSON-serialisable): the cell ``run``
+    ([`resolve_cell`][tableclean_suite.bench.experiments.resolve_cell]), the reward pattern by value,
+    the learner's settings and code digest, the ``code`` and ``task`` digests
+    ([digests][tableclean_suite.bench.digests]), the calibrated table file's ``transitions_sha256``
+    and a simulated plan's label."""
     pattern = get_reward_pattern(run.cell.reward)
     learner = run.learner
     reward_values = {k: getattr(pattern, k) for k in (
@@ -381,12 +362,10 @@ def resolve_cell(cell: Cell, config: RunConfig, model, transitions=None, runs_pe
 
 
 def check_grid_resources(runs) -> float:
-    """Refuse (before training) cells that cannot fit in memory or would run too long; returns the
-    estimated seconds of training and analysis (0 without cells).
-
-    Memory: one chunk's records and Q-tables plus the largest analysis call; time: every cell's
-    training and analysis as its plan estimates them.  ``runs``: the
-    [`CellRun`][tableclean_suite.bench.experiments.CellRun]s of one run (one model).
+    """Refuse (before training) cells that cannot fit in memory (one chunk's records and Q-tables
+    plus the largest analysis call) or would run too long; returns the estimated seconds of training
+    and analysis (0 without cells).  ``runs``: the [`CellRun`][tableclean_suite.bench.experiments.CellRun]s
+    of one run (one model).
 
     Raises:
         tableclean_suite.resources.ResourceError: one line naming the estimate, what is available
@@ -426,16 +405,10 @@ def _train_chunk(run: CellRun, first: int, iterations: int, keep: int = 0):
 
 
 def train_cell(run: CellRun) -> tuple[Summary, CellStatistics, float, float]:
-    """Train one cell chunk by chunk of runs and summarise it, with intervals.
-
-    Each chunk's sums go into a [`CurveSums`][tableclean_suite.curves.CurveSums], its final Q-tables give
-    each run's asymptotes ([`final_run_facts`][tableclean_suite.analysis.final_run_facts], exact or
-    simulated by the plan; the plateaus are their means over runs, over the calibrated table with
-    ``--backend calibrated``, else the model's), its learning times are kept and its records dropped:
-    memory is one chunk's records, and counter-based random numbers make the summary independent of
-    the chunking.  Settling ([`tableclean_suite.settling`][tableclean_suite.settling]): each run's success
-    asymptote at the checkpoint ([`checkpoint_result`][tableclean_suite.bench.experiments.checkpoint_result],
-    or the prefix trained again) is compared with its final one.
+    """Train one cell chunk by chunk of runs (memory: one chunk's records; the numbers do not
+    depend on the chunking) and summarise it with intervals: each run's final asymptotes
+    ([`final_run_facts`][tableclean_suite.analysis.final_run_facts], exact or simulated by the plan)
+    and its settling (the success asymptote at the checkpoint against the final one).
 
     Returns:
         ``(summary, statistics, train_seconds, metrics_seconds)``.
@@ -567,16 +540,13 @@ def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, flo
         from tableclean_suite.bench.plugins import load_plugins
 
         load_plugins(config.plugins)  # what the driver registered, registered here too
-    model = config.task_model()
-    transitions = transitions_sha256 = None
-    if config.backend == "calibrated":
-        from tableclean_suite.learners import TransitionTable
+    from tableclean_suite.learners import TransitionTable
 
-        transitions = TransitionTable.from_json(config.transitions, model)
-        transitions_sha256 = file_sha256(config.transitions)
+    model = config.task_model()
+    transitions = TransitionTable.from_json(config.transitions, model) if config.backend == "calibrated" else None
     run = resolve_cell(task.cell, config, model, transitions)
     digest = config_hash(cell_config(run, digests.code_digest(config.plugins), digests.task_digest(model),
-                                     transitions_sha256))
+                                     file_sha256(config.transitions) if transitions is not None else None))
     if digest != task.key_hash:
         raise CellKeyMismatchError(
             f"cell {task.cell.label}: this worker's cell key {digest} differs from the driver's {task.key_hash}; "
@@ -612,9 +582,7 @@ def run_grid(
     model,
     store: CellStore,
     transitions=None,
-    transitions_sha256: str | None = None,
     executor=None,
-    on_cell=None,
 ) -> GridRun:
     """Load the stored cells of ``grid``, then train the others; each trained cell is saved at once.
 
@@ -622,12 +590,10 @@ def run_grid(
         grid: memberships from [`config_grid`][tableclean_suite.bench.experiments.config_grid].
         config: the run's configuration (``fresh``: ignore stored cells; ``progress``: a bar on stderr).
         model: the [`TaskModel`][tableclean_suite.task.model.TaskModel]; ``store``: where summaries live.
-        transitions: a loaded `TransitionTable` (calibrated backend); ``transitions_sha256``: its file's digest.
+        transitions: the `TransitionTable` loaded from ``config.transitions`` (calibrated backend).
         executor: an [`Executor`][tableclean_suite.executors.base.Executor] training one
             [`CellTask`][tableclean_suite.bench.experiments.CellTask] per cell (bit-identical results);
             None: train in this process.
-        on_cell: called with the [`GridRun`][tableclean_suite.bench.experiments.GridRun] so far after each
-            cell is loaded or trained and saved; None: nothing.
 
     Raises:
         CellFileError: a stored cell matching the config is unreadable (unless ``fresh``).
@@ -640,7 +606,8 @@ def run_grid(
     outcome = GridRun()
     runs = {cell: resolve_cell(cell, config, model, transitions) for cell in unique_cells(grid)}
     code, task = digests.code_digest(config.plugins), digests.task_digest(model)
-    keys = {cell: cell_config(run, code, task, transitions_sha256) for cell, run in runs.items()}
+    table = file_sha256(config.transitions) if transitions is not None else None
+    keys = {cell: cell_config(run, code, task, table) for cell, run in runs.items()}
     outcome.plans = {cell: run.plan for cell, run in runs.items()}
     pending = []
     for cell, key in keys.items():
@@ -650,8 +617,6 @@ def run_grid(
         else:
             outcome.summaries[cell], outcome.statistics[cell] = stored
             outcome.resumed += 1
-            if on_cell is not None:
-                on_cell(outcome)
     estimate = check_grid_resources(runs[cell] for cell in pending)
     if pending:
         model.require_learnable()  # before the progress bar: a task that cannot end is refused in one line
@@ -680,8 +645,6 @@ def run_grid(
         outcome.train_seconds += train_s
         outcome.metrics_seconds += metrics_s
         bar.update(1)
-        if on_cell is not None:
-            on_cell(outcome)
     bar.close()
     return outcome
 

@@ -153,12 +153,9 @@ def _float_list(parser, field: str, values) -> list[float]:
 
 
 def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
-    """Parse and validate the command line.
-
-    Returns:
-        A namespace with ``config`` (a [`RunConfig`][tableclean_suite.bench.config.RunConfig]), ``describe`` and ``parser``.  Any bad
-        flag or value exits with code 2 and a message naming it and what is allowed.
-    """
+    """Parse and validate the command line into a namespace with ``config`` (a
+    [`RunConfig`][tableclean_suite.bench.config.RunConfig]), ``describe`` and ``parser``; a bad flag
+    or value exits 2 with a message naming it and what is allowed."""
     from tableclean_suite.bench.cli import parse_command
 
     parser, namespace = parse_command(build_parser, argv, prog or PROG)  # plugins imported before names are checked
@@ -193,13 +190,13 @@ def _curves_stride(rows_per_iteration: int, iterations: int) -> int:
     return max(1, math.ceil(estimate / CURVES_MAX_BYTES))
 
 
-def _manifest(config: RunConfig, model, transitions_sha256, grid_run, stride: int, elapsed: float) -> dict:
+def _manifest(config: RunConfig, model, transitions, grid_run, stride: int, elapsed: float) -> dict:
     """The contents of ``config.json`` ([`outputs.publish`][tableclean_suite.bench.outputs.publish] adds ``run_id`` and ``files``)."""
     import numpy
     import pandas
 
     import tableclean_suite
-    from tableclean_suite.bench import paper_data
+    from tableclean_suite.bench import experiments, paper_data
 
     return {
         "args": config.to_json(),
@@ -209,7 +206,7 @@ def _manifest(config: RunConfig, model, transitions_sha256, grid_run, stride: in
         "timestamp": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "paper": paper_data.PAPER_REFERENCE,
         "model": repr(model),
-        "transitions_sha256": transitions_sha256,
+        "transitions_sha256": experiments.file_sha256(config.transitions) if transitions is not None else None,
         "cells": {"trained": grid_run.trained, "resumed": grid_run.resumed},
         "seconds": {"total": round(elapsed, 3), "training": round(grid_run.train_seconds, 3),
                     "metrics": round(grid_run.metrics_seconds, 3)},
@@ -220,11 +217,8 @@ def _manifest(config: RunConfig, model, transitions_sha256, grid_run, stride: in
 
 
 def run(args) -> int:
-    """[`train_and_publish`][tableclean_suite.bench.run.train_and_publish] holding ``--out``'s lock ([`outputs.output_lock`][tableclean_suite.bench.outputs.output_lock]), so a second
-    run into the same folder exits 2 instead of mixing its files with this one's.
-
-    OpenBLAS runs on one thread meanwhile ([`single_blas_thread`][tableclean_suite.executors.blas.single_blas_thread]),
-    as in an executor's 1-thread worker."""
+    """[`train_and_publish`][tableclean_suite.bench.run.train_and_publish] holding ``--out``'s lock
+    (a second run into the same folder exits 2), with OpenBLAS on one thread."""
     import numpy  # noqa: F401  (loads the OpenBLAS whose threads single_blas_thread sets)
 
     from tableclean_suite.bench import outputs
@@ -252,7 +246,6 @@ def train_and_publish(args) -> int:
     if problem:
         print(f"{args.parser.prog}: error: --out {problem}", file=sys.stderr)
         return EXIT_USAGE
-    transitions_sha256 = experiments.file_sha256(config.transitions) if transitions is not None else None
     executor = cell_executor(config)
     if executor is None and config.workers is not None and config.backend != "physics":
         import numba
@@ -262,7 +255,7 @@ def train_and_publish(args) -> int:
     store = experiments.CellStore(out / "cells")
     try:
         with executor if executor is not None else contextlib.nullcontext():
-            grid_run = experiments.run_grid(grid, config, model, store, transitions, transitions_sha256, executor)
+            grid_run = experiments.run_grid(grid, config, model, store, transitions, executor)
     except experiments.CellFileError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
@@ -309,7 +302,7 @@ def train_and_publish(args) -> int:
     }
     writers.update({figure.name: (lambda path, png=figure.png: path.write_bytes(png)) for figure in figures})
     elapsed = time.perf_counter() - started
-    manifest = _manifest(config, model, transitions_sha256, grid_run, stride, elapsed)
+    manifest = _manifest(config, model, transitions, grid_run, stride, elapsed)
     try:
         written = outputs.publish(out, writers, manifest)
     except KeyboardInterrupt:
@@ -328,14 +321,9 @@ def train_and_publish(args) -> int:
 
 
 def cell_executor(config: RunConfig):
-    """The executor that trains the run's cells, or None to train them in this process.
-
-    ``--executor ray``: a [`RayExecutor`][tableclean_suite.executors.ray_executor.RayExecutor] (``--ray-address``,
-    ``--workers`` cells in flight).  ``--executor local``: a
-    [`LocalExecutor`][tableclean_suite.executors.local.LocalExecutor] of ``--workers`` processes when that is
-    above 1 and the backend is not physics (whose runs already spread over ``--workers``
-    processes), else None.
-    """
+    """The executor that trains the run's cells: a [`RayExecutor`][tableclean_suite.executors.ray_executor.RayExecutor]
+    for ``--executor ray``, a [`LocalExecutor`][tableclean_suite.executors.local.LocalExecutor] of
+    ``--workers`` processes when that is above 1 and the backend is not physics, else None (this process)."""
     from tableclean_suite.executors import LocalExecutor, RayExecutor
 
     if config.executor == "ray":
@@ -397,10 +385,7 @@ def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task:
 
 
 def main(argv=None, prog: str | None = None) -> int:
-    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code.
-
-    ``prog`` is the program name in messages (default `PROG`).
-    """
+    """Run the command line ``argv`` (default ``sys.argv[1:]``, ``prog`` in messages); returns the exit code."""
     args = parse_args(argv, prog)
     try:
         if args.describe:

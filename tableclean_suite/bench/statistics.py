@@ -1,25 +1,17 @@
 """A cell's intervals, curve bands and per-run scores, and the comparisons between cells.
 
-Every interval resamples or models independent *runs* (`tableclean_suite.intervals`); its
-target is the value the same statistic takes over unlimited runs of the cell, at the run's
-``--confidence``:
+Every interval resamples or models independent runs ([tableclean_suite.intervals][]) at the run's
+``--confidence``; its target is the statistic's value over unlimited runs of the cell:
 
-- **Learning time** (the headline): the per-run learning time's Kaplan-Meier median and
-  quartiles, restricted mean to the budget and censored share
-  (`tableclean_suite.learning_time.learning_time_summary`).
-- **Plateaus and greedy success** (`RUN_MEANS`): each run's asymptote of its final behaviour,
-  mean over runs, percentile bootstrap over runs; a share of runs (`RUN_SHARES`, or a quantity
-  0 or 1 in every run): Clopper-Pearson.  A mean's interval is widened for kinds of run the sample
-  may lack ([tableclean_suite.intervals.widened_for_unseen_runs][]) and, for simulated asymptotes,
-  by the Monte Carlo error ([tableclean_suite.analysis.with_monte_carlo_error][]).
-- **Behaviour drift** (`tableclean_suite.settling`): the same, without the Monte Carlo error.
-- **Curve bands**: per iteration, the normal interval of the mean over runs
-  (`tableclean_suite.intervals.mean_band`).
-- The paper's readings of the mean curves get **no interval**: they are biased and their target
-  moves with the number of runs.
+- learning time: Kaplan-Meier median and quartiles, restricted mean, censored share
+  ([learning_time_summary][tableclean_suite.learning_time.learning_time_summary]);
+- plateaus, greedy success and behaviour drift (`RUN_MEANS`): mean over runs, percentile bootstrap
+  widened for kinds of run the sample may lack (and, for simulated asymptotes, by the Monte Carlo
+  error); a share of runs (`RUN_SHARES`, or a quantity 0 or 1 in every run): Clopper-Pearson;
+- curve bands: per iteration, the normal interval of the mean over runs.
 
-**Probability of improvement** of X over Y (rliable's, margin m): P(x beats y by more than m) +
-P(|x - y| <= m) / 2, stratified bootstrap interval, on `RUN_SCORES` with `EQUIVALENCE_MARGINS`.
+The probability of improvement of X over Y (margin m) is P(x beats y by more than m) +
+P(|x - y| <= m) / 2, with a stratified bootstrap interval, on `RUN_SCORES` with `EQUIVALENCE_MARGINS`.
 """
 
 from __future__ import annotations
@@ -114,9 +106,8 @@ def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fract
 
     Args:
         sums: the cell's [`CurveSums`][tableclean_suite.curves.CurveSums].
-        per_run: ``{quantity: (R,)}`` per-run asymptotes, in run order (at least the values of
-            `RUN_MEANS` and `RUN_SHARES` that the cell has).
-        rng: the cell's generator ([`bootstrap_rng`][tableclean_suite.bench.statistics.bootstrap_rng]); the intervals draw from it in a fixed order.
+        per_run: ``{quantity: (R,)}`` per-run asymptotes, in run order.
+        rng: the cell's generator ([`bootstrap_rng`][tableclean_suite.bench.statistics.bootstrap_rng]), drawn in a fixed order.
         support_fraction: as [`curves`][tableclean_suite.curves.CurveSums.curves]'.
         samples: bootstrap resamples (>= 1).
         confidence: interval confidence in (0, 1).
@@ -133,8 +124,6 @@ def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fract
     """
     present = {scalar: np.asarray(per_run[name], dtype=np.float64)
                for scalar, name in {**RUN_MEANS, **RUN_SHARES}.items() if name in per_run}
-    # A quantity that is 0 or 1 in every run (a share of runs: e.g. the greedy policy succeeds or
-    # not) gets the exact binomial interval, which stays honest when every run agrees.
     shares = {scalar: values for scalar, values in present.items()
               if scalar in RUN_SHARES or np.isin(values, (0.0, 1.0)).all()}
     means = {scalar: values for scalar, values in present.items() if scalar not in shares}
