@@ -2,8 +2,9 @@
 
 Q-learning and SARSA differ only in the target of equation (2) of the paper; the shared loop
 (exploration, episodes, recording) lives in [`kernel`][tableclean_suite.learners.kernel].  A learner
-is data: a name, a compiled target function, whether it picks the next action before updating (on-policy, as SARSA does), an *update rule*
-(`METHODS`) with its parameters, the initial Q value and the exploration it acts with:
+is data: a name, a compiled target function, whether it picks the next action before updating
+(on-policy, as SARSA does), an *update rule* (`METHODS`) with its parameters, the initial Q value
+and the exploration it acts with:
 
 ================== ========================= ===============================================
 learner            update rule               target
@@ -27,17 +28,9 @@ Every learner also takes Cruz et al.'s assistance ([`assist`][tableclean_suite.l
 ``affordance`` (``"none"``, ``"given"``, ``"learned"``; one-step Q-learning or SARSA targets
 only) and a simulated advisor's ``advice_probability`` L and ``advice_consistency`` C.
 
-Traces (`METHOD_TRACES`) are *replacing* by default (``e(s, a) = 1`` on a visit;
-``trace="accumulating"``: ``e(s, a) += 1``).  Per step, with delta = target - Q(s, a):
-every pair gets ``Q += (alpha * delta) * e`` and then ``e *= gamma * lambda_``, or ``e = 0``
-for all pairs after an exploratory next action when the learner is off-policy (Watkins's
-Q(lambda); an action is exploratory when its Q value is below its row's maximum, so a
-tie with the greedy action is not).  Traces reset at every episode start.  Dyna-Q keeps
-the last observed (next state, reward, terminal?) per (s, a) and, after every real step,
-makes ``planning_steps`` Q-learning updates on pairs drawn uniformly from those observed
-so far in the run.  Double Q-learning keeps two tables; a side-lane draw ([`rng`][tableclean_suite.learners.rng])
-picks the one to update, the other evaluates; it acts on their average, whose greedy
-action is that of their sum, and reports the average as its Q-table.
+Traces are replacing by default (``trace="accumulating"``), reset at every episode start, and
+cut after an exploratory next action for off-policy learners (Watkins's Q(lambda)); the update
+rules themselves are in [`kernel`][tableclean_suite.learners.kernel].
 
 Users add a learner by writing a ``numba.njit`` target with the signature of
 [`q_learning_target`][tableclean_suite.learners.rules.q_learning_target] and calling [`register_learner`][tableclean_suite.learners.rules.register_learner]; it may use the one-step
