@@ -1,8 +1,6 @@
-"""``python -m benchmarks.calibrate``: ``tableclean-bench calibrate`` (kept for the checkout)."""
-
-import sys
+"""``python -m benchmarks.calibrate``: ``tableclean-bench calibrate``."""
 
 from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(run_alias("calibrate", "python -m benchmarks.calibrate"))
+    raise SystemExit(run_alias("calibrate", "python -m benchmarks.calibrate"))

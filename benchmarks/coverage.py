@@ -1,8 +1,6 @@
-"""``python -m benchmarks.coverage``: ``tableclean-bench coverage`` (kept for the checkout)."""
-
-import sys
+"""``python -m benchmarks.coverage``: ``tableclean-bench coverage``."""
 
 from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(run_alias("coverage", "python -m benchmarks.coverage"))
+    raise SystemExit(run_alias("coverage", "python -m benchmarks.coverage"))

@@ -1,8 +1,6 @@
-"""``python -m benchmarks.fidelity``: ``tableclean-bench fidelity`` (kept for the checkout)."""
-
-import sys
+"""``python -m benchmarks.fidelity``: ``tableclean-bench fidelity``."""
 
 from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(run_alias("fidelity", "python -m benchmarks.fidelity"))
+    raise SystemExit(run_alias("fidelity", "python -m benchmarks.fidelity"))

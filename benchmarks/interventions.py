@@ -1,8 +1,6 @@
-"""``python -m benchmarks.interventions``: ``tableclean-bench interventions`` (kept for the checkout)."""
-
-import sys
+"""``python -m benchmarks.interventions``: ``tableclean-bench interventions``."""
 
 from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(run_alias("interventions", "python -m benchmarks.interventions"))
+    raise SystemExit(run_alias("interventions", "python -m benchmarks.interventions"))

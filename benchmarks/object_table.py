@@ -1,8 +1,6 @@
-"""``python -m benchmarks.object_table``: ``tableclean-bench objects`` (kept for the checkout)."""
-
-import sys
+"""``python -m benchmarks.object_table``: ``tableclean-bench objects``."""
 
 from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(run_alias("objects", "python -m benchmarks.object_table"))
+    raise SystemExit(run_alias("objects", "python -m benchmarks.object_table"))

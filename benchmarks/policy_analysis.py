@@ -1,8 +1,6 @@
-"""``python -m benchmarks.policy_analysis``: ``tableclean-bench policy-analysis`` (kept for the checkout)."""
-
-import sys
+"""``python -m benchmarks.policy_analysis``: ``tableclean-bench policy-analysis``."""
 
 from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(run_alias("policy-analysis", "python -m benchmarks.policy_analysis"))
+    raise SystemExit(run_alias("policy-analysis", "python -m benchmarks.policy_analysis"))

@@ -1,8 +1,6 @@
-"""``python -m benchmarks.rollout``: ``tableclean-bench rollout`` (kept for the checkout)."""
-
-import sys
+"""``python -m benchmarks.rollout``: ``tableclean-bench rollout``."""
 
 from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(run_alias("rollout", "python -m benchmarks.rollout"))
+    raise SystemExit(run_alias("rollout", "python -m benchmarks.rollout"))

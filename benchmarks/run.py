@@ -1,8 +1,6 @@
-"""``python -m benchmarks.run``: ``tableclean-bench run`` (kept for the checkout)."""
-
-import sys
+"""``python -m benchmarks.run``: ``tableclean-bench run``."""
 
 from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(run_alias("run", "python -m benchmarks.run"))
+    raise SystemExit(run_alias("run", "python -m benchmarks.run"))

@@ -1,8 +1,6 @@
-"""``python -m benchmarks.speed``: ``tableclean-bench speed`` (kept for the checkout)."""
-
-import sys
+"""``python -m benchmarks.speed``: ``tableclean-bench speed``."""
 
 from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(run_alias("speed", "python -m benchmarks.speed"))
+    raise SystemExit(run_alias("speed", "python -m benchmarks.speed"))

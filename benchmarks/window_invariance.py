@@ -1,8 +1,6 @@
-"""``python -m benchmarks.window_invariance``: ``tableclean-bench window-invariance`` (kept for the checkout)."""
-
-import sys
+"""``python -m benchmarks.window_invariance``: ``tableclean-bench window-invariance``."""
 
 from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(run_alias("window-invariance", "python -m benchmarks.window_invariance"))
+    raise SystemExit(run_alias("window-invariance", "python -m benchmarks.window_invariance"))
