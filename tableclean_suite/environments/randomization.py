@@ -184,6 +184,12 @@ DEFAULT_ON = DynamicsRandomization(
     sponge_yaw_noise=0.15)
 
 
+def _preset(name) -> DynamicsRandomization | None:
+    """`OFF` or `DEFAULT_ON` for one of their names (any case), else None."""
+    name = name.strip().lower() if isinstance(name, str) else None
+    return OFF if name in OFF_NAMES else DEFAULT_ON if name in ON_NAMES else None
+
+
 def resolve_randomization(value: Any) -> DynamicsRandomization:
     """The [`DynamicsRandomization`][tableclean_suite.environments.randomization.DynamicsRandomization] of a user value; ``ValueError`` naming it and what is allowed.
 
@@ -198,11 +204,8 @@ def resolve_randomization(value: Any) -> DynamicsRandomization:
     if isinstance(value, DynamicsRandomization):
         return value
     if isinstance(value, str):
-        name = value.strip().lower()
-        if name in OFF_NAMES:
-            return OFF
-        if name in ON_NAMES:
-            return DEFAULT_ON
+        if _preset(value):
+            return _preset(value)
         raise ValueError(f"unknown randomization {value!r}; allowed: {', '.join(OFF_NAMES + ON_NAMES)}, "
                          "a DynamicsRandomization or a mapping of its fields")
     if isinstance(value, Mapping):
@@ -212,8 +215,7 @@ def resolve_randomization(value: Any) -> DynamicsRandomization:
             raise ValueError(f"unknown randomization field(s) {unknown}; allowed: {sorted(known)} and {BASE_KEY!r}")
         overrides = dict(value)
         base_name = overrides.pop(BASE_KEY, ON_NAMES[0])
-        base = {**{n: OFF for n in OFF_NAMES}, **{n: DEFAULT_ON for n in ON_NAMES}}.get(
-            base_name.strip().lower() if isinstance(base_name, str) else base_name)
+        base = _preset(base_name)
         if base is None:
             raise ValueError(f"randomization {BASE_KEY!r} must be one of {', '.join(ON_NAMES + OFF_NAMES)}, "
                              f"got {base_name!r}")

@@ -51,14 +51,10 @@ class SkillInfo(dict):
         fill(self._owner, self)
         return dict.__getitem__(self, key)
 
-    def _pending(self) -> list[str]:
-        """The lazy keys not computed (nor set, nor deleted) yet."""
-        return [key for key in self._lazy if not dict.__contains__(self, key)]
-
     def materialize(self) -> "SkillInfo":
         """Compute every lazy key not computed yet; returns ``self``."""
-        for key in self._pending():
-            if not dict.__contains__(self, key):  # a filler may have stored it with an earlier one
+        for key in list(self._lazy):
+            if not dict.__contains__(self, key):  # (a filler may have stored it with an earlier one)
                 self[key]
         return self
 

@@ -54,21 +54,19 @@ class TableCleanSkillsEnv(TableCleanBase):
         super().__init__(reward=reward, model=model, render_mode=render_mode, task=task, start=start)
         if env_kwargs is not None and not isinstance(env_kwargs, dict):
             raise TypeError(f"env_kwargs must be a dict of robosuite.make arguments, got {type(env_kwargs).__name__}")
-        if robots is not None:
-            from tableclean_suite.controllers.robot_configs import robot_name
+        from tableclean_suite.controllers import SkillController, make_skill_env
+        from tableclean_suite.environments.robot_registry import robot_name
+        from tableclean_suite.physics_backend import check_physical_task, staging_env_kwargs
 
-            given = (env_kwargs or {}).get("robots")
+        env_kwargs = dict(env_kwargs or {})
+        if robots is not None:
+            given = env_kwargs.get("robots")
             if given is not None and robot_name(given) != robot_name(robots):
                 raise ValueError(f"robots={robots!r} and env_kwargs['robots']={given!r} disagree; give one")
-            env_kwargs = {**(env_kwargs or {}), "robots": robots}  # checked by make_skill_env, before it builds
-        from tableclean_suite.physics_backend import check_physical_task
-
-        check_physical_task(self.model, (env_kwargs or {}).get("task_config"))
+            env_kwargs["robots"] = robots  # checked by make_skill_env, before it builds
+        check_physical_task(self.model, env_kwargs.get("task_config"))
         if len(frame_size) != 2 or any(int(n) != n or n < 16 for n in frame_size):
             raise ValueError(f"frame_size must be (height, width) with both >= 16, got {frame_size!r}")
-        from tableclean_suite.controllers import SkillController, make_skill_env
-        from tableclean_suite.physics_backend import staging_env_kwargs
-
         kwargs = staging_env_kwargs(self.model, env_kwargs)  # every reset stages the start itself
         if render_mode == "rgb_array":
             kwargs.setdefault("has_offscreen_renderer", True)
