@@ -241,16 +241,9 @@ def require_training_time(runs: int, iterations: int, n_states: int, n_actions: 
 
 
 def bounded_product(terms, limit: int) -> int | None:
-    """``prod(base ** exponent for base, exponent in terms)`` when it is at most ``limit``, else None.
-
-    Decided on logarithms before any power is computed, so a size that grows with a spec
-    (``2 ** segments`` with ``segments`` of ``10 ** 30``) costs no arithmetic: the exact product is
-    only formed once it is known to have at most about ``log2(limit) + 1`` bits.
-
-    Args:
-        terms: ``(base, exponent)`` pairs of non-negative integers.
-        limit: the largest product accepted, an integer >= 1.
-    """
+    """``prod(base ** exponent for base, exponent in terms)`` (``(base, exponent)`` pairs of
+    non-negative integers) when it is at most ``limit`` (an integer >= 1), else None; decided on
+    logarithms first, so ``2 ** (10 ** 30)`` costs no arithmetic."""
     total_bits = 0.0
     exact = []
     for base, exponent in terms:

@@ -6,6 +6,7 @@ needs no spec.  Indices are 0-based here; names and the user-facing API number f
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import itertools
 from dataclasses import dataclass
@@ -141,10 +142,8 @@ class TaskState:
 
     # -- copies -------------------------------------------------------------------
     def replace(self, **changes) -> "TaskState":
-        """A copy with the given fields (``clean``, ``objects``, ``arm``) changed."""
-        fields = dict(clean=self.clean, objects=self.objects, arm=self.arm)
-        fields.update(changes)
-        return TaskState(**fields)
+        """A validated copy with the given fields (``clean``, ``objects``, ``arm``) changed."""
+        return dataclasses.replace(self, **changes)
 
     def with_clean(self, segment: int) -> "TaskState":
         """A copy in which ``segment`` (0-based) is clean."""
