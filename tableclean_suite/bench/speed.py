@@ -128,6 +128,7 @@ def plain_loop_table(runs: int, iterations: int, repeat: int) -> Table:
 
 
 def learners_section(args) -> Section:
+    """Every learner against Q-learning; the compiled learners against the plain loop."""
     return Section([learner_table(args.reward, args.runs, args.iterations, args.repeat),
                     plain_loop_table(args.runs, args.iterations, args.repeat)])
 
@@ -228,6 +229,7 @@ def executor_overhead(episodes: list) -> float:
 
 
 def skills_section(args) -> Section:
+    """Optimal episodes on robosuite's control path and the compiled one, and raw MuJoCo."""
     measured = compare_paths(args.episodes, tuple(args.layout), args.seed, task=args.task_spec)
     episodes = measured["robosuite"] + measured["compiled"]
     terminal = sum(e["terminal"] for e in episodes)
