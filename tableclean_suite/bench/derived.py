@@ -34,8 +34,9 @@ class Figure:
 
 
 def figures(curves, plateau_fraction: float, table3=None, dpi: int = 120) -> list[Figure]:
-    """The paper's figures that ``curves`` allows ([plots.available_figures][tableclean_suite.bench.plots.available_figures]),
-    drawn by [plots.render_png][tableclean_suite.bench.plots.render_png] at ``dpi`` dots per inch."""
+    """The paper's figures that ``curves`` allows
+    ([plots.available_figures][tableclean_suite.bench.plots.available_figures]), drawn by
+    [plots.render_png][tableclean_suite.bench.plots.render_png] at ``dpi`` dots per inch."""
     return [Figure(f"{stem}.png", plots.render_png(stem, curves, plateau_fraction, table3, dpi))
             for stem in plots.available_figures(curves)]
 

@@ -26,20 +26,11 @@ def states_table(model: TaskModel) -> pd.DataFrame:
     reachable = {s.index for s in model.reachable_states()}
     states = model.all_states()
     lengths = model.shortest_plan_lengths(states)
-    rows = []
-    for state in states:
-        number = table1_number(state) if _paper_sized(model) else None
-        rows.append(
-            {
-                "code": state.index,
-                "name": state.name,
-                "table1": "-" if number is None else number,
-                "reachable": state.index in reachable,
-                "terminal": state.is_terminal,
-                "plan_length": "-" if lengths[state.index] is None else lengths[state.index],
-            }
-        )
-    return pd.DataFrame(rows).set_index("code")
+    numbers = [table1_number(state) if _paper_sized(model) else None for state in states]
+    return pd.DataFrame([{"code": state.index, "name": state.name, "table1": "-" if number is None else number,
+                          "reachable": state.index in reachable, "terminal": state.is_terminal,
+                          "plan_length": "-" if lengths[state.index] is None else lengths[state.index]}
+                         for state, number in zip(states, numbers)]).set_index("code")
 
 
 def _paper_sized(model: TaskModel) -> bool:
@@ -51,19 +42,10 @@ def _paper_sized(model: TaskModel) -> bool:
 def table1_frame(model: TaskModel) -> pd.DataFrame:
     """Table 1 rows 1-18 mapped to the model: code, name, reachable?, shortest plan length."""
     reachable = {s.index for s in model.reachable_states()}
-    rows = []
-    for number, state in TABLE1_STATES.items():
-        plan = model.shortest_plan(state) if not state.is_terminal else []
-        rows.append(
-            {
-                "table1": number,
-                "code": state.index,
-                "name": state.name,
-                "reachable": state.index in reachable,
-                "plan_length": len(plan) if plan is not None else "-",
-            }
-        )
-    return pd.DataFrame(rows).set_index("table1")
+    plans = {n: model.shortest_plan(state) if not state.is_terminal else [] for n, state in TABLE1_STATES.items()}
+    return pd.DataFrame([{"table1": n, "code": state.index, "name": state.name, "reachable": state.index in reachable,
+                          "plan_length": len(plans[n]) if plans[n] is not None else "-"}
+                         for n, state in TABLE1_STATES.items()]).set_index("table1")
 
 
 def rewards_frame(names=None) -> pd.DataFrame:

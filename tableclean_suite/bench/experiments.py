@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import sys
 import time
 from dataclasses import asdict, dataclass, field, replace
@@ -29,7 +28,7 @@ from tableclean_suite.learners.memory import learner_training_memory
 from tableclean_suite.backends import CHECKPOINT_Q, get_backend
 from tableclean_suite.bench import digests, statistics
 from tableclean_suite.bench.config import LITERATURE_LEARNERS, RunConfig
-from tableclean_suite.bench.outputs import OutputError, describe_os_error
+from tableclean_suite.bench.outputs import OutputError, atomic_write, describe_os_error
 from tableclean_suite.bench.statistics import CellStatistics
 from tableclean_suite.learners import code_digest, train
 from tableclean_suite.curves import CurveSums
@@ -223,28 +222,17 @@ class CellStore:
         bands = {f"band_{name}_{side}": np.asarray(bounds[i], dtype=np.float64)
                  for name, bounds in cell_stats.bands.items() for i, side in enumerate(("low", "high"))}
         runs = {f"run_{name}": np.asarray(values, dtype=np.float64) for name, values in cell_stats.runs.items()}
-        temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        try:
+
+        def write(temporary: Path) -> None:
             with open(temporary, "wb") as handle:
                 np.savez(
-                    handle,
-                    config=np.array(json.dumps(config, sort_keys=True)),
-                    config_hash=np.array(digest),
-                    scalars=np.array(json.dumps(scalars)),
-                    statistics=np.array(json.dumps(facts)),
+                    handle, config=np.array(json.dumps(config, sort_keys=True)), config_hash=np.array(digest),
+                    scalars=np.array(json.dumps(scalars)), statistics=np.array(json.dumps(facts)),
                     **{name: np.asarray(curve, dtype=np.float64) for name, curve in summary.curves().items()},
-                    **bands,
-                    **runs,
-                    **({} if cell_stats.survival is None else {"survival": np.asarray(cell_stats.survival, np.float64)}),
-                )
-            os.replace(temporary, path)
-        except OSError as error:
-            temporary.unlink(missing_ok=True)
-            raise OutputError(f"cannot write cell file {str(path)!r}: {describe_os_error(error)}") from None
-        except BaseException:
-            temporary.unlink(missing_ok=True)
-            raise
-        return path
+                    **bands, **runs,
+                    **({} if cell_stats.survival is None else {"survival": np.asarray(cell_stats.survival, np.float64)}))
+
+        return atomic_write(path, write)
 
 
 #: Stored settling: drift, low, high, checkpoint.

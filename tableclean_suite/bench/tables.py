@@ -140,14 +140,10 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
                                 dtype="boolean")
     frame["alpha"] = frame["alpha"].astype(float)
     frame["gamma"] = frame["gamma"].astype(float)
-    sort_keys = {
-        "experiment": _ordered(frame["experiment"], EXPERIMENTS),
-        "learner": _ordered(frame["learner"], ("q_learning", "sarsa")),
-        "reward": _ordered(frame["reward"], ("r1", "r2", "r3", "r4")),
-    }
-    rank = {k: {v: i for i, v in enumerate(order)} for k, order in sort_keys.items()}
-    frame = frame.assign(**{f"_rank_{k}": frame[k].map(r) for k, r in rank.items()})
-    frame = frame.sort_values(["_rank_experiment", "_rank_learner", "_rank_reward", "alpha", "gamma"], kind="stable")
+    first = {"experiment": EXPERIMENTS, "learner": ("q_learning", "sarsa"), "reward": ("r1", "r2", "r3", "r4")}
+    rank = {k: {v: i for i, v in enumerate(_ordered(frame[k], order))} for k, order in first.items()}
+    frame = frame.sort_values([*first, "alpha", "gamma"], key=lambda c: c.map(rank[c.name]) if c.name in rank else c,
+                              kind="stable")
     simulated = ASYMPTOTES in frame.columns and bool((frame[ASYMPTOTES] != "exact").any())
     return frame[[*TABLE3_COLUMNS, *([ASYMPTOTES] if simulated else [])]].reset_index(drop=True)
 
@@ -344,20 +340,12 @@ def display_comparisons(frame: pd.DataFrame) -> pd.DataFrame:
 def display_sweeps(table: pd.DataFrame) -> pd.DataFrame:
     """The sweep rows for printing (no paper columns: the paper gives only Figures 6-7)."""
     rows = table[table["experiment"].isin(["alpha_sweep", "gamma_sweep"])].reset_index(drop=True)
-    return pd.DataFrame(
-        {
-            "experiment": rows["experiment"],
-            "learner": rows["learner"],
-            "reward": rows["reward"],
-            "alpha": rows["alpha"],
-            "gamma": rows["gamma"],
-            "median [CI]": _interval_texts(rows, "learning_time_median", 0),
-            "censored %": [_quoted_text(100.0 * v, 1) for v in rows["censored_share"]],
-            "first touch": [_quoted_text(v, 0) for v in rows["max_success_iterations"]],
-            "success % [CI]": _interval_texts(rows, "success_plateau", 2, 100.0),
-            "settled": _settled_marks(rows["settled"]),
-        }
-    )
+    return rows[["experiment", "learner", "reward", "alpha", "gamma"]].assign(**{
+        "median [CI]": _interval_texts(rows, "learning_time_median", 0),
+        "censored %": [_quoted_text(100.0 * v, 1) for v in rows["censored_share"]],
+        "first touch": [_quoted_text(v, 0) for v in rows["max_success_iterations"]],
+        "success % [CI]": _interval_texts(rows, "success_plateau", 2, 100.0),
+        "settled": _settled_marks(rows["settled"])})
 
 
 def _settled_marks(flags) -> list[str]:
@@ -384,7 +372,7 @@ def display_table4(table4_frame: pd.DataFrame) -> pd.DataFrame:
     """Table 4 for printing: numbers rounded (ours with their intervals), "-" where the paper gives
     none, a ``source`` column saying "run here" or "quoted" on every row."""
     frame = table4_frame
-    shown = pd.DataFrame({
+    return pd.DataFrame({
         "source": [MARK_QUOTED if s == SOURCE_QUOTED else MARK_RUN_HERE for s in frame["source"]],
         "method": [_short_method(m) for m in frame["methodology"]],
         "conv. eps": [_quoted_text(v, 1) for v in frame["average_reward_convergence_episodes"]],
@@ -394,7 +382,6 @@ def display_table4(table4_frame: pd.DataFrame) -> pd.DataFrame:
         "succ. eps": [_quoted_text(v, 1) for v in frame["max_success_episodes"]],
         "learning time [CI]": _interval_texts(frame, "learning_time_median", 0),
     })
-    return shown
 
 
 def curves_long(records: list[dict], curves: list[dict], metrics=CURVE_METRICS, stride: int = 1) -> pd.DataFrame:
