@@ -285,9 +285,8 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
     with contextlib.ExitStack() as held:
         if path is not None:  # one writer per trials folder: a second run exits 2, never mixes rounds
             held.enter_context(output_lock(path.parent))
-        if path is not None and fresh and path.exists():
-            path.unlink()
-        if path is not None:
+            if fresh and path.exists():
+                path.unlink()
             check_configuration(path, run_configuration(model, physics_options, scene, plugins), log)
         rows = trial_store.complete_rounds(read_trials(path, log) if path is not None else [], per_round, log)
         check_trial_rows(rows, model, path)
@@ -388,6 +387,13 @@ def skill_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[di
 def write_csv(path: Path, table: list[dict]) -> None:
     """Write ``table`` (rows of one shape) to ``path`` as CSV atomically."""
     trial_store.write_rows(path, table, tuple(table[0]) if table else ("empty",))
+
+
+def format_table(columns, rows) -> str:
+    """A Markdown table of ``columns`` (headers, repeats allowed) and ``rows`` (sequences of cells; none: the
+    header alone)."""
+    return "\n".join(["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns),
+                      *("| " + " | ".join(map(str, row)) + " |" for row in rows)])
 
 
 def lower_bound(successes: int, executions: int, confidence: float = CONFIDENCE) -> float:
@@ -571,7 +577,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 
 def _columns(table: list[dict], columns: str) -> str:
     """The Markdown table of ``table``'s space-separated ``columns``."""
-    return cli.markdown_table([{column: row[column] for column in columns.split()} for row in table])
+    return format_table(columns.split(), [[row[column] for column in columns.split()] for row in table])
 
 
 def main(argv: list[str] | None = None, prog: str | None = None) -> int:

@@ -79,15 +79,29 @@ def run_cell(kind: str, setting: str, episodes: int, seed: int, partner: str, lo
     from tableclean_suite.task import TaskModel
 
     model = TaskModel(spec=spec_for(kind, setting, partner))
+    return _measure(kind, setting, partner_for(kind, setting, partner), model, episodes, seed, fidelity.shortest_plan,
+                    log)[0]
+
+
+def _measure(kind: str, setting: str, partner: str, model, episodes: int, seed: int, plan_of, log=None,
+             starts=None, params: str = "") -> tuple[list[dict], list[dict]]:
+    """Rows (`COLUMNS`, one per skill) and failures (`FAILURE_COLUMNS`; ``starts``: each episode's start) of
+    ``episodes`` episodes of ``model`` executing ``plan_of``'s plans
+    ([`episodes`][tableclean_suite.bench.fidelity.episodes])."""
     started = time.perf_counter()
     counts: dict[str, list[int]] = {}
-    wins = 0
-    for results, ok, _, _ in fidelity.episodes(episodes, fidelity.shortest_plan, model, log, f"{kind} {setting}",
-                                               task=model.spec, seed=seed):
+    failures, wins = [], 0
+    for episode, (results, ok, _, _) in enumerate(fidelity.episodes(episodes, plan_of, model, log, f"{kind} {setting}",
+                                                                    task=model.spec, seed=seed)):
         fidelity.tally(counts, results, model)
         wins += ok
-    return _rows(kind, setting, partner_for(kind, setting, partner), counts, episodes, wins,
-                 time.perf_counter() - started)
+        if starts and results and not results[-1].success:
+            result, history = results[-1], " ".join(model.action_name(r.action) for r in results[:-1])
+            phase, cause = failure_class(result)
+            failures.append({"object": kind, "params": params, "episode": episode, "start": starts[episode].name,
+                             "history": history, "skill": model.action_name(result.action), "phase": phase,
+                             "cause": cause, "retries": result.retries, "reason": result.reason})
+    return _rows(kind, setting, partner, counts, episodes, wins, time.perf_counter() - started), failures
 
 
 def _rows(kind: str, setting: str, partner: str, counts: dict, episodes: int, wins: int, seconds: float) -> list[dict]:
@@ -123,6 +137,7 @@ def run_random(kind, index: int, episodes: int, seed: int, partner: str) -> tupl
     def plan_of(env, model, episode):
         rng = np.random.default_rng(np.random.SeedSequence([seed, index, episode]))
         state = start = starts[rng.integers(len(starts))]
+        drawn.append(start)
         env.rng = np.random.default_rng(int(rng.integers(2 ** 32)))
         env.set_start_state(start)
         env.reset()
@@ -133,23 +148,10 @@ def run_random(kind, index: int, episodes: int, seed: int, partner: str) -> tupl
             moves = [a for a in range(model.n_actions) if model.step(state, a)[0] != state]
             history.append(moves[rng.integers(len(moves))])
             state = model.step(state, history[-1])[0]
-        drawn.append(start)
         return history + model.shortest_plan(state)
 
-    started = time.perf_counter()
-    counts: dict[str, list[int]] = {}
-    failures, wins = [], 0
-    for episode, (results, ok, _, _) in enumerate(fidelity.episodes(episodes, plan_of, model, task=model.spec,
-                                                                    seed=seed)):
-        fidelity.tally(counts, results, model)
-        wins += ok
-        if results and not results[-1].success:
-            result, history = results[-1], " ".join(model.action_name(r.action) for r in results[:-1])
-            phase, cause = failure_class(result)
-            failures.append({"object": kind.name, "params": kind.description, "episode": episode,
-                             "start": drawn[episode].name, "history": history, "skill": model.action_name(result.action),
-                             "phase": phase, "cause": cause, "retries": result.retries, "reason": result.reason})
-    return _rows(kind.name, "random", partner, counts, episodes, wins, time.perf_counter() - started), failures
+    return _measure(kind.name, "random", partner, model, episodes, seed, plan_of, starts=drawn,
+                    params=kind.description)
 
 
 def markdown(rows: list[dict]) -> str:
@@ -170,8 +172,7 @@ def markdown(rows: list[dict]) -> str:
                            f"{percent_down(lower_bound(success, n))} / {percent_down(lower_bound(agree, n))}")
         lines.append((kind, setting, first.get("partner") or "-",
                       f"{first['episode_successes']}/{first['episodes']}", *entries))
-    return cli.markdown_table([dict(zip(("object", "setting", "partner", "successful episodes", *skills), line))
-                               for line in lines])
+    return fidelity.format_table(("object", "setting", "partner", "successful episodes", *skills), lines)
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
@@ -221,8 +222,8 @@ def random_table(args, rows: list[dict], table: Path, started: float, log=print)
         done = cell[0]["episode_successes"] if cell else 0
         wins += done
         for row in cell:
-            totals[row["skill"]] = [total + row[key] for total, key in
-                                    zip(totals.get(row["skill"], [0] * 4), ("executions", "successes", "agreements", "retries"))]
+            counts = ("executions", "successes", "agreements", "retries")
+            totals[row["skill"]] = [total + row[key] for total, key in zip(totals.get(row["skill"], [0] * 4), counts)]
         trial_store.write_rows(table, rows, COLUMNS)
         trial_store.write_rows(table.parent / FAILURES_CSV, failures, FAILURE_COLUMNS)
         log(f"[{index + 1}/{len(kinds)}] {kind.name} ({kind.description}): {done}/{episodes} episodes, "
@@ -235,7 +236,7 @@ def random_table(args, rows: list[dict], table: Path, started: float, log=print)
     classes = Counter((f["skill"], f["phase"], f["cause"]) for f in failures)
     print()
     counted = [(*key, n) for key, n in classes.most_common()] or [("-", "-", "no failure", 0)]
-    print(cli.markdown_table([dict(zip(("skill", "phase", "cause", "failures"), row)) for row in counted]))
+    print(fidelity.format_table(("skill", "phase", "cause", "failures"), counted))
     return total, measured, refused
 
 

@@ -159,8 +159,7 @@ def markdown(rows: list[dict]) -> str:
         lines.append((row["robot"], row["gripper"] or "-", row["task"], row["dynamics"], *fid,
                       f"{number['fidelity_faults']:.0f}" if "fidelity_faults" in number else "-", *eps,
                       f"{number['seconds_per_episode']:.2f}" if "seconds_per_episode" in number else "-"))
-    header = ["| " + " | ".join(MARKDOWN_COLUMNS) + " |", "|" + "---|" * len(MARKDOWN_COLUMNS)]
-    return "\n".join(header + ["| " + " | ".join(cells) + " |" for cells in lines])
+    return fidelity.format_table(MARKDOWN_COLUMNS, lines)
 
 
 #: The program name in messages unless the caller gives one.
