@@ -215,27 +215,16 @@ def max_segments(config: Mapping) -> int:
 
 @dataclass(frozen=True)
 class SceneGeometry:
-    """World-frame geometry derived from a config (all arrays float, metres).
+    """World-frame geometry derived from a config (all arrays float, metres)."""
 
-    Attributes:
-        table_top_z: height of the table top.
-        table_center: (3,) centre of the table top.
-        table_half_size: (2,) half extents (x, y) of the table top.
-        segment_centers: (N, 3) table-top point at each segment centre (row 0 = segment 1).
-        segment_half_sizes: (N, 2) half extents (x, y) of each segment's cleanable area.
-        sponge_home_pos: (3,) centre of the sponge when it rests on its stand.
-        stand_center: (3,) centre of the stand box.
-        stand_half_size: (3,) half extents of the stand box.
-    """
-
-    table_top_z: float
-    table_center: np.ndarray
-    table_half_size: np.ndarray
-    segment_centers: np.ndarray
-    segment_half_sizes: np.ndarray
-    sponge_home_pos: np.ndarray
-    stand_center: np.ndarray
-    stand_half_size: np.ndarray
+    table_top_z: float  #: height of the table top
+    table_center: np.ndarray  #: (3,) centre of the table top
+    table_half_size: np.ndarray  #: (2,) half extents (x, y) of the table top
+    segment_centers: np.ndarray  #: (N, 3) table-top point at each segment centre (row 0 = segment 1)
+    segment_half_sizes: np.ndarray  #: (N, 2) half extents (x, y) of each segment's cleanable area
+    sponge_home_pos: np.ndarray  #: (3,) centre of the sponge when it rests on its stand
+    stand_center: np.ndarray  #: (3,) centre of the stand box
+    stand_half_size: np.ndarray  #: (3,) half extents of the stand box
 
     @property
     def n_segments(self) -> int:
@@ -254,16 +243,10 @@ def scene_geometry(config: Mapping, n_segments: int = SCENE_SEGMENTS) -> SceneGe
     home_xy = center[:2] + np.asarray(config["sponge_home_xy"], dtype=float)
     stand_center = np.array([home_xy[0], home_xy[1], center[2] + stand_half[2]])
     sponge_home = stand_center + np.array([0.0, 0.0, stand_half[2] + config["sponge_half_size"][2]])
-    return SceneGeometry(
-        table_top_z=float(center[2]),
-        table_center=center,
-        table_half_size=np.asarray(config["table_full_size"][:2], dtype=float) / 2,
-        segment_centers=segment_centers,
-        segment_half_sizes=np.tile(half_size, (int(n_segments), 1)),
-        sponge_home_pos=sponge_home,
-        stand_center=stand_center,
-        stand_half_size=stand_half,
-    )
+    return SceneGeometry(table_top_z=float(center[2]), table_center=center,
+                         table_half_size=np.asarray(config["table_full_size"][:2], dtype=float) / 2,
+                         segment_centers=segment_centers, segment_half_sizes=np.tile(half_size, (int(n_segments), 1)),
+                         sponge_home_pos=sponge_home, stand_center=stand_center, stand_half_size=stand_half)
 
 
 def marker_positions(config: Mapping, n_segments: int = SCENE_SEGMENTS) -> np.ndarray:

@@ -471,19 +471,15 @@ class TableClean(ManipulationEnv):
         """Teleport object ``obj`` (0-based), at rest, onto the free spot of ``segment`` (0-based) the place skill
         would choose ([`free_spot`][tableclean_suite.environments.placement.free_spot]); the physics is forwarded, not stepped."""
         info = self.skill_info()
-        others = [(info["objects_pos"][k], placement.footprint_of(info, k)) for k in range(self.n_objects)
-                  if k != obj and self._lies_on(info, k, segment)]
+        tolerance = self.task_config["lift_tolerance"]  # the others lying (near their rest height) on the segment
+        others = [(pos, placement.footprint_of(info, k)) for k, pos in enumerate(info["objects_pos"]) if k != obj
+                  and pos[2] <= info["objects_rest_z"][k] + tolerance and self.segment_of_position(pos) == segment]
         xy = placement.free_spot(self.geometry.segment_centers[segment], self.geometry.segment_half_sizes[segment],
                                  self.object_measures.outlines[obj], others, self.task_config["object_clearance"],
                                  placement.other_segments(self.geometry.segment_centers,
                                                           self.geometry.segment_half_sizes, segment))
         self._set_object_pose(obj, xy, 0.0)
         self.sim.forward()
-
-    def _lies_on(self, info: Mapping, obj: int, segment: int) -> bool:
-        pos = info["objects_pos"][obj]
-        near_rest = pos[2] <= info["objects_rest_z"][obj] + self.task_config["lift_tolerance"]
-        return near_rest and self.segment_of_position(pos) == segment
 
     def dirt_fraction(self) -> np.ndarray:
         """(N,) fraction of each segment's dirt markers still present (1.0 = all dirty), read from qpos;
