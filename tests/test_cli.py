@@ -206,7 +206,7 @@ def test_bad_input_from_the_entry_point_has_no_traceback(tmp_path):
 
 def _import_robosuite(quiet: bool):
     code = ("import logging, sys\n"
-            "from tableclean_suite.bench.startup import quiet_robosuite_startup\n"
+            "from tableclean_suite.robosuite_adapter import quiet_robosuite_startup\n"
             + ("holder = quiet_robosuite_startup()\n" if quiet else "")
             + "import robosuite\n"
             "logging.getLogger('robosuite_logs').warning('a later message')\n")

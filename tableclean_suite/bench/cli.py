@@ -272,7 +272,8 @@ def parse_command(build_parser, argv, prog: str, known: bool = False):
     """Apply ``--verbose``, import the ``--plugins`` (exit 2 naming one that fails), then parse ``argv`` with
     ``build_parser(prog)``: ``(parser, args)``, with ``known`` ``(parser, args, unknown arguments)``."""
     from tableclean_suite.bench.plugins import FLAG, PluginError, load_plugins, plugin_entries
-    from tableclean_suite.bench.startup import announce_compiles, apply_verbosity
+    from tableclean_suite.bench.startup import announce_compiles
+    from tableclean_suite.robosuite_adapter import apply_verbosity
 
     argv = list(sys.argv[1:] if argv is None else argv)
     early = OneLineParser(prog=prog, add_help=False)

@@ -1,6 +1,5 @@
-"""What a command says while it starts: robosuite's start-up warnings dropped unless ``--verbose``
-(`quiet_robosuite_startup`), and one notice before numba compiles the package's kernels
-(`announce_compiles`), during which Ctrl-C ends the process in one line."""
+"""One notice before numba compiles the package's kernels (`announce_compiles`), during which Ctrl-C
+ends the process in one line."""
 
 from __future__ import annotations
 
@@ -12,11 +11,6 @@ import threading
 import wrapt
 
 from tableclean_suite.bench.cli import EXIT_INTERRUPTED
-from tableclean_suite.robosuite_adapter import (  # noqa: F401  (part of this module's interface)
-    ROBOSUITE_LOGGER,
-    apply_verbosity,
-    quiet_robosuite_startup,
-)
 
 #: Wall seconds of compiling the kernels with numba's disk cache empty (60-120 s on 2 busy cores).
 COMPILE_SECONDS = 90
