@@ -80,9 +80,8 @@ def measured_with(configuration: dict | None) -> str:
         return "scene options unknown (no configuration recorded beside the trials)"
     options = configuration.get("physics_options") or {}
     env = options.get("env_kwargs", {}) if isinstance(options, dict) else {}
-    robot = env.get("robots", "Panda") if isinstance(env, dict) else "Panda"
-    randomization = env.get("randomization", "off") if isinstance(env, dict) else "off"
-    return f"robot {robot}, randomization {randomization}"
+    env = env if isinstance(env, dict) else {}
+    return f"robot {env.get('robots', 'Panda')}, randomization {env.get('randomization', 'off')}"
 
 
 def calibrated_table(rows, model: TaskModel | None = None, description: str = "") -> TransitionTable:
@@ -112,7 +111,7 @@ DEFAULT_OUT = "transitions.json"
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    """The command line: the shared options of [`cli`][tableclean_suite.bench.cli], fidelity's execution options and calibrate's own."""
+    """The command line: fidelity's execution options and calibrate's own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     add_execution_arguments(parser)  # pairs of actions not executed keep the model's successor
     cli.add_out_argument(parser, cli.FILE, DEFAULT_OUT, "JSON file to write")
@@ -165,12 +164,8 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         if len(successors) > 1 or successors[0][:2] != (model_next[state, action], model_outcome[state, action]):
             stochastic.append(table.describe_pair(state, action))
     print(f"wrote {out}: {table.source}")
-    if stochastic:
-        print(f"{len(stochastic)} pair(s) differ from the task model:")
-        for line in stochastic:
-            print("  " + line)
-    else:
-        print("every measured pair matches the task model")
+    print("\n  ".join([f"{len(stochastic)} pair(s) differ from the task model:", *stochastic]) if stochastic
+          else "every measured pair matches the task model")
     print(f"({time.perf_counter() - started:.0f} s)")
     return 0
 

@@ -32,7 +32,6 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import cli  # noqa: E402
-from tableclean_suite.bench.cli import positive_int  # noqa: E402
 from tableclean_suite.bench.rollout import majority_policy  # noqa: E402
 from tableclean_suite.executors.blas import single_blas_thread  # noqa: E402
 from tableclean_suite.robosuite_adapter import apply_verbosity  # noqa: E402
@@ -57,7 +56,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the collection's own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     cli.add_task_argument(parser)
-    parser.add_argument("--episodes", type=positive_int, default=DEFAULT_EPISODES,
+    parser.add_argument("--episodes", type=cli.positive_int, default=DEFAULT_EPISODES,
                         help=f"successful demos to record (default {DEFAULT_EPISODES})")
     cli.add_robots_argument(parser)
     parser.add_argument("--policy", default="optimal", choices=POLICIES,
@@ -66,7 +65,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     cli.add_out_argument(parser, cli.FILE, None, "output .hdf5 (results/demos_<task>_<policy>.hdf5 when not given)")
     cli.add_iterations_argument(parser, DEFAULT_ITERATIONS, "learned: training iterations per run")
     cli.add_runs_argument(parser, DEFAULT_RUNS, "learned: training runs voting on the policy")
-    parser.add_argument("--max-actions", type=positive_int, default=DEFAULT_MAX_ACTIONS,
+    parser.add_argument("--max-actions", type=cli.positive_int, default=DEFAULT_MAX_ACTIONS,
                         help=f"learned: actions per episode before it counts as failed (default {DEFAULT_MAX_ACTIONS})")
     parser.add_argument("--valid-fraction", type=float, default=None,
                         help="fraction of the demos in mask/valid, in [0, 1) (default 0.1)")

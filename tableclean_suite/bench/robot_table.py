@@ -29,7 +29,6 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import cli, fidelity, trial_store  # noqa: E402
-from tableclean_suite.bench.cli import non_negative_int  # noqa: E402
 
 #: Default arms: the Panda and the three others with shipped skill configs.
 DEFAULT_ROBOTS = ("Panda", "Sawyer", "UR5e", "Kinova3")
@@ -175,9 +174,9 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                              f"'{DEFAULT_GRIPPER}': the one its config mounts; default {DEFAULT_GRIPPER})")
     parser.add_argument("--tasks", type=cli.name_list, default=",".join(DEFAULT_TASKS),
                         help=f"comma-separated task specs (default {','.join(DEFAULT_TASKS)})")
-    parser.add_argument("--episodes", type=non_negative_int, default=30,
+    parser.add_argument("--episodes", type=cli.non_negative_int, default=30,
                         help="optimal-plan episodes from random layouts per cell (default 30; 0 skips)")
-    parser.add_argument("--fidelity-trials", type=non_negative_int, default=2,
+    parser.add_argument("--fidelity-trials", type=cli.non_negative_int, default=2,
                         help="fidelity rounds (trials per (state, action) pair) per cell (default 2; 0 skips)")
     cli.add_seed_argument(parser, "the placements and layouts")
     cli.add_out_argument(parser, cli.DIRECTORY, DEFAULT_OUT, f"directory of {TABLE_CSV}")
