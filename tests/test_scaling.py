@@ -27,9 +27,7 @@ INTERVAL_FIGURES = ("learning_time", "success_window_mean", "never_terminal_shar
 
 
 def _optimal(model):
-    next_state, _ = model.transition_arrays()
-    distance = model.distances_to_terminal()
-    return distance, family.optimal_policy(next_state, distance)
+    return model.distances_to_terminal(), model.optimal_policy()
 
 
 #: The issue's family: N = 2..5 segments x M = 1..3 objects, up to at least this many reachable states.

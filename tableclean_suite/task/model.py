@@ -378,14 +378,13 @@ class TaskModel:
         reachable.  Actions are [`Action`][tableclean_suite.task.actions.Action] members when the
         spec's actions are the paper's four, else indices."""
         code = encode(self.as_state(state))
-        next_state, distance = self._transition_arrays[0], self._distances
+        next_state, distance, policy = self._transition_arrays[0], self._distances, self._optimal_policy
         if distance[code] < 0:
             return None
         plan = []
         while distance[code] > 0:
-            action = int(np.argmax(distance[next_state[code]] == distance[code] - 1))
-            plan.append(self._plan_action(action))
-            code = int(next_state[code, action])
+            plan.append(self._plan_action(int(policy[code])))
+            code = int(next_state[code, policy[code]])
         return plan
 
     def _plan_action(self, index: int) -> Action | int:
@@ -426,6 +425,18 @@ class TaskModel:
                 return distance
             length += 1
             distance[reached] = length
+
+    def optimal_policy(self) -> np.ndarray:
+        """``(S,)`` int64: in each state code with a shortest plan of d > 0 steps, the first action in the
+        spec's order whose successor is d - 1 steps from a terminal state (so following it is
+        [`shortest_plan`][tableclean_suite.task.model.TaskModel.shortest_plan]); action 0 elsewhere."""
+        return self._optimal_policy.copy()
+
+    @cached_property
+    def _optimal_policy(self) -> np.ndarray:
+        distance = self._distances
+        closer = (distance[self._transition_arrays[0]] == (distance - 1)[:, None]) & (distance[:, None] > 0)
+        return np.where(closer.any(axis=1), np.argmax(closer, axis=1), 0).astype(np.int64)
 
     def rollout(self, state: StateLike, actions: Iterable) -> list[TaskState]:
         """The states visited by applying ``actions`` from ``state`` (including ``state``)."""

@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
 
 #: The default family is the product DEFAULT_SEGMENTS x DEFAULT_OBJECT_COUNTS: segments N = 2..5 ...
 DEFAULT_SEGMENTS = tuple(range(2, 6))
@@ -107,24 +106,6 @@ def largest_default_spec():
     return family_spec(max(DEFAULT_SEGMENTS), max(DEFAULT_OBJECT_COUNTS))
 
 
-def optimal_policy(next_state: np.ndarray, distance: np.ndarray) -> np.ndarray:
-    """A greedy policy that follows a shortest plan from every state.
-
-    In each state with a finite distance d > 0 it takes the first action, in the spec's order,
-    whose successor is at distance d - 1; elsewhere (terminal or hopeless codes) action 0.
-
-    Args:
-        next_state: ``(S, A)`` successor codes.
-        distance: ``(S,)`` distances to a terminal code
-            ([`TaskModel.distances_to_terminal`][tableclean_suite.task.model.TaskModel.distances_to_terminal]).
-
-    Returns:
-        ``(S,)`` int64 action indices.
-    """
-    closer = (distance[next_state] == (distance - 1)[:, None]) & (distance[:, None] > 0)
-    return np.where(closer.any(axis=1), np.argmax(closer, axis=1), 0).astype(np.int64)
-
-
 def plan_window(plan_length: int, paper_plan_length: int, base_window: int, exponent: float) -> tuple[int, int]:
     """``(window, max_itr)`` in iterations for a spec whose optimal plan has ``plan_length`` steps.
 
@@ -149,11 +130,9 @@ def describe_spec(spec, paper_plan_length: int, base_window: int, exponent: floa
     from tableclean_suite.task import TaskModel
 
     model = TaskModel(spec=spec)
-    next_state, distance = model.transition_arrays()[0], model.distances_to_terminal()
-    plan_length = int(distance[model.start_state.index])
+    plan_length = int(model.distances_to_terminal()[model.start_state.index])
     window, max_itr = plan_window(plan_length, paper_plan_length, base_window, exponent)
-    policy = optimal_policy(next_state, distance)
-    success = float(exact_success_probability(policy, EPSILON, max_itr, model=model))
+    success = float(exact_success_probability(model.optimal_policy(), EPSILON, max_itr, model=model))
     info = SpecInfo(family, spec.name, spec.segments, spec.n_objects, model.n_states, len(model.reachable_states()),
                     len(model.reachable_states([model.start_state])), plan_length, success, window, max_itr)
     return info, model
