@@ -498,13 +498,11 @@ class CellTask:
         config: the run's configuration (``workers``: the physics processes of this cell).
         key_hash: [`config_hash`][tableclean_suite.bench.experiments.config_hash] of the driver's
             [`cell_config`][tableclean_suite.bench.experiments.cell_config]; the worker checks it computes the same.
-        numba_threads: compiled threads in the worker, >= 1 (None: leave numba's setting).
     """
 
     cell: Cell
     config: RunConfig
     key_hash: str
-    numba_threads: int | None = WORKER_NUMBA_THREADS
 
     @property
     def label(self) -> str:
@@ -513,16 +511,16 @@ class CellTask:
 
 
 def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, float]:
-    """[`train_cell`][tableclean_suite.bench.experiments.train_cell] of a [`CellTask`][tableclean_suite.bench.experiments.CellTask], in whatever process runs it.
+    """[`train_cell`][tableclean_suite.bench.experiments.train_cell] of a [`CellTask`][tableclean_suite.bench.experiments.CellTask]
+    in whatever process runs it, on `WORKER_NUMBA_THREADS` compiled threads.
 
     Raises:
         CellKeyMismatchError: the worker's cell key differs from the driver's (other code,
             registrations or transition table there).
     """
-    if task.numba_threads is not None:
-        import numba
+    import numba
 
-        numba.set_num_threads(min(task.numba_threads, numba.config.NUMBA_NUM_THREADS))
+    numba.set_num_threads(min(WORKER_NUMBA_THREADS, numba.config.NUMBA_NUM_THREADS))
     config = task.config
     if config.plugins:
         from tableclean_suite.bench.plugins import load_plugins
