@@ -513,8 +513,7 @@ def tally(counts: dict, results, model: TaskModel) -> None:
 # CLI
 # ---------------------------------------------------------------------------------------------
 def add_execution_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of [`collect`][tableclean_suite.bench.fidelity.collect] shared by fidelity and calibrate: --task, --trials, --seed, --actions,
-    --quiet and where the rounds run."""
+    """The options of [`collect`][tableclean_suite.bench.fidelity.collect] shared by fidelity and calibrate."""
     cli.add_task_argument(parser)
     parser.add_argument("--trials", type=cli.positive_int, default=5,
                         help="trials per (state, action) pair = rounds (default 5)")
@@ -548,8 +547,6 @@ def parse_task_and_actions(parser: argparse.ArgumentParser, args) -> tuple[TaskM
     """The model of ``--task`` ([`physical_model`][tableclean_suite.bench.fidelity.physical_model]) and the names
     of ``--actions``; exits 2 on bad input."""
     model = physical_model(parser, args.task)
-    if args.actions is None:
-        return model, tuple(model.action_names)
     try:
         return model, action_names(model, args.actions)
     except ValueError as error:
