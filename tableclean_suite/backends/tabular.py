@@ -44,18 +44,6 @@ def progress_bar(iterable, enabled: bool, description: str):
     return tqdm(iterable, desc=description, leave=False)
 
 
-def assistance_arrays(learner, model) -> tuple[np.ndarray, np.ndarray]:
-    """The kernel's ``afforded`` ``(S, A)`` int8 (the model's affordances when the learner uses
-    them given, else ``(0, 0)``) and ``advisor`` ``(S,)`` int64 (the optimal advisor when the learner
-    is advised, else ``(0,)``): see [`tableclean_suite.learners.assist`][tableclean_suite.learners.assist]."""
-    if learner.affordance_code == assist.AFFORD_GIVEN:
-        afforded = assist.given_affordances(model)
-    else:
-        afforded = np.zeros((0, 0), dtype=np.int8)
-    advisor = assist.advisor_policy(model) if learner.advised else np.zeros(0, dtype=np.int64)
-    return afforded, advisor
-
-
 def check_job_resources(job: TrainingJob, measured: bool) -> None:
     """Refuse ``job`` before allocating when it cannot fit or would run too long (every update
     counted, Dyna-Q's planning ones too; see [`tableclean_suite.resources`][tableclean_suite.resources])."""
@@ -138,7 +126,7 @@ class TableBackend:
         loop_value = 0.0 if job.reward.looping_penalty is None else job.reward.looping_penalty
         learner_parameters = learner.kernel_parameters()
         explore_parameters = learner.exploration.kernel_parameters(job.epsilon)
-        afforded, advisor = assistance_arrays(learner, model)
+        afforded, advisor = assist.assistance_arrays(learner, model)
         advice = learner.advice_parameters()
         train_batch = kernel.kernel_for(learner)
         snapshot_at = job.checkpoint if 0 < job.checkpoint <= job.iterations else kernel.NO_SNAPSHOT

@@ -221,3 +221,11 @@ def _search_advisor(model) -> np.ndarray:
         distance = updated
     policy = np.argmin(steps, axis=1).astype(np.int64)
     return np.where(np.isfinite(distance), policy, NO_ADVICE).astype(np.int64)
+
+
+def assistance_arrays(learner, model) -> tuple[np.ndarray, np.ndarray]:
+    """The kernel's ``afforded`` ``(S, A)`` int8 (the model's affordances when ``learner`` uses them
+    given, else ``(0, 0)``) and ``advisor`` ``(S,)`` int64 (the optimal advisor when it is advised,
+    else ``(0,)``)."""
+    afforded = given_affordances(model) if learner.affordance_code == AFFORD_GIVEN else np.zeros((0, 0), np.int8)
+    return afforded, advisor_policy(model) if learner.advised else np.zeros(0, dtype=np.int64)

@@ -72,9 +72,7 @@ def train_run(env, learner, reward, iterations: int, alpha: float, gamma: float,
     parameters, explore = learner.kernel_parameters(), learner.exploration.kernel_parameters(epsilon)
     decay, planning_steps = gamma * parameters[k.PARAM_LAMBDA], int(parameters[k.PARAM_PLANNING])
     accumulate = parameters[k.PARAM_ACCUMULATE] != 0.0
-    afforded = assist.given_affordances(model) if learner.affordance_code == assist.AFFORD_GIVEN else np.zeros(
-        (0, 0), dtype=np.int8)
-    advisor = assist.advisor_policy(model) if learner.advised else np.zeros(0, dtype=np.int64)
+    afforded, advisor = assist.assistance_arrays(learner, model)
     advice = learner.advice_parameters()
     masks = assist.run_masks(afforded, learner.affordance_code, n_states, n_actions)
     q = np.full((n_states, n_actions), learner.q_init)
