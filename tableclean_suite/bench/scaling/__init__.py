@@ -3,16 +3,10 @@
     python -m benchmarks.scaling                           # the default study (see docs/scaling.md)
     python -m benchmarks.scaling --segments 2,3 --objects 1 --fixed-plan-objects 1,3 --seeds 5 --runs 10 --out scaling-small
 
-Trains learners x reward patterns x discounts on two families of task specs (`family`: the
-product N x M, and a fixed 8-step plan with M - 1 objects parked), each cell with several seeds of
-runs over a window that grows with the plan length, and reports each cell's median per-run
-learning time with a seeds-then-runs bootstrap interval, local slopes and a censored power-law
-fit (`statistics`); docs/scaling.md states the method in full.  Publishes under ``--out``
-([`outputs.publish`][tableclean_suite.bench.outputs.publish]): ``scaling.csv``,
-``scaling_specs.csv``, ``scaling_slopes.csv``, ``scaling.png`` and ``config.json``.
-
-Modules: `family` (specs, windows), `study` (training, rows), `statistics`, `report` (tables,
-CSV, figure), `pipeline` (the study from parsed arguments), `command` (the command line).
+Trains learners x reward patterns x discounts on two families of task specs (`family`) and reports
+each cell's median per-run learning time with its interval, local slopes and a censored power-law
+fit (`statistics`; docs/scaling.md states the method).  Publishes ``scaling.csv``,
+``scaling_specs.csv``, ``scaling_slopes.csv``, ``scaling.png`` and ``config.json`` under ``--out``.
 """
 
 from tableclean_suite.bench.scaling.command import EXIT_USAGE, PROG, main
