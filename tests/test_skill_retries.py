@@ -79,6 +79,64 @@ def test_redo_starts_again_from_an_earlier_primitive():
     assert seen.index("TRAVEL") < len(seen) - 1 - seen[::-1].index("LIFT")  # LIFT ran again after TRAVEL failed
 
 
+class _StalledTravel(Reach):
+    """The move's TRAVEL in a phase that may stall (``STALLS``): the hand is held (a frozen stand-in) until the
+    primitive starts again."""
+
+    STALLS = ("TRAVEL",)
+
+    def __init__(self):
+        super().__init__("TRAVEL", lambda skill, info: skill.hover_point(info, skill.segment_center(info, 1)[:2]), -1.0)
+        self.starts = 0
+
+    def start(self, skill, info):
+        self.starts += 1
+        skill.env.frozen = self.starts == 1
+
+
+@pytest.mark.parametrize("stalls, budget, success, retries", [(True, 1, True, 1), (True, 0, False, 0),
+                                                              (False, 1, False, 0)])
+def test_a_phase_that_runs_out_of_budget_where_it_stalls_starts_again_with_a_fresh_budget(stalls, budget, success,
+                                                                                        retries):
+    travel = _StalledTravel()
+    if not stalls:
+        travel.STALLS = ()
+
+    class StallingMove(MoveSkill):
+        def build(self, info):
+            return [("", travel)]
+    controller = SkillController(KinematicEnv(), registry={Action.MOVE: StallingMove},
+                                 skill_configs={Action.MOVE: {"retries": budget, "max_steps": 60}})
+    result = controller.execute(Action.MOVE)
+    assert (result.success, result.retries, travel.starts) == (success, retries, 1 + retries)
+    if success:
+        assert result.steps > 60  # the retry ran on a budget of its own
+    else:
+        assert result.reason == "step budget of 60 exhausted in phase TRAVEL" and result.steps == 60
+
+
+def test_a_grasp_tried_again_lowers_its_fingertips_to_the_retry_clearance():
+    from types import SimpleNamespace
+
+    from tableclean_suite.controllers.clean import turned_quat
+    from tableclean_suite.controllers.primitives import RETRY_TIP_CLEARANCE, Body
+
+    config = PickConfig().as_dict()
+    lying = _stack((0.011, 0.022))  # 2.2 cm high: as a thin cylinder lying on its side
+    body = Body(pos=lambda info: np.zeros(3), quat=lambda info: np.array([0.0, 0.0, 0.0, 1.0]),
+                half_size=lambda info: np.array([0.011, 0.011, 0.011]), grasped=lambda info: False,
+                geometry=lambda info: lying)
+    info = {"eef_quat": turned_quat(np.array([0.70710678, 0.70710678, 0.0, 0.0]), 0.0), "gripper_palm_height": 0.031,
+            "gripper_qpos": np.zeros(2)}
+    skill = SimpleNamespace(config=config, yaw=0.0, _yaw_setpoint=0.0, setpoint=np.zeros(3))
+    grasp = Grasp(body)
+    grasp.start(skill, info)
+    first = grasp.grasp_target(skill, info)[2]
+    assert first == pytest.approx(config["fingertip_depth"] + config["tip_clearance"])  # above the body's top
+    grasp.restart(skill, info)
+    assert grasp.grasp_target(skill, info)[2] == pytest.approx(config["fingertip_depth"] + RETRY_TIP_CLEARANCE)
+
+
 def _stack(*parts) -> ObjectGeometry:
     """Points of upright cylinders stacked from z = 0: each ``(radius, height)`` [m], as MuJoCo's rims."""
     angles = np.linspace(0.0, 2.0 * np.pi, 32, endpoint=False)
@@ -266,3 +324,29 @@ def test_the_old_grasp_retries_key_still_sets_the_retry_budget():
     with pytest.warns(DeprecationWarning, match="'grasp_retries' is now 'retries'"):
         merged, settings = checked_skill_config("PickSkill", PickConfig, defaults, {"grasp_retries": 4})
     assert settings.retries == 4 and "grasp_retries" not in merged
+
+
+@pytest.mark.slow
+def test_retries_leave_the_papers_optimal_episode_unchanged_step_by_step():
+    """The paper's optimal episode with the default retries and with none: the same MuJoCo state after every
+    control step (a retry only ever follows what was a failure)."""
+    from tableclean_suite import robosuite_adapter
+    from tableclean_suite.controllers import make_skill_env
+    from tableclean_suite.task.paper import PAPER_START
+
+    def episode(retries):
+        env = make_skill_env(1, 1, seed=1)
+        try:
+            env.reset()
+            data, states = robosuite_adapter.mj_data(env.sim), []
+            configs = None if retries is None else {action: {"retries": retries} for action in Action}
+            controller = SkillController(env, TaskModel(), skill_configs=configs,
+                                         on_step=lambda: states.append(np.concatenate([data.qpos, data.qvel])))
+            results = controller.execute_plan(TaskModel().shortest_plan(PAPER_START))
+            return results, np.array(states)
+        finally:
+            env.close()
+    (default, stepped), (none, stepped_none) = episode(None), episode(0)
+    assert [r.success for r in default] == [True] * len(default) and default[-1].state_after.is_terminal
+    assert [r.retries for r in default] == [0] * len(default)
+    assert stepped.shape == stepped_none.shape and np.array_equal(stepped, stepped_none)

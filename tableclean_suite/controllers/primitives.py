@@ -72,6 +72,9 @@ PAD_HALF_HEIGHT = 0.004
 #: m a side by which a round body's slice below the pads (the fingertips') or above them (the finger links')
 #: may be wider than the slice at the pads before the grip moves ([`fitting_z`][tableclean_suite.controllers.primitives.fitting_z]).
 SLICE_MARGIN = 0.001
+#: m the fingertips keep above a body's bottom when a grasp is tried again (a low body, such as a thin
+#: cylinder lying on its side, is held by the pads only this low).
+RETRY_TIP_CLEARANCE = 0.002
 #: rad: grasp yaws across the narrow side whose distances from ``nominal_yaw`` differ by less count as a tie
 #: (`Grasp` then takes the one nearest the hand's yaw).
 YAW_TIE = 0.2
@@ -309,6 +312,8 @@ class Primitive:
     """
 
     PHASES: ClassVar[tuple[str, ...]] = ()
+    #: Phases in which running out of step budget is retried: the primitive starts again from the measured scene.
+    STALLS: ClassVar[tuple[str, ...]] = ()
     #: The settings the primitive reads from its skill's config (a skill running it must have them all).
     Config: ClassVar[type[SkillConfig]] = SkillConfig
     def start(self, skill: "PrimitiveSkill", info: Info) -> None:
@@ -365,6 +370,7 @@ class Grasp(Primitive):
     """
 
     PHASES = ("HOVER", "DESCEND", "CLOSE", "LIFT")
+    STALLS = ("DESCEND",)
     Config = GraspConfig
 
     def __init__(self, body: Body, what: str = "grasp"):
@@ -375,6 +381,7 @@ class Grasp(Primitive):
         self.rise_xy = None  # on a restart: (2,) m, where the open hand rises straight up before it approaches
         self.closed_at = None  # (grip-site z, body z) [m] when the closed grasp was confirmed by contact
         self._hover_seen = None  # (skill step, (2,) grip-site xy [m]) at the last hover check
+        self.config = skill.config  # the settings of the grasp height (a retry lowers the fingertips)
         self._aim(skill, info)
 
     def restart(self, skill, info):
@@ -382,6 +389,7 @@ class Grasp(Primitive):
         and tipped it), rises straight up to the travel height at its yaw (sweeping and turning on the way, the
         open fingers pushed a box off), then turns and approaches as at the start."""
         self.start(skill, info)
+        self.config = {**skill.config, "tip_clearance": min(skill.config["tip_clearance"], RETRY_TIP_CLEARANCE)}
         self.aim_yaw, skill.yaw = skill.yaw, skill._yaw_setpoint
         self.opening = np.full(np.shape(info["gripper_qpos"]), np.inf)
         self.rise_xy = skill.setpoint[:2]
@@ -454,7 +462,7 @@ class Grasp(Primitive):
         if self.body.grasp_depth is not None or self.body.geometry is None:
             return grasp_point(pos, self.body.half_size(info), skill.config, self.body.grasp_depth)
         quat = self.body.quat(info)
-        z = holding_z(pos, quat_to_matrix(quat), self.body.shape(info), skill.config,
+        z = holding_z(pos, quat_to_matrix(quat), self.body.shape(info), self.config,
                       float(info["gripper_palm_height"]), skill.yaw - gripper_yaw(quat))
         return np.array([pos[0], pos[1], z])
 
@@ -534,6 +542,7 @@ class Release(Primitive):
     """
 
     PHASES = ("ALIGN", "DESCEND", "RELEASE", "RETREAT")
+    STALLS = ("DESCEND",)
     Config = ReleaseConfig
 
     def __init__(self, body: Body, spot: Callable[["PrimitiveSkill", Info], np.ndarray],
@@ -668,6 +677,10 @@ class PrimitiveSkill(Skill):
     def phase_ready(self, info: Info) -> bool:
         primitive, local = self._current()
         return primitive.ready(self, info, local)
+
+    def stall_redo(self) -> int | None:
+        primitive, local = self._current()
+        return 0 if local in primitive.STALLS else None
 
     def run_loop_phase(self, stepper) -> int:
         primitive, local = self._current()

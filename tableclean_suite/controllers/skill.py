@@ -337,7 +337,7 @@ class Skill(abc.ABC):
         final = self.final_phase
         if self.failure is not None or self.phase == final:  # self.done
             return None
-        if self.steps >= self.max_steps:
+        if self.steps >= self.budget and not self._retry_stall():
             self.failure = f"step budget of {self.max_steps} exhausted in phase {self.phase.name}"
             return None
         info = self.env.skill_info()
@@ -381,6 +381,26 @@ class Skill(abc.ABC):
             self.fixed_waypoint = target
         return action
 
+    @property
+    def budget(self) -> int:
+        """Control steps the execution may take so far: ``max_steps`` per try (the first and each retry)."""
+        return self.max_steps * (self.retries + 1)
+
+    def stall_redo(self) -> int | None:
+        """Hook: the ``redo`` of [`SkillFailure`][tableclean_suite.controllers.skill.SkillFailure] when the budget runs
+        out in the current phase (a descent held up by what it met); None: the skill fails (default)."""
+        return None
+
+    def _retry_stall(self) -> bool:
+        """Whether the budget ran out in a phase that [`stall_redo`][tableclean_suite.controllers.skill.Skill.stall_redo]
+        retries and the skill started it again from the scene measured now (a retry, with a fresh budget)."""
+        redo = self.stall_redo()
+        if redo is None or self.retries >= self.config["retries"] or not self.restart(self.env.skill_info(), redo):
+            return False
+        self.retries += 1
+        self._phase_steps = 0
+        return True
+
     def run_fixed_phase(self, stepper) -> int:
         """Hand the current phase's next control steps to ``stepper``'s compiled phase loop; returns how many ran.
 
@@ -420,7 +440,7 @@ class Skill(abc.ABC):
             SKILL_STATE, setpoint=self._setpoint, target=target, yaw_setpoint=self._yaw_setpoint, yaw=self.yaw,
             max_move=speed * self.dt, max_turn=self.config["yaw_rate"] * self.dt, gripper=gripper,
             tolerance=tolerance, gripper_still=self.config["gripper_still"], steps=self.steps,
-            max_steps=self.max_steps, phase_steps=self._phase_steps, min_steps=min_steps,
+            max_steps=self.budget, phase_steps=self._phase_steps, min_steps=min_steps,
             gripper_timeout=-1 if timeout is None else timeout, xy_only=xy_only)
 
     def count_loop_steps(self, ran: int, state: np.ndarray) -> None:
