@@ -1,15 +1,9 @@
-"""The symbolic table-cleaning task: specifications, states, actions and the model.
-
-Pure Python/NumPy; knows nothing of MuJoCo.  Everything else in the package
-(rewards, learners, the robosuite environment's abstraction, the skills) speaks in
-the names defined here:
-
-- [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] ([`spec`][tableclean_suite.task.spec]): N segments, M objects, the action list, the start;
-  named specs in a registry (``paper``, ``three_segments``, ...), or JSON files.
-- [`TaskState`][tableclean_suite.task.state.TaskState], [`Outcome`][tableclean_suite.task.state.Outcome], [`encode`][tableclean_suite.task.state.encode] ([`state`][tableclean_suite.task.state]).
-- [`Action`][tableclean_suite.task.actions.Action], [`ActionRule`][tableclean_suite.task.actions.ActionRule], [`register_action`][tableclean_suite.task.actions.register_action] ([`actions`][tableclean_suite.task.actions]).
-- [`TaskModel`][tableclean_suite.task.model.TaskModel] ([`model`][tableclean_suite.task.model]): the rules, reachability, plans, tables.
-- The paper's Table 1, start and optimal plan ([`paper`][tableclean_suite.task.paper]).
+"""The symbolic table-cleaning task (pure Python/NumPy, no MuJoCo): specifications
+([`TaskSpec`][tableclean_suite.task.spec.TaskSpec]), states ([`TaskState`][tableclean_suite.task.state.TaskState],
+[`Outcome`][tableclean_suite.task.state.Outcome]), actions ([`ActionRule`][tableclean_suite.task.actions.ActionRule],
+[`register_action`][tableclean_suite.task.actions.register_action]), the model
+([`TaskModel`][tableclean_suite.task.model.TaskModel]) and the paper's Table 1, start and optimal plan
+([`paper`][tableclean_suite.task.paper]).
 """
 
 from __future__ import annotations
