@@ -1,22 +1,12 @@
 """Exact analysis of policies on the task: success probabilities by dynamic programming.
 
-The paper's ~84 % success plateau is the chance that epsilon-greedy exploration avoids every
-improper action on the way to the terminal state; here it is computed exactly, for any policy,
-over the model or a measured transition table.
-
-The policy evaluated is the exploration's *final* action distribution
-([`final_behaviour`][tableclean_suite.analysis.final_behaviour]: epsilon or temperature at the
-training's last iteration, per-state epsilon from the visits for ``visit_decay``, the softmax of
-the final Q-table), restricted to afforded actions and mixed with the advisor (``L * advisor +
-(1 - L) * learner``, the advisor ``C * its action + (1 - C) * uniform``) for Cruz et al.'s
-learners ([`final_probabilities`][tableclean_suite.analysis.final_probabilities]).
-
-**Exact or simulated.**  The exact DP visits every (state, previous state) pair at each of
-``max_itr`` steps: hours on a spec of millions of states.
-[analysis_plan][tableclean_suite.analysis.analysis_plan] costs both ways before any work and
-chooses; [analysis_chain][tableclean_suite.analysis.analysis_chain] builds an
-[EpisodeChain][tableclean_suite.asymptotes.EpisodeChain] (exact) or a
-[StepTable][tableclean_suite.simulation.StepTable] (Monte Carlo, whose standard errors
+The policy evaluated is a run's *final* behaviour ([`final_probabilities`][tableclean_suite.analysis.final_probabilities]):
+the exploration's distribution at the training's last iteration on the final Q-table, restricted
+to afforded actions and mixed with the advisor for Cruz et al.'s learners.
+[analysis_plan][tableclean_suite.analysis.analysis_plan] costs the exact DP and the Monte Carlo
+estimate before any work and chooses; [analysis_chain][tableclean_suite.analysis.analysis_chain]
+builds an [EpisodeChain][tableclean_suite.asymptotes.EpisodeChain] (exact) or a
+[StepTable][tableclean_suite.simulation.StepTable] (simulated, whose standard errors
 [with_monte_carlo_error][tableclean_suite.analysis.with_monte_carlo_error] adds to an interval).
 """
 

@@ -1,31 +1,16 @@
 """Exact asymptotes of the learning curves: what a run's final policy scores, by dynamic programming.
 
-The plateau is the value the curves tend to when a run keeps acting with its **final** behaviour
-policy, computed exactly over the task's transition table.  For one policy pi (action
-probabilities per state), per episode (a uniform start state until the terminal state or
-``max_itr`` steps, as ``train()`` runs it):
+For one policy (action probabilities per state), per episode (a uniform start state until the
+terminal state or ``max_itr`` steps, as ``train()`` runs it): ``success`` (terminal with no
+improper action) and ``terminal`` probabilities in [0, 1], ``average_reward`` E[return / length]
+(reward units per iteration, the reward pattern applied as in training) and ``length`` E[length]
+in [1, max_itr]: the limits of the [`metrics`][tableclean_suite.metrics] curves.
 
-- ``success``: P(the episode reaches the terminal state with no improper action), in [0, 1];
-- ``terminal``: P(the episode reaches the terminal state), in [0, 1];
-- ``average_reward``: E[return / length] of the episode, reward units per iteration, with the
-  reward pattern applied exactly as the training loop does, r4's looping penalty included;
-- ``length``: E[length], iterations in [1, max_itr].
-
-These are the limits of the [`metrics`][tableclean_suite.metrics] curves, which average each run's
-*latest finished* episode: in a renewal process that one is not length-biased.
-
-**The looping penalty's memory.**  r4 penalises a routine/ineffective step whose next state
-equals s_{t-1} or s_t, so the DP state is the pair (s_t, s_{t-1}) (``NO_STATE`` = -1 at an
-episode's first step); the successor pair of (s, s_prev) is ``(next_state[s, a, k], s)``, only
-the reward depends on s_prev.  Patterns without a looping penalty use the state alone.  A longer
-looping memory (e.g. ``r4_cycle``) gives NaN rewards: ``average_reward`` is NaN (unknown), the
-other quantities stay exact.
-
-**The DP** is a forward pass over steps l = 1 .. max_itr carrying, per (pair, clean flag), the
-probability of being still in the episode and the expected return so far; an episode ending at
-step l adds ``return / l``.  It stops when less than `MASS_TOLERANCE` is left inside.  Its cost
-([exact_seconds][tableclean_suite.asymptotes.exact_seconds]) grows with ``max_itr`` x pairs x
-actions; [tableclean_suite.simulation][] estimates the same quantities where that is hours.
+r4's looping penalty makes the DP state the pair (s_t, s_{t-1}) (``NO_STATE`` = -1 at an episode's
+first step); a longer looping memory (e.g. ``r4_cycle``) gives NaN average rewards, the other
+quantities stay exact.  The DP is a forward pass over steps 1 .. max_itr that stops once less than
+`MASS_TOLERANCE` is left inside an episode; its cost is [exact_seconds][tableclean_suite.asymptotes.exact_seconds],
+and [tableclean_suite.simulation][] estimates the same quantities where that is hours.
 """
 
 from __future__ import annotations

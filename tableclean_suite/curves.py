@@ -1,19 +1,11 @@
 """Learning curves from training records: per iteration, averaged over runs.
 
-The definitions (which the scalar metrics of [`tableclean_suite.metrics`][tableclean_suite.metrics] build on):
-
-- An episode **succeeds** when it reaches the terminal state without any improper action.
-- **Success rate** at iteration t: fraction of runs whose most recently finished episode (at or
-  before t) succeeded; a run with no finished episode counts 0.
-- **Terminal rate** at t: the same for reaching the terminal state, improper actions or not.
-- **Average reward** at t: mean over runs of (return / length) of the most recently finished
-  episode; runs with no finished episode are left out, and with a ``support_fraction`` f > 0 the
-  point is NaN until at least f of the runs have finished an episode.
-- **Episodes** at t: mean over runs of episodes finished by t.
-
-Inputs are [`TrainingResult`][tableclean_suite.learners.train.TrainingResult] records (R runs x T iterations).
-[`CurveSums`][tableclean_suite.curves.CurveSums] accumulates the per-iteration sums (and sums of squares, for the curves'
-intervals) chunk by chunk of runs in one compiled pass (memory ``6 x T`` whatever R).
+Success rate, terminal rate and average reward at iteration t read each run's most recently
+finished episode (the average reward leaves out runs with none, and is NaN until
+``support_fraction`` of the runs have one); episodes at t count finished episodes.  Definitions:
+the *Learners and statistics* docs page.  [`CurveSums`][tableclean_suite.curves.CurveSums]
+accumulates the per-iteration sums (and sums of squares) chunk by chunk of runs in one compiled
+pass (memory ``6 x T`` whatever R).
 """
 
 from __future__ import annotations

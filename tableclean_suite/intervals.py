@@ -1,21 +1,12 @@
 """Confidence intervals over independent runs: one bootstrap API, binomial and mean intervals.
 
-Runs of a cell are independent and identically distributed (each has its own counter-based random
-numbers), so every interval here resamples or models *runs*, never blocks of them.
-
-- [interval_estimates][tableclean_suite.intervals.interval_estimates]: the rliable-shaped API.
-  A statistic of each entry of a dict of per-run scores, with a bootstrap interval over runs
-  (``scipy.stats.bootstrap``: percentile or BCa).  An entry given as a tuple of arrays is a set
-  of strata (e.g. two cells) resampled separately (stratified bootstrap).
-- [probability_of_improvement][tableclean_suite.intervals.probability_of_improvement]: rliable's
-  P(X > Y) with ties counting half, and a practical-equivalence margin.
-- [clopper_pearson][tableclean_suite.intervals.clopper_pearson]: the exact binomial interval of a
-  share of runs (``scipy.stats.binomtest``).
-- [mean_band][tableclean_suite.intervals.mean_band]: per-iteration normal intervals of a mean
-  curve from its sums and sums of squares over runs.
-
-Targets: an interval of a statistic of R runs targets the same statistic of the distribution the
-runs are drawn from (the value an unlimited number of runs would give), at the stated confidence.
+Runs are independent and identically distributed (counter-based random numbers per run), so every
+interval resamples or models runs: [interval_estimates][tableclean_suite.intervals.interval_estimates]
+(rliable-shaped: a statistic of each entry of a dict of per-run scores, ``scipy.stats.bootstrap``;
+a tuple of arrays is a set of strata), [probability_of_improvement][tableclean_suite.intervals.probability_of_improvement],
+[clopper_pearson][tableclean_suite.intervals.clopper_pearson] and
+[mean_band][tableclean_suite.intervals.mean_band].  An interval of a statistic of R runs targets
+that statistic of the runs' distribution.
 """
 
 from __future__ import annotations

@@ -1,30 +1,10 @@
 """How long each run takes to learn the task, summarised over runs with censoring.
 
-**The per-run learning time** is ``TrainingResult.learned_at``: the iteration (environment
-steps, 1-based) from which the run's greedy policy is optimal (a shortest plan from every start
-state) and stays so to the end of the budget T; 0 when optimal throughout; -1 when not optimal at
-the end.  A property of one run, exact, and a policy that unlearns does not count.
-
-**Censoring.** A run not optimal at the end of the budget has a learning time known only to
-exceed T: it is *right-censored at T*, never dropped (dropping would make a slow reward pattern
-look fast).  Its survival curve S(t) = P(learning time > t) is the Kaplan-Meier estimate
-(``scipy.stats.ecdf`` of ``scipy.stats.CensoredData``); every censoring is at T, so below T it
-equals one minus the empirical distribution function of the learning times.
-
-The summary ([learning_time_summary][tableclean_suite.learning_time.learning_time_summary]):
-
-- **median** (and **quartiles**): the first t with S(t) <= 1/2 (1/4 for the first quartile,
-  3/4 for the third), +inf when S stays above it to the budget (more than that share censored).
-  Interval: the times at which the pointwise ``confidence`` band of S (log-log transform,
-  Greenwood's variance) crosses the same level (Brookmeyer and Crowley); its target is the
-  quantile of the learning-time distribution; an upper bound of +inf says the data cannot
-  exclude a quantile beyond the budget.
-- **RMST**: the restricted mean learning time to the budget, the area under S from 0 to T,
-  i.e. the mean of min(learning time, T) over runs (censored runs count T).  Interval: bootstrap
-  over runs ([interval_estimates][tableclean_suite.intervals.interval_estimates]); its target is
-  E[min(learning time, T)].
-- **censored share**: the fraction of runs censored at T, with its exact (Clopper-Pearson)
-  interval; target: the probability that a run has not learned by T.
+A run's learning time is ``TrainingResult.learned_at`` (iterations; -1: not optimal at the budget
+T, right-censored at T).  [learning_time_summary][tableclean_suite.learning_time.learning_time_summary]
+gives the Kaplan-Meier median and quartiles with their Brookmeyer-Crowley intervals, the restricted
+mean (RMST) with a bootstrap interval over runs, and the censored share with its Clopper-Pearson
+interval; the definitions and their targets are on the *Learners and statistics* docs page.
 """
 
 from __future__ import annotations

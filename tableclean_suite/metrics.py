@@ -1,20 +1,12 @@
 """The paper's learning-speed quantities, defined precisely, as pure functions.
 
-The iteration and episode counts here are *readings of the mean curves over runs* (the paper's
-definitions): biased, and their target moves with the number of runs, so the harness gives them
-no interval; the per-run learning time with its intervals is
-[`tableclean_suite.learning_time`][tableclean_suite.learning_time].  Inputs are
-[`TrainingResult`][tableclean_suite.learners.train.TrainingResult] records (R runs x T iterations) or
-1-D curves of length T; the curves are defined in [`tableclean_suite.curves`][tableclean_suite.curves].
-
-- **Plateau**: with an *asymptote* ([`tableclean_suite.asymptotes`][tableclean_suite.asymptotes]), the
-  value the curve tends to under each run's final policy, mean over runs; without one, the mean
-  of the window's last ``plateau_fraction`` (the *window mean*, always reported as ``*_window_mean``).
-- **First touch** / **held success**: first t (1-based) at which the success curve reaches
-  ``threshold`` of its plateau / and stays there for `DEFAULT_HOLD` iterations.
-- **Average-reward convergence**: first t at or after the curve's early minimum where it has
-  covered ``threshold`` of the way from that minimum to its plateau.
-- The other fields: [`Summary`][tableclean_suite.metrics.Summary].
+Inputs are [`TrainingResult`][tableclean_suite.learners.train.TrainingResult] records (R runs x T
+iterations) or 1-D curves of length T ([`tableclean_suite.curves`][tableclean_suite.curves]).  The
+iteration and episode counts are readings of the mean curves (the paper's definitions: first
+touch, held reaching, average-reward convergence), with no interval; plateaus are the exact
+asymptotes ([`tableclean_suite.asymptotes`][tableclean_suite.asymptotes]) or, without them, the
+window mean.  Definitions: [`Summary`][tableclean_suite.metrics.Summary] and the *Learners and
+statistics* docs page.
 """
 
 from __future__ import annotations

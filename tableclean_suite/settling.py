@@ -1,21 +1,10 @@
 """Has a cell's behaviour settled inside its training window?
 
-Table 3's plateaus are the exact asymptotes of each run's *final* behaviour
-([`tableclean_suite.asymptotes`][tableclean_suite.asymptotes]).  They describe where the curves are going only if that
-behaviour has stopped changing; a learner whose greedy policy keeps drifting (SARSA at a constant
-alpha and epsilon on this task) has no plateau, and its iteration figures move with the window.
-This module measures that drift so the tables can say which figures rest on a settled plateau.
-
-- **Checkpoint**: ``checkpoint_iteration(T)`` = floor(``CHECKPOINT_FRACTION`` x T), at least 1.
-  With counter-based random numbers, training for the checkpoint's iterations reproduces the first
-  iterations of the T-iteration run bit for bit, so its final Q-tables are the run's Q-tables at
-  the checkpoint (backends whose ``deterministic_prefix`` is true).
-- **Behaviour drift** of a run: ``|success asymptote at T - success asymptote at the checkpoint|``,
-  a fraction in [0, 1] (reported in percentage points).  A cell's drift is the mean over runs,
-  with a percentile bootstrap interval over runs.
-- **Settled**: the cell's drift is at most ``tolerance`` (default ``DEFAULT_SETTLE_TOLERANCE``,
-  one percentage point of success).  A cell that has not settled has figures that depend on the
-  window; train longer (``--iterations``) or read them as provisional.
+A run's *behaviour drift* is ``|success asymptote at T - success asymptote at the checkpoint|``
+(a fraction in [0, 1]), the checkpoint being ``checkpoint_iteration(T)`` = floor(``CHECKPOINT_FRACTION``
+x T), at least 1 (for backends with ``deterministic_prefix``, training to the checkpoint replays
+the run's first iterations bit for bit).  A cell is *settled* when its mean drift over runs is at
+most ``tolerance`` (``DEFAULT_SETTLE_TOLERANCE``); see the *Learners and statistics* docs page.
 """
 from __future__ import annotations
 

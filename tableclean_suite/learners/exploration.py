@@ -18,13 +18,9 @@ taken; ``epsilon`` is ``train(epsilon=...)``, the start value of every epsilon s
 Epsilon-greedy random actions are uniform over all the task's actions; ties in the
 greedy choice go to the first action.
 
-Random numbers ([`rng`][tableclean_suite.learners.rng]): epsilon-greedy uses ``STREAM_EXPLORE`` (explore?) and
-``STREAM_RANDOM_ACTION`` (which action); softmax the latter alone.  No exploration adds or moves a draw.
-
-For the compiled loop an exploration is an integer `Exploration.code` and a float
-array ([`Exploration.kernel_parameters`][tableclean_suite.learners.exploration.Exploration.kernel_parameters], shape ``(N_PARAMETERS,)``):
-``[start, floor, rate]`` = (epsilon or temperature, epsilon_min / temperature_min /
-scale, horizon / rate).
+Draws: epsilon-greedy uses ``STREAM_EXPLORE`` and ``STREAM_RANDOM_ACTION``, softmax the latter
+([`rng`][tableclean_suite.learners.rng]).  In the compiled loop an exploration is its `Exploration.code`
+and [`kernel_parameters`][tableclean_suite.learners.exploration.Exploration.kernel_parameters].
 """
 
 from __future__ import annotations
