@@ -59,8 +59,10 @@ FAULT = "fault"
 NOT_STAGED = "not staged"
 
 
-class ResumeError(ValueError):
-    """An existing trials file does not match the requested run."""
+#: Stored trials this run cannot use: a damaged file, or trials of another run (the message names the file).
+ResumeError = trial_store.TrialStoreError
+#: Rows of a trials CSV (numbers converted), ``[]`` when it does not exist; a damaged last line is dropped.
+read_trials = trial_store.read_rows
 
 
 def round_seed(seed: int, round_index: int) -> int:
@@ -143,15 +145,6 @@ def run_round(scene, round_index: int, seed: int, actions: Iterable | None = Non
                 continue
             visit(state, "staged", "staged")
     return rows
-
-
-def read_trials(path: Path, log: Callable[[str], None] | None = None) -> list[dict]:
-    """Rows of a trials CSV (numbers converted), ``[]`` when it does not exist; a damaged last line is dropped,
-    other damage raises [`ResumeError`][tableclean_suite.bench.fidelity.ResumeError] naming the line."""
-    try:
-        return trial_store.read_rows(Path(path), log)
-    except trial_store.TrialStoreError as error:
-        raise ResumeError(str(error)) from None
 
 
 def trials_per_round(model: TaskModel, actions: Iterable) -> int:

@@ -27,7 +27,7 @@ FLOAT_FIELDS = ("wall_time", "env_time")
 
 
 class TrialStoreError(ValueError):
-    """A trials file that cannot be used as it is; the message names the file, line and problem."""
+    """Stored trials that cannot be used: a damaged file, or trials of another run; the message names the file."""
 
 
 def _parse(row: dict, line: int, path: Path) -> dict:
