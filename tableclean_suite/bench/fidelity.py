@@ -225,9 +225,7 @@ def check_configuration(trials_csv: Path, configuration: dict, log: Callable[[st
                 raise ResumeError(f"{trials_csv} was measured with another {' and '.join(differing)} "
                                   f"({record}); pass the same options, another --out, or --fresh")
             return
-        with open(trials_csv, "rb") if trials_csv.is_file() else contextlib.nullcontext() as handle:
-            has_trials = handle is not None and len(handle.read(1 << 16).splitlines()) > 1
-        if has_trials:
+        if len(trial_store.read_lines(trials_csv)) > 1:  # trials, not just a header
             raise ResumeError(f"{trials_csv} holds trials but {record.name} is missing, so the options they were "
                               "measured with (task, robot, randomisation) are unknown; pass --fresh or another --out")
     trials_csv.parent.mkdir(parents=True, exist_ok=True)
