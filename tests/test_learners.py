@@ -178,8 +178,11 @@ def test_compiled_records_have_the_same_bits_for_any_thread_count(learner):
 
 
 # -- the stepper (engine="reference", the physics backend's loop) against the compiled loop --
-@pytest.mark.parametrize("learner", ["sarsa", "double_q_learning", "q_lambda", "dyna_q", "interactive_q_learning",
-                                     TabularLearner("test_stepper_greedy_sarsa", sarsa_target, on_policy=False)])
+@pytest.mark.parametrize("learner", [
+    "sarsa", "double_q_learning", "q_lambda", "dyna_q", "interactive_q_learning",
+    pytest.param(TabularLearner("test_stepper_greedy_sarsa", sarsa_target, on_policy=False), id="user_learner",
+                 marks=pytest.mark.jit),  # its own compiled loop, which no disk cache serves
+])
 def test_stepper_gives_the_compiled_records_in_chunks_of_runs(learner):
     """300 runs are two chunks of the compiled loop (256 and 44); one step at a time from Python
     gives the same records, checkpoint included."""
