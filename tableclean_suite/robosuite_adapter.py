@@ -36,30 +36,20 @@ ROBOSUITE_LOGGER = "robosuite_logs"
 
 
 class _DropDuringImport(logging.Filter):
-    """Drops records until `stop` (robosuite's import has finished); counts what it dropped."""
+    """Drops records until `stop` (robosuite's import has finished)."""
 
-    def __init__(self):
-        super().__init__()
-        self.dropping = True
-        self.dropped = 0
+    dropping = True
 
     def filter(self, record) -> bool:
-        if self.dropping:
-            self.dropped += 1
-            return False
-        return True
+        return not self.dropping
 
     def stop(self, _module=None) -> None:
         self.dropping = False
 
 
 def quiet_robosuite_startup() -> logging.Filter | None:
-    """Drop the log records robosuite emits while it is being imported (from now on).
-
-    Returns:
-        The filter (its ``dropped`` counts the records), or None when robosuite is already
-        imported (its start-up messages are then already out).
-    """
+    """Drop the log records robosuite emits while it is being imported (from now on); returns the filter,
+    or None when robosuite is already imported (its start-up messages are then already out)."""
     if "robosuite" in sys.modules:
         return None
     holder = _DropDuringImport()
@@ -68,20 +58,11 @@ def quiet_robosuite_startup() -> logging.Filter | None:
     return holder
 
 
-class _DropBelowWarning(logging.Filter):
-    """Drops robosuite's INFO/DEBUG records (e.g. "Loading controller configuration" at every env)."""
-
-    def filter(self, record) -> bool:
-        return record.levelno >= logging.WARNING
-
-
 def apply_verbosity(verbose: bool) -> None:
-    """Unless ``verbose``: drop robosuite's import-time warnings and its INFO messages from now on."""
-    if verbose:
-        return
-    quiet_robosuite_startup()
-    logging.getLogger(ROBOSUITE_LOGGER).addFilter(_DropBelowWarning())
-
+    """Unless ``verbose``: drop robosuite's import-time warnings and its INFO/DEBUG messages from now on."""
+    if not verbose:
+        quiet_robosuite_startup()
+        logging.getLogger(ROBOSUITE_LOGGER).addFilter(lambda record: record.levelno >= logging.WARNING)
 
 
 #: Versions the internals used here were checked against (package name -> exact versions).
@@ -239,10 +220,3 @@ def hand_back_controller_state(osc, grip, goal_pos, goal_ori, torques) -> None:
     osc.torques = torques.copy()
     osc.new_update = True
     grip.new_update = True
-
-
-def finish_control_step(env, osc, grip, goal_pos, goal_ori, torques) -> None:
-    """[`advance_clock`][tableclean_suite.robosuite_adapter.advance_clock] by ``env``'s control timestep, then [`hand_back_controller_state`][tableclean_suite.robosuite_adapter.hand_back_controller_state] (one call
-    for the fast stepper's per-step path)."""
-    advance_clock(env, env.control_timestep)
-    hand_back_controller_state(osc, grip, goal_pos, goal_ori, torques)

@@ -17,18 +17,8 @@ Targets are read from the scene when the skill runs, relative to the state it st
 - spots (world xy): [`free_spot`][tableclean_suite.controllers.authoring.free_spot] ``(segment)`` (clear of the objects lying there, for the
   held object's footprint), [`segment_center`][tableclean_suite.controllers.authoring.segment_center] ``(segment)``, [`sponge_home`][tableclean_suite.controllers.authoring.sponge_home].
 
-Heights, depths and yaws come from the objects' geometry ([`primitives`][tableclean_suite.controllers.primitives]).  Example:
-
-    def transfer_rule(state):
-        lying = state.objects_on(state.arm)
-        if state.holding or not lying:
-            return state, Outcome.IMPROPER
-        to = (state.arm + 1) % state.n_segments
-        return state.with_object(lying[0], to).replace(arm=to), Outcome.ROUTINE
-
-    Transfer = compose_skill("transfer", transfer_rule,
-                             [grasp(lying_object()), release(free_spot(next_segment()))])
-    register_skill("transfer", Transfer)     # registers the rule too: specs can list "transfer"
+Heights, depths and yaws come from the objects' geometry ([`primitives`][tableclean_suite.controllers.primitives]);
+the documentation's "Write a skill" page shows a whole example.
 """
 
 from __future__ import annotations

@@ -37,9 +37,6 @@ def z_row_entries(quat: np.ndarray) -> tuple[float, float, float]:
     return 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
 
 
-_z_row_entries = z_row_entries  # its earlier name
-
-
 def clip_scalar(value: float, low: float, high: float) -> float:
     """``float(np.clip(value, low, high))`` for scalars without its ~3 us of dispatch: the same result,
     a NaN ``value`` and the bound's signed zero when ``value`` equals it included (numpy's max, then min)."""

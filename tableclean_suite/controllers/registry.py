@@ -12,8 +12,6 @@ with [`tableclean_suite.task.register_action`][tableclean_suite.task.actions.reg
 
 from __future__ import annotations
 
-import numpy as np
-
 from tableclean_suite.controllers.skill import Skill
 from tableclean_suite.task import Action, ActionRule, action_names, as_action, get_action_rule, register_action
 
@@ -30,9 +28,7 @@ def action_key(action) -> str:
         if key.upper() in Action.__members__:
             return key
         return get_action_rule(key).name  # ValueError: unknown action ..., allowed: ...
-    if isinstance(action, (int, np.integer)) and not isinstance(action, (bool, np.bool_)):
-        return as_action(action).rule_name
-    return as_action(action).rule_name  # raises the ValueError naming the allowed actions
+    return as_action(action).rule_name  # an int, or the ValueError naming the allowed actions
 
 
 class SkillTable(dict):
@@ -58,10 +54,6 @@ class SkillTable(dict):
 SKILL_REGISTRY: SkillTable = SkillTable()
 
 
-def _label(key: str) -> str:
-    return key.upper()
-
-
 def register_skill(action, cls: type[Skill], *, replace: bool = False, registry: dict | None = None) -> type[Skill]:
     """Register ``cls`` as the skill for ``action`` (an Action, its int value or a registered action name).
 
@@ -85,14 +77,14 @@ def register_skill(action, cls: type[Skill], *, replace: bool = False, registry:
 
     key = key_of(action)
     if not (isinstance(cls, type) and issubclass(cls, Skill)):
-        raise TypeError(f"skill for {_label(key)} must be a Skill subclass, got {cls!r}")
+        raise TypeError(f"skill for {key.upper()} must be a Skill subclass, got {cls!r}")
     declared = getattr(cls, "action", None)
     if declared is not None and key_of(declared) != key:
-        raise ValueError(f"{cls.__name__} implements {_label(key_of(declared))}, not {_label(key)}")
+        raise ValueError(f"{cls.__name__} implements {key_of(declared).upper()}, not {key.upper()}")
     table = SKILL_REGISTRY if registry is None else registry
     existing = {key_of(k): v for k, v in table.items()}
     if key in existing and existing[key] is not cls and not replace:
-        raise ValueError(f"{_label(key)} already has skill {existing[key].__name__}; pass replace=True to override")
+        raise ValueError(f"{key.upper()} already has skill {existing[key].__name__}; pass replace=True to override")
     if carried is not None:  # every check passed: a failed registration leaves no action behind
         known = carried.name in action_names()
         if not known or (replace and get_action_rule(carried.name) is not carried):
@@ -110,5 +102,5 @@ def get_skill_class(action, registry: dict | None = None) -> type[Skill]:
     for name, cls in table.items():
         if action_key(name) == key:
             return cls
-    known = ", ".join(_label(action_key(a)) for a in table) or "none"
-    raise KeyError(f"no skill registered for {_label(key)}; registered: {known}")
+    known = ", ".join(action_key(a).upper() for a in table) or "none"
+    raise KeyError(f"no skill registered for {key.upper()}; registered: {known}")

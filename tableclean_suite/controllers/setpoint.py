@@ -11,16 +11,13 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from tableclean_suite.controllers.geometry import wrap_angle
 from tableclean_suite.controllers.osc import ACTION_DIM
 
 #: Index of the gripper command in the skill action (7,) [position (3), rotation vector (3), gripper].
 GRIPPER_INDEX = ACTION_DIM - 1
 
-
-@numba.njit(cache=True)
-def wrap(angle: float) -> float:
-    """``angle`` (rad) wrapped to [-pi, pi) (as [`wrap_angle`][tableclean_suite.controllers.geometry.wrap_angle])."""
-    return (angle + np.pi) % (2 * np.pi) - np.pi
+wrap = numba.njit(cache=True)(wrap_angle)
 
 
 @numba.njit(cache=True)
