@@ -1,22 +1,13 @@
 """The one place that touches robosuite's and MuJoCo's internals, with the versions it was checked against.
 
-robosuite 1.5 exposes no public accessor for some things the package needs: the raw
-``mujoco.MjModel`` / ``MjData`` behind its ``MjSim`` wrappers, the robot's actuator and
-joint index lists, the env's clock, the OSC's refresh flag and result, the gripper's
-rate-limited command.  The compiled control path
-([`tableclean_suite.controllers.fast_control`][tableclean_suite.controllers.fast_control]) also calls MuJoCo's C functions by address.  Each of these is one small function here, so a robosuite or MuJoCo
-upgrade has one module to re-check.
-
-The fast control path writes robosuite's controller state and calls MuJoCo's C API, so it
-runs only on the versions in `CHECKED_VERSIONS`:
-
-- [`require_checked_versions`][tableclean_suite.robosuite_adapter.require_checked_versions] raises [`UncheckedVersionError`][tableclean_suite.robosuite_adapter.UncheckedVersionError] naming the installed
-  and the checked versions (constructing a ``FastSkillStepper`` directly);
-- [`fast_path_allowed`][tableclean_suite.robosuite_adapter.fast_path_allowed] returns ``False`` and warns once per process (making a skill env
-  with ``fast_control=True``: the env then runs on robosuite's own ``env.step`` path).
-
-The read-only accessors ([`mj_model`][tableclean_suite.robosuite_adapter.mj_model], [`mj_data`][tableclean_suite.robosuite_adapter.mj_data], the index lists) follow
-robosuite 1.5's ``binding_utils`` and robot classes, which ``setup.py`` pins (``>=1.5,<1.6``).
+Each internal the package needs (the raw ``MjModel`` / ``MjData`` behind robosuite's wrappers, the robot's
+index lists, the env's clock, the controllers' refresh flags and goals, the gripper's rate-limited command,
+MuJoCo's C functions by address) is one small function here, so an upgrade has one module to re-check.
+The fast control path runs only on the versions in `CHECKED_VERSIONS`:
+[`require_checked_versions`][tableclean_suite.robosuite_adapter.require_checked_versions] raises
+[`UncheckedVersionError`][tableclean_suite.robosuite_adapter.UncheckedVersionError] naming the installed and
+checked versions; [`fast_path_allowed`][tableclean_suite.robosuite_adapter.fast_path_allowed] warns once per
+process and says no (a skill env then runs on robosuite's own ``env.step``).
 """
 
 from __future__ import annotations

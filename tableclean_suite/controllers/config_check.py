@@ -1,10 +1,9 @@
-"""The one check of a skill's settings: the keys it knows, the ranges of its ``Config`` (a leaf
-module: it imports nothing of the package, so [`skill`][tableclean_suite.controllers.skill], [`robot_configs`][tableclean_suite.controllers.robot_configs] and
-[`authoring`][tableclean_suite.controllers.authoring] all call it).
+"""The one check of a skill's settings: the keys it knows, the ranges of its ``Config``.
 
-[`checked_skill_config`][tableclean_suite.controllers.config_check.checked_skill_config] is what a skill's constructor, a robot's per-action overrides
-([`register_robot_config`][tableclean_suite.controllers.robot_configs.register_robot_config]) and [`compose_skill`][tableclean_suite.controllers.authoring.compose_skill] run, so
-each refuses the same settings with the same [`SkillConfigError`][tableclean_suite.controllers.config_check.SkillConfigError].
+[`checked_skill_config`][tableclean_suite.controllers.config_check.checked_skill_config] is what a skill's
+constructor, a robot's per-action overrides and [`compose_skill`][tableclean_suite.controllers.authoring.compose_skill]
+run, so each refuses the same settings with the same [`SkillConfigError`][tableclean_suite.controllers.config_check.SkillConfigError]
+(a leaf module: it imports nothing of the package).
 """
 
 from __future__ import annotations
@@ -17,11 +16,8 @@ RENAMED_KEYS = {"grasp_retries": "retries"}
 
 
 class SkillConfigError(KeyError, ValueError):
-    """Settings a skill refuses: a key it does not know, or a value outside its ``Config``'s range.
-
-    A ``KeyError`` and a ``ValueError`` both (callers caught one or the other before there was one
-    check); the message is one line naming the skill, the key and the allowed keys or range.
-    """
+    """Settings a skill refuses (a ``KeyError`` and a ``ValueError``): a key it does not know, or a value outside
+    its ``Config``'s range; the message is one line naming the skill, the key and the allowed keys or range."""
 
     def __str__(self) -> str:  # a KeyError would quote the message
         return str(self.args[0]) if self.args else ""

@@ -55,13 +55,11 @@ def gripper_yaw(eef_quat: np.ndarray) -> float:
     return float(np.arctan2(rot[1, 0], rot[0, 0]))
 
 
-#: rad, how far a yaw read straight off a rotation matrix must be from the tolerance for [`clear_yaw_verdict`][tableclean_suite.controllers.geometry.clear_yaw_verdict]
-#: to decide: robosuite's ``mat2quat`` (``eef_quat``) works in float32, so the yaw through it differs from the
-#: matrix's by up to ~1e-5 rad (worst over 100 000 random rotations: 3.6e-6 with the x axis' horizontal part
-#: >= `YAW_VERDICT_MIN_HORIZONTAL`, 6.0e-6 with it in 0.10-0.13); this margin is over 150 times that
+#: rad, how far a yaw read off a rotation matrix must be from the tolerance for `clear_yaw_verdict` to decide
+#: (robosuite's float32 ``mat2quat`` moves the yaw by up to ~6e-6 rad)
 YAW_VERDICT_MARGIN = 1e-3
-#: the least length of the x axis' horizontal part for [`clear_yaw_verdict`][tableclean_suite.controllers.geometry.clear_yaw_verdict] to decide (a near-vertical
-#: x axis leaves the yaw ill-conditioned: atan2 magnifies the rounding by one over this length)
+#: the least length of the x axis' horizontal part for `clear_yaw_verdict` to decide (near vertical, the yaw
+#: is ill-conditioned)
 YAW_VERDICT_MIN_HORIZONTAL = 0.1
 
 

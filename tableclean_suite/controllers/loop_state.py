@@ -1,14 +1,8 @@
-"""The typed state a skill hands to the compiled control loop, as numpy structured records.
-
-[control_loop][tableclean_suite.controllers.fast_control.control_loop] runs a skill's control
-steps in compiled code and reads and updates the skill's state through two records (arrays of
-shape (1,) of these dtypes, fields by name):
-
-- `SKILL_STATE`: the setpoint and the
-  phase's checks, built by [Skill.loop_state][tableclean_suite.controllers.skill.Skill.loop_state];
-- `WIPE_STATE`: the clean skill's press-force
-  loop and stroke waypoint, built by [Wipe.run_loop][tableclean_suite.controllers.clean.Wipe.run_loop];
-  mode `MODE_FIXED` for a phase whose waypoint is fixed.
+"""The typed state a skill hands to the compiled [control_loop][tableclean_suite.controllers.fast_control.control_loop]:
+(1,) numpy records of `SKILL_STATE` (the setpoint and the phase's checks,
+[Skill.loop_state][tableclean_suite.controllers.skill.Skill.loop_state]) and `WIPE_STATE` (the clean skill's
+press-force loop and stroke waypoint, [Wipe.run_loop][tableclean_suite.controllers.clean.Wipe.run_loop]; mode
+`MODE_FIXED` for a phase whose waypoint is fixed).
 """
 
 from __future__ import annotations

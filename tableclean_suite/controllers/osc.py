@@ -56,11 +56,9 @@ ROTVEC_BOUND = np.pi
 def skill_command_limits(task_config: Mapping | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(low, high)``, each (6,): the range of the arm's absolute commands in the scene of ``task_config``.
 
-    Entries: grip-site position x, y, z [m, world frame] over the table top (grown by
-    `WORKSPACE_XY_MARGIN`) from `WORKSPACE_BELOW_TABLE` below to
-    `WORKSPACE_ABOVE_TABLE` above it; rotation vector rx, ry, rz [rad] in
-    ``[-pi, pi]``.  robosuite does not clip absolute OSC inputs; these are the ranges the
-    env's ``action_spec`` reports (the gripper's [-1, 1] follows them).
+    Grip-site x, y, z [m, world frame] over the table top (grown by `WORKSPACE_XY_MARGIN`) from
+    `WORKSPACE_BELOW_TABLE` below to `WORKSPACE_ABOVE_TABLE` above it; rotation vector [rad] in [-pi, pi].
+    These are the ranges the env's ``action_spec`` reports (robosuite does not clip absolute OSC inputs).
     """
     geometry = scene_geometry(make_config(task_config))
     xy_low = geometry.table_center[:2] - geometry.table_half_size - WORKSPACE_XY_MARGIN
@@ -91,12 +89,8 @@ def skill_controller_config(robot: str = "Panda", task_config: Mapping | None = 
 
 
 def check_skill_env(env) -> None:
-    """Raise a clear error unless ``env`` drives its arm the way the skills command it.
-
-    The skills emit `ACTION_DIM` absolute world-frame OSC_POSE commands
-    ([advance_command][tableclean_suite.controllers.setpoint.advance_command]); an env made by plain ``robosuite.make`` uses delta commands in
-    the robot's base frame and would send the arm somewhere else.  Checks the first robot's
-    first arm controller against `SKILL_ARM_CONTROLLER`, and the action size.
+    """Raise a clear error unless ``env``'s first arm takes the skills' `ACTION_DIM` absolute world-frame
+    OSC_POSE commands (`SKILL_ARM_CONTROLLER`; plain ``robosuite.make`` gives delta commands in the base frame).
 
     Raises:
         TypeError: ``env`` has no robosuite robots.
