@@ -29,7 +29,7 @@ REWARDS = ("r1", "r2", "r3", "r4")
 def analyse(learner: str, reward: str, model: TaskModel, runs: int, iterations: int, seed: int, epsilon: float,
             max_itr: int) -> dict:
     """One row: measured plateau, exact epsilon-greedy and greedy success (%) of the learned policies."""
-    result = train(learner, reward, runs=runs, iterations=iterations, seed=seed, model=model, epsilon=epsilon,
+    result = train(learner, reward, runs=runs, iterations=iterations, seed=seed, task=model, epsilon=epsilon,
                    max_itr=max_itr)
     policies = analysis.greedy_policy(result.q)
 
