@@ -198,7 +198,7 @@ def configuration_path(trials_csv: Path) -> Path:
 
 def read_configuration(trials_csv: Path) -> dict | None:
     """The recorded [`run_configuration`][tableclean_suite.bench.fidelity.run_configuration] of ``trials_csv``'s
-    trials, None without a record; [`ResumeError`][tableclean_suite.bench.fidelity.ResumeError] when unreadable."""
+    trials, None without a record; [`ResumeError`][tableclean_suite.bench.trial_store.TrialStoreError] when unreadable."""
     record = configuration_path(trials_csv)
     if not record.exists():
         return None
@@ -213,7 +213,7 @@ def read_configuration(trials_csv: Path) -> dict | None:
 
 
 def check_configuration(trials_csv: Path, configuration: dict, log: Callable[[str], None] | None = None) -> None:
-    """Record ``configuration`` beside ``trials_csv``; [`ResumeError`][tableclean_suite.bench.fidelity.ResumeError]
+    """Record ``configuration`` beside ``trials_csv``; [`ResumeError`][tableclean_suite.bench.trial_store.TrialStoreError]
     when the stored trials were measured with another configuration (naming the keys), or hold trials without
     a readable record."""
     record = configuration_path(trials_csv)
@@ -233,7 +233,7 @@ def check_configuration(trials_csv: Path, configuration: dict, log: Callable[[st
 
 
 def check_trial_rows(rows, model: TaskModel, source) -> None:
-    """[`ResumeError`][tableclean_suite.bench.fidelity.ResumeError] naming the file, row and value of a stored
+    """[`ResumeError`][tableclean_suite.bench.trial_store.TrialStoreError] naming the file, row and value of a stored
     trial that does not belong to ``model`` (state, action, observed state or outcome)."""
     outcomes = {o.name.lower() for o in Outcome} | {FAULT}
     for position, row in enumerate(rows):
