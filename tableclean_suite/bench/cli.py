@@ -260,12 +260,16 @@ def say(text: str) -> None:
     print(wrap(text), flush=True)
 
 
-def markdown_table(rows) -> str:
-    """``rows`` (dicts with the same keys, or a DataFrame) as a Markdown table, values as ``str`` shows them."""
-    rows = rows.to_dict("records") if hasattr(rows, "to_dict") else list(rows)
-    columns = list(rows[0])
+def markdown_table(rows, columns=None) -> str:
+    """A Markdown table, values as ``str`` shows them: ``rows`` are dicts with the same keys (or a DataFrame)
+    whose keys are the header, or, given ``columns`` (headers, repeats allowed), sequences of cells (none: the
+    header alone)."""
+    if columns is None:
+        rows = rows.to_dict("records") if hasattr(rows, "to_dict") else list(rows)
+        columns = list(rows[0])
+        rows = [[row[column] for column in columns] for row in rows]
     return "\n".join(["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns),
-                      *("| " + " | ".join(str(row[c]) for c in columns) + " |" for row in rows)])
+                      *("| " + " | ".join(map(str, row)) + " |" for row in rows)])
 
 
 def parse_command(build_parser, argv, prog: str, known: bool = False):

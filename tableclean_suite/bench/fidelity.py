@@ -380,13 +380,6 @@ def write_csv(path: Path, table: list[dict]) -> None:
     trial_store.write_rows(path, table, tuple(table[0]) if table else ("empty",))
 
 
-def format_table(columns, rows) -> str:
-    """A Markdown table of ``columns`` (headers, repeats allowed) and ``rows`` (sequences of cells; none: the
-    header alone)."""
-    return "\n".join(["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns),
-                      *("| " + " | ".join(map(str, row)) + " |" for row in rows)])
-
-
 def lower_bound(successes: int, executions: int, confidence: float = CONFIDENCE) -> float:
     """One-sided exact (Clopper-Pearson) lower bound of a rate, in [0, 1]; 0 failures in ``n`` give
     ``(1 - confidence) ** (1 / n)``, ``executions`` 0 gives 0."""
@@ -565,7 +558,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 
 def _columns(table: list[dict], columns: str) -> str:
     """The Markdown table of ``table``'s space-separated ``columns``."""
-    return format_table(columns.split(), [[row[column] for column in columns.split()] for row in table])
+    return cli.markdown_table([[row[column] for column in columns.split()] for row in table], columns.split())
 
 
 def main(argv: list[str] | None = None, prog: str | None = None) -> int:

@@ -172,7 +172,7 @@ def markdown(rows: list[dict]) -> str:
                            f"{percent_down(lower_bound(success, n))} / {percent_down(lower_bound(agree, n))}")
         lines.append((kind, setting, first.get("partner") or "-",
                       f"{first['episode_successes']}/{first['episodes']}", *entries))
-    return fidelity.format_table(("object", "setting", "partner", "successful episodes", *skills), lines)
+    return cli.markdown_table(lines, ("object", "setting", "partner", "successful episodes", *skills))
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
@@ -236,7 +236,7 @@ def random_table(args, rows: list[dict], table: Path, started: float, log=print)
     classes = Counter((f["skill"], f["phase"], f["cause"]) for f in failures)
     print()
     counted = [(*key, n) for key, n in classes.most_common()] or [("-", "-", "no failure", 0)]
-    print(fidelity.format_table(("skill", "phase", "cause", "failures"), counted))
+    print(cli.markdown_table(counted, ("skill", "phase", "cause", "failures")))
     return total, measured, refused
 
 

@@ -158,7 +158,7 @@ def markdown(rows: list[dict]) -> str:
         lines.append((row["robot"], row["gripper"] or "-", row["task"], row["dynamics"], *fid,
                       f"{number['fidelity_faults']:.0f}" if "fidelity_faults" in number else "-", *eps,
                       f"{number['seconds_per_episode']:.2f}" if "seconds_per_episode" in number else "-"))
-    return fidelity.format_table(MARKDOWN_COLUMNS, lines)
+    return cli.markdown_table(lines, MARKDOWN_COLUMNS)
 
 
 #: The program name in messages unless the caller gives one.
