@@ -271,8 +271,7 @@ def available_figures(curves: pd.DataFrame) -> list[str]:
     return [stem for stem, ok in needs.items() if ok]
 
 
-#: zlib level of the PNGs [`render_png`][tableclean_suite.bench.plots.render_png] writes (1: fastest; the figures are flat colours and lines,
-#: so they stay small).
+#: zlib level of the PNGs [`render_png`][tableclean_suite.bench.plots.render_png] writes (1: fastest).
 PNG_COMPRESS_LEVEL = 1
 #: How [`render_png`][tableclean_suite.bench.plots.render_png] saves a figure with artists beyond its canvas (beside the dpi it is given).
 SAVEFIG_OPTIONS = {"bbox_inches": "tight", "format": "png"}
@@ -280,11 +279,8 @@ SAVEFIG_OPTIONS = {"bbox_inches": "tight", "format": "png"}
 
 def render_png(stem: str, curves: pd.DataFrame, plateau_fraction: float, table3=None, dpi: int = 100) -> bytes:
     """The PNG bytes of the paper's figure ``stem`` (`PAPER_FIGURES`) drawn from ``curves``
-    (plateau lines from ``table3`` when given), at ``dpi`` dots per inch.
-
-    The figure is made at ``dpi`` and drawn once (`_tight_png`): what ``savefig(bbox_inches=
-    "tight")`` shows, without its second drawing of the figure on a canvas of the cropped size (whose
-    new renderer measures every text again)."""
+    (plateau lines from ``table3`` when given) at ``dpi`` dots per inch, cropped as
+    ``savefig(bbox_inches="tight")`` crops it."""
     import matplotlib
 
     plt = pyplot()
@@ -297,11 +293,9 @@ def render_png(stem: str, curves: pd.DataFrame, plateau_fraction: float, table3=
 
 
 def _tight_png(fig, dpi: int) -> bytes:
-    """PNG of ``fig`` drawn once at ``dpi``, cropped to what was drawn on it (every pixel not of the
-    figure's colour) padded by ``savefig.pad_inches``: the picture ``savefig(bbox_inches="tight")``
-    gives (its box bounds the artists rather than their pixels, so its margins may be a few pixels
-    wider), without measuring the figure's texts again.  A figure drawn up to its canvas' edge (some
-    of it may lie beyond) is saved by ``savefig``; an opaque one as RGB."""
+    """PNG of ``fig`` drawn once at ``dpi``, cropped to its pixels not of the figure's colour padded
+    by ``savefig.pad_inches`` (``savefig(bbox_inches="tight")`` would draw it twice); a figure drawn
+    up to its canvas' edge is saved by ``savefig``, an opaque one as RGB."""
     import matplotlib
     from PIL import Image, PngImagePlugin
 

@@ -4,12 +4,10 @@
         [--object-segment 1 --arm-segment 1] [--iterations N] [--runs R] [--seed S]
         [--fps F] [--width W --height H] [--frame-every K] [--still PATH]
 
-The learner is trained with ``train()`` on the task model (``--runs`` runs from the chosen start
-layout); the policy is the majority vote over the runs' greedy actions (ties: lowest action).
-It is then executed from the same layout in the ``TableClean`` scene with the SkillController,
-and every ``K``-th control step is written to the video (``.mp4`` through ffmpeg, or ``.gif``)
-with the current symbolic state and action printed on the frame.  ``--still`` saves one frame
-taken while the sponge wipes (the first clean), or the middle of the episode if nothing is wiped.
+The policy is the majority vote of ``--runs`` runs' greedy actions (ties: lowest action), trained
+on the task model from the chosen start layout and executed from it by the skills; every ``K``-th
+control step goes to the video (``.mp4`` through ffmpeg, or ``.gif``) with the symbolic state and
+action printed on it.  ``--still`` saves one frame taken while the sponge wipes.
 """
 
 from __future__ import annotations
