@@ -562,14 +562,8 @@ class GridRun:
     plans: dict = field(default_factory=dict)
 
 
-def run_grid(
-    grid: list[Membership],
-    config: RunConfig,
-    model,
-    store: CellStore,
-    transitions=None,
-    executor=None,
-) -> GridRun:
+def run_grid(grid: list[Membership], config: RunConfig, model, store: CellStore, transitions=None,
+             executor=None) -> GridRun:
     """Load the stored cells of ``grid``, then train the others; each trained cell is saved at once.
 
     Args:
