@@ -440,29 +440,6 @@ def box_lowest_z(pos: np.ndarray, mat: np.ndarray, half_size: np.ndarray) -> flo
     return pos[2] - (abs(mat[6]) * half_size[0] + abs(mat[7]) * half_size[1] + abs(mat[8]) * half_size[2])
 
 
-@numba.njit(cache=True)
-def panda_gripper_control(current, command, speed, params, new_current, goal_qvel, ctrl) -> None:
-    """robosuite's Panda gripper ``format_action`` and ``SimpleGripController`` mapping for one control step.
-
-    ``current`` (2,): the rate-limited command (``current_action``); ``command``: the gripper command in
-    [-1, 1]; ``speed``: its change per step; ``params`` (9, 2) rows: input min, input max, input centre,
-    scale, output centre, actuator min, actuator max, ctrl low, ctrl high.  Outputs (2,) each: the new
-    ``current_action``, the controller's ``goal_qvel``, the finger actuator ``ctrl``.  The same
-    elementwise operations as robosuite's numpy code.
-    """
-    sign = np.sign(command)
-    for i in range(2):
-        step = (-1.0 if i == 0 else 1.0) * speed * sign
-        value = min(max(current[i] + step, -1.0), 1.0)
-        new_current[i] = value
-        scaled = min(max(value, params[0, i]), params[1, i])
-        scaled = (scaled - params[2, i]) * params[3, i] + params[4, i]
-        goal_qvel[i] = scaled
-        high, low = params[6, i], params[5, i]
-        desired = 0.5 * (high + low) + 0.5 * (high - low) * scaled
-        ctrl[i] = min(max(desired, params[7, i]), params[8, i])
-
-
 _clip = numba.njit(cache=True)(clip_scalar)
 
 
@@ -733,7 +710,6 @@ class FastSkillStepper:
         ctrlrange = self.model.actuator_ctrlrange
         self.grip_limits = np.ascontiguousarray(ctrlrange[grip_actuators].T)  # (2, G) low, high
         self.substeps = int(env.control_timestep / env.model_timestep)
-        self._grip_params = None  # (controller, its panda_gripper_control parameters)
         self._no_log = tuple(np.empty((0, getattr(data, f).size)) for f in LOG_FIELDS)
         self._plant_key = (None,) * 4  # (osc, kp, kd, initial_joint) of the plant's law
         # the env's own early exit in record_wiping_substep: below this height it must decide
@@ -801,13 +777,6 @@ class FastSkillStepper:
         input scaling, its mapping onto the actuators' control range and the robot's clipping to it.
         """
         controller, gripper = self.grip_controller, self.gripper
-        params = self._panda_grip_params()
-        if params is not None:
-            new_current, goal_qvel, ctrl = np.empty(2), np.empty(2), np.empty(2)
-            panda_gripper_control(np.asarray(gripper.current_action, dtype=float), float(action[GRIPPER_INDEX]),
-                                  float(gripper.speed), params, new_current, goal_qvel, ctrl)
-            set_gripper_state(gripper, controller, new_current, goal_qvel)
-            return ctrl
         goal_qvel = gripper.format_action(np.asarray(action[GRIPPER_INDEX:], dtype=float))
         if controller.use_action_scaling:
             goal_qvel = controller.scale_action(goal_qvel)
@@ -817,25 +786,6 @@ class FastSkillStepper:
             low, high = controller.actuator_min, controller.actuator_max
             desired = 0.5 * (high + low) + 0.5 * (high - low) * desired
         return np.minimum(np.maximum(desired, self.grip_limits[0]), self.grip_limits[1])
-
-    def _panda_grip_params(self) -> np.ndarray | None:
-        """(9, 2) parameters of [`panda_gripper_control`][tableclean_suite.controllers.fast_control.panda_gripper_control]
-        for the current gripper controller, or None (not robosuite's Panda gripper with action scaling)."""
-        controller = self.grip_controller
-        cached = self._grip_params
-        if cached is not None and cached[0] is controller:
-            return cached[1]
-        params = None
-        if (type(self.gripper).format_action is PandaGripper.format_action and controller.use_action_scaling
-                and self.grip_limits.shape[1] == 2):
-            if controller.action_scale is None:
-                controller.scale_action(np.zeros(2))  # robosuite sets its transforms lazily
-            rows = (controller.input_min, controller.input_max, controller.action_input_transform,
-                    controller.action_scale, controller.action_output_transform, controller.actuator_min,
-                    controller.actuator_max, self.grip_limits[0], self.grip_limits[1])
-            params = np.ascontiguousarray([np.broadcast_to(np.asarray(r, dtype=float), (2,)) for r in rows])
-        self._grip_params = (controller, params)
-        return params
 
     def arm_torques(self, goal_pos: np.ndarray, goal_ori: np.ndarray) -> np.ndarray:
         """OSC torques (n,) N m, unclipped, for the current simulation data (after ``mj_step1`` or ``mj_forward``);

@@ -35,21 +35,16 @@ from tableclean_suite.environments.robot_registry import (  # noqa: F401  (the r
 
 
 def register_robot_config(config: RobotSkillConfig, *, replace: bool = False) -> RobotSkillConfig:
-    """Add ``config`` to the robot registry under ``config.robot``; returns the stored config.
-
-    The per-action keys of ``config.skills`` may be anything [`action_key`][tableclean_suite.controllers.registry.action_key] reads
-    (an [`Action`][tableclean_suite.task.actions.Action], a paper-order int, a name in any case); the stored
-    config has them as registered action names, the keys [`skill_overrides`][tableclean_suite.environments.robot_registry.skill_overrides] looks up.
+    """Add ``config`` to the robot registry under ``config.robot``; returns the stored config, its per-action keys
+    (anything [`action_key`][tableclean_suite.controllers.registry.action_key] reads) as registered action names.
 
     Raises:
         TypeError: ``config`` is not a [`RobotSkillConfig`][tableclean_suite.environments.robot_registry.RobotSkillConfig].
-        ValueError: a skills key that is neither `ALL_SKILLS` nor a registered action, or two
-            keys naming the same action; an `ALL_SKILLS` key that is not a key of ``BASE_CONFIG``
-            or its value outside the range of [`SkillConfig`][tableclean_suite.controllers.configs.SkillConfig]'s field; per-action
-            overrides for an action whose skill is registered that it would refuse (unknown keys,
-            values outside its ``Config``'s ranges: [`SkillConfigError`][tableclean_suite.controllers.config_check.SkillConfigError], a
-            ``ValueError``); the robot is already registered and ``replace`` is False; an OSC override
-            of ``type``, ``input_type`` or ``input_ref_frame``.
+        ValueError: a skills key that is neither `ALL_SKILLS` nor a registered action, or two naming the same
+            action; an `ALL_SKILLS` key not in ``BASE_CONFIG`` or out of [`SkillConfig`][tableclean_suite.controllers.configs.SkillConfig]'s
+            range; per-action overrides the action's registered skill refuses
+            ([`SkillConfigError`][tableclean_suite.controllers.config_check.SkillConfigError]); the robot already
+            registered without ``replace``; an OSC override of ``type``, ``input_type`` or ``input_ref_frame``.
     """
     if not isinstance(config, RobotSkillConfig):
         raise TypeError(f"register_robot_config needs a RobotSkillConfig, got {config!r}")
