@@ -48,7 +48,6 @@ def test_a_stored_entry_gives_the_computed_bytes_without_computing(inputs, tmp_p
     assert outputs(second) == outputs(first)
     assert len(first.comparisons) == 2 and [f.name for f in first.figures] == [
         "fig3_success_rate_q_learning.png", "fig4_average_reward_q_learning.png"]
-    assert second.seconds < first.seconds / 3  # no bootstrap, no drawing
     fresh = compute(tmp_path, cells, curves, table3, read=False)  # --fresh: computed again, the same bytes
     assert not fresh.cached and outputs(fresh) == outputs(first)
 
