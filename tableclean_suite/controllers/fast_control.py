@@ -226,101 +226,57 @@ def small_matvec(a: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
         out[i] = value
 
 
-class OscWork(NamedTuple):
-    """The OSC kernels' scratch arrays for an arm of n joints (float64; m = max(n, 6)).
-
-    Made once per compiled call by [`osc_work`][tableclean_suite.controllers.fast_control.osc_work]: allocated
-    per substep instead, the OSC kernels take about twice as long.  Every entry is written before it is read.
-    """
-
-    low: np.ndarray  # (m, m) Cholesky factor
-    inv_low: np.ndarray  # (m, m) its inverse
-    mass_inv: np.ndarray  # (n, n)
-    lambda_full: np.ndarray  # (6, 6) operational-space inertia
-    lambda_pos: np.ndarray  # (3, 3)
-    lambda_ori: np.ndarray  # (3, 3)
-    nullspace: np.ndarray  # (n, n) nullspace projector
-    j_minv: np.ndarray  # (6, n) J M^-1
-    lambda_full_inv: np.ndarray  # (6, 6)
-    j_bar: np.ndarray  # (n, 6) M^-1 J^T lambda
-    desired: np.ndarray  # (6,) desired force and torque
-    error: np.ndarray  # (3,) orientation error
-    wrench: np.ndarray  # (6,)
-    posture: np.ndarray  # (n,) nullspace posture acceleration
-    pose_torques: np.ndarray  # (n,)
-    mass: np.ndarray  # (n, n) the arm's mass matrix gathered by osc_torques
-    j_full: np.ndarray  # (6, n) its Jacobian
-    joint_pos: np.ndarray  # (n,)
-    joint_vel: np.ndarray  # (n,)
-    bias: np.ndarray  # (n,)
-    ref_vel: np.ndarray  # (6,) grip-site velocity
-
-
 @numba.njit(cache=True)
-def osc_work(n: int) -> OscWork:
-    """The OSC kernels' scratch for an arm of ``n`` joints ([`OscWork`][tableclean_suite.controllers.fast_control.OscWork])."""
-    size = max(n, 6)
-    return OscWork(np.empty((size, size)), np.empty((size, size)), np.empty((n, n)), np.empty((6, 6)), np.empty((3, 3)),
-                   np.empty((3, 3)), np.empty((n, n)), np.empty((6, n)), np.empty((6, 6)), np.empty((n, 6)), np.empty(6),
-                   np.empty(3), np.empty(6), np.empty(n), np.empty(n), np.empty((n, n)), np.empty((6, n)), np.empty(n),
-                   np.empty(n), np.empty(n), np.empty(6))
-
-
-@numba.njit(cache=True)
-def _opspace_into(mass: np.ndarray, j_full: np.ndarray, work):
-    """robosuite's ``opspace_matrices`` (lambda_full (6, 6), lambda_pos (3, 3), lambda_ori (3, 3), nullspace (n, n),
-    views of ``work``) of the arm's ``mass`` (n, n) and Jacobian ``j_full`` (6, n), with Cholesky inverses of its
-    positive definite matrices; robosuite's own function when a pivot is tiny (near a singularity)."""
+def opspace(mass: np.ndarray, j_full: np.ndarray):
+    """robosuite's ``opspace_matrices`` (lambda_full (6, 6), lambda_pos (3, 3), lambda_ori (3, 3), nullspace (n, n))
+    of the arm's ``mass`` (n, n) and Jacobian ``j_full`` (6, n), with Cholesky inverses of its positive
+    definite matrices; robosuite's own function when a pivot is tiny (near a singularity)."""
     n = mass.shape[0]
-    low, inv_low, mass_inv, nullspace_matrix = work.low, work.inv_low, work.mass_inv, work.nullspace
-    lambda_full, lambda_pos, lambda_ori = work.lambda_full, work.lambda_pos, work.lambda_ori
+    size = max(n, 6)
+    low, inv_low, mass_inv = np.empty((size, size)), np.empty((size, size)), np.empty((n, n))
+    lambda_full, lambda_pos, lambda_ori = np.empty((6, 6)), np.empty((3, 3)), np.empty((3, 3))
     if spd_inverse(mass, mass_inv, low, inv_low):
-        j_minv = work.j_minv
+        j_minv = np.empty((6, n))
         small_matmul(j_full, mass_inv, j_minv)
-        lambda_full_inv = work.lambda_full_inv
+        lambda_full_inv = np.empty((6, 6))
         small_matmul(j_minv, j_full.T, lambda_full_inv)
         ok = spd_inverse(lambda_full_inv, lambda_full, low, inv_low)
         ok = ok and spd_inverse(lambda_full_inv[0:3, 0:3], lambda_pos, low, inv_low)
         ok = ok and spd_inverse(lambda_full_inv[3:6, 3:6], lambda_ori, low, inv_low)
         if ok:
-            j_bar = work.j_bar
+            j_bar = np.empty((n, 6))
             small_matmul(j_minv.T, lambda_full, j_bar)  # M^-1 J^T lambda (M^-1 symmetric)
-            small_matmul(j_bar, j_full, nullspace_matrix)
+            nullspace = np.empty((n, n))
+            small_matmul(j_bar, j_full, nullspace)
             for i in range(n):
                 for j in range(n):
-                    nullspace_matrix[i, j] = (1.0 if i == j else 0.0) - nullspace_matrix[i, j]
-            return lambda_full, lambda_pos, lambda_ori, nullspace_matrix
+                    nullspace[i, j] = (1.0 if i == j else 0.0) - nullspace[i, j]
+            return lambda_full, lambda_pos, lambda_ori, nullspace
     exact = opspace_matrices(mass, j_full, np.ascontiguousarray(j_full[0:3]), np.ascontiguousarray(j_full[3:6]))
+    nullspace = np.empty((n, n))
     lambda_full[:] = exact[0]
     lambda_pos[:] = exact[1]
     lambda_ori[:] = exact[2]
-    nullspace_matrix[:] = exact[3]
-    return lambda_full, lambda_pos, lambda_ori, nullspace_matrix
+    nullspace[:] = exact[3]
+    return lambda_full, lambda_pos, lambda_ori, nullspace
 
 
 @numba.njit(cache=True)
-def osc_law(arm, goal_pos: np.ndarray, goal_ori: np.ndarray, plant, work=None) -> None:
+def osc_law(arm, goal_pos: np.ndarray, goal_ori: np.ndarray, plant) -> None:
     """robosuite's ``OperationalSpaceController.run_controller`` torques for an absolute world-frame goal.
 
     ``arm``: the [ArmState][tableclean_suite.controllers.fast_control.ArmState]; ``goal_pos`` (3,) m and
     ``goal_ori`` (3, 3), world frame; ``plant``: the [Plant][tableclean_suite.controllers.fast_control.Plant]
-    whose ``gains``, ``initial_joint`` and ``uncouple`` are the law; ``work``: an
-    [OscWork][tableclean_suite.controllers.fast_control.OscWork] (None: allocated here).  Writes the torques
-    (n,) N m, before clipping, to ``plant.torques``.  The base velocity term is zero (the arm's base is welded
-    to the world); the nullspace term has joint kp `NULLSPACE_JOINT_KP` and critical damping.
+    whose ``gains``, ``initial_joint`` and ``uncouple`` are the law.  Writes the torques (n,) N m, before
+    clipping, to ``plant.torques``.  The base velocity term is zero (the arm's base is welded to the world).
     """
     mass, j_full, ref_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias = arm
     gains, initial_joint, torques = plant.gains, plant.initial_joint, plant.torques
-    if work is None:
-        work = osc_work(mass.shape[0])
     n = mass.shape[0]
-    desired = work.desired  # desired force (3) and torque (3)
+    desired = np.empty(6)  # desired force (3) and torque (3)
     for r in range(3):
         desired[r] = (goal_pos[r] - ref_pos[r]) * gains[0, r] + (-ref_vel[r]) * gains[1, r]
-    error = work.error  # robosuite's orientation_error: half the sum of the columns' cross products
-    error[0] = 0.0
-    error[1] = 0.0
-    error[2] = 0.0
+    error = np.zeros(3)  # robosuite's orientation_error: half the sum of the columns' cross products
     for c in range(3):
         a0, a1, a2 = ref_ori_mat[0, c], ref_ori_mat[1, c], ref_ori_mat[2, c]
         b0, b1, b2 = goal_ori[0, c], goal_ori[1, c], goal_ori[2, c]
@@ -329,53 +285,48 @@ def osc_law(arm, goal_pos: np.ndarray, goal_ori: np.ndarray, plant, work=None) -
         error[2] += a0 * b1 - a1 * b0
     for r in range(3):
         desired[3 + r] = 0.5 * error[r] * gains[0, 3 + r] + (-ref_vel[3 + r]) * gains[1, 3 + r]
-    lambda_full, lambda_pos, lambda_ori, nullspace_matrix = _opspace_into(mass, j_full, work)
-    wrench = work.wrench
+    lambda_full, lambda_pos, lambda_ori, nullspace = opspace(mass, j_full)
+    wrench = np.empty(6)
     if plant.uncouple:
         small_matvec(lambda_pos, desired[0:3], wrench[0:3])
         small_matvec(lambda_ori, desired[3:6], wrench[3:6])
     else:
         small_matvec(lambda_full, desired, wrench)
     small_matvec(j_full.T, wrench, torques)
-    joint_kv = np.sqrt(NULLSPACE_JOINT_KP) * 2
-    posture = work.posture
+    joint_kv = np.sqrt(NULLSPACE_JOINT_KP) * 2  # robosuite's nullspace_torques: critical damping
+    posture = np.empty(n)
     for i in range(n):
         posture[i] = NULLSPACE_JOINT_KP * (initial_joint[i] - joint_pos[i]) - joint_kv * joint_vel[i]
-    pose_torques = work.pose_torques
+    pose_torques = np.empty(n)
     small_matvec(mass, posture, pose_torques)
     for i in range(n):
         value = 0.0
         for k in range(n):
-            value += nullspace_matrix[k, i] * pose_torques[k]
+            value += nullspace[k, i] * pose_torques[k]
         torques[i] = (torques[i] + bias[i]) + value
 
 
 @numba.njit(cache=True)
-def osc_torques(plant, goal_pos: np.ndarray, goal_ori: np.ndarray, work=None) -> None:
+def osc_torques(plant, goal_pos: np.ndarray, goal_ori: np.ndarray) -> None:
     """[`osc_law`][tableclean_suite.controllers.fast_control.osc_law] on the plant's whole-model arrays
     (``full_mass``, ``jacp``, ``jacr`` filled by ``mj_fullM`` and ``mj_jacSite``), gathering the arm's
-    entries as robosuite's ``update()``; ``work`` as there."""
-    indexes, jacp, jacr, qvel = plant.indexes, plant.jacp, plant.jacr, plant.qvel
-    if work is None:
-        work = osc_work(indexes.shape[1])
-    dofs = indexes[0]
+    entries as robosuite's ``update()``."""
+    dofs = plant.indexes[0]
     n = dofs.size
-    mass, j_full, joint_pos, joint_vel, bias = work.mass, work.j_full, work.joint_pos, work.joint_vel, work.bias
+    mass, j_full = np.empty((n, n)), np.empty((6, n))
     for i in range(n):
         for k in range(n):
             mass[i, k] = plant.full_mass[dofs[i], dofs[k]]
         for r in range(3):
-            j_full[r, i] = jacp[r, dofs[i]]
-            j_full[r + 3, i] = jacr[r, dofs[i]]
-        joint_pos[i] = plant.qpos[indexes[1, i]]
-        joint_vel[i] = qvel[dofs[i]]
-        bias[i] = plant.qfrc_bias[dofs[i]]
-    ref_vel = work.ref_vel
-    small_matvec(jacp, qvel, ref_vel[0:3])  # robosuite's get_site_xvelp: the full Jacobian times all velocities
-    small_matvec(jacr, qvel, ref_vel[3:6])
+            j_full[r, i] = plant.jacp[r, dofs[i]]
+            j_full[r + 3, i] = plant.jacr[r, dofs[i]]
+    ref_vel = np.empty(6)
+    small_matvec(plant.jacp, plant.qvel, ref_vel[0:3])  # robosuite's get_site_xvelp: all dofs' velocities
+    small_matvec(plant.jacr, plant.qvel, ref_vel[3:6])
     ref_ori_mat = np.ascontiguousarray(plant.site_mat.reshape((3, 3)))
-    arm = ArmState(mass, j_full, plant.site_pos, ref_ori_mat, ref_vel, joint_pos, joint_vel, bias)
-    osc_law(arm, goal_pos, goal_ori, plant, work)
+    arm = ArmState(mass, j_full, plant.site_pos, ref_ori_mat, ref_vel, plant.qpos[plant.indexes[1]],
+                   plant.qvel[dofs], plant.qfrc_bias[dofs])
+    osc_law(arm, goal_pos, goal_ori, plant)
 
 
 @numba.njit(cache=True)
@@ -392,13 +343,12 @@ def native_substeps(plant, dirt, first, goal_pos, goal_ori, grip_ctrl):
     markers, present = dirt
     arm_act, grip_act, ctrl = plant.arm_actuators, plant.grip_actuators, plant.ctrl
     torques, limits = plant.torques, plant.limits
-    work = osc_work(plant.indexes.shape[1])  # the OSC's scratch, once for all substeps
     for k in range(first, plant.substeps):
         c_call(step1, plant.model, plant.data)
         c_call(full_m, plant.model, plant.full_mass.ctypes.data, plant.q_m.ctypes.data)
         c_call(jac_site, plant.model, plant.data, plant.jacp.ctypes.data, plant.jacr.ctypes.data,
                np.int32(plant.site_id))
-        osc_torques(plant, goal_pos, goal_ori, work)
+        osc_torques(plant, goal_pos, goal_ori)
         for i in range(arm_act.size):
             ctrl[arm_act[i]] = min(max(torques[i], limits[0, i]), limits[1, i])
         if k == 0:
