@@ -598,8 +598,3 @@ class Skill(abc.ABC):
     def segment_center(self, info: Mapping[str, Any], segment: int) -> np.ndarray:
         """(3,) table-top surface point at the centre of ``segment`` (0-based)."""
         return np.asarray(info["segment_centers"], dtype=float)[int(segment)]
-
-    def reached(self, info: Mapping[str, Any], pos: np.ndarray, tolerance: float | None = None) -> bool:
-        """Whether the achieved end-effector position is within ``tolerance`` (default: reach tolerance) of ``pos``."""
-        tol = self.config["reach_tolerance"] if tolerance is None else tolerance
-        return float(np.linalg.norm(np.asarray(info["eef_pos"], dtype=float) - pos)) <= tol
