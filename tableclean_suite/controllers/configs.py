@@ -96,8 +96,7 @@ class SkillConfig:
     gripper_timeout: int | None = setting(None, "control steps", 1, integer=True, optional=True)
     """Control steps (None or int >= 1) in a phase after which the gripper counts as settled; None: never."""
     hover_height: float = setting(0.08, "m", 0.0)
-    """m (>= 0) above the table top at which the gripper travels and hovers: clears a carried 4.5 cm cube
-    and the 2 cm sponge stand; measured, 0.12 cost ~6 more control steps per lift/descend pair."""
+    """m (>= 0) above the table top at which the gripper travels and hovers (clears a carried 4.5 cm cube)."""
     yaw_rate: float = setting(1.5, "rad/s", 0.0, low_open=True)
     """rad/s (> 0), maximum turning speed of the gripper-yaw setpoint (faster turns hit wrist limits)."""
     yaw_tolerance: float = setting(0.1, "rad", 0.0, math.pi, low_open=True)
@@ -209,11 +208,9 @@ class WipeConfig(SkillConfig):
     repeat_lane_shift: float = setting(0.5, "fraction of the lane spacing", 0.0, 1.0)
     """Fraction (in [0, 1]) of the lane spacing repeated passes shift the lanes by."""
     wipe_overlap: float = setting(0.0, "fraction of the sponge width", 0.0, 1.0)
-    """Fraction (in [0, 1]) of the sponge width shared by neighbouring lanes; the sponge's footprint plus the
-    env's wipe reach already covers the seams, and every extra lane costs ~25 control steps."""
+    """Fraction (in [0, 1]) of the sponge width shared by neighbouring lanes (the wipe reach covers the seams)."""
     shift_clearance: float = setting(0.005, "m", 0.0)
-    """m (>= 0) the sponge's bottom is lifted while it shifts to the next stroke: dragged across the
-    fingers' closing axis the pressed sponge tips and slides up into the hand."""
+    """m (>= 0) the sponge's bottom is lifted while it shifts to the next stroke (dragged, it tips in the hand)."""
     press_max_steps: int = setting(12, "control steps", 0, integer=True)
     """Control steps (int >= 0) after which a stroke starts even if no force was measured; the force
     loop then deepens the contact."""
@@ -274,7 +271,6 @@ class CleanConfig(WipeConfig, GraspConfig, ReleaseConfig):
     max_steps: int = setting(900, "control steps", 1, integer=True)
     """Control steps (int >= 1) before the clean gives up."""
     tip_clearance: float = setting(0.004, "m", 0.0)
-    """m (>= 0) the fingertips stay above the sponge's bottom (0.010 for objects): gripped lower, the
-    table's drag on the pressed sponge has a shorter lever about the finger pads."""
+    """m (>= 0) the fingertips stay above the sponge's bottom (0.010 for objects: gripped low, it drags less)."""
     place_clearance: float = setting(0.004, "m", 0.0)
     """m (>= 0) above its home at which the sponge is released."""
