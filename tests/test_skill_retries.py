@@ -115,6 +115,78 @@ def test_a_phase_that_runs_out_of_budget_where_it_stalls_starts_again_with_a_fre
         assert result.reason == "step budget of 60 exhausted in phase TRAVEL" and result.steps == 60
 
 
+class _SnaggingGrasp(Grasp):
+    """A grasp of a box on segment 2, carried 1 cm below the grip site once closed, whose lift is held (a frozen
+    stand-in) the first time it runs."""
+
+    def __init__(self):
+        from tableclean_suite.controllers.primitives import Body
+
+        centre = np.array([0.0, 0.14, 0.82])
+        super().__init__(Body(pos=lambda info: centre if self.closed_at is None else info["eef_pos"] - [0, 0, 0.01],
+                              quat=lambda info: np.array([0.0, 0.0, 0.0, 1.0]),
+                              half_size=lambda info: np.full(3, 0.02), grasped=lambda info: True, grasp_depth=0.0))
+        self.starts = self.lifts = 0
+
+    def start(self, skill, info):
+        super().start(skill, info)
+        self.starts, self.lifting = self.starts + 1, False
+        skill.env.frozen = False
+
+    def update(self, skill, info, phase):
+        super().update(skill, info, phase)
+        if phase == "LIFT" and not self.lifting:
+            self.lifts, self.lifting = self.lifts + 1, True
+            skill.env.frozen = self.lifts == 1
+
+
+@pytest.mark.parametrize("budget, done, retries", [(1, True, 1), (0, False, 0)])
+def test_a_pick_whose_lift_runs_out_of_budget_grasps_again_from_hover_with_a_fresh_budget(budget, done, retries):
+    from tableclean_suite.controllers import PickSkill
+
+    grasp = _SnaggingGrasp()
+
+    class SnaggingPick(PickSkill):
+        def build(self, info):
+            return [("", grasp)]
+    controller = SkillController(KinematicEnv(arm_segment=1), registry={Action.PICK: SnaggingPick},
+                                 skill_configs={Action.PICK: {"retries": budget, "max_steps": 120}})
+    result = controller.execute(Action.PICK)  # (the stand-in's state never reads the box held: judge the motion)
+    assert (result.final_phase == "DONE", result.retries, grasp.starts, grasp.lifts) == (
+        done, retries, 1 + retries, 1 + retries)
+    if done:
+        assert result.steps > 120 and result.phase_steps["HOVER"] > 0  # from HOVER, on a budget of its own
+    else:
+        assert result.reason == "step budget of 120 exhausted in phase LIFT" and result.steps == 120
+
+
+def test_a_lift_holds_its_height_while_the_pads_lose_the_body_and_a_lost_body_is_grasped_again():
+    """A carried body out of the pads' contact counts as lying: its top would raise the travel height with it."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    grasp = _SnaggingGrasp()
+    held = {"now": True}
+    grasp.body = dataclasses.replace(grasp.body, grasped=lambda info: held["now"])
+    skill = SimpleNamespace(config=PickConfig().as_dict(), yaw=0.0, _yaw_setpoint=0.0, setpoint=np.zeros(3),
+                            hover_z=lambda info: info["hover_z"], env=SimpleNamespace())
+    info = {"eef_pos": np.array([0.01, 0.14, 0.83]), "eef_quat": np.array([0.70710678, 0.70710678, 0.0, 0.0]),
+            "gripper_qpos": np.zeros(2)}
+    grasp.start(skill, info)
+    assert grasp.next(skill, info, "CLOSE") == "LIFT"
+    heights = []
+    for now, hover_z in ((True, 0.9), (False, 0.95), (False, 1.0), (True, 0.91)):
+        held["now"] = now
+        target = grasp.waypoint(skill, {**info, "hover_z": hover_z}, "LIFT").pos
+        assert target[:2].tolist() == [0.01, 0.14]
+        heights.append(float(target[2]))
+    assert heights == [0.9, 0.9, 0.9, 0.91]
+    held["now"] = False
+    with pytest.raises(SkillFailure, match="lost while lifting") as failure:
+        grasp.next(skill, info, "LIFT")
+    assert failure.value.redo == 0
+
+
 def test_a_grasp_tried_again_lowers_its_fingertips_to_the_retry_clearance():
     from types import SimpleNamespace
 

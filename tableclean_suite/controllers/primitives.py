@@ -370,7 +370,8 @@ class Grasp(Primitive):
     """
 
     PHASES = ("HOVER", "DESCEND", "CLOSE", "LIFT")
-    STALLS = ("DESCEND",)
+    #: a descent held up by what it met; a lift held up by a body that snagged or slipped in the hand
+    STALLS = ("DESCEND", "LIFT")
     Config = GraspConfig
 
     def __init__(self, body: Body, what: str = "grasp"):
@@ -482,8 +483,12 @@ class Grasp(Primitive):
             return Waypoint(skill.setpoint, GRIPPER_CLOSE, np.inf, min_steps=skill.config["close_min_steps"], fixed=True)
         # straight up from where the grasp closed: a carried body hanging off-centre would otherwise move
         # the target with every step the arm makes towards it (measured on UR5e and Kinova3: the lift
-        # chased the body out to the arm's reach limit and ran out of budget)
-        return Waypoint(skill.hover_point(info, self.lift_xy), GRIPPER_CLOSE, tol)
+        # chased the body out to the arm's reach limit and ran out of budget); at the height of the last step the
+        # pads held the body: a body slipping in and out of their contact counts as lying meanwhile, and the
+        # travel height over its top rose with it (measured: a lift chased a carried capsule up to 1.7 m)
+        if self.lift_z is None or self.body.grasped(info):
+            self.lift_z = skill.hover_z(info)
+        return Waypoint(np.array([*self.lift_xy, self.lift_z]), GRIPPER_CLOSE, tol)
 
     def ready(self, skill, info, phase):
         if phase == "HOVER":
@@ -520,6 +525,7 @@ class Grasp(Primitive):
                 raise SkillFailure(f"{self.what} not confirmed", redo=0)
             self.closed_at = (float(np.asarray(info["eef_pos"], dtype=float)[2]), float(self.body.pos(info)[2]))
             self.lift_xy = np.asarray(info["eef_pos"], dtype=float)[:2].copy()  # (2,) m, where LIFT rises
+            self.lift_z = None  # m, LIFT's target height (see waypoint)
         if phase == "LIFT":
             tolerance = skill.config["grasp_slip_tolerance"]
             if not self.body.grasped(info):
