@@ -10,7 +10,8 @@ alongside (ratios of neighbouring measurements drift much less with the load tha
 ``learners``
     every registered learner's updates per second on the paper spec (the fastest of ``--repeat``
     ``train()`` calls of ``--runs`` x ``--iterations`` after a warm-up) relative to Q-learning, and
-    the compiled Q-learning and SARSA against the plain Python loop (``engine="reference"``).
+    the compiled Q-learning and SARSA against the step-at-a-time loop driven from Python
+    (``engine="reference"``, the loop the physics backend runs).
 ``skills``
     ``--episodes`` optimal episodes on robosuite's control path (``env.step``) and the compiled one,
     alternating: control steps per second of each and of raw MuJoCo (``mj_step`` replayed from the
@@ -41,7 +42,7 @@ from tableclean_suite.bench.cli import positive_int
 
 PROG = "tableclean-bench speed"
 SECTIONS = ("learners", "skills", "cold-start")
-#: Learners compared with the plain Python loop, which trains ``--runs`` / `PLAIN_LOOP_SHARE` runs (>= 1).
+#: Learners compared with the step-at-a-time loop, which trains ``--runs`` / `PLAIN_LOOP_SHARE` runs (>= 1).
 PLAIN_LOOP_LEARNERS = ("q_learning", "sarsa")
 PLAIN_LOOP_SHARE = 50
 #: The command ``cold-start`` times (``--out DIR`` appended) and its processes: (label, DIR).
@@ -110,7 +111,7 @@ def learner_table(reward: str, runs: int, iterations: int, repeat: int) -> Table
 
 
 def plain_loop_table(runs: int, iterations: int, repeat: int) -> Table:
-    """`PLAIN_LOOP_LEARNERS` compiled against the plain Python loop, updates per second (reward r2)."""
+    """`PLAIN_LOOP_LEARNERS` compiled against the step-at-a-time loop, updates per second (reward r2)."""
     from tableclean_suite.learners import train
 
     plain_runs = max(1, runs // PLAIN_LOOP_SHARE)
@@ -121,9 +122,9 @@ def plain_loop_table(runs: int, iterations: int, repeat: int) -> Table:
             lambda: train(learner, "r2", runs=n, iterations=iterations, engine=engine), repeat)
             for engine, n in (("compiled", runs), ("reference", plain_runs)))
         rows.append({"learner": learner, "compiled M updates/s": _millions(compiled),
-                     "plain Python M updates/s": _millions(plain), "compiled / plain Python": f"{compiled / plain:.0f}"})
-    return Table("Compiled learners against a plain Python loop", rows,
-                 f"Plain loop (train(engine=\"reference\"), the same arrays one step at a time): {plain_runs} runs x "
+                     "step-at-a-time M updates/s": _millions(plain), "compiled / step-at-a-time": f"{compiled / plain:.0f}"})
+    return Table("Compiled learners against the step-at-a-time loop", rows,
+                 f"Step-at-a-time loop (train(engine=\"reference\"), one step per Python call, the same arrays): {plain_runs} runs x "
                  f"{iterations} iterations; the fastest of the repeats on both sides.")
 
 
