@@ -362,9 +362,9 @@ class Grasp(Primitive):
 
     The grasp is confirmed by what is measured, twice: after closing, both finger pads touch the
     body (contact); after lifting, they still do and the body rose with the grip site, trailing
-    it by at most ``grasp_slip_tolerance`` m (`GRASP_SLIP_TOLERANCE`; slip).  Either failure is
-    retryable: the skill re-approaches the body from its measured pose (opening the hand where it
-    is before it rises), within its ``retries``.  Sets the skill's target yaw from ``body.yaw_rule``
+    it by at most ``grasp_slip_tolerance`` m (`GRASP_SLIP_TOLERANCE`; slip).  Either failure, and a
+    descent or a lift that runs out of steps, is retryable: the skill re-approaches the body from its
+    measured pose (opening the hand where it is before it rises), within its ``retries``.  Sets the skill's target yaw from ``body.yaw_rule``
     when it starts, with the finger line turned off a lying neighbour the hand would reach
     (`FINGER_LINE_CLEARANCE`).
     """
