@@ -23,9 +23,12 @@ from tableclean_suite.learners import assist, kernel, optimality, stepper
 from tableclean_suite.learners.stepper import DOUBLE_Q_TABLES, RECORD_FIELDS
 from tableclean_suite.learners.rng import run_keys
 from tableclean_suite.learners.rules import METHOD_DOUBLE_Q, TIES
+from tableclean_suite.learners.threads import run_in_threads
 from tableclean_suite.learners.transitions import TransitionTable
 
-#: Runs per call of the compiled loop; only affects progress granularity and memory, never the numbers.
+#: Runs per call of the compiled loop (slices of them trained on ``numba.get_num_threads()`` threads by
+#: [`run_in_threads`][tableclean_suite.learners.threads.run_in_threads]); only affects progress granularity and
+#: memory, never the numbers.
 RUNS_PER_CHUNK = 256
 
 
@@ -134,7 +137,7 @@ class TableBackend:
         q_second_snapshot = np.zeros(q_second.shape if snapshot_at != kernel.NO_SNAPSHOT else (job.runs, 0, 0))
         for lo in progress_bar(range(0, job.runs, RUNS_PER_CHUNK), job.progress, f"{learner.name}/{job.reward.name}"):
             hi = min(lo + RUNS_PER_CHUNK, job.runs)
-            train_batch(0, hi - lo, *(
+            run_in_threads(train_batch, hi - lo, (
                 table.next_state, table.outcome, table.cumulative, starts, values, loop_value, job.reward.looping_code,
                 job.reward.looping_memory,
                 learner.target_code, learner.on_policy, learner.method, learner_parameters, job.alpha, job.gamma,

@@ -5,7 +5,9 @@ Algorithm 1 of the paper with the learner's TD target plugged in, compiled with 
 eligibility traces, Dyna planning) and the exploration by integer codes; its compiled copies are
 `train_batch` (one-step, constant epsilon-greedy: the paper's learners), `train_batch_general`
 and a user target's own ([`kernel_for`][tableclean_suite.learners.kernel.kernel_for] picks).  A
-run's numbers depend only on its key ([`rng`][tableclean_suite.learners.rng]).
+run's numbers depend only on its key ([`rng`][tableclean_suite.learners.rng]), so slices of the runs train
+on several threads at once ([`run_in_threads`][tableclean_suite.learners.threads.run_in_threads]; the loop is
+compiled ``nogil``) with the same bits for any thread count.
 [`stepper`][tableclean_suite.learners.stepper] drives the same pieces one step at a time.
 
 Per-step cost: O(A) for one-step and double-Q updates and for Cruz et al.'s affordances; trace

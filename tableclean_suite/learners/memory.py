@@ -8,6 +8,8 @@ guard does not import the learners back.
 
 from __future__ import annotations
 
+import numba
+
 from tableclean_suite import resources
 from tableclean_suite.learners.assist import AFFORD_LEARNED
 from tableclean_suite.learners.exploration import VISIT_DECAY_CODE
@@ -43,8 +45,9 @@ def learner_training_memory(model, learner, reward, runs: int, iterations: int, 
     """[`tableclean_suite.resources.training_memory`][tableclean_suite.resources.training_memory] of ``train()``-ing ``learner`` (a
     ``TabularLearner``) with ``reward`` (a ``RewardPattern``) on ``model`` (a ``TaskModel``): two
     tables per run for double Q-learning, the learner's run working memory
-    ([`run_working_bytes`][tableclean_suite.learners.memory.run_working_bytes]) once: runs train one after the other."""
+    ([`run_working_bytes`][tableclean_suite.learners.memory.run_working_bytes]) in each of numba's threads."""
     return resources.training_memory(
         model.n_states, model.n_actions, runs, iterations, q_tables=2 if learner.method == METHOD_DOUBLE_Q else 1,
         max_successors=max_successors, code_bytes=model.record_dtype.itemsize, checkpoint=checkpoint, engine=engine,
-        run_bytes=run_working_bytes(learner, reward, model.n_states, model.n_actions))
+        run_bytes=run_working_bytes(learner, reward, model.n_states, model.n_actions),
+        concurrent_runs=numba.get_num_threads())
