@@ -585,6 +585,8 @@ def run_grid(grid: list[Membership], config: RunConfig, model, store: CellStore,
 
     outcome = GridRun()
     runs = {cell: resolve_cell(cell, config, model, transitions) for cell in unique_cells(grid)}
+    if config.fresh or not any(store.root.glob("*.npz")):
+        check_grid_resources(runs.values())  # every cell trains: refused before the digest builds the table
     code, task = digests.code_digest(config.plugins), digests.task_digest(model)
     table = file_sha256(config.transitions) if transitions is not None else None
     keys = {cell: cell_config(run, code, task, table) for cell, run in runs.items()}
