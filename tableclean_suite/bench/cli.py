@@ -8,8 +8,11 @@ import math
 import sys
 from pathlib import Path
 
-#: Exit codes of a command line used wrongly (argparse's) and of a command stopped by Ctrl-C (128 + SIGINT).
-EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
+# EXIT_INTERRUPTED: Ctrl-C's exit status, also part of this module's interface
+from tableclean_suite.bench.startup import EXIT_INTERRUPTED, announce_compiles  # noqa: F401
+
+#: Exit code of a command line used wrongly (argparse's).
+EXIT_USAGE = 2
 #: Output kinds of [`output_path`][tableclean_suite.bench.cli.output_path]: a folder, or one file.
 DIRECTORY, FILE = "directory", "file"
 DEFAULT_ROBOT = "Panda"
@@ -276,7 +279,6 @@ def parse_command(build_parser, argv, prog: str, known: bool = False):
     """Apply ``--verbose``, import the ``--plugins`` (exit 2 naming one that fails), then parse ``argv`` with
     ``build_parser(prog)``: ``(parser, args)``, with ``known`` ``(parser, args, unknown arguments)``."""
     from tableclean_suite.bench.plugins import FLAG, PluginError, load_plugins, plugin_entries
-    from tableclean_suite.bench.startup import announce_compiles
     from tableclean_suite.robosuite_adapter import apply_verbosity
 
     argv = list(sys.argv[1:] if argv is None else argv)
