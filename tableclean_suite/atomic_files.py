@@ -25,6 +25,24 @@ def temporary_path(path: Path) -> Path:
     return path.with_name(f".{path.name}.{os.getpid()}.tmp")
 
 
+def write_temporary(path: Path, write: Callable[[Path], None]) -> Path:
+    """``write`` the contents of ``path`` to its [temporary][tableclean_suite.atomic_files.temporary_path]
+    and return that; on failure the temporary is removed and a file-system error is raised as
+    [`OutputError`][tableclean_suite.atomic_files.OutputError]."""
+    temporary = temporary_path(path)
+    try:
+        write(temporary)
+    except OSError as error:
+        remove_quietly(temporary)
+        if isinstance(error, OutputError):
+            raise
+        raise OutputError(f"cannot write {str(path)!r}: {describe_os_error(error)}") from None
+    except BaseException:
+        remove_quietly(temporary)
+        raise
+    return temporary
+
+
 def atomic_write(path, write: Callable[[Path], None]) -> Path:
     """Create or replace ``path`` atomically: ``write(temporary)`` then `os.replace`.
 
@@ -37,14 +55,11 @@ def atomic_write(path, write: Callable[[Path], None]) -> Path:
         file is removed; a file-system failure is raised as [`OutputError`][tableclean_suite.atomic_files.OutputError].
     """
     path = Path(path)
-    temporary = temporary_path(path)
+    temporary = write_temporary(path, write)
     try:
-        write(temporary)
         os.replace(temporary, path)
     except OSError as error:
         remove_quietly(temporary)
-        if isinstance(error, OutputError):
-            raise
         raise OutputError(f"cannot write {str(path)!r}: {describe_os_error(error)}") from None
     except BaseException:
         remove_quietly(temporary)

@@ -29,6 +29,7 @@ from tableclean_suite.atomic_files import (  # noqa: F401  (part of this module'
     describe_os_error,
     remove_quietly,
     temporary_path,
+    write_temporary,
 )
 
 #: The manifest, and the new one while its files move in (left behind only by an interrupted publication).
@@ -187,16 +188,7 @@ def _stage(path: Path, write: Callable[[Path], None]) -> Path:
     """Write ``path``'s temporary; OutputError (temporary removed) if it cannot be or ``path`` is a folder."""
     if path.is_dir():
         raise OutputError(f"cannot write {str(path)!r}: it is a folder; remove it or choose another output folder")
-    temporary = temporary_path(path)
-    try:
-        write(temporary)
-    except OSError as error:
-        remove_quietly(temporary)
-        raise OutputError(f"cannot write {str(path)!r}: {describe_os_error(error)}") from None
-    except BaseException:
-        remove_quietly(temporary)
-        raise
-    return temporary
+    return write_temporary(path, write)
 
 
 def _unlink(path: Path) -> None:
