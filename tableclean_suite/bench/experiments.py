@@ -585,8 +585,9 @@ def run_grid(grid: list[Membership], config: RunConfig, model, store: CellStore,
 
     outcome = GridRun()
     runs = {cell: resolve_cell(cell, config, model, transitions) for cell in unique_cells(grid)}
-    if config.fresh or not any(store.root.glob("*.npz")):
-        check_grid_resources(runs.values())  # every cell trains: refused before the digest builds the table
+    every_cell_trains = config.fresh or not any(store.root.glob("*.npz"))
+    if every_cell_trains:  # refused before the task's digest builds its table
+        estimate = check_grid_resources(runs.values())
     code, task = digests.code_digest(config.plugins), digests.task_digest(model)
     table = file_sha256(config.transitions) if transitions is not None else None
     keys = {cell: cell_config(run, code, task, table) for cell, run in runs.items()}
@@ -599,7 +600,8 @@ def run_grid(grid: list[Membership], config: RunConfig, model, store: CellStore,
         else:
             outcome.summaries[cell], outcome.statistics[cell] = stored
             outcome.resumed += 1
-    estimate = check_grid_resources(runs[cell] for cell in pending)
+    if not every_cell_trains:
+        estimate = check_grid_resources(runs[cell] for cell in pending)
     if pending:
         model.require_learnable()  # before the progress bar: a task that cannot end is refused in one line
     simulated = [outcome.plans[cell] for cell in pending if outcome.plans[cell].kind == "simulated"]
