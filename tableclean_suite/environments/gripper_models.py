@@ -1,0 +1,80 @@
+"""Corrected models of robosuite grippers whose own models the skills cannot drive.
+
+`CORRECTED` maps robosuite's gripper name to the package's corrected class, mounted in its place when a scene
+asks for that gripper; robosuite's own classes and its ``GRIPPER_MAPPING`` entries stay as they are.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import numpy as np
+from robosuite.models.grippers import Robotiq85Gripper
+
+#: MuJoCo solref / solimp of the joint couplings (a stiff, critically damped constraint).
+_COUPLING = {"solref": "0.005 1", "solimp": "0.95 0.99 0.001"}
+
+
+class CorrectedRobotiq85Gripper(Robotiq85Gripper):
+    """robosuite's Robotiq 2F-85 with its four-bar finger linkage closed and its self-contacts removed.
+
+    Corrected, each against what robosuite's model does (measured with the hand pointing down, closing
+    at 20 Hz control, 2 ms physics steps):
+
+    - The linkage: robosuite ties each finger's outer knuckle, inner knuckle and inner finger only by a soft
+      tendon (stiffness 0.4), so the links fall apart under load: open, a knuckle sits at -0.23 rad, out of its
+      [0, 0.876] range; closing on the 5 cm sponge the joints run to 2.4 rad and the sponge is thrown out.
+      Here joint equalities make it the parallel gripper it is: inner knuckle = outer knuckle, inner finger =
+      -outer knuckle (the pad stays parallel), right outer knuckle = left; the tendons go.
+    - Self-contact: the inner knuckle's mesh overlaps the inner finger's and outer knuckle's, which press on each
+      other with 58 N open and 110 N closed and keep the fingers moving (they never settle).  Contacts between
+      any two of the gripper's bodies are excluded (the linkage is kinematic now): 0 N open and closed.
+    - Ranges: every linkage joint limited to [0, 0.8] rad (inner fingers [-0.8, 0]), as the actuators'
+      ``ctrlrange``; ``init_qpos`` open (robosuite's starts out of range).
+    - Strength: the position actuators (kp 20 N m/rad) are limited to 1.5 N m, about 24 N per finger on the
+      sponge, like the Panda hand's 20 N (unlimited, 136 N per finger squeeze it by 7 mm).
+    - Joint damping 0.1 N m s/rad and armature 0.005 kg m^2 on the linkage joints.
+
+    Measured closing: pads 8.5 cm apart open, 0.1 cm closed on nothing, 4.8 cm on the 8 x 5 x 3 cm sponge
+    (settled in 4 control steps, lifted 10 cm without slipping); no joint leaves its range.
+    """
+
+    #: driving joint -> (inner knuckle, inner finger) of each finger, robosuite's names without the prefix.
+    LINKAGE = {"finger_joint": ("left_inner_knuckle_joint", "left_inner_finger_joint"),
+               "right_outer_knuckle_joint": ("right_inner_knuckle_joint", "right_inner_finger_joint")}
+    #: rad, the closed end of every linkage joint's range (robosuite's ``ctrlrange`` top).
+    CLOSED = 0.8
+    #: N m, the most each finger's actuator exerts.
+    MAX_TORQUE = 1.5
+
+    def __init__(self, idn=0):
+        super().__init__(idn=idn)
+        prefix = self.naming_prefix
+        joints = {joint.get("name")[len(prefix):]: joint for joint in self.worldbody.iter("joint")}
+        for tendon in list(self.tendon):
+            self.tendon.remove(tendon)
+        for driver, (knuckle, finger) in self.LINKAGE.items():
+            for name, low, high in ((driver, 0, self.CLOSED), (knuckle, 0, self.CLOSED), (finger, -self.CLOSED, 0)):
+                joints[name].attrib.update(limited="true", range=f"{low} {high}", damping="0.1", armature="0.005")
+            ET.SubElement(self.equality, "joint", joint1=prefix + knuckle, joint2=prefix + driver,
+                          polycoef="0 1 0 0 0", **_COUPLING)
+            ET.SubElement(self.equality, "joint", joint1=prefix + finger, joint2=prefix + driver,
+                          polycoef="0 -1 0 0 0", **_COUPLING)
+        ET.SubElement(self.equality, "joint", joint1=prefix + "right_outer_knuckle_joint",
+                      joint2=prefix + "finger_joint", polycoef="0 1 0 0 0", **_COUPLING)
+        bodies = [body.get("name") for body in self.worldbody.iter("body")]
+        for i, first in enumerate(bodies):
+            for second in bodies[i + 1:]:
+                ET.SubElement(self.contact, "exclude", body1=first, body2=second)
+        for actuator in self.actuator:
+            actuator.attrib.update(ctrlrange=f"0 {self.CLOSED}", forcelimited="true",
+                                   forcerange=f"{-self.MAX_TORQUE} {self.MAX_TORQUE}")
+
+    @property
+    def init_qpos(self):
+        """(6,) rad: open, every linkage joint at 0."""
+        return np.zeros(6)
+
+
+#: robosuite's gripper name -> the package's corrected class mounted in its place.
+CORRECTED = {"Robotiq85Gripper": CorrectedRobotiq85Gripper}
