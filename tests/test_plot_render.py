@@ -34,7 +34,7 @@ def test_render_png_is_savefig_tight_drawn_once_and_the_same_bytes_every_time():
     png = plots.render_png(stem, curves, 0.25, dpi=80)
     assert png == plots.render_png(stem, curves, 0.25, dpi=80)  # the cache stores these bytes
     plt = plots.pyplot()
-    fig, _ = plots.PAPER_FIGURES[stem][1](curves, 0.25, None)
+    fig, _ = plots.PAPER_FIGURES[stem](curves, 0.25, None)
     buffer = io.BytesIO()
     fig.set_dpi(80)
     fig.savefig(buffer, dpi=80, bbox_inches="tight", format="png")

@@ -6,7 +6,6 @@ sections apply to tasks of the paper's sizes (2 segments, 1 object) and actions 
 
 from __future__ import annotations
 
-import numpy as np
 import pandas as pd
 
 from tableclean_suite.analysis import exact_success_probability
@@ -73,16 +72,6 @@ def assistance_text(learner) -> str:
     if learner.advised:
         parts.append(f"advisor L={learner.advice_probability:g} C={learner.advice_consistency:g}")
     return ", ".join(parts) or "-"
-
-
-def shortest_plan_policy(model: TaskModel) -> np.ndarray:
-    """Greedy policy ``(n_states,)`` taking the first action of a shortest plan in every state (0 where none)."""
-    policy = np.zeros(model.n_states, dtype=np.int64)
-    for state in model.reachable_states():
-        plan = model.shortest_plan(state)
-        if plan:
-            policy[state.index] = model.action_index(plan[0])
-    return policy
 
 
 def _plan_text(model: TaskModel, plan) -> str:
@@ -162,8 +151,7 @@ def _table1_lines(model: TaskModel) -> list[str]:
 
 
 def _exact_success_lines(model: TaskModel, epsilon: float, max_itr: int) -> list[str]:
-    policy = shortest_plan_policy(model)
-    probability = float(exact_success_probability(policy, epsilon, max_itr, model=model))
+    probability = float(exact_success_probability(model.optimal_policy(), epsilon, max_itr, model=model))
     return [
         "",
         f"Exact success probability of the shortest-plan policy under epsilon-greedy exploration "

@@ -52,10 +52,8 @@ def reward_color(reward: str, known=()) -> str:
 
 def _select(curves: pd.DataFrame, **where) -> pd.DataFrame:
     """The rows of ``curves`` whose columns equal the values in ``where``."""
-    mask = np.ones(len(curves), dtype=bool)
-    for column, value in where.items():
-        mask &= (curves[column] == value).to_numpy(dtype=bool)
-    return curves[mask]
+    return curves[np.logical_and.reduce([(curves[column] == value).to_numpy(dtype=bool)
+                                         for column, value in where.items()])]
 
 
 def _plateau(values: np.ndarray, plateau_fraction: float) -> float:
@@ -102,7 +100,6 @@ def plot_rewards(
     metric: str,
     experiment: str = "main",
     plateau_fraction: float | None = 0.25,
-    ax=None,
     title: str | None = None,
     levels: dict | None = None,
 ):
@@ -116,7 +113,6 @@ def plot_rewards(
         experiment: which experiment's rows (default ``"main"``).
         plateau_fraction: draw each line's plateau as a dotted horizontal line (the mean over
             this last fraction, unless ``levels`` gives it); None for none.
-        ax: an existing axes, else a new figure.
         title: default e.g. ``"Success rate per reward pattern (Q-learning)"``.
         levels: ``{reward: plateau}`` in the metric's units (fractions for success), e.g. the
             exact asymptotes; drawn instead of the window means and labelled "asymptote".
@@ -124,7 +120,7 @@ def plot_rewards(
     Returns:
         ``(fig, ax)``.
     """
-    fig, ax = (pyplot().subplots(figsize=(7, 4.2)) if ax is None else (ax.figure, ax))
+    fig, ax = pyplot().subplots(figsize=(7, 4.2))
     rows = _select(curves, learner=learner, metric=metric, experiment=experiment)
     rewards = list(dict.fromkeys(rows["reward"]))
     for reward in rewards:
@@ -149,34 +145,18 @@ def plot_rewards(
     return fig, ax
 
 
-def plot_sweeps(
-    curves: pd.DataFrame,
-    metric: str,
-    experiments=("alpha_sweep", "gamma_sweep"),
-    plateau_fraction: float | None = None,
-    cmap: str = "viridis",
-    xmax: int | None = None,
-):
-    """One panel per sweep, one line per swept value of ``metric`` vs iterations (Figures 6-7).
-
-    Args:
-        curves: long curves frame.
-        metric: ``"success"`` (drawn in %), ``"average_reward"``, ...
-        experiments: sweep experiments, one panel each (those without rows are skipped).
-        plateau_fraction: draw each line's plateau as a dotted line; None for none.
-        cmap: sequential colormap over the swept values.
-        xmax: show iterations 1..xmax only (the sweeps differ early; None shows all).
-
-    Returns:
-        ``(fig, axes)`` with one axes per experiment that has rows (at least one axes).
-    """
+def plot_sweeps(curves: pd.DataFrame, metric: str, xmax: int | None = None):
+    """One panel per sweep (alpha, gamma; those without rows skipped), one line per swept value of
+    ``metric`` vs iterations, coloured on viridis (Figures 6-7); ``xmax``: show iterations 1..xmax only
+    (None: all).  Returns ``(fig, axes)``, at least one axes."""
+    experiments = ("alpha_sweep", "gamma_sweep")
     present = [e for e in experiments if (curves["experiment"] == e).any()] or list(experiments[:1])
     plt = pyplot()
     fig, axes = plt.subplots(1, len(present), figsize=(6.2 * len(present), 4.2), sharey=True, squeeze=False)
     axes = axes[0]
     import matplotlib
 
-    colormap = matplotlib.colormaps[cmap]
+    colormap = matplotlib.colormaps["viridis"]
     for ax, experiment in zip(axes, present):
         parameter = "alpha" if experiment == "alpha_sweep" else "gamma"
         fixed = "gamma" if parameter == "alpha" else "alpha"
@@ -188,8 +168,6 @@ def plot_sweeps(
             ys = line["value"].to_numpy(dtype=float) * _scale(metric)
             _band(ax, line, metric, color)
             ax.plot(line["iteration"].to_numpy(), ys, color=color, linewidth=1.3, label=f"{parameter} = {value:g}")
-            if plateau_fraction is not None:
-                ax.axhline(_plateau(ys, plateau_fraction), color=color, linestyle=":", linewidth=0.9)
         title = f"{METRIC_LABELS.get(metric, metric).split(' (')[0].capitalize()}, {parameter} sweep"
         if len(rows):
             first = rows.iloc[0]
@@ -211,46 +189,28 @@ def plot_sweeps(
 #: Iterations shown by the sweep figures: all the sweeps' differences lie before it at the defaults.
 SWEEP_XMAX = 1000
 
-def plateau_levels(table, learner: str, metric: str) -> dict | None:
-    """``{reward: plateau}`` of ``learner``'s main rows of a Table 3 frame (``success_plateau`` or
-    ``average_reward_plateau``), for [`plot_rewards`][tableclean_suite.bench.plots.plot_rewards]'s ``levels``; None without a table."""
-    if table is None:
-        return None
-    rows = table[(table["experiment"] == "main") & (table["learner"] == learner)]
-    return dict(zip(rows["reward"], rows[f"{metric}_plateau"].astype(float)))
+
+def _rewards(curves: pd.DataFrame, plateau_fraction: float, table3, learner: str, metric: str):
+    """[`plot_rewards`][tableclean_suite.bench.plots.plot_rewards] with the plateaus (``success_plateau``
+    or ``average_reward_plateau``) of ``learner``'s main rows of a Table 3 frame as ``levels`` (None: none)."""
+    levels = None
+    if table3 is not None:
+        rows = table3[(table3["experiment"] == "main") & (table3["learner"] == learner)]
+        levels = dict(zip(rows["reward"], rows[f"{metric}_plateau"].astype(float)))
+    return plot_rewards(curves, learner, metric, plateau_fraction=plateau_fraction, levels=levels)
 
 
-#: The paper's figures: file stem -> (description, builder).  Builders take (curves, plateau_fraction)
-#: and optionally a Table 3 frame whose plateaus (the exact asymptotes) are drawn.
+#: The paper's figures and the learning-time figure: file stem -> builder ``(curves, plateau_fraction,
+#: table3=None) -> (fig, ax)``.
 PAPER_FIGURES = {
-    "fig3_success_rate_q_learning": (
-        "Figure 3: success rate per reward (Q-learning)",
-        lambda c, p, t=None: plot_rewards(c, "q_learning", "success", plateau_fraction=p,
-                                          levels=plateau_levels(t, "q_learning", "success")),
-    ),
-    "fig4_average_reward_q_learning": (
-        "Figure 4: average reward per reward (Q-learning)",
-        lambda c, p, t=None: plot_rewards(c, "q_learning", "average_reward", plateau_fraction=p,
-                                          levels=plateau_levels(t, "q_learning", "average_reward")),
-    ),
-    "fig5_average_reward_sarsa": (
-        "Figure 5: average reward per reward (SARSA)",
-        lambda c, p, t=None: plot_rewards(c, "sarsa", "average_reward", plateau_fraction=p,
-                                          levels=plateau_levels(t, "sarsa", "average_reward")),
-    ),
-    "fig6_success_rate_sweeps": (
-        "Figure 6: success rate, alpha and gamma sweeps",
-        lambda c, p, t=None: plot_sweeps(c, "success", xmax=SWEEP_XMAX),
-    ),
-    "fig7_average_reward_sweeps": (
-        "Figure 7: average reward, alpha and gamma sweeps",
-        lambda c, p, t=None: plot_sweeps(c, "average_reward", xmax=SWEEP_XMAX),
-    ),
-    "fig8_learning_time_q_learning": (
-        "Kaplan-Meier curves of the per-run learning time (Q-learning): share of runs not yet optimal for good",
-        lambda c, p, t=None: plot_rewards(c, "q_learning", "not_learned", plateau_fraction=None,
-                                          title="Runs not yet optimal for good, per reward pattern (Q-learning)"),
-    ),
+    "fig3_success_rate_q_learning": lambda c, p, t=None: _rewards(c, p, t, "q_learning", "success"),
+    "fig4_average_reward_q_learning": lambda c, p, t=None: _rewards(c, p, t, "q_learning", "average_reward"),
+    "fig5_average_reward_sarsa": lambda c, p, t=None: _rewards(c, p, t, "sarsa", "average_reward"),
+    "fig6_success_rate_sweeps": lambda c, p, t=None: plot_sweeps(c, "success", xmax=SWEEP_XMAX),
+    "fig7_average_reward_sweeps": lambda c, p, t=None: plot_sweeps(c, "average_reward", xmax=SWEEP_XMAX),
+    "fig8_learning_time_q_learning": lambda c, p, t=None: plot_rewards(
+        c, "q_learning", "not_learned", plateau_fraction=None,
+        title="Runs not yet optimal for good, per reward pattern (Q-learning)"),
 }
 
 
@@ -285,7 +245,7 @@ def render_png(stem: str, curves: pd.DataFrame, plateau_fraction: float, table3=
 
     plt = pyplot()
     with matplotlib.rc_context({"figure.dpi": dpi}):  # a layout (Figures 6-7) measures texts as they are drawn
-        fig, _ = PAPER_FIGURES[stem][1](curves, plateau_fraction, table3)
+        fig, _ = PAPER_FIGURES[stem](curves, plateau_fraction, table3)
     try:
         return _tight_png(fig, dpi)
     finally:
