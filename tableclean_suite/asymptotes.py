@@ -15,9 +15,6 @@ and [tableclean_suite.simulation][] estimates the same quantities where that is 
 
 from __future__ import annotations
 
-import dataclasses
-import hashlib
-import threading
 from dataclasses import dataclass
 
 import numba
@@ -153,7 +150,7 @@ def _retire(p, active, order, acc, inside, mass, gain, pi_t, result):
     return active
 
 
-@numba.njit(cache=True, nogil=True)  # nogil: a thread training ahead analyses its chunks beside the statistics
+@numba.njit(cache=True)
 def _episode_statistics(pi_t, pair_state, next_pair, probability, outcome, reward, start_pairs, max_itr, tolerance,
                         result):
     """The module docstring's forward DP for every policy at once; writes ``result[p] = (success,
@@ -312,7 +309,7 @@ def _distinct_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.array(first, dtype=np.int64), inverse
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True)
 def _reached_pairs(probabilities, pair_state, next_pair, probability, start_pairs, reached):
     """Marks ``reached[p, n]`` (``(P, n_pairs)`` bool, all False on entry) for every pair an episode
     can be in under policy ``p`` of ``probabilities`` ``(P, S, A)`` (a depth-first search per policy)."""
@@ -360,46 +357,12 @@ def _kept_states(probabilities: np.ndarray, chain: EpisodeChain) -> np.ndarray:
     return reached_states(probabilities, chain)
 
 
-#: Distinct policies [`policy_statistics`][tableclean_suite.asymptotes.policy_statistics] remembers per chain (about 1 kB each); past it, it forgets them all.
-MEMO_POLICIES = 4096
-#: Chains (by content) whose policies [`policy_statistics`][tableclean_suite.asymptotes.policy_statistics] remembers at once (the default run: one per reward pattern).
-MEMO_CHAINS = 4
-_memo_lock = threading.Lock()
-_memo: list[tuple[bytes, int, float, dict[bytes, np.ndarray]]] = []  # least recently used first
-
-
-def chain_digest(chain: EpisodeChain) -> bytes:
-    """SHA-256 of everything the DP reads of ``chain`` (each field's dtype, shape and bytes)."""
-    digest = hashlib.sha256()
-    for field in dataclasses.fields(chain):
-        values = np.ascontiguousarray(getattr(chain, field.name))
-        digest.update(f"{field.name}:{values.dtype.str}:{values.shape};".encode())
-        digest.update(values.tobytes())
-    return digest.digest()
-
-
-def _remembered(digest: bytes, max_itr: int, tolerance: float) -> dict[bytes, np.ndarray]:
-    """The memo of the policies of the chain of ``digest`` ([`chain_digest`][tableclean_suite.asymptotes.chain_digest]) for ``max_itr``
-    and ``tolerance`` (call with ``_memo_lock`` held)."""
-    for i, (known, itr, tol, memo) in enumerate(_memo):
-        if known == digest and itr == max_itr and tol == tolerance:
-            _memo.append(_memo.pop(i))
-            return memo
-    memo = {}
-    _memo.append((digest, max_itr, tolerance, memo))
-    del _memo[:-MEMO_CHAINS]
-    return memo
-
-
 def policy_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: int,
                       tolerance: float = MASS_TOLERANCE) -> Asymptotes:
-    """[`episode_statistics`][tableclean_suite.asymptotes.episode_statistics] of ``(P, S, A)`` policies (arrays of shape ``(P,)``), bit for bit,
-    each distinct policy computed once.
-
-    Policies are distinct when they differ in a state an episode can reach under them
-    ([`reached_states`][tableclean_suite.asymptotes.reached_states]; elsewhere the DP only adds exact
-    zeros).  Results are remembered per chain ([`chain_digest`][tableclean_suite.asymptotes.chain_digest]),
-    ``max_itr`` and ``tolerance`` (`MEMO_POLICIES`, `MEMO_CHAINS`).
+    """[`episode_statistics`][tableclean_suite.asymptotes.episode_statistics] of ``(P, S, A)`` policies
+    (arrays of shape ``(P,)``), bit for bit, each distinct policy computed once: policies are distinct
+    when they differ in a state an episode can reach under them
+    ([`reached_states`][tableclean_suite.asymptotes.reached_states]; elsewhere the DP only adds exact zeros).
     """
     _check_pass(max_itr, tolerance)
     probabilities = _policies_of(probabilities, chain)
@@ -407,24 +370,9 @@ def policy_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: i
     distinct = probabilities[first]
     canonical = np.where(_kept_states(distinct, chain)[:, :, None], distinct, 0.0)
     first, canonical_inverse = _distinct_rows(canonical.reshape(canonical.shape[0], -1))
+    computed = episode_statistics(canonical[first], chain, max_itr, tolerance)
     inverse = canonical_inverse[inverse]
-    keys = [canonical[i].tobytes() for i in first]
-    digest = chain_digest(chain)
-    with _memo_lock:
-        memo = _remembered(digest, int(max_itr), float(tolerance))
-        rows = [memo.get(key) for key in keys]
-    missing = [j for j, row in enumerate(rows) if row is None]
-    if missing:
-        computed = episode_statistics(canonical[first[missing]], chain, max_itr, tolerance)
-        values = np.stack([getattr(computed, name) for name in QUANTITIES], axis=1)
-        with _memo_lock:
-            memo = _remembered(digest, int(max_itr), float(tolerance))
-            if len(memo) + len(missing) > MEMO_POLICIES:
-                memo.clear()
-            for j, row in zip(missing, values):
-                rows[j] = memo[keys[j]] = row
-    table = np.array(rows).reshape(len(first), len(QUANTITIES))
-    return Asymptotes(*(table[:, i][inverse] for i in range(len(QUANTITIES))))
+    return Asymptotes(*(getattr(computed, name)[inverse] for name in QUANTITIES))
 
 
 def exact_seconds(n_states: int, n_actions: int, max_itr: int, runs: int, looping: bool = True,

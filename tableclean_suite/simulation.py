@@ -98,7 +98,7 @@ def simulation_keys(seed: int, first_run: int, runs: int) -> np.ndarray:
                     dtype=np.uint64)
 
 
-@numba.njit(cache=True, nogil=True)  # nogil: a thread training ahead may analyse its chunks
+@numba.njit(cache=True)
 def _simulate(policy_cumulative, q, epsilon, keys, next_state, outcome, cumulative, values, loop_mode, loop_value,
               loop_memory, starts, max_itr, episodes, entered, totals):
     """Plays ``episodes`` episodes of each policy; ``totals[p, j]`` gets the sum (``[..., 0]``) and

@@ -254,10 +254,9 @@ def _stacked(stats):
 
 
 @pytest.mark.parametrize("pattern", ["r1", "r4", "r4_cycle"])
-def test_policy_statistics_equals_the_dp_of_every_policy_bit_for_bit(pattern, monkeypatch):
-    """Deduplicated, canonicalised off the policies' paths and remembered: the numbers of
-    episode_statistics on each policy as given (NaN rewards of r4_cycle included)."""
-    monkeypatch.setattr(asymptotes, "_memo", [])
+def test_policy_statistics_equals_the_dp_of_every_policy_bit_for_bit(pattern):
+    """Deduplicated and canonicalised off the policies' paths: the numbers of episode_statistics
+    on each policy as given (NaN rewards of r4_cycle included)."""
     chain = _chain(pattern)
     rng = np.random.default_rng(11)
     n_states, n_actions = chain.probability.shape[:2]
@@ -268,13 +267,15 @@ def test_policy_statistics_equals_the_dp_of_every_policy_bit_for_bit(pattern, mo
                          analysis.action_probabilities(greedy, 0.0, n_actions),
                          analysis.action_probabilities(greedy, 0.1, n_actions)])
     expected = _stacked(asymptotes.episode_statistics(pi, chain, 500))
-    first = _stacked(asymptotes.policy_statistics(pi, chain, 500))
-    remembered = _stacked(asymptotes.policy_statistics(pi[::-1], chain, 500))[::-1]  # all from the memo
-    assert first.tobytes() == expected.tobytes() and remembered.tobytes() == expected.tobytes()
+    shared = _stacked(asymptotes.policy_statistics(pi, chain, 500))
+    reversed_order = _stacked(asymptotes.policy_statistics(pi[::-1], chain, 500))[::-1]
+    assert shared.tobytes() == expected.tobytes() and reversed_order.tobytes() == expected.tobytes()
 
 
 def test_greedy_policies_that_differ_off_their_path_share_one_dp(monkeypatch):
-    monkeypatch.setattr(asymptotes, "_memo", [])
+    computed = []
+    dp = asymptotes.episode_statistics
+    monkeypatch.setattr(asymptotes, "episode_statistics", lambda pi, *args: computed.append(len(pi)) or dp(pi, *args))
     chain = _chain("r4")
     q = train("q_learning", reward="r4", runs=40, iterations=3000, seed=5, task=MODEL).q
     greedy = asymptotes.greedy_asymptotes(q, 0.0, chain, 500)
@@ -284,8 +285,7 @@ def test_greedy_policies_that_differ_off_their_path_share_one_dp(monkeypatch):
     reached = asymptotes.reached_states(
         analysis.action_probabilities(analysis.greedy_policy(q), 0.0, MODEL.n_actions), chain)
     paths = {tuple(np.where(row, policy, -1)) for row, policy in zip(reached, analysis.greedy_policy(q))}
-    (_, _, _, memo), = asymptotes._memo
-    assert len(memo) == len(paths) < len(np.unique(analysis.greedy_policy(q), axis=0))  # the sharing is real
+    assert computed[0] == len(paths) < len(np.unique(analysis.greedy_policy(q), axis=0))  # the sharing is real
 
 
 def test_reached_states_follow_a_deterministic_policy():
@@ -304,20 +304,6 @@ def test_reached_states_follow_a_deterministic_policy():
     assert set(np.flatnonzero(reached).tolist()) == expected
     everywhere = asymptotes.reached_states(np.ones((1, MODEL.n_states, MODEL.n_actions)), chain)[0]
     assert set(np.flatnonzero(everywhere).tolist()) == set(chain.pair_state.tolist())
-
-
-def test_the_memo_forgets_past_its_bounds(monkeypatch):
-    monkeypatch.setattr(asymptotes, "_memo", [])
-    monkeypatch.setattr(asymptotes, "MEMO_POLICIES", 3)
-    monkeypatch.setattr(asymptotes, "MEMO_CHAINS", 2)
-    chains = [_chain("r1"), _chain("r2"), _chain("r3")]
-    pi = np.random.default_rng(2).dirichlet(np.ones(MODEL.n_actions), size=(5, MODEL.n_states))
-    for chain in chains:
-        expected = _stacked(asymptotes.episode_statistics(pi, chain, 50))
-        assert _stacked(asymptotes.policy_statistics(pi, chain, 50)).tobytes() == expected.tobytes()
-    digests = [asymptotes.chain_digest(chain) for chain in chains]
-    assert [entry[0] for entry in asymptotes._memo] == digests[-asymptotes.MEMO_CHAINS:]
-    assert all(len(entry[3]) <= 5 for entry in asymptotes._memo)  # 5 new ones past 3: cleared first
 
 
 def test_distinct_rows():
@@ -348,18 +334,6 @@ def test_parameter_array_per_distinct_visit_count_is_the_per_entry_one():
     expected = exploration.parameter_array(0.3, 1000, visits)
     actual = analysis._parameter_array(exploration, 0.3, 1000, visits)
     assert actual.shape == visits.shape and actual.tobytes() == expected.tobytes()
-
-
-def test_chains_of_the_same_content_share_their_remembered_policies(monkeypatch):
-    monkeypatch.setattr(asymptotes, "_memo", [])
-    computed = []
-    dp = asymptotes.episode_statistics
-    monkeypatch.setattr(asymptotes, "episode_statistics", lambda pi, *args: computed.append(len(pi)) or dp(pi, *args))
-    pi = np.random.default_rng(5).dirichlet(np.ones(MODEL.n_actions), size=(4, MODEL.n_states))
-    first = _stacked(asymptotes.policy_statistics(pi, _chain("r4"), 60))
-    again = _stacked(asymptotes.policy_statistics(pi, _chain("r4"), 60))  # another object, the same chain
-    other = _stacked(asymptotes.policy_statistics(pi, _chain("r3"), 60))
-    assert computed == [4, 4] and first.tobytes() == again.tobytes() and other.tobytes() != first.tobytes()
 
 
 @pytest.mark.parametrize("shape", [(2, 5, 3), (24, 8), (1, 2, 24, 8)])
