@@ -30,7 +30,6 @@ The compiled functions here run in [`kernel`][tableclean_suite.learners.kernel]'
 from __future__ import annotations
 
 import math
-import weakref
 
 import numba
 import numpy as np
@@ -165,62 +164,19 @@ def run_masks(afforded, affordance, n_states, n_actions):
 
 
 # plain Python: the given affordances and the advisor, from the task model
-#: What each task model's assisted learners are handed, built once per model: ``{name: {model: array}}``.
-_per_model: dict = {"affordances": weakref.WeakKeyDictionary(), "advisor": weakref.WeakKeyDictionary()}
-
-
-def _once_per_model(name: str, model, build) -> np.ndarray:
-    """A copy of ``build(model)``, built at the first call for ``model`` (a sweep over its whole table:
-    about a minute on a spec of millions of states, and every training chunk asks again)."""
-    cache = _per_model[name]
-    array = cache.get(model)
-    if array is None:
-        array = cache[model] = build(model)
-    return array.copy()
-
-
 def given_affordances(model) -> np.ndarray:
     """``(S, A)`` int8 the task model's affordances: ``model.action_mask`` per state (1 = afforded).
-
-    Terminal states (where no action is ever taken) are all-afforded, so no row is empty.
-    Built once per model (each call returns its own copy).
-    """
-    return _once_per_model("affordances", model, _build_affordances)
-
-
-def _build_affordances(model) -> np.ndarray:
-    """The array behind [`given_affordances`][tableclean_suite.learners.assist.given_affordances]."""
+    Terminal states (where no action is ever taken) are all-afforded, so no row is empty."""
     from tableclean_suite.task import Outcome
 
-    _, outcome = model.transition_arrays()
-    return np.ascontiguousarray(outcome != int(Outcome.IMPROPER)).astype(np.int8)
+    return (model.transition_arrays()[1] != int(Outcome.IMPROPER)).astype(np.int8)
 
 
 def advisor_policy(model) -> np.ndarray:
-    """``(S,)`` int64 the optimal advisor: in each state the first action of a shortest plan to a
-    terminal state with no improper action (ties to the first action); ``NO_ADVICE`` where no
-    terminal state is reachable (and in terminal states).
-
-    Searched once per model (each call returns its own copy)."""
-    return _once_per_model("advisor", model, _search_advisor)
-
-
-def _search_advisor(model) -> np.ndarray:
-    """The search behind [`advisor_policy`][tableclean_suite.learners.assist.advisor_policy]."""
-    from tableclean_suite.task import Outcome
-
-    next_state, outcome = model.transition_arrays()
-    allowed = outcome != int(Outcome.IMPROPER)
-    finishing = allowed & (outcome == int(Outcome.TERMINAL))
-    distance = np.full(model.n_states, np.inf)
-    for _ in range(model.n_states + 1):
-        steps = np.where(finishing, 1.0, np.where(allowed, 1.0 + distance[next_state], np.inf))
-        updated = steps.min(axis=1)
-        if np.array_equal(updated, distance):
-            break
-        distance = updated
-    policy = np.argmin(steps, axis=1).astype(np.int64)
-    return np.where(np.isfinite(distance), policy, NO_ADVICE).astype(np.int64)
+    """``(S,)`` int64 the optimal advisor: [`TaskModel.optimal_policy`][tableclean_suite.task.model.TaskModel.optimal_policy]
+    (the first action of a shortest plan, which takes no improper action) where a terminal state is
+    reachable, ``NO_ADVICE`` where none is."""
+    return np.where(model.distances_to_terminal() >= 0, model.optimal_policy(), NO_ADVICE).astype(np.int64)
 
 
 def assistance_arrays(learner, model) -> tuple[np.ndarray, np.ndarray]:
