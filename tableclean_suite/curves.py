@@ -2,10 +2,9 @@
 
 Success rate, terminal rate and average reward at iteration t read each run's most recently
 finished episode (the average reward leaves out runs with none, and is NaN until
-``support_fraction`` of the runs have one); episodes at t count finished episodes.  Definitions:
-the *Learners and statistics* docs page.  [`CurveSums`][tableclean_suite.curves.CurveSums]
-accumulates the per-iteration sums (and sums of squares) chunk by chunk of runs in one compiled
-pass (memory ``6 x T`` whatever R).
+``support_fraction`` of the runs have one); episodes at t count finished episodes.
+[`CurveSums`][tableclean_suite.curves.CurveSums] accumulates the per-iteration sums chunk by chunk
+of runs in one compiled pass.
 """
 
 from __future__ import annotations
@@ -27,31 +26,22 @@ def check_fraction(name: str, value: float, low_open: bool = True) -> None:
         raise ValueError(f"{name} must be in {'(0, 1]' if low_open else '[0, 1]'}, got {value!r}")
 
 
-def _episode_arrays(result):
-    """Per finished episode: run, last iteration, previous end, return, length, improper count, terminal."""
-    ends = result.episode_end != 0
-    run_index, last = np.nonzero(ends)
+def episode_table(result):
+    """One row per finished episode of a `TrainingResult` (pandas DataFrame; see ``TrainingResult.episodes``)."""
+    import pandas as pd
+
+    run_index, last = np.nonzero(result.episode_end != 0)
     same_run = np.r_[False, run_index[1:] == run_index[:-1]][:len(run_index)]  # no episode: empty
     previous_end = np.where(same_run, np.r_[-1, last[:-1]], -1)
-    cum_reward = np.cumsum(result.rewards, axis=1)
-    cum_improper = np.cumsum(result.outcomes == Outcome.IMPROPER, axis=1)
 
-    def span(cumulative):
+    def span(cumulative):  # per episode: the sum of a per-iteration quantity over its iterations
         before = np.where(previous_end >= 0, cumulative[run_index, np.maximum(previous_end, 0)], 0)
         return cumulative[run_index, last] - before
 
-    episode_return = span(cum_reward)
-    improper = span(cum_improper)
+    episode_return = span(np.cumsum(result.rewards, axis=1))
+    improper = span(np.cumsum(result.outcomes == Outcome.IMPROPER, axis=1))
     length = last - previous_end
     terminal = result.episode_end[run_index, last] == _TERMINAL_END
-    return run_index, last, previous_end, episode_return, length, improper, terminal
-
-
-def episode_table(result):
-    """One row per finished episode (pandas DataFrame); see ``TrainingResult.episodes``."""
-    import pandas as pd
-
-    run_index, last, previous_end, episode_return, length, improper, terminal = _episode_arrays(result)
     return pd.DataFrame(
         {
             "run": run_index,
@@ -72,9 +62,8 @@ def episode_table(result):
 class CurveSums:
     """Per-iteration sums over runs, from which the curves follow; fed chunk by chunk of runs.
 
-    Memory is ``6 x T`` floats whatever the number of runs, so a cell's curves can be built from
-    ``train(runs=chunk, first_run=lo, ...)`` calls without keeping their records.  Runs must be
-    added in order (0, 1, ...) for the sums to be bit-identical to a single pass.
+    Memory is ``6 x T`` floats whatever the number of runs.  Runs must be added in order (0, 1, ...)
+    for the sums to be bit-identical to a single pass.
 
     Attributes (all ``(T,)`` float64 except ``runs``):
         success: sum over runs of the latest finished episode's success (0 or 1).
@@ -89,24 +78,21 @@ class CurveSums:
     success: np.ndarray
     terminal: np.ndarray
     average_sum: np.ndarray
+    average_square: np.ndarray
     finished_runs: np.ndarray
     episodes: np.ndarray
     runs: int = 0
-    average_square: np.ndarray | None = None  # after ``runs``: positional construction keeps its meaning
-
-    def __post_init__(self):
-        if self.average_square is None:
-            self.average_square = np.zeros_like(self.average_sum, dtype=np.float64)
 
     @classmethod
     def zeros(cls, iterations: int) -> "CurveSums":
         """Empty sums for curves of length ``iterations`` (>= 1)."""
         if iterations < 1:
             raise ValueError(f"iterations must be >= 1, got {iterations!r}")
-        return cls(*(np.zeros(int(iterations)) for _ in range(5)), average_square=np.zeros(int(iterations)))
+        return cls(*(np.zeros(int(iterations)) for _ in range(6)))
 
     @property
     def iterations(self) -> int:
+        """T, the length of every curve."""
         return len(self.success)
 
     def add(self, result) -> "CurveSums":
@@ -127,27 +113,19 @@ class CurveSums:
         """
         if self.runs < 1:
             raise ValueError("no runs added yet")
-        return mean_curves(self.success, self.terminal, self.average_sum, self.finished_runs, self.episodes,
-                           self.runs, support_fraction)
+        defined = supported(self.finished_runs, self.runs, support_fraction)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            average = np.where(defined, self.average_sum / np.maximum(self.finished_runs, 1.0), np.nan)
+        return {"success": self.success / self.runs, "terminal": self.terminal / self.runs,
+                "average_reward": average, "episodes": self.episodes / self.runs}
 
 
 def supported(finished_runs, runs, support_fraction: float) -> np.ndarray:
-    """Where the average reward is defined: at least one run, and at least ``support_fraction`` of
-    the ``runs`` (any shape broadcasting with ``finished_runs``), have finished an episode."""
+    """Where the average reward is defined: at least one run, and at least ``support_fraction`` (in
+    [0, 1]) of the ``runs``, have finished an episode; ``finished_runs`` is ``(T,)``."""
     check_fraction("support_fraction", support_fraction, low_open=False)
     finished_runs = np.asarray(finished_runs, dtype=float)
-    return (finished_runs > 0) & (finished_runs >= support_fraction * np.asarray(runs, dtype=float))
-
-
-def mean_curves(success, terminal, average_sum, finished_runs, episodes, runs, support_fraction: float = 0.0):
-    """Curves from per-iteration sums over ``runs`` runs (arrays ``(..., T)``, ``runs`` broadcasting
-    as ``(..., 1)``): ``{"success", "terminal", "average_reward", "episodes"}``; see [`CurveSums`][tableclean_suite.curves.CurveSums]."""
-    runs = np.asarray(runs, dtype=float)
-    defined = supported(finished_runs, runs, support_fraction)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        average = np.where(defined, average_sum / np.maximum(finished_runs, 1.0), np.nan)
-        return {"success": success / runs, "terminal": terminal / runs, "average_reward": average,
-                "episodes": episodes / runs}
+    return (finished_runs > 0) & (finished_runs >= support_fraction * float(runs))
 
 
 def curve_sums(result) -> CurveSums:
@@ -158,11 +136,8 @@ def curve_sums(result) -> CurveSums:
 @numba.njit(cache=True)
 def _curve_sums(rewards, outcomes, episode_end, success, terminal, average_sum, average_square, finished_runs,
                 episodes):
-    """One pass over ``(R, T)`` records, adding per iteration, run by run in order, the latest
-    finished episode's success, terminal flag, average reward and its square, the count of runs
-    with a finished episode, and episodes finished so far into ``(T,)`` float64 accumulators.
-
-    Runs are added in order, so feeding runs 0..R-1 in several calls gives bit-identical sums."""
+    """Add ``(R, T)`` records, run by run in order, into the ``(T,)`` float64 sums of
+    [`CurveSums`][tableclean_suite.curves.CurveSums]."""
     n_runs, n_iterations = rewards.shape
     for r in range(n_runs):
         episode_return = 0.0
@@ -195,13 +170,5 @@ def _curve_sums(rewards, outcomes, episode_end, success, terminal, average_sum, 
 
 
 def learning_curves(result) -> dict[str, np.ndarray]:
-    """The per-iteration curves ``success``, ``terminal``, ``average_reward``, ``episodes``, each ``(T,)``.
-
-    Computed in one compiled pass without ``(R, T)`` temporaries (the harness's hot path).
-    """
+    """The per-iteration curves ``success``, ``terminal``, ``average_reward``, ``episodes``, each ``(T,)``."""
     return curve_sums(result).curves()
-
-
-def episodes_curve(result) -> np.ndarray:
-    """Mean over runs of episodes finished by each iteration, shape ``(T,)``."""
-    return learning_curves(result)["episodes"]

@@ -203,6 +203,18 @@ def widened_for_unseen_runs(low: float, high: float, values, limits: tuple[float
             min(top, high + share * (top - float(values.max()))))
 
 
+def mean_intervals(scores: dict, limits: dict, confidence: float = DEFAULT_CONFIDENCE, reps: int = DEFAULT_REPS,
+                   method: str = "percentile", rng: np.random.Generator | None = None
+                   ) -> tuple[dict[str, float], dict[str, tuple[float, float]]]:
+    """``(points, intervals)`` of the mean over runs of each ``(R,)`` entry of ``scores``: the bootstrap
+    interval ([`interval_estimates`][tableclean_suite.intervals.interval_estimates] of ``np.mean``)
+    widened for unseen runs ([`widened_for_unseen_runs`][tableclean_suite.intervals.widened_for_unseen_runs])
+    within ``limits[name]``, ``(low, high)`` bounds on one run's value."""
+    points, bounds = interval_estimates(scores, np.mean, confidence, reps, method, rng)
+    return points, {name: widened_for_unseen_runs(*bounds[name], values, limits[name], confidence)
+                    for name, values in scores.items()}
+
+
 def improvement_estimate(x, y, higher_is_better: bool = True, margin: float = 0.0,
                          confidence: float = DEFAULT_CONFIDENCE, reps: int = DEFAULT_REPS,
                          method: str = "percentile", rng: np.random.Generator | None = None

@@ -99,21 +99,20 @@ def survival(learned_at, budget: int):
 def survival_curve(learned_at, budget: int, confidence: float = intervals.DEFAULT_CONFIDENCE
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(S, low, high)``, each ``(T,)``: the Kaplan-Meier curve S(t) = P(learning time > t), the
-    share of runs not yet optimal for good, at t = 1 .. T, and its pointwise ``confidence`` band
-    (log-log transform; where the band is undefined, S = 0 or 1, the curve itself)."""
-    fit, band = _survival_band(learned_at, budget, intervals.check_confidence(confidence))
-    t = np.arange(1, int(budget) + 1)
-    curve = fit.evaluate(t)
-    low, high = band.low.evaluate(t), band.high.evaluate(t)
-    return curve, np.where(np.isnan(low), curve, low), np.where(np.isnan(high), curve, high)
+    share of runs not yet optimal for good, at t = 1 .. T, and its pointwise ``confidence`` band."""
+    return _survival_band(learned_at, budget, intervals.check_confidence(confidence), np.arange(1, int(budget) + 1))[1:]
 
 
-def _survival_band(learned_at, budget: int, confidence: float):
-    """The Kaplan-Meier fit of S and its pointwise band (NaN where undefined, S = 0 or 1, unwarned)."""
+def _survival_band(learned_at, budget: int, confidence: float, at=None):
+    """``(at, S, low, high)`` at the times ``at`` (default: the curve's own steps): the Kaplan-Meier
+    fit and its pointwise log-log band, which is the curve itself where undefined (S = 0 or 1)."""
     fit = survival(learned_at, budget).sf
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        return fit, fit.confidence_interval(confidence, method=BAND_METHOD)
+        band = fit.confidence_interval(confidence, method=BAND_METHOD)
+    at = fit.quantiles if at is None else at
+    curve, low, high = fit.evaluate(at), band.low.evaluate(at), band.high.evaluate(at)
+    return at, curve, np.where(np.isnan(low), curve, low), np.where(np.isnan(high), curve, high)
 
 
 def _crossing(times: np.ndarray, probabilities: np.ndarray, level: float) -> float:
@@ -144,17 +143,11 @@ def learning_time_summary(learned_at, budget: int, confidence: float = intervals
     if runs == 0:
         nan = math.nan
         return LearningTime(0, int(budget), *([nan] * 15), confidence)
-    fit, band = _survival_band(learned_at, budget, confidence)
-    steps = fit.quantiles
-    # The band is NaN where S is 0 or 1 (no spread left): there the curve itself is the bound.
-    low_curve = np.where(np.isnan(band.low.probabilities), fit.probabilities, band.low.probabilities)
-    high_curve = np.where(np.isnan(band.high.probabilities), fit.probabilities, band.high.probabilities)
-    quantiles = {}
-    for name, level in QUARTILE_LEVELS.items():
-        quantiles[name] = (_crossing(steps, fit.probabilities, level), _crossing(steps, low_curve, level),
-                           _crossing(steps, high_curve, level))
-    points, bounds = intervals.interval_estimates({"rmst": times}, np.mean, confidence, reps, method, rng)
-    bounds["rmst"] = intervals.widened_for_unseen_runs(*bounds["rmst"], times, (0.0, float(budget)), confidence)
+    steps, *curves = _survival_band(learned_at, budget, confidence)
+    quantiles = {name: tuple(_crossing(steps, curve, level) for curve in curves)
+                 for name, level in QUARTILE_LEVELS.items()}
+    points, bounds = intervals.mean_intervals({"rmst": times}, {"rmst": (0.0, float(budget))}, confidence, reps,
+                                              method, rng)
     share_low, share_high = intervals.clopper_pearson(int(censored.sum()), runs, confidence)
     return LearningTime(runs, int(budget), *quantiles["median"], *quantiles["q1"], *quantiles["q3"],
                         points["rmst"], *bounds["rmst"], float(censored.mean()), share_low, share_high, confidence)

@@ -67,7 +67,7 @@ class Summary:
         terminal: ``(T,)`` fraction of runs whose latest episode reached the terminal state.
         episodes: ``(T,)`` mean episodes finished by each iteration.
 
-    The curves are read-only arrays; ``summary["name"]`` reads a field too.
+    The curves are read-only arrays.
     """
 
     max_success_iterations: int | None = _scalar("iterations")
@@ -101,11 +101,6 @@ class Summary:
         if len(lengths) > 1:
             raise ValueError(f"Summary curves differ in length: {sorted(lengths)}")
 
-    @property
-    def iterations(self) -> int:
-        """T, the length of every curve."""
-        return len(self.success)
-
     def scalars(self) -> dict:
         """``{name: value}`` of the scalar fields, in `SUMMARY_SCALARS` order."""
         return {name: getattr(self, name) for name in SUMMARY_SCALARS}
@@ -113,14 +108,6 @@ class Summary:
     def curves(self) -> dict[str, np.ndarray]:
         """``{name: (T,) array}`` of the curves, in `CURVE_NAMES` order."""
         return {name: getattr(self, name) for name in CURVE_NAMES}
-
-    def __contains__(self, name) -> bool:
-        return name in SUMMARY_SCALARS or name in CURVE_NAMES
-
-    def __getitem__(self, name: str):
-        if name not in self:
-            raise KeyError(f"{name!r} is not a Summary field; fields: {', '.join(SUMMARY_SCALARS + CURVE_NAMES)}")
-        return getattr(self, name)
 
 
 #: Scalar fields of [`Summary`][tableclean_suite.metrics.Summary] (the Table 3 columns), in table order.
@@ -133,11 +120,10 @@ CURVE_NAMES = tuple(f.name for f in fields(Summary) if f.metadata["role"] == _CU
 
 
 def plateau(curve, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION) -> float:
-    """Mean of the last ``plateau_fraction`` of ``curve`` (NaNs ignored)."""
+    """Mean of the last ``plateau_fraction`` (in (0, 1]) of ``curve``, NaNs ignored (NaN if all are)."""
     check_fraction("plateau_fraction", plateau_fraction)
     curve = np.asarray(curve, dtype=float)
-    window = max(1, math.ceil(len(curve) * plateau_fraction))
-    tail = curve[-window:]
+    tail = curve[-max(1, math.ceil(len(curve) * plateau_fraction)):]
     return float(np.nanmean(tail)) if np.any(~np.isnan(tail)) else float("nan")
 
 
@@ -145,54 +131,30 @@ def iterations_to_max_success(
     curve, threshold: float = DEFAULT_THRESHOLD, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION,
     top: float | None = None,
 ) -> int | None:
-    """First iteration count t (1-based) with ``curve[t-1] >= threshold * plateau``; None if never.
+    """First iteration count t (1-based) with ``curve[t-1] >= threshold * top``; None if never.
 
     ``top`` is the plateau (e.g. the asymptote); default the window mean of ``curve``.
     """
     check_fraction("threshold", threshold)
-    curve = np.asarray(curve, dtype=float)
     top = plateau(curve, plateau_fraction) if top is None else float(top)
     return first_reaching(curve, threshold * top)
 
 
-def first_reaching(curve, level: float, start: int = 0) -> int | None:
-    """First iteration count t (1-based, > ``start``) with ``curve[t-1] >= level``; None if never
-    or if ``level`` is not finite."""
-    if not math.isfinite(level):
-        return None
-    hits = np.nonzero(np.asarray(curve, dtype=float)[start:] >= level)[0]
-    return start + int(hits[0]) + 1 if len(hits) else None
+def first_reaching(curve, level: float, start: int = 0, hold: int = 1) -> int | None:
+    """First iteration count t (1-based, > ``start``) from which ``curve`` stays at or above ``level``
+    for ``hold`` iterations (t .. t + hold - 1, all inside the window; NaN counts as below).
 
-
-def held_reaching(curves, levels, hold: int = DEFAULT_HOLD) -> np.ndarray:
-    """First iteration count t (1-based) at which each row of ``curves`` reaches its level and
-    stays at or above it for ``hold`` iterations (t .. t + hold - 1, all inside the window).
-
-    Args:
-        curves: ``(B, T)`` or ``(T,)`` curves (NaN counts as below the level).
-        levels: ``(B,)`` or scalar levels.
-        hold: iterations the curve must stay at or above the level, >= 1 (1: first touch).
-
-    Returns:
-        ``(B,)`` float64 iteration counts (``()`` for one curve), NaN where no t leaves a full hold
-        inside the window or the level is not finite.
+    ``hold`` is an integer >= 1 (1: the first touch).  None if no such t or ``level`` is not finite.
     """
     if int(hold) != hold or hold < 1:
         raise ValueError(f"hold must be an integer >= 1 (iterations), got {hold!r}")
     hold = int(hold)
-    single = np.ndim(curves) == 1
-    curves = np.atleast_2d(np.asarray(curves, dtype=float))
-    levels = np.broadcast_to(np.asarray(levels, dtype=float), curves.shape[:1])
-    length = curves.shape[1]
-    if length < hold:
-        found = np.full(len(curves), np.nan)
-        return found[0] if single else found
-    with np.errstate(invalid="ignore"):
-        below = ~(curves >= levels[:, None])
-    misses = np.concatenate([np.zeros((len(curves), 1)), np.cumsum(below, axis=1)], axis=1)
-    clean = (misses[:, hold:] - misses[:, :length - hold + 1]) == 0  # (B, T - hold + 1): start t0 holds
-    found = np.where(clean.any(axis=1) & np.isfinite(levels), np.argmax(clean, axis=1) + 1.0, np.nan)
-    return found[0] if single else found
+    above = np.asarray(curve, dtype=float)[start:] >= level
+    if not math.isfinite(level) or len(above) < hold:
+        return None
+    misses = np.r_[0, np.cumsum(~above)]
+    held = np.nonzero(misses[hold:] == misses[:len(above) - hold + 1])[0]
+    return start + int(held[0]) + 1 if len(held) else None
 
 
 def early_minimum(curve, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION, top: float | None = None) -> int | None:
@@ -204,87 +166,39 @@ def early_minimum(curve, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION, top
     """
     curve = np.asarray(curve, dtype=float)
     if top is None:
-        window = max(1, math.ceil(len(curve) * plateau_fraction))
-        early = curve[: max(1, len(curve) - window)]
+        early = curve[: max(1, len(curve) - max(1, math.ceil(len(curve) * plateau_fraction)))]
         return None if np.all(np.isnan(early)) else int(np.nanargmin(early))
-    index = _extremes(curve[None, :], np.array([float(top)]))[0]
-    return None if index < 0 else int(index)
-
-
-def _sides(curves: np.ndarray, tops: np.ndarray):
-    """Per row of ``(B, T)`` curves: first defined index (-1 if none) and the side the curve starts
-    on relative to its top (+1 above, -1 at or below)."""
-    defined = ~np.isnan(curves)
-    first = np.where(defined.any(axis=1), np.argmax(defined, axis=1), -1)
-    start = curves[np.arange(len(curves)), np.maximum(first, 0)]
-    return first, np.where(start > tops, 1.0, -1.0)
-
-
-def _extremes(curves: np.ndarray, tops: np.ndarray) -> np.ndarray:
-    """[`early_minimum`][tableclean_suite.metrics.early_minimum] with tops, row by row of ``(B, T)`` curves; -1 where undefined."""
-    first, side = _sides(curves, tops)
-    t = np.arange(curves.shape[1])[None, :]
+    defined = np.nonzero(~np.isnan(curve))[0]
+    if not len(defined):
+        return None
+    first = int(defined[0])
     with np.errstate(invalid="ignore"):
-        deviation = side[:, None] * (curves - tops[:, None])
-        crossed = (deviation <= 0) & (t >= first[:, None])
-    crossing = np.where(crossed.any(axis=1), np.argmax(crossed, axis=1), curves.shape[1])
-    segment = (t >= first[:, None]) & (t < np.maximum(crossing, first + 1)[:, None]) & ~np.isnan(curves)
-    extreme = np.argmax(np.where(segment, deviation, -np.inf), axis=1)
-    return np.where(first >= 0, extreme, -1)
-
-
-def convergence_iterations(curves: np.ndarray, tops: np.ndarray, threshold: float = DEFAULT_THRESHOLD) -> np.ndarray:
-    """Average-reward convergence of each row of ``(B, T)`` curves towards its top ``(B,)``:
-    the first iteration count (1-based), at or after the early extreme ([`early_minimum`][tableclean_suite.metrics.early_minimum]),
-    at which the curve has covered ``threshold`` of the way from the extreme to the top.
-
-    Returns:
-        ``(B,)`` float64 iteration counts, NaN where never reached or undefined.
-    """
-    check_fraction("threshold", threshold)
-    curves, tops = np.atleast_2d(np.asarray(curves, dtype=float)), np.atleast_1d(np.asarray(tops, dtype=float))
-    extreme = _extremes(curves, tops)
-    _, side = _sides(curves, tops)
-    rows = np.arange(len(curves))
-    value = curves[rows, np.maximum(extreme, 0)]
-    level = value + threshold * (tops - value)
-    with np.errstate(invalid="ignore"):
-        hit = (np.arange(curves.shape[1])[None, :] >= extreme[:, None]) & (side[:, None] * (curves - level[:, None]) <= 0)
-    found = hit.any(axis=1) & (extreme >= 0) & np.isfinite(tops)
-    return np.where(found, np.argmax(hit, axis=1) + 1.0, np.nan)
+        deviation = (1.0 if curve[first] > top else -1.0) * (curve[first:] - float(top))
+        crossed = np.nonzero(deviation <= 0)[0]
+    before = deviation[: max(int(crossed[0]), 1) if len(crossed) else len(deviation)]
+    return first + int(np.argmax(np.where(np.isnan(before), -np.inf, before)))
 
 
 def reward_convergence_iteration(
     curve, threshold: float = DEFAULT_THRESHOLD, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION,
     top: float | None = None,
 ) -> int | None:
-    """First iteration count t (1-based), at or after the early extreme, where the curve has
-    covered ``threshold`` of the way from its early extreme ([`early_minimum`][tableclean_suite.metrics.early_minimum]) to its plateau
-    (``top``, default the window mean, for which the extreme is the early minimum); None if never."""
+    """First iteration count t (1-based), at or after the early extreme
+    ([`early_minimum`][tableclean_suite.metrics.early_minimum]), where the curve has covered
+    ``threshold`` of the way from that extreme to its plateau (``top``, default the window mean, for
+    which the extreme is the early minimum); None if never."""
     check_fraction("threshold", threshold)
     curve = np.asarray(curve, dtype=float)
-    if top is not None:
-        found = convergence_iterations(curve[None, :], np.array([float(top)]), threshold)[0]
-        return None if np.isnan(found) else int(found)
-    lowest = early_minimum(curve, plateau_fraction)
-    top = plateau(curve, plateau_fraction)
-    if lowest is None or not math.isfinite(top):
+    extreme = early_minimum(curve, plateau_fraction, top)
+    given = top is not None
+    top = float(top) if given else plateau(curve, plateau_fraction)
+    if extreme is None or not math.isfinite(top):
         return None
-    level = curve[lowest] + threshold * (top - curve[lowest])
-    return first_reaching(curve, level, lowest)
-
-
-def episodes_at(episodes: np.ndarray, iteration: int | None) -> float | None:
-    """Mean episodes finished by iteration count ``iteration`` (1-based), from [`episodes_curve`][tableclean_suite.curves.episodes_curve]."""
-    if iteration is None:
-        return None
-    return float(episodes[iteration - 1])
-
-
-def maximum(curve) -> float:
-    """The curve's maximum, NaNs ignored (NaN if all are)."""
-    curve = np.asarray(curve, dtype=float)
-    return float(np.nanmax(curve)) if np.any(~np.isnan(curve)) else float("nan")
+    value = curve[extreme]
+    level = value + threshold * (top - value)
+    if given and value > top:  # a falling curve: the first point at or below the level
+        return first_reaching(-curve, -level, extreme)
+    return first_reaching(curve, level, extreme)
 
 
 @dataclass(frozen=True)
@@ -339,23 +253,26 @@ def summarize(
     top = window if plateaus is None else {name: float(getattr(plateaus, name)) for name in window}
     given = plateaus is not None
     success_at = iterations_to_max_success(success, threshold, plateau_fraction, top["success"])
-    held = float(held_reaching(success, threshold * top["success"], hold))
-    held_at = None if math.isnan(held) else int(held)
+    held_at = first_reaching(success, threshold * top["success"], hold=hold)
     reward_at = reward_convergence_iteration(average, threshold, plateau_fraction,
                                              top["average_reward"] if given else None)
+
+    def episodes_at(iteration):
+        return None if iteration is None else float(episodes[iteration - 1])
+
     return Summary(
         max_success_iterations=success_at,
-        max_success_episodes=episodes_at(episodes, success_at),
+        max_success_episodes=episodes_at(success_at),
         reward_convergence_iterations=reward_at,
-        reward_convergence_episodes=episodes_at(episodes, reward_at),
+        reward_convergence_episodes=episodes_at(reward_at),
         success_plateau=top["success"],
-        max_average_reward=maximum(average),
+        max_average_reward=float(np.nanmax(average)) if np.any(~np.isnan(average)) else math.nan,
         average_reward_plateau=top["average_reward"],
         terminal_plateau=top["terminal"],
         success_window_mean=window["success"],
         average_reward_window_mean=window["average_reward"],
         held_success_iterations=held_at,
-        held_success_episodes=episodes_at(episodes, held_at),
+        held_success_episodes=episodes_at(held_at),
         greedy_success_plateau=float(plateaus.greedy_success) if given else math.nan,
         never_terminal_share=float(plateaus.never_terminal) if given else math.nan,
         success=success,

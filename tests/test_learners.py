@@ -109,7 +109,7 @@ def test_measured_plateau_equals_exact_dynamic_programming_value():
     window = result.episode_end[:, -1000:] != 0
     episodes_in_window = window.sum()
     standard_error = np.sqrt(exact.mean() * (1 - exact.mean()) / episodes_in_window)
-    assert abs(summary["success_plateau"] - exact.mean()) < 4 * standard_error + 1e-3
+    assert abs(summary.success_plateau - exact.mean()) < 4 * standard_error + 1e-3
 
 
 def test_exact_success_probability_simple_cases():

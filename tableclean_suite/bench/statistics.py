@@ -23,7 +23,7 @@ import numpy as np
 
 from tableclean_suite import intervals
 from tableclean_suite.analysis import FACT_LIMITS, with_monte_carlo_error
-from tableclean_suite.learning_time import LearningTime, learning_time_summary, survival_curve
+from tableclean_suite.learning_time import LearningTime, censored_times, learning_time_summary, survival_curve
 from tableclean_suite.settling import Settling
 
 #: Bootstrap resamples per interval.
@@ -127,10 +127,8 @@ def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fract
     shares = {scalar: values for scalar, values in present.items()
               if scalar in RUN_SHARES or np.isin(values, (0.0, 1.0)).all()}
     means = {scalar: values for scalar, values in present.items() if scalar not in shares}
-    _, bounds = intervals.interval_estimates(means, np.mean, confidence, samples, rng=rng)
     limits = {**{scalar: (0.0, 1.0) for scalar in present}, "average_reward_plateau": average_reward_limits}
-    for scalar, values in means.items():
-        bounds[scalar] = intervals.widened_for_unseen_runs(*bounds[scalar], values, limits[scalar], confidence)
+    _, bounds = intervals.mean_intervals(means, limits, confidence, samples, rng=rng)
     for scalar, values in shares.items():
         bounds[scalar] = intervals.clopper_pearson(int(np.count_nonzero(values)), len(values), confidence)
     for scalar, name in RUN_MEANS.items():
@@ -142,14 +140,13 @@ def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fract
     bands = curve_bands(sums, support_fraction, confidence)
     if learned_at is not None:
         learning = learning_time_summary(learned_at, budget, confidence, samples, rng=rng)
-        times = np.asarray(learned_at, dtype=np.float64)
-        runs["learning_time"] = np.where(times < 0, float(budget), times)  # censored runs count as the budget
+        runs["learning_time"] = censored_times(learned_at, budget)[0]  # censored runs count as the budget
         survival, *bands[NOT_LEARNED] = survival_curve(learned_at, budget, confidence)
     settled = Settling.not_measured()
     if drift is not None:
-        points, drift_bounds = intervals.interval_estimates({"drift": drift}, np.mean, confidence, samples, rng=rng)
-        low, high = intervals.widened_for_unseen_runs(*drift_bounds["drift"], drift, (0.0, 1.0), confidence)
-        settled = Settling(points["drift"], low, high, int(checkpoint))
+        points, drift_bounds = intervals.mean_intervals({"drift": drift}, {"drift": (0.0, 1.0)}, confidence, samples,
+                                                        rng=rng)
+        settled = Settling(points["drift"], *drift_bounds["drift"], int(checkpoint))
     return CellStatistics(bounds, bands, runs, learning, survival, settled)
 
 
