@@ -308,17 +308,11 @@ def _keys(result, runs: int) -> np.ndarray:
     return simulation.simulation_keys(int(result.config.get("seed", 0)), int(result.config.get("first_run", 0)), runs)
 
 
-def final_greedy_success(result, chain, max_itr: int, model: TaskModel | None = None,
-                         masks: np.ndarray | None = None) -> np.ndarray:
-    """``(R,)`` exact success of each run's final *greedy* policy (epsilon = 0), restricted to the
-    afforded actions, without the advisor (not the learner's policy)."""
-    return np.atleast_1d(_greedy_statistics(result, chain, max_itr, model, masks).success)
-
-
 def _greedy_statistics(result, chain, max_itr: int, model: TaskModel | None = None,
                        masks: np.ndarray | None = None) -> asymptotes.Asymptotes:
-    """The asymptotes behind [final_greedy_success][tableclean_suite.analysis.final_greedy_success]
-    (with their Monte Carlo errors over a [StepTable][tableclean_suite.simulation.StepTable])."""
+    """Asymptotes of each run's final *greedy* policy (epsilon = 0) restricted to the afforded actions,
+    without the advisor (not the learner's policy); Monte Carlo estimates over a
+    [StepTable][tableclean_suite.simulation.StepTable]."""
     model = model if model is not None else TaskModel()
     masks = affordance_masks(result, model) if masks is None else masks
     probabilities = None if masks is None else afforded_probabilities(_runs_q(result.q), masks, 0.0)

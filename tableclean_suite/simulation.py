@@ -85,11 +85,6 @@ class StepTable:
         return cls(table.next_state, table.outcome, table.cumulative, pattern.outcome_values(),
                    int(pattern.looping_code), penalty, int(pattern.looping_memory), starts, int(episodes))
 
-    @property
-    def label(self) -> str:
-        """``'simulated (1000 episodes per run)'``: how the tables name such an estimate."""
-        return f"simulated ({self.episodes} episodes per run)"
-
 
 def simulation_keys(seed: int, first_run: int, runs: int) -> np.ndarray:
     """``(runs,)`` uint64 keys of runs ``first_run .. first_run + runs - 1`` of a training with ``seed``:

@@ -183,7 +183,7 @@ def test_final_run_facts_greedy_success_and_never_terminal():
     reached = episodes.groupby("run")["reached_terminal"].any().reindex(range(3), fill_value=False)
     np.testing.assert_array_equal(facts["never_terminal"], (~reached.to_numpy()).astype(float))
     assert facts["never_terminal"].sum() == 1  # seed 1: one run of three never finishes (the check is not vacuous)
-    zero = analysis.final_greedy_success(fresh, chain, 500, MODEL)
+    zero = analysis.final_run_facts(fresh, chain, 500, MODEL)["greedy_success"]
     np.testing.assert_array_equal(zero, [0.0, 0.0])  # ties go to the first action, which never finishes
 
 

@@ -22,12 +22,12 @@ list take the task model's deterministic successor; how many did is reported in
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from tableclean_suite.atomic_files import atomic_write_text
 from tableclean_suite.task import NO_CHANGE_OUTCOMES_NAMES, Outcome, TaskModel, TaskSpec, as_task_model, unique_keys
 
 FORMAT_NAME = "tableclean_suite.transition_table"
@@ -181,10 +181,7 @@ class TransitionTable:
                 )
         document = {"format": FORMAT_NAME, "version": FORMAT_VERSION, "source": self.source,
                     "task": model.spec.to_dict(), "pairs": pairs}
-        path = Path(path)
-        temporary = path.with_name(path.name + ".tmp")
-        temporary.write_text(json.dumps(document, indent=1))
-        os.replace(temporary, path)
+        atomic_write_text(path, json.dumps(document, indent=1))
 
     @classmethod
     def from_json(cls, path: str | Path, fallback: TaskModel | None = None) -> "TransitionTable":
