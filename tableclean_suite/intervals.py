@@ -1,12 +1,11 @@
-"""Confidence intervals over independent runs: one bootstrap API, binomial and mean intervals.
+"""Confidence intervals over independent, identically distributed runs.
 
-Runs are independent and identically distributed (counter-based random numbers per run), so every
-interval resamples or models runs: [interval_estimates][tableclean_suite.intervals.interval_estimates]
+[interval_estimates][tableclean_suite.intervals.interval_estimates] is the one bootstrap API
 (rliable-shaped: a statistic of each entry of a dict of per-run scores, ``scipy.stats.bootstrap``;
-a tuple of arrays is a set of strata), [probability_of_improvement][tableclean_suite.intervals.probability_of_improvement],
-[clopper_pearson][tableclean_suite.intervals.clopper_pearson] and
-[mean_band][tableclean_suite.intervals.mean_band].  An interval of a statistic of R runs targets
-that statistic of the runs' distribution.
+a tuple of arrays is a set of strata); beside it the exact binomial interval
+([clopper_pearson][tableclean_suite.intervals.clopper_pearson]), the normal interval of a mean
+curve ([mean_band][tableclean_suite.intervals.mean_band]) and the probability of improvement.  An
+interval of a statistic of R runs targets that statistic of the runs' distribution.
 """
 
 from __future__ import annotations
@@ -219,9 +218,9 @@ def improvement_estimate(x, y, higher_is_better: bool = True, margin: float = 0.
                          confidence: float = DEFAULT_CONFIDENCE, reps: int = DEFAULT_REPS,
                          method: str = "percentile", rng: np.random.Generator | None = None
                          ) -> tuple[float, float, float]:
-    """``(P, low, high)``: [`probability_of_improvement`][tableclean_suite.intervals.probability_of_improvement] with a stratified bootstrap interval
-    (X's runs and Y's runs resampled separately, [`interval_estimates`][tableclean_suite.intervals.interval_estimates]), each end moved out by
-    the share of pairs that runs of a kind absent from both samples could take part in
+    """``(P, low, high)``: [`probability_of_improvement`][tableclean_suite.intervals.probability_of_improvement]
+    with a stratified bootstrap interval (X's runs and Y's runs resampled separately), each end moved
+    out by the share of pairs that runs of a kind absent from both samples could take part in
     ([unseen_share][tableclean_suite.intervals.unseen_share] of X plus that of Y), within [0, 1].
     The interval targets the probability that a new run of X beats a new run of Y (ties half)."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)

@@ -4,7 +4,7 @@ A run's learning time is ``TrainingResult.learned_at`` (iterations; -1: not opti
 T, right-censored at T).  [learning_time_summary][tableclean_suite.learning_time.learning_time_summary]
 gives the Kaplan-Meier median and quartiles with their Brookmeyer-Crowley intervals, the restricted
 mean (RMST) with a bootstrap interval over runs, and the censored share with its Clopper-Pearson
-interval; the definitions and their targets are on the *Learners and statistics* docs page.
+interval.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ BAND_METHOD = "log-log"
 
 @dataclass(frozen=True)
 class LearningTime:
-    """Per-run learning times of R runs with budget T, summarised (see the module docstring).
+    """Per-run learning times of R runs with budget T, summarised.
 
     Times are in iterations (environment steps); +inf means beyond the budget; NaN: no runs.
 
@@ -65,26 +65,24 @@ class LearningTime:
         return asdict(self)
 
 
-def check_learned_at(learned_at, budget: int) -> np.ndarray:
-    """``learned_at`` as an int64 ``(R,)`` array; ``ValueError`` naming the bad value unless every
-    entry is -1 (censored) or in [0, ``budget``]."""
+def censored_times(learned_at, budget: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(times, censored)``, float64 and bool ``(R,)``: each run's time, the budget for a censored run.
+
+    Raises:
+        ValueError: naming the bad value, unless ``learned_at`` is 1-D with every entry -1 (censored)
+            or an integer in [0, ``budget``], and ``budget`` an integer >= 1.
+    """
     values = np.asarray(learned_at)
     if values.ndim != 1:
         raise ValueError(f"learned_at must be a 1-D array (one time per run), got shape {values.shape}")
     if int(budget) != budget or budget < 1:
         raise ValueError(f"budget must be an integer >= 1 (iterations), got {budget!r}")
-    if values.size and (not np.all(values == np.round(values)) or values.min() < -1 or values.max() > budget):
-        bad = values[(values != np.round(values)) | (values < -1) | (values > budget)][0]
-        raise ValueError(f"learned_at holds {bad!r}: allowed are -1 (not learned by the budget) and integers "
+    bad = values[(values != np.round(values)) | (values < -1) | (values > budget)]
+    if bad.size:
+        raise ValueError(f"learned_at holds {bad[0]!r}: allowed are -1 (not learned by the budget) and integers "
                          f"in [0, {int(budget)}]")
-    return values.astype(np.int64)
-
-
-def censored_times(learned_at, budget: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(times, censored)``: each run's time, the budget for a censored run, and whether it is."""
-    values = check_learned_at(learned_at, budget)
     censored = values < 0
-    return np.where(censored, int(budget), values).astype(np.float64), censored
+    return np.where(censored, int(budget), values.astype(np.int64)).astype(np.float64), censored
 
 
 def survival(learned_at, budget: int):
@@ -100,7 +98,8 @@ def survival_curve(learned_at, budget: int, confidence: float = intervals.DEFAUL
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(S, low, high)``, each ``(T,)``: the Kaplan-Meier curve S(t) = P(learning time > t), the
     share of runs not yet optimal for good, at t = 1 .. T, and its pointwise ``confidence`` band."""
-    return _survival_band(learned_at, budget, intervals.check_confidence(confidence), np.arange(1, int(budget) + 1))[1:]
+    at = np.arange(1, int(budget) + 1)
+    return _survival_band(learned_at, budget, intervals.check_confidence(confidence), at)[1:]
 
 
 def _survival_band(learned_at, budget: int, confidence: float, at=None):
@@ -125,24 +124,22 @@ def _crossing(times: np.ndarray, probabilities: np.ndarray, level: float) -> flo
 def learning_time_summary(learned_at, budget: int, confidence: float = intervals.DEFAULT_CONFIDENCE,
                           reps: int = intervals.DEFAULT_REPS, method: str = "percentile",
                           rng: np.random.Generator | None = None) -> LearningTime:
-    """The [`LearningTime`][tableclean_suite.learning_time.LearningTime] summary of per-run learning times (see the module docstring).
+    """The [`LearningTime`][tableclean_suite.learning_time.LearningTime] summary of per-run learning
+    times (all NaN but ``runs`` and ``budget`` when R = 0).
 
     Args:
         learned_at: ``(R,)`` integers, -1 (censored at the budget) or in [0, ``budget``]
             (``TrainingResult.learned_at``).
         budget: T, the iterations each run trained, >= 1.
         confidence: two-sided confidence of every interval, in (0, 1).
-        reps, method, rng: the RMST's bootstrap ([`tableclean_suite.intervals.interval_estimates`][tableclean_suite.intervals.interval_estimates]).
-
-    Returns:
-        A [`LearningTime`][tableclean_suite.learning_time.LearningTime] (all NaN but ``runs`` and ``budget`` when R = 0).
+        reps, method, rng: the RMST's bootstrap
+            ([`interval_estimates`][tableclean_suite.intervals.interval_estimates]).
     """
     confidence = intervals.check_confidence(confidence)
     times, censored = censored_times(learned_at, budget)
     runs = len(times)
     if runs == 0:
-        nan = math.nan
-        return LearningTime(0, int(budget), *([nan] * 15), confidence)
+        return LearningTime(0, int(budget), *([math.nan] * 15), confidence)
     steps, *curves = _survival_band(learned_at, budget, confidence)
     quantiles = {name: tuple(_crossing(steps, curve, level) for curve in curves)
                  for name, level in QUARTILE_LEVELS.items()}

@@ -1,12 +1,10 @@
-"""The paper's learning-speed quantities, defined precisely, as pure functions.
+"""The paper's learning-speed quantities (Table 3), as pure functions.
 
 Inputs are [`TrainingResult`][tableclean_suite.learners.train.TrainingResult] records (R runs x T
-iterations) or 1-D curves of length T ([`tableclean_suite.curves`][tableclean_suite.curves]).  The
-iteration and episode counts are readings of the mean curves (the paper's definitions: first
-touch, held reaching, average-reward convergence), with no interval; plateaus are the exact
-asymptotes ([`tableclean_suite.asymptotes`][tableclean_suite.asymptotes]) or, without them, the
-window mean.  Definitions: [`Summary`][tableclean_suite.metrics.Summary] and the *Learners and
-statistics* docs page.
+iterations) or 1-D curves of length T ([curves][tableclean_suite.curves]).  Iteration and episode
+counts are readings of the mean curves (first touch, held reaching, average-reward convergence),
+with no interval; plateaus are the exact asymptotes ([asymptotes][tableclean_suite.asymptotes]) or,
+without them, the window mean.
 """
 
 from __future__ import annotations
@@ -18,7 +16,9 @@ import numpy as np
 
 from tableclean_suite.curves import CurveSums, check_fraction, curve_sums
 
+#: Fraction of the plateau that counts as reached, in (0, 1].
 DEFAULT_THRESHOLD = 0.95
+#: Final fraction of the window whose mean is the window mean, in (0, 1].
 DEFAULT_PLATEAU_FRACTION = 0.25
 #: Iterations the success curve must stay at or above its level for "held" reaching (longer than
 #: the paper's fastest figure, 140).
@@ -203,7 +203,7 @@ def reward_convergence_iteration(
 
 @dataclass(frozen=True)
 class Plateaus:
-    """The values the curves tend to (e.g. [`tableclean_suite.asymptotes`][tableclean_suite.asymptotes] averaged over runs).
+    """The values the curves tend to (e.g. [asymptotes][tableclean_suite.asymptotes] averaged over runs).
 
     Attributes:
         success: success rate, in [0, 1].
@@ -231,12 +231,12 @@ def summarize(
     """Table 3 quantities of one training result, plus the curves they came from.
 
     Args:
-        result: a [`TrainingResult`][tableclean_suite.learners.train.TrainingResult], or the [`CurveSums`][tableclean_suite.curves.CurveSums]
-            of one accumulated chunk by chunk (same numbers).
+        result: a [`TrainingResult`][tableclean_suite.learners.train.TrainingResult], or the
+            [`CurveSums`][tableclean_suite.curves.CurveSums] of one accumulated chunk by chunk (same numbers).
         threshold: fraction of the plateau that counts as reached, in (0, 1].
         plateau_fraction: final fraction of the window averaged as the window mean, in (0, 1].
-        plateaus: the curves' asymptotes ([`Plateaus`][tableclean_suite.metrics.Plateaus]); None: the window means stand in
-            for them (and then every figure moves with the window).
+        plateaus: the curves' asymptotes ([`Plateaus`][tableclean_suite.metrics.Plateaus]); None: the
+            window means stand in for them (and then every figure moves with the window).
         support_fraction: fraction of runs, in [0, 1], that must have finished an episode before
             an average-reward point counts (0: one run is enough).
         hold: iterations the success curve must stay at its level for ``held_success_iterations``.

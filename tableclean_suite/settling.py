@@ -1,10 +1,8 @@
 """Has a cell's behaviour settled inside its training window?
 
 A run's *behaviour drift* is ``|success asymptote at T - success asymptote at the checkpoint|``
-(a fraction in [0, 1]), the checkpoint being ``checkpoint_iteration(T)`` = floor(``CHECKPOINT_FRACTION``
-x T), at least 1 (for backends with ``deterministic_prefix``, training to the checkpoint replays
-the run's first iterations bit for bit).  A cell is *settled* when its mean drift over runs is at
-most ``tolerance`` (``DEFAULT_SETTLE_TOLERANCE``); see the *Learners and statistics* docs page.
+(a fraction in [0, 1]), the checkpoint being [checkpoint_iteration][tableclean_suite.settling.checkpoint_iteration].
+A cell is *settled* when its mean drift over runs is at most a tolerance (a fraction).
 """
 from __future__ import annotations
 

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from tableclean_suite.learning_time import check_learned_at, learning_time_summary, survival
+from tableclean_suite.learning_time import learning_time_summary, survival
 
 
 def test_without_censoring_the_median_and_quartiles_are_the_order_statistics():
@@ -78,7 +78,7 @@ def test_intervals_cover_the_many_run_values_in_a_replication_study():
                                                      ([1.5], 10, "1.5"), ([1], 0, "budget")])
 def test_bad_learning_times_are_refused_naming_the_value(values, budget, message):
     with pytest.raises(ValueError, match=message):
-        check_learned_at(np.array(values), budget)
+        learning_time_summary(np.array(values), budget)
 
 
 def test_no_runs_give_an_all_nan_summary():
