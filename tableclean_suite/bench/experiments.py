@@ -28,7 +28,7 @@ from tableclean_suite.learners.memory import learner_training_memory
 from tableclean_suite.backends import CHECKPOINT_Q, get_backend
 from tableclean_suite.bench import digests, statistics
 from tableclean_suite.bench.config import LITERATURE_LEARNERS, RunConfig
-from tableclean_suite.bench.outputs import OutputError, atomic_write, describe_os_error
+from tableclean_suite.bench.outputs import OutputError, atomic_write, describe_os_error, sha256_file
 from tableclean_suite.bench.statistics import CellStatistics
 from tableclean_suite.learners import code_digest, train
 from tableclean_suite.curves import CurveSums
@@ -71,11 +71,8 @@ class Membership:
 
 
 def config_grid(config: RunConfig) -> list[Membership]:
-    """The (experiment, cell) memberships of a run, in table order, without duplicates.
-
-    The alpha sweep varies alpha at ``gamma``; the gamma sweep varies gamma at ``alpha``.
-    Values are compared as floats, so ``0.3`` and ``0.30`` are the same cell.
-    """
+    """The (experiment, cell) memberships of a run, in table order, without duplicates (values
+    compared as floats); the alpha sweep is at ``gamma``, the gamma sweep at ``alpha``."""
     alpha, gamma = float(config.alpha), float(config.gamma)
     grid = [Membership("main", Cell(l, r, alpha, gamma)) for l in config.learners for r in config.rewards]
     if config.sweeps:
@@ -90,6 +87,12 @@ def config_grid(config: RunConfig) -> list[Membership]:
 def unique_cells(grid: list[Membership]) -> list[Cell]:
     """The distinct cells of a grid, in first-appearance order (each is trained once)."""
     return list(dict.fromkeys(m.cell for m in grid))
+
+
+def key_digests(config: RunConfig, model, transitions=None) -> tuple[str, str, str | None]:
+    """The code, task and calibrated-table (None without one) digests of a run's cell keys."""
+    return (digests.code_digest(config.plugins), digests.task_digest(model),
+            sha256_file(config.transitions) if transitions is not None else None)
 
 
 def cell_config(run: CellRun, code: str, task: str, transitions_sha256: str | None = None) -> dict:
@@ -112,7 +115,7 @@ def cell_config(run: CellRun, code: str, task: str, transitions_sha256: str | No
                     "settings": learner.settings(), "code_digest": code_digest(learner)},
         "reward": {"name": pattern.name, **reward_values, "outcome_values": pattern.outcome_values().tolist()},
         "cell": asdict(run.cell),
-        "settings": run.settings,
+        "settings": run.config.cell_settings(),
         "model": repr(run.model),
         "task_digest": task,
         "transitions_sha256": transitions_sha256,
@@ -127,18 +130,13 @@ def config_hash(config: dict) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def file_sha256(path) -> str:
-    """SHA-256 of a file's bytes (to tag cells trained on a calibrated transition table)."""
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 class CellFileError(RuntimeError):
     """A stored cell that cannot be read; the message names the file and the way out."""
 
 
 class CellStore:
     """Summaries of finished cells, one ``.npz`` per cell under ``root``: config (JSON) and its
-    hash, scalars and statistics (JSON), curves (float64), written atomically (temporary file, rename)."""
+    hash, scalars and statistics (JSON), curves (float64), written atomically."""
 
     def __init__(self, root):
         self.root = Path(root)
@@ -259,7 +257,7 @@ def chunk_runs(iterations: int, budget_bytes: int = CHUNK_BYTES, q_table_bytes: 
     return max(1, budget_bytes // (int(iterations) * RECORD_BYTES_PER_ITERATION + int(q_table_bytes)))
 
 
-#: Estimated seconds above which [`run_grid`][tableclean_suite.bench.experiments.run_grid] says on stderr how long its training will take.
+#: Estimated seconds of training above which [`run_grid`][tableclean_suite.bench.experiments.run_grid] says so on stderr.
 LONG_GRID_SECONDS = 600
 #: The exact analysis's bytes per (state, action) pair and its speed, for the tuning command's own
 #: estimate ([`CellRun.plan`][tableclean_suite.bench.experiments.CellRun.plan] costs the harness's cells).
@@ -269,44 +267,40 @@ ANALYSIS_PAIRS_PER_SECOND = 6_000_000
 
 @dataclass(frozen=True, eq=False)
 class CellRun:
-    """One cell with everything its training, analysis, summary, key and resource check read,
-    resolved once from the [`RunConfig`][tableclean_suite.bench.config.RunConfig] by
-    [`resolve_cell`][tableclean_suite.bench.experiments.resolve_cell].
+    """One cell of a run with what its training, analysis, key and resource check read.
 
     Attributes:
-        cell: the cell; ``model``: the [`TaskModel`][tableclean_suite.task.model.TaskModel];
-            ``transitions``: the calibrated [`TransitionTable`][tableclean_suite.learners.transitions.TransitionTable], if any.
-        learner: the [`TabularLearner`][tableclean_suite.learners.rules.TabularLearner] as the run
-            trains it ([`RunConfig.learner`][tableclean_suite.bench.config.RunConfig.learner]).
-        runs: the cell's runs (>= 1).
-        train: ``train()``'s keyword arguments shared by the cell's chunks: ``iterations`` (steps per
-            run), ``epsilon``, ``max_itr``, ``seed``, ``backend``, ``workers``.
-        analysis: the asymptotes asked for (``auto``, ``exact``, ``simulated``); ``episodes``: per
-            simulated run.
-        summary: [`summarize`][tableclean_suite.metrics.summarize]'s ``threshold``,
-            ``plateau_fraction`` and ``support_fraction``.
-        confidence: the intervals' level in (0, 1); ``samples``: bootstrap resamples.
-        settings: the run's fields that can change a number ([`RunConfig.cell_settings`][tableclean_suite.bench.config.RunConfig.cell_settings]).
+        cell: the cell; ``config``: the run's [`RunConfig`][tableclean_suite.bench.config.RunConfig];
+            ``model``: the [`TaskModel`][tableclean_suite.task.model.TaskModel]; ``transitions``: the
+            calibrated [`TransitionTable`][tableclean_suite.learners.transitions.TransitionTable], if any.
         runs_per_chunk: runs per ``train()`` call; None: [`chunk_runs`][tableclean_suite.bench.experiments.chunk_runs].
     """
 
     cell: Cell
+    config: RunConfig
     model: object
-    transitions: object
-    learner: object
-    runs: int
-    train: dict
-    analysis: str
-    episodes: int
-    summary: dict
-    confidence: float
-    samples: int
-    settings: dict
+    transitions: object = None
     runs_per_chunk: int | None = None
+
+    @cached_property
+    def learner(self):
+        """The [`TabularLearner`][tableclean_suite.learners.rules.TabularLearner] as the run trains it."""
+        return self.config.learner(self.cell.learner)
+
+    @property
+    def runs(self) -> int:
+        return self.config.runs
 
     @property
     def iterations(self) -> int:
-        return self.train["iterations"]
+        return self.config.iterations
+
+    @property
+    def train(self) -> dict:
+        """``train()``'s keyword arguments shared by the cell's chunks."""
+        config = self.config
+        return dict(iterations=config.iterations, epsilon=config.epsilon, max_itr=config.max_itr, seed=config.seed,
+                    backend=config.backend, workers=config.workers)
 
     @cached_property
     def chunk(self) -> int:
@@ -317,7 +311,7 @@ class CellRun:
     @cached_property
     def checkpoint(self) -> int:
         """The settling checkpoint's iteration; 0 when the backend cannot keep the Q-tables of a prefix."""
-        replays_prefix = getattr(get_backend(self.train["backend"]), "deterministic_prefix", False)
+        replays_prefix = getattr(get_backend(self.config.backend), "deterministic_prefix", False)
         return settling.checkpoint_iteration(self.iterations) if replays_prefix else 0
 
     @cached_property
@@ -326,8 +320,9 @@ class CellRun:
         costed for the runs analysed a chunk at a time, the checkpoint's analysis included."""
         successors = 1 if self.transitions is None else int(self.transitions.max_successors)
         return analysis.cell_plan(self.model, self.cell.reward, self.learner, self.runs, self.iterations,
-                                  self.train["max_itr"], self.analysis, runs_per_call=self.chunk,
-                                  checkpoint=self.checkpoint > 0, max_successors=successors, episodes=self.episodes)
+                                  self.config.max_itr, self.config.analysis, runs_per_call=self.chunk,
+                                  checkpoint=self.checkpoint > 0, max_successors=successors,
+                                  episodes=self.config.analysis_episodes)
 
     @cached_property
     def memory(self) -> resources.MemoryEstimate:
@@ -336,17 +331,9 @@ class CellRun:
                                        self.iterations, checkpoint=self.checkpoint > 0)
 
 
-def resolve_cell(cell: Cell, config: RunConfig, model, transitions=None, runs_per_chunk: int | None = None) -> CellRun:
-    """``cell`` of the run ``config`` on ``model`` (``transitions``: the calibrated table), as a
-    [`CellRun`][tableclean_suite.bench.experiments.CellRun]."""
-    return CellRun(
-        cell, model, transitions, config.learner(cell.learner), config.runs,
-        dict(iterations=config.iterations, epsilon=config.epsilon, max_itr=config.max_itr, seed=config.seed,
-             backend=config.backend, workers=config.workers),
-        config.analysis, config.analysis_episodes,
-        dict(threshold=config.threshold, plateau_fraction=config.plateau_fraction,
-             support_fraction=config.support_fraction),
-        config.confidence, config.bootstrap_samples, config.cell_settings(), runs_per_chunk)
+#: ``resolve_cell(cell, config, model, transitions=None, runs_per_chunk=None)``: the cell's
+#: [`CellRun`][tableclean_suite.bench.experiments.CellRun].
+resolve_cell = CellRun
 
 
 def check_grid_resources(runs) -> float:
@@ -401,7 +388,7 @@ def train_cell(run: CellRun) -> tuple[Summary, CellStatistics, float, float]:
     Returns:
         ``(summary, statistics, train_seconds, metrics_seconds)``.
     """
-    cell, model, checkpoint, max_itr = run.cell, run.model, run.checkpoint, run.train["max_itr"]
+    cell, model, checkpoint, config = run.cell, run.model, run.checkpoint, run.config
     sums = CurveSums.zeros(run.iterations)
     chain = analysis.analysis_chain(model, cell.reward, run.transitions, run.plan)
     per_run = {name: [] for name in metrics.PLATEAU_NAMES}
@@ -420,9 +407,10 @@ def train_cell(run: CellRun) -> tuple[Summary, CellStatistics, float, float]:
         learned = getattr(result, "learned_at", None)
         if learned is not None:
             learned_at.append(np.asarray(learned))
-        final = analysis.final_run_facts(result, chain, max_itr, model)
+        final = analysis.final_run_facts(result, chain, config.max_itr, model)
         early = checkpoint_result(result, checkpoint) if checkpoint else None
-        early_success = None if early is None else analysis.final_asymptotes(early, chain, max_itr, model).success
+        early_success = (None if early is None
+                         else analysis.final_asymptotes(early, chain, config.max_itr, model).success)
         for name, values in per_run.items():
             values.append(final[name])
         for name, values in errors.items():
@@ -436,7 +424,7 @@ def train_cell(run: CellRun) -> tuple[Summary, CellStatistics, float, float]:
                 early = _train_chunk(run, first, checkpoint)
                 train_seconds += time.perf_counter() - started
                 started = time.perf_counter()
-                early_success = analysis.final_asymptotes(early, chain, max_itr, model).success
+                early_success = analysis.final_asymptotes(early, chain, config.max_itr, model).success
                 del early
                 metrics_seconds += time.perf_counter() - started
             drifts.append(settling.behaviour_drift(final["success"], early_success))
@@ -445,11 +433,12 @@ def train_cell(run: CellRun) -> tuple[Summary, CellStatistics, float, float]:
     started = time.perf_counter()
     per_run = {name: np.concatenate(values) for name, values in per_run.items()}
     plateaus = Plateaus(**{name: float(values.mean()) for name, values in per_run.items()})
-    summary = summarize(sums, plateaus=plateaus, **run.summary)
+    summary = summarize(sums, plateaus=plateaus, threshold=config.threshold, plateau_fraction=config.plateau_fraction,
+                        support_fraction=config.support_fraction)
     recorded = len(learned_at) > 0 and sum(map(len, learned_at)) == run.runs
     cell_stats = statistics.cell_statistics(
-        sums, per_run, statistics.bootstrap_rng(run.train["seed"], cell.label), run.summary["support_fraction"],
-        run.samples, run.confidence,
+        sums, per_run, statistics.bootstrap_rng(config.seed, cell.label), config.support_fraction,
+        config.bootstrap_samples, config.confidence,
         learned_at=np.concatenate(learned_at) if recorded else None, budget=run.iterations,
         drift=np.concatenate(drifts) if checkpoint else None, checkpoint=checkpoint,
         monte_carlo={name: analysis.monte_carlo_error(np.concatenate(values)) for name, values in errors.items()
@@ -492,13 +481,9 @@ class CellKeyMismatchError(RuntimeError):
 
 @dataclass(frozen=True)
 class CellTask:
-    """One cell to train in an executor's worker, as plain values (the worker builds the model).
-
-    Attributes:
-        config: the run's configuration (``workers``: the physics processes of this cell).
-        key_hash: [`config_hash`][tableclean_suite.bench.experiments.config_hash] of the driver's
-            [`cell_config`][tableclean_suite.bench.experiments.cell_config]; the worker checks it computes the same.
-    """
+    """One cell to train in an executor's worker, as plain values (the worker builds the model);
+    ``key_hash``: the driver's [`config_hash`][tableclean_suite.bench.experiments.config_hash] of its
+    cell key, which the worker must compute too."""
 
     cell: Cell
     config: RunConfig
@@ -511,12 +496,11 @@ class CellTask:
 
 
 def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, float]:
-    """[`train_cell`][tableclean_suite.bench.experiments.train_cell] of a [`CellTask`][tableclean_suite.bench.experiments.CellTask]
-    in whatever process runs it, on `WORKER_NUMBA_THREADS` compiled threads.
+    """[`train_cell`][tableclean_suite.bench.experiments.train_cell] of ``task`` in the process that
+    runs it, on `WORKER_NUMBA_THREADS` compiled threads.
 
     Raises:
-        CellKeyMismatchError: the worker's cell key differs from the driver's (other code,
-            registrations or transition table there).
+        CellKeyMismatchError: the worker's cell key differs from the driver's.
     """
     import numba
 
@@ -531,8 +515,7 @@ def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, flo
     model = config.task_model()
     transitions = TransitionTable.from_json(config.transitions, model) if config.backend == "calibrated" else None
     run = resolve_cell(task.cell, config, model, transitions)
-    digest = config_hash(cell_config(run, digests.code_digest(config.plugins), digests.task_digest(model),
-                                     file_sha256(config.transitions) if transitions is not None else None))
+    digest = config_hash(cell_config(run, *key_digests(config, model, transitions)))
     if digest != task.key_hash:
         raise CellKeyMismatchError(
             f"cell {task.cell.label}: this worker's cell key {digest} differs from the driver's {task.key_hash}; "
@@ -542,16 +525,16 @@ def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, flo
 
 
 def cell_tasks(cells, keys: dict, config: RunConfig) -> list[CellTask]:
-    """The [`CellTask`][tableclean_suite.bench.experiments.CellTask] of each cell (``keys``: cell -> [`cell_config`][tableclean_suite.bench.experiments.cell_config]), each worker
-    training its cell single-threaded (physics: its runs in one process)."""
+    """The [`CellTask`][tableclean_suite.bench.experiments.CellTask] of each cell (``keys``: cell -> cell
+    key), each trained single-threaded (physics: its runs in one process)."""
     worker_config = replace(config, workers=WORKER_PHYSICS_PROCESSES) if config.backend == "physics" else config
     return [CellTask(cell, worker_config, config_hash(keys[cell])) for cell in cells]
 
 
 @dataclass
 class GridRun:
-    """What [`run_grid`][tableclean_suite.bench.experiments.run_grid] did: summaries per cell, and how they were obtained (``plans``: each
-    cell's [AnalysisPlan][tableclean_suite.analysis.AnalysisPlan], [`CellRun.plan`][tableclean_suite.bench.experiments.CellRun.plan])."""
+    """What [`run_grid`][tableclean_suite.bench.experiments.run_grid] did: summaries, statistics and
+    [analysis plans][tableclean_suite.analysis.AnalysisPlan] per cell, counts and seconds."""
 
     summaries: dict = field(default_factory=dict)
     statistics: dict = field(default_factory=dict)
@@ -588,9 +571,8 @@ def run_grid(grid: list[Membership], config: RunConfig, model, store: CellStore,
     every_cell_trains = config.fresh or not any(store.root.glob("*.npz"))
     if every_cell_trains:  # refused before the task's digest builds its table
         estimate = check_grid_resources(runs.values())
-    code, task = digests.code_digest(config.plugins), digests.task_digest(model)
-    table = file_sha256(config.transitions) if transitions is not None else None
-    keys = {cell: cell_config(run, code, task, table) for cell, run in runs.items()}
+    run_digests = key_digests(config, model, transitions)
+    keys = {cell: cell_config(run, *run_digests) for cell, run in runs.items()}
     outcome.plans = {cell: run.plan for cell, run in runs.items()}
     pending = []
     for cell, key in keys.items():

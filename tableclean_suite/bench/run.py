@@ -23,15 +23,15 @@ import sys
 import time
 from pathlib import Path
 
+from tableclean_suite.bench import cli
+from tableclean_suite.bench.cli import EXIT_INTERRUPTED, EXIT_USAGE
 from tableclean_suite.bench.config import ANALYSIS_KINDS, INEFFECTIVE_MODES, START_MODES, ConfigError, RunConfig, defaults, field_docs
 
 #: Above this estimated size ``curves.csv`` keeps every k-th iteration (and says so in config.json).
 CURVES_MAX_BYTES = 20_000_000
 _CURVE_BYTES_PER_ROW = 60  # measured on the defaults: ~45-55 bytes per row
-EXIT_USAGE = 2
 #: A cell failed to train (the executor names it).
 EXIT_FAILED = 1
-EXIT_INTERRUPTED = 130
 #: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench run"
 #: The paper's spec name: its tables need no task label.
@@ -55,7 +55,6 @@ def _shown(value) -> str:
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line; defaults and help texts come from [`RunConfig`][tableclean_suite.bench.config.RunConfig]."""
-    from tableclean_suite.bench import cli
     from tableclean_suite.bench.config import backend_names
     from tableclean_suite.learners import exploration_names, learner_names
     from tableclean_suite.rewards import reward_pattern_names
@@ -156,9 +155,7 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
     """Parse and validate the command line into a namespace with ``config`` (a
     [`RunConfig`][tableclean_suite.bench.config.RunConfig]), ``describe`` and ``parser``; a bad flag
     or value exits 2 with a message naming it and what is allowed."""
-    from tableclean_suite.bench.cli import parse_command
-
-    parser, namespace = parse_command(build_parser, argv, prog or PROG)  # plugins imported before names are checked
+    parser, namespace = cli.parse_command(build_parser, argv, prog or PROG)  # plugins imported before names are checked
     parsed = vars(namespace)
     describe = parsed.pop("describe")
     for field in ("learners", "rewards"):
@@ -196,7 +193,7 @@ def _manifest(config: RunConfig, model, transitions, grid_run, stride: int, elap
     import pandas
 
     import tableclean_suite
-    from tableclean_suite.bench import experiments, paper_data
+    from tableclean_suite.bench import outputs, paper_data
 
     return {
         "args": config.to_json(),
@@ -206,7 +203,7 @@ def _manifest(config: RunConfig, model, transitions, grid_run, stride: int, elap
         "timestamp": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "paper": paper_data.PAPER_REFERENCE,
         "model": repr(model),
-        "transitions_sha256": experiments.file_sha256(config.transitions) if transitions is not None else None,
+        "transitions_sha256": outputs.sha256_file(config.transitions) if transitions is not None else None,
         "cells": {"trained": grid_run.trained, "resumed": grid_run.resumed},
         "seconds": {"total": round(elapsed, 3), "training": round(grid_run.train_seconds, 3),
                     "metrics": round(grid_run.metrics_seconds, 3)},
@@ -324,13 +321,11 @@ def cell_executor(config: RunConfig):
     """The executor that trains the run's cells: a [`RayExecutor`][tableclean_suite.executors.ray_executor.RayExecutor]
     for ``--executor ray``, a [`LocalExecutor`][tableclean_suite.executors.local.LocalExecutor] of
     ``--workers`` processes when that is above 1 and the backend is not physics, else None (this process)."""
-    from tableclean_suite.executors import LocalExecutor, RayExecutor
+    from tableclean_suite.executors import make_executor
 
-    if config.executor == "ray":
-        return RayExecutor(address=config.ray_address, workers=config.workers)
-    if config.workers is None or config.workers == 1 or config.backend == "physics":
+    if config.executor == "local" and (config.workers in (None, 1) or config.backend == "physics"):
         return None
-    return LocalExecutor(workers=config.workers)
+    return make_executor(config.executor, workers=config.workers, address=config.ray_address)
 
 
 def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task: bool, comparisons=None) -> None:
