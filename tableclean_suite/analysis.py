@@ -43,16 +43,6 @@ def _integers(records) -> np.ndarray:
     return records if np.issubdtype(records.dtype, np.integer) else records.astype(np.int64)
 
 
-def _parameter_array(exploration, epsilon: float, iteration: int, visits) -> np.ndarray:
-    """``exploration.parameter_array(epsilon, iteration, visits)``, evaluated once per distinct
-    visit count (a broadcast view when the parameter does not depend on the visits)."""
-    visits = np.asarray(visits)
-    if not isinstance(exploration, VisitDecay):
-        return np.broadcast_to(np.float64(exploration.parameter_at(epsilon, iteration)), visits.shape)
-    values, inverse = np.unique(visits, return_inverse=True)
-    return exploration.parameter_array(epsilon, iteration, values)[np.asarray(inverse).reshape(visits.shape)]
-
-
 def final_behaviour(result) -> dict:
     """The keyword arguments of [`exact_success_probability`][tableclean_suite.analysis.exact_success_probability]
     describing a [`TrainingResult`][tableclean_suite.learners.train.TrainingResult]'s final behaviour:
@@ -89,7 +79,7 @@ def behaviour_probabilities(policy, epsilon, n_actions, exploration=None, q=None
         raise ValueError("exploration 'visit_decay' needs visits= (per state, e.g. visit_counts(result.states, S))")
     policy = np.atleast_2d(policy)
     counts = np.zeros(policy.shape) if visits is None else np.broadcast_to(np.atleast_2d(visits), policy.shape)
-    parameter = _parameter_array(exploration, float(epsilon), iteration or 0, counts)
+    parameter = exploration.parameter_array(float(epsilon), iteration or 0, counts)
     return action_probabilities(policy, parameter, n_actions)
 
 
@@ -242,7 +232,7 @@ def final_probabilities(result, model: TaskModel | None = None, masks: np.ndarra
     if masks is None:
         probabilities = behaviour_probabilities(None, epsilon, model.n_actions, **behaviour)
     else:
-        parameter = _parameter_array(exploration, epsilon, behaviour["iteration"], behaviour["visits"])
+        parameter = exploration.parameter_array(epsilon, behaviour["iteration"], behaviour["visits"])
         probabilities = afforded_probabilities(q, masks, np.broadcast_to(parameter, q.shape[:2]), exploration.softmax)
     if assist.get("advice_probability", 0.0) > 0.0:
         probabilities = advised_probabilities(probabilities, advisor_policy(model), assist["advice_probability"],

@@ -327,13 +327,13 @@ def test_learned_affordances_and_visits_read_the_int8_records_as_int64_ones():
 
 
 def test_parameter_array_per_distinct_visit_count_is_the_per_entry_one():
-    from tableclean_suite.learners.exploration import VisitDecay
+    from tableclean_suite.learners.exploration import LinearDecay, VisitDecay
 
     visits = np.random.default_rng(3).integers(0, 50, size=(7, MODEL.n_states))
-    exploration = VisitDecay(scale=0.03)
-    expected = exploration.parameter_array(0.3, 1000, visits)
-    actual = analysis._parameter_array(exploration, 0.3, 1000, visits)
-    assert actual.shape == visits.shape and actual.tobytes() == expected.tobytes()
+    for exploration in (VisitDecay(scale=0.03), LinearDecay(horizon=3000)):
+        expected = [[exploration.parameter_at(0.3, 1000, int(n)) for n in row] for row in visits]
+        actual = exploration.parameter_array(0.3, 1000, visits)
+        assert actual.shape == visits.shape and actual.tobytes() == np.array(expected).tobytes()
 
 
 @pytest.mark.parametrize("shape", [(2, 5, 3), (24, 8), (1, 2, 24, 8)])

@@ -159,8 +159,13 @@ class Exploration:
         return {"name": self.name, **asdict(self)}
 
     def parameter_array(self, epsilon: float, iteration: int, visits) -> np.ndarray:
-        """[`parameter_at`][tableclean_suite.learners.exploration.Exploration.parameter_at] for every entry of ``visits`` (any shape) -> float64 array of that shape."""
-        return np.vectorize(lambda n: self.parameter_at(epsilon, iteration, int(n)), otypes=[np.float64])(visits)
+        """[`parameter_at`][tableclean_suite.learners.exploration.Exploration.parameter_at] for every entry of
+        ``visits`` (any shape) -> float64 array of that shape (read-only), evaluated once per distinct count."""
+        visits = np.asarray(visits)
+        if self.code != VISIT_DECAY_CODE:
+            return np.broadcast_to(np.float64(self.parameter_at(epsilon, iteration)), visits.shape)
+        values, inverse = np.unique(visits, return_inverse=True)
+        return np.array([self.parameter_at(epsilon, iteration, int(n)) for n in values])[inverse.reshape(visits.shape)]
 
 
 def _check_epsilon_floor(exploration, epsilon: float) -> None:
