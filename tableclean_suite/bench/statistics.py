@@ -1,17 +1,10 @@
 """A cell's intervals, curve bands and per-run scores, and the comparisons between cells.
 
-Every interval resamples or models independent runs ([tableclean_suite.intervals][]) at the run's
-``--confidence``; its target is the statistic's value over unlimited runs of the cell:
-
-- learning time: Kaplan-Meier median and quartiles, restricted mean, censored share
-  ([learning_time_summary][tableclean_suite.learning_time.learning_time_summary]);
-- plateaus, greedy success and behaviour drift (`RUN_MEANS`): mean over runs, percentile bootstrap
-  widened for kinds of run the sample may lack (and, for simulated asymptotes, by the Monte Carlo
-  error); a share of runs (`RUN_SHARES`, or a quantity 0 or 1 in every run): Clopper-Pearson;
-- curve bands: per iteration, the normal interval of the mean over runs.
-
-The probability of improvement of X over Y (margin m) is P(x beats y by more than m) +
-P(|x - y| <= m) / 2, with a stratified bootstrap interval, on `RUN_SCORES` with `EQUIVALENCE_MARGINS`.
+Every interval comes from [tableclean_suite.intervals][] at the run's ``--confidence`` and targets
+the statistic's value over unlimited runs of the cell: means over runs (`RUN_MEANS`, behaviour
+drift) get [mean_intervals][tableclean_suite.intervals.mean_intervals], shares of runs
+(`RUN_SHARES`, or a quantity 0 or 1 in every run) Clopper-Pearson, curves a normal band per
+iteration; cells are compared on `RUN_SCORES` by the probability of improvement.
 """
 
 from __future__ import annotations
@@ -36,7 +29,7 @@ BAND_CURVES = ("success", "average_reward")
 #: runs not yet optimal for good at each iteration.
 NOT_LEARNED = "not_learned"
 #: Table 3 scalars that are means over runs of a per-run asymptote: scalar -> per-run quantity
-#: ([`tableclean_suite.analysis.final_run_facts`][tableclean_suite.analysis.final_run_facts]), each with a bootstrap interval over runs.
+#: ([final_run_facts][tableclean_suite.analysis.final_run_facts]), each with a bootstrap interval over runs.
 RUN_MEANS = {"success_plateau": "success", "average_reward_plateau": "average_reward",
              "terminal_plateau": "terminal", "greedy_success_plateau": "greedy_success"}
 #: The cell record's column naming how its plateaus were computed: ``exact`` or
@@ -71,7 +64,7 @@ class CellStatistics:
         learning: the per-run learning time's summary (None when the runs did not record it).
         survival: ``(T,)`` its Kaplan-Meier curve, the share of runs not yet optimal for good at
             iterations 1 .. T (its band is ``bands["not_learned"]``); None when not recorded.
-        settling: the behaviour drift over the window's last quarter ([`tableclean_suite.settling`][tableclean_suite.settling]).
+        settling: the behaviour drift over the window's last quarter ([settling][tableclean_suite.settling]).
     """
 
     intervals: dict = field(default_factory=dict)
@@ -83,10 +76,10 @@ class CellStatistics:
 
 
 def curve_bands(sums, support_fraction: float, confidence: float = DEFAULT_CONFIDENCE) -> dict:
-    """``{"success", "average_reward": (low, high)}`` per-iteration intervals of the mean curves of
-    a [`CurveSums`][tableclean_suite.curves.CurveSums] ([`tableclean_suite.intervals.mean_band`][tableclean_suite.intervals.mean_band];
-    a run's success is 0 or 1, so its square is itself); NaN where the average reward is not
-    supported (``support_fraction`` of the runs have not finished an episode)."""
+    """``{"success", "average_reward": (low, high)}``, each ``(T,)``: the per-iteration
+    [mean_band][tableclean_suite.intervals.mean_band] of the mean curves of a
+    [`CurveSums`][tableclean_suite.curves.CurveSums] (a run's success is 0 or 1, so its square is
+    itself); NaN where the average reward is not supported."""
     from tableclean_suite.curves import supported
 
     runs = np.full(sums.iterations, float(sums.runs))
@@ -107,13 +100,14 @@ def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fract
     Args:
         sums: the cell's [`CurveSums`][tableclean_suite.curves.CurveSums].
         per_run: ``{quantity: (R,)}`` per-run asymptotes, in run order.
-        rng: the cell's generator ([`bootstrap_rng`][tableclean_suite.bench.statistics.bootstrap_rng]), drawn in a fixed order.
+        rng: the cell's generator ([`bootstrap_rng`][tableclean_suite.bench.statistics.bootstrap_rng]),
+            drawn in a fixed order.
         support_fraction: as [`curves`][tableclean_suite.curves.CurveSums.curves]'.
         samples: bootstrap resamples (>= 1).
         confidence: interval confidence in (0, 1).
         learned_at: ``(R,)`` per-run learning times (``TrainingResult.learned_at``); None: not recorded.
         budget: the iterations each run trained (needed with ``learned_at``).
-        drift: per-run behaviour drift ``(R,)`` ([`tableclean_suite.settling.behaviour_drift`][tableclean_suite.settling.behaviour_drift]);
+        drift: per-run behaviour drift ``(R,)`` ([behaviour_drift][tableclean_suite.settling.behaviour_drift]);
             None: not measured.
         checkpoint: the iteration ``drift`` compares with (>= 1 when ``drift`` is given).
         monte_carlo: ``{quantity: standard error}`` of simulated asymptotes' means
@@ -186,8 +180,8 @@ def comparisons(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, sampl
 
 def comparison_rows(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, samples: int = DEFAULT_SAMPLES,
                     seed: int = 0) -> list[dict]:
-    """The rows of [`comparisons`][tableclean_suite.bench.statistics.comparisons] as plain values (str, bool, float), in a fixed order, every
-    interval drawn from one generator seeded by ``seed``."""
+    """The rows of [`comparisons`][tableclean_suite.bench.statistics.comparisons] as dicts of plain
+    values (str, bool, float), in a fixed order, every interval drawn from one generator seeded by ``seed``."""
     rows = []
     rng = np.random.default_rng(seed)
     for i, x in enumerate(cells):
@@ -201,14 +195,13 @@ def comparison_rows(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, s
                 margin = EQUIVALENCE_MARGINS[score]
                 p, low, high = intervals.improvement_estimate(x["runs"][score], y["runs"][score], higher, margin,
                                                               confidence, samples, rng=rng)
-                rows.append({"comparison": "reward" if same_learner else "learner",
-                             "learner_x": x["learner"], "reward_x": x["reward"], "learner_y": y["learner"],
-                             "reward_y": y["reward"], "score": score, "higher_is_better": higher,
-                             "margin": margin, "probability_of_improvement": p, "probability_of_improvement_low": low,
-                             "probability_of_improvement_high": high})
+                rows.append(dict(zip(COMPARISON_COLUMNS, ("reward" if same_learner else "learner", x["learner"],
+                                                          x["reward"], y["learner"], y["reward"], score, higher,
+                                                          margin, p, low, high))))
     return rows
 
 
+#: Columns of [`comparisons`][tableclean_suite.bench.statistics.comparisons], in order.
 COMPARISON_COLUMNS = ("comparison", "learner_x", "reward_x", "learner_y", "reward_y", "score", "higher_is_better",
                       "margin", "probability_of_improvement", "probability_of_improvement_low",
                       "probability_of_improvement_high")

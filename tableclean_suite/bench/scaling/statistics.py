@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 
-#: Level of every interval, in (0, 1).
-CONFIDENCE = 0.95
+from tableclean_suite.intervals import DEFAULT_CONFIDENCE as CONFIDENCE  # level of every interval, in (0, 1)
+
 #: Bootstrap resamples (seeds then runs) per cell.
 DEFAULT_RESAMPLES = 1000
 #: The ordering the paper reports for Q-learning's iterations to maximum success (fewest first).
@@ -53,7 +53,8 @@ def seeds_then_runs(seeds: int, runs: int, resamples: int, rng: np.random.Genera
 
 
 def pooled_resamples(values: np.ndarray, index) -> np.ndarray:
-    """``(B, S * R)``: ``values`` (``(S, R)``) resampled by [`seeds_then_runs`][tableclean_suite.bench.scaling.statistics.seeds_then_runs]' ``index``, seeds pooled."""
+    """``(B, S * R)``: ``values`` (``(S, R)``) resampled by
+    [`seeds_then_runs`][tableclean_suite.bench.scaling.statistics.seeds_then_runs]' ``index``, seeds pooled."""
     resampled = np.asarray(values)[index]
     return resampled.reshape(resampled.shape[0], -1)
 
@@ -74,7 +75,8 @@ def local_slopes(sizes, medians, replicates, confidence: float = CONFIDENCE) -> 
     Args:
         sizes: ``(K,)`` increasing sizes (> 0), e.g. states reachable from the start.
         medians: ``(K,)`` median times (+inf = censored).
-        replicates: ``(K, B)`` bootstrap medians of each cell (resamples of [`seeds_then_runs`][tableclean_suite.bench.scaling.statistics.seeds_then_runs]).
+        replicates: ``(K, B)`` bootstrap medians of each cell
+            ([`seeds_then_runs`][tableclean_suite.bench.scaling.statistics.seeds_then_runs] resamples).
 
     Returns:
         ``K - 1`` dicts ``{"from", "to", "slope", "low", "high"}``; NaN slope where either median is
@@ -139,7 +141,7 @@ def _negative_log_likelihood(params, log_x, log_y, se, censored):
     from scipy import stats
 
     intercept, slope, log_sigma = params
-    scale = np.hypot(math.exp(min(max(log_sigma, MIN_LOG_SIGMA), MAX_LOG_SIGMA)), se)  # no overflow where the search strays
+    scale = np.hypot(math.exp(min(max(log_sigma, MIN_LOG_SIGMA), MAX_LOG_SIGMA)), se)  # finite where the search strays
     mean = intercept + slope * log_x
     density = stats.norm.logpdf(log_y[~censored], mean[~censored], scale[~censored]).sum()
     survival = stats.norm.logsf(log_y[censored], mean[censored], scale[censored]).sum()
@@ -178,7 +180,8 @@ def fit_censored_power_law(x, y, censored, se, confidence: float = CONFIDENCE) -
         x: sizes (> 0), e.g. reachable states.
         y: times (> 0); for a censored point, the censoring bound (the budget).
         censored: bool per point, True where the true value exceeds ``y``.
-        se: each reached point's standard error of log y ([`log_standard_error`][tableclean_suite.bench.scaling.statistics.log_standard_error]; NaN = 0).
+        se: each reached point's standard error of log y
+            ([`log_standard_error`][tableclean_suite.bench.scaling.statistics.log_standard_error]; NaN = 0).
         confidence: level of the exponent's profile-likelihood interval.
 
     Returns:
