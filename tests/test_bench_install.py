@@ -60,8 +60,8 @@ def _check_outputs(out: Path, site: Path, env, cwd):
     assert manifest["args"]["runs"] == 5
     assert sorted(manifest["files"]) == ["comparisons.csv", "curves.csv", "table3.csv", "table4.csv"]
     check = subprocess.run(
-        [sys.executable, "-c", "from tableclean_suite.bench import outputs; import sys; "
-         f"sys.exit(len(outputs.check_outputs({str(out)!r})))"],
+        [sys.executable, "-c", f"import sys; sys.path.insert(0, {str(ROOT / 'tests')!r}); "
+         f"from publication_check import check_outputs; sys.exit(len(check_outputs({str(out)!r})))"],
         cwd=cwd, env=env, capture_output=True, text=True, timeout=120,
     )
     assert check.returncode == 0, check.stderr

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from tableclean_suite.bench import outputs
+from publication_check import check_outputs
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA_FILES = ("table3.csv", "table4.csv", "curves.csv")
@@ -20,7 +21,7 @@ def _writers(tag: str) -> dict:
 
 def _consistent(out: Path) -> bool:
     """The invariant: either no config.json (no run claimed), or it and its data files agree."""
-    return not (out / outputs.MANIFEST).exists() or outputs.check_outputs(out) == []
+    return not (out / outputs.MANIFEST).exists() or check_outputs(out) == []
 
 
 def test_publish_writes_data_files_then_a_manifest_with_their_digests(tmp_path):
@@ -30,7 +31,7 @@ def test_publish_writes_data_files_then_a_manifest_with_their_digests(tmp_path):
     assert manifest["args"] == {"runs": 1} and len(manifest["run_id"]) == 32
     for name in DATA_FILES:
         assert manifest["files"][name]["sha256"] == outputs.sha256_file(tmp_path / name)
-    assert outputs.check_outputs(tmp_path) == []
+    assert check_outputs(tmp_path) == []
     left = sorted(p.name for p in tmp_path.iterdir())
     assert left == sorted([*DATA_FILES, outputs.MANIFEST])  # no temporaries
     second = outputs.publish(tmp_path, _writers("B"), {})
@@ -40,10 +41,10 @@ def test_publish_writes_data_files_then_a_manifest_with_their_digests(tmp_path):
 def test_check_outputs_notices_a_file_of_another_run(tmp_path):
     outputs.publish(tmp_path, _writers("A"), {})
     (tmp_path / "table4.csv").write_text("table4.csv of run B\n")
-    problems = outputs.check_outputs(tmp_path)
+    problems = check_outputs(tmp_path)
     assert len(problems) == 1 and "table4.csv" in problems[0]
     (tmp_path / outputs.MANIFEST).unlink()
-    assert "did not finish" in outputs.check_outputs(tmp_path)[0]
+    assert "did not finish" in check_outputs(tmp_path)[0]
 
 
 @pytest.mark.parametrize("crash_at", range(len(DATA_FILES) + 1))
@@ -92,7 +93,7 @@ def test_a_file_system_error_while_writing_keeps_the_last_publication(tmp_path, 
         outputs.publish(tmp_path, writers, {})
     message = str(caught.value)
     assert name in message and os.strerror(getattr(errno, errno_name)) in message and "\n" not in message
-    assert _publication(tmp_path) == before and outputs.check_outputs(tmp_path) == []
+    assert _publication(tmp_path) == before and check_outputs(tmp_path) == []
 
 
 def test_a_folder_where_a_data_file_goes_is_one_error_and_keeps_the_publication(tmp_path):
@@ -137,13 +138,13 @@ def test_a_second_writer_is_refused_while_the_folder_is_locked(tmp_path):
         holder.kill()
         holder.wait()
     outputs.publish(tmp_path, _writers("A"), {}, wait=5)  # the lock dies with its holder
-    assert outputs.check_outputs(tmp_path) == []
+    assert check_outputs(tmp_path) == []
 
 
 def test_the_lock_is_reentrant_within_a_process(tmp_path):
     with outputs.output_lock(tmp_path):
         outputs.publish(tmp_path, _writers("A"), {}, wait=0)
-    assert outputs.check_outputs(tmp_path) == []
+    assert check_outputs(tmp_path) == []
 
 
 def test_a_failing_writer_keeps_the_old_file(tmp_path):
@@ -205,7 +206,7 @@ def test_cli_outputs_agree_with_their_manifest(tmp_path):
     result = cli("--runs", "5", "--iterations", "80", "--rewards", "r4", "--learners", "q_learning", "--no-sweeps",
                  "--no-figures", "--no-progress", "--out", str(out))
     assert result.returncode == 0, result.stderr
-    assert outputs.check_outputs(out) == []
+    assert check_outputs(out) == []
     manifest = json.loads((out / outputs.MANIFEST).read_text())
     assert sorted(manifest["files"]) == sorted((*DATA_FILES, "comparisons.csv"))
     assert manifest["args"]["runs"] == 5 and manifest["args"]["rewards"] == ["r4"]
@@ -261,5 +262,5 @@ def test_a_second_run_into_a_busy_out_exits_2_and_the_first_publishes_alone(tmp_
         out, err = first.communicate(timeout=300)
     assert first.returncode == 0, err
     _one_line_exit_2(second, "in use by another run")
-    assert outputs.check_outputs(tmp_path) == []
+    assert check_outputs(tmp_path) == []
     assert json.loads((tmp_path / outputs.MANIFEST).read_text())["args"]["seed"] == 1

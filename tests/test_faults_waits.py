@@ -16,6 +16,8 @@ from tableclean_suite.executors import ClusterUnreachableError, LocalExecutor, R
 from tableclean_suite.executors import local as local_executor
 from tableclean_suite.executors.ray_executor import check_reachable, host_and_port
 
+from publication_check import check_outputs
+
 ROOT = Path(__file__).resolve().parents[1]
 #: Seconds a killed parent's workers may take to notice (they check every PARENT_CHECK_SECONDS).
 ORPHAN_GRACE = 10 * local_executor.PARENT_CHECK_SECONDS
@@ -158,8 +160,7 @@ def test_ctrl_c_is_one_line_and_exit_130_with_workers(tmp_path):
     # the estimate printed before any work is not part of the interruption
     lines = [line for line in err.strip().splitlines() if line.strip() and not line.startswith("note:")]
     assert len(lines) == 1 and "interrupted" in lines[0] and "Traceback" not in err, err
-    assert not (out / "config.json").exists() or __import__(
-        "tableclean_suite.bench.outputs", fromlist=["check_outputs"]).check_outputs(out) == []
+    assert not (out / "config.json").exists() or check_outputs(out) == []
 
 
 #: s a terminated worker may take to exit, and s between checks.

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from tableclean_suite.bench import commands
+from publication_check import check_outputs
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -73,7 +74,7 @@ def test_ctrl_c_early_in_a_command_is_one_line_and_exit_130(tmp_path, delay):
 def test_ctrl_c_during_tune_publishes_the_finished_trials_and_exits_130(tmp_path, monkeypatch, capfd):
     import json
 
-    from tableclean_suite.bench import outputs, tune
+    from tableclean_suite.bench import tune
 
     made = []
 
@@ -90,7 +91,7 @@ def test_ctrl_c_during_tune_publishes_the_finished_trials_and_exits_130(tmp_path
     err = capfd.readouterr().err
     assert code == 130 and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
     assert json.loads((out / "best.json").read_text())["completed"] == 2
-    assert outputs.check_outputs(out) == []
+    assert check_outputs(out) == []
 
 
 @pytest.mark.cli

@@ -10,6 +10,7 @@ import sys
 import pytest
 
 from tableclean_suite.bench import outputs
+from publication_check import check_outputs
 
 
 def _writers(names, tag="A"):
@@ -20,7 +21,7 @@ def test_a_new_publication_removes_the_files_of_the_last_one_it_does_not_rewrite
     outputs.publish(tmp_path, _writers(["table3.csv", "fig3.png", "fig4.png"]), {})
     outputs.publish(tmp_path, _writers(["table3.csv"], "B"), {})  # e.g. a rerun with --no-figures
     assert sorted(p.name for p in tmp_path.iterdir()) == ["config.json", "table3.csv"]
-    assert outputs.check_outputs(tmp_path) == []
+    assert check_outputs(tmp_path) == []
 
 
 def test_files_of_an_interrupted_publication_are_removed_by_the_next(tmp_path, monkeypatch):
@@ -45,9 +46,9 @@ def test_check_outputs_reports_a_file_the_manifest_does_not_list(tmp_path):
     outputs.publish(tmp_path, _writers(["table3.csv"]), {}, kept=("study.db",))
     (tmp_path / "study.db").write_text("kept")
     (tmp_path / "cells").mkdir()
-    assert outputs.check_outputs(tmp_path) == []
+    assert check_outputs(tmp_path) == []
     (tmp_path / "fig3.png").write_text("an older run's figure")
-    problems = outputs.check_outputs(tmp_path)
+    problems = check_outputs(tmp_path)
     assert len(problems) == 1 and "fig3.png" in problems[0] and "not listed" in problems[0]
 
 
@@ -125,7 +126,7 @@ def test_scalings_config_json_from_before_the_manifest_is_its_own_not_foreign(tm
     assert outputs.check_publishable(tmp_path, command="scaling") is None
     assert "tableclean-bench scaling" in outputs.check_publishable(tmp_path, command="run")
     outputs.publish(tmp_path, _writers(["scaling.csv"]), {}, command="scaling")
-    assert outputs.check_outputs(tmp_path) == []
+    assert check_outputs(tmp_path) == []
 
 
 def test_coverage_publishes_its_table_and_refuses_a_runs_folder(tmp_path, capsys):
@@ -135,7 +136,7 @@ def test_coverage_publishes_its_table_and_refuses_a_runs_folder(tmp_path, capsys
             "--replications", "2", "--reference-runs", "8", "--bootstrap-samples", "50", "--no-progress"]
     assert commands.main(["coverage", *tiny, "--out", str(tmp_path / "cov")]) == 0
     manifest = json.loads((tmp_path / "cov" / outputs.MANIFEST).read_text())
-    assert manifest["command"] == "coverage" and outputs.check_outputs(tmp_path / "cov") == []
+    assert manifest["command"] == "coverage" and check_outputs(tmp_path / "cov") == []
     outputs.publish(tmp_path / "run", _writers(["table3.csv"]), {"args": {}}, command="run")
     capsys.readouterr()
     assert commands.main(["coverage", *tiny, "--out", str(tmp_path / "run")]) == 2
