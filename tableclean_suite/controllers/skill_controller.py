@@ -18,6 +18,7 @@ from tableclean_suite.controllers.registry import SKILL_REGISTRY, action_key, ge
 from tableclean_suite.controllers.robot_configs import skill_overrides
 from tableclean_suite.controllers.skill import SkillEnv
 from tableclean_suite.environments.abstraction import AbstractionError
+from tableclean_suite.environments.grippers import gripper_name
 from tableclean_suite.skill_result import SkillResult
 from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
 
@@ -35,7 +36,8 @@ class SkillController:
             ``TaskModel()``); ints passed to [`execute`][tableclean_suite.controllers.skill_controller.SkillController.execute] index its action list.
         registry: action -> skill class table (default: the global ``SKILL_REGISTRY``).
         skill_configs: per-action config overrides, e.g. ``{Action.CLEAN: {"max_passes": 2}}``; they apply
-            on top of the robot's registered overrides ([`robot_configs`][tableclean_suite.controllers.robot_configs], by ``env.robots[0].name``).
+            on top of the robot's and its gripper's registered overrides ([`robot_configs`][tableclean_suite.controllers.robot_configs],
+            by ``env.robots[0].name`` and its gripper's name).
         on_step: called after every ``env.step`` a skill makes (e.g. to record video frames);
             its time counts as executor overhead.  With it every control step runs through
             ``skill.step()`` (the compiled phase loop, which calls no Python per step, is not used).
@@ -59,12 +61,14 @@ class SkillController:
         self.skill_configs = {action_key(a): dict(c) for a, c in (skill_configs or {}).items()}
         #: robosuite's name of the env's robot, whose registered skill overrides apply (see [`skill_config`][tableclean_suite.controllers.skill_controller.SkillController.skill_config])
         self.robot = getattr(env.robots[0], "name", "")
+        #: robosuite's name of the env's gripper, whose registered skill overrides apply after the robot's
+        self.gripper = gripper_name(env.robots[0])
         self.on_step = on_step
 
     def skill_config(self, action) -> dict:
-        """The config overrides the skill of ``action`` runs with: the robot's, then this controller's."""
+        """The config overrides the skill of ``action`` runs with: the robot's, its gripper's, then this controller's."""
         key = action_key(action)
-        return {**skill_overrides(self.robot, key), **self.skill_configs.get(key, {})}
+        return {**skill_overrides(self.robot, key, self.gripper), **self.skill_configs.get(key, {})}
 
     def resolve(self, action) -> str:
         """``action`` (an Action, a name, or an index into the model's action list) as the model's action

@@ -1,7 +1,10 @@
 """Corrected models of robosuite grippers whose own models the skills cannot drive.
 
 `CORRECTED` maps robosuite's gripper name to the package's corrected class, mounted in its place when a scene
-asks for that gripper; robosuite's own classes and its ``GRIPPER_MAPPING`` entries stay as they are.
+asks for that gripper ([`mounted_gripper`][tableclean_suite.environments.gripper_models.mounted_gripper]: each class is
+added to robosuite's ``GRIPPER_MAPPING`` under its own class name, a new key); robosuite's own classes and its
+entries stay as they are.  A corrected class's ``replaces`` names the gripper it stands for (the key of its
+per-gripper skill settings, [`GRIPPER_SKILLS`][tableclean_suite.environments.grippers.GRIPPER_SKILLS]).
 """
 
 from __future__ import annotations
@@ -9,7 +12,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 
 import numpy as np
-from robosuite.models.grippers import Robotiq85Gripper
+from robosuite.models.grippers import GRIPPER_MAPPING, Robotiq85Gripper, Robotiq140Gripper
 
 #: MuJoCo solref / solimp of the joint couplings (a stiff, critically damped constraint).
 _COUPLING = {"solref": "0.005 1", "solimp": "0.95 0.99 0.001"}
@@ -39,6 +42,7 @@ class CorrectedRobotiq85Gripper(Robotiq85Gripper):
     (settled in 4 control steps, lifted 10 cm without slipping); no joint leaves its range.
     """
 
+    replaces = "Robotiq85Gripper"
     #: driving joint -> (inner knuckle, inner finger) of each finger, robosuite's names without the prefix.
     LINKAGE = {"finger_joint": ("left_inner_knuckle_joint", "left_inner_finger_joint"),
                "right_outer_knuckle_joint": ("right_inner_knuckle_joint", "right_inner_finger_joint")}
@@ -76,5 +80,58 @@ class CorrectedRobotiq85Gripper(Robotiq85Gripper):
         return np.zeros(6)
 
 
+class CorrectedRobotiq140Gripper(Robotiq140Gripper):
+    """robosuite's Robotiq 2F-140 with its finger linkage coupled as the parallel gripper it is and its self-contacts
+    removed; geometry, masses, actuators (position, kp 20 N m/rad) and the action mapping are robosuite's.
+
+    Corrected, each against what robosuite's model does (UR5e, 20 Hz control, 2 ms physics steps):
+
+    - The coupling: robosuite's tendon equalities hold ``finger_joint + 1.5 inner_finger = 0`` and
+      ``inner_finger + 3.5 inner_knuckle = 0``, which the linkage's own contacts contradict: closed on the sponge
+      the left inner finger sits at +0.5 rad where the coupling wants -0.3, and creeps on for over 100 control
+      steps, then jitters by 0.01 rad without end.  Here joint equalities make each inner finger turn with its
+      outer knuckle (left ``inner finger = finger_joint``, right ``inner finger = -outer knuckle``: the pad stays
+      parallel over the whole stroke) and each inner knuckle follow it; the tendons go.
+    - Self-contact: the knuckles press on each other with 15-24 N open and closed (up to 150 N); contacts between
+      any two of the gripper's bodies are excluded.
+    - ``init_qpos`` open, every joint at 0 (robosuite's is off its own coupling).
+    """
+
+    replaces = "Robotiq140Gripper"
+    #: (follower, leader, factor): the follower joint's angle is factor times the leader's, robosuite's names.
+    COUPLING = (("left_inner_finger_joint", "finger_joint", 1.0), ("left_inner_knuckle_joint", "finger_joint", -1.0),
+                ("right_inner_finger_joint", "right_outer_knuckle_joint", -1.0),
+                ("right_inner_knuckle_joint", "right_outer_knuckle_joint", 1.0))
+
+    def __init__(self, idn=0):
+        super().__init__(idn=idn)
+        prefix = self.naming_prefix
+        for element in list(self.tendon):
+            self.tendon.remove(element)
+        for element in list(self.equality):
+            self.equality.remove(element)
+        for follower, leader, factor in self.COUPLING:
+            ET.SubElement(self.equality, "joint", joint1=prefix + follower, joint2=prefix + leader,
+                          polycoef=f"0 {factor} 0 0 0", **_COUPLING)
+        bodies = [body.get("name") for body in self.worldbody.iter("body")]
+        for i, first in enumerate(bodies):
+            for second in bodies[i + 1:]:
+                ET.SubElement(self.contact, "exclude", body1=first, body2=second)
+
+    @property
+    def init_qpos(self):
+        """(6,) rad: open, every linkage joint at 0."""
+        return np.zeros(6)
+
+
 #: robosuite's gripper name -> the package's corrected class mounted in its place.
-CORRECTED = {"Robotiq85Gripper": CorrectedRobotiq85Gripper}
+CORRECTED = {cls.replaces: cls for cls in (CorrectedRobotiq85Gripper, CorrectedRobotiq140Gripper)}
+for _corrected in CORRECTED.values():
+    GRIPPER_MAPPING.setdefault(_corrected.__name__, _corrected)
+
+
+def mounted_gripper(name):
+    """The ``GRIPPER_MAPPING`` key the scene mounts for ``gripper_types`` entry ``name``: its corrected class's name
+    when `CORRECTED` has one, else ``name`` unchanged."""
+    corrected = CORRECTED.get(name) if isinstance(name, str) else None
+    return name if corrected is None else corrected.__name__

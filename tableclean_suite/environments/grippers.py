@@ -1,11 +1,10 @@
-"""Which of robosuite's grippers the skills drive; the others are refused by name before anything is built.
+"""Which of robosuite's grippers the skills drive, with what settings; the others are refused by name before anything
+is built.
 
 The skills need two finger pads closing on a line (the gripper's ``important_geoms``
 ``left_fingerpad`` and ``right_fingerpad``, measured by
 [`measure_gripper`][tableclean_suite.environments.gripper_geometry.measure_gripper]) that stop
-once they hold: robosuite's Panda and Rethink grippers (`SUPPORTED`).  `REFUSED` names the others
-and why: the Robotiq 85 and 140 models' linkages collide with themselves and never come to rest,
-the three-finger hands do not close on a line.
+once they hold: robosuite's Panda and Rethink grippers (`SUPPORTED`).  `REFUSED` names the others and why.  `GRIPPER_SKILLS` holds a gripper's skill-config overrides, applied after the robot's.
 """
 
 from __future__ import annotations
@@ -26,6 +25,24 @@ REFUSED = {
     "RobotiqThreeFingerDexterousGripper": _HAND,
     "WipingGripper": "a wiping tool without fingers: it cannot hold the sponge or an object",
 }
+
+
+#: robosuite's gripper name -> skill-config overrides: key ``"*"`` for every skill (keys of ``BASE_CONFIG``), or an
+#: action name for that action's skill; merged after the robot's
+#: ([`skill_overrides`][tableclean_suite.environments.robot_registry.skill_overrides]).
+GRIPPER_SKILLS: dict[str, dict[str, dict]] = {
+    "Robotiq140Gripper": {},
+}
+
+
+def gripper_name(robot) -> str | None:
+    """robosuite's name of the gripper robosuite robot ``robot`` carries (a corrected model's: the gripper it
+    replaces); None when it has none."""
+    grippers = getattr(robot, "gripper", None)
+    if not isinstance(grippers, dict) or not grippers:
+        return None
+    kind = type(next(iter(grippers.values())))
+    return getattr(kind, "replaces", kind.__name__)
 
 
 def check_gripper(name, robot: str):

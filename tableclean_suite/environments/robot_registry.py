@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
-from tableclean_suite.environments.grippers import check_gripper
+from tableclean_suite.environments.grippers import GRIPPER_SKILLS, check_gripper
 
 #: Key of `RobotSkillConfig.skills` whose overrides apply to every skill (keys of ``BASE_CONFIG``).
 ALL_SKILLS = "*"
@@ -74,24 +74,31 @@ def check_robot(robots) -> str:
     return name
 
 
-def skill_overrides(robot: str, action_name: str) -> dict[str, Any]:
+def skill_overrides(robot: str, action_name: str, gripper: str | None = None) -> dict[str, Any]:
     """Config overrides of ``robot`` for the skill of ``action_name``: its ``"*"`` entries, then the action's
-    (``{}`` for an unregistered robot)."""
+    (none for an unregistered robot), then those of ``gripper`` (robosuite's gripper name,
+    [`GRIPPER_SKILLS`][tableclean_suite.environments.grippers.GRIPPER_SKILLS]) the same way."""
     config = ROBOT_CONFIGS.get(robot)
-    if config is None:
-        return {}
-    return {**config.skills.get(ALL_SKILLS, {}), **config.skills.get(action_name, {})}
+    robots = {} if config is None else config.skills
+    grippers = GRIPPER_SKILLS.get(gripper, {})
+    return {**robots.get(ALL_SKILLS, {}), **robots.get(action_name, {}),
+            **grippers.get(ALL_SKILLS, {}), **grippers.get(action_name, {})}
 
 
 def scene_gripper_types(robot: str, gripper_types):
-    """``gripper_types`` for the env: the robot config's `gripper` in place of ``"default"``; ``ValueError``
-    naming a gripper the skills cannot drive ([`check_gripper`][tableclean_suite.environments.grippers.check_gripper])."""
+    """``gripper_types`` for the env: the robot config's `gripper` in place of ``"default"``, a corrected model's
+    name in place of the gripper it corrects ([`mounted_gripper`][tableclean_suite.environments.gripper_models.mounted_gripper]);
+    ``ValueError`` naming a gripper the skills cannot drive ([`check_gripper`][tableclean_suite.environments.grippers.check_gripper])."""
     config = ROBOT_CONFIGS.get(robot)
     if isinstance(gripper_types, (list, tuple)) and len(gripper_types) == 1:
         gripper_types = gripper_types[0]
     if gripper_types == "default" and config is not None and config.gripper is not None:
         gripper_types = config.gripper
-    return gripper_types if gripper_types == "default" else check_gripper(gripper_types, robot)
+    if gripper_types == "default":
+        return gripper_types
+    from tableclean_suite.environments.gripper_models import mounted_gripper  # imports robosuite's grippers
+
+    return mounted_gripper(check_gripper(gripper_types, robot))
 
 
 def base_shift(robot: str) -> tuple[float, float, float]:
