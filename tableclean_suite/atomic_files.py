@@ -43,27 +43,24 @@ def write_temporary(path: Path, write: Callable[[Path], None]) -> Path:
     return temporary
 
 
-def atomic_write(path, write: Callable[[Path], None]) -> Path:
-    """Create or replace ``path`` atomically: ``write(temporary)`` then `os.replace`.
-
-    Args:
-        path: the final file.
-        write: writes the complete contents to the path it is given.
-
-    Returns:
-        ``path``.  If ``write`` or the replace fails, ``path`` is unchanged and the temporary
-        file is removed; a file-system failure is raised as [`OutputError`][tableclean_suite.atomic_files.OutputError].
-    """
-    path = Path(path)
-    temporary = write_temporary(path, write)
+def replace(temporary: Path, path: Path) -> None:
+    """`os.replace` ``temporary`` over ``path``; [`OutputError`][tableclean_suite.atomic_files.OutputError] naming ``path``."""
     try:
         os.replace(temporary, path)
     except OSError as error:
-        remove_quietly(temporary)
         raise OutputError(f"cannot write {str(path)!r}: {describe_os_error(error)}") from None
-    except BaseException:
-        remove_quietly(temporary)
-        raise
+
+
+def atomic_write(path, write: Callable[[Path], None]) -> Path:
+    """Create or replace ``path`` atomically with what ``write(temporary)`` writes; returns ``path``.
+    On failure ``path`` is unchanged, the temporary removed, a file-system error raised as
+    [`OutputError`][tableclean_suite.atomic_files.OutputError]."""
+    path = Path(path)
+    temporary = write_temporary(path, write)
+    try:
+        replace(temporary, path)
+    finally:
+        remove_quietly(temporary)  # left only by a failed replace
     return path
 
 

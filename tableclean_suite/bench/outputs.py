@@ -28,13 +28,13 @@ from tableclean_suite.atomic_files import (  # noqa: F401  (part of this module'
     atomic_write_text,
     describe_os_error,
     remove_quietly,
+    replace,
     temporary_path,
     write_temporary,
 )
 
 #: The manifest, and the new one while its files move in (left behind only by an interrupted publication).
 MANIFEST, PENDING = "config.json", ".publishing.json"
-DEFAULT_LOCK_WAIT = 0.0
 #: The command of a manifest without a ``command`` key (written before commands were recorded).
 LEGACY_COMMAND = "run"
 _HASH_BLOCK = 1 << 20
@@ -66,7 +66,7 @@ _HELD_LOCKS: dict = {}
 
 
 @contextmanager
-def output_lock(out, wait: float = DEFAULT_LOCK_WAIT):
+def output_lock(out, wait: float = 0.0):
     """Hold an exclusive ``flock`` on the folder ``out`` (created if missing) itself while writing into it:
     re-entrant within a process, released when the holder exits or is killed.
 
@@ -170,14 +170,14 @@ def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict, wai
                 files[name] = {"sha256": sha256_file(temporary), "bytes": temporary.stat().st_size}
             document = {**manifest, "command": command, "run_id": uuid.uuid4().hex, "files": files, "kept": list(kept)}
             text = json.dumps(document, indent=2)
-            _replace(_stage(out / MANIFEST, lambda t: t.write_text(text, encoding="utf-8")), out / PENDING)
+            replace(_stage(out / MANIFEST, lambda t: t.write_text(text, encoding="utf-8")), out / PENDING)
             for name in sorted(earlier - set(files) - {MANIFEST, PENDING}):
                 if Path(name).name == name:  # a file of the folder itself, never one a name leads elsewhere
                     _unlink(out / name)  # config.json, still listing it, reports it missing until replaced
             _unlink(out / MANIFEST)
             for temporary, path in staged:
-                _replace(temporary, path)
-            _replace(out / PENDING, out / MANIFEST)
+                replace(temporary, path)
+            replace(out / PENDING, out / MANIFEST)
         finally:
             for temporary in (*(t for t, _ in staged), temporary_path(out / MANIFEST)):
                 remove_quietly(temporary)
@@ -196,13 +196,6 @@ def _unlink(path: Path) -> None:
         path.unlink(missing_ok=True)
     except OSError as error:
         raise OutputError(f"cannot replace {str(path)!r}: {describe_os_error(error)}") from None
-
-
-def _replace(temporary: Path, path: Path) -> None:
-    try:
-        os.replace(temporary, path)
-    except OSError as error:
-        raise OutputError(f"cannot write {str(path)!r}: {describe_os_error(error)}") from None
 
 
 def check_writable(out) -> str | None:
