@@ -535,22 +535,15 @@ def fixed_point_q(chain, gamma: float, epsilon: float | None = None) -> np.ndarr
         raise ValueError("the chain's rewards are unknown (a looping memory longer than the paper's); "
                          "no exact fixed point")
     n_actions = chain.probability.shape[1]
-    q = np.zeros((len(chain.pair_state), n_actions))
-    policy = None
+    q, policy = np.zeros((len(chain.pair_state), n_actions)), None
     for _ in range(MAX_SWEEPS):
         probabilities = None if epsilon is None else action_probabilities(greedy_policy(q), epsilon, n_actions)
-        evaluated = q
         for _ in range(MAX_SWEEPS):
-            updated = _backup(chain, evaluated, gamma, probabilities)
-            done = np.max(np.abs(updated - evaluated)) <= VALUE_TOLERANCE
-            evaluated = updated
-            if done:
+            q, previous = _backup(chain, q, gamma, probabilities), q
+            if np.max(np.abs(q - previous)) <= VALUE_TOLERANCE:
                 break
-        q = evaluated
-        if epsilon is None:
-            return q
         greedy = greedy_policy(q)
-        if policy is not None and np.array_equal(greedy, policy):
+        if epsilon is None or (policy is not None and np.array_equal(greedy, policy)):
             return q
         policy = greedy
     raise RuntimeError(f"no fixed point within {MAX_SWEEPS} policy updates")
