@@ -33,14 +33,6 @@ class Figure:
     png: bytes
 
 
-def figures(curves, plateau_fraction: float, table3=None, dpi: int = 120) -> list[Figure]:
-    """The paper's figures that ``curves`` allows
-    ([plots.available_figures][tableclean_suite.bench.plots.available_figures]), drawn by
-    [plots.render_png][tableclean_suite.bench.plots.render_png] at ``dpi`` dots per inch."""
-    return [Figure(f"{stem}.png", plots.render_png(stem, curves, plateau_fraction, table3, dpi))
-            for stem in plots.available_figures(curves)]
-
-
 def _drawing_config() -> dict:
     """What the figures' pixels depend on beyond their data and dpi: matplotlib's and Pillow's
     versions, a digest of the live ``rcParams`` and of the font file they resolve to."""
@@ -57,11 +49,10 @@ def _drawing_config() -> dict:
 
 def derived_key(cells: list[dict], confidence: float, samples: int, seed: int, curves=None, table3=None,
                 plateau_fraction: float = 0.0, dpi: int = 120) -> dict:
-    """The cache key of [derive][tableclean_suite.bench.derived.derive]'s results for these inputs
-    (same arguments), a JSON-able dict: the cells' per-run scores, the comparison settings, the
-    package's source and the numpy, scipy and pandas versions; with ``curves`` (None: no figures),
-    the curves and Table 3 frames, ``plateau_fraction``, ``dpi`` and the drawing configuration
-    (matplotlib's and Pillow's versions, every ``rcParams`` value and the font file)."""
+    """The JSON-able cache key of [derive][tableclean_suite.bench.derived.derive]'s results (same
+    arguments): the cells' per-run scores, the comparison settings, the package's source and the numpy,
+    scipy and pandas versions; with ``curves``, the frames, ``plateau_fraction``, ``dpi``, matplotlib's
+    and Pillow's versions, the ``rcParams`` and the font file."""
     import numpy as np
     import pandas as pd
 
@@ -140,10 +131,10 @@ def _store(path: Path, key: dict, rows: list[dict], pngs: dict) -> None:
 def derive(root, cells: list[dict], confidence: float, samples: int, seed: int, curves=None, table3=None, *,
            plateau_fraction: float = 0.0, dpi: int = 120, read: bool = True) -> Derived:
     """The comparisons ([statistics.comparisons][tableclean_suite.bench.statistics.comparisons] of
-    ``cells`` at ``confidence``, ``samples`` bootstrap replicates, ``seed``) and the
-    [figures][tableclean_suite.bench.derived.figures] of ``curves`` (none when it is None), from the
-    entry under the folder ``root`` when it holds their key, else computed and stored there (every
-    other entry is deleted).  ``read=False`` (``--fresh``) ignores a stored entry and replaces it."""
+    ``cells`` at ``confidence``, ``samples`` bootstrap replicates, ``seed``) and the figures
+    [available][tableclean_suite.bench.plots.available_figures] in ``curves`` (None: none) at ``dpi``,
+    from the entry in the folder ``root`` under their key, else computed and stored there (every other
+    entry is deleted).  ``read=False`` (``--fresh``) ignores a stored entry and replaces it."""
     import pandas as pd
 
     from tableclean_suite.bench import statistics
@@ -155,8 +146,8 @@ def derive(root, cells: list[dict], confidence: float, samples: int, seed: int, 
     cached = stored is not None
     if not cached:
         rows = json.loads(json.dumps(statistics.comparison_rows(cells, confidence, samples, seed), allow_nan=True))
-        drawn = [] if curves is None else figures(curves, plateau_fraction, table3, dpi)
-        stored = rows, {figure.name: figure.png for figure in drawn}
+        stems = [] if curves is None else plots.available_figures(curves)
+        stored = rows, {f"{stem}.png": plots.render_png(stem, curves, plateau_fraction, table3, dpi) for stem in stems}
         _store(path, key, *stored)
     for other in path.parent.glob("derived-*.zip"):  # a folder keeps the derived results of its latest run only
         if other != path:
