@@ -34,9 +34,8 @@ def check_confidence(confidence: float) -> float:
 def _samples(values) -> tuple[np.ndarray, ...]:
     """An entry of ``scores`` as a tuple of 1-D arrays (one per stratum): integers stay integers
     (e.g. run indices), anything else becomes float64."""
-    strata = values if isinstance(values, tuple) else (values,)
     samples = tuple(np.asarray(s) if np.asarray(s).dtype.kind in "iu" else np.asarray(s, dtype=np.float64)
-                    for s in strata)
+                    for s in (values if isinstance(values, tuple) else (values,)))
     for sample in samples:
         if sample.ndim != 1:
             raise ValueError(f"per-run scores must be 1-D arrays (one value per run), got shape {sample.shape}")
@@ -89,18 +88,22 @@ def interval_estimates(scores: dict, func, confidence: float = DEFAULT_CONFIDENC
     return points, intervals
 
 
-def clopper_pearson(successes: int, trials: int, confidence: float = DEFAULT_CONFIDENCE) -> tuple[float, float]:
+def clopper_pearson(successes: int, trials: int, confidence: float = DEFAULT_CONFIDENCE,
+                    alternative: str = "two-sided") -> tuple[float, float]:
     """The exact (Clopper-Pearson) interval of a binomial proportion ``successes / trials``.
 
-    Its target is the probability that one run has the property counted; it covers it with at
-    least ``confidence`` whatever that probability (conservative).  ``(nan, nan)`` without trials.
+    ``alternative`` is ``scipy.stats.binomtest``'s: ``"greater"`` gives the one-sided ``(lower
+    bound, 1)``, ``"less"`` ``(0, upper bound)``.  It covers the probability that one run has the
+    property counted with at least ``confidence``, whatever that probability.  ``(nan, nan)``
+    without trials.
     """
     confidence = check_confidence(confidence)
     if trials < 1:
         return math.nan, math.nan
     from scipy import stats
 
-    interval = stats.binomtest(int(successes), int(trials)).proportion_ci(confidence, method="exact")
+    interval = stats.binomtest(int(successes), int(trials), alternative=alternative).proportion_ci(confidence,
+                                                                                                   method="exact")
     return float(interval.low), float(interval.high)
 
 

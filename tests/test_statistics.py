@@ -96,6 +96,9 @@ def test_clopper_pearson_is_the_exact_binomial_interval():
     assert low == pytest.approx(0.683, abs=1e-3) and high == pytest.approx(0.988, abs=1e-3)
     assert intervals.clopper_pearson(0, 40)[0] == 0.0 and intervals.clopper_pearson(0, 40)[1] > 0.0
     assert all(math.isnan(v) for v in intervals.clopper_pearson(0, 0))
+    # one-sided: the lower end of the two-sided interval at twice the error; n successes in n: (1 - c) ** (1 / n)
+    assert intervals.clopper_pearson(18, 20, 0.975, "greater") == pytest.approx((low, 1.0), rel=1e-12)
+    assert intervals.clopper_pearson(20, 20, 0.95, "greater")[0] == pytest.approx(0.05 ** (1 / 20), rel=1e-12)
 
 
 def test_mean_band_is_the_normal_interval_of_the_per_run_values():

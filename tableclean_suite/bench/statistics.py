@@ -82,8 +82,7 @@ def curve_bands(sums, support_fraction: float, confidence: float = DEFAULT_CONFI
     itself); NaN where the average reward is not supported."""
     from tableclean_suite.curves import supported
 
-    runs = np.full(sums.iterations, float(sums.runs))
-    success = intervals.mean_band(sums.success, sums.success, runs, confidence)
+    success = intervals.mean_band(sums.success, sums.success, np.full(sums.iterations, float(sums.runs)), confidence)
     low, high = intervals.mean_band(sums.average_sum, sums.average_square, sums.finished_runs, confidence)
     defined = supported(sums.finished_runs, sums.runs, support_fraction)
     return {"success": success, "average_reward": (np.where(defined, low, np.nan), np.where(defined, high, np.nan))}
