@@ -12,13 +12,8 @@ import math
 import numpy as np
 import pandas as pd
 
-from tableclean_suite.bench.paper_data import (  # noqa: F401  (re-exported)
-    PAPER_LEARNER,
-    PAPER_TABLE3,
-    PAPER_TABLE4,
-    PAPER_TABLE4_COLUMNS,
-    SOURCE_QUOTED,
-)
+from tableclean_suite.bench.paper_data import (PAPER_LEARNER, PAPER_TABLE3, PAPER_TABLE4,  # noqa: F401
+                                                PAPER_TABLE4_COLUMNS, SOURCE_QUOTED)
 from tableclean_suite.bench.statistics import ASYMPTOTES, EQUIVALENCE_MARGINS, LEARNING_TIME_COLUMNS, RUN_MEANS, RUN_SHARES
 from tableclean_suite.metrics import ITERATION_SCALARS, SUMMARY_SCALARS
 
@@ -203,10 +198,6 @@ def table4(table: pd.DataFrame, paper_task: bool = True) -> pd.DataFrame:
     quoted = PAPER_TABLE4.astype({c: float for c in PAPER_TABLE4_COLUMNS[1:]})
     if not paper_task:
         quoted = quoted[~quoted["methodology"].str.startswith(PAPER_OWN_ROWS)]
-    for name in TABLE4_NUMBERS:
-        for suffix in (("", LOW, HIGH) if name in TABLE4_INTERVALS else ("",)):
-            if name + suffix not in quoted.columns:
-                quoted[name + suffix] = _NA
     return pd.concat([rows, quoted], ignore_index=True)[list(TABLE4_COLUMNS)]
 
 
