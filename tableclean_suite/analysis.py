@@ -278,7 +278,8 @@ def _statistics(result, chain, max_itr: int, epsilon: float, probabilities=None)
     with None of epsilon-greedy behaviour on the final Q-tables."""
     q = _runs_q(result.q)
     if isinstance(chain, simulation.StepTable):
-        keys = _keys(result, len(q))
+        keys = simulation.simulation_keys(int(result.config.get("seed", 0)), int(result.config.get("first_run", 0)),
+                                          len(q))
         if probabilities is None:
             return simulation.simulated_greedy_statistics(q, epsilon, chain, max_itr, keys)
         return simulation.simulated_statistics(probabilities, chain, max_itr, keys)
@@ -291,11 +292,6 @@ def _runs_q(q) -> np.ndarray:
     """Q-tables ``(S, A)`` or ``(R, S, A)`` as float64 ``(R, S, A)``."""
     q = np.asarray(q, dtype=np.float64)
     return q[None] if q.ndim == 2 else q
-
-
-def _keys(result, runs: int) -> np.ndarray:
-    """The simulation's random-number keys of ``result``'s runs (its seed and first run)."""
-    return simulation.simulation_keys(int(result.config.get("seed", 0)), int(result.config.get("first_run", 0)), runs)
 
 
 def _greedy_statistics(result, chain, max_itr: int, model: TaskModel | None = None,

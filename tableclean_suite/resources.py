@@ -216,17 +216,6 @@ def training_seconds(runs: int, iterations: int, n_states: int, n_actions: int, 
     return updates / steps_per_second(engine) + setup
 
 
-def describe_training(runs: int, iterations: int, n_states: int, n_actions: int, engine: str = DEFAULT_ENGINE,
-                      planning_steps: int = 0, q_tables: int = 1) -> str:
-    """How [`training_seconds`][tableclean_suite.resources.training_seconds] made its estimate, for a message: ``'6e+03 learner updates at
-    5e+07/s (compiled engine) and 20 runs' setup of 1.3e+07 entries'``."""
-    updates = int(runs) * int(iterations) * (1 + max(0, int(planning_steps)))
-    planning = f" ({int(planning_steps)} planning updates per step)" if planning_steps else ""
-    entries = max(1, int(q_tables)) * int(n_states) * int(n_actions)
-    return (f"{updates:.3g} learner updates{planning} at {steps_per_second(engine):.3g}/s ({engine} engine) and "
-            f"{int(runs)} runs' setup of {entries:.3g} table entries at {TABLE_ENTRIES_PER_SECOND:.3g}/s")
-
-
 def require_training_time(runs: int, iterations: int, n_states: int, n_actions: int, what: str,
                           engine: str = DEFAULT_ENGINE, planning_steps: int = 0, q_tables: int = 1,
                           extra_seconds: float = 0.0, extra_detail: str = "", override: bool = False) -> float:
@@ -234,7 +223,11 @@ def require_training_time(runs: int, iterations: int, n_states: int, n_actions: 
     described by ``extra_detail``); returns the estimate in seconds.  The refusal names every
     part: updates (Dyna-Q's planning updates included), the runs' setup and the extra."""
     seconds = training_seconds(runs, iterations, n_states, n_actions, engine, planning_steps, q_tables)
-    detail = describe_training(runs, iterations, n_states, n_actions, engine, planning_steps, q_tables)
+    updates = int(runs) * int(iterations) * (1 + max(0, int(planning_steps)))
+    planning = f" ({int(planning_steps)} planning updates per step)" if planning_steps else ""
+    entries = max(1, int(q_tables)) * int(n_states) * int(n_actions)
+    detail = (f"{updates:.3g} learner updates{planning} at {steps_per_second(engine):.3g}/s ({engine} engine) and "
+              f"{int(runs)} runs' setup of {entries:.3g} table entries at {TABLE_ENTRIES_PER_SECOND:.3g}/s")
     require_time(seconds + float(extra_seconds), what, f"{detail}{'; ' + extra_detail if extra_detail else ''}",
                  override)
     return seconds + float(extra_seconds)

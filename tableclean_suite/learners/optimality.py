@@ -1,26 +1,15 @@
 """When a run has learned the task: its greedy policy follows a shortest plan from every start.
 
-A run's *greedy policy* is the action the training loop takes when it does not explore (double
-Q: on the average of its two tables; afforded actions only with affordances; ties to the first
-action or, with ``ties="random"``, any tied one).  It is *optimal* when every state on its paths
-from the start states is one step nearer the terminal state after its greedy action(s), in the
-task model's transitions
-([`TaskModel.distances_to_terminal`][tableclean_suite.task.model.TaskModel.distances_to_terminal]),
-even for a run trained on a calibrated table.
-
-The training loop checks it before its first step and after every iteration's Q update and
-records, per run ([`TrainingResult`][tableclean_suite.learners.train.TrainingResult]):
-
-- ``first_learned_at``: the first iteration t (1-based count of environment steps, the unit of
-  ``iterations``) after whose update the policy is optimal; 0 when the initial Q-table's
-  policy already is; -1 when it never is within the budget;
-- ``learned_at``: the iteration from which the policy is optimal after every update up to the
-  budget T: 1 + the last iteration at which it was not (0 when it was optimal throughout);
-  -1 when it is not optimal after iteration T (the run is censored at T).
-
-Cost: [`greedy_walk`][tableclean_suite.learners.optimality.greedy_walk] is O(visited x A); after an
-update the loop walks again only when an examined state's greedy action changed
-([`walk_changed`][tableclean_suite.learners.optimality.walk_changed], O(A)).
+The greedy policy is the action the training loop takes when it does not explore (double Q: on
+the average of its two tables; afforded actions only with affordances; ties to the first action
+or, with ``ties="random"``, any tied one).  It is *optimal* when every state on its paths from the
+start states is one step nearer the terminal state after its greedy action(s) in the task model's
+transitions ([`TaskModel.distances_to_terminal`][tableclean_suite.task.model.TaskModel.distances_to_terminal]),
+even for a run trained on a calibrated table.  The training loop checks it before its first step
+and after every Q update, walking again ([`greedy_walk`][tableclean_suite.learners.optimality.greedy_walk],
+O(visited x A)) only when [`walk_changed`][tableclean_suite.learners.optimality.walk_changed] (O(A)), and
+records ``first_learned_at`` and ``learned_at``
+([`TrainingResult`][tableclean_suite.learners.train.TrainingResult]).
 """
 
 from __future__ import annotations
