@@ -412,7 +412,7 @@ def test_measured_plateau_equals_the_exact_value_of_the_final_policy():
     exact = analysis.exact_success_probability(None, 0.3, 500, **analysis.final_behaviour(result))
     constant = analysis.exact_success_probability(analysis.greedy_policy(result.q), 0.3, 500)
     assert exact.mean() > constant.mean() + 0.1  # the final policy explores far less than epsilon = 0.3
-    plateau = metrics.summarize(result)["success_plateau"]
+    plateau = metrics.summarize(result).success_plateau
     episodes = (result.episode_end[:, -1000:] != 0).sum()
     standard_error = math.sqrt(exact.mean() * (1 - exact.mean()) / episodes)
     assert abs(plateau - exact.mean()) < 4 * standard_error + 1e-3
