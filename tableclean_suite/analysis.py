@@ -420,7 +420,7 @@ def analysis_plan(model, reward, runs: int, max_itr: int, training_seconds: floa
         raise ValueError(f"analysis must be one of {', '.join(ANALYSIS_KINDS)}, got {analysis!r}")
     if isinstance(episodes, bool) or int(episodes) != episodes or episodes < 2:
         raise ValueError(f"episodes must be an integer >= 2, got {episodes!r}")
-    pattern = get_reward_pattern(reward) if isinstance(reward, str) else reward
+    pattern = get_reward_pattern(reward)
     calls = 2 + int(bool(checkpoint))
     exact = asymptotes.exact_seconds(model.n_states, model.n_actions, max_itr, runs,
                                      looping=pattern.looping_code != LOOPING_OFF and pattern.paper_looping,

@@ -93,7 +93,7 @@ class EpisodeChain:
     def build(cls, model, reward, table: TransitionTable | None = None) -> "EpisodeChain":
         """The chain of ``model`` (a [`TaskModel`][tableclean_suite.task.model.TaskModel]) under ``reward``
         (a pattern or its registered name), stepping ``table`` (default: the model's own)."""
-        pattern = get_reward_pattern(reward) if isinstance(reward, str) else reward
+        pattern = get_reward_pattern(reward)
         table = table if table is not None else TransitionTable.from_model(model)
         table.check_model(model)
         probability = np.diff(table.cumulative, axis=2, prepend=0.0)

@@ -402,6 +402,7 @@ class PhysicsBackend:
         needs the ``if __name__ == "__main__":`` guard).  The counters go to ``info["physics"]``.
         """
         from tableclean_suite.backends import CHECKPOINT_Q, BackendRecords
+        from tableclean_suite.learners.stepper import RECORD_FIELDS
 
         learner, reward, runs, iterations = job.learner, job.reward, job.runs, job.iterations
         options = _check_options(job.options.get("physics_options") or {})
@@ -443,8 +444,8 @@ class PhysicsBackend:
         if bar is not None:
             bar.close()
         ordered = [record for _, record, _ in sorted(results, key=lambda result: result[0])]
-        names = ("outcomes", "states", "actions", "episode_end", "rewards", "q", "first_learned_at", "learned_at")
-        records = {name: np.stack([record[name] for record in ordered]) for name in names}
+        records = {name: np.stack([record[name] for record in ordered])
+                   for name in (*RECORD_FIELDS, "q", "first_learned_at", "learned_at")}
         stats = merge_stats(run_stats for _, _, run_stats in results)
         stats["workers"] = workers
         info = {"physics": stats}

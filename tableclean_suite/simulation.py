@@ -77,7 +77,7 @@ class StepTable:
         per policy (an integer >= 2: a standard error needs two)."""
         if isinstance(episodes, bool) or int(episodes) != episodes or episodes < 2:
             raise ValueError(f"episodes must be an integer >= 2, got {episodes!r}")
-        pattern = get_reward_pattern(reward) if isinstance(reward, str) else reward
+        pattern = get_reward_pattern(reward)
         table = table if table is not None else TransitionTable.from_model(model)
         table.check_model(model)
         starts = np.array([s.index for s in model.start_states()], dtype=np.int64)
