@@ -286,9 +286,6 @@ def greedy_asymptotes(q: np.ndarray, epsilon: float, chain: EpisodeChain, max_it
         computation (trained runs mostly converge to a few policies; [`policy_statistics`][tableclean_suite.asymptotes.policy_statistics]).
     """
     policies = greedy_policy(np.asarray(q))
-    visited = np.zeros(policies.shape[-1], dtype=bool)
-    visited[chain.pair_state] = True
-    policies = np.where(visited, policies, 0)  # states no episode visits do not matter: share more policies
     first, inverse = _distinct_rows(policies)
     stats = policy_statistics(action_probabilities(policies[first], epsilon, q.shape[-1]), chain, max_itr)
     return Asymptotes(*(getattr(stats, name)[inverse] for name in QUANTITIES))
