@@ -1,15 +1,8 @@
 """Exploration: how a learner picks its action from a Q row, independent of how it learns.
 
-An exploration is a small frozen dataclass, registered by name:
-
-==================== ====================================================================
-``epsilon_greedy``   constant epsilon (the paper's, the default): epsilon_t = epsilon
-``linear_decay``     epsilon_t = epsilon + (epsilon_min - epsilon) * t / horizon, then epsilon_min
-``exponential_decay`` epsilon_t = max(epsilon_min, epsilon * exp(-rate * t))
-``visit_decay``      epsilon_t(s) = epsilon / (1 + scale * visits(s))
-``softmax``          Boltzmann: P(a) proportional to exp((Q(s, a) - max Q(s)) / T_t),
-                     T_t = max(temperature_min, temperature * exp(-rate * t))
-==================== ====================================================================
+An exploration is a small frozen dataclass registered by name, whose docstring states its schedule:
+``epsilon_greedy`` ([`EpsilonGreedy`][tableclean_suite.learners.exploration.EpsilonGreedy], the paper's, the
+default), ``linear_decay``, ``exponential_decay``, ``visit_decay`` and ``softmax`` (Boltzmann).
 
 ``t`` is the run's iteration (0-based, counted across episodes) at which the action is
 taken; ``epsilon`` is ``train(epsilon=...)``, the start value of every epsilon schedule
