@@ -18,13 +18,11 @@ CHECKPOINT_FRACTION = 0.75
 DEFAULT_SETTLE_TOLERANCE = 0.01
 
 
-def checkpoint_iteration(iterations: int, fraction: float = CHECKPOINT_FRACTION) -> int:
-    """The checkpoint of a window of ``iterations`` (>= 1) steps: floor(fraction x iterations), >= 1."""
-    if not 0.0 < fraction < 1.0:
-        raise ValueError(f"checkpoint fraction must be in (0, 1), got {fraction!r}")
+def checkpoint_iteration(iterations: int) -> int:
+    """The checkpoint of a window of ``iterations`` (>= 1) steps: floor(`CHECKPOINT_FRACTION` x iterations), >= 1."""
     if int(iterations) < 1:
         raise ValueError(f"iterations must be >= 1, got {iterations!r}")
-    return max(1, math.floor(fraction * int(iterations)))
+    return max(1, math.floor(CHECKPOINT_FRACTION * int(iterations)))
 
 
 def behaviour_drift(final_success, checkpoint_success) -> np.ndarray:

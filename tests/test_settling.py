@@ -20,8 +20,6 @@ def test_checkpoint_is_three_quarters_of_the_window_and_at_least_one():
     assert settling.checkpoint_iteration(4000) == 3000
     assert settling.checkpoint_iteration(7) == 5
     assert settling.checkpoint_iteration(1) == 1
-    with pytest.raises(ValueError, match="fraction"):
-        settling.checkpoint_iteration(100, fraction=1.0)
     with pytest.raises(ValueError, match="iterations"):
         settling.checkpoint_iteration(0)
 
