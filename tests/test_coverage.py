@@ -147,7 +147,7 @@ def test_replication_seeds_follow_the_reference_and_share_no_run_key():
     (["--runs", "50", "--reference-runs", "40"],
      "--reference-runs: 40 is fewer than --runs 50; allowed: an integer >= --runs"),
     (["--learners", "q_lerning"], "--learners: unknown 'q_lerning'; allowed: "),
-    (["--confidence", "1.5"], "--confidence: 1.5 is not allowed; allowed: a number in (0, 1)"),
+    (["--confidence", "1.5"], "argument --confidence: expected a number in (0, 1), got '1.5'"),
     (["--nominal", "0"], "--nominal must be in (0, 1), got 0.0"),
 ])
 def test_bad_input_is_one_line_and_exit_2_before_any_training(argv, named, tmp_path, capsys, monkeypatch):

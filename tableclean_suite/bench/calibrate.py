@@ -114,7 +114,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line: fidelity's execution options and calibrate's own."""
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     add_execution_arguments(parser)  # pairs of actions not executed keep the model's successor
-    cli.add_out_argument(parser, cli.FILE, DEFAULT_OUT, "JSON file to write")
+    cli.add_out_argument(parser, cli.FILE, DEFAULT_OUT, "JSON file to write", suffixes=(".json",))
     parser.add_argument("--fresh", action="store_true", help="discard earlier trials in <out>.trials.csv")
     parser.add_argument("--from-trials", metavar="CSV", help="build from an existing fidelity_trials.csv, no physics")
     return parser
@@ -125,8 +125,6 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     parser, args = cli.parse_command(build_parser, argv, prog or PROG)
     model, actions = parse_task_and_actions(parser, args)
     out = Path(args.out)
-    if out.suffix.lower() != ".json":
-        parser.error(f"--out must be a .json file, got {args.out!r}")
     started = time.perf_counter()
     log = None if args.quiet else print
     try:

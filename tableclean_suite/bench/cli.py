@@ -93,6 +93,17 @@ def choice_list(allowed, what: str):
     return parse
 
 
+def one_of(allowed, what: str):
+    """A type: one name of ``allowed`` (``what`` names them in the error)."""
+    allowed = tuple(allowed)
+
+    def parse(text: str) -> str:
+        if text not in allowed:
+            raise argparse.ArgumentTypeError(f"unknown {what} {text!r}; allowed: {', '.join(allowed)}")
+        return text
+    return parse
+
+
 def name_list(text: str) -> tuple[str, ...]:
     """``"a, b,a,"`` -> ``("a", "b")``: comma-separated names, in order, each once (at least one)."""
     names = _names(text)
@@ -104,12 +115,25 @@ def name_list(text: str) -> tuple[str, ...]:
 name_list.comma_list = True  # a list flag: given twice, OneLineParser refuses it
 
 
-def output_path(kind: str):
-    """A type: an output path of ``kind`` (`DIRECTORY` or `FILE`); refused when empty, when it or a parent
-    is an existing file (a directory output), or when it is an existing directory (a file output)."""
+def plugin_entries(text: str | None) -> tuple[str, ...]:
+    """The ``--plugins`` value: comma-separated module names or ``.py`` paths (made absolute), each once."""
+    from tableclean_suite.bench.plugins import portable
+
+    return portable(_names(text or ""))
+
+
+plugin_entries.comma_list = True
+
+
+def output_path(kind: str, suffixes: tuple[str, ...] = ()):
+    """A type: an output path of ``kind`` (`DIRECTORY` or `FILE`) ending in one of ``suffixes`` (any when
+    empty); refused when empty, when it or a parent is an existing file (a directory output), or when it is
+    an existing directory (a file output)."""
     def parse(text: str) -> str:
         if not str(text).strip():
             raise argparse.ArgumentTypeError(f"expected a {kind} path, got {text!r} (empty)")
+        if suffixes and Path(text).suffix.lower() not in suffixes:
+            raise argparse.ArgumentTypeError(f"must end in {' or '.join(suffixes)}, got {text!r}")
         from tableclean_suite.bench.outputs import file_in_the_way
 
         path = Path(text)
@@ -127,7 +151,7 @@ def output_path(kind: str):
 
 def command_parser(prog: str, description: str, epilog: str | None = None) -> OneLineParser:
     """A command's parser: one-line errors, and the options every command has (``--plugins``, ``--verbose``)."""
-    from tableclean_suite.bench.plugins import FLAG, plugin_entries
+    from tableclean_suite.bench.plugins import FLAG
 
     parser = OneLineParser(prog=prog, description=description, epilog=epilog,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -167,13 +191,23 @@ def add_iterations_argument(parser, default: int, what: str, **options) -> None:
                         help=f"{what}, an integer >= 1 (default {default})", **options)
 
 
-def add_out_argument(parser, kind: str, default, what: str, flags=("--out",), **options) -> None:
+def add_out_argument(parser, kind: str, default, what: str, flags=("--out",), suffixes=(), **options) -> None:
     """``--out PATH``: where the command writes, an
-    [`output_path`][tableclean_suite.bench.cli.output_path] of ``kind``."""
+    [`output_path`][tableclean_suite.bench.cli.output_path] of ``kind`` ending in one of ``suffixes``."""
     shown = "" if default is argparse.SUPPRESS else f" (default {default})"
     metavar = "DIR" if kind == DIRECTORY else "FILE"
-    parser.add_argument(*flags, dest="out", type=output_path(kind), default=default, metavar=metavar,
+    parser.add_argument(*flags, dest="out", type=output_path(kind, suffixes), default=default, metavar=metavar,
                         help=f"{what}{shown}", **options)
+
+
+def check_out(parser: argparse.ArgumentParser, out, command: str, folders=()) -> None:
+    """Exit 2 naming ``--out`` when ``command`` could not publish into ``out`` (its sub-``folders`` included;
+    [`check_publishable`][tableclean_suite.bench.outputs.check_publishable]); call it before any work."""
+    from tableclean_suite.bench.outputs import check_publishable
+
+    problem = check_publishable(out, folders, command)
+    if problem:
+        parser.error(f"--out {problem}")
 
 
 def add_robots_argument(parser, many: bool = False, default: str = DEFAULT_ROBOT) -> None:
@@ -278,7 +312,7 @@ def markdown_table(rows, columns=None) -> str:
 def parse_command(build_parser, argv, prog: str, known: bool = False):
     """Apply ``--verbose``, import the ``--plugins`` (exit 2 naming one that fails), then parse ``argv`` with
     ``build_parser(prog)``: ``(parser, args)``, with ``known`` ``(parser, args, unknown arguments)``."""
-    from tableclean_suite.bench.plugins import FLAG, PluginError, load_plugins, plugin_entries
+    from tableclean_suite.bench.plugins import FLAG, PluginError, load_plugins
     from tableclean_suite.robosuite_adapter import apply_verbosity
 
     argv = list(sys.argv[1:] if argv is None else argv)

@@ -32,7 +32,7 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import cli  # noqa: E402
-from tableclean_suite.bench.rollout import majority_policy  # noqa: E402
+from tableclean_suite.bench.rollout import train_policy  # noqa: E402
 from tableclean_suite.executors.blas import single_blas_thread  # noqa: E402
 from tableclean_suite.robosuite_adapter import apply_verbosity  # noqa: E402
 
@@ -62,23 +62,17 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser.add_argument("--policy", default="optimal", choices=POLICIES,
                         help="optimal: the shortest plan; learned: greedy Q-learning r4 policy (default optimal)")
     cli.add_seed_argument(parser, "the start layouts, the placement noise and the training")
-    cli.add_out_argument(parser, cli.FILE, None, "output .hdf5 (results/demos_<task>_<policy>.hdf5 when not given)")
+    cli.add_out_argument(parser, cli.FILE, None, "output .hdf5 (results/demos_<task>_<policy>.hdf5 when not given)",
+                         suffixes=OUT_SUFFIXES)
     cli.add_iterations_argument(parser, DEFAULT_ITERATIONS, "learned: training iterations per run")
     cli.add_runs_argument(parser, DEFAULT_RUNS, "learned: training runs voting on the policy")
     parser.add_argument("--max-actions", type=cli.positive_int, default=DEFAULT_MAX_ACTIONS,
                         help=f"learned: actions per episode before it counts as failed (default {DEFAULT_MAX_ACTIONS})")
-    parser.add_argument("--valid-fraction", type=float, default=None,
+    parser.add_argument("--valid-fraction", type=cli.number_type(float, lambda v: 0 <= v < 1, "a fraction in [0, 1)"),
+                        default=None,
                         help="fraction of the demos in mask/valid, in [0, 1) (default 0.1)")
     cli.add_executor_arguments(parser, "episodes")  # --workers, --executor, --ray-address (as fidelity)
     return parser
-
-
-def learned_policy(model, iterations: int, runs: int, seed: int) -> np.ndarray:
-    """The majority greedy policy (action per state code) of ``runs`` Q-learning r4 runs on ``model``."""
-    from tableclean_suite.learners import train
-
-    result = train(LEARNER, REWARD, runs=runs, iterations=iterations, seed=seed, task=model)
-    return majority_policy(result.q)
 
 
 def symbolic_actions(model, start, policy: np.ndarray | None, max_actions: int) -> list[int] | None:
@@ -237,7 +231,7 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
     policy = None
     if policy_name == "learned":
         started = time.perf_counter()
-        policy = learned_policy(model, iterations, runs, seed)
+        policy = train_policy(LEARNER, REWARD, model, runs, iterations, seed)
         solved = sum(symbolic_actions(model, s, policy, max_actions) is not None for s in model.start_states())
         log(f"trained {LEARNER} {REWARD} on {spec.name}: {runs} run(s) x {iterations} iterations "
             f"in {time.perf_counter() - started:.1f} s; its greedy policy reaches the goal from {solved} of "
@@ -286,11 +280,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     spec = physical_model(parser, args.task).spec
     robot = cli.parse_robot(parser, args)
     valid_fraction = VALID_FRACTION if args.valid_fraction is None else args.valid_fraction
-    if not 0.0 <= valid_fraction < 1.0:
-        parser.error(f"--valid-fraction must be in [0, 1), got {args.valid_fraction!r}")
     out = Path(args.out if args.out is not None else f"results/demos_{spec.name}_{args.policy}.hdf5")
-    if out.suffix.lower() not in OUT_SUFFIXES:
-        parser.error(f"--out must end in {' or '.join(OUT_SUFFIXES)}, got {str(out)!r}")
     if out.is_dir():
         parser.error(f"--out {str(out)!r} is a directory; give a file name ending in .hdf5")
     try:

@@ -138,7 +138,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     own.add_argument("--reference-runs", type=cli.positive_int, default=DEFAULT_REFERENCE_RUNS, metavar="N",
                      help=f"runs of each cell's reference (seed S), whose point values are the targets; an integer "
                           f">= --runs (default {DEFAULT_REFERENCE_RUNS})")
-    own.add_argument("--confidence", type=float, default=DEFAULT_CONFIDENCE, metavar="LEVEL",
+    own.add_argument("--confidence", type=cli.number_type(float, lambda v: 0 < v < 1, "a number in (0, 1)"),
+                     default=DEFAULT_CONFIDENCE, metavar="LEVEL",
                      help=f"confidence of the Clopper-Pearson interval on each coverage, in (0, 1) "
                           f"(default {DEFAULT_CONFIDENCE:g})")
     own.add_argument("--nominal", type=float, default=default["confidence"], metavar="LEVEL",
@@ -173,8 +174,6 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
     if args.reference_runs < args.runs:
         parser.error(f"--reference-runs: {args.reference_runs} is fewer than --runs {args.runs}; "
                      f"allowed: an integer >= --runs")
-    if not 0.0 < args.confidence < 1.0:
-        parser.error(f"--confidence: {args.confidence!r} is not allowed; allowed: a number in (0, 1)")
     settings = {field: getattr(args, field) for field in RUN_FIELDS if hasattr(args, field)}
     for field in ("learners", "rewards"):
         if field in settings:
@@ -186,6 +185,7 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
     except ConfigError as error:
         flag = {"confidence": "--nominal"}.get(error.field, run.flag_of(error.field))
         parser.error(error.message_for(flag))
+    cli.check_out(parser, args.out, "coverage", folders=("cells",))
     return args
 
 
@@ -279,10 +279,6 @@ def main(argv=None, prog: str | None = None) -> int:
     args = parse_args(argv, prog)
     model = args.config.task_model()
     out = Path(args.out)
-    problem = outputs.check_publishable(out, folders=("cells",), command="coverage")
-    if problem:
-        print(f"{args.prog}: error: --out {problem}", file=sys.stderr)
-        return cli.EXIT_USAGE
     text, _ = estimate(args, model)
     model.require_learnable()  # after the resource guard (it builds the transitions), before any work
     print(text)

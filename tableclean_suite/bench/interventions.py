@@ -229,9 +229,6 @@ def run(args) -> int:
     known = interventions()
     started = time.perf_counter()
     rows = []
-    problem = outputs.check_publishable(args.out, command="interventions")
-    if problem:
-        raise outputs.OutputError(problem)
     with outputs.output_lock(args.out) as out:
         say(f"Interventions: {len(args.only)}, {args.runs} runs per arm, seed {args.seed}, budget scale "
             f"{args.scale:g}. Learning time: Kaplan-Meier median [95 % interval] in iterations; shares in % "
@@ -265,9 +262,10 @@ def run(args) -> int:
 
 def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
-    from tableclean_suite.bench.cli import parse_command
+    from tableclean_suite.bench import cli
 
-    _, args = parse_command(build_parser, argv, prog or PROG)
+    parser, args = cli.parse_command(build_parser, argv, prog or PROG)
+    cli.check_out(parser, args.out, "interventions")
     return run(args)
 
 

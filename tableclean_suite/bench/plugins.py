@@ -19,16 +19,10 @@ class PluginError(ValueError):
     """A plugin that cannot be imported; the message names it and the reason."""
 
 
-def split_plugins(text: str | None) -> tuple[str, ...]:
-    """``"a.b, c.py"`` -> ``("a.b", "c.py")`` (empty entries dropped, order kept, no repeats)."""
-    if not text:
-        return ()
-    return tuple(dict.fromkeys(part.strip() for part in str(text).split(",") if part.strip()))
-
-
 def load_plugin(entry: str):
     """Import one plugin: a module name, or a ``.py`` file (once per process);
     [`PluginError`][tableclean_suite.bench.plugins.PluginError] when it is missing, raises or exits."""
+    name = None
     if entry.endswith(SOURCE_SUFFIX):
         path = Path(entry).resolve()
         try:
@@ -39,22 +33,17 @@ def load_plugin(entry: str):
         name = f"tableclean_plugin_{path.stem}_{abs(hash(str(path))):x}"
         if name in sys.modules:
             return sys.modules[name]
-        spec = importlib.util.spec_from_file_location(name, path)
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        try:
-            spec.loader.exec_module(module)
-        except KeyboardInterrupt:
-            raise
-        except BaseException as error:  # a plugin may fail (or exit) in any way; say which and why
-            del sys.modules[name]
-            raise PluginError(_failure(entry, error)) from None
-        return module
     try:
-        return importlib.import_module(entry)
+        if name is None:
+            return importlib.import_module(entry)
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = sys.modules[name] = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
     except KeyboardInterrupt:
         raise
-    except BaseException as error:  # as above
+    except BaseException as error:  # a plugin may fail (or exit) in any way; say which and why
+        sys.modules.pop(name, None)
         raise PluginError(_failure(entry, error)) from None
 
 
@@ -72,14 +61,6 @@ def load_plugins(entries) -> list:
 def portable(entries: Iterable[str]) -> tuple[str, ...]:
     """``entries`` as another process sees them: ``.py`` paths made absolute (a worker may run elsewhere)."""
     return tuple(str(Path(entry).resolve()) if entry.endswith(SOURCE_SUFFIX) else entry for entry in entries)
-
-
-def plugin_entries(text: str | None) -> tuple[str, ...]:
-    """The ``--plugins`` value as a command keeps it: split, ``.py`` paths made absolute."""
-    return portable(split_plugins(text))
-
-
-plugin_entries.comma_list = True  # a list flag: given twice, the command line refuses it
 
 
 def _run_with_plugins(plugins: tuple[str, ...], function: Callable, task):

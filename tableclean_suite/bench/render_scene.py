@@ -57,7 +57,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the picture's own."""
     parser = cli.command_parser(prog, __doc__.splitlines()[0])
     cli.add_out_argument(parser, cli.FILE, None, f"PNG path to write ({DEFAULT_OUT} when not given, or "
-                                                 "results/images/scene_<task>.png for another spec)")
+                         "results/images/scene_<task>.png for another spec)", suffixes=(PNG_SUFFIX,))
     cli.add_task_argument(parser)
     parser.add_argument("--camera", default=DEFAULT_CAMERA,
                         help=f"camera of the scene, e.g. tableview, frontview, birdview (default {DEFAULT_CAMERA})")
@@ -71,8 +71,6 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     parser, args = cli.parse_command(build_parser, argv, prog or PROG)
-    if args.out is not None and Path(args.out).suffix.lower() != PNG_SUFFIX:  # before MuJoCo is imported
-        parser.error(f"--out must end in {PNG_SUFFIX}, got {str(args.out)!r}")
     from tableclean_suite.bench.fidelity import physical_model
 
     spec = physical_model(parser, args.task).spec

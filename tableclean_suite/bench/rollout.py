@@ -98,13 +98,12 @@ class Recorder:
         return frame
 
 
-def train_policy(learner: str, reward: str, start: TaskState, runs: int, iterations: int, seed: int,
-                 spec=None) -> np.ndarray:
-    """The majority greedy policy of ``runs`` symbolic training runs from ``start`` (``(24,)`` actions)."""
+def train_policy(learner: str, reward: str, model: TaskModel, runs: int, iterations: int, seed: int) -> np.ndarray:
+    """The [`majority_policy`][tableclean_suite.bench.rollout.majority_policy] (``(S,)`` actions) of ``runs``
+    runs of ``learner`` on ``reward`` trained on ``model``."""
     from tableclean_suite.learners import train
 
-    result = train(learner, reward, runs=runs, iterations=iterations, seed=seed, task=TaskModel(start_state=start, spec=spec))
-    return majority_policy(result.q)
+    return majority_policy(train(learner, reward, runs=runs, iterations=iterations, seed=seed, task=model).q)
 
 
 @dataclass(frozen=True)
@@ -204,45 +203,45 @@ MIN_PIXELS, MAX_PIXELS = 64, 4096
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the rollout's own."""
+    from tableclean_suite.learners import learner_names
+    from tableclean_suite.rewards import reward_pattern_names
+
+    pixels = cli.number_type(int, lambda v: MIN_PIXELS <= v <= MAX_PIXELS and v % 2 == 0,
+                             f"an even number of pixels in [{MIN_PIXELS}, {MAX_PIXELS}]")
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
-    parser.add_argument("--reward", default="r4", help="reward pattern (default r4)")
+    parser.add_argument("--reward", default="r4", type=cli.one_of(reward_pattern_names(), "reward pattern"),
+                        help="reward pattern (default r4)")
     cli.add_out_argument(parser, cli.FILE, None, "output video, .mp4 or .gif (required unless --task is given: "
-                         "then results/rollout_<task>.mp4)", flags=("--out", "--video"))
+                         "then results/rollout_<task>.mp4)", flags=("--out", "--video"), suffixes=VIDEO_SUFFIXES)
     cli.add_task_argument(parser, default=None,
                           help="task spec: a registered name or a .json path (default paper); with no --still, the "
                                "still goes to results/images/rollout_<task>.png")
-    parser.add_argument("--learner", default="q_learning", help="learner (default q_learning)")
+    parser.add_argument("--learner", default="q_learning", type=cli.one_of(learner_names(), "learner"),
+                        help="learner (default q_learning)")
     parser.add_argument("--object-segment", type=int, default=1, help="start: every object on this segment (1..N, default 1)")
     parser.add_argument("--arm-segment", type=int, default=1, help="start: arm over this segment (1..N, default 1)")
     cli.add_iterations_argument(parser, 3000, "training iterations per run")
     cli.add_runs_argument(parser, 5, "training runs voting on the policy")
     cli.add_seed_argument(parser, "the training runs and the placement noise")
     parser.add_argument("--fps", type=positive_int, default=20, help="video frames per second (default 20)")
-    parser.add_argument("--width", type=positive_int, default=480, help="frame width in pixels, even (default 480)")
-    parser.add_argument("--height", type=positive_int, default=360, help="frame height in pixels, even (default 360)")
+    parser.add_argument("--width", type=pixels, default=480, help="frame width in pixels, even (default 480)")
+    parser.add_argument("--height", type=pixels, default=360, help="frame height in pixels, even (default 360)")
     parser.add_argument("--frame-every", type=positive_int, default=4, help="one frame per K control steps (default 4)")
     parser.add_argument("--max-actions", type=positive_int, default=20, help="stop after this many actions (default 20)")
     parser.add_argument("--camera", default=CAMERAS[0], choices=CAMERAS, help=f"camera (default {CAMERAS[0]})")
-    parser.add_argument("--still", help="also save one frame (PNG) taken while wiping")
+    parser.add_argument("--still", type=cli.output_path(cli.FILE, (".png", ".jpg", ".jpeg")),
+                        help="also save one frame (PNG) taken while wiping")
     cli.add_robots_argument(parser)
     return parser
 
 
 def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
-    from tableclean_suite.learners.rules import get_learner
-    from tableclean_suite.rewards import get_reward_pattern
+    from tableclean_suite.bench.fidelity import physical_model
 
     parser, args = cli.parse_command(build_parser, argv, prog or PROG)
-    from tableclean_suite.physics_backend import check_physical_task
-    from tableclean_suite.task import get_task_spec
-
-    try:
-        spec = get_task_spec(args.task)
-        model = TaskModel(spec=spec)
-        check_physical_task(model)
-    except (ValueError, OSError) as error:
-        parser.error(f"--task: {error}")
+    model = physical_model(parser, args.task)
+    spec = model.spec
     if args.out is None:
         if args.task is None:
             parser.error("--video (or --out) is required (or give --task to write results/rollout_<task>.mp4)")
@@ -253,29 +252,15 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     for flag, value in (("--object-segment", args.object_segment), ("--arm-segment", args.arm_segment)):
         if not 1 <= value <= spec.segments:
             parser.error(f"{flag} must be a segment number in 1..{spec.segments} for task {spec.name!r}, got {value}")
-    video = Path(args.out)
-    if video.suffix.lower() not in VIDEO_SUFFIXES:
-        parser.error(f"--video must end in {' or '.join(VIDEO_SUFFIXES)}, got {args.out!r}")
-    still = Path(args.still) if args.still else None
-    if still is not None and still.suffix.lower() not in (".png", ".jpg", ".jpeg"):
-        parser.error(f"--still must end in .png or .jpg, got {args.still!r}")
-    for name in ("width", "height"):
-        value = getattr(args, name)
-        if value < MIN_PIXELS or value > MAX_PIXELS or value % 2:
-            parser.error(f"--{name} must be an even number of pixels in [{MIN_PIXELS}, {MAX_PIXELS}], got {value}")
-    try:
-        get_reward_pattern(args.reward)
-        get_learner(args.learner)
-    except (ValueError, KeyError) as error:
-        parser.error(str(error).strip("'\""))
-
+    video, still = Path(args.out), Path(args.still) if args.still else None
     try:  # before training: the video is written last
         import imageio.v2  # noqa: F401
     except ImportError as error:
         parser.error(f"--video needs the video extra (pip install 'tableclean_suite[video]'): {error}")
     start = TaskState((False,) * spec.segments, (args.object_segment - 1,) * spec.n_objects, args.arm_segment - 1)
     started = time.perf_counter()
-    policy = train_policy(args.learner, args.reward, start, args.runs, args.iterations, args.seed, spec)
+    policy = train_policy(args.learner, args.reward, TaskModel(start_state=start, spec=spec), args.runs,
+                          args.iterations, args.seed)
     reachable = model.reachable_states([start])
     print(f"policy from {args.runs} run(s) x {args.iterations} iterations ({args.learner}, {args.reward}) on {spec.name}: "
           + ", ".join(f"{s.index}:{model.action_name(int(policy[s.index]))}"

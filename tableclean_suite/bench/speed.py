@@ -322,17 +322,10 @@ def page(sections: dict, stamp: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def reward_name(text: str) -> str:
-    """A registered reward pattern's name."""
-    from tableclean_suite.rewards import reward_pattern_names
-
-    if text not in reward_pattern_names():
-        raise argparse.ArgumentTypeError(f"unknown reward pattern {text!r}; allowed: {', '.join(reward_pattern_names())}")
-    return text
-
-
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line."""
+    from tableclean_suite.rewards import reward_pattern_names
+
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     parser.add_argument("--sections", type=cli.choice_list(SECTIONS, "section"), default=SECTIONS, metavar="NAME,...",
                         help=f"sections to measure, comma separated: {', '.join(SECTIONS)} (default all)")
@@ -343,7 +336,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     group = parser.add_argument_group("learners")
     cli.add_runs_argument(group, 1000, "runs per timed train() call")
     cli.add_iterations_argument(group, 3000, "iterations per run")
-    group.add_argument("--reward", type=reward_name, default="r4", help="reward pattern (default r4)")
+    group.add_argument("--reward", type=cli.one_of(reward_pattern_names(), "reward pattern"), default="r4",
+                       help="reward pattern (default r4)")
     group = parser.add_argument_group("skills")
     group.add_argument("--episodes", type=positive_int, default=3, help="optimal episodes per control path (default 3)")
     group.add_argument("--layout", type=positive_int, nargs=2, metavar=("OBJECT_SEGMENT", "ARM_SEGMENT"),
@@ -357,22 +351,13 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 
 def _check_task(parser, args) -> None:
     """``--task`` and ``--layout`` for the skills section; exits 2 naming the flag."""
-    from tableclean_suite.task import TaskModel, get_task_spec
+    from tableclean_suite.bench.fidelity import physical_model
 
-    try:
-        args.task_spec = get_task_spec(args.task)
-    except (ValueError, OSError) as error:
-        parser.error(f"--task: {error}")
+    args.task_spec = physical_model(parser, args.task).spec
     segments = args.task_spec.segments
     if any(not 1 <= k <= segments for k in args.layout):
         parser.error(f"--layout: segments must be in 1..{segments} for task {args.task_spec.name!r}, "
                      f"got {list(args.layout)}")
-    from tableclean_suite.physics_backend import check_physical_task  # imports MuJoCo: after the cheap checks
-
-    try:
-        check_physical_task(TaskModel(spec=args.task_spec))
-    except ValueError as error:
-        parser.error(f"--task: {error}")
 
 
 def main(argv=None, prog: str | None = None) -> int:

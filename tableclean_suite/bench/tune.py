@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tableclean_suite.bench import cli
 from tableclean_suite.bench.cli import EXIT_INTERRUPTED, EXIT_USAGE, say
 
 #: Exploration schedules searched (``train(exploration=...)`` names) and the search ranges.
@@ -231,8 +232,6 @@ def _reference(study, args, model) -> dict:
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line."""
-    from tableclean_suite.bench import cli
-
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     parser.add_argument("--trials", type=cli.non_negative_int, default=30,
                         help="trials to add to the study (default: 30)")
@@ -244,7 +243,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser.add_argument("--max-itr", type=int, default=500, help="episode length limit (default: 500)")
     parser.add_argument("--threshold", type=float, default=0.95,
                         help="fraction of the success asymptote that counts as reached (default: 0.95)")
-    parser.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE,
+    parser.add_argument("--tolerance", type=cli.number_type(float, lambda v: 0 <= v <= 1, "a number in [0, 1]"),
+                        default=DEFAULT_TOLERANCE,
                         help="allowed shortfall of the success asymptote below the paper configuration's "
                              f"(absolute fraction, default: {DEFAULT_TOLERANCE})")
     parser.add_argument("--ties", choices=TIE_RULES, default=TIE_RULES[0],
@@ -265,13 +265,11 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 
 def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
     """Parse and check the command line; a bad value exits 2 naming it."""
-    from tableclean_suite.bench.cli import parse_command
     from tableclean_suite.bench.config import ConfigError, RunConfig
 
-    parser, args = parse_command(build_parser, argv, prog or PROG)
+    parser, args = cli.parse_command(build_parser, argv, prog or PROG)
     args.prog = parser.prog
-    if not 0.0 <= args.tolerance <= 1.0:
-        parser.error(f"--tolerance must be in [0, 1], got {args.tolerance}")
+    cli.check_out(parser, args.out, "tune")
     try:
         config = RunConfig(learners=(args.learner,), rewards=(args.reward,), runs=args.runs, iterations=args.iterations,
                            max_itr=args.max_itr, seed=args.seed, task=args.task, threshold=args.threshold,
@@ -325,10 +323,6 @@ def run(args) -> int:
     from tableclean_suite.bench import outputs
 
     prog, out = getattr(args, "prog", PROG), Path(args.out)
-    problem = outputs.check_publishable(out, command="tune")
-    if problem:
-        print(f"{prog}: error: --out {problem}", file=sys.stderr)
-        return EXIT_USAGE
     optuna.logging.set_verbosity(optuna.logging.ERROR)  # the trial Ctrl-C stopped is not a warning: it is reported once
     for handler in logging.getLogger("optuna").handlers:  # and without Optuna's traceback
         handler.addFilter(lambda record: not (record.exc_info and record.exc_info[0] is KeyboardInterrupt))

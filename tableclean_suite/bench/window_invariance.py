@@ -20,7 +20,6 @@ from pathlib import Path
 import pandas as pd
 
 from tableclean_suite.bench import cli, outputs, run
-from tableclean_suite.bench.cli import EXIT_USAGE
 from tableclean_suite.bench.tables import PRINT_WIDTH, main_rows
 
 #: Windows compared by default (iterations): the paper's and three times as long.
@@ -76,7 +75,8 @@ def build_parser(prog: str = PROG):
                                        "(e.g. --task, --seed, --learners, --runs).")
     parser.add_argument("--windows", type=int, nargs=2, default=DEFAULT_WINDOWS, metavar=("SHORT", "LONG"),
                         help="the two training windows, iterations (SHORT < LONG). (default: %(default)s)")
-    parser.add_argument("--goal", type=float, default=DEFAULT_THRESHOLD, metavar="FRACTION",
+    parser.add_argument("--goal", type=cli.number_type(float, lambda v: 0 < v < 1, "a fraction in (0, 1)"),
+                        default=DEFAULT_THRESHOLD, metavar="FRACTION",
                         help="list the settled cells whose figures move by more than this fraction, in (0, 1). "
                              "(default: %(default)s)")
     cli.add_out_argument(parser, cli.DIRECTORY, DEFAULT_OUT, "output directory")
@@ -90,8 +90,6 @@ def parse_args(argv=None, prog: str | None = None):
     short, long = args.windows
     if not 1 <= short < long:
         parser.error(f"--windows: need 1 <= SHORT < LONG, got {short} {long}")
-    if not 0.0 < args.goal < 1.0:
-        parser.error(f"--goal: must be in (0, 1), got {args.goal!r}")
     own = [flag for flag in passthrough if flag.split("=")[0] in OWN_RUN_FLAGS]
     if own:
         parser.error(f"{', '.join(own)}: set by this command (use --windows and --out)")
@@ -100,6 +98,7 @@ def parse_args(argv=None, prog: str | None = None):
         parser.error(f"{', '.join(no_table)}: writes no Table 3 to compare (use the run command for it)")
     passthrough += ["--plugins", ",".join(args.plugins)] if args.plugins else []
     passthrough += ["--verbose"] if args.verbose else []
+    cli.check_out(parser, args.out, "window-invariance")
     return args, passthrough
 
 
@@ -158,10 +157,6 @@ def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     args, passthrough = parse_args(argv, prog)
     out = Path(args.out)
-    problem = outputs.check_publishable(out, command="window-invariance")
-    if problem:
-        print(f"{args.prog}: error: --out: {problem}", file=sys.stderr)
-        return EXIT_USAGE
     try:
         short, long = (run_window(w, out / f"w{w}", passthrough, args.prog) for w in args.windows)
     except SystemExit as stop:

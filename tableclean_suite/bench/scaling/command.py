@@ -103,4 +103,5 @@ def main(argv=None, prog: str | None = None) -> int:
         family_specs(args.segments, args.objects) + [fixed_plan_spec(m) for m in args.fixed_plan_objects]
     except ValueError as error:
         parser.error(f"--segments/--objects/--fixed-plan-objects: {error}")
+    cli.check_out(parser, args.out, "scaling")
     return run_study(args)

@@ -128,19 +128,11 @@ def method_constants(args) -> dict:
 
 
 def run_study(args) -> int:
-    """Describe the specs, train every cell, print and write everything; returns 0.
-
-    Holds ``--out``'s lock while it runs ([`output_lock`][tableclean_suite.bench.outputs.output_lock], as
-    ``run`` does): a second study into the same folder raises
-    [`OutputBusyError`][tableclean_suite.bench.outputs.OutputBusyError] (the command line: one line, exit 2)
-    instead of interleaving its files with this one's; a folder holding another command's outputs
-    is refused before any training ([`OutputError`][tableclean_suite.bench.outputs.OutputError]).
-    """
+    """Describe the specs, train every cell, print and publish everything into ``--out`` (its lock held
+    throughout: [`OutputBusyError`][tableclean_suite.bench.outputs.OutputBusyError] when another process
+    holds it); returns 0."""
     from tableclean_suite.bench import outputs
 
-    problem = outputs.check_publishable(args.out, command="scaling")
-    if problem:
-        raise outputs.OutputError(problem)
     with outputs.output_lock(args.out) as out:
         return _study(args, Path(out))
 
