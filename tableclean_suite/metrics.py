@@ -221,7 +221,7 @@ class Plateaus:
 
 
 #: The per-run quantities behind [`Plateaus`][tableclean_suite.metrics.Plateaus] (one field each), in field order.
-PLATEAU_NAMES = ("success", "average_reward", "terminal", "greedy_success", "never_terminal")
+PLATEAU_NAMES = tuple(f.name for f in fields(Plateaus))
 
 
 def summarize(
