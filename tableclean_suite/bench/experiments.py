@@ -1,13 +1,11 @@
 """The experiment grid of ``benchmarks.run`` and its resumable cell storage.
 
-A **cell** is one trained configuration (learner, reward, alpha, gamma) at the shared settings of a
-`RunConfig`; an **experiment** is a named set of cells: ``main`` (every learner x every reward:
-Table 3, Figures 3-5), ``alpha_sweep`` / ``gamma_sweep`` (the sweep learner and reward at each
-alpha, resp. gamma: Figures 6-7) and ``literature`` (Cruz et al.'s methods: Table 4's "run here"
-rows).  A cell in several experiments is trained once ([train_cell][tableclean_suite.bench.experiments.train_cell]);
-its summary and statistics go to ``OUT/cells/<label>-<hash>.npz``, ``hash`` digesting everything
-that determines its numbers ([cell_config][tableclean_suite.bench.experiments.cell_config]), so a
-rerun loads matching cells and retrains only those a changed flag affects.
+A **cell** is one trained configuration (learner, reward, alpha, gamma) of a `RunConfig`; an
+**experiment** a named set of cells: ``main`` (learners x rewards: Table 3, Figures 3-5),
+``alpha_sweep`` / ``gamma_sweep`` (Figures 6-7) and ``literature`` (Cruz et al.'s methods: Table 4).
+A cell is trained once ([train_cell][tableclean_suite.bench.experiments.train_cell]) and stored in
+``OUT/cells/<label>-<hash>.npz``, ``hash`` digesting what determines its numbers
+([cell_config][tableclean_suite.bench.experiments.cell_config]): a rerun loads the cells it can.
 """
 
 from __future__ import annotations
@@ -547,19 +545,14 @@ class GridRun:
 
 def run_grid(grid: list[Membership], config: RunConfig, model, store: CellStore, transitions=None,
              executor=None) -> GridRun:
-    """Load the stored cells of ``grid``, then train the others; each trained cell is saved at once.
-
-    Args:
-        grid: memberships from [`config_grid`][tableclean_suite.bench.experiments.config_grid].
-        config: the run's configuration (``fresh``: ignore stored cells; ``progress``: a bar on stderr).
-        model: the [`TaskModel`][tableclean_suite.task.model.TaskModel]; ``store``: where summaries live.
-        transitions: the `TransitionTable` loaded from ``config.transitions`` (calibrated backend).
-        executor: an [`Executor`][tableclean_suite.executors.base.Executor] training one
-            [`CellTask`][tableclean_suite.bench.experiments.CellTask] per cell (bit-identical results);
-            None: train in this process.
+    """Load the stored cells of ``grid`` ([`config_grid`][tableclean_suite.bench.experiments.config_grid])
+    from ``store`` (none with ``config.fresh``) and train the others, each saved at once.
+    ``transitions``: the table of ``config.transitions``; ``executor``: an
+    [`Executor`][tableclean_suite.executors.base.Executor] training one
+    [`CellTask`][tableclean_suite.bench.experiments.CellTask] per cell (the same bits); None: this process.
 
     Raises:
-        CellFileError: a stored cell matching the config is unreadable (unless ``fresh``).
+        CellFileError: a stored cell matching the config is unreadable.
         tableclean_suite.resources.ResourceError: refused before training
             ([`check_grid_resources`][tableclean_suite.bench.experiments.check_grid_resources]).
         tableclean_suite.executors.TaskFailedError: a cell failed in the executor (named).

@@ -1,12 +1,6 @@
-"""Figures 3-7 of the paper and the Kaplan-Meier curves of the per-run learning time (Figure 8),
-each function returning ``(fig, ax)``; [render_png][tableclean_suite.bench.plots.render_png] returns
-a figure's PNG bytes.  matplotlib is imported when a figure is first drawn.
-
-Input: the long frame of [tables.curves_long][tableclean_suite.bench.tables.curves_long] (columns
-``learner, reward, alpha, gamma, experiment, iteration, metric, value`` and, when present, the 95 %
-band ``low, high``, shaded on every figure).  Each reward pattern has one colour in every figure
-([reward_color][tableclean_suite.bench.plots.reward_color]); sweep figures colour by parameter
-value on a sequential map.
+"""Figures 3-7 of the paper and the Kaplan-Meier curves of the per-run learning time (Figure 8)
+from the long frame of [curves_long][tableclean_suite.bench.tables.curves_long]; each reward pattern
+has one colour in every figure, sweeps colour by value.  matplotlib is imported at the first figure.
 """
 
 from __future__ import annotations
@@ -103,22 +97,13 @@ def plot_rewards(
     title: str | None = None,
     levels: dict | None = None,
 ):
-    """One line per reward pattern of ``metric`` vs iterations (Figures 3-5), with its 95 % band
-    shaded where the frame has ``low``/``high``.
+    """One line per reward pattern of ``learner``'s ``metric`` (``"success"`` drawn in %,
+    ``"average_reward"``, ...) vs iterations in ``experiment``'s rows of the long ``curves`` frame, with
+    its band shaded where the frame has ``low``/``high`` (Figures 3-5); returns ``(fig, ax)``.
 
-    Args:
-        curves: long curves frame.
-        learner: which learner's main rows to draw.
-        metric: ``"success"`` (drawn in %), ``"average_reward"``, ...
-        experiment: which experiment's rows (default ``"main"``).
-        plateau_fraction: draw each line's plateau as a dotted horizontal line (the mean over
-            this last fraction, unless ``levels`` gives it); None for none.
-        title: default e.g. ``"Success rate per reward pattern (Q-learning)"``.
-        levels: ``{reward: plateau}`` in the metric's units (fractions for success), e.g. the
-            exact asymptotes; drawn instead of the window means and labelled "asymptote".
-
-    Returns:
-        ``(fig, ax)``.
+    Each line's level is drawn dotted: ``levels[reward]`` (in the metric's units, e.g. the exact
+    asymptotes; labelled "asymptote") or else the mean over the last ``plateau_fraction`` (None: none).
+    ``title`` defaults to e.g. ``"Success rate per reward pattern (Q-learning)"``.
     """
     fig, ax = pyplot().subplots(figsize=(7, 4.2))
     rows = _select(curves, learner=learner, metric=metric, experiment=experiment)

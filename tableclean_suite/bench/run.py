@@ -188,12 +188,13 @@ def _curves_stride(rows_per_iteration: int, iterations: int) -> int:
 
 
 def _manifest(config: RunConfig, model, transitions, grid_run, stride: int, elapsed: float) -> dict:
-    """The contents of ``config.json`` ([`outputs.publish`][tableclean_suite.bench.outputs.publish] adds ``run_id`` and ``files``)."""
+    """The contents of ``config.json`` ([`publish`][tableclean_suite.bench.outputs.publish] adds ``run_id``
+    and ``files``)."""
     import numpy
     import pandas
 
     import tableclean_suite
-    from tableclean_suite.bench import outputs, paper_data
+    from tableclean_suite.bench import outputs, paper_data, tables
 
     return {
         "args": config.to_json(),
@@ -207,7 +208,7 @@ def _manifest(config: RunConfig, model, transitions, grid_run, stride: int, elap
         "cells": {"trained": grid_run.trained, "resumed": grid_run.resumed},
         "seconds": {"total": round(elapsed, 3), "training": round(grid_run.train_seconds, 3),
                     "metrics": round(grid_run.metrics_seconds, 3)},
-        "curves_csv": {"metrics": ["success", "average_reward", "episodes"], "iteration_stride": stride},
+        "curves_csv": {"metrics": list(tables.CURVE_METRICS), "iteration_stride": stride},
         "versions": {"python": platform.python_version(), "numpy": numpy.__version__,
                      "pandas": pandas.__version__},
     }
@@ -239,10 +240,6 @@ def train_and_publish(args) -> int:
     out = Path(config.out)
     model = config.task_model()
     transitions = _load_transitions(args, model) if config.backend == "calibrated" else None
-    problem = outputs.check_writable(out)
-    if problem:
-        print(f"{args.parser.prog}: error: --out {problem}", file=sys.stderr)
-        return EXIT_USAGE
     executor = cell_executor(config)
     if executor is None and config.workers is not None and config.backend != "physics":
         import numba
