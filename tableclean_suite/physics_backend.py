@@ -159,7 +159,6 @@ class PhysicsStepEnv:
         self.controller = SkillController(self.env, self.model, skill_configs=skill_configs)
         self.fault_policy = fault_policy
         self.max_retries = int(max_retries)
-        self.last_result = None
         self.stats = _empty_stats()
 
     def close(self) -> None:
@@ -178,7 +177,10 @@ class PhysicsStepEnv:
 
     def step(self, state: int, action: int, draw: float) -> tuple[int, int]:
         before = self.model.as_state(state)
-        current = self._current_state()
+        try:
+            current = self.env.symbolic_state()
+        except Exception as error:  # noqa: BLE001 - reported, never mapped
+            current = f"a fault ({error})"
         if current != before:
             raise PhysicsFaultError(f"the scene reads {current}, but the learner is in state {before.name}")
         saved = self.env.get_scene_state()
@@ -186,7 +188,6 @@ class PhysicsStepEnv:
             if attempt:
                 self.env.set_scene_state(saved)
             result = self.controller.execute(int(action))
-            self.last_result = result
             self.stats["executions"] += 1
             self.stats["control_steps"] += result.steps
             self.stats["wall_time"] += result.wall_time
@@ -202,12 +203,6 @@ class PhysicsStepEnv:
             f"{self.model.action_name(int(action))} from {before.name}: abstraction fault on every attempt "
             f"({result.reason})"
         )
-
-    def _current_state(self):
-        try:
-            return self.env.symbolic_state()
-        except Exception as error:  # noqa: BLE001 - reported, never mapped
-            return f"a fault ({error})"
 
 
 def _reason_kind(reason: str) -> str:
