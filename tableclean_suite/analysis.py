@@ -355,7 +355,6 @@ class AnalysisPlan:
     Attributes:
         kind: ``"exact"`` (the DP over the task's pairs) or ``"simulated"`` (Monte Carlo episodes).
         episodes: episodes simulated per run and policy (``simulated``); 0 for ``exact``.
-        requested: the kind asked for (``auto``, ``exact`` or ``simulated``).
         exact_seconds: the exact analysis's estimate ([tableclean_suite.asymptotes.exact_seconds][]).
         simulated_seconds: the simulation's ([tableclean_suite.simulation.simulation_seconds][]).
         training_seconds: the training's, the cell's runs ([tableclean_suite.resources.training_seconds][]).
@@ -364,7 +363,6 @@ class AnalysisPlan:
 
     kind: str
     episodes: int
-    requested: str
     exact_seconds: float
     simulated_seconds: float
     training_seconds: float
@@ -434,7 +432,7 @@ def analysis_plan(model, reward, runs: int, max_itr: int, training_seconds: floa
     entries = int(model.n_states) * int(model.n_actions) * max(1, int(max_successors))
     memory = (entries * asymptotes.EXACT_BYTES_PER_ENTRY if kind == "exact"
               else simulation.simulation_bytes(model.n_states, model.n_actions, per_call))
-    return AnalysisPlan(kind, int(episodes) if kind == "simulated" else 0, analysis, exact, simulated,
+    return AnalysisPlan(kind, int(episodes) if kind == "simulated" else 0, exact, simulated,
                         float(training_seconds), memory)
 
 
