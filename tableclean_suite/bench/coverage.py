@@ -21,6 +21,8 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from tableclean_suite.bench.tables import PRINT_WIDTH
+
 #: Replications per cell by default (18 of 20 has a 95 % Clopper-Pearson interval of [68, 99] %).
 DEFAULT_REPLICATIONS = 100
 DEFAULT_REFERENCE_RUNS = 20_000
@@ -34,7 +36,6 @@ LOW, HIGH = "_low", "_high"
 #: Columns of ``coverage.csv``.
 COLUMNS = ("table", "row", "statistic", "target", "nominal", "runs", "reference_runs", "replications", "covered",
            "undefined", "coverage", "coverage_low", "coverage_high", "coverage_confidence", "mean_width")
-PRINT_WIDTH = 120
 #: [RunConfig][tableclean_suite.bench.config.RunConfig] fields taken with the run command's flags, and their
 #: argparse types (None: text).
 RUN_FIELDS = {"learners": None, "rewards": None, "alpha": float, "gamma": float, "epsilon": float, "max_itr": int,

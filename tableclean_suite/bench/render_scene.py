@@ -32,7 +32,7 @@ class UnknownCameraError(ValueError):
 
 
 def render_frame(camera: str = DEFAULT_CAMERA, width: int = 640, height: int = 480, seed: int = 0,
-                 object_segment: int = 1, arm_segment: int = 2, task=None, **env_kwargs) -> np.ndarray:
+                 object_segment: int = 1, arm_segment: int = 2, task=None) -> np.ndarray:
     """An (height, width, 3) uint8 RGB frame of a freshly reset TableClean scene of ``task`` (default ``paper``);
     [`UnknownCameraError`][tableclean_suite.bench.render_scene.UnknownCameraError] listing the scene's cameras."""
     import robosuite
@@ -41,7 +41,7 @@ def render_frame(camera: str = DEFAULT_CAMERA, width: int = 640, height: int = 4
 
     env = robosuite.make("TableClean", task=task, robots="Panda", object_segment=object_segment,
                          arm_segment=arm_segment, has_renderer=False, has_offscreen_renderer=True, use_camera_obs=False,
-                         seed=seed, **env_kwargs)
+                         seed=seed)
     try:
         cameras = tuple(env.sim.model.camera_names)
         if camera not in cameras:

@@ -438,27 +438,18 @@ def open_study(args):
     import optuna
 
     try:
-        sampler_seed = args.seed + _trials_so_far(args)  # a resumed call does not replay the first call's proposals
         study = optuna.create_study(
             study_name=args.study_name, storage=args.storage, direction="minimize", load_if_exists=True,
-            sampler=optuna.samplers.TPESampler(seed=sampler_seed),
             pruner=optuna.pruners.MedianPruner(n_startup_trials=PRUNER_STARTUP_TRIALS,
                                                n_warmup_steps=PRUNER_WARMUP_STEPS),
         )
+        # seeded past the trials so far: a resumed call does not replay the first call's proposals
+        study.sampler = optuna.samplers.TPESampler(seed=args.seed + len(study.trials))
     except Exception as error:  # any storage backend's failure (sqlalchemy, a missing driver, optuna)
         reason = (str(error).strip().splitlines() or [type(error).__name__])[0]
         raise StudyError(f"--storage {args.storage!r} cannot be opened: {type(error).__name__}: {reason}") from None
     bind_configuration(study, args)
     return study
-
-
-def _trials_so_far(args) -> int:
-    import optuna
-
-    try:
-        return len(optuna.load_study(study_name=args.study_name, storage=args.storage).trials)
-    except KeyError:
-        return 0
 
 
 def main(argv=None, prog: str | None = None) -> int:
