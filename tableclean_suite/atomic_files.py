@@ -21,7 +21,8 @@ def describe_os_error(error: OSError) -> str:
 
 
 def temporary_path(path: Path) -> Path:
-    """Where [`atomic_write`][tableclean_suite.atomic_files.atomic_write] writes ``path`` first: a hidden name in the same directory."""
+    """Where [`atomic_write`][tableclean_suite.atomic_files.atomic_write] writes ``path`` first: a hidden
+    name in the same directory."""
     return path.with_name(f".{path.name}.{os.getpid()}.tmp")
 
 
@@ -44,7 +45,8 @@ def write_temporary(path: Path, write: Callable[[Path], None]) -> Path:
 
 
 def replace(temporary: Path, path: Path) -> None:
-    """`os.replace` ``temporary`` over ``path``; [`OutputError`][tableclean_suite.atomic_files.OutputError] naming ``path``."""
+    """`os.replace` ``temporary`` over ``path``; an
+    [`OutputError`][tableclean_suite.atomic_files.OutputError] naming ``path`` if it fails."""
     try:
         os.replace(temporary, path)
     except OSError as error:

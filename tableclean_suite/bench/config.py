@@ -278,7 +278,7 @@ class RunConfig:
         return {key: value for key, value in options.items() if key in accepted}
 
     def learner(self, name: str):
-        """The `TabularLearner` ``name`` as this run trains it: with its ``learner_options``, ``q_init`` and ``exploration``."""
+        """The `TabularLearner` ``name`` with this run's ``learner_options``, ``q_init`` and ``exploration``."""
         from tableclean_suite.learners import get_learner
         from tableclean_suite.learners.exploration import parse_exploration
 

@@ -90,7 +90,8 @@ def describe(model: TaskModel, epsilon: float = 0.1, max_itr: int = 500) -> str:
     starts = model.start_states()
     lines = [
         f"Task model: {model!r}",
-        f"{model.n_states} states, code = ((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment",
+        f"{model.n_states} states, code = ((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 "
+        "+ arm_segment",
         "  (object_location: 0 on segment 1, 1 on segment 2, 2 in gripper; arm_segment: 0 segment 1, 1 segment 2)",
     ] if _paper_sized(model) else [
         f"Task model: {model!r}",

@@ -226,7 +226,8 @@ class CellStore:
                     scalars=np.array(json.dumps(scalars)), statistics=np.array(json.dumps(facts)),
                     **{name: np.asarray(curve, dtype=np.float64) for name, curve in summary.curves().items()},
                     **bands, **runs,
-                    **({} if cell_stats.survival is None else {"survival": np.asarray(cell_stats.survival, np.float64)}))
+                    **({} if cell_stats.survival is None
+                       else {"survival": np.asarray(cell_stats.survival, np.float64)}))
 
         return atomic_write(path, write)
 
@@ -255,7 +256,8 @@ def chunk_runs(iterations: int, budget_bytes: int = CHUNK_BYTES, q_table_bytes: 
     return max(1, budget_bytes // (int(iterations) * RECORD_BYTES_PER_ITERATION + int(q_table_bytes)))
 
 
-#: Estimated seconds of training above which [`run_grid`][tableclean_suite.bench.experiments.run_grid] says so on stderr.
+#: Estimated seconds of training above which [`run_grid`][tableclean_suite.bench.experiments.run_grid] says
+#: so on stderr.
 LONG_GRID_SECONDS = 600
 #: The exact analysis's bytes per (state, action) pair and its speed, for the tuning command's own
 #: estimate ([`CellRun.plan`][tableclean_suite.bench.experiments.CellRun.plan] costs the harness's cells).

@@ -125,7 +125,8 @@ def publication_problem(out, command: str) -> str | None:
         return None
     document = _manifest_of(path)
     if document is None:
-        return f"{str(path)!r} exists and was not written by tableclean_suite; it is left alone: choose another output folder"
+        return (f"{str(path)!r} exists and was not written by tableclean_suite; it is left alone: choose another "
+                "output folder")
     other = document.get("command", LEGACY_COMMAND)
     if other != command:
         return (f"{str(out)!r} holds the outputs of 'tableclean-bench {other}' ({MANIFEST}); {command} does not "
@@ -137,7 +138,8 @@ def arguments(args) -> dict:
     """A parsed command line's plain values (text, numbers, lists of them), for a manifest."""
     plain = (str, int, float, bool, type(None))
     return {key: list(value) if isinstance(value, (list, tuple)) else value for key, value in vars(args).items()
-            if isinstance(value, plain) or isinstance(value, (list, tuple)) and all(isinstance(v, plain) for v in value)}
+            if isinstance(value, plain)
+            or isinstance(value, (list, tuple)) and all(isinstance(v, plain) for v in value)}
 
 
 def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict, wait: float = 60.0,
@@ -159,7 +161,8 @@ def publish(out, writers: dict[str, Callable[[Path], None]], manifest: dict, wai
         problem = publication_problem(out, command)
         if problem:
             raise OutputError(problem)
-        earlier = {name for path in (out / MANIFEST, out / PENDING) for name in (_manifest_of(path) or {}).get("files", ())}
+        earlier = {name for path in (out / MANIFEST, out / PENDING)
+                   for name in (_manifest_of(path) or {}).get("files", ())}
         staged: list[tuple[Path, Path]] = []
         try:
             files = {}

@@ -218,7 +218,7 @@ def available_figures(curves: pd.DataFrame) -> list[str]:
 
 #: zlib level of the PNGs [`render_png`][tableclean_suite.bench.plots.render_png] writes (1: fastest).
 PNG_COMPRESS_LEVEL = 1
-#: How [`render_png`][tableclean_suite.bench.plots.render_png] saves a figure with artists beyond its canvas (beside the dpi it is given).
+#: How `render_png` saves a figure with artists beyond its canvas (beside the dpi it is given).
 SAVEFIG_OPTIONS = {"bbox_inches": "tight", "format": "png"}
 
 

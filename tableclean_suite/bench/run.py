@@ -25,7 +25,8 @@ from pathlib import Path
 
 from tableclean_suite.bench import cli
 from tableclean_suite.bench.cli import EXIT_INTERRUPTED, EXIT_USAGE
-from tableclean_suite.bench.config import ANALYSIS_KINDS, INEFFECTIVE_MODES, START_MODES, ConfigError, RunConfig, defaults, field_docs
+from tableclean_suite.bench.config import (ANALYSIS_KINDS, INEFFECTIVE_MODES, START_MODES, ConfigError, RunConfig,
+                                           defaults, field_docs)
 
 #: Above this estimated size ``curves.csv`` keeps every k-th iteration (and says so in config.json).
 CURVES_MAX_BYTES = 20_000_000
@@ -39,7 +40,7 @@ PAPER_TASK = "paper"
 #: Resolution of the PNG figures, dots per inch.
 FIGURE_DPI = 120
 
-#: Command-line flag of each [`RunConfig`][tableclean_suite.bench.config.RunConfig] field whose flag is not ``--field-name``.
+#: Command-line flag of each [`RunConfig`][tableclean_suite.bench.config.RunConfig] field not set by ``--field-name``.
 FLAGS = {"sweeps": "--no-sweeps", "figures": "--no-figures", "progress": "--no-progress",
          "literature": "--no-literature"}
 
@@ -343,9 +344,9 @@ def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task:
         print(tables.display_learning_time(table3).to_string())
         print(f"\nTable 3b: plateaus = {tables.plateaus_kind(table3)} asymptotes of each run's final behaviour (greedy "
               f"policy under the exploration),\n  mean over runs [{level} percentile bootstrap over runs, widened for "
-              f"runs a sample may lack; Clopper-Pearson\n  where each run is 0 or 1]; greedy success = the final greedy "
-              f"policies (epsilon = 0); never terminal = runs that\n  never reached the terminal state; drift = mean "
-              f"change of a run's success asymptote over the window's last quarter;\n  settled = drift <= "
+              "runs a sample may lack; Clopper-Pearson\n  where each run is 0 or 1]; greedy success = the final "
+              "greedy policies (epsilon = 0); never terminal = runs that\n  never reached the terminal state; "
+              f"drift = mean change of a run's success asymptote over the window's last quarter;\n  settled = drift <= "
               f"{100 * config.settle_tolerance:g} pp.")
         if paper_task:
             print("  'paper' = the paper's Table 3 (Q-learning only).")

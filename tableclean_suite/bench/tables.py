@@ -14,7 +14,8 @@ import pandas as pd
 
 from tableclean_suite.bench.paper_data import (PAPER_LEARNER, PAPER_TABLE3, PAPER_TABLE4,  # noqa: F401
                                                 PAPER_TABLE4_COLUMNS, SOURCE_QUOTED)
-from tableclean_suite.bench.statistics import ASYMPTOTES, EQUIVALENCE_MARGINS, LEARNING_TIME_COLUMNS, RUN_MEANS, RUN_SHARES
+from tableclean_suite.bench.statistics import (ASYMPTOTES, EQUIVALENCE_MARGINS, LEARNING_TIME_COLUMNS, RUN_MEANS,
+                                               RUN_SHARES)
 from tableclean_suite.metrics import ITERATION_SCALARS, SUMMARY_SCALARS
 
 #: Identifying columns of a cell record, in table order.
@@ -241,7 +242,7 @@ def display_learning_time(table: pd.DataFrame) -> pd.DataFrame:
 def display_plateaus(table: pd.DataFrame) -> pd.DataFrame:
     """Table 3's plateaus for printing, main rows: per-run asymptotes averaged over runs,
     with intervals, the paper's success rate beside ours, the behaviour drift and settling (and how
-    the asymptotes were computed when some are simulated: [`table3`][tableclean_suite.bench.tables.table3]'s ``asymptotes``)."""
+    the asymptotes were computed when some are simulated: ``asymptotes``)."""
     rows = main_rows(table)
     paper = (100.0 * rows["paper_success_rate"].astype(float)).round(2)
     return _by_cell(rows, {"success % [CI]": _interval_texts(rows, "success_plateau", 2, 100.0),
@@ -256,7 +257,7 @@ def display_plateaus(table: pd.DataFrame) -> pd.DataFrame:
 def plateaus_kind(table: pd.DataFrame) -> str:
     """How the main rows' plateaus were computed, for Table 3b's legend: ``exact``, the simulation's
     label when all are simulated alike, else ``exact or simulated (column 'asymptotes')``; a
-    simulation's Monte Carlo error is inside the intervals ([`statistics.cell_statistics`][tableclean_suite.bench.statistics.cell_statistics])."""
+    simulation's Monte Carlo error is inside the intervals."""
     if ASYMPTOTES not in table.columns:
         return "exact"
     kinds = list(dict.fromkeys(main_rows(table)[ASYMPTOTES]))
@@ -415,7 +416,7 @@ def curves_long(records: list[dict], curves: list[dict], metrics=CURVE_METRICS, 
 #: ``float_format`` of ``curves.csv`` (printf style, as ``DataFrame.to_csv(float_format=...)``).
 CURVES_FLOAT_FORMAT = "%.6g"
 
-#: Characters that make ``DataFrame.to_csv`` quote a text field (then [`csv_text`][tableclean_suite.bench.tables.csv_text] defers to pandas).
+#: Characters that make ``DataFrame.to_csv`` quote a text field (then `csv_text` defers to pandas).
 _CSV_SPECIAL = (",", '"', "\n", "\r")
 
 
@@ -441,7 +442,8 @@ def csv_text(frame: pd.DataFrame, float_format: str = CURVES_FLOAT_FORMAT, na_re
             columns.append(_formatted_floats(series.to_numpy(), float_format, na_rep))
         elif kind in "iu":
             columns.append([str(v) for v in series.to_numpy().tolist()])
-        elif kind == "O" and all(type(t) is str and not any(c in t for c in _CSV_SPECIAL) for t in set(series.tolist())):
+        elif kind == "O" and all(type(t) is str and not any(c in t for c in _CSV_SPECIAL)
+                                 for t in set(series.tolist())):
             columns.append(series.tolist())
         else:
             return frame.to_csv(index=False, float_format=float_format, na_rep=na_rep)
