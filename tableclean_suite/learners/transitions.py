@@ -140,13 +140,9 @@ class TransitionTable:
 
     def successors(self, state: int, action: int) -> list[tuple[int, int, float]]:
         """``[(next_state, outcome, probability), ...]`` of one pair."""
-        result, previous = [], 0.0
-        for k in range(self.max_successors):
-            p = float(self.cumulative[state, action, k]) - previous
-            previous = float(self.cumulative[state, action, k])
-            if p > 0:
-                result.append((int(self.next_state[state, action, k]), int(self.outcome[state, action, k]), p))
-        return result
+        probabilities = np.diff(self.cumulative[state, action], prepend=0.0)
+        return [(int(nxt), int(out), float(p)) for nxt, out, p in
+                zip(self.next_state[state, action], self.outcome[state, action], probabilities) if p > 0]
 
     def sample(self, state: int, action: int, draw: float) -> tuple[int, int]:
         """The successor picked by a uniform ``draw`` in [0, 1): ``(next_state, outcome)``."""
