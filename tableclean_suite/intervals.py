@@ -20,8 +20,6 @@ DEFAULT_CONFIDENCE = 0.95
 DEFAULT_REPS = 2000
 #: Bootstrap interval methods ``scipy.stats.bootstrap`` offers that the API accepts.
 METHODS = ("percentile", "bca")
-#: Weight of a tied pair in a probability of improvement.
-HALF = 0.5
 
 
 def check_confidence(confidence: float) -> float:
@@ -159,7 +157,6 @@ class _Improvement:
         with np.errstate(invalid="ignore"):
             self.beaten = np.searchsorted(distinct, x - margin, side="left")  # ranks of y < x - margin
             self.not_above = np.searchsorted(distinct, x + margin, side="right")  # ranks of y <= x + margin
-        self.pairs = len(x) * len(y)
 
     def __call__(self, ix, iy, axis=-1):
         ix, iy = np.moveaxis(np.asarray(ix), axis, -1), np.moveaxis(np.asarray(iy), axis, -1)
@@ -174,7 +171,7 @@ class _Improvement:
         beaten = np.take_along_axis(below, self.beaten[ix], axis=1)
         not_above = np.take_along_axis(below, self.not_above[ix], axis=1)
         # wins + ties / 2 = (beaten + not_above) / 2: integer sums, exact in any order
-        return ((beaten.sum(axis=1, dtype=np.int64) + not_above.sum(axis=1, dtype=np.int64)) * HALF
+        return ((beaten.sum(axis=1, dtype=np.int64) + not_above.sum(axis=1, dtype=np.int64)) * 0.5
                 / (nx * ny)).reshape(lead)
 
 
