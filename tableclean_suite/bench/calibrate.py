@@ -1,6 +1,6 @@
 """A physics-calibrated transition model: the fidelity executions, counted into a TransitionTable.
 
-    tableclean-bench calibrate [--task SPEC] [--trials N] [--out transitions.json] [--seed S] [--fresh]
+    tableclean-bench calibrate --task three_segments --trials 5 --out transitions.json
     tableclean-bench calibrate --from-trials results/fidelity/fidelity_trials.csv --out transitions.json
 
 Every (state, action) pair is executed ``N`` times as ``tableclean-bench fidelity`` does, and the

@@ -1,9 +1,6 @@
 """Collect skill demonstrations in robomimic's hdf5 layout.
 
-    tableclean-bench demos --task SPEC --episodes N [--robots Panda]
-        [--policy optimal|learned] [--seed S] [--out FILE.hdf5]
-        [--iterations I --runs R --max-actions A] [--valid-fraction F]
-        [--workers N] [--executor local|ray] [--ray-address HOST:PORT|auto]
+    tableclean-bench demos --task three_segments --episodes 20 --policy learned --workers 2
 
 Each demo starts from a random all-unclean layout of the spec (placement noise seeded); the
 SkillController then executes the model's shortest plan (``optimal``) or the majority greedy policy

@@ -1,6 +1,6 @@
 """Task specs solved by classical planners: each plan's length against the model's optimum, replayed in the model.
 
-    tableclean-bench pddl --task paper [--planners pyperplan,fast-downward] [--states all|N] [--seed S] [--out DIR]
+    tableclean-bench pddl --task all --planners pyperplan --states 50 --out results/pddl
 
 Each task (``--task``: names or ``.json`` paths, or ``all``) is exported to PDDL
 ([`tableclean_suite.task.pddl`][tableclean_suite.task.pddl]) and solved by optimal planners (unified-planning,

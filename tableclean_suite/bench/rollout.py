@@ -1,8 +1,6 @@
 """Watch a learned policy: train on the symbolic model, run the greedy policy with skills in physics.
 
-    tableclean-bench rollout --reward r4 --video out.mp4 [--learner q_learning]
-        [--object-segment 1 --arm-segment 1] [--iterations N] [--runs R] [--seed S]
-        [--fps F] [--width W --height H] [--frame-every K] [--still PATH]
+    tableclean-bench rollout --reward r4 --video out.mp4 --object-segment 1 --arm-segment 1
 
 The policy is the majority vote of ``--runs`` runs' greedy actions (ties: lowest action), trained
 on the task model from the chosen start layout and executed from it by the skills; every ``K``-th
