@@ -378,13 +378,11 @@ def _call(validate, field: str | None = None, **values) -> None:
         raise ConfigError(field or named, str(error)) from None
 
 
-def field_docs(cls=RunConfig) -> dict[str, str]:
-    """``{field: docstring}`` of a dataclass written with a string literal after each field.
-
-    Read from the class's source; empty when the source is not available (e.g. bytecode only).
-    """
+def field_docs() -> dict[str, str]:
+    """``{field: docstring}`` of `RunConfig` (the string literal after each field), read from its
+    source; empty when the source is not available (e.g. bytecode only)."""
     try:
-        tree = ast.parse(inspect.getsource(cls))
+        tree = ast.parse(inspect.getsource(RunConfig))
     except (OSError, TypeError):
         return {}
     body = tree.body[0].body

@@ -47,10 +47,9 @@ def table1_frame(model: TaskModel) -> pd.DataFrame:
                          for n, state in TABLE1_STATES.items()]).set_index("table1")
 
 
-def rewards_frame(names=None) -> pd.DataFrame:
+def rewards_frame() -> pd.DataFrame:
     """Registered reward patterns as the paper's Table 2 ("-" for no looping penalty)."""
-    names = reward_pattern_names() if names is None else names
-    frame = pd.DataFrame([get_reward_pattern(n).as_row() for n in names]).set_index("reward")
+    frame = pd.DataFrame([get_reward_pattern(n).as_row() for n in reward_pattern_names()]).set_index("reward")
     return frame.astype(object).where(frame.notna(), "-")
 
 

@@ -420,37 +420,28 @@ CURVES_FLOAT_FORMAT = "%.6g"
 _CSV_SPECIAL = (",", '"', "\n", "\r")
 
 
-def _formatted_floats(values: np.ndarray, float_format: str, na_rep: str) -> list[str]:
-    """``values`` (float64) as ``to_csv`` writes them: ``float_format % v``, ``na_rep`` for NaN; each
-    distinct bit pattern formatted once (curves repeat values), so -0.0 and 0.0 stay apart."""
-    values = np.ascontiguousarray(values, dtype=np.float64)
-    codes, bits = pd.factorize(values.view(np.int64))
-    texts = [na_rep if v != v else float_format % v for v in np.asarray(bits, dtype=np.int64).view(np.float64).tolist()]
-    return np.asarray(texts, dtype=object)[codes].tolist()
+def csv_text(frame: pd.DataFrame) -> str:
+    """``frame.to_csv(index=False, float_format=CURVES_FLOAT_FORMAT)`` byte for byte, formatting float64,
+    integer and plain-text columns here (each distinct float bit pattern once; pandas formats every cell
+    through Python calls, which doubled the time of a run that reuses its cells); anything else (other
+    dtypes, non-string objects, text that needs quoting) is left to pandas."""
+    def plain(texts) -> bool:
+        return all(type(text) is str and not any(c in text for c in _CSV_SPECIAL) for text in texts)
 
-
-def csv_text(frame: pd.DataFrame, float_format: str = CURVES_FLOAT_FORMAT, na_rep: str = "") -> str:
-    """``frame.to_csv(index=False, float_format=float_format, na_rep=na_rep)`` byte for byte, column by
-    column (pandas formats every cell through Python calls: it doubled the time of a run that reuses
-    its cells).  Float64, integer and plain-text columns are formatted here; anything else (other
-    dtypes, non-string objects, text that needs quoting) is handed to pandas."""
-    columns = []
-    for name in frame.columns:
+    names, columns = list(frame.columns), []
+    for name in names:
         series = frame[name]
-        kind = series.dtype.kind
-        if kind == "f" and series.dtype == np.float64:
-            columns.append(_formatted_floats(series.to_numpy(), float_format, na_rep))
-        elif kind in "iu":
+        if series.dtype == np.float64:
+            codes, bits = pd.factorize(np.ascontiguousarray(series.to_numpy()).view(np.int64))
+            texts = [CURVES_FLOAT_FORMAT % v if v == v else "" for v in np.asarray(bits).view(np.float64).tolist()]
+            columns.append(np.asarray(texts, dtype=object)[codes].tolist())
+        elif series.dtype.kind in "iu":
             columns.append([str(v) for v in series.to_numpy().tolist()])
-        elif kind == "O" and all(type(t) is str and not any(c in t for c in _CSV_SPECIAL)
-                                 for t in set(series.tolist())):
+        elif series.dtype.kind == "O" and plain(set(series.tolist())):
             columns.append(series.tolist())
         else:
-            return frame.to_csv(index=False, float_format=float_format, na_rep=na_rep)
-    names = [str(name) for name in frame.columns]
-    if not names or not all(type(n) is str and not any(c in n for c in _CSV_SPECIAL) for n in frame.columns):
-        return frame.to_csv(index=False, float_format=float_format, na_rep=na_rep)
-    if not len(frame):
-        return ",".join(names) + "\n"
-    return ",".join(names) + "\n" + "\n".join(map(",".join, zip(*columns))) + "\n"
-
+            names = []
+            break
+    if not names or not plain(names):
+        return frame.to_csv(index=False, float_format=CURVES_FLOAT_FORMAT)
+    return "".join(line + "\n" for line in (",".join(names), *map(",".join, zip(*columns))))
