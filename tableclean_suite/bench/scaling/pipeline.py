@@ -10,13 +10,14 @@ from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from tableclean_suite.bench.cli import say
 from tableclean_suite.bench.scaling.family import (BASE_MAX_ITR, FIXED_PLAN_FAMILY, PRODUCT_FAMILY, counts_text,
                                                    describe_family, family_specs, fixed_plan_spec, paper_plan_steps)
 from tableclean_suite.bench.scaling.report import (config_dict, interval_text, json_safe, observed_order,
                                                    ordering_answer, ordering_report, print_cells, print_specs,
-                                                   write_csv, write_figure)
+                                                   write_figure)
 from tableclean_suite.bench.scaling.statistics import (CONFIDENCE, MAX_CENSORED_SHARE_FOR_FIT, PAPER_ORDER,
                                                        fit_censored_power_law, local_slopes, log_standard_error)
 from tableclean_suite.bench.scaling.study import cell_row, train_cell
@@ -202,9 +203,9 @@ def _study(args, out: Path) -> int:
                   for reward, listed in per.items() for slope in listed]
     seconds = time.perf_counter() - started
     outputs.publish(out, {
-        "scaling.csv": lambda path: write_csv(path, rows),
-        "scaling_specs.csv": lambda path: write_csv(path, [asdict(s) for s in infos]),
-        "scaling_slopes.csv": lambda path: write_csv(path, slope_rows),
+        "scaling.csv": lambda path: pd.DataFrame(rows).to_csv(path, index=False),
+        "scaling_specs.csv": lambda path: pd.DataFrame([asdict(s) for s in infos]).to_csv(path, index=False),
+        "scaling_slopes.csv": lambda path: pd.DataFrame(slope_rows).to_csv(path, index=False),
         "scaling.png": lambda path: write_figure(path, rows, fit_learner, fits[PRODUCT_FAMILY]),
     }, json_safe(config_dict(args, infos, fits, slopes, verdicts, seconds, fit_learner, method_constants(args))),
         command="scaling")

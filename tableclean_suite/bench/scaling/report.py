@@ -33,13 +33,6 @@ def json_safe(value):
     return value
 
 
-def write_csv(path: Path, rows: list[dict]) -> None:
-    """Rows of equal keys as CSV."""
-    import pandas as pd
-
-    pd.DataFrame(rows).to_csv(path, index=False)
-
-
 def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None:
     """Two rows of panels, one column per gamma, for ``learner``.
 
