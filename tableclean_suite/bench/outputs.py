@@ -22,16 +22,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable
 
-from tableclean_suite.atomic_files import (  # noqa: F401  (part of this module's interface)
-    OutputError,
-    atomic_write,
-    atomic_write_text,
-    describe_os_error,
-    remove_quietly,
-    replace,
-    temporary_path,
-    write_temporary,
-)
+from tableclean_suite.atomic_files import (OutputError, atomic_write, atomic_write_text,  # noqa: F401 (exported)
+                                           describe_os_error, remove_quietly, replace, temporary_path, write_temporary)
 
 #: The manifest, and the new one while its files move in (left behind only by an interrupted publication).
 MANIFEST, PENDING = "config.json", ".publishing.json"
