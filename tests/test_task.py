@@ -93,7 +93,7 @@ def test_place_with_nothing_held_is_ineffective(obj):
 @pytest.mark.parametrize("s", [state(False, False, HELD, S1), state(False, False, ON1, S1), state(True, False, ON2, S2)])
 def test_clean_while_holding_or_on_object_is_improper_and_keeps_state(s):
     assert TaskModel().step(s, Action.CLEAN) == (s, Outcome.IMPROPER)
-    assert TaskModel().is_improper(s, Action.CLEAN)
+    assert TaskModel().step(s, Action.CLEAN)[1] == Outcome.IMPROPER
 
 
 def test_relevant_irrelevant_and_terminal_clean():
@@ -172,7 +172,7 @@ def test_shortest_plans_are_valid_and_minimal():
         assert len(plan) == length
         visited = model.rollout(code, plan)
         assert visited[-1].is_terminal
-        assert all(not model.is_improper(s, a) for s, a in zip(visited, plan))
+        assert all(model.step(s, a)[1] != Outcome.IMPROPER for s, a in zip(visited, plan))
     assert max(lengths.values()) == 9  # holding the object over the other segment, both unclean
 
 

@@ -209,7 +209,7 @@ def test_a_user_action_changes_the_action_space_and_the_plans():
 
 
 @pytest.mark.parametrize("effect,match", [
-    (lambda s: (s.with_clean(0), Outcome.INEFFECTIVE), "must leave the state unchanged"),
+    (lambda s: (s.replace(clean=(True,) + s.clean[1:]), Outcome.INEFFECTIVE), "must leave the state unchanged"),
     (lambda s: (s, Outcome.TERMINAL), "non-terminal Outcome"),
     (lambda s: ("not a state", Outcome.ROUTINE), "non-terminal Outcome"),
     (lambda s: (s.replace(objects=(HELD, HELD)), Outcome.ROUTINE), "more than one object"),

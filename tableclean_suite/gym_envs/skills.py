@@ -18,15 +18,12 @@ FAULT_OUTCOME = -1
 class TableCleanSkillsEnv(TableCleanBase):
     """The table-cleaning task with each action carried out by a skill in MuJoCo.
 
-    Same task, spaces, rewards and ``info`` as ``TableCleanSymbolic-v0``, but every action runs a skill
-    of the [`SkillController`][tableclean_suite.controllers.skill_controller.SkillController] on the ``TableClean`` scene and the next state is read
-    back from the physics through the abstraction (improper actions are refused without motion).
-    A step takes 0 to several hundred control steps.  The start state is staged in the scene
-    (placement noise seeded by ``self.np_random``; a held object is picked up).  The reward applies
-    to the *observed* transition.
-
-    Truncation: after 500 steps, or at once when the abstraction reports a fault (the scene maps
-    to no task state): the observation stays the last good state, the reward is 0, ``info["fault"]``
+    Same task, spaces, rewards and ``info`` as ``TableCleanSymbolic-v0``; each action runs a skill of the
+    [`SkillController`][tableclean_suite.controllers.skill_controller.SkillController] (0 to several hundred
+    control steps; improper actions are refused without motion) and the next state is read back from the
+    physics; the reward applies to that *observed* transition.  Each reset stages the start state in the
+    scene, with placement noise seeded by ``self.np_random``.  When the scene maps to no task state the
+    episode is truncated: the observation stays the last good state, the reward is 0, ``info["fault"]``
     holds the reason and ``info["outcome"]`` is -1.  ``info["skill_result"]`` is a picklable
     [`SkillReport`][tableclean_suite.skill_result.SkillReport] (equal ignoring timings).
 
@@ -74,7 +71,6 @@ class TableCleanSkillsEnv(TableCleanBase):
         self.frame_size = (int(frame_size[0]), int(frame_size[1]))
         self.sim_env = make_skill_env(**kwargs)
         self.controller = SkillController(self.sim_env, self.model, skill_configs=skill_configs)
-        self.last_skill_result = None
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         from tableclean_suite.physics_backend import stage
@@ -87,7 +83,6 @@ class TableCleanSkillsEnv(TableCleanBase):
     def step(self, action):
         action = self._check_action(action)
         result = SkillReport.of(self.controller.execute(action))  # picklable; equal ignoring timings
-        self.last_skill_result = result
         if result.state_after is None:
             self.lastaction, self.last_outcome = action, None
             info = self._info()

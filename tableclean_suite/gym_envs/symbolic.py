@@ -9,6 +9,7 @@ from gymnasium import spaces
 
 from tableclean_suite.rewards import RewardPattern, get_reward_pattern
 from tableclean_suite.task import Outcome, TaskModel, TaskSpec, TaskState
+from tableclean_suite.task.state import object_labels
 
 #: Episode length after which the registry's TimeLimit truncates (the paper-faithful max_itr default).
 MAX_EPISODE_STEPS = 500
@@ -46,8 +47,7 @@ class TableCleanBase(gym.Env):
         self.action_space = spaces.Discrete(model.n_actions)
         self.observation_space = spaces.Discrete(model.n_states)
         self.s: int = _NO_STATE  # current state code
-        self.previous: int = _NO_STATE  # s_{t-1} for r4's looping penalty (-1 at an episode's first step)
-        self.history: list[int] = []  # the episode's states s_0 .. s_t, for looping rules that look further back
+        self.history: list[int] = []  # the episode's states s_0 .. s_t, for the looping penalty
         self.lastaction: int | None = None  # index in the task's action order
         self.last_outcome: Outcome | None = None
 
@@ -65,7 +65,6 @@ class TableCleanBase(gym.Env):
     def _begin_episode(self, state: TaskState):
         """Make ``state`` the current one with no history; returns ``(observation, info)`` for ``reset``."""
         self.s = state.index
-        self.previous = _NO_STATE
         self.history = [self.s]
         self.lastaction = self.last_outcome = None
         return int(self.s), self._info()
@@ -98,8 +97,9 @@ class TableCleanBase(gym.Env):
         """Reward and record the step from ``self.s`` to ``next_state``; ``step``'s 5-tuple (not truncated: the
         registry's TimeLimit truncates)."""
         state = self.s
-        reward = float(self.reward_pattern.reward(int(outcome), state, next_state, self.previous, self.history))
-        self.previous, self.s = state, next_state
+        previous = self.history[-2] if len(self.history) > 1 else _NO_STATE
+        reward = float(self.reward_pattern.reward(int(outcome), state, next_state, previous, self.history))
+        self.s = next_state
         self.history.append(next_state)
         self.lastaction, self.last_outcome = action, outcome
         return int(next_state), reward, self.model.decode(next_state).is_terminal, False, self._info(outcome)
@@ -136,10 +136,6 @@ def _last_text(action: str | None, outcome: Outcome | None) -> str:
     return f"   last: {action}" + (f" ({outcome.name.lower()})" if outcome is not None else "")
 
 
-def _object_label(state: TaskState, j: int) -> str:
-    return "obj" if state.n_objects == 1 else f"o{j + 1}"
-
-
 def render_text(state: TaskState, action: str | None = None, outcome: Outcome | None = None) -> str:
     """A small text picture of the table (any number of segments and objects), e.g.:
 
@@ -154,10 +150,11 @@ def render_text(state: TaskState, action: str | None = None, outcome: Outcome | 
     """
     width = 12
     cells = {"status": [], "object": [], "arm": []}
-    held = [_object_label(state, j) for j in range(state.n_objects) if state.objects[j] < 0]
+    label = object_labels(state.n_objects)
+    held = [label[j] for j in range(state.n_objects) if state.objects[j] < 0]
     for k in range(state.n_segments):
         cells["status"].append(f"S{k + 1} " + ("clean" if state.is_clean(k) else "~dirty~"))
-        cells["object"].append("".join(f"[{_object_label(state, j)}]" for j in state.objects_on(k)))
+        cells["object"].append("".join(f"[{label[j]}]" for j in state.objects_on(k)))
         cells["arm"].append(("ARM" + "".join(f"[{h}]" for h in held)) if state.arm == k else "")
     rule = "+" + "+".join("-" * width for _ in range(state.n_segments)) + "+"
     lines = [rule]
@@ -212,43 +209,20 @@ def render_image(state: TaskState, action: str | None = None, outcome: Outcome |
 
 
 class TableCleanSymbolicEnv(TableCleanBase):
-    """A table-cleaning task spec (default the paper's) as a tabular Gymnasium environment.
+    """A table-cleaning task spec (default the paper's) as a tabular Gymnasium environment that steps
+    the [`TaskModel`][tableclean_suite.task.model.TaskModel] (whose docstring states the rules).
 
-    ## Description
-    N segments (the paper: two), each clean or unclean; M objects (the paper: one) lying on a segment
-    or held; the arm above one segment.  The goal is to clean every segment, moving objects off it
-    first.  The env steps the task model ([`TaskModel`][tableclean_suite.task.model.TaskModel], whose docstring
-    states every rule); ``TableCleanSkills-v0`` runs the actions with skills in MuJoCo.
+    - Actions: ``Discrete(A)``, the spec's actions in order (the paper's: 0 move, 1 pick, 2 place, 3 clean).
+    - Observations: ``Discrete(S)``, the state code ([`encode`][tableclean_suite.task.state.encode]; the
+      paper's ``Discrete(24)``; ``env.unwrapped.model.decode(code)`` gives the state).
+    - Start: the spec's (the paper: Table 1's state 4 = code 0); ``start="uniform_unclean"`` draws with
+      ``self.np_random``; ``reset(options={"state": code})`` starts in any non-terminal state.
+    - Reward: the reward pattern's value of each step's outcome (default ``"r4"``, the paper's Table 2).
+    - End: terminated when every segment is clean, truncated after 500 steps.
+    - ``info``: ``"action_mask"`` (``(A,)`` int8, 1 where not improper), ``"state_name"``, and after a
+      step ``"outcome"`` ([`Outcome`][tableclean_suite.task.state.Outcome] code), ``"outcome_name"`` and
+      ``"prob"`` (1.0); all picklable.
 
-    ## Action Space
-    ``Discrete(A)``, the spec's actions in order; the paper's: 0 move (to the next segment, carrying a
-    held object), 1 pick (the lowest-numbered object on the arm's segment), 2 place, 3 clean.
-
-    ## Observation Space
-    ``Discrete(S)``, the state code of [`encode`][tableclean_suite.task.state.encode]; for the paper ``Discrete(24)``,
-    ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment`` (object
-    location 0/1 a segment, 2 held; ``env.unwrapped.model.decode(code)``).
-
-    ## Starting State
-    The spec's start (the paper: Table 1's state 4 = code 0); ``start="uniform_unclean"`` draws among
-    the all-unclean layouts with ``self.np_random``; ``reset(options={"state": code})`` starts anywhere
-    non-terminal.
-
-    ## Rewards
-    From the reward pattern (default ``"r4"``, Table 2 of the paper): +1 for the clean that ends the
-    episode and (r2-r4) for cleaning an unclean segment; -0.01 for cleaning a clean segment or an
-    ineffective pick/place; -0.01 (r1, r2) or +0.01 (r3, r4) per move/pick/place; -1 for an improper
-    action (the state does not change); r4: -0.01 for a move/pick/place that loops (returns to
-    s_{t-1} or stays).
-
-    ## Episode End
-    Termination: every segment clean.  Truncation: after 500 steps (the registry's ``max_episode_steps``).
-
-    ## Information
-    ``"action_mask"`` (``(A,)`` int8, 1 where not improper), ``"state_name"``, and after a step
-    ``"outcome"`` ([`Outcome`][tableclean_suite.task.state.Outcome] code), ``"outcome_name"`` and ``"prob"`` (1.0); all picklable.
-
-    ## Arguments
     ```python
     gymnasium.make("TableCleanSymbolic-v0", reward="r4", task="paper", start=None, render_mode=None)
     ```

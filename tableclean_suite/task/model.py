@@ -48,72 +48,29 @@ class UnlearnableTaskError(resources.ResourceError):
 class TaskModel:
     """The table-cleaning task of a [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] as a deterministic model.
 
-    ## Description
-    A table has N segments (N >= 2, numbered 1..N), each clean or unclean, and M objects
-    (M >= 1), each lying on a segment or held by the gripper; the arm is above one
-    segment.  The sponge has a fixed home off the table (the paper's Sec. 2), so it is
-    not part of the state.  The goal is to clean every segment.  The paper's task is
-    the ``paper`` spec: N = 2, M = 1.
+    N >= 2 segments (clean or unclean), M >= 1 objects (on a segment or held), the arm above one
+    segment; the goal is every segment clean.  The paper's task is the ``paper`` spec (N = 2, M = 1).
 
-    ## Action Space
-    The spec's actions in its order; the default (and the paper's) is
-    0 MOVE, 1 PICK, 2 PLACE, 3 CLEAN.  The order breaks greedy ties (lowest first).
-    Users add actions by name ([`register_action`][tableclean_suite.task.actions.register_action]).
+    - Actions: the spec's, in its order (the paper's: 0 MOVE, 1 PICK, 2 PLACE, 3 CLEAN); the order
+      breaks greedy ties.  Each follows its registered effect
+      ([`ActionRule`][tableclean_suite.task.actions.ActionRule]); an INEFFECTIVE effect counts as
+      IMPROPER with ``ineffective="improper"``, and any action that leaves every segment clean is
+      TERMINAL.  IMPROPER, INEFFECTIVE and IRRELEVANT_CLEAN leave the state unchanged.
+    - States: ``2**N * (N + 1)**M * N`` codes ([`encode`][tableclean_suite.task.state.encode]); for the
+      paper 24, of which 20 are reachable from the all-unclean starts
+      ([`reachable_states`][tableclean_suite.task.model.TaskModel.reachable_states]).
+    - Starts: ``"fixed"`` (the spec's start state; default all unclean, objects and arm on segment 1)
+      or ``"uniform_unclean"`` (uniform over the ``N**M * N`` all-unclean layouts, nothing held).
 
-    ## Observation Space
-    ``2**N * (N + 1)**M * N`` codes, a mixed radix with, most significant first, the
-    clean flag of segments 1..N (radix 2), the location of objects 1..M (radix N + 1:
-    segment index 0..N-1, or N for held) and the arm's segment (radix N)
-    ([`encode`][tableclean_suite.task.state.encode]).  For the paper's spec that is
-    ``((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 + arm_segment``:
-    24 codes, of which 20 are reachable from the all-unclean starts (18 non-terminal,
-    2 terminal).  Codes holding two objects are never reached; ``three_segments`` has
-    96 codes and 90 reachable, ``three_segments_two_objects`` 384 and 327
-    ([`reachable_states`][tableclean_suite.task.model.TaskModel.reachable_states]).  Table 1 of the paper lists 18 states; its rows 14, 15,
-    16 and 18 can never be reached and it omits 6 reachable ones
-    ([`table1_mapping`][tableclean_suite.task.model.TaskModel.table1_mapping]).
+    Args:
+        ineffective: ``"ineffective"`` or ``"improper"``; None keeps the spec's.
+        start: ``"fixed"`` or ``"uniform_unclean"``; None keeps the spec's.
+        start_state: a [`TaskState`][tableclean_suite.task.state.TaskState] or code; only with ``start="fixed"``.
+        spec: a registered name (default ``"paper"``), a [`TaskSpec`][tableclean_suite.task.spec.TaskSpec],
+            a ``.json`` spec or a ``.pddl`` problem.
 
-    ## Rules
-    - MOVE: the arm goes to the next segment, k -> k + 1 (N -> 1); a held object goes
-      along. ROUTINE.  For N = 2 this is the paper's "other segment".
-    - PICK: nothing held and at least one object on the arm's segment -> the
-      lowest-numbered such object is held. ROUTINE.  Otherwise nothing changes:
-      INEFFECTIVE (or IMPROPER with ``ineffective="improper"``).
-    - PLACE: holding -> the held object lies on the arm's segment (several objects may
-      share a segment). ROUTINE.  Otherwise as an ineffective pick.
-    - CLEAN: IMPROPER when holding an object or when any object lies on the arm's
-      segment; the state does not change (Algorithm 1's failed state).  Otherwise
-      RELEVANT_CLEAN when the arm's segment is unclean (it becomes clean),
-      IRRELEVANT_CLEAN when it is already clean.
-    - Any action that leaves every segment clean has outcome TERMINAL.
-    - A user action follows its registered effect, with the same INEFFECTIVE and
-      TERMINAL conventions.
-
-    ## Starting State
-    ``start="fixed"`` with the spec's start state (default: every segment unclean,
-    every object on segment 1, the arm over segment 1; for the paper that is Table 1's
-    state 4), or ``start="uniform_unclean"``: uniform over every all-unclean layout with
-    nothing held (``N**M * N`` layouts; the paper's four).
-
-    ## Rewards
-    Reward patterns r1-r4 (the paper's Table 2) map outcomes to rewards
-    ([`tableclean_suite.rewards`][tableclean_suite.rewards]); the looping penalty compares state codes.
-
-    ## Episode End
-    Terminal when every segment is clean.  Learners also truncate after ``max_itr``
-    iterations.
-
-    ## Arguments
-    - ``spec``: a registered name (default ``"paper"``), a [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] or a
-      ``.json`` path.
-    - ``ineffective``: ``"ineffective"`` or ``"improper"``; None keeps the spec's.
-    - ``start``: ``"fixed"`` or ``"uniform_unclean"``; None keeps the spec's.
-    - ``start_state``: a [`TaskState`][tableclean_suite.task.state.TaskState] or code; only with ``start="fixed"``.
-
-    ## Version History
-    - v1: task specifications (N segments, M objects, user actions); the paper's
-      spec keeps v0's codes, rules and numbers.
-    - v0: the paper's two-segment, one-object task.
+    Raises:
+        ValueError: an unknown spec, mode or start state (the message names the allowed ones).
     """
 
     def __init__(self, ineffective: str | None = None, start: str | None = None,
@@ -256,16 +213,12 @@ class TaskModel:
             raise ActionEffectError(f"{what}: {next_state.name} holds more than one object")
         return next_state, outcome
 
-    def is_improper(self, state: StateLike, action) -> bool:
-        """Whether ``action`` is improper in ``state`` (a failed state, refused by the skills)."""
-        return self.step(state, action)[1] == Outcome.IMPROPER
-
     def action_mask(self, state: StateLike) -> np.ndarray:
         """Shape ``(n_actions,)`` int8: 1 where the action is not improper in ``state`` (all 0 at terminal)."""
         state = self.as_state(state)
         if state.is_terminal:
             return np.zeros(self.n_actions, dtype=np.int8)
-        return np.array([0 if self.is_improper(state, a) else 1 for a in range(self.n_actions)], dtype=np.int8)
+        return np.array([self.step(state, a)[1] != Outcome.IMPROPER for a in range(self.n_actions)], dtype=np.int8)
 
     def classify(self, state: StateLike, action, next_state: StateLike) -> Outcome:
         """The outcome of an *observed* transition ``state --action--> next_state`` (physics, where it

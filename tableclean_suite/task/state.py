@@ -132,7 +132,7 @@ class TaskState:
     def name(self) -> str:
         """A readable name, e.g. ``"S1:unclean+obj S2:unclean | arm@S1"`` (objects ``o1``, ``o2``, ...
         when there are several)."""
-        label = _object_labels(self.n_objects)
+        label = object_labels(self.n_objects)
         parts = []
         for k in range(self.n_segments):
             status = "clean" if self.clean[k] else "unclean"
@@ -145,12 +145,6 @@ class TaskState:
         """A validated copy with the given fields (``clean``, ``objects``, ``arm``) changed."""
         return dataclasses.replace(self, **changes)
 
-    def with_clean(self, segment: int) -> "TaskState":
-        """A copy in which ``segment`` (0-based) is clean."""
-        clean = list(self.clean)
-        clean[int(segment)] = True
-        return self.replace(clean=tuple(clean))
-
     def with_object(self, obj: int, where: int) -> "TaskState":
         """A copy in which object ``obj`` (0-based) is at ``where`` (a segment index or HELD)."""
         objects = list(self.objects)
@@ -161,7 +155,8 @@ class TaskState:
         return self.name
 
 
-def _object_labels(n_objects: int) -> list[str]:
+def object_labels(n_objects: int) -> list[str]:
+    """Display names of ``n_objects`` objects: ``["obj"]`` for one, else ``["o1", "o2", ...]``."""
     return ["obj"] if n_objects == 1 else [f"o{j + 1}" for j in range(n_objects)]
 
 
