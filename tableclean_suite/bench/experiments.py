@@ -14,7 +14,7 @@ import hashlib
 import json
 import sys
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field, fields, replace
 from functools import cached_property
 from pathlib import Path
 
@@ -99,19 +99,15 @@ def cell_config(run: CellRun, code: str, task: str, transitions_sha256: str | No
     the learner's settings and code digest, the ``code`` and ``task`` digests
     ([digests][tableclean_suite.bench.digests]), the calibrated table file's ``transitions_sha256``
     and a simulated plan's label."""
-    pattern = get_reward_pattern(run.cell.reward)
-    learner = run.learner
-    reward_values = {k: getattr(pattern, k) for k in (
-        "terminal", "relevant_clean", "irrelevant_clean", "routine", "improper",
-        "ineffective", "looping_penalty", "looping_mode", "looping_memory", "terminal_mode",
-    )}
+    pattern, learner = get_reward_pattern(run.cell.reward), run.learner
+    reward_values = {f.name: getattr(pattern, f.name) for f in fields(pattern) if f.compare}
     return {
         "format_version": CELL_FORMAT_VERSION,
         "package_version": tableclean_suite.__version__,
         "learner": {"name": learner.name, "on_policy": learner.on_policy,
                     "td_target": getattr(learner.td_target, "__qualname__", repr(learner.td_target)),
                     "settings": learner.settings(), "code_digest": code_digest(learner)},
-        "reward": {"name": pattern.name, **reward_values, "outcome_values": pattern.outcome_values().tolist()},
+        "reward": {**reward_values, "outcome_values": pattern.outcome_values().tolist()},
         "cell": asdict(run.cell),
         "settings": run.config.cell_settings(),
         "model": repr(run.model),
