@@ -36,15 +36,18 @@ OPTIONAL_SCALARS = ("success_window_mean", "average_reward_window_mean", "held_s
 #: Suffixes of an interval's bounds, next to the number they bound.
 LOW, HIGH = "_low", "_high"
 
+
+def _with_bounds(names, bounded) -> tuple[str, ...]:
+    """Each of ``names``, followed by its interval's bound columns when it is in ``bounded``."""
+    return tuple(c for name in names for c in ((name, name + LOW, name + HIGH) if name in bounded else (name,)))
+
+
 #: Scalars of [`Summary`][tableclean_suite.metrics.Summary] that carry an interval (per-run means).
 INTERVAL_SCALARS = tuple(name for name in SUMMARY_SCALARS if name in RUN_MEANS or name in RUN_SHARES)
 
-#: The per-run learning time's columns, each followed by its interval's bounds.
-LEARNING_COLUMNS = tuple(c for name in LEARNING_TIME_COLUMNS for c in (name, name + LOW, name + HIGH))
-
-#: Each scalar, followed by its interval's bounds when it has one.
-SCALAR_COLUMNS = tuple(c for name in SUMMARY_SCALARS
-                       for c in ((name, name + LOW, name + HIGH) if name in INTERVAL_SCALARS else (name,)))
+#: The per-run learning time's columns, and each scalar, followed by its interval's bounds when it has one.
+LEARNING_COLUMNS = _with_bounds(LEARNING_TIME_COLUMNS, LEARNING_TIME_COLUMNS)
+SCALAR_COLUMNS = _with_bounds(SUMMARY_SCALARS, INTERVAL_SCALARS)
 
 #: Settling of each cell ([`tableclean_suite.settling`][tableclean_suite.settling]): drift (a fraction) with its
 #: interval, the checkpoint iteration and whether the drift is within tolerance (empty: not measured).
@@ -58,10 +61,7 @@ TABLE3_COLUMNS = ("cell_id", *KEY_COLUMNS, *LEARNING_COLUMNS, *SCALAR_COLUMNS, *
 TABLE4_NUMBERS = (*PAPER_TABLE4_COLUMNS[1:], "learning_time_median", "censored_percent")
 #: Table 4's numbers that carry intervals.
 TABLE4_INTERVALS = ("max_success_rate_percent", "learning_time_median", "censored_percent")
-TABLE4_COLUMNS = (PAPER_TABLE4_COLUMNS[0],
-                  *(c for name in TABLE4_NUMBERS
-                    for c in ((name, name + LOW, name + HIGH) if name in TABLE4_INTERVALS else (name,))),
-                  "source")
+TABLE4_COLUMNS = (PAPER_TABLE4_COLUMNS[0], *_with_bounds(TABLE4_NUMBERS, TABLE4_INTERVALS), "source")
 
 #: Widest a printed table may be (characters); the CSV files hold every column.
 PRINT_WIDTH = 120
