@@ -19,7 +19,7 @@ from tableclean_suite.bench.statistics import DEFAULT_CONFIDENCE, DEFAULT_SAMPLE
 from tableclean_suite.metrics import DEFAULT_PLATEAU_FRACTION, DEFAULT_THRESHOLD
 from tableclean_suite.settling import DEFAULT_SETTLE_TOLERANCE
 from tableclean_suite.simulation import SIMULATED_EPISODES
-from tableclean_suite.task.spec import unique_keys
+from tableclean_suite.task.spec import IneffectiveMode, StartMode, unique_keys
 
 #: Fraction of the runs that must have finished an episode for an average-reward point to count.
 DEFAULT_SUPPORT_FRACTION = 0.5
@@ -27,8 +27,8 @@ DEFAULT_SUPPORT_FRACTION = 0.5
 MAX_BOOTSTRAP_SAMPLES = 100_000
 
 #: Episode start modes and ineffective-action modes a task spec can be overridden with.
-START_MODES = ("fixed", "uniform_unclean")
-INEFFECTIVE_MODES = ("ineffective", "improper")
+START_MODES = tuple(mode.value for mode in StartMode)
+INEFFECTIVE_MODES = tuple(mode.value for mode in IneffectiveMode)
 
 #: Cruz et al.'s methods run on this task for Table 4's "run here" rows (``literature`` cells).
 LITERATURE_LEARNERS = ("affordance_q_learning", "learned_affordance_q_learning", "interactive_q_learning")
