@@ -21,8 +21,6 @@ from tableclean_suite.settling import DEFAULT_SETTLE_TOLERANCE
 from tableclean_suite.simulation import SIMULATED_EPISODES
 from tableclean_suite.task.spec import IneffectiveMode, StartMode, unique_keys
 
-#: Fraction of the runs that must have finished an episode for an average-reward point to count.
-DEFAULT_SUPPORT_FRACTION = 0.5
 #: Largest ``bootstrap_samples``.
 MAX_BOOTSTRAP_SAMPLES = 100_000
 
@@ -120,7 +118,7 @@ class RunConfig:
     """Largest behaviour drift (mean per-run change of the success asymptote over the window's last
     quarter, a fraction) for which a cell counts as settled, in [0, 1]; cells above it are marked in
     Table 3 because their figures depend on the window (tableclean_suite.settling)."""
-    support_fraction: float = DEFAULT_SUPPORT_FRACTION
+    support_fraction: float = 0.5
     """Fraction of the runs that must have finished an episode before an average-reward point counts, in [0, 1]."""
     bootstrap_samples: int = DEFAULT_SAMPLES
     """Bootstrap replicates behind each interval and band, an integer in [1, 100000]."""
