@@ -285,10 +285,12 @@ class CellRun:
 
     @property
     def runs(self) -> int:
+        """The cell's runs, >= 1."""
         return self.config.runs
 
     @property
     def iterations(self) -> int:
+        """Steps per run."""
         return self.config.iterations
 
     @property
