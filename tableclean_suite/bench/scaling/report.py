@@ -19,9 +19,6 @@ Y_MARGIN = 3.0
 FAMILY_MARKERS = {PRODUCT_FAMILY: "o", FIXED_PLAN_FAMILY: "s"}
 
 
-# ---------------------------------------------------------------------------
-# Files
-# ---------------------------------------------------------------------------
 def json_safe(value):
     """``value`` with every non-finite float replaced by None (strict JSON)."""
     if isinstance(value, float) and not math.isfinite(value):
@@ -116,15 +113,12 @@ def config_dict(args, infos: list[SpecInfo], fits: dict, slopes: dict, verdicts:
     from tableclean_suite.bench.outputs import arguments
 
     return {
-        "study": "scaling", **arguments(args), **constants, "fit_learner": fit_learner, "growth_exponents": fits, "local_slopes": slopes,
-        "paper_order": list(PAPER_ORDER),
+        "study": "scaling", **arguments(args), **constants, "fit_learner": fit_learner, "growth_exponents": fits,
+        "local_slopes": slopes, "paper_order": list(PAPER_ORDER),
         "order_holds": verdicts, "specs": [asdict(s) for s in infos], "seconds": seconds,
     }
 
 
-# ---------------------------------------------------------------------------
-# Printing
-# ---------------------------------------------------------------------------
 def interval_text(value, low, high, digits: int = 0) -> str:
     """``"value [low, high]"``; ``"censored"`` for an infinite or missing value; an infinite top reads
     ``>window``."""
