@@ -33,11 +33,11 @@ def test_a_users_registered_gripper_is_left_to_the_scene_to_measure():
         del GRIPPER_MAPPING[mine.__name__]
 
 
-def test_the_scene_refuses_robotiq85_naming_its_defect_before_building():
+def test_the_scene_refuses_a_three_finger_hand_naming_why_before_building():
     with pytest.raises(ValueError) as refused:
-        robosuite.make("TableClean", robots="Kinova3", gripper_types="Robotiq85Gripper")
+        robosuite.make("TableClean", robots="Kinova3", gripper_types="JacoThreeFingerGripper")
     message = str(refused.value)
-    assert "\n" not in message and "'Robotiq85Gripper' on Kinova3" in message and "2.26 rad" in message
+    assert "\n" not in message and "'JacoThreeFingerGripper' on Kinova3" in message and "three-finger" in message
 
 
 @pytest.mark.parametrize("freq, ok", [(1, True), (20, True), (500.0, True), (0.5, False), (501, False),

@@ -33,13 +33,20 @@ class CorrectedRobotiq85Gripper(Robotiq85Gripper):
       other with 58 N open and 110 N closed and keep the fingers moving (they never settle).  Contacts between
       any two of the gripper's bodies are excluded (the linkage is kinematic now): 0 N open and closed.
     - Ranges: every linkage joint limited to [0, 0.8] rad (inner fingers [-0.8, 0]), as the actuators'
-      ``ctrlrange``; ``init_qpos`` open (robosuite's starts out of range).
+      ``ctrlrange``, with stiff limits (solref 0.005 s; MuJoCo's default let a closing finger run 0.023 rad
+      past); ``init_qpos`` open (robosuite's starts out of range).
     - Strength: the position actuators (kp 20 N m/rad) are limited to 1.5 N m, about 24 N per finger on the
       sponge, like the Panda hand's 20 N (unlimited, 136 N per finger squeeze it by 7 mm).
     - Joint damping 0.1 N m s/rad and armature 0.005 kg m^2 on the linkage joints.
+    - The finger geoms resist twisting (``condim`` 4, as the Panda's fingers): without it the sponge pinched
+      between the narrow pads turned about the closing axis while wiping and went down 3.2 cm off its home
+      (2 of 10 UR5e episodes from random starts, and 1 of 1 260 fidelity trials).
+    - Its ``joints`` (robosuite's gripper joints: reset, observations, the skills' finger motion, the open width
+      measured over their ranges' ends) are the two outer knuckles; the four followers move with them (tried at
+      their own range ends they gave a 12.3 cm open width, which the pads never reach).
 
     Measured closing: pads 8.5 cm apart open, 0.1 cm closed on nothing, 4.8 cm on the 8 x 5 x 3 cm sponge
-    (settled in 4 control steps, lifted 10 cm without slipping); no joint leaves its range.
+    (settled in 4 control steps, lifted 10 cm without slipping); no joint leaves its range by over 0.006 rad.
     """
 
     replaces = "Robotiq85Gripper"
@@ -59,7 +66,8 @@ class CorrectedRobotiq85Gripper(Robotiq85Gripper):
             self.tendon.remove(tendon)
         for driver, (knuckle, finger) in self.LINKAGE.items():
             for name, low, high in ((driver, 0, self.CLOSED), (knuckle, 0, self.CLOSED), (finger, -self.CLOSED, 0)):
-                joints[name].attrib.update(limited="true", range=f"{low} {high}", damping="0.1", armature="0.005")
+                joints[name].attrib.update(limited="true", range=f"{low} {high}", damping="0.1", armature="0.005",
+                                           solreflimit=_COUPLING["solref"], solimplimit=_COUPLING["solimp"])
             ET.SubElement(self.equality, "joint", joint1=prefix + knuckle, joint2=prefix + driver,
                           polycoef="0 1 0 0 0", **_COUPLING)
             ET.SubElement(self.equality, "joint", joint1=prefix + finger, joint2=prefix + driver,
@@ -70,14 +78,19 @@ class CorrectedRobotiq85Gripper(Robotiq85Gripper):
         for i, first in enumerate(bodies):
             for second in bodies[i + 1:]:
                 ET.SubElement(self.contact, "exclude", body1=first, body2=second)
+        self._joints = [name for name in self._joints if name in self.LINKAGE]  # robosuite keeps them unprefixed
+        fingers = {prefix + name for side in ("left_finger", "right_finger") for name in self._important_geoms[side]}
+        for geom in self.worldbody.iter("geom"):
+            if geom.get("name") in fingers:
+                geom.set("condim", "4")
         for actuator in self.actuator:
             actuator.attrib.update(ctrlrange=f"0 {self.CLOSED}", forcelimited="true",
                                    forcerange=f"{-self.MAX_TORQUE} {self.MAX_TORQUE}")
 
     @property
     def init_qpos(self):
-        """(6,) rad: open, every linkage joint at 0."""
-        return np.zeros(6)
+        """(2,) rad: the outer knuckles open."""
+        return np.zeros(2)
 
 
 class CorrectedRobotiq140Gripper(Robotiq140Gripper):

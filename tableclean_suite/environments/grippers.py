@@ -10,12 +10,10 @@ once they hold: robosuite's Panda and Rethink grippers (`SUPPORTED`).  `REFUSED`
 from __future__ import annotations
 
 #: robosuite's names of the grippers the skills drive (``gripper_types=``).
-SUPPORTED = ("PandaGripper", "RethinkGripper")
+SUPPORTED = ("PandaGripper", "RethinkGripper", "Robotiq85Gripper")
 _HAND = "a three-finger hand: the skills close two pads on a line"
 #: robosuite's grippers refused, with the defect (robosuite's others: not a two-finger gripper the skills drive).
 REFUSED = {
-    "Robotiq85Gripper": "robosuite's model is unstable: its open fingers press on their own linkage with 28-58 N "
-                        "and a knuckle runs to 2.26 rad, past its 0.876 rad range",
     "Robotiq140Gripper": "robosuite's model: its knuckles press on each other with up to 150 N, its undamped finger "
                          "linkage creeps on for over 100 control steps after closing, and closed on the sponge its "
                          "fingertips reach below it and drag on the table while wiping",
@@ -31,6 +29,8 @@ REFUSED = {
 #: action name for that action's skill; merged after the robot's
 #: ([`skill_overrides`][tableclean_suite.environments.robot_registry.skill_overrides]).
 GRIPPER_SKILLS: dict[str, dict[str, dict]] = {
+    # m: its fingertips reach 1.8 cm below the grip site closed (1.5 cm on the sponge, 0.4 cm open)
+    "Robotiq85Gripper": {"*": {"fingertip_depth": 0.018}},
     "Robotiq140Gripper": {},
 }
 
