@@ -61,7 +61,8 @@ def count_transitions(rows, model: TaskModel | None = None) -> tuple[dict, int]:
     for position, row in enumerate(rows):
         if row["observed_outcome"] == FAULT:
             continue
-        state, next_state, outcome = int(row["state"]), int(row["observed_state"]), Outcome[row["observed_outcome"].upper()]
+        state, next_state = int(row["state"]), int(row["observed_state"])
+        outcome = Outcome[row["observed_outcome"].upper()]
         name = outcome.name.lower()
         where = f"trial {position + 1} (round {row.get('round')})"
         if model.decode(next_state).is_terminal != (outcome == Outcome.TERMINAL):

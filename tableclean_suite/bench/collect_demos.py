@@ -156,7 +156,8 @@ def _scene(task: DemoAttempt):
 
 
 def close_scenes() -> None:
-    """Close the scenes [`record_attempt`][tableclean_suite.bench.collect_demos.record_attempt] built in this process."""
+    """Close the scenes [`record_attempt`][tableclean_suite.bench.collect_demos.record_attempt] built in this
+    process."""
     while _SCENES:
         env = _SCENES.popitem()[1][0]
         env.close()
@@ -300,7 +301,8 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         print(f"{parser.prog}: {error}", file=sys.stderr)
         return 1
     if not demos:
-        print(f"no successful demo in {args.episodes * MAX_ATTEMPTS_PER_EPISODE} attempts; nothing written", file=sys.stderr)
+        print(f"no successful demo in {args.episodes * MAX_ATTEMPTS_PER_EPISODE} attempts; nothing written",
+              file=sys.stderr)
         return 1
     write_dataset(out, demos, env_args, attrs, valid_fraction=valid_fraction, seed=args.seed)
     total = sum(d.num_samples for d in demos)

@@ -82,7 +82,8 @@ class CommandUnavailable(RuntimeError):
 
 
 def _module(name: str):
-    """The module of command ``name``; [`CommandUnavailable`][tableclean_suite.bench.commands.CommandUnavailable] when it is not installed."""
+    """The module of command ``name``;
+    [`CommandUnavailable`][tableclean_suite.bench.commands.CommandUnavailable] when it is not installed."""
     command = COMMANDS[name]
     try:
         return command.load()

@@ -199,7 +199,8 @@ def estimate(args, model) -> tuple[str, float]:
     config, replications = args.config, args.replications
     cells = [m.cell for m in experiments.config_grid(config) if m.experiment == "main"]
     reference = replace(config, runs=args.reference_runs)
-    seconds = sum(times * experiments.check_grid_resources(experiments.resolve_cell(cell, settings, model) for cell in cells)
+    seconds = sum(times * experiments.check_grid_resources(experiments.resolve_cell(cell, settings, model)
+                                                           for cell in cells)
                   for times, settings in ((replications, config), (1, reference)))
     resources.require_time(seconds, f"{replications} replications and a reference of {len(cells)} cell(s)")
     steps = replications * len(cells) * config.runs * config.iterations

@@ -54,7 +54,8 @@ def _failure(entry: str, error: BaseException) -> str:
 
 
 def load_plugins(entries) -> list:
-    """Import every entry in order; [`PluginError`][tableclean_suite.bench.plugins.PluginError] names the first that fails."""
+    """Import every entry in order; [`PluginError`][tableclean_suite.bench.plugins.PluginError] names the
+    first that fails."""
     return [load_plugin(entry) for entry in entries]
 
 
@@ -95,7 +96,8 @@ class PluginExecutor:
 
 
 def with_plugins(executor, plugins: Iterable[str]):
-    """``executor``, wrapped in a [`PluginExecutor`][tableclean_suite.bench.plugins.PluginExecutor] when there are ``plugins``."""
+    """``executor``, wrapped in a [`PluginExecutor`][tableclean_suite.bench.plugins.PluginExecutor] when
+    there are ``plugins``."""
     plugins = tuple(plugins or ())
     return PluginExecutor(executor, plugins) if plugins else executor
 

@@ -216,7 +216,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                                "still goes to results/images/rollout_<task>.png")
     parser.add_argument("--learner", default="q_learning", type=cli.one_of(learner_names(), "learner"),
                         help="learner (default q_learning)")
-    parser.add_argument("--object-segment", type=int, default=1, help="start: every object on this segment (1..N, default 1)")
+    parser.add_argument("--object-segment", type=int, default=1,
+                        help="start: every object on this segment (1..N, default 1)")
     parser.add_argument("--arm-segment", type=int, default=1, help="start: arm over this segment (1..N, default 1)")
     cli.add_iterations_argument(parser, 3000, "training iterations per run")
     cli.add_runs_argument(parser, 5, "training runs voting on the policy")
@@ -225,7 +226,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser.add_argument("--width", type=pixels, default=480, help="frame width in pixels, even (default 480)")
     parser.add_argument("--height", type=pixels, default=360, help="frame height in pixels, even (default 360)")
     parser.add_argument("--frame-every", type=positive_int, default=4, help="one frame per K control steps (default 4)")
-    parser.add_argument("--max-actions", type=positive_int, default=20, help="stop after this many actions (default 20)")
+    parser.add_argument("--max-actions", type=positive_int, default=20,
+                        help="stop after this many actions (default 20)")
     parser.add_argument("--camera", default=CAMERAS[0], choices=CAMERAS, help=f"camera (default {CAMERAS[0]})")
     parser.add_argument("--still", type=cli.output_path(cli.FILE, (".png", ".jpg", ".jpeg")),
                         help="also save one frame (PNG) taken while wiping")
@@ -260,16 +262,19 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     policy = train_policy(args.learner, args.reward, TaskModel(start_state=start, spec=spec), args.runs,
                           args.iterations, args.seed)
     reachable = model.reachable_states([start])
-    print(f"policy from {args.runs} run(s) x {args.iterations} iterations ({args.learner}, {args.reward}) on {spec.name}: "
+    print(f"policy from {args.runs} run(s) x {args.iterations} iterations ({args.learner}, {args.reward}) on "
+          f"{spec.name}: "
           + ", ".join(f"{s.index}:{model.action_name(int(policy[s.index]))}"
                       for s in reachable[:POLICY_PRINT_STATES] if not s.is_terminal)
           + (" ..." if len(reachable) > POLICY_PRINT_STATES else ""))
     filming = Filming(args.fps, args.width, args.height, args.frame_every, args.camera, still)
     summary = run_rollout(policy, start, video, filming, args.max_actions, args.seed, spec=spec, robots=robot)
     outcome = "reached the terminal state" if summary["reached_terminal"] else (
-        f"stopped by a fault ({summary['fault']})" if summary["fault"] else f"did not finish in {args.max_actions} actions")
+        f"stopped by a fault ({summary['fault']})" if summary["fault"]
+        else f"did not finish in {args.max_actions} actions")
     print(f"{len(summary['actions'])} actions, {outcome}; wrote {video} ({summary['frames']} frames, "
-          f"{summary['control_steps']} control steps){f' and {still}' if still else ''} in {time.perf_counter() - started:.0f} s")
+          f"{summary['control_steps']} control steps){f' and {still}' if still else ''} in "
+          f"{time.perf_counter() - started:.0f} s")
     return 0
 
 

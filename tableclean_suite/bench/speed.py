@@ -122,9 +122,11 @@ def plain_loop_table(runs: int, iterations: int, repeat: int) -> Table:
             lambda: train(learner, "r2", runs=n, iterations=iterations, engine=engine), repeat)
             for engine, n in (("compiled", runs), ("reference", plain_runs)))
         rows.append({"learner": learner, "compiled M updates/s": _millions(compiled),
-                     "step-at-a-time M updates/s": _millions(plain), "compiled / step-at-a-time": f"{compiled / plain:.0f}"})
+                     "step-at-a-time M updates/s": _millions(plain),
+                     "compiled / step-at-a-time": f"{compiled / plain:.0f}"})
     return Table("Compiled learners against the step-at-a-time loop", rows,
-                 f"Step-at-a-time loop (train(engine=\"reference\"), one step per Python call, the same arrays): {plain_runs} runs x "
+                 "Step-at-a-time loop (train(engine=\"reference\"), one step per Python call, the same arrays): "
+                 f"{plain_runs} runs x "
                  f"{iterations} iterations; the fastest of the repeats on both sides.")
 
 
@@ -160,7 +162,8 @@ def run_episode(env, record_states: bool = False) -> tuple[dict, list]:
     results = controller.execute_plan(env.task_model.shortest_plan(env.symbolic_state()))
     episode = {"steps": sum(r.steps for r in results), "wall_s": time.perf_counter() - start,
                "env_s": sum(r.env_time for r in results),
-               "terminal": bool(results and results[-1].state_after is not None and results[-1].state_after.is_terminal)}
+               "terminal": bool(results and results[-1].state_after is not None
+                                and results[-1].state_after.is_terminal)}
     if not record_states:
         return episode, []
     states, stepper.state_log = stepper.state_log.states(), None

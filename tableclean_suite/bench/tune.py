@@ -280,7 +280,8 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
     args.model = config.task_model()
     out = Path(args.out)
     args.storage = args.storage or f"sqlite:///{(out / 'study.db').as_posix()}"
-    args.study_name = args.study_name or f"{args.learner}-{args.reward}-{Path(args.task).stem}-{args.runs}x{args.iterations}"
+    args.study_name = (args.study_name
+                       or f"{args.learner}-{args.reward}-{Path(args.task).stem}-{args.runs}x{args.iterations}")
     return args
 
 
@@ -358,7 +359,8 @@ def run(args) -> int:
     paper, best = report["paper"], report["best"]
     trials = trials_frame(study)
     writers = {"trials.csv": lambda path: trials.to_csv(path, index=False),
-               "best.json": lambda path: path.write_text(json.dumps(report, indent=2, default=lambda value: value.item()))}  # numpy scalars
+               "best.json": lambda path: path.write_text(json.dumps(report, indent=2,  # numpy scalars: .item()
+                                                                    default=lambda value: value.item()))}
     rows = []
     if args.ablation and not interrupted:
         if best is None:
@@ -424,7 +426,8 @@ def ablation_settings(tuned: dict) -> list[tuple[str, str, dict]]:
 
 
 def ablation(args, tuned: dict) -> list[dict]:
-    """Train every combination of [`ablation_settings`][tableclean_suite.bench.tune.ablation_settings] on the study's runs; one row each."""
+    """Train every combination of [`ablation_settings`][tableclean_suite.bench.tune.ablation_settings] on the
+    study's runs; one row each."""
     return [{"alpha_gamma": values_from, "exploration_from": exploration_from, "ties": args.ties,
              **{f"setting_{key}": value for key, value in settings.items()},
              **Evaluation(args, args.model, settings).finished()}

@@ -140,7 +140,7 @@ def describe_spec(spec, paper_plan_length: int, base_window: int, exponent: floa
 
 def describe_family(specs, paper_plan_length: int, base_window: int, exponent: float,
                     family: str = PRODUCT_FAMILY) -> list:
-    """[`describe_spec`][tableclean_suite.bench.scaling.family.describe_spec] of every spec, as ``[(SpecInfo, TaskModel)]`` ordered by states reachable
-    from the start (ties by N, then M), so "as the task grows" reads top to bottom."""
+    """[`describe_spec`][tableclean_suite.bench.scaling.family.describe_spec] of every spec, as
+    ``[(SpecInfo, TaskModel)]`` ordered by states reachable from the start (ties by N, then M)."""
     described = [describe_spec(s, paper_plan_length, base_window, exponent, family) for s in specs]
     return sorted(described, key=lambda pair: (pair[0].reachable_from_start, pair[0].segments, pair[0].objects))

@@ -35,11 +35,11 @@ def _cells(rows: list[dict], learner: str, reward: str, gamma: float, family: st
 
 
 def growth_fits(rows: list[dict], learner: str, rewards, gammas, family: str = PRODUCT_FAMILY) -> dict:
-    """``{gamma text: {reward: fit}}``: [`statistics.fit_censored_power_law`][tableclean_suite.bench.scaling.statistics.fit_censored_power_law] of ``learner``'s
-    median learning time against states reachable from the start, over ``family``'s specs
-    (censored cells enter at their window; each point weighted by its own interval; no exponent
-    when more than half the cells are censored), plus the fit's ``intercept`` (log units) for the
-    figure."""
+    """``{gamma text: {reward: fit}}``: the censored power-law fit
+    ([`fit_censored_power_law`][tableclean_suite.bench.scaling.statistics.fit_censored_power_law]) of
+    ``learner``'s median learning time against states reachable from the start, over ``family``'s specs
+    (censored cells enter at their window; each point weighted by its own interval; no exponent when more
+    than half the cells are censored), plus the fit's ``intercept`` (log units) for the figure."""
     return {f"{gamma:g}": {reward: _growth_fit(_cells(rows, learner, reward, gamma, family)) for reward in rewards}
             for gamma in gammas}
 
@@ -64,10 +64,11 @@ def chain_of(row: dict) -> str:
 
 
 def slope_table(rows: list[dict], replicates: dict, learner: str, rewards, gammas, family: str) -> dict:
-    """``{gamma text: {reward: [slope dicts]}}``: [`statistics.local_slopes`][tableclean_suite.bench.scaling.statistics.local_slopes] of ``learner``'s
-    median learning time between consecutive sizes along each chain of ``family``
-    ([`chain_of`][tableclean_suite.bench.scaling.pipeline.chain_of]: one factor grows at a time), each slope dict with its
-    ``chain``; rewards without a chain of two sizes are left out."""
+    """``{gamma text: {reward: [slope dicts]}}``: the
+    [`local_slopes`][tableclean_suite.bench.scaling.statistics.local_slopes] of ``learner``'s median
+    learning time between consecutive sizes along each chain of ``family``
+    ([`chain_of`][tableclean_suite.bench.scaling.pipeline.chain_of]: one factor grows at a time), each
+    slope dict with its ``chain``; rewards without a chain of two sizes are left out."""
     table = {}
     for gamma in gammas:
         table[f"{gamma:g}"] = {}
@@ -197,7 +198,8 @@ def _study(args, out: Path) -> int:
         say(ordering_answer(verdicts[key]))
         say(f"Observed order ({fit_learner}, gamma {gamma:g}, median learning time, fewest first):")
         for info in infos:
-            say(f"  {info.name:<15}{info.reachable_from_start:>7}: {observed_order(rows, info.name, fit_learner, gamma)}")
+            order = observed_order(rows, info.name, fit_learner, gamma)
+            say(f"  {info.name:<15}{info.reachable_from_start:>7}: {order}")
     slope_rows = [{"family": family, "gamma": float(gamma), "learner": fit_learner, "reward": reward, **slope}
                   for family in families for gamma, per in slopes[family].items()
                   for reward, listed in per.items() for slope in listed]

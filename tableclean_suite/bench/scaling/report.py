@@ -153,8 +153,8 @@ def print_cells(rows: list[dict]) -> None:
     mean against the optimum and the share of runs that never reached the terminal state (its
     interval and each seed's own median are in ``scaling.csv``)."""
     _print_table({
-        "spec": [r["spec"] for r in rows], "gamma": [f"{r['gamma']:g}" for r in rows], "learner": [r["learner"] for r in rows],
-        "reward": [r["reward"] for r in rows],
+        "spec": [r["spec"] for r in rows], "gamma": [f"{r['gamma']:g}" for r in rows],
+        "learner": [r["learner"] for r in rows], "reward": [r["reward"] for r in rows],
         "median learning time": [interval_text(r["learning_time"], r["learning_time_low"], r["learning_time_high"])
                                  for r in rows],
         "censored": [f"{r['censored_share']:.2f}" for r in rows],
@@ -165,8 +165,9 @@ def print_cells(rows: list[dict]) -> None:
 
 
 def ordering_report(replicates: dict, infos: list[SpecInfo], learner: str, rewards, gamma: float) -> dict:
-    """Per spec, [`statistics.order_verdict`][tableclean_suite.bench.scaling.statistics.order_verdict] of ``learner``'s median learning times at ``gamma``
-    against `PAPER_ORDER` (``replicates``: ``{(spec, gamma, learner, reward): (B,) medians}``).
+    """Per spec, the [`order_verdict`][tableclean_suite.bench.scaling.statistics.order_verdict] of
+    ``learner``'s median learning times at ``gamma`` against `PAPER_ORDER` (``replicates``:
+    ``{(spec, gamma, learner, reward): (B,) medians}``).
 
     Returns ``{spec name: "holds" / "fails" / "tie" / None}`` (None: a pattern missing).
     """

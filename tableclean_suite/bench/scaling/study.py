@@ -119,9 +119,9 @@ def cell_row(info: SpecInfo, learner: str, reward: str, gamma: float, records: C
 
     The point figures pool every seed's runs (the Kaplan-Meier median, restricted mean and censored
     share of [learning_time_summary][tableclean_suite.learning_time.learning_time_summary]); every
-    interval is
-    the percentile interval of seeds-then-runs resamples ([`seeds_then_runs`][tableclean_suite.bench.scaling.statistics.seeds_then_runs]), one set of
-    draws per cell shared by its figures.  ``seed_medians`` lists each seed's own median.
+    interval is the percentile interval of seeds-then-runs resamples
+    ([`seeds_then_runs`][tableclean_suite.bench.scaling.statistics.seeds_then_runs]), one set of draws
+    per cell shared by its figures.  ``seed_medians`` lists each seed's own median.
     """
     from tableclean_suite.learning_time import learning_time_summary
 
