@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import re
 from typing import Generic, TypeVar
 
 T = TypeVar("T")
+#: Registry names (task specs, actions, ...): lower_snake.
+NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
 
 
 class Registry(Generic[T]):

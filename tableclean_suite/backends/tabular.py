@@ -32,12 +32,6 @@ from tableclean_suite.learners.transitions import TransitionTable
 RUNS_PER_CHUNK = 256
 
 
-def empty_records(runs: int, iterations: int, dtype) -> dict[str, np.ndarray]:
-    """Zeroed ``(runs, iterations)`` record arrays: float64 rewards, ``dtype`` codes."""
-    return {name: np.zeros((runs, iterations), dtype=np.float64 if name == "rewards" else dtype)
-            for name in RECORD_FIELDS}
-
-
 def progress_bar(iterable, enabled: bool, description: str):
     """``iterable`` wrapped in a tqdm bar on stderr when ``enabled``."""
     if not enabled:
@@ -88,10 +82,6 @@ class TableBackend:
         transitions.check_model(model)
         return {"transitions": transitions}
 
-    def table(self, job: TrainingJob) -> TransitionTable:
-        """The table ``job`` steps."""
-        return job.options["transitions"] if self.measured else TransitionTable.from_model(job.model)
-
     def train(self, job: TrainingJob) -> BackendRecords:
         """Run ``job`` on the table with the compiled or the reference loop.
 
@@ -103,7 +93,7 @@ class TableBackend:
         """
         check_job_resources(job, self.measured)
         job.model.require_learnable()
-        table = self.table(job)
+        table = job.options["transitions"] if self.measured else TransitionTable.from_model(job.model)
         config = {"transitions": table.source} if self.measured else {}
         if job.engine == "reference":
             env = stepper.TableStepEnv(job.model, table)
@@ -117,7 +107,8 @@ class TableBackend:
             return BackendRecords(**records, config=config, info=info)
         model = job.model
         learner = job.learner
-        records = empty_records(job.runs, job.iterations, model.record_dtype)
+        records = {name: np.zeros((job.runs, job.iterations), np.float64 if name == "rewards" else model.record_dtype)
+                   for name in RECORD_FIELDS}
         q = np.full((job.runs, model.n_states, model.n_actions), learner.q_init, dtype=np.float64)
         double = learner.method == METHOD_DOUBLE_Q
         q_second = np.full(q.shape if double else (job.runs, 0, 0), learner.q_init, dtype=np.float64)

@@ -26,24 +26,18 @@ class TaskFailedError(RuntimeError):
     Attributes:
         task: the task that failed (as given to ``map``).
         attempts: how many times it was run, >= 1.
+        reason: the last error, ``"TypeName: message"``.
     """
 
     def __init__(self, task, attempts: int, error: BaseException | str):
         self.task = task
         self.attempts = attempts
-        reason = error if isinstance(error, str) else f"{type(error).__name__}: {error}"
+        self.reason = error if isinstance(error, str) else f"{type(error).__name__}: {error}"
         times = "attempt" if attempts == 1 else "attempts"
-        super().__init__(f"task {task_name(task)} failed after {attempts} {times}: {reason}")
+        super().__init__(f"task {task_name(task)} failed after {attempts} {times}: {self.reason}")
 
     def __reduce__(self):
-        return _rebuild_task_failed, (self.task, self.attempts, str(self))
-
-
-def _rebuild_task_failed(task, attempts: int, message: str) -> "TaskFailedError":
-    error = TaskFailedError.__new__(TaskFailedError)
-    error.task, error.attempts = task, attempts
-    RuntimeError.__init__(error, message)
-    return error
+        return TaskFailedError, (self.task, self.attempts, self.reason)
 
 
 def task_name(task) -> str:

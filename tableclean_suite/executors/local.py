@@ -139,7 +139,8 @@ class LocalExecutor:
                     if broken:  # every task of the dead pool fails: collect them all, then restart
                         more = self._collect(wait(running).done, running, finished, waiting, tasks, attempts)[1]
                         failure = min(filter(None, (failure, more)), key=lambda f: f[0], default=None)
-                        self._restart()
+                        self.close()  # a worker died: a new pool
+                        self.start()
                     if failure is not None:
                         raise failure[1]
                 yield finished.pop(index)
@@ -151,12 +152,6 @@ class LocalExecutor:
                 future.cancel()
             if owned:
                 self.close(wait=not interrupted)
-
-    def _restart(self) -> None:
-        """Replace a broken pool (a worker died) by a new one."""
-        self._pool.shutdown(wait=True, cancel_futures=True)
-        self._pool = None
-        self.start()
 
     def _collect(self, done, running: dict, finished: dict, waiting: list, tasks: list,
                  attempts: list) -> tuple[bool, tuple[int, TaskFailedError] | None]:

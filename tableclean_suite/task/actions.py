@@ -20,17 +20,14 @@ Adding an action from outside the package:
 from __future__ import annotations
 
 import enum
-import re
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 
-from tableclean_suite.registry import Registry
+from tableclean_suite.registry import NAME_PATTERN, Registry
 from tableclean_suite.task import batch_rules
 from tableclean_suite.task.state import Outcome, TaskState, decode_code, encode
-
-_NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
 
 Effect = Callable[[TaskState], "tuple[TaskState, Outcome]"]
 
@@ -107,7 +104,7 @@ class ActionRule:
     pddl: "str | dict | None" = field(default=None, compare=False)
 
     def __post_init__(self):
-        if not isinstance(self.name, str) or not _NAME_PATTERN.match(self.name):
+        if not isinstance(self.name, str) or not NAME_PATTERN.match(self.name):
             raise ValueError(f"action name must be lower_snake (e.g. 'move_back'), got {self.name!r}")
         if not callable(self.effect):
             raise TypeError(f"action {self.name!r}: effect must be callable TaskState -> (TaskState, Outcome)")

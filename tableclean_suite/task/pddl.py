@@ -13,6 +13,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from tableclean_suite.registry import NAME_PATTERN
 from tableclean_suite.task.actions import DIGIT_RULES, get_action_rule
 from tableclean_suite.task.spec import (DEFAULT_OBJECT_TYPE, PAPER_ACTIONS, SPEC_FILE_READERS, StartMode, TaskSpec,
                                          get_task_spec)
@@ -313,7 +314,7 @@ def _objects(section: _List, fail) -> tuple[list[str], dict[str, str]]:
         kind = words.pop(0)
         if kind == SEGMENT:
             segments += pending
-        elif re.fullmatch(r"[a-z][a-z0-9_]*", kind):
+        elif NAME_PATTERN.match(kind):
             items.update({name: kind for name in pending})
         else:
             fail(kind.line, f"object type {kind!r} must be lower_snake (an object type, or item)")

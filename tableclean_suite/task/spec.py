@@ -18,17 +18,14 @@ from __future__ import annotations
 import enum
 import json
 import math
-import re
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, Sequence
 
-from tableclean_suite.registry import Registry
+from tableclean_suite.registry import NAME_PATTERN, Registry
 from tableclean_suite.resources import bounded_product
 from tableclean_suite.task.actions import get_action_rule
 from tableclean_suite.task.state import HELD, TaskState, state_count
-
-_NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
 
 #: Object type of the paper's single object (the physical side builds a box for it).
 DEFAULT_OBJECT_TYPE = "box"
@@ -76,11 +73,6 @@ def check_spec_size(segments: int, objects: int, what: str = "task") -> int:
     return codes
 
 
-def default_start_state(segments: int, objects: int) -> TaskState:
-    """All segments unclean, every object on segment 1, the arm over segment 1."""
-    return TaskState((False,) * segments, (0,) * objects, 0)
-
-
 @dataclass(frozen=True)
 class TaskSpec:
     """A table-cleaning task.
@@ -111,7 +103,7 @@ class TaskSpec:
     description: str = field(default="", compare=False)
 
     def __post_init__(self):
-        if not isinstance(self.name, str) or not _NAME_PATTERN.match(self.name):
+        if not isinstance(self.name, str) or not NAME_PATTERN.match(self.name):
             raise ValueError(f"task spec name must be lower_snake (e.g. 'three_segments'), got {self.name!r}")
         if isinstance(self.segments, bool) or not isinstance(self.segments, int) or self.segments < 2:
             raise ValueError(f"task {self.name!r}: segments must be an integer >= 2, got {self.segments!r}")
@@ -125,7 +117,7 @@ class TaskSpec:
             raise ValueError(f"task {self.name!r}: objects must be an int >= 1 or a non-empty list of type names, "
                              f"got {self.objects!r}")
         for kind in objects:
-            if not isinstance(kind, str) or not _NAME_PATTERN.match(kind):
+            if not isinstance(kind, str) or not NAME_PATTERN.match(kind):
                 raise ValueError(f"task {self.name!r}: object type names must be lower_snake, got {kind!r}")
         object.__setattr__(self, "objects", tuple(objects))
         actions = tuple(self.actions) if isinstance(self.actions, (list, tuple)) else None
@@ -173,8 +165,9 @@ class TaskSpec:
 
     @property
     def initial_state(self) -> TaskState:
-        """The fixed start state (the default layout when ``start_state`` is None)."""
-        return self.start_state if self.start_state is not None else default_start_state(self.segments, self.n_objects)
+        """The fixed start state; when ``start_state`` is None, every segment unclean and the objects and the
+        arm on segment 1."""
+        return self.start_state or TaskState((False,) * self.segments, (0,) * self.n_objects, 0)
 
     def replace(self, **changes) -> "TaskSpec":
         """A validated copy with some fields changed."""
