@@ -7,16 +7,11 @@
             ...
 
 ``map(function, tasks)`` ([`Executor`][tableclean_suite.executors.base.Executor]) runs a
-module-level ``function`` on each picklable task (a plain configuration with its own seed; the
-function builds its environment or model inside the worker) and yields the results in task order,
-the same on any executor with any number of workers.  A task whose function raises
-[`RetryableError`][tableclean_suite.executors.base.RetryableError], or whose worker dies, is run
-again up to ``max_retries`` times; then [`TaskFailedError`][tableclean_suite.executors.base.TaskFailedError]
-names it.  [`LocalExecutor`][tableclean_suite.executors.local.LocalExecutor] (``"local"``) uses
-spawned processes of this machine (this very process when ``workers == 1``);
-[`RayExecutor`][tableclean_suite.executors.ray_executor.RayExecutor] (``"ray"``, the optional
-``cluster`` extra) a private Ray on loopback or a running cluster.  A physics task whose numbers
-must match bit for bit runs under [`single_blas_thread`][tableclean_suite.executors.blas.single_blas_thread].
+module-level ``function`` on each picklable task and yields the results in task order, the same on
+any executor with any number of workers; failures are retried as
+[`tableclean_suite.executors.base`][tableclean_suite.executors.base] says.  Executors:
+[`LocalExecutor`][tableclean_suite.executors.local.LocalExecutor] (``"local"``) and
+[`RayExecutor`][tableclean_suite.executors.ray_executor.RayExecutor] (``"ray"``, the ``cluster`` extra).
 """
 
 from __future__ import annotations

@@ -78,9 +78,7 @@ def decode(code: int, task: "TaskModel | TaskSpec | str | None" = None) -> TaskS
 
 def as_state(state: "StateLike", task: "TaskModel | TaskSpec | str | None" = None) -> TaskState:
     """Accept a [`TaskState`][tableclean_suite.task.state.TaskState] or its code in ``task``'s encoding (default ``paper``)."""
-    if isinstance(state, TaskState):
-        return state
-    return decode(state, task)
+    return state if isinstance(state, TaskState) else decode(state, task)
 
 
 def as_action(action) -> Action:

@@ -29,8 +29,6 @@ StateLike = Union[TaskState, int, np.integer]
 
 #: The built-in actions' names in [`Action`][tableclean_suite.task.actions.Action] order (the paper's action list).
 _BUILTIN_ORDER = tuple(a.rule_name for a in Action)
-#: Smallest signed integer dtypes, in order, for record arrays of state/action/outcome codes.
-_RECORD_DTYPES = (np.int8, np.int16, np.int32)
 #: States whose user action effects a table build times (after a first, warming-up state) to
 #: estimate the rest ([`require_effect_seconds`][tableclean_suite.resources.require_effect_seconds]).
 EFFECT_TIMING_STATES = 8
@@ -141,7 +139,7 @@ class TaskModel:
     def record_dtype(self) -> np.dtype:
         """Smallest signed int dtype that holds every state, action and outcome code."""
         largest = max(self.n_states, self.n_actions, len(Outcome)) - 1  # at most int32's (TaskSpec checks)
-        return np.dtype(next(dtype for dtype in _RECORD_DTYPES if largest <= np.iinfo(dtype).max))
+        return np.dtype(np.min_scalar_type(-largest - 1))  # a signed type: the smallest holding -largest - 1
 
     # -- actions -----------------------------------------------------------------------
     def action_index(self, action) -> int:

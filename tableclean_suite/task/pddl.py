@@ -17,7 +17,7 @@ from tableclean_suite.registry import NAME_PATTERN
 from tableclean_suite.task.actions import DIGIT_RULES, get_action_rule
 from tableclean_suite.task.spec import (DEFAULT_OBJECT_TYPE, PAPER_ACTIONS, SPEC_FILE_READERS, StartMode, TaskSpec,
                                          get_task_spec)
-from tableclean_suite.task.state import HELD, TaskState
+from tableclean_suite.task.state import HELD, TaskState, unclean_layouts
 
 #: The two forms of the export.
 FORMS = ("strips", "adl")
@@ -132,8 +132,6 @@ def start_problems(spec, form: str = "strips") -> dict[str, str]:
     base = spec.name.replace("_", "-")
     if spec.start != StartMode.UNIFORM_UNCLEAN.value:
         return {base: problem_pddl(spec, None, form)}
-    from tableclean_suite.task.state import unclean_layouts
-
     layouts = {}
     for state in unclean_layouts(spec.segments, spec.n_objects):
         name = f"{base}-arm{state.arm + 1}-" + "-".join(f"o{j + 1}s{w + 1}" for j, w in enumerate(state.objects))
