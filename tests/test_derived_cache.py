@@ -36,7 +36,7 @@ def compute(root, cells, curves=None, table3=None, read=True, **changed):
 
 
 def outputs(results) -> tuple:
-    return results.comparisons.to_csv(index=False), [(figure.name, figure.png) for figure in results.figures]
+    return results.comparisons.to_csv(index=False), list(results.figures.items())
 
 
 def test_a_stored_entry_gives_the_computed_bytes_without_computing(inputs, tmp_path):
@@ -46,7 +46,7 @@ def test_a_stored_entry_gives_the_computed_bytes_without_computing(inputs, tmp_p
     assert not first.cached and "computed in" in first.summary()
     assert second.cached and second.summary().startswith("derived results (comparisons, 2 figures): loaded from")
     assert outputs(second) == outputs(first)
-    assert len(first.comparisons) == 2 and [f.name for f in first.figures] == [
+    assert len(first.comparisons) == 2 and list(first.figures) == [
         "fig3_success_rate_q_learning.png", "fig4_average_reward_q_learning.png"]
     fresh = compute(tmp_path, cells, curves, table3, read=False)  # --fresh: computed again, the same bytes
     assert not fresh.cached and outputs(fresh) == outputs(first)

@@ -25,14 +25,6 @@ from tableclean_suite.bench import digests, plots
 CACHE_FORMAT = 2
 
 
-@dataclass(frozen=True)
-class Figure:
-    """One figure of a run: its file name and PNG bytes."""
-
-    name: str
-    png: bytes
-
-
 def _drawing_config() -> dict:
     """What the figures' pixels depend on beyond their data and dpi: matplotlib's and Pillow's
     versions, a digest of the live ``rcParams`` and of the font file they resolve to."""
@@ -80,11 +72,11 @@ def derived_key(cells: list[dict], confidence: float, samples: int, seed: int, c
 
 @dataclass(frozen=True)
 class Derived:
-    """A run's derived results: the comparisons, the figures, and where they came from (``seconds``:
-    the time taken to load or compute them)."""
+    """A run's derived results: the comparisons, the figures (``{file name: PNG bytes}``), and where
+    they came from (``seconds``: the time taken to load or compute them)."""
 
     comparisons: "pandas.DataFrame"
-    figures: list[Figure]
+    figures: dict[str, bytes]
     cached: bool
     path: Path
     seconds: float
@@ -154,4 +146,4 @@ def derive(root, cells: list[dict], confidence: float, samples: int, seed: int, 
             other.unlink(missing_ok=True)
     rows, pngs = stored
     return Derived(pd.DataFrame(rows, columns=statistics.COMPARISON_COLUMNS),
-                   [Figure(name, png) for name, png in pngs.items()], cached, path, time.perf_counter() - started)
+                   pngs, cached, path, time.perf_counter() - started)

@@ -295,7 +295,7 @@ def train_and_publish(args) -> int:
         "comparisons.csv": lambda path: comparisons.to_csv(path, index=False),
         "curves.csv": lambda path: path.write_text(tables.csv_text(curves_frame), encoding="utf-8", newline=""),
     }
-    writers.update({figure.name: (lambda path, png=figure.png: path.write_bytes(png)) for figure in figures})
+    writers.update({name: (lambda path, png=png: path.write_bytes(png)) for name, png in figures.items()})
     elapsed = time.perf_counter() - started
     manifest = _manifest(config, model, transitions, grid_run, stride, elapsed)
     try:
