@@ -13,11 +13,7 @@ from tableclean_suite.bench.cli import wrap
 from tableclean_suite.bench.tables import PRINT_WIDTH
 from tableclean_suite.learners import get_learner, learner_names
 from tableclean_suite.rewards import get_reward_pattern, reward_pattern_names
-from tableclean_suite.task import PAPER_OPTIMAL_PLAN, TABLE1_STATES, TaskModel, table1_number
-
-#: (segments, objects) of the paper's task, the only sizes Table 1 describes.
-PAPER_SIZES = (2, 1)
-
+from tableclean_suite.task import PAPER_OPTIMAL_PLAN, PAPER_SPEC, TABLE1_STATES, TaskModel, table1_number
 
 def states_table(model: TaskModel) -> pd.DataFrame:
     """All ``model.n_states`` states: code, name, Table 1 number ("-" where Table 1 omits it or the
@@ -33,9 +29,9 @@ def states_table(model: TaskModel) -> pd.DataFrame:
 
 
 def _paper_sized(model: TaskModel) -> bool:
-    """Whether Table 1 and the paper's plan describe ``model``: the paper's sizes and every action of its plan."""
-    return ((model.n_segments, model.n_objects) == PAPER_SIZES
-            and {action.rule_name for action in PAPER_OPTIMAL_PLAN} <= set(model.spec.actions))
+    """Whether Table 1 and the paper's plan describe ``model``: the paper's sizes and (at least) its actions."""
+    return ((model.n_segments, model.n_objects) == (PAPER_SPEC.segments, PAPER_SPEC.n_objects)
+            and set(PAPER_SPEC.actions) <= set(model.spec.actions))
 
 
 def table1_frame(model: TaskModel) -> pd.DataFrame:
