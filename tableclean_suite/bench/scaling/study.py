@@ -9,7 +9,6 @@ import math
 import time
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from tableclean_suite.bench.scaling.family import ALPHA, EPSILON, SpecInfo
@@ -22,30 +21,22 @@ from tableclean_suite.resources import RECORD_CODE_ARRAYS, WORD_BYTES
 CHUNK_BYTES = 64 * 2**20
 
 
-@numba.njit(cache=True)
-def _window_sums(outcomes, episode_end, tail_start, improper_code, terminal_outcome, terminal_code, tail_out,
-                 never_out):
-    """Per run of ``(R, T)`` records: successful iterations from ``tail_start`` on ``tail_out (R,)``
-    (an iteration counts when the run's latest finished episode succeeded) and 1.0 in
-    ``never_out (R,)`` when the run never had a terminal outcome."""
-    n_runs, n_iterations = outcomes.shape
-    for r in range(n_runs):
-        improper = 0
-        latest = 0
-        tail = 0
-        reached = False
-        for t in range(n_iterations):
-            if outcomes[r, t] == improper_code:
-                improper += 1
-            if outcomes[r, t] == terminal_outcome:
-                reached = True
-            if episode_end[r, t] != 0:
-                latest = 1 if (episode_end[r, t] == terminal_code and improper == 0) else 0
-                improper = 0
-            if t >= tail_start:
-                tail += latest
-        tail_out[r] = tail
-        never_out[r] = 0.0 if reached else 1.0
+def window_sums(outcomes, episode_end, tail_start: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per run of ``(R, T)`` records: ``(tail, never)``, the ``(R,)`` int64 count of iterations from
+    ``tail_start`` on whose run's latest finished episode succeeded (reached the terminal state with no
+    improper action), and ``(R,)`` 1.0 where the run never had a terminal outcome, else 0.0."""
+    from tableclean_suite.learners.kernel import EPISODE_TERMINAL
+    from tableclean_suite.task import Outcome
+
+    runs, window = outcomes.shape
+    improper = np.cumsum(outcomes == int(Outcome.IMPROPER), axis=1, dtype=np.int32)
+    run, last = np.nonzero(episode_end)
+    same_run = run[1:] == run[:-1]
+    before = np.where(np.r_[False, same_run], improper[run, np.r_[0, last[:-1]]], 0)
+    success = (episode_end[run, last] == EPISODE_TERMINAL) & (improper[run, last] == before)
+    held = np.where(np.r_[same_run, False], np.r_[last[1:], 0], window) - np.maximum(last, tail_start)
+    tail = np.bincount(run, weights=success * np.maximum(held, 0), minlength=runs).astype(np.int64)
+    return tail, (~(outcomes == int(Outcome.TERMINAL)).any(axis=1)).astype(np.float64)
 
 
 def plateau_start(window: int, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION) -> int:
@@ -88,8 +79,6 @@ def runs_per_chunk(window: int, n_states: int, n_actions: int, itemsize: int, ru
 def train_cell(model, info: SpecInfo, learner: str, reward: str, runs: int, seeds, gamma: float) -> CellRecords:
     """Train ``runs`` runs for each of ``seeds`` (discount ``gamma``) in chunks, keeping per-run figures."""
     from tableclean_suite.learners import train
-    from tableclean_suite.learners.kernel import EPISODE_TERMINAL
-    from tableclean_suite.task import Outcome
 
     started = time.perf_counter()
     seeds = tuple(int(s) for s in seeds)
@@ -106,8 +95,7 @@ def train_cell(model, info: SpecInfo, learner: str, reward: str, runs: int, seed
                            first_run=first)
             part = slice(first, first + count)
             learned[row, part] = result.learned_at
-            _window_sums(result.outcomes, result.episode_end, tail_start, int(Outcome.IMPROPER),
-                         int(Outcome.TERMINAL), EPISODE_TERMINAL, tail[row, part], never[row, part])
+            tail[row, part], never[row, part] = window_sums(result.outcomes, result.episode_end, tail_start)
             del result
     return CellRecords(seeds, learned, tail / (info.window - tail_start), never, len(seeds) * runs * info.window,
                        time.perf_counter() - started)
