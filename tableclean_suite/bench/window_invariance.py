@@ -157,10 +157,7 @@ def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     args, passthrough = parse_args(argv, prog)
     out = Path(args.out)
-    try:
-        short, long = (run_window(w, out / f"w{w}", passthrough, args.prog) for w in args.windows)
-    except SystemExit as stop:
-        return int(stop.code or 0)
+    short, long = (run_window(w, out / f"w{w}", passthrough, args.prog) for w in args.windows)  # SystemExit: failed
     changes = figure_changes(short, long)
     outputs.publish(out, {RESULT_FILE: lambda path: changes.to_csv(path, index=False)},
                     {"args": outputs.arguments(args), "passthrough": passthrough}, command="window-invariance")
