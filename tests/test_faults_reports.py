@@ -9,7 +9,9 @@ from tableclean_suite.bench import experiments, robot_table, tables
 def _record(**extra):
     base = {"max_success_iterations": 100, "max_success_episodes": 5.5, "reward_convergence_iterations": 120,
             "reward_convergence_episodes": 6.25, "success_plateau": 0.875, "max_average_reward": 0.25,
-            "average_reward_plateau": 0.2, "terminal_plateau": 0.9}
+            "average_reward_plateau": 0.2, "terminal_plateau": 0.9,
+            **dict.fromkeys(("success_window_mean", "average_reward_window_mean", "held_success_iterations",
+                             "held_success_episodes", "greedy_success_plateau", "never_terminal_share"))}
     cell = experiments.Cell("q_learning", "r4", 0.3, 0.3)
     return {"cell_id": cell.label, "learner": "q_learning", "reward": "r4", "alpha": 0.3, "gamma": 0.3,
             "experiment": "main", **base, **extra}

@@ -26,6 +26,8 @@ def record(experiment="main", learner="q_learning", reward="r1", alpha=0.3, gamm
         "max_average_reward": 0.25,
         "average_reward_plateau": 0.2,
         "terminal_plateau": 0.9,
+        **dict.fromkeys(("success_window_mean", "average_reward_window_mean", "held_success_iterations",
+                         "held_success_episodes", "greedy_success_plateau", "never_terminal_share")),
     }
     base.update(scalars)
     cell = experiments.Cell(learner, reward, alpha, gamma)

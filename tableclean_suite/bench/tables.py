@@ -29,10 +29,6 @@ CURVE_METRICS = ("success", "average_reward", "episodes")
 
 PAPER_COLUMNS = tuple(c for c in PAPER_TABLE3.columns if c != "reward")
 
-#: Scalars a cell record may lack (added after records of this shape existed; NaN when missing).
-OPTIONAL_SCALARS = ("success_window_mean", "average_reward_window_mean", "held_success_iterations",
-                    "held_success_episodes", "greedy_success_plateau", "never_terminal_share")
-
 #: Suffixes of an interval's bounds, next to the number they bound.
 LOW, HIGH = "_low", "_high"
 
@@ -110,8 +106,7 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
         learner, reward, alpha, gamma.  ``paper_*`` only on the main `PAPER_LEARNER` rows.
     """
     frame = pd.DataFrame(records).copy()
-    missing = [c for c in ("cell_id", *KEY_COLUMNS, *SUMMARY_SCALARS)
-               if c not in frame.columns and c not in OPTIONAL_SCALARS]
+    missing = [c for c in ("cell_id", *KEY_COLUMNS, *SUMMARY_SCALARS) if c not in frame.columns]
     if missing:
         raise ValueError(f"cell records lack columns: {', '.join(missing)}")
     frame = frame.drop(columns=[c for c in PAPER_COLUMNS if c in frame.columns])
