@@ -16,8 +16,12 @@ try:
 except ImportError:
     ray = None
 
+import executor_probes
+from executor_probes import ProbeTask, run_probe
 from tableclean_suite.executors import (LocalExecutor, MissingRayError, RayExecutor, TaskFailedError, make_executor)
-from tableclean_suite.executors.probes import ProbeTask, run_probe
+
+if ray is not None:  # Ray workers cannot import the tests' modules: the probes travel by value
+    ray.cloudpickle.register_pickle_by_value(executor_probes)
 
 #: The Ray tests run wherever Ray imports (the dev and cluster extras install it, so CI runs them).
 needs_ray = pytest.mark.skipif(ray is None, reason="Ray is not installed: pip install -e '.[dev]' (or '.[cluster]')")

@@ -88,8 +88,9 @@ def test_the_main_guard_hint(tmp_path, monkeypatch, source, named):
 @pytest.mark.cli
 def test_a_script_without_a_main_guard_names_the_cause(tmp_path):
     script = tmp_path / "noguard.py"
-    script.write_text("from tableclean_suite.executors import LocalExecutor, TaskFailedError\n"
-                      "from tableclean_suite.executors.probes import ProbeTask, run_probe\n"
+    script.write_text(f"import sys\nsys.path.insert(0, {str(Path(__file__).parent)!r})\n"
+                      "from tableclean_suite.executors import LocalExecutor, TaskFailedError\n"
+                      "from executor_probes import ProbeTask, run_probe\n"
                       "try:\n    list(LocalExecutor(workers=2).map(run_probe, [ProbeTask(i, seed=1) for i in range(2)]))\n"
                       "except TaskFailedError as error:\n    print('ERROR:', error)\n")
     result = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=300)
@@ -99,7 +100,6 @@ def test_a_script_without_a_main_guard_names_the_cause(tmp_path):
 PARENT = """
 import sys, time
 from tableclean_suite.executors import LocalExecutor
-from tableclean_suite.executors.probes import ProbeTask
 
 def nap(seconds):
     import os, time

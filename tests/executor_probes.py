@@ -1,5 +1,5 @@
-"""Small tasks that exercise an executor (results, retries, crashes) without any simulator, e.g. as
-a smoke check of a cluster: ``executor.map(run_probe, [ProbeTask(i) for i in range(8)])``."""
+"""Small tasks that exercise an executor (results, retries, crashes) without any simulator:
+``executor.map(run_probe, [ProbeTask(i) for i in range(8)])``."""
 
 from __future__ import annotations
 
