@@ -51,16 +51,12 @@ class TableCleanBase(gym.Env):
         self.lastaction: int | None = None  # index in the task's action order
         self.last_outcome: Outcome | None = None
 
-    def action_mask(self, state: int | None = None) -> np.ndarray:
-        """``(n_actions,)`` int8, 1 where the action is not improper (the task model's mask; all 0 at terminal)."""
-        return self.model.action_mask(self.s if state is None else state)
-
     def action_masks(self) -> np.ndarray:
         """``(n_actions,)`` bool, True where the action is not improper (all False at the terminal state): sb3-contrib
         ``MaskablePPO``'s interface (vector envs: ``call("action_masks")``); ``RuntimeError`` before ``reset()``."""
         if self.s == _NO_STATE:
             raise RuntimeError("call reset() before action_masks()")
-        return self.action_mask().astype(bool)
+        return self.model.action_mask(self.s).astype(bool)
 
     def _begin_episode(self, state: TaskState):
         """Make ``state`` the current one with no history; returns ``(observation, info)`` for ``reset``."""
@@ -105,7 +101,7 @@ class TableCleanBase(gym.Env):
         return int(next_state), reward, self.model.decode(next_state).is_terminal, False, self._info(outcome)
 
     def _info(self, outcome: Outcome | None = None) -> dict:
-        info = {"action_mask": self.action_mask(), "state_name": self.model.decode(self.s).name}
+        info = {"action_mask": self.model.action_mask(self.s), "state_name": self.model.decode(self.s).name}
         if outcome is not None:
             info["outcome"] = int(outcome)
             info["outcome_name"] = outcome.name.lower()
