@@ -1,9 +1,5 @@
-"""Greedy policies of Q-tables and their epsilon-greedy action probabilities.
-
-The two small functions both [`tableclean_suite.analysis`][tableclean_suite.analysis] and
-[`tableclean_suite.asymptotes`][tableclean_suite.asymptotes] build on (kept apart so neither imports the other's module to
-get them).
-"""
+"""Greedy policies of Q-tables and their epsilon-greedy action probabilities (used by
+[`tableclean_suite.analysis`][tableclean_suite.analysis] and [`tableclean_suite.asymptotes`][tableclean_suite.asymptotes])."""
 
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ These are the published facts the ``paper`` spec is checked against; they hold f
 from __future__ import annotations
 
 from tableclean_suite.task.actions import Action
-from tableclean_suite.task.state import HELD, TaskState, unclean_layouts
+from tableclean_suite.task.state import HELD, TaskState, decode_code, unclean_layouts
 
 #: The paper's table has two segments and one object.
 PAPER_SEGMENTS = 2
@@ -73,11 +73,6 @@ TABLE1_STATES: dict[int, TaskState] = {
 
 def table1_number(state: TaskState | int) -> int | None:
     """Table 1's row number of ``state`` (a paper-spec state or code), or ``None`` when Table 1 omits it."""
-    from tableclean_suite.task.state import decode_code
-
     if not isinstance(state, TaskState):
         state = decode_code(state, PAPER_SEGMENTS, PAPER_OBJECTS)
-    for number, row in TABLE1_STATES.items():
-        if row == state:
-            return number
-    return None
+    return next((number for number, row in TABLE1_STATES.items() if row == state), None)
