@@ -4,12 +4,11 @@
 
 - ``"symbolic"``: the task model's deterministic transitions, compiled and batched;
 - ``"calibrated"``: a transition table measured from physics, compiled and batched;
-- ``"physics"``: skills executed in MuJoCo (imported only when used).
+- ``"physics"``: skills executed in MuJoCo.
 
-The registry stores import paths, so importing it (as [`train`][tableclean_suite.learners.train]
-does) imports no backend, and no backend imports the registry's user back: dependencies
-point downward only (backends -> learners -> task).  Users add a backend with
-[`register_backend`][tableclean_suite.backends.register_backend] and any object with [`TrainingBackend`][tableclean_suite.backends.TrainingBackend]'s ``train`` method.
+A backend is imported on first use.  Users add one with
+[`register_backend`][tableclean_suite.backends.register_backend]: any object with
+[`TrainingBackend`][tableclean_suite.backends.TrainingBackend]'s methods.
 """
 
 from __future__ import annotations

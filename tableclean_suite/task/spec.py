@@ -18,7 +18,7 @@ from __future__ import annotations
 import enum
 import json
 import math
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -191,7 +191,7 @@ class TaskSpec:
         version = data.pop("format_version", SPEC_FORMAT_VERSION)
         if version != SPEC_FORMAT_VERSION:
             raise ValueError(f"{source}: unsupported format_version {version!r}; expected {SPEC_FORMAT_VERSION}")
-        allowed = {"name", "segments", "objects", "actions", "start", "start_state", "ineffective", "description"}
+        allowed = {f.name for f in fields(cls)}
         unknown = sorted(set(data) - allowed)
         if unknown:
             raise ValueError(f"{source}: unknown field(s) {unknown}; allowed: {', '.join(sorted(allowed))}")
