@@ -104,11 +104,6 @@ class TaskModel:
                 f"actions={list(self.action_names)}, ineffective={self.ineffective.value!r}, start={start!r})")
 
     # -- codes -----------------------------------------------------------------------
-    def encode(self, state: TaskState) -> int:
-        """The code of ``state`` (checked against the spec's sizes)."""
-        self._check_sizes(state)
-        return encode(state)
-
     def decode(self, code: int) -> TaskState:
         """The state of ``code``; ``ValueError`` outside ``range(n_states)``."""
         return decode_code(code, self.n_segments, self.n_objects)
