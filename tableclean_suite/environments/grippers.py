@@ -29,8 +29,10 @@ REFUSED = {
 #: action name for that action's skill; merged after the robot's
 #: ([`skill_overrides`][tableclean_suite.environments.robot_registry.skill_overrides]).
 GRIPPER_SKILLS: dict[str, dict[str, dict]] = {
-    # m: its fingertips reach 1.8 cm below the grip site closed (1.5 cm on the sponge, 0.4 cm open)
-    "Robotiq85Gripper": {"*": {"fingertip_depth": 0.018}},
+    # fingertip_depth, m: its fingertips reach 1.8 cm below the grip site closed (1.5 cm on the sponge, 0.4 cm open);
+    # descend_speed, m/s: placing beside a neighbour, its inner finger (3.4 cm out along the closing axis, 0.9 cm
+    # below the grip site) clipped the neighbour's top coming down at 0.25 m/s before the hand was over the spot
+    "Robotiq85Gripper": {"*": {"fingertip_depth": 0.018}, "place": {"descend_speed": 0.1}},
     "Robotiq140Gripper": {},
 }
 
