@@ -2,15 +2,9 @@
 
 A [`TaskSpec`][tableclean_suite.task.spec.TaskSpec] is a frozen, validated, JSON-serialisable value.  Named specs live
 in a registry ([`get_task_spec`][tableclean_suite.task.spec.get_task_spec], [`register_task_spec`][tableclean_suite.task.spec.register_task_spec]); ``paper`` is the
-default everywhere.  A spec can also be read from a JSON file ([`load_task_spec`][tableclean_suite.task.spec.load_task_spec]):
-
-    {"name": "my_task", "segments": 3, "objects": ["box", "cylinder"],
-     "actions": ["move", "pick", "place", "clean"], "start": "fixed",
-     "start_state": {"clean": [false, false, false], "objects": [1, 1], "arm": 1},
-     "ineffective": "ineffective"}
-
-In JSON (and in every user-facing name) segments and objects are numbered from 1; an
-object's location is a segment number or ``"held"``.
+default everywhere.  A spec can also be read from a JSON file ([`load_task_spec`][tableclean_suite.task.spec.load_task_spec],
+the layout of [`TaskSpec.to_dict`][tableclean_suite.task.spec.TaskSpec.to_dict]), where segments and objects are
+numbered from 1 and an object's location is a segment number or ``"held"``.
 """
 
 from __future__ import annotations
@@ -175,7 +169,8 @@ class TaskSpec:
 
     # -- JSON --------------------------------------------------------------------------
     def to_dict(self) -> dict:
-        """A JSON-serialisable dict (1-based segment numbers; see the module docstring)."""
+        """A JSON-serialisable dict: ``format_version`` and the fields, ``start_state`` as
+        [`state_to_json`][tableclean_suite.task.spec.state_to_json] writes it."""
         data = asdict(self)
         data["objects"] = list(self.objects)
         data["actions"] = list(self.actions)
