@@ -8,8 +8,6 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from tableclean_suite.task.actions import (  # noqa: F401
     BUILTIN_ACTIONS,
     Action,
@@ -62,6 +60,7 @@ from tableclean_suite.task.state import (  # noqa: F401
     TaskState,
     decode_code,
     encode,
+    is_integer,
     state_count,
     unclean_layouts,
 )
@@ -90,7 +89,7 @@ def as_action(action) -> Action:
             return Action[action.strip().upper()]
         except KeyError:
             pass
-    elif isinstance(action, (int, np.integer)) and not isinstance(action, (bool, np.bool_)):
+    elif is_integer(action):
         if 0 <= int(action) < len(Action):
             return Action(int(action))
     allowed = ", ".join(f"{a.value}/{a.rule_name}" for a in Action)

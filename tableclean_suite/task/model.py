@@ -22,6 +22,7 @@ from tableclean_suite.task.state import (
     TaskState,
     decode_code,
     encode,
+    is_integer,
     unclean_layouts,
 )
 
@@ -148,7 +149,7 @@ class TaskModel:
             key = action.strip().lower()
             if key in self._action_index:
                 return self._action_index[key]
-        elif isinstance(action, (int, np.integer)) and not isinstance(action, (bool, np.bool_)):
+        elif is_integer(action):
             if 0 <= int(action) < self.n_actions:
                 return int(action)
         allowed = ", ".join(f"{i}/{name}" for i, name in enumerate(self.action_names))

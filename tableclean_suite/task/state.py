@@ -47,7 +47,8 @@ CLEAN_OUTCOMES = (Outcome.RELEVANT_CLEAN, Outcome.IRRELEVANT_CLEAN)
 NO_CHANGE_OUTCOMES = (Outcome.INEFFECTIVE, Outcome.IRRELEVANT_CLEAN, Outcome.IMPROPER)
 
 
-def _is_int(value) -> bool:
+def is_integer(value) -> bool:
+    """Whether ``value`` is a Python or numpy integer (a bool is not)."""
     return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
 
 
@@ -78,9 +79,9 @@ class TaskState:
         if not objects:
             raise ValueError("a state needs at least one object")
         for j, where in enumerate(objects):
-            if not _is_int(where) or not (where == HELD or 0 <= where < n):
+            if not is_integer(where) or not (where == HELD or 0 <= where < n):
                 raise ValueError(f"object {j + 1} location must be a segment index in [0, {n}) or HELD (-1), got {where!r}")
-        if not _is_int(self.arm) or not 0 <= self.arm < n:
+        if not is_integer(self.arm) or not 0 <= self.arm < n:
             raise ValueError(f"arm must be a segment index in [0, {n}), got {self.arm!r}")
         object.__setattr__(self, "clean", clean)
         object.__setattr__(self, "objects", tuple(int(o) for o in objects))
@@ -185,7 +186,7 @@ def decode_code(code: int, n_segments: int, n_objects: int) -> TaskState:
     """Inverse of [`encode`][tableclean_suite.task.state.encode] for N segments and M objects; ``TypeError``
     for a non-integer, ``ValueError`` outside ``range(state_count(N, M))``."""
     total = state_count(n_segments, n_objects)
-    if not _is_int(code):
+    if not is_integer(code):
         raise TypeError(f"state code must be an int in [0, {total}), got {code!r}")
     if not 0 <= int(code) < total:
         raise ValueError(f"state code must be in [0, {total}), got {code}")
