@@ -45,9 +45,9 @@ def test_config_is_frozen_and_feeds_train_and_the_cell_key():
     config = RunConfig(runs=7, iterations=50, workers=2, out="x")
     with pytest.raises(dataclasses.FrozenInstanceError):
         config.runs = 8
-    from tableclean_suite.bench.experiments import Cell, resolve_cell
+    from tableclean_suite.bench.experiments import Cell, CellRun
 
-    run = resolve_cell(Cell("q_learning", "r4", 0.3, 0.3), config, None)
+    run = CellRun(Cell("q_learning", "r4", 0.3, 0.3), config, None)
     assert run.train == dict(iterations=50, epsilon=0.1, max_itr=500, seed=0, backend="symbolic", workers=2)
     settings = config.cell_settings()
     assert settings["runs"] == 7 and settings["iterations"] == 50

@@ -14,12 +14,12 @@ SMALL = dict(runs=40, iterations=400, sweeps=False, literature=False, rewards=("
 def key_of(config: RunConfig, learner: str) -> dict:
     cell = experiments.Cell(learner, "r4", config.alpha, config.gamma)
     model = config.task_model()
-    return experiments.cell_config(experiments.resolve_cell(cell, config, model), "code", "task")
+    return experiments.cell_config(experiments.CellRun(cell, config, model), "code", "task")
 
 
 def summary_of(config: RunConfig, learner: str):
     cell = experiments.Cell(learner, "r4", config.alpha, config.gamma)
-    summary, _, _, _ = experiments.train_cell(experiments.resolve_cell(cell, config, config.task_model()))
+    summary, _, _, _ = experiments.train_cell(experiments.CellRun(cell, config, config.task_model()))
     return summary
 
 

@@ -19,7 +19,7 @@ TOLERANCE = 0.05
 def _cell(reward, iterations):
     cell = experiments.Cell("q_learning", reward, 0.3, 0.3)
     config = RunConfig(runs=200, iterations=iterations, bootstrap_samples=20, seed=0)
-    summary, stats, *_ = experiments.train_cell(experiments.resolve_cell(cell, config, TaskModel()))
+    summary, stats, *_ = experiments.train_cell(experiments.CellRun(cell, config, TaskModel()))
     assert stats.settling.settled(), (reward, iterations, stats.settling)
     return summary
 

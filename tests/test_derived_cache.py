@@ -22,7 +22,7 @@ def inputs():
     cells = [experiments.Cell("q_learning", reward, 0.3, 0.3) for reward in ("r1", "r4")]
     summaries, statistics = {}, {}
     for cell in cells:
-        summaries[cell], statistics[cell], *_ = experiments.train_cell(experiments.resolve_cell(cell, config, TaskModel()))
+        summaries[cell], statistics[cell], *_ = experiments.train_cell(experiments.CellRun(cell, config, TaskModel()))
     records, curves = experiments.cell_records([experiments.Membership("main", cell) for cell in cells],
                                                summaries, statistics)
     comparison_cells = [{"learner": c.learner, "reward": c.reward, "runs": statistics[c].runs} for c in cells]

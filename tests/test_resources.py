@@ -165,14 +165,14 @@ def test_a_grid_is_refused_before_any_cell_trains(monkeypatch, case):
         error = resources.TooMuchWorkError
     cells = experiments.unique_cells(experiments.config_grid(config))
     with pytest.raises(error):
-        experiments.check_grid_resources(experiments.resolve_cell(c, config, model) for c in cells)
+        experiments.check_grid_resources(experiments.CellRun(c, config, model) for c in cells)
 
 
 def test_the_paper_default_grid_passes_the_guard():
     config = RunConfig(out="unused")
     model = config.task_model()
     cells = experiments.unique_cells(experiments.config_grid(config))
-    assert 0 < experiments.check_grid_resources(experiments.resolve_cell(c, config, model) for c in cells) < experiments.LONG_GRID_SECONDS
+    assert 0 < experiments.check_grid_resources(experiments.CellRun(c, config, model) for c in cells) < experiments.LONG_GRID_SECONDS
 
 
 def test_per_state_python_walks_of_a_huge_spec_are_refused_at_once(monkeypatch):
@@ -275,7 +275,7 @@ def test_the_grid_estimate_counts_double_q_and_the_settling_snapshots(monkeypatc
     for learners, backend in ((("q_learning",), "physics"), (("q_learning",), "symbolic"),
                               (("q_learning", "double_q_learning"), "symbolic")):
         config = RunConfig(learners=learners, rewards=("r4",), out="unused", backend=backend)
-        experiments.check_grid_resources(experiments.resolve_cell(c, config, model) for c in experiments.unique_cells(experiments.config_grid(config)))
+        experiments.check_grid_resources(experiments.CellRun(c, config, model) for c in experiments.unique_cells(experiments.config_grid(config)))
     plain, settling, double = seen
     assert settling == 2 * plain and double == 8 * plain  # the checkpoint copy; double Q's 5 tables and 3 snapshots
 
@@ -286,8 +286,8 @@ def _grid_plans(backend: str, analysis: str = "auto"):
                        out="unused", backend=backend, analysis=analysis, sweeps=False, literature=False)
     model = TaskModel()
     cells = experiments.unique_cells(experiments.config_grid(config))
-    return (experiments.check_grid_resources(experiments.resolve_cell(c, config, model) for c in cells),
-            [experiments.resolve_cell(cell, config, model).plan for cell in cells])
+    return (experiments.check_grid_resources(experiments.CellRun(c, config, model) for c in cells),
+            [experiments.CellRun(cell, config, model).plan for cell in cells])
 
 
 def test_the_grid_time_counts_training_once_and_each_cells_planned_analysis(monkeypatch):

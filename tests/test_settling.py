@@ -36,7 +36,7 @@ def test_drift_is_the_absolute_change_per_run_and_settled_compares_its_mean():
 def _stats(learner, reward, runs=200, iterations=2000):
     cell = experiments.Cell(learner, reward, 0.3, 0.3)
     config = RunConfig(runs=runs, iterations=iterations, bootstrap_samples=50, seed=0)
-    return experiments.train_cell(experiments.resolve_cell(cell, config, MODEL))[1]
+    return experiments.train_cell(experiments.CellRun(cell, config, MODEL))[1]
 
 
 def test_harness_drift_is_the_mean_change_between_the_checkpoint_and_the_end():
@@ -81,7 +81,7 @@ def test_converged_q_learning_settles_and_drifting_sarsa_does_not():
 def test_table3_carries_the_settling_columns():
     cell = experiments.Cell("q_learning", "r2", 0.3, 0.3)
     config = RunConfig(runs=40, iterations=600, bootstrap_samples=20, seed=0)
-    summary, stats, *_ = experiments.train_cell(experiments.resolve_cell(cell, config, MODEL))
+    summary, stats, *_ = experiments.train_cell(experiments.CellRun(cell, config, MODEL))
     grid = [experiments.Membership("main", cell)]
     records, _ = experiments.cell_records(grid, {cell: summary}, {cell: stats}, settle_tolerance=0.0)
     row = tables.table3(records).iloc[0]
@@ -94,7 +94,7 @@ def test_table3_carries_the_settling_columns():
 def test_table3_without_settling_leaves_it_empty():
     cell = experiments.Cell("q_learning", "r2", 0.3, 0.3)
     config = RunConfig(runs=10, iterations=200, bootstrap_samples=5, seed=0)
-    summary, *_ = experiments.train_cell(experiments.resolve_cell(cell, config, MODEL))
+    summary, *_ = experiments.train_cell(experiments.CellRun(cell, config, MODEL))
     records, _ = experiments.cell_records([experiments.Membership("main", cell)], {cell: summary})
     row = tables.table3(records).iloc[0]
     assert math.isnan(row["behaviour_drift"]) and row["checkpoint_iteration"] is pd.NA and row["settled"] is pd.NA

@@ -220,7 +220,7 @@ PAPER_MODEL = TaskModel()
 
 
 def _cell_config(cell, config, model=PAPER_MODEL, transitions_sha256=None):
-    return experiments.cell_config(experiments.resolve_cell(cell, config, model), digests.code_digest(config.plugins),
+    return experiments.cell_config(experiments.CellRun(cell, config, model), digests.code_digest(config.plugins),
                                    digests.task_digest(model), transitions_sha256)
 
 
@@ -338,9 +338,9 @@ def test_table3_leaves_paper_columns_empty_for_another_task():
 def test_train_cell_chunking_does_not_change_the_numbers(runs_per_chunk):
     cell = experiments.Cell("q_learning", "r3", 0.5, 0.3)
     config = RunConfig(runs=23, iterations=600, max_itr=80, seed=9)
-    whole, whole_stats, _, _ = experiments.train_cell(experiments.resolve_cell(cell, config, PAPER_MODEL,
+    whole, whole_stats, _, _ = experiments.train_cell(experiments.CellRun(cell, config, PAPER_MODEL,
                                                                                runs_per_chunk=config.runs))
-    chunked, chunked_stats, _, _ = experiments.train_cell(experiments.resolve_cell(cell, config, PAPER_MODEL,
+    chunked, chunked_stats, _, _ = experiments.train_cell(experiments.CellRun(cell, config, PAPER_MODEL,
                                                                                    runs_per_chunk=runs_per_chunk))
     assert whole.max_success_iterations is not None
     for name in SUMMARY_SCALARS:
@@ -403,7 +403,7 @@ def test_a_simulated_cell_trains_with_its_monte_carlo_error_and_its_row_names_th
     cell = experiments.Cell("q_learning", "r4", 0.3, 0.3)
     simulated_config = _config(runs=6, iterations=300, analysis="simulated", analysis_episodes=50)
     exact_config = _config(runs=6, iterations=300)
-    simulated, exact = (experiments.resolve_cell(cell, c, PAPER_MODEL) for c in (simulated_config, exact_config))
+    simulated, exact = (experiments.CellRun(cell, c, PAPER_MODEL) for c in (simulated_config, exact_config))
     plans = {cell: simulated.plan}
     summary, stats, _, _ = experiments.train_cell(simulated)
     exact_summary, exact_stats, _, _ = experiments.train_cell(exact)

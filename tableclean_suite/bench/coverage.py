@@ -22,13 +22,13 @@ from dataclasses import replace
 from pathlib import Path
 
 from tableclean_suite.bench.tables import PRINT_WIDTH
+from tableclean_suite.intervals import DEFAULT_CONFIDENCE
 
 #: Replications per cell by default (18 of 20 has a 95 % Clopper-Pearson interval of [68, 99] %).
 DEFAULT_REPLICATIONS = 100
 DEFAULT_REFERENCE_RUNS = 20_000
 #: Bootstrap resamples of the reference, whose point values alone are used (2: scipy's fewest without a warning).
 REFERENCE_SAMPLES = 2
-DEFAULT_CONFIDENCE = 0.95
 RESULT_FILE = "coverage.csv"
 PROG = "tableclean-bench coverage"
 DEFAULT_OUT = "results/coverage"
@@ -199,7 +199,7 @@ def estimate(args, model) -> tuple[str, float]:
     config, replications = args.config, args.replications
     cells = [m.cell for m in experiments.config_grid(config) if m.experiment == "main"]
     reference = replace(config, runs=args.reference_runs)
-    seconds = sum(times * experiments.check_grid_resources(experiments.resolve_cell(cell, settings, model)
+    seconds = sum(times * experiments.check_grid_resources(experiments.CellRun(cell, settings, model)
                                                            for cell in cells)
                   for times, settings in ((replications, config), (1, reference)))
     resources.require_time(seconds, f"{replications} replications and a reference of {len(cells)} cell(s)")

@@ -95,7 +95,7 @@ def key_digests(config: RunConfig, model, transitions=None) -> tuple[str, str, s
 
 def cell_config(run: CellRun, code: str, task: str, transitions_sha256: str | None = None) -> dict:
     """Everything that determines a cell's stored summary (JSON-serialisable): the cell ``run``
-    ([`resolve_cell`][tableclean_suite.bench.experiments.resolve_cell]), the reward pattern by value,
+    ([`CellRun`][tableclean_suite.bench.experiments.CellRun]), the reward pattern by value,
     the learner's settings and code digest, the ``code`` and ``task`` digests
     ([digests][tableclean_suite.bench.digests]), the calibrated table file's ``transitions_sha256``
     and a simulated plan's label."""
@@ -329,11 +329,6 @@ class CellRun:
                                        self.iterations, checkpoint=self.checkpoint > 0)
 
 
-#: ``resolve_cell(cell, config, model, transitions=None, runs_per_chunk=None)``: the cell's
-#: [`CellRun`][tableclean_suite.bench.experiments.CellRun].
-resolve_cell = CellRun
-
-
 def check_grid_resources(runs) -> float:
     """Refuse (before training) cells that cannot fit in memory (one chunk's records and Q-tables
     plus the largest analysis call) or would run too long; returns the estimated seconds of training
@@ -512,7 +507,7 @@ def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, flo
 
     model = config.task_model()
     transitions = TransitionTable.from_json(config.transitions, model) if config.backend == "calibrated" else None
-    run = resolve_cell(task.cell, config, model, transitions)
+    run = CellRun(task.cell, config, model, transitions)
     digest = config_hash(cell_config(run, *key_digests(config, model, transitions)))
     if digest != task.key_hash:
         raise CellKeyMismatchError(
@@ -560,7 +555,7 @@ def run_grid(grid: list[Membership], config: RunConfig, model, store: CellStore,
     from tqdm.auto import tqdm
 
     outcome = GridRun()
-    runs = {cell: resolve_cell(cell, config, model, transitions) for cell in unique_cells(grid)}
+    runs = {cell: CellRun(cell, config, model, transitions) for cell in unique_cells(grid)}
     every_cell_trains = config.fresh or not any(store.root.glob("*.npz"))
     if every_cell_trains:  # refused before the task's digest builds its table
         estimate = check_grid_resources(runs.values())

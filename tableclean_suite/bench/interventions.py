@@ -26,12 +26,11 @@ from pathlib import Path
 import numpy as np
 
 from tableclean_suite.bench.cli import say
+from tableclean_suite.intervals import DEFAULT_CONFIDENCE as CONFIDENCE
 
 PROG = "tableclean-bench interventions"
 DEFAULT_OUT = "results/interventions"
 DEFAULT_RUNS = 200
-#: Level of every interval.
-CONFIDENCE = 0.95
 #: Bootstrap resamples of the plateau's interval.
 PLATEAU_RESAMPLES = 2000
 #: The paper's settings every cell starts from (alpha, gamma, epsilon, max_itr; the paper task).

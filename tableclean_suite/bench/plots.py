@@ -9,6 +9,8 @@ import io
 
 import numpy as np
 
+from tableclean_suite import metrics
+
 #: The paper's patterns get fixed colours; user patterns take the next free ones.
 REWARD_COLORS = {"r1": "#1f77b4", "r2": "#ff7f0e", "r3": "#2ca02c", "r4": "#d62728"}
 _EXTRA_COLORS = ("#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
@@ -48,12 +50,6 @@ def _select(curves: pd.DataFrame, **where) -> pd.DataFrame:
     """The rows of ``curves`` whose columns equal the values in ``where``."""
     return curves[np.logical_and.reduce([(curves[column] == value).to_numpy(dtype=bool)
                                          for column, value in where.items()])]
-
-
-def _plateau(values: np.ndarray, plateau_fraction: float) -> float:
-    window = max(1, int(np.ceil(len(values) * plateau_fraction)))
-    tail = values[-window:]
-    return float(np.nanmean(tail)) if np.any(~np.isnan(tail)) else float("nan")
 
 
 def _scale(metric: str) -> float:
@@ -116,7 +112,7 @@ def plot_rewards(
         if levels is not None and reward in levels:
             level, kind = float(levels[reward]) * _scale(metric), "asymptote"
         elif plateau_fraction is not None:
-            level, kind = _plateau(values, plateau_fraction), "plateau"
+            level, kind = metrics.plateau(values, plateau_fraction), "plateau"
         else:
             level = kind = None
         if level is not None:
