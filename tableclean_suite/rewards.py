@@ -9,12 +9,11 @@ from __future__ import annotations
 
 import enum
 import math
-import re
 from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from tableclean_suite.registry import Registry
+from tableclean_suite.registry import NAME_PATTERN, Registry
 from tableclean_suite.task import N_OUTCOMES, Outcome
 
 #: Table 2 reward levels, named.
@@ -30,8 +29,6 @@ MAX_REWARD = 10**6
 
 #: Outcomes of routine actions (move/pick/place) that the looping penalty can hit.
 LOOPABLE_OUTCOMES = (Outcome.ROUTINE, Outcome.INEFFECTIVE)
-
-_NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
 
 
 class CombineMode(str, enum.Enum):
@@ -97,7 +94,7 @@ class RewardPattern:
     looping_memory: int = PAPER_LOOPING_MEMORY
 
     def __post_init__(self):
-        if not isinstance(self.name, str) or not _NAME_PATTERN.match(self.name):
+        if not isinstance(self.name, str) or not NAME_PATTERN.match(self.name):
             raise ValueError(f"reward pattern name must be lower_snake (e.g. 'r5' or 'my_reward'), got {self.name!r}")
         for f in fields(self):
             if f.name in ("name", "description", "looping_mode", "terminal_mode", "looping_memory"):

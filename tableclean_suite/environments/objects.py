@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
@@ -29,7 +28,7 @@ from robosuite.models.objects import (BottleObject, BoxObject, BreadObject, CanO
                                       LemonObject, MilkObject, MujocoObject)
 from robosuite.utils.mjcf_utils import CustomMaterial
 
-from tableclean_suite.registry import Registry
+from tableclean_suite.registry import NAME_PATTERN, Registry
 
 OBJECT_NAME = "object"
 SPONGE_NAME = "sponge"
@@ -52,8 +51,6 @@ APPROACH_CLEARANCE = 0.01
 GRASP_WIDTH_MARGIN = 0.01
 #: Free joint of objects built from a user's MJCF file (robosuite's default for its XML objects).
 XML_OBJECT_JOINTS = ({"type": "free", "damping": "0.0005"},)
-
-_NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
 
 Builder = Callable[[str, Mapping], MujocoObject]
 
@@ -82,7 +79,7 @@ class ObjectType:
     description: str = field(default="", compare=False)
 
     def __post_init__(self):
-        if not isinstance(self.name, str) or not _NAME_PATTERN.match(self.name):
+        if not isinstance(self.name, str) or not NAME_PATTERN.match(self.name):
             raise ValueError(f"object type name must be lower_snake (e.g. 'flat_box'), got {self.name!r}")
         if not callable(self.build):
             raise TypeError(f"object type {self.name!r}: build must be callable (name, task_config) -> MujocoObject")

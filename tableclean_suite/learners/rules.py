@@ -40,7 +40,6 @@ or the trace update rule.  The built-in targets are picked by code
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field, replace
 
 import numba
@@ -49,7 +48,7 @@ import numpy as np
 from tableclean_suite.learners.assist import AFFORD_NONE, AFFORDANCES
 from tableclean_suite.learners.checks import check_number
 from tableclean_suite.learners.exploration import EPSILON_GREEDY, Exploration, greedy_action, softmax_expectation
-from tableclean_suite.registry import Registry
+from tableclean_suite.registry import NAME_PATTERN, Registry
 from tableclean_suite.rewards import MAX_REWARD
 
 
@@ -154,8 +153,6 @@ PARAM_LAMBDA, PARAM_ACCUMULATE, PARAM_PLANNING = 0, 1, 2
 N_LEARNER_PARAMETERS = 3
 
 
-_NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
-
 
 @dataclass(frozen=True)
 class TabularLearner:
@@ -214,7 +211,7 @@ class TabularLearner:
     ties: str = "first"
 
     def __post_init__(self):
-        if not isinstance(self.name, str) or not _NAME_PATTERN.match(self.name):
+        if not isinstance(self.name, str) or not NAME_PATTERN.match(self.name):
             raise ValueError(f"learner name must be lower_snake, got {self.name!r}")
         if not isinstance(self.td_target, numba.core.registry.CPUDispatcher):
             raise TypeError(
