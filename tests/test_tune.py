@@ -160,7 +160,7 @@ def test_a_double_q_study_is_sized_by_its_own_tables_and_refused_before_any_tria
     tables per run through; the learner's own estimate refuses it, one line, exit 2, nothing trained."""
     from tableclean_suite import resources
     from tableclean_suite.bench import commands
-    from tableclean_suite.bench.experiments import ANALYSIS_BYTES_PER_PAIR
+    from tableclean_suite.asymptotes import EXACT_BYTES_PER_ENTRY
     from tableclean_suite.learners import get_learner
     from tableclean_suite.rewards import get_reward_pattern
     from tableclean_suite.task import TaskModel, TaskSpec
@@ -170,7 +170,7 @@ def test_a_double_q_study_is_sized_by_its_own_tables_and_refused_before_any_tria
     spec_path.write_text(json.dumps(model.spec.to_dict()))
     runs, iterations = 40, 10
     stage_runs = -(-runs // tune.STAGES)
-    analysis = resources.MemoryEstimate({"asymptote analysis": model.n_states * model.n_actions * ANALYSIS_BYTES_PER_PAIR})
+    analysis = resources.MemoryEstimate({"asymptote analysis": model.n_states * model.n_actions * EXACT_BYTES_PER_ENTRY})
     old = resources.training_memory(model.n_states, model.n_actions, stage_runs, iterations,
                                     code_bytes=model.record_dtype.itemsize) + analysis
     from tableclean_suite.learners.memory import learner_training_memory

@@ -255,10 +255,6 @@ def chunk_runs(iterations: int, budget_bytes: int = CHUNK_BYTES, q_table_bytes: 
 #: Estimated seconds of training above which [`run_grid`][tableclean_suite.bench.experiments.run_grid] says
 #: so on stderr.
 LONG_GRID_SECONDS = 600
-#: The exact analysis's bytes per (state, action) pair and its speed, for the tuning command's own
-#: estimate ([`CellRun.plan`][tableclean_suite.bench.experiments.CellRun.plan] costs the harness's cells).
-ANALYSIS_BYTES_PER_PAIR = 256
-ANALYSIS_PAIRS_PER_SECOND = 6_000_000
 
 
 @dataclass(frozen=True, eq=False)

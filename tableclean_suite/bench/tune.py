@@ -44,6 +44,8 @@ DECAY_FRACTION_RANGE = (0.05, 1.0)
 PAPER_SETTINGS = {"alpha": 0.3, "gamma": 0.3, "epsilon": 0.1, "exploration": "epsilon_greedy"}
 #: Stages of runs per trial (intermediate values for the pruner).
 STAGES = 4
+#: (state, action) pairs per second of one exact asymptote analysis, for the time estimate.
+ANALYSIS_PAIRS_PER_SECOND = 6_000_000
 DEFAULT_TOLERANCE = 0.01
 #: Trials the pruner lets finish before it prunes, and stages it waits within a trial.
 PRUNER_STARTUP_TRIALS = 5
@@ -103,7 +105,7 @@ def check_resources(args) -> None:
     """
     from tableclean_suite import resources
     from tableclean_suite.learners.memory import learner_training_memory
-    from tableclean_suite.bench.experiments import ANALYSIS_BYTES_PER_PAIR, ANALYSIS_PAIRS_PER_SECOND
+    from tableclean_suite.asymptotes import EXACT_BYTES_PER_ENTRY
     from tableclean_suite.learners import get_learner
     from tableclean_suite.rewards import get_reward_pattern
 
@@ -112,7 +114,7 @@ def check_resources(args) -> None:
     stage_runs = -(-args.runs // STAGES)
     memory = learner_training_memory(model, get_learner(args.learner), get_reward_pattern(args.reward),
                                      stage_runs, args.iterations, checkpoint=False, engine=resources.DEFAULT_ENGINE)
-    memory += resources.MemoryEstimate({"asymptote analysis": pairs * ANALYSIS_BYTES_PER_PAIR})
+    memory += resources.MemoryEstimate({"asymptote analysis": pairs * EXACT_BYTES_PER_ENTRY})
     resources.require_memory(memory, f"a tuning stage of {args.learner!r} on task {model.spec.name!r} "
                                      f"({model.n_states} states x {model.n_actions} actions, {stage_runs} runs x "
                                      f"{args.iterations} iterations)")
