@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tableclean_suite.executors.base import check_count
 from tableclean_suite.executors.blas import single_blas_thread
 from tableclean_suite.learners.rng import run_key
 from tableclean_suite.task import HELD, Action, TaskModel, TaskState, as_state
@@ -151,8 +152,7 @@ class PhysicsStepEnv:
 
         if fault_policy not in FAULT_POLICIES:
             raise ValueError(f"unknown fault_policy {fault_policy!r}; allowed: {', '.join(FAULT_POLICIES)}")
-        if isinstance(max_retries, bool) or not isinstance(max_retries, (int, np.integer)) or max_retries < 0:
-            raise ValueError(f"max_retries must be an integer >= 0, got {max_retries!r}")
+        check_count("max_retries", max_retries, 0)
         self.model = model if model is not None else TaskModel()
         check_physical_task(self.model)
         self.env = env if env is not None else make_skill_env(**staging_env_kwargs(self.model, env_kwargs))
@@ -402,8 +402,7 @@ class PhysicsBackend:
         learner, reward, runs, iterations = job.learner, job.reward, job.runs, job.iterations
         options = _check_options(job.options.get("physics_options") or {})
         workers = (os.cpu_count() or 1) if job.workers is None else job.workers
-        if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
-            raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+        check_count("workers", workers, 1)
         workers = min(int(workers), runs)
         bar = None
         if job.progress:

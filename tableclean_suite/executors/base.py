@@ -8,6 +8,7 @@ exception fails the task at once (chained as ``__cause__``).
 
 from __future__ import annotations
 
+import numbers
 from typing import Any, Callable, Iterable, Iterator, Protocol, runtime_checkable
 
 #: Retries of a failed task unless the caller says otherwise (so up to 3 attempts in all).
@@ -70,7 +71,7 @@ def check_count(name: str, value, minimum: int, allow_none: bool = False) -> Non
     """
     if value is None and allow_none:
         return
-    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
         raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
 
 
