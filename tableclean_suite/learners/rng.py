@@ -21,7 +21,7 @@ main-lane draw:
 - ``LANE_TIES``: ``uniform(lane key, iteration, STREAM_TIE)``, which of the tied greedy actions
   the behaviour policy takes at that iteration under ``train(ties="random")``;
 - ``LANE_SIMULATION``: the episodes a cell's analysis simulates from each run's final greedy
-  policy ([`tableclean_suite.simulation`][tableclean_suite.simulation]'s ``SIMULATION_LANE``).
+  policy ([`tableclean_suite.simulation`][tableclean_suite.simulation]).
 """
 
 from __future__ import annotations
@@ -87,8 +87,6 @@ _M1 = np.uint64(_MIX1)
 _M2 = np.uint64(_MIX2)
 _S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11)
 _NS = np.uint64(N_STREAMS)
-
-
 _SALT = np.uint64(LANE_SALT)
 
 
