@@ -35,13 +35,11 @@ from tableclean_suite.learners.assist import (
 )
 from tableclean_suite.learners.exploration import (
     EPSILON_GREEDY_CODE,
-    EXPONENTIAL_DECAY_CODE,
-    LINEAR_DECAY_CODE,
     P_START,
     SOFTMAX_CODE,
     VISIT_DECAY_CODE,
     choose_action,
-    epsilon_greedy,  # noqa: F401  (re-exported: the paper's policy)
+    epsilon_greedy,
     exploration_parameter,
 )
 from tableclean_suite.learners.rng import (
@@ -62,7 +60,6 @@ from tableclean_suite.learners.rng import (
 from tableclean_suite.learners.optimality import NOT_LEARNED, behaviour_row, greedy_walk, tied_greedy, walk_changed
 from tableclean_suite.learners.rules import (
     EXPECTED_SARSA_TARGET,
-    METHODS,
     METHOD_DOUBLE_Q,
     METHOD_DYNA,
     METHOD_ONE_STEP,
@@ -79,6 +76,7 @@ from tableclean_suite.learners.rules import (
     q_learning_target,
     softmax_expected_sarsa_target,
 )
+from tableclean_suite.rewards import LOOPING_ADD, LOOPING_OFF
 from tableclean_suite.task import Outcome
 
 #: Codes of ``episode_end`` in training records.
@@ -96,14 +94,11 @@ FROM_ARGUMENTS = -1
 #: constant, so numba drops the other rules' branches before compiling (and never compiles their callees).
 LOOP_METHOD = FROM_ARGUMENTS
 LOOP_EXPLORATION = FROM_ARGUMENTS
-#: The exploration codes a copy of the loop may have compiled in ([`exploration`][tableclean_suite.learners.exploration]).
-EXPLORATION_CODES = (EPSILON_GREEDY_CODE, LINEAR_DECAY_CODE, EXPONENTIAL_DECAY_CODE, VISIT_DECAY_CODE, SOFTMAX_CODE)
 
 _ROUTINE = int(Outcome.ROUTINE)
 _INEFFECTIVE = int(Outcome.INEFFECTIVE)
 _IMPROPER = int(Outcome.IMPROPER)
 _TERMINAL = int(Outcome.TERMINAL)
-_LOOPING_ADD = 2
 
 
 @numba.njit(cache=True)
@@ -118,20 +113,20 @@ def sample_index(cumulative, draw):
 @numba.njit(cache=True)
 def memory_adjusted_reward(reward, outcome, next_state, entered, t, episode_start, memory, loop_value, loop_mode):
     """Apply the looping penalty, which looks back ``memory`` states (2: the paper's r4, s_t and
-    s_{t-1}; 0: the whole episode), as [`loops`][tableclean_suite.rewards.RewardPattern.loops].
+    s_{t-1}; 0: the whole episode), as [`reward`][tableclean_suite.rewards.RewardPattern.reward].
 
     ``entered[s]`` is the iteration at which state s was last entered (the current state s_t at
     ``t``), so s_{t+1} is among the episode's last ``memory`` states s_t .. s_{t-memory+1} when
     ``entered[s_{t+1}] > t - memory`` and it was entered in this episode (>= ``episode_start``).
     """
-    if loop_mode == 0:
+    if loop_mode == LOOPING_OFF:
         return reward
     if outcome != _ROUTINE and outcome != _INEFFECTIVE:
         return reward
     last = entered[next_state]
     if last < episode_start or (memory != 0 and last <= t - memory):
         return reward
-    if loop_mode == _LOOPING_ADD:
+    if loop_mode == LOOPING_ADD:
         return reward + loop_value
     return loop_value
 
@@ -150,8 +145,8 @@ def act(q_a, q_b, row, state, plain, double, explore_code, explore_parameters, k
         affordance, masks, advisor, advice, advice_key, random_ties, tie_key):
     """The behaviour policy's action in ``state`` at ``iteration`` (main-lane draws of that iteration).
 
-    ``plain``: constant epsilon-greedy on ``q_a`` without affordances (the paper's policy, taken
-    without the general path's per-step schedule and row work: same action, fewer instructions).
+    ``plain``: constant epsilon-greedy on ``q_a`` without affordances (the paper's policy, by a
+    shorter path: the same action).
     An advisor (``advisor`` non-empty) is asked first (advice-lane draws); with affordances
     (``affordance`` != AFFORD_NONE) the choice is restricted to ``masks[state]`` ([`assist`][tableclean_suite.learners.assist]).
     With ``random_ties`` a greedy (not exploring) epsilon-greedy choice is uniform among the tied
@@ -272,11 +267,8 @@ def plan(q, model_next, model_reward, model_terminal, observed, n_observed, plan
 
 @numba.njit(cache=True)
 def copy_tables(q_a, q_b, snapshot_a, snapshot_b, double):
-    """Copy a run's Q-table (and, for double Q, table B) into its snapshot arrays.
-
-    Element loops, not slice assignment: numba compiles a slice assignment with its shape-mismatch
-    error message (string formatting), about 4 s of the first process's compile time.
-    """
+    """Copy a run's Q-table (and, for double Q, table B) into its snapshot arrays (element loops: a slice
+    assignment compiles its shape-mismatch message, seconds of a first process's compile)."""
     for s in range(q_a.shape[0]):
         for a in range(q_a.shape[1]):
             snapshot_a[s, a] = q_a[s, a]
@@ -559,25 +551,14 @@ def _train_loop(
 
 
 def specialised_loop(name: str, method: int, exploration: int):
-    """A disk-cached compiled copy of `_train_loop` with the update rule ``method``
+    """A disk-cached compiled copy of `_train_loop` named ``name`` with the update rule ``method``
     (``rules.METHOD_*``) and the exploration ``exploration`` (``exploration.*_CODE``) compiled in as
     constants, or `FROM_ARGUMENTS` for both: read from its arguments (the general loop).
 
-    Same code object, other globals (`LOOP_METHOD`, `LOOP_EXPLORATION`) and name: numba
-    drops the branches of the other rules and explorations before typing, so it never compiles their
-    callees (a first process's compile of the paper's learners' loop skips the traces', Dyna's, double
-    Q's and softmax's: ~3-4 s of CPU of ~9), and gives the same bits as the general loop for learners
-    of that rule and exploration.  ``name`` names its disk-cache entry: one per copy.
-
-    Raises:
-        ValueError: ``method`` is not a ``rules.METHOD_*`` code or ``exploration`` not one of
-            `EXPLORATION_CODES` (or only one of them is `FROM_ARGUMENTS`).
+    Same code object, other globals (`LOOP_METHOD`, `LOOP_EXPLORATION`): numba drops the other rules'
+    and explorations' branches before typing, so it never compiles their callees, and the copy gives
+    the general loop's bits for learners of that rule and exploration.
     """
-    general = (method, exploration) == (FROM_ARGUMENTS, FROM_ARGUMENTS)
-    if not general and (method not in METHODS.values() or exploration not in EXPLORATION_CODES):
-        raise ValueError(f"specialised_loop({name!r}): method {method!r} and exploration {exploration!r}: "
-                         f"allowed a method of {sorted(METHODS.values())} with an exploration of "
-                         f"{list(EXPLORATION_CODES)}, or both FROM_ARGUMENTS ({FROM_ARGUMENTS})")
     function = _loop_function(name, LOOP_METHOD=method, LOOP_EXPLORATION=exploration)
     return numba.njit(cache=True, nogil=True)(function)
 
@@ -652,12 +633,10 @@ def _guard_disk_cache() -> None:
 
     from tableclean_suite.learners import cache_guard
 
-    package = "tableclean_suite.learners"
-    modules = [sys.modules[f"{package}.{name}"] for name in ("kernel", "rng", "rules", "exploration", "assist", "optimality")]
-    dispatchers = [value for value in vars(sys.modules[__name__]).values()
+    modules = [sys.modules[f"tableclean_suite.learners.{name}"]
+               for name in ("kernel", "rng", "rules", "exploration", "assist", "optimality")]
+    dispatchers = [value for module in modules for value in vars(module).values()
                    if isinstance(value, numba.core.registry.CPUDispatcher)]
-    for module in modules[1:]:
-        dispatchers += [value for value in vars(module).values() if isinstance(value, numba.core.registry.CPUDispatcher)]
     cache_guard.guard("learners.kernel", dispatchers, modules)
 
 
