@@ -264,7 +264,7 @@ class _Agent:
             if terminal:
                 return reward
             return reward + self.gamma * max(self.q[nxt][a] for a in self.assistance.afforded(nxt))
-        return self.learner.target(np.asarray(self.q[nxt]), pending, reward, self.gamma, behaviour, terminal)
+        return self.learner.td_target.py_func(np.asarray(self.q[nxt]), pending, reward, self.gamma, behaviour, terminal)
 
     def _learn_double(self, t, state, action, reward, nxt, terminal) -> None:
         if uniform_py(self.side_key, t, STREAM_DOUBLE_TABLE) < DOUBLE_Q_SPLIT:
@@ -334,7 +334,7 @@ def train_run(
     """
     key = run_key(seed, run)
     model = env.model
-    assistance = _Assistance(learner, model, key) if learner.assisted else None
+    assistance = _Assistance(learner, model, key) if learner.affordance != "none" or learner.advised else None
     agent = _Agent(learner, model.n_states, model.n_actions, alpha, gamma, epsilon, key, assistance)
     starts, task_next, distance = optimality.task_arrays(model)
     starts = [int(s) for s in starts]

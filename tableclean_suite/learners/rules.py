@@ -275,11 +275,6 @@ class TabularLearner:
         """Whether a simulated advisor ever advises (``advice_probability > 0``)."""
         return self.advice_probability > 0.0
 
-    @property
-    def assisted(self) -> bool:
-        """Whether affordances or an advisor change the behaviour policy."""
-        return self.affordance_code != AFFORD_NONE or self.advised
-
     def advice_parameters(self) -> np.ndarray:
         """``(N_ADVICE_PARAMETERS,)`` float64 ``[advice_probability, advice_consistency]``."""
         return np.array([self.advice_probability, self.advice_consistency], dtype=np.float64)
@@ -321,10 +316,6 @@ class TabularLearner:
         if self.ties != "first":
             settings["ties"] = self.ties
         return settings
-
-    def target(self, q_next, next_action, reward, gamma, epsilon, terminal) -> float:
-        """The TD target in plain Python (the reference loop's path)."""
-        return self.td_target.py_func(q_next, next_action, reward, gamma, epsilon, terminal)
 
 
 _BUILTIN_TARGETS = {
