@@ -33,12 +33,11 @@ from tableclean_suite.learners.exploration import (  # noqa: F401
 )
 from tableclean_suite.learners.kernel import code_digest  # noqa: F401
 from tableclean_suite.learners.train import (  # noqa: F401
-    BACKENDS,
     LearnerSettings,
     RunOptions,
     TrainingResult,
-    available_backends,
     train,
     validate_hyperparameters,
 )
+from tableclean_suite.backends import backend_names as available_backends  # noqa: F401
 from tableclean_suite.learners.transitions import CorruptTableError, TransitionTable  # noqa: F401

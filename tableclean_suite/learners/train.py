@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from tableclean_suite.backends import BackendRecords, TrainingJob, backend_names, get_backend
+from tableclean_suite.backends import BackendRecords, TrainingJob, get_backend
 from tableclean_suite.learners.checks import check_number
 from tableclean_suite.learners.exploration import Exploration, as_exploration
 from tableclean_suite.learners.optimality import NOT_LEARNED
@@ -27,8 +27,6 @@ from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.rewards import RewardPattern, get_reward_pattern
 from tableclean_suite.task import TaskModel, TaskSpec, as_task_model
 
-#: The built-in backends' names (``tableclean_suite.backends.backend_names()`` lists user ones too).
-BACKENDS = ("symbolic", "calibrated", "physics")
 ENGINES = ("compiled", "reference")
 
 
@@ -72,10 +70,7 @@ def validate_hyperparameters(runs, iterations, alpha, gamma, epsilon, max_itr, s
     """Raise ``ValueError`` naming the first out-of-range argument and its allowed range."""
     check_number("runs", runs, 1, 10**7, integer=True)
     check_number("iterations", iterations, 1, 10**8, integer=True)
-    check_number("alpha", alpha, 0, 1, low_open=True)
-    check_number("gamma", gamma, 0, 1)
-    check_number("epsilon", epsilon, 0, 1)
-    check_number("max_itr", max_itr, 1, 10**8, integer=True)
+    LearnerSettings(alpha=alpha, gamma=gamma, epsilon=epsilon, max_itr=max_itr)
     check_number("seed", seed, 0, 2**63 - 1, integer=True)
 
 
@@ -287,8 +282,3 @@ def _records(settings, options, task, keywords: dict):
     settings = replace(settings or LearnerSettings(), **{k: v for k, v in keywords.items() if k in SETTINGS_FIELDS})
     options = replace(options or RunOptions(), **{k: v for k, v in keywords.items() if k in OPTIONS_FIELDS})
     return settings, options, task
-
-
-def available_backends() -> list[str]:
-    """Registered backend names (built-in and users')."""
-    return backend_names()
