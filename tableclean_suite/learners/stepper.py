@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from tableclean_suite.backends import CHECKPOINT_Q
 from tableclean_suite.learners import assist, kernel as k, optimality
 from tableclean_suite.learners.exploration import EPSILON_GREEDY_CODE, SOFTMAX_CODE, exploration_parameter
 from tableclean_suite.learners.rng import (LANE_ADVICE, LANE_LEARNER, LANE_PLANNING, LANE_TIES, STREAM_DOUBLE_TABLE,
@@ -24,8 +25,6 @@ from tableclean_suite.task import Outcome
 
 #: Key of double Q-learning's two tables in a record / ``TrainingResult.info``: ``(..., 2, S, A)``.
 DOUBLE_Q_TABLES = "double_q_tables"
-#: Key of a run's Q-table after ``train_run(checkpoint=k)``'s k iterations, ``(S, A)``.
-CHECKPOINT_Q = "checkpoint_q"
 RECORD_FIELDS = ("rewards", "outcomes", "states", "actions", "episode_end")
 
 
