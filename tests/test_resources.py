@@ -232,7 +232,6 @@ def test_the_run_working_memory_covers_the_compiled_loops_per_run_arrays(learner
     from tableclean_suite.learners.assist import AFFORD_LEARNED
     from tableclean_suite.learners.kernel import run_memory
     from tableclean_suite.learners.rules import METHOD_DOUBLE_Q, METHOD_DYNA, METHOD_TRACES
-    from tableclean_suite.rewards import get_reward_pattern
 
     chosen = get_learner(learner)
     s, a = 50, 4
@@ -240,7 +239,7 @@ def test_the_run_working_memory_covers_the_compiled_loops_per_run_arrays(learner
                         chosen.method == METHOD_DYNA)
     masks = s * a if chosen.affordance_code == AFFORD_LEARNED else 0
     actual = sum(x.nbytes for x in arrays) + masks
-    assert actual - a * resources.WORD_BYTES <= memory.run_working_bytes(chosen, get_reward_pattern("r4"), s, a) <= actual
+    assert actual - a * resources.WORD_BYTES <= memory.run_working_bytes(chosen, s, a) <= actual
 
 
 def _job(engine: str, runs: int, iterations: int):

@@ -1,10 +1,5 @@
-"""Memory a learner's training allocates, from what the learner is: the estimate the resource guard checks.
-
-The generic accounting (tables, records, the refusal) lives in [`tableclean_suite.resources`][tableclean_suite.resources], a
-leaf module; what a learner adds to it (double Q's tables, traces, Dyna's model, learned
-affordance masks, visit counts, the looping rule's memory, the greedy walk) is read here, next to the learners, so the
-guard does not import the learners back.
-"""
+"""Memory a learner's training allocates, for the guard of [`tableclean_suite.resources`][tableclean_suite.resources]:
+double Q's tables, traces, Dyna's model, learned affordance masks, visit counts, the looping memory, the greedy walk."""
 
 from __future__ import annotations
 
@@ -24,11 +19,10 @@ GREEDY_WALK_WORDS = 2
 GREEDY_WALK_FLAG_BYTES = 1
 
 
-def run_working_bytes(learner, reward, n_states: int, n_actions: int) -> int:
-    """Bytes of one run's working arrays in the compiled loop (``kernel.run_memory`` and the
-    looping rule's memory): eligibility traces, Dyna's model, learned affordance masks, visit
-    counts (S int64), the states' entry times of the looping rule (S int64) and the greedy
-    walk's arrays (17 bytes per state).  ``reward`` (a ``RewardPattern``) does not change it."""
+def run_working_bytes(learner, n_states: int, n_actions: int) -> int:
+    """Bytes of one run's working arrays in the compiled loop (``kernel.run_memory``) for ``learner`` (a
+    ``TabularLearner``): eligibility traces, Dyna's model, learned affordance masks, visit counts (S int64),
+    the states' entry times of the looping rule (S int64) and the greedy walk's arrays (17 bytes per state)."""
     per_pair = {METHOD_TRACES: resources.TRACE_BYTES_PER_PAIR,
                 METHOD_DYNA: resources.DYNA_BYTES_PER_PAIR}.get(learner.method, 0)
     if learner.affordance_code == AFFORD_LEARNED:
@@ -45,9 +39,10 @@ def learner_training_memory(model, learner, reward, runs: int, iterations: int, 
     """[`tableclean_suite.resources.training_memory`][tableclean_suite.resources.training_memory] of ``train()``-ing ``learner`` (a
     ``TabularLearner``) with ``reward`` (a ``RewardPattern``) on ``model`` (a ``TaskModel``): two
     tables per run for double Q-learning, the learner's run working memory
-    ([`run_working_bytes`][tableclean_suite.learners.memory.run_working_bytes]) in each of numba's threads."""
+    ([`run_working_bytes`][tableclean_suite.learners.memory.run_working_bytes]) in each of numba's threads.
+    ``reward`` does not change it."""
     return resources.training_memory(
         model.n_states, model.n_actions, runs, iterations, q_tables=2 if learner.method == METHOD_DOUBLE_Q else 1,
         max_successors=max_successors, code_bytes=model.record_dtype.itemsize, checkpoint=checkpoint, engine=engine,
-        run_bytes=run_working_bytes(learner, reward, model.n_states, model.n_actions),
+        run_bytes=run_working_bytes(learner, model.n_states, model.n_actions),
         concurrent_runs=numba.get_num_threads())
