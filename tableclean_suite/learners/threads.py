@@ -1,9 +1,7 @@
 """Compiled loops over independent items, spread over threads (one job: [`run_in_threads`][tableclean_suite.learners.threads.run_in_threads]).
 
-A compiled function ``kernel(lo, hi, *arguments)`` that handles items ``lo .. hi - 1`` and is
-compiled with ``nogil=True`` runs on several Python threads at once.  Used instead of numba's
-parallel loops (``prange``), whose compilation cost a first process seconds per function, where
-each item's result does not depend on which thread computes it, so any split gives the same bits.
+Used instead of numba's ``prange``, whose compilation costs a first process seconds per function;
+each item's result does not depend on the thread that computes it, so any split gives the same bits.
 """
 
 from __future__ import annotations
