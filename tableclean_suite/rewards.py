@@ -7,7 +7,6 @@ function of (outcome, state, next state, state before the previous step).
 
 from __future__ import annotations
 
-import enum
 import math
 from dataclasses import dataclass, field, fields
 
@@ -31,12 +30,8 @@ MAX_REWARD = 10**6
 LOOPABLE_OUTCOMES = (Outcome.ROUTINE, Outcome.INEFFECTIVE)
 
 
-class CombineMode(str, enum.Enum):
-    """How a special reward combines with the base value it applies to."""
-
-    REPLACE = "replace"  # the special value is given instead of the base value
-    ADD = "add"  # the special value is added to the base value
-
+#: How a special reward combines with the base value it applies to: given instead of it, or added to it.
+COMBINE_MODES = ("replace", "add")
 
 #: Integer codes of the looping rule for compiled learners.
 LOOPING_OFF, LOOPING_REPLACE, LOOPING_ADD = 0, 1, 2
@@ -70,9 +65,8 @@ class RewardPattern:
         looping_memory: how far back the looping rule looks, in states of the episode: a
             routine/ineffective step is looping when its next state is one of the episode's last
             ``looping_memory`` states s_t, s_{t-1}, ..., s_{t-k+1} (an int >= 2; 2, the default,
-            is the paper's rule), or any state the episode visited (``EPISODE_LOOPING_MEMORY``, 0).
-            With N >= 3 segments MOVE goes round a ring of N arm positions, which the paper's
-            rule never sees; memory 0 catches every cycle.
+            is the paper's rule), or any state the episode visited (``EPISODE_LOOPING_MEMORY``, 0:
+            also catches MOVE round the ring of N >= 3 segments).
         terminal_mode: ``"replace"`` (default: the terminal reward replaces the
             relevant-cleaning reward on the final clean) or ``"add"``.
         description: one line for tables and ``--describe``.
@@ -88,8 +82,8 @@ class RewardPattern:
     improper: float
     ineffective: float | None = None
     looping_penalty: float | None = None
-    looping_mode: str = CombineMode.REPLACE.value
-    terminal_mode: str = CombineMode.REPLACE.value
+    looping_mode: str = COMBINE_MODES[0]
+    terminal_mode: str = COMBINE_MODES[0]
     description: str = field(default="", compare=False)
     looping_memory: int = PAPER_LOOPING_MEMORY
 
@@ -110,13 +104,9 @@ class RewardPattern:
             object.__setattr__(self, f.name, float(value))
         for mode_field in ("looping_mode", "terminal_mode"):
             value = getattr(self, mode_field)
-            try:
-                object.__setattr__(self, mode_field, CombineMode(value).value)
-            except ValueError:
-                allowed = ", ".join(m.value for m in CombineMode)
-                raise ValueError(
-                    f"reward pattern {self.name!r}: unknown {mode_field} {value!r}; allowed: {allowed}"
-                ) from None
+            if value not in COMBINE_MODES:
+                raise ValueError(f"reward pattern {self.name!r}: unknown {mode_field} {value!r}; "
+                                 f"allowed: {', '.join(COMBINE_MODES)}")
         memory = self.looping_memory
         if isinstance(memory, bool) or not isinstance(memory, (int, np.integer)) or not (
                 memory == EPISODE_LOOPING_MEMORY or memory >= PAPER_LOOPING_MEMORY):
@@ -142,7 +132,7 @@ class RewardPattern:
         values[Outcome.IRRELEVANT_CLEAN] = self.irrelevant_clean
         values[Outcome.IMPROPER] = self.improper
         terminal = self.terminal
-        if self.terminal_mode == CombineMode.ADD.value:
+        if self.terminal_mode == "add":
             terminal += self.relevant_clean
         values[Outcome.TERMINAL] = terminal
         return values
@@ -152,23 +142,16 @@ class RewardPattern:
         """``LOOPING_OFF``, ``LOOPING_REPLACE`` or ``LOOPING_ADD`` for compiled learners."""
         if self.looping_penalty is None:
             return LOOPING_OFF
-        return LOOPING_ADD if self.looping_mode == CombineMode.ADD.value else LOOPING_REPLACE
+        return LOOPING_ADD if self.looping_mode == "add" else LOOPING_REPLACE
 
     @property
     def paper_looping(self) -> bool:
         """Whether the looping rule (if any) is the paper's: memory of s_t and s_{t-1} only."""
         return self.looping_memory == PAPER_LOOPING_MEMORY
 
-    def loops(self, outcome: int, next_state: int, history) -> bool:
-        """Whether a transition is a loop by this pattern's memory: a routine action whose next
-        state is among the last ``looping_memory`` states of ``history`` (the episode's states
-        s_0 .. s_t, s_t last; all of them for ``EPISODE_LOOPING_MEMORY``).  The paper's rule
-        (memory 2): a routine action returning to s_{t-1} or staying put."""
-        recent = history if self.looping_memory == EPISODE_LOOPING_MEMORY else history[-self.looping_memory:]
-        return int(outcome) in LOOPABLE_OUTCOMES and next_state in recent
-
     def reward(self, outcome: int, state: int, next_state: int, previous_state: int = -1, history=None) -> float:
-        """The reward of one transition (pure).
+        """The reward of one transition (pure).  A routine or ineffective step loops when its next state is
+        among the episode's last ``looping_memory`` states (all of them for ``EPISODE_LOOPING_MEMORY``).
 
         Args:
             outcome: the [`Outcome`][tableclean_suite.task.state.Outcome] of the action.
@@ -185,7 +168,8 @@ class RewardPattern:
                 raise ValueError(f"reward pattern {self.name!r} looks back {self.looping_memory or 'the whole episode'} "
                                  "states for its looping penalty: pass history= (the episode's states so far)")
             history = (state,) if previous_state < 0 else (previous_state, state)
-        if self.loops(outcome, next_state, history):
+        recent = history if self.looping_memory == EPISODE_LOOPING_MEMORY else history[-self.looping_memory:]
+        if int(outcome) in LOOPABLE_OUTCOMES and next_state in recent:
             value = value + self.looping_penalty if self.looping_code == LOOPING_ADD else self.looping_penalty
         return value
 
@@ -240,9 +224,8 @@ PAPER_REWARD_PATTERNS = (
     ),
 )
 
-#: r4 with the looping rule for any N (not the paper's): the penalty for every routine step that
-#: returns to a state the episode already visited, so a MOVE round the ring of N >= 3 segments
-#: is caught too.  Registered beside the paper's patterns; the paper's r4 is unchanged.
+#: r4 with the looping rule for any N: the penalty for every routine step that returns to a state
+#: the episode already visited (a MOVE round the ring of N >= 3 segments too).
 R4_CYCLE = RewardPattern(
     "r4_cycle", TERMINAL_REWARD, RELEVANT_CLEAN_REWARD, SMALL_PENALTY, SMALL_INCENTIVE, IMPROPER_PENALTY,
     looping_penalty=SMALL_PENALTY, looping_memory=EPISODE_LOOPING_MEMORY,
