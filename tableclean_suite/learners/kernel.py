@@ -434,8 +434,7 @@ def _train_loop(
         qb = q_second[r]
         (row, visits, traces, pairs, model_next, model_reward, model_terminal, observed, walked, on_walk, choice,
          entered) = run_memory(n_states, n_actions, double, traced, counting, modelling)
-        # np.int64(...), not bare constants: a literal argument makes numba compile a callee twice (for the
-        # literal type while inferring types, then for int64), about 0.3 s each in a first process.
+        # np.int64(...), not bare constants: numba would compile a callee twice (for the literal type, then int64).
         n_pairs = np.int64(0)
         n_observed = np.int64(0)
         state = np.int64(NO_STATE)

@@ -1,40 +1,33 @@
 """Tabular learners: one temporal-difference target per algorithm, an update rule, and their registry.
 
-Q-learning and SARSA differ only in the target of equation (2) of the paper; the shared loop
-(exploration, episodes, recording) lives in [`kernel`][tableclean_suite.learners.kernel].  A learner
-is data: a name, a compiled target function, whether it picks the next action before updating
-(on-policy, as SARSA does), an *update rule* (`METHODS`) with its parameters, the initial Q value
-and the exploration it acts with:
+A learner is data: a name, a compiled TD target (equation (2) of the paper), whether it picks the next
+action before updating (on-policy, as SARSA does), an update rule (`METHODS`) with its parameters, the
+initial Q value and the exploration it acts with.  The loop that uses them is
+[`kernel`][tableclean_suite.learners.kernel]; the built-in learners:
 
-================== ========================= ===============================================
-learner            update rule               target
-================== ========================= ===============================================
-q_learning         one step                  r + gamma max_a Q(s', a)
-sarsa              one step, on-policy       r + gamma Q(s', a')
-expected_sarsa     one step                  r + gamma E_pi Q(s', .) (pi: the behaviour policy)
-double_q_learning  double (tables A and B)   r + gamma Q_B(s', argmax Q_A(s')) into A, or A<->B
-q_lambda           traces, Watkins's cut     r + gamma max_a Q(s', a)
-sarsa_lambda       traces, on-policy         r + gamma Q(s', a')
-dyna_q             one step + n planning     r + gamma max_a Q(s', a), also on modelled steps
-affordance_q_learning  one step, given        r + gamma max_{a afforded} Q(s', a)
-                   affordances (Cruz et al.)
-learned_affordance_q_learning  one step,      r + gamma max_{a afforded} Q(s', a)
-                   learned affordances
-interactive_q_learning  one step + advisor   r + gamma max_a Q(s', a)
-                   (L = 0.5, C = 1)
-================== ========================= ===============================================
+| learner | update rule | target |
+|---|---|---|
+| `q_learning` | one step | r + gamma max_a Q(s', a) |
+| `sarsa` | one step, on-policy | r + gamma Q(s', a') |
+| `expected_sarsa` | one step | r + gamma E_pi Q(s', .) (pi: the behaviour policy) |
+| `double_q_learning` | double (tables A and B) | r + gamma Q_B(s', argmax Q_A(s')) into A, or A<->B |
+| `q_lambda` | traces, Watkins's cut | r + gamma max_a Q(s', a) |
+| `sarsa_lambda` | traces, on-policy | r + gamma Q(s', a') |
+| `dyna_q` | one step + n planning steps | r + gamma max_a Q(s', a), also on modelled steps |
+| `affordance_q_learning` | one step, given affordances | r + gamma max_{a afforded} Q(s', a) |
+| `learned_affordance_q_learning` | one step, learned affordances | r + gamma max_{a afforded} Q(s', a) |
+| `interactive_q_learning` | one step + advisor (L = 0.5, C = 1) | r + gamma max_a Q(s', a) |
 
-Every learner also takes Cruz et al.'s assistance ([`assist`][tableclean_suite.learners.assist]) through ``learner_options``:
-``affordance`` (``"none"``, ``"given"``, ``"learned"``; one-step Q-learning or SARSA targets
-only) and a simulated advisor's ``advice_probability`` L and ``advice_consistency`` C.
-
-Traces are replacing by default (``trace="accumulating"``), reset at every episode start, and
-cut after an exploratory next action for off-policy learners (Watkins's Q(lambda)); the update
-rules themselves are in [`kernel`][tableclean_suite.learners.kernel].
+Every learner also takes Cruz et al.'s assistance ([`assist`][tableclean_suite.learners.assist]) through
+``learner_options``: ``affordance`` (``"none"``, ``"given"``, ``"learned"``; one-step Q-learning or SARSA
+targets only) and a simulated advisor's ``advice_probability`` L and ``advice_consistency`` C.  Traces are
+replacing by default (``trace="accumulating"``), reset at every episode start, and cut after an exploratory
+next action for off-policy learners (Watkins's Q(lambda)).
 
 Users add a learner by writing a ``numba.njit`` target with the signature of
-[`q_learning_target`][tableclean_suite.learners.rules.q_learning_target] and calling [`register_learner`][tableclean_suite.learners.rules.register_learner]; it may use the one-step
-or the trace update rule.  The built-in targets are picked by code
+[`q_learning_target`][tableclean_suite.learners.rules.q_learning_target] and calling
+[`register_learner`][tableclean_suite.learners.rules.register_learner]; it may use the one-step or the trace
+update rule.  The built-in targets are picked by code
 ([`builtin_td_target`][tableclean_suite.learners.rules.builtin_td_target]), so the disk-cached loop takes no function.
 """
 
