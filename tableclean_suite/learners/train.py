@@ -240,23 +240,10 @@ def train(
         workers=options.workers, options=chosen.check_options(model, backend_options), progress=options.progress,
         executor=options.executor, checkpoint=int(options.checkpoint),
     )
-    config = {
-        "learner": learner.name,
-        "learner_settings": learner.settings(),
-        "reward": reward.name,
-        "runs": job.runs,
-        "iterations": job.iterations,
-        "alpha": job.alpha,
-        "gamma": job.gamma,
-        "epsilon": job.epsilon,
-        "max_itr": job.max_itr,
-        "seed": job.seed,
-        "first_run": job.first_run,
-        "ties": learner.ties,
-        "backend": backend,
-        "model": repr(model),
-        "task": model.spec.to_dict(),
-    }
+    numbers = ("runs", "iterations", "alpha", "gamma", "epsilon", "max_itr", "seed", "first_run")
+    config = {"learner": learner.name, "learner_settings": learner.settings(), "reward": reward.name,
+              **{name: getattr(job, name) for name in numbers}, "ties": learner.ties, "backend": backend,
+              "model": repr(model), "task": model.spec.to_dict()}
     records = chosen.train(job)
     unknown = np.full(job.runs, NOT_LEARNED, dtype=np.int64)
     learning = {name: unknown if getattr(records, name) is None else getattr(records, name)
