@@ -203,11 +203,8 @@ def train(
         backend: a registered backend name (``"symbolic"``, ``"calibrated"``, ``"physics"``).
         settings: the learner's hyper-parameters, a [`LearnerSettings`][tableclean_suite.learners.train.LearnerSettings].
         options: how the call runs, a [`RunOptions`][tableclean_suite.learners.train.RunOptions].
-        **keywords: any field of either record (``alpha=``, ``gamma=``, ``epsilon=``, ``max_itr=``,
-            ``learner_options=``, ``q_init=``, ``exploration=``, ``ties=``, ``engine=``, ``first_run=``,
-            ``workers=``, ``executor=``, ``progress=``, ``checkpoint=``, ``transitions=``,
-            ``physics_options=``), overriding the record's; ``model=`` is a deprecated
-            (``DeprecationWarning``) name of ``task=``.
+        **keywords: any field of either record (``alpha=``, ``epsilon=``, ``engine=``, ...), overriding the
+            record's; ``model=`` is a deprecated (``DeprecationWarning``) name of ``task=``.
 
     Returns:
         A [`TrainingResult`][tableclean_suite.learners.train.TrainingResult] with ``(runs, iterations)`` records and final Q-tables.
