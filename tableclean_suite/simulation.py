@@ -6,7 +6,7 @@ table exactly as ``train()`` plays them (looping rules of any memory included, s
 gets an average reward too), each with its Monte Carlo standard error.
 
 **Random numbers** ([tableclean_suite.learners.rng][]): run ``r`` draws from side lane
-`SIMULATION_LANE` of its run key, at counter ``e * (2 * max_itr + 1)`` for episode ``e``'s start
+``LANE_SIMULATION`` of its run key, at counter ``e * (2 * max_itr + 1)`` for episode ``e``'s start
 state and ``+ 1 + 2 j`` / ``+ 2 + 2 j`` for step ``j``'s action and successor: an estimate depends
 on (seed, run, policy) alone, and a run's final and checkpoint policies share their draws.
 """
@@ -28,9 +28,6 @@ from tableclean_suite.task import Outcome
 #: Episodes simulated per run by default: a success estimate's standard error is at most
 #: 0.5 / sqrt(1000) = 0.016 per run, 0.016 / sqrt(R) for the mean of R runs.
 SIMULATED_EPISODES = 1000
-#: Side lane of a run's key ([tableclean_suite.learners.rng.lane_key][]) the simulation draws from
-#: (the lane table's ``LANE_SIMULATION``, far from the training's lanes).
-SIMULATION_LANE = LANE_SIMULATION
 #: Simulated learner steps per second, and policy entries per second of preparing a policy's
 #: cumulative probabilities, assumed by cost estimates.
 SIMULATED_STEPS_PER_SECOND = 20_000_000
@@ -88,8 +85,8 @@ class StepTable:
 
 def simulation_keys(seed: int, first_run: int, runs: int) -> np.ndarray:
     """``(runs,)`` uint64 keys of runs ``first_run .. first_run + runs - 1`` of a training with ``seed``:
-    side lane `SIMULATION_LANE` of each run's key."""
-    return np.array([lane_key_py(run_key(int(seed), int(first_run) + r), SIMULATION_LANE) for r in range(int(runs))],
+    side lane ``LANE_SIMULATION`` of each run's key."""
+    return np.array([lane_key_py(run_key(int(seed), int(first_run) + r), LANE_SIMULATION) for r in range(int(runs))],
                     dtype=np.uint64)
 
 

@@ -127,9 +127,6 @@ def test_duplicate_json_keys_in_a_spec_file_are_refused(tmp_path):
 
 
 def test_the_simulation_lane_is_in_the_lane_table():
-    from tableclean_suite import simulation
-
-    assert rng.LANE_SIMULATION == simulation.SIMULATION_LANE
     lanes = [rng.LANE_LEARNER, rng.LANE_PLANNING, rng.LANE_ADVICE, rng.LANE_TIES, rng.LANE_SIMULATION]
     assert len(set(lanes)) == len(lanes)
 

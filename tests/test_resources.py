@@ -203,7 +203,6 @@ def test_the_memory_estimate_covers_the_traced_peak_of_training(learner, checkpo
     import tracemalloc
 
     from tableclean_suite.learners import get_learner
-    from tableclean_suite.rewards import get_reward_pattern
 
     iterations = 200
     train(learner=learner, task=MEASURED_MODEL, runs=1, iterations=10)  # compiled and the tables built outside the trace
@@ -216,7 +215,7 @@ def test_the_memory_estimate_covers_the_traced_peak_of_training(learner, checkpo
     finally:
         tracemalloc.stop()
     del result
-    estimate = memory.learner_training_memory(MEASURED_MODEL, get_learner(learner), get_reward_pattern("r4"), runs,
+    estimate = memory.learner_training_memory(MEASURED_MODEL, get_learner(learner), runs,
                                                  iterations, checkpoint=checkpoint > 0, engine=engine)
     assert peak <= estimate.total <= ESTIMATE_FACTOR[engine] * peak, (peak, estimate.describe())
 

@@ -162,7 +162,6 @@ def test_a_double_q_study_is_sized_by_its_own_tables_and_refused_before_any_tria
     from tableclean_suite.bench import commands
     from tableclean_suite.asymptotes import EXACT_BYTES_PER_ENTRY
     from tableclean_suite.learners import get_learner
-    from tableclean_suite.rewards import get_reward_pattern
     from tableclean_suite.task import TaskModel, TaskSpec
 
     model = TaskModel(spec=TaskSpec("faults_tune_big", segments=10, objects=2))  # 1.24 M codes x 4 actions
@@ -175,7 +174,7 @@ def test_a_double_q_study_is_sized_by_its_own_tables_and_refused_before_any_tria
                                     code_bytes=model.record_dtype.itemsize) + analysis
     from tableclean_suite.learners.memory import learner_training_memory
 
-    real = learner_training_memory(model, get_learner("double_q_learning"), get_reward_pattern("r4"),
+    real = learner_training_memory(model, get_learner("double_q_learning"),
                                    stage_runs, iterations) + analysis
     available = (old.total + real.total) / 2 / resources.USABLE_FRACTION  # the old estimate fits, the real one not
     assert old.total < resources.USABLE_FRACTION * available < real.total

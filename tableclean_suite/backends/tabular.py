@@ -49,7 +49,7 @@ def check_job_resources(job: TrainingJob, measured: bool) -> None:
     what = (f"training {job.learner.name!r} on task {model.spec.name!r} ({model.n_states} states x "
             f"{model.n_actions} actions, {job.runs} runs x {job.iterations} iterations)")
     resources.require_memory(learner_training_memory(
-        model, job.learner, job.reward, job.runs, job.iterations, checkpoint=job.checkpoint > 0, engine=job.engine,
+        model, job.learner, job.runs, job.iterations, checkpoint=job.checkpoint > 0, engine=job.engine,
         max_successors=successors), what)
     resources.require_training_time(job.runs, job.iterations, model.n_states, model.n_actions, what, job.engine,
                                     job.learner.planning_steps, 2 if job.learner.method == METHOD_DOUBLE_Q else 1)

@@ -321,7 +321,7 @@ class CellRun:
     @cached_property
     def memory(self) -> resources.MemoryEstimate:
         """What training one chunk allocates (records, Q-tables, the checkpoint's, working arrays)."""
-        return learner_training_memory(self.model, self.learner, get_reward_pattern(self.cell.reward), self.chunk,
+        return learner_training_memory(self.model, self.learner, self.chunk,
                                        self.iterations, checkpoint=self.checkpoint > 0)
 
 

@@ -107,12 +107,11 @@ def check_resources(args) -> None:
     from tableclean_suite.learners.memory import learner_training_memory
     from tableclean_suite.asymptotes import EXACT_BYTES_PER_ENTRY
     from tableclean_suite.learners import get_learner
-    from tableclean_suite.rewards import get_reward_pattern
 
     model = args.model
     pairs = model.n_states * model.n_actions
     stage_runs = -(-args.runs // STAGES)
-    memory = learner_training_memory(model, get_learner(args.learner), get_reward_pattern(args.reward),
+    memory = learner_training_memory(model, get_learner(args.learner),
                                      stage_runs, args.iterations, checkpoint=False, engine=resources.DEFAULT_ENGINE)
     memory += resources.MemoryEstimate({"asymptote analysis": pairs * EXACT_BYTES_PER_ENTRY})
     resources.require_memory(memory, f"a tuning stage of {args.learner!r} on task {model.spec.name!r} "

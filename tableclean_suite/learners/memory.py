@@ -33,14 +33,14 @@ def run_working_bytes(learner, n_states: int, n_actions: int) -> int:
             + int(n_states) * GREEDY_WALK_FLAG_BYTES)
 
 
-def learner_training_memory(model, learner, reward, runs: int, iterations: int, checkpoint: bool = False,
+def learner_training_memory(model, learner, runs: int, iterations: int, checkpoint: bool = False,
                             engine: str = resources.DEFAULT_ENGINE,
                             max_successors: int = 1) -> resources.MemoryEstimate:
     """[`tableclean_suite.resources.training_memory`][tableclean_suite.resources.training_memory] of ``train()``-ing ``learner`` (a
-    ``TabularLearner``) with ``reward`` (a ``RewardPattern``) on ``model`` (a ``TaskModel``): two
+    ``TabularLearner``) on ``model`` (a ``TaskModel``), whatever the reward pattern: two
     tables per run for double Q-learning, the learner's run working memory
     ([`run_working_bytes`][tableclean_suite.learners.memory.run_working_bytes]) in each of numba's threads.
-    ``reward`` does not change it."""
+    """
     return resources.training_memory(
         model.n_states, model.n_actions, runs, iterations, q_tables=2 if learner.method == METHOD_DOUBLE_Q else 1,
         max_successors=max_successors, code_bytes=model.record_dtype.itemsize, checkpoint=checkpoint, engine=engine,
