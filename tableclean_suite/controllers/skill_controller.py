@@ -66,7 +66,8 @@ class SkillController:
         self.on_step = on_step
 
     def skill_config(self, action) -> dict:
-        """The config overrides the skill of ``action`` runs with: the robot's, its gripper's, then this controller's."""
+        """The config overrides the skill of ``action`` runs with: the robot's, its gripper's, then this
+        controller's."""
         key = action_key(action)
         return {**skill_overrides(self.robot, key, self.gripper), **self.skill_configs.get(key, {})}
 

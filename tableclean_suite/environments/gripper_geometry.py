@@ -73,6 +73,8 @@ def rigid_bodies(model: mujoco.MjModel, body: int) -> list[int]:
 def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site: str) -> GripperGeometry:
     """The [`GripperGeometry`][tableclean_suite.environments.gripper_geometry.GripperGeometry] of robosuite gripper model ``gripper`` mounted in ``model`` (arm at ``qpos``).
 
+    A joint that a joint equality ties to a finger joint (a linkage's follower) moves with it as the equality says.
+
     Raises ``ValueError`` naming the gripper when it has more than `MAX_FINGER_JOINTS` finger joints
     (a hand, not a two-finger gripper: its open width would be measured over some of its joints only).
     """
@@ -85,11 +87,18 @@ def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site:
     ranges = [model.jnt_range[j] for j in joints]
     left = [model.geom(n).id for n in gripper.important_geoms["left_fingerpad"]]
     right = [model.geom(n).id for n in gripper.important_geoms["right_fingerpad"]]
+    # joints a joint equality ties to a finger joint (a linkage's followers): y - y0 = poly(x - x0), MuJoCo's rule
+    couplings = [(model.jnt_qposadr[model.eq_obj1id[e]], model.jnt_qposadr[model.eq_obj2id[e]],
+                  model.eq_data[e][4::-1]) for e in range(model.neq)
+                 if model.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT and model.eq_obj2id[e] in joints]
     fromto = np.zeros(6)
     widest = 0.0
     for ends in itertools.product((0, 1), repeat=len(joints)):
         for joint, limits, end in zip(joints, ranges, ends):
             data.qpos[model.jnt_qposadr[joint]] = limits[end]
+        for _ in couplings:  # as often as there are couplings: a chain of them settles
+            for follower, leader, poly in couplings:
+                data.qpos[follower] = model.qpos0[follower] + np.polyval(poly, data.qpos[leader] - model.qpos0[leader])
         mujoco.mj_kinematics(model, data)
         gap = min(mujoco.mj_geomDistance(model, data, a, b, MAX_PAD_GAP, fromto) for a in left for b in right)
         widest = max(widest, float(gap))

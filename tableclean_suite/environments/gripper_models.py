@@ -107,7 +107,11 @@ class CorrectedRobotiq140Gripper(Robotiq140Gripper):
       parallel over the whole stroke) and each inner knuckle follow it; the tendons go.
     - Self-contact: the knuckles press on each other with 15-24 N open and closed (up to 150 N); contacts between
       any two of the gripper's bodies are excluded.
-    - ``init_qpos`` open, every joint at 0 (robosuite's is off its own coupling).
+    - Stroke: the outer knuckles (its ``joints`` here, the followers move with them) open to 0.25 rad, not 0: pads
+      8.5 cm apart open (the Panda hand's 8 cm), not 12.6 cm; opening fully to release a box, a pad swept a
+      neighbour 5.7 cm away off its segment (6 of 100 episodes of three_segments_two_objects, every one placing
+      beside a neighbour on segment 1).  The right outer knuckle's range is its actuator's (robosuite's lets it
+      open 0.725 rad outwards); ``init_qpos`` is the open end (robosuite's is off its own coupling).
     """
 
     replaces = "Robotiq140Gripper"
@@ -115,6 +119,10 @@ class CorrectedRobotiq140Gripper(Robotiq140Gripper):
     COUPLING = (("left_inner_finger_joint", "finger_joint", 1.0), ("left_inner_knuckle_joint", "finger_joint", -1.0),
                 ("right_inner_finger_joint", "right_outer_knuckle_joint", -1.0),
                 ("right_inner_knuckle_joint", "right_outer_knuckle_joint", 1.0))
+    #: the actuated joints, robosuite's gripper ``joints`` here (the followers move with them).
+    DRIVERS = ("finger_joint", "right_outer_knuckle_joint")
+    #: rad, the outer knuckles' open and closed ends (robosuite's: 0 and 0.7; the right knuckle's negated).
+    OPEN, CLOSED = 0.25, 0.7
 
     def __init__(self, idn=0):
         super().__init__(idn=idn)
@@ -126,6 +134,13 @@ class CorrectedRobotiq140Gripper(Robotiq140Gripper):
         for follower, leader, factor in self.COUPLING:
             ET.SubElement(self.equality, "joint", joint1=prefix + follower, joint2=prefix + leader,
                           polycoef=f"0 {factor} 0 0 0", **_COUPLING)
+        ranges = {"finger_joint": f"{self.OPEN} {self.CLOSED}",  # the right knuckle closes the other way
+                  "right_outer_knuckle_joint": f"{-self.CLOSED} {-self.OPEN}"}
+        for joint in self.worldbody.iter("joint"):
+            joint.set("range", ranges.get(joint.get("name")[len(prefix):], joint.get("range")))
+        for actuator in self.actuator:
+            actuator.set("ctrlrange", ranges[actuator.get("joint")[len(prefix):]])
+        self._joints = [name for name in self._joints if name in self.DRIVERS]  # robosuite keeps them unprefixed
         bodies = [body.get("name") for body in self.worldbody.iter("body")]
         for i, first in enumerate(bodies):
             for second in bodies[i + 1:]:
@@ -133,8 +148,8 @@ class CorrectedRobotiq140Gripper(Robotiq140Gripper):
 
     @property
     def init_qpos(self):
-        """(6,) rad: open, every linkage joint at 0."""
-        return np.zeros(6)
+        """(2,) rad: the outer knuckles open."""
+        return np.array([self.OPEN, -self.OPEN])
 
 
 #: robosuite's gripper name -> the package's corrected class mounted in its place.

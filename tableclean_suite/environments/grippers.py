@@ -4,19 +4,18 @@ is built.
 The skills need two finger pads closing on a line (the gripper's ``important_geoms``
 ``left_fingerpad`` and ``right_fingerpad``, measured by
 [`measure_gripper`][tableclean_suite.environments.gripper_geometry.measure_gripper]) that stop
-once they hold: robosuite's Panda and Rethink grippers (`SUPPORTED`).  `REFUSED` names the others and why.  `GRIPPER_SKILLS` holds a gripper's skill-config overrides, applied after the robot's.
+once they hold: robosuite's Panda and Rethink grippers and the Robotiq 2F-85 and 2F-140, whose linkages the scene mounts
+corrected ([`gripper_models`][tableclean_suite.environments.gripper_models]) (`SUPPORTED`).  `REFUSED` names the
+others and why.  `GRIPPER_SKILLS` holds a gripper's skill-config overrides, applied after the robot's.
 """
 
 from __future__ import annotations
 
 #: robosuite's names of the grippers the skills drive (``gripper_types=``).
-SUPPORTED = ("PandaGripper", "RethinkGripper", "Robotiq85Gripper")
+SUPPORTED = ("PandaGripper", "RethinkGripper", "Robotiq85Gripper", "Robotiq140Gripper")
 _HAND = "a three-finger hand: the skills close two pads on a line"
 #: robosuite's grippers refused, with the defect (robosuite's others: not a two-finger gripper the skills drive).
 REFUSED = {
-    "Robotiq140Gripper": "robosuite's model: its knuckles press on each other with up to 150 N, its undamped finger "
-                         "linkage creeps on for over 100 control steps after closing, and closed on the sponge its "
-                         "fingertips reach below it and drag on the table while wiping",
     "JacoThreeFingerGripper": _HAND,
     "JacoThreeFingerDexterousGripper": _HAND,
     "RobotiqThreeFingerGripper": _HAND,
@@ -33,7 +32,10 @@ GRIPPER_SKILLS: dict[str, dict[str, dict]] = {
     # descend_speed, m/s: placing beside a neighbour, its inner finger (3.4 cm out along the closing axis, 0.9 cm
     # below the grip site) clipped the neighbour's top coming down at 0.25 m/s before the hand was over the spot
     "Robotiq85Gripper": {"*": {"fingertip_depth": 0.018}, "place": {"descend_speed": 0.1}},
-    "Robotiq140Gripper": {},
+    # fingertip_depth, m: its fingertips reach 2.7 cm below the grip site closed (2.4 cm on the sponge);
+    # carry_clearance, m: holding a box 3.6 cm above its bottom, the hand dips on setting off and the box and a
+    # fingertip swept a cylinder lying 10 cm beside it off its segment (1 cm above its top at 0.01)
+    "Robotiq140Gripper": {"*": {"fingertip_depth": 0.027, "carry_clearance": 0.02}},
 }
 
 

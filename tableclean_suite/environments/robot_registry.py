@@ -87,8 +87,9 @@ def skill_overrides(robot: str, action_name: str, gripper: str | None = None) ->
 
 def scene_gripper_types(robot: str, gripper_types):
     """``gripper_types`` for the env: the robot config's `gripper` in place of ``"default"``, a corrected model's
-    name in place of the gripper it corrects ([`mounted_gripper`][tableclean_suite.environments.gripper_models.mounted_gripper]);
-    ``ValueError`` naming a gripper the skills cannot drive ([`check_gripper`][tableclean_suite.environments.grippers.check_gripper])."""
+    name in place of the gripper it corrects
+    ([`mounted_gripper`][tableclean_suite.environments.gripper_models.mounted_gripper]); ``ValueError`` naming a
+    gripper the skills cannot drive ([`check_gripper`][tableclean_suite.environments.grippers.check_gripper])."""
     config = ROBOT_CONFIGS.get(robot)
     if isinstance(gripper_types, (list, tuple)) and len(gripper_types) == 1:
         gripper_types = gripper_types[0]
