@@ -4,7 +4,7 @@
 asks for that gripper ([`mounted_gripper`][tableclean_suite.environments.gripper_models.mounted_gripper]: each class is
 added to robosuite's ``GRIPPER_MAPPING`` under its own class name, a new key); robosuite's own classes and its
 entries stay as they are.  A corrected class's ``replaces`` names the gripper it stands for (the key of its
-per-gripper skill settings, [`GRIPPER_SKILLS`][tableclean_suite.environments.grippers.GRIPPER_SKILLS]).
+per-gripper skill settings, [`GRIPPER_SKILLS`][tableclean_suite.environments.grippers]).
 """
 
 from __future__ import annotations

@@ -77,7 +77,7 @@ def check_robot(robots) -> str:
 def skill_overrides(robot: str, action_name: str, gripper: str | None = None) -> dict[str, Any]:
     """Config overrides of ``robot`` for the skill of ``action_name``: its ``"*"`` entries, then the action's
     (none for an unregistered robot), then those of ``gripper`` (robosuite's gripper name,
-    [`GRIPPER_SKILLS`][tableclean_suite.environments.grippers.GRIPPER_SKILLS]) the same way."""
+    [`GRIPPER_SKILLS`][tableclean_suite.environments.grippers]) the same way."""
     config = ROBOT_CONFIGS.get(robot)
     robots = {} if config is None else config.skills
     grippers = GRIPPER_SKILLS.get(gripper, {})
