@@ -41,10 +41,10 @@ def test_box_lowest_z_is_the_numpy_projection_bit_for_bit():
 
 def test_object_heights_are_world_lowest_and_highest_z_bit_for_bit():
     """skill.object_heights (the hover height's tops and bottoms: ndarray.dot on the quaternion's z row) gives
-    object_geometry's world_lowest_z / world_highest_z (@ on the full rotation matrix's row): random point
+    object_geometry's world_lowest_z / world_z_range (@ on the full rotation matrix's row): random point
     clouds of 1 to 300 points, poses and unnormalised quaternions."""
     from tableclean_suite.controllers.skill import object_heights
-    from tableclean_suite.environments.object_geometry import ObjectGeometry, world_highest_z, world_lowest_z
+    from tableclean_suite.environments.object_geometry import ObjectGeometry, world_lowest_z, world_z_range
 
     rng = np.random.default_rng(6)
     for _ in range(300):
@@ -55,7 +55,7 @@ def test_object_heights_are_world_lowest_and_highest_z_bit_for_bit():
         tops, bottoms = object_heights(info)
         for j, shape in enumerate(shapes):
             rot = quat_to_matrix(info["objects_quat"][j])
-            assert tops[j] == world_highest_z(shape, info["objects_pos"][j], rot)
+            assert tops[j] == world_z_range(shape, info["objects_pos"][j], rot)[1]
             assert bottoms[j] == world_lowest_z(shape, info["objects_pos"][j], rot)
 
 

@@ -172,12 +172,6 @@ class ObjectGeometry:
         along = self.points[inside, :2] @ np.array([np.cos(angle), np.sin(angle)])
         return float(along.max() - along.min())
 
-    def z_range(self, rot) -> tuple[float, float]:
-        """``(lowest, highest)`` height [m] of the collision points above the object's origin when it is turned
-        by rotation matrix ``rot`` (3, 3): one projection of the points for both."""
-        heights = self.points @ np.asarray(rot)[2]
-        return float(np.min(heights)), float(np.max(heights))
-
     @cached_property
     def narrow_width(self) -> float:
         """Smallest horizontal width [m] of the upright object: what the fingers close across."""
@@ -242,29 +236,17 @@ def object_geometry(obj) -> ObjectGeometry:
     return ObjectGeometry(_compiled_points(world.get_xml(), obj.root_body))
 
 
-def geometry_of_body(model: mujoco.MjModel, root: int) -> ObjectGeometry:
-    """The collision geometry of body ``root``'s subtree in a compiled model (a fresh kinematics pass)."""
-    data = mujoco.MjData(model)
-    mujoco.mj_kinematics(model, data)
-    return ObjectGeometry(collision_points(model, data, root))
-
-
 def world_lowest_z(geometry: ObjectGeometry, pos, rot) -> float:
     """World z [m] of the lowest collision point of the object at ``pos`` (3,) with rotation matrix ``rot`` (3, 3)."""
     return float(pos[2] + np.min(geometry.points @ np.asarray(rot)[2]))
 
 
-def world_highest_z(geometry: ObjectGeometry, pos, rot) -> float:
-    """World z [m] of the highest collision point of the object at ``pos`` (3,) with rotation matrix ``rot`` (3, 3)."""
-    return float(pos[2] + np.max(geometry.points @ np.asarray(rot)[2]))
-
-
 def world_z_range(geometry: ObjectGeometry, pos, rot) -> tuple[float, float]:
     """``(lowest, highest)`` world z [m] of the object's collision points at ``pos`` (3,) with rotation matrix
-    ``rot`` (3, 3): [`world_lowest_z`][tableclean_suite.environments.object_geometry.world_lowest_z] and [`world_highest_z`][tableclean_suite.environments.object_geometry.world_highest_z] from one projection."""
-    low, high = geometry.z_range(rot)
-    return float(pos[2] + low), float(pos[2] + high)
+    ``rot`` (3, 3), from one projection."""
+    heights = geometry.points @ np.asarray(rot)[2]
+    return float(pos[2] + float(np.min(heights))), float(pos[2] + float(np.max(heights)))
 
 
-__all__ = ["ObjectGeometry", "object_geometry", "geometry_of_body", "collision_points", "collision_geoms",
-           "grasp_yaw", "world_lowest_z", "world_highest_z", "world_z_range", "CIRCLE_POINTS", "EQUAL_WIDTH", "SLICE_SPACING", "WIDTH_DIRECTIONS"]
+__all__ = ["ObjectGeometry", "object_geometry", "collision_points", "collision_geoms", "grasp_yaw", "world_lowest_z",
+           "world_z_range", "CIRCLE_POINTS", "EQUAL_WIDTH", "SLICE_SPACING", "WIDTH_DIRECTIONS"]
