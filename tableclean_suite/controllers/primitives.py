@@ -53,8 +53,7 @@ from tableclean_suite.environments.placement import footprint_of, nearest_point
 Info = Mapping[str, Any]
 
 #: rad; a grasp's finger line (the grip site's x axis) closer than this to the direction of a lying
-#: neighbour the hand would reach is turned away from it (at 45 degrees the open Panda fingers, about
-#: 4.5 cm out, pass a neighbour 7 cm away by about 5 cm, more than a 2.5 cm footprint and a finger).
+#: neighbour the hand would reach is turned away from it.
 FINGER_LINE_CLEARANCE = 0.25 * np.pi
 
 #: m a neighbour's top is counted higher when asking how wide the hand and wrist are at its height
@@ -63,9 +62,8 @@ WRIST_HEIGHT_MARGIN = 0.01
 #: m by which the hand and wrist must reach wider than the hand alone (``gripper_hand_half_width``) for a
 #: neighbour to count as reaching the wrist ([`wrist_reach`][tableclean_suite.controllers.primitives.wrist_reach]): below it the hand's own rules hold unchanged.
 WRIST_WIDTH_TOLERANCE = 1e-4
-#: m a body's outline must step in at a height (to a part above narrower everywhere) for [`ledges`][tableclean_suite.controllers.primitives.ledges]
-#: to count a ledge there: a finger closing at that height meets the ledge, not the part above (measured: a box's
-#: 2.4 mm and 2.95 mm lips, under 3 mm, held the finger links off the pads).
+#: m a body's outline must step in at a height (to a part above narrower everywhere) for
+#: [`ledges`][tableclean_suite.controllers.primitives.ledges] to count a ledge there.
 LEDGE_MARGIN = 0.002
 #: m half the height of the band about the grip site that the finger pads close on ([`fitting_z`][tableclean_suite.controllers.primitives.fitting_z]).
 PAD_HALF_HEIGHT = 0.004
@@ -194,9 +192,7 @@ def holding_z(pos, rot, geometry: ObjectGeometry, config: Mapping[str, Any], pal
     above its bottom; then where the fingers would first meet a wider part than the one between the pads
     ([`ledges`][tableclean_suite.controllers.primitives.ledges]): a ledge just below the fingertips raises them
     ``tip_clearance`` above it (while the pads still reach ``tip_clearance`` of the part above), a lip's
-    underside above the grip site raises the grip site to the lip's middle.  Measured: a 13 cm can with a 3.5 cm
-    cap, held 2.6 cm below its top, closed the fingertips on the can's shoulder; a box with a 4 mm lip, its
-    finger links on the lip; in both the pads never touched ("grasp not confirmed", the body unmoved).
+    underside above the grip site raises the grip site to the lip's middle.
     """
     low, top = world_z_range(geometry, pos, rot)
     depth, tip = config["fingertip_depth"], config["tip_clearance"]
@@ -223,9 +219,7 @@ def fitting_z(geometry: ObjectGeometry, z: float, top: float, depth: float, dire
     at least as wide (`SLICE_MARGIN` a side) as the slice the fingertips reach below it (``depth`` m) and everything
     above it up to the body's ``top`` [m, own frame].  ``z`` itself when it fits (or no points lie at the pads:
     a box's sides are not sampled); else, of the higher grip sites up to ``top`` less `PAD_HALF_HEIGHT` that fit,
-    the middle one of those whose pads meet the widest slice; ``z`` when none fits.  Measured: a capsule's pads
-    on its dome above the wider part the fingertips closed on, a tapered can's pads under its wider lip; in both
-    the pads never touched ("grasp not confirmed")."""
+    the middle one of those whose pads meet the widest slice; ``z`` when none fits."""
     return z if _fit(geometry, z, top, depth, direction)[1] else _higher_fit(geometry, round(z, 4), round(top, 4), depth,
                                                                          direction)
 
@@ -259,9 +253,7 @@ def line_yaw(direction: float, preferred: float) -> float:
     """Of the two yaws [rad] along the line of ``direction`` (pi apart), the one nearest ``preferred``.
 
     The skills aim every yaw within a quarter turn of the config's ``nominal_yaw`` this way, so
-    that successive turns never wind the wrist towards its joint limit (measured: a place that
-    chose the yaw nearest the current one left the Panda's hand 2.1 rad from nominal, and the next
-    pick's half turn drove joint 6 into its limit, 1.7 cm short of the hover point).
+    that successive turns never wind the wrist towards its joint limit.
     """
     turns = np.round(wrap_angle(preferred - direction) / np.pi)
     return wrap_angle(direction + turns * np.pi)
@@ -386,9 +378,8 @@ class Grasp(Primitive):
         self._aim(skill, info)
 
     def restart(self, skill, info):
-        """Again from the measured pose: the hand opens where it is (rising half-closed, it dragged a tall can up
-        and tipped it), rises straight up to the travel height at its yaw (sweeping and turning on the way, the
-        open fingers pushed a box off), then turns and approaches as at the start."""
+        """Again from the measured pose: the hand opens where it is, rises straight up to the travel height at
+        its yaw, then turns and approaches as at the start."""
         self.start(skill, info)
         self.config = {**skill.config, "tip_clearance": min(skill.config["tip_clearance"], RETRY_TIP_CLEARANCE)}
         self.aim_yaw, skill.yaw = skill.yaw, skill._yaw_setpoint
@@ -417,8 +408,7 @@ class Grasp(Primitive):
             object_yaw = gripper_yaw(self.body.quat(info))
             skill.yaw = grasp_yaw(shape, object_yaw, nominal)
             direction, period = shape.narrow_side()
-            # of the narrow side's yaws about as near nominal (a tie, within YAW_TIE), the one nearest the hand's:
-            # broken by noise, a tie turned the wrist half a turn, the hand swung 7 cm and knocked the box over
+            # of the narrow side's yaws about as near nominal (a tie, within YAW_TIE), the one nearest the hand's
             options = [skill.yaw, wrap_angle(skill.yaw - period), wrap_angle(skill.yaw + period)]
             limit = abs(wrap_angle(skill.yaw - nominal)) + YAW_TIE
             current = gripper_yaw(info["eef_quat"])
@@ -435,9 +425,6 @@ class Grasp(Primitive):
         reach at the grasp, when it points within `FINGER_LINE_CLEARANCE` of it: to the allowed finger
         line of ``lines`` (rad) most across the neighbour, or (``lines`` None: any yaw grasps the body) to the
         line just `FINGER_LINE_CLEARANCE` from it nearer the current aim; at the yaw nearest ``nominal_yaw``.
-
-        Measured: a box grasped with its fingers along the line to a cylinder 6.8 cm away landed a
-        finger on the cylinder's top, 2.5 cm above the grasp point, and the descent ran out of budget.
         No neighbour or a body that is no task object (the sponge): the yaw stays."""
         if self.body.geometry is None or self.body.index is None:
             return
@@ -481,11 +468,8 @@ class Grasp(Primitive):
             return Waypoint(grasp, GRIPPER_OPEN, tol, speed=skill.config["descend_speed"])
         if phase == "CLOSE":
             return Waypoint(skill.setpoint, GRIPPER_CLOSE, np.inf, min_steps=skill.config["close_min_steps"], fixed=True)
-        # straight up from where the grasp closed: a carried body hanging off-centre would otherwise move
-        # the target with every step the arm makes towards it (measured on UR5e and Kinova3: the lift
-        # chased the body out to the arm's reach limit and ran out of budget); at the height of the last step the
-        # pads held the body: a body slipping in and out of their contact counts as lying meanwhile, and the
-        # travel height over its top rose with it (measured: a lift chased a carried capsule up to 1.7 m)
+        # straight up from where the grasp closed (a carried body hanging off-centre would otherwise move the
+        # target with every step), to the travel height of the last step the pads held the body
         if self.lift_z is None or self.body.grasped(info):
             self.lift_z = skill.hover_z(info)
         return Waypoint(np.array([*self.lift_xy, self.lift_z]), GRIPPER_CLOSE, tol)
@@ -497,12 +481,8 @@ class Grasp(Primitive):
 
     def _hover_settled(self, skill, info) -> bool:
         """Whether the hand, at its hover point, is nearly still: its horizontal speed over the last control
-        step is at most the config's ``hover_still_speed`` (m/s; None: always, no wait).
-
-        Measured on Kinova3 (three_segments_two_objects, seed 0): the hand reached its hover point over the
-        sponge at 0.24 m/s, swung on 1.7 cm past it during the descent, a finger pushed the sponge 3.8 cm and
-        tipped it, and the tilted grasp lost it at the first press (3 of 84 cleans).  The Panda arrives as fast
-        but strays at most 9.5 mm, so its config keeps None.  The wait counts against the skill's step budget."""
+        step is at most the config's ``hover_still_speed`` (m/s; None: always, no wait).  The wait counts
+        against the skill's step budget."""
         still = skill.config.get("hover_still_speed")
         if still is None:
             return True
@@ -571,8 +551,7 @@ class Release(Primitive):
         The direction is to the object's centre; to the nearest point of its footprint
         ([`nearest_point`][tableclean_suite.environments.placement.nearest_point]) when its top reaches the links above
         the hand ([`wrist_reach`][tableclean_suite.controllers.primitives.wrist_reach], the env's [`gripper_of`][tableclean_suite.controllers.primitives.gripper_of]): then the whole (convex) footprint lies
-        beyond the hand's and wrist's half width, as [`place_spot`][tableclean_suite.controllers.place.place_spot] counted it.  (Facing a long
-        neighbour's centre, the hand's corner came 4.3 cm from its near end.)"""
+        beyond the hand's and wrist's half width, as [`place_spot`][tableclean_suite.controllers.place.place_spot] counted it."""
         if self.body.geometry is None:
             return
         grip_z = float(self.rest_z(skill, info)) + skill.config["place_clearance"] + self.hold_offset_z

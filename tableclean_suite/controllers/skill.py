@@ -65,10 +65,7 @@ def _geometry_heights(positions: np.ndarray, info: Mapping[str, Any]) -> tuple[l
     """[`object_heights`][tableclean_suite.controllers.skill.object_heights] from ``objects_geometry`` as lists of floats (``positions`` (M, 3) [m])."""
     tops, bottoms = [], []
     for z, quat, shape in zip(positions[:, 2].tolist(), info["objects_quat"], info["objects_geometry"]):
-        # one projection of its points for both: world_z_range's, on the rotation's z row alone (asked
-        # every control step the skills travel; the same bits as through the full quat_to_matrix); the
-        # extremes taken of Python floats (exact, as numpy's; its two reductions cost ~2.5 us per object).
-        # ndarray.dot, not @: the same BLAS product (gemv) without matmul's ufunc dispatch (~1 us per object)
+        # one projection on the rotation's z row for both (the same bits as through quat_to_matrix)
         heights = shape.points.dot(quat_z_row(quat)).tolist()
         bottoms.append(z + min(heights))
         tops.append(z + max(heights))
@@ -123,9 +120,8 @@ def _typed_items(settings: Mapping[str, Any]) -> tuple:
 def _checked_config(cls: type, config: Mapping[str, Any] | None):
     """[`checked_skill_config`][tableclean_suite.controllers.config_check.checked_skill_config] of skill class ``cls`` with the overrides ``config``, kept per
     (class, its Config, its defaults' and the overrides' items with their values' types: 1, 1.0 and True hash alike
-    but are different settings): a skill is made per execution and the check
-    builds its whole Config (~10-40 us); the same settings give the same (read-only) result.  Settings with
-    an unhashable value are checked every time; refused ones raise every time (never kept)."""
+    but are different settings).  Settings with an unhashable value are checked every time; refused ones raise
+    every time (never kept)."""
     try:
         key = (cls, cls.Config, _typed_items(cls.DEFAULT_CONFIG), None if config is None else _typed_items(config))
         checked = _checked_configs.get(key)
@@ -332,7 +328,6 @@ class Skill(abc.ABC):
         Returns ``None`` once the skill is done (finished, failed or out of budget).  Afterwards
         `fixed_waypoint` is the step's waypoint when it is ``fixed`` or ``loop`` (else ``None``).
         """
-        # (the per-step path runs after the physics has left the CPU caches cold: few calls and lookups here)
         self.fixed_waypoint = None
         final = self.final_phase
         if self.failure is not None or self.phase == final:  # self.done
@@ -342,7 +337,7 @@ class Skill(abc.ABC):
             return None
         info = self.env.skill_info()
         fingers = np.array(info["gripper_qpos"], dtype=float)
-        # the largest change of Python floats (exact, as numpy's subtract, abs and max; their dispatch costs ~3 us)
+        # the largest change, of Python floats (exact, as numpy's)
         finger_motion = max([abs(a - b) for a, b in zip(fingers.tolist(), self._last_fingers.tolist())])
         self._last_fingers = fingers
         if self._finger_history.maxlen:
@@ -372,7 +367,7 @@ class Skill(abc.ABC):
         self._phase_steps += 1
         phase = self.phase
         cached = self._phase_name
-        if cached[0] is not phase:  # phase.name is a descriptor call; the phase changes a few times per skill
+        if cached[0] is not phase:
             cached = self._phase_name = (phase, phase.name)
         name = cached[1]
         counts = self.phase_steps
@@ -473,11 +468,8 @@ class Skill(abc.ABC):
            units: m or rad) is at most ``gripper_still``: fingers that come to rest (the Panda's).
         2. Windowed drift (``gripper_window`` = W steps, not None): the mean finger positions of the
            last W steps and of the W steps before differ by at most ``gripper_drift`` * W in every
-           joint.  Some grippers never stop: the Robotiq 85's under-actuated linkage keeps
-           jittering by ~0.01 rad per step around a fixed pose, open or closed on an object, so rule
-           1 never holds; the jitter averages out of the window means, while a gripper still
-           opening or closing (a steady motion) keeps a drift of its whole speed.  The history spans
-           phases, so a gripper command that changed at the phase start is seen moving.
+           joint: a gripper that jitters about a fixed pose (an under-actuated linkage) settles, one
+           still opening or closing does not.  The history spans phases.
         3. Timeout (``gripper_timeout`` steps in the current phase, not None): a backstop for a gripper
            whose jitter outgrows the drift bound; the phase's other conditions (position reached,
            ``min_steps``, the primitive's own check such as "the body is grasped") still apply.
@@ -498,8 +490,8 @@ class Skill(abc.ABC):
         """Whether the gripper's yaw (from ``eef_quat``) is within ``yaw_tolerance`` of `yaw`.
 
         Decided from the grip site's rotation matrix ``eef_rot`` when it gives a clear verdict
-        ([`clear_yaw_verdict`][tableclean_suite.controllers.geometry.clear_yaw_verdict]: the same answer): ``eef_quat`` costs robosuite's
-        ``mat2quat``, an eigen-decomposition (~40 us per phase end measured in the loop)."""
+        ([`clear_yaw_verdict`][tableclean_suite.controllers.geometry.clear_yaw_verdict]: the same answer), else
+        from ``eef_quat``."""
         tolerance = self.config["yaw_tolerance"]
         rot = info.get("eef_rot")
         if rot is not None:
@@ -551,12 +543,10 @@ class Skill(abc.ABC):
         config = self.config
         table = float(info["table_top_z"])
         z = table + config["hover_height"]
-        # lookups by [], not `in` (asked every control step the skills travel: SkillInfo's `in` is Python code)
         try:
             positions = info["objects_pos"]
         except KeyError:
             return z
-        # Python scalars from here on (same values as numpy's)
         try:
             shapes = info["objects_geometry"]
         except KeyError:
