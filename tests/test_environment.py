@@ -198,7 +198,7 @@ def test_pressing_the_sponge_cleans_that_segment_only(paper_env):
     env.step(np.zeros(env.action_dim))
     first = env.dirt_fraction()
     assert 0.0 < first[1] < 1.0 and first[0] == 1.0  # some, not all, markers went with one press
-    wiped = ~env.marker_present()[1]
+    wiped = ~env.dirt.present().reshape(env.n_segments, -1)[1]
     assert np.all(env.sim.model.geom_rgba[env.marker_geom_ids[len(wiped):][wiped], 3] == 0.0)  # hidden
     raster(env, SEGMENT_2, top - PRESS_DEPTH, hold=False)
     assert env.dirt_fraction()[0] == 1.0

@@ -141,7 +141,7 @@ def _run_plan(layout, fast_control: bool):
         states=[r.state_after for r in results],
         steps=[r.steps for r in results],
         trajectory=np.array(trajectory),
-        markers=env.marker_present(),
+        markers=env.dirt.present().reshape(env.n_segments, -1).copy(),
     )
     env.close()
     return record

@@ -58,23 +58,23 @@ def test_robosuite_state_save_and_restore_carries_the_dirt_into_a_fresh_env():
     try:
         env.reset()
         _press_sponge_on_segment_2(env)
-        wiped = ~env.marker_present()
+        wiped = ~env.dirt.present().reshape(env.n_segments, -1)
         assert 0 < wiped[1].sum() < wiped.shape[1] and not wiped[0].any()
         saved = env.sim.get_state().flatten()  # what DataCollectionWrapper records
         fresh.reset()
-        assert not (~fresh.marker_present()).any()
+        assert fresh.dirt.present().all()
         fresh.sim.set_state_from_flattened(saved)
         fresh.sim.forward()
-        np.testing.assert_array_equal(fresh.marker_present(), env.marker_present())
+        np.testing.assert_array_equal(fresh.dirt.present(), env.dirt.present())
         np.testing.assert_array_equal(fresh.dirt_fraction(), env.dirt_fraction())
         fresh._get_observations(force_update=True)  # what robomimic's reset_to does next: visuals follow
         np.testing.assert_array_equal(fresh.sim.model.geom_rgba[fresh.marker_geom_ids, 3],
-                                      fresh.marker_present().ravel().astype(float))
+                                      fresh.dirt.present().astype(float))
         # the scene-state snapshot restores the dirt too, and a bad dirt state is reported, not guessed
         snapshot = fresh.get_scene_state()
         fresh.reset()
         fresh.set_scene_state(snapshot)
-        np.testing.assert_array_equal(fresh.marker_present(), env.marker_present())
+        np.testing.assert_array_equal(fresh.dirt.present(), env.dirt.present())
         fresh.sim.data.qpos[fresh.dirt.qpos_addr[1]] = 0.3
         with pytest.raises(DirtStateError, match="dirt_state_s2_joint"):
             fresh.dirt_fraction()

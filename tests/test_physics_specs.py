@@ -176,7 +176,7 @@ def test_scene_builds_every_registered_spec(name):
         env.reset()
         assert env.n_segments == spec.segments and len(env.objects) == spec.n_objects
         assert [k.name for k in env.object_types] == list(spec.objects)
-        assert env.marker_present().shape == (spec.segments, 25) and env.marker_present().all()
+        assert env.dirt.present().shape == (spec.segments * 25,) and env.dirt.present().all()
         assert len(env.arena.dirt_state_joint_names) == spec.segments
         assert env.symbolic_state() == TaskModel(spec=name).start_state
         meta = env.get_ep_meta()

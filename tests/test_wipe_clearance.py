@@ -238,7 +238,7 @@ def test_a_clean_beside_a_box_at_the_shared_edge_turns_the_hand_and_wipes_the_ed
         env.sim.forward()
         clean.Wipe._choose_yaw = recording
         result = SkillController(env, model).execute(Action.CLEAN)
-        present = env.marker_present()[0].sum()
+        present = env.dirt.present().reshape(env.n_segments, -1)[0].sum()
     finally:
         clean.Wipe._choose_yaw = choose
         env.close()

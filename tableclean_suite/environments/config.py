@@ -226,11 +226,6 @@ class SceneGeometry:
     stand_center: np.ndarray  #: (3,) centre of the stand box
     stand_half_size: np.ndarray  #: (3,) half extents of the stand box
 
-    @property
-    def n_segments(self) -> int:
-        """N, the number of segments."""
-        return len(self.segment_centers)
-
 
 def scene_geometry(config: Mapping, n_segments: int = SCENE_SEGMENTS) -> SceneGeometry:
     """The world-frame [`SceneGeometry`][tableclean_suite.environments.config.SceneGeometry] of a (merged) config with ``n_segments`` segments."""

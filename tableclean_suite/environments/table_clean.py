@@ -486,10 +486,6 @@ class TableClean(ManipulationEnv):
         [`DirtStateError`][tableclean_suite.environments.dirt_state.DirtStateError] when a dirt-state joint holds no valid code."""
         return self.dirt.fraction()
 
-    def marker_present(self) -> np.ndarray:
-        """Bool (N, markers_per_segment): the dirt markers still present (not wiped), read from qpos (a copy)."""
-        return self.dirt.present().reshape(self.n_segments, self._markers_per_segment).copy()
-
     def skill_info(self) -> SkillInfo:
         """Grounding for skills and the abstraction (world frame, metres, quaternions xyzw).
 
