@@ -36,7 +36,7 @@ from tableclean_suite.task import Action
 #: area shrinks by it) and vertically (an object whose top comes within it of the hand's underside counts).
 HAND_CLEARANCE = 0.01
 #: m the grip site may come below its height with the held sponge resting flat on the table top while
-#: it presses and wipes (the sponge's soft contact and its tilt in the fingers; Panda at 8 N: <= 4 mm).
+#: it presses and wipes (the sponge's soft contact and its tilt in the fingers).
 PRESS_SINK = 0.005
 #: rad the hand turns about the vertical, sponge in hand, to wipe with its narrow side toward the objects
 #: around the segment (`Wipe._choose_yaw`); the strokes then run along the other world axis.
@@ -101,10 +101,6 @@ def spare_clear_of(bounds: np.ndarray, area: np.ndarray, hand_half: np.ndarray, 
     (K, 4) world boxes ``[x_min, y_min, x_max, y_max]`` ([`hand_obstacles`][tableclean_suite.controllers.clean.hand_obstacles]) beyond that side; a side never
     comes inside ``area``.  An obstacle counts for a side when its box, grown by the hand's and ``margin``,
     overlaps ``area`` across that side's axis (the lead moves the grip site along the strokes, never across).
-
-    Measured: a side left unshrunk because the hand cleared a 15 cm cereal standing 8 cm beyond the
-    shared edge by exactly `HAND_CLEARANCE` at the strokes' end, the 2 cm lead over the lagging
-    sponge brought the hand onto it and tipped it (cereal mixed, episodes 6 and 63 of seed 1).
     Without obstacles near the spare: ``bounds`` as they were (the same values)."""
     out = np.array(bounds, dtype=float)
     if len(obstacles) == 0:
@@ -214,9 +210,7 @@ class Wipe(Primitive):
 
     def _quarter_turn(self) -> float:
         """rad, about +-`QUARTER_TURN`: from the grasp's yaw to the turned one, the yaw along the line across
-        the grasp's nearest a quarter turn clockwise of ``nominal_yaw`` (measured on the Panda at nominal ``pi/2``:
-        turned to 0, joint 7 takes part of the turn; turned to ``pi``, joints 5 and 6 do, joint 6 0.3 rad from its
-        limit, and the turn back above the sponge's home stalled)."""
+        the grasp's nearest a quarter turn clockwise of ``nominal_yaw`` (away from the wrist's joint limits)."""
         turned = line_yaw(self.grasp_yaw + QUARTER_TURN, self.config["nominal_yaw"] - QUARTER_TURN)
         return wrap_angle(turned - self.grasp_yaw)
 
@@ -283,13 +277,8 @@ class Wipe(Primitive):
 
     def _stroke_direction(self, info: Mapping[str, Any]) -> int:
         """0 (strokes back and forth) at the grasp's yaw; turned, the sign (-1, +1) of the stroke axis toward the
-        arm's base (``robot_base_pos``): every stroke then pulls the sponge toward the arm.
-
-        Turned, the strokes run along the arm's radius.  Pushed away from the base, the Panda's hand
-        pressed the sponge harder as it went (8 N set, up to 74 N measured), the sponge stuck, then
-        broke free and the hand jumped forward and rose 1.2 cm: the middle of the lane stayed dirty
-        (traced per control step, lemon mixed episode 18); pulled toward the base the force stayed at
-        4-10 N and every lane was wiped in one pass (episodes 18 and 55: 1 pass, was 3)."""
+        arm's base (``robot_base_pos``): every stroke then pulls the sponge toward the arm (pushed away
+        along the arm's radius, the sponge sticks under a rising force)."""
         if not self.turned:
             return 0
         axis = self._stroke_axis()
@@ -297,9 +286,8 @@ class Wipe(Primitive):
         return int(np.sign(toward))
 
     def _stroke_axis(self) -> int:
-        """World axis (0: x, 1: y) the strokes run along: the fingers' closing axis (grip-site x at ``yaw``).
-
-        Kept per `yaw` (asked twice a control step while wiping; numpy's cos and sin cost ~1 us each)."""
+        """World axis (0: x, 1: y) the strokes run along: the fingers' closing axis (grip-site x at ``yaw``;
+        kept per `yaw`)."""
         yaw = self.yaw
         cached = self._axis_of_yaw
         if cached[0] != yaw:
@@ -310,7 +298,7 @@ class Wipe(Primitive):
         """(2,) m: how far the sponge trails its grasp-time place in the hand along the strokes (bounded).
 
         Dragged along the fingers' closing axis, table friction pushes the sponge and the yielding
-        fingers back by up to ~2 cm, so a stroke would stop short of the segment's edge; the wipe
+        fingers back, so a stroke would stop short of the segment's edge; the wipe
         target leads by the measured drift, at most ``max_drift_correction``.  Only the stroke axis
         is corrected (across it a pivoting sponge would run away with its own target).
         """
@@ -325,16 +313,15 @@ class Wipe(Primitive):
     def _wipe_target(self, info: Mapping[str, Any], stroke_point: np.ndarray, depth: float | None = None) -> np.ndarray:
         """(3,) grip-site target that puts the held sponge's centre over ``stroke_point`` (2,, m).
 
-        Uses the grip-site-to-sponge offset measured at the grasp.  (Following the live offset
-        instead, as the sponge slips, was tried: a sponge pivoting in the fingers then runs away
-        with its own target and is lost in ~1 of 3 cleans.)
+        Uses the grip-site-to-sponge offset measured at the grasp (with the live offset, a sponge pivoting
+        in the fingers would run away with its own target).
 
         ``depth``: m the sponge's bottom is commanded below the table top (negative: above);
         default: the force loop's `depth`.
         """
         x, y, _ = self.hold_offset.tolist()
         px, py = stroke_point.tolist()
-        # Python floats (the same IEEE sums as numpy's stroke_point + offset[:2]): ~2 us less per call
+        # Python floats (the same IEEE sums as numpy's stroke_point + offset[:2])
         return np.array([px + x, py + y, self._wipe_z(info, depth)])
 
     def _wipe_z(self, info: Mapping[str, Any], depth: float | None = None) -> float:
@@ -407,7 +394,7 @@ class Wipe(Primitive):
             pos = self._wipe_target(info, self.strokes[self.stroke_index])
             # the lead over a lagging sponge, but never beyond the sides shrunk for the objects around
             lead, (low, high) = pos[:2] + self._drift(info), self.hand_bounds
-            pos[:2] = [clip_scalar(lead[k], low[k], high[k]) for k in range(2)]  # np.clip's values, ~2 us less
+            pos[:2] = [clip_scalar(lead[k], low[k], high[k]) for k in range(2)]  # np.clip's values
             # a stroke the arm cannot finish (a corner at the edge of its reach) ends after stroke_max_steps
             tol = np.inf if skill._phase_steps >= self.config["stroke_max_steps"] else self.config["wipe_tolerance"]
             return Waypoint(pos, GRIPPER_CLOSE, tol, xy_only=True, speed=self.config["wipe_speed"], loop=True)

@@ -10,8 +10,7 @@ import numpy as np
 def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
     """Rotation matrix (3, 3) of a unit quaternion (4,) in robosuite's xyzw order."""
     q = np.asarray(quat, dtype=float)
-    # Python floats for the 3x3 entries (numpy scalars cost ~5 us per call, asked several times per control
-    # step); q.dot(q) under the root is what np.linalg.norm computes for a vector: the same bits
+    # Python floats for the 3x3 entries; q.dot(q) under the root is what np.linalg.norm computes: the same bits
     x, y, z, w = (q / math.sqrt(q.dot(q))).tolist()
     return np.array(
         [
@@ -80,8 +79,6 @@ def clear_yaw_verdict(rot: np.ndarray, yaw: float, tolerance: float) -> bool | N
 def box_lowest_z(pos: np.ndarray, quat: np.ndarray, half_size: np.ndarray) -> float:
     """World z (m) of the lowest corner of a box with centre ``pos`` (3,), orientation ``quat`` (4,, xyzw)."""
     reach = np.array([abs(entry) for entry in z_row_entries(quat)])  # np.abs of quat_z_row, without its dispatch
-    # ndarray.dot, not @: the same BLAS product (ddot) without matmul's ufunc dispatch (~1 us; asked every
-    # control step a carried sponge travels)
     return float(pos[2] - reach.dot(np.asarray(half_size, dtype=float)))
 
 

@@ -38,7 +38,7 @@ SKILL_ARM_CONTROLLER = {
 OSC_OVERRIDES = {
     **SKILL_ARM_CONTROLLER,
     # stiffness (robosuite default 150): the skills rate-limit their setpoints, so a stiffer arm only
-    # shrinks the tracking lag; measured on CleanSkill, 300 halves the wiping time and keeps contact
+    # shrinks the tracking lag
     "kp": 300,
 }
 

@@ -28,12 +28,10 @@ def place_spot(info: Mapping[str, Any], segment: int, held: int, lying, place_cl
     [`Release`][tableclean_suite.controllers.primitives.Release] lowers it).
 
     With ``gripper`` (the env's measures, [`gripper_of`][tableclean_suite.controllers.primitives.gripper_of]), a neighbour tall enough to reach the links
-    above the hand ([`wrist_reach`][tableclean_suite.controllers.primitives.wrist_reach]: the Panda's link 7, 4.4 cm across the fingers' axis against the
-    hand's 3.2 cm) is kept that much wider from the hand's axis (its footprint `grown`
-    by the difference); [`Release`][tableclean_suite.controllers.primitives.Release] turns the hand's narrow side to its nearest point,
-    so the whole neighbour lies beyond that width.  Measured: a box put at S3's corner 4.5 cm from a
-    15 cm cereal's corner was cleared by the hand, but link 7, 10 cm above the grip site, tipped the
-    cereal (cereal mixed, episodes 56, 68 and 151 of seed 1)."""
+    above the hand ([`wrist_reach`][tableclean_suite.controllers.primitives.wrist_reach]) is kept that much wider
+    from the hand's axis (its footprint `grown` by the difference);
+    [`Release`][tableclean_suite.controllers.primitives.Release] turns the hand's narrow side to its nearest point,
+    so the whole neighbour lies beyond that width."""
     others = [(np.asarray(info["objects_pos"][j], dtype=float), footprint_of(info, j)) for j in lying]
     offset = np.asarray(info["eef_pos"], dtype=float) - np.asarray(info["objects_pos"][held], dtype=float)
     grip_z = float(info["objects_rest_z"][held]) + place_clearance + float(offset[2])
