@@ -29,12 +29,12 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from tableclean_suite.controllers.clean import Wipe
+from tableclean_suite.controllers.clean import Wipe, wipe_plan
 from tableclean_suite.controllers.config_check import checked_skill_config
 from tableclean_suite.controllers.configs import CleanConfig, ComposedConfig
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.place import gripper_of, place_spot
-from tableclean_suite.controllers.primitives import SPONGE, Grasp, PrimitiveSkill, Reach, Release, object_body
+from tableclean_suite.controllers.primitives import Grasp, PrimitiveSkill, Reach, Release, object_body
 from tableclean_suite.controllers.skill import SkillFailure
 from tableclean_suite.environments.placement import footprint_of, free_spot as placement_free_spot, other_segments
 from tableclean_suite.task import ActionRule, TaskState
@@ -172,9 +172,7 @@ def wipe(which: Segment | None = None) -> Step:
     where = arm_segment() if which is None else which
 
     def make(ctx: Context, info: Info) -> list:
-        home = np.asarray(info["sponge_home_pos"], dtype=float)
-        return [("SPONGE_", Grasp(SPONGE, "sponge grasp")), ("", Wipe(where(ctx))),
-                ("HOME_", Release(SPONGE, lambda skill, info: home[:2], lambda skill, info: float(home[2])))]
+        return wipe_plan(where(ctx), info)
     phases = (*(f"SPONGE_{p}" for p in Grasp.PHASES), *Wipe.PHASES, *(f"HOME_{p}" for p in Release.PHASES))
     return Step("WIPE", phases, make)
 

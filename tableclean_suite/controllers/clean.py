@@ -481,6 +481,13 @@ class Wipe(Primitive):
         return True
 
 
+def wipe_plan(segment: int, info: Mapping[str, Any]) -> list:
+    """The ``(prefix, Primitive)`` pairs that fetch the sponge, wipe ``segment`` (0-based) and put the sponge home."""
+    home = np.asarray(info["sponge_home_pos"], dtype=float)
+    return [("SPONGE_", Grasp(SPONGE, "sponge grasp")), ("", Wipe(segment)),
+            ("HOME_", Release(SPONGE, lambda skill, info: home[:2], lambda skill, info: float(home[2])))]
+
+
 class CleanSkill(PrimitiveSkill):
     """Wipe the segment the arm is above with the sponge from its home, then return it."""
 
@@ -491,11 +498,5 @@ class CleanSkill(PrimitiveSkill):
 
     def build(self, info: Mapping[str, Any]):
         self.segment = self.state.arm
-        home = np.asarray(info["sponge_home_pos"], dtype=float)
-        return [
-            ("SPONGE_", Grasp(SPONGE, "sponge grasp")),
-            ("", Wipe(self.segment)),
-            ("HOME_", Release(SPONGE, lambda skill, info: home[:2], lambda skill, info: float(home[2]))),
-            ("", Reach("RETURN", lambda skill, info: skill.hover_point(
-                info, skill.segment_center(info, self.segment)[:2]), GRIPPER_OPEN)),
-        ]
+        return [*wipe_plan(self.segment, info), ("", Reach("RETURN", lambda skill, info: skill.hover_point(
+            info, skill.segment_center(info, self.segment)[:2]), GRIPPER_OPEN))]
