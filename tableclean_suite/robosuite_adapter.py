@@ -133,32 +133,16 @@ def c_address(mujoco_struct) -> int:
 
 
 @functools.lru_cache(maxsize=None)
-def _native(names: tuple[str, ...]) -> tuple[int, ...] | None:
-    """Addresses of the C functions ``names`` in the MuJoCo library (``libmujoco.so*``) next to the mujoco
-    package; None when it is not there."""
+def mujoco_function_addresses() -> tuple[int, ...]:
+    """Addresses of `NATIVE_FUNCTIONS` in the MuJoCo library (``libmujoco.so*``) next to the mujoco package, the
+    one the Python bindings use; ``OSError`` when that library is not found."""
     import mujoco
 
     paths = sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*")))
-    lib = ctypes.CDLL(paths[0]) if paths else None
-    return None if lib is None else tuple(ctypes.cast(getattr(lib, name), ctypes.c_void_p).value for name in names)
-
-
-def mujoco_function_addresses() -> tuple[int, ...]:
-    """Addresses of `NATIVE_FUNCTIONS` in the MuJoCo library the Python bindings use; ``OSError`` when
-    MuJoCo's shared library is not found next to the mujoco package."""
-    addresses = _native(NATIVE_FUNCTIONS)
-    if addresses is None:
+    if not paths:
         raise OSError("MuJoCo's shared library (libmujoco.so*) not found next to the mujoco package")
-    return addresses
-
-
-@functools.lru_cache(maxsize=None)
-def mujoco_contact_force_address() -> int | None:
-    """Address of ``mj_contactForce`` in the MuJoCo library the Python bindings use (for the env's compiled
-    press-force sum), or None when that library is not found or the installed versions are not the checked ones
-    (then the env calls ``mujoco.mj_contactForce`` through the bindings)."""
-    addresses = None if unchecked_versions() else _native(("mj_contactForce",))
-    return None if addresses is None else addresses[0]
+    lib = ctypes.CDLL(paths[0])
+    return tuple(ctypes.cast(getattr(lib, name), ctypes.c_void_p).value for name in NATIVE_FUNCTIONS)
 
 
 # -- the robot's index lists -----------------------------------------------------------------

@@ -2,23 +2,14 @@
 
 import mujoco
 import numpy as np
-import pytest
 
 from tableclean_suite.environments.contact_kernels import (
     LOOKUP_BODY,
     LOOKUP_PADS,
-    NATIVE_CONTACT_FORCE,
-    NATIVE_DATA,
-    NATIVE_MODEL,
     PAD_A,
     PAD_B,
-    PRESSING,
-    SURFACE,
-    contacts_between,
     grasped_bodies,
-    press_normal_force,
 )
-from tableclean_suite.robosuite_adapter import c_address, mujoco_contact_force_address
 
 SCENE = """
 <mujoco>
@@ -37,58 +28,6 @@ def _pressed_scene():
     for _ in range(20):
         mujoco.mj_step(model, data)
     return model, data
-
-
-def _masks(model, *names):
-    mask = np.zeros(model.ngeom, dtype=bool)
-    for name in names:
-        mask[model.geom(name).id] = True
-    return mask
-
-
-def _bindings_sum(model, data, pressing, surface) -> float:
-    """The env's per-contact reference: ``mj_contactForce``'s normal force summed over the contacts pairing
-    the two masks, in contact order, through MuJoCo's Python bindings."""
-    contact, total, wrench = data.contact, 0.0, np.zeros(6)
-    for i in contacts_between(contact.geom1, contact.geom2, pressing, surface).tolist():
-        mujoco.mj_contactForce(model, data, i, wrench)
-        total += float(wrench[0])
-    return total
-
-
-def _native(model, data) -> np.ndarray:
-    """press_normal_force's (3,) int64 addresses."""
-    native = np.zeros(3, dtype=np.int64)
-    native[[NATIVE_CONTACT_FORCE, NATIVE_MODEL, NATIVE_DATA]] = [mujoco_contact_force_address(), c_address(model),
-                                                                 c_address(data)]
-    return native
-
-
-def _roles(pressing, surface) -> np.ndarray:
-    roles = np.zeros(pressing.size, dtype=np.int64)
-    roles[pressing] |= PRESSING
-    roles[surface] |= SURFACE
-    return roles
-
-
-@pytest.mark.skipif(mujoco_contact_force_address() is None, reason="MuJoCo's library not found or versions unchecked")
-@pytest.mark.parametrize("boxes", [("box_a",), ("box_b",), ("box_a", "box_b")])
-def test_press_force_is_the_pairwise_sum_clipped_as_pythons_max(boxes):
-    model, data = _pressed_scene()
-    floor, pressing = _masks(model, "floor"), _masks(model, *boxes)
-    contact = data.contact
-    assert data.ncon > 0
-    expected = max(_bindings_sum(model, data, pressing, floor), 0.0)
-    assert expected > 0.0  # the boxes rest on the floor: a real force to compare
-    got = press_normal_force(_native(model, data), contact.geom, _roles(pressing, floor), np.zeros(6))
-    assert got == expected  # bit for bit: the same contacts summed in the same order
-    # roles the other way round pair the same contacts
-    assert press_normal_force(_native(model, data), contact.geom, _roles(floor, pressing), np.zeros(6)) == expected
-    # no pairing contact, and no contact at all, give 0.0
-    neither = _roles(_masks(model, "box_a"), _masks(model, "box_b"))
-    assert press_normal_force(_native(model, data), contact.geom, neither, np.zeros(6)) == 0.0
-    assert press_normal_force(_native(model, data), np.zeros((0, 2), dtype=np.int32), _roles(pressing, floor),
-                              np.zeros(6)) == 0.0
 
 
 #: Random contact sets :func:`test_grasped_bodies_is_both_pads_touching_each_body` checks.

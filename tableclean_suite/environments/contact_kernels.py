@@ -104,38 +104,3 @@ def _c_function(restype):
 #: ``c_call(fn, *args)``: a ``void`` C function; ``c_call_double(fn, *args)``: one returning a ``double``.
 c_call = _c_function(types.void)
 c_call_double = _c_function(types.float64)
-
-
-#: Bits of a geom's entry in [`press_normal_force`][tableclean_suite.environments.contact_kernels.press_normal_force]'s roles: a geom of the pressing body, of the surface.
-PRESSING = 1
-SURFACE = 2
-#: Entries of [`press_normal_force`][tableclean_suite.environments.contact_kernels.press_normal_force]'s ``native`` addresses.
-NATIVE_CONTACT_FORCE = 0
-NATIVE_MODEL = 1
-NATIVE_DATA = 2
-
-
-@numba.njit(cache=True)
-def press_normal_force(native: np.ndarray, geom: np.ndarray, roles: np.ndarray, wrench: np.ndarray) -> float:
-    """``max(sum, 0.0)`` (Python's ``max``: the sum unless 0.0 is larger) of the normal forces [N]
-    (``mj_contactForce``'s first entry) of the contacts pairing a `PRESSING` geom with a
-    `SURFACE` geom (either order), summed in contact order: the env's press force in one call with few arguments (it is read every control step a wipe
-    presses, from the compiled press loop).
-
-    Args:
-        native: (3,) int64 addresses: ``mj_contactForce`` (`NATIVE_CONTACT_FORCE`), the ``mjModel*``
-            (`NATIVE_MODEL`), the ``mjData*`` (`NATIVE_DATA`).
-        geom: (ncon, 2) geom ids of the active contacts (``data.contact.geom``).
-        roles: (ngeom,) int64 bits per geom id (`PRESSING`, `SURFACE`, 0 for neither).
-        wrench: (6,) float64 C-contiguous scratch (overwritten).
-    """
-    total = 0.0
-    for i in range(geom.shape[0]):
-        r1, r2 = roles[geom[i, 0]], roles[geom[i, 1]]
-        if ((r1 & PRESSING) and (r2 & SURFACE)) or ((r2 & PRESSING) and (r1 & SURFACE)):
-            c_call(native[NATIVE_CONTACT_FORCE], native[NATIVE_MODEL], native[NATIVE_DATA], np.int32(i),
-                   wrench.ctypes.data)
-            total += wrench[0]
-    if 0.0 > total:  # max(total, 0.0): a NaN or -0.0 sum is kept as Python's max keeps it
-        total = 0.0
-    return total

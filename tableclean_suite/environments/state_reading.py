@@ -10,11 +10,8 @@ import mujoco
 import numpy as np
 
 from tableclean_suite.environments import dirt_state
-from tableclean_suite.environments.contact_kernels import (LOOKUP_BODY, LOOKUP_PADS, NATIVE_CONTACT_FORCE, NATIVE_DATA,
-                                                           NATIVE_MODEL, PAD_A, PAD_B, PRESSING, SURFACE,
-                                                           contact_within, contacts_between, grasped_bodies,
-                                                           press_normal_force)
-from tableclean_suite.robosuite_adapter import c_address, mujoco_contact_force_address
+from tableclean_suite.environments.contact_kernels import (LOOKUP_BODY, LOOKUP_PADS, PAD_A, PAD_B, contact_within,
+                                                           contacts_between, grasped_bodies)
 
 #: Entries of ``mujoco.mj_contactForce``'s output: normal force first, then two tangential, three torques.
 CONTACT_WRENCH_SIZE = 6
@@ -109,7 +106,6 @@ class Contacts:
         lookup[pads[0], LOOKUP_PADS] |= PAD_A
         lookup[pads[1], LOOKUP_PADS] |= PAD_B
         self._lookup, self._bodies = lookup, len(self.objects) + 1
-        self._native: tuple | None = None  # press_force's compiled call (bound on first use)
 
     def grasped(self) -> np.ndarray:
         """Bool (M + 1,), a new array: for each object, then the sponge, whether both finger pads touch it
@@ -126,31 +122,12 @@ class Contacts:
 
     def press_force(self) -> float:
         """Normal force [N] (>= 0) the sponge presses on the table top: the sum of ``mj_contactForce`` over
-        their contacts."""
-        native = self._native
-        if native is None:
-            native = self._native = self._bind_native()
+        their contacts, in contact order."""
         data = self.data
-        if native[0] is not None:  # the sum in one compiled call (read every control step a wipe presses)
-            return press_normal_force(native[0], data.contact.geom, native[1], native[2])
         contact = data.contact
-        pressing = contacts_between(contact.geom1, contact.geom2, self.sponge, self.table).tolist()
         wrench = np.zeros(CONTACT_WRENCH_SIZE)
         total = 0.0
-        for i in pressing:
+        for i in contacts_between(contact.geom1, contact.geom2, self.sponge, self.table).tolist():
             mujoco.mj_contactForce(self.model, data, i, wrench)
             total += float(wrench[0])
         return max(total, 0.0)
-
-    def _bind_native(self) -> tuple:
-        """``(addresses, roles, scratch)`` of ``press_normal_force`` (all None without the native function)."""
-        function = mujoco_contact_force_address()
-        if function is None:
-            return (None, None, None)
-        native = np.zeros(3, dtype=np.int64)
-        native[[NATIVE_CONTACT_FORCE, NATIVE_MODEL, NATIVE_DATA]] = [function, c_address(self.model),
-                                                                     c_address(self.data)]
-        roles = np.zeros(self.sponge.size, dtype=np.int64)
-        roles[self.sponge] |= PRESSING
-        roles[self.table] |= SURFACE
-        return (native, roles, np.zeros(CONTACT_WRENCH_SIZE))
