@@ -7,7 +7,8 @@ import pytest
 
 from tableclean_suite.controllers import SkillController, make_skill_env
 from tableclean_suite.controllers.fast_control import fast_stepper_of
-from tableclean_suite.controllers.primitives import GRASP_SLIP_TOLERANCE, Body, Grasp
+from tableclean_suite.controllers.configs import GRASP_SLIP_TOLERANCE
+from tableclean_suite.controllers.primitives import Body, Grasp
 from tableclean_suite.controllers.skill import SkillFailure
 from tableclean_suite.environments.randomization import (
     ALLOWED_SCALE,

@@ -31,12 +31,7 @@ from typing import Any, Callable, ClassVar, Mapping
 
 import numpy as np
 
-from tableclean_suite.controllers.configs import (  # noqa: F401  (GRASP_SLIP_TOLERANCE re-exported)
-    GRASP_SLIP_TOLERANCE,
-    GraspConfig,
-    ReleaseConfig,
-    SkillConfig,
-)
+from tableclean_suite.controllers.configs import GraspConfig, ReleaseConfig, SkillConfig
 from tableclean_suite.controllers.geometry import gripper_yaw, quat_to_matrix, wrap_angle
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.skill import Skill, SkillFailure, Waypoint, object_heights
@@ -354,11 +349,11 @@ class Grasp(Primitive):
 
     The grasp is confirmed by what is measured, twice: after closing, both finger pads touch the
     body (contact); after lifting, they still do and the body rose with the grip site, trailing
-    it by at most ``grasp_slip_tolerance`` m (`GRASP_SLIP_TOLERANCE`; slip).  Either failure, and a
-    descent or a lift that runs out of steps, is retryable: the skill re-approaches the body from its
-    measured pose (opening the hand where it is before it rises), within its ``retries``.  Sets the skill's target yaw from ``body.yaw_rule``
-    when it starts, with the finger line turned off a lying neighbour the hand would reach
-    (`FINGER_LINE_CLEARANCE`).
+    it by at most ``grasp_slip_tolerance`` m (slip).  Either failure, and a descent or a lift that runs
+    out of steps, is retryable: the skill re-approaches the body from its measured pose (opening the
+    hand where it is before it rises), within its ``retries``.  Sets the skill's target yaw from
+    ``body.yaw_rule`` when it starts, with the finger line turned off a lying neighbour the hand would
+    reach (`FINGER_LINE_CLEARANCE`).
     """
 
     PHASES = ("HOVER", "DESCEND", "CLOSE", "LIFT")
