@@ -119,26 +119,26 @@ class ObjectGeometry:
     @cached_property
     def lower(self) -> np.ndarray:
         """(3,) smallest x, y, z of the collision geometry in the object's frame [m]."""
-        return _frozen(self.points.min(axis=0))
+        return frozen(self.points.min(axis=0))
 
     @cached_property
     def upper(self) -> np.ndarray:
         """(3,) largest x, y, z of the collision geometry in the object's frame [m]."""
-        return _frozen(self.points.max(axis=0))
+        return frozen(self.points.max(axis=0))
 
     @cached_property
     def half_size(self) -> np.ndarray:
         """(3,) half extents [m] of the smallest origin-centred box holding the geometry."""
-        return _frozen(np.maximum(np.abs(self.lower), np.abs(self.upper)))
+        return frozen(np.maximum(np.abs(self.lower), np.abs(self.upper)))
 
     @cached_property
     def hull(self) -> np.ndarray:
         """(H, 3) the corners of the convex hull of ``points`` [m] (all of them when they span no volume):
         what a footprint at any pose needs (read-only)."""
         try:
-            return _frozen(self.points[ConvexHull(self.points).vertices])
+            return frozen(self.points[ConvexHull(self.points).vertices])
         except (QhullError, ValueError):
-            return _frozen(np.array(self.points))
+            return frozen(self.points)
 
     @property
     def height(self) -> float:
@@ -159,7 +159,7 @@ class ObjectGeometry:
     def _widths(self) -> np.ndarray:
         angles = np.arange(WIDTH_DIRECTIONS) * (np.pi / WIDTH_DIRECTIONS)
         projections = self.points[:, :2] @ np.stack([np.cos(angles), np.sin(angles)])
-        return _frozen(projections.max(axis=0) - projections.min(axis=0))
+        return frozen(projections.max(axis=0) - projections.min(axis=0))
 
     def slice_width(self, low: float, high: float, direction: int) -> float:
         """Width [m] along direction ``direction`` (angle ``direction pi / WIDTH_DIRECTIONS``, own frame) of the
@@ -195,8 +195,10 @@ class ObjectGeometry:
         return direction, period
 
 
-def _frozen(array: np.ndarray) -> np.ndarray:
-    array.flags.writeable = False
+def frozen(values) -> np.ndarray:
+    """A read-only float copy of ``values``."""
+    array = np.array(values, dtype=float)
+    array.setflags(write=False)
     return array
 
 
@@ -221,9 +223,7 @@ def _compiled_points(world_xml: str, root_name: str) -> np.ndarray:
     model = mujoco.MjModel.from_xml_string(world_xml)
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
-    points = collision_points(model, data, model.body(root_name).id)
-    points.flags.writeable = False
-    return points
+    return frozen(collision_points(model, data, model.body(root_name).id))
 
 
 def object_geometry(obj) -> ObjectGeometry:

@@ -13,6 +13,8 @@ from typing import Any, Callable, Mapping, NamedTuple
 import numpy as np
 from robosuite.utils.transform_utils import mat2quat
 
+from tableclean_suite.environments.object_geometry import frozen
+
 #: A lazy key's function: ``fill(owner, info)`` stores that key (and any others it computes alike) in ``info``.
 Filler = Callable[[Any, "SkillInfo"], None]
 
@@ -178,13 +180,6 @@ class DataViews(NamedTuple):
                    xquat=data.xquat.reshape(-1), objects_pos=objects * 3 + np.arange(3),
                    objects_quat=objects * 4 + XYZW_FROM_WXYZ, sponge_pos=sponge * 3 + np.arange(3),
                    sponge_quat=sponge * 4 + XYZW_FROM_WXYZ)
-
-
-def frozen(values) -> np.ndarray:
-    """A read-only float copy of ``values`` (the constant values every ``skill_info()`` shares)."""
-    array = np.array(values, dtype=float)
-    array.setflags(write=False)
-    return array
 
 
 def constant_values(objects, gripper, config: Mapping, geometry, sponge_half_size, robot_base_pos) -> dict:
