@@ -5,7 +5,8 @@ import json
 import pytest
 
 from tableclean_suite.bench import calibrate, fidelity
-from tableclean_suite.bench.fidelity import FAULT, TRIAL_FIELDS, ResumeError, pair_table, read_trials, skill_table, summary
+from tableclean_suite.bench.fidelity import FAULT, ResumeError, pair_table, read_trials, skill_table, summary
+from tableclean_suite.bench.trial_store import TRIAL_FIELDS
 from tableclean_suite.learners import TransitionTable, train
 from tableclean_suite.task import Action, Outcome, TaskModel
 

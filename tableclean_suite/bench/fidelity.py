@@ -38,10 +38,10 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+from tableclean_suite import intervals  # noqa: E402
 from tableclean_suite.bench import trial_store  # noqa: E402
 from tableclean_suite.bench.outputs import atomic_write_text, output_lock  # noqa: E402
 from tableclean_suite.bench import cli  # noqa: E402
-from tableclean_suite.bench.trial_store import TRIAL_FIELDS  # noqa: E402, F401  (re-exported)
 from tableclean_suite.executors.blas import single_blas_thread  # noqa: E402
 from tableclean_suite.task import Outcome, TaskModel, TaskState, get_task_spec  # noqa: E402
 
@@ -53,7 +53,7 @@ DEFAULT_OUT = "results/fidelity"
 #: Suffix of the default output directory with ``--randomize``.
 RANDOMIZED_SUFFIX = "_randomized"
 #: Confidence of the one-sided lower bound of every rate ([lower_bound][tableclean_suite.bench.fidelity.lower_bound]).
-CONFIDENCE = 0.95
+CONFIDENCE = intervals.DEFAULT_CONFIDENCE
 FAULT = "fault"
 #: How the reason of a trial from a state that could not be staged starts (no skill ran: not in the skill table).
 NOT_STAGED = "not staged"
@@ -325,12 +325,6 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
 # ---------------------------------------------------------------------------------------------
 # tables
 # ---------------------------------------------------------------------------------------------
-def _refused(row, model: TaskModel) -> bool:
-    """The controller did not run a skill: the model calls the action improper or ineffective."""
-    outcome = model.step(row["state"], row["action"])[1]
-    return outcome in (Outcome.IMPROPER, Outcome.INEFFECTIVE)
-
-
 def pair_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[dict]:
     """Agreement per (state, action), sorted by state code then action (``model``: default ``paper``)."""
     model = model or TaskModel()
@@ -359,7 +353,8 @@ def skill_table(rows: Iterable[dict], model: TaskModel | None = None) -> list[di
     table = []
     for action in model.action_names:
         mine = [r for r in rows if r["action"] == action and not str(r["reason"]).startswith(NOT_STAGED)]
-        ran = [r for r in mine if not _refused(r, model)]
+        refused = (Outcome.IMPROPER, Outcome.INEFFECTIVE)  # the controller runs no skill
+        ran = [r for r in mine if model.step(r["state"], r["action"])[1] not in refused]
         n = len(ran)
 
         def mean(key, digits):
@@ -381,14 +376,9 @@ def write_csv(path: Path, table: list[dict]) -> None:
 
 
 def lower_bound(successes: int, executions: int, confidence: float = CONFIDENCE) -> float:
-    """One-sided exact (Clopper-Pearson) lower bound of a rate, in [0, 1]; 0 failures in ``n`` give
-    ``(1 - confidence) ** (1 / n)``, ``executions`` 0 gives 0."""
-    from scipy.stats import binomtest
-
-    if executions == 0:
-        return 0.0
-    return float(binomtest(int(successes), int(executions), alternative="greater")
-                 .proportion_ci(confidence_level=confidence).low)
+    """One-sided exact lower bound of a rate, in [0, 1]
+    ([clopper_pearson][tableclean_suite.intervals.clopper_pearson] ``"greater"``); ``executions`` 0 gives 0."""
+    return intervals.clopper_pearson(successes, executions, confidence, "greater")[0] if executions else 0.0
 
 
 def percent_down(rate: float) -> str:

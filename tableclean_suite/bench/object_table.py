@@ -74,15 +74,6 @@ def spec_for(kind: str, setting: str, partner: str):
     return TaskSpec(f"objects_{kind}_mixed", segments=MIXED_SEGMENTS, objects=(kind, other), start="uniform_unclean")
 
 
-def run_cell(kind: str, setting: str, episodes: int, seed: int, partner: str, log=None) -> list[dict]:
-    """Rows (one per skill of the plan) of ``episodes`` optimal-plan episodes of one object x setting."""
-    from tableclean_suite.task import TaskModel
-
-    model = TaskModel(spec=spec_for(kind, setting, partner))
-    return _measure(kind, setting, partner_for(kind, setting, partner), model, episodes, seed, fidelity.shortest_plan,
-                    log)[0]
-
-
 def _measure(kind: str, setting: str, partner: str, model, episodes: int, seed: int, plan_of, log=None,
              starts=None, params: str = "") -> tuple[list[dict], list[dict]]:
     """Rows (`COLUMNS`, one per skill) and failures (`FAILURE_COLUMNS`; ``starts``: each episode's start) of
@@ -245,6 +236,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     refused, else 0."""
     parser, args = cli.parse_command(build_parser, argv, prog or PROG)
     from tableclean_suite.environments.objects import object_type_names
+    from tableclean_suite.task import TaskModel
 
     known = object_type_names()
     objects = args.objects or (() if args.random else tuple(known))
@@ -266,7 +258,9 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
                 print(f"{kind} {setting}: partner {used} (--mix-with {args.mix_with} is the measured type itself)")
             cells += 1
             try:
-                rows += run_cell(kind, setting, args.episodes or 30, args.seed, args.mix_with, log=log)
+                model = TaskModel(spec=spec_for(kind, setting, args.mix_with))
+                rows += _measure(kind, setting, used, model, args.episodes or 30, args.seed, fidelity.shortest_plan,
+                                 log)[0]
             except ValueError as error:  # refused by the scene (cannot be held, does not fit): a finding, not a crash
                 refused += 1
                 print(f"{kind} {setting}: refused: {error}")

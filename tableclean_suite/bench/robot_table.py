@@ -65,12 +65,6 @@ def gripper_name(robot: str, gripper: str) -> str:
     return name
 
 
-def env_kwargs(robot: str, gripper: str, randomize: bool) -> dict:
-    """The scene options of a cell (as ``tableclean-bench fidelity``'s, plus ``gripper_types``)."""
-    return {**fidelity.scene_env_kwargs(robot, randomize),
-            **({} if gripper == DEFAULT_GRIPPER else {"gripper_types": gripper})}
-
-
 def run_episodes(robot: str, task: str, episodes: int, seed: int = 0, log=print, randomization=None,
                  gripper: str = DEFAULT_GRIPPER) -> dict:
     """``{"episodes", "successes", "seconds", "failures": [(episode, reason)]}`` of ``episodes`` optimal-plan
@@ -217,8 +211,9 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         for task in models:
             name = f"{robot}_{task}" if gripper == DEFAULT_GRIPPER else f"{robot}_{gripper}_{task}"
             name += fidelity.RANDOMIZED_SUFFIX if args.randomize else ""
-            cells[robot, gripper, task] = (Path(args.fidelity_dir) / name,
-                                           {"env_kwargs": env_kwargs(robot, gripper, args.randomize)})
+            scene = {**fidelity.scene_env_kwargs(robot, args.randomize),  # as fidelity's, plus gripper_types
+                     **({} if gripper == DEFAULT_GRIPPER else {"gripper_types": gripper})}
+            cells[robot, gripper, task] = (Path(args.fidelity_dir) / name, {"env_kwargs": scene})
     try:
         if args.fidelity_trials and not args.fresh:  # stored trials of other options: refused before anything runs
             for (robot, gripper, task), (folder, options) in cells.items():

@@ -126,8 +126,7 @@ def plain_loop_table(runs: int, iterations: int, repeat: int) -> Table:
                      "compiled / step-at-a-time": f"{compiled / plain:.0f}"})
     return Table("Compiled learners against the step-at-a-time loop", rows,
                  "Step-at-a-time loop (train(engine=\"reference\"), one step per Python call, the same arrays): "
-                 f"{plain_runs} runs x "
-                 f"{iterations} iterations; the fastest of the repeats on both sides.")
+                 f"{plain_runs} runs x {iterations} iterations; the fastest of the repeats on both sides.")
 
 
 def learners_section(args) -> Section:
