@@ -91,23 +91,3 @@ def test_a_clear_yaw_verdict_is_that_of_the_quaternion_robosuite_converts_the_ma
                     assert verdict == (abs(wrap_angle(exact - yaw)) <= tolerance), (quat, yaw)
     assert decided > declined > 0
     assert clear_yaw_verdict(np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]]), 0.0, tolerance) is None
-
-
-def test_a_skills_checked_config_is_kept_per_settings_and_a_refused_one_raises_every_time():
-    import pytest
-
-    from tableclean_suite.controllers import MoveSkill
-    from tableclean_suite.controllers.config_check import SkillConfigError, checked_skill_config
-    from tableclean_suite.controllers.skill import _checked_config
-
-    first, again = _checked_config(MoveSkill, {"speed": 0.2}), _checked_config(MoveSkill, {"speed": 0.2})
-    assert again is first and first == checked_skill_config("MoveSkill", MoveSkill.Config, MoveSkill.DEFAULT_CONFIG,
-                                                            {"speed": 0.2})
-    assert _checked_config(MoveSkill, {"speed": 0.3})[0]["speed"] == 0.3  # other settings: checked anew
-    for _ in range(2):
-        with pytest.raises(SkillConfigError, match="speeed"):
-            _checked_config(MoveSkill, {"speeed": 0.2})
-    # 300 and 300.0 hash alike: a kept 300 must not let a refused 300.0 through
-    assert _checked_config(MoveSkill, {"max_steps": 300})[0]["max_steps"] == 300
-    with pytest.raises(SkillConfigError, match="max_steps must be an int"):
-        _checked_config(MoveSkill, {"max_steps": 300.0})

@@ -107,34 +107,6 @@ def _top_bound(z: float, quat, shape) -> float:
     return z + (max(l0 * r0, u0 * r0) + max(l1 * r1, u1 * r1) + max(l2 * r2, u2 * r2)) + TOP_BOUND_SLACK
 
 
-#: Most validated skill configs `_checked_config` keeps (it forgets them all when full).
-CHECKED_CONFIG_CACHE_SIZE = 256
-_checked_configs: dict = {}
-
-
-def _typed_items(settings: Mapping[str, Any]) -> tuple:
-    """``(key, type of value, value)`` of every item of ``settings`` (a cache key; raises TypeError if unhashable)."""
-    return tuple((key, type(value), value) for key, value in settings.items())
-
-
-def _checked_config(cls: type, config: Mapping[str, Any] | None):
-    """[`checked_skill_config`][tableclean_suite.controllers.config_check.checked_skill_config] of skill class ``cls`` with the overrides ``config``, kept per
-    (class, its Config, its defaults' and the overrides' items with their values' types: 1, 1.0 and True hash alike
-    but are different settings).  Settings with an unhashable value are checked every time; refused ones raise
-    every time (never kept)."""
-    try:
-        key = (cls, cls.Config, _typed_items(cls.DEFAULT_CONFIG), None if config is None else _typed_items(config))
-        checked = _checked_configs.get(key)
-    except TypeError:  # an unhashable value
-        return checked_skill_config(cls.__name__, cls.Config, cls.DEFAULT_CONFIG, config)
-    if checked is None:
-        checked = checked_skill_config(cls.__name__, cls.Config, cls.DEFAULT_CONFIG, config)
-        if len(_checked_configs) >= CHECKED_CONFIG_CACHE_SIZE:
-            _checked_configs.clear()
-        _checked_configs[key] = checked
-    return checked
-
-
 @functools.lru_cache(maxsize=None)
 def _last_member(phases: type[enum.Enum]) -> enum.Enum:
     """The last member of the enum ``phases`` (asked every control step: cached per enum)."""
@@ -230,7 +202,7 @@ class Skill(abc.ABC):
 
     def __init__(self, env: SkillEnv, config: Mapping[str, Any] | None = None):
         # validated once; keys of a subclass's DEFAULT_CONFIG that its Config lacks pass through unchecked
-        merged, self.settings = _checked_config(type(self), config)
+        merged, self.settings = checked_skill_config(type(self).__name__, self.Config, self.DEFAULT_CONFIG, config)
         self.config = MappingProxyType(merged)
         self.env = env
         self.dt = 1.0 / float(env.control_freq)
