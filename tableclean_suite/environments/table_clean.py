@@ -177,7 +177,10 @@ class TableClean(ManipulationEnv):
             [type_geometry(kind, self.task_config).footprint_radius for kind in self.object_types], dtype=float)
         layout = (object_segment, arm_segment, dirty_segments, object_segments)
         if task is not None and all(value is FROM_SPEC for value in layout):
-            self._start_from_spec()
+            if self.task_model.start == StartMode.FIXED:
+                self.set_start_state(self.task_model.start_state)
+            else:  # uniform_unclean: all dirty, each position drawn uniformly
+                self.set_start(None, None, None)
         else:
             object_segment, arm_segment, dirty_segments, object_segments = (
                 None if value is FROM_SPEC else value for value in layout)
@@ -450,22 +453,11 @@ class TableClean(ManipulationEnv):
         holding an object (stage that with [`stage`][tableclean_suite.physics_backend.stage])."""
         state = self.task_model.as_state(state)
         if state.holding:
-            raise ValueError(f"set_start_state takes states with every object lying; {state.name} holds one "
-                             "(tableclean_suite.physics_backend.stage picks it up after a reset)")
+            raise ValueError(f"task {self.task_spec.name!r}: {state.name} holds an object; TableClean resets with every "
+                             "object lying: pass a layout (object_segment=..., arm_segment=...) and stage the held "
+                             "state after a reset with tableclean_suite.physics_backend.stage")
         self.set_start(None, state.arm + 1, [k + 1 for k in range(state.n_segments) if not state.is_clean(k)],
                        object_segments=[where + 1 for where in state.objects])
-
-    def _start_from_spec(self) -> None:
-        """The layout of the spec's start: its fixed ``start_state``, or every layout drawn at each reset."""
-        if self.task_model.start != StartMode.FIXED:  # uniform_unclean: all dirty, each position drawn uniformly
-            self.set_start(None, None, None)
-            return
-        state = self.task_model.start_state
-        if state.holding:
-            raise ValueError(f"task {self.task_spec.name!r} starts in {state.name}, which holds an object; TableClean "
-                             "resets with every object lying: pass a layout (object_segment=..., arm_segment=...) "
-                             "and stage the held start with tableclean_suite.physics_backend.stage")
-        self.set_start_state(state)
 
     def put_object(self, obj: int, segment: int) -> None:
         """Teleport object ``obj`` (0-based), at rest, onto the free spot of ``segment`` (0-based) the place skill
