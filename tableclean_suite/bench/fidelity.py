@@ -472,17 +472,6 @@ def shortest_plan(env, model: TaskModel, episode: int) -> list:
     return model.shortest_plan(env.symbolic_state())
 
 
-def tally(counts: dict, results, model: TaskModel) -> None:
-    """Add skill results to ``counts``: per skill name ``[executions, successes, agreements, retries]``
-    (an agreement: the state read back is the model's successor)."""
-    for result in results:
-        count = counts.setdefault(model.action_name(result.action), [0] * 4)
-        count[0] += 1
-        count[1] += bool(result.success)
-        count[2] += result.state_after is not None and result.state_after == result.expected
-        count[3] += result.retries
-
-
 # ---------------------------------------------------------------------------------------------
 # CLI
 # ---------------------------------------------------------------------------------------------

@@ -80,11 +80,16 @@ def _measure(kind: str, setting: str, partner: str, model, episodes: int, seed: 
     ``episodes`` episodes of ``model`` executing ``plan_of``'s plans
     ([`episodes`][tableclean_suite.bench.fidelity.episodes])."""
     started = time.perf_counter()
-    counts: dict[str, list[int]] = {}
+    counts: dict[str, list[int]] = {}  # skill -> [executions, successes, agreements, retries]
     failures, wins = [], 0
     for episode, (results, ok, _, _) in enumerate(fidelity.episodes(episodes, plan_of, model, log, f"{kind} {setting}",
                                                                     task=model.spec, seed=seed)):
-        fidelity.tally(counts, results, model)
+        for r in results:  # an agreement: the state read back is the model's successor
+            count = counts.setdefault(model.action_name(r.action), [0] * 4)
+            count[0] += 1
+            count[1] += bool(r.success)
+            count[2] += r.state_after is not None and r.state_after == r.expected
+            count[3] += r.retries
         wins += ok
         if starts and results and not results[-1].success:
             result, history = results[-1], " ".join(model.action_name(r.action) for r in results[:-1])
