@@ -16,7 +16,6 @@ is at the skill's travel height, which clears every lying object's top.
 from __future__ import annotations
 
 import enum
-import math
 from typing import Any, Mapping
 
 import numpy as np
@@ -156,8 +155,6 @@ class Wipe(Primitive):
 
     PHASES = ("TO_SEGMENT", "PRESS", "WIPE", "SHIFT", "WIPE_LIFT")
     Config = WipeConfig
-    #: (yaw [rad], its stroke axis) last computed by `_stroke_axis`; NaN equals no yaw, so the first call computes
-    _axis_of_yaw: tuple[float, int] = (math.nan, 0)
 
     def __init__(self, segment: int):
         self.segment = int(segment)
@@ -286,13 +283,8 @@ class Wipe(Primitive):
         return int(np.sign(toward))
 
     def _stroke_axis(self) -> int:
-        """World axis (0: x, 1: y) the strokes run along: the fingers' closing axis (grip-site x at ``yaw``;
-        kept per `yaw`)."""
-        yaw = self.yaw
-        cached = self._axis_of_yaw
-        if cached[0] != yaw:
-            cached = self._axis_of_yaw = (yaw, 0 if abs(np.cos(yaw)) > abs(np.sin(yaw)) else 1)
-        return cached[1]
+        """World axis (0: x, 1: y) the strokes run along: the fingers' closing axis (grip-site x at ``yaw``)."""
+        return 0 if abs(np.cos(self.yaw)) > abs(np.sin(self.yaw)) else 1
 
     def _drift(self, info: Mapping[str, Any]) -> np.ndarray:
         """(2,) m: how far the sponge trails its grasp-time place in the hand along the strokes (bounded).

@@ -635,13 +635,8 @@ class PrimitiveSkill(Skill):
         return self.phase
 
     def _current(self) -> tuple[Primitive, str]:
-        # asked three times a control step: kept until the plan, the stage or the phase changes
-        plan, stage, phase = self.plan, self.stage, self.phase
-        cached = getattr(self, "_current_cache", None)
-        if cached is None or cached[0] is not plan or cached[1] != stage or cached[2] is not phase:
-            prefix, primitive = plan[stage]
-            cached = self._current_cache = (plan, stage, phase, (primitive, phase.name[len(prefix):]))
-        return cached[3]
+        prefix, primitive = self.plan[self.stage]
+        return primitive, self.phase.name[len(prefix):]
 
     def waypoint(self, info: Info) -> Waypoint:
         primitive, local = self._current()

@@ -107,12 +107,6 @@ def _top_bound(z: float, quat, shape) -> float:
     return z + (max(l0 * r0, u0 * r0) + max(l1 * r1, u1 * r1) + max(l2 * r2, u2 * r2)) + TOP_BOUND_SLACK
 
 
-@functools.lru_cache(maxsize=None)
-def _last_member(phases: type[enum.Enum]) -> enum.Enum:
-    """The last member of the enum ``phases`` (asked every control step: cached per enum)."""
-    return list(phases)[-1]
-
-
 @runtime_checkable
 class SkillEnv(Protocol):
     """What skills and the [`SkillController`][tableclean_suite.controllers.skill_controller.SkillController] need from an env.
@@ -197,8 +191,6 @@ class Skill(abc.ABC):
     Phase: ClassVar[type[enum.Enum]]
     Config: ClassVar[type[SkillConfig]] = SkillConfig
     DEFAULT_CONFIG: ClassVar[dict[str, Any]] = BASE_CONFIG
-    #: (phase, its name) of the last control step ([`step`][tableclean_suite.controllers.skill.Skill.step] counts the steps per name)
-    _phase_name: tuple = (None, "")
 
     def __init__(self, env: SkillEnv, config: Mapping[str, Any] | None = None):
         # validated once; keys of a subclass's DEFAULT_CONFIG that its Config lacks pass through unchecked
@@ -261,8 +253,8 @@ class Skill(abc.ABC):
     # -- shared machinery ------------------------------------------------------------
     @functools.cached_property
     def final_phase(self) -> enum.Enum:
-        """The phase that ends the skill (the last member of ``Phase``; kept: asked every control step)."""
-        return _last_member(self.Phase)
+        """The phase that ends the skill (the last member of ``Phase``)."""
+        return list(self.Phase)[-1]
 
     @property
     def done(self) -> bool:
@@ -337,11 +329,7 @@ class Skill(abc.ABC):
         action = self._advance_setpoint(target)
         self.steps += 1
         self._phase_steps += 1
-        phase = self.phase
-        cached = self._phase_name
-        if cached[0] is not phase:
-            cached = self._phase_name = (phase, phase.name)
-        name = cached[1]
+        name = self.phase.name
         counts = self.phase_steps
         counts[name] = counts.get(name, 0) + 1
         if target.fixed or target.loop:
