@@ -232,10 +232,10 @@ def test_stored_trials_of_another_robot_or_randomisation_are_not_resumed(tmp_pat
     path = tmp_path / fidelity.TRIALS_CSV
     trial_store.write_rows(path, [])
     panda = {"env_kwargs": {"robots": "Panda"}}
-    fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), panda), log=None)
+    fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), panda))
     record = path.with_name("fidelity_trials" + fidelity.CONFIGURATION_SUFFIX)
     assert json.loads(record.read_text())["physics_options"] == panda
-    fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), panda), log=None)  # same: resumes
+    fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), panda))  # same: resumes
     for options in ({"env_kwargs": {"robots": "Sawyer"}}, {"env_kwargs": {"robots": "Panda", "randomization": "on"}}):
         with pytest.raises(ResumeError, match="measured with another physics_options"):
             fidelity.collect(1, trials_csv=path, log=None, physics_options=options)

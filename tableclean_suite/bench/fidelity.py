@@ -212,7 +212,7 @@ def read_configuration(trials_csv: Path) -> dict | None:
     return stored
 
 
-def check_configuration(trials_csv: Path, configuration: dict, log: Callable[[str], None] | None = None) -> None:
+def check_configuration(trials_csv: Path, configuration: dict) -> None:
     """Record ``configuration`` beside ``trials_csv``; [`ResumeError`][tableclean_suite.bench.trial_store.TrialStoreError]
     when the stored trials were measured with another configuration (naming the keys), or hold trials without
     a readable record."""
@@ -278,7 +278,7 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
             held.enter_context(output_lock(path.parent))
             if fresh and path.exists():
                 path.unlink()
-            check_configuration(path, run_configuration(model, physics_options, scene, plugins), log)
+            check_configuration(path, run_configuration(model, physics_options, scene, plugins))
         rows = trial_store.complete_rounds(read_trials(path, log) if path is not None else [], per_round, log)
         check_trial_rows(rows, model, path)
         done_rounds = sorted({row["round"] for row in rows})
@@ -449,7 +449,7 @@ def episodes(count: int, plan_of: Callable, model: TaskModel | None = None, log=
 
     env = make_skill_env(**env_kwargs)
     try:
-        controller = SkillController(env) if model is None else SkillController(env, model)
+        controller = SkillController(env, model)
         model = controller.model
         for episode in range(count):
             started = time.perf_counter()

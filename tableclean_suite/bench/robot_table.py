@@ -218,7 +218,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         if args.fidelity_trials and not args.fresh:  # stored trials of other options: refused before anything runs
             for (robot, gripper, task), (folder, options) in cells.items():
                 fidelity.check_configuration(folder / fidelity.TRIALS_CSV,
-                                             fidelity.run_configuration(models[task], options), log)
+                                             fidelity.run_configuration(models[task], options))
         rows = []
         started = time.perf_counter()
         for (robot, gripper, task), (folder, options) in cells.items():
