@@ -330,8 +330,8 @@ def test_a_spec_starting_with_a_held_object_is_refused_by_the_scene_naming_the_r
 
 
 def test_dirt_positions_read_the_dirt_state_joints():
-    """The dirt markers' positions (the decoded caches' key) equal the joints' qpos gathered by address, through
-    the kept strided view and through the gather for unevenly spaced addresses."""
+    """The dirt markers' positions (the decoded caches' key) equal the joints' qpos gathered by address, also for
+    unevenly spaced addresses."""
     from tableclean_suite.controllers import make_skill_env
     from tableclean_suite.environments.state_reading import DirtMarkers
 
@@ -342,10 +342,10 @@ def test_dirt_positions_read_the_dirt_state_joints():
         qpos = env.sim.data.qpos
         addr = dirt.qpos_addr
         qpos[list(addr)] = np.arange(1, len(addr) + 1) * 0.25
-        assert dirt.strided is not None and dirt.positions() == tuple(float(qpos[a]) for a in addr)
+        assert dirt.positions() == tuple(float(qpos[a]) for a in addr)
         uneven = (addr[0], addr[0] + 1, addr[0] + 3)
         other = DirtMarkers(mj_data(env.sim), dirt.joints, uneven, dirt.qvel_addr, dirt.markers_per_segment,
                             np.zeros((0, 4)), np.zeros(0, dtype=int))
-        assert other.strided is None and other.positions() == tuple(float(qpos[a]) for a in uneven)
+        assert other.positions() == tuple(float(qpos[a]) for a in uneven)
     finally:
         env.close()

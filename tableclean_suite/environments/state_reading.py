@@ -32,21 +32,13 @@ class DirtMarkers:
         self._rgba, self._geom_ids = geom_rgba, np.asarray(geom_ids)
         self._qpos = data.qpos  # a kept view: each mjData attribute access builds a new one
         self._index = np.array(self.qpos_addr, dtype=np.intp)
-        addr = self.qpos_addr
-        stride = addr[1] - addr[0] if len(addr) > 1 else 1
-        #: the joints' positions as one strided view when their addresses are evenly spaced (usually adjacent)
-        self.strided = None
-        if addr and stride > 0 and all(b - a == stride for a, b in zip(addr, addr[1:])):
-            self.strided = self._qpos[addr[0]:addr[-1] + 1:stride]
         self._present: tuple | None = None  # (positions, decoded present mask)
         self._fraction: tuple | None = None  # (positions, fraction())
         self._shown: tuple | None = None  # the positions the visuals show (None: not synchronised yet)
 
     def positions(self) -> tuple:
         """The dirt-state joints' positions, a tuple of Python floats (the key of the decoded caches)."""
-        if self.strided is None:
-            return tuple(self._qpos[self._index].tolist())
-        return tuple(self.strided.tolist())
+        return tuple(self._qpos[self._index].tolist())
 
     def present(self) -> np.ndarray:
         """Bool (N * K,), read-only: the markers not wiped (decoded once per joint positions).
