@@ -449,7 +449,7 @@ def episodes(count: int, plan_of: Callable, model: TaskModel | None = None, log=
 
     env = make_skill_env(**env_kwargs)
     try:
-        controller = SkillController(env, model)
+        controller = SkillController(env) if model is None else SkillController(env, model)
         model = controller.model
         for episode in range(count):
             started = time.perf_counter()
