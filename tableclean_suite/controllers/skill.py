@@ -38,7 +38,6 @@ from tableclean_suite.controllers.geometry import (
     gripper_yaw,
     quat_z_row,
     wrap_angle,
-    z_row_entries,
 )
 from tableclean_suite.controllers.loop_state import SKILL_STATE, loop_record
 from tableclean_suite.controllers.osc import ACTION_DIM
@@ -77,34 +76,6 @@ def _geometry_range(z: float, quat, shape) -> tuple[float, float]:
     (4,) xyzw, ``shape`` its ObjectGeometry): the same operations, so the same bits."""
     heights = shape.points.dot(quat_z_row(quat)).tolist()
     return z + max(heights), z + min(heights)
-
-
-#: m added to `_top_bound`: far above the rounding of the bound's sum and of the exact top's (~1e-16 m)
-TOP_BOUND_SLACK = 1e-9
-#: Most object geometries whose extents `_top_bound` keeps (it forgets them all when full).
-TOP_BOUND_CACHE_SIZE = 256
-_extents: dict[int, tuple] = {}
-
-
-def _top_bound(z: float, quat, shape) -> float:
-    """An upper bound [m] on `_geometry_range`'s top, from the geometry's extents in its own frame
-    (``shape.lower``, ``shape.upper``): each point's height over the centre is at most the sum over its axes of
-    the larger of the extents' heights; plus `TOP_BOUND_SLACK`.  Cheaper than the exact top (no product
-    over all points), so [`Skill.hover_z`][tableclean_suite.controllers.skill.Skill.hover_z] skips the exact one where the bound shows it cannot matter."""
-    cached = _extents.get(id(shape))
-    if cached is None or cached[0] is not shape:
-        if len(_extents) >= TOP_BOUND_CACHE_SIZE:
-            _extents.clear()
-        try:
-            lower, upper = np.asarray(shape.lower, dtype=float).tolist(), np.asarray(shape.upper, dtype=float).tolist()
-        except AttributeError:  # a geometry without extents (points only): no bound, the exact top decides
-            lower = upper = None
-        cached = _extents[id(shape)] = (shape, lower, upper)
-    if cached[1] is None:
-        return math.inf
-    _, (l0, l1, l2), (u0, u1, u2) = cached
-    r0, r1, r2 = z_row_entries(quat)
-    return z + (max(l0 * r0, u0 * r0) + max(l1 * r1, u1 * r1) + max(l2 * r2, u2 * r2)) + TOP_BOUND_SLACK
 
 
 @runtime_checkable
@@ -512,7 +483,7 @@ class Skill(abc.ABC):
         except KeyError:
             shapes = None
             tops, bottoms = (heights.tolist() for heights in object_heights(info))
-        else:  # each object's heights computed only where needed (below): as _geometry_heights, one object at a time
+        else:  # as _geometry_heights, one object at a time
             heights_z = np.asarray(positions, dtype=float)[:, 2].tolist()
             quats = info["objects_quat"]
         grasped = np.asarray(info["objects_grasped"], dtype=bool).tolist()
@@ -536,12 +507,7 @@ class Skill(abc.ABC):
             if held:
                 continue
             clearance = fingertip_depth + kinds[j].clearance() if drop is None else carried_clearance
-            if shapes is None:
-                top = tops[j]
-            elif _top_bound(heights_z[j], quats[j], shapes[j]) + clearance < z:
-                continue  # its top cannot raise z (max(z, top + clearance) is z): the exact top is not needed
-            else:
-                top = _geometry_range(heights_z[j], quats[j], shapes[j])[0]
+            top = tops[j] if shapes is None else _geometry_range(heights_z[j], quats[j], shapes[j])[0]
             z = max(z, top + clearance)
         return z
 
