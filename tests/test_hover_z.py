@@ -7,7 +7,7 @@ import pytest
 
 from tableclean_suite.controllers.geometry import box_lowest_z
 from tableclean_suite.controllers.move import MoveSkill
-from tableclean_suite.controllers.skill import _geometry_heights
+from tableclean_suite.controllers.skill import object_heights
 from tableclean_suite.environments.object_geometry import ObjectGeometry
 
 
@@ -15,7 +15,7 @@ def reference_hover_z(config, info) -> float:
     """hover_z by its definition: every object's top and bottom computed exactly."""
     table = float(info["table_top_z"])
     z = table + config["hover_height"]
-    tops, bottoms = _geometry_heights(np.asarray(info["objects_pos"], dtype=float), info)
+    tops, bottoms = object_heights(info)
     grasped = np.asarray(info["objects_grasped"], dtype=bool).tolist()
     eef_z = float(info["eef_pos"][2])
     drop = None

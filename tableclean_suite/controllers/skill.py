@@ -56,24 +56,15 @@ def object_heights(info: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
     if "objects_geometry" not in info:
         halves = np.asarray(info["objects_half_size"], dtype=float)
         return positions[:, 2] + halves[:, 2], positions[:, 2] - halves[:, 2]
-    tops, bottoms = _geometry_heights(positions, info)
-    return np.asarray(tops), np.asarray(bottoms)
-
-
-def _geometry_heights(positions: np.ndarray, info: Mapping[str, Any]) -> tuple[list[float], list[float]]:
-    """[`object_heights`][tableclean_suite.controllers.skill.object_heights] from ``objects_geometry`` as lists of floats (``positions`` (M, 3) [m])."""
-    tops, bottoms = [], []
-    for z, quat, shape in zip(positions[:, 2].tolist(), info["objects_quat"], info["objects_geometry"]):
-        # one projection on the rotation's z row for both (the same bits as through quat_to_matrix)
-        heights = shape.points.dot(quat_z_row(quat)).tolist()
-        bottoms.append(z + min(heights))
-        tops.append(z + max(heights))
+    tops_bottoms = [_geometry_range(z, quat, shape) for z, quat, shape in
+                    zip(positions[:, 2].tolist(), info["objects_quat"], info["objects_geometry"])]
+    tops, bottoms = np.array(tops_bottoms, dtype=float).reshape(-1, 2).T
     return tops, bottoms
 
 
 def _geometry_range(z: float, quat, shape) -> tuple[float, float]:
-    """``(top, bottom)`` world z [m] of one object of `_geometry_heights` (centre height ``z`` [m], ``quat``
-    (4,) xyzw, ``shape`` its ObjectGeometry): the same operations, so the same bits."""
+    """``(top, bottom)`` world z [m] of one object (centre height ``z`` [m], ``quat`` (4,) xyzw, ``shape`` its
+    ObjectGeometry), from one projection on the rotation's z row (the same bits as through quat_to_matrix)."""
     heights = shape.points.dot(quat_z_row(quat)).tolist()
     return z + max(heights), z + min(heights)
 
@@ -483,7 +474,7 @@ class Skill(abc.ABC):
         except KeyError:
             shapes = None
             tops, bottoms = (heights.tolist() for heights in object_heights(info))
-        else:  # as _geometry_heights, one object at a time
+        else:  # as object_heights, one object at a time
             heights_z = np.asarray(positions, dtype=float)[:, 2].tolist()
             quats = info["objects_quat"]
         grasped = np.asarray(info["objects_grasped"], dtype=bool).tolist()
