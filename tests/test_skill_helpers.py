@@ -1,5 +1,5 @@
 """The skills' per-step helpers written without numpy's dispatch give numpy's results bit for bit:
-``clip_scalar`` as ``np.clip`` (NaN and signed zeros included), ``quat_z_row`` as ``quat_to_matrix``'s last row,
+``clip_scalar`` as ``np.clip`` (NaN and signed zeros included), ``z_row_entries`` as ``quat_to_matrix``'s last row,
 the objects' height extremes as ``object_geometry``'s; a clear yaw verdict as the quaternion's."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from tableclean_suite.controllers.geometry import box_lowest_z, clip_scalar, quat_to_matrix, quat_z_row
+from tableclean_suite.controllers.geometry import box_lowest_z, clip_scalar, quat_to_matrix, z_row_entries
 
 
 def same_float(a: float, b: float) -> bool:
@@ -28,9 +28,9 @@ def test_clip_scalar_is_np_clip_bit_for_bit():
         assert type(got) is float and same_float(got, expected), (value, low, high, got, expected)
 
 
-def test_quat_z_row_is_the_rotation_matrix_last_row():
+def test_z_row_entries_are_the_rotation_matrix_last_row():
     for quat in np.random.default_rng(4).normal(size=(20000, 4)):
-        np.testing.assert_array_equal(quat_z_row(quat), quat_to_matrix(quat)[2])
+        np.testing.assert_array_equal(np.array(z_row_entries(quat)), quat_to_matrix(quat)[2])
 
 
 def test_box_lowest_z_is_the_numpy_projection_bit_for_bit():

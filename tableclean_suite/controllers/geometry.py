@@ -21,14 +21,9 @@ def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
     )
 
 
-def quat_z_row(quat: np.ndarray) -> np.ndarray:
-    """(3,) the last row of [`quat_to_matrix`][tableclean_suite.controllers.geometry.quat_to_matrix] (``quat`` (4,) xyzw): the world z of the body frame's
-    axes, all a height needs (the same bits as the full matrix's row)."""
-    return np.array(z_row_entries(quat))
-
-
 def z_row_entries(quat: np.ndarray) -> tuple[float, float, float]:
-    """[`quat_z_row`][tableclean_suite.controllers.geometry.quat_z_row]'s three entries as Python floats."""
+    """The last row of [`quat_to_matrix`][tableclean_suite.controllers.geometry.quat_to_matrix] (``quat`` (4,) xyzw)
+    as Python floats: the world z of the body frame's axes, all a height needs (the same bits)."""
     q = np.asarray(quat, dtype=float)
     norm = math.sqrt(q.dot(q))
     x, y, z, w = q.tolist()  # divided as Python floats: IEEE division, the bits of numpy's q / norm
@@ -78,7 +73,7 @@ def clear_yaw_verdict(rot: np.ndarray, yaw: float, tolerance: float) -> bool | N
 
 def box_lowest_z(pos: np.ndarray, quat: np.ndarray, half_size: np.ndarray) -> float:
     """World z (m) of the lowest corner of a box with centre ``pos`` (3,), orientation ``quat`` (4,, xyzw)."""
-    reach = np.array([abs(entry) for entry in z_row_entries(quat)])  # np.abs of quat_z_row, without its dispatch
+    reach = np.array([abs(entry) for entry in z_row_entries(quat)])  # np.abs of the z row, without its dispatch
     return float(pos[2] - reach.dot(np.asarray(half_size, dtype=float)))
 
 

@@ -32,13 +32,8 @@ import numpy as np
 
 from tableclean_suite.controllers.config_check import checked_skill_config
 from tableclean_suite.controllers.configs import SkillConfig
-from tableclean_suite.controllers.geometry import (
-    box_lowest_z,
-    clear_yaw_verdict,
-    gripper_yaw,
-    quat_z_row,
-    wrap_angle,
-)
+from tableclean_suite.controllers.geometry import box_lowest_z, clear_yaw_verdict, gripper_yaw, wrap_angle
+from tableclean_suite.controllers.geometry import z_row_entries
 from tableclean_suite.controllers.loop_state import SKILL_STATE, loop_record
 from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.controllers.setpoint import advance_command
@@ -65,7 +60,7 @@ def object_heights(info: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
 def _geometry_range(z: float, quat, shape) -> tuple[float, float]:
     """``(top, bottom)`` world z [m] of one object (centre height ``z`` [m], ``quat`` (4,) xyzw, ``shape`` its
     ObjectGeometry), from one projection on the rotation's z row (the same bits as through quat_to_matrix)."""
-    heights = shape.points.dot(quat_z_row(quat)).tolist()
+    heights = shape.points.dot(np.array(z_row_entries(quat))).tolist()
     return z + max(heights), z + min(heights)
 
 
