@@ -43,8 +43,9 @@ QUARTER_TURN = 0.5 * np.pi
 #: Fraction of the segment's area the sponge must sweep more at the turned yaw than at the grasp's for the
 #: wipe to turn (a clean may leave 10 % of the dirt; a smaller shrink of the grasp yaw's area costs no row).
 TURN_AREA_GAIN = 0.05
-#: The wipe's phases whose control steps the stepper's compiled control loop can run ([`Wipe.run_loop`][tableclean_suite.controllers.clean.Wipe.run_loop]), by its mode.
-LOOP_MODES = {"PRESS": MODE_PRESS, "WIPE": MODE_WIPE, "SHIFT": MODE_SHIFT}
+#: The wipe's phases the compiled control loop can run
+#: ([`Wipe.run_loop`][tableclean_suite.controllers.clean.Wipe.run_loop]): its mode, the config key of the speed.
+LOOP_MODES = {"PRESS": (MODE_PRESS, "descend_speed"), "WIPE": (MODE_WIPE, "wipe_speed"), "SHIFT": (MODE_SHIFT, "speed")}
 
 
 def _rotation(angle: float) -> np.ndarray:
@@ -399,13 +400,11 @@ class Wipe(Primitive):
         same values, so the same commands; it stops before a step whose completion check might pass or
         whose update it cannot take exactly (the skill's [`step`][tableclean_suite.controllers.skill.Skill.step] then takes it).  Returns
         how many control steps ran (0 in other phases)."""
-        mode = LOOP_MODES.get(phase)
-        if mode is None:
+        if phase not in LOOP_MODES:
             return 0
         config = self.config
-        speed = {MODE_PRESS: config["descend_speed"], MODE_WIPE: config["wipe_speed"],
-                 MODE_SHIFT: config["speed"]}[mode]
-        state = skill.loop_state(speed, GRIPPER_CLOSE, config["wipe_tolerance"], np.zeros(3), xy_only=True)
+        mode, speed_key = LOOP_MODES[phase]
+        state = skill.loop_state(config[speed_key], GRIPPER_CLOSE, config["wipe_tolerance"], np.zeros(3), xy_only=True)
         stroke = self.strokes[self.stroke_index]
         wipe = loop_record(
             WIPE_STATE, stroke=stroke, hold=self.hold_offset, lift=stroke if self.lift_point is None else self.lift_point,

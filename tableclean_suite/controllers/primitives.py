@@ -663,5 +663,4 @@ class PrimitiveSkill(Skill):
 
     def update(self, info: Info) -> None:
         primitive, local = self._current()
-        if type(primitive).update is not Primitive.update:  # the base's does nothing (most primitives, every step)
-            primitive.update(self, info, local)
+        primitive.update(self, info, local)
