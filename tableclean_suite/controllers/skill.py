@@ -425,9 +425,7 @@ class Skill(abc.ABC):
         """
         speed = target.speed
         max_move = self._max_move if speed is None else float(speed * self.dt)
-        pos = target.pos
-        if type(pos) is not np.ndarray or pos.dtype != np.float64 or not pos.flags.c_contiguous:
-            pos = np.ascontiguousarray(pos, dtype=float)
+        pos = np.ascontiguousarray(target.pos, dtype=float)
         action = np.empty(ACTION_DIM)
         self._yaw_setpoint = advance_command(self._setpoint, float(self._yaw_setpoint), float(self.yaw), pos,
                                              max_move, self._max_turn, float(target.gripper), action)
