@@ -114,8 +114,9 @@ def osc_overrides(robot: str) -> dict[str, Any]:
     return dict(config.osc) if config is not None else {}
 
 
-#: The gripper the three other arms mount by default: robosuite's Robotiq 85 stops 6.2 cm open, wider than
-#: the sponge's 5 cm side; the Sawyer's Rethink holds the sponge too weakly (~8.5 N per finger) to wipe.
+#: The gripper the three other arms mount by default: the hand the skills' defaults were tuned on, so every
+#: arm's default rows compare arms, not grippers (their own: ``gripper_types="RethinkGripper"`` or
+#: ``"Robotiq85Gripper"``).
 SWAP_GRIPPER = "PandaGripper"
 
 _SAWYER = RobotSkillConfig(
@@ -131,7 +132,8 @@ _KINOVA3 = RobotSkillConfig(
     osc={"kp": 450},  # stiffness (the skills' default 300): at 300 the pressed sponge twists in the hand
     base_shift=(0.08, 0.0, 0.0),  # m: else the far row of three_segments_two_objects lies at the edge of its reach
     skills={"clean": {"hover_still_speed": 0.05}},
-    note="Panda gripper instead of the Robotiq 85; stiffer OSC; base 8 cm closer to the table",
+    note="Panda gripper by default (its own Robotiq 85 with gripper_types='Robotiq85Gripper'); stiffer OSC; base 8 cm "
+         "closer to the table",
 )
 
 #: The registry: robot name -> its config (add with
@@ -139,6 +141,7 @@ _KINOVA3 = RobotSkillConfig(
 ROBOT_CONFIGS: dict[str, RobotSkillConfig] = {config.robot: config for config in (
     RobotSkillConfig("Panda", note="the reference arm: the skills' DEFAULT_CONFIGs and OSC_OVERRIDES were tuned on it"),
     _SAWYER,
-    RobotSkillConfig("UR5e", gripper=SWAP_GRIPPER, note="Panda gripper instead of the Robotiq 85"),
+    RobotSkillConfig("UR5e", gripper=SWAP_GRIPPER,
+                     note="Panda gripper by default (its own Robotiq 85 with gripper_types='Robotiq85Gripper')"),
     _KINOVA3,
 )}
