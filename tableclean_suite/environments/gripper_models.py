@@ -18,6 +18,23 @@ from robosuite.models.grippers import GRIPPER_MAPPING, Robotiq85Gripper, Robotiq
 _COUPLING = {"solref": "0.005 1", "solimp": "0.95 0.99 0.001"}
 
 
+def _make_kinematic(gripper, coupling) -> None:
+    """Replace ``gripper``'s tendons and equalities by joint equalities ``follower = factor * leader`` for each
+    ``(follower, leader, factor)`` of ``coupling`` (robosuite's joint names without the prefix), and exclude the
+    contacts between any two of its bodies."""
+    prefix = gripper.naming_prefix
+    for parent in (gripper.tendon, gripper.equality):
+        for element in list(parent):
+            parent.remove(element)
+    for follower, leader, factor in coupling:
+        ET.SubElement(gripper.equality, "joint", joint1=prefix + follower, joint2=prefix + leader,
+                      polycoef=f"0 {factor} 0 0 0", **_COUPLING)
+    bodies = [body.get("name") for body in gripper.worldbody.iter("body")]
+    for i, first in enumerate(bodies):
+        for second in bodies[i + 1:]:
+            ET.SubElement(gripper.contact, "exclude", body1=first, body2=second)
+
+
 class CorrectedRobotiq85Gripper(Robotiq85Gripper):
     """robosuite's Robotiq 2F-85 with its four-bar finger linkage closed and its self-contacts removed.
 
@@ -50,9 +67,13 @@ class CorrectedRobotiq85Gripper(Robotiq85Gripper):
     """
 
     replaces = "Robotiq85Gripper"
-    #: driving joint -> (inner knuckle, inner finger) of each finger, robosuite's names without the prefix.
-    LINKAGE = {"finger_joint": ("left_inner_knuckle_joint", "left_inner_finger_joint"),
-               "right_outer_knuckle_joint": ("right_inner_knuckle_joint", "right_inner_finger_joint")}
+    #: (follower, leader, factor): the follower joint's angle is factor times the leader's, robosuite's names.
+    COUPLING = (("left_inner_knuckle_joint", "finger_joint", 1), ("left_inner_finger_joint", "finger_joint", -1),
+                ("right_inner_knuckle_joint", "right_outer_knuckle_joint", 1),
+                ("right_inner_finger_joint", "right_outer_knuckle_joint", -1),
+                ("right_outer_knuckle_joint", "finger_joint", 1))
+    #: the outer knuckles, robosuite's gripper ``joints`` here (the followers move with them).
+    DRIVERS = ("finger_joint", "right_outer_knuckle_joint")
     #: rad, the closed end of every linkage joint's range (robosuite's ``ctrlrange`` top).
     CLOSED = 0.8
     #: N m, the most each finger's actuator exerts.
@@ -61,24 +82,14 @@ class CorrectedRobotiq85Gripper(Robotiq85Gripper):
     def __init__(self, idn=0):
         super().__init__(idn=idn)
         prefix = self.naming_prefix
-        joints = {joint.get("name")[len(prefix):]: joint for joint in self.worldbody.iter("joint")}
-        for tendon in list(self.tendon):
-            self.tendon.remove(tendon)
-        for driver, (knuckle, finger) in self.LINKAGE.items():
-            for name, low, high in ((driver, 0, self.CLOSED), (knuckle, 0, self.CLOSED), (finger, -self.CLOSED, 0)):
-                joints[name].attrib.update(limited="true", range=f"{low} {high}", damping="0.1", armature="0.005",
-                                           solreflimit=_COUPLING["solref"], solimplimit=_COUPLING["solimp"])
-            ET.SubElement(self.equality, "joint", joint1=prefix + knuckle, joint2=prefix + driver,
-                          polycoef="0 1 0 0 0", **_COUPLING)
-            ET.SubElement(self.equality, "joint", joint1=prefix + finger, joint2=prefix + driver,
-                          polycoef="0 -1 0 0 0", **_COUPLING)
-        ET.SubElement(self.equality, "joint", joint1=prefix + "right_outer_knuckle_joint",
-                      joint2=prefix + "finger_joint", polycoef="0 1 0 0 0", **_COUPLING)
-        bodies = [body.get("name") for body in self.worldbody.iter("body")]
-        for i, first in enumerate(bodies):
-            for second in bodies[i + 1:]:
-                ET.SubElement(self.contact, "exclude", body1=first, body2=second)
-        self._joints = [name for name in self._joints if name in self.LINKAGE]  # robosuite keeps them unprefixed
+        _make_kinematic(self, self.COUPLING)
+        closing = {**{name: 1 for name in self.DRIVERS}, **{follower: factor for follower, _, factor in self.COUPLING}}
+        for joint in self.worldbody.iter("joint"):
+            if joint.get("name")[len(prefix):] in closing:  # the closing direction's side of zero
+                low, high = sorted((0, closing[joint.get("name")[len(prefix):]] * self.CLOSED))
+                joint.attrib.update(limited="true", range=f"{low} {high}", damping="0.1", armature="0.005",
+                                    solreflimit=_COUPLING["solref"], solimplimit=_COUPLING["solimp"])
+        self._joints = [name for name in self._joints if name in self.DRIVERS]  # robosuite keeps them unprefixed
         fingers = {prefix + name for side in ("left_finger", "right_finger") for name in self._important_geoms[side]}
         for geom in self.worldbody.iter("geom"):
             if geom.get("name") in fingers:
@@ -127,13 +138,7 @@ class CorrectedRobotiq140Gripper(Robotiq140Gripper):
     def __init__(self, idn=0):
         super().__init__(idn=idn)
         prefix = self.naming_prefix
-        for element in list(self.tendon):
-            self.tendon.remove(element)
-        for element in list(self.equality):
-            self.equality.remove(element)
-        for follower, leader, factor in self.COUPLING:
-            ET.SubElement(self.equality, "joint", joint1=prefix + follower, joint2=prefix + leader,
-                          polycoef=f"0 {factor} 0 0 0", **_COUPLING)
+        _make_kinematic(self, self.COUPLING)
         ranges = {"finger_joint": f"{self.OPEN} {self.CLOSED}",  # the right knuckle closes the other way
                   "right_outer_knuckle_joint": f"{-self.CLOSED} {-self.OPEN}"}
         for joint in self.worldbody.iter("joint"):
@@ -141,10 +146,6 @@ class CorrectedRobotiq140Gripper(Robotiq140Gripper):
         for actuator in self.actuator:
             actuator.set("ctrlrange", ranges[actuator.get("joint")[len(prefix):]])
         self._joints = [name for name in self._joints if name in self.DRIVERS]  # robosuite keeps them unprefixed
-        bodies = [body.get("name") for body in self.worldbody.iter("body")]
-        for i, first in enumerate(bodies):
-            for second in bodies[i + 1:]:
-                ET.SubElement(self.contact, "exclude", body1=first, body2=second)
 
     @property
     def init_qpos(self):
