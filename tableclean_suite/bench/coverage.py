@@ -245,31 +245,27 @@ def measure(args, model, out: Path):
 
 
 def display_lines(frame) -> list[str]:
-    """The printed table, one section per published table, lines of at most ``PRINT_WIDTH`` characters."""
+    """The printed table, one section per published table, at most ``PRINT_WIDTH`` characters wide
+    (pandas wraps further columns into a block below)."""
     import pandas as pd
 
     lines = []
     for table, rows in frame.groupby("table", sort=False):
         one = rows["statistic"].nunique() == 1
-        header = ("row", *(() if one else ("statistic",)), "target", "covered", "coverage %", "interval %",
-                  "mean width")
-        cells = [header]
-        for _, row in rows.iterrows():
-            measured = not pd.isna(row["covered"])
-            cells.append((str(row["row"]), *(() if one else (str(row["statistic"]),)), f"{row['target']:.5g}",
-                          f"{int(row['covered'])}/{int(row['replications'])}" if measured else "-",
-                          f"{100 * row['coverage']:.1f}" if measured else "-",
-                          f"[{100 * row['coverage_low']:.1f}, {100 * row['coverage_high']:.1f}]" if measured else "-",
-                          f"{row['mean_width']:.4g}"))
-        widths = [max(len(line[i]) for line in cells) for i in range(len(header))]
-        widths[0] = max(len(header[0]), widths[0] - max(0, sum(widths) + 2 * (len(widths) - 1) - PRINT_WIDTH))
+        labels = ["row"] + ([] if one else ["statistic"])
+        percent = 100 * rows[["coverage", "coverage_low", "coverage_high"]].to_numpy()
+        shown = rows[labels].assign(
+            target=rows["target"].map("{:.5g}".format),
+            covered=rows["covered"].astype(str) + "/" + rows["replications"].astype(str),
+            **{"coverage %": [f"{value:.1f}" for value in percent[:, 0]],
+               "interval %": [f"[{low:.1f}, {high:.1f}]" for low, high in percent[:, 1:]],
+               "mean width": rows["mean_width"].map("{:.4g}".format)})
+        shown.loc[rows["covered"].isna(), ["covered", "coverage %", "interval %"]] = "-"
+        for name in labels:  # left-aligned, header included
+            shown[name] = shown[name].str.ljust(max(len(name), shown[name].str.len().max()))
+        header = [name.ljust(len(shown[name].iloc[0])) if name in labels else name for name in shown.columns]
         lines.append(f"{table}.csv" + (f", {rows['statistic'].iloc[0]}:" if one else ":"))
-        left = 1 if one else 2
-        for line in cells:
-            first = line[0] if len(line[0]) <= widths[0] else line[0][:widths[0] - 1] + "~"
-            texts = [first.ljust(widths[0]), *(text.ljust(w) for text, w in zip(line[1:left], widths[1:])),
-                     *(text.rjust(w) for text, w in zip(line[left:], widths[left:]))]
-            lines.append("  ".join(texts))
+        lines += shown.to_string(index=False, header=header, line_width=PRINT_WIDTH).splitlines()
     return lines
 
 
