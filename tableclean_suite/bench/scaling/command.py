@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from tableclean_suite.bench import cli
+from tableclean_suite.bench import cli, outputs
 from tableclean_suite.bench.cli import positive_float, positive_int
 from tableclean_suite.bench.scaling.family import (DEFAULT_BASE_WINDOW, DEFAULT_FIXED_PLAN_OBJECTS, DEFAULT_GAMMAS,
                                                    DEFAULT_OBJECT_COUNTS, DEFAULT_SEGMENTS, DEFAULT_WINDOW_EXPONENT,
@@ -104,4 +104,5 @@ def main(argv=None, prog: str | None = None) -> int:
     except ValueError as error:
         parser.error(f"--segments/--objects/--fixed-plan-objects: {error}")
     cli.check_out(parser, args.out, "scaling")
-    return run_study(args)
+    with outputs.output_lock(args.out) as out:  # held throughout: OutputBusyError when another process holds it
+        return run_study(args, out)

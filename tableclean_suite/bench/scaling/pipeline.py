@@ -129,18 +129,9 @@ def method_constants(args) -> dict:
     }
 
 
-def run_study(args) -> int:
-    """Describe the specs, train every cell, print and publish everything into ``--out`` (its lock held
-    throughout: [`OutputBusyError`][tableclean_suite.bench.outputs.OutputBusyError] when another process
-    holds it); returns 0."""
-    from tableclean_suite.bench import outputs
-
-    with outputs.output_lock(args.out) as out:
-        return _study(args, Path(out))
-
-
-def _study(args, out: Path) -> int:
-    """[`run_study`][tableclean_suite.bench.scaling.pipeline.run_study]'s work, into the locked folder ``out``."""
+def run_study(args, out: Path) -> int:
+    """Describe the specs, train every cell, print and publish everything into the folder ``out``
+    (``--out``, whose lock the caller holds); returns 0."""
     from tableclean_suite.bench import outputs
 
     started = time.perf_counter()

@@ -53,7 +53,6 @@ class CellRecords:
         learned_at: ``(S, R)`` int64 learning times (iterations; -1 = censored at the window).
         tail_success: ``(S, R)`` each run's success over the window's last quarter (the window mean).
         never_terminal: ``(S, R)`` 1.0 for a run that never reached the terminal state.
-        updates: learner updates performed (seeds x runs x window).
         seconds: wall time of training and reduction.
     """
 
@@ -61,13 +60,7 @@ class CellRecords:
     learned_at: np.ndarray
     tail_success: np.ndarray
     never_terminal: np.ndarray
-    updates: int
     seconds: float
-
-    @property
-    def runs(self) -> int:
-        """Runs per seed."""
-        return self.learned_at.shape[1]
 
 
 def runs_per_chunk(window: int, n_states: int, n_actions: int, itemsize: int, runs: int) -> int:
@@ -97,8 +90,7 @@ def train_cell(model, info: SpecInfo, learner: str, reward: str, runs: int, seed
             learned[row, part] = result.learned_at
             tail[row, part], never[row, part] = window_sums(result.outcomes, result.episode_end, tail_start)
             del result
-    return CellRecords(seeds, learned, tail / (info.window - tail_start), never, len(seeds) * runs * info.window,
-                       time.perf_counter() - started)
+    return CellRecords(seeds, learned, tail / (info.window - tail_start), never, time.perf_counter() - started)
 
 
 def cell_row(info: SpecInfo, learner: str, reward: str, gamma: float, records: CellRecords, resamples: int,
