@@ -38,32 +38,17 @@ def _make_kinematic(gripper, coupling) -> None:
 class CorrectedRobotiq85Gripper(Robotiq85Gripper):
     """robosuite's Robotiq 2F-85 with its four-bar finger linkage closed and its self-contacts removed.
 
-    Corrected, each against what robosuite's model does (measured with the hand pointing down, closing
-    at 20 Hz control, 2 ms physics steps):
+    What changes against robosuite's model (why, with the measurements: the physics-and-fidelity docs page):
 
-    - The linkage: robosuite ties each finger's outer knuckle, inner knuckle and inner finger only by a soft
-      tendon (stiffness 0.4), so the links fall apart under load: open, a knuckle sits at -0.23 rad, out of its
-      [0, 0.876] range; closing on the 5 cm sponge the joints run to 2.4 rad and the sponge is thrown out.
-      Here joint equalities make it the parallel gripper it is: inner knuckle = outer knuckle, inner finger =
-      -outer knuckle (the pad stays parallel), right outer knuckle = left; the tendons go.
-    - Self-contact: the inner knuckle's mesh overlaps the inner finger's and outer knuckle's, which press on each
-      other with 58 N open and 110 N closed and keep the fingers moving (they never settle).  Contacts between
-      any two of the gripper's bodies are excluded (the linkage is kinematic now): 0 N open and closed.
-    - Ranges: every linkage joint limited to [0, 0.8] rad (inner fingers [-0.8, 0]), as the actuators'
-      ``ctrlrange``, with stiff limits (solref 0.005 s; MuJoCo's default let a closing finger run 0.023 rad
-      past); ``init_qpos`` open (robosuite's starts out of range).
-    - Strength: the position actuators (kp 20 N m/rad) are limited to 1.5 N m, about 24 N per finger on the
-      sponge, like the Panda hand's 20 N (unlimited, 136 N per finger squeeze it by 7 mm).
-    - Joint damping 0.1 N m s/rad and armature 0.005 kg m^2 on the linkage joints.
-    - The finger geoms resist twisting (``condim`` 4, as the Panda's fingers): without it the sponge pinched
-      between the narrow pads turned about the closing axis while wiping and went down 3.2 cm off its home
-      (2 of 10 UR5e episodes from random starts, and 1 of 1 260 fidelity trials).
-    - Its ``joints`` (robosuite's gripper joints: reset, observations, the skills' finger motion, the open width
-      measured over their ranges' ends) are the two outer knuckles; the four followers move with them (tried at
-      their own range ends they gave a 12.3 cm open width, which the pads never reach).
-
-    Measured closing: pads 8.5 cm apart open, 0.1 cm closed on nothing, 4.8 cm on the 8 x 5 x 3 cm sponge
-    (settled in 4 control steps, lifted 10 cm without slipping); no joint leaves its range by over 0.006 rad.
+    - the linkage: joint equalities (`COUPLING`) in place of robosuite's soft tendon: inner knuckle = outer
+      knuckle, inner finger = -outer knuckle (the pad stays parallel), right outer knuckle = left;
+    - contacts between any two of the gripper's bodies excluded (their meshes overlap);
+    - every linkage joint limited to [0, `CLOSED`] rad (inner fingers [-`CLOSED`, 0]) with stiff limits, damping
+      0.1 N m s/rad and armature 0.005 kg m^2; ``init_qpos`` open;
+    - the actuators limited to `MAX_TORQUE` (about 24 N per finger on the sponge, the Panda hand's is 20 N);
+    - the finger geoms resist twisting (``condim`` 4, as the Panda's fingers);
+    - its ``joints`` (robosuite's gripper joints) are the two outer knuckles, `DRIVERS`; the followers move
+      with them.
     """
 
     replaces = "Robotiq85Gripper"
@@ -108,21 +93,15 @@ class CorrectedRobotiq140Gripper(Robotiq140Gripper):
     """robosuite's Robotiq 2F-140 with its finger linkage coupled as the parallel gripper it is and its self-contacts
     removed; geometry, masses, actuators (position, kp 20 N m/rad) and the action mapping are robosuite's.
 
-    Corrected, each against what robosuite's model does (UR5e, 20 Hz control, 2 ms physics steps):
+    What changes (why, with the measurements: the physics-and-fidelity docs page):
 
-    - The coupling: robosuite's tendon equalities hold ``finger_joint + 1.5 inner_finger = 0`` and
-      ``inner_finger + 3.5 inner_knuckle = 0``, which the linkage's own contacts contradict: closed on the sponge
-      the left inner finger sits at +0.5 rad where the coupling wants -0.3, and creeps on for over 100 control
-      steps, then jitters by 0.01 rad without end.  Here joint equalities make each inner finger turn with its
-      outer knuckle (left ``inner finger = finger_joint``, right ``inner finger = -outer knuckle``: the pad stays
-      parallel over the whole stroke) and each inner knuckle follow it; the tendons go.
-    - Self-contact: the knuckles press on each other with 15-24 N open and closed (up to 150 N); contacts between
-      any two of the gripper's bodies are excluded.
-    - Stroke: the outer knuckles (its ``joints`` here, the followers move with them) open to 0.25 rad, not 0: pads
-      8.5 cm apart open (the Panda hand's 8 cm), not 12.6 cm; opening fully to release a box, a pad swept a
-      neighbour 5.7 cm away off its segment (6 of 100 episodes of three_segments_two_objects, every one placing
-      beside a neighbour on segment 1).  The right outer knuckle's range is its actuator's (robosuite's lets it
-      open 0.725 rad outwards); ``init_qpos`` is the open end (robosuite's is off its own coupling).
+    - the coupling: joint equalities (`COUPLING`) in place of robosuite's tendon equalities, which the linkage's
+      own contacts contradict: each inner finger turns with its outer knuckle (the pad stays parallel over the
+      stroke) and each inner knuckle follows it;
+    - contacts between any two of the gripper's bodies excluded;
+    - the stroke: the outer knuckles (its ``joints`` here, `DRIVERS`) open to `OPEN` rad, not 0 (pads 8.5 cm
+      apart, as the Panda hand's 8 cm, not 12.6 cm); the right outer knuckle's range is its actuator's;
+      ``init_qpos`` is the open end.
     """
 
     replaces = "Robotiq140Gripper"

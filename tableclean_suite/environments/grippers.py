@@ -28,13 +28,10 @@ REFUSED = {
 #: action name for that action's skill; merged after the robot's
 #: ([`skill_overrides`][tableclean_suite.environments.robot_registry.skill_overrides]).
 GRIPPER_SKILLS: dict[str, dict[str, dict]] = {
-    # fingertip_depth, m: its fingertips reach 1.8 cm below the grip site closed (1.5 cm on the sponge, 0.4 cm open);
-    # descend_speed, m/s: placing beside a neighbour, its inner finger (3.4 cm out along the closing axis, 0.9 cm
-    # below the grip site) clipped the neighbour's top coming down at 0.25 m/s before the hand was over the spot
+    # fingertip_depth [m]: how far its closed fingertips reach below the grip site; descend_speed [m/s]: a place
+    # comes down slowly, its inner finger reaching 3.4 cm out along the closing axis
     "Robotiq85Gripper": {"*": {"fingertip_depth": 0.018}, "place": {"descend_speed": 0.1}},
-    # fingertip_depth, m: its fingertips reach 2.7 cm below the grip site closed (2.4 cm on the sponge);
-    # carry_clearance, m: holding a box 3.6 cm above its bottom, the hand dips on setting off and the box and a
-    # fingertip swept a cylinder lying 10 cm beside it off its segment (1 cm above its top at 0.01)
+    # carry_clearance [m]: a carried box and a fingertip clear a lying neighbour as the hand sets off
     "Robotiq140Gripper": {"*": {"fingertip_depth": 0.027, "carry_clearance": 0.02}},
 }
 

@@ -123,17 +123,15 @@ _SAWYER = RobotSkillConfig(
     "Sawyer", gripper=SWAP_GRIPPER,
     # m/s: the clean's grasp descends only once the hand is this still (else a fingertip can roll the sponge over)
     skills={"clean": {"hover_still_speed": 0.05}},
-    note="Panda gripper by default (the Rethink gripper with gripper_types='RethinkGripper'); the scene excludes the "
-         "contact between the base and the first link (environments.robot_support), which otherwise stalls the OSC "
-         "3.7 cm short over segment 2",
+    note="Panda gripper by default (its own: gripper_types='RethinkGripper'); the scene excludes the contact "
+         "between its base and first link",
 )
 _KINOVA3 = RobotSkillConfig(
     "Kinova3", gripper=SWAP_GRIPPER,
     osc={"kp": 450},  # stiffness (the skills' default 300): at 300 the pressed sponge twists in the hand
     base_shift=(0.08, 0.0, 0.0),  # m: else the far row of three_segments_two_objects lies at the edge of its reach
     skills={"clean": {"hover_still_speed": 0.05}},
-    note="Panda gripper by default (its own Robotiq 85 with gripper_types='Robotiq85Gripper'); stiffer OSC; base 8 cm "
-         "closer to the table",
+    note="Panda gripper by default (its own: gripper_types='Robotiq85Gripper'); stiffer OSC; base 8 cm closer",
 )
 
 #: The registry: robot name -> its config (add with
