@@ -3,6 +3,7 @@ their measures as built, the arm's hover pose, the objects' and the sponge's sta
 
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
 from typing import Mapping, NamedTuple, Sequence
 
 import numpy as np
@@ -94,6 +95,20 @@ class ObjectMeasures(NamedTuple):
                    rest_z=np.array([table_top_z - float(g.lower[2]) for g in geometries]),
                    footprints=footprints,
                    outlines=tuple(object_outline(kind, g, float(r)) for kind, g, r in zip(kinds, geometries, footprints)))
+
+
+def exclude_parent_contacts(robot_model) -> int:
+    """Add ``<exclude>`` contact pairs for every parent-child body pair of ``robot_model`` (robosuite MJCF model),
+    before it is merged into the task model: MuJoCo skips parent-child contacts only below a world-welded parent,
+    so a fixed-base arm's first link collides with its base (Sawyer's stalls the OSC).  Returns the pairs added."""
+    added = 0
+    for parent in robot_model.worldbody.iter("body"):
+        for child in parent.findall("body"):
+            first, second = parent.get("name"), child.get("name")
+            if first and second:
+                robot_model.contact.append(ET.Element("exclude", attrib={"body1": first, "body2": second}))
+                added += 1
+    return added
 
 
 def hover_qpos(sim, robot, target) -> np.ndarray:

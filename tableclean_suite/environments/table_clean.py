@@ -27,10 +27,9 @@ from tableclean_suite.environments.randomization import (DynamicsRandomization, 
                                                          apply_dynamics, episode_config, object_build_config,
                                                          read_nominal, resolve_randomization)
 from tableclean_suite.environments.robot_registry import base_shift, check_robot, scene_gripper_types
-from tableclean_suite.environments.robot_support import exclude_parent_contacts
 from tableclean_suite.environments.scene_building import (ObjectMeasures, ResetLayouts, check_objects_fit,
-                                                          check_randomization_fits, hover_qpos, resting_qpos,
-                                                          sponge_start_qpos)
+                                                          check_randomization_fits, exclude_parent_contacts,
+                                                          hover_qpos, resting_qpos, sponge_start_qpos)
 from tableclean_suite.environments.scene_state import SceneState, read_scene_state, write_scene_state
 from tableclean_suite.environments.skill_info import (DataViews, SceneNotResetError, SkillInfo, SkillInfoReader,
                                                      constant_values)
