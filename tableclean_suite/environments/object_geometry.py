@@ -135,10 +135,7 @@ class ObjectGeometry:
     def hull(self) -> np.ndarray:
         """(H, 3) the corners of the convex hull of ``points`` [m] (all of them when they span no volume):
         what a footprint at any pose needs (read-only)."""
-        try:
-            return frozen(self.points[ConvexHull(self.points).vertices])
-        except (QhullError, ValueError):
-            return frozen(self.points)
+        return frozen(hull_corners(self.points))
 
     @property
     def height(self) -> float:
@@ -157,9 +154,7 @@ class ObjectGeometry:
 
     @cached_property
     def _widths(self) -> np.ndarray:
-        angles = np.arange(WIDTH_DIRECTIONS) * (np.pi / WIDTH_DIRECTIONS)
-        projections = self.points[:, :2] @ np.stack([np.cos(angles), np.sin(angles)])
-        return frozen(projections.max(axis=0) - projections.min(axis=0))
+        return frozen(widths_of(self.points[:, :2]))
 
     def slice_width(self, low: float, high: float, direction: int) -> float:
         """Width [m] along direction ``direction`` (angle ``direction pi / WIDTH_DIRECTIONS``, own frame) of the
@@ -193,6 +188,21 @@ class ObjectGeometry:
         direction = (k / (WIDTH_DIRECTIONS // 2)) * (0.5 * np.pi)  # a quarter turn exactly at k = W / 2
         period = 0.5 * np.pi if abs(widths[quarter] - widths[k]) <= EQUAL_WIDTH else np.pi
         return direction, period
+
+
+def hull_corners(points) -> np.ndarray:
+    """The corners of the convex hull of ``points`` (K, D) (a copy of all of them when they span no D-volume)."""
+    try:
+        return points[ConvexHull(points).vertices]
+    except (QhullError, ValueError):  # fewer than D + 1 points, or all in a plane (a line)
+        return np.array(points)
+
+
+def widths_of(xy) -> np.ndarray:
+    """(WIDTH_DIRECTIONS,) widths [m] of the points ``xy`` (K, 2) along the directions ``k pi / WIDTH_DIRECTIONS``."""
+    angles = np.arange(WIDTH_DIRECTIONS) * (np.pi / WIDTH_DIRECTIONS)
+    projections = np.asarray(xy, dtype=float) @ np.stack([np.cos(angles), np.sin(angles)])
+    return projections.max(axis=0) - projections.min(axis=0)
 
 
 def frozen(values) -> np.ndarray:

@@ -37,7 +37,8 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
+
+from tableclean_suite.environments.object_geometry import WIDTH_DIRECTIONS, hull_corners, widths_of
 
 #: Spacing [m] of the lattice of spots [`free_spot`][tableclean_suite.environments.placement.free_spot] tries when the centre is taken.
 LATTICE_STEP = 0.01
@@ -49,8 +50,6 @@ DISTANCE_RESOLUTION = 1e-6
 GAP_DIRECTIONS = 360
 #: Points of the polygon standing for a disc footprint (circumscribed: it covers the disc).
 DISC_POINTS = 32
-#: Horizontal directions over a half turn at which [`narrow_yaw`][tableclean_suite.environments.placement.narrow_yaw] measures a footprint's width (1 degree).
-WIDTH_DIRECTIONS = 180
 #: Bisection steps finding the largest yaw noise that still fits ([`row_layout`][tableclean_suite.environments.placement.row_layout]): the cap is
 #: within ``placement_yaw_noise / 2**this`` of the largest that fits.
 YAW_CAP_STEPS = 12
@@ -79,11 +78,7 @@ def disc_outline(radius: float) -> np.ndarray:
 
 def outline_of(points) -> np.ndarray:
     """(K, 2) corners [m] of the convex outline of ``points`` (N, 2 or 3; x, y used), seen from above."""
-    xy = np.asarray(points, dtype=float)[:, :2]
-    try:
-        return xy[ConvexHull(xy).vertices]
-    except (QhullError, ValueError):  # fewer than 3 points or all on a line: the points themselves
-        return xy.copy()
+    return hull_corners(np.asarray(points, dtype=float)[:, :2])
 
 
 def turned(outline, yaw: float) -> np.ndarray:
@@ -122,10 +117,7 @@ def extent(outline, yaw: float = 0.0, yaw_noise: float = 0.0) -> tuple[np.ndarra
 
 def narrow_yaw(outline) -> float:
     """Yaw [rad] (in ``(-pi/2, pi/2]``) that lays ``outline``'s narrowest width along world x."""
-    pts = np.asarray(outline, dtype=float)
-    angles = np.arange(WIDTH_DIRECTIONS) * (np.pi / WIDTH_DIRECTIONS)
-    projections = pts @ np.stack([np.cos(angles), np.sin(angles)])
-    direction = float(angles[int(np.argmin(projections.max(axis=0) - projections.min(axis=0)))])
+    direction = int(np.argmin(widths_of(outline))) * (np.pi / WIDTH_DIRECTIONS)
     return -direction if direction <= 0.5 * np.pi else np.pi - direction
 
 
