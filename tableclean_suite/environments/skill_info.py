@@ -54,16 +54,12 @@ class SkillInfo(dict):
         return dict.__getitem__(self, key)
 
     def materialize(self) -> "SkillInfo":
-        """Compute every lazy key not computed yet; returns ``self``."""
+        """Compute every lazy key not computed yet (a plain dict's contents from then on); returns ``self``."""
         for key in list(self._lazy):
             if not dict.__contains__(self, key):  # (a filler may have stored it with an earlier one)
                 self[key]
+        self._lazy = {}
         return self
-
-    def _forget(self, key) -> None:
-        """``key`` was removed: it is no lazy key of this mapping any more."""
-        if key in self._lazy:
-            self._lazy = {k: fill for k, fill in self._lazy.items() if k != key}
 
     def __contains__(self, key) -> bool:
         return dict.__contains__(self, key) or key in self._lazy
@@ -76,24 +72,6 @@ class SkillInfo(dict):
             return self[key]
         self[key] = default
         return default
-
-    def __iter__(self):
-        return dict.__iter__(self.materialize())
-
-    def __reversed__(self):
-        return dict.__reversed__(self.materialize())
-
-    def __len__(self) -> int:
-        return dict.__len__(self.materialize())
-
-    def keys(self):
-        return dict.keys(self.materialize())
-
-    def items(self):
-        return dict.items(self.materialize())
-
-    def values(self):
-        return dict.values(self.materialize())
 
     def copy(self) -> dict:
         """A plain ``dict`` of every key."""
@@ -110,42 +88,25 @@ class SkillInfo(dict):
 
     __hash__ = None
 
-    def __or__(self, other):
-        return self.copy() | other
-
-    def __ror__(self, other):
-        return other | self.copy()
-
-    def __repr__(self) -> str:
-        return dict.__repr__(self.materialize())
-
     def __reduce__(self):
         return dict, (self.copy(),)
 
-    def __delitem__(self, key) -> None:
-        if key in self:
-            self[key]
-        dict.__delitem__(self, key)
-        self._forget(key)
 
-    def pop(self, key, *default):
-        if key in self:
-            value = self[key]
-            dict.__delitem__(self, key)
-            self._forget(key)
-            return value
-        if default:
-            return default[0]
-        raise KeyError(key)
+def _after_materialize(name: str):
+    """``dict``'s method ``name`` run once every lazy key is computed: whole-dict operations and removals see
+    every key (``dict(info)``, ``info | other`` and ``{**info}`` go through ``keys()``)."""
+    method = getattr(dict, name)
 
-    def popitem(self):
-        item = dict.popitem(self.materialize())
-        self._forget(item[0])
-        return item
+    def whole(self, *args):
+        return method(self.materialize(), *args)
 
-    def clear(self) -> None:
-        dict.clear(self)
-        self._lazy = {}
+    whole.__name__ = whole.__qualname__ = name
+    return whole
+
+
+for _name in ("__iter__", "__reversed__", "__len__", "keys", "items", "values", "__repr__", "__delitem__", "pop",
+              "popitem", "clear"):
+    setattr(SkillInfo, _name, _after_materialize(_name))
 
 
 # -- what TableClean.skill_info() reads --------------------------------------------------------
