@@ -31,8 +31,6 @@ from tableclean_suite.intervals import DEFAULT_CONFIDENCE as CONFIDENCE
 PROG = "tableclean-bench interventions"
 DEFAULT_OUT = "results/interventions"
 DEFAULT_RUNS = 200
-#: Bootstrap resamples of the plateau's interval.
-PLATEAU_RESAMPLES = 2000
 #: The paper's settings every cell starts from (alpha, gamma, epsilon, max_itr; the paper task).
 BASE = {"learner": "q_learning", "alpha": 0.3, "gamma": 0.3, "epsilon": 0.1, "max_itr": 500, "iterations": 4000,
         "task": "paper", "q_init": None}
@@ -71,6 +69,8 @@ class Intervention:
 
 def interventions() -> dict[str, Intervention]:
     """Every intervention, by name, in the order the findings page cites them."""
+    from tableclean_suite.bench.scaling.family import family_spec
+
     r3_zero_routine = _pattern("r3", "r3_routine_0", routine=0.0)
     r4_any_cycle = _pattern("r4", "r4_memory_0", looping_memory=0)
     listed = [
@@ -93,7 +93,7 @@ def interventions() -> dict[str, Intervention]:
         Intervention("loop_memory", "with 3 or more segments the paper's looping rule misses MOVE going round the "
                      "ring of segments, so r4 earns the routine reward for cycling",
                      "the looping rule's memory (2 states, the paper's, or the whole episode)",
-                     {"reward": "r4", "gamma": 0.9, "task": "scale_n3_m1", "iterations": 32000, "max_itr": 688},
+                     {"reward": "r4", "gamma": 0.9, "task": family_spec(3, 1), "iterations": 32000, "max_itr": 688},
                      {"reward": r4_any_cycle}, "censored_share", -1),
         Intervention("epsilon", "the success plateau is the optimal plan's exploration cost: a converged run "
                      "scores what its random actions allow", "epsilon", {"reward": "r4"},
@@ -140,7 +140,7 @@ def measure_arm(settings: dict, runs: int, seed: int) -> dict:
     from tableclean_suite.task import Outcome, TaskModel
 
     started = time.perf_counter()
-    model = TaskModel(spec=_spec(settings["task"]))
+    model = TaskModel(spec=settings["task"])
     result = train(settings["learner"], settings["reward"], runs=runs, iterations=settings["iterations"],
                    alpha=settings["alpha"], gamma=settings["gamma"], epsilon=settings["epsilon"],
                    max_itr=settings["max_itr"], seed=seed, task=model, q_init=settings["q_init"])
@@ -149,8 +149,7 @@ def measure_arm(settings: dict, runs: int, seed: int) -> dict:
     chain = asymptotes.EpisodeChain.build(model, settings["reward"])
     plateau = np.asarray(asymptotes.greedy_asymptotes(result.q, settings["epsilon"], chain,
                                                       settings["max_itr"]).success, dtype=float)
-    points, bounds = interval_estimates({"plateau": plateau}, np.mean, CONFIDENCE, PLATEAU_RESAMPLES,
-                                        rng=np.random.default_rng(seed))
+    points, bounds = interval_estimates({"plateau": plateau}, np.mean, CONFIDENCE, rng=np.random.default_rng(seed))
     never = int(np.sum(~(np.asarray(result.outcomes) == int(Outcome.TERMINAL)).any(axis=1)))
     return {
         "learning_time": summary.median, "learning_time_low": summary.median_low,
@@ -162,17 +161,6 @@ def measure_arm(settings: dict, runs: int, seed: int) -> dict:
         **_bounds("never_terminal_share", clopper_pearson(never, runs, CONFIDENCE)),
         "seconds": time.perf_counter() - started,
     }
-
-
-def _spec(name: str):
-    """``"paper"`` or a scaling-family spec by name (``scale_n{N}_m{M}``)."""
-    from tableclean_suite.bench.scaling.family import family_spec
-    from tableclean_suite.task import get_task_spec
-
-    if name == "paper":
-        return get_task_spec(name)
-    segments, objects = (int(part[1:]) for part in name.split("_")[1:3])
-    return family_spec(segments, objects)
 
 
 def _bounds(name: str, interval) -> dict:
@@ -243,9 +231,9 @@ def run(args) -> int:
                       "runs": args.runs, "seed": args.seed, **arms[arm], "change": change} for arm in arms]
             before = settings["before"]
             say(f"\n{name}: {item.claim}.")
-            say(f"  cell: {before['learner']}, {_setting_text(before['reward'])}, task {before['task']}, gamma "
-                f"{before['gamma']:g}, epsilon {before['epsilon']:g}, max_itr {before['max_itr']}, "
-                f"{before['iterations']} iterations\n  changed: {item.factor} "
+            say(f"  cell: {before['learner']}, {_setting_text(before['reward'])}, task "
+                f"{_setting_text(before['task'])}, gamma {before['gamma']:g}, epsilon {before['epsilon']:g}, "
+                f"max_itr {before['max_itr']}, {before['iterations']} iterations\n  changed: {item.factor} "
                 f"({changed_text(before, settings['after'])})")
             for arm, figures in arms.items():
                 say(f"  {arm:<6}: learning time {_time_text(figures, settings[arm]['iterations'])}, censored "
