@@ -16,8 +16,8 @@ import numpy as np
 
 #: Two-sided confidence of the intervals.
 DEFAULT_CONFIDENCE = 0.95
-#: Bootstrap resamples per interval.
-DEFAULT_REPS = 2000
+#: Bootstrap resamples per interval (every command's default).
+DEFAULT_REPS = 1000
 #: Bootstrap interval methods ``scipy.stats.bootstrap`` offers that the API accepts.
 METHODS = ("percentile", "bca")
 

@@ -20,7 +20,7 @@ from tableclean_suite.learning_time import LearningTime, censored_times, learnin
 from tableclean_suite.settling import Settling
 
 #: Bootstrap resamples per interval.
-DEFAULT_SAMPLES = 1000
+DEFAULT_SAMPLES = intervals.DEFAULT_REPS
 #: Two-sided confidence of the intervals.
 DEFAULT_CONFIDENCE = intervals.DEFAULT_CONFIDENCE
 #: Curves that get bands (the ones the figures draw).

@@ -11,7 +11,7 @@ from tableclean_suite.bench.scaling.family import (DEFAULT_BASE_WINDOW, DEFAULT_
                                                    DEFAULT_OBJECT_COUNTS, DEFAULT_SEGMENTS, DEFAULT_WINDOW_EXPONENT,
                                                    counts_text)
 from tableclean_suite.bench.scaling.pipeline import run_study
-from tableclean_suite.bench.scaling.statistics import DEFAULT_RESAMPLES
+from tableclean_suite.intervals import DEFAULT_REPS
 
 #: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench scaling"
@@ -81,8 +81,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         help=f"iterations for the paper's spec (default: {DEFAULT_BASE_WINDOW})")
     parser.add_argument("--window-exponent", type=positive_float, default=DEFAULT_WINDOW_EXPONENT,
                         help=f"window = base * (L / L0) ** exponent (default: {DEFAULT_WINDOW_EXPONENT})")
-    parser.add_argument("--resamples", type=positive_int, default=DEFAULT_RESAMPLES,
-                        help=f"seeds-then-runs bootstrap resamples (default: {DEFAULT_RESAMPLES})")
+    parser.add_argument("--resamples", type=positive_int, default=DEFAULT_REPS,
+                        help=f"seeds-then-runs bootstrap resamples (default: {DEFAULT_REPS})")
     parser.add_argument("--gammas", type=gamma_list, default=DEFAULT_GAMMAS,
                         help=f"comma-separated discounts in (0, 1], each an axis value of the study "
                              f"(default: {counts_text(DEFAULT_GAMMAS)})")

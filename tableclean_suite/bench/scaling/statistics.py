@@ -17,8 +17,6 @@ import numpy as np
 
 from tableclean_suite.intervals import DEFAULT_CONFIDENCE as CONFIDENCE  # level of every interval, in (0, 1)
 
-#: Bootstrap resamples (seeds then runs) per cell.
-DEFAULT_RESAMPLES = 1000
 #: The ordering the paper reports for Q-learning's iterations to maximum success (fewest first).
 PAPER_ORDER = ("r4", "r2", "r1", "r3")
 #: Smallest residual standard deviation the fit allows (log units), so a perfect fit stays finite.
