@@ -29,6 +29,7 @@ physics steps), ``workers``.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 from collections import Counter
 from dataclasses import dataclass
@@ -236,38 +237,6 @@ def merge_stats(parts) -> dict:
     return total
 
 
-def _check_options(options: dict) -> dict:
-    """``options`` checked before any scene is built: known keys, and ``env_kwargs["robots"]`` (when given)
-    a robot with a registered skill config (``ValueError`` naming the supported robots)."""
-    unknown = sorted(set(options) - set(PHYSICS_OPTIONS))
-    if unknown:
-        raise ValueError(f"unknown physics_options key(s) {unknown}; allowed: {', '.join(PHYSICS_OPTIONS)}")
-    env_kwargs = options.get("env_kwargs") or {}
-    if not isinstance(env_kwargs, dict):
-        raise ValueError(f"physics_options env_kwargs must be a dict of make_skill_env arguments, got {env_kwargs!r}")
-    if "robots" in env_kwargs:
-        from tableclean_suite.controllers.robot_configs import check_robot
-
-        check_robot(env_kwargs["robots"])
-    return dict(options)
-
-
-def _train_one(env: "PhysicsStepEnv", learner, reward, iterations: int, seed: int, run: int, hyper: dict,
-               checkpoint: int, on_step=None) -> tuple[dict, dict]:
-    """Train run ``run`` on ``env``, its scene reseeded from the run's key; returns its record and counters."""
-    from tableclean_suite.learners.stepper import train_run
-
-    env.stats = _empty_stats()
-    env.seed(run_key(seed, run))
-    with single_blas_thread():  # the same bits in this process, a local worker or a Ray worker
-        record = train_run(env, learner, reward, iterations, seed=seed, run=run, on_step=on_step,
-                           checkpoint=checkpoint, **hyper)
-    env.stats["steps"] += iterations
-    stats = dict(env.stats)
-    stats["fault_reasons"] = dict(stats["fault_reasons"])
-    return record, stats
-
-
 @dataclass(frozen=True)
 class PhysicsRun:
     """One run of physics training as an executor task: plain values (the worker builds its own scene).
@@ -298,6 +267,22 @@ class PhysicsRun:
         return f"physics run {self.first_run + self.index} ({self.learner.name}/{self.reward.name})"
 
 
+def _train_one(env: "PhysicsStepEnv", task: PhysicsRun, on_step=None) -> tuple[int, dict, dict]:
+    """Train ``task``'s run on ``env``, its scene reseeded from the run's key; ``(index, record, counters)``."""
+    from tableclean_suite.learners.stepper import train_run
+
+    run = task.first_run + task.index
+    env.stats = _empty_stats()
+    env.seed(run_key(task.seed, run))
+    with single_blas_thread():  # the same bits in this process, a local worker or a Ray worker
+        record = train_run(env, task.learner, task.reward, task.iterations, seed=task.seed, run=run, on_step=on_step,
+                           checkpoint=task.checkpoint, **dict(task.hyper))
+    env.stats["steps"] += task.iterations
+    stats = dict(env.stats)
+    stats["fault_reasons"] = dict(stats["fault_reasons"])
+    return task.index, record, stats
+
+
 #: PhysicsStepEnvs built in this process by executor tasks, by (spec JSON, options as sorted JSON).
 _SESSIONS: dict = {}
 
@@ -305,7 +290,6 @@ _SESSIONS: dict = {}
 def process_session(spec_json: str, options: dict) -> "PhysicsStepEnv":
     """The PhysicsStepEnv of ``spec_json`` (``TaskSpec.to_dict()`` as JSON) and ``options`` in this
     process, built on first use and kept ([`close_sessions`][tableclean_suite.physics_backend.close_sessions] closes them)."""
-    import json
     import multiprocessing
 
     from tableclean_suite.task import TaskSpec
@@ -329,10 +313,7 @@ def close_sessions() -> None:
 def run_physics_task(task: PhysicsRun):
     """Train one [`PhysicsRun`][tableclean_suite.physics_backend.PhysicsRun] in this process (the scene built once per process and spec,
     [`process_session`][tableclean_suite.physics_backend.process_session]); returns ``(index, record, stats of this run)``."""
-    env = process_session(task.spec, dict(task.options))
-    record, stats = _train_one(env, task.learner, task.reward, task.iterations, task.seed,
-                               task.first_run + task.index, dict(task.hyper), task.checkpoint)
-    return task.index, record, stats
+    return _train_one(process_session(task.spec, dict(task.options)), task)
 
 
 def check_physical_task(model: TaskModel, task_config: dict | None = None) -> None:
@@ -379,13 +360,25 @@ class PhysicsBackend:
     deterministic_prefix = False
 
     def check_options(self, model: TaskModel, options: dict) -> dict:
-        """Accepts ``physics_options`` (see `PHYSICS_OPTIONS`); refuses specs the scene cannot build."""
+        """Accepts ``physics_options`` (see `PHYSICS_OPTIONS`; ``env_kwargs["robots"]``, when given, a robot with a
+        registered skill config); refuses specs the scene cannot build.  ``ValueError`` naming what is allowed."""
         unknown = sorted(set(options) - {"physics_options"})
         if unknown:
             raise ValueError(f"backend 'physics': unknown option(s) {unknown}; allowed: 'physics_options' "
                              "(transitions= is only used with backend='calibrated')")
         check_physical_task(model)
-        return {"physics_options": _check_options(options.get("physics_options") or {})}
+        physics_options = dict(options.get("physics_options") or {})
+        unknown = sorted(set(physics_options) - set(PHYSICS_OPTIONS))
+        if unknown:
+            raise ValueError(f"unknown physics_options key(s) {unknown}; allowed: {', '.join(PHYSICS_OPTIONS)}")
+        env_kwargs = physics_options.get("env_kwargs") or {}
+        if not isinstance(env_kwargs, dict):
+            raise ValueError(f"physics_options env_kwargs must be a dict of make_skill_env arguments, got {env_kwargs!r}")
+        if "robots" in env_kwargs:
+            from tableclean_suite.controllers.robot_configs import check_robot
+
+            check_robot(env_kwargs["robots"])
+        return {"physics_options": physics_options}
 
     def train(self, job):
         """Train ``job.runs`` runs with skills in physics (a [TrainingJob][tableclean_suite.backends.TrainingJob]).
@@ -400,7 +393,7 @@ class PhysicsBackend:
         from tableclean_suite.learners.stepper import RECORD_FIELDS
 
         learner, reward, runs, iterations = job.learner, job.reward, job.runs, job.iterations
-        options = _check_options(job.options.get("physics_options") or {})
+        options = dict(job.options.get("physics_options") or {})  # checked by check_options
         workers = (os.cpu_count() or 1) if job.workers is None else job.workers
         check_count("workers", workers, 1)
         workers = min(int(workers), runs)
@@ -409,25 +402,20 @@ class PhysicsBackend:
             from tqdm.auto import tqdm
 
             bar = tqdm(total=runs * iterations, desc=f"{learner.name}/{reward.name} physics", leave=False)
+        spec = json.dumps(job.model.spec.to_dict(), sort_keys=True)
+        tasks = [PhysicsRun(learner, reward, spec, i, iterations, job.seed, job.first_run,
+                            tuple(sorted(options.items())), tuple(sorted(job.hyperparameters.items())),
+                            job.checkpoint) for i in range(runs)]
         results = []  # (index, record, stats) of each run
         if workers == 1 and job.executor is None:
             env = PhysicsStepEnv(job.model, **options)
             try:
-                for i in range(runs):
-                    results.append((i, *_train_one(env, learner, reward, iterations, job.seed, job.first_run + i,
-                                                   job.hyperparameters, job.checkpoint,
-                                                   None if bar is None else (lambda t: bar.update(1)))))
+                results = [_train_one(env, task, None if bar is None else (lambda t: bar.update(1))) for task in tasks]
             finally:
                 env.close()
         else:
-            import json
-
             from tableclean_suite.executors import LocalExecutor
 
-            spec = json.dumps(job.model.spec.to_dict(), sort_keys=True)
-            tasks = [PhysicsRun(learner, reward, spec, i, iterations, job.seed, job.first_run,
-                                tuple(sorted(options.items())), tuple(sorted(job.hyperparameters.items())),
-                                job.checkpoint) for i in range(runs)]
             # a caller's executor stays open for the caller's next call (map starts what it needs)
             owned = LocalExecutor(workers=workers) if job.executor is None else contextlib.nullcontext(job.executor)
             with owned as running:
