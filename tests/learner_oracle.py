@@ -23,6 +23,7 @@ from tableclean_suite.learners.kernel import (
 )
 from tableclean_suite.learners import optimality
 from tableclean_suite.learners.assist import advisor_policy, given_affordances
+from tableclean_suite.learners.exploration import ExponentialDecay, LinearDecay, Softmax, VisitDecay
 from tableclean_suite.learners.optimality import NOT_LEARNED
 from tableclean_suite.learners.rng import (
     LANE_ADVICE,
@@ -145,6 +146,21 @@ class _Assistance:
         return min(int(uniform_py(self.key, t, STREAM_ADVICE_ACTION) * self.n_actions), self.n_actions - 1)
 
 
+def _schedule(exploration, epsilon: float, t: int, visits: int) -> float:
+    """Epsilon (softmax: temperature) of ``exploration`` at iteration ``t`` in a state visited ``visits``
+    times, from each schedule's definition (the compiled ``exploration_parameter`` must agree bit for bit)."""
+    if isinstance(exploration, LinearDecay):
+        fraction = t / exploration.horizon
+        return exploration.epsilon_min if fraction >= 1.0 else epsilon + (exploration.epsilon_min - epsilon) * fraction
+    if isinstance(exploration, ExponentialDecay):
+        return max(exploration.epsilon_min, epsilon * math.exp(-exploration.rate * t))
+    if isinstance(exploration, VisitDecay):
+        return epsilon / (1.0 + exploration.scale * visits)
+    if isinstance(exploration, Softmax):
+        return max(exploration.temperature_min, exploration.temperature * math.exp(-exploration.rate * t))
+    return epsilon
+
+
 def _behaviour_action(q_row, actions: list[int], softmax: bool, parameter: float, explore_draw: float,
                       action_draw: float, tie_draw=None) -> int:
     """The behaviour policy over ``actions`` (all, or the afforded ones): softmax, or epsilon-greedy with
@@ -211,7 +227,7 @@ class _Agent:
             advised = self.assistance.advice(state, t)
             if advised != NO_STATE:
                 return advised
-        parameter = self.exploration.parameter_at(self.epsilon, t, self.visits[state])
+        parameter = _schedule(self.exploration, self.epsilon, t, self.visits[state])
         tie_draw = None if self.tie_key is None else uniform_py(self.tie_key, t, STREAM_TIE)
         actions = self.assistance.afforded(state) if self.affording else list(range(len(self.q[state])))
         return _behaviour_action(self.row(state), actions, self.exploration.softmax, parameter,
@@ -257,7 +273,7 @@ class _Agent:
             self._remember_and_plan(t, state, action, reward, nxt, terminal)
 
     def _target(self, t, reward, nxt, pending, terminal) -> float:
-        behaviour = self.exploration.parameter_at(self.epsilon, t + 1, self.visits[nxt])
+        behaviour = _schedule(self.exploration, self.epsilon, t + 1, self.visits[nxt])
         if self.exploration.softmax and self.learner.target_code == EXPECTED_SARSA_TARGET:
             return _softmax_expected_target(self.q[nxt], reward, self.gamma, behaviour, terminal)
         if self.affording and self.learner.target_code == Q_LEARNING_TARGET:

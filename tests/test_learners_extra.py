@@ -38,7 +38,7 @@ from tableclean_suite.learners.rng import (
 )
 from tableclean_suite.learners.rules import METHOD_TRACES, softmax_expected_sarsa_target
 from tableclean_suite.task import Action, Outcome, TaskModel
-from learner_oracle import oracle_train, uniform_at_py, uniform_py
+from learner_oracle import _schedule, oracle_train, uniform_at_py, uniform_py
 
 RECORDS = ("rewards", "outcomes", "states", "actions", "episode_end", "q", "first_learned_at", "learned_at")
 NEW_LEARNERS = ("double_q_learning", "q_lambda", "sarsa_lambda", "dyna_q")
@@ -257,7 +257,7 @@ def test_schedules_at_given_steps(exploration, epsilon, cases):
     for iteration, visits, expected in cases:
         assert exploration.parameter_at(epsilon, iteration, visits) == pytest.approx(expected, rel=1e-12)
         compiled = exploration_parameter(exploration.code, parameters, iteration, visits)
-        assert compiled == exploration.parameter_at(epsilon, iteration, visits)
+        assert compiled == _schedule(exploration, epsilon, iteration, visits)
 
 
 def test_the_kernel_follows_the_schedule():

@@ -126,11 +126,7 @@ def choose_action(q_row, code, parameter, explore_draw, action_draw):
 # the dataclasses
 @dataclass(frozen=True)
 class Exploration:
-    """Base of the explorations: a name, a kernel code and validated parameters.
-
-    Subclasses define [`parameter_at`][tableclean_suite.learners.exploration.Exploration.parameter_at] in plain Python (the reference loop's path;
-    the compiled [`exploration_parameter`][tableclean_suite.learners.exploration.exploration_parameter] must agree bit for bit).
-    """
+    """Base of the explorations: a name, a kernel code and validated parameters."""
 
     name: ClassVar[str] = ""
     code: ClassVar[int] = -1
@@ -144,8 +140,9 @@ class Exploration:
         raise NotImplementedError
 
     def parameter_at(self, epsilon: float, iteration: int, visits: int = 0) -> float:
-        """Epsilon (softmax: temperature) at ``iteration`` in a state visited ``visits`` times before."""
-        raise NotImplementedError
+        """Epsilon (softmax: temperature) at ``iteration`` in a state visited ``visits`` times before (the
+        compiled loop's [`exploration_parameter`][tableclean_suite.learners.exploration.exploration_parameter])."""
+        return float(exploration_parameter(self.code, self.kernel_parameters(epsilon), int(iteration), int(visits)))
 
     def to_dict(self) -> dict:
         """``{"name": ..., **parameters}`` (JSON-serialisable; [`as_exploration`][tableclean_suite.learners.exploration.as_exploration] reads it back)."""
@@ -177,9 +174,6 @@ class EpsilonGreedy(Exploration):
     def kernel_parameters(self, epsilon):
         return np.array([epsilon, 0.0, 0.0], dtype=np.float64)
 
-    def parameter_at(self, epsilon, iteration, visits=0):
-        return epsilon
-
 
 @dataclass(frozen=True)
 class LinearDecay(Exploration):
@@ -205,12 +199,6 @@ class LinearDecay(Exploration):
 
     def kernel_parameters(self, epsilon):
         return np.array([epsilon, self.epsilon_min, float(self.horizon)], dtype=np.float64)
-
-    def parameter_at(self, epsilon, iteration, visits=0):
-        fraction = iteration / self.horizon
-        if fraction >= 1.0:
-            return self.epsilon_min
-        return epsilon + (self.epsilon_min - epsilon) * fraction
 
 
 @dataclass(frozen=True)
@@ -238,9 +226,6 @@ class ExponentialDecay(Exploration):
     def kernel_parameters(self, epsilon):
         return np.array([epsilon, self.epsilon_min, self.rate], dtype=np.float64)
 
-    def parameter_at(self, epsilon, iteration, visits=0):
-        return max(self.epsilon_min, epsilon * math.exp(-self.rate * iteration))
-
 
 @dataclass(frozen=True)
 class VisitDecay(Exploration):
@@ -262,9 +247,6 @@ class VisitDecay(Exploration):
 
     def kernel_parameters(self, epsilon):
         return np.array([epsilon, self.scale, 0.0], dtype=np.float64)
-
-    def parameter_at(self, epsilon, iteration, visits=0):
-        return epsilon / (1.0 + self.scale * visits)
 
 
 @dataclass(frozen=True)
@@ -298,9 +280,6 @@ class Softmax(Exploration):
 
     def kernel_parameters(self, epsilon):
         return np.array([self.temperature, self.temperature_min, self.rate], dtype=np.float64)
-
-    def parameter_at(self, epsilon, iteration, visits=0):
-        return max(self.temperature_min, self.temperature * math.exp(-self.rate * iteration))
 
 
 def softmax_probabilities(q: np.ndarray, temperature: float) -> np.ndarray:
