@@ -267,13 +267,16 @@ def _stand_in_record_attempt(task):
 
 
 def test_failed_attempts_are_replaced_in_waves_and_demos_keep_attempt_order(monkeypatch):
+    from tableclean_suite.task import TaskModel
+
     monkeypatch.setattr(collect_demos, "record_attempt", _stand_in_record_attempt)
     SEEN_TASKS.clear()
     lines = []
     demos, env_args, attrs = collect_demos.collect("paper", 3, seed=9, log=lines.append)
     # 3 demos wanted: attempts 0-2 (1 and 2 fail), then 3-4 (4 fails), then 5
     assert [task.attempt for task in SEEN_TASKS] == [0, 1, 2, 3, 4, 5]
-    assert {task.seed for task in SEEN_TASKS} == {9} and SEEN_TASKS[0].policy is None
+    assert {task.seed for task in SEEN_TASKS} == {9}
+    assert SEEN_TASKS[0].policy == tuple(TaskModel().optimal_policy().tolist())  # its shortest plans
     assert [demo.attrs["attempt"] for demo in demos] == [0, 3, 5]
     assert attrs["discarded"] == 3 and env_args == {"env_name": "TableClean"}
     assert "attempt 1" in lines[1] and "discarded" in lines[1] and lines[-1].startswith("demo_2")

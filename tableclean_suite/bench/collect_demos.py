@@ -30,6 +30,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import cli  # noqa: E402
 from tableclean_suite.bench.rollout import train_policy  # noqa: E402
+from tableclean_suite.demos import VALID_FRACTION  # noqa: E402
 from tableclean_suite.executors.blas import single_blas_thread  # noqa: E402
 from tableclean_suite.robosuite_adapter import apply_verbosity  # noqa: E402
 
@@ -66,18 +67,15 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser.add_argument("--max-actions", type=cli.positive_int, default=DEFAULT_MAX_ACTIONS,
                         help=f"learned: actions per episode before it counts as failed (default {DEFAULT_MAX_ACTIONS})")
     parser.add_argument("--valid-fraction", type=cli.number_type(float, lambda v: 0 <= v < 1, "a fraction in [0, 1)"),
-                        default=None,
-                        help="fraction of the demos in mask/valid, in [0, 1) (default 0.1)")
+                        default=VALID_FRACTION,
+                        help=f"fraction of the demos in mask/valid, in [0, 1) (default {VALID_FRACTION})")
     cli.add_executor_arguments(parser, "episodes")  # --workers, --executor, --ray-address (as fidelity)
     return parser
 
 
-def symbolic_actions(model, start, policy: np.ndarray | None, max_actions: int) -> list[int] | None:
-    """Action indices the policy takes from ``start`` in the task model (the shortest plan when
-    ``policy`` is None); ``None`` when it does not reach a terminal state within ``max_actions``."""
-    if policy is None:
-        plan = model.shortest_plan(start)
-        return None if plan is None else [model.action_index(a) for a in plan]
+def symbolic_actions(model, start, policy: np.ndarray, max_actions: int) -> list[int] | None:
+    """Action indices ``policy`` (``(S,)`` actions) takes from ``start`` in the task model; ``None`` when it
+    does not reach a terminal state within ``max_actions``."""
     state, actions = start, []
     while not state.is_terminal:
         if len(actions) >= max_actions:
@@ -98,14 +96,14 @@ def attempt_draws(model, seed: int, attempt: int):
 @dataclass(frozen=True)
 class DemoAttempt:
     """One attempt as an executor task of plain values: the spec as JSON, ``--task`` as given (stored in
-    ``env_args``), the robot, the policy's name and its action per state code (None: the shortest plan),
-    ``--max-actions``, ``--seed`` and the 0-based attempt number."""
+    ``env_args``), the robot, the policy's name and its action per state code, the actions before an
+    episode counts as failed, ``--seed`` and the 0-based attempt number."""
 
     spec: str
     task: str
     robot: str
     policy_name: str
-    policy: tuple | None
+    policy: tuple
     max_actions: int
     seed: int
     attempt: int
@@ -155,14 +153,6 @@ def _scene(task: DemoAttempt):
     return _SCENES[key]
 
 
-def close_scenes() -> None:
-    """Close the scenes [`record_attempt`][tableclean_suite.bench.collect_demos.record_attempt] built in this
-    process."""
-    while _SCENES:
-        env = _SCENES.popitem()[1][0]
-        env.close()
-
-
 @single_blas_thread()  # its thread count changes the trajectories' last bits
 def record_attempt(task: DemoAttempt) -> AttemptResult:
     """Run one [`DemoAttempt`][tableclean_suite.bench.collect_demos.DemoAttempt] in this process: draw its
@@ -171,14 +161,13 @@ def record_attempt(task: DemoAttempt) -> AttemptResult:
     from tableclean_suite.physics_backend import StagingError, stage
 
     env, staging, model, env_args = _scene(task)
-    policy = None if task.policy is None else np.asarray(task.policy, dtype=np.int64)
+    policy = np.asarray(task.policy, dtype=np.int64)
     start, placement_seed = attempt_draws(model, task.seed, task.attempt)
 
     def discarded(problem: str) -> AttemptResult:
         return AttemptResult(task.attempt, start.name, None, problem, env_args)
 
-    planned = symbolic_actions(model, start, policy, task.max_actions)
-    if planned is None:
+    if symbolic_actions(model, start, policy, task.max_actions) is None:
         return discarded(f"the {task.policy_name} policy does not reach the goal from {start.name}")
     try:
         stage(env, staging, start, seed=placement_seed)
@@ -188,14 +177,14 @@ def record_attempt(task: DemoAttempt) -> AttemptResult:
     recorder = EpisodeRecorder(env)
     controller = recording_controller(env, model, recorder)
     state, problem = start, None
-    for step in range(task.max_actions if policy is not None else len(planned)):
-        action = int(policy[state.index]) if policy is not None else planned[step]
+    for _ in range(task.max_actions):
+        action = int(policy[state.index])
         recorder.begin(model.action_name(action), action)
         result = controller.execute(action)
         if result.state_after is None:
             problem = f"fault after {model.action_name(action)}: {result.reason}"
             break
-        if policy is None and not result.success:
+        if task.policy_name == "optimal" and not result.success:  # the shortest plan, as planned or not at all
             problem = f"{model.action_name(action)} failed: {result.reason}"
             break
         state = result.state_after
@@ -226,8 +215,9 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
 
     spec = get_task_spec(task)
     model = TaskModel(spec=spec, start="uniform_unclean")
-    policy = None
-    if policy_name == "learned":
+    if policy_name == "optimal":  # following it is the shortest plan, at most one action per state
+        policy, max_actions = model.optimal_policy(), spec.n_states
+    else:
         started = time.perf_counter()
         policy = train_policy(LEARNER, REWARD, model, runs, iterations, seed)
         solved = sum(symbolic_actions(model, s, policy, max_actions) is not None for s in model.start_states())
@@ -239,7 +229,7 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
             return [], {}, {}
     executor = executor if executor is not None else LocalExecutor(workers=1)
     spec_json = json.dumps(spec.to_dict(), sort_keys=True)
-    policy_values = None if policy is None else tuple(int(a) for a in policy)
+    policy_values = tuple(int(a) for a in policy)
     demos, discarded, env_args = [], 0, {}
     limit = episodes * MAX_ATTEMPTS_PER_EPISODE
     next_attempt = 0
@@ -260,10 +250,11 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
                 demos.append(demo)
             next_attempt = wave.stop
     finally:
-        close_scenes()  # those of an in-process executor (workers == 1)
+        while _SCENES:  # those of an in-process executor (workers == 1)
+            _SCENES.popitem()[1][0].close()
     attrs = {"task_spec": spec.to_dict(), "action_names": list(model.action_names), "policy": policy_name,
              "seed": seed, "discarded": discarded}
-    if policy is not None:
+    if policy_name == "learned":
         attrs.update(learner=LEARNER, reward=REWARD, iterations=iterations, runs=runs,
                      learned_policy=json.dumps([int(a) for a in policy]))
     return demos, env_args, attrs
@@ -273,11 +264,10 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code (see the module doc)."""
     parser, args = cli.parse_command(build_parser, argv, prog or PROG)
     from tableclean_suite.bench.fidelity import physical_model
-    from tableclean_suite.demos import VALID_FRACTION, write_dataset
+    from tableclean_suite.demos import write_dataset
 
     spec = physical_model(parser, args.task).spec
     robot = cli.parse_robot(parser, args)
-    valid_fraction = VALID_FRACTION if args.valid_fraction is None else args.valid_fraction
     out = Path(args.out if args.out is not None else f"results/demos_{spec.name}_{args.policy}.hdf5")
     if out.is_dir():
         parser.error(f"--out {str(out)!r} is a directory; give a file name ending in .hdf5")
@@ -304,7 +294,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         print(f"no successful demo in {args.episodes * MAX_ATTEMPTS_PER_EPISODE} attempts; nothing written",
               file=sys.stderr)
         return 1
-    write_dataset(out, demos, env_args, attrs, valid_fraction=valid_fraction, seed=args.seed)
+    write_dataset(out, demos, env_args, attrs, valid_fraction=args.valid_fraction, seed=args.seed)
     total = sum(d.num_samples for d in demos)
     print(f"wrote {out}: {len(demos)} demo(s), {total} samples ({attrs['discarded']} attempt(s) discarded) "
           f"in {time.perf_counter() - started:.0f} s")
