@@ -1,46 +1,13 @@
 """Demonstration datasets of the skills in robomimic's hdf5 layout: record, write (atomically), read, rebuild.
 
-A dataset holds skill executions in the ``TableClean`` scene, one *sample* per control step:
+A dataset holds skill executions in the ``TableClean`` scene, one sample per control step: per demo
+``states`` (T, D) before each action, ``actions`` (T, 7) absolute OSC_POSE commands, ``rewards``,
+``dones``, ``obs``/``next_obs`` observables, the task-state codes read from the states and which plan
+entry was executing; ``data.attrs["env_args"]`` rebuilds the scene.  The full layout, every dataset and
+attribute with its shape and units, is on the documentation's Datasets page (``docs/datasets.md``).
 
-    data                               group
-        .attrs["env_args"]             JSON {"env_name": "TableClean", "env_version": robosuite's,
-                                       "type": 1 (robomimic's EnvType.ROBOSUITE_TYPE), "env_kwargs": {...}}:
-                                       robosuite.make(env_name, **env_kwargs) rebuilds the scene
-        .attrs["total"]                samples over all demos
-        .attrs["env"], ["env_info"]    robosuite's playback script's names (env name; JSON of robots,
-                                       controller_configs, task, task_config)
-        .attrs["task_spec"]            JSON of the task spec (TaskSpec.to_dict())
-        .attrs["action_names"]         JSON list: the spec's actions (skill_action indexes it)
-        .attrs["policy"], ["seed"], ["date"], ["repository_version"], ["tableclean_version"]
-        demo_k                         group, k = 0, 1, ...
-            .attrs["num_samples"]      T, control steps of the demo
-            .attrs["model_file"]       MuJoCo XML of the scene (robosuite's playback resets from it)
-            .attrs["ep_meta"]          JSON of TableClean.get_ep_meta() (spec, config, start layout)
-            .attrs["plan"]             JSON list of the executed actions' names, in order (K entries)
-            .attrs["start_state"]      task-state code of the start; ["final_symbolic_state"]: of the end
-            .attrs["success"]          the last state is terminal and _check_success() holds
-            .attrs["placement_seed"]   the seed the start layout's placement noise was drawn with
-            states                     (T, D) float64, sim.get_state().flatten() *before* each action
-                                       (robosuite's convention: states[0] is the start)
-            actions                    (T, 7) float64, absolute world-frame OSC_POSE command
-                                       [x, y, z (m), rx, ry, rz (axis-angle, rad), gripper in [-1, 1]]
-            rewards                    (T,) float64, 1.0 where the state after the action is a success
-            dones                      (T,) int64, 1 at the last sample
-            obs/<key>, next_obs/<key>  (T, k) float64 env observables at states[t] / after action t
-                                       (robot0_eef_pos (3), robot0_eef_quat (4, xyzw),
-                                       robot0_gripper_qpos (2), object_pos (3), object_quat (4),
-                                       sponge_pos (3), dirt_fraction (N), symbolic_state_index (1);
-                                       with M > 1 objects also objects_pos (3M), objects_quat (4M))
-            symbolic_states            (T,) int64, task-state code read from states[t] by the abstraction
-                                       (sponge check off, -1 = maps to no task state, e.g. mid-motion)
-            skill_index                (T,) int64, index in ``plan`` of the action executing at sample t
-            skill_action               (T,) int64, that action's index in ``action_names``
-            skill_bounds               (K, 2) int64, [first, end) samples of each plan entry
-                                       (first == end: refused or ineffective, no motion)
-            final_state                (D,) float64, the state after the last action
-    mask/train, mask/valid             byte strings: demo keys of the train / validation split
-
-Only recording needs robosuite and MuJoCo; [`read_demo`][tableclean_suite.demos.read_demo] and [`read_env_args`][tableclean_suite.demos.read_env_args] need h5py only.
+Only recording needs robosuite and MuJoCo; [`read_demo`][tableclean_suite.demos.read_demo] and
+[`read_env_args`][tableclean_suite.demos.read_env_args] need h5py only.
 """
 
 from __future__ import annotations
@@ -74,7 +41,7 @@ PER_SAMPLE_DATASETS = ("states", "actions", "rewards", "dones", "symbolic_states
 
 @dataclass
 class Demo:
-    """One recorded demonstration: the arrays and attributes of a ``demo_k`` group (shapes: the module's
+    """One recorded demonstration: the arrays and attributes of a ``demo_k`` group (shapes: the dataset
     layout; ``attrs``' JSON values decoded)."""
 
     states: np.ndarray
