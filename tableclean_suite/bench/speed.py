@@ -6,19 +6,10 @@
 
 Every figure is measured in this run; where there is a yardstick it is a ratio to it, measured
 alongside (ratios of neighbouring measurements drift much less with the load than seconds).
-
-``learners``
-    every registered learner's updates per second on the paper spec (the fastest of ``--repeat``
-    ``train()`` calls of ``--runs`` x ``--iterations`` after a warm-up) relative to Q-learning, and
-    the compiled Q-learning and SARSA against the step-at-a-time loop driven from Python
-    (``engine="reference"``, the loop the physics backend runs).
-``skills``
-    ``--episodes`` optimal episodes on robosuite's control path (``env.step``) and the compiled one,
-    alternating: control steps per second of each and of raw MuJoCo (``mj_step`` replayed from the
-    compiled path's states).
-``cold-start``
-    the run command in three fresh processes sharing a numba cache that starts empty: the first
-    (compiles), again on the same output folder (result caches), and on a new folder (``--fresh``'s work).
+``learners``: every learner's updates per second relative to Q-learning's, and the compiled learners
+against the step-at-a-time loop; ``skills``: control steps per second of robosuite's ``env.step``, the
+compiled control path and raw MuJoCo; ``cold-start``: the run command in fresh processes from an empty
+numba cache.  Each table's note says how it was measured.
 
 Exit code 0; 1 when a measurement failed (a process exited non-zero, an episode did not end
 terminal); 2 on bad flags.
@@ -87,10 +78,6 @@ def _millions(per_second: float) -> str:
     return f"{millions:#.3g}" if millions < 100 else f"{millions:.0f}"
 
 
-def _best_seconds(function, repeat: int) -> float:
-    return min(timeit.repeat(function, repeat=repeat, number=1))
-
-
 def learner_table(reward: str, runs: int, iterations: int, repeat: int) -> Table:
     """Every registered learner's updates per second on the paper spec and its time per update relative
     to Q-learning's; Dyna-Q's planning updates counted apart."""
@@ -99,7 +86,8 @@ def learner_table(reward: str, runs: int, iterations: int, repeat: int) -> Table
     seconds = {}
     for name in learner_names():
         train(name, reward, runs=2, iterations=10)  # warm-up: compile or load the kernel
-        seconds[name] = _best_seconds(lambda: train(name, reward, runs=runs, iterations=iterations), repeat)
+        seconds[name] = min(timeit.repeat(lambda: train(name, reward, runs=runs, iterations=iterations),
+                                          repeat=repeat, number=1))
     real = runs * iterations
     rows = [{"learner": name, "M updates/s": _millions(real / elapsed),
              "planning M updates/s": _millions(real * get_learner(name).planning_steps / elapsed),
@@ -118,8 +106,8 @@ def plain_loop_table(runs: int, iterations: int, repeat: int) -> Table:
     rows = []
     for learner in PLAIN_LOOP_LEARNERS:
         train(learner, "r2", runs=2, iterations=10)
-        compiled, plain = (n * iterations / _best_seconds(
-            lambda: train(learner, "r2", runs=n, iterations=iterations, engine=engine), repeat)
+        compiled, plain = (n * iterations / min(timeit.repeat(
+            lambda: train(learner, "r2", runs=n, iterations=iterations, engine=engine), repeat=repeat, number=1))
             for engine, n in (("compiled", runs), ("reference", plain_runs)))
         rows.append({"learner": learner, "compiled M updates/s": _millions(compiled),
                      "step-at-a-time M updates/s": _millions(plain),
