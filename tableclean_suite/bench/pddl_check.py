@@ -93,7 +93,7 @@ def solve(model: TaskModel, planner: str, states) -> pd.DataFrame:
             problem = base.clone()
             for fact in base.explicit_initial_values:
                 problem.set_initial_value(fact, False)
-            for name, *args in pddl.init_facts(spec, state):
+            for name, *args in pddl.init_facts(state):
                 problem.set_initial_value(problem.fluent(name)(*map(problem.object, args)), True)
             started = time.perf_counter()
             result = engine.solve(problem)

@@ -98,7 +98,7 @@ def domain_pddl(spec, form: str = "strips") -> str:
             f"  (:predicates {PREDICATES[form]})\n  {actions})\n")
 
 
-def init_facts(spec, state: TaskState, form: str = "strips") -> list[tuple[str, ...]]:
+def init_facts(state: TaskState, form: str = "strips") -> list[tuple[str, ...]]:
     """The true facts of ``state`` in ``form``, e.g. ``("on", "o1", "s2")`` (segments ``s1..sN``, objects
     ``o1..oM``)."""
     n = len(state.clean)
@@ -120,7 +120,7 @@ def problem_pddl(spec, state: TaskState | None = None, form: str = "strips", nam
     objects = " ".join(segments) + f" - {SEGMENT}"
     if _form(form) == "adl":
         objects += "".join(f" o{j + 1} - {kind}" for j, kind in enumerate(spec.objects))
-    facts = " ".join(f"({' '.join(fact)})" for fact in init_facts(spec, state, form))
+    facts = " ".join(f"({' '.join(fact)})" for fact in init_facts(state, form))
     return (f"(define (problem {name or spec.name.replace('_', '-')})\n  (:domain {domain_name(spec, form)})\n"
             f"  (:objects {objects})\n  (:init {facts})\n"
             f"  (:goal (and {' '.join(f'(wiped {s})' for s in segments)})))\n")
