@@ -2,26 +2,8 @@
 
 ``robosuite.make("TableClean", ..., randomization=...)`` (and ``make_skill_env(randomization=...)``)
 takes a [`DynamicsRandomization`][tableclean_suite.environments.randomization.DynamicsRandomization]: the ranges, one named field each, from which every reset
-draws a [`DynamicsSample`][tableclean_suite.environments.randomization.DynamicsSample]:
-
-=============================  ======  ===============  ================  ==========================================
-field                          unit    ``OFF`` (paper)  ``DEFAULT_ON``    applied to
-=============================  ======  ===============  ================  ==========================================
-``object_mass_scale``          factor  (1, 1)           (0.7, 1.5)        each object's mass and inertia
-``sponge_mass_scale``          factor  (1, 1)           (0.7, 1.5)        the sponge's mass and inertia
-``object_size_scale``          factor  (1, 1)           (0.9, 1.1)        each object's half extents (box, cube,
-                                                                          cylinder: ``object_half_size``)
-``sponge_size_scale``          factor  (1, 1)           (0.9, 1.1)        the sponge's half extents
-``friction_scale``             factor  (1, 1)           (0.7, 1.3)        sliding friction of the table top, each
-                                                                          object and the sponge (drawn apart)
-``joint_damping_scale``        factor  (1, 1)           (0.5, 2.0)        each arm joint's damping (drawn apart)
-``osc_kp_scale``               factor  (1, 1)           (0.8, 1.2)        the OSC stiffness kp (all six axes)
-``osc_damping_ratio_scale``    factor  (1, 1)           (0.8, 1.2)        the OSC damping ratio (kd = 2 sqrt(kp) r)
-``object_yaw_noise``           rad     0                0.3               objects' start yaw, uniform in +-this
-``sponge_home_noise``          m       0                0.01              sponge start xy on its stand, +-this
-``sponge_yaw_noise``           rad     0                0.15              sponge start yaw, uniform in +-this
-=============================  ======  ===============  ================  ==========================================
-
+draws a [`DynamicsSample`][tableclean_suite.environments.randomization.DynamicsSample] (the fields, their units,
+`DEFAULT_ON`'s ranges and what each is applied to: the table of the physics-and-fidelity docs page).
 Scales multiply the value the scene builds (sizes apply to the types built from ``object_half_size``).
 Every range is ``(low, high)`` with ``low <= high`` inside `ALLOWED_SCALE` (sizes: `ALLOWED_SIZE_SCALE`,
 friction up to `MAX_CHECKED_FRICTION_SCALE`); noises are half-widths >= 0 up to `MAX_YAW_NOISE` /
@@ -109,20 +91,20 @@ class DynamicsSample:
 
 @dataclass(frozen=True)
 class DynamicsRandomization:
-    """Ranges of the randomised dynamics (the module docstring's table): ``(low, high)`` tuples, noises
-    half-widths.  ``DynamicsRandomization()`` is `OFF`; `DEFAULT_ON` the documented ranges."""
+    """Ranges of the randomised dynamics: ``(low, high)`` tuples, noises half-widths.
+    ``DynamicsRandomization()`` is `OFF`; `DEFAULT_ON` the documented ranges."""
 
-    object_mass_scale: Range = (1.0, 1.0)
-    sponge_mass_scale: Range = (1.0, 1.0)
-    object_size_scale: Range = (1.0, 1.0)
-    sponge_size_scale: Range = (1.0, 1.0)
-    friction_scale: Range = (1.0, 1.0)
-    joint_damping_scale: Range = (1.0, 1.0)
-    osc_kp_scale: Range = (1.0, 1.0)
-    osc_damping_ratio_scale: Range = (1.0, 1.0)
-    object_yaw_noise: float = 0.0
-    sponge_home_noise: float = 0.0
-    sponge_yaw_noise: float = 0.0
+    object_mass_scale: Range = (1.0, 1.0)  #: factor on each object's mass and inertia
+    sponge_mass_scale: Range = (1.0, 1.0)  #: factor on the sponge's mass and inertia
+    object_size_scale: Range = (1.0, 1.0)  #: factor on each object's half extents (types built from the config)
+    sponge_size_scale: Range = (1.0, 1.0)  #: factor on the sponge's half extents
+    friction_scale: Range = (1.0, 1.0)  #: factor on the table's, each object's and the sponge's sliding friction
+    joint_damping_scale: Range = (1.0, 1.0)  #: factor on each arm joint's damping (drawn apart)
+    osc_kp_scale: Range = (1.0, 1.0)  #: factor on the OSC stiffness kp (all six axes)
+    osc_damping_ratio_scale: Range = (1.0, 1.0)  #: factor on the OSC damping ratio (kd = 2 sqrt(kp) ratio)
+    object_yaw_noise: float = 0.0  #: rad, objects' start yaw uniform in +-this
+    sponge_home_noise: float = 0.0  #: m, sponge start xy on its stand, +-this
+    sponge_yaw_noise: float = 0.0  #: rad, sponge start yaw, +-this
 
     def __post_init__(self):
         for name, (lowest, highest) in RANGE_FIELDS.items():
@@ -176,7 +158,7 @@ class DynamicsRandomization:
 
 #: No randomisation: the paper's scene (the default everywhere).
 OFF = DynamicsRandomization()
-#: The documented default ranges (the module docstring's table).
+#: The documented default ranges.
 DEFAULT_ON = DynamicsRandomization(
     object_mass_scale=(0.7, 1.5), sponge_mass_scale=(0.7, 1.5), object_size_scale=(0.9, 1.1),
     sponge_size_scale=(0.9, 1.1), friction_scale=(0.7, 1.3), joint_damping_scale=(0.5, 2.0),
