@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from tableclean_suite.atomic_files import atomic_write_text
+from tableclean_suite.learners.kernel import sample_index
 from tableclean_suite.task import NO_CHANGE_OUTCOMES_NAMES, Outcome, TaskModel, TaskSpec, as_task_model, unique_keys
 
 FORMAT_NAME = "tableclean_suite.transition_table"
@@ -145,10 +146,9 @@ class TransitionTable:
                 zip(self.next_state[state, action], self.outcome[state, action], probabilities) if p > 0]
 
     def sample(self, state: int, action: int, draw: float) -> tuple[int, int]:
-        """The successor picked by a uniform ``draw`` in [0, 1): ``(next_state, outcome)``."""
-        k = 0
-        while k < self.max_successors - 1 and draw >= self.cumulative[state, action, k]:
-            k += 1
+        """The successor picked by a uniform ``draw`` in [0, 1): ``(next_state, outcome)`` (as the compiled loop
+        picks it, [`sample_index`][tableclean_suite.learners.kernel.sample_index])."""
+        k = sample_index(self.cumulative[state, action], draw)
         return int(self.next_state[state, action, k]), int(self.outcome[state, action, k])
 
     # -- JSON ----------------------------------------------------------------------
