@@ -15,6 +15,7 @@ from dataclasses import asdict, dataclass, fields
 from typing import ClassVar
 
 from tableclean_suite.analysis import ANALYSIS_KINDS
+from tableclean_suite.backends import backend_names  # noqa: F401 (run's --backend choices)
 from tableclean_suite.bench.statistics import DEFAULT_CONFIDENCE, DEFAULT_SAMPLES
 from tableclean_suite.metrics import DEFAULT_PLATEAU_FRACTION, DEFAULT_THRESHOLD
 from tableclean_suite.settling import DEFAULT_SETTLE_TOLERANCE
@@ -293,8 +294,7 @@ class RunConfig:
             raise ConfigError("task", str(error)) from None
 
     def task_model(self):
-        """The `TaskModel` of ``task``, ``start`` and ``ineffective``
-        (None keeps the spec's)."""
+        """The `TaskModel` of ``task``, ``start`` and ``ineffective`` (None keeps the spec's)."""
         from tableclean_suite.task import TaskModel
 
         return TaskModel(spec=self.task_spec(), start=self.start, ineffective=self.ineffective)
@@ -339,13 +339,6 @@ def parse_learner_options(text: str | None) -> dict:
         except json.JSONDecodeError:
             options[key.strip()] = value.strip()
     return options
-
-
-def backend_names() -> list[str]:
-    """The training backends ``train()`` accepts (built-in and registered)."""
-    from tableclean_suite.learners import available_backends
-
-    return list(available_backends())
 
 
 def _number(name: str, value) -> float:
