@@ -41,39 +41,29 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
 
 
-def positive_int(text: str) -> int:
-    """An integer >= 1."""
-    return _checked(text, int, lambda v: v >= 1, "a positive integer")
-
-
-def non_negative_int(text: str) -> int:
-    """An integer >= 0."""
-    return _checked(text, int, lambda v: v >= 0, "an integer >= 0")
-
-
-def _checked(text: str, kind, allowed, what: str):
-    try:
-        value = kind(text)
-    except ValueError:
-        value = math.nan
-    if value != value or not allowed(value):
-        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
-    return value
-
-
 def number_type(kind, allowed, what: str):
     """A type: a ``kind`` (``int`` or ``float``) for which ``allowed(value)`` holds, else an error naming ``what``."""
-    return lambda text: _checked(text, kind, allowed, what)
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            value = math.nan
+        if value != value or not allowed(value):
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
+        return value
+    parse.__doc__ = f"{what[0].upper()}{what[1:]}."
+    return parse
+
+
+#: Types of the shared counts and sizes.
+positive_int = number_type(int, lambda v: v >= 1, "a positive integer")
+non_negative_int = number_type(int, lambda v: v >= 0, "an integer >= 0")
+positive_float = number_type(float, lambda v: 0 < v < math.inf, "a positive number")
 
 
 def int_in(low: int, high: int, what: str = "an integer"):
     """A type: an integer in ``[low, high]``."""
     return number_type(int, lambda v: low <= v <= high, f"{what} in [{low}, {high}]")
-
-
-def positive_float(text: str) -> float:
-    """A finite number > 0."""
-    return _checked(text, float, lambda v: 0 < v < math.inf, "a positive number")
 
 
 def _names(text) -> tuple[str, ...]:
@@ -223,9 +213,8 @@ def parse_robots(parser: argparse.ArgumentParser, args) -> tuple[str, ...]:
     """The checked ``--robots`` names; exits 2 naming the supported robots when one has no skill config."""
     from tableclean_suite.controllers.robot_configs import check_robot
 
-    names = name_list(args.robots) if isinstance(args.robots, str) else args.robots
     try:
-        return tuple(check_robot(name) for name in names)
+        return tuple(check_robot(name) for name in args.robots)
     except ValueError as error:
         parser.error(f"--robots: {error}")
 
@@ -244,18 +233,14 @@ def add_executor_arguments(parser, tasks: str, helps: dict | None = None, suppre
     ``helps`` replaces help texts by dest; ``suppress`` leaves an option not given out of the namespace."""
     from tableclean_suite.executors import EXECUTOR_NAMES
 
-    helps = helps or {}
-
-    def default(value):
-        return argparse.SUPPRESS if suppress else value
-
-    parser.add_argument("--workers", type=positive_int, default=default(1),
+    helps, hidden = helps or {}, argparse.SUPPRESS if suppress else None
+    parser.add_argument("--workers", type=positive_int, default=hidden or 1,
                         help=helps.get("workers", f"{tasks} run in parallel: processes of this machine, or most Ray "
                                                   "tasks in flight (default 1: this process)"))
-    parser.add_argument("--executor", choices=EXECUTOR_NAMES, default=default("local"),
+    parser.add_argument("--executor", choices=EXECUTOR_NAMES, default=hidden or "local",
                         help=helps.get("executor", f"where {tasks} run: local processes, or Ray (the cluster extra) "
                                                    "(default local)"))
-    parser.add_argument("--ray-address", default=default(None), metavar="HOST:PORT|auto",
+    parser.add_argument("--ray-address", default=hidden, metavar="HOST:PORT|auto",
                         help=helps.get("ray_address", "Ray cluster to join (default: a private Ray on 127.0.0.1); "
                                                       "only with --executor ray"))
 
