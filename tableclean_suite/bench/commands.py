@@ -36,12 +36,6 @@ class Command:
     summary: str
     physics: bool = False
 
-    def load(self):
-        """The command's module."""
-        if self.physics:
-            os.environ.setdefault("MUJOCO_GL", "egl")
-        return importlib.import_module(self.module)
-
 
 #: Every command, in the order ``--help`` lists them.
 COMMANDS: dict[str, Command] = {
@@ -85,8 +79,10 @@ def _module(name: str):
     """The module of command ``name``;
     [`CommandUnavailable`][tableclean_suite.bench.commands.CommandUnavailable] when it is not installed."""
     command = COMMANDS[name]
+    if command.physics:
+        os.environ.setdefault("MUJOCO_GL", "egl")
     try:
-        return command.load()
+        return importlib.import_module(command.module)
     except ModuleNotFoundError as error:
         if error.name != command.module:
             raise
@@ -217,6 +213,3 @@ def _refusals() -> tuple:
 
     return ResourceError, OutputError, ClusterUnreachableError
 
-
-if __name__ == "__main__":
-    sys.exit(main())

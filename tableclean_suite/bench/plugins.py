@@ -44,13 +44,9 @@ def load_plugin(entry: str):
         raise
     except BaseException as error:  # a plugin may fail (or exit) in any way; say which and why
         sys.modules.pop(name, None)
-        raise PluginError(_failure(entry, error)) from None
-
-
-def _failure(entry: str, error: BaseException) -> str:
-    if isinstance(error, SystemExit):
-        return f"plugin {entry!r} called sys.exit({error.code!r}) while being imported"
-    return f"plugin {entry!r} failed to import: {type(error).__name__}: {error}"
+        how = (f"called sys.exit({error.code!r}) while being imported" if isinstance(error, SystemExit)
+               else f"failed to import: {type(error).__name__}: {error}")
+        raise PluginError(f"plugin {entry!r} {how}") from None
 
 
 def load_plugins(entries) -> list:
