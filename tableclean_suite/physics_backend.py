@@ -155,7 +155,7 @@ class PhysicsStepEnv:
             raise ValueError(f"unknown fault_policy {fault_policy!r}; allowed: {', '.join(FAULT_POLICIES)}")
         check_count("max_retries", max_retries, 0)
         self.model = model if model is not None else TaskModel()
-        check_physical_task(self.model)
+        check_physical_task(self.model, (env_kwargs or {}).get("task_config"))
         self.env = env if env is not None else make_skill_env(**staging_env_kwargs(self.model, env_kwargs))
         self.controller = SkillController(self.env, self.model, skill_configs=skill_configs)
         self.fault_policy = fault_policy

@@ -51,9 +51,8 @@ class TableCleanSkillsEnv(TableCleanBase):
         super().__init__(reward=reward, model=model, render_mode=render_mode, task=task, start=start)
         if env_kwargs is not None and not isinstance(env_kwargs, dict):
             raise TypeError(f"env_kwargs must be a dict of robosuite.make arguments, got {type(env_kwargs).__name__}")
-        from tableclean_suite.controllers import SkillController, make_skill_env
         from tableclean_suite.environments.robot_registry import robot_name
-        from tableclean_suite.physics_backend import check_physical_task, staging_env_kwargs
+        from tableclean_suite.physics_backend import PhysicsStepEnv
 
         env_kwargs = dict(env_kwargs or {})
         if robots is not None:
@@ -61,16 +60,15 @@ class TableCleanSkillsEnv(TableCleanBase):
             if given is not None and robot_name(given) != robot_name(robots):
                 raise ValueError(f"robots={robots!r} and env_kwargs['robots']={given!r} disagree; give one")
             env_kwargs["robots"] = robots  # checked by make_skill_env, before it builds
-        check_physical_task(self.model, env_kwargs.get("task_config"))
         if len(frame_size) != 2 or any(int(n) != n or n < 16 for n in frame_size):
             raise ValueError(f"frame_size must be (height, width) with both >= 16, got {frame_size!r}")
-        kwargs = staging_env_kwargs(self.model, env_kwargs)  # every reset stages the start itself
         if render_mode == "rgb_array":
-            kwargs.setdefault("has_offscreen_renderer", True)
+            env_kwargs.setdefault("has_offscreen_renderer", True)
         self.camera = camera
         self.frame_size = (int(frame_size[0]), int(frame_size[1]))
-        self.sim_env = make_skill_env(**kwargs)
-        self.controller = SkillController(self.sim_env, self.model, skill_configs=skill_configs)
+        # the scene and controller PhysicsStepEnv builds (checked by check_physical_task; every reset stages the start)
+        scene = PhysicsStepEnv(self.model, env_kwargs, skill_configs)
+        self.sim_env, self.controller = scene.env, scene.controller
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         from tableclean_suite.physics_backend import stage
