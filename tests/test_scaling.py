@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from tableclean_suite.analysis import action_probabilities, exact_success_probability
-from tableclean_suite.bench import scaling
+from tableclean_suite.bench import cli, scaling
 from tableclean_suite.bench.scaling import command, family, report, statistics, study
 from tableclean_suite.task import Outcome, TaskModel
 
@@ -54,11 +54,8 @@ def test_default_family_spans_three_object_counts_and_30000_reachable_states():
     assert len(specs) == len(ISSUE_SEGMENTS) * len(ISSUE_OBJECTS)
     reachable = {s.name: len(TaskModel(spec=s).reachable_states()) for s in specs}
     assert min(reachable.values()) == PAPER_REACHABLE
-    largest = family.largest_default_spec()
-    assert (largest.segments, largest.n_objects) == (max(ISSUE_SEGMENTS), max(ISSUE_OBJECTS))
+    largest = family.family_spec(max(ISSUE_SEGMENTS), max(ISSUE_OBJECTS))
     assert reachable[largest.name] == max(reachable.values()) >= ISSUE_MIN_LARGEST_REACHABLE
-    # the name other modules use for the largest spec (bench.spec_speed) still builds it
-    assert family.family_spec(max(family.DEFAULT_SEGMENTS), max(family.DEFAULT_OBJECT_COUNTS)) == largest
 
 
 def test_describe_family_orders_specs_by_reachable_states():
@@ -337,7 +334,7 @@ def test_cli_tiny_budget_writes_consistent_files(tmp_path, capsys):
 def test_cli_bad_flag_exits_2_with_one_line(flag, tmp_path, capsys):
     with pytest.raises(SystemExit) as stop:
         scaling.main(flag + ["--out", str(tmp_path)])
-    assert stop.value.code == scaling.EXIT_USAGE
+    assert stop.value.code == cli.EXIT_USAGE
     error = capsys.readouterr().err.strip()
     assert len(error.splitlines()) == 1 and "error" in error
     if flag[0] in ("--rewards", "--learners"):

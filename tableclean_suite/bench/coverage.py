@@ -21,7 +21,7 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-from tableclean_suite.bench.tables import PRINT_WIDTH
+from tableclean_suite.bench.tables import HIGH, LOW, PRINT_WIDTH
 from tableclean_suite.intervals import DEFAULT_CONFIDENCE
 
 #: Replications per cell by default (18 of 20 has a 95 % Clopper-Pearson interval of [68, 99] %).
@@ -32,7 +32,6 @@ REFERENCE_SAMPLES = 2
 RESULT_FILE = "coverage.csv"
 PROG = "tableclean-bench coverage"
 DEFAULT_OUT = "results/coverage"
-LOW, HIGH = "_low", "_high"
 #: Columns of ``coverage.csv``.
 COLUMNS = ("table", "row", "statistic", "target", "nominal", "runs", "reference_runs", "replications", "covered",
            "undefined", "coverage", "coverage_low", "coverage_high", "coverage_confidence", "mean_width")
@@ -49,12 +48,6 @@ def replication_seed(seed: int, replication: int) -> int:
     return int(seed) + 1 + int(replication)
 
 
-def interval_columns(table) -> list[str]:
-    """The columns ``X`` of ``table`` with ``X_low`` and ``X_high`` beside them, in order."""
-    columns = set(table.columns)
-    return [name for name in table.columns if name + LOW in columns and name + HIGH in columns]
-
-
 def published_tables(config, model, store) -> dict:
     """The tables with intervals the run command publishes for ``config``'s main cells, trained or loaded
     through ``store``: ``"table3"`` by ``cell_id`` and (two or more cells) ``"comparisons"`` by
@@ -69,14 +62,10 @@ def published_tables(config, model, store) -> dict:
         [{"learner": m.cell.learner, "reward": m.cell.reward, "runs": grid_run.statistics[m.cell].runs} for m in grid],
         config.confidence, config.bootstrap_samples, config.seed)
     if len(compared):
-        published["comparisons"] = compared.set_axis(comparison_labels(compared), axis="index")
+        published["comparisons"] = compared.set_axis([f"{row.learner_x}-{row.reward_x} vs {row.learner_y}-"
+                                                      f"{row.reward_y}: {row.score}" for row in compared.itertuples()],
+                                                     axis="index")
     return published
-
-
-def comparison_labels(comparisons) -> list[str]:
-    """Row labels of a comparisons frame: ``"q_learning-r1 vs q_learning-r2: learning_time"``."""
-    return [f"{row.learner_x}-{row.reward_x} vs {row.learner_y}-{row.reward_y}: {row.score}"
-            for row in comparisons.itertuples()]
 
 
 def _float(value) -> float:
@@ -99,7 +88,7 @@ def coverage_frame(reference: dict, replications: list[dict], runs: int, referen
 
     rows = []
     for table, frame in reference.items():
-        statistics = interval_columns(frame)
+        statistics = [name for name in frame.columns if {name + LOW, name + HIGH} <= set(frame.columns)]
         for label, values in frame.iterrows():
             for name in statistics:
                 target = _float(values[name])

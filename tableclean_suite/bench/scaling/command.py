@@ -15,7 +15,6 @@ from tableclean_suite.intervals import DEFAULT_REPS
 
 #: The program name in messages unless the caller gives one.
 PROG = "tableclean-bench scaling"
-EXIT_USAGE = cli.EXIT_USAGE
 DEFAULT_OUT = Path("results") / "scaling"
 
 DEFAULT_LEARNERS = ("q_learning", "sarsa")

@@ -101,11 +101,6 @@ def fixed_plan_spec(objects: int):
                     description=f"scaling study, fixed plan: {objects - 1} object(s) parked on the clean segment")
 
 
-def largest_default_spec():
-    """The default family's largest spec (most reachable states): N = 5 segments, M = 3 objects."""
-    return family_spec(max(DEFAULT_SEGMENTS), max(DEFAULT_OBJECT_COUNTS))
-
-
 def plan_window(plan_length: int, paper_plan_length: int, base_window: int, exponent: float) -> tuple[int, int]:
     """``(window, max_itr)`` in iterations for a spec whose optimal plan has ``plan_length`` steps.
 
