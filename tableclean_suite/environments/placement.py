@@ -22,12 +22,9 @@ turned by their yaw.  Nothing here knows an object type.
   clearance and stays inside the segment, the one farthest from the other segments
   (``away_from``; ties: nearest the centre); if none fits, the spot farthest from the objects (of the
   lattice and the spots at the segment's extremes).
-  Away from the other segments, because the hand wiping a neighbouring segment reaches ~10 cm
-  beyond the sponge along its long axis: an object standing near the shared edge would shrink
-  that segment's wipe area ([`tableclean_suite.controllers.wipe_pattern`][tableclean_suite.controllers.wipe_pattern]) until its edge row
-  of dirt stays.
-- The reset's grid lays its spots along x first, across the wiping hand's long axis at the
-  skills' nominal yaw (world y), for the same reason.
+
+Both keep objects out of the wiping hand's way on the neighbouring segments: the free spot away from them, the
+reset's grid laid along x first (why: the objects-and-skills docs page).
 """
 
 from __future__ import annotations
@@ -85,12 +82,6 @@ def turned(outline, yaw: float) -> np.ndarray:
     """(K, 2) ``outline`` (K, 2) turned by ``yaw`` [rad] about the origin."""
     c, s = math.cos(yaw), math.sin(yaw)
     return np.asarray(outline, dtype=float) @ np.array([[c, s], [-s, c]])
-
-
-def world_outline(points, rot) -> np.ndarray:
-    """(K, 2) outline [m], about the object's origin in world axes, of an object whose collision ``points``
-    (N, 3, own frame) are turned by rotation matrix ``rot`` (3, 3): its footprint at any pose, tilted too."""
-    return outline_of(np.asarray(points, dtype=float) @ np.asarray(rot, dtype=float).T)
 
 
 def _max_cos(start: np.ndarray, end: np.ndarray) -> np.ndarray:
@@ -313,10 +304,11 @@ def nearest_point(xy, footprint, point) -> np.ndarray:
 def footprint_of(info, obj: int):
     """Object ``obj``'s footprint as it stands now, from the env's ``skill_info`` ``info``: its radius [m] (a disc,
     any yaw) when its type overrides ``footprint_radius``, else its outline (K, 2) in world axes about its
-    origin ([`world_outline`][tableclean_suite.environments.placement.world_outline] of its collision geometry at its current rotation)."""
+    origin (the [`outline_of`][tableclean_suite.environments.placement.outline_of] of its collision geometry turned
+    as it stands, tilted too)."""
     if info["object_types"][obj].footprint_radius is not None:
         return float(info["objects_footprint"][obj])
-    return world_outline(info["objects_geometry"][obj].hull, quat_matrix(info["objects_quat"][obj]))
+    return outline_of(info["objects_geometry"][obj].hull @ quat_matrix(info["objects_quat"][obj]).T)
 
 
 def free_spot(center, half_size, footprint, others: Sequence[tuple[np.ndarray, object]], clearance: float,
@@ -324,8 +316,9 @@ def free_spot(center, half_size, footprint, others: Sequence[tuple[np.ndarray, o
               under_hand: Sequence[tuple[np.ndarray, object]] = ()) -> np.ndarray:
     """(2,) world xy for the origin of an object of ``footprint`` on a segment (see the module docstring).
 
-    A footprint is a radius [m] (a disc: the object at any yaw) or an outline (K, 2) [m] in world
-    axes about the object's origin, turned as the object stands ([`world_outline`][tableclean_suite.environments.placement.world_outline]).
+    A footprint is a radius [m] (a disc: the object at any yaw) or an outline (K, 2) [m] in world axes about
+    the object's origin, turned as the object stands
+    ([`footprint_of`][tableclean_suite.environments.placement.footprint_of]).
 
     Args:
         center: segment centre (first two entries used).

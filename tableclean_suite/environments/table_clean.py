@@ -338,10 +338,6 @@ class TableClean(ManipulationEnv):
                         named("objects_quat", lambda: np.concatenate([xquat(j)() for j in self.object_body_ids]))]
 
         @sensor(modality=modality)
-        def symbolic_state_index(obs_cache):
-            return self._symbolic_index()
-
-        @sensor(modality=modality)
         def symbolic_state_onehot(obs_cache):
             cached = obs_cache.get("symbolic_state_index")
             index = self._symbolic_index() if cached is None else int(cached)
@@ -356,7 +352,7 @@ class TableClean(ManipulationEnv):
             self._get_obj_eef_sensor(full_pf, "object_pos", f"{arm_pf}gripper_to_object_pos", modality)
             for arm_pf, full_pf in zip(arm_prefixes, full_prefixes)
         ]
-        sensors += [symbolic_state_index, symbolic_state_onehot]
+        sensors += [named("symbolic_state_index", self._symbolic_index), symbolic_state_onehot]
         for s in sensors:
             observables[s.__name__] = Observable(name=s.__name__, sensor=s, sampling_rate=self.control_freq)
         return observables
