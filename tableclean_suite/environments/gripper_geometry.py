@@ -10,9 +10,8 @@ Read from the compiled scene (a copy of its kinematics), never from per-gripper 
 - ``wrist_heights`` / ``wrist_half_widths`` [m]: the hand *and the arm's last link* (every body
   rigidly fixed to the grip site: no joint between them, e.g. the Panda's hand, flange and link 7),
   as a profile: how far across the fingers' closing axis their collision points reach at or below
-  each height above the grip site ([`wrist_half_width`][tableclean_suite.environments.gripper_geometry.wrist_half_width]).  Only a neighbour taller than the hand
-  meets the link above it (measured: the Panda's link 7, 9.7 cm above the grip site, reaches 4.4 cm
-  across, the hand 3.2 cm), so the hand's own measures above stay the hand's.
+  each height above the grip site ([`wrist_half_width`][tableclean_suite.environments.gripper_geometry.wrist_half_width]): only a neighbour taller than the hand
+  meets a wider link above it (the Panda's link 7), so the hand's own measures above stay the hand's.
 """
 
 from __future__ import annotations
@@ -106,38 +105,27 @@ def measure_gripper(model: mujoco.MjModel, qpos: np.ndarray, gripper, grip_site:
     mujoco.mj_kinematics(model, data)
     site = model.site(grip_site).id
     fingers = {model.geom(n).id for key in ("left_finger", "right_finger") for n in gripper.important_geoms[key]}
-    hand = [g for g in range(model.ngeom) if model.geom(g).name.startswith(gripper.naming_prefix)
-            and g not in fingers and (model.geom_contype[g] or model.geom_conaffinity[g])]
+    rigid = set(rigid_bodies(model, int(model.site_bodyid[site])))  # the hand and the links fixed to it
+    colliding = [g for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g]]
+    hand = [g for g in colliding if model.geom(g).name.startswith(gripper.naming_prefix) and g not in fingers]
+    wrist = [g for g in colliding if int(model.geom_bodyid[g]) in rigid]
     # heights above the grip site along its approach axis (its z axis, which points down when the skills grasp)
     approach = data.site_xmat[site].reshape(3, 3)[:, 2]
     across = data.site_xmat[site].reshape(3, 3)[:, 1]
-
-    def relative_points(geom: int) -> np.ndarray:
-        """(K, 3) collision points [m] of ``geom`` relative to the grip site, in world axes."""
+    relative = {}  # geom -> (K, 3) collision points [m] relative to the grip site, in world axes
+    for geom in {*hand, *wrist}:
         body = int(model.geom_bodyid[geom])
         local = collision_points(model, data, body, [geom])  # in the geom's body frame
-        return data.xpos[body] + local @ data.xmat[body].reshape(3, 3).T - data.site_xpos[site]
-
-    heights, reaches, widths = [], [], []
-    for geom in hand:
-        relative = relative_points(geom)
-        heights.append(float(np.min(-relative @ approach)))
-        sideways = relative - np.outer(relative @ approach, approach)
-        reaches.append(float(np.max(np.linalg.norm(sideways, axis=1))))
-        widths.append(float(np.max(np.abs(relative @ across))))
-    palm = min(heights)
-    # the hand and the links rigidly fixed to it (the wrist), every collision geom, in the grip site's frame
-    rigid = set(rigid_bodies(model, int(model.site_bodyid[site])))
-    wrist = [g for g in range(model.ngeom) if int(model.geom_bodyid[g]) in rigid
-             and (model.geom_contype[g] or model.geom_conaffinity[g])]
-    levels, across_all = [], []
-    for geom in wrist:
-        relative = relative_points(geom)
-        levels.append(-relative @ approach)
-        across_all.append(np.abs(relative @ across))
+        relative[geom] = data.xpos[body] + local @ data.xmat[body].reshape(3, 3).T - data.site_xpos[site]
+    palm = min(float(np.min(-relative[g] @ approach)) for g in hand)
+    reach = max(float(np.max(np.linalg.norm(relative[g] - np.outer(relative[g] @ approach, approach), axis=1)))
+                for g in hand)
+    half_width = max(float(np.max(np.abs(relative[g] @ across))) for g in hand)
+    levels = [-relative[g] @ approach for g in wrist]
+    across_all = [np.abs(relative[g] @ across) for g in wrist]
     order = np.argsort(np.concatenate(levels), kind="stable") if levels else np.zeros(0, dtype=int)
     wrist_heights = np.concatenate(levels)[order] if levels else np.zeros(0)
     wrist_widths = np.maximum.accumulate(np.concatenate(across_all)[order]) if levels else np.zeros(0)
-    return GripperGeometry(open_width=widest, palm_height=palm, hand_reach=max(reaches), hand_half_width=max(widths),
+    return GripperGeometry(open_width=widest, palm_height=palm, hand_reach=reach, hand_half_width=half_width,
                            wrist_heights=tuple(float(h) for h in wrist_heights),
                            wrist_half_widths=tuple(float(w) for w in wrist_widths))
