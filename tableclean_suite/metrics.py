@@ -119,11 +119,16 @@ ITERATION_SCALARS = tuple(f.name for f in fields(Summary) if f.metadata["role"] 
 CURVE_NAMES = tuple(f.name for f in fields(Summary) if f.metadata["role"] == _CURVE)
 
 
+def plateau_start(window: int, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION) -> int:
+    """0-based first iteration of the last ``plateau_fraction`` of a window of ``window`` iterations (at least one)."""
+    return window - max(1, math.ceil(window * plateau_fraction))
+
+
 def plateau(curve, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION) -> float:
     """Mean of the last ``plateau_fraction`` (in (0, 1]) of ``curve``, NaNs ignored (NaN if all are)."""
     check_fraction("plateau_fraction", plateau_fraction)
     curve = np.asarray(curve, dtype=float)
-    tail = curve[-max(1, math.ceil(len(curve) * plateau_fraction)):]
+    tail = curve[plateau_start(len(curve), plateau_fraction):]
     return float(np.nanmean(tail)) if np.any(~np.isnan(tail)) else float("nan")
 
 
@@ -166,7 +171,7 @@ def early_minimum(curve, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION, top
     """
     curve = np.asarray(curve, dtype=float)
     if top is None:
-        early = curve[: max(1, len(curve) - max(1, math.ceil(len(curve) * plateau_fraction)))]
+        early = curve[: max(1, plateau_start(len(curve), plateau_fraction))]
         return None if np.all(np.isnan(early)) else int(np.nanargmin(early))
     defined = np.nonzero(~np.isnan(curve))[0]
     if not len(defined):

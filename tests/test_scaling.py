@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tableclean_suite import metrics
 from tableclean_suite.analysis import action_probabilities, exact_success_probability
 from tableclean_suite.bench import cli, scaling
 from tableclean_suite.bench.scaling import command, family, report, statistics, study
@@ -254,7 +255,7 @@ def test_train_cell_keeps_every_seeds_learning_times_and_window_sums():
         result = train(reward="r4", runs=5, iterations=info.window, max_itr=info.max_itr, seed=seed, task=model)
         np.testing.assert_array_equal(records.learned_at[row], result.learned_at)
         success = curve_oracle.success_matrix(result)
-        tail = study.plateau_start(info.window)
+        tail = metrics.plateau_start(info.window)
         np.testing.assert_allclose(records.tail_success[row], success[:, tail:].mean(axis=1))
         reached = (result.outcomes == int(Outcome.TERMINAL)).any(axis=1)
         np.testing.assert_array_equal(records.never_terminal[row], (~reached).astype(float))

@@ -14,7 +14,7 @@ import numpy as np
 from tableclean_suite.bench.scaling.family import ALPHA, EPSILON, SpecInfo
 from tableclean_suite.bench.scaling.statistics import (learning_times, lower_median, percentile_bounds,
                                                        pooled_resamples, seeds_then_runs)
-from tableclean_suite.metrics import DEFAULT_PLATEAU_FRACTION
+from tableclean_suite.metrics import plateau_start
 from tableclean_suite.resources import RECORD_CODE_ARRAYS, WORD_BYTES
 
 #: Records of one training chunk stay below this many bytes (runs per chunk follow from it).
@@ -37,11 +37,6 @@ def window_sums(outcomes, episode_end, tail_start: int) -> tuple[np.ndarray, np.
     held = np.where(np.r_[same_run, False], np.r_[last[1:], 0], window) - np.maximum(last, tail_start)
     tail = np.bincount(run, weights=success * np.maximum(held, 0), minlength=runs).astype(np.int64)
     return tail, (~(outcomes == int(Outcome.TERMINAL)).any(axis=1)).astype(np.float64)
-
-
-def plateau_start(window: int, plateau_fraction: float = DEFAULT_PLATEAU_FRACTION) -> int:
-    """0-based first iteration of the window's last ``plateau_fraction`` (metrics' window mean)."""
-    return window - max(1, math.ceil(window * plateau_fraction))
 
 
 @dataclass
