@@ -34,6 +34,10 @@ WIDTH_DIRECTIONS = 180
 EQUAL_WIDTH = 1e-3
 
 
+#: (8, 3) the signs of a box's corners.
+_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+
+
 def _circle(radius_x: float, radius_y: float, z: float) -> np.ndarray:
     angles = np.linspace(0.0, 2.0 * np.pi, CIRCLE_POINTS, endpoint=False)
     return np.column_stack([radius_x * np.cos(angles), radius_y * np.sin(angles), np.full(CIRCLE_POINTS, z)])
@@ -43,8 +47,7 @@ def _geom_local_points(model: mujoco.MjModel, geom: int) -> np.ndarray:
     """(K, 3) points on geom ``geom`` in its own frame [m]."""
     kind, size = int(model.geom_type[geom]), model.geom_size[geom]
     if kind == mujoco.mjtGeom.mjGEOM_BOX:
-        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-        return signs * size
+        return _CORNERS * size
     if kind == mujoco.mjtGeom.mjGEOM_MESH:
         mesh = int(model.geom_dataid[geom])
         start, count = int(model.mesh_vertadr[mesh]), int(model.mesh_vertnum[mesh])
@@ -65,9 +68,7 @@ def _geom_local_points(model: mujoco.MjModel, geom: int) -> np.ndarray:
         a, b, c = (float(s) for s in size)
         return np.vstack([_circle(a, b, 0.0), [[0, 0, c], [0, 0, -c]]])
     # planes, height fields, SDFs: fall back on MuJoCo's own bounding box of the geom
-    center, half = model.geom_aabb[geom, :3], model.geom_aabb[geom, 3:]
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-    return center + signs * half
+    return model.geom_aabb[geom, :3] + _CORNERS * model.geom_aabb[geom, 3:]
 
 
 def subtree_bodies(model: mujoco.MjModel, root: int) -> np.ndarray:
@@ -248,7 +249,7 @@ def object_geometry(obj) -> ObjectGeometry:
 
 def world_lowest_z(geometry: ObjectGeometry, pos, rot) -> float:
     """World z [m] of the lowest collision point of the object at ``pos`` (3,) with rotation matrix ``rot`` (3, 3)."""
-    return float(pos[2] + np.min(geometry.points @ np.asarray(rot)[2]))
+    return world_z_range(geometry, pos, rot)[0]
 
 
 def world_z_range(geometry: ObjectGeometry, pos, rot) -> tuple[float, float]:
