@@ -133,20 +133,15 @@ def resting_qpos(xy, yaw: float, rest_z: float) -> np.ndarray:
 def sponge_start_qpos(geometry, config: Mapping, sample=None) -> np.ndarray:
     """(7,) free-joint qpos of the sponge at rest on its home, offset and turned by ``sample`` (a
     [DynamicsSample][tableclean_suite.environments.randomization.DynamicsSample], None: exactly home)."""
-    pos, yaw = geometry.sponge_home_pos.copy(), 0.0
-    if sample is not None:
-        yaw = sample.sponge_yaw
-        # clipped so the turned sponge rests wholly on its stand, STAND_EDGE_MARGIN inside its edges
-        # (MuJoCo's box-box test reports a bogus deep contact when the two boxes' edges coincide)
-        half = np.asarray(config["sponge_half_size"], dtype=float)
-        footprint = np.abs(np.cos(yaw)) * half[:2] + np.abs(np.sin(yaw)) * half[1::-1]
-        room = np.maximum(geometry.stand_half_size[:2] - footprint - STAND_EDGE_MARGIN, 0.0)
-        pos[:2] += np.clip(sample.sponge_home_offset, -room, room)
-        # and it settles from just above, as the objects do: a turned box resting exactly on another
-        # can also get a bogus deep contact from MuJoCo's box-box test
-        pos[2] += PLACEMENT_CLEARANCE
-    quat_wxyz = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
-    return np.concatenate([pos, quat_wxyz])
+    pos = geometry.sponge_home_pos
+    if sample is None:
+        return np.concatenate([pos, [1.0, 0.0, 0.0, 0.0]])
+    # clipped so the turned sponge rests wholly on its stand, STAND_EDGE_MARGIN inside its edges, and settling from
+    # just above as the objects do (MuJoCo's box-box test reports a bogus deep contact when edges or faces coincide)
+    yaw, half = sample.sponge_yaw, np.asarray(config["sponge_half_size"], dtype=float)
+    footprint = np.abs(np.cos(yaw)) * half[:2] + np.abs(np.sin(yaw)) * half[1::-1]
+    room = np.maximum(geometry.stand_half_size[:2] - footprint - STAND_EDGE_MARGIN, 0.0)
+    return resting_qpos(pos[:2] + np.clip(sample.sponge_home_offset, -room, room), yaw, pos[2])
 
 
 class ResetLayouts:
