@@ -15,9 +15,8 @@ import pandas as pd
 from tableclean_suite.bench.cli import say
 from tableclean_suite.bench.scaling.family import (BASE_MAX_ITR, FIXED_PLAN_FAMILY, PRODUCT_FAMILY, counts_text,
                                                    describe_family, family_specs, fixed_plan_spec, paper_plan_steps)
-from tableclean_suite.bench.scaling.report import (config_dict, interval_text, json_safe, observed_order,
-                                                   ordering_answer, ordering_report, print_cells, print_specs,
-                                                   write_figure)
+from tableclean_suite.bench.scaling.report import (interval_text, json_safe, observed_order, ordering_answer,
+                                                   ordering_report, print_cells, print_specs, write_figure)
 from tableclean_suite.bench.scaling.statistics import (CONFIDENCE, MAX_CENSORED_SHARE_FOR_FIT, PAPER_ORDER,
                                                        fit_censored_power_law, local_slopes, log_standard_error)
 from tableclean_suite.bench.scaling.study import cell_row, train_cell
@@ -195,13 +194,16 @@ def run_study(args, out: Path) -> int:
                   for family in families for gamma, per in slopes[family].items()
                   for reward, listed in per.items() for slope in listed]
     seconds = time.perf_counter() - started
+    specs = [asdict(s) for s in infos]
+    config = {"study": "scaling", **outputs.arguments(args), **method_constants(args), "fit_learner": fit_learner,
+              "growth_exponents": fits, "local_slopes": slopes, "paper_order": list(PAPER_ORDER),
+              "order_holds": verdicts, "specs": specs, "seconds": seconds}
     outputs.publish(out, {
         "scaling.csv": lambda path: pd.DataFrame(rows).to_csv(path, index=False),
-        "scaling_specs.csv": lambda path: pd.DataFrame([asdict(s) for s in infos]).to_csv(path, index=False),
+        "scaling_specs.csv": lambda path: pd.DataFrame(specs).to_csv(path, index=False),
         "scaling_slopes.csv": lambda path: pd.DataFrame(slope_rows).to_csv(path, index=False),
         "scaling.png": lambda path: write_figure(path, rows, fit_learner, fits[PRODUCT_FAMILY]),
-    }, json_safe(config_dict(args, infos, fits, slopes, verdicts, seconds, fit_learner, method_constants(args))),
-        command="scaling")
+    }, json_safe(config), command="scaling")
     say(f"\nWrote {out}/scaling.csv, scaling_specs.csv, scaling_slopes.csv, scaling.png, config.json in "
           f"{seconds:.1f} s wall.")
     return 0

@@ -104,21 +104,6 @@ def write_figure(path: Path, rows: list[dict], learner: str, fits: dict) -> None
         plt.close(figure)
 
 
-def config_dict(args, infos: list[SpecInfo], fits: dict, slopes: dict, verdicts: dict, seconds: float,
-                fit_learner: str, constants: dict) -> dict:
-    """The content of ``config.json``: the command line, every constant of the method, the fits,
-    the local slopes, the reward-order verdicts, the specs and the wall time (``seconds``)."""
-    from dataclasses import asdict
-
-    from tableclean_suite.bench.outputs import arguments
-
-    return {
-        "study": "scaling", **arguments(args), **constants, "fit_learner": fit_learner, "growth_exponents": fits,
-        "local_slopes": slopes, "paper_order": list(PAPER_ORDER),
-        "order_holds": verdicts, "specs": [asdict(s) for s in infos], "seconds": seconds,
-    }
-
-
 def interval_text(value, low, high, digits: int = 0) -> str:
     """``"value [low, high]"``; ``"censored"`` for an infinite or missing value; an infinite top reads
     ``>window``."""
