@@ -42,8 +42,9 @@ def encode(wiped: np.ndarray) -> float:
     return code / float(1 << k)
 
 
-def decode_code(position: float, n_markers: int, joint: str = "dirt-state joint") -> int:
-    """The integer code (bit i = marker i wiped) of a joint ``position``; [`DirtStateError`][tableclean_suite.environments.dirt_state.DirtStateError] if it is none."""
+def decode(position: float, n_markers: int, joint: str = "dirt-state joint") -> np.ndarray:
+    """Bool ``(k,)`` wiped flags of a joint ``position`` (inverse of [`encode`][tableclean_suite.environments.dirt_state.encode]);
+    [`DirtStateError`][tableclean_suite.environments.dirt_state.DirtStateError] if it encodes none."""
     k = _check_count(n_markers)
     scaled = float(position) * float(1 << k)
     code = round(scaled) if np.isfinite(scaled) else -1
@@ -52,15 +53,4 @@ def decode_code(position: float, n_markers: int, joint: str = "dirt-state joint"
             f"{joint} is at {position!r}, which encodes no wiped flags of {k} markers "
             f"(allowed: multiples of 2**-{k} in [0, 1))"
         )
-    return int(code)
-
-
-def decode(position: float, n_markers: int, joint: str = "dirt-state joint") -> np.ndarray:
-    """Bool ``(k,)`` wiped flags of a joint ``position`` (inverse of [`encode`][tableclean_suite.environments.dirt_state.encode])."""
-    code = decode_code(position, n_markers, joint)
-    return ((code >> np.arange(int(n_markers))) & 1).astype(bool)
-
-
-def wiped_count(position: float, n_markers: int, joint: str = "dirt-state joint") -> int:
-    """How many of the segment's markers a joint ``position`` says are wiped."""
-    return decode_code(position, n_markers, joint).bit_count()
+    return ((int(code) >> np.arange(k)) & 1).astype(bool)

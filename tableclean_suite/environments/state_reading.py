@@ -58,9 +58,7 @@ class DirtMarkers:
         """(N,) fraction of each segment's markers still present (1.0: all dirty), a new array."""
         positions = self.positions()
         if self._fraction is None or self._fraction[0] != positions:
-            k = self.markers_per_segment
-            wiped = [dirt_state.wiped_count(x, k, j) for x, j in zip(positions, self.joints)]
-            self._fraction = (positions, (k - np.array(wiped, dtype=float)) / k)
+            self._fraction = (positions, self.present().reshape(len(self.joints), -1).mean(axis=1))
         return self._fraction[1].copy()
 
     def write(self, present: np.ndarray) -> None:
