@@ -1,8 +1,6 @@
-"""``python -m tableclean_suite.bench.scaling``: run the scaling study (see `tableclean_suite.bench.scaling`)."""
+"""``python -m tableclean_suite.bench.scaling``: ``tableclean-bench scaling``."""
 
-import sys
-
-from tableclean_suite.bench.scaling.command import main
+from tableclean_suite.bench.commands import run_alias
 
 if __name__ == "__main__":
-    sys.exit(main(prog="python -m tableclean_suite.bench.scaling"))
+    raise SystemExit(run_alias("scaling", "python -m tableclean_suite.bench.scaling"))
