@@ -229,11 +229,9 @@ def final_probabilities(result, model: TaskModel | None = None, masks: np.ndarra
     exploration, q = behaviour["exploration"], behaviour["q"]
     epsilon = float(result.config["epsilon"])
     masks = affordance_masks(result, model) if masks is None else masks
-    if masks is None:
-        probabilities = behaviour_probabilities(None, epsilon, model.n_actions, **behaviour)
-    else:
-        parameter = exploration.parameter_array(epsilon, behaviour["iteration"], behaviour["visits"])
-        probabilities = afforded_probabilities(q, masks, np.broadcast_to(parameter, q.shape[:2]), exploration.softmax)
+    parameter = exploration.parameter_array(epsilon, behaviour["iteration"], behaviour["visits"])
+    probabilities = afforded_probabilities(q, True if masks is None else masks, np.broadcast_to(parameter, q.shape[:2]),
+                                           exploration.softmax)  # every action afforded without masks
     if assist.get("advice_probability", 0.0) > 0.0:
         probabilities = advised_probabilities(probabilities, advisor_policy(model), assist["advice_probability"],
                                               assist["advice_consistency"])

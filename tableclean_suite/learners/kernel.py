@@ -69,6 +69,7 @@ from tableclean_suite.learners.rules import (
     PARAM_PLANNING,
     Q_LEARNING_TARGET,
     TIES_RANDOM,
+    USER_TARGET,
     TabularLearner,
     builtin_td_target,
     double_q_target,
@@ -602,8 +603,6 @@ def kernel_for(learner: TabularLearner):
     """The compiled loop that trains ``learner`` (runs ``lo .. hi - 1`` of a batch): its own copy
     for a user's target, else the cached `train_batch` (one-step, constant epsilon-greedy) or
     `train_batch_general`."""
-    from tableclean_suite.learners.rules import USER_TARGET
-
     if learner.target_code == USER_TARGET:
         return user_train_batch(learner)
     if learner.method == METHOD_ONE_STEP and learner.exploration.code == EPSILON_GREEDY_CODE:

@@ -73,19 +73,6 @@ def first_greedy(q_row, masks, state, affording):
 
 
 @numba.njit(cache=True)
-def ties_all_optimal(q_row, masks, state, affording, model_next, distance):
-    """True when every tied greedy action of ``state`` (``ties="random"``) leads one step nearer the terminal state."""
-    here = distance[state]
-    restrict = affording and afforded_count(masks[state]) > 0
-    best = q_row[tied_greedy(q_row, masks, state, affording, 0.0)]
-    for a in range(q_row.shape[0]):
-        if not (restrict and masks[state, a] == NOT_AFFORDED) and q_row[a] == best:
-            if here < 0 or distance[model_next[state, a]] != here - 1:
-                return False
-    return True
-
-
-@numba.njit(cache=True)
 def greedy_walk(q_a, q_b, double, row, masks, affording, random_ties, starts, model_next, distance,
                 walked, on_walk, choice, n_walked):
     """Walk the greedy paths from every start; returns ``(optimal, states examined)``.
@@ -124,19 +111,22 @@ def greedy_walk(q_a, q_b, double, row, masks, affording, random_ties, starts, mo
         if here == 0:
             continue
         q_row = behaviour_row(q_a, q_b, s, double, row)
-        if random_ties:
-            if not ties_all_optimal(q_row, masks, s, affording, model_next, distance):
-                optimal = False
-                break
+        if random_ties:  # every tied greedy action must lead one step nearer
             best = q_row[tied_greedy(q_row, masks, s, affording, 0.0)]
             restrict = affording and afforded_count(masks[s]) > 0
             for a in range(q_row.shape[0]):
+                if q_row[a] != best or (restrict and masks[s, a] == NOT_AFFORDED):
+                    continue
                 nxt = model_next[s, a]
-                if (q_row[a] == best and not (restrict and masks[s, a] == NOT_AFFORDED)
-                        and distance[nxt] > 0 and not on_walk[nxt]):
+                if here < 0 or distance[nxt] != here - 1:
+                    optimal = False
+                    break
+                if distance[nxt] > 0 and not on_walk[nxt]:
                     on_walk[nxt] = True
                     walked[n] = nxt
                     n += 1
+            if not optimal:
+                break
         else:
             action = first_greedy(q_row, masks, s, affording)
             choice[s] = action

@@ -60,11 +60,6 @@ class StateDigits:
         found = condition.any(axis=0)
         return np.where(found, condition.argmax(axis=0), _NONE)
 
-    def arm_clean(self) -> np.ndarray:
-        """``(S,)`` bool: the arm's segment is clean."""
-        shift = (self.n_segments - 1 - self.arm).astype(np.int64)
-        return ((self.clean_bits >> shift) & 1).astype(bool)
-
 
 def move(d: StateDigits):
     """MOVE: the arm goes to the next segment, k -> k + 1 (N -> 1); a held object goes along. ROUTINE."""
@@ -98,7 +93,7 @@ def clean(d: StateDigits):
     """CLEAN: IMPROPER when holding or when any object lies on the arm's segment; else the arm's
     segment becomes clean (RELEVANT_CLEAN) or already was (IRRELEVANT_CLEAN)."""
     improper = d.held.any(axis=0) | (d.where == d.arm[None, :]).any(axis=0)
-    already = d.arm_clean()
+    already = ((d.clean_bits >> (d.n_segments - 1 - d.arm)) & 1).astype(bool)  # the arm's segment is clean
     relevant = ~improper & ~already
     next_codes = np.where(relevant, d.codes + d.clean_weight[d.arm], d.codes)
     outcome = np.select([improper, already], [Outcome.IMPROPER, Outcome.IRRELEVANT_CLEAN],
