@@ -47,9 +47,6 @@ def grasped_bodies(geom: np.ndarray, lookup: np.ndarray, bodies: int) -> np.ndar
 def contacts_between(geom1: np.ndarray, geom2: np.ndarray, mask_a: np.ndarray, mask_b: np.ndarray) -> np.ndarray:
     """Indexes (int64, ascending) of the contacts pairing a geom of ``mask_a`` with a geom of ``mask_b`` (either order).
 
-    `any_contact`'s contacts in one compiled pass (its
-    four numpy lookups cost ~5 us).
-
     Args:
         geom1, geom2: (ncon,) geom ids of MuJoCo's active contacts.
         mask_a, mask_b: bool lookups over all geom ids.
