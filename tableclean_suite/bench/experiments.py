@@ -204,13 +204,10 @@ class CellStore:
             self.root.mkdir(parents=True, exist_ok=True)
         except OSError as error:
             raise OutputError(f"cannot create the cell folder {str(self.root)!r}: {describe_os_error(error)}") from None
-        scalars = {name: _plain(value) for name, value in summary.scalars().items()}
-        learned = None if cell_stats.learning is None else {
-            name: _plain(value) for name, value in cell_stats.learning.as_dict().items()}
-        facts = {"intervals": {name: [_plain(v) for v in bounds] for name, bounds in cell_stats.intervals.items()},
-                 "learning": learned,
-                 "settling": [*(_plain(v) for v in (cell_stats.settling.drift, cell_stats.settling.low,
-                                                     cell_stats.settling.high)), cell_stats.settling.checkpoint]}
+        settled = cell_stats.settling
+        facts = {"intervals": cell_stats.intervals,
+                 "learning": None if cell_stats.learning is None else cell_stats.learning.as_dict(),
+                 "settling": [settled.drift, settled.low, settled.high, settled.checkpoint]}
         bands = {f"band_{name}_{side}": np.asarray(bounds[i], dtype=np.float64)
                  for name, bounds in cell_stats.bands.items() for i, side in enumerate(("low", "high"))}
         runs = {f"run_{name}": np.asarray(values, dtype=np.float64) for name, values in cell_stats.runs.items()}
@@ -219,7 +216,7 @@ class CellStore:
             with open(temporary, "wb") as handle:
                 np.savez(
                     handle, config=np.array(json.dumps(config, sort_keys=True)), config_hash=np.array(digest),
-                    scalars=np.array(json.dumps(scalars)), statistics=np.array(json.dumps(facts)),
+                    scalars=np.array(_json(summary.scalars())), statistics=np.array(_json(facts)),
                     **{name: np.asarray(curve, dtype=np.float64) for name, curve in summary.curves().items()},
                     **bands, **runs,
                     **({} if cell_stats.survival is None
@@ -237,13 +234,9 @@ def _number(value) -> float:
     return float("nan") if value is None else float(value)
 
 
-def _plain(value):
-    """A JSON-safe scalar (None for missing, NaN kept as NaN: json writes it as ``NaN``)."""
-    if value is None:
-        return None
-    if isinstance(value, (np.integer, int)) and not isinstance(value, bool):
-        return int(value)
-    return float(value)
+def _json(values) -> str:
+    """``values`` as JSON, numpy scalars as Python ones (NaN written as ``NaN``, read back by `_number`)."""
+    return json.dumps(values, default=lambda value: value.item())
 
 
 def chunk_runs(iterations: int, budget_bytes: int = CHUNK_BYTES, q_table_bytes: int = 0) -> int:
@@ -513,13 +506,6 @@ def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, flo
     return train_cell(run)
 
 
-def cell_tasks(cells, keys: dict, config: RunConfig) -> list[CellTask]:
-    """The [`CellTask`][tableclean_suite.bench.experiments.CellTask] of each cell (``keys``: cell -> cell
-    key), each trained single-threaded (physics: its runs in one process)."""
-    worker_config = replace(config, workers=WORKER_PHYSICS_PROCESSES) if config.backend == "physics" else config
-    return [CellTask(cell, worker_config, config_hash(keys[cell])) for cell in cells]
-
-
 @dataclass
 class GridRun:
     """What [`run_grid`][tableclean_suite.bench.experiments.run_grid] did: summaries, statistics and
@@ -586,7 +572,10 @@ def run_grid(grid: list[Membership], config: RunConfig, model, store: CellStore,
         results = train_here()
     else:
         bar.set_postfix_str(f"{outcome.resumed} resumed, training {len(pending)} on {executor!r}")
-        results = executor.map(train_cell_task, cell_tasks(pending, keys, config))
+        # each trained single-threaded (physics: its runs in one process)
+        worker_config = replace(config, workers=WORKER_PHYSICS_PROCESSES) if config.backend == "physics" else config
+        results = executor.map(train_cell_task, [CellTask(cell, worker_config, config_hash(keys[cell]))
+                                                 for cell in pending])
     for cell, (summary, cell_stats, train_s, metrics_s) in zip(pending, results):
         store.save(cell, keys[cell], summary, cell_stats)
         outcome.summaries[cell] = summary

@@ -117,18 +117,13 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
             paper.at[reward, column] if flag and reward in paper.index else _NA
             for reward, flag in zip(frame["reward"], is_paper_row)
         ]
-    absent = [_NA] * len(frame)  # a column the records do not carry
-    for column in dict.fromkeys((*SUMMARY_SCALARS, *LEARNING_COLUMNS, *SCALAR_COLUMNS, *SETTLING_COLUMNS[:3])):
-        values = frame.get(column, absent)
-        if column in ITERATION_SCALARS:
-            frame[column] = pd.array([None if _missing(v) else int(v) for v in values], dtype="Int64")
-        else:
-            frame[column] = [_NA if _missing(v) else float(v) for v in values]
-    frame["checkpoint_iteration"] = pd.array(  # empty, not 0, where no checkpoint was measured
-        [None if _missing(v) or int(v) == 0 else int(v) for v in frame.get("checkpoint_iteration", absent)],
-        dtype="Int64")
-    frame["settled"] = pd.array([None if _missing(v) else bool(v) for v in frame.get("settled", absent)],
-                                dtype="boolean")
+    numbers = list(dict.fromkeys((*SUMMARY_SCALARS, *LEARNING_COLUMNS, *SCALAR_COLUMNS, *SETTLING_COLUMNS[:4])))
+    frame = frame.reindex(columns=list(dict.fromkeys((*frame.columns, *numbers, "settled"))))  # NaN: not carried
+    frame[numbers] = frame[numbers].astype(float)
+    integers = [*ITERATION_SCALARS, "checkpoint_iteration"]
+    frame[integers] = frame[integers].astype("Int64")
+    frame["checkpoint_iteration"] = frame["checkpoint_iteration"].mask(frame["checkpoint_iteration"] == 0)  # not measured
+    frame["settled"] = frame["settled"].astype("boolean")
     frame["alpha"] = frame["alpha"].astype(float)
     frame["gamma"] = frame["gamma"].astype(float)
     first = {"experiment": EXPERIMENTS, "learner": ("q_learning", "sarsa"), "reward": ("r1", "r2", "r3", "r4")}
