@@ -1,17 +1,6 @@
-"""What the mounted gripper's model says: how wide it opens, and how far its fingers reach below the hand.
-
-Read from the compiled scene (a copy of its kinematics), never from per-gripper constants:
-
-- ``open_width`` [m]: the largest gap between the two finger pads (``mj_geomDistance``) over the
-  ends of the finger joints' ranges: what an object's narrow side must pass between;
-- ``palm_height`` [m]: how far above the grip site (along its approach axis, pointing down) the
-  lowest collision point of the gripper's non-finger geoms (the hand) lies: an object's top must
-  stay below it while the fingers close;
-- ``wrist_heights`` / ``wrist_half_widths`` [m]: the hand *and the arm's last link* (every body
-  rigidly fixed to the grip site: no joint between them, e.g. the Panda's hand, flange and link 7),
-  as a profile: how far across the fingers' closing axis their collision points reach at or below
-  each height above the grip site ([`wrist_half_width`][tableclean_suite.environments.gripper_geometry.wrist_half_width]): only a neighbour taller than the hand
-  meets a wider link above it (the Panda's link 7), so the hand's own measures above stay the hand's.
+"""What the mounted gripper's model says: how wide it opens, and how far its hand and wrist reach about the grip
+site ([`GripperGeometry`][tableclean_suite.environments.gripper_geometry.GripperGeometry]), read from the compiled
+scene (a copy of its kinematics), never from per-gripper constants.
 """
 
 from __future__ import annotations
@@ -33,16 +22,19 @@ MAX_FINGER_JOINTS = 6
 
 @dataclass(frozen=True)
 class GripperGeometry:
-    """Attributes: ``open_width`` [m] between the open pads; ``palm_height`` [m] of the hand's lowest
-    point above the grip site; ``hand_reach`` [m], how far the hand reaches sideways from the grip site's axis;
-    ``hand_half_width`` [m], how far it reaches across the fingers' closing axis (along the grip site's y)."""
+    """Attributes, in metres (heights along the grip site's approach axis, which points down when the skills grasp):
+    ``open_width``, the largest gap between the finger pads (``mj_geomDistance``) over the ends of the finger
+    joints' ranges (what an object's narrow side must pass between); ``palm_height``, how far above the grip site
+    the hand's (the non-finger geoms') lowest collision point lies (an object's top stays below it while the
+    fingers close); ``hand_reach``, how far the hand reaches sideways from the grip site's axis;
+    ``hand_half_width``, how far it reaches across the fingers' closing axis (the grip site's y)."""
 
     open_width: float
     palm_height: float
     hand_reach: float
     hand_half_width: float
-    #: (K,) heights [m] above the grip site (along its approach axis), ascending, of the rigid hand and wrist's
-    #: collision points; with `wrist_half_widths` (K,) [m]: the most any point at or below that height
+    #: (K,) heights [m] above the grip site, ascending, of the collision points of every body fixed to it without a
+    #: joint (the Panda's hand, flange, link 7); with `wrist_half_widths` (K,) [m]: the most any point at or below it
     #: reaches across the fingers' closing axis (see [`wrist_half_width`][tableclean_suite.environments.gripper_geometry.wrist_half_width]).
     wrist_heights: tuple = ()
     wrist_half_widths: tuple = ()
