@@ -1,14 +1,10 @@
-"""What an object's collision geometry says: its extent, footprint, narrow side and resting height.
+"""What an object's collision geometry says: its extent, footprint, narrow side and resting height
+([`ObjectGeometry`][tableclean_suite.environments.object_geometry.ObjectGeometry], of a robosuite ``MujocoObject``:
+[`object_geometry`][tableclean_suite.environments.object_geometry.object_geometry]).
 
 Everything here is read from MuJoCo's compiled model (geom types and sizes, mesh vertices, the
 geoms' poses in the object's root body), never from per-type numbers or robosuite's
 ``bottom_site`` / ``top_site`` (which robosuite's mesh objects place up to 2 cm off their meshes).
-
-- [`collision_points`][tableclean_suite.environments.object_geometry.collision_points]: (K, 3) points on the collision geoms of a body subtree, in the root
-  body's frame [m] (box corners, mesh vertices, sampled circles of round geoms);
-- [`ObjectGeometry`][tableclean_suite.environments.object_geometry.ObjectGeometry]: the object's extent in its own frame (``lower``, ``upper``), its
-  footprint radius, and the gripper yaw that closes across its narrow side (`ObjectGeometry.grasp_yaw`);
-- [`object_geometry`][tableclean_suite.environments.object_geometry.object_geometry]: the geometry of a robosuite ``MujocoObject`` (compiled on its own, cached).
 """
 
 from __future__ import annotations
