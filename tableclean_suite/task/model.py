@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import time
-from collections import deque
 from functools import cached_property
 from pathlib import Path
 from typing import Iterable, Iterator, Sequence, Union
@@ -307,17 +306,15 @@ class TaskModel:
         ones included; [`ResourceError`][tableclean_suite.resources.ResourceError] for specs too large
         to search in Python."""
         self._require_python_walk("the reachable-state search")
-        frontier = deque(self.as_state(s) for s in (starts if starts is not None else self.unclean_layouts()))
-        seen = set(frontier)
-        while frontier:
-            state = frontier.popleft()
-            if state.is_terminal:
-                continue
-            for _, nxt, _ in self.successors(state):
-                if nxt not in seen:
-                    seen.add(nxt)
-                    frontier.append(nxt)
-        return sorted(seen, key=encode)
+        frontier = np.array([encode(self.as_state(s)) for s in (starts if starts is not None else self.unclean_layouts())],
+                            dtype=np.int64)
+        seen = np.zeros(self.n_states, dtype=bool)
+        seen[frontier] = True
+        while frontier.size:  # terminal codes map to themselves: already seen
+            reached = np.unique(self._transition_arrays[0][frontier])
+            frontier = reached[~seen[reached]]
+            seen[frontier] = True
+        return [self.decode(int(code)) for code in np.flatnonzero(seen)]
 
     def shortest_plan(self, state: StateLike) -> list[Action | int] | None:
         """A shortest action sequence from ``state`` to a terminal state (``[]`` if terminal), the
