@@ -179,8 +179,8 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
     return args
 
 
-def estimate(args, model) -> tuple[str, float]:
-    """``(text, seconds)``: the study's learner steps and estimated time; refuses a study too large
+def estimate(args, model) -> str:
+    """The study's learner steps and estimated time, as printed; refuses a study too large
     ([check_grid_resources][tableclean_suite.bench.experiments.check_grid_resources])."""
     from tableclean_suite import resources
     from tableclean_suite.bench import experiments
@@ -194,11 +194,10 @@ def estimate(args, model) -> tuple[str, float]:
     resources.require_time(seconds, f"{replications} replications and a reference of {len(cells)} cell(s)")
     steps = replications * len(cells) * config.runs * config.iterations
     reference_steps = len(cells) * args.reference_runs * config.iterations
-    text = (f"work: {replications} replications x {len(cells)} cells x {config.runs} runs x {config.iterations} "
+    return (f"work: {replications} replications x {len(cells)} cells x {config.runs} runs x {config.iterations} "
             f"iterations = {steps:.3g} learner steps,\n"
             f"  plus the reference: {len(cells)} cells x {args.reference_runs} runs = {reference_steps:.3g}; "
             f"estimated {resources.format_seconds(seconds)} (training and asymptotes; bootstraps on top)")
-    return text, seconds
 
 
 def measure(args, model, out: Path):
@@ -266,7 +265,7 @@ def main(argv=None, prog: str | None = None) -> int:
     args = parse_args(argv, prog)
     model = args.config.task_model()
     out = Path(args.out)
-    text, _ = estimate(args, model)
+    text = estimate(args, model)
     model.require_learnable()  # after the resource guard (it builds the transitions), before any work
     print(text)
     started = time.perf_counter()

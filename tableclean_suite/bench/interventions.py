@@ -188,23 +188,21 @@ def observed_change(item: Intervention, before: dict, after: dict) -> str:
     return NO_CLEAR_CHANGE
 
 
-def _time_text(arm: dict, budget: int) -> str:
-    """``"median [low, high]"``; an infinite figure reads ``>budget``."""
+def _interval_text(arm: dict, name: str, budget: int | None = None) -> str:
+    """``"value [low, high]"`` of an arm's figure ``name``: a share in %, or with ``budget`` a time in
+    iterations (an infinite one reads ``>budget``)."""
     def number(value):
+        if budget is None:
+            return f"{100 * value:.1f}"
         return f">{budget}" if not math.isfinite(value) else f"{value:.0f}"
 
-    return (f"{number(arm['learning_time'])} [{number(arm['learning_time_low'])}, "
-            f"{number(arm['learning_time_high'])}]")
+    return f"{number(arm[name])} [{number(arm[name + '_low'])}, {number(arm[name + '_high'])}]"
 
 
 def changed_text(before: dict, after: dict) -> str:
     """The settings that differ between two arms, e.g. ``"gamma 0.3 -> 0.9"``."""
     return ", ".join(f"{key} {_setting_text(before[key])} -> {_setting_text(after[key])}" for key in before
                      if _setting_text(before[key]) != _setting_text(after[key]))
-
-
-def _share_text(arm: dict, name: str) -> str:
-    return f"{100 * arm[name]:.1f} [{100 * arm[name + '_low']:.1f}, {100 * arm[name + '_high']:.1f}]"
 
 
 def run(args) -> int:
@@ -236,9 +234,10 @@ def run(args) -> int:
                 f"max_itr {before['max_itr']}, {before['iterations']} iterations\n  changed: {item.factor} "
                 f"({changed_text(before, settings['after'])})")
             for arm, figures in arms.items():
-                say(f"  {arm:<6}: learning time {_time_text(figures, settings[arm]['iterations'])}, censored "
-                    f"{_share_text(figures, 'censored_share')}, plateau {_share_text(figures, 'success_plateau')},"
-                    f" never terminal {_share_text(figures, 'never_terminal_share')}")
+                learned = _interval_text(figures, "learning_time", settings[arm]["iterations"])
+                say(f"  {arm:<6}: learning time {learned}, censored {_interval_text(figures, 'censored_share')}, "
+                    f"plateau {_interval_text(figures, 'success_plateau')}, never terminal "
+                    f"{_interval_text(figures, 'never_terminal_share')}")
             say(f"  predicted: {predicted}; observed: {change}")
         frame = pd.DataFrame(rows)
         outputs.publish(out, {"interventions.csv": lambda path: frame.to_csv(path, index=False)},
