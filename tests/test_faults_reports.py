@@ -3,7 +3,7 @@
 import pandas as pd
 import pytest
 
-from tableclean_suite.bench import experiments, robot_table, tables
+from tableclean_suite.bench import experiments, fidelity, tables
 
 
 def _record(**extra):
@@ -46,6 +46,7 @@ def test_episode_failure_reasons_name_actions_not_numbers(monkeypatch):
     class Result:
         def __init__(self, action, success, reason=""):
             self.action, self.success, self.reason = action, success, reason
+            self.state_after, self.expected, self.retries = None, None, 0
 
     class FakeController:
         def __init__(self, env):
@@ -70,6 +71,7 @@ def test_episode_failure_reasons_name_actions_not_numbers(monkeypatch):
 
     monkeypatch.setattr(controllers, "SkillController", FakeController)
     monkeypatch.setattr(controllers, "make_skill_env", lambda *a, **k: FakeEnv())
-    result = robot_table.run_episodes("Panda", "paper", 1, log=None)
-    (episode, reason), = result["failures"]
+    result = fidelity.play_episodes(1, log=None, robots="Panda", task="paper")
+    (episode, reason, _), = result["failures"]
     assert reason == "clean: the sponge slipped"
+    assert result["successes"] == 0 and result["skills"] == {"move": [1, 1, 0, 0], "clean": [1, 0, 0, 0]}

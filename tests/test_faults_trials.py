@@ -42,6 +42,7 @@ CORRUPT_TRIALS = {
     "binary": b"\xff\xfe\x00garbage\x81\x82",
     "nul bytes": ",".join(trial_store.TRIAL_FIELDS).encode() + b"\n1,2\x00,3\n4,5,6\n",
     "other columns": b"a,b,c\n1,2,3\n",
+    "blank line": ",".join(trial_store.TRIAL_FIELDS).encode() + b"\n\n1,2,3\n",
 }
 
 
@@ -143,7 +144,7 @@ def test_robot_table_append_over_a_corrupt_csv_is_refused(tmp_path, capsys, kind
 def test_robot_table_append_keeps_a_valid_table(tmp_path):
     table = tmp_path / robot_table.TABLE_CSV
     row = robot_table.table_row("Panda", "paper", {"trials": 72, "rounds": 1, "agreement": 1.0, "faults": 0}, None)
-    robot_table.write_table(table, [row])
+    trial_store.write_rows(table, [row], robot_table.COLUMNS)
     merged = robot_table.merge_rows(table, [])
     assert len(merged) == 1 and merged[0]["robot"] == "Panda" and float(merged[0]["fidelity_trials"]) == 72
 

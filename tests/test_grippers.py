@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 import robosuite
 
-from tableclean_suite.bench import robot_table
+from tableclean_suite.bench import robot_table, trial_store
 from tableclean_suite.environments.arguments import check_episode_settings
 from tableclean_suite.environments.grippers import REFUSED, SUPPORTED, check_gripper
 
@@ -58,7 +58,7 @@ def test_robot_table_has_a_gripper_column_and_refuses_a_hand_before_any_work(tmp
     rows = [robot_table.table_row("Sawyer", "paper", None, eps, gripper="RethinkGripper"),
             robot_table.table_row("Sawyer", "paper", None, eps, gripper="PandaGripper")]
     path = tmp_path / robot_table.TABLE_CSV
-    robot_table.write_table(path, rows)
+    trial_store.write_rows(path, rows, robot_table.COLUMNS)
     assert [r["gripper"] for r in robot_table.merge_rows(path, [])] == ["RethinkGripper", "PandaGripper"]
     assert "| Sawyer | RethinkGripper | paper | nominal | - |" in robot_table.markdown(rows)
     with pytest.raises(SystemExit) as stop:

@@ -268,11 +268,12 @@ def test_fast_path_reproduces_robosuite_on_another_arm():
 
 
 def test_robot_table_appends_cells_of_other_runs(tmp_path):
-    from tableclean_suite.bench.robot_table import COLUMNS, markdown, merge_rows, table_row, write_table
+    from tableclean_suite.bench.robot_table import COLUMNS, markdown, merge_rows, table_row
+    from tableclean_suite.bench.trial_store import write_rows
 
     path = tmp_path / "robot_table.csv"
     eps = {"episodes": 4, "successes": 3, "seconds": 8.0}
-    write_table(path, [table_row("Panda", "paper", None, eps), table_row("UR5e", "paper", None, eps)])
+    write_rows(path, [table_row("Panda", "paper", None, eps), table_row("UR5e", "paper", None, eps)], COLUMNS)
     again = table_row("UR5e", "paper", {"trials": 72, "rounds": 1, "agreement": 1.0, "faults": 0}, None)
     rows = merge_rows(path, [again, table_row("Sawyer", "paper", None, eps)])
     assert [(r["robot"], r["fidelity_trials"]) for r in rows] == [("Panda", ""), ("UR5e", 72), ("Sawyer", "")]

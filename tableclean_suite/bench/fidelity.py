@@ -18,7 +18,7 @@ rates with one-sided 95 % exact lower bounds ([lower_bound][tableclean_suite.ben
 ``--randomize``: randomised dynamics drawn at every reset (default ``--out`` gets ``_randomized``).
 
 The shared machinery of ``tableclean-bench robots`` and ``objects`` lives here too: optimal-plan
-episodes ([`episodes`][tableclean_suite.bench.fidelity.episodes]) and count cells with lower bounds.
+episodes ([`play_episodes`][tableclean_suite.bench.fidelity.play_episodes]) and count cells with lower bounds.
 """
 
 from __future__ import annotations
@@ -181,13 +181,13 @@ def run_round_task(task: FidelityRound) -> list[dict]:
 CONFIGURATION_SUFFIX = ".config.json"
 
 
-def run_configuration(model: TaskModel, physics_options: dict | None, scene=None, plugins: Iterable[str] = ()) -> dict:
+def run_configuration(model: TaskModel, physics_options: dict | None, plugins: Iterable[str] = ()) -> dict:
     """What determines a trial besides its round and seed, as JSON values: the task spec, the scene's options
     and the code ([`code_digest`][tableclean_suite.bench.digests.code_digest], ``--plugins`` included)."""
     from tableclean_suite.bench.digests import code_digest
 
-    options = "a given scene" if scene is not None else (physics_options or {})
-    configuration = {"task": model.spec.to_dict(), "physics_options": options, "code_digest": code_digest(plugins)}
+    configuration = {"task": model.spec.to_dict(), "physics_options": physics_options or {},
+                     "code_digest": code_digest(plugins)}
     return json.loads(json.dumps(configuration, sort_keys=True, default=repr))
 
 
@@ -254,22 +254,21 @@ def check_trial_rows(rows, model: TaskModel, source) -> None:
 
 
 def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fresh: bool = False,
-            scene=None, log: Callable[[str], None] | None = print, physics_options: dict | None = None,
+            log: Callable[[str], None] | None = print, physics_options: dict | None = None,
             actions: Iterable | None = None, model: TaskModel | None = None, executor=None,
             plugins: Iterable[str] = ()) -> list[dict]:
     """Run rounds until there are ``trials`` of them; returns all trial rows (resumed ones included).
 
     With ``trials_csv`` every finished round is stored and complete stored rounds are resumed (``fresh``
     deletes them first); its folder is locked meanwhile ([`output_lock`][tableclean_suite.bench.outputs.output_lock]).
-    ``scene`` reuses a PhysicsStepEnv in this process; otherwise ``executor`` (default: this process) runs the
-    rounds, each worker building its scene with ``physics_options``.  ``actions`` limits the executed actions;
-    ``model`` is the task (default: the scene's, else ``paper``).
+    ``executor`` (default: this process) runs the rounds, each worker building its scene with
+    ``physics_options``.  ``actions`` limits the executed actions; ``model`` is the task (default ``paper``).
 
     Raises:
         ResumeError: the stored trials were measured with another seed, actions or
             [`run_configuration`][tableclean_suite.bench.fidelity.run_configuration] (``plugins`` included).
     """
-    model = scene.model if scene is not None else (model or TaskModel())
+    model = model or TaskModel()
     actions = action_names(model, actions)
     per_round = trials_per_round(model, actions)
     path = None if trials_csv is None else Path(trials_csv)
@@ -278,7 +277,7 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
             held.enter_context(output_lock(path.parent))
             if fresh and path.exists():
                 path.unlink()
-            check_configuration(path, run_configuration(model, physics_options, scene, plugins))
+            check_configuration(path, run_configuration(model, physics_options, plugins))
         rows = trial_store.complete_rounds(read_trials(path, log) if path is not None else [], per_round, log)
         check_trial_rows(rows, model, path)
         done_rounds = sorted({row["round"] for row in rows})
@@ -293,17 +292,15 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
         if not todo:
             return [row for row in rows if row["round"] < trials]
         started = time.perf_counter()
-        owned = scene is None and executor is None  # this process's default: its scenes close when the rounds are done
-        if scene is not None:
-            results = (run_round(scene, r, seed, actions=actions) for r in todo)
-        else:
+        owned = executor is None  # this process's default: its scenes close when the rounds are done
+        if owned:
             from tableclean_suite.executors import LocalExecutor
 
-            executor = LocalExecutor(workers=1) if owned else executor
-            spec = (json.dumps(model.spec.to_dict(), sort_keys=True),)
-            tasks = [FidelityRound(spec, r, seed, tuple(actions), tuple(sorted((physics_options or {}).items())))
-                     for r in todo]
-            results = executor.map(run_round_task, tasks)
+            executor = LocalExecutor(workers=1)
+        spec = (json.dumps(model.spec.to_dict(), sort_keys=True),)
+        tasks = [FidelityRound(spec, r, seed, tuple(actions), tuple(sorted((physics_options or {}).items())))
+                 for r in todo]
+        results = executor.map(run_round_task, tasks)
         try:
             for round_index, new in zip(todo, results):
                 if len(new) != per_round:
@@ -435,18 +432,29 @@ def measure(out: Path, model: TaskModel, trials: int, seed: int, **options) -> t
 # ---------------------------------------------------------------------------------------------
 # episodes (tableclean-bench robots and objects)
 # ---------------------------------------------------------------------------------------------
-def episodes(count: int, plan_of: Callable, model: TaskModel | None = None, log=None, label: str = "",
-             **env_kwargs):
-    """Yield ``(results, ok, reason, seconds)`` of ``count`` episodes in one skill env
-    ([`make_skill_env`][tableclean_suite.controllers.make.make_skill_env] of ``env_kwargs``, closed at the end).
+def shortest_plan(env, model: TaskModel, episode: int) -> list:
+    """The default ``plan_of`` of [`play_episodes`][tableclean_suite.bench.fidelity.play_episodes]: reset, the
+    model's shortest plan."""
+    env.reset()
+    return model.shortest_plan(env.symbolic_state())
+
+
+def play_episodes(count: int, plan_of: Callable = shortest_plan, model: TaskModel | None = None, log=None,
+                  label: str = "", **env_kwargs) -> dict:
+    """Play ``count`` episodes in one skill env ([`make_skill_env`][tableclean_suite.controllers.make.make_skill_env]
+    of ``env_kwargs``, closed at the end) and tally them.
 
     ``plan_of(env, model, episode)`` resets the env and returns the actions to execute (the controller stops at
-    the first failure).  An episode is ``ok`` when every skill succeeds and the state read back at the end is
-    terminal; an exception (an abstraction fault) fails it.  ``reason`` names the failed skills; ``seconds`` is
-    the episode's wall-clock time, reset included.
+    the first failure).  An episode succeeds when every skill does and the state read back at the end is
+    terminal; an exception (an abstraction fault) fails it.  Returns ``{"episodes", "successes", "seconds",
+    "skills", "failures"}``: ``seconds`` the episodes' wall-clock time in all (resets included, the scene build
+    not), ``skills`` per executed skill ``[executions, successes, agreements, retries]`` (an agreement: the
+    state read back is the model's successor), ``failures`` ``(episode, reason, results)`` per failed episode
+    (``reason`` names the failed skills, or ``"not terminal"``).
     """
     from tableclean_suite.controllers import SkillController, make_skill_env
 
+    tally = {"episodes": count, "successes": 0, "seconds": 0.0, "skills": {}, "failures": []}
     env = make_skill_env(**env_kwargs)
     try:
         controller = SkillController(env) if model is None else SkillController(env, model)
@@ -459,17 +467,21 @@ def episodes(count: int, plan_of: Callable, model: TaskModel | None = None, log=
                 reason = "; ".join(f"{model.action_name(r.action)}: {r.reason}" for r in results if not r.success)
             except Exception as error:  # an abstraction fault at the start or the end: a failed episode
                 results, ok, reason = [], False, f"{type(error).__name__}: {error}"
-            if not ok and log:
-                log(f"  {label} episode {episode}: FAILED ({reason or 'not terminal'})")
-            yield results, ok, reason or "not terminal", time.perf_counter() - started
+            tally["seconds"] += time.perf_counter() - started
+            tally["successes"] += ok
+            for r in results:
+                count_of = tally["skills"].setdefault(model.action_name(r.action), [0] * 4)
+                count_of[0] += 1
+                count_of[1] += bool(r.success)
+                count_of[2] += r.state_after is not None and r.state_after == r.expected
+                count_of[3] += r.retries
+            if not ok:
+                tally["failures"].append((episode, reason or "not terminal", results))
+                if log:
+                    log(f"  {label} episode {episode}: FAILED ({reason or 'not terminal'})")
     finally:
         env.close()
-
-
-def shortest_plan(env, model: TaskModel, episode: int) -> list:
-    """A ``plan_of`` of [`episodes`][tableclean_suite.bench.fidelity.episodes]: reset, the model's shortest plan."""
-    env.reset()
-    return model.shortest_plan(env.symbolic_state())
+    return tally
 
 
 # ---------------------------------------------------------------------------------------------

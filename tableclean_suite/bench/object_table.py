@@ -74,30 +74,23 @@ def spec_for(kind: str, setting: str, partner: str):
     return TaskSpec(f"objects_{kind}_mixed", segments=MIXED_SEGMENTS, objects=(kind, other), start="uniform_unclean")
 
 
-def _measure(kind: str, setting: str, partner: str, model, episodes: int, seed: int, plan_of, log=None,
-             starts=None, params: str = "") -> tuple[list[dict], list[dict]]:
+def _measure(kind: str, setting: str, partner: str, model, episodes: int, seed: int, plan_of=fidelity.shortest_plan,
+             log=None, starts=None, params: str = "") -> tuple[list[dict], list[dict]]:
     """Rows (`COLUMNS`, one per skill) and failures (`FAILURE_COLUMNS`; ``starts``: each episode's start) of
     ``episodes`` episodes of ``model`` executing ``plan_of``'s plans
-    ([`episodes`][tableclean_suite.bench.fidelity.episodes])."""
+    ([`play_episodes`][tableclean_suite.bench.fidelity.play_episodes])."""
     started = time.perf_counter()
-    counts: dict[str, list[int]] = {}  # skill -> [executions, successes, agreements, retries]
-    failures, wins = [], 0
-    for episode, (results, ok, _, _) in enumerate(fidelity.episodes(episodes, plan_of, model, log, f"{kind} {setting}",
-                                                                    task=model.spec, seed=seed)):
-        for r in results:  # an agreement: the state read back is the model's successor
-            count = counts.setdefault(model.action_name(r.action), [0] * 4)
-            count[0] += 1
-            count[1] += bool(r.success)
-            count[2] += r.state_after is not None and r.state_after == r.expected
-            count[3] += r.retries
-        wins += ok
+    tally = fidelity.play_episodes(episodes, plan_of, model, log, f"{kind} {setting}", task=model.spec, seed=seed)
+    failures = []
+    for episode, _, results in tally["failures"]:
         if starts and results and not results[-1].success:
             result, history = results[-1], " ".join(model.action_name(r.action) for r in results[:-1])
             phase, cause = failure_class(result)
             failures.append({"object": kind, "params": params, "episode": episode, "start": starts[episode].name,
                              "history": history, "skill": model.action_name(result.action), "phase": phase,
                              "cause": cause, "retries": result.retries, "reason": result.reason})
-    return _rows(kind, setting, partner, counts, episodes, wins, time.perf_counter() - started), failures
+    return _rows(kind, setting, partner, tally["skills"], episodes, tally["successes"],
+                 time.perf_counter() - started), failures
 
 
 def _rows(kind: str, setting: str, partner: str, counts: dict, episodes: int, wins: int, seconds: float) -> list[dict]:
@@ -264,8 +257,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
             cells += 1
             try:
                 model = TaskModel(spec=spec_for(kind, setting, args.mix_with))
-                rows += _measure(kind, setting, used, model, args.episodes or 30, args.seed, fidelity.shortest_plan,
-                                 log)[0]
+                rows += _measure(kind, setting, used, model, args.episodes or 30, args.seed, log=log)[0]
             except ValueError as error:  # refused by the scene (cannot be held, does not fit): a finding, not a crash
                 refused += 1
                 print(f"{kind} {setting}: refused: {error}")

@@ -24,24 +24,23 @@ PROG = "tableclean-bench render"
 #: Frame sizes, pixels per side (larger frames exhaust the GL driver's buffers or the memory).
 MIN_PIXELS, MAX_PIXELS = 1, 8192
 DEFAULT_WIDTH, DEFAULT_HEIGHT = 640, 480
-PNG_SUFFIX = ".png"
 
 
 class UnknownCameraError(ValueError):
     """A camera the scene does not have; the message lists those it has."""
 
 
-def render_frame(camera: str = DEFAULT_CAMERA, width: int = 640, height: int = 480, seed: int = 0,
-                 object_segment: int = 1, arm_segment: int = 2, task=None) -> np.ndarray:
-    """An (height, width, 3) uint8 RGB frame of a freshly reset TableClean scene of ``task`` (default ``paper``);
+def render_frame(camera: str = DEFAULT_CAMERA, width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
+                 seed: int = 0, task=None) -> np.ndarray:
+    """An (height, width, 3) uint8 RGB frame of a freshly reset TableClean scene of ``task`` (default ``paper``;
+    objects on segment 1, the arm at segment 2);
     [`UnknownCameraError`][tableclean_suite.bench.render_scene.UnknownCameraError] listing the scene's cameras."""
     import robosuite
 
     import tableclean_suite  # noqa: F401  (registers TableClean)
 
-    env = robosuite.make("TableClean", task=task, robots="Panda", object_segment=object_segment,
-                         arm_segment=arm_segment, has_renderer=False, has_offscreen_renderer=True, use_camera_obs=False,
-                         seed=seed)
+    env = robosuite.make("TableClean", task=task, robots="Panda", object_segment=1, arm_segment=2,
+                         has_renderer=False, has_offscreen_renderer=True, use_camera_obs=False, seed=seed)
     try:
         cameras = tuple(env.sim.model.camera_names)
         if camera not in cameras:
@@ -57,7 +56,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line: the shared options of [`cli`][tableclean_suite.bench.cli] and the picture's own."""
     parser = cli.command_parser(prog, __doc__.splitlines()[0])
     cli.add_out_argument(parser, cli.FILE, None, f"PNG path to write ({DEFAULT_OUT} when not given, or "
-                         "results/images/scene_<task>.png for another spec)", suffixes=(PNG_SUFFIX,))
+                         "results/images/scene_<task>.png for another spec)", suffixes=(".png",))
     cli.add_task_argument(parser)
     parser.add_argument("--camera", default=DEFAULT_CAMERA,
                         help=f"camera of the scene, e.g. tableview, frontview, birdview (default {DEFAULT_CAMERA})")

@@ -65,22 +65,10 @@ def gripper_name(robot: str, gripper: str) -> str:
     return name
 
 
-def run_episodes(robot: str, task: str, episodes: int, seed: int = 0, log=print, randomization=None,
-                 gripper: str = DEFAULT_GRIPPER) -> dict:
-    """``{"episodes", "successes", "seconds", "failures": [(episode, reason)]}`` of ``episodes`` optimal-plan
-    episodes of ``task`` on ``robot`` from random start layouts (seconds: in all, the scene build not counted)."""
-    played = list(fidelity.episodes(episodes, fidelity.shortest_plan, log=log, label=f"{robot} ({gripper}) {task}",
-                                    object_segment=None, arm_segment=None, robots=robot, task=task, seed=seed,
-                                    randomization=randomization, gripper_types=gripper))
-    return {"episodes": episodes, "successes": sum(ok for _, ok, _, _ in played),
-            "seconds": sum(seconds for *_, seconds in played),
-            "failures": [(k, reason) for k, (_, ok, reason, _) in enumerate(played) if not ok]}
-
-
 def table_row(robot: str, task: str, fid: dict | None, eps: dict | None, dynamics: str = NOMINAL,
               gripper: str = "") -> dict:
     """One row of the table (`COLUMNS`; ``gripper``: robosuite's name); ``fid``: a fidelity summary, ``eps``:
-    [`run_episodes`][tableclean_suite.bench.robot_table.run_episodes]'s; empty strings for a skipped part."""
+    [`play_episodes`][tableclean_suite.bench.fidelity.play_episodes]'s tally; empty strings for a skipped part."""
     row = {"robot": robot, "gripper": gripper, "task": task, "dynamics": dynamics}
     if fid is not None:
         row.update(fidelity_trials=fid["trials"], fidelity_rounds=fid["rounds"],
@@ -90,11 +78,6 @@ def table_row(robot: str, task: str, fid: dict | None, eps: dict | None, dynamic
                    episode_success_rate=round(eps["successes"] / eps["episodes"], 6),
                    seconds_per_episode=round(eps["seconds"] / eps["episodes"], 3))
     return {column: row.get(column, "") for column in COLUMNS}
-
-
-def write_table(path: Path, rows: list[dict]) -> None:
-    """Write ``rows`` (`COLUMNS`) to ``path`` atomically."""
-    trial_store.write_rows(path, rows, COLUMNS)
 
 
 class TableFileError(ValueError):
@@ -226,12 +209,13 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
             if args.fidelity_trials:
                 fid = fidelity.measure(folder, models[task], args.fidelity_trials, args.seed, log=log,
                                        fresh=args.fresh, physics_options=options)[2]
-            if args.episodes:
-                eps = run_episodes(robot, task, args.episodes, args.seed, log=log, gripper=gripper,
-                                   randomization="on" if args.randomize else None)
+            if args.episodes:  # from random start layouts, in the scene of the cell's fidelity trials
+                eps = fidelity.play_episodes(args.episodes, log=log, label=f"{robot} ({gripper}) {task}",
+                                             object_segment=None, arm_segment=None, task=task, seed=args.seed,
+                                             **options["env_kwargs"])
             name = grippers[robot, gripper]
             rows.append(table_row(robot, task, fid, eps, RANDOMIZED if args.randomize else NOMINAL, name))
-            write_table(table, merge_rows(table, rows) if args.append else rows)
+            trial_store.write_rows(table, merge_rows(table, rows) if args.append else rows, COLUMNS)
             if log:
                 log(f"{robot} ({name}) x {task} done ({time.perf_counter() - started:.0f} s)")
     except fidelity.ResumeError as error:  # e.g. trials of another --seed

@@ -8,7 +8,6 @@ naming the line and the column.
 from __future__ import annotations
 
 import csv
-import io
 from collections import Counter
 from pathlib import Path
 from typing import Callable, Iterable
@@ -30,24 +29,26 @@ class TrialStoreError(ValueError):
     """Stored trials that cannot be used: a damaged file, or trials of another run; the message names the file."""
 
 
-def _parse(row: dict, line: int, path: Path) -> dict:
-    if None in row or any(row.get(name) is None for name in TRIAL_FIELDS):
-        raise TrialStoreError(f"{path}:{line}: the row has {len([v for v in row.values() if v is not None])} of "
-                              f"{len(TRIAL_FIELDS)} columns")
-    parsed = dict(row)
+def _parse(text: str, line: int, path: Path) -> dict:
+    try:
+        values = next(csv.reader([text]), [])  # a blank line: no values
+    except csv.Error as error:
+        raise TrialStoreError(f"{path}:{line}: not a CSV row ({error})") from None
+    if len(values) != len(TRIAL_FIELDS):
+        raise TrialStoreError(f"{path}:{line}: the row has {len(values)} of {len(TRIAL_FIELDS)} columns")
+    parsed = dict(zip(TRIAL_FIELDS, values))
     for names, kind, what in ((INTEGER_FIELDS, int, "an integer"), (FLOAT_FIELDS, float, "a number")):
         for name in names:
             try:
-                parsed[name] = kind(row[name])
+                parsed[name] = kind(parsed[name])
             except ValueError:
-                raise TrialStoreError(f"{path}:{line}: column {name!r} is {row[name]!r}, not {what}") from None
+                raise TrialStoreError(f"{path}:{line}: column {name!r} is {parsed[name]!r}, not {what}") from None
     return parsed
 
 
-def read_lines(path: Path, error: type = None, hint: str = "use --fresh to start over") -> list[str]:
+def read_lines(path: Path, error: type = TrialStoreError, hint: str = "use --fresh to start over") -> list[str]:
     """The lines of the UTF-8 text file ``path``, ``[]`` when it does not exist; ``error`` (default
     [`TrialStoreError`][tableclean_suite.bench.trial_store.TrialStoreError]) naming the file when unreadable."""
-    error = error or TrialStoreError
     if not Path(path).exists():
         return []
     try:
@@ -72,10 +73,7 @@ def read_rows(path: Path, log: Callable[[str], None] | None = None) -> list[dict
     rows = []
     for number, text in enumerate(lines[1:], start=2):
         try:
-            try:
-                rows.append(_parse(next(csv.DictReader(io.StringIO(text), fieldnames=TRIAL_FIELDS)), number, path))
-            except csv.Error as error:
-                raise TrialStoreError(f"{path}:{number}: not a CSV row ({error})") from None
+            rows.append(_parse(text, number, path))
         except TrialStoreError as error:
             if number != len(lines):
                 raise
