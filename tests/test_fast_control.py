@@ -321,11 +321,15 @@ def _episode(phase_loop: bool, layout=(1, 1), seed: int = 1) -> dict:
         stepper.phase_loop = phase_loop
         stepper.state_log = ControlStepLog(stepper)
         in_loop, in_press_loop, statuses = [], [], []
-        run_phase, run_press_phase = stepper.run_phase, stepper.run_press_phase
-        stepper.run_phase = lambda *args: in_loop.append(run_phase(*args)) or in_loop[-1]
-        stepper.run_press_phase = lambda *args: (in_press_loop.append(run_press_phase(*args)[0])
-                                                 or statuses.append(stepper.last_status)
-                                                 or (in_press_loop[-1], stepper.last_status))
+        run_phase = stepper.run_phase
+
+        def counted(skill, fingers, wipe=None, force=None):
+            ran = run_phase(skill, fingers, wipe, force)
+            (in_loop if wipe is None else in_press_loop).append(ran)
+            if wipe is not None:
+                statuses.append(stepper.last_status)
+            return ran
+        stepper.run_phase = counted
         results = SkillController(env, MODEL).execute_plan(MODEL.shortest_plan(env.symbolic_state()))
         data = robosuite_adapter.mj_data(env.sim)
         gripper = env.robots[0].gripper[env.robots[0].arms[0]]

@@ -12,14 +12,13 @@ primitives of [`primitives`][tableclean_suite.controllers.primitives] (reach, gr
 list of those steps with targets named by meaning ([`compose_skill`][tableclean_suite.controllers.authoring.compose_skill], [`authoring`][tableclean_suite.controllers.authoring]).
 """
 
-from tableclean_suite.controllers.clean import CleanPhase, CleanSkill
+from tableclean_suite.controllers.clean import CleanPhase, CleanSkill, Wipe
 from tableclean_suite.controllers.make import make_skill_env
 from tableclean_suite.controllers.move import MovePhase, MoveSkill
 from tableclean_suite.controllers.osc import check_skill_env, skill_command_limits, skill_controller_config
 from tableclean_suite.controllers.pick import PickPhase, PickSkill
 from tableclean_suite.controllers.place import PlacePhase, PlaceSkill
 from tableclean_suite.controllers.primitives import Body, Grasp, Primitive, PrimitiveSkill, Reach, Release
-from tableclean_suite.controllers.clean import Wipe
 from tableclean_suite.controllers.registry import SKILL_REGISTRY, action_key, get_skill_class, register_skill
 from tableclean_suite.controllers.skill import BASE_CONFIG, Skill, SkillEnv, SkillFailure, Waypoint
 from tableclean_suite.controllers.skill_controller import SkillController, SkillResult

@@ -120,26 +120,6 @@ def spare_clear_of(bounds: np.ndarray, area: np.ndarray, hand_half: np.ndarray, 
     return out
 
 
-class CleanPhase(enum.Enum):
-    """Phases of a clean, in order (PRESS -> WIPE -> SHIFT repeats over the strokes and passes)."""
-
-    SPONGE_HOVER = enum.auto()  # hover above the sponge, gripper open
-    SPONGE_DESCEND = enum.auto()  # down to the sponge's grasp point
-    SPONGE_CLOSE = enum.auto()  # close, then confirm the sponge is grasped
-    SPONGE_LIFT = enum.auto()  # up to the hover height
-    TO_SEGMENT = enum.auto()  # hover above the first stroke's start
-    PRESS = enum.auto()  # down at a stroke's start until a sponge-table contact force is measured
-    WIPE = enum.auto()  # drag the pressed sponge to the stroke's end
-    SHIFT = enum.auto()  # lift until no contact force is measured, then just off the table to the next stroke's start
-    WIPE_LIFT = enum.auto()  # up to the hover height
-    HOME_ALIGN = enum.auto()  # hover above the sponge home
-    HOME_DESCEND = enum.auto()  # lower the sponge to its home
-    HOME_RELEASE = enum.auto()  # open until the fingers settle
-    HOME_RETREAT = enum.auto()  # up to the hover height
-    RETURN = enum.auto()  # hover above the arm's segment centre
-    DONE = enum.auto()
-
-
 class Wipe(Primitive):
     """Sweep ``segment`` with the held sponge: boustrophedon strokes, pressed, pass after pass while dirty.
 
@@ -395,7 +375,7 @@ class Wipe(Primitive):
 
     def run_loop(self, skill, stepper, phase: str) -> int:
         """Run a PRESS's, WIPE's or SHIFT's next control steps in the stepper's compiled control loop
-        ([`run_press_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase]): this
+        ([`run_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase]): this
         primitive's [`update`][tableclean_suite.controllers.clean.Wipe.update] and `waypoint` and the skill's step, the same operations on the
         same values, so the same commands; it stops before a step whose completion check might pass or
         whose update it cannot take exactly (the skill's [`step`][tableclean_suite.controllers.skill.Skill.step] then takes it).  Returns
@@ -417,7 +397,7 @@ class Wipe(Primitive):
             axis=self._stroke_axis(), stroke_max_steps=config["stroke_max_steps"],
             press_timeout=config["press_max_steps"] + self.press_grace, lift_max_steps=config["lift_max_steps"],
             force_fn=0, lifted=self.lifted)  # force_fn: set by the stepper
-        ran, _ = stepper.run_press_phase(state, skill._last_fingers, wipe, skill.env.sponge_press_force)
+        ran = stepper.run_phase(state, skill._last_fingers, wipe, skill.env.sponge_press_force)
         if ran:
             self.depth, self.force = float(wipe["depth"][0]), float(wipe["force"][0])
             self.lifted = bool(wipe["lifted"][0])
@@ -470,6 +450,14 @@ class Wipe(Primitive):
         if phase == "SHIFT":  # first up off the table at the stroke's end, then over to the next start
             return self.lifted
         return True
+
+
+#: The phases of [`wipe_plan`][tableclean_suite.controllers.clean.wipe_plan], in order: the sponge's grasp, the
+#: wipe (PRESS -> WIPE -> SHIFT repeats over the strokes and passes), the sponge's release at home.
+WIPE_PHASES = (*(f"SPONGE_{p}" for p in Grasp.PHASES), *Wipe.PHASES, *(f"HOME_{p}" for p in Release.PHASES))
+
+CleanPhase = enum.Enum("CleanPhase", [*WIPE_PHASES, "RETURN", "DONE"], module=__name__)
+"""Phases of a clean, in order: `WIPE_PHASES`, then RETURN above the arm's segment centre."""
 
 
 def wipe_plan(segment: int, info: Mapping[str, Any]) -> list:

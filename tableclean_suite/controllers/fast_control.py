@@ -46,6 +46,7 @@ from tableclean_suite.controllers.geometry import clip_scalar
 from tableclean_suite.controllers.loop_state import MODE_FIXED, MODE_SHIFT, MODE_WIPE, WIPE_STATE
 from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.controllers.setpoint import GRIPPER_INDEX, advance_command
+from tableclean_suite.environments import wiping
 from tableclean_suite.environments.contact_kernels import c_call, c_call_double
 from tableclean_suite.environments.table_clean import PRESS_PREFILTER_SLACK
 from tableclean_suite.robosuite_adapter import (
@@ -383,14 +384,8 @@ def present_marker_under_box(markers, present, pos, mat, half_size, reach) -> bo
     return False
 
 
-@numba.njit(cache=True)
-def box_lowest_z(pos: np.ndarray, mat: np.ndarray, half_size: np.ndarray) -> float:
-    """World z (m) of the lowest corner of a box: centre ``pos`` (3,), row-major rotation ``mat`` (9,),
-    ``half_size`` (3,) m."""
-    return pos[2] - (abs(mat[6]) * half_size[0] + abs(mat[7]) * half_size[1] + abs(mat[8]) * half_size[2])
-
-
 _clip = numba.njit(cache=True)(clip_scalar)
+box_lowest_z = numba.njit(cache=True)(wiping.box_lowest_z)
 
 
 @numba.njit(cache=True)
@@ -619,7 +614,6 @@ class FastSkillStepper:
             [`native_available`][tableclean_suite.controllers.fast_control.native_available]); ``False``:
             in Python through the mujoco bindings (same results, slower).
         phase_loop: let [`run_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase]
-            and [`run_press_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_press_phase]
             run phases in the compiled loop (needs ``native``); ``False``: every step through
             [`step`][tableclean_suite.controllers.fast_control.FastSkillStepper.step] (same results).
 
@@ -795,24 +789,21 @@ class FastSkillStepper:
         advance_clock(env, env.control_timestep)
         hand_back_controller_state(self.osc, self.grip_controller, goal_pos, goal_ori, self._plant.torques)
 
-    def run_phase(self, skill: np.ndarray, fingers: np.ndarray) -> int:
-        """Run control steps of a skill phase with a fixed waypoint in [`control_loop`][tableclean_suite.controllers.fast_control.control_loop]; returns how many ran.
+    def run_phase(self, skill: np.ndarray, fingers: np.ndarray, wipe: np.ndarray | None = None, force=None) -> int:
+        """Run control steps of a skill phase in the compiled
+        [`control_loop`][tableclean_suite.controllers.fast_control.control_loop]; returns how many ran
+        (``last_status``: why it stopped).
 
-        ``skill``: the skill's (1,) `SKILL_STATE` record (its ``target`` the waypoint); ``fingers``: (F,)
-        its finger positions at the last step; both updated in place.  Runs nothing (returns 0) without
-        the native loop, with ``phase_loop`` off, for a gripper other than the Panda's, on the first step
-        after a reset or when the episode is done.
+        ``skill``: the skill's (1,) `SKILL_STATE` record (its ``target`` a fixed phase's waypoint); ``fingers``: (F,)
+        its finger positions at the last step; both updated in place.  ``wipe``: None for a fixed waypoint, else
+        the clean skill's PRESS, WIPE or SHIFT as a (1,) `WIPE_STATE` record, updated in place (its ``force_fn``
+        set here), with ``force`` returning the sponge's press force (N), called once per control step (an
+        exception it raises is raised here after the loop stopped).  Runs nothing (returns 0) without the native
+        loop, with ``phase_loop`` off, for a gripper other than the Panda's, on the first step after a reset or
+        when the episode is done.
         """
-        return self._run_compiled(skill, fingers, np.zeros(1, WIPE_STATE))  # mode MODE_FIXED
-
-    def run_press_phase(self, skill: np.ndarray, fingers: np.ndarray, wipe: np.ndarray, force) -> tuple[int, int]:
-        """Run control steps of the clean skill's PRESS, WIPE or SHIFT phase in [`control_loop`][tableclean_suite.controllers.fast_control.control_loop].
-
-        As [`run_phase`][tableclean_suite.controllers.fast_control.FastSkillStepper.run_phase]; ``wipe``:
-        the (1,) `WIPE_STATE` record, updated in place (its ``force_fn`` set here); ``force``: a function
-        returning the sponge's press force (N), called once per control step.  Returns (control steps
-        run, the stop reason).  An exception ``force`` raises is raised here after the loop stopped.
-        """
+        if wipe is None:
+            return self._run_compiled(skill, fingers, np.zeros(1, WIPE_STATE))  # mode MODE_FIXED
         errors = []
 
         def measured() -> float:
@@ -830,7 +821,7 @@ class FastSkillStepper:
         ran = self._run_compiled(skill, fingers, wipe)
         if errors:
             raise errors[0]
-        return ran, self.last_status
+        return ran
 
     def _run_compiled(self, skill: np.ndarray, fingers: np.ndarray, wipe: np.ndarray) -> int:
         """Run [`control_loop`][tableclean_suite.controllers.fast_control.control_loop] on the skill's state; sets ``last_status``."""
@@ -863,9 +854,7 @@ class FastSkillStepper:
             if log is not None:
                 log.rows += ran
             if status == PHASE_WIPE:  # finish that step: the env's wiping check, mj_step2, the other substeps
-                env.record_wiping_substep()
-                mujoco.mj_step2(self.model, self.data)
-                self._native_substeps(substep + 1, goal[1], goal[2], table[min(total + ran - 1, len(table) - 1)])
+                self._native_substeps(-(substep + 1), goal[1], goal[2], table[min(total + ran - 1, len(table) - 1)])
             for _ in range(ran):
                 env.timestep += 1
                 advance_clock(env, env.control_timestep)
@@ -914,17 +903,19 @@ class FastSkillStepper:
         mujoco.mj_step2(model, data)
 
     def _native_substeps(self, first: int, goal_pos, goal_ori, grip_ctrl) -> None:
-        """Substeps ``first``.. of the control step in the compiled loop; the env checks wiping near the table."""
+        """Substeps ``first``.. of the control step in the compiled loop; the env checks wiping near the table
+        (``first`` < 0, as `native_substeps` returns: substep ``-first - 1`` stopped there, finished first)."""
         plant = self._current_plant()
         done = first
         markers = np.ascontiguousarray(self.env._marker_xyz, dtype=float)
         while done < self.substeps:
-            present = np.ascontiguousarray(self.env._marker_present())  # changes only in the env's wiping check
-            done = native_substeps(plant, (markers, present), done, goal_pos, goal_ori, grip_ctrl)
             if done < 0:  # stopped after substep -done - 1's control: the env checks wiping, then step2
                 done = -done
                 self.env.record_wiping_substep()
                 mujoco.mj_step2(self.model, self.data)
+            else:
+                present = np.ascontiguousarray(self.env._marker_present())  # changes only in the wiping check
+                done = native_substeps(plant, (markers, present), done, goal_pos, goal_ori, grip_ctrl)
 
 
 #: Attribute under which [`attach_fast_stepper`][tableclean_suite.controllers.fast_control.attach_fast_stepper] stores an env's stepper.

@@ -13,12 +13,9 @@ from tableclean_suite.controllers.primitives import PrimitiveSkill, Reach
 from tableclean_suite.task import Action
 
 
-class MovePhase(enum.Enum):
-    """Phases of a move, in order (two [`Reach`][tableclean_suite.controllers.primitives.Reach] primitives)."""
-
-    LIFT = enum.auto()  # straight up to the hover height
-    TRAVEL = enum.auto()  # across to above the target segment's centre
-    DONE = enum.auto()
+MovePhase = enum.Enum("MovePhase", ["LIFT", "TRAVEL", "DONE"], module=__name__)
+"""Phases of a move, in order: two [`Reach`][tableclean_suite.controllers.primitives.Reach] primitives, LIFT straight
+up to the hover height and TRAVEL above the target segment's centre."""
 
 
 class MoveSkill(PrimitiveSkill):

@@ -6,26 +6,13 @@ import enum
 from typing import Any, Mapping
 
 from tableclean_suite.controllers.configs import PickConfig
-from tableclean_suite.controllers.primitives import (
-    Grasp,
-    PrimitiveSkill,
-    grasp_point,
-    object_body,
-)
+from tableclean_suite.controllers.primitives import Grasp, PrimitiveSkill, object_body
 from tableclean_suite.controllers.skill import SkillFailure
 from tableclean_suite.task import Action
 
-__all__ = ["PickPhase", "PickSkill", "grasp_point"]
 
-
-class PickPhase(enum.Enum):
-    """Phases of a pick, in order (the [`Grasp`][tableclean_suite.controllers.primitives.Grasp] primitive's)."""
-
-    HOVER = enum.auto()  # open the gripper above the object
-    DESCEND = enum.auto()  # down to the grasp point
-    CLOSE = enum.auto()  # close until the fingers settle, then confirm the grasp
-    LIFT = enum.auto()  # back up to the hover height
-    DONE = enum.auto()
+PickPhase = enum.Enum("PickPhase", [*Grasp.PHASES, "DONE"], module=__name__)
+"""Phases of a pick, in order: the [`Grasp`][tableclean_suite.controllers.primitives.Grasp] primitive's."""
 
 
 class PickSkill(PrimitiveSkill):

@@ -51,18 +51,11 @@ def place_spot(info: Mapping[str, Any], segment: int, held: int, lying, place_cl
                      hand=hand, under_hand=tall)
 
 
-class PlacePhase(enum.Enum):
-    """Phases of a place, in order (the [`Release`][tableclean_suite.controllers.primitives.Release] primitive's)."""
-
-    ALIGN = enum.auto()  # hover above the free spot
-    DESCEND = enum.auto()  # lower the object to just above the table
-    RELEASE = enum.auto()  # open until the fingers settle
-    RETREAT = enum.auto()  # up to the hover height
-    REGRASP_HOVER = enum.auto()  # a retry: the object did not end on the segment, grasped again where it lies
-    REGRASP_DESCEND = enum.auto()
-    REGRASP_CLOSE = enum.auto()
-    REGRASP_LIFT = enum.auto()
-    DONE = enum.auto()
+PlacePhase = enum.Enum("PlacePhase", [*Release.PHASES, *(f"REGRASP_{p}" for p in Grasp.PHASES), "DONE"],
+                       module=__name__)
+"""Phases of a place, in order: the [`Release`][tableclean_suite.controllers.primitives.Release] primitive's, then
+REGRASP_ and the [`Grasp`][tableclean_suite.controllers.primitives.Grasp]'s (a retry: the object did not end on the
+segment, grasped again where it lies)."""
 
 
 class PlaceSkill(PrimitiveSkill):

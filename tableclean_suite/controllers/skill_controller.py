@@ -71,31 +71,18 @@ class SkillController:
         key = action_key(action)
         return {**skill_overrides(self.robot, key, self.gripper), **self.skill_configs.get(key, {})}
 
-    def resolve(self, action) -> str:
-        """``action`` (an Action, a name, or an index into the model's action list) as the model's action
-        name (``"pick"``, ``"transfer"``: one kind for built-in and user actions).  ``ValueError`` names the
-        allowed ones."""
-        return self.model.action_name(action)
-
     def _fast_stepper(self):
-        """The env's fast stepper when this controller's env owns one, else ``None`` (then ``env.step``).
-
-        A wrapper (e.g. robosuite's ``DataCollectionWrapper``) forwards attribute lookups to the
-        env it wraps, so the inner env's stepper is visible through it; using it would bypass
-        the wrapper's own ``step()`` (and its recording).  The stepper is used only when its env
-        *is* the controller's env.
-        """
+        """The env's fast stepper when its env *is* this controller's env, else ``None`` (then ``env.step``): a
+        wrapper (e.g. robosuite's ``DataCollectionWrapper``) shows the inner env's stepper, which would bypass
+        the wrapper's own ``step()``."""
         stepper = fast_stepper_of(self.env)  # set by make_skill_env(fast_control=True)
         if stepper is None or getattr(stepper, "env", None) is not self.env:
             return None
         return stepper
 
     def _stepper(self):
-        """The function each control step's command goes to: the fast stepper's ``step``, else ``env.step``.
-
-        Subclasses may wrap it to see every control step (e.g. demo recording); the compiled
-        phase loop is then not used (`_phase_stepper`).
-        """
+        """The function each control step's command goes to: the fast stepper's ``step``, else ``env.step``;
+        subclasses may wrap it to see every control step (the compiled phase loop is then not used)."""
         stepper = self._fast_stepper()
         return self.env.step if stepper is None else stepper.step
 
@@ -124,7 +111,7 @@ class SkillController:
     def _execute(self, action, before: TaskState | None) -> SkillResult:
         """[`execute`][tableclean_suite.controllers.skill_controller.SkillController.execute] from the symbolic state ``before`` when the caller knows it (None: read it now)."""
         start = time.perf_counter()
-        action = self.resolve(action)
+        action = self.model.action_name(action)  # ValueError naming the allowed actions
         skill_class = get_skill_class(action, self.registry)
         try:
             if before is None:
