@@ -9,8 +9,7 @@ from kinematic_env import KinematicEnv
 
 from tableclean_suite.controllers import PickSkill, compose_skill, register_skill
 from tableclean_suite.controllers.authoring import grasp, lying_object
-from tableclean_suite.controllers.config_check import SkillConfigError, checked_skill_config
-from tableclean_suite.controllers.configs import PickConfig
+from tableclean_suite.controllers.configs import PickConfig, SkillConfigError, checked_skill_config
 from tableclean_suite.controllers.robot_configs import ROBOT_CONFIGS, RobotSkillConfig, register_robot_config
 from tableclean_suite.task import Outcome, action_names
 

@@ -389,8 +389,7 @@ def test_a_grasp_yaw_tie_about_nominal_goes_the_hands_way(hand_yaw, aimed):
 
 
 def test_the_old_grasp_retries_key_still_sets_the_retry_budget():
-    from tableclean_suite.controllers.config_check import checked_skill_config
-    from tableclean_suite.controllers.configs import PickConfig
+    from tableclean_suite.controllers.configs import checked_skill_config
 
     defaults = {key: getattr(PickConfig(), key) for key in PickConfig.keys()}
     with pytest.warns(DeprecationWarning, match="'grasp_retries' is now 'retries'"):

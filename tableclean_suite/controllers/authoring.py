@@ -29,9 +29,8 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from tableclean_suite.controllers.clean import Wipe, wipe_plan
-from tableclean_suite.controllers.config_check import checked_skill_config
-from tableclean_suite.controllers.configs import CleanConfig, ComposedConfig
+from tableclean_suite.controllers.clean import WIPE_PHASES, wipe_plan
+from tableclean_suite.controllers.configs import CleanConfig, ComposedConfig, checked_skill_config
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.place import gripper_of, place_spot
 from tableclean_suite.controllers.primitives import Grasp, PrimitiveSkill, Reach, Release, object_body
@@ -173,8 +172,7 @@ def wipe(which: Segment | None = None) -> Step:
 
     def make(ctx: Context, info: Info) -> list:
         return wipe_plan(where(ctx), info)
-    phases = (*(f"SPONGE_{p}" for p in Grasp.PHASES), *Wipe.PHASES, *(f"HOME_{p}" for p in Release.PHASES))
-    return Step("WIPE", phases, make)
+    return Step("WIPE", WIPE_PHASES, make)
 
 
 def _with_held(ctx: Context, held: int) -> Context:
@@ -198,7 +196,7 @@ def compose_skill(name: str, rule: Callable[[TaskState], tuple], steps: Sequence
     action is not registered yet.  Its phases are ``<KIND><i>_<phase>`` (e.g. ``GRASP1_DESCEND``).
     Its config: [`ComposedConfig`][tableclean_suite.controllers.configs.ComposedConfig] (the grasp and release settings), or
     [`CleanConfig`][tableclean_suite.controllers.configs.CleanConfig] when a step wipes, with ``max_steps`` and ``config`` on top
-    (keys of that type only, values in its ranges: [`SkillConfigError`][tableclean_suite.controllers.config_check.SkillConfigError], a
+    (keys of that type only, values in its ranges: [`SkillConfigError`][tableclean_suite.controllers.configs.SkillConfigError], a
     ``KeyError`` and a ``ValueError``, naming the skill, the key and the allowed keys or range).
     """
     if not steps:

@@ -16,21 +16,26 @@ skill's own defaults on top:
     └── CleanConfig(Wipe, Grasp, Release)    CleanSkill (and composed skills that wipe)
 
 Merge order of the values a skill runs with (later wins): the skill's config type's defaults
-(``Skill.DEFAULT_CONFIG``, the dict form of those), the robot's ``"*"`` overrides, the robot's
-per-action overrides ([`robot_configs`][tableclean_suite.controllers.robot_configs]), the caller's
+(``Skill.DEFAULT_CONFIG``, the dict form of those), the robot's ``"*"`` and per-action overrides, its
+gripper's alike ([`robot_configs`][tableclean_suite.controllers.robot_configs]), the caller's
 ``SkillController(..., skill_configs=...)`` or ``Skill(env, config)``; the merged values are
-validated once, by constructing the skill's config type.
+validated once, by constructing the skill's config type, in
+[`checked_skill_config`][tableclean_suite.controllers.configs.checked_skill_config]: what a skill's constructor,
+a robot's per-action overrides and [`compose_skill`][tableclean_suite.controllers.authoring.compose_skill] run,
+so each refuses the same settings with the same [`SkillConfigError`][tableclean_suite.controllers.configs.SkillConfigError].
 """
 
 from __future__ import annotations
 
 import math
 import numbers
+import warnings
 from dataclasses import dataclass, field, fields
-from typing import Any
+from typing import Any, Mapping
 
 __all__ = ["SkillConfig", "GraspConfig", "ReleaseConfig", "WipeConfig", "MoveConfig", "PickConfig",
-           "PlaceConfig", "CleanConfig", "ComposedConfig", "GRASP_SLIP_TOLERANCE", "setting"]
+           "PlaceConfig", "CleanConfig", "ComposedConfig", "GRASP_SLIP_TOLERANCE", "setting",
+           "SkillConfigError", "checked_skill_config", "RENAMED_KEYS"]
 
 #: A lifted body may trail the grip site's rise by at most this [m] before the grasp counts as
 #: slipping (the default of [`GraspConfig.grasp_slip_tolerance`][tableclean_suite.controllers.configs.GraspConfig.grasp_slip_tolerance]).
@@ -83,6 +88,8 @@ class SkillConfig:
     """Control steps (int >= 1) before the skill gives up."""
     speed: float = setting(0.4, "m/s", 0.0, low_open=True)
     """m/s (> 0), maximum speed of the rate-limited setpoint."""
+    descend_speed: float = setting(0.25, "m/s", 0.0, low_open=True)
+    """m/s (> 0), speed of the slower final approaches: a grasp's and a release's descent, a wipe's press."""
     reach_tolerance: float = setting(0.008, "m", 0.0, low_open=True)
     """m (> 0), achieved-to-waypoint distance that counts as reached."""
     gripper_still: float = setting(2e-4, "finger joint units per control step", 0.0)
@@ -150,8 +157,6 @@ class GraspConfig(SkillConfig):
     """m (>= 0) a grasped object's top stays below the hand (the gripper's measured palm height)."""
     close_min_steps: int = setting(4, "control steps", 0, integer=True)
     """Control steps (int >= 0) to keep closing before checking the fingers settled."""
-    descend_speed: float = setting(0.25, "m/s", 0.0, low_open=True)
-    """m/s (> 0), speed of the slower final approach."""
     hover_still_speed: float | None = setting(None, "m/s", 0.0, low_open=True, optional=True)
     """m/s (None or > 0): the hand's horizontal speed at the hover point at most which the descent may start
     (an arm whose hand swings on past the hover point while descending); None: descend on arrival."""
@@ -165,8 +170,6 @@ class ReleaseConfig(SkillConfig):
 
     place_clearance: float = setting(0.006, "m", 0.0)
     """m (>= 0) between the held body's bottom and the surface it is put on at release."""
-    descend_speed: float = setting(0.25, "m/s", 0.0, low_open=True)
-    """m/s (> 0), speed of the slower final approach."""
     release_min_steps: int = setting(3, "control steps", 0, integer=True)
     """Control steps (int >= 0) to keep opening before checking the fingers settled."""
 
@@ -274,3 +277,47 @@ class CleanConfig(WipeConfig, GraspConfig, ReleaseConfig):
     """m (>= 0) the fingertips stay above the sponge's bottom (0.010 for objects: gripped low, it drags less)."""
     place_clearance: float = setting(0.004, "m", 0.0)
     """m (>= 0) above its home at which the sponge is released."""
+
+
+#: Old config keys still accepted, with the key that replaced them (a ``DeprecationWarning`` says so).
+RENAMED_KEYS = {"grasp_retries": "retries"}
+
+
+class SkillConfigError(KeyError, ValueError):
+    """Settings a skill refuses (a ``KeyError`` and a ``ValueError``): a key it does not know, or a value outside
+    its ``Config``'s range; the message is one line naming the skill, the key and the allowed keys or range."""
+
+    def __str__(self) -> str:  # a KeyError would quote the message
+        return str(self.args[0]) if self.args else ""
+
+
+def checked_skill_config(owner: str, config_type, defaults: Mapping[str, Any],
+                         overrides: Mapping[str, Any] | None = None):
+    """``({**defaults, **overrides}, the config_type instance of them)``, both checked.
+
+    Args:
+        owner: the skill as the message names it (e.g. ``"PickSkill"``, ``"skill 'transfer'"``).
+        config_type: the skill's [`SkillConfig`][tableclean_suite.controllers.configs.SkillConfig] subclass (its ``keys()`` and ranges).
+        defaults: the skill's settings before ``overrides`` (its ``DEFAULT_CONFIG``); their keys
+            are the keys allowed (keys ``config_type`` lacks pass through unchecked).
+        overrides: the values to put on top.
+
+    Raises:
+        SkillConfigError: a key of ``overrides`` not in ``defaults`` (naming the keys and the allowed
+            ones), or a merged value outside ``config_type``'s range (naming the field, the value
+            and the range).
+    """
+    overrides = dict(overrides or {})
+    for old, new in RENAMED_KEYS.items():
+        if old in overrides and new in defaults:
+            warnings.warn(f"{owner}: config key {old!r} is now {new!r}", DeprecationWarning, stacklevel=3)
+            overrides.setdefault(new, overrides.pop(old))
+    unknown = sorted(set(overrides) - set(defaults))
+    if unknown:
+        raise SkillConfigError(f"unknown config keys for {owner}: {unknown} (allowed: {sorted(defaults)})")
+    merged = {**defaults, **overrides}
+    try:
+        settings = config_type(**{key: merged[key] for key in config_type.keys() if key in merged})
+    except ValueError as error:
+        raise SkillConfigError(f"{owner}: {error}") from None
+    return merged, settings

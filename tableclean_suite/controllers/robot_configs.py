@@ -13,8 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from tableclean_suite.controllers.config_check import checked_skill_config
-from tableclean_suite.controllers.configs import SkillConfig
+from tableclean_suite.controllers.configs import SkillConfig, checked_skill_config
 from tableclean_suite.controllers.registry import SKILL_REGISTRY, action_key
 from tableclean_suite.controllers.skill import BASE_CONFIG
 from tableclean_suite.environments import robot_registry
@@ -43,7 +42,7 @@ def register_robot_config(config: RobotSkillConfig, *, replace: bool = False) ->
         ValueError: a skills key that is neither `ALL_SKILLS` nor a registered action, or two naming the same
             action; an `ALL_SKILLS` key not in ``BASE_CONFIG`` or out of [`SkillConfig`][tableclean_suite.controllers.configs.SkillConfig]'s
             range; per-action overrides the action's registered skill refuses
-            ([`SkillConfigError`][tableclean_suite.controllers.config_check.SkillConfigError]); the robot already
+            ([`SkillConfigError`][tableclean_suite.controllers.configs.SkillConfigError]); the robot already
             registered without ``replace``; an OSC override of ``type``, ``input_type`` or ``input_ref_frame``.
     """
     if not isinstance(config, RobotSkillConfig):

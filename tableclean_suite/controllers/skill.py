@@ -30,8 +30,7 @@ from typing import Any, ClassVar, Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
-from tableclean_suite.controllers.config_check import checked_skill_config
-from tableclean_suite.controllers.configs import SkillConfig
+from tableclean_suite.controllers.configs import SkillConfig, checked_skill_config
 from tableclean_suite.controllers.geometry import box_lowest_z, clear_yaw_verdict, gripper_yaw, wrap_angle
 from tableclean_suite.controllers.geometry import z_row_entries
 from tableclean_suite.controllers.loop_state import SKILL_STATE, loop_record
@@ -136,7 +135,7 @@ class Skill(abc.ABC):
         env: anything with ``skill_info() -> dict`` (as [`tableclean_suite.environments.TableClean.skill_info`][tableclean_suite.environments.table_clean.TableClean.skill_info]),
             ``symbolic_state() -> TaskState`` and ``control_freq`` (Hz).
         config: overrides of ``DEFAULT_CONFIG`` (an unknown key, or a value outside its field's range in
-            ``Config``, raises [`SkillConfigError`][tableclean_suite.controllers.config_check.SkillConfigError], a ``KeyError`` and a ``ValueError``,
+            ``Config``, raises [`SkillConfigError`][tableclean_suite.controllers.configs.SkillConfigError], a ``KeyError`` and a ``ValueError``,
             naming the skill, the key and the allowed keys or range).
 
     Attributes:
@@ -253,7 +252,7 @@ class Skill(abc.ABC):
         final = self.final_phase
         if self.failure is not None or self.phase == final:  # self.done
             return None
-        if self.steps >= self.budget and not self._retry_stall():
+        if self.steps >= self.budget and not self._retry(self.stall_redo()):
             self.failure = f"step budget of {self.max_steps} exhausted in phase {self.phase.name}"
             return None
         info = self.env.skill_info()
@@ -274,11 +273,8 @@ class Skill(abc.ABC):
                         return None
                     target = self.waypoint(info)
             except SkillFailure as failure:  # a retry re-measures the scene and starts the failed part again
-                redo = failure.redo
-                if redo is None or self.retries >= self.config["retries"] or not self.restart(info, redo):
+                if not self._retry(failure.redo, info):
                     raise
-                self.retries += 1
-                self._phase_steps = 0
                 target = self.waypoint(info)
         except SkillFailure as failure:
             self.failure = f"{self.phase.name}: {failure}"
@@ -303,11 +299,11 @@ class Skill(abc.ABC):
         out in the current phase (a descent held up by what it met); None: the skill fails (default)."""
         return None
 
-    def _retry_stall(self) -> bool:
-        """Whether the budget ran out in a phase that [`stall_redo`][tableclean_suite.controllers.skill.Skill.stall_redo]
-        retries and the skill started it again from the scene measured now (a retry, with a fresh budget)."""
-        redo = self.stall_redo()
-        if redo is None or self.retries >= self.config["retries"] or not self.restart(self.env.skill_info(), redo):
+    def _retry(self, redo: int | None, info: Mapping[str, Any] | None = None) -> bool:
+        """Whether a retry was left and [`restart`][tableclean_suite.controllers.skill.Skill.restart] started the part
+        ``redo`` (None: no retry) again from the scene ``info`` (None: measured now); a retry has a fresh budget."""
+        if redo is None or self.retries >= self.config["retries"] or not self.restart(
+                self.env.skill_info() if info is None else info, redo):
             return False
         self.retries += 1
         self._phase_steps = 0
@@ -423,23 +419,13 @@ class Skill(abc.ABC):
         The compiled [`advance_command`][tableclean_suite.controllers.setpoint.advance_command], which the
         compiled phase loop also runs: both give bit-identical commands.
         """
-        speed = target.speed
-        max_move = self._max_move if speed is None else float(speed * self.dt)
+        max_move = float((self.config["speed"] if target.speed is None else target.speed) * self.dt)
         pos = np.ascontiguousarray(target.pos, dtype=float)
         action = np.empty(ACTION_DIM)
         self._yaw_setpoint = advance_command(self._setpoint, float(self._yaw_setpoint), float(self.yaw), pos,
-                                             max_move, self._max_turn, float(target.gripper), action)
+                                             max_move, float(self.config["yaw_rate"] * self.dt),
+                                             float(target.gripper), action)
         return action
-
-    @functools.cached_property
-    def _max_move(self) -> float:
-        """m the setpoint moves per control step at the config's ``speed`` (the config is read-only, so kept)."""
-        return float(self.config["speed"] * self.dt)
-
-    @functools.cached_property
-    def _max_turn(self) -> float:
-        """rad the yaw setpoint turns per control step (``yaw_rate``; kept)."""
-        return float(self.config["yaw_rate"] * self.dt)
 
     # -- helpers for subclasses ----------------------------------------------------------
     def hover_point(self, info: Mapping[str, Any], xy: np.ndarray) -> np.ndarray:
