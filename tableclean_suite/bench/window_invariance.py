@@ -42,7 +42,7 @@ def relative_change(short: float, long: float) -> float:
     if all(missing) or (not any(missing) and short == long):  # equal, infinities (beyond both windows) included
         return 0.0
     if any(missing) or short == 0 or math.isinf(short):
-        return 0.0 if short == long else math.inf
+        return math.inf
     return abs(float(long) - float(short)) / abs(float(short))
 
 
