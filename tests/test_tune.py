@@ -46,7 +46,7 @@ def test_a_trials_objective_is_the_mean_of_its_runs_learning_times_censored_at_t
     from tableclean_suite.learners import train
 
     args = tune.parse_args([*TINY, "--ties", "first", "--out", str(tmp_path)])
-    evaluation = tune.Evaluation(args, args.model, dict(tune.PAPER_SETTINGS))
+    evaluation = tune.Evaluation(args, dict(tune.PAPER_SETTINGS))
     for _ in evaluation.stages():
         pass
     result = evaluation.result()
@@ -100,10 +100,12 @@ def test_decay_schedules_report_their_final_epsilon():
     assert constant == 0.1 and spec["horizon"] == 500 and linear == pytest.approx(0.05)
 
 
-def test_bad_arguments_exit_2():
+@pytest.mark.parametrize("flag, value", [("--reward", "r9"), ("--learner", "dqn"), ("--max-itr", "0")])
+def test_bad_arguments_exit_2_naming_the_flag(capsys, flag, value):
     with pytest.raises(SystemExit) as exit_info:
-        tune.parse_args(["--reward", "r9"])
+        tune.parse_args([flag, value])
     assert exit_info.value.code == 2
+    assert capsys.readouterr().err.startswith(f"tableclean-bench tune: error: {flag}")
 
 
 @pytest.mark.parametrize("change", [["--reward", "r2"], ["--seed", "2"], ["--tolerance", "0.2"],

@@ -4,18 +4,14 @@
     tableclean-bench tune --trials 20          # a second call resumes the same study
 
 Searches alpha, gamma, epsilon and the exploration schedule (constant, linear or exponential decay
-to a floor) of one learner on one reward pattern and task.  **Objective** (minimised, iterations):
-the restricted mean of the runs' learning times (``TrainingResult.learned_at``; runs that never
-learn count the whole budget; [learning_time_summary][tableclean_suite.learning_time.learning_time_summary]),
-subject to the success asymptote: a trial whose asymptote is more than ``--tolerance`` below the
-paper configuration's (alpha = gamma = 0.3, epsilon = 0.1, computed once per study) scores
-``iterations x (1 + shortfall)``.  Greedy ties are broken by ``--ties``.  A trial trains in
-`STAGES` stages of runs, and Optuna's median pruner may stop it after each.
+to a floor) of one learner on one reward pattern and task.  The objective (minimised, iterations,
+[`objective_value`][tableclean_suite.bench.tune.objective_value]) is the restricted mean of the runs'
+learning times, penalised when the success asymptote falls more than ``--tolerance`` below the paper
+configuration's.  A trial trains in `STAGES` stages of runs; Optuna's median pruner may stop it after each.
 
-``--ablation`` crosses the best trial's (alpha, gamma) and exploration with the paper's, 2 x 2, on
-the same runs (``OUT/ablation.csv``).  The study lives in ``--storage`` (default
-``sqlite:///OUT/study.db``), so a call resumes it and several processes can share it.  Each call
-publishes ``OUT/best.json`` and ``OUT/trials.csv``, also after Ctrl-C (the finished trials; exit 130).
+The study lives in ``--storage`` (default ``sqlite:///OUT/study.db``), so a call resumes it and several
+processes can share it.  Each call publishes ``OUT/best.json`` and ``OUT/trials.csv``, also after Ctrl-C
+(the finished trials; exit 130); ``--ablation`` adds ``OUT/ablation.csv``.
 """
 
 from __future__ import annotations
@@ -47,15 +43,14 @@ STAGES = 4
 #: (state, action) pairs per second of one exact asymptote analysis, for the time estimate.
 ANALYSIS_PAIRS_PER_SECOND = 6_000_000
 DEFAULT_TOLERANCE = 0.01
-#: Trials the pruner lets finish before it prunes, and stages it waits within a trial.
-PRUNER_STARTUP_TRIALS = 5
-PRUNER_WARMUP_STEPS = 1
 #: Study user attributes: the paper configuration's result, the configuration the study was made for.
 REFERENCE_ATTR = "paper_reference"
 CONFIGURATION_ATTR = "configuration"
 #: Greedy tie rules of ``train(ties=...)``, the default first.
 TIE_RULES = ("random", "first")
 OBJECTIVE = "learning_time_rmst"
+#: The command-line settings a study's trials depend on (recorded in the study and in ``best.json``).
+SETTINGS = ("learner", "reward", "runs", "iterations", "max_itr", "seed", "threshold", "tolerance", "ties")
 ABLATION_LEVELS = ("paper", "tuned")
 PROG = "tableclean-bench tune"
 DEFAULT_OUT = "results/tune"
@@ -70,9 +65,7 @@ def study_configuration(args) -> dict:
     arrays the learner reads and of the code (``--plugins`` included)."""
     from tableclean_suite.bench.digests import code_digest, task_digest
 
-    return {"learner": args.learner, "reward": args.reward, "task": args.model.spec.to_dict(), "runs": args.runs,
-            "iterations": args.iterations, "max_itr": args.max_itr, "seed": args.seed, "threshold": args.threshold,
-            "tolerance": args.tolerance, "ties": args.ties, "objective": OBJECTIVE,
+    return {**{key: getattr(args, key) for key in SETTINGS}, "task": args.model.spec.to_dict(), "objective": OBJECTIVE,
             "task_digest": task_digest(args.model), "code_digest": code_digest(getattr(args, "plugins", ()))}
 
 
@@ -162,13 +155,13 @@ def exploration_of(settings: dict, iterations: int):
 class Evaluation:
     """Trains one configuration stage by stage and scores it (see the module docstring)."""
 
-    def __init__(self, args, model, settings: dict):
+    def __init__(self, args, settings: dict):
         from tableclean_suite import asymptotes
         from tableclean_suite.curves import CurveSums
 
-        self.args, self.model, self.settings = args, model, settings
+        self.args, self.settings = args, settings
         self.exploration, self.final_epsilon = exploration_of(settings, args.iterations)
-        self.chain = asymptotes.EpisodeChain.build(model, args.reward)
+        self.chain = asymptotes.EpisodeChain.build(args.model, args.reward)
         self.sums = CurveSums.zeros(args.iterations)
         self.success: list[np.ndarray] = []
         self.learned_at: list[np.ndarray] = []
@@ -185,7 +178,7 @@ class Evaluation:
             result = train(self.args.learner, self.args.reward, runs=int(hi - lo), first_run=int(lo),
                            iterations=self.args.iterations, alpha=self.settings["alpha"],
                            gamma=self.settings["gamma"], epsilon=self.settings["epsilon"], max_itr=self.args.max_itr,
-                           seed=self.args.seed, task=self.model, exploration=self.exploration,
+                           seed=self.args.seed, task=self.args.model, exploration=self.exploration,
                            ties=self.args.ties)
             self.sums.add(result)
             self.learned_at.append(np.asarray(result.learned_at))
@@ -224,10 +217,10 @@ def objective_value(result: dict, reference: float | None, iterations: int, tole
     return value
 
 
-def _reference(study, args, model) -> dict:
+def _reference(study, args) -> dict:
     """The paper configuration's result, computed once per study and stored as a user attribute."""
     if study.user_attrs.get(REFERENCE_ATTR) is None:
-        study.set_user_attr(REFERENCE_ATTR, Evaluation(args, model, dict(PAPER_SETTINGS)).finished())
+        study.set_user_attr(REFERENCE_ATTR, Evaluation(args, dict(PAPER_SETTINGS)).finished())
     return study.user_attrs[REFERENCE_ATTR]
 
 
@@ -276,8 +269,9 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
                            max_itr=args.max_itr, seed=args.seed, task=args.task, threshold=args.threshold,
                            sweep_learner=args.learner, sweep_reward=args.reward, sweeps=False,
                            plugins=args.plugins)
-    except ConfigError as error:
-        parser.error(error.message_for("--" + error.field.replace("_", "-")))
+    except ConfigError as error:  # the run's list fields are this command's single --learner and --reward
+        flag = {"learners": "--learner", "rewards": "--reward"}.get(error.field, "--" + error.field.replace("_", "-"))
+        parser.error(error.message_for(flag))
     args.model = config.task_model()
     out = Path(args.out)
     args.storage = args.storage or f"sqlite:///{(out / 'study.db').as_posix()}"
@@ -287,24 +281,22 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
 
 
 def trials_frame(study):
-    """One row per trial: number, state, value, hyperparameters and measured results."""
-    import pandas as pd
-
-    return pd.DataFrame([{"number": trial.number, "state": trial.state.name, "value": trial.value,
-                          **{f"param_{k}": v for k, v in trial.params.items()}, **trial.user_attrs}
-                         for trial in study.trials])
+    """One row per trial: number, state, value, hyperparameters (``param_*``) and measured results."""
+    frame = study.trials_dataframe(attrs=("number", "state", "value", "params", "user_attrs"))
+    return frame.rename(columns=lambda name: name.replace("params_", "param_", 1).removeprefix("user_attrs_"))
 
 
 def best_report(study, args) -> dict:
     """``best.json``: the best trial's configuration and results beside the paper configuration's."""
+    from optuna.trial import TrialState
+
     reference = study.user_attrs.get(REFERENCE_ATTR)
-    completed = [t for t in study.trials if t.value is not None and t.state.name == "COMPLETE"]
-    best = min(completed, key=lambda t: t.value) if completed else None
+    completed = study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,))
+    best = study.best_trial if completed else None
     return {
-        "study": args.study_name, "storage": args.storage, "learner": args.learner, "reward": args.reward,
-        "task": args.task, "runs": args.runs, "iterations": args.iterations, "seed": args.seed,
-        "threshold": args.threshold, "tolerance": args.tolerance, "ties": args.ties, "trials": len(study.trials),
-        "completed": len(completed), "pruned": sum(t.state.name == "PRUNED" for t in study.trials),
+        "study": args.study_name, "storage": args.storage, "task": args.task, **{k: getattr(args, k) for k in SETTINGS},
+        "trials": len(study.trials), "completed": len(completed),
+        "pruned": len(study.get_trials(deepcopy=False, states=(TrialState.PRUNED,))),
         "objective": "restricted mean per-run learning time up to the budget (iterations); iterations x "
                      "(1 + shortfall) when the success asymptote is more than tolerance below the paper "
                      "configuration's",
@@ -335,10 +327,10 @@ def run(args) -> int:
         print(f"{prog}: error: {error}", file=sys.stderr)
         return EXIT_USAGE
     started = time.perf_counter()
-    reference = _reference(study, args, args.model)
+    reference = _reference(study, args)
 
     def objective(trial):
-        evaluation = Evaluation(args, args.model, trial_settings(trial))
+        evaluation = Evaluation(args, trial_settings(trial))
         for step in evaluation.stages():
             value = objective_value(evaluation.result(), reference["success_asymptote"], args.iterations,
                                     args.tolerance)
@@ -431,7 +423,7 @@ def ablation(args, tuned: dict) -> list[dict]:
     study's runs; one row each."""
     return [{"alpha_gamma": values_from, "exploration_from": exploration_from, "ties": args.ties,
              **{f"setting_{key}": value for key, value in settings.items()},
-             **Evaluation(args, args.model, settings).finished()}
+             **Evaluation(args, settings).finished()}
             for values_from, exploration_from, settings in ablation_settings(tuned)]
 
 
@@ -444,8 +436,7 @@ def open_study(args):
     try:
         study = optuna.create_study(
             study_name=args.study_name, storage=args.storage, direction="minimize", load_if_exists=True,
-            pruner=optuna.pruners.MedianPruner(n_startup_trials=PRUNER_STARTUP_TRIALS,
-                                               n_warmup_steps=PRUNER_WARMUP_STEPS),
+            pruner=optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=1),
         )
         # seeded past the trials so far: a resumed call does not replay the first call's proposals
         study.sampler = optuna.samplers.TPESampler(seed=args.seed + len(study.trials))
@@ -460,8 +451,3 @@ def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     return run(parse_args(argv, prog))
 
-
-if __name__ == "__main__":
-    from tableclean_suite.bench.commands import run_alias
-
-    sys.exit(run_alias("tune", "python -m tableclean_suite.bench.tune"))
