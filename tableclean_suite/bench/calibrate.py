@@ -18,7 +18,6 @@ Train on the result at symbolic speed:
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from collections import Counter
 from pathlib import Path
@@ -168,8 +167,3 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     print(f"({time.perf_counter() - started:.0f} s)")
     return 0
 
-
-if __name__ == "__main__":
-    from tableclean_suite.bench.commands import run_alias
-
-    sys.exit(run_alias("calibrate", "python -m tableclean_suite.bench.calibrate"))
