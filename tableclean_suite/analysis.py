@@ -292,17 +292,6 @@ def _runs_q(q) -> np.ndarray:
     return q[None] if q.ndim == 2 else q
 
 
-def _greedy_statistics(result, chain, max_itr: int, model: TaskModel | None = None,
-                       masks: np.ndarray | None = None) -> asymptotes.Asymptotes:
-    """Asymptotes of each run's final *greedy* policy (epsilon = 0) restricted to the afforded actions,
-    without the advisor (not the learner's policy); Monte Carlo estimates over a
-    [StepTable][tableclean_suite.simulation.StepTable]."""
-    model = model if model is not None else TaskModel()
-    masks = affordance_masks(result, model) if masks is None else masks
-    probabilities = None if masks is None else afforded_probabilities(_runs_q(result.q), masks, 0.0)
-    return _statistics(result, chain, max_itr, 0.0, probabilities)
-
-
 def never_terminal(result) -> np.ndarray:
     """``(R,)`` float64, 1.0 for each run that never reached the terminal state in its window
     (so never received the terminal reward), else 0.0."""
@@ -326,7 +315,9 @@ def final_run_facts(result, chain, max_itr: int, model: TaskModel | None = None)
     model = model if model is not None else TaskModel()
     masks = affordance_masks(result, model)  # once for both analyses
     final = final_asymptotes(result, chain, max_itr, model, masks)
-    greedy = _greedy_statistics(result, chain, max_itr, model, masks)
+    # each run's final greedy policy (epsilon 0) over the afforded actions, without the advisor
+    greedy = _statistics(result, chain, max_itr, 0.0,
+                         None if masks is None else afforded_probabilities(_runs_q(result.q), masks, 0.0))
     facts = {"success": np.atleast_1d(final.success), "average_reward": np.atleast_1d(final.average_reward),
              "terminal": np.atleast_1d(final.terminal), "greedy_success": np.atleast_1d(greedy.success),
              "never_terminal": never_terminal(result)}

@@ -7,7 +7,7 @@ each run's working arrays, the records and the training time
 ([`training_seconds`][tableclean_suite.resources.training_seconds]).  The ``require_*`` functions
 raise a [`ResourceError`][tableclean_suite.resources.ResourceError] whose one-line message names the
 estimate, what is allowed or available, and the override: the environment variable `OVERRIDE_ENV`
-set to ``1`` (executor workers inherit it), or ``override=True``.
+set to ``1`` (executor workers inherit it).
 """
 
 from __future__ import annotations
@@ -218,7 +218,7 @@ def training_seconds(runs: int, iterations: int, n_states: int, n_actions: int, 
 
 def require_training_time(runs: int, iterations: int, n_states: int, n_actions: int, what: str,
                           engine: str = DEFAULT_ENGINE, planning_steps: int = 0, q_tables: int = 1,
-                          extra_seconds: float = 0.0, extra_detail: str = "", override: bool = False) -> float:
+                          extra_seconds: float = 0.0, extra_detail: str = "") -> float:
     """[`require_time`][tableclean_suite.resources.require_time] of [`training_seconds`][tableclean_suite.resources.training_seconds] (plus ``extra_seconds``, e.g. the analysis's,
     described by ``extra_detail``); returns the estimate in seconds.  The refusal names every
     part: updates (Dyna-Q's planning updates included), the runs' setup and the extra."""
@@ -228,8 +228,7 @@ def require_training_time(runs: int, iterations: int, n_states: int, n_actions: 
     entries = max(1, int(q_tables)) * int(n_states) * int(n_actions)
     detail = (f"{updates:.3g} learner updates{planning} at {steps_per_second(engine):.3g}/s ({engine} engine) and "
               f"{int(runs)} runs' setup of {entries:.3g} table entries at {TABLE_ENTRIES_PER_SECOND:.3g}/s")
-    require_time(seconds + float(extra_seconds), what, f"{detail}{'; ' + extra_detail if extra_detail else ''}",
-                 override)
+    require_time(seconds + float(extra_seconds), what, f"{detail}{'; ' + extra_detail if extra_detail else ''}")
     return seconds + float(extra_seconds)
 
 
@@ -257,32 +256,30 @@ def bounded_product(terms, limit: int) -> int | None:
     return product if product <= int(limit) else None
 
 
-def _refuse(error: type, message: str, override: bool) -> None:
-    """Raise ``error`` with ``message`` and the override's hint, unless ``override`` or `OVERRIDE_ENV`."""
-    if not (override or override_enabled()):
+def _refuse(error: type, message: str) -> None:
+    """Raise ``error`` with ``message`` and the override's hint, unless `OVERRIDE_ENV` is set."""
+    if not override_enabled():
         raise error(f"{message}, or set {OVERRIDE_ENV}=1 to try anyway")
 
 
-def require_memory(estimate: MemoryEstimate, what: str, available: int | None = None,
-                   override: bool = False) -> None:
+def require_memory(estimate: MemoryEstimate, what: str, available: int | None = None) -> None:
     """Raise [`InsufficientMemoryError`][tableclean_suite.resources.InsufficientMemoryError] when ``estimate`` exceeds `USABLE_FRACTION` of
     the available memory (``available``: bytes, default [`available_bytes`][tableclean_suite.resources.available_bytes]).
 
     Args:
         estimate: what the allocation needs.
         what: what is being allocated, for the message (e.g. ``"training 'q_learning' on task 'big'"``).
-        override: skip the check (as does `OVERRIDE_ENV`).
     """
-    if override or override_enabled():
+    if override_enabled():
         return
     available = available_bytes() if available is None else int(available)
     if estimate.total > USABLE_FRACTION * available:
         _refuse(InsufficientMemoryError, f"{what} needs about {estimate.describe()}, but only "
                 f"{format_bytes(available)} of memory is available (at most {USABLE_FRACTION:.0%} of it may be "
-                "used); use a smaller task or budget", override)
+                "used); use a smaller task or budget")
 
 
-def require_time(seconds: float, what: str, detail: str = "", override: bool = False) -> None:
+def require_time(seconds: float, what: str, detail: str = "") -> None:
     """Raise [`TooMuchWorkError`][tableclean_suite.resources.TooMuchWorkError] when an estimate of ``seconds`` exceeds `MAX_TRAINING_SECONDS`.
 
     Args:
@@ -293,8 +290,7 @@ def require_time(seconds: float, what: str, detail: str = "", override: bool = F
     if seconds > MAX_TRAINING_SECONDS:
         how = f" ({detail})" if detail else ""
         _refuse(TooMuchWorkError, f"{what} would take about {format_seconds(seconds)}{how}, more than the "
-                f"{format_seconds(MAX_TRAINING_SECONDS)} allowed; use fewer runs, iterations or a smaller task",
-                override)
+                f"{format_seconds(MAX_TRAINING_SECONDS)} allowed; use fewer runs, iterations or a smaller task")
 
 
 #: Longest estimated time of a table build's user action effects, timed on its first states (seconds).
@@ -303,24 +299,24 @@ MAX_EFFECT_SECONDS = 60
 NOTICE_EFFECT_SECONDS = 5
 
 
-def require_effect_seconds(seconds: float, what: str, override: bool = False) -> None:
+def require_effect_seconds(seconds: float, what: str) -> None:
     """Raise [`TooMuchWorkError`][tableclean_suite.resources.TooMuchWorkError] when a table build's user
     action effects, timed on its first states, would take more than `MAX_EFFECT_SECONDS` in all;
     above `NOTICE_EFFECT_SECONDS` say the estimate on stderr."""
     if seconds > MAX_EFFECT_SECONDS:
         _refuse(TooMuchWorkError, f"{what}: its user action effects, timed on its first states, would take about "
                 f"{format_seconds(seconds)}, more than the {MAX_EFFECT_SECONDS} s allowed; use faster effects or a "
-                "smaller task", override)
+                "smaller task")
     if seconds > NOTICE_EFFECT_SECONDS:
         print(f"{what}: user action effects take about {format_seconds(seconds)}", file=sys.stderr, flush=True)
 
 
-def require_effect_calls(calls: int, what: str, override: bool = False) -> None:
+def require_effect_calls(calls: int, what: str) -> None:
     """Raise [`TooMuchWorkError`][tableclean_suite.resources.TooMuchWorkError] when building a table would call user action effects more
     than `MAX_USER_EFFECT_CALLS` times (pure Python, about 8.5 us each)."""
     if int(calls) > MAX_USER_EFFECT_CALLS:
         _refuse(TooMuchWorkError, f"{what} calls user action effects {int(calls)} times (pure Python; at most "
-                f"{MAX_USER_EFFECT_CALLS} are allowed, a few seconds); use fewer segments or objects", override)
+                f"{MAX_USER_EFFECT_CALLS} are allowed, a few seconds); use fewer segments or objects")
 
 
 #: Python rule steps (state x action, about 8.5 us each) a per-state walk of a task may take: the
@@ -328,10 +324,10 @@ def require_effect_calls(calls: int, what: str, override: bool = False) -> None:
 MAX_PYTHON_RULE_STEPS = 2_000_000
 
 
-def require_python_steps(steps: int, what: str, override: bool = False) -> None:
+def require_python_steps(steps: int, what: str) -> None:
     """Raise [`TooMuchWorkError`][tableclean_suite.resources.TooMuchWorkError] when a pure-Python walk over a task's states would step its
     rules more than `MAX_PYTHON_RULE_STEPS` times."""
     if int(steps) > MAX_PYTHON_RULE_STEPS:
         _refuse(TooMuchWorkError, f"{what} steps the task's rules state by state up to {int(steps)} times (pure "
                 f"Python, about {format_seconds(int(steps) * 8.5e-6)}; at most {MAX_PYTHON_RULE_STEPS} are allowed); "
-                "use fewer segments or objects", override)
+                "use fewer segments or objects")

@@ -118,7 +118,6 @@ def test_require_memory_names_the_estimate_what_is_available_and_the_override(mo
     assert "4.0 GiB" in message and "Q-tables 3.0 GiB" in message and "2.0 GiB" in message
     assert resources.OVERRIDE_ENV in message and "\n" not in message
     resources.require_memory(estimate, "fits", available=10 * GIB)
-    resources.require_memory(estimate, "overridden", available=GIB, override=True)
     monkeypatch.setenv(resources.OVERRIDE_ENV, "1")
     resources.require_memory(estimate, "overridden by the environment", available=GIB)
 

@@ -306,8 +306,8 @@ class TaskModel:
         ones included; [`ResourceError`][tableclean_suite.resources.ResourceError] for specs too large
         to search in Python."""
         self._require_python_walk("the reachable-state search")
-        frontier = np.array([encode(self.as_state(s)) for s in (starts if starts is not None else self.unclean_layouts())],
-                            dtype=np.int64)
+        starts = starts if starts is not None else self.unclean_layouts()
+        frontier = np.array([encode(self.as_state(s)) for s in starts], dtype=np.int64)
         seen = np.zeros(self.n_states, dtype=bool)
         seen[frontier] = True
         while frontier.size:  # terminal codes map to themselves: already seen
@@ -327,12 +327,9 @@ class TaskModel:
             return None
         plan = []
         while distance[code] > 0:
-            plan.append(self._plan_action(int(policy[code])))
+            plan.append(Action(int(policy[code])) if self.action_names == _BUILTIN_ORDER else int(policy[code]))
             code = int(next_state[code, policy[code]])
         return plan
-
-    def _plan_action(self, index: int) -> Action | int:
-        return Action(index) if self.action_names == _BUILTIN_ORDER else index
 
     def shortest_plan_lengths(self, states: Sequence[StateLike] | None = None) -> dict[int, int | None]:
         """Shortest plan length per state code (default: every reachable state), None where no
