@@ -109,14 +109,10 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
     missing = [c for c in ("cell_id", *KEY_COLUMNS, *SUMMARY_SCALARS) if c not in frame.columns]
     if missing:
         raise ValueError(f"cell records lack columns: {', '.join(missing)}")
-    frame = frame.drop(columns=[c for c in PAPER_COLUMNS if c in frame.columns])
-    paper = PAPER_TABLE3.set_index("reward")
     is_paper_row = (frame["experiment"] == "main") & (frame["learner"] == PAPER_LEARNER) & compare_with_paper
-    for column in PAPER_COLUMNS:
-        frame[column] = [
-            paper.at[reward, column] if flag and reward in paper.index else _NA
-            for reward, flag in zip(frame["reward"], is_paper_row)
-        ]
+    frame = frame.drop(columns=[c for c in PAPER_COLUMNS if c in frame.columns])
+    frame = frame.join(PAPER_TABLE3.set_index("reward"), on="reward")
+    frame[list(PAPER_COLUMNS)] = frame[list(PAPER_COLUMNS)].where(is_paper_row)
     numbers = list(dict.fromkeys((*SUMMARY_SCALARS, *LEARNING_COLUMNS, *SCALAR_COLUMNS, *SETTLING_COLUMNS[:4])))
     frame = frame.reindex(columns=list(dict.fromkeys((*frame.columns, *numbers, "settled"))))  # NaN: not carried
     frame[numbers] = frame[numbers].astype(float)
@@ -392,15 +388,12 @@ def curves_long(records: list[dict], curves: list[dict], metrics=CURVE_METRICS, 
                 keep = np.r_[keep, len(values) - 1]
             bounds = {side: np.asarray(curve_set.get(f"{metric}_{side}", np.full(len(values), np.nan)), dtype=float)
                       for side in ("low", "high")}
-            part = pd.DataFrame({"iteration": keep + 1, "metric": metric, "value": values[keep],
-                                 "low": bounds["low"][keep], "high": bounds["high"][keep]})
-            for key in reversed(KEY_COLUMNS):
-                part.insert(0, key, record[key])
-            parts.append(part)
-    columns = [*KEY_COLUMNS, "iteration", "metric", "value", "low", "high"]
+            parts.append(pd.DataFrame({**{key: record[key] for key in KEY_COLUMNS}, "iteration": keep + 1,
+                                       "metric": metric, "value": values[keep], "low": bounds["low"][keep],
+                                       "high": bounds["high"][keep]}))
     if not parts:
-        return pd.DataFrame(columns=columns)
-    return pd.concat(parts, ignore_index=True)[columns]
+        return pd.DataFrame(columns=[*KEY_COLUMNS, "iteration", "metric", "value", "low", "high"])
+    return pd.concat(parts, ignore_index=True)
 
 
 #: ``float_format`` of ``curves.csv`` (printf style, as ``DataFrame.to_csv(float_format=...)``).
