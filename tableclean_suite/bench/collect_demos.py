@@ -33,6 +33,7 @@ from tableclean_suite.bench.rollout import train_policy  # noqa: E402
 from tableclean_suite.demos import VALID_FRACTION  # noqa: E402
 from tableclean_suite.executors.blas import single_blas_thread  # noqa: E402
 from tableclean_suite.robosuite_adapter import apply_verbosity  # noqa: E402
+from tableclean_suite.task import TaskModel, TaskSpec  # noqa: E402
 
 POLICIES = ("optimal", "learned")
 OUT_SUFFIXES = (".hdf5", ".h5")
@@ -126,72 +127,65 @@ class AttemptResult:
     seconds: float = 0.0
 
 
-#: Scenes of this process, by (spec, task, robot): ``(env, staging controller, model, env_args)``.
-_SCENES: dict = {}
+def _scene(task: DemoAttempt, spec: TaskSpec, model: TaskModel):
+    """A new scene of ``task`` (``spec`` as given, ``model`` its uniform start): ``(env, staging controller,
+    env_args)``."""
+    import multiprocessing
 
+    from tableclean_suite.controllers import SkillController, make_skill_env, skill_controller_config
+    from tableclean_suite.demos import env_args_of
 
-def _scene(task: DemoAttempt):
-    """The scene of ``task`` in this process (built on first use, kept for the next attempts)."""
-    key = (task.spec, task.task, task.robot)
-    if key not in _SCENES:
-        import multiprocessing
-
-        from tableclean_suite.controllers import SkillController, make_skill_env, skill_controller_config
-        from tableclean_suite.demos import env_args_of
-        from tableclean_suite.task import TaskModel, TaskSpec
-
-        if multiprocessing.parent_process() is not None:  # a worker process: robosuite's start-up lines are noise
-            apply_verbosity(False)
-        spec = TaskSpec.from_dict(json.loads(task.spec))
-        model = TaskModel(spec=spec, start="uniform_unclean")
-        try:
-            env = make_skill_env(task=spec, robots=task.robot)
-        except NotImplementedError:  # the fast path does not reproduce this robot's controller
-            env = make_skill_env(task=spec, robots=task.robot, fast_control=False)
-        env_args = env_args_of(env, task.task, skill_controller_config(task.robot, None))
-        _SCENES[key] = (env, SkillController(env, model), model, env_args)
-    return _SCENES[key]
+    if multiprocessing.parent_process() is not None:  # a worker process: robosuite's start-up lines are noise
+        apply_verbosity(False)
+    try:
+        env = make_skill_env(task=spec, robots=task.robot)
+    except NotImplementedError:  # the fast path does not reproduce this robot's controller
+        env = make_skill_env(task=spec, robots=task.robot, fast_control=False)
+    return env, SkillController(env, model), env_args_of(env, task.task, skill_controller_config(task.robot, None))
 
 
 @single_blas_thread()  # its thread count changes the trajectories' last bits
 def record_attempt(task: DemoAttempt) -> AttemptResult:
     """Run one [`DemoAttempt`][tableclean_suite.bench.collect_demos.DemoAttempt] in this process: draw its
-    start, stage it, execute and record."""
+    start, build its scene, stage it, execute and record."""
     from tableclean_suite.demos import EpisodeRecorder, recording_controller
     from tableclean_suite.physics_backend import StagingError, stage
 
-    env, staging, model, env_args = _scene(task)
+    spec = TaskSpec.from_dict(json.loads(task.spec))
+    model = TaskModel(spec=spec, start="uniform_unclean")
     policy = np.asarray(task.policy, dtype=np.int64)
     start, placement_seed = attempt_draws(model, task.seed, task.attempt)
-
-    def discarded(problem: str) -> AttemptResult:
-        return AttemptResult(task.attempt, start.name, None, problem, env_args)
-
     if symbolic_actions(model, start, policy, task.max_actions) is None:
-        return discarded(f"the {task.policy_name} policy does not reach the goal from {start.name}")
+        return AttemptResult(task.attempt, start.name, None,
+                             f"the {task.policy_name} policy does not reach the goal from {start.name}")
+    env, staging, env_args = _scene(task, spec, model)
     try:
         stage(env, staging, start, seed=placement_seed)
     except StagingError as error:
-        return discarded(str(error))
+        env.close()
+        return AttemptResult(task.attempt, start.name, None, str(error), env_args)
     started = time.perf_counter()
     recorder = EpisodeRecorder(env)
     controller = recording_controller(env, model, recorder)
     state, problem = start, None
-    for _ in range(task.max_actions):
-        action = int(policy[state.index])
-        recorder.begin(model.action_name(action), action)
-        result = controller.execute(action)
-        if result.state_after is None:
-            problem = f"fault after {model.action_name(action)}: {result.reason}"
-            break
-        if task.policy_name == "optimal" and not result.success:  # the shortest plan, as planned or not at all
-            problem = f"{model.action_name(action)} failed: {result.reason}"
-            break
-        state = result.state_after
-        if state.is_terminal:
-            break
-    demo = recorder.finish(attrs={"start_state": start.index, "start_state_name": start.name,
-                                  "placement_seed": placement_seed, "policy": task.policy_name})
+    try:
+        for _ in range(task.max_actions):
+            action = int(policy[state.index])
+            recorder.begin(model.action_name(action), action)
+            result = controller.execute(action)
+            if result.state_after is None:
+                problem = f"fault after {model.action_name(action)}: {result.reason}"
+                break
+            if task.policy_name == "optimal" and not result.success:  # the shortest plan, as planned or not at all
+                problem = f"{model.action_name(action)} failed: {result.reason}"
+                break
+            state = result.state_after
+            if state.is_terminal:
+                break
+        demo = recorder.finish(attrs={"start_state": start.index, "start_state_name": start.name,
+                                      "placement_seed": placement_seed, "policy": task.policy_name})
+    finally:
+        env.close()
     if problem is None and not demo.attrs["success"]:
         problem = f"ended in {state.name} without success"
     return AttemptResult(task.attempt, start.name, None if problem else demo, problem, env_args,
@@ -211,7 +205,7 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
         tableclean_suite.executors.TaskFailedError: an attempt raised (naming it).
     """
     from tableclean_suite.executors import LocalExecutor
-    from tableclean_suite.task import TaskModel, get_task_spec
+    from tableclean_suite.task import get_task_spec
 
     spec = get_task_spec(task)
     model = TaskModel(spec=spec, start="uniform_unclean")
@@ -233,25 +227,21 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
     demos, discarded, env_args = [], 0, {}
     limit = episodes * MAX_ATTEMPTS_PER_EPISODE
     next_attempt = 0
-    try:
-        while len(demos) < episodes and next_attempt < limit:
-            wave = range(next_attempt, min(next_attempt + episodes - len(demos), limit))
-            tasks = [DemoAttempt(spec_json, str(task), robot, policy_name, policy_values, max_actions, seed, attempt)
-                     for attempt in wave]
-            for result in executor.map(record_attempt, tasks):
-                env_args = env_args or result.env_args
-                if result.demo is None:
-                    discarded += 1
-                    log(f"attempt {result.attempt}: {result.start_name}: {result.problem}; discarded")
-                    continue
-                demo = result.demo
-                log(f"demo_{len(demos)}: {result.start_name}: {len(demo.attrs['plan'])} actions, "
-                    f"{demo.num_samples} control steps in {result.seconds:.1f} s")
-                demos.append(demo)
-            next_attempt = wave.stop
-    finally:
-        while _SCENES:  # those of an in-process executor (workers == 1)
-            _SCENES.popitem()[1][0].close()
+    while len(demos) < episodes and next_attempt < limit:
+        wave = range(next_attempt, min(next_attempt + episodes - len(demos), limit))
+        tasks = [DemoAttempt(spec_json, str(task), robot, policy_name, policy_values, max_actions, seed, attempt)
+                 for attempt in wave]
+        for result in executor.map(record_attempt, tasks):
+            env_args = env_args or result.env_args
+            if result.demo is None:
+                discarded += 1
+                log(f"attempt {result.attempt}: {result.start_name}: {result.problem}; discarded")
+                continue
+            demo = result.demo
+            log(f"demo_{len(demos)}: {result.start_name}: {len(demo.attrs['plan'])} actions, "
+                f"{demo.num_samples} control steps in {result.seconds:.1f} s")
+            demos.append(demo)
+        next_attempt = wave.stop
     attrs = {"task_spec": spec.to_dict(), "action_names": list(model.action_names), "policy": policy_name,
              "seed": seed, "discarded": discarded}
     if policy_name == "learned":
