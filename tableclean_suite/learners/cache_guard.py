@@ -11,9 +11,10 @@ so they are recompiled once against the current code.
 from __future__ import annotations
 
 import hashlib
-import os
 from pathlib import Path
 from types import ModuleType
+
+from tableclean_suite.atomic_files import atomic_write_text
 
 #: Name of the digest file written into each guarded cache directory (one per guard name).
 STAMP_SUFFIX = ".deps.sha256"
@@ -54,9 +55,7 @@ def guard(name: str, dispatchers: list, modules: list[ModuleType]) -> bool:
             invalidated = True
         try:
             path.mkdir(parents=True, exist_ok=True)
-            temporary = stamp.with_name(stamp.name + f".{os.getpid()}.tmp")
-            temporary.write_text(current)
-            os.replace(temporary, stamp)
-        except OSError:
+            atomic_write_text(stamp, current)
+        except OSError:  # an OutputError too
             continue
     return invalidated
