@@ -135,11 +135,8 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
             configuration = read_configuration(source)
             check_trials_task(configuration, model, source)
             rows = read_trials(source, log)
+            check_trial_rows(rows, model, source)  # before rounds are counted by their actions
             measured_actions = {row["action"] for row in rows}  # a file may hold a subset of the actions
-            unknown = sorted(measured_actions - set(model.action_names))
-            if unknown:
-                raise CalibrationError(f"{source} holds trials of action(s) {unknown}, which task "
-                                       f"{model.spec.name!r} does not have ({', '.join(model.action_names)})")
             rows = trial_store.complete_rounds(rows, trials_per_round(model, measured_actions), log)
             if not rows:
                 parser.error(f"--from-trials: {source} holds no complete round of task {model.spec.name!r}")
