@@ -15,7 +15,6 @@ import sys
 import numpy as np
 
 from tableclean_suite.bench import cli
-from tableclean_suite.bench.cli import positive_int
 from tableclean_suite.bench.tables import PRINT_WIDTH
 from tableclean_suite import analysis, metrics
 from tableclean_suite.learners import train
@@ -46,7 +45,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     cli.add_runs_argument(parser, 1000, "runs per row")
     cli.add_iterations_argument(parser, 4000, "training iterations")
-    parser.add_argument("--long-iterations", type=positive_int, default=20000, help="iterations of the long r3 row (default 20000)")
+    parser.add_argument("--long-iterations", type=cli.positive_int, default=20000,
+                        help="iterations of the long r3 row (default 20000)")
     cli.add_seed_argument(parser, "the training runs")
     return parser
 

@@ -22,7 +22,6 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from tableclean_suite.bench import cli  # noqa: E402
-from tableclean_suite.bench.cli import positive_int  # noqa: E402
 from tableclean_suite.task import Action, TaskModel, TaskState  # noqa: E402
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
@@ -52,10 +51,8 @@ class Recorder:
     def __init__(self, env, writer, filming: Filming):
         from PIL import ImageFont
 
-        self.env, self.writer = env, writer
-        self.width, self.height = filming.width, filming.height
-        self.camera, self.frame_every = filming.camera, filming.frame_every
-        self.font = ImageFont.load_default(size=max(10, self.height // 26))
+        self.env, self.writer, self.filming = env, writer, filming
+        self.font = ImageFont.load_default(size=max(10, filming.height // 26))
         self.control_steps = 0
         self.frames = 0
         self.state: TaskState | None = None
@@ -67,7 +64,7 @@ class Recorder:
 
     def on_step(self) -> None:
         self.control_steps += 1
-        if self.control_steps % self.frame_every == 0:
+        if self.control_steps % self.filming.frame_every == 0:
             frame = self.capture()
             if self.still is None and self.action in (Action.CLEAN, "clean") and self.state is not None:
                 segment = self.state.arm
@@ -80,11 +77,12 @@ class Recorder:
     def capture(self, repeat: int = 1) -> np.ndarray:
         from PIL import Image, ImageDraw
 
-        raw = self.env.sim.render(camera_name=self.camera, width=self.width, height=self.height)[::-1]
+        width, height = self.filming.width, self.filming.height
+        raw = self.env.sim.render(camera_name=self.filming.camera, width=width, height=height)[::-1]
         image = Image.fromarray(np.ascontiguousarray(raw))
         draw = ImageDraw.Draw(image)
         line_h = self.font.size + 4
-        draw.rectangle([0, 0, self.width, 2 * line_h + 6], fill=(0, 0, 0))
+        draw.rectangle([0, 0, width, 2 * line_h + 6], fill=(0, 0, 0))
         state = "?" if self.state is None else f"state {self.state.index}: {self.state.name}"
         action = "-" if self.action is None else getattr(self.action, "rule_name", self.action)
         draw.text((6, 3), state, fill=(255, 255, 255), font=self.font)
@@ -222,11 +220,12 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     cli.add_iterations_argument(parser, 3000, "training iterations per run")
     cli.add_runs_argument(parser, 5, "training runs voting on the policy")
     cli.add_seed_argument(parser, "the training runs and the placement noise")
-    parser.add_argument("--fps", type=positive_int, default=20, help="video frames per second (default 20)")
+    parser.add_argument("--fps", type=cli.positive_int, default=20, help="video frames per second (default 20)")
     parser.add_argument("--width", type=pixels, default=480, help="frame width in pixels, even (default 480)")
     parser.add_argument("--height", type=pixels, default=360, help="frame height in pixels, even (default 360)")
-    parser.add_argument("--frame-every", type=positive_int, default=4, help="one frame per K control steps (default 4)")
-    parser.add_argument("--max-actions", type=positive_int, default=20,
+    parser.add_argument("--frame-every", type=cli.positive_int, default=4,
+                        help="one frame per K control steps (default 4)")
+    parser.add_argument("--max-actions", type=cli.positive_int, default=20,
                         help="stop after this many actions (default 20)")
     parser.add_argument("--camera", default=CAMERAS[0], choices=CAMERAS, help=f"camera (default {CAMERAS[0]})")
     parser.add_argument("--still", type=cli.output_path(cli.FILE, (".png", ".jpg", ".jpeg")),

@@ -29,7 +29,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from tableclean_suite.bench import cli
-from tableclean_suite.bench.cli import positive_int
 
 PROG = "tableclean-bench speed"
 SECTIONS = ("learners", "skills", "cold-start")
@@ -321,7 +320,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         help=f"sections to measure, comma separated: {', '.join(SECTIONS)} (default all)")
     parser.add_argument("--markdown", type=cli.output_path(cli.FILE), default=None, metavar="FILE.md",
                         help="also write the measurements to this Markdown page, stamped with the machine")
-    parser.add_argument("--repeat", type=positive_int, default=3,
+    parser.add_argument("--repeat", type=cli.positive_int, default=3,
                         help="timed calls per learner, the fastest kept (default 3)")
     group = parser.add_argument_group("learners")
     cli.add_runs_argument(group, 1000, "runs per timed train() call")
@@ -329,8 +328,9 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     group.add_argument("--reward", type=cli.one_of(reward_pattern_names(), "reward pattern"), default="r4",
                        help="reward pattern (default r4)")
     group = parser.add_argument_group("skills")
-    group.add_argument("--episodes", type=positive_int, default=3, help="optimal episodes per control path (default 3)")
-    group.add_argument("--layout", type=positive_int, nargs=2, metavar=("OBJECT_SEGMENT", "ARM_SEGMENT"),
+    group.add_argument("--episodes", type=cli.positive_int, default=3,
+                       help="optimal episodes per control path (default 3)")
+    group.add_argument("--layout", type=cli.positive_int, nargs=2, metavar=("OBJECT_SEGMENT", "ARM_SEGMENT"),
                        default=(1, 1), help="start layout of the skills' episodes, 1-based segments (every object "
                                             "on OBJECT_SEGMENT; default: 1 1, the paper's layout)")
     cli.add_task_argument(group, help="task spec of the skills' episodes: a registered name or a .json path "
@@ -339,22 +339,16 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     return parser
 
 
-def _check_task(parser, args) -> None:
-    """``--task`` and ``--layout`` for the skills section; exits 2 naming the flag."""
-    from tableclean_suite.bench.fidelity import physical_model
-
-    args.task_spec = physical_model(parser, args.task).spec
-    segments = args.task_spec.segments
-    if any(not 1 <= k <= segments for k in args.layout):
-        parser.error(f"--layout: segments must be in 1..{segments} for task {args.task_spec.name!r}, "
-                     f"got {list(args.layout)}")
-
-
 def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     parser, args = cli.parse_command(build_parser, argv, prog or PROG)
-    if "skills" in args.sections:
-        _check_task(parser, args)
+    if "skills" in args.sections:  # --task and --layout, before any measurement
+        from tableclean_suite.bench.fidelity import physical_model
+
+        args.task_spec = physical_model(parser, args.task).spec
+        if any(not 1 <= k <= args.task_spec.segments for k in args.layout):
+            parser.error(f"--layout: segments must be in 1..{args.task_spec.segments} for task "
+                         f"{args.task_spec.name!r}, got {list(args.layout)}")
     sections = {}
     for name in (name for name in SECTIONS if name in args.sections):  # in report order
         print(f"== {name} ==", flush=True)
