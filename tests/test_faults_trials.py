@@ -68,7 +68,7 @@ def test_a_corrupt_configuration_record_is_one_resume_error(tmp_path, record):
 def test_stored_trials_that_do_not_fit_the_task_are_refused_on_resume(tmp_path, change):
     path = write_trials(tmp_path / fidelity.TRIALS_CSV, one_round(**change))
     with pytest.raises(fidelity.ResumeError, match=str(next(iter(change.values())))):
-        fidelity.collect(1, trials_csv=path, log=None, model=MODEL)
+        fidelity.collect(1, 0, path, log=None, model=MODEL)
 
 
 def test_a_deleted_configuration_record_is_not_resumed_as_another_robot(tmp_path):
@@ -163,7 +163,7 @@ def test_a_second_fidelity_run_into_a_busy_folder_is_refused(tmp_path):
     try:
         assert holder.stdout.readline().strip() == "held"
         with pytest.raises(outputs.OutputBusyError, match="in use by another run"):
-            fidelity.collect(1, trials_csv=tmp_path / fidelity.TRIALS_CSV, log=None, model=MODEL)
+            fidelity.collect(1, 0, tmp_path / fidelity.TRIALS_CSV, log=None, model=MODEL)
         assert not (tmp_path / fidelity.TRIALS_CSV).exists()
     finally:
         holder.kill()

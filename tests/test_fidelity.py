@@ -238,9 +238,9 @@ def test_stored_trials_of_another_robot_or_randomisation_are_not_resumed(tmp_pat
     fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), panda))  # same: resumes
     for options in ({"env_kwargs": {"robots": "Sawyer"}}, {"env_kwargs": {"robots": "Panda", "randomization": "on"}}):
         with pytest.raises(ResumeError, match="measured with another physics_options"):
-            fidelity.collect(1, trials_csv=path, log=None, physics_options=options)
+            fidelity.collect(1, 0, path, log=None, physics_options=options)
     with pytest.raises(ResumeError, match="another task"):
-        fidelity.collect(1, trials_csv=path, log=None, physics_options=panda,
+        fidelity.collect(1, 0, path, log=None, physics_options=panda,
                          model=TaskModel(spec="three_segments_two_objects"))
 
 
@@ -268,8 +268,8 @@ def test_trials_measured_with_other_plugin_code_are_not_resumed(tmp_path):
     trial_store.write_rows(path, [])
     fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), None, plugins=(str(plugin),)))
     assert "code_digest" in json.loads(fidelity.configuration_path(path).read_text())
-    fidelity.collect(0, trials_csv=path, log=None, plugins=(str(plugin),))  # the same code: resumes
+    fidelity.collect(0, 0, path, log=None, plugins=(str(plugin),))  # the same code: resumes
     plugin.write_text("GRIP_FORCE = 11\n")
     with pytest.raises(ResumeError, match="another code_digest"):
-        fidelity.collect(0, trials_csv=path, log=None, plugins=(str(plugin),))
+        fidelity.collect(0, 0, path, log=None, plugins=(str(plugin),))
     assert fidelity.run_configuration(TaskModel(), None) != fidelity.run_configuration(TaskModel(), None, plugins=(str(plugin),))

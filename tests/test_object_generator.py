@@ -56,6 +56,31 @@ def test_a_failure_is_classified_by_its_phase_and_cause_with_numbers_generalised
     assert failure_class(result) == ("DONE", "ended in a state other than the model's successor")
 
 
+#: The paper's actions, as failure rows name them.
+ACTIONS = {"move", "pick", "place", "clean"}
+
+
+def test_a_failed_random_episode_is_one_row_naming_its_start_history_skill_phase_and_cause(monkeypatch):
+    from tableclean_suite.bench import fidelity, object_table
+
+    kind = random_objects(1, seed=2)[0]
+    register_object(kind, overwrite=True)
+    env = SimpleNamespace(set_start_state=lambda state: None, reset=lambda: None)
+
+    def play(count, plan_of, model, *args, **kwargs):
+        plan = plan_of(env, model, 0)
+        moved = SimpleNamespace(action=plan[0], success=True, retries=0)
+        failed = SimpleNamespace(action=plan[1], success=False, retries=1, final_phase="CLOSE",
+                                 reason="CLOSE: gap of 0.012 m")
+        return {"episodes": 1, "successes": 0, "skills": {}, "failures": [(0, "-", [moved, failed])]}
+
+    monkeypatch.setattr(fidelity, "play_episodes", play)
+    rows, (failure,) = object_table.run_random(kind, 0, 1, 2, "box")
+    assert rows == [] and failure["object"] == kind.name and failure["params"] == kind.description
+    assert failure["episode"] == 0 and failure["start"] and {failure["history"], failure["skill"]} <= ACTIONS
+    assert (failure["phase"], failure["cause"], failure["retries"]) == ("CLOSE", "gap of N m", 1)
+
+
 @pytest.mark.slow
 def test_random_objects_are_measured_in_random_episodes_and_an_all_refused_run_exits_non_zero(tmp_path, capsys):
     from robosuite.models.objects import BoxObject

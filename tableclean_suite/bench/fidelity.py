@@ -24,7 +24,6 @@ episodes ([`play_episodes`][tableclean_suite.bench.fidelity.play_episodes]) and 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import math
 import os
@@ -253,14 +252,14 @@ def check_trial_rows(rows, model: TaskModel, source) -> None:
                               f"{model.spec.name!r}'s codes 0..{model.n_states - 1}")
 
 
-def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fresh: bool = False,
+def collect(trials: int, seed: int, trials_csv: str | Path, fresh: bool = False,
             log: Callable[[str], None] | None = print, physics_options: dict | None = None,
             actions: Iterable | None = None, model: TaskModel | None = None, executor=None,
             plugins: Iterable[str] = ()) -> list[dict]:
     """Run rounds until there are ``trials`` of them; returns all trial rows (resumed ones included).
 
-    With ``trials_csv`` every finished round is stored and complete stored rounds are resumed (``fresh``
-    deletes them first); its folder is locked meanwhile ([`output_lock`][tableclean_suite.bench.outputs.output_lock]).
+    Every finished round is stored in ``trials_csv`` and complete stored rounds are resumed (``fresh`` deletes
+    them first); its folder is locked meanwhile ([`output_lock`][tableclean_suite.bench.outputs.output_lock]).
     ``executor`` (default: this process) runs the rounds, each worker building its scene with
     ``physics_options``.  ``actions`` limits the executed actions; ``model`` is the task (default ``paper``).
 
@@ -271,14 +270,12 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
     model = model or TaskModel()
     actions = action_names(model, actions)
     per_round = trials_per_round(model, actions)
-    path = None if trials_csv is None else Path(trials_csv)
-    with contextlib.ExitStack() as held:
-        if path is not None:  # one writer per trials folder: a second run exits 2, never mixes rounds
-            held.enter_context(output_lock(path.parent))
-            if fresh and path.exists():
-                path.unlink()
-            check_configuration(path, run_configuration(model, physics_options, plugins))
-        rows = trial_store.complete_rounds(read_trials(path, log) if path is not None else [], per_round, log)
+    path = Path(trials_csv)
+    with output_lock(path.parent):  # one writer per trials folder: a second run exits 2, never mixes rounds
+        if fresh and path.exists():
+            path.unlink()
+        check_configuration(path, run_configuration(model, physics_options, plugins))
+        rows = trial_store.complete_rounds(read_trials(path, log), per_round, log)
         check_trial_rows(rows, model, path)
         done_rounds = sorted({row["round"] for row in rows})
         if rows and {row["seed"] for row in rows} != {round_seed(seed, r) for r in done_rounds}:
@@ -306,8 +303,7 @@ def collect(trials: int, seed: int = 0, trials_csv: str | Path | None = None, fr
                 if len(new) != per_round:
                     raise ResumeError(f"round {round_index + 1} produced {len(new)} trials, not {per_round}")
                 rows.extend(new)
-                if path is not None:
-                    trial_store.write_rows(path, sorted(rows, key=lambda row: row["round"]))
+                trial_store.write_rows(path, sorted(rows, key=lambda row: row["round"]))
                 if log:
                     agree = sum(r["agree"] for r in new)
                     log(f"round {round_index + 1}/{trials}: {agree}/{len(new)} agree, {time.perf_counter() - started:.1f} s")

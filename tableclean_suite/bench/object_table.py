@@ -75,22 +75,13 @@ def spec_for(kind: str, setting: str, partner: str):
 
 
 def _measure(kind: str, setting: str, partner: str, model, episodes: int, seed: int, plan_of=fidelity.shortest_plan,
-             log=None, starts=None, params: str = "") -> tuple[list[dict], list[dict]]:
-    """Rows (`COLUMNS`, one per skill) and failures (`FAILURE_COLUMNS`; ``starts``: each episode's start) of
-    ``episodes`` episodes of ``model`` executing ``plan_of``'s plans
-    ([`play_episodes`][tableclean_suite.bench.fidelity.play_episodes])."""
+             log=None) -> tuple[list[dict], dict]:
+    """Rows (`COLUMNS`, one per skill) and the tally of ``episodes`` episodes of ``model`` executing ``plan_of``'s
+    plans ([`play_episodes`][tableclean_suite.bench.fidelity.play_episodes])."""
     started = time.perf_counter()
     tally = fidelity.play_episodes(episodes, plan_of, model, log, f"{kind} {setting}", task=model.spec, seed=seed)
-    failures = []
-    for episode, _, results in tally["failures"]:
-        if starts and results and not results[-1].success:
-            result, history = results[-1], " ".join(model.action_name(r.action) for r in results[:-1])
-            phase, cause = failure_class(result)
-            failures.append({"object": kind, "params": params, "episode": episode, "start": starts[episode].name,
-                             "history": history, "skill": model.action_name(result.action), "phase": phase,
-                             "cause": cause, "retries": result.retries, "reason": result.reason})
     return _rows(kind, setting, partner, tally["skills"], episodes, tally["successes"],
-                 time.perf_counter() - started), failures
+                 time.perf_counter() - started), tally
 
 
 def _rows(kind: str, setting: str, partner: str, counts: dict, episodes: int, wins: int, seconds: float) -> list[dict]:
@@ -139,8 +130,16 @@ def run_random(kind, index: int, episodes: int, seed: int, partner: str) -> tupl
             state = model.step(state, history[-1])[0]
         return history + model.shortest_plan(state)
 
-    return _measure(kind.name, "random", partner, model, episodes, seed, plan_of, starts=drawn,
-                    params=kind.description)
+    rows, tally = _measure(kind.name, "random", partner, model, episodes, seed, plan_of)
+    failures = []
+    for episode, _, results in tally["failures"]:
+        if results and not results[-1].success:
+            result, history = results[-1], " ".join(model.action_name(r.action) for r in results[:-1])
+            phase, cause = failure_class(result)
+            failures.append({"object": kind.name, "params": kind.description, "episode": episode, "history": history,
+                             "start": drawn[episode].name, "skill": model.action_name(result.action), "phase": phase,
+                             "cause": cause, "retries": result.retries, "reason": result.reason})
+    return rows, failures
 
 
 def markdown(rows: list[dict]) -> str:
