@@ -123,15 +123,13 @@ def spare_clear_of(bounds: np.ndarray, area: np.ndarray, hand_half: np.ndarray, 
 class Wipe(Primitive):
     """Sweep ``segment`` with the held sponge: boustrophedon strokes, pressed, pass after pass while dirty.
 
-    The press closes its loop on the measured sponge-table contact force (the env's
-    ``sponge_press_force()``),
-    not on a depth: the commanded depth of the sponge's bottom below the table top is integrated
-    from the force error (``press_force`` target, ``press_force_gain``) while the sponge is on the
-    table, and a stroke starts once ``touch_force`` is measured.  A different sponge size, mass,
-    friction, arm damping or gains thus end at the same pressing force.  Retries (the skill's ``retries``): a sponge
-    lost while wiping is grasped again where it lies and the wipe starts anew; a segment still dirty once
-    the sponge is lifted is wiped again.  The skill's config
-    supplies the wiping constants ([`WipeConfig`][tableclean_suite.controllers.configs.WipeConfig], units and ranges in its fields).
+    The press closes its loop on the measured sponge-table contact force (the env's ``sponge_press_force()``),
+    not on a depth: the commanded depth of the sponge's bottom below the table top is integrated from the force
+    error (``press_force`` target, ``press_force_gain``) while the sponge is on the table, and a stroke starts
+    once ``touch_force`` is measured.  A different sponge size, mass, friction, arm damping or gains thus end at
+    the same pressing force.  Retries (the skill's ``retries``): a sponge lost while wiping is grasped again
+    where it lies and the wipe starts anew; a segment still dirty once the sponge is lifted is wiped again.
+    The settings: [`WipeConfig`][tableclean_suite.controllers.configs.WipeConfig].
     """
 
     PHASES = ("TO_SEGMENT", "PRESS", "WIPE", "SHIFT", "WIPE_LIFT")
@@ -157,7 +155,7 @@ class Wipe(Primitive):
         self.grasp_yaw = self.yaw = skill.yaw
         self.turned = False  # the strokes run at the grasp's yaw (True: a quarter turn from it, _choose_yaw)
         self.dt = skill.dt
-        # m, the wipe height's terms fixed for the execution (the compiled control loop's, see run_loop)
+        # m, the wipe height's terms, fixed for the execution
         self._table_z, self._half_z = float(info["table_top_z"]), float(info["sponge_half_size"][2])
         self.strokes = self._choose_yaw(info)
         skill.yaw = self.yaw  # TO_SEGMENT turns the hand, sponge in hand, on its way (if it turns)
@@ -283,7 +281,7 @@ class Wipe(Primitive):
         drift[axis] = clip_scalar(live - float(self.hold_offset[axis]), -bound, bound)
         return drift
 
-    def _wipe_target(self, info: Mapping[str, Any], stroke_point: np.ndarray, depth: float | None = None) -> np.ndarray:
+    def _wipe_target(self, stroke_point: np.ndarray, depth: float | None = None) -> np.ndarray:
         """(3,) grip-site target that puts the held sponge's centre over ``stroke_point`` (2,, m).
 
         Uses the grip-site-to-sponge offset measured at the grasp (with the live offset, a sponge pivoting
@@ -295,15 +293,12 @@ class Wipe(Primitive):
         x, y, _ = self.hold_offset.tolist()
         px, py = stroke_point.tolist()
         # Python floats (the same IEEE sums as numpy's stroke_point + offset[:2])
-        return np.array([px + x, py + y, self._wipe_z(info, depth)])
+        return np.array([px + x, py + y, self._wipe_z(depth)])
 
-    def _wipe_z(self, info: Mapping[str, Any], depth: float | None = None) -> float:
+    def _wipe_z(self, depth: float | None = None) -> float:
         """`_wipe_target`'s height (m): the grip site's z that puts the held sponge's bottom ``depth`` (m,
         default `depth`) below the table top."""
-        if depth is None:
-            depth = self.depth
-        half_z = float(info["sponge_half_size"][2])
-        return float(info["table_top_z"]) - depth + half_z + float(self.hold_offset[2])
+        return self._table_z - (self.depth if depth is None else depth) + self._half_z + float(self.hold_offset[2])
 
     @staticmethod
     def _sponge_gap(info: Mapping[str, Any]) -> float:
@@ -326,7 +321,7 @@ class Wipe(Primitive):
         if phase not in ("PRESS", "WIPE"):
             return
         self.force = skill.env.sponge_press_force()
-        target_z = self._wipe_z(info)
+        target_z = self._wipe_z()
         arrived = abs(float(skill.setpoint[2]) - target_z) <= self.config["setpoint_arrival"]
         if phase == "PRESS" and self.force <= 0.0 and not arrived:
             return
@@ -354,17 +349,17 @@ class Wipe(Primitive):
         if phase == "TO_SEGMENT":
             return Waypoint(skill.hover_point(info, self.strokes[0]), GRIPPER_CLOSE, tol)
         if phase == "PRESS":
-            pos = self._wipe_target(info, self.strokes[self.stroke_index])
+            pos = self._wipe_target(self.strokes[self.stroke_index])
             # judged in xy only: the height is judged by contact (ready); a sponge sliding up in
             # the hand moves this target down, so it may never be reached
             return Waypoint(pos, GRIPPER_CLOSE, self.config["wipe_tolerance"], xy_only=True,
                             speed=self.config["descend_speed"], loop=True)
         if phase == "SHIFT":
             point = self.strokes[self.stroke_index] if self.lifted else self.lift_point
-            pos = self._wipe_target(info, point, -self.config["shift_clearance"])
+            pos = self._wipe_target(point, -self.config["shift_clearance"])
             return Waypoint(pos, GRIPPER_CLOSE, self.config["wipe_tolerance"], xy_only=True, loop=True)
         if phase == "WIPE":
-            pos = self._wipe_target(info, self.strokes[self.stroke_index])
+            pos = self._wipe_target(self.strokes[self.stroke_index])
             # the lead over a lagging sponge, but never beyond the sides shrunk for the objects around
             lead, (low, high) = pos[:2] + self._drift(info), self.hand_bounds
             pos[:2] = [clip_scalar(lead[k], low[k], high[k]) for k in range(2)]  # np.clip's values
@@ -384,7 +379,9 @@ class Wipe(Primitive):
             return 0
         config = self.config
         mode, speed_key = LOOP_MODES[phase]
-        state = skill.loop_state(config[speed_key], GRIPPER_CLOSE, config["wipe_tolerance"], np.zeros(3), xy_only=True)
+        # the loop computes the waypoint's position itself
+        state = skill.loop_state(Waypoint(np.zeros(3), GRIPPER_CLOSE, config["wipe_tolerance"], xy_only=True,
+                                          speed=config[speed_key]))
         stroke = self.strokes[self.stroke_index]
         wipe = loop_record(
             WIPE_STATE, stroke=stroke, hold=self.hold_offset, lift=stroke if self.lift_point is None else self.lift_point,

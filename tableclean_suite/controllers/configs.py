@@ -176,11 +176,7 @@ class ReleaseConfig(SkillConfig):
 
 @dataclass(frozen=True)
 class WipeConfig(SkillConfig):
-    """Settings of the Wipe primitive (force-controlled strokes of the held sponge over a segment).
-
-    The press closes on the measured sponge-table normal force (the env's ``sponge_press_force()``),
-    not on a depth.
-    """
+    """Settings of the Wipe primitive (strokes of the held sponge over a segment, pressed by a force loop)."""
 
     press_force: float = setting(8.0, "N", 0.0, low_open=True)
     """N (> 0), the pressing force the depth loop holds while wiping."""

@@ -326,8 +326,7 @@ class Skill(abc.ABC):
             return 0
         if target.loop:
             return self.run_loop_phase(stepper)
-        speed = self.config["speed"] if target.speed is None else target.speed
-        state = self.loop_state(speed, target.gripper, target.tolerance, target.pos, target.min_steps, target.xy_only)
+        state = self.loop_state(target)
         ran = stepper.run_phase(state, self._last_fingers)
         self.count_loop_steps(ran, state)
         return ran
@@ -337,19 +336,17 @@ class Skill(abc.ABC):
         waypoint, see [`Waypoint`][tableclean_suite.controllers.skill.Waypoint]); returns how many ran (default: none, every step through [`step`][tableclean_suite.controllers.skill.Skill.step])."""
         return 0
 
-    def loop_state(self, speed: float, gripper: float, tolerance: float, target, min_steps: int = 0,
-                   xy_only: bool = False) -> np.ndarray:
-        """The skill's state as the compiled control loop takes it: a (1,)
-        `SKILL_STATE` record for a phase at ``speed``
-        (m/s) towards ``target`` (3,) m with the gripper command ``gripper``, ``tolerance`` (m), ``min_steps``
-        and ``xy_only``; read back with [count_loop_steps][tableclean_suite.controllers.skill.Skill.count_loop_steps]."""
+    def loop_state(self, waypoint: Waypoint) -> np.ndarray:
+        """The skill's state as the compiled control loop takes it: a (1,) `SKILL_STATE` record of a phase towards
+        ``waypoint``; read back with [count_loop_steps][tableclean_suite.controllers.skill.Skill.count_loop_steps]."""
         timeout = self.config["gripper_timeout"]
+        speed = self.config["speed"] if waypoint.speed is None else waypoint.speed
         return loop_record(
-            SKILL_STATE, setpoint=self._setpoint, target=target, yaw_setpoint=self._yaw_setpoint, yaw=self.yaw,
-            max_move=speed * self.dt, max_turn=self.config["yaw_rate"] * self.dt, gripper=gripper,
-            tolerance=tolerance, gripper_still=self.config["gripper_still"], steps=self.steps,
-            max_steps=self.budget, phase_steps=self._phase_steps, min_steps=min_steps,
-            gripper_timeout=-1 if timeout is None else timeout, xy_only=xy_only)
+            SKILL_STATE, setpoint=self._setpoint, target=waypoint.pos, yaw_setpoint=self._yaw_setpoint, yaw=self.yaw,
+            max_move=speed * self.dt, max_turn=self.config["yaw_rate"] * self.dt, gripper=waypoint.gripper,
+            tolerance=waypoint.tolerance, gripper_still=self.config["gripper_still"], steps=self.steps,
+            max_steps=self.budget, phase_steps=self._phase_steps, min_steps=waypoint.min_steps,
+            gripper_timeout=-1 if timeout is None else timeout, xy_only=waypoint.xy_only)
 
     def count_loop_steps(self, ran: int, state: np.ndarray) -> None:
         """Take over ``ran`` control steps the compiled loop ran in the current phase from its ``state`` (the
