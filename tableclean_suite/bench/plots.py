@@ -56,8 +56,9 @@ def _scale(metric: str) -> float:
     return 100.0 if metric in _PERCENT_METRICS else 1.0
 
 
-def _format_level(level: float, metric: str) -> str:
-    return f"{level:.1f}%" if metric in _PERCENT_METRICS else f"{level:.3f}"
+def _what(metric: str) -> str:
+    """A metric's name for titles, e.g. ``"Success rate"``."""
+    return METRIC_LABELS.get(metric, metric).split(" (")[0].capitalize()
 
 
 def _style(ax, metric: str, title: str, legend_title: str | None):
@@ -75,13 +76,14 @@ def _style(ax, metric: str, title: str, legend_title: str | None):
 BAND_ALPHA = 0.2
 
 
-def _band(ax, line: pd.DataFrame, metric: str, color) -> None:
-    """Shade the line's ``low``-``high`` band when the frame has one."""
-    if "low" not in line.columns or line["low"].isna().all():
-        return
-    ax.fill_between(line["iteration"].to_numpy(), line["low"].to_numpy(dtype=float) * _scale(metric),
-                    line["high"].to_numpy(dtype=float) * _scale(metric), color=color, alpha=BAND_ALPHA,
-                    linewidth=0)
+def _line(ax, line: pd.DataFrame, metric: str, color, label: str) -> None:
+    """Draw one curve of ``line`` (a frame's rows sorted by iteration), its ``low``-``high`` band shaded
+    first when the frame has one."""
+    iterations, scale = line["iteration"].to_numpy(), _scale(metric)
+    if "low" in line.columns and not line["low"].isna().all():
+        ax.fill_between(iterations, line["low"].to_numpy(dtype=float) * scale,
+                        line["high"].to_numpy(dtype=float) * scale, color=color, alpha=BAND_ALPHA, linewidth=0)
+    ax.plot(iterations, line["value"].to_numpy(dtype=float) * scale, color=color, linewidth=1.3, label=label)
 
 
 def plot_rewards(
@@ -117,12 +119,10 @@ def plot_rewards(
             level = kind = None
         if level is not None:
             ax.axhline(level, color=color, linestyle=":", linewidth=0.9, alpha=0.8)
-            label = f"{reward} ({kind} {_format_level(level, metric)})"
-        _band(ax, line, metric, color)
-        ax.plot(line["iteration"].to_numpy(), values, color=color, linewidth=1.3, label=label)
-    what = METRIC_LABELS.get(metric, metric).split(" (")[0].capitalize()
-    default = f"{what} per reward pattern ({LEARNER_TITLES.get(learner, learner)})"
-    _style(ax, metric, title or default, "reward")
+            label = f"{reward} ({kind} " + (f"{level:.1f}%)" if metric in _PERCENT_METRICS else f"{level:.3f})")
+        _line(ax, line, metric, color, label)
+    _style(ax, metric, title or f"{_what(metric)} per reward pattern ({LEARNER_TITLES.get(learner, learner)})",
+           "reward")
     return fig, ax
 
 
@@ -132,8 +132,7 @@ def plot_sweeps(curves: pd.DataFrame, metric: str, xmax: int | None = None):
     (None: all).  Returns ``(fig, axes)``, at least one axes."""
     experiments = ("alpha_sweep", "gamma_sweep")
     present = [e for e in experiments if (curves["experiment"] == e).any()] or list(experiments[:1])
-    plt = pyplot()
-    fig, axes = plt.subplots(1, len(present), figsize=(6.2 * len(present), 4.2), sharey=True, squeeze=False)
+    fig, axes = pyplot().subplots(1, len(present), figsize=(6.2 * len(present), 4.2), sharey=True, squeeze=False)
     axes = axes[0]
     import matplotlib
 
@@ -145,17 +144,12 @@ def plot_sweeps(curves: pd.DataFrame, metric: str, xmax: int | None = None):
         values_swept = sorted(rows[parameter].unique())
         for i, value in enumerate(values_swept):
             line = rows[rows[parameter] == value].sort_values("iteration")
-            color = colormap(0.85 * i / max(1, len(values_swept) - 1))
-            ys = line["value"].to_numpy(dtype=float) * _scale(metric)
-            _band(ax, line, metric, color)
-            ax.plot(line["iteration"].to_numpy(), ys, color=color, linewidth=1.3, label=f"{parameter} = {value:g}")
-        title = f"{METRIC_LABELS.get(metric, metric).split(' (')[0].capitalize()}, {parameter} sweep"
+            _line(ax, line, metric, colormap(0.85 * i / max(1, len(values_swept) - 1)), f"{parameter} = {value:g}")
+        title = f"{_what(metric)}, {parameter} sweep"
         if len(rows):
             first = rows.iloc[0]
-            title += (
-                f" ({LEARNER_TITLES.get(first['learner'], first['learner'])}, {first['reward']}, "
-                f"{fixed} = {first[fixed]:g})"
-            )
+            title += (f" ({LEARNER_TITLES.get(first['learner'], first['learner'])}, {first['reward']}, "
+                      f"{fixed} = {first[fixed]:g})")
         _style(ax, metric, title, None)
         if xmax is not None and len(rows) and rows["iteration"].max() > xmax:
             ax.set_xlim(1, xmax)

@@ -118,7 +118,7 @@ def table3(records: list[dict] | pd.DataFrame, compare_with_paper: bool = True) 
     frame[numbers] = frame[numbers].astype(float)
     integers = [*ITERATION_SCALARS, "checkpoint_iteration"]
     frame[integers] = frame[integers].astype("Int64")
-    frame["checkpoint_iteration"] = frame["checkpoint_iteration"].mask(frame["checkpoint_iteration"] == 0)  # not measured
+    frame["checkpoint_iteration"] = frame["checkpoint_iteration"].replace(0, pd.NA)  # empty: not measured
     frame["settled"] = frame["settled"].astype("boolean")
     frame["alpha"] = frame["alpha"].astype(float)
     frame["gamma"] = frame["gamma"].astype(float)
