@@ -197,7 +197,8 @@ def configuration_path(trials_csv: Path) -> Path:
 
 def read_configuration(trials_csv: Path) -> dict | None:
     """The recorded [`run_configuration`][tableclean_suite.bench.fidelity.run_configuration] of ``trials_csv``'s
-    trials, None without a record; [`ResumeError`][tableclean_suite.bench.trial_store.TrialStoreError] when unreadable."""
+    trials, None without a record;
+    [`ResumeError`][tableclean_suite.bench.trial_store.TrialStoreError] when unreadable."""
     record = configuration_path(trials_csv)
     if not record.exists():
         return None
@@ -212,14 +213,14 @@ def read_configuration(trials_csv: Path) -> dict | None:
 
 
 def check_configuration(trials_csv: Path, configuration: dict) -> None:
-    """Record ``configuration`` beside ``trials_csv``; [`ResumeError`][tableclean_suite.bench.trial_store.TrialStoreError]
-    when the stored trials were measured with another configuration (naming the keys), or hold trials without
-    a readable record."""
+    """Record ``configuration`` beside ``trials_csv``;
+    [`ResumeError`][tableclean_suite.bench.trial_store.TrialStoreError] when the stored trials were measured with
+    another configuration (naming the keys), or hold trials without a readable record."""
     record = configuration_path(trials_csv)
     if trials_csv.exists():
         stored = read_configuration(trials_csv)
         if stored is not None:
-            differing = sorted(key for key in set(stored) | set(configuration) if stored.get(key) != configuration.get(key))
+            differing = sorted(k for k in stored.keys() | configuration.keys() if stored.get(k) != configuration.get(k))
             if differing:
                 raise ResumeError(f"{trials_csv} was measured with another {' and '.join(differing)} "
                                   f"({record}); pass the same options, another --out, or --fresh")
@@ -306,7 +307,8 @@ def collect(trials: int, seed: int, trials_csv: str | Path, fresh: bool = False,
                 trial_store.write_rows(path, sorted(rows, key=lambda row: row["round"]))
                 if log:
                     agree = sum(r["agree"] for r in new)
-                    log(f"round {round_index + 1}/{trials}: {agree}/{len(new)} agree, {time.perf_counter() - started:.1f} s")
+                    log(f"round {round_index + 1}/{trials}: {agree}/{len(new)} agree, "
+                        f"{time.perf_counter() - started:.1f} s")
         finally:
             if owned:
                 from tableclean_suite.physics_backend import close_sessions
@@ -490,7 +492,8 @@ def add_execution_arguments(parser: argparse.ArgumentParser) -> None:
                         help="trials per (state, action) pair = rounds (default 5)")
     cli.add_seed_argument(parser, "the placement noise")
     parser.add_argument("--actions", type=cli.name_list, default=None,
-                        help="comma-separated actions to execute (default all of the spec's, e.g. move,pick,place,clean)")
+                        help="comma-separated actions to execute (default all of the spec's, e.g. "
+                             "move,pick,place,clean)")
     parser.add_argument("--quiet", action="store_true", help="print only the summary")
     cli.add_executor_arguments(parser, "rounds")  # --workers, --executor, --ray-address
 

@@ -65,7 +65,8 @@ def partner_for(kind: str, setting: str, partner: str) -> str:
 
 
 def spec_for(kind: str, setting: str, partner: str):
-    """The task spec of one cell (uniform all-unclean starts); the partner is [`partner_for`][tableclean_suite.bench.object_table.partner_for]'s."""
+    """The task spec of one cell (uniform all-unclean starts); the partner is
+    [`partner_for`][tableclean_suite.bench.object_table.partner_for]'s."""
     from tableclean_suite.task import TaskSpec
 
     if setting == "alone":
@@ -215,7 +216,8 @@ def random_table(args, rows: list[dict], table: Path, started: float, log=print)
         trial_store.write_rows(table, rows, COLUMNS)
         trial_store.write_rows(table.parent / FAILURES_CSV, failures, FAILURE_COLUMNS)
         log(f"[{index + 1}/{len(kinds)}] {kind.name} ({kind.description}): {done}/{episodes} episodes, "
-            f"{sum(r['executions'] for r in cell)} skills, {sum(r['retries'] for r in cell)} retries, {len(lost)} failed"
+            f"{sum(r['executions'] for r in cell)} skills, {sum(r['retries'] for r in cell)} retries, "
+            f"{len(lost)} failed"
             + "".join(f"; {f['skill']} {f['phase']}: {f['cause']}" for f in lost)
             + f" ({time.perf_counter() - started:.0f} s)")
     total = _rows(f"random objects ({measured})", "random", args.mix_with, totals, episodes * measured, wins,

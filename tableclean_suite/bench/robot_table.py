@@ -158,7 +158,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     cli.add_seed_argument(parser, "the placements and layouts")
     cli.add_out_argument(parser, cli.DIRECTORY, DEFAULT_OUT, f"directory of {TABLE_CSV}")
     parser.add_argument("--fidelity-dir", default=DEFAULT_FIDELITY_DIR,
-                        help=f"directory of the fidelity trials, one <robot>_<task> folder per cell (default {DEFAULT_FIDELITY_DIR})")
+                        help="directory of the fidelity trials, one <robot>_<task> folder per cell (default "
+                             f"{DEFAULT_FIDELITY_DIR})")
     parser.add_argument("--append", action="store_true",
                         help=f"keep the other cells already in {TABLE_CSV} (this run's cells replace theirs)")
     parser.add_argument("--fresh", action="store_true", help="discard the earlier fidelity trials of this run's cells")
@@ -201,14 +202,14 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         if args.fidelity_trials and not args.fresh:  # stored trials of other options: refused before anything runs
             for (robot, gripper, task), (folder, options) in cells.items():
                 fidelity.check_configuration(folder / fidelity.TRIALS_CSV,
-                                             fidelity.run_configuration(models[task], options))
+                                             fidelity.run_configuration(models[task], options, args.plugins))
         rows = []
         started = time.perf_counter()
         for (robot, gripper, task), (folder, options) in cells.items():
             fid = eps = None
             if args.fidelity_trials:
                 fid = fidelity.measure(folder, models[task], args.fidelity_trials, args.seed, log=log,
-                                       fresh=args.fresh, physics_options=options)[2]
+                                       fresh=args.fresh, physics_options=options, plugins=args.plugins)[2]
             if args.episodes:  # from random start layouts, in the scene of the cell's fidelity trials
                 eps = fidelity.play_episodes(args.episodes, log=log, label=f"{robot} ({gripper}) {task}",
                                              object_segment=None, arm_segment=None, task=task, seed=args.seed,
