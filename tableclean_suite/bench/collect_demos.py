@@ -5,8 +5,8 @@
 Each demo starts from a random all-unclean layout of the spec (placement noise seeded); the
 SkillController then executes the model's shortest plan (``optimal``) or the majority greedy policy
 of ``--runs`` Q-learning r4 runs on the symbolic model (``learned``), and every control step is
-recorded (layout: [`tableclean_suite.demos`][tableclean_suite.demos]).  Failed executions are discarded
-and redrawn, at most `MAX_ATTEMPTS_PER_EPISODE` draws per demo.
+recorded (layout: the Datasets page).  Failed executions are discarded and redrawn, at most
+`MAX_ATTEMPTS_PER_EPISODE` draws per demo.
 
 Attempt ``k`` draws its start and placement seed from ``(--seed, k)`` alone and is one executor task
 ([`DemoAttempt`][tableclean_suite.bench.collect_demos.DemoAttempt]), so ``--workers N`` or ``--executor ray``
@@ -74,17 +74,15 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     return parser
 
 
-def symbolic_actions(model, start, policy: np.ndarray, max_actions: int) -> list[int] | None:
-    """Action indices ``policy`` (``(S,)`` actions) takes from ``start`` in the task model; ``None`` when it
-    does not reach a terminal state within ``max_actions``."""
-    state, actions = start, []
-    while not state.is_terminal:
-        if len(actions) >= max_actions:
-            return None
-        action = int(policy[state.index])
-        actions.append(action)
-        state = model.step(state, action)[0]
-    return actions
+def reaches_goal(model, start, policy: np.ndarray, max_actions: int) -> bool:
+    """Whether ``policy`` (``(S,)`` action indices) leads from ``start`` to a terminal state of the task model
+    within ``max_actions``."""
+    state = start
+    for _ in range(max_actions):
+        if state.is_terminal:
+            return True
+        state = model.step(state, int(policy[state.index]))[0]
+    return state.is_terminal
 
 
 def attempt_draws(model, seed: int, attempt: int):
@@ -155,7 +153,7 @@ def record_attempt(task: DemoAttempt) -> AttemptResult:
     model = TaskModel(spec=spec, start="uniform_unclean")
     policy = np.asarray(task.policy, dtype=np.int64)
     start, placement_seed = attempt_draws(model, task.seed, task.attempt)
-    if symbolic_actions(model, start, policy, task.max_actions) is None:
+    if not reaches_goal(model, start, policy, task.max_actions):
         return AttemptResult(task.attempt, start.name, None,
                              f"the {task.policy_name} policy does not reach the goal from {start.name}")
     env, staging, env_args = _scene(task, spec, model)
@@ -214,7 +212,7 @@ def collect(task: str, episodes: int, robot: str = "Panda", policy_name: str = "
     else:
         started = time.perf_counter()
         policy = train_policy(LEARNER, REWARD, model, runs, iterations, seed)
-        solved = sum(symbolic_actions(model, s, policy, max_actions) is not None for s in model.start_states())
+        solved = sum(reaches_goal(model, s, policy, max_actions) for s in model.start_states())
         log(f"trained {LEARNER} {REWARD} on {spec.name}: {runs} run(s) x {iterations} iterations "
             f"in {time.perf_counter() - started:.1f} s; its greedy policy reaches the goal from {solved} of "
             f"{len(model.start_states())} start layouts in the model")
