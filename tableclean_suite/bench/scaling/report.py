@@ -156,12 +156,8 @@ def ordering_report(replicates: dict, infos: list[SpecInfo], learner: str, rewar
 
     Returns ``{spec name: "holds" / "fails" / "tie" / None}`` (None: a pattern missing).
     """
-    verdicts = {}
-    for info in infos:
-        chosen = {reward: replicates[(info.name, gamma, learner, reward)] for reward in rewards
-                  if (info.name, gamma, learner, reward) in replicates}
-        verdicts[info.name] = order_verdict(chosen) if set(PAPER_ORDER) <= set(rewards) else None
-    return verdicts
+    return {info.name: order_verdict({reward: replicates[(info.name, gamma, learner, reward)] for reward in rewards
+                                      if (info.name, gamma, learner, reward) in replicates}) for info in infos}
 
 
 def observed_order(rows: list[dict], spec: str, learner: str, gamma: float) -> str:
