@@ -82,18 +82,15 @@ def describe(model: TaskModel, epsilon: float = 0.1, max_itr: int = 500) -> str:
     model.require_learnable()
     reachable = model.reachable_states()
     terminal = [s for s in reachable if s.is_terminal]
-    starts = model.start_states()
-    lines = [
-        f"Task model: {model!r}",
+    paper_sized = _paper_sized(model)
+    lines = [f"Task model: {model!r}"] + ([
         f"{model.n_states} states, code = ((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 "
         "+ arm_segment",
         "  (object_location: 0 on segment 1, 1 on segment 2, 2 in gripper; arm_segment: 0 segment 1, 1 segment 2)",
-    ] if _paper_sized(model) else [
-        f"Task model: {model!r}",
+    ] if paper_sized else [
         f"{model.n_states} state codes ({model.n_segments} segments, {model.n_objects} "
-        f"object{'s' if model.n_objects > 1 else ''}; "
-        "see tableclean_suite.task.encode)",
-    ]
+        f"object{'s' if model.n_objects > 1 else ''}; see tableclean_suite.task.encode)",
+    ])
     lines += [
         "",
         "States (table1: Table 1's number, '-' where Table 1 omits the state; plan_length: shortest plan to terminal):",
@@ -104,12 +101,9 @@ def describe(model: TaskModel, epsilon: float = 0.1, max_itr: int = 500) -> str:
         f"(of {model.n_states}; unreachable codes: "
         f"{', '.join(str(s.index) for s in model.all_states() if s not in set(reachable))})",
         "Episode start(s) of this model: "
-        + "; ".join(f"{s.index} ({s.name}, Table 1 state {(table1_number(s) if _paper_sized(model) else None) or '-'})"
-                    for s in starts),
-    ]
-    if _paper_sized(model):
-        lines += _table1_lines(model)
-    lines += [
+        + "; ".join(f"{s.index} ({s.name}, Table 1 state {(table1_number(s) if paper_sized else None) or '-'})"
+                    for s in model.start_states()),
+        *(_table1_lines(model) if paper_sized else ()),
         "",
         "Reward patterns (the paper's Table 2; an ineffective pick/place is "
         + ("rewarded as irrelevant cleaning):" if model.ineffective.value == "ineffective" else "improper):"),
@@ -118,10 +112,13 @@ def describe(model: TaskModel, epsilon: float = 0.1, max_itr: int = 500) -> str:
         "Learners:",
         (learners := learners_frame()).drop(columns="description").to_string(line_width=PRINT_WIDTH),
         *(f"  {name}: {text}" for name, text in learners["description"].items()),
+        "",
+        "Exact success probability of the shortest-plan policy under epsilon-greedy exploration "
+        f"(epsilon = {epsilon:g}, max_itr = {max_itr}, this model's start): "
+        f"{100 * float(exact_success_probability(model.optimal_policy(), epsilon, max_itr, model=model)):.2f}%",
     ]
-    lines += _exact_success_lines(model, epsilon, max_itr)
-    if not _paper_sized(model):
-        lines = lines[:-1]  # the paper's ~84 % is about its own task
+    if paper_sized:  # the paper's ~84 % is about its own task
+        lines.append("  (the plateau a converged learner's success curve should reach; the paper reports ~84%)")
     return wrap("\n".join(lines))  # the tables fit already; prose is wrapped
 
 
@@ -143,14 +140,4 @@ def _table1_lines(model: TaskModel) -> list[str]:
         + "; ".join(f"{c} ({model.decode(c).name})" for c in mapping["omitted_reachable"]),
         "  of which the paper's own optimal plan from state 4 passes through: "
         + "; ".join(f"{c} ({model.decode(c).name})" for c in mapping["omitted_on_paper_plan"]),
-    ]
-
-
-def _exact_success_lines(model: TaskModel, epsilon: float, max_itr: int) -> list[str]:
-    probability = float(exact_success_probability(model.optimal_policy(), epsilon, max_itr, model=model))
-    return [
-        "",
-        f"Exact success probability of the shortest-plan policy under epsilon-greedy exploration "
-        f"(epsilon = {epsilon:g}, max_itr = {max_itr}, this model's start): {100 * probability:.2f}%",
-        "  (the plateau a converged learner's success curve should reach; the paper reports ~84%)",
     ]
