@@ -18,6 +18,7 @@ Train on the result at symbolic speed:
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from collections import Counter
 from pathlib import Path
@@ -164,3 +165,8 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     print(f"({time.perf_counter() - started:.0f} s)")
     return 0
 
+
+if __name__ == "__main__":
+    from tableclean_suite.bench.commands import run_alias
+
+    sys.exit(run_alias("calibrate", "python -m tableclean_suite.bench.calibrate"))

@@ -90,9 +90,9 @@ def _module(name: str):
                                  f"({command.module} is missing)") from None
 
 
-def invoked_as(argv0: str | None = None) -> str:
+def invoked_as() -> str:
     """The program name users typed: the console script's name, or ``python -m tableclean_suite.bench``."""
-    name = Path(argv0 if argv0 is not None else (sys.argv[0] if sys.argv and sys.argv[0] else "")).name
+    name = Path(sys.argv[0] if sys.argv else "").name
     return CONSOLE_SCRIPT if name in ("", "-c", "__main__.py", "-m") else name
 
 

@@ -451,3 +451,8 @@ def main(argv=None, prog: str | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     return run(parse_args(argv, prog))
 
+
+if __name__ == "__main__":
+    from tableclean_suite.bench.commands import run_alias
+
+    sys.exit(run_alias("tune", "python -m tableclean_suite.bench.tune"))
