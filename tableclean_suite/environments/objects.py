@@ -109,12 +109,11 @@ def _half_size(config: Mapping) -> np.ndarray:
 
 
 def _box(name: str, config: Mapping) -> MujocoObject:
-    return BoxObject(name=name, size=list(_half_size(config)), rgba=list(OBJECT_RGBA), material=_red_wood())
+    return _fixed_box(_half_size(config))(name, config)
 
 
 def _cube(name: str, config: Mapping) -> MujocoObject:
-    side = float(np.min(_half_size(config)))  # a cube: the smallest half extent on every axis
-    return BoxObject(name=name, size=[side] * 3, rgba=list(OBJECT_RGBA), material=_red_wood())
+    return _fixed_box([float(np.min(_half_size(config)))] * 3)(name, config)  # the smallest half extent
 
 
 def _cylinder(name: str, config: Mapping) -> MujocoObject:
@@ -122,8 +121,8 @@ def _cylinder(name: str, config: Mapping) -> MujocoObject:
     return CylinderObject(name=name, size=[float(half[0]), float(half[2])], rgba=list(CYLINDER_RGBA))
 
 
-def _fixed_box(half_size, rgba=OBJECT_RGBA) -> Builder:
-    return lambda name, config: BoxObject(name=name, size=list(half_size), rgba=list(rgba), material=_red_wood())
+def _fixed_box(half_size) -> Builder:
+    return lambda name, config: BoxObject(name=name, size=list(half_size), rgba=list(OBJECT_RGBA), material=_red_wood())
 
 
 def _fixed_cylinder(radius: float, half_height: float) -> Builder:

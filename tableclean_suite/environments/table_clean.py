@@ -191,7 +191,6 @@ class TableClean(ManipulationEnv):
         self._markers_per_segment = len(marker_xy) // self.n_segments
         #: (N * K, 3) the dirt markers' centres on the table top [m], segment 1's first
         self._marker_xyz = np.column_stack([marker_xy, np.full(len(marker_xy), self.geometry.table_top_z)])
-        self._n_task_states = self.task_model.n_states  # size of the symbolic_state_onehot observable
         self._arm_qpos_cache: dict[tuple, np.ndarray] = {}
         # (object segment, arm segment) of this episode, 0-based; with M > 1 objects (object segments, arm segment)
         self.layout: tuple | None = None
@@ -341,7 +340,7 @@ class TableClean(ManipulationEnv):
         def symbolic_state_onehot(obs_cache):
             cached = obs_cache.get("symbolic_state_index")
             index = self._symbolic_index() if cached is None else int(cached)
-            onehot = np.zeros(self._n_task_states)
+            onehot = np.zeros(self.task_model.n_states)
             if index != FAULT_INDEX:
                 onehot[index] = 1.0
             return onehot
