@@ -323,19 +323,15 @@ def check_physical_task(model: TaskModel, task_config: dict | None = None) -> No
     ([`register_skill`][tableclean_suite.controllers.registry.register_skill]) per action.
     """
     from tableclean_suite.controllers.registry import get_skill_class
-    from tableclean_suite.environments.config import LayoutError, make_config, scene_geometry
+    from tableclean_suite.environments.config import make_config, scene_geometry
     from tableclean_suite.environments.objects import get_object_type
     from tableclean_suite.environments.scene_building import check_objects_fit
 
     spec = model.spec
     config = make_config(task_config)
-    try:
+    try:  # too many segments (a LayoutError), unknown object types, objects that do not fit
         geometry = scene_geometry(config, spec.segments)
-    except LayoutError as error:
-        raise ValueError(f"task {spec.name!r}: {error}") from None
-    try:
-        kinds = [get_object_type(config["object_type"] or kind) for kind in spec.objects]
-        check_objects_fit(kinds, geometry, config)
+        check_objects_fit([get_object_type(config["object_type"] or kind) for kind in spec.objects], geometry, config)
     except ValueError as error:
         raise ValueError(f"task {spec.name!r}: {error}") from None
     missing = []
