@@ -123,10 +123,10 @@ class Filming:
 
 
 def run_rollout(policy: np.ndarray, start: TaskState, video: Path, filming: Filming = Filming(),
-                max_actions: int = 20, seed: int = 0, log=print, spec=None, robots: str = "Panda") -> dict:
+                max_actions: int = 20, seed: int = 0, spec=None, robots: str = "Panda") -> dict:
     """Execute ``policy`` in physics from ``start`` (a state of ``spec``, default ``paper``) with the arm
     ``robots`` (a robot with a registered skill config), writing the video as
-    [Filming][tableclean_suite.bench.rollout.Filming] says; returns a summary dict."""
+    [Filming][tableclean_suite.bench.rollout.Filming] says and printing a line per action; returns a summary dict."""
     import imageio.v2 as imageio
 
     from tableclean_suite.controllers import SkillController, make_skill_env
@@ -153,10 +153,9 @@ def run_rollout(policy: np.ndarray, start: TaskState, video: Path, filming: Film
             recorder.action, recorder.note = action, "(executing)"
             result = controller.execute(action)
             summary["actions"].append(action)
-            if log:
-                log(f"{state.index:2d} {action:5s} -> "
-                    f"{'fault' if result.state_after is None else result.state_after.index}: {result.reason} "
-                    f"({result.steps} steps, {result.wall_time:.1f} s)")
+            print(f"{state.index:2d} {action:5s} -> "
+                  f"{'fault' if result.state_after is None else result.state_after.index}: {result.reason} "
+                  f"({result.steps} steps, {result.wall_time:.1f} s)")
             if result.state_after is None:
                 summary["fault"] = result.reason
                 recorder.note = "(abstraction fault: stopped)"
