@@ -50,10 +50,6 @@ def flag_of(field: str) -> str:
     return FLAGS.get(field, "--" + field.replace("_", "-"))
 
 
-def _shown(value) -> str:
-    return " ".join(map(str, value)) if isinstance(value, tuple) else str(value)
-
-
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line; defaults and help texts come from [`RunConfig`][tableclean_suite.bench.config.RunConfig]."""
     from tableclean_suite.bench.config import backend_names
@@ -66,8 +62,9 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 
     def helped(field: str, extra: str = "") -> str:
         text = docs.get(field, "") + (f" Allowed: {extra}." if extra else "")
-        if default[field] is not None and not isinstance(default[field], bool):
-            text += f" (default: {_shown(default[field])})"
+        value = default[field]
+        if value is not None and not isinstance(value, bool):
+            text += f" (default: {' '.join(map(str, value)) if isinstance(value, tuple) else value})"
         return text.replace("%", "%%")
 
     parser = cli.command_parser(
@@ -183,11 +180,6 @@ def _load_transitions(args, model):
         args.parser.error(f"--transitions {path!r}: {error}")
 
 
-def _curves_stride(rows_per_iteration: int, iterations: int) -> int:
-    estimate = rows_per_iteration * iterations * _CURVE_BYTES_PER_ROW
-    return max(1, math.ceil(estimate / CURVES_MAX_BYTES))
-
-
 def _manifest(config: RunConfig, model, transitions, grid_run, stride: int, elapsed: float) -> dict:
     """The contents of ``config.json`` ([`publish`][tableclean_suite.bench.outputs.publish] adds ``run_id``
     and ``files``)."""
@@ -275,7 +267,8 @@ def train_and_publish(args) -> int:
                                              config.settle_tolerance, grid_run.plans)
     table3 = tables.table3(records, compare_with_paper=tables.is_paper_task(model))
     table4 = tables.table4(table3, paper_task=tables.is_paper_task(model))
-    stride = _curves_stride(len(records) * len(tables.CURVE_METRICS), config.iterations)
+    rows = len(records) * len(tables.CURVE_METRICS) * config.iterations
+    stride = max(1, math.ceil(rows * _CURVE_BYTES_PER_ROW / CURVES_MAX_BYTES))
     curves_frame = tables.curves_long(records, curves, stride=stride)
     main_cells = [m.cell for m in grid if m.experiment == "main"]
     survival = all(statistics.NOT_LEARNED in curve_set for curve_set in curves)  # the runs recorded learning times
@@ -332,6 +325,7 @@ def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task:
     import pandas as pd
 
     from tableclean_suite.bench import tables
+    from tableclean_suite.bench.statistics import EQUIVALENCE_MARGINS
 
     level = f"{100 * config.confidence:g}%"
     with pd.option_context("display.width", tables.PRINT_WIDTH, "display.max_columns", 50, "display.max_rows", 500):
@@ -340,7 +334,14 @@ def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task:
               f"{config.gamma:g}, epsilon = {config.epsilon:g},\n  {config.runs} runs x {config.iterations} "
               f"iterations, {config.backend} backend).  Every column is in table3.csv.")
         print("\nTable 3a: per-run learning time (iterations).")
-        print(tables.table3_notes(config.confidence, config.bootstrap_samples, config.iterations))
+        print(f"  learning time = per run, the first iteration from which its greedy policy is optimal (a shortest "
+              f"plan from every start\n  state) and stays so to the end of the budget ({config.iterations} "
+              f"iterations); runs not optimal at the end are censored at the\n  budget (Kaplan-Meier).  "
+              f"median/quartiles [{level} "
+              f"CI] = where the pointwise {level} log-log band of the survival\n  curve crosses 1/2 (inf: beyond the "
+              f"budget); RMST = mean of min(time, budget) [percentile bootstrap over runs,\n  "
+              f"{config.bootstrap_samples} resamples, widened for runs a sample may lack]; censored % "
+              "[Clopper-Pearson].  Each interval targets\n  the value over unlimited runs.")
         print(tables.display_learning_time(table3).to_string())
         print(f"\nTable 3b: plateaus = {tables.plateaus_kind(table3)} asymptotes of each run's final behaviour (greedy "
               f"policy under the exploration),\n  mean over runs [{level} percentile bootstrap over runs, widened for "
@@ -359,7 +360,11 @@ def _print_tables(config: RunConfig, table3, table4, task_name: str, paper_task:
               + ("" if paper_task else f"  Task {task_name!r} is not the paper's: no paper values."))
         print(tables.display_paper_definitions(table3).to_string())
         if comparisons is not None and len(comparisons):
-            print("\n" + tables.comparisons_title(len(comparisons), config.confidence))
+            margins = ", ".join(f"{score} {margin:g}" for score, margin in EQUIVALENCE_MARGINS.items())
+            print(f"\nProbability of improvement (a run of X beats a run of Y by more than the margin; pairs within "
+                  f"it\ncount half; 0.5 = no difference; censored learning times count as the budget;\n  margins: "
+                  f"{margins}).\n  {len(comparisons)} comparisons, each with its own {level} stratified bootstrap "
+                  "interval over runs (not adjusted for multiplicity):")
             print(tables.display_comparisons(comparisons).to_string(index=False))
         sweeps = tables.display_sweeps(table3)
         if len(sweeps):

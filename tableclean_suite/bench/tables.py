@@ -14,8 +14,7 @@ import pandas as pd
 
 from tableclean_suite.bench.paper_data import (PAPER_LEARNER, PAPER_TABLE3, PAPER_TABLE4,  # noqa: F401
                                                 PAPER_TABLE4_COLUMNS, SOURCE_QUOTED)
-from tableclean_suite.bench.statistics import (ASYMPTOTES, EQUIVALENCE_MARGINS, LEARNING_TIME_COLUMNS, RUN_MEANS,
-                                               RUN_SHARES)
+from tableclean_suite.bench.statistics import ASYMPTOTES, LEARNING_TIME_COLUMNS, RUN_MEANS, RUN_SHARES
 from tableclean_suite.metrics import ITERATION_SCALARS, SUMMARY_SCALARS
 
 #: Identifying columns of a cell record, in table order.
@@ -275,27 +274,6 @@ def display_paper_definitions(table: pd.DataFrame) -> pd.DataFrame:
     data["max avg r"] = [_quoted_text(v, 3) for v in rows["max_average_reward"]]
     data["avg r plateau [CI]"] = _interval_texts(rows, "average_reward_plateau", 3)
     return _by_cell(rows, data)
-
-
-def table3_notes(confidence: float, samples: int, budget: int) -> str:
-    """The printed Table 3's legend: what each interval targets and how it is computed."""
-    level = f"{100 * confidence:g}%"
-    return (f"  learning time = per run, the first iteration from which its greedy policy is optimal (a shortest plan "
-            f"from every start\n  state) and stays so to the end of the budget ({budget} iterations); runs not "
-            f"optimal at the end are censored at the\n  budget (Kaplan-Meier).  median/quartiles [{level} CI] = "
-            f"where the pointwise {level} log-log band of the survival\n  curve crosses 1/2 (inf: beyond the budget); "
-            f"RMST = mean of min(time, budget) [percentile bootstrap over runs,\n  {samples} resamples, widened for "
-            f"runs a sample may lack]; censored % [Clopper-Pearson].  Each interval targets\n  the value over "
-            f"unlimited runs.")
-
-
-def comparisons_title(count: int, confidence: float) -> str:
-    """The heading of the printed probabilities of improvement: margins and number of comparisons."""
-    margins = ", ".join(f"{score} {margin:g}" for score, margin in EQUIVALENCE_MARGINS.items())
-    return (f"Probability of improvement (a run of X beats a run of Y by more than the margin; pairs within it\n"
-            f"count half; 0.5 = no difference; censored learning times count as the budget;\n  margins: {margins}).\n  "
-            f"{count} comparisons, each with its own {100 * confidence:g}% stratified bootstrap interval over runs "
-            f"(not adjusted for multiplicity):")
 
 
 def display_comparisons(frame: pd.DataFrame) -> pd.DataFrame:
