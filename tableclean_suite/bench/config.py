@@ -373,17 +373,12 @@ def field_docs() -> dict[str, str]:
     """``{field: docstring}`` of `RunConfig` (the string literal after each field), read from its
     source; empty when the source is not available (e.g. bytecode only)."""
     try:
-        tree = ast.parse(inspect.getsource(RunConfig))
+        body = ast.parse(inspect.getsource(RunConfig)).body[0].body
     except (OSError, TypeError):
         return {}
-    body = tree.body[0].body
-    docs = {}
-    for node, following in zip(body, body[1:]):
-        if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name)
-                and isinstance(following, ast.Expr) and isinstance(following.value, ast.Constant)
-                and isinstance(following.value.value, str)):
-            docs[node.target.id] = " ".join(following.value.value.split())
-    return docs
+    return {node.target.id: " ".join(following.value.value.split()) for node, following in zip(body, body[1:])
+            if isinstance(node, ast.AnnAssign) and isinstance(following, ast.Expr)
+            and isinstance(following.value, ast.Constant) and isinstance(following.value.value, str)}
 
 
 def defaults() -> dict:

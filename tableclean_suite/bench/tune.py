@@ -46,8 +46,6 @@ DEFAULT_TOLERANCE = 0.01
 #: Study user attributes: the paper configuration's result, the configuration the study was made for.
 REFERENCE_ATTR = "paper_reference"
 CONFIGURATION_ATTR = "configuration"
-#: Greedy tie rules of ``train(ties=...)``, the default first.
-TIE_RULES = ("random", "first")
 OBJECTIVE = "learning_time_rmst"
 #: The command-line settings a study's trials depend on (recorded in the study and in ``best.json``).
 SETTINGS = ("learner", "reward", "runs", "iterations", "max_itr", "seed", "threshold", "tolerance", "ties")
@@ -226,6 +224,8 @@ def _reference(study, args) -> dict:
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line."""
+    from tableclean_suite.learners.rules import TIES
+
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
     parser.add_argument("--trials", type=cli.non_negative_int, default=30,
                         help="trials to add to the study (default: 30)")
@@ -241,9 +241,9 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         default=DEFAULT_TOLERANCE,
                         help="allowed shortfall of the success asymptote below the paper configuration's "
                              f"(absolute fraction, default: {DEFAULT_TOLERANCE})")
-    parser.add_argument("--ties", choices=TIE_RULES, default=TIE_RULES[0],
-                        help="how the greedy policy breaks ties between equal Q values: at random among them or "
-                             f"the first in the task's order (default: {TIE_RULES[0]})")
+    parser.add_argument("--ties", choices=tuple(TIES), default="random",
+                        help="how the greedy policy breaks ties between equal Q values: the first in the task's "
+                             "order or at random among them (default: random)")
     parser.add_argument("--ablation", action="store_true",
                         help="after the trials, cross the best trial's (alpha, gamma) and exploration with the "
                              "paper's (2 x 2) and write OUT/ablation.csv")
