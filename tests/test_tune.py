@@ -207,7 +207,7 @@ def test_a_study_that_would_run_too_long_is_refused_before_any_trial(tmp_path, m
     rate = resources.steps_per_second(resources.DEFAULT_ENGINE)
     runs, iterations = 100, 1000
     trials = int(2 * resources.MAX_TRAINING_SECONDS * rate) // (runs * iterations)  # two days of steps
-    with pytest.raises(resources.TooMuchWorkError, match="learner steps at"):
+    with pytest.raises(resources.TooMuchWorkError, match="learner updates at"):
         tune.main([*TINY[4:], "--runs", str(runs), "--iterations", str(iterations), "--trials", str(trials),
                    "--out", str(tmp_path / "tune")])
     assert not (tmp_path / "tune" / "study.db").exists()

@@ -95,28 +95,28 @@ def check_resources(args) -> None:
         tableclean_suite.resources.ResourceError: one line naming the estimate and the override.
     """
     from tableclean_suite import resources
-    from tableclean_suite.learners.memory import learner_training_memory
     from tableclean_suite.asymptotes import EXACT_BYTES_PER_ENTRY
     from tableclean_suite.learners import get_learner
+    from tableclean_suite.learners.memory import learner_training_memory
+    from tableclean_suite.learners.rules import METHOD_DOUBLE_Q
 
-    model = args.model
+    model, learner = args.model, get_learner(args.learner)
     pairs = model.n_states * model.n_actions
     stage_runs = -(-args.runs // STAGES)
-    memory = learner_training_memory(model, get_learner(args.learner),
-                                     stage_runs, args.iterations, checkpoint=False, engine=resources.DEFAULT_ENGINE)
+    memory = learner_training_memory(model, learner, stage_runs, args.iterations)
     memory += resources.MemoryEstimate({"asymptote analysis": pairs * EXACT_BYTES_PER_ENTRY})
     resources.require_memory(memory, f"a tuning stage of {args.learner!r} on task {model.spec.name!r} "
                                      f"({model.n_states} states x {model.n_actions} actions, {stage_runs} runs x "
                                      f"{args.iterations} iterations)")
     evaluations = args.trials + 1  # the trials and the paper configuration's reference
-    steps = evaluations * args.runs * args.iterations
     analyses = evaluations * STAGES
-    rate = resources.steps_per_second(resources.DEFAULT_ENGINE)
-    seconds = steps / rate + analyses * args.max_itr * pairs / ANALYSIS_PAIRS_PER_SECOND
-    resources.require_time(seconds, f"tuning {args.trials} trial(s) of {args.learner!r} on task {model.spec.name!r}",
-                           f"{steps:.3g} learner steps at {rate:.3g}/s ({resources.DEFAULT_ENGINE} engine) and "
-                           f"{analyses} asymptote analyses of {args.max_itr} x {pairs} pairs at "
-                           f"{ANALYSIS_PAIRS_PER_SECOND:.3g}/s")
+    resources.require_training_time(
+        evaluations * args.runs, args.iterations, model.n_states, model.n_actions,
+        f"tuning {args.trials} trial(s) of {args.learner!r} on task {model.spec.name!r}",
+        planning_steps=learner.planning_steps, q_tables=1 + (learner.method == METHOD_DOUBLE_Q),
+        extra_seconds=analyses * args.max_itr * pairs / ANALYSIS_PAIRS_PER_SECOND,
+        extra_detail=f"{analyses} asymptote analyses of {args.max_itr} x {pairs} pairs at "
+                     f"{ANALYSIS_PAIRS_PER_SECOND:.3g}/s")
 
 
 def trial_settings(trial) -> dict:
