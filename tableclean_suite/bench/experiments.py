@@ -150,17 +150,16 @@ class CellStore:
             return None
         try:
             with np.load(path, allow_pickle=False) as data:
-                stored_config = json.loads(str(data["config"]))
-                stored_hash = str(data["config_hash"])
-                scalars = json.loads(str(data["scalars"]))
-                curves = {name: np.array(data[name], dtype=np.float64) for name in CURVE_NAMES}
-                facts = json.loads(str(data["statistics"]))
-                bands = {name: (np.array(data[f"band_{name}_low"]), np.array(data[f"band_{name}_high"]))
-                         for name in (*statistics.BAND_CURVES, statistics.NOT_LEARNED)
-                         if f"band_{name}_low" in data.files}
-                survival = np.array(data["survival"], dtype=np.float64) if "survival" in data.files else None
-                runs = {name: np.array(data[f"run_{name}"], dtype=np.float64) for name in statistics.RUN_SCORES
-                        if f"run_{name}" in data.files}
+                stored = {name: data[name] for name in data.files}
+            stored_config, scalars, facts = (json.loads(str(stored[name])) for name in ("config", "scalars",
+                                                                                        "statistics"))
+            stored_hash = str(stored["config_hash"])
+            curves = {name: stored[name].astype(np.float64) for name in CURVE_NAMES}
+            bands = {name: (stored[f"band_{name}_low"], stored[f"band_{name}_high"])
+                     for name in (*statistics.BAND_CURVES, statistics.NOT_LEARNED) if f"band_{name}_low" in stored}
+            survival = stored["survival"].astype(np.float64) if "survival" in stored else None
+            runs = {name: stored[f"run_{name}"].astype(np.float64) for name in statistics.RUN_SCORES
+                    if f"run_{name}" in stored}
         except Exception as error:  # any read/parse failure means the file is damaged
             raise CellFileError(
                 f"cannot read cell file {path} (damaged, or not a cell file: {type(error).__name__}: {error}). "
