@@ -246,11 +246,10 @@ class RunConfig:
         taken = set()
         for name in self.trained_learners():
             try:
-                learner = self.learner(name)
+                self.learner(name)
             except ValueError as error:
                 raise ConfigError("learner_options", str(error)) from None
             taken |= set(self._options_for(name, options))
-            learner.exploration.check(float(self.epsilon))
         unused = sorted(set(options) - taken)
         if unused:
             raise ConfigError("learner_options", f"no learner of this run takes {unused} "
