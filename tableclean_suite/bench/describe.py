@@ -10,10 +10,10 @@ import pandas as pd
 
 from tableclean_suite.analysis import exact_success_probability
 from tableclean_suite.bench.cli import wrap
-from tableclean_suite.bench.tables import PRINT_WIDTH
+from tableclean_suite.bench.tables import PRINT_WIDTH, is_paper_task
 from tableclean_suite.learners import get_learner, learner_names
 from tableclean_suite.rewards import get_reward_pattern, reward_pattern_names
-from tableclean_suite.task import PAPER_OPTIMAL_PLAN, PAPER_SPEC, TABLE1_STATES, TaskModel, table1_number
+from tableclean_suite.task import PAPER_OPTIMAL_PLAN, TABLE1_STATES, TaskModel, table1_number
 
 def states_table(model: TaskModel) -> pd.DataFrame:
     """All ``model.n_states`` states: code, name, Table 1 number ("-" where Table 1 omits it or the
@@ -21,17 +21,11 @@ def states_table(model: TaskModel) -> pd.DataFrame:
     reachable = {s.index for s in model.reachable_states()}
     states = model.all_states()
     lengths = model.shortest_plan_lengths(states)
-    numbers = [table1_number(state) if _paper_sized(model) else None for state in states]
+    numbers = [table1_number(state) if is_paper_task(model, extra_actions=True) else None for state in states]
     return pd.DataFrame([{"code": state.index, "name": state.name, "table1": "-" if number is None else number,
                           "reachable": state.index in reachable, "terminal": state.is_terminal,
                           "plan_length": "-" if lengths[state.index] is None else lengths[state.index]}
                          for state, number in zip(states, numbers)]).set_index("code")
-
-
-def _paper_sized(model: TaskModel) -> bool:
-    """Whether Table 1 and the paper's plan describe ``model``: the paper's sizes and (at least) its actions."""
-    return ((model.n_segments, model.n_objects) == (PAPER_SPEC.segments, PAPER_SPEC.n_objects)
-            and set(PAPER_SPEC.actions) <= set(model.spec.actions))
 
 
 def table1_frame(model: TaskModel) -> pd.DataFrame:
@@ -82,7 +76,7 @@ def describe(model: TaskModel, epsilon: float = 0.1, max_itr: int = 500) -> str:
     model.require_learnable()
     reachable = model.reachable_states()
     terminal = [s for s in reachable if s.is_terminal]
-    paper_sized = _paper_sized(model)
+    paper_sized = is_paper_task(model, extra_actions=True)
     lines = [f"Task model: {model!r}"] + ([
         f"{model.n_states} states, code = ((segment1_clean * 2 + segment2_clean) * 3 + object_location) * 2 "
         "+ arm_segment",
