@@ -18,15 +18,20 @@ from robosuite.models.grippers import GRIPPER_MAPPING, Robotiq85Gripper, Robotiq
 _COUPLING = {"solref": "0.005 1", "solimp": "0.95 0.99 0.001"}
 
 
-def _make_kinematic(gripper, coupling) -> None:
+#: The outer knuckles: a corrected model's robosuite gripper ``joints`` (the linkage's followers move with them).
+DRIVERS = ("finger_joint", "right_outer_knuckle_joint")
+
+
+def _make_kinematic(gripper) -> None:
     """Replace ``gripper``'s tendons and equalities by joint equalities ``follower = factor * leader`` for each
-    ``(follower, leader, factor)`` of ``coupling`` (robosuite's joint names without the prefix), and exclude the
-    contacts between any two of its bodies."""
+    ``(follower, leader, factor)`` of its ``COUPLING`` (robosuite's joint names without the prefix), exclude the
+    contacts between any two of its bodies, and keep only `DRIVERS` as its ``joints``."""
     prefix = gripper.naming_prefix
+    gripper._joints = [name for name in gripper._joints if name in DRIVERS]  # robosuite keeps them unprefixed
     for parent in (gripper.tendon, gripper.equality):
         for element in list(parent):
             parent.remove(element)
-    for follower, leader, factor in coupling:
+    for follower, leader, factor in gripper.COUPLING:
         ET.SubElement(gripper.equality, "joint", joint1=prefix + follower, joint2=prefix + leader,
                       polycoef=f"0 {factor} 0 0 0", **_COUPLING)
     bodies = [body.get("name") for body in gripper.worldbody.iter("body")]
@@ -57,8 +62,6 @@ class CorrectedRobotiq85Gripper(Robotiq85Gripper):
                 ("right_inner_knuckle_joint", "right_outer_knuckle_joint", 1),
                 ("right_inner_finger_joint", "right_outer_knuckle_joint", -1),
                 ("right_outer_knuckle_joint", "finger_joint", 1))
-    #: the outer knuckles, robosuite's gripper ``joints`` here (the followers move with them).
-    DRIVERS = ("finger_joint", "right_outer_knuckle_joint")
     #: rad, the closed end of every linkage joint's range (robosuite's ``ctrlrange`` top).
     CLOSED = 0.8
     #: N m, the most each finger's actuator exerts.
@@ -67,14 +70,13 @@ class CorrectedRobotiq85Gripper(Robotiq85Gripper):
     def __init__(self, idn=0):
         super().__init__(idn=idn)
         prefix = self.naming_prefix
-        _make_kinematic(self, self.COUPLING)
-        closing = {**{name: 1 for name in self.DRIVERS}, **{follower: factor for follower, _, factor in self.COUPLING}}
+        _make_kinematic(self)
+        closing = {**{name: 1 for name in DRIVERS}, **{follower: factor for follower, _, factor in self.COUPLING}}
         for joint in self.worldbody.iter("joint"):
             if joint.get("name")[len(prefix):] in closing:  # the closing direction's side of zero
                 low, high = sorted((0, closing[joint.get("name")[len(prefix):]] * self.CLOSED))
                 joint.attrib.update(limited="true", range=f"{low} {high}", damping="0.1", armature="0.005",
                                     solreflimit=_COUPLING["solref"], solimplimit=_COUPLING["solimp"])
-        self._joints = [name for name in self._joints if name in self.DRIVERS]  # robosuite keeps them unprefixed
         fingers = {prefix + name for side in ("left_finger", "right_finger") for name in self._important_geoms[side]}
         for geom in self.worldbody.iter("geom"):
             if geom.get("name") in fingers:
@@ -109,22 +111,19 @@ class CorrectedRobotiq140Gripper(Robotiq140Gripper):
     COUPLING = (("left_inner_finger_joint", "finger_joint", 1.0), ("left_inner_knuckle_joint", "finger_joint", -1.0),
                 ("right_inner_finger_joint", "right_outer_knuckle_joint", -1.0),
                 ("right_inner_knuckle_joint", "right_outer_knuckle_joint", 1.0))
-    #: the actuated joints, robosuite's gripper ``joints`` here (the followers move with them).
-    DRIVERS = ("finger_joint", "right_outer_knuckle_joint")
     #: rad, the outer knuckles' open and closed ends (robosuite's: 0 and 0.7; the right knuckle's negated).
     OPEN, CLOSED = 0.25, 0.7
 
     def __init__(self, idn=0):
         super().__init__(idn=idn)
         prefix = self.naming_prefix
-        _make_kinematic(self, self.COUPLING)
+        _make_kinematic(self)
         ranges = {"finger_joint": f"{self.OPEN} {self.CLOSED}",  # the right knuckle closes the other way
                   "right_outer_knuckle_joint": f"{-self.CLOSED} {-self.OPEN}"}
         for joint in self.worldbody.iter("joint"):
             joint.set("range", ranges.get(joint.get("name")[len(prefix):], joint.get("range")))
         for actuator in self.actuator:
             actuator.set("ctrlrange", ranges[actuator.get("joint")[len(prefix):]])
-        self._joints = [name for name in self._joints if name in self.DRIVERS]  # robosuite keeps them unprefixed
 
     @property
     def init_qpos(self):
