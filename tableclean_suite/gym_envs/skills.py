@@ -42,8 +42,6 @@ class TableCleanSkillsEnv(TableCleanBase):
       ``env_kwargs``'s, else Panda); a ``ValueError`` if it disagrees with ``env_kwargs["robots"]``.
     """
 
-    metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 2}
-
     def __init__(self, reward: str | RewardPattern = "r4", model: TaskModel | None = None,
                  render_mode: str | None = None, env_kwargs: dict | None = None, skill_configs=None,
                  camera: str = "frontview", frame_size: tuple[int, int] = CAMERA_FRAME_SIZE,
