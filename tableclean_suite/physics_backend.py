@@ -362,7 +362,6 @@ class PhysicsBackend:
         if unknown:
             raise ValueError(f"backend 'physics': unknown option(s) {unknown}; allowed: 'physics_options' "
                              "(transitions= is only used with backend='calibrated')")
-        check_physical_task(model)
         physics_options = dict(options.get("physics_options") or {})
         unknown = sorted(set(physics_options) - set(PHYSICS_OPTIONS))
         if unknown:
@@ -374,6 +373,7 @@ class PhysicsBackend:
             from tableclean_suite.controllers.robot_configs import check_robot
 
             check_robot(env_kwargs["robots"])
+        check_physical_task(model, env_kwargs.get("task_config"))
         return {"physics_options": physics_options}
 
     def train(self, job):
