@@ -14,7 +14,7 @@ import hashlib
 import json
 import sys
 import time
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, astuple, dataclass, field, fields, replace
 from functools import cached_property
 from pathlib import Path
 
@@ -203,23 +203,21 @@ class CellStore:
             self.root.mkdir(parents=True, exist_ok=True)
         except OSError as error:
             raise OutputError(f"cannot create the cell folder {str(self.root)!r}: {describe_os_error(error)}") from None
-        settled = cell_stats.settling
         facts = {"intervals": cell_stats.intervals,
                  "learning": None if cell_stats.learning is None else cell_stats.learning.as_dict(),
-                 "settling": [settled.drift, settled.low, settled.high, settled.checkpoint]}
-        bands = {f"band_{name}_{side}": np.asarray(bounds[i], dtype=np.float64)
-                 for name, bounds in cell_stats.bands.items() for i, side in enumerate(("low", "high"))}
-        runs = {f"run_{name}": np.asarray(values, dtype=np.float64) for name, values in cell_stats.runs.items()}
+                 "settling": list(astuple(cell_stats.settling))}
+        texts = {"config": json.dumps(config, sort_keys=True), "config_hash": digest,
+                 "scalars": _json(summary.scalars()), "statistics": _json(facts)}
+        numbers = {**summary.curves(),
+                   **{f"band_{name}_{side}": bound for name, bounds in cell_stats.bands.items()
+                      for side, bound in zip(("low", "high"), bounds)},
+                   **{f"run_{name}": values for name, values in cell_stats.runs.items()},
+                   **({} if cell_stats.survival is None else {"survival": cell_stats.survival})}
 
         def write(temporary: Path) -> None:
             with open(temporary, "wb") as handle:
-                np.savez(
-                    handle, config=np.array(json.dumps(config, sort_keys=True)), config_hash=np.array(digest),
-                    scalars=np.array(_json(summary.scalars())), statistics=np.array(_json(facts)),
-                    **{name: np.asarray(curve, dtype=np.float64) for name, curve in summary.curves().items()},
-                    **bands, **runs,
-                    **({} if cell_stats.survival is None
-                       else {"survival": np.asarray(cell_stats.survival, np.float64)}))
+                np.savez(handle, **{name: np.array(text) for name, text in texts.items()},
+                         **{name: np.asarray(values, dtype=np.float64) for name, values in numbers.items()})
 
         return atomic_write(path, write)
 
