@@ -107,10 +107,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                           help=helped("task", f"{', '.join(task_spec_names())}, or a path to a .json spec"))
     add(task, "start", choices=START_MODES)
     add(task, "ineffective", choices=INEFFECTIVE_MODES)
-    add(task, "threshold", type=float)
-    add(task, "plateau_fraction", type=float)
-    add(task, "settle_tolerance", type=float)
-    add(task, "support_fraction", type=float)
+    for field in ("threshold", "plateau_fraction", "settle_tolerance", "support_fraction"):
+        add(task, field, type=float)
     statistics = parser.add_argument_group("statistics")
     add(statistics, "bootstrap_samples", type=int)
     add(statistics, "confidence", type=float)
