@@ -3,15 +3,8 @@
 A task spec names its objects' types (``TaskSpec.objects``, e.g. ``("box", "milk")``); the scene builds each
 from this registry.  An object type is how to build a robosuite ``MujocoObject``; its shape (extent, footprint,
 resting height, where to grip it) is read from its collision geometry
-([`object_geometry`][tableclean_suite.environments.object_geometry]), so registering one is one line:
-
-    from robosuite.models.objects import MilkObject
-    from tableclean_suite.environments.objects import register_object
-
-    register_object("my_milk", MilkObject)                    # a MujocoObject class
-    register_object("tall_box", lambda name: BoxObject(name=name, size=[0.02, 0.02, 0.05]))
-    register_object("mug", xml="mug.xml")                      # an MJCF file in robosuite's object layout
-
+([`object_geometry`][tableclean_suite.environments.object_geometry]), so registering one is one line
+([`register_object`][tableclean_suite.environments.objects.register_object]: a class, a callable or an MJCF file).
 What geometry cannot tell can be given as [`ObjectType`][tableclean_suite.environments.objects.ObjectType] overrides.  The scene refuses,
 when it is made, an object the gripper cannot hold or that does not fit a segment.
 """
