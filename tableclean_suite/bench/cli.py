@@ -139,18 +139,23 @@ def output_path(kind: str, suffixes: tuple[str, ...] = ()):
     return parse
 
 
-def command_parser(prog: str, description: str, epilog: str | None = None) -> OneLineParser:
-    """A command's parser: one-line errors, and the options every command has (``--plugins``, ``--verbose``)."""
+def _shared_options(prog: str | None = None) -> OneLineParser:
+    """A parser of the options every command has: ``--plugins`` and ``--verbose``."""
     from tableclean_suite.bench.plugins import FLAG
 
-    parser = OneLineParser(prog=prog, description=description, epilog=epilog,
-                           formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = OneLineParser(prog=prog, add_help=False)
     parser.add_argument(FLAG, type=plugin_entries, default=(), metavar="MODULE|FILE.py,...",
                         help="modules (names or .py paths, comma separated) imported first, to register actions, "
                              "learners, rewards, specs, objects or skills by name; executor workers import them too")
     parser.add_argument("--verbose", action="store_true",
                         help="show robosuite's start-up warnings and informational messages (hidden by default)")
     return parser
+
+
+def command_parser(prog: str, description: str, epilog: str | None = None) -> OneLineParser:
+    """A command's parser: one-line errors, and the options every command has (``--plugins``, ``--verbose``)."""
+    return OneLineParser(prog=prog, description=description, epilog=epilog, parents=[_shared_options()],
+                         formatter_class=argparse.RawDescriptionHelpFormatter)
 
 
 def add_task_argument(parser, default="paper", **options) -> None:
@@ -301,9 +306,7 @@ def parse_command(build_parser, argv, prog: str, known: bool = False):
     from tableclean_suite.robosuite_adapter import apply_verbosity
 
     argv = list(sys.argv[1:] if argv is None else argv)
-    early = OneLineParser(prog=prog, add_help=False)
-    early.add_argument("--verbose", action="store_true")
-    early.add_argument(FLAG, type=plugin_entries, default=())
+    early = _shared_options(prog)
     first = early.parse_known_args(argv)[0]
     apply_verbosity(first.verbose)  # before a plugin imports robosuite
     announce_compiles(prog)
