@@ -270,16 +270,6 @@ class CellRun:
         return self.config.learner(self.cell.learner)
 
     @property
-    def runs(self) -> int:
-        """The cell's runs, >= 1."""
-        return self.config.runs
-
-    @property
-    def iterations(self) -> int:
-        """Steps per run."""
-        return self.config.iterations
-
-    @property
     def train(self) -> dict:
         """``train()``'s keyword arguments shared by the cell's chunks."""
         config = self.config
@@ -290,20 +280,20 @@ class CellRun:
     def chunk(self) -> int:
         """Runs per ``train()`` call (at most ``runs``), so that a chunk's records and Q-tables fit `CHUNK_BYTES`."""
         q_bytes = int(self.model.n_states) * int(self.model.n_actions) * resources.WORD_BYTES
-        return min(self.runs, self.runs_per_chunk or chunk_runs(self.iterations, q_table_bytes=q_bytes))
+        return min(self.config.runs, self.runs_per_chunk or chunk_runs(self.config.iterations, q_table_bytes=q_bytes))
 
     @cached_property
     def checkpoint(self) -> int:
         """The settling checkpoint's iteration; 0 when the backend cannot keep the Q-tables of a prefix."""
         replays_prefix = getattr(get_backend(self.config.backend), "deterministic_prefix", False)
-        return settling.checkpoint_iteration(self.iterations) if replays_prefix else 0
+        return settling.checkpoint_iteration(self.config.iterations) if replays_prefix else 0
 
     @cached_property
     def plan(self) -> analysis.AnalysisPlan:
         """Exact or simulated asymptotes ([`analysis.cell_plan`][tableclean_suite.analysis.cell_plan]),
         costed for the runs analysed a chunk at a time, the checkpoint's analysis included."""
         successors = 1 if self.transitions is None else int(self.transitions.max_successors)
-        return analysis.cell_plan(self.model, self.cell.reward, self.learner, self.runs, self.iterations,
+        return analysis.cell_plan(self.model, self.cell.reward, self.learner, self.config.runs, self.config.iterations,
                                   self.config.max_itr, self.config.analysis, runs_per_call=self.chunk,
                                   checkpoint=self.checkpoint > 0, max_successors=successors,
                                   episodes=self.config.analysis_episodes)
@@ -312,7 +302,7 @@ class CellRun:
     def memory(self) -> resources.MemoryEstimate:
         """What training one chunk allocates (records, Q-tables, the checkpoint's, working arrays)."""
         return learner_training_memory(self.model, self.learner, self.chunk,
-                                       self.iterations, checkpoint=self.checkpoint > 0)
+                                       self.config.iterations, checkpoint=self.checkpoint > 0)
 
 
 def check_grid_resources(runs) -> float:
@@ -331,10 +321,10 @@ def check_grid_resources(runs) -> float:
     first, model = runs[0], runs[0].model
     memory = max((run.memory for run in runs), key=lambda estimate: estimate.total)
     memory += resources.MemoryEstimate({"asymptote analysis": max(run.plan.bytes for run in runs),
-                                        "per-run scores": first.runs * len(statistics.RUN_SCORES)
+                                        "per-run scores": first.config.runs * len(statistics.RUN_SCORES)
                                         * resources.WORD_BYTES})
     what = (f"a cell of task {model.spec.name!r} ({model.n_states} states x {model.n_actions} actions, "
-            f"{first.chunk} of {first.runs} runs x {first.iterations} iterations at a time)")
+            f"{first.chunk} of {first.config.runs} runs x {first.config.iterations} iterations at a time)")
     resources.require_memory(memory, what)
     plans = [run.plan for run in runs]
     seconds = sum(plan.training_seconds + plan.seconds for plan in plans)
@@ -353,7 +343,7 @@ def plans_text(plans) -> str:
 def _train_chunk(run: CellRun, first: int, iterations: int, keep: int = 0):
     """``train()`` of the chunk of runs starting at ``first``, for ``iterations``, keeping the Q-tables at ``keep``."""
     cell = run.cell
-    return train(learner=run.learner, reward=cell.reward, runs=min(run.chunk, run.runs - first), first_run=first,
+    return train(learner=run.learner, reward=cell.reward, runs=min(run.chunk, run.config.runs - first), first_run=first,
                  alpha=cell.alpha, gamma=cell.gamma, task=run.model, transitions=run.transitions,
                  **{**run.train, "iterations": iterations}, checkpoint=keep)
 
@@ -368,16 +358,16 @@ def train_cell(run: CellRun) -> tuple[Summary, CellStatistics, float, float]:
         ``(summary, statistics, train_seconds, metrics_seconds)``.
     """
     cell, model, checkpoint, config = run.cell, run.model, run.checkpoint, run.config
-    sums = CurveSums.zeros(run.iterations)
+    sums = CurveSums.zeros(config.iterations)
     chain = analysis.analysis_chain(model, cell.reward, run.transitions, run.plan)
     per_run = {name: [] for name in metrics.PLATEAU_NAMES}
     errors = {name: [] for name in analysis.ESTIMATED_FACTS}
     learned_at, drifts = [], []
     train_seconds = metrics_seconds = 0.0
     physics_stats: dict = {}
-    for first in range(0, run.runs, run.chunk):
+    for first in range(0, config.runs, run.chunk):
         started = time.perf_counter()
-        result = _train_chunk(run, first, run.iterations, checkpoint)
+        result = _train_chunk(run, first, config.iterations, checkpoint)
         train_seconds += time.perf_counter() - started
         started = time.perf_counter()
         if "physics" in result.info:
@@ -414,11 +404,11 @@ def train_cell(run: CellRun) -> tuple[Summary, CellStatistics, float, float]:
     plateaus = Plateaus(**{name: float(values.mean()) for name, values in per_run.items()})
     summary = summarize(sums, plateaus=plateaus, threshold=config.threshold, plateau_fraction=config.plateau_fraction,
                         support_fraction=config.support_fraction)
-    recorded = len(learned_at) > 0 and sum(map(len, learned_at)) == run.runs
+    recorded = len(learned_at) > 0 and sum(map(len, learned_at)) == config.runs
     cell_stats = statistics.cell_statistics(
         sums, per_run, statistics.bootstrap_rng(config.seed, cell.label), config.support_fraction,
         config.bootstrap_samples, config.confidence,
-        learned_at=np.concatenate(learned_at) if recorded else None, budget=run.iterations,
+        learned_at=np.concatenate(learned_at) if recorded else None, budget=config.iterations,
         drift=np.concatenate(drifts) if checkpoint else None, checkpoint=checkpoint,
         monte_carlo={name: analysis.monte_carlo_error(np.concatenate(values)) for name, values in errors.items()
                      if values},
