@@ -209,8 +209,7 @@ def _interval_texts(rows: pd.DataFrame, column: str, digits: int, scale: float =
 
 def _by_cell(rows: pd.DataFrame, columns: dict) -> pd.DataFrame:
     """``columns`` as a frame indexed by the rows' (learner, reward)."""
-    return pd.DataFrame(columns).set_axis(
-        pd.MultiIndex.from_arrays([rows["learner"], rows["reward"]], names=["learner", "reward"]), axis="index")
+    return pd.DataFrame(columns, index=pd.MultiIndex.from_frame(rows[["learner", "reward"]]))
 
 
 def display_learning_time(table: pd.DataFrame) -> pd.DataFrame:
@@ -280,12 +279,8 @@ def display_paper_definitions(table: pd.DataFrame) -> pd.DataFrame:
 
 def display_comparisons(frame: pd.DataFrame) -> pd.DataFrame:
     """Probabilities of improvement for printing: "X over Y", the score, P [CI]."""
-    def name(learner, reward, other_learner, other_reward):
-        return reward if learner == other_learner else learner
-
     return pd.DataFrame({
-        "comparison": [f"{name(lx, rx, ly, ry)} over {name(ly, ry, lx, rx)}"
-                       + (f" ({lx})" if lx == ly else f" ({rx})")
+        "comparison": [f"{rx} over {ry} ({lx})" if lx == ly else f"{lx} over {ly} ({rx})"
                        for lx, rx, ly, ry in zip(frame["learner_x"], frame["reward_x"], frame["learner_y"],
                                                  frame["reward_y"])],
         "score": frame["score"],
