@@ -169,11 +169,8 @@ class RunConfig:
         "out", "figures", "fresh", "progress", "verbose", "plugins", "settle_tolerance", "analysis",
         "analysis_episodes",
     )
-    #: Name lists de-duplicated in order; value lists too (compared as floats).
-    _LISTS: ClassVar[tuple[str, ...]] = ("learners", "rewards", "alpha_sweep", "gamma_sweep")
-
     def __post_init__(self):
-        for name in self._LISTS:
+        for name in ("learners", "rewards", "alpha_sweep", "gamma_sweep"):  # de-duplicated in order (values as floats)
             value = getattr(self, name)
             items = (value,) if isinstance(value, (str, int, float)) else tuple(value)
             if name.endswith("_sweep"):
