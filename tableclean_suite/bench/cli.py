@@ -51,14 +51,15 @@ def number_type(kind, allowed, what: str):
         if value != value or not allowed(value):
             raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
         return value
-    parse.__doc__ = f"{what[0].upper()}{what[1:]}."
     return parse
 
 
-#: Types of the shared counts and sizes.
 positive_int = number_type(int, lambda v: v >= 1, "a positive integer")
+"""A type: an integer >= 1."""
 non_negative_int = number_type(int, lambda v: v >= 0, "an integer >= 0")
+"""A type: an integer >= 0."""
 positive_float = number_type(float, lambda v: 0 < v < math.inf, "a positive number")
+"""A type: a finite number > 0."""
 
 
 def int_in(low: int, high: int, what: str = "an integer"):
