@@ -263,15 +263,16 @@ def train_and_publish(args) -> int:
 
     records, curves = experiments.cell_records(grid, grid_run.summaries, grid_run.statistics,
                                              config.settle_tolerance, grid_run.plans)
-    table3 = tables.table3(records, compare_with_paper=tables.is_paper_task(model))
-    table4 = tables.table4(table3, paper_task=tables.is_paper_task(model))
+    paper_task = tables.is_paper_task(model)
+    table3 = tables.table3(records, compare_with_paper=paper_task)
+    table4 = tables.table4(table3, paper_task=paper_task)
     rows = len(records) * len(tables.CURVE_METRICS) * config.iterations
     stride = max(1, math.ceil(rows * _CURVE_BYTES_PER_ROW / CURVES_MAX_BYTES))
-    curves_frame = tables.curves_long(records, curves, stride=stride)
-    main_cells = [m.cell for m in grid if m.experiment == "main"]
     survival = all(statistics.NOT_LEARNED in curve_set for curve_set in curves)  # the runs recorded learning times
-    figure_frame = (tables.curves_long(records, curves, (*tables.CURVE_METRICS, statistics.NOT_LEARNED), stride)
-                    if survival and config.figures else curves_frame)
+    figure_frame = tables.curves_long(records, curves, (*tables.CURVE_METRICS, statistics.NOT_LEARNED)
+                                      if survival and config.figures else tables.CURVE_METRICS, stride)
+    curves_frame = figure_frame[figure_frame["metric"].isin(tables.CURVE_METRICS)]
+    main_cells = [m.cell for m in grid if m.experiment == "main"]
     results = derived.derive(  # from cells/derived/ when it holds them, else computed and stored there
         store.root / "derived",
         [{"learner": c.learner, "reward": c.reward, "runs": grid_run.statistics[c].runs} for c in main_cells],
@@ -295,7 +296,7 @@ def train_and_publish(args) -> int:
         print(f"\ninterrupted while writing {out}: it has no {outputs.MANIFEST}, so it describes no run; "
               "rerun the same command (cells are saved) to write it", file=sys.stderr)
         return EXIT_INTERRUPTED
-    _print_tables(config, table3, table4, model.spec.name, tables.is_paper_task(model), comparisons)
+    _print_tables(config, table3, table4, model.spec.name, paper_task, comparisons)
     print("\nwritten:")
     for path in written:
         print(f"  {path}")
