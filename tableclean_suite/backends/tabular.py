@@ -4,10 +4,8 @@ Both step a [`TransitionTable`][tableclean_suite.learners.transitions.Transition
 batched loop ([`tableclean_suite.learners.kernel`][tableclean_suite.learners.kernel], chunks of runs) or one step at a time from Python
 ([`stepper`][tableclean_suite.learners.stepper], ``engine="reference"``); the two give identical arrays.
 
-The learner carries its update rule, parameters, initial value (``q_init``), exploration and
-Cruz et al.'s assistance (affordances, advisor; [`TabularLearner`][tableclean_suite.learners.rules.TabularLearner]).
-Double Q-learning's result ``q`` is the
-average of its two tables; both are in ``info["double_q_tables"]``, shape ``(R, 2, S, A)``.
+Double Q-learning's result ``q`` is the average of its two tables; both are in ``info["double_q_tables"]``,
+shape ``(R, 2, S, A)``.
 """
 
 from __future__ import annotations

@@ -19,10 +19,7 @@ initial Q value and the exploration it acts with.  The loop that uses them is
 | `interactive_q_learning` | one step + advisor (L = 0.5, C = 1) | r + gamma max_a Q(s', a) |
 
 Every learner also takes Cruz et al.'s assistance ([`assist`][tableclean_suite.learners.assist]) through
-``learner_options``: ``affordance`` (``"none"``, ``"given"``, ``"learned"``; one-step Q-learning or SARSA
-targets only) and a simulated advisor's ``advice_probability`` L and ``advice_consistency`` C.  Traces are
-replacing by default (``trace="accumulating"``), reset at every episode start, and cut after an exploratory
-next action for off-policy learners (Watkins's Q(lambda)).
+``learner_options`` ([`TabularLearner`][tableclean_suite.learners.rules.TabularLearner] lists them).
 
 Users add a learner by writing a ``numba.njit`` target with the signature of
 [`q_learning_target`][tableclean_suite.learners.rules.q_learning_target] and calling

@@ -34,12 +34,8 @@ ENGINES = ("compiled", "reference")
 class TrainingResult(BackendRecords):
     """Everything one ``train()`` call recorded: the fields of
     [BackendRecords][tableclean_suite.backends.BackendRecords] (records, Q-tables, ``config``, ``info``),
-    with the call's arguments in ``config``, and each run's learning time.
-
-    A run's greedy policy is *optimal* when, in the task model's deterministic transitions, its
-    greedy action (with the call's tie rule) leads from every start state to the terminal state in
-    exactly the shortest-plan number of steps ([optimality][tableclean_suite.learners.optimality]).
-    It is checked before the first step and after every iteration's Q update.
+    with the call's arguments in ``config``, and each run's learning time: the iterations after which its
+    greedy policy is *optimal* ([optimality][tableclean_suite.learners.optimality]).
 
     Attributes:
         first_learned_at: ``(R,)`` int64, per run the first iteration t in [1, T] after whose update
