@@ -29,7 +29,7 @@ import numpy as np
 
 from tableclean_suite.atomic_files import atomic_write_text
 from tableclean_suite.learners.kernel import sample_index
-from tableclean_suite.task import NO_CHANGE_OUTCOMES_NAMES, Outcome, TaskModel, TaskSpec, as_task_model, unique_keys
+from tableclean_suite.task import NO_CHANGE_OUTCOMES, Outcome, TaskModel, TaskSpec, as_task_model, unique_keys
 
 FORMAT_NAME = "tableclean_suite.transition_table"
 FORMAT_VERSION = 2
@@ -281,7 +281,7 @@ def _read_pair(pair, model: TaskModel, where: str) -> tuple[tuple[int, int], lis
             raise CorruptTableError(f"{at}: outcome {outcome.name.lower()} with next_state {nxt} "
                                     f"({'terminal' if terminal else 'not terminal'}); TERMINAL must go with, and "
                                     f"only with, a terminal successor")
-        if outcome.name in NO_CHANGE_OUTCOMES_NAMES and nxt != state:
+        if outcome in NO_CHANGE_OUTCOMES and nxt != state:
             raise CorruptTableError(f"{at}: outcome {outcome.name.lower()} leaves the state unchanged, but "
                                     f"next_state {nxt} != state {state}")
         successors.append((nxt, int(outcome), float(probability)))

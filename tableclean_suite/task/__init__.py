@@ -65,9 +65,6 @@ from tableclean_suite.task.state import (  # noqa: F401
     unclean_layouts,
 )
 
-#: Names of the outcomes after which the state must be unchanged (for file validation).
-NO_CHANGE_OUTCOMES_NAMES = tuple(o.name for o in NO_CHANGE_OUTCOMES)
-
 
 def decode(code: int, task: "TaskModel | TaskSpec | str | None" = None) -> TaskState:
     """The state of ``code`` in ``task``'s encoding (default the ``paper`` spec)."""
