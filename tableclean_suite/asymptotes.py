@@ -65,9 +65,6 @@ class Asymptotes:
     length: np.ndarray
     error: "Asymptotes | None" = None
 
-    def as_dict(self) -> dict[str, np.ndarray]:
-        return {name: getattr(self, name) for name in QUANTITIES}
-
 
 @dataclass(frozen=True)
 class EpisodeChain:
