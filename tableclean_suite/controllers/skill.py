@@ -50,17 +50,12 @@ def object_heights(info: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
     if "objects_geometry" not in info:
         halves = np.asarray(info["objects_half_size"], dtype=float)
         return positions[:, 2] + halves[:, 2], positions[:, 2] - halves[:, 2]
-    tops_bottoms = [_geometry_range(z, quat, shape) for z, quat, shape in
-                    zip(positions[:, 2].tolist(), info["objects_quat"], info["objects_geometry"])]
-    tops, bottoms = np.array(tops_bottoms, dtype=float).reshape(-1, 2).T
-    return tops, bottoms
-
-
-def _geometry_range(z: float, quat, shape) -> tuple[float, float]:
-    """``(top, bottom)`` world z [m] of one object (centre height ``z`` [m], ``quat`` (4,) xyzw, ``shape`` its
-    ObjectGeometry), from one projection on the rotation's z row (the same bits as through quat_to_matrix)."""
-    heights = shape.points.dot(np.array(z_row_entries(quat))).tolist()
-    return z + max(heights), z + min(heights)
+    centres = positions[:, 2].tolist()
+    # one projection on the rotation's z row per object (the same bits as through quat_to_matrix)
+    heights = [shape.points.dot(np.array(z_row_entries(quat))).tolist()
+               for quat, shape in zip(info["objects_quat"], info["objects_geometry"])]
+    return (np.array([z + max(h) for z, h in zip(centres, heights)], dtype=float),
+            np.array([z + min(h) for z, h in zip(centres, heights)], dtype=float))
 
 
 @runtime_checkable
@@ -441,41 +436,23 @@ class Skill(abc.ABC):
         config = self.config
         table = float(info["table_top_z"])
         z = table + config["hover_height"]
-        try:
-            positions = info["objects_pos"]
-        except KeyError:
+        if "objects_pos" not in info:
             return z
-        try:
-            shapes = info["objects_geometry"]
-        except KeyError:
-            shapes = None
-            tops, bottoms = (heights.tolist() for heights in object_heights(info))
-        else:  # as object_heights, one object at a time
-            heights_z = np.asarray(positions, dtype=float)[:, 2].tolist()
-            quats = info["objects_quat"]
+        tops, bottoms = (heights.tolist() for heights in object_heights(info))
         grasped = np.asarray(info["objects_grasped"], dtype=bool).tolist()
         eef_z = float(info["eef_pos"][2])
         drop = None  # how far the carried body's lowest point hangs below the grip site
         if True in grasped:
-            held = grasped.index(True)
-            if shapes is None:
-                drop = eef_z - bottoms[held]
-            else:
-                drop = eef_z - _geometry_range(heights_z[held], quats[held], shapes[held])[1]
+            drop = eef_z - bottoms[grasped.index(True)]
         elif bool(info["sponge_grasped"]):
             drop = eef_z - box_lowest_z(info["sponge_pos"], info["sponge_quat"], info["sponge_half_size"])
         if drop is not None:
             z = max(z, table + max(drop, 0.0) + config["carry_lift"])
-            carried_clearance = max(drop, 0.0) + config["carry_clearance"]
-        else:
-            fingertip_depth = config["fingertip_depth"]
-            kinds = info["object_types"]
-        for j, held in enumerate(grasped):
-            if held:
-                continue
-            clearance = fingertip_depth + kinds[j].clearance() if drop is None else carried_clearance
-            top = tops[j] if shapes is None else _geometry_range(heights_z[j], quats[j], shapes[j])[0]
-            z = max(z, top + clearance)
+        for j, (held, top) in enumerate(zip(grasped, tops)):
+            if not held:
+                clearance = (config["fingertip_depth"] + info["object_types"][j].clearance() if drop is None
+                             else max(drop, 0.0) + config["carry_clearance"])
+                z = max(z, top + clearance)
         return z
 
     def segment_center(self, info: Mapping[str, Any], segment: int) -> np.ndarray:
