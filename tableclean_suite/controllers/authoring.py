@@ -1,24 +1,13 @@
 """Write a skill as a short list of primitives whose targets are named by what they mean.
 
-A new task-level action needs its symbolic rule (``TaskState -> (TaskState, Outcome)``) and a
-skill that carries it out in MuJoCo.  [`compose_skill`][tableclean_suite.controllers.authoring.compose_skill] makes the skill from *steps*:
-
-- [`reach`][tableclean_suite.controllers.authoring.reach] ``(spot)``: travel above a spot at the travel height (gripper as it is: closed
-  while the skill holds an object);
-- [`grasp`][tableclean_suite.controllers.authoring.grasp] ``(obj)``: take an object (across its narrow side, at its holding height);
-- [`release`][tableclean_suite.controllers.authoring.release] ``(spot)``: lower the object the skill holds until it rests on the spot, open, retreat;
-- [`wipe`][tableclean_suite.controllers.authoring.wipe] ``(segment)``: fetch the sponge, wipe the segment, put the sponge home.
-
-Targets are read from the scene when the skill runs, relative to the state it starts in:
-
-- objects: [`lying_object`][tableclean_suite.controllers.authoring.lying_object] ``(segment)`` (the lowest-numbered object lying there),
-  [`held_object`][tableclean_suite.controllers.authoring.held_object] (the one held when the skill starts);
-- segments: [`arm_segment`][tableclean_suite.controllers.authoring.arm_segment], [`next_segment`][tableclean_suite.controllers.authoring.next_segment], [`previous_segment`][tableclean_suite.controllers.authoring.previous_segment], [`segment`][tableclean_suite.controllers.authoring.segment] ``(k)``;
-- spots (world xy): [`free_spot`][tableclean_suite.controllers.authoring.free_spot] ``(segment)`` (clear of the objects lying there, for the
-  held object's footprint), [`segment_center`][tableclean_suite.controllers.authoring.segment_center] ``(segment)``, [`sponge_home`][tableclean_suite.controllers.authoring.sponge_home].
-
-Heights, depths and yaws come from the objects' geometry ([`primitives`][tableclean_suite.controllers.primitives]);
-the documentation's "Write a skill" page shows a whole example.
+A new task-level action needs its symbolic rule (``TaskState -> (TaskState, Outcome)``) and a skill that
+carries it out in MuJoCo: [`compose_skill`][tableclean_suite.controllers.authoring.compose_skill] makes the
+skill from steps ([`reach`][tableclean_suite.controllers.authoring.reach],
+[`grasp`][tableclean_suite.controllers.authoring.grasp], [`release`][tableclean_suite.controllers.authoring.release],
+[`wipe`][tableclean_suite.controllers.authoring.wipe]) whose targets (objects, segments, spots) are read from the
+scene when the skill runs, relative to the state it starts in.  Heights, depths and yaws come from the objects'
+geometry ([`primitives`][tableclean_suite.controllers.primitives]); the documentation's "Write a skill" page
+lists the steps and targets and shows a whole example.
 """
 
 from __future__ import annotations

@@ -1,17 +1,13 @@
 """Small parameterised motion primitives that the skills are built from.
 
-A [`Primitive`][tableclean_suite.controllers.primitives.Primitive] is a short sequence of named phases over end-effector waypoints.  A
-[`PrimitiveSkill`][tableclean_suite.controllers.primitives.PrimitiveSkill] runs a list of primitives one after the other; its phase names are
-``prefix + local phase`` (e.g. the sponge grasp of the clean skill has phases
-``SPONGE_HOVER``, ``SPONGE_DESCEND``, ...).  The primitives:
-
-- [`Reach`][tableclean_suite.controllers.primitives.Reach]: go to one point (a function of ``skill_info()``) with a given gripper command.
-- [`Grasp`][tableclean_suite.controllers.primitives.Grasp]: hover over a body, open, descend to its grasp point, close, confirm by contact,
-  lift, confirm by contact and slip (pick grasps an object with its type's grasp parameters;
-  clean grasps the sponge).
-- [`Release`][tableclean_suite.controllers.primitives.Release]: hover over a spot, descend until the carried body is just above its
-  resting height, open until released, retreat (place puts an object down; clean returns the sponge).
-- [`Wipe`][tableclean_suite.controllers.clean.Wipe] (in [`clean`][tableclean_suite.controllers.clean]): press the held sponge and sweep a segment.
+A [`Primitive`][tableclean_suite.controllers.primitives.Primitive] is a short sequence of named phases over
+end-effector waypoints: [`Reach`][tableclean_suite.controllers.primitives.Reach] (one point),
+[`Grasp`][tableclean_suite.controllers.primitives.Grasp] (take a body from above, confirmed by contact and slip),
+[`Release`][tableclean_suite.controllers.primitives.Release] (lower the carried body until it rests, open, retreat)
+and [`Wipe`][tableclean_suite.controllers.clean.Wipe] (in [`clean`][tableclean_suite.controllers.clean]: press the
+held sponge and sweep a segment).  A [`PrimitiveSkill`][tableclean_suite.controllers.primitives.PrimitiveSkill]
+runs a list of them one after the other; its phase names are ``prefix + local phase`` (e.g. the clean skill's
+sponge grasp has ``SPONGE_HOVER``, ``SPONGE_DESCEND``, ...).
 
 Every height, depth and yaw comes from the scene at run time: the body's collision geometry in
 its own frame (``skill_info()["objects_geometry"]``, [`tableclean_suite.environments.object_geometry`][tableclean_suite.environments.object_geometry])
