@@ -310,16 +310,12 @@ def best_report(study, args) -> dict:
 def run(args) -> int:
     """Run the trials, then publish ``trials.csv``, ``best.json`` (and ``ablation.csv``) into ``--out``;
     after Ctrl-C the finished trials are published and the exit code is 130."""
-    import logging
-
     import optuna
 
     from tableclean_suite.bench import outputs
 
     prog, out = getattr(args, "prog", PROG), Path(args.out)
-    optuna.logging.set_verbosity(optuna.logging.ERROR)  # the trial Ctrl-C stopped is not a warning: it is reported once
-    for handler in logging.getLogger("optuna").handlers:  # and without Optuna's traceback
-        handler.addFilter(lambda record: not (record.exc_info and record.exc_info[0] is KeyboardInterrupt))
+    optuna.logging.set_verbosity(optuna.logging.ERROR)  # the trial Ctrl-C stopped is reported once, without a traceback
     check_resources(args)
     try:
         study = open_study(args)
