@@ -1,6 +1,6 @@
 """The skills' per-step helpers written without numpy's dispatch give numpy's results bit for bit:
 ``clip_scalar`` as ``np.clip`` (NaN and signed zeros included), ``z_row_entries`` as ``quat_to_matrix``'s last row,
-the objects' height extremes as ``object_geometry``'s; a clear yaw verdict as the quaternion's."""
+the objects' height extremes as ``object_geometry``'s."""
 
 from __future__ import annotations
 
@@ -57,37 +57,3 @@ def test_object_heights_are_world_lowest_and_highest_z_bit_for_bit():
             rot = quat_to_matrix(info["objects_quat"][j])
             assert tops[j] == world_z_range(shape, info["objects_pos"][j], rot)[1]
             assert bottoms[j] == world_lowest_z(shape, info["objects_pos"][j], rot)
-
-
-def test_a_clear_yaw_verdict_is_that_of_the_quaternion_robosuite_converts_the_matrix_to():
-    """clear_yaw_verdict on a rotation matrix decides as gripper_yaw of robosuite's mat2quat of it (the skills'
-    eef_quat) does, for target yaws spread about the tolerance's edge (decided ones within 2 margins of it
-    included); it declines within the margin and for a near-vertical x axis."""
-    import mujoco
-    from robosuite.utils.transform_utils import mat2quat
-
-    from tableclean_suite.controllers.geometry import (YAW_VERDICT_MARGIN, YAW_VERDICT_MIN_HORIZONTAL,
-                                                       clear_yaw_verdict, gripper_yaw, wrap_angle)
-
-    rng = np.random.default_rng(7)
-    tolerance = 0.1
-    decided = declined = 0
-    for quat in rng.normal(size=(4000, 4)):
-        rot = np.zeros(9)
-        mujoco.mju_quat2Mat(rot, quat / np.linalg.norm(quat))  # as MuJoCo fills site_xmat (quat wxyz)
-        rot = rot.reshape(3, 3)
-        exact = gripper_yaw(mat2quat(rot).astype(float))
-        for offset in (0.0, 0.5, 0.0995, 0.1, 0.1005, 0.1015, 0.102, 3.0, *rng.uniform(-np.pi, np.pi, size=3)):
-            for sign in (1.0, -1.0):
-                yaw = wrap_angle(exact + sign * offset)
-                verdict = clear_yaw_verdict(rot, yaw, tolerance)
-                if verdict is None:
-                    declined += 1
-                    assert (math.hypot(rot[0, 0], rot[1, 0]) < YAW_VERDICT_MIN_HORIZONTAL
-                            or abs(abs(wrap_angle(math.atan2(rot[1, 0], rot[0, 0]) - yaw)) - tolerance)
-                            <= YAW_VERDICT_MARGIN)
-                else:
-                    decided += 1
-                    assert verdict == (abs(wrap_angle(exact - yaw)) <= tolerance), (quat, yaw)
-    assert decided > declined > 0
-    assert clear_yaw_verdict(np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]]), 0.0, tolerance) is None

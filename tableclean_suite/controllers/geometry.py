@@ -49,28 +49,6 @@ def gripper_yaw(eef_quat: np.ndarray) -> float:
     return float(np.arctan2(rot[1, 0], rot[0, 0]))
 
 
-#: rad, how far a yaw read off a rotation matrix must be from the tolerance for `clear_yaw_verdict` to decide
-#: (robosuite's float32 ``mat2quat`` moves the yaw by up to ~6e-6 rad)
-YAW_VERDICT_MARGIN = 1e-3
-#: the least length of the x axis' horizontal part for `clear_yaw_verdict` to decide (near vertical, the yaw
-#: is ill-conditioned)
-YAW_VERDICT_MIN_HORIZONTAL = 0.1
-
-
-def clear_yaw_verdict(rot: np.ndarray, yaw: float, tolerance: float) -> bool | None:
-    """Whether the yaw (rad) of rotation matrix ``rot`` (3, 3) is within ``tolerance`` (rad) of ``yaw``, when that is
-    clear: None when the yaw's distance from ``yaw`` lies within `YAW_VERDICT_MARGIN` of the tolerance or
-    the x axis is near vertical.  A clear verdict is that of [`gripper_yaw`][tableclean_suite.controllers.geometry.gripper_yaw] of the matrix's quaternion from
-    robosuite's ``mat2quat`` (an eigen-decomposition in float32), without computing that quaternion."""
-    cos_part, sin_part = float(rot[0, 0]), float(rot[1, 0])
-    if math.hypot(cos_part, sin_part) < YAW_VERDICT_MIN_HORIZONTAL:
-        return None
-    gap = abs(wrap_angle(math.atan2(sin_part, cos_part) - yaw))
-    if abs(gap - tolerance) <= YAW_VERDICT_MARGIN:
-        return None
-    return gap <= tolerance
-
-
 def box_lowest_z(pos: np.ndarray, quat: np.ndarray, half_size: np.ndarray) -> float:
     """World z (m) of the lowest corner of a box with centre ``pos`` (3,), orientation ``quat`` (4,, xyzw)."""
     reach = np.array([abs(entry) for entry in z_row_entries(quat)])  # np.abs of the z row, without its dispatch

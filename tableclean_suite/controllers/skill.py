@@ -31,7 +31,7 @@ from typing import Any, ClassVar, Mapping, Protocol, runtime_checkable
 import numpy as np
 
 from tableclean_suite.controllers.configs import SkillConfig, checked_skill_config
-from tableclean_suite.controllers.geometry import box_lowest_z, clear_yaw_verdict, gripper_yaw, wrap_angle
+from tableclean_suite.controllers.geometry import box_lowest_z, gripper_yaw, wrap_angle
 from tableclean_suite.controllers.geometry import z_row_entries
 from tableclean_suite.controllers.loop_state import SKILL_STATE, loop_record
 from tableclean_suite.controllers.osc import ACTION_DIM
@@ -392,18 +392,8 @@ class Skill(abc.ABC):
         return timeout is not None and self._phase_steps >= timeout
 
     def _yaw_reached(self, info: Mapping[str, Any]) -> bool:
-        """Whether the gripper's yaw (from ``eef_quat``) is within ``yaw_tolerance`` of `yaw`.
-
-        Decided from the grip site's rotation matrix ``eef_rot`` when it gives a clear verdict
-        ([`clear_yaw_verdict`][tableclean_suite.controllers.geometry.clear_yaw_verdict]: the same answer), else
-        from ``eef_quat``."""
-        tolerance = self.config["yaw_tolerance"]
-        rot = info.get("eef_rot")
-        if rot is not None:
-            verdict = clear_yaw_verdict(rot, self.yaw, tolerance)
-            if verdict is not None:
-                return verdict
-        return abs(wrap_angle(gripper_yaw(info["eef_quat"]) - self.yaw)) <= tolerance
+        """Whether the gripper's yaw (from ``eef_quat``) is within ``yaw_tolerance`` of `yaw`."""
+        return abs(wrap_angle(gripper_yaw(info["eef_quat"]) - self.yaw)) <= self.config["yaw_tolerance"]
 
     def _advance_setpoint(self, target: Waypoint) -> np.ndarray:
         """Move the setpoint (and the yaw setpoint) one control step towards ``target``; returns the env action (7,).
