@@ -132,11 +132,9 @@ def plot_sweeps(curves: pd.DataFrame, metric: str, xmax: int | None = None):
     (None: all).  Returns ``(fig, axes)``, at least one axes."""
     experiments = ("alpha_sweep", "gamma_sweep")
     present = [e for e in experiments if (curves["experiment"] == e).any()] or list(experiments[:1])
-    fig, axes = pyplot().subplots(1, len(present), figsize=(6.2 * len(present), 4.2), sharey=True, squeeze=False)
-    axes = axes[0]
-    import matplotlib
-
-    colormap = matplotlib.colormaps["viridis"]
+    plt = pyplot()
+    fig, axes = plt.subplots(1, len(present), figsize=(6.2 * len(present), 4.2), sharey=True, squeeze=False)
+    axes, colormap = axes[0], plt.get_cmap("viridis")
     for ax, experiment in zip(axes, present):
         parameter = "alpha" if experiment == "alpha_sweep" else "gamma"
         fixed = "gamma" if parameter == "alpha" else "alpha"
@@ -216,10 +214,8 @@ def render_png(stem: str, curves: pd.DataFrame, plateau_fraction: float, table3=
     """The PNG bytes of the paper's figure ``stem`` (`PAPER_FIGURES`) drawn from ``curves``
     (plateau lines from ``table3`` when given) at ``dpi`` dots per inch, cropped as
     ``savefig(bbox_inches="tight")`` crops it."""
-    import matplotlib
-
     plt = pyplot()
-    with matplotlib.rc_context({"figure.dpi": dpi}):  # a layout (Figures 6-7) measures texts as they are drawn
+    with plt.rc_context({"figure.dpi": dpi}):  # a layout (Figures 6-7) measures texts as they are drawn
         fig, _ = PAPER_FIGURES[stem](curves, plateau_fraction, table3)
     try:
         return _tight_png(fig, dpi)
