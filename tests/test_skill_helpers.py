@@ -1,6 +1,5 @@
-"""The skills' per-step helpers written without numpy's dispatch give numpy's results bit for bit:
-``clip_scalar`` as ``np.clip`` (NaN and signed zeros included), ``z_row_entries`` as ``quat_to_matrix``'s last row,
-the objects' height extremes as ``object_geometry``'s."""
+"""The skills' per-step helpers give numpy's results bit for bit: ``clip_scalar`` as ``np.clip`` (NaN and signed
+zeros included), the objects' height extremes as ``object_geometry``'s."""
 
 from __future__ import annotations
 
@@ -9,7 +8,7 @@ import math
 
 import numpy as np
 
-from tableclean_suite.controllers.geometry import box_lowest_z, clip_scalar, quat_to_matrix, z_row_entries
+from tableclean_suite.controllers.geometry import clip_scalar, quat_to_matrix
 
 
 def same_float(a: float, b: float) -> bool:
@@ -26,17 +25,6 @@ def test_clip_scalar_is_np_clip_bit_for_bit():
         expected = float(np.clip(value, low, high))
         got = clip_scalar(value, low, high)
         assert type(got) is float and same_float(got, expected), (value, low, high, got, expected)
-
-
-def test_z_row_entries_are_the_rotation_matrix_last_row():
-    for quat in np.random.default_rng(4).normal(size=(20000, 4)):
-        np.testing.assert_array_equal(np.array(z_row_entries(quat)), quat_to_matrix(quat)[2])
-
-
-def test_box_lowest_z_is_the_numpy_projection_bit_for_bit():
-    rng = np.random.default_rng(5)
-    for quat, pos, half in zip(rng.normal(size=(20000, 4)), rng.normal(size=(20000, 3)), rng.random(size=(20000, 3))):
-        assert box_lowest_z(pos, quat, half) == float(pos[2] - np.abs(quat_to_matrix(quat)[2]) @ half)
 
 
 def test_object_heights_are_world_lowest_and_highest_z_bit_for_bit():

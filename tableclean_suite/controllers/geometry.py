@@ -21,16 +21,6 @@ def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
     )
 
 
-def z_row_entries(quat: np.ndarray) -> tuple[float, float, float]:
-    """The last row of [`quat_to_matrix`][tableclean_suite.controllers.geometry.quat_to_matrix] (``quat`` (4,) xyzw)
-    as Python floats: the world z of the body frame's axes, all a height needs (the same bits)."""
-    q = np.asarray(quat, dtype=float)
-    norm = math.sqrt(q.dot(q))
-    x, y, z, w = q.tolist()  # divided as Python floats: IEEE division, the bits of numpy's q / norm
-    x, y, z, w = x / norm, y / norm, z / norm, w / norm
-    return 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
-
-
 def clip_scalar(value: float, low: float, high: float) -> float:
     """``float(np.clip(value, low, high))`` for scalars without its ~3 us of dispatch: the same result,
     a NaN ``value`` and the bound's signed zero when ``value`` equals it included (numpy's max, then min)."""
@@ -51,7 +41,7 @@ def gripper_yaw(eef_quat: np.ndarray) -> float:
 
 def box_lowest_z(pos: np.ndarray, quat: np.ndarray, half_size: np.ndarray) -> float:
     """World z (m) of the lowest corner of a box with centre ``pos`` (3,), orientation ``quat`` (4,, xyzw)."""
-    reach = np.array([abs(entry) for entry in z_row_entries(quat)])  # np.abs of the z row, without its dispatch
+    reach = np.abs(quat_to_matrix(quat)[2])  # the world z of the box's axes
     return float(pos[2] - reach.dot(np.asarray(half_size, dtype=float)))
 
 

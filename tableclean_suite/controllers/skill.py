@@ -31,8 +31,7 @@ from typing import Any, ClassVar, Mapping, Protocol, runtime_checkable
 import numpy as np
 
 from tableclean_suite.controllers.configs import SkillConfig, checked_skill_config
-from tableclean_suite.controllers.geometry import box_lowest_z, gripper_yaw, wrap_angle
-from tableclean_suite.controllers.geometry import z_row_entries
+from tableclean_suite.controllers.geometry import box_lowest_z, gripper_yaw, quat_to_matrix, wrap_angle
 from tableclean_suite.controllers.loop_state import SKILL_STATE, loop_record
 from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.controllers.setpoint import advance_command
@@ -51,8 +50,8 @@ def object_heights(info: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
         halves = np.asarray(info["objects_half_size"], dtype=float)
         return positions[:, 2] + halves[:, 2], positions[:, 2] - halves[:, 2]
     centres = positions[:, 2].tolist()
-    # one projection on the rotation's z row per object (the same bits as through quat_to_matrix)
-    heights = [shape.points.dot(np.array(z_row_entries(quat))).tolist()
+    # one projection on the rotation's z row per object
+    heights = [shape.points.dot(quat_to_matrix(quat)[2]).tolist()
                for quat, shape in zip(info["objects_quat"], info["objects_geometry"])]
     return (np.array([z + max(h) for z, h in zip(centres, heights)], dtype=float),
             np.array([z + min(h) for z, h in zip(centres, heights)], dtype=float))
