@@ -73,8 +73,6 @@ LITERATURE_METHODS = {
     "interactive_q_learning": "Interactive RL, optimal advisor L={L:g} C={C:g} (Q-learning)",
 }
 
-_NA = float("nan")
-
 
 def _ordered(values, preferred):
     """``values``' unique entries, ``preferred`` ones first in that order, then the rest as they come."""
