@@ -1,28 +1,13 @@
 """Typed, frozen settings of the primitives and skills (a leaf module: it imports nothing of the package).
 
-One dataclass per primitive and skill; each field states its unit and allowed range, and
-``__post_init__`` refuses a value outside it with a `ValueError` naming the field, the value
-and the range.  A skill's config type is the union of its primitives' (by inheritance), with the
-skill's own defaults on top:
-
-    SkillConfig                 travel, speeds, gripper settling, clearances (every skill)
-    ├── GraspConfig             the Grasp primitive (pick, clean's sponge grasp, composed skills)
-    ├── ReleaseConfig           the Release primitive (place, clean's sponge return, composed skills)
-    ├── WipeConfig              the Wipe primitive (clean)
-    ├── MoveConfig              MoveSkill
-    ├── PickConfig(Grasp)       PickSkill
-    ├── PlaceConfig(Grasp, Release)          PlaceSkill (a retry grasps again)
-    ├── ComposedConfig(Grasp, Release)       skills made by compose_skill
-    └── CleanConfig(Wipe, Grasp, Release)    CleanSkill (and composed skills that wipe)
-
-Merge order of the values a skill runs with (later wins): the skill's config type's defaults
-(``Skill.DEFAULT_CONFIG``, the dict form of those), the robot's ``"*"`` and per-action overrides, its
-gripper's alike ([`robot_configs`][tableclean_suite.controllers.robot_configs]), the caller's
-``SkillController(..., skill_configs=...)`` or ``Skill(env, config)``; the merged values are
-validated once, by constructing the skill's config type, in
-[`checked_skill_config`][tableclean_suite.controllers.configs.checked_skill_config]: what a skill's constructor,
-a robot's per-action overrides and [`compose_skill`][tableclean_suite.controllers.authoring.compose_skill] run,
-so each refuses the same settings with the same [`SkillConfigError`][tableclean_suite.controllers.configs.SkillConfigError].
+One dataclass per primitive and skill; each field states its unit and allowed range, and ``__post_init__``
+refuses a value outside it with a `ValueError` naming the field, the value and the range.  A skill's config
+type is the union of its primitives' (by inheritance: ``CleanConfig(WipeConfig, GraspConfig, ReleaseConfig)``),
+with the skill's own defaults on top.  A skill's values (its defaults, the robot's and gripper's overrides, the
+caller's; the documentation's "Objects and skills" page gives the order) are checked once, by
+[`checked_skill_config`][tableclean_suite.controllers.configs.checked_skill_config]: a skill's constructor, a
+robot's per-action overrides and [`compose_skill`][tableclean_suite.controllers.authoring.compose_skill] refuse
+the same settings with the same [`SkillConfigError`][tableclean_suite.controllers.configs.SkillConfigError].
 """
 
 from __future__ import annotations
