@@ -34,7 +34,7 @@ import math
 import numba
 import numpy as np
 
-from tableclean_suite.learners.exploration import SOFTMAX_CODE, epsilon_greedy, greedy_action
+from tableclean_suite.learners.exploration import epsilon_greedy, greedy_action
 from tableclean_suite.learners.rng import STREAM_ADVICE_ACTION, STREAM_ADVISE, STREAM_CONSISTENT, uniform
 
 #: Affordance codes (``TabularLearner.affordance_code``) and their names.
@@ -61,19 +61,6 @@ def afforded_count(mask_row):
 
 
 @numba.njit(cache=True)
-def afforded_at(mask_row, k):
-    """The ``k``-th (0-based) afforded action of ``mask_row``; the last afforded one when k is too large."""
-    last = 0
-    for a in range(mask_row.shape[0]):
-        if mask_row[a] != NOT_AFFORDED:
-            if k == 0:
-                return a
-            k -= 1
-            last = a
-    return last
-
-
-@numba.njit(cache=True)
 def afforded_greedy(q_row, mask_row):
     """The afforded action of largest ``q_row`` value (ties to the first); all actions when none is afforded."""
     best = -1
@@ -91,8 +78,13 @@ def afforded_epsilon_greedy(q_row, mask_row, epsilon, explore_draw, action_draw)
     n = afforded_count(mask_row)
     if n == 0:
         return epsilon_greedy(q_row, epsilon, explore_draw, action_draw)
-    if explore_draw < epsilon:
-        return afforded_at(mask_row, min(int(action_draw * n), n - 1))
+    if explore_draw < epsilon:  # the k-th afforded action
+        k = min(int(action_draw * n), n - 1)
+        for a in range(mask_row.shape[0]):
+            if mask_row[a] != NOT_AFFORDED:
+                if k == 0:
+                    return a
+                k -= 1
     return afforded_greedy(q_row, mask_row)
 
 
@@ -115,15 +107,6 @@ def afforded_softmax(q_row, mask_row, temperature, draw):
             if threshold < running:
                 return a
     return last
-
-
-@numba.njit(cache=True, inline="always")
-def afforded_choice(q_row, mask_row, code, parameter, explore_draw, action_draw):
-    """The behaviour policy restricted to afforded actions: softmax at temperature ``parameter``
-    or epsilon-greedy with epsilon ``parameter``."""
-    if code == SOFTMAX_CODE:
-        return afforded_softmax(q_row, mask_row, parameter, action_draw)
-    return afforded_epsilon_greedy(q_row, mask_row, parameter, explore_draw, action_draw)
 
 
 @numba.njit(cache=True)

@@ -39,7 +39,7 @@ MAX_HORIZON = 10**9
 MAX_RATE = 1.0e3
 
 
-# compiled: the exploration parameter at (t, s), the action, the expectation under the policy
+# compiled: the exploration parameter at (t, s) and the action
 @numba.njit(cache=True)
 def greedy_action(q_row):
     """Index of the largest value in ``q_row`` (shape ``(n_actions,)``), ties to the first."""
@@ -100,27 +100,6 @@ def softmax_action(q_row, temperature, draw):
         if threshold < running:
             return a
     return q_row.shape[0] - 1
-
-
-@numba.njit(cache=True)
-def softmax_expectation(q_row, temperature):
-    """``sum_a P(a) Q(a)`` under the Boltzmann policy at ``temperature`` (> 0)."""
-    best = q_row[greedy_action(q_row)]
-    total = 0.0
-    weighted = 0.0
-    for a in range(q_row.shape[0]):
-        weight = math.exp((q_row[a] - best) / temperature)
-        total += weight
-        weighted += weight * q_row[a]
-    return weighted / total
-
-
-@numba.njit(cache=True, inline="always")
-def choose_action(q_row, code, parameter, explore_draw, action_draw):
-    """The behaviour policy's action: softmax at temperature ``parameter`` or epsilon-greedy with epsilon ``parameter``."""
-    if code == SOFTMAX_CODE:
-        return softmax_action(q_row, parameter, action_draw)
-    return epsilon_greedy(q_row, parameter, explore_draw, action_draw)
 
 
 # the dataclasses

@@ -29,8 +29,9 @@ from tableclean_suite.learners.assist import (
     NO_ADVICE,
     NOT_AFFORDED,
     advice_action,
-    afforded_choice,
+    afforded_epsilon_greedy,
     afforded_max_target,
+    afforded_softmax,
     run_masks,
 )
 from tableclean_suite.learners.exploration import (
@@ -38,9 +39,9 @@ from tableclean_suite.learners.exploration import (
     P_START,
     SOFTMAX_CODE,
     VISIT_DECAY_CODE,
-    choose_action,
     epsilon_greedy,
     exploration_parameter,
+    softmax_action,
 )
 from tableclean_suite.learners.rng import (
     LANE_ADVICE,
@@ -72,7 +73,6 @@ from tableclean_suite.learners.rules import (
     USER_TARGET,
     TabularLearner,
     builtin_td_target,
-    double_q_target,
     greedy_action,
     q_learning_target,
     softmax_expected_sarsa_target,
@@ -165,9 +165,13 @@ def act(q_a, q_b, row, state, plain, double, explore_code, explore_parameters, k
     q_row = behaviour_row(q_a, q_b, state, double, row)
     if random_ties and explore_code != SOFTMAX_CODE and explore_draw >= parameter:
         return tied_greedy(q_row, masks, state, affordance != AFFORD_NONE, uniform(tie_key, iteration, STREAM_TIE))
-    if affordance != AFFORD_NONE:
-        return afforded_choice(q_row, masks[state], explore_code, parameter, explore_draw, action_draw)
-    return choose_action(q_row, explore_code, parameter, explore_draw, action_draw)
+    if affordance != AFFORD_NONE:  # softmax at temperature parameter, or epsilon-greedy, over the afforded actions
+        if explore_code == SOFTMAX_CODE:
+            return afforded_softmax(q_row, masks[state], parameter, action_draw)
+        return afforded_epsilon_greedy(q_row, masks[state], parameter, explore_draw, action_draw)
+    if explore_code == SOFTMAX_CODE:
+        return softmax_action(q_row, parameter, action_draw)
+    return epsilon_greedy(q_row, parameter, explore_draw, action_draw)
 
 
 @numba.njit(cache=True)
@@ -179,12 +183,13 @@ def is_exploratory(q_row, action):
 # -- update rules -----------------------------------------------------------------------------
 @numba.njit(cache=True)
 def double_q_update(q_a, q_b, state, action, next_state, reward, alpha, gamma, terminal, draw):
-    """Double Q-learning: update A (``draw < DOUBLE_Q_SPLIT``) evaluated by B, or B evaluated by A."""
+    """Double Q-learning: update A (``draw < DOUBLE_Q_SPLIT``) evaluated by B, or B evaluated by A; the target is
+    ``r + gamma * Q_other(s', argmax_a Q_updated(s', a))``, ``r`` at a terminal state."""
     if draw < DOUBLE_Q_SPLIT:
         updated, other = q_a, q_b
     else:
         updated, other = q_b, q_a
-    target = double_q_target(updated[next_state], other[next_state], reward, gamma, terminal)
+    target = reward if terminal else reward + gamma * other[next_state, greedy_action(updated[next_state])]
     updated[state, action] += alpha * (target - updated[state, action])
 
 

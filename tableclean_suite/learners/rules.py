@@ -30,6 +30,7 @@ update rule.  The built-in targets are picked by code
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numba
@@ -37,7 +38,7 @@ import numpy as np
 
 from tableclean_suite.learners.assist import AFFORD_NONE, AFFORDANCES
 from tableclean_suite.learners.checks import check_number
-from tableclean_suite.learners.exploration import EPSILON_GREEDY, Exploration, greedy_action, softmax_expectation
+from tableclean_suite.learners.exploration import EPSILON_GREEDY, Exploration, greedy_action
 from tableclean_suite.registry import NAME_PATTERN, Registry
 from tableclean_suite.rewards import MAX_REWARD
 
@@ -89,7 +90,14 @@ def softmax_expected_sarsa_target(q_next, reward, gamma, temperature, terminal):
     """Expected SARSA under a Boltzmann policy at ``temperature``: ``r + gamma * sum_a P(a) Q(s', a)``."""
     if terminal:
         return reward
-    return reward + gamma * softmax_expectation(q_next, temperature)
+    best = q_next[greedy_action(q_next)]
+    total = 0.0
+    weighted = 0.0
+    for a in range(q_next.shape[0]):
+        weight = math.exp((q_next[a] - best) / temperature)
+        total += weight
+        weighted += weight * q_next[a]
+    return reward + gamma * (weighted / total)
 
 
 #: Target codes of the built-in learners ([`builtin_td_target`][tableclean_suite.learners.rules.builtin_td_target]); USER_TARGET for any other.
@@ -105,19 +113,6 @@ def builtin_td_target(code, q_next, next_action, reward, gamma, epsilon, termina
     if code == EXPECTED_SARSA_TARGET:
         return expected_sarsa_target(q_next, next_action, reward, gamma, epsilon, terminal)
     return q_learning_target(q_next, next_action, reward, gamma, epsilon, terminal)
-
-
-@numba.njit(cache=True)
-def double_q_target(q_select, q_evaluate, reward, gamma, terminal):
-    """The double estimator: ``r + gamma * Q_evaluate(s', argmax_a Q_select(s', a))``; ``r`` at a terminal state.
-
-    Args:
-        q_select: ``(n_actions,)`` row of the table being updated (picks the action).
-        q_evaluate: ``(n_actions,)`` row of the other table (values it).
-    """
-    if terminal:
-        return reward
-    return reward + gamma * q_evaluate[greedy_action(q_select)]
 
 
 #: Update rules (``TabularLearner.method``): one-step TD, double Q, eligibility traces, Dyna planning.
