@@ -342,15 +342,6 @@ def reached_states(probabilities: np.ndarray, chain: EpisodeChain) -> np.ndarray
     return states
 
 
-def _kept_states(probabilities: np.ndarray, chain: EpisodeChain) -> np.ndarray:
-    """``(P, S)`` bool: the states where the DP reads each policy ``(P, S, A)`` ([`policy_statistics`][tableclean_suite.asymptotes.policy_statistics])."""
-    if not np.isfinite(chain.reward).all():  # NaN rewards: an exact zero times NaN is not zero
-        kept = np.zeros(probabilities.shape[:2], dtype=bool)
-        kept[:, chain.pair_state] = True
-        return kept
-    return reached_states(probabilities, chain)
-
-
 def policy_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: int,
                       tolerance: float = MASS_TOLERANCE) -> Asymptotes:
     """[`episode_statistics`][tableclean_suite.asymptotes.episode_statistics] of ``(P, S, A)`` policies
@@ -362,7 +353,12 @@ def policy_statistics(probabilities: np.ndarray, chain: EpisodeChain, max_itr: i
     probabilities = _policies_of(probabilities, chain)
     first, inverse = _distinct_rows(probabilities.reshape(probabilities.shape[0], -1))
     distinct = probabilities[first]
-    canonical = np.where(_kept_states(distinct, chain)[:, :, None], distinct, 0.0)
+    if np.isfinite(chain.reward).all():
+        kept = reached_states(distinct, chain)  # (P, S): the states where the DP reads each policy
+    else:  # NaN rewards: an exact zero times NaN is not zero, so the DP reads every state of the chain
+        kept = np.zeros(distinct.shape[:2], dtype=bool)
+        kept[:, chain.pair_state] = True
+    canonical = np.where(kept[:, :, None], distinct, 0.0)
     first, canonical_inverse = _distinct_rows(canonical.reshape(canonical.shape[0], -1))
     computed = episode_statistics(canonical[first], chain, max_itr, tolerance)
     inverse = canonical_inverse[inverse]
