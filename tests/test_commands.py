@@ -150,7 +150,7 @@ def test_render_refuses_bad_sizes_before_building_a_scene(argv, named, capsys, t
 @pytest.mark.parametrize("argv, named", [
     (["--runs", "0"], "--runs"), (["--iterations", "0"], "--iterations"),
     (["--episodes", "0"], "--episodes"), (["--repeat", "0"], "--repeat"),
-    (["--reward", "r9"], "unknown reward pattern 'r9'"), (["--sections", "learners,gpu"], "unknown section 'gpu'"),
+    (["--reward", "r9"], "--reward: invalid choice: 'r9'"), (["--sections", "learners,gpu"], "unknown section 'gpu'"),
     (["--sections", "skills", "--layout", "1", "9"], "--layout"), (["--sections", "skills", "--task", "nope"], "--task"),
 ])
 def test_speed_refuses_zero_sized_and_unknown_inputs(argv, named, capsys):

@@ -84,17 +84,6 @@ def choice_list(allowed, what: str):
     return parse
 
 
-def one_of(allowed, what: str):
-    """A type: one name of ``allowed`` (``what`` names them in the error)."""
-    allowed = tuple(allowed)
-
-    def parse(text: str) -> str:
-        if text not in allowed:
-            raise argparse.ArgumentTypeError(f"unknown {what} {text!r}; allowed: {', '.join(allowed)}")
-        return text
-    return parse
-
-
 def name_list(text: str) -> tuple[str, ...]:
     """``"a, b,a,"`` -> ``("a", "b")``: comma-separated names, in order, each once (at least one)."""
     names = _names(text)

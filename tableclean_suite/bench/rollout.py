@@ -204,14 +204,14 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     pixels = cli.number_type(int, lambda v: MIN_PIXELS <= v <= MAX_PIXELS and v % 2 == 0,
                              f"an even number of pixels in [{MIN_PIXELS}, {MAX_PIXELS}]")
     parser = cli.command_parser(prog, __doc__.split("\n\n")[0])
-    parser.add_argument("--reward", default="r4", type=cli.one_of(reward_pattern_names(), "reward pattern"),
+    parser.add_argument("--reward", default="r4", choices=reward_pattern_names(),
                         help="reward pattern (default r4)")
     cli.add_out_argument(parser, cli.FILE, None, "output video, .mp4 or .gif (required unless --task is given: "
                          "then results/rollout_<task>.mp4)", flags=("--out", "--video"), suffixes=VIDEO_SUFFIXES)
     cli.add_task_argument(parser, default=None,
                           help="task spec: a registered name or a .json path (default paper); with no --still, the "
                                "still goes to results/images/rollout_<task>.png")
-    parser.add_argument("--learner", default="q_learning", type=cli.one_of(learner_names(), "learner"),
+    parser.add_argument("--learner", default="q_learning", choices=learner_names(), metavar="NAME",
                         help="learner (default q_learning)")
     parser.add_argument("--object-segment", type=int, default=1,
                         help="start: every object on this segment (1..N, default 1)")

@@ -325,7 +325,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     group = parser.add_argument_group("learners")
     cli.add_runs_argument(group, 1000, "runs per timed train() call")
     cli.add_iterations_argument(group, 3000, "iterations per run")
-    group.add_argument("--reward", type=cli.one_of(reward_pattern_names(), "reward pattern"), default="r4",
+    group.add_argument("--reward", choices=reward_pattern_names(), default="r4",
                        help="reward pattern (default r4)")
     group = parser.add_argument_group("skills")
     group.add_argument("--episodes", type=cli.positive_int, default=3,
