@@ -7,23 +7,21 @@ to afforded actions and mixed with the advisor for Cruz et al.'s learners.
 estimate before any work and chooses; [analysis_chain][tableclean_suite.analysis.analysis_chain]
 builds an [EpisodeChain][tableclean_suite.asymptotes.EpisodeChain] (exact) or a
 [StepTable][tableclean_suite.simulation.StepTable] (simulated, whose standard errors
-[with_monte_carlo_error][tableclean_suite.analysis.with_monte_carlo_error] adds to an interval).
+[with_monte_carlo_error][tableclean_suite.bench.statistics.with_monte_carlo_error] adds to an interval).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from statistics import NormalDist
 
 import numba
 import numpy as np
 
 from tableclean_suite import asymptotes, simulation
+from tableclean_suite.asymptotes import action_probabilities, greedy_policy  # noqa: F401  (re-exported)
 from tableclean_suite.learners.assist import NO_ADVICE, advisor_policy, given_affordances
 from tableclean_suite.learners.exploration import EpsilonGreedy, VisitDecay, as_exploration, softmax_probabilities
 from tableclean_suite.learners.transitions import TransitionTable
-from tableclean_suite.policy import action_probabilities, greedy_policy  # noqa: F401  (re-exported)
 from tableclean_suite.task import Outcome, TaskModel
 
 
@@ -455,29 +453,6 @@ def monte_carlo_error(errors) -> float:
     ``sqrt(sum(error_r ** 2)) / R`` (the runs' simulations are independent)."""
     errors = np.asarray(errors, dtype=np.float64)
     return float(np.sqrt(np.sum(errors * errors)) / errors.size)
-
-
-#: The range of each of `ESTIMATED_FACTS`: a widened interval is clipped to it.
-FACT_LIMITS = {"success": (0.0, 1.0), "terminal": (0.0, 1.0), "greedy_success": (0.0, 1.0),
-               "average_reward": (-math.inf, math.inf)}
-
-
-def with_monte_carlo_error(point: float, low: float, high: float, error: float, confidence: float,
-                           limits: tuple[float, float] = (-math.inf, math.inf)) -> tuple[float, float]:
-    """An interval ``(low, high)`` around ``point`` (e.g. a bootstrap over runs) widened by a Monte
-    Carlo standard ``error``: each side's half-width and ``z x error`` (z the normal quantile of
-    ``confidence``) added in quadrature, ``point -+ sqrt(half ** 2 + (z x error) ** 2)``, clipped to
-    the quantity's ``limits`` (e.g. `FACT_LIMITS`).  The bootstrap already resamples the simulated
-    values, so this errs towards covering.  ``error`` 0: unchanged; NaN: a NaN interval.
-    """
-    if error == 0.0:
-        return low, high
-    if not math.isfinite(error):
-        return math.nan, math.nan
-    z = NormalDist().inv_cdf(0.5 + confidence / 2.0)
-    spread = z * float(error)
-    return (max(limits[0], point - math.hypot(point - low, spread)),
-            min(limits[1], point + math.hypot(high - point, spread)))
 
 
 # Exact fixed points: what Q-learning and SARSA converge to on the task's own table

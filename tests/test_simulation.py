@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from tableclean_suite import analysis, asymptotes, resources, simulation
+from tableclean_suite.bench import statistics
 from tableclean_suite.learners import TransitionTable, train
 from tableclean_suite.task import Outcome, TaskModel, TaskSpec
 
@@ -204,16 +205,16 @@ def test_analysis_chain_follows_the_plan():
 def test_monte_carlo_error_widens_the_interval_in_quadrature():
     assert analysis.monte_carlo_error([0.3, 0.4]) == pytest.approx(0.25)  # sqrt(0.09 + 0.16) / 2
     z = 1.959963984540054
-    low, high = analysis.with_monte_carlo_error(0.5, 0.4, 0.7, 0.05, 0.95)
+    low, high = statistics.with_monte_carlo_error(0.5, 0.4, 0.7, 0.05, 0.95)
     assert low == pytest.approx(0.5 - math.hypot(0.1, z * 0.05))
     assert high == pytest.approx(0.5 + math.hypot(0.2, z * 0.05))
     assert low < 0.4 and high > 0.7
-    assert analysis.with_monte_carlo_error(0.5, 0.4, 0.7, 0.0, 0.95) == (0.4, 0.7)  # exact: unchanged
-    assert all(math.isnan(v) for v in analysis.with_monte_carlo_error(0.5, 0.4, 0.7, math.nan, 0.95))
-    clipped = analysis.with_monte_carlo_error(0.0, 0.0, 0.0002, 0.001, 0.95, analysis.FACT_LIMITS["terminal"])
+    assert statistics.with_monte_carlo_error(0.5, 0.4, 0.7, 0.0, 0.95) == (0.4, 0.7)  # exact: unchanged
+    assert all(math.isnan(v) for v in statistics.with_monte_carlo_error(0.5, 0.4, 0.7, math.nan, 0.95))
+    clipped = statistics.with_monte_carlo_error(0.0, 0.0, 0.0002, 0.001, 0.95, statistics.FACT_LIMITS["terminal"])
     assert clipped[0] == 0.0 and clipped[1] == pytest.approx(math.hypot(0.0002, z * 0.001))
     point = 0.5  # an interval of zero width still gets the Monte Carlo part
-    assert analysis.with_monte_carlo_error(point, point, point, 0.01, 0.95) == pytest.approx(
+    assert statistics.with_monte_carlo_error(point, point, point, 0.01, 0.95) == pytest.approx(
         (point - z * 0.01, point + z * 0.01))
 
 

@@ -10,12 +10,13 @@ iteration; cells are compared on `RUN_SCORES` by the probability of improvement.
 from __future__ import annotations
 
 import hashlib
+import math
 from dataclasses import dataclass, field
+from statistics import NormalDist
 
 import numpy as np
 
 from tableclean_suite import intervals
-from tableclean_suite.analysis import FACT_LIMITS, with_monte_carlo_error
 from tableclean_suite.learning_time import LearningTime, censored_times, learning_time_summary, survival_curve
 from tableclean_suite.settling import Settling
 
@@ -49,6 +50,30 @@ def bootstrap_rng(seed: int, label: str) -> np.random.Generator:
     """A generator for one cell's bootstrap: seeded by the run's seed and the cell's label."""
     digest = int.from_bytes(hashlib.sha256(label.encode()).digest()[:8], "little")
     return np.random.default_rng([int(seed), digest])
+
+
+#: The range of each of [ESTIMATED_FACTS][tableclean_suite.analysis.ESTIMATED_FACTS]: a widened interval is
+#: clipped to it.
+FACT_LIMITS = {"success": (0.0, 1.0), "terminal": (0.0, 1.0), "greedy_success": (0.0, 1.0),
+               "average_reward": (-math.inf, math.inf)}
+
+
+def with_monte_carlo_error(point: float, low: float, high: float, error: float, confidence: float,
+                           limits: tuple[float, float] = (-math.inf, math.inf)) -> tuple[float, float]:
+    """An interval ``(low, high)`` around ``point`` (e.g. a bootstrap over runs) widened by a Monte
+    Carlo standard ``error``: each side's half-width and ``z x error`` (z the normal quantile of
+    ``confidence``) added in quadrature, ``point -+ sqrt(half ** 2 + (z x error) ** 2)``, clipped to
+    the quantity's ``limits`` (e.g. `FACT_LIMITS`).  The bootstrap already resamples the simulated
+    values, so this errs towards covering.  ``error`` 0: unchanged; NaN: a NaN interval.
+    """
+    if error == 0.0:
+        return low, high
+    if not math.isfinite(error):
+        return math.nan, math.nan
+    z = NormalDist().inv_cdf(0.5 + confidence / 2.0)
+    spread = z * float(error)
+    return (max(limits[0], point - math.hypot(point - low, spread)),
+            min(limits[1], point + math.hypot(high - point, spread)))
 
 
 @dataclass
