@@ -21,7 +21,7 @@ API_PAGES: tuple[tuple[str, str, str, tuple[str, ...]], ...] = (
     ("metrics.md", "Metrics and statistics",
      "Curves, Table 3's quantities, exact asymptotes, settling, intervals and the scaling fits.",
      ("tableclean_suite.metrics", "tableclean_suite.curves", "tableclean_suite.asymptotes",
-      "tableclean_suite.settling", "tableclean_suite.analysis", "tableclean_suite.policy",
+      "tableclean_suite.settling", "tableclean_suite.analysis",
       "tableclean_suite.bench.statistics",
       "tableclean_suite.bench.scaling.statistics")),
     ("learners.md", "Learners and backends",
