@@ -39,5 +39,4 @@ from tableclean_suite.learners.train import (  # noqa: F401
     train,
     validate_hyperparameters,
 )
-from tableclean_suite.backends import backend_names as available_backends  # noqa: F401
 from tableclean_suite.learners.transitions import CorruptTableError, TransitionTable  # noqa: F401
