@@ -148,20 +148,10 @@ class Skill(abc.ABC):
         self.config = MappingProxyType(merged)
         self.env = env
         self.dt = 1.0 / float(env.control_freq)
-        self.phase: enum.Enum = next(iter(self.Phase))
-        self.steps = 0
-        self.retries = 0  # restarts after retryable failures in this execution (at most config["retries"])
-        self.failure: str | None = None
-        self.state: TaskState | None = None
-        self.yaw = 0.0  # rad, target gripper yaw; the commanded yaw turns towards it at yaw_rate
-        self._yaw_setpoint = 0.0
-        self._phase_steps = 0
-        self.phase_steps: dict[str, int] = {}
-        self._setpoint = np.zeros(3)
-        self._last_fingers: np.ndarray | None = None
         self.fixed_waypoint: Waypoint | None = None  # the last step's waypoint when fixed or loop (see run_fixed_phase)
         window = self.config["gripper_window"]
         self._finger_history: collections.deque = collections.deque(maxlen=2 * int(window or 0))
+        self._begin(None, np.zeros(3), None, 0.0)
 
     # -- what subclasses provide ---------------------------------------------------
     @abc.abstractmethod
@@ -224,17 +214,22 @@ class Skill(abc.ABC):
     def reset(self, state: TaskState) -> None:
         """Start an execution from the symbolic ``state`` (read through the abstraction)."""
         info = self.env.skill_info()
-        self.state = state
-        self.phase = next(iter(self.Phase))
-        self.steps = self.retries = 0
-        self.failure = None
-        self._phase_steps = 0
-        self.phase_steps = {}
-        self._setpoint = np.array(info["eef_pos"], dtype=float)
-        self._last_fingers = np.array(info["gripper_qpos"], dtype=float)
-        self._finger_history.clear()
-        self.yaw = self._yaw_setpoint = gripper_yaw(info["eef_quat"])
+        self._begin(state, np.array(info["eef_pos"], dtype=float), np.array(info["gripper_qpos"], dtype=float),
+                    gripper_yaw(info["eef_quat"]))
         self.on_reset(info)
+
+    def _begin(self, state: TaskState | None, setpoint: np.ndarray, fingers: np.ndarray | None, yaw: float) -> None:
+        """An execution's start from ``state``: the first phase, no steps, retries or failure; the position
+        ``setpoint`` (3,) m, the finger positions ``fingers`` and the gripper ``yaw`` (rad) as they are."""
+        self.state = state
+        self.phase: enum.Enum = next(iter(self.Phase))
+        self.steps = self._phase_steps = 0
+        self.retries = 0  # restarts after retryable failures in this execution (at most config["retries"])
+        self.failure: str | None = None
+        self.phase_steps: dict[str, int] = {}
+        self._setpoint, self._last_fingers = setpoint, fingers
+        self.yaw = self._yaw_setpoint = yaw  # rad, target gripper yaw; the commanded yaw turns towards it at yaw_rate
+        self._finger_history.clear()
 
     def step(self) -> np.ndarray | None:
         """One control step: update the phase from the achieved pose, return the env action (7,).
@@ -274,11 +269,7 @@ class Skill(abc.ABC):
             self.failure = f"{self.phase.name}: {failure}"
             return None
         action = self._advance_setpoint(target)
-        self.steps += 1
-        self._phase_steps += 1
-        name = self.phase.name
-        counts = self.phase_steps
-        counts[name] = counts.get(name, 0) + 1
+        self._count(1)
         if target.fixed or target.loop:
             self.fixed_waypoint = target
         return action
@@ -348,10 +339,13 @@ class Skill(abc.ABC):
         if ran:
             self._setpoint[:] = state["setpoint"][0]
             self._yaw_setpoint = float(state["yaw_setpoint"][0])
-            self.steps += ran
-            self._phase_steps += ran
-            name = self.phase.name
-            self.phase_steps[name] = self.phase_steps.get(name, 0) + ran
+            self._count(ran)
+
+    def _count(self, steps: int) -> None:
+        """Count ``steps`` more control steps of the current phase."""
+        self.steps += steps
+        self._phase_steps += steps
+        self.phase_steps[self.phase.name] = self.phase_steps.get(self.phase.name, 0) + steps
 
     def _phase_complete(self, target: Waypoint, info: Mapping[str, Any], finger_motion: float) -> bool:
         """Whether the phase of ``target`` is done: position reached, at least ``min_steps`` in the phase,
