@@ -19,6 +19,7 @@ import numpy as np
 
 from tableclean_suite import asymptotes, simulation
 from tableclean_suite.asymptotes import action_probabilities, greedy_policy  # noqa: F401  (re-exported)
+from tableclean_suite.executors.base import check_count
 from tableclean_suite.learners.assist import NO_ADVICE, advisor_policy, given_affordances
 from tableclean_suite.learners.exploration import EpsilonGreedy, VisitDecay, as_exploration, softmax_probabilities
 from tableclean_suite.learners.transitions import TransitionTable
@@ -403,8 +404,7 @@ def analysis_plan(model, reward, runs: int, max_itr: int, training_seconds: floa
 
     if analysis not in ANALYSIS_KINDS:
         raise ValueError(f"analysis must be one of {', '.join(ANALYSIS_KINDS)}, got {analysis!r}")
-    if isinstance(episodes, bool) or int(episodes) != episodes or episodes < 2:
-        raise ValueError(f"episodes must be an integer >= 2, got {episodes!r}")
+    check_count("episodes", episodes, 2)
     pattern = get_reward_pattern(reward)
     calls = 2 + int(bool(checkpoint))
     exact = asymptotes.exact_seconds(model.n_states, model.n_actions, max_itr, runs,

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from tableclean_suite.executors.base import check_count
 from tableclean_suite.learners.transitions import TransitionTable
 from tableclean_suite.rewards import LOOPABLE_OUTCOMES, LOOPING_ADD, LOOPING_OFF, get_reward_pattern
 from tableclean_suite.task import Outcome
@@ -256,8 +257,7 @@ def _policies_of(probabilities, chain: EpisodeChain) -> np.ndarray:
 
 
 def _check_pass(max_itr, tolerance) -> None:
-    if int(max_itr) != max_itr or max_itr < 1:
-        raise ValueError(f"max_itr must be an integer >= 1, got {max_itr!r}")
+    check_count("max_itr", max_itr, 1)
     if not 0.0 <= tolerance < 1.0:
         raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
 

@@ -14,6 +14,8 @@ import math
 
 import numpy as np
 
+from tableclean_suite.executors.base import check_count
+
 #: Two-sided confidence of the intervals.
 DEFAULT_CONFIDENCE = 0.95
 #: Bootstrap resamples per interval (every command's default).
@@ -62,8 +64,7 @@ def interval_estimates(scores: dict, func, confidence: float = DEFAULT_CONFIDENC
         and ``(nan, nan)`` when a stratum has fewer than 2 runs or the point is not finite.
     """
     confidence = check_confidence(confidence)
-    if int(reps) != reps or reps < 1:
-        raise ValueError(f"reps must be an integer >= 1, got {reps!r}")
+    check_count("reps", reps, 1)
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     from scipy import stats
@@ -182,8 +183,7 @@ def unseen_share(runs: int, confidence: float = DEFAULT_CONFIDENCE) -> float:
     probability of an outcome seen in none of the runs (about 3.7 / ``runs`` at 95 %), which a
     bootstrap of the sample cannot reach.
     """
-    if runs < 1:
-        raise ValueError(f"runs must be an integer >= 1, got {runs!r}")
+    check_count("runs", runs, 1)
     return 1.0 - ((1.0 - check_confidence(confidence)) / 2.0) ** (1.0 / runs)
 
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from tableclean_suite.curves import CurveSums, check_fraction, curve_sums
+from tableclean_suite.executors.base import check_count
 
 #: Fraction of the plateau that counts as reached, in (0, 1].
 DEFAULT_THRESHOLD = 0.95
@@ -151,8 +152,7 @@ def first_reaching(curve, level: float, start: int = 0, hold: int = 1) -> int | 
 
     ``hold`` is an integer >= 1 (1: the first touch).  None if no such t or ``level`` is not finite.
     """
-    if int(hold) != hold or hold < 1:
-        raise ValueError(f"hold must be an integer >= 1 (iterations), got {hold!r}")
+    check_count("hold", hold, 1)
     hold = int(hold)
     above = np.asarray(curve, dtype=float)[start:] >= level
     if not math.isfinite(level) or len(above) < hold:

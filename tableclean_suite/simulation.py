@@ -19,6 +19,7 @@ import numba
 import numpy as np
 
 from tableclean_suite.asymptotes import QUANTITIES, Asymptotes
+from tableclean_suite.executors.base import check_count
 from tableclean_suite.learners.kernel import memory_adjusted_reward, sample_index
 from tableclean_suite.learners.rng import LANE_SIMULATION, lane_key_py, run_key, uniform_at
 from tableclean_suite.learners.transitions import TransitionTable
@@ -72,8 +73,7 @@ class StepTable:
         """The step table of ``model`` (a `TaskModel`) under ``reward`` (a
         pattern or its registered name), stepping ``table`` (default: the model's own); ``episodes``
         per policy (an integer >= 2: a standard error needs two)."""
-        if isinstance(episodes, bool) or int(episodes) != episodes or episodes < 2:
-            raise ValueError(f"episodes must be an integer >= 2, got {episodes!r}")
+        check_count("episodes", episodes, 2)
         pattern = get_reward_pattern(reward)
         table = table if table is not None else TransitionTable.from_model(model)
         table.check_model(model)
@@ -178,8 +178,7 @@ def _cumulative_rows(probabilities: np.ndarray) -> np.ndarray:
 def _checked(max_itr: int, shape: tuple, steps: "StepTable", keys) -> np.ndarray:
     """``keys`` as uint64 after checking ``max_itr`` and the policies' ``(P, S, A)`` ``shape``
     against the task's; ValueError naming the value and what is allowed."""
-    if isinstance(max_itr, bool) or int(max_itr) != max_itr or max_itr < 1:
-        raise ValueError(f"max_itr must be an integer >= 1, got {max_itr!r}")
+    check_count("max_itr", max_itr, 1)
     states, actions = steps.next_state.shape[:2]
     if len(shape) != 3 or shape[1:] != (states, actions):
         raise ValueError(f"policies must have shape (P, S, A) = (P, {states}, {actions}) for this task, got {shape}")

@@ -157,6 +157,8 @@ def test_bad_arguments_are_refused_with_the_value_named():
         simulation.simulated_greedy_statistics(q, 1.5, steps, 10, keys)
     with pytest.raises(ValueError, match="episodes must be an integer >= 2, got 1"):
         simulation.StepTable.build(PAPER, "r1", episodes=1)
+    with pytest.raises(ValueError, match=r"max_itr must be an integer >= 1, got 10\.0"):  # a count, not a float
+        simulation.simulated_greedy_statistics(q, 0.1, steps, 10.0, keys)
     with pytest.raises(ValueError, match="analysis must be one of auto, exact, simulated, got 'fast'"):
         analysis.analysis_plan(PAPER, "r1", 10, 500, 1.0, "fast")
 
