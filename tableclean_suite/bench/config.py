@@ -16,7 +16,7 @@ from typing import ClassVar
 
 from tableclean_suite.analysis import ANALYSIS_KINDS
 from tableclean_suite.backends import backend_names  # noqa: F401 (run's --backend choices)
-from tableclean_suite.bench.statistics import DEFAULT_CONFIDENCE, DEFAULT_SAMPLES
+from tableclean_suite.intervals import DEFAULT_CONFIDENCE, DEFAULT_REPS as DEFAULT_SAMPLES
 from tableclean_suite.metrics import DEFAULT_PLATEAU_FRACTION, DEFAULT_THRESHOLD
 from tableclean_suite.settling import DEFAULT_SETTLE_TOLERANCE
 from tableclean_suite.simulation import SIMULATED_EPISODES

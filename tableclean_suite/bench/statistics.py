@@ -17,13 +17,10 @@ from statistics import NormalDist
 import numpy as np
 
 from tableclean_suite import intervals
+from tableclean_suite.intervals import DEFAULT_CONFIDENCE, DEFAULT_REPS
 from tableclean_suite.learning_time import LearningTime, censored_times, learning_time_summary, survival_curve
 from tableclean_suite.settling import Settling
 
-#: Bootstrap resamples per interval.
-DEFAULT_SAMPLES = intervals.DEFAULT_REPS
-#: Two-sided confidence of the intervals.
-DEFAULT_CONFIDENCE = intervals.DEFAULT_CONFIDENCE
 #: Curves that get bands (the ones the figures draw).
 BAND_CURVES = ("success", "average_reward")
 #: The Kaplan-Meier curve of the per-run learning time, as a curve of the figures: the share of
@@ -114,7 +111,7 @@ def curve_bands(sums, support_fraction: float, confidence: float = DEFAULT_CONFI
 
 
 def cell_statistics(sums, per_run: dict, rng: np.random.Generator, support_fraction: float,
-                    samples: int = DEFAULT_SAMPLES, confidence: float = DEFAULT_CONFIDENCE,
+                    samples: int = DEFAULT_REPS, confidence: float = DEFAULT_CONFIDENCE,
                     learned_at: np.ndarray | None = None, budget: int | None = None,
                     drift: np.ndarray | None = None, checkpoint: int = 0,
                     monte_carlo: dict | None = None,
@@ -185,7 +182,7 @@ def learning_time_record(learning: LearningTime | None) -> dict:
     return record
 
 
-def comparisons(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, samples: int = DEFAULT_SAMPLES,
+def comparisons(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, samples: int = DEFAULT_REPS,
                 seed: int = 0):
     """Probabilities of improvement between reward patterns (same learner) and between learners
     (same reward), on every per-run score both cells have.
@@ -202,7 +199,7 @@ def comparisons(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, sampl
     return pd.DataFrame(comparison_rows(cells, confidence, samples, seed), columns=COMPARISON_COLUMNS)
 
 
-def comparison_rows(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, samples: int = DEFAULT_SAMPLES,
+def comparison_rows(cells: list[dict], confidence: float = DEFAULT_CONFIDENCE, samples: int = DEFAULT_REPS,
                     seed: int = 0) -> list[dict]:
     """The rows of [`comparisons`][tableclean_suite.bench.statistics.comparisons] as dicts of plain
     values (str, bool, float), in a fixed order, every interval drawn from one generator seeded by ``seed``."""
