@@ -95,6 +95,17 @@ def name_list(text: str) -> tuple[str, ...]:
 name_list.comma_list = True  # a list flag: given twice, OneLineParser refuses it
 
 
+def number_list(text: str) -> tuple[float, ...]:
+    """``"0.1, 0.3"`` -> ``(0.1, 0.3)``: comma-separated numbers, in order (at least one)."""
+    try:
+        numbers = tuple(map(float, _names(text)))
+    except ValueError:
+        numbers = ()
+    if not numbers:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}")
+    return numbers
+
+
 def plugin_entries(text: str | None) -> tuple[str, ...]:
     """The ``--plugins`` value: comma-separated module names or ``.py`` paths (made absolute), each once."""
     from tableclean_suite.bench.plugins import portable

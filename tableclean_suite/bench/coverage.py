@@ -145,8 +145,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
         shown = " ".join(map(str, shown)) if isinstance(shown, tuple) else shown
         text = docs.get(field, "") + ("" if shown is None else f" (default: {shown})")
         options = {"nargs": "+", "metavar": field[:-1].upper()} if isinstance(default[field], tuple) else {}
-        cells.add_argument(run.flag_of(field), dest=field, type=kind, default=argparse.SUPPRESS,
-                           help=text.replace("%", "%%"), **options)
+        cells.add_argument(run.flag_of(field), dest=field, type=cli.name_list if options else kind,
+                           default=argparse.SUPPRESS, help=text.replace("%", "%%"), **options)
     cli.add_out_argument(parser, cli.DIRECTORY, DEFAULT_OUT, "output directory")
     parser.add_argument("--no-progress", dest="progress", action="store_false",
                         help="no progress bar on stderr")
@@ -167,7 +167,7 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
     settings = {field: getattr(args, field) for field in RUN_FIELDS if hasattr(args, field)}
     for field in ("learners", "rewards"):
         if field in settings:
-            settings[field] = run.split_list(settings[field])
+            settings[field] = [name for value in settings[field] for name in value]  # each value a comma list
     try:
         args.config = RunConfig(**settings, runs=args.runs, iterations=args.iterations, seed=args.seed,
                                 task=args.task, confidence=args.nominal, sweeps=False, literature=False,

@@ -25,8 +25,7 @@ from pathlib import Path
 
 from tableclean_suite.bench import cli
 from tableclean_suite.bench.cli import EXIT_INTERRUPTED, EXIT_USAGE
-from tableclean_suite.bench.config import (ANALYSIS_KINDS, INEFFECTIVE_MODES, START_MODES, ConfigError, RunConfig,
-                                           defaults, field_docs)
+from tableclean_suite.bench.config import ConfigError, RunConfig, defaults, field_docs
 
 #: Above this estimated size ``curves.csv`` keeps every k-th iteration (and says so in config.json).
 CURVES_MAX_BYTES = 20_000_000
@@ -75,8 +74,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
         group.add_argument(flag_of(field), dest=field, default=argparse.SUPPRESS,
                            help=helped(field, extra), **options)
 
-    def add_list(group, field: str, extra: str = ""):
-        add(group, field, extra, nargs="+", metavar=field[:-1].upper() if field.endswith("s") else "VALUE")
+    def add_list(group, field: str, extra: str = "", kind=cli.name_list):
+        add(group, field, extra, nargs="+", type=kind, metavar=field[:-1].upper() if field.endswith("s") else "VALUE")
 
     def add_switch(group, field: str, help_text: str):
         group.add_argument(flag_of(field), dest=field, action="store_const", const=not default[field],
@@ -97,25 +96,25 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     add(literature, "literature_reward", rewards)
     add_switch(literature, "literature", "do not train them")
     sweeps = parser.add_argument_group("alpha/gamma sweeps (Figures 6-7)")
-    add_list(sweeps, "alpha_sweep")
-    add_list(sweeps, "gamma_sweep")
+    add_list(sweeps, "alpha_sweep", kind=cli.number_list)
+    add_list(sweeps, "gamma_sweep", kind=cli.number_list)
     add(sweeps, "sweep_reward", rewards)
     add(sweeps, "sweep_learner", learners)
     add_switch(sweeps, "sweeps", "skip the sweeps")
     task = parser.add_argument_group("task model and metrics")
     cli.add_task_argument(task, default=argparse.SUPPRESS,
                           help=helped("task", f"{', '.join(task_spec_names())}, or a path to a .json spec"))
-    add(task, "start", choices=START_MODES)
-    add(task, "ineffective", choices=INEFFECTIVE_MODES)
+    add(task, "start", metavar="MODE")
+    add(task, "ineffective", metavar="MODE")
     for field in ("threshold", "plateau_fraction", "settle_tolerance", "support_fraction"):
         add(task, field, type=float)
     statistics = parser.add_argument_group("statistics")
     add(statistics, "bootstrap_samples", type=int)
     add(statistics, "confidence", type=float)
-    add(statistics, "analysis", choices=ANALYSIS_KINDS)
+    add(statistics, "analysis", metavar="KIND")
     add(statistics, "analysis_episodes", type=int, metavar="N")
     backend = parser.add_argument_group("backend")
-    add(backend, "backend", choices=backend_names())
+    add(backend, "backend", ", ".join(backend_names()), metavar="NAME")
     add(backend, "transitions", metavar="PATH")
     cli.add_executor_arguments(backend, "cells", suppress=True,
                                helps={field: helped(field) for field in ("workers", "executor", "ray_address")})
@@ -130,23 +129,6 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     return parser
 
 
-def split_list(values) -> list[str]:
-    """``["r1,r2", "r3"]`` -> ``["r1", "r2", "r3"]``: flag values split on commas, blanks dropped."""
-    if isinstance(values, str):
-        values = [values]
-    return [item.strip() for value in values for item in value.split(",") if item.strip()]
-
-
-def _float_list(parser, field: str, values) -> list[float]:
-    numbers = []
-    for item in split_list(values):
-        try:
-            numbers.append(float(item))
-        except ValueError:
-            parser.error(f"{flag_of(field)}: {item!r} is not a number")
-    return numbers
-
-
 def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
     """Parse and validate the command line into a namespace with ``config`` (a
     [`RunConfig`][tableclean_suite.bench.config.RunConfig]), ``describe`` and ``parser``; a bad flag
@@ -154,12 +136,9 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
     parser, namespace = cli.parse_command(build_parser, argv, prog or PROG)  # plugins imported before names are checked
     parsed = vars(namespace)
     describe = parsed.pop("describe")
-    for field in ("learners", "rewards"):
+    for field in ("learners", "rewards", "alpha_sweep", "gamma_sweep"):  # each value a comma list
         if field in parsed:
-            parsed[field] = split_list(parsed[field])
-    for field in ("alpha_sweep", "gamma_sweep"):
-        if field in parsed:
-            parsed[field] = _float_list(parser, field, parsed[field])
+            parsed[field] = [item for value in parsed[field] for item in value]
     try:
         config = RunConfig(**parsed)
     except ConfigError as error:
