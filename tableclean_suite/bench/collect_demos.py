@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 from dataclasses import dataclass, field
@@ -26,14 +25,12 @@ from pathlib import Path
 
 import numpy as np
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-
-from tableclean_suite.bench import cli  # noqa: E402
-from tableclean_suite.bench.rollout import train_policy  # noqa: E402
-from tableclean_suite.demos import VALID_FRACTION  # noqa: E402
-from tableclean_suite.executors.blas import single_blas_thread  # noqa: E402
-from tableclean_suite.robosuite_adapter import apply_verbosity  # noqa: E402
-from tableclean_suite.task import TaskModel, TaskSpec  # noqa: E402
+from tableclean_suite.bench import cli
+from tableclean_suite.bench.rollout import train_policy
+from tableclean_suite.demos import VALID_FRACTION
+from tableclean_suite.executors.blas import single_blas_thread
+from tableclean_suite.robosuite_adapter import apply_verbosity
+from tableclean_suite.task import TaskModel, TaskSpec
 
 POLICIES = ("optimal", "learned")
 OUT_SUFFIXES = (".hdf5", ".h5")

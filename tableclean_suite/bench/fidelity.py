@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
 import time
 from dataclasses import dataclass
@@ -35,14 +34,12 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-
-from tableclean_suite import intervals  # noqa: E402
-from tableclean_suite.bench import trial_store  # noqa: E402
-from tableclean_suite.bench.outputs import atomic_write_text, output_lock  # noqa: E402
-from tableclean_suite.bench import cli  # noqa: E402
-from tableclean_suite.executors.blas import single_blas_thread  # noqa: E402
-from tableclean_suite.task import Outcome, TaskModel, TaskState, get_task_spec  # noqa: E402
+from tableclean_suite import intervals
+from tableclean_suite.bench import trial_store
+from tableclean_suite.bench.outputs import atomic_write_text, output_lock
+from tableclean_suite.bench import cli
+from tableclean_suite.executors.blas import single_blas_thread
+from tableclean_suite.task import Outcome, TaskModel, TaskState, get_task_spec
 
 TRIALS_CSV = "fidelity_trials.csv"
 PAIRS_CSV = "fidelity_pairs.csv"

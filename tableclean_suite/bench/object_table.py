@@ -21,17 +21,14 @@ cause in ``DIR/object_failures.csv``.  The exit code is 1 when the scene refused
 from __future__ import annotations
 
 import argparse
-import os
 import re
 import sys
 import time
 from collections import Counter
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-
-from tableclean_suite.bench import cli, fidelity, trial_store  # noqa: E402
-from tableclean_suite.bench.fidelity import CONFIDENCE, lower_bound, percent_down  # noqa: E402, F401  (re-exported)
+from tableclean_suite.bench import cli, fidelity, trial_store
+from tableclean_suite.bench.fidelity import CONFIDENCE, lower_bound, percent_down  # noqa: F401  (re-exported)
 
 #: Settings: the object alone on the paper-shaped spec, or mixed with another type on three segments.
 SETTINGS = ("alone", "mixed")

@@ -11,11 +11,9 @@ import os
 import sys
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "egl")
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from tableclean_suite.bench import cli  # noqa: E402
+from tableclean_suite.bench import cli
 
 DEFAULT_OUT = Path("results/images/scene.png")
 DEFAULT_CAMERA = "tableview"
@@ -83,7 +81,7 @@ def main(argv=None, prog: str | None = None) -> int:
 
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     matplotlib.image.imsave(Path(args.out), frame)
-    print(f"wrote {args.out} ({args.width}x{args.height}, camera {args.camera!r}, MUJOCO_GL={os.environ['MUJOCO_GL']})")
+    print(f"wrote {args.out} ({args.width}x{args.height}, camera {args.camera!r}, MUJOCO_GL={os.environ.get('MUJOCO_GL')})")
     return 0
 
 

@@ -21,14 +21,11 @@ from __future__ import annotations
 
 import argparse
 import csv
-import os
 import sys
 import time
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-
-from tableclean_suite.bench import cli, fidelity, trial_store  # noqa: E402
+from tableclean_suite.bench import cli, fidelity, trial_store
 
 #: Default arms: the Panda and the three others with shipped skill configs.
 DEFAULT_ROBOTS = ("Panda", "Sawyer", "UR5e", "Kinova3")

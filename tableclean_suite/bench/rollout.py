@@ -11,7 +11,6 @@ action printed on it.  ``--still`` saves one frame taken while the sponge wipes.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from dataclasses import dataclass
@@ -19,10 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-
-from tableclean_suite.bench import cli  # noqa: E402
-from tableclean_suite.task import Action, TaskModel, TaskState  # noqa: E402
+from tableclean_suite.bench import cli
+from tableclean_suite.task import Action, TaskModel, TaskState
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 #: Frames repeated after each action so the new state can be read.
