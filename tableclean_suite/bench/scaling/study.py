@@ -92,33 +92,34 @@ def cell_row(info: SpecInfo, learner: str, reward: str, gamma: float, records: C
              rng: np.random.Generator) -> tuple[dict, np.ndarray]:
     """One ``scaling.csv`` row and the cell's ``(resamples,)`` bootstrap medians.
 
-    The point figures pool every seed's runs (the Kaplan-Meier median, restricted mean and censored
-    share of [learning_time_summary][tableclean_suite.learning_time.learning_time_summary]); every
+    The point figures pool every seed's runs (the Kaplan-Meier median, which is the
+    [lower_median][tableclean_suite.bench.scaling.statistics.lower_median] as every run shares the
+    budget, the restricted mean to the window and the censored share); every
     interval is the percentile interval of seeds-then-runs resamples
     ([`seeds_then_runs`][tableclean_suite.bench.scaling.statistics.seeds_then_runs]), one set of draws
     per cell shared by its figures.  ``seed_medians`` lists each seed's own median.
     """
-    from tableclean_suite.learning_time import learning_time_summary
-
     times = learning_times(records.learned_at)
     n_seeds, runs = times.shape
     index = seeds_then_runs(n_seeds, runs, resamples, rng)
     medians = lower_median(pooled_resamples(times, index))
-    summary = learning_time_summary(records.learned_at.ravel(), info.window)
+    pooled = times.ravel()
+    median = float(lower_median(pooled))
     row = {"family": info.family, "spec": info.name, "segments": info.segments, "objects": info.objects,
            "reachable": info.reachable, "reachable_from_start": info.reachable_from_start,
            "plan_length": info.plan_length, "gamma": gamma, "learner": learner, "reward": reward,
            "seeds": n_seeds, "runs": runs, "window": info.window, "max_itr": info.max_itr,
            "optimal_success": info.optimal_success}
     low, high = percentile_bounds(medians)
-    row.update(learning_time=summary.median, learning_time_low=low, learning_time_high=high,
-               censored_share=summary.censored_share, learning_time_rmst=summary.rmst,
+    row.update(learning_time=median, learning_time_low=low, learning_time_high=high,
+               censored_share=float(np.isinf(pooled).mean()),
+               learning_time_rmst=float(np.minimum(pooled, info.window).mean()),
                seed_medians=";".join(f"{m:g}" for m in lower_median(times)))
     for name, values in (("success_window_mean", records.tail_success), ("never_terminal_share",
                                                                          records.never_terminal)):
         row[name] = float(values.mean())
         row[name + "_low"], row[name + "_high"] = percentile_bounds(pooled_resamples(values, index).mean(axis=1))
-    row["censored"] = not math.isfinite(summary.median)
+    row["censored"] = not math.isfinite(median)
     row["window_mean_over_optimum"] = row["success_window_mean"] / info.optimal_success
     row["seconds"] = records.seconds
     return row, medians
