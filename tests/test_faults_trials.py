@@ -50,8 +50,8 @@ CORRUPT_TRIALS = {
 def test_a_corrupt_trials_file_is_one_resume_error(tmp_path, kind):
     path = tmp_path / fidelity.TRIALS_CSV
     path.write_bytes(CORRUPT_TRIALS[kind])
-    with pytest.raises(fidelity.ResumeError) as caught:
-        fidelity.read_trials(path)
+    with pytest.raises(trial_store.TrialStoreError) as caught:
+        trial_store.read_rows(path)
     assert str(path) in str(caught.value) and "\n" not in str(caught.value)
 
 
@@ -59,7 +59,7 @@ def test_a_corrupt_trials_file_is_one_resume_error(tmp_path, kind):
 def test_a_corrupt_configuration_record_is_one_resume_error(tmp_path, record):
     path = write_trials(tmp_path / fidelity.TRIALS_CSV, one_round())
     fidelity.configuration_path(path).write_bytes(record)
-    with pytest.raises(fidelity.ResumeError, match="config.json"):
+    with pytest.raises(trial_store.TrialStoreError, match="config.json"):
         fidelity.check_configuration(path, fidelity.run_configuration(MODEL, None))
 
 
@@ -67,7 +67,7 @@ def test_a_corrupt_configuration_record_is_one_resume_error(tmp_path, record):
                                     {"observed_state": 99}])
 def test_stored_trials_that_do_not_fit_the_task_are_refused_on_resume(tmp_path, change):
     path = write_trials(tmp_path / fidelity.TRIALS_CSV, one_round(**change))
-    with pytest.raises(fidelity.ResumeError, match=str(next(iter(change.values())))):
+    with pytest.raises(trial_store.TrialStoreError, match=str(next(iter(change.values())))):
         fidelity.collect(1, 0, path, log=None, model=MODEL)
 
 
@@ -76,7 +76,7 @@ def test_a_deleted_configuration_record_is_not_resumed_as_another_robot(tmp_path
                         physics_options={"env_kwargs": fidelity.scene_env_kwargs("Panda", False)})
     fidelity.configuration_path(path).unlink()
     sawyer = fidelity.run_configuration(MODEL, {"env_kwargs": fidelity.scene_env_kwargs("Sawyer", False)})
-    with pytest.raises(fidelity.ResumeError, match="unknown"):
+    with pytest.raises(trial_store.TrialStoreError, match="unknown"):
         fidelity.check_configuration(path, sawyer)
 
 

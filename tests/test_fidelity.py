@@ -5,7 +5,8 @@ import json
 import pytest
 
 from tableclean_suite.bench import calibrate, fidelity
-from tableclean_suite.bench.fidelity import FAULT, ResumeError, pair_table, read_trials, skill_table, summary
+from tableclean_suite.bench.fidelity import FAULT, pair_table, skill_table, summary
+from tableclean_suite.bench.trial_store import TrialStoreError, read_rows
 from tableclean_suite.bench.trial_store import TRIAL_FIELDS
 from tableclean_suite.learners import TransitionTable, train
 from tableclean_suite.task import Action, Outcome, TaskModel
@@ -84,16 +85,16 @@ def _record(trials_csv, model=MODEL, physics_options=None):
 def test_trials_file_checks(tmp_path):
     bad = tmp_path / "trials.csv"
     bad.write_text("a,b\n1,2\n")
-    with pytest.raises(ResumeError, match="unexpected columns"):
-        read_trials(bad)
+    with pytest.raises(TrialStoreError, match="unexpected columns"):
+        read_rows(bad)
     good = tmp_path / "good.csv"
     per_round = fidelity.trials_per_round(TaskModel(), [a.rule_name for a in Action])
     fidelity.write_csv(good, ROWS[:1] * per_round)  # one complete round (as far as counts go)
-    assert read_trials(good)[0]["state"] == 0 and list(read_trials(good)[0]) == list(TRIAL_FIELDS)
-    with pytest.raises(ResumeError, match="options they were measured with .* are unknown"):
+    assert read_rows(good)[0]["state"] == 0 and list(read_rows(good)[0]) == list(TRIAL_FIELDS)
+    with pytest.raises(TrialStoreError, match="options they were measured with .* are unknown"):
         fidelity.collect(1, seed=5, trials_csv=good, log=None)  # no configuration beside the trials
     _record(good)
-    with pytest.raises(ResumeError, match="another --seed"):
+    with pytest.raises(TrialStoreError, match="another --seed"):
         fidelity.collect(1, seed=5, trials_csv=good, log=None)
 
 
@@ -109,7 +110,7 @@ def test_a_truncated_last_line_and_a_partial_round_are_dropped_not_reported(tmp_
     text = path.read_text()
     path.write_text(text + "2,7,1-1,plan,0,mo")  # a row cut off mid-write
     messages = []
-    rows = read_trials(path, messages.append)
+    rows = read_rows(path, messages.append)
     assert len(rows) == 72 + 62 and "damaged last line" in messages[0]
     kept = trial_store.complete_rounds(rows, 72, messages.append)
     assert {row["round"] for row in kept} == {0} and "rounds [1] are incomplete" in messages[1]
@@ -126,8 +127,8 @@ def test_a_damaged_line_before_the_end_is_an_error_naming_it(tmp_path):
     lines = path.read_text().splitlines()
     lines[2] = lines[2].replace(",0,", ",zero,", 1)
     path.write_text("\n".join(lines) + "\n")
-    with pytest.raises(ResumeError, match=r"trials.csv:3: column .* is 'zero', not an integer"):
-        read_trials(path)
+    with pytest.raises(TrialStoreError, match=r"trials.csv:3: column .* is 'zero', not an integer"):
+        read_rows(path)
 
 
 @pytest.mark.parametrize("argv", [["--trials", "0"], ["--seed", "-1"], ["--actions", "wipe"]])
@@ -156,7 +157,7 @@ def test_tiny_calibration_trains_the_calibrated_backend(tmp_path, capsys):
     measured = table.counts.sum()
     assert measured == 18 * 3  # every reachable non-terminal state x move/pick/place, once
     assert table.counts[:, Action.CLEAN].sum() == 0
-    trials = read_trials(out.with_suffix(".trials.csv"))
+    trials = read_rows(out.with_suffix(".trials.csv"))
     assert {r["reached_by"] for r in trials} <= {"plan", "staged"} and len(trials) == 54
     # agreement in physics: every measured successor is the model's (reported, and checked loosely)
     agree = sum(r["agree"] for r in trials) / len(trials)
@@ -208,7 +209,7 @@ def test_rounds_on_two_workers_equal_the_serial_rounds(tmp_path):
     with LocalExecutor(workers=2) as executor:
         parallel = fidelity.collect(trials_csv=tmp_path / "parallel.csv", executor=executor, **kwargs)
     assert len(serial) == 2 * 18 * 2 and essentials(parallel) == essentials(serial)
-    assert essentials(read_trials(tmp_path / "parallel.csv")) == essentials(serial)
+    assert essentials(read_rows(tmp_path / "parallel.csv")) == essentials(serial)
 
 
 @pytest.mark.slow
@@ -237,9 +238,9 @@ def test_stored_trials_of_another_robot_or_randomisation_are_not_resumed(tmp_pat
     assert json.loads(record.read_text())["physics_options"] == panda
     fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), panda))  # same: resumes
     for options in ({"env_kwargs": {"robots": "Sawyer"}}, {"env_kwargs": {"robots": "Panda", "randomization": "on"}}):
-        with pytest.raises(ResumeError, match="measured with another physics_options"):
+        with pytest.raises(TrialStoreError, match="measured with another physics_options"):
             fidelity.collect(1, 0, path, log=None, physics_options=options)
-    with pytest.raises(ResumeError, match="another task"):
+    with pytest.raises(TrialStoreError, match="another task"):
         fidelity.collect(1, 0, path, log=None, physics_options=panda,
                          model=TaskModel(spec="three_segments_two_objects"))
 
@@ -249,7 +250,7 @@ def test_trials_without_a_configuration_record_are_refused_and_an_empty_file_is_
 
     path = tmp_path / fidelity.TRIALS_CSV
     trial_store.write_rows(path, [ROWS[0]] * 3)  # e.g. its config.json was deleted
-    with pytest.raises(ResumeError, match="fidelity_trials.config.json is missing"):
+    with pytest.raises(TrialStoreError, match="fidelity_trials.config.json is missing"):
         fidelity.check_configuration(path, fidelity.run_configuration(TaskModel(), None))
     assert not fidelity.configuration_path(path).exists()
     trial_store.write_rows(path, [])  # a header only: nothing to mix up
@@ -270,6 +271,6 @@ def test_trials_measured_with_other_plugin_code_are_not_resumed(tmp_path):
     assert "code_digest" in json.loads(fidelity.configuration_path(path).read_text())
     fidelity.collect(0, 0, path, log=None, plugins=(str(plugin),))  # the same code: resumes
     plugin.write_text("GRIP_FORCE = 11\n")
-    with pytest.raises(ResumeError, match="another code_digest"):
+    with pytest.raises(TrialStoreError, match="another code_digest"):
         fidelity.collect(0, 0, path, log=None, plugins=(str(plugin),))
     assert fidelity.run_configuration(TaskModel(), None) != fidelity.run_configuration(TaskModel(), None, plugins=(str(plugin),))

@@ -26,13 +26,11 @@ from pathlib import Path
 from tableclean_suite.bench import cli, trial_store
 from tableclean_suite.bench.fidelity import (
     FAULT,
-    ResumeError,
     add_execution_arguments,
     check_trial_rows,
     collect,
     parse_task_and_actions,
     read_configuration,
-    read_trials,
     trials_per_round,
 )
 from tableclean_suite.learners.transitions import TransitionTable
@@ -48,7 +46,7 @@ def count_transitions(rows, model: TaskModel | None = None) -> tuple[dict, int]:
     """``({(state, action index): {(next_state, outcome): n}}, faults)`` from fidelity trial rows (default ``paper``).
 
     Raises:
-        ResumeError: a trial whose state, action, observed state or outcome is not the task's
+        TrialStoreError: a trial whose state, action, observed state or outcome is not the task's
             ([`check_trial_rows`][tableclean_suite.bench.fidelity.check_trial_rows]).
         CalibrationError: an outcome that does not fit its observed state (TERMINAL exactly with a terminal
             state, no-change outcomes with the same state), so no table ``run --backend calibrated`` refuses
@@ -135,7 +133,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
                 parser.error(f"--from-trials: no such file {source}")
             configuration = read_configuration(source)
             check_trials_task(configuration, model, source)
-            rows = read_trials(source, log)
+            rows = trial_store.read_rows(source, log)
             check_trial_rows(rows, model, source)  # before rounds are counted by their actions
             measured_actions = {row["action"] for row in rows}  # a file may hold a subset of the actions
             rows = trial_store.complete_rounds(rows, trials_per_round(model, measured_actions), log)
@@ -149,7 +147,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
                                actions=actions, model=model, executor=executor, plugins=args.plugins)
             description = f"{args.trials} round(s), seed {args.seed}; {measured_with(read_configuration(trials_csv))}"
         table = calibrated_table(rows, model, description=description)
-    except (ResumeError, CalibrationError) as error:
+    except (trial_store.TrialStoreError, CalibrationError) as error:
         parser.error(str(error))
     out.parent.mkdir(parents=True, exist_ok=True)
     table.to_json(out)

@@ -36,6 +36,7 @@ import numpy as np
 
 from tableclean_suite import intervals
 from tableclean_suite.bench import trial_store
+from tableclean_suite.bench.trial_store import TrialStoreError, read_rows
 from tableclean_suite.bench.outputs import atomic_write_text, output_lock
 from tableclean_suite.bench import cli
 from tableclean_suite.executors.blas import single_blas_thread
@@ -54,11 +55,6 @@ FAULT = "fault"
 #: How the reason of a trial from a state that could not be staged starts (no skill ran: not in the skill table).
 NOT_STAGED = "not staged"
 
-
-#: Stored trials this run cannot use: a damaged file, or trials of another run (the message names the file).
-ResumeError = trial_store.TrialStoreError
-#: Rows of a trials CSV (numbers converted), ``[]`` when it does not exist; a damaged last line is dropped.
-read_trials = trial_store.read_rows
 
 
 def round_seed(seed: int, round_index: int) -> int:
@@ -195,23 +191,23 @@ def configuration_path(trials_csv: Path) -> Path:
 def read_configuration(trials_csv: Path) -> dict | None:
     """The recorded [`run_configuration`][tableclean_suite.bench.fidelity.run_configuration] of ``trials_csv``'s
     trials, None without a record;
-    [`ResumeError`][tableclean_suite.bench.trial_store.TrialStoreError] when unreadable."""
+    [`TrialStoreError`][tableclean_suite.bench.trial_store.TrialStoreError] when unreadable."""
     record = configuration_path(trials_csv)
     if not record.exists():
         return None
     try:
         stored = json.loads(record.read_text(encoding="utf-8"))
     except (OSError, ValueError) as error:  # UnicodeDecodeError and JSONDecodeError are ValueErrors
-        raise ResumeError(f"{record} is unreadable ({type(error).__name__}: {error}); pass --fresh or another "
+        raise TrialStoreError(f"{record} is unreadable ({type(error).__name__}: {error}); pass --fresh or another "
                           "--out") from None
     if not isinstance(stored, dict) or "task" not in stored:
-        raise ResumeError(f"{record} is not a trials configuration (no 'task'); pass --fresh or another --out")
+        raise TrialStoreError(f"{record} is not a trials configuration (no 'task'); pass --fresh or another --out")
     return stored
 
 
 def check_configuration(trials_csv: Path, configuration: dict) -> None:
     """Record ``configuration`` beside ``trials_csv``;
-    [`ResumeError`][tableclean_suite.bench.trial_store.TrialStoreError] when the stored trials were measured with
+    [`TrialStoreError`][tableclean_suite.bench.trial_store.TrialStoreError] when the stored trials were measured with
     another configuration (naming the keys), or hold trials without a readable record."""
     record = configuration_path(trials_csv)
     if trials_csv.exists():
@@ -219,34 +215,34 @@ def check_configuration(trials_csv: Path, configuration: dict) -> None:
         if stored is not None:
             differing = sorted(k for k in stored.keys() | configuration.keys() if stored.get(k) != configuration.get(k))
             if differing:
-                raise ResumeError(f"{trials_csv} was measured with another {' and '.join(differing)} "
+                raise TrialStoreError(f"{trials_csv} was measured with another {' and '.join(differing)} "
                                   f"({record}); pass the same options, another --out, or --fresh")
             return
         if len(trial_store.read_lines(trials_csv)) > 1:  # trials, not just a header
-            raise ResumeError(f"{trials_csv} holds trials but {record.name} is missing, so the options they were "
+            raise TrialStoreError(f"{trials_csv} holds trials but {record.name} is missing, so the options they were "
                               "measured with (task, robot, randomisation) are unknown; pass --fresh or another --out")
     trials_csv.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(record, json.dumps(configuration, sort_keys=True, indent=1))
 
 
 def check_trial_rows(rows, model: TaskModel, source) -> None:
-    """[`ResumeError`][tableclean_suite.bench.trial_store.TrialStoreError] naming the file, row and value of a stored
-    trial that does not belong to ``model`` (state, action, observed state or outcome)."""
+    """[`TrialStoreError`][tableclean_suite.bench.trial_store.TrialStoreError] naming the file, row and value of a
+    stored trial that does not belong to ``model`` (state, action, observed state or outcome)."""
     outcomes = {o.name.lower() for o in Outcome} | {FAULT}
     for position, row in enumerate(rows):
         where = f"{source}: round {row.get('round')}, trial {position + 1}"
         state = row["state"]
         if not 0 <= state < model.n_states or model.decode(state).is_terminal:
-            raise ResumeError(f"{where}: state {state} is not a non-terminal state of task {model.spec.name!r} "
+            raise TrialStoreError(f"{where}: state {state} is not a non-terminal state of task {model.spec.name!r} "
                               f"(codes 0..{model.n_states - 1})")
         if row["action"] not in model.action_names:
-            raise ResumeError(f"{where}: action {row['action']!r} is not one of task {model.spec.name!r}'s "
+            raise TrialStoreError(f"{where}: action {row['action']!r} is not one of task {model.spec.name!r}'s "
                               f"({', '.join(model.action_names)})")
         if row["observed_outcome"] not in outcomes:
-            raise ResumeError(f"{where}: observed outcome {row['observed_outcome']!r} is not one of "
+            raise TrialStoreError(f"{where}: observed outcome {row['observed_outcome']!r} is not one of "
                               f"{', '.join(sorted(outcomes))}")
         if row["observed_outcome"] != FAULT and not 0 <= row["observed_state"] < model.n_states:
-            raise ResumeError(f"{where}: observed state {row['observed_state']} is outside task "
+            raise TrialStoreError(f"{where}: observed state {row['observed_state']} is outside task "
                               f"{model.spec.name!r}'s codes 0..{model.n_states - 1}")
 
 
@@ -262,7 +258,7 @@ def collect(trials: int, seed: int, trials_csv: str | Path, fresh: bool = False,
     ``physics_options``.  ``actions`` limits the executed actions; ``model`` is the task (default ``paper``).
 
     Raises:
-        ResumeError: the stored trials were measured with another seed, actions or
+        TrialStoreError: the stored trials were measured with another seed, actions or
             [`run_configuration`][tableclean_suite.bench.fidelity.run_configuration] (``plugins`` included).
     """
     model = model or TaskModel()
@@ -273,14 +269,15 @@ def collect(trials: int, seed: int, trials_csv: str | Path, fresh: bool = False,
         if fresh and path.exists():
             path.unlink()
         check_configuration(path, run_configuration(model, physics_options, plugins))
-        rows = trial_store.complete_rounds(read_trials(path, log), per_round, log)
+        rows = trial_store.complete_rounds(read_rows(path, log), per_round, log)
         check_trial_rows(rows, model, path)
         done_rounds = sorted({row["round"] for row in rows})
         if rows and {row["seed"] for row in rows} != {round_seed(seed, r) for r in done_rounds}:
-            raise ResumeError(f"{path} was measured with another --seed; pass that seed or --fresh")
+            raise TrialStoreError(f"{path} was measured with another --seed; pass that seed or --fresh")
         measured = {row["action"] for row in rows}
         if rows and measured != set(actions):
-            raise ResumeError(f"{path} holds trials of {sorted(measured)}, not of the requested actions; use --fresh")
+            raise TrialStoreError(f"{path} holds trials of {sorted(measured)}, not of the requested actions; "
+                                  "use --fresh")
         todo = [r for r in range(trials) if r not in done_rounds]
         if done_rounds and log:
             log(f"resuming: {len(done_rounds)} round(s) already in {path}, {len(todo)} to run")
@@ -299,7 +296,7 @@ def collect(trials: int, seed: int, trials_csv: str | Path, fresh: bool = False,
         try:
             for round_index, new in zip(todo, results):
                 if len(new) != per_round:
-                    raise ResumeError(f"round {round_index + 1} produced {len(new)} trials, not {per_round}")
+                    raise TrialStoreError(f"round {round_index + 1} produced {len(new)} trials, not {per_round}")
                 rows.extend(new)
                 trial_store.write_rows(path, sorted(rows, key=lambda row: row["round"]))
                 if log:
@@ -564,7 +561,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
             pairs, skills, result = measure(out, model, args.trials, args.seed, fresh=args.fresh, actions=actions,
                                             log=None if args.quiet else print, executor=executor,
                                             physics_options={"env_kwargs": env_kwargs}, plugins=args.plugins)
-    except ResumeError as error:
+    except TrialStoreError as error:
         parser.error(str(error))  # exits 2
     if not args.quiet:
         print("\nper (state, action):")

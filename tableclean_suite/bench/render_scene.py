@@ -81,7 +81,8 @@ def main(argv=None, prog: str | None = None) -> int:
 
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     matplotlib.image.imsave(Path(args.out), frame)
-    print(f"wrote {args.out} ({args.width}x{args.height}, camera {args.camera!r}, MUJOCO_GL={os.environ.get('MUJOCO_GL')})")
+    print(f"wrote {args.out} ({args.width}x{args.height}, camera {args.camera!r}, "
+          f"MUJOCO_GL={os.environ.get('MUJOCO_GL')})")
     return 0
 
 

@@ -216,7 +216,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
             trial_store.write_rows(table, merge_rows(table, rows) if args.append else rows, COLUMNS)
             if log:
                 log(f"{robot} ({name}) x {task} done ({time.perf_counter() - started:.0f} s)")
-    except fidelity.ResumeError as error:  # e.g. trials of another --seed
+    except trial_store.TrialStoreError as error:  # e.g. trials of another --seed
         parser.error(f"{error} (robot_table: --fresh, or another --fidelity-dir)")
     print(markdown(merge_rows(table, []) if args.append else rows))
     print(f"\n{table} ({time.perf_counter() - started:.0f} s)")
