@@ -295,6 +295,13 @@ class RunConfig:
 
         return TaskModel(spec=self.task_spec(), start=self.start, ineffective=self.ineffective)
 
+    def transition_table(self, model):
+        """The calibrated [`TransitionTable`][tableclean_suite.learners.transitions.TransitionTable] in file
+        ``transitions``, for ``model``; None unless ``backend`` is calibrated."""
+        from tableclean_suite.learners import TransitionTable
+
+        return TransitionTable.from_json(self.transitions, model) if self.backend == "calibrated" else None
+
     def cell_settings(self) -> dict:
         """The fields that can change a cell's numbers (every field not in `NOT_IN_CELL_KEY`)."""
         return {f.name: getattr(self, f.name) for f in fields(self) if f.name not in self.NOT_IN_CELL_KEY}

@@ -59,8 +59,7 @@ def published_tables(config, model, store) -> dict:
     records, _ = experiments.cell_records(grid, grid_run.summaries, grid_run.statistics, config.settle_tolerance)
     published = {"table3": tables.table3(records, compare_with_paper=False).set_index("cell_id")}
     compared = statistics.comparisons(  # as the run command computes comparisons.csv
-        [{"learner": m.cell.learner, "reward": m.cell.reward, "runs": grid_run.statistics[m.cell].runs} for m in grid],
-        config.confidence, config.bootstrap_samples, config.seed)
+        grid_run.comparison_cells(m.cell for m in grid), config.confidence, config.bootstrap_samples, config.seed)
     if len(compared):
         published["comparisons"] = compared.set_axis([f"{row.learner_x}-{row.reward_x} vs {row.learner_y}-"
                                                       f"{row.reward_y}: {row.score}" for row in compared.itertuples()],

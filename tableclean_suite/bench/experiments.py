@@ -479,10 +479,8 @@ def train_cell_task(task: CellTask) -> tuple[Summary, CellStatistics, float, flo
         from tableclean_suite.bench.plugins import load_plugins
 
         load_plugins(config.plugins)  # what the driver registered, registered here too
-    from tableclean_suite.learners import TransitionTable
-
     model = config.task_model()
-    transitions = TransitionTable.from_json(config.transitions, model) if config.backend == "calibrated" else None
+    transitions = config.transition_table(model)
     run = CellRun(task.cell, config, model, transitions)
     digest = config_hash(cell_config(run, *key_digests(config, model, transitions)))
     if digest != task.key_hash:
@@ -505,6 +503,11 @@ class GridRun:
     train_seconds: float = 0.0
     metrics_seconds: float = 0.0
     plans: dict = field(default_factory=dict)
+
+    def comparison_cells(self, cells) -> list[dict]:
+        """``{"learner", "reward", "runs"}`` of each of ``cells``: the cells
+        [`comparisons`][tableclean_suite.bench.statistics.comparisons] compares."""
+        return [{"learner": c.learner, "reward": c.reward, "runs": self.statistics[c].runs} for c in cells]
 
 
 def run_grid(grid: list[Membership], config: RunConfig, model, store: CellStore, transitions=None,

@@ -146,17 +146,6 @@ def parse_args(argv=None, prog: str | None = None) -> argparse.Namespace:
     return argparse.Namespace(config=config, describe=describe, parser=parser)
 
 
-def _load_transitions(args, model):
-    """The calibrated table, or exit 2 with a clear message if it cannot be read."""
-    from tableclean_suite.learners import CorruptTableError, TransitionTable
-
-    path = args.config.transitions
-    try:
-        return TransitionTable.from_json(path, model)
-    except (OSError, CorruptTableError, ValueError) as error:
-        args.parser.error(f"--transitions {path!r}: {error}")
-
-
 def _manifest(config: RunConfig, model, transitions, grid_run, stride: int, elapsed: float) -> dict:
     """The contents of ``config.json`` ([`publish`][tableclean_suite.bench.outputs.publish] adds ``run_id``
     and ``files``)."""
@@ -204,12 +193,16 @@ def train_and_publish(args) -> int:
     """Train/load the grid, print the tables, write files and figures; returns the exit code."""
     from tableclean_suite.bench import derived, experiments, outputs
     from tableclean_suite.executors import MissingRayError, TaskFailedError
+    from tableclean_suite.learners import CorruptTableError
 
     started = time.perf_counter()
     config: RunConfig = args.config
     out = Path(config.out)
     model = config.task_model()
-    transitions = _load_transitions(args, model) if config.backend == "calibrated" else None
+    try:
+        transitions = config.transition_table(model)
+    except (OSError, CorruptTableError, ValueError) as error:
+        args.parser.error(f"--transitions {config.transitions!r}: {error}")
     executor = cell_executor(config)
     if executor is None and config.workers is not None and config.backend != "physics":
         import numba
@@ -251,10 +244,8 @@ def train_and_publish(args) -> int:
     figure_frame = tables.curves_long(records, curves, (*tables.CURVE_METRICS, statistics.NOT_LEARNED)
                                       if survival and config.figures else tables.CURVE_METRICS, stride)
     curves_frame = figure_frame[figure_frame["metric"].isin(tables.CURVE_METRICS)]
-    main_cells = [m.cell for m in grid if m.experiment == "main"]
     results = derived.derive(  # from cells/derived/ when it holds them, else computed and stored there
-        store.root / "derived",
-        [{"learner": c.learner, "reward": c.reward, "runs": grid_run.statistics[c].runs} for c in main_cells],
+        store.root / "derived", grid_run.comparison_cells(m.cell for m in grid if m.experiment == "main"),
         config.confidence, config.bootstrap_samples, config.seed, figure_frame if config.figures else None, table3,
         plateau_fraction=config.plateau_fraction, dpi=FIGURE_DPI, read=not config.fresh)
     comparisons, figures = results.comparisons, results.figures
