@@ -14,7 +14,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tableclean_suite.controllers.configs import GraspConfig, ReleaseConfig
-from tableclean_suite.controllers.geometry import wrap_angle
+from tableclean_suite.environments.object_geometry import wrap_angle
 from tableclean_suite.controllers.primitives import (
     FINGER_LINE_CLEARANCE,
     Grasp,

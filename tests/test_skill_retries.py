@@ -371,7 +371,8 @@ def test_a_grasp_yaw_tie_about_nominal_goes_the_hands_way(hand_yaw, aimed):
     from types import SimpleNamespace
 
     from tableclean_suite.controllers.clean import turned_quat
-    from tableclean_suite.controllers.geometry import gripper_yaw, wrap_angle
+    from tableclean_suite.controllers.geometry import gripper_yaw
+    from tableclean_suite.environments.object_geometry import wrap_angle
     from tableclean_suite.controllers.primitives import Body, box_geometry
 
     down = np.array([0.70710678, 0.70710678, 0.0, 0.0])  # the grip site pointing down at yaw pi/2

@@ -21,14 +21,14 @@ from typing import Any, Mapping
 import numpy as np
 
 from tableclean_suite.controllers.configs import CleanConfig, WipeConfig
-from tableclean_suite.controllers.geometry import box_lowest_z, quat_to_matrix, world_footprint, wrap_angle
-from tableclean_suite.controllers.geometry import clip_scalar
+from tableclean_suite.controllers.geometry import box_lowest_z, clip_scalar, quat_to_matrix, world_footprint
 from tableclean_suite.controllers.loop_state import MODE_PRESS, MODE_SHIFT, MODE_WIPE, WIPE_STATE, loop_record
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.primitives import SPONGE, Grasp, Primitive, PrimitiveSkill, Reach, Release, line_yaw
 from tableclean_suite.controllers.skill import SkillFailure, Waypoint
 from tableclean_suite.controllers.wipe_pattern import boustrophedon, clear_area
 from tableclean_suite.environments.abstraction import AbstractionError
+from tableclean_suite.environments.object_geometry import wrap_angle
 from tableclean_suite.task import Action
 
 #: m kept between the wiping hand and every object standing near the segment, horizontally (the wipe

@@ -28,11 +28,6 @@ def clip_scalar(value: float, low: float, high: float) -> float:
     return float(high if high <= value else value)
 
 
-def wrap_angle(angle: float) -> float:
-    """``angle`` (rad) wrapped to [-pi, pi)."""
-    return float((angle + np.pi) % (2 * np.pi) - np.pi)
-
-
 def gripper_yaw(eef_quat: np.ndarray) -> float:
     """Yaw (rad) of a roughly downward gripper: heading of its x axis in the world xy plane."""
     rot = quat_to_matrix(eef_quat)

@@ -28,16 +28,19 @@ from typing import Any, Callable, ClassVar, Mapping
 import numpy as np
 
 from tableclean_suite.controllers.configs import GraspConfig, ReleaseConfig, SkillConfig
-from tableclean_suite.controllers.geometry import gripper_yaw, quat_to_matrix, wrap_angle
+from tableclean_suite.controllers.geometry import gripper_yaw, quat_to_matrix
 from tableclean_suite.controllers.osc import GRIPPER_CLOSE, GRIPPER_OPEN
 from tableclean_suite.controllers.skill import Skill, SkillFailure, Waypoint, object_heights
 from tableclean_suite.environments.gripper_geometry import GripperGeometry, wrist_half_width
 from tableclean_suite.environments.object_geometry import (
     WIDTH_DIRECTIONS,
     ObjectGeometry,
+    box_geometry,
     grasp_yaw,
+    widths_of,
     world_lowest_z,
     world_z_range,
+    wrap_angle,
 )
 from tableclean_suite.environments.placement import footprint_of, nearest_point
 
@@ -138,12 +141,6 @@ def object_body(obj: int, info: Info | None = None) -> Body:
     )
 
 
-def box_geometry(half_size) -> ObjectGeometry:
-    """The geometry of an origin-centred box of half extents ``half_size`` (3,) [m] (its 8 corners)."""
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-    return ObjectGeometry(signs * np.asarray(half_size, dtype=float))
-
-
 @functools.lru_cache(maxsize=512)
 def ledges(geometry: ObjectGeometry, under: bool = False) -> tuple[tuple[float, float, tuple], ...]:
     """``(height, next height, directions)`` [m, ascending, the body's own frame]: heights at which the upright
@@ -155,17 +152,12 @@ def ledges(geometry: ObjectGeometry, under: bool = False) -> tuple[tuple[float, 
     there not needed: a lip may overlap the body)."""
     z = -geometry.points[:, 2] if under else geometry.points[:, 2]
     radius = np.hypot(geometry.points[:, 0], geometry.points[:, 1])
-    angles = np.arange(WIDTH_DIRECTIONS) * (np.pi / WIDTH_DIRECTIONS)
-    along = geometry.points[:, :2] @ np.stack([np.cos(angles), np.sin(angles)])  # (K, directions) m
-
-    def widths(mask):
-        return along[mask].max(axis=0) - along[mask].min(axis=0)
-
     levels, found = np.unique(np.round(geometry.points[:, 2], 4)), []
     for level in levels:
         here, beyond = np.abs(z - (-level if under else level)) <= 1e-4, z > (-level if under else level) + 1e-4
         stepped = under or radius[here].min() < radius[here].max() - LEDGE_MARGIN  # (not a sphere's equator)
-        narrower = widths(beyond) < widths(here) - 2 * LEDGE_MARGIN if beyond.any() else np.zeros(WIDTH_DIRECTIONS, bool)
+        narrower = (widths_of(geometry.points[beyond, :2]) < widths_of(geometry.points[here, :2]) - 2 * LEDGE_MARGIN
+                    if beyond.any() else np.zeros(WIDTH_DIRECTIONS, bool))
         if stepped and narrower.any():
             following = float(levels[min(np.searchsorted(levels, level) + 1, len(levels) - 1)])
             found.append((float(level), following, tuple(narrower.tolist())))

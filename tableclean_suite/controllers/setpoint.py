@@ -11,8 +11,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from tableclean_suite.controllers.geometry import wrap_angle
 from tableclean_suite.controllers.osc import ACTION_DIM
+from tableclean_suite.environments.object_geometry import wrap_angle
 
 #: Index of the gripper command in the skill action (7,) [position (3), rotation vector (3), gripper].
 GRIPPER_INDEX = ACTION_DIM - 1

@@ -31,10 +31,11 @@ from typing import Any, ClassVar, Mapping, Protocol, runtime_checkable
 import numpy as np
 
 from tableclean_suite.controllers.configs import SkillConfig, checked_skill_config
-from tableclean_suite.controllers.geometry import box_lowest_z, gripper_yaw, quat_to_matrix, wrap_angle
+from tableclean_suite.controllers.geometry import box_lowest_z, gripper_yaw, quat_to_matrix
 from tableclean_suite.controllers.loop_state import SKILL_STATE, loop_record
 from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.controllers.setpoint import advance_command
+from tableclean_suite.environments.object_geometry import wrap_angle
 from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
 
 #: The dict form of [`SkillConfig`][tableclean_suite.controllers.configs.SkillConfig]'s defaults: the settings every skill understands

@@ -187,6 +187,11 @@ class ObjectGeometry:
         return direction, period
 
 
+def box_geometry(half_size) -> ObjectGeometry:
+    """The geometry of an origin-centred box of half extents ``half_size`` (3,) [m] (its 8 corners)."""
+    return ObjectGeometry(_CORNERS * np.asarray(half_size, dtype=float))
+
+
 def hull_corners(points) -> np.ndarray:
     """The corners of the convex hull of ``points`` (K, D) (a copy of all of them when they span no D-volume)."""
     try:
@@ -209,7 +214,8 @@ def frozen(values) -> np.ndarray:
     return array
 
 
-def _wrap(angle: float) -> float:
+def wrap_angle(angle: float) -> float:
+    """``angle`` (rad) wrapped to [-pi, pi)."""
     return float((angle + np.pi) % (2 * np.pi) - np.pi)
 
 
@@ -221,8 +227,8 @@ def grasp_yaw(geometry: ObjectGeometry, object_yaw: float, preferred_yaw: float)
     """
     direction, period = geometry.narrow_side()
     base = object_yaw + direction
-    turns = np.round(_wrap(preferred_yaw - base) / period)
-    return _wrap(base + turns * period)
+    turns = np.round(wrap_angle(preferred_yaw - base) / period)
+    return wrap_angle(base + turns * period)
 
 
 @lru_cache(maxsize=256)
@@ -255,5 +261,6 @@ def world_z_range(geometry: ObjectGeometry, pos, rot) -> tuple[float, float]:
     return float(pos[2] + float(np.min(heights))), float(pos[2] + float(np.max(heights)))
 
 
-__all__ = ["ObjectGeometry", "object_geometry", "collision_points", "collision_geoms", "grasp_yaw", "world_lowest_z",
-           "world_z_range", "CIRCLE_POINTS", "EQUAL_WIDTH", "SLICE_SPACING", "WIDTH_DIRECTIONS"]
+__all__ = ["ObjectGeometry", "object_geometry", "box_geometry", "collision_points", "collision_geoms", "grasp_yaw",
+           "world_lowest_z", "world_z_range", "wrap_angle", "CIRCLE_POINTS", "EQUAL_WIDTH", "SLICE_SPACING",
+           "WIDTH_DIRECTIONS"]
