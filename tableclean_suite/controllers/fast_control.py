@@ -843,7 +843,7 @@ class FastSkillStepper:
         total = 0
         status = PHASE_LIMIT
         while total < limit:
-            present = np.ascontiguousarray(env._marker_present())  # changes only in the env's wiping check
+            present = np.ascontiguousarray(env.dirt.present())  # changes only in the env's wiping check
             if log is None:
                 arrays = self._no_log
             else:
@@ -914,7 +914,7 @@ class FastSkillStepper:
                 self.env.record_wiping_substep()
                 mujoco.mj_step2(self.model, self.data)
             else:
-                present = np.ascontiguousarray(self.env._marker_present())  # changes only in the wiping check
+                present = np.ascontiguousarray(self.env.dirt.present())  # changes only in the wiping check
                 done = native_substeps(plant, (markers, present), done, goal_pos, goal_ori, grip_ctrl)
 
 

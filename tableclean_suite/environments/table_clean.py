@@ -577,10 +577,6 @@ class TableClean(ManipulationEnv):
         """Marker visuals follow the dirt state (alpha 0: wiped): the per-control-step hook."""
         self.dirt.show()
 
-    def _marker_present(self) -> np.ndarray:
-        """Bool (N * markers_per_segment,), read-only: markers not wiped (what the fast stepper's wipe reads)."""
-        return self.dirt.present()
-
     def sponge_press_force(self) -> float:
         """Normal force [N] (>= 0) the sponge presses on the table top (``mj_contactForce`` summed)."""
         return self.contacts.press_force()
