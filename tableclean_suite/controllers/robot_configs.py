@@ -14,12 +14,12 @@ from __future__ import annotations
 import dataclasses
 
 from tableclean_suite.controllers.configs import SkillConfig, checked_skill_config
+from tableclean_suite.controllers.osc import SKILL_ARM_CONTROLLER
 from tableclean_suite.controllers.registry import SKILL_REGISTRY, action_key
 from tableclean_suite.controllers.skill import BASE_CONFIG
 from tableclean_suite.environments import robot_registry
 from tableclean_suite.environments.robot_registry import (  # noqa: F401  (the registry's public names)
     ALL_SKILLS,
-    FIXED_OSC_KEYS,
     ROBOT_CONFIGS,
     SWAP_GRIPPER,
     RobotSkillConfig,
@@ -66,7 +66,7 @@ def register_robot_config(config: RobotSkillConfig, *, replace: bool = False) ->
                                  {**shared, **overrides})
     if config.robot in robot_registry.ROBOT_CONFIGS and not replace:
         raise ValueError(f"robot {config.robot!r} already has a skill config; pass replace=True to override")
-    fixed = sorted(set(config.osc) & set(FIXED_OSC_KEYS))
+    fixed = sorted(set(config.osc) & set(SKILL_ARM_CONTROLLER))
     if fixed:
         raise ValueError(f"robot {config.robot!r}: the OSC keys {fixed} are what the skills rely on and cannot be overridden")
     config = dataclasses.replace(config, skills=skills)

@@ -44,10 +44,6 @@ class RobotSkillConfig:
     note: str = ""
 
 
-#: The OSC settings the skills rely on; a robot config may not override them.
-FIXED_OSC_KEYS = ("type", "input_type", "input_ref_frame")
-
-
 def supported_robots() -> tuple[str, ...]:
     """Names of the robots with a registered skill config, sorted."""
     return tuple(sorted(ROBOT_CONFIGS))
