@@ -3,11 +3,17 @@
 from __future__ import annotations
 
 import re
-from typing import Generic, TypeVar
+from types import MappingProxyType
+from typing import Generic, Mapping, TypeVar
 
 T = TypeVar("T")
 #: Registry names (task specs, actions, ...): lower_snake.
 NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
+
+
+class _Items(dict):
+    def __missing__(self, name):  # (what a view's lookup of an unknown name raises)
+        raise KeyError(f"unknown name {name!r}; allowed: {', '.join(self)}")
 
 
 class Registry(Generic[T]):
@@ -21,7 +27,7 @@ class Registry(Generic[T]):
     def __init__(self, kind: str, item_type: type, items=()):
         self.kind = kind
         self.item_type = item_type
-        self._items: dict[str, T] = {}
+        self._items: dict[str, T] = _Items()
         for item in items:
             self.register(item)
 
@@ -37,6 +43,11 @@ class Registry(Generic[T]):
     def names(self) -> list[str]:
         """Registered names, in registration order."""
         return list(self._items)
+
+    def view(self) -> Mapping[str, T]:
+        """A read-only, live ``name -> item`` mapping of the registry (``KeyError`` naming the registered names for
+        an unknown one)."""
+        return MappingProxyType(self._items)
 
     def get(self, key: str | T) -> T:
         """The item registered as ``key``, or ``key`` itself when it is an item; clear error otherwise."""

@@ -10,6 +10,7 @@ import tableclean_suite  # noqa: F401  (registers TableClean)
 from tableclean_suite.environments.object_geometry import object_geometry
 from tableclean_suite.environments.objects import (
     GRASP_WIDTH_MARGIN,
+    OBJECT_TYPES,
     ObjectType,
     get_object_type,
     make_object,
@@ -54,6 +55,16 @@ def test_register_object_takes_a_class_a_callable_or_a_full_type():
         register_object("test_none")
     with pytest.raises(TypeError, match="not a robosuite MujocoObject"):
         register_object("test_bad_class", dict)
+
+
+def test_object_types_is_a_live_read_only_view_of_the_registry():
+    register_object("test_view_box", BoxObject, overwrite=True)
+    assert OBJECT_TYPES["test_view_box"] is get_object_type("test_view_box") and "test_view_box" in OBJECT_TYPES
+    assert "banana" not in OBJECT_TYPES and OBJECT_TYPES.get("banana") is None
+    with pytest.raises(KeyError, match="unknown name 'banana'; allowed: box, "):
+        OBJECT_TYPES["banana"]
+    with pytest.raises(TypeError):
+        OBJECT_TYPES["banana"] = OBJECT_TYPES["box"]
 
 
 def test_geometry_comes_from_the_collision_meshes_not_robosuites_sites():

@@ -214,21 +214,8 @@ def get_object_type(name: str | ObjectType) -> ObjectType:
     return _REGISTRY.get(name)
 
 
-class _ObjectTypes(Mapping):
-    """Read-only name -> [`ObjectType`][tableclean_suite.environments.objects.ObjectType] view of the registry (``OBJECT_TYPES``)."""
-
-    def __getitem__(self, name):
-        return get_object_type(name)
-
-    def __iter__(self):
-        return iter(object_type_names())
-
-    def __len__(self):
-        return len(object_type_names())
-
-
 #: Object type name -> [`ObjectType`][tableclean_suite.environments.objects.ObjectType] (a live view of the registry).
-OBJECT_TYPES: Mapping[str, ObjectType] = _ObjectTypes()
+OBJECT_TYPES: Mapping[str, ObjectType] = _REGISTRY.view()
 
 
 def object_names(n_objects: int) -> list[str]:
