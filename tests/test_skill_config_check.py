@@ -44,6 +44,13 @@ def test_a_value_out_of_range_is_refused_alike_naming_the_skill_the_key_and_its_
         assert str(error).startswith(f"{owner}: speed must be a number > 0 (m/s), got -0.1")
 
 
+def test_a_robot_config_may_not_override_the_osc_settings_the_skills_rely_on():
+    with pytest.raises(ValueError, match=r"'CheckArm': the OSC keys \['input_ref_frame', 'type'\] are what the skills"):
+        register_robot_config(RobotSkillConfig("CheckArm", osc={"type": "OSC_POSITION", "kp": 200,
+                                                                "input_ref_frame": "base"}))
+    assert "CheckArm" not in ROBOT_CONFIGS
+
+
 def test_the_check_returns_the_merged_values_and_the_typed_settings():
     merged, settings = checked_skill_config("PickSkill", PickConfig, PickSkill.DEFAULT_CONFIG, {"speed": 0.3})
     assert merged == {**PickSkill.DEFAULT_CONFIG, "speed": 0.3} and settings == PickConfig(**merged)
