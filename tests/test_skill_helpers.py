@@ -28,9 +28,8 @@ def test_clip_scalar_is_np_clip_bit_for_bit():
 
 
 def test_object_heights_are_world_lowest_and_highest_z_bit_for_bit():
-    """skill.object_heights (the hover height's tops and bottoms: ndarray.dot on the quaternion's z row) gives
-    object_geometry's world_lowest_z / world_z_range (@ on the full rotation matrix's row): random point
-    clouds of 1 to 300 points, poses and unnormalised quaternions."""
+    """skill.object_heights (the hover height's tops and bottoms) gives object_geometry's world_lowest_z /
+    world_z_range at each object's pose: random point clouds of 1 to 300 points, poses and unnormalised quaternions."""
     from tableclean_suite.controllers.skill import object_heights
     from tableclean_suite.environments.object_geometry import ObjectGeometry, world_lowest_z, world_z_range
 

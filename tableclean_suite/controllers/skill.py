@@ -35,7 +35,7 @@ from tableclean_suite.controllers.geometry import box_lowest_z, gripper_yaw, qua
 from tableclean_suite.controllers.loop_state import SKILL_STATE, loop_record
 from tableclean_suite.controllers.osc import ACTION_DIM
 from tableclean_suite.controllers.setpoint import advance_command
-from tableclean_suite.environments.object_geometry import wrap_angle
+from tableclean_suite.environments.object_geometry import world_z_range, wrap_angle
 from tableclean_suite.task import Action, Outcome, TaskModel, TaskState
 
 #: The dict form of [`SkillConfig`][tableclean_suite.controllers.configs.SkillConfig]'s defaults: the settings every skill understands
@@ -50,12 +50,9 @@ def object_heights(info: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
     if "objects_geometry" not in info:
         halves = np.asarray(info["objects_half_size"], dtype=float)
         return positions[:, 2] + halves[:, 2], positions[:, 2] - halves[:, 2]
-    centres = positions[:, 2].tolist()
-    # one projection on the rotation's z row per object
-    heights = [shape.points.dot(quat_to_matrix(quat)[2]).tolist()
-               for quat, shape in zip(info["objects_quat"], info["objects_geometry"])]
-    return (np.array([z + max(h) for z, h in zip(centres, heights)], dtype=float),
-            np.array([z + min(h) for z, h in zip(centres, heights)], dtype=float))
+    ranges = np.array([world_z_range(shape, pos, quat_to_matrix(quat)) for pos, quat, shape
+                       in zip(positions, info["objects_quat"], info["objects_geometry"])], dtype=float).reshape(-1, 2)
+    return ranges[:, 1], ranges[:, 0]
 
 
 @runtime_checkable
