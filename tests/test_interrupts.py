@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from tableclean_suite.bench import commands
+from tableclean_suite.bench import commands, startup
 from publication_check import check_outputs
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -25,6 +25,24 @@ def test_ctrl_c_while_a_command_module_is_imported_is_one_line(monkeypatch, caps
     monkeypatch.setattr(commands, "_module", interrupted_import)
     assert commands.main(["run"]) == commands.EXIT_INTERRUPTED
     assert capsys.readouterr().err.strip().splitlines() == ["tableclean-bench run: interrupted"]
+
+
+def test_ctrl_c_inside_an_import_that_swallows_it_is_raised_after_the_import(tmp_path, monkeypatch):
+    """An extension module's initialisation may clear a ``KeyboardInterrupt`` raised in its Python callbacks
+    (a Cython module's ``abc.register``); the command's handler delivers Ctrl-C again once outside the import."""
+    (tmp_path / "swallowing_module.py").write_text(
+        "import signal\ntry:\n    signal.raise_signal(signal.SIGINT)\nexcept BaseException:\n    pass\nDONE = True\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    previous = signal.signal(signal.SIGINT, startup._ctrl_c)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            import swallowing_module  # noqa: F401
+            deadline = time.monotonic() + 5
+            while time.monotonic() < deadline:
+                time.sleep(0.01)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert sys.modules["swallowing_module"].DONE  # the import itself ran to its end
 
 
 def test_ctrl_c_while_the_package_itself_is_imported_is_one_line(monkeypatch, capsys):

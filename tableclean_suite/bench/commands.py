@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from tableclean_suite.bench.cli import EXIT_INTERRUPTED, EXIT_USAGE, OneLineParser
+from tableclean_suite.bench.startup import catch_ctrl_c
 
 CONSOLE_SCRIPT = "tableclean-bench"
 #: The command a bare ``tableclean-bench`` (or one given only flags) runs.
@@ -174,19 +175,20 @@ def _run(name: str, argv, prog: str, unavailable_prog: str | None = None, entry:
     """``main(argv, prog=prog)`` of command ``name``'s module as an exit status: the one place where its
     ``SystemExit``, refusals and file-system errors (one line, exit 2) and Ctrl-C (exit 130, imports
     included) become exit codes."""
-    try:
-        return _exit_code(_module(name).main(argv, prog=prog))
-    except CommandUnavailable as error:
-        return _usage_error(unavailable_prog or prog, str(error))
-    except SystemExit as stop:
-        return _exit_code(stop.code)
-    except (KeyboardInterrupt, RuntimeError) as error:
-        return _interrupted(prog, error, entry)
-    except _refusals() as error:  # the resource guard, an unusable output folder: one line, exit 2
-        return _usage_error(prog, str(error))
-    except OSError as error:  # a name too long, a folder that cannot be read: the path and the reason
-        where = f"{str(error.filename)[:120]!r}: " if error.filename is not None else ""
-        return _usage_error(prog, f"{where}{error.strerror or error}")
+    with catch_ctrl_c():
+        try:
+            return _exit_code(_module(name).main(argv, prog=prog))
+        except CommandUnavailable as error:
+            return _usage_error(unavailable_prog or prog, str(error))
+        except SystemExit as stop:
+            return _exit_code(stop.code)
+        except (KeyboardInterrupt, RuntimeError) as error:
+            return _interrupted(prog, error, entry)
+        except _refusals() as error:  # the resource guard, an unusable output folder: one line, exit 2
+            return _usage_error(prog, str(error))
+        except OSError as error:  # a name too long, a folder that cannot be read: the path and the reason
+            where = f"{str(error.filename)[:120]!r}: " if error.filename is not None else ""
+            return _usage_error(prog, f"{where}{error.strerror or error}")
 
 
 def _interrupted(prog: str, error: BaseException, entry: bool = False) -> int:

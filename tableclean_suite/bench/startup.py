@@ -1,8 +1,10 @@
-"""One notice before numba compiles the package's kernels (`announce_compiles`), during which Ctrl-C
-ends the process in one line."""
+"""Ctrl-C in a command: raised where it cannot be lost (`catch_ctrl_c`), and one notice before numba compiles
+the package's kernels (`announce_compiles`), during which Ctrl-C ends the process in one line."""
 
 from __future__ import annotations
 
+import _thread
+import contextlib
 import os
 import signal
 import sys
@@ -16,6 +18,48 @@ EXIT_INTERRUPTED = 130
 #: Wall seconds of compiling the kernels with numba's disk cache empty (60-120 s on 2 busy cores).
 COMPILE_SECONDS = 90
 PACKAGE = "tableclean_suite"
+
+#: Seconds after which a Ctrl-C that landed inside an import is delivered again.
+CTRL_C_RETRY_SECONDS = 0.05
+
+
+def _swallowed_here(frame) -> bool:
+    """Whether a ``KeyboardInterrupt`` raised in ``frame`` can be lost: under Python's import machinery (an
+    extension module's initialisation clears errors raised in its Python callbacks, e.g. a Cython module's
+    ``abc.register`` calls) or in an llvmlite callback from LLVM (ctypes prints and drops its errors)."""
+    if "llvmlite" in frame.f_code.co_filename:
+        return True
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib._bootstrap"):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _ctrl_c(_signum, frame) -> None:
+    """``KeyboardInterrupt``, or, where it could be lost (`_swallowed_here`), the signal again
+    `CTRL_C_RETRY_SECONDS` later, until it lands where it is raised."""
+    if _swallowed_here(frame):
+        retry = threading.Timer(CTRL_C_RETRY_SECONDS, _thread.interrupt_main)
+        retry.daemon = True
+        retry.start()
+        return
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def catch_ctrl_c():
+    """In the main thread, while Ctrl-C has Python's default handler: handle it with `_ctrl_c` for the block
+    (the default handler is back after it, unless the block set another)."""
+    installed = threading.current_thread() is threading.main_thread() and \
+        signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    if installed:
+        signal.signal(signal.SIGINT, _ctrl_c)
+    try:
+        yield
+    finally:
+        if installed and signal.getsignal(signal.SIGINT) is _ctrl_c:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 _NOTICE = {"installed": False, "said": False, "prog": "tableclean-bench", "depth": 0, "previous": None}
@@ -35,7 +79,7 @@ def _compiling(started: bool) -> None:
         return
     if started:
         _NOTICE["depth"] += 1
-        if _NOTICE["depth"] == 1 and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        if _NOTICE["depth"] == 1 and signal.getsignal(signal.SIGINT) in (signal.default_int_handler, _ctrl_c):
             _NOTICE["previous"] = signal.signal(signal.SIGINT, _interrupted_while_compiling)
     else:
         _NOTICE["depth"] = max(0, _NOTICE["depth"] - 1)
