@@ -12,8 +12,12 @@ NAME_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
 
 
 class _Items(dict):
+    def __init__(self, kind: str):
+        super().__init__()
+        self.kind = kind
+
     def __missing__(self, name):  # (what a view's lookup of an unknown name raises)
-        raise KeyError(f"unknown name {name!r}; allowed: {', '.join(self)}")
+        raise KeyError(f"unknown {self.kind} {name!r}; allowed: {', '.join(self)}")
 
 
 class Registry(Generic[T]):
@@ -27,7 +31,7 @@ class Registry(Generic[T]):
     def __init__(self, kind: str, item_type: type, items=()):
         self.kind = kind
         self.item_type = item_type
-        self._items: dict[str, T] = _Items()
+        self._items: dict[str, T] = _Items(kind)
         for item in items:
             self.register(item)
 

@@ -61,7 +61,7 @@ def test_object_types_is_a_live_read_only_view_of_the_registry():
     register_object("test_view_box", BoxObject, overwrite=True)
     assert OBJECT_TYPES["test_view_box"] is get_object_type("test_view_box") and "test_view_box" in OBJECT_TYPES
     assert "banana" not in OBJECT_TYPES and OBJECT_TYPES.get("banana") is None
-    with pytest.raises(KeyError, match="unknown name 'banana'; allowed: box, "):
+    with pytest.raises(KeyError, match="unknown object type 'banana'; allowed: box, "):
         OBJECT_TYPES["banana"]
     with pytest.raises(TypeError):
         OBJECT_TYPES["banana"] = OBJECT_TYPES["box"]

@@ -323,10 +323,10 @@ class Skill(abc.ABC):
         """The skill's state as the compiled control loop takes it: a (1,) `SKILL_STATE` record of a phase towards
         ``waypoint``; read back with [count_loop_steps][tableclean_suite.controllers.skill.Skill.count_loop_steps]."""
         timeout = self.config["gripper_timeout"]
-        speed = self.config["speed"] if waypoint.speed is None else waypoint.speed
+        max_move, max_turn = self._step_limits(waypoint)
         return loop_record(
             SKILL_STATE, setpoint=self._setpoint, target=waypoint.pos, yaw_setpoint=self._yaw_setpoint, yaw=self.yaw,
-            max_move=speed * self.dt, max_turn=self.config["yaw_rate"] * self.dt, gripper=waypoint.gripper,
+            max_move=max_move, max_turn=max_turn, gripper=waypoint.gripper,
             tolerance=waypoint.tolerance, gripper_still=self.config["gripper_still"], steps=self.steps,
             max_steps=self.budget, phase_steps=self._phase_steps, min_steps=waypoint.min_steps,
             gripper_timeout=-1 if timeout is None else timeout, xy_only=waypoint.xy_only)
@@ -392,13 +392,18 @@ class Skill(abc.ABC):
         The compiled [`advance_command`][tableclean_suite.controllers.setpoint.advance_command], which the
         compiled phase loop also runs: both give bit-identical commands.
         """
-        max_move = float((self.config["speed"] if target.speed is None else target.speed) * self.dt)
+        max_move, max_turn = self._step_limits(target)
         pos = np.ascontiguousarray(target.pos, dtype=float)
         action = np.empty(ACTION_DIM)
         self._yaw_setpoint = advance_command(self._setpoint, float(self._yaw_setpoint), float(self.yaw), pos,
-                                             max_move, float(self.config["yaw_rate"] * self.dt),
-                                             float(target.gripper), action)
+                                             max_move, max_turn, float(target.gripper), action)
         return action
+
+    def _step_limits(self, waypoint: Waypoint) -> tuple[float, float]:
+        """(m, rad) how far the setpoint may move and turn in one control step towards ``waypoint`` (the Python
+        step and the compiled loop take the same two numbers)."""
+        speed = self.config["speed"] if waypoint.speed is None else waypoint.speed
+        return float(speed * self.dt), float(self.config["yaw_rate"] * self.dt)
 
     # -- helpers for subclasses ----------------------------------------------------------
     def hover_point(self, info: Mapping[str, Any], xy: np.ndarray) -> np.ndarray:
