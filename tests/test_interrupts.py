@@ -1,6 +1,7 @@
 """Ctrl-C ends every command with one line and exit 130: during imports, training, figure drawing
 in forked processes (which stop quietly, never waited for) and tune (its finished trials published)."""
 
+import importlib
 import signal
 import subprocess
 import sys
@@ -27,22 +28,36 @@ def test_ctrl_c_while_a_command_module_is_imported_is_one_line(monkeypatch, caps
     assert capsys.readouterr().err.strip().splitlines() == ["tableclean-bench run: interrupted"]
 
 
-def test_ctrl_c_inside_an_import_that_swallows_it_is_raised_after_the_import(tmp_path, monkeypatch):
-    """An extension module's initialisation may clear a ``KeyboardInterrupt`` raised in its Python callbacks
-    (a Cython module's ``abc.register``); the command's handler delivers Ctrl-C again once outside the import."""
-    (tmp_path / "swallowing_module.py").write_text(
+def _import_swallowing_ctrl_c(folder: Path, name: str) -> None:
+    """Import a module that raises SIGINT inside ``try/except BaseException: pass`` (as an extension module's
+    initialisation clears a ``KeyboardInterrupt`` raised in its Python callbacks, e.g. Cython's ``abc.register``)."""
+    (folder / f"{name}.py").write_text(
         "import signal\ntry:\n    signal.raise_signal(signal.SIGINT)\nexcept BaseException:\n    pass\nDONE = True\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
-    previous = signal.signal(signal.SIGINT, startup._ctrl_c)
+    sys.path.insert(0, str(folder))
     try:
-        with pytest.raises(KeyboardInterrupt):
-            import swallowing_module  # noqa: F401
-            deadline = time.monotonic() + 5
-            while time.monotonic() < deadline:
-                time.sleep(0.01)
+        importlib.import_module(name)
     finally:
-        signal.signal(signal.SIGINT, previous)
-    assert sys.modules["swallowing_module"].DONE  # the import itself ran to its end
+        sys.path.remove(str(folder))
+    assert sys.modules[name].DONE  # the import itself ran to its end
+
+
+def test_ctrl_c_inside_an_import_that_swallows_it_is_raised_after_the_import(tmp_path):
+    if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        pytest.skip("Ctrl-C does not have Python's default handler in this process")
+    with pytest.raises(KeyboardInterrupt):
+        with startup.catch_ctrl_c():
+            _import_swallowing_ctrl_c(tmp_path, "swallowing_module_waits")
+            time.sleep(5)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_ctrl_c_swallowed_just_before_the_block_ends_is_raised_at_its_end_and_only_there(tmp_path):
+    if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        pytest.skip("Ctrl-C does not have Python's default handler in this process")
+    with pytest.raises(KeyboardInterrupt):
+        with startup.catch_ctrl_c():
+            _import_swallowing_ctrl_c(tmp_path, "swallowing_module_ends")
+    time.sleep(3 * startup.CTRL_C_RETRY_SECONDS)  # no second, late KeyboardInterrupt outside the block
 
 
 def test_ctrl_c_while_the_package_itself_is_imported_is_one_line(monkeypatch, capsys):

@@ -150,18 +150,19 @@ def main(argv=None, prog: str | None = None) -> int:
     """
     prog, entry = prog or invoked_as(), argv is None
     try:
-        argv = list(sys.argv[1:] if entry else argv)
-        if argv and argv[0] in HELP_FLAGS:
-            build_parser(prog).print_help()
-            return 0
-        if not argv or argv[0].startswith("-"):
-            name, rest, command_prog = DEFAULT_COMMAND, argv, prog
-        else:
-            name, rest, command_prog = argv[0], argv[1:], f"{prog} {argv[0]}"
-        if name not in COMMANDS:
-            return _usage_error(prog, f"unknown command {name!r}; allowed: {', '.join(COMMANDS)} "
-                                      f"(or no command: {DEFAULT_COMMAND})")
-        return _run(name, rest, command_prog, unavailable_prog=prog, entry=entry)
+        with catch_ctrl_c():
+            argv = list(sys.argv[1:] if entry else argv)
+            if argv and argv[0] in HELP_FLAGS:
+                build_parser(prog).print_help()
+                return 0
+            if not argv or argv[0].startswith("-"):
+                name, rest, command_prog = DEFAULT_COMMAND, argv, prog
+            else:
+                name, rest, command_prog = argv[0], argv[1:], f"{prog} {argv[0]}"
+            if name not in COMMANDS:
+                return _usage_error(prog, f"unknown command {name!r}; allowed: {', '.join(COMMANDS)} "
+                                          f"(or no command: {DEFAULT_COMMAND})")
+            return _run(name, rest, command_prog, unavailable_prog=prog, entry=entry)
     except BaseException as error:  # noqa: BLE001 - Ctrl-C outside _run (parsing, --help); the rest re-raised
         return _interrupted(prog, error, entry)
 
@@ -175,20 +176,20 @@ def _run(name: str, argv, prog: str, unavailable_prog: str | None = None, entry:
     """``main(argv, prog=prog)`` of command ``name``'s module as an exit status: the one place where its
     ``SystemExit``, refusals and file-system errors (one line, exit 2) and Ctrl-C (exit 130, imports
     included) become exit codes."""
-    with catch_ctrl_c():
-        try:
+    try:
+        with catch_ctrl_c():
             return _exit_code(_module(name).main(argv, prog=prog))
-        except CommandUnavailable as error:
-            return _usage_error(unavailable_prog or prog, str(error))
-        except SystemExit as stop:
-            return _exit_code(stop.code)
-        except (KeyboardInterrupt, RuntimeError) as error:
-            return _interrupted(prog, error, entry)
-        except _refusals() as error:  # the resource guard, an unusable output folder: one line, exit 2
-            return _usage_error(prog, str(error))
-        except OSError as error:  # a name too long, a folder that cannot be read: the path and the reason
-            where = f"{str(error.filename)[:120]!r}: " if error.filename is not None else ""
-            return _usage_error(prog, f"{where}{error.strerror or error}")
+    except CommandUnavailable as error:
+        return _usage_error(unavailable_prog or prog, str(error))
+    except SystemExit as stop:
+        return _exit_code(stop.code)
+    except (KeyboardInterrupt, RuntimeError) as error:
+        return _interrupted(prog, error, entry)
+    except _refusals() as error:  # the resource guard, an unusable output folder: one line, exit 2
+        return _usage_error(prog, str(error))
+    except OSError as error:  # a name too long, a folder that cannot be read: the path and the reason
+        where = f"{str(error.filename)[:120]!r}: " if error.filename is not None else ""
+        return _usage_error(prog, f"{where}{error.strerror or error}")
 
 
 def _interrupted(prog: str, error: BaseException, entry: bool = False) -> int:

@@ -23,14 +23,17 @@ PACKAGE = "tableclean_suite"
 CTRL_C_RETRY_SECONDS = 0.05
 
 
+#: The pending re-delivery of a Ctrl-C that landed where it could be lost (at most one).
+_RETRY: dict = {"timer": None}
+
+
 def _swallowed_here(frame) -> bool:
     """Whether a ``KeyboardInterrupt`` raised in ``frame`` can be lost: under Python's import machinery (an
     extension module's initialisation clears errors raised in its Python callbacks, e.g. a Cython module's
-    ``abc.register`` calls) or in an llvmlite callback from LLVM (ctypes prints and drops its errors)."""
-    if "llvmlite" in frame.f_code.co_filename:
-        return True
+    ``abc.register`` calls) or under an llvmlite callback from LLVM (ctypes prints and drops its errors)."""
     while frame is not None:
-        if frame.f_code.co_filename.startswith("<frozen importlib._bootstrap"):
+        where = frame.f_code.co_filename
+        if where.startswith("<frozen importlib._bootstrap") or "llvmlite" in where:
             return True
         frame = frame.f_back
     return False
@@ -39,18 +42,20 @@ def _swallowed_here(frame) -> bool:
 def _ctrl_c(_signum, frame) -> None:
     """``KeyboardInterrupt``, or, where it could be lost (`_swallowed_here`), the signal again
     `CTRL_C_RETRY_SECONDS` later, until it lands where it is raised."""
-    if _swallowed_here(frame):
-        retry = threading.Timer(CTRL_C_RETRY_SECONDS, _thread.interrupt_main)
-        retry.daemon = True
-        retry.start()
-        return
-    raise KeyboardInterrupt
+    if not _swallowed_here(frame):
+        _RETRY["timer"] = None
+        raise KeyboardInterrupt
+    if _RETRY["timer"] is None or not _RETRY["timer"].is_alive():
+        _RETRY["timer"] = threading.Timer(CTRL_C_RETRY_SECONDS, _thread.interrupt_main)
+        _RETRY["timer"].daemon = True
+        _RETRY["timer"].start()
 
 
 @contextlib.contextmanager
 def catch_ctrl_c():
     """In the main thread, while Ctrl-C has Python's default handler: handle it with `_ctrl_c` for the block
-    (the default handler is back after it, unless the block set another)."""
+    (the default handler is back after it, unless the block set another).  A Ctrl-C still waiting to be
+    delivered again when the block ends is raised there, as ``KeyboardInterrupt``."""
     installed = threading.current_thread() is threading.main_thread() and \
         signal.getsignal(signal.SIGINT) is signal.default_int_handler
     if installed:
@@ -58,8 +63,13 @@ def catch_ctrl_c():
     try:
         yield
     finally:
+        pending, _RETRY["timer"] = _RETRY["timer"], None
+        if pending is not None:
+            pending.cancel()
         if installed and signal.getsignal(signal.SIGINT) is _ctrl_c:
             signal.signal(signal.SIGINT, signal.default_int_handler)
+    if pending is not None:
+        raise KeyboardInterrupt
 
 
 _NOTICE = {"installed": False, "said": False, "prog": "tableclean-bench", "depth": 0, "previous": None}
