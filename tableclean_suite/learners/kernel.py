@@ -631,13 +631,16 @@ def code_digest(learner: TabularLearner) -> str:
 
 
 def _guard_disk_cache() -> None:
-    """Recompile the cached kernel when any module it inlines has changed (see [`cache_guard`][tableclean_suite.learners.cache_guard])."""
+    """Recompile the cached kernel when any module it inlines, or whose constants it compiles in (the looping
+    codes of [`rewards`][tableclean_suite.rewards], the outcome codes of [`state`][tableclean_suite.task.state]),
+    has changed (see [`cache_guard`][tableclean_suite.learners.cache_guard])."""
     import sys
 
     from tableclean_suite.learners import cache_guard
 
     modules = [sys.modules[f"tableclean_suite.learners.{name}"]
                for name in ("kernel", "rng", "rules", "exploration", "assist", "optimality")]
+    modules += [sys.modules["tableclean_suite.rewards"], sys.modules["tableclean_suite.task.state"]]  # constants
     dispatchers = [value for module in modules for value in vars(module).values()
                    if isinstance(value, numba.core.registry.CPUDispatcher)]
     cache_guard.guard("learners.kernel", dispatchers, modules)
