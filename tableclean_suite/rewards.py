@@ -13,7 +13,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from tableclean_suite.registry import NAME_PATTERN, Registry
-from tableclean_suite.task import N_OUTCOMES, Outcome
+from tableclean_suite.task import N_OUTCOMES, Outcome, is_integer
 
 #: Table 2 reward levels, named.
 TERMINAL_REWARD = 1.0
@@ -108,7 +108,7 @@ class RewardPattern:
                 raise ValueError(f"reward pattern {self.name!r}: unknown {mode_field} {value!r}; "
                                  f"allowed: {', '.join(COMBINE_MODES)}")
         memory = self.looping_memory
-        if isinstance(memory, bool) or not isinstance(memory, (int, np.integer)) or not (
+        if not is_integer(memory) or not (
                 memory == EPISODE_LOOPING_MEMORY or memory >= PAPER_LOOPING_MEMORY):
             raise ValueError(f"reward pattern {self.name!r}: looping_memory must be an integer >= "
                              f"{PAPER_LOOPING_MEMORY} (states of the episode) or {EPISODE_LOOPING_MEMORY} (the whole "
