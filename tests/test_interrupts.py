@@ -41,22 +41,17 @@ def _import_swallowing_ctrl_c(folder: Path, name: str) -> None:
     assert sys.modules[name].DONE  # the import itself ran to its end
 
 
-def test_ctrl_c_inside_an_import_that_swallows_it_is_raised_after_the_import(tmp_path):
+@pytest.mark.parametrize("block_goes_on", [True, False])
+def test_a_ctrl_c_an_import_swallows_is_raised_after_the_import_or_at_the_blocks_end_and_only_once(tmp_path,
+                                                                                                 block_goes_on):
     if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
         pytest.skip("Ctrl-C does not have Python's default handler in this process")
     with pytest.raises(KeyboardInterrupt):
         with startup.catch_ctrl_c():
-            _import_swallowing_ctrl_c(tmp_path, "swallowing_module_waits")
-            time.sleep(5)
+            _import_swallowing_ctrl_c(tmp_path, f"swallowing_module_{block_goes_on}")
+            if block_goes_on:
+                time.sleep(5)
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
-
-
-def test_a_ctrl_c_swallowed_just_before_the_block_ends_is_raised_at_its_end_and_only_there(tmp_path):
-    if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
-        pytest.skip("Ctrl-C does not have Python's default handler in this process")
-    with pytest.raises(KeyboardInterrupt):
-        with startup.catch_ctrl_c():
-            _import_swallowing_ctrl_c(tmp_path, "swallowing_module_ends")
     time.sleep(3 * startup.CTRL_C_RETRY_SECONDS)  # no second, late KeyboardInterrupt outside the block
 
 
